@@ -1,0 +1,214 @@
+# ---
+# jupyter:
+#   kernelspec:
+#     display_name: Python 3 (ipykernel)
+#     language: python
+#     name: python3
+# ---
+
+# %% [markdown]
+# # Simulating the landmark model
+#
+# Before filtering anything we need data, and we need to understand exactly how it was
+# made: a particle filter is only as right as the model it assumes. This chapter simulates
+# the two variants of the linear landmark model used throughout Part I and explains every
+# variable the simulator returns.
+#
+# The set-up: a robot moves in the plane among $M$ landmarks whose positions are unknown
+# to it. When a landmark is inside the robot's field of view, the robot measures the
+# landmark's position *relative to itself*, $l^j - r$, with a small Gaussian error. It
+# must estimate both its own position and the landmarks' positions: a miniature of
+# simultaneous localization and mapping (SLAM).
+
+# %%
+import matplotlib.pyplot as plt
+import numpy as np
+from IPython.display import HTML
+
+from pfcourse.landmarks import circle_scenario, quadrant_scenario, simulate
+from pfcourse.plotting import COLORS, animate_landmarks, landmark_scene, use_style
+
+use_style()
+
+# %% [markdown]
+# ## The two-landmark variant
+#
+# The first variant has two landmarks. At each time step of $\Delta t = 1$ s the robot turns
+# by $\omega = \pi/4$ rad about the origin, so it goes round once every 8 s, perturbed by a
+# small random step. A landmark is in view when it lies up and to the right of the robot:
+# $l_x - r_x > 0$ and $l_y - r_y > 0$.
+#
+# The state at step $k$ stacks the robot position and the two landmark positions, all in the
+# world frame, in metres:
+#
+# $$
+# x_k = \left(r_{x}, r_{y}, l^1_{x}, l^1_{y}, l^2_{x}, l^2_{y}\right)_k^\top \in \mathbb{R}^6 .
+# $$
+#
+# The scenario object holds the parameters of the simulator.
+
+# %%
+scenario = quadrant_scenario()
+print("mX0 =", scenario.mX0)
+print("diag(PX0) =", np.diag(scenario.PX0))
+print("diag(Qw)  =", np.diag(scenario.Qw))
+print("diag(Rv)  =", np.diag(scenario.Rv))
+
+# %% [markdown]
+# What they mean physically:
+#
+# - **`mX0`** is the expected initial state: the robot is believed to start near $(2, 0)$ m and
+#   the landmarks near $(-1, 4)$ m and $(4, -1)$ m.
+# - **`PX0`** is the covariance of the initial state: how far the truth may be from `mX0`.
+#   Its diagonal holds variances in m²; a variance of 0.2 m² is a standard deviation of
+#   $\sqrt{0.2} \approx 0.45$ m, so the landmarks are known to within about a metre at the start.
+# - **`Qw`** is the covariance of the process noise $w_k$ added at every step: the robot's
+#   steps are perturbed by 0.05 m (standard deviation) per axis, while the landmarks get
+#   a variance of $10^{-20}$ m², a standard deviation of $10^{-10}$ m: they do not move.
+#   This detail will matter a great deal for the particle filter.
+# - **`Rv`** is the covariance of the measurement noise $v_k$: every measured coordinate is
+#   off by 0.1 m (standard deviation).
+#
+# ## One simulated run
+#
+# `simulate` draws the initial state from $\mathcal N(\text{mX0}, \text{PX0})$, moves it with
+# the dynamics, and measures the landmarks in view. The seed makes the run reproducible.
+
+# %%
+sim = simulate(scenario, rng=2024)
+print("T:", sim.T.shape, " X:", sim.X.shape, " Z:", sim.Z.shape)
+print("T[:5] =", sim.T[:5])
+print("X[1]  =", np.round(sim.X[1], 3))
+print("Z[1]  =", np.round(sim.Z[1], 3))
+
+# %% [markdown]
+# - **`T`** holds the sampling instants $t_k = k\,\Delta t$, here 0 to 49 s.
+# - **`X`** holds the true state at each instant, one row per step (6 columns): what the
+#   filter tries to recover and never sees.
+# - **`Z`** holds the measurements, one row per step, four columns: the offset
+#   $l^1 - r$ (two coordinates) then $l^2 - r$. A landmark out of view gives NaN
+#   ("not a number") in its two columns. The first row is all NaN: the first measurement
+#   is taken after the first move.
+#
+# The figure shows the run in the world frame.
+
+# %%
+fig, ax = plt.subplots(figsize=(5.5, 5.5))
+landmark_scene(scenario, sim, ax=ax)
+ax.set_title("One run of the two-landmark model (50 s)")
+ax.legend(loc="lower left")
+plt.show()
+
+# %% [markdown]
+# The animation replays the run step by step: the shaded region is the field of view,
+# a landmark in view is green and the green segment drawn from the robot is its
+# measured offset $z^j_k$; a landmark out of view is grey. Press play or scrub the slider.
+
+# %%
+HTML(animate_landmarks(scenario, sim).to_jshtml())
+
+# %% [markdown]
+# ## What the robot gets to see
+#
+# The measurements are the only input of every filter in this part, so it is worth seeing
+# them as the filter does: a time series with holes.
+
+# %%
+fig, axes = plt.subplots(2, 1, figsize=(7, 4.5), sharex=True)
+for j, ax in enumerate(axes):
+    ax.plot(sim.T, sim.Z[:, 2 * j], "o-", ms=3, label=r"$l_x - r_x$")
+    ax.plot(sim.T, sim.Z[:, 2 * j + 1], "s-", ms=3, label=r"$l_y - r_y$")
+    ax.set_ylabel(f"landmark {j + 1} (m)")
+    ax.legend(loc="upper right", ncols=2)
+axes[-1].set_xlabel("time t (s)")
+axes[0].set_title("Measured offsets; gaps are steps where the landmark is out of view")
+plt.show()
+
+# %% [markdown]
+# In this run each landmark is seen at some steps and not at others. How often, in general?
+# One run cannot say; a few hundred seeded runs can.
+
+# %%
+n_runs = 500
+seen_fraction = np.array([simulate(scenario, rng=seed).seen[1:].mean(axis=0) for seed in range(n_runs)])
+both = np.array([simulate(scenario, rng=seed).seen[1:].all(axis=1).mean() for seed in range(n_runs)])
+for j in range(2):
+    lo, med, hi = np.percentile(seen_fraction[:, j], [10, 50, 90])
+    print(f"landmark {j + 1}: in view at {med:.0%} of steps (10-90 % of runs: {lo:.0%} to {hi:.0%})")
+print(f"both at once: {np.median(both):.0%} of steps (median over {n_runs} runs)")
+
+# %% [markdown]
+# So in a typical run each landmark is measured at roughly a third of the steps, and the
+# robot sometimes sees nothing at all. A filter must carry its estimate through those
+# gaps using the dynamics alone.
+#
+# ## The $M$-landmark variant
+#
+# The second variant has $M = 5$ landmarks spread around a circle. The robot goes round a
+# centre $c = (2, 1)$ m once every 40 s, and its field of view is a triangle pointing along its
+# direction of travel (45° either side, 6 m deep). Turning about a centre other than the
+# origin adds a constant term to the dynamics,
+#
+# $$
+# r_k = c + R_\omega (r_{k-1} - c) + w_k = R_\omega r_{k-1} + (I - R_\omega)\,c + w_k ,
+# $$
+#
+# which is the vector $B$ in $x_k = F x_{k-1} + B + w_k$ (zero for the landmarks).
+
+# %%
+scenario5 = circle_scenario(n_landmarks=5)
+sim5 = simulate(scenario5, rng=2024)
+print("B =", np.round(scenario5.B, 3))
+
+fig, (ax1, ax2) = plt.subplots(1, 2, figsize=(10, 4.5), width_ratios=[1, 1.3])
+landmark_scene(scenario5, sim5, ax=ax1, limits=(-4.0, 8.0))
+ax1.set_title("Five landmarks, triangular field of view")
+ax1.legend(loc="lower left", fontsize=8)
+ax2.imshow(sim5.seen.T, aspect="auto", interpolation="nearest", cmap="Greens",
+           extent=(sim5.T[0] - 0.5, sim5.T[-1] + 0.5, 5.5, 0.5))
+ax2.set_yticks(range(1, 6), [f"L{j}" for j in range(1, 6)])
+ax2.set_xlabel("time t (s)")
+ax2.set_title("Which landmark is in view (green) at each step")
+ax2.grid(False)
+plt.show()
+
+# %%
+HTML(animate_landmarks(scenario5, sim5, limits=(-4.0, 8.0)).to_jshtml())
+
+# %% [markdown]
+# Here the set of visible landmarks changes as the robot turns: each landmark comes into
+# view, stays for a few steps and leaves. The rows of the measurement matrix that apply at
+# step $k$ change with it. The next chapter turns this into the densities $p(x_0)$,
+# $p(x_k \mid x_{k-1})$ and $p(z_k \mid x_k)$ that every filter needs.
+#
+# ## Exercises
+#
+# ```{exercise}
+# :label: ex-model-units
+# The landmarks' process-noise variance is $10^{-20}$ m². What standard deviation is that, and
+# how far would a landmark drift, in distribution, over the 50 steps of a run?
+# ```
+#
+# ```{solution} ex-model-units
+# :class: dropdown
+# The standard deviation per step is $\sqrt{10^{-20}} = 10^{-10}$ m. Independent steps add
+# variances, so after 50 steps the drift has variance $50 \times 10^{-20}$ m² and standard
+# deviation $\sqrt{50} \times 10^{-10} \approx 7 \times 10^{-10}$ m: the landmarks are static
+# for every practical purpose.
+# ```
+#
+# ```{exercise}
+# :label: ex-model-visibility
+# In the two-landmark variant, why are the two landmarks rarely in view at the same time?
+# Use the initial positions and the field of view.
+# ```
+#
+# ```{solution} ex-model-visibility
+# :class: dropdown
+# A landmark is in view when it is up and to the right of the robot. Landmark 1 starts near
+# $(-1, 4)$ and landmark 2 near $(4, -1)$, while the robot circles the origin at a radius of
+# about 2 m. Landmark 1 is to the right of the robot only when the robot is on the far left of
+# its circle, and landmark 2 is above the robot only when the robot is at the bottom of it;
+# both hold only around the lower-left part of the circle, a short arc. The 500-run
+# statistics above put a number on it.
+# ```

@@ -1,0 +1,50 @@
+"""pfcourse: the helper package of the particle-filtering course book.
+
+The notebooks teach; the plumbing lives here.  Main entry points:
+
+* :class:`pfcourse.filter.ParticleFilter` - SIS / SIR with log-domain weights;
+* :mod:`pfcourse.resampling` - multinomial, stratified, systematic, residual;
+* :mod:`pfcourse.diagnostics` - ESS, weighted moments, NEES, ellipses;
+* :mod:`pfcourse.landmarks` - scenario A (linear landmark model) and its simulator;
+* :func:`pfcourse.kalman.kalman_filter` - the exact Kalman reference (filterpy).
+"""
+
+from .errors import (
+    CovarianceError,
+    DegenerateWeightsError,
+    NumericalError,
+    ParameterError,
+    PfcourseError,
+    ShapeError,
+    WeightError,
+)
+from .filter import (
+    DensityProposal,
+    FilterResult,
+    ParticleFilter,
+    StateSpaceModel,
+    TransitionProposal,
+)
+from .kalman import KalmanResult, kalman_filter
+from .linear_gaussian import LinearGaussianModel, OptimalProposal
+
+__version__ = "0.1.0"
+
+__all__ = [
+    "CovarianceError",
+    "DegenerateWeightsError",
+    "DensityProposal",
+    "FilterResult",
+    "KalmanResult",
+    "LinearGaussianModel",
+    "NumericalError",
+    "OptimalProposal",
+    "ParameterError",
+    "ParticleFilter",
+    "PfcourseError",
+    "ShapeError",
+    "StateSpaceModel",
+    "TransitionProposal",
+    "WeightError",
+    "kalman_filter",
+]

@@ -1,0 +1,41 @@
+"""Angles: wrapping to (-pi, pi] and the weighted circular mean.
+
+A heading of 179 deg and one of -179 deg are 2 deg apart, but their arithmetic
+mean is 0 deg: every angle in the package goes through these two functions.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+
+def wrap_angle(angle):
+    """Map angles (radians, any shape) to the interval (-pi, pi].
+
+    ``wrap(a) = a - 2 pi * ceil((a - pi) / (2 pi))``, so ``wrap(pi) = pi`` and
+    ``wrap(-pi) = pi``.
+    """
+    angle = np.asarray(angle, dtype=float)
+    return angle - 2.0 * np.pi * np.ceil((angle - np.pi) / (2.0 * np.pi))
+
+
+def circular_mean(angles: np.ndarray, weights: np.ndarray | None = None, axis: int = 0):
+    """Weighted circular mean ``atan2(sum w_i sin a_i, sum w_i cos a_i)``.
+
+    The direction of the weighted resultant of unit vectors; it equals the
+    ordinary mean for tightly clustered angles away from the +/-pi cut and is
+    correct across it.  With a zero resultant (angles spread evenly around the
+    circle) the mean is undefined and NaN is returned.
+    """
+    angles = np.asarray(angles, dtype=float)
+    if weights is None:
+        weights = np.full(angles.shape[axis], 1.0 / angles.shape[axis])
+    weights = np.asarray(weights, dtype=float)
+    shape = [1] * angles.ndim
+    shape[axis] = -1
+    w = weights.reshape(shape)
+    s = np.sum(w * np.sin(angles), axis=axis)
+    c = np.sum(w * np.cos(angles), axis=axis)
+    resultant = np.hypot(s, c)
+    mean = np.arctan2(s, c)
+    return np.where(resultant > 1e-12 * np.sum(np.abs(weights)), mean, np.nan)

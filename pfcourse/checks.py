@@ -1,0 +1,96 @@
+"""Input checks shared by the package: shapes, covariances, scalar ranges.
+
+Each check raises a named exception from :mod:`pfcourse.errors` whose message
+names the offending argument, so that a student's typo surfaces as
+``CovarianceError: Qw is not symmetric`` instead of a NaN ten steps later.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .errors import CovarianceError, ParameterError, ShapeError
+
+
+def as_vector(value, name: str, size: int | None = None) -> np.ndarray:
+    """Return ``value`` as a 1-D float array, checking its length if ``size`` is given."""
+    arr = np.asarray(value, dtype=float)
+    if arr.ndim != 1:
+        raise ShapeError(f"{name} must be a 1-D vector, got an array of shape {arr.shape}")
+    if size is not None and arr.shape[0] != size:
+        raise ShapeError(f"{name} must have length {size}, got {arr.shape[0]}")
+    return arr
+
+
+def as_matrix(value, name: str, shape: tuple[int, int] | None = None) -> np.ndarray:
+    """Return ``value`` as a 2-D float array, checking its shape if ``shape`` is given."""
+    arr = np.asarray(value, dtype=float)
+    if arr.ndim != 2:
+        raise ShapeError(f"{name} must be a 2-D matrix, got an array of shape {arr.shape}")
+    if shape is not None and arr.shape != tuple(shape):
+        raise ShapeError(f"{name} must have shape {tuple(shape)}, got {arr.shape}")
+    return arr
+
+
+def check_covariance(
+    value, name: str, size: int | None = None, *, definite: bool = False
+) -> np.ndarray:
+    """Check that ``value`` is a symmetric positive semi-definite matrix and return it.
+
+    A covariance ``P`` must satisfy ``P = P^T`` and ``v^T P v >= 0`` for every
+    ``v`` (all eigenvalues non-negative); with ``definite=True`` the smallest
+    eigenvalue must be strictly positive (``P`` invertible).  Round-off is
+    tolerated at ``1e-10`` relative to the largest entry.
+    """
+    arr = as_matrix(value, name)
+    if arr.shape[0] != arr.shape[1]:
+        raise CovarianceError(f"{name} must be square, got shape {arr.shape}")
+    if size is not None and arr.shape[0] != size:
+        raise ShapeError(f"{name} must have shape ({size}, {size}), got {arr.shape}")
+    if not np.all(np.isfinite(arr)):
+        raise CovarianceError(f"{name} contains NaN or infinite entries")
+    scale = max(float(np.max(np.abs(arr))), np.finfo(float).tiny)
+    if not np.allclose(arr, arr.T, rtol=0.0, atol=1e-10 * scale):
+        worst = float(np.max(np.abs(arr - arr.T)))
+        raise CovarianceError(f"{name} is not symmetric (largest |P - P^T| = {worst:.3g})")
+    smallest = float(np.linalg.eigvalsh(arr)[0])
+    if definite and smallest <= 0.0:
+        raise CovarianceError(
+            f"{name} is not positive definite (smallest eigenvalue {smallest:.3g})"
+        )
+    if smallest < -1e-10 * scale:
+        raise CovarianceError(
+            f"{name} is not positive semi-definite (smallest eigenvalue {smallest:.3g})"
+        )
+    return arr
+
+
+def covariance_factor(cov: np.ndarray) -> np.ndarray:
+    """Return ``L`` with ``L L^T = cov``, for sampling ``x = m + L e``, ``e ~ N(0, I)``.
+
+    Uses the Cholesky factor when ``cov`` is positive definite and falls back on
+    the symmetric square root ``V diag(sqrt(max(lambda, 0))) V^T`` when it is only
+    semi-definite (a state with no process noise, say).
+    """
+    try:
+        return np.linalg.cholesky(cov)
+    except np.linalg.LinAlgError:
+        eigval, eigvec = np.linalg.eigh(cov)
+        return eigvec * np.sqrt(np.clip(eigval, 0.0, None))
+
+
+def check_probability(value: float, name: str) -> float:
+    """Check that ``value`` lies in the closed interval [0, 1]."""
+    value = float(value)
+    if not 0.0 <= value <= 1.0:
+        raise ParameterError(f"{name} must lie in [0, 1], got {value}")
+    return value
+
+
+def check_count(value: int, name: str, minimum: int = 1) -> int:
+    """Check that ``value`` is an integer at least ``minimum``."""
+    if isinstance(value, bool) or int(value) != value:
+        raise ParameterError(f"{name} must be an integer, got {value!r}")
+    if value < minimum:
+        raise ParameterError(f"{name} must be at least {minimum}, got {value}")
+    return int(value)

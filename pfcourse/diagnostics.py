@@ -1,0 +1,130 @@
+"""Diagnostics of a weighted particle cloud and of an estimator.
+
+* effective sample size (Kong 1992; Liu 1996)
+  ``ESS = 1 / sum_i W_i^2`` for normalised weights ``W``;
+* weighted mean ``m = sum_i W_i x_i`` (circular for angle components) and
+  covariance ``P = sum_i W_i (x_i - m)(x_i - m)^T`` (angle deviations wrapped);
+* the normalised estimation error squared (Bar-Shalom, Li and Kirubarajan 2001)
+  ``NEES_k = (x_k - m_k)^T P_k^{-1} (x_k - m_k)``, chi-square with ``d`` degrees
+  of freedom for a consistent Gaussian estimator, and its acceptance band;
+* the confidence ellipse of a 2-D Gaussian.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+import numpy as np
+from scipy import stats
+from scipy.special import logsumexp
+
+from .angles import circular_mean, wrap_angle
+from .errors import DegenerateWeightsError, ShapeError
+
+
+def normalize_log_weights(log_weights: np.ndarray) -> tuple[np.ndarray, float]:
+    """Return the normalised weights ``W_i = exp(l_i - logsumexp(l))`` and ``logsumexp(l)``.
+
+    Works in the log domain so that log-weights of -1e4 (a likelihood of
+    ``e^{-10000}``, zero in floating point) still normalise correctly.  Raises
+    :class:`DegenerateWeightsError` when every weight is zero (all ``-inf``).
+    """
+    log_weights = np.asarray(log_weights, dtype=float)
+    log_total = float(logsumexp(log_weights))
+    if not np.isfinite(log_total):
+        raise DegenerateWeightsError(
+            "all particle weights are zero (every log-weight is -inf): no particle is "
+            "compatible with the measurement"
+        )
+    return np.exp(log_weights - log_total), log_total
+
+
+def effective_sample_size(weights: np.ndarray) -> float:
+    """Effective sample size ``1 / sum W_i^2`` of normalised weights ``W`` (between 1 and N)."""
+    weights = np.asarray(weights, dtype=float)
+    return float(1.0 / np.sum(weights**2))
+
+
+def weighted_mean(
+    particles: np.ndarray, weights: np.ndarray, angle_indices: Sequence[int] = ()
+) -> np.ndarray:
+    """Weighted mean ``sum_i W_i x_i`` of ``(N, d)`` particles; circular mean on ``angle_indices``."""
+    particles = np.asarray(particles, dtype=float)
+    mean = weights @ particles
+    for j in angle_indices:
+        mean[j] = circular_mean(particles[:, j], weights)
+    return mean
+
+
+def weighted_covariance(
+    particles: np.ndarray,
+    weights: np.ndarray,
+    mean: np.ndarray | None = None,
+    angle_indices: Sequence[int] = (),
+) -> np.ndarray:
+    """Weighted covariance ``sum_i W_i (x_i - m)(x_i - m)^T`` (angle deviations wrapped)."""
+    particles = np.asarray(particles, dtype=float)
+    if mean is None:
+        mean = weighted_mean(particles, weights, angle_indices)
+    dev = particles - mean
+    for j in angle_indices:
+        dev[:, j] = wrap_angle(dev[:, j])
+    cov = (dev * weights[:, None]).T @ dev
+    return 0.5 * (cov + cov.T)
+
+
+def nees(
+    truth: np.ndarray,
+    estimate: np.ndarray,
+    covariance: np.ndarray,
+    angle_indices: Sequence[int] = (),
+) -> np.ndarray:
+    """Normalised estimation error squared ``e^T P^{-1} e`` with ``e = x - m``, per time step.
+
+    ``truth`` and ``estimate`` have shape ``(K, d)``, ``covariance`` ``(K, d, d)``;
+    returns shape ``(K,)``.  Angle components of ``e`` are wrapped.
+    """
+    truth = np.atleast_2d(np.asarray(truth, dtype=float))
+    estimate = np.atleast_2d(np.asarray(estimate, dtype=float))
+    covariance = np.asarray(covariance, dtype=float)
+    if covariance.ndim == 2:
+        covariance = covariance[None]
+    if truth.shape != estimate.shape or covariance.shape != truth.shape + truth.shape[-1:]:
+        raise ShapeError(
+            f"nees needs truth and estimate of shape (K, d) and covariance (K, d, d); got "
+            f"{truth.shape}, {estimate.shape} and {covariance.shape}"
+        )
+    err = truth - estimate
+    for j in angle_indices:
+        err[:, j] = wrap_angle(err[:, j])
+    return np.einsum("ki,ki->k", err, np.linalg.solve(covariance, err[..., None])[..., 0])
+
+
+def chi2_band(dof: int, n_runs: int = 1, probability: float = 0.95) -> tuple[float, float]:
+    """Two-sided acceptance band of the average of ``n_runs`` independent chi2(dof) values.
+
+    ``n_runs * mean`` is chi2 with ``n_runs * dof`` degrees of freedom, so the band
+    is ``chi2.ppf([a/2, 1 - a/2], n_runs dof) / n_runs`` with ``a = 1 - probability``.
+    """
+    alpha = 1.0 - probability
+    lo, hi = stats.chi2.ppf([alpha / 2, 1 - alpha / 2], n_runs * dof) / n_runs
+    return float(lo), float(hi)
+
+
+def confidence_ellipse(
+    mean: np.ndarray, cov: np.ndarray, probability: float = 0.95
+) -> tuple[np.ndarray, float, float, float]:
+    """Centre, width, height and angle (degrees) of a 2-D Gaussian's confidence ellipse.
+
+    The ellipse ``(x - m)^T P^{-1} (x - m) = c`` with ``c = chi2.ppf(probability, 2)``
+    has semi-axes ``sqrt(c lambda_j)`` along the eigenvectors of ``P``.
+    """
+    cov = np.asarray(cov, dtype=float)
+    if cov.shape != (2, 2):
+        raise ShapeError(f"confidence_ellipse needs a 2x2 covariance, got {cov.shape}")
+    eigval, eigvec = np.linalg.eigh(cov)
+    eigval = np.clip(eigval, 0.0, None)
+    scale = stats.chi2.ppf(probability, 2)
+    width, height = 2.0 * np.sqrt(scale * eigval[::-1])
+    angle = float(np.degrees(np.arctan2(eigvec[1, 1], eigvec[0, 1])))
+    return np.asarray(mean, dtype=float), float(width), float(height), angle

@@ -1,0 +1,57 @@
+"""Named exceptions raised by pfcourse.
+
+Every error a user can trigger with bad input or a numerically impossible
+situation is one of these classes, so notebooks and tests can catch exactly
+what went wrong.  Messages say what was wrong and, inside the filter, at which
+time step.
+"""
+
+from __future__ import annotations
+
+
+class PfcourseError(Exception):
+    """Base class of every error raised on purpose by pfcourse."""
+
+
+class ShapeError(PfcourseError, ValueError):
+    """An array does not have the shape the function needs."""
+
+
+class CovarianceError(PfcourseError, ValueError):
+    """A covariance matrix is not square, not symmetric or not positive (semi-)definite."""
+
+
+class ParameterError(PfcourseError, ValueError):
+    """A scalar parameter is outside its allowed range (N < 1, threshold not in [0, 1], ...)."""
+
+
+class WeightError(PfcourseError, ValueError):
+    """Weights given to a resampler or a diagnostic are negative, NaN or do not sum to one."""
+
+
+class DegenerateWeightsError(PfcourseError, FloatingPointError):
+    """Every particle has zero likelihood: the weights cannot be normalised.
+
+    Attributes
+    ----------
+    step:
+        Time index at which it happened (None outside a filter run).
+    """
+
+    def __init__(self, message: str, step: int | None = None) -> None:
+        super().__init__(message)
+        self.step = step
+
+
+class NumericalError(PfcourseError, FloatingPointError):
+    """A model returned NaN (or +inf) where a number was needed.
+
+    Attributes
+    ----------
+    step:
+        Time index at which it happened (None outside a filter run).
+    """
+
+    def __init__(self, message: str, step: int | None = None) -> None:
+        super().__init__(message)
+        self.step = step

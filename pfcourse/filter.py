@@ -1,0 +1,329 @@
+"""A generic, vectorized particle filter with log-domain weights.
+
+The filter approximates the filtering distribution ``p(x_k | z_{0:k})`` by
+particles ``x_k^i`` with normalised weights ``W_k^i``.  At every step ``k``:
+
+1. **propose** ``x_k^i ~ q(x_k | x_{k-1}^i, z_k)`` (the transition ``p(x_k | x_{k-1})``
+   by default: the *bootstrap* filter of Gordon, Salmond and Smith 1993);
+2. **weight** in the log domain,
+   ``log w_k^i = log W_{k-1}^i + log p(z_k | x_k^i) + log p(x_k^i | x_{k-1}^i) - log q(x_k^i | x_{k-1}^i, z_k)``
+   (the last two cancel for the bootstrap proposal);
+3. **normalise** ``W_k^i = exp(log w_k^i - logsumexp_j log w_k^j)`` and record the
+   weighted mean, covariance, the effective sample size ``ESS = 1 / sum_i (W_k^i)^2``
+   and the log-likelihood increment ``log p^(z_k | z_{0:k-1}) = logsumexp_i(log W_{k-1}^i + log inc_k^i)``;
+4. **resample** (SIR) when ``ESS < threshold * N``, then reset the weights to ``1/N``.
+   ``threshold = 0`` never resamples (SIS); ``threshold = 1`` resamples at every
+   step whose weights are not exactly uniform.
+
+A measurement that is missing (``None``, or an array of NaN) leaves the weights
+unchanged: the particles move through the transition only.  A measurement with
+*some* NaN entries is passed to the model, whose likelihood treats NaN entries
+as "not observed".  Any NaN produced by the model, and a step at which every
+particle has zero likelihood, raise a named error that gives the step.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field
+from typing import Protocol
+
+import numpy as np
+
+from .checks import check_count, check_probability
+from .diagnostics import (
+    effective_sample_size,
+    normalize_log_weights,
+    weighted_covariance,
+    weighted_mean,
+)
+from .errors import DegenerateWeightsError, NumericalError, ShapeError
+from .resampling import get_resampler
+
+Array = np.ndarray
+Measurement = Array | None
+
+
+class Model(Protocol):
+    """What the particle filter needs from a state-space model.
+
+    ``dim_x`` is the state dimension; arrays of particles have shape ``(N, dim_x)``.
+    ``k`` is the time index of the state being produced or weighted.
+    """
+
+    dim_x: int
+
+    def sample_initial(self, n: int, rng: np.random.Generator) -> Array:
+        """Draw ``n`` particles from ``p(x_0)``."""
+
+    def sample_transition(self, particles: Array, k: int, rng: np.random.Generator) -> Array:
+        """Draw ``x_k ~ p(x_k | x_{k-1})`` for every row of ``particles``."""
+
+    def log_likelihood(self, particles: Array, z: Array, k: int) -> Array:
+        """Return ``log p(z_k | x_k^i)`` for every particle (shape ``(N,)``)."""
+
+
+@dataclass(frozen=True)
+class StateSpaceModel:
+    """A model made of plain functions, for defining one in a few lines.
+
+    Example: a scalar random walk seen in Gaussian noise::
+
+        model = StateSpaceModel(
+            dim_x=1,
+            sample_initial=lambda n, rng: rng.normal(0.0, 1.0, (n, 1)),
+            sample_transition=lambda x, k, rng: x + rng.normal(0.0, 0.1, x.shape),
+            log_likelihood=lambda x, z, k: norm.logpdf(z[0], x[:, 0], 0.5),
+        )
+
+    ``transition_log_density(new, old, k)`` is needed only by proposals other
+    than the transition; ``angle_indices`` lists state components that are
+    angles (circular mean, wrapped covariance).
+    """
+
+    dim_x: int
+    sample_initial: Callable[[int, np.random.Generator], Array]
+    sample_transition: Callable[[Array, int, np.random.Generator], Array]
+    log_likelihood: Callable[[Array, Array, int], Array]
+    transition_log_density: Callable[[Array, Array, int], Array] | None = None
+    angle_indices: tuple[int, ...] = ()
+
+
+class Proposal(Protocol):
+    """An importance function: draws new particles and returns their log incremental weights.
+
+    ``propose`` returns ``(x_k, log_inc)`` with
+    ``log_inc^i = log p(z_k | x_k^i) + log p(x_k^i | x_{k-1}^i) - log q(x_k^i | x_{k-1}^i, z_k)``.
+    It is called only at steps that have a measurement.
+    """
+
+    def propose(
+        self, model: Model, particles: Array, z: Array, k: int, rng: np.random.Generator
+    ) -> tuple[Array, Array]: ...
+
+
+class TransitionProposal:
+    """The prior as importance function: ``q = p(x_k | x_{k-1})``, so ``log_inc = log p(z_k | x_k)``."""
+
+    def propose(self, model, particles, z, k, rng):
+        new = model.sample_transition(particles, k, rng)
+        return new, model.log_likelihood(new, z, k)
+
+
+@dataclass(frozen=True)
+class DensityProposal:
+    """Any importance function given by a sampler and its log-density.
+
+    ``sample(particles, z, k, rng)`` draws ``x_k^i ~ q(. | x_{k-1}^i, z_k)`` and
+    ``log_density(new, particles, z, k)`` returns ``log q(x_k^i | x_{k-1}^i, z_k)``.
+    The model must provide ``transition_log_density``.
+    """
+
+    sample: Callable[[Array, Array, int, np.random.Generator], Array]
+    log_density: Callable[[Array, Array, Array, int], Array]
+
+    def propose(self, model, particles, z, k, rng):
+        transition_log_density = getattr(model, "transition_log_density", None)
+        if transition_log_density is None:
+            raise TypeError(
+                "DensityProposal needs model.transition_log_density(new, old, k) to weight "
+                "the particles"
+            )
+        new = self.sample(particles, z, k, rng)
+        log_inc = (
+            model.log_likelihood(new, z, k)
+            + transition_log_density(new, particles, k)
+            - self.log_density(new, particles, z, k)
+        )
+        return new, log_inc
+
+
+@dataclass
+class FilterResult:
+    """Per-step output of :meth:`ParticleFilter.run` (``K`` steps, ``N`` particles, ``d`` states).
+
+    ``mean`` ``(K, d)`` and ``cov`` ``(K, d, d)`` are the weighted moments after the
+    update at each step (before any resampling); ``ess`` ``(K,)`` is the effective
+    sample size at that moment; ``resampled`` ``(K,)`` says whether the cloud was
+    resampled after it; ``log_likelihood_increments`` ``(K,)`` holds
+    ``log p^(z_k | z_{0:k-1})`` (0 at steps without a measurement).  With
+    ``store_particles=True``, ``particles`` ``(K, N, d)`` and ``weights`` ``(K, N)``
+    hold the weighted cloud at each step.
+    """
+
+    mean: Array
+    cov: Array
+    ess: Array
+    resampled: Array
+    log_likelihood_increments: Array
+    n_particles: int
+    particles: Array | None = None
+    weights: Array | None = None
+    settings: dict = field(default_factory=dict)
+
+    @property
+    def log_likelihood(self) -> float:
+        """Estimate of the marginal log-likelihood ``log p(z_{0:K-1}) = sum_k log p^(z_k | z_{0:k-1})``."""
+        return float(np.sum(self.log_likelihood_increments))
+
+    @property
+    def n_resamples(self) -> int:
+        """How many times the cloud was resampled."""
+        return int(np.sum(self.resampled))
+
+
+def is_missing(z: Measurement) -> bool:
+    """``True`` when the measurement is absent: ``None`` or every entry NaN."""
+    if z is None:
+        return True
+    z = np.asarray(z, dtype=float)
+    return bool(z.size == 0 or np.all(np.isnan(z)))
+
+
+class ParticleFilter:
+    """Sequential importance sampling with optional resampling (SIS / SIR).
+
+    Parameters
+    ----------
+    model:
+        Any object with ``dim_x``, ``sample_initial``, ``sample_transition`` and
+        ``log_likelihood`` (see :class:`Model`).
+    n_particles:
+        Number of particles ``N >= 1``.
+    threshold:
+        Resample when ``ESS < threshold * N``; in ``[0, 1]``.  0 gives SIS.
+    resampler:
+        ``"multinomial"``, ``"stratified"``, ``"systematic"`` (default), ``"residual"``
+        or a function ``(weights, rng) -> indices``.
+    proposal:
+        Importance function (:class:`Proposal`); the transition by default.
+    """
+
+    def __init__(
+        self,
+        model: Model,
+        n_particles: int,
+        *,
+        threshold: float = 0.5,
+        resampler: str | Callable = "systematic",
+        proposal: Proposal | None = None,
+    ) -> None:
+        self.model = model
+        self.n_particles = check_count(n_particles, "n_particles")
+        self.threshold = check_probability(threshold, "threshold")
+        self.resampler = get_resampler(resampler)
+        self.proposal = proposal if proposal is not None else TransitionProposal()
+        self.angle_indices = tuple(getattr(model, "angle_indices", ()))
+
+    def run(
+        self,
+        measurements: Sequence[Measurement] | Array,
+        rng: np.random.Generator | int,
+        *,
+        store_particles: bool = False,
+    ) -> FilterResult:
+        """Filter the measurements ``z_0, ..., z_{K-1}`` and return a :class:`FilterResult`.
+
+        ``measurements[k]`` is the measurement at time ``k`` (``None`` or NaN when
+        absent); ``x_0`` is drawn from the model's initial distribution and
+        weighted by ``z_0`` if present.  ``rng`` is a ``numpy.random.Generator``
+        or an integer seed: the same seed gives the same result.
+        """
+        rng = np.random.default_rng(rng)
+        n, d = self.n_particles, int(self.model.dim_x)
+        n_steps = len(measurements)
+        mean = np.empty((n_steps, d))
+        cov = np.empty((n_steps, d, d))
+        ess = np.empty(n_steps)
+        resampled = np.zeros(n_steps, dtype=bool)
+        log_inc_total = np.zeros(n_steps)
+        stored_x = np.empty((n_steps, n, d)) if store_particles else None
+        stored_w = np.empty((n_steps, n)) if store_particles else None
+
+        particles = None
+        log_weights = np.full(n, -np.log(n))
+        weights = np.full(n, 1.0 / n)
+        for k in range(n_steps):
+            z = measurements[k]
+            missing = is_missing(z)
+            if not missing:
+                z = np.asarray(z, dtype=float)
+            if k == 0:
+                particles = self.model.sample_initial(n, rng)
+                log_inc = None if missing else self.model.log_likelihood(particles, z, k)
+            elif missing:
+                particles = self.model.sample_transition(particles, k, rng)
+                log_inc = None
+            else:
+                particles, log_inc = self.proposal.propose(self.model, particles, z, k, rng)
+            particles = self._check_particles(particles, k)
+
+            if log_inc is not None:
+                log_inc = self._check_log_increments(log_inc, k)
+                unnormalized = log_weights + log_inc
+                try:
+                    weights, log_inc_total[k] = normalize_log_weights(unnormalized)
+                except DegenerateWeightsError as exc:
+                    raise DegenerateWeightsError(
+                        f"step {k}: every particle has zero likelihood for the measurement "
+                        f"{np.array2string(z, precision=4)}; the filter has lost track "
+                        "(more particles, a wider process noise or a better proposal may help)",
+                        step=k,
+                    ) from exc
+                log_weights = unnormalized - log_inc_total[k]
+
+            mean[k] = weighted_mean(particles, weights, self.angle_indices)
+            cov[k] = weighted_covariance(particles, weights, mean[k], self.angle_indices)
+            ess[k] = effective_sample_size(weights)
+            if store_particles:
+                stored_x[k] = particles
+                stored_w[k] = weights
+            if ess[k] < self.threshold * n * (1.0 - 1e-12):
+                particles = particles[self.resampler(weights, rng)]
+                log_weights = np.full(n, -np.log(n))
+                weights = np.full(n, 1.0 / n)
+                resampled[k] = True
+
+        return FilterResult(
+            mean=mean,
+            cov=cov,
+            ess=ess,
+            resampled=resampled,
+            log_likelihood_increments=log_inc_total,
+            n_particles=n,
+            particles=stored_x,
+            weights=stored_w,
+            settings={
+                "threshold": self.threshold,
+                "resampler": getattr(self.resampler, "__name__", str(self.resampler)),
+                "proposal": type(self.proposal).__name__,
+            },
+        )
+
+    def _check_particles(self, particles: Array, k: int) -> Array:
+        particles = np.asarray(particles, dtype=float)
+        expected = (self.n_particles, int(self.model.dim_x))
+        if particles.shape != expected:
+            raise ShapeError(
+                f"step {k}: the model returned particles of shape {particles.shape}, "
+                f"expected {expected}"
+            )
+        if not np.all(np.isfinite(particles)):
+            raise NumericalError(
+                f"step {k}: the model produced NaN or infinite particle states", step=k
+            )
+        return particles
+
+    def _check_log_increments(self, log_inc: Array, k: int) -> Array:
+        log_inc = np.asarray(log_inc, dtype=float)
+        if log_inc.shape != (self.n_particles,):
+            raise ShapeError(
+                f"step {k}: the log-likelihood has shape {log_inc.shape}, "
+                f"expected ({self.n_particles},)"
+            )
+        if np.any(np.isnan(log_inc)) or np.any(log_inc == np.inf):
+            bad = int(np.sum(np.isnan(log_inc) | (log_inc == np.inf)))
+            raise NumericalError(
+                f"step {k}: the log-likelihood is NaN or +inf for {bad} particle(s)", step=k
+            )
+        return log_inc
