@@ -1,0 +1,35 @@
+"""Widget panels call their draw function with the current control values."""
+
+from __future__ import annotations
+
+import matplotlib
+
+matplotlib.use("Agg")
+
+from pfcourse.widgets import (  # noqa: E402
+    control_panel,
+    particle_slider,
+    scale_slider,
+    scheme_dropdown,
+    seed_box,
+    threshold_slider,
+)
+
+
+def test_panel_redraws_with_the_new_values():
+    calls = []
+    n, seed = particle_slider(100), seed_box(3)
+    panel = control_panel(lambda **values: calls.append(values), n_particles=n, seed=seed)
+    assert calls[-1] == {"n_particles": 100, "seed": 3}
+    n.value = 1000
+    assert calls[-1] == {"n_particles": 1000, "seed": 3}
+    assert len(panel.children) == 2
+
+
+def test_control_defaults_and_ranges():
+    assert 10 in particle_slider().options and 10000 in particle_slider().options
+    assert 300 in particle_slider(300).options
+    assert (threshold_slider().min, threshold_slider().max) == (0.0, 1.0)
+    assert set(scheme_dropdown().options) == {"multinomial", "stratified", "systematic", "residual"}
+    s = scale_slider("QEst scale")
+    assert s.value == 1.0 and s.min == -1 and s.max == 1
