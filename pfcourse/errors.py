@@ -29,8 +29,8 @@ class WeightError(PfcourseError, ValueError):
     """Weights given to a resampler or a diagnostic are negative, NaN or do not sum to one."""
 
 
-class DegenerateWeightsError(PfcourseError, FloatingPointError):
-    """Every particle has zero likelihood: the weights cannot be normalised.
+class StepError(PfcourseError):
+    """An error that happened at a known time step of a filter run.
 
     Attributes
     ----------
@@ -43,15 +43,9 @@ class DegenerateWeightsError(PfcourseError, FloatingPointError):
         self.step = step
 
 
-class NumericalError(PfcourseError, FloatingPointError):
-    """A model returned NaN (or +inf) where a number was needed.
+class DegenerateWeightsError(StepError, FloatingPointError):
+    """Every particle has zero likelihood: the weights cannot be normalised."""
 
-    Attributes
-    ----------
-    step:
-        Time index at which it happened (None outside a filter run).
-    """
 
-    def __init__(self, message: str, step: int | None = None) -> None:
-        super().__init__(message)
-        self.step = step
+class NumericalError(StepError, FloatingPointError):
+    """A model returned NaN (or +inf) where a number was needed."""
