@@ -1,0 +1,112 @@
+"""The Monte Carlo study runner: reproducible rows, common random numbers, failures recorded."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from pfcourse import DegenerateWeightsError, ParameterError, ParticleFilter, kalman_filter
+from pfcourse.landmarks import quadrant_scenario, simulate
+from pfcourse.study import grid_settings, replicate_seed, run_study, summarize
+
+
+def landmark_run(seed: int, n_particles: int, threshold: float) -> dict:
+    scenario = quadrant_scenario().with_(n_samples=10)
+    sim = simulate(scenario, seed)
+    model = scenario.model()
+    result = ParticleFilter(model, n_particles, threshold=threshold).run(sim.Z, rng=seed)
+    kf = kalman_filter(model, sim.Z)
+    return {
+        "rmse_vs_kalman": float(np.sqrt(np.mean((result.mean - kf.mean) ** 2))),
+        "resamples": result.n_resamples,
+        "truth_x0": float(sim.X[0, 0]),
+    }
+
+
+def test_table_has_one_row_per_setting_and_run():
+    table = run_study(landmark_run, {"n_particles": [50, 200], "threshold": [0.0, 0.5]}, 3, progress=False)
+    assert len(table) == 2 * 2 * 3
+    assert {"n_particles", "threshold", "run", "seed", "status", "error", "rmse_vs_kalman", "seconds"} <= set(table)
+    assert (table["status"] == "ok").all()
+    assert (table.loc[table["threshold"] == 0.0, "resamples"] == 0).all()
+
+
+def test_each_row_is_reproducible_from_its_seed_alone():
+    table = run_study(landmark_run, {"n_particles": [100], "threshold": [0.5]}, 4, base_seed=7, progress=False)
+    row = table.iloc[2]
+    assert row["seed"] == replicate_seed(7, 2)
+    again = landmark_run(seed=int(row["seed"]), n_particles=100, threshold=0.5)
+    assert again["rmse_vs_kalman"] == row["rmse_vs_kalman"]
+
+
+def test_common_random_numbers_across_settings():
+    table = run_study(landmark_run, {"n_particles": [50, 400], "threshold": [0.5]}, 5, progress=False)
+    truths = table.pivot(index="run", columns="n_particles", values="truth_x0")
+    np.testing.assert_array_equal(truths[50], truths[400])
+    assert truths[50].nunique() == 5  # but different replicates see different truths
+
+
+def test_a_collapse_is_recorded_and_the_study_goes_on():
+    def fragile(seed: int, level: float) -> dict:
+        if level > 1 and seed % 2 == 0:
+            raise DegenerateWeightsError("step 4: every particle has zero likelihood", step=4)
+        return {"error_m": level}
+
+    table = run_study(fragile, {"level": [1.0, 2.0]}, 20, progress=False)
+    failed = table[table["status"] == "failed"]
+    assert len(failed) == int(sum(replicate_seed(0, r) % 2 == 0 for r in range(20)))
+    assert (failed["level"] == 2.0).all() and failed["error"].str.contains("step 4").all()
+    summary = summarize(table, "level", "error_m")
+    assert summary.loc[1.0, "n_failed"] == 0 and summary.loc[2.0, "n_failed"] == len(failed)
+    assert summary.loc[2.0, "n_ok"] + summary.loc[2.0, "n_failed"] == 20
+
+
+def test_bugs_are_not_swallowed():
+    def buggy(seed: int, level: float) -> dict:
+        raise TypeError("a bug")
+
+    with pytest.raises(TypeError, match="a bug"):
+        run_study(buggy, {"level": [1.0]}, 2, progress=False)
+
+
+def test_batches_give_the_same_rows_and_isolate_a_collapse():
+    def one(seed: int, level: float) -> dict:
+        if seed % 3 == 0:
+            raise DegenerateWeightsError("collapse", step=1)
+        return {"value": level * (seed % 1000)}
+
+    def batch(seeds: list[int], level: float) -> list[dict]:
+        return [one(seed, level) for seed in seeds]
+
+    single = run_study(one, {"level": [1.0, 3.0]}, 12, progress=False)
+    batched = run_study(None, {"level": [1.0, 3.0]}, 12, run_batch=batch, batch_size=5, progress=False)
+    columns = ["level", "run", "seed", "status", "value"]
+    assert single[columns].equals(batched[columns])
+
+
+def test_summary_quantiles():
+    table = run_study(lambda seed, a: {"m": float(seed % 101)}, {"a": [0]}, 50, progress=False)
+    summary = summarize(table, "a", "m")
+    values = table["m"].to_numpy()
+    assert summary.loc[0, "q50"] == pytest.approx(np.quantile(values, 0.5))
+    assert summary.loc[0, "q10"] <= summary.loc[0, "q50"] <= summary.loc[0, "q90"]
+
+
+@pytest.mark.parametrize(
+    "kwargs, message",
+    [
+        ({"grid": {"a": []}}, r"grid\['a'\] must be a non-empty list"),
+        ({"grid": {"a": "abc"}}, r"grid\['a'\] must be a non-empty list"),
+        ({"grid": {"a": [1]}, "n_runs": 0}, "n_runs must be at least 1"),
+        ({"grid": {"a": [1]}, "run_batch": lambda seeds, a: []}, "exactly one of run_one and run_batch"),
+    ],
+)
+def test_bad_study_arguments(kwargs, message):
+    kwargs = {"n_runs": 2, **kwargs}
+    with pytest.raises(ParameterError, match=message):
+        run_study(lambda seed, a: {}, progress=False, **kwargs)
+
+
+def test_grid_order_last_key_fastest():
+    assert grid_settings({"a": [1, 2], "b": ["x", "y"]}) == [
+        {"a": 1, "b": "x"}, {"a": 1, "b": "y"}, {"a": 2, "b": "x"}, {"a": 2, "b": "y"}]
