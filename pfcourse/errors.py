@@ -55,3 +55,7 @@ class NumericalError(PfcourseError, FloatingPointError):
     def __init__(self, message: str, step: int | None = None) -> None:
         super().__init__(message)
         self.step = step
+
+
+class OffMapError(PfcourseError, ValueError):
+    """A point lies outside a terrain map, where no height is known."""
