@@ -334,6 +334,10 @@ class MonteCarloResult:
         """Runs lost or with a final error above :data:`DIVERGED_ERROR`."""
         return self.final > DIVERGED_ERROR
 
+    def first(self, n: int) -> MonteCarloResult:
+        """The first ``n`` runs (the same flights as a study of ``n`` runs with the same seed)."""
+        return MonteCarloResult(self.errors[:n], self.sigma[:n], self.lost[:n], self.n_resamples[:n])
+
     def summary(self) -> dict[str, float]:
         """Median and 10 % / 90 % quantiles of the final and time-averaged errors, divergence rate.
 
