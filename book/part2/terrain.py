@@ -180,7 +180,7 @@ plt.show()
 #
 # ## One flight
 #
-# The filter is the book's generic {class}`~pfcourse.filter.ParticleFilter` with the model
+# The filter is the book's generic `ParticleFilter` (`pfcourse.filter`) with the model
 # `scenario.model(terrain)`: it draws the prior, moves particles through the dynamics, and
 # weights them by the Gaussian likelihood of the altimeter reading. A particle that leaves the
 # map has no terrain under it; it gets likelihood zero (log-likelihood $-\infty$), and the
