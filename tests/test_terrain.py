@@ -76,7 +76,7 @@ def test_highest_cell_is_cross_mountain(jacksboro):
     east = (lon - (-84.23056)) * jacksboro.deg_lon
     north = (lat - 36.19833) * jacksboro.deg_lat
     assert np.hypot(east, north) < 0.5 * np.hypot(jacksboro.dx, jacksboro.dy)
-    # Flipped north-south it would be 25 km away.
+    # Read with row 0 to the south it would be 251 rows (23 km) away.
     assert jacksboro.heights[i, j] == 1076
 
 

@@ -64,7 +64,7 @@ use_style()
 #   (it lies north of `ymax`), so the southern edge is computed as `ymax` minus 344 rows. The
 #   check: with this reading, the highest cell of the map falls on the published summit of
 #   Cross Mountain (1077 m, 36.19833° N, 84.23056° W); read the other way up, it would be
-#   25 km away.
+#   23 km away.
 # - **Degrees to metres.** A degree of latitude is $R\pi/180 \approx 111.2$ km on a sphere
 #   of radius $R = 6371$ km, and a degree of longitude is that times $\cos\varphi$: at
 #   $\varphi \approx 36.3°$ a cell is 74.7 m wide (east-west) and 92.7 m tall (north-south).
@@ -322,7 +322,7 @@ for name, res in (("EKF, report's prior", ekf), ("PF (N = 3000), report's prior"
 # The EKF diverges from the report's prior in almost every flight (the
 # percentage above), while the particle filter with 3000 particles diverges in about two
 # flights out of three. The EKF is not broken: started from a 30 m prior, with small process noise, its
-# linearisation holds and it tracks the aircraft in most flights. Its failure from the wide
+# linearisation holds and it tracks the aircraft in every one of the 100 flights. Its failure from the wide
 # prior is the multimodality above, not a bug.
 #
 # The particle filter's own failure rate is the first thing the report could not see. Its
@@ -421,7 +421,7 @@ print("resamplings per run (median):",
 # particles where the prior put them, almost all with negligible weight, and even its runs
 # that converge end several times further from the truth than the baseline's (last column).
 # The last does not: resampling at every
-# step (threshold 1, 80 resamplings instead of a handful) does not degenerate the weights; it
+# step (threshold 1: 80 resamplings per run instead of 29) does not degenerate the weights; it
 # only adds resampling noise, and its statistics are within the run-to-run spread of the
 # baseline's.
 
