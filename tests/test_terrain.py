@@ -227,3 +227,29 @@ def test_ekf_converges_from_a_small_prior(jacksboro):
         assert result.mean.shape == (81, 4) and result.cov.shape == (81, 4, 4)
         err = np.hypot(*(result.mean[:, :2] - flight.X[:, :2]).T)
         assert np.max(err) < np.hypot(jacksboro.dx, jacksboro.dy)
+
+
+# --- Monte Carlo helper ------------------------------------------------------------------
+
+
+def test_monte_carlo_is_seeded_and_first_n_runs_are_a_smaller_study(jacksboro):
+    from pfcourse.aircraft import monte_carlo
+
+    scenario = AircraftScenario().with_(duration=10.0)
+    a = monte_carlo(scenario, jacksboro, 6, method="ekf", seed=3)
+    b = monte_carlo(scenario, jacksboro, 4, method="ekf", seed=3)
+    np.testing.assert_array_equal(a.first(4).errors, b.errors)
+    pf = monte_carlo(scenario, jacksboro, 3, n_particles=200, seed=3)
+    pf_again = monte_carlo(scenario, jacksboro, 3, n_particles=200, seed=3)
+    np.testing.assert_array_equal(pf.errors, pf_again.errors)
+    assert pf.errors.shape == (3, 11) and np.all(pf.n_resamples >= 0)
+
+
+def test_summary_counts_lost_runs_as_infinite_without_nan():
+    from pfcourse.aircraft import MonteCarloResult
+
+    errors = np.array([[100.0, 10.0], [100.0, 20.0], [100.0, 30.0], [np.nan, np.nan]])
+    res = MonteCarloResult(errors, np.ones_like(errors), np.array([False, False, False, True]), np.zeros(4, int))
+    s = res.summary()
+    assert s["final_median"] == 20.0 and s["final_q90"] == np.inf
+    assert s["diverged"] == 0.25 and not any(np.isnan(v) for v in s.values())
