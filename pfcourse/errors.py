@@ -49,3 +49,7 @@ class DegenerateWeightsError(StepError, FloatingPointError):
 
 class NumericalError(StepError, FloatingPointError):
     """A model returned NaN (or +inf) where a number was needed."""
+
+
+class OffMapError(PfcourseError, ValueError):
+    """A point lies outside a terrain map, where no height is known."""
