@@ -23,9 +23,10 @@ import numpy as np
 
 from .angles import wrap_angle
 from .diagnostics import nees
+from .checks import check_count
 from .errors import DegenerateWeightsError, NumericalError, ParameterError
 from .filter import ParticleFilter
-from .robot import ANGLE_INDICES, RobotModel, RobotScenario, rmse, simulate_robot
+from .robot import ANGLE_INDICES, INITIAL_STD, RobotModel, RobotScenario, rmse, simulate_robot
 from .robot_kalman import run_ekf, run_ukf
 
 FILTERS = ("pf", "ekf", "ukf")
@@ -33,19 +34,23 @@ FILTERS = ("pf", "ekf", "ukf")
 
 @dataclass(frozen=True)
 class RunMetrics:
-    """Summary of one filter on one run; ``failed`` is True if the filter raised (metrics are then NaN)."""
+    """Summary of one filter on one run; ``failed`` is True if the filter raised (metrics are then NaN).
+
+    ``nees`` holds the per-step NEES for the steps ``k >= burn_in`` (``None`` if failed).
+    """
 
     position_rmse: float
     heading_rmse: float
     mean_nees: float
     seconds: float
     failed: bool = False
+    nees: np.ndarray | None = None
 
 
 def _metrics(sim, mean, cov, seconds, burn_in) -> RunMetrics:
     pos, head = rmse(sim.truth, mean, burn_in)
-    value = float(np.mean(nees(sim.truth[burn_in:], mean[burn_in:], cov[burn_in:], ANGLE_INDICES)))
-    return RunMetrics(pos, head, value, seconds)
+    per_step = nees(sim.truth[burn_in:], mean[burn_in:], cov[burn_in:], ANGLE_INDICES)
+    return RunMetrics(pos, head, float(np.mean(per_step)), seconds, False, per_step)
 
 
 def compare_filters(
@@ -58,6 +63,7 @@ def compare_filters(
     threshold: float = 0.5,
     scheme: str = "systematic",
     initial: str = "tracking",
+    initial_std=INITIAL_STD,
     burn_in: int = 0,
     scenario: RobotScenario | None = None,
     **scenario_changes,
@@ -69,7 +75,8 @@ def compare_filters(
     ``QEst = q_scale QTrue`` and ``REst = r_scale RTrue``; the particle filter has
     ``n_particles``, resamples with ``scheme`` when ``ESS < threshold N`` and starts
     from ``initial`` (``"tracking"`` or ``"uniform"``; the Kalman filters always
-    start from the tracking prior).  The particle filter's random stream is
+    start from the tracking prior); the tracking prior has standard deviations
+    ``initial_std`` around the true start.  The particle filter's random stream is
     seeded with ``seed`` too.  A filter that raises a
     :class:`~pfcourse.errors.DegenerateWeightsError` or
     :class:`~pfcourse.errors.NumericalError` is reported with ``failed=True``.
@@ -77,11 +84,18 @@ def compare_filters(
     unknown = set(filters) - set(FILTERS)
     if unknown:
         raise ParameterError(f"unknown filter(s) {sorted(unknown)}; choose among {FILTERS}")
+    check_count(burn_in + 1, "burn_in + 1")
     sim = simulate_robot(scenario, seed, **scenario_changes)
+    if burn_in >= sim.scenario.n_steps:
+        raise ParameterError(f"burn_in = {burn_in} leaves no step of the {sim.scenario.n_steps}")
     out: dict[str, RunMetrics] = {}
     for name in filters:
         model = RobotModel.for_simulation(
-            sim, q_scale=q_scale, r_scale=r_scale, initial=initial if name == "pf" else "tracking"
+            sim,
+            q_scale=q_scale,
+            r_scale=r_scale,
+            initial=initial if name == "pf" else "tracking",
+            initial_std=initial_std,
         )
         start = time.perf_counter()
         try:
