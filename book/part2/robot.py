@@ -64,11 +64,11 @@
 # second, and a filter that assumes twice the true variances, $Q_\text{est} = 2Q_\text{true}$,
 # $R_\text{est} = 2R_\text{true}$.
 #
-# **How the data are passed.** {func}`pfcourse.robot.simulate_robot` returns the
+# **How the data are passed.** `pfcourse.robot.simulate_robot` returns the
 # measurements as one array with a row $(j, r, b)$ per step (landmark index, range, bearing),
 # or a row of NaN when there is no measurement; the generic
-# {class}`pfcourse.filter.ParticleFilter` skips the update on such rows. The odometry is
-# held by the model ({class}`pfcourse.robot.RobotModel`), which reads row $k$ when it moves
+# `pfcourse.filter.ParticleFilter` skips the update on such rows. The odometry is
+# held by the model (`pfcourse.robot.RobotModel`), which reads row $k$ when it moves
 # the particles at step $k$. The same two arrays feed the extended and unscented Kalman
 # filters of the next chapter.
 

@@ -19,7 +19,7 @@
 #
 # Both Kalman filters come from `filterpy` and read the same data as the particle filter
 # (odometry rows and measurement rows $(j, r, b)$, NaN when absent); see
-# {mod}`pfcourse.robot_kalman`. Two details matter for angles:
+# `pfcourse.robot_kalman`. Two details matter for angles:
 #
 # - the measurement residual $z - h_j(\hat x)$ wraps its bearing to $(-\pi, \pi]$, and the
 #   heading estimate is wrapped after every step;
