@@ -84,6 +84,7 @@ N_RUNS = 50
 BURN_IN = 20
 runs = [compare_filters(seed, n_steps=200, burn_in=BURN_IN) for seed in range(N_RUNS)]
 names = {"pf": "particle filter (N = 300)", "ekf": "EKF", "ukf": "UKF"}
+legend = {"pf": "particle filter (N = 300)", "ekf": "EKF (hidden under the UKF)", "ukf": "UKF"}
 colors = {"pf": COLORS["estimate"], "ekf": COLORS["kalman"], "ukf": "tab:purple"}
 
 
@@ -128,10 +129,10 @@ for i, (key, label) in enumerate(names.items()):
         ax.plot([i - 0.3, i + 0.3], [np.median(values)] * 2, "-", color="k", lw=2)
     steps = np.arange(BURN_IN, 200)
     mean_nees = np.mean([r[key].nees for r in runs], axis=0)
-    axes[2].plot(steps, mean_nees, color=colors[key], lw=1, label=label)
+    axes[2].plot(steps, mean_nees, color=colors[key], lw=1, label=legend[key])
 lo, hi = chi2_band(3, N_RUNS)
 axes[2].axhspan(lo, hi, color="0.85", label=f"95 % band of χ²₃ / {N_RUNS} runs")
-axes[2].set_yscale("log")
+axes[2].set_ylim(0, None)
 axes[2].set_xlabel("time (s)")
 axes[2].set_ylabel(f"NEES averaged over {N_RUNS} runs")
 axes[2].legend(fontsize=7, loc="upper right")
