@@ -351,7 +351,7 @@ def draw(n_particles=300, q_scale=2.0, r_scale=2.0, threshold=0.5, scheme="syste
 # %% tags=["nbval-ignore-output"]
 panel = control_panel(
     draw,
-    n_particles=particle_slider(300, 1, 4),
+    n_particles=particle_slider(300, 1, 3),
     q_scale=scale_slider("Q scale", 2.0),
     r_scale=scale_slider("R scale", 2.0),
     threshold=threshold_slider(0.5),
