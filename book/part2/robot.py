@@ -150,7 +150,7 @@ plt.show()
 # step. Drag the slider to scrub through time.
 
 # %%
-frames = list(range(0, 25)) + list(range(100, 1000, 100))
+frames = list(range(0, 15)) + list(range(100, 1000, 100))
 anim = animate_cloud(sim, result.particles, result.weights, result.mean, frames, window=2.0)
 HTML(anim.to_jshtml())
 
@@ -220,10 +220,10 @@ print(f"median ESS over the run: {np.median(result.ess[1:]):.0f}")
 # prior; the particle filter just needs enough particles.
 
 # %%
-sim_g = simulate_robot(rng=5, n_steps=60)
+sim_g = simulate_robot(rng=5, n_steps=30)
 model_g = RobotModel.for_simulation(sim_g, initial="uniform")
 res_g = ParticleFilter(model_g, 20000).run(sim_g.measurements, rng=5, store_particles=True)
-snap = [0, 1, 2, 3, 10, 59]
+snap = [0, 1, 2, 3, 10, 29]
 fig, axes = plt.subplots(2, 3, figsize=(10.5, 7.2), sharex=True, sharey=True)
 for ax, k in zip(axes.flat, snap):
     w = res_g.weights[k]
@@ -263,7 +263,7 @@ for k in snap:
 # to weight):
 
 # %%
-anim_g = animate_cloud(sim_g, res_g.particles, res_g.weights, res_g.mean, list(range(0, 20)),
+anim_g = animate_cloud(sim_g, res_g.particles, res_g.weights, res_g.mean, list(range(0, 12)) + [15, 20, 25, 29],
                        window=None, max_points=3000, interval=400)
 HTML(anim_g.to_jshtml())
 
