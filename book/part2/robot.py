@@ -306,10 +306,10 @@ for n, row, ok in zip(n_values, runs, success):
 # With a few thousand particles global localization mostly fails, and the success rate
 # grows with $N$ (the intervals from 12 runs are wide: read the curve as an order of
 # magnitude). The failures are instructive: the printed lines show that a filter that
-# missed ends metres away from the truth *while its own standard deviation is a few
-# decimetres*. After the first two or three measurements the weight sits on a handful of
+# missed ends metres away from the truth *while its own standard deviation is below
+# 0.2 m*. After the first two or three measurements the weight sits on a handful of
 # particles; resampling copies them, and the transition spreads the copies by only
-# 0.03 m per step, so a cluster that settled 2 m from the truth stays there, confidently
+# 0.03 m per step, so a cluster that settled a few metres from the truth stays there, confidently
 # wrong. This is sample impoverishment. More particles help, but so do methods that
 # explore the state space better (roughening, better proposals), which Part III measures.
 #
