@@ -71,7 +71,7 @@ print(f"largest distance between the EKF and UKF means: "
 #
 # ## Monte Carlo comparison
 #
-# Now 50 seeded runs of 200 s each of the default scenario (five landmarks in new random
+# Now 50 seeded runs of 150 s each of the default scenario (five landmarks in new random
 # places every run, $N = 300$, $Q_\text{est} = 2 Q_\text{true}$,
 # $R_\text{est} = 2 R_\text{true}$). For every run and filter we record the position and
 # heading RMSE and the normalised estimation error squared,
@@ -82,7 +82,8 @@ print(f"largest distance between the EKF and UKF means: "
 # %%
 N_RUNS = 50
 BURN_IN = 20
-runs = [compare_filters(seed, n_steps=200, burn_in=BURN_IN) for seed in range(N_RUNS)]
+N_STEPS = 150
+runs = [compare_filters(seed, n_steps=N_STEPS, burn_in=BURN_IN) for seed in range(N_RUNS)]
 names = {"pf": "particle filter (N = 300)", "ekf": "EKF", "ukf": "UKF"}
 legend = {"pf": "particle filter (N = 300)", "ekf": "EKF (hidden under the UKF)", "ukf": "UKF"}
 colors = {"pf": COLORS["estimate"], "ekf": COLORS["kalman"], "ukf": "tab:purple"}
@@ -109,7 +110,7 @@ print(f"(median [10 %, 90 % quantiles] over {N_RUNS} runs)")
 
 # %% tags=["nbval-ignore-output"]
 for key, label in names.items():
-    print(f"{label:28s} median {1000 * np.median(column(key, 'seconds')):7.1f} ms per 200-step run")
+    print(f"{label:28s} median {1000 * np.median(column(key, 'seconds')):7.1f} ms per {N_STEPS}-step run")
 ratio = np.median(column("pf", "seconds")) / np.median(column("ekf", "seconds"))
 print(f"the particle filter takes {ratio:.1f} times as long as the EKF")
 
@@ -127,7 +128,7 @@ for i, (key, label) in enumerate(names.items()):
         jitter = np.random.default_rng(i).uniform(-0.15, 0.15, N_RUNS)
         ax.plot(i + jitter, values, ".", color=colors[key], alpha=0.5)
         ax.plot([i - 0.3, i + 0.3], [np.median(values)] * 2, "-", color="k", lw=2)
-    steps = np.arange(BURN_IN, 200)
+    steps = np.arange(BURN_IN, N_STEPS)
     mean_nees = np.mean([r[key].nees for r in runs], axis=0)
     axes[2].plot(steps, mean_nees, color=colors[key], lw=1, label=legend[key])
 lo, hi = chi2_band(3, N_RUNS)
@@ -223,7 +224,7 @@ for key, label in names.items():
 # :label: ex-robot-nees
 # Why is the time-averaged NEES of all three filters below 3 in the default comparison?
 # What would you expect with $Q_\text{est} = Q_\text{true}$ and $R_\text{est} = R_\text{true}$?
-# Check it with `compare_filters(seed, q_scale=1.0, r_scale=1.0, n_steps=200, burn_in=20)`
+# Check it with `compare_filters(seed, q_scale=1.0, r_scale=1.0, n_steps=150, burn_in=20)`
 # over a few seeds.
 # ```
 #
