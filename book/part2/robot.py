@@ -73,14 +73,13 @@
 # filters of the next chapter.
 
 # %%
-import time
-
 import matplotlib.pyplot as plt
 import numpy as np
 from IPython.display import HTML, display
 from ipywidgets import Checkbox, IntSlider
 
 from pfcourse.diagnostics import nees
+from pfcourse.errors import DegenerateWeightsError
 from pfcourse.filter import ParticleFilter
 from pfcourse.plotting import COLORS, use_style
 from pfcourse.robot import RobotModel, rmse, simulate_robot, tracking_errors
@@ -319,8 +318,8 @@ for n, row, ok in zip(n_values, runs, success):
 # the good initial guess) and plots the position error with its ±3σ band. `Q scale` and
 # `R scale` multiply $Q_\text{true}$ and $R_\text{true}$ in the filter (2 and 2 by default),
 # `dt_meas` is the time between measurements, `gap` removes the measurements between 250 s
-# and 350 s. A run takes well under a second at the default settings. The static figure
-# below the panel shows the default values, for readers of the HTML book.
+# and 350 s. The static figure below the panel shows the default values, for readers of
+# the HTML book.
 
 # %%
 def draw(n_particles=300, q_scale=2.0, r_scale=2.0, threshold=0.5, scheme="systematic",
@@ -328,12 +327,16 @@ def draw(n_particles=300, q_scale=2.0, r_scale=2.0, threshold=0.5, scheme="syste
     s = simulate_robot(rng=seed, n_steps=400, dt_meas=float(dt_meas),
                        gap=(250.0, 350.0) if gap else None, n_landmarks=landmarks)
     m = RobotModel.for_simulation(s, q_scale=q_scale, r_scale=r_scale)
-    r = ParticleFilter(m, n_particles, threshold=threshold, resampler=scheme).run(s.measurements, seed)
+    if axes is None:
+        _, axes = plt.subplots(1, 2, figsize=(10, 3.6), gridspec_kw={"width_ratios": [1, 2]})
+    try:
+        r = ParticleFilter(m, n_particles, threshold=threshold, resampler=scheme).run(s.measurements, seed)
+    except DegenerateWeightsError as exc:  # every particle lost: say so instead of failing
+        axes[1].text(0.5, 0.5, f"filter lost track at step {exc.step}", ha="center", transform=axes[1].transAxes)
+        return
     e = tracking_errors(s.truth, r.mean)
     sd = np.sqrt(r.cov[:, 0, 0] + r.cov[:, 1, 1])
     t = np.arange(400.0)
-    if axes is None:
-        _, axes = plt.subplots(1, 2, figsize=(10, 3.6), gridspec_kw={"width_ratios": [1, 2]})
     robot_map(s, {"particle filter": r.mean}, ax=axes[0], odometry=True)
     axes[0].get_legend().remove()
     axes[0].set_title("map")
