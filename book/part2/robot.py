@@ -339,7 +339,9 @@ def draw(n_particles=300, q_scale=2.0, r_scale=2.0, threshold=0.5, scheme="syste
     t = np.arange(400.0)
     robot_map(s, {"particle filter": r.mean}, ax=axes[0], odometry=True)
     axes[0].get_legend().remove()
-    axes[0].set_title("map")
+    axes[0].set_xlim(s.truth[:, 0].min() - 6, s.truth[:, 0].max() + 6)
+    axes[0].set_ylim(s.truth[:, 1].min() - 3, s.truth[:, 1].max() + 3)
+    axes[0].set_title("paths (black: truth, dashed: odometry)", fontsize=9)
     axes[1].fill_between(t, 0, 3 * sd, color=COLORS["estimate"], alpha=0.2, lw=0, label="3 σ (position)")
     axes[1].plot(t, np.hypot(e[:, 0], e[:, 1]), color=COLORS["estimate"], lw=0.8, label="position error")
     if gap:
