@@ -55,7 +55,7 @@ print("diag(Qw)  =", np.diag(scenario.Qw))
 print("diag(Rv)  =", np.diag(scenario.Rv))
 
 # %% [markdown]
-# What they mean physically:
+# What they mean physically (lab question 1):
 #
 # - **`mX0`** is the expected initial state: the robot is believed to start near $(2, 0)$ m and
 #   the landmarks near $(-1, 4)$ m and $(4, -1)$ m.
@@ -69,7 +69,7 @@ print("diag(Rv)  =", np.diag(scenario.Rv))
 # - **`Rv`** is the covariance of the measurement noise $v_k$: every measured coordinate is
 #   off by 0.1 m (standard deviation).
 #
-# ## One simulated run
+# ## One simulated run (lab question 1)
 #
 # `simulate` draws the initial state from $\mathcal N(\text{mX0}, \text{PX0})$, moves it with
 # the dynamics, and measures the landmarks in view. The seed makes the run reproducible.
@@ -261,6 +261,50 @@ print(f"log p(z_k | x_k) at the true state: {by_hand:.4f} (formula), "
 # not "another method" but the **right answer**, against which every particle filter is
 # measured.
 #
+# ## Try it
+#
+# The panel simulates either variant with the chosen seed and measurement-noise scale
+# (a factor on the standard deviations in `Rv`), and draws the world and which landmarks are
+# in view at each step. The figure below the code is the panel at its default values, for
+# readers without a kernel.
+
+# %%
+import ipywidgets as widgets
+from IPython.display import display
+
+from pfcourse.widgets import control_panel, scale_slider, seed_box
+
+
+def draw_model(variant, noise_scale, seed):
+    sc = quadrant_scenario() if variant == "two landmarks" else circle_scenario(5)
+    sc = sc.with_(Rv=noise_scale**2 * sc.Rv)
+    s = simulate(sc, rng=seed)
+    limits = None if variant == "two landmarks" else (-4.0, 8.0)
+    fig, (a1, a2) = plt.subplots(1, 2, figsize=(10, 4.2), width_ratios=[1, 1.3])
+    landmark_scene(sc, s, ax=a1, limits=limits)
+    for j in range(sc.n_landmarks):
+        seen = s.seen[:, j]
+        a1.plot(s.X[seen, 0] + s.Z[seen, 2 * j], s.X[seen, 1] + s.Z[seen, 2 * j + 1], ".",
+                ms=3, color=COLORS["seen"])
+    a1.set_title("robot + measured offsets (dots)")
+    a2.imshow(s.seen.T, aspect="auto", interpolation="nearest", cmap="Greens",
+              extent=(s.T[0] - 0.5, s.T[-1] + 0.5, sc.n_landmarks + 0.5, 0.5))
+    a2.set_yticks(range(1, sc.n_landmarks + 1), [f"L{j}" for j in range(1, sc.n_landmarks + 1)])
+    a2.set_xlabel("time t (s)")
+    a2.set_title("landmarks in view (green)")
+    a2.grid(False)
+
+
+draw_model(variant="two landmarks", noise_scale=1.0, seed=2024)
+plt.show()
+
+# %% tags=["nbval-ignore-output"]
+display(control_panel(
+    draw_model,
+    variant=widgets.Dropdown(options=["two landmarks", "five landmarks"], description="variant"),
+    noise_scale=scale_slider("Rv sd scale"), seed=seed_box(2024)))
+
+# %% [markdown]
 # ## Exercises
 #
 # ```{exercise}
