@@ -14,6 +14,8 @@ particles ``x_k^i`` with normalised weights ``W_k^i``.  At every step ``k``:
 4. **resample** (SIR) when ``ESS < threshold * N``, then reset the weights to ``1/N``.
    ``threshold = 0`` never resamples (SIS); ``threshold = 1`` resamples at every
    step whose weights are not exactly uniform.
+   An optional ``jitter(particles, rng)`` is then applied to the resampled cloud
+   (roughening, :mod:`pfcourse.roughening`); by default there is none.
 
 A measurement that is missing (``None``, or an array of NaN) leaves the weights
 unchanged: the particles move through the transition only.  A measurement with

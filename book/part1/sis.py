@@ -206,8 +206,8 @@ ax2.set_title(f"Time to degeneracy, {n_runs} runs")
 plt.show()
 
 # %% [markdown]
-# With $N = 100$ the ESS typically drops to about 1 at the *first* sighting of a landmark
-# (step 2 in the run above). Multiplying $N$ by 100 buys only a couple of steps: the median time to degeneracy moves
+# In the run above ($N = 100$) the ESS drops to about 1 at the *first* sighting of a
+# landmark (step 2). Multiplying $N$ by 100 buys only a couple of steps: the median time to degeneracy moves
 # by about one step per factor of ten. This is the general behaviour of SIS: the variance of
 # the weights grows (roughly exponentially) with time, and here each step with a visible
 # landmark multiplies the weights by a likelihood that is sharp (0.1 m noise) compared with
