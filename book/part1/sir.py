@@ -257,7 +257,10 @@ plt.show()
 # - Roughening keeps the model and jitters only after resampling. Its median error is
 #   comparable to the lab's fix and its standard deviation is much closer to the exact one,
 #   but its error has a heavier tail (see the 90 % quantile) and its coverage is well below
-#   95 %: where it goes wrong, it does not know it. $K$ is one more tuning constant.
+#   95 %: where it goes wrong, it does not know it. The outliers of its standard-deviation
+#   ratio are runs in which a landmark's cloud had already collapsed to a single value
+#   before roughening could act: the rule scales with the range $E_j$, which is then 0, so
+#   it never recovers. $K$ is one more tuning constant.
 #
 # Neither fix makes the particle filter exact; the honest comparison is the Kalman filter,
 # which has zero error here at a fraction of the cost. {doc}`proposals` asks whether a
