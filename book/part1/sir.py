@@ -106,6 +106,20 @@ plt.show()
 print("distinct L1 x values at steps 0, 5, 20, 49:", [distinct[k] for k in (0, 5, 20, 49)])
 
 # %% [markdown]
+# The animation puts the two filters side by side on this run, both with $N = 100$ and the
+# same seed: particles (area proportional to weight), the filter's 95 % ellipses (red) and
+# the exact ones (green), for the robot and both landmarks. Under SIS (left) every ellipse
+# vanishes; under SIR (right) the robot's ellipse survives and the landmarks' still vanish.
+
+# %%
+from IPython.display import HTML
+
+from pfcourse.cloud_animation import animate_clouds
+
+sis_res = ParticleFilter(model, 100, threshold=0.0).run(sim.Z, rng=1, store_particles=True)
+HTML(animate_clouds({"SIS": sis_res, "SIR": res}, kf, sim.X, frames=range(0, 30, 2)).to_jshtml())
+
+# %% [markdown]
 # Resampling copies particles; only the dynamics can make copies differ again. For the
 # landmarks the dynamics add noise of standard deviation $10^{-10}$ m, so after each
 # resampling the number of distinct landmark values can only stay or fall. This is **sample
