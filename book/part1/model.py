@@ -130,8 +130,9 @@ plt.show()
 
 # %%
 n_runs = 500
-seen_fraction = np.array([simulate(scenario, rng=seed).seen[1:].mean(axis=0) for seed in range(n_runs)])
-both = np.array([simulate(scenario, rng=seed).seen[1:].all(axis=1).mean() for seed in range(n_runs)])
+seen = np.array([simulate(scenario, rng=seed).seen[1:] for seed in range(n_runs)])
+seen_fraction = seen.mean(axis=1)
+both = seen.all(axis=2).mean(axis=1)
 for j in range(2):
     lo, med, hi = np.percentile(seen_fraction[:, j], [10, 50, 90])
     print(f"landmark {j + 1}: in view at {med:.0%} of steps (10-90 % of runs: {lo:.0%} to {hi:.0%})")
