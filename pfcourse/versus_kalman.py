@@ -11,7 +11,10 @@ For a linear-Gaussian model the Kalman filter gives the exact posterior
 * the log-ratio of generalised variances ``log det Sigma_k - log det P_k`` restricted
   to chosen components (negative: the cloud is overconfident);
 * whether the truth ``x_k`` falls inside the filter's own 95 % ellipse, via the
-  filter's NEES ``(x_k - mu_k)^T Sigma_k^{-1} (x_k - mu_k) <= chi2_{0.95}(d)``.
+  filter's NEES ``(x_k - mu_k)^T Sigma_k^{-1} (x_k - mu_k) <= chi2_{0.95}(d)``
+  (a run whose covariance is exactly singular at some step, a fully collapsed
+  cloud, counts as not covering at any step; a singular covariance gives a
+  log-ratio of ``-inf``).
 
 :func:`monte_carlo` repeats this over independent simulations and filter seeds.
 """
