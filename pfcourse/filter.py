@@ -14,6 +14,8 @@ particles ``x_k^i`` with normalised weights ``W_k^i``.  At every step ``k``:
 4. **resample** (SIR) when ``ESS < threshold * N``, then reset the weights to ``1/N``.
    ``threshold = 0`` never resamples (SIS); ``threshold = 1`` resamples at every
    step whose weights are not exactly uniform.
+   An optional ``jitter(particles, rng)`` is then applied to the resampled cloud
+   (roughening, :mod:`pfcourse.roughening`); by default there is none.
 
 A measurement that is missing (``None``, or an array of NaN) leaves the weights
 unchanged: the particles move through the transition only.  A measurement with
@@ -197,6 +199,10 @@ class ParticleFilter:
         or a function ``(weights, rng) -> indices``.
     proposal:
         Importance function (:class:`Proposal`); the transition by default.
+    jitter:
+        Optional function ``(particles, rng) -> particles`` applied to the cloud
+        right after each resampling (roughening, see :mod:`pfcourse.roughening`).
+        ``None`` (default) leaves the resampled cloud, and the random stream, as is.
     """
 
     def __init__(
@@ -207,6 +213,7 @@ class ParticleFilter:
         threshold: float = 0.5,
         resampler: str | Callable = "systematic",
         proposal: Proposal | None = None,
+        jitter: Callable[[Array, np.random.Generator], Array] | None = None,
     ) -> None:
         self.model = model
         self.n_particles = check_count(n_particles, "n_particles")
@@ -214,6 +221,7 @@ class ParticleFilter:
         self.resampler = get_resampler(resampler)
         self.proposal = proposal if proposal is not None else TransitionProposal()
         self.angle_indices = tuple(getattr(model, "angle_indices", ()))
+        self.jitter = jitter
 
     def run(
         self,
@@ -280,6 +288,8 @@ class ParticleFilter:
                 stored_w[k] = weights
             if ess[k] < self.threshold * n * (1.0 - 1e-12):
                 particles = particles[self.resampler(weights, rng)]
+                if self.jitter is not None:
+                    particles = self._check_particles(self.jitter(particles, rng), k)
                 log_weights = np.full(n, -np.log(n))
                 weights = np.full(n, 1.0 / n)
                 resampled[k] = True

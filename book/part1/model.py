@@ -55,7 +55,7 @@ print("diag(Qw)  =", np.diag(scenario.Qw))
 print("diag(Rv)  =", np.diag(scenario.Rv))
 
 # %% [markdown]
-# What they mean physically:
+# What they mean physically (lab question 1):
 #
 # - **`mX0`** is the expected initial state: the robot is believed to start near $(2, 0)$ m and
 #   the landmarks near $(-1, 4)$ m and $(4, -1)$ m.
@@ -69,7 +69,7 @@ print("diag(Rv)  =", np.diag(scenario.Rv))
 # - **`Rv`** is the covariance of the measurement noise $v_k$: every measured coordinate is
 #   off by 0.1 m (standard deviation).
 #
-# ## One simulated run
+# ## One simulated run (lab question 1)
 #
 # `simulate` draws the initial state from $\mathcal N(\text{mX0}, \text{PX0})$, moves it with
 # the dynamics, and measures the landmarks in view. The seed makes the run reproducible.
@@ -130,8 +130,9 @@ plt.show()
 
 # %%
 n_runs = 500
-seen_fraction = np.array([simulate(scenario, rng=seed).seen[1:].mean(axis=0) for seed in range(n_runs)])
-both = np.array([simulate(scenario, rng=seed).seen[1:].all(axis=1).mean() for seed in range(n_runs)])
+seen = np.array([simulate(scenario, rng=seed).seen[1:] for seed in range(n_runs)])
+seen_fraction = seen.mean(axis=1)
+both = seen.all(axis=2).mean(axis=1)
 for j in range(2):
     lo, med, hi = np.percentile(seen_fraction[:, j], [10, 50, 90])
     print(f"landmark {j + 1}: in view at {med:.0%} of steps (10-90 % of runs: {lo:.0%} to {hi:.0%})")
@@ -178,9 +179,133 @@ HTML(animate_landmarks(scenario5, sim5, limits=(-4.0, 8.0)).to_jshtml())
 # %% [markdown]
 # Here the set of visible landmarks changes as the robot turns: each landmark comes into
 # view, stays for a few steps and leaves. The rows of the measurement matrix that apply at
-# step $k$ change with it. The next chapter turns this into the densities $p(x_0)$,
+# step $k$ change with it. We now turn this into the densities $p(x_0)$,
 # $p(x_k \mid x_{k-1})$ and $p(z_k \mid x_k)$ that every filter needs.
 #
+# (model-densities)=
+# ## The three densities (lab question 2)
+#
+# **Initial density.** The simulator draws $x_0 = m_{X0} + L_0 e$ with $L_0 L_0^\top = P_{X0}$
+# and $e \sim \mathcal N(0, I)$. An affine map of a Gaussian vector is Gaussian, with mean
+# $m_{X0}$ and covariance $L_0 \operatorname{Cov}(e) L_0^\top = P_{X0}$:
+#
+# $$
+# p(x_0) = \mathcal N(x_0;\, m_{X0},\, P_{X0})
+# = \frac{1}{\sqrt{(2\pi)^{d} \det P_{X0}}}
+#   \exp\!\left(-\tfrac12 (x_0 - m_{X0})^\top P_{X0}^{-1} (x_0 - m_{X0})\right),
+# \qquad d = 2 + 2M .
+# $$
+#
+# **Transition density.** Given $x_{k-1}$, the next state $x_k = F x_{k-1} + B + w_k$ is a
+# constant plus the Gaussian noise $w_k \sim \mathcal N(0, Q_w)$, independent of the past, so
+#
+# $$
+# p(x_k \mid x_{k-1}) = \mathcal N(x_k;\, F x_{k-1} + B,\, Q_w), \qquad
+# F = \begin{pmatrix} R_\omega & 0 \\ 0 & I_{2M} \end{pmatrix}, \quad
+# B = \begin{pmatrix} (I - R_\omega)\, c \\ 0 \end{pmatrix},
+# $$
+#
+# with $R_\omega$ the rotation by $\omega\,\Delta t$. The landmark block of $Q_w$ is
+# $10^{-20} I$: this density is, for the landmarks, almost a Dirac mass at the previous
+# position.
+#
+# **Measurement density.** Let $V_k \subseteq \{1, \dots, M\}$ be the landmarks in view at
+# step $k$. Each one gives $z^j_k = l^j_k - r_k + v^j_k$, that is
+# $z^j_k = H^j x_k + v^j_k$ with $H^j = (-I_2, 0, \dots, I_2, \dots, 0)$ ($I_2$ in block
+# $j + 1$). Stacking the visible landmarks gives a measurement matrix and a noise covariance
+# whose *size changes with time*:
+#
+# $$
+# H_k = \begin{pmatrix} H^{j_1} \\ \vdots \\ H^{j_{|V_k|}} \end{pmatrix} \in \mathbb R^{2|V_k| \times d},
+# \qquad R_k = R_v[V_k, V_k] \in \mathbb R^{2|V_k| \times 2|V_k|},
+# \qquad
+# p(z_k \mid x_k) = \mathcal N(z_k;\, H_k x_k,\, R_k),
+# $$
+#
+# where $R_v[V_k, V_k]$ keeps the rows and columns of the visible landmarks. When nothing is
+# in view ($V_k = \emptyset$) there is no measurement and $p(z_k \mid x_k) = 1$: the
+# step is a pure prediction. In the code, `Z[k]` holds NaN for the unseen landmarks, and
+# `LinearGaussianModel.observed` extracts $z_k$, $H_k$ and $R_k$ from the non-NaN entries.
+#
+# A caveat: whether a landmark is visible depends on the true state, so strictly the
+# *pattern of NaN* is itself information. The filters here, like the lab's, treat the
+# visibility as given (they condition on which landmarks were seen but not on the
+# geometry that implies it), which is the standard simplification.
+#
+# One step of the simulated run above, checked against these formulas:
+
+# %%
+from pfcourse.gaussian import gaussian_logpdf
+
+model = scenario.model()
+k = int(np.flatnonzero(sim.seen.any(axis=1))[0])
+mask, z_k, H_k, R_k = model.observed(sim.Z[k])
+print(f"step {k}: landmarks in view {np.flatnonzero(sim.seen[k]) + 1}")
+print("H_k =\n", H_k.astype(int))
+print("R_k =\n", R_k)
+by_hand = gaussian_logpdf(z_k - H_k @ sim.X[k], R_k)[0]
+print(f"log p(z_k | x_k) at the true state: {by_hand:.4f} (formula), "
+      f"{model.log_likelihood(sim.X[k][None], sim.Z[k], k)[0]:.4f} (model)")
+
+# %% [markdown]
+# ### Why the Kalman filter is exact here
+#
+# Suppose $p(x_{k-1} \mid z_{1:k-1}) = \mathcal N(m_{k-1}, P_{k-1})$. Then $x_k$ is an affine
+# function of the Gaussian pair $(x_{k-1}, w_k)$, so the prediction is Gaussian,
+# $\mathcal N(F m_{k-1} + B,\; F P_{k-1} F^\top + Q_w)$. And $(x_k, z_k)$ is jointly Gaussian,
+# since $z_k = H_k x_k + v_k$ is affine in $(x_k, v_k)$; conditioning a jointly Gaussian
+# vector on some of its components gives a Gaussian whose mean and covariance are the Kalman
+# update with the matrices $H_k$, $R_k$ of that step. By induction from $p(x_0)$, every
+# filtering density is Gaussian and the Kalman recursions compute its mean and covariance
+# *exactly*, for any sequence of visibility patterns: changing $H_k$ and $R_k$ with time
+# changes nothing in the argument. This is why, in the rest of Part I, the Kalman filter is
+# not "another method" but the **right answer**, against which every particle filter is
+# measured.
+#
+# ## Try it
+#
+# The panel simulates either variant with the chosen seed and measurement-noise scale
+# (a factor on the standard deviations in `Rv`), and draws the world and which landmarks are
+# in view at each step. The figure below the code is the panel at its default values, for
+# readers without a kernel.
+
+# %%
+import ipywidgets as widgets
+from IPython.display import display
+
+from pfcourse.widgets import control_panel, scale_slider, seed_box
+
+
+def draw_model(variant, noise_scale, seed):
+    sc = quadrant_scenario() if variant == "two landmarks" else circle_scenario(5)
+    sc = sc.with_(Rv=noise_scale**2 * sc.Rv)
+    s = simulate(sc, rng=seed)
+    limits = None if variant == "two landmarks" else (-4.0, 8.0)
+    fig, (a1, a2) = plt.subplots(1, 2, figsize=(10, 4.2), width_ratios=[1, 1.3])
+    landmark_scene(sc, s, ax=a1, limits=limits)
+    for j in range(sc.n_landmarks):
+        seen = s.seen[:, j]
+        a1.plot(s.X[seen, 0] + s.Z[seen, 2 * j], s.X[seen, 1] + s.Z[seen, 2 * j + 1], ".",
+                ms=3, color=COLORS["seen"])
+    a1.set_title("robot + measured offsets (dots)")
+    a2.imshow(s.seen.T, aspect="auto", interpolation="nearest", cmap="Greens",
+              extent=(s.T[0] - 0.5, s.T[-1] + 0.5, sc.n_landmarks + 0.5, 0.5))
+    a2.set_yticks(range(1, sc.n_landmarks + 1), [f"L{j}" for j in range(1, sc.n_landmarks + 1)])
+    a2.set_xlabel("time t (s)")
+    a2.set_title("landmarks in view (green)")
+    a2.grid(False)
+
+
+draw_model(variant="two landmarks", noise_scale=1.0, seed=2024)
+plt.show()
+
+# %% tags=["nbval-ignore-output"]
+display(control_panel(
+    draw_model,
+    variant=widgets.Dropdown(options=["two landmarks", "five landmarks"], description="variant"),
+    noise_scale=scale_slider("Rv sd scale"), seed=seed_box(2024)))
+
+# %% [markdown]
 # ## Exercises
 #
 # ```{exercise}
@@ -211,4 +336,18 @@ HTML(animate_landmarks(scenario5, sim5, limits=(-4.0, 8.0)).to_jshtml())
 # its circle, and landmark 2 is above the robot only when the robot is at the bottom of it;
 # both hold only around the lower-left part of the circle, a short arc. The 500-run
 # statistics above put a number on it.
+# ```
+#
+# ```{exercise}
+# :label: ex-model-likelihood
+# Write $p(z_k \mid x_k)$ at a step where only landmark 2 of the two-landmark variant is in
+# view: give $H_k$ and $R_k$ explicitly. What is it at a step where no landmark is in view?
+# ```
+#
+# ```{solution} ex-model-likelihood
+# :class: dropdown
+# $H_k = \begin{pmatrix} -1 & 0 & 0 & 0 & 1 & 0 \\ 0 & -1 & 0 & 0 & 0 & 1 \end{pmatrix}$ and
+# $R_k = 0.1^2 I_2$, so $p(z_k \mid x_k) = \mathcal N(z_k;\, l^2_k - r_k,\, 0.01 I_2)$. With no
+# landmark in view there is no measurement; the likelihood is the constant 1, and both the
+# Kalman filter and the particle filter only predict.
 # ```

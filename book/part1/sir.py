@@ -1,0 +1,352 @@
+# ---
+# jupyter:
+#   kernelspec:
+#     display_name: Python 3 (ipykernel)
+#     language: python
+#     name: python3
+# ---
+
+# %% [markdown]
+# # Sampling importance resampling
+#
+# SIS collapses because weights only ever multiply: once a particle is far behind, it stays
+# behind. Resampling stops the accumulation. When the effective sample size falls below a
+# threshold $\theta N$, draw $N$ new particles from the weighted cloud (each particle
+# survives in proportion to its weight, see {doc}`resampling_schemes`) and reset all weights
+# to $1/N$. Particles of negligible weight die, good ones are duplicated, and the
+# computation is spent where the posterior is {cite:p}`gordon1993`.
+#
+# (sir-algorithm)=
+# ## The SIR algorithm (lab question 6)
+#
+# SIS as in {ref}`sis-algorithm`, plus, after the estimate at step $k$:
+#
+# 5. **if** $\mathrm{ESS}_k < \theta N$: draw ancestor indices $A^1, \dots, A^N$ with
+#    $\Pr(A^j = i) = W_k^i$, set $x_k^j \leftarrow x_k^{A^j}$ and $W_k^j = 1/N$.
+#
+# $\theta = 0$ is SIS, $\theta = 1$ resamples at every informative step; the lab uses
+# $\theta = 1/3$ ($N/3$) with $N = 100$. In `pfcourse`:
+# `ParticleFilter(model, N, threshold=1/3)`.
+
+# %%
+import os
+
+os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")  # small matrices: one BLAS thread is fastest
+
+import matplotlib.pyplot as plt
+import numpy as np
+from IPython.display import display
+
+from pfcourse.filter import ParticleFilter
+from pfcourse.kalman import kalman_filter
+from pfcourse.landmarks import quadrant_scenario, simulate
+from pfcourse.plotting import COLORS, use_style
+from pfcourse.roughening import Roughening
+from pfcourse.versus_kalman import monte_carlo
+from pfcourse.widgets import control_panel, particle_slider, scheme_dropdown, seed_box, threshold_slider
+
+use_style()
+LABELS = ["robot x", "robot y", "L1 x", "L1 y", "L2 x", "L2 y"]
+LANDMARKS = [2, 3, 4, 5]
+scenario = quadrant_scenario()
+model = scenario.model()
+sim = simulate(scenario, rng=2024)
+kf = kalman_filter(model, sim.Z)
+
+# %% [markdown]
+# ## Testing it (lab question 7)
+
+# %%
+sir = ParticleFilter(model, 100, threshold=1 / 3)
+res = sir.run(sim.Z, rng=1, store_particles=True)
+print(f"resampled at {res.n_resamples} of {len(sim.T)} steps; "
+      f"ESS min {res.ess.min():.1f}, median {np.median(res.ess):.1f}")
+
+fig, axes = plt.subplots(3, 2, figsize=(9, 6.5), sharex=True)
+kf_sd = np.sqrt(np.diagonal(kf.cov, axis1=1, axis2=2))
+pf_sd = np.sqrt(np.diagonal(res.cov, axis1=1, axis2=2))
+for j, ax in enumerate(axes.flat):
+    ax.fill_between(sim.T, kf.mean[:, j] - 3 * kf_sd[:, j], kf.mean[:, j] + 3 * kf_sd[:, j],
+                    color=COLORS["kalman"], alpha=0.2, label=r"Kalman $\pm3\sigma$")
+    ax.fill_between(sim.T, res.mean[:, j] - 3 * pf_sd[:, j], res.mean[:, j] + 3 * pf_sd[:, j],
+                    color=COLORS["estimate"], alpha=0.3, label=r"SIR $\pm3\sigma$")
+    ax.plot(sim.T, kf.mean[:, j], color=COLORS["kalman"], lw=1)
+    ax.plot(sim.T, res.mean[:, j], color=COLORS["estimate"], lw=1)
+    ax.plot(sim.T, sim.X[:, j], color=COLORS["truth"], lw=0.8, ls="--")
+    ax.set_ylabel(f"{LABELS[j]} (m)")
+for ax in axes[-1]:
+    ax.set_xlabel("time t (s)")
+axes.flat[0].legend(fontsize=8, loc="upper right")
+fig.suptitle("SIR (N = 100, threshold N/3) against the exact posterior; dashed: truth")
+plt.show()
+
+# %% [markdown]
+# The robot is now tracked: its band keeps a width, because the robot's process noise
+# (0.05 m per step) gives the resampled copies of a particle different futures. The
+# landmarks are another story. Their band collapses just as under SIS and does not come
+# back. Counting the *distinct* values of a landmark coordinate in the cloud shows why
+# (values closer than a micrometre count as one: the $10^{-10}$ m process noise makes copies
+# differ only in the last digits).
+
+# %%
+def n_distinct(values, resolution=1e-6):
+    return len(np.unique(np.round(values / resolution)))
+
+
+distinct = [n_distinct(res.particles[k, :, 2]) for k in range(len(sim.T))]
+fig, ax = plt.subplots(figsize=(7, 3.2))
+ax.step(sim.T, distinct, where="post", color=COLORS["estimate"], label="distinct L1 x values")
+ax.plot(sim.T, res.ess, color=COLORS["particles"], lw=1, label="ESS")
+ax.set_yscale("log")
+ax.set_xlabel("time t (s)")
+ax.set_ylabel("count (particles)")
+ax.set_title("SIR, N = 100: the weights recover, the landmark values do not")
+ax.legend(fontsize=8)
+plt.show()
+print("distinct L1 x values at steps 0, 5, 20, 49:", [distinct[k] for k in (0, 5, 20, 49)])
+
+# %% [markdown]
+# The animation puts the two filters side by side on this run, both with $N = 100$ and the
+# same seed: particles (area proportional to weight), the filter's 95 % ellipses (red) and
+# the exact ones (green), for the robot and both landmarks. Under SIS (left) every ellipse
+# vanishes; under SIR (right) the robot's ellipse survives and the landmarks' still vanish.
+
+# %%
+from IPython.display import HTML
+
+from pfcourse.cloud_animation import animate_clouds
+
+sis_res = ParticleFilter(model, 100, threshold=0.0).run(sim.Z, rng=1, store_particles=True)
+HTML(animate_clouds({"SIS": sis_res, "SIR": res}, kf, sim.X, frames=range(0, 30, 2)).to_jshtml())
+
+# %% [markdown]
+# Resampling copies particles; only the dynamics can make copies differ again. For the
+# landmarks the dynamics add noise of standard deviation $10^{-10}$ m, so after each
+# resampling the number of distinct landmark values can only stay or fall. This is **sample
+# impoverishment**: the weights are healthy (the ESS is high after each resampling) but
+# they sit on a handful of landmark hypotheses; in this run, on a single one from step 5 on.
+#
+# ## How often does SIR resample?
+#
+# The lab observed that SIR resamples "very often". Over 50 runs:
+
+# %%
+n_runs = 50
+sir100 = monte_carlo(scenario, lambda Z, s: ParticleFilter(model, 100, threshold=1 / 3).run(Z, s),
+                     n_runs, components=LANDMARKS)
+rate = sir100["resampled"].mean(axis=1)
+print(f"N = 100, threshold N/3: resampled at {np.median(rate):.0%} of the steps "
+      f"(median of {n_runs} runs, 10-90 %: {np.percentile(rate, 10):.0%}-{np.percentile(rate, 90):.0%})")
+seen = np.array([simulate(scenario, rng=s).seen.any(axis=1).mean() for s in range(n_runs)])
+print(f"steps with at least one landmark in view: {np.median(seen):.0%} (median)")
+
+# %% [markdown]
+# It resamples at most of the steps that have a measurement (compare the two medians): one
+# measurement is usually enough to divide the ESS by more than 3.
+#
+# ## Does more particles cure the impoverishment?
+#
+# The error of the SIR landmark estimate against the **exact posterior mean** (not against
+# the truth) is pure Monte Carlo error. For a healthy particle filter it falls as
+# $1/\sqrt N$. Here, over 50 runs per $N$:
+
+# %%
+N_values = (100, 300, 1000, 3000)
+by_N = {100: sir100}
+for N in N_values[1:]:
+    pf = ParticleFilter(model, N, threshold=1 / 3)
+    by_N[N] = monte_carlo(scenario, lambda Z, s: pf.run(Z, s), n_runs, components=LANDMARKS)
+final = np.array([by_N[N]["rmse"][:, -1] for N in N_values])
+slope = np.polyfit(np.log(N_values), np.log(np.median(final, axis=1)), 1)[0]
+for N, f in zip(N_values, final):
+    print(f"N = {N:5d}: landmark error vs Kalman mean at t = 49 s: median {np.median(f):.3f} m "
+          f"(10-90 %: {np.percentile(f, 10):.3f}-{np.percentile(f, 90):.3f})")
+print(f"log-log slope of the median: {slope:.2f} (a healthy filter: -0.50)")
+
+fig, ax = plt.subplots(figsize=(6, 3.6))
+ax.loglog(N_values, np.median(final, axis=1), "o-", color=COLORS["estimate"], label="SIR, median")
+ax.fill_between(N_values, *np.percentile(final, [10, 90], axis=1), color=COLORS["estimate"],
+                alpha=0.2, label="10-90 % of runs")
+ref = np.median(final[0]) * np.sqrt(N_values[0] / np.array(N_values))
+ax.loglog(N_values, ref, "k:", label=r"$\propto 1/\sqrt{N}$")
+ax.set_xlabel("number of particles N")
+ax.set_ylabel("landmark error vs Kalman mean (m)")
+ax.set_title(f"SIR on static landmarks, {n_runs} runs per N")
+ax.legend(fontsize=8)
+plt.show()
+
+# %% [markdown]
+# The error falls much more slowly than $1/\sqrt N$: more particles only postpone the
+# impoverishment. A second symptom is overconfidence: the collapsed cloud reports a tiny
+# covariance. We measure it in the next section with the coverage of the truth by the
+# filter's own 95 % landmark ellipsoid.
+#
+# (sir-fixes)=
+# ## Two fixes, measured against the exact posterior
+#
+# **The lab's fix** gives the landmarks process noise of variance $0.0025$ m² (0.05 m per
+# step) *in the filter's model* while the simulator keeps them static. The copies then
+# diversify, but the filter now believes the landmarks wander: it is a different model, and
+# even with infinitely many particles it would converge to that model's Kalman filter, not
+# to the exact one.
+#
+# **Roughening** {cite:p}`gordon1993` adds, after each resampling only, a jitter of standard
+# deviation $K E_j N^{-1/d}$ to component $j$, with $E_j$ the cloud's range in that component
+# and $d = 6$ (`pfcourse.roughening`); we use the original $K = 0.2$. The jitter shrinks as
+# the cloud shrinks and as $N$ grows.
+#
+# Both at $N = 1000$, 50 runs each, scored on the landmarks at the last 10 steps: the error
+# against the exact mean, the ratio of the filter's landmark standard deviation to the
+# exact one (geometric mean over the four coordinates; below 1: overconfident), and the
+# fraction of steps at which the truth lies inside the filter's 95 % ellipsoid (95 % for
+# an exact filter).
+
+# %%
+Q_fix = scenario.Qw.copy()
+Q_fix[2:, 2:] = 0.0025 * np.eye(4)
+model_fix = scenario.model(Qw=Q_fix)
+N = 1000
+variants = {
+    "SIR, lab's model": by_N[1000],
+    "SIR + landmark noise 0.0025": monte_carlo(
+        scenario, lambda Z, s: ParticleFilter(model_fix, N, threshold=1 / 3).run(Z, s), n_runs,
+        components=LANDMARKS),
+    "SIR + roughening K = 0.2": monte_carlo(
+        scenario, lambda Z, s: ParticleFilter(model, N, threshold=1 / 3, jitter=Roughening(0.2)).run(Z, s),
+        n_runs, components=LANDMARKS),
+}
+
+
+class KalmanOfFixedModel:
+    """The Kalman filter of the modified model: what the lab's fix tends to as N grows."""
+
+    def __call__(self, Z, seed):
+        r = kalman_filter(model_fix, Z)
+        r.ess, r.resampled = np.full(len(Z), np.inf), np.zeros(len(Z), bool)
+        return r
+
+
+variants["Kalman of the modified model (N = inf)"] = monte_carlo(
+    scenario, KalmanOfFixedModel(), n_runs, components=LANDMARKS)
+
+print(f"{'filter':40s} {'error vs exact mean (m)':>24s} {'sd ratio':>9s} {'coverage':>9s}")
+rows = {}
+for name, r in variants.items():
+    err = r["rmse"][:, -10:].mean(axis=1)
+    ratio = np.exp(np.clip(r["log_var_ratio"][:, -10:], -50, 50) / 2).mean(axis=1)
+    cover = r["covered"][:, -10:].mean()
+    rows[name] = (err, ratio, cover)
+    print(f"{name:40s} {np.median(err):10.3f} [{np.percentile(err, 10):.3f}, "
+          f"{np.percentile(err, 90):.3f}] {np.median(ratio):9.2g} {cover:9.0%}")
+
+# %%
+fig, (ax1, ax2) = plt.subplots(1, 2, figsize=(10, 3.6))
+names = list(rows)
+short = ["lab model", "noise 0.0025", "roughening", "KF, modified"]
+ax1.boxplot([rows[n][0] for n in names], tick_labels=short)
+ax1.set_yscale("log")
+ax1.set_ylabel("landmark error vs exact mean (m)")
+ax1.set_title(f"N = {N}, {n_runs} runs, last 10 steps")
+ax2.boxplot([rows[n][1] for n in names], tick_labels=short)
+ax2.axhline(1.0, color="k", ls=":")
+ax2.set_yscale("log")
+ax2.set_ylabel("filter sd / exact sd")
+ax2.set_title("Below 1: overconfident; above 1: too cautious")
+plt.show()
+
+# %% [markdown]
+# What the numbers say (read them from the table above):
+#
+# - Plain SIR is both wrong and overconfident: its landmark error against the exact mean is
+#   large, its standard deviation collapses by orders of magnitude, and its ellipsoid
+#   almost never contains the truth.
+# - The lab's fix makes the estimate converge, and it is the reported fix: the error drops
+#   by a factor of several. Its cost is **underconfidence**: the filter's standard deviation
+#   is a few times the exact one, and its coverage is near 100 %; the Kalman filter of the
+#   modified model shows this is the model's doing, not the particles'. It also makes the
+#   landmark estimates drift with the robot between sightings.
+# - The particle filter with the lab's fix is already close to its own limit at $N = 1000$:
+#   its error against the exact mean is about that of the Kalman filter of the modified
+#   model. What remains is the bias of the modified model, not Monte Carlo error.
+# - Roughening keeps the model and jitters only after resampling. Its median error is
+#   comparable to the lab's fix and its standard deviation is much closer to the exact one,
+#   but its error has a heavier tail (see the 90 % quantile) and its coverage is well below
+#   95 %: where it goes wrong, it does not know it. The outliers of its standard-deviation
+#   ratio are runs in which a landmark's cloud had already collapsed to a single value
+#   before roughening could act: the rule scales with the range $E_j$, which is then 0, so
+#   it never recovers. $K$ is one more tuning constant.
+#
+# Neither fix makes the particle filter exact; the honest comparison is the Kalman filter,
+# which has zero error here at a fraction of the cost. {doc}`proposals` asks whether a
+# better importance function does better.
+#
+# ## Try it
+#
+# The panel runs SIR on the lab's model with the chosen $N$, threshold, resampling scheme,
+# roughening constant $K$ (0: none) and seed, and plots the landmark 1 estimate and the
+# number of distinct values in the cloud.
+# The figure below the code is the panel at its default values, for readers without a kernel.
+
+# %%
+import ipywidgets as widgets
+
+
+def draw_sir(n_particles, threshold, scheme, K, seed):
+    s = simulate(scenario, rng=seed)
+    pf = ParticleFilter(model, n_particles, threshold=threshold, resampler=scheme,
+                        jitter=Roughening(K) if K > 0 else None)
+    r = pf.run(s.Z, rng=seed + 1, store_particles=True)
+    ref = kalman_filter(model, s.Z)
+    fig, (a1, a2) = plt.subplots(1, 2, figsize=(10, 3.4))
+    sd = np.sqrt(r.cov[:, 2, 2])
+    a1.fill_between(s.T, r.mean[:, 2] - 3 * sd, r.mean[:, 2] + 3 * sd, color=COLORS["estimate"], alpha=0.3)
+    a1.plot(s.T, ref.mean[:, 2], color=COLORS["kalman"], label="Kalman")
+    a1.plot(s.T, r.mean[:, 2], color=COLORS["estimate"], label="SIR")
+    a1.set_xlabel("time t (s)")
+    a1.set_ylabel("L1 x (m)")
+    a1.legend(fontsize=8)
+    a2.semilogy(s.T, [n_distinct(p[:, 2]) for p in r.particles], color=COLORS["estimate"])
+    a2.set_xlabel("time t (s)")
+    a2.set_ylabel("distinct L1 x values")
+
+
+draw_sir(n_particles=100, threshold=1 / 3, scheme="systematic", K=0.0, seed=2024)
+plt.show()
+
+# %% tags=["nbval-ignore-output"]
+display(control_panel(
+    draw_sir, n_particles=particle_slider(100), threshold=threshold_slider(1 / 3),
+    scheme=scheme_dropdown(), K=widgets.FloatSlider(value=0.0, min=0.0, max=0.5, step=0.05, description="K"),
+    seed=seed_box(2024)))
+
+# %% [markdown]
+# ## Exercises
+#
+# ```{exercise}
+# :label: ex-sir-threshold
+# (Lab questions 6 and 7.) With $\theta = 1/3$, SIR resampled at the fraction of steps
+# printed above. What would $\theta = 1$ change for the robot estimate, and what for the
+# landmarks? Try it in the panel.
+# ```
+#
+# ```{solution} ex-sir-threshold
+# :class: dropdown
+# It would resample at every step with a measurement, which here is almost the same set of
+# steps, so little changes. Resampling more often adds Monte Carlo noise to the robot and
+# speeds up the loss of distinct landmark values; it never adds diversity.
+# ```
+#
+# ```{exercise}
+# :label: ex-sir-fix
+# (Lab question 4, "how to fix it".) Why does giving the landmarks process noise in the
+# filter make the estimate converge, and why is the resulting filter underconfident?
+# ```
+#
+# ```{solution} ex-sir-fix
+# :class: dropdown
+# The noise makes resampled copies of a landmark hypothesis drift apart, so the cloud
+# keeps exploring the landmark positions and the measurements can keep selecting good
+# ones. But the filter now believes the landmarks move: between sightings it adds 0.0025 m²
+# of variance per step to each landmark coordinate, which the exact posterior does not
+# have. The table shows the consequence: a standard deviation several times the exact one.
+# ```
