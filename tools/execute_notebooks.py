@@ -27,6 +27,8 @@ def execute(source: Path) -> None:
         "language": "python",
     }
     notebook.metadata.pop("jupytext", None)
+    for index, cell in enumerate(notebook.cells):
+        cell.id = f"cell-{index}"  # stable ids: an unchanged source gives an unchanged file
     start = time.perf_counter()
     NotebookClient(
         notebook,
