@@ -122,6 +122,29 @@ def build(args: list[str]) -> None:
     print(f"\nThe book is at {ROOT / '_build' / 'html' / 'index.html'}")
 
 
+def ensure_chromium() -> None:
+    """Install Debian's chromium (the browser the browser test drives) if it is missing."""
+    if CHROMIUM.exists():
+        return
+    apt = shutil.which("apt-get")
+    if apt is None:
+        sys.exit(f"error: {CHROMIUM} is missing and there is no apt-get to install Debian's chromium")
+    sudo = [] if os.geteuid() == 0 else ["sudo"]
+    if sudo and shutil.which("sudo") is None:
+        sys.exit(f"error: {CHROMIUM} is missing; as root: apt-get update && apt-get install -y chromium")
+    env = dict(os.environ, DEBIAN_FRONTEND="noninteractive")
+    run(*sudo, apt, "update", "-q", env=env)
+    run(*sudo, apt, "install", "-y", "-q", "chromium", env=env)
+
+
+def browser_test(args: list[str]) -> None:
+    """Build the book (incrementally: only what changed), then test every page in chromium."""
+    ensure_chromium()
+    build([])
+    run(PY, "-m", "pytest", "browser_tests", *args)
+    print(f"\nScreenshots of every page: {BUILD / 'browser' / 'screenshots'}")
+
+
 def test(args: list[str]) -> None:
     run(PY, "-m", "pytest", "--nbval", "--nbval-sanitize-with", "book/nbval_sanitize.cfg", *args)
 
@@ -135,7 +158,13 @@ def lab(args: list[str]) -> None:
     run(BIN / "jupyter", "lab", *args, cwd=BOOK)
 
 
-COMMANDS = {"build": build, "test": test, "notebooks": notebooks, "lab": lab}
+COMMANDS = {
+    "build": build,
+    "test": test,
+    "browser-test": browser_test,
+    "notebooks": notebooks,
+    "lab": lab,
+}
 
 
 def main() -> int:
