@@ -16,7 +16,7 @@ from pathlib import Path
 import pytest
 
 ROOT = Path(__file__).resolve().parents[1]
-HTML = ROOT / "_build" / "html"
+HTML = Path(os.environ.get("PFCOURSE_BOOK_HTML", ROOT / "_build" / "html")).resolve()
 SCREENSHOTS = ROOT / "_build" / "browser" / "screenshots"
 CHROMIUM = Path(os.environ.get("PFCOURSE_CHROMIUM", "/usr/bin/chromium"))
 CHROMIUM_ARGS = [

@@ -27,12 +27,14 @@ from pathlib import Path
 from urllib.parse import unquote, urlsplit
 
 import pytest
+from playwright.sync_api import TimeoutError as PlaywrightTimeoutError
 
 from conftest import HTML, SCREENSHOTS, book_pages
 
 PAGES = book_pages()
 LOAD_TIMEOUT_MS = 60_000
 FRAME_TIMEOUT_MS = 10_000
+MATH_TIMEOUT_MS = 30_000
 
 
 def _screenshot_path(page: str) -> Path:
@@ -48,6 +50,8 @@ def test_page_renders_offline(page: str, base_url: str, browser) -> None:
     failed: list[str] = []
     console_errors: list[str] = []
     page_errors: list[str] = []
+    problems: list[str] = []
+    counts: dict[str, int] = {}
 
     def route(r) -> None:
         if r.request.url.startswith(base_url):
@@ -56,6 +60,13 @@ def test_page_renders_offline(page: str, base_url: str, browser) -> None:
             blocked.append(r.request.url)
             r.abort("internetdisconnected")
 
+    def check(name: str, function) -> None:
+        """Run one check; its failure is recorded and the other checks still run."""
+        try:
+            counts[name] = function(tab)
+        except Exception as exc:  # noqa: BLE001 (a failed check of any kind is reported)
+            problems.append(f"{name}: {type(exc).__name__}: {str(exc).splitlines()[0]}")
+
     tab.route("**/*", route)
     tab.on("console", lambda m: m.type == "error" and console_errors.append(f"{m.text} ({m.location.get('url')})"))
     tab.on("pageerror", lambda exc: page_errors.append(str(exc)))
@@ -63,49 +74,72 @@ def test_page_renders_offline(page: str, base_url: str, browser) -> None:
     tab.on("response", lambda r: r.status >= 400 and failed.append(f"{r.url}: HTTP {r.status}"))
     try:
         tab.goto(base_url + page, wait_until="load")
-        # MathJax typesets after loading: wait for its first pass (pages without math have no MathJax).
-        tab.wait_for_function(
-            "() => !window.MathJax || (MathJax.startup && MathJax.startup.promise"
-            " && MathJax.startup.promise.then(() => true))"
-        )
-        tab.wait_for_load_state("networkidle")
-
-        math = tab.evaluate(
-            """() => {
-                const formulas = Array.from(document.querySelectorAll('.math'));
-                return {
-                    formulas: formulas.length,
-                    typeset: formulas.filter(el => el.querySelector('mjx-container')).length,
-                    errors: Array.from(document.querySelectorAll('mjx-merror'))
-                        .map(el => el.getAttribute('data-mjx-error') || el.textContent),
-                    raw: formulas.filter(el => !el.querySelector('mjx-container'))
-                        .slice(0, 3).map(el => el.textContent.slice(0, 80)),
-                };
-            }"""
-        )
-        assert math["typeset"] == math["formulas"], f"formulas not typeset by MathJax: {math['raw']}"
-        assert not math["errors"], f"TeX errors: {math['errors']}"
-
-        widgets = _check_widgets(tab)
-        animations = _check_animations(tab)
-        tab.wait_for_load_state("networkidle")
-        broken_images = tab.evaluate(
-            """() => Array.from(document.images)
-                .filter(img => !(img.complete && img.naturalWidth > 0))
-                .map(img => (img.currentSrc || img.src || '(no src)').slice(0, 100))"""
-        )
-        assert not broken_images, f"images not loaded: {broken_images}"
-
+        tab.wait_for_load_state("networkidle")  # and follow a redirect page (index.html)
+        check("math", _check_math)
+        check("widgets", _check_widgets)
+        check("animations", _check_animations)
+        check("images", _check_images)
         SCREENSHOTS.mkdir(parents=True, exist_ok=True)
         tab.screenshot(path=_screenshot_path(page), full_page=True)
     finally:
         context.close()
 
-    print(f"{page}: {math['formulas']} formulas, {animations} animations, {widgets} widget views")
-    assert not blocked, f"{len(blocked)} request(s) to leave 127.0.0.1 were blocked: {blocked[:5]}"
-    assert not failed, f"failed requests: {failed[:5]}"
-    assert not page_errors, f"uncaught exceptions: {page_errors[:5]}"
-    assert not console_errors, f"console errors: {console_errors[:5]}"
+    print(f"{page}: " + ", ".join(f"{n} {name}" for name, n in counts.items()))
+    if blocked:
+        problems.append(f"{len(blocked)} request(s) leaving 127.0.0.1 (blocked): {blocked[:5]}")
+    if failed:
+        problems.append(f"{len(failed)} failed request(s): {failed[:5]}")
+    if page_errors:
+        problems.append(f"{len(page_errors)} uncaught exception(s): {page_errors[:5]}")
+    if console_errors:
+        problems.append(f"{len(console_errors)} console error(s): {console_errors[:5]}")
+    assert not problems, f"{page}:\n- " + "\n- ".join(problems)
+
+
+def _check_math(tab) -> int:
+    """Every formula (Sphinx gives each one the class ``math``) is typeset, without TeX error."""
+    if not tab.locator(".math").count():
+        return 0
+    # MathJax typesets after the page has loaded: wait for the end of its first pass.
+    try:
+        tab.wait_for_function(
+            "() => window.MathJax && MathJax.startup && MathJax.startup.promise"
+            " && MathJax.startup.promise.then(() => true)",
+            timeout=MATH_TIMEOUT_MS,
+        )
+    except PlaywrightTimeoutError:
+        raise AssertionError(
+            f"MathJax did not typeset the page within {MATH_TIMEOUT_MS / 1000:.0f} s"
+            " (is its script missing or blocked?)"
+        ) from None
+    math = tab.evaluate(
+        """() => {
+            const formulas = Array.from(document.querySelectorAll('.math'));
+            return {
+                formulas: formulas.length,
+                raw: formulas.filter(el => !el.querySelector('mjx-container'))
+                    .map(el => el.textContent.slice(0, 80)),
+                errors: Array.from(document.querySelectorAll('mjx-merror'))
+                    .map(el => el.getAttribute('data-mjx-error') || el.textContent),
+            };
+        }"""
+    )
+    assert not math["raw"], f"{len(math['raw'])} formula(s) not typeset: {math['raw'][:3]}"
+    assert not math["errors"], f"TeX errors: {math['errors'][:3]}"
+    return math["formulas"]
+
+
+def _check_images(tab) -> int:
+    """Every image (figures, animation frames, the logo) has loaded."""
+    tab.wait_for_load_state("networkidle")
+    images = tab.evaluate(
+        """() => Array.from(document.images).map(img => ({
+            ok: img.complete && img.naturalWidth > 0,
+            src: (img.currentSrc || img.src || '(no src)').slice(0, 100)}))"""
+    )
+    broken = [img["src"] for img in images if not img["ok"]]
+    assert not broken, f"{len(broken)} image(s) not loaded: {broken[:5]}"
+    return len(images)
 
 
 def _check_widgets(tab) -> int:

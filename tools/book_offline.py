@@ -7,6 +7,11 @@ the widget manager are redirected to local copies by configuration alone (``math
 - ``FuncAnimation.to_jshtml()`` output links Font Awesome 4.4 from a CDN for the icons of
   its play buttons (matplotlib's template): the link is pointed at the copy the book serves
   itself (Font Awesome 4.7, the same icon names).
+- On pages with saved widgets, the widget manager (html-manager 1.x) looks for its icon
+  fonts next to the AMD module it defines, which require.js resolves against the page,
+  and it typesets widget labels with the MathJax 2 API (``MathJax.Hub.Queue``, an
+  uncaught TypeError under MathJax 3): a small inline script maps the module to the
+  book's copy and gives MathJax 3 a ``Hub.Queue`` that calls ``MathJax.typesetPromise``.
 - sphinx-thebe, loaded by jupyter-book even with thebe off, registers its configuration
   script twice (once with filename None, once ''), so the second copy throws "Identifier
   'THEBE_JS_URL' has already been declared": each script is kept once.
@@ -22,6 +27,34 @@ LOCAL_COPIES = {
         "_static/npm/font-awesome/css/font-awesome.min.css",
 }
 
+#: Inline script for pages with saved widgets (see the module docstring); %(dist)s is the
+#: page-relative URL of the widget manager's folder.
+WIDGETS_SHIM = """
+/* tools/book_offline.py: the widget manager offline and under MathJax 3. */
+(function () {
+  require.config({paths: {"@jupyter-widgets/html-manager/dist":
+    new URL("%(dist)s", document.baseURI).href.replace(/\\/$/, "")}});
+  var hub = {Queue: function (command) {
+    var element = command && command[2], mathjax = window.MathJax;
+    if (element && mathjax && mathjax.typesetPromise) {
+      (mathjax.startup && mathjax.startup.promise || Promise.resolve())
+        .then(function () { return mathjax.typesetPromise([element]); });
+    }
+  }};
+  var current = window.MathJax;
+  function withHub(value) {
+    if (value && typeof value === "object" && !value.Hub) { value.Hub = hub; }
+    return value;
+  }
+  /* MathJax 3 replaces window.MathJax (the configuration) by itself when it loads. */
+  Object.defineProperty(window, "MathJax", {configurable: true,
+    get: function () { return current; },
+    set: function (value) { current = withHub(value); }});
+  withHub(current);
+})();
+"""
+WIDGET_MANAGER = "npm/html-manager/embed-amd.js"
+
 
 def _localize_page(app, pagename: str, templatename: str, context: dict[str, Any], doctree) -> None:
     body = context.get("body")
@@ -31,13 +64,20 @@ def _localize_page(app, pagename: str, templatename: str, context: dict[str, Any
                 body = body.replace(url, context["pathto"](local, 1))
         context["body"] = body
     scripts = context.get("script_files")
-    if scripts:
-        unique: dict[tuple, Any] = {}
-        for script in scripts:
-            attributes = tuple(sorted(getattr(script, "attributes", {}).items()))
-            key = (getattr(script, "filename", script) or None, attributes)
-            unique.setdefault(key, script)
-        context["script_files"] = list(unique.values())
+    if not scripts:
+        return
+    # Each script once, in place (Sphinx sorts this very list by priority after this event).
+    unique: dict[tuple, Any] = {}
+    for script in scripts:
+        attributes = tuple(sorted(getattr(script, "attributes", {}).items()))
+        unique.setdefault((getattr(script, "filename", script) or None, attributes), script)
+    scripts[:] = unique.values()
+    # The widget shim runs after require.js and before the widget manager.
+    for i, script in enumerate(scripts):
+        if str(getattr(script, "filename", "") or "").endswith(WIDGET_MANAGER):
+            shim = WIDGETS_SHIM % {"dist": context["pathto"]("_static/npm/html-manager/", 1)}
+            scripts.insert(i, type(script)(None, priority=script.priority, body=shim))
+            break
 
 
 def setup(app) -> dict[str, Any]:
