@@ -14,7 +14,10 @@ without listing them here), served on 127.0.0.1:
 - saved widget states are rendered by the widget manager (no kernel);
 - a full-page screenshot is saved to _build/browser/screenshots/.
 
-A second test checks every internal link of every page: the target file exists and, for a
+The same checks run on each page opened from disk (file://), as a reader opening
+_build/html/index.html would.
+
+A last test checks every internal link of every page: the target file exists and, for a
 ``#fragment``, the target page has an element with that id.
 """
 
@@ -43,6 +46,18 @@ def _screenshot_path(page: str) -> Path:
 
 @pytest.mark.parametrize("page", PAGES)
 def test_page_renders_offline(page: str, base_url: str, browser) -> None:
+    """The page served over HTTP on 127.0.0.1, every other address blocked; with a screenshot."""
+    _check_page(browser, base_url, page, screenshot=_screenshot_path(page))
+
+
+@pytest.mark.parametrize("page", PAGES)
+def test_page_renders_from_disk(page: str, browser) -> None:
+    """The page opened as a file (the README says: open _build/html/index.html), no network."""
+    _check_page(browser, HTML.as_uri() + "/", page, screenshot=None)
+
+
+def _check_page(browser, base: str, page: str, screenshot: Path | None) -> None:
+    """Load base + page with every request outside base blocked, run every check, report all."""
     context = browser.new_context(viewport={"width": 1280, "height": 900}, service_workers="block")
     tab = context.new_page()
     tab.set_default_timeout(LOAD_TIMEOUT_MS)
@@ -54,7 +69,7 @@ def test_page_renders_offline(page: str, base_url: str, browser) -> None:
     counts: dict[str, int] = {}
 
     def route(r) -> None:
-        if r.request.url.startswith(base_url):
+        if r.request.url.startswith(base):
             r.continue_()
         else:
             blocked.append(r.request.url)
@@ -70,30 +85,31 @@ def test_page_renders_offline(page: str, base_url: str, browser) -> None:
     tab.route("**/*", route)
     tab.on("console", lambda m: m.type == "error" and console_errors.append(f"{m.text} ({m.location.get('url')})"))
     tab.on("pageerror", lambda exc: page_errors.append(str(exc)))
-    tab.on("requestfailed", lambda r: r.url.startswith(base_url) and failed.append(f"{r.url}: {r.failure}"))
+    tab.on("requestfailed", lambda r: r.url.startswith(base) and failed.append(f"{r.url}: {r.failure}"))
     tab.on("response", lambda r: r.status >= 400 and failed.append(f"{r.url}: HTTP {r.status}"))
     try:
-        tab.goto(base_url + page, wait_until="load")
+        tab.goto(base + page, wait_until="load")
         tab.wait_for_load_state("networkidle")  # and follow a redirect page (index.html)
         check("math", _check_math)
         check("widgets", _check_widgets)
         check("animations", _check_animations)
         check("images", _check_images)
-        SCREENSHOTS.mkdir(parents=True, exist_ok=True)
-        tab.screenshot(path=_screenshot_path(page), full_page=True)
+        if screenshot is not None:
+            screenshot.parent.mkdir(parents=True, exist_ok=True)
+            tab.screenshot(path=screenshot, full_page=True)
     finally:
         context.close()
 
-    print(f"{page}: " + ", ".join(f"{n} {name}" for name, n in counts.items()))
+    print(f"{base + page}: " + ", ".join(f"{n} {name}" for name, n in counts.items()))
     if blocked:
-        problems.append(f"{len(blocked)} request(s) leaving 127.0.0.1 (blocked): {blocked[:5]}")
+        problems.append(f"{len(blocked)} request(s) leaving {base} (blocked): {blocked[:5]}")
     if failed:
         problems.append(f"{len(failed)} failed request(s): {failed[:5]}")
     if page_errors:
         problems.append(f"{len(page_errors)} uncaught exception(s): {page_errors[:5]}")
     if console_errors:
         problems.append(f"{len(console_errors)} console error(s): {console_errors[:5]}")
-    assert not problems, f"{page}:\n- " + "\n- ".join(problems)
+    assert not problems, f"{base + page}:\n- " + "\n- ".join(problems)
 
 
 def _check_math(tab) -> int:

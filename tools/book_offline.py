@@ -19,6 +19,8 @@ the widget manager are redirected to local copies by configuration alone (``math
 
 from __future__ import annotations
 
+import hashlib
+from pathlib import Path
 from typing import Any
 
 #: CDN stylesheets found in notebook outputs -> the book's own copy (under the output dir).
@@ -81,6 +83,9 @@ def _localize_page(app, pagename: str, templatename: str, context: dict[str, Any
 
 
 def setup(app) -> dict[str, Any]:
+    # A config value that changes with this file, so that editing it rewrites every page.
+    source = Path(__file__).read_bytes()
+    app.add_config_value("book_offline_digest", hashlib.sha256(source).hexdigest(), "html")
     # After myst-nb's handler (priority 500), which adds the widget scripts of the page.
     app.connect("html-page-context", _localize_page, priority=900)
     return {"parallel_read_safe": True, "parallel_write_safe": True, "version": "1.0"}
