@@ -95,6 +95,8 @@ def _check_page(browser, base: str, page: str, screenshot: Path | None) -> None:
         check("animations", _check_animations)
         check("images", _check_images)
         if screenshot is not None:
+            # From the top, with nothing focused (a focused "skip to content" link would show).
+            tab.evaluate("() => { document.activeElement && document.activeElement.blur(); window.scrollTo(0, 0); }")
             screenshot.parent.mkdir(parents=True, exist_ok=True)
             tab.screenshot(path=screenshot, full_page=True)
     finally:
