@@ -141,6 +141,7 @@ def browser_test(args: list[str]) -> None:
     """Build the book (incrementally: only what changed), then test every page in chromium."""
     ensure_chromium()
     build([])
+    shutil.rmtree(BUILD / "browser" / "screenshots", ignore_errors=True)  # no stale pages
     run(PY, "-m", "pytest", "browser_tests", *args)
     print(f"\nScreenshots of every page: {BUILD / 'browser' / 'screenshots'}")
 
