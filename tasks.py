@@ -1,19 +1,24 @@
 #!/usr/bin/env python3
 """The project's commands. Each one sets up .venv/ from requirements.txt first (once).
 
-    python3 tasks.py build       build the HTML book into _build/html (warnings are errors)
-    python3 tasks.py test        unit tests + strict `pytest --nbval` on every notebook
-    python3 tasks.py notebooks   regenerate book/**/*.ipynb from their .py sources and execute them
-    python3 tasks.py lab         open the notebooks in JupyterLab (widgets live)
+    python3 tasks.py build         build the HTML book into _build/html (warnings are errors)
+    python3 tasks.py test          unit tests + strict `pytest --nbval` on every notebook
+    python3 tasks.py browser-test  every built page in a real browser (chromium), network blocked
+    python3 tasks.py notebooks     regenerate book/**/*.ipynb from their .py sources and execute them
+    python3 tasks.py lab           open the notebooks in JupyterLab (widgets live)
 
-Extra arguments after `test` go to pytest; after `notebooks`, they name the sources to run.
-Only the Python standard library is used here, so a fresh machine needs nothing but Python 3.11.
+Extra arguments after `test` and `browser-test` go to pytest; after `notebooks`, they name
+the sources to run. Only the Python standard library is used here. `build` also needs npm
+(node 20): the JavaScript the book serves itself (MathJax, require.js, the widget manager,
+the animation icons) is installed with `npm ci` from web/package-lock.json. `browser-test`
+needs Debian's chromium at /usr/bin/chromium and installs it with apt-get when missing.
 """
 
 from __future__ import annotations
 
 import hashlib
 import os
+import shutil
 import subprocess
 import sys
 import venv
@@ -25,6 +30,28 @@ BIN = VENV / ("Scripts" if os.name == "nt" else "bin")
 PY = BIN / "python"
 STAMP = VENV / ".requirements.sha256"
 BOOK = ROOT / "book"
+BUILD = ROOT / "_build"
+HTML = BUILD / "html"
+WEB = ROOT / "web"
+# html_static_path of the book (_config.yml): copied into _build/html/_static at each build.
+# Not book/_static, whose .js/.css files jupyter-book would inject into every page.
+OFFLINE = BUILD / "offline_static"
+CHROMIUM = Path("/usr/bin/chromium")
+
+# What the book serves itself, from web/node_modules (versions pinned in web/package.json and
+# web/package-lock.json) to _static/npm/: (source, target) pairs, files or whole folders.
+VENDOR = [
+    ("mathjax/LICENSE", "mathjax/LICENSE"),
+    ("mathjax/es5/tex-mml-chtml.js", "mathjax/tex-mml-chtml.js"),
+    *((f"mathjax/es5/{d}", f"mathjax/{d}") for d in ("a11y", "adaptors", "input", "output", "sre", "ui")),
+    ("requirejs/require.js", "requirejs/require.js"),
+    ("requirejs/README.md", "requirejs/README.md"),
+    ("@jupyter-widgets/html-manager/dist", "html-manager"),
+    ("font-awesome/css/font-awesome.min.css", "font-awesome/css/font-awesome.min.css"),
+    ("font-awesome/fonts", "font-awesome/fonts"),
+    ("font-awesome/README.md", "font-awesome/README.md"),
+]
+VENDOR_SKIP = ("*.map", "embed.js", "embed.js.LICENSE.txt")  # not used by the book
 
 # The filters multiply tall, thin arrays by small matrices; on a 2-core machine OpenBLAS's
 # threads only add contention (measured: filter runs up to 8x slower). One thread for every
@@ -51,9 +78,77 @@ def ensure_venv() -> None:
     STAMP.write_text(digest + "\n")
 
 
+def digest_of(*paths: Path, extra: str = "") -> str:
+    h = hashlib.sha256(extra.encode())
+    for path in paths:
+        h.update(path.read_bytes())
+    return h.hexdigest()
+
+
+def vendor_assets() -> None:
+    """Install the book's JavaScript with `npm ci` and copy it into the book's static folder.
+
+    Without these files the book would load MathJax, require.js and the widget manager from
+    CDNs and show raw LaTeX offline, so a missing npm is an error, not a silent fallback.
+    """
+    lock = WEB / "package-lock.json"
+    digest = digest_of(WEB / "package.json", lock, extra=repr((VENDOR, VENDOR_SKIP, "npm")))
+    stamp = OFFLINE / ".vendor.sha256"
+    if stamp.exists() and stamp.read_text().strip() == digest:
+        return
+    installed = WEB / "node_modules" / ".pfcourse.sha256"
+    if not (installed.exists() and installed.read_text().strip() == digest_of(lock)):
+        npm = shutil.which("npm")
+        if npm is None:
+            sys.exit(
+                "error: npm not found. The book serves MathJax, require.js and the Jupyter widget\n"
+                "manager itself (so that it renders with no network); they are installed with\n"
+                "`npm ci` from web/package-lock.json. Install Node.js 20 and npm (Debian:\n"
+                "`apt-get install -y nodejs npm`), then run this command again."
+            )
+        run(npm, "ci", "--ignore-scripts", "--no-audit", "--no-fund", "--loglevel=error", cwd=WEB)
+        installed.write_text(digest_of(lock) + "\n")
+    if OFFLINE.exists():
+        shutil.rmtree(OFFLINE)
+    for source, target in VENDOR:
+        src, dst = WEB / "node_modules" / source, OFFLINE / "npm" / target
+        dst.parent.mkdir(parents=True, exist_ok=True)
+        if src.is_dir():
+            shutil.copytree(src, dst, ignore=shutil.ignore_patterns(*VENDOR_SKIP))
+        else:
+            shutil.copy2(src, dst)
+    stamp.write_text(digest + "\n")
+    print(f"copied the book's JavaScript from web/node_modules into {OFFLINE}", flush=True)
+
+
 def build(args: list[str]) -> None:
+    vendor_assets()
     run(BIN / "jupyter-book", "build", ".", "--warningiserror", "--nitpick", "--keep-going", *args)
     print(f"\nThe book is at {ROOT / '_build' / 'html' / 'index.html'}")
+
+
+def ensure_chromium() -> None:
+    """Install Debian's chromium (the browser the browser test drives) if it is missing."""
+    if CHROMIUM.exists():
+        return
+    apt = shutil.which("apt-get")
+    if apt is None:
+        sys.exit(f"error: {CHROMIUM} is missing and there is no apt-get to install Debian's chromium")
+    sudo = [] if os.geteuid() == 0 else ["sudo"]
+    if sudo and shutil.which("sudo") is None:
+        sys.exit(f"error: {CHROMIUM} is missing; as root: apt-get update && apt-get install -y chromium")
+    env = dict(os.environ, DEBIAN_FRONTEND="noninteractive")
+    run(*sudo, apt, "update", "-q", env=env)
+    run(*sudo, apt, "install", "-y", "-q", "chromium", env=env)
+
+
+def browser_test(args: list[str]) -> None:
+    """Build the book (incrementally: only what changed), then test every page in chromium."""
+    ensure_chromium()
+    build([])
+    shutil.rmtree(BUILD / "browser" / "screenshots", ignore_errors=True)  # no stale pages
+    run(PY, "-m", "pytest", "browser_tests", *args)
+    print(f"\nScreenshots of every page: {BUILD / 'browser' / 'screenshots'}")
 
 
 def test(args: list[str]) -> None:
@@ -69,7 +164,13 @@ def lab(args: list[str]) -> None:
     run(BIN / "jupyter", "lab", *args, cwd=BOOK)
 
 
-COMMANDS = {"build": build, "test": test, "notebooks": notebooks, "lab": lab}
+COMMANDS = {
+    "build": build,
+    "test": test,
+    "browser-test": browser_test,
+    "notebooks": notebooks,
+    "lab": lab,
+}
 
 
 def main() -> int:

@@ -1,0 +1,267 @@
+"""Every page of the built book in a real browser, with the network cut off.
+
+For each HTML page of _build/html (found by walking the build, so new chapters are tested
+without listing them here), served on 127.0.0.1:
+
+- every request that leaves 127.0.0.1 is blocked and counted: there must be none, since
+  the book serves MathJax, require.js, the widget manager and the icons itself;
+- no console error, no uncaught exception, no failed request (network error or HTTP >= 400);
+- every formula (Sphinx marks each one with class ``math``) is typeset by MathJax, without
+  a TeX error;
+- every image has loaded;
+- every ``to_jshtml()`` animation plays (the frame shown changes after pressing play) and
+  can be scrubbed (moving its slider changes the frame), and its buttons show icons;
+- saved widget states are rendered by the widget manager (no kernel);
+- a full-page screenshot is saved to _build/browser/screenshots/.
+
+The same checks run on each page opened from disk (file://), as a reader opening
+_build/html/index.html would.
+
+A last test checks every internal link of every page: the target file exists and, for a
+``#fragment``, the target page has an element with that id.
+"""
+
+from __future__ import annotations
+
+import html.parser
+import re
+from functools import lru_cache
+from pathlib import Path
+from urllib.parse import unquote, urlsplit
+
+import pytest
+from playwright.sync_api import TimeoutError as PlaywrightTimeoutError
+
+from conftest import HTML, SCREENSHOTS, book_pages
+
+PAGES = book_pages()
+LOAD_TIMEOUT_MS = 60_000
+FRAME_TIMEOUT_MS = 10_000
+MATH_TIMEOUT_MS = 30_000
+
+
+def _screenshot_path(page: str) -> Path:
+    return SCREENSHOTS / (page.removesuffix(".html").replace("/", "__") + ".png")
+
+
+@pytest.mark.parametrize("page", PAGES)
+def test_page_renders_offline(page: str, base_url: str, browser) -> None:
+    """The page served over HTTP on 127.0.0.1, every other address blocked; with a screenshot."""
+    _check_page(browser, base_url, page, screenshot=_screenshot_path(page))
+
+
+@pytest.mark.parametrize("page", PAGES)
+def test_page_renders_from_disk(page: str, browser) -> None:
+    """The page opened as a file (the README says: open _build/html/index.html), no network."""
+    _check_page(browser, HTML.as_uri() + "/", page, screenshot=None)
+
+
+def _check_page(browser, base: str, page: str, screenshot: Path | None) -> None:
+    """Load base + page with every request outside base blocked, run every check, report all."""
+    context = browser.new_context(viewport={"width": 1280, "height": 900}, service_workers="block")
+    tab = context.new_page()
+    tab.set_default_timeout(LOAD_TIMEOUT_MS)
+    blocked: list[str] = []
+    failed: list[str] = []
+    console_errors: list[str] = []
+    page_errors: list[str] = []
+    problems: list[str] = []
+    counts: dict[str, int] = {}
+
+    def route(r) -> None:
+        if r.request.url.startswith(base):
+            r.continue_()
+        else:
+            blocked.append(r.request.url)
+            r.abort("internetdisconnected")
+
+    def check(name: str, function) -> None:
+        """Run one check; its failure is recorded and the other checks still run."""
+        try:
+            counts[name] = function(tab)
+        except Exception as exc:  # noqa: BLE001 (a failed check of any kind is reported)
+            problems.append(f"{name}: {type(exc).__name__}: {str(exc).splitlines()[0]}")
+
+    tab.route("**/*", route)
+    tab.on("console", lambda m: m.type == "error" and console_errors.append(f"{m.text} ({m.location.get('url')})"))
+    tab.on("pageerror", lambda exc: page_errors.append(str(exc)))
+    tab.on("requestfailed", lambda r: r.url.startswith(base) and failed.append(f"{r.url}: {r.failure}"))
+    tab.on("response", lambda r: r.status >= 400 and failed.append(f"{r.url}: HTTP {r.status}"))
+    try:
+        tab.goto(base + page, wait_until="load")
+        tab.wait_for_load_state("networkidle")  # and follow a redirect page (index.html)
+        check("math", _check_math)
+        check("widgets", _check_widgets)
+        check("animations", _check_animations)
+        check("images", _check_images)
+        if screenshot is not None:
+            # From the top, with nothing focused (a focused "skip to content" link would show).
+            tab.evaluate("() => { document.activeElement && document.activeElement.blur(); window.scrollTo(0, 0); }")
+            screenshot.parent.mkdir(parents=True, exist_ok=True)
+            tab.screenshot(path=screenshot, full_page=True)
+    finally:
+        context.close()
+
+    print(f"{base + page}: " + ", ".join(f"{n} {name}" for name, n in counts.items()))
+    if blocked:
+        problems.append(f"{len(blocked)} request(s) leaving {base} (blocked): {blocked[:5]}")
+    if failed:
+        problems.append(f"{len(failed)} failed request(s): {failed[:5]}")
+    if page_errors:
+        problems.append(f"{len(page_errors)} uncaught exception(s): {page_errors[:5]}")
+    if console_errors:
+        problems.append(f"{len(console_errors)} console error(s): {console_errors[:5]}")
+    assert not problems, f"{base + page}:\n- " + "\n- ".join(problems)
+
+
+def _check_math(tab) -> int:
+    """Every formula (Sphinx gives each one the class ``math``) is typeset, without TeX error."""
+    if not tab.locator(".math").count():
+        return 0
+    # MathJax typesets after the page has loaded: wait for the end of its first pass.
+    try:
+        tab.wait_for_function(
+            "() => window.MathJax && MathJax.startup && MathJax.startup.promise"
+            " && MathJax.startup.promise.then(() => true)",
+            timeout=MATH_TIMEOUT_MS,
+        )
+    except PlaywrightTimeoutError:
+        raise AssertionError(
+            f"MathJax did not typeset the page within {MATH_TIMEOUT_MS / 1000:.0f} s"
+            " (is its script missing or blocked?)"
+        ) from None
+    math = tab.evaluate(
+        """() => {
+            const formulas = Array.from(document.querySelectorAll('.math'));
+            return {
+                formulas: formulas.length,
+                raw: formulas.filter(el => !el.querySelector('mjx-container'))
+                    .map(el => el.textContent.slice(0, 80)),
+                errors: Array.from(document.querySelectorAll('mjx-merror'))
+                    .map(el => el.getAttribute('data-mjx-error') || el.textContent),
+            };
+        }"""
+    )
+    assert not math["raw"], f"{len(math['raw'])} formula(s) not typeset: {math['raw'][:3]}"
+    assert not math["errors"], f"TeX errors: {math['errors'][:3]}"
+    return math["formulas"]
+
+
+def _check_images(tab) -> int:
+    """Every image (figures, animation frames, the logo) has loaded."""
+    tab.wait_for_load_state("networkidle")
+    images = tab.evaluate(
+        """() => Array.from(document.images).map(img => ({
+            ok: img.complete && img.naturalWidth > 0,
+            src: (img.currentSrc || img.src || '(no src)').slice(0, 100)}))"""
+    )
+    broken = [img["src"] for img in images if not img["ok"]]
+    assert not broken, f"{len(broken)} image(s) not loaded: {broken[:5]}"
+    return len(images)
+
+
+def _check_widgets(tab) -> int:
+    """Saved widget views must be rendered by the widget manager; returns their number."""
+    views = tab.locator('script[type="application/vnd.jupyter.widget-view+json"]').count()
+    if views:
+        tab.wait_for_function(
+            "n => document.querySelectorAll('.jupyter-widgets.widget-container, "
+            ".jupyter-widgets-view, .widget-subarea').length >= n",
+            arg=views,
+        )
+        errors = tab.locator(".jupyter-widgets-error-widget, .widget-error").count()
+        assert errors == 0, f"{errors} widget(s) failed to render from their saved state"
+    return views
+
+
+def _check_animations(tab) -> int:
+    """Every matplotlib to_jshtml() animation plays and scrubs; returns their number."""
+    animations = tab.locator("div.animation")
+    count = animations.count()
+    for i in range(count):
+        anim = animations.nth(i)
+        anim.scroll_into_view_if_needed()
+        img = anim.locator("img").first
+        slider = anim.locator("input[type=range]").first
+        assert int(slider.get_attribute("max") or slider.evaluate("s => s.max")) > 0, "one frame only"
+        first = img.evaluate("img => img.src")
+        anim.locator("button[title='Play']").click()
+        img.evaluate(
+            """(img, first) => new Promise((resolve, reject) => {
+                const t0 = Date.now();
+                const poll = () => img.src !== first ? resolve(true)
+                    : Date.now() - t0 > %d ? reject(new Error('the frame did not change after play'))
+                    : setTimeout(poll, 50);
+                poll();
+            })""" % FRAME_TIMEOUT_MS,
+            first,
+        )
+        anim.locator("button[title='Pause']").click()
+        anim.locator("button[title='First frame']").click()
+        assert img.evaluate("img => img.src") == first, "'First frame' did not show the first frame"
+        slider.evaluate("s => { s.value = s.max; s.dispatchEvent(new Event('input')); }")
+        assert img.evaluate("img => img.src") != first, "moving the slider did not change the frame"
+        # Icons: the theme's Font Awesome 6 script turns each <i class="fa ..."> into an SVG;
+        # without it they are glyphs of the book's own Font Awesome 4 (the CDN link of
+        # matplotlib's template is rewritten by tools/book_offline.py).
+        missing = anim.locator("button").evaluate_all(
+            """buttons => buttons.filter(b => !b.querySelector('svg[data-icon] path')
+                && !Array.from(b.querySelectorAll('i.fa')).some(i => getComputedStyle(i, '::before')
+                    .fontFamily.includes('FontAwesome') && document.fonts.check('14px FontAwesome')))
+                .map(b => b.title)"""
+        )
+        assert not missing, f"animation buttons without an icon: {missing}"
+    return count
+
+
+# --- internal links ------------------------------------------------------------------
+
+
+class _LinksAndIds(html.parser.HTMLParser):
+    def __init__(self) -> None:
+        super().__init__(convert_charrefs=True)
+        self.links: list[str] = []
+        self.ids: set[str] = set()
+
+    def handle_starttag(self, tag: str, attrs) -> None:
+        attributes = dict(attrs)
+        if attributes.get("id"):
+            self.ids.add(attributes["id"])
+        if tag == "a" and attributes.get("name"):
+            self.ids.add(attributes["name"])
+        if tag == "a" and attributes.get("href"):
+            self.links.append(attributes["href"])
+
+
+@lru_cache(maxsize=None)
+def _parse(path: Path) -> _LinksAndIds:
+    parser = _LinksAndIds()
+    parser.feed(path.read_text(encoding="utf-8"))
+    return parser
+
+
+EXTERNAL = re.compile(r"^[a-z][a-z0-9+.-]*:", re.IGNORECASE)  # http:, mailto:, javascript:, ...
+
+
+def test_internal_links_resolve() -> None:
+    """Every internal link of every page points to an existing file and, if any, anchor."""
+    assert PAGES
+    broken = []
+    checked = 0
+    for page in PAGES:
+        source = HTML / page
+        for href in _parse(source).links:
+            if EXTERNAL.match(href) or href in ("", "#"):
+                continue
+            parts = urlsplit(href)
+            target = source if not parts.path else (source.parent / unquote(parts.path)).resolve()
+            if target.is_dir():
+                target = target / "index.html"
+            checked += 1
+            if not target.is_relative_to(HTML.resolve()) or not target.exists():
+                broken.append(f"{page}: {href} (no file {target})")
+            elif parts.fragment and target.suffix == ".html":
+                if unquote(parts.fragment) not in _parse(target).ids:
+                    broken.append(f"{page}: {href} (no id {parts.fragment!r} in {target.name})")
+    print(f"{checked} internal links checked on {len(PAGES)} pages")
+    assert not broken, f"{len(broken)} broken internal link(s):\n" + "\n".join(broken[:30])
