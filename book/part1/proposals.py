@@ -47,10 +47,6 @@
 #   better, but it cannot create the diversity that resampling destroyed.
 
 # %%
-import os
-
-os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")  # small matrices: one BLAS thread is fastest
-
 import matplotlib.pyplot as plt
 import numpy as np
 from IPython.display import HTML, display

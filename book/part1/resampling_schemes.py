@@ -31,10 +31,6 @@
 # stratum, hence its variance.
 
 # %%
-import os
-
-os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")  # small matrices: one BLAS thread is fastest
-
 import timeit
 
 import filterpy.monte_carlo as fp

@@ -29,10 +29,6 @@
 # `ParticleFilter(model, N, threshold=1/3)`.
 
 # %%
-import os
-
-os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")  # small matrices: one BLAS thread is fastest
-
 import matplotlib.pyplot as plt
 import numpy as np
 from IPython.display import display

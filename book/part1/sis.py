@@ -40,10 +40,6 @@
 # `ParticleFilter(model, N, threshold=0)` (threshold 0: never resample).
 
 # %%
-import os
-
-os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")  # small matrices: one BLAS thread is fastest
-
 import matplotlib.pyplot as plt
 import numpy as np
 from IPython.display import HTML, display
