@@ -354,7 +354,8 @@ def summarize(runs: Sequence[Sequence[Track]], *, dim_x: int, dim_z: int, burn_i
     (median over runs and steps); ``nees_in_band`` / ``nis_in_band`` (fraction of steps
     whose run-averaged NEES / NIS lies in the 95 % band of the average of ``R`` chi-square
     variables, :func:`~pfcourse.diagnostics.chi2_band`: 0.95 expected of a consistent
-    filter, a lost run's ``inf`` puts the step outside); ``ms_per_step`` (median run time
+    filter, a lost run's ``inf`` puts the step outside), and ``nees_below`` / ``nis_below``
+    the fraction of steps below the band (a conservative filter); ``ms_per_step`` (median run time
     over runs / steps); ``evaluations`` (:func:`evaluations_per_step`).
     """
     R = len(runs)
@@ -380,6 +381,8 @@ def summarize(runs: Sequence[Sequence[Track]], *, dim_x: int, dim_z: int, burn_i
             "nis_median": float(np.nanmedian(nis_all)),
             "nees_in_band": fraction_in_band(nees_avg, nees_band),
             "nis_in_band": fraction_in_band(nis_avg, nis_band),
+            "nees_below": fraction_in_band(nees_avg, (-np.inf, np.nextafter(nees_band[0], -np.inf))),
+            "nis_below": fraction_in_band(nis_avg, (-np.inf, np.nextafter(nis_band[0], -np.inf))),
             "ms_per_step": 1000 * float(np.median([t.seconds for t in tracks])) / len(first.error),
             "evaluations": evaluations_per_step(first, dim_x),
         }
