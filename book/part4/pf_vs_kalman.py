@@ -39,6 +39,7 @@ import ipywidgets as widgets
 import matplotlib.pyplot as plt
 import numpy as np
 from IPython.display import HTML, Markdown, display
+from matplotlib import ticker
 from matplotlib.animation import FuncAnimation
 from scipy import stats
 
@@ -53,6 +54,17 @@ from pfcourse.terrain import load_jacksboro
 from pfcourse.widgets import control_panel
 
 use_style()
+
+
+def plain_log(ax, axes="xy"):
+    """Log axes with ticks at 1, 2, 5 times powers of ten, labelled 0.1, 0.2, 0.5, 1, ..."""
+    for name in axes:
+        axis = getattr(ax, f"{name}axis")
+        axis.set_major_locator(ticker.LogLocator(subs=(1.0, 2.0, 5.0)))
+        axis.set_major_formatter(ticker.FormatStrFormatter("%g"))
+        axis.set_minor_formatter(ticker.NullFormatter())
+
+
 chapter_start = time.perf_counter()
 
 # %% [markdown]
@@ -133,6 +145,7 @@ for ax, q in zip(axes, titles):
     ax.set_xlabel("number of particles N")
     ax.set_ylabel(f"error of the PF {titles[q]}")
     ax.legend(fontsize=7, loc="lower left")
+    plain_log(ax)
 axes[1].set_title(f"Particle filter minus Kalman filter: RMS over {LINEAR_RUNS} runs (line), 10-90 % of runs (band)",
                   fontsize=10)
 plt.tight_layout()
@@ -288,17 +301,18 @@ print_times(robot_table)
 
 # %%
 def accuracy_cost(table, ax, title):
-    for name, row in table.iterrows():
+    for i, (name, row) in enumerate(table.iterrows()):
         color = COLORS["estimate"] if name.startswith("PF") else (COLORS["kalman"] if name == "EKF" else "tab:purple")
         ax.errorbar(row["ms_per_step"], row["rmse_q50"],
                     yerr=[[row["rmse_q50"] - row["rmse_q10"]], [row["rmse_q90"] - row["rmse_q50"]]],
                     fmt="o", color=color, capsize=3)
-        ax.annotate(name, (row["ms_per_step"], row["rmse_q50"]), textcoords="offset points", xytext=(6, 4), fontsize=8)
+        ax.annotate(name, (row["ms_per_step"], row["rmse_q50"]), textcoords="offset points", xytext=(6, -12 if i % 2 else 4), fontsize=8)
     ax.set_xscale("log")
     ax.set_yscale("log")
     ax.set_xlabel("run time per step (ms, this machine)")
     ax.set_ylabel("position RMSE (m): median, 10-90 %")
     ax.set_title(title, fontsize=10)
+    plain_log(ax)
 
 
 fig, ax = plt.subplots(figsize=(6, 4))
@@ -448,13 +462,13 @@ def draw(scenario="robot", n_particles=300):
     n = min(available, key=lambda a: abs(np.log(a / n_particles)))
     picks = [j for j, t in enumerate(runs[0]) if t.filter != "pf" or t.n_particles == n]
     fig, (ax1, ax2) = plt.subplots(1, 2, figsize=(11, 3.8))
-    steps = np.arange(len(runs[0][0].error))
+    steps = np.arange(1, len(runs[0][0].error))
     for j in picks:
         t0 = runs[0][j]
-        err = np.array([r[j].error for r in runs])
+        err = np.array([r[j].error[1:] for r in runs])
         with np.errstate(invalid="ignore"):
             q10, q50, q90 = np.quantile(err, [0.1, 0.5, 0.9], axis=0, method="inverted_cdf")
-            avg_nees = np.mean([r[j].nees for r in runs], axis=0)
+            avg_nees = np.mean([r[j].nees[1:] for r in runs], axis=0)
         ax1.fill_between(steps, q10, q90, color=FILTER_COLORS[t0.filter], alpha=0.15)
         ax1.plot(steps, q50, color=FILTER_COLORS[t0.filter], label=label(t0))
         ax2.plot(steps, avg_nees, color=FILTER_COLORS[t0.filter], lw=1, label=label(t0))
@@ -466,6 +480,8 @@ def draw(scenario="robot", n_particles=300):
     ax2.set_xlabel("time (s)")
     ax1.set_ylabel("position error (m)")
     ax2.set_ylabel(f"NEES averaged over {len(runs)} runs")
+    plain_log(ax1, "y")
+    plain_log(ax2, "y")
     ax1.legend(fontsize=8)
     ax2.legend(fontsize=8)
     shown = f"N = {n}" + ("" if n == n_particles else f" (nearest to {n_particles} that was run)")
