@@ -85,8 +85,8 @@ chapter_start = time.perf_counter()
 # versions of the model:
 #
 # - **every component moves**: process noise $0.05^2$ m² on the robot *and* the landmarks,
-#   measurement noise $0.5^2$ m², the set-up in which the particle filter is in its
-#   asymptotic regime (it is the one the unit tests use);
+#   measurement noise $0.5^2$ m², a set-up in which the particle filter nears its
+#   asymptotic regime at a few hundred particles (the unit tests use it);
 # - **the report's model**: landmarks with process noise $10^{-20}$ m² (static) and
 #   measurement noise $0.1^2$ m².
 #
@@ -280,20 +280,20 @@ print_times(robot_table)
 #
 # - **Accuracy.** The EKF and UKF have the smallest median RMSE and are equal to the
 #   millimetre. The particle filters are a few centimetres behind in median, and their worst
-#   runs (the 90 % quantile) improve with $N$ without reaching the Kalman filters'. On this
+#   runs (the 90 % quantile) improve with $N$ without quite reaching the Kalman filters'. On this
 #   problem the posterior is a single, nearly Gaussian bump, so linearising costs nothing and
 #   the particles only add Monte Carlo error.
 # - **Consistency.** The EKF and UKF, given the true noise levels, are consistent: NEES and
 #   NIS medians close to those of $\chi^2_3$ and $\chi^2_2$, and the run-averaged NEES
 #   inside its band at almost every step. The particle filter's NEES is far too large at
-#   $N = 100$ and 300 (never inside the band) and still too large half of the time at
-#   $N = 1000$: its covariance, estimated from a resampled cloud, is too small for its
+#   $N = 100$ and 300 (never inside the band) and still above the band at more than a third
+#   of the steps at $N = 1000$: its covariance, estimated from a resampled cloud, is too small for its
 #   error. Its NIS, though, looks as good as the Kalman filters': the measurement noise $R$
 #   dominates $S_k$ and hides the under-estimated state spread. On real data, where only the
 #   NIS can be computed, this over-confidence would go unnoticed.
 # - **Cost.** The EKF is the cheapest. `filterpy`'s UKF costs more than its 7 sigma points
-#   suggest (it calls the model once per sigma point, in Python), about as much as the
-#   particle filter with a few hundred particles; the particle filter's cost grows with $N$,
+#   suggest (it calls the model once per sigma point, in Python): on the machine that built
+#   this page, about as much as the particle filter with a few hundred particles; the particle filter's cost grows with $N$,
 #   but much less than in proportion at these sizes, because it is vectorised over particles
 #   and a fixed per-step overhead dominates (timing cell).
 #
@@ -377,7 +377,8 @@ plt.show()
 # In state space the Kalman filters are conservative (NEES median below the $\chi^2_4$
 # median, 3.36, and the run-averaged NEES below its band at many steps): every filter allows
 # for a process noise $Q_f$ that the true, noise-free flight does not have. That is a
-# modelling choice, not a filter failure.
+# modelling choice, not a filter failure. The particle filter with $N = 100$ errs the other
+# way, as on the robot: its NEES lies above the band at most steps.
 #
 # **The report's prior.** The order reverses. The EKF and UKF lose almost every flight (the
 # `diverged` column): a single Gaussian has to pick one of the candidate places, and the local
@@ -389,8 +390,8 @@ plt.show()
 # terrain chapter measures 65 % over 60 flights, and a quarter with $N = 30000$ over 8).
 # No filter is consistent here: lost flights dominate the run-averaged NEES and NIS. Note
 # the UKF: its NIS median is only about twice the $\chi^2_1$ median while it is lost in
-# nearly every flight, because the terrain under a wrong position often fits the readings
-# almost as well; the innovation check is a weak alarm for a filter locked on a wrong mode.
+# nearly every flight. A moderate NIS does not prove that a filter sits on the right mode;
+# the innovation check is a weak alarm here.
 
 # %% [markdown]
 # ## 4. Which filter? A decision table
@@ -470,8 +471,9 @@ def draw(scenario="robot", n_particles=300):
             q10, q50, q90 = np.quantile(err, [0.1, 0.5, 0.9], axis=0, method="inverted_cdf")
             avg_nees = np.mean([r[j].nees[1:] for r in runs], axis=0)
         ax1.fill_between(steps, q10, q90, color=FILTER_COLORS[t0.filter], alpha=0.15)
-        ax1.plot(steps, q50, color=FILTER_COLORS[t0.filter], label=label(t0))
-        ax2.plot(steps, avg_nees, color=FILTER_COLORS[t0.filter], lw=1, label=label(t0))
+        ls = "--" if t0.filter == "ekf" else "-"
+        ax1.plot(steps, q50, ls, color=FILTER_COLORS[t0.filter], label=label(t0))
+        ax2.plot(steps, avg_nees, ls, color=FILTER_COLORS[t0.filter], lw=1, label=label(t0))
     lo, hi = chi2_band(dim_x, len(runs))
     ax2.axhspan(lo, hi, color="0.85", label=f"95 % band, {len(runs)} runs")
     ax1.set_yscale("log")
