@@ -38,7 +38,8 @@ import time
 import ipywidgets as widgets
 import matplotlib.pyplot as plt
 import numpy as np
-from IPython.display import HTML, Markdown, display
+import pandas as pd
+from IPython.display import HTML, display
 from matplotlib import ticker
 from matplotlib.animation import FuncAnimation
 from scipy import stats
@@ -427,9 +428,8 @@ rows = [
      + ", ".join(f"{i} {v:.0%}" for i, v in wp[wp.index.str.startswith('PF')]['diverged'].items()),
      "N vs 1 or 9"),
 ]
-table_md = "| problem | pick | evidence (computed above) | model evaluations per step |\n|---|---|---|---|\n"
-table_md += "\n".join(f"| {a} | {b} | {c} | {d} |" for a, b, c, d in rows)
-display(Markdown(table_md))
+decision = pd.DataFrame(rows, columns=["problem", "pick", "evidence (computed above)", "model evaluations per step"])
+display(HTML(decision.to_html(index=False)))
 
 # %% [markdown]
 # Two remarks on using the table.
