@@ -128,3 +128,83 @@ def confidence_ellipse(
     width, height = 2.0 * np.sqrt(scale * eigval[::-1])
     angle = float(np.degrees(np.arctan2(eigvec[1, 1], eigvec[0, 1])))
     return np.asarray(mean, dtype=float), float(width), float(height), angle
+
+
+def nis(innovation: np.ndarray, innovation_cov: np.ndarray) -> np.ndarray:
+    """Normalised innovation squared ``NIS_k = y_k^T S_k^{-1} y_k`` per time step.
+
+    ``innovation`` has shape ``(K, m)`` (``y_k = z_k - z^_k``, angle components already
+    wrapped by the caller) and ``innovation_cov`` ``(K, m, m)`` (``S_k``, the covariance
+    of the filter's predictive distribution of ``z_k``).  For a consistent filter
+    ``NIS_k`` is chi-square with ``m`` degrees of freedom (Bar-Shalom, Li and
+    Kirubarajan 2001, sec. 5.4).  Steps without a measurement (a NaN row of
+    ``innovation``) give NaN; returns shape ``(K,)``.
+    """
+    innovation = np.asarray(innovation, dtype=float)
+    innovation_cov = np.asarray(innovation_cov, dtype=float)
+    if innovation.ndim == 1:
+        innovation = innovation[:, None]
+    if innovation_cov.ndim == 1:
+        innovation_cov = innovation_cov[:, None, None]
+    if innovation.ndim != 2 or innovation_cov.shape != innovation.shape + innovation.shape[-1:]:
+        raise ShapeError(
+            f"nis needs innovations of shape (K, m) and covariances (K, m, m); got "
+            f"{innovation.shape} and {innovation_cov.shape}"
+        )
+    out = np.full(innovation.shape[0], np.nan)
+    ok = ~np.any(np.isnan(innovation), axis=1)
+    if np.any(ok):
+        y = innovation[ok]
+        out[ok] = np.einsum("ki,ki->k", y, np.linalg.solve(innovation_cov[ok], y[..., None])[..., 0])
+    return out
+
+
+def predictive_moments(
+    predicted_measurements: np.ndarray,
+    weights: np.ndarray,
+    noise_cov: np.ndarray,
+    angle_indices: Sequence[int] = (),
+) -> tuple[np.ndarray, np.ndarray]:
+    """Mean and covariance of a particle filter's predictive distribution of ``z_k``.
+
+    With predicted particles ``x_k^i`` (propagated, not yet weighted by ``z_k``), their
+    weights ``W_{k-1}^i`` and additive measurement noise ``N(0, R)``, the predictive
+    density ``p^(z_k | z_{0:k-1}) = sum_i W_{k-1}^i N(z_k; h(x_k^i), R)`` is a Gaussian
+    mixture whose moments are
+
+    .. math::
+
+       \\bar z = \\sum_i W^i h(x^i), \\qquad
+       S = \\sum_i W^i (h(x^i) - \\bar z)(h(x^i) - \\bar z)^T + R .
+
+    ``predicted_measurements`` is ``h(x_k^i)`` of shape ``(N, m)``; components in
+    ``angle_indices`` get a circular mean and wrapped deviations.  ``S`` is the
+    innovation covariance used in :func:`nis` for the particle filter.
+    """
+    h = np.asarray(predicted_measurements, dtype=float)
+    if h.ndim == 1:
+        h = h[:, None]
+    weights = np.asarray(weights, dtype=float)
+    noise_cov = np.atleast_2d(np.asarray(noise_cov, dtype=float))
+    if weights.shape != h.shape[:1] or noise_cov.shape != (h.shape[1], h.shape[1]):
+        raise ShapeError(
+            f"predictive_moments needs h(x) (N, m), weights (N,) and R (m, m); got "
+            f"{h.shape}, {weights.shape} and {noise_cov.shape}"
+        )
+    mean = weighted_mean(h, weights, angle_indices)
+    cov = weighted_covariance(h, weights, mean, angle_indices) + noise_cov
+    return mean, cov
+
+
+def fraction_in_band(values: np.ndarray, band: tuple[float, float]) -> float:
+    """Fraction of the finite-or-infinite, non-NaN ``values`` with ``lo <= v <= hi``.
+
+    An infinite value (a lost filter) counts as outside the band; NaN entries (steps
+    without a measurement) are left out.
+    """
+    values = np.asarray(values, dtype=float).ravel()
+    values = values[~np.isnan(values)]
+    if values.size == 0:
+        return float("nan")
+    lo, hi = band
+    return float(np.mean((values >= lo) & (values <= hi)))

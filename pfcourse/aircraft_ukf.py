@@ -1,0 +1,138 @@
+"""An unscented Kalman filter for terrain-aided navigation (scenario B), through filterpy.
+
+The state, dynamics and altimeter model are those of :mod:`pfcourse.aircraft`: the
+sigma points go through :func:`~pfcourse.aircraft.propagate` (``f``) and
+:func:`~pfcourse.aircraft.predicted_measurement` (``h(x) = z - h_terrain(x, y)``).
+filterpy's :class:`~filterpy.kalman.UnscentedKalmanFilter` with Van der Merwe's scaled
+sigma points ``MerweScaledSigmaPoints(4, alpha, beta, kappa)`` computes
+
+.. math::
+
+   \\chi^{(j)} = m \\pm \\text{columns of } \\sqrt{(n + \\lambda) P}, \\quad
+   m^- = \\textstyle\\sum_j W^{(j)}_m f(\\chi^{(j)}), \\quad
+   P^- = \\textstyle\\sum_j W^{(j)}_c (f(\\chi^{(j)}) - m^-)(\\cdot)^T + Q_f\\,dt,
+
+   \\hat z = \\textstyle\\sum_j W^{(j)}_m h(\\chi^{(j)}_f), \\quad
+   S = \\textstyle\\sum_j W^{(j)}_c (h(\\chi^{(j)}_f) - \\hat z)^2 + R_f, \\quad
+   K = P_{xz} S^{-1}, \\quad m = m^- + K (y - \\hat z).
+
+**Heading.** The heading ``psi`` (index 3) is an angle: sigma points are built with a
+wrapped difference, their mean heading is the circular mean (weighted by ``W_m``), every
+state residual wraps its heading, and the estimate is wrapped after each step.
+
+**Leaving the map.** ``h`` has no value off the map.  If the predicted mean, or any sigma
+point, lies off the map at a step, the filter stops there (``lost_at``), as
+:func:`~pfcourse.aircraft.extended_kalman_filter` does for its estimate.
+
+With the defaults ``alpha = 1``, ``beta = 2``, ``kappa = 0``: ``lambda = 0``, the eight
+outer sigma points sit at ``m +/- sqrt(4 P)`` columns with mean weight 1/8 each and the
+centre point has mean weight 0 (every mean weight is non-negative, so the circular
+mean is well defined).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from filterpy.kalman import MerweScaledSigmaPoints, UnscentedKalmanFilter
+
+from .aircraft import AircraftScenario, predicted_measurement, propagate
+from .angles import wrap_angle
+from .terrain import TerrainMap
+
+Array = np.ndarray
+
+
+@dataclass
+class UKFResult:
+    """Per-step UKF output (``K`` steps).
+
+    ``mean`` ``(K, 4)`` and ``cov`` ``(K, 4, 4)`` after each update; ``innovation``
+    ``(K, 1)`` the innovation ``y_k - z^_k`` and ``innovation_cov`` ``(K, 1, 1)`` its
+    covariance ``S_k`` (NaN at steps without a measurement); ``lost_at`` the first step at
+    which the filter stopped (mean or a sigma point off the map), or ``None``.  Rows from
+    ``lost_at`` on are NaN.
+    """
+
+    mean: Array
+    cov: Array
+    innovation: Array
+    innovation_cov: Array
+    lost_at: int | None = None
+
+
+def state_residual(a: Array, b: Array) -> Array:
+    """``a - b`` for aircraft states ``(4,)`` with the heading difference wrapped."""
+    y = np.asarray(a, dtype=float) - np.asarray(b, dtype=float)
+    y[3] = wrap_angle(y[3])
+    return y
+
+
+def state_mean(sigmas: Array, weights: Array) -> Array:
+    """Weighted mean of sigma points ``(n, 4)``; circular mean of the heading."""
+    m = weights @ sigmas
+    m[3] = np.arctan2(weights @ np.sin(sigmas[:, 3]), weights @ np.cos(sigmas[:, 3]))
+    return m
+
+
+def unscented_kalman_filter(
+    scenario: AircraftScenario,
+    terrain: TerrainMap,
+    measurements: Array,
+    *,
+    alpha: float = 1.0,
+    beta: float = 2.0,
+    kappa: float = 0.0,
+) -> UKFResult:
+    """Run filterpy's ``UnscentedKalmanFilter`` on scenario B (see the module docstring).
+
+    Starts from ``N(x0, P0)``; predicts with ``Q = Qf dt`` at every step ``k > 0`` and
+    updates with ``R = Rf`` when ``measurements[k]`` is not NaN.
+    """
+    s = scenario
+    measurements = np.asarray(measurements, dtype=float).reshape(-1)
+    K = len(measurements)
+    points = MerweScaledSigmaPoints(4, alpha=alpha, beta=beta, kappa=kappa, subtract=state_residual)
+
+    def fx(x, dt):
+        return propagate(x, s.speed, s.omega, dt)
+
+    def hx(x):
+        return np.array([predicted_measurement(x, terrain)])
+
+    ukf = UnscentedKalmanFilter(
+        dim_x=4, dim_z=1, dt=s.dt, hx=hx, fx=fx, points=points,
+        x_mean_fn=state_mean, residual_x=state_residual,
+    )
+    ukf.x = s.x0.copy()
+    ukf.P = s.P0.copy()
+    ukf.Q = s.Qf * s.dt
+    ukf.R = np.array([[s.Rf]])
+    mean = np.full((K, 4), np.nan)
+    cov = np.full((K, 4, 4), np.nan)
+    innovation = np.full((K, 1), np.nan)
+    innovation_cov = np.full((K, 1, 1), np.nan)
+    lost_at = None
+    for k in range(K):
+        if k > 0:
+            ukf.predict()
+            ukf.x[3] = wrap_angle(ukf.x[3])
+        if not np.isnan(measurements[k]):
+            if k == 0:
+                # No prediction yet: the sigma points of the prior are the ones to transform.
+                ukf.sigmas_f = points.sigma_points(ukf.x, ukf.P)
+            on_map = terrain.contains(ukf.sigmas_f[:, 0], ukf.sigmas_f[:, 1])
+            if not (np.all(on_map) and terrain.contains(ukf.x[0], ukf.x[1])):
+                lost_at = k
+                break
+            ukf.update(np.array([measurements[k]]))
+            ukf.x[3] = wrap_angle(ukf.x[3])
+            innovation[k] = ukf.y
+            innovation_cov[k] = ukf.S
+        if not terrain.contains(ukf.x[0], ukf.x[1]):
+            lost_at = k
+            break
+        mean[k] = ukf.x
+        cov[k] = ukf.P
+    return UKFResult(mean=mean, cov=cov, innovation=innovation, innovation_cov=innovation_cov, lost_at=lost_at)

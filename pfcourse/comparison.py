@@ -1,0 +1,441 @@
+"""The particle filter against the Kalman family: accuracy, consistency and cost on the same runs.
+
+Three measurements, for every filter on every seeded run:
+
+* **accuracy**: the position error ``||p_k - p^_k||`` per step (m);
+* **consistency**: the normalised estimation error squared
+  ``NEES_k = e_k^T P_k^{-1} e_k`` (chi-square with ``d = dim x`` degrees of freedom for a
+  consistent filter) and the normalised innovation squared ``NIS_k = y_k^T S_k^{-1} y_k``
+  (chi-square with ``m = dim z``), see :func:`pfcourse.diagnostics.nees` and
+  :func:`pfcourse.diagnostics.nis`;
+* **cost**: wall-clock seconds of the filter's run, and the number of model evaluations
+  per step (``N`` particles, ``2 d + 1`` sigma points, one linearisation point).
+
+**Where the innovations come from.**  The existing Kalman runners
+(:func:`pfcourse.robot_kalman.run_ekf`, :func:`~pfcourse.robot_kalman.run_ukf`,
+:func:`pfcourse.aircraft.extended_kalman_filter`) return the posterior ``(m_k, P_k)`` only.
+Their prediction and innovation are deterministic functions of ``(m_{k-1}, P_{k-1})``, so
+they are *replayed* here exactly as the filters computed them (same Jacobians, same sigma
+points and weights, same angle wrapping): for the EKF ``S = H P^- H^T + R``, for the UKF
+``S`` is the unscented transform of the predicted sigma points through ``h`` plus ``R``.
+Each replay also returns the gain ``G_k`` (``P^- H^T S^{-1}`` or ``P_xz S^{-1}``) and the
+predicted mean, so that ``m_k = m^-_k + G_k y_k`` checks it against the stored posterior
+(the unit tests do).  The terrain UKF (:mod:`pfcourse.aircraft_ukf`) records its own.
+
+For the particle filter, the predictive distribution of ``z_k`` is the mixture
+``sum_i W_{k-1}^i N(z; h(x_k^i), R)`` over the *predicted* particles (after the move,
+before the weighting by ``z_k``); ``S_k`` is its covariance,
+:func:`pfcourse.diagnostics.predictive_moments`.  The bootstrap filter stores exactly
+these particles (``store_particles=True``), with weights ``W_{k-1}`` (uniform after a
+resampling).
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+import pandas as pd
+from filterpy.kalman import MerweScaledSigmaPoints, unscented_transform
+
+from .aircraft import (
+    AircraftScenario,
+    dynamics_jacobian,
+    extended_kalman_filter,
+    flight_seed,
+    measurement_jacobian as terrain_jacobian,
+    position_error,
+    predicted_measurement,
+    propagate,
+    simulate as simulate_flight,
+)
+from .aircraft_ukf import unscented_kalman_filter
+from .angles import wrap_angle
+from .diagnostics import chi2_band, fraction_in_band, nees, nis, predictive_moments
+from .errors import DegenerateWeightsError
+from .filter import FilterResult, ParticleFilter
+from .robot import ANGLE_INDICES, RobotModel, range_bearing, simulate_robot
+from .robot_kalman import (
+    KalmanRun,
+    measurement_jacobian as robot_jacobian,
+    measurement_mean,
+    measurement_residual,
+    motion_jacobians,
+    motion_one,
+    range_bearing_one,
+    state_mean,
+    state_residual,
+)
+from .terrain import TerrainMap
+
+Array = np.ndarray
+
+
+@dataclass
+class Innovations:
+    """Replayed innovations of a Kalman-type filter over ``K`` steps (NaN without a measurement).
+
+    ``y`` ``(K, m)`` innovation, ``S`` ``(K, m, m)`` its covariance, ``predicted``
+    ``(K, d)`` the predicted mean ``m^-_k`` and ``gain`` ``(K, d, m)`` the Kalman gain.
+    """
+
+    y: Array
+    S: Array
+    predicted: Array
+    gain: Array
+
+
+def _empty(K: int, d: int, m: int) -> Innovations:
+    return Innovations(np.full((K, m), np.nan), np.full((K, m, m), np.nan),
+                       np.full((K, d), np.nan), np.full((K, d, m), np.nan))
+
+
+def robot_ekf_innovations(model: RobotModel, measurements: Array, run: KalmanRun,
+                          initial_cov: Array | None = None) -> Innovations:
+    """Replay the innovations of :func:`~pfcourse.robot_kalman.run_ekf` from its posteriors.
+
+    ``m^- = f(m_{k-1}, u~_k)``, ``P^- = F P_{k-1} F^T + G Q G^T``, ``H = dh_j/dx`` at
+    ``m^-``, ``S = H P^- H^T + R``, ``y = z - h_j(m^-)`` (bearing wrapped).
+    """
+    K = len(measurements)
+    out = _empty(K, 3, 2)
+    for k in range(1, K):
+        z = measurements[k]
+        if np.isnan(z[0]):
+            continue
+        m, P, u = run.mean[k - 1], run.cov[k - 1], model.odometry[k]
+        F, G = motion_jacobians(m, u, model.dt)
+        x_pred = motion_one(m, u, model.dt)
+        P_pred = F @ P @ F.T + G @ model.q_est @ G.T
+        landmark = model.landmarks[int(z[0])]
+        H = robot_jacobian(x_pred, landmark)
+        S = H @ P_pred @ H.T + model.r_est
+        out.y[k] = measurement_residual(z[1:], range_bearing_one(x_pred, landmark))
+        out.S[k] = S
+        out.predicted[k] = x_pred
+        out.gain[k] = np.linalg.solve(S, H @ P_pred).T
+    return out
+
+
+def robot_ukf_innovations(model: RobotModel, measurements: Array, run: KalmanRun, *,
+                          alpha: float = 1.0, beta: float = 2.0, kappa: float = 0.0) -> Innovations:
+    """Replay the innovations of :func:`~pfcourse.robot_kalman.run_ukf` (same sigma points).
+
+    Sigma points of ``(m_{k-1}, P_{k-1})`` go through ``f(., u~_k)``; the unscented transform
+    with ``G Q G^T`` gives ``(m^-, P^-)``; as filterpy does, new sigma points are drawn from
+    ``(m^-, P^-)``, go through ``h_j``, and the unscented transform with ``R`` gives ``z^``
+    and ``S``; ``P_xz`` is the cross-covariance of the two sets of points.
+    """
+    K = len(measurements)
+    out = _empty(K, 3, 2)
+    points = MerweScaledSigmaPoints(3, alpha=alpha, beta=beta, kappa=kappa, subtract=state_residual)
+    for k in range(1, K):
+        z = measurements[k]
+        if np.isnan(z[0]):
+            continue
+        m, P, u = run.mean[k - 1], run.cov[k - 1], model.odometry[k]
+        _, G = motion_jacobians(m, u, model.dt)
+        sigmas_f = np.array([motion_one(s, u, model.dt) for s in points.sigma_points(m, P)])
+        x_pred, P_pred = unscented_transform(sigmas_f, points.Wm, points.Wc, G @ model.q_est @ G.T,
+                                             state_mean, state_residual)
+        # filterpy (2.0) redraws the sigma points from the predicted (m^-, P^-) before the update.
+        sigmas_f = points.sigma_points(x_pred, P_pred)
+        landmark = model.landmarks[int(z[0])]
+        sigmas_h = np.array([range_bearing_one(s, landmark) for s in sigmas_f])
+        z_pred, S = unscented_transform(sigmas_h, points.Wm, points.Wc, model.r_est,
+                                        measurement_mean, measurement_residual)
+        dx = np.array([state_residual(s, x_pred) for s in sigmas_f])
+        dz = np.array([measurement_residual(h, z_pred) for h in sigmas_h])
+        Pxz = (dx * points.Wc[:, None]).T @ dz
+        out.y[k] = measurement_residual(z[1:], z_pred)
+        out.S[k] = S
+        out.predicted[k] = x_pred
+        out.gain[k] = np.linalg.solve(S.T, Pxz.T).T
+    return out
+
+
+def terrain_ekf_innovations(scenario: AircraftScenario, terrain: TerrainMap, measurements: Array,
+                            mean: Array, cov: Array) -> Innovations:
+    """Replay the innovations of :func:`~pfcourse.aircraft.extended_kalman_filter`.
+
+    ``m^- = f(m_{k-1})``, ``P^- = F P_{k-1} F^T + Q_f dt``, ``H = [-dh/dx, -dh/dy, 1, 0]`` at
+    ``m^-``, ``S = H P^- H^T + R_f``, ``y = z - (m^-_z - h(m^-_x, m^-_y))``.  Steps after the
+    EKF was lost (NaN posterior) stay NaN.
+    """
+    s = scenario
+    z = np.asarray(measurements, dtype=float).reshape(-1)
+    K = len(z)
+    out = _empty(K, 4, 1)
+    for k in range(1, K):
+        if np.isnan(z[k]) or np.isnan(mean[k - 1, 0]) or np.isnan(mean[k, 0]):
+            continue
+        F = dynamics_jacobian(mean[k - 1], s.speed, s.dt)
+        x_pred = propagate(mean[k - 1], s.speed, s.omega, s.dt)
+        P_pred = F @ cov[k - 1] @ F.T + s.Qf * s.dt
+        H = terrain_jacobian(x_pred, terrain)
+        S = H @ P_pred @ H.T + s.Rf
+        out.y[k] = z[k] - predicted_measurement(x_pred, terrain)
+        out.S[k] = S
+        out.predicted[k] = x_pred
+        out.gain[k] = (P_pred @ H.T) / S[0, 0]
+    return out
+
+
+def particle_innovations(result: FilterResult, measurements: Array, predict, noise_cov: Array,
+                         angle_indices: Sequence[int] = ()) -> tuple[Array, Array]:
+    """Innovations ``y_k = z_k - z-bar_k`` and covariances ``S_k`` of a bootstrap particle filter.
+
+    ``result`` must come from ``run(..., store_particles=True)`` with the transition as
+    proposal, so that ``result.particles[k]`` are the predicted particles of step ``k``.
+    ``predict(particles, z, k)`` returns ``h(x^i)`` ``(N, m)`` for the measurement ``z``
+    (NaN rows for particles where ``h`` is undefined: they are left out, since their
+    likelihood is zero); see :func:`~pfcourse.diagnostics.predictive_moments`.
+    Returns ``(y, S)`` of shapes ``(K, m)`` and ``(K, m, m)``, NaN without a measurement.
+    """
+    if result.particles is None:
+        raise ValueError("particle_innovations needs a run with store_particles=True")
+    noise_cov = np.atleast_2d(np.asarray(noise_cov, dtype=float))
+    m = noise_cov.shape[0]
+    K, n = result.weights.shape
+    y = np.full((K, m), np.nan)
+    S = np.full((K, m, m), np.nan)
+    for k in range(1, K):
+        zk = np.asarray(measurements[k], dtype=float).ravel()
+        if np.all(np.isnan(zk)):
+            continue
+        w = np.full(n, 1.0 / n) if result.resampled[k - 1] else result.weights[k - 1]
+        h = np.asarray(predict(result.particles[k], zk, k), dtype=float).reshape(n, m)
+        ok = ~np.any(np.isnan(h), axis=1)
+        mean, S[k] = predictive_moments(h[ok], w[ok] / w[ok].sum(), noise_cov, angle_indices)
+        diff = zk[-m:] - mean
+        for j in angle_indices:
+            diff[j] = wrap_angle(diff[j])
+        y[k] = diff
+    return y, S
+
+
+@dataclass
+class Track:
+    """One filter on one run: per-step ``error`` (m), ``nees``, ``nis`` (NaN without a
+    measurement; ``inf`` once the filter is lost), run time ``seconds``, and ``lost``."""
+
+    filter: str
+    n_particles: int
+    error: Array
+    nees: Array
+    nis: Array
+    seconds: float
+    lost: bool = False
+
+
+def _safe_nees(truth, mean, cov, angle_indices) -> Array:
+    """NEES with ``inf`` where the filter has no estimate or a singular covariance."""
+    out = np.full(len(truth), np.inf)
+    ok = np.all(np.isfinite(mean), axis=1) & np.all(np.isfinite(cov), axis=(1, 2))
+    ok &= np.linalg.eigvalsh(np.where(ok[:, None, None], cov, np.eye(cov.shape[-1])))[:, 0] > 0
+    if np.any(ok):
+        out[ok] = nees(truth[ok], mean[ok], cov[ok], angle_indices)
+    return out
+
+
+def robot_tracks(seed: int, n_values: Sequence[int], *, n_steps: int = 100, q_scale: float = 1.0,
+                 r_scale: float = 1.0, kalman: Sequence[str] = ("ekf", "ukf"), **scenario) -> list[Track]:
+    """The robot scenario: simulate run ``seed``, filter it with a PF per ``N`` and the EKF/UKF.
+
+    Defaults differ from :func:`pfcourse.robot_compare.compare_filters` in one respect:
+    the filters assume the *true* noise levels (``q_scale = r_scale = 1``), so that a
+    consistent filter has NEES ~ chi2_3 and NIS ~ chi2_2.  The particle filter's random
+    stream is seeded with ``[seed, N]``.  Errors are Euclidean position errors (m).
+    """
+    from .robot_kalman import run_ekf, run_ukf
+
+    sim = simulate_robot(None, seed, n_steps=n_steps, **scenario)
+    model = RobotModel.for_simulation(sim, q_scale=q_scale, r_scale=r_scale)
+    z = sim.measurements
+    tracks: list[Track] = []
+
+    def track(name, n, mean, cov, y, S, seconds):
+        err = np.hypot(*(mean[:, :2] - sim.truth[:, :2]).T)
+        return Track(name, n, err, _safe_nees(sim.truth, mean, cov, ANGLE_INDICES), nis(y, S), seconds)
+
+    def predict(particles, zk, k):
+        return range_bearing(particles, model.landmarks[int(zk[0])])
+
+    for n in n_values:
+        start = time.perf_counter()
+        res = ParticleFilter(model, n, threshold=0.5).run(z, np.random.default_rng([seed, n]),
+                                                         store_particles=True)
+        seconds = time.perf_counter() - start
+        y, S = particle_innovations(res, z, predict, model.r_est, angle_indices=(1,))
+        tracks.append(track("pf", n, res.mean, res.cov, y, S, seconds))
+    for name in kalman:
+        start = time.perf_counter()
+        run = (run_ekf if name == "ekf" else run_ukf)(model, z)
+        seconds = time.perf_counter() - start
+        inn = (robot_ekf_innovations if name == "ekf" else robot_ukf_innovations)(model, z, run)
+        tracks.append(track(name, 0, run.mean, run.cov, inn.y, inn.S, seconds))
+    return tracks
+
+
+def terrain_tracks(seed: int, run: int, scenario: AircraftScenario, terrain: TerrainMap,
+                   n_values: Sequence[int], *, kalman: Sequence[str] = ("ekf", "ukf"),
+                   resampler: str = "multinomial") -> list[Track]:
+    """Terrain navigation: flight ``run`` of a study with seed ``seed`` (as
+    :func:`pfcourse.aircraft.monte_carlo`: flight :func:`~pfcourse.aircraft.flight_seed`,
+    particle filter seeded with ``[seed, run, 1]``), filtered by a PF per ``N`` and the EKF/UKF.
+
+    Errors are horizontal position errors (m); a lost filter (every particle off the map,
+    or a Kalman estimate or sigma point off the map) has ``inf`` error, NEES and NIS from
+    the step it was lost (from the start for a particle filter).
+    """
+    flight = simulate_flight(scenario, terrain, flight_seed(seed, run))
+    z = flight.Z
+    K = len(z)
+    tracks: list[Track] = []
+
+    def track(name, n, mean, cov, y, S, seconds, lost):
+        err = np.where(np.isnan(mean[:, 0]), np.inf, position_error(flight.X, mean))
+        q = nis(y, S)
+        measured = ~np.isnan(z[:, 0])
+        q[measured & np.isnan(q)] = np.inf
+        return Track(name, n, err, _safe_nees(flight.X, mean, cov, (3,)), q, seconds, lost)
+
+    def predict(particles, zk, k):
+        return predicted_measurement(particles, terrain)[:, None]
+
+    model = scenario.model(terrain)
+    for n in n_values:
+        start = time.perf_counter()
+        try:
+            res = ParticleFilter(model, n, threshold=0.5, resampler=resampler).run(
+                z, np.random.default_rng([seed, run, 1]), store_particles=True)
+        except DegenerateWeightsError:
+            inf = np.full(K, np.inf)
+            tracks.append(Track("pf", n, inf, inf, np.where(np.isnan(z[:, 0]), np.nan, np.inf),
+                                time.perf_counter() - start, True))
+            continue
+        seconds = time.perf_counter() - start
+        y, S = particle_innovations(res, z, predict, np.array([[scenario.Rf]]))
+        tracks.append(track("pf", n, res.mean, res.cov, y, S, seconds, False))
+    for name in kalman:
+        start = time.perf_counter()
+        if name == "ekf":
+            ekf = extended_kalman_filter(scenario, terrain, z)
+            seconds = time.perf_counter() - start
+            inn = terrain_ekf_innovations(scenario, terrain, z, ekf.mean, ekf.cov)
+            tracks.append(track("ekf", 0, ekf.mean, ekf.cov, inn.y, inn.S, seconds, ekf.lost_at is not None))
+        else:
+            ukf = unscented_kalman_filter(scenario, terrain, z)
+            seconds = time.perf_counter() - start
+            tracks.append(track("ukf", 0, ukf.mean, ukf.cov, ukf.innovation, ukf.innovation_cov,
+                                seconds, ukf.lost_at is not None))
+    return tracks
+
+
+def label(track: Track) -> str:
+    """``"PF N=300"``, ``"EKF"`` or ``"UKF"``."""
+    return f"PF N={track.n_particles}" if track.filter == "pf" else track.filter.upper()
+
+
+def evaluations_per_step(track: Track, dim_x: int) -> int:
+    """Model evaluations per step: ``N`` (particles), ``2 d + 1`` (sigma points) or 1 (EKF)."""
+    return {"pf": track.n_particles, "ukf": 2 * dim_x + 1, "ekf": 1}[track.filter]
+
+
+def summarize(runs: Sequence[Sequence[Track]], *, dim_x: int, dim_z: int, burn_in: int = 0,
+              diverged_error: float | None = None) -> pd.DataFrame:
+    """One row per filter over ``R`` runs (``runs[r]`` holds the same filters in the same order).
+
+    Columns: ``rmse_q10``, ``rmse_q50``, ``rmse_q90`` (quantiles over runs of the per-run RMS
+    position error over steps ``k >= burn_in``, m); ``diverged`` (share of runs lost or with
+    a final error above ``diverged_error``, if given); ``nees_median`` / ``nis_median``
+    (median over runs and steps); ``nees_in_band`` / ``nis_in_band`` (fraction of steps
+    whose run-averaged NEES / NIS lies in the 95 % band of the average of ``R`` chi-square
+    variables, :func:`~pfcourse.diagnostics.chi2_band`: 0.95 expected of a consistent
+    filter, a lost run's ``inf`` puts the step outside), and ``nees_below`` / ``nis_below``
+    the fraction of steps below the band (a conservative filter); ``ms_per_step`` (median run time
+    over runs / steps); ``evaluations`` (:func:`evaluations_per_step`).
+    """
+    R = len(runs)
+    nees_band = chi2_band(dim_x, R)
+    nis_band = chi2_band(dim_z, R)
+    rows = []
+    for j, first in enumerate(runs[0]):
+        tracks = [r[j] for r in runs]
+        err = np.array([t.error[burn_in:] for t in tracks])
+        with np.errstate(invalid="ignore", over="ignore"):
+            rmse = np.sqrt(np.mean(err**2, axis=1))
+            nees_all = np.array([t.nees[burn_in:] for t in tracks])
+            nis_all = np.array([t.nis[burn_in:] for t in tracks])
+            nis_steps = ~np.all(np.isnan(nis_all), axis=0)
+            nees_avg = np.mean(nees_all, axis=0)
+            nis_avg = np.mean(nis_all[:, nis_steps], axis=0)
+        q10, q50, q90 = np.quantile(rmse, [0.1, 0.5, 0.9], method="inverted_cdf")
+        row = {
+            "filter": label(first),
+            "N": first.n_particles,
+            "rmse_q10": q10, "rmse_q50": q50, "rmse_q90": q90,
+            "nees_median": float(np.median(nees_all)),
+            "nis_median": float(np.nanmedian(nis_all)),
+            "nees_in_band": fraction_in_band(nees_avg, nees_band),
+            "nis_in_band": fraction_in_band(nis_avg, nis_band),
+            "nees_below": fraction_in_band(nees_avg, (-np.inf, np.nextafter(nees_band[0], -np.inf))),
+            "nis_below": fraction_in_band(nis_avg, (-np.inf, np.nextafter(nis_band[0], -np.inf))),
+            "ms_per_step": 1000 * float(np.median([t.seconds for t in tracks])) / len(first.error),
+            "evaluations": evaluations_per_step(first, dim_x),
+        }
+        if diverged_error is not None:
+            final = np.array([t.error[-1] for t in tracks])
+            row["diverged"] = float(np.mean(~(final <= diverged_error)))
+        rows.append(row)
+    return pd.DataFrame(rows).set_index("filter")
+
+
+@dataclass
+class ConvergenceResult:
+    """Errors of a particle filter against the exact Kalman filter, per ``N`` (rows) and run (columns).
+
+    ``mean_error``: RMS over steps and components of ``m^PF_k - m^KF_k`` (m);
+    ``cov_error``: RMS over steps of the Frobenius norm ``||P^PF_k - P^KF_k||_F`` (m^2);
+    ``loglik_error``: ``log p^(z_{0:K}) - log p(z_{0:K})`` (nats, signed).
+    """
+
+    n_values: Array
+    mean_error: Array
+    cov_error: Array
+    loglik_error: Array
+
+
+def linear_convergence(model, measurements: Array, kalman, n_values: Sequence[int], n_runs: int, *,
+                       seed: int = 0, threshold: float = 0.5) -> ConvergenceResult:
+    """Run a bootstrap particle filter ``n_runs`` times per ``N`` on one data set and compare it
+    with the Kalman result ``kalman`` (:func:`pfcourse.kalman.kalman_filter`).
+
+    Run ``r`` at ``N`` uses the random stream ``[seed, r, N]``.
+    """
+    n_values = np.asarray(n_values, dtype=int)
+    shape = (len(n_values), n_runs)
+    mean_err, cov_err, ll_err = np.empty(shape), np.empty(shape), np.empty(shape)
+    for a, n in enumerate(n_values):
+        pf = ParticleFilter(model, int(n), threshold=threshold)
+        for r in range(n_runs):
+            res = pf.run(measurements, np.random.default_rng([seed, r, int(n)]))
+            mean_err[a, r] = np.sqrt(np.mean((res.mean - kalman.mean) ** 2))
+            cov_err[a, r] = np.sqrt(np.mean(np.sum((res.cov - kalman.cov) ** 2, axis=(1, 2))))
+            ll_err[a, r] = res.log_likelihood - kalman.log_likelihood
+    return ConvergenceResult(n_values, mean_err, cov_err, ll_err)
+
+
+def loglog_slope(n_values: Array, values: Array) -> float:
+    """Least-squares slope of ``log(values)`` against ``log(N)``."""
+    return float(np.polyfit(np.log(n_values), np.log(values), 1)[0])
+
+
+__all__ = [
+    "ConvergenceResult", "Innovations", "Track",
+    "evaluations_per_step", "label", "linear_convergence", "loglog_slope", "particle_innovations",
+    "robot_ekf_innovations", "robot_tracks", "robot_ukf_innovations", "summarize",
+    "terrain_ekf_innovations", "terrain_tracks",
+]
