@@ -5,8 +5,10 @@
     python3 tasks.py test        unit tests + strict `pytest --nbval` on every notebook
     python3 tasks.py notebooks   regenerate book/**/*.ipynb from their .py sources and execute them
     python3 tasks.py lab         open the notebooks in JupyterLab (widgets live)
+    python3 tasks.py bench       benchmark against a lab-style loop and `particles` (bench/bench.py)
 
-Extra arguments after `test` go to pytest; after `notebooks`, they name the sources to run.
+Extra arguments after `test` go to pytest; after `notebooks`, they name the sources to run;
+after `bench`, see `python3 tasks.py bench --help`.
 Only the Python standard library is used here, so a fresh machine needs nothing but Python 3.11.
 """
 
@@ -18,6 +20,11 @@ import subprocess
 import sys
 import venv
 from pathlib import Path
+
+# One BLAS thread: on this 2-core machine OpenBLAS's threads make the small (N, d) @ (d, d)
+# products of the filters 4-30 times slower (measured in bench/), and the kernels, pytest and
+# the benchmark inherit this setting.
+os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 
 ROOT = Path(__file__).resolve().parent
 VENV = ROOT / ".venv"
@@ -60,11 +67,15 @@ def notebooks(args: list[str]) -> None:
     run(PY, ROOT / "tools" / "execute_notebooks.py", *sources)
 
 
+def bench(args: list[str]) -> None:
+    run(PY, ROOT / "bench" / "bench.py", *args)
+
+
 def lab(args: list[str]) -> None:
     run(BIN / "jupyter", "lab", *args, cwd=BOOK)
 
 
-COMMANDS = {"build": build, "test": test, "notebooks": notebooks, "lab": lab}
+COMMANDS = {"build": build, "test": test, "notebooks": notebooks, "lab": lab, "bench": bench}
 
 
 def main() -> int:

@@ -62,9 +62,13 @@ START, END = "<!-- bench:start -->", "<!-- bench:end -->"
 
 ROBOT_STEPS = 100
 SIZES = (1_000, 10_000, 100_000, 1_000_000)
-REPEATS = {1_000: 7, 10_000: 5, 100_000: 5, 1_000_000: 3}
+REPEATS = {1_000: 7, 10_000: 5, 100_000: 3, 1_000_000: 1}
 LOOP_MAX = 10_000
-LOOP_REPEATS = {1_000: 3, 10_000: 2}
+LOOP_REPEATS = {1_000: 2, 10_000: 1}
+#: The memory run filters the first MEMORY_STEPS steps only (tracemalloc slows the loop 20-fold).
+MEMORY_STEPS = 20
+#: tracemalloc on the loop at N = 1e4 would take minutes: its memory is measured at N = 1e3.
+LOOP_MEMORY_MAX = 1_000
 
 
 # --------------------------------------------------------------------------- data
@@ -108,29 +112,32 @@ def pfcourse_runner(model: str, d: dict):
         m = circle_scenario().model()
         z = d["Z"]
 
-    def run(n: int, seed: int) -> np.ndarray:
-        return ParticleFilter(m, n, threshold=0.5, resampler="systematic").run(z, seed).mean
+    def run(n: int, seed: int, steps: int | None = None) -> np.ndarray:
+        return ParticleFilter(m, n, threshold=0.5, resampler="systematic").run(z[:steps], seed).mean
 
     return run
 
 
 def loop_runner(model: str, d: dict):
     f = robot_loop_filter if model == "robot" else landmark_loop_filter
-    return lambda n, seed: f(d, n, seed)
+    key = "measurements" if model == "robot" else "Z"
+    return lambda n, seed, steps=None: f({**d, key: d[key][:steps]}, n, seed)
 
 
-def measure(run, n: int, repeats: int) -> dict:
-    """Wall times and means of ``repeats`` seeded runs, and the tracemalloc peak of one more."""
+def measure(run, n: int, repeats: int, memory: bool = True) -> dict:
+    """Wall times and means of ``repeats`` seeded runs, and the tracemalloc peak of one more (MEMORY_STEPS steps)."""
     times, means = [], []
     for seed in range(repeats):
         t0 = time.perf_counter()
         m = run(n, seed)
         times.append(time.perf_counter() - t0)
         means.append(np.asarray(m).tolist())
-    tracemalloc.start()
-    run(n, 1000)
-    peak = tracemalloc.get_traced_memory()[1]
-    tracemalloc.stop()
+    peak = None
+    if memory:
+        tracemalloc.start()
+        run(n, 1000, MEMORY_STEPS)
+        peak = tracemalloc.get_traced_memory()[1]
+        tracemalloc.stop()
     return {"times": times, "means": means, "peak": peak}
 
 
@@ -160,54 +167,41 @@ for _ in range(3):
         _plt.figure(_num).canvas.draw()
     _times.append(_time.perf_counter() - _t0)
     _plt.close("all")
-print("WIDGET", sorted(_times)[1])
+print("WIDGET", sorted(_times)[1], sum(_times))
 """
 
 
-def time_notebooks() -> dict:
-    """Execute every stored notebook in memory; time it, and time one widget update where there is a panel."""
+def time_notebooks() -> tuple[dict, dict]:
+    """Execute every stored notebook in memory and time it; in chapters with a panel, then time one widget update.
+
+    The widget timing runs in the same kernel after the chapter's last cell (so its
+    ``draw()`` is the chapter's own), and its duration is not counted in the chapter's time.
+    """
     import nbformat
     from nbclient import NotebookClient
 
-    out = {}
+    seconds, widgets = {}, {}
     for path in sorted((ROOT / "book").rglob("*.ipynb")):
         if "_build" in path.parts or ".ipynb_checkpoints" in path.parts:
             continue
         nb = nbformat.read(path, as_version=4)
+        has_panel = any(c.cell_type == "code" and "control_panel(" in c.source for c in nb.cells)
+        if has_panel:
+            nb.cells.append(nbformat.v4.new_code_cell(WIDGET_TIMING))
         t0 = time.perf_counter()
         NotebookClient(nb, timeout=1200, kernel_name="python3",
                        resources={"metadata": {"path": str(path.parent)}}).execute()
         elapsed = time.perf_counter() - t0
         rel = str(path.relative_to(ROOT))
-        out[rel] = {"seconds": elapsed}
-        print(f"{rel}: executed in {elapsed:.1f} s", flush=True)
-    return out
-
-
-def time_widgets() -> dict:
-    """One widget update per chapter with a panel, in a kernel that has run the chapter."""
-    import nbformat
-    from nbclient import NotebookClient
-
-    out = {}
-    for path in sorted((ROOT / "book").rglob("*.ipynb")):
-        if "_build" in path.parts:
-            continue
-        nb = nbformat.read(path, as_version=4)
-        if not any(c.cell_type == "code" and "control_panel(" in c.source for c in nb.cells):
-            continue
-        # run the cells up to and including the one defining draw(), then the timing cell
-        last = max(i for i, c in enumerate(nb.cells) if c.cell_type == "code" and "def draw(" in c.source
-                   and "control_panel" not in c.source)
-        nb.cells = [c for c in nb.cells[: last + 1]] + [nbformat.v4.new_code_cell(WIDGET_TIMING)]
-        NotebookClient(nb, timeout=1200, kernel_name="python3",
-                       resources={"metadata": {"path": str(path.parent)}}).execute()
-        text = "".join(o.get("text", "") for o in nb.cells[-1].outputs if o.get("output_type") == "stream")
-        seconds = float(text.split("WIDGET")[-1].split()[0])
-        rel = str(path.relative_to(ROOT))
-        out[rel] = seconds
-        print(f"{rel}: widget update {seconds:.3f} s", flush=True)
-    return out
+        if has_panel:
+            text = "".join(o.get("text", "") for o in nb.cells[-1].outputs if o.get("output_type") == "stream")
+            median, total = (float(v) for v in text.split("WIDGET")[-1].split()[:2])
+            widgets[rel] = median
+            elapsed -= total
+        seconds[rel] = {"seconds": elapsed}
+        print(f"{rel}: executed in {elapsed:.1f} s" + (f", widget update {widgets[rel]:.3f} s" if has_panel else ""),
+              flush=True)
+    return seconds, widgets
 
 
 # --------------------------------------------------------------------------- report
@@ -235,7 +229,7 @@ def table(results: dict, data: dict) -> str:
                 vs_part = f"{rate[name] / rate['particles']:.2f}" if "particles" in rate else ""
                 lines.append(
                     f"| {model} | {n:.0e} | {name} | {rate[name]:.3g} | {vs_loop} | {vs_part} | "
-                    f"{r['peak'] / n:.0f} | {np.mean(e):.3f}{spread} ({len(e)} runs) |"
+                    f"{'' if r['peak'] is None else round(r['peak'] / n)} | {np.mean(e):.3f}{spread} ({len(e)} runs) |"
                 )
     return "\n".join(lines)
 
@@ -249,7 +243,8 @@ def report(results: dict, data: dict) -> str:
         f"`RobotScenario`, {len(data['robot_measurements'])} steps; landmark: `circle_scenario()`, "
         f"{len(data['landmark_Z'])} steps, 12 states. Speed is the median over the runs (seeds "
         "0, 1, ...) of N × steps / wall time; memory is the tracemalloc peak of one more run "
-        "divided by N; RMSE is the robot position error, mean ± sd over the runs. "
+        f"over the first {MEMORY_STEPS} steps divided by N (not measured for the loop at N = 1e4: "
+        "tracemalloc slows it twenty-fold); RMSE is the robot position error, mean ± sd over the runs. "
         f"numpy {np.__version__} here, {r.get('particles_numpy', '?')} with particles "
         f"{r.get('particles_version', '?')}.",
         "",
@@ -299,7 +294,7 @@ def main() -> None:
                   flush=True)
             if n <= LOOP_MAX:
                 lr = 1 if args.quick else LOOP_REPEATS[n]
-                results["loop"][f"{model}/{n}"] = measure(loop_runner(model, d), n, lr)
+                results["loop"][f"{model}/{n}"] = measure(loop_runner(model, d), n, lr, n <= LOOP_MEMORY_MAX)
                 print(f"loop {model} N={n}: median {np.median(results['loop'][f'{model}/{n}']['times']):.3f} s",
                       flush=True)
 
@@ -309,15 +304,14 @@ def main() -> None:
             np.savez(Path(tmp) / "data.npz", **data)
             subprocess.run([str(py), str(BENCH / "particles_runner.py"), str(Path(tmp) / "data.npz"),
                             str(Path(tmp) / "out.json"), json.dumps(list(sizes)),
-                            json.dumps({str(n): r for n, r in repeats.items()})], check=True)
+                            json.dumps({str(n): r for n, r in repeats.items()}), str(MEMORY_STEPS)], check=True)
             out = json.loads((Path(tmp) / "out.json").read_text())
         results["particles_numpy"] = out.pop("numpy")
         results["particles_version"] = out.pop("particles")
         results["particles"] = out
 
     if not (args.quick or args.no_notebooks):
-        results["notebooks"] = time_notebooks()
-        results["widgets"] = time_widgets()
+        results["notebooks"], results["widgets"] = time_notebooks()
 
     text = report(results, data)
     print("\n" + text)

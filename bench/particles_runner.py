@@ -1,14 +1,15 @@
 """Run the `particles` library's bootstrap filter on the benchmark data (runs in bench/.venv-particles).
 
-    python particles_runner.py DATA.npz OUT.json SIZES REPEATS_JSON
+    python particles_runner.py DATA.npz OUT.json SIZES REPEATS_JSON MEMORY_STEPS
 
 ``particles`` (Chopin) needs numpy < 2, so this script runs in its own virtual environment
 and talks to bench/bench.py through files: it reads the simulated data written by the
 benchmark and writes, per model and per N, the wall times of the runs, the weighted means
-(for the RMSE) and the tracemalloc peak of one extra run.  The models are written as
-``particles.FeynmanKac`` subclasses with the same NumPy formulas as pfcourse's models
-(bootstrap: ``M`` draws from the transition, ``logG`` is the measurement log-density), and
-the library's ``SMC`` does the rest: systematic resampling when ``ESS < N / 2``, as in the
+(for the RMSE) and the tracemalloc peak of one extra run over the first MEMORY_STEPS steps.  The models are written as
+``particles.state_space_models.StateSpaceModel`` subclasses, as the library's
+documentation teaches (its ``distributions`` for the densities; the robot's transition,
+whose noise enters through the controls, is a small ``ProbDist`` with pfcourse's formulas),
+and the library's bootstrap filter (``Bootstrap`` + ``SMC``) does the rest: systematic resampling when ``ESS < N / 2``, as in the
 other two filters.
 """
 
@@ -22,6 +23,8 @@ import tracemalloc
 import numpy as np
 import particles
 from particles import collectors
+from particles import distributions as dists
+from particles import state_space_models as ssm
 
 TWO_PI = 2.0 * np.pi
 
@@ -30,26 +33,28 @@ def wrap(a):
     return a - TWO_PI * np.ceil((a - np.pi) / TWO_PI)
 
 
-class RobotFK(particles.FeynmanKac):
-    """Range-bearing robot, bootstrap filter (pfcourse.robot.RobotModel's formulas)."""
+class NoMeasurement(dists.ProbDist):
+    """Log-density 0 for every particle: a step without a measurement."""
 
-    def __init__(self, d):
-        self.d = d
-        self.lq = np.linalg.cholesky(d["q_est"])
-        chol = np.linalg.cholesky(d["r_est"])
-        self.a = np.linalg.inv(chol)
-        self.log_norm = -np.log(TWO_PI) - float(np.sum(np.log(np.diag(chol))))
-        super().__init__(T=len(d["measurements"]))
+    def __init__(self, n):
+        self.n = n
 
-    def M0(self, N):
-        x = self.d["start"] + np.random.standard_normal((N, 3)) * self.d["initial_std"]
-        x[:, 2] = wrap(x[:, 2])
-        return x
+    def logpdf(self, y):
+        return np.zeros(self.n)
 
-    def M(self, t, xp):
-        u = np.einsum("ij,kj->ik", np.random.standard_normal(xp.shape), self.lq)
-        u += self.d["odometry"][t]
-        dt = float(self.d["dt"])
+
+class RobotMotion(dists.ProbDist):
+    """``x = f(xp, u~ + w)``, ``w ~ N(0, diag(q_std^2))``: pfcourse.robot's transition, same formulas."""
+
+    dim = 3
+
+    def __init__(self, xp, odometry, q_std, dt):
+        self.xp, self.odometry, self.q_std, self.dt = xp, odometry, q_std, dt
+
+    def rvs(self, size=None):
+        u = np.random.standard_normal(self.xp.shape) * self.q_std
+        u += self.odometry
+        xp, dt = self.xp, self.dt
         c, s = np.cos(xp[:, 2]), np.sin(xp[:, 2])
         x = np.empty_like(xp)
         x[:, 0] = xp[:, 0] + (u[:, 0] * c - u[:, 1] * s) * dt
@@ -57,18 +62,41 @@ class RobotFK(particles.FeynmanKac):
         x[:, 2] = wrap(xp[:, 2] + u[:, 2] * dt)
         return x
 
-    def logG(self, t, xp, x):
+
+class Robot(ssm.StateSpaceModel):
+    """The range-bearing robot as a `particles` state-space model (diagonal Q and R, as in the benchmark).
+
+    The data are the ``(range, bearing)`` pairs; the landmark index of each step is known
+    to the model.  The bearing's Gaussian is centred on the predicted bearing moved by a
+    multiple of 2 pi to the measurement's side, so its log-density is that of the wrapped
+    innovation, as in pfcourse.
+    """
+
+    def __init__(self, d):
+        self.d = d
+        self.q_std = np.sqrt(np.diag(d["q_est"]))
+        self.r_std = np.sqrt(np.diag(d["r_est"]))
+
+    def PX0(self):
+        m, s = self.d["start"], self.d["initial_std"]
+        return dists.IndepProd(*(dists.Normal(loc=m[i], scale=s[i]) for i in range(3)))
+
+    def PX(self, t, xp):
+        return RobotMotion(xp, self.d["odometry"][t], self.q_std, float(self.d["dt"]))
+
+    def PY(self, t, xp, x):
         z = self.d["measurements"][t]
         if np.isnan(z[0]):
-            return np.zeros(x.shape[0])
+            return NoMeasurement(x.shape[0])
         lx, ly = self.d["landmarks"][int(z[0])]
         dx, dy = lx - x[:, 0], ly - x[:, 1]
-        nu_r = z[1] - np.hypot(dx, dy)
-        nu_b = wrap(z[2] - wrap(np.arctan2(dy, dx) - x[:, 2]))
-        a = self.a
-        e0 = a[0, 0] * nu_r
-        e1 = a[1, 0] * nu_r + a[1, 1] * nu_b
-        return self.log_norm - 0.5 * (e0 * e0 + e1 * e1)
+        bearing = wrap(np.arctan2(dy, dx) - x[:, 2])
+        return dists.IndepProd(dists.Normal(loc=np.hypot(dx, dy), scale=self.r_std[0]),
+                               dists.Normal(loc=z[2] - wrap(z[2] - bearing), scale=self.r_std[1]))
+
+
+def robot_data(d):
+    return [row[1:] for row in d["measurements"]]
 
 
 def robot_moments(W, X):
@@ -77,47 +105,42 @@ def robot_moments(W, X):
                      np.arctan2(W @ np.sin(X[:, 2]), W @ np.cos(X[:, 2]))])
 
 
-class LandmarkFK(particles.FeynmanKac):
-    """Linear-Gaussian landmark model, bootstrap filter (pfcourse.linear_gaussian's formulas)."""
+class Landmark(ssm.StateSpaceModel):
+    """The linear-Gaussian landmark model with `particles`' multivariate normals; NaN entries are unobserved."""
 
     def __init__(self, d):
         self.d = d
-        self.l0 = np.linalg.cholesky(d["P0"])
-        eigval, eigvec = np.linalg.eigh(d["Q"])
-        self.lq = eigvec * np.sqrt(np.clip(eigval, 0.0, None))
-        super().__init__(T=len(d["Z"]))
+        self.seen = ~np.isnan(d["Z"])
 
-    def M0(self, N):
-        return self.d["m0"] + np.random.standard_normal((N, len(self.d["m0"]))) @ self.l0.T
+    def PX0(self):
+        return dists.MvNormal(loc=self.d["m0"], cov=self.d["P0"])
 
-    def M(self, t, xp):
-        noise = np.random.standard_normal(xp.shape) @ self.lq.T
-        return xp @ self.d["F"].T + self.d["B"] + noise
+    def PX(self, t, xp):
+        return dists.MvNormal(loc=xp @ self.d["F"].T + self.d["B"], cov=self.d["Q"])
 
-    def logG(self, t, xp, x):
-        z = self.d["Z"][t]
-        seen = ~np.isnan(z)
+    def PY(self, t, xp, x):
+        seen = self.seen[t]
         if not seen.any():
-            return np.zeros(x.shape[0])
-        r = self.d["R"][np.ix_(seen, seen)]
-        chol = np.linalg.cholesky(r)
-        res = z[seen] - x @ self.d["H"][seen].T
-        white = np.linalg.solve(chol, res.T)
-        return -0.5 * (np.sum(white * white, axis=0) + 2 * np.sum(np.log(np.diag(chol)))
-                       + len(r) * np.log(TWO_PI))
+            return NoMeasurement(x.shape[0])
+        return dists.MvNormal(loc=x @ self.d["H"][seen].T, cov=self.d["R"][np.ix_(seen, seen)])
+
+
+def landmark_data(d):
+    return [z[~np.isnan(z)] for z in d["Z"]]
 
 
 def landmark_moments(W, X):
     return W @ X
 
 
-MODELS = {"robot": (RobotFK, robot_moments), "landmark": (LandmarkFK, landmark_moments)}
+MODELS = {"robot": (Robot, robot_data, robot_moments), "landmark": (Landmark, landmark_data, landmark_moments)}
 
 
-def run_once(model: str, d, n: int, seed: int) -> np.ndarray:
-    fk_class, moments = MODELS[model]
+def run_once(model: str, d, n: int, seed: int, steps=None) -> np.ndarray:
+    model_class, data, moments = MODELS[model]
     np.random.seed(seed)
-    alg = particles.SMC(fk=fk_class(d), N=n, resampling="systematic", ESSrmin=0.5,
+    fk = ssm.Bootstrap(ssm=model_class(d), data=data(d)[:steps])
+    alg = particles.SMC(fk=fk, N=n, resampling="systematic", ESSrmin=0.5,
                         collect=[collectors.Moments(mom_func=moments)])
     alg.run()
     return np.array(alg.summaries.moments)
@@ -125,8 +148,11 @@ def run_once(model: str, d, n: int, seed: int) -> np.ndarray:
 
 def main() -> None:
     data_file, out_file, sizes, repeats = sys.argv[1], sys.argv[2], json.loads(sys.argv[3]), json.loads(sys.argv[4])
+    memory_steps = int(sys.argv[5])
     raw = np.load(data_file)
-    out = {"numpy": np.__version__, "particles": getattr(particles, "__version__", "?")}
+    from importlib.metadata import version
+
+    out = {"numpy": np.__version__, "particles": version("particles")}
     for model in MODELS:
         d = {k[len(model) + 1:]: raw[k] for k in raw.files if k.startswith(model + "_")}
         run_once(model, d, 100, 0)  # warm up (numba compilation of the resampler)
@@ -138,7 +164,7 @@ def main() -> None:
                 times.append(time.perf_counter() - t0)
                 means.append(m.tolist())
             tracemalloc.start()
-            run_once(model, d, n, 1000)
+            run_once(model, d, n, 1000, memory_steps)
             peak = tracemalloc.get_traced_memory()[1]
             tracemalloc.stop()
             out[f"{model}/{n}"] = {"times": times, "means": means, "peak": peak}
