@@ -284,31 +284,33 @@ def main() -> None:
                "machine": f"{os.cpu_count()} cores, {platform.machine()}, Python {platform.python_version()}",
                "pfcourse": {}, "loop": {}, "particles": {}}
 
-    for model in ("robot", "landmark"):
-        d = sub(data, model)
-        pf = pfcourse_runner(model, d)
-        pf(100, 0)  # warm up
-        for n in sizes:
-            results["pfcourse"][f"{model}/{n}"] = measure(pf, n, repeats[n])
-            print(f"pfcourse {model} N={n}: median {np.median(results['pfcourse'][f'{model}/{n}']['times']):.3f} s",
-                  flush=True)
-            if n <= LOOP_MAX:
-                lr = 1 if args.quick else LOOP_REPEATS[n]
-                results["loop"][f"{model}/{n}"] = measure(loop_runner(model, d), n, lr, n <= LOOP_MEMORY_MAX)
-                print(f"loop {model} N={n}: median {np.median(results['loop'][f'{model}/{n}']['times']):.3f} s",
+    py = None if args.no_particles else ensure_particles_venv()
+    with tempfile.TemporaryDirectory() as tmp:
+        data_file = Path(tmp) / "data.npz"
+        np.savez(data_file, **data)
+        for model in ("robot", "landmark"):
+            d = sub(data, model)
+            pf = pfcourse_runner(model, d)
+            pf(100, 0)  # warm up
+            # interleaved, N by N, so that the three filters see the same load on the shared machine
+            for n in sizes:
+                key = f"{model}/{n}"
+                results["pfcourse"][key] = measure(pf, n, repeats[n])
+                print(f"pfcourse {model} N={n}: median {np.median(results['pfcourse'][key]['times']):.3f} s",
                       flush=True)
-
-    if not args.no_particles:
-        py = ensure_particles_venv()
-        with tempfile.TemporaryDirectory() as tmp:
-            np.savez(Path(tmp) / "data.npz", **data)
-            subprocess.run([str(py), str(BENCH / "particles_runner.py"), str(Path(tmp) / "data.npz"),
-                            str(Path(tmp) / "out.json"), json.dumps(list(sizes)),
-                            json.dumps({str(n): r for n, r in repeats.items()}), str(MEMORY_STEPS)], check=True)
-            out = json.loads((Path(tmp) / "out.json").read_text())
-        results["particles_numpy"] = out.pop("numpy")
-        results["particles_version"] = out.pop("particles")
-        results["particles"] = out
+                if py is not None:
+                    out_file = Path(tmp) / "out.json"
+                    subprocess.run([str(py), str(BENCH / "particles_runner.py"), str(data_file), str(out_file),
+                                    json.dumps([n]), json.dumps({str(n): repeats[n]}), str(MEMORY_STEPS), model],
+                                   check=True)
+                    out = json.loads(out_file.read_text())
+                    results["particles_numpy"] = out.pop("numpy")
+                    results["particles_version"] = out.pop("particles")
+                    results["particles"].update(out)
+                if n <= LOOP_MAX:
+                    lr = 1 if args.quick else LOOP_REPEATS[n]
+                    results["loop"][key] = measure(loop_runner(model, d), n, lr, n <= LOOP_MEMORY_MAX)
+                    print(f"loop {model} N={n}: median {np.median(results['loop'][key]['times']):.3f} s", flush=True)
 
     if not (args.quick or args.no_notebooks):
         results["notebooks"], results["widgets"] = time_notebooks()

@@ -1,6 +1,6 @@
 """Run the `particles` library's bootstrap filter on the benchmark data (runs in bench/.venv-particles).
 
-    python particles_runner.py DATA.npz OUT.json SIZES REPEATS_JSON MEMORY_STEPS
+    python particles_runner.py DATA.npz OUT.json SIZES REPEATS_JSON MEMORY_STEPS [MODEL ...]
 
 ``particles`` (Chopin) needs numpy < 2, so this script runs in its own virtual environment
 and talks to bench/bench.py through files: it reads the simulated data written by the
@@ -149,11 +149,12 @@ def run_once(model: str, d, n: int, seed: int, steps=None) -> np.ndarray:
 def main() -> None:
     data_file, out_file, sizes, repeats = sys.argv[1], sys.argv[2], json.loads(sys.argv[3]), json.loads(sys.argv[4])
     memory_steps = int(sys.argv[5])
+    models = sys.argv[6:] or list(MODELS)
     raw = np.load(data_file)
     from importlib.metadata import version
 
     out = {"numpy": np.__version__, "particles": version("particles")}
-    for model in MODELS:
+    for model in models:
         d = {k[len(model) + 1:]: raw[k] for k in raw.files if k.startswith(model + "_")}
         run_once(model, d, 100, 0)  # warm up (numba compilation of the resampler)
         for n in sizes:
