@@ -1,6 +1,6 @@
 """Benchmark: pfcourse's particle filter against a lab-style loop and the `particles` library.
 
-    python3 tasks.py bench                 # everything (about 15 min on the 2-core machine)
+    python3 tasks.py bench                 # everything (about 6 min on the shared 2-core machine)
     python3 tasks.py bench --quick         # N = 1e3, 1e4 only, one repeat, no notebooks
     python3 tasks.py bench --no-notebooks  # skip the book execution and widget timings
 
