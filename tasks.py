@@ -6,10 +6,11 @@
     python3 tasks.py browser-test  every built page in a real browser (chromium), network blocked
     python3 tasks.py notebooks     regenerate book/**/*.ipynb from their .py sources and execute them
     python3 tasks.py lab           open the notebooks in JupyterLab (widgets live)
+    python3 tasks.py bench         benchmark against a lab-style loop and `particles` (bench/bench.py)
 
 Extra arguments after `test` and `browser-test` go to pytest; after `notebooks`, they name
-the sources to run. Only the Python standard library is used here. `build` also needs npm
-(node 20): the JavaScript the book serves itself (MathJax, require.js, the widget manager,
+the sources to run; after `bench`, see `python3 tasks.py bench --help`. Only the Python
+standard library is used here. `build` also needs npm (node 20): the JavaScript the book serves itself (MathJax, require.js, the widget manager,
 the animation icons) is installed with `npm ci` from web/package-lock.json. `browser-test`
 needs Debian's chromium at /usr/bin/chromium and installs it with apt-get when missing.
 """
@@ -23,6 +24,11 @@ import subprocess
 import sys
 import venv
 from pathlib import Path
+
+# One BLAS thread: on this 2-core machine OpenBLAS's threads make the small (N, d) @ (d, d)
+# products of the filters 4-30 times slower (measured in bench/), and the kernels, pytest and
+# the benchmark inherit this setting.
+os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 
 ROOT = Path(__file__).resolve().parent
 VENV = ROOT / ".venv"
@@ -52,11 +58,6 @@ VENDOR = [
     ("font-awesome/README.md", "font-awesome/README.md"),
 ]
 VENDOR_SKIP = ("*.map", "embed.js", "embed.js.LICENSE.txt")  # not used by the book
-
-# The filters multiply tall, thin arrays by small matrices; on a 2-core machine OpenBLAS's
-# threads only add contention (measured: filter runs up to 8x slower). One thread for every
-# command and every notebook kernel they start, unless the caller chose otherwise.
-os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 
 
 def run(*cmd: str | Path, **kw) -> None:
@@ -160,6 +161,10 @@ def notebooks(args: list[str]) -> None:
     run(PY, ROOT / "tools" / "execute_notebooks.py", *sources)
 
 
+def bench(args: list[str]) -> None:
+    run(PY, ROOT / "bench" / "bench.py", *args)
+
+
 def lab(args: list[str]) -> None:
     run(BIN / "jupyter", "lab", *args, cwd=BOOK)
 
@@ -170,6 +175,7 @@ COMMANDS = {
     "browser-test": browser_test,
     "notebooks": notebooks,
     "lab": lab,
+    "bench": bench,
 }
 
 

@@ -318,7 +318,8 @@ class ParticleFilter:
                 f"step {k}: the model returned particles of shape {particles.shape}, "
                 f"expected {expected}"
             )
-        if not np.all(np.isfinite(particles)):
+        # min and max propagate NaN: one pass each, without an (N, d) temporary
+        if particles.size and not (np.isfinite(particles.min()) and np.isfinite(particles.max())):
             raise NumericalError(
                 f"step {k}: the model produced NaN or infinite particle states", step=k
             )
@@ -331,7 +332,8 @@ class ParticleFilter:
                 f"step {k}: the log-likelihood has shape {log_inc.shape}, "
                 f"expected ({self.n_particles},)"
             )
-        if np.any(np.isnan(log_inc)) or np.any(log_inc == np.inf):
+        top = log_inc.max()  # NaN if any entry is NaN
+        if np.isnan(top) or top == np.inf:
             bad = int(np.sum(np.isnan(log_inc) | (log_inc == np.inf)))
             raise NumericalError(
                 f"step {k}: the log-likelihood is NaN or +inf for {bad} particle(s)", step=k

@@ -293,6 +293,10 @@ class RobotModel:
         self.q_est = check_covariance(q_est, "q_est", 3)
         self.r_est = check_covariance(r_est, "r_est", 2, definite=True)
         self._q_factor = covariance_factor(self.q_est)
+        # A diagonal factor (the usual case) scales each noise column: the same floats as the
+        # einsum below (tested), several times faster.
+        off_diagonal = self._q_factor - np.diag(np.diag(self._q_factor))
+        self._q_diagonal = np.diag(self._q_factor).copy() if not off_diagonal.any() else None
         self._r_chol = np.linalg.cholesky(self.r_est)
         self._r_inv_chol = np.linalg.inv(self._r_chol)
         self._log_norm = -np.log(2.0 * np.pi) - float(np.sum(np.log(np.diag(self._r_chol))))
@@ -348,7 +352,10 @@ class RobotModel:
             raise ParameterError(f"step {k} is outside the odometry (K = {len(self.odometry)})")
         # w = L e with L L^T = q_est; einsum is several times faster than ``@`` for an (N, 3) x (3, 3)
         # product here, and allocates nothing beyond the (N, 3) result.
-        controls = np.einsum("ij,kj->ik", rng.standard_normal(particles.shape), self._q_factor)
+        if self._q_diagonal is not None:
+            controls = rng.standard_normal(particles.shape) * self._q_diagonal
+        else:
+            controls = np.einsum("ij,kj->ik", rng.standard_normal(particles.shape), self._q_factor)
         controls += self.odometry[k]
         return motion(particles, controls, self.dt)
 
