@@ -572,7 +572,7 @@ axes[0].set_ylabel("position RMSE (m)")
 axes[1].set_ylabel("heading RMSE (deg)")
 for ax in axes:
     ax.set_xscale("log")
-    ax.set_yscale("log")
+    ax.set_ylim(0, None)
     ax.set_xlabel("number of landmarks")
 fig.suptitle(f"Median and 10-90 % band over {N_RUNS} runs per number", fontsize=10)
 plt.tight_layout()
