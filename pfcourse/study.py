@@ -16,7 +16,9 @@ and returns a dictionary of metrics.  The result is a tidy table, one row per
   every particle impossible, a NaN) is recorded with ``status = "failed"`` and its
   message; the study goes on.  Configuration errors and bugs still stop it.
 * **Batches.** ``run_batch(seeds=[...], **s)`` may replace ``run_one`` when a
-  model can run several replicates at once; it returns one dictionary per seed.
+  model can run several replicates at once; it returns one dictionary per seed,
+  or, for a replicate that collapsed, the :class:`~pfcourse.errors.StepError`
+  instance it would have raised (recorded as a failed run, the others kept).
 """
 
 from __future__ import annotations
@@ -104,7 +106,8 @@ def _one_row(run_one, setting: dict, r: int, seed: int) -> dict:
 def _batch_rows(run_batch, setting: dict, runs: list[int], seeds: list[int]) -> list[dict]:
     start = time.perf_counter()
     try:
-        results = [(dict(m), "ok", "") for m in run_batch(seeds=seeds, **setting)]
+        results = [({}, "failed", f"{type(m).__name__}: {m}") if isinstance(m, StepError) else (dict(m), "ok", "")
+                   for m in run_batch(seeds=seeds, **setting)]
         if len(results) != len(seeds):
             raise ParameterError(f"run_batch returned {len(results)} results for {len(seeds)} seeds")
     except StepError:
