@@ -109,7 +109,9 @@ def nees(
     """Normalised estimation error squared ``e^T P^{-1} e`` with ``e = x - m``, per time step.
 
     ``truth`` and ``estimate`` have shape ``(K, d)``, ``covariance`` ``(K, d, d)``;
-    returns shape ``(K,)``.  Angle components of ``e`` are wrapped.
+    returns shape ``(K,)``.  Angle components of ``e`` are wrapped.  A step whose covariance
+    is singular (a particle cloud collapsed onto one point) gets NEES ``+inf``: the
+    estimator claims a certainty that the error contradicts.
     """
     truth = np.atleast_2d(np.asarray(truth, dtype=float))
     estimate = np.atleast_2d(np.asarray(estimate, dtype=float))
@@ -124,7 +126,23 @@ def nees(
     err = truth - estimate
     for j in angle_indices:
         err[:, j] = wrap_angle(err[:, j])
-    return np.einsum("ki,ki->k", err, np.linalg.solve(covariance, err[..., None])[..., 0])
+    with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
+        try:
+            solved = np.linalg.solve(covariance, err[..., None])[..., 0]
+            values = np.einsum("ki,ki->k", err, solved)
+        except np.linalg.LinAlgError:
+            values = np.array([_nees_one(e, c) for e, c in zip(err, covariance)])
+    # A (nearly) singular covariance overflows the solve: the cloud claims certainty.
+    collapsed = ~np.isfinite(values) & np.all(np.isfinite(err), axis=1)
+    return np.where(collapsed, np.inf, values)
+
+
+def _nees_one(err: np.ndarray, cov: np.ndarray) -> float:
+    """NEES of one step; +inf when ``cov`` is singular (a collapsed cloud claims certainty)."""
+    try:
+        return float(err @ np.linalg.solve(cov, err))
+    except np.linalg.LinAlgError:
+        return float("inf")
 
 
 def chi2_band(dof: int, n_runs: int = 1, probability: float = 0.95) -> tuple[float, float]:

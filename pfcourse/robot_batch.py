@@ -250,10 +250,8 @@ def pf_batch(
             out.append(failure[b])
             continue
         pos, head = rmse(batch.truth, mean[b], burn_in)
-        try:
-            mean_nees = float(np.mean(nees(batch.truth[burn_in:], mean[b, burn_in:], cov[b, burn_in:], ANGLE_INDICES)))
-        except np.linalg.LinAlgError:  # all weight on one particle at some step: a zero covariance
-            mean_nees = np.inf
+        # inf when all weight sat on one particle at some step (a zero covariance)
+        mean_nees = float(np.mean(nees(batch.truth[burn_in:], mean[b, burn_in:], cov[b, burn_in:], ANGLE_INDICES)))
         err = mean[b] - batch.truth
         err[:, 2] = wrap_angle(err[:, 2])
         distance = np.hypot(err[:, 0], err[:, 1])

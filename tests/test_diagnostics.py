@@ -156,3 +156,18 @@ def test_scalar_checks():
         check_count(0, "N")
     with pytest.raises(ParameterError, match="N must be an integer"):
         check_count(True, "N")
+
+
+def test_nees_of_a_collapsed_cloud_is_infinite_not_an_error():
+    truth = np.array([[1.0, 2.0], [0.0, 0.0]])
+    estimate = np.array([[1.5, 2.0], [0.5, 0.0]])
+    cov = np.array([np.eye(2), np.zeros((2, 2))])  # step 1: all weight on one particle
+    values = nees(truth, estimate, cov)
+    assert values[0] == pytest.approx(0.25) and values[1] == np.inf
+
+
+def test_nees_of_a_nearly_collapsed_cloud_is_infinite_without_warnings():
+    truth = np.array([[1.0, 0.0]])
+    cov = np.array([[[1e-320, 0.0], [0.0, 1e-320]]])  # its inverse overflows
+    assert nees(truth, np.zeros((1, 2)), cov)[0] == np.inf
+    assert np.isnan(nees(np.array([[np.nan, 0.0]]), np.zeros((1, 2)), np.eye(2)[None]))[0]
