@@ -19,3 +19,4 @@ def test_chapter_with_figures_uses_the_book_style(source: Path) -> None:
     assert re.search(r"^use_style\(\)|^plotting\.use_style\(\)", text, flags=re.M), (
         f"{source.name} draws figures: call pfcourse.plotting.use_style() at the top"
     )
+

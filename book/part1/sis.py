@@ -48,7 +48,7 @@ from matplotlib.animation import FuncAnimation
 from pfcourse.filter import ParticleFilter
 from pfcourse.kalman import kalman_filter
 from pfcourse.landmarks import quadrant_scenario, simulate
-from pfcourse.plotting import COLORS, ellipse_patch, use_style
+from pfcourse.plotting import COLORS, ellipse_patch, posterior_bands, use_style
 from pfcourse.widgets import control_panel, particle_slider, scale_slider, seed_box
 
 use_style()
@@ -64,22 +64,7 @@ kf = kalman_filter(model, sim.Z)
 # %%
 sis = ParticleFilter(model, 100, threshold=0.0)
 res = sis.run(sim.Z, rng=1, store_particles=True)
-fig, axes = plt.subplots(3, 2, figsize=(9, 6.5), sharex=True)
-kf_sd = np.sqrt(np.diagonal(kf.cov, axis1=1, axis2=2))
-pf_sd = np.sqrt(np.diagonal(res.cov, axis1=1, axis2=2))
-for j, ax in enumerate(axes.flat):
-    ax.fill_between(sim.T, kf.mean[:, j] - 3 * kf_sd[:, j], kf.mean[:, j] + 3 * kf_sd[:, j],
-                    color=COLORS["kalman"], alpha=0.2, label=r"Kalman $\pm3\sigma$")
-    ax.fill_between(sim.T, res.mean[:, j] - 3 * pf_sd[:, j], res.mean[:, j] + 3 * pf_sd[:, j],
-                    color=COLORS["estimate"], alpha=0.3, label=r"SIS $\pm3\sigma$")
-    ax.plot(sim.T, kf.mean[:, j], color=COLORS["kalman"], lw=1)
-    ax.plot(sim.T, res.mean[:, j], color=COLORS["estimate"], lw=1)
-    ax.plot(sim.T, sim.X[:, j], color=COLORS["truth"], lw=0.8, ls="--")
-    ax.set_ylabel(f"{LABELS[j]} (m)")
-for ax in axes[-1]:
-    ax.set_xlabel("time t (s)")
-axes.flat[0].legend(fontsize=8, loc="upper right")
-fig.suptitle("SIS (N = 100) against the exact posterior; dashed: truth")
+posterior_bands(sim.T, sim.X, kf, res, LABELS, "SIS", "SIS (N = 100) against the exact posterior; dashed: truth")
 plt.show()
 
 # %% [markdown]
