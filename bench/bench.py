@@ -23,7 +23,7 @@ peak of one extra run divided by N, the same method in both environments) and ea
 filter's RMSE (mean and standard deviation over the runs; the runs use seeds 0, 1, ...).
 It then executes every notebook of the book in memory (nbclient; the stored notebooks are
 not touched) and times one widget update per chapter that has a panel: a call of the
-chapter's ``draw()`` with its default values plus a render of the figure with Agg.
+chapter's last panel redrawn at its default values plus a render of the figure with Agg.
 
 The table is written between the markers of the README's benchmark section and the raw
 numbers to bench/results.json.  All timings of one invocation come from the same session;
@@ -157,12 +157,13 @@ def ensure_particles_venv() -> Path:
 WIDGET_TIMING = """
 import time as _time
 import matplotlib.pyplot as _plt
+from pfcourse.widgets import redraw_last_panel as _redraw
 _plt.switch_backend("Agg")
 _plt.close("all")
 _times = []
 for _ in range(3):
     _t0 = _time.perf_counter()
-    draw()
+    _redraw()
     for _num in _plt.get_fignums():
         _plt.figure(_num).canvas.draw()
     _times.append(_time.perf_counter() - _t0)
@@ -175,7 +176,7 @@ def time_notebooks() -> tuple[dict, dict]:
     """Execute every stored notebook in memory and time it; in chapters with a panel, then time one widget update.
 
     The widget timing runs in the same kernel after the chapter's last cell (so its
-    ``draw()`` is the chapter's own), and its duration is not counted in the chapter's time.
+    last panel is the chapter's own), and its duration is not counted in the chapter's time.
     """
     import nbformat
     from nbclient import NotebookClient
@@ -255,7 +256,7 @@ def report(results: dict, data: dict) -> str:
         parts += ["", f"Executing every notebook of the book (nbclient, in memory): {total:.0f} s in total ("
                   + ", ".join(f"`{k}` {v['seconds']:.0f} s" for k, v in r["notebooks"].items()) + ")."]
     if r.get("widgets"):
-        parts += ["", "One widget update (the chapter's `draw()` with its default values and an Agg "
+        parts += ["", "One widget update (the chapter's last panel redrawn at its default values, with an Agg "
                   "render, median of 3): " + ", ".join(f"`{k}` {v:.2f} s" for k, v in r["widgets"].items())
                   + "."]
     return "\n".join(parts)

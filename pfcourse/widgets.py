@@ -53,8 +53,21 @@ def seed_box(value: int = 0) -> widgets.BoundedIntText:
     return widgets.BoundedIntText(value=value, min=0, max=2**31 - 1, description="seed", style=_STYLE)
 
 
+_last_panel: tuple[Callable[..., None], dict[str, widgets.ValueWidget]] | None = None
+
+
+def redraw_last_panel() -> None:
+    """Call the most recent panel's ``draw`` with its controls' current values (for timing a widget update)."""
+    if _last_panel is None:
+        raise RuntimeError("no control panel has been built in this session")
+    draw, controls = _last_panel
+    draw(**{name: control.value for name, control in controls.items()})
+
+
 def control_panel(draw: Callable[..., None], columns: int = 3, **controls: widgets.ValueWidget) -> widgets.VBox:
     """Controls in a grid above the figure that ``draw(**values)`` makes; redrawn on every change."""
+    global _last_panel
+    _last_panel = (draw, controls)
 
     def redraw(**values) -> None:
         draw(**values)

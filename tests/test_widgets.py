@@ -33,3 +33,15 @@ def test_control_defaults_and_ranges():
     assert set(scheme_dropdown().options) == {"multinomial", "stratified", "systematic", "residual"}
     s = scale_slider("QEst scale")
     assert s.value == 1.0 and s.min == -1 and s.max == 1
+
+
+def test_redraw_last_panel_uses_the_current_values():
+    from pfcourse.widgets import redraw_last_panel
+
+    calls = []
+    threshold = threshold_slider(0.3)
+    control_panel(lambda **values: calls.append(values), threshold=threshold)
+    threshold.value = 0.8
+    calls.clear()
+    redraw_last_panel()
+    assert calls == [{"threshold": 0.8}]
