@@ -2,7 +2,8 @@
 
 The notebooks teach; the plumbing lives here.  Main entry points:
 
-* :class:`pfcourse.filter.ParticleFilter` - SIS / SIR with log-domain weights;
+* :class:`pfcourse.filter.ParticleFilter` - SIS / SIR with log-domain weights (its inner
+  loops compiled with numba in :mod:`pfcourse.kernels`);
 * :mod:`pfcourse.resampling` - multinomial, stratified, systematic, residual;
 * :mod:`pfcourse.diagnostics` - ESS, weighted moments, NEES, ellipses;
 * :mod:`pfcourse.landmarks` - scenario A (linear landmark model) and its simulator;

@@ -22,6 +22,12 @@ unchanged: the particles move through the transition only.  A measurement with
 *some* NaN entries is passed to the model, whose likelihood treats NaN entries
 as "not observed".  Any NaN produced by the model, and a step at which every
 particle has zero likelihood, raise a named error that gives the step.
+
+Steps 3 and 4 run as compiled loops (:mod:`pfcourse.kernels`): one pass over the particles
+for the weights, the ESS and the log-likelihood increment (the same floats as
+:func:`~pfcourse.diagnostics.normalize_log_weights`), two for the moments, one merge pass
+for the resampled indices.  The model's own methods are plain NumPy unless the model
+compiles them too (:class:`pfcourse.robot.RobotModel` does).
 """
 
 from __future__ import annotations
@@ -33,12 +39,8 @@ from typing import Protocol
 import numpy as np
 
 from .checks import check_count, check_probability
-from .diagnostics import (
-    effective_sample_size,
-    normalize_log_weights,
-    weighted_covariance,
-    weighted_mean,
-)
+from . import kernels
+from .diagnostics import effective_sample_size
 from .errors import DegenerateWeightsError, NumericalError, ShapeError
 from .resampling import get_resampler
 
@@ -251,6 +253,9 @@ class ParticleFilter:
         particles = None
         log_weights = np.full(n, -np.log(n))
         weights = np.full(n, 1.0 / n)
+        scratch = np.empty(n)
+        is_angle = np.zeros(d, dtype=bool)
+        is_angle[list(self.angle_indices)] = True
         for k in range(n_steps):
             z = measurements[k]
             missing = is_missing(z)
@@ -268,26 +273,24 @@ class ParticleFilter:
 
             if log_inc is not None:
                 log_inc = self._check_log_increments(log_inc, k)
-                unnormalized = log_weights + log_inc
-                try:
-                    weights, log_inc_total[k] = normalize_log_weights(unnormalized)
-                except DegenerateWeightsError as exc:
+                weights = np.empty(n)
+                log_inc_total[k], ess[k] = kernels.normalize_step(log_weights, log_inc, weights, scratch)
+                if log_inc_total[k] == -np.inf:
                     raise DegenerateWeightsError(
                         f"step {k}: every particle has zero likelihood for the measurement "
                         f"{np.array2string(z, precision=4)}; the filter has lost track "
                         "(more particles, a wider process noise or a better proposal may help)",
                         step=k,
-                    ) from exc
-                log_weights = unnormalized - log_inc_total[k]
+                    )
+            else:
+                ess[k] = effective_sample_size(weights)
 
-            mean[k] = weighted_mean(particles, weights, self.angle_indices)
-            cov[k] = weighted_covariance(particles, weights, mean[k], self.angle_indices)
-            ess[k] = effective_sample_size(weights)
+            mean[k], cov[k] = kernels.weighted_moments(particles, weights, is_angle)
             if store_particles:
                 stored_x[k] = particles
                 stored_w[k] = weights
             if ess[k] < self.threshold * n * (1.0 - 1e-12):
-                particles = particles[self.resampler(weights, rng)]
+                particles = kernels.gather_rows(particles, self.resampler(weights, rng))
                 if self.jitter is not None:
                     particles = self._check_particles(self.jitter(particles, rng), k)
                 log_weights = np.full(n, -np.log(n))

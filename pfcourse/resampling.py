@@ -33,7 +33,9 @@ The inverse-CDF step guards against round-off: the cumulative sum is capped at
 1 and forced to exactly 1.0 from the last positive weight on, and uniforms are
 kept strictly below 1, so no index can fall past the end of the array (the
 stratified and systematic resamplers of filterpy 2.0.0 can, when the
-cumulative sum ends just below 1).
+cumulative sum ends just below 1).  The uniforms are sorted (systematic and
+stratified ones are born sorted), so the indices come from one merge pass over
+the cumulative sum (:func:`pfcourse.kernels.inverse_cdf_sorted`).
 """
 
 from __future__ import annotations
@@ -43,11 +45,11 @@ from collections.abc import Callable
 import numpy as np
 
 from pfcourse.errors import ParameterError, WeightError
+from pfcourse.kernels import inverse_cdf_sorted
 
 Resampler = Callable[..., np.ndarray]
 
 _SUM_TOLERANCE = 1e-8
-_LARGEST_BELOW_ONE = np.nextafter(1.0, 0.0)
 # n * w_i is only known to a few ulps: 0.9999999999999998 must count as one
 # full copy in residual resampling, or uniform weights would lose their copies.
 _SNAP = 8 * np.finfo(np.float64).eps
@@ -79,19 +81,6 @@ def _validated(weights: np.ndarray, n: int | None) -> tuple[np.ndarray, int]:
     return w / total, int(n)
 
 
-def _inverse_cdf(w: np.ndarray, u: np.ndarray) -> np.ndarray:
-    """Map uniforms ``u`` in [0, 1) to the indices ``i`` with ``C_{i-1} <= u < C_i``.
-
-    ``C`` is the cumulative sum of ``w``, capped at 1 and set to exactly 1.0
-    from the last positive weight on, so the result lies in ``[0, len(w))`` and
-    never points at a zero weight.
-    """
-    cdf = np.minimum(np.cumsum(w), 1.0)
-    cdf[np.flatnonzero(w)[-1] :] = 1.0
-    u = np.minimum(u, _LARGEST_BELOW_ONE)
-    return np.searchsorted(cdf, u, side="right").astype(np.int64)
-
-
 def multinomial(
     weights: np.ndarray, rng: np.random.Generator, n: int | None = None
 ) -> np.ndarray:
@@ -101,7 +90,7 @@ def multinomial(
     ``Var N_i = n w_i (1 - w_i)``.
     """
     w, n = _validated(weights, n)
-    return np.sort(_inverse_cdf(w, rng.random(n)))
+    return inverse_cdf_sorted(w, np.sort(rng.random(n)))
 
 
 def stratified(
@@ -114,7 +103,7 @@ def stratified(
     ``floor(n w_i) - 1 <= N_i <= floor(n w_i) + 2``.
     """
     w, n = _validated(weights, n)
-    return _inverse_cdf(w, (np.arange(n) + rng.random(n)) / n)
+    return inverse_cdf_sorted(w, (np.arange(n) + rng.random(n)) / n)
 
 
 def systematic(
@@ -127,7 +116,7 @@ def systematic(
     ``Var N_i = r_i (1 - r_i)``.
     """
     w, n = _validated(weights, n)
-    return _inverse_cdf(w, (np.arange(n) + rng.random()) / n)
+    return inverse_cdf_sorted(w, (np.arange(n) + rng.random()) / n)
 
 
 def residual(
@@ -145,7 +134,7 @@ def residual(
     remaining = n - int(copies.sum())
     if remaining > 0:
         fractions = np.maximum(expected - copies, 0.0)
-        drawn = _inverse_cdf(fractions / fractions.sum(), rng.random(remaining))
+        drawn = inverse_cdf_sorted(fractions / fractions.sum(), np.sort(rng.random(remaining)))
         copies += np.bincount(drawn, minlength=w.size)
     return np.repeat(np.arange(w.size, dtype=np.int64), copies)
 

@@ -46,13 +46,16 @@ so a study that varies one setting compares like with like.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field, replace
 
+import numba
 import numpy as np
 
 from .angles import wrap_angle
 from .checks import as_matrix, as_vector, check_count, check_covariance, covariance_factor
 from .errors import ParameterError, ShapeError
+from .kernels import chunk, jit, n_chunks, pjit, use_threads, wrap
 
 Array = np.ndarray
 
@@ -264,8 +267,9 @@ class RobotModel:
     The log-likelihood of a measurement ``(j, r, b)`` is the Gaussian
     ``log N(nu; 0, r_est)`` of the innovation ``nu = (r - range_j(x), wrap(b - bearing_j(x)))``
     including its normalising constant, so that the filter's log-likelihood
-    estimate is that of the data.  Cost per step: ``O(N)`` with a handful of
-    ``(N,)`` temporaries; no Python loop over particles.
+    estimate is that of the data.  Cost per step: ``O(N)``, one compiled pass for the
+    transition (diagonal ``q_est``, the usual case) and one for the likelihood
+    (:func:`_move_diagonal`, :func:`_log_likelihood`; a full ``q_est`` goes through NumPy).
     """
 
     dim_x = 3
@@ -350,12 +354,14 @@ class RobotModel:
         """Draw ``x_k = f(x_{k-1}, u~_k + w)``, ``w ~ N(0, q_est)``, for every particle."""
         if not 0 <= k < len(self.odometry):
             raise ParameterError(f"step {k} is outside the odometry (K = {len(self.odometry)})")
+        if self._q_diagonal is not None:
+            # the usual diagonal factor: one compiled pass (same draws and floats as ``motion``)
+            noise = rng.standard_normal(particles.shape)
+            particles = np.ascontiguousarray(particles, dtype=float)
+            return _move_diagonal(particles, noise, self.odometry[k], self._q_diagonal, self.dt)
         # w = L e with L L^T = q_est; einsum is several times faster than ``@`` for an (N, 3) x (3, 3)
         # product here, and allocates nothing beyond the (N, 3) result.
-        if self._q_diagonal is not None:
-            controls = rng.standard_normal(particles.shape) * self._q_diagonal
-        else:
-            controls = np.einsum("ij,kj->ik", rng.standard_normal(particles.shape), self._q_factor)
+        controls = np.einsum("ij,kj->ik", rng.standard_normal(particles.shape), self._q_factor)
         controls += self.odometry[k]
         return motion(particles, controls, self.dt)
 
@@ -367,13 +373,83 @@ class RobotModel:
         j = int(z[0])
         if j != z[0] or not 0 <= j < len(self.landmarks):
             raise ParameterError(f"step {k}: landmark index {z[0]} is not one of 0..{len(self.landmarks) - 1}")
-        pred = range_bearing(particles, self.landmarks[j])
-        nu_r = z[1] - pred[:, 0]
-        nu_b = wrap_angle(z[2] - pred[:, 1])
         a = self._r_inv_chol
-        e0 = a[0, 0] * nu_r
-        e1 = a[1, 0] * nu_r + a[1, 1] * nu_b
-        return self._log_norm - 0.5 * (e0 * e0 + e1 * e1)
+        landmark = self.landmarks[j]
+        return _log_likelihood(
+            np.ascontiguousarray(particles, dtype=float), landmark[0], landmark[1], z[1], z[2],
+            a[0, 0], a[1, 0], a[1, 1], self._log_norm,
+        )
+
+
+@jit
+def _move_rows(particles, noise, odometry, q_std, dt, out, lo, hi):
+    """Rows ``[lo, hi)`` of ``x_k = f(x_{k-1}, u~_k + q_std * e)`` for standard normal ``e`` (rows of ``noise``).
+
+    The arithmetic of :func:`motion`, in one pass (tests/test_kernels.py compares the two
+    bit for bit).
+    """
+    for i in range(lo, hi):
+        vx = noise[i, 0] * q_std[0] + odometry[0]
+        vy = noise[i, 1] * q_std[1] + odometry[1]
+        omega = noise[i, 2] * q_std[2] + odometry[2]
+        theta = particles[i, 2]
+        c = math.cos(theta)
+        s = math.sin(theta)
+        out[i, 0] = particles[i, 0] + (vx * c - vy * s) * dt
+        out[i, 1] = particles[i, 1] + (vx * s + vy * c) * dt
+        out[i, 2] = wrap(theta + omega * dt)
+
+
+@pjit
+def _move_parallel(particles, noise, odometry, q_std, dt, out):
+    for c in numba.prange(n_chunks(particles.shape[0])):
+        lo, hi = chunk(c, particles.shape[0])
+        _move_rows(particles, noise, odometry, q_std, dt, out, lo, hi)
+
+
+def _move_diagonal(particles, noise, odometry, q_std, dt):
+    """The transition for a diagonal ``q_est`` (factor ``q_std``), on every core for large ``N``."""
+    out = np.empty_like(particles)
+    if use_threads(len(particles)):
+        _move_parallel(particles, noise, odometry, q_std, dt, out)
+    else:
+        _move_rows(particles, noise, odometry, q_std, dt, out, 0, len(particles))
+    return out
+
+
+@jit
+def _log_likelihood_rows(particles, lx, ly, z_range, z_bearing, a00, a10, a11, log_norm, out, lo, hi):
+    """Rows ``[lo, hi)`` of ``log N(nu; 0, R)``, ``nu = (z_r - range, wrap(z_b - bearing))``, ``A = chol(R)^-1``.
+
+    The arithmetic of :func:`range_bearing` (the range as ``sqrt(dx^2 + dy^2)``, within an
+    ulp of ``hypot`` and several times cheaper): ``log_norm - |A nu|^2 / 2``.
+    """
+    for i in range(lo, hi):
+        dx = lx - particles[i, 0]
+        dy = ly - particles[i, 1]
+        nu_r = z_range - math.sqrt(dx * dx + dy * dy)
+        nu_b = wrap(z_bearing - wrap(math.atan2(dy, dx) - particles[i, 2]))
+        e0 = a00 * nu_r
+        e1 = a10 * nu_r + a11 * nu_b
+        out[i] = log_norm - 0.5 * (e0 * e0 + e1 * e1)
+
+
+@pjit
+def _log_likelihood_parallel(particles, lx, ly, z_range, z_bearing, a00, a10, a11, log_norm, out):
+    for c in numba.prange(n_chunks(particles.shape[0])):
+        lo, hi = chunk(c, particles.shape[0])
+        _log_likelihood_rows(particles, lx, ly, z_range, z_bearing, a00, a10, a11, log_norm, out, lo, hi)
+
+
+def _log_likelihood(particles, lx, ly, z_range, z_bearing, a00, a10, a11, log_norm):
+    """The robot's log-likelihood of one measurement for every particle, on every core for large ``N``."""
+    out = np.empty(len(particles))
+    args = (particles, lx, ly, z_range, z_bearing, a00, a10, a11, log_norm, out)
+    if use_threads(len(particles)):
+        _log_likelihood_parallel(*args)
+    else:
+        _log_likelihood_rows(*args, 0, len(particles))
+    return out
 
 
 def tracking_errors(truth: Array, estimate: Array) -> Array:

@@ -1,0 +1,403 @@
+"""Compiled inner loops of the particle filter (numba), one pass over the particles each.
+
+The readable NumPy definitions live in :mod:`pfcourse.diagnostics` and
+:mod:`pfcourse.resampling`; the engine (:class:`pfcourse.filter.ParticleFilter`) calls
+these loops instead, because a vectorized NumPy expression walks the ``N`` particles
+once per operation and allocates a temporary each time, while a loop does all the
+arithmetic of a particle while it sits in a register.  Each loop is tested against its
+NumPy definition (tests/test_kernels.py):
+
+* :func:`normalize_step` gives the *same floats* as
+  :func:`~pfcourse.diagnostics.normalize_log_weights` and
+  :func:`~pfcourse.diagnostics.effective_sample_size` (it sums in NumPy's pairwise
+  order, :func:`pairwise_sum`), so the weights, the resampling decisions and the
+  resampled indices of a seeded run do not depend on which implementation ran;
+* :func:`inverse_cdf_sorted` gives the same indices as the ``searchsorted`` of
+  :mod:`pfcourse.resampling`, in ``O(N)`` instead of ``O(N log N)``;
+* :func:`weighted_moments` sums in a different order from the BLAS products of
+  :func:`~pfcourse.diagnostics.weighted_mean` / :func:`~pfcourse.diagnostics.weighted_covariance`,
+  so it agrees with them to rounding (about 1e-15 relative), not bit for bit.
+
+Compiled code is cached on disk (``cache=True``), so only the first import on a machine pays
+the compilation (a few seconds).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numba
+import numpy as np
+
+TWO_PI = 2.0 * np.pi
+_LARGEST_BELOW_ONE = float(np.nextafter(1.0, 0.0))
+
+# Chosen before the first parallel launch: numba would otherwise take OpenMP when it is
+# installed, whose idle threads cost milliseconds per launch on a loaded 2-core machine.
+numba.config.THREADING_LAYER = "workqueue"
+
+#: Passes over at least this many particles run on every core (below, launching threads costs more).
+PARALLEL_MIN = 50_000
+#: Passes are cut into chunks of about CHUNK_ROWS rows, at most CHUNKS of them; reductions
+#: add the chunks' sums in order, so their floats depend on N only, not on the thread count.
+CHUNKS = 64
+CHUNK_ROWS = 2048
+
+jit = numba.njit(cache=True, nogil=True)
+pjit = numba.njit(cache=True, nogil=True, parallel=True)
+
+
+@jit
+def wrap(angle: float) -> float:
+    """``wrap(a) = a - 2 pi ceil((a - pi) / (2 pi))`` in (-pi, pi], the float of :func:`pfcourse.angles.wrap_angle`."""
+    return angle - TWO_PI * math.ceil((angle - np.pi) / TWO_PI)
+
+
+@jit
+def _pairwise_block(a, start, n):
+    # a block of at most 128 values, summed as NumPy does (numpy/_core/src/umath/loops_utils.h.src)
+    if n < 8:
+        total = -0.0
+        for i in range(start, start + n):
+            total += a[i]
+        return total
+    r0, r1, r2, r3 = a[start], a[start + 1], a[start + 2], a[start + 3]
+    r4, r5, r6, r7 = a[start + 4], a[start + 5], a[start + 6], a[start + 7]
+    i = 8
+    stop = n - n % 8
+    while i < stop:
+        j = start + i
+        r0 += a[j]
+        r1 += a[j + 1]
+        r2 += a[j + 2]
+        r3 += a[j + 3]
+        r4 += a[j + 4]
+        r5 += a[j + 5]
+        r6 += a[j + 6]
+        r7 += a[j + 7]
+        i += 8
+    total = ((r0 + r1) + (r2 + r3)) + ((r4 + r5) + (r6 + r7))
+    while i < n:
+        total += a[start + i]
+        i += 1
+    return total
+
+
+@jit
+def pairwise_sum(a: np.ndarray) -> float:
+    """``sum_i a_i`` of a contiguous 1-D float64 array, in the order (and to the float) of ``np.sum``.
+
+    NumPy splits a range longer than 128 into halves (cut at a multiple of 8) and adds
+    the two halves' sums; the recursion is unrolled here with an explicit stack (numba
+    cannot cache recursive functions).
+    """
+    depth = 64
+    starts = np.empty(depth, dtype=np.int64)
+    sizes = np.empty(depth, dtype=np.int64)
+    stages = np.empty(depth, dtype=np.int64)
+    lefts = np.empty(depth)
+    starts[0], sizes[0], stages[0] = 0, a.size, 0
+    top = 0
+    result = 0.0
+    while top >= 0:
+        n = sizes[top]
+        if n <= 128:
+            result = _pairwise_block(a, starts[top], n)
+            top -= 1
+            continue
+        half = n // 2
+        half -= half % 8
+        if stages[top] == 0:  # sum the left half first
+            stages[top] = 1
+            starts[top + 1], sizes[top + 1], stages[top + 1] = starts[top], half, 0
+            top += 1
+        elif stages[top] == 1:  # left half done: keep it, sum the right half
+            stages[top] = 2
+            lefts[top] = result
+            starts[top + 1], sizes[top + 1], stages[top + 1] = starts[top] + half, n - half, 0
+            top += 1
+        else:
+            result = lefts[top] + result
+            top -= 1
+    return result
+
+
+# ----------------------------------------------------------------------------- chunks
+@jit
+def n_chunks(n: int) -> int:
+    """How many chunks ``n`` rows are cut into: one per ``CHUNK_ROWS`` rows, at most ``CHUNKS``."""
+    return min(CHUNKS, max(1, n // CHUNK_ROWS))
+
+
+@jit
+def chunk(c: int, n: int):
+    """Rows ``[lo, hi)`` of chunk ``c`` of ``n_chunks(n)`` (the same cut whatever the thread count)."""
+    m = n_chunks(n)
+    return c * n // m, (c + 1) * n // m
+
+
+def use_threads(n: int) -> bool:
+    """Whether a pass over ``n`` particles runs on all cores (``n >= PARALLEL_MIN``, several threads)."""
+    return n >= PARALLEL_MIN and numba.get_num_threads() > 1
+
+
+# ----------------------------------------------------------------------------- weights
+@jit
+def _add_and_max(log_weights, log_increments, lo, hi):
+    top = -math.inf
+    for i in range(lo, hi):
+        a = log_weights[i] + log_increments[i]
+        log_weights[i] = a
+        if a > top:
+            top = a
+    return top
+
+
+@jit
+def _exp_below_top(log_weights, top, scratch, lo, hi):
+    # exp(a_i - a*) for the values below the top, 0 for the copies of the top; returns the copies
+    copies = 0.0
+    for i in range(lo, hi):
+        a = log_weights[i]
+        if a == top:
+            copies += 1.0
+            scratch[i] = 0.0
+        else:
+            scratch[i] = math.exp(a - top)
+    return copies
+
+
+@jit
+def _log_total(log_weights, scratch, top, copies):
+    s = pairwise_sum(scratch)
+    if s != 0.0:
+        s = s / copies
+    log_total = math.log1p(s) + math.log(copies) + top
+    if not math.isfinite(log_total):
+        # SciPy's fallback (the largest value is +inf): log(sum exp(a)) in NumPy's order
+        for i in range(log_weights.size):
+            scratch[i] = math.exp(log_weights[i])
+        log_total = math.log(pairwise_sum(scratch))
+    return log_total
+
+
+@jit
+def _normalized(log_weights, log_total, weights, scratch, lo, hi):
+    for i in range(lo, hi):
+        a = log_weights[i]
+        w = math.exp(a - log_total)
+        weights[i] = w
+        scratch[i] = w * w
+        log_weights[i] = a - log_total
+
+
+@jit
+def _normalize_serial(log_weights, log_increments, weights, scratch):
+    n = log_weights.size
+    top = _add_and_max(log_weights, log_increments, 0, n)
+    if top == -math.inf:
+        return -math.inf, math.nan
+    copies = _exp_below_top(log_weights, top, scratch, 0, n)
+    log_total = _log_total(log_weights, scratch, top, copies)
+    _normalized(log_weights, log_total, weights, scratch, 0, n)
+    return log_total, 1.0 / pairwise_sum(scratch)
+
+
+@pjit
+def _normalize_parallel(log_weights, log_increments, weights, scratch):
+    n = log_weights.size
+    m = n_chunks(n)
+    tops = np.empty(m)
+    for c in numba.prange(m):
+        lo, hi = chunk(c, n)
+        tops[c] = _add_and_max(log_weights, log_increments, lo, hi)
+    top = tops.max()
+    if top == -math.inf:
+        return -math.inf, math.nan
+    copies_per_chunk = np.empty(m)
+    for c in numba.prange(m):
+        lo, hi = chunk(c, n)
+        copies_per_chunk[c] = _exp_below_top(log_weights, top, scratch, lo, hi)
+    log_total = _log_total(log_weights, scratch, top, copies_per_chunk.sum())  # counts: exact
+    for c in numba.prange(m):
+        lo, hi = chunk(c, n)
+        _normalized(log_weights, log_total, weights, scratch, lo, hi)
+    return log_total, 1.0 / pairwise_sum(scratch)
+
+
+def normalize_step(log_weights: np.ndarray, log_increments: np.ndarray, weights: np.ndarray, scratch: np.ndarray):
+    """One weight update, in place: ``l_i <- l_i + log inc_i - L``, ``W_i = exp(l_i)``.
+
+    ``L = logsumexp_i(l_i + log inc_i)`` is computed as SciPy does,
+    ``a* + log(m) + log1p(sum_{a_i < a*} exp(a_i - a*) / m)`` with ``a*`` the largest value
+    and ``m`` its multiplicity, the sum in NumPy's order.  Returns ``(L, ess)`` with
+    ``ess = 1 / sum W_i^2``; ``L = -inf`` when every weight is zero (``log_weights`` then
+    holds the unnormalised sums).  The increments must be free of NaN and ``+inf`` (the
+    filter checks them first).  All arrays are contiguous float64 of one length ``N``;
+    ``scratch`` is work space.  Large ``N`` use every core, with the same floats.
+    """
+    if use_threads(log_weights.size):
+        return _normalize_parallel(log_weights, log_increments, weights, scratch)
+    return _normalize_serial(log_weights, log_increments, weights, scratch)
+
+
+# ----------------------------------------------------------------------------- moments
+@jit
+def _first_moment_rows(particles, weights, is_angle, lo, hi, linear, sines, cosines):
+    # sum W_i (x_ij - x_0j) for linear components, sum W_i sin / cos (x_ij - x_0j) for angles,
+    # written to linear, sines, cosines; returns sum |W_i|
+    d = particles.shape[1]
+    lin, sin_sum, cos_sum = np.zeros(d), np.zeros(d), np.zeros(d)
+    origin = particles[0].copy()
+    magnitude = 0.0
+    for i in range(lo, hi):
+        w = weights[i]
+        magnitude += abs(w)
+        for j in range(d):
+            x = particles[i, j] - origin[j]
+            if is_angle[j]:
+                sin_sum[j] += w * math.sin(x)
+                cos_sum[j] += w * math.cos(x)
+            else:
+                lin[j] += w * x
+    linear[:] = lin
+    sines[:] = sin_sum
+    cosines[:] = cos_sum
+    return magnitude
+
+
+@jit
+def _second_moment_rows(particles, weights, is_angle, mean, lo, hi, partial_cov):
+    d = particles.shape[1]
+    dev = np.empty(d)
+    cov = np.zeros((d, d))
+    for i in range(lo, hi):
+        w = weights[i]
+        for j in range(d):
+            dev[j] = particles[i, j] - mean[j]
+            if is_angle[j]:
+                dev[j] = wrap(dev[j])
+        for a in range(d):
+            wa = w * dev[a]
+            for b in range(a, d):
+                cov[a, b] += wa * dev[b]
+    partial_cov[:, :] = cov
+
+
+@jit
+def _mean_from_sums(particles, is_angle, linear, sines, cosines, magnitude):
+    d = particles.shape[1]
+    mean = np.empty(d)
+    for j in range(d):
+        if not is_angle[j]:
+            mean[j] = particles[0, j] + linear[:, j].sum()
+            continue
+        s, c = sines[:, j].sum(), cosines[:, j].sum()
+        if math.hypot(s, c) > 1e-12 * magnitude.sum():
+            mean[j] = wrap(particles[0, j] + math.atan2(s, c))
+        else:
+            mean[j] = math.nan
+    return mean
+
+
+@jit
+def _symmetric(partial_cov):
+    cov = partial_cov[0].copy()
+    for c in range(1, partial_cov.shape[0]):
+        cov += partial_cov[c]
+    d = cov.shape[0]
+    for a in range(d):
+        for b in range(a):
+            cov[a, b] = cov[b, a]
+    return cov
+
+
+@jit
+def _moments_serial(particles, weights, is_angle):
+    n, d = particles.shape
+    m = n_chunks(n)
+    linear, sines, cosines = np.zeros((m, d)), np.zeros((m, d)), np.zeros((m, d))
+    magnitude = np.zeros(m)
+    for c in range(m):
+        lo, hi = chunk(c, n)
+        magnitude[c] = _first_moment_rows(particles, weights, is_angle, lo, hi, linear[c], sines[c], cosines[c])
+    mean = _mean_from_sums(particles, is_angle, linear, sines, cosines, magnitude)
+    partial_cov = np.zeros((m, d, d))
+    for c in range(m):
+        lo, hi = chunk(c, n)
+        _second_moment_rows(particles, weights, is_angle, mean, lo, hi, partial_cov[c])
+    return mean, _symmetric(partial_cov)
+
+
+@pjit
+def _moments_parallel(particles, weights, is_angle):
+    n, d = particles.shape
+    m = n_chunks(n)
+    linear, sines, cosines = np.zeros((m, d)), np.zeros((m, d)), np.zeros((m, d))
+    magnitude = np.zeros(m)
+    for c in numba.prange(m):
+        lo, hi = chunk(c, n)
+        magnitude[c] = _first_moment_rows(particles, weights, is_angle, lo, hi, linear[c], sines[c], cosines[c])
+    mean = _mean_from_sums(particles, is_angle, linear, sines, cosines, magnitude)
+    partial_cov = np.zeros((m, d, d))
+    for c in numba.prange(m):
+        lo, hi = chunk(c, n)
+        _second_moment_rows(particles, weights, is_angle, mean, lo, hi, partial_cov[c])
+    return mean, _symmetric(partial_cov)
+
+
+def weighted_moments(particles: np.ndarray, weights: np.ndarray, is_angle: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Weighted mean ``m = sum_i W_i x_i`` and covariance ``sum_i W_i (x_i - m)(x_i - m)^T``.
+
+    Components with ``is_angle[j]`` get the circular mean ``atan2(sum W_i sin, sum W_i cos)``
+    (NaN when the resultant is below ``1e-12 sum |W_i|``) and wrapped deviations, as in
+    :func:`pfcourse.diagnostics.weighted_covariance`.  Both are taken relative to the first
+    particle, ``x_0 + sum_i W_i (x_i - x_0)`` and
+    ``wrap(x_0 + atan2(sum W_i sin(x_i - x_0), sum W_i cos(x_i - x_0)))``, so a cloud
+    collapsed onto one point has exactly that point as mean and a zero covariance.  The particles are cut into ``CHUNKS`` fixed
+    chunks summed in order, so the floats do not depend on the number of threads.
+    """
+    if use_threads(particles.shape[0]):
+        return _moments_parallel(particles, weights, is_angle)
+    return _moments_serial(particles, weights, is_angle)
+
+
+@jit
+def inverse_cdf_sorted(w: np.ndarray, u: np.ndarray) -> np.ndarray:
+    """For *sorted* uniforms ``u`` in [0, 1), the indices ``i`` with ``C_{i-1} <= u < C_i``.
+
+    ``C`` is the cumulative sum of ``w`` capped at 1 and set to exactly 1 from the last
+    positive weight on (so no index points at a zero weight), as in
+    :mod:`pfcourse.resampling`; one merge pass over ``C`` and ``u``.
+    """
+    n = w.size
+    last = n - 1
+    while last > 0 and w[last] == 0.0:
+        last -= 1
+    cdf = np.empty(n)
+    c = 0.0
+    for i in range(n):
+        c += w[i]
+        cdf[i] = min(c, 1.0)
+    for i in range(last, n):
+        cdf[i] = 1.0
+    out = np.empty(u.size, dtype=np.int64)
+    i = 0
+    for k in range(u.size):
+        v = min(u[k], _LARGEST_BELOW_ONE)
+        while cdf[i] <= v:
+            i += 1
+        out[k] = i
+    return out
+
+
+@jit
+def gather_rows(particles: np.ndarray, indices: np.ndarray) -> np.ndarray:
+    """``particles[indices]`` for a 2-D array (one pass, no index checks beyond numba's)."""
+    n, d = indices.size, particles.shape[1]
+    out = np.empty((n, d))
+    for k in range(n):
+        src = indices[k]
+        for j in range(d):
+            out[k, j] = particles[src, j]
+    return out
