@@ -40,7 +40,6 @@ import numpy as np
 
 from .checks import check_count, check_probability
 from . import kernels
-from .diagnostics import effective_sample_size
 from .errors import DegenerateWeightsError, NumericalError, ShapeError
 from .resampling import get_resampler
 
@@ -256,9 +255,13 @@ class ParticleFilter:
         scratch = np.empty(n)
         is_angle = np.zeros(d, dtype=bool)
         is_angle[list(self.angle_indices)] = True
+        if isinstance(measurements, np.ndarray) and measurements.dtype.kind == "f":
+            missing_steps = np.isnan(measurements.reshape(n_steps, -1)).all(axis=1)  # is_missing, per row
+        else:
+            missing_steps = [is_missing(z) for z in measurements]
         for k in range(n_steps):
             z = measurements[k]
-            missing = is_missing(z)
+            missing = missing_steps[k]
             if not missing:
                 z = np.asarray(z, dtype=float)
             if k == 0:
@@ -283,7 +286,7 @@ class ParticleFilter:
                         step=k,
                     )
             else:
-                ess[k] = effective_sample_size(weights)
+                ess[k] = 1.0 / kernels.sum_of_squares(weights)  # effective_sample_size(weights), same float
 
             mean[k], cov[k] = kernels.weighted_moments(particles, weights, is_angle)
             if store_particles:
@@ -321,8 +324,7 @@ class ParticleFilter:
                 f"step {k}: the model returned particles of shape {particles.shape}, "
                 f"expected {expected}"
             )
-        # min and max propagate NaN: one pass each, without an (N, d) temporary
-        if particles.size and not (np.isfinite(particles.min()) and np.isfinite(particles.max())):
+        if not kernels.finite_minimum(particles.ravel())[0]:
             raise NumericalError(
                 f"step {k}: the model produced NaN or infinite particle states", step=k
             )

@@ -122,6 +122,29 @@ def pairwise_sum(a: np.ndarray) -> float:
     return result
 
 
+@jit
+def finite_minimum(a: np.ndarray):
+    """``(every entry finite, smallest entry)`` of a 1-D array, in one pass."""
+    finite = True
+    smallest = math.inf
+    for i in range(a.size):
+        v = a[i]
+        if not math.isfinite(v):
+            finite = False
+        elif v < smallest:
+            smallest = v
+    return finite, smallest
+
+
+@jit
+def sum_of_squares(a: np.ndarray) -> float:
+    """``sum_i a_i^2`` in NumPy's order, the float of ``np.sum(a**2)``."""
+    squares = np.empty(a.size)
+    for i in range(a.size):
+        squares[i] = a[i] * a[i]
+    return pairwise_sum(squares)
+
+
 # ----------------------------------------------------------------------------- chunks
 @jit
 def n_chunks(n: int) -> int:

@@ -45,7 +45,7 @@ from collections.abc import Callable
 import numpy as np
 
 from pfcourse.errors import ParameterError, WeightError
-from pfcourse.kernels import inverse_cdf_sorted
+from pfcourse.kernels import finite_minimum, inverse_cdf_sorted, pairwise_sum
 
 Resampler = Callable[..., np.ndarray]
 
@@ -62,11 +62,12 @@ def _validated(weights: np.ndarray, n: int | None) -> tuple[np.ndarray, int]:
         raise WeightError(f"weights must be a 1-D array, got shape {w.shape}")
     if w.size == 0:
         raise WeightError("weights must not be empty")
-    if not np.isfinite(w).all():
+    finite, smallest = finite_minimum(w)
+    if not finite:
         raise WeightError("weights must be finite, found NaN or inf")
-    if w.min() < 0:
-        raise WeightError(f"weights must be non-negative, smallest is {w.min():.17g}")
-    total = w.sum()
+    if smallest < 0:
+        raise WeightError(f"weights must be non-negative, smallest is {smallest:.17g}")
+    total = pairwise_sum(w)
     if abs(total - 1.0) > _SUM_TOLERANCE:
         raise WeightError(
             f"weights must sum to 1 (within {_SUM_TOLERANCE:g}), got sum {total:.17g}; "

@@ -60,7 +60,7 @@ def test_normalize_step_gives_the_floats_of_the_numpy_definitions(threads, monke
         assert total == expected_total == float(logsumexp(previous + a))
         assert np.array_equal(weights, expected_w)
         assert np.array_equal(log_weights, previous + a - expected_total)
-        assert ess == effective_sample_size(expected_w)
+        assert ess == effective_sample_size(expected_w) == 1.0 / np.sum(expected_w**2)
 
 
 def test_normalize_step_reports_zero_weights():
@@ -144,6 +144,18 @@ def test_resamplers_draw_the_indices_of_the_searchsorted_definition(scheme):
     else:
         expected = got  # residual: checked by its offspring-count tests in test_resampling.py
     assert np.array_equal(got, expected)
+
+
+def test_small_helpers_match_numpy():
+    rng = np.random.default_rng(13)
+    for n in (1, 5, 130, 10_000):
+        a = rng.exponential(size=n)
+        assert kernels.sum_of_squares(a) == np.sum(a**2)
+        assert kernels.finite_minimum(a) == (True, a.min())
+        a[n // 2] = np.nan
+        assert not kernels.finite_minimum(a)[0]
+        a[n // 2] = -np.inf
+        assert not kernels.finite_minimum(a)[0]
 
 
 def test_gather_rows_is_fancy_indexing():
