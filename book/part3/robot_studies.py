@@ -660,10 +660,10 @@ plt.show()
 # parameter in the range (at most seven), seeded runs of 50 s filtered together by
 # `pf_batch`, and it draws the median and 10-90 % band of their position RMSE. It starts
 # light, so that it answers within a fraction of a second: three thresholds (0, 0.1 and
-# 0.25) with 10 runs each, enough to see that only $\theta = 0$ fails. The computing time
-# grows with settings times runs: the whole range with 20 runs, the figure just above,
-# takes about a second. Small studies are noisy: compare the width of the band with the
-# differences you are looking at.
+# 0.25) with 10 runs each. The computing time grows with the number of settings times the
+# number of runs; the figure just above is the whole range of thresholds with 20 runs each,
+# for readers without a Python kernel. Small studies are noisy: compare the width of the
+# band with the differences you are looking at.
 
 # %%
 LADDERS = {
