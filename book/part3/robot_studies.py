@@ -659,7 +659,7 @@ plt.show()
 # Pick a parameter and a range; the panel runs a small study: for each setting of the
 # parameter in the range (at most seven), seeded runs of 50 s filtered together by
 # `pf_batch`, and it draws the median and 10-90 % band of their position RMSE. It starts
-# light, so that it answers within a fraction of a second: three thresholds (0, 0.1 and
+# light, to answer quickly: three thresholds (0, 0.1 and
 # 0.25) with 10 runs each. The computing time grows with the number of settings times the
 # number of runs; the figure just above is the whole range of thresholds with 20 runs each,
 # for readers without a Python kernel. Small studies are noisy: compare the width of the
