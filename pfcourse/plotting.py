@@ -10,6 +10,7 @@ from __future__ import annotations
 import matplotlib as mpl
 import matplotlib.pyplot as plt
 import numpy as np
+from matplotlib import ticker
 from matplotlib.animation import FuncAnimation
 from matplotlib.patches import Ellipse, Polygon
 
@@ -47,6 +48,27 @@ STYLE = {
 def use_style() -> None:
     """Apply the book's matplotlib style (sizes, grid, fonts) to every later figure."""
     mpl.rcParams.update(STYLE)
+
+
+
+def plain_log_axis(ax, which: str = "y", subs: tuple[float, ...] = (1.0, 3.0)) -> None:
+    """Put ``which`` (``"x"``, ``"y"`` or ``"xy"``) of ``ax`` on a log scale that is cheap to redraw.
+
+    Major ticks at ``subs`` times the powers of ten (``(1, 3)`` gives 0.1, 0.3, 1, 3, ...;
+    ``(1, 2, 5)`` gives 0.1, 0.2, 0.5, 1, ...), labelled as plain numbers (``%g``), and no minor
+    ticks.  With two or more ``subs``, a view holding fewer than two of these ticks falls back
+    to linear-style ticks (matplotlib's ``LogLocator``), so it is never left unlabelled.
+    Matplotlib's default log axis
+    typesets every label as mathtext (``10^{-1}``) and adds eight minor ticks per decade; on a
+    widget panel those two cost about a third of a redraw, and they add no information that the
+    gridlines at the labelled ticks do not give.
+    """
+    for name in which:
+        getattr(ax, f"set_{name}scale")("log")
+        axis = getattr(ax, f"{name}axis")
+        axis.set_major_locator(ticker.LogLocator(subs=subs))
+        axis.set_major_formatter(ticker.FormatStrFormatter("%g"))
+        axis.set_minor_locator(ticker.NullLocator())
 
 
 def ellipse_patch(mean, cov, probability: float = 0.95, **kwargs) -> Ellipse:

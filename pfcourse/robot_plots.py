@@ -14,8 +14,14 @@ from .robot import RobotSimulation, tracking_errors
 Array = np.ndarray
 
 
-def robot_map(sim: RobotSimulation, estimates: Mapping[str, Array] | None = None, ax=None, odometry: bool = True):
-    """Landmarks, true path, odometry path and estimated paths ``{label: (K, 3) means}`` on the map."""
+def robot_map(
+    sim: RobotSimulation,
+    estimates: Mapping[str, Array] | None = None,
+    ax=None,
+    odometry: bool = True,
+    legend: bool = True,
+):
+    """Landmarks, true path, odometry path and estimated paths ``{label: (K, 3) means}`` on the map (and a legend)."""
     if ax is None:
         _, ax = plt.subplots(figsize=(5.5, 5.5))
     w = sim.scenario.half_width
@@ -34,7 +40,8 @@ def robot_map(sim: RobotSimulation, estimates: Mapping[str, Array] | None = None
     ax.set_aspect("equal")
     ax.set_xlabel("x (m)")
     ax.set_ylabel("y (m)")
-    ax.legend(loc="upper left")
+    if legend:
+        ax.legend(loc="upper left")
     return ax
 
 

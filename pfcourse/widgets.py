@@ -64,8 +64,26 @@ def redraw_last_panel() -> None:
     draw(**{name: control.value for name, control in controls.items()})
 
 
+#: Narrowest grid column (CSS px): room for a control's description, a usable slider track and
+#: its readout side by side (ipywidgets draws a slider 300 px wide unless told otherwise).
+MIN_COLUMN_WIDTH = 280
+
+
+def control_grid_columns(columns: int, min_width: int = MIN_COLUMN_WIDTH) -> str:
+    """CSS ``grid-template-columns``: at most ``columns`` equal columns, none narrower than ``min_width`` px.
+
+    ``auto-fill`` drops to fewer columns (down to one) when the page is narrow,
+    instead of squeezing the controls until a readout overlaps the next label.
+    """
+    return f"repeat(auto-fill, minmax(max({min_width}px, calc((100% - {columns - 1} * 8px) / {columns})), 1fr))"
+
+
 def control_panel(draw: Callable[..., None], columns: int = 3, **controls: widgets.ValueWidget) -> widgets.VBox:
-    """Controls in a grid above the figure that ``draw(**values)`` makes; redrawn on every change."""
+    """Controls in a grid above the figure that ``draw(**values)`` makes; redrawn on every change.
+
+    The grid has at most ``columns`` columns and wraps to fewer on a narrow page
+    (:func:`control_grid_columns`); each control fills its grid cell.
+    """
     global _last_panel
     _last_panel = (draw, controls)
 
@@ -73,9 +91,14 @@ def control_panel(draw: Callable[..., None], columns: int = 3, **controls: widge
         draw(**values)
         plt.show()
 
+    for control in controls.values():
+        control.layout.width = "auto"  # fill the grid cell rather than overflow it at a fixed 300 px
+        style = getattr(control, "style", None)
+        if style is not None and hasattr(style, "description_width") and not style.description_width:
+            style.description_width = "initial"  # the whole description, not cut at 80 px
     output = widgets.interactive_output(redraw, controls)
     grid = widgets.GridBox(
         list(controls.values()),
-        layout=widgets.Layout(grid_template_columns=f"repeat({columns}, minmax(0, 1fr))"),
+        layout=widgets.Layout(grid_template_columns=control_grid_columns(columns), grid_gap="4px 8px"),
     )
     return widgets.VBox([grid, output])

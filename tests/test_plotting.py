@@ -22,3 +22,19 @@ def test_posterior_bands_draws_one_panel_per_component():
     low, high = panels[0].collections[0].get_paths()[0].get_extents().intervaly
     assert (low, high) == (-3.0, 3.0)  # mean 0 +/- 3 sigma with sigma = 1
     plt.close(fig)
+
+
+def test_plain_log_axis_labels_plain_numbers_without_minor_ticks():
+    from pfcourse.plotting import plain_log_axis
+
+    fig, ax = plt.subplots()
+    ax.plot([1, 2], [0.02, 40.0])
+    plain_log_axis(ax, "y")
+    fig.canvas.draw()
+    assert ax.get_yscale() == "log"
+    assert len(ax.yaxis.get_minorticklocs()) == 0
+    labels = {t.get_text() for t in ax.get_yticklabels() if ax.get_ylim()[0] <= t.get_position()[1] <= ax.get_ylim()[1]}
+    assert {"0.03", "0.1", "0.3", "1", "3", "10", "30"} <= labels  # 1 and 3 times powers of ten, no mathtext
+    ax.set_ylim(1.2, 2.5)  # no 1x or 3x power of ten inside: the locator falls back to linear ticks
+    assert sum(1.2 <= v <= 2.5 for v in ax.yaxis.get_majorticklocs()) >= 2
+    plt.close(fig)

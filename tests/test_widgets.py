@@ -45,3 +45,13 @@ def test_redraw_last_panel_uses_the_current_values():
     calls.clear()
     redraw_last_panel()
     assert calls == [{"threshold": 0.8}]
+
+
+def test_controls_fill_their_cells_and_the_grid_wraps_on_narrow_pages():
+    n, threshold = particle_slider(100), threshold_slider(0.3)
+    panel = control_panel(lambda **values: None, columns=3, n_particles=n, threshold=threshold)
+    columns = panel.children[0].layout.grid_template_columns
+    assert columns.startswith("repeat(auto-fill, minmax(max(280px,")  # never narrower than a slider needs
+    assert "/ 3)" in columns  # and at most three columns on a wide page
+    assert n.layout.width == threshold.layout.width == "auto"
+    assert n.style.description_width == "initial"

@@ -56,7 +56,7 @@ from pfcourse.filter import ParticleFilter
 from pfcourse.kalman import kalman_filter
 from pfcourse.landmarks import quadrant_scenario, simulate
 from pfcourse.linear_gaussian import OptimalProposal
-from pfcourse.plotting import COLORS, use_style
+from pfcourse.plotting import COLORS, plain_log_axis, use_style
 from pfcourse.versus_kalman import monte_carlo
 from pfcourse.widgets import control_panel, particle_slider, scale_slider, seed_box
 
@@ -246,8 +246,9 @@ def draw_proposals(n_particles, noise_scale, seed):
     fig, (a1, a2) = plt.subplots(1, 2, figsize=(10, 3.4))
     for (name, prop), c in zip(PROPOSALS.items(), (COLORS["particles"], COLORS["estimate"])):
         r = ParticleFilter(m, n_particles, threshold=0.5, proposal=prop).run(s.Z, rng=seed + 1)
-        a1.semilogy(s.T, r.ess, color=c, label=name)
+        a1.plot(s.T, r.ess, color=c, label=name)
         a2.plot(s.T, r.mean[:, 0] - ref.mean[:, 0], color=c, label=name)
+    plain_log_axis(a1, "y")
     a1.set_xlabel("time t (s)")
     a1.set_ylabel("ESS (particles)")
     a1.legend(fontsize=8)

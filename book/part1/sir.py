@@ -36,7 +36,7 @@ from IPython.display import display
 from pfcourse.filter import ParticleFilter
 from pfcourse.kalman import kalman_filter
 from pfcourse.landmarks import quadrant_scenario, simulate
-from pfcourse.plotting import COLORS, posterior_bands, use_style
+from pfcourse.plotting import COLORS, plain_log_axis, posterior_bands, use_style
 from pfcourse.roughening import Roughening
 from pfcourse.versus_kalman import monte_carlo
 from pfcourse.widgets import control_panel, particle_slider, scheme_dropdown, seed_box, threshold_slider
@@ -286,7 +286,8 @@ def draw_sir(n_particles, threshold, scheme, K, seed):
     a1.set_xlabel("time t (s)")
     a1.set_ylabel("L1 x (m)")
     a1.legend(fontsize=8)
-    a2.semilogy(s.T, [n_distinct(p[:, 2]) for p in r.particles], color=COLORS["estimate"])
+    a2.plot(s.T, [n_distinct(p[:, 2]) for p in r.particles], color=COLORS["estimate"])
+    plain_log_axis(a2, "y")
     a2.set_xlabel("time t (s)")
     a2.set_ylabel("distinct L1 x values")
 

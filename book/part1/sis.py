@@ -48,7 +48,7 @@ from matplotlib.animation import FuncAnimation
 from pfcourse.filter import ParticleFilter
 from pfcourse.kalman import kalman_filter
 from pfcourse.landmarks import quadrant_scenario, simulate
-from pfcourse.plotting import COLORS, ellipse_patch, posterior_bands, use_style
+from pfcourse.plotting import COLORS, ellipse_patch, plain_log_axis, posterior_bands, use_style
 from pfcourse.widgets import control_panel, particle_slider, scale_slider, seed_box
 
 use_style()
@@ -223,7 +223,8 @@ def draw_sis(n_particles, noise_scale, seed):
     r = ParticleFilter(m, n_particles, threshold=0.0).run(s.Z, rng=seed + 1)
     ref = kalman_filter(m, s.Z)
     fig, (a1, a2) = plt.subplots(1, 2, figsize=(10, 3.4))
-    a1.semilogy(s.T, r.ess, color=COLORS["estimate"])
+    a1.plot(s.T, r.ess, color=COLORS["estimate"])
+    plain_log_axis(a1, "y")
     a1.set_xlabel("time t (s)")
     a1.set_ylabel("ESS (particles)")
     a1.set_ylim(0.8, n_particles * 1.2)

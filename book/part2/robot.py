@@ -77,11 +77,12 @@ import matplotlib.pyplot as plt
 import numpy as np
 from IPython.display import HTML, display
 from ipywidgets import Checkbox, IntSlider
+from matplotlib.ticker import MaxNLocator, MultipleLocator
 
 from pfcourse.diagnostics import nees
 from pfcourse.errors import DegenerateWeightsError
 from pfcourse.filter import ParticleFilter
-from pfcourse.plotting import COLORS, use_style
+from pfcourse.plotting import COLORS, plain_log_axis, use_style
 from pfcourse.robot import RobotModel, rmse, simulate_robot, tracking_errors
 from pfcourse.robot_compare import global_localization_run
 from pfcourse.robot_plots import animate_cloud, error_bands, robot_map
@@ -327,8 +328,9 @@ def draw(n_particles=300, q_scale=2.0, r_scale=2.0, threshold=0.5, scheme="syste
     s = simulate_robot(rng=seed, n_steps=400, dt_meas=float(dt_meas),
                        gap=(250.0, 350.0) if gap else None, n_landmarks=landmarks)
     m = RobotModel.for_simulation(s, q_scale=q_scale, r_scale=r_scale)
-    if axes is None:
-        _, axes = plt.subplots(1, 2, figsize=(10, 3.6), gridspec_kw={"width_ratios": [1, 2]})
+    if axes is None:  # fixed margins: tight_layout would cost a fifth of a widget update
+        fig, axes = plt.subplots(1, 2, figsize=(10, 3.6), gridspec_kw={"width_ratios": [1, 2]})
+        fig.subplots_adjust(left=0.065, right=0.99, bottom=0.14, top=0.91, wspace=0.22)
     try:
         r = ParticleFilter(m, n_particles, threshold=threshold, resampler=scheme).run(s.measurements, seed)
     except DegenerateWeightsError as exc:  # every particle lost: say so instead of failing
@@ -337,11 +339,11 @@ def draw(n_particles=300, q_scale=2.0, r_scale=2.0, threshold=0.5, scheme="syste
     e = tracking_errors(s.truth, r.mean)
     sd = np.sqrt(r.cov[:, 0, 0] + r.cov[:, 1, 1])
     t = np.arange(400.0)
-    robot_map(s, {"particle filter": r.mean}, ax=axes[0], odometry=True)
-    axes[0].get_legend().remove()
+    robot_map(s, {"particle filter": r.mean}, ax=axes[0], odometry=True, legend=False)
     axes[0].set_xlim(s.truth[:, 0].min() - 6, s.truth[:, 0].max() + 6)
     axes[0].set_ylim(s.truth[:, 1].min() - 3, s.truth[:, 1].max() + 3)
     axes[0].set_title("paths (black: truth, dashed: odometry)", fontsize=9)
+    axes[0].yaxis.set_major_locator(MaxNLocator(5))  # fewer tick labels: cheaper to redraw
     axes[1].fill_between(t, 0, 3 * sd, color=COLORS["estimate"], alpha=0.2, lw=0, label="3 σ (position)")
     axes[1].plot(t, np.hypot(e[:, 0], e[:, 1]), color=COLORS["estimate"], lw=0.8, label="position error")
     if gap:
@@ -350,9 +352,9 @@ def draw(n_particles=300, q_scale=2.0, r_scale=2.0, threshold=0.5, scheme="syste
     axes[1].set_title(f"RMSE {p:.2f} m, {np.degrees(h):.2f} deg; {r.n_resamples} resamplings")
     axes[1].set_xlabel("time (s)")
     axes[1].set_ylabel("position error (m)")
-    axes[1].set_yscale("log")
+    axes[1].xaxis.set_major_locator(MultipleLocator(100))
+    plain_log_axis(axes[1], "y")
     axes[1].legend(loc="upper right")
-    plt.tight_layout()
 
 
 # %% tags=["nbval-ignore-output"]

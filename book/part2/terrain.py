@@ -39,7 +39,7 @@ from pfcourse.aircraft import (
     simulate,
 )
 from pfcourse.filter import ParticleFilter
-from pfcourse.plotting import COLORS, use_style
+from pfcourse.plotting import COLORS, plain_log_axis, use_style
 from pfcourse.terrain import hillshade, load_jacksboro
 from pfcourse.widgets import (
     control_panel,
@@ -87,15 +87,24 @@ extent_km = np.array(terrain.extent) / KM
 shade = hillshade(terrain)
 
 
-def draw_map(ax, shaded=True):
-    """The terrain with axes in km: hillshade coloured by height, or (lighter files) filled contours."""
+def draw_map(ax, shaded=True, window=None):
+    """The terrain with axes in km: hillshade coloured by height, or (lighter files) filled contours.
+
+    With ``window = ((x0, x1), (y0, y1))`` in km, the contours are computed on that part of
+    the grid only (the same picture inside the window, and a faster widget redraw).
+    """
     if shaded:
         ax.imshow(shade, origin="lower", extent=extent_km, cmap="gray")
         ax.imshow(terrain.heights, origin="lower", extent=extent_km, cmap="terrain", alpha=0.45,
                   vmin=150, vmax=1150)
     else:
-        ax.contourf(terrain.x_nodes / KM, terrain.y_nodes / KM, terrain.heights, levels=np.arange(200, 1101, 100),
-                    cmap="terrain", vmin=150, vmax=1150, alpha=0.7)
+        x, y, h = terrain.x_nodes / KM, terrain.y_nodes / KM, terrain.heights
+        if window is not None:
+            (x0, x1), (y0, y1) = window
+            i = slice(max(np.searchsorted(x, x0) - 1, 0), np.searchsorted(x, x1) + 1)
+            j = slice(max(np.searchsorted(y, y0) - 1, 0), np.searchsorted(y, y1) + 1)
+            x, y, h = x[i], y[j], h[j, i]
+        ax.contourf(x, y, h, levels=np.arange(200, 1101, 100), cmap="terrain", vmin=150, vmax=1150, alpha=0.7)
     ax.set_xlabel("east x (km)")
     ax.set_ylabel("north y (km)")
     ax.set_aspect("equal")
@@ -518,12 +527,12 @@ def draw(qf_scale=1.0, rf_scale=1.0, n_particles=3000, threshold=0.5, scheme="mu
     res = ParticleFilter(sc.model(terrain), n_particles, threshold=threshold, resampler=scheme).run(
         fl.Z, rng=np.random.default_rng([0, seed, 1]), store_particles=True)
     fig, (ax1, ax2) = plt.subplots(1, 2, figsize=(10, 4.2), width_ratios=[1, 1.3])
-    draw_map(ax1, shaded=False)
+    c = fl.X[40, :2] / KM
+    draw_map(ax1, shaded=False, window=((c[0] - 7, c[0] + 7), (c[1] - 7, c[1] + 7)))
     idx = np.random.default_rng(0).choice(n_particles, min(n_particles, 600), p=res.weights[-1])
     ax1.plot(res.particles[-1, idx, 0] / KM, res.particles[-1, idx, 1] / KM, ".", ms=2, color=COLORS["particles"])
     ax1.plot(fl.X[:, 0] / KM, fl.X[:, 1] / KM, color=COLORS["truth"], label="truth")
     ax1.plot(res.mean[:, 0] / KM, res.mean[:, 1] / KM, color=COLORS["estimate"], label="estimate")
-    c = fl.X[40, :2] / KM
     ax1.set_xlim(c[0] - 7, c[0] + 7)
     ax1.set_ylim(c[1] - 7, c[1] + 7)
     ax1.legend(loc="lower left", fontsize=8)
@@ -531,7 +540,7 @@ def draw(qf_scale=1.0, rf_scale=1.0, n_particles=3000, threshold=0.5, scheme="mu
     ax2.plot(fl.T, e, color=COLORS["estimate"], label="horizontal error")
     ax2.plot(fl.T, 3 * np.sqrt(res.cov[:, 0, 0] + res.cov[:, 1, 1]), "--", color=COLORS["estimate"], alpha=0.6,
              label=r"$3\sqrt{P_{xx} + P_{yy}}$")
-    ax2.set_yscale("log")
+    plain_log_axis(ax2, "y")
     ax2.set_xlabel("time t (s)")
     ax2.set_ylabel("error (m)")
     ax2.legend(loc="upper right", fontsize=8)
