@@ -8,9 +8,7 @@ In one session and on the same simulated data (written to a file for the other
 environment), it runs three bootstrap filters with the same settings (systematic
 resampling when ESS < N/2, the weighted mean as the estimate):
 
-* ``pfcourse``: :class:`pfcourse.filter.ParticleFilter` with the package's models (its
-  compiled passes use every core from ``pfcourse.kernels.PARALLEL_MIN`` particles on, so
-  for those sizes it is also timed held to one core, the rows ``pfcourse, 1 thread``);
+* ``pfcourse``: :class:`pfcourse.filter.ParticleFilter` with the package's models;
 * ``loop``: a particle-by-particle Python loop in the style of the lab reports
   (bench/loop_filters.py), for N <= 1e4 only;
 * ``particles``: the bootstrap filter of Chopin's `particles` library (bench/particles_runner.py),
@@ -46,11 +44,9 @@ import tracemalloc
 import venv
 from pathlib import Path
 
+import numba
 import numpy as np
 
-import numba
-
-from pfcourse import kernels
 from pfcourse.filter import ParticleFilter
 from pfcourse.landmarks import circle_scenario, simulate
 from pfcourse.robot import RobotModel, simulate_robot
@@ -211,10 +207,6 @@ def time_notebooks() -> tuple[dict, dict]:
 
 
 # --------------------------------------------------------------------------- report
-ONE_THREAD = "pfcourse, 1 thread"
-FILTERS = ("pfcourse", ONE_THREAD, "loop", "particles")
-
-
 def table(results: dict, data: dict) -> str:
     lines = [
         "| model | N | filter | particle-steps/s | vs loop | vs particles | bytes/particle | RMSE (m) |",
@@ -225,11 +217,11 @@ def table(results: dict, data: dict) -> str:
         truth = data[f"{model}_truth"]
         for n in results["sizes"]:
             rate = {}
-            for name in FILTERS:
+            for name in ("pfcourse", "loop", "particles"):
                 r = results.get(name, {}).get(f"{model}/{n}")
                 if r:
                     rate[name] = n * steps[model] / float(np.median(r["times"]))
-            for name in FILTERS:
+            for name in ("pfcourse", "loop", "particles"):
                 r = results.get(name, {}).get(f"{model}/{n}")
                 if not r:
                     continue
@@ -255,10 +247,8 @@ def report(results: dict, data: dict) -> str:
         "0, 1, ...) of N × steps / wall time; memory is the tracemalloc peak of one more run "
         f"over the first {MEMORY_STEPS} steps divided by N (not measured for the loop at N = 1e4: "
         "tracemalloc slows it twenty-fold); RMSE is the robot position error, mean ± sd over the runs. "
-        f"numpy {np.__version__} and numba {numba.__version__} here, {r.get('particles_numpy', '?')} "
-        f"with particles {r.get('particles_version', '?')}. From N = {kernels.PARALLEL_MIN:.0e} on, "
-        f"pfcourse's compiled passes use the machine's {r.get('threads', '?')} cores (the other filters use one); the "
-        f"rows `{ONE_THREAD}` are the same filter held to one core (numba.set_num_threads(1)), the same floats.",
+        f"numpy {np.__version__} and numba {numba.__version__} here (one core for every filter), "
+        f"{r.get('particles_numpy', '?')} with particles {r.get('particles_version', '?')}.",
         "",
         table(results, data),
     ]
@@ -294,7 +284,7 @@ def main() -> None:
     data = make_data()
     results = {"sizes": list(sizes), "when": time.strftime("%Y-%m-%d", time.gmtime()),
                "machine": f"{os.cpu_count()} cores, {platform.machine()}, Python {platform.python_version()}",
-               "pfcourse": {}, ONE_THREAD: {}, "loop": {}, "particles": {}, "threads": numba.get_num_threads()}
+               "pfcourse": {}, "loop": {}, "particles": {}}
 
     py = None if args.no_particles else ensure_particles_venv()
     with tempfile.TemporaryDirectory() as tmp:
@@ -310,11 +300,6 @@ def main() -> None:
                 results["pfcourse"][key] = measure(pf, n, repeats[n])
                 print(f"pfcourse {model} N={n}: median {np.median(results['pfcourse'][key]['times']):.3f} s",
                       flush=True)
-                if kernels.use_threads(n):
-                    threads = numba.get_num_threads()
-                    numba.set_num_threads(1)
-                    results[ONE_THREAD][key] = measure(pf, n, repeats[n], memory=False)
-                    numba.set_num_threads(threads)
                 if py is not None:
                     out_file = Path(tmp) / "out.json"
                     subprocess.run([str(py), str(BENCH / "particles_runner.py"), str(data_file), str(out_file),

@@ -32,19 +32,7 @@ import numpy as np
 TWO_PI = 2.0 * np.pi
 _LARGEST_BELOW_ONE = float(np.nextafter(1.0, 0.0))
 
-# Chosen before the first parallel launch: numba would otherwise take OpenMP when it is
-# installed, whose idle threads cost milliseconds per launch on a loaded 2-core machine.
-numba.config.THREADING_LAYER = "workqueue"
-
-#: Passes over at least this many particles run on every core (below, launching threads costs more).
-PARALLEL_MIN = 50_000
-#: Passes are cut into chunks of about CHUNK_ROWS rows, at most CHUNKS of them; reductions
-#: add the chunks' sums in order, so their floats depend on N only, not on the thread count.
-CHUNKS = 64
-CHUNK_ROWS = 2048
-
 jit = numba.njit(cache=True, nogil=True)
-pjit = numba.njit(cache=True, nogil=True, parallel=True)
 
 
 @jit
@@ -145,109 +133,8 @@ def sum_of_squares(a: np.ndarray) -> float:
     return pairwise_sum(squares)
 
 
-# ----------------------------------------------------------------------------- chunks
-@jit
-def n_chunks(n: int) -> int:
-    """How many chunks ``n`` rows are cut into: one per ``CHUNK_ROWS`` rows, at most ``CHUNKS``."""
-    return min(CHUNKS, max(1, n // CHUNK_ROWS))
-
-
-@jit
-def chunk(c: int, n: int):
-    """Rows ``[lo, hi)`` of chunk ``c`` of ``n_chunks(n)`` (the same cut whatever the thread count)."""
-    m = n_chunks(n)
-    return c * n // m, (c + 1) * n // m
-
-
-def use_threads(n: int) -> bool:
-    """Whether a pass over ``n`` particles runs on all cores (``n >= PARALLEL_MIN``, several threads)."""
-    return n >= PARALLEL_MIN and numba.get_num_threads() > 1
-
-
 # ----------------------------------------------------------------------------- weights
 @jit
-def _add_and_max(log_weights, log_increments, lo, hi):
-    top = -math.inf
-    for i in range(lo, hi):
-        a = log_weights[i] + log_increments[i]
-        log_weights[i] = a
-        if a > top:
-            top = a
-    return top
-
-
-@jit
-def _exp_below_top(log_weights, top, scratch, lo, hi):
-    # exp(a_i - a*) for the values below the top, 0 for the copies of the top; returns the copies
-    copies = 0.0
-    for i in range(lo, hi):
-        a = log_weights[i]
-        if a == top:
-            copies += 1.0
-            scratch[i] = 0.0
-        else:
-            scratch[i] = math.exp(a - top)
-    return copies
-
-
-@jit
-def _log_total(log_weights, scratch, top, copies):
-    s = pairwise_sum(scratch)
-    if s != 0.0:
-        s = s / copies
-    log_total = math.log1p(s) + math.log(copies) + top
-    if not math.isfinite(log_total):
-        # SciPy's fallback (the largest value is +inf): log(sum exp(a)) in NumPy's order
-        for i in range(log_weights.size):
-            scratch[i] = math.exp(log_weights[i])
-        log_total = math.log(pairwise_sum(scratch))
-    return log_total
-
-
-@jit
-def _normalized(log_weights, log_total, weights, scratch, lo, hi):
-    for i in range(lo, hi):
-        a = log_weights[i]
-        w = math.exp(a - log_total)
-        weights[i] = w
-        scratch[i] = w * w
-        log_weights[i] = a - log_total
-
-
-@jit
-def _normalize_serial(log_weights, log_increments, weights, scratch):
-    n = log_weights.size
-    top = _add_and_max(log_weights, log_increments, 0, n)
-    if top == -math.inf:
-        return -math.inf, math.nan
-    copies = _exp_below_top(log_weights, top, scratch, 0, n)
-    log_total = _log_total(log_weights, scratch, top, copies)
-    _normalized(log_weights, log_total, weights, scratch, 0, n)
-    return log_total, 1.0 / pairwise_sum(scratch)
-
-
-@pjit
-def _normalize_parallel(log_weights, log_increments, weights, scratch):
-    n = log_weights.size
-    m = n_chunks(n)
-    tops = np.empty(m)
-    for c in numba.prange(m):
-        lo, hi = chunk(c, n)
-        tops[c] = _add_and_max(log_weights, log_increments, lo, hi)
-    top = tops.max()
-    if top == -math.inf:
-        return -math.inf, math.nan
-    copies_per_chunk = np.empty(m)
-    for c in numba.prange(m):
-        lo, hi = chunk(c, n)
-        copies_per_chunk[c] = _exp_below_top(log_weights, top, scratch, lo, hi)
-    log_total = _log_total(log_weights, scratch, top, copies_per_chunk.sum())  # counts: exact
-    for c in numba.prange(m):
-        lo, hi = chunk(c, n)
-        _normalized(log_weights, log_total, weights, scratch, lo, hi)
-    return log_total, 1.0 / pairwise_sum(scratch)
-
-
 def normalize_step(log_weights: np.ndarray, log_increments: np.ndarray, weights: np.ndarray, scratch: np.ndarray):
     """One weight update, in place: ``l_i <- l_i + log inc_i - L``, ``W_i = exp(l_i)``.
 
@@ -257,44 +144,81 @@ def normalize_step(log_weights: np.ndarray, log_increments: np.ndarray, weights:
     ``ess = 1 / sum W_i^2``; ``L = -inf`` when every weight is zero (``log_weights`` then
     holds the unnormalised sums).  The increments must be free of NaN and ``+inf`` (the
     filter checks them first).  All arrays are contiguous float64 of one length ``N``;
-    ``scratch`` is work space.  Large ``N`` use every core, with the same floats.
+    ``scratch`` is work space.
     """
-    if use_threads(log_weights.size):
-        return _normalize_parallel(log_weights, log_increments, weights, scratch)
-    return _normalize_serial(log_weights, log_increments, weights, scratch)
+    n = log_weights.size
+    top = -math.inf
+    for i in range(n):
+        a = log_weights[i] + log_increments[i]
+        log_weights[i] = a
+        if a > top:
+            top = a
+    if top == -math.inf:
+        return -math.inf, math.nan
+    copies = 0.0
+    for i in range(n):  # exp(a_i - a*) below the top, 0 for the copies of the top
+        a = log_weights[i]
+        if a == top:
+            copies += 1.0
+            scratch[i] = 0.0
+        else:
+            scratch[i] = math.exp(a - top)
+    s = pairwise_sum(scratch)
+    if s != 0.0:
+        s = s / copies
+    log_total = math.log1p(s) + math.log(copies) + top
+    if not math.isfinite(log_total):
+        # SciPy's fallback (the largest value is +inf): log(sum exp(a)) in NumPy's order
+        for i in range(n):
+            scratch[i] = math.exp(log_weights[i])
+        log_total = math.log(pairwise_sum(scratch))
+    for i in range(n):
+        a = log_weights[i]
+        w = math.exp(a - log_total)
+        weights[i] = w
+        scratch[i] = w * w
+        log_weights[i] = a - log_total
+    return log_total, 1.0 / pairwise_sum(scratch)
 
 
 # ----------------------------------------------------------------------------- moments
 @jit
-def _first_moment_rows(particles, weights, is_angle, lo, hi, linear, sines, cosines):
-    # sum W_i (x_ij - x_0j) for linear components, sum W_i sin / cos (x_ij - x_0j) for angles,
-    # written to linear, sines, cosines; returns sum |W_i|
-    d = particles.shape[1]
-    lin, sin_sum, cos_sum = np.zeros(d), np.zeros(d), np.zeros(d)
+def weighted_moments(particles: np.ndarray, weights: np.ndarray, is_angle: np.ndarray):
+    """Weighted mean ``m = sum_i W_i x_i`` and covariance ``sum_i W_i (x_i - m)(x_i - m)^T``.
+
+    Components with ``is_angle[j]`` get the circular mean ``atan2(sum W_i sin, sum W_i cos)``
+    (NaN when the resultant is below ``1e-12 sum |W_i|``) and wrapped deviations, as in
+    :func:`pfcourse.diagnostics.weighted_covariance`.  Both are taken relative to the first
+    particle, ``x_0 + sum_i W_i (x_i - x_0)`` and
+    ``wrap(x_0 + atan2(sum W_i sin(x_i - x_0), sum W_i cos(x_i - x_0)))``, so a cloud
+    collapsed onto one point has exactly that point as mean and a zero covariance.
+    Returns ``(mean, cov)``.
+    """
+    n, d = particles.shape
     origin = particles[0].copy()
+    linear, sines, cosines = np.zeros(d), np.zeros(d), np.zeros(d)
     magnitude = 0.0
-    for i in range(lo, hi):
+    for i in range(n):
         w = weights[i]
         magnitude += abs(w)
         for j in range(d):
             x = particles[i, j] - origin[j]
             if is_angle[j]:
-                sin_sum[j] += w * math.sin(x)
-                cos_sum[j] += w * math.cos(x)
+                sines[j] += w * math.sin(x)
+                cosines[j] += w * math.cos(x)
             else:
-                lin[j] += w * x
-    linear[:] = lin
-    sines[:] = sin_sum
-    cosines[:] = cos_sum
-    return magnitude
-
-
-@jit
-def _second_moment_rows(particles, weights, is_angle, mean, lo, hi, partial_cov):
-    d = particles.shape[1]
-    dev = np.empty(d)
+                linear[j] += w * x
+    mean = np.empty(d)
+    for j in range(d):
+        if not is_angle[j]:
+            mean[j] = origin[j] + linear[j]
+        elif math.hypot(sines[j], cosines[j]) > 1e-12 * magnitude:
+            mean[j] = wrap(origin[j] + math.atan2(sines[j], cosines[j]))
+        else:
+            mean[j] = math.nan
     cov = np.zeros((d, d))
-    for i in range(lo, hi):
+    dev = np.empty(d)
+    for i in range(n):
         w = weights[i]
         for j in range(d):
             dev[j] = particles[i, j] - mean[j]
@@ -304,85 +228,10 @@ def _second_moment_rows(particles, weights, is_angle, mean, lo, hi, partial_cov)
             wa = w * dev[a]
             for b in range(a, d):
                 cov[a, b] += wa * dev[b]
-    partial_cov[:, :] = cov
-
-
-@jit
-def _mean_from_sums(particles, is_angle, linear, sines, cosines, magnitude):
-    d = particles.shape[1]
-    mean = np.empty(d)
-    for j in range(d):
-        if not is_angle[j]:
-            mean[j] = particles[0, j] + linear[:, j].sum()
-            continue
-        s, c = sines[:, j].sum(), cosines[:, j].sum()
-        if math.hypot(s, c) > 1e-12 * magnitude.sum():
-            mean[j] = wrap(particles[0, j] + math.atan2(s, c))
-        else:
-            mean[j] = math.nan
-    return mean
-
-
-@jit
-def _symmetric(partial_cov):
-    cov = partial_cov[0].copy()
-    for c in range(1, partial_cov.shape[0]):
-        cov += partial_cov[c]
-    d = cov.shape[0]
     for a in range(d):
         for b in range(a):
             cov[a, b] = cov[b, a]
-    return cov
-
-
-@jit
-def _moments_serial(particles, weights, is_angle):
-    n, d = particles.shape
-    m = n_chunks(n)
-    linear, sines, cosines = np.zeros((m, d)), np.zeros((m, d)), np.zeros((m, d))
-    magnitude = np.zeros(m)
-    for c in range(m):
-        lo, hi = chunk(c, n)
-        magnitude[c] = _first_moment_rows(particles, weights, is_angle, lo, hi, linear[c], sines[c], cosines[c])
-    mean = _mean_from_sums(particles, is_angle, linear, sines, cosines, magnitude)
-    partial_cov = np.zeros((m, d, d))
-    for c in range(m):
-        lo, hi = chunk(c, n)
-        _second_moment_rows(particles, weights, is_angle, mean, lo, hi, partial_cov[c])
-    return mean, _symmetric(partial_cov)
-
-
-@pjit
-def _moments_parallel(particles, weights, is_angle):
-    n, d = particles.shape
-    m = n_chunks(n)
-    linear, sines, cosines = np.zeros((m, d)), np.zeros((m, d)), np.zeros((m, d))
-    magnitude = np.zeros(m)
-    for c in numba.prange(m):
-        lo, hi = chunk(c, n)
-        magnitude[c] = _first_moment_rows(particles, weights, is_angle, lo, hi, linear[c], sines[c], cosines[c])
-    mean = _mean_from_sums(particles, is_angle, linear, sines, cosines, magnitude)
-    partial_cov = np.zeros((m, d, d))
-    for c in numba.prange(m):
-        lo, hi = chunk(c, n)
-        _second_moment_rows(particles, weights, is_angle, mean, lo, hi, partial_cov[c])
-    return mean, _symmetric(partial_cov)
-
-
-def weighted_moments(particles: np.ndarray, weights: np.ndarray, is_angle: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Weighted mean ``m = sum_i W_i x_i`` and covariance ``sum_i W_i (x_i - m)(x_i - m)^T``.
-
-    Components with ``is_angle[j]`` get the circular mean ``atan2(sum W_i sin, sum W_i cos)``
-    (NaN when the resultant is below ``1e-12 sum |W_i|``) and wrapped deviations, as in
-    :func:`pfcourse.diagnostics.weighted_covariance`.  Both are taken relative to the first
-    particle, ``x_0 + sum_i W_i (x_i - x_0)`` and
-    ``wrap(x_0 + atan2(sum W_i sin(x_i - x_0), sum W_i cos(x_i - x_0)))``, so a cloud
-    collapsed onto one point has exactly that point as mean and a zero covariance.  The particles are cut into ``CHUNKS`` fixed
-    chunks summed in order, so the floats do not depend on the number of threads.
-    """
-    if use_threads(particles.shape[0]):
-        return _moments_parallel(particles, weights, is_angle)
-    return _moments_serial(particles, weights, is_angle)
+    return mean, cov
 
 
 @jit

@@ -49,13 +49,12 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, field, replace
 
-import numba
 import numpy as np
 
 from .angles import wrap_angle
 from .checks import as_matrix, as_vector, check_count, check_covariance, covariance_factor
 from .errors import ParameterError, ShapeError
-from .kernels import chunk, jit, n_chunks, pjit, use_threads, wrap
+from .kernels import jit, wrap
 
 Array = np.ndarray
 
@@ -382,13 +381,15 @@ class RobotModel:
 
 
 @jit
-def _move_rows(particles, noise, odometry, q_std, dt, out, lo, hi):
-    """Rows ``[lo, hi)`` of ``x_k = f(x_{k-1}, u~_k + q_std * e)`` for standard normal ``e`` (rows of ``noise``).
+def _move_diagonal(particles, noise, odometry, q_std, dt):
+    """``x_k = f(x_{k-1}, u~_k + q_std * e)`` for standard normal ``e`` (rows of ``noise``).
 
     The arithmetic of :func:`motion`, in one pass (tests/test_kernels.py compares the two
     bit for bit).
     """
-    for i in range(lo, hi):
+    n = particles.shape[0]
+    out = np.empty((n, 3))
+    for i in range(n):
         vx = noise[i, 0] * q_std[0] + odometry[0]
         vy = noise[i, 1] * q_std[1] + odometry[1]
         omega = noise[i, 2] * q_std[2] + odometry[2]
@@ -398,33 +399,19 @@ def _move_rows(particles, noise, odometry, q_std, dt, out, lo, hi):
         out[i, 0] = particles[i, 0] + (vx * c - vy * s) * dt
         out[i, 1] = particles[i, 1] + (vx * s + vy * c) * dt
         out[i, 2] = wrap(theta + omega * dt)
-
-
-@pjit
-def _move_parallel(particles, noise, odometry, q_std, dt, out):
-    for c in numba.prange(n_chunks(particles.shape[0])):
-        lo, hi = chunk(c, particles.shape[0])
-        _move_rows(particles, noise, odometry, q_std, dt, out, lo, hi)
-
-
-def _move_diagonal(particles, noise, odometry, q_std, dt):
-    """The transition for a diagonal ``q_est`` (factor ``q_std``), on every core for large ``N``."""
-    out = np.empty_like(particles)
-    if use_threads(len(particles)):
-        _move_parallel(particles, noise, odometry, q_std, dt, out)
-    else:
-        _move_rows(particles, noise, odometry, q_std, dt, out, 0, len(particles))
     return out
 
 
 @jit
-def _log_likelihood_rows(particles, lx, ly, z_range, z_bearing, a00, a10, a11, log_norm, out, lo, hi):
-    """Rows ``[lo, hi)`` of ``log N(nu; 0, R)``, ``nu = (z_r - range, wrap(z_b - bearing))``, ``A = chol(R)^-1``.
+def _log_likelihood(particles, lx, ly, z_range, z_bearing, a00, a10, a11, log_norm):
+    """``log N(nu; 0, R)`` of the innovations ``nu = (z_r - range, wrap(z_b - bearing))``, ``A = chol(R)^-1``.
 
     The arithmetic of :func:`range_bearing` (the range as ``sqrt(dx^2 + dy^2)``, within an
-    ulp of ``hypot`` and several times cheaper): ``log_norm - |A nu|^2 / 2``.
+    ulp of ``hypot`` and several times cheaper), in one pass: ``log_norm - |A nu|^2 / 2``.
     """
-    for i in range(lo, hi):
+    n = particles.shape[0]
+    out = np.empty(n)
+    for i in range(n):
         dx = lx - particles[i, 0]
         dy = ly - particles[i, 1]
         nu_r = z_range - math.sqrt(dx * dx + dy * dy)
@@ -432,23 +419,6 @@ def _log_likelihood_rows(particles, lx, ly, z_range, z_bearing, a00, a10, a11, l
         e0 = a00 * nu_r
         e1 = a10 * nu_r + a11 * nu_b
         out[i] = log_norm - 0.5 * (e0 * e0 + e1 * e1)
-
-
-@pjit
-def _log_likelihood_parallel(particles, lx, ly, z_range, z_bearing, a00, a10, a11, log_norm, out):
-    for c in numba.prange(n_chunks(particles.shape[0])):
-        lo, hi = chunk(c, particles.shape[0])
-        _log_likelihood_rows(particles, lx, ly, z_range, z_bearing, a00, a10, a11, log_norm, out, lo, hi)
-
-
-def _log_likelihood(particles, lx, ly, z_range, z_bearing, a00, a10, a11, log_norm):
-    """The robot's log-likelihood of one measurement for every particle, on every core for large ``N``."""
-    out = np.empty(len(particles))
-    args = (particles, lx, ly, z_range, z_bearing, a00, a10, a11, log_norm, out)
-    if use_threads(len(particles)):
-        _log_likelihood_parallel(*args)
-    else:
-        _log_likelihood_rows(*args, 0, len(particles))
     return out
 
 

@@ -23,7 +23,6 @@ from pfcourse.robot import (
     R_TRUE,
     RobotModel,
     _log_likelihood,
-    _log_likelihood_rows,
     _move_diagonal,
     motion,
     range_bearing,
@@ -46,10 +45,7 @@ def test_a_plain_running_sum_would_not_be():
     assert float(np.cumsum(a)[-1]) != np.sum(a)
 
 
-@pytest.mark.parametrize("threads", [False, True])
-def test_normalize_step_gives_the_floats_of_the_numpy_definitions(threads, monkeypatch):
-    if threads:
-        monkeypatch.setattr(kernels, "PARALLEL_MIN", 1)
+def test_normalize_step_gives_the_floats_of_the_numpy_definitions():
     for a in log_weight_vectors(1500, seed=2):
         if not np.isfinite(a.max()):
             continue
@@ -69,7 +65,7 @@ def test_normalize_step_reports_zero_weights():
 
 
 @pytest.mark.parametrize("angles", [(), (2,), (0, 2)])
-def test_weighted_moments_agree_with_the_numpy_definitions(angles, monkeypatch):
+def test_weighted_moments_agree_with_the_numpy_definitions(angles):
     rng = np.random.default_rng(3)
     is_angle = np.zeros(3, dtype=bool)
     is_angle[list(angles)] = True
@@ -84,11 +80,6 @@ def test_weighted_moments_agree_with_the_numpy_definitions(angles, monkeypatch):
         np.testing.assert_allclose(mean, expected_mean, rtol=1e-12, atol=1e-13)
         np.testing.assert_allclose(cov, weighted_covariance(x, w, expected_mean, angles), rtol=1e-11, atol=1e-14)
         assert np.array_equal(cov, cov.T)
-        # on all cores: the same floats (fixed chunks, summed in order)
-        monkeypatch.setattr(kernels, "PARALLEL_MIN", 1)
-        threaded = kernels.weighted_moments(x, w, is_angle)
-        monkeypatch.undo()
-        assert np.array_equal(threaded[0], mean, equal_nan=True) and np.array_equal(threaded[1], cov)
 
 
 def test_a_collapsed_cloud_has_its_point_as_mean_and_zero_covariance():
@@ -164,10 +155,7 @@ def test_gather_rows_is_fancy_indexing():
     assert np.array_equal(kernels.gather_rows(x, idx), x[idx])
 
 
-@pytest.mark.parametrize("threads", [False, True])
-def test_robot_motion_kernel_is_motion_to_the_bit(threads, monkeypatch):
-    if threads:
-        monkeypatch.setattr(kernels, "PARALLEL_MIN", 1)
+def test_robot_motion_kernel_is_motion_to_the_bit():
     sim = simulate_robot(rng=1, n_steps=5)
     rng = np.random.default_rng(9)
     x = np.column_stack([rng.uniform(-60, 60, (4000, 2)), rng.uniform(-np.pi, np.pi, 4000)])
@@ -178,10 +166,7 @@ def test_robot_motion_kernel_is_motion_to_the_bit(threads, monkeypatch):
         assert np.array_equal(_move_diagonal(x, noise, sim.odometry[k], q_std, 1.5), expected)
 
 
-@pytest.mark.parametrize("threads", [False, True])
-def test_robot_likelihood_kernel_is_the_gaussian_of_the_wrapped_innovation(threads, monkeypatch):
-    if threads:
-        monkeypatch.setattr(kernels, "PARALLEL_MIN", 1)
+def test_robot_likelihood_kernel_is_the_gaussian_of_the_wrapped_innovation():
     rng = np.random.default_rng(10)
     x = np.column_stack([rng.uniform(-60, 60, (4000, 2)), rng.uniform(-np.pi, np.pi, 4000)])
     landmark, z = np.array([3.0, -7.0]), np.array([20.0, 3.1])  # bearing near the cut
@@ -195,9 +180,6 @@ def test_robot_likelihood_kernel_is_the_gaussian_of_the_wrapped_innovation(threa
     log_norm = -np.log(2 * np.pi) - np.sum(np.log(np.diag(np.linalg.cholesky(r))))
     got = _log_likelihood(x, landmark[0], landmark[1], z[0], z[1], a[0, 0], a[1, 0], a[1, 1], log_norm)
     np.testing.assert_allclose(got, expected, rtol=1e-12)
-    one_pass = np.empty(len(x))
-    _log_likelihood_rows(x, *landmark, *z, a[0, 0], a[1, 0], a[1, 1], log_norm, one_pass, 0, len(x))
-    np.testing.assert_array_equal(got, one_pass)  # threads or not, the same floats
 
 
 def test_filter_moments_match_the_numpy_moments_of_the_stored_cloud():
