@@ -110,8 +110,10 @@ def nees(
 
     ``truth`` and ``estimate`` have shape ``(K, d)``, ``covariance`` ``(K, d, d)``;
     returns shape ``(K,)``.  Angle components of ``e`` are wrapped.  A step whose covariance
-    is singular (a particle cloud collapsed onto one point) gets NEES ``+inf``: the
-    estimator claims a certainty that the error contradicts.
+    is not positive definite in floating point (a particle cloud collapsed onto one point,
+    or in some directions) gets NEES ``+inf``: the estimator claims a certainty that the
+    error contradicts.  The value is computed as ``|L^{-1} e|^2`` with the Cholesky factor
+    ``L`` of ``P``, so it is never negative.
     """
     truth = np.atleast_2d(np.asarray(truth, dtype=float))
     estimate = np.atleast_2d(np.asarray(estimate, dtype=float))
@@ -126,23 +128,35 @@ def nees(
     err = truth - estimate
     for j in angle_indices:
         err[:, j] = wrap_angle(err[:, j])
-    with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
+    with np.errstate(over="ignore", invalid="ignore", divide="ignore", under="ignore"):
         try:
-            solved = np.linalg.solve(covariance, err[..., None])[..., 0]
-            values = np.einsum("ki,ki->k", err, solved)
-        except np.linalg.LinAlgError:
-            values = np.array([_nees_one(e, c) for e, c in zip(err, covariance)])
-    # A (nearly) singular covariance overflows the solve: the cloud claims certainty.
-    collapsed = ~np.isfinite(values) & np.all(np.isfinite(err), axis=1)
-    return np.where(collapsed, np.inf, values)
+            chol = np.linalg.cholesky(covariance)
+        except np.linalg.LinAlgError:  # some step is not positive definite: step by step
+            return np.array([_nees_one(e, c) for e, c in zip(err, covariance)])
+        whitened = np.linalg.solve(chol, err[..., None])[..., 0]
+        values = np.sum(whitened**2, axis=1)
+    finite_err = np.all(np.isfinite(err), axis=1)
+    return np.where(finite_err, np.where(np.isfinite(values), values, np.inf), np.nan)
 
 
 def _nees_one(err: np.ndarray, cov: np.ndarray) -> float:
-    """NEES of one step; +inf when ``cov`` is singular (a collapsed cloud claims certainty)."""
-    try:
-        return float(err @ np.linalg.solve(cov, err))
-    except np.linalg.LinAlgError:
-        return float("inf")
+    """``|L^{-1} e|^2`` with ``L L^T = P`` (Cholesky): never negative, whatever the round-off.
+
+    A covariance that is not positive definite in floating point (a collapsed cloud, or
+    one collapsed in some directions) gets ``+inf``.  Solving with such a matrix directly
+    would return round-off, small or even negative, and a collapsed cloud would then
+    count as covering the truth by chance.
+    """
+    if not np.all(np.isfinite(err)):
+        return float("nan")
+    with np.errstate(over="ignore", invalid="ignore", divide="ignore", under="ignore"):
+        try:
+            chol = np.linalg.cholesky(cov)
+        except np.linalg.LinAlgError:
+            return float("inf")
+        whitened = np.linalg.solve(chol, err)
+        value = float(whitened @ whitened)
+    return value if np.isfinite(value) else float("inf")
 
 
 def chi2_band(dof: int, n_runs: int = 1, probability: float = 0.95) -> tuple[float, float]:

@@ -166,6 +166,20 @@ def test_nees_of_a_collapsed_cloud_is_infinite_not_an_error():
     assert values[0] == pytest.approx(0.25) and values[1] == np.inf
 
 
+def test_nees_of_a_cloud_collapsed_in_some_directions_is_infinite_never_round_off():
+    """A covariance singular to working precision (rank 1 here, from a cloud on a line, plus
+    round-off) must not count as covering the truth: a direct solve returns round-off."""
+    rng = np.random.default_rng(0)
+    along = rng.standard_normal(50)
+    cloud = np.column_stack([along, 0.3 * along + 1e-17 * rng.standard_normal(50)])
+    cov = np.cov(cloud.T, bias=True)
+    err = np.array([[0.0, 0.5]])  # off the line: the filter claims it impossible
+    values = nees(err, np.zeros((1, 2)), cov[None])
+    assert values[0] == np.inf or values[0] > 1e20
+    stack = np.array([np.eye(2), cov])  # batched and step-by-step paths agree
+    assert nees(np.vstack([err, err]), np.zeros((2, 2)), stack)[0] == pytest.approx(0.25)
+
+
 def test_nees_of_a_nearly_collapsed_cloud_is_infinite_without_warnings():
     truth = np.array([[1.0, 0.0]])
     cov = np.array([[[1e-320, 0.0], [0.0, 1e-320]]])  # its inverse overflows
