@@ -288,8 +288,8 @@ th_table["threshold"] = th_table["threshold"].round(3)
 show(th_table, "threshold", {"position_rmse": "position RMSE (m)", "mean_ess_fraction": "mean ESS / N",
                              "resamples": "resamplings"})
 sis = th_table[th_table["threshold"] == 0.0]
-print(f"threshold 0: {int(np.isinf(sis['mean_nees']).sum())} of {len(sis)} runs put all the weight on one particle "
-      "at some step (zero covariance, infinite NEES)")
+print(f"threshold 0: {int(np.isinf(sis['mean_nees']).sum())} of {len(sis)} runs put all the weight, to working "
+      "precision, on one particle at some step (singular covariance, infinite NEES)")
 
 # %%
 fig, axes = plt.subplots(1, 3, figsize=(11, 3.5))
@@ -310,9 +310,9 @@ plt.show()
 # %% [markdown]
 # On the robot, any threshold that resamples at all does the job: the median RMSE is
 # 0.18-0.20 m from $\theta = 0.2$ to 1 and 0.21 m at 0.1, while $\theta = 0$ (no resampling,
-# SIS) is 3.7 times worse (0.68 m), with a mean ESS below 1 % of $N$ and, in 92 runs of
-# 100, all the weight on a single particle at some step: the degeneracy all reports
-# describe. The number of resamplings grows with $\theta$, up to one at every
+# SIS) is 3.7 times worse (0.68 m), with a mean ESS below 1 % of $N$ and, in 95 runs of
+# 100, all the weight (to working precision) on a single particle at some step: the
+# degeneracy all reports describe. The number of resamplings grows with $\theta$, up to one at every
 # measurement step at $\theta = 1$ (99 of 99), which contradicts report 004 directly. And a
 # threshold of 1 is not degenerate: its mean ESS is the largest of all (64 % of $N$,
 # measured before each resampling), and its RMSE (0.179 m) is the smallest, by a margin

@@ -292,11 +292,14 @@ print_times(robot_table)
 #   error. Its NIS, though, looks as good as the Kalman filters': the measurement noise $R$
 #   dominates $S_k$ and hides the under-estimated state spread. On real data, where only the
 #   NIS can be computed, this over-confidence would go unnoticed.
-# - **Cost.** The EKF is the cheapest. `filterpy`'s UKF costs more than its 7 sigma points
-#   suggest (it calls the model once per sigma point, in Python): on the machine that built
-#   this page, about as much as the particle filter with a few hundred particles; the particle filter's cost grows with $N$,
-#   but much less than in proportion at these sizes, because it is vectorised over particles
-#   and a fixed per-step overhead dominates (timing cell).
+# - **Cost.** In model evaluations the EKF is by far the cheapest: one, with its Jacobian,
+#   per step, against 7 for the UKF and $N$ for the particle filter. Wall time on the machine
+#   that built this page tells a different story (timing cell), because the implementations
+#   differ: `filterpy`'s EKF and UKF run each step in Python (the UKF calls the model once
+#   per sigma point), while the particle filter's inner loops are compiled. So the particle
+#   filter with a few hundred particles takes about as long as the EKF, the UKF is the
+#   slowest, and the particle filter's time grows with $N$ much less than in proportion at
+#   these sizes, a fixed per-step overhead being a large part of it.
 #
 # The accuracy-versus-cost figure puts the filters on one plot: the lower left is better.
 
@@ -373,7 +376,7 @@ plt.show()
 # %% [markdown]
 # **Small prior.** The picture of the robot again: every filter tracks every flight (no
 # divergence) to a few tens of metres, and the EKF does it with the smallest median RMSE and
-# at the lowest cost. In measurement space all filters are consistent (NIS medians close to
+# the fewest model evaluations. In measurement space all filters are consistent (NIS medians close to
 # the $\chi^2_1$ median, 0.45, and the run-averaged NIS in its band at 95 % of the steps).
 # In state space the Kalman filters are conservative (NEES median below the $\chi^2_4$
 # median, 3.36, and the run-averaged NEES below its band at many steps): every filter allows
@@ -438,11 +441,11 @@ display(HTML(decision.to_html(index=False)))
 #   may be over-confident on data; the NIS needs no ground truth. But, as the robot's
 #   particle filter showed, a NIS in its band does not prove that the state covariance is
 #   right when the measurement noise dominates $S_k$.
-# - **Cost ratios depend on the implementation.** In this book the particle filter is
-#   vectorised over particles with numpy and the Kalman filters call `filterpy` once per
-#   step (the UKF once per sigma point), so the measured ratios (timing cells) are smaller
-#   than the evaluation counts suggest; compiled code would change the ratios, not the
-#   accuracy or the consistency.
+# - **Cost ratios depend on the implementation.** In this book the particle filter's inner
+#   loops are compiled (`pfcourse.kernels`) and the Kalman filters call `filterpy` in
+#   Python once per step (the UKF once per sigma point), so the measured ratios (timing
+#   cells) are far smaller than the evaluation counts suggest; a compiled EKF would change
+#   the ratios again, not the accuracy or the consistency.
 #
 # ## Try it
 #
