@@ -10,7 +10,9 @@ re-run of an unchanged source gives the same file.
 
 from __future__ import annotations
 
+import os
 import sys
+import tempfile
 import time
 from pathlib import Path
 
@@ -19,7 +21,36 @@ import nbformat
 from nbclient import NotebookClient
 
 
+# Run in the kernel before the notebook (an IPython startup file): widget model ids (comm)
+# and animation ids (matplotlib's to_jshtml) come from uuid.uuid4, random on every run; they
+# are drawn from a generator seeded by the notebook's name instead, so that re-executing an
+# unchanged source stores an unchanged file.
+SEEDED_UUIDS = """
+import random as _random
+import uuid as _uuid
+
+_uuid_rng = _random.Random({seed!r})
+_uuid.uuid4 = lambda: _uuid.UUID(int=_uuid_rng.getrandbits(128), version=4)
+"""
+
+
 def execute(source: Path) -> None:
+    with tempfile.TemporaryDirectory() as ipython_dir:
+        startup = Path(ipython_dir) / "profile_default" / "startup"
+        startup.mkdir(parents=True)
+        (startup / "00-seeded-uuids.py").write_text(SEEDED_UUIDS.format(seed=source.stem))
+        previous = os.environ.get("IPYTHONDIR")
+        os.environ["IPYTHONDIR"] = ipython_dir
+        try:
+            _execute(source)
+        finally:
+            if previous is None:
+                os.environ.pop("IPYTHONDIR", None)
+            else:
+                os.environ["IPYTHONDIR"] = previous
+
+
+def _execute(source: Path) -> None:
     notebook = jupytext.read(source)
     notebook.metadata["kernelspec"] = {
         "name": "python3",
