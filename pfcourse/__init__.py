@@ -6,11 +6,11 @@ The notebooks teach; the plumbing lives here.  Main entry points:
   loops compiled with numba in :mod:`pfcourse.kernels`);
 * :mod:`pfcourse.resampling` - multinomial, stratified, systematic, residual;
 * :mod:`pfcourse.diagnostics` - ESS, weighted moments, NEES, ellipses;
-* :mod:`pfcourse.landmarks` - scenario A (linear landmark model) and its simulator;
-* :func:`pfcourse.kalman.kalman_filter` - the exact Kalman reference (filterpy).
+* :mod:`pfcourse.landmarks.scenario` - scenario A (linear landmark model) and its simulator;
+* :func:`pfcourse.landmarks.kalman.kalman_filter` - the exact Kalman reference (filterpy).
 """
 
-from .errors import (
+from pfcourse.errors import (
     CovarianceError,
     DegenerateWeightsError,
     NumericalError,
@@ -19,15 +19,15 @@ from .errors import (
     ShapeError,
     WeightError,
 )
-from .filter import (
+from pfcourse.filter import (
     DensityProposal,
     FilterResult,
     ParticleFilter,
     StateSpaceModel,
     TransitionProposal,
 )
-from .kalman import KalmanResult, kalman_filter
-from .linear_gaussian import LinearGaussianModel, OptimalProposal
+from pfcourse.landmarks.kalman import KalmanResult, kalman_filter
+from pfcourse.landmarks.model import LinearGaussianModel, OptimalProposal
 
 __version__ = "0.1.0"
 

@@ -1,12 +1,18 @@
 """Angles: wrapping to (-pi, pi] and the weighted circular mean.
 
 A heading of 179 deg and one of -179 deg are 2 deg apart, but their arithmetic
-mean is 0 deg: every angle in the package goes through these two functions.
+mean is 0 deg: every angle in the package goes through these functions.
 """
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
+
+from pfcourse.compiled import jit
+
+TWO_PI = 2.0 * np.pi
 
 
 def wrap_angle(angle):
@@ -17,6 +23,15 @@ def wrap_angle(angle):
     """
     angle = np.asarray(angle, dtype=float)
     return angle - 2.0 * np.pi * np.ceil((angle - np.pi) / (2.0 * np.pi))
+
+
+@jit
+def wrap(angle: float) -> float:
+    """:func:`wrap_angle` of one float, compiled (for loops over particles and the Kalman filters' steps).
+
+    The same formula, so the same float: ``wrap(a) = a - 2 pi ceil((a - pi) / (2 pi))``.
+    """
+    return angle - TWO_PI * math.ceil((angle - np.pi) / TWO_PI)
 
 
 def circular_mean(angles: np.ndarray, weights: np.ndarray | None = None, axis: int = 0):

@@ -8,11 +8,11 @@ matplotlib.use("Agg")
 
 import pytest
 
-from pfcourse.cloud_animation import animate_clouds
+from pfcourse.figures.clouds import animate_clouds
 from pfcourse.errors import ParameterError
 from pfcourse.filter import ParticleFilter
-from pfcourse.kalman import kalman_filter
-from pfcourse.landmarks import quadrant_scenario, simulate
+from pfcourse.landmarks.kalman import kalman_filter
+from pfcourse.landmarks.scenario import quadrant_scenario, simulate
 
 
 def test_frames_and_artists():

@@ -6,10 +6,10 @@ import numpy as np
 import pytest
 from scipy import stats
 
-from pfcourse.aircraft import AircraftScenario, extended_kalman_filter, simulate
-from pfcourse.aircraft_ukf import state_mean, unscented_kalman_filter
+from pfcourse.terrain.scenario import AircraftScenario, extended_kalman_filter, simulate
+from pfcourse.terrain.kalman import state_mean, unscented_kalman_filter
 from pfcourse.angles import wrap_angle
-from pfcourse.comparison import (
+from pfcourse.experiments.comparison import (
     particle_innovations,
     robot_ekf_innovations,
     robot_tracks,
@@ -20,11 +20,11 @@ from pfcourse.comparison import (
 from pfcourse.diagnostics import chi2_band, fraction_in_band, nis, predictive_moments
 from pfcourse.errors import ShapeError
 from pfcourse.filter import ParticleFilter
-from pfcourse.kalman import kalman_filter
-from pfcourse.linear_gaussian import LinearGaussianModel
-from pfcourse.robot import RobotModel, simulate_robot
-from pfcourse.robot_kalman import run_ekf, run_ukf
-from pfcourse.terrain import load_jacksboro
+from pfcourse.landmarks.kalman import kalman_filter
+from pfcourse.landmarks.model import LinearGaussianModel
+from pfcourse.robot.scenario import RobotModel, simulate_robot
+from pfcourse.robot.kalman import run_ekf, run_ukf
+from pfcourse.terrain.map import load_jacksboro
 
 TIGHT = dict(P0=np.diag([30.0, 30.0, 5.0, 0.01]) ** 2, Qf=np.diag([1.0, 1.0, 0.1, 0.001]) ** 2)
 

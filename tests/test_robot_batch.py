@@ -6,10 +6,10 @@ import numpy as np
 import pytest
 
 from pfcourse.errors import DegenerateWeightsError, ParameterError
-from pfcourse.robot import simulate_robot
-from pfcourse.robot_batch import pf_batch, simulate_batch
-from pfcourse.robot_compare import compare_filters
-from pfcourse.study import run_study, summarize
+from pfcourse.robot.scenario import simulate_robot
+from pfcourse.experiments.robot_batch import pf_batch, simulate_batch
+from pfcourse.experiments.robot import compare_filters
+from pfcourse.experiments.study import run_study, summarize
 
 SEEDS = [3, 11, 2024]
 

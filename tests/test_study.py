@@ -6,8 +6,8 @@ import numpy as np
 import pytest
 
 from pfcourse import DegenerateWeightsError, ParameterError, ParticleFilter, kalman_filter
-from pfcourse.landmarks import quadrant_scenario, simulate
-from pfcourse.study import grid_settings, replicate_seed, run_study, summarize
+from pfcourse.landmarks.scenario import quadrant_scenario, simulate
+from pfcourse.experiments.study import grid_settings, replicate_seed, run_study, summarize
 
 
 def landmark_run(seed: int, n_particles: int, threshold: float) -> dict:

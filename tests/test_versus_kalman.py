@@ -5,9 +5,9 @@ from __future__ import annotations
 import numpy as np
 
 from pfcourse.filter import ParticleFilter
-from pfcourse.kalman import kalman_filter
-from pfcourse.landmarks import quadrant_scenario
-from pfcourse.versus_kalman import monte_carlo
+from pfcourse.landmarks.kalman import kalman_filter
+from pfcourse.landmarks.scenario import quadrant_scenario
+from pfcourse.experiments.landmarks import monte_carlo
 
 
 class KalmanAsFilter:

@@ -30,7 +30,7 @@
 # $$
 #
 # The new weight does not depend on the sampled $x_k^i$ at all: the only weight variance left
-# is that of $p(z_k \mid x_{k-1}^i)$ across the particles. `pfcourse.linear_gaussian.OptimalProposal`
+# is that of $p(z_k \mid x_{k-1}^i)$ across the particles. `pfcourse.landmarks.model.OptimalProposal`
 # implements it; the filter takes it through its `proposal` argument, with $H_k$, $R_k$ of the
 # visible landmarks at each step.
 #
@@ -53,12 +53,12 @@ from IPython.display import HTML, display
 from matplotlib.animation import FuncAnimation
 
 from pfcourse.filter import ParticleFilter
-from pfcourse.kalman import kalman_filter
-from pfcourse.landmarks import quadrant_scenario, simulate
-from pfcourse.linear_gaussian import OptimalProposal
-from pfcourse.plotting import COLORS, plain_log_axis, use_style
-from pfcourse.versus_kalman import monte_carlo
-from pfcourse.widgets import control_panel, particle_slider, scale_slider, seed_box
+from pfcourse.landmarks.kalman import kalman_filter
+from pfcourse.landmarks.scenario import quadrant_scenario, simulate
+from pfcourse.landmarks.model import OptimalProposal
+from pfcourse.style import COLORS, plain_log_axis, use_style
+from pfcourse.experiments.landmarks import monte_carlo
+from pfcourse.figures.widgets import control_panel, particle_slider, scale_slider, seed_box
 
 use_style()
 ROBOT, LANDMARKS = [0, 1], [2, 3, 4, 5]

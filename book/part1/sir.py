@@ -34,12 +34,13 @@ import numpy as np
 from IPython.display import display
 
 from pfcourse.filter import ParticleFilter
-from pfcourse.kalman import kalman_filter
-from pfcourse.landmarks import quadrant_scenario, simulate
-from pfcourse.plotting import COLORS, plain_log_axis, posterior_bands, use_style
+from pfcourse.landmarks.kalman import kalman_filter
+from pfcourse.landmarks.scenario import quadrant_scenario, simulate
+from pfcourse.figures.bands import posterior_bands
+from pfcourse.style import COLORS, plain_log_axis, use_style
 from pfcourse.roughening import Roughening
-from pfcourse.versus_kalman import monte_carlo
-from pfcourse.widgets import control_panel, particle_slider, scheme_dropdown, seed_box, threshold_slider
+from pfcourse.experiments.landmarks import monte_carlo
+from pfcourse.figures.widgets import control_panel, particle_slider, scheme_dropdown, seed_box, threshold_slider
 
 use_style()
 LABELS = ["robot x", "robot y", "L1 x", "L1 y", "L2 x", "L2 y"]
@@ -95,7 +96,7 @@ print("distinct L1 x values at steps 0, 5, 20, 49:", [distinct[k] for k in (0, 5
 # %%
 from IPython.display import HTML
 
-from pfcourse.cloud_animation import animate_clouds
+from pfcourse.figures.clouds import animate_clouds
 
 sis_res = ParticleFilter(model, 100, threshold=0.0).run(sim.Z, rng=1, store_particles=True)
 HTML(animate_clouds({"SIS": sis_res, "SIR": res}, kf, sim.X, frames=range(0, 30, 2)).to_jshtml())

@@ -46,10 +46,11 @@ from IPython.display import HTML, display
 from matplotlib.animation import FuncAnimation
 
 from pfcourse.filter import ParticleFilter
-from pfcourse.kalman import kalman_filter
-from pfcourse.landmarks import quadrant_scenario, simulate
-from pfcourse.plotting import COLORS, ellipse_patch, plain_log_axis, posterior_bands, use_style
-from pfcourse.widgets import control_panel, particle_slider, scale_slider, seed_box
+from pfcourse.landmarks.kalman import kalman_filter
+from pfcourse.landmarks.scenario import quadrant_scenario, simulate
+from pfcourse.figures.bands import posterior_bands
+from pfcourse.style import COLORS, ellipse_patch, plain_log_axis, use_style
+from pfcourse.figures.widgets import control_panel, particle_slider, scale_slider, seed_box
 
 use_style()
 LABELS = ["robot x", "robot y", "L1 x", "L1 y", "L2 x", "L2 y"]

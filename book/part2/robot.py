@@ -64,11 +64,11 @@
 # second, and a filter that assumes twice the true variances, $Q_\text{est} = 2Q_\text{true}$,
 # $R_\text{est} = 2R_\text{true}$.
 #
-# **How the data are passed.** `pfcourse.robot.simulate_robot` returns the
+# **How the data are passed.** `pfcourse.robot.scenario.simulate_robot` returns the
 # measurements as one array with a row $(j, r, b)$ per step (landmark index, range, bearing),
 # or a row of NaN when there is no measurement; the generic
 # `pfcourse.filter.ParticleFilter` skips the update on such rows. The odometry is
-# held by the model (`pfcourse.robot.RobotModel`), which reads row $k$ when it moves
+# held by the model (`pfcourse.robot.scenario.RobotModel`), which reads row $k$ when it moves
 # the particles at step $k$. The same two arrays feed the extended and unscented Kalman
 # filters of the next chapter.
 
@@ -82,11 +82,11 @@ from matplotlib.ticker import MaxNLocator, MultipleLocator
 from pfcourse.diagnostics import nees
 from pfcourse.errors import DegenerateWeightsError
 from pfcourse.filter import ParticleFilter
-from pfcourse.plotting import COLORS, plain_log_axis, use_style
-from pfcourse.robot import RobotModel, rmse, simulate_robot, tracking_errors
-from pfcourse.robot_compare import global_localization_run
-from pfcourse.robot_plots import animate_cloud, error_bands, robot_map
-from pfcourse.widgets import (
+from pfcourse.style import COLORS, plain_log_axis, use_style
+from pfcourse.robot.scenario import RobotModel, rmse, simulate_robot, tracking_errors
+from pfcourse.experiments.robot import global_localization_run
+from pfcourse.robot.figures import animate_cloud, error_bands, robot_map
+from pfcourse.figures.widgets import (
     control_panel,
     particle_slider,
     scale_slider,

@@ -29,19 +29,12 @@ import numpy as np
 from IPython.display import HTML, display
 from matplotlib.animation import FuncAnimation
 
-from pfcourse.aircraft import (
-    DIVERGED_ERROR,
-    AircraftScenario,
-    extended_kalman_filter,
-    flight_seed,
-    monte_carlo,
-    position_error,
-    simulate,
-)
+from pfcourse.experiments.terrain import DIVERGED_ERROR, flight_seed, monte_carlo
+from pfcourse.terrain.scenario import AircraftScenario, extended_kalman_filter, position_error, simulate
 from pfcourse.filter import ParticleFilter
-from pfcourse.plotting import COLORS, plain_log_axis, use_style
-from pfcourse.terrain import hillshade, load_jacksboro
-from pfcourse.widgets import (
+from pfcourse.style import COLORS, plain_log_axis, use_style
+from pfcourse.terrain.map import hillshade, load_jacksboro
+from pfcourse.figures.widgets import (
     control_panel,
     particle_slider,
     scale_slider,

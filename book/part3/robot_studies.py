@@ -35,13 +35,13 @@ from IPython.display import HTML
 from matplotlib.animation import FuncAnimation
 
 from pfcourse.filter import ParticleFilter
-from pfcourse.kalman import kalman_filter
-from pfcourse.landmarks import quadrant_scenario, simulate
-from pfcourse.plotting import COLORS, plain_log_axis, use_style
-from pfcourse.robot_batch import pf_batch
-from pfcourse.study import run_study, summarize
-from pfcourse.study_plots import summary_band, time_band
-from pfcourse.widgets import control_panel
+from pfcourse.landmarks.kalman import kalman_filter
+from pfcourse.landmarks.scenario import quadrant_scenario, simulate
+from pfcourse.style import COLORS, plain_log_axis, use_style
+from pfcourse.experiments.robot_batch import pf_batch
+from pfcourse.experiments.study import run_study, summarize
+from pfcourse.figures.study import summary_band, time_band
+from pfcourse.figures.widgets import control_panel
 
 use_style()
 
@@ -63,11 +63,11 @@ use_style()
 #   jumps around compared with the robot's real motion;
 # - the mean effective sample size as a fraction of $N$ and the number of resamplings.
 #
-# `pfcourse.study.run_study` repeats a run over a grid of settings. Run $r$ uses the seed
+# `pfcourse.experiments.study.run_study` repeats a run over a grid of settings. Run $r$ uses the seed
 # `replicate_seed(0, r)` **in every setting**, so all settings are compared on the same 100
 # simulated worlds (*common random numbers*): a difference between two settings is then a
 # difference of the filter, not of the data, and a paired comparison run by run is
-# possible. Any row can be re-run alone with `pfcourse.robot_compare.compare_filters`,
+# possible. Any row can be re-run alone with `pfcourse.experiments.robot.compare_filters`,
 # which gives the same numbers.
 #
 # **Horizon.** The reports run 1000 s. The robot moves at 2.5 cm/s along a gentle curve,
@@ -77,7 +77,7 @@ use_style()
 # Runs of 100 s, scored after their first 20 s, measure that steady state at a tenth of the
 # price of 1000 s; what remains of the transient after 20 s is the same for every setting. Studies that need longer runs (the
 # measurement period, the gap) say so. To fit 100 runs per setting into this page's
-# budget, `pfcourse.robot_batch.pf_batch` filters the 100 runs of a setting at once as one
+# budget, `pfcourse.experiments.robot_batch.pf_batch` filters the 100 runs of a setting at once as one
 # array of $100 \times N$ particles, with each run still drawing from its own seeded generator.
 #
 # Unless a section varies it, every run uses the reports' defaults: $N = 300$,

@@ -44,15 +44,16 @@ from matplotlib import ticker
 from matplotlib.animation import FuncAnimation
 from scipy import stats
 
-from pfcourse.aircraft import DIVERGED_ERROR, AircraftScenario
-from pfcourse.comparison import label, linear_convergence, loglog_slope, robot_tracks, summarize, terrain_tracks
+from pfcourse.experiments.terrain import DIVERGED_ERROR
+from pfcourse.terrain.scenario import AircraftScenario
+from pfcourse.experiments.comparison import label, linear_convergence, loglog_slope, robot_tracks, summarize, terrain_tracks
 from pfcourse.diagnostics import chi2_band
 from pfcourse.filter import ParticleFilter
-from pfcourse.kalman import kalman_filter
-from pfcourse.landmarks import quadrant_scenario, simulate
-from pfcourse.plotting import COLORS, ellipse_patch, plain_log_axis, use_style
-from pfcourse.terrain import load_jacksboro
-from pfcourse.widgets import control_panel
+from pfcourse.landmarks.kalman import kalman_filter
+from pfcourse.landmarks.scenario import quadrant_scenario, simulate
+from pfcourse.style import COLORS, ellipse_patch, plain_log_axis, use_style
+from pfcourse.terrain.map import load_jacksboro
+from pfcourse.figures.widgets import control_panel
 
 use_style()
 
@@ -232,7 +233,7 @@ HTML(anim.to_jshtml())
 #
 # How the NIS is computed: for the EKF, $S_k = H_k P_k^- H_k^\top + R$; for the UKF, $S_k$ is
 # the unscented transform of the predicted sigma points through $h$, plus $R$ (both replayed
-# exactly from the filters' outputs, `pfcourse.comparison`). For the particle filter, the
+# exactly from the filters' outputs, `pfcourse.experiments.comparison`). For the particle filter, the
 # predictive distribution of $z_k$ is the mixture $\sum_i W_{k-1}^i \, \mathcal N(z;
 # h(x_k^i), R)$ over the *predicted* particles (moved, not yet weighted by $z_k$); $\hat z_k$
 # and $S_k$ are its mean and covariance,
@@ -337,7 +338,7 @@ plt.show()
 # All filters run on the same flights (the first flights of the terrain chapter's studies,
 # with the same particle-filter seeds, so the $N = 3000$ runs of the report's prior are
 # exactly that chapter's baseline runs). The terrain UKF is new here
-# (`pfcourse.aircraft_ukf`): filterpy's UKF with the heading averaged on the circle, stopped
+# (`pfcourse.terrain.kalman`): filterpy's UKF with the heading averaged on the circle, stopped
 # like the EKF when its estimate or a sigma point leaves the map. Accuracy is the RMS
 # horizontal error over the second half of the flight (40-80 s); a flight counts as diverged
 # when its final error exceeds 500 m. The altimeter reading is a scalar, so the NIS has one

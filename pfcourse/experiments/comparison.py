@@ -12,15 +12,15 @@ Three measurements, for every filter on every seeded run:
   per step (``N`` particles, ``2 d + 1`` sigma points, one linearisation point).
 
 **Where the innovations come from.**  The existing Kalman runners
-(:func:`pfcourse.robot_kalman.run_ekf`, :func:`~pfcourse.robot_kalman.run_ukf`,
-:func:`pfcourse.aircraft.extended_kalman_filter`) return the posterior ``(m_k, P_k)`` only.
+(:func:`pfcourse.robot.kalman.run_ekf`, :func:`~pfcourse.robot.kalman.run_ukf`,
+:func:`pfcourse.terrain.scenario.extended_kalman_filter`) return the posterior ``(m_k, P_k)`` only.
 Their prediction and innovation are deterministic functions of ``(m_{k-1}, P_{k-1})``, so
 they are *replayed* here exactly as the filters computed them (same Jacobians, same sigma
 points and weights, same angle wrapping): for the EKF ``S = H P^- H^T + R``, for the UKF
 ``S`` is the unscented transform of the predicted sigma points through ``h`` plus ``R``.
 Each replay also returns the gain ``G_k`` (``P^- H^T S^{-1}`` or ``P_xz S^{-1}``) and the
 predicted mean, so that ``m_k = m^-_k + G_k y_k`` checks it against the stored posterior
-(the unit tests do).  The terrain UKF (:mod:`pfcourse.aircraft_ukf`) records its own.
+(the unit tests do).  The terrain UKF (:mod:`pfcourse.terrain.kalman`) records its own.
 
 For the particle filter, the predictive distribution of ``z_k`` is the mixture
 ``sum_i W_{k-1}^i N(z; h(x_k^i), R)`` over the *predicted* particles (after the move,
@@ -40,24 +40,25 @@ import numpy as np
 import pandas as pd
 from filterpy.kalman import MerweScaledSigmaPoints, unscented_transform
 
-from .aircraft import (
+from pfcourse.checks import Array
+from pfcourse.terrain.scenario import (
     AircraftScenario,
     dynamics_jacobian,
     extended_kalman_filter,
-    flight_seed,
     measurement_jacobian as terrain_jacobian,
     position_error,
     predicted_measurement,
     propagate,
     simulate as simulate_flight,
 )
-from .aircraft_ukf import unscented_kalman_filter
-from .angles import wrap_angle
-from .diagnostics import chi2_band, fraction_in_band, nees, nis, predictive_moments
-from .errors import DegenerateWeightsError
-from .filter import FilterResult, ParticleFilter
-from .robot import ANGLE_INDICES, RobotModel, range_bearing, simulate_robot
-from .robot_kalman import (
+from pfcourse.terrain.kalman import unscented_kalman_filter
+from pfcourse.experiments.terrain import flight_seed
+from pfcourse.angles import wrap_angle
+from pfcourse.diagnostics import chi2_band, fraction_in_band, nees, nis, predictive_moments
+from pfcourse.errors import DegenerateWeightsError
+from pfcourse.filter import FilterResult, ParticleFilter
+from pfcourse.robot.scenario import ANGLE_INDICES, RobotModel, range_bearing, simulate_robot
+from pfcourse.robot.kalman import (
     KalmanRun,
     measurement_jacobian as robot_jacobian,
     measurement_mean,
@@ -68,9 +69,7 @@ from .robot_kalman import (
     state_mean,
     state_residual,
 )
-from .terrain import TerrainMap
-
-Array = np.ndarray
+from pfcourse.terrain.map import TerrainMap
 
 
 @dataclass
@@ -94,7 +93,7 @@ def _empty(K: int, d: int, m: int) -> Innovations:
 
 def robot_ekf_innovations(model: RobotModel, measurements: Array, run: KalmanRun,
                           initial_cov: Array | None = None) -> Innovations:
-    """Replay the innovations of :func:`~pfcourse.robot_kalman.run_ekf` from its posteriors.
+    """Replay the innovations of :func:`~pfcourse.robot.kalman.run_ekf` from its posteriors.
 
     ``m^- = f(m_{k-1}, u~_k)``, ``P^- = F P_{k-1} F^T + G Q G^T``, ``H = dh_j/dx`` at
     ``m^-``, ``S = H P^- H^T + R``, ``y = z - h_j(m^-)`` (bearing wrapped).
@@ -121,7 +120,7 @@ def robot_ekf_innovations(model: RobotModel, measurements: Array, run: KalmanRun
 
 def robot_ukf_innovations(model: RobotModel, measurements: Array, run: KalmanRun, *,
                           alpha: float = 1.0, beta: float = 2.0, kappa: float = 0.0) -> Innovations:
-    """Replay the innovations of :func:`~pfcourse.robot_kalman.run_ukf` (same sigma points).
+    """Replay the innovations of :func:`~pfcourse.robot.kalman.run_ukf` (same sigma points).
 
     Sigma points of ``(m_{k-1}, P_{k-1})`` go through ``f(., u~_k)``; the unscented transform
     with ``G Q G^T`` gives ``(m^-, P^-)``; as filterpy does, new sigma points are drawn from
@@ -158,7 +157,7 @@ def robot_ukf_innovations(model: RobotModel, measurements: Array, run: KalmanRun
 
 def terrain_ekf_innovations(scenario: AircraftScenario, terrain: TerrainMap, measurements: Array,
                             mean: Array, cov: Array) -> Innovations:
-    """Replay the innovations of :func:`~pfcourse.aircraft.extended_kalman_filter`.
+    """Replay the innovations of :func:`~pfcourse.terrain.scenario.extended_kalman_filter`.
 
     ``m^- = f(m_{k-1})``, ``P^- = F P_{k-1} F^T + Q_f dt``, ``H = [-dh/dx, -dh/dy, 1, 0]`` at
     ``m^-``, ``S = H P^- H^T + R_f``, ``y = z - (m^-_z - h(m^-_x, m^-_y))``.  Steps after the
@@ -244,12 +243,12 @@ def robot_tracks(seed: int, n_values: Sequence[int], *, n_steps: int = 100, q_sc
                  r_scale: float = 1.0, kalman: Sequence[str] = ("ekf", "ukf"), **scenario) -> list[Track]:
     """The robot scenario: simulate run ``seed``, filter it with a PF per ``N`` and the EKF/UKF.
 
-    Defaults differ from :func:`pfcourse.robot_compare.compare_filters` in one respect:
+    Defaults differ from :func:`pfcourse.experiments.robot.compare_filters` in one respect:
     the filters assume the *true* noise levels (``q_scale = r_scale = 1``), so that a
     consistent filter has NEES ~ chi2_3 and NIS ~ chi2_2.  The particle filter's random
     stream is seeded with ``[seed, N]``.  Errors are Euclidean position errors (m).
     """
-    from .robot_kalman import run_ekf, run_ukf
+    from pfcourse.robot.kalman import run_ekf, run_ukf
 
     sim = simulate_robot(None, seed, n_steps=n_steps, **scenario)
     model = RobotModel.for_simulation(sim, q_scale=q_scale, r_scale=r_scale)
@@ -283,7 +282,7 @@ def terrain_tracks(seed: int, run: int, scenario: AircraftScenario, terrain: Ter
                    n_values: Sequence[int], *, kalman: Sequence[str] = ("ekf", "ukf"),
                    resampler: str = "multinomial") -> list[Track]:
     """Terrain navigation: flight ``run`` of a study with seed ``seed`` (as
-    :func:`pfcourse.aircraft.monte_carlo`: flight :func:`~pfcourse.aircraft.flight_seed`,
+    :func:`pfcourse.experiments.terrain.monte_carlo`: flight :func:`~pfcourse.experiments.terrain.flight_seed`,
     particle filter seeded with ``[seed, run, 1]``), filtered by a PF per ``N`` and the EKF/UKF.
 
     Errors are horizontal position errors (m); a lost filter (every particle off the map,
@@ -411,7 +410,7 @@ class ConvergenceResult:
 def linear_convergence(model, measurements: Array, kalman, n_values: Sequence[int], n_runs: int, *,
                        seed: int = 0, threshold: float = 0.5) -> ConvergenceResult:
     """Run a bootstrap particle filter ``n_runs`` times per ``N`` on one data set and compare it
-    with the Kalman result ``kalman`` (:func:`pfcourse.kalman.kalman_filter`).
+    with the Kalman result ``kalman`` (:func:`pfcourse.landmarks.kalman.kalman_filter`).
 
     Run ``r`` at ``N`` uses the random stream ``[seed, r, N]``.
     """

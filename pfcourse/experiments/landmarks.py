@@ -27,10 +27,10 @@ from dataclasses import dataclass
 import numpy as np
 from scipy import stats
 
-from .diagnostics import nees
-from .filter import FilterResult
-from .kalman import KalmanResult, kalman_filter
-from .landmarks import LandmarkScenario, simulate
+from pfcourse.diagnostics import nees
+from pfcourse.filter import FilterResult
+from pfcourse.landmarks.kalman import KalmanResult, kalman_filter
+from pfcourse.landmarks.scenario import LandmarkScenario, simulate
 
 
 @dataclass

@@ -21,13 +21,13 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .angles import wrap_angle
-from .diagnostics import nees
-from .checks import check_count
-from .errors import DegenerateWeightsError, NumericalError, ParameterError
-from .filter import ParticleFilter
-from .robot import ANGLE_INDICES, INITIAL_STD, RobotModel, RobotScenario, rmse, simulate_robot
-from .robot_kalman import run_ekf, run_ukf
+from pfcourse.angles import wrap_angle
+from pfcourse.diagnostics import nees
+from pfcourse.checks import check_count
+from pfcourse.errors import DegenerateWeightsError, NumericalError, ParameterError
+from pfcourse.filter import ParticleFilter
+from pfcourse.robot.scenario import ANGLE_INDICES, INITIAL_STD, RobotModel, RobotScenario, rmse, simulate_robot
+from pfcourse.robot.kalman import run_ekf, run_ukf
 
 FILTERS = ("pf", "ekf", "ukf")
 
@@ -70,7 +70,7 @@ def compare_filters(
 ) -> dict[str, RunMetrics]:
     """Simulate run ``seed`` and filter it with each of ``filters`` (``"pf"``, ``"ekf"``, ``"ukf"``).
 
-    ``scenario_changes`` are :class:`~pfcourse.robot.RobotScenario` fields
+    ``scenario_changes`` are :class:`~pfcourse.robot.scenario.RobotScenario` fields
     (``n_steps``, ``dt_meas``, ``gap``, ``n_landmarks``, ``q_true``, ...).  The filters use
     ``QEst = q_scale QTrue`` and ``REst = r_scale RTrue``; the particle filter has
     ``n_particles``, resamples with ``scheme`` when ``ESS < threshold N`` and starts

@@ -1,6 +1,6 @@
 """Many seeded runs of the robot particle filter at once: the same numbers, a fraction of the time.
 
-A Monte Carlo study repeats :func:`pfcourse.robot_compare.compare_filters`
+A Monte Carlo study repeats :func:`pfcourse.experiments.robot.compare_filters`
 (particle filter only) for hundreds of seeds.  Run one at a time, most of the
 time goes into Python overhead per step, not into arithmetic on the particles.
 :func:`pf_batch` filters ``B`` replicates together: the particles of all runs
@@ -10,10 +10,10 @@ likelihood and one normalisation for the whole batch.
 **Same results as one run at a time.**  Replicate ``b`` uses its own generator
 ``default_rng(seeds[b])`` and draws from it exactly what
 :class:`~pfcourse.filter.ParticleFilter` draws on a
-:class:`~pfcourse.robot.RobotModel` (initial cloud, ``N x 3`` transition
+:class:`~pfcourse.robot.scenario.RobotModel` (initial cloud, ``N x 3`` transition
 normals per step, then the resampler's uniforms when that replicate resamples,
 through the same :mod:`pfcourse.resampling` function), and
-:func:`simulate_batch` reproduces :func:`~pfcourse.robot.simulate_robot` stream
+:func:`simulate_batch` reproduces :func:`~pfcourse.robot.scenario.simulate_robot` stream
 by stream.  So row ``b`` equals ``compare_filters(seeds[b], filters=("pf",), ...)``
 up to floating-point round-off (tested), and every row of a study can be re-run
 alone with the public single-run function.
@@ -25,7 +25,7 @@ The per-step recursion for replicate ``b`` (see :mod:`pfcourse.filter`)::
     W_k^i = exp(log w_k^i - logsumexp_j log w_k^j),   ESS_k = 1 / sum_i (W_k^i)^2
     resample when ESS_k < threshold N.
 
-Metrics per replicate (steps ``k >= burn_in``), as in :mod:`pfcourse.robot_compare`:
+Metrics per replicate (steps ``k >= burn_in``), as in :mod:`pfcourse.experiments.robot`:
 ``position_rmse`` (m), ``heading_rmse`` (rad), ``mean_nees`` (``inf`` if all the
 weight sat on one particle at some step, a zero covariance); plus the final
 position and heading errors, the mean ``ESS / N`` over measurement steps, the
@@ -45,14 +45,12 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.special import logsumexp
 
-from .angles import wrap_angle
-from .checks import check_count, check_probability, covariance_factor
-from .diagnostics import nees
-from .errors import DegenerateWeightsError, NumericalError, ParameterError, StepError
-from .resampling import get_resampler
-from .robot import ANGLE_INDICES, INITIAL_STD, RobotScenario, checked_scenario, motion, rmse
-
-Array = np.ndarray
+from pfcourse.angles import wrap_angle
+from pfcourse.checks import Array, check_count, check_probability, covariance_factor
+from pfcourse.diagnostics import nees
+from pfcourse.errors import DegenerateWeightsError, NumericalError, ParameterError, StepError
+from pfcourse.resampling import get_resampler
+from pfcourse.robot.scenario import ANGLE_INDICES, INITIAL_STD, RobotScenario, checked_scenario, motion, rmse
 
 
 @dataclass(frozen=True)
@@ -79,7 +77,7 @@ def simulate_batch(
     """Simulate the runs ``seeds`` of ``scenario`` (updated by ``changes``), as :func:`simulate_robot` would.
 
     Each seed's four streams (landmarks, odometry, measurement noise, landmark
-    choice) are drawn as in :func:`~pfcourse.robot.simulate_robot`; the
+    choice) are drawn as in :func:`~pfcourse.robot.scenario.simulate_robot`; the
     dead-reckoning path is not computed.
     """
     base = scenario if scenario is not None else RobotScenario()
@@ -122,7 +120,7 @@ def simulate_batch(
 
 
 def _range_bearing_rows(states: Array, landmarks: Array) -> Array:
-    """``h(x)`` of :func:`~pfcourse.robot.range_bearing` with one landmark per row: ``(n, 3)``, ``(n, 2)`` -> ``(n, 2)``."""
+    """``h(x)`` of :func:`~pfcourse.robot.scenario.range_bearing` with one landmark per row: ``(n, 3)``, ``(n, 2)`` -> ``(n, 2)``."""
     dx = landmarks[..., 0] - states[..., 0]
     dy = landmarks[..., 1] - states[..., 1]
     out = np.empty(states.shape[:-1] + (2,))
@@ -148,7 +146,7 @@ def pf_batch(
 ) -> list[dict | StepError]:
     """Simulate and filter the runs ``seeds`` together; one metrics dictionary per seed.
 
-    Arguments as in :func:`pfcourse.robot_compare.compare_filters` (particle
+    Arguments as in :func:`pfcourse.experiments.robot.compare_filters` (particle
     filter only).  A replicate whose weights all vanish, or whose particles turn
     non-finite, is returned as the :class:`~pfcourse.errors.StepError` it would
     have raised (the study runner records it as a failed run); the other

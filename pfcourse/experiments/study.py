@@ -30,8 +30,8 @@ from collections.abc import Callable, Iterable, Mapping, Sequence
 import numpy as np
 import pandas as pd
 
-from .checks import check_count
-from .errors import ParameterError, StepError
+from pfcourse.checks import check_count
+from pfcourse.errors import ParameterError, StepError
 
 Metrics = Mapping[str, float]
 

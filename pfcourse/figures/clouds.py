@@ -16,10 +16,10 @@ import matplotlib.pyplot as plt
 import numpy as np
 from matplotlib.animation import FuncAnimation
 
-from .errors import ParameterError
-from .filter import FilterResult
-from .kalman import KalmanResult
-from .plotting import COLORS, ellipse_patch
+from pfcourse.errors import ParameterError
+from pfcourse.filter import FilterResult
+from pfcourse.landmarks.kalman import KalmanResult
+from pfcourse.style import COLORS, ellipse_patch
 
 
 def animate_clouds(

@@ -5,7 +5,7 @@ distribution ``p(x_k | z_{0:k}) = N(m_k, P_k)`` and the exact log-likelihood
 ``log p(z_{0:K}) = sum_k log N(y_k; 0, S_k)`` (innovation ``y_k``, its covariance
 ``S_k``).  Every particle filter in the book on such a model is measured against
 these numbers.  Missing (NaN) entries of ``z_k`` are handled as in
-:class:`~pfcourse.linear_gaussian.LinearGaussianModel`: the update uses the
+:class:`~pfcourse.landmarks.model.LinearGaussianModel`: the update uses the
 observed rows ``H_o`` and block ``R_oo`` only, so ``H`` and ``R`` change with time.
 """
 
@@ -17,8 +17,8 @@ from dataclasses import dataclass
 import numpy as np
 from filterpy.kalman import KalmanFilter
 
-from .filter import is_missing
-from .linear_gaussian import LinearGaussianModel
+from pfcourse.checks import is_missing
+from pfcourse.landmarks.model import LinearGaussianModel
 
 
 @dataclass

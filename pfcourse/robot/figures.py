@@ -8,10 +8,9 @@ import matplotlib.pyplot as plt
 import numpy as np
 from matplotlib.animation import FuncAnimation
 
-from .plotting import COLORS
-from .robot import RobotSimulation, tracking_errors
-
-Array = np.ndarray
+from pfcourse.checks import Array
+from pfcourse.style import COLORS
+from pfcourse.robot.scenario import RobotSimulation, tracking_errors
 
 
 def robot_map(

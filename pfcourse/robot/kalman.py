@@ -1,4 +1,4 @@
-"""Extended and unscented Kalman filters for the robot of :mod:`pfcourse.robot`, through filterpy.
+"""Extended and unscented Kalman filters for the robot of :mod:`pfcourse.robot.scenario`, through filterpy.
 
 Both filters read exactly the data the particle filter reads: the odometry
 ``u~_k`` (row ``k`` of the model's ``odometry``) and the measurement rows
@@ -35,12 +35,10 @@ from dataclasses import dataclass
 import numpy as np
 from filterpy.kalman import ExtendedKalmanFilter, MerweScaledSigmaPoints, UnscentedKalmanFilter
 
-from .angles import wrap_angle
-from .checks import as_vector, check_covariance
-from .errors import NumericalError, ShapeError
-from .robot import INITIAL_STD, RobotModel
-
-Array = np.ndarray
+from pfcourse.angles import wrap, wrap_angle
+from pfcourse.checks import Array, as_vector, check_covariance
+from pfcourse.errors import NumericalError, ShapeError
+from pfcourse.robot.scenario import INITIAL_STD, RobotModel
 
 
 @dataclass
@@ -52,23 +50,18 @@ class KalmanRun:
     name: str
 
 
-def _wrap(a: float) -> float:
-    """Scalar :func:`pfcourse.angles.wrap_angle` (same formula, without array overhead)."""
-    return a - 2.0 * math.pi * math.ceil((a - math.pi) / (2.0 * math.pi))
-
-
 def motion_one(state: Array, control: Array, dt: float) -> Array:
-    """:func:`pfcourse.robot.motion` for a single state ``(3,)`` (the Kalman filters' hot path)."""
+    """:func:`pfcourse.robot.scenario.motion` for a single state ``(3,)`` (the Kalman filters' hot path)."""
     x, y, th = float(state[0]), float(state[1]), float(state[2])
     vx, vy, om = float(control[0]), float(control[1]), float(control[2])
     c, s = math.cos(th), math.sin(th)
-    return np.array([x + (vx * c - vy * s) * dt, y + (vx * s + vy * c) * dt, _wrap(th + om * dt)])
+    return np.array([x + (vx * c - vy * s) * dt, y + (vx * s + vy * c) * dt, wrap(th + om * dt)])
 
 
 def range_bearing_one(state: Array, landmark: Array) -> Array:
-    """:func:`pfcourse.robot.range_bearing` for a single state ``(3,)``."""
+    """:func:`pfcourse.robot.scenario.range_bearing` for a single state ``(3,)``."""
     dx, dy = float(landmark[0] - state[0]), float(landmark[1] - state[1])
-    return np.array([math.hypot(dx, dy), _wrap(math.atan2(dy, dx) - float(state[2]))])
+    return np.array([math.hypot(dx, dy), wrap(math.atan2(dy, dx) - float(state[2]))])
 
 
 def motion_jacobians(state: Array, control: Array, dt: float) -> tuple[Array, Array]:
@@ -91,14 +84,14 @@ def measurement_jacobian(state: Array, landmark: Array) -> Array:
 def measurement_residual(z: Array, z_pred: Array) -> Array:
     """``z - z_pred`` with the bearing component (index 1) wrapped to (-pi, pi]; any leading shape."""
     y = np.array(z, dtype=float) - np.asarray(z_pred, dtype=float)
-    y[1] = _wrap(y[1].item()) if y[1].size == 1 else wrap_angle(y[1])
+    y[1] = wrap(y[1].item()) if y[1].size == 1 else wrap_angle(y[1])
     return y
 
 
 def state_residual(a: Array, b: Array) -> Array:
     """``a - b`` for robot states ``(3,)`` with the heading difference wrapped."""
     y = np.asarray(a, dtype=float) - np.asarray(b, dtype=float)
-    y[2] = _wrap(float(y[2]))
+    y[2] = wrap(float(y[2]))
     return y
 
 
@@ -171,7 +164,7 @@ def run_ekf(model: RobotModel, measurements: Array, initial_cov: Array | None = 
                 hx_args=(landmark,),
                 residual=measurement_residual,
             )
-            ekf.x[2, 0] = _wrap(float(ekf.x[2, 0]))
+            ekf.x[2, 0] = wrap(float(ekf.x[2, 0]))
         _check_finite(ekf.x, ekf.P, k, "EKF")
         mean[k] = ekf.x[:, 0]
         cov[k] = ekf.P
@@ -227,11 +220,11 @@ def run_ukf(
             _, G = motion_jacobians(ukf.x, u, model.dt)
             ukf.Q = G @ model.q_est @ G.T
             ukf.predict(u=u)
-            ukf.x[2] = _wrap(float(ukf.x[2]))
+            ukf.x[2] = wrap(float(ukf.x[2]))
         z = measurements[k]
         if not np.isnan(z[0]):
             ukf.update(z[1:].copy(), landmark=model.landmarks[int(z[0])])
-            ukf.x[2] = _wrap(float(ukf.x[2]))
+            ukf.x[2] = wrap(float(ukf.x[2]))
         _check_finite(ukf.x, ukf.P, k, "UKF")
         mean[k] = ukf.x
         cov[k] = ukf.P

@@ -1,8 +1,8 @@
 """An unscented Kalman filter for terrain-aided navigation (scenario B), through filterpy.
 
-The state, dynamics and altimeter model are those of :mod:`pfcourse.aircraft`: the
-sigma points go through :func:`~pfcourse.aircraft.propagate` (``f``) and
-:func:`~pfcourse.aircraft.predicted_measurement` (``h(x) = z - h_terrain(x, y)``).
+The state, dynamics and altimeter model are those of :mod:`pfcourse.terrain.scenario`: the
+sigma points go through :func:`~pfcourse.terrain.scenario.propagate` (``f``) and
+:func:`~pfcourse.terrain.scenario.predicted_measurement` (``h(x) = z - h_terrain(x, y)``).
 filterpy's :class:`~filterpy.kalman.UnscentedKalmanFilter` with Van der Merwe's scaled
 sigma points ``MerweScaledSigmaPoints(4, alpha, beta, kappa)`` computes
 
@@ -22,7 +22,7 @@ state residual wraps its heading, and the estimate is wrapped after each step.
 
 **Leaving the map.** ``h`` has no value off the map.  If the predicted mean, or any sigma
 point, lies off the map at a step, the filter stops there (``lost_at``), as
-:func:`~pfcourse.aircraft.extended_kalman_filter` does for its estimate.
+:func:`~pfcourse.terrain.scenario.extended_kalman_filter` does for its estimate.
 
 With the defaults ``alpha = 1``, ``beta = 2``, ``kappa = 0``: ``lambda = 0``, the eight
 outer sigma points sit at ``m +/- sqrt(4 P)`` columns with mean weight 1/8 each and the
@@ -37,11 +37,10 @@ from dataclasses import dataclass
 import numpy as np
 from filterpy.kalman import MerweScaledSigmaPoints, UnscentedKalmanFilter
 
-from .aircraft import AircraftScenario, predicted_measurement, propagate
-from .angles import wrap_angle
-from .terrain import TerrainMap
-
-Array = np.ndarray
+from pfcourse.checks import Array
+from pfcourse.terrain.scenario import AircraftScenario, predicted_measurement, propagate
+from pfcourse.angles import wrap_angle
+from pfcourse.terrain.map import TerrainMap
 
 
 @dataclass
