@@ -30,24 +30,14 @@ headings and bearings are circular means, and every difference of angles
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
-
 import numpy as np
 from filterpy.kalman import ExtendedKalmanFilter, MerweScaledSigmaPoints, UnscentedKalmanFilter
 
 from pfcourse.angles import wrap, wrap_angle
 from pfcourse.checks import Array, as_vector, check_covariance
 from pfcourse.errors import NumericalError, ShapeError
+from pfcourse.results import KalmanResult
 from pfcourse.robot.scenario import INITIAL_STD, RobotModel
-
-
-@dataclass
-class KalmanRun:
-    """Output of :func:`run_ekf` / :func:`run_ukf`: ``mean`` ``(K, 3)`` and ``cov`` ``(K, 3, 3)`` after each update."""
-
-    mean: Array
-    cov: Array
-    name: str
 
 
 def motion_one(state: Array, control: Array, dt: float) -> Array:
@@ -132,7 +122,7 @@ def _check_finite(x: Array, P: Array, k: int, name: str) -> None:
         raise NumericalError(f"step {k}: the {name} produced NaN or infinite values", step=k)
 
 
-def run_ekf(model: RobotModel, measurements: Array, initial_cov: Array | None = None) -> KalmanRun:
+def run_ekf(model: RobotModel, measurements: Array, initial_cov: Array | None = None) -> KalmanResult:
     """Run the EKF on ``measurements`` ``(K, 3)`` with ``model``'s odometry, ``q_est`` and ``r_est``.
 
     The prior is ``N(model.start, initial_cov)`` (default ``diag(model.initial_std)^2``,
@@ -145,8 +135,7 @@ def run_ekf(model: RobotModel, measurements: Array, initial_cov: Array | None = 
     ekf.P = P0.copy()
     ekf.R = model.r_est.copy()
     n_steps = len(measurements)
-    mean = np.empty((n_steps, 3))
-    cov = np.empty((n_steps, 3, 3))
+    out = KalmanResult.empty(n_steps, 3, 2, "EKF")
     for k in range(n_steps):
         if k > 0:
             u = model.odometry[k]
@@ -156,6 +145,7 @@ def run_ekf(model: RobotModel, measurements: Array, initial_cov: Array | None = 
         z = measurements[k]
         if not np.isnan(z[0]):
             landmark = model.landmarks[int(z[0])]
+            predicted = ekf.x.copy()
             ekf.update(
                 z[1:].reshape(2, 1),
                 lambda x, lm: measurement_jacobian(x[:, 0], lm),
@@ -165,10 +155,11 @@ def run_ekf(model: RobotModel, measurements: Array, initial_cov: Array | None = 
                 residual=measurement_residual,
             )
             ekf.x[2, 0] = wrap(float(ekf.x[2, 0]))
+            out.record_update(k, predicted, ekf.y, ekf.S, ekf.K)
         _check_finite(ekf.x, ekf.P, k, "EKF")
-        mean[k] = ekf.x[:, 0]
-        cov[k] = ekf.P
-    return KalmanRun(mean, cov, "EKF")
+        out.mean[k] = ekf.x[:, 0]
+        out.cov[k] = ekf.P
+    return out
 
 
 def run_ukf(
@@ -179,7 +170,7 @@ def run_ukf(
     alpha: float = 1.0,
     beta: float = 2.0,
     kappa: float = 0.0,
-) -> KalmanRun:
+) -> KalmanResult:
     """Run the UKF on ``measurements`` ``(K, 3)``; sigma points ``MerweScaledSigmaPoints(3, alpha, beta, kappa)``.
 
     With the defaults (``alpha = 1``, ``kappa = 0``) the six outer sigma points sit at
@@ -212,8 +203,7 @@ def run_ukf(
     ukf.P = P0.copy()
     ukf.R = model.r_est.copy()
     n_steps = len(measurements)
-    mean = np.empty((n_steps, 3))
-    cov = np.empty((n_steps, 3, 3))
+    out = KalmanResult.empty(n_steps, 3, 2, "UKF")
     for k in range(n_steps):
         if k > 0:
             u = model.odometry[k]
@@ -223,17 +213,18 @@ def run_ukf(
             ukf.x[2] = wrap(float(ukf.x[2]))
         z = measurements[k]
         if not np.isnan(z[0]):
+            predicted = ukf.x.copy()
             ukf.update(z[1:].copy(), landmark=model.landmarks[int(z[0])])
             ukf.x[2] = wrap(float(ukf.x[2]))
+            out.record_update(k, predicted, ukf.y, ukf.S, ukf.K)
         _check_finite(ukf.x, ukf.P, k, "UKF")
-        mean[k] = ukf.x
-        cov[k] = ukf.P
-    return KalmanRun(mean, cov, "UKF")
+        out.mean[k] = ukf.x
+        out.cov[k] = ukf.P
+    return out
 
 
 __all__ = [
     "INITIAL_STD",
-    "KalmanRun",
     "measurement_jacobian",
     "measurement_mean",
     "measurement_residual",

@@ -39,6 +39,7 @@ from filterpy.kalman import ExtendedKalmanFilter
 from pfcourse.angles import wrap_angle
 from pfcourse.checks import Array, as_vector, check_covariance, covariance_factor
 from pfcourse.errors import ParameterError
+from pfcourse.results import KalmanResult
 from pfcourse.terrain.map import TerrainMap
 
 _LOG_2PI = float(np.log(2.0 * np.pi))
@@ -223,19 +224,6 @@ def simulate(
     return Flight(T=s.times, X=X, Z=Z, terrain_height=ground)
 
 
-@dataclass
-class EKFResult:
-    """Per-step EKF estimates ``mean`` ``(K, 4)`` and ``cov`` ``(K, 4, 4)``.
-
-    ``lost_at`` is the first step whose estimate left the map (the filter stops there and
-    the remaining rows are NaN), or ``None``.
-    """
-
-    mean: Array
-    cov: Array
-    lost_at: int | None = None
-
-
 class _TerrainEKF(ExtendedKalmanFilter):
     """filterpy's EKF with the aircraft's nonlinear state prediction."""
 
@@ -249,13 +237,13 @@ class _TerrainEKF(ExtendedKalmanFilter):
 
 def extended_kalman_filter(
     scenario: AircraftScenario, terrain: TerrainMap, measurements: Array
-) -> EKFResult:
+) -> KalmanResult:
     """Run filterpy's ``ExtendedKalmanFilter`` on scenario B.
 
     Predict: ``x = f(x)``, ``P = F P F^T + Qf dt`` with ``F`` from :func:`dynamics_jacobian`
     at the previous estimate.  Update (when measured): ``H = [-dh/dx, -dh/dy, 1, 0]`` at the
     predicted estimate (:meth:`TerrainMap.gradient`), innovation ``y - (z - h(x, y))``,
-    ``R = Rf``.  If the estimate leaves the map the run stops (see :class:`EKFResult`).
+    ``R = Rf``.  If the estimate leaves the map the run stops (``lost_at``; :class:`~pfcourse.results.KalmanResult`).
     """
     s = scenario
     measurements = np.asarray(measurements, dtype=float).reshape(-1)
@@ -265,17 +253,16 @@ def extended_kalman_filter(
     ekf.P = s.P0.copy()
     ekf.Q = s.Qf * s.dt
     ekf.R = np.array([[s.Rf]])
-    mean = np.full((K, 4), np.nan)
-    cov = np.full((K, 4, 4), np.nan)
-    lost_at = None
+    out = KalmanResult.empty(K, 4, 1, "EKF")
     for k in range(K):
         if k > 0:
             ekf.F = dynamics_jacobian(ekf.x[:, 0], s.speed, s.dt)
             ekf.predict()
         if not terrain.contains(ekf.x[0, 0], ekf.x[1, 0]):
-            lost_at = k
+            out.lost_at = k
             break
         if not np.isnan(measurements[k]):
+            predicted = ekf.x.copy()
             ekf.update(
                 np.array([[measurements[k]]]),
                 HJacobian=lambda x: measurement_jacobian(x[:, 0], terrain),
@@ -283,11 +270,12 @@ def extended_kalman_filter(
             )
             ekf.x[3, 0] = wrap_angle(ekf.x[3, 0])
             if not terrain.contains(ekf.x[0, 0], ekf.x[1, 0]):
-                lost_at = k
+                out.lost_at = k
                 break
-        mean[k] = ekf.x[:, 0]
-        cov[k] = ekf.P
-    return EKFResult(mean=mean, cov=cov, lost_at=lost_at)
+            out.record_update(k, predicted, ekf.y, ekf.S, ekf.K)
+        out.mean[k] = ekf.x[:, 0]
+        out.cov[k] = ekf.P
+    return out
 
 
 def position_error(truth: Array, estimate: Array) -> Array:
