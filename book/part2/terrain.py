@@ -27,10 +27,10 @@
 import matplotlib.pyplot as plt
 import numpy as np
 from IPython.display import HTML, display
-from matplotlib.animation import FuncAnimation
 
 from pfcourse.experiments.terrain import DIVERGED_ERROR, flight_seed, monte_carlo
 from pfcourse.terrain.scenario import AircraftScenario, extended_kalman_filter, position_error, simulate
+from pfcourse.figures.clouds import animate_clouds
 from pfcourse.filter import ParticleFilter
 from pfcourse.style import COLORS, plain_log_axis, use_style
 from pfcourse.terrain.map import hillshade, load_jacksboro
@@ -244,34 +244,25 @@ print(f"horizontal error at t = 0, 10, 30, 80 s: {np.round(position_error(flight
 # draws 600 of the 3000 particles, chosen by weight.
 
 # %%
-def cloud_animation(flight, run, frames, n_show=600, zoom=6.0):
-    fig, ax = plt.subplots(figsize=(5.0, 5.0), dpi=72)
-    draw_map(ax, shaded=False)
+def map_window(flight, zoom=6.0):
+    """Background of the cloud animation: the map around the middle of the flight (km)."""
     centre = flight.X[len(flight.T) // 2, :2] / KM
-    ax.set_xlim(centre[0] - zoom, centre[0] + zoom)
-    ax.set_ylim(centre[1] - zoom, centre[1] + zoom)
-    (cloud,) = ax.plot([], [], ".", color=COLORS["particles"], ms=2, alpha=0.5, label="particles")
-    (truth,) = ax.plot([], [], "-", color=COLORS["truth"], lw=1.5, label="truth")
-    (est,) = ax.plot([], [], "-", color=COLORS["estimate"], lw=1.5, label="estimate")
-    ax.legend(loc="lower left", fontsize=8)
-    title = ax.set_title("")
-    pick = np.random.default_rng(0)
 
-    def draw(k):
-        idx = pick.choice(run.weights.shape[1], n_show, p=run.weights[k])
-        cloud.set_data(run.particles[k, idx, 0] / KM, run.particles[k, idx, 1] / KM)
-        truth.set_data(flight.X[: k + 1, 0] / KM, flight.X[: k + 1, 1] / KM)
-        est.set_data(run.mean[: k + 1, 0] / KM, run.mean[: k + 1, 1] / KM)
-        e = position_error(flight.X[k], run.mean[k])
-        title.set_text(f"t = {flight.T[k]:.0f} s, error {e:.0f} m")
-        return cloud, truth, est, title
+    def draw(ax):
+        draw_map(ax, shaded=False)
+        ax.set_xlim(centre[0] - zoom, centre[0] + zoom)
+        ax.set_ylim(centre[1] - zoom, centre[1] + zoom)
 
-    anim = FuncAnimation(fig, draw, frames=frames, interval=250, blit=False)
-    plt.close(fig)
-    return anim
+    return draw
 
 
-HTML(cloud_animation(flight, run, range(0, 81, 3)).to_jshtml())
+anim = animate_clouds(
+    {"PF": run}, None, flight.X, range(0, 81, 3), None, 250, blocks=[(0, 1)], ellipses=False,
+    scale=1 / KM, unit="km", max_points=600, by_weight=True, trail=True, background=map_window(flight),
+    title=lambda name, k, res: f"t = {flight.T[k]:.0f} s, error {position_error(flight.X[k], res.mean[k]):.0f} m",
+    legend=True,
+)
+HTML(anim.to_jshtml())
 
 # %% [markdown]
 # ## Why this problem needs a particle filter

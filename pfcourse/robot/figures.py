@@ -1,4 +1,4 @@
-"""Figures of the robot-localization chapters (scenario C): map, error bands, particle-cloud animation."""
+"""Figures of the robot-localization chapters (scenario C): map, error bands, the cloud animation's hooks."""
 
 from __future__ import annotations
 
@@ -6,7 +6,6 @@ from collections.abc import Mapping, Sequence
 
 import matplotlib.pyplot as plt
 import numpy as np
-from matplotlib.animation import FuncAnimation
 
 from pfcourse.checks import Array
 from pfcourse.style import COLORS
@@ -63,63 +62,25 @@ def error_bands(sim: RobotSimulation, mean: Array, cov: Array, axes: Sequence | 
     return axes
 
 
-def animate_cloud(
-    sim: RobotSimulation,
-    particles: Array,
-    weights: Array,
-    means: Array,
-    frames: Sequence[int],
-    window: float | None = 3.0,
-    max_points: int = 3000,
-    interval: int = 250,
-) -> FuncAnimation:
-    """Animate the weighted particle cloud at the steps ``frames``.
+def landmarks_background(sim: RobotSimulation):
+    """A ``background(ax)`` hook for :func:`pfcourse.figures.clouds.animate_clouds`: the landmarks."""
 
-    ``particles`` ``(K, N, 3)`` and ``weights`` ``(K, N)`` as stored by
-    ``ParticleFilter.run(..., store_particles=True)``; ``means`` ``(K, 3)``.  With
-    ``window`` the view follows the true robot (+/- ``window`` metres); with
-    ``None`` it shows the whole map.  Marker area is proportional to the weight;
-    at most ``max_points`` particles are drawn per frame (the first ones, which
-    are as random as any).  Render with ``anim.to_jshtml()``.
-    """
-    fig, ax = plt.subplots(figsize=(5.0, 5.0), dpi=72)
-    n = min(particles.shape[1], max_points)
-    ax.set_aspect("equal")
-    ax.set_xlabel("x (m)")
-    ax.set_ylabel("y (m)")
-    ax.plot(sim.landmarks[:, 0], sim.landmarks[:, 1], "*", color="k", ms=12)
-    (path,) = ax.plot([], [], "-", color=COLORS["truth"], lw=1.5, label="true path")
-    cloud = ax.scatter(particles[frames[0], :n, 0], particles[frames[0], :n, 1], s=4, color=COLORS["particles"], alpha=0.6, label="particles")
-    (truth,) = ax.plot([], [], "o", color=COLORS["truth"], ms=7)
-    (est,) = ax.plot([], [], "x", color=COLORS["estimate"], ms=9, mew=2, label="PF mean")
-    (sight,) = ax.plot([], [], ":", color="tab:green", lw=1.5, label="observed landmark")
-    title = ax.set_title("")
-    ax.legend(loc="lower left", fontsize=8)
-    w = sim.scenario.half_width
+    def draw(ax) -> None:
+        ax.plot(sim.landmarks[:, 0], sim.landmarks[:, 1], "*", color="k", ms=12, label="landmarks")
+
+    return draw
+
+
+def sight_overlay(sim: RobotSimulation):
+    """An ``overlay(ax, k)`` hook for :func:`pfcourse.figures.clouds.animate_clouds`: the line from
+    the true robot to the landmark it observes at step ``k`` (nothing without a measurement)."""
     j = sim.landmark_index
 
-    def draw(i: int):
-        k = frames[i]
-        x = particles[k, :n]
-        wk = weights[k, :n] * particles.shape[1]
-        cloud.set_offsets(x[:, :2])
-        cloud.set_sizes(np.clip(6.0 * wk, 0.5, 60.0))
-        path.set_data(sim.truth[: k + 1, 0], sim.truth[: k + 1, 1])
-        truth.set_data([sim.truth[k, 0]], [sim.truth[k, 1]])
-        est.set_data([means[k, 0]], [means[k, 1]])
-        if j[k] >= 0:
-            sight.set_data([sim.truth[k, 0], sim.landmarks[j[k], 0]], [sim.truth[k, 1], sim.landmarks[j[k], 1]])
-        else:
-            sight.set_data([], [])
-        if window is None:
-            ax.set_xlim(-w, w)
-            ax.set_ylim(-w, w)
-        else:
-            ax.set_xlim(sim.truth[k, 0] - window, sim.truth[k, 0] + window)
-            ax.set_ylim(sim.truth[k, 1] - window, sim.truth[k, 1] + window)
-        title.set_text(f"t = {k * sim.scenario.dt:.0f} s")
-        return [cloud, path, truth, est, sight, title]
+    def draw(ax, k: int) -> list:
+        if j[k] < 0:
+            return []
+        x, y = sim.truth[k, 0], sim.truth[k, 1]
+        lx, ly = sim.landmarks[j[k]]
+        return [ax.plot([x, lx], [y, ly], ":", color="tab:green", lw=1.5, label="observed landmark")[0]]
 
-    anim = FuncAnimation(fig, draw, frames=len(frames), interval=interval, blit=False)
-    plt.close(fig)
-    return anim
+    return draw
