@@ -34,6 +34,19 @@ def wrap(angle: float) -> float:
     return angle - TWO_PI * math.ceil((angle - np.pi) / TWO_PI)
 
 
+def sigma_point_mean(points: np.ndarray, weights: np.ndarray, angle_indices=()) -> np.ndarray:
+    """Weighted mean ``sum_i w_i p_i`` of the rows of ``points`` ``(n, d)``, with the circular mean
+    ``atan2(sum_i w_i sin a_i, sum_i w_i cos a_i)`` for the components in ``angle_indices``.
+
+    The weights may be negative (unscented-transform weights), so no resultant check is made:
+    the mean function of every UKF in the package.
+    """
+    m = weights @ points
+    for j in angle_indices:
+        m[j] = np.arctan2(weights @ np.sin(points[:, j]), weights @ np.cos(points[:, j]))
+    return m
+
+
 def circular_mean(angles: np.ndarray, weights: np.ndarray | None = None, axis: int = 0):
     """Weighted circular mean ``atan2(sum w_i sin a_i, sum w_i cos a_i)``.
 

@@ -33,7 +33,7 @@ import math
 import numpy as np
 from filterpy.kalman import ExtendedKalmanFilter, MerweScaledSigmaPoints, UnscentedKalmanFilter
 
-from pfcourse.angles import wrap, wrap_angle
+from pfcourse.angles import sigma_point_mean, wrap, wrap_angle
 from pfcourse.checks import Array, as_vector, check_covariance
 from pfcourse.errors import NumericalError, ShapeError
 from pfcourse.results import KalmanResult
@@ -87,16 +87,12 @@ def state_residual(a: Array, b: Array) -> Array:
 
 def state_mean(sigmas: Array, weights: Array) -> Array:
     """Weighted mean of sigma points ``(n, 3)``; circular mean of the heading (weights may be negative)."""
-    m = weights @ sigmas
-    m[2] = np.arctan2(weights @ np.sin(sigmas[:, 2]), weights @ np.cos(sigmas[:, 2]))
-    return m
+    return sigma_point_mean(sigmas, weights, (2,))
 
 
 def measurement_mean(sigmas: Array, weights: Array) -> Array:
     """Weighted mean of predicted measurements ``(n, 2)``; circular mean of the bearing."""
-    m = weights @ sigmas
-    m[1] = np.arctan2(weights @ np.sin(sigmas[:, 1]), weights @ np.cos(sigmas[:, 1]))
-    return m
+    return sigma_point_mean(sigmas, weights, (1,))
 
 
 def _initial(model: RobotModel, initial_cov: Array | None) -> tuple[Array, Array]:

@@ -38,7 +38,7 @@ from filterpy.kalman import MerweScaledSigmaPoints, UnscentedKalmanFilter
 
 from pfcourse.checks import Array
 from pfcourse.terrain.scenario import AircraftScenario, predicted_measurement, propagate
-from pfcourse.angles import wrap_angle
+from pfcourse.angles import sigma_point_mean, wrap_angle
 from pfcourse.results import KalmanResult
 from pfcourse.terrain.map import TerrainMap
 
@@ -52,9 +52,7 @@ def state_residual(a: Array, b: Array) -> Array:
 
 def state_mean(sigmas: Array, weights: Array) -> Array:
     """Weighted mean of sigma points ``(n, 4)``; circular mean of the heading."""
-    m = weights @ sigmas
-    m[3] = np.arctan2(weights @ np.sin(sigmas[:, 3]), weights @ np.cos(sigmas[:, 3]))
-    return m
+    return sigma_point_mean(sigmas, weights, (3,))
 
 
 def unscented_kalman_filter(
