@@ -12,7 +12,7 @@ from pfcourse.angles import wrap_angle
 from pfcourse.experiments.comparison import (
     particle_innovations,
     robot_tracks,
-    summarize,
+    summarize_tracks,
 )
 from pfcourse.diagnostics import chi2_band, fraction_in_band, nis, predictive_moments
 from pfcourse.errors import ShapeError
@@ -202,7 +202,7 @@ def test_robot_tracks_and_summary_are_seeded_and_complete():
     again = robot_tracks(0, (50,), n_steps=30)
     assert [t.filter for t in runs[0]] == ["pf", "ekf", "ukf"]
     assert np.array_equal(runs[0][0].nees, again[0].nees) and np.array_equal(runs[0][0].nis, again[0].nis, equal_nan=True)
-    table = summarize(runs, dim_x=3, dim_z=2, burn_in=5)
+    table = summarize_tracks(runs, dim_x=3, dim_z=2, burn_in=5)
     assert list(table.index) == ["PF N=50", "EKF", "UKF"]
     assert table.loc["UKF", "evaluations"] == 7 and table.loc["PF N=50", "evaluations"] == 50
     assert table[["nees_in_band", "nis_in_band"]].apply(lambda c: c.between(0, 1)).all().all()

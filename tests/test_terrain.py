@@ -233,14 +233,14 @@ def test_ekf_converges_from_a_small_prior(jacksboro):
 
 
 def test_monte_carlo_is_seeded_and_first_n_runs_are_a_smaller_study(jacksboro):
-    from pfcourse.experiments.terrain import monte_carlo
+    from pfcourse.experiments.terrain import flight_study
 
     scenario = AircraftScenario().with_(duration=10.0)
-    a = monte_carlo(scenario, jacksboro, 6, method="ekf", seed=3)
-    b = monte_carlo(scenario, jacksboro, 4, method="ekf", seed=3)
+    a = flight_study(scenario, jacksboro, 6, method="ekf", seed=3)
+    b = flight_study(scenario, jacksboro, 4, method="ekf", seed=3)
     np.testing.assert_array_equal(a.first(4).errors, b.errors)
-    pf = monte_carlo(scenario, jacksboro, 3, n_particles=200, seed=3)
-    pf_again = monte_carlo(scenario, jacksboro, 3, n_particles=200, seed=3)
+    pf = flight_study(scenario, jacksboro, 3, n_particles=200, seed=3)
+    pf_again = flight_study(scenario, jacksboro, 3, n_particles=200, seed=3)
     np.testing.assert_array_equal(pf.errors, pf_again.errors)
     assert pf.errors.shape == (3, 11) and np.all(pf.n_resamples >= 0)
 

@@ -57,7 +57,7 @@ from pfcourse.landmarks.kalman import kalman_filter
 from pfcourse.landmarks.scenario import quadrant_scenario, simulate
 from pfcourse.landmarks.model import OptimalProposal
 from pfcourse.style import COLORS, plain_log_axis, use_style
-from pfcourse.experiments.landmarks import monte_carlo
+from pfcourse.experiments.landmarks import kalman_scores
 from pfcourse.figures.widgets import control_panel, particle_slider, scale_slider, seed_box
 
 use_style()
@@ -124,7 +124,7 @@ for scale in scales:
     meas_s = measured_steps(sc, n_runs)
     for name, prop in PROPOSALS.items():
         pf = ParticleFilter(m, 200, threshold=0.5, proposal=prop)
-        r = monte_carlo(sc, lambda Z, s: pf.run(Z, s), n_runs)
+        r = kalman_scores(sc, lambda Z, s: pf.run(Z, s), n_runs)
         sweep[scale, name] = (r["ess"][meas_s].reshape(-1) / 200, r["rmse"].mean(axis=1))
 for scale in scales:
     (eb, rb), (eo, ro) = sweep[scale, "bootstrap"], sweep[scale, "optimal"]

@@ -46,7 +46,7 @@ from scipy import stats
 
 from pfcourse.experiments.terrain import DIVERGED_ERROR
 from pfcourse.terrain.scenario import AircraftScenario
-from pfcourse.experiments.comparison import label, linear_convergence, loglog_slope, robot_tracks, summarize, terrain_tracks
+from pfcourse.experiments.comparison import label, linear_convergence, loglog_slope, robot_tracks, summarize_tracks, terrain_tracks
 from pfcourse.diagnostics import chi2_band
 from pfcourse.filter import ParticleFilter
 from pfcourse.landmarks.kalman import kalman_filter
@@ -245,7 +245,7 @@ HTML(anim.to_jshtml())
 N_ROBOT = (100, 300, 1000)
 ROBOT_RUNS, ROBOT_STEPS, ROBOT_BURN_IN = 16, 100, 20
 robot_runs = [robot_tracks(seed, N_ROBOT, n_steps=ROBOT_STEPS) for seed in range(ROBOT_RUNS)]
-robot_table = summarize(robot_runs, dim_x=3, dim_z=2, burn_in=ROBOT_BURN_IN)
+robot_table = summarize_tracks(robot_runs, dim_x=3, dim_z=2, burn_in=ROBOT_BURN_IN)
 
 COLUMNS = {"rmse_q50": "RMSE median", "rmse_q10": "10 %", "rmse_q90": "90 %", "nees_median": "NEES median",
            "nees_in_band": "NEES in band", "nees_below": "below", "nis_median": "NIS median",
@@ -356,7 +356,7 @@ terrain_setups = {
 terrain_runs, terrain_tables = {}, {}
 for name, (sc, n_values, n_runs) in terrain_setups.items():
     terrain_runs[name] = [terrain_tracks(0, r, sc, terrain, n_values) for r in range(n_runs)]
-    terrain_tables[name] = summarize(terrain_runs[name], dim_x=4, dim_z=1, burn_in=TERRAIN_BURN_IN,
+    terrain_tables[name] = summarize_tracks(terrain_runs[name], dim_x=4, dim_z=1, burn_in=TERRAIN_BURN_IN,
                                      diverged_error=DIVERGED_ERROR)
     print(f"{name}: {n_runs} flights (RMSE of the horizontal position in m)")
     show(terrain_tables[name], extra=("diverged",))

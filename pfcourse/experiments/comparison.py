@@ -150,7 +150,7 @@ def terrain_tracks(seed: int, run: int, scenario: AircraftScenario, terrain: Ter
                    n_values: Sequence[int], *, kalman: Sequence[str] = ("ekf", "ukf"),
                    resampler: str = "multinomial") -> list[Track]:
     """Terrain navigation: flight ``run`` of a study with seed ``seed`` (as
-    :func:`pfcourse.experiments.terrain.monte_carlo`: flight :func:`~pfcourse.experiments.terrain.flight_seed`,
+    :func:`pfcourse.experiments.terrain.flight_study`: flight :func:`~pfcourse.experiments.terrain.flight_seed`,
     particle filter seeded with ``[seed, run, 1]``), filtered by a PF per ``N`` and the EKF/UKF.
 
     Errors are horizontal position errors (m); a lost filter (every particle off the map,
@@ -211,7 +211,7 @@ def evaluations_per_step(track: Track, dim_x: int) -> int:
     return {"pf": track.n_particles, "ukf": 2 * dim_x + 1, "ekf": 1}[track.filter]
 
 
-def summarize(runs: Sequence[Sequence[Track]], *, dim_x: int, dim_z: int, burn_in: int = 0,
+def summarize_tracks(runs: Sequence[Sequence[Track]], *, dim_x: int, dim_z: int, burn_in: int = 0,
               diverged_error: float | None = None) -> pd.DataFrame:
     """One row per filter over ``R`` runs (``runs[r]`` holds the same filters in the same order).
 
@@ -303,5 +303,5 @@ def loglog_slope(n_values: Array, values: Array) -> float:
 __all__ = [
     "ConvergenceResult", "Track",
     "evaluations_per_step", "label", "linear_convergence", "loglog_slope", "particle_innovations",
-    "robot_tracks", "summarize", "terrain_tracks",
+    "robot_tracks", "summarize_tracks", "terrain_tracks",
 ]

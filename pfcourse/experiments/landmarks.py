@@ -16,7 +16,7 @@ For a linear-Gaussian model the Kalman filter gives the exact posterior
   cloud, counts as not covering at any step; a singular covariance gives a
   log-ratio of ``-inf``).
 
-:func:`monte_carlo` repeats this over independent simulations and filter seeds.
+:func:`kalman_scores` repeats this over independent simulations and filter seeds.
 """
 
 from __future__ import annotations
@@ -65,7 +65,7 @@ def score(
     return RunScores(rmse, log_var_ratio / len(idx), covered, result.ess, result.resampled)
 
 
-def monte_carlo(
+def kalman_scores(
     scenario: LandmarkScenario,
     run_filter: Callable[[np.ndarray, int], FilterResult],
     n_runs: int,

@@ -75,7 +75,7 @@ def flight_seed(seed: int, run: int) -> np.random.Generator:
     return np.random.default_rng([seed, run, 0])
 
 
-def monte_carlo(
+def flight_study(
     scenario: AircraftScenario,
     terrain: TerrainMap,
     n_runs: int,
