@@ -6,7 +6,8 @@ The notebooks teach; the plumbing lives here.  Main entry points:
   loops compiled with numba in :mod:`pfcourse.kernels`);
 * :mod:`pfcourse.resampling` - multinomial, stratified, systematic, residual;
 * :mod:`pfcourse.diagnostics` - ESS, weighted moments, NEES, ellipses;
-* :mod:`pfcourse.landmarks.scenario` - scenario A (linear landmark model) and its simulator;
+* :mod:`pfcourse.landmarks`, :mod:`pfcourse.robot`, :mod:`pfcourse.terrain` - the three scenarios;
+* :mod:`pfcourse.experiments` - Monte Carlo studies (any executor) and comparisons;
 * :func:`pfcourse.landmarks.kalman.kalman_filter` - the exact Kalman reference (filterpy).
 """
 
@@ -29,7 +30,7 @@ from pfcourse.filter import (
 from pfcourse.landmarks.kalman import KalmanResult, kalman_filter
 from pfcourse.landmarks.model import LinearGaussianModel, OptimalProposal
 
-__version__ = "0.1.0"
+__version__ = "0.2.0"
 
 __all__ = [
     "CovarianceError",
