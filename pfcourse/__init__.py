@@ -11,7 +11,13 @@ The notebooks teach; the plumbing lives here.  Main entry points:
 * :func:`pfcourse.landmarks.kalman.kalman_filter` - the exact Kalman reference (filterpy).
 """
 
-from pfcourse.errors import (
+# First, before anything loads NumPy: the CPU code paths the book's floats were computed with
+# (pfcourse.arithmetic; pins them if NumPy is not loaded yet, warns once if it was, unpinned).
+from pfcourse import arithmetic as _arithmetic
+
+_arithmetic.check()
+
+from pfcourse.errors import (  # noqa: E402
     CovarianceError,
     DegenerateWeightsError,
     NumericalError,
@@ -20,15 +26,15 @@ from pfcourse.errors import (
     ShapeError,
     WeightError,
 )
-from pfcourse.filter import (
+from pfcourse.filter import (  # noqa: E402
     DensityProposal,
     FilterResult,
     ParticleFilter,
     StateSpaceModel,
     TransitionProposal,
 )
-from pfcourse.landmarks.kalman import KalmanResult, kalman_filter
-from pfcourse.landmarks.model import LinearGaussianModel, OptimalProposal
+from pfcourse.landmarks.kalman import KalmanResult, kalman_filter  # noqa: E402
+from pfcourse.landmarks.model import LinearGaussianModel, OptimalProposal  # noqa: E402
 
 __version__ = "0.2.0"
 
