@@ -307,7 +307,8 @@ class ParticleFilter:
                 top = log_inc.max()
                 shift = top if 700.0 < abs(top) < np.inf else 0.0  # weights are invariant to a constant
                 if shift != 0.0:
-                    log_inc = log_inc - shift
+                    with np.errstate(over="ignore"):  # -1e308 - 1e308 = -inf: a zero weight, as it should
+                        log_inc = log_inc - shift
                 log_inc_total[k], ess[k] = kernels.normalize_step(log_weights, log_inc, weights, scratch)
                 log_inc_total[k] += shift
                 if log_inc_total[k] == -np.inf or top == -np.inf:
