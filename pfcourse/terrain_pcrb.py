@@ -76,3 +76,31 @@ def terrain_pcrb(scenario: AircraftScenario, terrain, trajectories: Array) -> Ar
 def horizontal_bound(bound: Array) -> Array:
     """``sqrt(B_xx + B_yy)``: the bound on the horizontal RMS error (m) per step."""
     return np.sqrt(bound[..., 0, 0] + bound[..., 1, 1])
+
+
+def deterministic_bound(J0: Array, F: Array, H: Array, R: Array, measured: Array) -> Array:
+    """The bound ``J_k^{-1}`` ``(K, d, d)`` of one trajectory of noise-free dynamics (``Q = 0``).
+
+    The limit ``Q -> 0`` of the recursion, for invertible ``F_k``:
+    ``J_{k+1} = F_k^{-T} J_k F_k^{-1} + H_{k+1}^T R^{-1} H_{k+1}``.  ``F`` ``(K, d, d)``, ``H`` ``(K, m, d)``.
+    This is the bound for the flights as simulated (the true aircraft has no process noise).
+    """
+    Ri = np.linalg.inv(np.atleast_2d(R))
+    K, d, _ = F.shape
+    J = np.asarray(J0, dtype=float) + (H[0].T @ Ri @ H[0] if measured[0] else 0.0)
+    out = np.empty((K, d, d))
+    out[0] = np.linalg.inv(J)
+    for k in range(K - 1):
+        Fi = np.linalg.inv(F[k])
+        J = Fi.T @ J @ Fi + (H[k + 1].T @ Ri @ H[k + 1] if measured[k + 1] else 0.0)
+        J = 0.5 * (J + J.T)
+        out[k + 1] = np.linalg.inv(J)
+    return out
+
+
+def terrain_bound_noise_free(scenario: AircraftScenario, terrain, trajectory: Array) -> Array:
+    """:func:`deterministic_bound` of scenario B along one true trajectory ``(K, 4)`` (``R = Rf``)."""
+    X = np.asarray(trajectory, dtype=float)
+    F = np.array([dynamics_jacobian(x, scenario.speed, scenario.dt) for x in X])
+    H = np.array([measurement_jacobian(x, terrain) for x in X])
+    return deterministic_bound(np.linalg.inv(scenario.P0), F, H, np.array([[scenario.Rf]]), scenario.measured())

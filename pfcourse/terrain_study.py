@@ -35,6 +35,7 @@ SETTINGS: dict[str, tuple[int, str, dict]] = {
     "regularised N=30000": (30000, "regularised", {"scale": 0.2}),
     "tempered N=3000": (3000, "tempered", {}),
     "tempered+regularised N=3000": (3000, "tempered+regularised", {"scale": 0.2}),
+    "tempered+regularised N=10000": (10000, "tempered+regularised", {"scale": 0.2}),
 }
 
 

@@ -60,3 +60,23 @@ def test_terrain_bound_starts_at_the_prior_and_readings_shrink_it():
     blind = terrain_pcrb(sc.with_(gap=(0.5, 80.0)), terrain, X)  # no reading at all
     assert np.all(horizontal_bound(b)[1:] < horizontal_bound(blind)[1:])
     assert horizontal_bound(b)[-1] < 0.1 * horizontal_bound(b)[0]
+
+
+def test_noise_free_bound_is_the_kalman_covariance_with_q_zero_and_below_the_noisy_one():
+    from pfcourse.terrain_pcrb import deterministic_bound, terrain_bound_noise_free
+
+    rng = np.random.default_rng(2)
+    d, K = 3, 25
+    F = np.eye(d) + 0.2 * rng.standard_normal((d, d))
+    H = rng.standard_normal((1, d))
+    R = np.array([[0.3]])
+    P0 = np.diag([4.0, 2.0, 1.0])
+    measured = np.ones(K, bool)
+    measured[0] = False
+    bound = deterministic_bound(np.linalg.inv(P0), np.broadcast_to(F, (K, d, d)), np.broadcast_to(H, (K, 1, d)), R, measured)
+    np.testing.assert_allclose(bound, kalman_covariances(P0, F, np.zeros((d, d)), H, R, measured), rtol=1e-8, atol=1e-12)
+    sc = AircraftScenario()
+    terrain = load_jacksboro()
+    X = simulate(sc, terrain, flight_seed(0, 3)).X
+    assert np.all(horizontal_bound(terrain_bound_noise_free(sc, terrain, X))[1:]
+                  <= horizontal_bound(terrain_pcrb(sc, terrain, X))[1:] * (1 + 1e-9))
