@@ -111,15 +111,21 @@ print("medians over 100 flights of the particle nearest to the truth at t = 0")
 print(near.round(1).to_string())
 glue("terrain_near_h_3000", near.loc[3000, "nearest horizontal (m)"], display=False)
 glue("terrain_near_psi_3000", near.loc[3000, "... heading (deg)"], display=False)
+glue("terrain_near_h2_3000", near.loc[3000, "nearest in prior metric: horizontal (m)"], display=False)
+glue("terrain_near_drift_3000", 8000 * np.tan(np.radians(near.loc[3000, "... heading (deg)"])), display=False)
+glue("terrain_near_psi1_3000", near.loc[3000, "its heading error (deg)"], display=False)
 glue("terrain_near_h_100000", near.loc[100000, "nearest horizontal (m)"], display=False)
 
 # %% [markdown]
 # With 3000 particles the particle nearest the truth horizontally is typically
-# {glue:text}`terrain_near_h_3000:.0f` m away, already a cell, but it carries a random
-# altitude and heading from the prior; the particle nearest in all four components together
-# is off by {glue:text}`terrain_near_psi_3000:.1f}°` in heading (median), enough to drift a
-# kilometre sideways over the flight if the process noise did not let the heading wander. The
-# horizontal distance falls like $N^{-1/2}$ (a two-dimensional prior): even $10^5$
+# {glue:text}`terrain_near_h_3000:.0f` m away, within a cell, but it carries a random
+# altitude and heading from the prior (its heading is {glue:text}`terrain_near_psi1_3000:.0f`°
+# off, median). The particle nearest in all four components together, in the prior's own
+# metric, is {glue:text}`terrain_near_h2_3000:.0f` m away horizontally and
+# {glue:text}`terrain_near_psi_3000:.1f`° off in heading, which alone moves it
+# {glue:text}`terrain_near_drift_3000:.0f` m sideways over the 8 km flight if the process
+# noise did not let its heading wander. The heading is the component that carries the error.
+# The horizontal distance falls roughly like $N^{-1/2}$ (a two-dimensional prior): even $10^5$
 # particles leave the nearest one {glue:text}`terrain_near_h_100000:.0f` m away. The
 # four-dimensional volume shrinks like $N^{-1/4}$ per component, which is why more particles
 # help slowly, and why the remedies below, which *move* particles after the first readings
@@ -185,6 +191,10 @@ glue("terrain_best_ci", table.loc[best, "95 % CI"], display=False)
 glue("terrain_best_cost", table.loc[best, "cost vs bootstrap N=30000"], display=False)
 glue("terrain_best_mcnemar", table.loc[best, "McNemar p"], display=False)
 glue("terrain_boot30k_diverged", table.loc["bootstrap N=30000", "lost rate"], display=False)
+glue("terrain_boot100k_diverged", table.loc["bootstrap N=100000", "lost rate"], display=False)
+glue("terrain_boot100k_cost", table.loc["bootstrap N=100000", "cost vs bootstrap N=30000"], display=False)
+glue("terrain_best_lost", int(table.loc[best, "lost"]), display=False)
+glue("terrain_best_flights", int(table.loc[best, "flights"]), display=False)
 glue("terrain_qf3_diverged", table.loc["bootstrap N=3000, Qf/3", "lost rate"], display=False) if "bootstrap N=3000, Qf/3" in table.index else None
 glue("terrain_qf3_mcnemar", table.loc["bootstrap N=3000, Qf/3", "McNemar p"], display=False) if "bootstrap N=3000, Qf/3" in table.index else None
 def mcnemar(a, b):
@@ -222,7 +232,9 @@ print(f"best at a cost <= bootstrap N = 30000: {best}, lost {table.loc[best, 'lo
 # $p$ = {glue:text}`terrain_best_mcnemar:.1e`. The table reads, setting by setting:
 #
 # - **Particles.** The bootstrap filter's losses fall with $N$, but slowly: with 30000
-#   particles it still loses {glue:text}`terrain_boot30k_diverged:.0%`.
+#   particles it still loses {glue:text}`terrain_boot30k_diverged:.0%`, and with $10^5$
+#   ({glue:text}`terrain_boot100k_cost:.1f` times the cost)
+#   {glue:text}`terrain_boot100k_diverged:.0%`.
 # - **Regularisation.** With 3000 particles the regularised filter loses
 #   {glue:text}`terrain_rpf3k_diverged:.0%`, close to the bootstrap filter with ten times as
 #   many (flights lost by the first only / by the second only: {glue:text}`terrain_rpf3k_vs_boot30k`,
@@ -238,6 +250,13 @@ print(f"best at a cost <= bootstrap N = 30000: {best}, lost {table.loc[best, 'lo
 #   So the losses are not made at the first readings alone; our reading (not measured here)
 #   is that the loss of particle diversity over the following tens of seconds, which the
 #   kernel move repairs, is what loses the aircraft.
+#
+# **A baseline that works, nearly.** The issue asked for a filter that loses fewer than 5 % of
+# 100 flights at no more than the cost of the bootstrap filter with 30000 particles. The best
+# found here loses {glue:text}`terrain_best_lost` of {glue:text}`terrain_best_flights`: at
+# the target, not below it, and its interval ({glue:text}`terrain_best_ci`) cannot separate it
+# from 5 %. The regularised filter is the baseline to build on; the report's studies
+# ($Q_f$, $R_f$, threshold, gap, period, scheme) have not yet been re-run on it.
 #
 # **$Q_f$.** Dividing its horizontal entries by 3, like the scenario's other lengths, gives
 # the row "bootstrap N=3000, Qf/3": it loses {glue:text}`terrain_qf3_diverged:.0%`, with
@@ -326,12 +345,12 @@ plt.show()
 # {glue:text}`terrain_pcrb_final_median:.0f` m, and the noise-free bound
 # {glue:text}`terrain_free_final_median:.1f` m. The {glue:text}`terrain_converged_n` converged
 # flights of {glue:text}`terrain_best_name` end at a median
-# {glue:text}`terrain_rmse_over_pcrb:.1f` times their flight's noise-free bound (bootstrap
-# 95 % interval {glue:text}`terrain_ratio_lo:.1f` to {glue:text}`terrain_ratio_hi:.1f`), and
-# {glue:text}`terrain_rmse_over_model_pcrb:.2f` times the bound of the filter's own model: the
-# filter does about as well as its model allows, and the gap to the noise-free bound is the
-# price of its process noise $Q_f$, which makes it forget old readings (the heading noise of
-# 3.3° per second above all). One final error is one draw, so single ratios below 1 occur.
+# {glue:text}`terrain_rmse_over_pcrb:.2f` times their flight's noise-free bound (bootstrap
+# 95 % interval {glue:text}`terrain_ratio_lo:.2f` to {glue:text}`terrain_ratio_hi:.2f`): within
+# a factor of two of the best any estimator can do on these flights. Against the bound of the
+# filter's own model the median ratio is {glue:text}`terrain_rmse_over_model_pcrb:.2f`, below 1:
+# that "bound" assumes an aircraft that really has the process noise $Q_f$, and the simulated
+# one has none, so it is not a bound for these flights; the noise-free one is.
 
 # %% [markdown]
 # ## Exercises
