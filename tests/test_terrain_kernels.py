@@ -5,9 +5,9 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from pfcourse.aircraft import AircraftScenario
-from pfcourse.terrain import load_jacksboro
-from pfcourse.terrain_kernels import bilinear
+from pfcourse.terrain.scenario import AircraftScenario
+from pfcourse.terrain.map import load_jacksboro
+from pfcourse.terrain.compiled import bilinear
 
 
 @pytest.fixture(scope="module")

@@ -9,7 +9,7 @@ from scipy.stats import norm
 
 from pfcourse.errors import ParameterError
 from pfcourse.filter import ParticleFilter, StateSpaceModel
-from pfcourse.terrain_remedies import (
+from pfcourse.remedies import (
     ProgressiveCorrection,
     RegularisedJitter,
     optimal_bandwidth,

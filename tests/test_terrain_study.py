@@ -8,8 +8,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from pfcourse.terrain import load_jacksboro
-from pfcourse.terrain_study import SETTINGS, run_one
+from pfcourse.terrain.map import load_jacksboro
+from pfcourse.experiments.terrain_remedies import SETTINGS, run_one
 
 DATA = Path(__file__).resolve().parents[1] / "book" / "data" / "terrain_remedies.csv"
 

@@ -19,7 +19,7 @@
 # error exceeds 500 m (about five DEM cells) or every particle died. Studies of 100 flights
 # cost minutes, more than a chapter may take to execute, so they were computed by the script
 # `tools/studies/terrain_remedies.py` (one row per setting and flight, with
-# `pfcourse.terrain_study.run_one`) into `book/data/terrain_remedies.csv`; its provenance
+# `pfcourse.experiments.terrain_remedies.run_one`) into `book/data/terrain_remedies.csv`; its provenance
 # (git commit, seeds) is in `terrain_remedies.json`, and `tests/test_terrain_study.py`
 # recomputes a random sample of the stored rows and requires the same numbers. Flight $r$
 # is the same in every setting (common random numbers), so settings are compared flight by
@@ -35,12 +35,13 @@ import pandas as pd
 from myst_nb import glue
 from scipy import stats
 
-from pfcourse.aircraft import AircraftScenario, flight_seed, simulate
-from pfcourse.plotting import use_style
-from pfcourse.terrain import load_jacksboro
-from pfcourse.terrain_pcrb import horizontal_bound, terrain_bound_noise_free, terrain_pcrb
-from pfcourse.terrain_remedies import optimal_bandwidth
-from pfcourse.terrain_study import SETTINGS
+from pfcourse.experiments.terrain import flight_seed
+from pfcourse.terrain.scenario import AircraftScenario, simulate
+from pfcourse.style import use_style
+from pfcourse.terrain.map import load_jacksboro
+from pfcourse.terrain.pcrb import horizontal_bound, terrain_bound_noise_free, terrain_pcrb
+from pfcourse.remedies import optimal_bandwidth
+from pfcourse.experiments.terrain_remedies import SETTINGS
 
 use_style()
 terrain = load_jacksboro()
@@ -297,7 +298,7 @@ plt.show()
 # $$
 #
 # with the filter's model ($Q = Q_f\,\Delta t$, $R = R_f$) and $F_k$ the Jacobian of the
-# dynamics (`pfcourse.terrain_pcrb`; in the linear-Gaussian case it returns exactly the
+# dynamics (`pfcourse.terrain.pcrb`; in the linear-Gaussian case it returns exactly the
 # Kalman covariance, which the tests check). We compute it along each true flight (the
 # bound given that flight's terrain). But the simulated aircraft has *no* process noise
 # ($Q_f$ is the filter's allowance for model error), so the bound of the flights as they are

@@ -1,4 +1,4 @@
-"""Write book/data/terrain_remedies.csv: each (setting, flight) of pfcourse.terrain_study.
+"""Write book/data/terrain_remedies.csv: each (setting, flight) of pfcourse.experiments.terrain_remedies.
 
 Usage: .venv/bin/python tools/studies/terrain_remedies.py N_FLIGHTS SETTING [SETTING ...]
 Rows are appended (one line per run, flushed), so a long study can be stopped and resumed;
@@ -14,8 +14,8 @@ import sys
 import time
 from pathlib import Path
 
-from pfcourse.terrain import load_jacksboro
-from pfcourse.terrain_study import SETTINGS, run_one
+from pfcourse.experiments.terrain_remedies import SETTINGS, run_one
+from pfcourse.terrain.map import load_jacksboro
 
 ROOT = Path(__file__).resolve().parents[2]
 OUT = ROOT / "book" / "data" / "terrain_remedies.csv"
@@ -37,7 +37,7 @@ def main() -> None:
     commit = subprocess.run(["git", "rev-parse", "HEAD"], cwd=ROOT, capture_output=True, text=True).stdout.strip()
     meta_path = OUT.with_suffix(".json")
     meta = json.loads(meta_path.read_text()) if meta_path.exists() else {"runs": []}
-    meta.update({"code": "pfcourse/terrain_study.py (run_one), tools/studies/terrain_remedies.py",
+    meta.update({"code": "pfcourse/experiments/terrain_remedies.py (run_one), tools/studies/terrain_remedies.py",
                  "seeds": "flight r: flight_seed(0, r); filter: default_rng([0, r, 1])",
                  "divergence": "final horizontal error > 500 m or every particle lost",
                  "seconds": "wall time of one run on a shared 2-core machine: indicative only"})

@@ -1,9 +1,9 @@
 """Seeded runs of the terrain filters, one (setting, flight) at a time, for the stored studies.
 
-A *setting* is a name in :data:`SETTINGS`; flight ``r`` is :func:`pfcourse.aircraft.flight_seed`
+A *setting* is a name in :data:`SETTINGS`; flight ``r`` is :func:`pfcourse.experiments.terrain.flight_seed`
 ``(0, r)`` (common random numbers: every setting sees the same truths and altimeter noise) and
 the filter's generator is ``default_rng([0, r, 1])``.  **Divergence**: a run is *lost* when its
-final horizontal error exceeds :data:`pfcourse.aircraft.DIVERGED_ERROR` (500 m) or every particle
+final horizontal error exceeds :data:`pfcourse.experiments.terrain.DIVERGED_ERROR` (500 m) or every particle
 died.  ``tools/studies/terrain_remedies.py`` writes the rows to ``book/data/terrain_remedies.csv``;
 ``tests/test_terrain_study.py`` recomputes a seeded sample of them.
 """
@@ -12,10 +12,11 @@ from __future__ import annotations
 
 import numpy as np
 
-from .aircraft import DIVERGED_ERROR, AircraftScenario, flight_seed, position_error, simulate
-from .errors import DegenerateWeightsError, ParameterError
-from .filter import ParticleFilter
-from .terrain_remedies import ProgressiveCorrection, RegularisedJitter
+from pfcourse.errors import DegenerateWeightsError, ParameterError
+from pfcourse.experiments.terrain import DIVERGED_ERROR, flight_seed
+from pfcourse.filter import ParticleFilter
+from pfcourse.remedies import ProgressiveCorrection, RegularisedJitter
+from pfcourse.terrain.scenario import AircraftScenario, position_error, simulate
 
 #: Q_f with the horizontal entries divided by 3, like every other horizontal length of the scenario.
 QF_SCALED = np.diag([1.0, 1.0, 0.6, 0.001 * 180.0 / np.pi]) ** 2

@@ -28,9 +28,9 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .angles import wrap_angle
-from .errors import ParameterError
-from .kernels import gather_rows
+from pfcourse.angles import wrap_angle
+from pfcourse.errors import ParameterError
+from pfcourse.kernels import gather_rows
 
 Array = np.ndarray
 

@@ -1,9 +1,9 @@
 """Compiled (numba) passes of the terrain model: the aircraft's transition and the altimeter likelihood.
 
-They compute, one particle at a time, exactly the equations of :mod:`pfcourse.aircraft`
-(the NumPy definitions :func:`~pfcourse.aircraft.propagate`,
-:func:`~pfcourse.aircraft.predicted_measurement` with the bilinear
-:meth:`~pfcourse.terrain.TerrainMap.height`), without the NumPy temporaries:
+They compute, one particle at a time, exactly the equations of :mod:`pfcourse.terrain.scenario`
+(the NumPy definitions :func:`~pfcourse.terrain.scenario.propagate`,
+:func:`~pfcourse.terrain.scenario.predicted_measurement` with the bilinear
+:meth:`~pfcourse.terrain.map.TerrainMap.height`), without the NumPy temporaries:
 
 - transition: ``x' = f(x) + L e`` with ``e`` the standard normal draws (drawn by NumPy, so the
   random stream is the NumPy model's), ``L`` the Cholesky factor of ``Qf dt``, heading wrapped;
@@ -20,7 +20,8 @@ import math
 
 import numpy as np
 
-from .kernels import jit, wrap
+from pfcourse.angles import wrap
+from pfcourse.compiled import jit
 
 
 @jit

@@ -21,8 +21,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from .aircraft import AircraftScenario, dynamics_jacobian, measurement_jacobian
-from .errors import ShapeError
+from pfcourse.errors import ShapeError
+from pfcourse.terrain.scenario import AircraftScenario, dynamics_jacobian, measurement_jacobian
 
 Array = np.ndarray
 
