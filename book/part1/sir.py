@@ -259,7 +259,8 @@ plt.show()
 #
 # Neither fix makes the particle filter exact; the honest comparison is the Kalman filter,
 # which has zero error here at a fraction of the cost. {doc}`proposals` asks whether a
-# better importance function does better.
+# better importance function does better; {doc}`rao_blackwell` removes the cause instead,
+# by sampling only the robot and giving each particle a Kalman filter over the landmarks.
 #
 # ## Try it
 #
