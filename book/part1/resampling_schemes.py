@@ -183,10 +183,10 @@ for name in SCHEMES:
 #
 # ## Run time against N
 #
-# Each scheme here costs a cumulative sum and one binary search per uniform, $O(n \log n)$
-# in all, and multinomial resampling also sorts its $n$ uniforms; residual resampling does
-# part of the work deterministically (and could be written in $O(n)$, as could the
-# stratified and systematic schemes with a merge instead of a search). The figure shows the median of
+# Each scheme here costs a cumulative sum and one merge pass of sorted uniforms along it
+# (`pfcourse.kernels.inverse_cdf_sorted`), $O(n)$: stratified and systematic uniforms are
+# born sorted, multinomial resampling sorts its $n$ uniforms first ($O(n \log n)$), and
+# residual resampling sorts only the uniforms of its random remainder. The figure shows the median of
 # 5 timings per size on this machine (timings vary between machines and runs, so only the
 # figure is shown; its shape, not its numbers, is the point).
 

@@ -21,8 +21,11 @@
 #
 # SIS as in {ref}`sis-algorithm`, plus, after the estimate at step $k$:
 #
-# 5. **if** $\mathrm{ESS}_k < \theta N$: draw ancestor indices $A^1, \dots, A^N$ with
-#    $\Pr(A^j = i) = W_k^i$, set $x_k^j \leftarrow x_k^{A^j}$ and $W_k^j = 1/N$.
+# 5. **if** $\mathrm{ESS}_k < \theta N$: draw ancestor indices $A^1, \dots, A^N$ such that
+#    particle $i$ gets $N W_k^i$ copies on average, set $x_k^j \leftarrow x_k^{A^j}$ and
+#    $W_k^j = 1/N$. Multinomial resampling draws each $A^j$ independently with
+#    $\Pr(A^j = i) = W_k^i$; the default here, systematic resampling, keeps the same average
+#    with less randomness, and its $A^j$ are not independent ({doc}`resampling_schemes`).
 #
 # $\theta = 0$ is SIS, $\theta = 1$ resamples at every informative step; the lab uses
 # $\theta = 1/3$ ($N/3$) with $N = 100$. In `pfcourse`:
