@@ -281,7 +281,7 @@ for sd in (0.1, 0.01):
 # underflow to 0, the sum is 0 and the weights are NaN. The log-domain one passes:
 # ```
 
-# %%
+# %% tags=["hide-input"]
 def update(log_W, log_lik):
     a = log_W + log_lik
     return a - logsumexp(a)
@@ -310,7 +310,7 @@ print(check_weight_update(update_linear))
 # draws on average) and never random; the check says so:
 # ```
 
-# %%
+# %% tags=["hide-input"]
 def resample(W, rng):
     u = (np.arange(len(W)) + rng.random()) / len(W)
     return np.minimum(np.searchsorted(np.cumsum(W), u, side="right"), len(W) - 1)

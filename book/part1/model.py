@@ -362,3 +362,22 @@ display(control_panel(
 # landmark in view there is no measurement; the likelihood is the constant 1, and both the
 # Kalman filter and the particle filter only predict.
 # ```
+#
+# ```{exercise}
+# :label: ex-model-code
+# (Coding.) Write `sees(x)` that returns, for a state $x$ of the two-landmark model, which
+# landmarks lie up and to the right of the robot, and check it against `scenario.visible` on
+# 1,000 states drawn from the prior.
+# ```
+#
+# ````{solution} ex-model-code
+# :class: dropdown
+# ```python
+# def sees(x):
+#     rel = x[..., 2:].reshape(x.shape[:-1] + (2, 2)) - x[..., None, :2]
+#     return (rel[..., 0] > 0) & (rel[..., 1] > 0)
+#
+# xs = scenario.model().sample_initial(1000, np.random.default_rng(0))
+# assert np.array_equal(sees(xs), scenario.visible(xs))
+# ```
+# ````

@@ -301,3 +301,29 @@ display(control_panel(draw_proposals, n_particles=particle_slider(200),
 # is to integrate the landmarks out (Kalman filter, or Rao-Blackwellised particle filter,
 # measured in {doc}`rao_blackwell`).
 # ```
+#
+# ```{exercise}
+# :label: ex-prop-code
+# (Coding.) For one particle $x_{k-1}$ and a step with only landmark 1 in view, compute the
+# optimal proposal's mean, covariance and log-weight $\log \mathcal N(z_k; H_k m, S_k)$ in
+# NumPy, and check the log-weight against `OptimalProposal().propose(model, x, z, k, rng)`.
+# ```
+#
+# ````{solution} ex-prop-code
+# :class: dropdown
+# ```python
+# from scipy import stats
+# k = int(np.flatnonzero(sim.seen[:, 0] & ~sim.seen[:, 1])[0]); z = sim.Z[k]
+# x = model.sample_initial(1, np.random.default_rng(0))
+# seen = ~np.isnan(z); H, R = model.H[seen], model.R[np.ix_(seen, seen)]
+# m = x[0] @ model.F.T + model.B
+# S = H @ model.Q @ H.T + R
+# K = model.Q @ H.T @ np.linalg.inv(S)
+# mean, cov = m + K @ (z[seen] - H @ m), (np.eye(6) - K @ H) @ model.Q
+# log_w = stats.multivariate_normal(H @ m, S).logpdf(z[seen])
+# _, log_inc = OptimalProposal().propose(model, x, z, k, np.random.default_rng(1))
+# print(log_w - log_inc[0])                      # round-off, about 1e-13
+# ```
+#
+# (`sim` here is any simulation of the lab's model with such a step.)
+# ````

@@ -544,24 +544,26 @@ glue("apf_same_share_n1000", same, display=False)
 # measurement.
 # ```
 #
-# ```{solution} ex-rb-code
+# ````{solution} ex-rb-code
 # :class: dropdown
 # The cell "One step by hand" is the body. Wrapped, and applied twice:
 #
-#     def fastslam1_step(robot, m, P, z, rng):
-#         P = P + rb.Ql
-#         obs = ~np.isnan(z)
-#         A, C, R = model.H[obs][:, :2], model.H[obs][:, 2:], model.R[np.ix_(obs, obs)]
-#         r = robot @ rb.Fr.T + rb.Br + rng.standard_normal(robot.shape) @ np.linalg.cholesky(rb.Qr).T
-#         innov = z[obs] - r @ A.T - m @ C.T
-#         S = C @ P @ C.T + R
-#         gain = P @ C.T @ np.linalg.inv(S)
-#         return r, m + innov @ gain.T, (np.eye(len(m[0])) - gain @ C) @ P, \
-#             stats.multivariate_normal(cov=S).logpdf(innov)
+# ```python
+# def fastslam1_step(robot, m, P, z, rng):
+#     P = P + rb.Ql
+#     obs = ~np.isnan(z)
+#     A, C, R = model.H[obs][:, :2], model.H[obs][:, 2:], model.R[np.ix_(obs, obs)]
+#     r = robot @ rb.Fr.T + rb.Br + rng.standard_normal(robot.shape) @ np.linalg.cholesky(rb.Qr).T
+#     innov = z[obs] - r @ A.T - m @ C.T
+#     S = C @ P @ C.T + R
+#     gain = P @ C.T @ np.linalg.inv(S)
+#     return r, m + innov @ gain.T, (np.eye(len(m[0])) - gain @ C) @ P, \
+#         stats.multivariate_normal(cov=S).logpdf(innov)
+# ```
 #
 # Between the two measured steps, move the cloud with `rb.sample_transition` (unobserved
 # steps only predict). The differences from the package are at round-off level.
-# ```
+# ````
 #
 # ```{exercise}
 # :label: ex-rb-shared

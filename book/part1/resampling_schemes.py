@@ -313,3 +313,26 @@ display(control_panel(draw_offspring, scheme=scheme_dropdown(),
 # Use weights with some $n W_i < 1$: filterpy gives them (almost) zero copies, dozens of
 # standard errors away, as printed above.
 # ```
+#
+# ```{exercise}
+# :label: ex-resampling-code
+# (Coding.) Write stratified resampling, one uniform in each stratum $[(k-1)/n, k/n)$, check
+# it with `pfcourse.exercises.check_resampler`, and measure $\operatorname{Var} N_i$ over
+# 10,000 draws against `pfcourse.resampling.multinomial` for the weights of this chapter.
+# ```
+#
+# ````{solution} ex-resampling-code
+# :class: dropdown
+# ```python
+# def my_stratified(W, rng):
+#     n = len(W)
+#     u = (np.arange(n) + rng.random(n)) / n
+#     return np.minimum(np.searchsorted(np.cumsum(W), u, side="right"), n - 1)
+#
+# from pfcourse.exercises import check_resampler
+# print(check_resampler(my_stratified))          # every check passed
+# ```
+#
+# Counting copies with `np.bincount(idx, minlength=n)` over the draws, its variance per
+# particle is at most that of multinomial resampling, as the table of this chapter shows.
+# ````

@@ -283,3 +283,19 @@ display(control_panel(draw_sis, n_particles=particle_slider(100),
 # some nine more factors of ten, $10^{13}$ particles: SIS is hopeless here, and the cure is
 # not more particles.
 # ```
+#
+# ```{exercise}
+# :label: ex-sis-code
+# (Coding.) Take `my_filter` of {ref}`write-sis` with `threshold=0` and record, at each
+# step, the largest normalised weight. Over seeds 0-19 with $N = 100$ and $N = 10^4$, at
+# which step does it first exceed 0.99? Compare with the ESS curves above.
+# ```
+#
+# ```{solution} ex-sis-code
+# :class: dropdown
+# Add `top.append(W.max())` next to `esss.append(...)` and return it; then
+# `np.argmax(np.array(top) > 0.99)` per run. With a hundred times more particles the step
+# comes later, but still early in a 50-step run, as the ESS curves showed: degeneracy is
+# postponed, not cured.
+# The engine gives the same number from `res.weights.max(axis=1)` with `store_particles=True`.
+# ```
