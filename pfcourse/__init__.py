@@ -10,7 +10,13 @@ The notebooks teach; the plumbing lives here.  Main entry points:
 * :func:`pfcourse.kalman.kalman_filter` - the exact Kalman reference (filterpy).
 """
 
-from .errors import (
+# First, before anything loads NumPy: the CPU code paths the book's floats were computed with
+# (pfcourse.arithmetic; pins them if NumPy is not loaded yet, warns once if it was, unpinned).
+from . import arithmetic as _arithmetic
+
+_arithmetic.check()
+
+from .errors import (  # noqa: E402
     CovarianceError,
     DegenerateWeightsError,
     NumericalError,
@@ -19,15 +25,15 @@ from .errors import (
     ShapeError,
     WeightError,
 )
-from .filter import (
+from .filter import (  # noqa: E402
     DensityProposal,
     FilterResult,
     ParticleFilter,
     StateSpaceModel,
     TransitionProposal,
 )
-from .kalman import KalmanResult, kalman_filter
-from .linear_gaussian import LinearGaussianModel, OptimalProposal
+from .kalman import KalmanResult, kalman_filter  # noqa: E402
+from .linear_gaussian import LinearGaussianModel, OptimalProposal  # noqa: E402
 
 __version__ = "0.1.0"
 

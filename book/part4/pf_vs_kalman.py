@@ -252,9 +252,10 @@ COLUMNS = {"rmse_q50": "RMSE median", "rmse_q10": "10 %", "rmse_q90": "90 %", "n
            "evaluations": "evals/step"}
 
 
-def show(table, extra=()):
+def show(table, extra=(), digits=3):
+    """Print the comparison table with `digits` significant digits."""
     cols = {**COLUMNS, **{c: c for c in extra}}
-    print(table[list(cols)].rename(columns=cols).to_string(float_format=lambda v: f"{v:.3g}"))
+    print(table[list(cols)].rename(columns=cols).to_string(float_format=lambda v: f"{v:.{digits}g}"))
 
 
 show(robot_table)
@@ -348,17 +349,21 @@ terrain = load_jacksboro()
 wide = AircraftScenario()
 small = wide.with_(P0=np.diag([30.0, 30.0, 5.0, 0.01]) ** 2, Qf=np.diag([1.0, 1.0, 0.1, 0.001]) ** 2)
 TERRAIN_BURN_IN = 40
+# (scenario, particle numbers, flights, significant digits printed). From the report's prior
+# most flights are lost, and a lost filter is chaotic: a last-bit change of the arithmetic
+# (another CPU) moves its statistics by several per cent (the UKF's NEES median from 2.8e2 to
+# 3.0e2; tasks.py knife-edge), so that table keeps one significant digit, all it can defend.
 terrain_setups = {
-    "terrain, small prior": (small, (100, 300, 1000), 12),
-    "terrain, report's prior": (wide, (300, 1000, 3000), 16),
+    "terrain, small prior": (small, (100, 300, 1000), 12, 3),
+    "terrain, report's prior": (wide, (300, 1000, 3000), 16, 1),
 }
 terrain_runs, terrain_tables = {}, {}
-for name, (sc, n_values, n_runs) in terrain_setups.items():
+for name, (sc, n_values, n_runs, digits) in terrain_setups.items():
     terrain_runs[name] = [terrain_tracks(0, r, sc, terrain, n_values) for r in range(n_runs)]
     terrain_tables[name] = summarize(terrain_runs[name], dim_x=4, dim_z=1, burn_in=TERRAIN_BURN_IN,
                                      diverged_error=DIVERGED_ERROR)
     print(f"{name}: {n_runs} flights (RMSE of the horizontal position in m)")
-    show(terrain_tables[name], extra=("diverged",))
+    show(terrain_tables[name], extra=("diverged",), digits=digits)
     print()
 
 # %% tags=["nbval-ignore-output"]
