@@ -20,7 +20,8 @@ def test_unknown_variant_is_refused():
 
 @pytest.mark.skipif(not DATA.exists(), reason="the study's data are not computed")
 def test_stored_rows_are_reproduced():
-    rows = list(csv.DictReader(open(DATA)))
+    with open(DATA) as f:
+        rows = list(csv.DictReader(f))
     rng = np.random.default_rng(7)
     cheap = [r for r in rows if int(r["N"]) <= 300]
     for row in rng.choice(cheap, size=4, replace=False):
@@ -32,7 +33,8 @@ def test_stored_rows_are_reproduced():
 @pytest.mark.skipif(not DATA.exists(), reason="the study's data are not computed")
 def test_exact_model_converges_and_static_sir_does_not():
     """With the noise in simulator and filter the filter's model is exact: error ~ N^-1/2."""
-    rows = list(csv.DictReader(open(DATA)))
+    with open(DATA) as f:
+        rows = list(csv.DictReader(f))
 
     def median(variant, n):
         return np.median([float(r["error"]) for r in rows if r["variant"] == variant and int(r["N"]) == n])
