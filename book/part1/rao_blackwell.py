@@ -395,6 +395,15 @@ ll = {n: runs[(runs.method == "rbpf_optimal") & (runs.N == n)].loglik_error for 
 glue("rbpf_llerr_n100", float(ll[100].median()), display=False)
 glue("rbpf_llerr_n1000", float(ll[1000].median()), display=False)
 glue("rbpf_llerr_pos_n1000", float((ll[1000] > 0).mean()), display=False)
+for n in (30, 100, 1000):
+    ratio = np.exp(ll[n].to_numpy())  # p^(z) / p(z): mean 1 if the estimate of Z is unbiased
+    ci = stats.bootstrap((ratio,), np.mean, n_resamples=2000, method="percentile",
+                         random_state=np.random.default_rng(n)).confidence_interval
+    print(f"RBPF (FastSLAM 2.0), N = {n:4d}: mean of p^(z)/p(z) over {len(ratio)} runs {ratio.mean():.2f} "
+          f"(95 % bootstrap CI {ci.low:.2f}-{ci.high:.2f}); median of log p^(z) - log p(z) {np.median(np.log(ratio)):+.2f}")
+    glue(f"rbpf_zratio_n{n}", float(ratio.mean()), display=False)
+    glue(f"rbpf_zratio_n{n}_low", float(ci.low), display=False)
+    glue(f"rbpf_zratio_n{n}_high", float(ci.high), display=False)
 cost = {n: runs[(runs.method == "rbpf_optimal") & (runs.N == n)].seconds_per_step.median()
         / runs[(runs.method == "sir") & (runs.N == n)].seconds_per_step.median() for n in N_VALUES}
 print("wall time per step, RBPF (FastSLAM 2.0) / SIR at the same N: "
@@ -405,7 +414,12 @@ glue("rbpf_cost_ratio_n3000", float(cost[3000]), display=False)
 # %% [markdown]
 # The Rao-Blackwellised filter's log-likelihood is off by a median
 # {glue:text}`rbpf_llerr_n100:.2f` nats at $N = 100$ and {glue:text}`rbpf_llerr_n1000:.2f` at
-# $N = 1000$; the filters that sample the map are off by tens to hundreds of nats: their
+# $N = 1000$, while the ratio $\hat p(z) / p(z)$ averages {glue:text}`rbpf_zratio_n100:.2f` at
+# $N = 100$ (95 % CI {glue:text}`rbpf_zratio_n100_low:.2f`-{glue:text}`rbpf_zratio_n100_high:.2f`)
+# and {glue:text}`rbpf_zratio_n1000:.2f` at $N = 1000$: unbiased in $p(z)$, biased down in
+# $\log p(z)$. At $N = 30$ the mean ({glue:text}`rbpf_zratio_n30:.2f`, CI
+# {glue:text}`rbpf_zratio_n30_low:.2f`-{glue:text}`rbpf_zratio_n30_high:.2f`) is dominated by
+# rare large ratios, the heavy right tail that makes the logarithm's median negative; the filters that sample the map are off by tens to hundreds of nats: their
 # likelihood estimate is useless for comparing models or tuning parameters.
 #
 # Per step, the Rao-Blackwellised filter costs {glue:text}`rbpf_cost_ratio_n100:.1f` times
