@@ -17,6 +17,10 @@
 # (sis-algorithm)=
 # ## The SIS algorithm (lab question 3)
 #
+# (Notation: we write $z_{1:k}$ because in this model the first measurement comes after the
+# first move; `pfcourse`'s docstrings say $z_{0:k}$, since the engine also accepts a
+# measurement at time 0.)
+#
 # SIS represents $p(x_k \mid z_{1:k})$ by $N$ particles $x_k^i$ with normalised weights
 # $W_k^i$. It needs an **importance function** $q(x_k \mid x_{k-1}, z_k)$ from which new
 # particles are drawn; here, as in the lab, we take the transition density itself,
