@@ -56,8 +56,6 @@
 # covariance). The engine itself is unchanged.
 
 # %%
-import time
-
 import matplotlib.pyplot as plt
 import numpy as np
 import pandas as pd
@@ -66,7 +64,7 @@ from scipy import stats
 
 from pfcourse import ParticleFilter, kalman_filter
 from pfcourse.landmarks import circle_scenario, quadrant_scenario, simulate
-from pfcourse.plotting import COLORS, plain_log_axis, use_style
+from pfcourse.plotting import COLORS, use_style
 from pfcourse.rao_blackwell import RaoBlackwellModel, RaoBlackwellProposal
 from pfcourse.rb_study import METHODS
 
