@@ -9,7 +9,10 @@ from __future__ import annotations
 
 import numpy as np
 
-from .errors import CovarianceError, ParameterError, ShapeError
+from pfcourse.errors import CovarianceError, ParameterError, ShapeError
+
+#: The array type of every signature in the package (one alias, imported from here).
+Array = np.ndarray
 
 
 def as_vector(value, name: str, size: int | None = None) -> np.ndarray:
@@ -77,6 +80,14 @@ def covariance_factor(cov: np.ndarray) -> np.ndarray:
     except np.linalg.LinAlgError:
         eigval, eigvec = np.linalg.eigh(cov)
         return eigvec * np.sqrt(np.clip(eigval, 0.0, None))
+
+
+def is_missing(z: Array | None) -> bool:
+    """``True`` when the measurement is absent: ``None`` or every entry NaN."""
+    if z is None:
+        return True
+    z = np.asarray(z, dtype=float)
+    return bool(z.size == 0 or np.all(np.isnan(z)))
 
 
 def check_probability(value: float, name: str) -> float:

@@ -18,8 +18,8 @@ import numpy as np
 from scipy import stats
 from scipy.special import logsumexp
 
-from .angles import circular_mean, wrap_angle
-from .errors import DegenerateWeightsError, ShapeError
+from pfcourse.angles import circular_mean, wrap_angle
+from pfcourse.errors import DegenerateWeightsError, ShapeError
 
 
 def normalize_log_weights(log_weights: np.ndarray) -> tuple[np.ndarray, float]:

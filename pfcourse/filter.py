@@ -27,7 +27,7 @@ Steps 3 and 4 run as compiled loops (:mod:`pfcourse.kernels`): one pass over the
 for the weights, the ESS and the log-likelihood increment (the same floats as
 :func:`~pfcourse.diagnostics.normalize_log_weights`), two for the moments, one merge pass
 for the resampled indices.  The model's own methods are plain NumPy unless the model
-compiles them too (:class:`pfcourse.robot.RobotModel` does).
+compiles them too (:class:`pfcourse.robot.scenario.RobotModel` does).
 """
 
 from __future__ import annotations
@@ -38,12 +38,11 @@ from typing import Protocol
 
 import numpy as np
 
-from .checks import check_count, check_probability
+from pfcourse.checks import Array, check_count, check_probability, is_missing
 from . import kernels
-from .errors import DegenerateWeightsError, NumericalError, ShapeError
-from .resampling import get_resampler
+from pfcourse.errors import DegenerateWeightsError, NumericalError, ShapeError
+from pfcourse.resampling import get_resampler
 
-Array = np.ndarray
 Measurement = Array | None
 
 
@@ -173,14 +172,6 @@ class FilterResult:
     def n_resamples(self) -> int:
         """How many times the cloud was resampled."""
         return int(np.sum(self.resampled))
-
-
-def is_missing(z: Measurement) -> bool:
-    """``True`` when the measurement is absent: ``None`` or every entry NaN."""
-    if z is None:
-        return True
-    z = np.asarray(z, dtype=float)
-    return bool(z.size == 0 or np.all(np.isnan(z)))
 
 
 class ParticleFilter:

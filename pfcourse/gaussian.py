@@ -18,7 +18,7 @@ from __future__ import annotations
 import numpy as np
 from scipy.linalg import solve_triangular
 
-from .errors import CovarianceError
+from pfcourse.errors import CovarianceError
 
 LOG_2PI = float(np.log(2.0 * np.pi))
 

@@ -19,7 +19,7 @@ from pfcourse import (
     kalman_filter,
 )
 from pfcourse.gaussian import gaussian_logpdf
-from pfcourse.landmarks import quadrant_scenario, simulate
+from pfcourse.landmarks.scenario import quadrant_scenario, simulate
 
 N_VALUES = (250, 1000, 4000)
 N_RUNS = 40

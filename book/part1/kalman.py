@@ -34,10 +34,11 @@ from matplotlib.animation import FuncAnimation
 from matplotlib.ticker import MultipleLocator
 
 from pfcourse.diagnostics import chi2_band, nees
-from pfcourse.kalman import kalman_filter
-from pfcourse.landmarks import circle_scenario, quadrant_scenario, simulate
-from pfcourse.plotting import COLORS, ellipse_patch, landmark_scene, use_style
-from pfcourse.widgets import control_panel, scale_slider, seed_box
+from pfcourse.landmarks.kalman import kalman_filter
+from pfcourse.landmarks.scenario import circle_scenario, quadrant_scenario, simulate
+from pfcourse.landmarks.figures import landmark_scene
+from pfcourse.style import COLORS, ellipse_patch, use_style
+from pfcourse.figures.widgets import control_panel, scale_slider, seed_box
 
 use_style()
 LABELS = ["robot x", "robot y", "L1 x", "L1 y", "L2 x", "L2 y"]

@@ -26,8 +26,9 @@ import numpy as np
 from IPython.display import HTML
 from myst_nb import glue
 
-from pfcourse.landmarks import circle_scenario, quadrant_scenario, simulate
-from pfcourse.plotting import COLORS, animate_landmarks, landmark_scene, use_style
+from pfcourse.landmarks.scenario import circle_scenario, quadrant_scenario, simulate
+from pfcourse.landmarks.figures import animate_landmarks, landmark_scene
+from pfcourse.style import COLORS, use_style
 
 use_style()
 
@@ -284,7 +285,7 @@ print(f"log p(z_k | x_k) at the true state: {by_hand:.4f} (formula), "
 import ipywidgets as widgets
 from IPython.display import display
 
-from pfcourse.widgets import control_panel, scale_slider, seed_box
+from pfcourse.figures.widgets import control_panel, scale_slider, seed_box
 
 
 def draw_model(variant, noise_scale, seed):

@@ -30,7 +30,7 @@
 # $$
 #
 # The new weight does not depend on the sampled $x_k^i$ at all: the only weight variance left
-# is that of $p(z_k \mid x_{k-1}^i)$ across the particles. `pfcourse.linear_gaussian.OptimalProposal`
+# is that of $p(z_k \mid x_{k-1}^i)$ across the particles. `pfcourse.landmarks.model.OptimalProposal`
 # implements it; the filter takes it through its `proposal` argument, with $H_k$, $R_k$ of the
 # visible landmarks at each step.
 #
@@ -53,12 +53,12 @@ from IPython.display import HTML, display
 from matplotlib.animation import FuncAnimation
 
 from pfcourse.filter import ParticleFilter
-from pfcourse.kalman import kalman_filter
-from pfcourse.landmarks import quadrant_scenario, simulate
-from pfcourse.linear_gaussian import OptimalProposal
-from pfcourse.plotting import COLORS, plain_log_axis, use_style
-from pfcourse.versus_kalman import monte_carlo
-from pfcourse.widgets import control_panel, particle_slider, scale_slider, seed_box
+from pfcourse.landmarks.kalman import kalman_filter
+from pfcourse.landmarks.scenario import quadrant_scenario, simulate
+from pfcourse.landmarks.model import OptimalProposal
+from pfcourse.style import COLORS, plain_log_axis, use_style
+from pfcourse.experiments.landmarks import kalman_scores
+from pfcourse.figures.widgets import control_panel, particle_slider, scale_slider, seed_box
 
 use_style()
 ROBOT, LANDMARKS = [0, 1], [2, 3, 4, 5]
@@ -124,7 +124,7 @@ for scale in scales:
     meas_s = measured_steps(sc, n_runs)
     for name, prop in PROPOSALS.items():
         pf = ParticleFilter(m, 200, threshold=0.5, proposal=prop)
-        r = monte_carlo(sc, lambda Z, s: pf.run(Z, s), n_runs)
+        r = kalman_scores(sc, lambda Z, s: pf.run(Z, s), n_runs)
         sweep[scale, name] = (r["ess"][meas_s].reshape(-1) / 200, r["rmse"].mean(axis=1))
 for scale in scales:
     (eb, rb), (eo, ro) = sweep[scale, "bootstrap"], sweep[scale, "optimal"]

@@ -38,9 +38,9 @@ import matplotlib.pyplot as plt
 import numpy as np
 from IPython.display import display
 
-from pfcourse.plotting import COLORS, use_style
+from pfcourse.style import COLORS, use_style
 from pfcourse.resampling import SCHEMES
-from pfcourse.widgets import control_panel, scheme_dropdown, seed_box
+from pfcourse.figures.widgets import control_panel, scheme_dropdown, seed_box
 
 use_style()
 SCHEME_COLORS = dict(zip(SCHEMES, ("tab:blue", "tab:orange", "tab:green", "tab:purple")))

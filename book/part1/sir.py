@@ -37,12 +37,13 @@ import numpy as np
 from IPython.display import display
 
 from pfcourse.filter import ParticleFilter
-from pfcourse.kalman import kalman_filter
-from pfcourse.landmarks import quadrant_scenario, simulate
-from pfcourse.plotting import COLORS, plain_log_axis, posterior_bands, use_style
+from pfcourse.landmarks.kalman import kalman_filter
+from pfcourse.landmarks.scenario import quadrant_scenario, simulate
+from pfcourse.figures.bands import posterior_bands
+from pfcourse.style import COLORS, plain_log_axis, use_style
 from pfcourse.roughening import Roughening
-from pfcourse.versus_kalman import monte_carlo
-from pfcourse.widgets import control_panel, particle_slider, scheme_dropdown, seed_box, threshold_slider
+from pfcourse.experiments.landmarks import kalman_scores
+from pfcourse.figures.widgets import control_panel, particle_slider, scheme_dropdown, seed_box, threshold_slider
 
 use_style()
 LABELS = ["robot x", "robot y", "L1 x", "L1 y", "L2 x", "L2 y"]
@@ -98,7 +99,7 @@ print("distinct L1 x values at steps 0, 5, 20, 49:", [distinct[k] for k in (0, 5
 # %%
 from IPython.display import HTML
 
-from pfcourse.cloud_animation import animate_clouds
+from pfcourse.figures.clouds import animate_clouds
 
 sis_res = ParticleFilter(model, 100, threshold=0.0).run(sim.Z, rng=1, store_particles=True)
 HTML(animate_clouds({"SIS": sis_res, "SIR": res}, kf, sim.X, frames=range(0, 30, 2)).to_jshtml())
@@ -116,7 +117,7 @@ HTML(animate_clouds({"SIS": sis_res, "SIR": res}, kf, sim.X, frames=range(0, 30,
 
 # %%
 n_runs = 50
-sir100 = monte_carlo(scenario, lambda Z, s: ParticleFilter(model, 100, threshold=1 / 3).run(Z, s),
+sir100 = kalman_scores(scenario, lambda Z, s: ParticleFilter(model, 100, threshold=1 / 3).run(Z, s),
                      n_runs, components=LANDMARKS)
 rate = sir100["resampled"].mean(axis=1)
 print(f"N = 100, threshold N/3: resampled at {np.median(rate):.0%} of the steps "
@@ -139,7 +140,7 @@ N_values = (100, 300, 1000, 3000)
 by_N = {100: sir100}
 for N in N_values[1:]:
     pf = ParticleFilter(model, N, threshold=1 / 3)
-    by_N[N] = monte_carlo(scenario, lambda Z, s: pf.run(Z, s), n_runs, components=LANDMARKS)
+    by_N[N] = kalman_scores(scenario, lambda Z, s: pf.run(Z, s), n_runs, components=LANDMARKS)
 final = np.array([by_N[N]["rmse"][:, -1] for N in N_values])
 slope = np.polyfit(np.log(N_values), np.log(np.median(final, axis=1)), 1)[0]
 for N, f in zip(N_values, final):
@@ -195,10 +196,10 @@ model_fix = scenario.model(Qw=Q_fix)
 N = 1000
 variants = {
     "SIR, lab's model": by_N[1000],
-    "SIR + landmark noise 0.0025": monte_carlo(
+    "SIR + landmark noise 0.0025": kalman_scores(
         scenario, lambda Z, s: ParticleFilter(model_fix, N, threshold=1 / 3).run(Z, s), n_runs,
         components=LANDMARKS),
-    "SIR + roughening K = 0.2": monte_carlo(
+    "SIR + roughening K = 0.2": kalman_scores(
         scenario, lambda Z, s: ParticleFilter(model, N, threshold=1 / 3, jitter=Roughening(0.2)).run(Z, s),
         n_runs, components=LANDMARKS),
 }
@@ -213,7 +214,7 @@ class KalmanOfFixedModel:
         return r
 
 
-variants["Kalman of the modified model (N = inf)"] = monte_carlo(
+variants["Kalman of the modified model (N = inf)"] = kalman_scores(
     scenario, KalmanOfFixedModel(), n_runs, components=LANDMARKS)
 
 print(f"{'filter':40s} {'error vs exact mean (m)':>24s} {'sd ratio':>9s} {'coverage':>9s}")

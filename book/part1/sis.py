@@ -51,13 +51,14 @@ import matplotlib.pyplot as plt
 import numpy as np
 from IPython.display import HTML, display
 from myst_nb import glue
-from matplotlib.animation import FuncAnimation
 
 from pfcourse.filter import ParticleFilter
-from pfcourse.kalman import kalman_filter
-from pfcourse.landmarks import quadrant_scenario, simulate
-from pfcourse.plotting import COLORS, ellipse_patch, plain_log_axis, posterior_bands, use_style
-from pfcourse.widgets import control_panel, particle_slider, scale_slider, seed_box
+from pfcourse.landmarks.kalman import kalman_filter
+from pfcourse.landmarks.scenario import quadrant_scenario, simulate
+from pfcourse.figures.bands import posterior_bands
+from pfcourse.figures.clouds import animate_clouds
+from pfcourse.style import COLORS, ellipse_patch, plain_log_axis, use_style
+from pfcourse.figures.widgets import control_panel, particle_slider, scale_slider, seed_box
 
 use_style()
 LABELS = ["robot x", "robot y", "L1 x", "L1 y", "L2 x", "L2 y"]
@@ -119,39 +120,7 @@ plt.show()
 # information arrives.
 
 # %%
-def animate_cloud(res, kf, sim, frames, title):
-    fig, ax = plt.subplots(figsize=(5, 5), dpi=72)
-    ax.set_xlim(-3, 6)
-    ax.set_ylim(-3, 6)
-    ax.set_aspect("equal")
-    ax.set_xlabel("x (m)")
-    ax.set_ylabel("y (m)")
-    artists = []
-    head = ax.set_title("")
-
-    def draw(k):
-        for a in artists:
-            a.remove()
-        artists.clear()
-        w = res.weights[k] * res.n_particles
-        for j in range(3):
-            blk = slice(2 * j, 2 * j + 2)
-            artists.append(ax.scatter(res.particles[k, :, 2 * j], res.particles[k, :, 2 * j + 1],
-                                      s=4 * np.clip(w, 0.05, 40), color=COLORS["particles"], alpha=0.5))
-            artists.append(ax.add_patch(ellipse_patch(kf.mean[k, blk], kf.cov[k, blk, blk],
-                                                      color=COLORS["kalman"], lw=2)))
-            artists.append(ax.add_patch(ellipse_patch(res.mean[k, blk], res.cov[k, blk, blk],
-                                                      color=COLORS["estimate"], lw=1.5)))
-            artists.append(ax.plot(*sim.X[k, blk], "+", color=COLORS["truth"], ms=10)[0])
-        head.set_text(f"{title}: k = {k}, ESS = {res.ess[k]:.1f}")
-        return artists
-
-    anim = FuncAnimation(fig, draw, frames=frames, blit=False)
-    plt.close(fig)
-    return anim
-
-
-HTML(animate_cloud(res, kf, sim, range(0, 30), "SIS, N = 100").to_jshtml())
+HTML(animate_clouds({"SIS, N = 100": res}, kf, sim.X, range(0, 30), interval=200).to_jshtml())
 
 # %% [markdown]
 # (sis-degeneracy)=

@@ -27,21 +27,14 @@
 import matplotlib.pyplot as plt
 import numpy as np
 from IPython.display import HTML, display
-from matplotlib.animation import FuncAnimation
 
-from pfcourse.aircraft import (
-    DIVERGED_ERROR,
-    AircraftScenario,
-    extended_kalman_filter,
-    flight_seed,
-    monte_carlo,
-    position_error,
-    simulate,
-)
+from pfcourse.experiments.terrain import DIVERGED_ERROR, flight_seed, flight_study
+from pfcourse.terrain.scenario import AircraftScenario, extended_kalman_filter, position_error, simulate
+from pfcourse.figures.clouds import animate_clouds
 from pfcourse.filter import ParticleFilter
-from pfcourse.plotting import COLORS, plain_log_axis, use_style
-from pfcourse.terrain import hillshade, load_jacksboro
-from pfcourse.widgets import (
+from pfcourse.style import COLORS, plain_log_axis, use_style
+from pfcourse.terrain.map import hillshade, load_jacksboro
+from pfcourse.figures.widgets import (
     control_panel,
     particle_slider,
     scale_slider,
@@ -200,7 +193,7 @@ plt.show()
 # the first 30 of these flights.
 
 # %%
-baseline_60 = monte_carlo(scenario, terrain, 60, seed=0)
+baseline_60 = flight_study(scenario, terrain, 60, seed=0)
 baseline = baseline_60.first(30)
 final = baseline_60.final
 print(f"final horizontal error over 60 flights: median {np.median(final):.0f} m, "
@@ -251,34 +244,25 @@ print(f"horizontal error at t = 0, 10, 30, 80 s: {np.round(position_error(flight
 # draws 600 of the 3000 particles, chosen by weight.
 
 # %%
-def cloud_animation(flight, run, frames, n_show=600, zoom=6.0):
-    fig, ax = plt.subplots(figsize=(5.0, 5.0), dpi=72)
-    draw_map(ax, shaded=False)
+def map_window(flight, zoom=6.0):
+    """Background of the cloud animation: the map around the middle of the flight (km)."""
     centre = flight.X[len(flight.T) // 2, :2] / KM
-    ax.set_xlim(centre[0] - zoom, centre[0] + zoom)
-    ax.set_ylim(centre[1] - zoom, centre[1] + zoom)
-    (cloud,) = ax.plot([], [], ".", color=COLORS["particles"], ms=2, alpha=0.5, label="particles")
-    (truth,) = ax.plot([], [], "-", color=COLORS["truth"], lw=1.5, label="truth")
-    (est,) = ax.plot([], [], "-", color=COLORS["estimate"], lw=1.5, label="estimate")
-    ax.legend(loc="lower left", fontsize=8)
-    title = ax.set_title("")
-    pick = np.random.default_rng(0)
 
-    def draw(k):
-        idx = pick.choice(run.weights.shape[1], n_show, p=run.weights[k])
-        cloud.set_data(run.particles[k, idx, 0] / KM, run.particles[k, idx, 1] / KM)
-        truth.set_data(flight.X[: k + 1, 0] / KM, flight.X[: k + 1, 1] / KM)
-        est.set_data(run.mean[: k + 1, 0] / KM, run.mean[: k + 1, 1] / KM)
-        e = position_error(flight.X[k], run.mean[k])
-        title.set_text(f"t = {flight.T[k]:.0f} s, error {e:.0f} m")
-        return cloud, truth, est, title
+    def draw(ax):
+        draw_map(ax, shaded=False)
+        ax.set_xlim(centre[0] - zoom, centre[0] + zoom)
+        ax.set_ylim(centre[1] - zoom, centre[1] + zoom)
 
-    anim = FuncAnimation(fig, draw, frames=frames, interval=250, blit=False)
-    plt.close(fig)
-    return anim
+    return draw
 
 
-HTML(cloud_animation(flight, run, range(0, 81, 3)).to_jshtml())
+anim = animate_clouds(
+    {"PF": run}, None, flight.X, range(0, 81, 3), None, 250, blocks=[(0, 1)], ellipses=False,
+    scale=1 / KM, unit="km", max_points=600, by_weight=True, trail=True, background=map_window(flight),
+    title=lambda name, k, res: f"t = {flight.T[k]:.0f} s, error {position_error(flight.X[k], res.mean[k]):.0f} m",
+    legend=True,
+)
+HTML(anim.to_jshtml())
 
 # %% [markdown]
 # ## Why this problem needs a particle filter
@@ -318,9 +302,9 @@ plt.show()
 # filter's), from the same prior, and from a prior 50 times tighter.
 
 # %%
-ekf = monte_carlo(scenario, terrain, 100, seed=0, method="ekf")
+ekf = flight_study(scenario, terrain, 100, seed=0, method="ekf")
 tight = scenario.with_(P0=np.diag([30.0, 30.0, 5.0, 0.01]) ** 2, Qf=np.diag([1.0, 1.0, 0.1, 0.001]) ** 2)
-ekf_tight = monte_carlo(tight, terrain, 100, seed=0, method="ekf")
+ekf_tight = flight_study(tight, terrain, 100, seed=0, method="ekf")
 for name, res in (("EKF, report's prior", ekf), ("PF (N = 3000), report's prior", baseline_60),
                   ("EKF, 30 m prior and small Qf", ekf_tight)):
     s = res.summary()
@@ -364,7 +348,7 @@ def header():
 
 
 studies = {}
-studies["Qf"] = {f"Qf x {f:g}": monte_carlo(scenario.with_(Qf=scenario.Qf * f), terrain, 30) if f != 1 else baseline
+studies["Qf"] = {f"Qf x {f:g}": flight_study(scenario.with_(Qf=scenario.Qf * f), terrain, 30) if f != 1 else baseline
                  for f in (0.1, 1, 10, 100)}
 header()
 for name, res in studies["Qf"].items():
@@ -381,7 +365,7 @@ for name, res in studies["Qf"].items():
 # is the luck of three single runs.
 
 # %%
-studies["Rf"] = {f"Rf = {s:g}^2": monte_carlo(scenario.with_(Rf=float(s) ** 2), terrain, 30) if s != 20 else baseline
+studies["Rf"] = {f"Rf = {s:g}^2": flight_study(scenario.with_(Rf=float(s) ** 2), terrain, 30) if s != 20 else baseline
                  for s in (10, 20, 50, 100)}
 header()
 for name, res in studies["Rf"].items():
@@ -399,9 +383,9 @@ for name, res in studies["Rf"].items():
 
 # %%
 studies["N"] = {
-    "N = 300": monte_carlo(scenario, terrain, 60, n_particles=300),
+    "N = 300": flight_study(scenario, terrain, 60, n_particles=300),
     "N = 3000": baseline,
-    "N = 30000": monte_carlo(scenario, terrain, 8, n_particles=30000),
+    "N = 30000": flight_study(scenario, terrain, 8, n_particles=30000),
 }
 header()
 for name, res in studies["N"].items():
@@ -416,7 +400,7 @@ for name, res in studies["N"].items():
 # that some particles start within the likelihood's reach of the truth.
 
 # %%
-studies["threshold"] = {f"threshold {th:g}": monte_carlo(scenario, terrain, 30, threshold=th) if th != 0.5 else baseline
+studies["threshold"] = {f"threshold {th:g}": flight_study(scenario, terrain, 30, threshold=th) if th != 0.5 else baseline
                         for th in (0.0, 0.5, 1.0)}
 header()
 for name, res in studies["threshold"].items():
@@ -436,7 +420,7 @@ print("resamplings per run (median):",
 
 # %%
 studies["gap"] = {"measured every 1 s": baseline,
-                  "no readings 50-75 s": monte_carlo(scenario.with_(gap=(50.0, 75.0)), terrain, 30)}
+                  "no readings 50-75 s": flight_study(scenario.with_(gap=(50.0, 75.0)), terrain, 30)}
 header()
 for name, res in studies["gap"].items():
     row(name, res)
@@ -456,8 +440,8 @@ for name, res in studies["gap"].items():
 # %%
 studies["period"] = {
     "every 1 s (report's '0.1 s')": baseline,
-    "every 10 s": monte_carlo(scenario.with_(measurement_period=10.0), terrain, 30),
-    "every 0.1 s, dt = 0.1 s": monte_carlo(scenario.with_(dt=0.1, measurement_period=0.1), terrain, 6),
+    "every 10 s": flight_study(scenario.with_(measurement_period=10.0), terrain, 30),
+    "every 0.1 s, dt = 0.1 s": flight_study(scenario.with_(dt=0.1, measurement_period=0.1), terrain, 6),
 }
 header()
 for name, res in studies["period"].items():
@@ -474,7 +458,7 @@ for name, res in studies["period"].items():
 # holds for the time-averaged error.
 
 # %%
-studies["resampler"] = {name: monte_carlo(scenario, terrain, 30, resampler=name) if name != "multinomial" else baseline
+studies["resampler"] = {name: flight_study(scenario, terrain, 30, resampler=name) if name != "multinomial" else baseline
                         for name in ("multinomial", "stratified", "systematic")}
 header()
 for name, res in studies["resampler"].items():
@@ -610,7 +594,7 @@ plt.show()
 #
 # ```{solution} ex-terrain-ekf
 # :class: dropdown
-# `monte_carlo(scenario.with_(Rf=200.0**2), terrain, 50, method="ekf").summary()["diverged"]`
+# `flight_study(scenario.with_(Rf=200.0**2), terrain, 50, method="ekf").summary()["diverged"]`
 # is 0.86: the EKF still loses the aircraft in most flights (0.94 with $R_f = 20^2$ on the
 # same 50 flights). A wider $R_f$ only makes each EKF update smaller;
 # it does not change the direction of the update, which comes from the terrain slope at the

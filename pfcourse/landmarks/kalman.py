@@ -5,34 +5,20 @@ distribution ``p(x_k | z_{0:k}) = N(m_k, P_k)`` and the exact log-likelihood
 ``log p(z_{0:K}) = sum_k log N(y_k; 0, S_k)`` (innovation ``y_k``, its covariance
 ``S_k``).  Every particle filter in the book on such a model is measured against
 these numbers.  Missing (NaN) entries of ``z_k`` are handled as in
-:class:`~pfcourse.linear_gaussian.LinearGaussianModel`: the update uses the
+:class:`~pfcourse.landmarks.model.LinearGaussianModel`: the update uses the
 observed rows ``H_o`` and block ``R_oo`` only, so ``H`` and ``R`` change with time.
 """
 
 from __future__ import annotations
 
 from collections.abc import Sequence
-from dataclasses import dataclass
 
 import numpy as np
 from filterpy.kalman import KalmanFilter
 
-from .filter import is_missing
-from .linear_gaussian import LinearGaussianModel
-
-
-@dataclass
-class KalmanResult:
-    """Per-step Kalman estimates: ``mean`` ``(K, d)``, ``cov`` ``(K, d, d)``, log-likelihood increments."""
-
-    mean: np.ndarray
-    cov: np.ndarray
-    log_likelihood_increments: np.ndarray
-
-    @property
-    def log_likelihood(self) -> float:
-        """Exact ``log p(z_{0:K-1})``."""
-        return float(np.sum(self.log_likelihood_increments))
+from pfcourse.checks import is_missing
+from pfcourse.results import KalmanResult
+from pfcourse.landmarks.model import LinearGaussianModel
 
 
 def kalman_filter(model: LinearGaussianModel, measurements: Sequence | np.ndarray) -> KalmanResult:
@@ -49,16 +35,20 @@ def kalman_filter(model: LinearGaussianModel, measurements: Sequence | np.ndarra
     kf.Q = model.Q
     kf.B = model.B.reshape(d, 1)
     n_steps = len(measurements)
-    mean = np.empty((n_steps, d))
-    cov = np.empty((n_steps, d, d))
-    log_inc = np.zeros(n_steps)
+    out = KalmanResult.empty(n_steps, d, model.dim_z, "Kalman")
     for k, z in enumerate(measurements):
         if k > 0:
             kf.predict(u=np.ones(1))
         if not is_missing(z):
             mask, z_o, H_o, R_o = model.observed(z)
+            predicted = kf.x.copy()
             kf.update(z_o, R=R_o, H=H_o)
-            log_inc[k] = kf.log_likelihood
-        mean[k] = kf.x
-        cov[k] = kf.P
-    return KalmanResult(mean=mean, cov=cov, log_likelihood_increments=log_inc)
+            out.log_likelihood_increments[k] = kf.log_likelihood
+            observed = np.flatnonzero(mask)
+            out.predicted[k] = np.ravel(predicted)
+            out.innovation[k, observed] = np.ravel(kf.y)
+            out.innovation_cov[k][np.ix_(observed, observed)] = kf.S
+            out.gain[k][:, observed] = kf.K
+        out.mean[k] = np.ravel(kf.x)
+        out.cov[k] = kf.P
+    return out

@@ -16,7 +16,7 @@ For a linear-Gaussian model the Kalman filter gives the exact posterior
   cloud, counts as not covering at any step; a singular covariance gives a
   log-ratio of ``-inf``).
 
-:func:`monte_carlo` repeats this over independent simulations and filter seeds.
+:func:`kalman_scores` repeats this over independent simulations and filter seeds.
 """
 
 from __future__ import annotations
@@ -27,10 +27,10 @@ from dataclasses import dataclass
 import numpy as np
 from scipy import stats
 
-from .diagnostics import nees
-from .filter import FilterResult
-from .kalman import KalmanResult, kalman_filter
-from .landmarks import LandmarkScenario, simulate
+from pfcourse.diagnostics import nees
+from pfcourse.filter import FilterResult
+from pfcourse.landmarks.kalman import KalmanResult, kalman_filter
+from pfcourse.landmarks.scenario import LandmarkScenario, simulate
 
 
 @dataclass
@@ -65,7 +65,7 @@ def score(
     return RunScores(rmse, log_var_ratio / len(idx), covered, result.ess, result.resampled)
 
 
-def monte_carlo(
+def kalman_scores(
     scenario: LandmarkScenario,
     run_filter: Callable[[np.ndarray, int], FilterResult],
     n_runs: int,

@@ -30,7 +30,7 @@ means "no measurement at step k", which :class:`pfcourse.filter.ParticleFilter`
 already treats as missing.  The odometry ``u~_k`` is *held by the model*
 (:class:`RobotModel` keeps the ``(K, 3)`` array and reads row ``k`` in
 ``sample_transition(x, k, rng)``), so the same measurement array feeds the
-particle filter, the EKF and the UKF (:mod:`pfcourse.robot_kalman`).
+particle filter, the EKF and the UKF (:mod:`pfcourse.robot.kalman`).
 
 **Timing.**  Step ``k`` is time ``t_k = k dt``.  A measurement is taken at step
 ``k >= 1`` when a multiple of ``dt_meas`` falls in ``(t_{k-1}, t_k]`` (so
@@ -51,12 +51,11 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
-from .angles import wrap_angle
-from .checks import as_matrix, as_vector, check_count, check_covariance, covariance_factor
-from .errors import ParameterError, ShapeError
-from .kernels import jit, wrap
+from pfcourse.angles import wrap, wrap_angle
+from pfcourse.checks import Array, as_matrix, as_vector, check_count, check_covariance, covariance_factor
+from pfcourse.errors import ParameterError, ShapeError
+from pfcourse.compiled import jit
 
-Array = np.ndarray
 
 #: Standard deviations of the odometry error per step: 0.02 m/s, 0.02 m/s, 1 deg/s.
 Q_TRUE = np.diag([0.02, 0.02, np.deg2rad(1.0)]) ** 2

@@ -30,8 +30,8 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from .checks import as_vector, check_count, check_covariance, covariance_factor
-from .linear_gaussian import LinearGaussianModel
+from pfcourse.checks import as_vector, check_count, check_covariance, covariance_factor
+from pfcourse.landmarks.model import LinearGaussianModel
 
 
 def rotation(angle: float) -> np.ndarray:

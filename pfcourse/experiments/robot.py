@@ -21,13 +21,21 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .angles import wrap_angle
-from .diagnostics import nees
-from .checks import check_count
-from .errors import DegenerateWeightsError, NumericalError, ParameterError
-from .filter import ParticleFilter
-from .robot import ANGLE_INDICES, INITIAL_STD, RobotModel, RobotScenario, rmse, simulate_robot
-from .robot_kalman import run_ekf, run_ukf
+from pfcourse.angles import wrap_angle
+from pfcourse.diagnostics import nees
+from pfcourse.checks import check_count
+from pfcourse.errors import DegenerateWeightsError, NumericalError, ParameterError
+from pfcourse.filter import ParticleFilter
+from pfcourse.robot.scenario import (
+    ANGLE_INDICES,
+    INITIAL_STD,
+    RobotModel,
+    RobotScenario,
+    rmse,
+    simulate_robot,
+    tracking_errors,
+)
+from pfcourse.robot.kalman import run_ekf, run_ukf
 
 FILTERS = ("pf", "ekf", "ukf")
 
@@ -70,7 +78,7 @@ def compare_filters(
 ) -> dict[str, RunMetrics]:
     """Simulate run ``seed`` and filter it with each of ``filters`` (``"pf"``, ``"ekf"``, ``"ukf"``).
 
-    ``scenario_changes`` are :class:`~pfcourse.robot.RobotScenario` fields
+    ``scenario_changes`` are :class:`~pfcourse.robot.scenario.RobotScenario` fields
     (``n_steps``, ``dt_meas``, ``gap``, ``n_landmarks``, ``q_true``, ...).  The filters use
     ``QEst = q_scale QTrue`` and ``REst = r_scale RTrue``; the particle filter has
     ``n_particles``, resamples with ``scheme`` when ``ESS < threshold N`` and starts
@@ -154,3 +162,64 @@ def global_localization_run(
     ok = dist < position_tolerance and abs(float(wrap_angle(err[2]))) < heading_tolerance
     sd = float(np.sqrt(res.cov[-1, 0, 0] + res.cov[-1, 1, 1]))
     return GlobalRun(bool(ok), dist, sd)
+
+
+def pf_run(
+    seed: int,
+    *,
+    n_particles: int = 300,
+    q_scale: float = 2.0,
+    r_scale: float = 2.0,
+    threshold: float = 0.5,
+    scheme: str = "systematic",
+    initial: str = "tracking",
+    initial_std=INITIAL_STD,
+    burn_in: int = 0,
+    keep_errors: bool = False,
+    scenario: RobotScenario | None = None,
+    **scenario_changes,
+) -> dict:
+    """Simulate run ``seed`` and filter it with the particle filter: the metrics of a Part III study row.
+
+    Arguments as in :func:`compare_filters` (the same simulation, model, filter and seed, so
+    ``position_rmse``, ``heading_rmse`` and ``mean_nees`` are those of
+    ``compare_filters(seed, filters=("pf",), ...)``).  Metrics (steps ``k >= burn_in``):
+    ``position_rmse`` (m), ``heading_rmse`` (rad), ``mean_nees`` (``inf`` if all the weight
+    sat on one particle at some step), the final position and heading errors, the mean
+    ``ESS / N`` over measurement steps, the number of resamplings, the filter's own position
+    standard deviation ``sd_k = sqrt(P_xx + P_yy)`` averaged over the steps
+    (``mean_position_sd``), and the jitter of the estimated path,
+    ``sqrt(mean_k ||(p^_k - p^_{k-1}) - (p_k - p_{k-1})||^2)`` (m per step).  With
+    ``keep_errors=True`` also the per-step arrays ``position_error`` ``||p^_k - p_k||``,
+    ``position_sd`` and ``heading_error`` ``|wrap(theta^_k - theta_k)|``.  A collapse raises
+    its :class:`~pfcourse.errors.StepError` (the study runner records a failed run).
+    """
+    check_count(burn_in + 1, "burn_in + 1")
+    sim = simulate_robot(scenario, seed, **scenario_changes)
+    K = sim.scenario.n_steps
+    if burn_in >= K:
+        raise ParameterError(f"burn_in = {burn_in} leaves no step of the {K}")
+    model = RobotModel.for_simulation(sim, q_scale=q_scale, r_scale=r_scale, initial=initial, initial_std=initial_std)
+    res = ParticleFilter(model, n_particles, threshold=threshold, resampler=scheme).run(sim.measurements, seed)
+    metrics = _metrics(sim, res.mean, res.cov, 0.0, burn_in)
+    err = tracking_errors(sim.truth, res.mean)
+    distance = np.hypot(err[:, 0], err[:, 1])
+    sd = np.sqrt(res.cov[:, 0, 0] + res.cov[:, 1, 1])
+    jitter = np.diff(res.mean[burn_in:, :2], axis=0) - np.diff(sim.truth[burn_in:, :2], axis=0)
+    measured = sim.has_measurement
+    row = {
+        "position_rmse": metrics.position_rmse,
+        "heading_rmse": metrics.heading_rmse,
+        "mean_nees": metrics.mean_nees,
+        "final_position_error": float(distance[-1]),
+        "final_heading_error": float(abs(err[-1, 2])),
+        "mean_ess_fraction": float(np.mean(res.ess[measured]) / res.n_particles) if measured.any() else 1.0,
+        "resamples": res.n_resamples,
+        "mean_position_sd": float(np.mean(sd[burn_in:])),
+        "estimate_jitter": float(np.sqrt(np.mean(np.sum(jitter**2, axis=1)))) if len(jitter) else 0.0,
+    }
+    if keep_errors:
+        row["position_error"] = distance
+        row["position_sd"] = sd
+        row["heading_error"] = np.abs(err[:, 2])
+    return row

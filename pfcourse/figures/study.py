@@ -1,11 +1,11 @@
 """Figures of Monte Carlo studies: a median and the 10-90 % band of the runs.
 
-A study (:func:`pfcourse.study.run_study`) gives many runs per setting; a figure
+A study (:func:`pfcourse.experiments.study.run_study`) gives many runs per setting; a figure
 of it should show where the typical run lies *and* how far the runs spread.
 These helpers draw, for each setting (or each time step), the median of the
 metric and the band between its 10 % and 90 % quantiles over the runs: 80 % of
 the runs fall inside it.  They take the table of
-:func:`pfcourse.study.summarize` or a ``(runs, steps)`` array and return the
+:func:`pfcourse.experiments.study.summarize` or a ``(runs, steps)`` array and return the
 axes.
 """
 
@@ -17,7 +17,7 @@ import matplotlib.pyplot as plt
 import numpy as np
 import pandas as pd
 
-from .errors import ShapeError
+from pfcourse.errors import ShapeError
 
 
 def summary_band(

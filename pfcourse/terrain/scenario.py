@@ -15,7 +15,7 @@ The radar altimeter measures the height above the terrain,
 
     y_k = z_k - h(x_k, y_k) + v_k,   v_k ~ N(0, R),
 
-with ``h`` the bilinear terrain height of a :class:`~pfcourse.terrain.TerrainMap`.  The
+with ``h`` the bilinear terrain height of a :class:`~pfcourse.terrain.map.TerrainMap`.  The
 filter assumes ``v_k ~ N(0, Rf)``.  A particle outside the map has likelihood zero
 (log-likelihood ``-inf``); the particle filter raises
 :class:`~pfcourse.errors.DegenerateWeightsError` only when every particle is off the map.
@@ -36,12 +36,12 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 from filterpy.kalman import ExtendedKalmanFilter
 
-from .angles import wrap_angle
-from .checks import as_vector, check_covariance, covariance_factor
-from .errors import ParameterError
-from .terrain import TerrainMap
+from pfcourse.angles import wrap_angle
+from pfcourse.checks import Array, as_vector, check_covariance, covariance_factor
+from pfcourse.errors import ParameterError
+from pfcourse.results import KalmanResult
+from pfcourse.terrain.map import TerrainMap
 
-Array = np.ndarray
 _LOG_2PI = float(np.log(2.0 * np.pi))
 
 
@@ -224,19 +224,6 @@ def simulate(
     return Flight(T=s.times, X=X, Z=Z, terrain_height=ground)
 
 
-@dataclass
-class EKFResult:
-    """Per-step EKF estimates ``mean`` ``(K, 4)`` and ``cov`` ``(K, 4, 4)``.
-
-    ``lost_at`` is the first step whose estimate left the map (the filter stops there and
-    the remaining rows are NaN), or ``None``.
-    """
-
-    mean: Array
-    cov: Array
-    lost_at: int | None = None
-
-
 class _TerrainEKF(ExtendedKalmanFilter):
     """filterpy's EKF with the aircraft's nonlinear state prediction."""
 
@@ -250,13 +237,13 @@ class _TerrainEKF(ExtendedKalmanFilter):
 
 def extended_kalman_filter(
     scenario: AircraftScenario, terrain: TerrainMap, measurements: Array
-) -> EKFResult:
+) -> KalmanResult:
     """Run filterpy's ``ExtendedKalmanFilter`` on scenario B.
 
     Predict: ``x = f(x)``, ``P = F P F^T + Qf dt`` with ``F`` from :func:`dynamics_jacobian`
     at the previous estimate.  Update (when measured): ``H = [-dh/dx, -dh/dy, 1, 0]`` at the
     predicted estimate (:meth:`TerrainMap.gradient`), innovation ``y - (z - h(x, y))``,
-    ``R = Rf``.  If the estimate leaves the map the run stops (see :class:`EKFResult`).
+    ``R = Rf``.  If the estimate leaves the map the run stops (``lost_at``; :class:`~pfcourse.results.KalmanResult`).
     """
     s = scenario
     measurements = np.asarray(measurements, dtype=float).reshape(-1)
@@ -266,17 +253,16 @@ def extended_kalman_filter(
     ekf.P = s.P0.copy()
     ekf.Q = s.Qf * s.dt
     ekf.R = np.array([[s.Rf]])
-    mean = np.full((K, 4), np.nan)
-    cov = np.full((K, 4, 4), np.nan)
-    lost_at = None
+    out = KalmanResult.empty(K, 4, 1, "EKF")
     for k in range(K):
         if k > 0:
             ekf.F = dynamics_jacobian(ekf.x[:, 0], s.speed, s.dt)
             ekf.predict()
         if not terrain.contains(ekf.x[0, 0], ekf.x[1, 0]):
-            lost_at = k
+            out.lost_at = k
             break
         if not np.isnan(measurements[k]):
+            predicted = ekf.x.copy()
             ekf.update(
                 np.array([[measurements[k]]]),
                 HJacobian=lambda x: measurement_jacobian(x[:, 0], terrain),
@@ -284,11 +270,12 @@ def extended_kalman_filter(
             )
             ekf.x[3, 0] = wrap_angle(ekf.x[3, 0])
             if not terrain.contains(ekf.x[0, 0], ekf.x[1, 0]):
-                lost_at = k
+                out.lost_at = k
                 break
-        mean[k] = ekf.x[:, 0]
-        cov[k] = ekf.P
-    return EKFResult(mean=mean, cov=cov, lost_at=lost_at)
+            out.record_update(k, predicted, ekf.y, ekf.S, ekf.K)
+        out.mean[k] = ekf.x[:, 0]
+        out.cov[k] = ekf.P
+    return out
 
 
 def position_error(truth: Array, estimate: Array) -> Array:
@@ -296,112 +283,3 @@ def position_error(truth: Array, estimate: Array) -> Array:
     truth = np.asarray(truth, dtype=float)
     estimate = np.asarray(estimate, dtype=float)
     return np.hypot(truth[..., 0] - estimate[..., 0], truth[..., 1] - estimate[..., 1])
-
-
-
-
-#: A run whose final horizontal error exceeds this (m) is counted as diverged: about five
-#: DEM cells, and thirty times the error of a converged particle filter in this scenario.
-DIVERGED_ERROR = 500.0
-
-
-@dataclass
-class MonteCarloResult:
-    """Horizontal position errors of ``R`` seeded runs: ``errors`` ``(R, K)`` (m).
-
-    A run that lost every particle (``DegenerateWeightsError``) or whose EKF estimate left
-    the map has NaN errors from that step on; ``lost`` ``(R,)`` marks it.
-    ``sigma`` ``(R, K)`` is ``sqrt(P_xx + P_yy)`` of the filter, ``n_resamples`` ``(R,)``.
-    """
-
-    errors: Array
-    sigma: Array
-    lost: Array
-    n_resamples: Array
-
-    @property
-    def final(self) -> Array:
-        """Final horizontal error of each run (``inf`` for a lost run)."""
-        return np.where(self.lost, np.inf, self.errors[:, -1])
-
-    @property
-    def time_average(self) -> Array:
-        """Time-averaged horizontal error of each run (``inf`` for a lost run)."""
-        return np.where(self.lost, np.inf, np.mean(self.errors, axis=1))
-
-    @property
-    def diverged(self) -> Array:
-        """Runs lost or with a final error above :data:`DIVERGED_ERROR`."""
-        return self.final > DIVERGED_ERROR
-
-    def first(self, n: int) -> MonteCarloResult:
-        """The first ``n`` runs (the same flights as a study of ``n`` runs with the same seed)."""
-        return MonteCarloResult(self.errors[:n], self.sigma[:n], self.lost[:n], self.n_resamples[:n])
-
-    def summary(self) -> dict[str, float]:
-        """Median and 10 % / 90 % quantiles of the final and time-averaged errors, divergence rate.
-
-        Quantiles use the ``inverted_cdf`` rule, so a lost run counts as an infinite error
-        without producing NaN.
-        """
-        out = {}
-        for name, values in (("final", self.final), ("average", self.time_average)):
-            q10, q50, q90 = np.quantile(values, [0.1, 0.5, 0.9], method="inverted_cdf")
-            out[f"{name}_median"], out[f"{name}_q10"], out[f"{name}_q90"] = q50, q10, q90
-        out["diverged"] = float(np.mean(self.diverged))
-        out["runs"] = float(len(self.final))
-        return out
-
-
-def flight_seed(seed: int, run: int) -> np.random.Generator:
-    """Generator of flight ``run`` of a study with seed ``seed`` (the same for every setting)."""
-    return np.random.default_rng([seed, run, 0])
-
-
-def monte_carlo(
-    scenario: AircraftScenario,
-    terrain: TerrainMap,
-    n_runs: int,
-    *,
-    n_particles: int = 3000,
-    threshold: float = 0.5,
-    resampler: str = "multinomial",
-    seed: int = 0,
-    method: str = "pf",
-) -> MonteCarloResult:
-    """Run ``n_runs`` seeded flights of ``scenario`` and filter each one.
-
-    Flight ``r`` is drawn with :func:`flight_seed` ``(seed, r)``: every setting of a study
-    sees the same true flights and altimeter noise (common random numbers), so differences
-    between settings are not differences between flights.  ``method`` is ``"pf"``
-    (:class:`~pfcourse.filter.ParticleFilter`, seeded with ``[seed, r, 1]``) or ``"ekf"``.
-    """
-    from .errors import DegenerateWeightsError
-    from .filter import ParticleFilter
-
-    if method not in ("pf", "ekf"):
-        raise ParameterError(f"method must be 'pf' or 'ekf', got {method!r}")
-    K = scenario.n_steps
-    errors = np.full((n_runs, K), np.nan)
-    sigma = np.full((n_runs, K), np.nan)
-    lost = np.zeros(n_runs, dtype=bool)
-    n_resamples = np.zeros(n_runs, dtype=int)
-    model = scenario.model(terrain)
-    pf = ParticleFilter(model, n_particles, threshold=threshold, resampler=resampler)
-    for r in range(n_runs):
-        flight = simulate(scenario, terrain, flight_seed(seed, r))
-        if method == "ekf":
-            res = extended_kalman_filter(scenario, terrain, flight.Z)
-            lost[r] = res.lost_at is not None
-            mean, cov = res.mean, res.cov
-        else:
-            try:
-                res = pf.run(flight.Z, rng=np.random.default_rng([seed, r, 1]))
-            except DegenerateWeightsError:
-                lost[r] = True
-                continue
-            mean, cov = res.mean, res.cov
-            n_resamples[r] = res.n_resamples
-        errors[r] = position_error(flight.X, mean)
-        sigma[r] = np.sqrt(cov[:, 0, 0] + cov[:, 1, 1])
-    return MonteCarloResult(errors=errors, sigma=sigma, lost=lost, n_resamples=n_resamples)

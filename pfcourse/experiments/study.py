@@ -19,19 +19,30 @@ and returns a dictionary of metrics.  The result is a tidy table, one row per
   model can run several replicates at once; it returns one dictionary per seed,
   or, for a replicate that collapsed, the :class:`~pfcourse.errors.StepError`
   instance it would have raised (recorded as a failed run, the others kept).
+* **Any executor.** The runs are independent, so they are shared out as tasks (a chunk of
+  runs of one setting each) to a :class:`concurrent.futures.Executor`: by default a process
+  pool over the machine's cores; :class:`SerialExecutor` runs them in this process; a
+  cluster's executor (``dask.distributed.Client(...).get_executor()``) spreads them over
+  machines.  Each row depends only on its setting and seed, and the rows are put back in
+  grid order, so the table is the same whatever the executor and its number of workers
+  (only the ``seconds`` column, a wall time, differs).
 """
 
 from __future__ import annotations
 
 import itertools
+import multiprocessing
+import os
+import pickle
 import time
 from collections.abc import Callable, Iterable, Mapping, Sequence
+from concurrent.futures import Executor, Future, ProcessPoolExecutor
 
 import numpy as np
 import pandas as pd
 
-from .checks import check_count
-from .errors import ParameterError, StepError
+from pfcourse.checks import check_count
+from pfcourse.errors import ParameterError, StepError
 
 Metrics = Mapping[str, float]
 
@@ -39,6 +50,33 @@ Metrics = Mapping[str, float]
 def replicate_seed(base_seed: int, replicate: int) -> int:
     """The seed of replicate ``r``: a 63-bit integer drawn from ``SeedSequence([base_seed, r])``."""
     return int(np.random.SeedSequence([base_seed, replicate]).generate_state(1, np.uint64)[0] >> np.uint64(1))
+
+
+class SerialExecutor(Executor):
+    """An executor that runs each task at once, in the calling process (no pool, no pickling)."""
+
+    def submit(self, fn, /, *args, **kwargs) -> Future:
+        future: Future = Future()
+        try:
+            future.set_result(fn(*args, **kwargs))
+        except BaseException as exc:  # handed back through the future, as a pool would
+            future.set_exception(exc)
+        return future
+
+
+def default_executor(task: Callable) -> tuple[Executor, bool]:
+    """A process pool over the machine's cores (``fork``, so notebook functions need no import),
+    or a :class:`SerialExecutor` when ``task`` cannot be sent to another process (a lambda) or
+    the machine has one core.  Returns the executor and whether the caller must shut it down.
+    """
+    workers = os.cpu_count() or 1
+    if workers < 2 or "fork" not in multiprocessing.get_all_start_methods():
+        return SerialExecutor(), False
+    try:
+        pickle.dumps(task)
+    except (pickle.PicklingError, AttributeError, TypeError):
+        return SerialExecutor(), False
+    return ProcessPoolExecutor(workers, mp_context=multiprocessing.get_context("fork")), True
 
 
 def grid_settings(grid: Mapping[str, Sequence]) -> list[dict]:
@@ -59,6 +97,7 @@ def run_study(
     run_batch: Callable[..., list[Metrics]] | None = None,
     batch_size: int = 10,
     progress: bool = True,
+    executor: Executor | None = None,
 ) -> pd.DataFrame:
     """Run every setting of ``grid`` ``n_runs`` times and return one row per run.
 
@@ -66,31 +105,54 @@ def run_study(
     ``status`` (``"ok"`` or ``"failed"``), ``error`` (message of a failed run),
     the metrics returned by the run, and ``seconds`` (wall time of the run, or of
     its share of a batch).
+
+    ``executor`` runs the tasks (``batch_size`` runs of one setting each); ``None`` uses
+    :func:`default_executor`.  The rows, their order and every column but ``seconds`` do
+    not depend on it.
     """
     if (run_one is None) == (run_batch is None):
         raise ParameterError("give exactly one of run_one and run_batch")
+    if executor is not None and not isinstance(executor, Executor) and not callable(getattr(executor, "submit", None)):
+        raise ParameterError(f"executor must be a concurrent.futures.Executor, got {executor!r}")
     n_runs = check_count(n_runs, "n_runs")
     batch_size = check_count(batch_size, "batch_size")
     settings = grid_settings(grid)
     seeds = [replicate_seed(base_seed, r) for r in range(n_runs)]
+    task = _batch_task if run_batch is not None else _runs_task
+    fn = run_batch if run_batch is not None else run_one
+    owned = False
+    if executor is None:
+        executor, owned = default_executor(fn)
     bar = _Progress(len(settings) * n_runs) if progress else None
-    rows: list[dict] = []
-    for setting in settings:
-        if run_batch is None:
-            for r, seed in enumerate(seeds):
-                rows.append(_one_row(run_one, setting, r, seed))
-                if bar:
-                    bar.advance(1, rows[-1]["status"])
-        else:
+    try:
+        futures = []
+        for setting in settings:
             for start in range(0, n_runs, batch_size):
                 chunk = list(range(start, min(start + batch_size, n_runs)))
-                rows.extend(_batch_rows(run_batch, setting, chunk, [seeds[r] for r in chunk]))
-                if bar:
-                    for row in rows[-len(chunk):]:
-                        bar.advance(1, row["status"])
+                futures.append(executor.submit(task, fn, setting, chunk, [seeds[r] for r in chunk]))
+        rows: list[dict] = []
+        for future in futures:  # in grid order, whatever order they finish in
+            chunk_rows = future.result()
+            rows.extend(chunk_rows)
+            if bar:
+                for row in chunk_rows:
+                    bar.advance(1, row["status"])
+    finally:
+        if owned:
+            executor.shutdown(wait=True, cancel_futures=True)
     if bar:
         bar.finish(len(settings), n_runs)
     return pd.DataFrame(rows)
+
+
+def _runs_task(run_one, setting: dict, runs: list[int], seeds: list[int]) -> list[dict]:
+    """One task of a study: runs ``runs`` of ``setting``, one at a time (module level, so it pickles)."""
+    return [_one_row(run_one, setting, r, seed) for r, seed in zip(runs, seeds)]
+
+
+def _batch_task(run_batch, setting: dict, runs: list[int], seeds: list[int]) -> list[dict]:
+    """One task of a study: runs ``runs`` of ``setting`` in one call of ``run_batch``."""
+    return _batch_rows(run_batch, setting, runs, seeds)
 
 
 def _one_row(run_one, setting: dict, r: int, seed: int) -> dict:

@@ -1,4 +1,9 @@
-"""The batched robot particle filter reproduces the one-run-at-a-time filter, seed by seed."""
+"""The robot study row (`pf_run`) is the engine's run: the same numbers as `compare_filters`, seed by seed.
+
+Part III runs its studies through :func:`pfcourse.experiments.robot.pf_run` (one
+:class:`~pfcourse.filter.ParticleFilter` run per seed, the runs spread over the cores by the
+study runner); there is no second filter to keep in step.
+"""
 
 from __future__ import annotations
 
@@ -6,24 +11,10 @@ import numpy as np
 import pytest
 
 from pfcourse.errors import DegenerateWeightsError, ParameterError
-from pfcourse.robot import simulate_robot
-from pfcourse.robot_batch import pf_batch, simulate_batch
-from pfcourse.robot_compare import compare_filters
-from pfcourse.study import run_study, summarize
+from pfcourse.experiments.robot import compare_filters, pf_run
+from pfcourse.experiments.study import run_study, summarize
 
 SEEDS = [3, 11, 2024]
-
-
-@pytest.mark.parametrize("changes", [{}, {"dt_meas": 3.0, "gap": (10.0, 20.0), "n_landmarks": 2}])
-def test_simulation_matches_simulate_robot(changes):
-    batch = simulate_batch(SEEDS, n_steps=40, **changes)
-    for b, seed in enumerate(SEEDS):
-        sim = simulate_robot(None, seed, n_steps=40, **changes)
-        np.testing.assert_array_equal(batch.truth, sim.truth)
-        np.testing.assert_array_equal(batch.odometry[b], sim.odometry)
-        np.testing.assert_array_equal(batch.landmarks[b], sim.landmarks)
-        np.testing.assert_array_equal(batch.measurements[b], sim.measurements)
-        np.testing.assert_array_equal(batch.has_measurement, sim.has_measurement)
 
 
 @pytest.mark.parametrize(
@@ -35,10 +26,10 @@ def test_simulation_matches_simulate_robot(changes):
         {"n_particles": 2000, "scheme": "stratified", "initial": "uniform", "n_landmarks": 3, "burn_in": 40},
     ],
 )
-def test_each_replicate_equals_compare_filters(settings):
+def test_each_run_equals_compare_filters(settings):
     settings = {"burn_in": 5, **settings}
-    rows = pf_batch(SEEDS, n_steps=60, **settings)
-    for seed, row in zip(SEEDS, rows):
+    for seed in SEEDS:
+        row = pf_run(seed, n_steps=60, **settings)
         single = compare_filters(seed, filters=("pf",), n_steps=60, **settings)["pf"]
         assert row["position_rmse"] == pytest.approx(single.position_rmse, rel=1e-9)
         assert row["heading_rmse"] == pytest.approx(single.heading_rmse, rel=1e-9)
@@ -46,7 +37,7 @@ def test_each_replicate_equals_compare_filters(settings):
 
 
 def test_metrics_are_consistent():
-    (row,) = pf_batch([5], n_steps=50, threshold=1.0, keep_errors=True)
+    row = pf_run(5, n_steps=50, threshold=1.0, keep_errors=True)
     err = row["position_error"]
     assert err.shape == (50,) and row["position_sd"].shape == (50,)
     assert row["position_rmse"] == pytest.approx(np.sqrt(np.mean(err**2)))
@@ -57,17 +48,17 @@ def test_metrics_are_consistent():
 
 
 def test_no_resampling_at_threshold_zero():
-    rows = pf_batch(SEEDS, n_steps=30, threshold=0.0)
+    rows = [pf_run(seed, n_steps=30, threshold=0.0) for seed in SEEDS]
     assert all(r["resamples"] == 0 for r in rows)
 
 
 def test_bad_arguments():
     with pytest.raises(ParameterError, match="q_scale must be positive"):
-        pf_batch(SEEDS, q_scale=0.0, n_steps=10)
+        pf_run(SEEDS[0], q_scale=0.0, n_steps=10)
     with pytest.raises(ParameterError, match="initial must be"):
-        pf_batch(SEEDS, initial="everywhere", n_steps=10)
+        pf_run(SEEDS[0], initial="everywhere", n_steps=10)
     with pytest.raises(ParameterError, match="burn_in"):
-        pf_batch(SEEDS, n_steps=10, burn_in=10)
+        pf_run(SEEDS[0], n_steps=10, burn_in=10)
 
 
 def test_study_with_batches_records_failures_per_replicate():

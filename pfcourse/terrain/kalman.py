@@ -1,8 +1,8 @@
 """An unscented Kalman filter for terrain-aided navigation (scenario B), through filterpy.
 
-The state, dynamics and altimeter model are those of :mod:`pfcourse.aircraft`: the
-sigma points go through :func:`~pfcourse.aircraft.propagate` (``f``) and
-:func:`~pfcourse.aircraft.predicted_measurement` (``h(x) = z - h_terrain(x, y)``).
+The state, dynamics and altimeter model are those of :mod:`pfcourse.terrain.scenario`: the
+sigma points go through :func:`~pfcourse.terrain.scenario.propagate` (``f``) and
+:func:`~pfcourse.terrain.scenario.predicted_measurement` (``h(x) = z - h_terrain(x, y)``).
 filterpy's :class:`~filterpy.kalman.UnscentedKalmanFilter` with Van der Merwe's scaled
 sigma points ``MerweScaledSigmaPoints(4, alpha, beta, kappa)`` computes
 
@@ -22,7 +22,7 @@ state residual wraps its heading, and the estimate is wrapped after each step.
 
 **Leaving the map.** ``h`` has no value off the map.  If the predicted mean, or any sigma
 point, lies off the map at a step, the filter stops there (``lost_at``), as
-:func:`~pfcourse.aircraft.extended_kalman_filter` does for its estimate.
+:func:`~pfcourse.terrain.scenario.extended_kalman_filter` does for its estimate.
 
 With the defaults ``alpha = 1``, ``beta = 2``, ``kappa = 0``: ``lambda = 0``, the eight
 outer sigma points sit at ``m +/- sqrt(4 P)`` columns with mean weight 1/8 each and the
@@ -32,34 +32,15 @@ mean is well defined).
 
 from __future__ import annotations
 
-from dataclasses import dataclass
 
 import numpy as np
 from filterpy.kalman import MerweScaledSigmaPoints, UnscentedKalmanFilter
 
-from .aircraft import AircraftScenario, predicted_measurement, propagate
-from .angles import wrap_angle
-from .terrain import TerrainMap
-
-Array = np.ndarray
-
-
-@dataclass
-class UKFResult:
-    """Per-step UKF output (``K`` steps).
-
-    ``mean`` ``(K, 4)`` and ``cov`` ``(K, 4, 4)`` after each update; ``innovation``
-    ``(K, 1)`` the innovation ``y_k - z^_k`` and ``innovation_cov`` ``(K, 1, 1)`` its
-    covariance ``S_k`` (NaN at steps without a measurement); ``lost_at`` the first step at
-    which the filter stopped (mean or a sigma point off the map), or ``None``.  Rows from
-    ``lost_at`` on are NaN.
-    """
-
-    mean: Array
-    cov: Array
-    innovation: Array
-    innovation_cov: Array
-    lost_at: int | None = None
+from pfcourse.checks import Array
+from pfcourse.terrain.scenario import AircraftScenario, predicted_measurement, propagate
+from pfcourse.angles import sigma_point_mean, wrap_angle
+from pfcourse.results import KalmanResult
+from pfcourse.terrain.map import TerrainMap
 
 
 def state_residual(a: Array, b: Array) -> Array:
@@ -71,9 +52,7 @@ def state_residual(a: Array, b: Array) -> Array:
 
 def state_mean(sigmas: Array, weights: Array) -> Array:
     """Weighted mean of sigma points ``(n, 4)``; circular mean of the heading."""
-    m = weights @ sigmas
-    m[3] = np.arctan2(weights @ np.sin(sigmas[:, 3]), weights @ np.cos(sigmas[:, 3]))
-    return m
+    return sigma_point_mean(sigmas, weights, (3,))
 
 
 def unscented_kalman_filter(
@@ -84,7 +63,7 @@ def unscented_kalman_filter(
     alpha: float = 1.0,
     beta: float = 2.0,
     kappa: float = 0.0,
-) -> UKFResult:
+) -> KalmanResult:
     """Run filterpy's ``UnscentedKalmanFilter`` on scenario B (see the module docstring).
 
     Starts from ``N(x0, P0)``; predicts with ``Q = Qf dt`` at every step ``k > 0`` and
@@ -109,11 +88,7 @@ def unscented_kalman_filter(
     ukf.P = s.P0.copy()
     ukf.Q = s.Qf * s.dt
     ukf.R = np.array([[s.Rf]])
-    mean = np.full((K, 4), np.nan)
-    cov = np.full((K, 4, 4), np.nan)
-    innovation = np.full((K, 1), np.nan)
-    innovation_cov = np.full((K, 1, 1), np.nan)
-    lost_at = None
+    out = KalmanResult.empty(K, 4, 1, "UKF")
     for k in range(K):
         if k > 0:
             ukf.predict()
@@ -124,15 +99,15 @@ def unscented_kalman_filter(
                 ukf.sigmas_f = points.sigma_points(ukf.x, ukf.P)
             on_map = terrain.contains(ukf.sigmas_f[:, 0], ukf.sigmas_f[:, 1])
             if not (np.all(on_map) and terrain.contains(ukf.x[0], ukf.x[1])):
-                lost_at = k
+                out.lost_at = k
                 break
+            predicted = ukf.x.copy()
             ukf.update(np.array([measurements[k]]))
             ukf.x[3] = wrap_angle(ukf.x[3])
-            innovation[k] = ukf.y
-            innovation_cov[k] = ukf.S
+            out.record_update(k, predicted, ukf.y, ukf.S, ukf.K)
         if not terrain.contains(ukf.x[0], ukf.x[1]):
-            lost_at = k
+            out.lost_at = k
             break
-        mean[k] = ukf.x
-        cov[k] = ukf.P
-    return UKFResult(mean=mean, cov=cov, innovation=innovation, innovation_cov=innovation_cov, lost_at=lost_at)
+        out.mean[k] = ukf.x
+        out.cov[k] = ukf.P
+    return out

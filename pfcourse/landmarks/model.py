@@ -9,7 +9,7 @@
 NaN entries of ``z_k`` mean "not observed": the likelihood then uses only the
 observed rows, ``p(z_k | x_k) = N(z_{k,o}; H_o x_k, R_{oo})`` with ``H_o`` the rows
 of ``H`` and ``R_{oo}`` the block of ``R`` of the observed entries.  For this model
-the Kalman filter is exact (:mod:`pfcourse.kalman`), and so is the optimal
+the Kalman filter is exact (:mod:`pfcourse.landmarks.kalman`), and so is the optimal
 importance function ``p(x_k | x_{k-1}, z_k)`` (:class:`OptimalProposal`).
 """
 
@@ -17,9 +17,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from .checks import as_matrix, as_vector, check_covariance, covariance_factor
-from .errors import ShapeError
-from .gaussian import gaussian_logpdf
+from pfcourse.checks import as_matrix, as_vector, check_covariance, covariance_factor
+from pfcourse.errors import ShapeError
+from pfcourse.gaussian import gaussian_logpdf
 
 
 class LinearGaussianModel:

@@ -19,7 +19,7 @@ from collections.abc import Callable
 import ipywidgets as widgets
 import matplotlib.pyplot as plt
 
-from .resampling import SCHEMES
+from pfcourse.resampling import SCHEMES
 
 _STYLE = {"description_width": "initial"}
 

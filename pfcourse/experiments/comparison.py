@@ -11,16 +11,10 @@ Three measurements, for every filter on every seeded run:
 * **cost**: wall-clock seconds of the filter's run, and the number of model evaluations
   per step (``N`` particles, ``2 d + 1`` sigma points, one linearisation point).
 
-**Where the innovations come from.**  The existing Kalman runners
-(:func:`pfcourse.robot_kalman.run_ekf`, :func:`~pfcourse.robot_kalman.run_ukf`,
-:func:`pfcourse.aircraft.extended_kalman_filter`) return the posterior ``(m_k, P_k)`` only.
-Their prediction and innovation are deterministic functions of ``(m_{k-1}, P_{k-1})``, so
-they are *replayed* here exactly as the filters computed them (same Jacobians, same sigma
-points and weights, same angle wrapping): for the EKF ``S = H P^- H^T + R``, for the UKF
-``S`` is the unscented transform of the predicted sigma points through ``h`` plus ``R``.
-Each replay also returns the gain ``G_k`` (``P^- H^T S^{-1}`` or ``P_xz S^{-1}``) and the
-predicted mean, so that ``m_k = m^-_k + G_k y_k`` checks it against the stored posterior
-(the unit tests do).  The terrain UKF (:mod:`pfcourse.aircraft_ukf`) records its own.
+**Where the innovations come from.**  Every Kalman-family filter returns its own
+(:class:`pfcourse.results.KalmanResult`: ``innovation`` ``y_k`` and ``innovation_cov`` ``S_k``
+as the filter computed them, ``H P^- H^T + R`` for the EKF and the unscented transform plus
+``R`` for the UKF), so nothing is recomputed here.
 
 For the particle filter, the predictive distribution of ``z_k`` is the mixture
 ``sum_i W_{k-1}^i N(z; h(x_k^i), R)`` over the *predicted* particles (after the move,
@@ -38,149 +32,23 @@ from dataclasses import dataclass
 
 import numpy as np
 import pandas as pd
-from filterpy.kalman import MerweScaledSigmaPoints, unscented_transform
 
-from .aircraft import (
+from pfcourse.angles import wrap_angle
+from pfcourse.checks import Array
+from pfcourse.diagnostics import chi2_band, fraction_in_band, nees, nis, predictive_moments
+from pfcourse.errors import DegenerateWeightsError
+from pfcourse.experiments.terrain import flight_seed
+from pfcourse.filter import FilterResult, ParticleFilter
+from pfcourse.robot.scenario import ANGLE_INDICES, RobotModel, range_bearing, simulate_robot
+from pfcourse.terrain.kalman import unscented_kalman_filter
+from pfcourse.terrain.map import TerrainMap
+from pfcourse.terrain.scenario import (
     AircraftScenario,
-    dynamics_jacobian,
     extended_kalman_filter,
-    flight_seed,
-    measurement_jacobian as terrain_jacobian,
     position_error,
     predicted_measurement,
-    propagate,
     simulate as simulate_flight,
 )
-from .aircraft_ukf import unscented_kalman_filter
-from .angles import wrap_angle
-from .diagnostics import chi2_band, fraction_in_band, nees, nis, predictive_moments
-from .errors import DegenerateWeightsError
-from .filter import FilterResult, ParticleFilter
-from .robot import ANGLE_INDICES, RobotModel, range_bearing, simulate_robot
-from .robot_kalman import (
-    KalmanRun,
-    measurement_jacobian as robot_jacobian,
-    measurement_mean,
-    measurement_residual,
-    motion_jacobians,
-    motion_one,
-    range_bearing_one,
-    state_mean,
-    state_residual,
-)
-from .terrain import TerrainMap
-
-Array = np.ndarray
-
-
-@dataclass
-class Innovations:
-    """Replayed innovations of a Kalman-type filter over ``K`` steps (NaN without a measurement).
-
-    ``y`` ``(K, m)`` innovation, ``S`` ``(K, m, m)`` its covariance, ``predicted``
-    ``(K, d)`` the predicted mean ``m^-_k`` and ``gain`` ``(K, d, m)`` the Kalman gain.
-    """
-
-    y: Array
-    S: Array
-    predicted: Array
-    gain: Array
-
-
-def _empty(K: int, d: int, m: int) -> Innovations:
-    return Innovations(np.full((K, m), np.nan), np.full((K, m, m), np.nan),
-                       np.full((K, d), np.nan), np.full((K, d, m), np.nan))
-
-
-def robot_ekf_innovations(model: RobotModel, measurements: Array, run: KalmanRun,
-                          initial_cov: Array | None = None) -> Innovations:
-    """Replay the innovations of :func:`~pfcourse.robot_kalman.run_ekf` from its posteriors.
-
-    ``m^- = f(m_{k-1}, u~_k)``, ``P^- = F P_{k-1} F^T + G Q G^T``, ``H = dh_j/dx`` at
-    ``m^-``, ``S = H P^- H^T + R``, ``y = z - h_j(m^-)`` (bearing wrapped).
-    """
-    K = len(measurements)
-    out = _empty(K, 3, 2)
-    for k in range(1, K):
-        z = measurements[k]
-        if np.isnan(z[0]):
-            continue
-        m, P, u = run.mean[k - 1], run.cov[k - 1], model.odometry[k]
-        F, G = motion_jacobians(m, u, model.dt)
-        x_pred = motion_one(m, u, model.dt)
-        P_pred = F @ P @ F.T + G @ model.q_est @ G.T
-        landmark = model.landmarks[int(z[0])]
-        H = robot_jacobian(x_pred, landmark)
-        S = H @ P_pred @ H.T + model.r_est
-        out.y[k] = measurement_residual(z[1:], range_bearing_one(x_pred, landmark))
-        out.S[k] = S
-        out.predicted[k] = x_pred
-        out.gain[k] = np.linalg.solve(S, H @ P_pred).T
-    return out
-
-
-def robot_ukf_innovations(model: RobotModel, measurements: Array, run: KalmanRun, *,
-                          alpha: float = 1.0, beta: float = 2.0, kappa: float = 0.0) -> Innovations:
-    """Replay the innovations of :func:`~pfcourse.robot_kalman.run_ukf` (same sigma points).
-
-    Sigma points of ``(m_{k-1}, P_{k-1})`` go through ``f(., u~_k)``; the unscented transform
-    with ``G Q G^T`` gives ``(m^-, P^-)``; as filterpy does, new sigma points are drawn from
-    ``(m^-, P^-)``, go through ``h_j``, and the unscented transform with ``R`` gives ``z^``
-    and ``S``; ``P_xz`` is the cross-covariance of the two sets of points.
-    """
-    K = len(measurements)
-    out = _empty(K, 3, 2)
-    points = MerweScaledSigmaPoints(3, alpha=alpha, beta=beta, kappa=kappa, subtract=state_residual)
-    for k in range(1, K):
-        z = measurements[k]
-        if np.isnan(z[0]):
-            continue
-        m, P, u = run.mean[k - 1], run.cov[k - 1], model.odometry[k]
-        _, G = motion_jacobians(m, u, model.dt)
-        sigmas_f = np.array([motion_one(s, u, model.dt) for s in points.sigma_points(m, P)])
-        x_pred, P_pred = unscented_transform(sigmas_f, points.Wm, points.Wc, G @ model.q_est @ G.T,
-                                             state_mean, state_residual)
-        # filterpy (2.0) redraws the sigma points from the predicted (m^-, P^-) before the update.
-        sigmas_f = points.sigma_points(x_pred, P_pred)
-        landmark = model.landmarks[int(z[0])]
-        sigmas_h = np.array([range_bearing_one(s, landmark) for s in sigmas_f])
-        z_pred, S = unscented_transform(sigmas_h, points.Wm, points.Wc, model.r_est,
-                                        measurement_mean, measurement_residual)
-        dx = np.array([state_residual(s, x_pred) for s in sigmas_f])
-        dz = np.array([measurement_residual(h, z_pred) for h in sigmas_h])
-        Pxz = (dx * points.Wc[:, None]).T @ dz
-        out.y[k] = measurement_residual(z[1:], z_pred)
-        out.S[k] = S
-        out.predicted[k] = x_pred
-        out.gain[k] = np.linalg.solve(S.T, Pxz.T).T
-    return out
-
-
-def terrain_ekf_innovations(scenario: AircraftScenario, terrain: TerrainMap, measurements: Array,
-                            mean: Array, cov: Array) -> Innovations:
-    """Replay the innovations of :func:`~pfcourse.aircraft.extended_kalman_filter`.
-
-    ``m^- = f(m_{k-1})``, ``P^- = F P_{k-1} F^T + Q_f dt``, ``H = [-dh/dx, -dh/dy, 1, 0]`` at
-    ``m^-``, ``S = H P^- H^T + R_f``, ``y = z - (m^-_z - h(m^-_x, m^-_y))``.  Steps after the
-    EKF was lost (NaN posterior) stay NaN.
-    """
-    s = scenario
-    z = np.asarray(measurements, dtype=float).reshape(-1)
-    K = len(z)
-    out = _empty(K, 4, 1)
-    for k in range(1, K):
-        if np.isnan(z[k]) or np.isnan(mean[k - 1, 0]) or np.isnan(mean[k, 0]):
-            continue
-        F = dynamics_jacobian(mean[k - 1], s.speed, s.dt)
-        x_pred = propagate(mean[k - 1], s.speed, s.omega, s.dt)
-        P_pred = F @ cov[k - 1] @ F.T + s.Qf * s.dt
-        H = terrain_jacobian(x_pred, terrain)
-        S = H @ P_pred @ H.T + s.Rf
-        out.y[k] = z[k] - predicted_measurement(x_pred, terrain)
-        out.S[k] = S
-        out.predicted[k] = x_pred
-        out.gain[k] = (P_pred @ H.T) / S[0, 0]
-    return out
 
 
 def particle_innovations(result: FilterResult, measurements: Array, predict, noise_cov: Array,
@@ -244,12 +112,12 @@ def robot_tracks(seed: int, n_values: Sequence[int], *, n_steps: int = 100, q_sc
                  r_scale: float = 1.0, kalman: Sequence[str] = ("ekf", "ukf"), **scenario) -> list[Track]:
     """The robot scenario: simulate run ``seed``, filter it with a PF per ``N`` and the EKF/UKF.
 
-    Defaults differ from :func:`pfcourse.robot_compare.compare_filters` in one respect:
+    Defaults differ from :func:`pfcourse.experiments.robot.compare_filters` in one respect:
     the filters assume the *true* noise levels (``q_scale = r_scale = 1``), so that a
     consistent filter has NEES ~ chi2_3 and NIS ~ chi2_2.  The particle filter's random
     stream is seeded with ``[seed, N]``.  Errors are Euclidean position errors (m).
     """
-    from .robot_kalman import run_ekf, run_ukf
+    from pfcourse.robot.kalman import run_ekf, run_ukf
 
     sim = simulate_robot(None, seed, n_steps=n_steps, **scenario)
     model = RobotModel.for_simulation(sim, q_scale=q_scale, r_scale=r_scale)
@@ -274,8 +142,7 @@ def robot_tracks(seed: int, n_values: Sequence[int], *, n_steps: int = 100, q_sc
         start = time.perf_counter()
         run = (run_ekf if name == "ekf" else run_ukf)(model, z)
         seconds = time.perf_counter() - start
-        inn = (robot_ekf_innovations if name == "ekf" else robot_ukf_innovations)(model, z, run)
-        tracks.append(track(name, 0, run.mean, run.cov, inn.y, inn.S, seconds))
+        tracks.append(track(name, 0, run.mean, run.cov, run.innovation, run.innovation_cov, seconds))
     return tracks
 
 
@@ -283,7 +150,7 @@ def terrain_tracks(seed: int, run: int, scenario: AircraftScenario, terrain: Ter
                    n_values: Sequence[int], *, kalman: Sequence[str] = ("ekf", "ukf"),
                    resampler: str = "multinomial") -> list[Track]:
     """Terrain navigation: flight ``run`` of a study with seed ``seed`` (as
-    :func:`pfcourse.aircraft.monte_carlo`: flight :func:`~pfcourse.aircraft.flight_seed`,
+    :func:`pfcourse.experiments.terrain.flight_study`: flight :func:`~pfcourse.experiments.terrain.flight_seed`,
     particle filter seeded with ``[seed, run, 1]``), filtered by a PF per ``N`` and the EKF/UKF.
 
     Errors are horizontal position errors (m); a lost filter (every particle off the map,
@@ -324,8 +191,8 @@ def terrain_tracks(seed: int, run: int, scenario: AircraftScenario, terrain: Ter
         if name == "ekf":
             ekf = extended_kalman_filter(scenario, terrain, z)
             seconds = time.perf_counter() - start
-            inn = terrain_ekf_innovations(scenario, terrain, z, ekf.mean, ekf.cov)
-            tracks.append(track("ekf", 0, ekf.mean, ekf.cov, inn.y, inn.S, seconds, ekf.lost_at is not None))
+            tracks.append(track("ekf", 0, ekf.mean, ekf.cov, ekf.innovation, ekf.innovation_cov, seconds,
+                                ekf.lost_at is not None))
         else:
             ukf = unscented_kalman_filter(scenario, terrain, z)
             seconds = time.perf_counter() - start
@@ -344,7 +211,7 @@ def evaluations_per_step(track: Track, dim_x: int) -> int:
     return {"pf": track.n_particles, "ukf": 2 * dim_x + 1, "ekf": 1}[track.filter]
 
 
-def summarize(runs: Sequence[Sequence[Track]], *, dim_x: int, dim_z: int, burn_in: int = 0,
+def summarize_tracks(runs: Sequence[Sequence[Track]], *, dim_x: int, dim_z: int, burn_in: int = 0,
               diverged_error: float | None = None) -> pd.DataFrame:
     """One row per filter over ``R`` runs (``runs[r]`` holds the same filters in the same order).
 
@@ -411,7 +278,7 @@ class ConvergenceResult:
 def linear_convergence(model, measurements: Array, kalman, n_values: Sequence[int], n_runs: int, *,
                        seed: int = 0, threshold: float = 0.5) -> ConvergenceResult:
     """Run a bootstrap particle filter ``n_runs`` times per ``N`` on one data set and compare it
-    with the Kalman result ``kalman`` (:func:`pfcourse.kalman.kalman_filter`).
+    with the Kalman result ``kalman`` (:func:`pfcourse.landmarks.kalman.kalman_filter`).
 
     Run ``r`` at ``N`` uses the random stream ``[seed, r, N]``.
     """
@@ -434,8 +301,7 @@ def loglog_slope(n_values: Array, values: Array) -> float:
 
 
 __all__ = [
-    "ConvergenceResult", "Innovations", "Track",
+    "ConvergenceResult", "Track",
     "evaluations_per_step", "label", "linear_convergence", "loglog_slope", "particle_innovations",
-    "robot_ekf_innovations", "robot_tracks", "robot_ukf_innovations", "summarize",
-    "terrain_ekf_innovations", "terrain_tracks",
+    "robot_tracks", "summarize_tracks", "terrain_tracks",
 ]

@@ -1,4 +1,4 @@
-"""Extended and unscented Kalman filters for the robot of :mod:`pfcourse.robot`, through filterpy.
+"""Extended and unscented Kalman filters for the robot of :mod:`pfcourse.robot.scenario`, through filterpy.
 
 Both filters read exactly the data the particle filter reads: the odometry
 ``u~_k`` (row ``k`` of the model's ``odometry``) and the measurement rows
@@ -30,45 +30,28 @@ headings and bearings are circular means, and every difference of angles
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
-
 import numpy as np
 from filterpy.kalman import ExtendedKalmanFilter, MerweScaledSigmaPoints, UnscentedKalmanFilter
 
-from .angles import wrap_angle
-from .checks import as_vector, check_covariance
-from .errors import NumericalError, ShapeError
-from .robot import INITIAL_STD, RobotModel
-
-Array = np.ndarray
-
-
-@dataclass
-class KalmanRun:
-    """Output of :func:`run_ekf` / :func:`run_ukf`: ``mean`` ``(K, 3)`` and ``cov`` ``(K, 3, 3)`` after each update."""
-
-    mean: Array
-    cov: Array
-    name: str
-
-
-def _wrap(a: float) -> float:
-    """Scalar :func:`pfcourse.angles.wrap_angle` (same formula, without array overhead)."""
-    return a - 2.0 * math.pi * math.ceil((a - math.pi) / (2.0 * math.pi))
+from pfcourse.angles import sigma_point_mean, wrap, wrap_angle
+from pfcourse.checks import Array, as_vector, check_covariance
+from pfcourse.errors import NumericalError, ShapeError
+from pfcourse.results import KalmanResult
+from pfcourse.robot.scenario import INITIAL_STD, RobotModel
 
 
 def motion_one(state: Array, control: Array, dt: float) -> Array:
-    """:func:`pfcourse.robot.motion` for a single state ``(3,)`` (the Kalman filters' hot path)."""
+    """:func:`pfcourse.robot.scenario.motion` for a single state ``(3,)`` (the Kalman filters' hot path)."""
     x, y, th = float(state[0]), float(state[1]), float(state[2])
     vx, vy, om = float(control[0]), float(control[1]), float(control[2])
     c, s = math.cos(th), math.sin(th)
-    return np.array([x + (vx * c - vy * s) * dt, y + (vx * s + vy * c) * dt, _wrap(th + om * dt)])
+    return np.array([x + (vx * c - vy * s) * dt, y + (vx * s + vy * c) * dt, wrap(th + om * dt)])
 
 
 def range_bearing_one(state: Array, landmark: Array) -> Array:
-    """:func:`pfcourse.robot.range_bearing` for a single state ``(3,)``."""
+    """:func:`pfcourse.robot.scenario.range_bearing` for a single state ``(3,)``."""
     dx, dy = float(landmark[0] - state[0]), float(landmark[1] - state[1])
-    return np.array([math.hypot(dx, dy), _wrap(math.atan2(dy, dx) - float(state[2]))])
+    return np.array([math.hypot(dx, dy), wrap(math.atan2(dy, dx) - float(state[2]))])
 
 
 def motion_jacobians(state: Array, control: Array, dt: float) -> tuple[Array, Array]:
@@ -91,29 +74,25 @@ def measurement_jacobian(state: Array, landmark: Array) -> Array:
 def measurement_residual(z: Array, z_pred: Array) -> Array:
     """``z - z_pred`` with the bearing component (index 1) wrapped to (-pi, pi]; any leading shape."""
     y = np.array(z, dtype=float) - np.asarray(z_pred, dtype=float)
-    y[1] = _wrap(y[1].item()) if y[1].size == 1 else wrap_angle(y[1])
+    y[1] = wrap(y[1].item()) if y[1].size == 1 else wrap_angle(y[1])
     return y
 
 
 def state_residual(a: Array, b: Array) -> Array:
     """``a - b`` for robot states ``(3,)`` with the heading difference wrapped."""
     y = np.asarray(a, dtype=float) - np.asarray(b, dtype=float)
-    y[2] = _wrap(float(y[2]))
+    y[2] = wrap(float(y[2]))
     return y
 
 
 def state_mean(sigmas: Array, weights: Array) -> Array:
     """Weighted mean of sigma points ``(n, 3)``; circular mean of the heading (weights may be negative)."""
-    m = weights @ sigmas
-    m[2] = np.arctan2(weights @ np.sin(sigmas[:, 2]), weights @ np.cos(sigmas[:, 2]))
-    return m
+    return sigma_point_mean(sigmas, weights, (2,))
 
 
 def measurement_mean(sigmas: Array, weights: Array) -> Array:
     """Weighted mean of predicted measurements ``(n, 2)``; circular mean of the bearing."""
-    m = weights @ sigmas
-    m[1] = np.arctan2(weights @ np.sin(sigmas[:, 1]), weights @ np.cos(sigmas[:, 1]))
-    return m
+    return sigma_point_mean(sigmas, weights, (1,))
 
 
 def _initial(model: RobotModel, initial_cov: Array | None) -> tuple[Array, Array]:
@@ -139,7 +118,7 @@ def _check_finite(x: Array, P: Array, k: int, name: str) -> None:
         raise NumericalError(f"step {k}: the {name} produced NaN or infinite values", step=k)
 
 
-def run_ekf(model: RobotModel, measurements: Array, initial_cov: Array | None = None) -> KalmanRun:
+def run_ekf(model: RobotModel, measurements: Array, initial_cov: Array | None = None) -> KalmanResult:
     """Run the EKF on ``measurements`` ``(K, 3)`` with ``model``'s odometry, ``q_est`` and ``r_est``.
 
     The prior is ``N(model.start, initial_cov)`` (default ``diag(model.initial_std)^2``,
@@ -152,8 +131,7 @@ def run_ekf(model: RobotModel, measurements: Array, initial_cov: Array | None = 
     ekf.P = P0.copy()
     ekf.R = model.r_est.copy()
     n_steps = len(measurements)
-    mean = np.empty((n_steps, 3))
-    cov = np.empty((n_steps, 3, 3))
+    out = KalmanResult.empty(n_steps, 3, 2, "EKF")
     for k in range(n_steps):
         if k > 0:
             u = model.odometry[k]
@@ -163,6 +141,7 @@ def run_ekf(model: RobotModel, measurements: Array, initial_cov: Array | None = 
         z = measurements[k]
         if not np.isnan(z[0]):
             landmark = model.landmarks[int(z[0])]
+            predicted = ekf.x.copy()
             ekf.update(
                 z[1:].reshape(2, 1),
                 lambda x, lm: measurement_jacobian(x[:, 0], lm),
@@ -171,11 +150,12 @@ def run_ekf(model: RobotModel, measurements: Array, initial_cov: Array | None = 
                 hx_args=(landmark,),
                 residual=measurement_residual,
             )
-            ekf.x[2, 0] = _wrap(float(ekf.x[2, 0]))
+            ekf.x[2, 0] = wrap(float(ekf.x[2, 0]))
+            out.record_update(k, predicted, ekf.y, ekf.S, ekf.K)
         _check_finite(ekf.x, ekf.P, k, "EKF")
-        mean[k] = ekf.x[:, 0]
-        cov[k] = ekf.P
-    return KalmanRun(mean, cov, "EKF")
+        out.mean[k] = ekf.x[:, 0]
+        out.cov[k] = ekf.P
+    return out
 
 
 def run_ukf(
@@ -186,7 +166,7 @@ def run_ukf(
     alpha: float = 1.0,
     beta: float = 2.0,
     kappa: float = 0.0,
-) -> KalmanRun:
+) -> KalmanResult:
     """Run the UKF on ``measurements`` ``(K, 3)``; sigma points ``MerweScaledSigmaPoints(3, alpha, beta, kappa)``.
 
     With the defaults (``alpha = 1``, ``kappa = 0``) the six outer sigma points sit at
@@ -219,28 +199,28 @@ def run_ukf(
     ukf.P = P0.copy()
     ukf.R = model.r_est.copy()
     n_steps = len(measurements)
-    mean = np.empty((n_steps, 3))
-    cov = np.empty((n_steps, 3, 3))
+    out = KalmanResult.empty(n_steps, 3, 2, "UKF")
     for k in range(n_steps):
         if k > 0:
             u = model.odometry[k]
             _, G = motion_jacobians(ukf.x, u, model.dt)
             ukf.Q = G @ model.q_est @ G.T
             ukf.predict(u=u)
-            ukf.x[2] = _wrap(float(ukf.x[2]))
+            ukf.x[2] = wrap(float(ukf.x[2]))
         z = measurements[k]
         if not np.isnan(z[0]):
+            predicted = ukf.x.copy()
             ukf.update(z[1:].copy(), landmark=model.landmarks[int(z[0])])
-            ukf.x[2] = _wrap(float(ukf.x[2]))
+            ukf.x[2] = wrap(float(ukf.x[2]))
+            out.record_update(k, predicted, ukf.y, ukf.S, ukf.K)
         _check_finite(ukf.x, ukf.P, k, "UKF")
-        mean[k] = ukf.x
-        cov[k] = ukf.P
-    return KalmanRun(mean, cov, "UKF")
+        out.mean[k] = ukf.x
+        out.cov[k] = ukf.P
+    return out
 
 
 __all__ = [
     "INITIAL_STD",
-    "KalmanRun",
     "measurement_jacobian",
     "measurement_mean",
     "measurement_residual",

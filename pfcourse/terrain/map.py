@@ -40,7 +40,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.ndimage import map_coordinates
 
-from .errors import OffMapError, ShapeError
+from pfcourse.errors import OffMapError, ShapeError
 
 #: Mean radius of the Earth (m), IUGG value; one degree of latitude is 111.195 km.
 EARTH_RADIUS = 6_371_000.0
