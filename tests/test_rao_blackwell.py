@@ -9,11 +9,11 @@ import numpy as np
 import pytest
 
 from pfcourse import LinearGaussianModel, ParticleFilter, kalman_filter
-from pfcourse.auxiliary import FullyAdaptedAuxiliary, LinearGaussianOptimal
+from pfcourse.landmarks.auxiliary import FullyAdaptedAuxiliary, LinearGaussianOptimal
 from pfcourse.errors import ParameterError
-from pfcourse.landmarks import quadrant_scenario, simulate
-from pfcourse.rao_blackwell import RaoBlackwellError, RaoBlackwellModel, RaoBlackwellProposal
-from pfcourse.rb_study import run_rows
+from pfcourse.landmarks.scenario import quadrant_scenario, simulate
+from pfcourse.landmarks.rao_blackwell import RaoBlackwellError, RaoBlackwellModel, RaoBlackwellProposal
+from pfcourse.experiments.rb_study import run_rows
 
 DATA = Path(__file__).resolve().parents[1] / "book" / "data" / "rao_blackwell.csv"
 

@@ -51,8 +51,8 @@ from scipy.special import logsumexp
 
 from pfcourse import ParticleFilter
 from pfcourse.exercises import check_resampler, check_weight_update
-from pfcourse.landmarks import quadrant_scenario, simulate
-from pfcourse.plotting import use_style
+from pfcourse.landmarks.scenario import quadrant_scenario, simulate
+from pfcourse.style import use_style
 
 use_style()
 rng = np.random.default_rng(0)

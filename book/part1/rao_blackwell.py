@@ -63,10 +63,10 @@ from myst_nb import glue
 from scipy import stats
 
 from pfcourse import ParticleFilter, kalman_filter
-from pfcourse.landmarks import circle_scenario, quadrant_scenario, simulate
-from pfcourse.plotting import COLORS, use_style
-from pfcourse.rao_blackwell import RaoBlackwellModel, RaoBlackwellProposal
-from pfcourse.rb_study import METHODS
+from pfcourse.experiments.rb_study import METHODS
+from pfcourse.landmarks.rao_blackwell import RaoBlackwellModel, RaoBlackwellProposal
+from pfcourse.landmarks.scenario import circle_scenario, quadrant_scenario, simulate
+from pfcourse.style import COLORS, use_style
 
 use_style()
 scenario = quadrant_scenario()
@@ -536,7 +536,7 @@ glue("m5_sis_collapse", float(np.nanmedian(check["SIS"]["collapse"])), display=F
 # with $p(x_k \mid x_{k-1}, z_k)$. When both are available in closed form (here, on the full
 # state or on the robot of the Rao-Blackwellised filter) it is *fully adapted*: the new
 # weights are all equal, and $\hat p(z_k \mid z_{1:k-1}) = \frac1N \sum_i p(z_k \mid x_{k-1}^i)$.
-# `pfcourse.auxiliary.FullyAdaptedAuxiliary` is a proposal of the engine, used with
+# `pfcourse.landmarks.auxiliary.FullyAdaptedAuxiliary` is a proposal of the engine, used with
 # `threshold=1`. The table and figures above include it on the full state ("auxiliary PF")
 # and on the robot ("RBPF, auxiliary"); below, paired against the optimal-proposal filter it
 # refines, at each $N$.

@@ -4,7 +4,7 @@
 Run from the repository root (after committing the code it uses, so that the provenance
 names it):  nice -n 5 .venv/bin/python tools/studies/rao_blackwell.py
 Writes book/data/rao_blackwell.csv (one row per simulation, method and N; columns in
-pfcourse.rb_study) and book/data/rao_blackwell.json (provenance: commit, seeds, settings,
+pfcourse.experiments.rb_study) and book/data/rao_blackwell.json (provenance: commit, seeds, settings,
 code path, wall time).  tests/test_rao_blackwell.py re-computes a seeded sample of rows.
 """
 
@@ -23,7 +23,7 @@ os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 ROOT = Path(__file__).resolve().parents[2]
 sys.path.insert(0, str(ROOT))
 
-from pfcourse.rb_study import METHODS, THRESHOLD, run_rows  # noqa: E402
+from pfcourse.experiments.rb_study import METHODS, THRESHOLD, run_rows  # noqa: E402
 
 SETTINGS = {
     "quadrant": {"seeds": list(range(100)), "n_values": [30, 100, 300, 1000, 3000]},
@@ -50,7 +50,7 @@ def main() -> None:
                                 capture_output=True, text=True).stdout.strip())
     json.dump({
         "made_by": "tools/studies/rao_blackwell.py",
-        "code": ["pfcourse/rb_study.py", "pfcourse/rao_blackwell.py", "pfcourse/auxiliary.py"],
+        "code": ["pfcourse/experiments/rb_study.py", "pfcourse/landmarks/rao_blackwell.py", "pfcourse/landmarks/auxiliary.py"],
         "git_commit": commit,
         "package_dirty_at_run": dirty,
         "settings": SETTINGS,

@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""Compute book/data/sir_fixes.csv: SIR's fixes on scenario A over N (pfcourse.sir_fixes_study).
+"""Compute book/data/sir_fixes.csv: SIR's fixes on scenario A over N (pfcourse.experiments.sir_fixes_study).
 
 Run from the repository root after committing the code:  nice -n 5 .venv/bin/python tools/studies/sir_fixes.py
 Provenance in book/data/sir_fixes.json; tests/test_sir_fixes_study.py re-computes sampled rows.
@@ -19,7 +19,7 @@ os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 ROOT = Path(__file__).resolve().parents[2]
 sys.path.insert(0, str(ROOT))
 
-from pfcourse.sir_fixes_study import LANDMARK_NOISE, variant_row  # noqa: E402
+from pfcourse.experiments.sir_fixes_study import LANDMARK_NOISE, variant_row  # noqa: E402
 
 VARIANTS = ["sir", "noise_filter_only", "noise_everywhere",
             "roughening_0.05", "roughening_0.1", "roughening_0.2", "roughening_0.4"]
@@ -39,7 +39,7 @@ def main() -> None:
     commit = subprocess.run(["git", "rev-parse", "HEAD"], cwd=ROOT, capture_output=True, text=True).stdout.strip()
     dirty = bool(subprocess.run(["git", "status", "--porcelain", "pfcourse"], cwd=ROOT,
                                 capture_output=True, text=True).stdout.strip())
-    json.dump({"made_by": "tools/studies/sir_fixes.py", "code": ["pfcourse/sir_fixes_study.py"],
+    json.dump({"made_by": "tools/studies/sir_fixes.py", "code": ["pfcourse/experiments/sir_fixes_study.py"],
                "git_commit": commit, "package_dirty_at_run": dirty, "variants": VARIANTS,
                "n_values": N_VALUES, "seeds": "0-99; filter seed s + 10**6; threshold N/3",
                "landmark_noise": LANDMARK_NOISE, "rows": len(rows),

@@ -21,11 +21,11 @@ from __future__ import annotations
 
 import numpy as np
 
-from .filter import ParticleFilter
-from .kalman import kalman_filter
-from .landmarks import quadrant_scenario, simulate
-from .roughening import Roughening
-from .versus_kalman import score
+from pfcourse.experiments.landmarks import score
+from pfcourse.filter import ParticleFilter
+from pfcourse.landmarks.kalman import kalman_filter
+from pfcourse.landmarks.scenario import quadrant_scenario, simulate
+from pfcourse.roughening import Roughening
 
 LANDMARKS = [2, 3, 4, 5]
 LANDMARK_NOISE = 0.0025  # m^2 per step, report 000's value

@@ -23,13 +23,13 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from .auxiliary import FullyAdaptedAuxiliary, LinearGaussianOptimal
-from .diagnostics import nees
-from .filter import ParticleFilter
-from .kalman import kalman_filter
-from .landmarks import LandmarkScenario, circle_scenario, quadrant_scenario, simulate
-from .linear_gaussian import OptimalProposal
-from .rao_blackwell import RaoBlackwellModel, RaoBlackwellProposal
+from pfcourse.diagnostics import nees
+from pfcourse.filter import ParticleFilter
+from pfcourse.landmarks.auxiliary import FullyAdaptedAuxiliary, LinearGaussianOptimal
+from pfcourse.landmarks.kalman import kalman_filter
+from pfcourse.landmarks.model import OptimalProposal
+from pfcourse.landmarks.rao_blackwell import RaoBlackwellModel, RaoBlackwellProposal
+from pfcourse.landmarks.scenario import LandmarkScenario, circle_scenario, quadrant_scenario, simulate
 
 #: Methods, in the order of the chapter: label, and whether the map is integrated out.
 METHODS: dict[str, str] = {

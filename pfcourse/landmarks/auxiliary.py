@@ -26,15 +26,15 @@ from collections.abc import Callable
 
 import numpy as np
 
-from .gaussian import gaussian_logpdf
-from .linear_gaussian import LinearGaussianModel, OptimalProposal
-from .resampling import get_resampler
+from pfcourse.gaussian import gaussian_logpdf
+from pfcourse.landmarks.model import LinearGaussianModel, OptimalProposal
+from pfcourse.resampling import get_resampler
 
 Array = np.ndarray
 
 
 class LinearGaussianOptimal(OptimalProposal):
-    """:class:`~pfcourse.linear_gaussian.OptimalProposal` with its predictive likelihood exposed."""
+    """:class:`~pfcourse.landmarks.model.OptimalProposal` with its predictive likelihood exposed."""
 
     def log_predictive(self, model: LinearGaussianModel, particles: Array, z: Array, k: int) -> Array:
         """``log N(z_k; H (F x_{k-1} + B), H Q H^T + R)`` per particle (observed rows only)."""
@@ -50,7 +50,7 @@ class FullyAdaptedAuxiliary:
 
     ``inner`` provides ``log_predictive(model, particles, z, k)`` and a fully adapted
     ``propose`` (its incremental weight is that predictive likelihood, whatever is drawn):
-    :class:`LinearGaussianOptimal`, or :class:`~pfcourse.rao_blackwell.RaoBlackwellProposal`
+    :class:`LinearGaussianOptimal`, or :class:`~pfcourse.landmarks.rao_blackwell.RaoBlackwellProposal`
     with ``optimal=True``.  ``first_stage_ess`` records ``1 / sum_i (W^i)^2`` of the
     first-stage weights at each measured step (the engine's ESS is then always ``N``).
     """
