@@ -27,6 +27,7 @@
 import matplotlib.pyplot as plt
 import numpy as np
 from IPython.display import HTML, display
+from myst_nb import glue
 
 from pfcourse.experiments.terrain import DIVERGED_ERROR, flight_seed, flight_study
 from pfcourse.terrain.scenario import AircraftScenario, extended_kalman_filter, position_error, simulate
@@ -88,8 +89,8 @@ def draw_map(ax, shaded=True, window=None):
     """
     if shaded:
         ax.imshow(shade, origin="lower", extent=extent_km, cmap="gray")
-        ax.imshow(terrain.heights, origin="lower", extent=extent_km, cmap="terrain", alpha=0.45,
-                  vmin=150, vmax=1150)
+        mappable = ax.imshow(terrain.heights, origin="lower", extent=extent_km, cmap="terrain", alpha=0.45,
+                             vmin=150, vmax=1150)
     else:
         x, y, h = terrain.x_nodes / KM, terrain.y_nodes / KM, terrain.heights
         if window is not None:
@@ -97,15 +98,17 @@ def draw_map(ax, shaded=True, window=None):
             i = slice(max(np.searchsorted(x, x0) - 1, 0), np.searchsorted(x, x1) + 1)
             j = slice(max(np.searchsorted(y, y0) - 1, 0), np.searchsorted(y, y1) + 1)
             x, y, h = x[i], y[j], h[j, i]
-        ax.contourf(x, y, h, levels=np.arange(200, 1101, 100), cmap="terrain", vmin=150, vmax=1150, alpha=0.7)
+        mappable = ax.contourf(x, y, h, levels=np.arange(200, 1101, 100), cmap="terrain", vmin=150, vmax=1150,
+                               alpha=0.7)
     ax.set_xlabel("east x (km)")
     ax.set_ylabel("north y (km)")
     ax.set_aspect("equal")
     ax.grid(False)
+    return mappable
 
 
 fig, ax = plt.subplots(figsize=(6.5, 6.5))
-draw_map(ax)
+fig.colorbar(draw_map(ax), ax=ax, shrink=0.8, label="terrain height (m)")
 cs = ax.contour(terrain.x_nodes / KM, terrain.y_nodes / KM, terrain.heights, levels=[400, 600, 800, 1000],
                 colors="k", linewidths=0.4, alpha=0.6)
 ax.clabel(cs, fontsize=7, fmt="%d m")
@@ -166,7 +169,7 @@ print("prior std  =", np.round(np.sqrt(np.diag(scenario.P0)), 3))
 print("Qf std (per s) =", np.round(np.sqrt(np.diag(scenario.Qf)), 4))
 
 fig, ax = plt.subplots(figsize=(6.5, 6.5))
-draw_map(ax, shaded=False)
+fig.colorbar(draw_map(ax, shaded=False), ax=ax, shrink=0.8, label="terrain height (m)")
 for r in range(30):
     fl = simulate(scenario, terrain, flight_seed(0, r))
     ax.plot(fl.X[:, 0] / KM, fl.X[:, 1] / KM, "-", color=COLORS["truth"], lw=0.8, alpha=0.6)
@@ -205,7 +208,8 @@ print("a converged flight:", good, "  a diverged flight:", bad)
 
 # %% [markdown]
 # The baseline loses the aircraft in more than half of the flights. We come back to this
-# below; first, a flight where it works. The filter is rerun on that flight with the same seed,
+# below, and the next chapter ({doc}`terrain_cure`) measures why on 100 flights and finds
+# remedies; first, a flight where it works. The filter is rerun on that flight with the same seed,
 # storing the particles.
 
 # %%
@@ -231,12 +235,20 @@ axes[2].set_xlabel("time t (s)")
 axes[2].legend(loc="upper left")
 axes[0].set_title(f"Flight {good}: position error and 3-sigma band (N = 3000)")
 plt.show()
-print(f"horizontal error at t = 0, 10, 30, 80 s: {np.round(position_error(flight.X, run.mean)[[0, 10, 30, 80]])} m")
+e_h = position_error(flight.X, run.mean)
+print(f"horizontal error at t = 0, 10, 30, 80 s: {np.round(e_h[[0, 10, 30, 80]])} m")
+glue("terrain_error_t0", float(e_h[0]), display=False)
+glue("terrain_error_max", float(e_h.max()), display=False)
+glue("terrain_error_tmax", float(t[np.argmax(e_h)]), display=False)
+glue("terrain_error_final", float(e_h[-1]), display=False)
 
 # %% [markdown]
-# The error starts at the prior's scale (kilometres), grows for a while as the filter hesitates
-# between candidate places, and, once the flight has seen enough terrain, drops to about a
-# hundred metres; the error stays inside the $\pm 3\sigma$ band
+# On this flight the horizontal error is {glue:text}`terrain_error_t0:.0f` m at $t = 0$ (the
+# distance from the truth to the prior's mean: this flight happens to start well inside the
+# prior's 1667 m per axis), reaches {glue:text}`terrain_error_max:.0f` m at
+# $t$ = {glue:text}`terrain_error_tmax:.0f` s while the filter hesitates between candidate
+# places, and ends at {glue:text}`terrain_error_final:.0f` m once the flight has seen enough
+# terrain; the error stays inside the $\pm 3\sigma$ band
 # (drawn on a scale that is linear below 100 m and logarithmic above). The bottom panel is
 # the terrain profile the aircraft flies over, which is what the altimeter readings reveal.
 #
@@ -471,30 +483,29 @@ for name, res in studies["resampler"].items():
 # spread of 30 runs of each other, so the report's ranking is not supported: the differences
 # it saw come from single runs.
 #
-# The figure gathers the studies: the median horizontal error over time with its 10–90 %
-# band, for each setting.
+# The figures gather the studies: the median horizontal error over time *of the converged
+# runs* of each setting, with the numbers of converged and lost runs in the legend (the lost
+# runs' errors, kilometres, would hide everything else).
 
 # %%
-fig, axes = plt.subplots(4, 2, figsize=(10, 11), sharex=True, sharey=True)
-for ax, (study, results) in zip(axes.flat, studies.items()):
-    for name, res in results.items():
-        e = np.where(np.isnan(res.errors), np.inf, res.errors)
-        times = np.linspace(0.0, scenario.duration, e.shape[1])
-        lo, med, hi = np.quantile(e, [0.1, 0.5, 0.9], axis=0, method="inverted_cdf")
-        (line,) = ax.plot(times, med, label=f"{name} ({e.shape[0]} runs)")
-        ax.fill_between(times, lo, np.minimum(hi, 1e5), color=line.get_color(), alpha=0.12)
-    ax.set_yscale("log")
-    ax.set_ylim(5, 2e4)
-    ax.set_title(study)
-    ax.legend(fontsize=7, loc="lower left")
-for ax in axes[:, 0]:
-    ax.set_ylabel("horizontal error (m)")
-for ax in axes[-1]:
-    ax.set_xlabel("time t (s)")
-axes.flat[-1].axis("off")
-fig.suptitle("Median horizontal error and 10-90 % band over seeded runs", y=1.0)
-plt.tight_layout()
-plt.show()
+names = list(studies)
+for pair in (names[0:2], names[2:4], names[4:6], names[6:7]):
+    fig, axes = plt.subplots(1, len(pair), figsize=(3.5 * len(pair), 3.2), sharey=True, squeeze=False)
+    for ax, study in zip(axes[0], pair):
+        for name, res in studies[study].items():
+            ok = ~res.diverged
+            times = np.linspace(0.0, scenario.duration, res.errors.shape[1])
+            if ok.any():
+                ax.plot(times, np.median(res.errors[ok], axis=0),
+                        label=f"{name}: {ok.sum()} conv. / {(~ok).sum()} lost")
+        ax.set_yscale("log")
+        ax.set_ylim(5, 2e4)
+        ax.set_title(study, fontsize=10)
+        ax.set_xlabel("time t (s)")
+        ax.legend(fontsize=7, loc="upper right")
+    axes[0, 0].set_ylabel("median error, converged runs (m)")
+    plt.tight_layout()
+    plt.show()
 
 # %% [markdown]
 # ## Try it

@@ -5,4 +5,6 @@
 * :mod:`pfcourse.experiments.robot` - one seeded robot run through the particle filter, EKF and UKF;
 * :mod:`pfcourse.experiments.terrain` - Monte Carlo runs of the terrain scenario;
 * :mod:`pfcourse.experiments.comparison` - innovations, NIS and filter-against-filter comparisons.
+* :mod:`pfcourse.experiments.rb_study` - the Rao-Blackwell study stored in ``book/data/rao_blackwell.csv``;
+* :mod:`pfcourse.experiments.sir_fixes_study` - SIR's fixes over N, stored in ``book/data/sir_fixes.csv``.
 """

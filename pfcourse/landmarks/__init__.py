@@ -3,7 +3,9 @@
 * :mod:`pfcourse.landmarks.scenario` - the scenario's settings and its simulator;
 * :mod:`pfcourse.landmarks.model` - the linear Gaussian state-space model and its optimal proposal;
 * :mod:`pfcourse.landmarks.kalman` - the exact posterior (Kalman filter);
-* :mod:`pfcourse.landmarks.figures` - the scenario's figures.
+* :mod:`pfcourse.landmarks.figures` - the scenario's figures;
+* :mod:`pfcourse.landmarks.rao_blackwell` - the Rao-Blackwellised filter (a Kalman filter over the map per particle);
+* :mod:`pfcourse.landmarks.auxiliary` - the fully adapted auxiliary particle filter.
 """
 
 from pfcourse.landmarks.kalman import KalmanResult, kalman_filter

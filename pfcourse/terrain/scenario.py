@@ -41,6 +41,7 @@ from pfcourse.checks import Array, as_vector, check_covariance, covariance_facto
 from pfcourse.errors import ParameterError
 from pfcourse.results import KalmanResult
 from pfcourse.terrain.map import TerrainMap
+from pfcourse.terrain.compiled import aircraft_transition, altimeter_log_likelihood
 
 _LOG_2PI = float(np.log(2.0 * np.pi))
 
@@ -161,7 +162,8 @@ class TerrainModel:
         self.terrain = terrain
         self.scenario = scenario
         self._init_factor = covariance_factor(scenario.P0)
-        self._noise_factor = covariance_factor(scenario.Qf * scenario.dt)
+        self._noise_factor = np.ascontiguousarray(covariance_factor(scenario.Qf * scenario.dt))
+        self._heights = np.ascontiguousarray(terrain.heights, dtype=float)
 
     def sample_initial(self, n: int, rng: np.random.Generator) -> Array:
         x = self.scenario.x0 + rng.standard_normal((n, 4)) @ self._init_factor.T
@@ -169,17 +171,33 @@ class TerrainModel:
         return x
 
     def sample_transition(self, particles: Array, k: int, rng: np.random.Generator) -> Array:
+        """``f(x) + N(0, Qf dt)``, one compiled pass (:func:`pfcourse.terrain.compiled.aircraft_transition`)."""
+        s = self.scenario
+        noise = rng.standard_normal(np.shape(particles))
+        return aircraft_transition(np.ascontiguousarray(particles, dtype=float), noise,
+                                   self._noise_factor, s.speed, s.omega, s.dt)
+
+    def log_likelihood(self, particles: Array, z: Array, k: int) -> Array:
+        """``log N(y; z - h(x, y), Rf)``, ``-inf`` off the map (compiled bilinear lookup)."""
+        rf = float(self.scenario.Rf)
+        return altimeter_log_likelihood(np.ascontiguousarray(particles, dtype=float), self._heights,
+                                        self.terrain.dx, self.terrain.dy, float(np.ravel(z)[0]), rf,
+                                        -0.5 * (np.log(rf) + _LOG_2PI))
+
+    def log_likelihood_numpy(self, particles: Array, z: Array, k: int) -> Array:
+        """The NumPy / scipy definition of :meth:`log_likelihood` (the tests compare the two)."""
+        rf = self.scenario.Rf
+        innovation = float(np.ravel(z)[0]) - predicted_measurement(particles, self.terrain)
+        loglik = -0.5 * (innovation**2 / rf + np.log(rf) + _LOG_2PI)
+        return np.where(np.isnan(loglik), -np.inf, loglik)
+
+    def sample_transition_numpy(self, particles: Array, k: int, rng: np.random.Generator) -> Array:
+        """The NumPy definition of :meth:`sample_transition` (same draws)."""
         s = self.scenario
         x = propagate(particles, s.speed, s.omega, s.dt)
         x += rng.standard_normal(x.shape) @ self._noise_factor.T
         x[:, 3] = wrap_angle(x[:, 3])
         return x
-
-    def log_likelihood(self, particles: Array, z: Array, k: int) -> Array:
-        rf = self.scenario.Rf
-        innovation = float(np.ravel(z)[0]) - predicted_measurement(particles, self.terrain)
-        loglik = -0.5 * (innovation**2 / rf + np.log(rf) + _LOG_2PI)
-        return np.where(np.isnan(loglik), -np.inf, loglik)
 
 
 @dataclass
