@@ -45,6 +45,7 @@ from pfcourse.errors import (
     MeasurementError,
     ModelError,
     NumericalError,
+    ParameterError,
     ShapeError,
 )
 from pfcourse.resampling import get_resampler
@@ -261,13 +262,20 @@ class ParticleFilter:
         n, d = self.n_particles, self.dim_x
         measurements = self._check_measurements(measurements)
         n_steps = len(measurements)
-        mean = np.empty((n_steps, d))
-        cov = np.empty((n_steps, d, d))
-        ess = np.empty(n_steps)
-        resampled = np.zeros(n_steps, dtype=bool)
-        log_inc_total = np.zeros(n_steps)
-        stored_x = np.empty((n_steps, n, d)) if store_particles else None
-        stored_w = np.empty((n_steps, n)) if store_particles else None
+        try:
+            mean = np.empty((n_steps, d))
+            cov = np.empty((n_steps, d, d))
+            ess = np.empty(n_steps)
+            resampled = np.zeros(n_steps, dtype=bool)
+            log_inc_total = np.zeros(n_steps)
+            stored_x = np.empty((n_steps, n, d)) if store_particles else None
+            stored_w = np.empty((n_steps, n)) if store_particles else None
+            np.empty((n, d))  # the cloud itself
+        except (MemoryError, ValueError):
+            raise ParameterError(
+                f"before step 0: n_particles={n}, dim_x={d} and {n_steps} steps need more memory "
+                "than this machine has"
+            ) from None
 
         particles = None
         log_weights = np.full(n, -np.log(n))

@@ -46,7 +46,7 @@ MEASUREMENT = st.one_of(
 )
 
 
-@settings(max_examples=150, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@settings(max_examples=150, deadline=None, derandomize=True, suppress_health_check=[HealthCheck.too_slow])
 @given(
     n=SETTING, threshold=st.one_of(SETTING, st.floats(0, 1)), dim_x=SETTING,
     init_kind=KINDS, trans_kind=KINDS, lik_kind=KINDS, lik_step=st.integers(0, 3), fill=BAD_VALUES,
