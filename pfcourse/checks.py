@@ -92,15 +92,34 @@ def is_missing(z: Array | None) -> bool:
 
 def check_probability(value: float, name: str) -> float:
     """Check that ``value`` lies in the closed interval [0, 1]."""
+    if isinstance(value, (bool, np.bool_)) or not isinstance(value, (int, float, np.integer, np.floating)):
+        raise ParameterError(f"{name} must be a real number in [0, 1], got {value!r}")
     value = float(value)
-    if not 0.0 <= value <= 1.0:
+    if not 0.0 <= value <= 1.0:  # also refuses NaN
         raise ParameterError(f"{name} must lie in [0, 1], got {value}")
+    return value
+
+
+def check_real(value, name: str, *, low: float = -np.inf, high: float = np.inf,
+               low_open: bool = False) -> float:
+    """Check that ``value`` is a finite real number (not a bool) in ``[low, high]``
+    (``(low, high]`` with ``low_open``) and return it as a float."""
+    if isinstance(value, (bool, np.bool_)) or not isinstance(value, (int, float, np.integer, np.floating)):
+        raise ParameterError(f"{name} must be a real number, got {value!r}")
+    value = float(value)
+    if not np.isfinite(value):
+        raise ParameterError(f"{name} must be finite, got {value}")
+    if value < low or value > high or (low_open and value == low):
+        bracket = "(" if low_open else "["
+        raise ParameterError(f"{name} must lie in {bracket}{low}, {high}], got {value}")
     return value
 
 
 def check_count(value: int, name: str, minimum: int = 1) -> int:
     """Check that ``value`` is an integer at least ``minimum``."""
-    if isinstance(value, bool) or int(value) != value:
+    if isinstance(value, (bool, np.bool_)) or not isinstance(value, (int, float, np.integer, np.floating)):
+        raise ParameterError(f"{name} must be an integer, got {value!r}")
+    if not np.isfinite(value) or int(value) != value:
         raise ParameterError(f"{name} must be an integer, got {value!r}")
     if value < minimum:
         raise ParameterError(f"{name} must be at least {minimum}, got {value}")

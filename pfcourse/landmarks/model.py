@@ -60,7 +60,7 @@ class LinearGaussianModel:
 
     def transition_log_density(self, new: np.ndarray, old: np.ndarray, k: int) -> np.ndarray:
         """``log N(x_k; F x_{k-1} + B, Q)`` (``Q`` must then be positive definite)."""
-        return gaussian_logpdf(new - self.predict_mean(old), self.Q)
+        return gaussian_logpdf(new - self.predict_mean(old), self.Q, "transition_log_density: process noise covariance Q")
 
     def observed(self, z: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         """Split ``z`` into its observed part: ``(mask, z_o, H_o, R_oo)``."""

@@ -30,7 +30,8 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from pfcourse.checks import as_vector, check_count, check_covariance, covariance_factor
+from pfcourse.checks import as_vector, check_count, check_covariance, check_real, covariance_factor
+from pfcourse.errors import ParameterError
 from pfcourse.landmarks.model import LinearGaussianModel
 
 
@@ -147,10 +148,16 @@ def _checked(s: LandmarkScenario) -> LandmarkScenario:
     check_count(s.n_landmarks, "n_landmarks")
     check_count(s.n_samples, "n_samples")
     if s.field_of_view not in ("quadrant", "triangle"):
-        raise ValueError(f"field_of_view must be 'quadrant' or 'triangle', got {s.field_of_view!r}")
+        raise ParameterError(f"field_of_view must be 'quadrant' or 'triangle', got {s.field_of_view!r}")
+    check_real(s.dt, "dt", low=0.0, low_open=True)
+    check_real(s.omega, "omega")
+    check_real(s.fov_half_angle, "fov_half_angle", low=0.0, high=np.pi, low_open=True)
+    check_real(s.fov_range, "fov_range", low=0.0, low_open=True)
     d = 2 + 2 * s.n_landmarks
-    as_vector(s.centre, "centre", 2)
-    as_vector(s.mX0, "mX0", d)
+    if not np.all(np.isfinite(as_vector(s.centre, "centre", 2))):
+        raise ParameterError("centre must be finite")
+    if not np.all(np.isfinite(as_vector(s.mX0, "mX0", d))):
+        raise ParameterError("mX0 must be finite")
     check_covariance(s.PX0, "PX0", d)
     check_covariance(s.Qw, "Qw", d)
     check_covariance(s.Rv, "Rv", 2 * s.n_landmarks, definite=True)
