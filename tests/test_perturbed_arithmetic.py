@@ -33,7 +33,8 @@ def test_glued_values_and_text_outputs_are_read_apart():
     cell = nbformat.v4.new_code_cell("x")
     cell.outputs = [
         nbformat.v4.new_output("stream", name="stdout", text="95 of 100\n"),
-        nbformat.v4.new_output("display_data", data={"text/plain": "95"}, metadata={"scrapbook": {"name": "count"}}),
+        nbformat.v4.new_output("display_data", data={"application/papermill.record/text/plain": "95"},
+                               metadata={"scrapbook": {"name": "count"}}),
     ]
     nb.cells.append(cell)
     assert tool.text_outputs(nb) == [(0, "95 of 100\n")]

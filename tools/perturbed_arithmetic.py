@@ -94,8 +94,8 @@ def glued(notebook) -> dict[str, str]:
         for output in cell.get("outputs", []):
             name = output.get("metadata", {}).get("scrapbook", {}).get("name")
             if name:
-                data = output.get("data", {})
-                text = data.get("text/plain", "")
+                data = output.get("data", {})  # display=False: "application/papermill.record/text/plain"
+                text = next((v for k, v in data.items() if k.endswith("text/plain")), "")
                 values[name] = text if isinstance(text, str) else "".join(text)
     return values
 

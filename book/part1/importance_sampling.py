@@ -71,8 +71,8 @@ for r in (1.0, 0.3, 0.1):
     kong[r] = estimate.var(ddof=1) / predicted
     print(f"{r:5.1f} {post_mean:11.4f} {estimate.mean():18.4f} {estimate.var(ddof=1):17.2e} "
           f"{predicted:18.2e} {kong[r]:6.2f} {ess.mean():9.1f}")
-glue("kong_ratio_r1", kong[1.0], display=False)
-glue("kong_ratio_r01", kong[0.1], display=False)
+glue("kong_ratio_r1", float(kong[1.0]), display=False)
+glue("kong_ratio_r01", float(kong[0.1]), display=False)
 glue("kong_ess_r01", float(ess.mean()), display=False)
 
 # %% [markdown]
@@ -252,7 +252,7 @@ for sd in (0.1, 0.01):
     ci = stats.binomtest(failures[sd], n_runs).proportion_ci(method="wilson")
     print(f"measurement sd {sd} m: linear-domain weights fail in {failures[sd]} of {n_runs} runs "
           f"(95 % Wilson interval {ci.low:.0%}-{ci.high:.0%})")
-    glue(f"linear_fail_sd{str(sd).replace('.', '')}", failures[sd], display=False)
+    glue(f"linear_fail_sd{str(sd).replace('.', '')}", int(failures[sd]), display=False)
     glue(f"linear_fail_sd{str(sd).replace('.', '')}_low", float(ci.low), display=False)
     glue(f"linear_fail_sd{str(sd).replace('.', '')}_high", float(ci.high), display=False)
 

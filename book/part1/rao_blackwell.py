@@ -252,7 +252,6 @@ glue("rbpf_slope_low", float(slopes["rbpf_optimal"][1]), display=False)
 glue("rbpf_slope_high", float(slopes["rbpf_optimal"][2]), display=False)
 glue("rbpf1_error_slope", float(slopes["rbpf_prior"][0]), display=False)
 glue("sir_error_slope", float(slopes["sir"][0]), display=False)
-glue("sir_rbpf_ratio_n100", float(np.median(ratio100)), display=False)
 glue("sir_rbpf_ratio_n100_p10", float(np.percentile(ratio100, 10)), display=False)
 glue("n_runs_rb", int(n_runs), display=False)
 

@@ -64,9 +64,9 @@ final = data.pivot(index="flight", columns="setting", values="final_error")
 base = runs["bootstrap N=3000"].astype(bool)
 k, n = int(base.sum()), int(base.count())
 lo, hi = wilson(k, n)
-glue("terrain_baseline_diverged", k / n, display=False)
-glue("terrain_baseline_lo", lo, display=False)
-glue("terrain_baseline_hi", hi, display=False)
+glue("terrain_baseline_diverged", float(k / n), display=False)
+glue("terrain_baseline_lo", float(lo), display=False)
+glue("terrain_baseline_hi", float(hi), display=False)
 glue("terrain_baseline_runs", n, display=False)
 print(f"bootstrap N = 3000: {k} of {n} flights lost ({k / n:.0%}, Wilson 95 % CI {lo:.0%} to {hi:.0%})")
 
@@ -110,12 +110,12 @@ for N in sizes:
 near = pd.DataFrame(rows).groupby("N").median()
 print("medians over 100 flights of the particle nearest to the truth at t = 0")
 print(near.round(1).to_string())
-glue("terrain_near_h_3000", near.loc[3000, "nearest horizontal (m)"], display=False)
-glue("terrain_near_psi_3000", near.loc[3000, "... heading (deg)"], display=False)
-glue("terrain_near_h2_3000", near.loc[3000, "nearest in prior metric: horizontal (m)"], display=False)
-glue("terrain_near_drift_3000", 8000 * np.tan(np.radians(near.loc[3000, "... heading (deg)"])), display=False)
-glue("terrain_near_psi1_3000", near.loc[3000, "its heading error (deg)"], display=False)
-glue("terrain_near_h_100000", near.loc[100000, "nearest horizontal (m)"], display=False)
+glue("terrain_near_h_3000", float(near.loc[3000, "nearest horizontal (m)"]), display=False)
+glue("terrain_near_psi_3000", float(near.loc[3000, "... heading (deg)"]), display=False)
+glue("terrain_near_h2_3000", float(near.loc[3000, "nearest in prior metric: horizontal (m)"]), display=False)
+glue("terrain_near_drift_3000", float(8000 * np.tan(np.radians(near.loc[3000, "... heading (deg)"]))), display=False)
+glue("terrain_near_psi1_3000", float(near.loc[3000, "its heading error (deg)"]), display=False)
+glue("terrain_near_h_100000", float(near.loc[100000, "nearest horizontal (m)"]), display=False)
 
 # %% [markdown]
 # With 3000 particles the particle nearest the truth horizontally is typically
@@ -186,18 +186,18 @@ print(table.round(3).to_string())
 # %%
 affordable = table[table["cost vs bootstrap N=30000"] <= 1.0 + 1e-9]
 best = affordable["lost rate"].idxmin()
-glue("terrain_best_diverged", table.loc[best, "lost rate"], display=False)
+glue("terrain_best_diverged", float(table.loc[best, "lost rate"]), display=False)
 glue("terrain_best_name", best, display=False)
 glue("terrain_best_ci", table.loc[best, "95 % CI"], display=False)
-glue("terrain_best_cost", table.loc[best, "cost vs bootstrap N=30000"], display=False)
-glue("terrain_best_mcnemar", table.loc[best, "McNemar p"], display=False)
-glue("terrain_boot30k_diverged", table.loc["bootstrap N=30000", "lost rate"], display=False)
-glue("terrain_boot100k_diverged", table.loc["bootstrap N=100000", "lost rate"], display=False)
-glue("terrain_boot100k_cost", table.loc["bootstrap N=100000", "cost vs bootstrap N=30000"], display=False)
+glue("terrain_best_cost", float(table.loc[best, "cost vs bootstrap N=30000"]), display=False)
+glue("terrain_best_mcnemar", float(table.loc[best, "McNemar p"]), display=False)
+glue("terrain_boot30k_diverged", float(table.loc["bootstrap N=30000", "lost rate"]), display=False)
+glue("terrain_boot100k_diverged", float(table.loc["bootstrap N=100000", "lost rate"]), display=False)
+glue("terrain_boot100k_cost", float(table.loc["bootstrap N=100000", "cost vs bootstrap N=30000"]), display=False)
 glue("terrain_best_lost", int(table.loc[best, "lost"]), display=False)
 glue("terrain_best_flights", int(table.loc[best, "flights"]), display=False)
-glue("terrain_qf3_diverged", table.loc["bootstrap N=3000, Qf/3", "lost rate"], display=False) if "bootstrap N=3000, Qf/3" in table.index else None
-glue("terrain_qf3_mcnemar", table.loc["bootstrap N=3000, Qf/3", "McNemar p"], display=False) if "bootstrap N=3000, Qf/3" in table.index else None
+glue("terrain_qf3_diverged", float(table.loc["bootstrap N=3000, Qf/3", "lost rate"]), display=False) if "bootstrap N=3000, Qf/3" in table.index else None
+glue("terrain_qf3_mcnemar", float(table.loc["bootstrap N=3000, Qf/3", "McNemar p"]), display=False) if "bootstrap N=3000, Qf/3" in table.index else None
 def mcnemar(a, b):
     """Exact McNemar test of settings a and b on their common flights: (a lost only, b lost only, p)."""
     la, lb = runs[a].dropna().astype(bool), runs[b].dropna().astype(bool)
@@ -208,16 +208,16 @@ def mcnemar(a, b):
 
 x, y, p = mcnemar("regularised N=3000", "bootstrap N=30000")
 glue("terrain_rpf3k_vs_boot30k", f"{x} / {y}", display=False)
-glue("terrain_rpf3k_vs_boot30k_p", p, display=False)
-glue("terrain_rpf3k_diverged", table.loc["regularised N=3000", "lost rate"], display=False)
-glue("terrain_rpf30k_diverged", table.loc["regularised N=30000", "lost rate"], display=False)
+glue("terrain_rpf3k_vs_boot30k_p", float(p), display=False)
+glue("terrain_rpf3k_diverged", float(table.loc["regularised N=3000", "lost rate"]), display=False)
+glue("terrain_rpf30k_diverged", float(table.loc["regularised N=30000", "lost rate"]), display=False)
 glue("terrain_rpf30k_ci", table.loc["regularised N=30000", "95 % CI"], display=False)
-glue("terrain_rpf_h1_diverged", table.loc["regularised h=1 N=3000", "lost rate"], display=False)
-glue("terrain_tempered_diverged", table.loc["tempered N=3000", "lost rate"], display=False)
-glue("terrain_tempered_p", table.loc["tempered N=3000", "McNemar p"], display=False)
+glue("terrain_rpf_h1_diverged", float(table.loc["regularised h=1 N=3000", "lost rate"]), display=False)
+glue("terrain_tempered_diverged", float(table.loc["tempered N=3000", "lost rate"]), display=False)
+glue("terrain_tempered_p", float(table.loc["tempered N=3000", "McNemar p"]), display=False)
 x, y, p = mcnemar("tempered+regularised N=3000", "regularised N=3000")
 glue("terrain_trpf_vs_rpf", f"{x} / {y}", display=False)
-glue("terrain_trpf_vs_rpf_p", p, display=False)
+glue("terrain_trpf_vs_rpf_p", float(p), display=False)
 print(f"regularised N=3000 vs bootstrap N=30000: lost by the first only / the second only, McNemar p: {mcnemar('regularised N=3000', 'bootstrap N=30000')}")
 print(f"tempered+regularised N=3000 vs regularised N=3000: {mcnemar('tempered+regularised N=3000', 'regularised N=3000')}")
 print(f"best at a cost <= bootstrap N = 30000: {best}, lost {table.loc[best, 'lost rate']:.0%} "
@@ -321,8 +321,8 @@ glue("terrain_converged_n", int(len(conv)), display=False)
 glue("terrain_pcrb_final_median", float(np.median(bounds[:, -1])), display=False)
 glue("terrain_pcrb_average_final", float(average[-1]), display=False)
 ci = stats.bootstrap((ratio,), np.median, random_state=0).confidence_interval
-glue("terrain_ratio_lo", ci.low, display=False)
-glue("terrain_ratio_hi", ci.high, display=False)
+glue("terrain_ratio_lo", float(ci.low), display=False)
+glue("terrain_ratio_hi", float(ci.high), display=False)
 print(f"bound on the final horizontal RMS error: median over flights {np.median(bounds[:, -1]):.1f} m, "
       f"averaged-information bound {average[-1]:.1f} m")
 print(f"noise-free bound (the flights as simulated): median final {np.median(free[:, -1]):.1f} m")
