@@ -76,7 +76,7 @@ def pmmh_chain(n_particles: int, n_iterations: int = PMMH_ITERATIONS):
 
 def provenance(name: str, parameters: dict, seconds: float) -> None:
     commit = subprocess.run(["git", "rev-parse", "HEAD"], cwd=ROOT, capture_output=True, text=True).stdout.strip()
-    dirty = bool(subprocess.run(["git", "status", "--porcelain", "pfcourse", "tools"], cwd=ROOT,
+    dirty = bool(subprocess.run(["git", "status", "--porcelain", "--untracked-files=no", "pfcourse", "tools"], cwd=ROOT,
                                 capture_output=True, text=True).stdout.strip())
     meta = {"file": f"{name}.csv", "code": "tools/studies/likelihood.py", "git_commit": commit,
             "working_tree_modified": dirty, "numpy": np.__version__, "wall_seconds": round(seconds, 1),
