@@ -40,7 +40,7 @@ def smoothing_study():
     return load("smoothing")
 
 
-@pytest.mark.parametrize("name", ["bias", "ml", "pmmh", "smoothing_landmarks", "smoothing_robot"])
+@pytest.mark.parametrize("name", ["bias", "ml", "pmmh", "smoothing_landmarks", "smoothing_robot", "robot_noise"])
 def test_every_table_has_its_provenance(name):
     meta = json.loads((DATA / f"{name}.json").read_text())
     assert meta["file"] == f"{name}.csv"
@@ -90,5 +90,14 @@ def test_smoothing_robot_rows(smoothing_study):
     table = pd.read_csv(DATA / "smoothing_robot.csv")
     for _, row in sample(table, 1, 5).iterrows():
         got = smoothing_study.robot_run(int(row["seed"]), int(row["n_particles"]))
+        for key, value in got.items():
+            assert value == pytest.approx(row[key], rel=1e-10), key
+
+
+def test_robot_noise_rows():
+    study = load("robot_noise")
+    table = pd.read_csv(DATA / "robot_noise.csv")
+    for _, row in sample(table, 1, 6).iterrows():
+        got = study.robot_noise_run(int(row["seed"]), int(row["n_particles"]))
         for key, value in got.items():
             assert value == pytest.approx(row[key], rel=1e-10), key
