@@ -32,6 +32,8 @@ from pfcourse.study import replicate_seed, run_study
 
 ROOT = Path(__file__).resolve().parents[2]
 OUT = ROOT / "book" / "data" / "likelihood"
+# the commit the study is launched from (recorded in the provenance, whatever is committed meanwhile)
+LAUNCH_COMMIT = subprocess.run(["git", "rev-parse", "HEAD"], cwd=ROOT, capture_output=True, text=True).stdout.strip()
 
 # Scenario A with noise on every component (the particle filter's working regime) and a
 # moderately informative measurement; theta multiplies Rv.
@@ -75,7 +77,7 @@ def pmmh_chain(n_particles: int, n_iterations: int = PMMH_ITERATIONS):
 
 
 def provenance(name: str, parameters: dict, seconds: float) -> None:
-    commit = subprocess.run(["git", "rev-parse", "HEAD"], cwd=ROOT, capture_output=True, text=True).stdout.strip()
+    commit = LAUNCH_COMMIT
     dirty = bool(subprocess.run(["git", "status", "--porcelain", "--untracked-files=no", "pfcourse", "tools"], cwd=ROOT,
                                 capture_output=True, text=True).stdout.strip())
     meta = {"file": f"{name}.csv", "code": "tools/studies/likelihood.py", "git_commit": commit,

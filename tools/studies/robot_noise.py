@@ -28,6 +28,8 @@ from pfcourse.study import run_study
 
 ROOT = Path(__file__).resolve().parents[2]
 OUT = ROOT / "book" / "data" / "likelihood"
+# the commit the study is launched from (recorded in the provenance, whatever is committed meanwhile)
+LAUNCH_COMMIT = subprocess.run(["git", "rev-parse", "HEAD"], cwd=ROOT, capture_output=True, text=True).stdout.strip()
 N_STEPS, RUNS, BASE_SEED = 200, 30, 6
 N_ML, N_EVAL, START = 300, 1000, (2.0, 2.0)
 ROBOT = RobotScenario().with_(n_steps=N_STEPS)
@@ -51,7 +53,7 @@ def main() -> None:
     table = run_study(robot_noise_run, {"n_particles": [N_ML]}, RUNS, base_seed=BASE_SEED, progress=False)
     OUT.mkdir(parents=True, exist_ok=True)
     table.drop(columns=["seconds"]).to_csv(OUT / "robot_noise.csv", index=False)
-    commit = subprocess.run(["git", "rev-parse", "HEAD"], cwd=ROOT, capture_output=True, text=True).stdout.strip()
+    commit = LAUNCH_COMMIT
     dirty = bool(subprocess.run(["git", "status", "--porcelain", "--untracked-files=no", "pfcourse", "tools"],
                                 cwd=ROOT, capture_output=True, text=True).stdout.strip())
     meta = {"file": "robot_noise.csv", "code": "tools/studies/robot_noise.py", "git_commit": commit,

@@ -34,6 +34,8 @@ from pfcourse.study import run_study
 
 ROOT = Path(__file__).resolve().parents[2]
 OUT = ROOT / "book" / "data" / "likelihood"
+# the commit the study is launched from (recorded in the provenance, whatever is committed meanwhile)
+LAUNCH_COMMIT = subprocess.run(["git", "rev-parse", "HEAD"], cwd=ROOT, capture_output=True, text=True).stdout.strip()
 
 SCENARIO_A = quadrant_scenario().with_(Qw=0.05**2 * np.eye(6), Rv=0.5**2 * np.eye(4))
 N_A, N_A_RUNS, A_SEED = [100, 400], 30, 4
@@ -74,7 +76,7 @@ def robot_run(seed: int, n_particles: int) -> dict:
 
 
 def provenance(name: str, parameters: dict, seconds: float) -> None:
-    commit = subprocess.run(["git", "rev-parse", "HEAD"], cwd=ROOT, capture_output=True, text=True).stdout.strip()
+    commit = LAUNCH_COMMIT
     dirty = bool(subprocess.run(["git", "status", "--porcelain", "--untracked-files=no", "pfcourse", "tools"],
                                 cwd=ROOT, capture_output=True, text=True).stdout.strip())
     meta = {"file": f"{name}.csv", "code": "tools/studies/smoothing.py", "git_commit": commit,
