@@ -15,9 +15,9 @@ is ``log Z^``), and which the Kalman filter computes exactly on a linear-Gaussia
 for every ``theta`` and resamples at every step with a measurement (``threshold = 1``):
 the random stream is then consumed identically for every ``theta`` (same initial draws,
 same transition noise, same resampling uniforms), so ``theta -> log Z^(theta)`` changes
-only through the weights, and is smooth between the rare values of ``theta`` at which a
-resampled index jumps.  An optimiser can then follow it
-(:func:`max_likelihood_scale`, scipy's bounded Brent search on ``log theta``).
+only through the weights: it is continuous except where a resampled index jumps (which,
+over a wide range of ``theta``, happens often: the curve is smooth only piecewise).
+:func:`max_likelihood_scale` maximises it with scipy's bounded Brent search on ``log theta``.
 
 **Particle marginal Metropolis-Hastings** (Andrieu, Doucet and Holenstein 2010),
 :func:`pmmh`: a random walk on ``u = log theta`` whose acceptance ratio uses the
