@@ -19,7 +19,7 @@ from pfcourse.diagnostics import (
 )
 from pfcourse.filter import ParticleFilter
 from pfcourse.resampling import multinomial, residual, stratified, systematic
-from pfcourse.robot import (
+from pfcourse.robot.scenario import (
     R_TRUE,
     RobotModel,
     _log_likelihood,

@@ -9,7 +9,7 @@ from scipy import stats
 
 from pfcourse.errors import ParameterError
 from pfcourse.landmarks import quadrant_scenario, simulate
-from pfcourse.likelihood import (
+from pfcourse.experiments.likelihood import (
     grid_posterior,
     integrated_autocorrelation_time,
     kalman_log_likelihood,
@@ -144,7 +144,7 @@ def test_bad_input_raises_named_errors(short):
 def test_two_scales_by_ml_reach_the_exact_maximum(short):
     """Joint (Qw, Rv) scales: Nelder-Mead on the exact curve ends at a maximum (no better neighbour)."""
     scenario, sim = short
-    from pfcourse.likelihood import max_likelihood_scales
+    from pfcourse.experiments.likelihood import max_likelihood_scales
 
     def f(t):
         return kalman_filter_ll(scenario, sim.Z, t)
@@ -160,12 +160,12 @@ def test_two_scales_by_ml_reach_the_exact_maximum(short):
 
 
 def kalman_filter_ll(scenario, Z, t):
-    from pfcourse.kalman import kalman_filter
+    from pfcourse import kalman_filter
     return kalman_filter(scenario.model(Qw=t[0] * scenario.Qw, Rv=t[1] * scenario.Rv), Z).log_likelihood
 
 
 def test_robot_likelihood_peaks_near_the_true_measurement_noise():
-    from pfcourse.likelihood import robot_log_likelihood
+    from pfcourse.experiments.likelihood import robot_log_likelihood
     from pfcourse.robot import RobotScenario, simulate_robot
 
     sim = simulate_robot(RobotScenario().with_(n_steps=150), 3)

@@ -11,9 +11,9 @@ from scipy import stats
 
 from pfcourse import LinearGaussianModel, ParticleFilter
 from pfcourse.errors import ParameterError, ShapeError
-from pfcourse.kalman import kalman_filter
+from pfcourse import kalman_filter
 from pfcourse.robot import RobotModel, RobotScenario, simulate_robot
-from pfcourse.smoothing import (ffbsm, linear_gaussian_log_transition, pairwise,
+from pfcourse.experiments.smoothing import (ffbsm, linear_gaussian_log_transition, pairwise,
                                 robot_transition_log_density, rts_smoother)
 
 

@@ -34,11 +34,11 @@ from scipy import stats
 
 from pfcourse import DegenerateWeightsError, ParticleFilter, kalman_filter
 from pfcourse.landmarks import quadrant_scenario, simulate
-from pfcourse.likelihood import (grid_posterior, integrated_autocorrelation_time,
+from pfcourse.experiments.likelihood import (grid_posterior, integrated_autocorrelation_time,
                                  kalman_log_likelihood, max_likelihood_scale, pf_log_likelihood)
-from pfcourse.plotting import COLORS, use_style
+from pfcourse.style import COLORS, use_style
 from pfcourse.robot import RobotModel, RobotScenario, simulate_robot
-from pfcourse.smoothing import (ffbsm, linear_gaussian_log_transition, pairwise,
+from pfcourse.experiments.smoothing import (ffbsm, linear_gaussian_log_transition, pairwise,
                                 robot_transition_log_density, rts_smoother)
 
 use_style()
@@ -306,7 +306,7 @@ glue("sd_theta_hi", float(sd_at[1.4]), display=False)
 # A maximum-likelihood value says nothing of how well the data pin $\theta$ down. The
 # posterior $p(\theta \mid z) \propto p(z \mid \theta)\, p(\theta)$ does. Here the prior is
 # log-uniform on $[0.1, 10]$ (flat in $u = \log\theta$), and the exact posterior is the
-# Kalman likelihood on a grid of $u$, normalised (`pfcourse.likelihood.grid_posterior`).
+# Kalman likelihood on a grid of $u$, normalised (`pfcourse.experiments.likelihood.grid_posterior`).
 #
 # PMMH {cite:p}`andrieu2010` is a Metropolis-Hastings random walk on $u$ that uses
 # $\hat Z$ in place of the likelihood: propose $u' = u + 0.25\,\varepsilon$, run a **fresh**
@@ -403,7 +403,7 @@ for n in pmmh_table.index:
 # tool estimates both scales at once from a run's measurements: the particle likelihood
 # with common random numbers (one seed, resampling at every measured step), maximised by
 # scipy's bounded Nelder-Mead on $(\log q, \log r)$, started at the hand-tuned $(2, 2)$
-# (`pfcourse.likelihood.max_likelihood_scales`; $N = 300$, a 200 s run). A filter with
+# (`pfcourse.experiments.likelihood.max_likelihood_scales`; $N = 300$, a 200 s run). A filter with
 # 1000 particles and a fresh seed is then run with the estimated scales, with the
 # hand-tuned ones and with the truth $(1, 1)$. `tools/studies/robot_noise.py` did this on
 # 30 seeded runs (30, because each needs about a hundred filter runs; provenance in
@@ -555,7 +555,7 @@ print(f"exact smoother / exact filter RMS error against the truth: median {np.me
 # $w \sim \mathcal N(0, Q_{est})$ and $u \mapsto f(x, u)$ invertible (a rotation and a
 # scaling by $\Delta t$), so
 # $f(x_k \mid x_{k-1}) = \mathcal N(u(x_{k-1}, x_k) - \tilde u_k;\, 0, Q_{est}) / \Delta t^3$
-# (`pfcourse.smoothing.robot_transition_log_density`, tested against the sampler). One run:
+# (`pfcourse.experiments.smoothing.robot_transition_log_density`, tested against the sampler). One run:
 # 160 s, no measurement for $t \in [60, 110)$ s, $N = 300$.
 
 # %%

@@ -27,8 +27,8 @@ from scipy import stats
 
 import pfcourse  # noqa: F401  (pins the arithmetic before numpy computes anything)
 from pfcourse.landmarks import quadrant_scenario, simulate
-from pfcourse.likelihood import kalman_log_likelihood, max_likelihood_scale, pf_log_likelihood, pmmh
-from pfcourse.study import replicate_seed, run_study
+from pfcourse.experiments.likelihood import kalman_log_likelihood, max_likelihood_scale, pf_log_likelihood, pmmh
+from pfcourse.experiments.study import replicate_seed, run_study
 
 ROOT = Path(__file__).resolve().parents[2]
 OUT = ROOT / "book" / "data" / "likelihood"

@@ -22,9 +22,9 @@ import numpy as np
 import pfcourse  # noqa: F401  (pins the arithmetic first)
 from pfcourse import ParticleFilter
 from pfcourse.diagnostics import nees
-from pfcourse.likelihood import max_likelihood_scales, robot_log_likelihood
+from pfcourse.experiments.likelihood import max_likelihood_scales, robot_log_likelihood
 from pfcourse.robot import ANGLE_INDICES, RobotModel, RobotScenario, rmse, simulate_robot
-from pfcourse.study import run_study
+from pfcourse.experiments.study import run_study
 
 ROOT = Path(__file__).resolve().parents[2]
 OUT = ROOT / "book" / "data" / "likelihood"

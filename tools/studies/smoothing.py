@@ -26,11 +26,11 @@ import numpy as np
 
 import pfcourse  # noqa: F401  (pins the arithmetic first)
 from pfcourse import ParticleFilter
-from pfcourse.kalman import kalman_filter
+from pfcourse import kalman_filter
 from pfcourse.landmarks import quadrant_scenario, simulate
 from pfcourse.robot import RobotModel, RobotScenario, simulate_robot
-from pfcourse.smoothing import ffbsm, linear_gaussian_log_transition, pairwise, robot_transition_log_density, rts_smoother
-from pfcourse.study import run_study
+from pfcourse.experiments.smoothing import ffbsm, linear_gaussian_log_transition, pairwise, robot_transition_log_density, rts_smoother
+from pfcourse.experiments.study import run_study
 
 ROOT = Path(__file__).resolve().parents[2]
 OUT = ROOT / "book" / "data" / "likelihood"
