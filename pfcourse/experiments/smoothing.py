@@ -1,0 +1,150 @@
+"""Smoothing: where was the state at time k, given every measurement up to the end?
+
+**Forward filtering, backward smoothing** (FFBSm, the marginal smoother of Doucet, Godsill
+and Andrieu 2000 and Godsill, Doucet and West 2004).  The filter's weighted clouds
+``{x_k^i, W_k^i}`` (``FilterResult`` with ``store_particles=True``) are reweighted backwards,
+from ``W_{K-1|K-1} = W_{K-1}``:
+
+.. math::
+
+   W_{k|K}^i = W_k^i \\sum_j W_{k+1|K}^j
+      \\frac{f(x_{k+1}^j \\mid x_k^i)}{\\sum_l W_k^l f(x_{k+1}^j \\mid x_k^l)},
+
+with ``f`` the transition density.  The particles stay where the filter put them; only
+their weights change.  Cost: ``N^2`` transition densities per step, ``O(K N^2)`` in all
+(against ``O(K N)`` for the filter).  Computed in the log domain (``logsumexp``).
+
+**Rauch-Tung-Striebel** (1965): the exact smoother of a linear-Gaussian model, from the
+Kalman filter's means and covariances (filterpy's ``KalmanFilter.rts_smoother``).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass
+
+import numpy as np
+from filterpy.kalman import KalmanFilter
+from scipy.linalg import solve_triangular
+from scipy.spatial.distance import cdist
+from scipy.special import logsumexp
+
+from pfcourse import ParameterError, ShapeError
+from pfcourse.angles import wrap_angle
+from pfcourse.diagnostics import weighted_covariance, weighted_mean
+from pfcourse.gaussian import gaussian_logpdf
+
+Array = np.ndarray
+
+
+@dataclass
+class SmootherResult:
+    """Smoothed weights ``(K, N)`` on the filter's particles, and the smoothed mean ``(K, d)`` and cov ``(K, d, d)``."""
+
+    weights: Array
+    mean: Array
+    cov: Array
+
+
+def pairwise(transition_log_density: Callable[[Array, Array, int], Array]) -> Callable[[Array, Array, int], Array]:
+    """Turn a row-by-row ``log f(new_i | old_i)`` into the matrix ``[log f(new_j | old_i)]_{j, i}`` (all ``N^2`` pairs)."""
+
+    def matrix(new: Array, old: Array, k: int) -> Array:
+        n_new, n_old = len(new), len(old)
+        rows = transition_log_density(np.repeat(new, n_old, axis=0), np.tile(old, (n_new, 1)), k)
+        return np.asarray(rows, dtype=float).reshape(n_new, n_old)
+
+    return matrix
+
+
+def linear_gaussian_log_transition(model) -> Callable[[Array, Array, int], Array]:
+    """``[log N(x_k^j; F x_{k-1}^i + B, Q)]_{j, i}`` by whitening with ``Q = L L^T`` and scipy's ``cdist``.
+
+    Same numbers as ``pairwise(model.transition_log_density)``, without forming ``N^2`` rows.
+    """
+    chol = np.linalg.cholesky(model.Q)
+    log_norm = -0.5 * model.dim_x * np.log(2 * np.pi) - float(np.sum(np.log(np.diag(chol))))
+
+    def matrix(new: Array, old: Array, k: int) -> Array:
+        a = solve_triangular(chol, np.asarray(new, dtype=float).T, lower=True).T
+        b = solve_triangular(chol, model.predict_mean(np.asarray(old, dtype=float)).T, lower=True).T
+        return log_norm - 0.5 * cdist(a, b, "sqeuclidean")
+
+    return matrix
+
+
+def ffbsm(
+    particles: Array,
+    weights: Array,
+    log_transition: Callable[[Array, Array, int], Array],
+    angle_indices: tuple[int, ...] = (),
+) -> SmootherResult:
+    """FFBSm marginal smoother (module docstring) on stored clouds ``particles`` ``(K, N, d)``, ``weights`` ``(K, N)``.
+
+    ``log_transition(new, old, k)`` returns the ``(N, N)`` matrix ``[log f(new_j | old_i)]_{j, i}``
+    for ``x_k = new``, ``x_{k-1} = old`` (:func:`pairwise` builds it from a row-by-row density).
+    """
+    particles = np.asarray(particles, dtype=float)
+    weights = np.asarray(weights, dtype=float)
+    if particles.ndim != 3 or weights.shape != particles.shape[:2]:
+        raise ShapeError(
+            f"particles must be (K, N, d) and weights (K, N); got {particles.shape} and {weights.shape} "
+            "(run the filter with store_particles=True)")
+    K, n, d = particles.shape
+    with np.errstate(divide="ignore"):
+        log_w = np.log(weights)
+    smoothed = np.empty((K, n))
+    smoothed[-1] = weights[-1]
+    for k in range(K - 2, -1, -1):
+        log_f = np.asarray(log_transition(particles[k + 1], particles[k], k + 1), dtype=float)  # [j, i]
+        if log_f.shape != (n, n):
+            raise ShapeError(f"step {k + 1}: log_transition returned shape {log_f.shape}, expected {(n, n)}")
+        if np.any(np.isnan(log_f) | (log_f == np.inf)):
+            raise ParameterError(f"step {k + 1}: the transition log-density returned NaN or +inf")
+        log_den = logsumexp(log_f + log_w[k][None, :], axis=1)           # [j]
+        with np.errstate(divide="ignore"):
+            log_next = np.log(smoothed[k + 1])
+        log_s = log_w[k] + logsumexp(log_next[:, None] + log_f - log_den[:, None], axis=0)
+        smoothed[k] = np.exp(log_s - logsumexp(log_s))
+    mean = np.empty((K, d))
+    cov = np.empty((K, d, d))
+    for k in range(K):
+        mean[k] = weighted_mean(particles[k], smoothed[k], angle_indices)
+        cov[k] = weighted_covariance(particles[k], smoothed[k], mean[k], angle_indices)
+    return SmootherResult(weights=smoothed, mean=mean, cov=cov)
+
+
+def rts_smoother(model, kalman_result) -> tuple[Array, Array]:
+    """Exact smoothed means ``(K, d)`` and covariances ``(K, d, d)`` of a linear-Gaussian model.
+
+    filterpy's ``rts_smoother``: ``G_k = P_k F^T (F P_k F^T + Q)^{-1}``,
+    ``m_{k|K} = m_k + G_k (m_{k+1|K} - F m_k)``,
+    ``P_{k|K} = P_k + G_k (P_{k+1|K} - F P_k F^T - Q) G_k^T``.  It has no control input, so
+    the model must have ``B = 0``.
+    """
+    if np.any(model.B != 0):
+        raise ParameterError("rts_smoother needs a model without the constant input B (B = 0)")
+    K = kalman_result.mean.shape[0]
+    kf = KalmanFilter(dim_x=model.dim_x, dim_z=model.dim_z)
+    mean, cov, _, _ = kf.rts_smoother(kalman_result.mean, kalman_result.cov,
+                                      Fs=[model.F] * K, Qs=[model.Q] * K)
+    return mean, cov
+
+
+def robot_transition_log_density(model, new: Array, old: Array, k: int) -> Array:
+    """``log p(x_k | x_{k-1})`` of :class:`~pfcourse.robot.RobotModel` (diagonal or full ``q_est``).
+
+    ``x_k = f(x_{k-1}, u~_k + w)``, ``w ~ N(0, q_est)``, and ``u -> f(x, u)`` is invertible:
+    ``u = (R(-theta_{k-1}) (p_k - p_{k-1}) / dt, wrap(theta_k - theta_{k-1}) / dt)``, with
+    Jacobian ``|det df/du| = dt^3`` (a rotation times ``dt``).  So
+    ``log p = log N(u - u~_k; 0, q_est) - 3 log dt`` (the heading's other branches,
+    ``2 pi`` away, are negligible for a small heading noise).
+    """
+    new = np.asarray(new, dtype=float)
+    old = np.asarray(old, dtype=float)
+    dt = model.dt
+    c, s = np.cos(old[:, 2]), np.sin(old[:, 2])
+    dx, dy = new[:, 0] - old[:, 0], new[:, 1] - old[:, 1]
+    u = np.column_stack([(c * dx + s * dy) / dt, (-s * dx + c * dy) / dt,
+                         wrap_angle(new[:, 2] - old[:, 2]) / dt])
+    return gaussian_logpdf(u - model.odometry[k], model.q_est) - 3.0 * np.log(dt)

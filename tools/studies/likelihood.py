@@ -1,0 +1,125 @@
+"""Heavy studies of Part V (the likelihood of a noise scale), stored under book/data/likelihood/.
+
+    .venv/bin/python tools/studies/likelihood.py [bias] [ml] [pmmh]
+
+* ``bias.csv``: the particle estimate of log p(z | theta = 1) minus the exact (Kalman) value,
+  on the chapter's dataset, for N in N_BIAS, N_BIAS_RUNS seeded filters each (run_study);
+* ``ml.csv``: on N_ML_DATASETS simulated datasets (seed = the run's seed), the maximum-likelihood
+  noise scale from the Kalman likelihood and from the particle likelihood (N_ML particles,
+  common random numbers: one filter seed per dataset for every theta);
+* ``pmmh.csv``: one PMMH chain per N in N_PMMH on the chapter's dataset.
+
+Each file has a ``.json`` beside it with its provenance (git commit, seeds, parameters, code).
+``tests/test_likelihood_data.py`` re-computes a seeded sample of the stored rows.
+"""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+from scipy import stats
+
+import pfcourse  # noqa: F401  (pins the arithmetic before numpy computes anything)
+from pfcourse.landmarks import quadrant_scenario, simulate
+from pfcourse.experiments.likelihood import kalman_log_likelihood, max_likelihood_scale, pf_log_likelihood, pmmh
+from pfcourse.experiments.study import replicate_seed, run_study
+
+ROOT = Path(__file__).resolve().parents[2]
+OUT = ROOT / "book" / "data" / "likelihood"
+# the commit the study is launched from (recorded in the provenance, whatever is committed meanwhile)
+LAUNCH_COMMIT = subprocess.run(["git", "rev-parse", "HEAD"], cwd=ROOT, capture_output=True, text=True).stdout.strip()
+
+# Scenario A with noise on every component (the particle filter's working regime) and a
+# moderately informative measurement; theta multiplies Rv.
+SCENARIO = quadrant_scenario().with_(Qw=0.05**2 * np.eye(6), Rv=0.5**2 * np.eye(4))
+NOISE = "Rv"
+DATA_SEED = 7            # the chapter's dataset
+BOUNDS = (0.1, 10.0)     # search interval and prior support of theta
+XATOL = 1e-3             # on log theta
+
+N_BIAS, N_BIAS_RUNS, BIAS_SEED = [100, 300, 1000], 200, 1
+N_ML, N_ML_DATASETS, ML_SEED = [300, 1000], 100, 2
+N_PMMH, PMMH_ITERATIONS, PMMH_STEP, PMMH_THETA0, PMMH_SEED = [100, 300, 1000], 1500, 0.25, 2.0, 3
+PRIOR = stats.uniform(np.log(BOUNDS[0]), np.log(BOUNDS[1]) - np.log(BOUNDS[0]))  # of u = log theta
+
+
+def chapter_data():
+    return simulate(SCENARIO, DATA_SEED)
+
+
+def bias_run(seed: int, n_particles: int) -> dict:
+    Z = chapter_data().Z
+    estimate = pf_log_likelihood(SCENARIO, Z, 1.0, n_particles, seed, NOISE)
+    return {"log_ratio": estimate - kalman_log_likelihood(SCENARIO, Z, 1.0, NOISE)}
+
+
+def ml_run(seed: int, n_particles: int) -> dict:
+    Z = simulate(SCENARIO, seed).Z
+    filter_seed = seed + 1  # one filter seed for every theta: common random numbers
+    theta_k, nfev_k = max_likelihood_scale(lambda t: kalman_log_likelihood(SCENARIO, Z, t, NOISE), BOUNDS, XATOL)
+    theta_p, nfev_p = max_likelihood_scale(
+        lambda t: pf_log_likelihood(SCENARIO, Z, t, n_particles, filter_seed, NOISE), BOUNDS, XATOL)
+    return {"theta_kalman": theta_k, "theta_pf": theta_p, "nfev_kalman": nfev_k, "nfev_pf": nfev_p}
+
+
+def pmmh_chain(n_particles: int, n_iterations: int = PMMH_ITERATIONS):
+    Z = chapter_data().Z
+    seed = replicate_seed(PMMH_SEED, n_particles)
+    chain = pmmh(lambda t, rng: pf_log_likelihood(SCENARIO, Z, t, n_particles, rng, NOISE),
+                 PRIOR, PMMH_THETA0, n_iterations, PMMH_STEP, seed)
+    return chain, seed
+
+
+def provenance(name: str, parameters: dict, seconds: float) -> None:
+    commit = LAUNCH_COMMIT
+    dirty = bool(subprocess.run(["git", "status", "--porcelain", "--untracked-files=no", "pfcourse", "tools"], cwd=ROOT,
+                                capture_output=True, text=True).stdout.strip())
+    meta = {"file": f"{name}.csv", "code": "tools/studies/likelihood.py", "git_commit": commit,
+            "working_tree_modified": dirty, "numpy": np.__version__, "wall_seconds": round(seconds, 1),
+            "scenario": "quadrant_scenario().with_(Qw=0.05**2 I6, Rv=0.5**2 I4), 50 samples; theta scales Rv",
+            **parameters}
+    (OUT / f"{name}.json").write_text(json.dumps(meta, indent=2) + "\n")
+
+
+def main(parts: list[str]) -> None:
+    OUT.mkdir(parents=True, exist_ok=True)
+    if "bias" in parts:
+        start = time.perf_counter()
+        table = run_study(bias_run, {"n_particles": N_BIAS}, N_BIAS_RUNS, base_seed=BIAS_SEED, progress=False)
+        table.drop(columns=["seconds"]).to_csv(OUT / "bias.csv", index=False)
+        provenance("bias", {"data_seed": DATA_SEED, "base_seed": BIAS_SEED, "n_runs": N_BIAS_RUNS,
+                            "n_particles": N_BIAS, "theta": 1.0,
+                            "seeds": "pfcourse.study.replicate_seed(base_seed, run)"},
+                   time.perf_counter() - start)
+    if "ml" in parts:
+        start = time.perf_counter()
+        table = run_study(ml_run, {"n_particles": N_ML}, N_ML_DATASETS, base_seed=ML_SEED, progress=False)
+        table.drop(columns=["seconds"]).to_csv(OUT / "ml.csv", index=False)
+        provenance("ml", {"base_seed": ML_SEED, "n_datasets": N_ML_DATASETS, "n_particles": N_ML,
+                          "bounds": BOUNDS, "xatol_log_theta": XATOL, "truth": 1.0,
+                          "seeds": "dataset: replicate_seed(base_seed, run); filter: dataset seed + 1"},
+                   time.perf_counter() - start)
+    if "pmmh" in parts:
+        start = time.perf_counter()
+        frames, seeds = [], {}
+        for n in N_PMMH:
+            chain, seeds[n] = pmmh_chain(n)
+            frames.append(pd.DataFrame({"n_particles": n, "iteration": np.arange(chain.theta.size),
+                                        "theta": chain.theta, "log_likelihood": chain.log_likelihood,
+                                        "accepted": chain.accepted}))
+        pd.concat(frames).to_csv(OUT / "pmmh.csv", index=False)
+        provenance("pmmh", {"data_seed": DATA_SEED, "n_particles": N_PMMH, "iterations": PMMH_ITERATIONS,
+                            "step_log_theta": PMMH_STEP, "theta0": PMMH_THETA0,
+                            "prior": f"log-uniform on {BOUNDS}", "chain_seeds": seeds,
+                            "seeds": "replicate_seed(3, n_particles)"},
+                   time.perf_counter() - start)
+
+
+if __name__ == "__main__":
+    main(sys.argv[1:] or ["bias", "ml", "pmmh"])
