@@ -40,7 +40,8 @@ def anatomy_row(seed: int, n_particles: int, within: float = 2.0) -> dict:
     ``nearest_m``: position distance from the truth to the nearest particle at step 1;
     ``consistent_1``: particles whose innovation at ``z_1`` is within ``within`` standard
     deviations (``sqrt(nu^T REst^-1 nu) < within``); ``expected_1``: its expectation
-    ``N pi within^2 s_r s_b r_1 / A`` (the volume of that set of poses over the prior's);
+    ``N pi within^2 s_r s_b r_1 f / A`` (the volume of that set of poses over the prior's; ``f``
+    the fraction of the ring of radius ``r_1`` on the map);
     ``consistent_3``: particles within ``within`` of each of ``z_1, z_2, z_3``;
     ``ess_1``: effective sample size after weighting by ``z_1``.
     """
@@ -59,7 +60,12 @@ def anatomy_row(seed: int, n_particles: int, within: float = 2.0) -> dict:
             out["consistent_1"] = int(ok.sum())
             s_r, s_b = np.sqrt(np.diag(model.r_est))
             area = (2 * model.half_width) ** 2
-            out["expected_1"] = float(n_particles * math.pi * within**2 * s_r * s_b * sim.measurements[1, 1] / area)
+            r = sim.measurements[1, 1]
+            phi = np.linspace(-np.pi, np.pi, 3600, endpoint=False)
+            lm = sim.landmarks[int(sim.measurements[1, 0])]
+            on_map = np.mean((np.abs(lm[0] + r * np.cos(phi)) <= model.half_width)
+                             & (np.abs(lm[1] + r * np.sin(phi)) <= model.half_width))
+            out["expected_1"] = float(n_particles * math.pi * within**2 * s_r * s_b * r * on_map / area)
             w = np.exp(model.log_likelihood(x, sim.measurements[1], 1) - np.max(model.log_likelihood(x, sim.measurements[1], 1)))
             out["ess_1"] = float(w.sum() ** 2 / np.sum(w**2))
     out["consistent_3"] = int(ok.sum())
