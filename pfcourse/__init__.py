@@ -6,11 +6,18 @@ The notebooks teach; the plumbing lives here.  Main entry points:
   loops compiled with numba in :mod:`pfcourse.kernels`);
 * :mod:`pfcourse.resampling` - multinomial, stratified, systematic, residual;
 * :mod:`pfcourse.diagnostics` - ESS, weighted moments, NEES, ellipses;
-* :mod:`pfcourse.landmarks` - scenario A (linear landmark model) and its simulator;
-* :func:`pfcourse.kalman.kalman_filter` - the exact Kalman reference (filterpy).
+* :mod:`pfcourse.landmarks`, :mod:`pfcourse.robot`, :mod:`pfcourse.terrain` - the three scenarios;
+* :mod:`pfcourse.experiments` - Monte Carlo studies (any executor) and comparisons;
+* :func:`pfcourse.landmarks.kalman.kalman_filter` - the exact Kalman reference (filterpy).
 """
 
-from .errors import (
+# First, before anything loads NumPy: the CPU code paths the book's floats were computed with
+# (pfcourse.arithmetic; pins them if NumPy is not loaded yet, warns once if it was, unpinned).
+from pfcourse import arithmetic as _arithmetic
+
+_arithmetic.check()
+
+from pfcourse.errors import (  # noqa: E402
     CovarianceError,
     DegenerateWeightsError,
     NumericalError,
@@ -19,17 +26,17 @@ from .errors import (
     ShapeError,
     WeightError,
 )
-from .filter import (
+from pfcourse.filter import (  # noqa: E402
     DensityProposal,
     FilterResult,
     ParticleFilter,
     StateSpaceModel,
     TransitionProposal,
 )
-from .kalman import KalmanResult, kalman_filter
-from .linear_gaussian import LinearGaussianModel, OptimalProposal
+from pfcourse.landmarks.kalman import KalmanResult, kalman_filter  # noqa: E402
+from pfcourse.landmarks.model import LinearGaussianModel, OptimalProposal  # noqa: E402
 
-__version__ = "0.1.0"
+__version__ = "0.2.0"
 
 __all__ = [
     "CovarianceError",

@@ -1,12 +1,18 @@
 """Angles: wrapping to (-pi, pi] and the weighted circular mean.
 
 A heading of 179 deg and one of -179 deg are 2 deg apart, but their arithmetic
-mean is 0 deg: every angle in the package goes through these two functions.
+mean is 0 deg: every angle in the package goes through these functions.
 """
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
+
+from pfcourse.compiled import jit
+
+TWO_PI = 2.0 * np.pi
 
 
 def wrap_angle(angle):
@@ -17,6 +23,28 @@ def wrap_angle(angle):
     """
     angle = np.asarray(angle, dtype=float)
     return angle - 2.0 * np.pi * np.ceil((angle - np.pi) / (2.0 * np.pi))
+
+
+@jit
+def wrap(angle: float) -> float:
+    """:func:`wrap_angle` of one float, compiled (for loops over particles and the Kalman filters' steps).
+
+    The same formula, so the same float: ``wrap(a) = a - 2 pi ceil((a - pi) / (2 pi))``.
+    """
+    return angle - TWO_PI * math.ceil((angle - np.pi) / TWO_PI)
+
+
+def sigma_point_mean(points: np.ndarray, weights: np.ndarray, angle_indices=()) -> np.ndarray:
+    """Weighted mean ``sum_i w_i p_i`` of the rows of ``points`` ``(n, d)``, with the circular mean
+    ``atan2(sum_i w_i sin a_i, sum_i w_i cos a_i)`` for the components in ``angle_indices``.
+
+    The weights may be negative (unscented-transform weights), so no resultant check is made:
+    the mean function of every UKF in the package.
+    """
+    m = weights @ points
+    for j in angle_indices:
+        m[j] = np.arctan2(weights @ np.sin(points[:, j]), weights @ np.cos(points[:, j]))
+    return m
 
 
 def circular_mean(angles: np.ndarray, weights: np.ndarray | None = None, axis: int = 0):

@@ -9,7 +9,10 @@ from __future__ import annotations
 
 import numpy as np
 
-from .errors import CovarianceError, ParameterError, ShapeError
+from pfcourse.errors import CovarianceError, ParameterError, ShapeError
+
+#: The array type of every signature in the package (one alias, imported from here).
+Array = np.ndarray
 
 
 def as_vector(value, name: str, size: int | None = None) -> np.ndarray:
@@ -79,17 +82,44 @@ def covariance_factor(cov: np.ndarray) -> np.ndarray:
         return eigvec * np.sqrt(np.clip(eigval, 0.0, None))
 
 
+def is_missing(z: Array | None) -> bool:
+    """``True`` when the measurement is absent: ``None`` or every entry NaN."""
+    if z is None:
+        return True
+    z = np.asarray(z, dtype=float)
+    return bool(z.size == 0 or np.all(np.isnan(z)))
+
+
 def check_probability(value: float, name: str) -> float:
     """Check that ``value`` lies in the closed interval [0, 1]."""
+    if isinstance(value, (bool, np.bool_)) or not isinstance(value, (int, float, np.integer, np.floating)):
+        raise ParameterError(f"{name} must be a real number in [0, 1], got {value!r}")
     value = float(value)
-    if not 0.0 <= value <= 1.0:
+    if not 0.0 <= value <= 1.0:  # also refuses NaN
         raise ParameterError(f"{name} must lie in [0, 1], got {value}")
+    return value
+
+
+def check_real(value, name: str, *, low: float = -np.inf, high: float = np.inf,
+               low_open: bool = False) -> float:
+    """Check that ``value`` is a finite real number (not a bool) in ``[low, high]``
+    (``(low, high]`` with ``low_open``) and return it as a float."""
+    if isinstance(value, (bool, np.bool_)) or not isinstance(value, (int, float, np.integer, np.floating)):
+        raise ParameterError(f"{name} must be a real number, got {value!r}")
+    value = float(value)
+    if not np.isfinite(value):
+        raise ParameterError(f"{name} must be finite, got {value}")
+    if value < low or value > high or (low_open and value == low):
+        bracket = "(" if low_open else "["
+        raise ParameterError(f"{name} must lie in {bracket}{low}, {high}], got {value}")
     return value
 
 
 def check_count(value: int, name: str, minimum: int = 1) -> int:
     """Check that ``value`` is an integer at least ``minimum``."""
-    if isinstance(value, bool) or int(value) != value:
+    if isinstance(value, (bool, np.bool_)) or not isinstance(value, (int, float, np.integer, np.floating)):
+        raise ParameterError(f"{name} must be an integer, got {value!r}")
+    if not np.isfinite(value) or int(value) != value:
         raise ParameterError(f"{name} must be an integer, got {value!r}")
     if value < minimum:
         raise ParameterError(f"{name} must be at least {minimum}, got {value}")

@@ -18,8 +18,8 @@ import numpy as np
 from scipy import stats
 from scipy.special import logsumexp
 
-from .angles import circular_mean, wrap_angle
-from .errors import DegenerateWeightsError, ShapeError
+from pfcourse.angles import circular_mean, wrap_angle
+from pfcourse.errors import DegenerateWeightsError, ShapeError, WeightError
 
 
 def normalize_log_weights(log_weights: np.ndarray) -> tuple[np.ndarray, float]:
@@ -29,7 +29,9 @@ def normalize_log_weights(log_weights: np.ndarray) -> tuple[np.ndarray, float]:
     ``e^{-10000}``, zero in floating point) still normalise correctly.  Raises
     :class:`DegenerateWeightsError` when every weight is zero (all ``-inf``).
     """
-    log_weights = np.asarray(log_weights, dtype=float)
+    log_weights = _real_array(log_weights, "log_weights", ndim=1)
+    if np.isnan(log_weights).any() or (log_weights == np.inf).any():
+        raise WeightError("normalize_log_weights: log_weights contain NaN or +inf")
     log_total = _logsumexp(log_weights)
     if not np.isfinite(log_total):
         raise DegenerateWeightsError(
@@ -66,9 +68,32 @@ def _logsumexp(a: np.ndarray) -> float:
     return float(out[0])
 
 
+def _real_array(value, name: str, ndim: int | None = None) -> np.ndarray:
+    """``value`` as a float array; refuses None, complex, object, bool and empty input (named errors)."""
+    raw = np.asarray(value) if value is not None else None
+    if raw is None or raw.dtype.kind not in "fiu" or raw.dtype == bool:
+        kind = "None" if raw is None else f"dtype {raw.dtype}"
+        raise WeightError(f"{name} must be a real array, got {kind}")
+    if ndim is not None and raw.ndim != ndim:
+        raise ShapeError(f"{name} must have {ndim} dimension(s), got shape {raw.shape}")
+    if raw.size == 0:
+        raise ShapeError(f"{name} must not be empty")
+    return raw.astype(float, copy=False)
+
+
+def _check_weights(weights, name: str = "weights") -> np.ndarray:
+    """Normalised weights: 1-D, finite, non-negative, summing to 1 (to 1e-6)."""
+    w = _real_array(weights, name, ndim=1)
+    if not np.isfinite(w).all() or (w < 0).any():
+        raise WeightError(f"{name} must be finite and non-negative")
+    if abs(w.sum() - 1.0) > 1e-6:
+        raise WeightError(f"{name} must sum to 1, got {w.sum():.6g}; normalise them first")
+    return w
+
+
 def effective_sample_size(weights: np.ndarray) -> float:
     """Effective sample size ``1 / sum W_i^2`` of normalised weights ``W`` (between 1 and N)."""
-    weights = np.asarray(weights, dtype=float)
+    weights = _check_weights(weights)
     return float(1.0 / np.sum(weights**2))
 
 
@@ -76,7 +101,10 @@ def weighted_mean(
     particles: np.ndarray, weights: np.ndarray, angle_indices: Sequence[int] = ()
 ) -> np.ndarray:
     """Weighted mean ``sum_i W_i x_i`` of ``(N, d)`` particles; circular mean on ``angle_indices``."""
-    particles = np.asarray(particles, dtype=float)
+    particles = _real_array(particles, "particles", ndim=2)
+    weights = _check_weights(weights)
+    if weights.shape[0] != particles.shape[0]:
+        raise ShapeError(f"weights have length {weights.shape[0]} but there are {particles.shape[0]} particles")
     mean = weights @ particles
     for j in angle_indices:
         mean[j] = circular_mean(particles[:, j], weights)
@@ -90,7 +118,10 @@ def weighted_covariance(
     angle_indices: Sequence[int] = (),
 ) -> np.ndarray:
     """Weighted covariance ``sum_i W_i (x_i - m)(x_i - m)^T`` (angle deviations wrapped)."""
-    particles = np.asarray(particles, dtype=float)
+    particles = _real_array(particles, "particles", ndim=2)
+    weights = _check_weights(weights)
+    if weights.shape[0] != particles.shape[0]:
+        raise ShapeError(f"weights have length {weights.shape[0]} but there are {particles.shape[0]} particles")
     if mean is None:
         mean = weighted_mean(particles, weights, angle_indices)
     dev = particles - mean

@@ -51,5 +51,14 @@ class NumericalError(StepError, FloatingPointError):
     """A model returned NaN (or +inf) where a number was needed."""
 
 
+class ModelError(StepError, TypeError):
+    """A model (or proposal, resampler, jitter) is malformed or returned something that is not
+    a real array of the right kind (None, complex, object, a missing method)."""
+
+
+class MeasurementError(PfcourseError, ValueError):
+    """Measurements given to a filter are malformed (inconsistent shapes, complex, infinite)."""
+
+
 class OffMapError(PfcourseError, ValueError):
     """A point lies outside a terrain map, where no height is known."""

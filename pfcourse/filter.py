@@ -27,7 +27,7 @@ Steps 3 and 4 run as compiled loops (:mod:`pfcourse.kernels`): one pass over the
 for the weights, the ESS and the log-likelihood increment (the same floats as
 :func:`~pfcourse.diagnostics.normalize_log_weights`), two for the moments, one merge pass
 for the resampled indices.  The model's own methods are plain NumPy unless the model
-compiles them too (:class:`pfcourse.robot.RobotModel` does).
+compiles them too (:class:`pfcourse.robot.scenario.RobotModel` does).
 """
 
 from __future__ import annotations
@@ -38,12 +38,18 @@ from typing import Protocol
 
 import numpy as np
 
-from .checks import check_count, check_probability
+from pfcourse.checks import Array, check_count, check_probability, is_missing
 from . import kernels
-from .errors import DegenerateWeightsError, NumericalError, ShapeError
-from .resampling import get_resampler
+from pfcourse.errors import (
+    DegenerateWeightsError,
+    MeasurementError,
+    ModelError,
+    NumericalError,
+    ParameterError,
+    ShapeError,
+)
+from pfcourse.resampling import get_resampler
 
-Array = np.ndarray
 Measurement = Array | None
 
 
@@ -128,8 +134,8 @@ class DensityProposal:
     def propose(self, model, particles, z, k, rng):
         transition_log_density = getattr(model, "transition_log_density", None)
         if transition_log_density is None:
-            raise TypeError(
-                "DensityProposal needs model.transition_log_density(new, old, k) to weight "
+            raise ModelError(
+                f"step {k}: DensityProposal needs model.transition_log_density(new, old, k) to weight "
                 "the particles"
             )
         new = self.sample(particles, z, k, rng)
@@ -175,14 +181,6 @@ class FilterResult:
         return int(np.sum(self.resampled))
 
 
-def is_missing(z: Measurement) -> bool:
-    """``True`` when the measurement is absent: ``None`` or every entry NaN."""
-    if z is None:
-        return True
-    z = np.asarray(z, dtype=float)
-    return bool(z.size == 0 or np.all(np.isnan(z)))
-
-
 class ParticleFilter:
     """Sequential importance sampling with optional resampling (SIS / SIR).
 
@@ -216,10 +214,27 @@ class ParticleFilter:
         proposal: Proposal | None = None,
         jitter: Callable[[Array, np.random.Generator], Array] | None = None,
     ) -> None:
+        for attribute in ("sample_initial", "sample_transition", "log_likelihood"):
+            if not callable(getattr(model, attribute, None)):
+                raise ModelError(f"the model has no callable {attribute} (see pfcourse.Model)")
+        self.dim_x = check_count(getattr(model, "dim_x", None), "model.dim_x")
         self.model = model
         self.n_particles = check_count(n_particles, "n_particles")
         self.threshold = check_probability(threshold, "threshold")
         self.resampler = get_resampler(resampler)
+        self._custom_resampler = not isinstance(resampler, str)
+        if proposal is not None and not callable(getattr(proposal, "propose", None)):
+            raise ModelError(f"proposal must have a propose(model, particles, z, k, rng) method, got {proposal!r}")
+        if jitter is not None and not callable(jitter):
+            raise ModelError(f"jitter must be a function (particles, rng) -> particles, got {jitter!r}")
+        angles = getattr(model, "angle_indices", ())
+        try:
+            angles = tuple(angles)
+        except TypeError:
+            raise ModelError(f"model.angle_indices must be a sequence of state indices, got {angles!r}") from None
+        for a in angles:
+            if isinstance(a, (bool, np.bool_)) or not isinstance(a, (int, np.integer)) or not 0 <= a < self.dim_x:
+                raise ModelError(f"model.angle_indices must hold integers in [0, {self.dim_x}), got {angles!r}")
         self.proposal = proposal if proposal is not None else TransitionProposal()
         self.angle_indices = tuple(getattr(model, "angle_indices", ()))
         self.jitter = jitter
@@ -238,16 +253,29 @@ class ParticleFilter:
         weighted by ``z_0`` if present.  ``rng`` is a ``numpy.random.Generator``
         or an integer seed: the same seed gives the same result.
         """
-        rng = np.random.default_rng(rng)
-        n, d = self.n_particles, int(self.model.dim_x)
+        if isinstance(rng, (bool, np.bool_)):
+            raise ModelError(f"rng must be a numpy Generator or an integer seed, got {rng!r}")
+        try:
+            rng = np.random.default_rng(rng)
+        except (TypeError, ValueError) as exc:
+            raise ModelError(f"rng must be a numpy Generator or an integer seed, got {rng!r} ({exc})") from None
+        n, d = self.n_particles, self.dim_x
+        measurements = self._check_measurements(measurements)
         n_steps = len(measurements)
-        mean = np.empty((n_steps, d))
-        cov = np.empty((n_steps, d, d))
-        ess = np.empty(n_steps)
-        resampled = np.zeros(n_steps, dtype=bool)
-        log_inc_total = np.zeros(n_steps)
-        stored_x = np.empty((n_steps, n, d)) if store_particles else None
-        stored_w = np.empty((n_steps, n)) if store_particles else None
+        try:
+            mean = np.empty((n_steps, d))
+            cov = np.empty((n_steps, d, d))
+            ess = np.empty(n_steps)
+            resampled = np.zeros(n_steps, dtype=bool)
+            log_inc_total = np.zeros(n_steps)
+            stored_x = np.empty((n_steps, n, d)) if store_particles else None
+            stored_w = np.empty((n_steps, n)) if store_particles else None
+            np.empty((n, d))  # the cloud itself
+        except (MemoryError, ValueError):
+            raise ParameterError(
+                f"before step 0: n_particles={n}, dim_x={d} and {n_steps} steps need more memory "
+                "than this machine has"
+            ) from None
 
         particles = None
         log_weights = np.full(n, -np.log(n))
@@ -259,26 +287,39 @@ class ParticleFilter:
             missing_steps = np.isnan(measurements.reshape(n_steps, -1)).all(axis=1)  # is_missing, per row
         else:
             missing_steps = [is_missing(z) for z in measurements]
+        default_proposal = type(self.proposal) is TransitionProposal
         for k in range(n_steps):
             z = measurements[k]
             missing = missing_steps[k]
             if not missing:
                 z = np.asarray(z, dtype=float)
+            # particles are checked before the model's likelihood sees them
             if k == 0:
-                particles = self.model.sample_initial(n, rng)
+                particles = self._check_particles(self.model.sample_initial(n, rng), k, "sample_initial")
                 log_inc = None if missing else self.model.log_likelihood(particles, z, k)
-            elif missing:
-                particles = self.model.sample_transition(particles, k, rng)
-                log_inc = None
+            elif missing or default_proposal:
+                particles = self._check_particles(
+                    self.model.sample_transition(particles, k, rng), k, "sample_transition"
+                )
+                log_inc = None if missing else self.model.log_likelihood(particles, z, k)
             else:
-                particles, log_inc = self.proposal.propose(self.model, particles, z, k, rng)
-            particles = self._check_particles(particles, k)
+                proposed = self.proposal.propose(self.model, particles, z, k, rng)
+                if not isinstance(proposed, tuple) or len(proposed) != 2:
+                    raise ModelError(f"step {k}: proposal.propose must return (particles, log_increments)", step=k)
+                particles = self._check_particles(proposed[0], k, "proposal.propose")
+                log_inc = proposed[1]
 
-            if log_inc is not None:
+            if not missing:
                 log_inc = self._check_log_increments(log_inc, k)
                 weights = np.empty(n)
+                top = log_inc.max()
+                shift = top if 700.0 < abs(top) < np.inf else 0.0  # weights are invariant to a constant
+                if shift != 0.0:
+                    with np.errstate(over="ignore"):  # -1e308 - 1e308 = -inf: a zero weight, as it should
+                        log_inc = log_inc - shift
                 log_inc_total[k], ess[k] = kernels.normalize_step(log_weights, log_inc, weights, scratch)
-                if log_inc_total[k] == -np.inf:
+                log_inc_total[k] += shift
+                if log_inc_total[k] == -np.inf or top == -np.inf:
                     raise DegenerateWeightsError(
                         f"step {k}: every particle has zero likelihood for the measurement "
                         f"{np.array2string(z, precision=4)}; the filter has lost track "
@@ -293,9 +334,12 @@ class ParticleFilter:
                 stored_x[k] = particles
                 stored_w[k] = weights
             if ess[k] < self.threshold * n * (1.0 - 1e-12):
-                particles = kernels.gather_rows(particles, self.resampler(weights, rng))
+                indices = self.resampler(weights, rng)
+                if self._custom_resampler:
+                    indices = self._check_indices(indices, k)
+                particles = kernels.gather_rows(particles, indices)
                 if self.jitter is not None:
-                    particles = self._check_particles(self.jitter(particles, rng), k)
+                    particles = self._check_particles(self.jitter(particles, rng), k, "jitter")
                 log_weights = np.full(n, -np.log(n))
                 weights = np.full(n, 1.0 / n)
                 resampled[k] = True
@@ -316,22 +360,86 @@ class ParticleFilter:
             },
         )
 
-    def _check_particles(self, particles: Array, k: int) -> Array:
-        particles = np.asarray(particles, dtype=float)
-        expected = (self.n_particles, int(self.model.dim_x))
+    def _check_measurements(self, measurements):
+        """Check the measurements once, before the run: a sequence of real arrays of one shape."""
+        if isinstance(measurements, (str, bytes)) or not hasattr(measurements, "__len__") \
+                or not hasattr(measurements, "__getitem__"):
+            raise MeasurementError(
+                f"measurements must be a sequence or an array (one entry per step), got {type(measurements).__name__}"
+            )
+        if isinstance(measurements, np.ndarray):
+            if measurements.ndim == 0:
+                raise MeasurementError("measurements must have one entry per step, got a 0-d array")
+            if measurements.dtype.kind not in "fiu":
+                measurements = list(measurements)
+            else:
+                if np.isinf(measurements).any():
+                    raise MeasurementError("measurements contain +/-inf (use NaN for a missing value)")
+                return measurements
+        shape = None
+        for k, z in enumerate(measurements):
+            if z is None:
+                continue
+            arr = np.asarray(z)
+            if arr.dtype.kind not in "fiu" or arr.dtype == bool:
+                raise MeasurementError(
+                    f"step {k}: the measurement must be a real array, got dtype {arr.dtype} ({z!r:.60})"
+                )
+            if np.isinf(arr).any():
+                raise MeasurementError(f"step {k}: the measurement contains +/-inf (use NaN for a missing value)")
+            if arr.size == 0 or np.isnan(arr.astype(float)).all():
+                continue
+            if shape is None:
+                shape = arr.shape
+            elif arr.shape != shape:
+                raise MeasurementError(
+                    f"step {k}: the measurement has shape {arr.shape}, earlier ones have {shape}"
+                )
+        return measurements
+
+    def _check_indices(self, indices, k: int) -> np.ndarray:
+        """A custom resampler's output must be N integer indices in [0, N) (checked before the compiled gather)."""
+        arr = np.asarray(indices)
+        n = self.n_particles
+        if arr.dtype.kind not in "iu" or arr.dtype == bool:
+            raise ModelError(f"step {k}: the resampler returned dtype {arr.dtype}, expected integer indices", step=k)
+        if arr.shape != (n,):
+            raise ShapeError(f"step {k}: the resampler returned indices of shape {arr.shape}, expected ({n},)")
+        if n and (arr.min() < 0 or arr.max() >= n):
+            raise ShapeError(
+                f"step {k}: the resampler returned indices outside [0, {n}) (min {arr.min()}, max {arr.max()})"
+            )
+        return arr.astype(np.int64, copy=False)
+
+    def _check_particles(self, particles: Array, k: int, source: str = "the model") -> Array:
+        raw = np.asarray(particles) if particles is not None else None
+        if raw is None or raw.dtype.kind not in "fiu" or raw.dtype == bool:
+            kind = "None" if raw is None else f"dtype {raw.dtype}"
+            raise ModelError(f"step {k}: {source} returned {kind}, expected a real array of particles", step=k)
+        particles = raw.astype(float, copy=False)
+        expected = (self.n_particles, self.dim_x)
         if particles.shape != expected:
             raise ShapeError(
-                f"step {k}: the model returned particles of shape {particles.shape}, "
+                f"step {k}: {source} returned particles of shape {particles.shape}, "
                 f"expected {expected}"
             )
         if not kernels.finite_minimum(particles.ravel())[0]:
             raise NumericalError(
-                f"step {k}: the model produced NaN or infinite particle states", step=k
+                f"step {k}: {source} produced NaN or infinite particle states", step=k
             )
         return particles
 
     def _check_log_increments(self, log_inc: Array, k: int) -> Array:
-        log_inc = np.asarray(log_inc, dtype=float)
+        raw = np.asarray(log_inc) if log_inc is not None else None
+        if raw is None or raw.dtype.kind not in "fiu" or raw.dtype == bool:
+            kind = "None" if raw is None else f"dtype {raw.dtype}"
+            raise ModelError(
+                f"step {k}: the log-likelihood (or proposal's log-increment) is {kind}, "
+                "expected a real array (return -inf for impossible particles; a missing "
+                "measurement is None or NaN in the measurements, not in the likelihood)",
+                step=k,
+            )
+        log_inc = raw.astype(float, copy=False)
         if log_inc.shape != (self.n_particles,):
             raise ShapeError(
                 f"step {k}: the log-likelihood has shape {log_inc.shape}, "

@@ -18,20 +18,21 @@ from __future__ import annotations
 import numpy as np
 from scipy.linalg import solve_triangular
 
-from .errors import CovarianceError
+from pfcourse.errors import CovarianceError
 
 LOG_2PI = float(np.log(2.0 * np.pi))
 
 
-def gaussian_logpdf(residuals: np.ndarray, cov: np.ndarray) -> np.ndarray:
-    """Log-density of ``N(0, cov)`` at each row of ``residuals`` (shape ``(n, d)``)."""
+def gaussian_logpdf(residuals: np.ndarray, cov: np.ndarray, name: str = "measurement covariance") -> np.ndarray:
+    """Log-density of ``N(0, cov)`` at each row of ``residuals`` (shape ``(n, d)``); ``name``
+    names ``cov`` in the error raised when it is not positive definite."""
     residuals = np.atleast_2d(residuals)
     d = residuals.shape[-1]
     try:
         chol = np.linalg.cholesky(cov)
     except np.linalg.LinAlgError as exc:
         raise CovarianceError(
-            "measurement covariance is not positive definite, the Gaussian density is undefined"
+            f"{name} is not positive definite, the Gaussian density is undefined"
         ) from exc
     whitened = solve_triangular(chol, residuals.T, lower=True, check_finite=False)
     mahalanobis = np.einsum("ij,ij->j", whitened, whitened)

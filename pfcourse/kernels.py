@@ -29,20 +29,13 @@ from __future__ import annotations
 
 import math
 
-import numba
 import numpy as np
+
+from pfcourse.angles import wrap  # noqa: F401  (used by the loops below)
+from pfcourse.compiled import jit
 
 TWO_PI = 2.0 * np.pi
 _LARGEST_BELOW_ONE = float(np.nextafter(1.0, 0.0))
-
-jit = numba.njit(cache=True, nogil=True)
-
-
-@jit
-def wrap(angle: float) -> float:
-    """``wrap(a) = a - 2 pi ceil((a - pi) / (2 pi))`` in (-pi, pi], the float of :func:`pfcourse.angles.wrap_angle`."""
-    return angle - TWO_PI * math.ceil((angle - np.pi) / TWO_PI)
-
 
 @jit
 def _pairwise_block(a, start, n):

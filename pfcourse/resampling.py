@@ -57,7 +57,11 @@ _SNAP = 8 * np.finfo(np.float64).eps
 
 def _validated(weights: np.ndarray, n: int | None) -> tuple[np.ndarray, int]:
     """Check the weights and ``n``; return the renormalised weights and ``n``."""
-    w = np.asarray(weights, dtype=np.float64)
+    raw = np.asarray(weights) if weights is not None else None
+    if raw is None or raw.dtype.kind not in "fiu" or raw.dtype == bool:
+        kind = "None" if raw is None else f"dtype {raw.dtype}"
+        raise WeightError(f"weights must be a real array, got {kind}")
+    w = raw.astype(np.float64, copy=False)
     if w.ndim != 1:
         raise WeightError(f"weights must be a 1-D array, got shape {w.shape}")
     if w.size == 0:

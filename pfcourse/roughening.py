@@ -25,7 +25,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .errors import ParameterError, ShapeError
+from pfcourse.errors import ParameterError, ShapeError
 
 
 def roughening_scale(particles: np.ndarray, K: float = 0.2) -> np.ndarray:

@@ -5,8 +5,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from pfcourse.kalman import kalman_filter
-from pfcourse.landmarks import quadrant_scenario, simulate
+from pfcourse.landmarks.kalman import kalman_filter
+from pfcourse.landmarks.scenario import quadrant_scenario, simulate
 
 
 @pytest.fixture(scope="session")

@@ -14,7 +14,7 @@ from pathlib import Path
 import numpy as np
 
 from pfcourse.filter import ParticleFilter
-from pfcourse.robot import RobotModel, simulate_robot
+from pfcourse.robot.scenario import RobotModel, simulate_robot
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "bench"))
 from loop_filters import robot_loop_filter  # noqa: E402

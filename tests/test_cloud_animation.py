@@ -8,11 +8,11 @@ matplotlib.use("Agg")
 
 import pytest
 
-from pfcourse.cloud_animation import animate_clouds
+from pfcourse.figures.clouds import animate_clouds
 from pfcourse.errors import ParameterError
 from pfcourse.filter import ParticleFilter
-from pfcourse.kalman import kalman_filter
-from pfcourse.landmarks import quadrant_scenario, simulate
+from pfcourse.landmarks.kalman import kalman_filter
+from pfcourse.landmarks.scenario import quadrant_scenario, simulate
 
 
 def test_frames_and_artists():
@@ -32,3 +32,22 @@ def test_missing_particles_raise_a_named_error():
     res = ParticleFilter(model, 20).run(sim.Z, rng=1)
     with pytest.raises(ParameterError):
         animate_clouds({"SIR": res}, kalman_filter(model, sim.Z), sim.X, frames=range(3))
+
+
+def test_one_function_serves_the_robot_and_the_terrain_views():
+    """The robot view (window following the truth, hooks for the landmarks and the observed one)
+    and the terrain view (km, particles drawn by weight, paths) are options of the same function."""
+    from pfcourse.figures.clouds import animate_clouds as animate
+    from pfcourse.robot import RobotModel, simulate_robot
+    from pfcourse.robot.figures import landmarks_background, sight_overlay
+
+    sim = simulate_robot(None, 1, n_steps=12)
+    res = ParticleFilter(RobotModel.for_simulation(sim), 100).run(sim.measurements, 1, store_particles=True)
+    robot = animate(
+        {"PF": res}, None, sim.truth, [0, 5, 11], None, follow=2.0, ellipses=False, trail=True,
+        background=landmarks_background(sim), overlay=sight_overlay(sim), legend=True,
+    )
+    assert robot.to_jshtml().count("data:image/png") == 3
+    terrain_like = animate({"PF": res}, None, sim.truth, [0, 11], None, blocks=[(0, 1)], ellipses=False,
+                           scale=1e-3, unit="km", max_points=30, by_weight=True)
+    assert terrain_like.to_jshtml().count("data:image/png") == 2

@@ -1,4 +1,4 @@
-"""NIS and predictive moments, the terrain UKF, and the replayed Kalman innovations of the comparison."""
+"""NIS and predictive moments, the terrain UKF, and the innovations the Kalman family records."""
 
 from __future__ import annotations
 
@@ -6,25 +6,24 @@ import numpy as np
 import pytest
 from scipy import stats
 
-from pfcourse.aircraft import AircraftScenario, extended_kalman_filter, simulate
-from pfcourse.aircraft_ukf import state_mean, unscented_kalman_filter
+from pfcourse.terrain.scenario import AircraftScenario, extended_kalman_filter, simulate
+from pfcourse.terrain.kalman import state_mean, unscented_kalman_filter
 from pfcourse.angles import wrap_angle
-from pfcourse.comparison import (
+from pfcourse.experiments.comparison import (
     particle_innovations,
-    robot_ekf_innovations,
     robot_tracks,
-    robot_ukf_innovations,
-    summarize,
-    terrain_ekf_innovations,
+    summarize_tracks,
 )
 from pfcourse.diagnostics import chi2_band, fraction_in_band, nis, predictive_moments
 from pfcourse.errors import ShapeError
 from pfcourse.filter import ParticleFilter
-from pfcourse.kalman import kalman_filter
-from pfcourse.linear_gaussian import LinearGaussianModel
-from pfcourse.robot import RobotModel, simulate_robot
-from pfcourse.robot_kalman import run_ekf, run_ukf
-from pfcourse.terrain import load_jacksboro
+from pfcourse.landmarks.kalman import kalman_filter
+from pfcourse.landmarks.model import LinearGaussianModel
+from pfcourse.landmarks.scenario import quadrant_scenario
+from pfcourse.landmarks.scenario import simulate as simulate_landmarks
+from pfcourse.robot.scenario import RobotModel, simulate_robot
+from pfcourse.robot.kalman import run_ekf, run_ukf
+from pfcourse.terrain.map import load_jacksboro
 
 TIGHT = dict(P0=np.diag([30.0, 30.0, 5.0, 0.01]) ** 2, Qf=np.diag([1.0, 1.0, 0.1, 0.001]) ** 2)
 
@@ -103,36 +102,51 @@ def test_particle_innovations_converge_to_the_kalman_ones():
     assert np.all(np.abs(S[1:, 0, 0] - (P_pred + R)) < 5 * np.sqrt(2 / ess) * P_pred)
 
 
-# --- replayed Kalman innovations reproduce the filters' own updates -------------------------
+# --- the Kalman family records its own innovations, and they give its posterior --------------
 
 
-def _replayed_posterior(inn):
-    ok = ~np.isnan(inn.y[:, 0])
-    return ok, inn.predicted[ok] + np.einsum("kij,kj->ki", inn.gain[ok], inn.y[ok])
+def _recorded_posterior(run):
+    ok = ~np.isnan(run.innovation[:, 0])
+    return ok, run.predicted[ok] + np.einsum("kij,kj->ki", run.gain[ok], run.innovation[ok])
 
 
-@pytest.mark.parametrize("runner, replay", [(run_ekf, robot_ekf_innovations), (run_ukf, robot_ukf_innovations)])
-def test_robot_replay_gives_the_filters_posterior(runner, replay):
+@pytest.mark.parametrize("runner", [run_ekf, run_ukf])
+def test_robot_innovations_give_the_filters_posterior(runner):
     sim = simulate_robot(None, 4, n_steps=60)
     model = RobotModel.for_simulation(sim, q_scale=1.0, r_scale=1.0)
     run = runner(model, sim.measurements)
-    inn = replay(model, sim.measurements, run)
-    ok, post = _replayed_posterior(inn)
+    ok, post = _recorded_posterior(run)
     post[:, 2] = wrap_angle(post[:, 2])
     assert ok.sum() == sim.has_measurement.sum()
     assert np.allclose(post, run.mean[ok], atol=1e-9)
-    assert np.all(np.linalg.eigvalsh(inn.S[ok])[:, 0] > 0)
+    assert np.all(np.linalg.eigvalsh(run.innovation_cov[ok])[:, 0] > 0)
 
 
-def test_terrain_ekf_replay_gives_the_filters_posterior(jacksboro):
+def test_terrain_ekf_innovations_give_the_filters_posterior(jacksboro):
     scenario = AircraftScenario().with_(**TIGHT)
     flight = simulate(scenario, jacksboro, 3)
     ekf = extended_kalman_filter(scenario, jacksboro, flight.Z)
-    inn = terrain_ekf_innovations(scenario, jacksboro, flight.Z, ekf.mean, ekf.cov)
-    ok, post = _replayed_posterior(inn)
+    ok, post = _recorded_posterior(ekf)
     post[:, 3] = wrap_angle(post[:, 3])
     assert ok.sum() == 80
     assert np.allclose(post, ekf.mean[ok], atol=1e-6)
+
+
+def test_linear_kalman_innovations_give_the_exact_posterior_and_likelihood():
+    """For the linear filter: m_k = m^-_k + G_k y_k, and log p(z) = sum_k log N(y_k; 0, S_k)."""
+    from scipy.stats import multivariate_normal
+
+    scenario = quadrant_scenario()
+    sim = simulate_landmarks(scenario, 2)
+    kf = kalman_filter(scenario.model(), sim.Z)
+    measured = ~np.all(np.isnan(kf.innovation), axis=1)
+    post = kf.predicted + np.einsum("kij,kj->ki", np.nan_to_num(kf.gain), np.nan_to_num(kf.innovation))
+    assert np.allclose(post[measured], kf.mean[measured], atol=1e-12)
+    total = 0.0
+    for y, S in zip(kf.innovation[measured], kf.innovation_cov[measured]):
+        o = ~np.isnan(y)
+        total += multivariate_normal(np.zeros(o.sum()), S[np.ix_(o, o)]).logpdf(y[o])
+    assert total == pytest.approx(kf.log_likelihood, rel=1e-10)
 
 
 # --- the terrain UKF -------------------------------------------------------------------------
@@ -188,7 +202,7 @@ def test_robot_tracks_and_summary_are_seeded_and_complete():
     again = robot_tracks(0, (50,), n_steps=30)
     assert [t.filter for t in runs[0]] == ["pf", "ekf", "ukf"]
     assert np.array_equal(runs[0][0].nees, again[0].nees) and np.array_equal(runs[0][0].nis, again[0].nis, equal_nan=True)
-    table = summarize(runs, dim_x=3, dim_z=2, burn_in=5)
+    table = summarize_tracks(runs, dim_x=3, dim_z=2, burn_in=5)
     assert list(table.index) == ["PF N=50", "EKF", "UKF"]
     assert table.loc["UKF", "evaluations"] == 7 and table.loc["PF N=50", "evaluations"] == 50
     assert table[["nees_in_band", "nis_in_band"]].apply(lambda c: c.between(0, 1)).all().all()

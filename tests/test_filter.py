@@ -19,7 +19,7 @@ from pfcourse import (
     kalman_filter,
 )
 from pfcourse.gaussian import gaussian_logpdf
-from pfcourse.landmarks import quadrant_scenario, simulate
+from pfcourse.landmarks.scenario import quadrant_scenario, simulate
 
 N_VALUES = (250, 1000, 4000)
 N_RUNS = 40
@@ -230,10 +230,10 @@ def test_nan_likelihood_is_a_named_error(bad_loglik, message):
 
 def test_model_returning_wrong_shapes_or_nan_states():
     wrong_shape = StateSpaceModel(2, lambda n, rng: np.zeros((n, 3)), lambda x, k, rng: x, lambda x, z, k: np.zeros(len(x)))
-    with pytest.raises(ShapeError, match=r"step 0: the model returned particles of shape \(10, 3\), expected \(10, 2\)"):
+    with pytest.raises(ShapeError, match=r"step 0: sample_initial returned particles of shape \(10, 3\), expected \(10, 2\)"):
         ParticleFilter(wrong_shape, 10).run([None], rng=0)
     nan_states = StateSpaceModel(1, lambda n, rng: np.zeros((n, 1)), lambda x, k, rng: x / 0.0 * 0.0, lambda x, z, k: np.zeros(len(x)))
-    with np.errstate(invalid="ignore", divide="ignore"), pytest.raises(NumericalError, match="step 1: the model produced NaN"):
+    with np.errstate(invalid="ignore", divide="ignore"), pytest.raises(NumericalError, match="step 1: sample_transition produced NaN"):
         ParticleFilter(nan_states, 10).run([None, None], rng=0)
     wrong_loglik = StateSpaceModel(1, lambda n, rng: np.zeros((n, 1)), lambda x, k, rng: x, lambda x, z, k: np.zeros(3))
     with pytest.raises(ShapeError, match=r"log-likelihood has shape \(3,\), expected \(10,\)"):

@@ -1,6 +1,6 @@
 """The stored tables of the global-localization chapter are what their row functions compute.
 
-A random (seeded) sample of rows of each table is re-computed with pfcourse.mcl_study and
+A random (seeded) sample of rows of each table is re-computed with pfcourse.experiments.global_localization and
 must give the same numbers (wall times excepted); see tools/studies/global_localization.py.
 """
 
@@ -13,7 +13,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from pfcourse import mcl_study
+from pfcourse.experiments import global_localization as mcl_study
 
 DATA = Path(__file__).resolve().parents[1] / "book" / "data" / "global_localization"
 RNG = np.random.default_rng(2026)

@@ -1,4 +1,4 @@
-"""The remedies of pfcourse.robot_mcl: correct densities and weights, Fox's bound, the injection rule."""
+"""The remedies of pfcourse.robot.mcl: correct densities and weights, Fox's bound, the injection rule."""
 
 from __future__ import annotations
 
@@ -8,8 +8,8 @@ from scipy import stats
 
 from pfcourse.errors import ParameterError
 from pfcourse.filter import ParticleFilter
-from pfcourse.robot import RobotModel, range_bearing, simulate_robot
-from pfcourse.robot_mcl import (
+from pfcourse.robot.scenario import RobotModel, range_bearing, simulate_robot
+from pfcourse.robot.mcl import (
     AugmentedMCL,
     KidnapRobotModel,
     SensorPoseSampler,

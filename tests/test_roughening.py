@@ -7,7 +7,7 @@ import pytest
 
 from pfcourse.errors import ParameterError, ShapeError
 from pfcourse.filter import ParticleFilter
-from pfcourse.landmarks import quadrant_scenario, simulate
+from pfcourse.landmarks.scenario import quadrant_scenario, simulate
 from pfcourse.roughening import Roughening, roughening_scale
 
 

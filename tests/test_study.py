@@ -6,8 +6,8 @@ import numpy as np
 import pytest
 
 from pfcourse import DegenerateWeightsError, ParameterError, ParticleFilter, kalman_filter
-from pfcourse.landmarks import quadrant_scenario, simulate
-from pfcourse.study import grid_settings, replicate_seed, run_study, summarize
+from pfcourse.landmarks.scenario import quadrant_scenario, simulate
+from pfcourse.experiments.study import grid_settings, replicate_seed, run_study, summarize
 
 
 def landmark_run(seed: int, n_particles: int, threshold: float) -> dict:
@@ -110,3 +110,44 @@ def test_bad_study_arguments(kwargs, message):
 def test_grid_order_last_key_fastest():
     assert grid_settings({"a": [1, 2], "b": ["x", "y"]}) == [
         {"a": 1, "b": "x"}, {"a": 1, "b": "y"}, {"a": 2, "b": "x"}, {"a": 2, "b": "y"}]
+
+
+# --- executors: the same rows whatever runs them -------------------------------------------
+
+def _robot_rows(executor) -> "pd.DataFrame":
+    from functools import partial
+
+    from pfcourse.experiments.robot import pf_run
+
+    table = run_study(partial(pf_run, n_steps=25, burn_in=5), {"n_particles": [30, 120]}, 6,
+                      batch_size=4, progress=False, executor=executor)
+    return table.drop(columns="seconds")
+
+
+def test_rows_do_not_depend_on_the_executor_or_its_workers():
+    from concurrent.futures import ProcessPoolExecutor, ThreadPoolExecutor
+
+    from pfcourse.experiments.study import SerialExecutor
+
+    serial = _robot_rows(SerialExecutor())
+    assert len(serial) == 12 and (serial["status"] == "ok").all()
+    for executor in (ProcessPoolExecutor(1), ProcessPoolExecutor(2), ThreadPoolExecutor(3)):
+        with executor:
+            assert _robot_rows(executor).equals(serial)
+    assert _robot_rows(None).equals(serial)  # the default process pool
+
+
+def test_a_dask_cluster_gives_the_same_rows():
+    distributed = pytest.importorskip("distributed")
+    from pfcourse.experiments.study import SerialExecutor
+
+    serial = _robot_rows(SerialExecutor())
+    cluster = distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True,
+                                       dashboard_address=None)
+    with cluster, distributed.Client(cluster) as client:
+        assert _robot_rows(client.get_executor()).equals(serial)
+
+
+def test_executor_must_be_an_executor():
+    with pytest.raises(ParameterError, match="executor must be"):
+        run_study(lambda seed, a: {}, {"a": [1]}, 2, progress=False, executor="two cores")

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 from scipy import stats
 
-from pfcourse.aircraft import (
+from pfcourse.terrain.scenario import (
     AircraftScenario,
     dynamics_jacobian,
     extended_kalman_filter,
@@ -17,7 +17,7 @@ from pfcourse.aircraft import (
 )
 from pfcourse.errors import DegenerateWeightsError, OffMapError, ShapeError
 from pfcourse.filter import ParticleFilter
-from pfcourse.terrain import EARTH_RADIUS, TerrainMap, load_jacksboro, metres_per_degree
+from pfcourse.terrain.map import EARTH_RADIUS, TerrainMap, load_jacksboro, metres_per_degree
 
 
 @pytest.fixture(scope="module")
@@ -233,20 +233,20 @@ def test_ekf_converges_from_a_small_prior(jacksboro):
 
 
 def test_monte_carlo_is_seeded_and_first_n_runs_are_a_smaller_study(jacksboro):
-    from pfcourse.aircraft import monte_carlo
+    from pfcourse.experiments.terrain import flight_study
 
     scenario = AircraftScenario().with_(duration=10.0)
-    a = monte_carlo(scenario, jacksboro, 6, method="ekf", seed=3)
-    b = monte_carlo(scenario, jacksboro, 4, method="ekf", seed=3)
+    a = flight_study(scenario, jacksboro, 6, method="ekf", seed=3)
+    b = flight_study(scenario, jacksboro, 4, method="ekf", seed=3)
     np.testing.assert_array_equal(a.first(4).errors, b.errors)
-    pf = monte_carlo(scenario, jacksboro, 3, n_particles=200, seed=3)
-    pf_again = monte_carlo(scenario, jacksboro, 3, n_particles=200, seed=3)
+    pf = flight_study(scenario, jacksboro, 3, n_particles=200, seed=3)
+    pf_again = flight_study(scenario, jacksboro, 3, n_particles=200, seed=3)
     np.testing.assert_array_equal(pf.errors, pf_again.errors)
     assert pf.errors.shape == (3, 11) and np.all(pf.n_resamples >= 0)
 
 
 def test_summary_counts_lost_runs_as_infinite_without_nan():
-    from pfcourse.aircraft import MonteCarloResult
+    from pfcourse.experiments.terrain import MonteCarloResult
 
     errors = np.array([[100.0, 10.0], [100.0, 20.0], [100.0, 30.0], [np.nan, np.nan]])
     res = MonteCarloResult(errors, np.ones_like(errors), np.array([False, False, False, True]), np.zeros(4, int))

@@ -6,7 +6,7 @@ import matplotlib
 
 matplotlib.use("Agg")
 
-from pfcourse.widgets import (  # noqa: E402
+from pfcourse.figures.widgets import (  # noqa: E402
     control_panel,
     particle_slider,
     scale_slider,
@@ -36,7 +36,7 @@ def test_control_defaults_and_ranges():
 
 
 def test_redraw_last_panel_uses_the_current_values():
-    from pfcourse.widgets import redraw_last_panel
+    from pfcourse.figures.widgets import redraw_last_panel
 
     calls = []
     threshold = threshold_slider(0.3)

@@ -34,15 +34,22 @@ _uuid.uuid4 = lambda: _uuid.UUID(int=_uuid_rng.getrandbits(128), version=4)
 """
 
 
-def execute(source: Path) -> None:
+def execute(source: Path, extra_startup: str = "", store: bool = True) -> nbformat.NotebookNode:
+    """Execute the notebook made from ``source``; store it as ``X.ipynb`` unless ``store`` is False.
+
+    ``extra_startup`` is Python run in the kernel after the uuid seeding and before the
+    notebook (tools/perturbed_arithmetic.py uses it). Returns the executed notebook.
+    """
     with tempfile.TemporaryDirectory() as ipython_dir:
         startup = Path(ipython_dir) / "profile_default" / "startup"
         startup.mkdir(parents=True)
         (startup / "00-seeded-uuids.py").write_text(SEEDED_UUIDS.format(seed=source.stem))
+        if extra_startup:
+            (startup / "01-extra.py").write_text(extra_startup)
         previous = os.environ.get("IPYTHONDIR")
         os.environ["IPYTHONDIR"] = ipython_dir
         try:
-            _execute(source)
+            return _execute(source, store)
         finally:
             if previous is None:
                 os.environ.pop("IPYTHONDIR", None)
@@ -50,7 +57,7 @@ def execute(source: Path) -> None:
                 os.environ["IPYTHONDIR"] = previous
 
 
-def _execute(source: Path) -> None:
+def _execute(source: Path, store: bool) -> nbformat.NotebookNode:
     notebook = jupytext.read(source)
     notebook.metadata["kernelspec"] = {
         "name": "python3",
@@ -70,8 +77,10 @@ def _execute(source: Path) -> None:
         store_widget_state=True,
     ).execute()
     target = source.with_suffix(".ipynb")
-    nbformat.write(notebook, target)
+    if store:
+        nbformat.write(notebook, target)
     print(f"{target}: executed in {time.perf_counter() - start:.1f} s", flush=True)
+    return notebook
 
 
 if __name__ == "__main__":

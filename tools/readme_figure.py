@@ -18,8 +18,8 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
 from pfcourse import ParticleFilter, kalman_filter  # noqa: E402
-from pfcourse.landmarks import quadrant_scenario, simulate  # noqa: E402
-from pfcourse.plotting import COLORS, use_style  # noqa: E402
+from pfcourse.landmarks.scenario import quadrant_scenario, simulate  # noqa: E402
+from pfcourse.style import COLORS, use_style  # noqa: E402
 
 N, RUNS = 1000, 50
 

@@ -34,10 +34,11 @@ from matplotlib.animation import FuncAnimation
 from matplotlib.ticker import MultipleLocator
 
 from pfcourse.diagnostics import chi2_band, nees
-from pfcourse.kalman import kalman_filter
-from pfcourse.landmarks import circle_scenario, quadrant_scenario, simulate
-from pfcourse.plotting import COLORS, ellipse_patch, landmark_scene, use_style
-from pfcourse.widgets import control_panel, scale_slider, seed_box
+from pfcourse.landmarks.kalman import kalman_filter
+from pfcourse.landmarks.scenario import circle_scenario, quadrant_scenario, simulate
+from pfcourse.landmarks.figures import landmark_scene
+from pfcourse.style import COLORS, ellipse_patch, use_style
+from pfcourse.figures.widgets import control_panel, scale_slider, seed_box
 
 use_style()
 LABELS = ["robot x", "robot y", "L1 x", "L1 y", "L2 x", "L2 y"]
@@ -256,3 +257,31 @@ display(control_panel(draw_kalman, noise_scale=scale_slider("Rv sd scale"),
 # The landmark estimate is correlated with the robot estimate; a measurement of landmark 2
 # sharpens the robot, and through the cross-covariance, landmark 1.
 # ```
+#
+# ```{exercise}
+# :label: ex-kalman-code
+# (Coding.) Write the Kalman filter of this chapter in plain NumPy (predict with $F$, $B$,
+# $Q_w$; update with the visible rows of $H$ and $R_v$), run it on the simulation above and
+# check that its means agree with `kalman_filter(model, sim.Z).mean` to round-off.
+# ```
+#
+# ````{solution} ex-kalman-code
+# :class: dropdown
+# ```python
+# def my_kalman(Z, model):
+#     m, P, means = model.m0.copy(), model.P0.copy(), []
+#     for k, z in enumerate(Z):
+#         if k > 0:
+#             m, P = model.F @ m + model.B, model.F @ P @ model.F.T + model.Q
+#         seen = ~np.isnan(z)
+#         if seen.any():
+#             H, R = model.H[seen], model.R[np.ix_(seen, seen)]
+#             S = H @ P @ H.T + R
+#             K = P @ H.T @ np.linalg.inv(S)
+#             m, P = m + K @ (z[seen] - H @ m), (np.eye(len(m)) - K @ H) @ P
+#         means.append(m)
+#     return np.array(means)
+#
+# print(np.abs(my_kalman(sim.Z, model) - kalman_filter(model, sim.Z).mean).max())  # ~1e-15
+# ```
+# ````

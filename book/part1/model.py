@@ -24,9 +24,11 @@
 import matplotlib.pyplot as plt
 import numpy as np
 from IPython.display import HTML
+from myst_nb import glue
 
-from pfcourse.landmarks import circle_scenario, quadrant_scenario, simulate
-from pfcourse.plotting import COLORS, animate_landmarks, landmark_scene, use_style
+from pfcourse.landmarks.scenario import circle_scenario, quadrant_scenario, simulate
+from pfcourse.landmarks.figures import animate_landmarks, landmark_scene
+from pfcourse.style import COLORS, use_style
 
 use_style()
 
@@ -137,11 +139,19 @@ for j in range(2):
     lo, med, hi = np.percentile(seen_fraction[:, j], [10, 50, 90])
     print(f"landmark {j + 1}: in view at {med:.0%} of steps (10-90 % of runs: {lo:.0%} to {hi:.0%})")
 print(f"both at once: {np.median(both):.0%} of steps (median over {n_runs} runs)")
+nothing = (~seen.any(axis=2)).mean(axis=1)
+never = float(np.mean(nothing == 1.0))
+print(f"nothing in view: {np.median(nothing):.0%} of steps (median over runs; 10-90 %: "
+      f"{np.percentile(nothing, 10):.0%} to {np.percentile(nothing, 90):.0%}); "
+      f"{never:.1%} of the runs never see a landmark")
+glue("model_nothing_share", float(np.median(nothing)), display=False)
+glue("model_never_share", never, display=False)
 
 # %% [markdown]
 # So in a typical run each landmark is measured at roughly a third of the steps, and the
-# robot sometimes sees nothing at all. A filter must carry its estimate through those
-# gaps using the dynamics alone.
+# robot sees nothing at all at {glue:text}`model_nothing_share:.0%` of the steps (median over
+# runs); {glue:text}`model_never_share:.1%` of the runs never see a landmark. A filter must
+# carry its estimate through those gaps using the dynamics alone.
 #
 # ## The $M$-landmark variant
 #
@@ -217,12 +227,14 @@ HTML(animate_landmarks(scenario5, sim5, limits=(-4.0, 8.0)).to_jshtml())
 #
 # $$
 # H_k = \begin{pmatrix} H^{j_1} \\ \vdots \\ H^{j_{|V_k|}} \end{pmatrix} \in \mathbb R^{2|V_k| \times d},
-# \qquad R_k = R_v[V_k, V_k] \in \mathbb R^{2|V_k| \times 2|V_k|},
+# \qquad R_k = R_v[I_k, I_k] \in \mathbb R^{2|V_k| \times 2|V_k|},
 # \qquad
 # p(z_k \mid x_k) = \mathcal N(z_k;\, H_k x_k,\, R_k),
 # $$
 #
-# where $R_v[V_k, V_k]$ keeps the rows and columns of the visible landmarks. When nothing is
+# where $I_k = \{2j - 1, 2j : j \in V_k\}$ lists the measurement *coordinates* of the visible
+# landmarks ($R_v$ is $2M \times 2M$, indexed by coordinates, not by landmarks) and
+# $R_v[I_k, I_k]$ keeps those rows and columns. When nothing is
 # in view ($V_k = \emptyset$) there is no measurement and $p(z_k \mid x_k) = 1$: the
 # step is a pure prediction. In the code, `Z[k]` holds NaN for the unseen landmarks, and
 # `LinearGaussianModel.observed` extracts $z_k$, $H_k$ and $R_k$ from the non-NaN entries.
@@ -273,7 +285,7 @@ print(f"log p(z_k | x_k) at the true state: {by_hand:.4f} (formula), "
 import ipywidgets as widgets
 from IPython.display import display
 
-from pfcourse.widgets import control_panel, scale_slider, seed_box
+from pfcourse.figures.widgets import control_panel, scale_slider, seed_box
 
 
 def draw_model(variant, noise_scale, seed):
@@ -351,3 +363,22 @@ display(control_panel(
 # landmark in view there is no measurement; the likelihood is the constant 1, and both the
 # Kalman filter and the particle filter only predict.
 # ```
+#
+# ```{exercise}
+# :label: ex-model-code
+# (Coding.) Write `sees(x)` that returns, for a state $x$ of the two-landmark model, which
+# landmarks lie up and to the right of the robot, and check it against `scenario.visible` on
+# 1,000 states drawn from the prior.
+# ```
+#
+# ````{solution} ex-model-code
+# :class: dropdown
+# ```python
+# def sees(x):
+#     rel = x[..., 2:].reshape(x.shape[:-1] + (2, 2)) - x[..., None, :2]
+#     return (rel[..., 0] > 0) & (rel[..., 1] > 0)
+#
+# xs = scenario.model().sample_initial(1000, np.random.default_rng(0))
+# assert np.array_equal(sees(xs), scenario.visible(xs))
+# ```
+# ````

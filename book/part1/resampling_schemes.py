@@ -38,9 +38,9 @@ import matplotlib.pyplot as plt
 import numpy as np
 from IPython.display import display
 
-from pfcourse.plotting import COLORS, use_style
+from pfcourse.style import COLORS, use_style
 from pfcourse.resampling import SCHEMES
-from pfcourse.widgets import control_panel, scheme_dropdown, seed_box
+from pfcourse.figures.widgets import control_panel, scheme_dropdown, seed_box
 
 use_style()
 SCHEME_COLORS = dict(zip(SCHEMES, ("tab:blue", "tab:orange", "tab:green", "tab:purple")))
@@ -183,10 +183,10 @@ for name in SCHEMES:
 #
 # ## Run time against N
 #
-# Each scheme here costs a cumulative sum and one binary search per uniform, $O(n \log n)$
-# in all, and multinomial resampling also sorts its $n$ uniforms; residual resampling does
-# part of the work deterministically (and could be written in $O(n)$, as could the
-# stratified and systematic schemes with a merge instead of a search). The figure shows the median of
+# Each scheme here costs a cumulative sum and one merge pass of sorted uniforms along it
+# (`pfcourse.kernels.inverse_cdf_sorted`), $O(n)$: stratified and systematic uniforms are
+# born sorted, multinomial resampling sorts its $n$ uniforms first ($O(n \log n)$), and
+# residual resampling sorts only the uniforms of its random remainder. The figure shows the median of
 # 5 timings per size on this machine (timings vary between machines and runs, so only the
 # figure is shown; its shape, not its numbers, is the point).
 
@@ -313,3 +313,26 @@ display(control_panel(draw_offspring, scheme=scheme_dropdown(),
 # Use weights with some $n W_i < 1$: filterpy gives them (almost) zero copies, dozens of
 # standard errors away, as printed above.
 # ```
+#
+# ```{exercise}
+# :label: ex-resampling-code
+# (Coding.) Write stratified resampling, one uniform in each stratum $[(k-1)/n, k/n)$, check
+# it with `pfcourse.exercises.check_resampler`, and measure $\operatorname{Var} N_i$ over
+# 10,000 draws against `pfcourse.resampling.multinomial` for the weights of this chapter.
+# ```
+#
+# ````{solution} ex-resampling-code
+# :class: dropdown
+# ```python
+# def my_stratified(W, rng):
+#     n = len(W)
+#     u = (np.arange(n) + rng.random(n)) / n
+#     return np.minimum(np.searchsorted(np.cumsum(W), u, side="right"), n - 1)
+#
+# from pfcourse.exercises import check_resampler
+# print(check_resampler(my_stratified))          # every check passed
+# ```
+#
+# Counting copies with `np.bincount(idx, minlength=n)` over the draws, its variance per
+# particle is at most that of multinomial resampling, as the table of this chapter shows.
+# ````

@@ -30,7 +30,7 @@
 # chance while its estimate still jumps between modes does not count.
 #
 # **How the numbers were made.** Every table of this chapter comes from
-# `tools/studies/global_localization.py`, which calls one function of `pfcourse.mcl_study` per
+# `tools/studies/global_localization.py`, which calls one function of `pfcourse.experiments.global_localization` per
 # row (run $r$ uses seed $r$: the same truths, landmarks, odometry and readings for every method
 # and every $N$) and stores the rows in `book/data/global_localization/` with their provenance
 # (git commit, seeds, settings). The whole study takes several minutes, too long for this page;
@@ -49,9 +49,9 @@ from scipy import stats
 
 from pfcourse.diagnostics import chi2_band
 from pfcourse.filter import ParticleFilter
-from pfcourse.plotting import COLORS, use_style
-from pfcourse.robot import RobotModel, simulate_robot
-from pfcourse.robot_mcl import (
+from pfcourse.style import COLORS, use_style
+from pfcourse.robot.scenario import RobotModel, simulate_robot
+from pfcourse.robot.mcl import (
     KidnapRobotModel,
     MethodSettings,
     global_run,
@@ -192,7 +192,7 @@ for method in ("bootstrap", "mixture"):
 # The odometry density needs the inverse of the motion: the noise $w$ that maps $x_{k-1}$ to
 # $x_k$ is unique, and $p_\text{odo}(x_k\mid x_{k-1}) = \mathcal N(w; 0, Q_\text{est}) / \Delta t^3$.
 # In code, the proposal is an ordinary `DensityProposal` of the engine
-# (`pfcourse.robot_mcl.sensor_mixture_proposal`), and the model a wrapper of the robot model:
+# (`pfcourse.robot.mcl.sensor_mixture_proposal`), and the model a wrapper of the robot model:
 
 # %%
 sim = simulate_robot(rng=5, n_steps=60)
@@ -203,7 +203,7 @@ err = np.hypot(*(res.mean[:, :2] - sim.truth[:, :2]).T)
 print("position error (m) at t = 1, 2, 3, 5, 10, 59 s:", np.round(err[[1, 2, 3, 5, 10, 59]], 2))
 
 # %% [markdown]
-# The tests of `pfcourse.robot_mcl` check that these weights are right, not just that the filter
+# The tests of `pfcourse.robot.mcl` check that these weights are right, not just that the filter
 # works: the first-step posterior against a fine grid, the mixture filter against a bootstrap
 # filter with $10^6$ particles on the same kidnap model (posterior mean and marginal likelihood),
 # and the normalisation of the mixture density, $\mathbb E_q[p_\text{odo}/q] = 1$.
@@ -275,7 +275,7 @@ for k in (2, 10, 100, 1000):
 # otherwise; `kld_mixture` combines it with the mixture proposal (share 0.02, because every
 # particle drawn from the reading lands in its own bin and raises the bound). Both go through the
 # robot model's methods and the engine's proposal interface, in their own loop
-# (`pfcourse.robot_mcl.kld_filter`): the engine's `ParticleFilter` keeps $N$ fixed. The median
+# (`pfcourse.robot.mcl.kld_filter`): the engine's `ParticleFilter` keeps $N$ fixed. The median
 # number of particles over the 100 runs:
 
 # %%
@@ -580,7 +580,7 @@ print(ratio.round(2).to_string())
 # robot was just teleported? Take the run `sim`, `model` of this chapter and, at a step $k \ge 20$,
 # compare $\epsilon\, \mathbb E_u[p(z_k\mid x)]$ (the evidence for a teleport: the likelihood
 # averaged over the uniform prior) with $(1-\epsilon)\, p(z_k \mid \hat x_k)$. Then kidnap the
-# robot with `pfcourse.robot_mcl.kidnap` and compute the same ratio at the first reading after it.
+# robot with `pfcourse.robot.mcl.kidnap` and compute the same ratio at the first reading after it.
 # ```
 #
 # ```{solution} ex-gl-teleport

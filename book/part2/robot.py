@@ -64,11 +64,11 @@
 # second, and a filter that assumes twice the true variances, $Q_\text{est} = 2Q_\text{true}$,
 # $R_\text{est} = 2R_\text{true}$.
 #
-# **How the data are passed.** `pfcourse.robot.simulate_robot` returns the
+# **How the data are passed.** `pfcourse.robot.scenario.simulate_robot` returns the
 # measurements as one array with a row $(j, r, b)$ per step (landmark index, range, bearing),
 # or a row of NaN when there is no measurement; the generic
 # `pfcourse.filter.ParticleFilter` skips the update on such rows. The odometry is
-# held by the model (`pfcourse.robot.RobotModel`), which reads row $k$ when it moves
+# held by the model (`pfcourse.robot.scenario.RobotModel`), which reads row $k$ when it moves
 # the particles at step $k$. The same two arrays feed the extended and unscented Kalman
 # filters of the next chapter.
 
@@ -82,11 +82,12 @@ from matplotlib.ticker import MaxNLocator, MultipleLocator
 from pfcourse.diagnostics import nees
 from pfcourse.errors import DegenerateWeightsError
 from pfcourse.filter import ParticleFilter
-from pfcourse.plotting import COLORS, plain_log_axis, use_style
-from pfcourse.robot import RobotModel, rmse, simulate_robot, tracking_errors
-from pfcourse.robot_compare import global_localization_run
-from pfcourse.robot_plots import animate_cloud, error_bands, robot_map
-from pfcourse.widgets import (
+from pfcourse.style import COLORS, plain_log_axis, use_style
+from pfcourse.robot.scenario import RobotModel, rmse, simulate_robot, tracking_errors
+from pfcourse.experiments.robot import global_localization_run
+from pfcourse.figures.clouds import animate_clouds
+from pfcourse.robot.figures import error_bands, landmarks_background, robot_map, sight_overlay
+from pfcourse.figures.widgets import (
     control_panel,
     particle_slider,
     scale_slider,
@@ -151,7 +152,10 @@ plt.show()
 
 # %%
 frames = list(range(0, 15)) + list(range(100, 1000, 100))
-anim = animate_cloud(sim, result.particles, result.weights, result.mean, frames, window=2.0)
+anim = animate_clouds({"PF": result}, None, sim.truth, frames, None, 250, follow=2.0, ellipses=False,
+                      max_points=3000, trail=True, background=landmarks_background(sim),
+                      overlay=sight_overlay(sim), title=lambda name, k, res: f"t = {k * sim.scenario.dt:.0f} s",
+                      legend=True)
 HTML(anim.to_jshtml())
 
 # %% [markdown]
@@ -263,8 +267,10 @@ for k in snap:
 # to weight):
 
 # %%
-anim_g = animate_cloud(sim_g, res_g.particles, res_g.weights, res_g.mean, list(range(0, 12)) + [15, 20, 25, 29],
-                       window=None, max_points=3000, interval=400)
+anim_g = animate_clouds({"PF": res_g}, None, sim_g.truth, list(range(0, 12)) + [15, 20, 25, 29],
+                        (-sim_g.scenario.half_width, sim_g.scenario.half_width), 400, ellipses=False, max_points=3000, trail=True,
+                        background=landmarks_background(sim_g), overlay=sight_overlay(sim_g),
+                        title=lambda name, k, res: f"t = {k * sim_g.scenario.dt:.0f} s", legend=True)
 HTML(anim_g.to_jshtml())
 
 # %% [markdown]

@@ -19,7 +19,7 @@
 #
 # Both Kalman filters come from `filterpy` and read the same data as the particle filter
 # (odometry rows and measurement rows $(j, r, b)$, NaN when absent); see
-# `pfcourse.robot_kalman`. Two details matter for angles:
+# `pfcourse.robot.kalman`. Two details matter for angles:
 #
 # - the measurement residual $z - h_j(\hat x)$ wraps its bearing to $(-\pi, \pi]$, and the
 #   heading estimate is wrapped after every step;
@@ -36,11 +36,11 @@ import numpy as np
 
 from pfcourse.diagnostics import chi2_band
 from pfcourse.filter import ParticleFilter
-from pfcourse.plotting import COLORS, use_style
-from pfcourse.robot import RobotModel, simulate_robot
-from pfcourse.robot_compare import compare_filters
-from pfcourse.robot_kalman import run_ekf, run_ukf
-from pfcourse.robot_plots import robot_map
+from pfcourse.style import COLORS, use_style
+from pfcourse.robot.scenario import RobotModel, simulate_robot
+from pfcourse.experiments.robot import compare_filters
+from pfcourse.robot.kalman import run_ekf, run_ukf
+from pfcourse.robot.figures import robot_map
 
 use_style()
 
@@ -212,7 +212,7 @@ for key, label in names.items():
 # :label: ex-robot-jacobian
 # Derive the measurement Jacobian $H = \partial h_j / \partial x$ used by the EKF, for
 # $(d_x, d_y) = \ell^j - p$ and $q = d_x^2 + d_y^2$. Check it against finite differences at
-# one state with `pfcourse.robot_kalman.measurement_jacobian` and `pfcourse.robot.range_bearing`.
+# one state with `pfcourse.robot.kalman.measurement_jacobian` and `pfcourse.robot.scenario.range_bearing`.
 # ```
 #
 # ```{solution} ex-robot-jacobian

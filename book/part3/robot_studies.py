@@ -33,15 +33,16 @@ import numpy as np
 import pandas as pd
 from IPython.display import HTML
 from matplotlib.animation import FuncAnimation
+from myst_nb import glue
 
 from pfcourse.filter import ParticleFilter
-from pfcourse.kalman import kalman_filter
-from pfcourse.landmarks import quadrant_scenario, simulate
-from pfcourse.plotting import COLORS, plain_log_axis, use_style
-from pfcourse.robot_batch import pf_batch
-from pfcourse.study import run_study, summarize
-from pfcourse.study_plots import summary_band, time_band
-from pfcourse.widgets import control_panel
+from pfcourse.landmarks.kalman import kalman_filter
+from pfcourse.landmarks.scenario import quadrant_scenario, simulate
+from pfcourse.style import COLORS, plain_log_axis, use_style
+from pfcourse.experiments.robot import pf_run
+from pfcourse.experiments.study import SerialExecutor, run_study, summarize
+from pfcourse.figures.study import summary_band, time_band
+from pfcourse.figures.widgets import control_panel
 
 use_style()
 
@@ -63,11 +64,11 @@ use_style()
 #   jumps around compared with the robot's real motion;
 # - the mean effective sample size as a fraction of $N$ and the number of resamplings.
 #
-# `pfcourse.study.run_study` repeats a run over a grid of settings. Run $r$ uses the seed
+# `pfcourse.experiments.study.run_study` repeats a run over a grid of settings. Run $r$ uses the seed
 # `replicate_seed(0, r)` **in every setting**, so all settings are compared on the same 100
 # simulated worlds (*common random numbers*): a difference between two settings is then a
 # difference of the filter, not of the data, and a paired comparison run by run is
-# possible. Any row can be re-run alone with `pfcourse.robot_compare.compare_filters`,
+# possible. Any row can be re-run alone with `pfcourse.experiments.robot.compare_filters`,
 # which gives the same numbers.
 #
 # **Horizon.** The reports run 1000 s. The robot moves at 2.5 cm/s along a gentle curve,
@@ -76,15 +77,35 @@ use_style()
 # 30 s and then stays level), so after the transient every second looks like every other.
 # Runs of 100 s, scored after their first 20 s, measure that steady state at a tenth of the
 # price of 1000 s; what remains of the transient after 20 s is the same for every setting. Studies that need longer runs (the
-# measurement period, the gap) say so. To fit 100 runs per setting into this page's
-# budget, `pfcourse.robot_batch.pf_batch` filters the 100 runs of a setting at once as one
-# array of $100 \times N$ particles, with each run still drawing from its own seeded generator.
+# measurement period, the gap) say so. Each run is one `pfcourse.experiments.robot.pf_run`:
+# the robot simulator and the same `ParticleFilter` as in the other chapters. To fit 100 runs
+# per setting into this page's budget, `run_study` shares the runs out over the machine's
+# cores (next section).
 #
 # Unless a section varies it, every run uses the reports' defaults: $N = 300$,
 # $Q_\text{est} = 2 Q_\text{true}$, $R_\text{est} = 2 R_\text{true}$, resampling
 # (systematic) when $\text{ESS} < 0.5 N$, a measurement every second, five landmarks, and an
 # initial cloud around the true start. Because of the common random numbers, this default
 # setting gives exactly the same numbers in every study where it appears.
+#
+# ## Studies on every core, or on a cluster
+#
+# The runs of a study are independent, so `run_study` hands them, ten runs of one setting
+# at a time, to a `concurrent.futures.Executor`, and puts the rows back in grid order as
+# they come. By default the executor is a process pool with one worker per core. Any other
+# executor with the same interface works unchanged, because a row depends only on its
+# setting and its seed: `executor=SerialExecutor()` runs everything in this process, and
+# a `dask.distributed` cluster spreads the runs over several machines:
+#
+# ```python
+# from dask.distributed import Client
+# client = Client("scheduler-address:8786")   # or Client(LocalCluster(n_workers=4))
+# table = run_study(partial(pf_run, n_steps=100), {"n_particles": [100, 300]}, 100,
+#                   executor=client.get_executor())
+# ```
+#
+# The cell below runs one small study twice, in this process and on the process pool, and
+# compares the two tables (every column but the wall time `seconds`).
 
 # %%
 N_RUNS = 100
@@ -93,10 +114,22 @@ DEFAULTS = dict(n_steps=N_STEPS, burn_in=BURN_IN)
 
 
 def robot_study(grid, n_runs=N_RUNS, **fixed):
-    """Run pf_batch over `grid` (n_runs seeded runs per setting, filtered together)."""
-    return run_study(None, grid, n_runs, run_batch=partial(pf_batch, **{**DEFAULTS, **fixed}), batch_size=100)
+    """Run pf_run over `grid` (n_runs seeded runs per setting), on every core."""
+    return run_study(partial(pf_run, **{**DEFAULTS, **fixed}), grid, n_runs)
 
 
+small = partial(pf_run, n_steps=30)
+serial = run_study(small, {"n_particles": [50, 200]}, 20, progress=False, executor=SerialExecutor())
+pooled = run_study(small, {"n_particles": [50, 200]}, 20, progress=False)
+same_tables = serial.drop(columns="seconds").equals(pooled.drop(columns="seconds"))
+glue("executor_same_rows", "identical" if same_tables else "different", display=False)
+glue("executor_rows", len(serial), display=False)
+print(f"{len(serial)} rows; serial and process-pool tables {'identical' if same_tables else 'DIFFER'}")
+
+# %% [markdown]
+# The two tables of {glue:text}`executor_rows` rows are {glue:text}`executor_same_rows`.
+
+# %%
 def show(table, by, metrics, digits=3):
     """Print median [10 %, 90 %] of each metric per setting, and the number of failed runs."""
     parts = []
@@ -287,9 +320,17 @@ th_table = robot_study({"threshold": thresholds})
 th_table["threshold"] = th_table["threshold"].round(3)
 show(th_table, "threshold", {"position_rmse": "position RMSE (m)", "mean_ess_fraction": "mean ESS / N",
                              "resamples": "resamplings"})
+# How many SIS runs are sure of a wrong answer: a time-averaged NEES above a million (the ideal
+# is 3). Not "all the weight on one particle to working precision", a count that a last-bit
+# change of the arithmetic moves by a few runs (tasks.py knife-edge); the smallest SIS NEES is
+# many orders of magnitude above this line, so the count is not on a knife-edge.
 sis = th_table[th_table["threshold"] == 0.0]
-print(f"threshold 0: {int(np.isinf(sis['mean_nees']).sum())} of {len(sis)} runs put all the weight, to working "
-      "precision, on one particle at some step (singular covariance, infinite NEES)")
+sis_overconfident = int((sis["mean_nees"] > 1e6).sum())
+sis_collapsed_majority = bool(np.isinf(sis["mean_nees"]).sum() > len(sis) / 2)
+glue("sis_robot_overconfident_runs", sis_overconfident, display=False)
+glue("sis_robot_runs", len(sis), display=False)
+print(f"threshold 0: time-averaged NEES above 1e6 in {sis_overconfident} of {len(sis)} runs; all the weight on "
+      f"one particle (to working precision) at some step in {'most' if sis_collapsed_majority else 'few'} of them")
 
 # %%
 fig, axes = plt.subplots(1, 3, figsize=(11, 3.5))
@@ -310,9 +351,11 @@ plt.show()
 # %% [markdown]
 # On the robot, any threshold that resamples at all does the job: the median RMSE is
 # 0.18-0.20 m from $\theta = 0.2$ to 1 and 0.21 m at 0.1, while $\theta = 0$ (no resampling,
-# SIS) is 3.7 times worse (0.68 m), with a mean ESS below 1 % of $N$ and, in 95 runs of
-# 100, all the weight (to working precision) on a single particle at some step: the
-# degeneracy all reports describe. The number of resamplings grows with $\theta$, up to one at every
+# SIS) is 3.7 times worse (0.68 m), with a mean ESS below 1 % of $N$ and, in
+# {glue:text}`sis_robot_overconfident_runs` of {glue:text}`sis_robot_runs` runs, a
+# time-averaged NEES above a million: the filter is sure of a position it is far from, and in
+# most runs all the weight sits (to working precision) on a single particle at some step. This
+# is the degeneracy all reports describe. The number of resamplings grows with $\theta$, up to one at every
 # measurement step at $\theta = 1$ (99 of 99), which contradicts report 004 directly. And a
 # threshold of 1 is not degenerate: its mean ESS is the largest of all (64 % of $N$,
 # measured before each resampling), and its RMSE (0.179 m) is the smallest, by a margin
@@ -657,8 +700,8 @@ plt.show()
 # ## Try it: a study of your own
 #
 # Pick a parameter and a range; the panel runs a small study: for each setting of the
-# parameter in the range (at most seven), seeded runs of 50 s filtered together by
-# `pf_batch`, and it draws the median and 10-90 % band of their position RMSE. It starts
+# parameter in the range (at most seven), seeded runs of 50 s filtered by
+# `pf_run`, and it draws the median and 10-90 % band of their position RMSE. It starts
 # light, to answer quickly: three thresholds (0, 0.1 and
 # 0.25) with 10 runs each. The computing time grows with the number of settings times the
 # number of runs; the figure just above is the whole range of thresholds with 20 runs each,
@@ -679,8 +722,8 @@ LOG_AXIS = {"n_particles", "q_scale", "r_scale", "dt_meas", "n_landmarks"}
 
 def small_study(parameter="threshold", span=(0.0, 1.0), n_runs=20):
     values = [v for v in LADDERS[parameter] if span[0] <= v <= span[1]]
-    table = run_study(None, {parameter: values}, n_runs, base_seed=1, progress=False,
-                      run_batch=partial(pf_batch, n_steps=50, burn_in=BURN_IN), batch_size=n_runs)
+    table = run_study(partial(pf_run, n_steps=50, burn_in=BURN_IN), {parameter: values}, n_runs,
+                      base_seed=1, progress=False)
     summary = summarize(table, parameter, "position_rmse")
     fig, ax = plt.subplots(figsize=(6.5, 3.5))
     summary_band(summary, ax, color=COLORS["estimate"])

@@ -44,15 +44,16 @@ from matplotlib import ticker
 from matplotlib.animation import FuncAnimation
 from scipy import stats
 
-from pfcourse.aircraft import DIVERGED_ERROR, AircraftScenario
-from pfcourse.comparison import label, linear_convergence, loglog_slope, robot_tracks, summarize, terrain_tracks
+from pfcourse.experiments.terrain import DIVERGED_ERROR
+from pfcourse.terrain.scenario import AircraftScenario
+from pfcourse.experiments.comparison import label, linear_convergence, loglog_slope, robot_tracks, summarize_tracks, terrain_tracks
 from pfcourse.diagnostics import chi2_band
 from pfcourse.filter import ParticleFilter
-from pfcourse.kalman import kalman_filter
-from pfcourse.landmarks import quadrant_scenario, simulate
-from pfcourse.plotting import COLORS, ellipse_patch, plain_log_axis, use_style
-from pfcourse.terrain import load_jacksboro
-from pfcourse.widgets import control_panel
+from pfcourse.landmarks.kalman import kalman_filter
+from pfcourse.landmarks.scenario import quadrant_scenario, simulate
+from pfcourse.style import COLORS, ellipse_patch, plain_log_axis, use_style
+from pfcourse.terrain.map import load_jacksboro
+from pfcourse.figures.widgets import control_panel
 
 use_style()
 
@@ -231,8 +232,9 @@ HTML(anim.to_jshtml())
 # transient.
 #
 # How the NIS is computed: for the EKF, $S_k = H_k P_k^- H_k^\top + R$; for the UKF, $S_k$ is
-# the unscented transform of the predicted sigma points through $h$, plus $R$ (both replayed
-# exactly from the filters' outputs, `pfcourse.comparison`). For the particle filter, the
+# the unscented transform of the predicted sigma points through $h$, plus $R$ (both as the
+# filters computed them: every Kalman-family filter returns its innovations and their
+# covariances, `pfcourse.results.KalmanResult`). For the particle filter, the
 # predictive distribution of $z_k$ is the mixture $\sum_i W_{k-1}^i \, \mathcal N(z;
 # h(x_k^i), R)$ over the *predicted* particles (moved, not yet weighted by $z_k$); $\hat z_k$
 # and $S_k$ are its mean and covariance,
@@ -244,7 +246,7 @@ HTML(anim.to_jshtml())
 N_ROBOT = (100, 300, 1000)
 ROBOT_RUNS, ROBOT_STEPS, ROBOT_BURN_IN = 16, 100, 20
 robot_runs = [robot_tracks(seed, N_ROBOT, n_steps=ROBOT_STEPS) for seed in range(ROBOT_RUNS)]
-robot_table = summarize(robot_runs, dim_x=3, dim_z=2, burn_in=ROBOT_BURN_IN)
+robot_table = summarize_tracks(robot_runs, dim_x=3, dim_z=2, burn_in=ROBOT_BURN_IN)
 
 COLUMNS = {"rmse_q50": "RMSE median", "rmse_q10": "10 %", "rmse_q90": "90 %", "nees_median": "NEES median",
            "nees_in_band": "NEES in band", "nees_below": "below", "nis_median": "NIS median",
@@ -252,9 +254,10 @@ COLUMNS = {"rmse_q50": "RMSE median", "rmse_q10": "10 %", "rmse_q90": "90 %", "n
            "evaluations": "evals/step"}
 
 
-def show(table, extra=()):
+def show(table, extra=(), digits=3):
+    """Print the comparison table with `digits` significant digits."""
     cols = {**COLUMNS, **{c: c for c in extra}}
-    print(table[list(cols)].rename(columns=cols).to_string(float_format=lambda v: f"{v:.3g}"))
+    print(table[list(cols)].rename(columns=cols).to_string(float_format=lambda v: f"{v:.{digits}g}"))
 
 
 show(robot_table)
@@ -337,7 +340,7 @@ plt.show()
 # All filters run on the same flights (the first flights of the terrain chapter's studies,
 # with the same particle-filter seeds, so the $N = 3000$ runs of the report's prior are
 # exactly that chapter's baseline runs). The terrain UKF is new here
-# (`pfcourse.aircraft_ukf`): filterpy's UKF with the heading averaged on the circle, stopped
+# (`pfcourse.terrain.kalman`): filterpy's UKF with the heading averaged on the circle, stopped
 # like the EKF when its estimate or a sigma point leaves the map. Accuracy is the RMS
 # horizontal error over the second half of the flight (40-80 s); a flight counts as diverged
 # when its final error exceeds 500 m. The altimeter reading is a scalar, so the NIS has one
@@ -348,17 +351,21 @@ terrain = load_jacksboro()
 wide = AircraftScenario()
 small = wide.with_(P0=np.diag([30.0, 30.0, 5.0, 0.01]) ** 2, Qf=np.diag([1.0, 1.0, 0.1, 0.001]) ** 2)
 TERRAIN_BURN_IN = 40
+# (scenario, particle numbers, flights, significant digits printed). From the report's prior
+# most flights are lost, and a lost filter is chaotic: a last-bit change of the arithmetic
+# (another CPU) moves its statistics by several per cent (the UKF's NEES median from 2.8e2 to
+# 3.0e2; tasks.py knife-edge), so that table keeps one significant digit, all it can defend.
 terrain_setups = {
-    "terrain, small prior": (small, (100, 300, 1000), 12),
-    "terrain, report's prior": (wide, (300, 1000, 3000), 16),
+    "terrain, small prior": (small, (100, 300, 1000), 12, 3),
+    "terrain, report's prior": (wide, (300, 1000, 3000), 16, 1),
 }
 terrain_runs, terrain_tables = {}, {}
-for name, (sc, n_values, n_runs) in terrain_setups.items():
+for name, (sc, n_values, n_runs, digits) in terrain_setups.items():
     terrain_runs[name] = [terrain_tracks(0, r, sc, terrain, n_values) for r in range(n_runs)]
-    terrain_tables[name] = summarize(terrain_runs[name], dim_x=4, dim_z=1, burn_in=TERRAIN_BURN_IN,
+    terrain_tables[name] = summarize_tracks(terrain_runs[name], dim_x=4, dim_z=1, burn_in=TERRAIN_BURN_IN,
                                      diverged_error=DIVERGED_ERROR)
     print(f"{name}: {n_runs} flights (RMSE of the horizontal position in m)")
-    show(terrain_tables[name], extra=("diverged",))
+    show(terrain_tables[name], extra=("diverged",), digits=digits)
     print()
 
 # %% tags=["nbval-ignore-output"]

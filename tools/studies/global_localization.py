@@ -3,7 +3,7 @@
     .venv/bin/python tools/studies/global_localization.py [--runs 100]
 
 Writes CSV files and provenance.json under book/data/global_localization/.  Every row comes
-from one function of pfcourse.mcl_study called with the run's seed (run r uses seed r, the
+from one function of pfcourse.experiments.global_localization called with the run's seed (run r uses seed r, the
 same truths for every method and N); tests/test_mcl_study.py re-computes a random sample of
 rows and requires the same numbers (wall times excepted).
 """
@@ -25,8 +25,8 @@ import pandas as pd
 ROOT = Path(__file__).resolve().parents[2]
 sys.path.insert(0, str(ROOT))
 
-from pfcourse import mcl_study  # noqa: E402
-from pfcourse.robot_mcl import MethodSettings  # noqa: E402
+from pfcourse.experiments import global_localization as mcl_study  # noqa: E402
+from pfcourse.robot.mcl import MethodSettings  # noqa: E402
 
 OUT = ROOT / "book" / "data" / "global_localization"
 ANATOMY_N = [300, 1000, 2000, 10000, 30000, 100000]
@@ -55,7 +55,7 @@ def main() -> None:
     save("lockon", [mcl_study.lockon_row(s, m, n) for m, n in LOCKON for s in seeds])
     trace = []
     for m, n in TRACE:
-        from pfcourse.robot_mcl import global_run
+        from pfcourse.robot.mcl import global_run
         runs = [global_run(s, m, n, keep_trace=True) for s in seeds]
         used = np.array([r["n_used"] for r in runs])
         err = np.array([r["position_error"] for r in runs])
@@ -72,7 +72,7 @@ def main() -> None:
                                 text=True).stdout.strip())
     provenance = {
         "made_by": "tools/studies/global_localization.py",
-        "row_functions": "pfcourse/mcl_study.py (anatomy_row, mode_rows, lockon_row, kidnap_row, ekf_row)",
+        "row_functions": "pfcourse/experiments/global_localization.py (anatomy_row, mode_rows, lockon_row, kidnap_row, ekf_row)",
         "git_commit": commit, "package_modified_since_commit": dirty,
         "date_utc": datetime.now(timezone.utc).isoformat(timespec="seconds"),
         "seeds": f"run r uses seed r, r = 0..{args.runs - 1}, for every setting",

@@ -1,0 +1,375 @@
+# ---
+# jupyter:
+#   kernelspec:
+#     display_name: Python 3 (ipykernel)
+#     language: python
+#     name: python3
+# ---
+
+# %% [markdown]
+# # Terrain navigation that converges
+#
+# The previous chapter's particle filter, the lab report's (3000 particles, resampling when
+# $N_\text{eff} < N/2$), loses the aircraft in a large share of the flights. This chapter
+# measures why, tries the standard remedies on the *same* flights, and compares the filters
+# that converge with the best accuracy any estimator can reach, the posterior Cramér-Rao
+# bound.
+#
+# **Divergence**, everywhere below: a flight is *lost* when the filter's final horizontal
+# error exceeds 500 m (about five DEM cells) or every particle died. Studies of 100 flights
+# cost minutes, more than a chapter may take to execute, so they were computed by the script
+# `tools/studies/terrain_remedies.py` (one row per setting and flight, with
+# `pfcourse.experiments.terrain_remedies.run_one`) into `book/data/terrain_remedies.csv`; its provenance
+# (git commit, seeds) is in `terrain_remedies.json`, and `tests/test_terrain_study.py`
+# recomputes a random sample of the stored rows and requires the same numbers. Flight $r$
+# is the same in every setting (common random numbers), so settings are compared flight by
+# flight with paired tests.
+
+# %%
+import json
+from pathlib import Path
+
+import matplotlib.pyplot as plt
+import numpy as np
+import pandas as pd
+from myst_nb import glue
+from scipy import stats
+
+from pfcourse.experiments.terrain import flight_seed
+from pfcourse.terrain.scenario import AircraftScenario, simulate
+from pfcourse.style import use_style
+from pfcourse.terrain.map import load_jacksboro
+from pfcourse.terrain.pcrb import horizontal_bound, terrain_bound_noise_free, terrain_pcrb
+from pfcourse.remedies import optimal_bandwidth
+from pfcourse.experiments.terrain_remedies import SETTINGS
+
+use_style()
+terrain = load_jacksboro()
+scenario = AircraftScenario()
+data = pd.read_csv(Path("../data/terrain_remedies.csv"))
+provenance = json.loads(Path("../data/terrain_remedies.json").read_text())
+print("study commits:", sorted({r["commit"][:10] for r in provenance["runs"]}))
+
+# %% [markdown]
+# ## The first lesson: the report's filter loses the aircraft
+
+# %%
+def wilson(k, n):
+    ci = stats.binomtest(int(k), int(n)).proportion_ci(method="wilson")
+    return ci.low, ci.high
+
+
+runs = data.pivot(index="flight", columns="setting", values="lost")  # NaN where a setting has fewer flights
+final = data.pivot(index="flight", columns="setting", values="final_error")
+base = runs["bootstrap N=3000"].astype(bool)
+k, n = int(base.sum()), int(base.count())
+lo, hi = wilson(k, n)
+glue("terrain_baseline_diverged", k / n, display=False)
+glue("terrain_baseline_lo", lo, display=False)
+glue("terrain_baseline_hi", hi, display=False)
+glue("terrain_baseline_runs", n, display=False)
+print(f"bootstrap N = 3000: {k} of {n} flights lost ({k / n:.0%}, Wilson 95 % CI {lo:.0%} to {hi:.0%})")
+
+# %% [markdown]
+# The report's filter loses {glue:text}`terrain_baseline_diverged:.0%` of
+# {glue:text}`terrain_baseline_runs` flights (95 % Wilson interval
+# {glue:text}`terrain_baseline_lo:.0%` to {glue:text}`terrain_baseline_hi:.0%`). Its single
+# run in the report happened to converge.
+#
+# ## Why it fails: the prior is too big for 3000 particles
+#
+# A particle can only be rescued by the readings if it starts within the likelihood's reach
+# of the truth: horizontally within a fraction of a 90 m cell (the terrain changes by tens of
+# metres over a cell, and the altimeter's noise is 20 m), in altitude within a few tens of
+# metres, and in heading close enough that dead reckoning does not carry it away (an error of
+# $\delta\psi$ moves it sideways by $V t\,\delta\psi$: 1° is 140 m after 8 km). The prior is
+# 1667 m (one standard deviation) in $x$ and $y$, 100 m in altitude and 20° in heading. The
+# cell below draws the filter's own initial cloud for $N = 3000$ to $10^6$ on 100 flights and
+# measures the particle nearest to the truth, in each component.
+
+# %%
+P0_std = np.sqrt(np.diag(scenario.P0))
+model = scenario.model(terrain)
+sizes = [3000, 30000, 100000]
+rows = []
+for N in sizes:
+    for r in range(100):
+        truth = simulate(scenario, terrain, flight_seed(0, r)).X[0]
+        cloud = model.sample_initial(N, np.random.default_rng([0, r, 1]))
+        d = (cloud - truth) / P0_std
+        d[:, 3] = np.angle(np.exp(1j * (cloud[:, 3] - truth[3]))) / P0_std[3]
+        horiz = np.hypot(cloud[:, 0] - truth[0], cloud[:, 1] - truth[1])
+        i = np.argmin(np.sum(d**2, axis=1))      # nearest in the prior's own metric
+        j = np.argmin(horiz)                     # nearest horizontally
+        rows.append({"N": N, "nearest horizontal (m)": horiz[j],
+                     "its altitude error (m)": abs(cloud[j, 2] - truth[2]),
+                     "its heading error (deg)": np.degrees(abs(d[j, 3] * P0_std[3])),
+                     "nearest in prior metric: horizontal (m)": horiz[i],
+                     "... altitude (m)": abs(cloud[i, 2] - truth[2]),
+                     "... heading (deg)": np.degrees(abs(d[i, 3] * P0_std[3]))})
+near = pd.DataFrame(rows).groupby("N").median()
+print("medians over 100 flights of the particle nearest to the truth at t = 0")
+print(near.round(1).to_string())
+glue("terrain_near_h_3000", near.loc[3000, "nearest horizontal (m)"], display=False)
+glue("terrain_near_psi_3000", near.loc[3000, "... heading (deg)"], display=False)
+glue("terrain_near_h2_3000", near.loc[3000, "nearest in prior metric: horizontal (m)"], display=False)
+glue("terrain_near_drift_3000", 8000 * np.tan(np.radians(near.loc[3000, "... heading (deg)"])), display=False)
+glue("terrain_near_psi1_3000", near.loc[3000, "its heading error (deg)"], display=False)
+glue("terrain_near_h_100000", near.loc[100000, "nearest horizontal (m)"], display=False)
+
+# %% [markdown]
+# With 3000 particles the particle nearest the truth horizontally is typically
+# {glue:text}`terrain_near_h_3000:.0f` m away, within a cell, but it carries a random
+# altitude and heading from the prior (its heading is {glue:text}`terrain_near_psi1_3000:.0f`°
+# off, median). The particle nearest in all four components together, in the prior's own
+# metric, is {glue:text}`terrain_near_h2_3000:.0f` m away horizontally and
+# {glue:text}`terrain_near_psi_3000:.1f`° off in heading, which alone moves it
+# {glue:text}`terrain_near_drift_3000:.0f` m sideways over the 8 km flight if the process
+# noise did not let its heading wander. The heading is the component that carries the error.
+# The horizontal distance falls roughly like $N^{-1/2}$ (a two-dimensional prior): even $10^5$
+# particles leave the nearest one {glue:text}`terrain_near_h_100000:.0f` m away. The
+# four-dimensional volume shrinks like $N^{-1/4}$ per component, which is why more particles
+# help slowly, and why the remedies below, which *move* particles after the first readings
+# instead of waiting for one to have been drawn in the right place, help more.
+#
+# ## The remedies, on the same flights
+#
+# - **More particles.** Bootstrap filters with $N = 10^4$ and $3 \times 10^4$.
+# - **Regularised particle filter** {cite:p}`musso2001`. After each resampling, every particle
+#   is moved by a Gaussian kernel, $x^i \leftarrow x^i + h\,S^{1/2}\varepsilon^i$, $S$ the
+#   cloud's covariance; the bandwidth that is optimal for a Gaussian density is
+#   $h_\text{opt} = (4/(d+2))^{1/(d+4)} N^{-1/(d+4)}$. The copies made by resampling become
+#   distinct particles that explore the neighbourhood of the surviving modes. With $h_\text{opt}$ itself
+#   (its $S$ measures a cloud spread over several modes kilometres apart) every move is
+#   kilometres long and the filter is destroyed; we use $0.2\,h_\text{opt}$, a factor chosen on
+#   flights 0 to 11 among 0.05, 0.2 and 1 (so those 12 of the 100 flights are not independent of
+#   the choice). It goes through the filter's `jitter` hook (`RegularisedJitter`).
+# - **Progressive correction** {cite:p}`oudjane2000`. At the first five readings the
+#   likelihood is brought in as $p(z\mid x)^{\lambda_1}, \dots, p(z\mid x)^{\lambda_m}$,
+#   $\sum_j \lambda_j = 1$, each $\lambda_j$ the largest keeping the effective sample size at
+#   $N/2$, with resampling and a regularised move between stages: the final target is the
+#   posterior, reached without collapsing the cloud onto a few particles in one step. It is
+#   an importance function (`ProgressiveCorrection`, the filter's `proposal` argument), with
+#   the regularised kernel after the resamplings.
+# - **$Q_f$ scaled like every other horizontal length** (divided by 3: 1 m per second instead
+#   of 3 m), to check the scenario's scaling rule.
+#
+# Cost is counted in likelihood evaluations: $N$ times the number of readings (80), plus one
+# per extra stage of the progressive correction, relative to the bootstrap filter with
+# $N = 30000$. Each setting is compared with the baseline flight by flight: the exact McNemar
+# test on the flights lost by one and not the other, and, on the flights both converge, a
+# Wilcoxon signed-rank test of the final errors.
+
+# %%
+ref_cost = 30000 * 80
+table = []
+for name in [s for s in SETTINGS if s in runs.columns]:
+    lost = runs[name].dropna().astype(bool)
+    common = lost.index.intersection(base.index)
+    b, c = int((base[common] & ~lost[common]).sum()), int((~base[common] & lost[common]).sum())
+    p_mc = stats.binomtest(b, b + c).pvalue if b + c else 1.0
+    both = common[~base[common] & ~lost[common]]
+    p_w = stats.wilcoxon(final.loc[both, name], final.loc[both, "bootstrap N=3000"]).pvalue if len(both) > 10 else np.nan
+    evals = data.loc[data.setting == name, "evaluations"].mean()
+    lo, hi = wilson(lost.sum(), lost.count())
+    table.append({"setting": name, "flights": int(lost.count()), "lost": int(lost.sum()),
+                  "lost rate": lost.mean(), "95 % CI": f"{lo:.2f}-{hi:.2f}",
+                  "rescued / newly lost vs baseline": f"{b} / {c}", "McNemar p": p_mc,
+                  "median final error, converged (m)": final.loc[~lost, name].median(),
+                  "Wilcoxon p (both converged)": p_w,
+                  "cost vs bootstrap N=30000": SETTINGS[name][0] * evals / ref_cost,
+                  "median s/flight": data.loc[data.setting == name, "seconds"].median()})
+table = pd.DataFrame(table).set_index("setting")
+pd.set_option("display.width", 200)
+print(table.round(3).to_string())
+
+# %%
+affordable = table[table["cost vs bootstrap N=30000"] <= 1.0 + 1e-9]
+best = affordable["lost rate"].idxmin()
+glue("terrain_best_diverged", table.loc[best, "lost rate"], display=False)
+glue("terrain_best_name", best, display=False)
+glue("terrain_best_ci", table.loc[best, "95 % CI"], display=False)
+glue("terrain_best_cost", table.loc[best, "cost vs bootstrap N=30000"], display=False)
+glue("terrain_best_mcnemar", table.loc[best, "McNemar p"], display=False)
+glue("terrain_boot30k_diverged", table.loc["bootstrap N=30000", "lost rate"], display=False)
+glue("terrain_boot100k_diverged", table.loc["bootstrap N=100000", "lost rate"], display=False)
+glue("terrain_boot100k_cost", table.loc["bootstrap N=100000", "cost vs bootstrap N=30000"], display=False)
+glue("terrain_best_lost", int(table.loc[best, "lost"]), display=False)
+glue("terrain_best_flights", int(table.loc[best, "flights"]), display=False)
+glue("terrain_qf3_diverged", table.loc["bootstrap N=3000, Qf/3", "lost rate"], display=False) if "bootstrap N=3000, Qf/3" in table.index else None
+glue("terrain_qf3_mcnemar", table.loc["bootstrap N=3000, Qf/3", "McNemar p"], display=False) if "bootstrap N=3000, Qf/3" in table.index else None
+def mcnemar(a, b):
+    """Exact McNemar test of settings a and b on their common flights: (a lost only, b lost only, p)."""
+    la, lb = runs[a].dropna().astype(bool), runs[b].dropna().astype(bool)
+    common = la.index.intersection(lb.index)
+    x, y = int((la[common] & ~lb[common]).sum()), int((~la[common] & lb[common]).sum())
+    return x, y, (stats.binomtest(x, x + y).pvalue if x + y else 1.0)
+
+
+x, y, p = mcnemar("regularised N=3000", "bootstrap N=30000")
+glue("terrain_rpf3k_vs_boot30k", f"{x} / {y}", display=False)
+glue("terrain_rpf3k_vs_boot30k_p", p, display=False)
+glue("terrain_rpf3k_diverged", table.loc["regularised N=3000", "lost rate"], display=False)
+glue("terrain_rpf30k_diverged", table.loc["regularised N=30000", "lost rate"], display=False)
+glue("terrain_rpf30k_ci", table.loc["regularised N=30000", "95 % CI"], display=False)
+glue("terrain_rpf_h1_diverged", table.loc["regularised h=1 N=3000", "lost rate"], display=False)
+glue("terrain_tempered_diverged", table.loc["tempered N=3000", "lost rate"], display=False)
+glue("terrain_tempered_p", table.loc["tempered N=3000", "McNemar p"], display=False)
+x, y, p = mcnemar("tempered+regularised N=3000", "regularised N=3000")
+glue("terrain_trpf_vs_rpf", f"{x} / {y}", display=False)
+glue("terrain_trpf_vs_rpf_p", p, display=False)
+print(f"regularised N=3000 vs bootstrap N=30000: lost by the first only / the second only, McNemar p: {mcnemar('regularised N=3000', 'bootstrap N=30000')}")
+print(f"tempered+regularised N=3000 vs regularised N=3000: {mcnemar('tempered+regularised N=3000', 'regularised N=3000')}")
+print(f"best at a cost <= bootstrap N = 30000: {best}, lost {table.loc[best, 'lost rate']:.0%} "
+      f"({table.loc[best, '95 % CI']}), cost {table.loc[best, 'cost vs bootstrap N=30000']:.2f}")
+
+# %% [markdown]
+# The best filter at a cost no greater than the bootstrap filter with 30000 particles is
+# **{glue:text}`terrain_best_name`**: it loses {glue:text}`terrain_best_diverged:.0%` of the
+# flights (95 % interval {glue:text}`terrain_best_ci`), at {glue:text}`terrain_best_cost:.2f`
+# times that cost in likelihood evaluations (the last column of the table gives the median
+# wall time per flight, measured on a shared machine: indicative only). Paired with
+# the baseline on the same flights, the exact McNemar test gives
+# $p$ = {glue:text}`terrain_best_mcnemar:.1e`. The table reads, setting by setting:
+#
+# - **Particles.** The bootstrap filter's losses fall with $N$, but slowly: with 30000
+#   particles it still loses {glue:text}`terrain_boot30k_diverged:.0%`, and with $10^5$
+#   ({glue:text}`terrain_boot100k_cost:.1f` times the cost)
+#   {glue:text}`terrain_boot100k_diverged:.0%`.
+# - **Regularisation.** With 3000 particles the regularised filter loses
+#   {glue:text}`terrain_rpf3k_diverged:.0%`, close to the bootstrap filter with ten times as
+#   many (flights lost by the first only / by the second only: {glue:text}`terrain_rpf3k_vs_boot30k`,
+#   McNemar $p$ = {glue:text}`terrain_rpf3k_vs_boot30k_p:.2f`), and with 30000 particles
+#   {glue:text}`terrain_rpf30k_diverged:.0%` ({glue:text}`terrain_rpf30k_ci`). With the
+#   textbook bandwidth $h_\text{opt}$ it loses {glue:text}`terrain_rpf_h1_diverged:.0%`: the
+#   formula assumes one Gaussian blob, and the early posterior here is several blobs kilometres
+#   apart, so $S$ is kilometres wide and so is every move.
+# - **Progressive correction** alone loses {glue:text}`terrain_tempered_diverged:.0%`
+#   (McNemar against the baseline $p$ = {glue:text}`terrain_tempered_p:.2f`); added to the
+#   regularised filter with 3000 particles it changes little (lost by the first only / by the
+#   second only: {glue:text}`terrain_trpf_vs_rpf`, $p$ = {glue:text}`terrain_trpf_vs_rpf_p:.2f`).
+#   So the losses are not made at the first readings alone; our reading (not measured here)
+#   is that the loss of particle diversity over the following tens of seconds, which the
+#   kernel move repairs, is what loses the aircraft.
+#
+# **A baseline that works, nearly.** The issue asked for a filter that loses fewer than 5 % of
+# 100 flights at no more than the cost of the bootstrap filter with 30000 particles. The best
+# found here loses {glue:text}`terrain_best_lost` of {glue:text}`terrain_best_flights`: at
+# the target, not below it, and its interval ({glue:text}`terrain_best_ci`) cannot separate it
+# from 5 %. The regularised filter is the baseline to build on; the report's studies
+# ($Q_f$, $R_f$, threshold, gap, period, scheme) have not yet been re-run on it.
+#
+# **$Q_f$.** Dividing its horizontal entries by 3, like the scenario's other lengths, gives
+# the row "bootstrap N=3000, Qf/3": it loses {glue:text}`terrain_qf3_diverged:.0%`, with
+# McNemar $p$ = {glue:text}`terrain_qf3_mcnemar:.2f` against the baseline on the same flights,
+# so the scaling rule can be applied to $Q_f$ with no change the study can see. The heading entry (3.3° per second), not the horizontal one, is what lets the
+# baseline's particles turn back onto the truth; the horizontal noise of 1 or 3 m per second
+# is small beside the 90 m cells.
+#
+# The figure shows the final errors of each setting, sorted: the lost flights are those
+# right of the 500 m line, and the converged ones are read on the left.
+
+# %%
+fig, ax = plt.subplots(figsize=(7, 4))
+for name in table.index:
+    e = np.sort(final[name].dropna().to_numpy())
+    ax.step(e, np.arange(1, len(e) + 1) / len(e), where="post", label=f"{name} ({len(e)} flights)")
+ax.axvline(500, color="k", lw=0.8, ls="--")
+ax.text(520, 0.03, "lost ->", fontsize=9)
+ax.set_xscale("log")
+ax.set_xlabel("final horizontal error (m)")
+ax.set_ylabel("share of flights with a smaller error")
+ax.legend(fontsize=8, loc="upper left", bbox_to_anchor=(1.01, 1.0))
+ax.set_title("Final error over the same flights, per filter")
+plt.show()
+
+# %% [markdown]
+# ## The yardstick: the posterior Cramér-Rao bound
+#
+# How good is a converged filter? The posterior Cramér-Rao bound {cite:p}`tichavsky1998`
+# bounds the mean squared error of any estimator; for terrain navigation
+# {cite:p}`bergman1999` its information comes from the DEM's gradient along the flight,
+# $H_k = [-\partial h/\partial x, -\partial h/\partial y, 1, 0]$ at the true position, through
+# the recursion
+#
+# $$
+# J_{k+1} = Q^{-1} + H_{k+1}^\top R^{-1} H_{k+1} - Q^{-1} F_k (J_k + F_k^\top Q^{-1} F_k)^{-1} F_k^\top Q^{-1},
+# \qquad J_0 = P_0^{-1},
+# $$
+#
+# with the filter's model ($Q = Q_f\,\Delta t$, $R = R_f$) and $F_k$ the Jacobian of the
+# dynamics (`pfcourse.terrain.pcrb`; in the linear-Gaussian case it returns exactly the
+# Kalman covariance, which the tests check). We compute it along each true flight (the
+# bound given that flight's terrain). But the simulated aircraft has *no* process noise
+# ($Q_f$ is the filter's allowance for model error), so the bound of the flights as they are
+# simulated is the limit $Q \to 0$, $J_{k+1} = F_k^{-\top} J_k F_k^{-1} + H_{k+1}^\top R^{-1} H_{k+1}$,
+# lower still. We compare each converged flight's final horizontal error with
+# $\sqrt{B_{xx} + B_{yy}}$ at 80 s of that bound.
+
+# %%
+X = np.array([simulate(scenario, terrain, flight_seed(0, r)).X for r in range(100)])
+bounds = np.array([horizontal_bound(terrain_pcrb(scenario, terrain, x)) for x in X])
+average = horizontal_bound(terrain_pcrb(scenario, terrain, X))
+free = np.array([horizontal_bound(terrain_bound_noise_free(scenario, terrain, x)) for x in X])
+conv = runs[best].index[runs[best] == False].to_numpy()  # noqa: E712 (NaN is neither)
+ratio = final.loc[conv, best].to_numpy() / free[conv, -1]
+ratio_model = final.loc[conv, best].to_numpy() / bounds[conv, -1]
+glue("terrain_rmse_over_pcrb", float(np.median(ratio)), display=False)
+glue("terrain_rmse_over_model_pcrb", float(np.median(ratio_model)), display=False)
+glue("terrain_free_final_median", float(np.median(free[:, -1])), display=False)
+glue("terrain_converged_n", int(len(conv)), display=False)
+glue("terrain_pcrb_final_median", float(np.median(bounds[:, -1])), display=False)
+glue("terrain_pcrb_average_final", float(average[-1]), display=False)
+ci = stats.bootstrap((ratio,), np.median, random_state=0).confidence_interval
+glue("terrain_ratio_lo", ci.low, display=False)
+glue("terrain_ratio_hi", ci.high, display=False)
+print(f"bound on the final horizontal RMS error: median over flights {np.median(bounds[:, -1]):.1f} m, "
+      f"averaged-information bound {average[-1]:.1f} m")
+print(f"noise-free bound (the flights as simulated): median final {np.median(free[:, -1]):.1f} m")
+print(f"{best}: final error / noise-free bound over {len(conv)} converged flights: median {np.median(ratio):.2f} "
+      f"(bootstrap 95 % CI {ci.low:.2f} to {ci.high:.2f}); / model bound: median {np.median(ratio_model):.2f}")
+
+fig, ax = plt.subplots(figsize=(7, 3.5))
+t = scenario.times
+ax.fill_between(t, *np.quantile(bounds, [0.1, 0.9], axis=0), alpha=0.3, label="per-flight bound, 10-90 %")
+ax.plot(t, np.median(bounds, axis=0), label="per-flight bound, median")
+ax.plot(t, average, "--", label="bound with information averaged over flights")
+ax.plot(t, np.median(free, axis=0), ":", label="noise-free bound (as simulated), median")
+ax.set_yscale("log")
+ax.set_xlabel("time t (s)")
+ax.set_ylabel("horizontal RMS error bound (m)")
+ax.legend(fontsize=8)
+plt.show()
+
+# %% [markdown]
+# At the end of the flight the bound of the filter's model is typically
+# {glue:text}`terrain_pcrb_final_median:.0f` m, and the noise-free bound
+# {glue:text}`terrain_free_final_median:.1f` m. The {glue:text}`terrain_converged_n` converged
+# flights of {glue:text}`terrain_best_name` end at a median
+# {glue:text}`terrain_rmse_over_pcrb:.2f` times their flight's noise-free bound (bootstrap
+# 95 % interval {glue:text}`terrain_ratio_lo:.2f` to {glue:text}`terrain_ratio_hi:.2f`): within
+# a factor of two of the best any estimator can do on these flights. Against the bound of the
+# filter's own model the median ratio is {glue:text}`terrain_rmse_over_model_pcrb:.2f`, below 1:
+# that "bound" assumes an aircraft that really has the process noise $Q_f$, and the simulated
+# one has none, so it is not a bound for these flights; the noise-free one is.
+
+# %% [markdown]
+# ## Exercises
+#
+# ```{exercise}
+# :label: ex-terrain-bandwidth
+# Compute the regularised filter's optimal bandwidth $h_\text{opt}$ for $N = 3000$ and
+# $N = 30000$ particles in the aircraft's four-dimensional state, and the standard deviation
+# of the kernel's move in $x$ when the cloud is a single blob of 50 m, and when it is two
+# equal blobs 4 km apart. Which of the two situations does the formula assume?
+# ```
+#
+# ```{solution} ex-terrain-bandwidth
+# :class: dropdown
+# $h_\text{opt} = (4/6)^{1/8} N^{-1/8}$: `optimal_bandwidth(3000, 4)` $\approx 0.35$ and
+# `optimal_bandwidth(30000, 4)` $\approx 0.26$. The move's standard deviation in $x$ is
+# $h\sqrt{S_{xx}}$: about 17 m (or 13 m) for the 50 m blob, but for two blobs 4 km apart
+# $\sqrt{S_{xx}} \approx 2$ km and the move is about 700 m (500 m), which throws the particles
+# of each blob off its terrain match. The formula is optimal for a Gaussian density, the
+# single blob; this is why the chapter's filter uses $0.2\,h_\text{opt}$.
+# ```

@@ -1,0 +1,307 @@
+"""The particle filter against the Kalman family: accuracy, consistency and cost on the same runs.
+
+Three measurements, for every filter on every seeded run:
+
+* **accuracy**: the position error ``||p_k - p^_k||`` per step (m);
+* **consistency**: the normalised estimation error squared
+  ``NEES_k = e_k^T P_k^{-1} e_k`` (chi-square with ``d = dim x`` degrees of freedom for a
+  consistent filter) and the normalised innovation squared ``NIS_k = y_k^T S_k^{-1} y_k``
+  (chi-square with ``m = dim z``), see :func:`pfcourse.diagnostics.nees` and
+  :func:`pfcourse.diagnostics.nis`;
+* **cost**: wall-clock seconds of the filter's run, and the number of model evaluations
+  per step (``N`` particles, ``2 d + 1`` sigma points, one linearisation point).
+
+**Where the innovations come from.**  Every Kalman-family filter returns its own
+(:class:`pfcourse.results.KalmanResult`: ``innovation`` ``y_k`` and ``innovation_cov`` ``S_k``
+as the filter computed them, ``H P^- H^T + R`` for the EKF and the unscented transform plus
+``R`` for the UKF), so nothing is recomputed here.
+
+For the particle filter, the predictive distribution of ``z_k`` is the mixture
+``sum_i W_{k-1}^i N(z; h(x_k^i), R)`` over the *predicted* particles (after the move,
+before the weighting by ``z_k``); ``S_k`` is its covariance,
+:func:`pfcourse.diagnostics.predictive_moments`.  The bootstrap filter stores exactly
+these particles (``store_particles=True``), with weights ``W_{k-1}`` (uniform after a
+resampling).
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+import pandas as pd
+
+from pfcourse.angles import wrap_angle
+from pfcourse.checks import Array
+from pfcourse.diagnostics import chi2_band, fraction_in_band, nees, nis, predictive_moments
+from pfcourse.errors import DegenerateWeightsError
+from pfcourse.experiments.terrain import flight_seed
+from pfcourse.filter import FilterResult, ParticleFilter
+from pfcourse.robot.scenario import ANGLE_INDICES, RobotModel, range_bearing, simulate_robot
+from pfcourse.terrain.kalman import unscented_kalman_filter
+from pfcourse.terrain.map import TerrainMap
+from pfcourse.terrain.scenario import (
+    AircraftScenario,
+    extended_kalman_filter,
+    position_error,
+    predicted_measurement,
+    simulate as simulate_flight,
+)
+
+
+def particle_innovations(result: FilterResult, measurements: Array, predict, noise_cov: Array,
+                         angle_indices: Sequence[int] = ()) -> tuple[Array, Array]:
+    """Innovations ``y_k = z_k - z-bar_k`` and covariances ``S_k`` of a bootstrap particle filter.
+
+    ``result`` must come from ``run(..., store_particles=True)`` with the transition as
+    proposal, so that ``result.particles[k]`` are the predicted particles of step ``k``.
+    ``predict(particles, z, k)`` returns ``h(x^i)`` ``(N, m)`` for the measurement ``z``
+    (NaN rows for particles where ``h`` is undefined: they are left out, since their
+    likelihood is zero); see :func:`~pfcourse.diagnostics.predictive_moments`.
+    Returns ``(y, S)`` of shapes ``(K, m)`` and ``(K, m, m)``, NaN without a measurement.
+    """
+    if result.particles is None:
+        raise ValueError("particle_innovations needs a run with store_particles=True")
+    noise_cov = np.atleast_2d(np.asarray(noise_cov, dtype=float))
+    m = noise_cov.shape[0]
+    K, n = result.weights.shape
+    y = np.full((K, m), np.nan)
+    S = np.full((K, m, m), np.nan)
+    for k in range(1, K):
+        zk = np.asarray(measurements[k], dtype=float).ravel()
+        if np.all(np.isnan(zk)):
+            continue
+        w = np.full(n, 1.0 / n) if result.resampled[k - 1] else result.weights[k - 1]
+        h = np.asarray(predict(result.particles[k], zk, k), dtype=float).reshape(n, m)
+        ok = ~np.any(np.isnan(h), axis=1)
+        mean, S[k] = predictive_moments(h[ok], w[ok] / w[ok].sum(), noise_cov, angle_indices)
+        diff = zk[-m:] - mean
+        for j in angle_indices:
+            diff[j] = wrap_angle(diff[j])
+        y[k] = diff
+    return y, S
+
+
+@dataclass
+class Track:
+    """One filter on one run: per-step ``error`` (m), ``nees``, ``nis`` (NaN without a
+    measurement; ``inf`` once the filter is lost), run time ``seconds``, and ``lost``."""
+
+    filter: str
+    n_particles: int
+    error: Array
+    nees: Array
+    nis: Array
+    seconds: float
+    lost: bool = False
+
+
+def _safe_nees(truth, mean, cov, angle_indices) -> Array:
+    """NEES with ``inf`` where the filter has no estimate or a singular covariance."""
+    out = np.full(len(truth), np.inf)
+    ok = np.all(np.isfinite(mean), axis=1) & np.all(np.isfinite(cov), axis=(1, 2))
+    ok &= np.linalg.eigvalsh(np.where(ok[:, None, None], cov, np.eye(cov.shape[-1])))[:, 0] > 0
+    if np.any(ok):
+        out[ok] = nees(truth[ok], mean[ok], cov[ok], angle_indices)
+    return out
+
+
+def robot_tracks(seed: int, n_values: Sequence[int], *, n_steps: int = 100, q_scale: float = 1.0,
+                 r_scale: float = 1.0, kalman: Sequence[str] = ("ekf", "ukf"), **scenario) -> list[Track]:
+    """The robot scenario: simulate run ``seed``, filter it with a PF per ``N`` and the EKF/UKF.
+
+    Defaults differ from :func:`pfcourse.experiments.robot.compare_filters` in one respect:
+    the filters assume the *true* noise levels (``q_scale = r_scale = 1``), so that a
+    consistent filter has NEES ~ chi2_3 and NIS ~ chi2_2.  The particle filter's random
+    stream is seeded with ``[seed, N]``.  Errors are Euclidean position errors (m).
+    """
+    from pfcourse.robot.kalman import run_ekf, run_ukf
+
+    sim = simulate_robot(None, seed, n_steps=n_steps, **scenario)
+    model = RobotModel.for_simulation(sim, q_scale=q_scale, r_scale=r_scale)
+    z = sim.measurements
+    tracks: list[Track] = []
+
+    def track(name, n, mean, cov, y, S, seconds):
+        err = np.hypot(*(mean[:, :2] - sim.truth[:, :2]).T)
+        return Track(name, n, err, _safe_nees(sim.truth, mean, cov, ANGLE_INDICES), nis(y, S), seconds)
+
+    def predict(particles, zk, k):
+        return range_bearing(particles, model.landmarks[int(zk[0])])
+
+    for n in n_values:
+        start = time.perf_counter()
+        res = ParticleFilter(model, n, threshold=0.5).run(z, np.random.default_rng([seed, n]),
+                                                         store_particles=True)
+        seconds = time.perf_counter() - start
+        y, S = particle_innovations(res, z, predict, model.r_est, angle_indices=(1,))
+        tracks.append(track("pf", n, res.mean, res.cov, y, S, seconds))
+    for name in kalman:
+        start = time.perf_counter()
+        run = (run_ekf if name == "ekf" else run_ukf)(model, z)
+        seconds = time.perf_counter() - start
+        tracks.append(track(name, 0, run.mean, run.cov, run.innovation, run.innovation_cov, seconds))
+    return tracks
+
+
+def terrain_tracks(seed: int, run: int, scenario: AircraftScenario, terrain: TerrainMap,
+                   n_values: Sequence[int], *, kalman: Sequence[str] = ("ekf", "ukf"),
+                   resampler: str = "multinomial") -> list[Track]:
+    """Terrain navigation: flight ``run`` of a study with seed ``seed`` (as
+    :func:`pfcourse.experiments.terrain.flight_study`: flight :func:`~pfcourse.experiments.terrain.flight_seed`,
+    particle filter seeded with ``[seed, run, 1]``), filtered by a PF per ``N`` and the EKF/UKF.
+
+    Errors are horizontal position errors (m); a lost filter (every particle off the map,
+    or a Kalman estimate or sigma point off the map) has ``inf`` error, NEES and NIS from
+    the step it was lost (from the start for a particle filter).
+    """
+    flight = simulate_flight(scenario, terrain, flight_seed(seed, run))
+    z = flight.Z
+    K = len(z)
+    tracks: list[Track] = []
+
+    def track(name, n, mean, cov, y, S, seconds, lost):
+        err = np.where(np.isnan(mean[:, 0]), np.inf, position_error(flight.X, mean))
+        q = nis(y, S)
+        measured = ~np.isnan(z[:, 0])
+        q[measured & np.isnan(q)] = np.inf
+        return Track(name, n, err, _safe_nees(flight.X, mean, cov, (3,)), q, seconds, lost)
+
+    def predict(particles, zk, k):
+        return predicted_measurement(particles, terrain)[:, None]
+
+    model = scenario.model(terrain)
+    for n in n_values:
+        start = time.perf_counter()
+        try:
+            res = ParticleFilter(model, n, threshold=0.5, resampler=resampler).run(
+                z, np.random.default_rng([seed, run, 1]), store_particles=True)
+        except DegenerateWeightsError:
+            inf = np.full(K, np.inf)
+            tracks.append(Track("pf", n, inf, inf, np.where(np.isnan(z[:, 0]), np.nan, np.inf),
+                                time.perf_counter() - start, True))
+            continue
+        seconds = time.perf_counter() - start
+        y, S = particle_innovations(res, z, predict, np.array([[scenario.Rf]]))
+        tracks.append(track("pf", n, res.mean, res.cov, y, S, seconds, False))
+    for name in kalman:
+        start = time.perf_counter()
+        if name == "ekf":
+            ekf = extended_kalman_filter(scenario, terrain, z)
+            seconds = time.perf_counter() - start
+            tracks.append(track("ekf", 0, ekf.mean, ekf.cov, ekf.innovation, ekf.innovation_cov, seconds,
+                                ekf.lost_at is not None))
+        else:
+            ukf = unscented_kalman_filter(scenario, terrain, z)
+            seconds = time.perf_counter() - start
+            tracks.append(track("ukf", 0, ukf.mean, ukf.cov, ukf.innovation, ukf.innovation_cov,
+                                seconds, ukf.lost_at is not None))
+    return tracks
+
+
+def label(track: Track) -> str:
+    """``"PF N=300"``, ``"EKF"`` or ``"UKF"``."""
+    return f"PF N={track.n_particles}" if track.filter == "pf" else track.filter.upper()
+
+
+def evaluations_per_step(track: Track, dim_x: int) -> int:
+    """Model evaluations per step: ``N`` (particles), ``2 d + 1`` (sigma points) or 1 (EKF)."""
+    return {"pf": track.n_particles, "ukf": 2 * dim_x + 1, "ekf": 1}[track.filter]
+
+
+def summarize_tracks(runs: Sequence[Sequence[Track]], *, dim_x: int, dim_z: int, burn_in: int = 0,
+              diverged_error: float | None = None) -> pd.DataFrame:
+    """One row per filter over ``R`` runs (``runs[r]`` holds the same filters in the same order).
+
+    Columns: ``rmse_q10``, ``rmse_q50``, ``rmse_q90`` (quantiles over runs of the per-run RMS
+    position error over steps ``k >= burn_in``, m); ``diverged`` (share of runs lost or with
+    a final error above ``diverged_error``, if given); ``nees_median`` / ``nis_median``
+    (median over runs and steps); ``nees_in_band`` / ``nis_in_band`` (fraction of steps
+    whose run-averaged NEES / NIS lies in the 95 % band of the average of ``R`` chi-square
+    variables, :func:`~pfcourse.diagnostics.chi2_band`: 0.95 expected of a consistent
+    filter, a lost run's ``inf`` puts the step outside), and ``nees_below`` / ``nis_below``
+    the fraction of steps below the band (a conservative filter); ``ms_per_step`` (median run time
+    over runs / steps); ``evaluations`` (:func:`evaluations_per_step`).
+    """
+    R = len(runs)
+    nees_band = chi2_band(dim_x, R)
+    nis_band = chi2_band(dim_z, R)
+    rows = []
+    for j, first in enumerate(runs[0]):
+        tracks = [r[j] for r in runs]
+        err = np.array([t.error[burn_in:] for t in tracks])
+        with np.errstate(invalid="ignore", over="ignore"):
+            rmse = np.sqrt(np.mean(err**2, axis=1))
+            nees_all = np.array([t.nees[burn_in:] for t in tracks])
+            nis_all = np.array([t.nis[burn_in:] for t in tracks])
+            nis_steps = ~np.all(np.isnan(nis_all), axis=0)
+            nees_avg = np.mean(nees_all, axis=0)
+            nis_avg = np.mean(nis_all[:, nis_steps], axis=0)
+        q10, q50, q90 = np.quantile(rmse, [0.1, 0.5, 0.9], method="inverted_cdf")
+        row = {
+            "filter": label(first),
+            "N": first.n_particles,
+            "rmse_q10": q10, "rmse_q50": q50, "rmse_q90": q90,
+            "nees_median": float(np.median(nees_all)),
+            "nis_median": float(np.nanmedian(nis_all)),
+            "nees_in_band": fraction_in_band(nees_avg, nees_band),
+            "nis_in_band": fraction_in_band(nis_avg, nis_band),
+            "nees_below": fraction_in_band(nees_avg, (-np.inf, np.nextafter(nees_band[0], -np.inf))),
+            "nis_below": fraction_in_band(nis_avg, (-np.inf, np.nextafter(nis_band[0], -np.inf))),
+            "ms_per_step": 1000 * float(np.median([t.seconds for t in tracks])) / len(first.error),
+            "evaluations": evaluations_per_step(first, dim_x),
+        }
+        if diverged_error is not None:
+            final = np.array([t.error[-1] for t in tracks])
+            row["diverged"] = float(np.mean(~(final <= diverged_error)))
+        rows.append(row)
+    return pd.DataFrame(rows).set_index("filter")
+
+
+@dataclass
+class ConvergenceResult:
+    """Errors of a particle filter against the exact Kalman filter, per ``N`` (rows) and run (columns).
+
+    ``mean_error``: RMS over steps and components of ``m^PF_k - m^KF_k`` (m);
+    ``cov_error``: RMS over steps of the Frobenius norm ``||P^PF_k - P^KF_k||_F`` (m^2);
+    ``loglik_error``: ``log p^(z_{0:K}) - log p(z_{0:K})`` (nats, signed).
+    """
+
+    n_values: Array
+    mean_error: Array
+    cov_error: Array
+    loglik_error: Array
+
+
+def linear_convergence(model, measurements: Array, kalman, n_values: Sequence[int], n_runs: int, *,
+                       seed: int = 0, threshold: float = 0.5) -> ConvergenceResult:
+    """Run a bootstrap particle filter ``n_runs`` times per ``N`` on one data set and compare it
+    with the Kalman result ``kalman`` (:func:`pfcourse.landmarks.kalman.kalman_filter`).
+
+    Run ``r`` at ``N`` uses the random stream ``[seed, r, N]``.
+    """
+    n_values = np.asarray(n_values, dtype=int)
+    shape = (len(n_values), n_runs)
+    mean_err, cov_err, ll_err = np.empty(shape), np.empty(shape), np.empty(shape)
+    for a, n in enumerate(n_values):
+        pf = ParticleFilter(model, int(n), threshold=threshold)
+        for r in range(n_runs):
+            res = pf.run(measurements, np.random.default_rng([seed, r, int(n)]))
+            mean_err[a, r] = np.sqrt(np.mean((res.mean - kalman.mean) ** 2))
+            cov_err[a, r] = np.sqrt(np.mean(np.sum((res.cov - kalman.cov) ** 2, axis=(1, 2))))
+            ll_err[a, r] = res.log_likelihood - kalman.log_likelihood
+    return ConvergenceResult(n_values, mean_err, cov_err, ll_err)
+
+
+def loglog_slope(n_values: Array, values: Array) -> float:
+    """Least-squares slope of ``log(values)`` against ``log(N)``."""
+    return float(np.polyfit(np.log(n_values), np.log(values), 1)[0])
+
+
+__all__ = [
+    "ConvergenceResult", "Track",
+    "evaluations_per_step", "label", "linear_convergence", "loglog_slope", "particle_innovations",
+    "robot_tracks", "summarize_tracks", "terrain_tracks",
+]

@@ -1,0 +1,225 @@
+"""One seeded run of the robot scenario through several filters, summarised by a few numbers.
+
+This is the unit a Monte Carlo study repeats: :func:`compare_filters` simulates
+run ``seed`` with the scenario settings given as keyword arguments, runs the
+particle filter, the EKF and/or the UKF on *the same* data, and returns, per
+filter, the position and heading RMSE, the time-averaged NEES and the run time.
+:func:`global_localization_run` does the same for one particle filter started
+from a cloud uniform over the map and says whether it locked on.
+
+The metrics (``e_k = estimate_k - truth_k``, heading wrapped, steps ``k >= burn_in``)::
+
+    RMSE_pos   = sqrt(mean_k (e_x^2 + e_y^2))            (m)
+    RMSE_theta = sqrt(mean_k e_theta^2)                  (rad)
+    NEES       = mean_k e_k^T P_k^{-1} e_k               (chi2 with 3 dof per step if consistent)
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass
+
+import numpy as np
+
+from pfcourse.angles import wrap_angle
+from pfcourse.diagnostics import nees
+from pfcourse.checks import check_count
+from pfcourse.errors import DegenerateWeightsError, NumericalError, ParameterError
+from pfcourse.filter import ParticleFilter
+from pfcourse.robot.scenario import (
+    ANGLE_INDICES,
+    INITIAL_STD,
+    RobotModel,
+    RobotScenario,
+    rmse,
+    simulate_robot,
+    tracking_errors,
+)
+from pfcourse.robot.kalman import run_ekf, run_ukf
+
+FILTERS = ("pf", "ekf", "ukf")
+
+
+@dataclass(frozen=True)
+class RunMetrics:
+    """Summary of one filter on one run; ``failed`` is True if the filter raised (metrics are then NaN).
+
+    ``nees`` holds the per-step NEES for the steps ``k >= burn_in`` (``None`` if failed).
+    """
+
+    position_rmse: float
+    heading_rmse: float
+    mean_nees: float
+    seconds: float
+    failed: bool = False
+    nees: np.ndarray | None = None
+
+
+def _metrics(sim, mean, cov, seconds, burn_in) -> RunMetrics:
+    pos, head = rmse(sim.truth, mean, burn_in)
+    per_step = nees(sim.truth[burn_in:], mean[burn_in:], cov[burn_in:], ANGLE_INDICES)
+    return RunMetrics(pos, head, float(np.mean(per_step)), seconds, False, per_step)
+
+
+def compare_filters(
+    seed: int,
+    *,
+    filters: tuple[str, ...] = FILTERS,
+    n_particles: int = 300,
+    q_scale: float = 2.0,
+    r_scale: float = 2.0,
+    threshold: float = 0.5,
+    scheme: str = "systematic",
+    initial: str = "tracking",
+    initial_std=INITIAL_STD,
+    burn_in: int = 0,
+    scenario: RobotScenario | None = None,
+    **scenario_changes,
+) -> dict[str, RunMetrics]:
+    """Simulate run ``seed`` and filter it with each of ``filters`` (``"pf"``, ``"ekf"``, ``"ukf"``).
+
+    ``scenario_changes`` are :class:`~pfcourse.robot.scenario.RobotScenario` fields
+    (``n_steps``, ``dt_meas``, ``gap``, ``n_landmarks``, ``q_true``, ...).  The filters use
+    ``QEst = q_scale QTrue`` and ``REst = r_scale RTrue``; the particle filter has
+    ``n_particles``, resamples with ``scheme`` when ``ESS < threshold N`` and starts
+    from ``initial`` (``"tracking"`` or ``"uniform"``; the Kalman filters always
+    start from the tracking prior); the tracking prior has standard deviations
+    ``initial_std`` around the true start.  The particle filter's random stream is
+    seeded with ``seed`` too.  A filter that raises a
+    :class:`~pfcourse.errors.DegenerateWeightsError` or
+    :class:`~pfcourse.errors.NumericalError` is reported with ``failed=True``.
+    """
+    unknown = set(filters) - set(FILTERS)
+    if unknown:
+        raise ParameterError(f"unknown filter(s) {sorted(unknown)}; choose among {FILTERS}")
+    check_count(burn_in + 1, "burn_in + 1")
+    sim = simulate_robot(scenario, seed, **scenario_changes)
+    if burn_in >= sim.scenario.n_steps:
+        raise ParameterError(f"burn_in = {burn_in} leaves no step of the {sim.scenario.n_steps}")
+    out: dict[str, RunMetrics] = {}
+    for name in filters:
+        model = RobotModel.for_simulation(
+            sim,
+            q_scale=q_scale,
+            r_scale=r_scale,
+            initial=initial if name == "pf" else "tracking",
+            initial_std=initial_std,
+        )
+        start = time.perf_counter()
+        try:
+            if name == "pf":
+                pf = ParticleFilter(model, n_particles, threshold=threshold, resampler=scheme)
+                res = pf.run(sim.measurements, seed)
+            elif name == "ekf":
+                res = run_ekf(model, sim.measurements)
+            else:
+                res = run_ukf(model, sim.measurements)
+        except (DegenerateWeightsError, NumericalError):
+            out[name] = RunMetrics(np.nan, np.nan, np.nan, time.perf_counter() - start, True)
+            continue
+        out[name] = _metrics(sim, res.mean, res.cov, time.perf_counter() - start, burn_in)
+    return out
+
+
+@dataclass(frozen=True)
+class GlobalRun:
+    """Outcome of :func:`global_localization_run`: lock-on flag, final position error (m) and
+    the filter's own final position standard deviation ``sqrt(P_xx + P_yy)`` (m)."""
+
+    locked_on: bool
+    position_error: float
+    position_sd: float
+
+
+def global_localization_run(
+    seed: int,
+    n_particles: int,
+    *,
+    n_steps: int = 60,
+    position_tolerance: float = 1.0,
+    heading_tolerance: float = np.deg2rad(5.0),
+    q_scale: float = 2.0,
+    r_scale: float = 2.0,
+    threshold: float = 0.5,
+    scheme: str = "systematic",
+    **scenario_changes,
+) -> GlobalRun:
+    """Run the particle filter from a uniform cloud over the map and summarise its last step.
+
+    Locked on means that at the last step the posterior mean is within
+    ``position_tolerance`` metres and ``heading_tolerance`` radians of the truth.
+    A filter that loses every particle (:class:`~pfcourse.errors.DegenerateWeightsError`)
+    has not locked on (error and standard deviation ``inf``).
+    """
+    sim = simulate_robot(None, seed, n_steps=n_steps, **scenario_changes)
+    model = RobotModel.for_simulation(sim, q_scale=q_scale, r_scale=r_scale, initial="uniform")
+    try:
+        res = ParticleFilter(model, n_particles, threshold=threshold, resampler=scheme).run(sim.measurements, seed)
+    except DegenerateWeightsError:
+        return GlobalRun(False, float("inf"), float("inf"))
+    err = res.mean[-1] - sim.truth[-1]
+    dist = float(np.hypot(err[0], err[1]))
+    ok = dist < position_tolerance and abs(float(wrap_angle(err[2]))) < heading_tolerance
+    sd = float(np.sqrt(res.cov[-1, 0, 0] + res.cov[-1, 1, 1]))
+    return GlobalRun(bool(ok), dist, sd)
+
+
+def pf_run(
+    seed: int,
+    *,
+    n_particles: int = 300,
+    q_scale: float = 2.0,
+    r_scale: float = 2.0,
+    threshold: float = 0.5,
+    scheme: str = "systematic",
+    initial: str = "tracking",
+    initial_std=INITIAL_STD,
+    burn_in: int = 0,
+    keep_errors: bool = False,
+    scenario: RobotScenario | None = None,
+    **scenario_changes,
+) -> dict:
+    """Simulate run ``seed`` and filter it with the particle filter: the metrics of a Part III study row.
+
+    Arguments as in :func:`compare_filters` (the same simulation, model, filter and seed, so
+    ``position_rmse``, ``heading_rmse`` and ``mean_nees`` are those of
+    ``compare_filters(seed, filters=("pf",), ...)``).  Metrics (steps ``k >= burn_in``):
+    ``position_rmse`` (m), ``heading_rmse`` (rad), ``mean_nees`` (``inf`` if all the weight
+    sat on one particle at some step), the final position and heading errors, the mean
+    ``ESS / N`` over measurement steps, the number of resamplings, the filter's own position
+    standard deviation ``sd_k = sqrt(P_xx + P_yy)`` averaged over the steps
+    (``mean_position_sd``), and the jitter of the estimated path,
+    ``sqrt(mean_k ||(p^_k - p^_{k-1}) - (p_k - p_{k-1})||^2)`` (m per step).  With
+    ``keep_errors=True`` also the per-step arrays ``position_error`` ``||p^_k - p_k||``,
+    ``position_sd`` and ``heading_error`` ``|wrap(theta^_k - theta_k)|``.  A collapse raises
+    its :class:`~pfcourse.errors.StepError` (the study runner records a failed run).
+    """
+    check_count(burn_in + 1, "burn_in + 1")
+    sim = simulate_robot(scenario, seed, **scenario_changes)
+    K = sim.scenario.n_steps
+    if burn_in >= K:
+        raise ParameterError(f"burn_in = {burn_in} leaves no step of the {K}")
+    model = RobotModel.for_simulation(sim, q_scale=q_scale, r_scale=r_scale, initial=initial, initial_std=initial_std)
+    res = ParticleFilter(model, n_particles, threshold=threshold, resampler=scheme).run(sim.measurements, seed)
+    metrics = _metrics(sim, res.mean, res.cov, 0.0, burn_in)
+    err = tracking_errors(sim.truth, res.mean)
+    distance = np.hypot(err[:, 0], err[:, 1])
+    sd = np.sqrt(res.cov[:, 0, 0] + res.cov[:, 1, 1])
+    jitter = np.diff(res.mean[burn_in:, :2], axis=0) - np.diff(sim.truth[burn_in:, :2], axis=0)
+    measured = sim.has_measurement
+    row = {
+        "position_rmse": metrics.position_rmse,
+        "heading_rmse": metrics.heading_rmse,
+        "mean_nees": metrics.mean_nees,
+        "final_position_error": float(distance[-1]),
+        "final_heading_error": float(abs(err[-1, 2])),
+        "mean_ess_fraction": float(np.mean(res.ess[measured]) / res.n_particles) if measured.any() else 1.0,
+        "resamples": res.n_resamples,
+        "mean_position_sd": float(np.mean(sd[burn_in:])),
+        "estimate_jitter": float(np.sqrt(np.mean(np.sum(jitter**2, axis=1)))) if len(jitter) else 0.0,
+    }
+    if keep_errors:
+        row["position_error"] = distance
+        row["position_sd"] = sd
+        row["heading_error"] = np.abs(err[:, 2])
+    return row

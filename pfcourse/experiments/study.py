@@ -1,0 +1,230 @@
+"""Monte Carlo studies: many seeded, independent runs of a filter over a parameter grid.
+
+A study answers "how does the error depend on this parameter?" with a
+distribution instead of one run.  For every setting ``s`` of the grid (the
+Cartesian product of the values given) and every replicate ``r = 0 .. R-1`` it
+calls ``run_one(seed=seed_r, **s)``, which simulates a scenario and filters it,
+and returns a dictionary of metrics.  The result is a tidy table, one row per
+(setting, run).
+
+* **Reproducible runs.** Replicate ``r`` uses the seed
+  ``SeedSequence([base_seed, r])``: any single row can be re-run alone.
+* **Common random numbers.** Replicate ``r`` uses the same seed in every setting,
+  so the settings are compared on the same simulated truths and measurements and
+  their differences are not blurred by different data.
+* **Failures are data.** A run that collapses (a :class:`~pfcourse.errors.StepError`:
+  every particle impossible, a NaN) is recorded with ``status = "failed"`` and its
+  message; the study goes on.  Configuration errors and bugs still stop it.
+* **Batches.** ``run_batch(seeds=[...], **s)`` may replace ``run_one`` when a
+  model can run several replicates at once; it returns one dictionary per seed,
+  or, for a replicate that collapsed, the :class:`~pfcourse.errors.StepError`
+  instance it would have raised (recorded as a failed run, the others kept).
+* **Any executor.** The runs are independent, so they are shared out as tasks (a chunk of
+  runs of one setting each) to a :class:`concurrent.futures.Executor`: by default a process
+  pool over the machine's cores; :class:`SerialExecutor` runs them in this process; a
+  cluster's executor (``dask.distributed.Client(...).get_executor()``) spreads them over
+  machines.  Each row depends only on its setting and seed, and the rows are put back in
+  grid order, so the table is the same whatever the executor and its number of workers
+  (only the ``seconds`` column, a wall time, differs).
+"""
+
+from __future__ import annotations
+
+import itertools
+import multiprocessing
+import os
+import pickle
+import time
+from collections.abc import Callable, Iterable, Mapping, Sequence
+from concurrent.futures import Executor, Future, ProcessPoolExecutor
+
+import numpy as np
+import pandas as pd
+
+from pfcourse.checks import check_count
+from pfcourse.errors import ParameterError, StepError
+
+Metrics = Mapping[str, float]
+
+
+def replicate_seed(base_seed: int, replicate: int) -> int:
+    """The seed of replicate ``r``: a 63-bit integer drawn from ``SeedSequence([base_seed, r])``."""
+    return int(np.random.SeedSequence([base_seed, replicate]).generate_state(1, np.uint64)[0] >> np.uint64(1))
+
+
+class SerialExecutor(Executor):
+    """An executor that runs each task at once, in the calling process (no pool, no pickling)."""
+
+    def submit(self, fn, /, *args, **kwargs) -> Future:
+        future: Future = Future()
+        try:
+            future.set_result(fn(*args, **kwargs))
+        except BaseException as exc:  # handed back through the future, as a pool would
+            future.set_exception(exc)
+        return future
+
+
+def default_executor(task: Callable) -> tuple[Executor, bool]:
+    """A process pool over the machine's cores (``fork``, so notebook functions need no import),
+    or a :class:`SerialExecutor` when ``task`` cannot be sent to another process (a lambda) or
+    the machine has one core.  Returns the executor and whether the caller must shut it down.
+    """
+    workers = os.cpu_count() or 1
+    if workers < 2 or "fork" not in multiprocessing.get_all_start_methods():
+        return SerialExecutor(), False
+    try:
+        pickle.dumps(task)
+    except (pickle.PicklingError, AttributeError, TypeError):
+        return SerialExecutor(), False
+    return ProcessPoolExecutor(workers, mp_context=multiprocessing.get_context("fork")), True
+
+
+def grid_settings(grid: Mapping[str, Sequence]) -> list[dict]:
+    """All combinations of the grid's values, in the order given (last key varies fastest)."""
+    for name, values in grid.items():
+        if isinstance(values, (str, bytes)) or not isinstance(values, Iterable) or len(values) == 0:
+            raise ParameterError(f"grid[{name!r}] must be a non-empty list of values, got {values!r}")
+    keys = list(grid)
+    return [dict(zip(keys, combo)) for combo in itertools.product(*(grid[k] for k in keys))]
+
+
+def run_study(
+    run_one: Callable[..., Metrics] | None,
+    grid: Mapping[str, Sequence],
+    n_runs: int,
+    *,
+    base_seed: int = 0,
+    run_batch: Callable[..., list[Metrics]] | None = None,
+    batch_size: int = 10,
+    progress: bool = True,
+    executor: Executor | None = None,
+) -> pd.DataFrame:
+    """Run every setting of ``grid`` ``n_runs`` times and return one row per run.
+
+    Columns: the grid's parameters, ``run`` (replicate index), ``seed``,
+    ``status`` (``"ok"`` or ``"failed"``), ``error`` (message of a failed run),
+    the metrics returned by the run, and ``seconds`` (wall time of the run, or of
+    its share of a batch).
+
+    ``executor`` runs the tasks (``batch_size`` runs of one setting each); ``None`` uses
+    :func:`default_executor`.  The rows, their order and every column but ``seconds`` do
+    not depend on it.
+    """
+    if (run_one is None) == (run_batch is None):
+        raise ParameterError("give exactly one of run_one and run_batch")
+    if executor is not None and not isinstance(executor, Executor) and not callable(getattr(executor, "submit", None)):
+        raise ParameterError(f"executor must be a concurrent.futures.Executor, got {executor!r}")
+    n_runs = check_count(n_runs, "n_runs")
+    batch_size = check_count(batch_size, "batch_size")
+    settings = grid_settings(grid)
+    seeds = [replicate_seed(base_seed, r) for r in range(n_runs)]
+    task = _batch_task if run_batch is not None else _runs_task
+    fn = run_batch if run_batch is not None else run_one
+    owned = False
+    if executor is None:
+        executor, owned = default_executor(fn)
+    bar = _Progress(len(settings) * n_runs) if progress else None
+    try:
+        futures = []
+        for setting in settings:
+            for start in range(0, n_runs, batch_size):
+                chunk = list(range(start, min(start + batch_size, n_runs)))
+                futures.append(executor.submit(task, fn, setting, chunk, [seeds[r] for r in chunk]))
+        rows: list[dict] = []
+        for future in futures:  # in grid order, whatever order they finish in
+            chunk_rows = future.result()
+            rows.extend(chunk_rows)
+            if bar:
+                for row in chunk_rows:
+                    bar.advance(1, row["status"])
+    finally:
+        if owned:
+            executor.shutdown(wait=True, cancel_futures=True)
+    if bar:
+        bar.finish(len(settings), n_runs)
+    return pd.DataFrame(rows)
+
+
+def _runs_task(run_one, setting: dict, runs: list[int], seeds: list[int]) -> list[dict]:
+    """One task of a study: runs ``runs`` of ``setting``, one at a time (module level, so it pickles)."""
+    return [_one_row(run_one, setting, r, seed) for r, seed in zip(runs, seeds)]
+
+
+def _batch_task(run_batch, setting: dict, runs: list[int], seeds: list[int]) -> list[dict]:
+    """One task of a study: runs ``runs`` of ``setting`` in one call of ``run_batch``."""
+    return _batch_rows(run_batch, setting, runs, seeds)
+
+
+def _one_row(run_one, setting: dict, r: int, seed: int) -> dict:
+    start = time.perf_counter()
+    try:
+        metrics, status, error = dict(run_one(seed=seed, **setting)), "ok", ""
+    except StepError as exc:
+        metrics, status, error = {}, "failed", f"{type(exc).__name__}: {exc}"
+    return {**setting, "run": r, "seed": seed, "status": status, "error": error, **metrics,
+            "seconds": time.perf_counter() - start}
+
+
+def _batch_rows(run_batch, setting: dict, runs: list[int], seeds: list[int]) -> list[dict]:
+    start = time.perf_counter()
+    try:
+        results = [({}, "failed", f"{type(m).__name__}: {m}") if isinstance(m, StepError) else (dict(m), "ok", "")
+                   for m in run_batch(seeds=seeds, **setting)]
+        if len(results) != len(seeds):
+            raise ParameterError(f"run_batch returned {len(results)} results for {len(seeds)} seeds")
+    except StepError:
+        # One collapse spoils the batch: redo its runs one at a time to find which.
+        return [_one_row(lambda seed, **s: run_batch(seeds=[seed], **s)[0], setting, r, seed)
+                for r, seed in zip(runs, seeds)]
+    share = (time.perf_counter() - start) / len(seeds)
+    return [{**setting, "run": r, "seed": seed, "status": status, "error": error, **m, "seconds": share}
+            for r, seed, (m, status, error) in zip(runs, seeds, results)]
+
+
+def summarize(
+    table: pd.DataFrame, by: str | Sequence[str], metric: str, quantiles: Sequence[float] = (0.1, 0.5, 0.9)
+) -> pd.DataFrame:
+    """Quantiles of ``metric`` over the successful runs of each setting, with run counts.
+
+    Columns ``q10``, ``q50``, ... (percent), ``n_ok`` and ``n_failed``; failed runs
+    are counted, not averaged in.
+    """
+    by = [by] if isinstance(by, str) else list(by)
+    ok = table[table["status"] == "ok"]
+    grouped = ok.groupby(by, sort=False)[metric]
+    out = pd.DataFrame({f"q{round(100 * q)}": grouped.quantile(q) for q in quantiles})
+    out["n_ok"] = grouped.size()
+    failed = table[table["status"] != "ok"].groupby(by, sort=False).size()
+    out["n_failed"] = failed.reindex(out.index, fill_value=0)
+    return out
+
+
+class _Progress:
+    """A progress bar in notebooks (nothing elsewhere), then a one-line summary.
+
+    The bar's text form is fixed when it is displayed and the summary line
+    (``12 settings x 100 runs: 1200 ok, 0 failed``) is printed at the end, so a
+    re-executed notebook stores the same text output (strict nbval compares it).
+    """
+
+    def __init__(self, total: int) -> None:
+        from IPython import get_ipython
+
+        self.bar = None
+        self.failed = 0
+        if get_ipython() is not None:
+            import ipywidgets as widgets
+            from IPython.display import display
+
+            self.bar = widgets.IntProgress(value=0, min=0, max=total, description="runs")
+            display(self.bar)
+
+    def advance(self, n: int, status: str) -> None:
+        self.failed += status != "ok"
+        if self.bar is not None:
+            self.bar.value += n
+
+    def finish(self, n_settings: int, n_runs: int) -> None:
+        if self.bar is not None:
+            total = n_settings * n_runs
+            print(f"{n_settings} settings x {n_runs} runs: {total - self.failed} ok, {self.failed} failed")

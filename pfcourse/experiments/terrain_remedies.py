@@ -1,0 +1,79 @@
+"""Seeded runs of the terrain filters, one (setting, flight) at a time, for the stored studies.
+
+A *setting* is a name in :data:`SETTINGS`; flight ``r`` is :func:`pfcourse.experiments.terrain.flight_seed`
+``(0, r)`` (common random numbers: every setting sees the same truths and altimeter noise) and
+the filter's generator is ``default_rng([0, r, 1])``.  **Divergence**: a run is *lost* when its
+final horizontal error exceeds :data:`pfcourse.experiments.terrain.DIVERGED_ERROR` (500 m) or every particle
+died.  ``tools/studies/terrain_remedies.py`` writes the rows to ``book/data/terrain_remedies.csv``;
+``tests/test_terrain_study.py`` recomputes a seeded sample of them.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from pfcourse.errors import DegenerateWeightsError, ParameterError
+from pfcourse.experiments.terrain import DIVERGED_ERROR, flight_seed
+from pfcourse.filter import ParticleFilter
+from pfcourse.remedies import ProgressiveCorrection, RegularisedJitter
+from pfcourse.terrain.scenario import AircraftScenario, position_error, simulate
+
+#: Q_f with the horizontal entries divided by 3, like every other horizontal length of the scenario.
+QF_SCALED = np.diag([1.0, 1.0, 0.6, 0.001 * 180.0 / np.pi]) ** 2
+
+#: name -> (N, kind, options); kind: "bootstrap", "regularised", "tempered"; option ``scale``
+#: multiplies the regularised kernel's optimal bandwidth (0.2, chosen on flights 0-11 among
+#: 0.05, 0.2 and 1: h_opt itself, fitted to one Gaussian, spreads a multimodal cloud over km).
+SETTINGS: dict[str, tuple[int, str, dict]] = {
+    "bootstrap N=3000": (3000, "bootstrap", {}),
+    "bootstrap N=10000": (10000, "bootstrap", {}),
+    "bootstrap N=30000": (30000, "bootstrap", {}),
+    "bootstrap N=100000": (100000, "bootstrap", {}),
+    "bootstrap N=3000, Qf/3": (3000, "bootstrap", {"Qf": QF_SCALED}),
+    "regularised h=1 N=3000": (3000, "regularised", {"scale": 1.0}),
+    "regularised N=3000": (3000, "regularised", {"scale": 0.2}),
+    "regularised N=10000": (10000, "regularised", {"scale": 0.2}),
+    "regularised N=30000": (30000, "regularised", {"scale": 0.2}),
+    "tempered N=3000": (3000, "tempered", {}),
+    "tempered+regularised N=3000": (3000, "tempered+regularised", {"scale": 0.2}),
+    "tempered+regularised N=10000": (10000, "tempered+regularised", {"scale": 0.2}),
+}
+
+
+def make_filter(setting: str, scenario: AircraftScenario, terrain):
+    """The filter of ``setting`` (a fresh one: the progressive correction counts readings)."""
+    if setting not in SETTINGS:
+        raise ParameterError(f"unknown setting {setting!r}; known: {sorted(SETTINGS)}")
+    n, kind, options = SETTINGS[setting]
+    options = dict(options)
+    scale = options.pop("scale", 0.2)
+    sc = scenario.with_(**options) if options else scenario
+    model = sc.model(terrain)
+    if kind == "bootstrap":
+        return ParticleFilter(model, n, threshold=0.5, resampler="multinomial"), None
+    if kind == "regularised":
+        return ParticleFilter(model, n, threshold=0.5, resampler="multinomial",
+                              jitter=RegularisedJitter(scale, (3,))), None
+    pc = ProgressiveCorrection(n_tempered=5)
+    jitter = RegularisedJitter(scale, (3,)) if "regularised" in kind else None
+    return ParticleFilter(model, n, threshold=1.0, resampler="multinomial", proposal=pc, jitter=jitter), pc
+
+
+def run_one(setting: str, run: int, terrain, scenario: AircraftScenario | None = None) -> dict:
+    """Filter flight ``run`` with ``setting``: final and time-averaged horizontal error (m), lost flag,
+    likelihood evaluations per particle (the cost in particle-steps / N)."""
+    scenario = scenario or AircraftScenario()
+    flight = simulate(scenario, terrain, flight_seed(0, run))
+    pf, pc = make_filter(setting, scenario, terrain)
+    n = pf.n_particles
+    try:
+        res = pf.run(flight.Z, rng=np.random.default_rng([0, run, 1]))
+    except DegenerateWeightsError:
+        return {"setting": setting, "flight": run, "N": n, "final_error": np.inf, "mean_error": np.inf,
+                "lost": True, "evaluations": np.nan}
+    e = position_error(flight.X, res.mean)
+    measured = int(np.sum(~np.isnan(flight.Z[:, 0])))
+    evaluations = measured if pc is None else int(np.sum(pc.stages))
+    return {"setting": setting, "flight": run, "N": n, "final_error": float(e[-1]),
+            "mean_error": float(np.mean(e)), "lost": bool(e[-1] > DIVERGED_ERROR),
+            "evaluations": evaluations}

@@ -1,0 +1,71 @@
+"""What a Kalman-family filter returns: one result class for the Kalman filter, the EKFs and the UKFs.
+
+For ``K`` steps, ``d`` states and ``m`` measured components:
+
+* ``mean`` ``(K, d)`` and ``cov`` ``(K, d, d)``: the posterior ``N(m_k, P_k)`` after each update;
+* ``innovation`` ``(K, m)``: ``y_k = z_k - z^_k`` (angle components wrapped), and
+  ``innovation_cov`` ``(K, m, m)``: its covariance ``S_k`` (``H P^- H^T + R`` for the EKF, the
+  unscented transform plus ``R`` for the UKF), both as the filter computed them, NaN at steps
+  without a measurement (and in components not measured at that step);
+* ``predicted`` ``(K, d)``: the predicted mean ``m^-_k`` and ``gain`` ``(K, d, m)`` the gain
+  ``G_k``, so that ``m_k = m^-_k + G_k y_k`` (angles wrapped);
+* ``log_likelihood_increments`` ``(K,)``: ``log N(y_k; 0, S_k)`` where the filter computes it;
+* ``lost_at``: the first step at which the filter stopped (an estimate off a map), or ``None``;
+  rows from there on are NaN.
+
+The particle filter's result, :class:`pfcourse.filter.FilterResult`, shares ``mean``, ``cov``
+and ``log_likelihood``, so the comparisons take either.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from pfcourse.checks import Array
+
+
+@dataclass
+class KalmanResult:
+    """Per-step output of a Kalman-family filter (see the module docstring)."""
+
+    mean: Array
+    cov: Array
+    innovation: Array | None = None
+    innovation_cov: Array | None = None
+    predicted: Array | None = None
+    gain: Array | None = None
+    log_likelihood_increments: Array | None = None
+    lost_at: int | None = None
+    name: str = "Kalman"
+
+    @classmethod
+    def empty(cls, n_steps: int, dim_x: int, dim_z: int, name: str) -> KalmanResult:
+        """A result of ``n_steps`` NaN rows, for a filter to fill step by step."""
+        nan = np.nan
+        return cls(
+            mean=np.full((n_steps, dim_x), nan),
+            cov=np.full((n_steps, dim_x, dim_x), nan),
+            innovation=np.full((n_steps, dim_z), nan),
+            innovation_cov=np.full((n_steps, dim_z, dim_z), nan),
+            predicted=np.full((n_steps, dim_x), nan),
+            gain=np.full((n_steps, dim_x, dim_z), nan),
+            log_likelihood_increments=np.zeros(n_steps),
+            name=name,
+        )
+
+    def record_update(self, k: int, predicted: Array, innovation: Array, innovation_cov: Array, gain: Array) -> None:
+        """Store the update of step ``k`` (arrays of any shape with ``d``, ``m``, ``m x m``, ``d x m`` entries)."""
+        d, m = self.gain.shape[1:]
+        self.predicted[k] = np.reshape(predicted, d)
+        self.innovation[k] = np.reshape(innovation, m)
+        self.innovation_cov[k] = np.reshape(innovation_cov, (m, m))
+        self.gain[k] = np.reshape(gain, (d, m))
+
+    @property
+    def log_likelihood(self) -> float:
+        """``log p(z_{0:K-1}) = sum_k log N(y_k; 0, S_k)`` (exact for the linear Kalman filter)."""
+        if self.log_likelihood_increments is None:
+            raise AttributeError(f"the {self.name} run did not record its log-likelihood")
+        return float(np.sum(self.log_likelihood_increments))

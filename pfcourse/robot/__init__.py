@@ -1,0 +1,39 @@
+"""Scenario C: mobile-robot localization with range-bearing landmarks.
+
+* :mod:`pfcourse.robot.scenario` - the scenario's settings, its simulator and the particle-filter model;
+* :mod:`pfcourse.robot.kalman` - the EKF and UKF references;
+* :mod:`pfcourse.robot.figures` - the scenario's figures.
+"""
+
+from pfcourse.robot.kalman import run_ekf, run_ukf
+from pfcourse.robot.scenario import (
+    ANGLE_INDICES,
+    INITIAL_STD,
+    Q_TRUE,
+    R_TRUE,
+    RobotModel,
+    RobotScenario,
+    RobotSimulation,
+    motion,
+    range_bearing,
+    rmse,
+    simulate_robot,
+    tracking_errors,
+)
+
+__all__ = [
+    "ANGLE_INDICES",
+    "INITIAL_STD",
+    "Q_TRUE",
+    "R_TRUE",
+    "RobotModel",
+    "RobotScenario",
+    "RobotSimulation",
+    "motion",
+    "range_bearing",
+    "rmse",
+    "run_ekf",
+    "run_ukf",
+    "simulate_robot",
+    "tracking_errors",
+]

@@ -1,0 +1,234 @@
+"""Extended and unscented Kalman filters for the robot of :mod:`pfcourse.robot.scenario`, through filterpy.
+
+Both filters read exactly the data the particle filter reads: the odometry
+``u~_k`` (row ``k`` of the model's ``odometry``) and the measurement rows
+``(j, range, bearing)`` (NaN when absent).
+
+**EKF** (:class:`filterpy.kalman.ExtendedKalmanFilter`).  Prediction with the
+Jacobians of ``f(x, u + w)`` at the current estimate ``m``::
+
+    F = df/dx = [[1, 0, -(v_x s + v_y c) dt], [0, 1, (v_x c - v_y s) dt], [0, 0, 1]],
+    G = df/dw = [[c dt, -s dt, 0], [s dt, c dt, 0], [0, 0, dt]],   (c, s) = (cos, sin) of m_theta,
+    m <- f(m, u~),   P <- F P F^T + G QEst G^T;
+
+update with ``H = dh_j/dx`` at ``m``, for ``(d_x, d_y) = l^j - p`` and ``q = d_x^2 + d_y^2``::
+
+    H = [[-d_x / sqrt(q), -d_y / sqrt(q), 0], [d_y / q, -d_x / q, -1]],
+
+and the residual function ``z - h_j(m)`` with the bearing wrapped to (-pi, pi]
+(without it a bearing of 179 deg compared with a prediction of -179 deg is an
+innovation of 358 deg instead of -2 deg).  The heading estimate is wrapped after
+every step.
+
+**UKF** (:class:`filterpy.kalman.UnscentedKalmanFilter`, Van der Merwe's scaled
+sigma points).  The sigma points go through ``f(., u~)`` and ``h_j``; the
+additive process noise is ``G QEst G^T`` at the current estimate; means of
+headings and bearings are circular means, and every difference of angles
+(state residual, measurement residual) is wrapped.
+"""
+
+from __future__ import annotations
+
+import math
+import numpy as np
+from filterpy.kalman import ExtendedKalmanFilter, MerweScaledSigmaPoints, UnscentedKalmanFilter
+
+from pfcourse.angles import sigma_point_mean, wrap, wrap_angle
+from pfcourse.checks import Array, as_vector, check_covariance
+from pfcourse.errors import NumericalError, ShapeError
+from pfcourse.results import KalmanResult
+from pfcourse.robot.scenario import INITIAL_STD, RobotModel
+
+
+def motion_one(state: Array, control: Array, dt: float) -> Array:
+    """:func:`pfcourse.robot.scenario.motion` for a single state ``(3,)`` (the Kalman filters' hot path)."""
+    x, y, th = float(state[0]), float(state[1]), float(state[2])
+    vx, vy, om = float(control[0]), float(control[1]), float(control[2])
+    c, s = math.cos(th), math.sin(th)
+    return np.array([x + (vx * c - vy * s) * dt, y + (vx * s + vy * c) * dt, wrap(th + om * dt)])
+
+
+def range_bearing_one(state: Array, landmark: Array) -> Array:
+    """:func:`pfcourse.robot.scenario.range_bearing` for a single state ``(3,)``."""
+    dx, dy = float(landmark[0] - state[0]), float(landmark[1] - state[1])
+    return np.array([math.hypot(dx, dy), wrap(math.atan2(dy, dx) - float(state[2]))])
+
+
+def motion_jacobians(state: Array, control: Array, dt: float) -> tuple[Array, Array]:
+    """``F = df/dx`` and ``G = df/du`` of the motion model at ``(state, control)`` (module docstring)."""
+    c, s = np.cos(state[2]), np.sin(state[2])
+    vx, vy = control[0], control[1]
+    F = np.array([[1.0, 0.0, -(vx * s + vy * c) * dt], [0.0, 1.0, (vx * c - vy * s) * dt], [0.0, 0.0, 1.0]])
+    G = np.array([[c * dt, -s * dt, 0.0], [s * dt, c * dt, 0.0], [0.0, 0.0, dt]])
+    return F, G
+
+
+def measurement_jacobian(state: Array, landmark: Array) -> Array:
+    """``H = dh_j/dx`` (2x3) of range and bearing to ``landmark`` at ``state``."""
+    dx, dy = landmark[0] - state[0], landmark[1] - state[1]
+    q = dx * dx + dy * dy
+    r = np.sqrt(q)
+    return np.array([[-dx / r, -dy / r, 0.0], [dy / q, -dx / q, -1.0]])
+
+
+def measurement_residual(z: Array, z_pred: Array) -> Array:
+    """``z - z_pred`` with the bearing component (index 1) wrapped to (-pi, pi]; any leading shape."""
+    y = np.array(z, dtype=float) - np.asarray(z_pred, dtype=float)
+    y[1] = wrap(y[1].item()) if y[1].size == 1 else wrap_angle(y[1])
+    return y
+
+
+def state_residual(a: Array, b: Array) -> Array:
+    """``a - b`` for robot states ``(3,)`` with the heading difference wrapped."""
+    y = np.asarray(a, dtype=float) - np.asarray(b, dtype=float)
+    y[2] = wrap(float(y[2]))
+    return y
+
+
+def state_mean(sigmas: Array, weights: Array) -> Array:
+    """Weighted mean of sigma points ``(n, 3)``; circular mean of the heading (weights may be negative)."""
+    return sigma_point_mean(sigmas, weights, (2,))
+
+
+def measurement_mean(sigmas: Array, weights: Array) -> Array:
+    """Weighted mean of predicted measurements ``(n, 2)``; circular mean of the bearing."""
+    return sigma_point_mean(sigmas, weights, (1,))
+
+
+def _initial(model: RobotModel, initial_cov: Array | None) -> tuple[Array, Array]:
+    x0 = as_vector(model.start, "start", 3).copy()
+    if initial_cov is None:
+        initial_cov = np.diag(np.asarray(model.initial_std, dtype=float) ** 2)
+    return x0, check_covariance(initial_cov, "initial_cov", 3, definite=True)
+
+
+def _check_measurements(measurements: Array, model: RobotModel) -> Array:
+    measurements = np.asarray(measurements, dtype=float)
+    if measurements.ndim != 2 or measurements.shape[1] != 3:
+        raise ShapeError(f"measurements must have shape (K, 3), got {measurements.shape}")
+    if len(measurements) > len(model.odometry):
+        raise ShapeError(
+            f"{len(measurements)} measurements but only {len(model.odometry)} odometry rows"
+        )
+    return measurements
+
+
+def _check_finite(x: Array, P: Array, k: int, name: str) -> None:
+    if not (np.all(np.isfinite(x)) and np.all(np.isfinite(P))):
+        raise NumericalError(f"step {k}: the {name} produced NaN or infinite values", step=k)
+
+
+def run_ekf(model: RobotModel, measurements: Array, initial_cov: Array | None = None) -> KalmanResult:
+    """Run the EKF on ``measurements`` ``(K, 3)`` with ``model``'s odometry, ``q_est`` and ``r_est``.
+
+    The prior is ``N(model.start, initial_cov)`` (default ``diag(model.initial_std)^2``,
+    the particle filter's tracking cloud).
+    """
+    measurements = _check_measurements(measurements, model)
+    x0, P0 = _initial(model, initial_cov)
+    ekf = ExtendedKalmanFilter(dim_x=3, dim_z=2)
+    ekf.x = x0.reshape(3, 1)
+    ekf.P = P0.copy()
+    ekf.R = model.r_est.copy()
+    n_steps = len(measurements)
+    out = KalmanResult.empty(n_steps, 3, 2, "EKF")
+    for k in range(n_steps):
+        if k > 0:
+            u = model.odometry[k]
+            F, G = motion_jacobians(ekf.x[:, 0], u, model.dt)
+            ekf.x = motion_one(ekf.x[:, 0], u, model.dt).reshape(3, 1)
+            ekf.P = F @ ekf.P @ F.T + G @ model.q_est @ G.T
+        z = measurements[k]
+        if not np.isnan(z[0]):
+            landmark = model.landmarks[int(z[0])]
+            predicted = ekf.x.copy()
+            ekf.update(
+                z[1:].reshape(2, 1),
+                lambda x, lm: measurement_jacobian(x[:, 0], lm),
+                lambda x, lm: range_bearing_one(x[:, 0], lm).reshape(2, 1),
+                args=(landmark,),
+                hx_args=(landmark,),
+                residual=measurement_residual,
+            )
+            ekf.x[2, 0] = wrap(float(ekf.x[2, 0]))
+            out.record_update(k, predicted, ekf.y, ekf.S, ekf.K)
+        _check_finite(ekf.x, ekf.P, k, "EKF")
+        out.mean[k] = ekf.x[:, 0]
+        out.cov[k] = ekf.P
+    return out
+
+
+def run_ukf(
+    model: RobotModel,
+    measurements: Array,
+    initial_cov: Array | None = None,
+    *,
+    alpha: float = 1.0,
+    beta: float = 2.0,
+    kappa: float = 0.0,
+) -> KalmanResult:
+    """Run the UKF on ``measurements`` ``(K, 3)``; sigma points ``MerweScaledSigmaPoints(3, alpha, beta, kappa)``.
+
+    With the defaults (``alpha = 1``, ``kappa = 0``) the six outer sigma points sit at
+    ``m +/- sqrt(3 P)`` columns with weight 1/6 each and the centre point has mean
+    weight 0: every weight used for means is non-negative.
+    """
+    measurements = _check_measurements(measurements, model)
+    x0, P0 = _initial(model, initial_cov)
+    points = MerweScaledSigmaPoints(3, alpha=alpha, beta=beta, kappa=kappa, subtract=state_residual)
+
+    def fx(x, dt, u):
+        return motion_one(x, u, dt)
+
+    def hx(x, landmark):
+        return range_bearing_one(x, landmark)
+
+    ukf = UnscentedKalmanFilter(
+        dim_x=3,
+        dim_z=2,
+        dt=model.dt,
+        hx=hx,
+        fx=fx,
+        points=points,
+        x_mean_fn=state_mean,
+        z_mean_fn=measurement_mean,
+        residual_x=state_residual,
+        residual_z=measurement_residual,
+    )
+    ukf.x = x0.copy()
+    ukf.P = P0.copy()
+    ukf.R = model.r_est.copy()
+    n_steps = len(measurements)
+    out = KalmanResult.empty(n_steps, 3, 2, "UKF")
+    for k in range(n_steps):
+        if k > 0:
+            u = model.odometry[k]
+            _, G = motion_jacobians(ukf.x, u, model.dt)
+            ukf.Q = G @ model.q_est @ G.T
+            ukf.predict(u=u)
+            ukf.x[2] = wrap(float(ukf.x[2]))
+        z = measurements[k]
+        if not np.isnan(z[0]):
+            predicted = ukf.x.copy()
+            ukf.update(z[1:].copy(), landmark=model.landmarks[int(z[0])])
+            ukf.x[2] = wrap(float(ukf.x[2]))
+            out.record_update(k, predicted, ukf.y, ukf.S, ukf.K)
+        _check_finite(ukf.x, ukf.P, k, "UKF")
+        out.mean[k] = ukf.x
+        out.cov[k] = ukf.P
+    return out
+
+
+__all__ = [
+    "INITIAL_STD",
+    "measurement_jacobian",
+    "measurement_mean",
+    "measurement_residual",
+    "motion_jacobians",
+    "motion_one",
+    "range_bearing_one",
+    "run_ekf",
+    "run_ukf",
+    "state_mean",
+    "state_residual",
+]

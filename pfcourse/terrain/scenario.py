@@ -1,0 +1,303 @@
+"""Scenario B: terrain-aided navigation of an aircraft with a radar altimeter.
+
+State ``x = (x, y, z, psi)``: position east and north on the map (m), altitude (m) and
+heading ``psi`` (rad, counter-clockwise from east).  The aircraft flies at a known speed
+``V`` and turn rate ``omega``; with time step ``dt``,
+
+    x_{k+1} = x_k + V dt cos(psi_k),   y_{k+1} = y_k + V dt sin(psi_k),
+    z_{k+1} = z_k,                     psi_{k+1} = psi_k + omega dt,
+
+plus, in the filter, a process noise ``w_k ~ N(0, Qf dt)`` (``Qf`` is the covariance
+accumulated over one second).  As in the lab report, the *true* aircraft follows the
+dynamics without noise: ``Qf`` is the filter's allowance for model error.
+
+The radar altimeter measures the height above the terrain,
+
+    y_k = z_k - h(x_k, y_k) + v_k,   v_k ~ N(0, R),
+
+with ``h`` the bilinear terrain height of a :class:`~pfcourse.terrain.map.TerrainMap`.  The
+filter assumes ``v_k ~ N(0, Rf)``.  A particle outside the map has likelihood zero
+(log-likelihood ``-inf``); the particle filter raises
+:class:`~pfcourse.errors.DegenerateWeightsError` only when every particle is off the map.
+
+Measurements arrive every ``measurement_period`` seconds, except inside an optional gap
+``[gap_start, gap_end]``; there is none at ``t = 0``.  Missing ones are NaN.
+
+:class:`TerrainModel` is the particle filter's model (the protocol of
+:class:`~pfcourse.filter.ParticleFilter`); :func:`simulate` draws a flight and its
+measurements; :func:`extended_kalman_filter` runs filterpy's EKF with the terrain
+gradient as measurement Jacobian, ``H = [-dh/dx, -dh/dy, 1, 0]``.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field, replace
+
+import numpy as np
+from filterpy.kalman import ExtendedKalmanFilter
+
+from pfcourse.angles import wrap_angle
+from pfcourse.checks import Array, as_vector, check_covariance, covariance_factor
+from pfcourse.errors import ParameterError
+from pfcourse.results import KalmanResult
+from pfcourse.terrain.map import TerrainMap
+from pfcourse.terrain.compiled import aircraft_transition, altimeter_log_likelihood
+
+_LOG_2PI = float(np.log(2.0 * np.pi))
+
+
+@dataclass(frozen=True)
+class AircraftScenario:
+    """Parameters of a terrain-navigation run (units: m, s, rad).
+
+    ``x0`` is the filter's initial estimate and ``P0`` its covariance; the true initial
+    state is drawn from ``N(x0, P0)``.  The defaults are the lab report's, scaled to the
+    30 km map: speed 300 -> 100 m/s and horizontal prior standard deviation
+    5000 -> 5000/3 m (lengths divided by 3); ``omega``, ``dt``, the 80 s duration, the
+    altitude and heading uncertainties and ``Qf`` are the report's (``Qf``'s heading entry is
+    the report code's ``0.001 * 180 / pi`` rad per second).  ``Qf`` (covariance per second) and ``Rf`` are the
+    filter's noise covariances, ``R`` the altimeter's true noise variance.
+    """
+
+    speed: float = 100.0
+    omega: float = -0.01
+    dt: float = 1.0
+    duration: float = 80.0
+    x0: Array = field(default_factory=lambda: np.array([21000.0, 11000.0, 1500.0, np.radians(150.0)]))
+    P0: Array = field(
+        default_factory=lambda: np.diag([5000.0 / 3, 5000.0 / 3, 100.0, np.radians(20.0)]) ** 2
+    )
+    Qf: Array = field(default_factory=lambda: np.diag([3.0, 3.0, 0.6, 0.001 * 180.0 / np.pi]) ** 2)
+    R: float = 20.0**2
+    Rf: float = 20.0**2
+    measurement_period: float = 1.0
+    gap: tuple[float, float] | None = None
+
+    def __post_init__(self) -> None:
+        for name in ("speed", "dt", "duration", "R", "Rf", "measurement_period"):
+            value = float(getattr(self, name))
+            if not np.isfinite(value) or (value <= 0 if name != "speed" else value < 0):
+                raise ParameterError(f"{name} must be positive, got {value}")
+        object.__setattr__(self, "x0", as_vector(self.x0, "x0", 4))
+        object.__setattr__(self, "P0", check_covariance(self.P0, "P0", 4))
+        object.__setattr__(self, "Qf", check_covariance(self.Qf, "Qf", 4))
+
+    def with_(self, **changes) -> AircraftScenario:
+        """A copy with some parameters changed (checked again)."""
+        return replace(self, **changes)
+
+    @property
+    def n_steps(self) -> int:
+        """Number of samples ``K``: times ``0, dt, ..., duration``."""
+        return int(round(self.duration / self.dt)) + 1
+
+    @property
+    def times(self) -> Array:
+        """Sampling instants ``t_k = k dt`` (s)."""
+        return np.arange(self.n_steps) * self.dt
+
+    def measured(self) -> Array:
+        """Boolean mask of the steps with an altimeter measurement.
+
+        ``t_k > 0``, ``t_k`` a multiple of ``measurement_period`` (to 1e-9 s), and outside
+        the gap ``[gap_start, gap_end]`` if there is one.
+        """
+        t = self.times
+        ratio = t / self.measurement_period
+        on_period = np.abs(ratio - np.round(ratio)) < 1e-9 / self.measurement_period
+        mask = (t > 0) & on_period
+        if self.gap is not None:
+            mask &= ~((t >= self.gap[0] - 1e-9) & (t <= self.gap[1] + 1e-9))
+        return mask
+
+    def model(self, terrain: TerrainMap) -> TerrainModel:
+        """The particle filter's model of this scenario over ``terrain``."""
+        return TerrainModel(terrain, self)
+
+
+def propagate(states: Array, speed: float, omega: float, dt: float) -> Array:
+    """Noise-free dynamics ``f(x)`` of every row of ``states`` ``(..., 4)``; heading wrapped."""
+    states = np.asarray(states, dtype=float)
+    out = np.empty_like(states)
+    psi = states[..., 3]
+    out[..., 0] = states[..., 0] + speed * dt * np.cos(psi)
+    out[..., 1] = states[..., 1] + speed * dt * np.sin(psi)
+    out[..., 2] = states[..., 2]
+    out[..., 3] = wrap_angle(psi + omega * dt)
+    return out
+
+
+def dynamics_jacobian(state: Array, speed: float, dt: float) -> Array:
+    """``F = df/dx`` at ``state``: identity plus ``-V dt sin(psi)`` and ``V dt cos(psi)`` in column 4."""
+    F = np.eye(4)
+    F[0, 3] = -speed * dt * np.sin(state[3])
+    F[1, 3] = speed * dt * np.cos(state[3])
+    return F
+
+
+def predicted_measurement(states: Array, terrain: TerrainMap) -> Array:
+    """``z - h(x, y)`` for every row of ``states`` ``(..., 4)``; NaN off the map."""
+    states = np.asarray(states, dtype=float)
+    return states[..., 2] - terrain.height(states[..., 0], states[..., 1])
+
+
+def measurement_jacobian(state: Array, terrain: TerrainMap) -> Array:
+    """``H = d(z - h(x, y))/dx = [-dh/dx, -dh/dy, 1, 0]`` as a ``(1, 4)`` matrix."""
+    gx, gy = terrain.gradient(state[0], state[1])
+    return np.array([[-float(gx), -float(gy), 1.0, 0.0]])
+
+
+class TerrainModel:
+    """The particle filter's model of scenario B (see the module docstring).
+
+    ``sample_initial`` draws from ``N(x0, P0)``, ``sample_transition`` applies
+    :func:`propagate` plus ``N(0, Qf dt)``, ``log_likelihood`` is the Gaussian
+    ``log N(y; z - h(x, y), Rf)``, ``-inf`` off the map.
+    """
+
+    dim_x = 4
+    angle_indices = (3,)
+
+    def __init__(self, terrain: TerrainMap, scenario: AircraftScenario) -> None:
+        self.terrain = terrain
+        self.scenario = scenario
+        self._init_factor = covariance_factor(scenario.P0)
+        self._noise_factor = np.ascontiguousarray(covariance_factor(scenario.Qf * scenario.dt))
+        self._heights = np.ascontiguousarray(terrain.heights, dtype=float)
+
+    def sample_initial(self, n: int, rng: np.random.Generator) -> Array:
+        x = self.scenario.x0 + rng.standard_normal((n, 4)) @ self._init_factor.T
+        x[:, 3] = wrap_angle(x[:, 3])
+        return x
+
+    def sample_transition(self, particles: Array, k: int, rng: np.random.Generator) -> Array:
+        """``f(x) + N(0, Qf dt)``, one compiled pass (:func:`pfcourse.terrain.compiled.aircraft_transition`)."""
+        s = self.scenario
+        noise = rng.standard_normal(np.shape(particles))
+        return aircraft_transition(np.ascontiguousarray(particles, dtype=float), noise,
+                                   self._noise_factor, s.speed, s.omega, s.dt)
+
+    def log_likelihood(self, particles: Array, z: Array, k: int) -> Array:
+        """``log N(y; z - h(x, y), Rf)``, ``-inf`` off the map (compiled bilinear lookup)."""
+        rf = float(self.scenario.Rf)
+        return altimeter_log_likelihood(np.ascontiguousarray(particles, dtype=float), self._heights,
+                                        self.terrain.dx, self.terrain.dy, float(np.ravel(z)[0]), rf,
+                                        -0.5 * (np.log(rf) + _LOG_2PI))
+
+    def log_likelihood_numpy(self, particles: Array, z: Array, k: int) -> Array:
+        """The NumPy / scipy definition of :meth:`log_likelihood` (the tests compare the two)."""
+        rf = self.scenario.Rf
+        innovation = float(np.ravel(z)[0]) - predicted_measurement(particles, self.terrain)
+        loglik = -0.5 * (innovation**2 / rf + np.log(rf) + _LOG_2PI)
+        return np.where(np.isnan(loglik), -np.inf, loglik)
+
+    def sample_transition_numpy(self, particles: Array, k: int, rng: np.random.Generator) -> Array:
+        """The NumPy definition of :meth:`sample_transition` (same draws)."""
+        s = self.scenario
+        x = propagate(particles, s.speed, s.omega, s.dt)
+        x += rng.standard_normal(x.shape) @ self._noise_factor.T
+        x[:, 3] = wrap_angle(x[:, 3])
+        return x
+
+
+@dataclass
+class Flight:
+    """One simulated flight: ``T`` ``(K,)`` times (s), ``X`` ``(K, 4)`` true states,
+    ``Z`` ``(K, 1)`` altimeter readings (NaN when not measured) and ``terrain_height``
+    ``(K,)`` the ground height under the aircraft."""
+
+    T: Array
+    X: Array
+    Z: Array
+    terrain_height: Array
+
+
+def simulate(
+    scenario: AircraftScenario,
+    terrain: TerrainMap,
+    rng: np.random.Generator | int,
+    *,
+    initial_state: Array | None = None,
+) -> Flight:
+    """Draw the true initial state from ``N(x0, P0)`` (unless given), fly, and measure.
+
+    The true dynamics have no process noise; readings are ``z - h(x, y) + N(0, R)``.
+    The flight must stay on the map: :class:`~pfcourse.errors.OffMapError` otherwise.
+    """
+    rng = np.random.default_rng(rng)
+    s = scenario
+    if initial_state is None:
+        state = s.x0 + covariance_factor(s.P0) @ rng.standard_normal(4)
+    else:
+        state = as_vector(initial_state, "initial_state", 4).copy()
+    state[3] = wrap_angle(state[3])
+    K = s.n_steps
+    X = np.empty((K, 4))
+    X[0] = state
+    for k in range(1, K):
+        X[k] = propagate(X[k - 1], s.speed, s.omega, s.dt)
+    ground = terrain.height_checked(X[:, 0], X[:, 1])
+    noise = rng.normal(0.0, np.sqrt(s.R), K)
+    Z = np.where(s.measured(), X[:, 2] - ground + noise, np.nan)[:, None]
+    return Flight(T=s.times, X=X, Z=Z, terrain_height=ground)
+
+
+class _TerrainEKF(ExtendedKalmanFilter):
+    """filterpy's EKF with the aircraft's nonlinear state prediction."""
+
+    def __init__(self, speed: float, omega: float, dt: float) -> None:
+        super().__init__(dim_x=4, dim_z=1)
+        self.speed, self.omega, self.dt = speed, omega, dt
+
+    def predict_x(self, u=0) -> None:
+        self.x = propagate(self.x[:, 0], self.speed, self.omega, self.dt)[:, None]
+
+
+def extended_kalman_filter(
+    scenario: AircraftScenario, terrain: TerrainMap, measurements: Array
+) -> KalmanResult:
+    """Run filterpy's ``ExtendedKalmanFilter`` on scenario B.
+
+    Predict: ``x = f(x)``, ``P = F P F^T + Qf dt`` with ``F`` from :func:`dynamics_jacobian`
+    at the previous estimate.  Update (when measured): ``H = [-dh/dx, -dh/dy, 1, 0]`` at the
+    predicted estimate (:meth:`TerrainMap.gradient`), innovation ``y - (z - h(x, y))``,
+    ``R = Rf``.  If the estimate leaves the map the run stops (``lost_at``; :class:`~pfcourse.results.KalmanResult`).
+    """
+    s = scenario
+    measurements = np.asarray(measurements, dtype=float).reshape(-1)
+    K = len(measurements)
+    ekf = _TerrainEKF(s.speed, s.omega, s.dt)
+    ekf.x = s.x0.copy()[:, None]
+    ekf.P = s.P0.copy()
+    ekf.Q = s.Qf * s.dt
+    ekf.R = np.array([[s.Rf]])
+    out = KalmanResult.empty(K, 4, 1, "EKF")
+    for k in range(K):
+        if k > 0:
+            ekf.F = dynamics_jacobian(ekf.x[:, 0], s.speed, s.dt)
+            ekf.predict()
+        if not terrain.contains(ekf.x[0, 0], ekf.x[1, 0]):
+            out.lost_at = k
+            break
+        if not np.isnan(measurements[k]):
+            predicted = ekf.x.copy()
+            ekf.update(
+                np.array([[measurements[k]]]),
+                HJacobian=lambda x: measurement_jacobian(x[:, 0], terrain),
+                Hx=lambda x: np.array([[predicted_measurement(x[:, 0], terrain)]]),
+            )
+            ekf.x[3, 0] = wrap_angle(ekf.x[3, 0])
+            if not terrain.contains(ekf.x[0, 0], ekf.x[1, 0]):
+                out.lost_at = k
+                break
+            out.record_update(k, predicted, ekf.y, ekf.S, ekf.K)
+        out.mean[k] = ekf.x[:, 0]
+        out.cov[k] = ekf.P
+    return out
+
+
+def position_error(truth: Array, estimate: Array) -> Array:
+    """Horizontal position error ``sqrt((x - x^)^2 + (y - y^)^2)`` (m) per step."""
+    truth = np.asarray(truth, dtype=float)
+    estimate = np.asarray(estimate, dtype=float)
+    return np.hypot(truth[..., 0] - estimate[..., 0], truth[..., 1] - estimate[..., 1])

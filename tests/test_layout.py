@@ -1,0 +1,113 @@
+"""The package's layers: imports point one way, core <- scenarios <- experiments <- figures.
+
+Every module of ``pfcourse`` belongs to one layer (README, "Layout"):
+
+0. **core**: the top-level modules ``pfcourse/*.py`` (the engine, its compiled loops, weights
+   and resampling, results, errors and checks, angles, the Gaussian density, plot style);
+1. **scenarios**: ``pfcourse.landmarks``, ``pfcourse.robot``, ``pfcourse.terrain``;
+2. **experiments**: ``pfcourse.experiments``;
+3. **figures**: ``pfcourse.figures``.
+
+A module may import from its own layer or a lower one, and a scenario only from the core and
+from itself (scenarios do not know each other).  ``pfcourse/__init__.py`` is the public
+facade: it re-exports core and scenario names, never experiments or figures, so that
+``import pfcourse`` stays light.  Imports are read with ``ast`` (every ``import`` statement,
+including those inside functions), so nothing is executed.
+"""
+
+from __future__ import annotations
+
+import ast
+from pathlib import Path
+
+import pytest
+
+PACKAGE = Path(__file__).resolve().parents[1] / "pfcourse"
+SCENARIOS = ("landmarks", "robot", "terrain")
+LAYER = {"core": 0, **{s: 1 for s in SCENARIOS}, "experiments": 2, "figures": 3}
+
+
+def module_name(path: Path, package: Path = PACKAGE) -> str:
+    parts = list(path.relative_to(package.parent).with_suffix("").parts)
+    if parts[-1] == "__init__":
+        parts.pop()
+    return ".".join(parts)
+
+
+def group(module: str) -> str:
+    """``core``, a scenario name, ``experiments`` or ``figures`` for a ``pfcourse...`` module name."""
+    parts = module.split(".")
+    if len(parts) >= 2 and parts[1] in LAYER:
+        return parts[1]
+    return "core"
+
+
+def imported_modules(path: Path, package_dir: Path = PACKAGE) -> list[tuple[int, str]]:
+    """``(line, module)`` of every pfcourse module imported by the file (relative imports resolved)."""
+    tree = ast.parse(path.read_text(), filename=str(path))
+    here = module_name(path, package_dir).split(".")
+    package = here if path.name == "__init__.py" else here[:-1]
+    out = []
+    for node in ast.walk(tree):
+        if isinstance(node, ast.Import):
+            out += [(node.lineno, alias.name) for alias in node.names if alias.name.split(".")[0] == "pfcourse"]
+        elif isinstance(node, ast.ImportFrom):
+            if node.level:
+                base = package[: len(package) - node.level + 1]
+                target = ".".join(base + ([node.module] if node.module else []))
+            else:
+                target = node.module or ""
+            if target.split(".")[0] != "pfcourse":
+                continue
+            # ``from pfcourse import robot`` imports the subpackage ``pfcourse.robot``
+            for alias in node.names:
+                candidate = f"{target}.{alias.name}"
+                sub = package_dir.parent / Path(*candidate.split("."))
+                out.append((node.lineno, candidate if sub.is_dir() or sub.with_suffix(".py").exists() else target))
+    return out
+
+
+def violations(path: Path, package_dir: Path = PACKAGE) -> list[str]:
+    me = module_name(path, package_dir)
+    mine = group(me)
+    bad = []
+    for line, target in imported_modules(path, package_dir):
+        theirs = group(target)
+        if me == "pfcourse":  # the facade: core and scenarios only
+            allowed = LAYER[theirs] <= 1
+        elif mine in SCENARIOS:
+            allowed = theirs in ("core", mine)
+        else:
+            allowed = LAYER[theirs] <= LAYER[mine]
+        if not allowed:
+            bad.append(f"{path.relative_to(package_dir.parent)}:{line}: {me} ({mine}) imports {target} ({theirs})")
+    return bad
+
+
+MODULES = sorted(PACKAGE.rglob("*.py"))
+
+
+def test_every_subpackage_is_a_known_layer():
+    subpackages = {p.parent.name for p in MODULES if p.parent != PACKAGE}
+    assert subpackages <= set(LAYER), subpackages - set(LAYER)
+
+
+@pytest.mark.parametrize("path", MODULES, ids=lambda p: str(p.relative_to(PACKAGE)))
+def test_imports_point_down(path):
+    assert violations(path) == []
+
+
+def test_the_rule_catches_an_upward_import(tmp_path):
+    """The checker itself: a core module importing a scenario, and a scenario importing
+    experiments or another scenario, are each reported; downward imports are not."""
+    fake = tmp_path / "pfcourse"
+    (fake / "robot").mkdir(parents=True)
+    (fake / "experiments").mkdir()
+    (fake / "filter.py").write_text("from pfcourse.robot.scenario import RobotModel\n")
+    (fake / "robot" / "scenario.py").write_text(
+        "from ..experiments import study\nfrom pfcourse.landmarks import simulate\nfrom ..filter import x\n"
+    )
+    (fake / "experiments" / "study.py").write_text("from pfcourse.robot import scenario\nimport pfcourse.filter\n")
+    assert len(violations(fake / "filter.py", fake)) == 1
+    assert len(violations(fake / "robot" / "scenario.py", fake)) == 2
+    assert violations(fake / "experiments" / "study.py", fake) == []

@@ -1,0 +1,72 @@
+"""The robot study row (`pf_run`) is the engine's run: the same numbers as `compare_filters`, seed by seed.
+
+Part III runs its studies through :func:`pfcourse.experiments.robot.pf_run` (one
+:class:`~pfcourse.filter.ParticleFilter` run per seed, the runs spread over the cores by the
+study runner); there is no second filter to keep in step.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from pfcourse.errors import DegenerateWeightsError, ParameterError
+from pfcourse.experiments.robot import compare_filters, pf_run
+from pfcourse.experiments.study import run_study, summarize
+
+SEEDS = [3, 11, 2024]
+
+
+@pytest.mark.parametrize(
+    "settings",
+    [
+        {},
+        {"n_particles": 50, "threshold": 1.0, "scheme": "multinomial", "q_scale": 0.5},
+        {"n_particles": 80, "threshold": 0.3, "scheme": "residual", "r_scale": 8.0, "dt_meas": 4.0},
+        {"n_particles": 2000, "scheme": "stratified", "initial": "uniform", "n_landmarks": 3, "burn_in": 40},
+    ],
+)
+def test_each_run_equals_compare_filters(settings):
+    settings = {"burn_in": 5, **settings}
+    for seed in SEEDS:
+        row = pf_run(seed, n_steps=60, **settings)
+        single = compare_filters(seed, filters=("pf",), n_steps=60, **settings)["pf"]
+        assert row["position_rmse"] == pytest.approx(single.position_rmse, rel=1e-9)
+        assert row["heading_rmse"] == pytest.approx(single.heading_rmse, rel=1e-9)
+        assert row["mean_nees"] == pytest.approx(single.mean_nees, rel=1e-7)
+
+
+def test_metrics_are_consistent():
+    row = pf_run(5, n_steps=50, threshold=1.0, keep_errors=True)
+    err = row["position_error"]
+    assert err.shape == (50,) and row["position_sd"].shape == (50,)
+    assert row["position_rmse"] == pytest.approx(np.sqrt(np.mean(err**2)))
+    assert row["final_position_error"] == err[-1]
+    # threshold 1 resamples at every measurement step (49 of them: weights are never exactly uniform)
+    assert row["resamples"] == 49
+    assert 0 < row["mean_ess_fraction"] <= 1
+
+
+def test_no_resampling_at_threshold_zero():
+    rows = [pf_run(seed, n_steps=30, threshold=0.0) for seed in SEEDS]
+    assert all(r["resamples"] == 0 for r in rows)
+
+
+def test_bad_arguments():
+    with pytest.raises(ParameterError, match="q_scale must be positive"):
+        pf_run(SEEDS[0], q_scale=0.0, n_steps=10)
+    with pytest.raises(ParameterError, match="initial must be"):
+        pf_run(SEEDS[0], initial="everywhere", n_steps=10)
+    with pytest.raises(ParameterError, match="burn_in"):
+        pf_run(SEEDS[0], n_steps=10, burn_in=10)
+
+
+def test_study_with_batches_records_failures_per_replicate():
+    def batch(seeds, level):
+        return [DegenerateWeightsError("lost", step=3) if s % 2 else {"m": level} for s in seeds]
+
+    table = run_study(None, {"level": [1.0]}, 10, run_batch=batch, batch_size=10, progress=False)
+    odd = table["seed"] % 2 == 1
+    assert (table.loc[odd, "status"] == "failed").all() and (table.loc[~odd, "status"] == "ok").all()
+    assert table.loc[odd, "error"].str.contains("lost").all()
+    assert summarize(table, "level", "m").loc[1.0, "n_failed"] == odd.sum()
