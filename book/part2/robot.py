@@ -316,8 +316,9 @@ for n, row, ok in zip(n_values, runs, success):
 # 0.2 m*. After the first two or three measurements the weight sits on a handful of
 # particles; resampling copies them, and the transition spreads the copies by only
 # 0.03 m per step, so a cluster that settled a few metres from the truth stays there, confidently
-# wrong. This is sample impoverishment. More particles help, but so do methods that
-# explore the state space better (roughening, better proposals), which Part III measures.
+# wrong. This is sample impoverishment. More particles help slowly; drawing particles from the
+# poses the reading allows, with the right weights, helps far more: the next chapter,
+# {doc}`global_localization`, measures it and the other classical remedies.
 #
 # ## Try it yourself
 #

@@ -159,7 +159,7 @@ print("fraction of steps below the band: ", {k: round(v, 2) for k, v in below.it
 #   it evaluates the model once per step, with its Jacobian, where the particle filter
 #   evaluates it 300 times. In wall time the two are close on this page (timing cell above),
 #   but only because `filterpy`'s EKF runs each step in Python while the particle filter's
-#   inner loops are compiled (`pfcourse.kernels`); a compiled EKF would be far faster.
+#   inner loops are compiled (`pfcourse.kernels`).
 #   With a measurement every second and errors of a few decimetres, the posterior is close
 #   to Gaussian and the linearization is accurate: the particle filter's Monte Carlo error
 #   only adds noise to the estimate.
@@ -201,8 +201,10 @@ for key, label in names.items():
 #
 # The honest summary for this robot: when the initial guess is good, or merely Gaussian, an
 # EKF does the job with a fraction of the computation. The particle filter earns its cost when the
-# posterior is not one bump: global localization (previous chapter), ambiguous landmarks,
-# or long gaps in the measurements with large heading uncertainty.
+# posterior is not one bump: global localization and the kidnapped robot (previous chapter,
+# {doc}`global_localization`). A gap of 100 s, readings every 5 or 20 s, or only one or two
+# landmarks do not make it: the previous chapter runs the EKF beside the particle filter in those
+# settings, and the EKF is as accurate or more in each.
 #
 # ## Exercises
 #

@@ -1,0 +1,116 @@
+"""Rows of the global-localization studies (chapter ``part2/global_localization``).
+
+Each function computes one row (one seeded run of one setting) from public functions, so
+``tools/studies/global_localization.py`` can tabulate hundreds of them and a test can
+re-compute any row alone.  Run ``r`` of every setting uses the seed ``r``: the same truths,
+landmarks and measurements for every method and ``N`` (common random numbers).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from pfcourse.angles import wrap_angle
+from pfcourse.filter import ParticleFilter
+from pfcourse.robot.scenario import RobotModel, simulate_robot
+from pfcourse.experiments.robot import compare_filters
+from pfcourse.robot.mcl import KidnapRobotModel, MethodSettings, global_run, kidnap_run, sensor_mixture_proposal
+
+#: Settings of the EKF-beside-PF study (the Part III settings the text compares).
+EKF_SETTINGS = {
+    "default": dict(n_steps=100),
+    "gap 100-200 s": dict(n_steps=260, gap=(100.0, 200.0)),
+    "dt_meas 5 s": dict(n_steps=200, dt_meas=5.0),
+    "dt_meas 20 s": dict(n_steps=200, dt_meas=20.0),
+    "1 landmark": dict(n_steps=100, n_landmarks=1),
+    "2 landmarks": dict(n_steps=100, n_landmarks=2),
+}
+
+
+def _mahalanobis(model: RobotModel, particles: np.ndarray, z: np.ndarray, k: int) -> np.ndarray:
+    """``sqrt(nu^T REst^-1 nu)`` from the model's log-likelihood ``log_norm - |nu|^2 / 2``."""
+    return np.sqrt(np.maximum(2.0 * (model._log_norm - model.log_likelihood(particles, z, k)), 0.0))
+
+
+def anatomy_row(seed: int, n_particles: int, within: float = 2.0) -> dict:
+    """The bootstrap filter's uniform cloud at its first readings (no resampling).
+
+    ``nearest_m``: position distance from the truth to the nearest particle at step 1;
+    ``consistent_1``: particles whose innovation at ``z_1`` is within ``within`` standard
+    deviations (``sqrt(nu^T REst^-1 nu) < within``); ``expected_1``: its expectation
+    ``N pi within^2 s_r s_b r_1 f / A`` (the volume of that set of poses over the prior's; ``f``
+    the fraction of the ring of radius ``r_1`` on the map);
+    ``consistent_3``: particles within ``within`` of each of ``z_1, z_2, z_3``;
+    ``ess_1``: effective sample size after weighting by ``z_1``.
+    """
+    sim = simulate_robot(None, seed, n_steps=4)
+    model = RobotModel.for_simulation(sim, initial="uniform")
+    rng = np.random.default_rng(seed)  # the filter's stream: initial cloud, then the moves
+    x = model.sample_initial(n_particles, rng)
+    ok = np.ones(n_particles, dtype=bool)
+    out = {"seed": seed, "n": n_particles}
+    for k in (1, 2, 3):
+        x = model.sample_transition(x, k, rng)
+        d = _mahalanobis(model, x, sim.measurements[k], k)
+        ok &= d < within
+        if k == 1:
+            out["nearest_m"] = float(np.min(np.hypot(*(x[:, :2] - sim.truth[1, :2]).T)))
+            out["consistent_1"] = int(ok.sum())
+            s_r, s_b = np.sqrt(np.diag(model.r_est))
+            area = (2 * model.half_width) ** 2
+            r = sim.measurements[1, 1]
+            phi = np.linspace(-np.pi, np.pi, 3600, endpoint=False)
+            lm = sim.landmarks[int(sim.measurements[1, 0])]
+            on_map = np.mean((np.abs(lm[0] + r * np.cos(phi)) <= model.half_width)
+                             & (np.abs(lm[1] + r * np.sin(phi)) <= model.half_width))
+            out["expected_1"] = float(n_particles * math.pi * within**2 * s_r * s_b * r * on_map / area)
+            w = np.exp(model.log_likelihood(x, sim.measurements[1], 1) - np.max(model.log_likelihood(x, sim.measurements[1], 1)))
+            out["ess_1"] = float(w.sum() ** 2 / np.sum(w**2))
+    out["consistent_3"] = int(ok.sum())
+    return out
+
+
+def mode_rows(seed: int, method: str, n_particles: int = 2000, n_steps: int = 21,
+              radius: float = 2.0, heading: float = np.deg2rad(10.0)) -> list[dict]:
+    """Per step ``k``: the posterior weight within ``radius`` m and ``heading`` rad of the truth, and ESS / N.
+
+    ``method`` is ``"bootstrap"`` or ``"mixture"`` (defaults of :class:`MethodSettings`).
+    """
+    sim = simulate_robot(None, seed, n_steps=n_steps)
+    base = RobotModel.for_simulation(sim, initial="uniform")
+    if method == "bootstrap":
+        pf = ParticleFilter(base, n_particles)
+    else:
+        model = KidnapRobotModel(base, MethodSettings().teleport)
+        pf = ParticleFilter(model, n_particles, proposal=sensor_mixture_proposal(model, MethodSettings().share))
+    res = pf.run(sim.measurements, seed, store_particles=True)
+    rows = []
+    for k in range(n_steps):
+        near = (np.hypot(*(res.particles[k, :, :2] - sim.truth[k, :2]).T) < radius) & (
+            np.abs(wrap_angle(res.particles[k, :, 2] - sim.truth[k, 2])) < heading)
+        rows.append({"seed": seed, "method": method, "step": k, "mass_near_truth": float(res.weights[k][near].sum()),
+                     "ess_fraction": float(res.ess[k] / n_particles)})
+    return rows
+
+
+def lockon_row(seed: int, method: str, n_particles: int, n_steps: int = 60) -> dict:
+    """:func:`~pfcourse.robot.mcl.global_run` without its per-step arrays."""
+    return {"seed": seed, "method": method, "n": n_particles, **global_run(seed, method, n_particles, n_steps=n_steps)}
+
+
+def kidnap_row(seed: int, method: str, n_particles: int) -> dict:
+    """:func:`~pfcourse.robot.mcl.kidnap_run` with its defaults."""
+    return {"seed": seed, "method": method, "n": n_particles, **kidnap_run(seed, method, n_particles)}
+
+
+def ekf_row(seed: int, setting: str, n_particles: int = 300, burn_in: int = 20) -> dict:
+    """The particle filter and the EKF on the same run of one :data:`EKF_SETTINGS` setting."""
+    r = compare_filters(seed, filters=("pf", "ekf"), n_particles=n_particles, burn_in=burn_in, **EKF_SETTINGS[setting])
+    out = {"seed": seed, "setting": setting}
+    for name in ("pf", "ekf"):
+        m = r[name]
+        out.update({f"{name}_position_rmse": m.position_rmse, f"{name}_heading_rmse": m.heading_rmse,
+                    f"{name}_mean_nees": m.mean_nees, f"{name}_failed": m.failed, f"{name}_seconds": m.seconds})
+    return out

@@ -1,0 +1,581 @@
+"""Monte Carlo localization that recovers: global localization and the kidnapped robot.
+
+Three remedies for the bootstrap filter's failure from a uniform prior, on the robot of
+:mod:`pfcourse.robot` (state ``x = (p_x, p_y, theta)``, map ``[-w, w]^2``):
+
+**1. A model that admits kidnapping, and a proposal from the measurement (mixture MCL).**
+:class:`KidnapRobotModel` wraps a :class:`~pfcourse.robot.RobotModel` and gives the robot,
+at every step, a small probability ``eps`` of being teleported to a uniform pose::
+
+    p(x_k | x_{k-1}) = (1 - eps_k) p_odo(x_k | x_{k-1}) + eps_k u(x_k),
+    u(x) = 1 / (4 w^2 * 2 pi)  on the map, 0 outside,
+
+with ``eps_1 = 1`` for global localization (the robot knows nothing at its first
+measurement: ``x_1`` is uniform) and ``eps_k = eps`` afterwards.  ``p_odo`` is the
+odometry transition ``x_k = f(x_{k-1}, u~_k + w)``, ``w ~ N(0, QEst)``, whose density is
+``N(w; 0, QEst) / dt^3`` at the unique ``w`` that maps ``x_{k-1}`` to ``x_k``.
+
+:func:`sensor_mixture_proposal` draws particle ``i`` from the mixture
+
+    q(x_k | x_{k-1}^i, z_k) = (1 - phi_k) p_odo(x_k | x_{k-1}^i) + phi_k q_z(x_k),
+
+where ``q_z`` places the robot where the reading ``z = (j, r, b)`` of landmark ``l^j``
+says it may be: ``r' ~ N+(r, s_r^2)`` (truncated to ``r' > 0``), ``b' ~ N(b, s_b^2)``,
+``phi ~ U(-pi, pi)``, ``p = l^j + r' (cos phi, sin phi)``, ``theta = wrap(phi + pi - b')``.
+The map ``(r', phi, b') -> x`` has Jacobian determinant ``1 / r'``, so
+
+    q_z(x) = N(h_r(x); r, s_r^2) N(wrap(b - h_b(x)); 0, s_b^2) / (Phi(r / s_r) 2 pi h_r(x)).
+
+The weight is the engine's (:class:`pfcourse.filter.DensityProposal`),
+``log w = log p(z | x) + log p(x | x^i) - log q(x | x^i, z)``: an importance sampler of the
+kidnap model's posterior, so the posterior is not biased.  ``phi_k = 1`` when ``eps_k = 1``
+(every particle from the reading: exact importance sampling of ``p(x_1 | z_1)``).  This is
+sensor resetting (Lenser and Veloso 2000) and mixture MCL (Thrun et al. 2001) with the
+weights of the model that justifies them.
+
+**2. Random injection driven by the likelihood (augmented MCL).**  :class:`AugmentedMCL`
+(Thrun, Burgard and Fox 2005, table 8.3) keeps two exponential averages of the mean
+likelihood ``w_avg = (1/N) sum_i p(z_k | x_k^i)`` (weights are uniform: it resamples at
+every measurement),
+
+    w_slow += a_slow (w_avg - w_slow),   w_fast += a_fast (w_avg - w_fast),
+
+and after resampling replaces each particle, with probability ``max(0, 1 - w_fast / w_slow)``,
+by a pose drawn from ``q_z`` (the current reading) or from ``u``.  It is a heuristic: the
+injected particles are not weighted.
+
+**3. KLD-sampling (Fox 2003).**  :func:`kld_filter` draws, at every measurement step, particles
+until their number exceeds the bound
+
+    n(k) = (k - 1) / (2 eps) * (1 - 2 / (9 (k - 1)) + sqrt(2 / (9 (k - 1))) z_{1-delta})^3
+
+(:func:`kld_bound`, the Wilson-Hilferty form of ``chi2_{k-1, 1-delta} / (2 eps)``), where
+``k`` is the number of histogram bins the new particles occupy: with probability
+``1 - delta`` the Kullback-Leibler divergence between the sample-based and the true binned
+posterior is below ``eps``.  The number of particles follows the spread of the cloud.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+
+import numpy as np
+from scipy import stats
+from scipy.special import logsumexp
+
+from pfcourse.angles import wrap_angle
+from pfcourse.checks import check_count, check_probability
+from pfcourse.diagnostics import nees, normalize_log_weights, weighted_covariance, weighted_mean
+from pfcourse.errors import DegenerateWeightsError, ParameterError
+from pfcourse.filter import DensityProposal, ParticleFilter, is_missing
+from pfcourse.resampling import get_resampler
+from pfcourse.robot.scenario import ANGLE_INDICES, RobotModel, RobotSimulation, motion, range_bearing, simulate_robot
+
+Array = np.ndarray
+_LOG_2PI = math.log(2.0 * math.pi)
+
+
+class KidnapRobotModel:
+    """The robot with a teleport probability: ``p(x_k | x_{k-1}) = (1 - eps_k) p_odo + eps_k u`` (module docstring).
+
+    ``base`` gives the odometry, the covariances, the landmarks and the likelihood;
+    ``teleport`` is ``eps``; ``global_start=True`` sets ``eps_1 = 1`` (uniform prior at the
+    first step), ``False`` starts from ``base``'s initial cloud.
+    """
+
+    dim_x = 3
+    angle_indices = ANGLE_INDICES
+
+    def __init__(self, base: RobotModel, teleport: float = 1e-3, *, global_start: bool = True) -> None:
+        self.base = base
+        self.teleport = check_probability(teleport, "teleport")
+        self.global_start = bool(global_start)
+        self.half_width = base.half_width
+        self.log_u = -math.log((2.0 * base.half_width) ** 2 * 2.0 * math.pi)
+        q = np.asarray(base.q_est, dtype=float)
+        self._q_inv = np.linalg.inv(q)
+        self._q_log_norm = -1.5 * _LOG_2PI - 0.5 * float(np.linalg.slogdet(q)[1]) - 3.0 * math.log(base.dt)
+
+    def eps(self, k: int) -> float:
+        """Teleport probability of the step into ``x_k``."""
+        return 1.0 if (self.global_start and k == 1) else self.teleport
+
+    def sample_initial(self, n: int, rng: np.random.Generator) -> Array:
+        """``base``'s initial cloud (uniform if ``global_start``)."""
+        if self.global_start:
+            return uniform_poses(n, self.half_width, rng)
+        return self.base.sample_initial(n, rng)
+
+    def sample_transition(self, particles: Array, k: int, rng: np.random.Generator) -> Array:
+        """Odometry move, then each particle teleported to a uniform pose with probability ``eps_k``."""
+        new = self.base.sample_transition(particles, k, rng)
+        eps = self.eps(k)
+        if eps > 0:
+            jump = rng.random(len(new)) < eps
+            new[jump] = uniform_poses(int(jump.sum()), self.half_width, rng)
+        return new
+
+    def log_likelihood(self, particles: Array, z: Array, k: int) -> Array:
+        return self.base.log_likelihood(particles, z, k)
+
+    def log_uniform(self, x: Array) -> Array:
+        """``log u(x)``: ``-log(4 w^2 2 pi)`` on the map, ``-inf`` off it."""
+        inside = np.all(np.abs(x[:, :2]) <= self.half_width, axis=1)
+        return np.where(inside, self.log_u, -np.inf)
+
+    def odometry_log_density(self, new: Array, old: Array, k: int) -> Array:
+        """``log p_odo(x_k | x_{k-1}) = log N(w; 0, QEst) - 3 log dt`` with ``w`` the noise mapping old to new."""
+        dt = self.base.dt
+        c, s = np.cos(old[:, 2]), np.sin(old[:, 2])
+        dx, dy = new[:, 0] - old[:, 0], new[:, 1] - old[:, 1]
+        w = np.empty((len(new), 3))
+        w[:, 0] = (c * dx + s * dy) / dt
+        w[:, 1] = (-s * dx + c * dy) / dt
+        w[:, 2] = wrap_angle(new[:, 2] - old[:, 2]) / dt
+        w -= self.base.odometry[k]
+        return self._q_log_norm - 0.5 * np.einsum("ni,ij,nj->n", w, self._q_inv, w)
+
+    def transition_log_density(self, new: Array, old: Array, k: int) -> Array:
+        """``log[(1 - eps_k) p_odo(new | old) + eps_k u(new)]``."""
+        eps = self.eps(k)
+        parts = []
+        if eps < 1:
+            parts.append(math.log1p(-eps) + self.odometry_log_density(new, old, k))
+        if eps > 0:
+            parts.append(math.log(eps) + self.log_uniform(new))
+        return parts[0] if len(parts) == 1 else np.logaddexp(parts[0], parts[1])
+
+
+def uniform_poses(n: int, half_width: float, rng: np.random.Generator) -> Array:
+    """``n`` poses uniform on ``[-w, w]^2 x (-pi, pi]``."""
+    x = np.empty((n, 3))
+    x[:, :2] = rng.uniform(-half_width, half_width, size=(n, 2))
+    x[:, 2] = wrap_angle(rng.uniform(-np.pi, np.pi, size=n))
+    return x
+
+
+@dataclass(frozen=True)
+class SensorPoseSampler:
+    """``q_z``: poses consistent with one range-bearing reading (module docstring).
+
+    ``landmarks`` ``(M, 2)``; ``r_cov`` the diagonal 2x2 covariance of the drawn reading
+    (the filter's ``REst`` times ``spread**2``).
+    """
+
+    landmarks: Array
+    r_cov: Array
+
+    def __post_init__(self) -> None:
+        r = np.asarray(self.r_cov, dtype=float)
+        if r.shape != (2, 2) or r[0, 1] != 0 or r[1, 0] != 0 or not np.all(np.diag(r) > 0):
+            raise ParameterError(f"the sensor proposal needs a diagonal positive 2x2 covariance, got {r.tolist()}")
+
+    @property
+    def sd(self) -> Array:
+        return np.sqrt(np.diag(self.r_cov))
+
+    def sample(self, z: Array, n: int, rng: np.random.Generator) -> Array:
+        """Draw ``n`` poses from ``q_z`` for the reading ``z = (j, r, b)``."""
+        j, r, b = int(z[0]), float(z[1]), float(z[2])
+        s_r, s_b = self.sd
+        ranges = r + s_r * rng.standard_normal(n)
+        bad = ranges <= 0
+        while bad.any():  # N+ : redraw the (rare) non-positive ranges
+            ranges[bad] = r + s_r * rng.standard_normal(int(bad.sum()))
+            bad = ranges <= 0
+        bearings = b + s_b * rng.standard_normal(n)
+        phi = rng.uniform(-np.pi, np.pi, n)
+        x = np.empty((n, 3))
+        x[:, 0] = self.landmarks[j, 0] + ranges * np.cos(phi)
+        x[:, 1] = self.landmarks[j, 1] + ranges * np.sin(phi)
+        x[:, 2] = wrap_angle(phi + np.pi - bearings)
+        return x
+
+    def log_density(self, x: Array, z: Array) -> Array:
+        """``log q_z(x)`` (module docstring; the bearing's wrapped normal is kept to its main term)."""
+        j, r, b = int(z[0]), float(z[1]), float(z[2])
+        s_r, s_b = self.sd
+        h = range_bearing(x, self.landmarks[j])
+        nu_r = (r - h[:, 0]) / s_r
+        nu_b = wrap_angle(b - h[:, 1]) / s_b
+        return (-_LOG_2PI - math.log(s_r * s_b) - 0.5 * (nu_r**2 + nu_b**2)
+                - stats.norm.logcdf(r / s_r) - _LOG_2PI - np.log(h[:, 0]))
+
+
+def sensor_mixture_proposal(model: KidnapRobotModel, share: float = 0.1, spread: float = 1.0) -> DensityProposal:
+    """The mixture ``(1 - phi_k) p_odo + phi_k q_z`` as an engine :class:`~pfcourse.filter.DensityProposal`.
+
+    ``phi_k = share``, or 1 at a step whose prior is uniform (``model.eps(k) == 1``).
+    ``spread`` scales the standard deviations of the drawn reading (1: the filter's ``REst``).
+    """
+    share = check_probability(share, "share")
+    if not spread > 0:
+        raise ParameterError(f"spread must be positive, got {spread}")
+    sensor = SensorPoseSampler(model.base.landmarks, spread**2 * np.asarray(model.base.r_est, dtype=float))
+
+    def phi(k: int) -> float:
+        return 1.0 if model.eps(k) == 1.0 else share
+
+    def sample(particles: Array, z: Array, k: int, rng: np.random.Generator) -> Array:
+        new = model.base.sample_transition(particles, k, rng)
+        pick = rng.random(len(new)) < phi(k)
+        new[pick] = sensor.sample(z, int(pick.sum()), rng)
+        return new
+
+    def log_density(new: Array, particles: Array, z: Array, k: int) -> Array:
+        p = phi(k)
+        log_q = np.log(p) + sensor.log_density(new, z) if p > 0 else np.full(len(new), -np.inf)
+        if p < 1:
+            log_q = np.logaddexp(math.log1p(-p) + model.odometry_log_density(new, particles, k), log_q)
+        return log_q
+
+    return DensityProposal(sample, log_density)
+
+
+class AugmentedMCL:
+    """Augmented MCL: a bootstrap proposal that tracks ``w_slow``, ``w_fast`` and a jitter that injects.
+
+    Use one object as both the ``proposal`` and the ``jitter`` of a
+    :class:`~pfcourse.filter.ParticleFilter` with ``threshold=1`` (uniform weights before each
+    measurement, so the mean likelihood is ``w_avg``).  ``source`` is ``"sensor"`` (poses from
+    ``q_z`` of the current reading, Lenser and Veloso 2000) or ``"uniform"``.
+    ``injected`` records, per resampling, the injection probability ``max(0, 1 - w_fast / w_slow)``.
+    """
+
+    def __init__(self, model: RobotModel, *, alpha_slow: float = 0.01, alpha_fast: float = 0.1,
+                 source: str = "sensor") -> None:
+        if not 0 < alpha_slow < alpha_fast <= 1:
+            raise ParameterError(f"need 0 < alpha_slow < alpha_fast <= 1, got {alpha_slow}, {alpha_fast}")
+        if source not in ("sensor", "uniform"):
+            raise ParameterError(f"source must be 'sensor' or 'uniform', got {source!r}")
+        self.model = model
+        self.alpha_slow, self.alpha_fast, self.source = float(alpha_slow), float(alpha_fast), source
+        self.sensor = SensorPoseSampler(model.landmarks, np.asarray(model.r_est, dtype=float))
+        self.w_slow = self.w_fast = None
+        self.z = None
+        self.injected: list[float] = []
+
+    def update_averages(self, log_avg: float) -> None:
+        """``w += alpha (w_avg - w)`` for both averages (in the log domain, so tiny likelihoods do not underflow)."""
+        if self.w_slow is None:
+            self.w_slow = self.w_fast = log_avg
+            return
+        for name, a in (("w_slow", self.alpha_slow), ("w_fast", self.alpha_fast)):
+            old = getattr(self, name)
+            setattr(self, name, np.logaddexp(math.log1p(-a) + old, math.log(a) + log_avg))
+
+    def injection_probability(self) -> float:
+        """``max(0, 1 - w_fast / w_slow)``."""
+        if self.w_slow is None:
+            return 0.0
+        return float(max(0.0, 1.0 - math.exp(self.w_fast - self.w_slow)))
+
+    def propose(self, model, particles, z, k, rng):
+        new = model.sample_transition(particles, k, rng)
+        log_lik = model.log_likelihood(new, z, k)
+        self.update_averages(float(logsumexp(log_lik) - math.log(len(log_lik))))
+        self.z = np.asarray(z, dtype=float)
+        return new, log_lik
+
+    def __call__(self, particles: Array, rng: np.random.Generator) -> Array:
+        p = self.injection_probability()
+        self.injected.append(p)
+        if p <= 0:
+            return particles
+        pick = rng.random(len(particles)) < p
+        m = int(pick.sum())
+        particles = particles.copy()
+        if self.source == "sensor":
+            particles[pick] = self.sensor.sample(self.z, m, rng)
+        else:
+            particles[pick] = uniform_poses(m, self.model.half_width, rng)
+        return particles
+
+
+def kld_bound(k: int | Array, epsilon: float = 0.05, delta: float = 0.01) -> Array:
+    """Fox (2003): particles needed for ``k`` occupied bins, ``(k-1)/(2 eps) (1 - 2/(9(k-1)) + sqrt(2/(9(k-1))) z_{1-delta})^3``.
+
+    1 for ``k <= 1``.
+    """
+    k = np.asarray(k, dtype=float)
+    z = stats.norm.ppf(1.0 - delta)
+    km1 = np.maximum(k - 1.0, 1.0)
+    a = 2.0 / (9.0 * km1)
+    n = km1 / (2.0 * epsilon) * (1.0 - a + np.sqrt(a) * z) ** 3
+    return np.where(k <= 1, 1.0, np.ceil(n))
+
+
+def occupied_bins(particles: Array, bin_size: Sequence[float]) -> int:
+    """Number of distinct cells of the grid ``bin_size = (m, m, rad)`` that hold a particle."""
+    return len(np.unique(_cell_codes(particles, bin_size)))
+
+
+def _cell_codes(particles: Array, bin_size: Sequence[float]) -> Array:
+    """One int64 code per grid cell (cells indexed within +-2^20 per axis)."""
+    cells = np.floor(particles / np.asarray(bin_size, dtype=float)).astype(np.int64) + (1 << 20)
+    return (cells[:, 0] << 42) | (cells[:, 1] << 21) | cells[:, 2]
+
+
+@dataclass
+class KLDResult:
+    """Output of :func:`kld_filter`: ``mean`` ``(K, 3)``, ``cov`` ``(K, 3, 3)``, ``n_particles`` ``(K,)``."""
+
+    mean: Array
+    cov: Array
+    n_particles: Array
+
+    @property
+    def particle_steps(self) -> int:
+        return int(np.sum(self.n_particles))
+
+
+def kld_filter(model, measurements: Array, rng: np.random.Generator | int, *, n_max: int = 20000,
+               n_min: int = 100, epsilon: float = 0.05, delta: float = 0.01,
+               bin_size: Sequence[float] = (1.0, 1.0, np.deg2rad(10.0)), proposal=None,
+               batch: int = 100) -> KLDResult:
+    """KLD-sampling MCL (Fox 2003) with the model's methods and an engine proposal.
+
+    Step 0 draws ``n_max`` particles from ``model.sample_initial``.  At each measurement step,
+    particles are drawn in batches (ancestors by multinomial resampling of the previous
+    weighted cloud, then ``proposal.propose``, the transition by default) until
+    ``n >= max(n_min, kld_bound(bins))`` or ``n = n_max``; Fox draws one at a time, batches of
+    ``batch`` overshoot the bound by less than a batch.  Steps without a measurement move the
+    cloud and keep its size and weights.
+    """
+    from pfcourse.filter import TransitionProposal
+
+    check_count(n_max, "n_max")
+    check_count(n_min, "n_min")
+    rng = np.random.default_rng(rng)
+    proposal = proposal if proposal is not None else TransitionProposal()
+    multinomial = get_resampler("multinomial")
+    K = len(measurements)
+    mean, cov, sizes = np.empty((K, 3)), np.empty((K, 3, 3)), np.empty(K, dtype=int)
+    particles = model.sample_initial(n_max, rng)
+    weights = np.full(n_max, 1.0 / n_max)
+    for k in range(K):
+        z = measurements[k]
+        if k > 0 and is_missing(z):
+            particles = model.sample_transition(particles, k, rng)
+        elif k > 0:
+            z = np.asarray(z, dtype=float)
+            new_x, new_log, codes = [], [], np.empty(0, dtype=np.int64)
+            n, needed = 0, n_min
+            while n < min(max(needed, n_min), n_max):
+                m = int(min(n_max - n, max(batch, min(needed, n_max) - n)))
+                parents = particles[multinomial(weights, rng, m)]
+                x, log_inc = proposal.propose(model, parents, z, k, rng)
+                new_x.append(x)
+                new_log.append(np.asarray(log_inc, dtype=float))
+                n += m
+                codes = np.union1d(codes, _cell_codes(x, bin_size))
+                needed = int(kld_bound(len(codes), epsilon, delta))
+            particles = np.concatenate(new_x)
+            weights, total = normalize_log_weights(np.concatenate(new_log))
+            if total == -np.inf:
+                raise DegenerateWeightsError(f"step {k}: every particle has zero likelihood", step=k)
+        sizes[k] = len(particles)
+        mean[k] = weighted_mean(particles, weights, ANGLE_INDICES)
+        cov[k] = weighted_covariance(particles, weights, mean[k], ANGLE_INDICES)
+    return KLDResult(mean, cov, sizes)
+
+
+# ----------------------------------------------------------------------------- scenarios and runs
+
+def kidnap(sim: RobotSimulation, step: int, pose: Sequence[float]) -> RobotSimulation:
+    """The run ``sim`` with the true robot moved to ``pose`` at ``step`` (odometry unaware of it).
+
+    From ``step`` on the truth follows the same true commands from ``pose``; each measurement
+    keeps its landmark and its noise ``z - h(x_true)`` and is recomputed from the new truth.
+    """
+    K = sim.truth.shape[0]
+    if not 1 <= step < K:
+        raise ParameterError(f"kidnap step must be in 1..{K - 1}, got {step}")
+    truth = sim.truth.copy()
+    truth[step] = np.asarray(pose, dtype=float)
+    truth[step, 2] = wrap_angle(truth[step, 2])
+    for k in range(step + 1, K):
+        truth[k] = motion(truth[k - 1], sim.controls[k], sim.scenario.dt)
+    z = sim.measurements.copy()
+    for k in np.flatnonzero(sim.has_measurement):
+        if k < step:
+            continue
+        lm = sim.landmarks[int(z[k, 0])]
+        noise = z[k, 1:] - range_bearing(sim.truth[k], lm)
+        noise[1] = wrap_angle(noise[1])
+        new = range_bearing(truth[k], lm) + noise
+        z[k, 1:] = (new[0], wrap_angle(new[1]))
+    return RobotSimulation(truth, sim.odometry_path, sim.controls, sim.odometry, z, sim.landmarks, sim.scenario)
+
+
+METHODS = ("bootstrap", "mixture", "augmented", "kld", "kld_mixture")
+
+
+@dataclass(frozen=True)
+class MethodSettings:
+    """Tuning of the remedies (defaults used by the chapter)."""
+
+    teleport: float = 1e-3
+    share: float = 0.1
+    spread: float = 1.0
+    alpha_slow: float = 0.01
+    alpha_fast: float = 0.1
+    kld_share: float = 0.02
+    kld_n_min: int = 100
+    kld_epsilon: float = 0.05
+    kld_delta: float = 0.01
+
+
+def run_method(sim: RobotSimulation, method: str, n_particles: int, seed: int, *, global_start: bool = True,
+               settings: MethodSettings = MethodSettings()) -> dict:
+    """Filter ``sim`` with ``method`` (one of :data:`METHODS`); ``n_particles`` is ``N`` (``n_max`` for KLD).
+
+    Returns ``mean`` ``(K, 3)``, ``cov`` ``(K, 3, 3)``, ``n_used`` ``(K,)``, ``seconds`` and, for
+    augmented MCL, ``injected`` (probability per resampling).
+    """
+    if method not in METHODS:
+        raise ParameterError(f"unknown method {method!r}; choose among {METHODS}")
+    initial = "uniform" if global_start else "tracking"
+    base = RobotModel.for_simulation(sim, initial=initial)
+    K = sim.truth.shape[0]
+    out: dict = {}
+    start = time.perf_counter()
+    if method == "bootstrap":
+        res = ParticleFilter(base, n_particles).run(sim.measurements, seed)
+    elif method == "mixture":
+        model = KidnapRobotModel(base, settings.teleport, global_start=global_start)
+        prop = sensor_mixture_proposal(model, settings.share, settings.spread)
+        res = ParticleFilter(model, n_particles, proposal=prop).run(sim.measurements, seed)
+    elif method == "augmented":
+        aug = AugmentedMCL(base, alpha_slow=settings.alpha_slow, alpha_fast=settings.alpha_fast)
+        res = ParticleFilter(base, n_particles, threshold=1.0, proposal=aug, jitter=aug).run(sim.measurements, seed)
+        out["injected"] = np.array(aug.injected)
+    else:
+        model, prop = base, None
+        if method == "kld_mixture":
+            model = KidnapRobotModel(base, settings.teleport, global_start=global_start)
+            prop = sensor_mixture_proposal(model, settings.kld_share, settings.spread)
+        res = kld_filter(model, sim.measurements, seed, n_max=n_particles, n_min=settings.kld_n_min,
+                         epsilon=settings.kld_epsilon, delta=settings.kld_delta, proposal=prop)
+    out["seconds"] = time.perf_counter() - start
+    out["mean"], out["cov"] = res.mean, res.cov
+    out["n_used"] = res.n_particles if method.startswith("kld") else np.full(K, n_particles)
+    return out
+
+
+def position_heading_errors(truth: Array, mean: Array) -> tuple[Array, Array]:
+    """Per-step position error ``||p^ - p||`` (m) and absolute wrapped heading error (rad)."""
+    e = mean - truth
+    return np.hypot(e[:, 0], e[:, 1]), np.abs(wrap_angle(e[:, 2]))
+
+
+def locked_from(pos_err: Array, head_err: Array, position_tolerance: float = 1.0,
+                heading_tolerance: float = np.deg2rad(5.0)) -> int:
+    """First step from which the estimate stays within the tolerances until the end (``K`` if it is off at the end)."""
+    ok = (pos_err < position_tolerance) & (head_err < heading_tolerance)
+    bad = np.flatnonzero(~ok)
+    return 0 if len(bad) == 0 else int(bad[-1] + 1)
+
+
+#: Lock-on: within 1 m and 5 deg of the truth at every one of the last ``LOCK_WINDOW`` steps.
+LOCK_WINDOW = 20
+#: Wrong but confident: final NEES above this chi2_3 quantile.
+CONFIDENT_QUANTILE = 0.999
+
+
+def global_run(seed: int, method: str, n_particles: int, *, n_steps: int = 60,
+               settings: MethodSettings = MethodSettings(), keep_trace: bool = False) -> dict:
+    """One global-localization run (uniform prior) of ``method``: lock-on and its metrics.
+
+    ``locked_on``: within 1 m and 5 deg at each of the last :data:`LOCK_WINDOW` steps;
+    ``lock_time`` (s): the first time from which it stays so (NaN if never);
+    ``final_nees``: NEES at the last step; ``wrong_confident``: not locked on and
+    ``final_nees > chi2_3`` quantile :data:`CONFIDENT_QUANTILE`; ``particle_steps``: sum over
+    steps of the number of particles; ``mean_n``: their mean.
+    """
+    sim = simulate_robot(None, seed, n_steps=n_steps)
+    try:
+        out = run_method(sim, method, n_particles, seed, settings=settings)
+    except DegenerateWeightsError:
+        return {"locked_on": False, "lock_time": np.nan, "final_error": np.inf, "final_heading_error": np.inf,
+                "final_sd": np.inf, "final_nees": np.inf, "wrong_confident": False, "particle_steps": np.nan,
+                "mean_n": np.nan, "seconds": np.nan, "lost": True}
+    pos, head = position_heading_errors(sim.truth, out["mean"])
+    start = locked_from(pos, head)
+    locked = start <= n_steps - LOCK_WINDOW
+    final_nees = float(nees(sim.truth[-1:], out["mean"][-1:], out["cov"][-1:], ANGLE_INDICES)[0])
+    confident = final_nees > stats.chi2.ppf(CONFIDENT_QUANTILE, 3)
+    return {
+        "locked_on": bool(locked),
+        "lock_time": float(start * sim.scenario.dt) if start < n_steps else np.nan,
+        "final_error": float(pos[-1]),
+        "final_heading_error": float(head[-1]),
+        "final_sd": float(np.sqrt(out["cov"][-1, 0, 0] + out["cov"][-1, 1, 1])),
+        "final_nees": final_nees,
+        "wrong_confident": bool((not locked) and confident),
+        "particle_steps": int(np.sum(out["n_used"])),
+        "mean_n": float(np.mean(out["n_used"])),
+        "seconds": float(out["seconds"]),
+        "lost": False,
+        **({"n_used": out["n_used"], "position_error": pos} if keep_trace else {}),
+    }
+
+
+def kidnap_pose(seed: int, truth_at: Array, half_width: float = 60.0, min_distance: float = 30.0) -> Array:
+    """A pose uniform on the map at least ``min_distance`` m from ``truth_at`` (seeded, per run)."""
+    rng = np.random.default_rng([seed, 7])
+    margin = 0.8 * half_width
+    while True:
+        pose = np.array([*rng.uniform(-margin, margin, 2), rng.uniform(-np.pi, np.pi)])
+        if np.hypot(*(pose[:2] - truth_at[:2])) >= min_distance:
+            return pose
+
+
+def kidnap_run(seed: int, method: str, n_particles: int, *, n_steps: int = 150, kidnap_step: int = 50,
+               detect_distance: float = 5.0, settings: MethodSettings = MethodSettings()) -> dict:
+    """One kidnapped-robot run: tracking from the known start, robot moved at ``kidnap_step``.
+
+    ``detection_s``: time from the kidnapping to the first step whose estimate is more than
+    ``detect_distance`` m from where the robot would have been without kidnapping (NaN if never);
+    ``recovery_s``: time from the kidnapping to the step from which the estimate stays within
+    1 m and 5 deg of the new truth until the end (NaN if it is not within them at the end);
+    ``recovered``: within them at each of the last :data:`LOCK_WINDOW` steps.
+    """
+    base = simulate_robot(None, seed, n_steps=n_steps)
+    sim = kidnap(base, kidnap_step, kidnap_pose(seed, base.truth[kidnap_step], base.scenario.half_width))
+    out = run_method(sim, method, n_particles, seed, global_start=False, settings=settings)
+    pos, head = position_heading_errors(sim.truth, out["mean"])
+    old_pos, _ = position_heading_errors(base.truth, out["mean"])
+    after = np.arange(kidnap_step, n_steps)
+    moved = np.flatnonzero(old_pos[after] > detect_distance)
+    start = locked_from(pos, head)
+    dt = sim.scenario.dt
+    before_ok = bool(np.all(pos[10:kidnap_step] < 1.0))
+    final_nees = float(nees(sim.truth[-1:], out["mean"][-1:], out["cov"][-1:], ANGLE_INDICES)[0])
+    return {
+        "tracking_before": before_ok,
+        "detection_s": float(moved[0] * dt) if len(moved) else np.nan,
+        "recovery_s": float((max(start, kidnap_step) - kidnap_step) * dt) if start < n_steps else np.nan,
+        "recovered": bool(start <= n_steps - LOCK_WINDOW),
+        "final_error": float(pos[-1]),
+        "final_nees": final_nees,
+        "particle_steps": int(np.sum(out["n_used"])),
+        "seconds": float(out["seconds"]),
+    }
+
+
+def wilson(successes: int, n: int, confidence: float = 0.95) -> tuple[float, float]:
+    """Wilson interval of a binomial proportion (``scipy.stats.binomtest``)."""
+    ci = stats.binomtest(int(successes), int(n)).proportion_ci(confidence_level=confidence, method="wilson")
+    return float(ci.low), float(ci.high)
+
+
+def mcnemar_exact(a: Array, b: Array) -> tuple[int, int, float]:
+    """Exact McNemar test of paired booleans: discordant counts ``(a and not b, b and not a)`` and two-sided p."""
+    a, b = np.asarray(a, bool), np.asarray(b, bool)
+    n10, n01 = int(np.sum(a & ~b)), int(np.sum(~a & b))
+    p = 1.0 if n10 + n01 == 0 else float(stats.binomtest(n10, n10 + n01, 0.5).pvalue)
+    return n10, n01, p
