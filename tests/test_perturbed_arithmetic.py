@@ -39,3 +39,11 @@ def test_glued_values_and_text_outputs_are_read_apart():
     nb.cells.append(cell)
     assert tool.text_outputs(nb) == [(0, "95 of 100\n")]
     assert tool.glued(nb) == {"count": "95"}
+
+
+def test_a_glued_value_is_compared_as_the_prose_shows_it():
+    nb = nbformat.v4.new_notebook()
+    nb.cells.append(nbformat.v4.new_markdown_cell("ratio {glue:text}`ratio:.2f`, raw {glue}`raw`"))
+    assert tool.glue_formats(nb) == {"ratio": {".2f"}, "raw": {""}}
+    assert tool.shown("0.6156128575783213", ".2f") == tool.shown("0.6156128575783215", ".2f") == "0.62"
+    assert tool.shown("0.6156128575783213", "") != tool.shown("0.6156128575783215", "")

@@ -15,8 +15,9 @@ a kernel where
 then compares every text output with the stored notebook and lists the cells that differ.
 An output that changes is decided by a last-bit accident (a count on a threshold at working
 precision, a statistic of a chaotic filter): the prose must not quote it as it is. Glued values
-(myst-nb ``glue``) are compared separately: they are what the prose quotes, and none of them
-may change. Exit status 1 when a glued value changes.
+(myst-nb ``glue``) are compared separately, as the prose shows them (formatted with the format
+spec of each ``{glue:text}`` role that quotes them): none of them may change. Exit status 1
+when a quoted glued value changes.
 """
 
 from __future__ import annotations
@@ -25,6 +26,7 @@ import difflib
 import importlib.util
 import json
 import os
+import re
 import sys
 from pathlib import Path
 
@@ -100,6 +102,30 @@ def glued(notebook) -> dict[str, str]:
     return values
 
 
+GLUE_ROLE = re.compile(r"\{glue(?::text)?\}`([A-Za-z0-9_]+)(?::([^`]*))?`")
+
+
+def glue_formats(notebook) -> dict[str, set]:
+    """How the prose shows each glued value: the format specs of its roles ('' for none)."""
+    formats: dict[str, set] = {}
+    for cell in notebook["cells"]:
+        if cell["cell_type"] == "markdown":
+            source = cell["source"] if isinstance(cell["source"], str) else "".join(cell["source"])
+            for name, spec in GLUE_ROLE.findall(source):
+                formats.setdefault(name, set()).add(spec)
+    return formats
+
+
+def shown(text: str, spec: str) -> str:
+    """The text the prose shows for a glued value's stored text and a role's format spec."""
+    if not spec:
+        return text
+    try:
+        return format(float(text), spec)
+    except ValueError:
+        return text
+
+
 def ignored(cell) -> bool:
     tags = cell.get("metadata", {}).get("tags", [])
     return "nbval-ignore-output" in tags or "nbval-skip" in tags
@@ -115,8 +141,13 @@ def compare(source: Path, executor) -> tuple[int, int]:
             print(f"--- {source.relative_to(ROOT)} cell {index}: output changes")
             diff = difflib.unified_diff(old.splitlines(), new.splitlines(), "stored", "perturbed", lineterm="", n=0)
             print("\n".join(list(diff)[2:40]))
-    old_glue, new_glue = glued(stored), glued(fresh)
-    changed_glue = sorted(k for k in old_glue.keys() | new_glue.keys() if old_glue.get(k) != new_glue.get(k))
+    # A glued value counts as changed when the prose would show it differently: formatted with
+    # each format spec its roles use (a value no role quotes is not checked).
+    old_glue, new_glue, formats = glued(stored), glued(fresh), glue_formats(stored)
+    changed_glue = sorted(
+        k for k in formats
+        if any(shown(old_glue.get(k, ""), spec) != shown(new_glue.get(k, ""), spec) for spec in formats[k])
+    )
     for name in changed_glue:
         print(f"!!! {source.relative_to(ROOT)} glue {name!r}: {old_glue.get(name)!r} -> {new_glue.get(name)!r}")
     return changed_cells, len(changed_glue)
