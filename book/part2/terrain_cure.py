@@ -169,7 +169,9 @@ for name in [s for s in SETTINGS if s in runs.columns]:
     b, c = int((base[common] & ~lost[common]).sum()), int((~base[common] & lost[common]).sum())
     p_mc = stats.binomtest(b, b + c).pvalue if b + c else 1.0
     both = common[~base[common] & ~lost[common]]
-    p_w = stats.wilcoxon(final.loc[both, name], final.loc[both, "bootstrap N=3000"]).pvalue if len(both) > 10 else np.nan
+    d = final.loc[both, name] - final.loc[both, "bootstrap N=3000"]
+    # NaN when there is nothing to test: too few flights, or the same final errors (the baseline)
+    p_w = stats.wilcoxon(d).pvalue if len(both) > 10 and np.any(d != 0) else np.nan
     evals = data.loc[data.setting == name, "evaluations"].mean()
     lo, hi = wilson(lost.sum(), lost.count())
     table.append({"setting": name, "flights": int(lost.count()), "lost": int(lost.sum()),
