@@ -41,7 +41,7 @@ def _same(stored: pd.Series, fresh: dict) -> None:
 
 def test_provenance_names_the_script_and_seeds():
     prov = json.loads((DATA / "provenance.json").read_text())
-    assert prov["made_by"] == "tools/studies/global_localization.py"
+    assert prov["code"] == "tools/studies/global_localization.py"
     assert len(prov["git_commit"]) == 40
 
 

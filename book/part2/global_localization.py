@@ -72,7 +72,7 @@ kld_trace = pd.read_csv(DATA / "kld_trace.csv")
 kid = pd.read_csv(DATA / "kidnap.csv")
 ekf = pd.read_csv(DATA / "ekf_vs_pf.csv")
 N_RUNS = int(lockon.groupby(["method", "n"]).size().min())
-print(f"tables made by {prov['made_by']} at commit {prov['git_commit'][:10]}; {prov['seeds']}")
+print(f"tables made by {prov['code']} at commit {prov['git_commit'][:10]}; {prov['seeds']}")
 print(f"{N_RUNS} runs per setting")
 
 # %% [markdown]

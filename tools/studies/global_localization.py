@@ -11,12 +11,8 @@ rows and requires the same numbers (wall times excepted).
 from __future__ import annotations
 
 import argparse
-import json
-import platform
-import subprocess
 import sys
 import time
-from datetime import datetime, timezone
 from pathlib import Path
 
 import numpy as np
@@ -26,6 +22,7 @@ ROOT = Path(__file__).resolve().parents[2]
 sys.path.insert(0, str(ROOT))
 
 from pfcourse.experiments import global_localization as mcl_study  # noqa: E402
+from pfcourse.experiments.provenance import launch_commit, write_provenance  # noqa: E402
 from pfcourse.robot.mcl import MethodSettings  # noqa: E402
 
 OUT = ROOT / "book" / "data" / "global_localization"
@@ -44,7 +41,7 @@ def main() -> None:
     args = parser.parse_args()
     seeds = range(args.runs)
     OUT.mkdir(parents=True, exist_ok=True)
-    started = time.time()
+    started, commit = time.time(), launch_commit()
 
     def save(name, rows):
         pd.DataFrame(rows).to_csv(OUT / f"{name}.csv", index=False, float_format="%.10g")
@@ -67,21 +64,16 @@ def main() -> None:
     save("kidnap", [mcl_study.kidnap_row(s, m, n) for m, n in KIDNAP for s in seeds])
     save("ekf_vs_pf", [mcl_study.ekf_row(s, name) for name in mcl_study.EKF_SETTINGS for s in seeds])
 
-    commit = subprocess.run(["git", "rev-parse", "HEAD"], cwd=ROOT, capture_output=True, text=True).stdout.strip()
-    dirty = bool(subprocess.run(["git", "status", "--porcelain", "pfcourse"], cwd=ROOT, capture_output=True,
-                                text=True).stdout.strip())
-    provenance = {
-        "made_by": "tools/studies/global_localization.py",
-        "row_functions": "pfcourse/experiments/global_localization.py (anatomy_row, mode_rows, lockon_row, kidnap_row, ekf_row)",
-        "git_commit": commit, "package_modified_since_commit": dirty,
-        "date_utc": datetime.now(timezone.utc).isoformat(timespec="seconds"),
-        "seeds": f"run r uses seed r, r = 0..{args.runs - 1}, for every setting",
-        "settings": {"anatomy_n": ANATOMY_N, "lockon": LOCKON, "kidnap": KIDNAP, "kld_trace": TRACE,
-                     "method_settings": MethodSettings().__dict__, "ekf_settings": {k: {kk: list(v) if isinstance(v, tuple) else v for kk, v in d.items()} for k, d in mcl_study.EKF_SETTINGS.items()}},
-        "python": platform.python_version(), "numpy": np.__version__,
-        "seconds": round(time.time() - started),
-    }
-    (OUT / "provenance.json").write_text(json.dumps(provenance, indent=2) + "\n")
+    write_provenance(
+        OUT / "provenance.json", code="tools/studies/global_localization.py", commit=commit,
+        seconds=time.time() - started,
+        row_functions="pfcourse/experiments/global_localization.py (anatomy_row, mode_rows, lockon_row, kidnap_row, ekf_row)",
+        seeds=f"run r uses seed r, r = 0..{args.runs - 1}, for every setting",
+        settings={"anatomy_n": ANATOMY_N, "lockon": LOCKON, "kidnap": KIDNAP, "kld_trace": TRACE,
+                  "method_settings": MethodSettings().__dict__,
+                  "ekf_settings": {k: {kk: list(v) if isinstance(v, tuple) else v for kk, v in d.items()}
+                                   for k, d in mcl_study.EKF_SETTINGS.items()}},
+    )
 
 
 if __name__ == "__main__":

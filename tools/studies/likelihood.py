@@ -15,8 +15,6 @@ Each file has a ``.json`` beside it with its provenance (git commit, seeds, para
 
 from __future__ import annotations
 
-import json
-import subprocess
 import sys
 import time
 from pathlib import Path
@@ -28,12 +26,13 @@ from scipy import stats
 import pfcourse  # noqa: F401  (pins the arithmetic before numpy computes anything)
 from pfcourse.landmarks import quadrant_scenario, simulate
 from pfcourse.experiments.likelihood import kalman_log_likelihood, max_likelihood_scale, pf_log_likelihood, pmmh
+from pfcourse.experiments.provenance import launch_commit, write_provenance
 from pfcourse.experiments.study import replicate_seed, run_study
 
 ROOT = Path(__file__).resolve().parents[2]
 OUT = ROOT / "book" / "data" / "likelihood"
 # the commit the study is launched from (recorded in the provenance, whatever is committed meanwhile)
-LAUNCH_COMMIT = subprocess.run(["git", "rev-parse", "HEAD"], cwd=ROOT, capture_output=True, text=True).stdout.strip()
+LAUNCH_COMMIT = launch_commit()
 
 # Scenario A with noise on every component (the particle filter's working regime) and a
 # moderately informative measurement; theta multiplies Rv.
@@ -77,14 +76,9 @@ def pmmh_chain(n_particles: int, n_iterations: int = PMMH_ITERATIONS):
 
 
 def provenance(name: str, parameters: dict, seconds: float) -> None:
-    commit = LAUNCH_COMMIT
-    dirty = bool(subprocess.run(["git", "status", "--porcelain", "--untracked-files=no", "pfcourse", "tools"], cwd=ROOT,
-                                capture_output=True, text=True).stdout.strip())
-    meta = {"file": f"{name}.csv", "code": "tools/studies/likelihood.py", "git_commit": commit,
-            "working_tree_modified": dirty, "numpy": np.__version__, "wall_seconds": round(seconds, 1),
-            "scenario": "quadrant_scenario().with_(Qw=0.05**2 I6, Rv=0.5**2 I4), 50 samples; theta scales Rv",
-            **parameters}
-    (OUT / f"{name}.json").write_text(json.dumps(meta, indent=2) + "\n")
+    write_provenance(OUT / f"{name}.json", code="tools/studies/likelihood.py", commit=LAUNCH_COMMIT, seconds=seconds,
+                     file=f"{name}.csv", **parameters,
+                     scenario="quadrant_scenario().with_(Qw=0.05**2 I6, Rv=0.5**2 I4), 50 samples; theta scales Rv")
 
 
 def main(parts: list[str]) -> None:

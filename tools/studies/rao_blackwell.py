@@ -10,11 +10,7 @@ code path, wall time).  tests/test_rao_blackwell.py re-computes a seeded sample 
 
 from __future__ import annotations
 
-import csv
-import json
 import os
-import platform
-import subprocess
 import sys
 import time
 from pathlib import Path
@@ -23,6 +19,7 @@ os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 ROOT = Path(__file__).resolve().parents[2]
 sys.path.insert(0, str(ROOT))
 
+from pfcourse.experiments.provenance import launch_commit, write_provenance, write_rows  # noqa: E402
 from pfcourse.experiments.rb_study import METHODS, THRESHOLD, run_rows  # noqa: E402
 
 SETTINGS = {
@@ -32,7 +29,7 @@ SETTINGS = {
 
 
 def main() -> None:
-    start = time.time()
+    start, commit = time.time(), launch_commit()
     rows = []
     for name, cfg in SETTINGS.items():
         for seed in cfg["seeds"]:
@@ -40,28 +37,14 @@ def main() -> None:
         print(f"{name}: {len(rows)} rows, {time.time() - start:.0f} s", flush=True)
     out = ROOT / "book" / "data"
     out.mkdir(parents=True, exist_ok=True)
-    with open(out / "rao_blackwell.csv", "w", newline="") as f:
-        writer = csv.DictWriter(f, fieldnames=list(rows[0]))
-        writer.writeheader()
-        for row in rows:
-            writer.writerow({k: repr(float(v)) if isinstance(v, float) else v for k, v in row.items()})
-    commit = subprocess.run(["git", "rev-parse", "HEAD"], cwd=ROOT, capture_output=True, text=True).stdout.strip()
-    dirty = bool(subprocess.run(["git", "status", "--porcelain", "pfcourse"], cwd=ROOT,
-                                capture_output=True, text=True).stdout.strip())
-    json.dump({
-        "made_by": "tools/studies/rao_blackwell.py",
-        "code": ["pfcourse/experiments/rb_study.py", "pfcourse/landmarks/rao_blackwell.py", "pfcourse/landmarks/auxiliary.py"],
-        "git_commit": commit,
-        "package_dirty_at_run": dirty,
-        "settings": SETTINGS,
-        "methods": METHODS,
-        "threshold": THRESHOLD,
-        "seeds": "simulation seed s, filter seed s + 10**6 (same for every method and N)",
-        "rows": len(rows),
-        "wall_seconds": round(time.time() - start, 1),
-        "python": platform.python_version(),
-        "machine": platform.machine(),
-    }, open(out / "rao_blackwell.json", "w"), indent=1)
+    write_rows(out / "rao_blackwell.csv", rows)
+    write_provenance(
+        out / "rao_blackwell.json", code="tools/studies/rao_blackwell.py", commit=commit,
+        seconds=time.time() - start,
+        row_code=["pfcourse/experiments/rb_study.py", "pfcourse/landmarks/rao_blackwell.py", "pfcourse/landmarks/auxiliary.py"],
+        settings=SETTINGS, methods=METHODS, threshold=THRESHOLD,
+        seeds="simulation seed s, filter seed s + 10**6 (same for every method and N)", rows=len(rows),
+    )
 
 
 if __name__ == "__main__":

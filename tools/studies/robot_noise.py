@@ -12,8 +12,6 @@ and with the truth (1, 1).  ``robot_noise.json``: provenance.
 
 from __future__ import annotations
 
-import json
-import subprocess
 import time
 from pathlib import Path
 
@@ -24,12 +22,13 @@ from pfcourse import ParticleFilter
 from pfcourse.diagnostics import nees
 from pfcourse.experiments.likelihood import max_likelihood_scales, robot_log_likelihood
 from pfcourse.robot import ANGLE_INDICES, RobotModel, RobotScenario, rmse, simulate_robot
+from pfcourse.experiments.provenance import launch_commit, write_provenance
 from pfcourse.experiments.study import run_study
 
 ROOT = Path(__file__).resolve().parents[2]
 OUT = ROOT / "book" / "data" / "likelihood"
 # the commit the study is launched from (recorded in the provenance, whatever is committed meanwhile)
-LAUNCH_COMMIT = subprocess.run(["git", "rev-parse", "HEAD"], cwd=ROOT, capture_output=True, text=True).stdout.strip()
+LAUNCH_COMMIT = launch_commit()
 N_STEPS, RUNS, BASE_SEED = 200, 30, 6
 N_ML, N_EVAL, START = 300, 1000, (2.0, 2.0)
 ROBOT = RobotScenario().with_(n_steps=N_STEPS)
@@ -53,17 +52,13 @@ def main() -> None:
     table = run_study(robot_noise_run, {"n_particles": [N_ML]}, RUNS, base_seed=BASE_SEED, progress=False)
     OUT.mkdir(parents=True, exist_ok=True)
     table.drop(columns=["seconds"]).to_csv(OUT / "robot_noise.csv", index=False)
-    commit = LAUNCH_COMMIT
-    dirty = bool(subprocess.run(["git", "status", "--porcelain", "--untracked-files=no", "pfcourse", "tools"],
-                                cwd=ROOT, capture_output=True, text=True).stdout.strip())
-    meta = {"file": "robot_noise.csv", "code": "tools/studies/robot_noise.py", "git_commit": commit,
-            "working_tree_modified": dirty, "numpy": np.__version__,
-            "wall_seconds": round(time.perf_counter() - start, 1),
-            "scenario": f"RobotScenario().with_(n_steps={N_STEPS}), truth scales (1, 1)",
-            "n_runs": RUNS, "base_seed": BASE_SEED, "n_particles_ml": N_ML, "n_particles_eval": N_EVAL,
-            "start": START, "bounds": [0.1, 10.0],
-            "seeds": "simulation: replicate_seed(base_seed, run); likelihood filter: +1; evaluation filter: +2"}
-    (OUT / "robot_noise.json").write_text(json.dumps(meta, indent=2) + "\n")
+    write_provenance(
+        OUT / "robot_noise.json", code="tools/studies/robot_noise.py", commit=LAUNCH_COMMIT,
+        seconds=time.perf_counter() - start, file="robot_noise.csv",
+        scenario=f"RobotScenario().with_(n_steps={N_STEPS}), truth scales (1, 1)",
+        n_runs=RUNS, base_seed=BASE_SEED, n_particles_ml=N_ML, n_particles_eval=N_EVAL,
+        start=START, bounds=[0.1, 10.0],
+        seeds="simulation: replicate_seed(base_seed, run); likelihood filter: +1; evaluation filter: +2")
 
 
 if __name__ == "__main__":

@@ -7,10 +7,7 @@ Provenance in book/data/sir_fixes.json; tests/test_sir_fixes_study.py re-compute
 
 from __future__ import annotations
 
-import csv
-import json
 import os
-import subprocess
 import sys
 import time
 from pathlib import Path
@@ -19,6 +16,7 @@ os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 ROOT = Path(__file__).resolve().parents[2]
 sys.path.insert(0, str(ROOT))
 
+from pfcourse.experiments.provenance import launch_commit, write_provenance, write_rows  # noqa: E402
 from pfcourse.experiments.sir_fixes_study import LANDMARK_NOISE, variant_row  # noqa: E402
 
 VARIANTS = ["sir", "noise_filter_only", "noise_everywhere",
@@ -28,24 +26,14 @@ SEEDS = list(range(100))
 
 
 def main() -> None:
-    start = time.time()
+    start, commit = time.time(), launch_commit()
     rows = [variant_row(v, n, s) for v in VARIANTS for n in N_VALUES for s in SEEDS]
     out = ROOT / "book" / "data"
-    with open(out / "sir_fixes.csv", "w", newline="") as f:
-        writer = csv.DictWriter(f, fieldnames=list(rows[0]))
-        writer.writeheader()
-        for row in rows:
-            writer.writerow({k: repr(float(v)) if isinstance(v, float) else v for k, v in row.items()})
-    commit = subprocess.run(["git", "rev-parse", "HEAD"], cwd=ROOT, capture_output=True, text=True).stdout.strip()
-    dirty = bool(subprocess.run(["git", "status", "--porcelain", "pfcourse"], cwd=ROOT,
-                                capture_output=True, text=True).stdout.strip())
-    json.dump({"made_by": "tools/studies/sir_fixes.py", "code": ["pfcourse/experiments/sir_fixes_study.py"],
-               "git_commit": commit, "package_dirty_at_run": dirty, "variants": VARIANTS,
-               "n_values": N_VALUES, "seeds": "0-99; filter seed s + 10**6; threshold N/3",
-               "landmark_noise": LANDMARK_NOISE, "rows": len(rows),
-               "wall_seconds": round(time.time() - start, 1)},
-              open(out / "sir_fixes.json", "w"), indent=1)
-
+    write_rows(out / "sir_fixes.csv", rows)
+    write_provenance(out / "sir_fixes.json", code="tools/studies/sir_fixes.py", commit=commit,
+                     seconds=time.time() - start, row_code=["pfcourse/experiments/sir_fixes_study.py"],
+                     variants=VARIANTS, n_values=N_VALUES, seeds="0-99; filter seed s + 10**6; threshold N/3",
+                     landmark_noise=LANDMARK_NOISE, rows=len(rows))
 
 if __name__ == "__main__":
     main()

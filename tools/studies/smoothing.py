@@ -15,8 +15,6 @@ re-computes a seeded sample of the stored rows.
 
 from __future__ import annotations
 
-import json
-import subprocess
 import sys
 import time
 from functools import partial
@@ -30,12 +28,13 @@ from pfcourse import kalman_filter
 from pfcourse.landmarks import quadrant_scenario, simulate
 from pfcourse.robot import RobotModel, RobotScenario, simulate_robot
 from pfcourse.experiments.smoothing import ffbsm, linear_gaussian_log_transition, pairwise, robot_transition_log_density, rts_smoother
+from pfcourse.experiments.provenance import launch_commit, write_provenance
 from pfcourse.experiments.study import run_study
 
 ROOT = Path(__file__).resolve().parents[2]
 OUT = ROOT / "book" / "data" / "likelihood"
 # the commit the study is launched from (recorded in the provenance, whatever is committed meanwhile)
-LAUNCH_COMMIT = subprocess.run(["git", "rev-parse", "HEAD"], cwd=ROOT, capture_output=True, text=True).stdout.strip()
+LAUNCH_COMMIT = launch_commit()
 
 SCENARIO_A = quadrant_scenario().with_(Qw=0.05**2 * np.eye(6), Rv=0.5**2 * np.eye(4))
 N_A, N_A_RUNS, A_SEED = [100, 400], 30, 4
@@ -76,13 +75,8 @@ def robot_run(seed: int, n_particles: int) -> dict:
 
 
 def provenance(name: str, parameters: dict, seconds: float) -> None:
-    commit = LAUNCH_COMMIT
-    dirty = bool(subprocess.run(["git", "status", "--porcelain", "--untracked-files=no", "pfcourse", "tools"],
-                                cwd=ROOT, capture_output=True, text=True).stdout.strip())
-    meta = {"file": f"{name}.csv", "code": "tools/studies/smoothing.py", "git_commit": commit,
-            "working_tree_modified": dirty, "numpy": np.__version__, "wall_seconds": round(seconds, 1),
-            **parameters}
-    (OUT / f"{name}.json").write_text(json.dumps(meta, indent=2) + "\n")
+    write_provenance(OUT / f"{name}.json", code="tools/studies/smoothing.py", commit=LAUNCH_COMMIT, seconds=seconds,
+                     file=f"{name}.csv", **parameters)
 
 
 def main(parts: list[str]) -> None:

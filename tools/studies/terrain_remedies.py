@@ -9,11 +9,11 @@ from __future__ import annotations
 
 import csv
 import json
-import subprocess
 import sys
 import time
 from pathlib import Path
 
+from pfcourse.experiments.provenance import launch_commit
 from pfcourse.experiments.terrain_remedies import SETTINGS, run_one
 from pfcourse.terrain.map import load_jacksboro
 
@@ -34,7 +34,7 @@ def main() -> None:
         with OUT.open() as f:
             done = {(r["setting"], int(r["flight"])) for r in csv.DictReader(f)}
     new = not OUT.exists()
-    commit = subprocess.run(["git", "rev-parse", "HEAD"], cwd=ROOT, capture_output=True, text=True).stdout.strip()
+    commit = launch_commit()
     meta_path = OUT.with_suffix(".json")
     meta = json.loads(meta_path.read_text()) if meta_path.exists() else {"runs": []}
     meta.update({"code": "pfcourse/experiments/terrain_remedies.py (run_one), tools/studies/terrain_remedies.py",

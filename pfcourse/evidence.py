@@ -1,0 +1,276 @@
+"""The evidence behind a comparison of seeded runs: rates with intervals, paired tests.
+
+Every study of the book runs each setting on the same seeds (common random numbers), so two
+settings are compared run by run. This module turns such paired runs into the sentence the
+book may write, always with the number of runs and an interval, and only through
+``scipy.stats`` (nothing here re-implements a test that scipy does right):
+
+- a **rate** (share of runs that diverged, locked on, ...) with its Wilson score interval
+  (``binomtest(k, n).proportion_ci(method="wilson")``):
+
+  .. math:: \\frac{\\hat p + z^2/2n \\pm z\\sqrt{\\hat p(1-\\hat p)/n + z^2/4n^2}}{1 + z^2/n};
+
+- two **paired rates** (the same runs under settings A and B) by the exact McNemar test: only
+  the discordant runs carry information, and under "no difference" the runs that only A gets
+  right are ``Binomial(b + c, 1/2)`` among the ``b + c`` discordant ones
+  (``binomtest(b, b + c, 0.5)``); the difference of the two rates gets a paired bootstrap interval;
+- two **paired samples** (errors of the same runs under A and B) by the Wilcoxon signed-rank
+  test on the differences ``d_i = a_i - b_i``, with a bootstrap interval for the median of
+  ``d`` (``scipy.stats.bootstrap``, percentile method); ``ratio=True`` compares
+  ``log a_i - log b_i`` instead and reports the median ratio ``a/b``;
+- the **sign test** (``binomtest`` on the count of ``a_i < b_i`` among non-ties), for when only the
+  direction of each pair is trusted.
+
+A claim of "no difference" is worded from the interval, not from a p-value above 0.05: the
+interval says how large a difference could hide in the study (``Paired.detectable``).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Callable
+
+import numpy as np
+from scipy import stats
+
+from .errors import PfcourseError
+
+__all__ = [
+    "EvidenceError",
+    "Rate",
+    "PairedRates",
+    "Paired",
+    "rate",
+    "paired_rates",
+    "paired",
+    "sign_test",
+    "median_interval",
+]
+
+CONFIDENCE = 0.95
+N_RESAMPLES = 9999
+
+
+class EvidenceError(PfcourseError, ValueError):
+    """Runs that cannot support the requested statistic (empty, unpaired, NaN, negative counts)."""
+
+
+def _fraction(level: float) -> str:
+    return f"{100 * level:g} %"
+
+
+def _percent(p: float) -> str:
+    return f"{100 * p:.0f} %"
+
+
+def _samples(x, name: str) -> np.ndarray:
+    try:
+        a = np.asarray(x, dtype=float)
+    except (TypeError, ValueError) as exc:
+        raise EvidenceError(f"{name}: expected numbers, got {type(x).__name__}") from exc
+    if a.ndim != 1:
+        raise EvidenceError(f"{name}: expected one value per run (1-D), got shape {a.shape}")
+    if a.size == 0:
+        raise EvidenceError(f"{name}: no runs")
+    if not np.all(np.isfinite(a)):
+        bad = np.flatnonzero(~np.isfinite(a))
+        raise EvidenceError(f"{name}: {bad.size} non-finite value(s), first at run {bad[0]}")
+    return a
+
+
+def _pair(a, b) -> tuple[np.ndarray, np.ndarray]:
+    a, b = _samples(a, "a"), _samples(b, "b")
+    if a.shape != b.shape:
+        raise EvidenceError(f"paired runs need the same number of runs, got {a.size} and {b.size}")
+    return a, b
+
+
+def _booleans(x, name: str) -> np.ndarray:
+    a = np.asarray(x)
+    if a.ndim != 1 or a.size == 0:
+        raise EvidenceError(f"{name}: expected a non-empty 1-D array of outcomes, got shape {a.shape}")
+    if a.dtype != bool:
+        if not np.all(np.isin(a, (0, 1))):
+            raise EvidenceError(f"{name}: outcomes must be booleans (or 0/1), got values such as {a[~np.isin(a, (0, 1))][0]!r}")
+        a = a.astype(bool)
+    return a
+
+
+@dataclass(frozen=True)
+class Rate:
+    """``successes`` of ``n`` runs, with the Wilson interval ``(low, high)`` at ``confidence``."""
+
+    successes: int
+    n: int
+    low: float
+    high: float
+    confidence: float = CONFIDENCE
+
+    @property
+    def estimate(self) -> float:
+        return self.successes / self.n
+
+    def __str__(self) -> str:
+        return (f"{_percent(self.estimate)} ({self.successes}/{self.n}; {_fraction(self.confidence)} Wilson "
+                f"interval {_percent(self.low)}-{_percent(self.high)})")
+
+
+def rate(successes: int | np.ndarray, n: int | None = None, confidence: float = CONFIDENCE) -> Rate:
+    """Share of runs with the outcome, and its Wilson score interval.
+
+    ``rate(k, n)`` for counts, or ``rate(outcomes)`` for a boolean array of runs.
+    """
+    if n is None:
+        outcomes = _booleans(successes, "outcomes")
+        k, n = int(outcomes.sum()), int(outcomes.size)
+    else:
+        k, n = successes, n
+        if isinstance(k, (float, np.floating)) and not float(k).is_integer():
+            raise EvidenceError(f"successes must be a whole number, got {k}")
+        if isinstance(n, (float, np.floating)) and not float(n).is_integer():
+            raise EvidenceError(f"n must be a whole number, got {n}")
+        k, n = int(k), int(n)
+        if n <= 0 or not 0 <= k <= n:
+            raise EvidenceError(f"need 0 <= successes <= n and n > 0, got successes={k}, n={n}")
+    if not 0 < confidence < 1:
+        raise EvidenceError(f"confidence must be in (0, 1), got {confidence}")
+    ci = stats.binomtest(k, n).proportion_ci(confidence_level=confidence, method="wilson")
+    return Rate(k, n, float(ci.low), float(ci.high), confidence)
+
+
+@dataclass(frozen=True)
+class PairedRates:
+    """The same runs under A and B: rates, discordant counts, exact McNemar p, interval of A - B."""
+
+    a: Rate
+    b: Rate
+    only_a: int
+    only_b: int
+    pvalue: float
+    difference_low: float
+    difference_high: float
+    confidence: float = CONFIDENCE
+
+    @property
+    def difference(self) -> float:
+        return self.a.estimate - self.b.estimate
+
+    def __str__(self) -> str:
+        return (f"{_percent(self.a.estimate)} vs {_percent(self.b.estimate)} of {self.a.n} paired runs: "
+                f"{self.only_a} only A, {self.only_b} only B, exact McNemar p = {self.pvalue:.2g}; "
+                f"difference {100 * self.difference:+.0f} points ({_fraction(self.confidence)} interval "
+                f"{100 * self.difference_low:+.0f} to {100 * self.difference_high:+.0f})")
+
+
+def _bootstrap(data: tuple[np.ndarray, ...], statistic: Callable, confidence: float, seed: int,
+               paired: bool = False) -> tuple[float, float]:
+    """Percentile bootstrap interval; a constant sample gives the degenerate interval (x, x).
+
+    ``statistic`` takes ``axis`` (``np.mean``, ``np.median``), so scipy resamples in one array.
+    """
+    value = float(statistic(*data))
+    if all(np.ptp(d) == 0 for d in data):
+        return value, value
+    res = stats.bootstrap(data, statistic, paired=paired, vectorized=True, confidence_level=confidence,
+                          n_resamples=N_RESAMPLES, method="percentile", random_state=np.random.default_rng(seed))
+    return float(res.confidence_interval.low), float(res.confidence_interval.high)
+
+
+def paired_rates(a, b, confidence: float = CONFIDENCE, seed: int = 0) -> PairedRates:
+    """Exact McNemar test of paired outcomes (``binomtest`` on the discordant runs).
+
+    ``a[i]`` and ``b[i]`` are the outcomes of run ``i`` under A and B (same seed, same truth).
+    """
+    a, b = _booleans(a, "a"), _booleans(b, "b")
+    if a.shape != b.shape:
+        raise EvidenceError(f"paired runs need the same number of runs, got {a.size} and {b.size}")
+    only_a, only_b = int(np.sum(a & ~b)), int(np.sum(~a & b))
+    p = 1.0 if only_a + only_b == 0 else float(stats.binomtest(only_a, only_a + only_b, 0.5).pvalue)
+    d = a.astype(float) - b.astype(float)
+    low, high = _bootstrap((d,), np.mean, confidence, seed)
+    return PairedRates(rate(a, confidence=confidence), rate(b, confidence=confidence), only_a, only_b, p,
+                       low, high, confidence)
+
+
+@dataclass(frozen=True)
+class Paired:
+    """Paired samples A, B: median of ``d = a - b`` (or of ``log(a/b)`` if ``ratio``), its interval, Wilcoxon p."""
+
+    n: int
+    median: float
+    low: float
+    high: float
+    pvalue: float
+    ratio: bool = False
+    confidence: float = CONFIDENCE
+
+    @property
+    def detectable(self) -> float:
+        """The largest difference (or, for a ratio, factor) the interval leaves possible, either way.
+
+        "No difference" is only as strong as this: a difference smaller than it could hide in the study.
+        """
+        if self.ratio:
+            return float(max(self.high, 1.0 / self.low))
+        return float(max(abs(self.low), abs(self.high)))
+
+    def verdict(self, alpha: float | None = None) -> str:
+        """``"A lower"``, ``"A higher"`` or ``"no difference detected"``: decided by the interval.
+
+        The interval at ``confidence`` excludes "no difference" (0, or a ratio of 1) or does not;
+        ``alpha`` defaults to ``1 - confidence``, and the Wilcoxon p-value must agree (both below).
+        """
+        alpha = 1 - self.confidence if alpha is None else alpha
+        null = 1.0 if self.ratio else 0.0
+        if self.high < null and self.pvalue < alpha:
+            return "A lower"
+        if self.low > null and self.pvalue < alpha:
+            return "A higher"
+        return "no difference detected"
+
+    def __str__(self) -> str:
+        what = "median ratio A/B" if self.ratio else "median difference A - B"
+        fmt = (lambda v: f"{v:.3g}")
+        return (f"{what} {fmt(self.median)} ({_fraction(self.confidence)} interval {fmt(self.low)} to "
+                f"{fmt(self.high)}), Wilcoxon signed-rank p = {self.pvalue:.2g}, {self.n} paired runs")
+
+
+def paired(a, b, ratio: bool = False, confidence: float = CONFIDENCE, seed: int = 0) -> Paired:
+    """Wilcoxon signed-rank test and a bootstrap interval of the median paired difference.
+
+    With ``ratio=True`` the samples must be positive (errors, costs) and the comparison is on
+    ``log a - log b``; ``median``, ``low`` and ``high`` are then reported as ratios ``a/b``.
+    Zero differences are dropped by the test (``zero_method="wilcox"``); if every pair is tied,
+    ``p = 1`` and the interval is ``(0, 0)`` (or ``(1, 1)``).
+    """
+    a, b = _pair(a, b)
+    if ratio:
+        if np.any(a <= 0) or np.any(b <= 0):
+            raise EvidenceError("ratio=True needs positive samples (errors, costs), got a value <= 0")
+        d = np.log(a) - np.log(b)
+    else:
+        d = a - b
+    median = float(np.median(d))
+    if np.all(d == 0):
+        p, low, high = 1.0, 0.0, 0.0
+    else:
+        p = float(stats.wilcoxon(d).pvalue)
+        low, high = _bootstrap((d,), np.median, confidence, seed)
+    if ratio:
+        median, low, high = float(np.exp(median)), float(np.exp(low)), float(np.exp(high))
+    return Paired(int(d.size), median, low, high, p, ratio, confidence)
+
+
+def sign_test(a, b) -> tuple[int, int, float]:
+    """Sign test: ``(runs where a < b, runs where a > b, two-sided exact p)``; ties are dropped."""
+    a, b = _pair(a, b)
+    below, above = int(np.sum(a < b)), int(np.sum(a > b))
+    p = 1.0 if below + above == 0 else float(stats.binomtest(below, below + above, 0.5).pvalue)
+    return below, above, p
+
+
+def median_interval(x, confidence: float = CONFIDENCE, seed: int = 0) -> tuple[float, float, float]:
+    """``(median, low, high)``: the sample median and its percentile-bootstrap interval."""
+    x = _samples(x, "x")
+    low, high = _bootstrap((x,), np.median, confidence, seed)
+    return float(np.median(x)), low, high
