@@ -24,6 +24,7 @@ def test_provenance_records_commit_versions_and_the_study_fields(tmp_path):
 def test_rows_round_trip_floats_exactly(tmp_path):
     values = np.random.default_rng(0).normal(size=50) * 10.0 ** np.arange(-25, 25)
     write_rows(tmp_path / "r.csv", [{"run": i, "x": float(v)} for i, v in enumerate(values)])
-    back = list(csv.DictReader(open(tmp_path / "r.csv")))
+    with open(tmp_path / "r.csv", newline="") as f:
+        back = list(csv.DictReader(f))
     assert [float(r["x"]) for r in back] == list(values)
     assert [int(r["run"]) for r in back] == list(range(50))
