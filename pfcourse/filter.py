@@ -17,6 +17,14 @@ particles ``x_k^i`` with normalised weights ``W_k^i``.  At every step ``k``:
    An optional ``jitter(particles, rng)`` is then applied to the resampled cloud
    (roughening, :mod:`pfcourse.roughening`); by default there is none.
 
+**A variable number of particles** (``sample_size``, e.g. KLD-sampling,
+:mod:`pfcourse.sample_size`): ``N = n_particles`` particles are drawn at step 0 and ``N`` is
+the ceiling afterwards. At each later measurement step the new cloud is drawn in batches,
+``x_k^i ~ q(. | x_{k-1}^{A_i}, z_k)`` with ancestors ``A_i`` drawn by multinomial resampling of
+the previous weighted cloud, until the policy has enough; the weights are then the
+log-increments alone (the ancestors carried the old weights), so step 4 does not apply.
+Steps without a measurement move the cloud and keep its size and weights.
+
 A measurement that is missing (``None``, or an array of NaN) leaves the weights
 unchanged: the particles move through the transition only.  A measurement with
 *some* NaN entries is passed to the model, whose likelihood treats NaN entries
@@ -48,7 +56,7 @@ from pfcourse.errors import (
     ParameterError,
     ShapeError,
 )
-from pfcourse.resampling import get_resampler
+from pfcourse.resampling import get_resampler, multinomial
 
 Measurement = Array | None
 
@@ -157,7 +165,8 @@ class FilterResult:
     resampled after it; ``log_likelihood_increments`` ``(K,)`` holds
     ``log p^(z_k | z_{0:k-1})`` (0 at steps without a measurement).  With
     ``store_particles=True``, ``particles`` ``(K, N, d)`` and ``weights`` ``(K, N)``
-    hold the weighted cloud at each step.
+    hold the weighted cloud at each step.  ``sizes`` ``(K,)`` is the number of particles at
+    each step (``n_particles`` throughout, unless the filter has a ``sample_size`` policy).
     """
 
     mean: Array
@@ -169,6 +178,16 @@ class FilterResult:
     particles: Array | None = None
     weights: Array | None = None
     settings: dict = field(default_factory=dict)
+    sizes: Array | None = None
+
+    def __post_init__(self) -> None:
+        if self.sizes is None:
+            self.sizes = np.full(len(self.ess), self.n_particles, dtype=np.int64)
+
+    @property
+    def particle_steps(self) -> int:
+        """Particles drawn over the run, ``sum_k N_k`` (``K N`` for a fixed ``N``): the cost unit."""
+        return int(np.sum(self.sizes))
 
     @property
     def log_likelihood(self) -> float:
@@ -202,6 +221,11 @@ class ParticleFilter:
         Optional function ``(particles, rng) -> particles`` applied to the cloud
         right after each resampling (roughening, see :mod:`pfcourse.roughening`).
         ``None`` (default) leaves the resampled cloud, and the random stream, as is.
+    sample_size:
+        Optional policy for a variable number of particles (:class:`pfcourse.sample_size.KLDSampling`):
+        ``n_particles`` is then the initial number and the ceiling (module docstring).
+        ``threshold``, ``resampler`` and ``jitter`` do not apply then: the ancestors of each
+        measurement step are drawn by multinomial resampling.
     """
 
     def __init__(
@@ -213,6 +237,7 @@ class ParticleFilter:
         resampler: str | Callable = "systematic",
         proposal: Proposal | None = None,
         jitter: Callable[[Array, np.random.Generator], Array] | None = None,
+        sample_size=None,
     ) -> None:
         for attribute in ("sample_initial", "sample_transition", "log_likelihood"):
             if not callable(getattr(model, attribute, None)):
@@ -238,6 +263,16 @@ class ParticleFilter:
         self.proposal = proposal if proposal is not None else TransitionProposal()
         self.angle_indices = tuple(getattr(model, "angle_indices", ()))
         self.jitter = jitter
+        if sample_size is not None:
+            for attribute in ("reset", "needed"):
+                if not callable(getattr(sample_size, attribute, None)):
+                    raise ModelError(f"sample_size has no callable {attribute} (see pfcourse.sample_size)")
+            check_count(getattr(sample_size, "n_min", None), "sample_size.n_min")
+            check_count(getattr(sample_size, "batch", None), "sample_size.batch")
+            if jitter is not None:
+                raise ParameterError("jitter and sample_size cannot be combined: with a variable N the "
+                                     "ancestors are drawn inside the step, there is no resampled cloud to jitter")
+        self.sample_size = sample_size
 
     def run(
         self,
@@ -262,12 +297,15 @@ class ParticleFilter:
         n, d = self.n_particles, self.dim_x
         measurements = self._check_measurements(measurements)
         n_steps = len(measurements)
+        if store_particles and self.sample_size is not None:
+            raise ParameterError("store_particles needs a fixed number of particles (this filter has a sample_size policy)")
         try:
             mean = np.empty((n_steps, d))
             cov = np.empty((n_steps, d, d))
             ess = np.empty(n_steps)
             resampled = np.zeros(n_steps, dtype=bool)
             log_inc_total = np.zeros(n_steps)
+            sizes = np.empty(n_steps, dtype=np.int64)
             stored_x = np.empty((n_steps, n, d)) if store_particles else None
             stored_w = np.empty((n_steps, n)) if store_particles else None
             np.empty((n, d))  # the cloud itself
@@ -288,18 +326,25 @@ class ParticleFilter:
         else:
             missing_steps = [is_missing(z) for z in measurements]
         default_proposal = type(self.proposal) is TransitionProposal
+        adaptive = self.sample_size is not None
         for k in range(n_steps):
             z = measurements[k]
             missing = missing_steps[k]
             if not missing:
                 z = np.asarray(z, dtype=float)
             # particles are checked before the model's likelihood sees them
-            if k == 0:
+            if adaptive and k > 0 and not missing:
+                particles, log_inc = self._adaptive_step(particles, weights, z, k, rng)
+                n = len(particles)
+                log_weights = np.full(n, -np.log(n))
+                scratch = np.empty(n)
+                resampled[k] = True
+            elif k == 0:
                 particles = self._check_particles(self.model.sample_initial(n, rng), k, "sample_initial")
                 log_inc = None if missing else self.model.log_likelihood(particles, z, k)
             elif missing or default_proposal:
                 particles = self._check_particles(
-                    self.model.sample_transition(particles, k, rng), k, "sample_transition"
+                    self.model.sample_transition(particles, k, rng), k, "sample_transition", n
                 )
                 log_inc = None if missing else self.model.log_likelihood(particles, z, k)
             else:
@@ -309,8 +354,9 @@ class ParticleFilter:
                 particles = self._check_particles(proposed[0], k, "proposal.propose")
                 log_inc = proposed[1]
 
+            sizes[k] = n
             if not missing:
-                log_inc = self._check_log_increments(log_inc, k)
+                log_inc = self._check_log_increments(log_inc, k, n)
                 weights = np.empty(n)
                 top = log_inc.max()
                 shift = top if 700.0 < abs(top) < np.inf else 0.0  # weights are invariant to a constant
@@ -333,7 +379,7 @@ class ParticleFilter:
             if store_particles:
                 stored_x[k] = particles
                 stored_w[k] = weights
-            if ess[k] < self.threshold * n * (1.0 - 1e-12):
+            if not adaptive and ess[k] < self.threshold * n * (1.0 - 1e-12):
                 indices = self.resampler(weights, rng)
                 if self._custom_resampler:
                     indices = self._check_indices(indices, k)
@@ -350,15 +396,48 @@ class ParticleFilter:
             ess=ess,
             resampled=resampled,
             log_likelihood_increments=log_inc_total,
-            n_particles=n,
+            n_particles=self.n_particles,
             particles=stored_x,
             weights=stored_w,
             settings={
                 "threshold": self.threshold,
                 "resampler": getattr(self.resampler, "__name__", str(self.resampler)),
                 "proposal": type(self.proposal).__name__,
+                "sample_size": None if self.sample_size is None else type(self.sample_size).__name__,
             },
+            sizes=sizes,
         )
+
+    def _adaptive_step(self, particles: Array, weights: Array, z: Array, k: int,
+                       rng: np.random.Generator) -> tuple[Array, Array]:
+        """Draw the cloud of measurement step ``k`` in batches until the ``sample_size`` policy has enough.
+
+        Each batch of ``m`` particles: ancestors by multinomial resampling of the previous
+        weighted cloud, then the proposal; returns the new cloud and its log-increments.
+        """
+        policy, n_max = self.sample_size, self.n_particles
+        policy.reset()
+        new_x, new_log = [], []
+        n, needed = 0, policy.n_min
+        while n < min(max(needed, policy.n_min), n_max):
+            m = int(min(n_max - n, max(policy.batch, min(needed, n_max) - n)))
+            parents = kernels.gather_rows(particles, multinomial(weights, rng, m))
+            if type(self.proposal) is TransitionProposal:
+                x = self._check_particles(self.model.sample_transition(parents, k, rng), k, "sample_transition", m)
+                log_inc = self.model.log_likelihood(x, z, k)
+            else:
+                proposed = self.proposal.propose(self.model, parents, z, k, rng)
+                if not isinstance(proposed, tuple) or len(proposed) != 2:
+                    raise ModelError(f"step {k}: proposal.propose must return (particles, log_increments)", step=k)
+                x = self._check_particles(proposed[0], k, "proposal.propose", m)
+                log_inc = proposed[1]
+            new_x.append(x)
+            new_log.append(self._check_log_increments(log_inc, k, m))
+            n += m
+            needed = policy.needed(x)
+            if isinstance(needed, (bool, np.bool_)) or not isinstance(needed, (int, np.integer)) or needed < 0:
+                raise ModelError(f"step {k}: sample_size.needed must return a count >= 0, got {needed!r}", step=k)
+        return np.concatenate(new_x), np.concatenate(new_log)
 
     def _check_measurements(self, measurements):
         """Check the measurements once, before the run: a sequence of real arrays of one shape."""
@@ -411,13 +490,13 @@ class ParticleFilter:
             )
         return arr.astype(np.int64, copy=False)
 
-    def _check_particles(self, particles: Array, k: int, source: str = "the model") -> Array:
+    def _check_particles(self, particles: Array, k: int, source: str = "the model", n: int | None = None) -> Array:
         raw = np.asarray(particles) if particles is not None else None
         if raw is None or raw.dtype.kind not in "fiu" or raw.dtype == bool:
             kind = "None" if raw is None else f"dtype {raw.dtype}"
             raise ModelError(f"step {k}: {source} returned {kind}, expected a real array of particles", step=k)
         particles = raw.astype(float, copy=False)
-        expected = (self.n_particles, self.dim_x)
+        expected = (self.n_particles if n is None else n, self.dim_x)
         if particles.shape != expected:
             raise ShapeError(
                 f"step {k}: {source} returned particles of shape {particles.shape}, "
@@ -429,7 +508,7 @@ class ParticleFilter:
             )
         return particles
 
-    def _check_log_increments(self, log_inc: Array, k: int) -> Array:
+    def _check_log_increments(self, log_inc: Array, k: int, n: int | None = None) -> Array:
         raw = np.asarray(log_inc) if log_inc is not None else None
         if raw is None or raw.dtype.kind not in "fiu" or raw.dtype == bool:
             kind = "None" if raw is None else f"dtype {raw.dtype}"
@@ -440,10 +519,11 @@ class ParticleFilter:
                 step=k,
             )
         log_inc = raw.astype(float, copy=False)
-        if log_inc.shape != (self.n_particles,):
+        n = self.n_particles if n is None else n
+        if log_inc.shape != (n,):
             raise ShapeError(
                 f"step {k}: the log-likelihood has shape {log_inc.shape}, "
-                f"expected ({self.n_particles},)"
+                f"expected ({n},)"
             )
         top = log_inc.max()  # NaN if any entry is NaN
         if np.isnan(top) or top == np.inf:

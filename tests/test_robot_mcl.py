@@ -9,12 +9,12 @@ from scipy import stats
 from pfcourse.errors import ParameterError
 from pfcourse.filter import ParticleFilter
 from pfcourse.robot.scenario import RobotModel, range_bearing, simulate_robot
+from pfcourse.sample_size import kld_bound
 from pfcourse.robot.mcl import (
     AugmentedMCL,
     KidnapRobotModel,
     SensorPoseSampler,
     kidnap,
-    kld_bound,
     kld_filter,
     run_method,
     sensor_mixture_proposal,
@@ -151,9 +151,9 @@ def test_kld_bound_keeps_the_kl_divergence_below_epsilon():
 def test_kld_filter_uses_few_particles_once_the_cloud_is_tight():
     sim, base, _ = _models(seed=1, n_steps=30, global_start=False)
     res = kld_filter(base, sim.measurements, 0, n_max=5000, n_min=50)
-    assert res.n_particles[0] == 5000
-    assert np.all(res.n_particles[10:] < 1000)
-    assert np.all(res.n_particles >= 50)
+    assert res.sizes[0] == 5000 and res.n_particles == 5000
+    assert np.all(res.sizes[10:] < 1000)
+    assert np.all(res.sizes >= 50)
 
 
 def test_injection_rule_and_averages():

@@ -44,7 +44,8 @@ and after resampling replaces each particle, with probability ``max(0, 1 - w_fas
 by a pose drawn from ``q_z`` (the current reading) or from ``u``.  It is a heuristic: the
 injected particles are not weighted.
 
-**3. KLD-sampling (Fox 2003).**  :func:`kld_filter` draws, at every measurement step, particles
+**3. KLD-sampling (Fox 2003).**  :func:`kld_filter` runs the engine with a
+:class:`~pfcourse.sample_size.KLDSampling` policy: at every measurement step it draws particles
 until their number exceeds the bound
 
     n(k) = (k - 1) / (2 eps) * (1 - 2 / (9 (k - 1)) + sqrt(2 / (9 (k - 1))) z_{1-delta})^3
@@ -60,18 +61,18 @@ from __future__ import annotations
 import math
 import time
 from collections.abc import Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import numpy as np
 from scipy import stats
 from scipy.special import logsumexp
 
 from pfcourse.angles import wrap_angle
-from pfcourse.checks import check_count, check_probability
-from pfcourse.diagnostics import nees, normalize_log_weights, weighted_covariance, weighted_mean
+from pfcourse.checks import check_probability
+from pfcourse.diagnostics import nees
 from pfcourse.errors import DegenerateWeightsError, ParameterError
-from pfcourse.filter import DensityProposal, ParticleFilter, is_missing
-from pfcourse.resampling import get_resampler
+from pfcourse.filter import DensityProposal, FilterResult, ParticleFilter
+from pfcourse.sample_size import KLDSampling, kld_bound  # noqa: F401  (kld_bound: re-exported for the chapter)
 from pfcourse.robot.scenario import ANGLE_INDICES, RobotModel, RobotSimulation, motion, range_bearing, simulate_robot
 
 Array = np.ndarray
@@ -295,92 +296,19 @@ class AugmentedMCL:
         return particles
 
 
-def kld_bound(k: int | Array, epsilon: float = 0.05, delta: float = 0.01) -> Array:
-    """Fox (2003): particles needed for ``k`` occupied bins, ``(k-1)/(2 eps) (1 - 2/(9(k-1)) + sqrt(2/(9(k-1))) z_{1-delta})^3``.
-
-    1 for ``k <= 1``.
-    """
-    k = np.asarray(k, dtype=float)
-    z = stats.norm.ppf(1.0 - delta)
-    km1 = np.maximum(k - 1.0, 1.0)
-    a = 2.0 / (9.0 * km1)
-    n = km1 / (2.0 * epsilon) * (1.0 - a + np.sqrt(a) * z) ** 3
-    return np.where(k <= 1, 1.0, np.ceil(n))
-
-
-def occupied_bins(particles: Array, bin_size: Sequence[float]) -> int:
-    """Number of distinct cells of the grid ``bin_size = (m, m, rad)`` that hold a particle."""
-    return len(np.unique(_cell_codes(particles, bin_size)))
-
-
-def _cell_codes(particles: Array, bin_size: Sequence[float]) -> Array:
-    """One int64 code per grid cell (cells indexed within +-2^20 per axis)."""
-    cells = np.floor(particles / np.asarray(bin_size, dtype=float)).astype(np.int64) + (1 << 20)
-    return (cells[:, 0] << 42) | (cells[:, 1] << 21) | cells[:, 2]
-
-
-@dataclass
-class KLDResult:
-    """Output of :func:`kld_filter`: ``mean`` ``(K, 3)``, ``cov`` ``(K, 3, 3)``, ``n_particles`` ``(K,)``."""
-
-    mean: Array
-    cov: Array
-    n_particles: Array
-
-    @property
-    def particle_steps(self) -> int:
-        return int(np.sum(self.n_particles))
-
-
 def kld_filter(model, measurements: Array, rng: np.random.Generator | int, *, n_max: int = 20000,
                n_min: int = 100, epsilon: float = 0.05, delta: float = 0.01,
                bin_size: Sequence[float] = (1.0, 1.0, np.deg2rad(10.0)), proposal=None,
-               batch: int = 100) -> KLDResult:
-    """KLD-sampling MCL (Fox 2003) with the model's methods and an engine proposal.
+               batch: int = 100) -> FilterResult:
+    """KLD-sampling MCL (Fox 2003): the engine with a :class:`~pfcourse.sample_size.KLDSampling` policy.
 
-    Step 0 draws ``n_max`` particles from ``model.sample_initial``.  At each measurement step,
-    particles are drawn in batches (ancestors by multinomial resampling of the previous
-    weighted cloud, then ``proposal.propose``, the transition by default) until
-    ``n >= max(n_min, kld_bound(bins))`` or ``n = n_max``; Fox draws one at a time, batches of
-    ``batch`` overshoot the bound by less than a batch.  Steps without a measurement move the
-    cloud and keep its size and weights.
+    Step 0 draws ``n_max`` particles from ``model.sample_initial``; each measurement step draws
+    batches of ``batch`` (ancestors by multinomial resampling, then ``proposal``, the
+    transition by default) until ``n >= max(n_min, kld_bound(bins))`` or ``n = n_max``, on a
+    grid of ``bin_size`` = (m, m, rad). ``result.sizes`` is the number of particles per step.
     """
-    from pfcourse.filter import TransitionProposal
-
-    check_count(n_max, "n_max")
-    check_count(n_min, "n_min")
-    rng = np.random.default_rng(rng)
-    proposal = proposal if proposal is not None else TransitionProposal()
-    multinomial = get_resampler("multinomial")
-    K = len(measurements)
-    mean, cov, sizes = np.empty((K, 3)), np.empty((K, 3, 3)), np.empty(K, dtype=int)
-    particles = model.sample_initial(n_max, rng)
-    weights = np.full(n_max, 1.0 / n_max)
-    for k in range(K):
-        z = measurements[k]
-        if k > 0 and is_missing(z):
-            particles = model.sample_transition(particles, k, rng)
-        elif k > 0:
-            z = np.asarray(z, dtype=float)
-            new_x, new_log, codes = [], [], np.empty(0, dtype=np.int64)
-            n, needed = 0, n_min
-            while n < min(max(needed, n_min), n_max):
-                m = int(min(n_max - n, max(batch, min(needed, n_max) - n)))
-                parents = particles[multinomial(weights, rng, m)]
-                x, log_inc = proposal.propose(model, parents, z, k, rng)
-                new_x.append(x)
-                new_log.append(np.asarray(log_inc, dtype=float))
-                n += m
-                codes = np.union1d(codes, _cell_codes(x, bin_size))
-                needed = int(kld_bound(len(codes), epsilon, delta))
-            particles = np.concatenate(new_x)
-            weights, total = normalize_log_weights(np.concatenate(new_log))
-            if total == -np.inf:
-                raise DegenerateWeightsError(f"step {k}: every particle has zero likelihood", step=k)
-        sizes[k] = len(particles)
-        mean[k] = weighted_mean(particles, weights, ANGLE_INDICES)
-        cov[k] = weighted_covariance(particles, weights, mean[k], ANGLE_INDICES)
-    return KLDResult(mean, cov, sizes)
+    policy = KLDSampling(bin_size, n_min=n_min, epsilon=epsilon, delta=delta, batch=batch)
+    return ParticleFilter(model, n_max, proposal=proposal, sample_size=policy).run(measurements, rng)
 
 
 # ----------------------------------------------------------------------------- scenarios and runs
@@ -440,7 +368,6 @@ def run_method(sim: RobotSimulation, method: str, n_particles: int, seed: int, *
         raise ParameterError(f"unknown method {method!r}; choose among {METHODS}")
     initial = "uniform" if global_start else "tracking"
     base = RobotModel.for_simulation(sim, initial=initial)
-    K = sim.truth.shape[0]
     out: dict = {}
     start = time.perf_counter()
     if method == "bootstrap":
@@ -462,7 +389,7 @@ def run_method(sim: RobotSimulation, method: str, n_particles: int, seed: int, *
                          epsilon=settings.kld_epsilon, delta=settings.kld_delta, proposal=prop)
     out["seconds"] = time.perf_counter() - start
     out["mean"], out["cov"] = res.mean, res.cov
-    out["n_used"] = res.n_particles if method.startswith("kld") else np.full(K, n_particles)
+    out["n_used"] = res.sizes
     return out
 
 
