@@ -9,6 +9,7 @@
     python3 tasks.py bench         benchmark against a lab-style loop and `particles` (bench/bench.py)
     python3 tasks.py knife-edge    execute notebooks with a last-bit perturbation of the arithmetic
                                    and list the stored outputs that change (tools/perturbed_arithmetic.py)
+    python3 tasks.py study NAME    run the heavy study tools/studies/NAME.py (stored under book/data/)
 
 Extra arguments after `test` and `browser-test` go to pytest; after `notebooks`, they name
 the sources to run; after `bench`, see `python3 tasks.py bench --help`. Only the Python
@@ -204,6 +205,14 @@ def knife_edge(args: list[str]) -> None:
     run(PY, ROOT / "tools" / "perturbed_arithmetic.py", *args)
 
 
+def study(args: list[str]) -> None:
+    """Run tools/studies/NAME.py (a heavy study stored under book/data/) in the pinned environment."""
+    names = sorted(p.stem for p in (ROOT / "tools" / "studies").glob("*.py"))
+    if not args or args[0] not in names:
+        raise SystemExit(f"usage: python3 tasks.py study NAME [ARGS...]; NAME is one of {', '.join(names)}")
+    run(PY, ROOT / "tools" / "studies" / f"{args[0]}.py", *args[1:])
+
+
 def lab(args: list[str]) -> None:
     run(BIN / "jupyter", "lab", *args, cwd=BOOK)
 
@@ -216,6 +225,7 @@ COMMANDS = {
     "lab": lab,
     "bench": bench,
     "knife-edge": knife_edge,
+    "study": study,
 }
 
 
