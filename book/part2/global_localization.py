@@ -273,10 +273,11 @@ for k in (2, 10, 100, 1000):
 # %% [markdown]
 # KLD-sampling alone starts from $n_\text{max}$ uniform particles and is a bootstrap filter
 # otherwise; `kld_mixture` combines it with the mixture proposal (share 0.02, because every
-# particle drawn from the reading lands in its own bin and raises the bound). Both go through the
-# robot model's methods and the engine's proposal interface, in their own loop
-# (`pfcourse.robot.mcl.kld_filter`): the engine's `ParticleFilter` keeps $N$ fixed. The median
-# number of particles over the 100 runs:
+# particle drawn from the reading lands in its own bin and raises the bound). Both are the
+# engine's `ParticleFilter` with a sample-size policy, `sample_size=KLDSampling(bin_size)`
+# (`pfcourse.sample_size`): at each measurement step it draws ancestors and proposals in batches
+# of 100 until the bound is met, and `result.sizes` records $N_k$. The median number of particles
+# over the 100 runs:
 
 # %%
 fig, ax = plt.subplots(figsize=(6.5, 3.4))
