@@ -19,7 +19,7 @@ from scipy import stats
 from scipy.special import logsumexp
 
 from pfcourse.angles import circular_mean, wrap_angle
-from pfcourse.errors import DegenerateWeightsError, ShapeError, WeightError
+from pfcourse.errors import CovarianceError, DegenerateWeightsError, ShapeError, WeightError
 
 
 def normalize_log_weights(log_weights: np.ndarray) -> tuple[np.ndarray, float]:
@@ -228,7 +228,9 @@ def nis(innovation: np.ndarray, innovation_cov: np.ndarray) -> np.ndarray:
     of the filter's predictive distribution of ``z_k``).  For a consistent filter
     ``NIS_k`` is chi-square with ``m`` degrees of freedom (Bar-Shalom, Li and
     Kirubarajan 2001, sec. 5.4).  Steps without a measurement (a NaN row of
-    ``innovation``) give NaN; returns shape ``(K,)``.
+    ``innovation``) give NaN; returns shape ``(K,)``.  An ``S_k`` that is not symmetric
+    positive definite (a predictive covariance cannot be) raises
+    :class:`~pfcourse.errors.CovarianceError` naming the first such step.
     """
     innovation = np.asarray(innovation, dtype=float)
     innovation_cov = np.asarray(innovation_cov, dtype=float)
@@ -244,8 +246,20 @@ def nis(innovation: np.ndarray, innovation_cov: np.ndarray) -> np.ndarray:
     out = np.full(innovation.shape[0], np.nan)
     ok = ~np.any(np.isnan(innovation), axis=1)
     if np.any(ok):
-        y = innovation[ok]
-        out[ok] = np.einsum("ki,ki->k", y, np.linalg.solve(innovation_cov[ok], y[..., None])[..., 0])
+        y, S = innovation[ok], innovation_cov[ok]
+        steps = np.flatnonzero(ok)
+        # symmetric up to round-off relative to the matrix's scale (products like H P H^T + R drift by ulps)
+        scale = np.max(np.abs(S), axis=(1, 2))
+        with np.errstate(invalid="ignore"):
+            asymmetric = np.max(np.abs(S - np.swapaxes(S, 1, 2)), axis=(1, 2)) > 1e-9 * scale
+        with np.errstate(invalid="ignore"):
+            smallest = np.array([np.linalg.eigvalsh(s)[0] if np.all(np.isfinite(s)) else np.nan for s in S])
+        bad = asymmetric | ~(smallest > 0)
+        if np.any(bad):
+            k = int(steps[np.argmax(bad)])
+            why = "not symmetric" if asymmetric[np.argmax(bad)] else "not positive definite (or not finite)"
+            raise CovarianceError(f"nis: the innovation covariance S_k at step {k} is {why}")
+        out[ok] = np.einsum("ki,ki->k", y, np.linalg.solve(S, y[..., None])[..., 0])
     return out
 
 

@@ -26,6 +26,10 @@ from pfcourse.errors import (
 )
 from pfcourse.landmarks.model import LinearGaussianModel
 from pfcourse.landmarks.scenario import quadrant_scenario
+from pfcourse.diagnostics import nees, nis
+from pfcourse.experiments.study import SerialExecutor, run_study
+from pfcourse.robot import RobotScenario, simulate_robot
+from pfcourse.sample_size import KLDSampling
 
 N = 20
 
@@ -234,6 +238,38 @@ def _q_zero():
 
 
 row("Q=0 transition_log_density blames Q", _q_zero, CovarianceError, "process noise covariance Q")
+
+
+# --- diagnostics, the study runner, the robot scenario, the variable-N engine ---------------
+_S = np.tile(np.eye(2), (3, 1, 1))
+row("nis: S not positive definite", lambda: nis(np.ones((3, 2)), -_S), CovarianceError, "step 0 is not positive definite")
+row("nis: S not symmetric", lambda: nis(np.ones((3, 2)), _S + np.array([[0.0, 0.5], [0.0, 0.0]])), CovarianceError,
+    "step 0 is not symmetric")
+row("nis: S with NaN at step 2", lambda: nis(np.ones((3, 2)), np.where(np.arange(3)[:, None, None] == 2, np.nan, _S)),
+    CovarianceError, "step 2")
+row("nis: shapes disagree", lambda: nis(np.zeros((3, 2)), np.tile(np.eye(3), (3, 1, 1))), ShapeError, "nis needs")
+row("nees: shapes disagree", lambda: nees(np.zeros((3, 2)), np.zeros((4, 2)), _S), ShapeError, "nees needs")
+row("run_study: grid is a list", lambda: run_study(lambda seed, a: {"x": a}, [1, 2], 2, progress=False),
+    ParameterError, "grid must map parameter names")
+row("run_study: row is a float", lambda: run_study(lambda seed, a: 3.0, {"a": [1]}, 2, progress=False,
+                                                   executor=SerialExecutor()),
+    ParameterError, "must return a mapping")
+row("run_study: n_runs=0", lambda: run_study(lambda seed, a: {"x": a}, {"a": [1]}, 0), ParameterError, "n_runs")
+row("run_study: empty grid values", lambda: run_study(lambda seed, a: {"x": a}, {"a": []}, 2), ParameterError,
+    "non-empty list")
+for field, value in [("dt", np.nan), ("dt", -1.0), ("n_steps", 0), ("n_steps", 2.5), ("half_width", -5.0)]:
+    row(f"robot scenario {field}={value!r}", lambda f=field, v=value: simulate_robot(RobotScenario().with_(**{f: v}), 0),
+        ParameterError, field)
+row("sample_size without reset/needed", lambda: ParticleFilter(rw_model(), N, sample_size=object()), ModelError,
+    "sample_size has no callable reset")
+row("sample_size with jitter", lambda: ParticleFilter(rw_model(), N, sample_size=KLDSampling([1.0]),
+                                                      jitter=lambda x, rng: x), ParameterError, "jitter and sample_size")
+row("KLD bin_size of 0", lambda: KLDSampling([0.0]), ParameterError, "bin_size")
+row("KLD bin_size for 2 components on a 1-D model",
+    lambda: ParticleFilter(rw_model(), N, sample_size=KLDSampling([1.0, 1.0])).run(Z, 0), ParameterError, "2 widths")
+row("store_particles with a variable N",
+    lambda: ParticleFilter(rw_model(), N, sample_size=KLDSampling([1.0])).run(Z, 0, store_particles=True),
+    ParameterError, "store_particles needs a fixed number")
 
 
 # --- valid but unusual: documented treatments -------------------------------------------

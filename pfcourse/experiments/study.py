@@ -81,6 +81,9 @@ def default_executor(task: Callable) -> tuple[Executor, bool]:
 
 def grid_settings(grid: Mapping[str, Sequence]) -> list[dict]:
     """All combinations of the grid's values, in the order given (last key varies fastest)."""
+    if not isinstance(grid, Mapping) or not all(isinstance(name, str) for name in grid):
+        raise ParameterError(f"grid must map parameter names to lists of values, e.g. {{'n_particles': [100, 1000]}}, "
+                             f"got {grid!r:.80}")
     for name, values in grid.items():
         if isinstance(values, (str, bytes)) or not isinstance(values, Iterable) or len(values) == 0:
             raise ParameterError(f"grid[{name!r}] must be a non-empty list of values, got {values!r}")
@@ -155,10 +158,18 @@ def _batch_task(run_batch, setting: dict, runs: list[int], seeds: list[int]) -> 
     return _batch_rows(run_batch, setting, runs, seeds)
 
 
+def _metrics(result, setting: dict, seed: int) -> dict:
+    """A run's metrics as a dict; anything else is refused with the setting and seed that gave it."""
+    if not isinstance(result, Mapping):
+        raise ParameterError(f"the run function must return a mapping of metric names to values; with {setting} "
+                             f"and seed {seed} it returned {type(result).__name__} {result!r:.60}")
+    return dict(result)
+
+
 def _one_row(run_one, setting: dict, r: int, seed: int) -> dict:
     start = time.perf_counter()
     try:
-        metrics, status, error = dict(run_one(seed=seed, **setting)), "ok", ""
+        metrics, status, error = _metrics(run_one(seed=seed, **setting), setting, seed), "ok", ""
     except StepError as exc:
         metrics, status, error = {}, "failed", f"{type(exc).__name__}: {exc}"
     return {**setting, "run": r, "seed": seed, "status": status, "error": error, **metrics,
@@ -168,8 +179,8 @@ def _one_row(run_one, setting: dict, r: int, seed: int) -> dict:
 def _batch_rows(run_batch, setting: dict, runs: list[int], seeds: list[int]) -> list[dict]:
     start = time.perf_counter()
     try:
-        results = [({}, "failed", f"{type(m).__name__}: {m}") if isinstance(m, StepError) else (dict(m), "ok", "")
-                   for m in run_batch(seeds=seeds, **setting)]
+        results = [({}, "failed", f"{type(m).__name__}: {m}") if isinstance(m, StepError) else (_metrics(m, setting, seed), "ok", "")
+                   for m, seed in zip(run_batch(seeds=seeds, **setting), seeds)]
         if len(results) != len(seeds):
             raise ParameterError(f"run_batch returned {len(results)} results for {len(seeds)} seeds")
     except StepError:
