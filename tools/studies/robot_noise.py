@@ -29,7 +29,7 @@ ROOT = Path(__file__).resolve().parents[2]
 OUT = ROOT / "book" / "data" / "likelihood"
 # the commit the study is launched from (recorded in the provenance, whatever is committed meanwhile)
 LAUNCH_COMMIT = launch_commit()
-N_STEPS, RUNS, BASE_SEED = 200, 30, 6
+N_STEPS, RUNS, BASE_SEED = 200, 100, 6
 N_ML, N_EVAL, START = 300, 1000, (2.0, 2.0)
 ROBOT = RobotScenario().with_(n_steps=N_STEPS)
 

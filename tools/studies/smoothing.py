@@ -37,9 +37,9 @@ OUT = ROOT / "book" / "data" / "likelihood"
 LAUNCH_COMMIT = launch_commit()
 
 SCENARIO_A = quadrant_scenario().with_(Qw=0.05**2 * np.eye(6), Rv=0.5**2 * np.eye(4))
-N_A, N_A_RUNS, A_SEED = [100, 400], 30, 4
+N_A, N_A_RUNS, A_SEED = [100, 400], 100, 4
 ROBOT = RobotScenario().with_(n_steps=160, gap=(60.0, 110.0))
-N_ROBOT, ROBOT_RUNS, ROBOT_SEED = 300, 50, 5
+N_ROBOT, ROBOT_RUNS, ROBOT_SEED = 300, 100, 5
 
 
 def landmarks_run(seed: int, n_particles: int) -> dict:
