@@ -202,3 +202,16 @@ def test_bad_settings_raise_named_errors():
         run_method(sim, "magic", 100, 0)
     with pytest.raises(ParameterError, match="kidnap step"):
         kidnap(sim, 0, (0.0, 0.0, 0.0))
+
+
+def test_tempered_method_counts_every_stage_of_progressive_correction():
+    sim = simulate_robot(None, 3, n_steps=30)
+    out = run_method(sim, "tempered", 500, 3)
+    measured = np.flatnonzero(sim.has_measurement)
+    measured = measured[measured > 0]
+    assert np.all(out["n_used"] == 500)
+    # the first tempered readings need several stages (a uniform prior against a sharp likelihood) ...
+    assert out["likelihood_evaluations"][measured[0]] >= 2 * 500
+    # ... every evaluation is a multiple of N, and after the tempered readings it is the bootstrap filter
+    assert np.all(out["likelihood_evaluations"] % 500 == 0)
+    assert np.all(out["likelihood_evaluations"][measured[10:]] == 500)

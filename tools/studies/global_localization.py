@@ -30,8 +30,10 @@ ANATOMY_N = [300, 1000, 2000, 10000, 30000, 100000]
 LOCKON = [("bootstrap", 300), ("bootstrap", 1000), ("bootstrap", 2000), ("bootstrap", 10000), ("bootstrap", 30000),
           ("mixture", 300), ("mixture", 1000), ("mixture", 2000),
           ("augmented", 1000), ("augmented", 2000),
-          ("kld", 2000), ("kld", 30000), ("kld_mixture", 2000)]
-KIDNAP = [("bootstrap", 2000), ("mixture", 2000), ("augmented", 2000), ("kld", 2000), ("kld_mixture", 2000)]
+          ("kld", 2000), ("kld", 30000), ("kld_mixture", 2000),
+          ("tempered", 300), ("tempered", 1000), ("tempered", 2000)]
+KIDNAP = [("bootstrap", 2000), ("mixture", 2000), ("augmented", 2000), ("kld", 2000), ("kld_mixture", 2000),
+          ("tempered", 2000)]
 TRACE = [("kld", 30000), ("kld_mixture", 2000)]
 
 
