@@ -455,6 +455,9 @@ glue("tempered_mix_diff_high", float(100 * t_vs_m.difference_high), display=Fals
 glue("tempered_nees", float(t2k["NEES locked"]), display=False)
 glue("tempered_band_low", float(t2k["band low"]), display=False)
 glue("tempered_band_high", float(t2k["band high"]), display=False)
+glue("tempered_nees_verdict", "inside the band" if t2k["band low"] <= t2k["NEES locked"] <= t2k["band high"] else
+     ("below the band: over-cautious" if t2k["NEES locked"] < t2k["band low"] else "above the band: over-confident"),
+     display=False)
 
 # %% [markdown]
 # At $N = 2000$ tempering locks on in a share {glue:text}`tempered_rate:.2f` of the runs (95 %
@@ -467,7 +470,8 @@ glue("tempered_band_high", float(t2k["band high"]), display=False)
 # posterior exactly and weights it without approximation; tempering reaches it by a sequence of
 # kernel moves whose jitter the weights do not account for (the regularised filter's
 # approximation), and its locked-on runs end with a mean NEES of {glue:text}`tempered_nees:.2f`
-# (band {glue:text}`tempered_band_low:.2f`-{glue:text}`tempered_band_high:.2f`). It needs no model
+# (band {glue:text}`tempered_band_low:.2f`-{glue:text}`tempered_band_high:.2f`,
+# {glue:text}`tempered_nees_verdict`). It needs no model
 # of where the robot may be given a reading, which the mixture proposal does: on a map where
 # that model is hard to write, tempering is the cure to reach for. It does nothing for a
 # kidnapping (the table below): it tempers the first readings only.
