@@ -53,17 +53,23 @@ if TYPE_CHECKING:
 NOISES = ("Rv", "Qw")
 
 
-def scaled_model(scenario: LandmarkScenario, theta: float, noise: str = "Rv"):
-    """The filter's model with ``noise`` (``"Rv"`` or ``"Qw"``) multiplied by ``theta > 0``."""
-    if noise not in NOISES:
-        raise ParameterError(f"noise must be one of {NOISES}, got {noise!r}")
-    theta = float(theta)
-    if not np.isfinite(theta) or theta <= 0:
+def scaled_model(scenario: LandmarkScenario, theta, noise: str | tuple[str, ...] = "Rv"):
+    """The filter's model with ``noise`` (``"Rv"`` or ``"Qw"``) multiplied by ``theta > 0``.
+
+    Several scales at once: ``noise=("Qw", "Rv")`` with ``theta = (theta_q, theta_r)``.
+    """
+    names = (noise,) if isinstance(noise, str) else tuple(noise)
+    thetas = np.atleast_1d(np.asarray(theta, dtype=float))
+    if not names or any(n not in NOISES for n in names) or len(set(names)) != len(names):
+        raise ParameterError(f"noise must be one of {NOISES} or a tuple of distinct ones, got {noise!r}")
+    if thetas.shape != (len(names),):
+        raise ParameterError(f"need one scale per noise {names}, got theta = {theta!r}")
+    if not np.all(np.isfinite(thetas)) or np.any(thetas <= 0):
         raise ParameterError(f"the noise scale theta must be finite and > 0, got {theta}")
-    return scenario.model(**{noise: theta * getattr(scenario, noise)})
+    return scenario.model(**{n: float(t) * getattr(scenario, n) for n, t in zip(names, thetas)})
 
 
-def kalman_log_likelihood(scenario: LandmarkScenario, Z: np.ndarray, theta: float, noise: str = "Rv") -> float:
+def kalman_log_likelihood(scenario: LandmarkScenario, Z: np.ndarray, theta, noise: str | tuple[str, ...] = "Rv") -> float:
     """Exact ``log p(z_{0:K-1} | theta) = sum_k log N(y_k; 0, S_k(theta))`` (Kalman innovations)."""
     return kalman_filter(scaled_model(scenario, theta, noise), Z).log_likelihood
 
@@ -71,10 +77,10 @@ def kalman_log_likelihood(scenario: LandmarkScenario, Z: np.ndarray, theta: floa
 def pf_log_likelihood(
     scenario: LandmarkScenario,
     Z: np.ndarray,
-    theta: float,
+    theta,
     n_particles: int,
     seed: int | np.random.Generator,
-    noise: str = "Rv",
+    noise: str | tuple[str, ...] = "Rv",
 ) -> float:
     """Particle estimate ``log Z^(theta)`` from a bootstrap filter resampling at every step.
 
@@ -137,7 +143,7 @@ class PMMHChain:
 def pmmh(
     log_likelihood_estimate: Callable[[float, np.random.Generator], float],
     prior: stats.rv_continuous,
-    theta0: float,
+    theta0,
     n_iterations: int,
     step: float,
     rng: np.random.Generator | int,
@@ -148,28 +154,71 @@ def pmmh(
     drawing from ``rng``; ``prior`` is a frozen scipy distribution of ``u = log theta``
     (e.g. ``stats.uniform(log a, log b - log a)``: log-uniform in ``theta``); the proposal
     is ``u' = u + step * e``, ``e ~ N(0, 1)`` (symmetric, so it cancels in the ratio).
+
+    A vector ``theta0`` (several scales) runs the random walk on the vector ``u``, ``e ~ N(0, I)``,
+    with ``step`` a scalar or one step per component and the prior applied to each component
+    independently (log prior = sum of ``prior.logpdf(u_j)``); ``chain.theta`` is then
+    ``(n_iterations, d)``. A scalar ``theta0`` keeps scalars (and the same random stream).
     """
     n_iterations = check_count(n_iterations, "n_iterations")
-    if not step > 0:
-        raise ParameterError(f"step must be > 0, got {step}")
+    vector = np.ndim(theta0) > 0
+    steps = np.asarray(step, dtype=float)
+    if not np.all(steps > 0) or (not vector and steps.ndim > 0):
+        raise ParameterError(f"step must be > 0 (one per component for a vector theta), got {step}")
     rng = np.random.default_rng(rng)
-    u = float(np.log(theta0))
-    log_prior = float(prior.logpdf(u))
+    if vector:
+        u = np.log(np.asarray(theta0, dtype=float))
+        if steps.ndim and steps.shape != u.shape:
+            raise ParameterError(f"step has shape {steps.shape}, theta0 has {u.shape}")
+    else:
+        u = float(np.log(theta0))
+
+    def log_prior_of(v) -> float:
+        return float(np.sum(prior.logpdf(v)))
+
+    def theta_of(v):
+        return np.exp(v) if vector else float(np.exp(v))
+
+    log_prior = log_prior_of(u)
     if not np.isfinite(log_prior):
         raise ParameterError(f"theta0 = {theta0} has zero prior density")
-    log_lik = float(log_likelihood_estimate(float(np.exp(u)), rng))
-    thetas = np.empty(n_iterations)
+    log_lik = float(log_likelihood_estimate(theta_of(u), rng))
+    thetas = np.empty((n_iterations,) + np.shape(u))
     lls = np.empty(n_iterations)
     accepted = np.zeros(n_iterations, dtype=bool)
     for i in range(n_iterations):
-        u_new = u + step * rng.standard_normal()
-        log_prior_new = float(prior.logpdf(u_new))
+        u_new = u + steps * (rng.standard_normal(u.shape) if vector else rng.standard_normal())
+        if not vector:
+            u_new = float(u_new)
+        log_prior_new = log_prior_of(u_new)
         if np.isfinite(log_prior_new):
-            log_lik_new = float(log_likelihood_estimate(float(np.exp(u_new)), rng))
+            log_lik_new = float(log_likelihood_estimate(theta_of(u_new), rng))
             if np.log(rng.uniform()) < log_lik_new + log_prior_new - log_lik - log_prior:
                 u, log_prior, log_lik, accepted[i] = u_new, log_prior_new, log_lik_new, True
         thetas[i], lls[i] = np.exp(u), log_lik
     return PMMHChain(theta=thetas, log_likelihood=lls, accepted=accepted)
+
+
+def grid_posterior_2d(log_likelihood: np.ndarray, u1: np.ndarray, u2: np.ndarray) -> dict:
+    """Posterior of two scales on a grid of ``(u1, u2) = (log theta_1, log theta_2)``, flat prior in ``u``.
+
+    ``p(u | z) = exp(l(u) - max l) / iint exp(l - max l) du1 du2`` (trapezoid rule); returns the
+    normalised density ``(len(u1), len(u2))`` and, for each ``theta_j``, its posterior mean and sd.
+    """
+    u1, u2 = np.asarray(u1, dtype=float), np.asarray(u2, dtype=float)
+    ll = np.asarray(log_likelihood, dtype=float)
+    if ll.shape != (u1.size, u2.size) or np.any(np.diff(u1) <= 0) or np.any(np.diff(u2) <= 0):
+        raise ParameterError("u1, u2 must be increasing grids and log_likelihood of shape (len(u1), len(u2))")
+    density = np.exp(ll - ll.max())
+    density /= integrate.trapezoid(integrate.trapezoid(density, u2, axis=1), u1)
+    out = {"density": density}
+    for name, u, marginal in (("theta1", u1, integrate.trapezoid(density, u2, axis=1)),
+                              ("theta2", u2, integrate.trapezoid(density, u1, axis=0))):
+        t = np.exp(u)
+        mean = integrate.trapezoid(t * marginal, u)
+        out[f"{name}_mean"] = float(mean)
+        out[f"{name}_sd"] = float(np.sqrt(integrate.trapezoid((t - mean) ** 2 * marginal, u)))
+    return out
 
 
 def integrated_autocorrelation_time(x: np.ndarray, c: float = 5.0) -> float:

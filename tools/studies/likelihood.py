@@ -8,6 +8,9 @@
   noise scale from the Kalman likelihood and from the particle likelihood (N_ML particles,
   common random numbers: one filter seed per dataset for every theta);
 * ``pmmh.csv``: one PMMH chain per N in N_PMMH on the chapter's dataset.
+* ``pmmh2.csv``: PMMH over the two scales (theta_q of Qw, theta_r of Rv) at once, one chain per N
+  in N_PMMH2; ``grid2.csv``: the exact log-likelihood (Kalman) on a GRID2 x GRID2 grid of
+  (log theta_q, log theta_r) over the prior's support, for the exact posterior.
 
 Each file has a ``.json`` beside it with its provenance (git commit, seeds, parameters, code).
 ``tests/test_likelihood_data.py`` re-computes a seeded sample of the stored rows.
@@ -45,6 +48,8 @@ XATOL = 1e-3             # on log theta
 N_BIAS, N_BIAS_RUNS, BIAS_SEED = [100, 300, 1000], 200, 1
 N_ML, N_ML_DATASETS, ML_SEED = [300, 1000], 100, 2
 N_PMMH, PMMH_ITERATIONS, PMMH_STEP, PMMH_THETA0, PMMH_SEED = [100, 300, 1000], 1500, 0.25, 2.0, 3
+N_PMMH2, PMMH2_ITERATIONS, PMMH2_STEP, PMMH2_THETA0, PMMH2_SEED = [100, 300, 1000], 6000, 0.3, (2.0, 2.0), 8
+GRID2 = 61
 PRIOR = stats.uniform(np.log(BOUNDS[0]), np.log(BOUNDS[1]) - np.log(BOUNDS[0]))  # of u = log theta
 
 
@@ -73,6 +78,23 @@ def pmmh_chain(n_particles: int, n_iterations: int = PMMH_ITERATIONS):
     chain = pmmh(lambda t, rng: pf_log_likelihood(SCENARIO, Z, t, n_particles, rng, NOISE),
                  PRIOR, PMMH_THETA0, n_iterations, PMMH_STEP, seed)
     return chain, seed
+
+
+def pmmh2_chain(n_particles: int, n_iterations: int = PMMH2_ITERATIONS):
+    Z = chapter_data().Z
+    seed = replicate_seed(PMMH2_SEED, n_particles)
+    chain = pmmh(lambda t, rng: pf_log_likelihood(SCENARIO, Z, t, n_particles, rng, ("Qw", "Rv")),
+                 PRIOR, np.array(PMMH2_THETA0), n_iterations, PMMH2_STEP, seed)
+    return chain, seed
+
+
+def grid2_row(i: int) -> list[dict]:
+    """Exact log-likelihood along row ``i`` of the (log theta_q, log theta_r) grid."""
+    Z = chapter_data().Z
+    u = np.linspace(np.log(BOUNDS[0]), np.log(BOUNDS[1]), GRID2)
+    return [{"i": i, "j": j, "log_theta_q": u[i], "log_theta_r": u[j],
+             "log_likelihood": kalman_log_likelihood(SCENARIO, Z, (np.exp(u[i]), np.exp(u[j])), ("Qw", "Rv"))}
+            for j in range(GRID2)]
 
 
 def provenance(name: str, parameters: dict, seconds: float) -> None:
@@ -113,7 +135,26 @@ def main(parts: list[str]) -> None:
                             "prior": f"log-uniform on {BOUNDS}", "chain_seeds": seeds,
                             "seeds": "replicate_seed(3, n_particles)"},
                    time.perf_counter() - start)
+    if "pmmh2" in parts:
+        start = time.perf_counter()
+        pd.DataFrame([r for i in range(GRID2) for r in grid2_row(i)]).to_csv(OUT / "grid2.csv", index=False)
+        provenance("grid2", {"data_seed": DATA_SEED, "grid": f"{GRID2} x {GRID2}, log theta in log {BOUNDS}",
+                             "noises": ["Qw", "Rv"], "seeds": "none (exact Kalman likelihood)"},
+                   time.perf_counter() - start)
+        start = time.perf_counter()
+        frames, seeds = [], {}
+        for n in N_PMMH2:
+            chain, seeds[n] = pmmh2_chain(n)
+            frames.append(pd.DataFrame({"n_particles": n, "iteration": np.arange(len(chain.theta)),
+                                        "theta_q": chain.theta[:, 0], "theta_r": chain.theta[:, 1],
+                                        "log_likelihood": chain.log_likelihood, "accepted": chain.accepted}))
+        pd.concat(frames).to_csv(OUT / "pmmh2.csv", index=False)
+        provenance("pmmh2", {"data_seed": DATA_SEED, "n_particles": N_PMMH2, "iterations": PMMH2_ITERATIONS,
+                             "step_log_theta": PMMH2_STEP, "theta0": PMMH2_THETA0, "noises": ["Qw", "Rv"],
+                             "prior": f"log-uniform on {BOUNDS} for each scale, independent", "chain_seeds": seeds,
+                             "seeds": f"replicate_seed({PMMH2_SEED}, n_particles)"},
+                   time.perf_counter() - start)
 
 
 if __name__ == "__main__":
-    main(sys.argv[1:] or ["bias", "ml", "pmmh"])
+    main(sys.argv[1:] or ["bias", "ml", "pmmh", "pmmh2"])
