@@ -40,7 +40,8 @@ def smoothing_study():
     return load("smoothing")
 
 
-@pytest.mark.parametrize("name", ["bias", "ml", "pmmh", "smoothing_landmarks", "smoothing_robot", "robot_noise"])
+@pytest.mark.parametrize("name", ["bias", "ml", "pmmh", "pmmh2", "grid2", "smoothing_landmarks", "smoothing_robot",
+                                  "robot_noise"])
 def test_every_table_has_its_provenance(name):
     meta = json.loads((DATA / f"{name}.json").read_text())
     assert meta["file"] == f"{name}.csv"
@@ -75,6 +76,24 @@ def test_pmmh_chain_prefix(likelihood_study):
     np.testing.assert_allclose(chain.theta, stored["theta"], rtol=1e-12)
     np.testing.assert_allclose(chain.log_likelihood, stored["log_likelihood"], rtol=1e-12)
     np.testing.assert_array_equal(chain.accepted, stored["accepted"].to_numpy())
+
+
+def test_pmmh2_chain_prefix(likelihood_study):
+    table = pd.read_csv(DATA / "pmmh2.csv")
+    n = int(sample(table.drop_duplicates("n_particles"), 1, 7)["n_particles"].iloc[0])
+    stored = table[table["n_particles"] == n].sort_values("iteration").head(12)
+    chain, _ = likelihood_study.pmmh2_chain(n, n_iterations=12)
+    np.testing.assert_allclose(chain.theta, stored[["theta_q", "theta_r"]], rtol=1e-12)
+    np.testing.assert_allclose(chain.log_likelihood, stored["log_likelihood"], rtol=1e-12)
+    np.testing.assert_array_equal(chain.accepted, stored["accepted"].to_numpy())
+
+
+def test_grid2_rows(likelihood_study):
+    table = pd.read_csv(DATA / "grid2.csv")
+    i = int(sample(table.drop_duplicates("i"), 1, 8)["i"].iloc[0])
+    got = pd.DataFrame(likelihood_study.grid2_row(i))
+    stored = table[table["i"] == i].sort_values("j")
+    np.testing.assert_allclose(got["log_likelihood"], stored["log_likelihood"], rtol=1e-12)
 
 
 def test_smoothing_landmark_rows(smoothing_study):

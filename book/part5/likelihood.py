@@ -34,7 +34,7 @@ from scipy import stats
 
 from pfcourse import DegenerateWeightsError, ParticleFilter, kalman_filter
 from pfcourse.landmarks import quadrant_scenario, simulate
-from pfcourse.experiments.likelihood import (grid_posterior, integrated_autocorrelation_time,
+from pfcourse.experiments.likelihood import (grid_posterior, grid_posterior_2d, integrated_autocorrelation_time,
                                  kalman_log_likelihood, max_likelihood_scale, pf_log_likelihood)
 from pfcourse.style import COLORS, use_style
 from pfcourse.robot import RobotModel, RobotScenario, simulate_robot
@@ -396,6 +396,88 @@ for n in pmmh_table.index:
 # $N = 1000$; these chains are too short to locate the optimum more precisely.
 
 # %% [markdown]
+# ### Two scales at once
+#
+# The same machinery learns several parameters together. Let $\theta_q$ scale the process
+# noise $Q_w$ and $\theta_r$ the measurement noise $R_v$, each with the log-uniform prior on
+# $[0.1, 10]$, and let PMMH walk on $(\log\theta_q, \log\theta_r)$ with independent steps of 0.3.
+# The exact posterior is the Kalman likelihood on a 61 × 61 grid of the prior's support
+# (`grid_posterior_2d`). Chains of 6000 iterations with $N$ = 100, 300 and 1000 (the first 1000
+# dropped), from $(2, 2)$, computed by `tools/studies/likelihood.py` (provenance in `pmmh2.json`):
+
+# %%
+g2 = pd.read_csv(DATA + "grid2.csv").sort_values(["i", "j"])
+m2 = int(g2["i"].max()) + 1
+u2 = np.sort(g2["log_theta_q"].unique())
+exact2 = grid_posterior_2d(g2["log_likelihood"].to_numpy().reshape(m2, m2), u2, u2)
+chains2 = pd.read_csv(DATA + "pmmh2.csv")
+BURN_IN2 = 1000
+rows = []
+for n, g in chains2.groupby("n_particles"):
+    kept = g[g["iteration"] >= BURN_IN2]
+    row = {"N": n, "acceptance": kept["accepted"].mean()}
+    for name, col, key in (("q", "theta_q", "theta1"), ("r", "theta_r", "theta2")):
+        x = kept[col].to_numpy()
+        tau = integrated_autocorrelation_time(np.log(x))
+        mcse = x.std(ddof=1) / np.sqrt(x.size / tau)
+        row[f"IACT {name}"] = tau
+        row[f"mean θ_{name}"] = x.mean()
+        row[f"(mean - exact)/sd {name}"] = (x.mean() - exact2[f"{key}_mean"]) / exact2[f"{key}_sd"]
+        row[f"MCSE/sd {name}"] = mcse / exact2[f"{key}_sd"]
+    rows.append(row)
+pmmh2_table = pd.DataFrame(rows).set_index("N")
+print(f"exact posterior: theta_q mean {exact2['theta1_mean']:.2f}, sd {exact2['theta1_sd']:.2f}; "
+      f"theta_r mean {exact2['theta2_mean']:.3f}, sd {exact2['theta2_sd']:.3f}")
+print(pmmh2_table.round(3).to_string())
+for key, name in (("theta1", "q"), ("theta2", "r")):
+    glue(f"pmmh2_exact_{name}_mean", exact2[f"{key}_mean"], display=False)
+    glue(f"pmmh2_exact_{name}_sd", exact2[f"{key}_sd"], display=False)
+    for n in (300, 1000):
+        glue(f"pmmh2_err_{name}_{n}", float(pmmh2_table.loc[n, f"(mean - exact)/sd {name}"]), display=False)
+        glue(f"pmmh2_mcse_{name}_{n}", float(pmmh2_table.loc[n, f"MCSE/sd {name}"]), display=False)
+        glue(f"pmmh2_iact_{name}_{n}", float(pmmh2_table.loc[n, f"IACT {name}"]), display=False)
+for n in (300, 1000):
+    glue(f"pmmh2_acc_{n}", float(pmmh2_table.loc[n, "acceptance"]), display=False)
+n_kept = int((chains2["iteration"] >= BURN_IN2).sum() / chains2["n_particles"].nunique())
+glue("pmmh2_ess_q_300", n_kept / float(pmmh2_table.loc[300, "IACT q"]), display=False)
+
+fig, axes = plt.subplots(1, 2, figsize=(7, 3.2), constrained_layout=True)
+t2 = np.exp(u2)
+axes[0].contour(t2, t2, exact2["density"].T, levels=6, colors=COLORS["kalman"], linewidths=1)
+s1000 = chains2[(chains2["n_particles"] == 1000) & (chains2["iteration"] >= BURN_IN2)]
+axes[0].plot(s1000["theta_q"][::10], s1000["theta_r"][::10], ".", ms=2, color=COLORS["estimate"], alpha=0.5)
+axes[0].set(xscale="log", yscale="log", xlabel="process-noise scale θ_q", ylabel="measurement-noise scale θ_r",
+            title="exact posterior (contours), PMMH N = 1000 (dots)")
+marginal_q = np.trapezoid(exact2["density"], u2, axis=1)
+axes[1].hist(np.log(s1000["theta_q"]), bins=30, density=True, histtype="step", color=COLORS["estimate"],
+             label="PMMH, N = 1000")
+axes[1].plot(u2, marginal_q, color=COLORS["kalman"], lw=2, label="exact (Kalman grid)")
+axes[1].set(xlabel="log θ_q", ylabel="posterior density of log θ_q")
+axes[1].legend(fontsize=8, loc="upper left")
+axes[0].title.set_fontsize(9)
+plt.show()
+
+# %% [markdown]
+# The data pin the measurement noise down (posterior mean of $\theta_r$
+# {glue:text}`pmmh2_exact_r_mean:.2f`, sd {glue:text}`pmmh2_exact_r_sd:.2f`) but hardly the process
+# noise: $\theta_q$ has a posterior mean of {glue:text}`pmmh2_exact_q_mean:.2f` and a standard
+# deviation of {glue:text}`pmmh2_exact_q_sd:.2f`, a large part of the prior's range: 50 noisy
+# samples say little about how much the state wanders between them. With $N = 1000$, the chain
+# that mixes best here, the posterior means differ from the exact ones by
+# {glue:text}`pmmh2_err_q_1000:.2f` and {glue:text}`pmmh2_err_r_1000:.2f` exact standard
+# deviations, against Monte Carlo standard errors of {glue:text}`pmmh2_mcse_q_1000:.2f` and
+# {glue:text}`pmmh2_mcse_r_1000:.2f` in the same units (acceptance
+# {glue:text}`pmmh2_acc_1000:.2f`; autocorrelation times {glue:text}`pmmh2_iact_q_1000:.0f` and
+# {glue:text}`pmmh2_iact_r_1000:.0f` iterations). With $N = 300$ the acceptance falls to
+# {glue:text}`pmmh2_acc_300:.2f` and the autocorrelation time of $\theta_q$ grows to
+# {glue:text}`pmmh2_iact_q_300:.0f` iterations: the 5000 kept iterations hold about
+# {glue:text}`pmmh2_ess_q_300:.0f` independent draws of $\theta_q$, and the histogram of such a chain is rough even when its mean is right. In
+# two dimensions the likelihood estimate must be less noisy than in one for the same mixing,
+# because a random walk crosses the wide direction of the posterior slowly. A
+# maximum-likelihood value of $\theta_q$ from such data would be a number without meaning; the
+# posterior says so.
+
+# %% [markdown]
 # ## The robot's noise levels from its own data
 #
 # Part III's robot filter assumes twice the true odometry and measurement covariances
@@ -406,13 +488,14 @@ for n in pmmh_table.index:
 # (`pfcourse.experiments.likelihood.max_likelihood_scales`; $N = 300$, a 200 s run). A filter with
 # 1000 particles and a fresh seed is then run with the estimated scales, with the
 # hand-tuned ones and with the truth $(1, 1)$. `tools/studies/robot_noise.py` did this on
-# 30 seeded runs (30, because each needs about a hundred filter runs; provenance in
+# {glue:text}`robot_noise_runs` seeded runs (each needs about a hundred filter runs; provenance in
 # `robot_noise.json`). Position RMSE after 20 s and time-averaged NEES (3 for a consistent
 # filter); medians with 95 % bootstrap intervals, paired Wilcoxon tests against the
 # hand-tuned filter:
 
 # %%
 rn = pd.read_csv(DATA + "robot_noise.csv")
+glue("robot_noise_runs", len(rn), display=False)
 assert (rn["status"] == "ok").all()
 rows = []
 for name, label in [("ml", "ML scales"), ("hand", "hand-tuned (2, 2)"), ("truth", "true scales (1, 1)")]:
@@ -510,13 +593,14 @@ glue("demo_smoother_ess_min", float(np.min(1 / np.sum(smooth.weights**2, axis=1)
 # a visible Monte Carlo error. The reason is in the smoothed weights: going backwards they
 # concentrate on the few filter particles whose descendants survived the later
 # resamplings, and the effective sample size of $W_{k|K}$ falls to
-# {glue:text}`demo_smoother_ess_min:.0f` of 300. Over 30 seeded datasets
-# (`tools/studies/smoothing.py`, provenance in `smoothing_landmarks.json`; 30 only because
-# the $O(N^2)$ backward pass is slow; 95 % bootstrap intervals of the median), the root-mean-square
+# {glue:text}`demo_smoother_ess_min:.0f` of 300. Over {glue:text}`smoothing_a_runs` seeded datasets
+# (`tools/studies/smoothing.py`, provenance in `smoothing_landmarks.json`, computed outside the
+# page because the $O(N^2)$ backward pass is slow; 95 % bootstrap intervals of the median), the root-mean-square
 # distance to the exact answer, in exact standard deviations, over all states and times:
 
 # %%
 slm = pd.read_csv(DATA + "smoothing_landmarks.csv")
+glue("smoothing_a_runs", int(slm["run"].nunique()), display=False)
 assert (slm["status"] == "ok").all()
 rows = []
 for n, g in slm.groupby("n_particles"):
@@ -575,13 +659,14 @@ ax.legend(fontsize=8, loc="upper left")
 plt.show()
 
 # %% [markdown]
-# Over 50 seeded runs (`tools/studies/smoothing.py`, provenance in `smoothing_robot.json`;
-# 50 only, each backward pass takes seconds), the mean position error inside the gap, and
+# Over {glue:text}`smoothing_robot_runs` seeded runs (`tools/studies/smoothing.py`, provenance in
+# `smoothing_robot.json`; each backward pass takes seconds), the mean position error inside the gap, and
 # its paired ratio (95 % bootstrap interval of the median; Wilcoxon signed-rank test of the
 # paired errors):
 
 # %%
 srob = pd.read_csv(DATA + "smoothing_robot.csv")
+glue("smoothing_robot_runs", len(srob), display=False)
 assert (srob["status"] == "ok").all()
 ratio = (srob["smoother_gap_error"] / srob["filter_gap_error"]).to_numpy()
 ratio_out = (srob["smoother_outside_error"] / srob["filter_outside_error"]).to_numpy()
