@@ -271,3 +271,27 @@ def robot_log_likelihood(sim, q_scale: float, r_scale: float, n_particles: int,
 
     model = RobotModel.for_simulation(sim, q_scale=q_scale, r_scale=r_scale)
     return ParticleFilter(model, n_particles, threshold=1.0).run(sim.measurements, seed).log_likelihood
+
+
+def terrain_log_likelihood(scenario, terrain, Z: np.ndarray, rf_scale: float, n_particles: int,
+                           seed: int | np.random.Generator, kernel_scale: float = 0.2) -> float:
+    """Particle estimate of ``log p(z | R_f = rf_scale R_f0)`` for a flight of the terrain scenario.
+
+    The regularised filter of the terrain chapters (Gaussian kernel at ``kernel_scale`` times the
+    optimal bandwidth), resampling at every reading (``threshold = 1``) so that one ``seed``
+    gives common random numbers across the scales. A filter that loses every particle has
+    likelihood zero: ``-inf``.
+    """
+    from pfcourse.errors import DegenerateWeightsError
+    from pfcourse.remedies import RegularisedJitter
+
+    rf_scale = float(rf_scale)
+    if not np.isfinite(rf_scale) or rf_scale <= 0:
+        raise ParameterError(f"rf_scale must be finite and > 0, got {rf_scale}")
+    model = scenario.with_(Rf=rf_scale * scenario.Rf).model(terrain)
+    pf = ParticleFilter(model, n_particles, threshold=1.0, resampler="multinomial",
+                        jitter=RegularisedJitter(kernel_scale, (3,)))
+    try:
+        return pf.run(Z, seed).log_likelihood
+    except DegenerateWeightsError:
+        return -np.inf

@@ -8,6 +8,10 @@
   noise scale from the Kalman likelihood and from the particle likelihood (N_ML particles,
   common random numbers: one filter seed per dataset for every theta);
 * ``pmmh.csv``: one PMMH chain per N in N_PMMH on the chapter's dataset.
+* ``terrain_rf.csv``: on N_TERRAIN_FLIGHTS flights of the terrain scenario (the flights of the
+  terrain chapters), the maximum-likelihood scale of the altimeter noise R_f from the particle
+  likelihood of the regularised filter (N_TERRAIN particles, one filter seed per flight for every
+  scale), the final error of the filter run at that estimate and at the truth (scale 1).
 * ``pmmh2.csv``: PMMH over the two scales (theta_q of Qw, theta_r of Rv) at once, one chain per N
   in N_PMMH2; ``grid2.csv``: the exact log-likelihood (Kalman) on a GRID2 x GRID2 grid of
   (log theta_q, log theta_r) over the prior's support, for the exact posterior.
@@ -50,6 +54,7 @@ N_ML, N_ML_DATASETS, ML_SEED = [300, 1000], 100, 2
 N_PMMH, PMMH_ITERATIONS, PMMH_STEP, PMMH_THETA0, PMMH_SEED = [100, 300, 1000], 1500, 0.25, 2.0, 3
 N_PMMH2, PMMH2_ITERATIONS, PMMH2_STEP, PMMH2_THETA0, PMMH2_SEED = [100, 300, 1000], 6000, 0.3, (2.0, 2.0), 8
 GRID2 = 61
+N_TERRAIN, N_TERRAIN_FLIGHTS, TERRAIN_BOUNDS = 10000, 100, (0.1, 10.0)
 PRIOR = stats.uniform(np.log(BOUNDS[0]), np.log(BOUNDS[1]) - np.log(BOUNDS[0]))  # of u = log theta
 
 
@@ -97,6 +102,23 @@ def grid2_row(i: int) -> list[dict]:
             for j in range(GRID2)]
 
 
+def terrain_rf_run(seed: int, flight: int, n_particles: int) -> dict:
+    """ML scale of R_f on flight ``flight`` (the terrain chapters' flight_seed(0, flight)); ``seed`` unused."""
+    from pfcourse.experiments.likelihood import terrain_log_likelihood
+    from pfcourse.experiments.terrain import flight_seed
+    from pfcourse.terrain.map import load_jacksboro
+    from pfcourse.terrain.scenario import AircraftScenario, simulate
+
+    terrain, scenario = load_jacksboro(), AircraftScenario()
+    sim = simulate(scenario, terrain, flight_seed(0, flight))
+
+    def log_lik(scale: float) -> float:
+        return terrain_log_likelihood(scenario, terrain, sim.Z, scale, n_particles, np.random.default_rng([0, flight, 2]))
+
+    theta, nfev = max_likelihood_scale(lambda t: max(log_lik(t), -1e300), TERRAIN_BOUNDS, XATOL)
+    return {"rf_scale_ml": theta, "nfev": nfev, "log_lik_ml": log_lik(theta), "log_lik_truth": log_lik(1.0)}
+
+
 def provenance(name: str, parameters: dict, seconds: float) -> None:
     write_provenance(OUT / f"{name}.json", code="tools/studies/likelihood.py", commit=LAUNCH_COMMIT, seconds=seconds,
                      file=f"{name}.csv", **parameters,
@@ -135,6 +157,16 @@ def main(parts: list[str]) -> None:
                             "prior": f"log-uniform on {BOUNDS}", "chain_seeds": seeds,
                             "seeds": "replicate_seed(3, n_particles)"},
                    time.perf_counter() - start)
+    if "terrain_rf" in parts:
+        start = time.perf_counter()
+        table = run_study(terrain_rf_run, {"flight": list(range(N_TERRAIN_FLIGHTS)), "n_particles": [N_TERRAIN]}, 1,
+                          base_seed=0, progress=False)
+        table.drop(columns=["seconds"]).to_csv(OUT / "terrain_rf.csv", index=False)
+        provenance("terrain_rf", {"n_particles": N_TERRAIN, "n_flights": N_TERRAIN_FLIGHTS, "bounds": TERRAIN_BOUNDS,
+                                  "xatol_log_theta": XATOL, "truth": 1.0, "kernel_scale": 0.2,
+                                  "seeds": "flight r: pfcourse.experiments.terrain.flight_seed(0, r) (the terrain chapters' "
+                                           "flights); filter: default_rng([0, r, 2]) for every scale"},
+                   time.perf_counter() - start)
     if "pmmh2" in parts:
         start = time.perf_counter()
         pd.DataFrame([r for i in range(GRID2) for r in grid2_row(i)]).to_csv(OUT / "grid2.csv", index=False)
@@ -157,4 +189,4 @@ def main(parts: list[str]) -> None:
 
 
 if __name__ == "__main__":
-    main(sys.argv[1:] or ["bias", "ml", "pmmh", "pmmh2"])
+    main(sys.argv[1:] or ["bias", "ml", "pmmh", "pmmh2", "terrain_rf"])
