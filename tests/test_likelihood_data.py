@@ -41,7 +41,7 @@ def smoothing_study():
 
 
 @pytest.mark.parametrize("name", ["bias", "ml", "pmmh", "pmmh2", "grid2", "smoothing_landmarks", "smoothing_robot",
-                                  "robot_noise"])
+                                  "robot_noise", "terrain_rf"])
 def test_every_table_has_its_provenance(name):
     meta = json.loads((DATA / f"{name}.json").read_text())
     assert meta["file"] == f"{name}.csv"
@@ -94,6 +94,14 @@ def test_grid2_rows(likelihood_study):
     got = pd.DataFrame(likelihood_study.grid2_row(i))
     stored = table[table["i"] == i].sort_values("j")
     np.testing.assert_allclose(got["log_likelihood"], stored["log_likelihood"], rtol=1e-12)
+
+
+def test_terrain_rf_rows(likelihood_study):
+    table = pd.read_csv(DATA / "terrain_rf.csv")
+    for _, row in sample(table, 1, 9).iterrows():
+        got = likelihood_study.terrain_rf_run(int(row["seed"]), int(row["flight"]), int(row["n_particles"]))
+        for key, value in got.items():
+            assert value == pytest.approx(row[key], rel=1e-10), key
 
 
 def test_smoothing_landmark_rows(smoothing_study):
