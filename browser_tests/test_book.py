@@ -5,10 +5,12 @@ without listing them here), served on 127.0.0.1:
 
 - every request that leaves 127.0.0.1 is blocked and counted: there must be none, since
   the book serves MathJax, require.js, the widget manager and the icons itself;
-- no console error, no uncaught exception, no failed request (network error or HTTP >= 400);
+- no console error or warning (one justified filter, see ``_IGNORED_WARNINGS``), no uncaught exception, no failed request (network error or HTTP >= 400);
 - every formula (Sphinx marks each one with class ``math``) is typeset by MathJax, without
   a TeX error;
 - every image has loaded;
+- every figure is legible: its smallest text (the smallest font size of the book's style,
+  pfcourse/style.py, at the figure's dpi) scaled by displayed/natural width is >= 8 px;
 - every ``to_jshtml()`` animation plays (the frame shown changes after pressing play) and
   can be scrubbed (moving its slider changes the frame), and its buttons show icons;
 - saved widget states are rendered by the widget manager (no kernel);
@@ -35,6 +37,17 @@ from playwright.sync_api import TimeoutError as PlaywrightTimeoutError
 from conftest import HTML, SCREENSHOTS, book_pages
 
 PAGES = book_pages()
+#: The smallest text a figure may show on screen, in CSS pixels (issue 19).
+MIN_TEXT_PX = 8.0
+#: Console warnings that are not the book's to fix, each with its reason.
+_IGNORED_WARNINGS = (
+    # Logged twice on every widget page by ajv, the JSON-schema validator bundled inside the
+    # pinned @jupyter-widgets/html-manager (web/package.json), when it compiles the widget
+    # state schema in strict mode. It concerns the schema's source, not the page: the saved
+    # states are still validated and rendered (the widgets check below requires it).
+    # TODO(issue 19): remove when the html-manager's bundle stops logging it.
+    "strict mode: use allowUnionTypes",
+)
 LOAD_TIMEOUT_MS = 60_000
 FRAME_TIMEOUT_MS = 10_000
 MATH_TIMEOUT_MS = 30_000
@@ -83,7 +96,7 @@ def _check_page(browser, base: str, page: str, screenshot: Path | None) -> None:
             problems.append(f"{name}: {type(exc).__name__}: {str(exc).splitlines()[0]}")
 
     tab.route("**/*", route)
-    tab.on("console", lambda m: m.type == "error" and console_errors.append(f"{m.text} ({m.location.get('url')})"))
+    tab.on("console", lambda m: _is_problem(m) and console_errors.append(f"{m.type}: {m.text} ({m.location.get('url')})"))
     tab.on("pageerror", lambda exc: page_errors.append(str(exc)))
     tab.on("requestfailed", lambda r: r.url.startswith(base) and failed.append(f"{r.url}: {r.failure}"))
     tab.on("response", lambda r: r.status >= 400 and failed.append(f"{r.url}: HTTP {r.status}"))
@@ -94,6 +107,7 @@ def _check_page(browser, base: str, page: str, screenshot: Path | None) -> None:
         check("widgets", _check_widgets)
         check("animations", _check_animations)
         check("images", _check_images)
+        check("legible figures", _check_figure_text)
         if screenshot is not None:
             # From the top, with nothing focused (a focused "skip to content" link would show).
             tab.evaluate("() => { document.activeElement && document.activeElement.blur(); window.scrollTo(0, 0); }")
@@ -110,7 +124,7 @@ def _check_page(browser, base: str, page: str, screenshot: Path | None) -> None:
     if page_errors:
         problems.append(f"{len(page_errors)} uncaught exception(s): {page_errors[:5]}")
     if console_errors:
-        problems.append(f"{len(console_errors)} console error(s): {console_errors[:5]}")
+        problems.append(f"{len(console_errors)} console error(s)/warning(s): {console_errors[:5]}")
     assert not problems, f"{base + page}:\n- " + "\n- ".join(problems)
 
 
@@ -158,6 +172,49 @@ def _check_images(tab) -> int:
     broken = [img["src"] for img in images if not img["ok"]]
     assert not broken, f"{len(broken)} image(s) not loaded: {broken[:5]}"
     return len(images)
+
+
+def _is_problem(message) -> bool:
+    """A console message the test fails on: any error, and any warning not justified above."""
+    if message.type == "error":
+        return True
+    return message.type == "warning" and not any(w in message.text for w in _IGNORED_WARNINGS)
+
+
+def _smallest_font_px() -> float:
+    """The smallest font of the book's figure style, in the figure's natural pixels."""
+    import matplotlib as mpl
+    from matplotlib.font_manager import FontProperties
+
+    from pfcourse.style import STYLE
+
+    with mpl.rc_context(STYLE):
+        sizes = [
+            FontProperties(size=mpl.rcParams[key]).get_size_in_points()
+            for key in ("font.size", "axes.titlesize", "axes.labelsize", "legend.fontsize",
+                        "xtick.labelsize", "ytick.labelsize")
+        ]
+        return min(sizes) * mpl.rcParams["savefig.dpi"] / 72.0
+
+
+def _check_figure_text(tab) -> int:
+    """Each figure (a PNG output of a cell, an animation frame) shows its smallest text at
+    >= MIN_TEXT_PX: smallest font (natural px) x displayed width / natural width."""
+    smallest = _smallest_font_px()
+    figures = tab.evaluate(
+        """() => Array.from(document.querySelectorAll('div.cell_output img, .animation img'))
+            .filter(img => img.naturalWidth > 0 && img.getBoundingClientRect().width > 0)
+            .map(img => ({shown: img.getBoundingClientRect().width, natural: img.naturalWidth,
+                          src: (img.getAttribute('src') || '').slice(0, 60)}))"""
+    )
+    small = [
+        f"{f['src']} ({f['natural']} px shown at {f['shown']:.0f} px: text "
+        f"{smallest * f['shown'] / f['natural']:.1f} px)"
+        for f in figures
+        if smallest * f["shown"] / f["natural"] < MIN_TEXT_PX
+    ]
+    assert not small, f"{len(small)} figure(s) with text below {MIN_TEXT_PX} px: {small[:5]}"
+    return len(figures)
 
 
 def _check_widgets(tab) -> int:
