@@ -290,7 +290,7 @@ HTML(anim.to_jshtml())
 # 500 m from the particle of highest weight, at a few times.
 
 # %%
-fig, axes = plt.subplots(1, 4, figsize=(11, 3.2))
+fig, axes = plt.subplots(1, 4, figsize=(10, 3.2))
 for ax, k in zip(axes, (0, 4, 10, 30)):
     draw_map(ax, shaded=False)
     w = run.weights[k]

@@ -237,7 +237,7 @@ assert all(c.verdict() != "A lower" for c in q_vs.values())
 
 # %%
 def noise_scale_figure(table, key, name):
-    fig, axes = plt.subplots(1, 3, figsize=(11, 3.5))
+    fig, axes = plt.subplots(1, 3, figsize=(10, 3.5))
     summary_band(summarize(table, key, "position_rmse"), axes[0], color=COLORS["estimate"], label="error (RMSE)")
     summary_band(summarize(table, key, "mean_position_sd"), axes[0], color=COLORS["kalman"], label="filter's own sd")
     summary_band(summarize(table, key, "mean_nees"), axes[1], color=COLORS["estimate"])
@@ -388,7 +388,7 @@ print(f"threshold 0: time-averaged NEES above 1e6 in {sis_overconfident} of {len
       f"one particle (to working precision) at some step in {'most' if sis_collapsed_majority else 'few'} of them")
 
 # %%
-fig, axes = plt.subplots(1, 3, figsize=(11, 3.5))
+fig, axes = plt.subplots(1, 3, figsize=(10, 3.5))
 summary_band(summarize(th_table, "threshold", "position_rmse"), axes[0], color=COLORS["estimate"])
 summary_band(summarize(th_table[th_table["threshold"] > 0], "threshold", "mean_nees"), axes[1],
              color=COLORS["estimate"])
@@ -548,7 +548,7 @@ def errors(table, gap, name):
     return np.stack(rows[name].to_numpy())
 
 
-fig, axes = plt.subplots(1, 2, figsize=(11, 3.6))
+fig, axes = plt.subplots(1, 2, figsize=(10, 3.6))
 for gap, color, label in ((None, COLORS["kalman"], "no gap"), (GAP, COLORS["estimate"], "gap 100-200 s")):
     time_band(t_gap, errors(gap_table, gap, "position_error"), axes[0], color=color, label=label)
     time_band(t_gap, np.degrees(errors(gap_table, gap, "heading_error")), axes[1], color=color, label=label)

@@ -134,7 +134,7 @@ for name, res in convergence.items():
 titles = {"mean_error": "posterior mean (m)", "cov_error": "posterior covariance (m²)",
           "loglik_error": "log-likelihood (nats)"}
 styles = {"every component moves": COLORS["estimate"], "report's static landmarks": COLORS["particles"]}
-fig, axes = plt.subplots(1, 3, figsize=(11, 3.8))
+fig, axes = plt.subplots(1, 3, figsize=(10, 3.8))
 for ax, q in zip(axes, titles):
     for name, res in convergence.items():
         values = np.abs(getattr(res, q))
@@ -399,7 +399,7 @@ for name, table in terrain_tables.items():
     print_times(table)
 
 # %%
-fig, axes = plt.subplots(1, 2, figsize=(11, 4))
+fig, axes = plt.subplots(1, 2, figsize=(10, 4))
 for ax, (name, table) in zip(axes, terrain_tables.items()):
     accuracy_cost(table, ax, f"{name}, {len(terrain_runs[name])} flights")
 plt.tight_layout()
@@ -498,7 +498,7 @@ def draw(scenario="robot", n_particles=300):
     available = [t.n_particles for t in runs[0] if t.filter == "pf"]
     n = min(available, key=lambda a: abs(np.log(a / n_particles)))
     picks = [j for j, t in enumerate(runs[0]) if t.filter != "pf" or t.n_particles == n]
-    fig, (ax1, ax2) = plt.subplots(1, 2, figsize=(11, 3.8))
+    fig, (ax1, ax2) = plt.subplots(1, 2, figsize=(10, 3.8))
     fig.subplots_adjust(left=0.06, right=0.99, bottom=0.13, top=0.91, wspace=0.2)  # cheaper than tight_layout
     steps = np.arange(1, len(runs[0][0].error))
     for j in picks:
