@@ -122,7 +122,7 @@ print(f"PF minus EKF position RMSE: median {np.median(diff):+.3f} m, PF better i
 print(f"UKF minus EKF position RMSE: largest |difference| {np.max(np.abs(diff_u)):.4f} m")
 
 # %%
-fig, axes = plt.subplots(1, 3, figsize=(11, 3.8))
+fig, axes = plt.subplots(1, 3, figsize=(10, 3.8))
 for i, (key, label) in enumerate(names.items()):
     for ax, values in zip(axes[:2], (column(key, "position_rmse"), np.degrees(column(key, "heading_rmse")))):
         jitter = np.random.default_rng(i).uniform(-0.15, 0.15, N_RUNS)
