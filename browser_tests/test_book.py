@@ -4,8 +4,9 @@ For each HTML page of _build/html (found by walking the build, so new chapters a
 without listing them here), served on 127.0.0.1:
 
 - every request that leaves 127.0.0.1 is blocked and counted: there must be none, since
-  the book serves MathJax, require.js, the widget manager and the icons itself;
-- no console error or warning (one justified filter, see ``_IGNORED_WARNINGS``), no uncaught exception, no failed request (network error or HTTP >= 400);
+  the book serves MathJax and the icons itself;
+- no console error or warning, no uncaught exception, no failed request (network error or
+  HTTP >= 400);
 - every formula (Sphinx marks each one with class ``math``) is typeset by MathJax, without
   a TeX error;
 - every image has loaded;
@@ -13,7 +14,9 @@ without listing them here), served on 127.0.0.1:
   pfcourse/style.py, at the figure's dpi) scaled by displayed/natural width is >= 8 px;
 - every ``to_jshtml()`` animation plays (the frame shown changes after pressing play) and
   can be scrubbed (moving its slider changes the frame), and its buttons show icons;
-- saved widget states are rendered by the widget manager (no kernel);
+- every control panel works without a kernel: each control of its grid, moved, shows the
+  figure of the new grid point within 100 ms (pfcourse/figures/static_panel.py); no widget
+  view is left for a widget manager (the book loads none);
 - a full-page screenshot is saved to _build/browser/screenshots/.
 
 The same checks run on each page opened from disk (file://), as a reader opening
@@ -39,15 +42,14 @@ from conftest import HTML, SCREENSHOTS, book_pages
 PAGES = book_pages()
 #: The smallest text a figure may show on screen, in CSS pixels (issue 19).
 MIN_TEXT_PX = 8.0
-#: Console warnings that are not the book's to fix, each with its reason.
-_IGNORED_WARNINGS = (
-    # Logged twice on every widget page by ajv, the JSON-schema validator bundled inside the
-    # pinned @jupyter-widgets/html-manager (web/package.json), when it compiles the widget
-    # state schema in strict mode. It concerns the schema's source, not the page: the saved
-    # states are still validated and rendered (the widgets check below requires it).
-    # TODO(issue 19): remove when the html-manager's bundle stops logging it.
-    "strict mode: use allowUnionTypes",
-)
+#: Console warnings that are not the book's to fix, each with its reason (none: the pages
+#: load no widget manager since the panels are static, so its schema validator's
+#: "strict mode: use allowUnionTypes" warnings are gone at the source).
+_IGNORED_WARNINGS: tuple[str, ...] = ()
+#: A control of a static panel must show its new figure within this time (issue 19).
+PANEL_SWITCH_MS = 100
+#: The built book's size limit (issue 19).
+BOOK_LIMIT_MB = 100
 LOAD_TIMEOUT_MS = 60_000
 FRAME_TIMEOUT_MS = 10_000
 MATH_TIMEOUT_MS = 30_000
@@ -104,7 +106,7 @@ def _check_page(browser, base: str, page: str, screenshot: Path | None) -> None:
         tab.goto(base + page, wait_until="load")
         tab.wait_for_load_state("networkidle")  # and follow a redirect page (index.html)
         check("math", _check_math)
-        check("widgets", _check_widgets)
+        check("panels", _check_panels)
         check("animations", _check_animations)
         check("images", _check_images)
         check("legible figures", _check_figure_text)
@@ -217,18 +219,61 @@ def _check_figure_text(tab) -> int:
     return len(figures)
 
 
-def _check_widgets(tab) -> int:
-    """Saved widget views must be rendered by the widget manager; returns their number."""
+def _check_panels(tab) -> int:
+    """Every static control panel switches figures without a kernel; returns their number.
+
+    For each control of each panel's grid, in turn: move it to its next value, and require
+    the figure of that grid point (image number = sum of index x stride, the page's data)
+    within PANEL_SWITCH_MS, decoded; then move it back. Saved widget views must be absent:
+    the book has no widget manager to render them.
+    """
     views = tab.locator('script[type="application/vnd.jupyter.widget-view+json"]').count()
-    if views:
-        tab.wait_for_function(
-            "n => document.querySelectorAll('.jupyter-widgets.widget-container, "
-            ".jupyter-widgets-view, .widget-subarea').length >= n",
-            arg=views,
+    assert views == 0, f"{views} widget view(s) in the page, which loads no widget manager"
+    panels = tab.locator("div.pfcourse-panel")
+    count = panels.count()
+    for i in range(count):
+        panel = panels.nth(i)
+        panel.scroll_into_view_if_needed()
+        tab.wait_for_function("el => el.classList.contains('pfcourse-panel-ready')", arg=panel.element_handle())
+        result = panel.evaluate(
+            """async (panel) => {
+                const data = JSON.parse(panel.querySelector('script.pfcourse-panel-data').textContent);
+                const img = panel.querySelector('img.pfcourse-panel-figure');
+                const problems = [], times = [];
+                const indices = () => data.controls.map((name, k) => data.enabled[k]
+                    ? parseInt(panel.querySelector(`[name="${name}"]`).value, 10) : 0);
+                for (let k = 0; k < data.controls.length; k++) {
+                    if (!data.enabled[k]) { continue; }
+                    const input = panel.querySelector(`[name="${data.controls[k]}"]`);
+                    const before = input.value, n = data.labels[k].length;
+                    input.value = String((parseInt(before, 10) + 1) % n);
+                    const t0 = performance.now();
+                    input.dispatchEvent(new Event(input.tagName === 'SELECT' ? 'change' : 'input'));
+                    await img.decode();
+                    times.push(performance.now() - t0);
+                    const expected = indices().reduce((sum, i, j) => sum + i * data.strides[j], 0);
+                    if (img.src !== data.images[expected]) {
+                        problems.push(`${data.controls[k]}: figure ${expected} not shown`);
+                    }
+                    input.value = before;
+                    input.dispatchEvent(new Event(input.tagName === 'SELECT' ? 'change' : 'input'));
+                }
+                return {problems, slowest: Math.max(0, ...times), figures: data.images.length};
+            }"""
         )
-        errors = tab.locator(".jupyter-widgets-error-widget, .widget-error").count()
-        assert errors == 0, f"{errors} widget(s) failed to render from their saved state"
-    return views
+        assert not result["problems"], f"panel {i + 1}: {result['problems']}"
+        assert result["slowest"] <= PANEL_SWITCH_MS, (
+            f"panel {i + 1}: a switch took {result['slowest']:.0f} ms (limit {PANEL_SWITCH_MS} ms)")
+    return count
+
+
+def test_book_weight() -> None:
+    """The built book stays under BOOK_LIMIT_MB; each page's size is printed (panels carry figures)."""
+    total = sum(f.stat().st_size for f in HTML.rglob("*") if f.is_file())
+    for page in PAGES:
+        print(f"{page}: {(HTML / page).stat().st_size / 1e6:.2f} MB")
+    print(f"the whole book: {total / 1e6:.1f} MB")
+    assert total < BOOK_LIMIT_MB * 1e6, f"the built book weighs {total / 1e6:.0f} MB (limit {BOOK_LIMIT_MB} MB)"
 
 
 def _check_animations(tab) -> int:

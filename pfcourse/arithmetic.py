@@ -116,14 +116,7 @@ class RuntimeArithmetic:
 def _openblas_cores() -> dict:
     """Kernel family of each OpenBLAS library bundled with NumPy and SciPy (if loaded)."""
     cores = {}
-    candidates = []
-    for name in ("numpy", "scipy"):
-        module = sys.modules.get(name)
-        if module is None or module.__file__ is None:
-            continue
-        libs = Path(module.__file__).resolve().parent.parent / f"{name}.libs"
-        candidates += sorted(glob.glob(str(libs / "*openblas*")))
-    for path in candidates:
+    for path in _openblas_libraries():
         try:
             lib = ctypes.CDLL(path)
         except OSError:
@@ -136,6 +129,45 @@ def _openblas_cores() -> dict:
                 cores[Path(path).name] = function().decode()
                 break
     return cores
+
+
+def _openblas_libraries() -> list[str]:
+    """Paths of the OpenBLAS libraries bundled with NumPy and SciPy, for those already imported."""
+    candidates = []
+    for name in ("numpy", "scipy"):
+        module = sys.modules.get(name)
+        if module is None or module.__file__ is None:
+            continue
+        libs = Path(module.__file__).resolve().parent.parent / f"{name}.libs"
+        candidates += sorted(glob.glob(str(libs / "*openblas*")))
+    return candidates
+
+
+def one_blas_thread() -> int:
+    """Make every loaded OpenBLAS use one thread in this process; returns how many libraries it set.
+
+    The Monte Carlo runner and the static panels fork one worker per core. A worker
+    inherits OpenBLAS's thread pool setting (one thread per core), so two workers on two
+    cores run four BLAS threads that spin waiting for each other: a Part III study of small
+    Kalman filters ran 15 times slower in the pool than in one process. Called as the
+    pools' initializer. The floats do not change (each entry of a product is computed by
+    one thread either way; ``tests/test_study.py`` compares pooled and serial tables).
+    """
+    done = 0
+    for path in _openblas_libraries():
+        try:
+            lib = ctypes.CDLL(path)
+        except OSError:
+            continue
+        for symbol in ("scipy_openblas_set_num_threads64_", "scipy_openblas_set_num_threads",
+                       "openblas_set_num_threads64_", "openblas_set_num_threads"):
+            function = getattr(lib, symbol, None)
+            if function is not None:
+                function.argtypes = [ctypes.c_int]
+                function(1)
+                done += 1
+                break
+    return done
 
 
 def runtime_arithmetic() -> RuntimeArithmetic:

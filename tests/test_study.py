@@ -151,3 +151,59 @@ def test_a_dask_cluster_gives_the_same_rows():
 def test_executor_must_be_an_executor():
     with pytest.raises(ParameterError, match="executor must be"):
         run_study(lambda seed, a: {}, {"a": [1]}, 2, progress=False, executor="two cores")
+
+
+def _blas_threads(_seed=None) -> list[int]:
+    """Threads of each OpenBLAS loaded in this process (via its get_num_threads symbol)."""
+    import ctypes
+
+    from pfcourse.arithmetic import _openblas_libraries
+
+    counts = []
+    for path in _openblas_libraries():
+        lib = ctypes.CDLL(path)
+        for symbol in ("scipy_openblas_get_num_threads64_", "scipy_openblas_get_num_threads",
+                       "openblas_get_num_threads64_", "openblas_get_num_threads"):
+            if hasattr(lib, symbol):
+                counts.append(getattr(lib, symbol)())
+                break
+    return counts
+
+
+def test_pool_workers_run_one_blas_thread():
+    """Forked workers must not inherit a BLAS thread per core (they would spin against each other)."""
+    import scipy.linalg  # noqa: F401  (loads SciPy's OpenBLAS too)
+
+    from pfcourse.experiments.study import default_executor
+
+    executor, owned = default_executor(_blas_threads)
+    if not owned:
+        pytest.skip("one core or no fork: no pool")
+    before = _blas_threads()
+    _set_blas_threads(2)  # as in a notebook kernel: a BLAS thread per core
+    try:
+        assert all(c == 2 for c in _blas_threads())
+        with executor:
+            counts = executor.submit(_blas_threads).result()
+    finally:
+        for path, n in zip(_openblas_paths(), before):
+            _set_blas_threads(n, [path])
+    assert counts and all(c == 1 for c in counts), counts
+
+
+def _openblas_paths() -> list[str]:
+    from pfcourse.arithmetic import _openblas_libraries
+
+    return _openblas_libraries()
+
+
+def _set_blas_threads(n: int, paths: list[str] | None = None) -> None:
+    import ctypes
+
+    for path in paths or _openblas_paths():
+        lib = ctypes.CDLL(path)
+        for symbol in ("scipy_openblas_set_num_threads64_", "scipy_openblas_set_num_threads",
+                       "openblas_set_num_threads64_", "openblas_set_num_threads"):
+            if hasattr(lib, symbol):
+                getattr(lib, symbol)(n)
+                break

@@ -5,6 +5,7 @@ from __future__ import annotations
 import matplotlib
 
 matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402
 
 from pfcourse.figures.widgets import (  # noqa: E402
     control_panel,
@@ -16,14 +17,23 @@ from pfcourse.figures.widgets import (  # noqa: E402
 )
 
 
+def recorder(calls):
+    """A draw function that records its values and makes the one figure a panel needs."""
+    def draw(**values):
+        calls.append(values)
+        plt.figure()
+    return draw
+
+
 def test_panel_redraws_with_the_new_values():
     calls = []
     n, seed = particle_slider(100), seed_box(3)
-    panel = control_panel(lambda **values: calls.append(values), n_particles=n, seed=seed)
-    assert calls[-1] == {"n_particles": 100, "seed": 3}
+    panel = control_panel(recorder(calls), workers=1, n_particles=n, seed=seed)
+    assert calls == [{"n_particles": 100, "seed": 3}]  # the static figure, also the live panel's first
     n.value = 1000
     assert calls[-1] == {"n_particles": 1000, "seed": 3}
-    assert len(panel.children) == 2
+    assert len(panel.widget.children) == 2
+    plt.close("all")
 
 
 def test_control_defaults_and_ranges():
@@ -40,17 +50,18 @@ def test_redraw_last_panel_uses_the_current_values():
 
     calls = []
     threshold = threshold_slider(0.3)
-    control_panel(lambda **values: calls.append(values), threshold=threshold)
+    control_panel(recorder(calls), workers=1, threshold=threshold)
     threshold.value = 0.8
     calls.clear()
     redraw_last_panel()
     assert calls == [{"threshold": 0.8}]
+    plt.close("all")
 
 
 def test_controls_fill_their_cells_and_the_grid_wraps_on_narrow_pages():
     n, threshold = particle_slider(100), threshold_slider(0.3)
-    panel = control_panel(lambda **values: None, columns=3, n_particles=n, threshold=threshold)
-    columns = panel.children[0].layout.grid_template_columns
+    panel = control_panel(recorder([]), columns=3, workers=1, n_particles=n, threshold=threshold)
+    columns = panel.widget.children[0].layout.grid_template_columns
     assert columns.startswith("repeat(auto-fill, minmax(max(280px,")  # never narrower than a slider needs
     assert "/ 3)" in columns  # and at most three columns on a wide page
     assert n.layout.width == threshold.layout.width == "auto"

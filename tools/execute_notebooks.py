@@ -3,9 +3,10 @@
     python tools/execute_notebooks.py book/part1/model.py [...]
 
 Each ``X.py`` becomes ``X.ipynb`` next to it, executed top to bottom in a fresh
-kernel (working directory: the notebook's folder), with the widget state saved
-so the HTML book shows the widgets, and without timing metadata so that a
-re-run of an unchanged source gives the same file.
+kernel (working directory: the notebook's folder), without widget state (the
+HTML book shows each panel's static version, pfcourse/figures/static_panel.py;
+JupyterLab makes the widgets live when the cells run) and without timing metadata,
+so that a re-run of an unchanged source gives the same file.
 """
 
 from __future__ import annotations
@@ -74,8 +75,9 @@ def _execute(source: Path, store: bool) -> nbformat.NotebookNode:
         kernel_name="python3",
         resources={"metadata": {"path": str(source.parent)}},
         record_timing=False,
-        store_widget_state=True,
+        store_widget_state=True,  # nbclient needs it to capture Output widgets
     ).execute()
+    notebook.metadata.pop("widgets", None)  # see the module docstring
     target = source.with_suffix(".ipynb")
     if store:
         nbformat.write(notebook, target)

@@ -205,7 +205,6 @@ print("final sd of the landmark x coordinates (m):", np.round(sd5[-1, 2::2], 3))
 # robot's process noise scaled (the filter uses the same scaled values as the simulator).
 # Larger measurement noise leaves wider bands; larger process noise lets the robot band grow
 # faster between sightings.
-# The figure below the code is the panel at its default values, for readers without a kernel.
 
 # %%
 def draw_kalman(noise_scale, process_scale, seed):
@@ -220,11 +219,9 @@ def draw_kalman(noise_scale, process_scale, seed):
     axes[0, 0].xaxis.set_major_locator(MultipleLocator(25))  # shared by the six axes; fewer ticks redraw faster
 
 
-draw_kalman(noise_scale=1.0, process_scale=1.0, seed=2024)
-plt.show()
-
 # %% tags=["nbval-ignore-output"]
-display(control_panel(draw_kalman, noise_scale=scale_slider("Rv sd scale"),
+display(control_panel(draw_kalman, grid={"noise_scale": (0.3, 1.0, 3.0), "process_scale": (0.3, 1.0, 3.0)},
+                      noise_scale=scale_slider("Rv sd scale"),
                       process_scale=scale_slider("robot Qw sd scale"), seed=seed_box(2024)))
 
 # %% [markdown]

@@ -278,8 +278,7 @@ print(f"log p(z_k | x_k) at the true state: {by_hand:.4f} (formula), "
 #
 # The panel simulates either variant with the chosen seed and measurement-noise scale
 # (a factor on the standard deviations in `Rv`), and draws the world and which landmarks are
-# in view at each step. The figure below the code is the panel at its default values, for
-# readers without a kernel.
+# in view at each step.
 
 # %%
 import ipywidgets as widgets
@@ -308,12 +307,10 @@ def draw_model(variant, noise_scale, seed):
     a2.grid(False)
 
 
-draw_model(variant="two landmarks", noise_scale=1.0, seed=2024)
-plt.show()
-
 # %% tags=["nbval-ignore-output"]
 display(control_panel(
     draw_model,
+    grid={"variant": ("two landmarks", "five landmarks"), "noise_scale": (0.3, 1.0, 3.0), "seed": (2024, 1, 2)},
     variant=widgets.Dropdown(options=["two landmarks", "five landmarks"], description="variant"),
     noise_scale=scale_slider("Rv sd scale"), seed=seed_box(2024)))
 

@@ -240,7 +240,6 @@ HTML(anim.to_jshtml())
 # The panel runs SIR with both proposals on the all-noisy model for the chosen $N$,
 # measurement-noise scale and seed, and plots both ESS curves and the robot x error against
 # the Kalman mean.
-# The figure below the code is the panel at its default values, for readers without a kernel.
 
 # %%
 def draw_proposals(n_particles, noise_scale, seed):
@@ -261,11 +260,9 @@ def draw_proposals(n_particles, noise_scale, seed):
     a2.set_ylabel("robot x: PF - Kalman (m)")
 
 
-draw_proposals(n_particles=200, noise_scale=0.1, seed=2024)
-plt.show()
-
 # %% tags=["nbval-ignore-output"]
-display(control_panel(draw_proposals, n_particles=particle_slider(200),
+display(control_panel(draw_proposals, grid={"n_particles": (50, 200, 1000), "noise_scale": (0.1, 0.3, 1.0)},
+                      n_particles=particle_slider(200),
                       noise_scale=scale_slider("Rv sd scale", 0.1), seed=seed_box(2024)))
 
 # %% [markdown]

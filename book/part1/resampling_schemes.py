@@ -256,8 +256,7 @@ plt.show()
 # ## Try it
 #
 # The panel resamples 50 particles with the chosen scheme and seed, for weights of chosen
-# unevenness, and shows each particle's offspring count against $n W_i$. The figure below
-# the code is the panel at its default values, for readers without a kernel.
+# unevenness, and shows each particle's offspring count against $n W_i$.
 
 # %%
 import ipywidgets as widgets
@@ -275,11 +274,9 @@ def draw_offspring(scheme, spread, seed):
     ax.legend(fontsize=8)
 
 
-draw_offspring(scheme="systematic", spread=1.0, seed=0)
-plt.show()
-
 # %% tags=["nbval-ignore-output"]
-display(control_panel(draw_offspring, scheme=scheme_dropdown(),
+display(control_panel(draw_offspring, grid={"scheme": tuple(SCHEMES), "spread": (0.0, 1.0, 3.0)},
+                      scheme=scheme_dropdown(),
                       spread=widgets.FloatSlider(value=1.0, min=0.0, max=3.0, step=0.1, description="log-weight sd"),
                       seed=seed_box(0)))
 

@@ -357,7 +357,6 @@ glue("fix_err_k02_100", float(summary.loc[("roughening_0.2", 100), "error"]), di
 # The panel runs SIR on the lab's model with the chosen $N$, threshold, resampling scheme,
 # roughening constant $K$ (0: none) and seed, and plots the landmark 1 estimate and the
 # number of distinct values in the cloud.
-# The figure below the code is the panel at its default values, for readers without a kernel.
 
 # %%
 import ipywidgets as widgets
@@ -383,12 +382,10 @@ def draw_sir(n_particles, threshold, scheme, K, seed):
     a2.set_ylabel("distinct L1 x values")
 
 
-draw_sir(n_particles=100, threshold=1 / 3, scheme="systematic", K=0.0, seed=2024)
-plt.show()
-
 # %% tags=["nbval-ignore-output"]
 display(control_panel(
-    draw_sir, n_particles=particle_slider(100), threshold=threshold_slider(1 / 3),
+    draw_sir, grid={"n_particles": (30, 100, 300, 1000), "threshold": (0.0, 1 / 3, 1.0)},
+    n_particles=particle_slider(100), threshold=threshold_slider(1 / 3),
     scheme=scheme_dropdown(), K=widgets.FloatSlider(value=0.0, min=0.0, max=0.5, step=0.05, description="K"),
     seed=seed_box(2024)))
 

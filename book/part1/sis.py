@@ -163,7 +163,7 @@ for N, c in zip(N_values, ("tab:red", "tab:purple", "tab:blue")):
 ax1.set_xlabel("step k")
 ax1.set_ylabel("ESS / N")
 ax1.set_title(f"SIS: median and 10-90 % band, {n_runs} runs")
-ax1.legend(fontsize=8)
+ax1.legend(fontsize=8, loc="lower left")  # the curves start at the top left
 ax2.boxplot([first_below(ess[N]) for N in N_values], tick_labels=[str(N) for N in N_values])
 ax2.set_xlabel("number of particles N")
 ax2.set_ylabel("first step with ESS < 2")
@@ -197,7 +197,6 @@ plt.show()
 # filter use the same scaled $R_v$) and seed, and plots the ESS and the landmark 1 estimate
 # against the Kalman posterior. Broader measurement noise slows the collapse; it does not
 # stop it.
-# The figure below the code is the panel at its default values, for readers without a kernel.
 
 # %%
 def draw_sis(n_particles, noise_scale, seed):
@@ -220,11 +219,9 @@ def draw_sis(n_particles, noise_scale, seed):
     a2.legend(fontsize=8)
 
 
-draw_sis(n_particles=100, noise_scale=1.0, seed=2024)
-plt.show()
-
 # %% tags=["nbval-ignore-output"]
-display(control_panel(draw_sis, n_particles=particle_slider(100),
+display(control_panel(draw_sis, grid={"n_particles": (10, 100, 1000, 10000), "noise_scale": (0.5, 1.0, 2.0)},
+                      n_particles=particle_slider(100),
                       noise_scale=scale_slider("Rv sd scale"), seed=seed_box(2024)))
 
 # %% [markdown]

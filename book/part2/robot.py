@@ -326,8 +326,7 @@ for n, row, ok in zip(n_values, runs, success):
 # the good initial guess) and plots the position error with its ±3σ band. `Q scale` and
 # `R scale` multiply $Q_\text{true}$ and $R_\text{true}$ in the filter (2 and 2 by default),
 # `dt_meas` is the time between measurements, `gap` removes the measurements between 250 s
-# and 350 s. The static figure below the panel shows the default values, for readers of
-# the HTML book.
+# and 350 s.
 
 # %%
 def draw(n_particles=300, q_scale=2.0, r_scale=2.0, threshold=0.5, scheme="systematic",
@@ -367,6 +366,7 @@ def draw(n_particles=300, q_scale=2.0, r_scale=2.0, threshold=0.5, scheme="syste
 # %% tags=["nbval-ignore-output"]
 panel = control_panel(
     draw,
+    grid={"n_particles": (30, 100, 300, 1000), "r_scale": (0.5, 2.0, 8.0)},
     n_particles=particle_slider(300, 1, 3),
     q_scale=scale_slider("Q scale", 2.0),
     r_scale=scale_slider("R scale", 2.0),
@@ -378,10 +378,6 @@ panel = control_panel(
     seed=seed_box(0),
 )
 display(panel)
-
-# %%
-draw()
-plt.show()
 
 # %% [markdown]
 # Things to try: set `R scale` to 0.5 (the filter trusts the sensor more than it should) and

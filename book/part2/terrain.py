@@ -568,8 +568,7 @@ plt.show()
 #
 # The panel reruns one flight with the settings you choose and draws the truth, the estimate
 # and the final cloud, with the error over time (seed 2 is a flight that the baseline loses;
-# try more particles or a larger $R_f$ on it). In the HTML book the panel does not recompute;
-# the static figure below it shows the default settings.
+# try more particles or a larger $R_f$ on it).
 
 # %%
 def draw(qf_scale=1.0, rf_scale=1.0, n_particles=3000, threshold=0.5, scheme="multinomial", seed=0):
@@ -601,6 +600,7 @@ def draw(qf_scale=1.0, rf_scale=1.0, n_particles=3000, threshold=0.5, scheme="mu
 # %% tags=["nbval-ignore-output"]
 panel = control_panel(
     draw,
+    grid={"n_particles": (300, 1000, 3000), "rf_scale": (1.0, 2.0, 5.0)},
     qf_scale=scale_slider("Qf scale"),
     rf_scale=scale_slider("Rf scale"),
     n_particles=particle_slider(3000, 2, 3),
@@ -609,10 +609,6 @@ panel = control_panel(
     seed=seed_box(0),
 )
 display(panel)
-
-# %%
-draw()
-plt.show()
 
 # %% [markdown]
 # ## Exercises

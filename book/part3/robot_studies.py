@@ -79,9 +79,13 @@ use_style()
 # Runs of 100 s, scored after their first 20 s, measure that steady state at a tenth of the
 # price of 1000 s; what remains of the transient after 20 s is the same for every setting. Studies that need longer runs (the
 # measurement period, the gap) say so. Each run is one `pfcourse.experiments.robot.pf_run`:
-# the robot simulator and the same `ParticleFilter` as in the other chapters. To fit 100 runs
-# per setting into this page's budget, `run_study` shares the runs out over the machine's
-# cores (next section).
+# the robot simulator and the same `ParticleFilter` as in the other chapters. The nine
+# studies below (100 runs per setting) take about 50 s on two cores, a sixth of the book's
+# execution budget, so `tools/studies/robot_studies.py` ran them once with `run_study`, on
+# every core (next section), and stored the tables in `book/data/robot_studies/` with their
+# provenance; this page reads them (`robot_study` below refuses a grid that was not stored),
+# and `tests/test_robot_studies_data.py` re-runs a seeded sample of rows and requires the
+# same numbers.
 #
 # Unless a section varies it, every run uses the reports' defaults: $N = 300$,
 # $Q_\text{est} = 2 Q_\text{true}$, $R_\text{est} = 2 R_\text{true}$, resampling
@@ -109,14 +113,15 @@ use_style()
 # compares the two tables (every column but the wall time `seconds`).
 
 # %%
-N_RUNS = 100
-N_STEPS, BURN_IN = 100, 20
-DEFAULTS = dict(n_steps=N_STEPS, burn_in=BURN_IN)
+from pfcourse.experiments import robot_studies as stored
+from pfcourse.experiments.robot_studies import BURN_IN, N_RUNS, N_STEPS
 
 
-def robot_study(grid, n_runs=N_RUNS, **fixed):
-    """Run pf_run over `grid` (n_runs seeded runs per setting), on every core."""
-    return run_study(partial(pf_run, **{**DEFAULTS, **fixed}), grid, n_runs)
+def robot_study(grid, **fixed):
+    """pf_run over `grid` (N_RUNS seeded runs per setting, n_steps=N_STEPS, burn_in=BURN_IN):
+    the table stored by tools/studies/robot_studies.py, which ran exactly
+    run_study(partial(pf_run, n_steps=N_STEPS, burn_in=BURN_IN, **fixed), grid, N_RUNS)."""
+    return stored.find(grid, **fixed)
 
 
 small = partial(pf_run, n_steps=30)
@@ -447,7 +452,7 @@ def distance_to_exact(seed, threshold):
     }
 
 
-lin_table = run_study(distance_to_exact, {"threshold": [0.0, 0.1, 1 / 3, 1.0]}, N_RUNS)
+lin_table = run_study(distance_to_exact, {"threshold": [0.0, 0.1, 1 / 3, 1.0]}, N_RUNS, progress=False)
 lin_table["threshold"] = lin_table["threshold"].round(3)
 show(lin_table, "threshold", {"robot_gap": "robot: PF mean - exact (m)",
                               "landmark_gap": "landmark: PF mean - exact (m)", "resamples": "resamplings"})
@@ -758,61 +763,43 @@ plt.show()
 # | initialization | not studied (uniform start commented out) | tracking start: 100 of 100 runs locked on; uniform start: 0 of 100 with 300 particles, 2 of 100 with 1000 |
 
 # %% [markdown]
-# ## Try it: a study of your own
+# ## Try it: how many runs does a study need?
 #
-# Pick a parameter and a range; the panel runs a small study: for each setting of the
-# parameter in the range (at most seven), seeded runs of 50 s filtered by
-# `pf_run`, and it draws the median and 10-90 % band of their position RMSE. It starts
-# light, to answer quickly: three thresholds (0, 0.1 and
-# 0.25) with 10 runs each. The computing time grows with the number of settings times the
-# number of runs; the figure just above is the whole range of thresholds with 20 runs each,
-# for readers without a Python kernel. Small studies are noisy: compare the width of the
-# band with the differences you are looking at.
+# Every study above used {glue:text}`n_runs_per_setting` seeded runs per setting. The panel
+# redraws one of them from its first runs only (run $r$ has the same seed in every study, so
+# the first 10 runs are a 10-run study): the median and 10-90 % band of the position RMSE,
+# with the median of all the runs dashed. With 5 or 10 runs the medians wander by about the
+# differences the studies were asked to find; that is why every verdict above carries a
+# paired test over all the runs.
 
 # %%
-LADDERS = {
-    "n_particles": [10, 20, 50, 100, 200, 500, 1000],
-    "q_scale": [0.1, 0.3, 1.0, 3.0, 10.0, 30.0, 100.0],
-    "r_scale": [0.1, 0.3, 1.0, 3.0, 10.0, 30.0, 100.0],
-    "threshold": [0.0, 0.1, 0.25, 0.5, 0.75, 0.9, 1.0],
-    "dt_meas": [1.0, 2.0, 3.0, 5.0, 10.0, 20.0, 30.0],
-    "n_landmarks": [1, 2, 3, 5, 10, 20, 50],
-}
-LOG_AXIS = {"n_particles", "q_scale", "r_scale", "dt_meas", "n_landmarks"}
+PANEL_STUDIES = {"n_particles": n_table, "q_scale": q_table, "r_scale": r_table, "threshold": th_table,
+                 "dt_meas": dt_table, "n_landmarks": lm_table}
+glue("n_runs_per_setting", N_RUNS, display=False)
 
 
-def small_study(parameter="threshold", span=(0.0, 1.0), n_runs=20):
-    values = [v for v in LADDERS[parameter] if span[0] <= v <= span[1]]
-    table = run_study(partial(pf_run, n_steps=50, burn_in=BURN_IN), {parameter: values}, n_runs,
-                      base_seed=1, progress=False)
-    summary = summarize(table, parameter, "position_rmse")
+def draw_first_runs(parameter, n_runs):
+    table = PANEL_STUDIES[parameter]
     fig, ax = plt.subplots(figsize=(6.5, 3.5))
-    summary_band(summary, ax, color=COLORS["estimate"])
-    if parameter in LOG_AXIS:
+    summary_band(summarize(table[table["run"] < n_runs], parameter, "position_rmse"), ax,
+                 color=COLORS["estimate"], label=f"first {n_runs} runs")
+    whole = summarize(table, parameter, "position_rmse")
+    ax.plot(whole.index, whole["q50"], "--", color=COLORS["truth"], lw=1, label=f"median of all {N_RUNS}")
+    if parameter != "threshold":
         plain_log_axis(ax, "x", subs=(1.0, 2.0, 5.0))
     ax.set_xlabel(parameter)
     ax.set_ylabel("position RMSE (m)")
-    ax.set_title(f"{n_runs} runs of 50 s per setting: median and 10-90 % band", fontsize=10)
-    return summary
+    ax.legend(fontsize=8, loc="upper left", bbox_to_anchor=(1.0, 1.0))
 
-
-print(small_study()[["q10", "q50", "q90", "n_failed"]].round(3).to_string())
-plt.show()
 
 # %% tags=["nbval-ignore-output"]
-parameter_box = widgets.Dropdown(options=list(LADDERS), value="threshold", description="parameter")
-span_slider = widgets.SelectionRangeSlider(options=LADDERS["threshold"], index=(0, 2), description="range")
-runs_slider = widgets.IntSlider(value=10, min=5, max=40, step=5, description="runs")
-
-
-def new_ladder(change):
-    span_slider.options = LADDERS[change["new"]]
-    span_slider.index = (0, len(LADDERS[change["new"]]) - 1)
-
-
-parameter_box.observe(new_ladder, names="value")
-control_panel(lambda parameter, span, n_runs: small_study(parameter, span, n_runs),
-              parameter=parameter_box, span=span_slider, n_runs=runs_slider)
+control_panel(
+    draw_first_runs,
+    columns=2,
+    grid={"parameter": tuple(PANEL_STUDIES), "n_runs": (5, 10, 20, 50, 100)},
+    parameter=widgets.Dropdown(options=list(PANEL_STUDIES), value="threshold", description="study"),
+    n_runs=widgets.SelectionSlider(options=[5, 10, 20, 50, 100], value=10, description="first runs"),
+)
 
 # %% [markdown]
 # ## Exercises

@@ -193,7 +193,8 @@ frames_n = [30, 100, 300, 1000, 3000]
 anim_runs = {n: ParticleFilter(sc_anim.model(), n).run(data_anim.Z, np.random.default_rng([1, n]), store_particles=True)
              for n in frames_n}
 
-fig, ax = plt.subplots(figsize=(5.0, 5.0), dpi=72)
+fig, ax = plt.subplots(figsize=(5.0, 5.9), dpi=72)
+fig.subplots_adjust(left=0.16, right=0.96, top=0.94, bottom=0.26)  # room for the legend under the axes
 
 
 def draw_frame(i):
@@ -214,7 +215,7 @@ def draw_frame(i):
     ax.set_xlabel("robot x (m)")
     ax.set_ylabel("robot y (m)")
     ax.set_title(f"N = {n}: robot position at t = {data_anim.T[-1]:.0f} s")
-    ax.legend(loc="upper left", fontsize=7)
+    ax.legend(loc="upper center", bbox_to_anchor=(0.5, -0.13), ncols=2, fontsize=7)  # off the cloud
 
 
 anim = FuncAnimation(fig, draw_frame, frames=len(frames_n), interval=800)
@@ -333,12 +334,15 @@ print_times(robot_table)
 
 # %%
 def accuracy_cost(table, ax, title):
-    for i, (name, row) in enumerate(table.iterrows()):
+    # One marker per filter, named in a legend beside the axes (labels written next to the
+    # points collide where two filters cost and score about the same).
+    markers = iter("osD^vP*X")
+    for name, row in table.iterrows():
         color = COLORS["estimate"] if name.startswith("PF") else (COLORS["kalman"] if name == "EKF" else "tab:purple")
         ax.errorbar(row["ms_per_step"], row["rmse_q50"],
                     yerr=[[row["rmse_q50"] - row["rmse_q10"]], [row["rmse_q90"] - row["rmse_q50"]]],
-                    fmt="o", color=color, capsize=3)
-        ax.annotate(name, (row["ms_per_step"], row["rmse_q50"]), textcoords="offset points", xytext=(6, -12 if i % 2 else 4), fontsize=8)
+                    fmt=next(markers), color=color, capsize=3, label=name)
+    ax.legend(fontsize=8, loc="upper left", bbox_to_anchor=(1.01, 1.0))
     ax.set_xscale("log")
     ax.set_yscale("log")
     ax.set_xlabel("run time per step (ms, this machine)")
@@ -485,8 +489,7 @@ display(HTML(decision.to_html(index=False)))
 # particle filter and of the two Kalman filters (median over the runs and the 10-90 %
 # band), the right panel the run-averaged NEES with its 95 % band. The panel reuses the runs
 # above (no new computation), so a redraw is immediate; for $N$ not run in a scenario, the
-# nearest $N$ that was is shown. The static figure below it shows the default (robot,
-# $N = 300$) for readers of the HTML page.
+# nearest $N$ that was is shown.
 
 # %%
 scenario_runs = {"robot": (robot_runs, 3), **{k: (v, 4) for k, v in terrain_runs.items()}}
@@ -529,14 +532,11 @@ def draw(scenario="robot", n_particles=300):
 panel = control_panel(
     draw,
     columns=2,
+    grid={"scenario": tuple(scenario_runs), "n_particles": (100, 300, 1000, 3000)},
     scenario=widgets.Dropdown(options=list(scenario_runs), value="robot", description="scenario"),
     n_particles=widgets.Dropdown(options=[100, 300, 1000, 3000], value=300, description="particles N"),
 )
 display(panel)
-
-# %%
-draw("robot", 300)
-plt.show()
 
 # %% [markdown]
 # ## Exercises

@@ -167,8 +167,7 @@ glue("offset_crn", float(np.mean(crn_curve - exact_curve)), display=False)
 # The panel redraws the estimated curve (one seed for every $\theta$) against the exact one for
 # the chosen number of particles and seed. With few particles the curve sits well below the
 # exact one and its kinks move with the seed; with more it settles on the exact curve, and
-# the maximum with it. The figure below the code is the panel at its default values, for
-# readers without a kernel.
+# the maximum with it.
 
 # %%
 def draw_likelihood_curve(n_particles, seed):
@@ -184,11 +183,9 @@ def draw_likelihood_curve(n_particles, seed):
     ax.legend(fontsize=8, loc="lower right")
 
 
-draw_likelihood_curve(n_particles=100, seed=11)
-plt.show()
-
 # %% tags=["nbval-ignore-output"]
-display(control_panel(draw_likelihood_curve, columns=2, n_particles=particle_slider(100, 1, 3), seed=seed_box(11)))
+display(control_panel(draw_likelihood_curve, columns=2, grid={"n_particles": (10, 100, 1000), "seed": (11, 12, 13)},
+                      n_particles=particle_slider(100, 1, 3), seed=seed_box(11)))
 
 # %% [markdown]
 # ## Bias and spread of the estimate against N

@@ -41,6 +41,7 @@ from concurrent.futures import Executor, Future, ProcessPoolExecutor
 import numpy as np
 import pandas as pd
 
+from pfcourse.arithmetic import one_blas_thread
 from pfcourse.checks import check_count
 from pfcourse.errors import ParameterError, StepError
 
@@ -65,7 +66,8 @@ class SerialExecutor(Executor):
 
 
 def default_executor(task: Callable) -> tuple[Executor, bool]:
-    """A process pool over the machine's cores (``fork``, so notebook functions need no import),
+    """A process pool over the machine's cores (``fork``, so notebook functions need no import;
+    one BLAS thread per worker, :func:`pfcourse.arithmetic.one_blas_thread`),
     or a :class:`SerialExecutor` when ``task`` cannot be sent to another process (a lambda) or
     the machine has one core.  Returns the executor and whether the caller must shut it down.
     """
@@ -76,7 +78,8 @@ def default_executor(task: Callable) -> tuple[Executor, bool]:
         pickle.dumps(task)
     except (pickle.PicklingError, AttributeError, TypeError):
         return SerialExecutor(), False
-    return ProcessPoolExecutor(workers, mp_context=multiprocessing.get_context("fork")), True
+    return ProcessPoolExecutor(workers, mp_context=multiprocessing.get_context("fork"),
+                               initializer=one_blas_thread), True
 
 
 def grid_settings(grid: Mapping[str, Sequence]) -> list[dict]:
@@ -211,11 +214,13 @@ def summarize(
 
 
 class _Progress:
-    """A progress bar in notebooks (nothing elsewhere), then a one-line summary.
+    """A progress bar in notebooks (nothing elsewhere), closed at the end and replaced by a one-line summary.
 
-    The bar's text form is fixed when it is displayed and the summary line
-    (``12 settings x 100 runs: 1200 ok, 0 failed``) is printed at the end, so a
-    re-executed notebook stores the same text output (strict nbval compares it).
+    The summary (``12 settings x 100 runs: 1200 ok, 0 failed``) is printed and the bar's
+    view closed, so no finished bar stays above a table in a live notebook. Chapters run
+    their studies with ``progress=False``: an executed notebook would store the bar as a
+    widget view (which the HTML book, having no widget manager, cannot show) and nbval
+    would compare its text form.
     """
 
     def __init__(self, total: int) -> None:
@@ -238,4 +243,5 @@ class _Progress:
     def finish(self, n_settings: int, n_runs: int) -> None:
         if self.bar is not None:
             total = n_settings * n_runs
+            self.bar.close()
             print(f"{n_settings} settings x {n_runs} runs: {total - self.failed} ok, {self.failed} failed")

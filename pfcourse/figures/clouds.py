@@ -128,10 +128,15 @@ def animate_clouds(
                 ax.set_xlim(truth[k, i] * scale - follow, truth[k, i] * scale + follow)
                 ax.set_ylim(truth[k, j] * scale - follow, truth[k, j] * scale + follow)
             head.set_text(title(name, k, res))
-        if legend:
-            artists.append(axes[0].legend(loc="lower left", fontsize=8))
+        if legend:  # under the axes, off the cloud
+            handles, labels = axes[0].get_legend_handles_labels()
+            artists.append(fig.legend(handles, labels, loc="lower center", ncols=min(len(labels), 4), fontsize=8))
         return artists
 
+    # Frames are saved without a tight box: lay the figure out once, on the first frame, with
+    # room for the y label, the titles and (when there is one) the legend under the axes.
+    draw(frames[0])
+    fig.tight_layout(pad=0.6, rect=(0.0, 0.07 if legend else 0.0, 1.0, 1.0))
     anim = FuncAnimation(fig, draw, frames=frames, interval=interval, blit=False)
     plt.close(fig)
     return anim

@@ -1,24 +1,29 @@
 """Widget panels: controls that re-run a computation and redraw its figure.
 
 Every chapter's panel is built the same way: a ``draw(**values)`` function that
-makes one figure from the control values, and a dictionary of controls::
+makes one figure from the control values, a dictionary of controls, and the grid of
+values the HTML book offers without a kernel::
 
-    panel = control_panel(draw, n_particles=particle_slider(), seed=seed_box())
+    panel = control_panel(draw, grid={"n_particles": (10, 100, 1000)},
+                          n_particles=particle_slider(), seed=seed_box())
     display(panel)
 
-In JupyterLab moving a control calls ``draw`` again; in the static HTML book the
-panel shows its saved state, so chapters also show a static figure of the
-default values.  Tag the cell ``nbval-ignore-output``: widget outputs are not
-reproducible text.
+In JupyterLab the panel is live: moving a control calls ``draw`` again.  The same
+output also carries a static version (:mod:`pfcourse.figures.static_panel`): the
+figures of every grid point, which the HTML book switches between in the browser
+(the book prefers ``text/html`` to the widget view, ``_config.yml``).  Tag the cell
+``nbval-ignore-output``: widget outputs are not reproducible text.
 """
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Mapping, Sequence
 
 import ipywidgets as widgets
 import matplotlib.pyplot as plt
+from IPython.display import Image, display
 
+from pfcourse.figures.static_panel import StaticPanel, panel_html, render_grid, static_controls
 from pfcourse.resampling import SCHEMES
 
 _STYLE = {"description_width": "initial"}
@@ -78,27 +83,72 @@ def control_grid_columns(columns: int, min_width: int = MIN_COLUMN_WIDTH) -> str
     return f"repeat(auto-fill, minmax(max({min_width}px, calc((100% - {columns - 1} * 8px) / {columns})), 1fr))"
 
 
-def control_panel(draw: Callable[..., None], columns: int = 3, **controls: widgets.ValueWidget) -> widgets.VBox:
+#: Widget types the static page shows as a slider over the grid's values (others: a drop-down).
+_RANGE_TYPES = (widgets.SelectionSlider, widgets.FloatSlider, widgets.IntSlider, widgets.FloatLogSlider,
+                widgets.IntRangeSlider, widgets.FloatRangeSlider, widgets.SelectionRangeSlider)
+
+
+class Panel:
+    """A live widget panel (``widget``) and its static version over a grid (``static``).
+
+    Displayed, it is one output with two representations: the widget view (JupyterLab
+    renders it, live) and ``text/html`` (the HTML book renders it, no kernel needed).
+    """
+
+    def __init__(self, widget: widgets.VBox, static: StaticPanel, alt: str) -> None:
+        self.widget = widget
+        self.static = static
+        self.html = panel_html(static, alt)
+
+    def _repr_mimebundle_(self, **kwargs) -> dict:
+        bundle = self.widget._repr_mimebundle_(**kwargs)
+        bundle["text/html"] = self.html
+        return bundle
+
+
+def control_panel(draw: Callable[..., None], columns: int = 3, grid: Mapping[str, Sequence] | None = None,
+                  alt: str = "the panel's figure", workers: int | None = None,
+                  **controls: widgets.ValueWidget) -> Panel:
     """Controls in a grid above the figure that ``draw(**values)`` makes; redrawn on every change.
 
     The grid has at most ``columns`` columns and wraps to fewer on a narrow page
-    (:func:`control_grid_columns`); each control fills its grid cell.
+    (:func:`control_grid_columns`); each control fills its grid cell.  ``grid`` lists,
+    for the controls the HTML book should offer, the values it offers (each list must
+    contain the control's current value); the figures of every combination are made
+    now (:func:`~pfcourse.figures.static_panel.render_grid`, over ``workers`` processes),
+    and the one at the current values is the live panel's first figure.
     """
     global _last_panel
     _last_panel = (draw, controls)
 
-    def redraw(**values) -> None:
-        draw(**values)
-        plt.show()
+    descriptions = {name: control.description or name for name, control in controls.items()}
+    kinds = {name: "range" if isinstance(control, _RANGE_TYPES) else "select" for name, control in controls.items()}
+    static = render_grid(draw, static_controls({n: c.value for n, c in controls.items()}, descriptions,
+                                               kinds, grid or {}), workers)
+    current = static.current
 
     for control in controls.values():
         control.layout.width = "auto"  # fill the grid cell rather than overflow it at a fixed 300 px
         style = getattr(control, "style", None)
         if style is not None and hasattr(style, "description_width") and not style.description_width:
             style.description_width = "initial"  # the whole description, not cut at 80 px
-    output = widgets.interactive_output(redraw, controls)
-    grid = widgets.GridBox(
+    output = widgets.Output()
+
+    def redraw(change=None) -> None:
+        with output:
+            output.clear_output(wait=True)
+            draw(**{name: control.value for name, control in controls.items()})
+            plt.show()
+
+    for control in controls.values():
+        control.observe(redraw, names="value")
+    with output:
+        if static.texts[current]:
+            print(static.texts[current], end="")
+        display(Image(data=static.images[current], format="png"))
+    grid_box = widgets.GridBox(
         list(controls.values()),
         layout=widgets.Layout(grid_template_columns=control_grid_columns(columns), grid_gap="4px 8px"),
     )
-    return widgets.VBox([grid, output])
+    return Panel(widgets.VBox([grid_box, output]), static, alt)
+
