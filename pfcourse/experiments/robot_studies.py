@@ -95,9 +95,9 @@ def load(name: str, folder: Path = DATA) -> pd.DataFrame:
         raise ParameterError(f"unknown robot study {name!r}; known: {list(STUDIES)}")
     if not path.exists():
         raise FileNotFoundError(f"{path} is missing: run `python3 tasks.py study robot_studies`")
-    table = pd.read_csv(path, float_precision="round_trip",
+    table = pd.read_csv(path,  # floats round-trip exactly (pandas >= 3 parses them precisely)
                         converters={column: ast.literal_eval for column in _literal_columns(name)})
-    table["error"] = table["error"].fillna("").astype(str)
+    table["error"] = ["" if isinstance(v, float) else v for v in table["error"]]  # read back as NaN
     arrays_path = folder / f"{name}.npz"
     if arrays_path.exists():
         with np.load(arrays_path) as arrays:
