@@ -27,3 +27,18 @@ def test_re_executing_an_unchanged_source_stores_the_same_bytes(tmp_path):
     tool.execute(source)
     assert source.with_suffix(".ipynb").read_bytes() == first
     assert b"uuid4" in first and first.count(b"\\n") >= 1
+
+
+def test_streams_are_stored_merged_whatever_the_kernel_cut():
+    """Where a printed text is cut into messages depends on timing: stored, consecutive pieces are one."""
+    import nbformat
+
+    coalesce = load_tool().coalesce_streams
+    out = nbformat.v4.new_output
+    outputs = [out("stream", name="stdout", text="a\n"), out("stream", name="stdout", text="b\n"),
+               out("stream", name="stderr", text="w\n"), out("display_data", data={"text/plain": "x"}),
+               out("stream", name="stdout", text="c\n"), out("stream", name="stdout", text="d")]
+    merged = coalesce(outputs)
+    assert [(o["output_type"], o.get("name"), o.get("text")) for o in merged] == [
+        ("stream", "stdout", "a\nb\n"), ("stream", "stderr", "w\n"), ("display_data", None, None),
+        ("stream", "stdout", "c\nd")]

@@ -58,6 +58,19 @@ def execute(source: Path, extra_startup: str = "", store: bool = True) -> nbform
                 os.environ["IPYTHONDIR"] = previous
 
 
+def coalesce_streams(outputs: list) -> list:
+    """Consecutive outputs of one stream (stdout, stderr) as one: where the kernel cut a printed
+    text into messages depends on timing, and a stored file must not."""
+    merged: list = []
+    for output in outputs:
+        if (output.get("output_type") == "stream" and merged and merged[-1].get("output_type") == "stream"
+                and merged[-1].get("name") == output.get("name")):
+            merged[-1]["text"] = merged[-1]["text"] + output["text"]
+        else:
+            merged.append(output)
+    return merged
+
+
 def _execute(source: Path, store: bool) -> nbformat.NotebookNode:
     notebook = jupytext.read(source)
     notebook.metadata["kernelspec"] = {
@@ -78,6 +91,9 @@ def _execute(source: Path, store: bool) -> nbformat.NotebookNode:
         store_widget_state=True,  # nbclient needs it to capture Output widgets
     ).execute()
     notebook.metadata.pop("widgets", None)  # see the module docstring
+    for cell in notebook.cells:
+        if cell.cell_type == "code":
+            cell.outputs = coalesce_streams(cell.outputs)
     target = source.with_suffix(".ipynb")
     if store:
         nbformat.write(notebook, target)

@@ -290,9 +290,9 @@ HTML(anim.to_jshtml())
 # 500 m from the particle of highest weight, at a few times.
 
 # %%
-fig, axes = plt.subplots(1, 4, figsize=(10, 3.2))
+fig, axes = plt.subplots(1, 4, figsize=(10, 3.5), layout="constrained")
 for ax, k in zip(axes, (0, 4, 10, 30)):
-    draw_map(ax, shaded=False)
+    heights = draw_map(ax, shaded=False)
     w = run.weights[k]
     idx = np.random.default_rng(1).choice(len(w), 800, p=w)
     ax.plot(run.particles[k, idx, 0] / KM, run.particles[k, idx, 1] / KM, ".", ms=1.5, color=COLORS["particles"])
@@ -305,7 +305,7 @@ for ax, k in zip(axes, (0, 4, 10, 30)):
     ax.set_ylim(c[1] - 6, c[1] + 6)
     if k:
         ax.set_ylabel("")
-plt.tight_layout()
+fig.colorbar(heights, ax=axes, shrink=0.8, label="terrain height (m)")
 plt.show()
 
 # %% [markdown]
@@ -578,7 +578,8 @@ def draw(qf_scale=1.0, rf_scale=1.0, n_particles=3000, threshold=0.5, scheme="mu
         fl.Z, rng=np.random.default_rng([0, seed, 1]), store_particles=True)
     fig, (ax1, ax2) = plt.subplots(1, 2, figsize=(10, 4.2), width_ratios=[1, 1.3])
     c = fl.X[40, :2] / KM
-    draw_map(ax1, shaded=False, window=((c[0] - 7, c[0] + 7), (c[1] - 7, c[1] + 7)))
+    fig.colorbar(draw_map(ax1, shaded=False, window=((c[0] - 7, c[0] + 7), (c[1] - 7, c[1] + 7))), ax=ax1,
+                 shrink=0.8, label="terrain height (m)")
     idx = np.random.default_rng(0).choice(n_particles, min(n_particles, 600), p=res.weights[-1])
     ax1.plot(res.particles[-1, idx, 0] / KM, res.particles[-1, idx, 1] / KM, ".", ms=2, color=COLORS["particles"])
     ax1.plot(fl.X[:, 0] / KM, fl.X[:, 1] / KM, color=COLORS["truth"], label="truth")
