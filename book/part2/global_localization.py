@@ -58,9 +58,7 @@ from pfcourse.robot.mcl import (
     global_run,
     kidnap_run,
     kld_bound,
-    mcnemar_exact,
     sensor_mixture_proposal,
-    wilson,
 )
 
 use_style()
@@ -143,7 +141,8 @@ m = modes[(modes["step"] == 20)]
 for method in ("bootstrap", "mixture"):
     s = m[m["method"] == method]["mass_near_truth"]
     k = int(np.sum(s > 0.5))
-    lo, hi = wilson(k, len(s))
+    ci = evidence.rate(k, len(s))
+    lo, hi = ci.low, ci.high
     print(f"{method:9s} at t = 20 s: more than half of the weight near the truth in {k} of {len(s)} runs "
           f"(95 % Wilson {lo:.2f}-{hi:.2f})")
 
@@ -308,7 +307,8 @@ def lock_table(table):
     rows = []
     for (method, n), g in table.groupby(["method", "n"], sort=False):
         k = int(g["locked_on"].sum())
-        lo, hi = wilson(k, len(g))
+        ci = evidence.rate(k, len(g))
+        lo, hi = ci.low, ci.high
         locked = g[g["locked_on"]]
         band = chi2_band(3, len(locked)) if len(locked) else (np.nan, np.nan)
         rows.append({"method": method, "N": n, "runs": len(g), "locked on": k / len(g), "low": lo, "high": hi,
@@ -363,7 +363,8 @@ def paired(m1, n1, m2, n2):
     a = lockon[(lockon["method"] == m1) & (lockon["n"] == n1)].sort_values("seed")
     b = lockon[(lockon["method"] == m2) & (lockon["n"] == n2)].sort_values("seed")
     assert np.array_equal(a["seed"].values, b["seed"].values)
-    n10, n01, p = mcnemar_exact(a["locked_on"].values, b["locked_on"].values)
+    c = evidence.paired_rates(a["locked_on"].values, b["locked_on"].values)
+    n10, n01, p = c.only_a, c.only_b, c.pvalue
     print(f"{m1} N={n1} vs {m2} N={n2}: locked on only by the first in {n10} runs, only by the second in {n01} "
           f"(exact McNemar p = {p:.2g}, {len(a)} paired runs)")
     return p
@@ -372,7 +373,8 @@ def paired(m1, n1, m2, n2):
 fresh = lockon[lockon["seed"] >= 20].groupby(["method", "n"], sort=False)["locked_on"].agg(["sum", "size"])
 print("lock-on on runs 20-99 only (not used to choose any setting):")
 for (method, n), r in fresh.iterrows():
-    lo, hi = wilson(int(r["sum"]), int(r["size"]))
+    ci = evidence.rate(int(r["sum"]), int(r["size"]))
+    lo, hi = ci.low, ci.high
     print(f"  {method:12s} N = {n:5d}: {int(r['sum']):3d} of {int(r['size'])} (95 % Wilson {lo:.2f}-{hi:.2f})")
 f = fresh.loc[(best["method"], best["N"])]
 glue("best_fresh", f"{int(f['sum'])} of {int(f['size'])}", display=False)
@@ -491,7 +493,8 @@ glue("tempered_nees_verdict", "inside the band" if t2k["band low"] <= t2k["NEES 
 rows = []
 for method, g in kid.groupby("method", sort=False):
     k = int(g["recovered"].sum())
-    lo, hi = wilson(k, len(g))
+    ci = evidence.rate(k, len(g))
+    lo, hi = ci.low, ci.high
     rec = g.loc[g["recovered"], "recovery_s"]
     det = g["detection_s"]
     rows.append({"method": method, "runs": len(g), "tracking before": g["tracking_before"].mean(),
@@ -517,7 +520,8 @@ glue("kidnap_ci_high", float(ci.high), display=False)
 glue("kidnap_boot_rate", float(kt.loc[kt["method"] == "bootstrap", "recovered"].iloc[0]), display=False)
 ka = kid[kid["method"] == "mixture"].sort_values("seed")
 kg = kid[kid["method"] == "augmented"].sort_values("seed")
-n10, n01, p = mcnemar_exact(ka["recovered"].values, kg["recovered"].values)
+c = evidence.paired_rates(ka["recovered"].values, kg["recovered"].values)
+n10, n01, p = c.only_a, c.only_b, c.pvalue
 print(f"mixture vs augmented: recovered only by the first in {n10} runs, only by the second in {n01} "
       f"(exact McNemar p = {p:.2g})")
 both = ka["recovered"].values & kg["recovered"].values

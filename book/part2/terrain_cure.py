@@ -35,6 +35,7 @@ import pandas as pd
 from myst_nb import glue
 from scipy import stats
 
+from pfcourse import evidence
 from pfcourse.experiments.terrain import flight_seed
 from pfcourse.terrain.scenario import AircraftScenario, simulate
 from pfcourse.style import use_style
@@ -54,16 +55,12 @@ print("study commits:", sorted({r["commit"][:10] for r in provenance["runs"]}))
 # ## The first lesson: the report's filter loses the aircraft
 
 # %%
-def wilson(k, n):
-    ci = stats.binomtest(int(k), int(n)).proportion_ci(method="wilson")
-    return ci.low, ci.high
-
-
 runs = data.pivot(index="flight", columns="setting", values="lost")  # NaN where a setting has fewer flights
 final = data.pivot(index="flight", columns="setting", values="final_error")
 base = runs["bootstrap N=3000"].astype(bool)
 k, n = int(base.sum()), int(base.count())
-lo, hi = wilson(k, n)
+ci = evidence.rate(k, n)
+lo, hi = ci.low, ci.high
 glue("terrain_baseline_diverged", float(k / n), display=False)
 glue("terrain_baseline_lo", float(lo), display=False)
 glue("terrain_baseline_hi", float(hi), display=False)
@@ -173,7 +170,8 @@ for name in [s for s in SETTINGS if s in runs.columns]:
     # NaN when there is nothing to test: too few flights, or the same final errors (the baseline)
     p_w = stats.wilcoxon(d).pvalue if len(both) > 10 and np.any(d != 0) else np.nan
     evals = data.loc[data.setting == name, "evaluations"].mean()
-    lo, hi = wilson(lost.sum(), lost.count())
+    ci = evidence.rate(lost.sum(), lost.count())
+    lo, hi = ci.low, ci.high
     table.append({"setting": name, "flights": int(lost.count()), "lost": int(lost.sum()),
                   "lost rate": lost.mean(), "95 % CI": f"{lo:.2f}-{hi:.2f}",
                   "rescued / newly lost vs baseline": f"{b} / {c}", "McNemar p": p_mc,

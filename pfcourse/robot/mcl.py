@@ -512,17 +512,3 @@ def kidnap_run(seed: int, method: str, n_particles: int, *, n_steps: int = 150, 
         "particle_steps": int(np.sum(out["likelihood_evaluations"])),
         "seconds": float(out["seconds"]),
     }
-
-
-def wilson(successes: int, n: int, confidence: float = 0.95) -> tuple[float, float]:
-    """Wilson interval of a binomial proportion (``scipy.stats.binomtest``)."""
-    ci = stats.binomtest(int(successes), int(n)).proportion_ci(confidence_level=confidence, method="wilson")
-    return float(ci.low), float(ci.high)
-
-
-def mcnemar_exact(a: Array, b: Array) -> tuple[int, int, float]:
-    """Exact McNemar test of paired booleans: discordant counts ``(a and not b, b and not a)`` and two-sided p."""
-    a, b = np.asarray(a, bool), np.asarray(b, bool)
-    n10, n01 = int(np.sum(a & ~b)), int(np.sum(~a & b))
-    p = 1.0 if n10 + n01 == 0 else float(stats.binomtest(n10, n10 + n01, 0.5).pvalue)
-    return n10, n01, p
