@@ -163,12 +163,13 @@ table = []
 for name in [s for s in SETTINGS if s in runs.columns]:
     lost = runs[name].dropna().astype(bool)
     common = lost.index.intersection(base.index)
-    b, c = int((base[common] & ~lost[common]).sum()), int((~base[common] & lost[common]).sum())
-    p_mc = stats.binomtest(b, b + c).pvalue if b + c else 1.0
+    versus = evidence.paired_rates(lost[common], base[common])  # exact McNemar on the same flights
+    c, b, p_mc = versus.only_a, versus.only_b, versus.pvalue  # newly lost, rescued
     both = common[~base[common] & ~lost[common]]
     d = final.loc[both, name] - final.loc[both, "bootstrap N=3000"]
     # NaN when there is nothing to test: too few flights, or the same final errors (the baseline)
-    p_w = stats.wilcoxon(d).pvalue if len(both) > 10 and np.any(d != 0) else np.nan
+    p_w = (evidence.paired(final.loc[both, name], final.loc[both, "bootstrap N=3000"]).pvalue
+           if len(both) > 10 and np.any(d != 0) else np.nan)
     evals = data.loc[data.setting == name, "evaluations"].mean()
     ci = evidence.rate(lost.sum(), lost.count())
     lo, hi = ci.low, ci.high
@@ -202,8 +203,8 @@ def mcnemar(a, b):
     """Exact McNemar test of settings a and b on their common flights: (a lost only, b lost only, p)."""
     la, lb = runs[a].dropna().astype(bool), runs[b].dropna().astype(bool)
     common = la.index.intersection(lb.index)
-    x, y = int((la[common] & ~lb[common]).sum()), int((~la[common] & lb[common]).sum())
-    return x, y, (stats.binomtest(x, x + y).pvalue if x + y else 1.0)
+    versus = evidence.paired_rates(la[common], lb[common])
+    return versus.only_a, versus.only_b, versus.pvalue
 
 
 x, y, p = mcnemar("regularised N=3000", "bootstrap N=30000")
