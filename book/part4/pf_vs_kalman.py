@@ -56,6 +56,7 @@ from pfcourse.landmarks.kalman import kalman_filter
 from pfcourse.landmarks.scenario import quadrant_scenario, simulate
 from pfcourse.style import COLORS, ellipse_patch, plain_log_axis, use_style
 from pfcourse.terrain.map import load_jacksboro
+from pfcourse.figures.legibility import overlapping_texts
 from pfcourse.figures.widgets import control_panel
 
 use_style()
@@ -351,8 +352,9 @@ def accuracy_cost(table, ax, title):
     plain_log(ax)
 
 
-fig, ax = plt.subplots(figsize=(6, 4))
+fig, ax = plt.subplots(figsize=(6, 4), layout="constrained")
 accuracy_cost(robot_table, ax, f"Robot, {ROBOT_RUNS} runs: accuracy against cost")
+assert not (clashes := overlapping_texts(fig)), clashes  # no label drawn over another (pfcourse.figures.legibility)
 plt.show()
 
 # %% [markdown]
@@ -403,10 +405,10 @@ for name, table in terrain_tables.items():
     print_times(table)
 
 # %%
-fig, axes = plt.subplots(1, 2, figsize=(10, 4))
+fig, axes = plt.subplots(1, 2, figsize=(10, 4), layout="constrained")
 for ax, (name, table) in zip(axes, terrain_tables.items()):
     accuracy_cost(table, ax, f"{name}, {len(terrain_runs[name])} flights")
-plt.tight_layout()
+assert not (clashes := overlapping_texts(fig)), clashes
 plt.show()
 
 # %% [markdown]

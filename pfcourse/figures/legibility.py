@@ -1,0 +1,68 @@
+"""Checks that a drawn figure can be read: no text drawn over another text.
+
+The browser test measures each figure's smallest text on the page; what it cannot see in
+a PNG is two labels drawn on top of each other ("PF N=300" over "EKF" in an earlier
+accuracy-against-cost plot). :func:`overlapping_texts` finds them from the figure itself:
+every visible, non-empty text artist's box on the canvas (title, axis labels, tick labels,
+annotations, legend entries, colour-bar labels), and the pairs of boxes that intersect by
+more than ``tolerance`` pixels in both directions.
+"""
+
+from __future__ import annotations
+
+import itertools
+
+from matplotlib.figure import Figure
+from matplotlib.text import Text
+
+
+def overlapping_texts(figure: Figure, tolerance: float = 1.0) -> list[tuple[str, str]]:
+    """Pairs ``(text, text)`` of drawn texts of ``figure`` whose boxes overlap (empty list: none).
+
+    Draws the figure once. The texts are those a reader sees: each axes' titles, axis
+    labels, offset texts, the tick labels inside the view, its annotations and texts, its
+    legend's entries and title; the figure's own texts and legends. ``tolerance`` (pixels)
+    ignores boxes that only touch.
+    """
+    figure.canvas.draw()
+    renderer = figure.canvas.get_renderer()
+    boxes = []
+    for text in _drawn_texts(figure):
+        if text.get_visible() and text.get_text().strip():
+            boxes.append((text.get_text(), text.get_window_extent(renderer)))
+    pairs = []
+    for (name_a, a), (name_b, b) in itertools.combinations(boxes, 2):
+        width = min(a.x1, b.x1) - max(a.x0, b.x0)
+        height = min(a.y1, b.y1) - max(a.y0, b.y0)
+        if width > tolerance and height > tolerance:
+            pairs.append((name_a, name_b))
+    return pairs
+
+
+def _legend_texts(legend) -> list[Text]:
+    return [] if legend is None else [*legend.get_texts(), legend.get_title()]
+
+
+def _drawn_texts(figure: Figure) -> list[Text]:
+    texts: list[Text] = list(figure.texts)
+    if figure._suptitle is not None:
+        texts.append(figure._suptitle)
+    for legend in figure.legends:
+        texts += _legend_texts(legend)
+    for axes in figure.axes:
+        if not axes.get_visible():
+            continue
+        texts += [axes.title, axes._left_title, axes._right_title, axes.xaxis.label, axes.yaxis.label,
+                  axes.xaxis.get_offset_text(), axes.yaxis.get_offset_text()]
+        box = axes.bbox
+        texts += [t for t in axes.get_xticklabels()  # tick labels of ticks inside the view
+                  if box.x0 - 1 <= _centre(t)[0] <= box.x1 + 1]
+        texts += [t for t in axes.get_yticklabels() if box.y0 - 1 <= _centre(t)[1] <= box.y1 + 1]
+        texts += [t for t in axes.texts if axes.bbox.overlaps(t.get_window_extent())]
+        texts += _legend_texts(axes.get_legend())
+    return texts
+
+
+def _centre(text: Text) -> tuple[float, float]:
+    box = text.get_window_extent()
+    return (box.x0 + box.x1) / 2, (box.y0 + box.y1) / 2

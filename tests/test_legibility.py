@@ -1,0 +1,61 @@
+"""overlapping_texts finds labels drawn over each other, and nothing in a clean figure."""
+
+from __future__ import annotations
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402
+
+from pfcourse.figures.legibility import overlapping_texts  # noqa: E402
+
+
+def test_two_annotations_on_the_same_spot_are_found():
+    fig, ax = plt.subplots(figsize=(4, 3))
+    ax.plot([1, 2], [1, 2], "o")
+    ax.annotate("PF N=300", (1.5, 1.5))
+    ax.annotate("EKF", (1.52, 1.5))
+    assert ("PF N=300", "EKF") in overlapping_texts(fig)
+    plt.close(fig)
+
+
+def test_a_plain_figure_with_legend_beside_the_axes_has_none():
+    fig, ax = plt.subplots(figsize=(5, 3), layout="constrained")
+    for k in range(3):
+        ax.errorbar([k + 1.0], [k + 1.0], yerr=0.1, fmt="os^"[k], label=f"filter {k}")
+    ax.set_xscale("log")
+    ax.set_xlabel("run time per step (ms)")
+    ax.set_ylabel("RMSE (m)")
+    ax.set_title("accuracy against cost")
+    ax.legend(loc="upper left", bbox_to_anchor=(1.01, 1.0))
+    assert overlapping_texts(fig) == []
+    plt.close(fig)
+
+
+def test_a_crowded_axis_is_found():
+    fig, ax = plt.subplots(figsize=(1.5, 1.5))
+    ax.set_xticks(range(10), [f"label {k}" for k in range(10)])
+    assert overlapping_texts(fig)
+    plt.close(fig)
+
+
+def test_tick_labels_outside_the_view_are_not_counted():
+    """Matplotlib keeps labels for ticks beyond the limits (0.01 and 0.02 here, left of a view that
+    starts at 0.05), placed off the axes where they can meet other labels; they are not drawn."""
+    from matplotlib import ticker
+
+    from pfcourse.figures.legibility import _drawn_texts
+
+    fig, ax = plt.subplots(figsize=(6, 4), layout="constrained")
+    ax.errorbar([0.06, 0.1, 0.45], [0.26, 0.19, 0.19], yerr=0.05, fmt="o")
+    ax.set_xscale("log")
+    ax.set_xlim(0.05, 0.5)
+    ax.xaxis.set_major_locator(ticker.LogLocator(subs=(1.0, 2.0, 5.0)))
+    ax.xaxis.set_major_formatter(ticker.FormatStrFormatter("%g"))
+    fig.canvas.draw()
+    kept = [t.get_text() for t in ax.get_xticklabels()]
+    drawn = [t.get_text() for t in _drawn_texts(fig)]
+    assert "0.01" in kept and "0.02" in kept
+    assert "0.01" not in drawn and "0.02" not in drawn and "0.1" in drawn and "0.5" in drawn
+    assert overlapping_texts(fig) == []
+    plt.close(fig)
