@@ -4,6 +4,9 @@ Set here, before NumPy is imported by a test or by a notebook kernel started by 
 inherits this environment):
 
 * one OpenBLAS thread (see tasks.py);
+* an IPython startup file for those kernels that warns when a figure is shown with texts
+  drawn over each other (pfcourse/figures/legibility.py): the warning is an output strict
+  nbval does not expect, so the notebook fails;
 * one arithmetic on every x86-64 CPU (pfcourse/arithmetic.py): NumPy without its AVX-512
   code paths, OpenBLAS with its Haswell kernels, so that the stored notebook outputs and the
   bit-for-bit unit tests hold on AVX2 and AVX-512 machines alike.
@@ -24,3 +27,24 @@ from pfcourse import arithmetic  # noqa: E402  (stdlib only at import: pfcourse/
                                  # here too, and pins the environment before it imports NumPy)
 
 arithmetic.pin_environment()
+
+
+def _legibility_startup() -> None:
+    """IPYTHONDIR with a startup file that installs the figure legibility check (kernels inherit it)."""
+    import atexit
+    import shutil
+    import tempfile
+    from pathlib import Path
+
+    if os.environ.get("PFCOURSE_NO_LEGIBILITY_CHECK"):
+        return
+    folder = Path(tempfile.mkdtemp(prefix="pfcourse-ipython-"))
+    startup = folder / "profile_default" / "startup"
+    startup.mkdir(parents=True)
+    (startup / "00-legibility.py").write_text(
+        "from pfcourse.figures.legibility import check_shown_figures\ncheck_shown_figures()\n")
+    os.environ["IPYTHONDIR"] = str(folder)
+    atexit.register(shutil.rmtree, folder, ignore_errors=True)
+
+
+_legibility_startup()

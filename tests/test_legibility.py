@@ -59,3 +59,12 @@ def test_tick_labels_outside_the_view_are_not_counted():
     assert "0.01" not in drawn and "0.02" not in drawn and "0.1" in drawn and "0.5" in drawn
     assert overlapping_texts(fig) == []
     plt.close(fig)
+
+
+def test_a_suptitle_is_not_its_own_clash():
+    fig, axes = plt.subplots(1, 2, figsize=(6, 3), layout="constrained")
+    fig.suptitle("two panels")
+    axes[0].set_title("left")
+    axes[1].set_title("right")
+    assert overlapping_texts(fig) == []
+    plt.close(fig)

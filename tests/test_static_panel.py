@@ -146,3 +146,25 @@ def test_every_stored_panel_offers_two_controls_with_three_values(chapter, nb, p
     assert len(sizes) >= 2 and sizes[1] >= 3, f"{chapter}: grid {sizes}"
     assert len(data["images"]) >= 9
     assert "widgets" not in nb.metadata  # no widget state: the HTML book loads no widget manager
+
+
+def test_a_pool_that_does_not_answer_is_replaced_by_the_serial_path(monkeypatch):
+    """A forked worker that hangs (a lock held at fork time) must not hang the chapter."""
+    import os
+    import time
+
+    from pfcourse.figures import static_panel
+
+    parent = os.getpid()
+
+    def draw_slow_in_workers(a, b, c):
+        if os.getpid() != parent:
+            time.sleep(30)
+        draw_bars(a, b, c)
+
+    monkeypatch.setattr(static_panel, "POOL_TIMEOUT", 2.0)
+    controls = controls_abc({"a": (1, 2, 3)})
+    start = time.perf_counter()
+    panel = render_grid(draw_slow_in_workers, controls, workers=2)
+    assert time.perf_counter() - start < 20
+    assert panel == render_grid(draw_bars, controls, workers=1)

@@ -130,7 +130,7 @@ for name in SCHEMES:
     print(f"{name:12s} {v.sum():21.2f} {closed[name].sum():12.2f} {bias:20.3f}")
 
 # %%
-fig, axes = plt.subplots(1, 4, figsize=(11, 3), sharex=True, sharey=True)
+fig, axes = plt.subplots(1, 4, figsize=(10, 3.3), sharex=True, sharey=True, layout="constrained")
 for ax, name in zip(axes, SCHEMES):
     ax.plot(closed[name], counts[name].var(axis=0, ddof=1), "o", ms=3, color=SCHEME_COLORS[name])
     ax.plot([0, 4], [0, 4], "k:", lw=1)

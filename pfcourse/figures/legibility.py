@@ -27,7 +27,7 @@ def overlapping_texts(figure: Figure, tolerance: float = 1.0) -> list[tuple[str,
     figure.canvas.draw()
     renderer = figure.canvas.get_renderer()
     boxes = []
-    for text in _drawn_texts(figure):
+    for text in dict.fromkeys(_drawn_texts(figure)):  # each once (a suptitle is also a figure text)
         if text.get_visible() and text.get_text().strip():
             boxes.append((text.get_text(), text.get_window_extent(renderer)))
     pairs = []
@@ -66,3 +66,38 @@ def _drawn_texts(figure: Figure) -> list[Text]:
 def _centre(text: Text) -> tuple[float, float]:
     box = text.get_window_extent()
     return (box.x0 + box.x1) / 2, (box.y0 + box.y1) / 2
+
+
+class LegibilityWarning(UserWarning):
+    """A figure shown in a notebook has texts drawn over each other."""
+
+
+def check_shown_figures() -> bool:
+    """In IPython, warn (:class:`LegibilityWarning`) for every figure shown with overlapping texts.
+
+    Wraps the function IPython renders figures with (``IPython.core.pylabtools.print_figure``),
+    so it must run before matplotlib's inline backend is set up (an IPython startup file: the
+    root ``conftest.py`` installs one for the notebook kernels of the tests, where the warning
+    becomes an output that strict nbval does not expect). Costs one extra drawing per figure,
+    which is why the book's own execution does not use it. Returns whether it was installed.
+    """
+    import warnings
+
+    try:
+        import IPython.core.pylabtools as pylabtools
+    except ImportError:
+        return False
+    original = pylabtools.print_figure
+    if getattr(original, "_checks_legibility", False):
+        return True
+
+    def print_figure(figure, *args, **kwargs):
+        clashes = overlapping_texts(figure)
+        if clashes:
+            warnings.warn(f"texts drawn over each other in a figure: {clashes[:4]}", LegibilityWarning,
+                          stacklevel=2)
+        return original(figure, *args, **kwargs)
+
+    print_figure._checks_legibility = True
+    pylabtools.print_figure = print_figure
+    return True

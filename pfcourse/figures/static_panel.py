@@ -30,6 +30,7 @@ import os
 import warnings
 from collections.abc import Callable, Mapping, Sequence
 from concurrent.futures import ProcessPoolExecutor
+from concurrent.futures import TimeoutError as FuturesTimeout
 from dataclasses import dataclass
 
 import matplotlib.pyplot as plt
@@ -38,6 +39,10 @@ from PIL import Image
 
 from pfcourse.arithmetic import one_blas_thread
 from pfcourse.errors import ParameterError
+
+#: Seconds a pool of workers may take to render a whole grid before the grid is rendered in
+#: this process instead (the largest grid of the book takes a few seconds).
+POOL_TIMEOUT = 120.0
 
 #: The one line every static panel shows under its controls.
 LIVE_NOTE = ("On this page the panel switches between figures computed when the chapter ran, for the "
@@ -173,11 +178,20 @@ def render_grid(draw: Callable[..., object], controls: Sequence[StaticControl],
         else:
             with warnings.catch_warnings():
                 # Python >= 3.12 warns that forking a multi-threaded process (a Jupyter kernel)
-                # may deadlock; the workers only draw and return bytes.
+                # may deadlock; the workers only draw and return bytes, and a pool that does not
+                # answer within POOL_TIMEOUT seconds is abandoned for the serial path below.
                 warnings.simplefilter("ignore", DeprecationWarning)
-                with ProcessPoolExecutor(workers, mp_context=multiprocessing.get_context("fork"),
-                                         initializer=one_blas_thread) as pool:
-                    rendered = list(pool.map(_render_point, range(len(points))))
+                pool = ProcessPoolExecutor(workers, mp_context=multiprocessing.get_context("fork"),
+                                           initializer=one_blas_thread)
+            try:
+                rendered = list(pool.map(_render_point, range(len(points)), timeout=POOL_TIMEOUT))
+            except FuturesTimeout:
+                for process in list(getattr(pool, "_processes", {}).values()):
+                    process.terminate()
+                pool.shutdown(wait=False, cancel_futures=True)
+                rendered = [_render_point(k) for k in range(len(points))]
+            else:
+                pool.shutdown()
     finally:
         _job = None
     return StaticPanel(tuple(controls), tuple(r[0] for r in rendered), tuple(r[1] for r in rendered))
