@@ -115,10 +115,10 @@ def draw_map(ax, shaded=True, window=None):
 
 fig, ax = plt.subplots(figsize=(6.5, 6.5))
 fig.colorbar(draw_map(ax), ax=ax, shrink=0.8, label="terrain height (m)")
-cs = ax.contour(terrain.x_nodes / KM, terrain.y_nodes / KM, terrain.heights, levels=[400, 600, 800, 1000],
-                colors="k", linewidths=0.4, alpha=0.6)
-ax.clabel(cs, fontsize=7, fmt="%d m")
-ax.set_title("Jacksboro fault DEM (USGS), shaded relief and contours")
+ax.contour(terrain.x_nodes / KM, terrain.y_nodes / KM, terrain.heights, levels=[400, 600, 800, 1000],
+           colors="k", linewidths=0.4, alpha=0.6)
+# Contours unlabelled (labels of close contours fall on each other; the colour scale gives heights)
+ax.set_title("Jacksboro fault DEM (USGS), shaded relief;\ncontours at 400, 600, 800 and 1000 m")
 plt.show()
 
 # %% [markdown]

@@ -473,19 +473,19 @@ for n in (300, 1000):
 n_kept = int((chains2["iteration"] >= BURN_IN2).sum() / chains2["n_particles"].nunique())
 glue("pmmh2_ess_q_300", n_kept / float(pmmh2_table.loc[300, "IACT q"]), display=False)
 
-fig, axes = plt.subplots(1, 2, figsize=(7, 3.2), constrained_layout=True)
+fig, axes = plt.subplots(1, 2, figsize=(7.5, 3.8), constrained_layout=True)
 t2 = np.exp(u2)
 axes[0].contour(t2, t2, exact2["density"].T, levels=6, colors=COLORS["kalman"], linewidths=1)
 s1000 = chains2[(chains2["n_particles"] == 1000) & (chains2["iteration"] >= BURN_IN2)]
 axes[0].plot(s1000["theta_q"][::10], s1000["theta_r"][::10], ".", ms=2, color=COLORS["estimate"], alpha=0.5)
 axes[0].set(xscale="log", yscale="log", xlabel="process-noise scale θ_q", ylabel="measurement-noise scale θ_r",
-            title="exact posterior (contours), PMMH N = 1000 (dots)")
+            title="exact posterior (contours),\nPMMH N = 1000 (dots)")
 marginal_q = np.trapezoid(exact2["density"], u2, axis=1)
 axes[1].hist(np.log(s1000["theta_q"]), bins=30, density=True, histtype="step", color=COLORS["estimate"],
              label="PMMH, N = 1000")
 axes[1].plot(u2, marginal_q, color=COLORS["kalman"], lw=2, label="exact (Kalman grid)")
 axes[1].set(xlabel="log θ_q", ylabel="posterior density of log θ_q")
-axes[1].legend(fontsize=8, loc="upper left")
+axes[1].legend(fontsize=8, loc="upper center", bbox_to_anchor=(0.5, -0.22), ncols=2)  # off the histogram
 axes[0].title.set_fontsize(9)
 plt.show()
 
