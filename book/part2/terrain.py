@@ -265,7 +265,8 @@ def map_window(flight, zoom=6.0):
     centre = flight.X[len(flight.T) // 2, :2] / KM
 
     def draw(ax):
-        draw_map(ax, shaded=False)
+        heights = draw_map(ax, shaded=False)
+        ax.figure.colorbar(heights, cax=ax.inset_axes([1.03, 0.1, 0.04, 0.8]), label="terrain height (m)")
         ax.set_xlim(centre[0] - zoom, centre[0] + zoom)
         ax.set_ylim(centre[1] - zoom, centre[1] + zoom)
 
