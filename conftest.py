@@ -44,6 +44,7 @@ def _legibility_startup() -> None:
     (startup / "00-legibility.py").write_text(
         "from pfcourse.figures.legibility import check_shown_figures\ncheck_shown_figures()\n")
     os.environ["IPYTHONDIR"] = str(folder)
+    os.environ["PFCOURSE_LEGIBILITY_IPYTHONDIR"] = str(folder)  # so a test can start kernels without it
     atexit.register(shutil.rmtree, folder, ignore_errors=True)
 
 

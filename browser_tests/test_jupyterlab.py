@@ -81,6 +81,10 @@ def lab(tmp_path_factory):
         json.dumps({"disabledExtensions": {"@jupyterlab/cell-toolbar-extension": True}})
     )
     env = dict(os.environ, JUPYTER_CONFIG_DIR=str(root / "config"), JUPYTER_RUNTIME_DIR=str(root / "runtime"))
+    # The kernels a reader gets: without the legibility check the root conftest.py gives nbval's
+    # kernels (one more drawing per shown figure would slow the redraw this test times).
+    if env.get("IPYTHONDIR") and env.get("IPYTHONDIR") == env.get("PFCOURSE_LEGIBILITY_IPYTHONDIR"):
+        del env["IPYTHONDIR"]
     log = open(root / "lab.log", "w")  # noqa: SIM115 (closed below)
     process = subprocess.Popen(command, stdout=log, stderr=subprocess.STDOUT, env=env, cwd=root / "book")
     base = f"http://127.0.0.1:{port}"
