@@ -113,24 +113,6 @@ class RuntimeArithmetic:
         )
 
 
-def _openblas_cores() -> dict:
-    """Kernel family of each OpenBLAS library bundled with NumPy and SciPy (if loaded)."""
-    cores = {}
-    for path in _openblas_libraries():
-        try:
-            lib = ctypes.CDLL(path)
-        except OSError:
-            continue
-        for symbol in ("scipy_openblas_get_corename64_", "scipy_openblas_get_corename",
-                       "openblas_get_corename64_", "openblas_get_corename"):
-            function = getattr(lib, symbol, None)
-            if function is not None:
-                function.restype = ctypes.c_char_p
-                cores[Path(path).name] = function().decode()
-                break
-    return cores
-
-
 def _openblas_libraries() -> list[str]:
     """Paths of the OpenBLAS libraries bundled with NumPy and SciPy, for those already imported."""
     candidates = []
@@ -143,6 +125,34 @@ def _openblas_libraries() -> list[str]:
     return candidates
 
 
+def openblas_functions(name: str) -> list[tuple[str, object]]:
+    """``(library path, function)`` for OpenBLAS function ``name`` (``"get_corename"``, ...) in
+    each loaded library, under whichever of its exported names the library has (SciPy's
+    wheels prefix ``scipy_`` and append ``64_`` in their ILP64 builds)."""
+    found = []
+    for path in _openblas_libraries():
+        try:
+            lib = ctypes.CDLL(path)
+        except OSError:
+            continue
+        for symbol in (f"scipy_openblas_{name}64_", f"scipy_openblas_{name}", f"openblas_{name}64_",
+                       f"openblas_{name}"):
+            function = getattr(lib, symbol, None)
+            if function is not None:
+                found.append((path, function))
+                break
+    return found
+
+
+def _openblas_cores() -> dict:
+    """Kernel family of each OpenBLAS library bundled with NumPy and SciPy (if loaded)."""
+    cores = {}
+    for path, function in openblas_functions("get_corename"):
+        function.restype = ctypes.c_char_p
+        cores[Path(path).name] = function().decode()
+    return cores
+
+
 def one_blas_thread() -> int:
     """Make every loaded OpenBLAS use one thread in this process; returns how many libraries it set.
 
@@ -153,21 +163,11 @@ def one_blas_thread() -> int:
     pools' initializer. The floats do not change (each entry of a product is computed by
     one thread either way; ``tests/test_study.py`` compares pooled and serial tables).
     """
-    done = 0
-    for path in _openblas_libraries():
-        try:
-            lib = ctypes.CDLL(path)
-        except OSError:
-            continue
-        for symbol in ("scipy_openblas_set_num_threads64_", "scipy_openblas_set_num_threads",
-                       "openblas_set_num_threads64_", "openblas_set_num_threads"):
-            function = getattr(lib, symbol, None)
-            if function is not None:
-                function.argtypes = [ctypes.c_int]
-                function(1)
-                done += 1
-                break
-    return done
+    functions = openblas_functions("set_num_threads")
+    for _, function in functions:
+        function.argtypes = [ctypes.c_int]
+        function(1)
+    return len(functions)
 
 
 def runtime_arithmetic() -> RuntimeArithmetic:

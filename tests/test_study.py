@@ -154,20 +154,21 @@ def test_executor_must_be_an_executor():
 
 
 def _blas_threads(_seed=None) -> list[int]:
-    """Threads of each OpenBLAS loaded in this process (via its get_num_threads symbol)."""
+    """Threads of each OpenBLAS loaded in this process."""
+    from pfcourse.arithmetic import openblas_functions
+
+    return [function() for _, function in openblas_functions("get_num_threads")]
+
+
+def _set_blas_threads(n: int, paths: list[str] | None = None) -> None:
     import ctypes
 
-    from pfcourse.arithmetic import _openblas_libraries
+    from pfcourse.arithmetic import openblas_functions
 
-    counts = []
-    for path in _openblas_libraries():
-        lib = ctypes.CDLL(path)
-        for symbol in ("scipy_openblas_get_num_threads64_", "scipy_openblas_get_num_threads",
-                       "openblas_get_num_threads64_", "openblas_get_num_threads"):
-            if hasattr(lib, symbol):
-                counts.append(getattr(lib, symbol)())
-                break
-    return counts
+    for path, function in openblas_functions("set_num_threads"):
+        if paths is None or path in paths:
+            function.argtypes = [ctypes.c_int]
+            function(n)
 
 
 def test_pool_workers_run_one_blas_thread():
@@ -186,24 +187,9 @@ def test_pool_workers_run_one_blas_thread():
         with executor:
             counts = executor.submit(_blas_threads).result()
     finally:
-        for path, n in zip(_openblas_paths(), before):
+        from pfcourse.arithmetic import _openblas_libraries
+
+        for path, n in zip(_openblas_libraries(), before):
             _set_blas_threads(n, [path])
     assert counts and all(c == 1 for c in counts), counts
 
-
-def _openblas_paths() -> list[str]:
-    from pfcourse.arithmetic import _openblas_libraries
-
-    return _openblas_libraries()
-
-
-def _set_blas_threads(n: int, paths: list[str] | None = None) -> None:
-    import ctypes
-
-    for path in paths or _openblas_paths():
-        lib = ctypes.CDLL(path)
-        for symbol in ("scipy_openblas_set_num_threads64_", "scipy_openblas_set_num_threads",
-                       "openblas_set_num_threads64_", "openblas_set_num_threads"):
-            if hasattr(lib, symbol):
-                getattr(lib, symbol)(n)
-                break

@@ -80,8 +80,8 @@ use_style()
 # price of 1000 s; what remains of the transient after 20 s is the same for every setting. Studies that need longer runs (the
 # measurement period, the gap) say so. Each run is one `pfcourse.experiments.robot.pf_run`:
 # the robot simulator and the same `ParticleFilter` as in the other chapters. The nine
-# studies below (100 runs per setting) take about 50 s on two cores, a sixth of the book's
-# execution budget, so `tools/studies/robot_studies.py` ran them once with `run_study`, on
+# studies below (100 runs per setting) are too heavy to re-run every time this page executes,
+# so `tools/studies/robot_studies.py` ran them once with `run_study`, on
 # every core (next section), and stored the tables in `book/data/robot_studies/` with their
 # provenance; this page reads them (`robot_study` below refuses a grid that was not stored),
 # and `tests/test_robot_studies_data.py` re-runs a seeded sample of rows and requires the
@@ -768,9 +768,9 @@ plt.show()
 # Every study above used {glue:text}`n_runs_per_setting` seeded runs per setting. The panel
 # redraws one of them from its first runs only (run $r$ has the same seed in every study, so
 # the first 10 runs are a 10-run study): the median and 10-90 % band of the position RMSE,
-# with the median of all the runs dashed. With 5 or 10 runs the medians wander by about the
-# differences the studies were asked to find; that is why every verdict above carries a
-# paired test over all the runs.
+# with the median of all the runs dashed. Compare how far the medians of 5 or 10 runs stray
+# from the dashed line with the differences the studies were asked to find: the verdicts
+# above rest on paired tests over all the runs, not on medians of a few.
 
 # %%
 PANEL_STUDIES = {"n_particles": n_table, "q_scale": q_table, "r_scale": r_table, "threshold": th_table,

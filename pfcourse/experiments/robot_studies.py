@@ -64,8 +64,8 @@ def run_function(name: str):
 
 def compute(name: str, n_runs: int = N_RUNS, **options) -> pd.DataFrame:
     """Run study ``name`` (``options`` go to :func:`run_study`: ``executor``, ``progress``)."""
-    grid = STUDIES[name][0] if name in STUDIES else None
-    return run_study(run_function(name), grid, n_runs, **{"progress": False, **options})
+    run_one = run_function(name)  # refuses an unknown name
+    return run_study(run_one, STUDIES[name][0], n_runs, **{"progress": False, **options})
 
 
 def save(name: str, table: pd.DataFrame, folder: Path = DATA) -> None:
