@@ -214,7 +214,19 @@ def study(args: list[str]) -> None:
 
 
 def lab(args: list[str]) -> None:
-    run(BIN / "jupyter", "lab", *args, cwd=BOOK)
+    """JupyterLab on book/, with the prose's glued numbers shown as values (tools/lab_glue.py:
+    a contents manager translates the glue roles, an IPython startup file serves the kernels)."""
+    sys.path.insert(0, str(ROOT / "tools"))
+    import lab_glue
+
+    ipython_dir = BUILD / "lab" / "ipython"
+    startup = ipython_dir / "profile_default" / "startup"
+    startup.mkdir(parents=True, exist_ok=True)
+    (startup / "00-pfcourse-glue.py").write_text(lab_glue.kernel_startup())
+    env = dict(os.environ, IPYTHONDIR=str(ipython_dir),
+               PYTHONPATH=os.pathsep.join(filter(None, [str(ROOT / "tools"), os.environ.get("PYTHONPATH")])))
+    run(BIN / "jupyter", "lab", "--ServerApp.contents_manager_class=lab_glue.GlueContentsManager", *args,
+        cwd=BOOK, env=env)
 
 
 COMMANDS = {

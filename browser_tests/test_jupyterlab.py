@@ -32,6 +32,9 @@ import pytest
 
 from conftest import ROOT
 
+sys.path.insert(0, str(ROOT / "tools"))
+import lab_glue  # noqa: E402
+
 BOOK = ROOT / "book"
 PANEL_CHAPTERS = sorted(
     path.relative_to(BOOK).with_suffix(".ipynb").as_posix()
@@ -68,6 +71,8 @@ def lab(tmp_path_factory):
         "--LabApp.news_url=None",
         "--LabApp.check_for_updates_class=jupyterlab.NeverCheckForUpdate",
         "--LabApp.expose_app_in_browser=True",
+        # glued numbers shown as values (tools/lab_glue.py), as `python3 tasks.py lab` does
+        "--ServerApp.contents_manager_class=lab_glue.GlueContentsManager",
     ]
     if hasattr(os, "geteuid") and os.geteuid() == 0:
         command.append("--allow-root")  # CI and the project's machines run as root
@@ -81,10 +86,14 @@ def lab(tmp_path_factory):
         json.dumps({"disabledExtensions": {"@jupyterlab/cell-toolbar-extension": True}})
     )
     env = dict(os.environ, JUPYTER_CONFIG_DIR=str(root / "config"), JUPYTER_RUNTIME_DIR=str(root / "runtime"))
-    # The kernels a reader gets: without the legibility check the root conftest.py gives nbval's
-    # kernels (one more drawing per shown figure would slow the redraw this test times).
-    if env.get("IPYTHONDIR") and env.get("IPYTHONDIR") == env.get("PFCOURSE_LEGIBILITY_IPYTHONDIR"):
-        del env["IPYTHONDIR"]
+    # The kernels a reader gets (`python3 tasks.py lab`): glue's startup file, and not the
+    # legibility check the root conftest.py gives nbval's kernels (one more drawing per shown
+    # figure would slow the redraw this test times).
+    startup = root / "ipython" / "profile_default" / "startup"
+    startup.mkdir(parents=True)
+    (startup / "00-pfcourse-glue.py").write_text(lab_glue.kernel_startup())
+    env["IPYTHONDIR"] = str(root / "ipython")
+    env["PYTHONPATH"] = os.pathsep.join(filter(None, [str(ROOT / "tools"), env.get("PYTHONPATH")]))
     log = open(root / "lab.log", "w")  # noqa: SIM115 (closed below)
     process = subprocess.Popen(command, stdout=log, stderr=subprocess.STDOUT, env=env, cwd=root / "book")
     base = f"http://127.0.0.1:{port}"
@@ -148,9 +157,14 @@ def test_panel_live_in_jupyterlab(chapter: str, lab, browser) -> None:
                               "&& window.jupyterapp.shell.currentWidget.sessionContext.session "
                               "&& window.jupyterapp.shell.currentWidget.sessionContext.session.kernel")
         tab.wait_for_function("() => window.jupyterapp.shell.currentWidget.sessionContext.session.kernel.status === 'idle'")
-        # jupyterlab-myst renders the markdown: no exercise/solution directive left as text.
-        raw = tab.locator(".jp-MarkdownCell .jp-RenderedMarkdown:has-text(':label:')").count()
+        # jupyterlab-myst renders the markdown (the cells in view at least, the title first).
+        tab.wait_for_function("() => Array.from(document.querySelectorAll('.jp-MarkdownCell .myst'))"
+                              ".some(e => e.textContent.trim().length > 0)")
+        # No exercise/solution directive left as text.
+        raw = tab.locator(".jp-MarkdownCell .myst:has-text(':label:')").count()
         assert raw == 0, f"{raw} markdown cell(s) of {chapter} show raw MyST directives"
+        # Glued numbers show as values, from the stored outputs, before any cell runs.
+        _check_glued_values(tab, chapter, expected=_glued_texts(chapter))
 
         started = time.monotonic()
         tab.evaluate("() => window.jupyterapp.commands.execute('notebook:run-all-cells')")
@@ -173,6 +187,9 @@ def test_panel_live_in_jupyterlab(chapter: str, lab, browser) -> None:
                 .map(o => o.ename + ': ' + o.evalue)"""
         )
         assert not errors, f"{chapter}: error output(s): {errors[:3]}"
+        # Running the chapter ran its markdown cells too: jupyterlab-myst evaluated their
+        # expressions in the kernel (`glued`, this run's values): none failed.
+        _check_glued_values(tab, chapter, expected=[])
 
         panel = tab.locator(".jp-OutputArea-output .widget-vbox:has(.widget-gridbox)").last
         panel.scroll_into_view_if_needed()
@@ -204,6 +221,26 @@ def test_panel_live_in_jupyterlab(chapter: str, lab, browser) -> None:
         assert not problems, f"{chapter}: {len(problems)} console error(s)/warning(s): {problems[:5]}"
     finally:
         context.close()
+
+
+def _glued_texts(chapter: str) -> list[str]:
+    """The texts the chapter's glue roles show, formatted from its stored outputs."""
+    notebook = json.loads((BOOK / chapter).read_text(encoding="utf-8"))
+    lab_glue.to_lab(notebook, lambda doc: json.loads(((BOOK / chapter).parent / doc).read_text(encoding="utf-8")))
+    return [e["result"]["data"]["text/plain"] for c in notebook["cells"] for e in c.get("metadata", {}).get("user_expressions", [])]
+
+
+def _check_glued_values(tab, chapter: str, expected: list[str]) -> None:
+    """No glue role or inline expression left unrendered or failed in the rendered markdown; at
+    least one of the ``expected`` texts shown (JupyterLab renders only the cells near the view)."""
+    shown = tab.evaluate(
+        """() => Array.from(document.querySelectorAll('.jp-MarkdownCell .myst'))
+                 .map(e => e.textContent).join('\\n')"""
+    )
+    for raw in ("glue:text", 'glued("', "Unexecuted inline expression", "KeyError", "NameError"):
+        assert raw not in shown, f"{chapter}: the rendered markdown shows {raw!r}"
+    if expected:
+        assert any(text in shown for text in expected), f"{chapter}: none of its glued values is shown: {len(shown)} {shown[:1500]!r} {expected[:5]}"
 
 
 def _ignorable(message: str) -> bool:
