@@ -25,51 +25,47 @@ from pfcourse.compiled import jit
 
 
 @jit
+def on_map(heights, dx, dy, xi, yi):
+    """Is ``(xi, yi)`` inside the node hull ``[0, (nx-1) dx] x [0, (ny-1) dy]``?"""
+    ny, nx = heights.shape
+    return xi >= 0.0 and xi <= (nx - 1) * dx and yi >= 0.0 and yi <= (ny - 1) * dy
+
+
+@jit
+def cell_height(heights, dx, dy, xi, yi):
+    """Bilinear height at one point ``(xi, yi)``; NaN outside the node hull."""
+    if not on_map(heights, dx, dy, xi, yi):
+        return np.nan
+    ny, nx = heights.shape
+    c = xi / dx
+    r = yi / dy
+    j = min(int(math.floor(c)), nx - 2)
+    k = min(int(math.floor(r)), ny - 2)
+    s = c - j
+    t = r - k
+    return ((1.0 - s) * (1.0 - t) * heights[k, j] + s * (1.0 - t) * heights[k, j + 1]
+            + (1.0 - s) * t * heights[k + 1, j] + s * t * heights[k + 1, j + 1])
+
+
+@jit
 def bilinear(heights, dx, dy, x, y):
     """Bilinear height at each ``(x[i], y[i])``; NaN outside the node hull."""
-    ny, nx = heights.shape
-    width = (nx - 1) * dx
-    top = (ny - 1) * dy
     out = np.empty(x.shape[0])
     for i in range(x.shape[0]):
-        xi = x[i]
-        yi = y[i]
-        if not (xi >= 0.0 and xi <= width and yi >= 0.0 and yi <= top):
-            out[i] = np.nan
-            continue
-        c = xi / dx
-        r = yi / dy
-        j = min(int(math.floor(c)), nx - 2)
-        k = min(int(math.floor(r)), ny - 2)
-        s = c - j
-        t = r - k
-        out[i] = ((1.0 - s) * (1.0 - t) * heights[k, j] + s * (1.0 - t) * heights[k, j + 1]
-                  + (1.0 - s) * t * heights[k + 1, j] + s * t * heights[k + 1, j + 1])
+        out[i] = cell_height(heights, dx, dy, x[i], y[i])
     return out
 
 
 @jit
 def altimeter_log_likelihood(particles, heights, dx, dy, z, rf, log_norm):
     """``log_norm - (z - (alt - h(x, y)))^2 / (2 rf)`` per particle; ``-inf`` off the map."""
-    ny, nx = heights.shape
-    width = (nx - 1) * dx
-    top = (ny - 1) * dy
     n = particles.shape[0]
     out = np.empty(n)
     for i in range(n):
-        xi = particles[i, 0]
-        yi = particles[i, 1]
-        if not (xi >= 0.0 and xi <= width and yi >= 0.0 and yi <= top):
+        if not on_map(heights, dx, dy, particles[i, 0], particles[i, 1]):
             out[i] = -np.inf
             continue
-        c = xi / dx
-        r = yi / dy
-        j = min(int(math.floor(c)), nx - 2)
-        k = min(int(math.floor(r)), ny - 2)
-        s = c - j
-        t = r - k
-        h = ((1.0 - s) * (1.0 - t) * heights[k, j] + s * (1.0 - t) * heights[k, j + 1]
-             + (1.0 - s) * t * heights[k + 1, j] + s * t * heights[k + 1, j + 1])
+        h = cell_height(heights, dx, dy, particles[i, 0], particles[i, 1])
         nu = z - (particles[i, 2] - h)
         out[i] = log_norm - 0.5 * nu * nu / rf
     return out
