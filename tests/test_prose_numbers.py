@@ -32,7 +32,7 @@ PAGES = sorted((ROOT / "book").rglob("*.md"))  # the introduction, the parts' pa
 # Chapters whose prose is still being converted (issue 18): their test is a strict xfail, which
 # fails as soon as the chapter passes, so that it leaves this list the day it is done.
 PENDING = {
-    "importance_sampling", "kalman", "model", "proposals", "rao_blackwell", "resampling_schemes",
+    "importance_sampling", "kalman", "model",
     "sir", "sis", "global_localization", "robot", "robot_vs_kalman", "terrain", "terrain_cure",
     "robot_studies", "pf_vs_kalman", "likelihood",
 }
@@ -41,6 +41,11 @@ PENDING = {
 EXEMPT: list[tuple[str, str, str]] = [
     ("intro", "Python 3.11", "the version the quick start needs"),
     ("intro", "(chapter 12)", "a chapter of a cited book"),
+    ("proposals", "question 8", "the number of a question in the lab's list"),
+    ("resampling_schemes", "question 7", "the number of a question in the lab's list"),
+    ("resampling_schemes", "version 2.0.0", "the filterpy release whose bug is shown (pinned in requirements.txt)"),
+    ("rao_blackwell", "FastSLAM 1.0", "the name of an algorithm (Montemerlo et al.)"),
+    ("rao_blackwell", "FastSLAM 2.0", "the name of an algorithm (Montemerlo et al.)"),
 ]
 
 _REMOVED = [

@@ -50,7 +50,7 @@
 #
 # In `pfcourse` the packed particle is a row $(r^i, m^i, \operatorname{vec} P^i)$
 # ($2 + 4 + 16 = 22$ numbers here), `RaoBlackwellModel` gives the engine that row's initial
-# draw and prediction, `RaoBlackwellProposal` does steps 1-3, and `marginal` turns the
+# draw and prediction, `RaoBlackwellProposal` does the first three steps, and `marginal` turns the
 # engine's weighted moments of the rows into the state's mean and covariance
 # ($\operatorname{Cov}(l) = \sum_i W^i P^i + \operatorname{Cov}_W(m^i)$, the law of total
 # covariance). The engine itself is unchanged.
@@ -62,7 +62,7 @@ import pandas as pd
 from myst_nb import glue
 from scipy import stats
 
-from pfcourse import ParticleFilter, kalman_filter
+from pfcourse import ParticleFilter, evidence, kalman_filter
 from pfcourse.experiments.rb_study import METHODS
 from pfcourse.landmarks.rao_blackwell import RaoBlackwellModel, RaoBlackwellProposal
 from pfcourse.landmarks.scenario import circle_scenario, quadrant_scenario, simulate
@@ -87,7 +87,7 @@ for name, r in (("SIR", res_sir), ("RBPF", res_rb)):
 # %% [markdown]
 # ## One step by hand
 #
-# The lines that carry the idea, in plain NumPy: one FastSLAM 1.0 step for 100 particles at
+# The lines that carry the idea, in plain NumPy: one FastSLAM 1.0 step for $100$ particles at
 # the first step with a measurement, checked against `RaoBlackwellProposal(optimal=False)`
 # with the same random numbers. Every particle shares the same map covariance here (it
 # depends only on which landmarks were seen when, not on where the robot was), so `P` is a
@@ -121,7 +121,7 @@ print(f"step {k}: {obs.sum() // 2} landmark(s) seen; largest difference from the
 # %% [markdown]
 # ## One run
 #
-# The seed-2024 run of the lab's model with $N = 100$: landmark 1's $x$ estimate and its
+# The run with seed $2024$ of the lab's model with $N = 100$: the first landmark's $x$ estimate and its
 # $\pm 3\sigma$ band, for SIR and for the Rao-Blackwellised filter, over the exact posterior.
 
 # %%
@@ -143,14 +143,16 @@ plt.show()
 # SIR's band shrinks to a line that stays where resampling left it; the Rao-Blackwellised
 # band is the Kalman band, and its mean follows the exact one.
 #
-# ## Measured over 100 runs and five particle counts
+# ## Measured over a hundred runs and five particle counts
 #
 # The study behind the rest of this chapter is too heavy to run here (six filters, five
-# particle counts, 100 simulations: about 3,000 runs), so it was computed by
+# particle counts, {glue:text}`n_runs_rb:d` simulations: {glue:text}`rb_quadrant_filter_runs:d`
+# filter runs), so it was computed by
 # `tools/studies/rao_blackwell.py` and stored in `book/data/rao_blackwell.csv`, with its
 # provenance (git commit, seeds, settings, wall time) in `book/data/rao_blackwell.json`;
 # `tests/test_rao_blackwell.py` re-computes a random sample of its rows and requires the
-# same numbers. Every method and every $N$ sees the same 100 simulations (seeds 0-99) and
+# same numbers. Every method and every $N$ sees the same {glue:text}`n_runs_rb:d` simulations
+# (seeds $0$ to $99$) and
 # the same filter seed ($s + 10^6$); SIR-type filters resample at ESS $< N/3$, as in the lab.
 # Scores, at the last step unless said: the landmark and robot error (RMS over coordinates
 # of the filter mean minus the Kalman mean), the log-likelihood error, the mean ESS$/N$ at
@@ -163,6 +165,7 @@ quad = data[data.scenario == "quadrant"]
 runs = quad[quad.method != "kalman"]
 N_VALUES = [int(n) for n in sorted(runs.N.unique())]
 n_runs = quad.seed.nunique()
+glue("rb_quadrant_filter_runs", int(len(runs)), display=False)
 ORDER = list(METHODS)
 
 
@@ -212,9 +215,9 @@ plt.show()
 # ### How the error falls with N, and by how much it beats SIR
 #
 # The slope is a least-squares fit of $\log$(median error) on $\log N$ over the five particle
-# counts; its interval resamples the 100 simulations (the same ones for every $N$) 2,000
-# times. The ratio is SIR's error over the Rao-Blackwellised filter's, per run (paired), with
-# a Wilcoxon signed-rank test of "the ratio exceeds 10".
+# counts; its interval resamples the {glue:text}`n_runs_rb:d` simulations (the same ones for
+# every $N$) $2000$ times. The ratio is SIR's error over the Rao-Blackwellised filter's, per run
+# (paired), with a Wilcoxon signed-rank test of "the ratio exceeds $10$".
 
 # %%
 boot_rng = np.random.default_rng(1)
@@ -267,16 +270,16 @@ glue("n_runs_rb", int(n_runs), display=False)
 # and SIR at {glue:text}`sir_error_slope:.2f`, the impoverishment rate of {doc}`sir`.
 # Because the slopes differ, the gap widens with $N$: the per-run ratio is
 # {glue:text}`sir_rbpf_ratio_n300:.0f` at $N = 300$ and {glue:text}`sir_rbpf_ratio_n3000:.0f`
-# at $N = 3000$, and from $N = 100$ on the Wilcoxon test puts it above 10 ($p$ =
+# at $N = 3000$, and from $N = 100$ on the Wilcoxon test puts it above $10$ ($p$ =
 # {glue:text}`sir_rbpf_ratio_p_n100:.1e` at $N = 100$). At $N = 30$ it is
-# {glue:text}`sir_rbpf_ratio_n30:.1f`, not shown to exceed 10 ($p$ =
+# {glue:text}`sir_rbpf_ratio_n30:.1f`, not shown to exceed $10$ ($p$ =
 # {glue:text}`sir_rbpf_ratio_p_n30:.2f`).
 #
 # ### How many particles for a given error
 #
 # Each method's median error is fitted by a power law $e = a N^{b}$ over the five counts;
 # the particle count that reaches a target error follows. A count outside the measured
-# range 30-3000 is an extrapolation along the fitted line and is marked so.
+# range ($N = 30$ to $3000$) is an extrapolation along the fitted line and is marked so.
 
 # %%
 targets = (0.05, 0.02, 0.01)
@@ -295,10 +298,17 @@ for m in ORDER:
 print("* extrapolated beyond N = 30-3000")
 glue("rbpf_n_for_2cm", float(needed["rbpf_optimal", 0.02]), display=False)
 glue("sir_n_for_2cm", float(needed["sir", 0.02]), display=False)
+fewer = [needed[m, t] / needed["rbpf_optimal", t] for m in ("sir", "sir_optimal", "apf") for t in targets]
+print(f"filters that sample the map / RBPF (FastSLAM 2.0), particles for the same target: "
+      f"{min(fewer):.2g} to {max(fewer):.2g} times more")
+glue("rb_fewer_particles_min", float(f"{min(fewer):.2g}"), display=False)
+glue("rb_fewer_particles_max", float(f"{max(fewer):.2g}"), display=False)
 
 # %% [markdown]
-# The Rao-Blackwellised filter needs about a hundred thousand times fewer particles than the
-# filters that sample the map, for any of these targets. A 2 cm median error takes about
+# Along the fitted lines, the Rao-Blackwellised filter (FastSLAM 2.0) needs
+# {glue:text}`rb_fewer_particles_min:,.0f` to {glue:text}`rb_fewer_particles_max:,.0f` times
+# fewer particles than the filters that sample the map, depending on the filter and the
+# target (all of their counts are extrapolations). A $2$ cm median error takes about
 # {glue:text}`rbpf_n_for_2cm:.0f` particles with the
 # Rao-Blackwellised filter; along SIR's fitted line it would take about
 # {glue:text}`sir_n_for_2cm:.1e`, far beyond anything measured here (and the line itself is
@@ -308,8 +318,8 @@ glue("sir_n_for_2cm", float(needed["sir", 0.02]), display=False)
 #
 # If a filter's mean and covariance were the exact posterior, the NEES
 # $(x_k - \hat x_k)^\top \hat P_k^{-1} (x_k - \hat x_k)$ against the true state would be
-# $\chi^2_6$; its average over 100 independent runs then falls in
-# $[\chi^2_{600}(0.025), \chi^2_{600}(0.975)] / 100$ at 95 % of the steps. The Kalman filter
+# $\chi^2_6$; its average over {glue:text}`n_runs_rb:d` independent runs then falls in
+# $[\chi^2_{600}(0.025), \chi^2_{600}(0.975)] / 100$ at $95\,\%$ of the steps. The Kalman filter
 # is the reference.
 
 # %%
@@ -356,21 +366,54 @@ glue("rbapf_nees_in_band_n3000", share_in_band(run_averaged_nees("rb_apf", 3000)
 glue("kalman_nees_in_band", share_in_band(run_averaged_nees("kalman", 0)), display=False)
 glue("rbpf_nees_last10_n100", float(last10[100]), display=False)
 glue("rbpf_nees_last10_n3000", float(last10[3000]), display=False)
+glue("rbpf_nees_factor_n100", float(last10[100] / 6), display=False)
+glue("nees_band_high", float(hi), display=False)
+sir_last10 = run_averaged_nees("sir", 100)[-10:].mean()
+print(f"SIR, bootstrap, N = 100: run-averaged NEES over the last 10 steps {sir_last10:.3g}")
+glue("sir_nees_last10_n100", float(sir_last10), display=False)
+excess_slope = np.polyfit(logN, np.log([last10[n] - 6 for n in N_VALUES]), 1)[0]
+print(f"RBPF (FastSLAM 2.0): slope of log(last-10-step NEES - 6) on log N over N = {N_VALUES}: {excess_slope:.2f}")
+glue("rbpf_nees_excess_slope", float(excess_slope), display=False)
+
+
+def per_run_last10(method, n):
+    rows = quad[(quad.method == method) & (quad.N == n)].sort_values("seed")
+    return rows[nees_cols[-10:]].to_numpy(float).mean(axis=1)
+
+
+nees_100_3000 = evidence.paired(per_run_last10("rbpf_optimal", 100), per_run_last10("rbpf_optimal", 3000), ratio=True)
+print(f"RBPF (FastSLAM 2.0), per-run NEES over the last 10 steps, N = 100 / N = 3000: {nees_100_3000}")
+glue("rbpf_nees_100_3000_ratio", nees_100_3000.median, display=False)
+glue("rbpf_nees_100_3000_low", nees_100_3000.low, display=False)
+glue("rbpf_nees_100_3000_high", nees_100_3000.high, display=False)
+glue("rbpf_nees_100_3000_p", nees_100_3000.pvalue, display=False)
+kalman_lm_sd = np.median([np.sqrt(np.mean(np.diag(kalman_filter(model, simulate(scenario, rng=int(s)).Z).cov[-1])[2:]))
+                          for s in sorted(quad.seed.unique())])
+print(f"Kalman filter: posterior standard deviation of a landmark coordinate at the last step, median over "
+      f"{n_runs} runs: {kalman_lm_sd:.3f} m")
+glue("kalman_landmark_sd_last", float(kalman_lm_sd), display=False)
 
 # %% [markdown]
 # With $N = 100$ the run-averaged NEES of the Rao-Blackwellised filter is inside the band at
 # only {glue:text}`rbpf_nees_in_band:.0%` of the steps (the Kalman filter:
-# {glue:text}`kalman_nees_in_band:.0%`): over the last 10 steps it averages
-# {glue:text}`rbpf_nees_last10_n100:.1f` instead of 6. It is too confident, though by a
-# factor of about two where SIR is off by many orders of magnitude. The reason is the Monte
-# Carlo error itself: the filter's covariance is that of the posterior, but its mean also
-# carries a sampling error of the same order (the landmark error against the exact mean,
-# 3 cm, is comparable to the posterior's standard deviation), and nothing in the covariance
-# accounts for it. It shrinks as $1/N$: at $N = 3000$ the last-10-step NEES is
-# {glue:text}`rbpf_nees_last10_n3000:.1f` and {glue:text}`rbpf_nees_in_band_n3000:.0%` of the
-# steps are in the band ({glue:text}`rbapf_nees_in_band_n3000:.0%` for the auxiliary
-# version). A consistent filter at small $N$ would have to add an estimate of its own Monte
-# Carlo variance to its covariance.
+# {glue:text}`kalman_nees_in_band:.0%`): over the last $10$ steps it averages
+# {glue:text}`rbpf_nees_last10_n100:.1f` instead of $6$. It is too confident, though by a
+# factor of {glue:text}`rbpf_nees_factor_n100:.1f`, where SIR's average is
+# {glue:text}`sir_nees_last10_n100:.1e`. The reason is the Monte Carlo error itself: the
+# filter's covariance is that of the posterior, but its mean also carries a sampling error
+# of the same order (the landmark error against the exact mean,
+# {glue:text}`rbpf_landmark_error_n100:.3f` m, is comparable to the posterior's standard
+# deviation, {glue:text}`kalman_landmark_sd_last:.3f` m in the median run), and nothing in
+# the covariance accounts for it. It shrinks with $N$, though more slowly than the $1/N$ of a
+# Monte Carlo variance: the excess of the last-$10$-step NEES over $6$ falls as $N$ to the
+# power {glue:text}`rbpf_nees_excess_slope:.2f` (fit over the five counts). At $N = 3000$ the
+# last-$10$-step NEES is {glue:text}`rbpf_nees_last10_n3000:.1f` (per run, the $N = 100$ value
+# is a median {glue:text}`rbpf_nees_100_3000_ratio:.1f` times the $N = 3000$ one, 95 % CI
+# {glue:text}`rbpf_nees_100_3000_low:.1f`-{glue:text}`rbpf_nees_100_3000_high:.1f`, Wilcoxon
+# $p$ = {glue:text}`rbpf_nees_100_3000_p:.1e`, {glue:text}`n_runs_rb:d` runs) and
+# {glue:text}`rbpf_nees_in_band_n3000:.0%` of the steps are in the band
+# ({glue:text}`rbapf_nees_in_band_n3000:.0%` for the auxiliary version). A consistent filter
+# at small $N$ would have to add an estimate of its own Monte Carlo variance to its covariance.
 #
 # ### Likelihood, ESS and cost
 #
@@ -412,16 +455,17 @@ glue("rbpf_cost_ratio_n3000", float(cost[3000]), display=False)
 # The Rao-Blackwellised filter's log-likelihood is off by a median
 # {glue:text}`rbpf_llerr_n100:.2f` nats at $N = 100$ and {glue:text}`rbpf_llerr_n1000:.2f` at
 # $N = 1000$: biased down, as the logarithm of an unbiased estimate must be. The estimate of
-# $p(z)$ itself is unbiased (`tests/test_rao_blackwell.py` checks it on 10-step runs), but
-# over 50 steps its distribution is so skewed that 100 runs do not show it at small $N$: the
+# $p(z)$ itself is unbiased (`tests/test_rao_blackwell.py` checks it on $10$-step runs), but
+# over $50$ steps its distribution is so skewed that {glue:text}`n_runs_rb:d` runs do not show
+# it at small $N$: the
 # sample mean of $\hat p(z) / p(z)$ is {glue:text}`rbpf_zratio_n30:.2f` at $N = 30$ (95 % CI
 # {glue:text}`rbpf_zratio_n30_low:.2f`-{glue:text}`rbpf_zratio_n30_high:.2f`) and
 # {glue:text}`rbpf_zratio_n100:.2f` at $N = 100$ (CI
-# {glue:text}`rbpf_zratio_n100_low:.2f`-{glue:text}`rbpf_zratio_n100_high:.2f`), below 1 because
+# {glue:text}`rbpf_zratio_n100_low:.2f`-{glue:text}`rbpf_zratio_n100_high:.2f`), below $1$ because
 # the rare large ratios that restore the expectation are seldom drawn; at $N = 1000$ the spread
 # is smaller and the mean, {glue:text}`rbpf_zratio_n1000:.2f` (CI
 # {glue:text}`rbpf_zratio_n1000_low:.2f`-{glue:text}`rbpf_zratio_n1000_high:.2f`), is
-# consistent with 1. The filters that sample the map are off by tens to hundreds of nats: their
+# consistent with $1$. The filters that sample the map are off by tens to hundreds of nats: their
 # likelihood estimate is useless for comparing models or tuning parameters.
 #
 # Per step, the Rao-Blackwellised filter costs {glue:text}`rbpf_cost_ratio_n100:.1f` times
@@ -435,10 +479,11 @@ glue("rbpf_cost_ratio_n3000", float(cost[3000]), display=False)
 #
 # Report 003 extends the model to $M = 5$ landmarks seen in a triangular field of view
 # along a circular path. The report does not give all its numbers, so the centre $(2, 1)$ m,
-# the path radius 3 m, the landmark circle (radius 4.5 m), the field of view (45° either side,
-# 6 m deep) and the noise levels are **our choices** (`circle_scenario`, see {doc}`model`).
-# The same study, with $N = 100$ and $1000$ and the same 100 seeds, gives (state of dimension
-# 12, map of dimension 10):
+# the path radius $3$ m, the landmark circle (radius $4.5$ m), the field of view ($45°$ either
+# side, $6$ m deep) and the noise levels are **our choices** (`circle_scenario`, see {doc}`model`).
+# The same study, with $N = 100$ and $1000$ and the same {glue:text}`n_runs_rb:d` seeds, gives
+# (state of dimension $12$, map of dimension $10$; the last line compares SIR's errors with
+# those of the two-landmark model, a Mann-Whitney test since the simulations differ):
 
 # %%
 circ = data[(data.scenario == "circle") & (data.method != "kalman")]
@@ -455,16 +500,22 @@ for n in sorted(circ.N.unique()):
     glue(f"m5_sir_error_n{n}", float(np.median(e["sir"])), display=False)
     glue(f"m5_ratio_p_n{n}", float(stats.wilcoxon(np.log(ratio) - np.log(10), alternative="greater").pvalue),
          display=False)
+    two = err["sir"][N_VALUES.index(n)]
+    mw = stats.mannwhitneyu(e["sir"], two, alternative="greater")
+    print(f"         SIR, five landmarks vs two: median {np.median(e['sir']):.3f} vs {np.median(two):.3f} m, "
+          f"Mann-Whitney 'five worse' p = {mw.pvalue:.1e} ({len(e['sir'])} and {len(two)} runs)")
+    glue(f"m5_vs_m2_sir_p_n{n}", float(mw.pvalue), display=False)
+    glue(f"m2_sir_error_n{n}", float(np.median(two)), display=False)
 
 # %% [markdown]
-# Report 003's own findings, checked on the same model with its $N = 100$ particles (100
-# simulations, seeds 0-99; SIS, SIR with threshold $N/3$ and the Rao-Blackwellised filter
-# with the same filter seeds): (1) SIS degenerates "from the first iterations", one particle
-# taking all the weight; (2) in SIR the landmarks' ellipses vanish, which the report reads
-# as the landmarks being known; (3) SIR estimates the robot and its uncertainty robustly.
+# Report 003's own findings, checked on the same model with its $N = 100$ particles ($100$
+# simulations, seeds $0$ to $99$; SIS, SIR with threshold $N/3$ and the Rao-Blackwellised filter
+# with the same filter seeds): (i) SIS degenerates "from the first iterations", one particle
+# taking all the weight; (ii) in SIR the landmarks' ellipses vanish, which the report reads
+# as the landmarks being known; (iii) SIR estimates the robot and its uncertainty robustly.
 # We score the spread against the exact one (filter sd / Kalman sd, geometric mean over
 # coordinates, last step) and the coverage of the truth by the filter's 95 % ellipse
-# (robot, last 10 steps).
+# (robot, last $10$ steps; per run, then compared run by run).
 
 # %%
 from pfcourse.diagnostics import nees
@@ -498,9 +549,20 @@ for name, c in check.items():
     glue(f"m5_{name.lower()}_robot_sd", float(np.median(c["robot_sd"])), display=False)
     glue(f"m5_{name.lower()}_robot_cover", float(cover), display=False)
 glue("m5_sis_collapse", float(np.nanmedian(check["SIS"]["collapse"])), display=False)
+cover_sir, cover_rb = np.array(check["SIR"]["robot_cover"]), np.array(check["RBPF"]["robot_cover"])
+rb_vs_sir = evidence.paired(cover_rb, cover_sir)
+print(f"robot coverage per run, RBPF - SIR: {rb_vs_sir}")
+cover_ci = stats.bootstrap((cover_rb,), np.mean, n_resamples=2000, method="percentile",
+                           random_state=np.random.default_rng(0)).confidence_interval
+print(f"RBPF robot coverage: mean over runs {cover_rb.mean():.0%}, 95 % bootstrap CI "
+      f"{cover_ci.low:.0%}-{cover_ci.high:.0%} ({len(cover_rb)} runs)")
+glue("m5_cover_rb_minus_sir", rb_vs_sir.median, display=False)
+glue("m5_cover_rb_minus_sir_p", rb_vs_sir.pvalue, display=False)
+glue("m5_rbpf_robot_cover_high", float(cover_ci.high), display=False)
+glue("m5_rbpf_robot_cover_low", float(cover_ci.low), display=False)
 
 # %% [markdown]
-# 1. **Confirmed**: SIS's ESS falls below 1.5 at step {glue:text}`m5_sis_collapse:.0f` in
+# 1. **Confirmed**: SIS's ESS falls below $1.5$ at step {glue:text}`m5_sis_collapse:.0f` in
 #    the median run and its spread collapses (landmark sd {glue:text}`m5_sis_lm_sd:.1g` of the
 #    exact one).
 # 2. **Confirmed, wrongly explained**: SIR's landmark spread is
@@ -508,10 +570,13 @@ glue("m5_sis_collapse", float(np.nanmedian(check["SIS"]["collapse"])), display=F
 #    not known: the exact posterior keeps their uncertainty; the cloud has lost its diversity
 #    (impoverishment, {doc}`sir`).
 # 3. **Not confirmed**: SIR's robot ellipse covers the truth at
-#    {glue:text}`m5_sir_robot_cover:.0%` of the last 10 steps, against 95 % for an exact
+#    {glue:text}`m5_sir_robot_cover:.0%` of the last $10$ steps, against $95\,\%$ for an exact
 #    filter; its robot estimate inherits the wrong landmarks. The Rao-Blackwellised filter
-#    covers it at {glue:text}`m5_rbpf_robot_cover:.0%`: much better, but still overconfident
-#    at $N = 100$, as its NEES showed on the two-landmark model (robot spread
+#    covers it at {glue:text}`m5_rbpf_robot_cover:.0%`: much better (per run, a median
+#    difference of {glue:text}`m5_cover_rb_minus_sir:.0%` of the steps, Wilcoxon $p$ =
+#    {glue:text}`m5_cover_rb_minus_sir_p:.0e`), but still overconfident at $N = 100$
+#    (95 % bootstrap CI of its coverage {glue:text}`m5_rbpf_robot_cover_low:.0%`-{glue:text}`m5_rbpf_robot_cover_high:.0%`),
+#    as its NEES showed on the two-landmark model (robot spread
 #    {glue:text}`m5_rbpf_robot_sd:.2f`, landmark spread {glue:text}`m5_rbpf_lm_sd:.2f` of the
 #    exact ones: resampling still thins the robot paths, and each particle's map inherits its
 #    path's overconfidence).
@@ -519,7 +584,9 @@ glue("m5_sis_collapse", float(np.nanmedian(check["SIS"]["collapse"])), display=F
 # With five landmarks the filters that sample the map do worse than with two (ten static
 # coordinates to get right from the initial cloud): SIR's median error is
 # {glue:text}`m5_sir_error_n100:.2f` m at $N = 100$ and still {glue:text}`m5_sir_error_n1000:.2f`
-# m at $N = 1000$. The Rao-Blackwellised filter, {glue:text}`m5_rbpf_error_n100:.3f` m and
+# m at $N = 1000$, against {glue:text}`m2_sir_error_n100:.2f` m and
+# {glue:text}`m2_sir_error_n1000:.2f` m with two landmarks (Mann-Whitney $p$ =
+# {glue:text}`m5_vs_m2_sir_p_n100:.0e` and {glue:text}`m5_vs_m2_sir_p_n1000:.0e`). The Rao-Blackwellised filter, {glue:text}`m5_rbpf_error_n100:.3f` m and
 # {glue:text}`m5_rbpf_error_n1000:.3f` m, is {glue:text}`m5_sir_rbpf_ratio_n100:.0f` and
 # {glue:text}`m5_sir_rbpf_ratio_n1000:.0f` times better per run (median ratios; above ten
 # by the Wilcoxon test at $N = 1000$, $p$ = {glue:text}`m5_ratio_p_n1000:.1e`, not at $N = 100$,
@@ -578,15 +645,17 @@ glue("apf_same_share_n1000", same, display=False)
 # move leaves.
 #
 # (answer-q8-cure)=
-# ## Lab question 8, answered with the cure measured
+# ## Is particle filtering adequate? The lab's question, answered with the cure measured
 #
 # Particle filtering *is* adequate for this problem, provided it samples only what it must.
 # Over the full state, SIR cannot move the static landmarks and its error falls roughly as
 # $N^{-1/4}$; sampling the robot and integrating the landmarks out with one Kalman filter per
 # particle gives an error {glue:text}`sir_rbpf_ratio_n100:.0f` times smaller at $N = 100$,
-# falling as $N^{-1/2}$, a NEES that reaches the chi-square band as $N$ grows (too confident
-# by about a factor of two at $N = 100$, where SIR is off by orders of magnitude), and a
-# log-likelihood about a nat from the exact one at $N = 100$. On this linear model the Kalman filter remains the exact and cheapest
+# falling as $N^{-1/2}$, a NEES that approaches the chi-square band as $N$ grows (too
+# confident by a factor of {glue:text}`rbpf_nees_factor_n100:.1f` at $N = 100$, where SIR is
+# off by orders of magnitude; {glue:text}`rbpf_nees_last10_n3000:.1f` at $N = 3000$ against
+# the band's upper edge {glue:text}`nees_band_high:.2f`), and a log-likelihood a median
+# {glue:text}`rbpf_llerr_n100:.1f` nats from the exact one at $N = 100$. On this linear model the Kalman filter remains the exact and cheapest
 # answer; the point of the Rao-Blackwellised filter is that it keeps working when the robot
 # part becomes nonlinear (range and bearing, Part II), where FastSLAM was born.
 #
@@ -623,7 +692,7 @@ glue("apf_same_share_n1000", same, display=False)
 # :class: dropdown
 # The cell "One step by hand" is the body. Wrapped, and applied twice:
 #
-# ```python
+# ```{code} python
 # def fastslam1_step(robot, m, P, z, rng):
 #     P = P + rb.Ql
 #     obs = ~np.isnan(z)

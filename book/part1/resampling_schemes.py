@@ -37,6 +37,7 @@ import filterpy.monte_carlo as fp
 import matplotlib.pyplot as plt
 import numpy as np
 from IPython.display import display
+from myst_nb import glue
 
 from pfcourse.style import COLORS, use_style
 from pfcourse.resampling import SCHEMES
@@ -48,7 +49,7 @@ SCHEME_COLORS = dict(zip(SCHEMES, ("tab:blue", "tab:orange", "tab:green", "tab:p
 # %% [markdown]
 # ## How each scheme maps uniforms to indices
 #
-# The bar is $[0, 1)$ cut into the cumulative weights of 8 particles (the width of segment $i$
+# The bar is $[0, 1)$ cut into the cumulative weights of eight particles (the width of segment $i$
 # is $W_i$); the ticks above it are the uniforms each scheme draws ($n = 8$), and each uniform
 # picks the segment it falls in. Multinomial uniforms may cluster and leave a heavy particle
 # without offspring; stratified puts one uniform in each eighth; systematic uses one offset
@@ -96,11 +97,15 @@ plt.show()
 # %% [markdown]
 # ## Offspring-count variance: measured against the closed forms
 #
-# For a fixed set of $n = 50$ weights (drawn once, fairly uneven: ESS about 10), each scheme
-# is run 10 000 times with seeds 0 to 9999. The measured $\operatorname{Var} N_i$ should match
-# the closed form of the table to within sampling error (the sample variance of 10 000 draws
-# has a relative standard error of about $\sqrt{2/10^4} \approx 1.4\,\%$ for Gaussian-like
-# counts).
+# For a fixed set of $n = 50$ weights (drawn once, fairly uneven: ESS
+# {glue:text}`weights_ess:.1f`), each scheme is run {glue:text}`n_reps:d` times, one seed each
+# (seeds $0, 1, 2, \dots$). The measured $\operatorname{Var} N_i$ should match the closed form
+# of the table to within sampling error (the sample variance of $10^4$ draws has a relative
+# standard error of about $\sqrt{2/10^4} \approx 1.4\,\%$ for Gaussian-like counts). Below
+# the table, each particle's measured variance minus its closed form is divided by its standard
+# error (from the spread of the variance over $20$ batches of $500$ resamplings): the largest
+# of these $z$-scores over the $n$ particles, with the number of particles beyond $|z| = 2$
+# (about $5\,\%$ of them expected).
 
 # %%
 n = 50
@@ -123,11 +128,31 @@ closed = {
     "residual": R * (r / R) * (1 - r / R),
 }
 print(f"ESS of the weights: {1 / np.sum(w**2):.1f}")
+glue("weights_ess", float(1 / np.sum(w**2)), display=False)
+glue("n_reps", n_reps, display=False)
+glue("n_weights", n, display=False)
 print(f"{'scheme':12s} {'sum Var N_i measured':>21s} {'closed form':>12s} {'max |E N_i - n W_i|':>20s}")
 for name in SCHEMES:
     v = counts[name].var(axis=0, ddof=1)
     bias = np.abs(counts[name].mean(axis=0) - n * w).max()
     print(f"{name:12s} {v.sum():21.2f} {closed[name].sum():12.2f} {bias:20.3f}")
+z_max, n_beyond, n_batches = {}, 0, 20
+for name in SCHEMES:
+    v = counts[name].var(axis=0, ddof=1)
+    batch_var = counts[name].reshape(n_batches, -1, n).var(axis=1, ddof=1)
+    se = batch_var.std(axis=0, ddof=1) / np.sqrt(n_batches)
+    z = np.divide(v - closed[name], se, out=np.zeros(n), where=se > 0)
+    z_max[name] = float(np.abs(z).max())
+    n_beyond += int(np.sum(np.abs(z) > 2))
+    print(f"{name:12s} measured - closed form, in standard errors: largest |z| {z_max[name]:.1f}, "
+          f"{int(np.sum(np.abs(z) > 2))} of {n} particles beyond 2")
+glue("var_z_max", max(z_max.values()), display=False)
+glue("var_z_beyond2", n_beyond, display=False)
+glue("var_z_count", n * len(SCHEMES), display=False)
+glue("multinomial_var_factor_min", float(min(closed["multinomial"].sum() / closed[m].sum()
+                                             for m in SCHEMES if m != "multinomial")), display=False)
+glue("multinomial_var_factor_max", float(max(closed["multinomial"].sum() / closed[m].sum()
+                                             for m in SCHEMES if m != "multinomial")), display=False)
 
 # %%
 fig, axes = plt.subplots(1, 4, figsize=(10, 3.3), sharex=True, sharey=True, layout="constrained")
@@ -141,8 +166,12 @@ fig.suptitle(f"Each dot: one of {n} particles; {n_reps} resamplings per scheme")
 plt.show()
 
 # %% [markdown]
-# The dots sit on the diagonal: the measured variances are the closed forms. Multinomial
-# adds several times more offspring variance than the others (compare the sums above);
+# The dots sit on the diagonal: the measured variances are the closed forms, every particle
+# of every scheme within {glue:text}`var_z_max:.1f` standard errors, and
+# {glue:text}`var_z_beyond2:d` of the {glue:text}`var_z_count:d` beyond two, about the
+# $5\,\%$ that chance gives. Multinomial resampling adds
+# {glue:text}`multinomial_var_factor_min:.1f` to {glue:text}`multinomial_var_factor_max:.1f`
+# times more offspring variance in total than the others (closed forms, sums above);
 # systematic has the smallest total, and never more than $1/4$ for any particle.
 #
 # ## Variance of the resampled estimate
@@ -153,7 +182,8 @@ plt.show()
 # Closed forms: multinomial $\frac1n \operatorname{Var}_W(x)$; residual
 # $\frac{R}{n^2} \operatorname{Var}_\rho(x)$; stratified $\frac{1}{n^2}\sum_k \operatorname{Var}(x \mid \text{stratum } k)$
 # (strata are independent). Systematic has no simple general formula, but $N$ depends on the
-# single offset $U$ only, so we integrate over $U$ numerically (20 000 values of $U$).
+# single offset $U$ only, so we integrate over $U$ numerically ($20\,000$ values of $U$). The
+# measured variance of each scheme is again compared with its theory in standard errors.
 
 # %%
 x = np.arange(n) / n
@@ -169,17 +199,44 @@ U = (np.arange(20_000) + 0.5) / 20_000
 idx = np.searchsorted(C[1:-1], (np.arange(n)[None] + U[:, None]) / n, side="right")
 theory["systematic"] = x[idx].mean(axis=1).var()
 for name in SCHEMES:
-    print(f"{name:12s} Var(mu_hat): measured {estimate_var[name]:.2e}, theory {theory[name]:.2e}, "
+    mu_hat = counts[name] @ x / n
+    se = np.sqrt(max(np.mean((mu_hat - mu_hat.mean()) ** 4) - estimate_var[name] ** 2, 0) / n_reps)
+    print(f"{name:12s} Var(mu_hat): measured {estimate_var[name]:.2e}, theory {theory[name]:.2e} "
+          f"({(estimate_var[name] - theory[name]) / se:+.1f} standard errors), "
           f"ratio to multinomial {theory[name] / theory['multinomial']:.3f}")
+    glue(f"{name}_estimate_var_factor", float(theory["multinomial"] / theory[name]), display=False)
+
+
+def estimate_variances(xs):
+    """Var(mu_hat) of every scheme from the closed forms (systematic: integrated over U) for positions xs."""
+    m = w @ xs
+    return {"multinomial": (w @ xs**2 - m**2) / n,
+            "residual": R / n**2 * (rho @ xs**2 - (rho @ xs) ** 2),
+            "stratified": ((p_ik * xs[:, None] ** 2).sum(axis=0) - (p_ik * xs[:, None]).sum(axis=0) ** 2).sum() / n**2,
+            "systematic": xs[idx].mean(axis=1).var()}
+
+
+x_jumpy = np.random.default_rng(0).random(n)
+jumpy = estimate_variances(x_jumpy)
+print("x = np.random.default_rng(0).random(n), theory, ratio to multinomial: "
+      + ", ".join(f"{name} {jumpy[name] / jumpy['multinomial']:.3f}" for name in SCHEMES))
+glue("jumpy_worst_ratio", float(max(jumpy[m] / jumpy["multinomial"] for m in SCHEMES)), display=False)
+for name in SCHEMES:
+    glue(f"jumpy_{name}_factor", float(jumpy["multinomial"] / jumpy[name]), display=False)
 
 # %% [markdown]
-# The measured values match theory within sampling error. Against multinomial resampling,
-# residual resampling cuts the variance of this estimate by a factor of about 2.6, and
-# stratified and systematic resampling by one to three orders of magnitude: here $x_i$
-# increases with $i$, so neighbouring strata see neighbouring values, the case in which
-# stratification helps most. For a function that jumps around with $i$ the gains are smaller
-# (try `x = np.random.default_rng(0).random(n)`), but no scheme does worse than multinomial
-# on these weights.
+# The measured values match theory within sampling error (the standard errors printed above).
+# Against multinomial resampling, residual resampling cuts the variance of this estimate by a
+# factor of {glue:text}`residual_estimate_var_factor:.1f`, systematic resampling by
+# {glue:text}`systematic_estimate_var_factor:.0f` and stratified resampling by
+# {glue:text}`stratified_estimate_var_factor:.0f`: here $x_i$ increases with $i$, so
+# neighbouring strata see neighbouring values, the case in which stratification helps most.
+# For a function that jumps around with $i$ (`x = np.random.default_rng(0).random(n)`, last
+# line above, from the closed forms) the gains of stratified and systematic resampling are
+# much smaller, factors of {glue:text}`jumpy_stratified_factor:.1f` and
+# {glue:text}`jumpy_systematic_factor:.1f`, while residual resampling's, which does not depend
+# on the order of the particles, stays about the same ({glue:text}`jumpy_residual_factor:.1f`);
+# no scheme does worse than multinomial on these weights.
 #
 # ## Run time against N
 #
@@ -187,7 +244,7 @@ for name in SCHEMES:
 # (`pfcourse.kernels.inverse_cdf_sorted`), $O(n)$: stratified and systematic uniforms are
 # born sorted, multinomial resampling sorts its $n$ uniforms first ($O(n \log n)$), and
 # residual resampling sorts only the uniforms of its random remainder. The figure shows the median of
-# 5 timings per size on this machine (timings vary between machines and runs, so only the
+# $5$ timings per size on this machine (timings vary between machines and runs, so only the
 # figure is shown; its shape, not its numbers, is the point).
 
 # %%
@@ -215,12 +272,14 @@ plt.show()
 # `filterpy.monte_carlo.residual_resample` (version 2.0.0) computes the leftover weights as
 # `weights - num_copies` instead of `n * weights - num_copies`, so a particle with
 # $n W_i < 1$ (no sure copy) is almost never drawn and heavy particles get too many copies.
-# Below, 10 weights, 20 000 resamplings each (seeds 0 to 19 999; filterpy uses numpy's
-# global generator, which we seed), the mean offspring counts against $n W_i$:
+# Below, ten weights, {glue:text}`filterpy_reps:d` resamplings each (one seed each, from $0$ up;
+# filterpy uses numpy's global generator, which we seed), the mean offspring counts against
+# $n W_i$:
 
 # %%
 w10 = np.array([0.31, 0.22, 0.15, 0.09, 0.08, 0.06, 0.04, 0.03, 0.015, 0.005])
 reps = 20_000
+glue("filterpy_reps", reps, display=False)
 ours = np.array([np.bincount(SCHEMES["residual"](w10, np.random.default_rng(s)), minlength=10)
                  for s in range(reps)])
 theirs = []
@@ -234,6 +293,14 @@ print("pfcourse residual :", np.round(ours.mean(axis=0), 3))
 print("filterpy residual :", np.round(theirs.mean(axis=0), 3))
 print(f"largest deviation in standard errors: pfcourse {np.max(np.abs(ours.mean(0) - 10 * w10) / se):.1f}, "
       f"filterpy {np.max(np.abs(theirs.mean(0) - 10 * w10) / se):.0f}")
+no_sure_copy = np.flatnonzero(10 * w10 < 1)
+print(f"particles with n W_i < 1: {(no_sure_copy + 1).tolist()}; filterpy gives them "
+      f"{int(theirs[:, no_sure_copy].sum())} copies in {reps} resamplings")
+glue("pfcourse_residual_max_se", float(np.max(np.abs(ours.mean(0) - 10 * w10) / se)), display=False)
+glue("filterpy_residual_max_se", float(np.max(np.abs(theirs.mean(0) - 10 * w10) / se)), display=False)
+glue("filterpy_no_copy_first", int(no_sure_copy[0] + 1), display=False)
+glue("filterpy_no_copy_last", int(no_sure_copy[-1] + 1), display=False)
+glue("filterpy_no_copy_total", int(theirs[:, no_sure_copy].sum()), display=False)
 
 fig, ax = plt.subplots(figsize=(7, 3.2))
 pos = np.arange(10)
@@ -248,14 +315,18 @@ ax.legend(fontsize=8)
 plt.show()
 
 # %% [markdown]
-# Particles 4 to 10 ($n W_i < 1$) get no copies from filterpy's version, where they should
-# get $n W_i$ on average; the first ones get too many. Inside a filter this is a systematic
-# shrinking of the posterior towards its heaviest particles. `pfcourse.resampling.residual`
-# matches $n W_i$ to within sampling error; `tests/test_resampling.py` checks both.
+# Particles {glue:text}`filterpy_no_copy_first:d` to {glue:text}`filterpy_no_copy_last:d`
+# ($n W_i < 1$) get {glue:text}`filterpy_no_copy_total:d` copies from filterpy's version in
+# all {glue:text}`filterpy_reps:d` resamplings, where they should get $n W_i$ on average; the
+# first ones get too many, up to {glue:text}`filterpy_residual_max_se:.0f` standard errors
+# away. Inside a filter this is a systematic shrinking of the posterior towards its heaviest
+# particles. `pfcourse.resampling.residual` matches $n W_i$ to within sampling error (largest
+# deviation {glue:text}`pfcourse_residual_max_se:.1f` standard errors over the ten
+# particles); `tests/test_resampling.py` checks both.
 #
 # ## Try it
 #
-# The panel resamples 50 particles with the chosen scheme and seed, for weights of chosen
+# The panel resamples {glue:text}`n_weights:d` particles with the chosen scheme and seed, for weights of chosen
 # unevenness, and shows each particle's offspring count against $n W_i$.
 
 # %%
@@ -307,20 +378,20 @@ display(control_panel(draw_offspring, grid={"scheme": tuple(SCHEMES), "spread": 
 # :class: dropdown
 # Unbiasedness: for fixed weights, the mean offspring count over many seeded resamplings
 # must equal $n W_i$ within a few standard errors $\sqrt{\operatorname{Var} N_i / \text{reps}}$.
-# Use weights with some $n W_i < 1$: filterpy gives them (almost) zero copies, dozens of
-# standard errors away, as printed above.
+# Use weights with some $n W_i < 1$: filterpy gives them (almost) zero copies, hundreds of
+# standard errors away ({glue:text}`filterpy_residual_max_se:.0f` above).
 # ```
 #
 # ```{exercise}
 # :label: ex-resampling-code
 # (Coding.) Write stratified resampling, one uniform in each stratum $[(k-1)/n, k/n)$, check
 # it with `pfcourse.exercises.check_resampler`, and measure $\operatorname{Var} N_i$ over
-# 10,000 draws against `pfcourse.resampling.multinomial` for the weights of this chapter.
+# $10\,000$ draws against `pfcourse.resampling.multinomial` for the weights of this chapter.
 # ```
 #
 # ````{solution} ex-resampling-code
 # :class: dropdown
-# ```python
+# ```{code} python
 # def my_stratified(W, rng):
 #     n = len(W)
 #     u = (np.arange(n) + rng.random(n)) / n
