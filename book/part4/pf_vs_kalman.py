@@ -585,8 +585,8 @@ plt.show()
 # flights lost only with the fewer particles and only with the more number
 # {glue:text}`terrain_wide_pf_more_only_few:d` and {glue:text}`terrain_wide_pf_more_only_many:d`
 # (exact McNemar p = {glue:text}`terrain_wide_pf_more_p:.2g`). With $N = 3000$ it still loses
-# a large share of the flights: the remedies chapter {doc}`../part2/terrain_cure` measures
-# {glue:text}`../part2/terrain_cure.ipynb::terrain_baseline_diverged:.0%` over
+# a large share of the flights: the chapter on the remedies ({doc}`../part2/terrain_cure`)
+# measures {glue:text}`../part2/terrain_cure.ipynb::terrain_baseline_diverged:.0%` over
 # {glue:text}`../part2/terrain_cure.ipynb::terrain_baseline_runs:d` flights, and
 # {glue:text}`../part2/terrain_cure.ipynb::terrain_boot30k_diverged:.0%` with $N = 30\,000$.
 # No filter is consistent here: lost flights dominate the run-averaged NEES and NIS. Note
