@@ -34,7 +34,6 @@ PAGES = sorted((ROOT / "book").rglob("*.md"))  # the introduction, the parts' pa
 PENDING = {
     "importance_sampling", "kalman", "model",
     "sir", "sis", "global_localization", "robot", "robot_vs_kalman", "terrain", "terrain_cure",
-    "pf_vs_kalman", "likelihood",
 }
 
 # (chapter stem, phrase as written in the source, why it is not a measured number)

@@ -10,7 +10,7 @@
 # # Learning a noise level from the data
 #
 # The lab reports tune the noise covariances of their filters by hand, trying scales from
-# 0.1 to 100 and judging each from one run. There is a better tool, and the particle filter
+# $0.1$ to $100$ and judging each from one run. There is a better tool, and the particle filter
 # already computes it: at every step it returns $\log \hat p(z_k \mid z_{0:k-1})$, and their
 # sum $\log \hat Z(\theta)$ estimates the **likelihood** $p(z_{0:K-1} \mid \theta)$ of any
 # parameter $\theta$ of the model. The estimate $\hat Z$ itself (not its logarithm) is
@@ -59,8 +59,9 @@ DATA = "../data/likelihood/"
 # estimate inherits this: on that model, with $N = 300$, the error of $\log \hat Z$ is
 # enormous. We therefore use the variant of the unit tests, with process noise
 # $0.05^2$ m² on **every** component and $R_0 = 0.5^2 I$ m², where the filter is in its
-# working regime. The check below runs 20 filters on each variant (20 only, but
-# that is enough here: the intervals are wide, but they do not overlap).
+# working regime. The check below runs {glue:text}`check_runs:d` filters on each variant (few,
+# but enough here: the Wilson intervals of the share of runs off by more than $10$ nats are wide,
+# but they do not overlap).
 
 # %%
 hard = quadrant_scenario()
@@ -87,13 +88,20 @@ for name, scen in [("static landmarks (Part I)", hard), ("noise on every compone
     print(f"{name:27s} median error of log Z^: {np.median(err):8.1f} nats;"
           f" runs off by > 10 nats: {big}/{N_CHECK} (95% CI {ci.low:.2f}-{ci.high:.2f})")
     glue(f"check_median_{'hard' if scen is hard else 'easy'}", float(np.median(err)), display=False)
+    glue(f"check_off_{'hard' if scen is hard else 'easy'}", big / N_CHECK, display=False)
+    glue(f"check_off_{'hard' if scen is hard else 'easy'}_low", float(ci.low), display=False)
+    glue(f"check_off_{'hard' if scen is hard else 'easy'}_high", float(ci.high), display=False)
+glue("check_runs", N_CHECK, display=False)
 
 # %% [markdown]
 # On the static-landmark model the median error is
-# {glue:text}`check_median_hard:.0f` nats, and in most runs the error exceeds 10 nats (a
-# likelihood wrong by a factor $e^{10}$ or more): useless for learning anything. With noise on every component it is
-# {glue:text}`check_median_easy:.1f` nats. From here on, `scenario` is the second variant,
-# simulated for 50 s with seed 7.
+# {glue:text}`check_median_hard:.0f` nats, and in {glue:text}`check_off_hard:.0%` of the runs
+# (Wilson interval {glue:text}`check_off_hard_low:.0%` to {glue:text}`check_off_hard_high:.0%`) the
+# error exceeds $10$ nats (a likelihood wrong by a factor $e^{10}$ or more): useless for learning
+# anything. With noise on every component it is {glue:text}`check_median_easy:.1f` nats, and the
+# share of runs off by more than $10$ nats is {glue:text}`check_off_easy:.0%` (interval
+# {glue:text}`check_off_easy_low:.0%` to {glue:text}`check_off_easy_high:.0%`). From here on,
+# `scenario` is the second variant, simulated for {glue:text}`data_duration:.0f` s with seed $7$.
 
 # %% [markdown]
 # ## The likelihood curve, exact and estimated
@@ -107,7 +115,7 @@ for name, scen in [("static landmarks (Part I)", hard), ("noise on every compone
 # same resampling uniforms for every $\theta$; only the weights change. The call that
 # carries the idea:
 #
-# ```python
+# ```{code} python
 # ParticleFilter(scenario.model(Rv=theta * scenario.Rv), n_particles, threshold=1.0).run(Z, seed).log_likelihood
 # ```
 
@@ -140,19 +148,30 @@ rough_crn = np.std(np.diff(crn_curve - exact_curve))
 rough_fresh = np.std(np.diff(fresh_curve - exact_curve))
 glue("rough_crn", float(rough_crn), display=False)
 glue("rough_fresh", float(rough_fresh), display=False)
+# one curve each: is the difference of roughness more than chance? (Brown-Forsythe test of equal spread)
+rough_test = stats.levene(np.diff(crn_curve - exact_curve), np.diff(fresh_curve - exact_curve))
+glue("rough_p", float(rough_test.pvalue), display=False)
+glue("rough_steps", int(thetas.size - 1), display=False)
+print(f"sd of the step-to-step change of the error: one seed {rough_crn:.2f}, a seed per theta {rough_fresh:.2f} nats; "
+      f"Brown-Forsythe test of equal spread over {thetas.size - 1} steps each: p = {rough_test.pvalue:.2g}")
 glue("offset_crn", float(np.mean(crn_curve - exact_curve)), display=False)
+glue("grid_step", float(thetas[1] / thetas[0] - 1), display=False)
+glue("data_steps", len(Z), display=False)
+glue("data_duration", float(len(Z) * scenario.dt), display=False)
 
 # %% [markdown]
 # With a seed per $\theta$, the error of the estimate jumps from one grid point to the next
 # (the standard deviation of its step-to-step change is {glue:text}`rough_fresh:.2f` nats),
 # and the estimated curve has spurious local maxima. With one seed the error has a mean of
-# {glue:text}`offset_crn:.2f` nats and its step-to-step changes shrink to
-# {glue:text}`rough_crn:.2f` nats: common random numbers remove the noise that comes from
+# {glue:text}`offset_crn:.2f` nats and its step-to-step changes have a standard deviation of
+# {glue:text}`rough_crn:.2f` nats: smaller, but on one curve of {glue:text}`rough_steps:d` steps
+# each the difference is not significant (Brown-Forsythe test of equal spread,
+# p = {glue:text}`rough_p:.2g`). Common random numbers remove the noise that comes from
 # the initial draws and the transition noise, **but not the noise of resampling**. The
 # curve with one seed is continuous in $\theta$ except where a weight crosses a
 # resampling uniform and a resampled index jumps (the unit tests check that a change of
-# $10^{-7}$ in $\theta$ moves it by less than $10^{-4}$ nats); between grid points 12 %
-# apart, many indices jump, at every measured step. So the optimiser below
+# $10^{-7}$ in $\theta$ moves it by less than $10^{-4}$ nats); between grid points
+# {glue:text}`grid_step:.0%` apart, many indices jump, at every measured step. So the optimiser below
 # maximises a curve that is smooth only piecewise: it finds a maximum of the *estimated*
 # curve, which is why the particle ML estimate scatters around the exact one (next
 # section).
@@ -193,9 +212,9 @@ display(control_panel(draw_likelihood_curve, columns=2, grid={"n_particles": (10
 # Because $\hat Z$ is unbiased and $\log$ is concave, $\log \hat Z$ is biased **down**; when
 # $\log \hat Z$ is about Gaussian with variance $\sigma^2$, unbiasedness of $\hat Z = e^{\log
 # \hat Z}$ forces $\mathbb E[\log \hat Z] = \log Z - \sigma^2/2$. And $\sigma^2$ shrinks like
-# $1/N$. The table was computed by `tools/studies/likelihood.py` (200 seeded filters per
-# $N$ on the chapter's dataset, at $\theta = 1$, through `pfcourse.study.run_study`;
-# provenance in `book/data/likelihood/bias.json`); intervals are 95 %: a t-interval for the
+# $1/N$. The table was computed by `tools/studies/likelihood.py` ({glue:text}`bias_runs:d` seeded
+# filters per $N$ on the chapter's dataset, at $\theta = 1$, through `pfcourse.study.run_study`;
+# provenance in `book/data/likelihood/bias.json`), with 95 % intervals: a t-interval for the
 # mean error of $\log \hat Z$ and a bootstrap interval for the mean of
 # $\hat Z / Z$.
 
@@ -221,6 +240,16 @@ for n in bias_table.index:
     glue(f"logz_bias_{n}", float(bias_table.loc[n, "mean log error"]), display=False)
     glue(f"logz_halfvar_{n}", float(bias_table.loc[n, "-var/2"]), display=False)
 glue("var_ratio_100_1000", float(bias_table.loc[100, "var"] / bias_table.loc[1000, "var"]), display=False)
+glue("bias_runs", int(bias_table["runs"].min()), display=False)
+# the variance ratio's 95 % bootstrap interval (independent samples: two groups of filters)
+x100, x1000 = (bias.loc[bias["n_particles"] == n, "log_ratio"].to_numpy() for n in (100, 1000))
+var_ci = stats.bootstrap((x100, x1000), lambda a, b, axis=-1: np.var(a, ddof=1, axis=axis) / np.var(b, ddof=1, axis=axis),
+                         n_resamples=2000, random_state=0).confidence_interval
+glue("var_ratio_low", float(var_ci.low), display=False)
+glue("var_ratio_high", float(var_ci.high), display=False)
+glue("n_ratio_100_1000", 1000 / 100, display=False)
+print(f"variance of log Z^, N = 100 over N = 1000: {bias_table.loc[100, 'var'] / bias_table.loc[1000, 'var']:.2f} "
+      f"(95 % bootstrap interval {var_ci.low:.2f} to {var_ci.high:.2f}; the 1/N law: 10)")
 
 # %% [markdown]
 # The mean error of $\log \hat Z$ is negative at every $N$. At $N = 1000$ it matches
@@ -230,15 +259,16 @@ glue("var_ratio_100_1000", float(bias_table.loc[100, "var"] / bias_table.loc[100
 # at small $N$ it is skewed to the left (skewness {glue:text}`logz_skew_100:.2f`, against
 # {glue:text}`logz_skew_1000:.2f` at $N = 1000$); a left tail costs less in $\mathbb E[\hat Z]$,
 # so less downward shift of the mean is needed to keep $\hat Z$ unbiased. The ratio
-# $\hat Z / Z$ should have mean 1; its 95 % intervals are {glue:text}`zratio_lo_100:.2f` to
+# $\hat Z / Z$ should have mean $1$; its 95 % intervals are {glue:text}`zratio_lo_100:.2f` to
 # {glue:text}`zratio_hi_100:.2f`, {glue:text}`zratio_lo_300:.3f` to
 # {glue:text}`zratio_hi_300:.2f` and {glue:text}`zratio_lo_1000:.2f` to
-# {glue:text}`zratio_hi_1000:.2f` for $N = 100$, 300 and 1000. They are wide and lean
-# above 1 because $\hat Z / Z$ is heavy-tailed when $\sigma$ is large: its mean is carried
-# by a few large values, which 200 runs sample poorly and the bootstrap cannot fix. This is
-# why one works with $\log \hat Z$ in practice. Ten times more particles divide the variance
-# of $\log \hat Z$ by {glue:text}`var_ratio_100_1000:.1f`, close to the 10 of
-# the $1/N$ law.
+# {glue:text}`zratio_hi_1000:.2f` for $N = 100$, $300$ and $1000$. They are wide and lean
+# above $1$ because $\hat Z / Z$ is heavy-tailed when $\sigma$ is large: its mean is carried
+# by a few large values, which {glue:text}`bias_runs:d` runs sample poorly and the bootstrap cannot
+# fix. This is why one works with $\log \hat Z$ in practice. Ten times more particles divide the
+# variance of $\log \hat Z$ by {glue:text}`var_ratio_100_1000:.1f` (95 % bootstrap interval
+# {glue:text}`var_ratio_low:.1f` to {glue:text}`var_ratio_high:.1f`), consistent with the
+# {glue:text}`n_ratio_100_1000:.0f` of the $1/N$ law.
 #
 # ## Maximum likelihood from the particle estimate
 #
@@ -252,11 +282,11 @@ theta_pf, n_pf = max_likelihood_scale(lambda t: pf_log_likelihood(scenario, Z, t
 print(f"exact ML: theta = {theta_kalman:.3f}; particle ML (N = 300, one seed): theta = {theta_pf:.3f}")
 
 # %% [markdown]
-# One dataset says little. `tools/studies/likelihood.py` repeats this on 100 simulated
+# One dataset says little. `tools/studies/likelihood.py` repeats this on {glue:text}`ml_n_datasets:d` simulated
 # datasets (truth $\theta = 1$), each maximised with the exact likelihood and with the
 # particle likelihood at $N = 300$ and $N = 1000$ (one filter seed per dataset, reused for
 # every $\theta$ and both $N$; provenance in `ml.json`). The exact ML estimate differs from
-# 1 because a dataset is finite; the particle ML estimate adds the error of the estimated
+# $1$ because a dataset is finite; the particle ML estimate adds the error of the estimated
 # curve. The intervals are 95 % bootstrap intervals of the median, and the paired
 # comparison of particle against exact is a Wilcoxon signed-rank test.
 
@@ -290,6 +320,19 @@ print(pd.DataFrame(rows).set_index("estimate").round(3).to_string())
 glue("ml_noise_scale_kalman", float(np.median(kal)))
 glue("ml_noise_scale_pf", float(np.median(ml[ml["n_particles"] == 1000]["theta_pf"])))
 glue("ml_n_datasets", int(kal.size), display=False)
+# does the shift of the particle estimate shrink from N = 300 to N = 1000? (same datasets, paired)
+by_n = {n: g.sort_values("run") for n, g in ml.groupby("n_particles")}
+assert all((g["run"].to_numpy() == by_n[300]["run"].to_numpy()).all() for g in by_n.values())
+shift = {n: np.log(g["theta_pf"].to_numpy() / g["theta_kalman"].to_numpy()) for n, g in by_n.items()}
+shrink = evidence.paired(shift[1000], shift[300])
+print(f"log(pf/exact) at N = 1000 minus at N = 300, same datasets: {shrink}")
+exact_spread = float(np.std(np.log(kal), ddof=1))
+print(f"spread of the exact estimate over datasets: sd of log(theta_exact) {exact_spread:.3f}")
+glue("ml_shrink", shrink.median, display=False)
+glue("ml_shrink_low", shrink.low, display=False)
+glue("ml_shrink_high", shrink.high, display=False)
+glue("ml_shrink_p", shrink.pvalue, display=False)
+glue("ml_exact_spread", exact_spread, display=False)
 
 fig, ax = plt.subplots(figsize=(4, 3.6), constrained_layout=True)
 for n, marker, color in [(300, "o", "0.55"), (1000, "s", COLORS["estimate"])]:
@@ -304,7 +347,7 @@ plt.show()
 # %% [markdown]
 # Over {glue:text}`ml_n_datasets` datasets the median exact ML scale is
 # {glue:text}`ml_noise_scale_kalman:.3f`, and the median particle ML scale with $N = 1000$ is
-# {glue:text}`ml_noise_scale_pf:.3f` (truth 1; intervals in the table). But the paired
+# {glue:text}`ml_noise_scale_pf:.3f` (truth $1$; intervals in the table). But the paired
 # comparison shows that the particle estimate is **shifted upwards** against the exact one
 # on the same dataset: the median of $\log(\hat\theta_{PF} / \hat\theta_{exact})$ is
 # {glue:text}`ml_shift_300:.3f` at $N = 300$ and {glue:text}`ml_shift_1000:.3f` at
@@ -312,25 +355,36 @@ plt.show()
 # {glue:text}`ml_wilcoxon_p_1000:.1g`). A likely cause is the bias of $\log \hat Z$ measured
 # above, $-\sigma^2/2$, if $\sigma$ depends on $\theta$: a larger assumed measurement noise
 # flattens the weights, so $\sigma(\theta)$ should fall as $\theta$ grows and the estimated
-# curve be pulled down more on the left than on the right. The next cell checks it with 30
-# filters at two values of $\theta$ on the chapter's dataset.
+# curve be pulled down more on the left than on the right. The next cell checks it with
+# {glue:text}`sd_runs:d` filters at two values of $\theta$ on the chapter's dataset.
 
 # %%
-sd_at = {t: np.std([pf_log_likelihood(scenario, Z, t, 300, seed) for seed in range(30)], ddof=1) for t in (0.7, 1.4)}
-print("sd of log Z^ (N = 300, 30 runs): " + ", ".join(f"theta = {t}: {v:.2f}" for t, v in sd_at.items()))
-sd_ratio_ci = np.sqrt(stats.f.ppf([0.025, 0.975], 29, 29))  # 95 % interval of an sd ratio under equal sds
+SD_RUNS = 30
+sd_at = {t: np.std([pf_log_likelihood(scenario, Z, t, 300, seed) for seed in range(SD_RUNS)], ddof=1) for t in (0.7, 1.4)}
+print(f"sd of log Z^ (N = 300, {SD_RUNS} runs): " + ", ".join(f"theta = {t}: {v:.2f}" for t, v in sd_at.items()))
+sd_ratio_ci = np.sqrt(stats.f.ppf([0.025, 0.975], SD_RUNS - 1, SD_RUNS - 1))  # 95 % interval of an sd ratio under equal sds
 print(f"ratio {sd_at[0.7] / sd_at[1.4]:.2f}; an F test's 95 % band for equal sds: "
       f"{sd_ratio_ci[0]:.2f} to {sd_ratio_ci[1]:.2f}")
 glue("sd_theta_lo", float(sd_at[0.7]), display=False)
 glue("sd_theta_hi", float(sd_at[1.4]), display=False)
+glue("sd_runs", SD_RUNS, display=False)
+glue("sd_ratio", float(sd_at[0.7] / sd_at[1.4]), display=False)
+glue("sd_ratio_band_high", float(sd_ratio_ci[1]), display=False)
 
 # %% [markdown]
 # The standard deviation of $\log \hat Z$ is {glue:text}`sd_theta_lo:.2f` at $\theta = 0.7$
-# and {glue:text}`sd_theta_hi:.2f` at $\theta = 1.4$ (with $N = 300$), so the downward bias
+# and {glue:text}`sd_theta_hi:.2f` at $\theta = 1.4$ (with $N = 300$; a ratio of
+# {glue:text}`sd_ratio:.2f`, outside the 95 % band of an F test for equal standard deviations,
+# whose upper end is {glue:text}`sd_ratio_band_high:.2f`), so the downward bias
 # $\sigma^2/2$ is larger on the left, and maximising the biased curve moves the maximum to the
-# right. The shift shrinks with $N$, as $\sigma^2$ does; it stays small next to the spread of
-# the exact estimate itself over datasets (the scatter): the data, more than the particles,
-# limit what can be learned about $\theta$.
+# right. The shift should shrink with $N$, as $\sigma^2$ does, but these datasets cannot show it:
+# dataset by dataset, the shift at $N = 1000$ minus the shift at $N = 300$ has a median of
+# {glue:text}`ml_shrink:.3f` (95 % interval {glue:text}`ml_shrink_low:.3f` to
+# {glue:text}`ml_shrink_high:.3f`, Wilcoxon p = {glue:text}`ml_shrink_p:.2g`, over
+# {glue:text}`ml_n_datasets:d` datasets). Either way the shift stays small next to the spread of
+# the exact estimate itself over datasets (standard deviation of $\log \hat\theta_{exact}$:
+# {glue:text}`ml_exact_spread:.2f`; the scatter): the data, more than the particles, limit what
+# can be learned about $\theta$.
 
 # %% [markdown]
 # ## The posterior of the noise scale: particle marginal Metropolis-Hastings
@@ -349,11 +403,12 @@ glue("sd_theta_hi", float(sd_at[1.4]), display=False)
 # particles change how fast the chain mixes, not where it goes. A chain that draws a lucky
 # overestimate of $\hat Z$ stays stuck on it, so a noisy estimate lowers the acceptance rate.
 # {cite:t}`doucet2015` show that the best trade-off between the cost of a filter and the
-# mixing is at a standard deviation of $\log \hat Z$ of about 1 to 1.5.
+# mixing is at a standard deviation of $\log \hat Z$ of about $1$ to $1.5$.
 #
-# The three chains below (1500 iterations each, started at $\theta = 2$; the first 200
-# dropped as burn-in) were run by `tools/studies/likelihood.py` (provenance in
-# `pmmh.json`) with $N = 100$, 300 and 1000, on the chapter's dataset.
+# The three chains below ({glue:text}`pmmh_iterations:d` iterations each, started at
+# $\theta = 2$; the first {glue:text}`pmmh_burn_in:d` dropped as burn-in) were run by
+# `tools/studies/likelihood.py` (provenance in `pmmh.json`) with $N = 100$, $300$ and $1000$, on
+# the chapter's dataset.
 
 # %%
 u_grid = np.linspace(np.log(0.4), np.log(2.5), 301)
@@ -393,6 +448,9 @@ print(f"exact posterior: mean {exact_mean:.3f}, sd {exact_sd:.3f}; chains of {ke
 print(pmmh_table.round(3).to_string())
 glue("pmmh_posterior_mean_error", float(pmmh_table.loc[300, "(mean - exact)/sd"]))
 glue("pmmh_mcse_sd_300", float(pmmh_table.loc[300, "MCSE/sd"]), display=False)
+glue("pmmh_iterations", int(chains.groupby("n_particles").size().min()), display=False)
+glue("pmmh_burn_in", BURN_IN, display=False)
+glue("pmmh_kept", int(kept.size), display=False)
 glue("exact_post_mean", exact_mean, display=False)
 glue("exact_post_sd", exact_sd, display=False)
 for n in pmmh_table.index:
@@ -404,7 +462,7 @@ for n in pmmh_table.index:
 # %% [markdown]
 # The exact posterior has mean {glue:text}`exact_post_mean:.3f` and standard deviation
 # {glue:text}`exact_post_sd:.3f`. With $N = 300$ particles, where the standard deviation of
-# $\log \hat Z$ is {glue:text}`logz_sd_300:.2f` (a little above the 1-1.5 of the rule of
+# $\log \hat Z$ is {glue:text}`logz_sd_300:.2f` (a little above the $1$-$1.5$ of the rule of
 # thumb, which $N = 1000$, at {glue:text}`logz_sd_1000:.2f`, undershoots), the PMMH
 # posterior mean differs from the exact one by
 # {glue:text}`pmmh_posterior_mean_error:.2f` exact posterior standard deviations, with a
@@ -418,13 +476,14 @@ for n in pmmh_table.index:
 # {glue:text}`pmmh_iact_100:.0f` iterations). The acceptance intervals treat iterations as
 # independent, which they are not: read them as a lower bound on the uncertainty.
 #
-# Dividing the effective sample size by the particles spent (the column "ESS per 1000
-# particles") measures the cost of a good sample, the quantity Doucet et al. optimise. By
+# Dividing the effective sample size by the particles spent (the column
+# `ESS per 1000 particles`) measures the cost of a good sample, the quantity Doucet et al. optimise. By
 # that column $N = 100$ looks cheapest, but its chain is the least trustworthy: it sticks
 # for long stretches (acceptance {glue:text}`pmmh_acc_100:.2f`) and its posterior mean is
 # {glue:text}`pmmh_err_100:.2f` exact sd from the exact one with a nominal standard error of
-# only {glue:text}`pmmh_mcse_100:.2f`, a sign that 1300 iterations are too few to estimate
-# its autocorrelation time. The 1-1.5 of the rule of thumb lies between our $N = 300$ and
+# only {glue:text}`pmmh_mcse_100:.2f`, a sign that {glue:text}`pmmh_kept:d` iterations are too
+# few to estimate its autocorrelation time. The $1$-$1.5$ of the rule of thumb lies between our
+# $N = 300$ and
 # $N = 1000$; these chains are too short to locate the optimum more precisely.
 
 # %% [markdown]
@@ -432,10 +491,11 @@ for n in pmmh_table.index:
 #
 # The same machinery learns several parameters together. Let $\theta_q$ scale the process
 # noise $Q_w$ and $\theta_r$ the measurement noise $R_v$, each with the log-uniform prior on
-# $[0.1, 10]$, and let PMMH walk on $(\log\theta_q, \log\theta_r)$ with independent steps of 0.3.
-# The exact posterior is the Kalman likelihood on a 61 × 61 grid of the prior's support
-# (`grid_posterior_2d`). Chains of 6000 iterations with $N$ = 100, 300 and 1000 (the first 1000
-# dropped), from $(2, 2)$, computed by `tools/studies/likelihood.py` (provenance in `pmmh2.json`):
+# $[0.1, 10]$, and let PMMH walk on $(\log\theta_q, \log\theta_r)$ with independent steps of
+# $0.3$. The exact posterior is the Kalman likelihood on a
+# {glue:text}`pmmh2_grid:d` × {glue:text}`pmmh2_grid:d` grid of the prior's support
+# (`grid_posterior_2d`). Chains of {glue:text}`pmmh2_iterations:d` iterations with $N = 100$,
+# $300$ and $1000$ (the first {glue:text}`pmmh2_burn_in:d` dropped), from $(2, 2)$, computed by `tools/studies/likelihood.py` (provenance in `pmmh2.json`):
 
 # %%
 g2 = pd.read_csv(DATA + "grid2.csv").sort_values(["i", "j"])
@@ -472,6 +532,10 @@ for n in (300, 1000):
     glue(f"pmmh2_acc_{n}", float(pmmh2_table.loc[n, "acceptance"]), display=False)
 n_kept = int((chains2["iteration"] >= BURN_IN2).sum() / chains2["n_particles"].nunique())
 glue("pmmh2_ess_q_300", n_kept / float(pmmh2_table.loc[300, "IACT q"]), display=False)
+glue("pmmh2_grid", m2, display=False)
+glue("pmmh2_iterations", int(chains2.groupby("n_particles").size().min()), display=False)
+glue("pmmh2_burn_in", BURN_IN2, display=False)
+glue("pmmh2_kept", n_kept, display=False)
 
 fig, axes = plt.subplots(1, 2, figsize=(7.5, 3.8), constrained_layout=True)
 t2 = np.exp(u2)
@@ -493,7 +557,7 @@ plt.show()
 # The data pin the measurement noise down (posterior mean of $\theta_r$
 # {glue:text}`pmmh2_exact_r_mean:.2f`, sd {glue:text}`pmmh2_exact_r_sd:.2f`) but hardly the process
 # noise: $\theta_q$ has a posterior mean of {glue:text}`pmmh2_exact_q_mean:.2f` and a standard
-# deviation of {glue:text}`pmmh2_exact_q_sd:.2f`, a large part of the prior's range: 50 noisy
+# deviation of {glue:text}`pmmh2_exact_q_sd:.2f`, a large part of the prior's range: {glue:text}`data_steps:d` noisy
 # samples say little about how much the state wanders between them. With $N = 1000$, the chain
 # that mixes best here, the posterior means differ from the exact ones by
 # {glue:text}`pmmh2_err_q_1000:.2f` and {glue:text}`pmmh2_err_r_1000:.2f` exact standard
@@ -502,7 +566,7 @@ plt.show()
 # {glue:text}`pmmh2_acc_1000:.2f`; autocorrelation times {glue:text}`pmmh2_iact_q_1000:.0f` and
 # {glue:text}`pmmh2_iact_r_1000:.0f` iterations). With $N = 300$ the acceptance falls to
 # {glue:text}`pmmh2_acc_300:.2f` and the autocorrelation time of $\theta_q$ grows to
-# {glue:text}`pmmh2_iact_q_300:.0f` iterations: the 5000 kept iterations hold about
+# {glue:text}`pmmh2_iact_q_300:.0f` iterations: the {glue:text}`pmmh2_kept:d` kept iterations hold about
 # {glue:text}`pmmh2_ess_q_300:.0f` independent draws of $\theta_q$, and the histogram of such a chain is rough even when its mean is right. In
 # two dimensions the likelihood estimate must be less noisy than in one for the same mixing,
 # because a random walk crosses the wide direction of the posterior slowly. A
@@ -517,11 +581,11 @@ plt.show()
 # tool estimates both scales at once from a run's measurements: the particle likelihood
 # with common random numbers (one seed, resampling at every measured step), maximised by
 # scipy's bounded Nelder-Mead on $(\log q, \log r)$, started at the hand-tuned $(2, 2)$
-# (`pfcourse.experiments.likelihood.max_likelihood_scales`; $N = 300$, a 200 s run). A filter with
-# 1000 particles and a fresh seed is then run with the estimated scales, with the
+# (`pfcourse.experiments.likelihood.max_likelihood_scales`; $N = 300$, a $200$ s run). A filter with
+# $N = 1000$ particles and a fresh seed is then run with the estimated scales, with the
 # hand-tuned ones and with the truth $(1, 1)$. `tools/studies/robot_noise.py` did this on
 # {glue:text}`robot_noise_runs` seeded runs (each needs about a hundred filter runs; provenance in
-# `robot_noise.json`). Position RMSE after 20 s and time-averaged NEES (3 for a consistent
+# `robot_noise.json`). Position RMSE after $20$ s and time-averaged NEES ($3$ for a consistent
 # filter); medians with 95 % bootstrap intervals, paired Wilcoxon tests against the
 # hand-tuned filter:
 
@@ -551,10 +615,10 @@ glue("robot_nees_p_ml", float(stats.wilcoxon(rn["nees_ml"], rn["nees_hand"]).pva
 
 # %% [markdown]
 # The median ML scales are {glue:text}`robot_q_ml:.2f` for the odometry noise and
-# {glue:text}`robot_r_ml:.2f` for the measurement noise (truth 1 for both). The measurement
+# {glue:text}`robot_r_ml:.2f` for the measurement noise (truth $1$ for both). The measurement
 # scale is recovered; the odometry scale is not. Two causes are possible, and without an
 # exact likelihood for the robot this study cannot separate them: the odometry noise is
-# weakly identified by one 200 s run (as $Q_w$ was on scenario A), and with 300 particles a wider process noise keeps the cloud spread
+# weakly identified by one $200$ s run (as $Q_w$ was on scenario A), and with $N = 300$ particles a wider process noise keeps the cloud spread
 # and can raise the *estimated* likelihood. With them the
 # filter's median position RMSE is {glue:text}`robot_rmse_ml:.3f` m against
 # {glue:text}`robot_rmse_hand:.3f` m for the hand-tuned filter (Wilcoxon
@@ -562,9 +626,9 @@ glue("robot_nees_p_ml", float(stats.wilcoxon(rn["nees_ml"], rn["nees_hand"]).pva
 # {glue:text}`robot_nees_ml:.2f` against {glue:text}`robot_nees_hand:.2f` (p =
 # {glue:text}`robot_nees_p_ml:.2g`); the filter with the true scales has
 # {glue:text}`robot_nees_truth:.2f`. So the hand-tuned filter is the more accurate one here,
-# and the more pessimistic (NEES well below 3); the ML filter is closer to consistent. A
-# NEES above 3 at the true scales is the particle filter's own Monte Carlo error, which its
-# covariance does not include: the factor 2 of the hand-tuned filter pays for it, and the
+# and the more pessimistic (NEES well below $3$); the ML filter is closer to consistent. A
+# NEES above $3$ at the true scales is the particle filter's own Monte Carlo error, which its
+# covariance does not include: the factor $2$ of the hand-tuned filter pays for it, and the
 # likelihood, which knows nothing of NEES, picks a different margin: odometry noise
 # inflated, measurement noise not.
 
@@ -573,11 +637,11 @@ glue("robot_nees_p_ml", float(stats.wilcoxon(rn["nees_ml"], rn["nees_hand"]).pva
 #
 # Is the particle likelihood usable where the filter struggles? The terrain filter of Part II
 # assumes an altimeter noise $R_f = (20\text{ m})^2$, the value the simulator uses. On each of the
-# terrain chapters' 100 flights, `tools/studies/likelihood.py` (provenance in `terrain_rf.json`)
+# terrain chapters' {glue:text}`terrain_rf_flights:d` flights, `tools/studies/likelihood.py` (provenance in `terrain_rf.json`)
 # maximised the particle log-likelihood of a scale of $R_f$ over $[0.1, 10]$ with the regularised
 # filter of {doc}`../part2/terrain_cure` ($N = 10\,000$, one seed per flight for every scale,
 # resampling at every reading; `pfcourse.experiments.likelihood.terrain_log_likelihood`). No exact
-# likelihood exists here; the truth is 1.
+# likelihood exists here; the truth is $1$.
 
 # %%
 trf = pd.read_csv(DATA + "terrain_rf.csv")
@@ -594,6 +658,7 @@ print(f"log-likelihood at the ML scale minus at the truth: median {gain.median()
 print(f"{n_readings} readings per flight: a variance estimated from that many direct noise samples "
       f"would have a relative sd of {np.sqrt(2 / n_readings):.2f}; the spread over flights is {x.std(ddof=1):.2f}")
 glue("terrain_rf_ml_median", med, display=False)
+glue("terrain_rf_flights", len(trf), display=False)
 glue("terrain_rf_ml_low", lo, display=False)
 glue("terrain_rf_ml_high", hi, display=False)
 glue("terrain_rf_q10", float(q10), display=False)
@@ -614,7 +679,7 @@ plt.show()
 # It is usable, with a small bias: the median estimate over flights is
 # {glue:text}`terrain_rf_ml_median:.2f` (95 % interval
 # {glue:text}`terrain_rf_ml_low:.2f`-{glue:text}`terrain_rf_ml_high:.2f`, which leaves out the
-# truth), and 80 % of the flights give a scale between {glue:text}`terrain_rf_q10:.2f` and
+# truth), and the 10-90 % band of the flights' scales runs from {glue:text}`terrain_rf_q10:.2f` to
 # {glue:text}`terrain_rf_q90:.2f`. A likely cause of the low median, not measured here: the
 # regularisation kernel widens the cloud, so the filter's predictive spread of a reading already
 # contains some of what the altimeter noise should explain. One flight pins $R_f$ down much less well than its
@@ -624,7 +689,7 @@ plt.show()
 # the terrain's slope times the position uncertainty, and while the position is uncertain the
 # data cannot tell the two apart. In {glue:text}`terrain_rf_local` flights the optimiser stopped
 # on a local maximum below the likelihood at the truth: the estimated curve is smooth only
-# piecewise (resampled indices jump), as on scenario A, and more so with 10 000 particles spread
+# piecewise (resampled indices jump), as on scenario A, and more so with $N = 10\,000$ particles spread
 # over a multimodal posterior.
 
 # %% [markdown]
@@ -644,7 +709,7 @@ plt.show()
 #
 # The particles stay where the filter put them; only their weights change. Each step
 # needs the transition density $f$ for **all $N^2$ pairs** of particles, so the smoother
-# costs $O(N^2)$ per step against the filter's $O(N)$: with 1000 particles, a million
+# costs $O(N^2)$ per step against the filter's $O(N)$: with $N = 1000$ particles, a million
 # densities per step. The call:
 #
 # ```python
@@ -684,7 +749,7 @@ glue("demo_smoother_ess_min", float(np.min(1 / np.sum(smooth.weights**2, axis=1)
 # a visible Monte Carlo error. The reason is in the smoothed weights: going backwards they
 # concentrate on the few filter particles whose descendants survived the later
 # resamplings, and the effective sample size of $W_{k|K}$ falls to
-# {glue:text}`demo_smoother_ess_min:.0f` of 300. Over {glue:text}`smoothing_a_runs` seeded datasets
+# {glue:text}`demo_smoother_ess_min:.0f` of $300$. Over {glue:text}`smoothing_a_runs` seeded datasets
 # (`tools/studies/smoothing.py`, provenance in `smoothing_landmarks.json`, computed outside the
 # page because the $O(N^2)$ backward pass is slow; 95 % bootstrap intervals of the median), the root-mean-square
 # distance to the exact answer, in exact standard deviations, over all states and times:
@@ -731,7 +796,7 @@ print(f"exact smoother / exact filter RMS error against the truth: median {np.me
 # scaling by $\Delta t$), so
 # $f(x_k \mid x_{k-1}) = \mathcal N(u(x_{k-1}, x_k) - \tilde u_k;\, 0, Q_{est}) / \Delta t^3$
 # (`pfcourse.experiments.smoothing.robot_transition_log_density`, tested against the sampler). One run:
-# 160 s, no measurement for $t \in [60, 110)$ s, $N = 300$.
+# $160$ s, no measurement for $t \in [60, 110)$ s, $N = 300$.
 
 # %%
 ROBOT = RobotScenario().with_(n_steps=160, gap=(60.0, 110.0))
@@ -794,7 +859,7 @@ glue("smoother_robot_runs", int(len(srob)), display=False)
 #
 # ```{solution} ex-lik-crn
 # :class: dropdown
-# With a threshold below 1, whether the cloud is resampled at step $k$ depends on the
+# With a threshold below $1$, whether the cloud is resampled at step $k$ depends on the
 # effective sample size, which depends on $\theta$. Two values of $\theta$ then resample at
 # different steps, consume a different number of uniforms, and from then on the two
 # filters use different random numbers: common random numbers are lost after the first
