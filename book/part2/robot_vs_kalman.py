@@ -187,10 +187,10 @@ glue("ukf_below_band", below["ukf"], display=False)
 #   Over the {glue:text}`n_runs:d` paired runs, the particle filter's position RMSE exceeds the EKF's
 #   by a median of {glue:text}`pos_diff_median_m:.3f` m (95 % bootstrap interval
 #   {glue:text}`pos_diff_low_m:.3f` to {glue:text}`pos_diff_high_m:.3f` m, Wilcoxon signed-rank
-#   p = {glue:text}`pos_diff_p:.1g`; the particle filter is better in only {glue:text}`pf_better_runs:d`
-#   runs), and its heading RMSE by a median of {glue:text}`head_diff_median_deg:.3f`° (interval
+#   p = {glue:text}`pos_diff_p:.1g`; the particle filter is better in only {glue:text}`pf_better_runs:d` of the
+#   {glue:text}`n_runs:d` runs), and its heading RMSE by a median of {glue:text}`head_diff_median_deg:.3f`° (interval
 #   {glue:text}`head_diff_low_deg:.3f` to {glue:text}`head_diff_high_deg:.3f`°, p =
-#   {glue:text}`head_diff_p:.1g`): real differences, but of centimetres and hundredths of a degree.
+#   {glue:text}`head_diff_p:.1g`): real differences, but of about a centimetre and under a hundredth of a degree.
 #   The EKF evaluates the model once per step, with its Jacobian, where the particle filter
 #   evaluates it $N = 300$ times. In wall time the two are close on this page (timing cell above),
 #   but only because `filterpy`'s EKF runs each step in Python while the particle filter's
@@ -202,7 +202,7 @@ glue("ukf_below_band", below["ukf"], display=False)
 #   most {glue:text}`ukf_ekf_max_diff_mm:.1f` mm in any run, and `filterpy`'s UKF, which calls the model in
 #   Python once per sigma point, takes the longest per run (timing cell).
 # - **Consistency.** The EKF and UKF are conservative: their run-averaged NEES lies below
-#   the χ² band at {glue:text}`ekf_below_band:.0%` and {glue:text}`ukf_below_band:.0%` of the steps,
+#   the χ² band at {glue:text}`ekf_below_band:.0%` (EKF) and {glue:text}`ukf_below_band:.0%` (UKF) of the steps,
 #   as it should when a filter assumes twice the true noise
 #   variances. The particle filter's NEES is higher (its time-averaged NEES exceeds the EKF's by a
 #   median of {glue:text}`nees_diff_median:.2f` over the runs, 95 % interval
