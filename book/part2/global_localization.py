@@ -25,8 +25,8 @@
 # 4. the kidnapped robot: carried away in the middle of a run;
 # 5. consistency and cost of each method.
 #
-# **Locked on.** A run of 60 s is *locked on* if the posterior mean is within 1 m and 5° of the
-# truth at **every one of the last 20 steps** (t = 40 to 59 s). A run that is right at the end by
+# **Locked on.** A run of $60$ s is *locked on* if the posterior mean is within $1$ m and $5°$ of the
+# truth at **every one of the last {glue:text}`lock_window:d` steps** ($t = 40$ to $59$ s). A run that is right at the end by
 # chance while its estimate still jumps between modes does not count.
 #
 # **How the numbers were made.** Every table of this chapter comes from
@@ -53,6 +53,8 @@ from pfcourse.filter import ParticleFilter
 from pfcourse.style import COLORS, use_style
 from pfcourse.robot.scenario import RobotModel, simulate_robot
 from pfcourse.robot.mcl import (
+    CONFIDENT_QUANTILE,
+    LOCK_WINDOW,
     KidnapRobotModel,
     MethodSettings,
     global_run,
@@ -73,6 +75,8 @@ ekf = pd.read_csv(DATA / "ekf_vs_pf.csv")
 N_RUNS = int(lockon.groupby(["method", "n"]).size().min())
 print(f"tables made by {prov['code']} at commit {prov['git_commit'][:10]}; {prov['seeds']}")
 print(f"{N_RUNS} runs per setting")
+glue("n_runs", N_RUNS, display=False)
+glue("lock_window", LOCK_WINDOW, display=False)
 
 # %% [markdown]
 # ## Why the bootstrap filter fails
@@ -85,7 +89,7 @@ print(f"{N_RUNS} runs per setting")
 # share of the prior volume they occupy is $\pi\, 2^2 \sigma_r \sigma_b\, r\, f / A$ with
 # $A = 120^2$ m$^2$: $r \, d\phi$ along the ring, of which a fraction $f$ lies on the map,
 # times $4\pi\sigma_r\sigma_b$ in the plane of range and bearing, over the $2\pi A$ of the prior. The table compares that expectation with what the
-# filter's own uniform cloud holds, for 100 runs per $N$ (the cloud is not resampled here: the
+# filter's own uniform cloud holds, for {glue:text}`n_runs:d` runs per $N$ (the cloud is not resampled here: the
 # last column counts the particles that agree with each of the first three readings).
 
 # %%
@@ -100,6 +104,7 @@ glue("anatomy_expected_2000", float(tab.loc[2000, "expected_1"]), display=False)
 glue("anatomy_runs3_100000", int(tab.loc[100000, "runs_with_any_3"]), display=False)
 glue("anatomy_nearest_2000", float(tab.loc[2000, "nearest_m"]), display=False)
 glue("anatomy_nearest_ratio", float(tab.loc[2000, "nearest_m"] / np.sqrt(2 * 0.5**2)), display=False)
+glue("anatomy_ess_2000", float(tab.loc[2000, "ess_1"]), display=False)
 
 # %% [markdown]
 # In position alone the nearest particle is not far: a median of {glue:text}`anatomy_nearest_2000:.2f` m
@@ -107,15 +112,18 @@ glue("anatomy_nearest_ratio", float(tab.loc[2000, "nearest_m"] / np.sqrt(2 * 0.5
 # is the problem: a particle must also point within a few degrees of the right direction, and the
 # ring's volume is tiny: with $N = 2000$ about {glue:text}`anatomy_consistent_2000:.1f` particles
 # agree with the first reading (the formula gives {glue:text}`anatomy_expected_2000:.1f`), so the
-# effective sample size after it is 1 or 2. Asking for agreement with the first *three* readings,
-# even $N = 100\,000$ leaves a particle in only {glue:text}`anatomy_runs3_100000` of 100 runs.
+# median effective sample size after it is {glue:text}`anatomy_ess_2000:.1f`. Asking for agreement with the first *three* readings,
+# even $N = 100\,000$ leaves a particle in only {glue:text}`anatomy_runs3_100000` of {glue:text}`n_runs:d` runs.
 # The filter survives only because resampling copies the few particles near the first ring and
 # odometry noise spreads them a little; whichever of them best fits the next readings takes all
 # the weight, right or wrong.
 #
-# How fast does the filter settle on a mode? The figure follows, for 100 runs at $N = 2000$, the
-# posterior weight within 2 m and 10° of the truth, and the effective sample size. The bootstrap
-# filter's weight near the truth is zero in most runs from the first step and stays so: the
+# How fast does the filter settle on a mode? The figure follows, for {glue:text}`n_runs:d` runs at $N = 2000$, the
+# posterior weight within $2$ m and $10°$ of the truth, and the effective sample size. The bootstrap
+# filter's weight near the truth is zero in most runs from the first step and stays so (at
+# $t = 20$ s more than half of it is near the truth in {glue:text}`modes_boot_k:d` runs, against
+# {glue:text}`modes_mix_k:d` for the mixture proposal; exact McNemar p =
+# {glue:text}`modes_p:.1e`, printed below the figure): the
 # wrong modes are not resampled away, the right one is never represented. The mixture proposal
 # of the next section is shown for comparison.
 
@@ -138,13 +146,22 @@ fig.suptitle(f"N = 2000, {N_RUNS} runs", fontsize=10)
 plt.tight_layout()
 plt.show()
 m = modes[(modes["step"] == 20)]
+near = {}
 for method in ("bootstrap", "mixture"):
-    s = m[m["method"] == method]["mass_near_truth"]
-    k = int(np.sum(s > 0.5))
+    s = m[m["method"] == method].sort_values("seed")
+    near[method] = s["mass_near_truth"].values > 0.5
+    k = int(np.sum(near[method]))
     ci = evidence.rate(k, len(s))
     lo, hi = ci.low, ci.high
     print(f"{method:9s} at t = 20 s: more than half of the weight near the truth in {k} of {len(s)} runs "
           f"(95 % Wilson {lo:.2f}-{hi:.2f})")
+assert np.array_equal(m[m["method"] == "bootstrap"].sort_values("seed")["seed"].values,
+                      m[m["method"] == "mixture"].sort_values("seed")["seed"].values)
+near_test = evidence.paired_rates(near["mixture"], near["bootstrap"])
+print("mixture vs bootstrap, same runs:", near_test)
+glue("modes_boot_k", int(near["bootstrap"].sum()), display=False)
+glue("modes_mix_k", int(near["mixture"].sum()), display=False)
+glue("modes_p", near_test.pvalue, display=False)
 
 # %% [markdown]
 # ## A proposal from the measurement, with its weights
@@ -243,14 +260,14 @@ plt.show()
 # $\alpha_\text{fast}$; after resampling, each particle is replaced with probability
 # $\max(0, 1 - w_\text{fast}/w_\text{slow})$ by a pose drawn from the current reading ($q_z$). When
 # the readings suddenly fit worse than they used to, the short average drops below the long one
-# and new particles come in. Here $\alpha_\text{slow} = 0.01$, $\alpha_\text{fast} = 0.1$: with 0.05 and
-# 0.5, tried first, the injections disturbed tracking before any kidnapping. The injected
+# and new particles come in. Here $\alpha_\text{slow} = 0.01$, $\alpha_\text{fast} = 0.1$: with $0.05$ and
+# $0.5$, tried first, the injections disturbed tracking before any kidnapping. The injected
 # particles get no importance weight: this is a heuristic, not an importance sampler.
 #
 # **How the settings were chosen.** The teleport probability ($10^{-3}$), the shares drawn from
-# the reading (0.1; 0.02 with KLD-sampling) and the two averages above were fixed after trying a
-# few values on runs 0-19, which are also the first 20 runs of the study. The lock-on section
-# gives the rates on runs 20-99 alone as well, so that the choice cannot flatter the remedies.
+# the reading ($0.1$; $0.02$ with KLD-sampling) and the two averages above were fixed after trying a
+# few values on runs $0$ to $19$, which are also the first $20$ runs of the study. The lock-on section
+# gives the rates on runs $20$ to $99$ alone as well, so that the choice cannot flatter the remedies.
 #
 # **KLD-sampling** {cite:p}`fox2003` changes $N$ at every reading: it draws particles until their
 # number exceeds
@@ -259,7 +276,7 @@ plt.show()
 # n(k) = \frac{k-1}{2\varepsilon}\left(1 - \frac{2}{9(k-1)} + \sqrt{\frac{2}{9(k-1)}}\, z_{1-\delta}\right)^3,
 # $$
 #
-# where $k$ is the number of histogram bins (here 1 m × 1 m × 10°) the new particles occupy. It
+# where $k$ is the number of histogram bins (here $1$ m × $1$ m × $10°$) the new particles occupy. It
 # is the Wilson-Hilferty approximation of $\chi^2_{k-1, 1-\delta}/(2\varepsilon)$: with $n$ draws,
 # the Kullback-Leibler divergence between the sample's histogram and the true one stays below
 # $\varepsilon$ with probability $1-\delta$. A spread cloud occupies many bins and gets many
@@ -272,12 +289,12 @@ for k in (2, 10, 100, 1000):
 
 # %% [markdown]
 # KLD-sampling alone starts from $n_\text{max}$ uniform particles and is a bootstrap filter
-# otherwise; `kld_mixture` combines it with the mixture proposal (share 0.02, because every
+# otherwise; `kld_mixture` combines it with the mixture proposal (share $0.02$, because every
 # particle drawn from the reading lands in its own bin and raises the bound). Both are the
 # engine's `ParticleFilter` with a sample-size policy, `sample_size=KLDSampling(bin_size)`
 # (`pfcourse.sample_size`): at each measurement step it draws ancestors and proposals in batches
-# of 100 until the bound is met, and `result.sizes` records $N_k$. The median number of particles
-# over the 100 runs:
+# of $100$ until the bound is met, and `result.sizes` records $N_k$. The median number of particles
+# over the {glue:text}`n_runs:d` runs:
 
 # %%
 fig, ax = plt.subplots(figsize=(6.5, 3.4))
@@ -296,9 +313,9 @@ plt.show()
 # %% [markdown]
 # ## Which method locks on?
 #
-# All methods on the same 100 runs of 60 s. The table gives the lock-on rate with its 95 %
-# Wilson interval, the share of runs that are *wrong but confident* (not locked on, and a final
-# NEES above the 99.9 % quantile of $\chi^2_3$, 16.3: the filter's covariance excludes the truth),
+# All methods on the same {glue:text}`n_runs:d` runs of $60$ s. The table gives the lock-on rate with
+# its 95 % Wilson interval, the share of runs that are *wrong but confident* (not locked on, and a final
+# NEES above the $99.9\,\%$ quantile of $\chi^2_3$, {glue:text}`confident_nees:.1f`: the filter's covariance excludes the truth),
 # the final NEES of the runs that lock on (mean, and the 95 % band of the mean of that many
 # $\chi^2_3$ values), the mean number of particles and the particle-steps per run.
 
@@ -321,6 +338,9 @@ def lock_table(table):
 
 lt = lock_table(lockon)
 print(lt.to_string(index=False, float_format=lambda v: f"{v:.3g}"))
+print(f"wrong but confident: final NEES above {stats.chi2.ppf(CONFIDENT_QUANTILE, 3):.2f}, "
+      f"the {100 * CONFIDENT_QUANTILE:g} % quantile of chi2_3")
+glue("confident_nees", float(stats.chi2.ppf(CONFIDENT_QUANTILE, 3)), display=False)
 
 # %%
 # best remedy: highest lock-on rate at N <= 2000; among equal rates, NEES of the locked-on runs
@@ -383,20 +403,24 @@ glue("p_best_boot", p_best, display=False)
 for method, n in (("mixture", 1000), ("augmented", 2000), ("kld_mixture", 2000)):
     if (method, n) != (best["method"], best["N"]):
         paired(best["method"], int(best["N"]), method, n)
+glue("p_kld30_boot30", paired("kld", 30000, "bootstrap", 30000), display=False)
+glue("p_mix300_boot30", paired("mixture", 300, "bootstrap", 30000), display=False)
+glue("mix300_rate", float(lt[(lt["method"] == "mixture") & (lt["N"] == 300)]["locked on"].iloc[0]), display=False)
 a = lockon[(lockon["method"] == "mixture") & (lockon["n"] == 2000)].sort_values("seed")["final_error"].values
 b = lockon[(lockon["method"] == "kld_mixture") & (lockon["n"] == 2000)].sort_values("seed")["final_error"].values
 both = np.isfinite(a) & np.isfinite(b)
-w = stats.wilcoxon(a[both], b[both])
+w = evidence.paired(a[both], b[both])
 print(f"final position error, mixture N=2000 vs kld_mixture: medians {np.median(a):.3f} and {np.median(b):.3f} m, "
       f"Wilcoxon signed-rank p = {w.pvalue:.2g} ({both.sum()} paired runs)")
+print("  mixture - kld_mixture:", w)
 
 # %% [markdown]
 # With $N \le 2000$, the best remedy is **{glue:text}`best_method`** at $N$ = {glue:text}`best_n`:
 # it locks on in a share {glue:text}`mcl_lock_on_rate:.2f` of the runs (95 % Wilson interval
 # {glue:text}`best_low:.2f`-{glue:text}`best_high:.2f`), against {glue:text}`bootstrap_lock_on_rate:.2f`
 # for the bootstrap filter with the same $N$ on the same runs (interval up to
-# {glue:text}`boot_high:.2f`; exact McNemar p = {glue:text}`p_best_boot:.1e`); on runs 20-99
-# alone, which played no part in choosing its settings, it locks on in {glue:text}`best_fresh`. Even 30 000 bootstrap
+# {glue:text}`boot_high:.2f`; exact McNemar p = {glue:text}`p_best_boot:.1e`); on runs $20$ to $99$
+# alone, which played no part in choosing its settings, it locks on in {glue:text}`best_fresh`. Even $30\,000$ bootstrap
 # particles lock on in only {glue:text}`boot30k_rate:.2f` of the runs, and
 # {glue:text}`boot30k_wc:.2f` of the runs end wrong but confident ({glue:text}`boot2k_wc:.2f` at
 # $N = 2000$).
@@ -413,20 +437,22 @@ print(f"final position error, mixture N=2000 vs kld_mixture: medians {np.median(
 # confident in {glue:text}`aug_wc:.2f`: its injections start only when the readings fit worse than
 # they used to, so the first, decisive readings are processed as by the bootstrap filter, and a
 # cloud settled on a wrong mode that fits the readings moderately well triggers no injection.
-# **KLD-sampling alone** does not help while the right mode is missing: with $n_\text{max} = 30\,000$
-# it locks on in a share {glue:text}`kld30_rate:.2f` (mean $N$ {glue:text}`kld30_mean_n:.0f`), and
+# **KLD-sampling alone** does not help while the right mode is missing, it does harm: with
+# $n_\text{max} = 30\,000$ it locks on in a share {glue:text}`kld30_rate:.2f` (mean $N$
+# {glue:text}`kld30_mean_n:.0f`), less than the {glue:text}`boot30k_rate:.2f` of the bootstrap filter that
+# keeps its $30\,000$ particles (exact McNemar p = {glue:text}`p_kld30_boot30:.2g` on the same runs), and
 # once the cloud has collapsed on a wrong mode it shrinks $N$ further. **Combined with the mixture
 # proposal** it locks on in a share {glue:text}`kldm_rate:.2f` with a mean of
 # {glue:text}`kldm_mean_n:.0f` particles, {glue:text}`kldm_steps_ratio:.1f` times fewer
 # particle-steps than the mixture at $N = 2000$; but its locked-on runs are over-confident (mean
 # final NEES {glue:text}`kldm_nees:.1f`, above the band): the bound of Fox controls the error of the
-# histogram at a bin size of 1 m × 1 m × 10°, far coarser than the posterior's few decimetres, so
+# histogram at a bin size of $1$ m × $1$ m × $10°$, far coarser than the posterior's few decimetres, so
 # it lets $N$ fall to where the cloud's covariance under-states the error. A finer grid would keep
 # more particles.
 #
 # **Tempering** the first likelihoods is the other classical cure for a prior much wider than the
-# likelihood: progressive correction (Oudjane and Musso 2000; `method="tempered"`,
-# `pfcourse.remedies.ProgressiveCorrection`) brings each of the first 10 readings in by
+# likelihood: progressive correction {cite:p}`oudjane2000` (`method="tempered"`,
+# `pfcourse.remedies.ProgressiveCorrection`) brings each of the first $10$ readings in by
 # powers $\ell(x)^{\lambda_1}, \dots, \ell(x)^{\lambda_m}$ with $\sum_j \lambda_j = 1$, each
 # $\lambda_j$ the largest that keeps half the particles effective, and resamples and moves the
 # cloud with a Gaussian kernel between stages, so that fewer particles die at once. Its cost is
@@ -462,13 +488,13 @@ glue("tempered_nees_verdict", "inside the band" if t2k["band low"] <= t2k["NEES 
      display=False)
 
 # %% [markdown]
-# At $N = 2000$ tempering locks on in a share {glue:text}`tempered_rate:.2f` of the runs (95 %
-# Wilson interval {glue:text}`tempered_low:.2f`-{glue:text}`tempered_high:.2f`) for
+# At $N = 2000$ tempering locks on in a share {glue:text}`tempered_rate:.2f` of the runs
+# (95 % Wilson interval {glue:text}`tempered_low:.2f`-{glue:text}`tempered_high:.2f`) for
 # {glue:text}`tempered_cost_ratio:.2f` times the bootstrap filter's likelihood evaluations, where
 # the bootstrap filter locks on in {glue:text}`bootstrap_lock_on_rate:.2f` (exact McNemar p =
 # {glue:text}`tempered_p_boot:.1e`). Against the mixture proposal the difference in lock-on rate
 # lies between {glue:text}`tempered_mix_diff_low:.0f` and {glue:text}`tempered_mix_diff_high:.0f`
-# percentage points (95 % paired bootstrap interval). The mixture proposal samples the first
+# percentage points (paired 95 % bootstrap interval). The mixture proposal samples the first
 # posterior exactly and weights it without approximation; tempering reaches it by a sequence of
 # kernel moves whose jitter the weights do not account for (the regularised filter's
 # approximation), and its locked-on runs end with a mean NEES of {glue:text}`tempered_nees:.2f`
@@ -481,13 +507,13 @@ glue("tempered_nees_verdict", "inside the band" if t2k["band low"] <= t2k["NEES 
 # ## The kidnapped robot
 #
 # Each run now starts from the known start (the tracking prior of the robot chapter), tracks for
-# 50 s, and at $t = 50$ s the true robot is carried to a random pose at least 30 m away (the
+# $50$ s, and at $t = 50$ s the true robot is carried to a random pose at least $30$ m away (the
 # odometry does not notice; the readings come from the new pose with the same noise). The run
-# goes on until 149 s. *Detection time* is the time from the kidnapping to the first step at which
-# the estimate is more than 5 m from where the robot would have been; *recovery time* the time
-# from the kidnapping to the step from which the estimate stays within 1 m and 5° of the new
-# truth until the end; a run *recovers* if that holds over the last 20 s. All methods at
-# $N = 2000$ ($n_\text{max}$ for KLD), on the same 100 runs.
+# goes on until $149$ s. *Detection time* is the time from the kidnapping to the first step at which
+# the estimate is more than $5$ m from where the robot would have been; *recovery time* the time
+# from the kidnapping to the step from which the estimate stays within $1$ m and $5°$ of the new
+# truth until the end; a run *recovers* if that holds over the last {glue:text}`lock_window:d` s. All methods at
+# $N = 2000$ ($n_\text{max}$ for KLD), on the same {glue:text}`kidnap_runs:d` runs.
 
 # %%
 rows = []
@@ -508,15 +534,15 @@ print(kt.to_string(index=False, float_format=lambda v: f"{v:.3g}"))
 best_k = kt[kt["method"] == best["method"]].iloc[0]  # the best remedy of the lock-on study
 kb = kid[kid["method"] == best_k["method"]]
 rec_times = kb.loc[kb["recovered"], "recovery_s"].values
-ci = stats.bootstrap((rec_times,), np.median, confidence_level=0.95, method="percentile",
-                     random_state=np.random.default_rng(0)).confidence_interval
-print(f"{best_k['method']}: median recovery {np.median(rec_times):.1f} s "
-      f"(95 % bootstrap interval {ci.low:.1f}-{ci.high:.1f} s, {len(rec_times)} recovered runs)")
-glue("kidnap_recovery_median_s", float(np.median(rec_times)), display=False)
+rec_median, rec_low, rec_high = evidence.median_interval(rec_times)
+print(f"{best_k['method']}: median recovery {rec_median:.1f} s "
+      f"(95 % bootstrap interval {rec_low:.1f}-{rec_high:.1f} s, {len(rec_times)} recovered runs)")
+glue("kidnap_runs", int(kt["runs"].min()), display=False)
+glue("kidnap_recovery_median_s", rec_median, display=False)
 glue("kidnap_best", str(best_k["method"]), display=False)
 glue("kidnap_best_rate", float(best_k["recovered"]), display=False)
-glue("kidnap_ci_low", float(ci.low), display=False)
-glue("kidnap_ci_high", float(ci.high), display=False)
+glue("kidnap_ci_low", rec_low, display=False)
+glue("kidnap_ci_high", rec_high, display=False)
 glue("kidnap_boot_rate", float(kt.loc[kt["method"] == "bootstrap", "recovered"].iloc[0]), display=False)
 ka = kid[kid["method"] == "mixture"].sort_values("seed")
 kg = kid[kid["method"] == "augmented"].sort_values("seed")
@@ -525,9 +551,26 @@ n10, n01, p = c.only_a, c.only_b, c.pvalue
 print(f"mixture vs augmented: recovered only by the first in {n10} runs, only by the second in {n01} "
       f"(exact McNemar p = {p:.2g})")
 both = ka["recovered"].values & kg["recovered"].values
-w = stats.wilcoxon(ka["recovery_s"].values[both], kg["recovery_s"].values[both])
+w = evidence.paired(ka["recovery_s"].values[both], kg["recovery_s"].values[both])
 print(f"recovery time on the {both.sum()} runs both recover: medians {np.median(ka['recovery_s'].values[both]):.1f} "
       f"and {np.median(kg['recovery_s'].values[both]):.1f} s, Wilcoxon signed-rank p = {w.pvalue:.2g}")
+print("  mixture - augmented:", w)
+kk = kid[kid["method"] == "kld_mixture"].sort_values("seed")
+assert np.array_equal(kk["seed"].values, ka["seed"].values)
+ck = evidence.paired_rates(kk["recovered"].values, ka["recovered"].values)
+print("kld_mixture vs mixture, recovered:", ck)
+glue("kidnap_kldm_rate", float(ck.a.estimate), display=False)
+glue("kidnap_kldm_p", ck.pvalue, display=False)
+glue("kidnap_only_mix", n10, display=False)
+glue("kidnap_only_aug", n01, display=False)
+glue("kidnap_mix_aug_p", p, display=False)
+glue("kidnap_both_runs", int(both.sum()), display=False)
+glue("kidnap_mix_median_both", float(np.median(ka["recovery_s"].values[both])), display=False)
+glue("kidnap_aug_median_both", float(np.median(kg["recovery_s"].values[both])), display=False)
+glue("kidnap_time_diff", w.median, display=False)
+glue("kidnap_time_diff_low", w.low, display=False)
+glue("kidnap_time_diff_high", w.high, display=False)
+glue("kidnap_time_p", w.pvalue, display=False)
 bk = kid[kid["method"] == "bootstrap"]
 print(f"bootstrap: final error median {bk['final_error'].median():.1f} m with final NEES median "
       f"{bk['final_nees'].median():.3g}")
@@ -540,10 +583,17 @@ print(f"bootstrap: final error median {bk['final_error'].median():.1f} m with fi
 # event at the first reading after it, because the teleport hypothesis at once explains the
 # reading better than the odometry particles can; recovery then takes a few more readings, the time
 # to cut the new ring down to one pose, as at the start. Augmented MCL recovers at least as often
-# (the McNemar test above) but more slowly (the Wilcoxon test on the runs both recover): it waits
+# ({glue:text}`kidnap_only_aug:d` runs recover only with it, {glue:text}`kidnap_only_mix:d` only with the
+# mixture proposal; exact McNemar p = {glue:text}`kidnap_mix_aug_p:.2f`, so no difference is
+# established) but more slowly: on the {glue:text}`kidnap_both_runs:d` runs both recover, median
+# recovery times {glue:text}`kidnap_mix_median_both:.0f` s (mixture) and
+# {glue:text}`kidnap_aug_median_both:.0f` s (augmented), a median paired difference (mixture
+# minus augmented) of {glue:text}`kidnap_time_diff:.0f` s (95 % bootstrap interval {glue:text}`kidnap_time_diff_low:.0f` to
+# {glue:text}`kidnap_time_diff_high:.0f` s, Wilcoxon signed-rank p = {glue:text}`kidnap_time_p:.2f`). It waits
 # until the fast average of the likelihood has dropped below the slow one. KLD-sampling with the
-# mixture proposal recovers less often: after locking on it runs with a small $N$, of which 2 %
-# are drawn from the reading. The bootstrap filter and KLD-sampling alone recover in no run
+# mixture proposal recovers less often (a share {glue:text}`kidnap_kldm_rate:.2f`; exact McNemar
+# p = {glue:text}`kidnap_kldm_p:.1e` against the mixture proposal on the same runs): after locking on
+# it runs with a small $N$, of which $2\,\%$ are drawn from the reading. The bootstrap filter and KLD-sampling alone recover in no run
 # (share {glue:text}`kidnap_boot_rate:.2f` for the bootstrap filter): their particles all sit near
 # the old pose, the readings are nearly impossible for all of them, and the normalised weights
 # still pick the least bad; the estimate drifts off as a confident, wrong track (final NEES
@@ -568,13 +618,16 @@ for (method, n), t in timing.items():
 # %% [markdown]
 # The mixture proposal costs a few times the bootstrap filter per particle-step (the densities of
 # both components at every particle, in NumPy rather than compiled loops), but it needs far fewer
-# particles than the bootstrap filter for any lock-on rate the bootstrap filter reaches at all.
+# particles than the bootstrap filter for any lock-on rate the bootstrap filter reaches at all: with
+# $N = 300$ it locks on in a share {glue:text}`mix300_rate:.2f`, against {glue:text}`boot30k_rate:.2f`
+# for the bootstrap filter with $N = 30\,000$ (exact McNemar p = {glue:text}`p_mix300_boot30:.1e`,
+# same runs).
 #
 # ## The EKF beside the particle filter, where the book said the particle filter earns its cost
 #
 # The chapter comparing the filters on the robot ({doc}`robot_vs_kalman`) used to say that the
 # particle filter earns its cost in long measurement gaps and with few landmarks. Here are the EKF
-# and the 300-particle filter of that chapter on the same 100 runs per setting (tracking prior, position RMSE after 20 s; paired
+# and the particle filter of that chapter ($N = 300$) on the same {glue:text}`ekf_runs:d` runs per setting (tracking prior, position RMSE after $20$ s; paired
 # Wilcoxon signed-rank test on the per-run differences):
 
 # %%
@@ -582,16 +635,19 @@ rows = []
 for setting, g in ekf.groupby("setting", sort=False):
     d = g["pf_position_rmse"] - g["ekf_position_rmse"]
     ok = d.notna()
-    p = stats.wilcoxon(d[ok]).pvalue if ok.sum() > 0 else np.nan
-    ci = stats.bootstrap((d[ok].values,), np.median, confidence_level=0.95, method="percentile",
-                         random_state=np.random.default_rng(1)).confidence_interval
+    test = evidence.paired(g.loc[ok, "pf_position_rmse"].values, g.loc[ok, "ekf_position_rmse"].values, seed=1)
     rows.append({"setting": setting, "runs": len(g), "PF RMSE med": g["pf_position_rmse"].median(),
                  "EKF RMSE med": g["ekf_position_rmse"].median(), "PF better in": int((d < 0).sum()),
-                 "median PF-EKF": d.median(), "95 % CI low": ci.low, "95 % CI high": ci.high, "Wilcoxon p": p,
+                 "median PF-EKF": d.median(), "95 % CI low": test.low, "95 % CI high": test.high,
+                 "Wilcoxon p": test.pvalue,
                  "PF NEES med": g["pf_mean_nees"].median(), "EKF NEES med": g["ekf_mean_nees"].median(),
                  "EKF failed": int(g["ekf_failed"].sum())})
 et = pd.DataFrame(rows)
 print(et.to_string(index=False, float_format=lambda v: f"{v:.3g}"))
+glue("ekf_runs", int(et["runs"].min()), display=False)
+glue("ekf_pf_better_settings", int(((et["95 % CI high"] < 0) & (et["Wilcoxon p"] < 0.05)).sum()), display=False)
+glue("ekf_failed_total", int(et["EKF failed"].sum()), display=False)
+glue("ekf_pf_advantage_max", float(max(0.0, -et["95 % CI low"].min())), display=False)
 
 # %% tags=["nbval-ignore-output"]
 ratio = (ekf["pf_seconds"] / ekf["ekf_seconds"]).groupby(ekf["setting"], sort=False).median()
@@ -600,10 +656,11 @@ print(ratio.round(2).to_string())
 
 # %% [markdown]
 # Read the rows against the claim: a negative median difference with a small p-value would mean
-# a more accurate particle filter. In none of these settings is the 300-particle filter more
-# accurate than the EKF in the median (column `median PF-EKF`, with its 95 % bootstrap interval:
+# a more accurate particle filter. The particle filter is more accurate than the EKF in the median
+# in {glue:text}`ekf_pf_better_settings:d` of these settings (column `median PF-EKF`, with its 95 % bootstrap interval:
 # where the test does not reject, the interval bounds the advantage the particle filter could
-# have), and the EKF does not fail once (`EKF failed`). A gap of 100 s, readings every 20 s, or a single landmark leave the tracking
+# have, at most {glue:text}`ekf_pf_advantage_max:.3f` m in any setting), and the EKF fails in
+# {glue:text}`ekf_failed_total:d` runs (`EKF failed`). A gap of $100$ s, readings every $20$ s, or a single landmark leave the tracking
 # posterior close enough to one Gaussian for the EKF: the claim was wrong for these settings, and
 # the chapter {doc}`robot_vs_kalman` no longer makes it. Where the particle filter earns its cost is
 # where the posterior has several modes: global localization and the kidnapped robot, above.
@@ -642,7 +699,7 @@ print(ratio.round(2).to_string())
 # :class: dropdown
 # Over the uniform prior the likelihood integrates to $\mathbb E_u[p(z\mid x)] = r/A$ (the ring's
 # volume $2\pi r$ times the density $1/(2\pi A)$), e.g. `z[1] / 120**2`. At the estimate,
-# `np.exp(model.log_likelihood(res.mean[k:k+1], sim.measurements[k], k))` is of order 1 to 10
+# `np.exp(model.log_likelihood(res.mean[k:k+1], sim.measurements[k], k))` is of order $1$ to $10$
 # (the peak of the Gaussian is $1/(2\pi\sigma_r\sigma_b) \approx 9$), so the posterior odds of a
 # teleport are about $10^{-3} \times 0.004 / 5 \approx 10^{-6}$: the injected particles carry no
 # weight. After a kidnapping the likelihood at the old estimate is $e^{-\text{hundreds}}$ and the odds
@@ -653,15 +710,15 @@ print(ratio.round(2).to_string())
 # ```{exercise}
 # :label: ex-gl-kld
 # With $\varepsilon = 0.05$, $\delta = 0.01$, how many particles does KLD-sampling ask for when the
-# cloud occupies 2, 50 and 500 bins? Why does the mixture proposal with share 0.1 keep the bound
+# cloud occupies $2$, $50$ and $500$ bins? Why does the mixture proposal with share $0.1$ keep the bound
 # high even after the filter has locked on?
 # ```
 #
 # ```{solution} ex-gl-kld
 # :class: dropdown
-# `kld_bound([2, 50, 500])` gives 66, 750 and 5755 (the exact $\chi^2_{k-1,0.99}/0.1$: 66.3, 749.2, 5754.2).
-# With share 0.1, a tenth of the particles are drawn on the ring of the current reading, each in
-# its own 1 m × 1 m × 10° bin; 200 such particles make $k \approx 200$ and a bound of about 2 500,
-# above $n_\text{max} = 2000$, so $N$ never drops. A smaller share (0.02 in `kld_mixture`) lets the
+# `kld_bound([2, 50, 500])` gives $66$, $750$ and $5755$ (the exact $\chi^2_{k-1,0.99}/0.1$: $66.3$, $749.2$, $5754.2$).
+# With share $0.1$, a tenth of the particles are drawn on the ring of the current reading, each in
+# its own $1$ m × $1$ m × $10°$ bin; $200$ such particles make $k \approx 200$ and a bound of about $2500$,
+# above $n_\text{max} = 2000$, so $N$ never drops. A smaller share ($0.02$ in `kld_mixture`) lets the
 # bound follow the tracked cloud.
 # ```

@@ -38,7 +38,7 @@
 # where $\operatorname{wrap}$ maps an angle to $(-\pi, \pi]$. The truth follows the true
 # commands, $x_k = f(x_{k-1}, u_k)$, but the robot only reads them with an error,
 # $\tilde u_k = u_k + e_k$, $e_k \sim \mathcal N(0, Q_\text{true})$ with standard deviations
-# 0.02 m/s, 0.02 m/s and 1 deg/s. Integrating $\tilde u_k$ alone is *dead reckoning*; it
+# {glue:text}`q_sd_vx:.2f` m/s, {glue:text}`q_sd_vy:.2f` m/s and {glue:text}`q_sd_omega_deg:.0f` deg/s. Integrating $\tilde u_k$ alone is *dead reckoning*; it
 # drifts. Since $x_k = f(x_{k-1}, \tilde u_k - e_k)$, the filter's transition is
 #
 # $$
@@ -53,14 +53,14 @@
 # \quad v_k \sim \mathcal N(0, R_\text{true}),
 # $$
 #
-# with standard deviations 0.5 m and 1 deg. The particle filter's likelihood compares
+# with standard deviations {glue:text}`r_sd_range:.1f` m and {glue:text}`r_sd_bearing_deg:.0f` deg. The particle filter's likelihood compares
 # $z_k$ with $h_j$ at every particle through the *innovation*
 # $\nu = (z_r - h_r,\ \operatorname{wrap}(z_b - h_b))$: without the wrap, a measured bearing
-# of 179° and a predicted one of −179° would be 358° apart instead of 2°, and a perfectly
+# of $179°$ and a predicted one of $-179°$ would be $358°$ apart instead of $2°$, and a perfectly
 # placed particle would get weight zero.
 #
-# The defaults follow the lab (reports 002 and 004): 1000 steps, a start at $(1, -50, 0)$,
-# 5 landmarks drawn uniformly in $[-60, 60]^2$ m, one randomly chosen landmark observed every
+# The defaults follow the lab (reports 002 and 004): {glue:text}`n_steps:d` steps, a start at $(1, -50, 0)$,
+# {glue:text}`n_landmarks:d` landmarks drawn uniformly in $[-60, 60]^2$ m, one randomly chosen landmark observed every
 # second, and a filter that assumes twice the true variances, $Q_\text{est} = 2Q_\text{true}$,
 # $R_\text{est} = 2R_\text{true}$.
 #
@@ -78,12 +78,14 @@ import numpy as np
 from IPython.display import HTML, display
 from ipywidgets import Checkbox, IntSlider
 from matplotlib.ticker import MaxNLocator, MultipleLocator
+from myst_nb import glue
 
+from pfcourse import evidence
 from pfcourse.diagnostics import nees
 from pfcourse.errors import DegenerateWeightsError
 from pfcourse.filter import ParticleFilter
 from pfcourse.style import COLORS, plain_log_axis, use_style
-from pfcourse.robot.scenario import RobotModel, rmse, simulate_robot, tracking_errors
+from pfcourse.robot.scenario import INITIAL_STD, RobotModel, rmse, simulate_robot, tracking_errors
 from pfcourse.experiments.robot import global_localization_run
 from pfcourse.figures.clouds import animate_clouds
 from pfcourse.robot.figures import error_bands, landmarks_background, robot_map, sight_overlay
@@ -110,16 +112,30 @@ print(f"{sim.scenario.n_steps} steps, {int(sim.has_measurement.sum())} measureme
 drift = np.hypot(*(sim.odometry_path[-1, :2] - sim.truth[-1, :2]))
 print(f"odometry after {sim.truth.shape[0] - 1} s: {drift:.1f} m and "
       f"{np.degrees(tracking_errors(sim.truth, sim.odometry_path)[-1, 2]):.1f} deg from the truth")
+sc = sim.scenario
+step_sd_deg = float(np.degrees(np.sqrt(sc.q_true[2, 2])) * sc.dt)  # heading error of odometry per step
+walk_sd_deg = step_sd_deg * float(np.sqrt(sc.n_steps - 1))
+print(f"dead-reckoning heading error: a random walk of sd {step_sd_deg:.1f} deg per step, "
+      f"sd {walk_sd_deg:.1f} deg after {sc.n_steps - 1} steps")
+glue("q_sd_vx", float(np.sqrt(sc.q_true[0, 0])), display=False)
+glue("q_sd_vy", float(np.sqrt(sc.q_true[1, 1])), display=False)
+glue("q_sd_omega_deg", float(np.degrees(np.sqrt(sc.q_true[2, 2]))), display=False)
+glue("r_sd_range", float(np.sqrt(sc.r_true[0, 0])), display=False)
+glue("r_sd_bearing_deg", float(np.degrees(np.sqrt(sc.r_true[1, 1]))), display=False)
+glue("n_steps", int(sc.n_steps), display=False)
+glue("n_landmarks", int(sc.n_landmarks), display=False)
+glue("heading_step_sd_deg", step_sd_deg, display=False)
+glue("heading_walk_sd_deg", walk_sd_deg, display=False)
 
 # %% [markdown]
 # The robot drifts sideways and slowly swings its heading. The heading error of dead
-# reckoning is a random walk of about 1° per step (about 30° after 1000 steps in
-# distribution), which bends the odometry path away from the truth.
+# reckoning is a random walk of standard deviation {glue:text}`heading_step_sd_deg:.0f`° per step
+# (about {glue:text}`heading_walk_sd_deg:.0f`° at the end of the run, in distribution), which bends the odometry path away from the truth.
 #
 # ## Tracking from a good initial guess
 #
-# The initial cloud is the truth plus Gaussian noise of standard deviations (1 m, 1 m,
-# 0.1 rad), the filter has $N = 300$ particles and resamples (systematic) when the effective
+# The initial cloud is the truth plus Gaussian noise of standard deviations
+# ({glue:text}`init_sd_pos:.0f` m, {glue:text}`init_sd_pos:.0f` m, {glue:text}`init_sd_heading:.1f` rad), the filter has $N = 300$ particles and resamples (systematic) when the effective
 # sample size drops below $N/2$.
 
 # %%
@@ -131,6 +147,8 @@ pos_odo, head_odo = rmse(sim.truth, sim.odometry_path)
 print(f"particle filter: position RMSE {pos:.2f} m, heading RMSE {np.degrees(head):.2f} deg")
 print(f"odometry alone:  position RMSE {pos_odo:.2f} m, heading RMSE {np.degrees(head_odo):.2f} deg")
 print(f"resampled at {result.n_resamples} of {sim.scenario.n_steps} steps")
+glue("init_sd_pos", float(INITIAL_STD[0]), display=False)
+glue("init_sd_heading", float(INITIAL_STD[2]), display=False)
 
 # %%
 fig, axes = plt.subplots(1, 2, figsize=(10, 5))
@@ -146,7 +164,7 @@ plt.show()
 
 # %% [markdown]
 # At the scale of the map, the estimated path lies on the true one while odometry wanders
-# off. The animation below follows the robot with a window of ±2 m: the cloud, each
+# off. The animation below follows the robot with a window of $\pm 2$ m: the cloud, each
 # particle's marker sized by its weight, the posterior mean and the landmark seen at that
 # step. Drag the slider to scrub through time.
 
@@ -159,9 +177,9 @@ anim = animate_clouds({"PF": result}, None, sim.truth, frames, None, 250, follow
 HTML(anim.to_jshtml())
 
 # %% [markdown]
-# In the first steps the cloud shrinks from its initial spread (standard deviation 1 m per
-# coordinate) as the range and bearing measurements from different landmarks cut it down,
-# to about 0.15 m (printed below). Afterwards it stays about that size: odometry noise
+# In the first steps the cloud shrinks from its initial spread (standard deviation
+# {glue:text}`init_sd_pos:.0f` m per coordinate) as the range and bearing measurements from
+# different landmarks cut it down, to about {glue:text}`tracking_sd:.2f` m (printed below). Afterwards it stays about that size: odometry noise
 # spreads it at each step, each measurement trims it back.
 #
 # ### Is the filter's uncertainty honest?
@@ -183,11 +201,15 @@ run_nees = nees(sim.truth, result.mean, result.cov, model.angle_indices)
 print(f"time-averaged NEES {run_nees.mean():.2f} (3 if the covariance were exactly right)")
 print("filter's standard deviation of x and y (m), at t = 0:", np.round(sig[0, :2], 2),
       " median after t = 50 s:", np.round(np.median(sig[50:, :2], axis=0), 2))
+glue("tracking_sd", float(np.median(sig[50:, :2])), display=False)
+glue("inside_min", float(inside.min()), display=False)
+glue("run_nees", float(run_nees.mean()), display=False)
 
 # %% [markdown]
-# In this run the error stays inside the band at every step (fractions printed above). The
+# In this run the error stays inside the band at {glue:text}`inside_min:.0%` of the steps in
+# every coordinate (fractions printed above). The
 # time-averaged normalised error (NEES, $e_k^\top P_k^{-1} e_k$, which averages to the state
-# dimension 3 for a consistent filter) is printed too. A value below 3 is expected here: the filter assumes twice the
+# dimension $3$ for a consistent filter) is {glue:text}`run_nees:.2f`. A value below $3$ is expected here: the filter assumes twice the
 # true noise variances, so it is cautious. The next chapter checks this over many runs.
 #
 # ### The weights
@@ -207,12 +229,23 @@ for ax, k in zip(axes, (k_worst, k_typical)):
 axes[0].set_ylabel("number of particles")
 plt.tight_layout()
 plt.show()
-print(f"median ESS over the run: {np.median(result.ess[1:]):.0f}")
+print(f"median ESS over the run: {np.median(result.ess[1:]):.0f}; smallest: {result.ess[k_worst]:.0f} (t = {k_worst} s)")
+meas_sd = np.sqrt(np.diag(model.r_est))
+proc_sd = np.sqrt(np.diag(model.q_est))
+print(f"filter's standard deviations: measurement {meas_sd[0]:.2f} m and {np.degrees(meas_sd[1]):.2f} deg, "
+      f"odometry {proc_sd[0]:.3f} m/s and {np.degrees(proc_sd[2]):.2f} deg/s")
+glue("ess_worst", float(result.ess[k_worst]), display=False)
+glue("ess_median", float(np.median(result.ess[1:])), display=False)
+glue("filter_r_sd_range", float(meas_sd[0]), display=False)
+glue("filter_r_sd_bearing_deg", float(np.degrees(meas_sd[1])), display=False)
+glue("filter_q_sd_m", float(proc_sd[0] * sim.scenario.dt), display=False)
+glue("filter_q_sd_deg", float(np.degrees(proc_sd[2]) * sim.scenario.dt), display=False)
 
 # %% [markdown]
-# Even at the worst step the effective sample size stays above 20, and at a typical step
-# about half of the cloud counts (median ESS printed above): one measurement of 0.7 m and 1.4° (the filter's standard
-# deviations) against a cloud with a standard deviation of 0.15 m does not kill many particles.
+# Even at the worst step the effective sample size is {glue:text}`ess_worst:.0f`, and at a typical step
+# about half of the cloud counts (median ESS {glue:text}`ess_median:.0f` of $300$): one measurement of
+# {glue:text}`filter_r_sd_range:.1f` m and {glue:text}`filter_r_sd_bearing_deg:.1f`° (the filter's standard
+# deviations) against a cloud with a standard deviation of {glue:text}`tracking_sd:.2f` m does not kill many particles.
 #
 # ## Global localization: starting from nowhere
 #
@@ -262,8 +295,8 @@ for k in snap:
 # and from every particle that matters. This is where one Gaussian is not an approximate
 # summary but a wrong one, and where an extended or unscented Kalman filter has nothing to
 # offer. A measurement of another landmark intersects the rings; once only one cluster
-# survives, the mean falls near the truth. Scrub through the same run (all 20 000 particles
-# would be a heavy figure: the animation draws the first 3000, marker area proportional
+# survives, the mean falls near the truth. Scrub through the same run (all $20\,000$ particles
+# would be a heavy figure: the animation draws the first $3000$, marker area proportional
 # to weight):
 
 # %%
@@ -278,8 +311,8 @@ HTML(anim_g.to_jshtml())
 #
 # Locking on is a matter of luck: some particles must start close enough to the truth, in
 # position *and* heading, to survive the first measurements. We call a run *locked on* if,
-# after 30 s, the posterior mean is within 1 m and 5° of the truth, and count successes over
-# 12 seeded runs for each $N$ (the same 12 simulated runs for every $N$).
+# after $30$ s, the posterior mean is within $1$ m and $5°$ of the truth, and count successes over
+# {glue:text}`lock_runs:d` seeded runs for each $N$ (the same {glue:text}`lock_runs:d` simulated runs for every $N$).
 
 # %%
 n_values = [1000, 3000, 10000, 30000]
@@ -300,33 +333,59 @@ ax.set_ylabel("fraction of runs locked on")
 ax.set_ylim(-0.05, 1.05)
 ax.set_title(f"Global localization: success over {m} seeded runs (95 % Wilson intervals)")
 plt.show()
+missed_error, missed_sd = [], []
 for n, row, ok in zip(n_values, runs, success):
     missed = [r for r in row if not r.locked_on]
     line = f"N = {n:6d}: locked on in {ok.sum():2d} of {m} runs"
     if missed:
-        line += (f"; the others end a median {np.median([r.position_error for r in missed]):.1f} m off "
-                 f"while claiming sd {np.median([r.position_sd for r in missed]):.2f} m")
+        missed_error.append(np.median([r.position_error for r in missed]))
+        missed_sd.append(np.median([r.position_sd for r in missed]))
+        line += f"; the others end a median {missed_error[-1]:.1f} m off while claiming sd {missed_sd[-1]:.2f} m"
     print(line)
+trend = evidence.paired_rates(success[-1], success[0])
+print(f"N = {n_values[-1]} against N = {n_values[0]}, same runs:", trend)
+glue("lock_runs", m, display=False)
+glue("lock_n_low", n_values[0], display=False)
+glue("lock_n_mid", n_values[1], display=False)
+glue("lock_n_high", n_values[-1], display=False)
+glue("lock_k_low", int(success[0].sum()), display=False)
+glue("lock_k_mid", int(success[1].sum()), display=False)
+glue("lock_k_high", int(success[-1].sum()), display=False)
+glue("lock_only_high", trend.only_a, display=False)
+glue("lock_only_low", trend.only_b, display=False)
+glue("lock_p", trend.pvalue, display=False)
+glue("missed_error_min", float(min(missed_error)), display=False)
+glue("missed_sd_max", float(max(missed_sd)), display=False)
 
 # %% [markdown]
-# With a few thousand particles global localization mostly fails, and the success rate
-# grows with $N$ (the intervals from 12 runs are wide: read the curve as an order of
-# magnitude). The failures are instructive: the printed lines show that a filter that
-# missed ends metres away from the truth *while its own standard deviation is below
-# 0.2 m*. After the first two or three measurements the weight sits on a handful of
+# With a few thousand particles global localization mostly fails: it locks on in
+# {glue:text}`lock_k_low:d` of {glue:text}`lock_runs:d` runs at $N$ = {glue:text}`lock_n_low:d` and
+# {glue:text}`lock_k_mid:d` at $N$ = {glue:text}`lock_n_mid:d`, against {glue:text}`lock_k_high:d` at
+# $N$ = {glue:text}`lock_n_high:d`. On the same runs, {glue:text}`lock_only_high:d` lock on only with
+# the most particles and {glue:text}`lock_only_low:d` only with the fewest (exact McNemar p =
+# {glue:text}`lock_p:.2f`): with {glue:text}`lock_runs:d` runs the intervals are wide and the rise is
+# suggestive, not established at the $5\,\%$ level; read the curve as an order of magnitude. The
+# next chapter's study of the bootstrap filter on $100$ runs settles it: a share
+# {glue:text}`global_localization.ipynb::boot30k_rate:.2f` locks on with $N = 30\,000$, against
+# {glue:text}`global_localization.ipynb::bootstrap_lock_on_rate:.2f` with $N$ =
+# {glue:text}`global_localization.ipynb::best_n:d`. The failures
+# are instructive: the printed lines show that a filter that
+# missed ends {glue:text}`missed_error_min:.1f` m or more from the truth (medians per $N$) *while its
+# own standard deviation is at most {glue:text}`missed_sd_max:.2f` m*. After the first two or three
+# measurements the weight sits on a handful of
 # particles; resampling copies them, and the transition spreads the copies by only
-# 0.03 m per step, so a cluster that settled a few metres from the truth stays there, confidently
+# {glue:text}`filter_q_sd_m:.2f` m per step, so a cluster that settled a few metres from the truth stays there, confidently
 # wrong. This is sample impoverishment. More particles help slowly; drawing particles from the
 # poses the reading allows, with the right weights, helps far more: the next chapter,
 # {doc}`global_localization`, measures it and the other classical remedies.
 #
 # ## Try it yourself
 #
-# The panel runs the particle filter on a 400-step run with your settings (tracking from
+# The panel runs the particle filter on a $400$-step run with your settings (tracking from
 # the good initial guess) and plots the position error with its ±3σ band. `Q scale` and
-# `R scale` multiply $Q_\text{true}$ and $R_\text{true}$ in the filter (2 and 2 by default),
-# `dt_meas` is the time between measurements, `gap` removes the measurements between 250 s
-# and 350 s.
+# `R scale` multiply $Q_\text{true}$ and $R_\text{true}$ in the filter ($2$ and $2$ by default),
+# `dt_meas` is the time between measurements, `gap` removes the measurements between $250$ s
+# and $350$ s.
 
 # %%
 def draw(n_particles=300, q_scale=2.0, r_scale=2.0, threshold=0.5, scheme="systematic",
@@ -380,8 +439,8 @@ panel = control_panel(
 display(panel)
 
 # %% [markdown]
-# Things to try: set `R scale` to 0.5 (the filter trusts the sensor more than it should) and
-# watch the error leave its band; set `threshold` to 0 (no resampling) and see the filter
+# Things to try: set `R scale` to $0.5$ (the filter trusts the sensor more than it should) and
+# watch the error leave its band; set `threshold` to $0$ (no resampling) and see the filter
 # degenerate after a few dozen steps; turn on the gap and watch the band grow while the
 # robot runs on odometry alone, then collapse at the first measurement after it. Chapter
 # studies in Part III repeat each of these over many seeded runs.
@@ -426,8 +485,8 @@ display(panel)
 # ```{exercise}
 # :label: ex-robot-global
 # In the global-localization experiment, estimate the probability that at least one of $N$
-# uniform particles lies within 1 m and 2° of the true state. How many particles make that
-# probability 1/2? Compare with the success curve and explain the difference.
+# uniform particles lies within $1$ m and $2°$ of the true state. How many particles make that
+# probability $1/2$? Compare with the success curve and explain the difference.
 # ```
 #
 # ```{solution} ex-robot-global
@@ -436,7 +495,8 @@ display(panel)
 # out of $120^2 \times 2\pi \approx 90\,500$ m²·rad: a fraction $p \approx 2.4\times 10^{-6}$.
 # The probability that one of $N$ particles falls in it is $1 - (1-p)^N$, one half for
 # $N \approx 0.69/p \approx 290\,000$. The filter locks on with far fewer particles because it
-# does not need a particle right at the truth at time 0: resampling keeps many particles on
-# the first rings, and the process noise (0.03 m and 1.4° per step) lets them slide towards
+# does not need a particle right at the truth at time $0$: resampling keeps many particles on
+# the first rings, and the process noise ({glue:text}`filter_q_sd_m:.2f` m and
+# {glue:text}`filter_q_sd_deg:.1f`° per step) lets them slide towards
 # the intersection of the later rings.
 # ```
