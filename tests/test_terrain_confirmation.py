@@ -53,3 +53,27 @@ def test_sampled_rows_are_recomputed(row, terrain):
     np.testing.assert_allclose([fresh["final_error"], fresh["mean_error"]], [row.final_error, row.mean_error],
                                rtol=1e-9)
     assert fresh["lost"] == bool(row.lost)
+
+
+# ---- book/data/terrain_cost_matched.csv (tools/studies/terrain_cost_matched.py), decided in advance too
+
+import terrain_cost_matched as tm  # noqa: E402
+
+COST = pd.read_csv(DATA / "terrain_cost_matched.csv")
+
+
+def test_the_cost_matched_study_has_its_flights_and_criterion():
+    meta = json.loads((DATA / "terrain_cost_matched.json").read_text())
+    assert meta["code"] == "tools/studies/terrain_cost_matched.py" and meta["criterion"] == tm.CRITERION
+    assert meta["flights"] == [200, 299] and not set(tm.FLIGHTS) & set(tc.FLIGHTS)
+    for _, group in COST.groupby("setting"):
+        assert sorted(group["flight"]) == list(tm.FLIGHTS)
+
+
+@pytest.mark.parametrize("row", list(COST.iloc[np.random.default_rng(2028).choice(len(COST), size=2, replace=False)]
+                                     .itertuples(index=False)), ids=lambda r: f"{r.setting}-{r.flight}")
+def test_sampled_cost_matched_rows_are_recomputed(row, terrain):
+    fresh = tm.run(row.setting, int(row.flight), terrain)
+    np.testing.assert_allclose([fresh["final_error"], fresh["mean_error"]], [row.final_error, row.mean_error],
+                               rtol=1e-9)
+    assert fresh["lost"] == bool(row.lost)
