@@ -40,7 +40,7 @@
 # so $N$ weighted draws are worth ESS draws from $\pi$ itself. The toy: prior
 # $x \sim \mathcal N(0, 1)$, one measurement $z = x + v$, $v \sim \mathcal N(0, r^2)$; the
 # posterior is $\mathcal N\big(z/(1 + r^2),\ r^2/(1 + r^2)\big)$. We estimate its mean with
-# $N = 100$ prior draws, 2,000 times for each $r$ (same $z = 1$).
+# $N = 100$ prior draws, {glue:text}`is_toy_reps:,d` times for each $r$ (same $z = 1$).
 
 # %%
 import matplotlib.pyplot as plt
@@ -59,7 +59,7 @@ rng = np.random.default_rng(0)
 N, reps, z = 100, 2000, 1.0
 print(f"{'r':>5} {'exact mean':>11} {'mean of estimates':>18} {'var of estimates':>17} "
       f"{'Var_pi / mean ESS':>18} {'ratio':>6} {'mean ESS':>9}")
-kong = {}
+kong, kong_ci = {}, {}
 for r in (1.0, 0.3, 0.1):
     x = rng.standard_normal((reps, N))                      # x^i ~ q = prior
     log_w = stats.norm.logpdf(z, loc=x, scale=r)            # log w~ = log p(z | x)
@@ -69,17 +69,25 @@ for r in (1.0, 0.3, 0.1):
     post_mean, post_var = z / (1 + r**2), r**2 / (1 + r**2)
     predicted = post_var / ess.mean()
     kong[r] = estimate.var(ddof=1) / predicted
+    boot = np.random.default_rng(1).integers(0, reps, (2000, reps))  # percentile bootstrap over the repetitions
+    kong_ci[r] = np.percentile(estimate[boot].var(axis=1, ddof=1) * ess[boot].mean(axis=1) / post_var, [2.5, 97.5])
     print(f"{r:5.1f} {post_mean:11.4f} {estimate.mean():18.4f} {estimate.var(ddof=1):17.2e} "
           f"{predicted:18.2e} {kong[r]:6.2f} {ess.mean():9.1f}")
+print(f"ratio, 95 % bootstrap interval over the {reps} repetitions: "
+      + ", ".join(f"r = {r}: {low:.2f}-{high:.2f}" for r, (low, high) in kong_ci.items()))
 glue("kong_ratio_r1", float(kong[1.0]), display=False)
+glue("kong_ratio_low_min", float(min(low for low, _ in kong_ci.values())), display=False)
+glue("kong_ratio_high_max", float(max(high for _, high in kong_ci.values())), display=False)
 glue("kong_ratio_r01", float(kong[0.1]), display=False)
 glue("kong_ess_r01", float(ess.mean()), display=False)
+glue("is_toy_reps", reps, display=False)
 
 # %% [markdown]
 # The estimates are centred on the exact mean, and their variance follows
 # $\operatorname{Var}_\pi / \mathrm{ESS}$ within a factor of two, on the safe side (ratio
 # {glue:text}`kong_ratio_r1:.2f` at $r = 1$, {glue:text}`kong_ratio_r01:.2f` at $r = 0.1$, where
-# the hundred draws are worth {glue:text}`kong_ess_r01:.1f` on average). The ESS is a rule of
+# the hundred draws are worth {glue:text}`kong_ess_r01:.1f` on average; the three 95 % bootstrap
+# intervals lie between {glue:text}`kong_ratio_low_min:.2f` and {glue:text}`kong_ratio_high_max:.2f`). The ESS is a rule of
 # thumb, not an identity: it looks at the weights only, not at the function $f$ being
 # estimated. It is still the number the filters monitor, and a sharper likelihood leaves fewer
 # effective draws.
@@ -99,7 +107,7 @@ glue("kong_ess_r01", float(ess.mean()), display=False)
 # A product of more and more random factors: the spread of $\log \tilde w$ grows with $k$,
 # and the largest weight takes over. Measured on a random walk
 # $x_k = x_{k-1} + w_k$, $w_k \sim \mathcal N(0, 0.1^2)$, seen as $z_k = x_k + v_k$,
-# $v_k \sim \mathcal N(0, 0.5^2)$, $N = 1000$, 200 runs, with the squared coefficient of
+# $v_k \sim \mathcal N(0, 0.5^2)$, $N = 1000$, {glue:text}`is_walk_runs:d` runs, with the squared coefficient of
 # variation of the weights $\operatorname{cv}^2 = N \sum_i (W^i)^2 - 1 = N / \mathrm{ESS} - 1$.
 # For dimension, $d$ independent copies of the first step: the weight is a product over
 # coordinates.
@@ -155,6 +163,7 @@ glue("is_ess_k0", float(np.median(ess_k[0])), display=False)
 glue("is_ess_k29", float(np.median(ess_k[-1])), display=False)
 glue("is_rho", float(rho), display=False)
 glue("is_ess_d32", float(np.median(ess_d[-1])), display=False)
+glue("is_walk_runs", n_runs, display=False)
 
 # %% [markdown]
 # The median ESS falls from {glue:text}`is_ess_k0:.0f` at the first measurement to
@@ -223,9 +232,9 @@ glue("mine_vs_engine_bound", ROUND_OFF, display=False)
 # The lab multiplied the weights by the likelihoods themselves and normalised at each step.
 # That fails when every particle's likelihood underflows to zero at once (below about
 # $e^{-745}$ in double precision): the weights become $0/0$. The function below is the SIS
-# of `my_filter` in the linear domain, and reports whether that happened. We run it on 100
-# simulations of the lab's model ($N = 100$) with the lab's measurement noise (sd 0.1 m) and
-# with a ten times sharper one (sd 0.01 m, simulator and filter alike).
+# of `my_filter` in the linear domain, and reports whether that happened. We run it on
+# {glue:text}`linear_runs:d` simulations of the lab's model ($N = 100$) with the lab's measurement
+# noise (sd $0.1$ m) and with a ten times sharper one (sd $0.01$ m, simulator and filter alike).
 
 # %%
 def linear_sis_fails(Z, N, rng, model):
@@ -257,12 +266,13 @@ for sd in (0.1, 0.01):
     glue(f"linear_fail_sd{str(sd).replace('.', '')}", int(failures[sd]), display=False)
     glue(f"linear_fail_sd{str(sd).replace('.', '')}_low", float(ci.low), display=False)
     glue(f"linear_fail_sd{str(sd).replace('.', '')}_high", float(ci.high), display=False)
+glue("linear_runs", n_runs, display=False)
 
 # %% [markdown]
 # With the lab's noise the linear-domain weights survive ({glue:text}`linear_fail_sd01` of
-# 100 runs fail; 95 % Wilson interval up to {glue:text}`linear_fail_sd01_high:.0%`): the
-# lab could not have seen the problem. With a 1 cm sensor they fail in
-# {glue:text}`linear_fail_sd001` of 100 runs (interval {glue:text}`linear_fail_sd001_low:.0%`
+# {glue:text}`linear_runs:d` runs fail; 95 % Wilson interval up to {glue:text}`linear_fail_sd01_high:.0%`): the
+# lab could not have seen the problem. With a $1$ cm sensor they fail in
+# {glue:text}`linear_fail_sd001` of {glue:text}`linear_runs:d` runs (interval {glue:text}`linear_fail_sd001_low:.0%`
 # to {glue:text}`linear_fail_sd001_high:.0%`). The log-domain update of `my_filter` cannot fail
 # this way: subtracting the largest log-weight before exponentiating keeps the best particle
 # at weight $e^0$.
@@ -280,7 +290,7 @@ for sd in (0.1, 0.01):
 # ```{solution} ex-is-weights
 # :class: dropdown
 # The linear-domain version fails the case whose likelihoods are near $e^{-1000}$: they
-# underflow to 0, the sum is 0 and the weights are NaN. The log-domain one passes:
+# underflow to $0$, the sum is $0$ and the weights are NaN. The log-domain one passes:
 # ```
 
 # %% tags=["hide-input"]

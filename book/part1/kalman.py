@@ -32,6 +32,7 @@ import numpy as np
 from IPython.display import HTML, display
 from matplotlib.animation import FuncAnimation
 from matplotlib.ticker import MultipleLocator
+from myst_nb import glue
 
 from pfcourse.diagnostics import chi2_band, nees
 from pfcourse.landmarks.kalman import kalman_filter
@@ -44,7 +45,7 @@ use_style()
 LABELS = ["robot x", "robot y", "L1 x", "L1 y", "L2 x", "L2 y"]
 
 # %% [markdown]
-# ## Estimates and 3-sigma bands on the two-landmark variant
+# ## Estimates and $3\sigma$ bands on the two-landmark variant
 
 # %%
 scenario = quadrant_scenario()
@@ -112,17 +113,20 @@ unseen_steps = ~sim.seen[1:, 0]
 change = np.diff(sd[:, 2])[unseen_steps]
 print(f"L1 unseen on {unseen_steps.sum()} steps; its sd grew on {np.sum(change > 1e-12)} of them "
       f"and shrank by more than 1e-4 m on {np.sum(change < -1e-4)}")
+glue("kalman_l1_unseen_steps", int(unseen_steps.sum()), display=False)
+glue("kalman_l1_unseen_shrank", int(np.sum(change < -1e-4)), display=False)
 
 # %% [markdown]
 # It never grows (it cannot: no process noise), and it shrinks on some unseen steps, those
 # at which the *other* landmark is measured. This is the mechanism of SLAM: correlations
 # carry information between the map and the robot.
 #
-# ## Is it consistent? NEES over 200 runs
+# ## Is it consistent? The NEES over many runs
 #
 # "The bands contain the truth" is a check by eye. The normalised estimation error squared,
 # $\epsilon_k = (x_k - m_k)^\top P_k^{-1}(x_k - m_k)$, is $\chi^2_6$ for an exact filter; its
-# average over $R$ runs must stay inside the $\chi^2$ band of the average.
+# average over $R$ runs must stay inside the $\chi^2$ band of the average. Here
+# $R$ = {glue:text}`kalman_nees_runs:d`:
 
 # %%
 n_runs = 200
@@ -133,7 +137,10 @@ eps = np.array([
 lo, hi = chi2_band(6, n_runs)
 inside = np.mean((eps.mean(axis=0) >= lo) & (eps.mean(axis=0) <= hi))
 print(f"average NEES over {n_runs} runs: {eps.mean():.2f} (6 expected); "
-      f"inside the 95 % band [{lo:.2f}, {hi:.2f}] at {inside:.0%} of the 50 steps")
+      f"inside the 95 % band [{lo:.2f}, {hi:.2f}] at {inside:.0%} of the {eps.shape[1]} steps")
+glue("kalman_nees_runs", n_runs, display=False)
+glue("kalman_nees_mean", float(eps.mean()), display=False)
+glue("kalman_nees_inside", float(inside), display=False)
 
 fig, ax = plt.subplots(figsize=(7, 3.2))
 ax.plot(sim.T, eps.mean(axis=0), color=COLORS["kalman"], label=f"mean NEES, {n_runs} runs")
@@ -146,6 +153,11 @@ ax.legend(loc="upper right", fontsize=8)
 plt.show()
 
 # %% [markdown]
+# The average NEES over all steps and runs is {glue:text}`kalman_nees_mean:.2f` for $6$
+# expected, and the mean over runs lies inside the band at {glue:text}`kalman_nees_inside:.0%`
+# of the steps, as an exact filter should (about $95\%$ of them): the bands of the first
+# figure are honest.
+#
 # ## The five-landmark variant
 #
 # With five landmarks and the triangular field of view, each landmark is seen during a
@@ -229,7 +241,7 @@ display(control_panel(draw_kalman, grid={"noise_scale": (0.3, 1.0, 3.0), "proces
 #
 # ```{exercise}
 # :label: ex-kalman-exact
-# Lab question 2 asks why the Kalman filter is exact here. Name the two properties of the
+# Lab question $2$ asks why the Kalman filter is exact here. Name the two properties of the
 # model the argument uses, and one change of the model that would break it.
 # ```
 #
@@ -243,16 +255,17 @@ display(control_panel(draw_kalman, grid={"noise_scale": (0.3, 1.0, 3.0), "proces
 #
 # ```{exercise}
 # :label: ex-kalman-unseen
-# With the numbers printed above, how much did landmark 1's standard deviation shrink on the
+# With the numbers printed above, how much did landmark $1$'s standard deviation shrink on the
 # steps where it was *not* in view, and why is that not a contradiction?
 # ```
 #
 # ```{solution} ex-kalman-unseen
 # :class: dropdown
-# It never grew, and it shrank noticeably on a few unseen steps (the count printed above),
-# steps at which landmark 2 was measured.
-# The landmark estimate is correlated with the robot estimate; a measurement of landmark 2
-# sharpens the robot, and through the cross-covariance, landmark 1.
+# It never grew, and it shrank noticeably (by more than $10^{-4}$ m) on
+# {glue:text}`kalman_l1_unseen_shrank:d` of its {glue:text}`kalman_l1_unseen_steps:d` unseen steps,
+# steps at which landmark $2$ was measured.
+# The landmark estimate is correlated with the robot estimate; a measurement of landmark $2$
+# sharpens the robot, and through the cross-covariance, landmark $1$.
 # ```
 #
 # ```{exercise}
@@ -264,7 +277,7 @@ display(control_panel(draw_kalman, grid={"noise_scale": (0.3, 1.0, 3.0), "proces
 #
 # ````{solution} ex-kalman-code
 # :class: dropdown
-# ```python
+# ```{code} python
 # def my_kalman(Z, model):
 #     m, P, means = model.m0.copy(), model.P0.copy(), []
 #     for k, z in enumerate(Z):

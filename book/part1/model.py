@@ -36,7 +36,7 @@ use_style()
 # ## The two-landmark variant
 #
 # The first variant has two landmarks. At each time step of $\Delta t = 1$ s the robot turns
-# by $\omega = \pi/4$ rad about the origin, so it goes round once every 8 s, perturbed by a
+# by $\omega = \pi/4$ rad about the origin, so it goes round once every $8$ s, perturbed by a
 # small random step. A landmark is in view when it lies up and to the right of the robot:
 # $l_x - r_x > 0$ and $l_y - r_y > 0$.
 #
@@ -57,21 +57,21 @@ print("diag(Qw)  =", np.diag(scenario.Qw))
 print("diag(Rv)  =", np.diag(scenario.Rv))
 
 # %% [markdown]
-# What they mean physically (lab question 1):
+# What they mean physically (lab question $1$):
 #
 # - **`mX0`** is the expected initial state: the robot is believed to start near $(2, 0)$ m and
 #   the landmarks near $(-1, 4)$ m and $(4, -1)$ m.
 # - **`PX0`** is the covariance of the initial state: how far the truth may be from `mX0`.
-#   Its diagonal holds variances in m²; a variance of 0.2 m² is a standard deviation of
+#   Its diagonal holds variances in m²; a variance of $0.2$ m² is a standard deviation of
 #   $\sqrt{0.2} \approx 0.45$ m, so the landmarks are known to within about a metre at the start.
 # - **`Qw`** is the covariance of the process noise $w_k$ added at every step: the robot's
-#   steps are perturbed by 0.05 m (standard deviation) per axis, while the landmarks get
+#   steps are perturbed by $0.05$ m (standard deviation) per axis, while the landmarks get
 #   a variance of $10^{-20}$ m², a standard deviation of $10^{-10}$ m: they do not move.
 #   This detail will matter a great deal for the particle filter.
 # - **`Rv`** is the covariance of the measurement noise $v_k$: every measured coordinate is
-#   off by 0.1 m (standard deviation).
+#   off by $0.1$ m (standard deviation).
 #
-# ## One simulated run (lab question 1)
+# ## One simulated run (lab question $1$)
 #
 # `simulate` draws the initial state from $\mathcal N(\text{mX0}, \text{PX0})$, moves it with
 # the dynamics, and measures the landmarks in view. The seed makes the run reproducible.
@@ -82,10 +82,11 @@ print("T:", sim.T.shape, " X:", sim.X.shape, " Z:", sim.Z.shape)
 print("T[:5] =", sim.T[:5])
 print("X[1]  =", np.round(sim.X[1], 3))
 print("Z[1]  =", np.round(sim.Z[1], 3))
+glue("model_t_last", float(sim.T[-1]), display=False)
 
 # %% [markdown]
-# - **`T`** holds the sampling instants $t_k = k\,\Delta t$, here 0 to 49 s.
-# - **`X`** holds the true state at each instant, one row per step (6 columns): what the
+# - **`T`** holds the sampling instants $t_k = k\,\Delta t$, here from $0$ to {glue:text}`model_t_last:.0f` s.
+# - **`X`** holds the true state at each instant, one row per step, one column per state coordinate: what the
 #   filter tries to recover and never sees.
 # - **`Z`** holds the measurements, one row per step, four columns: the offset
 #   $l^1 - r$ (two coordinates) then $l^2 - r$. A landmark out of view gives NaN
@@ -146,9 +147,15 @@ print(f"nothing in view: {np.median(nothing):.0%} of steps (median over runs; 10
       f"{never:.1%} of the runs never see a landmark")
 glue("model_nothing_share", float(np.median(nothing)), display=False)
 glue("model_never_share", never, display=False)
+glue("model_seen_share_l1", float(np.median(seen_fraction[:, 0])), display=False)
+glue("model_seen_share_l2", float(np.median(seen_fraction[:, 1])), display=False)
+glue("model_both_share", float(np.median(both)), display=False)
+glue("model_visibility_runs", n_runs, display=False)
 
 # %% [markdown]
-# So in a typical run each landmark is measured at roughly a third of the steps, and the
+# So in a typical run each landmark is measured at roughly a third of the steps
+# ({glue:text}`model_seen_share_l1:.0%` and {glue:text}`model_seen_share_l2:.0%`, medians over
+# {glue:text}`model_visibility_runs:d` runs), and the
 # robot sees nothing at all at {glue:text}`model_nothing_share:.0%` of the steps (median over
 # runs); {glue:text}`model_never_share:.1%` of the runs never see a landmark. A filter must
 # carry its estimate through those gaps using the dynamics alone.
@@ -156,8 +163,8 @@ glue("model_never_share", never, display=False)
 # ## The $M$-landmark variant
 #
 # The second variant has $M = 5$ landmarks spread around a circle. The robot goes round a
-# centre $c = (2, 1)$ m once every 40 s, and its field of view is a triangle pointing along its
-# direction of travel (45° either side, 6 m deep). Turning about a centre other than the
+# centre $c = (2, 1)$ m once every $40$ s, and its field of view is a triangle pointing along its
+# direction of travel ($45^\circ$ either side, $6$ m deep). Turning about a centre other than the
 # origin adds a constant term to the dynamics,
 #
 # $$
@@ -193,7 +200,7 @@ HTML(animate_landmarks(scenario5, sim5, limits=(-4.0, 8.0)).to_jshtml())
 # $p(x_k \mid x_{k-1})$ and $p(z_k \mid x_k)$ that every filter needs.
 #
 # (model-densities)=
-# ## The three densities (lab question 2)
+# ## The three densities (lab question $2$)
 #
 # **Initial density.** The simulator draws $x_0 = m_{X0} + L_0 e$ with $L_0 L_0^\top = P_{X0}$
 # and $e \sim \mathcal N(0, I)$. An affine map of a Gaussian vector is Gaussian, with mean
@@ -320,13 +327,13 @@ display(control_panel(
 # ```{exercise}
 # :label: ex-model-units
 # The landmarks' process-noise variance is $10^{-20}$ m². What standard deviation is that, and
-# how far would a landmark drift, in distribution, over the 50 steps of a run?
+# how far would a landmark drift, in distribution, over the $50$ steps of a run?
 # ```
 #
 # ```{solution} ex-model-units
 # :class: dropdown
 # The standard deviation per step is $\sqrt{10^{-20}} = 10^{-10}$ m. Independent steps add
-# variances, so after 50 steps the drift has variance $50 \times 10^{-20}$ m² and standard
+# variances, so after $50$ steps the drift has variance $50 \times 10^{-20}$ m² and standard
 # deviation $\sqrt{50} \times 10^{-10} \approx 7 \times 10^{-10}$ m: the landmarks are static
 # for every practical purpose.
 # ```
@@ -339,17 +346,18 @@ display(control_panel(
 #
 # ```{solution} ex-model-visibility
 # :class: dropdown
-# A landmark is in view when it is up and to the right of the robot. Landmark 1 starts near
-# $(-1, 4)$ and landmark 2 near $(4, -1)$, while the robot circles the origin at a radius of
-# about 2 m. Landmark 1 is to the right of the robot only when the robot is on the far left of
-# its circle, and landmark 2 is above the robot only when the robot is at the bottom of it;
-# both hold only around the lower-left part of the circle, a short arc. The 500-run
-# statistics above put a number on it.
+# A landmark is in view when it is up and to the right of the robot. Landmark $1$ starts near
+# $(-1, 4)$ and landmark $2$ near $(4, -1)$, while the robot circles the origin at a radius of
+# about $2$ m. Landmark $1$ is to the right of the robot only when the robot is on the far left of
+# its circle, and landmark $2$ is above the robot only when the robot is at the bottom of it;
+# both hold only around the lower-left part of the circle, a short arc. The
+# {glue:text}`model_visibility_runs:d`-run statistics above put a number on it: both are in view
+# at {glue:text}`model_both_share:.0%` of the steps (median over runs).
 # ```
 #
 # ```{exercise}
 # :label: ex-model-likelihood
-# Write $p(z_k \mid x_k)$ at a step where only landmark 2 of the two-landmark variant is in
+# Write $p(z_k \mid x_k)$ at a step where only landmark $2$ of the two-landmark variant is in
 # view: give $H_k$ and $R_k$ explicitly. What is it at a step where no landmark is in view?
 # ```
 #
@@ -357,7 +365,7 @@ display(control_panel(
 # :class: dropdown
 # $H_k = \begin{pmatrix} -1 & 0 & 0 & 0 & 1 & 0 \\ 0 & -1 & 0 & 0 & 0 & 1 \end{pmatrix}$ and
 # $R_k = 0.1^2 I_2$, so $p(z_k \mid x_k) = \mathcal N(z_k;\, l^2_k - r_k,\, 0.01 I_2)$. With no
-# landmark in view there is no measurement; the likelihood is the constant 1, and both the
+# landmark in view there is no measurement; the likelihood is the constant $1$, and both the
 # Kalman filter and the particle filter only predict.
 # ```
 #
@@ -365,12 +373,12 @@ display(control_panel(
 # :label: ex-model-code
 # (Coding.) Write `sees(x)` that returns, for a state $x$ of the two-landmark model, which
 # landmarks lie up and to the right of the robot, and check it against `scenario.visible` on
-# 1,000 states drawn from the prior.
+# $1000$ states drawn from the prior.
 # ```
 #
 # ````{solution} ex-model-code
 # :class: dropdown
-# ```python
+# ```{code} python
 # def sees(x):
 #     rel = x[..., 2:].reshape(x.shape[:-1] + (2, 2)) - x[..., None, :2]
 #     return (rel[..., 0] > 0) & (rel[..., 1] > 0)

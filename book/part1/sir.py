@@ -17,7 +17,7 @@
 # computation is spent where the posterior is {cite:p}`gordon1993`.
 #
 # (sir-algorithm)=
-# ## The SIR algorithm (lab question 6)
+# ## The SIR algorithm (lab question $6$)
 #
 # SIS as in {ref}`sis-algorithm`, plus, after the estimate at step $k$:
 #
@@ -35,7 +35,9 @@
 import matplotlib.pyplot as plt
 import numpy as np
 from IPython.display import display
+from myst_nb import glue
 
+from pfcourse import evidence
 from pfcourse.filter import ParticleFilter
 from pfcourse.landmarks.kalman import kalman_filter
 from pfcourse.landmarks.scenario import quadrant_scenario, simulate
@@ -54,7 +56,7 @@ sim = simulate(scenario, rng=2024)
 kf = kalman_filter(model, sim.Z)
 
 # %% [markdown]
-# ## Testing it (lab question 7)
+# ## Testing it (lab question $7$)
 
 # %%
 sir = ParticleFilter(model, 100, threshold=1 / 3)
@@ -67,7 +69,7 @@ plt.show()
 
 # %% [markdown]
 # The robot is now tracked: its band keeps a width, because the robot's process noise
-# (0.05 m per step) gives the resampled copies of a particle different futures. The
+# ($0.05$ m per step) gives the resampled copies of a particle different futures. The
 # landmarks are another story. Their band collapses just as under SIS and does not come
 # back. Counting the *distinct* values of a landmark coordinate in the cloud shows why
 # (values closer than a micrometre count as one: the $10^{-10}$ m process noise makes copies
@@ -89,6 +91,9 @@ ax.set_title("SIR, N = 100: the weights recover, the landmark values do not")
 ax.legend(fontsize=8)
 plt.show()
 print("distinct L1 x values at steps 0, 5, 20, 49:", [distinct[k] for k in (0, 5, 20, 49)])
+single_from = int(np.flatnonzero(np.array(distinct) > 1).max() + 1)
+print(f"a single L1 x value in the cloud from step {single_from} on")
+glue("sir_single_value_step", single_from, display=False)
 
 # %% [markdown]
 # The animation puts the two filters side by side on this run, both with $N = 100$ and the
@@ -109,11 +114,12 @@ HTML(animate_clouds({"SIS": sis_res, "SIR": res}, kf, sim.X, frames=range(0, 30,
 # landmarks the dynamics add noise of standard deviation $10^{-10}$ m, so after each
 # resampling the number of distinct landmark values can only stay or fall. This is **sample
 # impoverishment**: the weights are healthy (the ESS is high after each resampling) but
-# they sit on a handful of landmark hypotheses; in this run, on a single one from step 5 on.
+# they sit on a handful of landmark hypotheses; in this run, on a single value of $l^1_x$ from
+# step {glue:text}`sir_single_value_step:d` on.
 #
 # ## How often does SIR resample?
 #
-# The lab observed that SIR resamples "very often". Over 50 runs:
+# The lab observed that SIR resamples "very often". Over {glue:text}`sir_runs:d` runs:
 
 # %%
 n_runs = 50
@@ -122,18 +128,31 @@ sir100 = kalman_scores(scenario, lambda Z, s: ParticleFilter(model, 100, thresho
 rate = sir100["resampled"].mean(axis=1)
 print(f"N = 100, threshold N/3: resampled at {np.median(rate):.0%} of the steps "
       f"(median of {n_runs} runs, 10-90 %: {np.percentile(rate, 10):.0%}-{np.percentile(rate, 90):.0%})")
-seen = np.array([simulate(scenario, rng=s).seen.any(axis=1).mean() for s in range(n_runs)])
+seen_steps = np.array([simulate(scenario, rng=s).seen.any(axis=1) for s in range(n_runs)])
+seen = seen_steps.mean(axis=1)
 print(f"steps with at least one landmark in view: {np.median(seen):.0%} (median)")
+measured = seen_steps.any(axis=1)  # a run that never sees a landmark has no measured step
+share = (sir100["resampled"] & seen_steps)[measured].sum(axis=1) / seen_steps[measured].sum(axis=1)
+share_median, share_low, share_high = evidence.median_interval(share)
+print(f"resampled at {share_median:.0%} of the steps with a measurement (median over the {measured.sum()} runs "
+      f"with one, 95 % interval {share_low:.0%}-{share_high:.0%}); at a step without one in "
+      f"{int((sir100['resampled'] & ~seen_steps).sum())} cases")
+glue("sir_runs", n_runs, display=False)
+glue("sir_resample_share_measured", share_median, display=False)
+glue("sir_resample_share_measured_low", share_low, display=False)
+glue("sir_resample_share_measured_high", share_high, display=False)
 
 # %% [markdown]
-# It resamples at most of the steps that have a measurement (compare the two medians): one
-# measurement is usually enough to divide the ESS by more than 3.
+# It resamples at most of the steps that have a measurement
+# ({glue:text}`sir_resample_share_measured:.0%` of them in the median run, 95 % interval
+# {glue:text}`sir_resample_share_measured_low:.0%` to {glue:text}`sir_resample_share_measured_high:.0%`):
+# one measurement is usually enough to divide the ESS by more than $3$.
 #
 # ## Does more particles cure the impoverishment?
 #
 # The error of the SIR landmark estimate against the **exact posterior mean** (not against
 # the truth) is pure Monte Carlo error. For a healthy particle filter it falls as
-# $1/\sqrt N$. Here, over 50 runs per $N$:
+# $1/\sqrt N$. Here, over {glue:text}`sir_runs:d` runs per $N$:
 
 # %%
 N_values = (100, 300, 1000, 3000)
@@ -146,7 +165,25 @@ slope = np.polyfit(np.log(N_values), np.log(np.median(final, axis=1)), 1)[0]
 for N, f in zip(N_values, final):
     print(f"N = {N:5d}: landmark error vs Kalman mean at t = 49 s: median {np.median(f):.3f} m "
           f"(10-90 %: {np.percentile(f, 10):.3f}-{np.percentile(f, 90):.3f})")
-print(f"log-log slope of the median: {slope:.2f} (a healthy filter: -0.50)")
+
+
+def slope_interval(errors, Ns, n_boot=2000, seed=0):
+    """Percentile-bootstrap 95 % interval of the log-log slope of the median error over N.
+
+    ``errors[i, s]`` is the error at ``Ns[i]`` on run ``s``; runs are resampled together (same seeds).
+    """
+    idx = np.random.default_rng(seed).integers(0, errors.shape[1], (n_boot, errors.shape[1]))
+    log_med = np.log(np.median(errors[:, idx], axis=2))
+    x = np.log(Ns) - np.mean(np.log(Ns))
+    return tuple(np.percentile((x @ log_med) / (x @ x), [2.5, 97.5]))
+
+
+slope_low, slope_high = slope_interval(final, N_values)
+print(f"log-log slope of the median: {slope:.2f} (95 % bootstrap interval over the runs "
+      f"{slope_low:.2f} to {slope_high:.2f}; a healthy filter: -0.50)")
+glue("sir_slope", float(slope), display=False)
+glue("sir_slope_low", float(slope_low), display=False)
+glue("sir_slope_high", float(slope_high), display=False)
 
 fig, ax = plt.subplots(figsize=(6, 3.6))
 ax.loglog(N_values, np.median(final, axis=1), "o-", color=COLORS["estimate"], label="SIR, median")
@@ -161,15 +198,17 @@ ax.legend(fontsize=8)
 plt.show()
 
 # %% [markdown]
-# The error falls much more slowly than $1/\sqrt N$: more particles only postpone the
+# The error falls much more slowly than $1/\sqrt N$ (log-log slope {glue:text}`sir_slope:.2f`,
+# 95 % interval {glue:text}`sir_slope_low:.2f` to {glue:text}`sir_slope_high:.2f`, against
+# $-0.5$): more particles only postpone the
 # impoverishment. A second symptom is overconfidence: the collapsed cloud reports a tiny
 # covariance. We measure it in the next section with the coverage of the truth by the
-# filter's own 95 % landmark ellipsoid.
+# filter's own 95 % confidence ellipsoid for the landmarks.
 #
 # (sir-fixes)=
 # ## Two fixes, measured against the exact posterior
 #
-# **The lab's fix** gives the landmarks process noise of variance $0.0025$ m² (0.05 m per
+# **The lab's fix** gives the landmarks process noise of variance $0.0025$ m² ($0.05$ m per
 # step). Report 000 is ambiguous about where: the $Q_w$ its simulation function returns
 # feeds both its simulator and its SIS, which reads as noise in the simulated landmarks too
 # (the all-noisy model of {doc}`proposals`). Here we first read it as noise *in the filter's
@@ -183,17 +222,19 @@ plt.show()
 # and $d = 6$ (`pfcourse.roughening`); we use the original $K = 0.2$. The jitter shrinks as
 # the cloud shrinks and as $N$ grows.
 #
-# Both at $N = 1000$, 50 runs each, scored on the landmarks at the last 10 steps: the error
-# against the exact mean, the ratio of the filter's landmark standard deviation to the
-# exact one (geometric mean over the four coordinates; below 1: overconfident), and the
-# fraction of steps at which the truth lies inside the filter's 95 % ellipsoid (95 % for
-# an exact filter).
+# Both at $N = 1000$, {glue:text}`sir_runs:d` runs each, scored on the landmarks at the last
+# {glue:text}`sir_score_steps:d` steps: the error against the exact mean, the ratio of the
+# filter's landmark standard deviation to the exact one (geometric mean over the four
+# coordinates; below $1$: overconfident), and the fraction of steps at which the truth lies
+# inside the filter's 95 % confidence ellipsoid (the nominal $95\%$ for an exact filter).
 
 # %%
 Q_fix = scenario.Qw.copy()
 Q_fix[2:, 2:] = 0.0025 * np.eye(4)
 model_fix = scenario.model(Qw=Q_fix)
 N = 1000
+last = 10  # steps scored, at the end of the run
+glue("sir_score_steps", last, display=False)
 variants = {
     "SIR, lab's model": by_N[1000],
     "SIR + landmark noise 0.0025": kalman_scores(
@@ -220,12 +261,30 @@ variants["Kalman of the modified model (N = inf)"] = kalman_scores(
 print(f"{'filter':40s} {'error vs exact mean (m)':>24s} {'sd ratio':>9s} {'coverage':>9s}")
 rows = {}
 for name, r in variants.items():
-    err = r["rmse"][:, -10:].mean(axis=1)
-    ratio = np.exp(np.clip(r["log_var_ratio"][:, -10:], -50, 50) / 2).mean(axis=1)
-    cover = r["covered"][:, -10:].mean()
+    err = r["rmse"][:, -last:].mean(axis=1)
+    ratio = np.exp(np.clip(r["log_var_ratio"][:, -last:], -50, 50) / 2).mean(axis=1)
+    cover = r["covered"][:, -last:].mean()
     rows[name] = (err, ratio, cover)
     print(f"{name:40s} {np.median(err):10.3f} [{np.percentile(err, 10):.3f}, "
           f"{np.percentile(err, 90):.3f}] {np.median(ratio):9.2g} {cover:9.0%}")
+plain, fix, rough, kf_fix = (rows[n] for n in variants)
+comparisons = {"plain / fix": evidence.paired(plain[0], fix[0], ratio=True),
+               "fix - Kalman of the modified model (m)": evidence.paired(fix[0], kf_fix[0]),  # a run with no sighting: 0 - 0
+               "roughening / fix": evidence.paired(rough[0], fix[0], ratio=True)}
+print(f"errors, paired over the {n_runs} runs:")
+for label, c in comparisons.items():
+    print(f"  {label}: {c}")
+for key, (err, ratio, cover) in zip(("plain", "fix", "rough", "kf_fix"), (plain, fix, rough, kf_fix)):
+    glue(f"sir_{key}_err", float(np.median(err)), display=False)
+    glue(f"sir_{key}_err_q90", float(np.percentile(err, 90)), display=False)
+    glue(f"sir_{key}_sd_ratio", float(np.median(ratio)), display=False)
+    glue(f"sir_{key}_cover", float(cover), display=False)
+for key, c in zip(("plain_over_fix", "fix_minus_kf", "rough_over_fix"), comparisons.values()):
+    glue(f"sir_{key}", c.median, display=False)
+    glue(f"sir_{key}_low", c.low, display=False)
+    glue(f"sir_{key}_high", c.high, display=False)
+    glue(f"sir_{key}_p", c.pvalue, display=False)
+glue("sir_rough_over_fix_detectable", comparisons["roughening / fix"].detectable, display=False)
 
 # %%
 fig, (ax1, ax2) = plt.subplots(1, 2, figsize=(10, 3.6))
@@ -234,7 +293,7 @@ short = ["lab model", "noise 0.0025", "roughening", "KF, modified"]
 ax1.boxplot([rows[n][0] for n in names], tick_labels=short)
 ax1.set_yscale("log")
 ax1.set_ylabel("landmark error vs exact mean (m)")
-ax1.set_title(f"N = {N}, {n_runs} runs, last 10 steps")
+ax1.set_title(f"N = {N}, {n_runs} runs, last {last} steps")
 ax2.boxplot([rows[n][1] for n in names], tick_labels=short)
 ax2.axhline(1.0, color="k", ls=":")
 ax2.set_yscale("log")
@@ -246,23 +305,38 @@ plt.show()
 # What the numbers say (read them from the table above):
 #
 # - Plain SIR is both wrong and overconfident: its landmark error against the exact mean is
-#   large, its standard deviation collapses by orders of magnitude, and its ellipsoid
-#   almost never contains the truth.
+#   large ({glue:text}`sir_plain_err:.3f` m, median over runs), its standard deviation collapses
+#   by orders of magnitude (ratio {glue:text}`sir_plain_sd_ratio:.2g`), and its ellipsoid
+#   almost never contains the truth (coverage {glue:text}`sir_plain_cover:.0%`).
 # - The lab's fix makes the estimate converge, and it is the reported fix: the error drops
-#   by a factor of several. Its cost is **underconfidence**: the filter's standard deviation
-#   is a few times the exact one, and its coverage is near 100 %; the Kalman filter of the
-#   modified model shows this is the model's doing, not the particles'. It also makes the
-#   landmark estimates drift with the robot between sightings.
+#   by a factor of several (run by run, plain SIR's error is {glue:text}`sir_plain_over_fix:.1f`
+#   times the fix's in the median, 95 % interval {glue:text}`sir_plain_over_fix_low:.1f` to
+#   {glue:text}`sir_plain_over_fix_high:.1f`). Its cost is **underconfidence**: the filter's
+#   standard deviation is a few times the exact one (ratio {glue:text}`sir_fix_sd_ratio:.1f`), and
+#   its coverage is near $100\%$ ({glue:text}`sir_fix_cover:.0%`); the Kalman filter of the
+#   modified model (ratio {glue:text}`sir_kf_fix_sd_ratio:.1f`, coverage
+#   {glue:text}`sir_kf_fix_cover:.0%`) shows this is the model's doing, not the particles'. It
+#   also makes the landmark estimates drift with the robot between sightings.
 # - The particle filter with the lab's fix is already close to its own limit at $N = 1000$:
-#   its error against the exact mean is about that of the Kalman filter of the modified
-#   model. What remains is the bias of the modified model, not Monte Carlo error.
-# - Roughening keeps the model and jitters only after resampling. Its median error is
-#   comparable to the lab's fix and its standard deviation is much closer to the exact one,
-#   but its error has a heavier tail (see the 90 % quantile) and its coverage is well below
-#   95 %: where it goes wrong, it does not know it. The outliers of its standard-deviation
-#   ratio are runs in which a landmark's cloud had already collapsed to a single value
-#   before roughening could act: the rule scales with the range $E_j$, which is then 0, so
-#   it never recovers. $K$ is one more tuning constant.
+#   its error against the exact mean ({glue:text}`sir_fix_err:.3f` m) is only slightly above that
+#   of the Kalman filter of the modified model ({glue:text}`sir_kf_fix_err:.3f` m): by
+#   {glue:text}`sir_fix_minus_kf:.3f` m in the median run (95 % interval
+#   {glue:text}`sir_fix_minus_kf_low:.3f` to {glue:text}`sir_fix_minus_kf_high:.3f` m, Wilcoxon
+#   $p$ = {glue:text}`sir_fix_minus_kf_p:.1g`). Most of what remains is the bias of the modified
+#   model, not Monte Carlo error.
+# - Roughening keeps the model and jitters only after resampling. Its median error
+#   ({glue:text}`sir_rough_err:.3f` m) is comparable to the lab's fix: no difference detected
+#   (run by run, median ratio {glue:text}`sir_rough_over_fix:.2f`, 95 % interval
+#   {glue:text}`sir_rough_over_fix_low:.2f` to {glue:text}`sir_rough_over_fix_high:.2f`, Wilcoxon
+#   $p$ = {glue:text}`sir_rough_over_fix_p:.2f`; a factor of up to
+#   {glue:text}`sir_rough_over_fix_detectable:.2f` either way could hide in these runs). Its standard deviation is much closer to the exact one (ratio
+#   {glue:text}`sir_rough_sd_ratio:.1f`), but its error has a heavier tail (90 % quantile
+#   {glue:text}`sir_rough_err_q90:.3f` m against {glue:text}`sir_fix_err_q90:.3f` m) and its
+#   coverage ({glue:text}`sir_rough_cover:.0%`) is well below the nominal $95\%$: where it goes
+#   wrong, it does not know it. The outliers of its standard-deviation ratio are runs in which a
+#   landmark's cloud had already collapsed to a single value before roughening could act: the
+#   rule scales with the range $E_j$, which is then $0$, so it never recovers. $K$ is one
+#   more tuning constant.
 #
 # (sir-two-readings)=
 # ### Both readings of the lab's fix, and roughening over K, against N
@@ -270,11 +344,11 @@ plt.show()
 # The single setting above ($N = 1000$, $K = 0.2$) hides how the fixes behave with $N$.
 # A stored study (`tools/studies/sir_fixes.py`, data and provenance in
 # `book/data/sir_fixes.csv` / `.json`, rows re-computed by `tests/test_sir_fixes_study.py`)
-# runs SIR with threshold $N/3$ on 100 simulations (seeds 0-99, filter seed $s + 10^6$) for
-# $N$ = 100 to 3000: plain SIR; the lab's noise in the filter only (reference: the Kalman
+# runs SIR with threshold $N/3$ on {glue:text}`fix_runs:d` simulations (seeds $s = 0, 1, \dots$,
+# filter seed $s + 10^6$) for $N$ = {glue:text}`fix_N_min:d` to {glue:text}`fix_N_max:d`: plain SIR; the lab's noise in the filter only (reference: the Kalman
 # filter of the static model, the data's exact posterior); the lab's noise in simulator and
 # filter alike (a different data set, whose exact posterior is that model's Kalman filter);
-# and roughening with $K$ from 0.05 to 0.4. Scores as above (landmarks, last 10 steps).
+# and roughening with $K$ from $0.05$ to $0.4$. Scores as above (landmarks, last $10$ steps).
 
 # %%
 import pandas as pd
@@ -296,6 +370,19 @@ for v in NAMES:
     fix_slopes[v] = np.polyfit(np.log(Ns), np.log(med), 1)[0]
 print("log-log slope of the median error over N = 100-3000: "
       + ", ".join(f"{NAMES[v]} {b:+.2f}" for v, b in fix_slopes.items()))
+fix_runs = fixes.seed.nunique()
+fix_slope_ci = {}
+for v in ("noise_filter_only", "noise_everywhere"):
+    errors = np.array([fixes[(fixes.variant == v) & (fixes.N == n)].sort_values("seed").error.to_numpy() for n in Ns])
+    fix_slope_ci[v] = slope_interval(errors, Ns)
+    print(f"  {NAMES[v]}: 95 % bootstrap interval of the slope over the {fix_runs} runs "
+          f"{fix_slope_ci[v][0]:+.2f} to {fix_slope_ci[v][1]:+.2f}")
+glue("fix_runs", int(fix_runs), display=False)
+glue("fix_N_min", Ns[0], display=False)
+glue("fix_N_max", Ns[-1], display=False)
+for v, key in (("noise_filter_only", "filter_only"), ("noise_everywhere", "everywhere")):
+    glue(f"fix_slope_{key}_low", float(fix_slope_ci[v][0]), display=False)
+    glue(f"fix_slope_{key}_high", float(fix_slope_ci[v][1]), display=False)
 
 fig, (ax1, ax2) = plt.subplots(1, 2, figsize=(7, 3.6))
 for v, style in zip(NAMES, ("k-o", "C0-s", "C1-^", "C2:.", "C2--.", "C2-.", "C3-.")):
@@ -331,11 +418,13 @@ glue("fix_err_k02_100", float(summary.loc[("roughening_0.2", 100), "error"]), di
 # %% [markdown]
 # - **Noise in simulator and filter** is a correct filter of a different problem: its error
 #   against that problem's exact posterior falls with slope
-#   {glue:text}`fix_slope_everywhere:.2f`, the Monte Carlo rate, to
+#   {glue:text}`fix_slope_everywhere:.2f` (95 % interval {glue:text}`fix_slope_everywhere_low:.2f`
+#   to {glue:text}`fix_slope_everywhere_high:.2f`), the Monte Carlo rate, to
 #   {glue:text}`fix_err_everywhere_3000:.3f` m at $N = 3000$ (coverage
 #   {glue:text}`fix_cov_everywhere_3000:.0%`). If this is what report 000 ran, its fix
 #   "worked" because the landmarks it simulated really moved.
-# - **Noise in the filter only** levels off (slope {glue:text}`fix_slope_filter_only:.2f`) at
+# - **Noise in the filter only** levels off (slope {glue:text}`fix_slope_filter_only:.2f`,
+#   95 % interval {glue:text}`fix_slope_filter_only_low:.2f` to {glue:text}`fix_slope_filter_only_high:.2f`) at
 #   {glue:text}`fix_err_filter_only_3000:.3f` m at $N = 3000$: the bias of the wrong model,
 #   which more particles cannot remove; its coverage ({glue:text}`fix_cov_filter_only_3000:.0%`)
 #   is too cautious.
@@ -344,8 +433,8 @@ glue("fix_err_k02_100", float(summary.loc[("roughening_0.2", 100), "error"]), di
 #   $K = 0.2$), at $N = 3000$ it is worse ({glue:text}`fix_err_k04_3000:.3f` against
 #   {glue:text}`fix_err_k02_3000:.3f` m; paired tests printed above), because a large jitter
 #   is itself an error that does not shrink fast enough. Even at the best setting
-#   its coverage ({glue:text}`fix_cov_k02_3000:.0%` for $K = 0.2$, $N = 3000$) stays below
-#   95 %. $K$ is a tuning constant to be chosen per $N$, with no exact model behind it.
+#   its coverage ({glue:text}`fix_cov_k02_3000:.0%` for $K = 0.2$, $N = 3000$) stays below the
+#   nominal $95\%$. $K$ is a tuning constant to be chosen per $N$, with no exact model behind it.
 #
 # Neither fix makes the particle filter exact; the honest comparison is the Kalman filter,
 # which has zero error here at a fraction of the cost. {doc}`proposals` asks whether a
@@ -355,7 +444,7 @@ glue("fix_err_k02_100", float(summary.loc[("roughening_0.2", 100), "error"]), di
 # ## Try it
 #
 # The panel runs SIR on the lab's model with the chosen $N$, threshold, resampling scheme,
-# roughening constant $K$ (0: none) and seed, and plots the landmark 1 estimate and the
+# roughening constant $K$ ($K = 0$: none) and seed, and plots the landmark $1$ estimate and the
 # number of distinct values in the cloud.
 
 # %%
@@ -394,7 +483,7 @@ display(control_panel(
 #
 # ```{exercise}
 # :label: ex-sir-threshold
-# (Lab questions 6 and 7.) With $\theta = 1/3$, SIR resampled at the fraction of steps
+# (Lab questions $6$ and $7$.) With $\theta = 1/3$, SIR resampled at the fraction of steps
 # printed above. What would $\theta = 1$ change for the robot estimate, and what for the
 # landmarks? Try it in the panel.
 # ```
@@ -402,13 +491,14 @@ display(control_panel(
 # ```{solution} ex-sir-threshold
 # :class: dropdown
 # It would resample at every step with a measurement, which here is almost the same set of
-# steps, so little changes. Resampling more often adds Monte Carlo noise to the robot and
+# steps ($\theta = 1/3$ already resamples at {glue:text}`sir_resample_share_measured:.0%` of them
+# in the median run), so little changes. Resampling more often adds Monte Carlo noise to the robot and
 # speeds up the loss of distinct landmark values; it never adds diversity.
 # ```
 #
 # ```{exercise}
 # :label: ex-sir-fix
-# (Lab question 4, "how to fix it".) Why does giving the landmarks process noise in the
+# (Lab question $4$, "how to fix it".) Why does giving the landmarks process noise in the
 # filter make the estimate converge, and why is the resulting filter underconfident?
 # ```
 #
@@ -416,7 +506,7 @@ display(control_panel(
 # :class: dropdown
 # The noise makes resampled copies of a landmark hypothesis drift apart, so the cloud
 # keeps exploring the landmark positions and the measurements can keep selecting good
-# ones. But the filter now believes the landmarks move: between sightings it adds 0.0025 m²
+# ones. But the filter now believes the landmarks move: between sightings it adds $0.0025$ m²
 # of variance per step to each landmark coordinate, which the exact posterior does not
 # have. The table shows the consequence: a standard deviation several times the exact one.
 # ```
@@ -431,7 +521,7 @@ display(control_panel(
 #
 # ````{solution} ex-sir-code
 # :class: dropdown
-# ```python
+# ```{code} python
 # def my_resampler(W, rng):
 #     u = np.sort(rng.random(len(W)))
 #     return np.minimum(np.searchsorted(np.cumsum(W), u, side="right"), len(W) - 1)

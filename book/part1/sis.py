@@ -15,11 +15,11 @@
 # (SIS), runs it with the simulator's own noise models, and watches it fail.
 #
 # (sis-algorithm)=
-# ## The SIS algorithm (lab question 3)
+# ## The SIS algorithm (lab question $3$)
 #
 # (Notation: we write $z_{1:k}$ because in this model the first measurement comes after the
 # first move; `pfcourse`'s docstrings say $z_{0:k}$, since the engine also accepts a
-# measurement at time 0.)
+# measurement at time $0$.)
 #
 # SIS represents $p(x_k \mid z_{1:k})$ by $N$ particles $x_k^i$ with normalised weights
 # $W_k^i$. It needs an **importance function** $q(x_k \mid x_{k-1}, z_k)$ from which new
@@ -39,11 +39,11 @@
 #       $\mathrm{ESS}_k = 1 / \sum_i (W_k^i)^2$.
 #
 # The weights are kept in the log domain: with four measured coordinates of standard
-# deviation 0.1 m, a particle whose robot is 1 m off in $x$ misplaces both landmarks' $x$
-# by 1 m: its likelihood is lower by a factor $e^{-2 \times 1^2 / (2 \times 0.1^2)} = e^{-100}$,
+# deviation $0.1$ m, a particle whose robot is $1$ m off in $x$ misplaces both landmarks' $x$
+# by $1$ m: its likelihood is lower by a factor $e^{-2 \times 1^2 / (2 \times 0.1^2)} = e^{-100}$,
 # and a product of a few such factors can underflow to zero in floating point. How often the
 # lab's linear-domain weights actually fail is measured in {ref}`log-domain`. In `pfcourse` this algorithm is
-# `ParticleFilter(model, N, threshold=0)` (threshold 0: never resample); the same algorithm in
+# `ParticleFilter(model, N, threshold=0)` (threshold $0$: never resample); the same algorithm in
 # twenty lines of NumPy, giving the same numbers, is in {ref}`write-sis`.
 
 # %%
@@ -52,6 +52,7 @@ import numpy as np
 from IPython.display import HTML, display
 from myst_nb import glue
 
+from pfcourse import evidence
 from pfcourse.filter import ParticleFilter
 from pfcourse.landmarks.kalman import kalman_filter
 from pfcourse.landmarks.scenario import quadrant_scenario, simulate
@@ -68,7 +69,7 @@ sim = simulate(scenario, rng=2024)
 kf = kalman_filter(model, sim.Z)
 
 # %% [markdown]
-# ## One run with the lab's 100 particles (lab questions 4 and 5)
+# ## One run with the lab's $N = 100$ particles (lab questions $4$ and $5$)
 
 # %%
 sis = ParticleFilter(model, 100, threshold=0.0)
@@ -81,7 +82,7 @@ plt.show()
 # cloud goes to zero while the exact one (green) does not. The estimate then follows the
 # robot's motion with the error of whichever particle dominates at the time; the band
 # reopens briefly when the dominant particle changes, which it does
-# {glue:text}`sis_dominant_changes` times after step 5 in this run (counted below). The
+# {glue:text}`sis_dominant_changes` times after step $5$ in this run (counted below). The
 # effective sample size tells the same story in numbers.
 
 # %%
@@ -92,12 +93,16 @@ changes = int(np.sum(leader[6:] != leader[5:-1]))
 print(f"the dominant particle changes {changes} times after step 5 "
       f"(at steps {np.flatnonzero(leader[6:] != leader[5:-1]) + 6})")
 glue("sis_dominant_changes", changes, display=False)
+first_sighting = int(np.flatnonzero(sim.seen.any(axis=1))[0])
+print(f"first landmark sighting at step {first_sighting}: ESS {res.ess[first_sighting]:.1f}")
+glue("sis_first_sighting_step", first_sighting, display=False)
+glue("sis_first_sighting_ess", float(res.ess[first_sighting]), display=False)
 for k in (0, 5, 49):
     print(f"k = {k:2d}: trace of the SIS covariance {np.trace(res.cov[k]):.2e} m^2, "
           f"Kalman {np.trace(kf.cov[k]):.2e} m^2")
 
 # %% [markdown]
-# The weight histograms show where the mass goes: at step 0 every weight is $1/N$; after a
+# The weight histograms show where the mass goes: at step $k = 0$ every weight is $1/N$; after a
 # couple of measurements most weights are negligible; soon one particle holds it all.
 
 # %%
@@ -124,12 +129,13 @@ HTML(animate_clouds({"SIS, N = 100": res}, kf, sim.X, range(0, 30), interval=200
 
 # %% [markdown]
 # (sis-degeneracy)=
-# ## Degeneracy in numbers: how fast does the ESS reach 1? (lab question 5)
+# ## Degeneracy in numbers: how fast does the ESS reach one particle? (lab question $5$)
 #
 # One run shows the collapse; does it depend on the run, and does a larger $N$ save SIS?
-# For $N = 100$, $1000$ and $10\,000$ we run SIS on 50 independent simulations (seeds 0 to
-# 49, filter seeds 1000 to 1049) and record the first step at which $\mathrm{ESS} < 2$,
-# "about one particle". Only the first 15 steps are run, since that is where it happens.
+# For $N = 100$, $1000$ and $10\,000$ we run SIS on {glue:text}`sis_degeneracy_runs:d` independent
+# simulations (seeds $s = 0, 1, \dots$, filter seeds $1000 + s$) and record the first step at which
+# $\mathrm{ESS} < 2$, "about one particle". Only the first {glue:text}`sis_horizon:d` steps are
+# run, since that is where it happens.
 
 # %%
 n_runs, horizon = 50, 15
@@ -151,6 +157,19 @@ for N in N_values:
     print(f"N = {N:6d}: ESS < 2 first at step {np.median(f):.0f} (median), "
           f"10-90 % of runs {np.percentile(f, 10):.0f}-{np.percentile(f, 90):.0f}, "
           f"never within {horizon} steps in {np.sum(f == horizon)} of {n_runs} runs")
+delay = evidence.paired(first_below(ess[10_000]), first_below(ess[100]))
+print(f"delay of N = 10000 over N = 100, run by run (steps): {delay}")
+per_decade = delay.median / np.log10(10_000 / 100)
+medians = {N: float(np.median(first_below(ess[N]))) for N in N_values}
+glue("sis_degeneracy_runs", n_runs, display=False)
+glue("sis_horizon", horizon, display=False)
+glue("sis_median_first_100", medians[100], display=False)
+glue("sis_median_first_10000", medians[10_000], display=False)
+glue("sis_delay_median", delay.median, display=False)
+glue("sis_delay_low", delay.low, display=False)
+glue("sis_delay_high", delay.high, display=False)
+glue("sis_delay_pvalue", delay.pvalue, display=False)
+glue("sis_decades_needed", int(round((horizon - medians[10_000]) / per_decade)), display=False)
 
 # %%
 fig, (ax1, ax2) = plt.subplots(1, 2, figsize=(10, 3.6))
@@ -171,14 +190,18 @@ ax2.set_title(f"Time to degeneracy, {n_runs} runs")
 plt.show()
 
 # %% [markdown]
-# In the run above ($N = 100$) the ESS drops to about 1 at the *first* sighting of a
-# landmark (step 2). Multiplying $N$ by 100 buys only a couple of steps: the median time to degeneracy moves
-# by about one step per factor of ten. This is the general behaviour of SIS: the variance of
+# In the run above ($N = 100$) the ESS drops to {glue:text}`sis_first_sighting_ess:.1f` at the
+# *first* sighting of a landmark (step {glue:text}`sis_first_sighting_step:d`). Multiplying $N$ by
+# $100$ buys only a couple of steps: the median time to degeneracy moves from step
+# {glue:text}`sis_median_first_100:.0f` to step {glue:text}`sis_median_first_10000:.0f`, about one
+# step per factor of ten (run by run, the median delay is {glue:text}`sis_delay_median:.0f` steps,
+# 95 % interval {glue:text}`sis_delay_low:.0f` to {glue:text}`sis_delay_high:.0f`, Wilcoxon
+# $p$ = {glue:text}`sis_delay_pvalue:.1g`). This is the general behaviour of SIS: the variance of
 # the weights grows (roughly exponentially) with time, and here each step with a visible
-# landmark multiplies the weights by a likelihood that is sharp (0.1 m noise) compared with
-# the prior spread of the landmarks (0.45 m).
+# landmark multiplies the weights by a likelihood that is sharp ($0.1$ m noise) compared with
+# the prior spread of the landmarks ($\sqrt{0.2} \approx 0.45$ m).
 #
-# ## How to choose N, and which importance function (lab question 4)
+# ## How to choose N, and which importance function (lab question $4$)
 #
 # - **The importance function** used here is the transition $p(x_k \mid x_{k-1})$, the only one
 #   that needs nothing but a simulator. It ignores $z_k$: particles are placed blindly, then
@@ -186,7 +209,7 @@ plt.show()
 # - **The number of particles** should make the ESS after the updates large enough for the
 #   Monte Carlo error $\approx \sqrt{\operatorname{tr} P / \mathrm{ESS}}$ to be small compared
 #   with the posterior spread. For SIS no $N$ achieves that here: the measurements above show
-#   the ESS reaches about 1 in a handful of steps for every $N$ that runs in reasonable time,
+#   the ESS reaches about one particle in a handful of steps for every $N$ that runs in reasonable time,
 #   because the number needed grows exponentially with the number of informative steps.
 # - **What goes wrong, and the fix**: the weights degenerate. The fix is to resample when the
 #   ESS falls too low ({doc}`sir`), and to propose better ({doc}`proposals`).
@@ -194,7 +217,7 @@ plt.show()
 # ## Try it
 #
 # The panel runs SIS for the chosen $N$, measurement noise scale (the simulator and the
-# filter use the same scaled $R_v$) and seed, and plots the ESS and the landmark 1 estimate
+# filter use the same scaled $R_v$) and seed, and plots the ESS and the landmark $1$ estimate
 # against the Kalman posterior. Broader measurement noise slows the collapse; it does not
 # stop it.
 
@@ -229,7 +252,7 @@ display(control_panel(draw_sis, grid={"n_particles": (10, 100, 1000, 10000), "no
 #
 # ```{exercise}
 # :label: ex-sis-write
-# (Lab question 3.) Write the SIS weight update for a step at which only landmark 1 is in
+# (Lab question $3$.) Write the SIS weight update for a step at which only landmark $1$ is in
 # view, with the transition as importance function, as an explicit function of $x_k^i$.
 # ```
 #
@@ -237,35 +260,36 @@ display(control_panel(draw_sis, grid={"n_particles": (10, 100, 1000, 10000), "no
 # :class: dropdown
 # $\log \tilde w_k^i = \log W_{k-1}^i - \frac{1}{2 \sigma_v^2}\,\lVert z_k - (l^{1,i}_k - r^i_k)\rVert^2 + c$
 # with $\sigma_v = 0.1$ m and $c$ a constant common to all particles (it cancels in the
-# normalisation). Landmark 2 does not appear.
+# normalisation). Landmark $2$ does not appear.
 # ```
 #
 # ```{exercise}
 # :label: ex-sis-n
-# (Lab question 4.) From the 50-run statistics above, estimate how many particles SIS would
-# need to keep an ESS of at least 2 for 15 steps.
+# (Lab question $4$.) From the {glue:text}`sis_degeneracy_runs:d`-run statistics above, estimate how
+# many particles SIS would need to keep an ESS of at least $2$ for {glue:text}`sis_horizon:d` steps.
 # ```
 #
 # ```{solution} ex-sis-n
 # :class: dropdown
-# Each factor of 10 in $N$ delays the median first step with ESS < 2 by about one step, from
-# the printed medians. Reaching 15 steps from about 6 at $N = 10^4$ would, at that rate, take
-# some nine more factors of ten, $10^{13}$ particles: SIS is hopeless here, and the cure is
-# not more particles.
+# Each factor of ten in $N$ delays the median first step with $\mathrm{ESS} < 2$ by about one
+# step, from the printed medians and the paired delay. Reaching {glue:text}`sis_horizon:d` steps
+# from about {glue:text}`sis_median_first_10000:.0f` at $N = 10^4$ would, at that rate, take some
+# {glue:text}`sis_decades_needed:d` more factors of ten beyond $N = 10^4$: SIS is hopeless here,
+# and the cure is not more particles.
 # ```
 #
 # ```{exercise}
 # :label: ex-sis-code
 # (Coding.) Take `my_filter` of {ref}`write-sis` with `threshold=0` and record, at each
-# step, the largest normalised weight. Over seeds 0-19 with $N = 100$ and $N = 10^4$, at
-# which step does it first exceed 0.99? Compare with the ESS curves above.
+# step, the largest normalised weight. Over seeds $0$ to $19$ with $N = 100$ and $N = 10^4$, at
+# which step does it first exceed $0.99$? Compare with the ESS curves above.
 # ```
 #
 # ```{solution} ex-sis-code
 # :class: dropdown
 # Add `top.append(W.max())` next to `esss.append(...)` and return it; then
 # `np.argmax(np.array(top) > 0.99)` per run. With a hundred times more particles the step
-# comes later, but still early in a 50-step run, as the ESS curves showed: degeneracy is
+# comes later, but still early in a $50$-step run, as the ESS curves showed: degeneracy is
 # postponed, not cured.
 # The engine gives the same number from `res.weights.max(axis=1)` with `store_particles=True`.
 # ```
