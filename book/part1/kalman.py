@@ -241,7 +241,7 @@ display(control_panel(draw_kalman, grid={"noise_scale": (0.3, 1.0, 3.0), "proces
 #
 # ```{exercise}
 # :label: ex-kalman-exact
-# Lab question $2$ asks why the Kalman filter is exact here. Name the two properties of the
+# Lab question 2 asks why the Kalman filter is exact here. Name the two properties of the
 # model the argument uses, and one change of the model that would break it.
 # ```
 #

@@ -57,7 +57,7 @@ print("diag(Qw)  =", np.diag(scenario.Qw))
 print("diag(Rv)  =", np.diag(scenario.Rv))
 
 # %% [markdown]
-# What they mean physically (lab question $1$):
+# What they mean physically (lab question 1):
 #
 # - **`mX0`** is the expected initial state: the robot is believed to start near $(2, 0)$ m and
 #   the landmarks near $(-1, 4)$ m and $(4, -1)$ m.
@@ -71,7 +71,7 @@ print("diag(Rv)  =", np.diag(scenario.Rv))
 # - **`Rv`** is the covariance of the measurement noise $v_k$: every measured coordinate is
 #   off by $0.1$ m (standard deviation).
 #
-# ## One simulated run (lab question $1$)
+# ## One simulated run (lab question 1)
 #
 # `simulate` draws the initial state from $\mathcal N(\text{mX0}, \text{PX0})$, moves it with
 # the dynamics, and measures the landmarks in view. The seed makes the run reproducible.
@@ -200,7 +200,7 @@ HTML(animate_landmarks(scenario5, sim5, limits=(-4.0, 8.0)).to_jshtml())
 # $p(x_k \mid x_{k-1})$ and $p(z_k \mid x_k)$ that every filter needs.
 #
 # (model-densities)=
-# ## The three densities (lab question $2$)
+# ## The three densities (lab question 2)
 #
 # **Initial density.** The simulator draws $x_0 = m_{X0} + L_0 e$ with $L_0 L_0^\top = P_{X0}$
 # and $e \sim \mathcal N(0, I)$. An affine map of a Gaussian vector is Gaussian, with mean

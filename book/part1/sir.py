@@ -17,7 +17,7 @@
 # computation is spent where the posterior is {cite:p}`gordon1993`.
 #
 # (sir-algorithm)=
-# ## The SIR algorithm (lab question $6$)
+# ## The SIR algorithm (lab question 6)
 #
 # SIS as in {ref}`sis-algorithm`, plus, after the estimate at step $k$:
 #
@@ -56,7 +56,7 @@ sim = simulate(scenario, rng=2024)
 kf = kalman_filter(model, sim.Z)
 
 # %% [markdown]
-# ## Testing it (lab question $7$)
+# ## Testing it (lab question 7)
 
 # %%
 sir = ParticleFilter(model, 100, threshold=1 / 3)
@@ -483,7 +483,7 @@ display(control_panel(
 #
 # ```{exercise}
 # :label: ex-sir-threshold
-# (Lab questions $6$ and $7$.) With $\theta = 1/3$, SIR resampled at the fraction of steps
+# (Lab questions 6 and 7.) With $\theta = 1/3$, SIR resampled at the fraction of steps
 # printed above. What would $\theta = 1$ change for the robot estimate, and what for the
 # landmarks? Try it in the panel.
 # ```
@@ -498,7 +498,7 @@ display(control_panel(
 #
 # ```{exercise}
 # :label: ex-sir-fix
-# (Lab question $4$, "how to fix it".) Why does giving the landmarks process noise in the
+# (Lab question 4, "how to fix it".) Why does giving the landmarks process noise in the
 # filter make the estimate converge, and why is the resulting filter underconfident?
 # ```
 #

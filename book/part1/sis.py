@@ -15,7 +15,7 @@
 # (SIS), runs it with the simulator's own noise models, and watches it fail.
 #
 # (sis-algorithm)=
-# ## The SIS algorithm (lab question $3$)
+# ## The SIS algorithm (lab question 3)
 #
 # (Notation: we write $z_{1:k}$ because in this model the first measurement comes after the
 # first move; `pfcourse`'s docstrings say $z_{0:k}$, since the engine also accepts a
@@ -69,7 +69,7 @@ sim = simulate(scenario, rng=2024)
 kf = kalman_filter(model, sim.Z)
 
 # %% [markdown]
-# ## One run with the lab's $N = 100$ particles (lab questions $4$ and $5$)
+# ## One run with the lab's $N = 100$ particles (lab questions 4 and 5)
 
 # %%
 sis = ParticleFilter(model, 100, threshold=0.0)
@@ -129,7 +129,7 @@ HTML(animate_clouds({"SIS, N = 100": res}, kf, sim.X, range(0, 30), interval=200
 
 # %% [markdown]
 # (sis-degeneracy)=
-# ## Degeneracy in numbers: how fast does the ESS reach one particle? (lab question $5$)
+# ## Degeneracy in numbers: how fast does the ESS reach one particle? (lab question 5)
 #
 # One run shows the collapse; does it depend on the run, and does a larger $N$ save SIS?
 # For $N = 100$, $1000$ and $10\,000$ we run SIS on {glue:text}`sis_degeneracy_runs:d` independent
@@ -201,7 +201,7 @@ plt.show()
 # landmark multiplies the weights by a likelihood that is sharp ($0.1$ m noise) compared with
 # the prior spread of the landmarks ($\sqrt{0.2} \approx 0.45$ m).
 #
-# ## How to choose N, and which importance function (lab question $4$)
+# ## How to choose N, and which importance function (lab question 4)
 #
 # - **The importance function** used here is the transition $p(x_k \mid x_{k-1})$, the only one
 #   that needs nothing but a simulator. It ignores $z_k$: particles are placed blindly, then
@@ -252,7 +252,7 @@ display(control_panel(draw_sis, grid={"n_particles": (10, 100, 1000, 10000), "no
 #
 # ```{exercise}
 # :label: ex-sis-write
-# (Lab question $3$.) Write the SIS weight update for a step at which only landmark $1$ is in
+# (Lab question 3.) Write the SIS weight update for a step at which only landmark $1$ is in
 # view, with the transition as importance function, as an explicit function of $x_k^i$.
 # ```
 #
@@ -265,7 +265,7 @@ display(control_panel(draw_sis, grid={"n_particles": (10, 100, 1000, 10000), "no
 #
 # ```{exercise}
 # :label: ex-sis-n
-# (Lab question $4$.) From the {glue:text}`sis_degeneracy_runs:d`-run statistics above, estimate how
+# (Lab question 4.) From the {glue:text}`sis_degeneracy_runs:d`-run statistics above, estimate how
 # many particles SIS would need to keep an ESS of at least $2$ for {glue:text}`sis_horizon:d` steps.
 # ```
 #
