@@ -29,11 +29,6 @@ ROOT = Path(__file__).resolve().parents[1]
 CHAPTERS = sorted((ROOT / "book").rglob("*.py"))
 PAGES = sorted((ROOT / "book").rglob("*.md"))  # the introduction, the parts' pages, the references
 
-# Chapters whose prose is still being converted (issue 18): their test is a strict xfail, which
-# fails as soon as the chapter passes, so that it leaves this list the day it is done.
-PENDING = {
-    "terrain", "terrain_cure",
-}
 
 # (chapter stem, phrase as written in the source, why it is not a measured number)
 EXEMPT: list[tuple[str, str, str]] = [
@@ -98,12 +93,7 @@ def typed_numerals(source: Path) -> list[tuple[int, str, str]]:
     return found
 
 
-@pytest.mark.parametrize(
-    "source",
-    [pytest.param(s, marks=pytest.mark.xfail(strict=True, reason="prose being converted")) if s.stem in PENDING
-     else s for s in CHAPTERS + PAGES],
-    ids=lambda p: str(p.relative_to(ROOT / "book")),
-)
+@pytest.mark.parametrize("source", CHAPTERS + PAGES, ids=lambda p: str(p.relative_to(ROOT / "book")))
 def test_no_typed_number_in_the_prose(source: Path):
     found = typed_numerals(source)
     report = "\n".join(f"  cell {n}: {numeral!r} in: {line[:160]}" for n, numeral, line in found)
