@@ -42,7 +42,7 @@ from pfcourse.style import use_style
 from pfcourse.terrain.map import load_jacksboro
 from pfcourse.terrain.pcrb import horizontal_bound, terrain_bound_noise_free, terrain_pcrb
 from pfcourse.remedies import optimal_bandwidth
-from pfcourse.experiments.terrain_remedies import SETTINGS
+from pfcourse.experiments.terrain_remedies import SETTINGS, make_filter
 
 use_style()
 terrain = load_jacksboro()
@@ -274,14 +274,15 @@ loss_difference("terrain_qf3", "bootstrap N=3000, Qf/3", "bootstrap N=3000")
 #   is that the loss of particle diversity over the following tens of seconds, which the
 #   kernel move repairs, is what loses the aircraft.
 #
-# **A baseline that works, nearly.** The issue asked for a filter that loses fewer than $5\,\%$ of
+# **A baseline that works, nearly.** The target of this chapter is a filter that loses fewer than $5\,\%$ of
 # $100$ flights at no more than the cost of the bootstrap filter with $30\,000$ particles. The best
 # found here loses {glue:text}`terrain_best_lost` of {glue:text}`terrain_best_flights`: at
 # the target, not below it, and its interval ({glue:text}`terrain_best_ci`) cannot separate it
 # from $5\,\%$. The regularised filter is the baseline to build on: the previous chapter
 # ({doc}`terrain`) re-runs the report's studies ($Q_f$, $R_f$, $N$, threshold, gap, period,
 # scheme) around it, on the same flights (there its baseline loses a share
-# {glue:text}`terrain.ipynb::studies_base_lost:.2f` of them, the rows of this study).
+# {glue:text}`terrain.ipynb::studies_base_lost:.2f` of them, the rows of this study). Whether
+# it really loses fewer than $5\,\%$ is settled below, on flights it has never seen.
 #
 # **$Q_f$.** Dividing its horizontal entries by $3$, like the scenario's other lengths, gives
 # the row `bootstrap N=3000, Qf/3`: it loses {glue:text}`terrain_qf3_diverged:.0%`, with
@@ -309,6 +310,110 @@ ax.set_ylabel("share of flights with a smaller error")
 ax.legend(fontsize=8, loc="upper left", bbox_to_anchor=(1.01, 1.0))
 ax.set_title("Final error over the same flights, per filter")
 plt.show()
+
+# %% [markdown]
+# ## Confirmed on flights it had never seen
+#
+# A filter chosen as the best of many settings on the same $100$ flights looks better than it
+# is: among a dozen settings, one is likely to be lucky on those flights. The choice was
+# therefore put to a test decided before it ran, and committed with its criterion before its
+# data existed (`tools/studies/terrain_confirmation.py`): the regularised filter with
+# **stratified** resampling, the setting that lost the fewest of flights $0$ to $99$ in the report's
+# studies of {doc}`terrain`, flies the fresh flights $100$ to $199$, used by no other study; it
+# passes if it loses **fewer than $5$ of the $100$**. The regularised filter with multinomial
+# resampling (the baseline above) and the bootstrap filter with $N = 30000$ fly the same
+# flights, one after the other in a rotating order, so that losses and wall times are paired.
+
+# %%
+confirm = pd.read_csv(Path("../data/terrain_confirmation.csv"))
+confirm_meta = json.loads(Path("../data/terrain_confirmation.json").read_text())
+lost_c = confirm.pivot(index="flight", columns="setting", values="lost").astype(bool)
+secs_c = confirm.pivot(index="flight", columns="setting", values="seconds")
+CAND = "regularised, stratified (candidate)"
+MULT = "regularised, multinomial (chapter's baseline)"
+BOOT = "bootstrap N=30000"
+for name in (CAND, MULT, BOOT):
+    print(f"{name:48s} lost {evidence.rate(lost_c[name])}")
+cand_rate = evidence.rate(lost_c[CAND])
+cand_vs_boot = evidence.paired_rates(lost_c[CAND], lost_c[BOOT])
+cand_vs_mult = evidence.paired_rates(lost_c[CAND], lost_c[MULT])
+time_c = evidence.paired(secs_c[CAND], secs_c[BOOT], ratio=True)
+print(f"candidate vs bootstrap N=30000: {cand_vs_boot}")
+print(f"candidate vs multinomial:       {cand_vs_mult}")
+print(f"wall time, candidate / bootstrap N=30000, per flight: {time_c}")
+print(f"criterion, decided in advance: {confirm_meta['criterion']} -> "
+      f"{'met' if cand_rate.successes < 5 else 'not met'} ({cand_rate.successes} lost)")
+glue("terrain_fresh_lost", int(cand_rate.successes), display=False)
+glue("terrain_fresh_flights", int(cand_rate.n), display=False)
+glue("terrain_fresh_lo", float(cand_rate.low), display=False)
+glue("terrain_fresh_hi", float(cand_rate.high), display=False)
+glue("terrain_fresh_mult_lost", int(lost_c[MULT].sum()), display=False)
+glue("terrain_fresh_boot_lost", int(lost_c[BOOT].sum()), display=False)
+glue("terrain_fresh_vs_boot_p", float(cand_vs_boot.pvalue), display=False)
+glue("terrain_fresh_vs_mult_p", float(cand_vs_mult.pvalue), display=False)
+glue("terrain_fresh_time_ratio", float(time_c.median), display=False)
+glue("terrain_fresh_time_lo", float(time_c.low), display=False)
+glue("terrain_fresh_time_hi", float(time_c.high), display=False)
+
+# %% [markdown]
+# **The criterion is met**: the candidate loses {glue:text}`terrain_fresh_lost` of the
+# {glue:text}`terrain_fresh_flights` fresh flights (95 % Wilson interval
+# {glue:text}`terrain_fresh_lo:.0%` to {glue:text}`terrain_fresh_hi:.0%`), the regularised
+# filter with multinomial resampling {glue:text}`terrain_fresh_mult_lost` (no difference the
+# exact McNemar test can see, $p$ = {glue:text}`terrain_fresh_vs_mult_p:.2f`) and the bootstrap filter with
+# $N = 30000$ {glue:text}`terrain_fresh_boot_lost` ($p$ = {glue:text}`terrain_fresh_vs_boot_p:.1e`).
+# The interval still reaches above $5\,\%$: a hundred flights cannot prove a loss rate below it,
+# only that this filter loses few.
+#
+# **At what cost?** The same number of likelihood evaluations as the bootstrap filter with
+# $N = 30000$, but not the same time: the kernel move after each resampling (the cloud's
+# covariance, its square root and $N$ Gaussian draws) makes a flight
+# {glue:text}`terrain_fresh_time_ratio:.2f` times as long (median of the per-flight ratios,
+# 95 % interval {glue:text}`terrain_fresh_time_lo:.2f` to {glue:text}`terrain_fresh_time_hi:.2f`).
+# So a second test was decided in advance (`tools/studies/terrain_cost_matched.py`): the same
+# filter with $N = 20000$, which takes the bootstrap filter's time, on yet other fresh flights
+# ($200$ to $299$), with the same criterion.
+
+# %%
+cost = pd.read_csv(Path("../data/terrain_cost_matched.csv"))
+lost_m = cost.pivot(index="flight", columns="setting", values="lost").astype(bool)
+secs_m = cost.pivot(index="flight", columns="setting", values="seconds")
+CAND20 = "regularised, stratified, N=20000"
+m_rate = evidence.rate(lost_m[CAND20])
+m_vs_boot = evidence.paired_rates(lost_m[CAND20], lost_m[BOOT])
+time_m = evidence.paired(secs_m[CAND20], secs_m[BOOT], ratio=True)
+print(f"{CAND20}: lost {m_rate}")
+print(f"bootstrap N=30000 on the same flights: lost {evidence.rate(lost_m[BOOT])}")
+print(f"paired: {m_vs_boot}")
+print(f"wall time, N=20000 regularised / bootstrap N=30000: {time_m}")
+# the two sets of fresh flights, seen by the same bootstrap filter (different flights: Fisher's exact test)
+harder = stats.fisher_exact([[lost_m[BOOT].sum(), (~lost_m[BOOT]).sum()],
+                             [lost_c[BOOT].sum(), (~lost_c[BOOT]).sum()]])
+print(f"bootstrap N=30000 loses {lost_m[BOOT].sum()} of flights 200-299 and {lost_c[BOOT].sum()} of "
+      f"flights 100-199: Fisher's exact p = {harder.pvalue:.3f}")
+glue("terrain_cost_lost", int(m_rate.successes), display=False)
+glue("terrain_cost_lo", float(m_rate.low), display=False)
+glue("terrain_cost_hi", float(m_rate.high), display=False)
+glue("terrain_cost_boot_lost", int(lost_m[BOOT].sum()), display=False)
+glue("terrain_cost_vs_boot_p", float(m_vs_boot.pvalue), display=False)
+glue("terrain_cost_time_ratio", float(time_m.median), display=False)
+glue("terrain_cost_time_lo", float(time_m.low), display=False)
+glue("terrain_cost_time_hi", float(time_m.high), display=False)
+glue("terrain_sets_p", float(harder.pvalue), display=False)
+
+# %% [markdown]
+# **At the bootstrap filter's wall time the criterion is not met**: with $N = 20000$
+# (median time ratio {glue:text}`terrain_cost_time_ratio:.2f`, interval
+# {glue:text}`terrain_cost_time_lo:.2f` to {glue:text}`terrain_cost_time_hi:.2f`) the regularised
+# filter loses {glue:text}`terrain_cost_lost` of $100$ flights ({glue:text}`terrain_cost_lo:.0%` to
+# {glue:text}`terrain_cost_hi:.0%`). It still loses far fewer than the bootstrap filter on the
+# same flights ({glue:text}`terrain_cost_boot_lost`, McNemar $p$ =
+# {glue:text}`terrain_cost_vs_boot_p:.0e`), and these flights are harder than the previous
+# hundred: the same bootstrap filter lost {glue:text}`terrain_fresh_boot_lost` of those
+# (Fisher's exact test, $p$ = {glue:text}`terrain_sets_p:.3f`), so the two loss rates of the
+# regularised filter do not measure the effect of $N$ alone. The verdict on the target this chapter set itself:
+# **fewer than $5\,\%$ lost at the bootstrap filter's cost in likelihood evaluations, yes; at its
+# wall time, not shown** (on this machine, whose timings are shared with other work).
 
 # %% [markdown]
 # ## The yardstick: the posterior Cramér-Rao bound
@@ -347,14 +452,14 @@ glue("terrain_free_final_median", float(np.median(free[:, -1])), display=False)
 glue("terrain_converged_n", int(len(conv)), display=False)
 glue("terrain_pcrb_final_median", float(np.median(bounds[:, -1])), display=False)
 glue("terrain_pcrb_average_final", float(average[-1]), display=False)
-ci = stats.bootstrap((ratio,), np.median, random_state=0).confidence_interval
-glue("terrain_ratio_lo", float(ci.low), display=False)
-glue("terrain_ratio_hi", float(ci.high), display=False)
+_, ratio_lo, ratio_hi = evidence.median_interval(ratio)
+glue("terrain_ratio_lo", ratio_lo, display=False)
+glue("terrain_ratio_hi", ratio_hi, display=False)
 print(f"bound on the final horizontal RMS error: median over flights {np.median(bounds[:, -1]):.1f} m, "
       f"averaged-information bound {average[-1]:.1f} m")
 print(f"noise-free bound (the flights as simulated): median final {np.median(free[:, -1]):.1f} m")
 print(f"{best}: final error / noise-free bound over {len(conv)} converged flights: median {np.median(ratio):.2f} "
-      f"(bootstrap 95 % CI {ci.low:.2f} to {ci.high:.2f}); / model bound: median {np.median(ratio_model):.2f}")
+      f"(bootstrap 95 % CI {ratio_lo:.2f} to {ratio_hi:.2f}); / model bound: median {np.median(ratio_model):.2f}")
 
 fig, ax = plt.subplots(figsize=(7, 3.5))
 t = scenario.times
@@ -379,6 +484,65 @@ plt.show()
 # filter's own model the median ratio is {glue:text}`terrain_rmse_over_model_pcrb:.2f`, below $1$:
 # that "bound" assumes an aircraft that really has the process noise $Q_f$, and the simulated
 # one has none, so it is not a bound for these flights; the noise-free one is.
+
+# %% [markdown]
+# ## A reference posterior for five flights
+#
+# The bound says how well any estimator could do on average; a reference posterior says what
+# the exact filter would answer on a given flight. No grid can hold this posterior (four
+# dimensions, kilometres wide at the start), so the reference is the bootstrap filter, which is
+# consistent (no kernel, no tempering), run with so many particles that **doubling $N$ changes
+# nothing**: `tools/studies/terrain_reference.py` ran it with $N = 5 \times 10^5$ and $10^6$, two
+# independent seeds each, on flights $0$ to $4$ (the first five, fixed in advance). Distances
+# between posterior means are measured in units of the posterior's own spread,
+# $\sigma = \sqrt{\operatorname{var} x + \operatorname{var} y}$ at the final step. The
+# chapter's regularised filter ($N = 30000$) then flies the same five flights.
+
+# %%
+reference = pd.read_csv(Path("../data/terrain_reference.csv"))
+big, half = reference["N"].max(), reference["N"].min()
+rows = []
+for flight, g in reference.groupby("flight"):
+    g = g.set_index(["N", "seed"])
+    sigma = float(np.mean(np.hypot(g.loc[big, "sd_x"], g.loc[big, "sd_y"])))
+    m_big = g.loc[big, ["mean_x", "mean_y"]].to_numpy()  # two seeds
+    m_half = g.loc[half, ["mean_x", "mean_y"]].to_numpy()
+    ref_mean = m_big.mean(axis=0)
+    sim = simulate(scenario, terrain, flight_seed(0, flight))
+    pf, _ = make_filter("regularised N=30000", scenario, terrain)
+    estimate = pf.run(sim.Z, rng=np.random.default_rng([0, flight, 1])).mean[-1, :2]
+    rows.append({"flight": flight, "posterior sd (m)": sigma,
+                 "seeds apart, N=5e5 (sd)": np.linalg.norm(m_half[0] - m_half[1]) / sigma,
+                 "seeds apart, N=1e6 (sd)": np.linalg.norm(m_big[0] - m_big[1]) / sigma,
+                 "N doubled, same seed (sd)": np.max(np.linalg.norm(m_big - m_half, axis=1)) / sigma,
+                 "regularised N=30000 to reference (sd)": np.linalg.norm(estimate - ref_mean) / sigma,
+                 "truth to reference (sd)": np.linalg.norm(sim.X[-1, :2] - ref_mean) / sigma})
+ref_table = pd.DataFrame(rows).set_index("flight")
+print(ref_table.round(2).to_string())
+glue("terrain_ref_doubling_max", float(ref_table["N doubled, same seed (sd)"].max()), display=False)
+glue("terrain_ref_seeds_max", float(ref_table["seeds apart, N=1e6 (sd)"].max()), display=False)
+glue("terrain_ref_half_seeds_max", float(ref_table["seeds apart, N=5e5 (sd)"].max()), display=False)
+glue("terrain_ref_filter_median", float(ref_table["regularised N=30000 to reference (sd)"].median()), display=False)
+glue("terrain_ref_filter_max", float(ref_table["regularised N=30000 to reference (sd)"].max()), display=False)
+glue("terrain_ref_truth_median", float(ref_table["truth to reference (sd)"].median()), display=False)
+glue("terrain_ref_flights", int(len(ref_table)), display=False)
+
+# %% [markdown]
+# **Is the reference settled?** With $10^6$ particles the two seeds' final means are at most
+# {glue:text}`terrain_ref_seeds_max:.2f` posterior standard deviations apart on the
+# {glue:text}`terrain_ref_flights` flights; with half as many they are up to
+# {glue:text}`terrain_ref_half_seeds_max:.2f` apart, and doubling $N$ at a fixed seed moves the
+# mean by at most {glue:text}`terrain_ref_doubling_max:.2f`: the halved runs still carry Monte
+# Carlo error, the runs with $10^6$ particles agree to about a tenth of the posterior's
+# spread, which is what the reference needs.
+#
+# **How far is the chapter's filter from it?** The regularised filter with $N = 30000$ ends a
+# median {glue:text}`terrain_ref_filter_median:.2f` posterior standard deviations from the
+# reference mean (at most {glue:text}`terrain_ref_filter_max:.2f`), and the truth a median
+# {glue:text}`terrain_ref_truth_median:.2f` from it. The filter's own error (Monte Carlo and
+# kernel) is therefore of the same order as the posterior's spread on these flights, not
+# negligible beside it. Five flights are an illustration, not a study: the table gives them one
+# by one.
 
 # %% [markdown]
 # ## Exercises
