@@ -166,9 +166,9 @@ plt.show()
 
 # %% [markdown]
 # The average NEES over all steps and runs is {glue:text}`kalman_nees_mean:.2f` for $6$
-# expected. The steps of a run are correlated, so the test takes the run as its unit: the
-# time-averaged NEES of the {glue:text}`kalman_nees_runs:d` runs has a 95 % bootstrap interval
-# of {glue:text}`kalman_nees_mean_low:.2f` to {glue:text}`kalman_nees_mean_high:.2f`, which
+# expected. The steps of a run are correlated, so the test takes the run as its unit: the mean
+# of the time-averaged NEES of the {glue:text}`kalman_nees_runs:d` runs has a 95 % bootstrap
+# interval of {glue:text}`kalman_nees_mean_low:.2f` to {glue:text}`kalman_nees_mean_high:.2f`, which
 # contains $6$ ($t$-test $p$ = {glue:text}`kalman_nees_mean_p:.2f`). The mean over runs lies
 # inside the band at {glue:text}`kalman_nees_inside:.0%` of the
 # {glue:text}`kalman_nees_steps:d` steps, in line with the $95\%$ of an exact filter (each
