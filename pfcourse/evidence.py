@@ -19,7 +19,10 @@ book may write, always with the number of runs and an interval, and only through
   ``d`` (``scipy.stats.bootstrap``, percentile method); ``ratio=True`` compares
   ``log a_i - log b_i`` instead and reports the median ratio ``a/b``;
 - the **sign test** (``binomtest`` on the count of ``a_i < b_i`` among non-ties), for when only the
-  direction of each pair is trusted.
+  direction of each pair is trusted;
+- the interval of **any statistic of the runs** (a log-log slope fitted over runs, a difference of
+  two such slopes on the same runs): ``scipy.stats.bootstrap`` resamples the runs themselves
+  (their indices), so every array indexed by run is resampled together (:func:`run_interval`).
 
 A claim of "no difference" is worded from the interval, not from a p-value above 0.05: the
 interval says how large a difference could hide in the study (``Paired.detectable``).
@@ -45,6 +48,7 @@ __all__ = [
     "paired",
     "sign_test",
     "median_interval",
+    "run_interval",
 ]
 
 CONFIDENCE = 0.95
@@ -274,3 +278,24 @@ def median_interval(x, confidence: float = CONFIDENCE, seed: int = 0) -> tuple[f
     x = _samples(x, "x")
     low, high = _bootstrap((x,), np.median, confidence, seed)
     return float(np.median(x)), low, high
+
+
+def run_interval(statistic: Callable[[np.ndarray], float], n_runs: int, confidence: float = CONFIDENCE,
+                 seed: int = 0, n_resamples: int = N_RESAMPLES) -> tuple[float, float, float]:
+    """``(value, low, high)``: ``statistic(runs)`` on all runs, and its percentile-bootstrap interval.
+
+    ``statistic`` receives an array of run indices (all of them, then resamples drawn with
+    replacement) and returns a float, e.g. ``lambda r: slope(errors[:, r])``; statistics of several
+    arrays indexed by run (two filters on the same simulations) are resampled together, paired.
+    Resampling is ``scipy.stats.bootstrap`` over the indices ``0 .. n_runs - 1``.
+    """
+    if int(n_runs) != n_runs or n_runs < 2:
+        raise EvidenceError(f"an interval over runs needs at least 2 runs, got {n_runs!r}")
+    runs = np.arange(int(n_runs))
+    value = float(statistic(runs))
+    if not np.isfinite(value):
+        raise EvidenceError(f"the statistic of all {n_runs} runs is {value}")
+    res = stats.bootstrap((runs,), lambda r: float(statistic(r.astype(int))), vectorized=False,
+                          confidence_level=confidence, n_resamples=n_resamples, method="percentile",
+                          random_state=np.random.default_rng(seed))
+    return value, float(res.confidence_interval.low), float(res.confidence_interval.high)
