@@ -601,23 +601,41 @@ print(f"bootstrap: final error median {bk['final_error'].median():.1f} m with fi
 #
 # ## Cost
 #
-# Particle-steps are in the tables above. Wall time per run, measured on this page for a few runs
-# of each method (volatile, so the cell's output is not compared when the notebook is tested);
-# read the ratios, measured in one session:
+# Particle-steps are in the tables above. Wall time per run, measured on this page (volatile, so
+# the cell's output is not compared when the notebook is tested): the methods run side by side
+# on the same runs, in alternating order (forward on one run, backward on the next), and each
+# method's time, per run and per particle-step, is divided by the bootstrap filter's on the
+# same run (median ratio, 95 % bootstrap interval, Wilcoxon signed-rank test: `pfcourse.evidence.paired`):
 
 # %% tags=["nbval-ignore-output"]
-timing = {}
-for method, n in (("bootstrap", 2000), ("mixture", 1000), ("mixture", 2000), ("augmented", 2000),
-                  ("kld", 2000), ("kld_mixture", 2000), ("tempered", 2000)):
-    seconds = [global_run(s, method, n)["seconds"] for s in range(5)]
-    timing[(method, n)] = float(np.median(seconds))
+TIMED = (("bootstrap", 2000), ("mixture", 1000), ("mixture", 2000), ("augmented", 2000),
+         ("kld", 2000), ("kld_mixture", 2000), ("tempered", 2000))
+TIMING_RUNS = 12
+timing = {setup: {"seconds": [], "per_step": []} for setup in TIMED}
+for s in range(TIMING_RUNS):
+    for method, n in (TIMED if s % 2 == 0 else TIMED[::-1]):
+        out = global_run(s, method, n)
+        timing[(method, n)]["seconds"].append(out["seconds"])
+        timing[(method, n)]["per_step"].append(out["seconds"] / out["particle_steps"])
 ref = timing[("bootstrap", 2000)]
+print(f"wall time, {TIMING_RUNS} runs timed side by side; ratios to the bootstrap filter (N = 2000) on the same run")
 for (method, n), t in timing.items():
-    print(f"{method:12s} N = {n:5d}: {1000 * t:6.1f} ms per 60-step run, {t / ref:4.1f} x the bootstrap filter")
+    line = f"{method:12s} N = {n:5d}: {1000 * np.median(t['seconds']):6.1f} ms per 60-step run (median)"
+    if (method, n) != ("bootstrap", 2000):
+        per_run = evidence.paired(t["seconds"], ref["seconds"], ratio=True)
+        per_step = evidence.paired(t["per_step"], ref["per_step"], ratio=True)
+        line += f"\n    per run: {per_run}\n    per particle-step: {per_step}"
+        if (method, n) == ("mixture", 2000):
+            for suffix, value in (("", per_step.median), ("_low", per_step.low), ("_high", per_step.high)):
+                glue(f"time_mixture_over_boot{suffix}", value, display=False)
+    print(line)
+glue("timing_runs", TIMING_RUNS, display=False)
 
 # %% [markdown]
-# The mixture proposal costs a few times the bootstrap filter per particle-step (the densities of
-# both components at every particle, in NumPy rather than compiled loops), but it needs far fewer
+# The mixture proposal costs {glue:text}`time_mixture_over_boot:.1f` times the bootstrap filter per
+# particle-step on this page (median ratio over {glue:text}`timing_runs:d` runs timed side by side,
+# 95 % interval {glue:text}`time_mixture_over_boot_low:.1f`-{glue:text}`time_mixture_over_boot_high:.1f`;
+# the densities of both components at every particle, in NumPy rather than compiled loops), but it needs far fewer
 # particles than the bootstrap filter for any lock-on rate the bootstrap filter reaches at all: with
 # $N = 300$ it locks on in a share {glue:text}`mix300_rate:.2f`, against {glue:text}`boot30k_rate:.2f`
 # for the bootstrap filter with $N = 30\,000$ (exact McNemar p = {glue:text}`p_mix300_boot30:.1e`,
@@ -650,9 +668,9 @@ glue("ekf_failed_total", int(et["EKF failed"].sum()), display=False)
 glue("ekf_pf_advantage_max", float(max(0.0, -et["95 % CI low"].min())), display=False)
 
 # %% tags=["nbval-ignore-output"]
-ratio = (ekf["pf_seconds"] / ekf["ekf_seconds"]).groupby(ekf["setting"], sort=False).median()
-print("wall time, PF (N = 300, compiled loops) / EKF (filterpy, Python), median per run:")
-print(ratio.round(2).to_string())
+print("wall time, PF (N = 300, compiled loops) / EKF (filterpy, Python), paired by run (stored study):")
+for setting, g in ekf.groupby("setting", sort=False):
+    print(f"  {setting}: {evidence.paired(g['pf_seconds'].values, g['ekf_seconds'].values, ratio=True)}")
 
 # %% [markdown]
 # Read the rows against the claim: a negative median difference with a small p-value would mean

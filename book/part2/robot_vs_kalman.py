@@ -89,7 +89,10 @@ N_STEPS = 150
 glue("n_runs", N_RUNS, display=False)
 glue("n_steps", N_STEPS, display=False)
 glue("burn_in_s", BURN_IN, display=False)
-runs = [compare_filters(seed, n_steps=N_STEPS, burn_in=BURN_IN) for seed in range(N_RUNS)]
+# The three filters of a run are timed one after the other, forward on even runs and backward on
+# odd ones, so that a slow moment of the machine hits them alike (the results do not depend on the order).
+runs = [compare_filters(seed, filters=("pf", "ekf", "ukf")[::1 if seed % 2 == 0 else -1], n_steps=N_STEPS,
+                        burn_in=BURN_IN) for seed in range(N_RUNS)]
 names = {"pf": "particle filter (N = 300)", "ekf": "EKF", "ukf": "UKF"}
 legend = {"pf": "particle filter (N = 300)", "ekf": "EKF (hidden under the UKF)", "ukf": "UKF"}
 colors = {"pf": COLORS["estimate"], "ekf": COLORS["kalman"], "ukf": "tab:purple"}
@@ -112,13 +115,20 @@ print(f"(median [10 %, 90 % quantiles] over {N_RUNS} runs)")
 
 # %% [markdown]
 # Run time per run (seconds of wall-clock time on the machine that built this page; the
-# output of this cell is not compared when the notebook is tested, since timings vary):
+# output of this cell is not compared when the notebook is tested, since timings vary). The
+# three filters of each run were timed side by side, in alternating order; each filter's time
+# is divided by another's on the same run, and the ratios get a median, a 95 % bootstrap
+# interval and a Wilcoxon signed-rank test (`pfcourse.evidence.paired`):
 
 # %% tags=["nbval-ignore-output"]
 for key, label in names.items():
     print(f"{label:28s} median {1000 * np.median(column(key, 'seconds')):7.1f} ms per {N_STEPS}-step run")
-ratio = np.median(column("pf", "seconds")) / np.median(column("ekf", "seconds"))
-print(f"the particle filter takes {ratio:.1f} times as long as the EKF")
+print(f"ratios of run times, {N_RUNS} runs timed side by side:")
+for a, b in (("pf", "ekf"), ("ukf", "ekf"), ("ukf", "pf")):
+    cmp = evidence.paired(column(a, "seconds"), column(b, "seconds"), ratio=True)
+    print(f"  {a.upper()} / {b.upper()}: {cmp}")
+    for suffix, value in (("", cmp.median), ("_low", cmp.low), ("_high", cmp.high)):
+        glue(f"time_{a}_over_{b}{suffix}", value, display=False)
 
 # %%
 diff = column("pf", "position_rmse") - column("ekf", "position_rmse")
@@ -192,7 +202,10 @@ glue("ukf_below_band", below["ukf"], display=False)
 #   {glue:text}`head_diff_low_deg:.3f` to {glue:text}`head_diff_high_deg:.3f`°, p =
 #   {glue:text}`head_diff_p:.1g`): real differences, but of about a centimetre and under a hundredth of a degree.
 #   The EKF evaluates the model once per step, with its Jacobian, where the particle filter
-#   evaluates it $N = 300$ times. In wall time the two are close on this page (timing cell above),
+#   evaluates it $N = 300$ times. In wall time the two are close on this page: the particle
+#   filter's run takes {glue:text}`time_pf_over_ekf:.2f` times the EKF's (median ratio over the
+#   {glue:text}`n_runs:d` runs timed side by side, 95 % interval
+#   {glue:text}`time_pf_over_ekf_low:.2f`-{glue:text}`time_pf_over_ekf_high:.2f`; timing cell above),
 #   but only because `filterpy`'s EKF runs each step in Python while the particle filter's
 #   inner loops are compiled (`pfcourse.kernels`).
 #   With a measurement every second and errors of a few decimetres, the posterior is close
@@ -200,7 +213,11 @@ glue("ukf_below_band", below["ukf"], display=False)
 #   only adds noise to the estimate.
 # - **The UKF brings nothing over the EKF here**: its position RMSE differs from the EKF's by at
 #   most {glue:text}`ukf_ekf_max_diff_mm:.1f` mm in any run, and `filterpy`'s UKF, which calls the model in
-#   Python once per sigma point, takes the longest per run (timing cell).
+#   Python once per sigma point, takes the longest per run: {glue:text}`time_ukf_over_ekf:.1f` times
+#   the EKF's time ({glue:text}`time_ukf_over_ekf_low:.1f`-{glue:text}`time_ukf_over_ekf_high:.1f`) and
+#   {glue:text}`time_ukf_over_pf:.1f` times the particle filter's
+#   ({glue:text}`time_ukf_over_pf_low:.1f`-{glue:text}`time_ukf_over_pf_high:.1f`; median paired
+#   ratios and 95 % intervals, timing cell).
 # - **Consistency.** The EKF and UKF are conservative: their run-averaged NEES lies below
 #   the χ² band at {glue:text}`ekf_below_band:.0%` (EKF) and {glue:text}`ukf_below_band:.0%` (UKF) of the steps,
 #   as it should when a filter assumes twice the true noise
