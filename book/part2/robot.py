@@ -179,8 +179,11 @@ HTML(anim.to_jshtml())
 # %% [markdown]
 # In the first steps the cloud shrinks from its initial spread (standard deviation
 # {glue:text}`init_sd_pos:.0f` m per coordinate) as the range and bearing measurements from
-# different landmarks cut it down, to about {glue:text}`tracking_sd:.2f` m (printed below). Afterwards it stays about that size: odometry noise
-# spreads it at each step, each measurement trims it back.
+# different landmarks cut it down, to about {glue:text}`tracking_sd:.2f` m (printed below; its
+# larger standard deviation in $x$ and $y$ is within twice that from
+# $t$ = {glue:text}`tracking_settled_s:.0f` s). Afterwards, in this run, it stays about that size
+# (10-90 % range {glue:text}`tracking_sd_q10:.2f` to {glue:text}`tracking_sd_q90:.2f` m after
+# $t = 50$ s): odometry noise spreads it at each step, each measurement trims it back.
 #
 # ### Is the filter's uncertainty honest?
 #
@@ -202,6 +205,15 @@ print(f"time-averaged NEES {run_nees.mean():.2f} (3 if the covariance were exact
 print("filter's standard deviation of x and y (m), at t = 0:", np.round(sig[0, :2], 2),
       " median after t = 50 s:", np.round(np.median(sig[50:, :2], axis=0), 2))
 glue("tracking_sd", float(np.median(sig[50:, :2])), display=False)
+# "shrinks in the first steps, then stays about that size": when the sd of x and y first falls within twice its
+# later median, and its 10-90 % range after t = 50 s (this one run)
+sd_xy = np.max(sig[:, :2], axis=1)
+settled = int(np.argmax(sd_xy <= 2 * np.median(sig[50:, :2]))) * sim.scenario.dt
+print(f"larger sd of x and y within twice its median after t = 50 s from t = {settled:.0f} s; after t = 50 s "
+      f"its 10-90 % range is {np.quantile(sd_xy[50:], 0.1):.2f} to {np.quantile(sd_xy[50:], 0.9):.2f} m")
+glue("tracking_settled_s", float(settled), display=False)
+glue("tracking_sd_q10", float(np.quantile(sd_xy[50:], 0.1)), display=False)
+glue("tracking_sd_q90", float(np.quantile(sd_xy[50:], 0.9)), display=False)
 glue("inside_min", float(inside.min()), display=False)
 glue("run_nees", float(run_nees.mean()), display=False)
 

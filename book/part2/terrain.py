@@ -373,6 +373,19 @@ print(f"EKF, Rf = 200^2, first 50 flights: diverged {ekf_wide.diverged.mean():.2
       f"(Rf = 20^2 on the same flights: {ekf.diverged[:50].mean():.2f})")
 glue("terrain_ekf_wide_lost", float(ekf_wide.diverged.mean()), display=False)
 glue("terrain_ekf_first50_lost", float(ekf.diverged[:50].mean()), display=False)
+# "one flight in three converges, to tens or a hundred metres": the converged share of the particle filter's
+# flights with its Wilson interval, and the final errors of the converged flights
+pf_converged = evidence.rate(~baseline_60.diverged)
+converged_final = baseline_60.final[~baseline_60.diverged]
+print(f"PF (N = 3000) converged: {pf_converged}; final error of the {len(converged_final)} converged flights: "
+      f"median {np.median(converged_final):.0f} m, 10-90 %: {np.quantile(converged_final, 0.1):.0f} to "
+      f"{np.quantile(converged_final, 0.9):.0f} m, largest {converged_final.max():.0f} m")
+glue("terrain_pf60_converged", pf_converged.successes, display=False)
+glue("terrain_pf60_converged_low", pf_converged.low, display=False)
+glue("terrain_pf60_converged_high", pf_converged.high, display=False)
+glue("terrain_pf60_converged_q10", float(np.quantile(converged_final, 0.1)), display=False)
+glue("terrain_pf60_converged_median", float(np.median(converged_final)), display=False)
+glue("terrain_pf60_converged_q90", float(np.quantile(converged_final, 0.9)), display=False)
 
 # %% [markdown]
 # The EKF diverges from the report's prior in almost every flight ({glue:text}`terrain_ekf_lost:.0%`
@@ -386,8 +399,13 @@ glue("terrain_ekf_first50_lost", float(ekf.diverged[:50].mean()), display=False)
 #
 # The particle filter's own failure rate is the first thing the report could not see. Its
 # baseline run ended $309$ m from the truth, and the report took that as the baseline's
-# accuracy. On our map about one flight in three converges, to tens or a hundred metres, and
-# the others are lost kilometres away: a single final error is a draw from a very wide,
+# accuracy. On our map about one flight in three converges
+# ({glue:text}`terrain_pf60_converged:d` of {glue:text}`terrain_pf60_flights:d`, 95 % Wilson
+# interval {glue:text}`terrain_pf60_converged_low:.0%` to
+# {glue:text}`terrain_pf60_converged_high:.0%`), to tens or a few hundred metres (final error of the
+# converged flights: median {glue:text}`terrain_pf60_converged_median:.0f` m, 10-90 %
+# {glue:text}`terrain_pf60_converged_q10:.0f` to {glue:text}`terrain_pf60_converged_q90:.0f` m),
+# and the others are lost kilometres away: a single final error is a draw from a very wide,
 # two-humped distribution.
 
 # %% [markdown]
@@ -568,12 +586,32 @@ for name, g in (("baseline", base_rows), ("gap 50-75 s", gap_rows)):
           f"{np.median(g['sigma_50'].to_numpy()[ok]):.0f} m -> {np.median(g['sigma_75'].to_numpy()[ok]):.0f} m")
 glue("gap_sigma_50", float(np.median(gap_rows["sigma_50"].to_numpy()[ok])), display=False)
 glue("gap_sigma_75", float(np.median(gap_rows["sigma_75"].to_numpy()[ok])), display=False)
+# the growth run by run: sigma at 75 s over sigma at 50 s in the gap run, and the gap run's sigma at 75 s over the
+# baseline's on the same flights (converged flights of the gap run)
+gap_growth = evidence.paired(gap_rows["sigma_75"].to_numpy()[ok], gap_rows["sigma_50"].to_numpy()[ok], ratio=True)
+base_sorted = base_rows.sort_values("flight")
+assert np.array_equal(base_sorted["flight"].to_numpy(), gap_rows["flight"].to_numpy())
+gap_vs_base = evidence.paired(gap_rows["sigma_75"].to_numpy()[ok], base_sorted["sigma_75"].to_numpy()[ok], ratio=True)
+print(f"gap run, sigma at 75 s / at 50 s: {gap_growth}")
+print(f"sigma at 75 s, gap run / baseline, same flights: {gap_vs_base}")
+glue("gap_sigma_growth", gap_growth.median, display=False)
+glue("gap_sigma_growth_low", gap_growth.low, display=False)
+glue("gap_sigma_growth_high", gap_growth.high, display=False)
+glue("gap_sigma_growth_n", gap_growth.n, display=False)
+glue("gap_sigma_vs_base", gap_vs_base.median, display=False)
+glue("gap_sigma_vs_base_low", gap_vs_base.low, display=False)
+glue("gap_sigma_vs_base_high", gap_vs_base.high, display=False)
+assert gap_growth.verdict() == "A higher" and gap_vs_base.verdict() == "A higher"
 
 # %% [markdown]
 # **Measurement gap.** The report: the uncertainty grows during the gap, but the estimate stays
-# good. The first holds (the filter's standard deviation grows from
+# good. The first holds (the filter's standard deviation grows from a median of
 # {glue:text}`gap_sigma_50:.0f` m to {glue:text}`gap_sigma_75:.0f` m through the $25$ s without
-# readings, in the flights the gap run converges on); the second does not: the gap loses
+# readings, in the {glue:text}`gap_sigma_growth_n:d` flights the gap run converges on: run by
+# run it ends {glue:text}`gap_sigma_growth:.1f` times what it was at $50$ s, 95 % interval
+# {glue:text}`gap_sigma_growth_low:.1f`-{glue:text}`gap_sigma_growth_high:.1f`, and
+# {glue:text}`gap_sigma_vs_base:.1f` times the baseline's at $75$ s on the same flights,
+# {glue:text}`gap_sigma_vs_base_low:.1f`-{glue:text}`gap_sigma_vs_base_high:.1f`); the second does not: the gap loses
 # {glue:text}`gap_0_lost:.2f` of the flights (p = {glue:text}`gap_0_p_lost:.1e`), because at $50$ s
 # many flights have not yet settled on one place, and the converged ones end
 # {glue:text}`gap_0_ratio:.1f` times further from the truth

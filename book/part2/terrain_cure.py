@@ -114,6 +114,26 @@ glue("terrain_near_h2_3000", float(near.loc[3000, "nearest in prior metric: hori
 glue("terrain_near_drift_3000", float(8000 * np.tan(np.radians(near.loc[3000, "... heading (deg)"]))), display=False)
 glue("terrain_near_psi1_3000", float(near.loc[3000, "its heading error (deg)"]), display=False)
 glue("terrain_near_h_100000", float(near.loc[100000, "nearest horizontal (m)"]), display=False)
+# the log-log slope of the median horizontal distance against N, with a bootstrap interval over the flights
+# (the flights are resampled together: flight r has the same truth for every N)
+horizontal = pd.DataFrame(rows).assign(flight=np.tile(np.arange(100), len(sizes))).pivot(
+    index="flight", columns="N", values="nearest horizontal (m)")
+
+
+def median_slope(*columns, axis=-1):
+    logs = np.log([np.median(c, axis=axis) for c in columns])
+    x = np.log(sizes) - np.mean(np.log(sizes))
+    return np.tensordot(x, logs - logs.mean(axis=0), axes=(0, 0)) / np.sum(x**2)
+
+
+near_slope = float(median_slope(*[horizontal[N].to_numpy() for N in sizes]))
+near_slope_ci = stats.bootstrap(tuple(horizontal[N].to_numpy() for N in sizes), median_slope, paired=True,
+                                n_resamples=9999, method="percentile", random_state=0).confidence_interval
+print(f"log-log slope of the median horizontal distance against N: {near_slope:.2f} "
+      f"(95 % bootstrap interval {near_slope_ci.low:.2f} to {near_slope_ci.high:.2f}, 100 flights, 3 values of N)")
+glue("terrain_near_slope", near_slope, display=False)
+glue("terrain_near_slope_low", float(near_slope_ci.low), display=False)
+glue("terrain_near_slope_high", float(near_slope_ci.high), display=False)
 
 # %% [markdown]
 # With $3000$ particles the particle nearest the truth horizontally is typically
@@ -124,8 +144,12 @@ glue("terrain_near_h_100000", float(near.loc[100000, "nearest horizontal (m)"]),
 # {glue:text}`terrain_near_psi_3000:.1f`° off in heading, which alone moves it
 # {glue:text}`terrain_near_drift_3000:.0f` m sideways over the $8$ km flight if the process
 # noise did not let its heading wander. The heading is the component that carries the error.
-# The horizontal distance falls roughly like $N^{-1/2}$ (a two-dimensional prior): even $10^5$
-# particles leave the nearest one {glue:text}`terrain_near_h_100000:.0f` m away. The
+# The horizontal distance falls roughly like $N^{-1/2}$, the rate of the nearest of $N$ points
+# in a two-dimensional prior: the log-log slope of its median is
+# {glue:text}`terrain_near_slope:.2f` (95 % bootstrap interval
+# {glue:text}`terrain_near_slope_low:.2f` to {glue:text}`terrain_near_slope_high:.2f` over the
+# flights, from three values of $N$, printed above). Even $10^5$ particles leave the nearest one
+# {glue:text}`terrain_near_h_100000:.0f` m away. The
 # four-dimensional volume shrinks like $N^{-1/4}$ per component, which is why more particles
 # help slowly, and why the remedies below, which *move* particles after the first readings
 # instead of waiting for one to have been drawn in the right place, help more.
@@ -239,6 +263,10 @@ def loss_difference(key, a, b):
 loss_difference("terrain_rpf3k_vs_boot30k", "regularised N=3000", "bootstrap N=30000")
 loss_difference("terrain_trpf_vs_rpf", "tempered+regularised N=3000", "regularised N=3000")
 loss_difference("terrain_qf3", "bootstrap N=3000, Qf/3", "bootstrap N=3000")
+loss_difference("terrain_boot100k_vs_boot30k", "bootstrap N=100000", "bootstrap N=30000")
+x, y, p = mcnemar("bootstrap N=100000", "bootstrap N=30000")
+glue("terrain_boot100k_vs_boot30k", f"{x} / {y}", display=False)
+glue("terrain_boot100k_vs_boot30k_p", float(p), display=False)
 
 # %% [markdown]
 # The best filter at a cost no greater than the bootstrap filter with $30\,000$ particles is
@@ -252,7 +280,11 @@ loss_difference("terrain_qf3", "bootstrap N=3000, Qf/3", "bootstrap N=3000")
 # - **Particles.** The bootstrap filter's losses fall with $N$, but slowly: with $30\,000$
 #   particles it still loses {glue:text}`terrain_boot30k_diverged:.0%`, and with $10^5$
 #   ({glue:text}`terrain_boot100k_cost:.1f` times the cost)
-#   {glue:text}`terrain_boot100k_diverged:.0%`.
+#   {glue:text}`terrain_boot100k_diverged:.0%` (on the same flights, lost by $10^5$ only / by
+#   $30\,000$ only: {glue:text}`terrain_boot100k_vs_boot30k`, exact McNemar $p$ =
+#   {glue:text}`terrain_boot100k_vs_boot30k_p:.2f`; the difference of lost shares lies within
+#   {glue:text}`terrain_boot100k_vs_boot30k_diff_low:.2f` to
+#   {glue:text}`terrain_boot100k_vs_boot30k_diff_high:.2f`).
 # - **Regularisation.** With $3000$ particles the regularised filter loses
 #   {glue:text}`terrain_rpf3k_diverged:.0%`, not told apart from the bootstrap filter with ten
 #   times as many (flights lost by the first only / by the second only: {glue:text}`terrain_rpf3k_vs_boot30k`,

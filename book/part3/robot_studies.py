@@ -33,6 +33,7 @@ import numpy as np
 import pandas as pd
 from IPython.display import HTML
 from matplotlib.animation import FuncAnimation
+from scipy import stats
 from myst_nb import glue
 
 from pfcourse.filter import ParticleFilter
@@ -219,6 +220,21 @@ glue_paired("n_ratio_1000", n_vs[1000])
 glue_paired("n_ratio_100", n_vs[100])
 # the prose says 1000 particles are measurably (a little) better than 300, and fewer are worse
 assert n_vs[1000].verdict() == "A lower" and all(n_vs[n].verdict() == "A higher" for n in (20, 50, 100))
+# how fast the error falls: each N against the next one, run by run (ratio of RMSEs, N_small / N_large)
+n_by_run = n_table.pivot(index="run", columns="n_particles", values="position_rmse")
+n_grid = sorted(n_by_run.columns)
+n_steps_vs = {(a, b): evidence.paired(n_by_run[a], n_by_run[b], ratio=True) for a, b in zip(n_grid, n_grid[1:])}
+print("\nconsecutive N, same runs (RMSE with the smaller N / with the larger N):")
+for (a, b), cmp in n_steps_vs.items():
+    print(f"  {a:>4} vs {b:>4}: {cmp}")
+    glue_paired(f"n_step_{a}_{b}", cmp)
+# the prose: every step is measurable, the first (20 to 50) is the steepest and the last the flattest
+assert all(cmp.verdict() == "A higher" for cmp in n_steps_vs.values())
+# is the first step steeper than a later one? ratio of the two per-run ratios (20/50 against 100/300)
+first_vs_later = evidence.paired(n_by_run[20] / n_by_run[50], n_by_run[100] / n_by_run[300], ratio=True)
+print(f"  step 20->50 against step 100->300 (ratio of ratios): {first_vs_later}")
+glue_paired("n_step_first_vs_later", first_vs_later)
+assert first_vs_later.verdict() == "A higher"
 
 # %%
 fig, axes = plt.subplots(1, 2, figsize=(10, 3.6))
@@ -237,10 +253,21 @@ plt.tight_layout()
 plt.show()
 
 # %% [markdown]
-# **Verdict.** The error falls steeply up to about $100$ particles and slowly after that: the
-# median RMSE goes from {glue:text}`n_rmse_20:.2f` m with $20$ particles to
-# {glue:text}`n_rmse_100:.2f` m with $100$, {glue:text}`n_rmse_300:.2f` m with $300$ and
-# {glue:text}`n_rmse_1000:.2f` m with $1000$ (printed above). Paired run by run with $300$
+# **Verdict.** The error falls steeply from $20$ to $50$ particles and by smaller, still
+# measurable steps after that: the median RMSE goes from {glue:text}`n_rmse_20:.2f` m with
+# $20$ particles to {glue:text}`n_rmse_100:.2f` m with $100$, {glue:text}`n_rmse_300:.2f` m
+# with $300$ and {glue:text}`n_rmse_1000:.2f` m with $1000$ (printed above). Run by run, each
+# $N$ gives {glue:text}`n_step_20_50:.2f` times the RMSE of the next from $20$ to $50$
+# (95 % interval {glue:text}`n_step_20_50_low:.2f`-{glue:text}`n_step_20_50_high:.2f`),
+# {glue:text}`n_step_50_100:.2f` ({glue:text}`n_step_50_100_low:.2f`-{glue:text}`n_step_50_100_high:.2f`)
+# from $50$ to $100$, {glue:text}`n_step_100_300:.2f`
+# ({glue:text}`n_step_100_300_low:.2f`-{glue:text}`n_step_100_300_high:.2f`) from $100$ to
+# $300$ and {glue:text}`n_step_300_1000:.2f`
+# ({glue:text}`n_step_300_1000_low:.2f`-{glue:text}`n_step_300_1000_high:.2f`) from $300$ to
+# $1000$; the first step is steeper than the one from $100$ to $300$ although that one triples
+# the cloud (ratio of the two per-run ratios {glue:text}`n_step_first_vs_later:.2f`,
+# 95 % interval {glue:text}`n_step_first_vs_later_low:.2f`-{glue:text}`n_step_first_vs_later_high:.2f`,
+# Wilcoxon p = {glue:text}`n_step_first_vs_later_p:.2g`, over the same runs). Paired run by run with $300$
 # particles, $1000$ particles give {glue:text}`n_ratio_1000:.2f` times the RMSE (95 % interval
 # {glue:text}`n_ratio_1000_low:.2f`-{glue:text}`n_ratio_1000_high:.2f`, Wilcoxon p =
 # {glue:text}`n_ratio_1000_p:.2g`) and $100$ particles {glue:text}`n_ratio_100:.2f` times
@@ -873,6 +900,28 @@ glue("lm_bad_3", bad_runs.a.successes, display=False)
 glue("lm_bad_30", bad_runs.b.successes, display=False)
 glue("lm_bad_p", bad_runs.pvalue, display=False)
 glue("lm_bad_runs", bad_runs.a.n, display=False)
+# the 90 % quantile of the RMSE with a bootstrap interval per number of landmarks, and 3 against 30 on the same runs
+def q90(x, axis=-1):
+    return np.quantile(x, 0.9, axis=axis)
+
+
+def q90_difference(x, y, axis=-1):
+    return q90(x, axis) - q90(y, axis)
+
+
+print(f"\n90 % quantile of the position RMSE (m), 95 % bootstrap interval over {len(by_run)} runs:")
+for m in (3, 5, 10, 30):
+    ci = stats.bootstrap((by_run[m].to_numpy(),), q90, n_resamples=9999, method="percentile",
+                         random_state=0).confidence_interval
+    print(f"  {m:>2} landmarks: {q90(by_run[m].to_numpy()):.3f} [{ci.low:.3f}, {ci.high:.3f}]")
+q90_gain = stats.bootstrap((by_run[3].to_numpy(), by_run[30].to_numpy()), q90_difference, paired=True,
+                           n_resamples=9999, method="percentile", random_state=0).confidence_interval
+lm_q90_gain = float(q90_difference(by_run[3].to_numpy(), by_run[30].to_numpy()))
+print(f"  3 minus 30 landmarks, same runs: {lm_q90_gain:.3f} m [{q90_gain.low:.3f}, {q90_gain.high:.3f}]")
+glue("lm_q90_gain", lm_q90_gain, display=False)
+glue("lm_q90_gain_low", float(q90_gain.low), display=False)
+glue("lm_q90_gain_high", float(q90_gain.high), display=False)
+assert q90_gain.low > 0  # the prose: the 90 % quantile is measurably lower with 30 landmarks
 
 # %%
 fig, axes = plt.subplots(1, 2, figsize=(10, 3.6))
@@ -900,8 +949,11 @@ plt.show()
 # no paired difference detected against three landmarks (a factor larger than
 # {glue:text}`lm_detectable:.2f` either way would have been seen): report 004's "little
 # influence" holds from three landmarks on. What more landmarks still buy is fewer bad runs:
-# the 90 % quantile keeps shrinking, from {glue:text}`lm_rmse90_3:.2f` m with three landmarks
-# to {glue:text}`lm_rmse90_30:.2f` m with $30$, and the runs with an RMSE above
+# the 90 % quantile falls from {glue:text}`lm_rmse90_3:.2f` m with three landmarks to
+# {glue:text}`lm_rmse90_30:.2f` m with $30$ (a drop of {glue:text}`lm_q90_gain:.3f` m,
+# paired 95 % bootstrap interval {glue:text}`lm_q90_gain_low:.3f`-{glue:text}`lm_q90_gain_high:.3f`
+# m over the same runs; the steps between are within each other's intervals, printed above),
+# and the runs with an RMSE above
 # {glue:text}`lm_bad_threshold:.1f` m fall from {glue:text}`lm_bad_3:d` to
 # {glue:text}`lm_bad_30:d` of {glue:text}`lm_bad_runs:d` (same runs, exact McNemar p =
 # {glue:text}`lm_bad_p:.2g`), since a bad layout (all landmarks on one side) becomes unlikely.
@@ -1063,6 +1115,27 @@ PANEL_STUDIES = {"n_particles": n_table, "q_scale": q_table, "r_scale": r_table,
 glue("n_runs_per_setting", N_RUNS, display=False)
 glue("budget_n_gain", float(n_rmse[300] - n_rmse[1000]), display=False)
 glue("budget_dt_loss", float(dt_rmse[2.0] - dt_rmse[1.0]), display=False)
+# the exercise's two differences of medians, with paired bootstrap intervals (run r of both studies uses the
+# same seed, so the runs are resampled together), and the difference of the two
+dt_by_run = dt_table.pivot(index="run", columns="dt_meas", values="position_rmse")
+budget = (n_by_run[300].to_numpy(), n_by_run[1000].to_numpy(), dt_by_run[2.0].to_numpy(), dt_by_run[1.0].to_numpy())
+
+
+def budget_gains(n300, n1000, dt2, dt1, axis=-1):
+    n_gain = np.median(n300, axis=axis) - np.median(n1000, axis=axis)
+    dt_loss = np.median(dt2, axis=axis) - np.median(dt1, axis=axis)
+    return np.stack([n_gain, dt_loss, dt_loss - n_gain])
+
+
+budget_ci = stats.bootstrap(budget, budget_gains, paired=True, n_resamples=9999, method="percentile",
+                            random_state=0).confidence_interval
+print(f"medians over {len(dt_by_run)} runs, 95 % paired bootstrap intervals:")
+for i, (what, key) in enumerate([("N 300 -> 1000, gain", "budget_n_gain"), ("dt_meas 1 -> 2 s, loss", "budget_dt_loss"),
+                                 ("loss minus gain", "budget_excess")]):
+    print(f"  {what}: {budget_gains(*budget)[i]:.3f} m [{budget_ci.low[i]:.3f}, {budget_ci.high[i]:.3f}]")
+    glue(f"{key}_low", float(budget_ci.low[i]), display=False)
+    glue(f"{key}_high", float(budget_ci.high[i]), display=False)
+assert budget_ci.low[2] > 0  # the solution: halving the measurement rate costs more than tripling N gains
 
 
 def draw_first_runs(parameter, n_runs):
@@ -1151,9 +1224,14 @@ control_panel(
 # ```{solution} ex-studies-budget
 # :class: dropdown
 # Tripling $N$ lowers the median RMSE by about {glue:text}`budget_n_gain:.3f` m
-# ({glue:text}`n_rmse_300:.3f` m to {glue:text}`n_rmse_1000:.3f` m), while measuring half as
-# often raises it by about {glue:text}`budget_dt_loss:.3f` m ({glue:text}`dt_rmse_1:.3f` m to
-# {glue:text}`dt_rmse_2:.3f` m, on the $200$ s runs of that study). With $300$ particles the
+# ({glue:text}`n_rmse_300:.3f` m to {glue:text}`n_rmse_1000:.3f` m; 95 % bootstrap interval
+# {glue:text}`budget_n_gain_low:.3f`-{glue:text}`budget_n_gain_high:.3f` m), while measuring
+# half as often raises it by about {glue:text}`budget_dt_loss:.3f` m ({glue:text}`dt_rmse_1:.3f` m
+# to {glue:text}`dt_rmse_2:.3f` m, on the $200$ s runs of that study; interval
+# {glue:text}`budget_dt_loss_low:.3f`-{glue:text}`budget_dt_loss_high:.3f` m). The loss exceeds
+# the gain by {glue:text}`budget_excess_low:.3f`-{glue:text}`budget_excess_high:.3f` m (the
+# runs of both studies share their seeds and are resampled together; printed with the
+# summary panel). With $300$ particles the
 # error of this filter is dominated by what the data can tell (the spread of the exact
 # posterior), not by the Monte Carlo error of the cloud: more particles only matter once the
 # cloud is too small to represent the posterior (below about $100$ particles here, where the

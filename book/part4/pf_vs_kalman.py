@@ -50,7 +50,7 @@ from pfcourse import evidence
 from pfcourse.experiments.terrain import DIVERGED_ERROR
 from pfcourse.terrain.scenario import AircraftScenario
 from pfcourse.experiments.comparison import label, linear_convergence, loglog_slope, robot_tracks, summarize_tracks, terrain_tracks
-from pfcourse.diagnostics import chi2_band
+from pfcourse.diagnostics import chi2_band, fraction_in_band
 from pfcourse.filter import ParticleFilter
 from pfcourse.landmarks.kalman import kalman_filter
 from pfcourse.landmarks.scenario import quadrant_scenario, simulate
@@ -304,6 +304,55 @@ for key in [k for k in rms if k[0] != "ekf"]:
         glue(f"robot_pf{key[1]}_over_ekf_high", cmp.high, display=False)
         glue(f"robot_pf{key[1]}_over_ekf_p", cmp.pvalue, display=False)
 
+# the particle filters against each other, run by run (not only each against the EKF)
+pf_keys = sorted(k for k in rms if k[0] == "pf")
+for a, b in [(pf_keys[0], pf_keys[1]), (pf_keys[1], pf_keys[2]), (pf_keys[0], pf_keys[2])]:
+    cmp = evidence.paired(rms[a], rms[b], ratio=True)
+    print(f"PF N={a[1]:<4} RMSE / PF N={b[1]} RMSE: {cmp}")
+    for suffix, value in (("", cmp.median), ("_low", cmp.low), ("_high", cmp.high), ("_p", cmp.pvalue)):
+        glue(f"robot_pf{a[1]}_over_pf{b[1]}{suffix}", value, display=False)
+    glue(f"robot_pf{a[1]}_over_pf{b[1]}_detectable", cmp.detectable, display=False)
+
+
+def band_intervals(runs, dim_x, dim_z, burn_in, n_boot=2000, seed=0):
+    """95 % bootstrap intervals over the runs of the fractions of steps in, below and above the band.
+
+    The runs are resampled with replacement and the run-averaged NEES / NIS recomputed from them (as
+    summarize_tracks does, against the band of an average of len(runs) chi-square variables).
+    """
+    R = len(runs)
+    nees_band, nis_band = chi2_band(dim_x, R), chi2_band(dim_z, R)
+    draws = np.random.default_rng(seed).integers(0, R, size=(n_boot, R))
+    rows = {}
+    for j, first in enumerate(runs[0]):
+        with np.errstate(invalid="ignore", over="ignore"):
+            nees_all = np.array([r[j].nees[burn_in:] for r in runs])
+            nis_all = np.array([r[j].nis[burn_in:] for r in runs])
+            nis_all = nis_all[:, ~np.all(np.isnan(nis_all), axis=0)]
+            fractions = []
+            for idx in draws:
+                nees_avg, nis_avg = nees_all[idx].mean(axis=0), nis_all[idx].mean(axis=0)
+                f_in = fraction_in_band(nees_avg, nees_band)
+                f_below = fraction_in_band(nees_avg, (-np.inf, np.nextafter(nees_band[0], -np.inf)))
+                fractions.append((f_in, f_below, max(0.0, 1 - f_in - f_below), fraction_in_band(nis_avg, nis_band)))
+        lo, hi = np.percentile(fractions, [2.5, 97.5], axis=0)
+        rows[label(first)] = {f"{c} {b}": v for c, l, h in zip(("NEES in", "NEES below", "NEES above", "NIS in"), lo, hi)
+                              for b, v in (("low", l), ("high", h))}
+    return pd.DataFrame(rows).T
+
+
+def glue_band(prefix, intervals, name, column, key):
+    for bound in ("low", "high"):
+        glue(f"{prefix}_{key}_{bound}", float(intervals.loc[name, f"{column} {bound}"]), display=False)
+
+
+robot_band = band_intervals(robot_runs, 3, 2, ROBOT_BURN_IN)
+print(f"\nfractions of steps in / below / above the band, 95 % bootstrap intervals over the {ROBOT_RUNS} runs:")
+print(robot_band.to_string(float_format=lambda v: f"{v:.2f}"))
+for name in ("EKF", "UKF", "PF N=100", "PF N=300"):
+    glue_band("robot", robot_band, name, "NEES in", f"{name.replace('PF N=', 'pf').lower()}_nees_in")
+glue_band("robot", robot_band, "PF N=1000", "NEES above", "pf1000_nees_above")
+
 # %% [markdown]
 # Run time per step on the machine that built this page (the output of this cell is not
 # compared when the notebook is tested, since timings vary between machines; the ratios are
@@ -365,18 +414,34 @@ print(f"PF N={n_hi} / PF N={n_lo} ({n_hi // n_lo} times the particles): {growth}
 #   {glue:text}`robot_pf300_over_ekf_low:.2f`-{glue:text}`robot_pf300_over_ekf_high:.2f` and
 #   {glue:text}`robot_pf1000_over_ekf_low:.2f`-{glue:text}`robot_pf1000_over_ekf_high:.2f`;
 #   Wilcoxon p = {glue:text}`robot_pf100_over_ekf_p:.2g`, {glue:text}`robot_pf300_over_ekf_p:.2g`,
-#   {glue:text}`robot_pf1000_over_ekf_p:.2g`; {glue:text}`robot_runs:d` paired runs). With so few runs the ranking between
-#   the particle filters themselves is not resolved: their intervals overlap. On this problem the
+#   {glue:text}`robot_pf1000_over_ekf_p:.2g`; {glue:text}`robot_runs:d` paired runs). Paired
+#   with each other on the same runs, the particle filter with $N = 100$ has
+#   {glue:text}`robot_pf100_over_pf300:.2f` times the RMSE of $N = 300$ (95 % interval
+#   {glue:text}`robot_pf100_over_pf300_low:.2f`-{glue:text}`robot_pf100_over_pf300_high:.2f`,
+#   Wilcoxon p = {glue:text}`robot_pf100_over_pf300_p:.2g`) and
+#   {glue:text}`robot_pf100_over_pf1000:.2f` times that of $N = 1000$
+#   ({glue:text}`robot_pf100_over_pf1000_low:.2f`-{glue:text}`robot_pf100_over_pf1000_high:.2f`,
+#   p = {glue:text}`robot_pf100_over_pf1000_p:.2g`); between $N = 300$ and $N = 1000$ the
+#   study detects no difference ({glue:text}`robot_pf300_over_pf1000:.2f`,
+#   {glue:text}`robot_pf300_over_pf1000_low:.2f`-{glue:text}`robot_pf300_over_pf1000_high:.2f`,
+#   p = {glue:text}`robot_pf300_over_pf1000_p:.2g`: a factor up to
+#   {glue:text}`robot_pf300_over_pf1000_detectable:.2f` either way could hide in
+#   {glue:text}`robot_runs:d` runs). On this problem the
 #   posterior is a single, nearly Gaussian bump, so linearising costs nothing and the particles
 #   only add Monte Carlo error.
 # - **Consistency.** The EKF and UKF, given the true noise levels, are consistent: NEES and
 #   NIS medians close to those of $\chi^2_3$ and $\chi^2_2$, and the run-averaged NEES
-#   inside its band at almost every step (a fraction {glue:text}`robot_ekf_nees_in:.2f` of the
-#   steps for the EKF, {glue:text}`robot_ukf_nees_in:.2f` for the UKF). The particle filter's NEES is
+#   inside its band at most steps (a fraction {glue:text}`robot_ekf_nees_in:.2f` of the
+#   steps for the EKF, {glue:text}`robot_ukf_nees_in:.2f` for the UKF; 95 % bootstrap intervals over
+#   the runs {glue:text}`robot_ekf_nees_in_low:.2f`-{glue:text}`robot_ekf_nees_in_high:.2f` and
+#   {glue:text}`robot_ukf_nees_in_low:.2f`-{glue:text}`robot_ukf_nees_in_high:.2f`, printed below
+#   the table). The particle filter's NEES is
 #   far too large at $N = 100$ and $300$ (inside the band at a fraction
-#   {glue:text}`robot_pf100_nees_in:.2f` and {glue:text}`robot_pf300_nees_in:.2f` of the steps) and
+#   {glue:text}`robot_pf100_nees_in:.2f` and {glue:text}`robot_pf300_nees_in:.2f` of the steps;
+#   intervals {glue:text}`robot_pf100_nees_in_low:.2f`-{glue:text}`robot_pf100_nees_in_high:.2f`
+#   and {glue:text}`robot_pf300_nees_in_low:.2f`-{glue:text}`robot_pf300_nees_in_high:.2f`) and
 #   still above the band at a fraction {glue:text}`robot_pf1000_nees_above:.2f` of the steps at
-#   $N = 1000$: its covariance, estimated from a resampled cloud, is too small for its
+#   $N = 1000$ ({glue:text}`robot_pf1000_nees_above_low:.2f`-{glue:text}`robot_pf1000_nees_above_high:.2f`): its covariance, estimated from a resampled cloud, is too small for its
 #   error. Its NIS, though, looks as good as the Kalman filters': the measurement noise $R$
 #   dominates $S_k$ and hides the under-estimated state spread. On real data, where only the
 #   NIS can be computed, this over-confidence would go unnoticed.
@@ -502,6 +567,15 @@ glue("terrain_small_ekf_nees_below", float(sp.loc["EKF", "nees_below"]), display
 glue("terrain_small_ukf_nees_below", float(sp.loc["UKF", "nees_below"]), display=False)
 glue("terrain_small_pf100_nees_above", float(1 - sp.loc["PF N=100", "nees_in_band"] - sp.loc["PF N=100", "nees_below"]),
      display=False)
+small_band = band_intervals(terrain_runs["terrain, small prior"], 4, 1, TERRAIN_BURN_IN)
+print(f"small prior: fractions of steps in / below / above the band, 95 % bootstrap intervals over the "
+      f"{len(terrain_runs['terrain, small prior'])} flights:")
+print(small_band.to_string(float_format=lambda v: f"{v:.2f}"))
+nis_min = sp["nis_in_band"].idxmin()
+glue_band("terrain_small", small_band, nis_min, "NIS in", "nis_in_min")
+glue_band("terrain_small", small_band, "EKF", "NEES below", "ekf_nees_below")
+glue_band("terrain_small", small_band, "UKF", "NEES below", "ukf_nees_below")
+glue_band("terrain_small", small_band, "PF N=100", "NEES above", "pf100_nees_above")
 ekf_rmse, _ = per_flight("terrain, small prior", "EKF")
 print(f"small prior, {len(ekf_rmse)} flights: diverged flights, all filters: {sp['diverged'].sum() * len(ekf_rmse):.0f}")
 for other in ("PF N=1000", "UKF"):
@@ -531,7 +605,17 @@ glue("terrain_wide_pf_more_only_many", more.only_b, display=False)
 print(f"  {few} vs {many}: {more}")
 ukf_nis = float(f"{wp.loc['UKF', 'nis_median'] / chi2_1:.1g}")
 glue("terrain_wide_ukf_nis_over_chi2", ukf_nis, display=False)
-print(f"  UKF NIS median / chi2_1 median: {ukf_nis:.1g}")
+# its 95 % bootstrap interval over the flights (the NIS of all steps of the resampled flights), one digit
+j_ukf = [label(t) for t in terrain_runs["terrain, report's prior"][0]].index("UKF")
+ukf_nis_flights = np.array([run[j_ukf].nis[TERRAIN_BURN_IN:] for run in terrain_runs["terrain, report's prior"]])
+ukf_draws = np.random.default_rng(0).integers(0, n_wide, size=(2000, n_wide))
+with np.errstate(invalid="ignore"):
+    ukf_nis_boot = [np.nanmedian(ukf_nis_flights[idx]) / chi2_1 for idx in ukf_draws]
+ukf_nis_low, ukf_nis_high = (float(f"{v:.1g}") for v in np.percentile(ukf_nis_boot, [2.5, 97.5]))
+glue("terrain_wide_ukf_nis_over_chi2_low", ukf_nis_low, display=False)
+glue("terrain_wide_ukf_nis_over_chi2_high", ukf_nis_high, display=False)
+print(f"  UKF NIS median / chi2_1 median: {ukf_nis:.1g} (95 % bootstrap interval over the {n_wide} flights "
+      f"{ukf_nis_low:.1g} to {ukf_nis_high:.1g})")
 
 # %% [markdown]
 # Run times of the terrain filters (not compared when the notebook is tested). On each flight
@@ -575,13 +659,21 @@ plt.show()
 # p = {glue:text}`terrain_small_pf1000_over_ekf_p:.2g`). In measurement space all filters are
 # consistent (NIS medians close to the $\chi^2_1$ median, {glue:text}`chi2_1_median:.2f`, and the
 # run-averaged NIS in its band at a fraction {glue:text}`terrain_small_nis_in_min:.2f` of the
-# steps or more). In state space the Kalman filters are conservative (NEES median below the
+# steps or more; the lowest has a 95 % bootstrap interval over the flights of
+# {glue:text}`terrain_small_nis_in_min_low:.2f`-{glue:text}`terrain_small_nis_in_min_high:.2f`).
+# In state space the Kalman filters are conservative (NEES median below the
 # $\chi^2_4$ median, {glue:text}`chi2_4_median:.2f`, and the run-averaged NEES below its band at a
 # fraction {glue:text}`terrain_small_ekf_nees_below:.2f` of the steps for the EKF,
-# {glue:text}`terrain_small_ukf_nees_below:.2f` for the UKF): every filter allows for a process noise
+# {glue:text}`terrain_small_ukf_nees_below:.2f` for the UKF, fractions that
+# {glue:text}`terrain_small_flights:d` flights pin down poorly: 95 % bootstrap intervals
+# {glue:text}`terrain_small_ekf_nees_below_low:.2f`-{glue:text}`terrain_small_ekf_nees_below_high:.2f`
+# and {glue:text}`terrain_small_ukf_nees_below_low:.2f`-{glue:text}`terrain_small_ukf_nees_below_high:.2f`): every filter allows for a process noise
 # $Q_f$ that the true, noise-free flight does not have. That is a modelling choice, not a filter
-# failure. The particle filter with $N = 100$ errs the other way, as on the robot: its NEES lies
-# above the band at a fraction {glue:text}`terrain_small_pf100_nees_above:.2f` of the steps.
+# failure. The particle filter with $N = 100$ seems to err the other way, as on the robot: its
+# run-averaged NEES lies above the band at a fraction
+# {glue:text}`terrain_small_pf100_nees_above:.2f` of the steps, but over
+# {glue:text}`terrain_small_flights:d` flights that fraction is not established (95 % bootstrap
+# interval {glue:text}`terrain_small_pf100_nees_above_low:.2f`-{glue:text}`terrain_small_pf100_nees_above_high:.2f`).
 #
 # **The report's prior.** The order reverses. The EKF and UKF lose almost every flight
 # ({glue:text}`terrain_wide_ekf_lost:.0%` and {glue:text}`terrain_wide_ukf_lost:.0%` of
@@ -603,7 +695,9 @@ plt.show()
 # {glue:text}`../part2/terrain_cure.ipynb::terrain_boot30k_diverged:.0%` with $N = 30\,000$.
 # No filter is consistent here: lost flights dominate the run-averaged NEES and NIS. Note
 # the UKF: its NIS median is only about {glue:text}`terrain_wide_ukf_nis_over_chi2:.0f` times the
-# $\chi^2_1$ median while it is lost in nearly every flight. A moderate NIS does not prove that a filter sits on the right mode;
+# $\chi^2_1$ median (95 % bootstrap interval over the flights
+# {glue:text}`terrain_wide_ukf_nis_over_chi2_low:.1g` to
+# {glue:text}`terrain_wide_ukf_nis_over_chi2_high:.1g`, one significant digit) while it is lost in nearly every flight. A moderate NIS does not prove that a filter sits on the right mode;
 # the innovation check is a weak alarm here.
 
 # %% [markdown]
