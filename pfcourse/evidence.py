@@ -280,22 +280,26 @@ def median_interval(x, confidence: float = CONFIDENCE, seed: int = 0) -> tuple[f
     return float(np.median(x)), low, high
 
 
-def run_interval(statistic: Callable[[np.ndarray], float], n_runs: int, confidence: float = CONFIDENCE,
-                 seed: int = 0, n_resamples: int = N_RESAMPLES) -> tuple[float, float, float]:
+def run_interval(statistic: Callable[[np.ndarray], float | np.ndarray], n_runs: int,
+                 confidence: float = CONFIDENCE, seed: int = 0, n_resamples: int = N_RESAMPLES):
     """``(value, low, high)``: ``statistic(runs)`` on all runs, and its percentile-bootstrap interval.
 
     ``statistic`` receives an array of run indices (all of them, then resamples drawn with
-    replacement) and returns a float, e.g. ``lambda r: slope(errors[:, r])``; statistics of several
+    replacement) and returns a float, e.g. ``lambda r: slope(errors[:, r])``, or a 1-D array of
+    several statistics (then ``value``, ``low`` and ``high`` are arrays); statistics of several
     arrays indexed by run (two filters on the same simulations) are resampled together, paired.
     Resampling is ``scipy.stats.bootstrap`` over the indices ``0 .. n_runs - 1``.
     """
     if int(n_runs) != n_runs or n_runs < 2:
         raise EvidenceError(f"an interval over runs needs at least 2 runs, got {n_runs!r}")
     runs = np.arange(int(n_runs))
-    value = float(statistic(runs))
-    if not np.isfinite(value):
+    value = np.asarray(statistic(runs), dtype=float)
+    if not np.all(np.isfinite(value)):
         raise EvidenceError(f"the statistic of all {n_runs} runs is {value}")
-    res = stats.bootstrap((runs,), lambda r: float(statistic(r.astype(int))), vectorized=False,
+    res = stats.bootstrap((runs,), lambda r: np.asarray(statistic(r.astype(int)), dtype=float), vectorized=False,
                           confidence_level=confidence, n_resamples=n_resamples, method="percentile",
                           random_state=np.random.default_rng(seed))
-    return value, float(res.confidence_interval.low), float(res.confidence_interval.high)
+    low, high = np.asarray(res.confidence_interval.low), np.asarray(res.confidence_interval.high)
+    if value.ndim == 0:
+        return float(value), float(low), float(high)
+    return value, low, high

@@ -151,6 +151,14 @@ def test_run_interval_of_a_slope_covers_the_true_slope_and_pairs_its_arrays():
     assert covered >= 32  # 95 % nominal; 32 of 40 is the 1st percentile of Binomial(40, 0.95)
 
 
+def test_run_interval_of_several_statistics_at_once():
+    x = np.random.default_rng(0).normal(size=200)
+    value, low, high = ev.run_interval(lambda r: np.array([np.mean(x[r]), np.median(x[r])]), 200, n_resamples=999)
+    assert value.shape == low.shape == high.shape == (2,)
+    single = ev.run_interval(lambda r: np.mean(x[r]), 200, n_resamples=999)
+    assert value[0] == single[0] and np.all(low < value) and np.all(value < high)
+
+
 @pytest.mark.parametrize("n_runs", [1, 0, 2.5])
 def test_run_interval_refuses_too_few_runs(n_runs):
     with pytest.raises(ev.EvidenceError, match="at least 2 runs"):

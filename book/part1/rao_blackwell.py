@@ -220,7 +220,6 @@ plt.show()
 # (paired), with a Wilcoxon signed-rank test of "the ratio exceeds $10$".
 
 # %%
-boot_rng = np.random.default_rng(1)
 err = {m: np.array([runs[(runs.method == m) & (runs.N == n)].sort_values("seed").landmark_error
                     for n in N_VALUES]) for m in ORDER}  # (n_N, n_runs)
 logN = np.log(N_VALUES)
@@ -231,18 +230,12 @@ def slope(e):
 
 
 slopes = {}
-for m in ORDER:
-    boot = [slope(err[m][:, boot_rng.integers(0, n_runs, n_runs)]) for _ in range(2000)]
-    slopes[m] = (slope(err[m]), *np.percentile(boot, [2.5, 97.5]))
+for m in ORDER:  # intervals over the runs: evidence.run_interval resamples them (scipy.stats.bootstrap)
+    slopes[m] = evidence.run_interval(lambda r, m=m: slope(err[m][:, r]), n_runs, seed=1, n_resamples=1999)
     print(f"{METHODS[m]:40s} slope {slopes[m][0]:+.3f} (95 % CI {slopes[m][1]:+.3f} to {slopes[m][2]:+.3f})")
 # the difference of two slopes, paired: both filters ran on the same simulations, resampled together
-pair_rng = np.random.default_rng(2)
-slope_diff_boot = []
-for _ in range(2000):
-    idx = pair_rng.integers(0, n_runs, n_runs)
-    slope_diff_boot.append(slope(err["rbpf_optimal"][:, idx]) - slope(err["sir"][:, idx]))
-slope_diff = slopes["rbpf_optimal"][0] - slopes["sir"][0]
-slope_diff_low, slope_diff_high = np.percentile(slope_diff_boot, [2.5, 97.5])
+slope_diff, slope_diff_low, slope_diff_high = evidence.run_interval(
+    lambda r: slope(err["rbpf_optimal"][:, r]) - slope(err["sir"][:, r]), n_runs, seed=2, n_resamples=1999)
 print(f"slope difference, {METHODS['rbpf_optimal']} - {METHODS['sir']}: {slope_diff:+.3f} (95 % paired "
       f"bootstrap interval over the {n_runs} runs {slope_diff_low:+.3f} to {slope_diff_high:+.3f})")
 glue("rbpf_sir_slope_diff", float(slope_diff), display=False)

@@ -125,11 +125,13 @@ def rms(a):
 
 
 def bootstrap_slope(values, n_boot=300):
-    """Fitted log-log slope of the RMS over runs and its bootstrap standard error over runs."""
-    rng = np.random.default_rng(0)
-    boot = [loglog_slope(N_LINEAR, rms(values[:, rng.integers(0, values.shape[1], values.shape[1])]))
-            for _ in range(n_boot)]
-    return loglog_slope(N_LINEAR, rms(values)), float(np.std(boot))
+    """Fitted log-log slope of the RMS over runs and its bootstrap standard error over runs
+    (scipy.stats.bootstrap resampling the runs)."""
+    def fitted(runs):
+        return loglog_slope(N_LINEAR, rms(values[:, runs.astype(int)]))
+    se = stats.bootstrap((np.arange(values.shape[1]),), fitted, vectorized=False, n_resamples=n_boot,
+                         random_state=np.random.default_rng(0)).standard_error
+    return loglog_slope(N_LINEAR, rms(values)), float(se)
 
 
 slopes = {}
@@ -322,20 +324,20 @@ def band_intervals(runs, dim_x, dim_z, burn_in, n_boot=2000, seed=0):
     """
     R = len(runs)
     nees_band, nis_band = chi2_band(dim_x, R), chi2_band(dim_z, R)
-    draws = np.random.default_rng(seed).integers(0, R, size=(n_boot, R))
     rows = {}
     for j, first in enumerate(runs[0]):
         with np.errstate(invalid="ignore", over="ignore"):
             nees_all = np.array([r[j].nees[burn_in:] for r in runs])
             nis_all = np.array([r[j].nis[burn_in:] for r in runs])
             nis_all = nis_all[:, ~np.all(np.isnan(nis_all), axis=0)]
-            fractions = []
-            for idx in draws:
+
+            def fractions(idx):  # of the run-averaged NEES / NIS over the runs idx
                 nees_avg, nis_avg = nees_all[idx].mean(axis=0), nis_all[idx].mean(axis=0)
                 f_in = fraction_in_band(nees_avg, nees_band)
                 f_below = fraction_in_band(nees_avg, (-np.inf, np.nextafter(nees_band[0], -np.inf)))
-                fractions.append((f_in, f_below, max(0.0, 1 - f_in - f_below), fraction_in_band(nis_avg, nis_band)))
-        lo, hi = np.percentile(fractions, [2.5, 97.5], axis=0)
+                return np.array([f_in, f_below, max(0.0, 1 - f_in - f_below), fraction_in_band(nis_avg, nis_band)])
+
+            _, lo, hi = evidence.run_interval(fractions, R, seed=seed, n_resamples=n_boot)
         rows[label(first)] = {f"{c} {b}": v for c, l, h in zip(("NEES in", "NEES below", "NEES above", "NIS in"), lo, hi)
                               for b, v in (("low", l), ("high", h))}
     return pd.DataFrame(rows).T
@@ -608,10 +610,10 @@ glue("terrain_wide_ukf_nis_over_chi2", ukf_nis, display=False)
 # its 95 % bootstrap interval over the flights (the NIS of all steps of the resampled flights), one digit
 j_ukf = [label(t) for t in terrain_runs["terrain, report's prior"][0]].index("UKF")
 ukf_nis_flights = np.array([run[j_ukf].nis[TERRAIN_BURN_IN:] for run in terrain_runs["terrain, report's prior"]])
-ukf_draws = np.random.default_rng(0).integers(0, n_wide, size=(2000, n_wide))
 with np.errstate(invalid="ignore"):
-    ukf_nis_boot = [np.nanmedian(ukf_nis_flights[idx]) / chi2_1 for idx in ukf_draws]
-ukf_nis_low, ukf_nis_high = (float(f"{v:.1g}") for v in np.percentile(ukf_nis_boot, [2.5, 97.5]))
+    _, ukf_nis_low, ukf_nis_high = evidence.run_interval(
+        lambda r: np.nanmedian(ukf_nis_flights[r]) / chi2_1, n_wide, n_resamples=1999)
+ukf_nis_low, ukf_nis_high = float(f"{ukf_nis_low:.1g}"), float(f"{ukf_nis_high:.1g}")
 glue("terrain_wide_ukf_nis_over_chi2_low", ukf_nis_low, display=False)
 glue("terrain_wide_ukf_nis_over_chi2_high", ukf_nis_high, display=False)
 print(f"  UKF NIS median / chi2_1 median: {ukf_nis:.1g} (95 % bootstrap interval over the {n_wide} flights "
