@@ -357,35 +357,40 @@ plt.show()
 # flights, one after the other in a rotating order, so that losses and wall times are paired.
 
 # %%
-confirm = pd.read_csv(Path("../data/terrain_confirmation.csv"))
-confirm_meta = json.loads(Path("../data/terrain_confirmation.json").read_text())
-lost_c = confirm.pivot(index="flight", columns="setting", values="lost").astype(bool)
-secs_c = confirm.pivot(index="flight", columns="setting", values="seconds")
+BOOT = "bootstrap N=30000"
+
+
+def against_bootstrap(csv, candidate, prefix):
+    """A fresh-flight study: the candidate's losses (Wilson), paired with the bootstrap filter's
+    (exact McNemar) and its wall time per flight (paired ratio); glued under ``prefix``."""
+    table = pd.read_csv(Path("../data") / csv)
+    lost = table.pivot(index="flight", columns="setting", values="lost").astype(bool)
+    secs = table.pivot(index="flight", columns="setting", values="seconds")
+    loss = evidence.rate(lost[candidate])
+    versus = evidence.paired_rates(lost[candidate], lost[BOOT])
+    time = evidence.paired(secs[candidate], secs[BOOT], ratio=True)
+    for name in lost.columns:
+        print(f"{name:48s} lost {evidence.rate(lost[name])}")
+    print(f"{candidate} vs {BOOT}: {versus}")
+    print(f"wall time, {candidate} / {BOOT}, per flight: {time}")
+    for key, value in (("lost", int(loss.successes)), ("lo", loss.low), ("hi", loss.high),
+                       ("boot_lost", int(lost[BOOT].sum())), ("vs_boot_p", versus.pvalue),
+                       ("time_ratio", time.median), ("time_lo", time.low), ("time_hi", time.high)):
+        glue(f"{prefix}_{key}", value if isinstance(value, int) else float(value), display=False)
+    return lost, loss
+
+
 CAND = "regularised, stratified (candidate)"
 MULT = "regularised, multinomial (chapter's baseline)"
-BOOT = "bootstrap N=30000"
-for name in (CAND, MULT, BOOT):
-    print(f"{name:48s} lost {evidence.rate(lost_c[name])}")
-cand_rate = evidence.rate(lost_c[CAND])
-cand_vs_boot = evidence.paired_rates(lost_c[CAND], lost_c[BOOT])
+lost_c, cand_rate = against_bootstrap("terrain_confirmation.csv", CAND, "terrain_fresh")
 cand_vs_mult = evidence.paired_rates(lost_c[CAND], lost_c[MULT])
-time_c = evidence.paired(secs_c[CAND], secs_c[BOOT], ratio=True)
-print(f"candidate vs bootstrap N=30000: {cand_vs_boot}")
-print(f"candidate vs multinomial:       {cand_vs_mult}")
-print(f"wall time, candidate / bootstrap N=30000, per flight: {time_c}")
+print(f"candidate vs multinomial: {cand_vs_mult}")
+confirm_meta = json.loads(Path("../data/terrain_confirmation.json").read_text())
 print(f"criterion, decided in advance: {confirm_meta['criterion']} -> "
       f"{'met' if cand_rate.successes < 5 else 'not met'} ({cand_rate.successes} lost)")
-glue("terrain_fresh_lost", int(cand_rate.successes), display=False)
 glue("terrain_fresh_flights", int(cand_rate.n), display=False)
-glue("terrain_fresh_lo", float(cand_rate.low), display=False)
-glue("terrain_fresh_hi", float(cand_rate.high), display=False)
 glue("terrain_fresh_mult_lost", int(lost_c[MULT].sum()), display=False)
-glue("terrain_fresh_boot_lost", int(lost_c[BOOT].sum()), display=False)
-glue("terrain_fresh_vs_boot_p", float(cand_vs_boot.pvalue), display=False)
 glue("terrain_fresh_vs_mult_p", float(cand_vs_mult.pvalue), display=False)
-glue("terrain_fresh_time_ratio", float(time_c.median), display=False)
-glue("terrain_fresh_time_lo", float(time_c.low), display=False)
-glue("terrain_fresh_time_hi", float(time_c.high), display=False)
 
 # %% [markdown]
 # **The criterion is met**: the candidate loses {glue:text}`terrain_fresh_lost` of the
@@ -407,30 +412,12 @@ glue("terrain_fresh_time_hi", float(time_c.high), display=False)
 # ($200$ to $299$), with the same criterion.
 
 # %%
-cost = pd.read_csv(Path("../data/terrain_cost_matched.csv"))
-lost_m = cost.pivot(index="flight", columns="setting", values="lost").astype(bool)
-secs_m = cost.pivot(index="flight", columns="setting", values="seconds")
-CAND20 = "regularised, stratified, N=20000"
-m_rate = evidence.rate(lost_m[CAND20])
-m_vs_boot = evidence.paired_rates(lost_m[CAND20], lost_m[BOOT])
-time_m = evidence.paired(secs_m[CAND20], secs_m[BOOT], ratio=True)
-print(f"{CAND20}: lost {m_rate}")
-print(f"bootstrap N=30000 on the same flights: lost {evidence.rate(lost_m[BOOT])}")
-print(f"paired: {m_vs_boot}")
-print(f"wall time, N=20000 regularised / bootstrap N=30000: {time_m}")
+lost_m, _ = against_bootstrap("terrain_cost_matched.csv", "regularised, stratified, N=20000", "terrain_cost")
 # the two sets of fresh flights, seen by the same bootstrap filter (different flights: Fisher's exact test)
 harder = stats.fisher_exact([[lost_m[BOOT].sum(), (~lost_m[BOOT]).sum()],
                              [lost_c[BOOT].sum(), (~lost_c[BOOT]).sum()]])
 print(f"bootstrap N=30000 loses {lost_m[BOOT].sum()} of flights 200-299 and {lost_c[BOOT].sum()} of "
       f"flights 100-199: Fisher's exact p = {harder.pvalue:.3f}")
-glue("terrain_cost_lost", int(m_rate.successes), display=False)
-glue("terrain_cost_lo", float(m_rate.low), display=False)
-glue("terrain_cost_hi", float(m_rate.high), display=False)
-glue("terrain_cost_boot_lost", int(lost_m[BOOT].sum()), display=False)
-glue("terrain_cost_vs_boot_p", float(m_vs_boot.pvalue), display=False)
-glue("terrain_cost_time_ratio", float(time_m.median), display=False)
-glue("terrain_cost_time_lo", float(time_m.low), display=False)
-glue("terrain_cost_time_hi", float(time_m.high), display=False)
 glue("terrain_sets_p", float(harder.pvalue), display=False)
 
 # %% [markdown]
