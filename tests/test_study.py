@@ -2,6 +2,9 @@
 
 from __future__ import annotations
 
+import os
+import time
+
 import numpy as np
 import pytest
 
@@ -193,3 +196,44 @@ def test_pool_workers_run_one_blas_thread():
             _set_blas_threads(n, [path])
     assert counts and all(c == 1 for c in counts), counts
 
+
+
+def _hangs_in_a_worker(seed: int, a: int) -> dict:
+    """A run that never answers in a pool worker (a deadlocked fork) and answers in the parent."""
+    import multiprocessing
+    import time as _time
+
+    if multiprocessing.parent_process() is not None:
+        _time.sleep(3600)
+    return {"value": a * 1000 + seed % 997}
+
+
+def _dies_in_a_worker(seed: int, a: int) -> dict:
+    """A run whose worker process dies (a segfault, an OOM kill) and that answers in the parent."""
+    import multiprocessing
+
+    if multiprocessing.parent_process() is not None:
+        os._exit(1)
+    return {"value": a * 1000 + seed % 997}
+
+
+@pytest.mark.parametrize("run_one, reason", [(_hangs_in_a_worker, "finished in"), (_dies_in_a_worker, "died")])
+def test_a_stuck_or_broken_pool_is_replaced_and_the_rows_are_unchanged(run_one, reason):
+    from pfcourse.experiments.study import SerialExecutor, StudyWarning, default_executor
+
+    if not default_executor(run_one)[1]:
+        pytest.skip("one core or no fork: no pool")
+    grid = {"a": [1, 2]}
+    serial = run_study(run_one, grid, 5, batch_size=2, progress=False, executor=SerialExecutor())
+    start = time.perf_counter()
+    with pytest.warns(StudyWarning, match=reason):
+        pooled = run_study(run_one, grid, 5, batch_size=2, progress=False, stall_timeout=2.0)
+    assert time.perf_counter() - start < 60  # the stuck workers were stopped, not waited for
+    assert pooled.drop(columns="seconds").equals(serial.drop(columns="seconds"))
+    assert (pooled["status"] == "ok").all() and len(pooled) == 10
+
+
+@pytest.mark.parametrize("value", [0, -1.0, float("nan"), "10"])
+def test_stall_timeout_must_be_a_positive_number(value):
+    with pytest.raises(ParameterError, match="stall_timeout"):
+        run_study(lambda seed, a: {}, {"a": [1]}, 2, progress=False, stall_timeout=value)

@@ -26,6 +26,10 @@ and returns a dictionary of metrics.  The result is a tidy table, one row per
   machines.  Each row depends only on its setting and seed, and the rows are put back in
   grid order, so the table is the same whatever the executor and its number of workers
   (only the ``seconds`` column, a wall time, differs).
+* **A stuck pool is replaced.** If no task finishes for ``stall_timeout`` seconds, or a
+  worker dies (the pool is broken), the pool's workers are stopped and the unfinished tasks
+  run in this process, with a :class:`StudyWarning`; since a row depends only on its
+  setting and seed, the table is the one the pool would have made.
 """
 
 from __future__ import annotations
@@ -36,16 +40,24 @@ import os
 import pickle
 import time
 from collections.abc import Callable, Iterable, Mapping, Sequence
-from concurrent.futures import Executor, Future, ProcessPoolExecutor
+import warnings
+from concurrent.futures import FIRST_COMPLETED, BrokenExecutor, Executor, Future, ProcessPoolExecutor, wait
 
 import numpy as np
 import pandas as pd
 
 from pfcourse.arithmetic import one_blas_thread
-from pfcourse.checks import check_count
+from pfcourse.checks import check_count, check_real
 from pfcourse.errors import ParameterError, StepError
 
 Metrics = Mapping[str, float]
+
+#: Seconds without any finished task after which :func:`run_study` takes its executor as stuck.
+STALL_TIMEOUT = 600.0
+
+
+class StudyWarning(UserWarning):
+    """A study's executor stalled or broke; its unfinished tasks were run in this process."""
 
 
 def replicate_seed(base_seed: int, replicate: int) -> int:
@@ -104,6 +116,7 @@ def run_study(
     batch_size: int = 10,
     progress: bool = True,
     executor: Executor | None = None,
+    stall_timeout: float | None = STALL_TIMEOUT,
 ) -> pd.DataFrame:
     """Run every setting of ``grid`` ``n_runs`` times and return one row per run.
 
@@ -114,13 +127,17 @@ def run_study(
 
     ``executor`` runs the tasks (``batch_size`` runs of one setting each); ``None`` uses
     :func:`default_executor`.  The rows, their order and every column but ``seconds`` do
-    not depend on it.
+    not depend on it.  If no task finishes for ``stall_timeout`` seconds (``None``: wait for
+    ever) or the executor breaks, the unfinished tasks run in this process
+    (:class:`StudyWarning`); a pool made here has its workers stopped first.
     """
     if (run_one is None) == (run_batch is None):
         raise ParameterError("give exactly one of run_one and run_batch")
     if executor is not None and not isinstance(executor, Executor) and not callable(getattr(executor, "submit", None)):
         raise ParameterError(f"executor must be a concurrent.futures.Executor, got {executor!r}")
     n_runs = check_count(n_runs, "n_runs")
+    if stall_timeout is not None:
+        stall_timeout = check_real(stall_timeout, "stall_timeout", low=0.0, low_open=True)
     batch_size = check_count(batch_size, "batch_size")
     settings = grid_settings(grid)
     seeds = [replicate_seed(base_seed, r) for r in range(n_runs)]
@@ -130,25 +147,53 @@ def run_study(
     if executor is None:
         executor, owned = default_executor(fn)
     bar = _Progress(len(settings) * n_runs) if progress else None
+    tasks = [(setting, list(range(start, min(start + batch_size, n_runs))))
+             for setting in settings for start in range(0, n_runs, batch_size)]
+    results: dict[int, list[dict]] = {}
     try:
-        futures = []
-        for setting in settings:
-            for start in range(0, n_runs, batch_size):
-                chunk = list(range(start, min(start + batch_size, n_runs)))
-                futures.append(executor.submit(task, fn, setting, chunk, [seeds[r] for r in chunk]))
-        rows: list[dict] = []
-        for future in futures:  # in grid order, whatever order they finish in
-            chunk_rows = future.result()
-            rows.extend(chunk_rows)
-            if bar:
-                for row in chunk_rows:
-                    bar.advance(1, row["status"])
+        futures = {executor.submit(task, fn, setting, chunk, [seeds[r] for r in chunk]): i
+                   for i, (setting, chunk) in enumerate(tasks)}
+        pending = set(futures)
+        while pending:
+            done, pending = wait(pending, timeout=stall_timeout, return_when=FIRST_COMPLETED)
+            try:
+                for future in done:
+                    results[futures[future]] = chunk_rows = future.result()
+                    if bar:
+                        for row in chunk_rows:
+                            bar.advance(1, row["status"])
+            except BrokenExecutor as exc:
+                _abandon(executor, owned, pending, f"a worker of {type(executor).__name__} died ({exc})")
+                break
+            if not done:
+                _abandon(executor, owned, pending,
+                         f"no task of {type(executor).__name__} finished in {stall_timeout:g} s")
+                break
     finally:
         if owned:
             executor.shutdown(wait=True, cancel_futures=True)
+    rows: list[dict] = []
+    for i, (setting, chunk) in enumerate(tasks):  # in grid order, whatever order they finished in
+        if i not in results:  # left by a stalled or broken executor
+            results[i] = task(fn, setting, chunk, [seeds[r] for r in chunk])
+            if bar:
+                for row in results[i]:
+                    bar.advance(1, row["status"])
+        rows.extend(results[i])
     if bar:
         bar.finish(len(settings), n_runs)
     return pd.DataFrame(rows)
+
+
+def _abandon(executor: Executor, owned: bool, pending: set, reason: str) -> None:
+    """Give up on ``executor``: cancel what it has not started; stop its workers if we made it."""
+    warnings.warn(f"{reason}; running the {len(pending)} unfinished task(s) in this process "
+                  "(the rows do not depend on the executor)", StudyWarning, stacklevel=3)
+    for future in pending:
+        future.cancel()
+    if owned:  # a process pool made by default_executor: its workers may be stuck, stop them
+        for process in list((getattr(executor, "_processes", None) or {}).values()):
+            process.terminate()
 
 
 def _runs_task(run_one, setting: dict, runs: list[int], seeds: list[int]) -> list[dict]:
