@@ -237,3 +237,29 @@ def test_a_stuck_or_broken_pool_is_replaced_and_the_rows_are_unchanged(run_one, 
 def test_stall_timeout_must_be_a_positive_number(value):
     with pytest.raises(ParameterError, match="stall_timeout"):
         run_study(lambda seed, a: {}, {"a": [1]}, 2, progress=False, stall_timeout=value)
+
+
+def _slow_square(x: int) -> int:
+    time.sleep(0.05 * (x % 3))  # finish out of order
+    return x * x
+
+
+def _refuses_three(x: int) -> int:
+    if x == 3:
+        raise ParameterError("three is refused")
+    return x
+
+
+def test_run_tasks_keeps_the_order_of_its_arguments_and_raises_a_task_error():
+    from concurrent.futures import ThreadPoolExecutor
+
+    from pfcourse.experiments.study import run_tasks
+
+    seen = []
+    with ThreadPoolExecutor(3) as pool:
+        out = run_tasks(_slow_square, [(x,) for x in range(9)], executor=pool, on_result=seen.append)
+    assert out == [x * x for x in range(9)]
+    assert sorted(seen) == sorted(out)
+    assert run_tasks(_slow_square, [(x,) for x in range(5)]) == [0, 1, 4, 9, 16]  # the default pool
+    with pytest.raises(ParameterError, match="three is refused"):
+        run_tasks(_refuses_three, [(x,) for x in range(5)])

@@ -77,17 +77,18 @@ class SerialExecutor(Executor):
         return future
 
 
-def default_executor(task: Callable) -> tuple[Executor, bool]:
+def default_executor(task: Callable, *example_arguments) -> tuple[Executor, bool]:
     """A process pool over the machine's cores (``fork``, so notebook functions need no import;
     one BLAS thread per worker, :func:`pfcourse.arithmetic.one_blas_thread`),
-    or a :class:`SerialExecutor` when ``task`` cannot be sent to another process (a lambda) or
+    or a :class:`SerialExecutor` when ``task`` (or ``example_arguments``, the arguments of one call)
+    cannot be sent to another process (a lambda) or
     the machine has one core.  Returns the executor and whether the caller must shut it down.
     """
     workers = os.cpu_count() or 1
     if workers < 2 or "fork" not in multiprocessing.get_all_start_methods():
         return SerialExecutor(), False
     try:
-        pickle.dumps(task)
+        pickle.dumps((task, example_arguments))
     except (pickle.PicklingError, AttributeError, TypeError):
         return SerialExecutor(), False
     return ProcessPoolExecutor(workers, mp_context=multiprocessing.get_context("fork"),
@@ -133,35 +134,65 @@ def run_study(
     """
     if (run_one is None) == (run_batch is None):
         raise ParameterError("give exactly one of run_one and run_batch")
-    if executor is not None and not isinstance(executor, Executor) and not callable(getattr(executor, "submit", None)):
-        raise ParameterError(f"executor must be a concurrent.futures.Executor, got {executor!r}")
     n_runs = check_count(n_runs, "n_runs")
-    if stall_timeout is not None:
-        stall_timeout = check_real(stall_timeout, "stall_timeout", low=0.0, low_open=True)
     batch_size = check_count(batch_size, "batch_size")
     settings = grid_settings(grid)
     seeds = [replicate_seed(base_seed, r) for r in range(n_runs)]
     task = _batch_task if run_batch is not None else _runs_task
     fn = run_batch if run_batch is not None else run_one
-    owned = False
-    if executor is None:
-        executor, owned = default_executor(fn)
-    bar = _Progress(len(settings) * n_runs) if progress else None
     tasks = [(setting, list(range(start, min(start + batch_size, n_runs))))
              for setting in settings for start in range(0, n_runs, batch_size)]
-    results: dict[int, list[dict]] = {}
+    bar = _Progress(len(settings) * n_runs) if progress else None
+
+    def advance(chunk_rows: list[dict]) -> None:
+        if bar:
+            for row in chunk_rows:
+                bar.advance(1, row["status"])
+
+    chunks = run_tasks(task, [(fn, setting, chunk, [seeds[r] for r in chunk]) for setting, chunk in tasks],
+                       executor=executor, stall_timeout=stall_timeout, on_result=advance)
+    rows = [row for chunk_rows in chunks for row in chunk_rows]
+    if bar:
+        bar.finish(len(settings), n_runs)
+    return pd.DataFrame(rows)
+
+
+def run_tasks(
+    task: Callable,
+    arguments: Sequence[tuple],
+    *,
+    executor: Executor | None = None,
+    stall_timeout: float | None = STALL_TIMEOUT,
+    on_result: Callable[[object], None] | None = None,
+) -> list:
+    """``[task(*args) for args in arguments]``, the calls shared out to ``executor``.
+
+    The results come back in the order of ``arguments`` whatever order they finish in;
+    ``on_result`` is called on each as it arrives.  ``executor=None`` uses
+    :func:`default_executor` (a process pool, shut down at the end).  If no call finishes for
+    ``stall_timeout`` seconds or the executor breaks (a worker died), the unfinished calls run in
+    this process, with a :class:`StudyWarning` (a pool made here has its workers stopped
+    first).  An exception raised by ``task`` itself is raised here.
+    """
+    if executor is not None and not isinstance(executor, Executor) and not callable(getattr(executor, "submit", None)):
+        raise ParameterError(f"executor must be a concurrent.futures.Executor, got {executor!r}")
+    if stall_timeout is not None:
+        stall_timeout = check_real(stall_timeout, "stall_timeout", low=0.0, low_open=True)
+    arguments = list(arguments)
+    owned = False
+    if executor is None:
+        executor, owned = default_executor(task, *arguments[:1])
+    results: dict[int, object] = {}
     try:
-        futures = {executor.submit(task, fn, setting, chunk, [seeds[r] for r in chunk]): i
-                   for i, (setting, chunk) in enumerate(tasks)}
+        futures = {executor.submit(task, *args): i for i, args in enumerate(arguments)}
         pending = set(futures)
         while pending:
             done, pending = wait(pending, timeout=stall_timeout, return_when=FIRST_COMPLETED)
             try:
                 for future in done:
-                    results[futures[future]] = chunk_rows = future.result()
-                    if bar:
-                        for row in chunk_rows:
-                            bar.advance(1, row["status"])
+                    results[futures[future]] = result = future.result()
+                    if on_result is not None:
+                        on_result(result)
             except BrokenExecutor as exc:
                 _abandon(executor, owned, pending, f"a worker of {type(executor).__name__} died ({exc})")
                 break
@@ -172,17 +203,12 @@ def run_study(
     finally:
         if owned:
             executor.shutdown(wait=True, cancel_futures=True)
-    rows: list[dict] = []
-    for i, (setting, chunk) in enumerate(tasks):  # in grid order, whatever order they finished in
+    for i, args in enumerate(arguments):
         if i not in results:  # left by a stalled or broken executor
-            results[i] = task(fn, setting, chunk, [seeds[r] for r in chunk])
-            if bar:
-                for row in results[i]:
-                    bar.advance(1, row["status"])
-        rows.extend(results[i])
-    if bar:
-        bar.finish(len(settings), n_runs)
-    return pd.DataFrame(rows)
+            results[i] = result = task(*args)
+            if on_result is not None:
+                on_result(result)
+    return [results[i] for i in range(len(arguments))]
 
 
 def _abandon(executor: Executor, owned: bool, pending: set, reason: str) -> None:
