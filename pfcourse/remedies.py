@@ -29,10 +29,9 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from pfcourse.angles import wrap_angle
+from pfcourse.checks import Array
 from pfcourse.errors import ParameterError
 from pfcourse.kernels import gather_rows
-
-Array = np.ndarray
 
 
 def optimal_bandwidth(n: int, d: int) -> float:

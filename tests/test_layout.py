@@ -111,3 +111,14 @@ def test_the_rule_catches_an_upward_import(tmp_path):
     assert len(violations(fake / "filter.py", fake)) == 1
     assert len(violations(fake / "robot" / "scenario.py", fake)) == 2
     assert violations(fake / "experiments" / "study.py", fake) == []
+
+
+def test_the_array_alias_is_defined_once():
+    """``Array`` (``np.ndarray``) lives in pfcourse.checks; other modules import it."""
+    defined = [f"{path.relative_to(PACKAGE)}:{node.lineno}"
+               for path in sorted(PACKAGE.rglob("*.py"))
+               for node in ast.walk(ast.parse(path.read_text()))
+               if isinstance(node, (ast.Assign, ast.AnnAssign))
+               and any(isinstance(t, ast.Name) and t.id == "Array"
+                       for t in (node.targets if isinstance(node, ast.Assign) else [node.target]))]
+    assert len(defined) == 1 and defined[0].startswith("checks.py:"), defined

@@ -31,10 +31,9 @@ from scipy.special import logsumexp
 
 from pfcourse import ParameterError, ShapeError
 from pfcourse.angles import wrap_angle
+from pfcourse.checks import Array
 from pfcourse.diagnostics import weighted_covariance, weighted_mean
 from pfcourse.gaussian import gaussian_logpdf
-
-Array = np.ndarray
 
 
 @dataclass

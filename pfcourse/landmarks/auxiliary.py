@@ -26,11 +26,10 @@ from collections.abc import Callable
 
 import numpy as np
 
+from pfcourse.checks import Array
 from pfcourse.gaussian import gaussian_logpdf
 from pfcourse.landmarks.model import LinearGaussianModel, OptimalProposal
 from pfcourse.resampling import get_resampler
-
-Array = np.ndarray
 
 
 class LinearGaussianOptimal(OptimalProposal):

@@ -37,13 +37,12 @@ from __future__ import annotations
 
 import numpy as np
 
-from pfcourse.checks import check_count, covariance_factor
+from pfcourse.checks import Array, check_count, covariance_factor
 from pfcourse.errors import ParameterError
 from pfcourse.filter import FilterResult
 from pfcourse.gaussian import LOG_2PI
 from pfcourse.landmarks.model import LinearGaussianModel
 
-Array = np.ndarray
 
 
 class RaoBlackwellError(ParameterError):

@@ -68,7 +68,7 @@ from scipy import stats
 from scipy.special import logsumexp
 
 from pfcourse.angles import wrap_angle
-from pfcourse.checks import check_probability
+from pfcourse.checks import Array, check_probability
 from pfcourse.diagnostics import nees
 from pfcourse.errors import DegenerateWeightsError, ParameterError
 from pfcourse.filter import DensityProposal, FilterResult, ParticleFilter
@@ -76,7 +76,6 @@ from pfcourse.remedies import ProgressiveCorrection, RegularisedJitter
 from pfcourse.sample_size import KLDSampling, kld_bound  # noqa: F401  (kld_bound: re-exported for the chapter)
 from pfcourse.robot.scenario import ANGLE_INDICES, RobotModel, RobotSimulation, motion, range_bearing, simulate_robot
 
-Array = np.ndarray
 _LOG_2PI = math.log(2.0 * math.pi)
 
 

@@ -21,10 +21,9 @@ from __future__ import annotations
 
 import numpy as np
 
+from pfcourse.checks import Array
 from pfcourse.errors import ShapeError
 from pfcourse.terrain.scenario import AircraftScenario, dynamics_jacobian, measurement_jacobian
-
-Array = np.ndarray
 
 
 def pcrb_recursion(J0: Array, F: Array, Q: Array, H: Array, R: Array, measured: Array) -> Array:
