@@ -153,6 +153,7 @@ def test_a_pool_that_does_not_answer_is_replaced_by_the_serial_path(monkeypatch)
     import os
     import time
 
+    from pfcourse.experiments.study import StudyWarning
     from pfcourse.figures import static_panel
 
     parent = os.getpid()
@@ -165,6 +166,7 @@ def test_a_pool_that_does_not_answer_is_replaced_by_the_serial_path(monkeypatch)
     monkeypatch.setattr(static_panel, "POOL_TIMEOUT", 2.0)
     controls = controls_abc({"a": (1, 2, 3)})
     start = time.perf_counter()
-    panel = render_grid(draw_slow_in_workers, controls, workers=2)
+    with pytest.warns(StudyWarning, match="finished in 2 s"):
+        panel = render_grid(draw_slow_in_workers, controls, workers=2)
     assert time.perf_counter() - start < 20
     assert panel == render_grid(draw_bars, controls, workers=1)

@@ -77,22 +77,26 @@ class SerialExecutor(Executor):
         return future
 
 
-def default_executor(task: Callable, *example_arguments) -> tuple[Executor, bool]:
+def default_executor(task: Callable, *example_arguments, workers: int | None = None) -> tuple[Executor, bool]:
     """A process pool over the machine's cores (``fork``, so notebook functions need no import;
     one BLAS thread per worker, :func:`pfcourse.arithmetic.one_blas_thread`),
     or a :class:`SerialExecutor` when ``task`` (or ``example_arguments``, the arguments of one call)
     cannot be sent to another process (a lambda) or
     the machine has one core.  Returns the executor and whether the caller must shut it down.
     """
-    workers = os.cpu_count() or 1
+    workers = (os.cpu_count() or 1) if workers is None else check_count(workers, "workers")
     if workers < 2 or "fork" not in multiprocessing.get_all_start_methods():
         return SerialExecutor(), False
     try:
         pickle.dumps((task, example_arguments))
     except (pickle.PicklingError, AttributeError, TypeError):
         return SerialExecutor(), False
-    return ProcessPoolExecutor(workers, mp_context=multiprocessing.get_context("fork"),
-                               initializer=one_blas_thread), True
+    with warnings.catch_warnings():
+        # Python >= 3.12 warns that forking a multi-threaded process (a Jupyter kernel) may
+        # deadlock; a pool that stalls is replaced by the calling process (run_tasks).
+        warnings.simplefilter("ignore", DeprecationWarning)
+        return ProcessPoolExecutor(workers, mp_context=multiprocessing.get_context("fork"),
+                                   initializer=one_blas_thread), True
 
 
 def grid_settings(grid: Mapping[str, Sequence]) -> list[dict]:
@@ -164,12 +168,14 @@ def run_tasks(
     executor: Executor | None = None,
     stall_timeout: float | None = STALL_TIMEOUT,
     on_result: Callable[[object], None] | None = None,
+    workers: int | None = None,
 ) -> list:
     """``[task(*args) for args in arguments]``, the calls shared out to ``executor``.
 
     The results come back in the order of ``arguments`` whatever order they finish in;
     ``on_result`` is called on each as it arrives.  ``executor=None`` uses
-    :func:`default_executor` (a process pool, shut down at the end).  If no call finishes for
+    :func:`default_executor` (a process pool of ``workers`` processes, default one per core, shut
+    down at the end).  If no call finishes for
     ``stall_timeout`` seconds or the executor breaks (a worker died), the unfinished calls run in
     this process, with a :class:`StudyWarning` (a pool made here has its workers stopped
     first).  An exception raised by ``task`` itself is raised here.
@@ -181,7 +187,7 @@ def run_tasks(
     arguments = list(arguments)
     owned = False
     if executor is None:
-        executor, owned = default_executor(task, *arguments[:1])
+        executor, owned = default_executor(task, *arguments[:1], workers=workers)
     results: dict[int, object] = {}
     try:
         futures = {executor.submit(task, *args): i for i, args in enumerate(arguments)}
@@ -214,7 +220,7 @@ def run_tasks(
 def _abandon(executor: Executor, owned: bool, pending: set, reason: str) -> None:
     """Give up on ``executor``: cancel what it has not started; stop its workers if we made it."""
     warnings.warn(f"{reason}; running the {len(pending)} unfinished task(s) in this process "
-                  "(the rows do not depend on the executor)", StudyWarning, stacklevel=3)
+                  "(the results do not depend on the executor)", StudyWarning, stacklevel=3)
     for future in pending:
         future.cancel()
     if owned:  # a process pool made by default_executor: its workers may be stuck, stop them

@@ -25,23 +25,19 @@ import html
 import io
 import itertools
 import json
-import multiprocessing
 import os
-import warnings
 from collections.abc import Callable, Mapping, Sequence
-from concurrent.futures import ProcessPoolExecutor
-from concurrent.futures import TimeoutError as FuturesTimeout
 from dataclasses import dataclass
 
 import matplotlib.pyplot as plt
 import numpy as np
 from PIL import Image
 
-from pfcourse.arithmetic import one_blas_thread
 from pfcourse.errors import ParameterError
+from pfcourse.experiments.study import run_tasks
 
-#: Seconds a pool of workers may take to render a whole grid before the grid is rendered in
-#: this process instead (the largest grid of the book takes a few seconds).
+#: Seconds a pool of workers may go without finishing a figure before the rest of the grid is
+#: rendered in this process instead (one figure of the book takes well under a second).
 POOL_TIMEOUT = 120.0
 
 #: The one line every static panel shows under its controls.
@@ -173,25 +169,11 @@ def render_grid(draw: Callable[..., object], controls: Sequence[StaticControl],
     workers = min(workers or os.cpu_count() or 1, len(points))
     _job = (draw, points)
     try:
-        if workers < 2 or "fork" not in multiprocessing.get_all_start_methods():
+        if workers < 2:
             rendered = [_render_point(k) for k in range(len(points))]
-        else:
-            with warnings.catch_warnings():
-                # Python >= 3.12 warns that forking a multi-threaded process (a Jupyter kernel)
-                # may deadlock; the workers only draw and return bytes, and a pool that does not
-                # answer within POOL_TIMEOUT seconds is abandoned for the serial path below.
-                warnings.simplefilter("ignore", DeprecationWarning)
-                pool = ProcessPoolExecutor(workers, mp_context=multiprocessing.get_context("fork"),
-                                           initializer=one_blas_thread)
-            try:
-                rendered = list(pool.map(_render_point, range(len(points)), timeout=POOL_TIMEOUT))
-            except FuturesTimeout:
-                for process in list(getattr(pool, "_processes", {}).values()):
-                    process.terminate()
-                pool.shutdown(wait=False, cancel_futures=True)
-                rendered = [_render_point(k) for k in range(len(points))]
-            else:
-                pool.shutdown()
+        else:  # forked workers inherit _job; a pool that stalls is replaced by this process
+            rendered = run_tasks(_render_point, [(k,) for k in range(len(points))], workers=workers,
+                                 stall_timeout=POOL_TIMEOUT)
     finally:
         _job = None
     return StaticPanel(tuple(controls), tuple(r[0] for r in rendered), tuple(r[1] for r in rendered))
