@@ -28,7 +28,8 @@ from pfcourse.angles import wrap_angle
 from pfcourse.diagnostics import nees
 from pfcourse.checks import check_count
 from pfcourse.errors import DegenerateWeightsError, NumericalError, ParameterError
-from pfcourse.filter import FilterResult, ParticleFilter
+from pfcourse.filter import ParticleFilter
+from pfcourse.results import FilterResult
 from pfcourse.robot.scenario import (
     ANGLE_INDICES,
     INITIAL_STD,
