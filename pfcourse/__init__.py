@@ -26,14 +26,14 @@ from pfcourse.errors import (  # noqa: E402
     ShapeError,
     WeightError,
 )
+from pfcourse.results import FilterResult, KalmanResult  # noqa: E402
 from pfcourse.filter import (  # noqa: E402
     DensityProposal,
-    FilterResult,
     ParticleFilter,
     StateSpaceModel,
     TransitionProposal,
 )
-from pfcourse.landmarks.kalman import KalmanResult, kalman_filter  # noqa: E402
+from pfcourse.landmarks.kalman import kalman_filter  # noqa: E402
 from pfcourse.landmarks.model import LinearGaussianModel, OptimalProposal  # noqa: E402
 
 __version__ = "0.2.0"

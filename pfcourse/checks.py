@@ -9,19 +9,25 @@ from __future__ import annotations
 
 import numpy as np
 
-from pfcourse.errors import CovarianceError, ParameterError, ShapeError
+from pfcourse.errors import CovarianceError, MeasurementError, NumericalError, ParameterError, ShapeError
 
 #: The array type of every signature in the package (one alias, imported from here).
 Array = np.ndarray
 
 
-def as_vector(value, name: str, size: int | None = None) -> np.ndarray:
-    """Return ``value`` as a 1-D float array, checking its length if ``size`` is given."""
-    arr = np.asarray(value, dtype=float)
+def as_vector(value, name: str, size: int | None = None, *, finite: bool = False) -> np.ndarray:
+    """Return ``value`` as a 1-D float array, checking its length if ``size`` is given and,
+    with ``finite=True``, that every entry is a finite number."""
+    try:
+        arr = np.asarray(value, dtype=float)
+    except (TypeError, ValueError):
+        raise ShapeError(f"{name} must be a 1-D vector of real numbers, got {value!r}") from None
     if arr.ndim != 1:
         raise ShapeError(f"{name} must be a 1-D vector, got an array of shape {arr.shape}")
     if size is not None and arr.shape[0] != size:
         raise ShapeError(f"{name} must have length {size}, got {arr.shape[0]}")
+    if finite and not np.all(np.isfinite(arr)):
+        raise ParameterError(f"{name} must be finite, got {arr}")
     return arr
 
 
@@ -115,6 +121,31 @@ def check_real(value, name: str, *, low: float = -np.inf, high: float = np.inf,
     return value
 
 
+def as_generator(rng, name: str = "rng") -> np.random.Generator:
+    """``numpy.random.default_rng(rng)`` for a Generator or a non-negative integer seed (or a
+    sequence of them); anything else (a bool, a float, a string) is refused."""
+    if isinstance(rng, (bool, np.bool_)):
+        raise ParameterError(f"{name} must be a numpy Generator or an integer seed, got {rng!r}")
+    try:
+        return np.random.default_rng(rng)
+    except (TypeError, ValueError) as exc:
+        raise ParameterError(f"{name} must be a numpy Generator or an integer seed, got {rng!r} ({exc})") from None
+
+
+def check_interval(value, name: str):
+    """Check that ``value`` is ``None`` or a pair ``(start, stop)`` of numbers with
+    ``start <= stop`` (either may be infinite, neither NaN); return it unchanged."""
+    if value is None:
+        return None
+    try:
+        pair = np.asarray(value, dtype=float)
+    except (TypeError, ValueError):
+        pair = None
+    if pair is None or pair.shape != (2,) or not pair[0] <= pair[1]:
+        raise ParameterError(f"{name} must be (start, stop) with start <= stop, got {value!r}")
+    return value
+
+
 def check_count(value: int, name: str, minimum: int = 1) -> int:
     """Check that ``value`` is an integer at least ``minimum``."""
     if isinstance(value, (bool, np.bool_)) or not isinstance(value, (int, float, np.integer, np.floating)):
@@ -124,3 +155,65 @@ def check_count(value: int, name: str, minimum: int = 1) -> int:
     if value < minimum:
         raise ParameterError(f"{name} must be at least {minimum}, got {value}")
     return int(value)
+
+
+def check_moments(particles: np.ndarray, cov: np.ndarray, linear: np.ndarray | None = None,
+                  step: int | None = None) -> None:
+    """Refuse a weighted covariance of finite particles that overflowed to inf (or NaN).
+
+    ``(x - m)^2`` overflows once the particles spread over about ``1e154``; the variances of
+    the components ``linear`` (a boolean mask, all of them if ``None``; an angle's may be NaN
+    when its circular mean is undefined) must then be finite, or a
+    :class:`~pfcourse.errors.NumericalError` names the step and the particles' magnitude.
+    """
+    variances = cov.diagonal() if linear is None else cov.diagonal()[linear]
+    if not np.isfinite(variances).all():
+        where = "" if step is None else f"step {step}: "
+        if not np.isfinite(particles).all():
+            raise NumericalError(f"{where}the particles contain NaN or infinite states", step=step)
+        raise NumericalError(
+            f"{where}the weighted covariance of the particles overflows to inf or NaN (particle states "
+            f"up to {float(np.max(np.abs(particles))):.3g} in magnitude); rescale the state",
+            step=step,
+        )
+
+
+def check_measurements(measurements):
+    """Check a filter's measurements once, before the run: a sequence (or array) of real arrays of
+    one shape, one per step; ``None``, an empty array or all-NaN entries are missing steps
+    (:func:`is_missing`), NaN entries are unobserved components, ``+/-inf`` is refused.
+    Returns them (a list if they were an array of objects)."""
+    if isinstance(measurements, (str, bytes)) or not hasattr(measurements, "__len__") \
+            or not hasattr(measurements, "__getitem__"):
+        raise MeasurementError(
+            f"measurements must be a sequence or an array (one entry per step), got {type(measurements).__name__}"
+        )
+    if isinstance(measurements, np.ndarray):
+        if measurements.ndim == 0:
+            raise MeasurementError("measurements must have one entry per step, got a 0-d array")
+        if measurements.dtype.kind not in "fiu":
+            measurements = list(measurements)
+        else:
+            if np.isinf(measurements).any():
+                raise MeasurementError("measurements contain +/-inf (use NaN for a missing value)")
+            return measurements
+    shape = None
+    for k, z in enumerate(measurements):
+        if z is None:
+            continue
+        arr = np.asarray(z)
+        if arr.dtype.kind not in "fiu" or arr.dtype == bool:
+            raise MeasurementError(
+                f"step {k}: the measurement must be a real array, got dtype {arr.dtype} ({z!r:.60})"
+            )
+        if np.isinf(arr).any():
+            raise MeasurementError(f"step {k}: the measurement contains +/-inf (use NaN for a missing value)")
+        if arr.size == 0 or np.isnan(arr.astype(float)).all():
+            continue
+        if shape is None:
+            shape = arr.shape
+        elif arr.shape != shape:
+            raise MeasurementError(
+                f"step {k}: the measurement has shape {arr.shape}, earlier ones have {shape}"
+            )
+    return measurements

@@ -19,6 +19,7 @@ from scipy import stats
 from scipy.special import logsumexp
 
 from pfcourse.angles import circular_mean, wrap_angle
+from pfcourse.checks import check_moments
 from pfcourse.errors import CovarianceError, DegenerateWeightsError, ShapeError, WeightError
 
 
@@ -124,11 +125,16 @@ def weighted_covariance(
         raise ShapeError(f"weights have length {weights.shape[0]} but there are {particles.shape[0]} particles")
     if mean is None:
         mean = weighted_mean(particles, weights, angle_indices)
-    dev = particles - mean
-    for j in angle_indices:
-        dev[:, j] = wrap_angle(dev[:, j])
-    cov = (dev * weights[:, None]).T @ dev
-    return 0.5 * (cov + cov.T)
+    with np.errstate(over="ignore", invalid="ignore"):  # an overflow is refused below, by name
+        dev = particles - mean
+        for j in angle_indices:
+            dev[:, j] = wrap_angle(dev[:, j])
+        cov = (dev * weights[:, None]).T @ dev
+        cov = 0.5 * (cov + cov.T)
+    linear = np.ones(particles.shape[1], dtype=bool)
+    linear[list(angle_indices)] = False
+    check_moments(particles, cov, linear)
+    return cov
 
 
 def nees(

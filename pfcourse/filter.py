@@ -41,12 +41,12 @@ compiles them too (:class:`pfcourse.robot.scenario.RobotModel` does).
 from __future__ import annotations
 
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from typing import Protocol
 
 import numpy as np
 
-from pfcourse.checks import Array, check_count, check_probability, is_missing
+from pfcourse.checks import Array, check_count, check_measurements, check_moments, check_probability, is_missing
 from . import kernels
 from pfcourse.errors import (
     DegenerateWeightsError,
@@ -57,6 +57,7 @@ from pfcourse.errors import (
     ShapeError,
 )
 from pfcourse.resampling import get_resampler, multinomial
+from pfcourse.results import FilterResult
 
 Measurement = Array | None
 
@@ -155,51 +156,6 @@ class DensityProposal:
         return new, log_inc
 
 
-@dataclass
-class FilterResult:
-    """Per-step output of :meth:`ParticleFilter.run` (``K`` steps, ``N`` particles, ``d`` states).
-
-    ``mean`` ``(K, d)`` and ``cov`` ``(K, d, d)`` are the weighted moments after the
-    update at each step (before any resampling); ``ess`` ``(K,)`` is the effective
-    sample size at that moment; ``resampled`` ``(K,)`` says whether the cloud was
-    resampled after it; ``log_likelihood_increments`` ``(K,)`` holds
-    ``log p^(z_k | z_{0:k-1})`` (0 at steps without a measurement).  With
-    ``store_particles=True``, ``particles`` ``(K, N, d)`` and ``weights`` ``(K, N)``
-    hold the weighted cloud at each step.  ``sizes`` ``(K,)`` is the number of particles at
-    each step (``n_particles`` throughout, unless the filter has a ``sample_size`` policy).
-    """
-
-    mean: Array
-    cov: Array
-    ess: Array
-    resampled: Array
-    log_likelihood_increments: Array
-    n_particles: int
-    particles: Array | None = None
-    weights: Array | None = None
-    settings: dict = field(default_factory=dict)
-    sizes: Array | None = None
-
-    def __post_init__(self) -> None:
-        if self.sizes is None:
-            self.sizes = np.full(len(self.ess), self.n_particles, dtype=np.int64)
-
-    @property
-    def particle_steps(self) -> int:
-        """Particles drawn over the run, ``sum_k N_k`` (``K N`` for a fixed ``N``): the cost unit."""
-        return int(np.sum(self.sizes))
-
-    @property
-    def log_likelihood(self) -> float:
-        """Estimate of the marginal log-likelihood ``log p(z_{0:K-1}) = sum_k log p^(z_k | z_{0:k-1})``."""
-        return float(np.sum(self.log_likelihood_increments))
-
-    @property
-    def n_resamples(self) -> int:
-        """How many times the cloud was resampled."""
-        return int(np.sum(self.resampled))
-
-
 class ParticleFilter:
     """Sequential importance sampling with optional resampling (SIS / SIR).
 
@@ -295,7 +251,7 @@ class ParticleFilter:
         except (TypeError, ValueError) as exc:
             raise ModelError(f"rng must be a numpy Generator or an integer seed, got {rng!r} ({exc})") from None
         n, d = self.n_particles, self.dim_x
-        measurements = self._check_measurements(measurements)
+        measurements = check_measurements(measurements)
         n_steps = len(measurements)
         if store_particles and self.sample_size is not None:
             raise ParameterError("store_particles needs a fixed number of particles (this filter has a sample_size policy)")
@@ -321,6 +277,7 @@ class ParticleFilter:
         scratch = np.empty(n)
         is_angle = np.zeros(d, dtype=bool)
         is_angle[list(self.angle_indices)] = True
+        linear = ~is_angle if is_angle.any() else None  # the variances that must stay finite
         if isinstance(measurements, np.ndarray) and measurements.dtype.kind == "f":
             missing_steps = np.isnan(measurements.reshape(n_steps, -1)).all(axis=1)  # is_missing, per row
         else:
@@ -376,6 +333,7 @@ class ParticleFilter:
                 ess[k] = 1.0 / kernels.sum_of_squares(weights)  # effective_sample_size(weights), same float
 
             mean[k], cov[k] = kernels.weighted_moments(particles, weights, is_angle)
+            check_moments(particles, cov[k], linear, k)
             if store_particles:
                 stored_x[k] = particles
                 stored_w[k] = weights
@@ -438,43 +396,6 @@ class ParticleFilter:
             if isinstance(needed, (bool, np.bool_)) or not isinstance(needed, (int, np.integer)) or needed < 0:
                 raise ModelError(f"step {k}: sample_size.needed must return a count >= 0, got {needed!r}", step=k)
         return np.concatenate(new_x), np.concatenate(new_log)
-
-    def _check_measurements(self, measurements):
-        """Check the measurements once, before the run: a sequence of real arrays of one shape."""
-        if isinstance(measurements, (str, bytes)) or not hasattr(measurements, "__len__") \
-                or not hasattr(measurements, "__getitem__"):
-            raise MeasurementError(
-                f"measurements must be a sequence or an array (one entry per step), got {type(measurements).__name__}"
-            )
-        if isinstance(measurements, np.ndarray):
-            if measurements.ndim == 0:
-                raise MeasurementError("measurements must have one entry per step, got a 0-d array")
-            if measurements.dtype.kind not in "fiu":
-                measurements = list(measurements)
-            else:
-                if np.isinf(measurements).any():
-                    raise MeasurementError("measurements contain +/-inf (use NaN for a missing value)")
-                return measurements
-        shape = None
-        for k, z in enumerate(measurements):
-            if z is None:
-                continue
-            arr = np.asarray(z)
-            if arr.dtype.kind not in "fiu" or arr.dtype == bool:
-                raise MeasurementError(
-                    f"step {k}: the measurement must be a real array, got dtype {arr.dtype} ({z!r:.60})"
-                )
-            if np.isinf(arr).any():
-                raise MeasurementError(f"step {k}: the measurement contains +/-inf (use NaN for a missing value)")
-            if arr.size == 0 or np.isnan(arr.astype(float)).all():
-                continue
-            if shape is None:
-                shape = arr.shape
-            elif arr.shape != shape:
-                raise MeasurementError(
-                    f"step {k}: the measurement has shape {arr.shape}, earlier ones have {shape}"
-                )
-        return measurements
 
     def _check_indices(self, indices, k: int) -> np.ndarray:
         """A custom resampler's output must be N integer indices in [0, N) (checked before the compiled gather)."""

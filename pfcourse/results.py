@@ -1,6 +1,7 @@
-"""What a Kalman-family filter returns: one result class for the Kalman filter, the EKFs and the UKFs.
+"""What the filters return: :class:`FilterResult` for the particle filter, :class:`KalmanResult`
+for the whole Kalman family (the Kalman filter, the EKFs and the UKFs).
 
-For ``K`` steps, ``d`` states and ``m`` measured components:
+A Kalman-family result, for ``K`` steps, ``d`` states and ``m`` measured components:
 
 * ``mean`` ``(K, d)`` and ``cov`` ``(K, d, d)``: the posterior ``N(m_k, P_k)`` after each update;
 * ``innovation`` ``(K, m)``: ``y_k = z_k - z^_k`` (angle components wrapped), and
@@ -13,17 +14,62 @@ For ``K`` steps, ``d`` states and ``m`` measured components:
 * ``lost_at``: the first step at which the filter stopped (an estimate off a map), or ``None``;
   rows from there on are NaN.
 
-The particle filter's result, :class:`pfcourse.filter.FilterResult`, shares ``mean``, ``cov``
+The particle filter's result, :class:`FilterResult`, shares ``mean``, ``cov``
 and ``log_likelihood``, so the comparisons take either.
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
 from pfcourse.checks import Array
+
+
+@dataclass
+class FilterResult:
+    """Per-step output of :meth:`ParticleFilter.run` (``K`` steps, ``N`` particles, ``d`` states).
+
+    ``mean`` ``(K, d)`` and ``cov`` ``(K, d, d)`` are the weighted moments after the
+    update at each step (before any resampling); ``ess`` ``(K,)`` is the effective
+    sample size at that moment; ``resampled`` ``(K,)`` says whether the cloud was
+    resampled after it; ``log_likelihood_increments`` ``(K,)`` holds
+    ``log p^(z_k | z_{0:k-1})`` (0 at steps without a measurement).  With
+    ``store_particles=True``, ``particles`` ``(K, N, d)`` and ``weights`` ``(K, N)``
+    hold the weighted cloud at each step.  ``sizes`` ``(K,)`` is the number of particles at
+    each step (``n_particles`` throughout, unless the filter has a ``sample_size`` policy).
+    """
+
+    mean: Array
+    cov: Array
+    ess: Array
+    resampled: Array
+    log_likelihood_increments: Array
+    n_particles: int
+    particles: Array | None = None
+    weights: Array | None = None
+    settings: dict = field(default_factory=dict)
+    sizes: Array | None = None
+
+    def __post_init__(self) -> None:
+        if self.sizes is None:
+            self.sizes = np.full(len(self.ess), self.n_particles, dtype=np.int64)
+
+    @property
+    def particle_steps(self) -> int:
+        """Particles drawn over the run, ``sum_k N_k`` (``K N`` for a fixed ``N``): the cost unit."""
+        return int(np.sum(self.sizes))
+
+    @property
+    def log_likelihood(self) -> float:
+        """Estimate of the marginal log-likelihood ``log p(z_{0:K-1}) = sum_k log p^(z_k | z_{0:k-1})``."""
+        return float(np.sum(self.log_likelihood_increments))
+
+    @property
+    def n_resamples(self) -> int:
+        """How many times the cloud was resampled."""
+        return int(np.sum(self.resampled))
 
 
 @dataclass

@@ -272,6 +272,169 @@ row("store_particles with a variable N",
     ParameterError, "store_particles needs a fixed number")
 
 
+# --- the remaining robot scenario fields -------------------------------------------------------
+for field, value, error, fragment in [
+    ("dt", np.inf, ParameterError, "dt must be finite"),
+    ("dt", None, ParameterError, "dt must be a real number"),
+    ("dt_meas", np.nan, ParameterError, "dt_meas must be at least dt"),
+    ("dt_meas", None, ParameterError, "dt_meas must be at least dt"),
+    ("gap", (5.0,), ParameterError, "gap must be (start, stop)"),
+    ("gap", (np.nan, 10.0), ParameterError, "gap must be (start, stop)"),
+    ("gap", ("a", "b"), ParameterError, "gap must be (start, stop)"),
+    ("start", (np.nan, 0.0, 0.0), ParameterError, "start must be finite"),
+    ("start", (0.0, 0.0), ShapeError, "start must have length 3"),
+    ("speed", (np.inf, 0.0), ParameterError, "speed must be finite"),
+    ("speed", 0.1, ShapeError, "speed must be a 1-D vector"),
+    ("turn_rate", np.nan, ParameterError, "turn_rate must be finite"),
+    ("half_width", np.inf, ParameterError, "half_width must be finite"),
+    ("landmarks", np.array([[0.0, np.nan]]), ParameterError, "landmarks must be finite"),
+]:
+    row(f"robot scenario {field}={value!r}", lambda f=field, v=value: simulate_robot(RobotScenario().with_(**{f: v}), 0),
+        error, fragment)
+row("simulate_robot rng=1.5", lambda: simulate_robot(None, 1.5), ParameterError, "rng must be a numpy Generator")
+
+# --- the terrain scenario (AircraftScenario, simulate) ---------------------------------------
+from pfcourse.terrain.map import TerrainMap  # noqa: E402
+from pfcourse.terrain.scenario import AircraftScenario, simulate as simulate_flight  # noqa: E402
+
+for field, value, error, fragment in [
+    ("dt", np.nan, ParameterError, "dt must be finite"),
+    ("dt", np.inf, ParameterError, "dt must be finite"),
+    ("dt", 0.0, ParameterError, "dt must be positive"),
+    ("dt", -1.0, ParameterError, "dt must be positive"),
+    ("dt", None, ParameterError, "dt must be a real number"),
+    ("dt", "1", ParameterError, "dt must be a real number"),
+    ("dt", 1e-300, ParameterError, "duration / dt"),
+    ("duration", -5.0, ParameterError, "duration must be positive"),
+    ("speed", np.nan, ParameterError, "speed must be finite"),
+    ("speed", -100.0, ParameterError, "speed must be non-negative"),
+    ("speed", None, ParameterError, "speed must be a real number"),
+    ("omega", np.nan, ParameterError, "omega must be finite"),
+    ("omega", np.inf, ParameterError, "omega must be finite"),
+    ("R", 0.0, ParameterError, "R must be positive"),
+    ("R", None, ParameterError, "R must be a real number"),
+    ("Rf", np.inf, ParameterError, "Rf must be finite"),
+    ("Rf", -1.0, ParameterError, "Rf must be positive"),
+    ("measurement_period", 0.0, ParameterError, "measurement_period must be positive"),
+    ("gap", (50.0, 10.0), ParameterError, "gap must be (start, stop)"),
+    ("gap", (10.0,), ParameterError, "gap must be (start, stop)"),
+    ("x0", np.array([np.nan, 0.0, 0.0, 0.0]), ParameterError, "x0 must be finite"),
+    ("x0", np.zeros(3), ShapeError, "x0 must have length 4"),
+    ("x0", np.zeros((4, 1)), ShapeError, "x0 must be a 1-D vector"),
+    ("P0", -np.eye(4), CovarianceError, "P0 is not positive semi-definite"),
+    ("P0", np.eye(3), ShapeError, "P0 must have shape (4, 4)"),
+    ("P0", np.full((4, 4), np.nan), CovarianceError, "P0 contains NaN"),
+    ("Qf", np.triu(np.ones((4, 4))), CovarianceError, "Qf is not symmetric"),
+    ("Qf", np.diag([1.0, 1.0, np.inf, 1.0]), CovarianceError, "Qf contains NaN or infinite"),
+]:
+    row(f"terrain scenario {field}={value!r}", lambda f=field, v=value: AircraftScenario().with_(**{f: v}), error,
+        fragment)
+_TINY_MAP = TerrainMap(np.zeros((3, 4)), dx=10.0, dy=20.0)
+row("terrain simulate: scenario is a dict", lambda: simulate_flight({"dt": 1.0}, _TINY_MAP, 0), ParameterError,
+    "scenario must be an AircraftScenario")
+row("terrain simulate: terrain is an array", lambda: simulate_flight(AircraftScenario(), np.zeros((3, 4)), 0),
+    ParameterError, "terrain must be a TerrainMap")
+row("terrain simulate: rng = 'seed'", lambda: simulate_flight(AircraftScenario(), _TINY_MAP, "seed"), ParameterError,
+    "rng must be a numpy Generator")
+row("terrain simulate: initial_state with NaN",
+    lambda: simulate_flight(AircraftScenario(), _TINY_MAP, 0, initial_state=[np.nan, 0.0, 0.0, 0.0]), ParameterError,
+    "initial_state must be finite")
+
+# --- kalman_filter (scenario A's exact reference) --------------------------------------------
+from pfcourse.landmarks.kalman import kalman_filter  # noqa: E402
+
+_LG = LinearGaussianModel(F=np.eye(2), H=np.eye(2), m0=np.zeros(2), P0=np.eye(2), Q=np.eye(2), R=np.eye(2))
+for label, z, error, fragment in [
+    ("3 components for a 2-D measurement", [np.zeros(2), np.zeros(3)], MeasurementError, "step 1: the measurement has shape (3,)"),
+    ("a (K, 1) array for a 2-D measurement", np.zeros((3, 1)), MeasurementError, "step 0: the measurement has shape (1,)"),
+    ("+inf entry", np.array([[0.0, 0.0], [np.inf, 0.0]]), MeasurementError, "+/-inf"),
+    ("complex entry", [np.zeros(2), np.array([1j, 0.0])], MeasurementError, "step 1: the measurement must be a real array"),
+    ("a string", "zz", MeasurementError, "sequence"),
+    ("None", None, MeasurementError, "sequence"),
+]:
+    row(f"kalman_filter measurements = {label}", lambda z=z: kalman_filter(_LG, z), error, fragment)
+row("kalman_filter model = a StateSpaceModel", lambda: kalman_filter(rw_model(), Z), ModelError,
+    "needs a LinearGaussianModel")
+
+
+def _kalman_missing():
+    """None, an empty array and all-NaN are missing steps; a NaN entry is an unobserved component."""
+    full = kalman_filter(_LG, [np.zeros(2), np.array([0.5, 0.5])])
+    r = kalman_filter(_LG, [np.zeros(2), None, np.array([]), np.full(2, np.nan), np.array([0.5, np.nan])])
+    assert np.all(np.isnan(r.innovation[1:4])) and np.all(r.log_likelihood_increments[1:4] == 0.0)
+    assert np.isnan(r.innovation[4, 1]) and not np.isnan(r.innovation[4, 0])
+    assert np.all(np.isfinite(r.mean)) and full.mean.shape == (2, 2)
+
+
+row("kalman_filter: None / empty / NaN measurements are missing", _kalman_missing, None, "missing")
+
+# --- run_ekf / run_ukf (the robot's Kalman references) ----------------------------------------
+from pfcourse.robot.kalman import run_ekf, run_ukf  # noqa: E402
+from pfcourse.robot.scenario import RobotModel  # noqa: E402
+
+_SIM = simulate_robot(None, 0, n_steps=6)
+_RM = RobotModel.for_simulation(_SIM)
+
+
+def _with_row(k, values):
+    z = _SIM.measurements.copy()
+    z[k] = values
+    return z
+
+
+for name, f in [("run_ekf", run_ekf), ("run_ukf", run_ukf)]:
+    for label, call, error, fragment in [
+        ("landmark index 7 of 5", lambda f=f: f(_RM, _with_row(2, (7.0, 10.0, 0.1))), MeasurementError,
+         "step 2: landmark index 7.0 is not one of 0..4"),
+        ("landmark index -1", lambda f=f: f(_RM, _with_row(2, (-1.0, 10.0, 0.1))), MeasurementError,
+         "step 2: landmark index -1.0"),
+        ("landmark index 1.5", lambda f=f: f(_RM, _with_row(3, (1.5, 10.0, 0.1))), MeasurementError,
+         "step 3: landmark index 1.5"),
+        ("NaN range with a landmark", lambda f=f: f(_RM, _with_row(3, (1.0, np.nan, 0.1))), MeasurementError,
+         "step 3: range and bearing must be finite"),
+        ("+inf bearing", lambda f=f: f(_RM, _with_row(3, (1.0, 10.0, np.inf))), MeasurementError, "+/-inf"),
+        ("measurements (K, 2)", lambda f=f: f(_RM, _SIM.measurements[:, :2]), ShapeError, "shape (K, 3)"),
+        ("more steps than odometry", lambda f=f: f(_RM, np.vstack([_SIM.measurements] * 2)), ShapeError,
+         "only 6 odometry rows"),
+        ("model is a LinearGaussianModel", lambda f=f: f(_LG, _SIM.measurements), ModelError, "need a RobotModel"),
+        ("initial_cov not positive definite", lambda f=f: f(_RM, _SIM.measurements, np.zeros((3, 3))),
+         CovarianceError, "initial_cov is not positive definite"),
+        ("initial_cov 2x2", lambda f=f: f(_RM, _SIM.measurements, np.eye(2)), ShapeError, "initial_cov must have shape"),
+    ]:
+        row(f"{name}: {label}", call, error, fragment)
+for label, kw, fragment in [("alpha=0", {"alpha": 0.0}, "alpha must lie in (0.0"),
+                            ("alpha=NaN", {"alpha": np.nan}, "alpha must be finite"),
+                            ("beta=inf", {"beta": np.inf}, "beta must be finite"),
+                            ("kappa=-3", {"kappa": -3.0}, "kappa must lie in (-3.0"),
+                            ("kappa=None", {"kappa": None}, "kappa must be a real number")]:
+    row(f"run_ukf {label}", lambda kw=kw: run_ukf(_RM, _SIM.measurements, **kw), ParameterError, fragment)
+
+# --- particles whose weighted covariance overflows ---------------------------------------------
+_HUGE = lambda n, rng: np.where(np.arange(n)[:, None] % 2 == 0, 1e308, -1e308)  # noqa: E731
+_FLAT = lambda x, z, k: np.zeros(len(x))  # noqa: E731  (a likelihood that does not see the magnitude)
+row("particles near +/-1e308: covariance overflows at step 0",
+    lambda: run(rw_model(init=_HUGE, loglik=_FLAT)), NumericalError,
+    "step 0: the weighted covariance of the particles overflows")
+row("particles spread to 1e200 at step 2: covariance overflows",
+    lambda: run(rw_model(trans=lambda x, k, rng: x * 1e200 if k == 2 else x, loglik=_FLAT)), NumericalError,
+    "step 2: the weighted covariance of the particles overflows")
+row("weighted_covariance of +/-1e308 particles",
+    lambda: diagnostics.weighted_covariance(np.array([[1e308], [-1e308]]), np.array([0.5, 0.5])), NumericalError,
+    "the weighted covariance of the particles overflows")
+row("weighted_covariance of NaN particles",
+    lambda: diagnostics.weighted_covariance(np.array([[np.nan], [0.0]]), np.array([0.5, 0.5])), NumericalError,
+    "NaN or infinite states")
+row("heading with no circular mean is NaN, not an overflow (documented)",
+    lambda: _no_circular_mean(), None, "valid")
+
+
+def _no_circular_mean():
+    """Two headings half a turn apart have no circular mean: NaN mean and variance of the heading,
+    the position's moments still finite; the filter does not mistake it for an overflow."""
+    cov = diagnostics.weighted_covariance(np.array([[0.0, 0.0], [1.0, np.pi]]), np.array([0.5, 0.5]), angle_indices=(1,))
+    assert np.isnan(cov[1, 1]) and cov[0, 0] == 0.25
+
+
 # --- valid but unusual: documented treatments -------------------------------------------
 def _offset(c):
     """Weights are invariant to a constant: the filter's answer moves only by the model's own

@@ -81,5 +81,6 @@ def test_filter_never_crashes_nor_returns_nan(n, threshold, dim_x, init_kind, tr
     assert np.all(np.isfinite(result.weights))
     np.testing.assert_allclose(result.weights.sum(axis=1), 1.0, atol=1e-9)
     assert np.all(np.isfinite(result.mean)) and np.all(np.isfinite(result.particles))
+    assert np.all(np.isfinite(result.cov))  # an overflowing covariance is a NumericalError
     assert not np.isnan(result.log_likelihood)
     assert np.all(np.isfinite(result.ess))

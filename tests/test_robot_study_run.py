@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 from pfcourse.errors import DegenerateWeightsError, ParameterError
-from pfcourse.experiments.robot import compare_filters, pf_run
+from pfcourse.experiments.robot import FilterSettings, compare_filters, global_localization_run, pf_run
 from pfcourse.experiments.study import run_study, summarize
 
 SEEDS = [3, 11, 2024]
@@ -59,6 +59,18 @@ def test_bad_arguments():
         pf_run(SEEDS[0], initial="everywhere", n_steps=10)
     with pytest.raises(ParameterError, match="burn_in"):
         pf_run(SEEDS[0], n_steps=10, burn_in=10)
+
+
+def test_filter_settings_are_written_once():
+    """The run functions take FilterSettings fields and scenario fields as keywords, told apart by split."""
+    settings, scenario = FilterSettings.split({"n_particles": 50, "n_steps": 20, "burn_in": 3, "gap": None})
+    assert settings == FilterSettings(n_particles=50, burn_in=3)
+    assert scenario == {"n_steps": 20, "gap": None}
+    assert FilterSettings().n_particles == 300 and FilterSettings().initial == "tracking"
+    with pytest.raises(ParameterError, match="uniform cloud"):
+        global_localization_run(SEEDS[0], 100, n_steps=10, initial="tracking")
+    with pytest.raises(TypeError, match="n_particle"):  # a misspelt setting is no scenario field either
+        pf_run(SEEDS[0], n_particle=100, n_steps=10)
 
 
 def test_study_with_batches_records_failures_per_replicate():

@@ -38,7 +38,8 @@ from pfcourse.checks import Array
 from pfcourse.diagnostics import chi2_band, fraction_in_band, nees, nis, predictive_moments
 from pfcourse.errors import DegenerateWeightsError
 from pfcourse.experiments.terrain import flight_seed
-from pfcourse.filter import FilterResult, ParticleFilter
+from pfcourse.filter import ParticleFilter
+from pfcourse.results import FilterResult
 from pfcourse.robot.scenario import ANGLE_INDICES, RobotModel, range_bearing, simulate_robot
 from pfcourse.terrain.kalman import unscented_kalman_filter
 from pfcourse.terrain.map import TerrainMap

@@ -28,7 +28,7 @@ import numpy as np
 from scipy import stats
 
 from pfcourse.diagnostics import nees
-from pfcourse.filter import FilterResult
+from pfcourse.results import FilterResult
 from pfcourse.landmarks.kalman import KalmanResult, kalman_filter
 from pfcourse.landmarks.scenario import LandmarkScenario, simulate
 

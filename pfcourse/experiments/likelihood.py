@@ -8,7 +8,7 @@ or ``Q = theta Q_0``) is learned from the data through the marginal likelihood
    p(z_{0:K-1} \\mid \\theta) = \\prod_k p(z_k \\mid z_{0:k-1}, \\theta),
 
 which the particle filter estimates without bias (Del Moral 2004) by
-``Z^ = prod_k sum_i W_{k-1}^i w_k^i`` (:attr:`~pfcourse.filter.FilterResult.log_likelihood`
+``Z^ = prod_k sum_i W_{k-1}^i w_k^i`` (:attr:`~pfcourse.results.FilterResult.log_likelihood`
 is ``log Z^``), and which the Kalman filter computes exactly on a linear-Gaussian model.
 
 **Common random numbers.** :func:`pf_log_likelihood` runs the filter with the same seed

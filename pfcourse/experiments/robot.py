@@ -5,7 +5,10 @@ run ``seed`` with the scenario settings given as keyword arguments, runs the
 particle filter, the EKF and/or the UKF on *the same* data, and returns, per
 filter, the position and heading RMSE, the time-averaged NEES and the run time.
 :func:`global_localization_run` does the same for one particle filter started
-from a cloud uniform over the map and says whether it locked on.
+from a cloud uniform over the map and says whether it locked on, and :func:`pf_run` returns
+the fuller row of a Part III study.  The three take the filter settings
+(:class:`FilterSettings`: the defaults and their meaning, written once) and the scenario
+changes as keyword arguments.
 
 The metrics (``e_k = estimate_k - truth_k``, heading wrapped, steps ``k >= burn_in``)::
 
@@ -17,7 +20,7 @@ The metrics (``e_k = estimate_k - truth_k``, heading wrapped, steps ``k >= burn_
 from __future__ import annotations
 
 import time
-from dataclasses import dataclass
+from dataclasses import dataclass, fields
 
 import numpy as np
 
@@ -26,11 +29,13 @@ from pfcourse.diagnostics import nees
 from pfcourse.checks import check_count
 from pfcourse.errors import DegenerateWeightsError, NumericalError, ParameterError
 from pfcourse.filter import ParticleFilter
+from pfcourse.results import FilterResult
 from pfcourse.robot.scenario import (
     ANGLE_INDICES,
     INITIAL_STD,
     RobotModel,
     RobotScenario,
+    RobotSimulation,
     rmse,
     simulate_robot,
     tracking_errors,
@@ -61,55 +66,96 @@ def _metrics(sim, mean, cov, seconds, burn_in) -> RunMetrics:
     return RunMetrics(pos, head, float(np.mean(per_step)), seconds, False, per_step)
 
 
+@dataclass(frozen=True)
+class FilterSettings:
+    """How the filters of one robot run are set up: the keyword arguments shared by
+    :func:`compare_filters`, :func:`pf_run` and :func:`global_localization_run`.
+
+    ``n_particles``
+        Number of particles ``N`` of the particle filter.
+    ``q_scale``, ``r_scale``
+        The filters use ``QEst = q_scale QTrue`` and ``REst = r_scale RTrue``.
+    ``threshold``, ``scheme``
+        The particle filter resamples with ``scheme`` when ``ESS < threshold N``.
+    ``initial``
+        The particle filter's start, ``"tracking"`` or ``"uniform"`` (the Kalman filters
+        always start from the tracking prior).
+    ``initial_std``
+        Standard deviations of the tracking prior around the true start.
+    ``burn_in``
+        The metrics are taken over the steps ``k >= burn_in``.
+
+    The particle filter's random stream is seeded with the run's seed.  The run functions
+    take these as keyword arguments beside the
+    :class:`~pfcourse.robot.scenario.RobotScenario` fields (:meth:`split` tells them apart):
+    ``pf_run(seed, n_particles=100, n_steps=50)``.
+    """
+
+    n_particles: int = 300
+    q_scale: float = 2.0
+    r_scale: float = 2.0
+    threshold: float = 0.5
+    scheme: str = "systematic"
+    initial: str = "tracking"
+    initial_std: tuple[float, float, float] = INITIAL_STD
+    burn_in: int = 0
+
+    @classmethod
+    def split(cls, options: dict) -> tuple[FilterSettings, dict]:
+        """``(settings, scenario_changes)``: the keyword arguments that are fields of this class
+        and the others (:class:`~pfcourse.robot.scenario.RobotScenario` fields)."""
+        names = {f.name for f in fields(cls)}
+        mine = {key: value for key, value in options.items() if key in names}
+        return cls(**mine), {key: value for key, value in options.items() if key not in names}
+
+    def simulate(self, seed: int, scenario: RobotScenario | None, changes: dict) -> RobotSimulation:
+        """Simulate run ``seed`` of ``scenario`` updated by ``changes``; refuse a ``burn_in``
+        that leaves no step."""
+        check_count(self.burn_in + 1, "burn_in + 1")
+        sim = simulate_robot(scenario, seed, **changes)
+        if self.burn_in >= sim.scenario.n_steps:
+            raise ParameterError(f"burn_in = {self.burn_in} leaves no step of the {sim.scenario.n_steps}")
+        return sim
+
+    def model(self, sim: RobotSimulation, initial: str | None = None) -> RobotModel:
+        """The filters' model of ``sim`` (``initial`` overrides :attr:`initial`)."""
+        return RobotModel.for_simulation(sim, q_scale=self.q_scale, r_scale=self.r_scale,
+                                         initial=initial or self.initial, initial_std=self.initial_std)
+
+    def run_particle_filter(self, model: RobotModel, sim: RobotSimulation, seed: int) -> FilterResult:
+        """The particle filter on ``sim``'s measurements, its random stream seeded with ``seed``."""
+        pf = ParticleFilter(model, self.n_particles, threshold=self.threshold, resampler=self.scheme)
+        return pf.run(sim.measurements, seed)
+
+
 def compare_filters(
     seed: int,
     *,
     filters: tuple[str, ...] = FILTERS,
-    n_particles: int = 300,
-    q_scale: float = 2.0,
-    r_scale: float = 2.0,
-    threshold: float = 0.5,
-    scheme: str = "systematic",
-    initial: str = "tracking",
-    initial_std=INITIAL_STD,
-    burn_in: int = 0,
     scenario: RobotScenario | None = None,
-    **scenario_changes,
+    **options,
 ) -> dict[str, RunMetrics]:
     """Simulate run ``seed`` and filter it with each of ``filters`` (``"pf"``, ``"ekf"``, ``"ukf"``).
 
-    ``scenario_changes`` are :class:`~pfcourse.robot.scenario.RobotScenario` fields
-    (``n_steps``, ``dt_meas``, ``gap``, ``n_landmarks``, ``q_true``, ...).  The filters use
-    ``QEst = q_scale QTrue`` and ``REst = r_scale RTrue``; the particle filter has
-    ``n_particles``, resamples with ``scheme`` when ``ESS < threshold N`` and starts
-    from ``initial`` (``"tracking"`` or ``"uniform"``; the Kalman filters always
-    start from the tracking prior); the tracking prior has standard deviations
-    ``initial_std`` around the true start.  The particle filter's random stream is
-    seeded with ``seed`` too.  A filter that raises a
-    :class:`~pfcourse.errors.DegenerateWeightsError` or
+    ``options`` are :class:`FilterSettings` fields (``n_particles``, ``q_scale``, ``r_scale``,
+    ``threshold``, ``scheme``, ``initial``, ``initial_std``, ``burn_in``; defaults and meaning
+    there) and :class:`~pfcourse.robot.scenario.RobotScenario` fields changing ``scenario``
+    (``n_steps``, ``dt_meas``, ``gap``, ``n_landmarks``, ``q_true``, ...).  A filter that
+    raises a :class:`~pfcourse.errors.DegenerateWeightsError` or
     :class:`~pfcourse.errors.NumericalError` is reported with ``failed=True``.
     """
     unknown = set(filters) - set(FILTERS)
     if unknown:
         raise ParameterError(f"unknown filter(s) {sorted(unknown)}; choose among {FILTERS}")
-    check_count(burn_in + 1, "burn_in + 1")
-    sim = simulate_robot(scenario, seed, **scenario_changes)
-    if burn_in >= sim.scenario.n_steps:
-        raise ParameterError(f"burn_in = {burn_in} leaves no step of the {sim.scenario.n_steps}")
+    settings, scenario_changes = FilterSettings.split(options)
+    sim = settings.simulate(seed, scenario, scenario_changes)
     out: dict[str, RunMetrics] = {}
     for name in filters:
-        model = RobotModel.for_simulation(
-            sim,
-            q_scale=q_scale,
-            r_scale=r_scale,
-            initial=initial if name == "pf" else "tracking",
-            initial_std=initial_std,
-        )
+        model = settings.model(sim, None if name == "pf" else "tracking")
         start = time.perf_counter()
         try:
             if name == "pf":
-                pf = ParticleFilter(model, n_particles, threshold=threshold, resampler=scheme)
-                res = pf.run(sim.measurements, seed)
+                res = settings.run_particle_filter(model, sim, seed)
             elif name == "ekf":
                 res = run_ekf(model, sim.measurements)
             else:
@@ -117,7 +163,7 @@ def compare_filters(
         except (DegenerateWeightsError, NumericalError):
             out[name] = RunMetrics(np.nan, np.nan, np.nan, time.perf_counter() - start, True)
             continue
-        out[name] = _metrics(sim, res.mean, res.cov, time.perf_counter() - start, burn_in)
+        out[name] = _metrics(sim, res.mean, res.cov, time.perf_counter() - start, settings.burn_in)
     return out
 
 
@@ -138,23 +184,24 @@ def global_localization_run(
     n_steps: int = 60,
     position_tolerance: float = 1.0,
     heading_tolerance: float = np.deg2rad(5.0),
-    q_scale: float = 2.0,
-    r_scale: float = 2.0,
-    threshold: float = 0.5,
-    scheme: str = "systematic",
-    **scenario_changes,
+    scenario: RobotScenario | None = None,
+    **options,
 ) -> GlobalRun:
     """Run the particle filter from a uniform cloud over the map and summarise its last step.
 
-    Locked on means that at the last step the posterior mean is within
+    ``options`` are :class:`FilterSettings` fields (``q_scale``, ``r_scale``, ``threshold``,
+    ``scheme``; the start is ``"uniform"``) and :class:`~pfcourse.robot.scenario.RobotScenario`
+    fields.  Locked on means that at the last step the posterior mean is within
     ``position_tolerance`` metres and ``heading_tolerance`` radians of the truth.
     A filter that loses every particle (:class:`~pfcourse.errors.DegenerateWeightsError`)
     has not locked on (error and standard deviation ``inf``).
     """
-    sim = simulate_robot(None, seed, n_steps=n_steps, **scenario_changes)
-    model = RobotModel.for_simulation(sim, q_scale=q_scale, r_scale=r_scale, initial="uniform")
+    if "initial" in options:
+        raise ParameterError("global_localization_run always starts from the uniform cloud: do not pass initial")
+    settings, scenario_changes = FilterSettings.split({**options, "n_particles": n_particles, "initial": "uniform"})
+    sim = settings.simulate(seed, scenario, {"n_steps": n_steps, **scenario_changes})
     try:
-        res = ParticleFilter(model, n_particles, threshold=threshold, resampler=scheme).run(sim.measurements, seed)
+        res = settings.run_particle_filter(settings.model(sim), sim, seed)
     except DegenerateWeightsError:
         return GlobalRun(False, float("inf"), float("inf"))
     err = res.mean[-1] - sim.truth[-1]
@@ -167,22 +214,15 @@ def global_localization_run(
 def pf_run(
     seed: int,
     *,
-    n_particles: int = 300,
-    q_scale: float = 2.0,
-    r_scale: float = 2.0,
-    threshold: float = 0.5,
-    scheme: str = "systematic",
-    initial: str = "tracking",
-    initial_std=INITIAL_STD,
-    burn_in: int = 0,
     keep_errors: bool = False,
     scenario: RobotScenario | None = None,
-    **scenario_changes,
+    **options,
 ) -> dict:
     """Simulate run ``seed`` and filter it with the particle filter: the metrics of a Part III study row.
 
-    Arguments as in :func:`compare_filters` (the same simulation, model, filter and seed, so
-    ``position_rmse``, ``heading_rmse`` and ``mean_nees`` are those of
+    ``options`` as in :func:`compare_filters` (:class:`FilterSettings` and
+    :class:`~pfcourse.robot.scenario.RobotScenario` fields: the same simulation, model, filter
+    and seed, so ``position_rmse``, ``heading_rmse`` and ``mean_nees`` are those of
     ``compare_filters(seed, filters=("pf",), ...)``).  Metrics (steps ``k >= burn_in``):
     ``position_rmse`` (m), ``heading_rmse`` (rad), ``mean_nees`` (``inf`` if all the weight
     sat on one particle at some step), the final position and heading errors, the mean
@@ -194,13 +234,10 @@ def pf_run(
     ``position_sd`` and ``heading_error`` ``|wrap(theta^_k - theta_k)|``.  A collapse raises
     its :class:`~pfcourse.errors.StepError` (the study runner records a failed run).
     """
-    check_count(burn_in + 1, "burn_in + 1")
-    sim = simulate_robot(scenario, seed, **scenario_changes)
-    K = sim.scenario.n_steps
-    if burn_in >= K:
-        raise ParameterError(f"burn_in = {burn_in} leaves no step of the {K}")
-    model = RobotModel.for_simulation(sim, q_scale=q_scale, r_scale=r_scale, initial=initial, initial_std=initial_std)
-    res = ParticleFilter(model, n_particles, threshold=threshold, resampler=scheme).run(sim.measurements, seed)
+    settings, scenario_changes = FilterSettings.split(options)
+    sim = settings.simulate(seed, scenario, scenario_changes)
+    res = settings.run_particle_filter(settings.model(sim), sim, seed)
+    burn_in = settings.burn_in
     metrics = _metrics(sim, res.mean, res.cov, 0.0, burn_in)
     err = tracking_errors(sim.truth, res.mean)
     distance = np.hypot(err[:, 0], err[:, 1])

@@ -20,7 +20,7 @@ from matplotlib.animation import FuncAnimation
 
 from pfcourse.checks import Array
 from pfcourse.errors import ParameterError
-from pfcourse.filter import FilterResult
+from pfcourse.results import FilterResult
 from pfcourse.results import KalmanResult
 from pfcourse.style import COLORS, ellipse_patch
 

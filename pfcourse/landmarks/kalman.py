@@ -16,7 +16,8 @@ from collections.abc import Sequence
 import numpy as np
 from filterpy.kalman import KalmanFilter
 
-from pfcourse.checks import is_missing
+from pfcourse.checks import check_measurements, is_missing
+from pfcourse.errors import MeasurementError, ModelError
 from pfcourse.results import KalmanResult
 from pfcourse.landmarks.model import LinearGaussianModel
 
@@ -25,8 +26,20 @@ def kalman_filter(model: LinearGaussianModel, measurements: Sequence | np.ndarra
     """Run filterpy's ``KalmanFilter`` on ``model`` with the time-varying observed rows.
 
     Time 0 starts from ``N(m0, P0)`` and is updated by ``z_0`` if present; every
-    later step predicts ``x_k = F x_{k-1} + B`` then updates with ``z_k``.
+    later step predicts ``x_k = F x_{k-1} + B`` then updates with ``z_k``.  The measurements
+    are checked as the particle filter's are (:func:`~pfcourse.checks.check_measurements`:
+    ``None``, empty or all-NaN is a missing step, NaN entries unobserved components), and each
+    present one must have the model's ``dim_z`` components
+    (:class:`~pfcourse.errors.MeasurementError` naming the step otherwise).
     """
+    if not isinstance(model, LinearGaussianModel):
+        raise ModelError(f"kalman_filter needs a LinearGaussianModel, got {type(model).__name__}")
+    measurements = check_measurements(measurements)
+    for k, z in enumerate(measurements):
+        if not is_missing(z) and np.shape(z) != (model.dim_z,):
+            raise MeasurementError(
+                f"step {k}: the measurement has shape {np.shape(z)}, the model measures ({model.dim_z},)"
+            )
     d = model.dim_x
     kf = KalmanFilter(dim_x=d, dim_z=model.dim_z)
     kf.x = model.m0.copy()

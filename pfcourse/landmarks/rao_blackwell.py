@@ -39,7 +39,7 @@ import numpy as np
 
 from pfcourse.checks import Array, check_count, covariance_factor
 from pfcourse.errors import ParameterError
-from pfcourse.filter import FilterResult
+from pfcourse.results import FilterResult
 from pfcourse.gaussian import LOG_2PI
 from pfcourse.landmarks.model import LinearGaussianModel
 

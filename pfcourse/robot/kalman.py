@@ -30,26 +30,26 @@ headings and bearings are circular means, and every difference of angles
 from __future__ import annotations
 
 import math
+
 import numpy as np
 from filterpy.kalman import ExtendedKalmanFilter, MerweScaledSigmaPoints, UnscentedKalmanFilter
 
 from pfcourse.angles import sigma_point_mean, wrap, wrap_angle
-from pfcourse.checks import Array, as_vector, check_covariance
-from pfcourse.errors import NumericalError, ShapeError
+from pfcourse.checks import Array, as_vector, check_covariance, check_measurements, check_real
+from pfcourse.errors import MeasurementError, ModelError, NumericalError, ShapeError
 from pfcourse.results import KalmanResult
-from pfcourse.robot.scenario import INITIAL_STD, RobotModel
-
-
-def motion_one(state: Array, control: Array, dt: float) -> Array:
-    """:func:`pfcourse.robot.scenario.motion` for a single state ``(3,)`` (the Kalman filters' hot path)."""
-    x, y, th = float(state[0]), float(state[1]), float(state[2])
-    vx, vy, om = float(control[0]), float(control[1]), float(control[2])
-    c, s = math.cos(th), math.sin(th)
-    return np.array([x + (vx * c - vy * s) * dt, y + (vx * s + vy * c) * dt, wrap(th + om * dt)])
+from pfcourse.robot.scenario import INITIAL_STD, RobotModel, motion
 
 
 def range_bearing_one(state: Array, landmark: Array) -> Array:
-    """:func:`pfcourse.robot.scenario.range_bearing` for a single state ``(3,)``."""
+    """:func:`pfcourse.robot.scenario.range_bearing` of one state ``(3,)``, with the range as
+    :func:`math.hypot`: the floats the Kalman filters' published numbers were computed with.
+
+    ``range_bearing`` itself (``np.hypot``, the C library's) differs from ``math.hypot`` in the
+    last bit of about one range in 200, which moves the EKF and UKF results by up to ~1e-13;
+    the bearing is the same float.  The motion has no such copy: the filters call
+    :func:`~pfcourse.robot.scenario.motion` on the one state (the same floats).
+    """
     dx, dy = float(landmark[0] - state[0]), float(landmark[1] - state[1])
     return np.array([math.hypot(dx, dy), wrap(math.atan2(dy, dx) - float(state[2]))])
 
@@ -96,20 +96,41 @@ def measurement_mean(sigmas: Array, weights: Array) -> Array:
 
 
 def _initial(model: RobotModel, initial_cov: Array | None) -> tuple[Array, Array]:
-    x0 = as_vector(model.start, "start", 3).copy()
+    if not isinstance(model, RobotModel):
+        raise ModelError(f"the robot's Kalman filters need a RobotModel, got {type(model).__name__}")
+    x0 = as_vector(model.start, "start", 3, finite=True).copy()
     if initial_cov is None:
         initial_cov = np.diag(np.asarray(model.initial_std, dtype=float) ** 2)
     return x0, check_covariance(initial_cov, "initial_cov", 3, definite=True)
 
 
 def _check_measurements(measurements: Array, model: RobotModel) -> Array:
-    measurements = np.asarray(measurements, dtype=float)
+    """``(K, 3)`` rows ``(j, range, bearing)``: NaN ``j`` is a missing step; otherwise ``j`` must
+    be a landmark index of the map and the range and bearing finite."""
+    measurements = check_measurements(measurements)
+    try:
+        measurements = np.asarray(measurements, dtype=float)
+    except (TypeError, ValueError):
+        raise MeasurementError("measurements must be one (landmark, range, bearing) row per step, "
+                               "NaN rows where nothing was measured") from None
     if measurements.ndim != 2 or measurements.shape[1] != 3:
         raise ShapeError(f"measurements must have shape (K, 3), got {measurements.shape}")
     if len(measurements) > len(model.odometry):
         raise ShapeError(
             f"{len(measurements)} measurements but only {len(model.odometry)} odometry rows"
         )
+    present = ~np.isnan(measurements[:, 0])
+    j = measurements[present, 0]
+    bad_index = (j != np.round(j)) | (j < 0) | (j >= len(model.landmarks))
+    bad_value = ~np.isfinite(measurements[present, 1:]).all(axis=1)
+    bad = bad_index | bad_value
+    if bad.any():
+        i = int(np.argmax(bad))
+        k = int(np.flatnonzero(present)[i])
+        z = measurements[k]
+        what = (f"landmark index {z[0]} is not one of 0..{len(model.landmarks) - 1}" if bad_index[i]
+                else f"range and bearing must be finite, got {z[1:]}")
+        raise MeasurementError(f"step {k}: {what}")
     return measurements
 
 
@@ -124,8 +145,8 @@ def run_ekf(model: RobotModel, measurements: Array, initial_cov: Array | None = 
     The prior is ``N(model.start, initial_cov)`` (default ``diag(model.initial_std)^2``,
     the particle filter's tracking cloud).
     """
-    measurements = _check_measurements(measurements, model)
     x0, P0 = _initial(model, initial_cov)
+    measurements = _check_measurements(measurements, model)
     ekf = ExtendedKalmanFilter(dim_x=3, dim_z=2)
     ekf.x = x0.reshape(3, 1)
     ekf.P = P0.copy()
@@ -136,7 +157,7 @@ def run_ekf(model: RobotModel, measurements: Array, initial_cov: Array | None = 
         if k > 0:
             u = model.odometry[k]
             F, G = motion_jacobians(ekf.x[:, 0], u, model.dt)
-            ekf.x = motion_one(ekf.x[:, 0], u, model.dt).reshape(3, 1)
+            ekf.x = motion(ekf.x[:, 0], u, model.dt).reshape(3, 1)
             ekf.P = F @ ekf.P @ F.T + G @ model.q_est @ G.T
         z = measurements[k]
         if not np.isnan(z[0]):
@@ -173,12 +194,15 @@ def run_ukf(
     ``m +/- sqrt(3 P)`` columns with weight 1/6 each and the centre point has mean
     weight 0: every weight used for means is non-negative.
     """
-    measurements = _check_measurements(measurements, model)
     x0, P0 = _initial(model, initial_cov)
+    measurements = _check_measurements(measurements, model)
+    check_real(alpha, "alpha", low=0.0, low_open=True)
+    check_real(beta, "beta")
+    check_real(kappa, "kappa", low=-3.0, low_open=True)  # alpha^2 (3 + kappa) > 0: the sigma points' spread
     points = MerweScaledSigmaPoints(3, alpha=alpha, beta=beta, kappa=kappa, subtract=state_residual)
 
     def fx(x, dt, u):
-        return motion_one(x, u, dt)
+        return motion(x, u, dt)
 
     def hx(x, landmark):
         return range_bearing_one(x, landmark)
@@ -225,7 +249,6 @@ __all__ = [
     "measurement_mean",
     "measurement_residual",
     "motion_jacobians",
-    "motion_one",
     "range_bearing_one",
     "run_ekf",
     "run_ukf",

@@ -71,7 +71,8 @@ from pfcourse.angles import wrap_angle
 from pfcourse.checks import Array, check_probability
 from pfcourse.diagnostics import nees
 from pfcourse.errors import DegenerateWeightsError, ParameterError
-from pfcourse.filter import DensityProposal, FilterResult, ParticleFilter
+from pfcourse.filter import DensityProposal, ParticleFilter
+from pfcourse.results import FilterResult
 from pfcourse.remedies import ProgressiveCorrection, RegularisedJitter
 from pfcourse.sample_size import KLDSampling, kld_bound  # noqa: F401  (kld_bound: re-exported for the chapter)
 from pfcourse.robot.scenario import ANGLE_INDICES, RobotModel, RobotSimulation, motion, range_bearing, simulate_robot

@@ -52,7 +52,17 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 
 from pfcourse.angles import wrap, wrap_angle
-from pfcourse.checks import Array, as_matrix, as_vector, check_count, check_covariance, covariance_factor
+from pfcourse.checks import (
+    Array,
+    as_generator,
+    as_matrix,
+    as_vector,
+    check_count,
+    check_covariance,
+    check_interval,
+    check_real,
+    covariance_factor,
+)
 from pfcourse.errors import ParameterError, ShapeError
 from pfcourse.compiled import jit
 
@@ -148,24 +158,30 @@ class RobotScenario:
 def checked_scenario(s: RobotScenario) -> RobotScenario:
     """Validate a :class:`RobotScenario`; raise ``ParameterError``/``ShapeError``/``CovarianceError``."""
     check_count(s.n_steps, "n_steps", minimum=2)
+    check_real(s.dt, "dt")
     if not s.dt > 0:
         raise ParameterError(f"dt must be positive, got {s.dt}")
-    if not s.dt_meas >= s.dt:
+    if not isinstance(s.dt_meas, (int, float, np.integer, np.floating)) or isinstance(s.dt_meas, bool) \
+            or not s.dt_meas >= s.dt:  # infinite: no measurement at all
         raise ParameterError(
             f"dt_meas must be at least dt = {s.dt} (one measurement per prediction step at most), "
-            f"got {s.dt_meas}"
+            f"got {s.dt_meas!r}"
         )
-    if s.gap is not None and (len(s.gap) != 2 or not s.gap[0] <= s.gap[1]):
-        raise ParameterError(f"gap must be (start, stop) with start <= stop, got {s.gap!r}")
+    check_interval(s.gap, "gap")
     check_covariance(s.q_true, "q_true", 3)
     check_covariance(s.r_true, "r_true", 2)
-    as_vector(s.start, "start", 3)
+    as_vector(s.start, "start", 3, finite=True)
+    as_vector(s.speed, "speed", 2, finite=True)
+    check_real(s.turn_rate, "turn_rate")
     if s.landmarks is not None:
         as_matrix(s.landmarks, "landmarks")
         if np.asarray(s.landmarks).shape[1:] != (2,) or len(s.landmarks) < 1:
             raise ShapeError(f"landmarks must have shape (M, 2), got {np.shape(s.landmarks)}")
+        if not np.all(np.isfinite(np.asarray(s.landmarks, dtype=float))):
+            raise ParameterError("landmarks must be finite positions")
     else:
         check_count(s.n_landmarks, "n_landmarks")
+    check_real(s.half_width, "half_width")
     if not s.half_width > 0:
         raise ParameterError(f"half_width must be positive, got {s.half_width}")
     return s
@@ -211,7 +227,7 @@ def simulate_robot(
     """
     base = scenario if scenario is not None else RobotScenario()
     scenario = base.with_(**changes) if changes else checked_scenario(base)
-    landmark_rng, odometry_rng, noise_rng, choice_rng = np.random.default_rng(rng).spawn(4)
+    landmark_rng, odometry_rng, noise_rng, choice_rng = as_generator(rng).spawn(4)
     K = scenario.n_steps
     if scenario.landmarks is not None:
         landmarks = np.array(scenario.landmarks, dtype=float)

@@ -37,13 +37,25 @@ import numpy as np
 from filterpy.kalman import ExtendedKalmanFilter
 
 from pfcourse.angles import wrap_angle
-from pfcourse.checks import Array, as_vector, check_covariance, covariance_factor
+from pfcourse.checks import (
+    Array,
+    as_generator,
+    as_vector,
+    check_covariance,
+    check_interval,
+    check_real,
+    covariance_factor,
+)
 from pfcourse.errors import ParameterError
 from pfcourse.results import KalmanResult
 from pfcourse.terrain.map import TerrainMap
 from pfcourse.terrain.compiled import aircraft_transition, altimeter_log_likelihood
 
 _LOG_2PI = float(np.log(2.0 * np.pi))
+
+
+#: The most steps a scenario may have (``duration / dt``): a larger number is a typo in ``dt``.
+MAX_STEPS = 10**7
 
 
 @dataclass(frozen=True)
@@ -74,11 +86,15 @@ class AircraftScenario:
     gap: tuple[float, float] | None = None
 
     def __post_init__(self) -> None:
-        for name in ("speed", "dt", "duration", "R", "Rf", "measurement_period"):
-            value = float(getattr(self, name))
-            if not np.isfinite(value) or (value <= 0 if name != "speed" else value < 0):
-                raise ParameterError(f"{name} must be positive, got {value}")
-        object.__setattr__(self, "x0", as_vector(self.x0, "x0", 4))
+        for name in ("speed", "omega", "dt", "duration", "R", "Rf", "measurement_period"):
+            value = check_real(getattr(self, name), name)  # a finite real number
+            if name != "omega" and (value <= 0 if name != "speed" else value < 0):
+                raise ParameterError(f"{name} must be {'non-negative' if name == 'speed' else 'positive'}, got {value}")
+        if not self.duration / self.dt <= MAX_STEPS:
+            raise ParameterError(f"duration / dt = {self.duration / self.dt:.3g} steps: at most {MAX_STEPS} "
+                                 f"(dt = {self.dt} s is too small for duration = {self.duration} s)")
+        check_interval(self.gap, "gap")
+        object.__setattr__(self, "x0", as_vector(self.x0, "x0", 4, finite=True))
         object.__setattr__(self, "P0", check_covariance(self.P0, "P0", 4))
         object.__setattr__(self, "Qf", check_covariance(self.Qf, "Qf", 4))
 
@@ -224,12 +240,16 @@ def simulate(
     The true dynamics have no process noise; readings are ``z - h(x, y) + N(0, R)``.
     The flight must stay on the map: :class:`~pfcourse.errors.OffMapError` otherwise.
     """
-    rng = np.random.default_rng(rng)
+    if not isinstance(scenario, AircraftScenario):
+        raise ParameterError(f"scenario must be an AircraftScenario, got {type(scenario).__name__}")
+    if not isinstance(terrain, TerrainMap):
+        raise ParameterError(f"terrain must be a TerrainMap, got {type(terrain).__name__}")
+    rng = as_generator(rng)
     s = scenario
     if initial_state is None:
         state = s.x0 + covariance_factor(s.P0) @ rng.standard_normal(4)
     else:
-        state = as_vector(initial_state, "initial_state", 4).copy()
+        state = as_vector(initial_state, "initial_state", 4, finite=True).copy()
     state[3] = wrap_angle(state[3])
     K = s.n_steps
     X = np.empty((K, 4))
