@@ -158,16 +158,16 @@ def terrain_tracks(seed: int, run: int, scenario: AircraftScenario, terrain: Ter
     the step it was lost (from the start for a particle filter).
     """
     flight = simulate_flight(scenario, terrain, flight_seed(seed, run))
-    z = flight.Z
+    z = flight.measurements
     K = len(z)
     tracks: list[Track] = []
 
     def track(name, n, mean, cov, y, S, seconds, lost):
-        err = np.where(np.isnan(mean[:, 0]), np.inf, position_error(flight.X, mean))
+        err = np.where(np.isnan(mean[:, 0]), np.inf, position_error(flight.truth, mean))
         q = nis(y, S)
         measured = ~np.isnan(z[:, 0])
         q[measured & np.isnan(q)] = np.inf
-        return Track(name, n, err, _safe_nees(flight.X, mean, cov, (3,)), q, seconds, lost)
+        return Track(name, n, err, _safe_nees(flight.truth, mean, cov, (3,)), q, seconds, lost)
 
     def predict(particles, zk, k):
         return predicted_measurement(particles, terrain)[:, None]

@@ -105,17 +105,17 @@ def flight_study(
     for r in range(n_runs):
         flight = simulate(scenario, terrain, flight_seed(seed, r))
         if method == "ekf":
-            res = extended_kalman_filter(scenario, terrain, flight.Z)
+            res = extended_kalman_filter(scenario, terrain, flight.measurements)
             lost[r] = res.lost_at is not None
             mean, cov = res.mean, res.cov
         else:
             try:
-                res = pf.run(flight.Z, rng=np.random.default_rng([seed, r, 1]))
+                res = pf.run(flight.measurements, rng=np.random.default_rng([seed, r, 1]))
             except DegenerateWeightsError:
                 lost[r] = True
                 continue
             mean, cov = res.mean, res.cov
             n_resamples[r] = res.n_resamples
-        errors[r] = position_error(flight.X, mean)
+        errors[r] = position_error(flight.truth, mean)
         sigma[r] = np.sqrt(cov[:, 0, 0] + cov[:, 1, 1])
     return MonteCarloResult(errors=errors, sigma=sigma, lost=lost, n_resamples=n_resamples)

@@ -67,12 +67,12 @@ def run_one(setting: str, run: int, terrain, scenario: AircraftScenario | None =
     pf, pc = make_filter(setting, scenario, terrain)
     n = pf.n_particles
     try:
-        res = pf.run(flight.Z, rng=np.random.default_rng([0, run, 1]))
+        res = pf.run(flight.measurements, rng=np.random.default_rng([0, run, 1]))
     except DegenerateWeightsError:
         return {"setting": setting, "flight": run, "N": n, "final_error": np.inf, "mean_error": np.inf,
                 "lost": True, "evaluations": np.nan}
-    e = position_error(flight.X, res.mean)
-    measured = int(np.sum(~np.isnan(flight.Z[:, 0])))
+    e = position_error(flight.truth, res.mean)
+    measured = int(np.sum(~np.isnan(flight.measurements[:, 0])))
     evaluations = measured if pc is None else int(np.sum(pc.stages))
     return {"setting": setting, "flight": run, "N": n, "final_error": float(e[-1]),
             "mean_error": float(np.mean(e)), "lost": bool(e[-1] > DIVERGED_ERROR),

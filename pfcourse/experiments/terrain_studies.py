@@ -78,14 +78,14 @@ def study_row(study: str, setting: str, flight: int, terrain) -> dict:
                         resampler=options["resampler"], jitter=RegularisedJitter(KERNEL_SCALE, (3,)))
     row = {"study": study, "setting": setting, "flight": flight}
     try:
-        res = pf.run(sim.Z, rng=np.random.default_rng([0, flight, 1]))
+        res = pf.run(sim.measurements, rng=np.random.default_rng([0, flight, 1]))
     except DegenerateWeightsError:
         return {**row, "final_error": np.inf, "mean_error": np.inf, "lost": True, "sigma_50": np.nan,
                 "sigma_75": np.nan, "resamplings": -1, "median_ess_fraction": np.nan}
-    e = position_error(sim.X, res.mean)
+    e = position_error(sim.truth, res.mean)
     sigma = np.sqrt(res.cov[:, 0, 0] + res.cov[:, 1, 1])
     k50, k75 = (int(round(t / scenario.dt)) for t in (50.0, 75.0))
-    measured = ~np.isnan(sim.Z[:, 0])
+    measured = ~np.isnan(sim.measurements[:, 0])
     return {**row, "final_error": float(e[-1]), "mean_error": float(np.mean(e)),
             "lost": bool(e[-1] > DIVERGED_ERROR), "sigma_50": float(sigma[k50]), "sigma_75": float(sigma[k75]),
             "resamplings": int(res.n_resamples),

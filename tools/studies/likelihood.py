@@ -63,13 +63,13 @@ def chapter_data():
 
 
 def bias_run(seed: int, n_particles: int) -> dict:
-    Z = chapter_data().Z
+    Z = chapter_data().measurements
     estimate = pf_log_likelihood(SCENARIO, Z, 1.0, n_particles, seed, NOISE)
     return {"log_ratio": estimate - kalman_log_likelihood(SCENARIO, Z, 1.0, NOISE)}
 
 
 def ml_run(seed: int, n_particles: int) -> dict:
-    Z = simulate(SCENARIO, seed).Z
+    Z = simulate(SCENARIO, seed).measurements
     filter_seed = seed + 1  # one filter seed for every theta: common random numbers
     theta_k, nfev_k = max_likelihood_scale(lambda t: kalman_log_likelihood(SCENARIO, Z, t, NOISE), BOUNDS, XATOL)
     theta_p, nfev_p = max_likelihood_scale(
@@ -78,7 +78,7 @@ def ml_run(seed: int, n_particles: int) -> dict:
 
 
 def pmmh_chain(n_particles: int, n_iterations: int = PMMH_ITERATIONS):
-    Z = chapter_data().Z
+    Z = chapter_data().measurements
     seed = replicate_seed(PMMH_SEED, n_particles)
     chain = pmmh(lambda t, rng: pf_log_likelihood(SCENARIO, Z, t, n_particles, rng, NOISE),
                  PRIOR, PMMH_THETA0, n_iterations, PMMH_STEP, seed)
@@ -86,7 +86,7 @@ def pmmh_chain(n_particles: int, n_iterations: int = PMMH_ITERATIONS):
 
 
 def pmmh2_chain(n_particles: int, n_iterations: int = PMMH2_ITERATIONS):
-    Z = chapter_data().Z
+    Z = chapter_data().measurements
     seed = replicate_seed(PMMH2_SEED, n_particles)
     chain = pmmh(lambda t, rng: pf_log_likelihood(SCENARIO, Z, t, n_particles, rng, ("Qw", "Rv")),
                  PRIOR, np.array(PMMH2_THETA0), n_iterations, PMMH2_STEP, seed)
@@ -95,7 +95,7 @@ def pmmh2_chain(n_particles: int, n_iterations: int = PMMH2_ITERATIONS):
 
 def grid2_row(i: int) -> list[dict]:
     """Exact log-likelihood along row ``i`` of the (log theta_q, log theta_r) grid."""
-    Z = chapter_data().Z
+    Z = chapter_data().measurements
     u = np.linspace(np.log(BOUNDS[0]), np.log(BOUNDS[1]), GRID2)
     return [{"i": i, "j": j, "log_theta_q": u[i], "log_theta_r": u[j],
              "log_likelihood": kalman_log_likelihood(SCENARIO, Z, (np.exp(u[i]), np.exp(u[j])), ("Qw", "Rv"))}
@@ -113,7 +113,7 @@ def terrain_rf_run(seed: int, flight: int, n_particles: int) -> dict:
     sim = simulate(scenario, terrain, flight_seed(0, flight))
 
     def log_lik(scale: float) -> float:
-        return terrain_log_likelihood(scenario, terrain, sim.Z, scale, n_particles, np.random.default_rng([0, flight, 2]))
+        return terrain_log_likelihood(scenario, terrain, sim.measurements, scale, n_particles, np.random.default_rng([0, flight, 2]))
 
     theta, nfev = max_likelihood_scale(lambda t: max(log_lik(t), -1e300), TERRAIN_BOUNDS, XATOL)
     return {"rf_scale_ml": theta, "nfev": nfev, "log_lik_ml": log_lik(theta), "log_lik_truth": log_lik(1.0)}

@@ -62,10 +62,10 @@ def run(label: str, flight: int, terrain) -> dict:
     pf = ParticleFilter(scenario.model(terrain), N_CANDIDATE, threshold=0.5, resampler="stratified",
                         jitter=RegularisedJitter(0.2, (3,)))
     try:
-        res = pf.run(sim.Z, rng=np.random.default_rng([0, flight, 1]))
+        res = pf.run(sim.measurements, rng=np.random.default_rng([0, flight, 1]))
     except DegenerateWeightsError:
         return {"setting": label, "flight": flight, "final_error": np.inf, "mean_error": np.inf, "lost": True}
-    e = position_error(sim.X, res.mean)
+    e = position_error(sim.truth, res.mean)
     return {"setting": label, "flight": flight, "final_error": float(e[-1]), "mean_error": float(np.mean(e)),
             "lost": bool(e[-1] > DIVERGED_ERROR)}
 

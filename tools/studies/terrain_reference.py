@@ -41,11 +41,11 @@ def run(flight: int, n: int, seed: int, terrain) -> dict:
     scenario = AircraftScenario()
     sim = simulate(scenario, terrain, flight_seed(0, flight))
     pf = ParticleFilter(scenario.model(terrain), n, threshold=0.5, resampler="systematic")
-    res = pf.run(sim.Z, rng=np.random.default_rng([0, flight, 100 + seed]))
+    res = pf.run(sim.measurements, rng=np.random.default_rng([0, flight, 100 + seed]))
     return {"flight": flight, "N": n, "seed": seed,
             "mean_x": float(res.mean[-1, 0]), "mean_y": float(res.mean[-1, 1]),
             "sd_x": float(np.sqrt(res.cov[-1, 0, 0])), "sd_y": float(np.sqrt(res.cov[-1, 1, 1])),
-            "true_x": float(sim.X[-1, 0]), "true_y": float(sim.X[-1, 1])}
+            "true_x": float(sim.truth[-1, 0]), "true_y": float(sim.truth[-1, 1])}
 
 
 def main() -> None:
