@@ -7,7 +7,8 @@ import pytest
 
 from pfcourse import DegenerateWeightsError, ParameterError, ParticleFilter, kalman_filter
 from pfcourse.landmarks.scenario import quadrant_scenario, simulate
-from pfcourse.experiments.study import grid_settings, replicate_seed, run_study, summarize
+from pfcourse.experiments.study import grid_settings, run_study, summarize
+from pfcourse.seeding import replicate_seed
 
 
 def landmark_run(seed: int, n_particles: int, threshold: float) -> dict:

@@ -35,7 +35,8 @@ from myst_nb import glue
 
 from pfcourse import evidence
 
-from pfcourse.experiments.terrain import DIVERGED_ERROR, flight_seed, flight_study
+from pfcourse.experiments.terrain import DIVERGED_ERROR, flight_study
+from pfcourse.seeding import data_rng, filter_rng
 from pfcourse.terrain.scenario import AircraftScenario, extended_kalman_filter, position_error, simulate
 from pfcourse.figures.clouds import animate_clouds
 from pfcourse.filter import ParticleFilter
@@ -189,7 +190,7 @@ print("Qf std (per s) =", np.round(np.sqrt(np.diag(scenario.Qf)), 4))
 fig, ax = plt.subplots(figsize=(6.5, 6.5))
 fig.colorbar(draw_map(ax, shaded=False), ax=ax, shrink=0.8, label="terrain height (m)")
 for r in range(30):
-    fl = simulate(scenario, terrain, flight_seed(0, r))
+    fl = simulate(scenario, terrain, data_rng(0, r))
     ax.plot(fl.truth[:, 0] / KM, fl.truth[:, 1] / KM, "-", color=COLORS["truth"], lw=0.8, alpha=0.6)
     ax.plot(fl.truth[0, 0] / KM, fl.truth[0, 1] / KM, "o", color=COLORS["truth"], ms=2)
 prior = scenario.model(terrain).sample_initial(3000, np.random.default_rng(1))
@@ -239,8 +240,8 @@ glue("terrain_diverged_flight", bad, display=False)
 
 # %%
 pf = ParticleFilter(scenario.model(terrain), 3000, threshold=0.5, resampler="multinomial")
-flight = simulate(scenario, terrain, flight_seed(0, good))
-run = pf.run(flight.measurements, rng=np.random.default_rng([0, good, 1]), store_particles=True)
+flight = simulate(scenario, terrain, data_rng(0, good))
+run = pf.run(flight.measurements, rng=filter_rng(0, good), store_particles=True)
 err = flight.truth - run.mean
 sig = np.sqrt(np.diagonal(run.cov, axis1=1, axis2=2))
 t = flight.T
@@ -693,9 +694,9 @@ plt.show()
 # %%
 def draw(qf_scale=1.0, rf_scale=1.0, n_particles=3000, threshold=0.5, scheme="multinomial", seed=0):
     sc = scenario.with_(Qf=scenario.Qf * qf_scale, Rf=scenario.Rf * rf_scale)
-    fl = simulate(sc, terrain, flight_seed(0, seed))
+    fl = simulate(sc, terrain, data_rng(0, seed))
     res = ParticleFilter(sc.model(terrain), n_particles, threshold=threshold, resampler=scheme).run(
-        fl.measurements, rng=np.random.default_rng([0, seed, 1]), store_particles=True)
+        fl.measurements, rng=filter_rng(0, seed), store_particles=True)
     fig, (ax1, ax2) = plt.subplots(1, 2, figsize=(10, 4.2), width_ratios=[1, 1.3])
     c = fl.truth[40, :2] / KM
     fig.colorbar(draw_map(ax1, shaded=False, window=((c[0] - 7, c[0] + 7), (c[1] - 7, c[1] + 7))), ax=ax1,

@@ -56,6 +56,7 @@ from pfcourse.landmarks.kalman import kalman_filter
 from pfcourse.landmarks.scenario import quadrant_scenario, simulate
 from pfcourse.robot.kalman import run_ekf, run_ukf
 from pfcourse.robot.scenario import RobotModel, RobotScenario, simulate_robot
+from pfcourse.seeding import sized_filter_rng
 from pfcourse.style import COLORS, ellipse_patch, plain_log_axis, use_style
 from pfcourse.terrain.map import load_jacksboro
 from pfcourse.figures.legibility import overlapping_texts
@@ -200,7 +201,7 @@ sc_anim = versions["every component moves"]
 data_anim = simulate(sc_anim, 7)
 kf_anim = kalman_filter(sc_anim.model(), data_anim.measurements)
 frames_n = [30, 100, 300, 1000, 3000]
-anim_runs = {n: ParticleFilter(sc_anim.model(), n).run(data_anim.measurements, np.random.default_rng([1, n]), store_particles=True)
+anim_runs = {n: ParticleFilter(sc_anim.model(), n).run(data_anim.measurements, sized_filter_rng(1, n), store_particles=True)
              for n in frames_n}
 
 fig, ax = plt.subplots(figsize=(5.0, 5.9), dpi=72)
@@ -370,7 +371,7 @@ def robot_filters(seed):
     sim = simulate_robot(None, seed, n_steps=ROBOT_STEPS)
     model = RobotModel.for_simulation(sim, q_scale=1.0, r_scale=1.0)
     z = sim.measurements
-    calls = {f"PF N={n}": (lambda n=n: ParticleFilter(model, n, threshold=0.5).run(z, np.random.default_rng([seed, n])))
+    calls = {f"PF N={n}": (lambda n=n: ParticleFilter(model, n, threshold=0.5).run(z, sized_filter_rng(seed, n)))
              for n in N_ROBOT}
     calls["EKF"] = lambda: run_ekf(model, z)
     calls["UKF"] = lambda: run_ukf(model, z)

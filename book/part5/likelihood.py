@@ -42,7 +42,7 @@ from pfcourse.robot import RobotModel, RobotScenario, simulate_robot
 from pfcourse.experiments.smoothing import (ffbsm, linear_gaussian_log_transition, pairwise,
                                 robot_transition_log_density, rts_smoother)
 from pfcourse.figures.widgets import control_panel, particle_slider, seed_box
-from pfcourse.experiments.terrain import flight_seed
+from pfcourse.seeding import data_rng
 from pfcourse.terrain.map import load_jacksboro
 from pfcourse.terrain.scenario import AircraftScenario
 from pfcourse.terrain.scenario import simulate as simulate_flight
@@ -652,7 +652,7 @@ x = trf["rf_scale_ml"].to_numpy()
 med, lo, hi = evidence.median_interval(x)
 q10, q90 = np.quantile(x, [0.1, 0.9])
 gain = trf["log_lik_ml"] - trf["log_lik_truth"]
-n_readings = int(np.sum(~np.isnan(simulate_flight(AircraftScenario(), load_jacksboro(), flight_seed(0, 0)).measurements[:, 0])))
+n_readings = int(np.sum(~np.isnan(simulate_flight(AircraftScenario(), load_jacksboro(), data_rng(0, 0)).measurements[:, 0])))
 print(f"{len(trf)} flights: ML scale of R_f median {med:.2f} (95 % bootstrap interval {lo:.2f}-{hi:.2f}), "
       f"10-90 % of flights {q10:.2f}-{q90:.2f}; truth 1")
 print(f"log-likelihood at the ML scale minus at the truth: median {gain.median():.1f} nats; "

@@ -34,7 +34,8 @@ import pfcourse  # noqa: F401  (pins the arithmetic before numpy computes anythi
 from pfcourse.landmarks import quadrant_scenario, simulate
 from pfcourse.experiments.likelihood import kalman_log_likelihood, max_likelihood_scale, pf_log_likelihood, pmmh
 from pfcourse.experiments.provenance import launch_commit, write_provenance
-from pfcourse.experiments.study import replicate_seed, run_study
+from pfcourse.experiments.study import run_study
+from pfcourse.seeding import replicate_seed
 
 ROOT = Path(__file__).resolve().parents[2]
 OUT = ROOT / "book" / "data" / "likelihood"
@@ -103,17 +104,17 @@ def grid2_row(i: int) -> list[dict]:
 
 
 def terrain_rf_run(seed: int, flight: int, n_particles: int) -> dict:
-    """ML scale of R_f on flight ``flight`` (the terrain chapters' flight_seed(0, flight)); ``seed`` unused."""
+    """ML scale of R_f on flight ``flight`` (the terrain chapters' data_rng(0, flight)); ``seed`` unused."""
     from pfcourse.experiments.likelihood import terrain_log_likelihood
-    from pfcourse.experiments.terrain import flight_seed
+    from pfcourse.seeding import data_rng, likelihood_rng
     from pfcourse.terrain.map import load_jacksboro
     from pfcourse.terrain.scenario import AircraftScenario, simulate
 
     terrain, scenario = load_jacksboro(), AircraftScenario()
-    sim = simulate(scenario, terrain, flight_seed(0, flight))
+    sim = simulate(scenario, terrain, data_rng(0, flight))
 
     def log_lik(scale: float) -> float:
-        return terrain_log_likelihood(scenario, terrain, sim.measurements, scale, n_particles, np.random.default_rng([0, flight, 2]))
+        return terrain_log_likelihood(scenario, terrain, sim.measurements, scale, n_particles, likelihood_rng(0, flight))
 
     theta, nfev = max_likelihood_scale(lambda t: max(log_lik(t), -1e300), TERRAIN_BOUNDS, XATOL)
     return {"rf_scale_ml": theta, "nfev": nfev, "log_lik_ml": log_lik(theta), "log_lik_truth": log_lik(1.0)}
@@ -133,7 +134,7 @@ def main(parts: list[str]) -> None:
         table.drop(columns=["seconds"]).to_csv(OUT / "bias.csv", index=False)
         provenance("bias", {"data_seed": DATA_SEED, "base_seed": BIAS_SEED, "n_runs": N_BIAS_RUNS,
                             "n_particles": N_BIAS, "theta": 1.0,
-                            "seeds": "pfcourse.study.replicate_seed(base_seed, run)"},
+                            "seeds": "pfcourse.seeding.replicate_seed(base_seed, run)"},
                    time.perf_counter() - start)
     if "ml" in parts:
         start = time.perf_counter()
@@ -164,8 +165,9 @@ def main(parts: list[str]) -> None:
         table.drop(columns=["seconds"]).to_csv(OUT / "terrain_rf.csv", index=False)
         provenance("terrain_rf", {"n_particles": N_TERRAIN, "n_flights": N_TERRAIN_FLIGHTS, "bounds": TERRAIN_BOUNDS,
                                   "xatol_log_theta": XATOL, "truth": 1.0, "kernel_scale": 0.2,
-                                  "seeds": "flight r: pfcourse.experiments.terrain.flight_seed(0, r) (the terrain chapters' "
-                                           "flights); filter: default_rng([0, r, 2]) for every scale"},
+                                  "seeds": "flight r: pfcourse.seeding.data_rng(0, r) = default_rng([0, r, 0]) (the terrain "
+                                           "chapters' flights); filter: pfcourse.seeding.likelihood_rng(0, r) = "
+                                           "default_rng([0, r, 2]) for every scale"},
                    time.perf_counter() - start)
     if "pmmh2" in parts:
         start = time.perf_counter()
