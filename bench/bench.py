@@ -87,8 +87,8 @@ def make_data() -> dict[str, np.ndarray]:
         "robot_initial_std": model.initial_std, "robot_dt": np.array(model.dt),
         "robot_truth": sim.truth,
         "landmark_F": lm.F, "landmark_B": lm.B, "landmark_H": lm.H, "landmark_m0": lm.m0,
-        "landmark_P0": lm.P0, "landmark_Q": lm.Q, "landmark_R": lm.R, "landmark_Z": lsim.Z,
-        "landmark_truth": lsim.X,
+        "landmark_P0": lm.P0, "landmark_Q": lm.Q, "landmark_R": lm.R, "landmark_Z": lsim.measurements,
+        "landmark_truth": lsim.truth,
     }
 
 

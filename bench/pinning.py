@@ -54,7 +54,7 @@ out = {
     "numpy exp+log+sin+cos, 1e6": best(lambda: (np.exp(x), np.log(np.abs(x)), np.sin(x), np.cos(x))),
     "BLAS (1e5 x 12) @ (12 x 12)": best(lambda: a @ b),
     "robot filter N=1e5, 100 steps": best(lambda: ParticleFilter(robot_model, 100_000, threshold=0.5).run(robot_sim.measurements, rng=1), 2),
-    "landmark filter N=1e4, 50 steps": best(lambda: ParticleFilter(lm.model(), 10_000, threshold=1 / 3).run(lm_sim.Z, rng=1), 2),
+    "landmark filter N=1e4, 50 steps": best(lambda: ParticleFilter(lm.model(), 10_000, threshold=1 / 3).run(lm_sim.measurements, rng=1), 2),
     "pinned": arithmetic.runtime_arithmetic().is_pinned,
 }
 print(json.dumps(out))

@@ -22,4 +22,4 @@ def noisy_landmarks():
     )
     sim = simulate(scenario, 7)
     model = scenario.model()
-    return model, sim, kalman_filter(model, sim.Z)
+    return model, sim, kalman_filter(model, sim.measurements)

@@ -19,8 +19,8 @@ def test_frames_and_artists():
     scenario = quadrant_scenario()
     sim = simulate(scenario, rng=0)
     model = scenario.model()
-    res = ParticleFilter(model, 20, threshold=0.5).run(sim.Z, rng=1, store_particles=True)
-    anim = animate_clouds({"SIR": res}, kalman_filter(model, sim.Z), sim.X, frames=range(3))
+    res = ParticleFilter(model, 20, threshold=0.5).run(sim.measurements, rng=1, store_particles=True)
+    anim = animate_clouds({"SIR": res}, kalman_filter(model, sim.measurements), sim.truth, frames=range(3))
     html = anim.to_jshtml()
     # One embedded PNG per requested step.
     assert html.count("data:image/png") == 3
@@ -29,9 +29,9 @@ def test_missing_particles_raise_a_named_error():
     scenario = quadrant_scenario()
     sim = simulate(scenario, rng=0)
     model = scenario.model()
-    res = ParticleFilter(model, 20).run(sim.Z, rng=1)
+    res = ParticleFilter(model, 20).run(sim.measurements, rng=1)
     with pytest.raises(ParameterError):
-        animate_clouds({"SIR": res}, kalman_filter(model, sim.Z), sim.X, frames=range(3))
+        animate_clouds({"SIR": res}, kalman_filter(model, sim.measurements), sim.truth, frames=range(3))
 
 
 def test_one_function_serves_the_robot_and_the_terrain_views():

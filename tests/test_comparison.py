@@ -125,7 +125,7 @@ def test_robot_innovations_give_the_filters_posterior(runner):
 def test_terrain_ekf_innovations_give_the_filters_posterior(jacksboro):
     scenario = AircraftScenario().with_(**TIGHT)
     flight = simulate(scenario, jacksboro, 3)
-    ekf = extended_kalman_filter(scenario, jacksboro, flight.Z)
+    ekf = extended_kalman_filter(scenario, jacksboro, flight.measurements)
     ok, post = _recorded_posterior(ekf)
     post[:, 3] = wrap_angle(post[:, 3])
     assert ok.sum() == 80
@@ -138,7 +138,7 @@ def test_linear_kalman_innovations_give_the_exact_posterior_and_likelihood():
 
     scenario = quadrant_scenario()
     sim = simulate_landmarks(scenario, 2)
-    kf = kalman_filter(scenario.model(), sim.Z)
+    kf = kalman_filter(scenario.model(), sim.measurements)
     measured = ~np.all(np.isnan(kf.innovation), axis=1)
     post = kf.predicted + np.einsum("kij,kj->ki", np.nan_to_num(kf.gain), np.nan_to_num(kf.innovation))
     assert np.allclose(post[measured], kf.mean[measured], atol=1e-12)
@@ -167,9 +167,9 @@ def test_terrain_ukf_tracks_from_a_small_prior_and_is_consistent(jacksboro):
     cell = np.hypot(jacksboro.dx, jacksboro.dy)
     for seed in range(3):
         flight = simulate(scenario, jacksboro, seed, initial_state=scenario.x0)
-        ukf = unscented_kalman_filter(scenario, jacksboro, flight.Z)
+        ukf = unscented_kalman_filter(scenario, jacksboro, flight.measurements)
         assert ukf.lost_at is None
-        err = np.hypot(*(ukf.mean[:, :2] - flight.X[:, :2]).T)
+        err = np.hypot(*(ukf.mean[:, :2] - flight.truth[:, :2]).T)
         assert np.max(err) < cell
         q = nis(ukf.innovation, ukf.innovation_cov)
         assert np.isnan(q[0]) and np.all(np.isfinite(q[1:]))
@@ -181,9 +181,9 @@ def test_terrain_ukf_handles_a_heading_across_the_cut(jacksboro):
     must stay near pi, not collapse to the arithmetic mean 0."""
     scenario = AircraftScenario().with_(**TIGHT, x0=np.array([21000.0, 15000.0, 1500.0, np.pi - 0.005]))
     flight = simulate(scenario, jacksboro, 0, initial_state=scenario.x0)
-    ukf = unscented_kalman_filter(scenario, jacksboro, flight.Z)
+    ukf = unscented_kalman_filter(scenario, jacksboro, flight.measurements)
     assert ukf.lost_at is None
-    assert np.max(np.abs(wrap_angle(ukf.mean[:, 3] - flight.X[:, 3]))) < 0.05
+    assert np.max(np.abs(wrap_angle(ukf.mean[:, 3] - flight.truth[:, 3]))) < 0.05
 
 
 def test_terrain_ukf_stops_when_it_leaves_the_map(jacksboro):

@@ -34,7 +34,7 @@ def convergence_runs(noisy_landmarks):
     for a, n in enumerate(N_VALUES):
         pf = ParticleFilter(model, n, threshold=0.5)
         for seed in range(N_RUNS):
-            result = pf.run(sim.Z, rng=seed)
+            result = pf.run(sim.measurements, rng=seed)
             mse[a, seed] = np.mean((result.mean - kf.mean) ** 2)
             loglik_error[a, seed] = result.log_likelihood - kf.log_likelihood
     return mse, loglik_error
@@ -84,12 +84,12 @@ def test_optimal_proposal_raises_ess_and_lowers_error():
     scenario = quadrant_scenario().with_(Qw=0.2**2 * np.eye(6), n_samples=15)
     sim = simulate(scenario, 7)
     model = scenario.model()
-    kf = kalman_filter(model, sim.Z)
-    measured = ~np.all(np.isnan(sim.Z), axis=1)
+    kf = kalman_filter(model, sim.measurements)
+    measured = ~np.all(np.isnan(sim.measurements), axis=1)
     log_gain, boot_mse, opt_mse = [], [], []
     for seed in range(20):
-        boot = ParticleFilter(model, 500, threshold=1.0).run(sim.Z, rng=seed)
-        opt = ParticleFilter(model, 500, threshold=1.0, proposal=OptimalProposal()).run(sim.Z, rng=seed)
+        boot = ParticleFilter(model, 500, threshold=1.0).run(sim.measurements, rng=seed)
+        opt = ParticleFilter(model, 500, threshold=1.0, proposal=OptimalProposal()).run(sim.measurements, rng=seed)
         log_gain.append(np.log(opt.ess[measured].mean() / boot.ess[measured].mean()))
         boot_mse.append(np.mean((boot.mean - kf.mean) ** 2))
         opt_mse.append(np.mean((opt.mean - kf.mean) ** 2))
@@ -119,38 +119,38 @@ def test_density_proposal_reproduces_the_optimal_proposal_exactly(noisy_landmark
 
     generic = ParticleFilter(model, 300, proposal=DensityProposal(sample, log_density))
     analytic = ParticleFilter(model, 300, proposal=OptimalProposal())
-    a, b = generic.run(sim.Z, rng=3), analytic.run(sim.Z, rng=3)
+    a, b = generic.run(sim.measurements, rng=3), analytic.run(sim.measurements, rng=3)
     np.testing.assert_allclose(a.mean, b.mean, atol=1e-8)
     np.testing.assert_allclose(a.log_likelihood_increments, b.log_likelihood_increments, atol=1e-8)
 
 
 def test_sis_never_resamples_and_threshold_one_always_does(noisy_landmarks):
     model, sim, _ = noisy_landmarks
-    sis = ParticleFilter(model, 200, threshold=0.0).run(sim.Z, rng=1)
+    sis = ParticleFilter(model, 200, threshold=0.0).run(sim.measurements, rng=1)
     assert sis.n_resamples == 0
-    always = ParticleFilter(model, 200, threshold=1.0).run(sim.Z, rng=1)
-    measured = ~np.all(np.isnan(sim.Z), axis=1)
+    always = ParticleFilter(model, 200, threshold=1.0).run(sim.measurements, rng=1)
+    measured = ~np.all(np.isnan(sim.measurements), axis=1)
     # Weights are exactly uniform only at steps that carried no measurement since the last resampling.
     assert np.array_equal(always.resampled[measured], np.ones(measured.sum(), bool))
-    half = ParticleFilter(model, 200, threshold=0.5).run(sim.Z, rng=1)
+    half = ParticleFilter(model, 200, threshold=0.5).run(sim.measurements, rng=1)
     assert np.all(half.ess[half.resampled] < 100) and np.all(half.ess[~half.resampled] >= 100)
 
 
 def test_same_seed_same_result_and_different_seed_different_result(noisy_landmarks):
     model, sim, _ = noisy_landmarks
     pf = ParticleFilter(model, 300, resampler="stratified")
-    a, b, c = pf.run(sim.Z, rng=11), pf.run(sim.Z, rng=11), pf.run(sim.Z, rng=12)
+    a, b, c = pf.run(sim.measurements, rng=11), pf.run(sim.measurements, rng=11), pf.run(sim.measurements, rng=12)
     for field in ("mean", "cov", "ess", "resampled", "log_likelihood_increments"):
         np.testing.assert_array_equal(getattr(a, field), getattr(b, field))
     assert not np.array_equal(a.mean, c.mean)
-    gen = pf.run(sim.Z, rng=np.random.default_rng(11))
+    gen = pf.run(sim.measurements, rng=np.random.default_rng(11))
     np.testing.assert_array_equal(gen.mean, a.mean)
 
 
 def test_stored_particles_reproduce_the_reported_moments(noisy_landmarks):
     model, sim, _ = noisy_landmarks
-    r = ParticleFilter(model, 100).run(sim.Z, rng=5, store_particles=True)
-    assert r.particles.shape == (len(sim.Z), 100, 6) and r.weights.shape == (len(sim.Z), 100)
+    r = ParticleFilter(model, 100).run(sim.measurements, rng=5, store_particles=True)
+    assert r.particles.shape == (len(sim.measurements), 100, 6) and r.weights.shape == (len(sim.measurements), 100)
     np.testing.assert_allclose(r.weights.sum(axis=1), 1.0)
     k = 9
     np.testing.assert_allclose(r.mean[k], r.weights[k] @ r.particles[k])
@@ -259,4 +259,4 @@ def test_landmark_measurement_of_the_wrong_length_is_a_shape_error():
     scenario = quadrant_scenario()
     sim = simulate(scenario, 0)
     with pytest.raises(ShapeError, match="z must have length 4, got 3"):
-        ParticleFilter(scenario.model(), 10).run([sim.Z[0], np.ones(3)], rng=0)
+        ParticleFilter(scenario.model(), 10).run([sim.measurements[0], np.ones(3)], rng=0)

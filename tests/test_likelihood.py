@@ -54,14 +54,14 @@ def joint_log_likelihood(scenario, Z, theta):
 @pytest.mark.parametrize("theta", [0.3, 1.0, 4.0])
 def test_kalman_curve_is_the_joint_gaussian_density(short, theta):
     scenario, sim = short
-    assert kalman_log_likelihood(scenario, sim.Z, theta) == pytest.approx(
-        joint_log_likelihood(scenario, sim.Z, theta), abs=1e-8)
+    assert kalman_log_likelihood(scenario, sim.measurements, theta) == pytest.approx(
+        joint_log_likelihood(scenario, sim.measurements, theta), abs=1e-8)
 
 
 def test_particle_likelihood_is_unbiased_and_its_log_biased_down(short):
     scenario, sim = short
-    exact = kalman_log_likelihood(scenario, sim.Z, 1.5)
-    log_ratio = np.array([pf_log_likelihood(scenario, sim.Z, 1.5, 100, seed) for seed in range(300)]) - exact
+    exact = kalman_log_likelihood(scenario, sim.measurements, 1.5)
+    log_ratio = np.array([pf_log_likelihood(scenario, sim.measurements, 1.5, 100, seed) for seed in range(300)]) - exact
     ratio = np.exp(log_ratio)
     # E[Z^] = Z: the 99.9 % t-interval of the mean ratio contains 1.
     lo, hi = stats.t.interval(0.999, len(ratio) - 1, loc=ratio.mean(), scale=stats.sem(ratio))
@@ -73,16 +73,16 @@ def test_particle_likelihood_is_unbiased_and_its_log_biased_down(short):
 
 def test_common_random_numbers_make_the_curve_continuous(short):
     scenario, sim = short
-    a = pf_log_likelihood(scenario, sim.Z, 1.0, 200, 11)
-    b = pf_log_likelihood(scenario, sim.Z, 1.0 + 1e-7, 200, 11)
-    other = [pf_log_likelihood(scenario, sim.Z, 1.0, 200, s) for s in range(12, 32)]
+    a = pf_log_likelihood(scenario, sim.measurements, 1.0, 200, 11)
+    b = pf_log_likelihood(scenario, sim.measurements, 1.0 + 1e-7, 200, 11)
+    other = [pf_log_likelihood(scenario, sim.measurements, 1.0, 200, s) for s in range(12, 32)]
     assert abs(a - b) < 1e-4  # same seed: the derivative is O(10) nats, so a 1e-7 step moves ~1e-6
     assert np.std(other) > 100 * abs(a - b)  # fresh seeds move it by the Monte Carlo sd
 
 
 def test_max_likelihood_scale_is_a_stationary_point_of_the_exact_curve(short):
     scenario, sim = short
-    f = lambda t: kalman_log_likelihood(scenario, sim.Z, t)  # noqa: E731
+    f = lambda t: kalman_log_likelihood(scenario, sim.measurements, t)  # noqa: E731
     theta_hat, nfev = max_likelihood_scale(f, xatol=1e-6)
     h = 1e-4
     slope = (f(theta_hat * np.exp(h)) - f(theta_hat * np.exp(-h))) / (2 * h)
@@ -132,7 +132,7 @@ def test_integrated_autocorrelation_time_of_an_ar1():
 def test_bad_input_raises_named_errors(short):
     scenario, sim = short
     with pytest.raises(ParameterError, match="theta"):
-        kalman_log_likelihood(scenario, sim.Z, -1.0)
+        kalman_log_likelihood(scenario, sim.measurements, -1.0)
     with pytest.raises(ParameterError, match="noise"):
         scaled_model(scenario, 1.0, "Pv")
     with pytest.raises(ParameterError, match="bounds"):
@@ -147,7 +147,7 @@ def test_two_scales_by_ml_reach_the_exact_maximum(short):
     from pfcourse.experiments.likelihood import max_likelihood_scales
 
     def f(t):
-        return kalman_filter_ll(scenario, sim.Z, t)
+        return kalman_filter_ll(scenario, sim.measurements, t)
 
     theta, nfev = max_likelihood_scales(f, np.array([1.0, 1.0]), xatol=1e-5)
     best = f(theta)

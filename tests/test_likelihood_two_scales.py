@@ -39,7 +39,7 @@ def test_vector_pmmh_with_the_exact_likelihood_targets_the_grid_posterior():
     # its posterior mean of theta_r lies within a few Monte Carlo standard errors of the grid's
     sc = quadrant_scenario().with_(Qw=0.05**2 * np.eye(6), Rv=0.5**2 * np.eye(4))
     from pfcourse.landmarks import simulate
-    Z = simulate(sc, 7).Z[:20]
+    Z = simulate(sc, 7).measurements[:20]
     prior = stats.uniform(np.log(0.1), np.log(10.0) - np.log(0.1))
     chain = pmmh(lambda t, rng: kalman_log_likelihood(sc, Z, t, ("Qw", "Rv")), prior, np.array([1.0, 1.0]),
                  3000, 0.4, 0)

@@ -25,10 +25,10 @@ def test_simulation_shapes_and_visibility_pattern():
     for scenario in (quadrant_scenario(), circle_scenario()):
         sim = simulate(scenario, 4)
         k, d, m = scenario.n_samples, scenario.dim_x, scenario.n_landmarks
-        assert sim.T.shape == (k,) and sim.X.shape == (k, d) and sim.Z.shape == (k, 2 * m)
-        np.testing.assert_array_equal(np.isnan(sim.Z), ~np.repeat(sim.seen, 2, axis=1))
+        assert sim.T.shape == (k,) and sim.truth.shape == (k, d) and sim.measurements.shape == (k, 2 * m)
+        np.testing.assert_array_equal(np.isnan(sim.measurements), ~np.repeat(sim.seen, 2, axis=1))
         assert not sim.seen[0].any()
-        np.testing.assert_array_equal(sim.seen[1:], scenario.visible(sim.X[1:]))
+        np.testing.assert_array_equal(sim.seen[1:], scenario.visible(sim.truth[1:]))
         assert sim.seen.any(axis=0).all(), "every landmark is seen at least once"
         assert not sim.seen.all(), "some landmark is out of view at some step"
 
@@ -55,9 +55,9 @@ def test_noiseless_robot_stays_on_its_circle():
     assert np.linalg.norm(s.B) > 0
     quiet = s.with_(Qw=np.zeros((s.dim_x, s.dim_x)), PX0=np.zeros((s.dim_x, s.dim_x)))
     sim = simulate(quiet, 0)
-    radius = np.linalg.norm(sim.X[:, :2] - s.centre, axis=1)
+    radius = np.linalg.norm(sim.truth[:, :2] - s.centre, axis=1)
     np.testing.assert_allclose(radius, 3.0)
-    np.testing.assert_allclose(sim.X[:, 2:], np.broadcast_to(s.mX0[2:], sim.X[:, 2:].shape))
+    np.testing.assert_allclose(sim.truth[:, 2:], np.broadcast_to(s.mX0[2:], sim.truth[:, 2:].shape))
 
 
 def test_simulated_measurements_have_the_model_noise():
@@ -65,7 +65,7 @@ def test_simulated_measurements_have_the_model_noise():
     residuals = []
     for seed in range(200):
         sim = simulate(s, seed)
-        r = sim.Z - sim.X @ s.H.T
+        r = sim.measurements - sim.truth @ s.H.T
         residuals.append(r[~np.isnan(r)])
     residuals = np.concatenate(residuals)
     assert stats.kstest(residuals / 0.1, "norm").pvalue > 1e-3
@@ -143,14 +143,14 @@ def test_kalman_log_likelihood_equals_the_batch_gaussian_one():
     scenario = circle_scenario(n_landmarks=3).with_(n_samples=8, Qw=0.05**2 * np.eye(8))
     sim = simulate(scenario, 2)
     model = scenario.model()
-    kf = kalman_filter(model, sim.Z)
-    assert kf.log_likelihood == pytest.approx(batch_log_likelihood(model, sim.Z), rel=1e-9)
+    kf = kalman_filter(model, sim.measurements)
+    assert kf.log_likelihood == pytest.approx(batch_log_likelihood(model, sim.measurements), rel=1e-9)
 
 
 def test_kalman_on_missing_rows_equals_kalman_on_the_reduced_model():
     s = quadrant_scenario()
     sim = simulate(s, 3)
-    only_first = sim.Z.copy()
+    only_first = sim.measurements.copy()
     only_first[:, 2:] = np.nan
     full = kalman_filter(s.model(), only_first)
     reduced_model = LinearGaussianModel(F=s.F, H=s.H[:2], m0=s.mX0, P0=s.PX0, Q=s.Qw, R=s.Rv[:2, :2])
@@ -163,7 +163,7 @@ def test_kalman_on_missing_rows_equals_kalman_on_the_reduced_model():
 def test_unseen_landmark_keeps_its_uncertainty_and_seen_one_shrinks():
     s = quadrant_scenario()
     sim = simulate(s, 3)
-    kf = kalman_filter(s.model(), sim.Z)
+    kf = kalman_filter(s.model(), sim.measurements)
     first_seen = int(np.argmax(sim.seen[:, 0]))
     assert np.trace(kf.cov[first_seen - 1, 2:4, 2:4]) == pytest.approx(np.trace(s.PX0[2:4, 2:4]), rel=1e-6)
     assert np.trace(kf.cov[-1, 2:4, 2:4]) < 0.1 * np.trace(s.PX0[2:4, 2:4])

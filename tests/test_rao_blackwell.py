@@ -49,10 +49,10 @@ def test_known_robot_gives_the_kalman_filter():
     sc = sc.with_(Qw=tiny, PX0=P0)
     model = sc.model()
     sim = simulate(sc, rng=3)
-    kf = kalman_filter(model, sim.Z)
+    kf = kalman_filter(model, sim.measurements)
     rb = RaoBlackwellModel(model)
     for optimal in (False, True):
-        res = rb.marginal(ParticleFilter(rb, 50, proposal=RaoBlackwellProposal(optimal)).run(sim.Z, rng=4))
+        res = rb.marginal(ParticleFilter(rb, 50, proposal=RaoBlackwellProposal(optimal)).run(sim.measurements, rng=4))
         np.testing.assert_allclose(res.mean, kf.mean, atol=1e-5)
         np.testing.assert_allclose(res.cov[:, 2:, 2:], kf.cov[:, 2:, 2:], rtol=1e-6, atol=1e-12)
         assert res.log_likelihood == pytest.approx(kf.log_likelihood, abs=1e-3)
@@ -62,7 +62,7 @@ def test_marginal_is_the_law_of_total_covariance():
     sc = short_scenario()
     rb = RaoBlackwellModel(sc.model())
     sim = simulate(sc, rng=1)
-    raw = ParticleFilter(rb, 40, proposal=RaoBlackwellProposal(True)).run(sim.Z, rng=2, store_particles=True)
+    raw = ParticleFilter(rb, 40, proposal=RaoBlackwellProposal(True)).run(sim.measurements, rng=2, store_particles=True)
     res = rb.marginal(raw)
     k = sc.n_samples - 1
     robot, mean, cov = rb.unpack(raw.particles[k])
@@ -102,7 +102,7 @@ def test_likelihood_estimate_is_unbiased(method):
     sc = short_scenario(10)
     model = sc.model()
     sim = simulate(sc, rng=7)
-    exact = kalman_filter(model, sim.Z).log_likelihood
+    exact = kalman_filter(model, sim.measurements).log_likelihood
     rb = RaoBlackwellModel(model)
     ratios = []
     for seed in range(300):
@@ -112,7 +112,7 @@ def test_likelihood_estimate_is_unbiased(method):
             pf = ParticleFilter(rb, 20, threshold=1.0, proposal=FullyAdaptedAuxiliary(RaoBlackwellProposal(True)))
         else:
             pf = ParticleFilter(rb, 20, threshold=1 / 3, proposal=RaoBlackwellProposal(False))
-        ratios.append(np.exp(pf.run(sim.Z, rng=seed).log_likelihood - exact))
+        ratios.append(np.exp(pf.run(sim.measurements, rng=seed).log_likelihood - exact))
     ratios = np.array(ratios)
     assert abs(ratios.mean() - 1.0) < 4 * ratios.std(ddof=1) / np.sqrt(len(ratios))
     assert ratios.std() > 0  # a real estimate, not the exact value
@@ -131,11 +131,11 @@ def test_error_against_kalman_falls_like_inverse_root_n():
     slopes = []
     for seed in range(40):
         sim = simulate(sc, rng=seed)
-        kf = kalman_filter(model, sim.Z)
+        kf = kalman_filter(model, sim.measurements)
         errors = []
         for n in (100, 1600):
             pf = ParticleFilter(rb, n, threshold=1 / 3, proposal=RaoBlackwellProposal(True))
-            res = rb.marginal(pf.run(sim.Z, rng=seed + 10**6))
+            res = rb.marginal(pf.run(sim.measurements, rng=seed + 10**6))
             errors.append(np.sqrt(np.mean((res.mean[-1, 2:] - kf.mean[-1, 2:]) ** 2)))
         if min(errors) > 0:
             slopes.append(np.log(errors[1] / errors[0]) / np.log(16))

@@ -15,7 +15,7 @@ import pytest
 
 from pfcourse.errors import ParameterError
 from pfcourse.experiments import robot_studies as rs
-from pfcourse.experiments.study import replicate_seed
+from pfcourse.seeding import replicate_seed
 
 SAMPLE = np.random.default_rng(20261123)
 

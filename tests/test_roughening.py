@@ -51,11 +51,11 @@ def test_filter_without_jitter_is_unchanged_and_jitter_diversifies_landmarks():
     scenario = quadrant_scenario()
     sim = simulate(scenario, rng=3)
     model = scenario.model()
-    plain = ParticleFilter(model, 300, threshold=0.5).run(sim.Z, rng=4)
-    explicit_none = ParticleFilter(model, 300, threshold=0.5, jitter=None).run(sim.Z, rng=4)
+    plain = ParticleFilter(model, 300, threshold=0.5).run(sim.measurements, rng=4)
+    explicit_none = ParticleFilter(model, 300, threshold=0.5, jitter=None).run(sim.measurements, rng=4)
     np.testing.assert_array_equal(plain.mean, explicit_none.mean)
     rough = ParticleFilter(model, 300, threshold=0.5, jitter=Roughening(0.2)).run(
-        sim.Z, rng=4, store_particles=True
+        sim.measurements, rng=4, store_particles=True
     )
     # Without jitter the static landmark coordinates keep at most as many distinct values
     # as survived the first resampling; with jitter every particle is distinct.

@@ -10,19 +10,20 @@ import pytest
 
 from pfcourse import DegenerateWeightsError, ParameterError, ParticleFilter, kalman_filter
 from pfcourse.landmarks.scenario import quadrant_scenario, simulate
-from pfcourse.experiments.study import grid_settings, replicate_seed, run_study, summarize
+from pfcourse.experiments.study import grid_settings, run_study, summarize
+from pfcourse.seeding import replicate_seed
 
 
 def landmark_run(seed: int, n_particles: int, threshold: float) -> dict:
     scenario = quadrant_scenario().with_(n_samples=10)
     sim = simulate(scenario, seed)
     model = scenario.model()
-    result = ParticleFilter(model, n_particles, threshold=threshold).run(sim.Z, rng=seed)
-    kf = kalman_filter(model, sim.Z)
+    result = ParticleFilter(model, n_particles, threshold=threshold).run(sim.measurements, rng=seed)
+    kf = kalman_filter(model, sim.measurements)
     return {
         "rmse_vs_kalman": float(np.sqrt(np.mean((result.mean - kf.mean) ** 2))),
         "resamples": result.n_resamples,
-        "truth_x0": float(sim.X[0, 0]),
+        "truth_x0": float(sim.truth[0, 0]),
     }
 
 

@@ -134,12 +134,12 @@ def test_filter_raises_only_when_every_particle_leaves(jacksboro):
     flight = simulate(scenario, jacksboro, 3)
     # Half the prior off the map: the filter copes.
     half_off = scenario.with_(x0=np.array([0.0, 15000.0, 1500.0, 0.0]), P0=np.diag([300.0, 300.0, 10.0, 0.01]) ** 2)
-    result = ParticleFilter(half_off.model(jacksboro), 200).run(flight.Z[:5], rng=1)
+    result = ParticleFilter(half_off.model(jacksboro), 200).run(flight.measurements[:5], rng=1)
     assert np.all(np.isfinite(result.mean))
     # The whole prior off the map: a named error at the first measurement.
     all_off = half_off.with_(x0=np.array([-5000.0, 15000.0, 1500.0, 0.0]))
     with pytest.raises(DegenerateWeightsError) as info:
-        ParticleFilter(all_off.model(jacksboro), 200).run(flight.Z[:5], rng=1)
+        ParticleFilter(all_off.model(jacksboro), 200).run(flight.measurements[:5], rng=1)
     assert info.value.step == 1
 
 
@@ -149,9 +149,9 @@ def test_filter_raises_only_when_every_particle_leaves(jacksboro):
 def test_flight_geometry_and_schedule(jacksboro):
     scenario = AircraftScenario().with_(gap=(50.0, 75.0))
     flight = simulate(scenario, jacksboro, 0)
-    steps = np.diff(flight.X[:, :2], axis=0)
+    steps = np.diff(flight.truth[:, :2], axis=0)
     np.testing.assert_allclose(np.hypot(*steps.T), scenario.speed * scenario.dt)
-    measured = ~np.isnan(flight.Z[:, 0])
+    measured = ~np.isnan(flight.measurements[:, 0])
     assert not measured[0] and measured[1] and measured[49] and not measured[50]
     assert not measured[75] and measured[76] and measured.sum() == 80 - 26
     every10 = AircraftScenario().with_(measurement_period=10.0).measured()
@@ -166,8 +166,8 @@ def test_measurement_noise_statistics(jacksboro):
     residuals = []
     for seed in range(40):
         flight = simulate(scenario, jacksboro, seed)
-        ok = ~np.isnan(flight.Z[:, 0])
-        residuals.append(flight.Z[ok, 0] - (flight.X[ok, 2] - flight.terrain_height[ok]))
+        ok = ~np.isnan(flight.measurements[:, 0])
+        residuals.append(flight.measurements[ok, 0] - (flight.truth[ok, 2] - flight.terrain_height[ok]))
     r = np.concatenate(residuals)
     n = r.size
     # 4-sigma bounds of the sample mean and variance of n Gaussian draws.
@@ -222,10 +222,10 @@ def test_ekf_converges_from_a_small_prior(jacksboro):
     )
     for seed in range(3):
         flight = simulate(scenario, jacksboro, seed, initial_state=scenario.x0)
-        result = extended_kalman_filter(scenario, jacksboro, flight.Z)
+        result = extended_kalman_filter(scenario, jacksboro, flight.measurements)
         assert result.lost_at is None
         assert result.mean.shape == (81, 4) and result.cov.shape == (81, 4, 4)
-        err = np.hypot(*(result.mean[:, :2] - flight.X[:, :2]).T)
+        err = np.hypot(*(result.mean[:, :2] - flight.truth[:, :2]).T)
         assert np.max(err) < np.hypot(jacksboro.dx, jacksboro.dy)
 
 

@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from pfcourse.experiments.terrain import flight_seed
+from pfcourse.seeding import data_rng
 from pfcourse.terrain.scenario import AircraftScenario, simulate
 from pfcourse.errors import ShapeError
 from pfcourse.terrain.map import load_jacksboro
@@ -44,7 +44,7 @@ def test_linear_gaussian_bound_is_the_kalman_covariance():
 def test_averaging_two_identical_trajectories_changes_nothing_and_shapes_are_checked():
     sc = AircraftScenario()
     terrain = load_jacksboro()
-    X = simulate(sc, terrain, flight_seed(0, 0)).X
+    X = simulate(sc, terrain, data_rng(0, 0)).truth
     one = terrain_pcrb(sc, terrain, X)
     two = terrain_pcrb(sc, terrain, np.stack([X, X]))
     np.testing.assert_allclose(one, two, rtol=1e-12)
@@ -55,7 +55,7 @@ def test_averaging_two_identical_trajectories_changes_nothing_and_shapes_are_che
 def test_terrain_bound_starts_at_the_prior_and_readings_shrink_it():
     sc = AircraftScenario()
     terrain = load_jacksboro()
-    X = simulate(sc, terrain, flight_seed(0, 1)).X
+    X = simulate(sc, terrain, data_rng(0, 1)).truth
     b = terrain_pcrb(sc, terrain, X)
     np.testing.assert_allclose(b[0], sc.P0)  # no reading at t = 0
     blind = terrain_pcrb(sc.with_(gap=(0.5, 80.0)), terrain, X)  # no reading at all
@@ -78,6 +78,6 @@ def test_noise_free_bound_is_the_kalman_covariance_with_q_zero_and_below_the_noi
     np.testing.assert_allclose(bound, kalman_covariances(P0, F, np.zeros((d, d)), H, R, measured), rtol=1e-8, atol=1e-12)
     sc = AircraftScenario()
     terrain = load_jacksboro()
-    X = simulate(sc, terrain, flight_seed(0, 3)).X
+    X = simulate(sc, terrain, data_rng(0, 3)).truth
     assert np.all(horizontal_bound(terrain_bound_noise_free(sc, terrain, X))[1:]
                   <= horizontal_bound(terrain_pcrb(sc, terrain, X))[1:] * (1 + 1e-9))

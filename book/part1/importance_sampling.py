@@ -213,8 +213,8 @@ model = scenario.model()
 sim = simulate(scenario, rng=2024)
 ROUND_OFF = 1e-12  # the differences are sums of last-bit roundings: print the bound, not the digits
 for name, theta in (("SIS", 0.0), ("SIR", 1 / 3)):
-    mine_mean, mine_ess = my_filter(sim.Z, 100, np.random.default_rng(1), model, theta)
-    engine = ParticleFilter(model, 100, threshold=theta).run(sim.Z, rng=1)
+    mine_mean, mine_ess = my_filter(sim.measurements, 100, np.random.default_rng(1), model, theta)
+    engine = ParticleFilter(model, 100, threshold=theta).run(sim.measurements, rng=1)
     same = np.abs(mine_mean - engine.mean).max() < ROUND_OFF and np.abs(mine_ess - engine.ess).max() < ROUND_OFF
     print(f"{name}, N = 100, same seed: means and ESS equal to the engine's within {ROUND_OFF:.0e}: {same}; "
           f"final ESS {mine_ess[-1]:.2f} vs {engine.ess[-1]:.2f}")
@@ -260,7 +260,7 @@ failures = {}
 for sd in (0.1, 0.01):
     sc = scenario.with_(Rv=sd**2 * np.eye(4))
     m = sc.model()
-    failures[sd] = sum(linear_sis_fails(simulate(sc, rng=s).Z, 100, np.random.default_rng(10**6 + s), m)
+    failures[sd] = sum(linear_sis_fails(simulate(sc, rng=s).measurements, 100, np.random.default_rng(10**6 + s), m)
                        for s in range(n_runs))
     ci = stats.binomtest(failures[sd], n_runs).proportion_ci(method="wilson")
     print(f"measurement sd {sd} m: linear-domain weights fail in {failures[sd]} of {n_runs} runs "

@@ -51,7 +51,7 @@ LABELS = ["robot x", "robot y", "L1 x", "L1 y", "L2 x", "L2 y"]
 # %%
 scenario = quadrant_scenario()
 sim = simulate(scenario, rng=2024)
-kf = kalman_filter(scenario.model(), sim.Z)
+kf = kalman_filter(scenario.model(), sim.measurements)
 
 
 def plot_estimates(scenario, sim, kf, axes, labels):
@@ -59,7 +59,7 @@ def plot_estimates(scenario, sim, kf, axes, labels):
     for j, ax in enumerate(axes.flat):
         ax.fill_between(sim.T, kf.mean[:, j] - 3 * sd[:, j], kf.mean[:, j] + 3 * sd[:, j],
                         color=COLORS["kalman"], alpha=0.25, label=r"$\pm 3\sigma$")
-        ax.plot(sim.T, sim.X[:, j], color=COLORS["truth"], lw=1, label="truth")
+        ax.plot(sim.T, sim.truth[:, j], color=COLORS["truth"], lw=1, label="truth")
         ax.plot(sim.T, kf.mean[:, j], color=COLORS["kalman"], lw=1.2, label="Kalman mean")
         ax.set_ylabel(f"{labels[j]} (m)")
     for ax in axes[-1]:
@@ -132,7 +132,7 @@ glue("kalman_l1_unseen_shrank", int(np.sum(change < -1e-4)), display=False)
 # %%
 n_runs = 200
 eps = np.array([
-    nees(s.X, (r := kalman_filter(scenario.model(), s.Z)).mean, r.cov)
+    nees(s.truth, (r := kalman_filter(scenario.model(), s.measurements)).mean, r.cov)
     for s in (simulate(scenario, rng=seed) for seed in range(n_runs))
 ])
 lo, hi = chi2_band(6, n_runs)
@@ -185,7 +185,7 @@ plt.show()
 # %%
 scenario5 = circle_scenario()
 sim5 = simulate(scenario5, rng=2024)
-kf5 = kalman_filter(scenario5.model(), sim5.Z)
+kf5 = kalman_filter(scenario5.model(), sim5.measurements)
 
 
 def animate_ellipses(scenario, sim, kf, limits, every=2):
@@ -203,7 +203,7 @@ def animate_ellipses(scenario, sim, kf, limits, every=2):
             color = COLORS["robot"] if j == 0 else COLORS["kalman"]
             patches.append(ax.add_patch(ellipse_patch(kf.mean[k, blk], kf.cov[k, blk, blk],
                                                       color=color, lw=1.5)))
-        patches.append(ax.plot(*sim.X[k, :2], "o", color=COLORS["truth"], ms=4)[0])
+        patches.append(ax.plot(*sim.truth[k, :2], "o", color=COLORS["truth"], ms=4)[0])
         title.set_text(f"t = {sim.T[k]:.0f} s: 95 % ellipses (Kalman)")
         return patches
 
@@ -238,12 +238,12 @@ print("final sd of the landmark x coordinates (m):", np.round(sd5[-1, 2::2], 3))
 widths = {}
 for scale in (0.3, 1.0, 3.0):
     sc = scenario.with_(Rv=scale**2 * scenario.Rv)  # same trajectory: only the measurement noise changes
-    sd = np.sqrt(np.diagonal(kalman_filter(sc.model(), simulate(sc, rng=2024).Z).cov, axis1=1, axis2=2))
+    sd = np.sqrt(np.diagonal(kalman_filter(sc.model(), simulate(sc, rng=2024).measurements).cov, axis1=1, axis2=2))
     Qw = scenario.Qw.copy()
     Qw[:2, :2] *= scale**2
     sc = scenario.with_(Qw=Qw)
     s = simulate(sc, rng=2024)
-    sd_q = np.sqrt(np.diagonal(kalman_filter(sc.model(), s.Z).cov, axis1=1, axis2=2))
+    sd_q = np.sqrt(np.diagonal(kalman_filter(sc.model(), s.measurements).cov, axis1=1, axis2=2))
     unseen = ~s.seen[1:].any(axis=1)  # steps with no landmark in view
     widths[scale] = (float(sd[:, 2:].mean()), float(np.median(np.diff(sd_q[:, 0])[unseen])), int(unseen.sum()))
     print(f"scale {scale}: Rv scaled -> landmark sd {widths[scale][0]:.3f} m (mean over time and "
@@ -270,7 +270,7 @@ def draw_kalman(noise_scale, process_scale, seed):
     Qw[:2, :2] *= process_scale**2
     sc = scenario.with_(Rv=Rv, Qw=Qw)
     s = simulate(sc, rng=seed)
-    r = kalman_filter(sc.model(), s.Z)
+    r = kalman_filter(sc.model(), s.measurements)
     fig, axes = plt.subplots(3, 2, figsize=(9, 6), sharex=True)
     plot_estimates(sc, s, r, axes, LABELS)
     axes[0, 0].xaxis.set_major_locator(MultipleLocator(25))  # shared by the six axes; fewer ticks redraw faster
@@ -317,7 +317,7 @@ display(control_panel(draw_kalman, grid={"noise_scale": (0.3, 1.0, 3.0), "proces
 # :label: ex-kalman-code
 # (Coding.) Write the Kalman filter of this chapter in plain NumPy (predict with $F$, $B$,
 # $Q_w$; update with the visible rows of $H$ and $R_v$), run it on the simulation above and
-# check that its means agree with `kalman_filter(model, sim.Z).mean` to round-off.
+# check that its means agree with `kalman_filter(model, sim.measurements).mean` to round-off.
 # ```
 #
 # ````{solution} ex-kalman-code
@@ -337,6 +337,6 @@ display(control_panel(draw_kalman, grid={"noise_scale": (0.3, 1.0, 3.0), "proces
 #         means.append(m)
 #     return np.array(means)
 #
-# print(np.abs(my_kalman(sim.Z, model) - kalman_filter(model, sim.Z).mean).max())  # ~1e-15
+# print(np.abs(my_kalman(sim.measurements, model) - kalman_filter(model, sim.measurements).mean).max())  # ~1e-15
 # ```
 # ````

@@ -78,17 +78,17 @@ print("diag(Rv)  =", np.diag(scenario.Rv))
 
 # %%
 sim = simulate(scenario, rng=2024)
-print("T:", sim.T.shape, " X:", sim.X.shape, " Z:", sim.Z.shape)
-print("T[:5] =", sim.T[:5])
-print("X[1]  =", np.round(sim.X[1], 3))
-print("Z[1]  =", np.round(sim.Z[1], 3))
+print("T:", sim.T.shape, " truth:", sim.truth.shape, " measurements:", sim.measurements.shape)
+print("T[:5]           =", sim.T[:5])
+print("truth[1]        =", np.round(sim.truth[1], 3))
+print("measurements[1] =", np.round(sim.measurements[1], 3))
 glue("model_t_last", float(sim.T[-1]), display=False)
 
 # %% [markdown]
 # - **`T`** holds the sampling instants $t_k = k\,\Delta t$, here from $0$ to {glue:text}`model_t_last:.0f` s.
-# - **`X`** holds the true state at each instant, one row per step, one column per state coordinate: what the
+# - **`truth`** holds the true state at each instant, one row per step, one column per state coordinate: what the
 #   filter tries to recover and never sees.
-# - **`Z`** holds the measurements, one row per step, four columns: the offset
+# - **`measurements`** holds the measurements, one row per step, four columns: the offset
 #   $l^1 - r$ (two coordinates) then $l^2 - r$. A landmark out of view gives NaN
 #   ("not a number") in its two columns. The first row is all NaN: the first measurement
 #   is taken after the first move.
@@ -119,8 +119,8 @@ HTML(animate_landmarks(scenario, sim).to_jshtml())
 # %%
 fig, axes = plt.subplots(2, 1, figsize=(7, 4.5), sharex=True)
 for j, ax in enumerate(axes):
-    ax.plot(sim.T, sim.Z[:, 2 * j], "o-", ms=3, label=r"$l_x - r_x$")
-    ax.plot(sim.T, sim.Z[:, 2 * j + 1], "s-", ms=3, label=r"$l_y - r_y$")
+    ax.plot(sim.T, sim.measurements[:, 2 * j], "o-", ms=3, label=r"$l_x - r_x$")
+    ax.plot(sim.T, sim.measurements[:, 2 * j + 1], "s-", ms=3, label=r"$l_y - r_y$")
     ax.set_ylabel(f"landmark {j + 1} (m)")
     ax.legend(loc="upper right", ncols=2)
 axes[-1].set_xlabel("time t (s)")
@@ -243,7 +243,7 @@ HTML(animate_landmarks(scenario5, sim5, limits=(-4.0, 8.0)).to_jshtml())
 # landmarks ($R_v$ is $2M \times 2M$, indexed by coordinates, not by landmarks) and
 # $R_v[I_k, I_k]$ keeps those rows and columns. When nothing is
 # in view ($V_k = \emptyset$) there is no measurement and $p(z_k \mid x_k) = 1$: the
-# step is a pure prediction. In the code, `Z[k]` holds NaN for the unseen landmarks, and
+# step is a pure prediction. In the code, `sim.measurements[k]` holds NaN for the unseen landmarks, and
 # `LinearGaussianModel.observed` extracts $z_k$, $H_k$ and $R_k$ from the non-NaN entries.
 #
 # A caveat: whether a landmark is visible depends on the true state, so strictly the
@@ -258,13 +258,13 @@ from pfcourse.gaussian import gaussian_logpdf
 
 model = scenario.model()
 k = int(np.flatnonzero(sim.seen.any(axis=1))[0])
-mask, z_k, H_k, R_k = model.observed(sim.Z[k])
+mask, z_k, H_k, R_k = model.observed(sim.measurements[k])
 print(f"step {k}: landmarks in view {np.flatnonzero(sim.seen[k]) + 1}")
 print("H_k =\n", H_k.astype(int))
 print("R_k =\n", R_k)
-by_hand = gaussian_logpdf(z_k - H_k @ sim.X[k], R_k)[0]
+by_hand = gaussian_logpdf(z_k - H_k @ sim.truth[k], R_k)[0]
 print(f"log p(z_k | x_k) at the true state: {by_hand:.4f} (formula), "
-      f"{model.log_likelihood(sim.X[k][None], sim.Z[k], k)[0]:.4f} (model)")
+      f"{model.log_likelihood(sim.truth[k][None], sim.measurements[k], k)[0]:.4f} (model)")
 
 # %% [markdown]
 # ### Why the Kalman filter is exact here
@@ -303,7 +303,7 @@ def draw_model(variant, noise_scale, seed):
     landmark_scene(sc, s, ax=a1, limits=limits)
     for j in range(sc.n_landmarks):
         seen = s.seen[:, j]
-        a1.plot(s.X[seen, 0] + s.Z[seen, 2 * j], s.X[seen, 1] + s.Z[seen, 2 * j + 1], ".",
+        a1.plot(s.truth[seen, 0] + s.measurements[seen, 2 * j], s.truth[seen, 1] + s.measurements[seen, 2 * j + 1], ".",
                 ms=3, color=COLORS["seen"])
     a1.set_title("robot + measured offsets (dots)")
     a2.imshow(s.seen.T, aspect="auto", interpolation="nearest", cmap="Greens",

@@ -88,10 +88,10 @@ glue("prop_last_steps", last, display=False)
 lab = {name: {"ess": [], "ess_run": [], "robot": [], "landmarks": [], "resampled": []} for name in PROPOSALS}
 for seed in range(n_runs):
     sim = simulate(scenario, rng=seed)
-    kf = kalman_filter(model, sim.Z)
+    kf = kalman_filter(model, sim.measurements)
     measured = sim.seen.any(axis=1)
     for name, prop in PROPOSALS.items():
-        r = ParticleFilter(model, N, threshold=1 / 3, proposal=prop).run(sim.Z, rng=10**6 + seed)
+        r = ParticleFilter(model, N, threshold=1 / 3, proposal=prop).run(sim.measurements, rng=10**6 + seed)
         err = (r.mean - kf.mean)[-last:]
         lab[name]["ess"].extend(r.ess[measured] / N)
         lab[name]["ess_run"].append(np.mean(r.ess[measured]) / N if measured.any() else np.nan)
@@ -249,7 +249,7 @@ curves = []
 for scale in frame_scales:
     sc = scenario.with_(Qw=Q_all, Rv=scale**2 * scenario.Rv)
     s = simulate(sc, rng=5)
-    curves.append([ParticleFilter(sc.model(), 200, threshold=0.5, proposal=p).run(s.Z, rng=6).ess
+    curves.append([ParticleFilter(sc.model(), 200, threshold=0.5, proposal=p).run(s.measurements, rng=6).ess
                    for p in PROPOSALS.values()])
 fig, ax = plt.subplots(figsize=(5, 4), dpi=72)
 lines = [ax.semilogy([], [], color=c, label=n)[0]
@@ -319,10 +319,10 @@ def draw_proposals(n_particles, noise_scale, seed):
     sc = scenario.with_(Qw=Q_all, Rv=noise_scale**2 * scenario.Rv)
     s = simulate(sc, rng=seed)
     m = sc.model()
-    ref = kalman_filter(m, s.Z)
+    ref = kalman_filter(m, s.measurements)
     fig, (a1, a2) = plt.subplots(1, 2, figsize=(10, 3.4))
     for (name, prop), c in zip(PROPOSALS.items(), (COLORS["particles"], COLORS["estimate"])):
-        r = ParticleFilter(m, n_particles, threshold=0.5, proposal=prop).run(s.Z, rng=seed + 1)
+        r = ParticleFilter(m, n_particles, threshold=0.5, proposal=prop).run(s.measurements, rng=seed + 1)
         a1.plot(s.T, r.ess, color=c, label=name)
         a2.plot(s.T, r.mean[:, 0] - ref.mean[:, 0], color=c, label=name)
     plain_log_axis(a1, "y")
@@ -383,7 +383,7 @@ display(control_panel(draw_proposals, grid={"n_particles": (50, 200, 1000), "noi
 # :class: dropdown
 # ```{code} python
 # from scipy import stats
-# k = int(np.flatnonzero(sim.seen[:, 0] & ~sim.seen[:, 1])[0]); z = sim.Z[k]
+# k = int(np.flatnonzero(sim.seen[:, 0] & ~sim.seen[:, 1])[0]); z = sim.measurements[k]
 # x = model.sample_initial(1, np.random.default_rng(0))
 # seen = ~np.isnan(z); H, R = model.H[seen], model.R[np.ix_(seen, seen)]
 # m = x[0] @ model.F.T + model.B

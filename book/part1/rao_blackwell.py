@@ -73,11 +73,11 @@ scenario = quadrant_scenario()
 model = scenario.model()
 rb = RaoBlackwellModel(model)
 sim = simulate(scenario, rng=2024)
-kf = kalman_filter(model, sim.Z)
+kf = kalman_filter(model, sim.measurements)
 
 rbpf = ParticleFilter(rb, 100, threshold=1 / 3, proposal=RaoBlackwellProposal(optimal=True))
-res_rb = rb.marginal(rbpf.run(sim.Z, rng=1))
-res_sir = ParticleFilter(model, 100, threshold=1 / 3).run(sim.Z, rng=1)
+res_rb = rb.marginal(rbpf.run(sim.measurements, rng=1))
+res_sir = ParticleFilter(model, 100, threshold=1 / 3).run(sim.measurements, rng=1)
 for name, r in (("SIR", res_sir), ("RBPF", res_rb)):
     err = r.mean[-1] - kf.mean[-1]
     print(f"{name:4s} N = 100, seed 2024, last step: landmark error vs Kalman mean "
@@ -98,7 +98,7 @@ k = int(np.flatnonzero(sim.seen.any(axis=1))[0])
 cloud = rb.sample_initial(100, np.random.default_rng(0))
 for j in range(1, k):
     cloud = rb.sample_transition(cloud, j, np.random.default_rng(j))
-z = sim.Z[k]
+z = sim.measurements[k]
 robot, m, P = rb.unpack(cloud)
 P = P[0] + rb.Ql                                   # predict: the map is static
 obs = ~np.isnan(z)
@@ -132,7 +132,7 @@ for ax, (name, r) in zip(axes, (("SIR", res_sir), ("RBPF (FastSLAM 2.0)", res_rb
         ax.fill_between(sim.T, res.mean[:, 2] - 3 * sd, res.mean[:, 2] + 3 * sd, color=color, alpha=alpha,
                         label=rf"{label} $\pm3\sigma$")
         ax.plot(sim.T, res.mean[:, 2], color=color, lw=1)
-    ax.plot(sim.T, sim.X[:, 2], color=COLORS["truth"], ls="--", lw=0.8, label="truth")
+    ax.plot(sim.T, sim.truth[:, 2], color=COLORS["truth"], ls="--", lw=0.8, label="truth")
     ax.set_title(f"{name}, N = 100", fontsize=10)
     ax.set_xlabel("time t (s)")
 axes[0].set_ylabel("landmark 1, x (m)")
@@ -396,7 +396,7 @@ glue("rbpf_nees_100_3000_ratio", nees_100_3000.median, display=False)
 glue("rbpf_nees_100_3000_low", nees_100_3000.low, display=False)
 glue("rbpf_nees_100_3000_high", nees_100_3000.high, display=False)
 glue("rbpf_nees_100_3000_p", nees_100_3000.pvalue, display=False)
-kalman_lm_sd = np.median([np.sqrt(np.mean(np.diag(kalman_filter(model, simulate(scenario, rng=int(s)).Z).cov[-1])[2:]))
+kalman_lm_sd = np.median([np.sqrt(np.mean(np.diag(kalman_filter(model, simulate(scenario, rng=int(s)).measurements).cov[-1])[2:]))
                           for s in sorted(quad.seed.unique())])
 print(f"Kalman filter: posterior standard deviation of a landmark coordinate at the last step, median over "
       f"{n_runs} runs: {kalman_lm_sd:.3f} m")
@@ -563,16 +563,16 @@ limit2 = stats.chi2.ppf(0.95, 2)
 check = {name: {"collapse": [], "lm_sd": [], "robot_sd": [], "robot_cover": []} for name in ("SIS", "SIR", "RBPF")}
 for seed in range(100):
     s5 = simulate(circle, rng=seed)
-    k5 = kalman_filter(cmodel, s5.Z)
-    runs5 = {"SIS": ParticleFilter(cmodel, 100, threshold=0.0).run(s5.Z, rng=seed + 10**6),
-             "SIR": ParticleFilter(cmodel, 100, threshold=1 / 3).run(s5.Z, rng=seed + 10**6),
+    k5 = kalman_filter(cmodel, s5.measurements)
+    runs5 = {"SIS": ParticleFilter(cmodel, 100, threshold=0.0).run(s5.measurements, rng=seed + 10**6),
+             "SIR": ParticleFilter(cmodel, 100, threshold=1 / 3).run(s5.measurements, rng=seed + 10**6),
              "RBPF": crb.marginal(ParticleFilter(crb, 100, threshold=1 / 3, proposal=RaoBlackwellProposal(True))
-                                  .run(s5.Z, rng=seed + 10**6))}
+                                  .run(s5.measurements, rng=seed + 10**6))}
     for name, r in runs5.items():
         sd_ratio = np.sqrt(np.clip(np.diag(r.cov[-1]), 1e-300, None) / np.diag(k5.cov[-1]))
         check[name]["lm_sd"].append(np.exp(np.mean(np.log(sd_ratio[2:]))))
         check[name]["robot_sd"].append(np.exp(np.mean(np.log(sd_ratio[:2]))))
-        check[name]["robot_cover"].append(np.mean(nees(s5.X[-10:, :2], r.mean[-10:, :2], r.cov[-10:, :2, :2]) <= limit2))
+        check[name]["robot_cover"].append(np.mean(nees(s5.truth[-10:, :2], r.mean[-10:, :2], r.cov[-10:, :2, :2]) <= limit2))
         below = np.flatnonzero(r.ess < 1.5)
         check[name]["collapse"].append(below[0] if below.size else np.nan)
 for name, c in check.items():

@@ -54,18 +54,18 @@ LANDMARKS = [2, 3, 4, 5]
 scenario = quadrant_scenario()
 model = scenario.model()
 sim = simulate(scenario, rng=2024)
-kf = kalman_filter(model, sim.Z)
+kf = kalman_filter(model, sim.measurements)
 
 # %% [markdown]
 # ## Testing it (lab question 7)
 
 # %%
 sir = ParticleFilter(model, 100, threshold=1 / 3)
-res = sir.run(sim.Z, rng=1, store_particles=True)
+res = sir.run(sim.measurements, rng=1, store_particles=True)
 print(f"resampled at {res.n_resamples} of {len(sim.T)} steps; "
       f"ESS min {res.ess.min():.1f}, median {np.median(res.ess):.1f}")
 
-posterior_bands(sim.T, sim.X, kf, res, LABELS, "SIR", "SIR (N = 100, threshold N/3) against the exact posterior; dashed: truth")
+posterior_bands(sim.T, sim.truth, kf, res, LABELS, "SIR", "SIR (N = 100, threshold N/3) against the exact posterior; dashed: truth")
 plt.show()
 
 # %% [markdown]
@@ -107,8 +107,8 @@ from IPython.display import HTML
 
 from pfcourse.figures.clouds import animate_clouds
 
-sis_res = ParticleFilter(model, 100, threshold=0.0).run(sim.Z, rng=1, store_particles=True)
-HTML(animate_clouds({"SIS": sis_res, "SIR": res}, kf, sim.X, frames=range(0, 30, 2)).to_jshtml())
+sis_res = ParticleFilter(model, 100, threshold=0.0).run(sim.measurements, rng=1, store_particles=True)
+HTML(animate_clouds({"SIS": sis_res, "SIR": res}, kf, sim.truth, frames=range(0, 30, 2)).to_jshtml())
 
 # %% [markdown]
 # Resampling copies particles; only the dynamics can make copies differ again. For the
@@ -521,8 +521,8 @@ def draw_sir(n_particles, threshold, scheme, K, seed):
     s = simulate(scenario, rng=seed)
     pf = ParticleFilter(model, n_particles, threshold=threshold, resampler=scheme,
                         jitter=Roughening(K) if K > 0 else None)
-    r = pf.run(s.Z, rng=seed + 1, store_particles=True)
-    ref = kalman_filter(model, s.Z)
+    r = pf.run(s.measurements, rng=seed + 1, store_particles=True)
+    ref = kalman_filter(model, s.measurements)
     fig, (a1, a2) = plt.subplots(1, 2, figsize=(10, 3.4))
     sd = np.sqrt(r.cov[:, 2, 2])
     a1.fill_between(s.T, r.mean[:, 2] - 3 * sd, r.mean[:, 2] + 3 * sd, color=COLORS["estimate"], alpha=0.3)
@@ -594,7 +594,7 @@ display(control_panel(
 #
 # from pfcourse.exercises import check_resampler
 # print(check_resampler(my_resampler))           # every check passed
-# res = ParticleFilter(model, 100, threshold=1 / 3, resampler=my_resampler).run(sim.Z, rng=1)
+# res = ParticleFilter(model, 100, threshold=1 / 3, resampler=my_resampler).run(sim.measurements, rng=1)
 # ```
 #
 # With the same seed it gives exactly the engine's `resampler="multinomial"` run, which draws

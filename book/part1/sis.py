@@ -66,15 +66,15 @@ LABELS = ["robot x", "robot y", "L1 x", "L1 y", "L2 x", "L2 y"]
 scenario = quadrant_scenario()
 model = scenario.model()  # the simulator's own noise models
 sim = simulate(scenario, rng=2024)
-kf = kalman_filter(model, sim.Z)
+kf = kalman_filter(model, sim.measurements)
 
 # %% [markdown]
 # ## One run with the lab's $N = 100$ particles (lab questions 4 and 5)
 
 # %%
 sis = ParticleFilter(model, 100, threshold=0.0)
-res = sis.run(sim.Z, rng=1, store_particles=True)
-posterior_bands(sim.T, sim.X, kf, res, LABELS, "SIS", "SIS (N = 100) against the exact posterior; dashed: truth")
+res = sis.run(sim.measurements, rng=1, store_particles=True)
+posterior_bands(sim.T, sim.truth, kf, res, LABELS, "SIS", "SIS (N = 100) against the exact posterior; dashed: truth")
 plt.show()
 
 # %% [markdown]
@@ -125,7 +125,7 @@ plt.show()
 # information arrives.
 
 # %%
-HTML(animate_clouds({"SIS, N = 100": res}, kf, sim.X, range(0, 30), interval=200).to_jshtml())
+HTML(animate_clouds({"SIS, N = 100": res}, kf, sim.truth, range(0, 30), interval=200).to_jshtml())
 
 # %% [markdown]
 # (sis-degeneracy)=
@@ -142,7 +142,7 @@ n_runs, horizon = 50, 15
 N_values = (100, 1000, 10_000)
 ess = {N: np.empty((n_runs, horizon)) for N in N_values}
 for seed in range(n_runs):
-    Z = simulate(scenario, rng=seed).Z[:horizon]
+    Z = simulate(scenario, rng=seed).measurements[:horizon]
     for N in N_values:
         ess[N][seed] = ParticleFilter(model, N, threshold=0.0).run(Z, rng=1000 + seed).ess
 
@@ -224,7 +224,7 @@ plt.show()
 
 # %%
 sc2 = scenario.with_(Rv=2.0**2 * scenario.Rv)
-ess_broad = np.array([ParticleFilter(sc2.model(), 100, threshold=0.0).run(simulate(sc2, rng=seed).Z[:horizon],
+ess_broad = np.array([ParticleFilter(sc2.model(), 100, threshold=0.0).run(simulate(sc2, rng=seed).measurements[:horizon],
                                                                           rng=1000 + seed).ess
                       for seed in range(n_runs)])
 first_broad, first_base = first_below(ess_broad), first_below(ess[100])
@@ -263,8 +263,8 @@ def draw_sis(n_particles, noise_scale, seed):
     sc = scenario.with_(Rv=noise_scale**2 * scenario.Rv)
     s = simulate(sc, rng=seed)
     m = sc.model()
-    r = ParticleFilter(m, n_particles, threshold=0.0).run(s.Z, rng=seed + 1)
-    ref = kalman_filter(m, s.Z)
+    r = ParticleFilter(m, n_particles, threshold=0.0).run(s.measurements, rng=seed + 1)
+    ref = kalman_filter(m, s.measurements)
     fig, (a1, a2) = plt.subplots(1, 2, figsize=(10, 3.4))
     a1.plot(s.T, r.ess, color=COLORS["estimate"])
     plain_log_axis(a1, "y")
@@ -273,7 +273,7 @@ def draw_sis(n_particles, noise_scale, seed):
     a1.set_ylim(0.8, n_particles * 1.2)
     a2.plot(s.T, ref.mean[:, 2], color=COLORS["kalman"], label="Kalman")
     a2.plot(s.T, r.mean[:, 2], color=COLORS["estimate"], label="SIS")
-    a2.plot(s.T, s.X[:, 2], "--", color=COLORS["truth"], label="truth")
+    a2.plot(s.T, s.truth[:, 2], "--", color=COLORS["truth"], label="truth")
     a2.set_xlabel("time t (s)")
     a2.set_ylabel("L1 x (m)")
     a2.legend(fontsize=8)

@@ -35,7 +35,8 @@ from myst_nb import glue
 
 from pfcourse import evidence
 
-from pfcourse.experiments.terrain import DIVERGED_ERROR, flight_seed, flight_study
+from pfcourse.experiments.terrain import DIVERGED_ERROR, flight_study
+from pfcourse.seeding import data_rng, filter_rng
 from pfcourse.terrain.scenario import AircraftScenario, extended_kalman_filter, position_error, simulate
 from pfcourse.figures.clouds import animate_clouds
 from pfcourse.filter import ParticleFilter
@@ -189,9 +190,9 @@ print("Qf std (per s) =", np.round(np.sqrt(np.diag(scenario.Qf)), 4))
 fig, ax = plt.subplots(figsize=(6.5, 6.5))
 fig.colorbar(draw_map(ax, shaded=False), ax=ax, shrink=0.8, label="terrain height (m)")
 for r in range(30):
-    fl = simulate(scenario, terrain, flight_seed(0, r))
-    ax.plot(fl.X[:, 0] / KM, fl.X[:, 1] / KM, "-", color=COLORS["truth"], lw=0.8, alpha=0.6)
-    ax.plot(fl.X[0, 0] / KM, fl.X[0, 1] / KM, "o", color=COLORS["truth"], ms=2)
+    fl = simulate(scenario, terrain, data_rng(0, r))
+    ax.plot(fl.truth[:, 0] / KM, fl.truth[:, 1] / KM, "-", color=COLORS["truth"], lw=0.8, alpha=0.6)
+    ax.plot(fl.truth[0, 0] / KM, fl.truth[0, 1] / KM, "o", color=COLORS["truth"], ms=2)
 prior = scenario.model(terrain).sample_initial(3000, np.random.default_rng(1))
 ax.plot(prior[:, 0] / KM, prior[:, 1] / KM, ".", color=COLORS["particles"], ms=1, alpha=0.3)
 ax.set_title("30 true flights (start: dot) and 3000 draws of the prior")
@@ -239,9 +240,9 @@ glue("terrain_diverged_flight", bad, display=False)
 
 # %%
 pf = ParticleFilter(scenario.model(terrain), 3000, threshold=0.5, resampler="multinomial")
-flight = simulate(scenario, terrain, flight_seed(0, good))
-run = pf.run(flight.Z, rng=np.random.default_rng([0, good, 1]), store_particles=True)
-err = flight.X - run.mean
+flight = simulate(scenario, terrain, data_rng(0, good))
+run = pf.run(flight.measurements, rng=filter_rng(0, good), store_particles=True)
+err = flight.truth - run.mean
 sig = np.sqrt(np.diagonal(run.cov, axis1=1, axis2=2))
 t = flight.T
 
@@ -254,13 +255,13 @@ for ax, j, name in zip(axes[:2], (0, 1), ("x (east)", "y (north)")):
     ax.set_yticks([-1e4, -1e3, -100, 0, 100, 1e3, 1e4])
 axes[0].legend(loc="upper right")
 axes[2].plot(t, flight.terrain_height, color=COLORS["truth"], label="terrain under the aircraft")
-axes[2].plot(t, flight.X[:, 2] - flight.Z[:, 0], ".", ms=3, color=COLORS["estimate"], label="altitude - altimeter reading")
+axes[2].plot(t, flight.truth[:, 2] - flight.measurements[:, 0], ".", ms=3, color=COLORS["estimate"], label="altitude - altimeter reading")
 axes[2].set_ylabel("height (m)")
 axes[2].set_xlabel("time t (s)")
 axes[2].legend(loc="upper left")
 axes[0].set_title(f"Flight {good}: position error and 3-sigma band (N = 3000)")
 plt.show()
-e_h = position_error(flight.X, run.mean)
+e_h = position_error(flight.truth, run.mean)
 print(f"horizontal error at t = 0, 10, 30, 80 s: {np.round(e_h[[0, 10, 30, 80]])} m")
 glue("terrain_error_t0", float(e_h[0]), display=False)
 glue("terrain_error_max", float(e_h.max()), display=False)
@@ -293,7 +294,7 @@ glue("terrain_prior_std_xy", float(np.sqrt(scenario.P0[0, 0])), display=False)
 # %%
 def map_window(flight, zoom=6.0):
     """Background of the cloud animation: the map around the middle of the flight (km)."""
-    centre = flight.X[len(flight.T) // 2, :2] / KM
+    centre = flight.truth[len(flight.T) // 2, :2] / KM
 
     def draw(ax):
         heights = draw_map(ax, shaded=False)
@@ -305,9 +306,9 @@ def map_window(flight, zoom=6.0):
 
 
 anim = animate_clouds(
-    {"PF": run}, None, flight.X, range(0, 81, 3), None, 250, blocks=[(0, 1)], ellipses=False,
+    {"PF": run}, None, flight.truth, range(0, 81, 3), None, 250, blocks=[(0, 1)], ellipses=False,
     scale=1 / KM, unit="km", max_points=600, by_weight=True, trail=True, background=map_window(flight),
-    title=lambda name, k, res: f"t = {flight.T[k]:.0f} s, error {position_error(flight.X[k], res.mean[k]):.0f} m",
+    title=lambda name, k, res: f"t = {flight.T[k]:.0f} s, error {position_error(flight.truth[k], res.mean[k]):.0f} m",
     legend=True,
 )
 HTML(anim.to_jshtml())
@@ -328,11 +329,11 @@ for ax, k in zip(axes, (0, 4, 10, 30)):
     w = run.weights[k]
     idx = np.random.default_rng(1).choice(len(w), 800, p=w)
     ax.plot(run.particles[k, idx, 0] / KM, run.particles[k, idx, 1] / KM, ".", ms=1.5, color=COLORS["particles"])
-    ax.plot(flight.X[k, 0] / KM, flight.X[k, 1] / KM, "x", color=COLORS["truth"], ms=8, mew=2)
+    ax.plot(flight.truth[k, 0] / KM, flight.truth[k, 1] / KM, "x", color=COLORS["truth"], ms=8, mew=2)
     best = run.particles[k, np.argmax(w), :2]
     far = np.sum(w[np.hypot(*(run.particles[k, :, :2] - best).T) > 500.0])
     ax.set_title(f"t = {k} s: {far:.0%} of weight\n> 500 m from the top particle", fontsize=9)
-    c = flight.X[k, :2] / KM
+    c = flight.truth[k, :2] / KM
     ax.set_xlim(c[0] - 6, c[0] + 6)
     ax.set_ylim(c[1] - 6, c[1] + 6)
     if k:
@@ -693,21 +694,21 @@ plt.show()
 # %%
 def draw(qf_scale=1.0, rf_scale=1.0, n_particles=3000, threshold=0.5, scheme="multinomial", seed=0):
     sc = scenario.with_(Qf=scenario.Qf * qf_scale, Rf=scenario.Rf * rf_scale)
-    fl = simulate(sc, terrain, flight_seed(0, seed))
+    fl = simulate(sc, terrain, data_rng(0, seed))
     res = ParticleFilter(sc.model(terrain), n_particles, threshold=threshold, resampler=scheme).run(
-        fl.Z, rng=np.random.default_rng([0, seed, 1]), store_particles=True)
+        fl.measurements, rng=filter_rng(0, seed), store_particles=True)
     fig, (ax1, ax2) = plt.subplots(1, 2, figsize=(10, 4.2), width_ratios=[1, 1.3])
-    c = fl.X[40, :2] / KM
+    c = fl.truth[40, :2] / KM
     fig.colorbar(draw_map(ax1, shaded=False, window=((c[0] - 7, c[0] + 7), (c[1] - 7, c[1] + 7))), ax=ax1,
                  shrink=0.8, label="terrain height (m)")
     idx = np.random.default_rng(0).choice(n_particles, min(n_particles, 600), p=res.weights[-1])
     ax1.plot(res.particles[-1, idx, 0] / KM, res.particles[-1, idx, 1] / KM, ".", ms=2, color=COLORS["particles"])
-    ax1.plot(fl.X[:, 0] / KM, fl.X[:, 1] / KM, color=COLORS["truth"], label="truth")
+    ax1.plot(fl.truth[:, 0] / KM, fl.truth[:, 1] / KM, color=COLORS["truth"], label="truth")
     ax1.plot(res.mean[:, 0] / KM, res.mean[:, 1] / KM, color=COLORS["estimate"], label="estimate")
     ax1.set_xlim(c[0] - 7, c[0] + 7)
     ax1.set_ylim(c[1] - 7, c[1] + 7)
     ax1.legend(loc="lower left", fontsize=8)
-    e = position_error(fl.X, res.mean)
+    e = position_error(fl.truth, res.mean)
     ax2.plot(fl.T, e, color=COLORS["estimate"], label="horizontal error")
     ax2.plot(fl.T, 3 * np.sqrt(res.cov[:, 0, 0] + res.cov[:, 1, 1]), "--", color=COLORS["estimate"], alpha=0.6,
              label=r"$3\sqrt{P_{xx} + P_{yy}}$")

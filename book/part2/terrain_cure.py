@@ -36,7 +36,7 @@ from myst_nb import glue
 from scipy import stats
 
 from pfcourse import evidence
-from pfcourse.experiments.terrain import flight_seed
+from pfcourse.seeding import data_rng, filter_rng
 from pfcourse.terrain.scenario import AircraftScenario, simulate
 from pfcourse.style import use_style
 from pfcourse.terrain.map import load_jacksboro
@@ -92,8 +92,8 @@ sizes = [3000, 30000, 100000]
 rows = []
 for N in sizes:
     for r in range(100):
-        truth = simulate(scenario, terrain, flight_seed(0, r)).X[0]
-        cloud = model.sample_initial(N, np.random.default_rng([0, r, 1]))
+        truth = simulate(scenario, terrain, data_rng(0, r)).truth[0]
+        cloud = model.sample_initial(N, filter_rng(0, r))
         d = (cloud - truth) / P0_std
         d[:, 3] = np.angle(np.exp(1j * (cloud[:, 3] - truth[3]))) / P0_std[3]
         horiz = np.hypot(cloud[:, 0] - truth[0], cloud[:, 1] - truth[1])
@@ -458,7 +458,7 @@ glue("terrain_sets_p", float(harder.pvalue), display=False)
 # $\sqrt{B_{xx} + B_{yy}}$ at $80$ s of that bound.
 
 # %%
-X = np.array([simulate(scenario, terrain, flight_seed(0, r)).X for r in range(100)])
+X = np.array([simulate(scenario, terrain, data_rng(0, r)).truth for r in range(100)])
 bounds = np.array([horizontal_bound(terrain_pcrb(scenario, terrain, x)) for x in X])
 average = horizontal_bound(terrain_pcrb(scenario, terrain, X))
 free = np.array([horizontal_bound(terrain_bound_noise_free(scenario, terrain, x)) for x in X])
@@ -527,15 +527,15 @@ for flight, g in reference.groupby("flight"):
     m_big = g.loc[big, ["mean_x", "mean_y"]].to_numpy()  # two seeds
     m_half = g.loc[half, ["mean_x", "mean_y"]].to_numpy()
     ref_mean = m_big.mean(axis=0)
-    sim = simulate(scenario, terrain, flight_seed(0, flight))
+    sim = simulate(scenario, terrain, data_rng(0, flight))
     pf, _ = make_filter("regularised N=30000", scenario, terrain)
-    estimate = pf.run(sim.Z, rng=np.random.default_rng([0, flight, 1])).mean[-1, :2]
+    estimate = pf.run(sim.measurements, rng=filter_rng(0, flight)).mean[-1, :2]
     rows.append({"flight": flight, "posterior sd (m)": sigma,
                  "seeds apart, N=5e5 (sd)": np.linalg.norm(m_half[0] - m_half[1]) / sigma,
                  "seeds apart, N=1e6 (sd)": np.linalg.norm(m_big[0] - m_big[1]) / sigma,
                  "N doubled, same seed (sd)": np.max(np.linalg.norm(m_big - m_half, axis=1)) / sigma,
                  "regularised N=30000 to reference (sd)": np.linalg.norm(estimate - ref_mean) / sigma,
-                 "truth to reference (sd)": np.linalg.norm(sim.X[-1, :2] - ref_mean) / sigma})
+                 "truth to reference (sd)": np.linalg.norm(sim.truth[-1, :2] - ref_mean) / sigma})
 ref_table = pd.DataFrame(rows).set_index("flight")
 print(ref_table.round(2).to_string())
 glue("terrain_ref_doubling_max", float(ref_table["N doubled, same seed (sd)"].max()), display=False)

@@ -562,8 +562,8 @@ exact = {}  # Kalman filter of each seed, computed once per execution and shared
 def distance_to_exact(seed, threshold):
     sim = simulate(LINEAR, seed)
     if seed not in exact:
-        exact[seed] = kalman_filter(LINEAR_MODEL, sim.Z).mean
-    pf = ParticleFilter(LINEAR_MODEL, 100, threshold=threshold).run(sim.Z, rng=seed)
+        exact[seed] = kalman_filter(LINEAR_MODEL, sim.measurements).mean
+    pf = ParticleFilter(LINEAR_MODEL, 100, threshold=threshold).run(sim.measurements, rng=seed)
     gap = pf.mean - exact[seed]
     return {
         "robot_gap": float(np.sqrt(np.mean(np.sum(gap[:, :2] ** 2, axis=1)))),

@@ -56,6 +56,7 @@ from pfcourse.landmarks.kalman import kalman_filter
 from pfcourse.landmarks.scenario import quadrant_scenario, simulate
 from pfcourse.robot.kalman import run_ekf, run_ukf
 from pfcourse.robot.scenario import RobotModel, RobotScenario, simulate_robot
+from pfcourse.seeding import sized_filter_rng
 from pfcourse.style import COLORS, ellipse_patch, plain_log_axis, use_style
 from pfcourse.terrain.map import load_jacksboro
 from pfcourse.figures.legibility import overlapping_texts
@@ -114,8 +115,8 @@ versions = {
 convergence, exact = {}, {}
 for name, sc in versions.items():
     data = simulate(sc, 7)
-    exact[name] = kalman_filter(sc.model(), data.Z)
-    convergence[name] = linear_convergence(sc.model(), data.Z, exact[name], N_LINEAR, LINEAR_RUNS)
+    exact[name] = kalman_filter(sc.model(), data.measurements)
+    convergence[name] = linear_convergence(sc.model(), data.measurements, exact[name], N_LINEAR, LINEAR_RUNS)
 glue("linear_runs", LINEAR_RUNS, display=False)
 glue("linear_steps", int(versions["every component moves"].n_samples), display=False)
 
@@ -198,9 +199,9 @@ for name, b in bias.items():
 # %%
 sc_anim = versions["every component moves"]
 data_anim = simulate(sc_anim, 7)
-kf_anim = kalman_filter(sc_anim.model(), data_anim.Z)
+kf_anim = kalman_filter(sc_anim.model(), data_anim.measurements)
 frames_n = [30, 100, 300, 1000, 3000]
-anim_runs = {n: ParticleFilter(sc_anim.model(), n).run(data_anim.Z, np.random.default_rng([1, n]), store_particles=True)
+anim_runs = {n: ParticleFilter(sc_anim.model(), n).run(data_anim.measurements, sized_filter_rng(1, n), store_particles=True)
              for n in frames_n}
 
 fig, ax = plt.subplots(figsize=(5.0, 5.9), dpi=72)
@@ -218,7 +219,7 @@ def draw_frame(i):
                                lw=2, label="Kalman 95 % ellipse"))
     ax.add_patch(ellipse_patch(run.mean[-1, :2], run.cov[-1, :2, :2], fill=False, color=COLORS["estimate"],
                                lw=2, ls="--", label="particle 95 % ellipse"))
-    ax.plot(*data_anim.X[-1, :2], "x", color=COLORS["truth"], ms=10, mew=2, label="truth")
+    ax.plot(*data_anim.truth[-1, :2], "x", color=COLORS["truth"], ms=10, mew=2, label="truth")
     centre = kf_anim.mean[-1, :2]
     ax.set_xlim(centre[0] - 0.6, centre[0] + 0.6)
     ax.set_ylim(centre[1] - 0.6, centre[1] + 0.6)
@@ -370,7 +371,7 @@ def robot_filters(seed):
     sim = simulate_robot(None, seed, n_steps=ROBOT_STEPS)
     model = RobotModel.for_simulation(sim, q_scale=1.0, r_scale=1.0)
     z = sim.measurements
-    calls = {f"PF N={n}": (lambda n=n: ParticleFilter(model, n, threshold=0.5).run(z, np.random.default_rng([seed, n])))
+    calls = {f"PF N={n}": (lambda n=n: ParticleFilter(model, n, threshold=0.5).run(z, sized_filter_rng(seed, n)))
              for n in N_ROBOT}
     calls["EKF"] = lambda: run_ekf(model, z)
     calls["UKF"] = lambda: run_ukf(model, z)

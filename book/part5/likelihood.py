@@ -42,7 +42,7 @@ from pfcourse.robot import RobotModel, RobotScenario, simulate_robot
 from pfcourse.experiments.smoothing import (ffbsm, linear_gaussian_log_transition, pairwise,
                                 robot_transition_log_density, rts_smoother)
 from pfcourse.figures.widgets import control_panel, particle_slider, seed_box
-from pfcourse.experiments.terrain import flight_seed
+from pfcourse.seeding import data_rng
 from pfcourse.terrain.map import load_jacksboro
 from pfcourse.terrain.scenario import AircraftScenario
 from pfcourse.terrain.scenario import simulate as simulate_flight
@@ -70,7 +70,7 @@ N_CHECK = 20
 
 
 def log_errors(scen, n_particles=300):
-    Z = simulate(scen, 7).Z
+    Z = simulate(scen, 7).measurements
     exact = kalman_log_likelihood(scen, Z, 1.0)
     out = []
     for seed in range(N_CHECK):
@@ -120,7 +120,7 @@ glue("check_runs", N_CHECK, display=False)
 # ```
 
 # %%
-Z = simulate(scenario, 7).Z
+Z = simulate(scenario, 7).measurements
 thetas = np.geomspace(0.4, 2.5, 17)
 exact_curve = np.array([kalman_log_likelihood(scenario, Z, t) for t in thetas])
 crn_curve = np.array([pf_log_likelihood(scenario, Z, t, 300, seed=11) for t in thetas])
@@ -652,7 +652,7 @@ x = trf["rf_scale_ml"].to_numpy()
 med, lo, hi = evidence.median_interval(x)
 q10, q90 = np.quantile(x, [0.1, 0.9])
 gain = trf["log_lik_ml"] - trf["log_lik_truth"]
-n_readings = int(np.sum(~np.isnan(simulate_flight(AircraftScenario(), load_jacksboro(), flight_seed(0, 0)).Z[:, 0])))
+n_readings = int(np.sum(~np.isnan(simulate_flight(AircraftScenario(), load_jacksboro(), data_rng(0, 0)).measurements[:, 0])))
 print(f"{len(trf)} flights: ML scale of R_f median {med:.2f} (95 % bootstrap interval {lo:.2f}-{hi:.2f}), "
       f"10-90 % of flights {q10:.2f}-{q90:.2f}; truth 1")
 print(f"log-likelihood at the ML scale minus at the truth: median {gain.median():.1f} nats; "
@@ -728,7 +728,7 @@ kf = kalman_filter(model, Z)
 rts_mean, rts_cov = rts_smoother(model, kf)
 pf = ParticleFilter(model, 300).run(Z, 21, store_particles=True)
 smooth = ffbsm(pf.particles, pf.weights, linear_gaussian_log_transition(model))
-truth = simulate(scenario, 7).X
+truth = simulate(scenario, 7).truth
 T = np.arange(len(Z))
 j = 2  # landmark 1, x
 fig, axes = plt.subplots(1, 2, figsize=(7, 3), constrained_layout=True, sharey=True)

@@ -37,10 +37,10 @@ from pfcourse.angles import wrap_angle
 from pfcourse.checks import Array
 from pfcourse.diagnostics import chi2_band, fraction_in_band, nees, nis, predictive_moments
 from pfcourse.errors import DegenerateWeightsError
-from pfcourse.experiments.terrain import flight_seed
 from pfcourse.filter import ParticleFilter
 from pfcourse.results import FilterResult
 from pfcourse.robot.scenario import ANGLE_INDICES, RobotModel, range_bearing, simulate_robot
+from pfcourse.seeding import data_rng, filter_rng, sized_filter_rng
 from pfcourse.terrain.kalman import unscented_kalman_filter
 from pfcourse.terrain.map import TerrainMap
 from pfcourse.terrain.scenario import (
@@ -116,7 +116,7 @@ def robot_tracks(seed: int, n_values: Sequence[int], *, n_steps: int = 100, q_sc
     Defaults differ from :func:`pfcourse.experiments.robot.compare_filters` in one respect:
     the filters assume the *true* noise levels (``q_scale = r_scale = 1``), so that a
     consistent filter has NEES ~ chi2_3 and NIS ~ chi2_2.  The particle filter's random
-    stream is seeded with ``[seed, N]``.  Errors are Euclidean position errors (m).
+    stream is :func:`~pfcourse.seeding.sized_filter_rng` ``(seed, N)``, that is ``[seed, N]``.  Errors are Euclidean position errors (m).
     """
     from pfcourse.robot.kalman import run_ekf, run_ukf
 
@@ -134,7 +134,7 @@ def robot_tracks(seed: int, n_values: Sequence[int], *, n_steps: int = 100, q_sc
 
     for n in n_values:
         start = time.perf_counter()
-        res = ParticleFilter(model, n, threshold=0.5).run(z, np.random.default_rng([seed, n]),
+        res = ParticleFilter(model, n, threshold=0.5).run(z, sized_filter_rng(seed, n),
                                                          store_particles=True)
         seconds = time.perf_counter() - start
         y, S = particle_innovations(res, z, predict, model.r_est, angle_indices=(1,))
@@ -151,24 +151,24 @@ def terrain_tracks(seed: int, run: int, scenario: AircraftScenario, terrain: Ter
                    n_values: Sequence[int], *, kalman: Sequence[str] = ("ekf", "ukf"),
                    resampler: str = "multinomial") -> list[Track]:
     """Terrain navigation: flight ``run`` of a study with seed ``seed`` (as
-    :func:`pfcourse.experiments.terrain.flight_study`: flight :func:`~pfcourse.experiments.terrain.flight_seed`,
-    particle filter seeded with ``[seed, run, 1]``), filtered by a PF per ``N`` and the EKF/UKF.
+    :func:`pfcourse.experiments.terrain.flight_study`: flight :func:`~pfcourse.seeding.data_rng`,
+    particle filter :func:`~pfcourse.seeding.filter_rng`), filtered by a PF per ``N`` and the EKF/UKF.
 
     Errors are horizontal position errors (m); a lost filter (every particle off the map,
     or a Kalman estimate or sigma point off the map) has ``inf`` error, NEES and NIS from
     the step it was lost (from the start for a particle filter).
     """
-    flight = simulate_flight(scenario, terrain, flight_seed(seed, run))
-    z = flight.Z
+    flight = simulate_flight(scenario, terrain, data_rng(seed, run))
+    z = flight.measurements
     K = len(z)
     tracks: list[Track] = []
 
     def track(name, n, mean, cov, y, S, seconds, lost):
-        err = np.where(np.isnan(mean[:, 0]), np.inf, position_error(flight.X, mean))
+        err = np.where(np.isnan(mean[:, 0]), np.inf, position_error(flight.truth, mean))
         q = nis(y, S)
         measured = ~np.isnan(z[:, 0])
         q[measured & np.isnan(q)] = np.inf
-        return Track(name, n, err, _safe_nees(flight.X, mean, cov, (3,)), q, seconds, lost)
+        return Track(name, n, err, _safe_nees(flight.truth, mean, cov, (3,)), q, seconds, lost)
 
     def predict(particles, zk, k):
         return predicted_measurement(particles, terrain)[:, None]
@@ -178,7 +178,7 @@ def terrain_tracks(seed: int, run: int, scenario: AircraftScenario, terrain: Ter
         start = time.perf_counter()
         try:
             res = ParticleFilter(model, n, threshold=0.5, resampler=resampler).run(
-                z, np.random.default_rng([seed, run, 1]), store_particles=True)
+                z, filter_rng(seed, run), store_particles=True)
         except DegenerateWeightsError:
             inf = np.full(K, np.inf)
             tracks.append(Track("pf", n, inf, inf, np.where(np.isnan(z[:, 0]), np.nan, np.inf),
@@ -281,7 +281,8 @@ def linear_convergence(model, measurements: Array, kalman, n_values: Sequence[in
     """Run a bootstrap particle filter ``n_runs`` times per ``N`` on one data set and compare it
     with the Kalman result ``kalman`` (:func:`pfcourse.landmarks.kalman.kalman_filter`).
 
-    Run ``r`` at ``N`` uses the random stream ``[seed, r, N]``.
+    Run ``r`` at ``N`` uses the random stream :func:`~pfcourse.seeding.sized_filter_rng`
+    ``(seed, N, run=r)``, that is ``[seed, r, N]``.
     """
     n_values = np.asarray(n_values, dtype=int)
     shape = (len(n_values), n_runs)
@@ -289,7 +290,7 @@ def linear_convergence(model, measurements: Array, kalman, n_values: Sequence[in
     for a, n in enumerate(n_values):
         pf = ParticleFilter(model, int(n), threshold=threshold)
         for r in range(n_runs):
-            res = pf.run(measurements, np.random.default_rng([seed, r, int(n)]))
+            res = pf.run(measurements, sized_filter_rng(seed, int(n), run=r))
             mean_err[a, r] = np.sqrt(np.mean((res.mean - kalman.mean) ** 2))
             cov_err[a, r] = np.sqrt(np.mean(np.sum((res.cov - kalman.cov) ** 2, axis=(1, 2))))
             ll_err[a, r] = res.log_likelihood - kalman.log_likelihood

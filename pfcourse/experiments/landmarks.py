@@ -84,8 +84,8 @@ def kalman_scores(
     rows: dict[str, list] = {k: [] for k in ("rmse", "log_var_ratio", "covered", "ess", "resampled")}
     for seed in range(first_seed, first_seed + n_runs):
         sim = simulate(scenario, rng=seed)
-        kf = kalman_filter(model, sim.Z)
-        s = score(run_filter(sim.Z, seed + 10**6), kf, sim.X, components)
+        kf = kalman_filter(model, sim.measurements)
+        s = score(run_filter(sim.measurements, seed + 10**6), kf, sim.truth, components)
         for key in rows:
             rows[key].append(getattr(s, key))
     return {k: np.array(v) for k, v in rows.items()}

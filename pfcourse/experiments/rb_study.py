@@ -73,20 +73,20 @@ def run_rows(
     """Every row of one simulation (seed ``seed``): the Kalman row, then each method and ``N``."""
     scenario = SCENARIOS[scenario_name]()
     sim = simulate(scenario, rng=seed)
-    kf = kalman_filter(scenario.model(), sim.Z)
+    kf = kalman_filter(scenario.model(), sim.measurements)
     measured = sim.seen.any(axis=1)
     nr = 2
     rows = [
         dict(scenario=scenario_name, method="kalman", N=0, seed=seed, landmark_error=0.0,
              robot_error=0.0, loglik_error=0.0, ess=1.0, seconds_per_step=0.0,
-             **{f"nees_{k:02d}": v for k, v in enumerate(nees(sim.X, kf.mean, kf.cov))})
+             **{f"nees_{k:02d}": v for k, v in enumerate(nees(sim.truth, kf.mean, kf.cov))})
     ]
     for method in methods:
         for n in n_values:
             run, first_stage = make_filter(method, scenario, n)
             start = time.perf_counter()
-            res = run(sim.Z, seed + 10**6)
-            seconds = (time.perf_counter() - start) / len(sim.Z)
+            res = run(sim.measurements, seed + 10**6)
+            seconds = (time.perf_counter() - start) / len(sim.measurements)
             err = res.mean[-1] - kf.mean[-1]
             ess = np.array(first_stage) if first_stage is not None else res.ess[measured]
             rows.append(dict(
@@ -96,6 +96,6 @@ def run_rows(
                 loglik_error=res.log_likelihood - kf.log_likelihood,
                 ess=float(np.mean(ess) / n),
                 seconds_per_step=seconds,
-                **{f"nees_{k:02d}": v for k, v in enumerate(nees(sim.X, res.mean, res.cov))},
+                **{f"nees_{k:02d}": v for k, v in enumerate(nees(sim.truth, res.mean, res.cov))},
             ))
     return rows

@@ -53,8 +53,8 @@ def variant_row(variant: str, n_particles: int, seed: int) -> dict:
     elif variant != "sir":
         raise ValueError(f"unknown variant {variant!r}")
     sim = simulate(sim_scenario, rng=seed)
-    reference = kalman_filter(sim_scenario.model(), sim.Z)
+    reference = kalman_filter(sim_scenario.model(), sim.measurements)
     pf = ParticleFilter(filter_model, n_particles, threshold=1 / 3, jitter=jitter)
-    s = score(pf.run(sim.Z, seed + 10**6), reference, sim.X, LANDMARKS)
+    s = score(pf.run(sim.measurements, seed + 10**6), reference, sim.truth, LANDMARKS)
     return dict(variant=variant, N=n_particles, seed=seed,
                 error=float(s.rmse[-10:].mean()), coverage=float(s.covered[-10:].mean()))

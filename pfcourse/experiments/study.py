@@ -8,6 +8,7 @@ and returns a dictionary of metrics.  The result is a tidy table, one row per
 (setting, run).
 
 * **Reproducible runs.** Replicate ``r`` uses the seed
+  :func:`pfcourse.seeding.replicate_seed` ``(base_seed, r)``, drawn from
   ``SeedSequence([base_seed, r])``: any single row can be re-run alone.
 * **Common random numbers.** Replicate ``r`` uses the same seed in every setting,
   so the settings are compared on the same simulated truths and measurements and
@@ -49,6 +50,7 @@ import pandas as pd
 from pfcourse.arithmetic import one_blas_thread
 from pfcourse.checks import check_count, check_real
 from pfcourse.errors import ParameterError, StepError
+from pfcourse.seeding import replicate_seed
 
 Metrics = Mapping[str, float]
 
@@ -58,11 +60,6 @@ STALL_TIMEOUT = 600.0
 
 class StudyWarning(UserWarning):
     """A study's executor stalled or broke; its unfinished tasks were run in this process."""
-
-
-def replicate_seed(base_seed: int, replicate: int) -> int:
-    """The seed of replicate ``r``: a 63-bit integer drawn from ``SeedSequence([base_seed, r])``."""
-    return int(np.random.SeedSequence([base_seed, replicate]).generate_state(1, np.uint64)[0] >> np.uint64(1))
 
 
 class SerialExecutor(Executor):

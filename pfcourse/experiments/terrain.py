@@ -1,7 +1,8 @@
 """Monte Carlo runs of the terrain scenario: seeded flights, each filtered by the particle filter or the EKF.
 
-Flight ``r`` of a study with seed ``s`` is drawn from ``default_rng([s, r, 0])`` and its particle
-filter from ``default_rng([s, r, 1])``: every setting sees the same flights (common random numbers).
+Flight ``r`` of a study with seed ``s`` is drawn from :func:`pfcourse.seeding.data_rng` ``(s, r)`` and
+its particle filter from :func:`pfcourse.seeding.filter_rng` ``(s, r)``: every setting sees the same
+flights (common random numbers).
 """
 
 from __future__ import annotations
@@ -13,6 +14,7 @@ import numpy as np
 from pfcourse.checks import Array
 from pfcourse.errors import DegenerateWeightsError, ParameterError
 from pfcourse.filter import ParticleFilter
+from pfcourse.seeding import data_rng, filter_rng
 from pfcourse.terrain.map import TerrainMap
 from pfcourse.terrain.scenario import AircraftScenario, extended_kalman_filter, position_error, simulate
 
@@ -70,11 +72,6 @@ class MonteCarloResult:
         return out
 
 
-def flight_seed(seed: int, run: int) -> np.random.Generator:
-    """Generator of flight ``run`` of a study with seed ``seed`` (the same for every setting)."""
-    return np.random.default_rng([seed, run, 0])
-
-
 def flight_study(
     scenario: AircraftScenario,
     terrain: TerrainMap,
@@ -88,10 +85,11 @@ def flight_study(
 ) -> MonteCarloResult:
     """Run ``n_runs`` seeded flights of ``scenario`` and filter each one.
 
-    Flight ``r`` is drawn with :func:`flight_seed` ``(seed, r)``: every setting of a study
+    Flight ``r`` is drawn with :func:`~pfcourse.seeding.data_rng` ``(seed, r)``: every setting of a study
     sees the same true flights and altimeter noise (common random numbers), so differences
     between settings are not differences between flights.  ``method`` is ``"pf"``
-    (:class:`~pfcourse.filter.ParticleFilter`, seeded with ``[seed, r, 1]``) or ``"ekf"``.
+    (:class:`~pfcourse.filter.ParticleFilter`, seeded with :func:`~pfcourse.seeding.filter_rng`
+    ``(seed, r)``) or ``"ekf"``.
     """
     if method not in ("pf", "ekf"):
         raise ParameterError(f"method must be 'pf' or 'ekf', got {method!r}")
@@ -103,19 +101,19 @@ def flight_study(
     model = scenario.model(terrain)
     pf = ParticleFilter(model, n_particles, threshold=threshold, resampler=resampler)
     for r in range(n_runs):
-        flight = simulate(scenario, terrain, flight_seed(seed, r))
+        flight = simulate(scenario, terrain, data_rng(seed, r))
         if method == "ekf":
-            res = extended_kalman_filter(scenario, terrain, flight.Z)
+            res = extended_kalman_filter(scenario, terrain, flight.measurements)
             lost[r] = res.lost_at is not None
             mean, cov = res.mean, res.cov
         else:
             try:
-                res = pf.run(flight.Z, rng=np.random.default_rng([seed, r, 1]))
+                res = pf.run(flight.measurements, rng=filter_rng(seed, r))
             except DegenerateWeightsError:
                 lost[r] = True
                 continue
             mean, cov = res.mean, res.cov
             n_resamples[r] = res.n_resamples
-        errors[r] = position_error(flight.X, mean)
+        errors[r] = position_error(flight.truth, mean)
         sigma[r] = np.sqrt(cov[:, 0, 0] + cov[:, 1, 1])
     return MonteCarloResult(errors=errors, sigma=sigma, lost=lost, n_resamples=n_resamples)

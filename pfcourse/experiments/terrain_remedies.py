@@ -1,8 +1,8 @@
 """Seeded runs of the terrain filters, one (setting, flight) at a time, for the stored studies.
 
-A *setting* is a name in :data:`SETTINGS`; flight ``r`` is :func:`pfcourse.experiments.terrain.flight_seed`
+A *setting* is a name in :data:`SETTINGS`; flight ``r`` is drawn from :func:`pfcourse.seeding.data_rng`
 ``(0, r)`` (common random numbers: every setting sees the same truths and altimeter noise) and
-the filter's generator is ``default_rng([0, r, 1])``.  **Divergence**: a run is *lost* when its
+the filter from :func:`pfcourse.seeding.filter_rng` ``(0, r)``.  **Divergence**: a run is *lost* when its
 final horizontal error exceeds :data:`pfcourse.experiments.terrain.DIVERGED_ERROR` (500 m) or every particle
 died.  ``tools/studies/terrain_remedies.py`` writes the rows to ``book/data/terrain_remedies.csv``;
 ``tests/test_terrain_study.py`` recomputes a seeded sample of them.
@@ -13,9 +13,10 @@ from __future__ import annotations
 import numpy as np
 
 from pfcourse.errors import DegenerateWeightsError, ParameterError
-from pfcourse.experiments.terrain import DIVERGED_ERROR, flight_seed
+from pfcourse.experiments.terrain import DIVERGED_ERROR
 from pfcourse.filter import ParticleFilter
 from pfcourse.remedies import ProgressiveCorrection, RegularisedJitter
+from pfcourse.seeding import data_rng, filter_rng
 from pfcourse.terrain.scenario import AircraftScenario, position_error, simulate
 
 #: Q_f with the horizontal entries divided by 3, like every other horizontal length of the scenario.
@@ -63,16 +64,16 @@ def run_one(setting: str, run: int, terrain, scenario: AircraftScenario | None =
     """Filter flight ``run`` with ``setting``: final and time-averaged horizontal error (m), lost flag,
     likelihood evaluations per particle (the cost in particle-steps / N)."""
     scenario = scenario or AircraftScenario()
-    flight = simulate(scenario, terrain, flight_seed(0, run))
+    flight = simulate(scenario, terrain, data_rng(0, run))
     pf, pc = make_filter(setting, scenario, terrain)
     n = pf.n_particles
     try:
-        res = pf.run(flight.Z, rng=np.random.default_rng([0, run, 1]))
+        res = pf.run(flight.measurements, rng=filter_rng(0, run))
     except DegenerateWeightsError:
         return {"setting": setting, "flight": run, "N": n, "final_error": np.inf, "mean_error": np.inf,
                 "lost": True, "evaluations": np.nan}
-    e = position_error(flight.X, res.mean)
-    measured = int(np.sum(~np.isnan(flight.Z[:, 0])))
+    e = position_error(flight.truth, res.mean)
+    measured = int(np.sum(~np.isnan(flight.measurements[:, 0])))
     evaluations = measured if pc is None else int(np.sum(pc.stages))
     return {"setting": setting, "flight": run, "N": n, "final_error": float(e[-1]),
             "mean_error": float(np.mean(e)), "lost": bool(e[-1] > DIVERGED_ERROR),

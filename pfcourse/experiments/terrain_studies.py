@@ -8,8 +8,8 @@ varies one thing around the **regularised filter** of the terrain-cure chapter
 optimal bandwidth, :class:`pfcourse.remedies.RegularisedJitter`), which loses about one flight
 in twenty, so that a study compares accuracies rather than divergence noise.
 
-Flight ``r`` is :func:`pfcourse.experiments.terrain.flight_seed` ``(0, r)`` and the filter's
-generator ``default_rng([0, r, 1])`` for every setting (common random numbers), the seeds of
+Flight ``r`` is drawn from :func:`pfcourse.seeding.data_rng` ``(0, r)`` and the filter from
+:func:`pfcourse.seeding.filter_rng` ``(0, r)`` for every setting (common random numbers), the seeds of
 ``book/data/terrain_remedies.csv``: the baseline's rows are that table's
 ``"regularised N=30000"`` rows. ``tools/studies/terrain_studies.py`` writes
 ``book/data/terrain_studies.csv``; ``tests/test_terrain_studies.py`` re-computes a seeded sample.
@@ -20,9 +20,10 @@ from __future__ import annotations
 import numpy as np
 
 from pfcourse.errors import DegenerateWeightsError, ParameterError
-from pfcourse.experiments.terrain import DIVERGED_ERROR, flight_seed
+from pfcourse.experiments.terrain import DIVERGED_ERROR
 from pfcourse.filter import ParticleFilter
 from pfcourse.remedies import RegularisedJitter
+from pfcourse.seeding import data_rng, filter_rng
 from pfcourse.terrain.scenario import AircraftScenario, position_error, simulate
 
 BASELINE_N = 30000
@@ -73,19 +74,19 @@ def configure(study: str, setting: str, scenario: AircraftScenario | None = None
 def study_row(study: str, setting: str, flight: int, terrain) -> dict:
     """Filter flight ``flight`` with a setting: errors (m), lost flag, sigma at 50 and 75 s, resamplings, ESS."""
     scenario, options = configure(study, setting)
-    sim = simulate(scenario, terrain, flight_seed(0, flight))
+    sim = simulate(scenario, terrain, data_rng(0, flight))
     pf = ParticleFilter(scenario.model(terrain), options["n_particles"], threshold=options["threshold"],
                         resampler=options["resampler"], jitter=RegularisedJitter(KERNEL_SCALE, (3,)))
     row = {"study": study, "setting": setting, "flight": flight}
     try:
-        res = pf.run(sim.Z, rng=np.random.default_rng([0, flight, 1]))
+        res = pf.run(sim.measurements, rng=filter_rng(0, flight))
     except DegenerateWeightsError:
         return {**row, "final_error": np.inf, "mean_error": np.inf, "lost": True, "sigma_50": np.nan,
                 "sigma_75": np.nan, "resamplings": -1, "median_ess_fraction": np.nan}
-    e = position_error(sim.X, res.mean)
+    e = position_error(sim.truth, res.mean)
     sigma = np.sqrt(res.cov[:, 0, 0] + res.cov[:, 1, 1])
     k50, k75 = (int(round(t / scenario.dt)) for t in (50.0, 75.0))
-    measured = ~np.isnan(sim.Z[:, 0])
+    measured = ~np.isnan(sim.measurements[:, 0])
     return {**row, "final_error": float(e[-1]), "mean_error": float(np.mean(e)),
             "lost": bool(e[-1] > DIVERGED_ERROR), "sigma_50": float(sigma[k50]), "sigma_75": float(sigma[k75]),
             "resamplings": int(res.n_resamples),

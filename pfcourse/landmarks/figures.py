@@ -16,7 +16,7 @@ def landmark_scene(
     """Draw scenario A's world: robot path, landmarks (green if ever seen), field of view at the end."""
     if ax is None:
         _, ax = plt.subplots(figsize=(5.5, 5.5))
-    X = sim.X
+    X = sim.truth
     robot = X[:, :2]
     landmarks = X[-1, 2:].reshape(-1, 2)
     ax.plot(robot[:, 0], robot[:, 1], "-", color=COLORS["robot"], lw=1, label="robot path")
@@ -48,7 +48,7 @@ def animate_landmarks(
     fig, ax = plt.subplots(figsize=(5.0, 5.0), dpi=72)
     _world_axes(ax, limits)
     extent = _extent(limits)
-    robot = sim.X[:, :2]
+    robot = sim.truth[:, :2]
     n_lm = scenario.n_landmarks
     fov = Polygon(scenario.fov_polygon(robot[0], extent), closed=True, color=COLORS["fov"], alpha=0.2)
     ax.add_patch(fov)
@@ -64,13 +64,13 @@ def animate_landmarks(
         trail.set_data(robot[start : k + 1, 0], robot[start : k + 1, 1])
         dot.set_data([robot[k, 0]], [robot[k, 1]])
         for j in range(n_lm):
-            lx, ly = sim.X[k, 2 + 2 * j : 4 + 2 * j]
+            lx, ly = sim.truth[k, 2 + 2 * j : 4 + 2 * j]
             seen = bool(sim.seen[k, j])
             squares[j].set_data([lx], [ly])
             squares[j].set_color(COLORS["seen" if seen else "unseen"])
             squares[j].set_markeredgecolor("k")
             if seen:
-                dz = sim.Z[k, 2 * j : 2 * j + 2]
+                dz = sim.measurements[k, 2 * j : 2 * j + 2]
                 arrows[j].set_data([robot[k, 0], robot[k, 0] + dz[0]], [robot[k, 1], robot[k, 1] + dz[1]])
             else:
                 arrows[j].set_data([], [])

@@ -219,16 +219,16 @@ def circle_scenario(n_landmarks: int = 5) -> LandmarkScenario:
 
 @dataclass(frozen=True)
 class LandmarkSimulation:
-    """One simulated run: times ``T`` ``(K,)``, states ``X`` ``(K, 2+2M)``, measurements ``Z`` ``(K, 2M)``.
+    """One simulated run: times ``T`` ``(K,)``, true states ``truth`` ``(K, 2+2M)``, ``measurements`` ``(K, 2M)``.
 
-    ``Z[k]`` holds NaN for the landmarks not seen at time ``k`` (all of them at
+    ``measurements[k]`` holds NaN for the landmarks not seen at time ``k`` (all of them at
     ``k = 0``: the first measurement comes after the first move); ``seen[k, j]``
     says whether landmark ``j`` was seen.
     """
 
     T: np.ndarray
-    X: np.ndarray
-    Z: np.ndarray
+    truth: np.ndarray
+    measurements: np.ndarray
     seen: np.ndarray
 
 
@@ -248,4 +248,4 @@ def simulate(scenario: LandmarkScenario, rng: np.random.Generator | int) -> Land
     seen[0] = False
     Z = X @ H.T + noise
     Z[~np.repeat(seen, 2, axis=1)] = np.nan
-    return LandmarkSimulation(T=s.times, X=X, Z=Z, seen=seen)
+    return LandmarkSimulation(T=s.times, truth=X, measurements=Z, seen=seen)

@@ -75,6 +75,7 @@ from pfcourse.filter import DensityProposal, ParticleFilter
 from pfcourse.results import FilterResult
 from pfcourse.remedies import ProgressiveCorrection, RegularisedJitter
 from pfcourse.sample_size import KLDSampling, kld_bound  # noqa: F401  (kld_bound: re-exported for the chapter)
+from pfcourse.seeding import kidnap_rng
 from pfcourse.robot.scenario import ANGLE_INDICES, RobotModel, RobotSimulation, motion, range_bearing, simulate_robot
 
 _LOG_2PI = math.log(2.0 * math.pi)
@@ -472,8 +473,9 @@ def global_run(seed: int, method: str, n_particles: int, *, n_steps: int = 60,
 
 
 def kidnap_pose(seed: int, truth_at: Array, half_width: float = 60.0, min_distance: float = 30.0) -> Array:
-    """A pose uniform on the map at least ``min_distance`` m from ``truth_at`` (seeded, per run)."""
-    rng = np.random.default_rng([seed, 7])
+    """A pose uniform on the map at least ``min_distance`` m from ``truth_at`` (per run:
+    :func:`pfcourse.seeding.kidnap_rng` ``(seed)``)."""
+    rng = kidnap_rng(seed)
     margin = 0.8 * half_width
     while True:
         pose = np.array([*rng.uniform(-margin, margin, 2), rng.uniform(-np.pi, np.pi)])

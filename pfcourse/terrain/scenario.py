@@ -218,13 +218,13 @@ class TerrainModel:
 
 @dataclass
 class Flight:
-    """One simulated flight: ``T`` ``(K,)`` times (s), ``X`` ``(K, 4)`` true states,
-    ``Z`` ``(K, 1)`` altimeter readings (NaN when not measured) and ``terrain_height``
+    """One simulated flight: ``T`` ``(K,)`` times (s), ``truth`` ``(K, 4)`` true states,
+    ``measurements`` ``(K, 1)`` altimeter readings (NaN when not measured) and ``terrain_height``
     ``(K,)`` the ground height under the aircraft."""
 
     T: Array
-    X: Array
-    Z: Array
+    truth: Array
+    measurements: Array
     terrain_height: Array
 
 
@@ -259,7 +259,7 @@ def simulate(
     ground = terrain.height_checked(X[:, 0], X[:, 1])
     noise = rng.normal(0.0, np.sqrt(s.R), K)
     Z = np.where(s.measured(), X[:, 2] - ground + noise, np.nan)[:, None]
-    return Flight(T=s.times, X=X, Z=Z, terrain_height=ground)
+    return Flight(T=s.times, truth=X, measurements=Z, terrain_height=ground)
 
 
 class _TerrainEKF(ExtendedKalmanFilter):

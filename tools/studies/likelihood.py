@@ -34,7 +34,8 @@ import pfcourse  # noqa: F401  (pins the arithmetic before numpy computes anythi
 from pfcourse.landmarks import quadrant_scenario, simulate
 from pfcourse.experiments.likelihood import kalman_log_likelihood, max_likelihood_scale, pf_log_likelihood, pmmh
 from pfcourse.experiments.provenance import launch_commit, write_provenance
-from pfcourse.experiments.study import replicate_seed, run_study
+from pfcourse.experiments.study import run_study
+from pfcourse.seeding import replicate_seed
 
 ROOT = Path(__file__).resolve().parents[2]
 OUT = ROOT / "book" / "data" / "likelihood"
@@ -63,13 +64,13 @@ def chapter_data():
 
 
 def bias_run(seed: int, n_particles: int) -> dict:
-    Z = chapter_data().Z
+    Z = chapter_data().measurements
     estimate = pf_log_likelihood(SCENARIO, Z, 1.0, n_particles, seed, NOISE)
     return {"log_ratio": estimate - kalman_log_likelihood(SCENARIO, Z, 1.0, NOISE)}
 
 
 def ml_run(seed: int, n_particles: int) -> dict:
-    Z = simulate(SCENARIO, seed).Z
+    Z = simulate(SCENARIO, seed).measurements
     filter_seed = seed + 1  # one filter seed for every theta: common random numbers
     theta_k, nfev_k = max_likelihood_scale(lambda t: kalman_log_likelihood(SCENARIO, Z, t, NOISE), BOUNDS, XATOL)
     theta_p, nfev_p = max_likelihood_scale(
@@ -78,7 +79,7 @@ def ml_run(seed: int, n_particles: int) -> dict:
 
 
 def pmmh_chain(n_particles: int, n_iterations: int = PMMH_ITERATIONS):
-    Z = chapter_data().Z
+    Z = chapter_data().measurements
     seed = replicate_seed(PMMH_SEED, n_particles)
     chain = pmmh(lambda t, rng: pf_log_likelihood(SCENARIO, Z, t, n_particles, rng, NOISE),
                  PRIOR, PMMH_THETA0, n_iterations, PMMH_STEP, seed)
@@ -86,7 +87,7 @@ def pmmh_chain(n_particles: int, n_iterations: int = PMMH_ITERATIONS):
 
 
 def pmmh2_chain(n_particles: int, n_iterations: int = PMMH2_ITERATIONS):
-    Z = chapter_data().Z
+    Z = chapter_data().measurements
     seed = replicate_seed(PMMH2_SEED, n_particles)
     chain = pmmh(lambda t, rng: pf_log_likelihood(SCENARIO, Z, t, n_particles, rng, ("Qw", "Rv")),
                  PRIOR, np.array(PMMH2_THETA0), n_iterations, PMMH2_STEP, seed)
@@ -95,7 +96,7 @@ def pmmh2_chain(n_particles: int, n_iterations: int = PMMH2_ITERATIONS):
 
 def grid2_row(i: int) -> list[dict]:
     """Exact log-likelihood along row ``i`` of the (log theta_q, log theta_r) grid."""
-    Z = chapter_data().Z
+    Z = chapter_data().measurements
     u = np.linspace(np.log(BOUNDS[0]), np.log(BOUNDS[1]), GRID2)
     return [{"i": i, "j": j, "log_theta_q": u[i], "log_theta_r": u[j],
              "log_likelihood": kalman_log_likelihood(SCENARIO, Z, (np.exp(u[i]), np.exp(u[j])), ("Qw", "Rv"))}
@@ -103,17 +104,17 @@ def grid2_row(i: int) -> list[dict]:
 
 
 def terrain_rf_run(seed: int, flight: int, n_particles: int) -> dict:
-    """ML scale of R_f on flight ``flight`` (the terrain chapters' flight_seed(0, flight)); ``seed`` unused."""
+    """ML scale of R_f on flight ``flight`` (the terrain chapters' data_rng(0, flight)); ``seed`` unused."""
     from pfcourse.experiments.likelihood import terrain_log_likelihood
-    from pfcourse.experiments.terrain import flight_seed
+    from pfcourse.seeding import data_rng, likelihood_rng
     from pfcourse.terrain.map import load_jacksboro
     from pfcourse.terrain.scenario import AircraftScenario, simulate
 
     terrain, scenario = load_jacksboro(), AircraftScenario()
-    sim = simulate(scenario, terrain, flight_seed(0, flight))
+    sim = simulate(scenario, terrain, data_rng(0, flight))
 
     def log_lik(scale: float) -> float:
-        return terrain_log_likelihood(scenario, terrain, sim.Z, scale, n_particles, np.random.default_rng([0, flight, 2]))
+        return terrain_log_likelihood(scenario, terrain, sim.measurements, scale, n_particles, likelihood_rng(0, flight))
 
     theta, nfev = max_likelihood_scale(lambda t: max(log_lik(t), -1e300), TERRAIN_BOUNDS, XATOL)
     return {"rf_scale_ml": theta, "nfev": nfev, "log_lik_ml": log_lik(theta), "log_lik_truth": log_lik(1.0)}
@@ -133,7 +134,7 @@ def main(parts: list[str]) -> None:
         table.drop(columns=["seconds"]).to_csv(OUT / "bias.csv", index=False)
         provenance("bias", {"data_seed": DATA_SEED, "base_seed": BIAS_SEED, "n_runs": N_BIAS_RUNS,
                             "n_particles": N_BIAS, "theta": 1.0,
-                            "seeds": "pfcourse.study.replicate_seed(base_seed, run)"},
+                            "seeds": "pfcourse.seeding.replicate_seed(base_seed, run)"},
                    time.perf_counter() - start)
     if "ml" in parts:
         start = time.perf_counter()
@@ -164,8 +165,9 @@ def main(parts: list[str]) -> None:
         table.drop(columns=["seconds"]).to_csv(OUT / "terrain_rf.csv", index=False)
         provenance("terrain_rf", {"n_particles": N_TERRAIN, "n_flights": N_TERRAIN_FLIGHTS, "bounds": TERRAIN_BOUNDS,
                                   "xatol_log_theta": XATOL, "truth": 1.0, "kernel_scale": 0.2,
-                                  "seeds": "flight r: pfcourse.experiments.terrain.flight_seed(0, r) (the terrain chapters' "
-                                           "flights); filter: default_rng([0, r, 2]) for every scale"},
+                                  "seeds": "flight r: pfcourse.seeding.data_rng(0, r) = default_rng([0, r, 0]) (the terrain "
+                                           "chapters' flights); filter: pfcourse.seeding.likelihood_rng(0, r) = "
+                                           "default_rng([0, r, 2]) for every scale"},
                    time.perf_counter() - start)
     if "pmmh2" in parts:
         start = time.perf_counter()

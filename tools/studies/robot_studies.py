@@ -31,7 +31,7 @@ def main() -> None:
                      n_runs=rs.N_RUNS, defaults=rs.DEFAULTS,
                      studies={name: {"grid": grid, "options": options} for name, (grid, options) in rs.STUDIES.items()},
                      seconds_per_study=seconds,
-                     seeds="run r: pfcourse.experiments.study.replicate_seed(0, r), in every study and setting",
+                     seeds="run r: pfcourse.seeding.replicate_seed(0, r), in every study and setting",
                      seconds_column="wall time of one run on a shared 2-core machine: indicative only")
 
 

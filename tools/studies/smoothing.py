@@ -45,16 +45,16 @@ N_ROBOT, ROBOT_RUNS, ROBOT_SEED = 300, 100, 5
 def landmarks_run(seed: int, n_particles: int) -> dict:
     sim = simulate(SCENARIO_A, seed)
     model = SCENARIO_A.model()
-    kf = kalman_filter(model, sim.Z)
+    kf = kalman_filter(model, sim.measurements)
     m_s, P_s = rts_smoother(model, kf)
-    r = ParticleFilter(model, n_particles).run(sim.Z, seed + 1, store_particles=True)
+    r = ParticleFilter(model, n_particles).run(sim.measurements, seed + 1, store_particles=True)
     s = ffbsm(r.particles, r.weights, linear_gaussian_log_transition(model))
     sd_s = np.sqrt(np.diagonal(P_s, axis1=1, axis2=2))
     sd_f = np.sqrt(np.diagonal(kf.cov, axis1=1, axis2=2))
     return {"smoother_vs_rts": float(np.sqrt(np.mean(((s.mean - m_s) / sd_s) ** 2))),
             "filter_vs_kalman": float(np.sqrt(np.mean(((r.mean - kf.mean) / sd_f) ** 2))),
-            "rts_truth_error": float(np.sqrt(np.mean((m_s - sim.X) ** 2))),
-            "kalman_truth_error": float(np.sqrt(np.mean((kf.mean - sim.X) ** 2))),
+            "rts_truth_error": float(np.sqrt(np.mean((m_s - sim.truth) ** 2))),
+            "kalman_truth_error": float(np.sqrt(np.mean((kf.mean - sim.truth) ** 2))),
             "smoother_ess_median": float(np.median(1.0 / np.sum(s.weights**2, axis=1)))}
 
 

@@ -9,8 +9,8 @@
   lost the fewest flights (3 of 100) among the studies of book/data/terrain_studies.csv. It was
   chosen among 16 settings on flights 0-99, so its 3 % there is biased low (a winner's curse);
   the done-when of issue 17 is judged on flights it has never seen.
-- *The flights*: 100 to 199 (flight r: ``flight_seed(0, r)``, filter generator
-  ``default_rng([0, r, 1])``), used by no other study of the book.
+- *The flights*: 100 to 199 (flight r: ``pfcourse.seeding.data_rng(0, r)``, filter
+  ``filter_rng(0, r)``), used by no other study of the book.
 - *The criterion*: the candidate **loses fewer than 5 of the 100 fresh flights** (final horizontal
   error > 500 m, or every particle lost). The Wilson interval of its loss rate is reported
   whatever the count.
@@ -76,7 +76,7 @@ def main() -> None:
                      row_code="tools/studies/terrain_confirmation.py (run)",
                      flights=[FLIGHTS.start, FLIGHTS.stop - 1], criterion=CRITERION,
                      settings={k: list(v) for k, v in SETTINGS.items()},
-                     seeds="flight r: pfcourse.experiments.terrain.flight_seed(0, r); filter: default_rng([0, r, 1])",
+                     seeds="flight r: pfcourse.seeding.data_rng(0, r) = default_rng([0, r, 0]); filter: pfcourse.seeding.filter_rng(0, r) = default_rng([0, r, 1])",
                      divergence="final horizontal error > 500 m or every particle lost",
                      seconds_column="wall time of one run, the three settings of a flight one after another "
                                     "in a rotating order, on a shared 2-core machine")

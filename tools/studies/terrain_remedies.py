@@ -38,7 +38,7 @@ def main() -> None:
     meta_path = OUT.with_suffix(".json")
     meta = json.loads(meta_path.read_text()) if meta_path.exists() else {"runs": []}
     meta.update({"code": "pfcourse/experiments/terrain_remedies.py (run_one), tools/studies/terrain_remedies.py",
-                 "seeds": "flight r: flight_seed(0, r); filter: default_rng([0, r, 1])",
+                 "seeds": "flight r: pfcourse.seeding.data_rng(0, r) = default_rng([0, r, 0]); filter: pfcourse.seeding.filter_rng(0, r) = default_rng([0, r, 1])",
                  "divergence": "final horizontal error > 500 m or every particle lost",
                  "seconds": "wall time of one run on a shared 2-core machine: indicative only"})
     meta["runs"].append({"commit": commit, "flights": n_flights, "settings": settings,

@@ -48,7 +48,7 @@ def main(n_flights: int) -> None:
                      n_flights=n_flights, baseline={"N": ts.BASELINE_N, "threshold": ts.BASELINE_THRESHOLD,
                                                     "scheme": ts.BASELINE_SCHEME, "kernel_scale": ts.KERNEL_SCALE},
                      studies=ts.STUDIES,
-                     seeds="flight r: pfcourse.experiments.terrain.flight_seed(0, r); filter: default_rng([0, r, 1])",
+                     seeds="flight r: pfcourse.seeding.data_rng(0, r) = default_rng([0, r, 0]); filter: pfcourse.seeding.filter_rng(0, r) = default_rng([0, r, 1])",
                      divergence="final horizontal error > 500 m or every particle lost",
                      seconds_column="wall time of one run on a shared 2-core machine: indicative only")
 

@@ -1,0 +1,99 @@
+"""How every random number of the book is seeded: one table, one function per stream.
+
+Every random draw of pfcourse, the chapters and the studies goes through a
+:class:`numpy.random.Generator` (PCG64) made from a key.  A key is either a plain integer
+seed or a short list of integers (the entropy of a :class:`numpy.random.SeedSequence`); the
+streams of one run are told apart by the last entry of the list.  The keys are:
+
+========================  ================================  ==============================  =================================================
+stream                    key (entropy)                     used by                         why it gives common random numbers
+========================  ================================  ==============================  =================================================
+:func:`replicate_seed`    ``SeedSequence([base, r])``,      ``run_study``: replicate ``r``  replicate ``r`` has the same seed in every
+                          its first 63 bits as an ``int``   of each setting of a grid       setting: the same simulated world and noise
+:func:`data_rng`          ``[seed, r, 0]``                  the terrain flights: truth and  flight ``r`` is the same for every filter,
+                                                            altimeter noise of run ``r``    ``N`` and remedy
+:func:`filter_rng`        ``[seed, r, 1]``                  the particle filter on flight   the filters of every setting start from the same
+                                                            ``r`` (and its initial cloud)   stream (for one ``N``: the same initial cloud)
+:func:`likelihood_rng`    ``[seed, r, 2]``                  the filter estimating the       one stream per flight for every value of the
+                                                            likelihood of a noise scale     scale: the likelihood is a smooth function of it
+:func:`reference_rng`     ``[seed, r, 100 + i]``            the large-``N`` reference       independent of the studies' filter streams, one
+                                                            filters, repeat ``i``           per repeat ``i``
+:func:`sized_filter_rng`  ``[seed, N]``, ``[seed, r, N]``   a filter run once per particle  the data are shared; each ``N`` (and run) has
+                                                            count ``N`` on shared data      its own filter stream
+:func:`kidnap_rng`        ``[seed, 7]``                     the kidnapped robot's new pose  the same kidnapping for every method and ``N``
+plain seed                ``s`` (an ``int``), offsets such  single runs of the chapters;    the same ``s`` in every setting; the offset keeps
+                          as ``s + 1``, ``s + 10**6``       a run's filter next to its      the filter's stream apart from the data's
+                                                            simulation
+========================  ================================  ==============================  =================================================
+
+``seed`` is a study's base seed (``0`` in the book's terrain studies), ``r`` the run (or
+flight), ``N`` the number of particles.  Within a run, the data and the filter never share a
+stream, so changing a filter setting cannot change the data it is compared on.  The keys
+are fixed: a stream changed here changes every stored result of the book.  Provenance
+records written before these names existed describe :func:`data_rng` as
+``pfcourse.experiments.terrain.flight_seed`` and the other list keys by their entropy lists,
+as in the table.
+
+Every function refuses a seed, run or count that is not a non-negative integer
+(``None``, a float, a boolean, a negative number) with a
+:class:`~pfcourse.errors.ParameterError`.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from pfcourse.errors import ParameterError
+
+
+def check_seed(value, name: str = "seed") -> int:
+    """Return ``value`` as an ``int`` if it is a non-negative integer (a NumPy integer too)."""
+    if isinstance(value, (bool, np.bool_)) or not isinstance(value, (int, np.integer)):
+        raise ParameterError(f"{name} must be a non-negative integer, got {value!r}")
+    if value < 0:
+        raise ParameterError(f"{name} must be a non-negative integer, got {value}")
+    return int(value)
+
+
+def _rng(*key) -> np.random.Generator:
+    return np.random.default_rng(list(key))
+
+
+def replicate_seed(base_seed: int, replicate: int) -> int:
+    """The seed of replicate ``r``: a 63-bit integer drawn from ``SeedSequence([base_seed, r])``."""
+    entropy = [check_seed(base_seed, "base_seed"), check_seed(replicate, "replicate")]
+    return int(np.random.SeedSequence(entropy).generate_state(1, np.uint64)[0] >> np.uint64(1))
+
+
+def data_rng(seed: int, run: int) -> np.random.Generator:
+    """The simulated data of run ``run`` (a terrain flight): ``default_rng([seed, run, 0])``."""
+    return _rng(check_seed(seed), check_seed(run, "run"), 0)
+
+
+def filter_rng(seed: int, run: int) -> np.random.Generator:
+    """The particle filter of run ``run``: ``default_rng([seed, run, 1])``."""
+    return _rng(check_seed(seed), check_seed(run, "run"), 1)
+
+
+def likelihood_rng(seed: int, run: int) -> np.random.Generator:
+    """The filter estimating a likelihood on the data of run ``run``: ``default_rng([seed, run, 2])``."""
+    return _rng(check_seed(seed), check_seed(run, "run"), 2)
+
+
+def reference_rng(seed: int, run: int, repeat: int) -> np.random.Generator:
+    """Repeat ``repeat`` of a reference filter on run ``run``: ``default_rng([seed, run, 100 + repeat])``."""
+    return _rng(check_seed(seed), check_seed(run, "run"), 100 + check_seed(repeat, "repeat"))
+
+
+def sized_filter_rng(seed: int, n_particles: int, run: int | None = None) -> np.random.Generator:
+    """The filter with ``n_particles`` particles: ``default_rng([seed, N])``, or
+    ``default_rng([seed, run, N])`` when one data set is filtered by several runs per ``N``."""
+    n = check_seed(n_particles, "n_particles")
+    if run is None:
+        return _rng(check_seed(seed), n)
+    return _rng(check_seed(seed), check_seed(run, "run"), n)
+
+
+def kidnap_rng(seed: int) -> np.random.Generator:
+    """Where the robot of run ``seed`` is carried when kidnapped: ``default_rng([seed, 7])``."""
+    return _rng(check_seed(seed), 7)
