@@ -245,6 +245,25 @@ def test_monte_carlo_is_seeded_and_first_n_runs_are_a_smaller_study(jacksboro):
     assert pf.errors.shape == (3, 11) and np.all(pf.n_resamples >= 0)
 
 
+def test_flight_study_does_not_depend_on_the_executor_or_the_batch_size(jacksboro):
+    from concurrent.futures import ThreadPoolExecutor
+
+    from pfcourse.experiments.study import SerialExecutor
+    from pfcourse.experiments.terrain import flight_study
+
+    scenario = AircraftScenario().with_(duration=10.0)
+    for method, n in (("pf", 20), ("ekf", None)):
+        kwargs = {"method": method, "seed": 3} | ({"n_particles": n} if n else {})
+        serial = flight_study(scenario, jacksboro, 5, executor=SerialExecutor(), batch_size=5, **kwargs)
+        with ThreadPoolExecutor(2) as threads:
+            others = [flight_study(scenario, jacksboro, 5, batch_size=2, **kwargs),  # the default pool
+                      flight_study(scenario, jacksboro, 5, executor=threads, batch_size=1, **kwargs)]
+        for other in others:
+            for field in ("errors", "sigma", "lost", "n_resamples"):
+                a, b = getattr(serial, field), getattr(other, field)
+                assert a.dtype == b.dtype and np.array_equal(a, b, equal_nan=True), (method, field)
+
+
 def test_summary_counts_lost_runs_as_infinite_without_nan():
     from pfcourse.experiments.terrain import MonteCarloResult
 

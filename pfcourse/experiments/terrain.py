@@ -7,12 +7,14 @@ flights (common random numbers).
 
 from __future__ import annotations
 
+from concurrent.futures import Executor
 from dataclasses import dataclass
 
 import numpy as np
 
-from pfcourse.checks import Array
+from pfcourse.checks import Array, check_count
 from pfcourse.errors import DegenerateWeightsError, ParameterError
+from pfcourse.experiments.study import run_tasks
 from pfcourse.filter import ParticleFilter
 from pfcourse.seeding import data_rng, filter_rng
 from pfcourse.terrain.map import TerrainMap
@@ -82,6 +84,8 @@ def flight_study(
     resampler: str = "multinomial",
     seed: int = 0,
     method: str = "pf",
+    executor: Executor | None = None,
+    batch_size: int = 10,
 ) -> MonteCarloResult:
     """Run ``n_runs`` seeded flights of ``scenario`` and filter each one.
 
@@ -89,31 +93,43 @@ def flight_study(
     sees the same true flights and altimeter noise (common random numbers), so differences
     between settings are not differences between flights.  ``method`` is ``"pf"``
     (:class:`~pfcourse.filter.ParticleFilter`, seeded with :func:`~pfcourse.seeding.filter_rng`
-    ``(seed, r)``) or ``"ekf"``.
+    ``(seed, r)``) or ``"ekf"``.  The flights are shared out, ``batch_size`` at a time, by
+    :func:`~pfcourse.experiments.study.run_tasks` (``executor=None``: a process pool over the
+    cores); the result does not depend on the executor.
     """
     if method not in ("pf", "ekf"):
         raise ParameterError(f"method must be 'pf' or 'ekf', got {method!r}")
+    n_runs = check_count(n_runs, "n_runs")
+    batch_size = check_count(batch_size, "batch_size")
+    settings = (n_particles, threshold, resampler, seed, method)
+    chunks = [list(range(start, min(start + batch_size, n_runs))) for start in range(0, n_runs, batch_size)]
+    runs = [run for chunk_runs in run_tasks(_flights, [(scenario, terrain, chunk, *settings) for chunk in chunks],
+                                            executor=executor)
+            for run in chunk_runs]
+    errors, sigma, lost, n_resamples = (np.array(column) for column in zip(*runs))
+    return MonteCarloResult(errors=errors, sigma=sigma, lost=lost, n_resamples=n_resamples)
+
+
+def _flights(scenario: AircraftScenario, terrain: TerrainMap, runs: list[int], n_particles: int,
+             threshold: float, resampler: str, seed: int, method: str) -> list[tuple[Array, Array, bool, int]]:
+    """Flights ``runs`` of :func:`flight_study`: per run, the errors, ``sigma``, lost and resampling count."""
     K = scenario.n_steps
-    errors = np.full((n_runs, K), np.nan)
-    sigma = np.full((n_runs, K), np.nan)
-    lost = np.zeros(n_runs, dtype=bool)
-    n_resamples = np.zeros(n_runs, dtype=int)
     model = scenario.model(terrain)
     pf = ParticleFilter(model, n_particles, threshold=threshold, resampler=resampler)
-    for r in range(n_runs):
+    out = []
+    for r in runs:
         flight = simulate(scenario, terrain, data_rng(seed, r))
+        n_resamples = 0
         if method == "ekf":
             res = extended_kalman_filter(scenario, terrain, flight.measurements)
-            lost[r] = res.lost_at is not None
-            mean, cov = res.mean, res.cov
+            lost = res.lost_at is not None
         else:
             try:
                 res = pf.run(flight.measurements, rng=filter_rng(seed, r))
             except DegenerateWeightsError:
-                lost[r] = True
+                out.append((np.full(K, np.nan), np.full(K, np.nan), True, 0))
                 continue
-            mean, cov = res.mean, res.cov
-            n_resamples[r] = res.n_resamples
-        errors[r] = position_error(flight.truth, mean)
-        sigma[r] = np.sqrt(cov[:, 0, 0] + cov[:, 1, 1])
-    return MonteCarloResult(errors=errors, sigma=sigma, lost=lost, n_resamples=n_resamples)
+            lost, n_resamples = False, res.n_resamples
+        out.append((position_error(flight.truth, res.mean), np.sqrt(res.cov[:, 0, 0] + res.cov[:, 1, 1]),
+                    lost, n_resamples))
+    return out
