@@ -38,3 +38,37 @@ def test_a_collapsed_particle_cloud_is_scored_overconfident():
     # SIS degenerates to one particle: its landmark variance is orders of magnitude too small.
     assert np.median(out["log_var_ratio"][:, -1]) < np.log(1e-4)
     assert out["rmse"].shape == (5, scenario.n_samples)
+
+
+def test_scores_do_not_depend_on_the_executor():
+    from concurrent.futures import ThreadPoolExecutor
+
+    from pfcourse.experiments.study import SerialExecutor
+
+    scenario = quadrant_scenario()
+    pf = ParticleFilter(scenario.model(), 100, threshold=0.5)
+    serial = kalman_scores(scenario, pf.run, 12, components=[2, 3], executor=SerialExecutor())
+    with ThreadPoolExecutor(3) as threads:
+        others = [kalman_scores(scenario, pf.run, 12, components=[2, 3]),  # the default pool
+                  kalman_scores(scenario, pf.run, 12, components=[2, 3], executor=threads),
+                  kalman_scores(scenario, lambda z, s: pf.run(z, s), 12, components=[2, 3])]  # in this process
+    for other in others:
+        assert other.keys() == serial.keys()
+        for key in serial:
+            assert np.array_equal(other[key], serial[key], equal_nan=True), key
+
+
+def test_linear_convergence_does_not_depend_on_the_executor():
+    from pfcourse.experiments.comparison import linear_convergence
+    from pfcourse.experiments.study import SerialExecutor
+    from pfcourse.landmarks.scenario import simulate
+
+    scenario = quadrant_scenario()
+    model = scenario.model()
+    data = simulate(scenario, rng=1)
+    exact = kalman_filter(model, data.measurements)
+    serial = linear_convergence(model, data.measurements, exact, [30, 100], 4, executor=SerialExecutor())
+    pooled = linear_convergence(model, data.measurements, exact, [30, 100], 4)
+    for field in ("mean_error", "cov_error", "loglik_error"):
+        assert np.array_equal(getattr(serial, field), getattr(pooled, field)), field
+    assert serial.mean_error.shape == (2, 4)

@@ -158,7 +158,7 @@ for scale in scales:
     meas_s = measured_steps(sc, n_runs)
     for name, prop in PROPOSALS.items():
         pf = ParticleFilter(m, 200, threshold=0.5, proposal=prop)
-        r = kalman_scores(sc, lambda Z, s: pf.run(Z, s), n_runs)
+        r = kalman_scores(sc, pf.run, n_runs)
         sweep[scale, name] = (r["ess"][meas_s].reshape(-1) / 200, r["rmse"].mean(axis=1))
         ess_per_run[scale, name] = np.nanmean(np.where(meas_s, r["ess"], np.nan), axis=1) / 200
 for scale in scales:

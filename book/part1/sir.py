@@ -124,8 +124,7 @@ HTML(animate_clouds({"SIS": sis_res, "SIR": res}, kf, sim.truth, frames=range(0,
 
 # %%
 n_runs = 50
-sir100 = kalman_scores(scenario, lambda Z, s: ParticleFilter(model, 100, threshold=1 / 3).run(Z, s),
-                     n_runs, components=LANDMARKS)
+sir100 = kalman_scores(scenario, ParticleFilter(model, 100, threshold=1 / 3).run, n_runs, components=LANDMARKS)
 rate = sir100["resampled"].mean(axis=1)
 print(f"N = 100, threshold N/3: resampled at {np.median(rate):.0%} of the steps "
       f"(median of {n_runs} runs, 10-90 %: {np.percentile(rate, 10):.0%}-{np.percentile(rate, 90):.0%})")
@@ -160,7 +159,7 @@ N_values = (100, 300, 1000, 3000)
 by_N = {100: sir100}
 for N in N_values[1:]:
     pf = ParticleFilter(model, N, threshold=1 / 3)
-    by_N[N] = kalman_scores(scenario, lambda Z, s: pf.run(Z, s), n_runs, components=LANDMARKS)
+    by_N[N] = kalman_scores(scenario, pf.run, n_runs, components=LANDMARKS)
 final = np.array([by_N[N]["rmse"][:, -1] for N in N_values])
 slope = np.polyfit(np.log(N_values), np.log(np.median(final, axis=1)), 1)[0]
 for N, f in zip(N_values, final):
@@ -240,11 +239,10 @@ glue("sir_score_steps", last, display=False)
 variants = {
     "SIR, lab's model": by_N[1000],
     "SIR + landmark noise 0.0025": kalman_scores(
-        scenario, lambda Z, s: ParticleFilter(model_fix, N, threshold=1 / 3).run(Z, s), n_runs,
-        components=LANDMARKS),
+        scenario, ParticleFilter(model_fix, N, threshold=1 / 3).run, n_runs, components=LANDMARKS),
     "SIR + roughening K = 0.2": kalman_scores(
-        scenario, lambda Z, s: ParticleFilter(model, N, threshold=1 / 3, jitter=Roughening(0.2)).run(Z, s),
-        n_runs, components=LANDMARKS),
+        scenario, ParticleFilter(model, N, threshold=1 / 3, jitter=Roughening(0.2)).run, n_runs,
+        components=LANDMARKS),
 }
 
 

@@ -28,15 +28,17 @@ from __future__ import annotations
 
 import time
 from collections.abc import Sequence
+from concurrent.futures import Executor
 from dataclasses import dataclass
 
 import numpy as np
 import pandas as pd
 
 from pfcourse.angles import wrap_angle
-from pfcourse.checks import Array
+from pfcourse.checks import Array, check_count
 from pfcourse.diagnostics import chi2_band, fraction_in_band, nees, nis, predictive_moments
 from pfcourse.errors import DegenerateWeightsError
+from pfcourse.experiments.study import run_tasks
 from pfcourse.filter import ParticleFilter
 from pfcourse.results import FilterResult
 from pfcourse.robot.scenario import ANGLE_INDICES, RobotModel, range_bearing, simulate_robot
@@ -277,24 +279,34 @@ class ConvergenceResult:
 
 
 def linear_convergence(model, measurements: Array, kalman, n_values: Sequence[int], n_runs: int, *,
-                       seed: int = 0, threshold: float = 0.5) -> ConvergenceResult:
+                       seed: int = 0, threshold: float = 0.5, executor: Executor | None = None) -> ConvergenceResult:
     """Run a bootstrap particle filter ``n_runs`` times per ``N`` on one data set and compare it
     with the Kalman result ``kalman`` (:func:`pfcourse.landmarks.kalman.kalman_filter`).
 
     Run ``r`` at ``N`` uses the random stream :func:`~pfcourse.seeding.sized_filter_rng`
-    ``(seed, N, run=r)``, that is ``[seed, r, N]``.
+    ``(seed, N, run=r)``, that is ``[seed, r, N]``.  The values of ``N`` are shared out by
+    :func:`~pfcourse.experiments.study.run_tasks` (``executor=None``: a process pool over the
+    cores); the result does not depend on it.
     """
     n_values = np.asarray(n_values, dtype=int)
-    shape = (len(n_values), n_runs)
-    mean_err, cov_err, ll_err = np.empty(shape), np.empty(shape), np.empty(shape)
-    for a, n in enumerate(n_values):
-        pf = ParticleFilter(model, int(n), threshold=threshold)
-        for r in range(n_runs):
-            res = pf.run(measurements, sized_filter_rng(seed, int(n), run=r))
-            mean_err[a, r] = np.sqrt(np.mean((res.mean - kalman.mean) ** 2))
-            cov_err[a, r] = np.sqrt(np.mean(np.sum((res.cov - kalman.cov) ** 2, axis=(1, 2))))
-            ll_err[a, r] = res.log_likelihood - kalman.log_likelihood
+    n_runs = check_count(n_runs, "n_runs")
+    errors = run_tasks(_convergence_runs, [(model, measurements, kalman, int(n), n_runs, seed, threshold)
+                                           for n in n_values], executor=executor)
+    mean_err, cov_err, ll_err = (np.array(column) for column in zip(*errors))
     return ConvergenceResult(n_values, mean_err, cov_err, ll_err)
+
+
+def _convergence_runs(model, measurements: Array, kalman, n: int, n_runs: int, seed: int,
+                      threshold: float) -> tuple[Array, Array, Array]:
+    """The ``n_runs`` runs of :func:`linear_convergence` at ``N = n``: errors of the mean, covariance, log-likelihood."""
+    pf = ParticleFilter(model, n, threshold=threshold)
+    mean_err, cov_err, ll_err = np.empty(n_runs), np.empty(n_runs), np.empty(n_runs)
+    for r in range(n_runs):
+        res = pf.run(measurements, sized_filter_rng(seed, n, run=r))
+        mean_err[r] = np.sqrt(np.mean((res.mean - kalman.mean) ** 2))
+        cov_err[r] = np.sqrt(np.mean(np.sum((res.cov - kalman.cov) ** 2, axis=(1, 2))))
+        ll_err[r] = res.log_likelihood - kalman.log_likelihood
+    return mean_err, cov_err, ll_err
 
 
 def loglog_slope(n_values: Array, values: Array) -> float:

@@ -22,12 +22,15 @@ For a linear-Gaussian model the Kalman filter gives the exact posterior
 from __future__ import annotations
 
 from collections.abc import Callable, Sequence
+from concurrent.futures import Executor
 from dataclasses import dataclass
 
 import numpy as np
 from scipy import stats
 
+from pfcourse.checks import check_count
 from pfcourse.diagnostics import nees
+from pfcourse.experiments.study import run_tasks
 from pfcourse.results import FilterResult
 from pfcourse.landmarks.kalman import KalmanResult, kalman_filter
 from pfcourse.landmarks.scenario import LandmarkScenario, simulate
@@ -72,20 +75,35 @@ def kalman_scores(
     components: Sequence[int] | None = None,
     first_seed: int = 0,
     kalman_model=None,
+    executor: Executor | None = None,
 ) -> dict[str, np.ndarray]:
-    """Score ``run_filter(Z, seed)`` on ``n_runs`` simulations (seeds ``first_seed, ...``).
+    """Score ``run_filter(measurements, seed)`` on ``n_runs`` simulations (seeds ``first_seed, ...``).
 
     Each run simulates ``scenario`` with seed ``s``, runs the Kalman filter of
     ``kalman_model`` (the scenario's own model by default) and the particle filter
     with seed ``s + 10**6``.  Returns arrays of shape ``(n_runs, K)`` keyed
     ``rmse``, ``log_var_ratio`` (per component), ``covered``, ``ess``, ``resampled``.
+    The runs are shared out by :func:`~pfcourse.experiments.study.run_tasks` (``executor=None``:
+    a process pool over the cores when ``run_filter`` can be sent to one, e.g. a bound
+    ``ParticleFilter(...).run``; a lambda runs in this process); the result does not depend on it.
     """
     model = scenario.model() if kalman_model is None else kalman_model
-    rows: dict[str, list] = {k: [] for k in ("rmse", "log_var_ratio", "covered", "ess", "resampled")}
-    for seed in range(first_seed, first_seed + n_runs):
+    n_runs = check_count(n_runs, "n_runs")
+    seeds = list(range(first_seed, first_seed + n_runs))
+    chunks = [seeds[i:i + 10] for i in range(0, n_runs, 10)]
+    runs = [s for chunk in run_tasks(_scored_runs, [(scenario, run_filter, chunk, components, model)
+                                                   for chunk in chunks], executor=executor)
+            for s in chunk]
+    return {key: np.array([getattr(s, key) for s in runs])
+            for key in ("rmse", "log_var_ratio", "covered", "ess", "resampled")}
+
+
+def _scored_runs(scenario: LandmarkScenario, run_filter: Callable, seeds: list[int],
+                 components: Sequence[int] | None, model) -> list[RunScores]:
+    """The runs ``seeds`` of :func:`kalman_scores`, scored."""
+    out = []
+    for seed in seeds:
         sim = simulate(scenario, rng=seed)
         kf = kalman_filter(model, sim.measurements)
-        s = score(run_filter(sim.measurements, seed + 10**6), kf, sim.truth, components)
-        for key in rows:
-            rows[key].append(getattr(s, key))
-    return {k: np.array(v) for k, v in rows.items()}
+        out.append(score(run_filter(sim.measurements, seed + 10**6), kf, sim.truth, components))
+    return out
