@@ -46,7 +46,7 @@ from typing import Protocol
 
 import numpy as np
 
-from pfcourse.checks import Array, check_count, check_measurements, check_moments, check_probability, is_missing
+from pfcourse.checks import Array, as_generator, check_count, check_measurements, check_moments, check_probability, is_missing
 from . import kernels
 from pfcourse.errors import (
     DegenerateWeightsError,
@@ -244,12 +244,7 @@ class ParticleFilter:
         weighted by ``z_0`` if present.  ``rng`` is a ``numpy.random.Generator``
         or an integer seed: the same seed gives the same result.
         """
-        if isinstance(rng, (bool, np.bool_)):
-            raise ModelError(f"rng must be a numpy Generator or an integer seed, got {rng!r}")
-        try:
-            rng = np.random.default_rng(rng)
-        except (TypeError, ValueError) as exc:
-            raise ModelError(f"rng must be a numpy Generator or an integer seed, got {rng!r} ({exc})") from None
+        rng = as_generator(rng)
         n, d = self.n_particles, self.dim_x
         measurements = check_measurements(measurements)
         n_steps = len(measurements)

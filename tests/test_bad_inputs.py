@@ -166,10 +166,10 @@ for label, z, fragment in [
     ("shapes disagree", [np.array([0.0]), np.array([0.0, 1.0])], "step 1: the measurement has shape (2,)"),
 ]:
     row(f"measurements = {label}", lambda z=z: run(z=z), MeasurementError, fragment)
-row("rng = 'seed'", lambda: run(rng="seed"), ModelError, "rng")
-row("rng = True", lambda: run(rng=True), ModelError, "rng")
-row("rng = -1", lambda: run(rng=-1), ModelError, "rng")
-row("rng = 1.5", lambda: run(rng=1.5), ModelError, "rng")
+row("rng = 'seed'", lambda: run(rng="seed"), ParameterError, "rng")
+row("rng = True", lambda: run(rng=True), ParameterError, "rng")
+row("rng = -1", lambda: run(rng=-1), ParameterError, "rng")
+row("rng = 1.5", lambda: run(rng=1.5), ParameterError, "rng")
 
 # --- DensityProposal without transition_log_density --------------------------------------
 from pfcourse import DensityProposal  # noqa: E402
