@@ -15,13 +15,24 @@ from pfcourse.errors import CovarianceError, MeasurementError, NumericalError, P
 Array = np.ndarray
 
 
+def _real_array(value, refusal: str) -> np.ndarray:
+    """``value`` as a float array; complex entries (whose imaginary part NumPy would drop), ``None``
+    (which NumPy would make NaN), strings and other objects raise ``ShapeError(refusal)``."""
+    try:
+        raw = np.asarray(value)
+        if raw.dtype.kind not in "biuf" and not (raw.dtype.kind == "O" and all(
+                isinstance(v, (int, float, np.integer, np.floating)) and not isinstance(v, (bool, np.bool_))
+                for v in raw.reshape(-1))):
+            raise TypeError
+        return raw.astype(float, copy=False)
+    except (TypeError, ValueError):
+        raise ShapeError(f"{refusal}, got {value!r:.200}") from None
+
+
 def as_vector(value, name: str, size: int | None = None, *, finite: bool = False) -> np.ndarray:
     """Return ``value`` as a 1-D float array, checking its length if ``size`` is given and,
     with ``finite=True``, that every entry is a finite number."""
-    try:
-        arr = np.asarray(value, dtype=float)
-    except (TypeError, ValueError):
-        raise ShapeError(f"{name} must be a 1-D vector of real numbers, got {value!r}") from None
+    arr = _real_array(value, f"{name} must be a 1-D vector of real numbers")
     if arr.ndim != 1:
         raise ShapeError(f"{name} must be a 1-D vector, got an array of shape {arr.shape}")
     if size is not None and arr.shape[0] != size:
@@ -33,7 +44,7 @@ def as_vector(value, name: str, size: int | None = None, *, finite: bool = False
 
 def as_matrix(value, name: str, shape: tuple[int, int] | None = None) -> np.ndarray:
     """Return ``value`` as a 2-D float array, checking its shape if ``shape`` is given."""
-    arr = np.asarray(value, dtype=float)
+    arr = _real_array(value, f"{name} must be a 2-D matrix of real numbers")
     if arr.ndim != 2:
         raise ShapeError(f"{name} must be a 2-D matrix, got an array of shape {arr.shape}")
     if shape is not None and arr.shape != tuple(shape):

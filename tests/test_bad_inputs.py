@@ -353,6 +353,16 @@ for label, z, error, fragment in [
     ("None", None, MeasurementError, "sequence"),
 ]:
     row(f"kalman_filter measurements = {label}", lambda z=z: kalman_filter(_LG, z), error, fragment)
+for label, changes, fragment in [
+    ("a complex F (NumPy would drop the imaginary part)", {"F": np.eye(2) * (1 + 1j)}, "F must be a 2-D matrix of real numbers"),
+    ("None inside H (NumPy would make it NaN)", {"H": [[None, 0.0], [0.0, 1.0]]}, "H must be a 2-D matrix of real numbers"),
+    ("a string m0", {"m0": ["a", "b"]}, "m0 must be a 1-D vector of real numbers"),
+    ("a complex m0 array", {"m0": np.array([1j, 0.0])}, "m0 must be a 1-D vector of real numbers"),
+]:
+    row(f"LinearGaussianModel with {label}",
+        lambda changes=changes: LinearGaussianModel(**{"F": np.eye(2), "H": np.eye(2), "m0": np.zeros(2), "P0": np.eye(2),
+                                                       "Q": np.eye(2), "R": np.eye(2), **changes}),
+        ShapeError, fragment)
 row("kalman_filter model = a StateSpaceModel", lambda: kalman_filter(rw_model(), Z), ModelError,
     "needs a LinearGaussianModel")
 
