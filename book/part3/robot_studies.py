@@ -67,7 +67,7 @@ use_style()
 # - the mean effective sample size as a fraction of $N$ and the number of resamplings.
 #
 # `pfcourse.experiments.study.run_study` repeats a run over a grid of settings. Run $r$ uses the seed
-# `replicate_seed(0, r)` **in every setting**, so all settings are compared on the same
+# `pfcourse.seeding.replicate_seed(0, r)` **in every setting**, so all settings are compared on the same
 # {glue:text}`n_runs_per_setting:d` simulated worlds (*common random numbers*): a difference between two settings is then a
 # difference of the filter, not of the data, and a paired comparison run by run is
 # possible. Any row can be re-run alone with `pfcourse.experiments.robot.compare_filters`,
