@@ -28,7 +28,12 @@ plain seed                ``s`` (an ``int``), offsets such  single runs of the c
 
 ``seed`` is a study's base seed (``0`` in the book's terrain studies), ``r`` the run (or
 flight), ``N`` the number of particles.  Within a run, the data and the filter never share a
-stream, so changing a filter setting cannot change the data it is compared on.  The keys
+stream, so changing a filter setting cannot change the data it is compared on.  Keys of
+different rows can coincide (``sized_filter_rng(s, 1, run=r)`` is ``filter_rng(s, r)``,
+``sized_filter_rng(s, 7)`` is ``kidnap_rng(s)``, and ``N`` = 0 or 2 with a run meets
+``data_rng`` and ``likelihood_rng``); no study of the book uses two such streams
+together, and ``tests/test_seeding.py`` lists the coincidences so that a new use can be
+checked against them.  The keys
 are fixed: a stream changed here changes every stored result of the book.  Provenance
 records written before these names existed describe :func:`data_rng` as
 ``pfcourse.experiments.terrain.flight_seed`` and the other list keys by their entropy lists,

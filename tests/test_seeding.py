@@ -105,3 +105,12 @@ def test_the_message_names_the_argument():
         sized_filter_rng(0, 2.0)
     with pytest.raises(ParameterError, match="base_seed"):
         replicate_seed(None, 0)
+
+
+def test_the_documented_coincidences_of_keys():
+    """Keys of different rows of the table that coincide (the module docstring lists them):
+    a new use of two such streams together would correlate them."""
+    coincident = [(sized_filter_rng(4, 1, run=9), filter_rng(4, 9)), (sized_filter_rng(4, 7), kidnap_rng(4)),
+                  (sized_filter_rng(4, 0, run=9), data_rng(4, 9)), (sized_filter_rng(4, 2, run=9), likelihood_rng(4, 9))]
+    for a, b in coincident:
+        np.testing.assert_array_equal(draws(a), draws(b))
