@@ -218,8 +218,9 @@ def _dies_in_a_worker(seed: int, a: int) -> dict:
     return {"value": a * 1000 + seed % 997}
 
 
-@pytest.mark.parametrize("run_one, reason", [(_hangs_in_a_worker, "finished in"), (_dies_in_a_worker, "died")])
-def test_a_stuck_or_broken_pool_is_replaced_and_the_rows_are_unchanged(run_one, reason):
+@pytest.mark.parametrize("run_one, reason, stall_timeout",
+                         [(_hangs_in_a_worker, "finished in", 2.0), (_dies_in_a_worker, "died", 30.0)])
+def test_a_stuck_or_broken_pool_is_replaced_and_the_rows_are_unchanged(run_one, reason, stall_timeout):
     from pfcourse.experiments.study import SerialExecutor, StudyWarning, default_executor
 
     if not default_executor(run_one)[1]:
@@ -228,7 +229,7 @@ def test_a_stuck_or_broken_pool_is_replaced_and_the_rows_are_unchanged(run_one, 
     serial = run_study(run_one, grid, 5, batch_size=2, progress=False, executor=SerialExecutor())
     start = time.perf_counter()
     with pytest.warns(StudyWarning, match=reason):
-        pooled = run_study(run_one, grid, 5, batch_size=2, progress=False, stall_timeout=2.0)
+        pooled = run_study(run_one, grid, 5, batch_size=2, progress=False, stall_timeout=stall_timeout)
     assert time.perf_counter() - start < 60  # the stuck workers were stopped, not waited for
     assert pooled.drop(columns="seconds").equals(serial.drop(columns="seconds"))
     assert (pooled["status"] == "ok").all() and len(pooled) == 10
