@@ -157,6 +157,16 @@ def check_interval(value, name: str):
     return value
 
 
+def check_seed(value, name: str = "seed") -> int:
+    """Return ``value`` as an ``int`` if it is a non-negative integer (a NumPy integer too; unlike
+    :func:`check_count`, a float such as ``3.0`` is refused: a seed is never computed)."""
+    if isinstance(value, (bool, np.bool_)) or not isinstance(value, (int, np.integer)):
+        raise ParameterError(f"{name} must be a non-negative integer, got {value!r}")
+    if value < 0:
+        raise ParameterError(f"{name} must be a non-negative integer, got {value}")
+    return int(value)
+
+
 def check_count(value: int, name: str, minimum: int = 1) -> int:
     """Check that ``value`` is an integer at least ``minimum``."""
     if isinstance(value, (bool, np.bool_)) or not isinstance(value, (int, float, np.integer, np.floating)):

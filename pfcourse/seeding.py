@@ -48,20 +48,16 @@ from __future__ import annotations
 
 import numpy as np
 
-from pfcourse.errors import ParameterError
-
-
-def check_seed(value, name: str = "seed") -> int:
-    """Return ``value`` as an ``int`` if it is a non-negative integer (a NumPy integer too)."""
-    if isinstance(value, (bool, np.bool_)) or not isinstance(value, (int, np.integer)):
-        raise ParameterError(f"{name} must be a non-negative integer, got {value!r}")
-    if value < 0:
-        raise ParameterError(f"{name} must be a non-negative integer, got {value}")
-    return int(value)
+from pfcourse.checks import check_seed
 
 
 def _rng(*key) -> np.random.Generator:
     return np.random.default_rng(list(key))
+
+
+def _run_stream(seed: int, run: int, stream: int) -> np.random.Generator:
+    """Stream ``stream`` of run ``run``: ``default_rng([seed, run, stream])``."""
+    return _rng(check_seed(seed), check_seed(run, "run"), stream)
 
 
 def replicate_seed(base_seed: int, replicate: int) -> int:
@@ -72,22 +68,22 @@ def replicate_seed(base_seed: int, replicate: int) -> int:
 
 def data_rng(seed: int, run: int) -> np.random.Generator:
     """The simulated data of run ``run`` (a terrain flight): ``default_rng([seed, run, 0])``."""
-    return _rng(check_seed(seed), check_seed(run, "run"), 0)
+    return _run_stream(seed, run, 0)
 
 
 def filter_rng(seed: int, run: int) -> np.random.Generator:
     """The particle filter of run ``run``: ``default_rng([seed, run, 1])``."""
-    return _rng(check_seed(seed), check_seed(run, "run"), 1)
+    return _run_stream(seed, run, 1)
 
 
 def likelihood_rng(seed: int, run: int) -> np.random.Generator:
     """The filter estimating a likelihood on the data of run ``run``: ``default_rng([seed, run, 2])``."""
-    return _rng(check_seed(seed), check_seed(run, "run"), 2)
+    return _run_stream(seed, run, 2)
 
 
 def reference_rng(seed: int, run: int, repeat: int) -> np.random.Generator:
     """Repeat ``repeat`` of a reference filter on run ``run``: ``default_rng([seed, run, 100 + repeat])``."""
-    return _rng(check_seed(seed), check_seed(run, "run"), 100 + check_seed(repeat, "repeat"))
+    return _run_stream(seed, run, 100 + check_seed(repeat, "repeat"))
 
 
 def sized_filter_rng(seed: int, n_particles: int, run: int | None = None) -> np.random.Generator:

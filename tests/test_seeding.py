@@ -6,9 +6,9 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from pfcourse.checks import check_seed
 from pfcourse.errors import ParameterError, PfcourseError
 from pfcourse.seeding import (
-    check_seed,
     data_rng,
     filter_rng,
     kidnap_rng,
