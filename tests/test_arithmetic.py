@@ -4,6 +4,12 @@ The stored notebook outputs are the floats of NumPy's AVX2 code paths and OpenBL
 kernels. These tests fail when that pinning is lost anywhere the book computes: in this pytest
 process, in the notebook kernels nbval starts, in what `tasks.py` starts, or in a session that
 imports pfcourse first.
+
+Each test that compares floats across environments varies one thing and holds the rest
+pinned, so that it means the same on an AVX2 and on an AVX-512 CPU (issue 27: an "other BLAS"
+environment built from the unpinned one changed NumPy's `exp` too on AVX-512). Because the
+machine at hand may lack AVX-512, the module also runs itself under a simulated AVX-512 CPU
+(tools/simulated_avx512) and must pass there too.
 """
 
 from __future__ import annotations
@@ -64,10 +70,27 @@ print(json.dumps({
 """
 
 
+SIMULATED_AVX512 = ROOT / "tools" / "simulated_avx512"
+
+
 def unpinned_environment(**extra: str) -> dict:
+    """This process's environment with the CPU's own choices: what a new user's shell has."""
     env = {k: v for k, v in os.environ.items() if k not in PINNED}
     env.update(extra)
     return env
+
+
+def pinned_environment(**extra: str) -> dict:
+    """The pinned environment with only ``extra`` changed: one thing varied, the rest held."""
+    env = arithmetic.pin_environment(unpinned_environment())
+    env.update(extra)
+    return env
+
+
+def on_simulated_avx512(env: dict) -> dict:
+    """``env`` on an imitated AVX-512 CPU (tools/simulated_avx512/sitecustomize.py)."""
+    paths = [str(SIMULATED_AVX512), *filter(None, [env.get("PYTHONPATH")])]
+    return dict(env, PYTHONPATH=os.pathsep.join(paths))
 
 
 def run_python(code: str, env: dict) -> subprocess.CompletedProcess:
@@ -137,7 +160,7 @@ def test_numpy_started_with_other_code_paths_gets_one_plain_warning():
     # OpenBLAS's Sandybridge kernels stand for another CPU's (e.g. SkylakeX on AVX-512).
     code = ("import numpy, pfcourse\nfrom pfcourse import arithmetic\n"
             "arithmetic.check()\nprint(arithmetic.runtime_arithmetic().is_pinned)")
-    result = run_python(code, unpinned_environment(OPENBLAS_CORETYPE="Sandybridge"))
+    result = run_python(code, pinned_environment(OPENBLAS_CORETYPE="Sandybridge"))
     assert result.stdout.strip() == "False"
     assert result.stderr.count("ReproducibilityWarning") == 1
     assert "python3 tasks.py lab" in result.stderr and "last digits" in result.stderr
@@ -145,8 +168,9 @@ def test_numpy_started_with_other_code_paths_gets_one_plain_warning():
 
 @reproducing
 def test_other_blas_kernels_give_other_floats():
-    """The pinning is not idle: another kernel family changes the BLAS results on this machine."""
-    other = digests(unpinned_environment(OPENBLAS_CORETYPE="Sandybridge"))
+    """The pinning is not idle: another kernel family changes the BLAS results on this machine,
+    and only them (NumPy's code paths stay pinned, so its `exp` is the book's on any CPU)."""
+    other = digests(pinned_environment(OPENBLAS_CORETYPE="Sandybridge"))
     assert other["matmul"] != GOLDEN["matmul"] and other["exp"] == GOLDEN["exp"]
 
 
@@ -154,7 +178,33 @@ def test_other_blas_kernels_give_other_floats():
 def test_on_avx512_the_default_differs_and_the_pinning_restores_the_book_floats():
     default = digests(unpinned_environment())
     assert default["exp"] != GOLDEN["exp"]  # NumPy's AVX-512 exp: the cause of issue 13
-    assert digests(arithmetic.pin_environment(unpinned_environment())) == GOLDEN
+    assert digests(pinned_environment()) == GOLDEN
+
+
+@reproducing
+def test_the_simulated_avx512_cpu_moves_the_floats_a_real_one_moves():
+    """The imitation is faithful where it matters: unpinned, NumPy's `exp` and the BLAS products
+    leave the book's floats; pinned, every digest is the book's again. And it catches issue 27:
+    the old "other BLAS" environment (the unpinned one, kernels changed) changes `exp` there."""
+    unpinned = digests(on_simulated_avx512(unpinned_environment()))
+    assert unpinned["exp"] != GOLDEN["exp"] and unpinned["matmul"] != GOLDEN["matmul"]
+    assert digests(on_simulated_avx512(pinned_environment())) == GOLDEN
+    issue_27 = digests(on_simulated_avx512(unpinned_environment(OPENBLAS_CORETYPE="Sandybridge")))
+    assert issue_27["exp"] != GOLDEN["exp"]
+
+
+@reproducing
+def test_this_module_passes_on_a_simulated_avx512_cpu():
+    """Every other test of this module, in a pytest run on the imitated AVX-512 CPU, the
+    AVX-512-only test included (it is skipped on an AVX2 machine otherwise)."""
+    result = subprocess.run(
+        [sys.executable, "-m", "pytest", __file__, "-v", "-p", "no:cacheprovider", "-k", "not simulated"],
+        env=on_simulated_avx512(os.environ.copy()), cwd=ROOT, capture_output=True, text=True, timeout=600,
+    )
+    assert result.returncode == 0, result.stdout[-4000:] + result.stderr[-2000:]
+    ran = {line.split("::")[1].split()[0] for line in result.stdout.splitlines() if " PASSED" in line}
+    assert "test_on_avx512_the_default_differs_and_the_pinning_restores_the_book_floats" in ran
+    assert "test_other_blas_kernels_give_other_floats" in ran and "SKIPPED" not in result.stdout
 
 
 def test_other_platforms_run_the_notebooks_without_comparing_floats(monkeypatch):

@@ -31,11 +31,16 @@ from pfcourse.robot.scenario import (
 from test_fast_paths import log_weight_vectors
 
 
+# NumPy computes with the pinned code paths here (on the platforms that reproduce the book:
+# tests/test_arithmetic.py fails if the pinning is lost), whatever this CPU would choose itself.
+PINNED = arithmetic.reproduces_stored_outputs() and arithmetic.runtime_arithmetic().is_pinned
+
+
 def same_floats(got, expected) -> bool:
-    """Bit for bit where NumPy's transcendental functions are the C library's (the pinned
-    platforms of pfcourse.arithmetic); to a few ulps elsewhere (other SIMD paths round them
-    differently from the libm calls of the compiled kernels)."""
-    if arithmetic.reproduces_stored_outputs():
+    """Bit for bit where NumPy's transcendental functions are the C library's (its pinned AVX2
+    paths, pfcourse.arithmetic); to a few ulps elsewhere (other SIMD paths, e.g. AVX-512 or
+    ARM's, round them differently from the libm calls of the compiled kernels)."""
+    if PINNED:
         return np.array_equal(got, expected)
     return np.allclose(got, expected, rtol=8 * np.finfo(float).eps, atol=0.0)
 

@@ -32,12 +32,10 @@ from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
 
-PERTURB_NUMPY = r'''
-import warnings as _warnings
-
-_warnings.filterwarnings("ignore", message="pfcourse: NumPy was started")  # meant: unpinned here
+# The last-bit change of NumPy's transcendental functions, run after `import numpy as _np`
+# (also by tools/simulated_avx512/sitecustomize.py, which imitates an AVX-512 CPU's NumPy).
+PERTURB_FUNCTIONS = r'''
 import numba as _numba
-import numpy as _np
 
 _numba.njit(lambda x: _np.exp(x))(1.0)  # numba registers NumPy's real ufuncs at its first compile
 
@@ -60,6 +58,14 @@ def _last_bit_perturbed(ufunc):
 for _name in ("exp", "log", "expm1", "log1p", "sin", "cos", "tan", "arctan2", "arctan"):
     setattr(_np, _name, _last_bit_perturbed(getattr(_np, _name)))
 '''
+
+# The knife-edge kernels' startup: unpinned on purpose, so pfcourse's warning is not wanted.
+PERTURB_NUMPY = r'''
+import warnings as _warnings
+
+_warnings.filterwarnings("ignore", message="pfcourse: NumPy was started")  # meant: unpinned here
+import numpy as _np
+''' + PERTURB_FUNCTIONS
 
 
 def load_executor():
