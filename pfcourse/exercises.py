@@ -11,6 +11,12 @@ exception is reported as a problem); ``str(report)`` prints the verdict.
 * :func:`check_weight_update` - ``fn(log_weights, log_likelihoods) -> log_weights``: the
   normalised log-domain update ``log W_i + log p(z | x_i) - logsumexp_j(...)``, checked on
   ordinary values and on likelihoods of ``e^{-1000}`` that underflow in the linear domain.
+* :func:`check_sis` - ``fn(z, n_particles, rng, model) -> (means, ess)``: a whole SIS filter
+  on a scalar linear-Gaussian model (:class:`ScalarModel`), against the Kalman filter, which
+  is exact. A wrong filter is compared with what the typical mistakes converge to (weights
+  that forget the previous step, particles moved without process noise, a variance read as a
+  standard deviation), so the report can say which mistake it sees, not only that the numbers
+  are off.
 """
 
 from __future__ import annotations
@@ -127,3 +133,121 @@ def check_weight_update(fn: Callable, seed: int = 0) -> CheckReport:
             report.problems.append(f"{name}: wrong weights{hint}; largest error "
                                    f"{np.abs(np.exp(got) - np.exp(expected)).max():.2e}")
     return report
+
+
+@dataclass(frozen=True)
+class ScalarModel:
+    """``x_0 ~ N(m0, p0)``, ``x_k = a x_{k-1} + w_k`` with ``w_k ~ N(0, q)``, ``z_k = x_k + v_k``
+    with ``v_k ~ N(0, r)``: ``p0``, ``q`` and ``r`` are *variances*."""
+
+    a: float = 0.9
+    q: float = 0.5
+    r: float = 0.5
+    m0: float = 0.0
+    p0: float = 1.0
+
+
+def _scalar_filter(z: np.ndarray, model: ScalarModel, last_only: bool = False) -> tuple[np.ndarray, np.ndarray]:
+    """Mean and variance over the steps of the posterior the weighted cloud estimates.
+
+    ``last_only=False``: the Kalman filter, ``p(x_k | z_{1:k})``, exact for this model. With
+    ``last_only=True``, the limit of an SIS whose weights forget the previous step: the prior
+    marginal of ``x_j`` updated by ``z_j`` alone (``j`` the last measured step), moved on to ``k``.
+    """
+    a, q, r = model.a, model.q, model.r
+    mean, var = np.empty(len(z)), np.empty(len(z))
+    m, p = model.m0, model.p0  # the Kalman posterior
+    prior_m, prior_p = model.m0, model.p0  # the prior marginal of x_k
+    for k, zk in enumerate(z):
+        if k > 0:
+            m, p = a * m, a * a * p + q
+            prior_m, prior_p = a * prior_m, a * a * prior_p + q
+        if last_only:
+            m, p = (m, p) if k > 0 else (prior_m, prior_p)
+            if not np.isnan(zk):
+                gain = prior_p / (prior_p + r)
+                m, p = prior_m + gain * (zk - prior_m), (1 - gain) * prior_p
+        elif not np.isnan(zk):
+            gain = p / (p + r)
+            m, p = m + gain * (zk - m), (1 - gain) * p
+        mean[k], var[k] = m, p
+    return mean, var
+
+
+#: The measurements of :func:`check_sis`: none at step 0 (the cloud is the prior), one missing later.
+SIS_CASE = np.array([np.nan, 1.2, 2.0, np.nan, 0.3])
+
+
+def check_sis(fn: Callable, n_particles: int = 20_000, seed: int = 0, z: np.ndarray = SIS_CASE) -> CheckReport:
+    """Check a student's SIS ``fn(z, n_particles, rng, model) -> (means, ess)`` (module docstring).
+
+    ``z`` (default :data:`SIS_CASE`) has shape ``(K,)`` with NaN where nothing is measured (at
+    least at step 0); ``means`` and
+    ``ess`` have shape ``(K,)``: the weighted mean of the particles and the effective sample size
+    after each step. The means must agree with the Kalman filter's within six Monte Carlo
+    standard errors, ``sqrt(P_k / ESS_k)``, at every step (a correct SIS fails this with
+    probability below 1e-6); a filter that does not is compared with the limits of the typical
+    mistakes, and the report names the one that fits.
+    """
+    report = CheckReport("SIS")
+    model = ScalarModel()
+    try:
+        with np.errstate(all="ignore"):
+            answer = fn(np.array(z, dtype=float), n_particles, np.random.default_rng(seed), model)
+            if answer is None:
+                report.problems.append("the function returned None: write the filter and return (means, ess)")
+                return report
+            means, ess = (np.asarray(v, dtype=float) for v in answer)
+    except Exception as exc:  # the student's error, reported
+        report.problems.append(f"calling fn(z, n_particles, rng, model) raised {type(exc).__name__}: {exc}")
+        return report
+    k_steps = z.size
+    if means.shape != (k_steps,) or ess.shape != (k_steps,):
+        report.problems.append(f"returned shapes {means.shape} and {ess.shape}; expected ({k_steps},) each: "
+                               "one mean and one ESS per step, step 0 included")
+        return report
+    bad = ~(np.isfinite(means) & np.isfinite(ess))
+    if bad.any():
+        k = int(np.argmax(bad))
+        why = ("z[0] is NaN (nothing measured): skip the weight update when z_k is NaN" if np.isnan(z[k])
+               else "weights that all underflow to 0 give 0/0: keep log-weights and subtract their logsumexp")
+        report.problems.append(f"the mean or the ESS is NaN or infinite at step {k}; {why}")
+        return report
+    if abs(ess[0] - n_particles) > 1e-6 * n_particles:
+        report.problems.append(f"the ESS at step 0 is {ess[0]:.6g}, not N = {n_particles}: nothing is measured "
+                               "at step 0, so every weight is 1/N")
+        return report
+    if (ess < 1 - 1e-9).any() or (ess > n_particles * (1 + 1e-9)).any():
+        k = int(np.argmax((ess < 1 - 1e-9) | (ess > n_particles * (1 + 1e-9))))
+        report.problems.append(f"the ESS at step {k} is {ess[k]:.4g}, outside [1, N]: compute it from normalised "
+                               "weights, 1 / sum(W**2) with sum(W) = 1")
+        return report
+    exact = _scalar_filter(z, model)
+    if _fits(means, ess, *exact):
+        return report
+    mistakes = {
+        "the weights forget the previous steps: multiply the new likelihood into the previous weights "
+        "(log W_k = log W_(k-1) + log p(z_k | x_k)) instead of replacing them":
+            _scalar_filter(z, model, last_only=True),
+        "the particles move without process noise: add w_k ~ N(0, q) with variance q (standard deviation "
+        "sqrt(q)) when you propagate them": _scalar_filter(z, ScalarModel(q=0.0)),
+        "the likelihood uses r as a standard deviation: r is the variance of v_k, so the standard deviation "
+        "is sqrt(r)": _scalar_filter(z, ScalarModel(r=model.r**2)),
+        "the process noise uses q as a standard deviation: q is the variance of w_k, so the standard "
+        "deviation is sqrt(q)": _scalar_filter(z, ScalarModel(q=model.q**2)),
+    }
+    for why, (mean, var) in mistakes.items():
+        if _fits(means, ess, mean, var):
+            report.problems.append(f"your means match a known mistake, not the exact posterior: {why}")
+            return report
+    k = int(np.argmax(np.abs(means - exact[0]) / np.sqrt(exact[1] / np.clip(ess, 1, None))))
+    report.problems.append(
+        f"at step {k} your mean is {means[k]:.3f}, the exact (Kalman) mean is {exact[0][k]:.3f}, more than six "
+        f"Monte Carlo standard errors ({np.sqrt(exact[1][k] / max(ess[k], 1)):.3f}) away: check the proposal "
+        "(x_k = a x_(k-1) + w_k), the log-likelihood of z_k and the weighted mean")
+    return report
+
+
+def _fits(means: np.ndarray, ess: np.ndarray, mean: np.ndarray, var: np.ndarray, z_max: float = 6.0) -> bool:
+    """Whether the cloud's means agree with a posterior's within ``z_max`` Monte Carlo standard errors."""
+    return bool(np.all(np.abs(means - mean) <= z_max * np.sqrt(var / np.clip(ess, 1, None)) + 1e-12))

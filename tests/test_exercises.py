@@ -3,9 +3,10 @@
 from __future__ import annotations
 
 import numpy as np
+import pytest
 from scipy.special import logsumexp
 
-from pfcourse.exercises import check_resampler, check_weight_update
+from pfcourse.exercises import check_resampler, check_sis, check_weight_update
 from pfcourse.resampling import multinomial, residual, stratified, systematic
 
 
@@ -57,3 +58,76 @@ def test_weight_update_checks():
     assert len(bad.problems) == 1 and "NaN" in bad.problems[0] and "e^-1000" in bad.problems[0]
     assert any("normalise" in p for p in check_weight_update(unnormalised).problems)
     assert "raised" in str(check_weight_update(lambda a, b: 1 / 0))
+
+
+# The SIS checker: the chapter's reference solution, and typical mistakes, each written as a
+# student would (a flag changes one line of the reference).
+def sis(z, n_particles, rng, model, *, forget=False, no_noise=False, r_as_sd=False, q_as_sd=False,
+        linear=False, weight_nan=False, unnormalised=False, wrong_shape=False):
+    x = model.m0 + np.sqrt(model.p0) * rng.standard_normal(n_particles)
+    log_w = np.full(n_particles, -np.log(n_particles))
+    means, ess = [], []
+    for k, zk in enumerate(z):
+        if k > 0:
+            noise = 0.0 if no_noise else (model.q if q_as_sd else np.sqrt(model.q)) * rng.standard_normal(n_particles)
+            x = model.a * x + noise
+        if not np.isnan(zk) or weight_nan:
+            sd = model.r if r_as_sd else np.sqrt(model.r)
+            log_lik = -0.5 * ((zk - x) / sd) ** 2
+            if linear:
+                w = (np.exp(log_w) if not forget else 1.0) * np.exp(log_lik)
+                log_w = np.log(w / w.sum())
+            else:
+                log_w = (log_lik if forget else log_w + log_lik)
+                if not unnormalised:
+                    log_w = log_w - logsumexp(log_w)
+        w = np.exp(log_w)
+        means.append(w @ x)
+        ess.append(1.0 / np.sum(w**2))
+    return (np.array(means), np.array(ess)[:-1]) if wrong_shape else (np.array(means), np.array(ess))
+
+
+def sis_report(**mistake):
+    return check_sis(lambda z, n, rng, model: sis(z, n, rng, model, **mistake))
+
+
+def test_the_reference_sis_passes_on_every_seed_tried():
+    for seed in range(5):
+        report = check_sis(sis, seed=seed)
+        assert report.ok, str(report)
+
+
+@pytest.mark.parametrize("mistake, says", [
+    ({"forget": True}, "forget the previous steps"),
+    ({"no_noise": True}, "without process noise"),
+    ({"r_as_sd": True}, "uses r as a standard deviation"),
+    ({"q_as_sd": True}, "uses q as a standard deviation"),
+    ({"weight_nan": True}, "skip the weight update when z_k is NaN"),
+    ({"unnormalised": True}, "outside [1, N]"),
+    ({"wrong_shape": True}, "one mean and one ESS per step"),
+])
+def test_each_typical_sis_mistake_gets_its_own_sentence(mistake, says):
+    report = sis_report(**mistake)
+    assert not report.ok and len(report.problems) == 1
+    assert says in report.problems[0], report.problems[0]
+
+
+def test_linear_weights_that_underflow_are_named():
+    """With a measurement far out in the tail, every linear-domain weight underflows to 0."""
+    report = check_sis(lambda z, n, rng, model: sis(z, n, rng, model, linear=True), z=np.array([np.nan, 60.0]))
+    assert not report.ok and "logsumexp" in report.problems[0], str(report)
+    logged = check_sis(sis, z=np.array([np.nan, 60.0]))  # the log-domain filter keeps finite weights there
+    assert not any("NaN" in p for p in logged.problems), str(logged)
+
+
+def test_a_student_exception_is_reported_not_raised():
+    def broken(z, n, rng, model):
+        raise IndexError("index 5 is out of bounds")
+
+    report = check_sis(broken)
+    assert not report.ok and "raised IndexError: index 5" in report.problems[0]
+
+
+def test_the_empty_answer_cell_gets_a_plain_sentence():
+    report = check_sis(lambda z, n, rng, model: None)
+    assert report.problems == ["the function returned None: write the filter and return (means, ess)"]

@@ -12,7 +12,8 @@ source (``book/**/*.py``):
   either); a count in words ("two landmarks") is a setting too;
 - the exemptions are conventions, not results: section numbers of headings, the reports' numbers
   (001 to 005), the lab's question numbers ("question 8"), confidence levels of intervals and bands (95 % interval, 10-90 % band), the
-  reading times of the route table in start_here.md (checked by tests/test_start_here.py), and the
+  reading times of the route table in start_here.md (checked by tests/test_start_here.py), the
+  numbers of algorithms and exercises ("Algorithm 4.1"), and the
   short list ``EXEMPT`` below (each entry says why, and must still occur in its chapter).
 
 What the test sees as a numeral: digits, with an optional decimal part, sign and per cent sign.
@@ -63,6 +64,8 @@ _REMOVED = [
     (r"\b(?:50|80|90|95|99)\s?%(?=[- ]+(?:confidence|interval|intervals|band|bands|ellipse|ellipses|"
      r"region|level|quantile|Wilson|bootstrap|CI)\b)", " "),
     (r"\b(?:10|90|5|95|25|75)\s?%\s+quantile", " "),
+    # the book's numbering of algorithms, exercises, figures and tables ("Algorithm 4.1")
+    (r"\b(?:Algorithm|Exercise|Figure|Table)s? \d+\.\d+", " "),
     # reading times in a route table ("| 9 min |"): counted from the chapters' prose and
     # checked against it by tests/test_start_here.py
     (r"(?<=\|) \d+ min (?=\|)", " "),

@@ -9,56 +9,84 @@
 # %% [markdown]
 # # Sequential importance sampling
 #
-# The Kalman filter is exact for the landmark model; a particle filter is not, and this is
-# precisely why the model is a good place to learn one: every particle estimate can be
-# compared with the exact posterior. This chapter writes sequential importance sampling
-# (SIS), runs it with the simulator's own noise models, and watches it fail.
+# :::{admonition} In this chapter
+# :class: chapter-header
+# **You learn** how importance sampling runs through time: each particle carries a weight
+# that is the likelihood of its whole path, and why those weights degenerate until one
+# particle holds them all, whatever the number of particles.
+#
+# **You need** {doc}`model` and {doc}`importance_sampling`; Gaussian densities; NumPy arrays
+# and a random generator.
+#
+# **Time:** about five minutes to read; the notebook runs in under half a minute.
+# :::
 #
 # (sis-algorithm)=
-# ## The SIS algorithm (lab question 3)
+# ## The idea: weight whole paths (lab question 3)
 #
-# (Notation: we write $z_{1:k}$ because in this model the first measurement comes after the
-# first move; `pfcourse`'s docstrings say $z_{0:k}$, since the engine also accepts a
-# measurement at time $0$.)
+# Importance sampling estimates a target $\pi$ with draws from a proposal $q$ and weights
+# $\pi / q$ ({doc}`importance_sampling`). Sequential importance sampling (SIS) applies it to the
+# whole path $x_{0:k}$, whose posterior factorises by the model's structure:
 #
-# SIS represents $p(x_k \mid z_{1:k})$ by $N$ particles $x_k^i$ with normalised weights
-# $W_k^i$. It needs an **importance function** $q(x_k \mid x_{k-1}, z_k)$ from which new
-# particles are drawn; here, as in the lab, we take the transition density itself,
-# $q = p(x_k \mid x_{k-1}) = \mathcal N(F x_{k-1} + B, Q_w)$ (the *bootstrap* choice of
-# {cite:t}`gordon1993`). With it, the weight update reduces to the likelihood.
+# $$
+# p(x_{0:k} \mid z_{1:k}) \;\propto\; p(x_0) \prod_{j=1}^{k} p(x_j \mid x_{j-1})\, p(z_j \mid x_j) .
+# $$
 #
-# 1. **Initialise.** Draw $x_0^i \sim \mathcal N(m_{X0}, P_{X0})$ and set $W_0^i = 1/N$.
-# 2. **For** $k = 1, \dots, K-1$:
-#    1. *propose*: $x_k^i = F x_{k-1}^i + B + w_k^i$, $w_k^i \sim \mathcal N(0, Q_w)$;
-#    2. *weight*: if landmarks $V_k$ are in view, with $H_k$, $R_k$ of that step,
-#       $\log \tilde w_k^i = \log W_{k-1}^i + \log \mathcal N(z_k;\, H_k x_k^i,\, R_k)$;
-#       otherwise $\tilde w_k^i = W_{k-1}^i$;
-#    3. *normalise*: $W_k^i = \exp\big(\log \tilde w_k^i - \operatorname{logsumexp}_j \log \tilde w_k^j\big)$;
-#    4. *estimate*: $\hat m_k = \sum_i W_k^i x_k^i$,
-#       $\hat P_k = \sum_i W_k^i (x_k^i - \hat m_k)(x_k^i - \hat m_k)^\top$,
+# Draw the path one step at a time, $x_0 \sim p(x_0)$ and $x_j \sim q(x_j \mid x_{j-1}, z_j)$.
+# The weight of a path is then a product over the steps, so it can be updated as each
+# measurement arrives:
+#
+# $$
+# \tilde w_k^i \;=\; \tilde w_{k-1}^i \;
+#   \frac{p(z_k \mid x_k^i)\, p(x_k^i \mid x_{k-1}^i)}{q(x_k^i \mid x_{k-1}^i, z_k)} .
+# $$
+#
+# The lab takes the transition itself as proposal, $q = p(x_k \mid x_{k-1})$ (the *bootstrap*
+# choice of {cite:t}`gordon1993`): it needs nothing but the simulator, and the update reduces
+# to the likelihood, $\tilde w_k^i = \tilde w_{k-1}^i\, p(z_k \mid x_k^i)$. Unrolled, **a particle's
+# weight is the likelihood of its whole path**, $\prod_{j \le k} p(z_j \mid x_j^i)$. The weights are
+# kept in the log domain, where the product is a sum and cannot underflow
+# ({ref}`log-domain`).
+#
+# That product is also why SIS fails: each measurement multiplies the weights by a factor
+# that favours a few paths, and the variance of the weights (over the measurements the
+# system could produce) can only grow with $k$ {cite:p}`doucet2000`. The effective sample size
+# $\mathrm{ESS}_k = 1 / \sum_i (W_k^i)^2$ measures how many particles still count.
+#
+# :::{admonition} Algorithm 4.1: sequential importance sampling with the bootstrap proposal
+# :class: algorithm
+# 1. **Initialise.** Draw $x_0^i \sim p(x_0)$ for $i = 1, \dots, N$; set $\log W_0^i = -\log N$.
+# 2. **For** $k = 1, 2, \dots$:
+#    1. *propose:* $x_k^i \sim p(x_k \mid x_{k-1}^i)$, here $x_k^i = F x_{k-1}^i + B + w_k^i$,
+#       $w_k^i \sim \mathcal N(0, Q)$;
+#    2. *weight:* if something is measured, $\log \tilde w_k^i = \log W_{k-1}^i + \log p(z_k \mid x_k^i)$,
+#       else $\log \tilde w_k^i = \log W_{k-1}^i$;
+#    3. *normalise:* $\log W_k^i = \log \tilde w_k^i - \operatorname{logsumexp}_j \log \tilde w_k^j$;
+#    4. *estimate:* $\hat m_k = \sum_i W_k^i x_k^i$, $\hat P_k = \sum_i W_k^i (x_k^i - \hat m_k)(x_k^i - \hat m_k)^\top$,
 #       $\mathrm{ESS}_k = 1 / \sum_i (W_k^i)^2$.
+# :::
 #
-# The weights are kept in the log domain: with four measured coordinates of standard
-# deviation $0.1$ m, a particle whose robot is $1$ m off in $x$ misplaces both landmarks' $x$
-# by $1$ m: its likelihood is lower by a factor $e^{-2 \times 1^2 / (2 \times 0.1^2)} = e^{-100}$,
-# and a product of a few such factors can underflow to zero in floating point. How often the
-# lab's linear-domain weights actually fail is measured in {ref}`log-domain`. In `pfcourse` this algorithm is
-# `ParticleFilter(model, N, threshold=0)` (threshold $0$: never resample); the same algorithm in
-# twenty lines of NumPy, giving the same numbers, is in {ref}`write-sis`.
+# In `pfcourse` this is `ParticleFilter(model, N, threshold=0)` (threshold $0$: never resample).
+# {doc}`importance_sampling` writes the same loop in twenty lines ({ref}`write-sis`); here we
+# check the idea itself on the engine's output.
 
 # %%
 import matplotlib.pyplot as plt
 import numpy as np
+import pandas as pd
 from IPython.display import HTML, display
 from myst_nb import glue
+from scipy.special import logsumexp
 
 from pfcourse import evidence
+from pfcourse.exercises import ScalarModel, check_sis
 from pfcourse.filter import ParticleFilter
 from pfcourse.landmarks.kalman import kalman_filter
 from pfcourse.landmarks.scenario import quadrant_scenario, simulate
 from pfcourse.figures.bands import posterior_bands
 from pfcourse.figures.clouds import animate_clouds
-from pfcourse.style import COLORS, ellipse_patch, plain_log_axis, use_style
+from pfcourse.figures.report import EvidenceBlock, glue_values
+from pfcourse.style import COLORS, plain_log_axis, use_style
 from pfcourse.figures.widgets import control_panel, particle_slider, scale_slider, seed_box
 
 use_style()
@@ -69,41 +97,79 @@ sim = simulate(scenario, rng=2024)
 kf = kalman_filter(model, sim.measurements)
 
 # %% [markdown]
-# ## One run with the lab's $N = 100$ particles (lab questions 4 and 5)
+# ## A weight is the likelihood of a path: checked on the engine
+#
+# Without resampling, particle $i$ keeps its index for the whole run, so the stored cloud
+# holds each particle's path. The lines below recompute every weight from scratch, as the sum
+# of the Gaussian log-likelihoods along the path, and compare with the engine's weights.
 
 # %%
 sis = ParticleFilter(model, 100, threshold=0.0)
 res = sis.run(sim.measurements, rng=1, store_particles=True)
+paths = res.particles  # (steps, N, 6): particle i's path is paths[:, i]
+
+
+def path_log_likelihood(z, x, H, R):
+    """log N(z; H x^i, R) for every particle, over the measured coordinates of z."""
+    seen = ~np.isnan(z)
+    if not seen.any():
+        return np.zeros(len(x))  # nothing measured: the weights do not change
+    d = z[seen] - x @ H[seen].T  # innovations, (N, measured)
+    S = R[np.ix_(seen, seen)]
+    quad = np.einsum("ij,ij->i", d @ np.linalg.inv(S), d)
+    return -0.5 * (quad + np.linalg.slogdet(2 * np.pi * S)[1])
+
+
+log_w = np.cumsum([path_log_likelihood(z, x, model.H, model.R)
+                   for z, x in zip(sim.measurements, paths)], axis=0)  # (steps, N)
+W = np.exp(log_w - logsumexp(log_w, axis=1, keepdims=True))
+ROUND_OFF = 1e-9
+print(f"largest difference from the engine's weights: below {ROUND_OFF:.0e}: "
+      f"{np.abs(W - res.weights).max() < ROUND_OFF}")
+print(f"ESS from the path weights equals the engine's: {np.allclose(1 / np.sum(W**2, axis=1), res.ess)}")
+glue("sis_path_weight_bound", ROUND_OFF, display=False)
+
+# %% [markdown]
+# The weights agree with the engine's to round-off (below {glue:text}`sis_path_weight_bound:.0e`).
+# Now watch what that product does to one run with the lab's $N = 100$ particles.
+#
+# ## One run with the lab's $N = 100$ particles (lab questions 4 and 5)
+
+# %%
 posterior_bands(sim.T, sim.truth, kf, res, LABELS, "SIS", "SIS (N = 100) against the exact posterior; dashed: truth")
 plt.show()
 
 # %% [markdown]
-# Within a few steps the SIS band (red) shrinks to a line: the "posterior covariance" of the
-# cloud goes to zero while the exact one (green) does not. The estimate then follows the
-# robot's motion with the error of whichever particle dominates at the time; the band
-# reopens briefly when the dominant particle changes, which it does
-# {glue:text}`sis_dominant_changes` times after step $5$ in this run (counted below). The
-# effective sample size tells the same story in numbers.
+# Within a few steps the SIS band (red) shrinks to a line while the exact one (green) does
+# not: the cloud claims a certainty it does not have. The estimate follows whichever particle
+# dominates; the band reopens briefly when another takes over, which happens
+# {glue:text}`sis_dominant_changes` times after step $5$ in this run. The ESS falls to
+# {glue:text}`sis_first_sighting_ess:.1f` at the first sighting of a landmark, step
+# {glue:text}`sis_first_sighting_step:d`.
 
-# %%
-print("ESS at the first 10 steps:", np.round(res.ess[:10], 1))
-print(f"largest weight at step 10: {res.weights[10].max():.4f}")
+# %% tags=["remove-input"] jupyter={"source_hidden": true}
 leader = res.weights.argmax(axis=1)
 changes = int(np.sum(leader[6:] != leader[5:-1]))
-print(f"the dominant particle changes {changes} times after step 5 "
-      f"(at steps {np.flatnonzero(leader[6:] != leader[5:-1]) + 6})")
-glue("sis_dominant_changes", changes, display=False)
 first_sighting = int(np.flatnonzero(sim.seen.any(axis=1))[0])
-print(f"first landmark sighting at step {first_sighting}: ESS {res.ess[first_sighting]:.1f}")
-glue("sis_first_sighting_step", first_sighting, display=False)
-glue("sis_first_sighting_ess", float(res.ess[first_sighting]), display=False)
-for k in (0, 5, 49):
-    print(f"k = {k:2d}: trace of the SIS covariance {np.trace(res.cov[k]):.2e} m^2, "
-          f"Kalman {np.trace(kf.cov[k]):.2e} m^2")
+glue_values(sis_dominant_changes=changes, sis_first_sighting_step=first_sighting,
+            sis_first_sighting_ess=float(res.ess[first_sighting]))
+EvidenceBlock(
+    "the weights of this run collapse",
+    notes=[f"ESS at the first ten steps: {', '.join(f'{e:.1f}' for e in res.ess[:10])}.",
+           f"Largest weight at step 10: {res.weights[10].max():.4f}.",
+           f"The dominant particle changes {changes} times after step 5, at steps "
+           f"{', '.join(str(k) for k in np.flatnonzero(leader[6:] != leader[5:-1]) + 6)}."],
+    tables=[("Trace of the covariance of the robot and landmark positions (m²)",
+             pd.DataFrame({"step k": [0, 5, 49], "SIS": [np.trace(res.cov[k]) for k in (0, 5, 49)],
+                           "Kalman (exact)": [np.trace(kf.cov[k]) for k in (0, 5, 49)]}),
+             {"SIS": ".2e", "Kalman (exact)": ".2e"})],
+)
 
 # %% [markdown]
 # The weight histograms show where the mass goes: at step $k = 0$ every weight is $1/N$; after a
-# couple of measurements most weights are negligible; soon one particle holds it all.
+# couple of measurements most weights are negligible; soon one particle holds it all. The
+# animation shows the cloud (dot size proportional to weight) with the 95 % ellipses of the
+# robot and the two landmarks: SIS in red, the exact posterior in green.
 
 # %%
 steps = [0, 2, 4, 8]
@@ -116,26 +182,17 @@ for ax, k in zip(axes, steps):
 axes[0].set_ylabel("number of particles")
 plt.show()
 
-# %% [markdown]
-# ## Ellipses collapsing
-#
-# The animation shows the cloud (dot size proportional to weight) and the 95 % ellipses of
-# the robot and of the two landmarks: SIS in red, the exact posterior in green. Scrub it:
-# the red ellipses vanish within a few steps while the green ones shrink only as
-# information arrives.
-
 # %%
 HTML(animate_clouds({"SIS, N = 100": res}, kf, sim.truth, range(0, 30), interval=200).to_jshtml())
 
 # %% [markdown]
 # (sis-degeneracy)=
-# ## Degeneracy in numbers: how fast does the ESS reach one particle? (lab question 5)
+# ## Degeneracy in numbers: does a larger N save SIS? (lab question 5)
 #
-# One run shows the collapse; does it depend on the run, and does a larger $N$ save SIS?
-# For $N = 100$, $1000$ and $10\,000$ we run SIS on {glue:text}`sis_degeneracy_runs:d` independent
-# simulations (seeds $s = 0, 1, \dots$, filter seeds $1000 + s$) and record the first step at which
-# $\mathrm{ESS} < 2$, "about one particle". Only the first {glue:text}`sis_horizon:d` steps are
-# run, since that is where it happens.
+# One run shows the collapse; does it depend on the run, and does a larger $N$ help? For
+# $N = 100$, $1000$ and $10\,000$ we run SIS on {glue:text}`sis_degeneracy_runs:d` simulations
+# (common random numbers: the same data for every $N$) and record the first step at which
+# $\mathrm{ESS} < 2$, "about one particle", over the first {glue:text}`sis_horizon:d` steps.
 
 # %%
 n_runs, horizon = 50, 15
@@ -152,24 +209,10 @@ def first_below(e, level=2.0):
     return np.where(hit.any(axis=1), hit.argmax(axis=1), horizon).astype(float)
 
 
-for N in N_values:
-    f = first_below(ess[N])
-    print(f"N = {N:6d}: ESS < 2 first at step {np.median(f):.0f} (median), "
-          f"10-90 % of runs {np.percentile(f, 10):.0f}-{np.percentile(f, 90):.0f}, "
-          f"never within {horizon} steps in {np.sum(f == horizon)} of {n_runs} runs")
-delay = evidence.paired(first_below(ess[10_000]), first_below(ess[100]))
-print(f"delay of N = 10000 over N = 100, run by run (steps): {delay}")
-per_decade = delay.median / np.log10(10_000 / 100)
-medians = {N: float(np.median(first_below(ess[N]))) for N in N_values}
-glue("sis_degeneracy_runs", n_runs, display=False)
-glue("sis_horizon", horizon, display=False)
-glue("sis_median_first_100", medians[100], display=False)
-glue("sis_median_first_10000", medians[10_000], display=False)
-glue("sis_delay_median", delay.median, display=False)
-glue("sis_delay_low", delay.low, display=False)
-glue("sis_delay_high", delay.high, display=False)
-glue("sis_delay_pvalue", delay.pvalue, display=False)
-glue("sis_decades_needed", int(round((horizon - medians[10_000]) / per_decade)), display=False)
+# run by run (paired: the same data), how many steps later N = 10 000 collapses than N = 100
+later = first_below(ess[10_000]) - first_below(ess[100])
+mean_delay, low, high = evidence.run_interval(lambda runs: later[runs].mean(), n_runs)
+print(f"mean delay: {mean_delay:.2f} steps (95 % interval {low:.2f} to {high:.2f}) over {n_runs} paired runs")
 
 # %%
 fig, (ax1, ax2) = plt.subplots(1, 2, figsize=(10, 3.6))
@@ -190,39 +233,53 @@ ax2.set_title(f"Time to degeneracy, {n_runs} runs")
 plt.show()
 
 # %% [markdown]
-# In the run above ($N = 100$) the ESS drops to {glue:text}`sis_first_sighting_ess:.1f` at the
-# *first* sighting of a landmark (step {glue:text}`sis_first_sighting_step:d`). Multiplying $N$ by
-# $100$ buys only a couple of steps: the median time to degeneracy moves from step
-# {glue:text}`sis_median_first_100:.0f` to step {glue:text}`sis_median_first_10000:.0f`, about one
-# step per factor of ten (run by run, the median delay is {glue:text}`sis_delay_median:.0f` steps,
-# 95 % interval {glue:text}`sis_delay_low:.0f` to {glue:text}`sis_delay_high:.0f`, Wilcoxon
-# $p$ = {glue:text}`sis_delay_pvalue:.1g`). This is the general behaviour of SIS: the variance of
-# the weights grows (roughly exponentially) with time, and here each step with a visible
-# landmark multiplies the weights by a likelihood that is sharp ($0.1$ m noise) compared with
-# the prior spread of the landmarks ($\sqrt{0.2} \approx 0.45$ m).
-#
-# ## How to choose N, and which importance function (lab question 4)
-#
-# - **The importance function** used here is the transition $p(x_k \mid x_{k-1})$, the only one
-#   that needs nothing but a simulator. It ignores $z_k$: particles are placed blindly, then
-#   judged. {doc}`proposals` builds the best one, $p(x_k \mid x_{k-1}, z_k)$.
-# - **The number of particles** should make the ESS after the updates large enough for the
-#   Monte Carlo error $\approx \sqrt{\operatorname{tr} P / \mathrm{ESS}}$ to be small compared
-#   with the posterior spread. For SIS no $N$ achieves that here: the measurements above show
-#   the ESS reaches about one particle in a handful of steps for every $N$ that runs in reasonable time,
-#   because the number needed grows exponentially with the number of informative steps.
-# - **What goes wrong, and the fix**: the weights degenerate. The fix is to resample when the
-#   ESS falls too low ({doc}`sir`), and to propose better ({doc}`proposals`).
-#
-# ## Try it
-#
-# The panel runs SIS for the chosen $N$, measurement noise scale (the simulator and the
-# filter use the same scaled $R_v$) and seed, and plots the ESS and the landmark $1$ estimate
-# against the Kalman posterior. Does broader measurement noise change the collapse? The runs
-# of the study above ($N = 100$, first {glue:text}`sis_horizon:d` steps) again, with the
-# measurement noise's standard deviation doubled (the panel's largest scale), same seeds:
+# Multiplying $N$ by $100$ delays the collapse by {glue:text}`sis_delay_mean:.1f` steps on
+# average (95 % interval {glue:text}`sis_delay_mean_low:.1f` to {glue:text}`sis_delay_mean_high:.1f`),
+# about a step per factor of ten. Each step with a landmark in view multiplies the weights
+# by a likelihood that is sharp ($0.1$ m noise) next to the prior spread of the landmarks
+# ($\sqrt{0.2} \approx 0.45$ m), so the $N$ needed grows exponentially with the number of
+# informative steps.
 
-# %%
+# %% tags=["remove-input"] jupyter={"source_hidden": true}
+delay = evidence.paired(first_below(ess[10_000]), first_below(ess[100]))
+per_decade = mean_delay / np.log10(10_000 / 100)
+medians = {N: float(np.median(first_below(ess[N]))) for N in N_values}
+glue_values("sis_", degeneracy_runs=n_runs, horizon=horizon, median_first_100=medians[100],
+            median_first_10000=medians[10_000], delay_median=delay.median, delay_low=delay.low,
+            delay_high=delay.high, delay_pvalue=delay.pvalue, delay_mean=mean_delay, delay_mean_low=low,
+            delay_mean_high=high, delay_per_decade=per_decade,
+            decades_needed=int(round((horizon - medians[10_000]) / per_decade)))
+
+
+def per_n_table():
+    rows = []
+    for N in N_values:
+        f = first_below(ess[N])
+        rows.append({"N": N, "median first step": np.median(f), "10 %": np.percentile(f, 10),
+                     "90 %": np.percentile(f, 90), f"runs never below 2 in {horizon} steps": int(np.sum(f == horizon))})
+    return pd.DataFrame(rows)
+
+
+EvidenceBlock(
+    f"a hundred times more particles delays the collapse by {mean_delay:.1f} steps on average",
+    notes=[f"{n_runs} simulations (seeds 0 to {n_runs - 1}), the same for every N; filter seeds 1000 + s.",
+           f"Delay of N = 10 000 over N = 100, run by run: mean {mean_delay:.2f} steps, 95 % interval "
+           f"{low:.2f} to {high:.2f} (percentile bootstrap over the runs). The delays are small whole "
+           f"numbers, so their median ({delay.median:.0f}) and its interval say less than the mean; "
+           f"Wilcoxon's signed-rank test of no delay: p = {delay.pvalue:.1g}, {delay.n} paired runs "
+           "(see Reading the evidence)."],
+    tables=[("First step with ESS < 2, over the runs", per_n_table(),
+             {"median first step": ".0f", "10 %": ".0f", "90 %": ".0f"})],
+)
+
+# %% [markdown]
+# Does broader measurement noise change the collapse? The same runs with the measurement
+# noise's standard deviation doubled (simulator and filter alike): the ESS still falls below
+# $2$ within {glue:text}`sis_horizon:d` steps in {glue:text}`sis_broad_collapsed:.0%` of the runs
+# (95 % Wilson interval from {glue:text}`sis_broad_collapsed_low:.0%`). Broader noise slows the
+# collapse by little; it does not stop it.
+
+# %% tags=["remove-input"] jupyter={"source_hidden": true}
 sc2 = scenario.with_(Rv=2.0**2 * scenario.Rv)
 ess_broad = np.array([ParticleFilter(sc2.model(), 100, threshold=0.0).run(simulate(sc2, rng=seed).measurements[:horizon],
                                                                           rng=1000 + seed).ess
@@ -231,32 +288,36 @@ first_broad, first_base = first_below(ess_broad), first_below(ess[100])
 slower = evidence.paired(first_broad, first_base)
 collapsed_broad = evidence.rate(first_broad < horizon)
 n_later, n_earlier, sign_p = evidence.sign_test(first_base, first_broad)  # base < broad: later with x2
-print(f"N = 100, Rv sd x2 vs x1: ESS < 2 first at step {np.median(first_broad):.0f} vs {np.median(first_base):.0f} "
-      f"(median); delay run by run (steps): {slower}")
-print(f"sign test: the collapse comes later with the broader noise in {n_later} runs, earlier in {n_earlier}, "
-      f"tied in {n_runs - n_later - n_earlier} (exact p = {sign_p:.1g})")
-print(f"runs with ESS < 2 within {horizon} steps at Rv sd x2: {collapsed_broad}")
-glue("sis_broad_later", n_later, display=False)
-glue("sis_broad_earlier", n_earlier, display=False)
-glue("sis_broad_sign_p", sign_p, display=False)
-glue("sis_broad_first", float(np.median(first_broad)), display=False)
-glue("sis_broad_delay", slower.median, display=False)
-glue("sis_broad_delay_low", slower.low, display=False)
-glue("sis_broad_delay_high", slower.high, display=False)
-glue("sis_broad_delay_p", slower.pvalue, display=False)
-glue("sis_broad_collapsed", collapsed_broad.estimate, display=False)
-glue("sis_broad_collapsed_low", collapsed_broad.low, display=False)
+glue_values("sis_broad_", later=n_later, earlier=n_earlier, sign_p=sign_p, first=float(np.median(first_broad)),
+            delay=slower.median, delay_low=slower.low, delay_high=slower.high, delay_p=slower.pvalue,
+            collapsed=collapsed_broad.estimate, collapsed_low=collapsed_broad.low)
+EvidenceBlock(
+    "doubling the measurement noise does not stop the collapse",
+    notes=[f"N = 100, measurement sd doubled vs the lab's, same seeds: ESS < 2 first at step "
+           f"{np.median(first_broad):.0f} vs {np.median(first_base):.0f} (medians); delay run by run "
+           f"(steps): {slower}.",
+           f"Sign test: the collapse comes later with the broader noise in {n_later} runs, earlier in "
+           f"{n_earlier}, tied in {n_runs - n_later - n_earlier} (exact p = {sign_p:.1g}).",
+           f"Runs with ESS < 2 within {horizon} steps with the broader noise: {collapsed_broad}."],
+)
 
 # %% [markdown]
-# Doubling the noise slows the collapse, by little: the ESS falls below $2$ first at step
-# {glue:text}`sis_broad_first:.0f` in the median run, against {glue:text}`sis_median_first_100:.0f`;
-# run by run the collapse comes later in {glue:text}`sis_broad_later:d` of the
-# {glue:text}`sis_degeneracy_runs:d` runs and earlier in {glue:text}`sis_broad_earlier:d` (sign test
-# $p$ = {glue:text}`sis_broad_sign_p:.0e`; median delay {glue:text}`sis_broad_delay:.0f` step,
-# 95 % interval {glue:text}`sis_broad_delay_low:.0f` to {glue:text}`sis_broad_delay_high:.0f`, Wilcoxon
-# $p$ = {glue:text}`sis_broad_delay_p:.0e`). It does not stop it: the ESS still falls below $2$
-# within {glue:text}`sis_horizon:d` steps in {glue:text}`sis_broad_collapsed:.0%` of the runs
-# (95 % Wilson interval from {glue:text}`sis_broad_collapsed_low:.0%`).
+# ## How to choose N, and which importance function (lab question 4)
+#
+# - **The importance function** here is the transition $p(x_k \mid x_{k-1})$: it places
+#   particles blindly, then judges them by $z_k$. {doc}`proposals` builds the best one,
+#   $p(x_k \mid x_{k-1}, z_k)$, which looks at $z_k$ first.
+# - **The number of particles** should keep the Monte Carlo error,
+#   $\approx \sqrt{\operatorname{tr} P / \mathrm{ESS}}$, small next to the posterior spread. For
+#   SIS no affordable $N$ does, as measured above.
+# - **What goes wrong, and the fix:** the weights degenerate. The fix is to resample when the
+#   ESS falls too low ({doc}`sir`), and to propose better ({doc}`proposals`).
+#
+# ## Try it
+#
+# The panel runs SIS for the chosen $N$, measurement noise scale (simulator and filter alike)
+# and seed, and plots the ESS and the landmark $1$ estimate against the Kalman posterior.
+# Which $N$ keeps the ESS above ten for the whole run?
 
 # %%
 def draw_sis(n_particles, noise_scale, seed):
@@ -287,8 +348,9 @@ display(control_panel(draw_sis, grid={"n_particles": (10, 100, 1000, 10000), "no
 # %% [markdown]
 # ## Exercises
 #
-# ```{exercise}
+# ```{exercise} 4.1 The weight update by hand
 # :label: ex-sis-write
+# :nonumber:
 # (Lab question 3.) Write the SIS weight update for a step at which only landmark $1$ is in
 # view, with the transition as importance function, as an explicit function of $x_k^i$.
 # ```
@@ -300,33 +362,75 @@ display(control_panel(draw_sis, grid={"n_particles": (10, 100, 1000, 10000), "no
 # normalisation). Landmark $2$ does not appear.
 # ```
 #
-# ```{exercise}
+# ```{exercise} 4.2 How many particles would SIS need?
 # :label: ex-sis-n
-# (Lab question 4.) From the {glue:text}`sis_degeneracy_runs:d`-run statistics above, estimate how
+# :nonumber:
+# (Lab question 4.) From the {glue:text}`sis_degeneracy_runs:d`-run study above, estimate how
 # many particles SIS would need to keep an ESS of at least $2$ for {glue:text}`sis_horizon:d` steps.
 # ```
 #
 # ```{solution} ex-sis-n
 # :class: dropdown
-# Each factor of ten in $N$ delays the median first step with $\mathrm{ESS} < 2$ by about one
-# step, from the printed medians and the paired delay. Reaching {glue:text}`sis_horizon:d` steps
-# from about {glue:text}`sis_median_first_10000:.0f` at $N = 10^4$ would, at that rate, take some
-# {glue:text}`sis_decades_needed:d` more factors of ten beyond $N = 10^4$: SIS is hopeless here,
-# and the cure is not more particles.
+# Each factor of ten in $N$ delays the collapse by about {glue:text}`sis_delay_per_decade:.1f`
+# step on average. Reaching {glue:text}`sis_horizon:d` steps from about {glue:text}`sis_median_first_10000:.0f`
+# at $N = 10^4$ would, at that rate, take some {glue:text}`sis_decades_needed:d` more factors of
+# ten beyond $N = 10^4$: SIS is hopeless here, and the cure is not more particles.
 # ```
 #
-# ```{exercise}
+# ```{exercise} 4.3 Write SIS, and have it checked
 # :label: ex-sis-code
-# (Coding.) Take `my_filter` of {ref}`write-sis` with `threshold=0` and record, at each
-# step, the largest normalised weight. Over seeds $0$ to $19$ with $N = 100$ and $N = 10^4$, at
-# which step does it first exceed $0.99$? Compare with the ESS curves above.
+# :nonumber:
+# (Coding.) Write `my_sis(z, n_particles, rng, model)`: SIS with the bootstrap proposal for the
+# scalar model $x_0 \sim \mathcal N(m_0, p_0)$, $x_k = a x_{k-1} + w_k$, $w_k \sim \mathcal N(0, q)$,
+# $z_k = x_k + v_k$, $v_k \sim \mathcal N(0, r)$, whose parameters are `model.a`, `model.q`,
+# `model.r`, `model.m0`, `model.p0` (variances, not standard deviations). `z` has shape `(K,)`,
+# NaN where nothing is measured (always at step $0$). Return the weighted means and the ESS,
+# two arrays of shape `(K,)`. The checker runs it against the Kalman filter, which is exact for
+# this model, and names the mistake it sees.
 # ```
-#
+
+# %% tags=["answer"]
+def my_sis(z, n_particles, rng, model):
+    """Your SIS: return (means, ess), two arrays of shape (len(z),)."""
+    ...  # replace with your code
+
+
+print(check_sis(my_sis))
+
+# %% [markdown]
 # ```{solution} ex-sis-code
 # :class: dropdown
-# Add `top.append(W.max())` next to `esss.append(...)` and return it; then
-# `np.argmax(np.array(top) > 0.99)` per run. With a hundred times more particles the step
-# comes later, but still early in a $50$-step run, as the ESS curves showed: degeneracy is
-# postponed, not cured.
-# The engine gives the same number from `res.weights.max(axis=1)` with `store_particles=True`.
+# Algorithm 4.1 for a scalar state, with the weights in the log domain; the code is in the
+# folded cell below (in JupyterLab, click its margin to unfold it).
 # ```
+
+# %% tags=["solution", "hide-input"] jupyter={"source_hidden": true}
+def my_sis(z, n_particles, rng, model):
+    x = model.m0 + np.sqrt(model.p0) * rng.standard_normal(n_particles)
+    log_w = np.full(n_particles, -np.log(n_particles))
+    means, ess = [], []
+    for k, zk in enumerate(z):
+        if k > 0:  # propose from the transition
+            x = model.a * x + np.sqrt(model.q) * rng.standard_normal(n_particles)
+        if not np.isnan(zk):  # weight by the likelihood, then normalise
+            log_w = log_w - 0.5 * (zk - x) ** 2 / model.r
+            log_w = log_w - logsumexp(log_w)
+        w = np.exp(log_w)
+        means.append(w @ x)
+        ess.append(1.0 / np.sum(w**2))
+    return np.array(means), np.array(ess)
+
+
+print(check_sis(my_sis))
+
+# %% [markdown]
+# ## Takeaways
+#
+# - SIS is importance sampling on the whole path: with the transition as proposal, a
+#   particle's weight is the product of the likelihoods along its path.
+# - That product degenerates: within a few informative steps one particle holds almost all
+#   the weight, and the cloud's covariance collapses while the exact posterior's does not.
+# - More particles only postpone the collapse, by about a step per factor of ten here; the
+#   cures are resampling ({doc}`sir`) and a proposal that looks at the measurement
+#   ({doc}`proposals`).
+# - The effective sample size, $1 / \sum_i (W_k^i)^2$, is the number to watch.

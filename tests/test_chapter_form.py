@@ -1,0 +1,136 @@
+"""Every chapter rewritten in the book's form keeps it (issue 29; README, "Working on the book").
+
+The form, in the order a reader meets it: a header (what the chapter teaches, what it needs,
+how long it takes), the idea and an algorithm box, figures, claims that quote at most four
+glued numbers per paragraph (the rest folded in evidence blocks), a "try it" panel, a checked
+coding exercise, and takeaways; at most about 2,500 words of prose. What can be counted is
+checked here, for the chapters of ``IN_FORM``; a chapter joins the list when it is rewritten.
+For every chapter: a solution's code stays folded in the HTML book and in JupyterLab.
+"""
+
+from __future__ import annotations
+
+import json
+import re
+from pathlib import Path
+
+import jupytext
+import pytest
+import yaml
+
+from test_start_here import prose_words, reading_minutes
+
+ROOT = Path(__file__).resolve().parents[1]
+BOOK = ROOT / "book"
+CHAPTERS = sorted(BOOK.rglob("*.py"))
+IN_FORM = ["part1/sis"]
+MAX_NUMBERS_PER_PARAGRAPH = 4
+MAX_WORDS = 2500
+WORDS = {w: i for i, w in enumerate(
+    "zero one two three four five six seven eight nine ten eleven twelve thirteen fourteen fifteen sixteen "
+    "seventeen eighteen nineteen twenty twenty-one twenty-two twenty-three twenty-four twenty-five".split())}
+GLUE = re.compile(r"\{glue(?::text)?\}`[^`]+`")
+FOLDED = re.compile(r"^(:{3,}|`{3,})\{(?:admonition|solution)\}[^\n]*\n(?:\s*:[a-z-]+:[^\n]*\n)*?"
+                    r"\s*:class:[^\n]*dropdown.*?^\1\s*$", re.S | re.M)
+
+
+def numbered_chapters() -> list[str]:
+    """The chapters of the parts, in the book's order: chapter ``n`` is ``[n - 1]``."""
+    entries = []
+    for part in yaml.safe_load((ROOT / "_toc.yml").read_text())["parts"]:
+        if part["caption"].startswith("Part"):
+            entries += [s["file"].removeprefix("book/") for c in part["chapters"] for s in c.get("sections", [])]
+    return entries
+
+
+def cells(doc: str) -> list:
+    return jupytext.read(BOOK / f"{doc}.py").cells
+
+
+def markdown(doc: str) -> str:
+    return "\n\n".join(c.source for c in cells(doc) if c.cell_type == "markdown")
+
+
+def paragraphs_outside_folds(text: str) -> list[str]:
+    text = FOLDED.sub(" ", text)
+    return [p for p in re.split(r"\n\s*\n", text) if p.strip()]
+
+
+@pytest.mark.parametrize("doc", IN_FORM)
+def test_the_header_says_what_it_teaches_needs_and_takes(doc):
+    text = markdown(doc)
+    header = re.search(r":::\{admonition\} In this chapter\n:class: chapter-header\n(.*?)\n:::", text, re.S)
+    assert header, f"{doc}: no header (':::{{admonition}} In this chapter' with ':class: chapter-header')"
+    body = header.group(1)
+    for part in ("**You learn**", "**You need**", "**Time:**"):
+        assert part in body, f"{doc}: the header has no {part}"
+    minutes = re.search(r"about ([a-z-]+) minutes to read", body)
+    assert minutes and minutes.group(1) in WORDS, f"{doc}: say 'about <number in words> minutes to read'"
+    stated, expected = WORDS[minutes.group(1)], reading_minutes([BOOK / f"{doc}.py"])
+    assert abs(stated - expected) <= max(2, 0.25 * expected), f"{doc}: header says {stated} min, prose reads in {expected}"
+
+
+@pytest.mark.parametrize("doc", IN_FORM)
+def test_an_algorithm_box_comes_before_the_first_study(doc):
+    text = markdown(doc)
+    box = re.search(r":::\{admonition\} Algorithm (\d+)\.(\d+)[^\n]*\n:class: algorithm\n", text)
+    assert box, f"{doc}: no algorithm box (':::{{admonition}} Algorithm n.m: ...' with ':class: algorithm')"
+    assert int(box.group(1)) == numbered_chapters().index(doc) + 1, f"{doc}: the algorithm's number is not the chapter's"
+
+
+@pytest.mark.parametrize("doc", IN_FORM)
+def test_paragraphs_quote_at_most_four_glued_numbers_outside_evidence(doc):
+    worst = max(paragraphs_outside_folds(markdown(doc)), key=lambda p: len(GLUE.findall(p)))
+    assert len(GLUE.findall(worst)) <= MAX_NUMBERS_PER_PARAGRAPH, (
+        f"{doc}: a paragraph quotes {len(GLUE.findall(worst))} glued numbers (at most "
+        f"{MAX_NUMBERS_PER_PARAGRAPH}; fold the rest into an evidence block): {worst[:200]!r}")
+
+
+@pytest.mark.parametrize("doc", IN_FORM)
+def test_the_chapter_reads_in_about_twenty_minutes(doc):
+    assert prose_words(BOOK / f"{doc}.py") <= MAX_WORDS
+
+
+@pytest.mark.parametrize("doc", IN_FORM)
+def test_exercises_are_numbered_by_chapter_and_one_is_checked(doc):
+    text, number = markdown(doc), numbered_chapters().index(doc) + 1
+    titles = re.findall(r"```\{exercise\} (\d+)\.(\d+) [^\n]+\n:label: [^\n]+\n:nonumber:\n", text)
+    assert len(titles) == text.count("{exercise}"), f"{doc}: every exercise is titled 'n.m ...' and :nonumber:"
+    assert [(int(c), int(e)) for c, e in titles] == [(number, e) for e in range(1, len(titles) + 1)]
+    tagged = [(c.metadata.get("tags", []), c.source) for c in cells(doc) if c.cell_type == "code"]
+    answers = [src for tags, src in tagged if "answer" in tags]
+    solutions = [src for tags, src in tagged if "solution" in tags]
+    assert answers and all("check_" in a for a in answers), f"{doc}: no answer cell calling a pfcourse.exercises checker"
+    assert len(solutions) == len(answers), f"{doc}: every answer cell needs its solution cell"
+
+
+@pytest.mark.parametrize("doc", IN_FORM)
+def test_the_reference_solutions_pass_their_checkers(doc):
+    notebook = json.loads((BOOK / f"{doc}.ipynb").read_text())
+    for cell in notebook["cells"]:
+        if "solution" in cell.get("metadata", {}).get("tags", []):
+            text = "".join("".join(o.get("text", "")) for o in cell.get("outputs", []))
+            assert "every check passed" in text, f"{doc}: a stored solution does not pass its checker: {text!r}"
+
+
+@pytest.mark.parametrize("doc", IN_FORM)
+def test_takeaways_end_the_chapter(doc):
+    sections = re.split(r"^## ", markdown(doc), flags=re.M)
+    assert sections[-1].startswith("Takeaways\n"), f"{doc}: the last section is not '## Takeaways'"
+    assert 3 <= len(re.findall(r"^- ", sections[-1], flags=re.M)) <= 5, f"{doc}: three to five takeaways"
+
+
+@pytest.mark.parametrize("path", CHAPTERS, ids=lambda p: p.stem)
+def test_solution_code_is_folded_in_the_book_and_in_jupyterlab(path):
+    for cell in jupytext.read(path).cells:
+        if cell.cell_type == "code" and "solution" in cell.metadata.get("tags", []):
+            assert "hide-input" in cell.metadata["tags"], f"{path.name}: a solution cell is not folded in HTML"
+            assert cell.metadata.get("jupyter", {}).get("source_hidden") is True, (
+                f"{path.name}: a solution cell is not folded in JupyterLab (jupyter.source_hidden)")
+
+
+def test_the_fold_pattern_skips_dropdowns_and_keeps_the_rest():
+    text = ("Claim with {glue:text}`a`.\n\n```{solution} ex\n:class: dropdown\n{glue:text}`b` {glue:text}`c`\n```\n\n"
+            ":::{admonition} Evidence\n:class: dropdown\n{glue:text}`d`\n:::\n\nEnd {glue:text}`e`.")
+    kept = paragraphs_outside_folds(text)
+    assert [len(GLUE.findall(p)) for p in kept] == [1, 1]
