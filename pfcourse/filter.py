@@ -171,22 +171,16 @@ def _present(measurements: Sequence[Measurement] | Array):
         yield None if missing[k] else np.asarray(measurements[k], dtype=float)
 
 
-@dataclass
 class _Cloud:
     """The weighted cloud carried from step to step: ``x^i``, ``log W^i`` and ``W^i`` (``N`` of each).
 
     ``scratch`` is work space of the compiled weight update (:func:`pfcourse.kernels.normalize_step`).
     """
 
-    particles: Array | None
-    log_weights: Array
-    weights: Array
-    scratch: Array
-
-    @classmethod
-    def uniform(cls, particles: Array | None, n: int) -> _Cloud:
-        """``n`` particles of weight ``W^i = 1/n``."""
-        return cls(particles, np.full(n, -np.log(n)), np.full(n, 1.0 / n), np.empty(n))
+    def __init__(self, n: int) -> None:
+        """``n`` particles still to be drawn (by ``sample_initial``), of weight ``1/n``."""
+        self.particles: Array | None = None
+        self._uniform_weights(n)
 
     @property
     def size(self) -> int:
@@ -194,10 +188,14 @@ class _Cloud:
         return len(self.log_weights)
 
     def restart(self, particles: Array) -> None:
-        """Replace the particles by ``particles`` (resampled or newly drawn) of weight ``1/N``."""
-        fresh = _Cloud.uniform(particles, len(particles))
-        self.particles, self.log_weights, self.weights, self.scratch = (
-            fresh.particles, fresh.log_weights, fresh.weights, fresh.scratch)
+        """Replace the particles by ``particles`` (resampled or newly drawn), each of weight ``W^i = 1/N``."""
+        self.particles = particles
+        self._uniform_weights(len(particles))
+
+    def _uniform_weights(self, n: int) -> None:
+        self.log_weights = np.full(n, -np.log(n))
+        self.weights = np.full(n, 1.0 / n)
+        self.scratch = np.empty(n)
 
 
 @dataclass
@@ -350,7 +348,7 @@ class ParticleFilter:
         """The per-step output arrays and the initial (empty, uniformly weighted) cloud of ``N`` particles."""
         n, d = self.n_particles, self.dim_x
         try:
-            return _Trace.empty(n_steps, n, d, store_particles, self.angle_indices), _Cloud.uniform(None, n)
+            return _Trace.empty(n_steps, n, d, store_particles, self.angle_indices), _Cloud(n)
         except (MemoryError, ValueError):
             raise ParameterError(
                 f"before step 0: n_particles={n}, dim_x={d} and {n_steps} steps need more memory "
