@@ -31,6 +31,11 @@ unchanged: the particles move through the transition only.  A measurement with
 as "not observed".  Any NaN produced by the model, and a step at which every
 particle has zero likelihood, raise a named error that gives the step.
 
+:meth:`ParticleFilter.run` is that loop, one named part per step: ``_propose`` (step 1; with a
+variable ``N``, ``_propose_variable_n``, whose batches share ``_move`` with it), ``_weight``
+(steps 2 and 3), ``_record`` (the moments and the ESS of step 3 into the result) and
+``_resample`` (step 4).  The weighted cloud they pass on is a ``_Cloud``.
+
 Steps 3 and 4 run as compiled loops (:mod:`pfcourse.kernels`): one pass over the particles
 for the weights, the ESS and the log-likelihood increment (the same floats as
 :func:`~pfcourse.diagnostics.normalize_log_weights`), two for the moments, one merge pass
@@ -156,6 +161,77 @@ class DensityProposal:
         return new, log_inc
 
 
+def _present(measurements: Sequence[Measurement] | Array):
+    """``z_k`` as a float array, or ``None`` when the step's measurement is missing (:func:`is_missing`)."""
+    if isinstance(measurements, np.ndarray) and measurements.dtype.kind == "f":
+        missing = np.isnan(measurements.reshape(len(measurements), -1)).all(axis=1)  # is_missing, per row
+    else:
+        missing = [is_missing(z) for z in measurements]
+    for k in range(len(measurements)):
+        yield None if missing[k] else np.asarray(measurements[k], dtype=float)
+
+
+class _Cloud:
+    """The weighted cloud carried from step to step: ``x^i``, ``log W^i`` and ``W^i`` (``N`` of each).
+
+    ``scratch`` is work space of the compiled weight update (:func:`pfcourse.kernels.normalize_step`).
+    """
+
+    def __init__(self, n: int) -> None:
+        """``n`` particles still to be drawn (by ``sample_initial``), of weight ``1/n``."""
+        self.particles: Array | None = None
+        self._uniform_weights(n)
+
+    @property
+    def size(self) -> int:
+        """The number of particles ``N``."""
+        return len(self.log_weights)
+
+    def restart(self, particles: Array) -> None:
+        """Replace the particles by ``particles`` (resampled or newly drawn), each of weight ``W^i = 1/N``."""
+        self.particles = particles
+        self._uniform_weights(len(particles))
+
+    def _uniform_weights(self, n: int) -> None:
+        self.log_weights = np.full(n, -np.log(n))
+        self.weights = np.full(n, 1.0 / n)
+        self.scratch = np.empty(n)
+
+
+@dataclass
+class _Trace:
+    """The run's per-step output, filled by :meth:`ParticleFilter._record` (fields of :class:`FilterResult`)."""
+
+    mean: Array
+    cov: Array
+    ess: Array
+    resampled: Array
+    log_likelihood_increments: Array
+    sizes: Array
+    particles: Array | None
+    weights: Array | None
+    is_angle: Array  # the components whose mean is circular
+    linear: Array | None  # the components whose variance must stay finite (None: all)
+
+    @classmethod
+    def empty(cls, n_steps: int, n: int, d: int, store_particles: bool, angle_indices: Sequence[int]) -> _Trace:
+        """Arrays for ``n_steps`` steps of ``n`` particles in ``d`` dimensions (the cloud only if stored)."""
+        is_angle = np.zeros(d, dtype=bool)
+        is_angle[list(angle_indices)] = True
+        return cls(
+            mean=np.empty((n_steps, d)),
+            cov=np.empty((n_steps, d, d)),
+            ess=np.empty(n_steps),
+            resampled=np.zeros(n_steps, dtype=bool),
+            log_likelihood_increments=np.zeros(n_steps),
+            sizes=np.empty(n_steps, dtype=np.int64),
+            particles=np.empty((n_steps, n, d)) if store_particles else None,
+            weights=np.empty((n_steps, n)) if store_particles else None,
+            is_angle=is_angle,
+            linear=~is_angle if is_angle.any() else None,
+        )
+
+
 class ParticleFilter:
     """Sequential importance sampling with optional resampling (SIS / SIR).
 
@@ -243,130 +319,85 @@ class ParticleFilter:
         absent); ``x_0`` is drawn from the model's initial distribution and
         weighted by ``z_0`` if present.  ``rng`` is a ``numpy.random.Generator``
         or an integer seed: the same seed gives the same result.
+
+        Each step is :meth:`_propose` (or :meth:`_propose_variable_n`, which resamples the
+        ancestors itself), :meth:`_weight`, :meth:`_record` and, with a fixed ``N``,
+        :meth:`_resample` when ``ESS < threshold * N``.
         """
         rng = as_generator(rng)
-        n, d = self.n_particles, self.dim_x
         measurements = check_measurements(measurements)
-        n_steps = len(measurements)
-        if store_particles and self.sample_size is not None:
+        variable_n = self.sample_size is not None
+        if store_particles and variable_n:
             raise ParameterError("store_particles needs a fixed number of particles (this filter has a sample_size policy)")
+        trace, cloud = self._allocate(len(measurements), store_particles)
+        for k, z in enumerate(_present(measurements)):
+            if variable_n and k > 0 and z is not None:
+                log_inc = self._propose_variable_n(cloud, z, k, rng)
+                trace.resampled[k] = True  # the new cloud's ancestors were drawn by resampling
+            else:
+                log_inc = self._propose(cloud, z, k, rng)
+            ess, log_evidence = self._weight(cloud, log_inc, z, k)
+            self._record(trace, k, cloud, ess, log_evidence)
+            if not variable_n and ess < self.threshold * cloud.size * (1.0 - 1e-12):
+                self._resample(cloud, k, rng)
+                trace.resampled[k] = True
+        return self._result(trace)
+
+    # ------------------------------------------------------------------ the parts of a step
+    def _allocate(self, n_steps: int, store_particles: bool) -> tuple[_Trace, _Cloud]:
+        """The per-step output arrays and the initial (empty, uniformly weighted) cloud of ``N`` particles."""
+        n, d = self.n_particles, self.dim_x
         try:
-            mean = np.empty((n_steps, d))
-            cov = np.empty((n_steps, d, d))
-            ess = np.empty(n_steps)
-            resampled = np.zeros(n_steps, dtype=bool)
-            log_inc_total = np.zeros(n_steps)
-            sizes = np.empty(n_steps, dtype=np.int64)
-            stored_x = np.empty((n_steps, n, d)) if store_particles else None
-            stored_w = np.empty((n_steps, n)) if store_particles else None
-            np.empty((n, d))  # the cloud itself
+            return _Trace.empty(n_steps, n, d, store_particles, self.angle_indices), _Cloud(n)
         except (MemoryError, ValueError):
             raise ParameterError(
                 f"before step 0: n_particles={n}, dim_x={d} and {n_steps} steps need more memory "
                 "than this machine has"
             ) from None
 
-        particles = None
-        log_weights = np.full(n, -np.log(n))
-        weights = np.full(n, 1.0 / n)
-        scratch = np.empty(n)
-        is_angle = np.zeros(d, dtype=bool)
-        is_angle[list(self.angle_indices)] = True
-        linear = ~is_angle if is_angle.any() else None  # the variances that must stay finite
-        if isinstance(measurements, np.ndarray) and measurements.dtype.kind == "f":
-            missing_steps = np.isnan(measurements.reshape(n_steps, -1)).all(axis=1)  # is_missing, per row
+    def _propose(self, cloud: _Cloud, z: Array | None, k: int, rng: np.random.Generator) -> Array | None:
+        """Step 1, in place: ``x_0^i ~ p(x_0)`` at step 0, ``x_k^i ~ q(x_k | x_{k-1}^i, z_k)`` afterwards.
+
+        Returns the checked log-increments ``log inc_k^i`` (``log p(z_0 | x_0^i)`` at step 0), or
+        ``None`` when ``z_k`` is missing (the particles then move through the transition).
+        """
+        if k > 0:
+            cloud.particles, log_inc = self._move(cloud.particles, z, k, rng)
+            return log_inc
+        cloud.particles = self._check_particles(self.model.sample_initial(cloud.size, rng), k, "sample_initial")
+        if z is None:
+            return None
+        return self._check_log_increments(self.model.log_likelihood(cloud.particles, z, k), k, cloud.size)
+
+    def _move(self, parents: Array, z: Array | None, k: int,
+              rng: np.random.Generator) -> tuple[Array, Array | None]:
+        """Draw ``x_k^i ~ q(. | x_{k-1}^i, z_k)`` for each row ``x_{k-1}^i`` of ``parents`` (checked).
+
+        Returns ``(x_k, log inc_k)`` with ``log inc_k^i = log p(z_k | x_k^i) + log p(x_k^i | x_{k-1}^i)
+        - log q(x_k^i | x_{k-1}^i, z_k)`` (checked), or ``(x_k, None)`` when ``z_k`` is missing: then
+        ``q`` is the transition whatever the proposal.  Shared by the fixed and the variable ``N``.
+        """
+        m = len(parents)
+        if z is None or type(self.proposal) is TransitionProposal:
+            new = self._check_particles(self.model.sample_transition(parents, k, rng), k, "sample_transition", m)
+            if z is None:
+                return new, None
+            log_inc = self.model.log_likelihood(new, z, k)
         else:
-            missing_steps = [is_missing(z) for z in measurements]
-        default_proposal = type(self.proposal) is TransitionProposal
-        adaptive = self.sample_size is not None
-        for k in range(n_steps):
-            z = measurements[k]
-            missing = missing_steps[k]
-            if not missing:
-                z = np.asarray(z, dtype=float)
-            # particles are checked before the model's likelihood sees them
-            if adaptive and k > 0 and not missing:
-                particles, log_inc = self._adaptive_step(particles, weights, z, k, rng)
-                n = len(particles)
-                log_weights = np.full(n, -np.log(n))
-                scratch = np.empty(n)
-                resampled[k] = True
-            elif k == 0:
-                particles = self._check_particles(self.model.sample_initial(n, rng), k, "sample_initial")
-                log_inc = None if missing else self.model.log_likelihood(particles, z, k)
-            elif missing or default_proposal:
-                particles = self._check_particles(
-                    self.model.sample_transition(particles, k, rng), k, "sample_transition", n
-                )
-                log_inc = None if missing else self.model.log_likelihood(particles, z, k)
-            else:
-                proposed = self.proposal.propose(self.model, particles, z, k, rng)
-                if not isinstance(proposed, tuple) or len(proposed) != 2:
-                    raise ModelError(f"step {k}: proposal.propose must return (particles, log_increments)", step=k)
-                particles = self._check_particles(proposed[0], k, "proposal.propose")
-                log_inc = proposed[1]
+            proposed = self.proposal.propose(self.model, parents, z, k, rng)
+            if not isinstance(proposed, tuple) or len(proposed) != 2:
+                raise ModelError(f"step {k}: proposal.propose must return (particles, log_increments)", step=k)
+            new = self._check_particles(proposed[0], k, "proposal.propose", m)
+            log_inc = proposed[1]
+        return new, self._check_log_increments(log_inc, k, m)
 
-            sizes[k] = n
-            if not missing:
-                log_inc = self._check_log_increments(log_inc, k, n)
-                weights = np.empty(n)
-                top = log_inc.max()
-                shift = top if 700.0 < abs(top) < np.inf else 0.0  # weights are invariant to a constant
-                if shift != 0.0:
-                    with np.errstate(over="ignore"):  # -1e308 - 1e308 = -inf: a zero weight, as it should
-                        log_inc = log_inc - shift
-                log_inc_total[k], ess[k] = kernels.normalize_step(log_weights, log_inc, weights, scratch)
-                log_inc_total[k] += shift
-                if log_inc_total[k] == -np.inf or top == -np.inf:
-                    raise DegenerateWeightsError(
-                        f"step {k}: every particle has zero likelihood for the measurement "
-                        f"{np.array2string(z, precision=4)}; the filter has lost track "
-                        "(more particles, a wider process noise or a better proposal may help)",
-                        step=k,
-                    )
-            else:
-                ess[k] = 1.0 / kernels.sum_of_squares(weights)  # effective_sample_size(weights), same float
+    def _propose_variable_n(self, cloud: _Cloud, z: Array, k: int, rng: np.random.Generator) -> Array:
+        """Step 1 with a ``sample_size`` policy, in place: draw the cloud of measurement step ``k`` in batches.
 
-            mean[k], cov[k] = kernels.weighted_moments(particles, weights, is_angle)
-            check_moments(particles, cov[k], linear, k)
-            if store_particles:
-                stored_x[k] = particles
-                stored_w[k] = weights
-            if not adaptive and ess[k] < self.threshold * n * (1.0 - 1e-12):
-                indices = self.resampler(weights, rng)
-                if self._custom_resampler:
-                    indices = self._check_indices(indices, k)
-                particles = kernels.gather_rows(particles, indices)
-                if self.jitter is not None:
-                    particles = self._check_particles(self.jitter(particles, rng), k, "jitter")
-                log_weights = np.full(n, -np.log(n))
-                weights = np.full(n, 1.0 / n)
-                resampled[k] = True
-
-        return FilterResult(
-            mean=mean,
-            cov=cov,
-            ess=ess,
-            resampled=resampled,
-            log_likelihood_increments=log_inc_total,
-            n_particles=self.n_particles,
-            particles=stored_x,
-            weights=stored_w,
-            settings={
-                "threshold": self.threshold,
-                "resampler": getattr(self.resampler, "__name__", str(self.resampler)),
-                "proposal": type(self.proposal).__name__,
-                "sample_size": None if self.sample_size is None else type(self.sample_size).__name__,
-            },
-            sizes=sizes,
-        )
-
-    def _adaptive_step(self, particles: Array, weights: Array, z: Array, k: int,
-                       rng: np.random.Generator) -> tuple[Array, Array]:
-        """Draw the cloud of measurement step ``k`` in batches until the ``sample_size`` policy has enough.
-
-        Each batch of ``m`` particles: ancestors by multinomial resampling of the previous
-        weighted cloud, then the proposal; returns the new cloud and its log-increments.
+        Each batch of ``m`` particles: ancestors ``A_i`` by multinomial resampling of the previous
+        weighted cloud, then ``x_k^i ~ q(. | x_{k-1}^{A_i}, z_k)`` (:meth:`_move`), until
+        ``n >= min(max(needed, n_min), n_particles)``.  The new cloud starts from the uniform
+        weights ``1/n`` (the ancestors carried the old ones); returns its log-increments.
         """
         policy, n_max = self.sample_size, self.n_particles
         policy.reset()
@@ -374,23 +405,88 @@ class ParticleFilter:
         n, needed = 0, policy.n_min
         while n < min(max(needed, policy.n_min), n_max):
             m = int(min(n_max - n, max(policy.batch, min(needed, n_max) - n)))
-            parents = kernels.gather_rows(particles, multinomial(weights, rng, m))
-            if type(self.proposal) is TransitionProposal:
-                x = self._check_particles(self.model.sample_transition(parents, k, rng), k, "sample_transition", m)
-                log_inc = self.model.log_likelihood(x, z, k)
-            else:
-                proposed = self.proposal.propose(self.model, parents, z, k, rng)
-                if not isinstance(proposed, tuple) or len(proposed) != 2:
-                    raise ModelError(f"step {k}: proposal.propose must return (particles, log_increments)", step=k)
-                x = self._check_particles(proposed[0], k, "proposal.propose", m)
-                log_inc = proposed[1]
+            parents = kernels.gather_rows(cloud.particles, multinomial(cloud.weights, rng, m))
+            x, log_inc = self._move(parents, z, k, rng)
             new_x.append(x)
-            new_log.append(self._check_log_increments(log_inc, k, m))
+            new_log.append(log_inc)
             n += m
             needed = policy.needed(x)
             if isinstance(needed, (bool, np.bool_)) or not isinstance(needed, (int, np.integer)) or needed < 0:
                 raise ModelError(f"step {k}: sample_size.needed must return a count >= 0, got {needed!r}", step=k)
-        return np.concatenate(new_x), np.concatenate(new_log)
+        cloud.restart(np.concatenate(new_x))
+        return np.concatenate(new_log)
+
+    def _weight(self, cloud: _Cloud, log_inc: Array | None, z: Array | None, k: int) -> tuple[float, float]:
+        """Steps 2 and 3, in place: ``log W_k^i = log W_{k-1}^i + log inc_k^i - L_k``, ``W_k^i = exp(log W_k^i)``.
+
+        ``L_k = logsumexp_i(log W_{k-1}^i + log inc_k^i) = log p^(z_k | z_{0:k-1})``; the increments
+        are shifted by their largest value ``a`` when ``700 < |a| < inf`` (weights are invariant to
+        a constant, ``exp`` is not) and ``L_k`` shifted back.  Returns ``(ESS, L_k)`` with
+        ``ESS = 1 / sum_i (W_k^i)^2``; without a measurement the weights stay and ``L_k = 0``.
+        Raises :class:`~pfcourse.errors.DegenerateWeightsError` when every weight is zero.
+        """
+        if log_inc is None:
+            return 1.0 / kernels.sum_of_squares(cloud.weights), 0.0  # effective_sample_size(weights), same float
+        cloud.weights = np.empty(cloud.size)
+        top = log_inc.max()
+        shift = top if 700.0 < abs(top) < np.inf else 0.0
+        if shift != 0.0:
+            with np.errstate(over="ignore"):  # -1e308 - 1e308 = -inf: a zero weight, as it should
+                log_inc = log_inc - shift
+        log_evidence, ess = kernels.normalize_step(cloud.log_weights, log_inc, cloud.weights, cloud.scratch)
+        log_evidence += shift
+        if log_evidence == -np.inf or top == -np.inf:
+            raise DegenerateWeightsError(
+                f"step {k}: every particle has zero likelihood for the measurement "
+                f"{np.array2string(z, precision=4)}; the filter has lost track "
+                "(more particles, a wider process noise or a better proposal may help)",
+                step=k,
+            )
+        return ess, log_evidence
+
+    def _record(self, trace: _Trace, k: int, cloud: _Cloud, ess: float, log_evidence: float) -> None:
+        """Step 3's output: the size, ESS and ``L_k`` of step ``k``, the weighted moments
+        ``m_k = sum_i W_k^i x_k^i`` and ``P_k = sum_i W_k^i (x_k^i - m_k)(x_k^i - m_k)^T`` (circular
+        mean and wrapped deviations for the angles), and the cloud itself if stored."""
+        trace.sizes[k] = cloud.size
+        trace.ess[k] = ess
+        trace.log_likelihood_increments[k] = log_evidence
+        trace.mean[k], trace.cov[k] = kernels.weighted_moments(cloud.particles, cloud.weights, trace.is_angle)
+        check_moments(cloud.particles, trace.cov[k], trace.linear, k)
+        if trace.particles is not None:
+            trace.particles[k] = cloud.particles
+            trace.weights[k] = cloud.weights
+
+    def _resample(self, cloud: _Cloud, k: int, rng: np.random.Generator) -> None:
+        """Step 4, in place: ``x^i <- x^{A_i}`` with ancestors ``A`` from the resampler, the optional
+        jitter, and the weights reset to ``W^i = 1/N``."""
+        indices = self.resampler(cloud.weights, rng)
+        if self._custom_resampler:
+            indices = self._check_indices(indices, k)
+        particles = kernels.gather_rows(cloud.particles, indices)
+        if self.jitter is not None:
+            particles = self._check_particles(self.jitter(particles, rng), k, "jitter")
+        cloud.restart(particles)
+
+    def _result(self, trace: _Trace) -> FilterResult:
+        """The run's :class:`FilterResult`, with the filter's settings."""
+        return FilterResult(
+            mean=trace.mean,
+            cov=trace.cov,
+            ess=trace.ess,
+            resampled=trace.resampled,
+            log_likelihood_increments=trace.log_likelihood_increments,
+            n_particles=self.n_particles,
+            particles=trace.particles,
+            weights=trace.weights,
+            settings={
+                "threshold": self.threshold,
+                "resampler": getattr(self.resampler, "__name__", str(self.resampler)),
+                "proposal": type(self.proposal).__name__,
+                "sample_size": None if self.sample_size is None else type(self.sample_size).__name__,
+            },
+            sizes=trace.sizes,
+        )
 
     def _check_indices(self, indices, k: int) -> np.ndarray:
         """A custom resampler's output must be N integer indices in [0, N) (checked before the compiled gather)."""

@@ -14,6 +14,7 @@ from pathlib import Path
 import numpy as np
 
 from pfcourse.filter import ParticleFilter
+from pfcourse.metrics import position_error, position_spread
 from pfcourse.robot.scenario import RobotModel, simulate_robot
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "bench"))
@@ -31,6 +32,6 @@ def test_loop_baseline_agrees_with_pfcourse_on_the_robot():
     n = 2000
     reference = ParticleFilter(model, n, threshold=0.5).run(sim.measurements, 1)
     loop = robot_loop_filter(data, n, 2)
-    sd = np.sqrt(reference.cov[:, 0, 0] + reference.cov[:, 1, 1])
-    diff = np.hypot(*(loop[:, :2] - reference.mean[:, :2]).T)
+    sd = position_spread(reference.cov)
+    diff = position_error(reference.mean, loop)
     assert np.mean(diff / sd) < 0.5

@@ -40,6 +40,7 @@ from pfcourse.diagnostics import chi2_band, fraction_in_band, nees, nis, predict
 from pfcourse.errors import DegenerateWeightsError
 from pfcourse.experiments.study import run_tasks
 from pfcourse.filter import ParticleFilter
+from pfcourse.metrics import position_error
 from pfcourse.results import FilterResult
 from pfcourse.robot.scenario import ANGLE_INDICES, RobotModel, range_bearing, simulate_robot
 from pfcourse.seeding import data_rng, filter_rng, sized_filter_rng
@@ -48,7 +49,6 @@ from pfcourse.terrain.map import TerrainMap
 from pfcourse.terrain.scenario import (
     AircraftScenario,
     extended_kalman_filter,
-    position_error,
     predicted_measurement,
     simulate as simulate_flight,
 )
@@ -128,7 +128,7 @@ def robot_tracks(seed: int, n_values: Sequence[int], *, n_steps: int = 100, q_sc
     tracks: list[Track] = []
 
     def track(name, n, mean, cov, y, S, seconds):
-        err = np.hypot(*(mean[:, :2] - sim.truth[:, :2]).T)
+        err = position_error(sim.truth, mean)
         return Track(name, n, err, _safe_nees(sim.truth, mean, cov, ANGLE_INDICES), nis(y, S), seconds)
 
     def predict(particles, zk, k):

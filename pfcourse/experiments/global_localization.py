@@ -12,8 +12,8 @@ import math
 
 import numpy as np
 
-from pfcourse.angles import wrap_angle
 from pfcourse.filter import ParticleFilter
+from pfcourse.metrics import heading_error, position_error
 from pfcourse.robot.scenario import RobotModel, simulate_robot
 from pfcourse.experiments.robot import compare_filters
 from pfcourse.robot.mcl import KidnapRobotModel, MethodSettings, global_run, kidnap_run, sensor_mixture_proposal
@@ -56,7 +56,7 @@ def anatomy_row(seed: int, n_particles: int, within: float = 2.0) -> dict:
         d = _mahalanobis(model, x, sim.measurements[k], k)
         ok &= d < within
         if k == 1:
-            out["nearest_m"] = float(np.min(np.hypot(*(x[:, :2] - sim.truth[1, :2]).T)))
+            out["nearest_m"] = float(np.min(position_error(sim.truth[1], x)))
             out["consistent_1"] = int(ok.sum())
             s_r, s_b = np.sqrt(np.diag(model.r_est))
             area = (2 * model.half_width) ** 2
@@ -88,8 +88,8 @@ def mode_rows(seed: int, method: str, n_particles: int = 2000, n_steps: int = 21
     res = pf.run(sim.measurements, seed, store_particles=True)
     rows = []
     for k in range(n_steps):
-        near = (np.hypot(*(res.particles[k, :, :2] - sim.truth[k, :2]).T) < radius) & (
-            np.abs(wrap_angle(res.particles[k, :, 2] - sim.truth[k, 2])) < heading)
+        near = (position_error(sim.truth[k], res.particles[k]) < radius) & (
+            heading_error(sim.truth[k], res.particles[k]) < heading)
         rows.append({"seed": seed, "method": method, "step": k, "mass_near_truth": float(res.weights[k][near].sum()),
                      "ess_fraction": float(res.ess[k] / n_particles)})
     return rows

@@ -29,6 +29,7 @@ from pfcourse.diagnostics import nees
 from pfcourse.checks import check_count
 from pfcourse.errors import DegenerateWeightsError, NumericalError, ParameterError
 from pfcourse.filter import ParticleFilter
+from pfcourse.metrics import position_error, position_spread
 from pfcourse.results import FilterResult
 from pfcourse.robot.scenario import (
     ANGLE_INDICES,
@@ -205,9 +206,9 @@ def global_localization_run(
     except DegenerateWeightsError:
         return GlobalRun(False, float("inf"), float("inf"))
     err = res.mean[-1] - sim.truth[-1]
-    dist = float(np.hypot(err[0], err[1]))
+    dist = float(position_error(sim.truth[-1], res.mean[-1]))
     ok = dist < position_tolerance and abs(float(wrap_angle(err[2]))) < heading_tolerance
-    sd = float(np.sqrt(res.cov[-1, 0, 0] + res.cov[-1, 1, 1]))
+    sd = float(position_spread(res.cov[-1]))
     return GlobalRun(bool(ok), dist, sd)
 
 
@@ -240,8 +241,8 @@ def pf_run(
     burn_in = settings.burn_in
     metrics = _metrics(sim, res.mean, res.cov, 0.0, burn_in)
     err = tracking_errors(sim.truth, res.mean)
-    distance = np.hypot(err[:, 0], err[:, 1])
-    sd = np.sqrt(res.cov[:, 0, 0] + res.cov[:, 1, 1])
+    distance = position_error(sim.truth, res.mean)
+    sd = position_spread(res.cov)
     jitter = np.diff(res.mean[burn_in:, :2], axis=0) - np.diff(sim.truth[burn_in:, :2], axis=0)
     measured = sim.has_measurement
     row = {

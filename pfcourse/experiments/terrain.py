@@ -18,7 +18,8 @@ from pfcourse.experiments.study import run_tasks
 from pfcourse.filter import ParticleFilter
 from pfcourse.seeding import data_rng, filter_rng
 from pfcourse.terrain.map import TerrainMap
-from pfcourse.terrain.scenario import AircraftScenario, extended_kalman_filter, position_error, simulate
+from pfcourse.metrics import position_error, position_spread
+from pfcourse.terrain.scenario import AircraftScenario, extended_kalman_filter, simulate
 
 
 #: A run whose final horizontal error exceeds this (m) is counted as diverged: about five
@@ -130,6 +131,6 @@ def _flights(scenario: AircraftScenario, terrain: TerrainMap, runs: list[int], n
                 out.append((np.full(K, np.nan), np.full(K, np.nan), True, 0))
                 continue
             lost, n_resamples = False, res.n_resamples
-        out.append((position_error(flight.truth, res.mean), np.sqrt(res.cov[:, 0, 0] + res.cov[:, 1, 1]),
+        out.append((position_error(flight.truth, res.mean), position_spread(res.cov),
                     lost, n_resamples))
     return out

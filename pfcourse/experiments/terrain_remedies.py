@@ -17,7 +17,8 @@ from pfcourse.experiments.terrain import DIVERGED_ERROR
 from pfcourse.filter import ParticleFilter
 from pfcourse.remedies import ProgressiveCorrection, RegularisedJitter
 from pfcourse.seeding import data_rng, filter_rng
-from pfcourse.terrain.scenario import AircraftScenario, position_error, simulate
+from pfcourse.metrics import position_error
+from pfcourse.terrain.scenario import AircraftScenario, simulate
 
 #: Q_f with the horizontal entries divided by 3, like every other horizontal length of the scenario.
 QF_SCALED = np.diag([1.0, 1.0, 0.6, 0.001 * 180.0 / np.pi]) ** 2

@@ -24,7 +24,8 @@ from pfcourse.experiments.terrain import DIVERGED_ERROR
 from pfcourse.filter import ParticleFilter
 from pfcourse.remedies import RegularisedJitter
 from pfcourse.seeding import data_rng, filter_rng
-from pfcourse.terrain.scenario import AircraftScenario, position_error, simulate
+from pfcourse.metrics import position_error, position_spread
+from pfcourse.terrain.scenario import AircraftScenario, simulate
 
 BASELINE_N = 30000
 BASELINE_THRESHOLD = 0.5
@@ -84,7 +85,7 @@ def study_row(study: str, setting: str, flight: int, terrain) -> dict:
         return {**row, "final_error": np.inf, "mean_error": np.inf, "lost": True, "sigma_50": np.nan,
                 "sigma_75": np.nan, "resamplings": -1, "median_ess_fraction": np.nan}
     e = position_error(sim.truth, res.mean)
-    sigma = np.sqrt(res.cov[:, 0, 0] + res.cov[:, 1, 1])
+    sigma = position_spread(res.cov)
     k50, k75 = (int(round(t / scenario.dt)) for t in (50.0, 75.0))
     measured = ~np.isnan(sim.measurements[:, 0])
     return {**row, "final_error": float(e[-1]), "mean_error": float(np.mean(e)),

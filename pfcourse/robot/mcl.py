@@ -72,6 +72,7 @@ from pfcourse.checks import Array, check_probability
 from pfcourse.diagnostics import nees
 from pfcourse.errors import DegenerateWeightsError, ParameterError
 from pfcourse.filter import DensityProposal, ParticleFilter
+from pfcourse.metrics import heading_error, position_error, position_spread
 from pfcourse.results import FilterResult
 from pfcourse.remedies import ProgressiveCorrection, RegularisedJitter
 from pfcourse.sample_size import KLDSampling, kld_bound  # noqa: F401  (kld_bound: re-exported for the chapter)
@@ -414,9 +415,9 @@ def run_method(sim: RobotSimulation, method: str, n_particles: int, seed: int, *
 
 
 def position_heading_errors(truth: Array, mean: Array) -> tuple[Array, Array]:
-    """Per-step position error ``||p^ - p||`` (m) and absolute wrapped heading error (rad)."""
-    e = mean - truth
-    return np.hypot(e[:, 0], e[:, 1]), np.abs(wrap_angle(e[:, 2]))
+    """Per-step position error ``||p^ - p||`` (m) and absolute wrapped heading error (rad)
+    (:mod:`pfcourse.metrics`)."""
+    return position_error(truth, mean), heading_error(truth, mean)
 
 
 def locked_from(pos_err: Array, head_err: Array, position_tolerance: float = 1.0,
@@ -461,7 +462,7 @@ def global_run(seed: int, method: str, n_particles: int, *, n_steps: int = 60,
         "lock_time": float(start * sim.scenario.dt) if start < n_steps else np.nan,
         "final_error": float(pos[-1]),
         "final_heading_error": float(head[-1]),
-        "final_sd": float(np.sqrt(out["cov"][-1, 0, 0] + out["cov"][-1, 1, 1])),
+        "final_sd": float(position_spread(out["cov"][-1])),
         "final_nees": final_nees,
         "wrong_confident": bool((not locked) and confident),
         "particle_steps": int(np.sum(out["likelihood_evaluations"])),
@@ -479,7 +480,7 @@ def kidnap_pose(seed: int, truth_at: Array, half_width: float = 60.0, min_distan
     margin = 0.8 * half_width
     while True:
         pose = np.array([*rng.uniform(-margin, margin, 2), rng.uniform(-np.pi, np.pi)])
-        if np.hypot(*(pose[:2] - truth_at[:2])) >= min_distance:
+        if position_error(truth_at, pose) >= min_distance:
             return pose
 
 

@@ -23,6 +23,7 @@ import numpy as np
 
 from pfcourse.checks import Array
 from pfcourse.errors import ShapeError
+from pfcourse.metrics import position_spread
 from pfcourse.terrain.scenario import AircraftScenario, dynamics_jacobian, measurement_jacobian
 
 
@@ -74,7 +75,7 @@ def terrain_pcrb(scenario: AircraftScenario, terrain, trajectories: Array) -> Ar
 
 def horizontal_bound(bound: Array) -> Array:
     """``sqrt(B_xx + B_yy)``: the bound on the horizontal RMS error (m) per step."""
-    return np.sqrt(bound[..., 0, 0] + bound[..., 1, 1])
+    return position_spread(bound)
 
 
 def deterministic_bound(J0: Array, F: Array, H: Array, R: Array, measured: Array) -> Array:

@@ -47,6 +47,7 @@ from pfcourse.checks import (
     covariance_factor,
 )
 from pfcourse.errors import ParameterError
+from pfcourse.metrics import position_error  # noqa: F401  (its home was here; the chapters import it from here)
 from pfcourse.results import KalmanResult
 from pfcourse.terrain.map import TerrainMap
 from pfcourse.terrain.compiled import aircraft_transition, altimeter_log_likelihood
@@ -314,10 +315,3 @@ def extended_kalman_filter(
         out.mean[k] = ekf.x[:, 0]
         out.cov[k] = ekf.P
     return out
-
-
-def position_error(truth: Array, estimate: Array) -> Array:
-    """Horizontal position error ``sqrt((x - x^)^2 + (y - y^)^2)`` (m) per step."""
-    truth = np.asarray(truth, dtype=float)
-    estimate = np.asarray(estimate, dtype=float)
-    return np.hypot(truth[..., 0] - estimate[..., 0], truth[..., 1] - estimate[..., 1])

@@ -38,7 +38,8 @@ from pfcourse.filter import ParticleFilter
 from pfcourse.remedies import RegularisedJitter
 from pfcourse.seeding import data_rng, filter_rng
 from pfcourse.terrain.map import load_jacksboro
-from pfcourse.terrain.scenario import AircraftScenario, position_error, simulate
+from pfcourse.metrics import position_error
+from pfcourse.terrain.scenario import AircraftScenario, simulate
 
 ROOT = Path(__file__).resolve().parents[2]
 OUT = ROOT / "book" / "data"

@@ -1,0 +1,56 @@
+"""How far an estimate is from the truth, and how far the filter believes it is: the studies' metrics.
+
+For a state whose first two components are the position ``(x, y)`` (the landmark robot, the
+mobile robot, the aircraft) and an estimate ``x^`` with covariance ``P``:
+
+* :func:`position_error` ``e_pos = sqrt((x^ - x)^2 + (y^ - y)^2)`` (m), the horizontal distance;
+* :func:`heading_error` ``e_theta = |wrap(theta^ - theta)|`` (rad), wrapped to ``[0, pi]``;
+* :func:`position_spread` ``sigma_pos = sqrt(P_xx + P_yy)`` (m), the filter's own horizontal
+  standard deviation: the root of the expected squared position error, were the filter right.
+
+Each takes arrays of any leading shape (a run ``(K, d)``, one step ``(d,)``, a cloud ``(N, d)``
+against one true state ``(d,)``, by broadcasting) and returns one value per row.  The NEES and
+the NIS, the consistency checks, are in :mod:`pfcourse.diagnostics`.
+
+The floats are those of the package's earlier inline formulas: the distance is ``np.hypot``
+(so ``truth - estimate`` and ``estimate - truth`` give the same float), the heading error wraps
+``estimate - truth`` with :func:`pfcourse.angles.wrap_angle`.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from pfcourse.angles import wrap_angle
+from pfcourse.checks import Array
+
+
+def position_error(truth: Array, estimate: Array) -> Array:
+    """Horizontal position error ``sqrt((x^ - x)^2 + (y^ - y)^2)`` (m), one per row.
+
+    ``truth`` and ``estimate`` hold ``(x, y, ...)`` in their last axis and broadcast against
+    each other.  Computed as ``np.hypot`` (no overflow or underflow of the squares).
+    """
+    truth = np.asarray(truth, dtype=float)
+    estimate = np.asarray(estimate, dtype=float)
+    return np.hypot(estimate[..., 0] - truth[..., 0], estimate[..., 1] - truth[..., 1])
+
+
+def heading_error(truth: Array, estimate: Array, index: int = 2) -> Array:
+    """Absolute heading error ``|wrap(theta^ - theta)|`` (rad, in ``[0, pi]``), one per row.
+
+    ``theta`` is component ``index`` of the last axis (2 for the robots' ``(x, y, theta)``).
+    """
+    truth = np.asarray(truth, dtype=float)
+    estimate = np.asarray(estimate, dtype=float)
+    return np.abs(wrap_angle(estimate[..., index] - truth[..., index]))
+
+
+def position_spread(cov: Array) -> Array:
+    """The filter's horizontal standard deviation ``sqrt(P_xx + P_yy)`` (m), one per covariance.
+
+    ``cov`` has shape ``(..., d, d)`` with the position in its first two rows; the same formula
+    turns a Cramér-Rao bound ``B`` into the bound ``sqrt(B_xx + B_yy)`` on the RMS position error.
+    """
+    cov = np.asarray(cov, dtype=float)
+    return np.sqrt(cov[..., 0, 0] + cov[..., 1, 1])

@@ -1,0 +1,45 @@
+"""pfcourse.metrics: the values, the broadcasting, and the floats of the formulas it replaced."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from pfcourse.angles import wrap_angle
+from pfcourse.metrics import heading_error, position_error, position_spread
+
+
+def test_values_on_a_small_case():
+    truth = np.array([[0.0, 0.0, np.pi - 0.1], [1.0, 2.0, 0.0]])
+    estimate = np.array([[3.0, 4.0, -np.pi + 0.1], [1.0, 2.0, 0.5]])
+    np.testing.assert_array_equal(position_error(truth, estimate), [5.0, 0.0])
+    np.testing.assert_allclose(heading_error(truth, estimate), [0.2, 0.5])
+    cov = np.array([np.diag([9.0, 16.0, 1.0]), np.diag([0.0, 0.0, 1.0])])
+    np.testing.assert_array_equal(position_spread(cov), [5.0, 0.0])
+
+
+def test_one_state_against_a_cloud_broadcasts():
+    rng = np.random.default_rng(1)
+    cloud, truth = rng.normal(size=(50, 3)), rng.normal(size=3)
+    e = position_error(truth, cloud)
+    assert e.shape == (50,)
+    assert position_error(truth, cloud[7]) == e[7]
+    assert heading_error(truth, cloud).shape == (50,)
+
+
+def test_same_floats_as_the_formulas_it_replaced():
+    """``hypot`` of either difference (``truth - estimate`` or ``estimate - truth``), the wrapped
+    ``estimate - truth``, ``sqrt(P_xx + P_yy)``: the stored studies' numbers do not move."""
+    rng = np.random.default_rng(2)
+    for scale in (1e-200, 1.0, 1e150):
+        truth, estimate = rng.normal(size=(300, 3)) * scale, rng.normal(size=(300, 3)) * scale
+        truth[::37] = np.nan
+        old_terrain = np.hypot(truth[:, 0] - estimate[:, 0], truth[:, 1] - estimate[:, 1])
+        d = estimate - truth
+        new = position_error(truth, estimate)
+        assert np.array_equal(old_terrain.view(np.uint64), new.view(np.uint64))
+        assert np.array_equal(np.hypot(d[:, 0], d[:, 1]).view(np.uint64), new.view(np.uint64))
+        old_heading = np.abs(wrap_angle(d[:, 2]))
+        assert np.array_equal(old_heading.view(np.uint64), heading_error(truth, estimate).view(np.uint64))
+        cov = rng.normal(size=(40, 3, 3)) ** 2 * scale
+        old_sd = np.sqrt(cov[:, 0, 0] + cov[:, 1, 1])
+        assert np.array_equal(old_sd.view(np.uint64), position_spread(cov).view(np.uint64))
