@@ -27,7 +27,8 @@ from pfcourse.errors import (
 from pfcourse.landmarks.model import LinearGaussianModel
 from pfcourse.landmarks.scenario import quadrant_scenario
 from pfcourse.diagnostics import nees, nis
-from pfcourse.experiments.study import SerialExecutor, run_study
+from pfcourse.executor import SerialExecutor
+from pfcourse.experiments.study import run_study
 from pfcourse.robot import RobotScenario, simulate_robot
 from pfcourse.sample_size import KLDSampling
 

@@ -122,3 +122,23 @@ def test_the_array_alias_is_defined_once():
                and any(isinstance(t, ast.Name) and t.id == "Array"
                        for t in (node.targets if isinstance(node, ast.Assign) else [node.target]))]
     assert len(defined) == 1 and defined[0].startswith("checks.py:"), defined
+
+
+#: The generic algorithms, each in the core module named after it (README, "The package").
+CORE_HOMES = {
+    "run_tasks": "executor",
+    "SerialExecutor": "executor",
+    "StudyWarning": "executor",
+}
+
+
+def top_level_definitions(path: Path) -> set[str]:
+    """Names of the functions and classes a module defines at its top level."""
+    return {node.name for node in ast.parse(path.read_text()).body
+            if isinstance(node, (ast.FunctionDef, ast.AsyncFunctionDef, ast.ClassDef))}
+
+
+@pytest.mark.parametrize("name", sorted(CORE_HOMES))
+def test_a_generic_algorithm_lives_in_its_core_module_only(name):
+    homes = [module_name(path) for path in MODULES if name in top_level_definitions(path)]
+    assert homes == [f"pfcourse.{CORE_HOMES[name]}"], homes

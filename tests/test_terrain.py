@@ -248,7 +248,7 @@ def test_monte_carlo_is_seeded_and_first_n_runs_are_a_smaller_study(jacksboro):
 def test_flight_study_does_not_depend_on_the_executor_or_the_batch_size(jacksboro):
     from concurrent.futures import ThreadPoolExecutor
 
-    from pfcourse.experiments.study import SerialExecutor
+    from pfcourse.executor import SerialExecutor
     from pfcourse.experiments.terrain import flight_study
 
     scenario = AircraftScenario().with_(duration=10.0)

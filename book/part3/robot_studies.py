@@ -42,7 +42,8 @@ from pfcourse.landmarks.scenario import quadrant_scenario, simulate
 from pfcourse.style import COLORS, plain_log_axis, use_style
 from pfcourse.experiments.robot import pf_run
 from pfcourse import evidence
-from pfcourse.experiments.study import SerialExecutor, run_study, summarize
+from pfcourse.executor import SerialExecutor
+from pfcourse.experiments.study import run_study, summarize
 from pfcourse.figures.study import summary_band, time_band
 from pfcourse.figures.widgets import control_panel
 
