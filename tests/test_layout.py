@@ -129,6 +129,11 @@ CORE_HOMES = {
     "run_tasks": "executor",
     "SerialExecutor": "executor",
     "StudyWarning": "executor",
+    "ffbsm": "smoothing",
+    "rts_smoother": "smoothing",
+    "SmootherResult": "smoothing",
+    "pmmh": "pmmh",
+    "PMMHChain": "pmmh",
 }
 
 
