@@ -134,6 +134,9 @@ CORE_HOMES = {
     "SmootherResult": "smoothing",
     "pmmh": "pmmh",
     "PMMHChain": "pmmh",
+    "LinearGaussianModel": "linear_gaussian",
+    "kalman_filter": "kalman",
+    "OptimalProposal": "proposals",
 }
 
 

@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 
 from pfcourse.filter import ParticleFilter
-from pfcourse.landmarks.kalman import kalman_filter
+from pfcourse.kalman import kalman_filter
 from pfcourse.landmarks.scenario import quadrant_scenario
 from pfcourse.experiments.landmarks import kalman_scores
 

@@ -40,7 +40,7 @@ from scipy import stats
 
 from pfcourse import evidence
 from pfcourse.filter import ParticleFilter
-from pfcourse.landmarks.kalman import kalman_filter
+from pfcourse.kalman import kalman_filter
 from pfcourse.landmarks.scenario import quadrant_scenario, simulate
 from pfcourse.figures.bands import posterior_bands
 from pfcourse.style import COLORS, plain_log_axis, use_style

@@ -54,7 +54,7 @@ from myst_nb import glue
 
 from pfcourse import evidence
 from pfcourse.filter import ParticleFilter
-from pfcourse.landmarks.kalman import kalman_filter
+from pfcourse.kalman import kalman_filter
 from pfcourse.landmarks.scenario import quadrant_scenario, simulate
 from pfcourse.figures.bands import posterior_bands
 from pfcourse.figures.clouds import animate_clouds

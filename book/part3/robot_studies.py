@@ -37,7 +37,7 @@ from scipy import stats
 from myst_nb import glue
 
 from pfcourse.filter import ParticleFilter
-from pfcourse.landmarks.kalman import kalman_filter
+from pfcourse.kalman import kalman_filter
 from pfcourse.landmarks.scenario import quadrant_scenario, simulate
 from pfcourse.style import COLORS, plain_log_axis, use_style
 from pfcourse.experiments.robot import pf_run

@@ -281,7 +281,7 @@ class ConvergenceResult:
 def linear_convergence(model, measurements: Array, kalman, n_values: Sequence[int], n_runs: int, *,
                        seed: int = 0, threshold: float = 0.5, executor: Executor | None = None) -> ConvergenceResult:
     """Run a bootstrap particle filter ``n_runs`` times per ``N`` on one data set and compare it
-    with the Kalman result ``kalman`` (:func:`pfcourse.landmarks.kalman.kalman_filter`).
+    with the Kalman result ``kalman`` (:func:`pfcourse.kalman.kalman_filter`).
 
     Run ``r`` at ``N`` uses the random stream :func:`~pfcourse.seeding.sized_filter_rng`
     ``(seed, N, run=r)``, that is ``[seed, r, N]``.  The values of ``N`` are shared out by

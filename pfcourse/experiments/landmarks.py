@@ -32,7 +32,8 @@ from pfcourse.checks import check_count
 from pfcourse.diagnostics import nees
 from pfcourse.executor import run_tasks
 from pfcourse.results import FilterResult
-from pfcourse.landmarks.kalman import KalmanResult, kalman_filter
+from pfcourse.kalman import kalman_filter
+from pfcourse.results import KalmanResult
 from pfcourse.landmarks.scenario import LandmarkScenario, simulate
 
 

@@ -23,7 +23,7 @@ import numpy as np
 
 from pfcourse.experiments.landmarks import score
 from pfcourse.filter import ParticleFilter
-from pfcourse.landmarks.kalman import kalman_filter
+from pfcourse.kalman import kalman_filter
 from pfcourse.landmarks.scenario import quadrant_scenario, simulate
 from pfcourse.roughening import Roughening
 

@@ -28,12 +28,13 @@ import numpy as np
 
 from pfcourse.checks import Array
 from pfcourse.gaussian import gaussian_logpdf
-from pfcourse.landmarks.model import LinearGaussianModel, OptimalProposal
+from pfcourse.linear_gaussian import LinearGaussianModel
+from pfcourse.proposals import OptimalProposal
 from pfcourse.resampling import get_resampler
 
 
 class LinearGaussianOptimal(OptimalProposal):
-    """:class:`~pfcourse.landmarks.model.OptimalProposal` with its predictive likelihood exposed."""
+    """:class:`~pfcourse.proposals.OptimalProposal` with its predictive likelihood exposed."""
 
     def log_predictive(self, model: LinearGaussianModel, particles: Array, z: Array, k: int) -> Array:
         """``log N(z_k; H (F x_{k-1} + B), H Q H^T + R)`` per particle (observed rows only)."""
