@@ -137,6 +137,10 @@ CORE_HOMES = {
     "LinearGaussianModel": "linear_gaussian",
     "kalman_filter": "kalman",
     "OptimalProposal": "proposals",
+    "FullyAdaptedAuxiliary": "proposals",
+    "ProgressiveCorrection": "proposals",
+    "Roughening": "jitter",
+    "RegularisedJitter": "jitter",
 }
 
 

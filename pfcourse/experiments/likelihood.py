@@ -180,7 +180,7 @@ def terrain_log_likelihood(scenario, terrain, Z: np.ndarray, rf_scale: float, n_
     likelihood zero: ``-inf``.
     """
     from pfcourse.errors import DegenerateWeightsError
-    from pfcourse.remedies import RegularisedJitter
+    from pfcourse.jitter import RegularisedJitter
 
     rf_scale = float(rf_scale)
     if not np.isfinite(rf_scale) or rf_scale <= 0:

@@ -2,11 +2,11 @@
 
 * :mod:`pfcourse.landmarks.scenario` - the scenario's settings and its simulator;
 * :mod:`pfcourse.landmarks.figures` - the scenario's figures;
-* :mod:`pfcourse.landmarks.rao_blackwell` - the Rao-Blackwellised filter (a Kalman filter over the map per particle);
-* :mod:`pfcourse.landmarks.auxiliary` - the fully adapted auxiliary particle filter.
+* :mod:`pfcourse.landmarks.rao_blackwell` - the Rao-Blackwellised filter (a Kalman filter over the map per particle).
 
 The scenario's model is the core's :class:`~pfcourse.linear_gaussian.LinearGaussianModel`, its exact
-posterior the core's :func:`~pfcourse.kalman.kalman_filter`.
+posterior the core's :func:`~pfcourse.kalman.kalman_filter`; its optimal and fully adapted
+auxiliary proposals are the core's (:mod:`pfcourse.proposals`).
 """
 
 from pfcourse.landmarks.scenario import (
