@@ -3,13 +3,16 @@
 Every module of ``pfcourse`` belongs to one layer (README, "Layout"):
 
 0. **core**: the top-level modules ``pfcourse/*.py`` (the engine, its compiled loops, weights
-   and resampling, results, errors and checks, angles, the Gaussian density, plot style);
+   and resampling, results, errors and checks, angles, the Gaussian density, plot style, and
+   the generic algorithms, one idea per module named after it: the linear-Gaussian model, the
+   Kalman filter, proposals, jitters, smoothing, PMMH, the executor loop);
 1. **scenarios**: ``pfcourse.landmarks``, ``pfcourse.robot``, ``pfcourse.terrain``;
 2. **experiments**: ``pfcourse.experiments``;
 3. **figures**: ``pfcourse.figures``.
 
 A module may import from its own layer or a lower one, and a scenario only from the core and
-from itself (scenarios do not know each other).  ``pfcourse/__init__.py`` is the public
+from itself (scenarios do not know each other).  A generic algorithm is defined in its core
+module only (``CORE_HOMES``).  ``pfcourse/__init__.py`` is the public
 facade: it re-exports core and scenario names, never experiments or figures, so that
 ``import pfcourse`` stays light.  Imports are read with ``ast`` (every ``import`` statement,
 including those inside functions), so nothing is executed.
