@@ -8,7 +8,11 @@ The notebooks teach; the plumbing lives here.  Main entry points:
 * :mod:`pfcourse.diagnostics` - ESS, weighted moments, NEES, ellipses;
 * :mod:`pfcourse.landmarks`, :mod:`pfcourse.robot`, :mod:`pfcourse.terrain` - the three scenarios;
 * :mod:`pfcourse.experiments` - Monte Carlo studies (any executor) and comparisons;
-* :func:`pfcourse.landmarks.kalman.kalman_filter` - the exact Kalman reference (filterpy).
+* :func:`pfcourse.kalman.kalman_filter` - the exact Kalman reference (filterpy), on a
+  :class:`pfcourse.linear_gaussian.LinearGaussianModel`;
+* :mod:`pfcourse.proposals`, :mod:`pfcourse.jitter`, :mod:`pfcourse.smoothing`, :mod:`pfcourse.pmmh`
+  - importance functions, moves after resampling, smoothers, particle MCMC;
+* :func:`pfcourse.executor.run_tasks` - the one loop that shares calls over an executor.
 """
 
 # First, before anything loads NumPy: the CPU code paths the book's floats were computed with
@@ -33,8 +37,9 @@ from pfcourse.filter import (  # noqa: E402
     StateSpaceModel,
     TransitionProposal,
 )
-from pfcourse.landmarks.kalman import kalman_filter  # noqa: E402
-from pfcourse.landmarks.model import LinearGaussianModel, OptimalProposal  # noqa: E402
+from pfcourse.kalman import kalman_filter  # noqa: E402
+from pfcourse.linear_gaussian import LinearGaussianModel  # noqa: E402
+from pfcourse.proposals import OptimalProposal  # noqa: E402
 
 __version__ = "0.2.0"
 

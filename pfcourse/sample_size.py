@@ -25,26 +25,12 @@ object with those two methods and the attributes ``n_min`` and ``batch`` is a po
 from __future__ import annotations
 
 from collections.abc import Sequence
-from typing import Protocol
 
 import numpy as np
 from scipy import stats
 
 from pfcourse.checks import Array, check_count, check_probability
 from pfcourse.errors import ParameterError
-
-
-class SampleSizePolicy(Protocol):
-    """What the engine needs to draw a variable number of particles at a measurement step."""
-
-    n_min: int
-    batch: int
-
-    def reset(self) -> None:  # pragma: no cover - protocol
-        ...
-
-    def needed(self, new_particles: Array) -> int:  # pragma: no cover - protocol
-        ...
 
 
 def kld_bound(bins: int | Array, epsilon: float = 0.05, delta: float = 0.01) -> Array:
@@ -67,11 +53,6 @@ def cell_codes(particles: Array, bin_size: Sequence[float]) -> Array:
     for j in range(1, cells.shape[1]):
         code = (code << 21) | cells[:, j]
     return code
-
-
-def occupied_bins(particles: Array, bin_size: Sequence[float]) -> int:
-    """Number of distinct cells of the grid ``bin_size`` that hold a particle."""
-    return len(np.unique(cell_codes(particles, bin_size)))
 
 
 class KLDSampling:

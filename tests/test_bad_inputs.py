@@ -24,10 +24,11 @@ from pfcourse.errors import (
     ShapeError,
     WeightError,
 )
-from pfcourse.landmarks.model import LinearGaussianModel
+from pfcourse.linear_gaussian import LinearGaussianModel
 from pfcourse.landmarks.scenario import quadrant_scenario
 from pfcourse.diagnostics import nees, nis
-from pfcourse.experiments.study import SerialExecutor, run_study
+from pfcourse.executor import SerialExecutor
+from pfcourse.experiments.study import run_study
 from pfcourse.robot import RobotScenario, simulate_robot
 from pfcourse.sample_size import KLDSampling
 
@@ -341,7 +342,7 @@ row("terrain simulate: initial_state with NaN",
     "initial_state must be finite")
 
 # --- kalman_filter (scenario A's exact reference) --------------------------------------------
-from pfcourse.landmarks.kalman import kalman_filter  # noqa: E402
+from pfcourse.kalman import kalman_filter  # noqa: E402
 
 _LG = LinearGaussianModel(F=np.eye(2), H=np.eye(2), m0=np.zeros(2), P0=np.eye(2), Q=np.eye(2), R=np.eye(2))
 for label, z, error, fragment in [

@@ -17,8 +17,8 @@ from pfcourse.experiments.comparison import (
 from pfcourse.diagnostics import chi2_band, fraction_in_band, nis, predictive_moments
 from pfcourse.errors import ShapeError
 from pfcourse.filter import ParticleFilter
-from pfcourse.landmarks.kalman import kalman_filter
-from pfcourse.landmarks.model import LinearGaussianModel
+from pfcourse.kalman import kalman_filter
+from pfcourse.linear_gaussian import LinearGaussianModel
 from pfcourse.landmarks.scenario import quadrant_scenario
 from pfcourse.landmarks.scenario import simulate as simulate_landmarks
 from pfcourse.robot.scenario import RobotModel, simulate_robot

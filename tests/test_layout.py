@@ -3,13 +3,16 @@
 Every module of ``pfcourse`` belongs to one layer (README, "Layout"):
 
 0. **core**: the top-level modules ``pfcourse/*.py`` (the engine, its compiled loops, weights
-   and resampling, results, errors and checks, angles, the Gaussian density, plot style);
+   and resampling, results, errors and checks, angles, the Gaussian density, plot style, and
+   the generic algorithms, one idea per module named after it: the linear-Gaussian model, the
+   Kalman filter, proposals, jitters, smoothing, PMMH, the executor loop);
 1. **scenarios**: ``pfcourse.landmarks``, ``pfcourse.robot``, ``pfcourse.terrain``;
 2. **experiments**: ``pfcourse.experiments``;
 3. **figures**: ``pfcourse.figures``.
 
 A module may import from its own layer or a lower one, and a scenario only from the core and
-from itself (scenarios do not know each other).  ``pfcourse/__init__.py`` is the public
+from itself (scenarios do not know each other).  A generic algorithm is defined in its core
+module only (``CORE_HOMES``).  ``pfcourse/__init__.py`` is the public
 facade: it re-exports core and scenario names, never experiments or figures, so that
 ``import pfcourse`` stays light.  Imports are read with ``ast`` (every ``import`` statement,
 including those inside functions), so nothing is executed.
@@ -122,3 +125,35 @@ def test_the_array_alias_is_defined_once():
                and any(isinstance(t, ast.Name) and t.id == "Array"
                        for t in (node.targets if isinstance(node, ast.Assign) else [node.target]))]
     assert len(defined) == 1 and defined[0].startswith("checks.py:"), defined
+
+
+#: The generic algorithms, each in the core module named after it (README, "The package").
+CORE_HOMES = {
+    "run_tasks": "executor",
+    "SerialExecutor": "executor",
+    "StudyWarning": "executor",
+    "ffbsm": "smoothing",
+    "rts_smoother": "smoothing",
+    "SmootherResult": "smoothing",
+    "pmmh": "pmmh",
+    "PMMHChain": "pmmh",
+    "LinearGaussianModel": "linear_gaussian",
+    "kalman_filter": "kalman",
+    "OptimalProposal": "proposals",
+    "FullyAdaptedAuxiliary": "proposals",
+    "ProgressiveCorrection": "proposals",
+    "Roughening": "jitter",
+    "RegularisedJitter": "jitter",
+}
+
+
+def top_level_definitions(path: Path) -> set[str]:
+    """Names of the functions and classes a module defines at its top level."""
+    return {node.name for node in ast.parse(path.read_text()).body
+            if isinstance(node, (ast.FunctionDef, ast.AsyncFunctionDef, ast.ClassDef))}
+
+
+@pytest.mark.parametrize("name", sorted(CORE_HOMES))
+def test_a_generic_algorithm_lives_in_its_core_module_only(name):
+    homes = [module_name(path) for path in MODULES if name in top_level_definitions(path)]
+    assert homes == [f"pfcourse.{CORE_HOMES[name]}"], homes

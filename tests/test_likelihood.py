@@ -11,13 +11,12 @@ from pfcourse.errors import ParameterError
 from pfcourse.landmarks import quadrant_scenario, simulate
 from pfcourse.experiments.likelihood import (
     grid_posterior,
-    integrated_autocorrelation_time,
     kalman_log_likelihood,
     max_likelihood_scale,
     pf_log_likelihood,
-    pmmh,
     scaled_model,
 )
+from pfcourse.pmmh import integrated_autocorrelation_time, pmmh
 
 
 @pytest.fixture(scope="module")

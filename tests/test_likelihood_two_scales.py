@@ -1,4 +1,4 @@
-"""PMMH over two noise scales and the exact 2-D grid posterior (pfcourse.experiments.likelihood)."""
+"""PMMH over two noise scales (pfcourse.pmmh) and the exact 2-D grid posterior (pfcourse.experiments.likelihood)."""
 
 from __future__ import annotations
 
@@ -7,7 +7,8 @@ import pytest
 from scipy import stats
 
 from pfcourse import ParameterError
-from pfcourse.experiments.likelihood import grid_posterior_2d, kalman_log_likelihood, pmmh, scaled_model
+from pfcourse.experiments.likelihood import grid_posterior_2d, kalman_log_likelihood, scaled_model
+from pfcourse.pmmh import pmmh
 from pfcourse.landmarks import quadrant_scenario
 
 

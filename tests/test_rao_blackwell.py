@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from pfcourse import LinearGaussianModel, ParticleFilter, kalman_filter
-from pfcourse.landmarks.auxiliary import FullyAdaptedAuxiliary, LinearGaussianOptimal
+from pfcourse.proposals import FullyAdaptedAuxiliary, LinearGaussianOptimal
 from pfcourse.errors import ParameterError
 from pfcourse.landmarks.scenario import quadrant_scenario, simulate
 from pfcourse.landmarks.rao_blackwell import RaoBlackwellError, RaoBlackwellModel, RaoBlackwellProposal

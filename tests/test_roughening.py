@@ -8,7 +8,7 @@ import pytest
 from pfcourse.errors import ParameterError, ShapeError
 from pfcourse.filter import ParticleFilter
 from pfcourse.landmarks.scenario import quadrant_scenario, simulate
-from pfcourse.roughening import Roughening, roughening_scale
+from pfcourse.jitter import Roughening, roughening_scale
 
 
 def test_scale_is_k_times_range_times_n_to_minus_one_over_d():

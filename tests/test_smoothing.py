@@ -13,8 +13,8 @@ from pfcourse import LinearGaussianModel, ParticleFilter
 from pfcourse.errors import ParameterError, ShapeError
 from pfcourse import kalman_filter
 from pfcourse.robot import RobotModel, RobotScenario, simulate_robot
-from pfcourse.experiments.smoothing import (ffbsm, linear_gaussian_log_transition, pairwise,
-                                robot_transition_log_density, rts_smoother)
+from pfcourse.robot.scenario import robot_transition_log_density
+from pfcourse.smoothing import ffbsm, linear_gaussian_log_transition, pairwise, rts_smoother
 
 
 @pytest.fixture(scope="module")

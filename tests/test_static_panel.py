@@ -153,7 +153,7 @@ def test_a_pool_that_does_not_answer_is_replaced_by_the_serial_path(monkeypatch)
     import os
     import time
 
-    from pfcourse.experiments.study import StudyWarning
+    from pfcourse.executor import StudyWarning
     from pfcourse.figures import static_panel
 
     parent = os.getpid()

@@ -131,7 +131,7 @@ def _robot_rows(executor) -> "pd.DataFrame":
 def test_rows_do_not_depend_on_the_executor_or_its_workers():
     from concurrent.futures import ProcessPoolExecutor, ThreadPoolExecutor
 
-    from pfcourse.experiments.study import SerialExecutor
+    from pfcourse.executor import SerialExecutor
 
     serial = _robot_rows(SerialExecutor())
     assert len(serial) == 12 and (serial["status"] == "ok").all()
@@ -143,7 +143,7 @@ def test_rows_do_not_depend_on_the_executor_or_its_workers():
 
 def test_a_dask_cluster_gives_the_same_rows():
     distributed = pytest.importorskip("distributed")
-    from pfcourse.experiments.study import SerialExecutor
+    from pfcourse.executor import SerialExecutor
 
     serial = _robot_rows(SerialExecutor())
     cluster = distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True,
@@ -179,7 +179,7 @@ def test_pool_workers_run_one_blas_thread():
     """Forked workers must not inherit a BLAS thread per core (they would spin against each other)."""
     import scipy.linalg  # noqa: F401  (loads SciPy's OpenBLAS too)
 
-    from pfcourse.experiments.study import default_executor
+    from pfcourse.executor import default_executor
 
     executor, owned = default_executor(_blas_threads)
     if not owned:
@@ -221,7 +221,7 @@ def _dies_in_a_worker(seed: int, a: int) -> dict:
 @pytest.mark.parametrize("run_one, reason, stall_timeout",
                          [(_hangs_in_a_worker, "finished in", 2.0), (_dies_in_a_worker, "died", 30.0)])
 def test_a_stuck_or_broken_pool_is_replaced_and_the_rows_are_unchanged(run_one, reason, stall_timeout):
-    from pfcourse.experiments.study import SerialExecutor, StudyWarning, default_executor
+    from pfcourse.executor import SerialExecutor, StudyWarning, default_executor
 
     if not default_executor(run_one)[1]:
         pytest.skip("one core or no fork: no pool")
@@ -255,7 +255,7 @@ def _refuses_three(x: int) -> int:
 def test_run_tasks_keeps_the_order_of_its_arguments_and_raises_a_task_error():
     from concurrent.futures import ThreadPoolExecutor
 
-    from pfcourse.experiments.study import run_tasks
+    from pfcourse.executor import run_tasks
 
     seen = []
     with ThreadPoolExecutor(3) as pool:

@@ -9,12 +9,8 @@ from scipy.stats import norm
 
 from pfcourse.errors import ParameterError
 from pfcourse.filter import ParticleFilter, StateSpaceModel
-from pfcourse.remedies import (
-    ProgressiveCorrection,
-    RegularisedJitter,
-    optimal_bandwidth,
-    tempering_exponent,
-)
+from pfcourse.jitter import RegularisedJitter, optimal_bandwidth
+from pfcourse.proposals import ProgressiveCorrection, tempering_exponent
 
 
 def test_optimal_bandwidth_formula():

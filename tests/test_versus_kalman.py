@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 
 from pfcourse.filter import ParticleFilter
-from pfcourse.landmarks.kalman import kalman_filter
+from pfcourse.kalman import kalman_filter
 from pfcourse.landmarks.scenario import quadrant_scenario
 from pfcourse.experiments.landmarks import kalman_scores
 
@@ -43,7 +43,7 @@ def test_a_collapsed_particle_cloud_is_scored_overconfident():
 def test_scores_do_not_depend_on_the_executor():
     from concurrent.futures import ThreadPoolExecutor
 
-    from pfcourse.experiments.study import SerialExecutor
+    from pfcourse.executor import SerialExecutor
 
     scenario = quadrant_scenario()
     pf = ParticleFilter(scenario.model(), 100, threshold=0.5)
@@ -60,7 +60,7 @@ def test_scores_do_not_depend_on_the_executor():
 
 def test_linear_convergence_does_not_depend_on_the_executor():
     from pfcourse.experiments.comparison import linear_convergence
-    from pfcourse.experiments.study import SerialExecutor
+    from pfcourse.executor import SerialExecutor
     from pfcourse.landmarks.scenario import simulate
 
     scenario = quadrant_scenario()

@@ -36,7 +36,7 @@ from myst_nb import glue
 from scipy import stats
 
 from pfcourse.diagnostics import chi2_band, nees
-from pfcourse.landmarks.kalman import kalman_filter
+from pfcourse.kalman import kalman_filter
 from pfcourse.landmarks.scenario import circle_scenario, quadrant_scenario, simulate
 from pfcourse.landmarks.figures import landmark_scene
 from pfcourse.style import COLORS, ellipse_patch, use_style

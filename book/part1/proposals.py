@@ -30,7 +30,7 @@
 # $$
 #
 # The new weight does not depend on the sampled $x_k^i$ at all: the only weight variance left
-# is that of $p(z_k \mid x_{k-1}^i)$ across the particles. `pfcourse.landmarks.model.OptimalProposal`
+# is that of $p(z_k \mid x_{k-1}^i)$ across the particles. `pfcourse.proposals.OptimalProposal`
 # implements it; the filter takes it through its `proposal` argument, with $H_k$, $R_k$ of the
 # visible landmarks at each step.
 #
@@ -55,9 +55,9 @@ from myst_nb import glue
 
 from pfcourse import evidence
 from pfcourse.filter import ParticleFilter
-from pfcourse.landmarks.kalman import kalman_filter
+from pfcourse.kalman import kalman_filter
 from pfcourse.landmarks.scenario import quadrant_scenario, simulate
-from pfcourse.landmarks.model import OptimalProposal
+from pfcourse.proposals import OptimalProposal
 from pfcourse.style import COLORS, plain_log_axis, use_style
 from pfcourse.experiments.landmarks import kalman_scores
 from pfcourse.figures.widgets import control_panel, particle_slider, scale_slider, seed_box

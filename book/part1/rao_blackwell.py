@@ -648,7 +648,7 @@ glue("m5_rbpf_robot_cover_low", float(cover_ci.low), display=False)
 # with $p(x_k \mid x_{k-1}, z_k)$. When both are available in closed form (here, on the full
 # state or on the robot of the Rao-Blackwellised filter) it is *fully adapted*: the new
 # weights are all equal, and $\hat p(z_k \mid z_{1:k-1}) = \frac1N \sum_i p(z_k \mid x_{k-1}^i)$.
-# `pfcourse.landmarks.auxiliary.FullyAdaptedAuxiliary` is a proposal of the engine, used with
+# `pfcourse.proposals.FullyAdaptedAuxiliary` is a proposal of the engine, used with
 # `threshold=1`. The table and figures above include it on the full state ("auxiliary PF")
 # and on the robot ("RBPF, auxiliary"); below, paired against the optimal-proposal filter it
 # refines, at each $N$.

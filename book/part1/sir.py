@@ -40,11 +40,11 @@ from scipy import stats
 
 from pfcourse import evidence
 from pfcourse.filter import ParticleFilter
-from pfcourse.landmarks.kalman import kalman_filter
+from pfcourse.kalman import kalman_filter
 from pfcourse.landmarks.scenario import quadrant_scenario, simulate
 from pfcourse.figures.bands import posterior_bands
 from pfcourse.style import COLORS, plain_log_axis, use_style
-from pfcourse.roughening import Roughening
+from pfcourse.jitter import Roughening
 from pfcourse.experiments.landmarks import kalman_scores
 from pfcourse.figures.widgets import control_panel, particle_slider, scheme_dropdown, seed_box, threshold_slider
 
@@ -216,7 +216,7 @@ plt.show()
 #
 # **Roughening** {cite:p}`gordon1993` adds, after each resampling only, a jitter of standard
 # deviation $K E_j N^{-1/d}$ to component $j$, with $E_j$ the cloud's range in that component
-# and $d = 6$ (`pfcourse.roughening`); we use the original $K = 0.2$. The jitter shrinks as
+# and $d = 6$ (`pfcourse.jitter`); we use the original $K = 0.2$. The jitter shrinks as
 # the cloud shrinks and as $N$ grows.
 #
 # Both at $N = 1000$, {glue:text}`sir_runs:d` runs each, scored on the landmarks at the last

@@ -79,9 +79,9 @@ from myst_nb import glue
 from scipy.special import logsumexp
 
 from pfcourse import evidence
-from pfcourse.exercises import ScalarModel, check_sis
+from pfcourse.exercises import check_sis
 from pfcourse.filter import ParticleFilter
-from pfcourse.landmarks.kalman import kalman_filter
+from pfcourse.kalman import kalman_filter
 from pfcourse.landmarks.scenario import quadrant_scenario, simulate
 from pfcourse.figures.bands import posterior_bands
 from pfcourse.figures.clouds import animate_clouds

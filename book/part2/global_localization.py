@@ -452,7 +452,7 @@ print("  mixture - kld_mixture:", w)
 #
 # **Tempering** the first likelihoods is the other classical cure for a prior much wider than the
 # likelihood: progressive correction {cite:p}`oudjane2000` (`method="tempered"`,
-# `pfcourse.remedies.ProgressiveCorrection`) brings each of the first $10$ readings in by
+# `pfcourse.proposals.ProgressiveCorrection`) brings each of the first $10$ readings in by
 # powers $\ell(x)^{\lambda_1}, \dots, \ell(x)^{\lambda_m}$ with $\sum_j \lambda_j = 1$, each
 # $\lambda_j$ the largest that keeps half the particles effective, and resamples and moves the
 # cloud with a Gaussian kernel between stages, so that fewer particles die at once. Its cost is

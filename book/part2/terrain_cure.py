@@ -41,7 +41,7 @@ from pfcourse.terrain.scenario import AircraftScenario, simulate
 from pfcourse.style import use_style
 from pfcourse.terrain.map import load_jacksboro
 from pfcourse.terrain.pcrb import horizontal_bound, terrain_bound_noise_free, terrain_pcrb
-from pfcourse.remedies import optimal_bandwidth
+from pfcourse.jitter import optimal_bandwidth
 from pfcourse.experiments.terrain_remedies import SETTINGS, make_filter
 
 use_style()

@@ -37,12 +37,13 @@ from scipy import stats
 from myst_nb import glue
 
 from pfcourse.filter import ParticleFilter
-from pfcourse.landmarks.kalman import kalman_filter
+from pfcourse.kalman import kalman_filter
 from pfcourse.landmarks.scenario import quadrant_scenario, simulate
 from pfcourse.style import COLORS, plain_log_axis, use_style
 from pfcourse.experiments.robot import pf_run
 from pfcourse import evidence
-from pfcourse.experiments.study import SerialExecutor, run_study, summarize
+from pfcourse.executor import SerialExecutor
+from pfcourse.experiments.study import run_study, summarize
 from pfcourse.figures.study import summary_band, time_band
 from pfcourse.figures.widgets import control_panel
 

@@ -52,7 +52,7 @@ from pfcourse.terrain.scenario import AircraftScenario
 from pfcourse.experiments.comparison import label, linear_convergence, loglog_slope, robot_tracks, summarize_tracks, terrain_tracks
 from pfcourse.diagnostics import chi2_band, fraction_in_band
 from pfcourse.filter import ParticleFilter
-from pfcourse.landmarks.kalman import kalman_filter
+from pfcourse.kalman import kalman_filter
 from pfcourse.landmarks.scenario import quadrant_scenario, simulate
 from pfcourse.robot.kalman import run_ekf, run_ukf
 from pfcourse.robot.scenario import RobotModel, RobotScenario, simulate_robot

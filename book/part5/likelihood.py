@@ -35,12 +35,13 @@ from scipy import stats
 
 from pfcourse import DegenerateWeightsError, ParticleFilter, evidence, kalman_filter
 from pfcourse.landmarks import quadrant_scenario, simulate
-from pfcourse.experiments.likelihood import (grid_posterior, grid_posterior_2d, integrated_autocorrelation_time,
-                                 kalman_log_likelihood, max_likelihood_scale, pf_log_likelihood)
+from pfcourse.experiments.likelihood import (grid_posterior, grid_posterior_2d, kalman_log_likelihood,
+                                 max_likelihood_scale, pf_log_likelihood)
+from pfcourse.pmmh import integrated_autocorrelation_time
 from pfcourse.style import COLORS, plain_log_axis, use_style
 from pfcourse.robot import RobotModel, RobotScenario, simulate_robot
-from pfcourse.experiments.smoothing import (ffbsm, linear_gaussian_log_transition, pairwise,
-                                robot_transition_log_density, rts_smoother)
+from pfcourse.robot.scenario import robot_transition_log_density
+from pfcourse.smoothing import ffbsm, linear_gaussian_log_transition, pairwise, rts_smoother
 from pfcourse.figures.widgets import control_panel, particle_slider, seed_box
 from pfcourse.seeding import data_rng
 from pfcourse.terrain.map import load_jacksboro
@@ -823,7 +824,7 @@ print(f"exact smoother / exact filter RMS error against the truth: median {np.me
 # $w \sim \mathcal N(0, Q_{est})$ and $u \mapsto f(x, u)$ invertible (a rotation and a
 # scaling by $\Delta t$), so
 # $f(x_k \mid x_{k-1}) = \mathcal N(u(x_{k-1}, x_k) - \tilde u_k;\, 0, Q_{est}) / \Delta t^3$
-# (`pfcourse.experiments.smoothing.robot_transition_log_density`, tested against the sampler). One run:
+# (`pfcourse.robot.scenario.robot_transition_log_density`, tested against the sampler). One run:
 # $160$ s, no measurement for $t \in [60, 110)$ s, $N = 300$.
 
 # %%

@@ -38,7 +38,7 @@ from pfcourse.angles import wrap_angle
 from pfcourse.checks import Array, check_count
 from pfcourse.diagnostics import chi2_band, fraction_in_band, nees, nis, predictive_moments
 from pfcourse.errors import DegenerateWeightsError
-from pfcourse.experiments.study import run_tasks
+from pfcourse.executor import run_tasks
 from pfcourse.filter import ParticleFilter
 from pfcourse.metrics import position_error
 from pfcourse.results import FilterResult
@@ -281,11 +281,11 @@ class ConvergenceResult:
 def linear_convergence(model, measurements: Array, kalman, n_values: Sequence[int], n_runs: int, *,
                        seed: int = 0, threshold: float = 0.5, executor: Executor | None = None) -> ConvergenceResult:
     """Run a bootstrap particle filter ``n_runs`` times per ``N`` on one data set and compare it
-    with the Kalman result ``kalman`` (:func:`pfcourse.landmarks.kalman.kalman_filter`).
+    with the Kalman result ``kalman`` (:func:`pfcourse.kalman.kalman_filter`).
 
     Run ``r`` at ``N`` uses the random stream :func:`~pfcourse.seeding.sized_filter_rng`
     ``(seed, N, run=r)``, that is ``[seed, r, N]``.  The values of ``N`` are shared out by
-    :func:`~pfcourse.experiments.study.run_tasks` (``executor=None``: a process pool over the
+    :func:`~pfcourse.executor.run_tasks` (``executor=None``: a process pool over the
     cores); the result does not depend on it.
     """
     n_values = np.asarray(n_values, dtype=int)

@@ -30,9 +30,10 @@ from scipy import stats
 
 from pfcourse.checks import check_count
 from pfcourse.diagnostics import nees
-from pfcourse.experiments.study import run_tasks
+from pfcourse.executor import run_tasks
 from pfcourse.results import FilterResult
-from pfcourse.landmarks.kalman import KalmanResult, kalman_filter
+from pfcourse.kalman import kalman_filter
+from pfcourse.results import KalmanResult
 from pfcourse.landmarks.scenario import LandmarkScenario, simulate
 
 
@@ -83,7 +84,7 @@ def kalman_scores(
     ``kalman_model`` (the scenario's own model by default) and the particle filter
     with seed ``s + 10**6``.  Returns arrays of shape ``(n_runs, K)`` keyed
     ``rmse``, ``log_var_ratio`` (per component), ``covered``, ``ess``, ``resampled``.
-    The runs are shared out by :func:`~pfcourse.experiments.study.run_tasks` (``executor=None``:
+    The runs are shared out by :func:`~pfcourse.executor.run_tasks` (``executor=None``:
     a process pool over the cores when ``run_filter`` can be sent to one, e.g. a bound
     ``ParticleFilter(...).run``; a lambda runs in this process); the result does not depend on it.
     """

@@ -25,9 +25,8 @@ import numpy as np
 
 from pfcourse.diagnostics import nees
 from pfcourse.filter import ParticleFilter
-from pfcourse.landmarks.auxiliary import FullyAdaptedAuxiliary, LinearGaussianOptimal
-from pfcourse.landmarks.kalman import kalman_filter
-from pfcourse.landmarks.model import OptimalProposal
+from pfcourse.kalman import kalman_filter
+from pfcourse.proposals import FullyAdaptedAuxiliary, LinearGaussianOptimal, OptimalProposal
 from pfcourse.landmarks.rao_blackwell import RaoBlackwellModel, RaoBlackwellProposal
 from pfcourse.landmarks.scenario import LandmarkScenario, circle_scenario, quadrant_scenario, simulate
 

@@ -10,7 +10,7 @@ that its simulator returns, so it can be read two ways:
   reference: the Kalman filter of that model).
 
 ``roughening_K`` is SIR on the static model with roughening of constant ``K`` after each
-resampling (:mod:`pfcourse.roughening`); ``sir`` is plain SIR (K = 0).  One row per
+resampling (:mod:`pfcourse.jitter`); ``sir`` is plain SIR (K = 0).  One row per
 (variant, N, seed): simulation seed ``s``, filter seed ``s + 10**6``, threshold N/3.
 Scores over the last 10 steps, on the four landmark coordinates: ``error`` (mean over the
 steps of the RMS error of the filter mean against the reference Kalman mean, m) and
@@ -23,9 +23,9 @@ import numpy as np
 
 from pfcourse.experiments.landmarks import score
 from pfcourse.filter import ParticleFilter
-from pfcourse.landmarks.kalman import kalman_filter
+from pfcourse.kalman import kalman_filter
 from pfcourse.landmarks.scenario import quadrant_scenario, simulate
-from pfcourse.roughening import Roughening
+from pfcourse.jitter import Roughening
 
 LANDMARKS = [2, 3, 4, 5]
 LANDMARK_NOISE = 0.0025  # m^2 per step, report 000's value

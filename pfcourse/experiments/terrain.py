@@ -14,7 +14,7 @@ import numpy as np
 
 from pfcourse.checks import Array, check_count
 from pfcourse.errors import DegenerateWeightsError, ParameterError
-from pfcourse.experiments.study import run_tasks
+from pfcourse.executor import run_tasks
 from pfcourse.filter import ParticleFilter
 from pfcourse.seeding import data_rng, filter_rng
 from pfcourse.terrain.map import TerrainMap
@@ -95,7 +95,7 @@ def flight_study(
     between settings are not differences between flights.  ``method`` is ``"pf"``
     (:class:`~pfcourse.filter.ParticleFilter`, seeded with :func:`~pfcourse.seeding.filter_rng`
     ``(seed, r)``) or ``"ekf"``.  The flights are shared out, ``batch_size`` at a time, by
-    :func:`~pfcourse.experiments.study.run_tasks` (``executor=None``: a process pool over the
+    :func:`~pfcourse.executor.run_tasks` (``executor=None``: a process pool over the
     cores); the result does not depend on the executor.
     """
     if method not in ("pf", "ekf"):

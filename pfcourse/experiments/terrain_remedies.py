@@ -15,7 +15,8 @@ import numpy as np
 from pfcourse.errors import DegenerateWeightsError, ParameterError
 from pfcourse.experiments.terrain import DIVERGED_ERROR
 from pfcourse.filter import ParticleFilter
-from pfcourse.remedies import ProgressiveCorrection, RegularisedJitter
+from pfcourse.jitter import RegularisedJitter
+from pfcourse.proposals import ProgressiveCorrection
 from pfcourse.seeding import data_rng, filter_rng
 from pfcourse.metrics import position_error
 from pfcourse.terrain.scenario import AircraftScenario, simulate

@@ -5,7 +5,7 @@ measurement period and the resampling scheme around a bootstrap filter with ``N 
 loses two flights in three (:mod:`pfcourse.experiments.terrain_remedies`). Here every study
 varies one thing around the **regularised filter** of the terrain-cure chapter
 (``N = 30000``, multinomial resampling at ``ESS < N/2``, Gaussian kernel at 0.2 times the
-optimal bandwidth, :class:`pfcourse.remedies.RegularisedJitter`), which loses about one flight
+optimal bandwidth, :class:`pfcourse.jitter.RegularisedJitter`), which loses about one flight
 in twenty, so that a study compares accuracies rather than divergence noise.
 
 Flight ``r`` is drawn from :func:`pfcourse.seeding.data_rng` ``(0, r)`` and the filter from
@@ -22,7 +22,7 @@ import numpy as np
 from pfcourse.errors import DegenerateWeightsError, ParameterError
 from pfcourse.experiments.terrain import DIVERGED_ERROR
 from pfcourse.filter import ParticleFilter
-from pfcourse.remedies import RegularisedJitter
+from pfcourse.jitter import RegularisedJitter
 from pfcourse.seeding import data_rng, filter_rng
 from pfcourse.metrics import position_error, position_spread
 from pfcourse.terrain.scenario import AircraftScenario, simulate

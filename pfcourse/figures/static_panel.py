@@ -34,7 +34,7 @@ import numpy as np
 from PIL import Image
 
 from pfcourse.errors import ParameterError
-from pfcourse.experiments.study import run_tasks
+from pfcourse.executor import run_tasks
 
 #: Seconds a pool of workers may go without finishing a figure before the rest of the grid is
 #: rendered in this process instead (one figure of the book takes well under a second).

@@ -41,7 +41,7 @@ from pfcourse.checks import Array, check_count, covariance_factor
 from pfcourse.errors import ParameterError
 from pfcourse.results import FilterResult
 from pfcourse.gaussian import LOG_2PI
-from pfcourse.landmarks.model import LinearGaussianModel
+from pfcourse.linear_gaussian import LinearGaussianModel
 
 
 
@@ -52,7 +52,7 @@ class RaoBlackwellError(ParameterError):
 class RaoBlackwellModel:
     """Particles ``(r^i, m^i, vec P^i)`` for a linear-Gaussian model whose map is integrated out.
 
-    ``model`` is a :class:`~pfcourse.landmarks.model.LinearGaussianModel` whose first
+    ``model`` is a :class:`~pfcourse.linear_gaussian.LinearGaussianModel` whose first
     ``n_robot`` state components are the robot; ``F``, ``Q`` and ``P0`` must have no
     robot-map cross blocks (otherwise the map given the robot path is not the product this
     filter assumes) and the robot block of ``Q`` must be positive definite.

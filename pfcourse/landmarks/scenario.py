@@ -32,7 +32,7 @@ import numpy as np
 
 from pfcourse.checks import as_vector, check_count, check_covariance, check_real, covariance_factor
 from pfcourse.errors import ParameterError
-from pfcourse.landmarks.model import LinearGaussianModel
+from pfcourse.linear_gaussian import LinearGaussianModel
 
 
 def rotation(angle: float) -> np.ndarray:

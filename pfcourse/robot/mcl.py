@@ -74,7 +74,8 @@ from pfcourse.errors import DegenerateWeightsError, ParameterError
 from pfcourse.filter import DensityProposal, ParticleFilter
 from pfcourse.metrics import heading_error, position_error, position_spread
 from pfcourse.results import FilterResult
-from pfcourse.remedies import ProgressiveCorrection, RegularisedJitter
+from pfcourse.jitter import RegularisedJitter
+from pfcourse.proposals import ProgressiveCorrection
 from pfcourse.sample_size import KLDSampling, kld_bound  # noqa: F401  (kld_bound: re-exported for the chapter)
 from pfcourse.seeding import kidnap_rng
 from pfcourse.robot.scenario import ANGLE_INDICES, RobotModel, RobotSimulation, motion, range_bearing, simulate_robot
@@ -367,7 +368,7 @@ def run_method(sim: RobotSimulation, method: str, n_particles: int, seed: int, *
                settings: MethodSettings = MethodSettings()) -> dict:
     """Filter ``sim`` with ``method`` (one of :data:`METHODS`); ``n_particles`` is ``N`` (``n_max`` for KLD).
 
-    ``tempered`` is progressive correction (Oudjane and Musso 2000, :class:`pfcourse.remedies.ProgressiveCorrection`)
+    ``tempered`` is progressive correction (Oudjane and Musso 2000, :class:`pfcourse.proposals.ProgressiveCorrection`)
     at the first ``settings.temper_readings`` readings, the bootstrap filter afterwards.
     Returns ``mean`` ``(K, 3)``, ``cov`` ``(K, 3, 3)``, ``n_used`` ``(K,)`` (particles per step),
     ``likelihood_evaluations`` ``(K,)`` (particles times the stages of progressive correction: the

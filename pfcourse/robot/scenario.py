@@ -65,6 +65,7 @@ from pfcourse.checks import (
 )
 from pfcourse.errors import ParameterError, ShapeError
 from pfcourse.compiled import jit
+from pfcourse.gaussian import gaussian_logpdf
 
 
 #: Standard deviations of the odometry error per step: 0.02 m/s, 0.02 m/s, 1 deg/s.
@@ -393,6 +394,25 @@ class RobotModel:
             np.ascontiguousarray(particles, dtype=float), landmark[0], landmark[1], z[1], z[2],
             a[0, 0], a[1, 0], a[1, 1], self._log_norm,
         )
+
+
+def robot_transition_log_density(model, new: Array, old: Array, k: int) -> Array:
+    """``log p(x_k | x_{k-1})`` of :class:`~pfcourse.robot.RobotModel` (diagonal or full ``q_est``).
+
+    ``x_k = f(x_{k-1}, u~_k + w)``, ``w ~ N(0, q_est)``, and ``u -> f(x, u)`` is invertible:
+    ``u = (R(-theta_{k-1}) (p_k - p_{k-1}) / dt, wrap(theta_k - theta_{k-1}) / dt)``, with
+    Jacobian ``|det df/du| = dt^3`` (a rotation times ``dt``).  So
+    ``log p = log N(u - u~_k; 0, q_est) - 3 log dt`` (the heading's other branches,
+    ``2 pi`` away, are negligible for a small heading noise).
+    """
+    new = np.asarray(new, dtype=float)
+    old = np.asarray(old, dtype=float)
+    dt = model.dt
+    c, s = np.cos(old[:, 2]), np.sin(old[:, 2])
+    dx, dy = new[:, 0] - old[:, 0], new[:, 1] - old[:, 1]
+    u = np.column_stack([(c * dx + s * dy) / dt, (-s * dx + c * dy) / dt,
+                         wrap_angle(new[:, 2] - old[:, 2]) / dt])
+    return gaussian_logpdf(u - model.odometry[k], model.q_est) - 3.0 * np.log(dt)
 
 
 @jit

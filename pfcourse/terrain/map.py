@@ -171,13 +171,6 @@ class TerrainMap:
             self.south + np.asarray(y, dtype=float) / self.deg_lat,
         )
 
-    def from_lonlat(self, lon, lat) -> tuple[np.ndarray, np.ndarray]:
-        """Map coordinates (m) of longitude / latitude (degrees)."""
-        return (
-            (np.asarray(lon, dtype=float) - self.west) * self.deg_lon,
-            (np.asarray(lat, dtype=float) - self.south) * self.deg_lat,
-        )
-
 
 def load_jacksboro() -> TerrainMap:
     """Load matplotlib's ``jacksboro_fault_dem.npz`` as a :class:`TerrainMap` in metres.

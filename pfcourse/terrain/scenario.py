@@ -201,21 +201,6 @@ class TerrainModel:
                                         self.terrain.dx, self.terrain.dy, float(np.ravel(z)[0]), rf,
                                         -0.5 * (np.log(rf) + _LOG_2PI))
 
-    def log_likelihood_numpy(self, particles: Array, z: Array, k: int) -> Array:
-        """The NumPy / scipy definition of :meth:`log_likelihood` (the tests compare the two)."""
-        rf = self.scenario.Rf
-        innovation = float(np.ravel(z)[0]) - predicted_measurement(particles, self.terrain)
-        loglik = -0.5 * (innovation**2 / rf + np.log(rf) + _LOG_2PI)
-        return np.where(np.isnan(loglik), -np.inf, loglik)
-
-    def sample_transition_numpy(self, particles: Array, k: int, rng: np.random.Generator) -> Array:
-        """The NumPy definition of :meth:`sample_transition` (same draws)."""
-        s = self.scenario
-        x = propagate(particles, s.speed, s.omega, s.dt)
-        x += rng.standard_normal(x.shape) @ self._noise_factor.T
-        x[:, 3] = wrap_angle(x[:, 3])
-        return x
-
 
 @dataclass
 class Flight:

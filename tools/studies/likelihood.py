@@ -32,7 +32,8 @@ from scipy import stats
 
 import pfcourse  # noqa: F401  (pins the arithmetic before numpy computes anything)
 from pfcourse.landmarks import quadrant_scenario, simulate
-from pfcourse.experiments.likelihood import kalman_log_likelihood, max_likelihood_scale, pf_log_likelihood, pmmh
+from pfcourse.experiments.likelihood import kalman_log_likelihood, max_likelihood_scale, pf_log_likelihood
+from pfcourse.pmmh import pmmh
 from pfcourse.experiments.provenance import launch_commit, write_provenance
 from pfcourse.experiments.study import run_study
 from pfcourse.seeding import replicate_seed

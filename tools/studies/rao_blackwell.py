@@ -41,7 +41,7 @@ def main() -> None:
     write_provenance(
         out / "rao_blackwell.json", code="tools/studies/rao_blackwell.py", commit=commit,
         seconds=time.time() - start,
-        row_code=["pfcourse/experiments/rb_study.py", "pfcourse/landmarks/rao_blackwell.py", "pfcourse/landmarks/auxiliary.py"],
+        row_code=["pfcourse/experiments/rb_study.py", "pfcourse/landmarks/rao_blackwell.py", "pfcourse/proposals.py"],
         settings=SETTINGS, methods=METHODS, threshold=THRESHOLD,
         seeds="simulation seed s, filter seed s + 10**6 (same for every method and N)", rows=len(rows),
     )

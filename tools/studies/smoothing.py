@@ -27,7 +27,8 @@ from pfcourse import ParticleFilter
 from pfcourse import kalman_filter
 from pfcourse.landmarks import quadrant_scenario, simulate
 from pfcourse.robot import RobotModel, RobotScenario, simulate_robot
-from pfcourse.experiments.smoothing import ffbsm, linear_gaussian_log_transition, pairwise, robot_transition_log_density, rts_smoother
+from pfcourse.robot.scenario import robot_transition_log_density
+from pfcourse.smoothing import ffbsm, linear_gaussian_log_transition, pairwise, rts_smoother
 from pfcourse.experiments.provenance import launch_commit, write_provenance
 from pfcourse.experiments.study import run_study
 

@@ -35,7 +35,7 @@ from pfcourse.experiments import terrain_remedies as tr
 from pfcourse.experiments.provenance import launch_commit, write_provenance, write_rows
 from pfcourse.experiments.terrain import DIVERGED_ERROR
 from pfcourse.filter import ParticleFilter
-from pfcourse.remedies import RegularisedJitter
+from pfcourse.jitter import RegularisedJitter
 from pfcourse.seeding import data_rng, filter_rng
 from pfcourse.terrain.map import load_jacksboro
 from pfcourse.metrics import position_error

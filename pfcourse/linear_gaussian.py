@@ -9,8 +9,8 @@
 NaN entries of ``z_k`` mean "not observed": the likelihood then uses only the
 observed rows, ``p(z_k | x_k) = N(z_{k,o}; H_o x_k, R_{oo})`` with ``H_o`` the rows
 of ``H`` and ``R_{oo}`` the block of ``R`` of the observed entries.  For this model
-the Kalman filter is exact (:mod:`pfcourse.landmarks.kalman`), and so is the optimal
-importance function ``p(x_k | x_{k-1}, z_k)`` (:class:`OptimalProposal`).
+the Kalman filter is exact (:mod:`pfcourse.kalman`), and so is the optimal
+importance function ``p(x_k | x_{k-1}, z_k)`` (:class:`pfcourse.proposals.OptimalProposal`).
 """
 
 from __future__ import annotations
@@ -74,33 +74,3 @@ class LinearGaussianModel:
         if not mask.any():
             return np.zeros(particles.shape[0])
         return gaussian_logpdf(z_o - particles @ H_o.T, R_o)
-
-
-class OptimalProposal:
-    """The optimal importance function ``q = p(x_k | x_{k-1}, z_k)`` of a linear-Gaussian model.
-
-    With ``m = F x_{k-1} + B``, ``S = H Q H^T + R`` and ``K = Q H^T S^{-1}``
-    (observed rows only):
-
-    .. math::
-
-       p(x_k | x_{k-1}, z_k) = \\mathcal N(m + K (z_k - H m),\\ (I - K H) Q), \\qquad
-       w_k \\propto w_{k-1}\\, p(z_k | x_{k-1}) = w_{k-1}\\, \\mathcal N(z_k; H m, S).
-
-    The incremental weight does not depend on the sampled ``x_k``: this is the
-    proposal that minimises the variance of the weights (Doucet, Godsill and
-    Andrieu 2000).  The gain form stays accurate when ``Q`` is nearly singular.
-    """
-
-    def propose(self, model: LinearGaussianModel, particles, z, k, rng):
-        mask, z_o, H_o, R_o = model.observed(z)
-        predicted = model.predict_mean(particles)
-        if not mask.any():
-            return model.sample_transition(particles, k, rng), np.zeros(particles.shape[0])
-        S = H_o @ model.Q @ H_o.T + R_o
-        gain = np.linalg.solve(S, H_o @ model.Q).T
-        cov = model.Q - gain @ S @ gain.T
-        innovation = z_o - predicted @ H_o.T
-        mean = predicted + innovation @ gain.T
-        noise = rng.standard_normal(particles.shape) @ covariance_factor(0.5 * (cov + cov.T)).T
-        return mean + noise, gaussian_logpdf(innovation, S)

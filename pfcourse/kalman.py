@@ -5,7 +5,7 @@ distribution ``p(x_k | z_{0:k}) = N(m_k, P_k)`` and the exact log-likelihood
 ``log p(z_{0:K}) = sum_k log N(y_k; 0, S_k)`` (innovation ``y_k``, its covariance
 ``S_k``).  Every particle filter in the book on such a model is measured against
 these numbers.  Missing (NaN) entries of ``z_k`` are handled as in
-:class:`~pfcourse.landmarks.model.LinearGaussianModel`: the update uses the
+:class:`~pfcourse.linear_gaussian.LinearGaussianModel`: the update uses the
 observed rows ``H_o`` and block ``R_oo`` only, so ``H`` and ``R`` change with time.
 """
 
@@ -18,8 +18,8 @@ from filterpy.kalman import KalmanFilter
 
 from pfcourse.checks import check_measurements, is_missing
 from pfcourse.errors import MeasurementError, ModelError
+from pfcourse.linear_gaussian import LinearGaussianModel
 from pfcourse.results import KalmanResult
-from pfcourse.landmarks.model import LinearGaussianModel
 
 
 def kalman_filter(model: LinearGaussianModel, measurements: Sequence | np.ndarray) -> KalmanResult:

@@ -29,11 +29,9 @@ from scipy.linalg import solve_triangular
 from scipy.spatial.distance import cdist
 from scipy.special import logsumexp
 
-from pfcourse import ParameterError, ShapeError
-from pfcourse.angles import wrap_angle
+from pfcourse.errors import ParameterError, ShapeError
 from pfcourse.checks import Array
 from pfcourse.diagnostics import weighted_covariance, weighted_mean
-from pfcourse.gaussian import gaussian_logpdf
 
 
 @dataclass
@@ -128,22 +126,3 @@ def rts_smoother(model, kalman_result) -> tuple[Array, Array]:
     mean, cov, _, _ = kf.rts_smoother(kalman_result.mean, kalman_result.cov,
                                       Fs=[model.F] * K, Qs=[model.Q] * K)
     return mean, cov
-
-
-def robot_transition_log_density(model, new: Array, old: Array, k: int) -> Array:
-    """``log p(x_k | x_{k-1})`` of :class:`~pfcourse.robot.RobotModel` (diagonal or full ``q_est``).
-
-    ``x_k = f(x_{k-1}, u~_k + w)``, ``w ~ N(0, q_est)``, and ``u -> f(x, u)`` is invertible:
-    ``u = (R(-theta_{k-1}) (p_k - p_{k-1}) / dt, wrap(theta_k - theta_{k-1}) / dt)``, with
-    Jacobian ``|det df/du| = dt^3`` (a rotation times ``dt``).  So
-    ``log p = log N(u - u~_k; 0, q_est) - 3 log dt`` (the heading's other branches,
-    ``2 pi`` away, are negligible for a small heading noise).
-    """
-    new = np.asarray(new, dtype=float)
-    old = np.asarray(old, dtype=float)
-    dt = model.dt
-    c, s = np.cos(old[:, 2]), np.sin(old[:, 2])
-    dx, dy = new[:, 0] - old[:, 0], new[:, 1] - old[:, 1]
-    u = np.column_stack([(c * dx + s * dy) / dt, (-s * dx + c * dy) / dt,
-                         wrap_angle(new[:, 2] - old[:, 2]) / dt])
-    return gaussian_logpdf(u - model.odometry[k], model.q_est) - 3.0 * np.log(dt)

@@ -1,0 +1,193 @@
+"""Importance functions (proposals) for the particle filter, beyond the model's transition.
+
+A proposal has ``propose(model, particles, z, k, rng) -> (new_particles, log_increment)``:
+it draws ``x_k`` from ``q(x_k | x_{k-1}, z_k)`` and returns the log of the incremental weight
+``p(z_k | x_k) f(x_k | x_{k-1}) / q(x_k | x_{k-1}, z_k)`` (the protocol, the transition and a
+proposal from a density are the engine's, in :mod:`pfcourse.filter`).
+
+**The optimal importance function** ``p(x_k | x_{k-1}, z_k)`` of a linear-Gaussian model
+(:class:`~pfcourse.linear_gaussian.LinearGaussianModel`): :class:`OptimalProposal`, and
+:class:`LinearGaussianOptimal`, which also gives the predictive likelihood ``p(z_k | x_{k-1})``.
+
+**The fully adapted auxiliary particle filter** (Pitt and Shephard 1999), :class:`FullyAdaptedAuxiliary`.
+When the predictive likelihood ``p(z_k | x_{k-1})`` and the optimal importance function
+``p(x_k | x_{k-1}, z_k)`` are both known in closed form (a linear-Gaussian model, or the
+robot of a Rao-Blackwellised filter), the auxiliary filter *first* resamples the parents
+with probabilities proportional to ``W_{k-1}^i p(z_k | x_{k-1}^i)`` and *then* moves each
+chosen parent with the optimal importance function.  The new weights are all equal:
+
+.. math::
+
+   a^i = \\log p(z_k \\mid x_{k-1}^i), \\qquad A^i \\sim \\mathrm{Cat}\\big(e^{a^i} / \\textstyle\\sum_j e^{a^j}\\big),
+   \\qquad x_k^i \\sim p(x_k \\mid x_{k-1}^{A^i}, z_k), \\qquad
+   \\hat p(z_k \\mid z_{0:k-1}) = \\frac1N \\sum_i e^{a^i}.
+
+Compared with SIR and the same optimal importance function, the cloud is resampled
+*before* the move, so no two children of a duplicated parent coincide.  It runs in the
+engine as a :class:`~pfcourse.filter.Proposal` that returns the constant incremental
+weight ``log (1/N) sum_i e^{a^i}`` for every particle; the engine must hand it uniform
+weights, so use it with ``threshold=1`` (resample whenever the weights are not uniform,
+which then never happens after the first measured step).
+
+**Progressive correction** (Oudjane and Musso 2000), as an importance function
+(:class:`ProgressiveCorrection`): at the first ``n_tempered`` readings the likelihood
+is brought in by powers ``l(x)^{lambda_1}, ..., l(x)^{lambda_m}`` with
+``lambda_1 + ... + lambda_m = 1``; each ``lambda_j`` is the largest that keeps the effective
+sample size of the stage at ``ess_fraction N`` or more (bisection), and between stages the
+cloud is resampled and regularised.  The final stage's weights ``l^{lambda_m}`` are returned,
+so the target of the last stage is ``p(z | x) p(x | z_{0:k-1})``, the posterior.  Each stage
+restarts from equal weights, so the engine must hand it an equally weighted cloud: use it
+with ``threshold=1`` (resample whenever the weights are not uniform).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from pfcourse.checks import Array, covariance_factor
+from pfcourse.gaussian import gaussian_logpdf
+from pfcourse.jitter import RegularisedJitter
+from pfcourse.kernels import gather_rows
+from pfcourse.linear_gaussian import LinearGaussianModel
+from pfcourse.resampling import get_resampler
+
+
+class OptimalProposal:
+    """The optimal importance function ``q = p(x_k | x_{k-1}, z_k)`` of a linear-Gaussian model.
+
+    With ``m = F x_{k-1} + B``, ``S = H Q H^T + R`` and ``K = Q H^T S^{-1}``
+    (observed rows only):
+
+    .. math::
+
+       p(x_k | x_{k-1}, z_k) = \\mathcal N(m + K (z_k - H m),\\ (I - K H) Q), \\qquad
+       w_k \\propto w_{k-1}\\, p(z_k | x_{k-1}) = w_{k-1}\\, \\mathcal N(z_k; H m, S).
+
+    The incremental weight does not depend on the sampled ``x_k``: this is the
+    proposal that minimises the variance of the weights (Doucet, Godsill and
+    Andrieu 2000).  The gain form stays accurate when ``Q`` is nearly singular.
+    """
+
+    def propose(self, model: LinearGaussianModel, particles, z, k, rng):
+        mask, z_o, H_o, R_o = model.observed(z)
+        predicted = model.predict_mean(particles)
+        if not mask.any():
+            return model.sample_transition(particles, k, rng), np.zeros(particles.shape[0])
+        S = H_o @ model.Q @ H_o.T + R_o
+        gain = np.linalg.solve(S, H_o @ model.Q).T
+        cov = model.Q - gain @ S @ gain.T
+        innovation = z_o - predicted @ H_o.T
+        mean = predicted + innovation @ gain.T
+        noise = rng.standard_normal(particles.shape) @ covariance_factor(0.5 * (cov + cov.T)).T
+        return mean + noise, gaussian_logpdf(innovation, S)
+
+
+class LinearGaussianOptimal(OptimalProposal):
+    """:class:`~pfcourse.proposals.OptimalProposal` with its predictive likelihood exposed."""
+
+    def log_predictive(self, model: LinearGaussianModel, particles: Array, z: Array, k: int) -> Array:
+        """``log N(z_k; H (F x_{k-1} + B), H Q H^T + R)`` per particle (observed rows only)."""
+        mask, z_o, H_o, R_o = model.observed(z)
+        if not mask.any():
+            return np.zeros(particles.shape[0])
+        innovation = z_o - model.predict_mean(particles) @ H_o.T
+        return gaussian_logpdf(innovation, H_o @ model.Q @ H_o.T + R_o)
+
+
+class FullyAdaptedAuxiliary:
+    """Auxiliary resampling then the optimal move (see the module docstring).
+
+    ``inner`` provides ``log_predictive(model, particles, z, k)`` and a fully adapted
+    ``propose`` (its incremental weight is that predictive likelihood, whatever is drawn):
+    :class:`LinearGaussianOptimal`, or :class:`~pfcourse.landmarks.rao_blackwell.RaoBlackwellProposal`
+    with ``optimal=True``.  ``first_stage_ess`` records ``1 / sum_i (W^i)^2`` of the
+    first-stage weights at each measured step (the engine's ESS is then always ``N``).
+    """
+
+    def __init__(self, inner, resampler: str | Callable = "systematic") -> None:
+        self.inner = inner
+        self.resampler = get_resampler(resampler)
+        self.first_stage_ess: list[float] = []
+
+    def propose(self, model, particles: Array, z: Array, k: int, rng: np.random.Generator):
+        n = particles.shape[0]
+        a = np.asarray(self.inner.log_predictive(model, particles, z, k), dtype=float)
+        top = a.max()
+        w = np.exp(a - top)
+        total = w.sum()
+        w /= total
+        self.first_stage_ess.append(float(1.0 / np.sum(w**2)))
+        parents = particles[self.resampler(w, rng)]
+        new, _ = self.inner.propose(model, parents, z, k, rng)
+        return new, np.full(n, top + np.log(total) - np.log(n))
+
+
+def tempering_exponent(loglik: Array, remaining: float, ess_fraction: float) -> float:
+    """Largest ``lam`` in ``(0, remaining]`` with ESS of weights ``exp(lam * loglik)`` >= ``ess_fraction N``."""
+    n = loglik.size
+    finite = np.isfinite(loglik)
+    if not finite.any():
+        return remaining
+    ll = np.where(finite, loglik, -np.inf)
+
+    def ess(lam):
+        a = lam * ll
+        a = a - np.max(a)
+        w = np.exp(a)
+        return w.sum() ** 2 / np.sum(w * w)
+
+    if ess(remaining) >= ess_fraction * n:
+        return remaining
+    lo, hi = 0.0, remaining
+    for _ in range(40):
+        mid = 0.5 * (lo + hi)
+        if ess(mid) >= ess_fraction * n:
+            lo = mid
+        else:
+            hi = mid
+    return max(lo, 1e-12)
+
+
+@dataclass
+class ProgressiveCorrection:
+    """Importance function doing progressive correction at the first ``n_tempered`` readings.
+
+    Afterwards it is the transition (bootstrap).  ``stages`` records how many likelihood
+    evaluations each step cost (the price in particle-steps).
+    """
+
+    n_tempered: int = 5
+    ess_fraction: float = 0.5
+    kernel: RegularisedJitter = field(default_factory=lambda: RegularisedJitter(0.5, (3,)))
+    max_stages: int = 50
+    stages: list = field(default_factory=list)
+    _seen: int = 0
+
+    def reset(self) -> None:
+        self.stages, self._seen = [], 0
+
+    def propose(self, model, particles, z, k, rng):
+        new = model.sample_transition(particles, k, rng)
+        loglik = model.log_likelihood(new, z, k)
+        self._seen += 1
+        if self._seen > self.n_tempered:
+            self.stages.append(1)
+            return new, loglik
+        remaining, constant, n_stages = 1.0, 0.0, 1
+        while True:
+            lam = tempering_exponent(loglik, remaining, self.ess_fraction)
+            if lam >= remaining or n_stages >= self.max_stages:
+                self.stages.append(n_stages)
+                return new, remaining * loglik + constant
+            a = lam * loglik
+            top = np.max(a)
+            w = np.exp(a - top)
+            constant += top + np.log(np.mean(w))
+            idx = rng.choice(len(w), size=len(w), p=w / w.sum())
+            new = self.kernel(gather_rows(new, idx), rng)
+            remaining -= lam
+            loglik = model.log_likelihood(new, z, k)
+            n_stages += 1
