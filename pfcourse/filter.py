@@ -15,7 +15,7 @@ particles ``x_k^i`` with normalised weights ``W_k^i``.  At every step ``k``:
    ``threshold = 0`` never resamples (SIS); ``threshold = 1`` resamples at every
    step whose weights are not exactly uniform.
    An optional ``jitter(particles, rng)`` is then applied to the resampled cloud
-   (roughening, :mod:`pfcourse.roughening`); by default there is none.
+   (roughening, :mod:`pfcourse.jitter`); by default there is none.
 
 **A variable number of particles** (``sample_size``, e.g. KLD-sampling,
 :mod:`pfcourse.sample_size`): ``N = n_particles`` particles are drawn at step 0 and ``N`` is
@@ -251,7 +251,7 @@ class ParticleFilter:
         Importance function (:class:`Proposal`); the transition by default.
     jitter:
         Optional function ``(particles, rng) -> particles`` applied to the cloud
-        right after each resampling (roughening, see :mod:`pfcourse.roughening`).
+        right after each resampling (roughening, see :mod:`pfcourse.jitter`).
         ``None`` (default) leaves the resampled cloud, and the random stream, as is.
     sample_size:
         Optional policy for a variable number of particles (:class:`pfcourse.sample_size.KLDSampling`):
