@@ -214,19 +214,15 @@ def study(args: list[str]) -> None:
 
 
 def lab(args: list[str]) -> None:
-    """JupyterLab on book/, with the prose's glued numbers shown as values (tools/lab_glue.py:
-    a contents manager translates the glue roles, an IPython startup file serves the kernels)."""
+    """JupyterLab on book/ as a reader gets it (tools/lab_glue.py, reader_lab): the prose's glued
+    numbers shown as values, no news pop-up, and --allow-root when run as root."""
     sys.path.insert(0, str(ROOT / "tools"))
     import lab_glue
 
-    ipython_dir = BUILD / "lab" / "ipython"
-    startup = ipython_dir / "profile_default" / "startup"
-    startup.mkdir(parents=True, exist_ok=True)
-    (startup / "00-pfcourse-glue.py").write_text(lab_glue.kernel_startup())
-    env = dict(os.environ, IPYTHONDIR=str(ipython_dir),
+    options, lab_env = lab_glue.reader_lab(BUILD / "lab")
+    env = dict(os.environ, **lab_env,
                PYTHONPATH=os.pathsep.join(filter(None, [str(ROOT / "tools"), os.environ.get("PYTHONPATH")])))
-    run(BIN / "jupyter", "lab", "--ServerApp.contents_manager_class=lab_glue.GlueContentsManager", *args,
-        cwd=BOOK, env=env)
+    run(BIN / "jupyter", "lab", *options, *args, cwd=BOOK, env=env)
 
 
 COMMANDS = {

@@ -68,31 +68,15 @@ def lab(tmp_path_factory):
         "--ServerApp.port_retries=0",
         f"--IdentityProvider.token={token}",
         f"--ServerApp.root_dir={root / 'book'}",
-        "--LabApp.news_url=None",
-        "--LabApp.check_for_updates_class=jupyterlab.NeverCheckForUpdate",
         "--LabApp.expose_app_in_browser=True",
-        # glued numbers shown as values (tools/lab_glue.py), as `python3 tasks.py lab` does
-        "--ServerApp.contents_manager_class=lab_glue.GlueContentsManager",
     ]
-    if hasattr(os, "geteuid") and os.geteuid() == 0:
-        command.append("--allow-root")  # CI and the project's machines run as root
-    # JupyterLab's cell toolbar measures a rendered markdown cell's children to avoid drawing
-    # over them (_markdownOverlapsToolbar); jupyterlab-myst's markdown cells have another
-    # structure, and the toolbar throws an uncaught TypeError on every one. The toolbar holds
-    # only editing buttons: it is switched off here (and nowhere is the error filtered).
-    labconfig = root / "config" / "labconfig"
-    labconfig.mkdir(parents=True)
-    (labconfig / "page_config.json").write_text(
-        json.dumps({"disabledExtensions": {"@jupyterlab/cell-toolbar-extension": True}})
-    )
-    env = dict(os.environ, JUPYTER_CONFIG_DIR=str(root / "config"), JUPYTER_RUNTIME_DIR=str(root / "runtime"))
-    # The kernels a reader gets (`python3 tasks.py lab`): glue's startup file, and not the
-    # legibility check the root conftest.py gives nbval's kernels (one more drawing per shown
-    # figure would slow the redraw this test times).
-    startup = root / "ipython" / "profile_default" / "startup"
-    startup.mkdir(parents=True)
-    (startup / "00-pfcourse-glue.py").write_text(lab_glue.kernel_startup())
-    env["IPYTHONDIR"] = str(root / "ipython")
+    # The JupyterLab a reader gets from `python3 tasks.py lab` (tools/lab_glue.py, reader_lab):
+    # glued numbers shown as values, no news, --allow-root as root, no cell toolbar. Its kernels
+    # do not get the legibility check the root conftest.py gives nbval's kernels (one more
+    # drawing per shown figure would slow the redraw this test times).
+    options, lab_env = lab_glue.reader_lab(root)
+    command += options
+    env = dict(os.environ, **lab_env, JUPYTER_RUNTIME_DIR=str(root / "runtime"))
     env["PYTHONPATH"] = os.pathsep.join(filter(None, [str(ROOT / "tools"), env.get("PYTHONPATH")]))
     log = open(root / "lab.log", "w")  # noqa: SIM115 (closed below)
     process = subprocess.Popen(command, stdout=log, stderr=subprocess.STDOUT, env=env, cwd=root / "book")

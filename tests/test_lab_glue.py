@@ -99,3 +99,18 @@ def test_the_kernel_side_shows_this_runs_values(monkeypatch):
     with pytest.raises(KeyError, match="run the cell that glues it"):
         builtins.glued("not_yet:.2f")
     monkeypatch.delattr(builtins, "glued")
+
+
+def test_the_readers_lab_has_no_news_no_toolbar_and_runs_as_root(tmp_path, monkeypatch):
+    import os
+
+    for root_user in (True, False):
+        monkeypatch.setattr(os, "geteuid", lambda r=root_user: 0 if r else 1000)
+        options, env = lab_glue.reader_lab(tmp_path)
+        assert ("--allow-root" in options) is root_user
+    assert "--LabApp.news_url=None" in options
+    assert "--ServerApp.contents_manager_class=lab_glue.GlueContentsManager" in options
+    page = json.loads((Path(env["JUPYTER_CONFIG_DIR"]) / "labconfig" / "page_config.json").read_text())
+    assert page["disabledExtensions"]["@jupyterlab/cell-toolbar-extension"] is True
+    assert (Path(env["IPYTHONDIR"]) / "profile_default" / "startup" / "00-pfcourse-glue.py").read_text() == \
+        lab_glue.kernel_startup()

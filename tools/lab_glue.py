@@ -203,3 +203,33 @@ def kernel_startup() -> str:
     """The IPython startup file that installs :func:`install_in_kernel` in JupyterLab's kernels."""
     folder = json.dumps(str(Path(__file__).resolve().parent))
     return f"import sys as _sys\n_sys.path.insert(0, {folder})\nimport lab_glue as _lab_glue\n_lab_glue.install_in_kernel()\n"
+
+
+def reader_lab(folder: Path) -> tuple[list[str], dict[str, str]]:
+    """The JupyterLab a reader gets: its options and environment, with its files under ``folder``.
+
+    One set-up for ``python3 tasks.py lab`` and the JupyterLab browser test: glued numbers shown
+    as values (the contents manager, and the kernels' startup file in ``folder/ipython``); no news
+    pop-up and no update check (neither can be reached offline, and the pop-up covers a corner);
+    ``--allow-root`` when run as root, as in a container; and JupyterLab's cell toolbar switched
+    off: it measures a rendered markdown cell's children to avoid drawing over them, and throws an
+    uncaught TypeError on every jupyterlab-myst cell (the toolbar holds only editing buttons).
+    Returns ``(options, environment variables)``; ``PYTHONPATH`` must also name the tools folder.
+    """
+    import os
+
+    startup = folder / "ipython" / "profile_default" / "startup"
+    startup.mkdir(parents=True, exist_ok=True)
+    (startup / "00-pfcourse-glue.py").write_text(kernel_startup())
+    labconfig = folder / "config" / "labconfig"
+    labconfig.mkdir(parents=True, exist_ok=True)
+    (labconfig / "page_config.json").write_text(
+        json.dumps({"disabledExtensions": {"@jupyterlab/cell-toolbar-extension": True}}))
+    options = [
+        "--ServerApp.contents_manager_class=lab_glue.GlueContentsManager",
+        "--LabApp.news_url=None",
+        "--LabApp.check_for_updates_class=jupyterlab.NeverCheckForUpdate",
+    ]
+    if hasattr(os, "geteuid") and os.geteuid() == 0:
+        options.append("--allow-root")
+    return options, {"IPYTHONDIR": str(folder / "ipython"), "JUPYTER_CONFIG_DIR": str(folder / "config")}
