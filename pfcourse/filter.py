@@ -46,7 +46,16 @@ from typing import Protocol
 
 import numpy as np
 
-from pfcourse.checks import Array, as_generator, check_count, check_measurements, check_moments, check_probability, is_missing
+from pfcourse.checks import (
+    Array,
+    as_generator,
+    check_count,
+    check_fits,
+    check_measurements,
+    check_moments,
+    check_probability,
+    is_missing,
+)
 from . import kernels
 from pfcourse.errors import (
     DegenerateWeightsError,
@@ -200,7 +209,9 @@ class ParticleFilter:
                 raise ModelError(f"the model has no callable {attribute} (see pfcourse.Model)")
         self.dim_x = check_count(getattr(model, "dim_x", None), "model.dim_x")
         self.model = model
-        self.n_particles = check_count(n_particles, "n_particles")
+        n = check_count(n_particles, "n_particles")
+        self.n_particles = check_fits(n, "n_particles", 8 * n * (2 * self.dim_x + 4),
+                                      f"{n} particles of dim_x={self.dim_x} (two clouds and four weight arrays)")
         self.threshold = check_probability(threshold, "threshold")
         self.resampler = get_resampler(resampler)
         self._custom_resampler = not isinstance(resampler, str)
@@ -233,7 +244,7 @@ class ParticleFilter:
     def run(
         self,
         measurements: Sequence[Measurement] | Array,
-        rng: np.random.Generator | int,
+        rng: np.random.Generator | int | None = None,
         *,
         store_particles: bool = False,
     ) -> FilterResult:
@@ -242,7 +253,9 @@ class ParticleFilter:
         ``measurements[k]`` is the measurement at time ``k`` (``None`` or NaN when
         absent); ``x_0`` is drawn from the model's initial distribution and
         weighted by ``z_0`` if present.  ``rng`` is a ``numpy.random.Generator``
-        or an integer seed: the same seed gives the same result.
+        or an integer seed: the same seed gives the same result; it must be given
+        (:class:`~pfcourse.errors.ParameterError` if it is not).  A scalar measurement
+        series may be 1-D (shape ``(K,)`` or a list of floats): it is read as ``(K, 1)``.
         """
         rng = as_generator(rng)
         n, d = self.n_particles, self.dim_x

@@ -195,7 +195,7 @@ for name in ["multinomial", "stratified", "systematic", "residual"]:
         ("unnormalised", W * 2, None, WeightError, "sum to 1"),
         ("empty", np.array([]), None, WeightError, "empty"),
         ("2-D", W[None, :], None, WeightError, "1-D"),
-        ("n=0", W, 0, ParameterError, "n must be >= 1"),
+        ("n=0", W, 0, ParameterError, "n must be at least 1"),
         ("n=2.5", W, 2.5, ParameterError, "integer"),
         ("n=True", W, True, ParameterError, "integer"),
     ]:

@@ -16,7 +16,7 @@ from collections.abc import Sequence
 import numpy as np
 from filterpy.kalman import KalmanFilter
 
-from pfcourse.checks import check_measurements, is_missing
+from pfcourse.checks import check_estimate, check_measurements, is_missing
 from pfcourse.errors import MeasurementError, ModelError
 from pfcourse.results import KalmanResult
 from pfcourse.landmarks.model import LinearGaussianModel
@@ -30,7 +30,9 @@ def kalman_filter(model: LinearGaussianModel, measurements: Sequence | np.ndarra
     are checked as the particle filter's are (:func:`~pfcourse.checks.check_measurements`:
     ``None``, empty or all-NaN is a missing step, NaN entries unobserved components), and each
     present one must have the model's ``dim_z`` components
-    (:class:`~pfcourse.errors.MeasurementError` naming the step otherwise).
+    (:class:`~pfcourse.errors.MeasurementError` naming the step otherwise; a 1-D series is read as
+    ``(K, 1)``, an empty one refused).  A mean, covariance or log-likelihood increment that
+    overflows to NaN or infinity raises :class:`~pfcourse.errors.NumericalError` with its step.
     """
     if not isinstance(model, LinearGaussianModel):
         raise ModelError(f"kalman_filter needs a LinearGaussianModel, got {type(model).__name__}")
@@ -62,6 +64,7 @@ def kalman_filter(model: LinearGaussianModel, measurements: Sequence | np.ndarra
             out.innovation[k, observed] = np.ravel(kf.y)
             out.innovation_cov[k][np.ix_(observed, observed)] = kf.S
             out.gain[k][:, observed] = kf.K
+        check_estimate(k, "Kalman filter", kf.x, kf.P, out.log_likelihood_increments[k])
         out.mean[k] = np.ravel(kf.x)
         out.cov[k] = kf.P
     return out

@@ -35,8 +35,8 @@ import numpy as np
 from filterpy.kalman import ExtendedKalmanFilter, MerweScaledSigmaPoints, UnscentedKalmanFilter
 
 from pfcourse.angles import sigma_point_mean, wrap, wrap_angle
-from pfcourse.checks import Array, as_vector, check_covariance, check_measurements, check_real
-from pfcourse.errors import MeasurementError, ModelError, NumericalError, ShapeError
+from pfcourse.checks import Array, as_vector, check_covariance, check_estimate, check_measurements, check_real
+from pfcourse.errors import MeasurementError, ModelError, ShapeError
 from pfcourse.results import KalmanResult
 from pfcourse.robot.scenario import INITIAL_STD, RobotModel, motion
 
@@ -134,11 +134,6 @@ def _check_measurements(measurements: Array, model: RobotModel) -> Array:
     return measurements
 
 
-def _check_finite(x: Array, P: Array, k: int, name: str) -> None:
-    if not (np.all(np.isfinite(x)) and np.all(np.isfinite(P))):
-        raise NumericalError(f"step {k}: the {name} produced NaN or infinite values", step=k)
-
-
 def run_ekf(model: RobotModel, measurements: Array, initial_cov: Array | None = None) -> KalmanResult:
     """Run the EKF on ``measurements`` ``(K, 3)`` with ``model``'s odometry, ``q_est`` and ``r_est``.
 
@@ -173,7 +168,7 @@ def run_ekf(model: RobotModel, measurements: Array, initial_cov: Array | None = 
             )
             ekf.x[2, 0] = wrap(float(ekf.x[2, 0]))
             out.record_update(k, predicted, ekf.y, ekf.S, ekf.K)
-        _check_finite(ekf.x, ekf.P, k, "EKF")
+        check_estimate(k, "EKF", ekf.x, ekf.P)
         out.mean[k] = ekf.x[:, 0]
         out.cov[k] = ekf.P
     return out
@@ -237,7 +232,7 @@ def run_ukf(
             ukf.update(z[1:].copy(), landmark=model.landmarks[int(z[0])])
             ukf.x[2] = wrap(float(ukf.x[2]))
             out.record_update(k, predicted, ukf.y, ukf.S, ukf.K)
-        _check_finite(ukf.x, ukf.P, k, "UKF")
+        check_estimate(k, "UKF", ukf.x, ukf.P)
         out.mean[k] = ukf.x
         out.cov[k] = ukf.P
     return out

@@ -59,6 +59,7 @@ from pfcourse.checks import (
     as_vector,
     check_count,
     check_covariance,
+    check_fits,
     check_interval,
     check_real,
     covariance_factor,
@@ -131,9 +132,12 @@ class RobotScenario:
     speed: tuple[float, float] = (0.0, 0.025)
     turn_rate: float = np.deg2rad(0.1)
 
+    def __post_init__(self) -> None:
+        checked_scenario(self)  # every setting, when the scenario is built (a named error for a bad one)
+
     def with_(self, **changes) -> RobotScenario:
         """A copy with some settings changed (checked)."""
-        return checked_scenario(replace(self, **changes))
+        return replace(self, **changes)
 
     def true_controls(self) -> Array:
         """The ``(K, 3)`` true commands ``u_k`` (row 0 is unused and zero)."""
@@ -158,6 +162,7 @@ class RobotScenario:
 def checked_scenario(s: RobotScenario) -> RobotScenario:
     """Validate a :class:`RobotScenario`; raise ``ParameterError``/``ShapeError``/``CovarianceError``."""
     check_count(s.n_steps, "n_steps", minimum=2)
+    check_fits(s.n_steps, "n_steps", 200 * int(s.n_steps), "the simulated states, commands and measurements")
     check_real(s.dt, "dt")
     if not s.dt > 0:
         raise ParameterError(f"dt must be positive, got {s.dt}")
@@ -174,13 +179,12 @@ def checked_scenario(s: RobotScenario) -> RobotScenario:
     as_vector(s.speed, "speed", 2, finite=True)
     check_real(s.turn_rate, "turn_rate")
     if s.landmarks is not None:
-        as_matrix(s.landmarks, "landmarks")
-        if np.asarray(s.landmarks).shape[1:] != (2,) or len(s.landmarks) < 1:
-            raise ShapeError(f"landmarks must have shape (M, 2), got {np.shape(s.landmarks)}")
-        if not np.all(np.isfinite(np.asarray(s.landmarks, dtype=float))):
-            raise ParameterError("landmarks must be finite positions")
+        landmarks = as_matrix(s.landmarks, "landmarks", finite=True)
+        if landmarks.shape[1:] != (2,) or len(landmarks) < 1:
+            raise ShapeError(f"landmarks must have shape (M, 2), got {landmarks.shape}")
     else:
         check_count(s.n_landmarks, "n_landmarks")
+        check_fits(s.n_landmarks, "n_landmarks", 16 * int(s.n_landmarks), "the landmark positions")
     check_real(s.half_width, "half_width")
     if not s.half_width > 0:
         raise ParameterError(f"half_width must be positive, got {s.half_width}")
@@ -226,7 +230,9 @@ def simulate_robot(
     the measurement format and how the random streams are laid out.
     """
     base = scenario if scenario is not None else RobotScenario()
-    scenario = base.with_(**changes) if changes else checked_scenario(base)
+    if not isinstance(base, RobotScenario):
+        raise ParameterError(f"scenario must be a RobotScenario (or None for the default), got {type(base).__name__}")
+    scenario = base.with_(**changes) if changes else base
     landmark_rng, odometry_rng, noise_rng, choice_rng = as_generator(rng).spawn(4)
     K = scenario.n_steps
     if scenario.landmarks is not None:
@@ -302,12 +308,12 @@ class RobotModel:
         initial_std=INITIAL_STD,
         half_width: float = 60.0,
     ) -> None:
-        self.landmarks = as_matrix(landmarks, "landmarks")
-        if self.landmarks.shape[1] != 2:
-            raise ShapeError(f"landmarks must have shape (M, 2), got {self.landmarks.shape}")
-        self.odometry = as_matrix(odometry, "odometry")
-        if self.odometry.shape[1] != 3:
-            raise ShapeError(f"odometry must have shape (K, 3), got {self.odometry.shape}")
+        self.landmarks = as_matrix(landmarks, "landmarks", finite=True)
+        if self.landmarks.shape[1] != 2 or len(self.landmarks) == 0:
+            raise ShapeError(f"landmarks must have shape (M, 2) with M >= 1, got {self.landmarks.shape}")
+        self.odometry = as_matrix(odometry, "odometry", finite=True)
+        if self.odometry.shape[1] != 3 or len(self.odometry) == 0:
+            raise ShapeError(f"odometry must have shape (K, 3) with K >= 1, got {self.odometry.shape}")
         self.q_est = check_covariance(q_est, "q_est", 3)
         self.r_est = check_covariance(r_est, "r_est", 2, definite=True)
         self._q_factor = covariance_factor(self.q_est)
@@ -321,10 +327,12 @@ class RobotModel:
         if initial not in ("tracking", "uniform"):
             raise ParameterError(f"initial must be 'tracking' or 'uniform', got {initial!r}")
         self.initial = initial
-        self.dt = float(dt)
-        self.start = as_vector(start, "start", 3)
-        self.initial_std = as_vector(initial_std, "initial_std", 3)
-        self.half_width = float(half_width)
+        self.dt = check_real(dt, "dt", low=0.0, low_open=True)
+        self.start = as_vector(start, "start", 3, finite=True)
+        self.initial_std = as_vector(initial_std, "initial_std", 3, finite=True)
+        if np.any(self.initial_std < 0):
+            raise ParameterError(f"initial_std must be non-negative standard deviations, got {self.initial_std}")
+        self.half_width = check_real(half_width, "half_width", low=0.0, low_open=True)
 
     @classmethod
     def for_simulation(

@@ -131,6 +131,16 @@ class AircraftScenario:
         return TerrainModel(terrain, self)
 
 
+def _check_flight(scenario, terrain) -> None:
+    """``scenario`` must be an :class:`AircraftScenario` and ``terrain`` a :class:`TerrainMap` (whose
+    fields are checked when they are built): a named ``ParameterError`` otherwise."""
+    if not isinstance(scenario, AircraftScenario):
+        raise ParameterError(f"scenario must be an AircraftScenario, got {type(scenario).__name__}")
+    if not isinstance(terrain, TerrainMap):
+        raise ParameterError(f"terrain must be a TerrainMap (load_jacksboro(), or TerrainMap(heights, dx, dy)), "
+                             f"got {type(terrain).__name__}")
+
+
 def propagate(states: Array, speed: float, omega: float, dt: float) -> Array:
     """Noise-free dynamics ``f(x)`` of every row of ``states`` ``(..., 4)``; heading wrapped."""
     states = np.asarray(states, dtype=float)
@@ -175,6 +185,7 @@ class TerrainModel:
     angle_indices = (3,)
 
     def __init__(self, terrain: TerrainMap, scenario: AircraftScenario) -> None:
+        _check_flight(scenario, terrain)
         self.terrain = terrain
         self.scenario = scenario
         self._init_factor = covariance_factor(scenario.P0)
@@ -231,19 +242,18 @@ class Flight:
 def simulate(
     scenario: AircraftScenario,
     terrain: TerrainMap,
-    rng: np.random.Generator | int,
+    rng: np.random.Generator | int | None = None,
     *,
     initial_state: Array | None = None,
 ) -> Flight:
     """Draw the true initial state from ``N(x0, P0)`` (unless given), fly, and measure.
 
+    ``rng`` (a Generator or an integer seed) must be given: :class:`~pfcourse.errors.ParameterError`
+    otherwise.
     The true dynamics have no process noise; readings are ``z - h(x, y) + N(0, R)``.
     The flight must stay on the map: :class:`~pfcourse.errors.OffMapError` otherwise.
     """
-    if not isinstance(scenario, AircraftScenario):
-        raise ParameterError(f"scenario must be an AircraftScenario, got {type(scenario).__name__}")
-    if not isinstance(terrain, TerrainMap):
-        raise ParameterError(f"terrain must be a TerrainMap, got {type(terrain).__name__}")
+    _check_flight(scenario, terrain)
     rng = as_generator(rng)
     s = scenario
     if initial_state is None:
