@@ -222,10 +222,15 @@ def check_fits(count: int, name: str, nbytes: int, what: str) -> int:
     memory = machine_memory()
     if nbytes > memory:
         raise ParameterError(
-            f"{name}={count} is too large for this machine: {what} alone would take {nbytes:.3g} "
-            f"bytes and it has {memory:.3g}; pass a smaller {name}"
+            f"{name}={_magnitude(count)} is too large for this machine: {what} alone would take "
+            f"{_magnitude(nbytes)} bytes and it has {memory:.3g}; pass a smaller {name}"
         )
     return count
+
+
+def _magnitude(n: int) -> str:
+    """A large integer for a message: ``1.23e+15``, or ``10^400`` beyond a float's range."""
+    return f"{n:.3g}" if n < 10**300 else f"10^{len(str(n)) - 1}"
 
 
 def check_moments(particles: np.ndarray, cov: np.ndarray, linear: np.ndarray | None = None,

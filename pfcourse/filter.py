@@ -211,7 +211,7 @@ class ParticleFilter:
         self.model = model
         n = check_count(n_particles, "n_particles")
         self.n_particles = check_fits(n, "n_particles", 8 * n * (2 * self.dim_x + 4),
-                                      f"{n} particles of dim_x={self.dim_x} (two clouds and four weight arrays)")
+                                      f"the particles (dim_x={self.dim_x}, two clouds and four weight arrays)")
         self.threshold = check_probability(threshold, "threshold")
         self.resampler = get_resampler(resampler)
         self._custom_resampler = not isinstance(resampler, str)

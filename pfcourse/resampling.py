@@ -81,7 +81,7 @@ def _validated(weights: np.ndarray, n: int | None, rng) -> tuple[np.ndarray, int
         )
     if n is not None:
         n = check_count(n, "n")
-        check_fits(n, "n", 16 * n, f"{n} indices and their uniforms")
+        check_fits(n, "n", 16 * n, "the indices and their uniforms")
     else:
         n = w.size
     if not callable(getattr(rng, "random", None)):  # a Generator (or a stand-in with .random) is used as is

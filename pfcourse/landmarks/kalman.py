@@ -54,10 +54,12 @@ def kalman_filter(model: LinearGaussianModel, measurements: Sequence | np.ndarra
     for k, z in enumerate(measurements):
         if k > 0:
             kf.predict(u=np.ones(1))
+            check_estimate(k, "Kalman filter's prediction", kf.x, kf.P)
         if not is_missing(z):
             mask, z_o, H_o, R_o = model.observed(z)
             predicted = kf.x.copy()
             kf.update(z_o, R=R_o, H=H_o)
+            check_estimate(k, "Kalman filter's update", kf.x, kf.P, kf.S)
             out.log_likelihood_increments[k] = kf.log_likelihood
             observed = np.flatnonzero(mask)
             out.predicted[k] = np.ravel(predicted)
