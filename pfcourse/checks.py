@@ -58,6 +58,15 @@ def as_matrix(value, name: str, shape: tuple[int, int] | None = None, *, finite:
     return arr
 
 
+def as_points(value, name: str, width: int) -> np.ndarray:
+    """Return ``value`` as a float array of shape ``(..., width)`` (rows of ``width`` numbers, or
+    one row), refusing other dtypes, a 0-d value and another last dimension (``ShapeError``)."""
+    arr = _real_array(value, f"{name} must be an array of real numbers of shape (..., {width})")
+    if arr.ndim == 0 or arr.shape[-1] != width:
+        raise ShapeError(f"{name} must have shape (..., {width}) ({width} numbers per row), got {arr.shape}")
+    return arr
+
+
 def check_finite(arr: np.ndarray, name: str) -> None:
     """Refuse an array with a NaN or infinite entry: ``ParameterError`` naming ``name`` and the
     first bad entry's position."""

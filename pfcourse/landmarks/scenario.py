@@ -36,7 +36,8 @@ from pfcourse.landmarks.model import LinearGaussianModel
 
 
 def rotation(angle: float) -> np.ndarray:
-    """The 2-D rotation matrix ``[[cos a, -sin a], [sin a, cos a]]``."""
+    """The 2-D rotation matrix ``[[cos a, -sin a], [sin a, cos a]]`` (``angle`` a finite real number)."""
+    angle = check_real(angle, "angle")
     c, s = np.cos(angle), np.sin(angle)
     return np.array([[c, -s], [s, c]])
 

@@ -56,6 +56,7 @@ from pfcourse.checks import (
     Array,
     as_generator,
     as_matrix,
+    as_points,
     as_vector,
     check_count,
     check_covariance,
@@ -81,14 +82,20 @@ ANGLE_INDICES = (2,)
 def motion(states: Array, controls: Array, dt: float) -> Array:
     """Apply ``f(x, u)`` (module docstring) row by row; ``states`` and ``controls`` broadcast to ``(..., 3)``.
 
-    The heading of the result is wrapped to (-pi, pi].
+    The heading of the result is wrapped to (-pi, pi].  Other shapes, non-real arrays and a
+    non-finite ``dt`` raise a named error (:mod:`pfcourse.errors`).
     """
-    states = np.asarray(states, dtype=float)
-    controls = np.asarray(controls, dtype=float)
+    states = as_points(states, "states", 3)
+    controls = as_points(controls, "controls", 3)
+    dt = check_real(dt, "dt")
     theta = states[..., 2]
     c, s = np.cos(theta), np.sin(theta)
     vx, vy = controls[..., 0], controls[..., 1]
-    out = np.empty(np.broadcast_shapes(states.shape, controls.shape))
+    try:
+        shape = np.broadcast_shapes(states.shape, controls.shape)
+    except ValueError:
+        raise ShapeError(f"states {states.shape} and controls {controls.shape} do not broadcast together") from None
+    out = np.empty(shape)
     out[..., 0] = states[..., 0] + (vx * c - vy * s) * dt
     out[..., 1] = states[..., 1] + (vx * s + vy * c) * dt
     out[..., 2] = wrap_angle(theta + controls[..., 2] * dt)
@@ -97,7 +104,8 @@ def motion(states: Array, controls: Array, dt: float) -> Array:
 
 def range_bearing(states: Array, landmark: Array) -> Array:
     """``h_j(x) = (range, bearing)`` of one landmark ``(2,)`` seen from ``states`` ``(..., 3)``; shape ``(..., 2)``."""
-    states = np.asarray(states, dtype=float)
+    states = as_points(states, "states", 3)
+    landmark = as_vector(landmark, "landmark", 2)
     dx = landmark[0] - states[..., 0]
     dy = landmark[1] - states[..., 1]
     out = np.empty(states.shape[:-1] + (2,))
@@ -447,9 +455,9 @@ def _log_likelihood(particles, lx, ly, z_range, z_bearing, a00, a10, a11, log_no
 
 def tracking_errors(truth: Array, estimate: Array) -> Array:
     """Errors ``estimate - truth`` of shape ``(K, 3)`` with the heading error wrapped to (-pi, pi]."""
-    truth = np.asarray(truth, dtype=float)
-    estimate = np.asarray(estimate, dtype=float)
-    if truth.shape != estimate.shape or truth.shape[-1] != 3:
+    truth = as_points(truth, "truth", 3)
+    estimate = as_points(estimate, "estimate", 3)
+    if truth.shape != estimate.shape:
         raise ShapeError(f"truth and estimate must both have shape (K, 3), got {truth.shape} and {estimate.shape}")
     err = estimate - truth
     err[..., 2] = wrap_angle(err[..., 2])
@@ -462,5 +470,9 @@ def rmse(truth: Array, estimate: Array, start: int = 0) -> tuple[float, float]:
     ``RMSE_pos = sqrt(mean_k (e_x^2 + e_y^2))`` (m) and
     ``RMSE_theta = sqrt(mean_k wrap(e_theta)^2)`` (rad).
     """
-    err = tracking_errors(truth, estimate)[start:]
+    err = tracking_errors(truth, estimate)
+    start = check_count(start, "start", minimum=0)
+    if err.ndim != 2 or start >= len(err):
+        raise ShapeError(f"rmse needs errors of shape (K, 3) with K > start = {start}, got {err.shape}")
+    err = err[start:]
     return float(np.sqrt(np.mean(err[:, 0] ** 2 + err[:, 1] ** 2))), float(np.sqrt(np.mean(err[:, 2] ** 2)))
