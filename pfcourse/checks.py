@@ -8,11 +8,20 @@ names the offending argument, so that a student's typo surfaces as
 from __future__ import annotations
 
 import os
+from collections.abc import Iterator
+from contextlib import contextmanager
 from functools import lru_cache
 
 import numpy as np
 
-from pfcourse.errors import CovarianceError, MeasurementError, NumericalError, ParameterError, ShapeError
+from pfcourse.errors import (
+    CovarianceError,
+    MeasurementError,
+    NumericalError,
+    ParameterError,
+    PfcourseError,
+    ShapeError,
+)
 
 #: The array type of every signature in the package (one alias, imported from here).
 Array = np.ndarray
@@ -65,6 +74,14 @@ def as_points(value, name: str, width: int) -> np.ndarray:
     if arr.ndim == 0 or arr.shape[-1] != width:
         raise ShapeError(f"{name} must have shape (..., {width}) ({width} numbers per row), got {arr.shape}")
     return arr
+
+
+def set_checked(obj, **values) -> None:
+    """Store the checked (converted) ``values`` on a frozen dataclass ``obj``, so that its fields hold
+    what the checks accepted: a float, an ``int`` count, a float array (the same object when it
+    already was one)."""
+    for name, value in values.items():
+        object.__setattr__(obj, name, value)
 
 
 def check_finite(arr: np.ndarray, name: str) -> None:
@@ -140,10 +157,18 @@ def check_probability(value: float, name: str) -> float:
     """Check that ``value`` lies in the closed interval [0, 1]."""
     if isinstance(value, (bool, np.bool_)) or not isinstance(value, (int, float, np.integer, np.floating)):
         raise ParameterError(f"{name} must be a real number in [0, 1], got {value!r}")
-    value = float(value)
+    value = as_float(value)
     if not 0.0 <= value <= 1.0:  # also refuses NaN
         raise ParameterError(f"{name} must lie in [0, 1], got {value}")
     return value
+
+
+def as_float(value) -> float:
+    """``float(value)``; an integer beyond the float range is infinite (not an ``OverflowError``)."""
+    try:
+        return float(value)
+    except OverflowError:
+        return float(np.sign(value)) * np.inf
 
 
 def check_real(value, name: str, *, low: float = -np.inf, high: float = np.inf,
@@ -152,7 +177,7 @@ def check_real(value, name: str, *, low: float = -np.inf, high: float = np.inf,
     (``(low, high]`` with ``low_open``) and return it as a float."""
     if isinstance(value, (bool, np.bool_)) or not isinstance(value, (int, float, np.integer, np.floating)):
         raise ParameterError(f"{name} must be a real number, got {value!r}")
-    value = float(value)
+    value = as_float(value)
     if not np.isfinite(value):
         raise ParameterError(f"{name} must be finite, got {value}")
     if value < low or value > high or (low_open and value == low):
@@ -180,18 +205,18 @@ def as_generator(rng, name: str = "rng") -> np.random.Generator:
         raise ParameterError(f"{name} must be a numpy Generator or an integer seed, got {rng!r} ({exc})") from None
 
 
-def check_interval(value, name: str):
-    """Check that ``value`` is ``None`` or a pair ``(start, stop)`` of numbers with
-    ``start <= stop`` (either may be infinite, neither NaN); return it unchanged."""
+def check_interval(value, name: str) -> tuple[float, float] | None:
+    """Check that ``value`` is ``None`` or a pair ``(start, stop)`` of real numbers with
+    ``start <= stop`` (either may be infinite, neither NaN); return it as a pair of floats."""
     if value is None:
         return None
     try:
-        pair = np.asarray(value, dtype=float)
-    except (TypeError, ValueError):
+        pair = _real_array(value, name)
+    except ShapeError:
         pair = None
     if pair is None or pair.shape != (2,) or not pair[0] <= pair[1]:
         raise ParameterError(f"{name} must be (start, stop) with start <= stop, got {value!r}")
-    return value
+    return float(pair[0]), float(pair[1])
 
 
 def check_seed(value, name: str = "seed") -> int:
@@ -272,6 +297,37 @@ def check_estimate(k: int, name: str, *arrays) -> None:
             "or the measurements)",
             step=k,
         )
+
+
+def check_simulated(name: str, values: np.ndarray, *, missing: bool = False) -> None:
+    """Refuse a simulated series (one row per step) that overflowed to inf or NaN (NaN is allowed
+    with ``missing=True``: a step without a measurement): a ``NumericalError`` naming the first step."""
+    rows = values.reshape(len(values), -1)
+    bad = np.isinf(rows) if missing else ~np.isfinite(rows)
+    if bad.any():
+        k = int(np.flatnonzero(bad.any(axis=1))[0])
+        raise NumericalError(
+            f"step {k}: the simulated {name} overflow to inf or NaN; rescale the scenario (its speeds, "
+            "times, positions or noise)",
+            step=k,
+        )
+
+
+@contextmanager
+def numerical_step(k: int, name: str) -> Iterator[None]:
+    """Run step ``k`` of a Kalman-type filter (through filterpy, SciPy) so that a failure on
+    overflowing or non-finite numbers (a singular ``S``, a Cholesky factor of an infinite ``P``)
+    is a :class:`~pfcourse.errors.NumericalError` naming the step; pfcourse's own errors pass."""
+    try:
+        yield
+    except PfcourseError:
+        raise
+    except (ValueError, ArithmeticError, np.linalg.LinAlgError) as exc:
+        raise NumericalError(
+            f"step {k}: the {name} failed on overflowing or non-finite numbers ({exc}); rescale the model "
+            "or the measurements",
+            step=k,
+        ) from None
 
 
 def check_measurements(measurements):

@@ -137,6 +137,45 @@ class TransitionProposal:
         return new, model.log_likelihood(new, z, k)
 
 
+def check_particles(particles: Array, expected: tuple[int, int], k: int, source: str) -> Array:
+    """Check a cloud that ``source`` returned at step ``k`` before anything else sees it: a real
+    array (``ModelError`` otherwise) of shape ``expected`` (``ShapeError``) with finite states
+    (``NumericalError``); returns it as floats."""
+    raw = np.asarray(particles) if particles is not None else None
+    if raw is None or raw.dtype.kind not in "fiu" or raw.dtype == bool:
+        kind = "None" if raw is None else f"dtype {raw.dtype}"
+        raise ModelError(f"step {k}: {source} returned {kind}, expected a real array of particles", step=k)
+    particles = raw.astype(float, copy=False)
+    if particles.shape != expected:
+        raise ShapeError(
+            f"step {k}: {source} returned particles of shape {particles.shape}, "
+            f"expected {expected}"
+        )
+    if not kernels.finite_minimum(particles.ravel())[0]:
+        raise NumericalError(
+            f"step {k}: {source} produced NaN or infinite particle states", step=k
+        )
+    return particles
+
+
+def check_log_terms(values: Array, n: int, k: int, source: str = "the log-likelihood") -> Array:
+    """Check log-densities that ``source`` returned at step ``k`` (one per particle) before they are
+    combined: a real array (``ModelError``) of shape ``(n,)`` (``ShapeError``); returns it as floats."""
+    raw = np.asarray(values) if values is not None else None
+    if raw is None or raw.dtype.kind not in "fiu" or raw.dtype == bool:
+        kind = "None" if raw is None else f"dtype {raw.dtype}"
+        raise ModelError(
+            f"step {k}: {source} (or a proposal's log-increment) is {kind}, "
+            "expected a real array (return -inf for impossible particles; a missing "
+            "measurement is None or NaN in the measurements, not in the likelihood)",
+            step=k,
+        )
+    values = raw.astype(float, copy=False)
+    if values.shape != (n,):
+        raise ShapeError(f"step {k}: {source} has shape {values.shape}, expected ({n},)")
+    return values
+
+
 @dataclass(frozen=True)
 class DensityProposal:
     """Any importance function given by a sampler and its log-density.
@@ -156,13 +195,16 @@ class DensityProposal:
                 f"step {k}: DensityProposal needs model.transition_log_density(new, old, k) to weight "
                 "the particles"
             )
-        new = self.sample(particles, z, k, rng)
-        log_inc = (
-            model.log_likelihood(new, z, k)
-            + transition_log_density(new, particles, k)
-            - self.log_density(new, particles, z, k)
-        )
-        return new, log_inc
+        new = check_particles(self.sample(particles, z, k, rng), particles.shape, k, "DensityProposal.sample")
+        n = len(particles)
+        terms = [
+            (model.log_likelihood(new, z, k), "model.log_likelihood"),
+            (transition_log_density(new, particles, k), "model.transition_log_density"),
+            (self.log_density(new, particles, z, k), "DensityProposal.log_density"),
+        ]
+        log_lik, log_p, log_q = (check_log_terms(term, n, k, source) for term, source in terms)
+        with np.errstate(invalid="ignore"):  # inf - inf: NaN, refused by the filter's check of the increments
+            return new, log_lik + log_p - log_q
 
 
 class ParticleFilter:
@@ -420,40 +462,10 @@ class ParticleFilter:
         return arr.astype(np.int64, copy=False)
 
     def _check_particles(self, particles: Array, k: int, source: str = "the model", n: int | None = None) -> Array:
-        raw = np.asarray(particles) if particles is not None else None
-        if raw is None or raw.dtype.kind not in "fiu" or raw.dtype == bool:
-            kind = "None" if raw is None else f"dtype {raw.dtype}"
-            raise ModelError(f"step {k}: {source} returned {kind}, expected a real array of particles", step=k)
-        particles = raw.astype(float, copy=False)
-        expected = (self.n_particles if n is None else n, self.dim_x)
-        if particles.shape != expected:
-            raise ShapeError(
-                f"step {k}: {source} returned particles of shape {particles.shape}, "
-                f"expected {expected}"
-            )
-        if not kernels.finite_minimum(particles.ravel())[0]:
-            raise NumericalError(
-                f"step {k}: {source} produced NaN or infinite particle states", step=k
-            )
-        return particles
+        return check_particles(particles, (self.n_particles if n is None else n, self.dim_x), k, source)
 
     def _check_log_increments(self, log_inc: Array, k: int, n: int | None = None) -> Array:
-        raw = np.asarray(log_inc) if log_inc is not None else None
-        if raw is None or raw.dtype.kind not in "fiu" or raw.dtype == bool:
-            kind = "None" if raw is None else f"dtype {raw.dtype}"
-            raise ModelError(
-                f"step {k}: the log-likelihood (or proposal's log-increment) is {kind}, "
-                "expected a real array (return -inf for impossible particles; a missing "
-                "measurement is None or NaN in the measurements, not in the likelihood)",
-                step=k,
-            )
-        log_inc = raw.astype(float, copy=False)
-        n = self.n_particles if n is None else n
-        if log_inc.shape != (n,):
-            raise ShapeError(
-                f"step {k}: the log-likelihood has shape {log_inc.shape}, "
-                f"expected ({n},)"
-            )
+        log_inc = check_log_terms(log_inc, self.n_particles if n is None else n, k)
         top = log_inc.max()  # NaN if any entry is NaN
         if np.isnan(top) or top == np.inf:
             bad = int(np.sum(np.isnan(log_inc) | (log_inc == np.inf)))

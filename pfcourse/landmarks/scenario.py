@@ -30,7 +30,17 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from pfcourse.checks import as_generator, as_vector, check_count, check_fits, check_covariance, check_real, covariance_factor
+from pfcourse.checks import (
+    as_generator,
+    as_vector,
+    check_count,
+    check_covariance,
+    check_fits,
+    check_real,
+    check_simulated,
+    covariance_factor,
+    set_checked,
+)
 from pfcourse.errors import ParameterError
 from pfcourse.landmarks.model import LinearGaussianModel
 
@@ -149,22 +159,25 @@ class LandmarkScenario:
 
 
 def _checked(s: LandmarkScenario) -> LandmarkScenario:
-    check_count(s.n_landmarks, "n_landmarks")
-    check_count(s.n_samples, "n_samples")
-    check_fits(s.n_samples, "n_samples", 24 * int(s.n_samples) * (2 + 4 * int(s.n_landmarks)),
-               "the simulated states, measurements and noise")
-    if s.field_of_view not in ("quadrant", "triangle"):
+    """Check every field of ``s`` (a named error naming it) and store the checked values."""
+    m = check_count(s.n_landmarks, "n_landmarks")
+    n = check_count(s.n_samples, "n_samples")
+    check_fits(n, "n_samples", 24 * n * (2 + 4 * m), "the simulated states, measurements and noise")
+    if not isinstance(s.field_of_view, str) or s.field_of_view not in ("quadrant", "triangle"):
         raise ParameterError(f"field_of_view must be 'quadrant' or 'triangle', got {s.field_of_view!r}")
-    check_real(s.dt, "dt", low=0.0, low_open=True)
-    check_real(s.omega, "omega")
-    check_real(s.fov_half_angle, "fov_half_angle", low=0.0, high=np.pi, low_open=True)
-    check_real(s.fov_range, "fov_range", low=0.0, low_open=True)
-    d = 2 + 2 * s.n_landmarks
-    as_vector(s.centre, "centre", 2, finite=True)
-    as_vector(s.mX0, "mX0", d, finite=True)
-    check_covariance(s.PX0, "PX0", d)
-    check_covariance(s.Qw, "Qw", d)
-    check_covariance(s.Rv, "Rv", 2 * s.n_landmarks, definite=True)
+    d = 2 + 2 * m
+    set_checked(
+        s, n_landmarks=m, n_samples=n,
+        dt=check_real(s.dt, "dt", low=0.0, low_open=True),
+        omega=check_real(s.omega, "omega"),
+        fov_half_angle=check_real(s.fov_half_angle, "fov_half_angle", low=0.0, high=np.pi, low_open=True),
+        fov_range=check_real(s.fov_range, "fov_range", low=0.0, low_open=True),
+        centre=as_vector(s.centre, "centre", 2, finite=True),
+        mX0=as_vector(s.mX0, "mX0", d, finite=True),
+        PX0=check_covariance(s.PX0, "PX0", d),
+        Qw=check_covariance(s.Qw, "Qw", d),
+        Rv=check_covariance(s.Rv, "Rv", 2 * m, definite=True),
+    )
     return s
 
 
@@ -255,4 +268,6 @@ def simulate(scenario: LandmarkScenario, rng: np.random.Generator | int | None =
     seen[0] = False
     Z = X @ H.T + noise
     Z[~np.repeat(seen, 2, axis=1)] = np.nan
+    check_simulated("states", X)
+    check_simulated("measurements", Z, missing=True)
     return LandmarkSimulation(T=s.times, truth=X, measurements=Z, seen=seen)

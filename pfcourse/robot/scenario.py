@@ -54,6 +54,7 @@ import numpy as np
 from pfcourse.angles import wrap, wrap_angle
 from pfcourse.checks import (
     Array,
+    as_float,
     as_generator,
     as_matrix,
     as_points,
@@ -63,7 +64,9 @@ from pfcourse.checks import (
     check_fits,
     check_interval,
     check_real,
+    check_simulated,
     covariance_factor,
+    set_checked,
 )
 from pfcourse.errors import ParameterError, ShapeError
 from pfcourse.compiled import jit
@@ -168,34 +171,40 @@ class RobotScenario:
 
 
 def checked_scenario(s: RobotScenario) -> RobotScenario:
-    """Validate a :class:`RobotScenario`; raise ``ParameterError``/``ShapeError``/``CovarianceError``."""
-    check_count(s.n_steps, "n_steps", minimum=2)
-    check_fits(s.n_steps, "n_steps", 200 * int(s.n_steps), "the simulated states, commands and measurements")
-    check_real(s.dt, "dt")
-    if not s.dt > 0:
-        raise ParameterError(f"dt must be positive, got {s.dt}")
+    """Validate a :class:`RobotScenario` and store the checked values (``int`` counts, floats, float
+    arrays, tuples of floats); raise ``ParameterError``/``ShapeError``/``CovarianceError``."""
+    n_steps = check_count(s.n_steps, "n_steps", minimum=2)
+    check_fits(n_steps, "n_steps", 200 * n_steps, "the simulated states, commands and measurements")
+    dt = check_real(s.dt, "dt")
+    if not dt > 0:
+        raise ParameterError(f"dt must be positive, got {dt}")
     if not isinstance(s.dt_meas, (int, float, np.integer, np.floating)) or isinstance(s.dt_meas, bool) \
-            or not s.dt_meas >= s.dt:  # infinite: no measurement at all
+            or not s.dt_meas >= dt:  # infinite: no measurement at all
         raise ParameterError(
-            f"dt_meas must be at least dt = {s.dt} (one measurement per prediction step at most), "
+            f"dt_meas must be at least dt = {dt} (one measurement per prediction step at most), "
             f"got {s.dt_meas!r}"
         )
-    check_interval(s.gap, "gap")
-    check_covariance(s.q_true, "q_true", 3)
-    check_covariance(s.r_true, "r_true", 2)
-    as_vector(s.start, "start", 3, finite=True)
-    as_vector(s.speed, "speed", 2, finite=True)
-    check_real(s.turn_rate, "turn_rate")
-    if s.landmarks is not None:
-        landmarks = as_matrix(s.landmarks, "landmarks", finite=True)
+    gap = check_interval(s.gap, "gap")
+    landmarks, n_landmarks = s.landmarks, s.n_landmarks
+    if landmarks is not None:
+        landmarks = as_matrix(landmarks, "landmarks", finite=True)
         if landmarks.shape[1:] != (2,) or len(landmarks) < 1:
             raise ShapeError(f"landmarks must have shape (M, 2), got {landmarks.shape}")
     else:
-        check_count(s.n_landmarks, "n_landmarks")
-        check_fits(s.n_landmarks, "n_landmarks", 16 * int(s.n_landmarks), "the landmark positions")
-    check_real(s.half_width, "half_width")
-    if not s.half_width > 0:
-        raise ParameterError(f"half_width must be positive, got {s.half_width}")
+        n_landmarks = check_count(n_landmarks, "n_landmarks")
+        check_fits(n_landmarks, "n_landmarks", 16 * n_landmarks, "the landmark positions")
+    half_width = check_real(s.half_width, "half_width")
+    if not half_width > 0:
+        raise ParameterError(f"half_width must be positive, got {half_width}")
+    set_checked(
+        s, n_steps=n_steps, dt=dt, dt_meas=as_float(s.dt_meas), gap=gap,
+        q_true=check_covariance(s.q_true, "q_true", 3),
+        r_true=check_covariance(s.r_true, "r_true", 2),
+        start=tuple(float(v) for v in as_vector(s.start, "start", 3, finite=True)),
+        speed=tuple(float(v) for v in as_vector(s.speed, "speed", 2, finite=True)),
+        turn_rate=check_real(s.turn_rate, "turn_rate"),
+        landmarks=landmarks, n_landmarks=n_landmarks, half_width=half_width,
+    )
     return s
 
 
@@ -269,6 +278,9 @@ def simulate_robot(
     for k in steps:
         z = range_bearing(truth[k], landmarks[choice[k]]) + noise[k]
         measurements[k] = (choice[k], z[0], wrap_angle(z[1]))
+    for name, values in (("states", truth), ("odometry", odometry), ("dead-reckoning path", odo_path)):
+        check_simulated(name, values)
+    check_simulated("measurements", measurements, missing=True)
     return RobotSimulation(truth, odo_path, controls, odometry, measurements, landmarks, scenario)
 
 

@@ -40,7 +40,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.ndimage import map_coordinates
 
-from pfcourse.checks import as_matrix, check_real
+from pfcourse.checks import as_matrix, check_real, set_checked
 from pfcourse.errors import OffMapError, ShapeError
 
 #: Mean radius of the Earth (m), IUGG value; one degree of latitude is 111.195 km.
@@ -79,9 +79,8 @@ class TerrainMap:
         for name in ("dx", "dy"):
             if not check_real(getattr(self, name), name) > 0:
                 raise ShapeError(f"grid spacings must be positive, got dx={self.dx}, dy={self.dy}")
-        for name in ("west", "south", "deg_lon", "deg_lat"):
-            check_real(getattr(self, name), name)
-        object.__setattr__(self, "heights", h)
+        set_checked(self, heights=h, **{name: check_real(getattr(self, name), name)
+                                        for name in ("dx", "dy", "west", "south", "deg_lon", "deg_lat")})
 
     @property
     def shape(self) -> tuple[int, int]:

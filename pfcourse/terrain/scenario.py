@@ -44,7 +44,9 @@ from pfcourse.checks import (
     check_covariance,
     check_interval,
     check_real,
+    check_simulated,
     covariance_factor,
+    set_checked,
 )
 from pfcourse.errors import ParameterError
 from pfcourse.results import KalmanResult
@@ -90,13 +92,13 @@ class AircraftScenario:
             value = check_real(getattr(self, name), name)  # a finite real number
             if name != "omega" and (value <= 0 if name != "speed" else value < 0):
                 raise ParameterError(f"{name} must be {'non-negative' if name == 'speed' else 'positive'}, got {value}")
+            set_checked(self, **{name: value})
         if not self.duration / self.dt <= MAX_STEPS:
             raise ParameterError(f"duration / dt = {self.duration / self.dt:.3g} steps: at most {MAX_STEPS} "
                                  f"(dt = {self.dt} s is too small for duration = {self.duration} s)")
-        check_interval(self.gap, "gap")
-        object.__setattr__(self, "x0", as_vector(self.x0, "x0", 4, finite=True))
-        object.__setattr__(self, "P0", check_covariance(self.P0, "P0", 4))
-        object.__setattr__(self, "Qf", check_covariance(self.Qf, "Qf", 4))
+        set_checked(self, gap=check_interval(self.gap, "gap"))
+        set_checked(self, x0=as_vector(self.x0, "x0", 4, finite=True), P0=check_covariance(self.P0, "P0", 4),
+                    Qf=check_covariance(self.Qf, "Qf", 4))
 
     def with_(self, **changes) -> AircraftScenario:
         """A copy with some parameters changed (checked again)."""
@@ -266,9 +268,11 @@ def simulate(
     X[0] = state
     for k in range(1, K):
         X[k] = propagate(X[k - 1], s.speed, s.omega, s.dt)
+    check_simulated("states", X)
     ground = terrain.height_checked(X[:, 0], X[:, 1])
     noise = rng.normal(0.0, np.sqrt(s.R), K)
     Z = np.where(s.measured(), X[:, 2] - ground + noise, np.nan)[:, None]
+    check_simulated("altimeter readings", Z, missing=True)
     return Flight(T=s.times, truth=X, measurements=Z, terrain_height=ground)
 
 
