@@ -89,6 +89,7 @@ def test_filter_never_crashes_nor_returns_nan(n, threshold, dim_x, init_kind, tr
 # --- every public entry point, fuzzed over the shapes, dtypes and values of its parameters (issue 27) ---
 import dataclasses  # noqa: E402
 import warnings  # noqa: E402
+from pathlib import Path  # noqa: E402
 
 import pytest  # noqa: E402
 
@@ -370,6 +371,8 @@ def test_every_public_entry_point_is_fuzzed():
     covered = set().union(*(names for names, *_ in ENTRY_POINTS.values()))
     assert exported - NOT_FUZZED <= covered, sorted(exported - NOT_FUZZED - covered)
     assert NOT_FUZZED <= exported  # no stale exemption
+    readme = " ".join((Path(__file__).parents[1] / "README.md").read_text().split())
+    assert f"{len(ENTRY_POINTS)} entry points, {len(CASES)} of their parameters" in readme
 
 
 CASES = [(entry, param) for entry, (_, _, valid, _) in ENTRY_POINTS.items() for param in valid]
