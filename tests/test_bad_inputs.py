@@ -555,6 +555,14 @@ for label, call, error, fragment in [
     row(f"TerrainMap / TerrainModel: {label}", call, error, fragment)
 
 
+for label, z, error, fragment in [
+    ("NaN landmark index with a range", (np.nan, 10.0, 0.1), ParameterError, "step 2: landmark index nan"),
+    ("NaN range with a landmark", (1.0, np.nan, 0.1), MeasurementError, "step 2: range and bearing must be finite"),
+]:
+    row(f"ParticleFilter(RobotModel): {label}", lambda z=z: ParticleFilter(_RM, N).run(_with_row(2, z), 0), error,
+        fragment)
+
+
 # --- the Kalman filter never returns NaN silently ---------------------------------------------
 for label, model, z, fragment in [
     ("F = 1e200 I: the covariance overflows at the first prediction", _lg(F=1e200 * np.eye(2)), np.ones((3, 2)),

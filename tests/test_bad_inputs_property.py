@@ -333,6 +333,11 @@ ENTRY_POINTS = {
     "RobotScenario n_landmarks": ({"RobotScenario"}, lambda n_landmarks: _robot_run(landmarks=None, n_landmarks=n_landmarks),
                                   {"n_landmarks": 3}, _finite("truth", "landmarks")),
     "RobotModel + ParticleFilter": ({"RobotModel"}, _robot_pf, dict(ROBOT_MODEL_ARGS), _valid_filter_result),
+    "RobotModel measurements": ({"RobotModel"}, lambda measurements: pfcourse.ParticleFilter(ROBOT_MODEL, 20).run(
+        measurements, 0), {"measurements": ROBOT_Z}, _valid_filter_result),
+    "TerrainModel measurements": ({"TerrainModel"}, lambda measurements: pfcourse.ParticleFilter(
+        terrain.TerrainModel(TINY_TERRAIN, terrain.AircraftScenario(**AIRCRAFT)), 20).run(measurements, 0),
+        {"measurements": FLIGHT.measurements}, _valid_filter_result),
     "run_ekf": ({"run_ekf"}, lambda measurements=ROBOT_Z, initial_cov=np.eye(3): robot.run_ekf(ROBOT_MODEL, measurements,
                                                                                               initial_cov),
                 {"measurements": ROBOT_Z, "initial_cov": np.eye(3)}, _valid_kalman_result),

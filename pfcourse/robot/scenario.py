@@ -68,7 +68,7 @@ from pfcourse.checks import (
     covariance_factor,
     set_checked,
 )
-from pfcourse.errors import ParameterError, ShapeError
+from pfcourse.errors import MeasurementError, ParameterError, ShapeError
 from pfcourse.compiled import jit
 
 
@@ -412,9 +412,12 @@ class RobotModel:
         z = np.asarray(z, dtype=float)
         if z.shape != (3,):
             raise ShapeError(f"a robot measurement is (landmark, range, bearing), got shape {z.shape}")
-        j = int(z[0])
-        if j != z[0] or not 0 <= j < len(self.landmarks):
+        if not np.isfinite(z[0]) or int(z[0]) != z[0] or not 0 <= z[0] < len(self.landmarks):
             raise ParameterError(f"step {k}: landmark index {z[0]} is not one of 0..{len(self.landmarks) - 1}")
+        if not np.isfinite(z[1:]).all():
+            raise MeasurementError(f"step {k}: range and bearing must be finite, got {z[1:]} (a step without a "
+                                   "measurement is a row of NaN)")
+        j = int(z[0])
         a = self._r_inv_chol
         landmark = self.landmarks[j]
         return _log_likelihood(
