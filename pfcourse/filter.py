@@ -216,7 +216,8 @@ class ParticleFilter:
         Any object with ``dim_x``, ``sample_initial``, ``sample_transition`` and
         ``log_likelihood`` (see :class:`Model`).
     n_particles:
-        Number of particles ``N >= 1``.
+        Number of particles ``N >= 1``: an integer (or an integral float such as ``5.0``); a number
+        whose particles would not fit in the machine's memory is refused when the filter is built.
     threshold:
         Resample when ``ESS < threshold * N``; in ``[0, 1]``.  0 gives SIS.
     resampler:

@@ -665,6 +665,7 @@ for label, call in [
     ("landmarks simulate(scenario) without rng", lambda: simulate_landmarks(quadrant_scenario())),
     ("terrain simulate(scenario, terrain) without rng", lambda: simulate_flight(AircraftScenario(), _TINY_MAP)),
     ("simulate_robot(None, None)", lambda: simulate_robot(None, None)),
+    ("simulate_robot(n_steps=5) without rng", lambda: simulate_robot(n_steps=5)),
 ] + [(f"{scheme}(weights) without rng", lambda f=SCHEMES[scheme]: f(W)) for scheme in SCHEMES] + [
     (f"{scheme}(weights, None)", lambda f=SCHEMES[scheme]: f(W, None)) for scheme in SCHEMES
 ]:

@@ -239,11 +239,11 @@ class RobotSimulation:
 
 
 def simulate_robot(
-    scenario: RobotScenario | None = None, rng: np.random.Generator | int = 0, **changes
+    scenario: RobotScenario | None = None, rng: np.random.Generator | int | None = None, **changes
 ) -> RobotSimulation:
     """Simulate a run of ``scenario`` (default :class:`RobotScenario`, updated by ``changes``).
 
-    ``rng`` is a generator or a seed.  See the module docstring for the model,
+    ``rng`` is a generator or a seed, and must be given (:class:`~pfcourse.errors.ParameterError`).  See the module docstring for the model,
     the measurement format and how the random streams are laid out.
     """
     base = scenario if scenario is not None else RobotScenario()
