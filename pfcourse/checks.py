@@ -7,9 +7,21 @@ names the offending argument, so that a student's typo surfaces as
 
 from __future__ import annotations
 
+import os
+from collections.abc import Iterator
+from contextlib import contextmanager
+from functools import lru_cache
+
 import numpy as np
 
-from pfcourse.errors import CovarianceError, MeasurementError, NumericalError, ParameterError, ShapeError
+from pfcourse.errors import (
+    CovarianceError,
+    MeasurementError,
+    NumericalError,
+    ParameterError,
+    PfcourseError,
+    ShapeError,
+)
 
 #: The array type of every signature in the package (one alias, imported from here).
 Array = np.ndarray
@@ -37,19 +49,51 @@ def as_vector(value, name: str, size: int | None = None, *, finite: bool = False
         raise ShapeError(f"{name} must be a 1-D vector, got an array of shape {arr.shape}")
     if size is not None and arr.shape[0] != size:
         raise ShapeError(f"{name} must have length {size}, got {arr.shape[0]}")
-    if finite and not np.all(np.isfinite(arr)):
-        raise ParameterError(f"{name} must be finite, got {arr}")
+    if finite:
+        check_finite(arr, name)
     return arr
 
 
-def as_matrix(value, name: str, shape: tuple[int, int] | None = None) -> np.ndarray:
-    """Return ``value`` as a 2-D float array, checking its shape if ``shape`` is given."""
+def as_matrix(value, name: str, shape: tuple[int, int] | None = None, *, finite: bool = False) -> np.ndarray:
+    """Return ``value`` as a 2-D float array, checking its shape if ``shape`` is given and,
+    with ``finite=True``, that every entry is a finite number."""
     arr = _real_array(value, f"{name} must be a 2-D matrix of real numbers")
     if arr.ndim != 2:
         raise ShapeError(f"{name} must be a 2-D matrix, got an array of shape {arr.shape}")
     if shape is not None and arr.shape != tuple(shape):
         raise ShapeError(f"{name} must have shape {tuple(shape)}, got {arr.shape}")
+    if finite:
+        check_finite(arr, name)
     return arr
+
+
+def as_points(value, name: str, width: int) -> np.ndarray:
+    """Return ``value`` as a float array of shape ``(..., width)`` (rows of ``width`` numbers, or
+    one row), refusing other dtypes, a 0-d value and another last dimension (``ShapeError``)."""
+    arr = _real_array(value, f"{name} must be an array of real numbers of shape (..., {width})")
+    if arr.ndim == 0 or arr.shape[-1] != width:
+        raise ShapeError(f"{name} must have shape (..., {width}) ({width} numbers per row), got {arr.shape}")
+    return arr
+
+
+def set_checked(obj, **values) -> None:
+    """Store the checked (converted) ``values`` on a frozen dataclass ``obj``, so that its fields hold
+    what the checks accepted: a float, an ``int`` count, a float array (the same object when it
+    already was one)."""
+    for name, value in values.items():
+        object.__setattr__(obj, name, value)
+
+
+def check_finite(arr: np.ndarray, name: str) -> None:
+    """Refuse an array with a NaN or infinite entry: ``ParameterError`` naming ``name`` and the
+    first bad entry's position."""
+    bad = ~np.isfinite(arr)
+    if bad.any():
+        where = tuple(int(i) for i in np.argwhere(bad)[0])
+        raise ParameterError(
+            f"{name} must be finite (real numbers, no NaN or +/-inf), got {arr[where]} at index "
+            f"{where if len(where) != 1 else where[0]}"
+        )
 
 
 def check_covariance(
@@ -65,6 +109,8 @@ def check_covariance(
     arr = as_matrix(value, name)
     if arr.shape[0] != arr.shape[1]:
         raise CovarianceError(f"{name} must be square, got shape {arr.shape}")
+    if arr.shape[0] == 0:
+        raise ShapeError(f"{name} must be at least 1 x 1, got an empty matrix")
     if size is not None and arr.shape[0] != size:
         raise ShapeError(f"{name} must have shape ({size}, {size}), got {arr.shape}")
     if not np.all(np.isfinite(arr)):
@@ -111,10 +157,18 @@ def check_probability(value: float, name: str) -> float:
     """Check that ``value`` lies in the closed interval [0, 1]."""
     if isinstance(value, (bool, np.bool_)) or not isinstance(value, (int, float, np.integer, np.floating)):
         raise ParameterError(f"{name} must be a real number in [0, 1], got {value!r}")
-    value = float(value)
+    value = as_float(value)
     if not 0.0 <= value <= 1.0:  # also refuses NaN
         raise ParameterError(f"{name} must lie in [0, 1], got {value}")
     return value
+
+
+def as_float(value) -> float:
+    """``float(value)``; an integer beyond the float range is infinite (not an ``OverflowError``)."""
+    try:
+        return float(value)
+    except OverflowError:
+        return float(np.sign(value)) * np.inf
 
 
 def check_real(value, name: str, *, low: float = -np.inf, high: float = np.inf,
@@ -123,7 +177,7 @@ def check_real(value, name: str, *, low: float = -np.inf, high: float = np.inf,
     (``(low, high]`` with ``low_open``) and return it as a float."""
     if isinstance(value, (bool, np.bool_)) or not isinstance(value, (int, float, np.integer, np.floating)):
         raise ParameterError(f"{name} must be a real number, got {value!r}")
-    value = float(value)
+    value = as_float(value)
     if not np.isfinite(value):
         raise ParameterError(f"{name} must be finite, got {value}")
     if value < low or value > high or (low_open and value == low):
@@ -134,7 +188,15 @@ def check_real(value, name: str, *, low: float = -np.inf, high: float = np.inf,
 
 def as_generator(rng, name: str = "rng") -> np.random.Generator:
     """``numpy.random.default_rng(rng)`` for a Generator or a non-negative integer seed (or a
-    sequence of them); anything else (a bool, a float, a string) is refused."""
+    sequence of them); anything else (a bool, a float, a string) is refused, and so is ``None``:
+    every draw in pfcourse is seeded, so the caller must say which stream to use."""
+    if isinstance(rng, np.random.Generator):
+        return rng  # what default_rng returns for a Generator, without the call
+    if rng is None:
+        raise ParameterError(
+            f"{name} must be given: pass a numpy Generator or an integer seed such as {name}=0 "
+            "(every random draw is seeded, so that a run can be repeated)"
+        )
     if isinstance(rng, (bool, np.bool_)):
         raise ParameterError(f"{name} must be a numpy Generator or an integer seed, got {rng!r}")
     try:
@@ -143,18 +205,18 @@ def as_generator(rng, name: str = "rng") -> np.random.Generator:
         raise ParameterError(f"{name} must be a numpy Generator or an integer seed, got {rng!r} ({exc})") from None
 
 
-def check_interval(value, name: str):
-    """Check that ``value`` is ``None`` or a pair ``(start, stop)`` of numbers with
-    ``start <= stop`` (either may be infinite, neither NaN); return it unchanged."""
+def check_interval(value, name: str) -> tuple[float, float] | None:
+    """Check that ``value`` is ``None`` or a pair ``(start, stop)`` of real numbers with
+    ``start <= stop`` (either may be infinite, neither NaN); return it as a pair of floats."""
     if value is None:
         return None
     try:
-        pair = np.asarray(value, dtype=float)
-    except (TypeError, ValueError):
+        pair = _real_array(value, name)
+    except ShapeError:
         pair = None
     if pair is None or pair.shape != (2,) or not pair[0] <= pair[1]:
         raise ParameterError(f"{name} must be (start, stop) with start <= stop, got {value!r}")
-    return value
+    return float(pair[0]), float(pair[1])
 
 
 def check_seed(value, name: str = "seed") -> int:
@@ -168,14 +230,41 @@ def check_seed(value, name: str = "seed") -> int:
 
 
 def check_count(value: int, name: str, minimum: int = 1) -> int:
-    """Check that ``value`` is an integer at least ``minimum``."""
+    """Check that ``value`` is an integer at least ``minimum`` (a float is accepted when it is
+    integral, ``5.0``; a bool, a string or ``2.5`` is refused, whatever its size)."""
     if isinstance(value, (bool, np.bool_)) or not isinstance(value, (int, float, np.integer, np.floating)):
         raise ParameterError(f"{name} must be an integer, got {value!r}")
-    if not np.isfinite(value) or int(value) != value:
+    if isinstance(value, (float, np.floating)) and (not np.isfinite(value) or int(value) != value):
         raise ParameterError(f"{name} must be an integer, got {value!r}")
     if value < minimum:
         raise ParameterError(f"{name} must be at least {minimum}, got {value}")
     return int(value)
+
+
+@lru_cache(maxsize=1)
+def machine_memory() -> int:
+    """The machine's physical memory in bytes (``2**40`` if the system does not say)."""
+    try:
+        return int(os.sysconf("SC_PAGE_SIZE")) * int(os.sysconf("SC_PHYS_PAGES"))
+    except (AttributeError, OSError, ValueError):
+        return 2**40
+
+
+def check_fits(count: int, name: str, nbytes: int, what: str) -> int:
+    """Refuse a count whose arrays cannot fit in this machine's memory: ``nbytes`` (the bytes
+    ``what`` take for this ``count``) must not exceed :func:`machine_memory`; returns ``count``."""
+    memory = machine_memory()
+    if nbytes > memory:
+        raise ParameterError(
+            f"{name}={_magnitude(count)} is too large for this machine: {what} alone would take "
+            f"{_magnitude(nbytes)} bytes and it has {memory:.3g}; pass a smaller {name}"
+        )
+    return count
+
+
+def _magnitude(n: int) -> str:
+    """A large integer for a message: ``1.23e+15``, or ``10^400`` beyond a float's range."""
+    return f"{n:.3g}" if n < 10**300 else f"10^{len(str(n)) - 1}"
 
 
 def check_moments(particles: np.ndarray, cov: np.ndarray, linear: np.ndarray | None = None,
@@ -199,42 +288,98 @@ def check_moments(particles: np.ndarray, cov: np.ndarray, linear: np.ndarray | N
         )
 
 
+def check_estimate(k: int, name: str, *arrays) -> None:
+    """Refuse a Kalman-type filter's output at step ``k`` (mean, covariance, log-likelihood
+    increment...) with a NaN or infinite entry: an overflow, never returned silently."""
+    if not all(np.all(np.isfinite(a)) for a in arrays):
+        raise NumericalError(
+            f"step {k}: the {name} produced NaN or infinite values (an overflow; rescale the model "
+            "or the measurements)",
+            step=k,
+        )
+
+
+def check_simulated(name: str, values: np.ndarray, *, missing: bool = False) -> None:
+    """Refuse a simulated series (one row per step) that overflowed to inf or NaN (NaN is allowed
+    with ``missing=True``: a step without a measurement): a ``NumericalError`` naming the first step."""
+    rows = values.reshape(len(values), -1)
+    bad = np.isinf(rows) if missing else ~np.isfinite(rows)
+    if bad.any():
+        k = int(np.flatnonzero(bad.any(axis=1))[0])
+        raise NumericalError(
+            f"step {k}: the simulated {name} overflow to inf or NaN; rescale the scenario (its speeds, "
+            "times, positions or noise)",
+            step=k,
+        )
+
+
+@contextmanager
+def numerical_step(k: int, name: str) -> Iterator[None]:
+    """Run step ``k`` of a Kalman-type filter (through filterpy, SciPy) so that a failure on
+    overflowing or non-finite numbers (a singular ``S``, a Cholesky factor of an infinite ``P``)
+    is a :class:`~pfcourse.errors.NumericalError` naming the step; pfcourse's own errors pass."""
+    try:
+        yield
+    except PfcourseError:
+        raise
+    except (ValueError, ArithmeticError, np.linalg.LinAlgError) as exc:
+        raise NumericalError(
+            f"step {k}: the {name} failed on overflowing or non-finite numbers ({exc}); rescale the model "
+            "or the measurements",
+            step=k,
+        ) from None
+
+
 def check_measurements(measurements):
     """Check a filter's measurements once, before the run: a sequence (or array) of real arrays of
     one shape, one per step; ``None``, an empty array or all-NaN entries are missing steps
-    (:func:`is_missing`), NaN entries are unobserved components, ``+/-inf`` is refused.
+    (:func:`is_missing`), NaN entries are unobserved components, ``+/-inf`` is refused, and so is
+    an empty series.  A series of scalars (an array of shape ``(K,)``, a list of floats) is a
+    scalar measurement per step: it is returned as ``(K, 1)`` (a list of ``(1,)`` arrays).
     Returns them (a list if they were an array of objects)."""
     if isinstance(measurements, (str, bytes)) or not hasattr(measurements, "__len__") \
             or not hasattr(measurements, "__getitem__"):
         raise MeasurementError(
             f"measurements must be a sequence or an array (one entry per step), got {type(measurements).__name__}"
         )
+    if isinstance(measurements, np.ndarray) and measurements.ndim == 0:
+        raise MeasurementError("measurements must have one entry per step, got a 0-d array")
+    if len(measurements) == 0:
+        raise MeasurementError(
+            "measurements is empty: pass one measurement per step, e.g. an array of shape (K, dim_z) "
+            "with K >= 1 (None or NaN at the steps without one)"
+        )
     if isinstance(measurements, np.ndarray):
-        if measurements.ndim == 0:
-            raise MeasurementError("measurements must have one entry per step, got a 0-d array")
         if measurements.dtype.kind not in "fiu":
             measurements = list(measurements)
         else:
             if np.isinf(measurements).any():
                 raise MeasurementError("measurements contain +/-inf (use NaN for a missing value)")
-            return measurements
-    shape = None
+            return measurements[:, None] if measurements.ndim == 1 else measurements
+    shape, entries = None, []
     for k, z in enumerate(measurements):
         if z is None:
+            entries.append(None)
             continue
-        arr = np.asarray(z)
+        try:
+            arr = np.asarray(z)
+        except (TypeError, ValueError):  # a ragged nested list
+            arr = np.empty(0, dtype=object)
         if arr.dtype.kind not in "fiu" or arr.dtype == bool:
             raise MeasurementError(
                 f"step {k}: the measurement must be a real array, got dtype {arr.dtype} ({z!r:.60})"
             )
         if np.isinf(arr).any():
             raise MeasurementError(f"step {k}: the measurement contains +/-inf (use NaN for a missing value)")
+        entries.append(arr.reshape(1) if arr.ndim == 0 else z)  # a scalar is a measurement of one component
         if arr.size == 0 or np.isnan(arr.astype(float)).all():
             continue
         if shape is None:
-            shape = arr.shape
-        elif arr.shape != shape:
+            shape = arr.shape or (1,)
+        elif (arr.shape or (1,)) != shape:
             raise MeasurementError(
-                f"step {k}: the measurement has shape {arr.shape}, earlier ones have {shape}"
+                f"step {k}: the measurement has shape {arr.shape or (1,)}, earlier ones have {shape}"
             )
+    if any(e is not z for e, z in zip(entries, measurements)):
+        return entries
     return measurements

@@ -51,7 +51,16 @@ from typing import Protocol
 
 import numpy as np
 
-from pfcourse.checks import Array, as_generator, check_count, check_measurements, check_moments, check_probability, is_missing
+from pfcourse.checks import (
+    Array,
+    as_generator,
+    check_count,
+    check_fits,
+    check_measurements,
+    check_moments,
+    check_probability,
+    is_missing,
+)
 from . import kernels
 from pfcourse.errors import (
     DegenerateWeightsError,
@@ -133,6 +142,45 @@ class TransitionProposal:
         return new, model.log_likelihood(new, z, k)
 
 
+def check_particles(particles: Array, expected: tuple[int, int], k: int, source: str) -> Array:
+    """Check a cloud that ``source`` returned at step ``k`` before anything else sees it: a real
+    array (``ModelError`` otherwise) of shape ``expected`` (``ShapeError``) with finite states
+    (``NumericalError``); returns it as floats."""
+    raw = np.asarray(particles) if particles is not None else None
+    if raw is None or raw.dtype.kind not in "fiu" or raw.dtype == bool:
+        kind = "None" if raw is None else f"dtype {raw.dtype}"
+        raise ModelError(f"step {k}: {source} returned {kind}, expected a real array of particles", step=k)
+    particles = raw.astype(float, copy=False)
+    if particles.shape != expected:
+        raise ShapeError(
+            f"step {k}: {source} returned particles of shape {particles.shape}, "
+            f"expected {expected}"
+        )
+    if not kernels.finite_minimum(particles.ravel())[0]:
+        raise NumericalError(
+            f"step {k}: {source} produced NaN or infinite particle states", step=k
+        )
+    return particles
+
+
+def check_log_terms(values: Array, n: int, k: int, source: str = "the log-likelihood") -> Array:
+    """Check log-densities that ``source`` returned at step ``k`` (one per particle) before they are
+    combined: a real array (``ModelError``) of shape ``(n,)`` (``ShapeError``); returns it as floats."""
+    raw = np.asarray(values) if values is not None else None
+    if raw is None or raw.dtype.kind not in "fiu" or raw.dtype == bool:
+        kind = "None" if raw is None else f"dtype {raw.dtype}"
+        raise ModelError(
+            f"step {k}: {source} (or a proposal's log-increment) is {kind}, "
+            "expected a real array (return -inf for impossible particles; a missing "
+            "measurement is None or NaN in the measurements, not in the likelihood)",
+            step=k,
+        )
+    values = raw.astype(float, copy=False)
+    if values.shape != (n,):
+        raise ShapeError(f"step {k}: {source} has shape {values.shape}, expected ({n},)")
+    return values
+
+
 @dataclass(frozen=True)
 class DensityProposal:
     """Any importance function given by a sampler and its log-density.
@@ -152,13 +200,16 @@ class DensityProposal:
                 f"step {k}: DensityProposal needs model.transition_log_density(new, old, k) to weight "
                 "the particles"
             )
-        new = self.sample(particles, z, k, rng)
-        log_inc = (
-            model.log_likelihood(new, z, k)
-            + transition_log_density(new, particles, k)
-            - self.log_density(new, particles, z, k)
-        )
-        return new, log_inc
+        new = check_particles(self.sample(particles, z, k, rng), particles.shape, k, "DensityProposal.sample")
+        n = len(particles)
+        terms = [
+            (model.log_likelihood(new, z, k), "model.log_likelihood"),
+            (transition_log_density(new, particles, k), "model.transition_log_density"),
+            (self.log_density(new, particles, z, k), "DensityProposal.log_density"),
+        ]
+        log_lik, log_p, log_q = (check_log_terms(term, n, k, source) for term, source in terms)
+        with np.errstate(invalid="ignore"):  # inf - inf: NaN, refused by the filter's check of the increments
+            return new, log_lik + log_p - log_q
 
 
 def _present(measurements: Sequence[Measurement] | Array):
@@ -241,7 +292,8 @@ class ParticleFilter:
         Any object with ``dim_x``, ``sample_initial``, ``sample_transition`` and
         ``log_likelihood`` (see :class:`Model`).
     n_particles:
-        Number of particles ``N >= 1``.
+        Number of particles ``N >= 1``: an integer (or an integral float such as ``5.0``); a number
+        whose particles would not fit in the machine's memory is refused when the filter is built.
     threshold:
         Resample when ``ESS < threshold * N``; in ``[0, 1]``.  0 gives SIS.
     resampler:
@@ -276,7 +328,9 @@ class ParticleFilter:
                 raise ModelError(f"the model has no callable {attribute} (see pfcourse.Model)")
         self.dim_x = check_count(getattr(model, "dim_x", None), "model.dim_x")
         self.model = model
-        self.n_particles = check_count(n_particles, "n_particles")
+        n = check_count(n_particles, "n_particles")
+        self.n_particles = check_fits(n, "n_particles", 8 * n * (2 * self.dim_x + 4),
+                                      f"the particles (dim_x={self.dim_x}, two clouds and four weight arrays)")
         self.threshold = check_probability(threshold, "threshold")
         self.resampler = get_resampler(resampler)
         self._custom_resampler = not isinstance(resampler, str)
@@ -309,7 +363,7 @@ class ParticleFilter:
     def run(
         self,
         measurements: Sequence[Measurement] | Array,
-        rng: np.random.Generator | int,
+        rng: np.random.Generator | int | None = None,
         *,
         store_particles: bool = False,
     ) -> FilterResult:
@@ -318,7 +372,9 @@ class ParticleFilter:
         ``measurements[k]`` is the measurement at time ``k`` (``None`` or NaN when
         absent); ``x_0`` is drawn from the model's initial distribution and
         weighted by ``z_0`` if present.  ``rng`` is a ``numpy.random.Generator``
-        or an integer seed: the same seed gives the same result.
+        or an integer seed: the same seed gives the same result; it must be given
+        (:class:`~pfcourse.errors.ParameterError` if it is not).  A scalar measurement
+        series may be 1-D (shape ``(K,)`` or a list of floats): it is read as ``(K, 1)``.
 
         Each step is :meth:`_propose` (or :meth:`_propose_variable_n`, which resamples the
         ancestors itself), :meth:`_weight`, :meth:`_record` and, with a fixed ``N``,
@@ -503,40 +559,10 @@ class ParticleFilter:
         return arr.astype(np.int64, copy=False)
 
     def _check_particles(self, particles: Array, k: int, source: str = "the model", n: int | None = None) -> Array:
-        raw = np.asarray(particles) if particles is not None else None
-        if raw is None or raw.dtype.kind not in "fiu" or raw.dtype == bool:
-            kind = "None" if raw is None else f"dtype {raw.dtype}"
-            raise ModelError(f"step {k}: {source} returned {kind}, expected a real array of particles", step=k)
-        particles = raw.astype(float, copy=False)
-        expected = (self.n_particles if n is None else n, self.dim_x)
-        if particles.shape != expected:
-            raise ShapeError(
-                f"step {k}: {source} returned particles of shape {particles.shape}, "
-                f"expected {expected}"
-            )
-        if not kernels.finite_minimum(particles.ravel())[0]:
-            raise NumericalError(
-                f"step {k}: {source} produced NaN or infinite particle states", step=k
-            )
-        return particles
+        return check_particles(particles, (self.n_particles if n is None else n, self.dim_x), k, source)
 
     def _check_log_increments(self, log_inc: Array, k: int, n: int | None = None) -> Array:
-        raw = np.asarray(log_inc) if log_inc is not None else None
-        if raw is None or raw.dtype.kind not in "fiu" or raw.dtype == bool:
-            kind = "None" if raw is None else f"dtype {raw.dtype}"
-            raise ModelError(
-                f"step {k}: the log-likelihood (or proposal's log-increment) is {kind}, "
-                "expected a real array (return -inf for impossible particles; a missing "
-                "measurement is None or NaN in the measurements, not in the likelihood)",
-                step=k,
-            )
-        log_inc = raw.astype(float, copy=False)
-        n = self.n_particles if n is None else n
-        if log_inc.shape != (n,):
-            raise ShapeError(
-                f"step {k}: the log-likelihood has shape {log_inc.shape}, "
-                f"expected ({n},)"
-            )
+        log_inc = check_log_terms(log_inc, self.n_particles if n is None else n, k)
         top = log_inc.max()  # NaN if any entry is NaN
         if np.isnan(top) or top == np.inf:
             bad = int(np.sum(np.isnan(log_inc) | (log_inc == np.inf)))

@@ -16,7 +16,7 @@ from collections.abc import Sequence
 import numpy as np
 from filterpy.kalman import KalmanFilter
 
-from pfcourse.checks import check_measurements, is_missing
+from pfcourse.checks import check_estimate, check_measurements, is_missing, numerical_step
 from pfcourse.errors import MeasurementError, ModelError
 from pfcourse.linear_gaussian import LinearGaussianModel
 from pfcourse.results import KalmanResult
@@ -30,7 +30,9 @@ def kalman_filter(model: LinearGaussianModel, measurements: Sequence | np.ndarra
     are checked as the particle filter's are (:func:`~pfcourse.checks.check_measurements`:
     ``None``, empty or all-NaN is a missing step, NaN entries unobserved components), and each
     present one must have the model's ``dim_z`` components
-    (:class:`~pfcourse.errors.MeasurementError` naming the step otherwise).
+    (:class:`~pfcourse.errors.MeasurementError` naming the step otherwise; a 1-D series is read as
+    ``(K, 1)``, an empty one refused).  A mean, covariance or log-likelihood increment that
+    overflows to NaN or infinity raises :class:`~pfcourse.errors.NumericalError` with its step.
     """
     if not isinstance(model, LinearGaussianModel):
         raise ModelError(f"kalman_filter needs a LinearGaussianModel, got {type(model).__name__}")
@@ -50,18 +52,22 @@ def kalman_filter(model: LinearGaussianModel, measurements: Sequence | np.ndarra
     n_steps = len(measurements)
     out = KalmanResult.empty(n_steps, d, model.dim_z, "Kalman")
     for k, z in enumerate(measurements):
-        if k > 0:
-            kf.predict(u=np.ones(1))
-        if not is_missing(z):
-            mask, z_o, H_o, R_o = model.observed(z)
-            predicted = kf.x.copy()
-            kf.update(z_o, R=R_o, H=H_o)
-            out.log_likelihood_increments[k] = kf.log_likelihood
-            observed = np.flatnonzero(mask)
-            out.predicted[k] = np.ravel(predicted)
-            out.innovation[k, observed] = np.ravel(kf.y)
-            out.innovation_cov[k][np.ix_(observed, observed)] = kf.S
-            out.gain[k][:, observed] = kf.K
+        with numerical_step(k, "Kalman filter"):
+            if k > 0:
+                kf.predict(u=np.ones(1))
+                check_estimate(k, "Kalman filter's prediction", kf.x, kf.P)
+            if not is_missing(z):
+                mask, z_o, H_o, R_o = model.observed(z)
+                predicted = kf.x.copy()
+                kf.update(z_o, R=R_o, H=H_o)
+                check_estimate(k, "Kalman filter's update", kf.x, kf.P, kf.S)
+                out.log_likelihood_increments[k] = kf.log_likelihood
+                observed = np.flatnonzero(mask)
+                out.predicted[k] = np.ravel(predicted)
+                out.innovation[k, observed] = np.ravel(kf.y)
+                out.innovation_cov[k][np.ix_(observed, observed)] = kf.S
+                out.gain[k][:, observed] = kf.K
+        check_estimate(k, "Kalman filter", kf.x, kf.P, out.log_likelihood_increments[k])
         out.mean[k] = np.ravel(kf.x)
         out.cov[k] = kf.P
     return out

@@ -25,19 +25,22 @@ from pfcourse.gaussian import gaussian_logpdf
 class LinearGaussianModel:
     """Linear dynamics and measurements with additive Gaussian noise (see module docstring).
 
-    All matrices are checked: shapes must agree with ``dim_x = len(m0)``, and
-    ``P0``, ``Q``, ``R`` must be symmetric positive semi-definite (``R`` definite).
+    All arrays are checked when the model is built, each error naming its parameter: real
+    and finite entries; shapes that agree with ``dim_x = len(m0) >= 1``; ``P0``, ``Q``, ``R``
+    symmetric positive semi-definite (``R`` definite).
     """
 
     def __init__(self, F, H, m0, P0, Q, R, B=None) -> None:
-        self.m0 = as_vector(m0, "m0")
+        self.m0 = as_vector(m0, "m0", finite=True)
         d = self.m0.shape[0]
+        if d == 0:
+            raise ShapeError("m0 must have one entry per state (dim_x >= 1), got an empty vector")
         self.dim_x = d
-        self.F = as_matrix(F, "F", (d, d))
-        self.B = np.zeros(d) if B is None else as_vector(B, "B", d)
-        self.H = as_matrix(H, "H")
-        if self.H.shape[1] != d:
-            raise ShapeError(f"H must have {d} columns (one per state), got shape {self.H.shape}")
+        self.F = as_matrix(F, "F", (d, d), finite=True)
+        self.B = np.zeros(d) if B is None else as_vector(B, "B", d, finite=True)
+        self.H = as_matrix(H, "H", finite=True)
+        if self.H.shape[1] != d or self.H.shape[0] == 0:
+            raise ShapeError(f"H must have {d} columns (one per state) and at least one row, got shape {self.H.shape}")
         self.dim_z = self.H.shape[0]
         self.P0 = check_covariance(P0, "P0", d)
         self.Q = check_covariance(Q, "Q", d)

@@ -23,8 +23,9 @@ All four functions share one signature::
 
 ``weights`` is a 1-D array of finite, non-negative weights summing to one
 (within 1e-8; they are renormalised by their sum internally), ``rng`` a
-``numpy.random.Generator`` and ``n`` the number of indices to draw (default
-``len(weights)``).  The result is a sorted ``int64`` array of ``n`` indices in
+``numpy.random.Generator`` (or an integer seed; it must be given) and ``n`` the number of
+indices to draw (default ``len(weights)``; an integer, as for every count of the package,
+:func:`~pfcourse.checks.check_count`, small enough for the machine's memory).  The result is a sorted ``int64`` array of ``n`` indices in
 ``[0, len(weights))``; a particle of weight zero is never selected.  Bad
 weights raise :class:`~pfcourse.errors.WeightError` and a bad ``n`` raises
 :class:`~pfcourse.errors.ParameterError`.
@@ -44,6 +45,7 @@ from collections.abc import Callable
 
 import numpy as np
 
+from pfcourse.checks import as_generator, check_count, check_fits
 from pfcourse.errors import ParameterError, WeightError
 from pfcourse.kernels import finite_minimum, inverse_cdf_sorted, pairwise_sum
 
@@ -55,8 +57,8 @@ _SUM_TOLERANCE = 1e-8
 _SNAP = 8 * np.finfo(np.float64).eps
 
 
-def _validated(weights: np.ndarray, n: int | None) -> tuple[np.ndarray, int]:
-    """Check the weights and ``n``; return the renormalised weights and ``n``."""
+def _validated(weights: np.ndarray, n: int | None, rng) -> tuple[np.ndarray, int, np.random.Generator]:
+    """Check the weights, ``n`` and ``rng``; return the renormalised weights, ``n`` and the generator."""
     raw = np.asarray(weights) if weights is not None else None
     if raw is None or raw.dtype.kind not in "fiu" or raw.dtype == bool:
         kind = "None" if raw is None else f"dtype {raw.dtype}"
@@ -77,29 +79,30 @@ def _validated(weights: np.ndarray, n: int | None) -> tuple[np.ndarray, int]:
             f"weights must sum to 1 (within {_SUM_TOLERANCE:g}), got sum {total:.17g}; "
             "normalise them first"
         )
-    if n is None:
+    if n is not None:
+        n = check_count(n, "n")
+        check_fits(n, "n", 16 * n, "the indices and their uniforms")
+    else:
         n = w.size
-    elif isinstance(n, bool) or not isinstance(n, (int, np.integer)):
-        raise ParameterError(f"n must be an integer, got {n!r}")
-    if n < 1:
-        raise ParameterError(f"n must be >= 1, got {n}")
-    return w / total, int(n)
+    if not callable(getattr(rng, "random", None)):  # a Generator (or a stand-in with .random) is used as is
+        rng = as_generator(rng)
+    return w / total, n, rng
 
 
 def multinomial(
-    weights: np.ndarray, rng: np.random.Generator, n: int | None = None
+    weights: np.ndarray, rng: np.random.Generator | int | None = None, n: int | None = None
 ) -> np.ndarray:
     """Multinomial resampling: ``n`` iid draws from the weights by inverse CDF.
 
     ``(N_1, ..., N_N) ~ Multinomial(n; w)``, so ``E N_i = n w_i`` and
     ``Var N_i = n w_i (1 - w_i)``.
     """
-    w, n = _validated(weights, n)
+    w, n, rng = _validated(weights, n, rng)
     return inverse_cdf_sorted(w, np.sort(rng.random(n)))
 
 
 def stratified(
-    weights: np.ndarray, rng: np.random.Generator, n: int | None = None
+    weights: np.ndarray, rng: np.random.Generator | int | None = None, n: int | None = None
 ) -> np.ndarray:
     """Stratified resampling: one uniform in each stratum, ``u_k = (k + U_k) / n``.
 
@@ -107,12 +110,12 @@ def stratified(
     ``Var N_i <= n w_i (1 - w_i)`` and
     ``floor(n w_i) - 1 <= N_i <= floor(n w_i) + 2``.
     """
-    w, n = _validated(weights, n)
+    w, n, rng = _validated(weights, n, rng)
     return inverse_cdf_sorted(w, (np.arange(n) + rng.random(n)) / n)
 
 
 def systematic(
-    weights: np.ndarray, rng: np.random.Generator, n: int | None = None
+    weights: np.ndarray, rng: np.random.Generator | int | None = None, n: int | None = None
 ) -> np.ndarray:
     """Systematic resampling: one shared offset, ``u_k = (k + U) / n``.
 
@@ -120,12 +123,12 @@ def systematic(
     probability ``r_i = frac(n w_i)``, so ``E N_i = n w_i`` and
     ``Var N_i = r_i (1 - r_i)``.
     """
-    w, n = _validated(weights, n)
+    w, n, rng = _validated(weights, n, rng)
     return inverse_cdf_sorted(w, (np.arange(n) + rng.random()) / n)
 
 
 def residual(
-    weights: np.ndarray, rng: np.random.Generator, n: int | None = None
+    weights: np.ndarray, rng: np.random.Generator | int | None = None, n: int | None = None
 ) -> np.ndarray:
     """Residual resampling: ``floor(n w_i)`` sure copies, the rest multinomial.
 
@@ -133,7 +136,7 @@ def residual(
     ``R = n - sum_i floor(n w_i)`` and ``p_i = (n w_i - floor(n w_i)) / R``, so
     ``E N_i = n w_i`` and ``Var N_i = R p_i (1 - p_i)``.
     """
-    w, n = _validated(weights, n)
+    w, n, rng = _validated(weights, n, rng)
     expected = n * w
     copies = np.floor(expected * (1.0 + _SNAP)).astype(np.int64)
     remaining = n - int(copies.sum())

@@ -64,7 +64,8 @@ class FilterResult:
     @property
     def log_likelihood(self) -> float:
         """Estimate of the marginal log-likelihood ``log p(z_{0:K-1}) = sum_k log p^(z_k | z_{0:k-1})``."""
-        return float(np.sum(self.log_likelihood_increments))
+        with np.errstate(over="ignore"):  # increments near -1e308 sum to -inf: a likelihood that underflows
+            return float(np.sum(self.log_likelihood_increments))
 
     @property
     def n_resamples(self) -> int:
@@ -114,4 +115,5 @@ class KalmanResult:
         """``log p(z_{0:K-1}) = sum_k log N(y_k; 0, S_k)`` (exact for the linear Kalman filter)."""
         if self.log_likelihood_increments is None:
             raise AttributeError(f"the {self.name} run did not record its log-likelihood")
-        return float(np.sum(self.log_likelihood_increments))
+        with np.errstate(over="ignore"):  # increments near -1e308 sum to -inf: a likelihood that underflows
+            return float(np.sum(self.log_likelihood_increments))

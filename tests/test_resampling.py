@@ -300,7 +300,7 @@ def test_bad_weights_raise_weight_error(scheme, weights, message):
 
 
 @pytest.mark.parametrize(
-    ("n", "message"), [(0, "n must be >= 1"), (-3, "n must be >= 1"), (2.5, "n must be an integer")]
+    ("n", "message"), [(0, "n must be at least 1"), (-3, "n must be at least 1"), (2.5, "n must be an integer")]
 )
 @pytest.mark.parametrize("scheme", SCHEMES)
 def test_bad_n_raises_parameter_error(scheme, n, message):

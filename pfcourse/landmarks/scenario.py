@@ -30,13 +30,24 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from pfcourse.checks import as_vector, check_count, check_covariance, check_real, covariance_factor
+from pfcourse.checks import (
+    as_generator,
+    as_vector,
+    check_count,
+    check_covariance,
+    check_fits,
+    check_real,
+    check_simulated,
+    covariance_factor,
+    set_checked,
+)
 from pfcourse.errors import ParameterError
 from pfcourse.linear_gaussian import LinearGaussianModel
 
 
 def rotation(angle: float) -> np.ndarray:
-    """The 2-D rotation matrix ``[[cos a, -sin a], [sin a, cos a]]``."""
+    """The 2-D rotation matrix ``[[cos a, -sin a], [sin a, cos a]]`` (``angle`` a finite real number)."""
+    angle = check_real(angle, "angle")
     c, s = np.cos(angle), np.sin(angle)
     return np.array([[c, -s], [s, c]])
 
@@ -62,6 +73,9 @@ class LandmarkScenario:
     field_of_view: str
     fov_half_angle: float = np.pi / 4
     fov_range: float = 6.0
+
+    def __post_init__(self) -> None:
+        _checked(self)  # every field, when the scenario is built (a named error for a bad one)
 
     @property
     def dim_x(self) -> int:
@@ -95,7 +109,7 @@ class LandmarkScenario:
 
     def with_(self, **changes) -> LandmarkScenario:
         """A copy with some parameters changed (checked again)."""
-        return _checked(replace(self, **changes))
+        return replace(self, **changes)
 
     def model(self, Qw=None, Rv=None) -> LinearGaussianModel:
         """The filter's model; ``Qw`` / ``Rv`` may differ from the simulator's (mismatch studies)."""
@@ -145,22 +159,25 @@ class LandmarkScenario:
 
 
 def _checked(s: LandmarkScenario) -> LandmarkScenario:
-    check_count(s.n_landmarks, "n_landmarks")
-    check_count(s.n_samples, "n_samples")
-    if s.field_of_view not in ("quadrant", "triangle"):
+    """Check every field of ``s`` (a named error naming it) and store the checked values."""
+    m = check_count(s.n_landmarks, "n_landmarks")
+    n = check_count(s.n_samples, "n_samples")
+    check_fits(n, "n_samples", 24 * n * (2 + 4 * m), "the simulated states, measurements and noise")
+    if not isinstance(s.field_of_view, str) or s.field_of_view not in ("quadrant", "triangle"):
         raise ParameterError(f"field_of_view must be 'quadrant' or 'triangle', got {s.field_of_view!r}")
-    check_real(s.dt, "dt", low=0.0, low_open=True)
-    check_real(s.omega, "omega")
-    check_real(s.fov_half_angle, "fov_half_angle", low=0.0, high=np.pi, low_open=True)
-    check_real(s.fov_range, "fov_range", low=0.0, low_open=True)
-    d = 2 + 2 * s.n_landmarks
-    if not np.all(np.isfinite(as_vector(s.centre, "centre", 2))):
-        raise ParameterError("centre must be finite")
-    if not np.all(np.isfinite(as_vector(s.mX0, "mX0", d))):
-        raise ParameterError("mX0 must be finite")
-    check_covariance(s.PX0, "PX0", d)
-    check_covariance(s.Qw, "Qw", d)
-    check_covariance(s.Rv, "Rv", 2 * s.n_landmarks, definite=True)
+    d = 2 + 2 * m
+    set_checked(
+        s, n_landmarks=m, n_samples=n,
+        dt=check_real(s.dt, "dt", low=0.0, low_open=True),
+        omega=check_real(s.omega, "omega"),
+        fov_half_angle=check_real(s.fov_half_angle, "fov_half_angle", low=0.0, high=np.pi, low_open=True),
+        fov_range=check_real(s.fov_range, "fov_range", low=0.0, low_open=True),
+        centre=as_vector(s.centre, "centre", 2, finite=True),
+        mX0=as_vector(s.mX0, "mX0", d, finite=True),
+        PX0=check_covariance(s.PX0, "PX0", d),
+        Qw=check_covariance(s.Qw, "Qw", d),
+        Rv=check_covariance(s.Rv, "Rv", 2 * m, definite=True),
+    )
     return s
 
 
@@ -172,19 +189,17 @@ def quadrant_scenario() -> LandmarkScenario:
     (the landmarks are static up to 1e-10 m per step), ``Rv = 0.1^2 I_4``,
     ``omega = pi/4`` rad per step, ``dt = 1`` s, 50 samples.
     """
-    return _checked(
-        LandmarkScenario(
-            n_landmarks=2,
-            n_samples=50,
-            dt=1.0,
-            omega=np.pi / 4,
-            centre=np.zeros(2),
-            mX0=np.array([2.0, 0.0, -1.0, 4.0, 4.0, -1.0]),
-            PX0=np.diag([0.1, 0.2, 0.2, 0.2, 0.2, 0.2]),
-            Qw=np.diag([0.05**2, 0.05**2] + [1e-20] * 4),
-            Rv=0.1**2 * np.eye(4),
-            field_of_view="quadrant",
-        )
+    return LandmarkScenario(
+        n_landmarks=2,
+        n_samples=50,
+        dt=1.0,
+        omega=np.pi / 4,
+        centre=np.zeros(2),
+        mX0=np.array([2.0, 0.0, -1.0, 4.0, 4.0, -1.0]),
+        PX0=np.diag([0.1, 0.2, 0.2, 0.2, 0.2, 0.2]),
+        Qw=np.diag([0.05**2, 0.05**2] + [1e-20] * 4),
+        Rv=0.1**2 * np.eye(4),
+        field_of_view="quadrant",
     )
 
 
@@ -198,22 +213,21 @@ def circle_scenario(n_landmarks: int = 5) -> LandmarkScenario:
     levels are those of :func:`quadrant_scenario`.
     """
     m = check_count(n_landmarks, "n_landmarks")
+    check_fits(m, "n_landmarks", 32 * (2 + 2 * m) ** 2, "the covariances of a state of 2 + 2 n_landmarks entries")
     centre = np.array([2.0, 1.0])
     angles = 2 * np.pi * (np.arange(m) + 0.5) / m
     landmarks = centre + 4.5 * np.column_stack([np.cos(angles), np.sin(angles)])
-    return _checked(
-        LandmarkScenario(
-            n_landmarks=m,
-            n_samples=50,
-            dt=1.0,
-            omega=2 * np.pi / 40,
-            centre=centre,
-            mX0=np.concatenate([centre + [3.0, 0.0], landmarks.ravel()]),
-            PX0=np.diag([0.1, 0.1] + [0.2] * (2 * m)),
-            Qw=np.diag([0.05**2, 0.05**2] + [1e-20] * (2 * m)),
-            Rv=0.1**2 * np.eye(2 * m),
-            field_of_view="triangle",
-        )
+    return LandmarkScenario(
+        n_landmarks=m,
+        n_samples=50,
+        dt=1.0,
+        omega=2 * np.pi / 40,
+        centre=centre,
+        mX0=np.concatenate([centre + [3.0, 0.0], landmarks.ravel()]),
+        PX0=np.diag([0.1, 0.1] + [0.2] * (2 * m)),
+        Qw=np.diag([0.05**2, 0.05**2] + [1e-20] * (2 * m)),
+        Rv=0.1**2 * np.eye(2 * m),
+        field_of_view="triangle",
     )
 
 
@@ -232,9 +246,15 @@ class LandmarkSimulation:
     seen: np.ndarray
 
 
-def simulate(scenario: LandmarkScenario, rng: np.random.Generator | int) -> LandmarkSimulation:
-    """Draw ``x_0 ~ N(mX0, PX0)``, then ``x_k = F x_{k-1} + B + w_k`` and the measurements."""
-    rng = np.random.default_rng(rng)
+def simulate(scenario: LandmarkScenario, rng: np.random.Generator | int | None = None) -> LandmarkSimulation:
+    """Draw ``x_0 ~ N(mX0, PX0)``, then ``x_k = F x_{k-1} + B + w_k`` and the measurements.
+
+    ``rng`` (a Generator or an integer seed) must be given: :class:`~pfcourse.errors.ParameterError`
+    otherwise, as for a ``scenario`` that is not a :class:`LandmarkScenario`."""
+    if not isinstance(scenario, LandmarkScenario):
+        raise ParameterError(f"scenario must be a LandmarkScenario (quadrant_scenario(), circle_scenario()), "
+                             f"got {type(scenario).__name__}")
+    rng = as_generator(rng)
     s = scenario
     K, d, m = s.n_samples, s.dim_x, s.n_landmarks
     F, B, H = s.F, s.B, s.H
@@ -248,4 +268,6 @@ def simulate(scenario: LandmarkScenario, rng: np.random.Generator | int) -> Land
     seen[0] = False
     Z = X @ H.T + noise
     Z[~np.repeat(seen, 2, axis=1)] = np.nan
+    check_simulated("states", X)
+    check_simulated("measurements", Z, missing=True)
     return LandmarkSimulation(T=s.times, truth=X, measurements=Z, seen=seen)

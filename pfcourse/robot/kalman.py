@@ -35,8 +35,16 @@ import numpy as np
 from filterpy.kalman import ExtendedKalmanFilter, MerweScaledSigmaPoints, UnscentedKalmanFilter
 
 from pfcourse.angles import sigma_point_mean, wrap, wrap_angle
-from pfcourse.checks import Array, as_vector, check_covariance, check_measurements, check_real
-from pfcourse.errors import MeasurementError, ModelError, NumericalError, ShapeError
+from pfcourse.checks import (
+    Array,
+    as_vector,
+    check_covariance,
+    check_estimate,
+    check_measurements,
+    check_real,
+    numerical_step,
+)
+from pfcourse.errors import MeasurementError, ModelError, ShapeError
 from pfcourse.results import KalmanResult
 from pfcourse.robot.scenario import INITIAL_STD, RobotModel, motion
 
@@ -134,11 +142,6 @@ def _check_measurements(measurements: Array, model: RobotModel) -> Array:
     return measurements
 
 
-def _check_finite(x: Array, P: Array, k: int, name: str) -> None:
-    if not (np.all(np.isfinite(x)) and np.all(np.isfinite(P))):
-        raise NumericalError(f"step {k}: the {name} produced NaN or infinite values", step=k)
-
-
 def run_ekf(model: RobotModel, measurements: Array, initial_cov: Array | None = None) -> KalmanResult:
     """Run the EKF on ``measurements`` ``(K, 3)`` with ``model``'s odometry, ``q_est`` and ``r_est``.
 
@@ -154,26 +157,27 @@ def run_ekf(model: RobotModel, measurements: Array, initial_cov: Array | None = 
     n_steps = len(measurements)
     out = KalmanResult.empty(n_steps, 3, 2, "EKF")
     for k in range(n_steps):
-        if k > 0:
-            u = model.odometry[k]
-            F, G = motion_jacobians(ekf.x[:, 0], u, model.dt)
-            ekf.x = motion(ekf.x[:, 0], u, model.dt).reshape(3, 1)
-            ekf.P = F @ ekf.P @ F.T + G @ model.q_est @ G.T
-        z = measurements[k]
-        if not np.isnan(z[0]):
-            landmark = model.landmarks[int(z[0])]
-            predicted = ekf.x.copy()
-            ekf.update(
-                z[1:].reshape(2, 1),
-                lambda x, lm: measurement_jacobian(x[:, 0], lm),
-                lambda x, lm: range_bearing_one(x[:, 0], lm).reshape(2, 1),
-                args=(landmark,),
-                hx_args=(landmark,),
-                residual=measurement_residual,
-            )
-            ekf.x[2, 0] = wrap(float(ekf.x[2, 0]))
-            out.record_update(k, predicted, ekf.y, ekf.S, ekf.K)
-        _check_finite(ekf.x, ekf.P, k, "EKF")
+        with numerical_step(k, "EKF"):
+            if k > 0:
+                u = model.odometry[k]
+                F, G = motion_jacobians(ekf.x[:, 0], u, model.dt)
+                ekf.x = motion(ekf.x[:, 0], u, model.dt).reshape(3, 1)
+                ekf.P = F @ ekf.P @ F.T + G @ model.q_est @ G.T
+            z = measurements[k]
+            if not np.isnan(z[0]):
+                landmark = model.landmarks[int(z[0])]
+                predicted = ekf.x.copy()
+                ekf.update(
+                    z[1:].reshape(2, 1),
+                    lambda x, lm: measurement_jacobian(x[:, 0], lm),
+                    lambda x, lm: range_bearing_one(x[:, 0], lm).reshape(2, 1),
+                    args=(landmark,),
+                    hx_args=(landmark,),
+                    residual=measurement_residual,
+                )
+                ekf.x[2, 0] = wrap(float(ekf.x[2, 0]))
+                out.record_update(k, predicted, ekf.y, ekf.S, ekf.K)
+        check_estimate(k, "EKF", ekf.x, ekf.P)
         out.mean[k] = ekf.x[:, 0]
         out.cov[k] = ekf.P
     return out
@@ -196,7 +200,7 @@ def run_ukf(
     """
     x0, P0 = _initial(model, initial_cov)
     measurements = _check_measurements(measurements, model)
-    check_real(alpha, "alpha", low=0.0, low_open=True)
+    check_real(alpha, "alpha", low=0.0, high=1e100, low_open=True)  # beyond, alpha**2 overflows
     check_real(beta, "beta")
     check_real(kappa, "kappa", low=-3.0, low_open=True)  # alpha^2 (3 + kappa) > 0: the sigma points' spread
     points = MerweScaledSigmaPoints(3, alpha=alpha, beta=beta, kappa=kappa, subtract=state_residual)
@@ -225,19 +229,20 @@ def run_ukf(
     n_steps = len(measurements)
     out = KalmanResult.empty(n_steps, 3, 2, "UKF")
     for k in range(n_steps):
-        if k > 0:
-            u = model.odometry[k]
-            _, G = motion_jacobians(ukf.x, u, model.dt)
-            ukf.Q = G @ model.q_est @ G.T
-            ukf.predict(u=u)
-            ukf.x[2] = wrap(float(ukf.x[2]))
-        z = measurements[k]
-        if not np.isnan(z[0]):
-            predicted = ukf.x.copy()
-            ukf.update(z[1:].copy(), landmark=model.landmarks[int(z[0])])
-            ukf.x[2] = wrap(float(ukf.x[2]))
-            out.record_update(k, predicted, ukf.y, ukf.S, ukf.K)
-        _check_finite(ukf.x, ukf.P, k, "UKF")
+        with numerical_step(k, "UKF"):
+            if k > 0:
+                u = model.odometry[k]
+                _, G = motion_jacobians(ukf.x, u, model.dt)
+                ukf.Q = G @ model.q_est @ G.T
+                ukf.predict(u=u)
+                ukf.x[2] = wrap(float(ukf.x[2]))
+            z = measurements[k]
+            if not np.isnan(z[0]):
+                predicted = ukf.x.copy()
+                ukf.update(z[1:].copy(), landmark=model.landmarks[int(z[0])])
+                ukf.x[2] = wrap(float(ukf.x[2]))
+                out.record_update(k, predicted, ukf.y, ukf.S, ukf.K)
+        check_estimate(k, "UKF", ukf.x, ukf.P)
         out.mean[k] = ukf.x
         out.cov[k] = ukf.P
     return out

@@ -54,16 +54,21 @@ import numpy as np
 from pfcourse.angles import wrap, wrap_angle
 from pfcourse.checks import (
     Array,
+    as_float,
     as_generator,
     as_matrix,
+    as_points,
     as_vector,
     check_count,
     check_covariance,
+    check_fits,
     check_interval,
     check_real,
+    check_simulated,
     covariance_factor,
+    set_checked,
 )
-from pfcourse.errors import ParameterError, ShapeError
+from pfcourse.errors import MeasurementError, ParameterError, ShapeError
 from pfcourse.compiled import jit
 from pfcourse.gaussian import gaussian_logpdf
 
@@ -81,14 +86,20 @@ ANGLE_INDICES = (2,)
 def motion(states: Array, controls: Array, dt: float) -> Array:
     """Apply ``f(x, u)`` (module docstring) row by row; ``states`` and ``controls`` broadcast to ``(..., 3)``.
 
-    The heading of the result is wrapped to (-pi, pi].
+    The heading of the result is wrapped to (-pi, pi].  Other shapes, non-real arrays and a
+    non-finite ``dt`` raise a named error (:mod:`pfcourse.errors`).
     """
-    states = np.asarray(states, dtype=float)
-    controls = np.asarray(controls, dtype=float)
+    states = as_points(states, "states", 3)
+    controls = as_points(controls, "controls", 3)
+    dt = check_real(dt, "dt")
     theta = states[..., 2]
     c, s = np.cos(theta), np.sin(theta)
     vx, vy = controls[..., 0], controls[..., 1]
-    out = np.empty(np.broadcast_shapes(states.shape, controls.shape))
+    try:
+        shape = np.broadcast_shapes(states.shape, controls.shape)
+    except ValueError:
+        raise ShapeError(f"states {states.shape} and controls {controls.shape} do not broadcast together") from None
+    out = np.empty(shape)
     out[..., 0] = states[..., 0] + (vx * c - vy * s) * dt
     out[..., 1] = states[..., 1] + (vx * s + vy * c) * dt
     out[..., 2] = wrap_angle(theta + controls[..., 2] * dt)
@@ -97,7 +108,8 @@ def motion(states: Array, controls: Array, dt: float) -> Array:
 
 def range_bearing(states: Array, landmark: Array) -> Array:
     """``h_j(x) = (range, bearing)`` of one landmark ``(2,)`` seen from ``states`` ``(..., 3)``; shape ``(..., 2)``."""
-    states = np.asarray(states, dtype=float)
+    states = as_points(states, "states", 3)
+    landmark = as_vector(landmark, "landmark", 2)
     dx = landmark[0] - states[..., 0]
     dy = landmark[1] - states[..., 1]
     out = np.empty(states.shape[:-1] + (2,))
@@ -132,9 +144,12 @@ class RobotScenario:
     speed: tuple[float, float] = (0.0, 0.025)
     turn_rate: float = np.deg2rad(0.1)
 
+    def __post_init__(self) -> None:
+        checked_scenario(self)  # every setting, when the scenario is built (a named error for a bad one)
+
     def with_(self, **changes) -> RobotScenario:
         """A copy with some settings changed (checked)."""
-        return checked_scenario(replace(self, **changes))
+        return replace(self, **changes)
 
     def true_controls(self) -> Array:
         """The ``(K, 3)`` true commands ``u_k`` (row 0 is unused and zero)."""
@@ -157,34 +172,40 @@ class RobotScenario:
 
 
 def checked_scenario(s: RobotScenario) -> RobotScenario:
-    """Validate a :class:`RobotScenario`; raise ``ParameterError``/``ShapeError``/``CovarianceError``."""
-    check_count(s.n_steps, "n_steps", minimum=2)
-    check_real(s.dt, "dt")
-    if not s.dt > 0:
-        raise ParameterError(f"dt must be positive, got {s.dt}")
+    """Validate a :class:`RobotScenario` and store the checked values (``int`` counts, floats, float
+    arrays, tuples of floats); raise ``ParameterError``/``ShapeError``/``CovarianceError``."""
+    n_steps = check_count(s.n_steps, "n_steps", minimum=2)
+    check_fits(n_steps, "n_steps", 200 * n_steps, "the simulated states, commands and measurements")
+    dt = check_real(s.dt, "dt")
+    if not dt > 0:
+        raise ParameterError(f"dt must be positive, got {dt}")
     if not isinstance(s.dt_meas, (int, float, np.integer, np.floating)) or isinstance(s.dt_meas, bool) \
-            or not s.dt_meas >= s.dt:  # infinite: no measurement at all
+            or not s.dt_meas >= dt:  # infinite: no measurement at all
         raise ParameterError(
-            f"dt_meas must be at least dt = {s.dt} (one measurement per prediction step at most), "
+            f"dt_meas must be at least dt = {dt} (one measurement per prediction step at most), "
             f"got {s.dt_meas!r}"
         )
-    check_interval(s.gap, "gap")
-    check_covariance(s.q_true, "q_true", 3)
-    check_covariance(s.r_true, "r_true", 2)
-    as_vector(s.start, "start", 3, finite=True)
-    as_vector(s.speed, "speed", 2, finite=True)
-    check_real(s.turn_rate, "turn_rate")
-    if s.landmarks is not None:
-        as_matrix(s.landmarks, "landmarks")
-        if np.asarray(s.landmarks).shape[1:] != (2,) or len(s.landmarks) < 1:
-            raise ShapeError(f"landmarks must have shape (M, 2), got {np.shape(s.landmarks)}")
-        if not np.all(np.isfinite(np.asarray(s.landmarks, dtype=float))):
-            raise ParameterError("landmarks must be finite positions")
+    gap = check_interval(s.gap, "gap")
+    landmarks, n_landmarks = s.landmarks, s.n_landmarks
+    if landmarks is not None:
+        landmarks = as_matrix(landmarks, "landmarks", finite=True)
+        if landmarks.shape[1:] != (2,) or len(landmarks) < 1:
+            raise ShapeError(f"landmarks must have shape (M, 2), got {landmarks.shape}")
     else:
-        check_count(s.n_landmarks, "n_landmarks")
-    check_real(s.half_width, "half_width")
-    if not s.half_width > 0:
-        raise ParameterError(f"half_width must be positive, got {s.half_width}")
+        n_landmarks = check_count(n_landmarks, "n_landmarks")
+        check_fits(n_landmarks, "n_landmarks", 16 * n_landmarks, "the landmark positions")
+    half_width = check_real(s.half_width, "half_width")
+    if not half_width > 0:
+        raise ParameterError(f"half_width must be positive, got {half_width}")
+    set_checked(
+        s, n_steps=n_steps, dt=dt, dt_meas=as_float(s.dt_meas), gap=gap,
+        q_true=check_covariance(s.q_true, "q_true", 3),
+        r_true=check_covariance(s.r_true, "r_true", 2),
+        start=tuple(float(v) for v in as_vector(s.start, "start", 3, finite=True)),
+        speed=tuple(float(v) for v in as_vector(s.speed, "speed", 2, finite=True)),
+        turn_rate=check_real(s.turn_rate, "turn_rate"),
+        landmarks=landmarks, n_landmarks=n_landmarks, half_width=half_width,
+    )
     return s
 
 
@@ -219,15 +240,17 @@ class RobotSimulation:
 
 
 def simulate_robot(
-    scenario: RobotScenario | None = None, rng: np.random.Generator | int = 0, **changes
+    scenario: RobotScenario | None = None, rng: np.random.Generator | int | None = None, **changes
 ) -> RobotSimulation:
     """Simulate a run of ``scenario`` (default :class:`RobotScenario`, updated by ``changes``).
 
-    ``rng`` is a generator or a seed.  See the module docstring for the model,
+    ``rng`` is a generator or a seed, and must be given (:class:`~pfcourse.errors.ParameterError`).  See the module docstring for the model,
     the measurement format and how the random streams are laid out.
     """
     base = scenario if scenario is not None else RobotScenario()
-    scenario = base.with_(**changes) if changes else checked_scenario(base)
+    if not isinstance(base, RobotScenario):
+        raise ParameterError(f"scenario must be a RobotScenario (or None for the default), got {type(base).__name__}")
+    scenario = base.with_(**changes) if changes else base
     landmark_rng, odometry_rng, noise_rng, choice_rng = as_generator(rng).spawn(4)
     K = scenario.n_steps
     if scenario.landmarks is not None:
@@ -256,6 +279,9 @@ def simulate_robot(
     for k in steps:
         z = range_bearing(truth[k], landmarks[choice[k]]) + noise[k]
         measurements[k] = (choice[k], z[0], wrap_angle(z[1]))
+    for name, values in (("states", truth), ("odometry", odometry), ("dead-reckoning path", odo_path)):
+        check_simulated(name, values)
+    check_simulated("measurements", measurements, missing=True)
     return RobotSimulation(truth, odo_path, controls, odometry, measurements, landmarks, scenario)
 
 
@@ -303,12 +329,12 @@ class RobotModel:
         initial_std=INITIAL_STD,
         half_width: float = 60.0,
     ) -> None:
-        self.landmarks = as_matrix(landmarks, "landmarks")
-        if self.landmarks.shape[1] != 2:
-            raise ShapeError(f"landmarks must have shape (M, 2), got {self.landmarks.shape}")
-        self.odometry = as_matrix(odometry, "odometry")
-        if self.odometry.shape[1] != 3:
-            raise ShapeError(f"odometry must have shape (K, 3), got {self.odometry.shape}")
+        self.landmarks = as_matrix(landmarks, "landmarks", finite=True)
+        if self.landmarks.shape[1] != 2 or len(self.landmarks) == 0:
+            raise ShapeError(f"landmarks must have shape (M, 2) with M >= 1, got {self.landmarks.shape}")
+        self.odometry = as_matrix(odometry, "odometry", finite=True)
+        if self.odometry.shape[1] != 3 or len(self.odometry) == 0:
+            raise ShapeError(f"odometry must have shape (K, 3) with K >= 1, got {self.odometry.shape}")
         self.q_est = check_covariance(q_est, "q_est", 3)
         self.r_est = check_covariance(r_est, "r_est", 2, definite=True)
         self._q_factor = covariance_factor(self.q_est)
@@ -322,10 +348,12 @@ class RobotModel:
         if initial not in ("tracking", "uniform"):
             raise ParameterError(f"initial must be 'tracking' or 'uniform', got {initial!r}")
         self.initial = initial
-        self.dt = float(dt)
-        self.start = as_vector(start, "start", 3)
-        self.initial_std = as_vector(initial_std, "initial_std", 3)
-        self.half_width = float(half_width)
+        self.dt = check_real(dt, "dt", low=0.0, low_open=True)
+        self.start = as_vector(start, "start", 3, finite=True)
+        self.initial_std = as_vector(initial_std, "initial_std", 3, finite=True)
+        if np.any(self.initial_std < 0):
+            raise ParameterError(f"initial_std must be non-negative standard deviations, got {self.initial_std}")
+        self.half_width = check_real(half_width, "half_width", low=0.0, low_open=True)
 
     @classmethod
     def for_simulation(
@@ -385,9 +413,12 @@ class RobotModel:
         z = np.asarray(z, dtype=float)
         if z.shape != (3,):
             raise ShapeError(f"a robot measurement is (landmark, range, bearing), got shape {z.shape}")
-        j = int(z[0])
-        if j != z[0] or not 0 <= j < len(self.landmarks):
+        if not np.isfinite(z[0]) or int(z[0]) != z[0] or not 0 <= z[0] < len(self.landmarks):
             raise ParameterError(f"step {k}: landmark index {z[0]} is not one of 0..{len(self.landmarks) - 1}")
+        if not np.isfinite(z[1:]).all():
+            raise MeasurementError(f"step {k}: range and bearing must be finite, got {z[1:]} (a step without a "
+                                   "measurement is a row of NaN)")
+        j = int(z[0])
         a = self._r_inv_chol
         landmark = self.landmarks[j]
         return _log_likelihood(
@@ -459,9 +490,9 @@ def _log_likelihood(particles, lx, ly, z_range, z_bearing, a00, a10, a11, log_no
 
 def tracking_errors(truth: Array, estimate: Array) -> Array:
     """Errors ``estimate - truth`` of shape ``(K, 3)`` with the heading error wrapped to (-pi, pi]."""
-    truth = np.asarray(truth, dtype=float)
-    estimate = np.asarray(estimate, dtype=float)
-    if truth.shape != estimate.shape or truth.shape[-1] != 3:
+    truth = as_points(truth, "truth", 3)
+    estimate = as_points(estimate, "estimate", 3)
+    if truth.shape != estimate.shape:
         raise ShapeError(f"truth and estimate must both have shape (K, 3), got {truth.shape} and {estimate.shape}")
     err = estimate - truth
     err[..., 2] = wrap_angle(err[..., 2])
@@ -474,5 +505,9 @@ def rmse(truth: Array, estimate: Array, start: int = 0) -> tuple[float, float]:
     ``RMSE_pos = sqrt(mean_k (e_x^2 + e_y^2))`` (m) and
     ``RMSE_theta = sqrt(mean_k wrap(e_theta)^2)`` (rad).
     """
-    err = tracking_errors(truth, estimate)[start:]
+    err = tracking_errors(truth, estimate)
+    start = check_count(start, "start", minimum=0)
+    if err.ndim != 2 or start >= len(err):
+        raise ShapeError(f"rmse needs errors of shape (K, 3) with K > start = {start}, got {err.shape}")
+    err = err[start:]
     return float(np.sqrt(np.mean(err[:, 0] ** 2 + err[:, 1] ** 2))), float(np.sqrt(np.mean(err[:, 2] ** 2)))

@@ -40,6 +40,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.ndimage import map_coordinates
 
+from pfcourse.checks import as_matrix, check_real, set_checked
 from pfcourse.errors import OffMapError, ShapeError
 
 #: Mean radius of the Earth (m), IUGG value; one degree of latitude is 111.195 km.
@@ -72,12 +73,14 @@ class TerrainMap:
     deg_lat: float = 1.0
 
     def __post_init__(self) -> None:
-        h = np.asarray(self.heights, dtype=float)
-        if h.ndim != 2 or min(h.shape) < 2:
+        h = as_matrix(self.heights, "heights", finite=True)
+        if min(h.shape) < 2:
             raise ShapeError(f"heights must be a 2-D grid of at least 2 x 2, got shape {h.shape}")
-        if not (self.dx > 0 and self.dy > 0):
-            raise ShapeError(f"grid spacings must be positive, got dx={self.dx}, dy={self.dy}")
-        object.__setattr__(self, "heights", h)
+        for name in ("dx", "dy"):
+            if not check_real(getattr(self, name), name) > 0:
+                raise ShapeError(f"grid spacings must be positive, got dx={self.dx}, dy={self.dy}")
+        set_checked(self, heights=h, **{name: check_real(getattr(self, name), name)
+                                        for name in ("dx", "dy", "west", "south", "deg_lon", "deg_lat")})
 
     @property
     def shape(self) -> tuple[int, int]:

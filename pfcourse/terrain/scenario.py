@@ -44,7 +44,9 @@ from pfcourse.checks import (
     check_covariance,
     check_interval,
     check_real,
+    check_simulated,
     covariance_factor,
+    set_checked,
 )
 from pfcourse.errors import ParameterError
 from pfcourse.metrics import position_error  # noqa: F401  (its home was here; the chapters import it from here)
@@ -91,13 +93,13 @@ class AircraftScenario:
             value = check_real(getattr(self, name), name)  # a finite real number
             if name != "omega" and (value <= 0 if name != "speed" else value < 0):
                 raise ParameterError(f"{name} must be {'non-negative' if name == 'speed' else 'positive'}, got {value}")
+            set_checked(self, **{name: value})
         if not self.duration / self.dt <= MAX_STEPS:
             raise ParameterError(f"duration / dt = {self.duration / self.dt:.3g} steps: at most {MAX_STEPS} "
                                  f"(dt = {self.dt} s is too small for duration = {self.duration} s)")
-        check_interval(self.gap, "gap")
-        object.__setattr__(self, "x0", as_vector(self.x0, "x0", 4, finite=True))
-        object.__setattr__(self, "P0", check_covariance(self.P0, "P0", 4))
-        object.__setattr__(self, "Qf", check_covariance(self.Qf, "Qf", 4))
+        set_checked(self, gap=check_interval(self.gap, "gap"))
+        set_checked(self, x0=as_vector(self.x0, "x0", 4, finite=True), P0=check_covariance(self.P0, "P0", 4),
+                    Qf=check_covariance(self.Qf, "Qf", 4))
 
     def with_(self, **changes) -> AircraftScenario:
         """A copy with some parameters changed (checked again)."""
@@ -130,6 +132,16 @@ class AircraftScenario:
     def model(self, terrain: TerrainMap) -> TerrainModel:
         """The particle filter's model of this scenario over ``terrain``."""
         return TerrainModel(terrain, self)
+
+
+def _check_flight(scenario, terrain) -> None:
+    """``scenario`` must be an :class:`AircraftScenario` and ``terrain`` a :class:`TerrainMap` (whose
+    fields are checked when they are built): a named ``ParameterError`` otherwise."""
+    if not isinstance(scenario, AircraftScenario):
+        raise ParameterError(f"scenario must be an AircraftScenario, got {type(scenario).__name__}")
+    if not isinstance(terrain, TerrainMap):
+        raise ParameterError(f"terrain must be a TerrainMap (load_jacksboro(), or TerrainMap(heights, dx, dy)), "
+                             f"got {type(terrain).__name__}")
 
 
 def propagate(states: Array, speed: float, omega: float, dt: float) -> Array:
@@ -176,6 +188,7 @@ class TerrainModel:
     angle_indices = (3,)
 
     def __init__(self, terrain: TerrainMap, scenario: AircraftScenario) -> None:
+        _check_flight(scenario, terrain)
         self.terrain = terrain
         self.scenario = scenario
         self._init_factor = covariance_factor(scenario.P0)
@@ -217,19 +230,18 @@ class Flight:
 def simulate(
     scenario: AircraftScenario,
     terrain: TerrainMap,
-    rng: np.random.Generator | int,
+    rng: np.random.Generator | int | None = None,
     *,
     initial_state: Array | None = None,
 ) -> Flight:
     """Draw the true initial state from ``N(x0, P0)`` (unless given), fly, and measure.
 
+    ``rng`` (a Generator or an integer seed) must be given: :class:`~pfcourse.errors.ParameterError`
+    otherwise.
     The true dynamics have no process noise; readings are ``z - h(x, y) + N(0, R)``.
     The flight must stay on the map: :class:`~pfcourse.errors.OffMapError` otherwise.
     """
-    if not isinstance(scenario, AircraftScenario):
-        raise ParameterError(f"scenario must be an AircraftScenario, got {type(scenario).__name__}")
-    if not isinstance(terrain, TerrainMap):
-        raise ParameterError(f"terrain must be a TerrainMap, got {type(terrain).__name__}")
+    _check_flight(scenario, terrain)
     rng = as_generator(rng)
     s = scenario
     if initial_state is None:
@@ -242,9 +254,11 @@ def simulate(
     X[0] = state
     for k in range(1, K):
         X[k] = propagate(X[k - 1], s.speed, s.omega, s.dt)
+    check_simulated("states", X)
     ground = terrain.height_checked(X[:, 0], X[:, 1])
     noise = rng.normal(0.0, np.sqrt(s.R), K)
     Z = np.where(s.measured(), X[:, 2] - ground + noise, np.nan)[:, None]
+    check_simulated("altimeter readings", Z, missing=True)
     return Flight(T=s.times, truth=X, measurements=Z, terrain_height=ground)
 
 
