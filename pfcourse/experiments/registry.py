@@ -1,0 +1,243 @@
+"""The book's stored studies, each one record registered here, run one way and stored one way.
+
+A study too heavy to run while the book executes is a :class:`Study`: a name, a grid of
+settings, a row function ``row(seed=..., **setting) -> metrics``, a number of runs and the
+rule that gives run ``r`` its seed, one failure policy, and where its table is stored.
+Every study is run by :func:`pfcourse.experiments.study.run_study` (on any executor) and
+stored by :mod:`pfcourse.experiments.store`, its provenance beside it
+(:func:`pfcourse.experiments.provenance.write_provenance`)::
+
+    python3 tasks.py study NAME       # NAME: a study, or a group such as robot_studies
+
+``tests/test_stored_studies.py`` re-computes a seeded sample of every registered study's
+stored rows (among its ``cheap`` rows) from their recorded settings and seeds, and requires
+the same numbers, float for float.
+
+**Adding a study**: write its row function in the experiments module of its scenario (a
+module-level function, so that a process pool can send it), add a :class:`Study` to
+:data:`STUDIES` below, run ``python3 tasks.py study NAME`` after committing the code (the
+provenance names the commit), and commit the table.
+"""
+
+from __future__ import annotations
+
+import sys
+import time
+from collections.abc import Callable, Mapping, Sequence
+from dataclasses import dataclass, field
+from functools import partial
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+from pfcourse.errors import ParameterError, StepError
+from pfcourse.experiments import rb_study, robot_studies, sir_fixes_study, terrain_studies
+from pfcourse.experiments.provenance import launch_commit, write_provenance
+from pfcourse.experiments.robot import pf_run
+from pfcourse.experiments.store import DATA, load, save
+from pfcourse.experiments.study import grid_settings, run_study
+from pfcourse.seeding import replicate_seed
+
+#: Seed rules: the seed of run ``r``.
+SEED_RULES: dict[str, Callable[[int], int]] = {
+    "replicate": lambda r: replicate_seed(0, r),  # run_study's default: SeedSequence([0, r])
+    "run": lambda r: r,  # the run index itself
+}
+#: Failure policies: ``record`` keeps a collapsed run as a row with ``status="failed"`` and its
+#: message (run_study's rule); ``raise`` stops the study (its table has no status column).
+FAILURES = ("record", "raise")
+
+
+@dataclass(frozen=True)
+class Study:
+    """One stored study: what to run, how it is seeded, and where its table goes.
+
+    ``grid`` is one grid (``{parameter: values}``, every combination) or a tuple of grids
+    run one after the other (settings that are not a product).  Run ``r`` of every setting has
+    the seed ``SEED_RULES[seeds](r)`` (common random numbers).  The table is run_study's rows,
+    grid after grid, then stably sorted by ``order`` (each column in order of first
+    appearance) and cut to ``columns`` (``None``: all).  A stored row's seed is in its
+    ``seed_column``.
+    """
+
+    name: str
+    row: Callable[..., Mapping]
+    grid: Mapping[str, Sequence] | tuple[Mapping[str, Sequence], ...]
+    n_runs: int
+    table: str  # CSV path under book/data
+    provenance: str  # JSON path under book/data (shared by the studies of a group)
+    seeds: str = "replicate"
+    failures: str = "record"
+    columns: tuple[str, ...] | None = None
+    order: tuple[str, ...] = ()
+    seed_column: str = "seed"
+    literals: tuple[str, ...] = ()  # columns stored as Python literals (store.save)
+    arrays: tuple[str, ...] = ()  # per-step columns stored in NAME.npz (store.save)
+    volatile: tuple[str, ...] = ("seconds",)  # wall times: never re-computed
+    cheap: Callable[[pd.DataFrame], pd.Series] | None = None  # stored rows quick enough to re-compute
+    sample: int = 2  # rows re-computed by the test
+    row_code: str = ""
+    fields: Mapping = field(default_factory=dict)  # the study's own provenance fields
+
+    def __post_init__(self) -> None:
+        if self.seeds not in SEED_RULES or self.failures not in FAILURES:
+            raise ParameterError(f"study {self.name}: seeds must be one of {list(SEED_RULES)} and failures one "
+                                 f"of {FAILURES}, got {self.seeds!r}, {self.failures!r}")
+
+    @property
+    def grids(self) -> tuple[Mapping[str, Sequence], ...]:
+        return (self.grid,) if isinstance(self.grid, Mapping) else tuple(self.grid)
+
+    @property
+    def path(self) -> Path:
+        return DATA / self.table
+
+    def compute(self, n_runs: int | None = None, **options) -> pd.DataFrame:
+        """The study's table as it is stored (``options`` go to :func:`run_study`: ``executor``, ``progress``)."""
+        n_runs = self.n_runs if n_runs is None else n_runs
+        seeds = [SEED_RULES[self.seeds](r) for r in range(n_runs)]
+        options = {"progress": False, **options}
+        table = pd.concat([run_study(self.row, grid, n_runs, seeds=seeds, **options) for grid in self.grids],
+                          ignore_index=True)
+        if self.failures == "raise" and (table["status"] != "ok").any():
+            failed = table[table["status"] != "ok"].iloc[0]
+            raise StepError(f"study {self.name}: run {failed['run']} failed ({failed['error']})")
+        table = self._ordered(table)
+        return table[list(self.columns)] if self.columns is not None else table
+
+    def layout(self, n_runs: int | None = None) -> pd.DataFrame:
+        """Setting, ``run`` and ``seed`` of every row of the table, in the stored order (nothing is run)."""
+        n_runs = self.n_runs if n_runs is None else n_runs
+        rows = [{**setting, "run": r, "seed": SEED_RULES[self.seeds](r)}
+                for grid in self.grids for setting in grid_settings(grid) for r in range(n_runs)]
+        return self._ordered(pd.DataFrame(rows))
+
+    def _ordered(self, table: pd.DataFrame) -> pd.DataFrame:
+        """``table`` stably sorted by ``order`` (each column in order of first appearance)."""
+        if not self.order:
+            return table
+        keys = [pd.factorize(table[column])[0] for column in self.order]
+        return table.iloc[np.lexsort(keys[::-1])].reset_index(drop=True)  # lexsort is stable
+
+    def load(self) -> pd.DataFrame:
+        """The stored table (as :meth:`compute` returns it, ``seconds`` as stored)."""
+        if not self.path.exists():
+            raise FileNotFoundError(f"{self.path} is missing: run `python3 tasks.py study {self.name}`")
+        return load(self.path, literals=self.literals, arrays=self.arrays)
+
+    def save(self, table: pd.DataFrame) -> None:
+        save(self.path, table, literals=self.literals, arrays=self.arrays)
+
+    def setting(self, stored: Mapping) -> dict:
+        """The grid setting of a stored row, with the grid's own values (as the study passed them)."""
+        for grid in self.grids:
+            setting = {}
+            for key, values in grid.items():
+                match = [v for v in values if same(v, stored[key])]
+                if not match:
+                    break
+                setting[key] = match[0]
+            else:
+                return setting
+        raise ParameterError(f"study {self.name}: no setting of its grid matches the stored row {dict(stored)!r:.200}")
+
+    def recompute(self, stored: Mapping) -> Mapping:
+        """Re-run one stored row from its setting and recorded seed."""
+        return self.row(seed=int(stored[self.seed_column]), **self.setting(stored))
+
+
+def same(a, b) -> bool:
+    """``a == b`` for settings and metrics (``None``, tuples, arrays, NaN equal to NaN)."""
+    if isinstance(a, np.ndarray) or isinstance(b, np.ndarray):
+        return np.array_equal(a, b, equal_nan=True)
+    if isinstance(a, float) and isinstance(b, float) and np.isnan(a) and np.isnan(b):
+        return True
+    try:
+        return bool(a == b)
+    except (TypeError, ValueError):
+        return False
+
+
+def _robot_study(name: str, grid: dict, options: dict) -> Study:
+    return Study(name=f"robot_studies/{name}", row=partial(pf_run, **{**robot_studies.DEFAULTS, **options}),
+                 grid=grid, n_runs=robot_studies.N_RUNS, table=f"robot_studies/{name}.csv",
+                 provenance="robot_studies/provenance.json", literals=robot_studies.literal_columns(name), arrays=robot_studies.ARRAY_COLUMNS,
+                 row_code="pfcourse/experiments/robot.py (pf_run)", fields={"grid": grid, "options": options})
+
+
+#: Every stored study, by name.  A group (``robot_studies``) is the studies named ``group/...``.
+STUDIES: dict[str, Study] = {study.name: study for study in [
+    Study(name="sir_fixes", row=sir_fixes_study.row,
+          grid={"variant": sir_fixes_study.VARIANTS, "N": sir_fixes_study.N_VALUES}, n_runs=100, seeds="run",
+          failures="raise", table="sir_fixes.csv", provenance="sir_fixes.json",
+          columns=("variant", "N", "seed", "error", "coverage"), cheap=lambda t: t["N"] <= 300, sample=4,
+          row_code="pfcourse/experiments/sir_fixes_study.py",
+          fields={"seeds": "0-99; filter seed s + 10**6; threshold N/3",
+                  "landmark_noise": sir_fixes_study.LANDMARK_NOISE}),
+    Study(name="rao_blackwell", row=rb_study.row,
+          grid=tuple(g for scenario, n_values in rb_study.N_VALUES.items()
+                     for g in ({"scenario": [scenario], "method": ["kalman"], "N": [0]},
+                               {"scenario": [scenario], "method": list(rb_study.METHODS), "N": n_values})),
+          n_runs=100, seeds="run", failures="raise", table="rao_blackwell.csv", provenance="rao_blackwell.json",
+          columns=rb_study.COLUMNS, order=("scenario", "run"), volatile=("seconds", "seconds_per_step"),
+          cheap=lambda t: (t["method"] != "kalman") & (t["N"] <= 300), sample=3,
+          row_code="pfcourse/experiments/rb_study.py, pfcourse/landmarks/rao_blackwell.py, pfcourse/landmarks/auxiliary.py",
+          fields={"methods": rb_study.METHODS, "threshold": rb_study.THRESHOLD,
+                  "seeds": "simulation seed s, filter seed s + 10**6 (same for every method and N)"}),
+    *(_robot_study(name, grid, options) for name, (grid, options) in robot_studies.STUDIES.items()),
+    Study(name="terrain_studies", row=terrain_studies.row,
+          grid=tuple({"study": [study], "setting": list(group)} for study, group in terrain_studies.STUDIES.items()),
+          n_runs=100, seeds="run", failures="raise", table="terrain_studies.csv", provenance="terrain_studies.json",
+          columns=terrain_studies.COLUMNS, seed_column="flight",
+          cheap=lambda t: t["setting"] != "every 0.1 s, dt = 0.1 s", sample=3,  # the 10 Hz runs take seconds each
+          row_code="pfcourse/experiments/terrain_studies.py (study_row)",
+          fields={"baseline": {"N": terrain_studies.BASELINE_N, "threshold": terrain_studies.BASELINE_THRESHOLD,
+                               "scheme": terrain_studies.BASELINE_SCHEME, "kernel_scale": terrain_studies.KERNEL_SCALE},
+                  "studies": terrain_studies.STUDIES,
+                  "seeds": "flight r: pfcourse.seeding.data_rng(0, r); filter: pfcourse.seeding.filter_rng(0, r)",
+                  "divergence": "final horizontal error > 500 m or every particle lost"}),
+]}
+
+
+def select(name: str) -> list[Study]:
+    """The study ``name``, or every study of the group ``name``."""
+    chosen = [STUDIES[name]] if name in STUDIES else [s for s in STUDIES.values() if s.name.startswith(name + "/")]
+    if not chosen:
+        groups = sorted({n.split("/")[0] for n in STUDIES})
+        raise ParameterError(f"unknown study {name!r}; registered: {', '.join(groups)} "
+                             f"(or one study of a group: {', '.join(n for n in STUDIES if '/' in n)})")
+    return chosen
+
+
+def run(name: str, **options) -> None:
+    """Compute and store the study (or group) ``name``, then its provenance record."""
+    studies = select(name)
+    start, commit = time.time(), launch_commit()
+    records = {}
+    for study in studies:
+        t0 = time.time()
+        table = study.compute(**options)
+        study.save(table)
+        records[study.name] = {"row": getattr(study.row, "__name__", repr(study.row)), "grid": study.grid,
+                               "n_runs": study.n_runs, "seeds": study.seeds, "failures": study.failures,
+                               "rows": len(table), "seconds": round(time.time() - t0, 1), **study.fields}
+        print(f"{study.name}: {len(table)} rows, {records[study.name]['seconds']} s", flush=True)
+    for path in {study.provenance for study in studies}:
+        write_provenance(DATA / path, code="pfcourse/experiments/registry.py", commit=commit,
+                         seconds=time.time() - start, row_code=sorted({s.row_code for s in studies}),
+                         seed_rules={"replicate": "run r: pfcourse.seeding.replicate_seed(0, r)", "run": "run r: r"},
+                         seconds_column="wall time of one run on a shared 2-core machine: indicative only",
+                         studies={s.name: records[s.name] for s in studies if s.provenance == path})
+
+
+def main(argv: Sequence[str]) -> int:
+    if len(argv) != 1:
+        print("usage: python3 tasks.py study NAME", file=sys.stderr)
+        return 2
+    run(argv[0])
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main(sys.argv[1:]))
