@@ -235,7 +235,11 @@ def main(argv: Sequence[str]) -> int:
     if len(argv) != 1:
         print("usage: python3 tasks.py study NAME", file=sys.stderr)
         return 2
-    run(argv[0])
+    try:
+        run(argv[0])
+    except ParameterError as exc:
+        print(f"error: {exc}", file=sys.stderr)
+        return 2
     return 0
 
 
