@@ -32,17 +32,17 @@ import numpy as np
 import pandas as pd
 
 from pfcourse.errors import ParameterError, StepError
-from pfcourse.experiments import rb_study, robot_studies, sir_fixes_study, terrain_studies
+from pfcourse.experiments import rb_study, robot_studies, sir_fixes_study, terrain_remedies, terrain_studies
 from pfcourse.experiments.provenance import launch_commit, write_provenance
 from pfcourse.experiments.robot import pf_run
 from pfcourse.experiments.store import DATA, load, save
 from pfcourse.experiments.study import grid_settings, run_study
 from pfcourse.seeding import replicate_seed
 
-#: Seed rules: the seed of run ``r``.
-SEED_RULES: dict[str, Callable[[int], int]] = {
-    "replicate": lambda r: replicate_seed(0, r),  # run_study's default: SeedSequence([0, r])
-    "run": lambda r: r,  # the run index itself
+#: Seed rules: the seed of run ``r`` of a study with base seed ``b``.
+SEED_RULES: dict[str, Callable[[int, int], int]] = {
+    "replicate": replicate_seed,  # run_study's default: SeedSequence([b, r])
+    "run": lambda b, r: b + r,  # the run's number, counted from b (a flight, a simulation seed)
 }
 #: Failure policies: ``record`` keeps a collapsed run as a row with ``status="failed"`` and its
 #: message (run_study's rule); ``raise`` stops the study (its table has no status column).
@@ -55,10 +55,10 @@ class Study:
 
     ``grid`` is one grid (``{parameter: values}``, every combination) or a tuple of grids
     run one after the other (settings that are not a product).  Run ``r`` of every setting has
-    the seed ``SEED_RULES[seeds](r)`` (common random numbers).  The table is run_study's rows,
+    the seed ``SEED_RULES[seeds](base_seed, r)`` (common random numbers).  The table is run_study's rows,
     grid after grid, then stably sorted by ``order`` (each column in order of first
     appearance) and cut to ``columns`` (``None``: all).  A stored row's seed is in its
-    ``seed_column``.
+    ``seed_column``, and its setting in the grid's columns (or those named by ``stored_as``).
     """
 
     name: str
@@ -68,10 +68,12 @@ class Study:
     table: str  # CSV path under book/data
     provenance: str  # JSON path under book/data (shared by the studies of a group)
     seeds: str = "replicate"
+    base_seed: int = 0
     failures: str = "record"
     columns: tuple[str, ...] | None = None
     order: tuple[str, ...] = ()
     seed_column: str = "seed"
+    stored_as: Mapping[str, str] = field(default_factory=dict)  # grid parameter -> its stored column, if renamed
     literals: tuple[str, ...] = ()  # columns stored as Python literals (store.save)
     arrays: tuple[str, ...] = ()  # per-step columns stored in NAME.npz (store.save)
     volatile: tuple[str, ...] = ("seconds",)  # wall times: never re-computed
@@ -96,7 +98,7 @@ class Study:
     def compute(self, n_runs: int | None = None, **options) -> pd.DataFrame:
         """The study's table as it is stored (``options`` go to :func:`run_study`: ``executor``, ``progress``)."""
         n_runs = self.n_runs if n_runs is None else n_runs
-        seeds = [SEED_RULES[self.seeds](r) for r in range(n_runs)]
+        seeds = [SEED_RULES[self.seeds](self.base_seed, r) for r in range(n_runs)]
         options = {"progress": False, **options}
         table = pd.concat([run_study(self.row, grid, n_runs, seeds=seeds, **options) for grid in self.grids],
                           ignore_index=True)
@@ -109,7 +111,7 @@ class Study:
     def layout(self, n_runs: int | None = None) -> pd.DataFrame:
         """Setting, ``run`` and ``seed`` of every row of the table, in the stored order (nothing is run)."""
         n_runs = self.n_runs if n_runs is None else n_runs
-        rows = [{**setting, "run": r, "seed": SEED_RULES[self.seeds](r)}
+        rows = [{**setting, "run": r, "seed": SEED_RULES[self.seeds](self.base_seed, r)}
                 for grid in self.grids for setting in grid_settings(grid) for r in range(n_runs)]
         return self._ordered(pd.DataFrame(rows))
 
@@ -134,7 +136,7 @@ class Study:
         for grid in self.grids:
             setting = {}
             for key, values in grid.items():
-                match = [v for v in values if same(v, stored[key])]
+                match = [v for v in values if same(v, stored[self.stored_as.get(key, key)])]
                 if not match:
                     break
                 setting[key] = match[0]
@@ -186,6 +188,21 @@ STUDIES: dict[str, Study] = {study.name: study for study in [
           fields={"methods": rb_study.METHODS, "threshold": rb_study.THRESHOLD,
                   "seeds": "simulation seed s, filter seed s + 10**6 (same for every method and N)"}),
     *(_robot_study(name, grid, options) for name, (grid, options) in robot_studies.STUDIES.items()),
+    Study(name="terrain_remedies", row=terrain_remedies.row, grid={"setting": terrain_remedies.STORED_SETTINGS},
+          n_runs=100, seeds="run", failures="raise", table="terrain_remedies.csv", provenance="terrain_remedies.json",
+          columns=terrain_remedies.COLUMNS, seed_column="flight", cheap=lambda t: t["N"] <= 10000, sample=4,
+          row_code="pfcourse/experiments/terrain_remedies.py (run_one)",
+          fields={"settings": terrain_remedies.SETTINGS,
+                  "seeds": "flight r: pfcourse.seeding.data_rng(0, r); filter: pfcourse.seeding.filter_rng(0, r)",
+                  "divergence": "final horizontal error > 500 m or every particle lost"}),
+    Study(name="terrain_reference", row=terrain_remedies.reference_row,
+          grid={"N": terrain_remedies.REFERENCE_SIZES, "repeat": terrain_remedies.REFERENCE_REPEATS},
+          n_runs=5, seeds="run", failures="raise", table="terrain_reference.csv", provenance="terrain_reference.json",
+          columns=terrain_remedies.REFERENCE_COLUMNS, order=("run",), seed_column="flight",
+          stored_as={"repeat": "seed"}, cheap=lambda t: t["N"] == t["N"].min(), sample=1,  # about 10 s a row
+          row_code="pfcourse/experiments/terrain_remedies.py (reference_row)",
+          fields={"seeds": "flight r: pfcourse.seeding.data_rng(0, r); filter: pfcourse.seeding.reference_rng(0, r, repeat)",
+                  "filter": "bootstrap, systematic resampling at ESS < N/2"}),
     Study(name="terrain_studies", row=terrain_studies.row,
           grid=tuple({"study": [study], "setting": list(group)} for study, group in terrain_studies.STUDIES.items()),
           n_runs=100, seeds="run", failures="raise", table="terrain_studies.csv", provenance="terrain_studies.json",
@@ -220,13 +237,15 @@ def run(name: str, **options) -> None:
         table = study.compute(**options)
         study.save(table)
         records[study.name] = {"row": getattr(study.row, "__name__", repr(study.row)), "grid": study.grid,
-                               "n_runs": study.n_runs, "seeds": study.seeds, "failures": study.failures,
+                               "n_runs": study.n_runs, "seeds": study.seeds,
+                               "base_seed": study.base_seed, "failures": study.failures,
                                "rows": len(table), "seconds": round(time.time() - t0, 1), **study.fields}
         print(f"{study.name}: {len(table)} rows, {records[study.name]['seconds']} s", flush=True)
     for path in {study.provenance for study in studies}:
         write_provenance(DATA / path, code="pfcourse/experiments/registry.py", commit=commit,
                          seconds=time.time() - start, row_code=sorted({s.row_code for s in studies}),
-                         seed_rules={"replicate": "run r: pfcourse.seeding.replicate_seed(0, r)", "run": "run r: r"},
+                         seed_rules={"replicate": "run r: pfcourse.seeding.replicate_seed(base_seed, r)",
+                                     "run": "run r: base_seed + r"},
                          seconds_column="wall time of one run on a shared 2-core machine: indicative only",
                          studies={s.name: records[s.name] for s in studies if s.provenance == path})
 

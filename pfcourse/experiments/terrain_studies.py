@@ -21,11 +21,10 @@ from __future__ import annotations
 import numpy as np
 
 from pfcourse.errors import DegenerateWeightsError, ParameterError
-from pfcourse.experiments.terrain import DIVERGED_ERROR
+from pfcourse.experiments.terrain import DIVERGED_ERROR, jacksboro
 from pfcourse.filter import ParticleFilter
 from pfcourse.remedies import RegularisedJitter
 from pfcourse.seeding import data_rng, filter_rng
-from pfcourse.terrain.map import load_jacksboro
 from pfcourse.terrain.scenario import AircraftScenario, position_error, simulate
 
 BASELINE_N = 30000
@@ -53,7 +52,6 @@ FILTER_KEYS = ("n_particles", "threshold", "resampler")
 #: The stored columns of book/data/terrain_studies.csv, in order.
 COLUMNS = ("study", "setting", "flight", "final_error", "mean_error", "lost", "sigma_50", "sigma_75",
            "resamplings", "median_ess_fraction", "seconds")
-_TERRAIN = []  # the map, loaded once per process by row()
 
 
 def settings() -> list[tuple[str, str]]:
@@ -101,6 +99,4 @@ def study_row(study: str, setting: str, flight: int, terrain) -> dict:
 
 def row(seed: int, study: str, setting: str) -> dict:
     """The study's row function (``run_study``'s ``run_one``): :func:`study_row` of flight ``seed``."""
-    if not _TERRAIN:
-        _TERRAIN.append(load_jacksboro())
-    return study_row(study, setting, seed, _TERRAIN[0])
+    return study_row(study, setting, seed, jacksboro())
