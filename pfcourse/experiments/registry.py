@@ -32,6 +32,7 @@ import numpy as np
 import pandas as pd
 
 from pfcourse.errors import ParameterError, StepError
+from pfcourse.experiments import likelihood_studies as ls
 from pfcourse.experiments import rb_study, robot_studies, sir_fixes_study, terrain_remedies, terrain_studies
 from pfcourse.experiments.provenance import launch_commit, write_provenance
 from pfcourse.experiments.robot import pf_run
@@ -72,10 +73,11 @@ class Study:
     failures: str = "record"
     columns: tuple[str, ...] | None = None
     order: tuple[str, ...] = ()
-    seed_column: str = "seed"
+    seed_column: str | None = "seed"  # None: the table keeps no seed (one run, its seed the rule's)
     stored_as: Mapping[str, str] = field(default_factory=dict)  # grid parameter -> its stored column, if renamed
     literals: tuple[str, ...] = ()  # columns stored as Python literals (store.save)
     arrays: tuple[str, ...] = ()  # per-step columns stored in NAME.npz (store.save)
+    errors_as_text: bool = False  # empty error messages read back as "" (store.load)
     volatile: tuple[str, ...] = ("seconds",)  # wall times: never re-computed
     cheap: Callable[[pd.DataFrame], pd.Series] | None = None  # stored rows quick enough to re-compute
     sample: int = 2  # rows re-computed by the test
@@ -86,6 +88,8 @@ class Study:
         if self.seeds not in SEED_RULES or self.failures not in FAILURES:
             raise ParameterError(f"study {self.name}: seeds must be one of {list(SEED_RULES)} and failures one "
                                  f"of {FAILURES}, got {self.seeds!r}, {self.failures!r}")
+        if self.seed_column is None and self.n_runs != 1:
+            raise ParameterError(f"study {self.name}: a table that keeps no seed column must have one run per setting")
 
     @property
     def grids(self) -> tuple[Mapping[str, Sequence], ...]:
@@ -126,7 +130,7 @@ class Study:
         """The stored table (as :meth:`compute` returns it, ``seconds`` as stored)."""
         if not self.path.exists():
             raise FileNotFoundError(f"{self.path} is missing: run `python3 tasks.py study {self.name}`")
-        return load(self.path, literals=self.literals, arrays=self.arrays)
+        return load(self.path, literals=self.literals, arrays=self.arrays, errors_as_text=self.errors_as_text)
 
     def save(self, table: pd.DataFrame) -> None:
         save(self.path, table, literals=self.literals, arrays=self.arrays)
@@ -146,7 +150,8 @@ class Study:
 
     def recompute(self, stored: Mapping) -> Mapping:
         """Re-run one stored row from its setting and recorded seed."""
-        return self.row(seed=int(stored[self.seed_column]), **self.setting(stored))
+        seed = SEED_RULES[self.seeds](self.base_seed, 0) if self.seed_column is None else int(stored[self.seed_column])
+        return self.row(seed=seed, **self.setting(stored))
 
 
 def same(a, b) -> bool:
@@ -161,11 +166,18 @@ def same(a, b) -> bool:
         return False
 
 
+def _likelihood_study(name: str, row: Callable, grid: dict, n_runs: int, base_seed: int, **options) -> Study:
+    """A Part V study: run_study's table without its wall times, in book/data/likelihood/."""
+    return Study(name=f"likelihood/{name}", row=row, grid=grid, n_runs=n_runs, base_seed=base_seed,
+                 table=f"likelihood/{name}.csv", provenance=f"likelihood/{name}.json",
+                 row_code=f"pfcourse/experiments/likelihood_studies.py ({row.__name__})", **options)
+
+
 def _robot_study(name: str, grid: dict, options: dict) -> Study:
     return Study(name=f"robot_studies/{name}", row=partial(pf_run, **{**robot_studies.DEFAULTS, **options}),
                  grid=grid, n_runs=robot_studies.N_RUNS, table=f"robot_studies/{name}.csv",
                  provenance="robot_studies/provenance.json", literals=robot_studies.literal_columns(name), arrays=robot_studies.ARRAY_COLUMNS,
-                 row_code="pfcourse/experiments/robot.py (pf_run)", fields={"grid": grid, "options": options})
+                 errors_as_text=True, row_code="pfcourse/experiments/robot.py (pf_run)", fields={"grid": grid, "options": options})
 
 
 #: Every stored study, by name.  A group (``robot_studies``) is the studies named ``group/...``.
@@ -188,6 +200,28 @@ STUDIES: dict[str, Study] = {study.name: study for study in [
           fields={"methods": rb_study.METHODS, "threshold": rb_study.THRESHOLD,
                   "seeds": "simulation seed s, filter seed s + 10**6 (same for every method and N)"}),
     *(_robot_study(name, grid, options) for name, (grid, options) in robot_studies.STUDIES.items()),
+    *(_likelihood_study(name, row, {"n_particles": n}, runs, seed, columns=("n_particles", "run", "seed", "status", "error", *metrics), **options)
+      for name, row, n, runs, seed, metrics, options in [
+          ("bias", ls.bias_run, ls.N_BIAS, ls.N_BIAS_RUNS, ls.BIAS_SEED, ["log_ratio"], {"sample": 3}),
+          ("ml", ls.ml_run, ls.N_ML, ls.N_ML_DATASETS, ls.ML_SEED,
+           ["theta_kalman", "theta_pf", "nfev_kalman", "nfev_pf"], {}),
+          ("robot_noise", ls.robot_noise_run, [ls.N_ROBOT_ML], ls.ROBOT_NOISE_RUNS, ls.ROBOT_NOISE_SEED,
+           ["q_ml", "r_ml", "nfev", "rmse_ml", "nees_ml", "rmse_hand", "nees_hand", "rmse_truth", "nees_truth"],
+           {"sample": 1}),
+          ("smoothing_landmarks", ls.landmarks_run, ls.N_A, ls.N_A_RUNS, ls.A_SEED,
+           ["smoother_vs_rts", "filter_vs_kalman", "rts_truth_error", "kalman_truth_error", "smoother_ess_median"],
+           {"sample": 1, "cheap": lambda t: t["n_particles"] == t["n_particles"].min()}),
+          ("smoothing_robot", ls.robot_gap_run, [ls.N_ROBOT_GAP], ls.ROBOT_GAP_RUNS, ls.ROBOT_GAP_SEED,
+           ["filter_gap_error", "smoother_gap_error", "filter_outside_error", "smoother_outside_error",
+            "smoother_gap_ess_median"], {"sample": 1}),
+      ]),
+    _likelihood_study("terrain_rf", ls.terrain_rf_run,
+                      {"flight": list(range(ls.N_TERRAIN_FLIGHTS)), "n_particles": [ls.N_TERRAIN]}, 1, 0,
+                      columns=("flight", "n_particles", "run", "seed", "status", "error", "rf_scale_ml", "nfev",
+                               "log_lik_ml", "log_lik_truth"), sample=1),
+    _likelihood_study("grid2", ls.grid2_cell, {"i": list(range(ls.GRID2)), "j": list(range(ls.GRID2))}, 1, 0,
+                      failures="raise", seed_column=None, sample=5,
+                      columns=("i", "j", "log_theta_q", "log_theta_r", "log_likelihood")),
     Study(name="terrain_remedies", row=terrain_remedies.row, grid={"setting": terrain_remedies.STORED_SETTINGS},
           n_runs=100, seeds="run", failures="raise", table="terrain_remedies.csv", provenance="terrain_remedies.json",
           columns=terrain_remedies.COLUMNS, seed_column="flight", cheap=lambda t: t["N"] <= 10000, sample=4,
@@ -242,7 +276,9 @@ def run(name: str, **options) -> None:
                                "rows": len(table), "seconds": round(time.time() - t0, 1), **study.fields}
         print(f"{study.name}: {len(table)} rows, {records[study.name]['seconds']} s", flush=True)
     for path in {study.provenance for study in studies}:
+        tables = [s.table for s in studies if s.provenance == path]
         write_provenance(DATA / path, code="pfcourse/experiments/registry.py", commit=commit,
+                         file=Path(tables[0]).name if len(tables) == 1 else tables,
                          seconds=time.time() - start, row_code=sorted({s.row_code for s in studies}),
                          seed_rules={"replicate": "run r: pfcourse.seeding.replicate_seed(base_seed, r)",
                                      "run": "run r: base_seed + r"},

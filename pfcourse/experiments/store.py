@@ -9,9 +9,10 @@ need more than a number or a plain word:
 * ``arrays``: per-step columns (one NumPy array per row), kept beside the table in
   ``NAME.npz`` (one 2-D array per column, one row per table row, NaN for a run that failed).
 
-A table that keeps :func:`~pfcourse.experiments.study.run_study`'s ``status`` column has its
-empty ``error`` messages read back as ``""`` (not NaN), so that :func:`load` returns the table
-as ``run_study`` made it (``seconds`` as stored).  The provenance of a table (code, commit,
+With ``errors_as_text``, the empty ``error`` messages of
+:func:`~pfcourse.experiments.study.run_study`'s rows are read back as ``""`` (not NaN, what
+``pandas.read_csv`` gives), so that :func:`load` returns the table as ``run_study`` made it
+(``seconds`` as stored).  The provenance of a table (code, commit,
 seeds, settings, wall time) is the JSON record of
 :func:`pfcourse.experiments.provenance.write_provenance`, written beside it.
 """
@@ -51,11 +52,12 @@ def save(path: Path, table: pd.DataFrame, *, literals: Sequence[str] = (), array
         np.savez_compressed(path.with_suffix(".npz"), **stacked)
 
 
-def load(path: Path, *, literals: Sequence[str] = (), arrays: Sequence[str] = ()) -> pd.DataFrame:
+def load(path: Path, *, literals: Sequence[str] = (), arrays: Sequence[str] = (),
+         errors_as_text: bool = False) -> pd.DataFrame:
     """The table stored at ``path`` by :func:`save` (floats exact: pandas >= 3 parses them precisely)."""
     path = Path(path)
     table = pd.read_csv(path, converters={column: ast.literal_eval for column in literals})
-    if "status" in table.columns and "error" in table.columns:
+    if errors_as_text:
         table["error"] = ["" if isinstance(v, float) else v for v in table["error"]]  # read back as NaN
     arrays_path = path.with_suffix(".npz")
     if arrays and arrays_path.exists():
