@@ -72,3 +72,35 @@ def test_unknown_names_and_rules_are_refused():
     assert len(select("robot_studies")) == 9
     with pytest.raises(ParameterError, match="seeds must be one of"):
         Study(name="x", row=dict, grid={"a": [1]}, n_runs=1, table="x.csv", provenance="x.json", seeds="random")
+
+
+def _toy_row(seed, a, b):
+    if a == 3 and seed == 6:
+        raise StepError("lost")
+    return {"x": seed * 0.1 + a, "label": f"{a}{b}"}
+
+
+def test_a_study_is_run_stored_and_recorded_by_name(tmp_path, monkeypatch):
+    """`tasks.py study NAME` end to end on a toy group: tables, order, failures, provenance."""
+    import pfcourse.experiments.registry as registry
+
+    monkeypatch.setattr(registry, "DATA", tmp_path)
+    toys = [Study(name="toy/one", row=_toy_row, grid=({"a": [2], "b": ["p"]}, {"a": [1, 3], "b": ["q"]}), n_runs=2,
+                  seeds="run", base_seed=5, table="toy/one.csv", provenance="toy/provenance.json", order=("run",),
+                  errors_as_text=True),
+            Study(name="toy/two", row=_toy_row, grid={"a": [1], "b": ["r"]}, n_runs=3, table="toy/two.csv",
+                  provenance="toy/provenance.json", columns=("a", "b", "seed", "x"), errors_as_text=True)]
+    for toy in toys:
+        monkeypatch.setitem(registry.STUDIES, toy.name, toy)
+    assert registry.main(["toy"]) == 0
+    one, two = (toy.load() for toy in toys)
+    assert list(zip(one["a"], one["seed"])) == [(2, 5), (1, 5), (3, 5), (2, 6), (1, 6), (3, 6)] == \
+        list(zip(toys[0].layout()["a"], toys[0].layout()["seed"]))
+    assert list(one["status"]) == ["ok"] * 5 + ["failed"] and one["error"].iloc[0] == ""
+    assert list(two.columns) == ["a", "b", "seed", "x"]
+    assert same(two.iloc[1]["x"], toys[1].recompute(two.iloc[1])["x"])
+    record = json.loads((tmp_path / "toy" / "provenance.json").read_text())
+    assert record["code"] == "pfcourse/experiments/registry.py" and set(record["studies"]) == {"toy/one", "toy/two"}
+    assert record["studies"]["toy/one"]["seeds"] == "run r: seed 5 + r" and "n_runs" not in record
+    with pytest.raises(StepError, match="toy/one"):
+        registry.Study(**{**toys[0].__dict__, "failures": "raise"}).compute()

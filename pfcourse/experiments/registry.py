@@ -261,8 +261,16 @@ def select(name: str) -> list[Study]:
     return chosen
 
 
+SEED_TEXT = {"replicate": "run r: pfcourse.seeding.replicate_seed({base}, r)", "run": "run r: seed {base} + r"}
+
+
 def run(name: str, **options) -> None:
-    """Compute and store the study (or group) ``name``, then its provenance record."""
+    """Compute and store the study (or group) ``name``, then its provenance record.
+
+    A study alone in its provenance file has its fields at the top of the record; the studies of
+    a group sharing one file are under ``studies``, with the fields they share (``n_runs``,
+    ``seeds``) also at the top.
+    """
     studies = select(name)
     start, commit = time.time(), launch_commit()
     records = {}
@@ -270,20 +278,19 @@ def run(name: str, **options) -> None:
         t0 = time.time()
         table = study.compute(**options)
         study.save(table)
-        records[study.name] = {"row": getattr(study.row, "__name__", repr(study.row)), "grid": study.grid,
-                               "n_runs": study.n_runs, "seeds": study.seeds,
-                               "base_seed": study.base_seed, "failures": study.failures,
-                               "rows": len(table), "seconds": round(time.time() - t0, 1), **study.fields}
-        print(f"{study.name}: {len(table)} rows, {records[study.name]['seconds']} s", flush=True)
+        records[study.name] = {"file": Path(study.table).name, "row": getattr(study.row, "__name__", repr(study.row)),
+                               "grid": study.grid, "n_runs": study.n_runs, "failures": study.failures,
+                               "seeds": SEED_TEXT[study.seeds].format(base=study.base_seed),
+                               "rows": len(table), "run_seconds": round(time.time() - t0, 1), **study.fields}
+        print(f"{study.name}: {len(table)} rows, {records[study.name]['run_seconds']} s", flush=True)
     for path in {study.provenance for study in studies}:
-        tables = [s.table for s in studies if s.provenance == path]
+        group = [records[s.name] for s in studies if s.provenance == path]
+        shared = {key: group[0][key] for key in ("n_runs", "seeds") if all(r[key] == group[0][key] for r in group)}
+        fields = group[0] if len(group) == 1 else {**shared, "studies": {s.name: records[s.name] for s in studies
+                                                                         if s.provenance == path}}
         write_provenance(DATA / path, code="pfcourse/experiments/registry.py", commit=commit,
-                         file=Path(tables[0]).name if len(tables) == 1 else tables,
                          seconds=time.time() - start, row_code=sorted({s.row_code for s in studies}),
-                         seed_rules={"replicate": "run r: pfcourse.seeding.replicate_seed(base_seed, r)",
-                                     "run": "run r: base_seed + r"},
-                         seconds_column="wall time of one run on a shared 2-core machine: indicative only",
-                         studies={s.name: records[s.name] for s in studies if s.provenance == path})
+                         seconds_column="wall time of one run on a shared 2-core machine: indicative only", **fields)
 
 
 def main(argv: Sequence[str]) -> int:

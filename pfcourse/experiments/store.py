@@ -57,7 +57,7 @@ def load(path: Path, *, literals: Sequence[str] = (), arrays: Sequence[str] = ()
     """The table stored at ``path`` by :func:`save` (floats exact: pandas >= 3 parses them precisely)."""
     path = Path(path)
     table = pd.read_csv(path, converters={column: ast.literal_eval for column in literals})
-    if errors_as_text:
+    if errors_as_text and "error" in table.columns:
         table["error"] = ["" if isinstance(v, float) else v for v in table["error"]]  # read back as NaN
     arrays_path = path.with_suffix(".npz")
     if arrays and arrays_path.exists():
