@@ -51,7 +51,7 @@ def test_a_seeded_sample_of_stored_rows_is_recomputed(study: Study):
         fresh = study.recompute(row)
         for key, value in fresh.items():
             if key in stored.columns and key not in study.volatile:
-                assert same(row[key], value), f"{study.name} row {row.name}: {key} {row[key]!r} != {value!r}"
+                assert same(row[key], value, study.rtol), f"{study.name} row {row.name}: {key} {row[key]!r} != {value!r}"
 
 
 def test_the_store_round_trips_every_kind_of_column(tmp_path):

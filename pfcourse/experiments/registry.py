@@ -21,6 +21,7 @@ provenance names the commit), and commit the table.
 
 from __future__ import annotations
 
+import argparse
 import sys
 import time
 from collections.abc import Callable, Mapping, Sequence
@@ -32,6 +33,7 @@ import numpy as np
 import pandas as pd
 
 from pfcourse.errors import ParameterError, StepError
+from pfcourse.experiments import global_localization
 from pfcourse.experiments import likelihood_studies as ls
 from pfcourse.experiments import rb_study, robot_studies, sir_fixes_study, terrain_remedies, terrain_studies
 from pfcourse.experiments.provenance import launch_commit, write_provenance
@@ -80,6 +82,7 @@ class Study:
     errors_as_text: bool = False  # empty error messages read back as "" (store.load)
     volatile: tuple[str, ...] = ("seconds",)  # wall times: never re-computed
     cheap: Callable[[pd.DataFrame], pd.Series] | None = None  # stored rows quick enough to re-compute
+    rtol: float = 0.0  # re-computed floats must equal the stored ones within rtol (0: exactly; > 0 for rounded tables)
     sample: int = 2  # rows re-computed by the test
     row_code: str = ""
     fields: Mapping = field(default_factory=dict)  # the study's own provenance fields
@@ -154,12 +157,12 @@ class Study:
         return self.row(seed=seed, **self.setting(stored))
 
 
-def same(a, b) -> bool:
-    """``a == b`` for settings and metrics (``None``, tuples, arrays, NaN equal to NaN)."""
+def same(a, b, rtol: float = 0.0) -> bool:
+    """``a == b`` for settings and metrics (``None``, tuples, arrays, NaN equal to NaN), floats within ``rtol``."""
     if isinstance(a, np.ndarray) or isinstance(b, np.ndarray):
         return np.array_equal(a, b, equal_nan=True)
-    if isinstance(a, float) and isinstance(b, float) and np.isnan(a) and np.isnan(b):
-        return True
+    if isinstance(a, float) and isinstance(b, float) and not isinstance(a, bool):
+        return bool(np.isclose(a, b, rtol=rtol, atol=0.0, equal_nan=True)) if rtol else (a == b or (np.isnan(a) and np.isnan(b)))
     try:
         return bool(a == b)
     except (TypeError, ValueError):
@@ -171,6 +174,14 @@ def _likelihood_study(name: str, row: Callable, grid: dict, n_runs: int, base_se
     return Study(name=f"likelihood/{name}", row=row, grid=grid, n_runs=n_runs, base_seed=base_seed,
                  table=f"likelihood/{name}.csv", provenance=f"likelihood/{name}.json",
                  row_code=f"pfcourse/experiments/likelihood_studies.py ({row.__name__})", **options)
+
+
+def _mcl_study(name: str, row: Callable, grid, **options) -> Study:
+    """A table of the global-localization chapter (stored rounded to 10 significant digits: compared at 1e-9)."""
+    return Study(name=f"global_localization/{name}", row=row, grid=grid, n_runs=100, seeds="run", failures="raise",
+                 table=f"global_localization/{name}.csv", provenance="global_localization/provenance.json",
+                 columns=global_localization.COLUMNS[name], rtol=1e-9,
+                 row_code=f"pfcourse/experiments/global_localization.py ({row.__name__})", **options)
 
 
 def _robot_study(name: str, grid: dict, options: dict) -> Study:
@@ -222,6 +233,16 @@ STUDIES: dict[str, Study] = {study.name: study for study in [
     _likelihood_study("grid2", ls.grid2_cell, {"i": list(range(ls.GRID2)), "j": list(range(ls.GRID2))}, 1, 0,
                       failures="raise", seed_column=None, sample=5,
                       columns=("i", "j", "log_theta_q", "log_theta_r", "log_likelihood")),
+    _mcl_study("anatomy", global_localization.anatomy_row, {"n_particles": global_localization.ANATOMY_N},
+               stored_as={"n_particles": "n"}, sample=3),
+    *(_mcl_study(name, row, tuple({"method": [m], "n_particles": [n]} for m, n in pairs),
+                 stored_as={"n_particles": "n"}, **options)
+      for name, row, pairs, options in [
+          ("lockon", global_localization.lockon_row, global_localization.LOCKON,
+           {"sample": 4, "cheap": lambda t: (t["n"] <= 10000) | (t["method"] != "bootstrap")}),  # 30 000: seconds
+          ("kidnap", global_localization.kidnap_row, global_localization.KIDNAP, {"sample": 3})]),
+    _mcl_study("ekf_vs_pf", global_localization.ekf_row, {"setting": list(global_localization.EKF_SETTINGS)},
+               volatile=("pf_seconds", "ekf_seconds"), fields={"ekf_settings": global_localization.EKF_SETTINGS}),
     Study(name="terrain_remedies", row=terrain_remedies.row, grid={"setting": terrain_remedies.STORED_SETTINGS},
           n_runs=100, seeds="run", failures="raise", table="terrain_remedies.csv", provenance="terrain_remedies.json",
           columns=terrain_remedies.COLUMNS, seed_column="flight", cheap=lambda t: t["N"] <= 10000, sample=4,
@@ -279,7 +300,7 @@ def run(name: str, **options) -> None:
         table = study.compute(**options)
         study.save(table)
         records[study.name] = {"file": Path(study.table).name, "row": getattr(study.row, "__name__", repr(study.row)),
-                               "grid": study.grid, "n_runs": study.n_runs, "failures": study.failures,
+                               "grid": study.grid, "n_runs": options.get("n_runs") or study.n_runs, "failures": study.failures,
                                "seeds": SEED_TEXT[study.seeds].format(base=study.base_seed),
                                "rows": len(table), "run_seconds": round(time.time() - t0, 1), **study.fields}
         print(f"{study.name}: {len(table)} rows, {records[study.name]['run_seconds']} s", flush=True)
@@ -294,11 +315,13 @@ def run(name: str, **options) -> None:
 
 
 def main(argv: Sequence[str]) -> int:
-    if len(argv) != 1:
-        print("usage: python3 tasks.py study NAME", file=sys.stderr)
-        return 2
+    """``python3 tasks.py study NAME [--runs R]`` (``--runs``: fewer runs per setting, for a trial)."""
+    parser = argparse.ArgumentParser(prog="python3 tasks.py study", description="Run and store a registered study.")
+    parser.add_argument("name", help="a study or a group: " + ", ".join(sorted({n.split("/")[0] for n in STUDIES})))
+    parser.add_argument("--runs", type=int, default=None, help="runs per setting (default: the study's own; the table is stored all the same)")
+    args = parser.parse_args(argv)
     try:
-        run(argv[0])
+        run(args.name, n_runs=args.runs)
     except ParameterError as exc:
         print(f"error: {exc}", file=sys.stderr)
         return 2
