@@ -11,7 +11,9 @@ stored by :mod:`pfcourse.experiments.store`, its provenance beside it
 
 ``tests/test_stored_studies.py`` re-computes a seeded sample of every registered study's
 stored rows (among its ``cheap`` rows) from their recorded settings and seeds, and requires
-the same numbers, float for float.
+the same numbers, float for float (within ``rtol`` for the tables an older script stored
+rounded), and checks that each table has exactly the settings, seeds and order its record
+describes.
 
 **Adding a study**: write its row function in the experiments module of its scenario (a
 module-level function, so that a process pool can send it), add a :class:`Study` to
@@ -48,7 +50,8 @@ SEED_RULES: dict[str, Callable[[int, int], int]] = {
     "run": lambda b, r: b + r,  # the run's number, counted from b (a flight, a simulation seed)
 }
 #: Failure policies: ``record`` keeps a collapsed run as a row with ``status="failed"`` and its
-#: message (run_study's rule); ``raise`` stops the study (its table has no status column).
+#: message (run_study's rule); ``raise`` refuses to store a table with a collapsed run (its table
+#: has no status column).
 FAILURES = ("record", "raise")
 
 
@@ -193,6 +196,8 @@ def _robot_study(name: str, grid: dict, options: dict) -> Study:
 
 #: Every stored study, by name.  A group (``robot_studies``) is the studies named ``group/...``.
 STUDIES: dict[str, Study] = {study.name: study for study in [
+    # sir_fixes' metric "error" (a distance) takes the place of run_study's message column: the
+    # policy "raise" keeps failed runs out of its table.
     Study(name="sir_fixes", row=sir_fixes_study.row,
           grid={"variant": sir_fixes_study.VARIANTS, "N": sir_fixes_study.N_VALUES}, n_runs=100, seeds="run",
           failures="raise", table="sir_fixes.csv", provenance="sir_fixes.json",
