@@ -16,7 +16,7 @@ from pfcourse.experiments import robot_studies as rs
 def test_provenance_records_the_seeds_and_settings():
     record = json.loads((rs.DATA / "provenance.json").read_text())
     assert record["n_runs"] == rs.N_RUNS
-    assert set(record["studies"]) == set(rs.STUDIES)
+    assert {name.split("/")[-1] for name in record["studies"]} == set(rs.STUDIES)  # (registry: robot_studies/NAME)
     assert record["git_commit"] and "replicate_seed(0, r)" in record["seeds"]
 
 
