@@ -9,7 +9,8 @@
     python3 tasks.py bench         benchmark against a lab-style loop and `particles` (bench/bench.py)
     python3 tasks.py knife-edge    execute notebooks with a last-bit perturbation of the arithmetic
                                    and list the stored outputs that change (tools/perturbed_arithmetic.py)
-    python3 tasks.py study NAME    run the heavy study tools/studies/NAME.py (stored under book/data/)
+    python3 tasks.py study NAME    run the heavy study NAME of pfcourse.experiments.registry and store
+                                   it under book/data/ (with its provenance)
 
 Extra arguments after `test` and `browser-test` go to pytest; after `notebooks`, they name
 the sources to run; after `bench`, see `python3 tasks.py bench --help`. Only the Python
@@ -206,11 +207,16 @@ def knife_edge(args: list[str]) -> None:
 
 
 def study(args: list[str]) -> None:
-    """Run tools/studies/NAME.py (a heavy study stored under book/data/) in the pinned environment."""
-    names = sorted(p.stem for p in (ROOT / "tools" / "studies").glob("*.py"))
-    if not args or args[0] not in names:
-        raise SystemExit(f"usage: python3 tasks.py study NAME [ARGS...]; NAME is one of {', '.join(names)}")
-    run(PY, ROOT / "tools" / "studies" / f"{args[0]}.py", *args[1:])
+    """Run the registered study NAME (pfcourse.experiments.registry; stored under book/data/) in the
+    pinned environment, or, for a study not yet registered, tools/studies/NAME.py."""
+    if not args:
+        raise SystemExit("usage: python3 tasks.py study NAME [ARGS...] (the registered studies: "
+                         "pfcourse.experiments.registry.STUDIES)")
+    script = ROOT / "tools" / "studies" / f"{args[0]}.py"
+    if script.exists():
+        run(PY, script, *args[1:])
+    else:
+        run(PY, "-m", "pfcourse.experiments.registry", *args)
 
 
 def lab(args: list[str]) -> None:

@@ -2,9 +2,6 @@
 
 from __future__ import annotations
 
-import csv
-from pathlib import Path
-
 import numpy as np
 import pytest
 
@@ -13,10 +10,6 @@ from pfcourse.proposals import FullyAdaptedAuxiliary, LinearGaussianOptimal
 from pfcourse.errors import ParameterError
 from pfcourse.landmarks.scenario import quadrant_scenario, simulate
 from pfcourse.landmarks.rao_blackwell import RaoBlackwellError, RaoBlackwellModel, RaoBlackwellProposal
-from pfcourse.experiments.rb_study import run_rows
-
-DATA = Path(__file__).resolve().parents[1] / "book" / "data" / "rao_blackwell.csv"
-
 
 def short_scenario(n_samples=12):
     return quadrant_scenario().with_(n_samples=n_samples)
@@ -143,19 +136,3 @@ def test_error_against_kalman_falls_like_inverse_root_n():
     se = slopes.std(ddof=1) / np.sqrt(len(slopes))
     assert abs(slopes.mean() + 0.5) < 3 * se
     assert slopes.mean() < -0.375
-
-
-@pytest.mark.skipif(not DATA.exists(), reason="the study's data are not computed")
-def test_stored_study_rows_are_reproduced():
-    with open(DATA) as f:
-        rows = list(csv.DictReader(f))
-    rng = np.random.default_rng(2026)
-    cheap = [r for r in rows if r["method"] != "kalman" and int(r["N"]) <= 300]
-    for row in rng.choice(cheap, size=3, replace=False):
-        again = {(r["method"], r["N"]): r for r in
-                 run_rows(row["scenario"], int(row["seed"]), [row["method"]], [int(row["N"])])}
-        new = again[row["method"], int(row["N"])]
-        for key, value in row.items():
-            if key in ("scenario", "method", "seconds_per_step"):
-                continue
-            assert float(value) == pytest.approx(float(new[key]), rel=1e-9, abs=1e-12, nan_ok=True), (row["method"], key)

@@ -265,3 +265,10 @@ def test_run_tasks_keeps_the_order_of_its_arguments_and_raises_a_task_error():
     assert run_tasks(_slow_square, [(x,) for x in range(5)]) == [0, 1, 4, 9, 16]  # the default pool
     with pytest.raises(ParameterError, match="three is refused"):
         run_tasks(_refuses_three, [(x,) for x in range(5)])
+
+
+def test_a_study_may_give_the_seeds_of_its_runs():
+    table = run_study(lambda seed, a: {"x": seed * a}, {"a": [1, 2]}, 3, seeds=range(3), progress=False)
+    assert list(table["seed"]) == [0, 1, 2, 0, 1, 2] and list(table["x"]) == [0, 1, 2, 0, 2, 4]
+    with pytest.raises(ParameterError, match="one seed per run"):
+        run_study(lambda seed: {}, {"a": [1]}, 3, seeds=[0, 1])

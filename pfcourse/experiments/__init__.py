@@ -6,5 +6,7 @@
 * :mod:`pfcourse.experiments.terrain` - Monte Carlo runs of the terrain scenario;
 * :mod:`pfcourse.experiments.comparison` - innovations, NIS and filter-against-filter comparisons.
 * :mod:`pfcourse.experiments.rb_study` - the Rao-Blackwell study stored in ``book/data/rao_blackwell.csv``;
-* :mod:`pfcourse.experiments.sir_fixes_study` - SIR's fixes over N, stored in ``book/data/sir_fixes.csv``.
+* :mod:`pfcourse.experiments.sir_fixes_study` - SIR's fixes over N, stored in ``book/data/sir_fixes.csv``;
+* :mod:`pfcourse.experiments.registry` - every stored study as one record, run by ``python3 tasks.py study NAME``;
+* :mod:`pfcourse.experiments.store` - a stored table read and written one way (floats round-trip exactly).
 """

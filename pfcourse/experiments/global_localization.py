@@ -1,9 +1,14 @@
 """Rows of the global-localization studies (chapter ``part2/global_localization``).
 
-Each function computes one row (one seeded run of one setting) from public functions, so
-``tools/studies/global_localization.py`` can tabulate hundreds of them and a test can
-re-compute any row alone.  Run ``r`` of every setting uses the seed ``r``: the same truths,
-landmarks and measurements for every method and ``N`` (common random numbers).
+Each function computes one row (one seeded run of one setting) from public functions, so a
+study can tabulate hundreds of them and a test can re-compute any row alone.  Run ``r`` of
+every setting uses the seed ``r``: the same truths, landmarks and measurements for every
+method and ``N`` (common random numbers).  The tables ``anatomy``, ``lockon``, ``kidnap`` and
+``ekf_vs_pf`` are the registered studies ``global_localization/...`` of
+:mod:`pfcourse.experiments.registry`; ``modes`` (per-step rows) and ``kld_trace`` (quantiles
+over the runs) are computed by ``tools/studies/global_localization_traces.py``.  The stored
+tables were written with 10 significant digits (``%.10g``) by the study's first script; a
+re-run writes floats that round-trip exactly.
 """
 
 from __future__ import annotations
@@ -26,6 +31,28 @@ EKF_SETTINGS = {
     "dt_meas 20 s": dict(n_steps=200, dt_meas=20.0),
     "1 landmark": dict(n_steps=100, n_landmarks=1),
     "2 landmarks": dict(n_steps=100, n_landmarks=2),
+}
+
+
+#: The stored studies' settings: N of the anatomy; (method, N) of the lock-on, kidnap and KLD-trace studies.
+ANATOMY_N = [300, 1000, 2000, 10000, 30000, 100000]
+LOCKON = [("bootstrap", 300), ("bootstrap", 1000), ("bootstrap", 2000), ("bootstrap", 10000), ("bootstrap", 30000),
+          ("mixture", 300), ("mixture", 1000), ("mixture", 2000),
+          ("augmented", 1000), ("augmented", 2000),
+          ("kld", 2000), ("kld", 30000), ("kld_mixture", 2000),
+          ("tempered", 300), ("tempered", 1000), ("tempered", 2000)]
+KIDNAP = [("bootstrap", 2000), ("mixture", 2000), ("augmented", 2000), ("kld", 2000), ("kld_mixture", 2000),
+          ("tempered", 2000)]
+TRACE = [("kld", 30000), ("kld_mixture", 2000)]
+#: The stored tables' columns, in order.
+COLUMNS = {
+    "anatomy": ("seed", "n", "nearest_m", "consistent_1", "expected_1", "ess_1", "consistent_3"),
+    "lockon": ("seed", "method", "n", "locked_on", "lock_time", "final_error", "final_heading_error", "final_sd",
+               "final_nees", "wrong_confident", "particle_steps", "mean_n", "seconds", "lost"),
+    "kidnap": ("seed", "method", "n", "tracking_before", "detection_s", "recovery_s", "recovered", "final_error",
+               "final_nees", "particle_steps", "seconds"),
+    "ekf_vs_pf": ("seed", "setting", "pf_position_rmse", "pf_heading_rmse", "pf_mean_nees", "pf_failed", "pf_seconds",
+                  "ekf_position_rmse", "ekf_heading_rmse", "ekf_mean_nees", "ekf_failed", "ekf_seconds"),
 }
 
 

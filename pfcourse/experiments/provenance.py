@@ -1,13 +1,14 @@
 """Provenance of a stored study: the code, the commit, the seeds and the time that made a table.
 
-A study too heavy to run while the book executes is computed by a script under
-``tools/studies/`` and stored under ``book/data/``. Beside each table goes a JSON record of
+A study too heavy to run while the book executes is a record of
+:mod:`pfcourse.experiments.registry` (or, until it is registered, a script under
+``tools/studies/``) and is stored under ``book/data/``. Beside each table goes a JSON record of
 what made it, written by :func:`write_provenance` so that every study records the same
-fields: the script (``code``), the commit it was launched from (``git_commit``, read by
+fields: the code (``code``), the commit it was launched from (``git_commit``, read by
 :func:`launch_commit` when the script starts, whatever is committed while it runs), whether
 the package or the tools differed from that commit (``working_tree_modified``), the date,
 the Python and NumPy versions, the wall time, and the study's own fields (seeds, settings).
-A test re-computes a seeded sample of the stored rows from the recorded seeds.
+``tests/test_stored_studies.py`` re-computes a seeded sample of the stored rows from the recorded seeds.
 """
 
 from __future__ import annotations

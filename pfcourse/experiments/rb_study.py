@@ -13,14 +13,13 @@ and every ``N`` sees the same simulations and starts from the same filter seed).
   (``+inf`` when the cloud's covariance is singular);
 * ``seconds_per_step``: wall time of the run over ``K`` (volatile: not re-computed by tests).
 
-Row ``method="kalman"`` (``N = 0``) holds the Kalman filter's own NEES.
+Row ``method="kalman"`` (``N = 0``) holds the Kalman filter's own NEES.  The stored table lists,
+for each scenario and seed, the Kalman row and then every method and ``N``.
 """
 
 from __future__ import annotations
 
 import time
-from collections.abc import Sequence
-
 import numpy as np
 
 from pfcourse.diagnostics import nees
@@ -41,6 +40,11 @@ METHODS: dict[str, str] = {
 }
 SCENARIOS = {"quadrant": quadrant_scenario, "circle": circle_scenario}
 THRESHOLD = 1 / 3  # the lab's resampling threshold, as in the SIR chapter
+#: The stored study (``rao_blackwell`` in :mod:`pfcourse.experiments.registry`): N per scenario, seeds 0-99.
+N_VALUES = {"quadrant": [30, 100, 300, 1000, 3000], "circle": [100, 1000]}
+N_STEPS = 50  # both scenarios' ``n_samples``: columns nees_00 .. nees_49
+COLUMNS = ("scenario", "method", "N", "seed", "landmark_error", "robot_error", "loglik_error", "ess",
+           "seconds_per_step", *(f"nees_{k:02d}" for k in range(N_STEPS)))
 
 
 def make_filter(method: str, scenario: LandmarkScenario, n_particles: int):
@@ -66,35 +70,30 @@ def make_filter(method: str, scenario: LandmarkScenario, n_particles: int):
     raise ValueError(f"unknown method {method!r}; choose one of {sorted(METHODS)}")
 
 
-def run_rows(
-    scenario_name: str, seed: int, methods: Sequence[str], n_values: Sequence[int]
-) -> list[dict]:
-    """Every row of one simulation (seed ``seed``): the Kalman row, then each method and ``N``."""
-    scenario = SCENARIOS[scenario_name]()
-    sim = simulate(scenario, rng=seed)
-    kf = kalman_filter(scenario.model(), sim.measurements)
+def row(seed: int, scenario: str, method: str, N: int) -> dict:
+    """One row (``run_study``'s ``run_one``): simulation ``seed`` of ``scenario`` filtered by ``method``
+    with ``N`` particles (filter seed ``seed + 10**6``), or the Kalman filter's own row (``method="kalman"``)."""
+    sc = SCENARIOS[scenario]()
+    sim = simulate(sc, rng=seed)
+    kf = kalman_filter(sc.model(), sim.measurements)
+    if method == "kalman":
+        return dict(scenario=scenario, method="kalman", N=0, seed=seed, landmark_error=0.0,
+                    robot_error=0.0, loglik_error=0.0, ess=1.0, seconds_per_step=0.0,
+                    **{f"nees_{k:02d}": v for k, v in enumerate(nees(sim.truth, kf.mean, kf.cov))})
     measured = sim.seen.any(axis=1)
     nr = 2
-    rows = [
-        dict(scenario=scenario_name, method="kalman", N=0, seed=seed, landmark_error=0.0,
-             robot_error=0.0, loglik_error=0.0, ess=1.0, seconds_per_step=0.0,
-             **{f"nees_{k:02d}": v for k, v in enumerate(nees(sim.truth, kf.mean, kf.cov))})
-    ]
-    for method in methods:
-        for n in n_values:
-            run, first_stage = make_filter(method, scenario, n)
-            start = time.perf_counter()
-            res = run(sim.measurements, seed + 10**6)
-            seconds = (time.perf_counter() - start) / len(sim.measurements)
-            err = res.mean[-1] - kf.mean[-1]
-            ess = np.array(first_stage) if first_stage is not None else res.ess[measured]
-            rows.append(dict(
-                scenario=scenario_name, method=method, N=n, seed=seed,
-                landmark_error=float(np.sqrt(np.mean(err[nr:] ** 2))),
-                robot_error=float(np.sqrt(np.mean(err[:nr] ** 2))),
-                loglik_error=res.log_likelihood - kf.log_likelihood,
-                ess=float(np.mean(ess) / n),
-                seconds_per_step=seconds,
-                **{f"nees_{k:02d}": v for k, v in enumerate(nees(sim.truth, res.mean, res.cov))},
-            ))
-    return rows
+    run, first_stage = make_filter(method, sc, N)
+    start = time.perf_counter()
+    res = run(sim.measurements, seed + 10**6)
+    seconds = (time.perf_counter() - start) / len(sim.measurements)
+    err = res.mean[-1] - kf.mean[-1]
+    ess = np.array(first_stage) if first_stage is not None else res.ess[measured]
+    return dict(
+        scenario=scenario, method=method, N=N, seed=seed,
+        landmark_error=float(np.sqrt(np.mean(err[nr:] ** 2))),
+        robot_error=float(np.sqrt(np.mean(err[:nr] ** 2))),
+        loglik_error=res.log_likelihood - kf.log_likelihood,
+        ess=float(np.mean(ess) / N),
+        seconds_per_step=seconds,
+        **{f"nees_{k:02d}": v for k, v in enumerate(nees(sim.truth, res.mean, res.cov))},
+    )

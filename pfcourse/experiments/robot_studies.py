@@ -3,29 +3,26 @@
 Each study runs :func:`pfcourse.experiments.robot.pf_run` over one grid, ``N_RUNS`` seeded
 runs per setting (run ``r`` has seed ``replicate_seed(0, r)`` in every study: common random
 numbers), through :func:`pfcourse.experiments.study.run_study`. Together they take about
-50 s on two cores, a sixth of the book's execution budget, so ``tools/studies/robot_studies.py``
-runs them once and stores each table (:func:`save`); the chapter reads them (:func:`load`),
-and ``tests/test_robot_studies_data.py`` re-runs a seeded sample of rows and requires the
+50 s on two cores, a sixth of the book's execution budget, so they are registered studies
+(``robot_studies/NAME`` in :mod:`pfcourse.experiments.registry`), run once by
+``python3 tasks.py study robot_studies`` and stored; the chapter reads them (:func:`find`),
+and ``tests/test_stored_studies.py`` re-runs a seeded sample of rows and requires the
 same numbers.
 
-A table is stored as ``NAME.csv`` (one row per run: the setting, ``run``, ``seed``,
-``status``, ``error`` and the scalar metrics, floats written to round-trip exactly) and, for
-the studies that keep per-step errors, ``NAME.npz`` (one 2-D array per per-step column, one
-row per table row; a failed run's row is NaN).
+A table is stored (:mod:`pfcourse.experiments.store`) as ``NAME.csv`` (one row per run: the
+setting, ``run``, ``seed``, ``status``, ``error`` and the scalar metrics, floats written to
+round-trip exactly; settings that are not numbers written as Python literals) and, for the
+studies that keep per-step errors, ``NAME.npz`` (one 2-D array per per-step column, one row
+per table row; a failed run's row is NaN).
 """
 
 from __future__ import annotations
 
-import ast
-from functools import partial
 from pathlib import Path
 
-import numpy as np
 import pandas as pd
 
 from pfcourse.errors import ParameterError
-from pfcourse.experiments.robot import pf_run
-from pfcourse.experiments.study import run_study
 
 N_RUNS = 100
 N_STEPS, BURN_IN = 100, 20
@@ -49,62 +46,20 @@ STUDIES: dict[str, tuple[dict, dict]] = {
 ARRAY_COLUMNS = ("position_error", "position_sd", "heading_error")
 
 
-def _literal_columns(name: str) -> list[str]:
+def literal_columns(name: str) -> tuple[str, ...]:
     """Grid columns whose values are not all numbers (stored as Python literals)."""
-    return [column for column, values in STUDIES[name][0].items()
-            if not all(isinstance(v, (int, float)) and not isinstance(v, bool) for v in values)]
-
-
-def run_function(name: str):
-    """The run function of study ``name``: ``pf_run`` with the defaults and the study's options."""
     if name not in STUDIES:
         raise ParameterError(f"unknown robot study {name!r}; known: {list(STUDIES)}")
-    return partial(pf_run, **{**DEFAULTS, **STUDIES[name][1]})
+    return tuple(column for column, values in STUDIES[name][0].items()
+                 if not all(isinstance(v, (int, float)) and not isinstance(v, bool) for v in values))
 
 
-def compute(name: str, n_runs: int = N_RUNS, **options) -> pd.DataFrame:
-    """Run study ``name`` (``options`` go to :func:`run_study`: ``executor``, ``progress``)."""
-    run_one = run_function(name)  # refuses an unknown name
-    return run_study(run_one, STUDIES[name][0], n_runs, **{"progress": False, **options})
+def load(name: str) -> pd.DataFrame:
+    """Study ``name`` as ``run_study`` returned it (per-step columns as arrays; ``seconds`` as stored)."""
+    literal_columns(name)  # refuses an unknown name
+    from pfcourse.experiments.registry import STUDIES as REGISTERED  # the registry imports this module
 
-
-def save(name: str, table: pd.DataFrame, folder: Path = DATA) -> None:
-    """Write ``table`` as ``folder/NAME.csv`` (and ``NAME.npz`` for its per-step columns)."""
-    folder.mkdir(parents=True, exist_ok=True)
-    arrays = [c for c in ARRAY_COLUMNS if c in table.columns]
-    scalars = table.drop(columns=arrays).copy()
-    for column in _literal_columns(name):  # None, tuples, names: written as Python literals
-        scalars[column] = scalars[column].map(repr)
-    scalars.to_csv(folder / f"{name}.csv", index=False)
-    if arrays:
-        width = max(len(v) for v in table[arrays[0]] if isinstance(v, np.ndarray))
-        stacked = {}
-        for column in arrays:
-            out = np.full((len(table), width), np.nan)
-            for i, value in enumerate(table[column]):
-                if isinstance(value, np.ndarray):
-                    out[i] = value
-            stacked[column] = out
-        np.savez_compressed(folder / f"{name}.npz", **stacked)
-
-
-def load(name: str, folder: Path = DATA) -> pd.DataFrame:
-    """Study ``name`` as :func:`compute` returns it (per-step columns as arrays; ``seconds`` as stored)."""
-    path = folder / f"{name}.csv"
-    if name not in STUDIES:
-        raise ParameterError(f"unknown robot study {name!r}; known: {list(STUDIES)}")
-    if not path.exists():
-        raise FileNotFoundError(f"{path} is missing: run `python3 tasks.py study robot_studies`")
-    table = pd.read_csv(path,  # floats round-trip exactly (pandas >= 3 parses them precisely)
-                        converters={column: ast.literal_eval for column in _literal_columns(name)})
-    table["error"] = ["" if isinstance(v, float) else v for v in table["error"]]  # read back as NaN
-    arrays_path = folder / f"{name}.npz"
-    if arrays_path.exists():
-        with np.load(arrays_path) as arrays:
-            for column in ARRAY_COLUMNS:
-                rows = arrays[column]
-                table[column] = [row if ok == "ok" else np.nan for row, ok in zip(rows, table["status"])]
-    return table
+    return REGISTERED[f"robot_studies/{name}"].load()
 
 
 def find(grid: dict, **options) -> pd.DataFrame:

@@ -11,7 +11,8 @@ that its simulator returns, so it can be read two ways:
 
 ``roughening_K`` is SIR on the static model with roughening of constant ``K`` after each
 resampling (:mod:`pfcourse.jitter`); ``sir`` is plain SIR (K = 0).  One row per
-(variant, N, seed): simulation seed ``s``, filter seed ``s + 10**6``, threshold N/3.
+(variant, N, seed): simulation seed ``s``, filter seed ``s + 10**6``, threshold N/3
+(the study ``sir_fixes`` of :mod:`pfcourse.experiments.registry`, seeds ``s = 0 .. 99``).
 Scores over the last 10 steps, on the four landmark coordinates: ``error`` (mean over the
 steps of the RMS error of the filter mean against the reference Kalman mean, m) and
 ``coverage`` (share of the steps whose truth lies inside the filter's 95 % ellipsoid).
@@ -29,6 +30,9 @@ from pfcourse.jitter import Roughening
 
 LANDMARKS = [2, 3, 4, 5]
 LANDMARK_NOISE = 0.0025  # m^2 per step, report 000's value
+VARIANTS = ["sir", "noise_filter_only", "noise_everywhere",
+            "roughening_0.05", "roughening_0.1", "roughening_0.2", "roughening_0.4"]
+N_VALUES = [100, 300, 1000, 3000]
 
 
 def noisy_q(scenario):
@@ -58,3 +62,8 @@ def variant_row(variant: str, n_particles: int, seed: int) -> dict:
     s = score(pf.run(sim.measurements, seed + 10**6), reference, sim.truth, LANDMARKS)
     return dict(variant=variant, N=n_particles, seed=seed,
                 error=float(s.rmse[-10:].mean()), coverage=float(s.covered[-10:].mean()))
+
+
+def row(seed: int, variant: str, N: int) -> dict:
+    """The study's row function (``run_study``'s ``run_one``): :func:`variant_row`."""
+    return variant_row(variant, N, seed)

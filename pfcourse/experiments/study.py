@@ -69,6 +69,7 @@ def run_study(
     n_runs: int,
     *,
     base_seed: int = 0,
+    seeds: Sequence[int] | None = None,
     run_batch: Callable[..., list[Metrics]] | None = None,
     batch_size: int = 10,
     progress: bool = True,
@@ -82,6 +83,10 @@ def run_study(
     the metrics returned by the run, and ``seconds`` (wall time of the run, or of
     its share of a batch).
 
+    Replicate ``r`` has seed ``replicate_seed(base_seed, r)``, or ``seeds[r]`` when ``seeds``
+    (``n_runs`` integers) is given: a study whose runs are seeded by their index passes
+    ``seeds=range(n_runs)``.
+
     ``executor`` runs the tasks (``batch_size`` runs of one setting each); ``None`` uses
     :func:`~pfcourse.executor.default_executor`.  The rows, their order and every column but ``seconds`` do
     not depend on it.  If no task finishes for ``stall_timeout`` seconds (``None``: wait for
@@ -93,7 +98,11 @@ def run_study(
     n_runs = check_count(n_runs, "n_runs")
     batch_size = check_count(batch_size, "batch_size")
     settings = grid_settings(grid)
-    seeds = [replicate_seed(base_seed, r) for r in range(n_runs)]
+    if seeds is None:
+        seeds = [replicate_seed(base_seed, r) for r in range(n_runs)]
+    elif len(seeds) != n_runs:
+        raise ParameterError(f"seeds must give one seed per run ({n_runs}), got {len(seeds)}")
+    seeds = [int(seed) for seed in seeds]
     task = _batch_task if run_batch is not None else _runs_task
     fn = run_batch if run_batch is not None else run_one
     tasks = [(setting, list(range(start, min(start + batch_size, n_runs))))

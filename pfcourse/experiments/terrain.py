@@ -9,6 +9,7 @@ from __future__ import annotations
 
 from concurrent.futures import Executor
 from dataclasses import dataclass
+from functools import cache
 
 import numpy as np
 
@@ -17,7 +18,7 @@ from pfcourse.errors import DegenerateWeightsError, ParameterError
 from pfcourse.executor import run_tasks
 from pfcourse.filter import ParticleFilter
 from pfcourse.seeding import data_rng, filter_rng
-from pfcourse.terrain.map import TerrainMap
+from pfcourse.terrain.map import TerrainMap, load_jacksboro
 from pfcourse.metrics import position_error, position_spread
 from pfcourse.terrain.scenario import AircraftScenario, extended_kalman_filter, simulate
 
@@ -25,6 +26,12 @@ from pfcourse.terrain.scenario import AircraftScenario, extended_kalman_filter, 
 #: A run whose final horizontal error exceeds this (m) is counted as diverged: about five
 #: DEM cells, and thirty times the error of a converged particle filter in this scenario.
 DIVERGED_ERROR = 500.0
+
+
+@cache
+def jacksboro() -> TerrainMap:
+    """The Jacksboro map, loaded once per process (shared by the stored studies' row functions)."""
+    return load_jacksboro()
 
 
 @dataclass

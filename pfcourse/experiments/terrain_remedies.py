@@ -4,8 +4,20 @@ A *setting* is a name in :data:`SETTINGS`; flight ``r`` is drawn from :func:`pfc
 ``(0, r)`` (common random numbers: every setting sees the same truths and altimeter noise) and
 the filter from :func:`pfcourse.seeding.filter_rng` ``(0, r)``.  **Divergence**: a run is *lost* when its
 final horizontal error exceeds :data:`pfcourse.experiments.terrain.DIVERGED_ERROR` (500 m) or every particle
-died.  ``tools/studies/terrain_remedies.py`` writes the rows to ``book/data/terrain_remedies.csv``;
-``tests/test_terrain_study.py`` recomputes a seeded sample of them.
+died.  The study ``terrain_remedies`` of :mod:`pfcourse.experiments.registry` writes the rows to
+``book/data/terrain_remedies.csv``; ``tests/test_stored_studies.py`` recomputes a seeded sample of them.
+
+The study ``terrain_reference`` (``book/data/terrain_reference.csv``, :func:`reference_row`) is a
+reference posterior for five flights.  The exact filtering posterior of the terrain problem has no
+closed form, and a grid over its four dimensions (position, altitude, heading) is out of reach;
+the reference is the bootstrap particle filter (the consistent one: no kernel, no tempering) run
+large enough that **doubling N changes nothing**, which the table itself shows: for each of
+flights 0-4 (fixed in advance: the first five), N = 500 000 and N = 1 000 000, two independent
+filter seeds each, and the posterior mean and standard deviations of the horizontal position at
+the final step. "Changes nothing" is measured in units of the posterior's own spread: the
+distance between two runs' means divided by the posterior standard deviation
+``sqrt(var_x + var_y)``.  The terrain-cure chapter compares its filters' final estimates with
+these reference means.
 """
 
 from __future__ import annotations
@@ -13,11 +25,11 @@ from __future__ import annotations
 import numpy as np
 
 from pfcourse.errors import DegenerateWeightsError, ParameterError
-from pfcourse.experiments.terrain import DIVERGED_ERROR
+from pfcourse.experiments.terrain import DIVERGED_ERROR, jacksboro
 from pfcourse.filter import ParticleFilter
 from pfcourse.jitter import RegularisedJitter
 from pfcourse.proposals import ProgressiveCorrection
-from pfcourse.seeding import data_rng, filter_rng
+from pfcourse.seeding import data_rng, filter_rng, reference_rng
 from pfcourse.metrics import position_error
 from pfcourse.terrain.scenario import AircraftScenario, simulate
 
@@ -41,6 +53,17 @@ SETTINGS: dict[str, tuple[int, str, dict]] = {
     "tempered+regularised N=3000": (3000, "tempered+regularised", {"scale": 0.2}),
     "tempered+regularised N=10000": (10000, "tempered+regularised", {"scale": 0.2}),
 }
+#: The stored table's settings, in the order they were run (book/data/terrain_remedies.csv), and its columns.
+STORED_SETTINGS = ["bootstrap N=3000", "bootstrap N=30000", "bootstrap N=10000", "regularised N=3000",
+                   "bootstrap N=3000, Qf/3", "tempered+regularised N=3000", "regularised N=10000",
+                   "regularised h=1 N=3000", "tempered N=3000", "regularised N=30000", "bootstrap N=100000",
+                   "tempered+regularised N=10000"]
+COLUMNS = ("setting", "flight", "N", "final_error", "mean_error", "lost", "evaluations", "seconds")
+#: The reference posterior (book/data/terrain_reference.csv): flights 0-4, two sizes, two filter seeds
+#: ``reference_rng(0, flight, repeat)`` (not filter_rng's), the stored column ``seed`` being ``repeat``.
+REFERENCE_SIZES = [500_000, 1_000_000]
+REFERENCE_REPEATS = [1, 2]
+REFERENCE_COLUMNS = ("flight", "N", "seed", "mean_x", "mean_y", "sd_x", "sd_y", "true_x", "true_y", "seconds")
 
 
 def make_filter(setting: str, scenario: AircraftScenario, terrain):
@@ -80,3 +103,22 @@ def run_one(setting: str, run: int, terrain, scenario: AircraftScenario | None =
     return {"setting": setting, "flight": run, "N": n, "final_error": float(e[-1]),
             "mean_error": float(np.mean(e)), "lost": bool(e[-1] > DIVERGED_ERROR),
             "evaluations": evaluations}
+
+
+def row(seed: int, setting: str) -> dict:
+    """The study's row function (``run_study``'s ``run_one``): :func:`run_one` of flight ``seed``."""
+    return run_one(setting, seed, jacksboro())
+
+
+def reference_row(seed: int, N: int, repeat: int) -> dict:
+    """Bootstrap filter with ``N`` particles on flight ``seed`` (filter ``reference_rng(0, seed, repeat)``):
+    final posterior mean and sd (m), truth."""
+    terrain = jacksboro()
+    scenario = AircraftScenario()
+    sim = simulate(scenario, terrain, data_rng(0, seed))
+    pf = ParticleFilter(scenario.model(terrain), N, threshold=0.5, resampler="systematic")
+    res = pf.run(sim.measurements, rng=reference_rng(0, seed, repeat))
+    return {"flight": seed, "N": N, "seed": repeat,
+            "mean_x": float(res.mean[-1, 0]), "mean_y": float(res.mean[-1, 1]),
+            "sd_x": float(np.sqrt(res.cov[-1, 0, 0])), "sd_y": float(np.sqrt(res.cov[-1, 1, 1])),
+            "true_x": float(sim.truth[-1, 0]), "true_y": float(sim.truth[-1, 1])}

@@ -11,8 +11,9 @@ in twenty, so that a study compares accuracies rather than divergence noise.
 Flight ``r`` is drawn from :func:`pfcourse.seeding.data_rng` ``(0, r)`` and the filter from
 :func:`pfcourse.seeding.filter_rng` ``(0, r)`` for every setting (common random numbers), the seeds of
 ``book/data/terrain_remedies.csv``: the baseline's rows are that table's
-``"regularised N=30000"`` rows. ``tools/studies/terrain_studies.py`` writes
-``book/data/terrain_studies.csv``; ``tests/test_terrain_studies.py`` re-computes a seeded sample.
+``"regularised N=30000"`` rows. The study ``terrain_studies`` of
+:mod:`pfcourse.experiments.registry` (``python3 tasks.py study terrain_studies``) writes
+``book/data/terrain_studies.csv``; ``tests/test_stored_studies.py`` re-computes a seeded sample.
 """
 
 from __future__ import annotations
@@ -20,7 +21,7 @@ from __future__ import annotations
 import numpy as np
 
 from pfcourse.errors import DegenerateWeightsError, ParameterError
-from pfcourse.experiments.terrain import DIVERGED_ERROR
+from pfcourse.experiments.terrain import DIVERGED_ERROR, jacksboro
 from pfcourse.filter import ParticleFilter
 from pfcourse.jitter import RegularisedJitter
 from pfcourse.seeding import data_rng, filter_rng
@@ -49,6 +50,9 @@ STUDIES: dict[str, dict[str, dict]] = {
 
 SCENARIO_KEYS = ("Qf_factor", "Rf", "gap", "measurement_period", "dt")
 FILTER_KEYS = ("n_particles", "threshold", "resampler")
+#: The stored columns of book/data/terrain_studies.csv, in order.
+COLUMNS = ("study", "setting", "flight", "final_error", "mean_error", "lost", "sigma_50", "sigma_75",
+           "resamplings", "median_ess_fraction", "seconds")
 
 
 def settings() -> list[tuple[str, str]]:
@@ -92,3 +96,8 @@ def study_row(study: str, setting: str, flight: int, terrain) -> dict:
             "lost": bool(e[-1] > DIVERGED_ERROR), "sigma_50": float(sigma[k50]), "sigma_75": float(sigma[k75]),
             "resamplings": int(res.n_resamples),
             "median_ess_fraction": float(np.median(res.ess[measured]) / options["n_particles"])}
+
+
+def row(seed: int, study: str, setting: str) -> dict:
+    """The study's row function (``run_study``'s ``run_one``): :func:`study_row` of flight ``seed``."""
+    return study_row(study, setting, seed, jacksboro())

@@ -1,0 +1,337 @@
+"""The book's stored studies, each one record registered here, run one way and stored one way.
+
+A study too heavy to run while the book executes is a :class:`Study`: a name, a grid of
+settings, a row function ``row(seed=..., **setting) -> metrics``, a number of runs and the
+rule that gives run ``r`` its seed, one failure policy, and where its table is stored.
+Every study is run by :func:`pfcourse.experiments.study.run_study` (on any executor) and
+stored by :mod:`pfcourse.experiments.store`, its provenance beside it
+(:func:`pfcourse.experiments.provenance.write_provenance`)::
+
+    python3 tasks.py study NAME       # NAME: a study, or a group such as robot_studies
+
+``tests/test_stored_studies.py`` re-computes a seeded sample of every registered study's
+stored rows (among its ``cheap`` rows) from their recorded settings and seeds, and requires
+the same numbers, float for float (within ``rtol`` for the tables an older script stored
+rounded), and checks that each table has exactly the settings, seeds and order its record
+describes.
+
+**Adding a study**: write its row function in the experiments module of its scenario (a
+module-level function, so that a process pool can send it), add a :class:`Study` to
+:data:`STUDIES` below, run ``python3 tasks.py study NAME`` after committing the code (the
+provenance names the commit), and commit the table.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+import time
+from collections.abc import Callable, Mapping, Sequence
+from dataclasses import dataclass, field
+from functools import partial
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+from pfcourse.errors import ParameterError, StepError
+from pfcourse.experiments import global_localization
+from pfcourse.experiments import likelihood_studies as ls
+from pfcourse.experiments import rb_study, robot_studies, sir_fixes_study, terrain_remedies, terrain_studies
+from pfcourse.experiments.provenance import launch_commit, write_provenance
+from pfcourse.experiments.robot import pf_run
+from pfcourse.experiments.store import DATA, load, save
+from pfcourse.experiments.study import grid_settings, run_study
+from pfcourse.seeding import replicate_seed
+
+#: Seed rules: the seed of run ``r`` of a study with base seed ``b``.
+SEED_RULES: dict[str, Callable[[int, int], int]] = {
+    "replicate": replicate_seed,  # run_study's default: SeedSequence([b, r])
+    "run": lambda b, r: b + r,  # the run's number, counted from b (a flight, a simulation seed)
+}
+#: Failure policies: ``record`` keeps a collapsed run as a row with ``status="failed"`` and its
+#: message (run_study's rule); ``raise`` refuses to store a table with a collapsed run (its table
+#: has no status column).
+FAILURES = ("record", "raise")
+
+
+@dataclass(frozen=True)
+class Study:
+    """One stored study: what to run, how it is seeded, and where its table goes.
+
+    ``grid`` is one grid (``{parameter: values}``, every combination) or a tuple of grids
+    run one after the other (settings that are not a product).  Run ``r`` of every setting has
+    the seed ``SEED_RULES[seeds](base_seed, r)`` (common random numbers).  The table is run_study's rows,
+    grid after grid, then stably sorted by ``order`` (each column in order of first
+    appearance) and cut to ``columns`` (``None``: all).  A stored row's seed is in its
+    ``seed_column``, and its setting in the grid's columns (or those named by ``stored_as``).
+    """
+
+    name: str
+    row: Callable[..., Mapping]
+    grid: Mapping[str, Sequence] | tuple[Mapping[str, Sequence], ...]
+    n_runs: int
+    table: str  # CSV path under book/data
+    provenance: str  # JSON path under book/data (shared by the studies of a group)
+    seeds: str = "replicate"
+    base_seed: int = 0
+    failures: str = "record"
+    columns: tuple[str, ...] | None = None
+    order: tuple[str, ...] = ()
+    seed_column: str | None = "seed"  # None: the table keeps no seed (one run, its seed the rule's)
+    stored_as: Mapping[str, str] = field(default_factory=dict)  # grid parameter -> its stored column, if renamed
+    literals: tuple[str, ...] = ()  # columns stored as Python literals (store.save)
+    arrays: tuple[str, ...] = ()  # per-step columns stored in NAME.npz (store.save)
+    errors_as_text: bool = False  # empty error messages read back as "" (store.load)
+    volatile: tuple[str, ...] = ("seconds",)  # wall times: never re-computed
+    cheap: Callable[[pd.DataFrame], pd.Series] | None = None  # stored rows quick enough to re-compute
+    rtol: float = 0.0  # re-computed floats must equal the stored ones within rtol (0: exactly; > 0 for rounded tables)
+    sample: int = 2  # rows re-computed by the test
+    row_code: str = ""
+    fields: Mapping = field(default_factory=dict)  # the study's own provenance fields
+
+    def __post_init__(self) -> None:
+        if self.seeds not in SEED_RULES or self.failures not in FAILURES:
+            raise ParameterError(f"study {self.name}: seeds must be one of {list(SEED_RULES)} and failures one "
+                                 f"of {FAILURES}, got {self.seeds!r}, {self.failures!r}")
+        if self.seed_column is None and self.n_runs != 1:
+            raise ParameterError(f"study {self.name}: a table that keeps no seed column must have one run per setting")
+
+    @property
+    def grids(self) -> tuple[Mapping[str, Sequence], ...]:
+        return (self.grid,) if isinstance(self.grid, Mapping) else tuple(self.grid)
+
+    @property
+    def path(self) -> Path:
+        return DATA / self.table
+
+    def compute(self, n_runs: int | None = None, **options) -> pd.DataFrame:
+        """The study's table as it is stored (``options`` go to :func:`run_study`: ``executor``, ``progress``)."""
+        n_runs = self.n_runs if n_runs is None else n_runs
+        seeds = [SEED_RULES[self.seeds](self.base_seed, r) for r in range(n_runs)]
+        options = {"progress": False, **options}
+        table = pd.concat([run_study(self.row, grid, n_runs, seeds=seeds, **options) for grid in self.grids],
+                          ignore_index=True)
+        if self.failures == "raise" and (table["status"] != "ok").any():
+            failed = table[table["status"] != "ok"].iloc[0]
+            raise StepError(f"study {self.name}: run {failed['run']} failed ({failed['error']})")
+        table = self._ordered(table)
+        return table[list(self.columns)] if self.columns is not None else table
+
+    def layout(self, n_runs: int | None = None) -> pd.DataFrame:
+        """Setting, ``run`` and ``seed`` of every row of the table, in the stored order (nothing is run)."""
+        n_runs = self.n_runs if n_runs is None else n_runs
+        rows = [{**setting, "run": r, "seed": SEED_RULES[self.seeds](self.base_seed, r)}
+                for grid in self.grids for setting in grid_settings(grid) for r in range(n_runs)]
+        return self._ordered(pd.DataFrame(rows))
+
+    def _ordered(self, table: pd.DataFrame) -> pd.DataFrame:
+        """``table`` stably sorted by ``order`` (each column in order of first appearance)."""
+        if not self.order:
+            return table
+        keys = [pd.factorize(table[column])[0] for column in self.order]
+        return table.iloc[np.lexsort(keys[::-1])].reset_index(drop=True)  # lexsort is stable
+
+    def load(self) -> pd.DataFrame:
+        """The stored table (as :meth:`compute` returns it, ``seconds`` as stored)."""
+        if not self.path.exists():
+            raise FileNotFoundError(f"{self.path} is missing: run `python3 tasks.py study {self.name}`")
+        return load(self.path, literals=self.literals, arrays=self.arrays, errors_as_text=self.errors_as_text)
+
+    def save(self, table: pd.DataFrame) -> None:
+        save(self.path, table, literals=self.literals, arrays=self.arrays)
+
+    def setting(self, stored: Mapping) -> dict:
+        """The grid setting of a stored row, with the grid's own values (as the study passed them)."""
+        for grid in self.grids:
+            setting = {}
+            for key, values in grid.items():
+                match = [v for v in values if same(v, stored[self.stored_as.get(key, key)])]
+                if not match:
+                    break
+                setting[key] = match[0]
+            else:
+                return setting
+        raise ParameterError(f"study {self.name}: no setting of its grid matches the stored row {dict(stored)!r:.200}")
+
+    def recompute(self, stored: Mapping) -> Mapping:
+        """Re-run one stored row from its setting and recorded seed."""
+        seed = SEED_RULES[self.seeds](self.base_seed, 0) if self.seed_column is None else int(stored[self.seed_column])
+        return self.row(seed=seed, **self.setting(stored))
+
+
+def same(a, b, rtol: float = 0.0) -> bool:
+    """``a == b`` for settings and metrics (``None``, tuples, arrays, NaN equal to NaN), floats within ``rtol``."""
+    if isinstance(a, np.ndarray) or isinstance(b, np.ndarray):
+        return np.array_equal(a, b, equal_nan=True)
+    if isinstance(a, float) and isinstance(b, float) and not isinstance(a, bool):
+        return bool(np.isclose(a, b, rtol=rtol, atol=0.0, equal_nan=True)) if rtol else (a == b or (np.isnan(a) and np.isnan(b)))
+    try:
+        return bool(a == b)
+    except (TypeError, ValueError):
+        return False
+
+
+def _likelihood_study(name: str, row: Callable, grid: dict, n_runs: int, base_seed: int, **options) -> Study:
+    """A Part V study: run_study's table without its wall times, in book/data/likelihood/."""
+    return Study(name=f"likelihood/{name}", row=row, grid=grid, n_runs=n_runs, base_seed=base_seed,
+                 table=f"likelihood/{name}.csv", provenance=f"likelihood/{name}.json",
+                 row_code=f"pfcourse/experiments/likelihood_studies.py ({row.__name__})", **options)
+
+
+def _mcl_study(name: str, row: Callable, grid, **options) -> Study:
+    """A table of the global-localization chapter (stored rounded to 10 significant digits: compared at 1e-9)."""
+    return Study(name=f"global_localization/{name}", row=row, grid=grid, n_runs=100, seeds="run", failures="raise",
+                 table=f"global_localization/{name}.csv", provenance="global_localization/provenance.json",
+                 columns=global_localization.COLUMNS[name], rtol=1e-9,
+                 row_code=f"pfcourse/experiments/global_localization.py ({row.__name__})", **options)
+
+
+def _robot_study(name: str, grid: dict, options: dict) -> Study:
+    return Study(name=f"robot_studies/{name}", row=partial(pf_run, **{**robot_studies.DEFAULTS, **options}),
+                 grid=grid, n_runs=robot_studies.N_RUNS, table=f"robot_studies/{name}.csv",
+                 provenance="robot_studies/provenance.json", literals=robot_studies.literal_columns(name), arrays=robot_studies.ARRAY_COLUMNS,
+                 errors_as_text=True, row_code="pfcourse/experiments/robot.py (pf_run)", fields={"grid": grid, "options": options})
+
+
+#: Every stored study, by name.  A group (``robot_studies``) is the studies named ``group/...``.
+STUDIES: dict[str, Study] = {study.name: study for study in [
+    # sir_fixes' metric "error" (a distance) takes the place of run_study's message column: the
+    # policy "raise" keeps failed runs out of its table.
+    Study(name="sir_fixes", row=sir_fixes_study.row,
+          grid={"variant": sir_fixes_study.VARIANTS, "N": sir_fixes_study.N_VALUES}, n_runs=100, seeds="run",
+          failures="raise", table="sir_fixes.csv", provenance="sir_fixes.json",
+          columns=("variant", "N", "seed", "error", "coverage"), cheap=lambda t: t["N"] <= 300, sample=4,
+          row_code="pfcourse/experiments/sir_fixes_study.py",
+          fields={"seeds": "0-99; filter seed s + 10**6; threshold N/3",
+                  "landmark_noise": sir_fixes_study.LANDMARK_NOISE}),
+    Study(name="rao_blackwell", row=rb_study.row,
+          grid=tuple(g for scenario, n_values in rb_study.N_VALUES.items()
+                     for g in ({"scenario": [scenario], "method": ["kalman"], "N": [0]},
+                               {"scenario": [scenario], "method": list(rb_study.METHODS), "N": n_values})),
+          n_runs=100, seeds="run", failures="raise", table="rao_blackwell.csv", provenance="rao_blackwell.json",
+          columns=rb_study.COLUMNS, order=("scenario", "run"), volatile=("seconds", "seconds_per_step"),
+          cheap=lambda t: (t["method"] != "kalman") & (t["N"] <= 300), sample=3,
+          row_code="pfcourse/experiments/rb_study.py, pfcourse/landmarks/rao_blackwell.py, pfcourse/landmarks/auxiliary.py",
+          fields={"methods": rb_study.METHODS, "threshold": rb_study.THRESHOLD,
+                  "seeds": "simulation seed s, filter seed s + 10**6 (same for every method and N)"}),
+    *(_robot_study(name, grid, options) for name, (grid, options) in robot_studies.STUDIES.items()),
+    *(_likelihood_study(name, row, {"n_particles": n}, runs, seed, columns=("n_particles", "run", "seed", "status", "error", *metrics), **options)
+      for name, row, n, runs, seed, metrics, options in [
+          ("bias", ls.bias_run, ls.N_BIAS, ls.N_BIAS_RUNS, ls.BIAS_SEED, ["log_ratio"], {"sample": 3}),
+          ("ml", ls.ml_run, ls.N_ML, ls.N_ML_DATASETS, ls.ML_SEED,
+           ["theta_kalman", "theta_pf", "nfev_kalman", "nfev_pf"], {}),
+          ("robot_noise", ls.robot_noise_run, [ls.N_ROBOT_ML], ls.ROBOT_NOISE_RUNS, ls.ROBOT_NOISE_SEED,
+           ["q_ml", "r_ml", "nfev", "rmse_ml", "nees_ml", "rmse_hand", "nees_hand", "rmse_truth", "nees_truth"],
+           {"sample": 1}),
+          ("smoothing_landmarks", ls.landmarks_run, ls.N_A, ls.N_A_RUNS, ls.A_SEED,
+           ["smoother_vs_rts", "filter_vs_kalman", "rts_truth_error", "kalman_truth_error", "smoother_ess_median"],
+           {"sample": 1, "cheap": lambda t: t["n_particles"] == t["n_particles"].min()}),
+          ("smoothing_robot", ls.robot_gap_run, [ls.N_ROBOT_GAP], ls.ROBOT_GAP_RUNS, ls.ROBOT_GAP_SEED,
+           ["filter_gap_error", "smoother_gap_error", "filter_outside_error", "smoother_outside_error",
+            "smoother_gap_ess_median"], {"sample": 1}),
+      ]),
+    _likelihood_study("terrain_rf", ls.terrain_rf_run,
+                      {"flight": list(range(ls.N_TERRAIN_FLIGHTS)), "n_particles": [ls.N_TERRAIN]}, 1, 0,
+                      columns=("flight", "n_particles", "run", "seed", "status", "error", "rf_scale_ml", "nfev",
+                               "log_lik_ml", "log_lik_truth"), sample=1),
+    _likelihood_study("grid2", ls.grid2_cell, {"i": list(range(ls.GRID2)), "j": list(range(ls.GRID2))}, 1, 0,
+                      failures="raise", seed_column=None, sample=5,
+                      columns=("i", "j", "log_theta_q", "log_theta_r", "log_likelihood")),
+    _mcl_study("anatomy", global_localization.anatomy_row, {"n_particles": global_localization.ANATOMY_N},
+               stored_as={"n_particles": "n"}, sample=3),
+    *(_mcl_study(name, row, tuple({"method": [m], "n_particles": [n]} for m, n in pairs),
+                 stored_as={"n_particles": "n"}, **options)
+      for name, row, pairs, options in [
+          ("lockon", global_localization.lockon_row, global_localization.LOCKON,
+           {"sample": 4, "cheap": lambda t: (t["n"] <= 10000) | (t["method"] != "bootstrap")}),  # 30 000: seconds
+          ("kidnap", global_localization.kidnap_row, global_localization.KIDNAP, {"sample": 3})]),
+    _mcl_study("ekf_vs_pf", global_localization.ekf_row, {"setting": list(global_localization.EKF_SETTINGS)},
+               volatile=("pf_seconds", "ekf_seconds"), fields={"ekf_settings": global_localization.EKF_SETTINGS}),
+    Study(name="terrain_remedies", row=terrain_remedies.row, grid={"setting": terrain_remedies.STORED_SETTINGS},
+          n_runs=100, seeds="run", failures="raise", table="terrain_remedies.csv", provenance="terrain_remedies.json",
+          columns=terrain_remedies.COLUMNS, seed_column="flight", cheap=lambda t: t["N"] <= 10000, sample=4,
+          row_code="pfcourse/experiments/terrain_remedies.py (run_one)",
+          fields={"settings": terrain_remedies.SETTINGS,
+                  "seeds": "flight r: pfcourse.seeding.data_rng(0, r); filter: pfcourse.seeding.filter_rng(0, r)",
+                  "divergence": "final horizontal error > 500 m or every particle lost"}),
+    Study(name="terrain_reference", row=terrain_remedies.reference_row,
+          grid={"N": terrain_remedies.REFERENCE_SIZES, "repeat": terrain_remedies.REFERENCE_REPEATS},
+          n_runs=5, seeds="run", failures="raise", table="terrain_reference.csv", provenance="terrain_reference.json",
+          columns=terrain_remedies.REFERENCE_COLUMNS, order=("run",), seed_column="flight",
+          stored_as={"repeat": "seed"}, cheap=lambda t: t["N"] == t["N"].min(), sample=1,  # about 10 s a row
+          row_code="pfcourse/experiments/terrain_remedies.py (reference_row)",
+          fields={"seeds": "flight r: pfcourse.seeding.data_rng(0, r); filter: pfcourse.seeding.reference_rng(0, r, repeat)",
+                  "filter": "bootstrap, systematic resampling at ESS < N/2"}),
+    Study(name="terrain_studies", row=terrain_studies.row,
+          grid=tuple({"study": [study], "setting": list(group)} for study, group in terrain_studies.STUDIES.items()),
+          n_runs=100, seeds="run", failures="raise", table="terrain_studies.csv", provenance="terrain_studies.json",
+          columns=terrain_studies.COLUMNS, seed_column="flight",
+          cheap=lambda t: t["setting"] != "every 0.1 s, dt = 0.1 s", sample=3,  # the 10 Hz runs take seconds each
+          row_code="pfcourse/experiments/terrain_studies.py (study_row)",
+          fields={"baseline": {"N": terrain_studies.BASELINE_N, "threshold": terrain_studies.BASELINE_THRESHOLD,
+                               "scheme": terrain_studies.BASELINE_SCHEME, "kernel_scale": terrain_studies.KERNEL_SCALE},
+                  "studies": terrain_studies.STUDIES,
+                  "seeds": "flight r: pfcourse.seeding.data_rng(0, r); filter: pfcourse.seeding.filter_rng(0, r)",
+                  "divergence": "final horizontal error > 500 m or every particle lost"}),
+]}
+
+
+def select(name: str) -> list[Study]:
+    """The study ``name``, or every study of the group ``name``."""
+    chosen = [STUDIES[name]] if name in STUDIES else [s for s in STUDIES.values() if s.name.startswith(name + "/")]
+    if not chosen:
+        groups = sorted({n.split("/")[0] for n in STUDIES})
+        raise ParameterError(f"unknown study {name!r}; registered: {', '.join(groups)} "
+                             f"(or one study of a group: {', '.join(n for n in STUDIES if '/' in n)})")
+    return chosen
+
+
+SEED_TEXT = {"replicate": "run r: pfcourse.seeding.replicate_seed({base}, r)", "run": "run r: seed {base} + r"}
+
+
+def run(name: str, **options) -> None:
+    """Compute and store the study (or group) ``name``, then its provenance record.
+
+    A study alone in its provenance file has its fields at the top of the record; the studies of
+    a group sharing one file are under ``studies``, with the fields they share (``n_runs``,
+    ``seeds``) also at the top.
+    """
+    studies = select(name)
+    start, commit = time.time(), launch_commit()
+    records = {}
+    for study in studies:
+        t0 = time.time()
+        table = study.compute(**options)
+        study.save(table)
+        records[study.name] = {"file": Path(study.table).name, "row": getattr(study.row, "__name__", repr(study.row)),
+                               "grid": study.grid, "n_runs": options.get("n_runs") or study.n_runs, "failures": study.failures,
+                               "seeds": SEED_TEXT[study.seeds].format(base=study.base_seed),
+                               "rows": len(table), "run_seconds": round(time.time() - t0, 1), **study.fields}
+        print(f"{study.name}: {len(table)} rows, {records[study.name]['run_seconds']} s", flush=True)
+    for path in {study.provenance for study in studies}:
+        group = [records[s.name] for s in studies if s.provenance == path]
+        shared = {key: group[0][key] for key in ("n_runs", "seeds") if all(r[key] == group[0][key] for r in group)}
+        fields = group[0] if len(group) == 1 else {**shared, "studies": {s.name: records[s.name] for s in studies
+                                                                         if s.provenance == path}}
+        write_provenance(DATA / path, code="pfcourse/experiments/registry.py", commit=commit,
+                         seconds=time.time() - start, row_code=sorted({s.row_code for s in studies}),
+                         seconds_column="wall time of one run on a shared 2-core machine: indicative only", **fields)
+
+
+def main(argv: Sequence[str]) -> int:
+    """``python3 tasks.py study NAME [--runs R]`` (``--runs``: fewer runs per setting, for a trial)."""
+    parser = argparse.ArgumentParser(prog="python3 tasks.py study", description="Run and store a registered study.")
+    parser.add_argument("name", help="a study or a group: " + ", ".join(sorted({n.split("/")[0] for n in STUDIES})))
+    parser.add_argument("--runs", type=int, default=None, help="runs per setting (default: the study's own; the table is stored all the same)")
+    args = parser.parse_args(argv)
+    try:
+        run(args.name, n_runs=args.runs)
+    except ParameterError as exc:
+        print(f"error: {exc}", file=sys.stderr)
+        return 2
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main(sys.argv[1:]))
