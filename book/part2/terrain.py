@@ -426,7 +426,7 @@ glue("terrain_pf60_converged_q90", float(np.quantile(converged_final, 0.9)), dis
 # {glue:text}`studies_fast_over_base:.1f` times as long (median paired ratio, 95 % interval
 # {glue:text}`studies_fast_over_base_low:.1f`-{glue:text}`studies_fast_over_base_high:.1f`; both
 # printed below); with every setting, that is too long for this page, so the runs were computed
-# by `tools/studies/terrain_studies.py` (`python3 tasks.py study terrain_studies`) and stored in
+# by `python3 tasks.py study terrain_studies` (a study of `pfcourse.experiments.registry`) and stored in
 # `book/data/terrain_studies.csv` with their provenance; a test re-computes a sample of rows.
 #
 # Each setting is compared with the baseline **on the same flights**: the share of flights lost

@@ -36,13 +36,14 @@ from scipy import stats
 
 from pfcourse.diagnostics import nees
 from pfcourse.experiments.likelihood import (kalman_log_likelihood, max_likelihood_scale, max_likelihood_scales,
-                                             pf_log_likelihood, pmmh, robot_log_likelihood, terrain_log_likelihood)
-from pfcourse.experiments.smoothing import (ffbsm, linear_gaussian_log_transition, pairwise,
-                                            robot_transition_log_density, rts_smoother)
+                                             pf_log_likelihood, robot_log_likelihood, terrain_log_likelihood)
+from pfcourse.pmmh import pmmh
+from pfcourse.smoothing import ffbsm, linear_gaussian_log_transition, pairwise, rts_smoother
+from pfcourse.robot.scenario import robot_transition_log_density
 from pfcourse.experiments.terrain import jacksboro
 from pfcourse.filter import ParticleFilter
 from pfcourse.landmarks import quadrant_scenario, simulate
-from pfcourse.landmarks.kalman import kalman_filter
+from pfcourse.kalman import kalman_filter
 from pfcourse.robot import ANGLE_INDICES, RobotModel, RobotScenario, rmse, simulate_robot
 from pfcourse.seeding import data_rng, likelihood_rng, replicate_seed
 from pfcourse.terrain.scenario import AircraftScenario
