@@ -81,7 +81,7 @@ from pfcourse.filter import DensityProposal
 from pfcourse.kalman import kalman_filter
 from pfcourse.landmarks.scenario import quadrant_scenario, simulate
 from pfcourse.linear_gaussian import LinearGaussianModel
-from pfcourse.style import use_style
+from pfcourse.style import plain_log_axis, use_style
 
 use_style()
 z, sd_v, N = 1.0, 0.3, 30
@@ -149,7 +149,8 @@ plt.show()
 # where $\operatorname{cv}$ is the coefficient of variation of the weights (the exercise {ref}`ex-is-ess` derives the
 # last identity): $N$ weighted draws are worth ESS draws from $\pi$. It looks at the weights only,
 # not at $\varphi$. We check both formulas on the toy with $N = 100$ and $\varphi(x) = x$,
-# {glue:text}`is_toy_reps:,d` seeded repetitions for each $\sigma_v$, and $\sigma^2$ computed by quadrature.
+# {glue:text}`is_toy_reps:,d` seeded repetitions for each $\sigma_v$, and $\sigma^2$ computed by quadrature
+# ({doc}`../evidence` explains the intervals).
 
 # %%
 def asymptotic_variance(sd_v, z=1.0):
@@ -238,8 +239,8 @@ EvidenceBlock(
 #
 # The variance $\sigma^2$ is finite only if $\mathbb E_q[w^2 (\varphi - I)^2]$ is, and
 # $\mathbb E_q[w^2] = \int \pi^2 / q$ diverges when $q$ decays faster than $\pi$ in the tails:
-# there the weights are unbounded, with infinite variance. Then neither the central limit theorem
-# nor the ESS holds. Take a Student $t$ target with $\nu = 3$ degrees of freedom, whose tails decay
+# there the weights are unbounded, with infinite variance. Then the central limit theorem does not
+# apply and the ESS cannot be trusted. Take a Student $t$ target with $\nu = 3$ degrees of freedom, whose tails decay
 # like $|x|^{-4}$, and estimate the probability of its tails, $\varphi(x) = \mathbb 1\{|x| > 3\}$
 # (exact from the $t$ distribution function). The proposal $\mathcal N(0, 1)$ decays like
 # $e^{-x^2/2}$: $\pi^2 / q$ grows without bound. The fix is a proposal with heavier tails than the
@@ -276,8 +277,9 @@ for (name, t), c in zip(tail.items(), ("tab:red", "tab:blue")):
     ax.loglog(sizes, np.sqrt(np.mean(t["err"] ** 2, axis=0)), "o-", color=c, label=f"proposal {name}")
 ref = np.sqrt(np.mean(tail["Cauchy t_1"]["err"][:, 0] ** 2)) * np.sqrt(sizes[0] / sizes)
 ax.loglog(sizes, ref, ":", color="gray", label=r"$\propto 1/\sqrt{N}$")
+plain_log_axis(ax, "xy")
 ax.set_xlabel("number of draws N")
-ax.set_ylabel(r"RMS error of $P(|x| > 3)$")
+ax.set_ylabel(r"RMS error of $P(|x| > 3)$ (probability)")
 ax.set_title(rf"Target Student t, $\nu$ = {nu}; {runs} runs per N", fontsize=10)
 ax.legend(fontsize=8, loc="lower left")
 fig.tight_layout()
@@ -291,8 +293,8 @@ plt.show()
 
 # %% [markdown]
 # The ESS does not warn: at $N = 10^3$ the normal proposal's mean ESS is {glue:text}`is_tail_ess_normal:.0%`
-# of $N$, which looks healthy, yet the interval it implies (estimate $\pm 1.96$ standard errors of
-# $\operatorname{Var}_\pi / \mathrm{ESS}$) covers the exact answer in only {glue:text}`is_tail_cover_normal:.0%`
+# of $N$, which looks healthy, yet the interval it implies, $\hat I_N \pm 1.96 \sqrt{\hat I_N (1 - \hat I_N) / \mathrm{ESS}}$
+# (the variance of an indicator is $I (1 - I)$), covers the exact answer in only {glue:text}`is_tail_cover_normal:.0%`
 # of the runs (95 % Wilson interval up to {glue:text}`is_tail_cover_normal_high:.0%`). A
 # diagnostic made of the draws cannot see the mass the draws never reach.
 
@@ -444,7 +446,7 @@ def simulate_scalar(K, rng):
 landmarks = quadrant_scenario().model()
 Z_landmarks = simulate(quadrant_scenario(), rng=2024).measurements
 Z_scalar = simulate_scalar(50, np.random.default_rng(7))
-ROUND_OFF = 1e-9  # the differences are sums of last-bit roundings: print the bound, not the digits
+ROUND_OFF = 1e-11  # the differences are sums of last-bit roundings: print the bound, not the digits
 for name, m, Z, proposal, tau in (("landmarks, transition, SIS", landmarks, Z_landmarks, None, 0.0),
                                   ("landmarks, transition, SIR", landmarks, Z_landmarks, None, 1 / 3),
                                   ("scalar, halfway proposal, SIR", scalar, Z_scalar, halfway, 1 / 3)):
