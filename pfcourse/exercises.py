@@ -58,10 +58,14 @@ def check_resampler(fn: Callable, n_draws: int = 4000, seed: int = 0) -> CheckRe
     w = np.array([0.05, 0.3, 0.0, 0.12, 0.08, 0.25, 0.2])
     n = w.size
     try:
-        first = np.asarray(fn(w.copy(), rng))
+        first = fn(w.copy(), rng)
     except Exception as exc:  # the student's error, reported
         report.problems.append(f"calling fn(weights, rng) raised {type(exc).__name__}: {exc}")
         return report
+    if first is None:
+        report.problems.append("the function returned None: write the resampler and return the N ancestor indices")
+        return report
+    first = np.asarray(first)
     if first.shape != (n,):
         report.problems.append(f"returned shape {first.shape}; expected ({n},), one ancestor index per particle")
         return report
@@ -117,10 +121,14 @@ def check_weight_update(fn: Callable, seed: int = 0) -> CheckReport:
         expected = logw + loglik - logsumexp(logw + loglik)
         try:
             with np.errstate(all="ignore"):
-                got = np.asarray(fn(logw.copy(), loglik.copy()), dtype=float)
+                answer = fn(logw.copy(), loglik.copy())
         except Exception as exc:
             report.problems.append(f"{name}: raised {type(exc).__name__}: {exc}")
             continue
+        if answer is None:
+            report.problems.append("the function returned None: write the update and return the new log-weights")
+            break
+        got = np.asarray(answer, dtype=float)
         if got.shape != expected.shape:
             report.problems.append(f"{name}: returned shape {got.shape}, expected {expected.shape}")
         elif np.isnan(got).any():

@@ -131,3 +131,12 @@ def test_a_student_exception_is_reported_not_raised():
 def test_the_empty_answer_cell_gets_a_plain_sentence():
     report = check_sis(lambda z, n, rng, model: None)
     assert report.problems == ["the function returned None: write the filter and return (means, ess)"]
+
+
+def test_an_empty_weight_update_or_resampler_gets_a_plain_sentence():
+    """The answer cells of the importance-sampling chapter start as stubs that return None."""
+    empty_update = check_weight_update(lambda log_w, log_lik: None)
+    assert empty_update.problems == ["the function returned None: write the update and return the new log-weights"]
+    empty_resampler = check_resampler(lambda w, rng: None)
+    assert empty_resampler.problems == [
+        "the function returned None: write the resampler and return the N ancestor indices"]
