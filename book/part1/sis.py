@@ -67,7 +67,7 @@
 # :::
 #
 # In `pfcourse` this is `ParticleFilter(model, N, threshold=0)` (threshold $0$: never resample).
-# {doc}`importance_sampling` writes the same loop in twenty lines ({ref}`write-sis`); here we
+# {doc}`importance_sampling` writes the same loop in NumPy ({ref}`write-sis`); here we
 # check the idea itself on the engine's output.
 
 # %%
