@@ -17,6 +17,9 @@ exception is reported as a problem); ``str(report)`` prints the verdict.
   that forget the previous step, particles moved without process noise, a variance read as a
   standard deviation), so the report can say which mistake it sees, not only that the numbers
   are off.
+* :func:`check_ancestors` - ``fn(ancestors) -> origins``: the genealogy of a resampled cloud,
+  each final particle's ancestor at step 0, on random ancestor indices; the steps followed
+  forwards, one generation only and the last step left out are named.
 """
 
 from __future__ import annotations
@@ -259,3 +262,64 @@ def check_sis(fn: Callable, n_particles: int = 20_000, seed: int = 0, z: np.ndar
 def _fits(means: np.ndarray, ess: np.ndarray, mean: np.ndarray, var: np.ndarray, z_max: float = 6.0) -> bool:
     """Whether the cloud's means agree with a posterior's within ``z_max`` Monte Carlo standard errors."""
     return bool(np.all(np.abs(means - mean) <= z_max * np.sqrt(var / np.clip(ess, 1, None)) + 1e-12))
+
+
+def _origins(ancestors: np.ndarray, steps: range) -> np.ndarray:
+    """Follow ``a = ancestors[k][a]`` over ``steps``, starting from every particle of the final step."""
+    a = np.arange(ancestors.shape[1])
+    for k in steps:
+        a = ancestors[k][a]
+    return a
+
+
+def check_ancestors(fn: Callable, seed: int = 0) -> CheckReport:
+    """Check a student's genealogy ``fn(ancestors) -> origins`` on random ancestor indices.
+
+    ``ancestors`` has shape ``(K, N)``: ``ancestors[k, i]`` is :math:`a_k^i`, the particle of step
+    ``k - 1`` that particle ``i`` of step ``k`` descends from (row 0 is unused). The answer must be,
+    for each particle ``i`` of the final step ``K - 1``, the particle of step 0 its lineage starts from,
+
+    .. math:: o^i = a_1^{a_2^{\\cdots a_{K-1}^i}},
+
+    that is ``a = ancestors[k][a]`` for ``k = K - 1, ..., 1``. A wrong answer is compared with
+    what the typical mistakes give (the steps followed forwards, one generation only, the last
+    step left out), so the report names the mistake.
+    """
+    report = CheckReport("genealogy")
+    rng = np.random.default_rng(seed)
+    n_steps, n = 7, 12
+    ancestors = np.sort(rng.integers(0, n, size=(n_steps, n)), axis=1)  # sorted, as the resamplers return them
+    ancestors[0] = np.arange(n)
+    ancestors[3] = np.arange(n)  # a step without resampling: each particle is its own parent
+    try:
+        answer = fn(ancestors.copy())
+    except Exception as exc:  # the student's error, reported
+        report.problems.append(f"calling fn(ancestors) raised {type(exc).__name__}: {exc}")
+        return report
+    if answer is None:
+        report.problems.append("the function returned None: follow the ancestors back and return the origins")
+        return report
+    answer = np.asarray(answer)
+    if answer.shape != (n,):
+        report.problems.append(f"returned shape {answer.shape}; expected ({n},): one step-0 origin per particle "
+                               "of the final step")
+        return report
+    if np.array_equal(answer, _origins(ancestors, range(n_steps - 1, 0, -1))):
+        return report
+    mistakes = {
+        "the steps are followed forwards (k = 1, 2, ...): a lineage is read backwards, from the final step "
+        "to step 0, a = ancestors[k][a] for k = K - 1, ..., 1": _origins(ancestors, range(1, n_steps)),
+        "only one generation is followed: ancestors[K - 1] gives the parents at step K - 2, and their own "
+        "parents must be followed down to step 0": ancestors[-1],
+        "the last step is left out: the lineage of a particle of step K - 1 starts with its parent "
+        "ancestors[K - 1][i]": _origins(ancestors, range(n_steps - 2, 0, -1)),
+    }
+    for why, wrong in mistakes.items():
+        if np.array_equal(answer, wrong):
+            report.problems.append(f"your origins match a known mistake: {why}")
+            return report
+    i = int(np.argmax(answer != _origins(ancestors, range(n_steps - 1, 0, -1))))
+    report.problems.append(f"particle {i} of the final step descends from particle "
+                           f"{_origins(ancestors, range(n_steps - 1, 0, -1))[i]} of step 0, not {answer[i]}: "
+                           "follow a = ancestors[k][a] from k = K - 1 down to k = 1")
+    return report

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 from scipy.special import logsumexp
 
-from pfcourse.exercises import check_resampler, check_sis, check_weight_update
+from pfcourse.exercises import check_ancestors, check_resampler, check_sis, check_weight_update
 from pfcourse.resampling import multinomial, residual, stratified, systematic
 
 
@@ -140,3 +140,44 @@ def test_an_empty_weight_update_or_resampler_gets_a_plain_sentence():
     empty_resampler = check_resampler(lambda w, rng: None)
     assert empty_resampler.problems == [
         "the function returned None: write the resampler and return the N ancestor indices"]
+
+
+def origins(ancestors, mistake=None):
+    """The genealogy of the SIR chapter's exercise, and its typical mistakes."""
+    a = np.arange(ancestors.shape[1])
+    steps = {None: range(len(ancestors) - 1, 0, -1), "forwards": range(1, len(ancestors)),
+             "skip_last": range(len(ancestors) - 2, 0, -1)}.get(mistake, range(len(ancestors) - 1, 0, -1))
+    if mistake == "one_generation":
+        return ancestors[-1]
+    if mistake == "counts":
+        return np.unique(ancestors[-1])
+    for k in steps:
+        a = ancestors[k][a]
+    return a
+
+
+def test_the_reference_genealogy_passes_on_every_case():
+    for seed in range(5):
+        report = check_ancestors(origins, seed=seed)
+        assert report.ok, str(report)
+    assert str(check_ancestors(origins)) == "genealogy: every check passed"
+
+
+@pytest.mark.parametrize("mistake, says", [
+    ("forwards", "followed forwards"),
+    ("one_generation", "only one generation"),
+    ("skip_last", "the last step is left out"),
+    ("counts", "one step-0 origin per particle"),
+])
+def test_each_typical_genealogy_mistake_gets_its_own_sentence(mistake, says):
+    for seed in range(5):
+        report = check_ancestors(lambda a: origins(a, mistake), seed=seed)
+        assert not report.ok and len(report.problems) == 1
+        assert says in report.problems[0], report.problems[0]
+
+
+def test_a_wrong_genealogy_without_a_known_mistake_is_told_where():
+    report = check_ancestors(lambda a: np.zeros(a.shape[1], dtype=int))
+    assert not report.ok and "follow a = ancestors[k][a]" in report.problems[0]
+    assert check_ancestors(lambda a: None).problems[0].startswith("the function returned None")
+    assert "raised KeyError" in check_ancestors(lambda a: {}[0]).problems[0]
