@@ -306,8 +306,8 @@ EvidenceBlock(
 #
 # The error of the SIR landmark means against the **exact posterior mean** (the Kalman filter's,
 # not the truth) is pure Monte Carlo error; for a healthy particle filter it falls as
-# $1/\sqrt N$. A stored study (`tools/studies/sir_fixes.py`, data and provenance in
-# `book/data/sir_fixes.csv` and `.json`, rows re-computed by `tests/test_sir_fixes_study.py`) runs SIR
+# $1/\sqrt N$. A stored study (`python3 tasks.py study sir_fixes`, data and provenance in
+# `book/data/sir_fixes.csv` and `.json`, rows re-computed by `tests/test_stored_studies.py`) runs SIR
 # with $\tau = 1/3$ on the $100$ simulations above, for $N$ from $100$ to $3000$, and scores the RMS
 # error over the four landmark coordinates, averaged over the last $10$ steps. The median error
 # falls with slope
