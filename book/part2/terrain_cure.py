@@ -170,7 +170,8 @@ glue("terrain_near_slope_high", near_slope_high, display=False)
 # per extra stage of the progressive correction, relative to the bootstrap filter with
 # $N = 30000$. Each setting is compared with the baseline flight by flight: the exact McNemar
 # test on the flights lost by one and not the other, and, on the flights both converge, a
-# Wilcoxon signed-rank test of the final errors.
+# Wilcoxon signed-rank test of the paired differences of the final errors (are they symmetric
+# about zero?).
 
 # %%
 ref_cost = 30000 * 80

@@ -366,7 +366,10 @@ glue_band("robot", robot_band, "PF N=1000", "NEES above", "pf1000_nees_above")
 # {glue:text}`robot_timing_reps:d` data sets, in alternating order (forward on one repetition,
 # backward on the next), so that a slow moment of the machine hits them all alike; each
 # filter's time is divided by the EKF's on the same repetition, and the ratios get a median, a
-# 95 % bootstrap interval and a Wilcoxon signed-rank test (`pfcourse.evidence.paired`).
+# 95 % bootstrap interval and a Wilcoxon signed-rank test (`pfcourse.evidence.paired`). Here and
+# below, a "median paired ratio" is the median of the per-run ratios, its interval a percentile
+# bootstrap over the runs, and the Wilcoxon $p$ tests whether the log ratios are symmetric about
+# zero (which is not the same as a median ratio of one).
 
 # %% tags=["nbval-ignore-output"]
 def robot_filters(seed):
