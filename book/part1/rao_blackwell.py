@@ -242,18 +242,25 @@ glue("rbpf_sir_slope_diff_high", float(slope_diff_high), display=False)
 seen_any = np.array([simulate(scenario, rng=s).seen.any() for s in sorted(quad.seed.unique())])
 print(f"\n{(~seen_any).sum()} simulation(s) without any measurement (the RBPF's landmark mean is then exactly the "
       f"prior, error 0) left out of the ratios: {seen_any.sum()} paired runs")
-for i, n in enumerate(N_VALUES):
-    sir_i, rb_i = err["sir"][i][seen_any], err["rbpf_optimal"][i][seen_any]
-    ratio = sir_i / rb_i
-    per_run = evidence.paired(sir_i, rb_i, ratio=True)  # median of the per-run ratios, bootstrap interval
-    w = evidence.paired(sir_i, 10 * rb_i, ratio=True)  # Wilcoxon: log ratios symmetric about log 10?
+
+
+def sir_over_rbpf(sir, rbpf, n, name, p_name):
+    """SIR / RBPF landmark error per run: median ratio with its interval (glued as ``name``) and the Wilcoxon
+    test of the log ratios being symmetric about log 10 (glued as ``p_name``)."""
+    ratio = sir / rbpf
+    per_run = evidence.paired(sir, rbpf, ratio=True)
+    w = evidence.paired(sir, 10 * rbpf, ratio=True)
     print(f"N = {n:4d}: SIR / RBPF landmark error per run, median {per_run.median:6.1f} "
           f"(95 % CI {per_run.low:5.1f}-{per_run.high:6.1f}; 10-90 %: {np.percentile(ratio, 10):5.1f}-"
           f"{np.percentile(ratio, 90):6.1f}); Wilcoxon of the log ratio against log 10: p = {w.pvalue:.1e}")
-    glue(f"sir_rbpf_ratio_n{n}", per_run.median, display=False)
-    glue(f"sir_rbpf_ratio_n{n}_low", per_run.low, display=False)
-    glue(f"sir_rbpf_ratio_n{n}_high", per_run.high, display=False)
-    glue(f"sir_rbpf_ratio_p_n{n}", w.pvalue, display=False)
+    for suffix, value in (("", per_run.median), ("_low", per_run.low), ("_high", per_run.high)):
+        glue(f"{name}{suffix}", value, display=False)
+    glue(p_name, w.pvalue, display=False)
+
+
+for i, n in enumerate(N_VALUES):
+    sir_over_rbpf(err["sir"][i][seen_any], err["rbpf_optimal"][i][seen_any], n, f"sir_rbpf_ratio_n{n}",
+                  f"sir_rbpf_ratio_p_n{n}")
 i100 = N_VALUES.index(100)
 ratio100 = err["sir"][i100][seen_any] / err["rbpf_optimal"][i100][seen_any]
 glue("rbpf_landmark_error_n100", float(np.median(err["rbpf_optimal"][i100])), display=False)
@@ -523,19 +530,10 @@ circ = data[(data.scenario == "circle") & (data.method != "kalman")]
 circ_seen = np.array([simulate(circle_scenario(), rng=s).seen.any() for s in sorted(circ.seed.unique())])
 for n in sorted(circ.N.unique()):
     e = {m: circ[(circ.method == m) & (circ.N == n)].sort_values("seed").landmark_error.to_numpy() for m in ORDER}
-    ratio = e["sir"][circ_seen] / e["rbpf_optimal"][circ_seen]
-    per_run = evidence.paired(e["sir"][circ_seen], e["rbpf_optimal"][circ_seen], ratio=True)
-    w = evidence.paired(e["sir"][circ_seen], 10 * e["rbpf_optimal"][circ_seen], ratio=True)
     print(f"N = {n}: median landmark error (m) " + ", ".join(f"{m} {np.median(v):.3f}" for m, v in e.items()))
-    print(f"         SIR / RBPF per run: median {per_run.median:.1f} (95 % CI {per_run.low:.1f}-{per_run.high:.1f}; "
-          f"10-90 %: {np.percentile(ratio, 10):.1f}-{np.percentile(ratio, 90):.1f}), Wilcoxon of the log ratio "
-          f"against log 10: p = {w.pvalue:.1e}")
-    glue(f"m5_sir_rbpf_ratio_n{n}", per_run.median, display=False)
-    glue(f"m5_sir_rbpf_ratio_n{n}_low", per_run.low, display=False)
-    glue(f"m5_sir_rbpf_ratio_n{n}_high", per_run.high, display=False)
+    sir_over_rbpf(e["sir"][circ_seen], e["rbpf_optimal"][circ_seen], n, f"m5_sir_rbpf_ratio_n{n}", f"m5_ratio_p_n{n}")
     glue(f"m5_rbpf_error_n{n}", float(np.median(e["rbpf_optimal"])), display=False)
     glue(f"m5_sir_error_n{n}", float(np.median(e["sir"])), display=False)
-    glue(f"m5_ratio_p_n{n}", w.pvalue, display=False)
     two = err["sir"][N_VALUES.index(n)]
     mw = stats.mannwhitneyu(e["sir"], two, alternative="greater")
     print(f"         SIR, five landmarks vs two: median {np.median(e['sir']):.3f} vs {np.median(two):.3f} m, "
