@@ -219,8 +219,8 @@ plt.show()
 # counts; its interval resamples the {glue:text}`n_runs_rb:d` simulations (the same ones for
 # every $N$; `pfcourse.evidence.log_slope`). The ratio is SIR's error over the Rao-Blackwellised
 # filter's, per run (paired): the median of the per-run ratios with its bootstrap interval, and
-# a Wilcoxon signed-rank test of the log ratio against $\log 10$ (a test that the log ratios are
-# symmetric about $\log 10$; rejected with the interval above $10$, the ratio exceeds $10$).
+# a Wilcoxon signed-rank test of whether the log ratios are symmetric about $\log 10$. When it
+# rejects and the interval lies above $10$, the ratio is said to exceed $10$.
 
 # %%
 err = {m: np.array([runs[(runs.method == m) & (runs.N == n)].sort_values("seed").landmark_error
