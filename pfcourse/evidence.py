@@ -22,7 +22,9 @@ book may write, always with the number of runs and an interval, and only through
   direction of each pair is trusted;
 - the interval of **any statistic of the runs** (a log-log slope fitted over runs, a difference of
   two such slopes on the same runs): ``scipy.stats.bootstrap`` resamples the runs themselves
-  (their indices), so every array indexed by run is resampled together (:func:`run_interval`).
+  (their indices), so every array indexed by run is resampled together (:func:`run_interval`);
+- the **rate of a power law** ``e = a N^b``: the least-squares slope of ``log`` (median error over
+  the runs) against ``log N``, with its interval over the runs (:func:`log_slope`).
 
 A claim of "no difference" is worded from the interval, not from a p-value above 0.05: the
 interval says how large a difference could hide in the study (``Paired.detectable``).
@@ -49,6 +51,7 @@ __all__ = [
     "sign_test",
     "median_interval",
     "run_interval",
+    "log_slope",
 ]
 
 CONFIDENCE = 0.95
@@ -303,3 +306,41 @@ def run_interval(statistic: Callable[[np.ndarray], float | np.ndarray], n_runs: 
     if value.ndim == 0:
         return float(value), float(low), float(high)
     return value, low, high
+
+
+def log_slope(values, sizes, center: Callable = np.median, against=None, confidence: float = CONFIDENCE,
+              seed: int = 0) -> tuple[float, float, float]:
+    r"""``(b, low, high)``: the log-log slope of a statistic of the runs against a size, and its interval.
+
+    ``values[j, r]`` is run ``r``'s result (an error) with size ``sizes[j]`` (particles ``N_j``),
+    the same runs for every size. With ``c_j = center(values[j, :])`` (the median over the runs),
+    ``x_j = log N_j`` and ``y_j = log c_j``, the slope is the least-squares fit of ``y = a + b x``:
+
+    .. math:: \hat b = \frac{\sum_j (x_j - \bar x)(y_j - \bar y)}{\sum_j (x_j - \bar x)^2},
+
+    so ``c_j \approx e^a N_j^b`` (``b = -1/2`` is the Monte Carlo rate). With ``against`` (a second
+    array of the same shape, the same runs under another filter) the statistic is the difference
+    ``b(values) - b(against)``. The interval resamples the runs (:func:`run_interval`, ``N_RESAMPLES``
+    resamples), every size's column of a run together, and both arrays together (paired).
+    """
+    x = np.log(_samples(sizes, "sizes"))
+    arrays = [np.asarray(values, dtype=float)] + ([] if against is None else [np.asarray(against, dtype=float)])
+    for a in arrays:
+        if a.ndim != 2 or a.shape[0] != x.size:
+            raise EvidenceError(f"values must be (sizes, runs) = ({x.size}, runs), got shape {a.shape}")
+        if not np.all(np.isfinite(a)):
+            raise EvidenceError("values: non-finite entries")
+    if len(arrays) == 2 and arrays[0].shape != arrays[1].shape:
+        raise EvidenceError(f"against must have the shape of values, got {arrays[1].shape} and {arrays[0].shape}")
+    if x.size < 2 or np.ptp(x) == 0:
+        raise EvidenceError("a slope needs at least two different sizes")
+
+    def fit(a: np.ndarray) -> float:
+        y = np.log(center(a, axis=1))
+        return float(np.sum((x - x.mean()) * (y - y.mean())) / np.sum((x - x.mean()) ** 2))
+
+    def statistic(r: np.ndarray) -> float:
+        b = fit(arrays[0][:, r])
+        return b - fit(arrays[1][:, r]) if against is not None else b
+
+    return run_interval(statistic, arrays[0].shape[1], confidence=confidence, seed=seed)

@@ -163,3 +163,19 @@ def test_run_interval_of_several_statistics_at_once():
 def test_run_interval_refuses_too_few_runs(n_runs):
     with pytest.raises(ev.EvidenceError, match="at least 2 runs"):
         ev.run_interval(lambda r: 0.0, n_runs)
+
+
+def test_log_slope_recovers_a_power_law_and_the_difference_of_two():
+    sizes = np.array([30, 100, 300, 1000])
+    rng = np.random.default_rng(5)
+    scale = rng.lognormal(0.0, 0.3, size=40)           # each run its own constant: e_jr = c_r N_j^b
+    sir, rbpf = scale * sizes[:, None] ** -0.25, scale * sizes[:, None] ** -0.5
+    b, low, high = ev.log_slope(rbpf, sizes)
+    assert b == pytest.approx(-0.5) and low == pytest.approx(-0.5) and high == pytest.approx(-0.5)
+    d, low, high = ev.log_slope(rbpf, sizes, against=sir)
+    assert d == pytest.approx(-0.25) and low == pytest.approx(-0.25) and high == pytest.approx(-0.25)
+    noisy = rbpf * rng.lognormal(0.0, 0.5, size=rbpf.shape)
+    b, low, high = ev.log_slope(noisy, sizes, center=np.mean)
+    assert low < -0.5 < high and low < b < high
+    with pytest.raises(ev.EvidenceError, match="shape"):
+        ev.log_slope(noisy[:, :3], sizes[:2])

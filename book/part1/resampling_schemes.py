@@ -13,8 +13,13 @@
 # copies ("offspring") of particle $i$ among the $n$ new particles, every scheme here is
 # **unbiased**, $\mathbb E[N_i] = n W_i$, so the resampled cloud estimates the same
 # expectations as the weighted one. They differ in how much randomness they add, measured by
-# $\operatorname{Var} N_i$: the less, the better, since that variance is pure Monte Carlo
-# noise injected into the filter {cite:p}`douc2005,hol2006`. All four invert the cumulative
+# $\operatorname{Var} N_i$: that variance is the resampling step's own contribution, Monte Carlo
+# noise added to the estimates that follow it {cite:p}`douc2005,hol2006`. A lower
+# $\operatorname{Var} N_i$ does not by itself order the filters' estimator variances: residual
+# and stratified resampling provably add no more conditional variance than multinomial
+# resampling, but systematic resampling, whose offspring counts are the least variable here,
+# can give a larger estimator variance than multinomial resampling on some weights, since its
+# counts are correlated across particles {cite:p}`douc2005`. All four invert the cumulative
 # weights $C_i = W_1 + \dots + W_i$: a uniform $u \in [0, 1)$ selects the index $i$ with
 # $C_{i-1} \le u < C_i$. They differ only in the uniforms.
 #
@@ -271,7 +276,8 @@ plt.show()
 #
 # `filterpy.monte_carlo.residual_resample` (version 2.0.0) computes the leftover weights as
 # `weights - num_copies` instead of `n * weights - num_copies`, so a particle with
-# $n W_i < 1$ (no sure copy) is almost never drawn and heavy particles get too many copies.
+# $n W_i < 1$ (no sure copy) gets too few copies (none at all in the run below) and heavy
+# particles get too many.
 # Below, ten weights, {glue:text}`filterpy_reps:d` resamplings each (one seed each, from $0$ up;
 # filterpy uses numpy's global generator, which we seed), the mean offspring counts against
 # $n W_i$:
@@ -378,7 +384,7 @@ display(control_panel(draw_offspring, grid={"scheme": tuple(SCHEMES), "spread": 
 # :class: dropdown
 # Unbiasedness: for fixed weights, the mean offspring count over many seeded resamplings
 # must equal $n W_i$ within a few standard errors $\sqrt{\operatorname{Var} N_i / \text{reps}}$.
-# Use weights with some $n W_i < 1$: filterpy gives them (almost) zero copies, hundreds of
+# Use weights with some $n W_i < 1$: filterpy gives them no copies in the run above, hundreds of
 # standard errors away ({glue:text}`filterpy_residual_max_se:.0f` above).
 # ```
 #

@@ -118,22 +118,12 @@ glue("terrain_near_h_100000", float(near.loc[100000, "nearest horizontal (m)"]),
 # (the flights are resampled together: flight r has the same truth for every N)
 horizontal = pd.DataFrame(rows).assign(flight=np.tile(np.arange(100), len(sizes))).pivot(
     index="flight", columns="N", values="nearest horizontal (m)")
-
-
-def median_slope(*columns, axis=-1):
-    logs = np.log([np.median(c, axis=axis) for c in columns])
-    x = np.log(sizes) - np.mean(np.log(sizes))
-    return np.tensordot(x, logs - logs.mean(axis=0), axes=(0, 0)) / np.sum(x**2)
-
-
-near_slope = float(median_slope(*[horizontal[N].to_numpy() for N in sizes]))
-near_slope_ci = stats.bootstrap(tuple(horizontal[N].to_numpy() for N in sizes), median_slope, paired=True,
-                                n_resamples=9999, method="percentile", random_state=0).confidence_interval
+near_slope, near_slope_low, near_slope_high = evidence.log_slope(horizontal[sizes].to_numpy().T, sizes)
 print(f"log-log slope of the median horizontal distance against N: {near_slope:.2f} "
-      f"(95 % bootstrap interval {near_slope_ci.low:.2f} to {near_slope_ci.high:.2f}, 100 flights, 3 values of N)")
+      f"(95 % bootstrap interval {near_slope_low:.2f} to {near_slope_high:.2f}, 100 flights, 3 values of N)")
 glue("terrain_near_slope", near_slope, display=False)
-glue("terrain_near_slope_low", float(near_slope_ci.low), display=False)
-glue("terrain_near_slope_high", float(near_slope_ci.high), display=False)
+glue("terrain_near_slope_low", near_slope_low, display=False)
+glue("terrain_near_slope_high", near_slope_high, display=False)
 
 # %% [markdown]
 # With $3000$ particles the particle nearest the truth horizontally is typically
@@ -180,7 +170,8 @@ glue("terrain_near_slope_high", float(near_slope_ci.high), display=False)
 # per extra stage of the progressive correction, relative to the bootstrap filter with
 # $N = 30000$. Each setting is compared with the baseline flight by flight: the exact McNemar
 # test on the flights lost by one and not the other, and, on the flights both converge, a
-# Wilcoxon signed-rank test of the final errors.
+# Wilcoxon signed-rank test of the paired differences of the final errors (are they symmetric
+# about zero?).
 
 # %%
 ref_cost = 30000 * 80

@@ -72,7 +72,11 @@ use_style()
 # {glue:text}`n_runs_per_setting:d` simulated worlds (*common random numbers*): a difference between two settings is then a
 # difference of the filter, not of the data, and a paired comparison run by run is
 # possible. Any row can be re-run alone with `pfcourse.experiments.robot.compare_filters`,
-# which gives the same numbers.
+# which gives the same numbers. Throughout, "run by run, A gives $x$ times the RMSE of B" means
+# that $x$ is the median of the per-run ratios, with its 95 % bootstrap interval (percentile), and
+# a "paired difference" is the median of the per-run differences; the Wilcoxon signed-rank $p$
+# beside it tests whether those log ratios (or differences) are symmetric about zero, which is
+# not the same as a median of zero (`pfcourse.evidence.paired`, {doc}`../evidence`).
 #
 # **Horizon.** The reports run $1000$ s. The robot moves at $2.5$ cm/s along a gentle curve,
 # and the filter's error settles within about half a minute of the start (the gap study
@@ -902,27 +906,18 @@ glue("lm_bad_30", bad_runs.b.successes, display=False)
 glue("lm_bad_p", bad_runs.pvalue, display=False)
 glue("lm_bad_runs", bad_runs.a.n, display=False)
 # the 90 % quantile of the RMSE with a bootstrap interval per number of landmarks, and 3 against 30 on the same runs
-def q90(x, axis=-1):
-    return np.quantile(x, 0.9, axis=axis)
-
-
-def q90_difference(x, y, axis=-1):
-    return q90(x, axis) - q90(y, axis)
-
-
+rmse_by_m = {m: by_run[m].to_numpy() for m in (3, 5, 10, 30)}
 print(f"\n90 % quantile of the position RMSE (m), 95 % bootstrap interval over {len(by_run)} runs:")
-for m in (3, 5, 10, 30):
-    ci = stats.bootstrap((by_run[m].to_numpy(),), q90, n_resamples=9999, method="percentile",
-                         random_state=0).confidence_interval
-    print(f"  {m:>2} landmarks: {q90(by_run[m].to_numpy()):.3f} [{ci.low:.3f}, {ci.high:.3f}]")
-q90_gain = stats.bootstrap((by_run[3].to_numpy(), by_run[30].to_numpy()), q90_difference, paired=True,
-                           n_resamples=9999, method="percentile", random_state=0).confidence_interval
-lm_q90_gain = float(q90_difference(by_run[3].to_numpy(), by_run[30].to_numpy()))
-print(f"  3 minus 30 landmarks, same runs: {lm_q90_gain:.3f} m [{q90_gain.low:.3f}, {q90_gain.high:.3f}]")
+for m, x in rmse_by_m.items():
+    value, low, high = evidence.run_interval(lambda r, x=x: np.quantile(x[r], 0.9), x.size)
+    print(f"  {m:>2} landmarks: {value:.3f} [{low:.3f}, {high:.3f}]")
+lm_q90_gain, q90_gain_low, q90_gain_high = evidence.run_interval(
+    lambda r: np.quantile(rmse_by_m[3][r], 0.9) - np.quantile(rmse_by_m[30][r], 0.9), len(by_run))
+print(f"  3 minus 30 landmarks, same runs: {lm_q90_gain:.3f} m [{q90_gain_low:.3f}, {q90_gain_high:.3f}]")
 glue("lm_q90_gain", lm_q90_gain, display=False)
-glue("lm_q90_gain_low", float(q90_gain.low), display=False)
-glue("lm_q90_gain_high", float(q90_gain.high), display=False)
-assert q90_gain.low > 0  # the prose: the 90 % quantile is measurably lower with 30 landmarks
+glue("lm_q90_gain_low", q90_gain_low, display=False)
+glue("lm_q90_gain_high", q90_gain_high, display=False)
+assert q90_gain_low > 0  # the prose: the 90 % quantile is measurably lower with 30 landmarks
 
 # %%
 fig, axes = plt.subplots(1, 2, figsize=(10, 3.6))
@@ -1122,21 +1117,21 @@ dt_by_run = dt_table.pivot(index="run", columns="dt_meas", values="position_rmse
 budget = (n_by_run[300].to_numpy(), n_by_run[1000].to_numpy(), dt_by_run[2.0].to_numpy(), dt_by_run[1.0].to_numpy())
 
 
-def budget_gains(n300, n1000, dt2, dt1, axis=-1):
-    n_gain = np.median(n300, axis=axis) - np.median(n1000, axis=axis)
-    dt_loss = np.median(dt2, axis=axis) - np.median(dt1, axis=axis)
-    return np.stack([n_gain, dt_loss, dt_loss - n_gain])
+def budget_gains(r):
+    n300, n1000, dt2, dt1 = (b[r] for b in budget)
+    n_gain = np.median(n300) - np.median(n1000)
+    dt_loss = np.median(dt2) - np.median(dt1)
+    return np.array([n_gain, dt_loss, dt_loss - n_gain])
 
 
-budget_ci = stats.bootstrap(budget, budget_gains, paired=True, n_resamples=9999, method="percentile",
-                            random_state=0).confidence_interval
+budget_value, budget_low, budget_high = evidence.run_interval(budget_gains, len(dt_by_run))
 print(f"medians over {len(dt_by_run)} runs, 95 % paired bootstrap intervals:")
 for i, (what, key) in enumerate([("N 300 -> 1000, gain", "budget_n_gain"), ("dt_meas 1 -> 2 s, loss", "budget_dt_loss"),
                                  ("loss minus gain", "budget_excess")]):
-    print(f"  {what}: {budget_gains(*budget)[i]:.3f} m [{budget_ci.low[i]:.3f}, {budget_ci.high[i]:.3f}]")
-    glue(f"{key}_low", float(budget_ci.low[i]), display=False)
-    glue(f"{key}_high", float(budget_ci.high[i]), display=False)
-assert budget_ci.low[2] > 0  # the solution: halving the measurement rate costs more than tripling N gains
+    print(f"  {what}: {budget_value[i]:.3f} m [{budget_low[i]:.3f}, {budget_high[i]:.3f}]")
+    glue(f"{key}_low", float(budget_low[i]), display=False)
+    glue(f"{key}_high", float(budget_high[i]), display=False)
+assert budget_low[2] > 0  # the solution: halving the measurement rate costs more than tripling N gains
 
 
 def draw_first_runs(parameter, n_runs):

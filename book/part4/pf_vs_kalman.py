@@ -49,7 +49,7 @@ from pfcourse import evidence
 
 from pfcourse.experiments.terrain import DIVERGED_ERROR
 from pfcourse.terrain.scenario import AircraftScenario
-from pfcourse.experiments.comparison import label, linear_convergence, loglog_slope, robot_tracks, summarize_tracks, terrain_tracks
+from pfcourse.experiments.comparison import label, linear_convergence, robot_tracks, summarize_tracks, terrain_tracks
 from pfcourse.diagnostics import chi2_band, fraction_in_band
 from pfcourse.filter import ParticleFilter
 from pfcourse.kalman import kalman_filter
@@ -125,21 +125,20 @@ def rms(a):
     return np.sqrt(np.mean(a**2, axis=1))
 
 
-def bootstrap_slope(values, n_boot=300):
-    """Fitted log-log slope of the RMS over runs and its bootstrap standard error over runs
-    (scipy.stats.bootstrap resampling the runs)."""
-    def fitted(runs):
-        return loglog_slope(N_LINEAR, rms(values[:, runs.astype(int)]))
-    se = stats.bootstrap((np.arange(values.shape[1]),), fitted, vectorized=False, n_resamples=n_boot,
-                         random_state=np.random.default_rng(0)).standard_error
-    return loglog_slope(N_LINEAR, rms(values)), float(se)
+def rms_over_runs(a, axis):
+    return np.sqrt(np.mean(a**2, axis=axis))
 
 
-slopes = {}
-print(f"fitted slope of log(RMS error) against log(N), {LINEAR_RUNS} runs per N (bootstrap s.e.)")
+slopes = {}  # (slope, low, high): the fit of log(RMS over the runs) on log N, 95 % interval resampling the runs
+print(f"fitted slope of log(RMS error) against log(N), {LINEAR_RUNS} runs per N (95 % bootstrap interval over the runs)")
 for name, res in convergence.items():
-    slopes[name] = {q: bootstrap_slope(getattr(res, q)) for q in ("mean_error", "cov_error", "loglik_error")}
-    print(f"  {name:27s} " + "   ".join(f"{q.split('_')[0]:7s} {s:+.2f} ({se:.2f})" for q, (s, se) in slopes[name].items()))
+    slopes[name] = {q: evidence.log_slope(getattr(res, q), N_LINEAR, center=rms_over_runs)
+                    for q in ("mean_error", "cov_error", "loglik_error")}
+    print(f"  {name:27s} " + "   ".join(f"{q.split('_')[0]:7s} {s:+.2f} ({lo:+.2f} to {hi:+.2f})"
+                                          for q, (s, lo, hi) in slopes[name].items()))
+for q in ("mean_error", "loglik_error"):
+    for suffix, value in zip(("", "_low", "_high"), slopes["every component moves"][q]):
+        glue(f"linear_{q.split('_')[0]}_slope{suffix}", value, display=False)
 
 # %%
 titles = {"mean_error": "posterior mean (m)", "cov_error": "posterior covariance (m²)",
@@ -151,7 +150,7 @@ for ax, q in zip(axes, titles):
         values = np.abs(getattr(res, q))
         lo, hi = np.quantile(values, [0.1, 0.9], axis=1)
         ax.fill_between(N_LINEAR, lo, hi, color=styles[name], alpha=0.2)
-        s, se = slopes[name][q]
+        s = slopes[name][q][0]
         ax.plot(N_LINEAR, rms(values), "o-", color=styles[name], label=f"{name}: slope {s:+.2f}")
     ref = rms(np.abs(getattr(convergence["every component moves"], q)))[0] * np.sqrt(N_LINEAR[0] / N_LINEAR)
     ax.plot(N_LINEAR, ref, "k--", lw=1, label=r"$1/\sqrt{N}$")
@@ -175,8 +174,12 @@ for name, b in bias.items():
 
 # %% [markdown]
 # When every component has process noise, the errors of the mean and of the log-likelihood
-# fall close to the $1/\sqrt N$ line (fitted slopes printed above, near $-1/2$): the central
-# limit theorem of particle filters at work {cite:p}`doucet2011`. The covariance error falls
+# fall close to the $1/\sqrt N$ line: the fitted slope is {glue:text}`linear_mean_slope:.2f` for
+# the mean (95 % bootstrap interval over the runs {glue:text}`linear_mean_slope_low:.2f` to
+# {glue:text}`linear_mean_slope_high:.2f`, a little shallower than $-1/2$ over this range of $N$)
+# and {glue:text}`linear_loglik_slope:.2f` for the log-likelihood ({glue:text}`linear_loglik_slope_low:.2f`
+# to {glue:text}`linear_loglik_slope_high:.2f`): the central limit theorem of particle filters at
+# work {cite:p}`doucet2011`. The covariance error falls
 # more slowly over this range of $N$: a second moment estimated from a resampled cloud needs
 # more particles to reach its asymptotic regime. At $N = 1000$ the particle mean is off by
 # about a tenth of the exact posterior standard deviation (printed above). The rate is also
@@ -317,7 +320,7 @@ for a, b in [(pf_keys[0], pf_keys[1]), (pf_keys[1], pf_keys[2]), (pf_keys[0], pf
     glue(f"robot_pf{a[1]}_over_pf{b[1]}_detectable", cmp.detectable, display=False)
 
 
-def band_intervals(runs, dim_x, dim_z, burn_in, n_boot=2000, seed=0):
+def band_intervals(runs, dim_x, dim_z, burn_in, seed=0):
     """95 % bootstrap intervals over the runs of the fractions of steps in, below and above the band.
 
     The runs are resampled with replacement and the run-averaged NEES / NIS recomputed from them (as
@@ -338,7 +341,7 @@ def band_intervals(runs, dim_x, dim_z, burn_in, n_boot=2000, seed=0):
                 f_below = fraction_in_band(nees_avg, (-np.inf, np.nextafter(nees_band[0], -np.inf)))
                 return np.array([f_in, f_below, max(0.0, 1 - f_in - f_below), fraction_in_band(nis_avg, nis_band)])
 
-            _, lo, hi = evidence.run_interval(fractions, R, seed=seed, n_resamples=n_boot)
+            _, lo, hi = evidence.run_interval(fractions, R, seed=seed)
         rows[label(first)] = {f"{c} {b}": v for c, l, h in zip(("NEES in", "NEES below", "NEES above", "NIS in"), lo, hi)
                               for b, v in (("low", l), ("high", h))}
     return pd.DataFrame(rows).T
@@ -363,7 +366,10 @@ glue_band("robot", robot_band, "PF N=1000", "NEES above", "pf1000_nees_above")
 # {glue:text}`robot_timing_reps:d` data sets, in alternating order (forward on one repetition,
 # backward on the next), so that a slow moment of the machine hits them all alike; each
 # filter's time is divided by the EKF's on the same repetition, and the ratios get a median, a
-# 95 % bootstrap interval and a Wilcoxon signed-rank test (`pfcourse.evidence.paired`).
+# 95 % bootstrap interval and a Wilcoxon signed-rank test (`pfcourse.evidence.paired`). Here and
+# below, a "median paired ratio" is the median of the per-run ratios, its interval a percentile
+# bootstrap over the runs, and the Wilcoxon $p$ tests whether the log ratios are symmetric about
+# zero (which is not the same as a median ratio of one).
 
 # %% tags=["nbval-ignore-output"]
 def robot_filters(seed):
@@ -613,7 +619,7 @@ j_ukf = [label(t) for t in terrain_runs["terrain, report's prior"][0]].index("UK
 ukf_nis_flights = np.array([run[j_ukf].nis[TERRAIN_BURN_IN:] for run in terrain_runs["terrain, report's prior"]])
 with np.errstate(invalid="ignore"):
     _, ukf_nis_low, ukf_nis_high = evidence.run_interval(
-        lambda r: np.nanmedian(ukf_nis_flights[r]) / chi2_1, n_wide, n_resamples=1999)
+        lambda r: np.nanmedian(ukf_nis_flights[r]) / chi2_1, n_wide)
 ukf_nis_low, ukf_nis_high = float(f"{ukf_nis_low:.1g}"), float(f"{ukf_nis_high:.1g}")
 glue("terrain_wide_ukf_nis_over_chi2_low", ukf_nis_low, display=False)
 glue("terrain_wide_ukf_nis_over_chi2_high", ukf_nis_high, display=False)
