@@ -156,9 +156,9 @@ plt.show()
 # The study behind the rest of this chapter is too heavy to run here (six filters, five
 # particle counts, {glue:text}`n_runs_rb:d` simulations: {glue:text}`rb_quadrant_filter_runs:d`
 # filter runs), so it was computed by
-# `tools/studies/rao_blackwell.py` and stored in `book/data/rao_blackwell.csv`, with its
+# `python3 tasks.py study rao_blackwell` and stored in `book/data/rao_blackwell.csv`, with its
 # provenance (git commit, seeds, settings, wall time) in `book/data/rao_blackwell.json`;
-# `tests/test_rao_blackwell.py` re-computes a random sample of its rows and requires the
+# `tests/test_stored_studies.py` re-computes a random sample of its rows and requires the
 # same numbers. Every method and every $N$ sees the same {glue:text}`n_runs_rb:d` simulations
 # (seeds $0$ to $99$) and
 # the same filter seed ($s + 10^6$); SIR-type filters resample at ESS $< N/3$, as in the lab.

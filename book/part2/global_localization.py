@@ -30,11 +30,12 @@
 # chance while its estimate still jumps between modes does not count.
 #
 # **How the numbers were made.** Every table of this chapter comes from
-# `tools/studies/global_localization.py`, which calls one function of `pfcourse.experiments.global_localization` per
+# `python3 tasks.py study global_localization` (the per-step traces: `tools/studies/global_localization_traces.py`),
+# which calls one function of `pfcourse.experiments.global_localization` per
 # row (run $r$ uses seed $r$: the same truths, landmarks, odometry and readings for every method
 # and every $N$) and stores the rows in `book/data/global_localization/` with their provenance
 # (git commit, seeds, settings). The whole study takes several minutes, too long for this page;
-# `tests/test_mcl_study.py` re-computes a random sample of the stored rows and requires the
+# `tests/test_stored_studies.py` re-computes a random sample of the stored rows and requires the
 # same numbers. The page itself runs a few filters live for the figures and the timings.
 
 # %%

@@ -17,10 +17,10 @@
 #
 # **Divergence**, everywhere below: a flight is *lost* when the filter's final horizontal
 # error exceeds $500$ m (about five DEM cells) or every particle died. Studies of $100$ flights
-# cost minutes, more than a chapter may take to execute, so they were computed by the script
-# `tools/studies/terrain_remedies.py` (one row per setting and flight, with
+# cost minutes, more than a chapter may take to execute, so they were computed by
+# `python3 tasks.py study terrain_remedies` (one row per setting and flight, with
 # `pfcourse.experiments.terrain_remedies.run_one`) into `book/data/terrain_remedies.csv`; its provenance
-# (git commit, seeds) is in `terrain_remedies.json`, and `tests/test_terrain_study.py`
+# (git commit, seeds) is in `terrain_remedies.json`, and `tests/test_stored_studies.py`
 # recomputes a random sample of the stored rows and requires the same numbers. Flight $r$
 # is the same in every setting (common random numbers), so settings are compared flight by
 # flight with paired tests.
@@ -502,7 +502,7 @@ plt.show()
 # the exact filter would answer on a given flight. No grid can hold this posterior (four
 # dimensions, kilometres wide at the start), so the reference is the bootstrap filter, which is
 # consistent (no kernel, no tempering), run with so many particles that **doubling $N$ changes
-# nothing**: `tools/studies/terrain_reference.py` ran it with $N = 5 \times 10^5$ and $10^6$, two
+# nothing**: `python3 tasks.py study terrain_reference` ran it with $N = 5 \times 10^5$ and $10^6$, two
 # independent seeds each, on flights $0$ to $4$ (the first five, fixed in advance). Distances
 # between posterior means are measured in units of the posterior's own spread,
 # $\sigma = \sqrt{\operatorname{var} x + \operatorname{var} y}$ at the final step. The

@@ -90,10 +90,10 @@ use_style()
 # measurement period, the gap) say so. Each run is one `pfcourse.experiments.robot.pf_run`:
 # the robot simulator and the same `ParticleFilter` as in the other chapters. The nine
 # studies below ({glue:text}`n_runs_per_setting:d` runs per setting) are too heavy to re-run every time this page executes,
-# so `tools/studies/robot_studies.py` ran them once with `run_study`, on
+# so `python3 tasks.py study robot_studies` ran them once with `run_study`, on
 # every core (next section), and stored the tables in `book/data/robot_studies/` with their
 # provenance; this page reads them (`robot_study` below refuses a grid that was not stored),
-# and `tests/test_robot_studies_data.py` re-runs a seeded sample of rows and requires the
+# and `tests/test_stored_studies.py` re-runs a seeded sample of rows and requires the
 # same numbers.
 #
 # Unless a section varies it, every run uses the reports' defaults: $N = 300$,
@@ -128,7 +128,7 @@ from pfcourse.experiments.robot_studies import BURN_IN, N_RUNS, N_STEPS
 
 def robot_study(grid, **fixed):
     """pf_run over `grid` (N_RUNS seeded runs per setting, n_steps=N_STEPS, burn_in=BURN_IN):
-    the table stored by tools/studies/robot_studies.py, which ran exactly
+    the table stored by `python3 tasks.py study robot_studies`, which ran exactly
     run_study(partial(pf_run, n_steps=N_STEPS, burn_in=BURN_IN, **fixed), grid, N_RUNS)."""
     return stored.find(grid, **fixed)
 

@@ -214,7 +214,7 @@ display(control_panel(draw_likelihood_curve, columns=2, grid={"n_particles": (10
 # Because $\hat Z$ is unbiased and $\log$ is concave, $\log \hat Z$ is biased **down**; when
 # $\log \hat Z$ is about Gaussian with variance $\sigma^2$, unbiasedness of $\hat Z = e^{\log
 # \hat Z}$ forces $\mathbb E[\log \hat Z] = \log Z - \sigma^2/2$. And $\sigma^2$ shrinks like
-# $1/N$. The table was computed by `tools/studies/likelihood.py` ({glue:text}`bias_runs:d` seeded
+# $1/N$. The table was computed by `python3 tasks.py study likelihood` ({glue:text}`bias_runs:d` seeded
 # filters per $N$ on the chapter's dataset, at $\theta = 1$, through `pfcourse.study.run_study`;
 # provenance in `book/data/likelihood/bias.json`), with 95 % intervals: a t-interval for the
 # mean error of $\log \hat Z$ and a percentile bootstrap interval over the runs for the mean of
@@ -284,7 +284,7 @@ theta_pf, n_pf = max_likelihood_scale(lambda t: pf_log_likelihood(scenario, Z, t
 print(f"exact ML: theta = {theta_kalman:.3f}; particle ML (N = 300, one seed): theta = {theta_pf:.3f}")
 
 # %% [markdown]
-# One dataset says little. `tools/studies/likelihood.py` repeats this on {glue:text}`ml_n_datasets:d` simulated
+# One dataset says little. `python3 tasks.py study likelihood` repeats this on {glue:text}`ml_n_datasets:d` simulated
 # datasets (truth $\theta = 1$), each maximised with the exact likelihood and with the
 # particle likelihood at $N = 300$ and $N = 1000$ (one filter seed per dataset, reused for
 # every $\theta$ and both $N$; provenance in `ml.json`). The exact ML estimate differs from
@@ -417,7 +417,7 @@ glue("sd_ratio_band_high", float(sd_ratio_ci[1]), display=False)
 #
 # The three chains below ({glue:text}`pmmh_iterations:d` iterations each, started at
 # $\theta = 2$; the first {glue:text}`pmmh_burn_in:d` dropped as burn-in) were run by
-# `tools/studies/likelihood.py` (provenance in `pmmh.json`) with $N = 100$, $300$ and $1000$, on
+# `tools/studies/pmmh.py` (provenance in `pmmh.json`) with $N = 100$, $300$ and $1000$, on
 # the chapter's dataset. There is one chain per $N$, so every comparison across $N$ below
 # (acceptance, autocorrelation time, error of the posterior mean) rests on a single chain each,
 # without replication: a different seed could reorder close values.
@@ -507,7 +507,7 @@ for n in pmmh_table.index:
 # $0.3$. The exact posterior is the Kalman likelihood on a
 # {glue:text}`pmmh2_grid:d` × {glue:text}`pmmh2_grid:d` grid of the prior's support
 # (`grid_posterior_2d`). Chains of {glue:text}`pmmh2_iterations:d` iterations with $N = 100$,
-# $300$ and $1000$ (the first {glue:text}`pmmh2_burn_in:d` dropped), from $(2, 2)$, computed by `tools/studies/likelihood.py` (provenance in `pmmh2.json`):
+# $300$ and $1000$ (the first {glue:text}`pmmh2_burn_in:d` dropped), from $(2, 2)$, computed by `tools/studies/pmmh.py` (provenance in `pmmh2.json`):
 
 # %%
 g2 = pd.read_csv(DATA + "grid2.csv").sort_values(["i", "j"])
@@ -595,7 +595,7 @@ plt.show()
 # scipy's bounded Nelder-Mead on $(\log q, \log r)$, started at the hand-tuned $(2, 2)$
 # (`pfcourse.experiments.likelihood.max_likelihood_scales`; $N = 300$, a $200$ s run). A filter with
 # $N = 1000$ particles and a fresh seed is then run with the estimated scales, with the
-# hand-tuned ones and with the truth $(1, 1)$. `tools/studies/robot_noise.py` did this on
+# hand-tuned ones and with the truth $(1, 1)$. `python3 tasks.py study likelihood/robot_noise` did this on
 # {glue:text}`robot_noise_runs` seeded runs (each needs about a hundred filter runs; provenance in
 # `robot_noise.json`). Position RMSE after $20$ s and time-averaged NEES ($3$ for a consistent
 # filter); medians with 95 % bootstrap intervals, paired Wilcoxon tests against the
@@ -649,7 +649,7 @@ glue("robot_nees_p_ml", evidence.paired(rn["nees_ml"], rn["nees_hand"]).pvalue, 
 #
 # Is the particle likelihood usable where the filter struggles? The terrain filter of Part II
 # assumes an altimeter noise $R_f = (20\text{ m})^2$, the value the simulator uses. On each of the
-# terrain chapters' {glue:text}`terrain_rf_flights:d` flights, `tools/studies/likelihood.py` (provenance in `terrain_rf.json`)
+# terrain chapters' {glue:text}`terrain_rf_flights:d` flights, `python3 tasks.py study likelihood/terrain_rf` (provenance in `terrain_rf.json`)
 # maximised the particle log-likelihood of a scale of $R_f$ over $[0.1, 10]$ with the regularised
 # filter of {doc}`../part2/terrain_cure` ($N = 10\,000$, one seed per flight for every scale,
 # resampling at every reading; `pfcourse.experiments.likelihood.terrain_log_likelihood`). No exact
@@ -764,7 +764,7 @@ glue("demo_smoother_ess_min", float(np.min(1 / np.sum(smooth.weights**2, axis=1)
 # concentrate on the few filter particles whose descendants survived the later
 # resamplings, and the effective sample size of $W_{k|K}$ falls to
 # {glue:text}`demo_smoother_ess_min:.0f` of $300$. Over {glue:text}`smoothing_a_runs` seeded datasets
-# (`tools/studies/smoothing.py`, provenance in `smoothing_landmarks.json`, computed outside the
+# (`python3 tasks.py study likelihood/smoothing_landmarks`, provenance in `smoothing_landmarks.json`, computed outside the
 # page because the $O(N^2)$ backward pass is slow; 95 % bootstrap intervals of the median), the root-mean-square
 # distance to the exact answer, in exact standard deviations, over all states and times:
 
@@ -857,7 +857,7 @@ ax.legend(fontsize=8, loc="upper left")
 plt.show()
 
 # %% [markdown]
-# Over {glue:text}`smoothing_robot_runs` seeded runs (`tools/studies/smoothing.py`, provenance in
+# Over {glue:text}`smoothing_robot_runs` seeded runs (`python3 tasks.py study likelihood/smoothing_robot`, provenance in
 # `smoothing_robot.json`; each backward pass takes seconds), the mean position error inside the gap, and
 # its paired ratio (the median of the per-run ratios with its 95 % bootstrap interval; Wilcoxon
 # signed-rank test of the log ratios being symmetric about zero):
