@@ -251,3 +251,137 @@ def check_sis(fn: Callable, n_particles: int = 20_000, seed: int = 0, z: np.ndar
 def _fits(means: np.ndarray, ess: np.ndarray, mean: np.ndarray, var: np.ndarray, z_max: float = 6.0) -> bool:
     """Whether the cloud's means agree with a posterior's within ``z_max`` Monte Carlo standard errors."""
     return bool(np.all(np.abs(means - mean) <= z_max * np.sqrt(var / np.clip(ess, 1, None)) + 1e-12))
+
+
+# The Kalman checker (chapter 2, exercise 2.3). A scalar Kalman filter is deterministic, so the
+# student's numbers must equal the exact ones to round-off; a filter that does not is compared
+# with what each typical mistake computes, and the report names the mistake that fits.
+
+#: The measurements of :func:`check_kalman`: none at step 0 (the filter starts from the prior), two missing later.
+KALMAN_CASE = np.array([np.nan, 1.2, 2.0, np.nan, 0.3, np.nan, -0.4])
+
+#: The typical mistakes of a scalar Kalman filter, each as the flag of :func:`scalar_kalman` that makes
+#: it, with the sentence that names it (what is wrong, and why).
+KALMAN_MISTAKES = {
+    "gain_with_p": "the gain divides by the predicted variance P_k^- instead of the innovation variance "
+                   "S_k = P_k^- + r: K_k = P_k^- / S_k weighs the prediction against the measurement noise",
+    "no_q": "the predicted variance forgets the process noise: P_k^- = a^2 P_(k-1) + q, the state moves "
+            "by w_k ~ N(0, q) at every step",
+    "r_as_sd": "the update uses r as a standard deviation: r is the variance of v_k, so S_k = P_k^- + r, "
+               "not P_k^- + r^2",
+    "q_as_sd": "the prediction uses q as a standard deviation: q is the variance of w_k, so P_k^- = a^2 P_(k-1) "
+               "+ q, not + q^2",
+    "predict_at_0": "step 0 is predicted: the filter starts from N(m0, p0) at step 0 and predicts only from "
+                    "step 1 on",
+    "nan_as_zero": "a missing measurement (NaN) is used as z_k = 0: when nothing is measured, skip the update "
+                   "(the filtering density is then the predicted one)",
+    "no_update_of_p": "the variance is not updated: after a measurement P_k = (1 - K_k) P_k^-, smaller than P_k^-",
+    "loglik_with_p": "the log-likelihood uses P_k^- where it needs S_k: the increment is log N(nu_k; 0, S_k), "
+                     "the innovation's density, with S_k = P_k^- + r",
+    "loglik_no_constant": "the log-likelihood misses the normalising term: log N(nu_k; 0, S_k) = "
+                          "-(nu_k^2 / S_k + log(2 pi S_k)) / 2",
+}
+
+
+def scalar_kalman(z: np.ndarray, model: ScalarModel, mistake: str | None = None) -> tuple[np.ndarray, np.ndarray, float]:
+    """The Kalman filter of a :class:`ScalarModel`: ``(means, variances, log_likelihood)`` over the steps.
+
+    Step 0 starts from ``N(m0, p0)``; step ``k > 0`` predicts ``m_k^- = a m_(k-1)``,
+    ``P_k^- = a^2 P_(k-1) + q``. A measured ``z_k`` updates with the innovation
+    ``nu_k = z_k - m_k^-``, its variance ``S_k = P_k^- + r`` and the gain ``K_k = P_k^- / S_k``:
+    ``m_k = m_k^- + K_k nu_k``, ``P_k = (1 - K_k) P_k^-``, and adds
+    ``log N(nu_k; 0, S_k) = -(nu_k^2 / S_k + log(2 pi S_k)) / 2`` to the log-likelihood; a NaN
+    ``z_k`` (nothing measured) skips the update. ``mistake`` (a key of :data:`KALMAN_MISTAKES`)
+    computes instead what that mistake computes.
+    """
+    if mistake is not None and mistake not in KALMAN_MISTAKES:
+        raise ValueError(f"unknown mistake {mistake!r}; one of {sorted(KALMAN_MISTAKES)}")
+    a = model.a
+    q = model.q**2 if mistake == "q_as_sd" else 0.0 if mistake == "no_q" else model.q
+    r = model.r**2 if mistake == "r_as_sd" else model.r
+    m, p, log_lik = model.m0, model.p0, 0.0
+    means, variances = np.empty(len(z)), np.empty(len(z))
+    for k, zk in enumerate(z):
+        if k > 0 or mistake == "predict_at_0":
+            m, p = a * m, a * a * p + q
+        if np.isnan(zk) and mistake == "nan_as_zero":
+            zk = 0.0
+        if not np.isnan(zk):
+            nu, s = zk - m, p + r
+            gain = 1.0 if mistake == "gain_with_p" else p / s
+            s_lik = p if mistake == "loglik_with_p" else s
+            log_lik += -0.5 * nu**2 / s_lik - (0.0 if mistake == "loglik_no_constant" else 0.5 * np.log(2 * np.pi * s_lik))
+            m = m + gain * nu
+            p = p if mistake == "no_update_of_p" else (1.0 - gain) * p
+        means[k], variances[k] = m, p
+    return means, variances, float(log_lik)
+
+
+def check_kalman(fn: Callable, z: np.ndarray = KALMAN_CASE, rtol: float = 1e-9) -> CheckReport:
+    """Check a student's ``fn(z, model) -> (means, variances, log_likelihood)`` on a :class:`ScalarModel`.
+
+    ``z`` (default :data:`KALMAN_CASE`) has shape ``(K,)``, NaN where nothing is measured;
+    ``means`` and ``variances`` have shape ``(K,)``, the mean and variance of ``p(x_k | z_{1:k})``
+    at every step, and ``log_likelihood`` is ``log p(z_{1:K}) = sum_k log N(nu_k; 0, S_k)``. The
+    filter is deterministic, so each must equal :func:`scalar_kalman` to ``rtol``; a filter that
+    does not is compared with every typical mistake of :data:`KALMAN_MISTAKES`, and the report
+    names the one that fits.
+    """
+    report = CheckReport("Kalman filter")
+    model = ScalarModel()
+    z = np.array(z, dtype=float)
+    try:
+        with np.errstate(all="ignore"):
+            answer = fn(z.copy(), model)
+            if answer is None:
+                report.problems.append("the function returned None: write the filter and return "
+                                       "(means, variances, log_likelihood)")
+                return report
+            means, variances, log_lik = answer
+            means, variances = np.asarray(means, dtype=float), np.asarray(variances, dtype=float)
+            log_lik = float(log_lik)
+    except Exception as exc:  # the student's error, reported
+        report.problems.append(f"calling fn(z, model) raised {type(exc).__name__}: {exc}")
+        return report
+    if means.shape != z.shape or variances.shape != z.shape:
+        report.problems.append(f"returned shapes {means.shape} and {variances.shape}; expected {z.shape} each: "
+                               "one mean and one variance per step, step 0 included")
+        return report
+    bad = ~(np.isfinite(means) & np.isfinite(variances))
+    if bad.any():
+        k = int(np.argmax(bad))
+        why = ("z_k is NaN (nothing measured): skip the update at such a step, the filtering density is then "
+               "the predicted one" if np.isnan(z[k]) else "check the update of that step")
+        report.problems.append(f"the mean or the variance is NaN or infinite at step {k}; {why}")
+        return report
+    if not np.isfinite(log_lik):
+        report.problems.append("the log-likelihood is NaN or infinite: add log N(nu_k; 0, S_k) only at the steps "
+                               "where something is measured (z_k not NaN)")
+        return report
+
+    def close(got, expected) -> bool:
+        return bool(np.allclose(got, expected, rtol=rtol, atol=1e-12))
+
+    exact = scalar_kalman(z, model)
+    filtered = close(means, exact[0]) and close(variances, exact[1])
+    if filtered and close(log_lik, exact[2]):
+        return report
+    for mistake, why in KALMAN_MISTAKES.items():
+        wrong = scalar_kalman(z, model, mistake)
+        if close(means, wrong[0]) and close(variances, wrong[1]) and (not filtered or close(log_lik, wrong[2])):
+            if not (close(wrong[0], exact[0]) and close(wrong[1], exact[1])) or not close(wrong[2], exact[2]):
+                report.problems.append(f"your filter computes a known mistake: {why}")
+                return report
+    if filtered:
+        report.problems.append(
+            f"the means and variances are right, the log-likelihood is not ({log_lik:.6f}, exact {exact[2]:.6f}): "
+            "add log N(nu_k; 0, S_k) at every measured step and nothing at a missing one")
+        return report
+    wrong_means = ~np.isclose(means, exact[0], rtol=rtol, atol=1e-12)
+    wrong_vars = ~np.isclose(variances, exact[1], rtol=rtol, atol=1e-12)
+    k = int(np.argmax(wrong_means | wrong_vars))
+    report.problems.append(
+        f"at step {k} your mean and variance are {means[k]:.6f} and {variances[k]:.6f}, the exact ones "
+        f"{exact[0][k]:.6f} and {exact[1][k]:.6f}: check the prediction (m_k^- = a m_(k-1), P_k^- = a^2 P_(k-1) + q) "
+        "and the update of that step")
+    return report
