@@ -17,6 +17,11 @@ exception is reported as a problem); ``str(report)`` prints the verdict.
   that forget the previous step, particles moved without process noise, a variance read as a
   standard deviation), so the report can say which mistake it sees, not only that the numbers
   are off.
+* :func:`check_kalman` - ``fn(z, model) -> (means, variances, log_likelihood)``: a scalar Kalman
+  filter with missing measurements, against :func:`scalar_kalman` to round-off (it is
+  deterministic); a wrong one is compared with what each mistake of :data:`KALMAN_MISTAKES`
+  computes (the gain with ``P_k^-`` instead of ``S_k``, no process noise, a variance read as a
+  standard deviation, a NaN used as 0, a log-likelihood with ``P_k^-`` or without its constant, ...).
 """
 
 from __future__ import annotations
@@ -191,21 +196,13 @@ def check_sis(fn: Callable, n_particles: int = 20_000, seed: int = 0, z: np.ndar
     """
     report = CheckReport("SIS")
     model = ScalarModel()
-    try:
-        with np.errstate(all="ignore"):
-            answer = fn(np.array(z, dtype=float), n_particles, np.random.default_rng(seed), model)
-            if answer is None:
-                report.problems.append("the function returned None: write the filter and return (means, ess)")
-                return report
-            means, ess = (np.asarray(v, dtype=float) for v in answer)
-    except Exception as exc:  # the student's error, reported
-        report.problems.append(f"calling fn(z, n_particles, rng, model) raised {type(exc).__name__}: {exc}")
+    answer = _per_step_answer(
+        report, lambda: fn(np.array(z, dtype=float), n_particles, np.random.default_rng(seed), model),
+        "fn(z, n_particles, rng, model)", "(means, ess)", ("mean", "ESS"), z.size)
+    if answer is None:
         return report
+    means, ess = answer
     k_steps = z.size
-    if means.shape != (k_steps,) or ess.shape != (k_steps,):
-        report.problems.append(f"returned shapes {means.shape} and {ess.shape}; expected ({k_steps},) each: "
-                               "one mean and one ESS per step, step 0 included")
-        return report
     bad = ~(np.isfinite(means) & np.isfinite(ess))
     if bad.any():
         k = int(np.argmax(bad))
@@ -246,6 +243,35 @@ def check_sis(fn: Callable, n_particles: int = 20_000, seed: int = 0, z: np.ndar
         f"Monte Carlo standard errors ({np.sqrt(exact[1][k] / max(ess[k], 1)):.3f}) away: check the proposal "
         "(x_k = a x_(k-1) + w_k), the log-likelihood of z_k and the weighted mean")
     return report
+
+
+def _per_step_answer(report: CheckReport, call: Callable, signature: str, returns: str, names: tuple[str, ...],
+                     k_steps: int) -> tuple | None:
+    """The student's answer ``call()``: the tuple ``returns`` names, whose first ``len(names)`` entries are
+    arrays of one value per step, shape ``(k_steps,)``, converted to float; the rest as they are. ``None``,
+    with the problem reported in one sentence, when the call raises or returns ``None``, the wrong number
+    of values or arrays of the wrong shape."""
+    expected = returns.count(",") + 1
+    try:
+        with np.errstate(all="ignore"):
+            answer = call()
+            if answer is None:
+                report.problems.append(f"the function returned None: write the filter and return {returns}")
+                return None
+            answer = tuple(answer)
+            if len(answer) != expected:
+                report.problems.append(f"the function returned {len(answer)} values; return {expected}: {returns}")
+                return None
+            arrays = [np.asarray(v, dtype=float) for v in answer[:len(names)]]
+    except Exception as exc:  # the student's error, reported
+        report.problems.append(f"calling {signature} raised {type(exc).__name__}: {exc}")
+        return None
+    if any(v.shape != (k_steps,) for v in arrays):
+        shapes = " and ".join(str(v.shape) for v in arrays)
+        report.problems.append(f"returned shapes {shapes}; expected ({k_steps},) each: "
+                               f"one {' and one '.join(names)} per step, step 0 included")
+        return None
+    return (*arrays, *answer[len(names):])
 
 
 def _fits(means: np.ndarray, ess: np.ndarray, mean: np.ndarray, var: np.ndarray, z_max: float = 6.0) -> bool:
@@ -330,22 +356,16 @@ def check_kalman(fn: Callable, z: np.ndarray = KALMAN_CASE, rtol: float = 1e-9) 
     report = CheckReport("Kalman filter")
     model = ScalarModel()
     z = np.array(z, dtype=float)
-    try:
-        with np.errstate(all="ignore"):
-            answer = fn(z.copy(), model)
-            if answer is None:
-                report.problems.append("the function returned None: write the filter and return "
-                                       "(means, variances, log_likelihood)")
-                return report
-            means, variances, log_lik = answer
-            means, variances = np.asarray(means, dtype=float), np.asarray(variances, dtype=float)
-            log_lik = float(log_lik)
-    except Exception as exc:  # the student's error, reported
-        report.problems.append(f"calling fn(z, model) raised {type(exc).__name__}: {exc}")
+    answer = _per_step_answer(report, lambda: fn(z.copy(), model), "fn(z, model)",
+                              "(means, variances, log_likelihood)", ("mean", "variance"), z.size)
+    if answer is None:
         return report
-    if means.shape != z.shape or variances.shape != z.shape:
-        report.problems.append(f"returned shapes {means.shape} and {variances.shape}; expected {z.shape} each: "
-                               "one mean and one variance per step, step 0 included")
+    means, variances, log_lik = answer
+    try:
+        log_lik = float(np.asarray(log_lik, dtype=float).item())
+    except (TypeError, ValueError):
+        report.problems.append(f"the log-likelihood is {np.size(log_lik)} values, not one number: return the sum "
+                               "of the increments log N(nu_k; 0, S_k) over the measured steps")
         return report
     bad = ~(np.isfinite(means) & np.isfinite(variances))
     if bad.any():

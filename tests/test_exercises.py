@@ -211,3 +211,16 @@ def test_an_unnamed_kalman_mistake_points_at_its_step_and_a_student_exception_is
     assert "raised ZeroDivisionError" in str(check_kalman(lambda z, model: 1 / 0))
     assert check_kalman(lambda z, model: None).problems == [
         "the function returned None: write the filter and return (means, variances, log_likelihood)"]
+
+
+def test_a_kalman_answer_of_the_wrong_form_is_named():
+    def two_values(z, model):
+        return kalman(z, model)[:2]
+
+    def increments(z, model):
+        means, variances, _ = kalman(z, model)
+        return means, variances, np.zeros(len(z))
+
+    assert check_kalman(two_values).problems == [
+        "the function returned 2 values; return 3: (means, variances, log_likelihood)"]
+    assert "not one number: return the sum of the increments" in check_kalman(increments).problems[0]
