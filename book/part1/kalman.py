@@ -125,7 +125,7 @@ from pfcourse.kalman import kalman_filter
 from pfcourse.landmarks.figures import landmark_scene
 from pfcourse.landmarks.scenario import circle_scenario, quadrant_scenario, simulate
 from pfcourse.figures.report import EvidenceBlock, glue_values
-from pfcourse.style import COLORS, ellipse_patch, use_style
+from pfcourse.style import COLORS, ellipse_patch, plain_log_axis, use_style
 from pfcourse.figures.widgets import control_panel, scale_slider, seed_box
 
 use_style()
@@ -191,7 +191,8 @@ def plot_estimates(sim, kf, axes, labels):
         ax.set_ylabel(f"{labels[j]} (m)")
     for ax in axes[-1]:
         ax.set_xlabel("time t (s)")
-    axes.flat[0].legend(loc="upper right", fontsize=8)
+    axes.flat[0].figure.legend(*axes.flat[0].get_legend_handles_labels(), loc="upper center", ncols=3,
+                               fontsize=8, frameon=False, bbox_to_anchor=(0.5, 0.95))  # above the panels, off the data
 
 
 fig, axes = plt.subplots(3, 2, figsize=(9, 6.5), sharex=True)
@@ -283,11 +284,12 @@ EvidenceBlock(
 # %%
 fig, ax = plt.subplots(figsize=(7, 3.5))
 for j, c in zip(range(2), ("tab:purple", "tab:brown")):
-    ax.semilogy(sim.T, sd[:, 2 + 2 * j], color=c, label=f"sd of L{j + 1} x")
+    ax.plot(sim.T, sd[:, 2 + 2 * j], color=c, label=f"sd of L{j + 1} x")
     seen_t = sim.T[sim.seen[:, j]]
     ax.plot(seen_t, np.full(seen_t.shape, 0.5 + 0.1 * j), "|", color=c, ms=8, label=f"L{j + 1} in view")
 ax.set_xlabel("time t (s)")
 ax.set_ylabel("posterior sd (m)")
+plain_log_axis(ax, "y", subs=(1.0, 2.0, 5.0))
 ax.set_title("Landmark uncertainty shrinks at sightings, stays flat or shrinks in between")
 ax.legend(loc="lower left", ncols=2, fontsize=8)
 plt.show()
@@ -364,9 +366,11 @@ HTML(animate_ellipses(scenario5, sim5, kf5, (-4.0, 8.0)).to_jshtml())
 # %%
 sd5 = np.sqrt(np.diagonal(kf5.cov, axis1=1, axis2=2))
 fig, ax = plt.subplots(figsize=(7, 3.5))
-ax.semilogy(sim5.T, sd5[:, 0], color=COLORS["robot"], lw=2, label="robot x")
+ax.plot(sim5.T, sd5[:, 0], color=COLORS["robot"], lw=2, label="robot x")
 for j in range(5):
-    ax.semilogy(sim5.T, sd5[:, 2 + 2 * j], lw=1, label=f"L{j + 1} x")
+    ax.plot(sim5.T, sd5[:, 2 + 2 * j], lw=1, label=f"L{j + 1} x")
+plain_log_axis(ax, "y", subs=(1.0, 2.0, 5.0))
+ax.set_ylim(top=0.6)  # the prior sd, 0.45 m, below the top tick
 ax.set_xlabel("time t (s)")
 ax.set_ylabel("posterior sd (m)")
 ax.set_title("Five landmarks: each sd drops when its landmark passes through the view")
