@@ -41,8 +41,8 @@
 # p(z_k \mid z_{1:k-1}) = \int p(z_k \mid x_k)\, p(x_k \mid z_{1:k-1})\, dx_k .
 # $$
 #
-# The denominator, the **likelihood increment**, is the probability of the new measurement
-# given the past ones; their product over the steps is the likelihood of all the data,
+# The denominator, the **likelihood increment**, is the density of the new measurement given
+# the past ones; their product over the steps is the likelihood of all the data,
 # $p(z_{1:k}) = \prod_{j \le k} p(z_j \mid z_{1:j-1})$, which {doc}`../part5/likelihood` uses to
 # learn the noise levels. When nothing is measured at step $k$, $p(z_k \mid x_k) = 1$: the
 # update changes nothing and the increment is $1$. The recursion starts from $p(x_0)$.
@@ -69,8 +69,10 @@
 # $z_k = H_k x_k + v_k$ is affine in $(x_k, v_k)$. The measurement's predicted mean is
 # $H_k m_k^-$; the **innovation** $\nu_k = z_k - H_k m_k^-$ is what the measurement says that the
 # prediction did not, and its covariance is $S_k = H_k P_k^- H_k^\top + R_k$. The
-# cross-covariance of $x_k$ and $z_k$ is $P_k^- H_k^\top$. Conditioning a jointly Gaussian vector
-# on one of its parts gives a Gaussian, here with
+# cross-covariance of $x_k$ and $z_k$ is $P_k^- H_k^\top$. Conditioning a jointly Gaussian pair
+# $(a, b)$ on $b$ gives a Gaussian, with mean $\mu_a + \Sigma_{ab} \Sigma_{bb}^{-1} (b - \mu_b)$ and
+# covariance $\Sigma_{aa} - \Sigma_{ab} \Sigma_{bb}^{-1} \Sigma_{ba}$ (means $\mu$, covariance blocks
+# $\Sigma$). With $a = x_k$, $b = z_k$, $\Sigma_{ab} = P_k^- H_k^\top$ and $\Sigma_{bb} = S_k$:
 #
 # $$
 # K_k = P_k^- H_k^\top S_k^{-1}, \qquad m_k = m_k^- + K_k \nu_k, \qquad
@@ -170,7 +172,7 @@ glue_values("kalman_", check_bound=ROUND_OFF)
 # Means, covariances and log-likelihood agree with the package's filter to round-off (below
 # {glue:text}`kalman_check_bound:.0e`) on both variants; the package writes the covariance
 # update in Joseph's form, $(I - K_k H_k) P_k^- (I - K_k H_k)^\top + K_k R_k K_k^\top$, equal in
-# exact arithmetic and kept symmetric in floating point.
+# exact arithmetic and more robust to round-off (a sum of two positive semi-definite terms).
 #
 # ## Estimates and $3\sigma$ bands on the two-landmark variant
 
