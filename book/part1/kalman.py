@@ -37,7 +37,9 @@
 #
 # $$
 # p(x_k \mid z_{1:k}) = \frac{p(z_k \mid x_k)\, p(x_k \mid z_{1:k-1})}{p(z_k \mid z_{1:k-1})} ,
-# \qquad
+# $$
+#
+# $$
 # p(z_k \mid z_{1:k-1}) = \int p(z_k \mid x_k)\, p(x_k \mid z_{1:k-1})\, dx_k .
 # $$
 #
@@ -75,8 +77,10 @@
 # $\Sigma$). With $a = x_k$, $b = z_k$, $\Sigma_{ab} = P_k^- H_k^\top$ and $\Sigma_{bb} = S_k$:
 #
 # $$
-# K_k = P_k^- H_k^\top S_k^{-1}, \qquad m_k = m_k^- + K_k \nu_k, \qquad
-# P_k = P_k^- - K_k S_k K_k^\top = (I - K_k H_k) P_k^- .
+# \begin{aligned}
+# K_k &= P_k^- H_k^\top S_k^{-1}, \qquad m_k = m_k^- + K_k \nu_k,\\
+# P_k &= P_k^- - K_k S_k K_k^\top = (I - K_k H_k) P_k^- .
+# \end{aligned}
 # $$
 #
 # Gaussian out: by induction from $p(x_0)$, every filtering density is Gaussian and these
@@ -104,8 +108,8 @@
 #       and go to the next step;
 #    3. *update:* $\nu_k = z_k - H_k m_k^-$, $S_k = H_k P_k^- H_k^\top + R_k$,
 #       $K_k = P_k^- H_k^\top S_k^{-1}$, $m_k = m_k^- + K_k \nu_k$, $P_k = P_k^- - K_k S_k K_k^\top$;
-#    4. *likelihood:* $\ell \mathrel{+}= \log \mathcal N(\nu_k; 0, S_k)
-#       = -\tfrac12 \left(\nu_k^\top S_k^{-1} \nu_k + \log \det (2\pi S_k)\right)$.
+#    4. *likelihood:* add $\log \mathcal N(\nu_k; 0, S_k)
+#       = -\tfrac12 \left(\nu_k^\top S_k^{-1} \nu_k + \log \det (2\pi S_k)\right)$ to $\ell$.
 # :::
 #
 # In `pfcourse` this is `kalman_filter(model, measurements)`, built on the `filterpy` library
@@ -134,8 +138,9 @@ use_style()
 LABELS = ["robot x", "robot y", "L1 x", "L1 y", "L2 x", "L2 y"]
 
 
+# %%
 def kalman(Z, model):
-    """Algorithm 2.1: filtering means (K, d), covariances (K, d, d) and log-likelihood."""
+    """Algorithm 2.1: means, covariances and log-likelihood."""
     m, P, log_lik = model.m0, model.P0, 0.0
     means, covs = [], []
     for k, z in enumerate(Z):
@@ -143,27 +148,31 @@ def kalman(Z, model):
             m = model.F @ m + model.B
             P = model.F @ P @ model.F.T + model.Q
         seen = ~np.isnan(z)  # the measured coordinates
-        if seen.any():  # update with their rows of H and block of R
+        if seen.any():  # update with the measured rows
             H, R = model.H[seen], model.R[np.ix_(seen, seen)]
             nu = z[seen] - H @ m  # innovation
             S = H @ P @ H.T + R  # its covariance
-            K = np.linalg.solve(S, H @ P).T  # gain P H^T S^-1 (P and S are symmetric)
+            K = np.linalg.solve(S, H @ P).T  # gain P H^T S^-1
             m = m + K @ nu
             P = P - K @ S @ K.T
-            log_lik += -0.5 * (nu @ np.linalg.solve(S, nu) + np.linalg.slogdet(2 * np.pi * S)[1])
+            log_det = np.linalg.slogdet(2 * np.pi * S)[1]
+            log_lik -= 0.5 * (nu @ np.linalg.solve(S, nu) + log_det)
         means.append(m)
         covs.append(P)
     return np.array(means), np.array(covs), log_lik
 
 
 ROUND_OFF = 1e-9
-for scenario in (quadrant_scenario(), circle_scenario()):  # two and five landmarks
-    model, Z = scenario.model(), simulate(scenario, rng=2024).measurements
+for scenario in (quadrant_scenario(), circle_scenario()):
+    model = scenario.model()
+    Z = simulate(scenario, rng=2024).measurements
     means, covs, log_lik = kalman(Z, model)
     ref = kalman_filter(model, Z)
-    worst = max(np.abs(means - ref.mean).max(), np.abs(covs - ref.cov).max(), abs(log_lik - ref.log_likelihood))
-    print(f"{scenario.n_landmarks} landmarks: means, covariances and log-likelihood "
-          f"agree with kalman_filter to {ROUND_OFF:.0e}: {worst < ROUND_OFF}")
+    worst = max(np.abs(means - ref.mean).max(),
+                np.abs(covs - ref.cov).max(),
+                abs(log_lik - ref.log_likelihood))
+    print(f"{scenario.n_landmarks} landmarks, same as kalman_filter "
+          f"to {ROUND_OFF:.0e}: {worst < ROUND_OFF}")
 
 # %% tags=["remove-input"] jupyter={"source_hidden": true}
 glue_values("kalman_", check_bound=ROUND_OFF)
