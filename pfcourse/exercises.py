@@ -20,6 +20,11 @@ exception is reported as a problem); ``str(report)`` prints the verdict.
 * :func:`check_ancestors` - ``fn(ancestors) -> origins``: the genealogy of a resampled cloud,
   each final particle's ancestor at step 0, on random ancestor indices; the steps followed
   forwards, one generation only and the last step left out are named.
+* :func:`check_kalman` - ``fn(z, model) -> (means, variances, log_likelihood)``: a scalar Kalman
+  filter with missing measurements, against :func:`scalar_kalman` to round-off (it is
+  deterministic); a wrong one is compared with what each mistake of :data:`KALMAN_MISTAKES`
+  computes (the gain with ``P_k^-`` instead of ``S_k``, no process noise, a variance read as a
+  standard deviation, a NaN used as 0, a log-likelihood with ``P_k^-`` or without its constant, ...).
 """
 
 from __future__ import annotations
@@ -202,21 +207,13 @@ def check_sis(fn: Callable, n_particles: int = 20_000, seed: int = 0, z: np.ndar
     """
     report = CheckReport("SIS")
     model = ScalarModel()
-    try:
-        with np.errstate(all="ignore"):
-            answer = fn(np.array(z, dtype=float), n_particles, np.random.default_rng(seed), model)
-            if answer is None:
-                report.problems.append("the function returned None: write the filter and return (means, ess)")
-                return report
-            means, ess = (np.asarray(v, dtype=float) for v in answer)
-    except Exception as exc:  # the student's error, reported
-        report.problems.append(f"calling fn(z, n_particles, rng, model) raised {type(exc).__name__}: {exc}")
+    answer = _per_step_answer(
+        report, lambda: fn(np.array(z, dtype=float), n_particles, np.random.default_rng(seed), model),
+        "fn(z, n_particles, rng, model)", "(means, ess)", ("mean", "ESS"), z.size)
+    if answer is None:
         return report
+    means, ess = answer
     k_steps = z.size
-    if means.shape != (k_steps,) or ess.shape != (k_steps,):
-        report.problems.append(f"returned shapes {means.shape} and {ess.shape}; expected ({k_steps},) each: "
-                               "one mean and one ESS per step, step 0 included")
-        return report
     bad = ~(np.isfinite(means) & np.isfinite(ess))
     if bad.any():
         k = int(np.argmax(bad))
@@ -257,6 +254,35 @@ def check_sis(fn: Callable, n_particles: int = 20_000, seed: int = 0, z: np.ndar
         f"Monte Carlo standard errors ({np.sqrt(exact[1][k] / max(ess[k], 1)):.3f}) away: check the proposal "
         "(x_k = a x_(k-1) + w_k), the log-likelihood of z_k and the weighted mean")
     return report
+
+
+def _per_step_answer(report: CheckReport, call: Callable, signature: str, returns: str, names: tuple[str, ...],
+                     k_steps: int) -> tuple | None:
+    """The student's answer ``call()``: the tuple ``returns`` names, whose first ``len(names)`` entries are
+    arrays of one value per step, shape ``(k_steps,)``, converted to float; the rest as they are. ``None``,
+    with the problem reported in one sentence, when the call raises or returns ``None``, the wrong number
+    of values or arrays of the wrong shape."""
+    expected = returns.count(",") + 1
+    try:
+        with np.errstate(all="ignore"):
+            answer = call()
+            if answer is None:
+                report.problems.append(f"the function returned None: write the filter and return {returns}")
+                return None
+            answer = tuple(answer)
+            if len(answer) != expected:
+                report.problems.append(f"the function returned {len(answer)} values; return {expected}: {returns}")
+                return None
+            arrays = [np.asarray(v, dtype=float) for v in answer[:len(names)]]
+    except Exception as exc:  # the student's error, reported
+        report.problems.append(f"calling {signature} raised {type(exc).__name__}: {exc}")
+        return None
+    if any(v.shape != (k_steps,) for v in arrays):
+        shapes = " and ".join(str(v.shape) for v in arrays)
+        report.problems.append(f"returned shapes {shapes}; expected ({k_steps},) each: "
+                               f"one {' and one '.join(names)} per step, step 0 included")
+        return None
+    return (*arrays, *answer[len(names):])
 
 
 def _fits(means: np.ndarray, ess: np.ndarray, mean: np.ndarray, var: np.ndarray, z_max: float = 6.0) -> bool:
@@ -322,4 +348,132 @@ def check_ancestors(fn: Callable, seed: int = 0) -> CheckReport:
     report.problems.append(f"particle {i} of the final step descends from particle "
                            f"{_origins(ancestors, range(n_steps - 1, 0, -1))[i]} of step 0, not {answer[i]}: "
                            "follow a = ancestors[k][a] from k = K - 1 down to k = 1")
+    return report
+
+
+# The Kalman checker (chapter 2, exercise 2.3). A scalar Kalman filter is deterministic, so the
+# student's numbers must equal the exact ones to round-off; a filter that does not is compared
+# with what each typical mistake computes, and the report names the mistake that fits.
+
+#: The measurements of :func:`check_kalman`: none at step 0 (the filter starts from the prior), two missing later.
+KALMAN_CASE = np.array([np.nan, 1.2, 2.0, np.nan, 0.3, np.nan, -0.4])
+
+#: The typical mistakes of a scalar Kalman filter, each as the flag of :func:`scalar_kalman` that makes
+#: it, with the sentence that names it (what is wrong, and why).
+KALMAN_MISTAKES = {
+    "gain_with_p": "the gain divides by the predicted variance P_k^- instead of the innovation variance "
+                   "S_k = P_k^- + r: K_k = P_k^- / S_k weighs the prediction against the measurement noise",
+    "no_q": "the predicted variance forgets the process noise: P_k^- = a^2 P_(k-1) + q, the state moves "
+            "by w_k ~ N(0, q) at every step",
+    "r_as_sd": "the update uses r as a standard deviation: r is the variance of v_k, so S_k = P_k^- + r, "
+               "not P_k^- + r^2",
+    "q_as_sd": "the prediction uses q as a standard deviation: q is the variance of w_k, so P_k^- = a^2 P_(k-1) "
+               "+ q, not + q^2",
+    "predict_at_0": "step 0 is predicted: the filter starts from N(m0, p0) at step 0 and predicts only from "
+                    "step 1 on",
+    "nan_as_zero": "a missing measurement (NaN) is used as z_k = 0: when nothing is measured, skip the update "
+                   "(the filtering density is then the predicted one)",
+    "no_update_of_p": "the variance is not updated: after a measurement P_k = (1 - K_k) P_k^-, smaller than P_k^-",
+    "loglik_with_p": "the log-likelihood uses P_k^- where it needs S_k: the increment is log N(nu_k; 0, S_k), "
+                     "the innovation's density, with S_k = P_k^- + r",
+    "loglik_no_constant": "the log-likelihood misses the normalising term: log N(nu_k; 0, S_k) = "
+                          "-(nu_k^2 / S_k + log(2 pi S_k)) / 2",
+}
+
+
+def scalar_kalman(z: np.ndarray, model: ScalarModel, mistake: str | None = None) -> tuple[np.ndarray, np.ndarray, float]:
+    """The Kalman filter of a :class:`ScalarModel`: ``(means, variances, log_likelihood)`` over the steps.
+
+    Step 0 starts from ``N(m0, p0)``; step ``k > 0`` predicts ``m_k^- = a m_(k-1)``,
+    ``P_k^- = a^2 P_(k-1) + q``. A measured ``z_k`` updates with the innovation
+    ``nu_k = z_k - m_k^-``, its variance ``S_k = P_k^- + r`` and the gain ``K_k = P_k^- / S_k``:
+    ``m_k = m_k^- + K_k nu_k``, ``P_k = (1 - K_k) P_k^-``, and adds
+    ``log N(nu_k; 0, S_k) = -(nu_k^2 / S_k + log(2 pi S_k)) / 2`` to the log-likelihood; a NaN
+    ``z_k`` (nothing measured) skips the update. ``mistake`` (a key of :data:`KALMAN_MISTAKES`)
+    computes instead what that mistake computes.
+    """
+    if mistake is not None and mistake not in KALMAN_MISTAKES:
+        raise ValueError(f"unknown mistake {mistake!r}; one of {sorted(KALMAN_MISTAKES)}")
+    a = model.a
+    q = model.q**2 if mistake == "q_as_sd" else 0.0 if mistake == "no_q" else model.q
+    r = model.r**2 if mistake == "r_as_sd" else model.r
+    m, p, log_lik = model.m0, model.p0, 0.0
+    means, variances = np.empty(len(z)), np.empty(len(z))
+    for k, zk in enumerate(z):
+        if k > 0 or mistake == "predict_at_0":
+            m, p = a * m, a * a * p + q
+        if np.isnan(zk) and mistake == "nan_as_zero":
+            zk = 0.0
+        if not np.isnan(zk):
+            nu, s = zk - m, p + r
+            gain = 1.0 if mistake == "gain_with_p" else p / s
+            s_lik = p if mistake == "loglik_with_p" else s
+            log_lik += -0.5 * nu**2 / s_lik - (0.0 if mistake == "loglik_no_constant" else 0.5 * np.log(2 * np.pi * s_lik))
+            m = m + gain * nu
+            p = p if mistake == "no_update_of_p" else (1.0 - gain) * p
+        means[k], variances[k] = m, p
+    return means, variances, float(log_lik)
+
+
+def check_kalman(fn: Callable, z: np.ndarray = KALMAN_CASE, rtol: float = 1e-9) -> CheckReport:
+    """Check a student's ``fn(z, model) -> (means, variances, log_likelihood)`` on a :class:`ScalarModel`.
+
+    ``z`` (default :data:`KALMAN_CASE`) has shape ``(K,)``, NaN where nothing is measured;
+    ``means`` and ``variances`` have shape ``(K,)``, the mean and variance of ``p(x_k | z_{1:k})``
+    at every step, and ``log_likelihood`` is ``log p(z_{1:K}) = sum_k log N(nu_k; 0, S_k)``. The
+    filter is deterministic, so each must equal :func:`scalar_kalman` to ``rtol``; a filter that
+    does not is compared with every typical mistake of :data:`KALMAN_MISTAKES`, and the report
+    names the one that fits.
+    """
+    report = CheckReport("Kalman filter")
+    model = ScalarModel()
+    z = np.array(z, dtype=float)
+    answer = _per_step_answer(report, lambda: fn(z.copy(), model), "fn(z, model)",
+                              "(means, variances, log_likelihood)", ("mean", "variance"), z.size)
+    if answer is None:
+        return report
+    means, variances, log_lik = answer
+    try:
+        log_lik = float(np.asarray(log_lik, dtype=float).item())
+    except (TypeError, ValueError):
+        report.problems.append(f"the log-likelihood is {np.size(log_lik)} values, not one number: return the sum "
+                               "of the increments log N(nu_k; 0, S_k) over the measured steps")
+        return report
+    bad = ~(np.isfinite(means) & np.isfinite(variances))
+    if bad.any():
+        k = int(np.argmax(bad))
+        why = ("z_k is NaN (nothing measured): skip the update at such a step, the filtering density is then "
+               "the predicted one" if np.isnan(z[k]) else "check the update of that step")
+        report.problems.append(f"the mean or the variance is NaN or infinite at step {k}; {why}")
+        return report
+    if not np.isfinite(log_lik):
+        report.problems.append("the log-likelihood is NaN or infinite: add log N(nu_k; 0, S_k) only at the steps "
+                               "where something is measured (z_k not NaN)")
+        return report
+
+    def close(got, expected) -> bool:
+        return bool(np.allclose(got, expected, rtol=rtol, atol=1e-12))
+
+    exact = scalar_kalman(z, model)
+    filtered = close(means, exact[0]) and close(variances, exact[1])
+    if filtered and close(log_lik, exact[2]):
+        return report
+    for mistake, why in KALMAN_MISTAKES.items():
+        wrong = scalar_kalman(z, model, mistake)
+        if close(means, wrong[0]) and close(variances, wrong[1]) and (not filtered or close(log_lik, wrong[2])):
+            if not (close(wrong[0], exact[0]) and close(wrong[1], exact[1])) or not close(wrong[2], exact[2]):
+                report.problems.append(f"your filter computes a known mistake: {why}")
+                return report
+    if filtered:
+        report.problems.append(
+            f"the means and variances are right, the log-likelihood is not ({log_lik:.6f}, exact {exact[2]:.6f}): "
+            "add log N(nu_k; 0, S_k) at every measured step and nothing at a missing one")
+        return report
+    wrong_means = ~np.isclose(means, exact[0], rtol=rtol, atol=1e-12)
+    wrong_vars = ~np.isclose(variances, exact[1], rtol=rtol, atol=1e-12)
+    k = int(np.argmax(wrong_means | wrong_vars))
+    report.problems.append(
+        f"at step {k} your mean and variance are {means[k]:.6f} and {variances[k]:.6f}, the exact ones "
+        f"{exact[0][k]:.6f} and {exact[1][k]:.6f}: check the prediction (m_k^- = a m_(k-1), P_k^- = a^2 P_(k-1) + q) "
+        "and the update of that step")
     return report

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 from scipy.special import logsumexp
 
-from pfcourse.exercises import check_ancestors, check_resampler, check_sis, check_weight_update
+from pfcourse.exercises import check_ancestors, check_kalman, check_resampler, check_sis, check_weight_update
 from pfcourse.resampling import multinomial, residual, stratified, systematic
 
 
@@ -181,3 +181,96 @@ def test_a_wrong_genealogy_without_a_known_mistake_is_told_where():
     assert not report.ok and "follow a = ancestors[k][a]" in report.problems[0]
     assert check_ancestors(lambda a: None).problems[0].startswith("the function returned None")
     assert "raised KeyError" in check_ancestors(lambda a: {}[0]).problems[0]
+
+
+# The Kalman checker: the chapter's reference solution, and typical mistakes written as a student
+# would (a flag changes one line of the reference).
+def kalman(z, model, *, gain_with_p=False, no_q=False, r_as_sd=False, nan_kept=False, nan_as_zero=False,
+           loglik_with_p=False, loglik_no_constant=False, loglik_at_missing=False, wrong_shape=False):
+    m, p, log_lik = model.m0, model.p0, 0.0
+    means, variances = [], []
+    for k, zk in enumerate(z):
+        if k > 0:
+            m, p = model.a * m, model.a**2 * p + (0.0 if no_q else model.q)
+        if nan_as_zero and np.isnan(zk):
+            zk = 0.0
+        if not np.isnan(zk) or nan_kept or loglik_at_missing:
+            s = p + (model.r**2 if r_as_sd else model.r)
+            nu = zk - m
+            s_lik = p if loglik_with_p else s
+            log_lik += -0.5 * nu**2 / s_lik - (0.0 if loglik_no_constant else 0.5 * np.log(2 * np.pi * s_lik))
+            if not np.isnan(zk) or nan_kept:
+                gain = 1.0 if gain_with_p else p / s
+                m, p = m + gain * nu, (1 - gain) * p
+        means.append(m)
+        variances.append(p)
+    return (np.array(means)[:-1] if wrong_shape else np.array(means)), np.array(variances), log_lik
+
+
+def kalman_report(**mistake):
+    return check_kalman(lambda z, model: kalman(z, model, **mistake))
+
+
+def test_the_reference_kalman_passes_and_matches_the_package_filter():
+    from pfcourse.exercises import KALMAN_CASE, ScalarModel, scalar_kalman
+    from pfcourse.kalman import kalman_filter
+    from pfcourse.linear_gaussian import LinearGaussianModel
+
+    assert check_kalman(kalman).ok, str(check_kalman(kalman))
+    model = ScalarModel()
+    lg = LinearGaussianModel(F=[[model.a]], H=[[1.0]], m0=[model.m0], P0=[[model.p0]], Q=[[model.q]], R=[[model.r]])
+    ref = kalman_filter(lg, KALMAN_CASE[:, None])
+    means, variances, log_lik = scalar_kalman(KALMAN_CASE, model)
+    np.testing.assert_allclose(means, ref.mean[:, 0], rtol=1e-12)
+    np.testing.assert_allclose(variances, ref.cov[:, 0, 0], rtol=1e-12)
+    np.testing.assert_allclose(log_lik, ref.log_likelihood, rtol=1e-12)
+
+
+@pytest.mark.parametrize("mistake, says", [
+    ({"gain_with_p": True}, "instead of the innovation variance"),
+    ({"no_q": True}, "forgets the process noise"),
+    ({"r_as_sd": True}, "uses r as a standard deviation"),
+    ({"nan_kept": True}, "skip the update at such a step"),
+    ({"nan_as_zero": True}, "is used as z_k = 0"),
+    ({"loglik_with_p": True}, "uses P_k^- where it needs S_k"),
+    ({"loglik_no_constant": True}, "misses the normalising term"),
+    ({"loglik_at_missing": True}, "only at the steps where something is measured"),
+    ({"wrong_shape": True}, "one mean and one variance per step"),
+])
+def test_each_typical_kalman_mistake_gets_its_own_sentence(mistake, says):
+    report = kalman_report(**mistake)
+    assert not report.ok and len(report.problems) == 1
+    assert says in report.problems[0], report.problems[0]
+
+
+def test_every_named_kalman_mistake_is_recognised_from_its_own_numbers():
+    from pfcourse.exercises import KALMAN_MISTAKES, scalar_kalman
+
+    for mistake, why in KALMAN_MISTAKES.items():
+        report = check_kalman(lambda z, model, m=mistake: scalar_kalman(z, model, m))
+        assert report.problems == [f"your filter computes a known mistake: {why}"], (mistake, str(report))
+
+
+def test_an_unnamed_kalman_mistake_points_at_its_step_and_a_student_exception_is_reported():
+    def innovation_sign(z, model):
+        means, variances, log_lik = kalman(z, model)
+        return means * np.where(np.arange(len(z)) >= 2, 1.1, 1.0), variances, log_lik
+
+    report = check_kalman(innovation_sign)
+    assert not report.ok and "at step 2" in report.problems[0], str(report)
+    assert "raised ZeroDivisionError" in str(check_kalman(lambda z, model: 1 / 0))
+    assert check_kalman(lambda z, model: None).problems == [
+        "the function returned None: write the filter and return (means, variances, log_likelihood)"]
+
+
+def test_a_kalman_answer_of_the_wrong_form_is_named():
+    def two_values(z, model):
+        return kalman(z, model)[:2]
+
+    def increments(z, model):
+        means, variances, _ = kalman(z, model)
+        return means, variances, np.zeros(len(z))
+
+    assert check_kalman(two_values).problems == [
+        "the function returned 2 values; return 3: (means, variances, log_likelihood)"]
+    assert "not one number: return the sum of the increments" in check_kalman(increments).problems[0]
