@@ -53,6 +53,20 @@ class CheckReport:
         return f"{self.name}: {len(self.problems)} problem(s)\n" + "\n".join(f"- {p}" for p in self.problems)
 
 
+def _answer(report: CheckReport, call: Callable, signature: str, what: str):
+    """The student's answer ``call()``, or ``None`` after reporting, in one sentence, that the call
+    raised (the student's error, reported, not raised) or returned ``None`` (``what`` to do instead)."""
+    try:
+        with np.errstate(all="ignore"):
+            answer = call()
+    except Exception as exc:  # the student's error, reported
+        report.problems.append(f"calling {signature} raised {type(exc).__name__}: {exc}")
+        return None
+    if answer is None:
+        report.problems.append(f"the function returned None: {what}")
+    return answer
+
+
 def check_resampler(fn: Callable, n_draws: int = 4000, seed: int = 0) -> CheckReport:
     """Check a resampler ``fn(weights, rng) -> N ancestor indices`` (see the module docstring).
 
@@ -65,13 +79,9 @@ def check_resampler(fn: Callable, n_draws: int = 4000, seed: int = 0) -> CheckRe
     rng = np.random.default_rng(seed)
     w = np.array([0.05, 0.3, 0.0, 0.12, 0.08, 0.25, 0.2])
     n = w.size
-    try:
-        first = fn(w.copy(), rng)
-    except Exception as exc:  # the student's error, reported
-        report.problems.append(f"calling fn(weights, rng) raised {type(exc).__name__}: {exc}")
-        return report
+    first = _answer(report, lambda: fn(w.copy(), rng), "fn(weights, rng)",
+                    "write the resampler and return the N ancestor indices")
     if first is None:
-        report.problems.append("the function returned None: write the resampler and return the N ancestor indices")
         return report
     first = np.asarray(first)
     if first.shape != (n,):
@@ -263,12 +273,11 @@ def _per_step_answer(report: CheckReport, call: Callable, signature: str, return
     with the problem reported in one sentence, when the call raises or returns ``None``, the wrong number
     of values or arrays of the wrong shape."""
     expected = returns.count(",") + 1
+    answer = _answer(report, call, signature, f"write the filter and return {returns}")
+    if answer is None:
+        return None
     try:
         with np.errstate(all="ignore"):
-            answer = call()
-            if answer is None:
-                report.problems.append(f"the function returned None: write the filter and return {returns}")
-                return None
             answer = tuple(answer)
             if len(answer) != expected:
                 report.problems.append(f"the function returned {len(answer)} values; return {expected}: {returns}")
@@ -317,13 +326,9 @@ def check_ancestors(fn: Callable, seed: int = 0) -> CheckReport:
     ancestors = np.sort(rng.integers(0, n, size=(n_steps, n)), axis=1)  # sorted, as the resamplers return them
     ancestors[0] = np.arange(n)
     ancestors[3] = np.arange(n)  # a step without resampling: each particle is its own parent
-    try:
-        answer = fn(ancestors.copy())
-    except Exception as exc:  # the student's error, reported
-        report.problems.append(f"calling fn(ancestors) raised {type(exc).__name__}: {exc}")
-        return report
+    answer = _answer(report, lambda: fn(ancestors.copy()), "fn(ancestors)",
+                     "follow the ancestors back and return the origins")
     if answer is None:
-        report.problems.append("the function returned None: follow the ancestors back and return the origins")
         return report
     answer = np.asarray(answer)
     if answer.shape != (n,):
