@@ -482,3 +482,114 @@ def check_kalman(fn: Callable, z: np.ndarray = KALMAN_CASE, rtol: float = 1e-9) 
         f"{exact[0][k]:.6f} and {exact[1][k]:.6f}: check the prediction (m_k^- = a m_(k-1), P_k^- = a^2 P_(k-1) + q) "
         "and the update of that step")
     return report
+
+
+# The optimal proposal of the scalar model (chapter "Better importance functions"): the student
+# writes the mean and variance of p(x_k | x_(k-1), z_k) and the log-weight log p(z_k | x_(k-1)),
+# which are deterministic, so they must equal the exact formulas to round-off; a wrong answer is
+# compared with what each typical mistake computes, and the report names the mistake that fits.
+
+#: The parents and the measurement of :func:`check_optimal_proposal`.
+PROPOSAL_PARENTS = np.array([-1.5, -0.2, 0.4, 1.1, 2.3])
+PROPOSAL_Z = 0.8
+#: The model of :func:`check_optimal_proposal`: ``q``, ``r`` and ``q + r`` all differ, so that a
+#: variance put in the place of another is seen.
+PROPOSAL_MODEL = ScalarModel(q=0.5, r=0.2)
+
+
+def _log_normal(x: np.ndarray, mean: np.ndarray | float, var: float) -> np.ndarray:
+    """``log N(x; mean, var)`` of a scalar Gaussian, elementwise."""
+    return -0.5 * ((x - mean) ** 2 / var + np.log(2 * np.pi * var))
+
+
+def scalar_optimal_proposal(x_prev: np.ndarray, z: float, model: ScalarModel) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The optimal proposal of a :class:`ScalarModel`: ``(means, variances, log_weights)`` per parent.
+
+    .. math::
+
+       p(x_k | x_{k-1}, z_k) = \\mathcal N\\big(\\sigma^2 (a x_{k-1} / q + z_k / r),\\ \\sigma^2\\big),
+       \\quad \\sigma^2 = (1/q + 1/r)^{-1}, \\qquad
+       \\log p(z_k | x_{k-1}) = \\log \\mathcal N(z_k;\\ a x_{k-1},\\ q + r).
+    """
+    x_prev = np.asarray(x_prev, dtype=float)
+    var = 1.0 / (1.0 / model.q + 1.0 / model.r)
+    return var * (model.a * x_prev / model.q + z / model.r), np.full(x_prev.shape, var), \
+        _log_normal(z, model.a * x_prev, model.q + model.r)
+
+
+def _proposal_mistakes(x: np.ndarray, z: float, model: ScalarModel) -> dict[str, dict[str, np.ndarray]]:
+    """What each typical mistake computes, by output (mean, variance, log-weight), with its sentence."""
+    a, q, r = model.a, model.q, model.r
+    right, added = 1.0 / (1.0 / q + 1.0 / r), q + r
+    m = right * (a * x / q + z / r)
+    return {
+        "variance": {
+            "the variances are added (q + r) where the precisions add: 1 / sigma^2 = 1 / q + 1 / r, since "
+            "both the transition and the measurement inform x_k": np.full(x.shape, added),
+            "the variance is q, the transition's: conditioning on z_k shrinks it to (1/q + 1/r)^(-1)":
+                np.full(x.shape, q),
+        },
+        "mean": {
+            "the mean is the prediction a x_(k-1), blind to z_k: it is sigma^2 (a x_(k-1) / q + z_k / r), "
+            "a precision-weighted average of prediction and measurement": a * x,
+            "the mean misses the factor sigma^2: it is sigma^2 (a x_(k-1) / q + z_k / r), not the bare sum "
+            "of the precision-weighted terms": a * x / q + z / r,
+            "the mean uses q + r as its variance: the variances were added where the precisions add, "
+            "sigma^2 = (1/q + 1/r)^(-1)": added * (a * x / q + z / r),
+            "the mean forgets the dynamics' factor a: the prediction of x_k is a x_(k-1), not x_(k-1)":
+                right * (x / q + z / r),
+        },
+        "log-weight": {
+            "the log-weight uses the variance q alone: z_k = a x_(k-1) + w_k + v_k, so its variance given "
+            "x_(k-1) is q + r": _log_normal(z, a * x, q),
+            "the log-weight uses the variance r alone: z_k = a x_(k-1) + w_k + v_k, so its variance given "
+            "x_(k-1) is q + r": _log_normal(z, a * x, r),
+            "the log-weight is evaluated at the new particle (the proposal's mean) instead of the parent: "
+            "the weight p(z_k | x_(k-1)) = N(z_k; a x_(k-1), q + r) depends only on x_(k-1)": _log_normal(z, m, r),
+            "the log-weight is evaluated at the new particle's mean with variance q + r: the weight "
+            "p(z_k | x_(k-1)) = N(z_k; a x_(k-1), q + r) is centred on the parent's prediction":
+                _log_normal(z, m, added),
+        },
+    }
+
+
+def check_optimal_proposal(fn: Callable, x_prev: np.ndarray = PROPOSAL_PARENTS, z: float = PROPOSAL_Z,
+                           rtol: float = 1e-9) -> CheckReport:
+    """Check a student's ``fn(x_prev, z, model) -> (means, variances, log_weights)`` on a :class:`ScalarModel`.
+
+    The model is :data:`PROPOSAL_MODEL`; ``x_prev`` (default :data:`PROPOSAL_PARENTS`) holds the parents ``x_{k-1}^i``, shape ``(N,)``, and
+    ``z`` is one measurement; each output has shape ``(N,)``: the mean and variance of
+    ``p(x_k | x_{k-1}^i, z_k)`` and ``log p(z_k | x_{k-1}^i)``. They must equal
+    :func:`scalar_optimal_proposal` to ``rtol``, the log-weights up to one constant common to all
+    parents (it cancels when the weights are normalised). A wrong output is compared with what each
+    typical mistake of that output computes, and the report names the one that fits.
+    """
+    report = CheckReport("optimal proposal")
+    model = PROPOSAL_MODEL
+    x = np.array(x_prev, dtype=float)
+    answer = _per_step_answer(report, lambda: fn(x.copy(), float(z), model), "fn(x_prev, z, model)",
+                              "(means, variances, log_weights)", ("mean", "variance", "log-weight"), x.size)
+    if answer is None:
+        return report
+    exact = scalar_optimal_proposal(x, z, model)
+    outputs = dict(zip(("mean", "variance", "log-weight"), answer))
+
+    def close(name: str, got: np.ndarray, expected: np.ndarray) -> bool:
+        if name == "log-weight":  # a constant common to all parents cancels in the normalisation
+            got, expected = got - got[0], expected - expected[0]
+        return bool(np.all(np.isfinite(got)) and np.allclose(got, expected, rtol=rtol, atol=1e-12))
+
+    mistakes = _proposal_mistakes(x, z, model)
+    for (name, got), expected in zip(outputs.items(), exact):
+        if close(name, got, expected):
+            continue
+        why = next((why for why, wrong in mistakes[name].items() if close(name, got, wrong)), None)
+        if why is not None:
+            report.problems.append(f"your {name} computes a known mistake: {why}")
+            continue
+        i = int(np.argmax(~np.isclose(got, expected, rtol=rtol, atol=1e-12) | ~np.isfinite(got)))
+        report.problems.append(
+            f"for the parent x_(k-1) = {x[i]:g} your {name} is {got[i]:.6f}, the exact one {expected[i]:.6f}: "
+            "the proposal is N(sigma^2 (a x_(k-1) / q + z_k / r), sigma^2) with sigma^2 = (1/q + 1/r)^(-1), "
+            "the log-weight log N(z_k; a x_(k-1), q + r)")
+    return report

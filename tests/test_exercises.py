@@ -6,7 +6,8 @@ import numpy as np
 import pytest
 from scipy.special import logsumexp
 
-from pfcourse.exercises import check_ancestors, check_kalman, check_resampler, check_sis, check_weight_update
+from pfcourse.exercises import (check_ancestors, check_kalman, check_optimal_proposal, check_resampler, check_sis,
+                                check_weight_update)
 from pfcourse.resampling import multinomial, residual, stratified, systematic
 
 
@@ -274,3 +275,62 @@ def test_a_kalman_answer_of_the_wrong_form_is_named():
     assert check_kalman(two_values).problems == [
         "the function returned 2 values; return 3: (means, variances, log_likelihood)"]
     assert "not one number: return the sum of the increments" in check_kalman(increments).problems[0]
+
+
+# The optimal-proposal checker: the chapter's reference solution, and typical mistakes, each written
+# as a student would (a flag changes one line of the reference).
+def optimal_proposal(x_prev, z, model, *, var_added=False, mean_blind=False, weight_q=False, weight_r=False,
+                     weight_at_new=False, no_constant=False):
+    var = model.q + model.r if var_added else 1.0 / (1.0 / model.q + 1.0 / model.r)
+    mean = model.a * x_prev if mean_blind else var * (model.a * x_prev / model.q + z / model.r)
+    centre = mean if weight_at_new else model.a * x_prev
+    s = model.q if weight_q else model.r if weight_r or weight_at_new else model.q + model.r
+    log_w = -0.5 * (z - centre) ** 2 / s - (0.0 if no_constant else 0.5 * np.log(2 * np.pi * s))
+    return mean, np.full(x_prev.shape, var), log_w
+
+
+def test_the_reference_optimal_proposal_passes_and_matches_the_package_proposal():
+    from pfcourse.exercises import PROPOSAL_MODEL, PROPOSAL_PARENTS, PROPOSAL_Z, scalar_optimal_proposal
+    from pfcourse.linear_gaussian import LinearGaussianModel
+    from pfcourse.proposals import LinearGaussianOptimal
+
+    assert check_optimal_proposal(optimal_proposal).ok, str(check_optimal_proposal(optimal_proposal))
+    assert check_optimal_proposal(lambda x, z, m: optimal_proposal(x, z, m, no_constant=True)).ok
+    m = PROPOSAL_MODEL
+    lg = LinearGaussianModel(F=np.array([[m.a]]), Q=np.array([[m.q]]), H=np.array([[1.0]]), R=np.array([[m.r]]),
+                             m0=np.array([m.m0]), P0=np.array([[m.p0]]))
+    x = PROPOSAL_PARENTS[:, None]
+    logw = LinearGaussianOptimal().log_predictive(lg, x, np.array([PROPOSAL_Z]), 1)
+    np.testing.assert_allclose(logw, scalar_optimal_proposal(PROPOSAL_PARENTS, PROPOSAL_Z, m)[2], rtol=1e-12)
+
+
+@pytest.mark.parametrize("mistake, says", [
+    ({"var_added": True}, "the variances are added (q + r) where the precisions add"),
+    ({"mean_blind": True}, "the mean is the prediction a x_(k-1), blind to z_k"),
+    ({"weight_q": True}, "the log-weight uses the variance q alone"),
+    ({"weight_r": True}, "the log-weight uses the variance r alone"),
+    ({"weight_at_new": True}, "evaluated at the new particle (the proposal's mean) instead of the parent"),
+])
+def test_each_typical_optimal_proposal_mistake_gets_its_own_sentence(mistake, says):
+    report = check_optimal_proposal(lambda x, z, model: optimal_proposal(x, z, model, **mistake))
+    assert not report.ok
+    assert any(says in p for p in report.problems), str(report)
+
+
+def test_added_variances_are_named_in_the_mean_too_and_an_unnamed_mistake_is_told_where():
+    report = check_optimal_proposal(lambda x, z, model: optimal_proposal(x, z, model, var_added=True))
+    assert len(report.problems) == 2 and "the mean uses q + r as its variance" in report.problems[0]
+
+    def sign_flipped(x, z, model):
+        mean, var, log_w = optimal_proposal(x, z, model)
+        return mean, var, -log_w
+
+    report = check_optimal_proposal(sign_flipped)
+    assert report.problems[0].startswith("for the parent x_(k-1) = -1.5 your log-weight is"), str(report)
+
+
+def test_an_optimal_proposal_answer_of_the_wrong_form_is_named():
+    assert check_optimal_proposal(lambda x, z, model: None).problems == [
+        "the function returned None: write the filter and return (means, variances, log_weights)"]
+    assert "raised ZeroDivisionError" in str(check_optimal_proposal(lambda x, z, model: 1 / 0))
+    assert "returned 2 values; return 3" in str(check_optimal_proposal(lambda x, z, model: (x, x)))
