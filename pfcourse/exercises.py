@@ -25,6 +25,11 @@ exception is reported as a problem); ``str(report)`` prints the verdict.
   deterministic); a wrong one is compared with what each mistake of :data:`KALMAN_MISTAKES`
   computes (the gain with ``P_k^-`` instead of ``S_k``, no process noise, a variance read as a
   standard deviation, a NaN used as 0, a log-likelihood with ``P_k^-`` or without its constant, ...).
+* :func:`check_optimal_proposal` - ``fn(x_prev, z, model) -> (means, variances, log_weights)``: the
+  optimal importance function ``p(x_k | x_{k-1}, z_k)`` of a scalar model and its weight
+  ``p(z_k | x_{k-1})``, against :func:`scalar_optimal_proposal` to round-off; variances added instead
+  of precisions, a mean blind to ``z_k``, the weight's variance ``q`` or ``r`` alone instead of
+  ``q + r``, and the weight evaluated at the new particle instead of the parent are named.
 """
 
 from __future__ import annotations
@@ -267,13 +272,15 @@ def check_sis(fn: Callable, n_particles: int = 20_000, seed: int = 0, z: np.ndar
 
 
 def _per_step_answer(report: CheckReport, call: Callable, signature: str, returns: str, names: tuple[str, ...],
-                     k_steps: int) -> tuple | None:
+                     k_steps: int, todo: str = "write the filter",
+                     per: str = "per step, step 0 included") -> tuple | None:
     """The student's answer ``call()``: the tuple ``returns`` names, whose first ``len(names)`` entries are
     arrays of one value per step, shape ``(k_steps,)``, converted to float; the rest as they are. ``None``,
     with the problem reported in one sentence, when the call raises or returns ``None``, the wrong number
-    of values or arrays of the wrong shape."""
+    of values or arrays of the wrong shape. ``todo`` says what to write, ``per`` what each value belongs
+    to (a step by default; a parent for a proposal)."""
     expected = returns.count(",") + 1
-    answer = _answer(report, call, signature, f"write the filter and return {returns}")
+    answer = _answer(report, call, signature, f"{todo} and return {returns}")
     if answer is None:
         return None
     try:
@@ -289,7 +296,7 @@ def _per_step_answer(report: CheckReport, call: Callable, signature: str, return
     if any(v.shape != (k_steps,) for v in arrays):
         shapes = " and ".join(str(v.shape) for v in arrays)
         report.problems.append(f"returned shapes {shapes}; expected ({k_steps},) each: "
-                               f"one {' and one '.join(names)} per step, step 0 included")
+                               f"one {' and one '.join(names)} {per}")
         return None
     return (*arrays, *answer[len(names):])
 
@@ -568,7 +575,8 @@ def check_optimal_proposal(fn: Callable, x_prev: np.ndarray = PROPOSAL_PARENTS, 
     model = PROPOSAL_MODEL
     x = np.array(x_prev, dtype=float)
     answer = _per_step_answer(report, lambda: fn(x.copy(), float(z), model), "fn(x_prev, z, model)",
-                              "(means, variances, log_weights)", ("mean", "variance", "log-weight"), x.size)
+                              "(means, variances, log_weights)", ("mean", "variance", "log-weight"), x.size,
+                              todo="write the proposal", per="per parent")
     if answer is None:
         return report
     exact = scalar_optimal_proposal(x, z, model)

@@ -331,6 +331,8 @@ def test_added_variances_are_named_in_the_mean_too_and_an_unnamed_mistake_is_tol
 
 def test_an_optimal_proposal_answer_of_the_wrong_form_is_named():
     assert check_optimal_proposal(lambda x, z, model: None).problems == [
-        "the function returned None: write the filter and return (means, variances, log_weights)"]
+        "the function returned None: write the proposal and return (means, variances, log_weights)"]
     assert "raised ZeroDivisionError" in str(check_optimal_proposal(lambda x, z, model: 1 / 0))
     assert "returned 2 values; return 3" in str(check_optimal_proposal(lambda x, z, model: (x, x)))
+    assert "one mean and one variance and one log-weight per parent" in str(
+        check_optimal_proposal(lambda x, z, model: (x, x, x[:2])))
