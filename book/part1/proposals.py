@@ -77,7 +77,7 @@
 # $x_k = a x_{k-1} + w_k$ and $z_k = x_k + v_k$ with variances $q$ and $r$, the same formulas read
 # $\sigma^2 = (1/q + 1/r)^{-1}$, $\mu^i = \sigma^2 (a x_{k-1}^i / q + z_k / r)$ and
 # $p(z_k \mid x_{k-1}^i) = \mathcal N(z_k;\, a x_{k-1}^i,\, q + r)$: the precisions add, and the
-# mean is their weighted average of the prediction and the measurement.
+# mean is the precision-weighted average of the prediction and the measurement.
 #
 # Two consequences can be read off the formulas before any experiment.
 #
@@ -403,8 +403,10 @@ def frame(i):
 
 anim = FuncAnimation(fig, frame, frames=len(frame_scales))
 plt.close(fig)
-glue_values("prop_", anim_rv_sd_min=0.1 * frame_scales[0], anim_rv_sd_max=0.1 * frame_scales[-1])
 HTML(anim.to_jshtml())
+
+# %% tags=["remove-input"] jupyter={"source_hidden": true}
+glue_values("prop_", anim_rv_sd_min=0.1 * frame_scales[0], anim_rv_sd_max=0.1 * frame_scales[-1])
 
 # %% [markdown]
 # (answer-q8)=
