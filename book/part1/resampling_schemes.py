@@ -514,7 +514,8 @@ display(control_panel(draw_offspring, grid={"scheme": tuple(SCHEMES), "spread": 
 # (shape `(N,)`), one uniform in each stratum $[(j-1)/N, j/N)$, returning the $N$ ancestor
 # indices as integers. Write it without looking at {ref}`resampling-numpy`. The checker
 # resamples weights with one zero among them a few thousand times and names what it sees: an
-# index out of range, a particle of weight zero drawn, or copy counts that are wrong on average.
+# index out of range, a particle of weight zero drawn, copy counts that are wrong on average, or
+# copy counts right on average that vary more than multinomial resampling's.
 # ```
 
 # %% tags=["answer"]
