@@ -49,7 +49,7 @@
 #    - *systematic:* $u^j = (j - 1 + U)/n$ with one $U \sim \mathcal U[0, 1)$ for all $j$: evenly spaced;
 #    - *residual:* first $\lfloor n W_i \rfloor$ sure copies of each particle, then $R = n - \sum_i \lfloor n W_i \rfloor$
 #      multinomial uniforms on the remainders $\rho_i = (n W_i - \lfloor n W_i \rfloor)/R$ (cumulated and inverted like the weights).
-# 3. **Invert:** ancestor $a^j = $ the $i$ with $C_{i-1} \le u^j < C_i$ (`np.searchsorted(C, u, side="right")`).
+# 3. **Invert:** the ancestor $a^j$ is the $i$ with $C_{i-1} \le u^j < C_i$ (`np.searchsorted(C, u, side="right")`).
 # 4. **Copy:** $x^j \leftarrow x^{a^j}$, $W^j \leftarrow 1/n$.
 # :::
 #
