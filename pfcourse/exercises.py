@@ -7,7 +7,8 @@ exception is reported as a problem); ``str(report)`` prints the verdict.
 
 * :func:`check_resampler` - ``fn(weights, rng) -> indices``: right type, shape and range,
   particles of weight 0 never chosen, and *unbiased*: the mean number of copies of particle
-  ``i`` over many draws is ``N W_i`` (a z-test per particle at 5 standard errors).
+  ``i`` over many draws is ``N W_i`` (a z-test per particle at 5 standard errors), and no more
+  variable than multinomial resampling (``sum_i Var N_i`` at most 1.5 times ``sum_i N W_i (1 - W_i)``).
 * :func:`check_weight_update` - ``fn(log_weights, log_likelihoods) -> log_weights``: the
   normalised log-domain update ``log W_i + log p(z | x_i) - logsumexp_j(...)``, checked on
   ordinary values and on likelihoods of ``e^{-1000}`` that underflow in the linear domain.
@@ -72,6 +73,9 @@ def _answer(report: CheckReport, call: Callable, signature: str, what: str):
     return answer
 
 
+_VARIANCE_MARGIN = 1.5  # a resampler adding more than 1.5 x multinomial's offspring variance is named
+
+
 def check_resampler(fn: Callable, n_draws: int = 4000, seed: int = 0) -> CheckReport:
     """Check a resampler ``fn(weights, rng) -> N ancestor indices`` (see the module docstring).
 
@@ -79,6 +83,12 @@ def check_resampler(fn: Callable, n_draws: int = 4000, seed: int = 0) -> CheckRe
     ``n_draws`` calls must have mean ``N W_i`` within ``5 SE + 1e-9`` (SE from the sample
     standard deviation of the counts; a deterministic scheme with biased counts has SE 0 and
     fails). A correct unbiased scheme fails one of the 7 tests with probability below 1e-5.
+
+    Variance: an unbiased scheme whose total offspring variance ``sum_i Var N_i`` exceeds
+    ``1.5 sum_i N W_i (1 - W_i)``, multinomial resampling's, is named (one uniform shared by all
+    particles gives ``Var N_i = N^2 W_i (1 - W_i)``, ``N`` times multinomial's). Multinomial,
+    stratified, residual and systematic resampling stay at or below ``sum_i N W_i (1 - W_i)``; the
+    relative standard error of the measured total is a few per cent over 4000 draws.
     """
     report = CheckReport("resampler")
     rng = np.random.default_rng(seed)
@@ -120,6 +130,13 @@ def check_resampler(fn: Callable, n_draws: int = 4000, seed: int = 0) -> CheckRe
         )
     if np.all(counts.std(axis=0) == 0) and not np.allclose(n * w, np.round(n * w)):
         report.problems.append("the result never changes: the rng is not used")
+    total_var, multinomial_var = counts.var(axis=0, ddof=1).sum(), float(np.sum(n * w * (1 - w)))
+    if not bad.any() and total_var > _VARIANCE_MARGIN * multinomial_var:
+        report.problems.append(
+            f"the copy counts are right on average but too variable: sum of Var N_i is {total_var:.2f}, more "
+            f"than multinomial resampling's sum of N W_i (1 - W_i) = {multinomial_var:.2f}; each particle "
+            "needs a uniform of its own (u of shape (N,)), not one uniform shared by all"
+        )
     try:
         idx = np.asarray(fn(np.full(n, 1.0 / n), rng))
         if idx.shape != (n,) or idx.min() < 0 or idx.max() >= n:

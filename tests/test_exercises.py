@@ -336,3 +336,25 @@ def test_an_optimal_proposal_answer_of_the_wrong_form_is_named():
     assert "returned 2 values; return 3" in str(check_optimal_proposal(lambda x, z, model: (x, x)))
     assert "one mean and one variance and one log-weight per parent" in str(
         check_optimal_proposal(lambda x, z, model: (x, x, x[:2])))
+
+
+def test_an_unbiased_but_too_variable_resampler_is_named():
+    """Copy counts right on average but more variable than multinomial resampling's: one uniform for all."""
+    def stratified_reference(w, rng):  # the chapter's solution (exercise 6.3)
+        n = len(w)
+        return np.minimum(np.searchsorted(np.cumsum(w), (np.arange(n) + rng.random(n)) / n, side="right"), n - 1)
+
+    def one_uniform_for_all(w, rng):  # u = rng.random() broadcast: every particle copies the same ancestor
+        return np.minimum(np.searchsorted(np.cumsum(w), np.full(len(w), rng.random()), side="right"), len(w) - 1)
+
+    def half_share_one_uniform(w, rng):  # the first half of the particles share one uniform: still unbiased
+        n = len(w)
+        u = np.where(np.arange(n) < n // 2, rng.random(), rng.random(n))
+        return np.minimum(np.searchsorted(np.cumsum(w), np.sort(u), side="right"), n - 1)
+
+    assert check_resampler(stratified_reference, n_draws=2000).ok
+    for mistake in (one_uniform_for_all, half_share_one_uniform):
+        report = check_resampler(mistake, n_draws=2000)
+        assert len(report.problems) == 1, str(report)
+        assert report.problems[0].startswith("the copy counts are right on average but too variable"), str(report)
+        assert "one uniform shared by all" in report.problems[0]

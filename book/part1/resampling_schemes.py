@@ -9,6 +9,20 @@
 # %% [markdown]
 # # Resampling schemes
 #
+# :::{admonition} In this chapter
+# :class: chapter-header
+# **You learn** the four ways of drawing the resampled cloud (multinomial, residual, stratified,
+# systematic) as one picture, uniforms against the cumulative weights; how much randomness each
+# adds, measured against its closed form; and how to test a resampler, on a library that fails.
+#
+# **You need** {doc}`sir`; the binomial and multinomial distributions; NumPy's `cumsum` and
+# `searchsorted`.
+#
+# **Time:** about seven minutes to read; the notebook runs in under half a minute.
+# :::
+#
+# ## The idea: one picture, four ways of drawing the uniforms
+#
 # Resampling replaces a weighted cloud by an unweighted one. Writing $N_i$ for the number of
 # copies ("offspring") of particle $i$ among the $n$ new particles, every scheme here is
 # **unbiased**, $\mathbb E[N_i] = n W_i$, so the resampled cloud estimates the same
@@ -19,21 +33,40 @@
 # and stratified resampling provably add no more conditional variance than multinomial
 # resampling, but systematic resampling, whose offspring counts are the least variable here,
 # can give a larger estimator variance than multinomial resampling on some weights, since its
-# counts are correlated across particles {cite:p}`douc2005`. All four invert the cumulative
-# weights $C_i = W_1 + \dots + W_i$: a uniform $u \in [0, 1)$ selects the index $i$ with
-# $C_{i-1} \le u < C_i$. They differ only in the uniforms.
+# counts are correlated across particles {cite:p}`douc2005`.
 #
-# | scheme | uniforms | $\operatorname{Var} N_i$ |
-# |---|---|---|
-# | multinomial | $u_k$ i.i.d. $\mathcal U[0,1)$ | $n W_i (1 - W_i)$ |
-# | stratified | $u_k = (k + U_k)/n$, $U_k$ i.i.d. | $\sum_k p_{ik}(1 - p_{ik})$ |
-# | systematic | $u_k = (k + U)/n$, one $U$ | $r_i (1 - r_i)$, $r_i = n W_i - \lfloor n W_i \rfloor$ |
-# | residual | $\lfloor n W_i \rfloor$ sure copies, then $R$ multinomial draws on the remainders | $R\, \rho_i (1 - \rho_i)$, $\rho_i = r_i / R$ |
+# All four invert the cumulative weights $C_i = W_1 + \dots + W_i$ ($C_0 = 0$): a uniform
+# $u \in [0, 1)$ selects the index $i$ with $C_{i-1} \le u < C_i$, so particle $i$ owns a
+# segment of length $W_i$ of the bar $[0, 1)$. They differ only in the uniforms.
 #
-# Here $p_{ik} = n\,\lvert [k/n, (k+1)/n) \cap [C_{i-1}, C_i) \rvert$ is the chance that the
-# uniform of stratum $k$ lands on particle $i$; $R = n - \sum_i \lfloor n W_i \rfloor$.
-# For stratified resampling $N_i$ is a sum of independent Bernoulli variables, one per
-# stratum, hence its variance.
+# :::{admonition} Algorithm 6.1: resampling by inverting the cumulative weights
+# :class: algorithm
+# Given normalised weights $W_1, \dots, W_N$ and the number $n$ of particles to draw:
+# 1. **Cumulate:** $C_i = W_1 + \dots + W_i$ for $i = 1, \dots, N$ (set $C_N = 1$ against round-off).
+# 2. **Draw the uniforms** $u^1, \dots, u^n$ in $[0, 1)$, by one of:
+#    - *multinomial:* $u^j \sim \mathcal U[0, 1)$, independent;
+#    - *stratified:* $u^j = (j - 1 + U^j)/n$, $U^j \sim \mathcal U[0, 1)$ independent: one uniform in each stratum $[(j-1)/n, j/n)$;
+#    - *systematic:* $u^j = (j - 1 + U)/n$ with one $U \sim \mathcal U[0, 1)$ for all $j$: evenly spaced;
+#    - *residual:* first $\lfloor n W_i \rfloor$ sure copies of each particle, then $R = n - \sum_i \lfloor n W_i \rfloor$
+#      multinomial uniforms on the remainders $\rho_i = (n W_i - \lfloor n W_i \rfloor)/R$ (cumulated and inverted like the weights).
+# 3. **Invert:** the ancestor $a^j$ is the $i$ with $C_{i-1} \le u^j < C_i$ (`np.searchsorted(C, u, side="right")`).
+# 4. **Copy:** $x^j \leftarrow x^{a^j}$, $W^j \leftarrow 1/n$.
+# :::
+#
+# Counting the uniforms that fall on particle $i$'s segment gives each scheme's
+# $\operatorname{Var} N_i$:
+#
+# | scheme | $\operatorname{Var} N_i$ |
+# |---|---|
+# | multinomial | $n W_i (1 - W_i)$ |
+# | stratified | $\sum_j p_{ij}(1 - p_{ij})$ |
+# | systematic | $r_i (1 - r_i)$, $r_i = n W_i - \lfloor n W_i \rfloor$ |
+# | residual | $R\, \rho_i (1 - \rho_i)$ |
+#
+# Here $p_{ij} = n\,\lvert [(j-1)/n, j/n) \cap [C_{i-1}, C_i) \rvert$ is the chance that the
+# uniform of stratum $j$ lands on particle $i$: for stratified resampling $N_i$ is a sum of
+# independent Bernoulli variables, one per stratum, hence its variance. Multinomial counts are
+# binomial; systematic counts are $\lfloor n W_i \rfloor$ or one more (the first exercise below).
 
 # %%
 import timeit
@@ -41,16 +74,74 @@ import timeit
 import filterpy.monte_carlo as fp
 import matplotlib.pyplot as plt
 import numpy as np
+import pandas as pd
 from IPython.display import display
-from myst_nb import glue
 
-from pfcourse.style import COLORS, use_style
-from pfcourse.resampling import SCHEMES
+from pfcourse.exercises import check_resampler
+from pfcourse.figures.report import EvidenceBlock, glue_values
 from pfcourse.figures.widgets import control_panel, scheme_dropdown, seed_box
+from pfcourse.resampling import SCHEMES
+from pfcourse.style import use_style
 
 use_style()
 SCHEME_COLORS = dict(zip(SCHEMES, ("tab:blue", "tab:orange", "tab:green", "tab:purple")))
 
+# %% [markdown]
+# (resampling-numpy)=
+# ## The algorithm in NumPy, checked on the engine
+#
+# Algorithm 6.1 in a few lines: one function inverts the cumulative weights, and each scheme
+# only makes its uniforms. The engine's functions in `pfcourse.resampling` draw the same
+# uniforms from the same generator, so with the same seed they must return the same indices.
+
+# %%
+def invert(W, u):
+    """Step 3: the i with C_{i-1} <= u < C_i, for each uniform u (sorted indices)."""
+    C = np.cumsum(W)
+    return np.minimum(np.searchsorted(C, np.sort(u), side="right"), len(W) - 1)
+
+
+def my_multinomial(W, rng):
+    return invert(W, rng.random(len(W)))
+
+
+def my_stratified(W, rng):
+    n = len(W)
+    return invert(W, (np.arange(n) + rng.random(n)) / n)
+
+
+def my_systematic(W, rng):
+    n = len(W)
+    return invert(W, (np.arange(n) + rng.random()) / n)
+
+
+def my_residual(W, rng):
+    n = len(W)
+    sure = np.floor(n * W).astype(int)  # sure copies
+    R = n - sure.sum()
+    rho = (n * W - sure) / R  # remainders, summing to one
+    drawn = invert(rho, rng.random(R)) if R > 0 else np.array([], dtype=int)
+    return np.repeat(np.arange(n), sure + np.bincount(drawn, minlength=n))
+
+
+mine = {"multinomial": my_multinomial, "stratified": my_stratified,
+        "systematic": my_systematic, "residual": my_residual}
+W_test = np.random.default_rng(3).lognormal(0.0, 1.0, 50)
+W_test /= W_test.sum()
+n_seeds = 200
+same = {name: all(np.array_equal(mine[name](W_test, np.random.default_rng(s)),
+                                 SCHEMES[name](W_test, np.random.default_rng(s))) for s in range(n_seeds))
+        for name in SCHEMES}
+print(f"same indices as pfcourse.resampling for seeds 0..{n_seeds - 1}:", same)
+
+# %% [markdown]
+# All four give the engine's indices for every one of {glue:text}`numpy_seeds:d` seeds. The
+# engine adds checks of the weights, an `n` different from $N$, and a single merge pass over
+# the sorted uniforms instead of a binary search for each.
+
+# %% tags=["remove-input"] jupyter={"source_hidden": true}
+assert all(same.values())
+glue_values(numpy_seeds=n_seeds)
 # %% [markdown]
 # ## How each scheme maps uniforms to indices
 #
@@ -100,17 +191,11 @@ ax.set_title("Uniforms (ticks) falling on the cumulative weights of 8 particles"
 plt.show()
 
 # %% [markdown]
-# ## Offspring-count variance: measured against the closed forms
+# ## Offspring-count variance, measured against the closed forms
 #
 # For a fixed set of $n = 50$ weights (drawn once, fairly uneven: ESS
 # {glue:text}`weights_ess:.1f`), each scheme is run {glue:text}`n_reps:d` times, one seed each
-# (seeds $0, 1, 2, \dots$). The measured $\operatorname{Var} N_i$ should match the closed form
-# of the table to within sampling error (the sample variance of $10^4$ draws has a relative
-# standard error of about $\sqrt{2/10^4} \approx 1.4\,\%$ for Gaussian-like counts). Below
-# the table, each particle's measured variance minus its closed form is divided by its standard
-# error (from the spread of the variance over $20$ batches of $500$ resamplings): the largest
-# of these $z$-scores over the $n$ particles, with the number of particles beyond $|z| = 2$
-# (about $5\,\%$ of them expected).
+# (seeds $0, 1, 2, \dots$), and each particle's copies are counted.
 
 # %%
 n = 50
@@ -118,51 +203,25 @@ w = np.random.default_rng(3).lognormal(0.0, 1.0, n)
 w /= w.sum()
 n_reps = 10_000
 counts = {name: np.array([np.bincount(f(w, np.random.default_rng(s)), minlength=n) for s in range(n_reps)])
-          for name, f in SCHEMES.items()}
+          for name, f in SCHEMES.items()}  # (repetition, particle)
 
 C = np.concatenate([[0.0], np.cumsum(w)])
-lo_k, hi_k = np.arange(n) / n, np.arange(1, n + 1) / n
-overlap = np.clip(np.minimum(hi_k[None], C[1:, None]) - np.maximum(lo_k[None], C[:-1, None]), 0, None)
-p_ik = n * overlap  # (particle, stratum)
+lo_j, hi_j = np.arange(n) / n, np.arange(1, n + 1) / n
+overlap = np.clip(np.minimum(hi_j[None], C[1:, None]) - np.maximum(lo_j[None], C[:-1, None]), 0, None)
+p_ij = n * overlap  # (particle, stratum)
 r = n * w - np.floor(n * w)
 R = n - np.floor(n * w).sum()
 closed = {
     "multinomial": n * w * (1 - w),
-    "stratified": (p_ik * (1 - p_ik)).sum(axis=1),
+    "stratified": (p_ij * (1 - p_ij)).sum(axis=1),
     "systematic": r * (1 - r),
     "residual": R * (r / R) * (1 - r / R),
 }
-print(f"ESS of the weights: {1 / np.sum(w**2):.1f}")
-glue("weights_ess", float(1 / np.sum(w**2)), display=False)
-glue("n_reps", n_reps, display=False)
-glue("n_weights", n, display=False)
-print(f"{'scheme':12s} {'sum Var N_i measured':>21s} {'closed form':>12s} {'max |E N_i - n W_i|':>20s}")
-for name in SCHEMES:
-    v = counts[name].var(axis=0, ddof=1)
-    bias = np.abs(counts[name].mean(axis=0) - n * w).max()
-    print(f"{name:12s} {v.sum():21.2f} {closed[name].sum():12.2f} {bias:20.3f}")
-z_max, n_beyond, n_batches = {}, 0, 20
-for name in SCHEMES:
-    v = counts[name].var(axis=0, ddof=1)
-    batch_var = counts[name].reshape(n_batches, -1, n).var(axis=1, ddof=1)
-    se = batch_var.std(axis=0, ddof=1) / np.sqrt(n_batches)
-    z = np.divide(v - closed[name], se, out=np.zeros(n), where=se > 0)
-    z_max[name] = float(np.abs(z).max())
-    n_beyond += int(np.sum(np.abs(z) > 2))
-    print(f"{name:12s} measured - closed form, in standard errors: largest |z| {z_max[name]:.1f}, "
-          f"{int(np.sum(np.abs(z) > 2))} of {n} particles beyond 2")
-glue("var_z_max", max(z_max.values()), display=False)
-glue("var_z_beyond2", n_beyond, display=False)
-glue("var_z_count", n * len(SCHEMES), display=False)
-glue("multinomial_var_factor_min", float(min(closed["multinomial"].sum() / closed[m].sum()
-                                             for m in SCHEMES if m != "multinomial")), display=False)
-glue("multinomial_var_factor_max", float(max(closed["multinomial"].sum() / closed[m].sum()
-                                             for m in SCHEMES if m != "multinomial")), display=False)
+measured = {name: counts[name].var(axis=0, ddof=1) for name in SCHEMES}
 
-# %%
 fig, axes = plt.subplots(1, 4, figsize=(10, 3.3), sharex=True, sharey=True, layout="constrained")
 for ax, name in zip(axes, SCHEMES):
-    ax.plot(closed[name], counts[name].var(axis=0, ddof=1), "o", ms=3, color=SCHEME_COLORS[name])
+    ax.plot(closed[name], measured[name], "o", ms=3, color=SCHEME_COLORS[name])
     ax.plot([0, 4], [0, 4], "k:", lw=1)
     ax.set_title(name)
     ax.set_xlabel(r"closed-form Var $N_i$")
@@ -171,45 +230,63 @@ fig.suptitle(f"Each dot: one of {n} particles; {n_reps} resamplings per scheme")
 plt.show()
 
 # %% [markdown]
-# The dots sit on the diagonal: the measured variances are the closed forms, every particle
-# of every scheme within {glue:text}`var_z_max:.1f` standard errors, and
-# {glue:text}`var_z_beyond2:d` of the {glue:text}`var_z_count:d` beyond two, about the
-# $5\,\%$ that chance gives. Multinomial resampling adds
+# The dots sit on the diagonal: every particle of every scheme is within
+# {glue:text}`var_z_max:.1f` standard errors of its closed form. Multinomial resampling adds
 # {glue:text}`multinomial_var_factor_min:.1f` to {glue:text}`multinomial_var_factor_max:.1f`
-# times more offspring variance in total than the others (closed forms, sums above);
-# systematic has the smallest total, and never more than $1/4$ for any particle.
-#
+# times more offspring variance in total than the others; systematic has the smallest total,
+# and never more than $1/4$ for any particle.
+
+# %% tags=["remove-input"] jupyter={"source_hidden": true}
+n_batches = 20
+z_scores = {}
+for name in SCHEMES:
+    batch_var = counts[name].reshape(n_batches, -1, n).var(axis=1, ddof=1)
+    se = batch_var.std(axis=0, ddof=1) / np.sqrt(n_batches)
+    z_scores[name] = np.divide(measured[name] - closed[name], se, out=np.zeros(n), where=se > 0)
+ratio_to_multinomial = [closed["multinomial"].sum() / closed[m].sum() for m in SCHEMES if m != "multinomial"]
+n_beyond = sum(int(np.sum(np.abs(z) > 2)) for z in z_scores.values())
+glue_values(weights_ess=1 / np.sum(w**2), n_reps=n_reps, n_weights=n,
+            var_z_max=max(np.abs(z).max() for z in z_scores.values()), var_z_beyond2=n_beyond,
+            var_z_count=n * len(SCHEMES), multinomial_var_factor_min=min(ratio_to_multinomial),
+            multinomial_var_factor_max=max(ratio_to_multinomial))
+EvidenceBlock(
+    "the measured offspring variances are the closed forms",
+    notes=[f"{n} weights, lognormal (sd 1 of the log), ESS {1 / np.sum(w**2):.1f}; {n_reps} resamplings per "
+           f"scheme, seeds 0 to {n_reps - 1}, the same for every scheme.",
+           f"z: each particle's measured variance minus its closed form, divided by its standard error (the "
+           f"spread of the variance over {n_batches} batches of {n_reps // n_batches} resamplings). Over the "
+           f"{n * len(SCHEMES)} particle-scheme pairs, {n_beyond} lie beyond |z| = 2, where chance puts about "
+           f"5 % ({0.05 * n * len(SCHEMES):.0f}). The closed forms are exact, so the comparison of the schemes' "
+           "totals needs no test (see Reading the evidence).",
+           "Unbiasedness: the largest |mean N_i - n W_i| over the particles is in the last column, against a "
+           f"largest standard error sqrt(Var N_i / repetitions) of "
+           f"{np.sqrt(max(measured[m].max() for m in SCHEMES) / n_reps):.3f} copies."],
+    tables=[("Offspring counts per scheme", pd.DataFrame({
+        "scheme": list(SCHEMES),
+        "sum of Var N_i, measured": [measured[m].sum() for m in SCHEMES],
+        "sum of Var N_i, closed form": [closed[m].sum() for m in SCHEMES],
+        "largest |z|": [np.abs(z_scores[m]).max() for m in SCHEMES],
+        "particles beyond |z| = 2": [int(np.sum(np.abs(z_scores[m]) > 2)) for m in SCHEMES],
+        "largest |mean N_i - n W_i|": [np.abs(counts[m].mean(axis=0) - n * w).max() for m in SCHEMES]}),
+        {"sum of Var N_i, measured": ".2f", "sum of Var N_i, closed form": ".2f", "largest |z|": ".1f",
+         "largest |mean N_i - n W_i|": ".3f"})],
+)
+# %% [markdown]
 # ## Variance of the resampled estimate
 #
 # What matters for the filter is the noise resampling adds to estimates. Take particle
 # positions $x_i$ (here $x_i = i / n$) and the estimate of the mean after resampling,
 # $\hat\mu = \frac1n \sum_i N_i x_i$, whose variance is $\frac{1}{n^2} x^\top \operatorname{Cov}(N) x$.
 # Closed forms: multinomial $\frac1n \operatorname{Var}_W(x)$; residual
-# $\frac{R}{n^2} \operatorname{Var}_\rho(x)$; stratified $\frac{1}{n^2}\sum_k \operatorname{Var}(x \mid \text{stratum } k)$
+# $\frac{R}{n^2} \operatorname{Var}_\rho(x)$; stratified $\frac{1}{n^2}\sum_j \operatorname{Var}(x \mid \text{stratum } j)$
 # (strata are independent). Systematic has no simple general formula, but $N$ depends on the
-# single offset $U$ only, so we integrate over $U$ numerically ($20\,000$ values of $U$). The
-# measured variance of each scheme is again compared with its theory in standard errors.
+# single offset $U$ only, so we integrate over $U$ numerically ($20\,000$ values of $U$).
 
 # %%
 x = np.arange(n) / n
-mu = w @ x
-estimate_var = {name: (counts[name] @ x / n).var(ddof=1) for name in SCHEMES}
 rho = r / R
-theory = {
-    "multinomial": (w @ x**2 - mu**2) / n,
-    "residual": R / n**2 * (rho @ x**2 - (rho @ x) ** 2),
-    "stratified": ((p_ik * x[:, None] ** 2).sum(axis=0) - (p_ik * x[:, None]).sum(axis=0) ** 2).sum() / n**2,
-}
 U = (np.arange(20_000) + 0.5) / 20_000
-idx = np.searchsorted(C[1:-1], (np.arange(n)[None] + U[:, None]) / n, side="right")
-theory["systematic"] = x[idx].mean(axis=1).var()
-for name in SCHEMES:
-    mu_hat = counts[name] @ x / n
-    se = np.sqrt(max(np.mean((mu_hat - mu_hat.mean()) ** 4) - estimate_var[name] ** 2, 0) / n_reps)
-    print(f"{name:12s} Var(mu_hat): measured {estimate_var[name]:.2e}, theory {theory[name]:.2e} "
-          f"({(estimate_var[name] - theory[name]) / se:+.1f} standard errors), "
-          f"ratio to multinomial {theory[name] / theory['multinomial']:.3f}")
-    glue(f"{name}_estimate_var_factor", float(theory["multinomial"] / theory[name]), display=False)
+idx = np.searchsorted(C[1:-1], (np.arange(n)[None] + U[:, None]) / n, side="right")  # (U, j): systematic
 
 
 def estimate_variances(xs):
@@ -217,32 +294,64 @@ def estimate_variances(xs):
     m = w @ xs
     return {"multinomial": (w @ xs**2 - m**2) / n,
             "residual": R / n**2 * (rho @ xs**2 - (rho @ xs) ** 2),
-            "stratified": ((p_ik * xs[:, None] ** 2).sum(axis=0) - (p_ik * xs[:, None]).sum(axis=0) ** 2).sum() / n**2,
+            "stratified": ((p_ij * xs[:, None] ** 2).sum(axis=0) - (p_ij * xs[:, None]).sum(axis=0) ** 2).sum() / n**2,
             "systematic": xs[idx].mean(axis=1).var()}
 
 
-x_jumpy = np.random.default_rng(0).random(n)
-jumpy = estimate_variances(x_jumpy)
-print("x = np.random.default_rng(0).random(n), theory, ratio to multinomial: "
-      + ", ".join(f"{name} {jumpy[name] / jumpy['multinomial']:.3f}" for name in SCHEMES))
-glue("jumpy_worst_ratio", float(max(jumpy[m] / jumpy["multinomial"] for m in SCHEMES)), display=False)
+theory = estimate_variances(x)
+mu_hats = {name: counts[name] @ x / n for name in SCHEMES}
+estimate_var = {name: mu_hats[name].var(ddof=1) for name in SCHEMES}
 for name in SCHEMES:
-    glue(f"jumpy_{name}_factor", float(jumpy["multinomial"] / jumpy[name]), display=False)
+    print(f"{name:12s} Var(mu_hat): measured {estimate_var[name]:.2e}, theory {theory[name]:.2e}")
 
 # %% [markdown]
-# The measured values match theory within sampling error (the standard errors printed above).
-# Against multinomial resampling, residual resampling cuts the variance of this estimate by a
-# factor of {glue:text}`residual_estimate_var_factor:.1f`, systematic resampling by
+# The measured variances match theory (evidence below). Against multinomial resampling,
+# residual resampling cuts the variance of this estimate by a factor of
+# {glue:text}`residual_estimate_var_factor:.1f`, systematic resampling by
 # {glue:text}`systematic_estimate_var_factor:.0f` and stratified resampling by
 # {glue:text}`stratified_estimate_var_factor:.0f`: here $x_i$ increases with $i$, so
 # neighbouring strata see neighbouring values, the case in which stratification helps most.
-# For a function that jumps around with $i$ (`x = np.random.default_rng(0).random(n)`, last
-# line above, from the closed forms) the gains of stratified and systematic resampling are
-# much smaller, factors of {glue:text}`jumpy_stratified_factor:.1f` and
-# {glue:text}`jumpy_systematic_factor:.1f`, while residual resampling's, which does not depend
-# on the order of the particles, stays about the same ({glue:text}`jumpy_residual_factor:.1f`);
-# no scheme does worse than multinomial on these weights.
 #
+# For positions that jump around with $i$ ($x_i$ drawn uniformly, once) the gains of stratified
+# and systematic resampling are much smaller, factors of {glue:text}`jumpy_stratified_factor:.1f`
+# and {glue:text}`jumpy_systematic_factor:.1f`, while residual resampling's, which does not
+# depend on the order of the particles, stays about the same
+# ({glue:text}`jumpy_residual_factor:.1f`).
+
+# %% tags=["remove-input"] jupyter={"source_hidden": true}
+x_jumpy = np.random.default_rng(0).random(n)
+jumpy = estimate_variances(x_jumpy)
+jumpy_worst = max(jumpy[m] / jumpy["multinomial"] for m in SCHEMES if m != "multinomial")
+
+
+def fourth_moment_se(mu_hat):
+    """Standard error of a sample variance, from the sample's fourth central moment."""
+    v = mu_hat.var(ddof=1)
+    return np.sqrt(max(np.mean((mu_hat - mu_hat.mean()) ** 4) - v**2, 0) / mu_hat.size)
+
+
+glue_values(**{f"{m}_estimate_var_factor": theory["multinomial"] / theory[m] for m in SCHEMES},
+            **{f"jumpy_{m}_factor": jumpy["multinomial"] / jumpy[m] for m in SCHEMES})
+EvidenceBlock(
+    "the variance of the resampled mean follows the closed forms, and depends on the order of the particles",
+    notes=[f"The same {n_reps} resamplings per scheme as above (seeds 0 to {n_reps - 1}). The standard error "
+           "of a measured variance comes from the fourth central moment of the estimates.",
+           "Jumpy positions: x = np.random.default_rng(0).random(n), from the closed forms only; the largest "
+           f"ratio to multinomial over the other schemes is {jumpy_worst:.3f}"
+           + (", so no scheme does worse than multinomial on these weights." if jumpy_worst < 1 else ".")],
+    tables=[("Var of the resampled mean, x_i = i / n", pd.DataFrame({
+        "scheme": list(SCHEMES),
+        "measured": [estimate_var[m] for m in SCHEMES],
+        "theory": [theory[m] for m in SCHEMES],
+        "(measured - theory) / SE": [(estimate_var[m] - theory[m]) / fourth_moment_se(mu_hats[m]) for m in SCHEMES],
+        "ratio to multinomial": [theory[m] / theory["multinomial"] for m in SCHEMES]}),
+        {"measured": ".2e", "theory": ".2e", "(measured - theory) / SE": "+.1f", "ratio to multinomial": ".3f"}),
+        ("Var of the resampled mean, jumpy positions (theory)", pd.DataFrame({
+            "scheme": list(SCHEMES), "theory": [jumpy[m] for m in SCHEMES],
+            "ratio to multinomial": [jumpy[m] / jumpy["multinomial"] for m in SCHEMES]}),
+         {"theory": ".2e", "ratio to multinomial": ".3f"})],
+)
+# %% [markdown]
 # ## Run time against N
 #
 # Each scheme here costs a cumulative sum and one merge pass of sorted uniforms along it
@@ -272,20 +381,21 @@ ax.legend(fontsize=8)
 plt.show()
 
 # %% [markdown]
-# ## filterpy's residual resampling is biased
+# %% [markdown]
+# ## Testing a resampler: filterpy's residual resampling is biased
 #
-# `filterpy.monte_carlo.residual_resample` (version 2.0.0) computes the leftover weights as
-# `weights - num_copies` instead of `n * weights - num_copies`, so a particle with
-# $n W_i < 1$ (no sure copy) gets too few copies (none at all in the run below) and heavy
-# particles get too many.
-# Below, ten weights, {glue:text}`filterpy_reps:d` resamplings each (one seed each, from $0$ up;
-# filterpy uses numpy's global generator, which we seed), the mean offspring counts against
-# $n W_i$:
+# Unbiasedness, $\mathbb E[N_i] = n W_i$, is the property every scheme must have, and it can be
+# tested: over many seeded resamplings of fixed weights, the mean number of copies of each
+# particle must equal $n W_i$ within a few standard errors. `filterpy.monte_carlo.residual_resample`
+# (version 2.0.0) fails it. It computes the leftover weights as `weights - num_copies` instead
+# of `n * weights - num_copies`, so a particle with $n W_i < 1$ (no sure copy) gets too few
+# copies and heavy particles get too many. Below, ten weights, {glue:text}`filterpy_reps:d`
+# resamplings each (one seed each, from $0$ up; filterpy uses NumPy's global generator, which
+# we seed).
 
 # %%
 w10 = np.array([0.31, 0.22, 0.15, 0.09, 0.08, 0.06, 0.04, 0.03, 0.015, 0.005])
 reps = 20_000
-glue("filterpy_reps", reps, display=False)
 ours = np.array([np.bincount(SCHEMES["residual"](w10, np.random.default_rng(s)), minlength=10)
                  for s in range(reps)])
 theirs = []
@@ -293,20 +403,6 @@ for s in range(reps):
     np.random.seed(s)
     theirs.append(np.bincount(fp.residual_resample(w10), minlength=10))
 theirs = np.array(theirs)
-se = np.sqrt(np.maximum(ours.var(axis=0), 1e-12) / reps)
-print("n W_i             :", np.round(10 * w10, 3))
-print("pfcourse residual :", np.round(ours.mean(axis=0), 3))
-print("filterpy residual :", np.round(theirs.mean(axis=0), 3))
-print(f"largest deviation in standard errors: pfcourse {np.max(np.abs(ours.mean(0) - 10 * w10) / se):.1f}, "
-      f"filterpy {np.max(np.abs(theirs.mean(0) - 10 * w10) / se):.0f}")
-no_sure_copy = np.flatnonzero(10 * w10 < 1)
-print(f"particles with n W_i < 1: {(no_sure_copy + 1).tolist()}; filterpy gives them "
-      f"{int(theirs[:, no_sure_copy].sum())} copies in {reps} resamplings")
-glue("pfcourse_residual_max_se", float(np.max(np.abs(ours.mean(0) - 10 * w10) / se)), display=False)
-glue("filterpy_residual_max_se", float(np.max(np.abs(theirs.mean(0) - 10 * w10) / se)), display=False)
-glue("filterpy_no_copy_first", int(no_sure_copy[0] + 1), display=False)
-glue("filterpy_no_copy_last", int(no_sure_copy[-1] + 1), display=False)
-glue("filterpy_no_copy_total", int(theirs[:, no_sure_copy].sum()), display=False)
 
 fig, ax = plt.subplots(figsize=(7, 3.2))
 pos = np.arange(10)
@@ -323,13 +419,34 @@ plt.show()
 # %% [markdown]
 # Particles {glue:text}`filterpy_no_copy_first:d` to {glue:text}`filterpy_no_copy_last:d`
 # ($n W_i < 1$) get {glue:text}`filterpy_no_copy_total:d` copies from filterpy's version in
-# all {glue:text}`filterpy_reps:d` resamplings, where they should get $n W_i$ on average; the
-# first ones get too many, up to {glue:text}`filterpy_residual_max_se:.0f` standard errors
-# away. Inside a filter this is a systematic shrinking of the posterior towards its heaviest
-# particles. `pfcourse.resampling.residual` matches $n W_i$ to within sampling error (largest
-# deviation {glue:text}`pfcourse_residual_max_se:.1f` standard errors over the ten
-# particles); `tests/test_resampling.py` checks both.
+# all the resamplings, where they should get $n W_i$ on average; the heavy ones get too many,
+# up to {glue:text}`filterpy_residual_max_se:.0f` standard errors away. Inside a filter this is
+# a systematic shrinking of the posterior towards its heaviest particles.
 #
+# `pfcourse.resampling.residual` matches $n W_i$ to within sampling error (largest deviation
+# {glue:text}`pfcourse_residual_max_se:.1f` standard errors over the ten particles);
+# `tests/test_resampling.py` checks both.
+
+# %% tags=["remove-input"] jupyter={"source_hidden": true}
+se = np.sqrt(np.maximum(ours.var(axis=0, ddof=1), 1e-12) / reps)
+dev_ours, dev_theirs = (ours.mean(0) - 10 * w10) / se, (theirs.mean(0) - 10 * w10) / se
+no_sure_copy = np.flatnonzero(10 * w10 < 1)
+glue_values(filterpy_reps=reps, pfcourse_residual_max_se=np.abs(dev_ours).max(),
+            filterpy_residual_max_se=np.abs(dev_theirs).max(), filterpy_no_copy_first=int(no_sure_copy[0] + 1),
+            filterpy_no_copy_last=int(no_sure_copy[-1] + 1), filterpy_no_copy_total=int(theirs[:, no_sure_copy].sum()))
+EvidenceBlock(
+    "filterpy's residual resampling is biased, pfcourse's is not",
+    notes=[f"{reps} resamplings of the ten weights per implementation, seeds 0 to {reps - 1} (pfcourse: a "
+           "Generator per seed; filterpy: np.random.seed). Deviation in standard errors: (mean copies - n W_i) / SE, "
+           "SE = sd of pfcourse's counts / sqrt(resamplings), the unbiased scheme's own spread "
+           "(see Reading the evidence)."],
+    tables=[("Mean copies per particle", pd.DataFrame({
+        "particle": np.arange(1, 11), "n W_i": 10 * w10, "pfcourse mean": ours.mean(0), "pfcourse (SE)": dev_ours,
+        "filterpy mean": theirs.mean(0), "filterpy (SE)": dev_theirs}),
+        {"n W_i": ".3f", "pfcourse mean": ".3f", "pfcourse (SE)": "+.1f", "filterpy mean": ".3f",
+         "filterpy (SE)": "+.0f"})],
+)
+# %% [markdown]
 # ## Try it
 #
 # The panel resamples {glue:text}`n_weights:d` particles with the chosen scheme and seed, for weights of chosen
@@ -360,22 +477,24 @@ display(control_panel(draw_offspring, grid={"scheme": tuple(SCHEMES), "spread": 
 # %% [markdown]
 # ## Exercises
 #
-# ```{exercise}
+# ```{exercise} 6.1 Systematic offspring counts
 # :label: ex-resampling-systematic
+# :nonumber:
 # Show that with systematic resampling $N_i \in \{\lfloor n W_i \rfloor, \lfloor n W_i \rfloor + 1\}$,
 # and deduce its variance.
 # ```
 #
 # ```{solution} ex-resampling-systematic
 # :class: dropdown
-# The points $(k + U)/n$ are spaced exactly $1/n$ apart, so an interval of length $W_i$
+# The points $(j - 1 + U)/n$ are spaced exactly $1/n$ apart, so an interval of length $W_i$
 # contains either $\lfloor n W_i \rfloor$ or $\lfloor n W_i \rfloor + 1$ of them. Since the
 # mean is $n W_i$, the second happens with probability $r_i = n W_i - \lfloor n W_i \rfloor$:
 # a Bernoulli($r_i$) on top of a constant, variance $r_i (1 - r_i) \le 1/4$.
 # ```
 #
-# ```{exercise}
+# ```{exercise} 6.2 A test that catches the bug
 # :label: ex-resampling-bias
+# :nonumber:
 # (Lab question 7, testing.) Design a test that would have caught filterpy's residual bug,
 # using only the property that every scheme must satisfy.
 # ```
@@ -388,25 +507,52 @@ display(control_panel(draw_offspring, grid={"scheme": tuple(SCHEMES), "spread": 
 # standard errors away ({glue:text}`filterpy_residual_max_se:.0f` above).
 # ```
 #
-# ```{exercise}
+# ```{exercise} 6.3 Write stratified resampling, and have it checked
 # :label: ex-resampling-code
-# (Coding.) Write stratified resampling, one uniform in each stratum $[(k-1)/n, k/n)$, check
-# it with `pfcourse.exercises.check_resampler`, and measure $\operatorname{Var} N_i$ over
-# $10\,000$ draws against `pfcourse.resampling.multinomial` for the weights of this chapter.
+# :nonumber:
+# (Coding.) Write `my_stratified(W, rng)`: stratified resampling of the normalised weights `W`
+# (shape `(N,)`), one uniform in each stratum $[(j-1)/N, j/N)$, returning the $N$ ancestor
+# indices as integers. Write it without looking at {ref}`resampling-numpy`. The checker
+# resamples weights with one zero among them a few thousand times and names what it sees: an
+# index out of range, a particle of weight zero drawn, copy counts that are wrong on average, or
+# copy counts right on average that vary more than multinomial resampling's.
 # ```
-#
-# ````{solution} ex-resampling-code
+
+# %% tags=["answer"]
+def my_stratified(W, rng):
+    """Your stratified resampler: return N ancestor indices (integers in [0, N))."""
+    ...  # replace with your code
+
+
+print(check_resampler(my_stratified))
+
+# %% [markdown]
+# ```{solution} ex-resampling-code
 # :class: dropdown
-# ```{code} python
-# def my_stratified(W, rng):
-#     n = len(W)
-#     u = (np.arange(n) + rng.random(n)) / n
-#     return np.minimum(np.searchsorted(np.cumsum(W), u, side="right"), n - 1)
-#
-# from pfcourse.exercises import check_resampler
-# print(check_resampler(my_stratified))          # every check passed
+# Algorithm 6.1 with one uniform per stratum; the code is in the folded cell below (in
+# JupyterLab, click its margin to unfold it). Capping the index at $N - 1$ guards against a
+# cumulative sum that ends just below $1$.
 # ```
+
+# %% tags=["solution", "hide-input"] jupyter={"source_hidden": true}
+def my_stratified(W, rng):
+    n = len(W)
+    u = (np.arange(n) + rng.random(n)) / n
+    return np.minimum(np.searchsorted(np.cumsum(W), u, side="right"), n - 1)
+
+
+print(check_resampler(my_stratified))
+
+# %% [markdown]
+# ## Takeaways
 #
-# Counting copies with `np.bincount(idx, minlength=n)` over the draws, its variance per
-# particle is at most that of multinomial resampling, as the table of this chapter shows.
-# ````
+# - Every scheme inverts the cumulative weights; they differ only in how the uniforms are
+#   drawn: independent (multinomial), one per stratum (stratified), evenly spaced
+#   (systematic), or only for the remainders after the sure copies (residual).
+# - All four are unbiased, $\mathbb E[N_i] = n W_i$; multinomial adds the most offspring
+#   variance, and the closed forms of $\operatorname{Var} N_i$ match what is measured.
+# - A smaller $\operatorname{Var} N_i$ is the resampling step's own noise, not a ranking of
+#   the filters: systematic resampling's gain depends on the order of the particles, and it has
+#   no general guarantee against multinomial resampling.
+# - Test a resampler for unbiasedness on weights with some $n W_i < 1$: filterpy's residual
+#   resampling fails that test.
