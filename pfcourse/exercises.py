@@ -482,3 +482,87 @@ def check_kalman(fn: Callable, z: np.ndarray = KALMAN_CASE, rtol: float = 1e-9) 
         f"{exact[0][k]:.6f} and {exact[1][k]:.6f}: check the prediction (m_k^- = a m_(k-1), P_k^- = a^2 P_(k-1) + q) "
         "and the update of that step")
     return report
+
+
+# --- Rao-Blackwellised filter: one particle's Kalman update of its map (chapter 8) ---
+
+LANDMARK_MISTAKES: dict[str, str] = {
+    "no_robot": "the innovation forgets the robot: the measurement is relative to the particle's robot, "
+                "nu = z - A r - C m, not z - C m",
+    "robot_sign": "the robot's term has the wrong sign: z = A r + C l + v, so nu = z - A r - C m",
+    "s_without_r": "the innovation covariance misses the measurement noise: S = C P C^T + R, not C P C^T",
+    "no_cov_update": "the covariance is not updated: after a measurement P' = (I - K C) P, smaller than P",
+    "loglik_with_r": "the weight uses R where it needs S: the map is uncertain, so the predictive likelihood "
+                     "is N(nu; 0, C P C^T + R), not N(nu; 0, R)",
+}
+
+
+def landmark_update(robot: np.ndarray, m: np.ndarray, P: np.ndarray, z: np.ndarray, A: np.ndarray, C: np.ndarray,
+                    R: np.ndarray, mistake: str | None = None) -> tuple[np.ndarray, np.ndarray, float]:
+    """One particle's map update given its robot ``r``: ``(m', P', log N(nu; 0, S))``.
+
+    ``z = A r + C l + v``, ``v ~ N(0, R)``, map ``l ~ N(m, P)``: innovation ``nu = z - A r - C m``,
+    ``S = C P C^T + R``, gain ``K = P C^T S^{-1}``, ``m' = m + K nu``, ``P' = (I - K C) P``, and the
+    particle's log-weight increment ``log N(nu; 0, S)``. ``mistake`` (a key of
+    :data:`LANDMARK_MISTAKES`) computes instead what that mistake computes.
+    """
+    if mistake is not None and mistake not in LANDMARK_MISTAKES:
+        raise ValueError(f"unknown mistake {mistake!r}; one of {sorted(LANDMARK_MISTAKES)}")
+    robot_term = 0.0 if mistake == "no_robot" else -(A @ robot) if mistake == "robot_sign" else A @ robot
+    nu = z - robot_term - C @ m
+    S = C @ P @ C.T + (0.0 if mistake == "s_without_r" else R)
+    gain = P @ C.T @ np.linalg.inv(S)
+    cov = P if mistake == "no_cov_update" else (np.eye(len(m)) - gain @ C) @ P
+    S_lik = R if mistake == "loglik_with_r" else S
+    log_lik = -0.5 * (nu @ np.linalg.solve(S_lik, nu) + np.linalg.slogdet(2 * np.pi * S_lik)[1])
+    return m + gain @ nu, cov, float(log_lik)
+
+
+#: A particle of the two-landmark model seeing landmark 1: robot, map mean and covariance, z, A, C, R.
+LANDMARK_CASE = dict(
+    robot=np.array([0.7, -0.4]), m=np.array([2.0, 1.5, -1.0, 2.5]),
+    P=np.array([[0.30, 0.05, 0.0, 0.0], [0.05, 0.20, 0.0, 0.0], [0.0, 0.0, 0.25, -0.04], [0.0, 0.0, -0.04, 0.35]]),
+    z=np.array([1.1, 2.2]), A=-np.eye(2), C=np.hstack([np.eye(2), np.zeros((2, 2))]), R=0.01 * np.eye(2))
+
+
+def check_landmark_update(fn: Callable, rtol: float = 1e-9) -> CheckReport:
+    """Check a student's ``fn(robot, m, P, z, A, C, R) -> (m_new, P_new, log_lik)`` on :data:`LANDMARK_CASE`.
+
+    The update is deterministic, so each output must equal :func:`landmark_update` to ``rtol``;
+    one that does not is compared with every mistake of :data:`LANDMARK_MISTAKES`, and the report
+    names the one that fits.
+    """
+    report = CheckReport("map update of one particle")
+    case = {key: value.copy() for key, value in LANDMARK_CASE.items()}
+    answer = _answer(report, lambda: fn(**case), "fn(robot, m, P, z, A, C, R)", "return (m_new, P_new, log_lik)")
+    if answer is None:
+        return report
+    try:
+        m_new, P_new, log_lik = answer
+        m_new, P_new = np.asarray(m_new, dtype=float), np.asarray(P_new, dtype=float)
+        log_lik = float(np.asarray(log_lik, dtype=float).item())
+    except (TypeError, ValueError):
+        report.problems.append("return three things: the new map mean (shape (4,)), its covariance (4, 4) and the "
+                               "log-weight increment, one number")
+        return report
+    if m_new.shape != (4,) or P_new.shape != (4, 4):
+        report.problems.append(f"the mean has shape {m_new.shape} and the covariance {P_new.shape}: expected (4,) "
+                               "and (4, 4), the whole map of the particle")
+        return report
+
+    def same(got, expected) -> bool:
+        return all(np.allclose(g, e, rtol=rtol, atol=1e-12) for g, e in zip(got, expected))
+
+    got = (m_new, P_new, log_lik)
+    if same(got, landmark_update(**LANDMARK_CASE)):
+        return report
+    for mistake, why in LANDMARK_MISTAKES.items():
+        if same(got, landmark_update(**LANDMARK_CASE, mistake=mistake)):
+            report.problems.append(f"your update computes a known mistake: {why}")
+            return report
+    exact = landmark_update(**LANDMARK_CASE)
+    part = "mean" if not np.allclose(m_new, exact[0]) else "covariance" if not np.allclose(P_new, exact[1]) else \
+        "log-weight increment"
+    report.problems.append(f"the {part} differs from the Kalman update (nu = z - A r - C m, S = C P C^T + R, "
+                           "K = P C^T S^-1, m' = m + K nu, P' = (I - K C) P, log N(nu; 0, S)): check that line")
+    return report

@@ -274,3 +274,42 @@ def test_a_kalman_answer_of_the_wrong_form_is_named():
     assert check_kalman(two_values).problems == [
         "the function returned 2 values; return 3: (means, variances, log_likelihood)"]
     assert "not one number: return the sum of the increments" in check_kalman(increments).problems[0]
+
+
+def _landmark(robot, m, P, z, A, C, R, **mistake):
+    """A student's map update, right unless a mistake is named."""
+    nu = z - C @ m if mistake.get("no_robot") else z - A @ robot - C @ m
+    S = C @ P @ C.T + (0 if mistake.get("s_without_r") else R)
+    K = P @ C.T @ np.linalg.inv(S)
+    S_lik = R if mistake.get("loglik_with_r") else S
+    log_lik = -0.5 * (nu @ np.linalg.inv(S_lik) @ nu + np.log(np.linalg.det(2 * np.pi * S_lik)))
+    P_new = P if mistake.get("no_cov_update") else P - K @ C @ P
+    return m + K @ nu, P_new, log_lik
+
+
+def test_the_reference_landmark_update_passes():
+    from pfcourse.exercises import check_landmark_update
+
+    report = check_landmark_update(_landmark)
+    assert report.ok, str(report)
+
+
+@pytest.mark.parametrize("mistake, says", [
+    ({"no_robot": True}, "forgets the robot"),
+    ({"s_without_r": True}, "misses the measurement noise"),
+    ({"no_cov_update": True}, "covariance is not updated"),
+    ({"loglik_with_r": True}, "uses R where it needs S"),
+])
+def test_landmark_update_mistakes_are_named(mistake, says):
+    from pfcourse.exercises import check_landmark_update
+
+    report = check_landmark_update(lambda *args, **kw: _landmark(*args, **kw, **mistake))
+    assert not report.ok and says in str(report), str(report)
+
+
+def test_landmark_update_bad_returns_are_reported():
+    from pfcourse.exercises import check_landmark_update
+
+    assert "returned None" in str(check_landmark_update(lambda **kw: None))
+    assert "raised" in str(check_landmark_update(lambda **kw: 1 / 0))
+    assert "three things" in str(check_landmark_update(lambda **kw: (1, 2)))

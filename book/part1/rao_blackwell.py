@@ -16,7 +16,7 @@
 # particle filter {cite:p}`doucet2000rbpf`, which is FastSLAM {cite:p}`montemerlo2002,montemerlo2003`
 # on this linear model. It runs through the same `ParticleFilter` engine, and we measure it
 # against the exact Kalman posterior beside bootstrap SIR, SIR with the optimal proposal and
-# the auxiliary particle filter {cite:p}`pitt1999`.
+# the auxiliary particle filter of {doc}`auxiliary`.
 #
 # ## Why the landmarks can be integrated out
 #
@@ -659,90 +659,6 @@ glue("m5_rbpf_robot_cover_low", cover_low, display=False)
 # {glue:text}`m5_over_m2_rbpf_cost_n1000_low:.1f`-{glue:text}`m5_over_m2_rbpf_cost_n1000_high:.1f`):
 # with many particles the time grows about like the covariance's size, with few the fixed cost
 # per step hides part of it.
-#
-# ## The auxiliary particle filter
-#
-# SIR with the optimal proposal draws $x_k$ and then resamples; the auxiliary particle filter
-# {cite:p}`pitt1999` looks at $z_k$ *before* moving: it resamples the parents with
-# probabilities $\propto W_{k-1}^i\, p(z_k \mid x_{k-1}^i)$ and then moves each chosen parent
-# with $p(x_k \mid x_{k-1}, z_k)$. When both are available in closed form (here, on the full
-# state or on the robot of the Rao-Blackwellised filter) it is *fully adapted*: the new
-# weights are all equal, and $\hat p(z_k \mid z_{1:k-1}) = \frac1N \sum_i p(z_k \mid x_{k-1}^i)$.
-# `pfcourse.proposals.FullyAdaptedAuxiliary` is a proposal of the engine, used with
-# `threshold=1`. The table and figures above include it on the full state ("auxiliary PF")
-# and on the robot ("RBPF, auxiliary"); below, paired against the optimal-proposal filter it
-# refines, at each $N$.
-
-# %%
-for base, aux in (("sir_optimal", "apf"), ("rbpf_optimal", "rb_apf")):
-    for i, n in enumerate(N_VALUES):
-        w = evidence.paired(err[aux][i][seen_any], err[base][i][seen_any], ratio=True)
-        print(f"{METHODS[aux].split(' (')[0]:15s} / {METHODS[base].split(' (')[0]:21s} N = {n:4d}: median per-run "
-              f"error ratio {w.median:.3f} (95 % CI {w.low:.3f}-{w.high:.3f}), Wilcoxon p = {w.pvalue:.1e}")
-i_apf = N_VALUES.index(1000)
-for aux, base, name in (("rb_apf", "rbpf_optimal", "rbapf"), ("apf", "sir_optimal", "apf")):
-    w = evidence.paired(err[aux][i_apf][seen_any], err[base][i_apf][seen_any], ratio=True)
-    glue(f"{name}_ratio_n1000", w.median, display=False)
-    glue(f"{name}_ratio_n1000_low", w.low, display=False)
-    glue(f"{name}_ratio_n1000_high", w.high, display=False)
-same = float(np.mean(np.abs(err["apf"][i_apf][seen_any] - err["sir_optimal"][i_apf][seen_any]) < 1e-6))
-print(f"N = 1000: the auxiliary PF and SIR with the optimal proposal end with landmark errors within 1e-6 m "
-      f"of each other in {same:.0%} of the runs")
-glue("apf_same_share_n1000", same, display=False)
-
-# %% [markdown]
-# The study ran the auxiliary filters with `threshold=1` (resampling at every step, as the
-# auxiliary filter's first stage does) and FastSLAM 2.0 with the lab's threshold $N/3$: the
-# comparison above mixes the two changes. The cheaper filter, FastSLAM 2.0, is run again here at
-# `threshold=1` on the same {glue:text}`n_runs_rb:d` simulations and filter seeds with
-# $N = 1000$, which measures the threshold's own effect and gives the comparison at one threshold.
-
-# %%
-def fastslam2_landmark_error(seed, threshold, n=1000):
-    """Landmark error against the Kalman mean at the last step, as the study computes it."""
-    s = simulate(scenario, rng=int(seed))
-    pf = ParticleFilter(rb, n, threshold=threshold, proposal=RaoBlackwellProposal(optimal=True))
-    e = rb.marginal(pf.run(s.measurements, rng=int(seed) + 10**6)).mean[-1] - kalman_filter(model, s.measurements).mean[-1]
-    return float(np.sqrt(np.mean(e[2:] ** 2)))
-
-
-seeds = sorted(quad.seed.unique())
-assert np.isclose(fastslam2_landmark_error(seeds[0], 1 / 3), err["rbpf_optimal"][i_apf][0])  # the study, reproduced
-every_step = np.array([fastslam2_landmark_error(s, 1.0) for s in seeds])
-threshold_effect = evidence.paired(every_step[seen_any], err["rbpf_optimal"][i_apf][seen_any], ratio=True)
-same_threshold = evidence.paired(err["rb_apf"][i_apf][seen_any], every_step[seen_any], ratio=True)
-print(f"FastSLAM 2.0, N = 1000, threshold 1 / threshold 1/3: {threshold_effect}")
-print(f"RBPF auxiliary / FastSLAM 2.0, both with threshold 1, N = 1000: {same_threshold}")
-for name, w in (("rb_threshold_effect", threshold_effect), ("rbapf_same_threshold", same_threshold)):
-    for suffix, value in (("", w.median), ("_low", w.low), ("_high", w.high), ("_p", w.pvalue)):
-        glue(f"{name}_n1000{suffix}", value, display=False)
-
-# %% [markdown]
-# On the full state the auxiliary filter cannot do what no proposal can (move a static
-# landmark): at $N = 1000$ its error is {glue:text}`apf_ratio_n1000:.3f` times that of SIR
-# with the optimal proposal (median per-run ratio, 95 % CI
-# {glue:text}`apf_ratio_n1000_low:.3f`-{glue:text}`apf_ratio_n1000_high:.3f`; the study
-# could have seen a difference outside that interval). In {glue:text}`apf_same_share_n1000:.0%`
-# of the runs the two end with landmark errors within a micrometre of each other: both
-# collapse onto the same best-fitting landmark hypothesis of the same initial cloud (same
-# seed), which the $10^{-10}$ m process noise of the landmarks then barely moves. On the
-# robot of the Rao-Blackwellised filter, where the particles can move, it is
-# {glue:text}`rbapf_ratio_n1000:.2f` times the error of FastSLAM 2.0 at $N = 1000$ (CI
-# {glue:text}`rbapf_ratio_n1000_low:.2f`-{glue:text}`rbapf_ratio_n1000_high:.2f`): resampling
-# before the move, by the predictive likelihood, spends no particle on robots that the
-# measurement is about to rule out, and avoids the duplicates that resampling after the
-# move leaves.
-#
-# That comparison ran the two at different thresholds ($1$ for the auxiliary filter, $N/3$ for
-# FastSLAM 2.0). The threshold alone has no detected effect on FastSLAM 2.0 at $N = 1000$: with
-# threshold $1$ its error is {glue:text}`rb_threshold_effect_n1000:.2f` times that with $N/3$
-# (median of the per-run ratios, 95 % bootstrap interval
-# {glue:text}`rb_threshold_effect_n1000_low:.2f`-{glue:text}`rb_threshold_effect_n1000_high:.2f`,
-# so an effect up to those factors could hide in these runs; Wilcoxon signed-rank test of
-# symmetry of the log ratios about zero, $p$ = {glue:text}`rb_threshold_effect_n1000_p:.2g`). At the
-# same threshold $1$ the auxiliary filter's error is {glue:text}`rbapf_same_threshold_n1000:.2f`
-# times FastSLAM 2.0's (interval {glue:text}`rbapf_same_threshold_n1000_low:.2f`-{glue:text}`rbapf_same_threshold_n1000_high:.2f`,
-# $p$ = {glue:text}`rbapf_same_threshold_n1000_p:.2g`): the auxiliary filter's gain is not the threshold's.
 #
 # (answer-q8-cure)=
 # ## Is particle filtering adequate? The lab's question, answered with the cure measured
