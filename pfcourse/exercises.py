@@ -566,3 +566,62 @@ def check_landmark_update(fn: Callable, rtol: float = 1e-9) -> CheckReport:
     report.problems.append(f"the {part} differs from the Kalman update (nu = z - A r - C m, S = C P C^T + R, "
                            "K = P C^T S^-1, m' = m + K nu, P' = (I - K C) P, log N(nu; 0, S)): check that line")
     return report
+
+
+# --- Auxiliary particle filter: the second-stage weights (chapter 9) ---
+
+APF_MISTAKES: dict[str, str] = {
+    "no_division": "the first stage is not divided out: the ancestors were chosen in proportion to p^(z_k | x_(k-1)), "
+                   "so the second-stage weight is p(z_k | x_k^i) / p^(z_k | x_(k-1)^(a_i))",
+    "own_index": "the division uses particle i's own first-stage value: divide by that of its ancestor, "
+                 "log_pred[ancestors], since particle i was moved from x_(k-1)^(a_i)",
+    "multiplied": "the first-stage value is multiplied in again instead of divided out: subtract "
+                  "log_pred[ancestors], do not add it",
+    "unnormalised": "the log-weights are not normalised: subtract their logsumexp so the weights sum to one",
+}
+
+
+def apf_second_stage(log_lik: np.ndarray, log_pred: np.ndarray, ancestors: np.ndarray,
+                     mistake: str | None = None) -> np.ndarray:
+    """Normalised second-stage log-weights of the auxiliary filter with the transition as proposal.
+
+    ``log W_k^i = log p(z_k | x_k^i) - log p^(z_k | x_(k-1)^(a_i)) - logsumexp(...)``: the transition
+    and the proposal cancel, and the first-stage approximation ``p^`` of the ancestor is divided
+    out. ``mistake`` (a key of :data:`APF_MISTAKES`) computes instead what that mistake computes.
+    """
+    if mistake is not None and mistake not in APF_MISTAKES:
+        raise ValueError(f"unknown mistake {mistake!r}; one of {sorted(APF_MISTAKES)}")
+    pred = {"no_division": 0.0, "own_index": log_pred, "multiplied": -log_pred[ancestors]}.get(mistake,
+                                                                                                 log_pred[ancestors])
+    log_w = log_lik - pred
+    return log_w if mistake == "unnormalised" else log_w - logsumexp(log_w)
+
+
+def check_apf_second_stage(fn: Callable, n: int = 12, seed: int = 0) -> CheckReport:
+    """Check a student's ``fn(log_lik, log_pred, ancestors) -> log_weights`` against :func:`apf_second_stage`.
+
+    ``log_lik`` holds ``log p(z_k | x_k^i)`` of the moved particles, ``log_pred`` the first-stage
+    ``log p^(z_k | x_(k-1)^j)`` of the parents, ``ancestors`` the chosen parent of each particle.
+    A wrong answer is compared with each mistake of :data:`APF_MISTAKES`, and the report names it.
+    """
+    report = CheckReport("second-stage weights")
+    rng = np.random.default_rng(seed)
+    log_lik, log_pred = rng.normal(-3.0, 2.0, n), rng.normal(-3.0, 2.0, n)
+    ancestors = np.sort(rng.integers(0, n, n))
+    answer = _answer(report, lambda: fn(log_lik.copy(), log_pred.copy(), ancestors.copy()),
+                     "fn(log_lik, log_pred, ancestors)", "return the normalised log-weights, shape (N,)")
+    if answer is None:
+        return report
+    got = np.asarray(answer, dtype=float)
+    if got.shape != (n,):
+        report.problems.append(f"the answer has shape {got.shape}: return one log-weight per particle, shape ({n},)")
+        return report
+    if np.allclose(got, apf_second_stage(log_lik, log_pred, ancestors), atol=1e-10):
+        return report
+    for mistake, why in APF_MISTAKES.items():
+        if np.allclose(got, apf_second_stage(log_lik, log_pred, ancestors, mistake), atol=1e-10):
+            report.problems.append(f"your weights compute a known mistake: {why}")
+            return report
+    report.problems.append("the log-weights differ from log p(z_k | x_k^i) - log p^(z_k | x_(k-1)^(a_i)), normalised: "
+                           "check each term")
+    return report

@@ -313,3 +313,42 @@ def test_landmark_update_bad_returns_are_reported():
     assert "returned None" in str(check_landmark_update(lambda **kw: None))
     assert "raised" in str(check_landmark_update(lambda **kw: 1 / 0))
     assert "three things" in str(check_landmark_update(lambda **kw: (1, 2)))
+
+
+def _second_stage(log_lik, log_pred, ancestors, mistake=None):
+    """A student's second-stage weights, right unless a mistake is named."""
+    if mistake == "no_division":
+        log_w = log_lik.copy()
+    elif mistake == "own_index":
+        log_w = log_lik - log_pred
+    elif mistake == "multiplied":
+        log_w = log_lik + log_pred[ancestors]
+    else:
+        log_w = log_lik - log_pred[ancestors]
+    return log_w if mistake == "unnormalised" else log_w - logsumexp(log_w)
+
+
+def test_the_reference_second_stage_passes():
+    from pfcourse.exercises import check_apf_second_stage
+
+    assert check_apf_second_stage(_second_stage).ok, str(check_apf_second_stage(_second_stage))
+
+
+@pytest.mark.parametrize("mistake, says", [
+    ("no_division", "first stage is not divided out"),
+    ("own_index", "own first-stage value"),
+    ("multiplied", "multiplied in again"),
+    ("unnormalised", "not normalised"),
+])
+def test_second_stage_mistakes_are_named(mistake, says):
+    from pfcourse.exercises import check_apf_second_stage
+
+    report = check_apf_second_stage(lambda a, b, c: _second_stage(a, b, c, mistake))
+    assert not report.ok and says in str(report), str(report)
+
+
+def test_second_stage_bad_returns_are_reported():
+    from pfcourse.exercises import check_apf_second_stage
+
+    assert "returned None" in str(check_apf_second_stage(lambda a, b, c: None))
+    assert "shape" in str(check_apf_second_stage(lambda a, b, c: a[:3]))

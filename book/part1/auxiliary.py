@@ -75,6 +75,7 @@ from myst_nb import glue
 from scipy.special import logsumexp
 
 from pfcourse import ParticleFilter, evidence, kalman_filter
+from pfcourse.exercises import check_apf_second_stage
 from pfcourse.experiments.rb_study import METHODS
 from pfcourse.figures.report import EvidenceBlock, glue_values
 from pfcourse.landmarks.rao_blackwell import RaoBlackwellModel, RaoBlackwellProposal
@@ -248,10 +249,8 @@ EvidenceBlock(
 # :label: ex-apf-adapted
 # :nonumber:
 # Show that with $\hat p = p(z_k \mid x_{k-1})$ and $q = p(x_k \mid x_{k-1}, z_k)$ every
-# second-stage weight equals $1$, and that $\frac1N \sum_i p(z_k \mid x_{k-1}^i)$ (equal
-# $W_{k-1}^i$) estimates $p(z_k \mid z_{1:k-1})$. Then modify the NumPy step above so that
-# it uses the likelihood at the predicted mean as $\hat p$ and the transition as $q$, and
-# compute its second-stage log-weights.
+# second-stage weight equals $1$, and that $\sum_i W_{k-1}^i\, p(z_k \mid x_{k-1}^i)$ estimates
+# $p(z_k \mid z_{1:k-1})$.
 # ```
 #
 # ```{solution} ex-apf-adapted
@@ -259,11 +258,43 @@ EvidenceBlock(
 # Bayes' rule for one step, $p(z_k \mid x_k)\, p(x_k \mid x_{k-1}) = p(z_k \mid x_{k-1})\,
 # p(x_k \mid x_{k-1}, z_k)$, makes the ratio of Algorithm 9.1 equal to $1$. The estimate:
 # $p(z_k \mid z_{1:k-1}) = \int p(z_k \mid x_{k-1})\, p(x_{k-1} \mid z_{1:k-1})\, dx_{k-1}$, and the
-# cloud approximates the second factor. For the code: `log_lam` becomes the log-likelihood of
-# `pred @ H.T` with covariance `R`, the move adds transition noise to `pred[parents]`, and the
-# second-stage log-weight is the log-likelihood of the moved particle minus `log_lam[parents]`.
+# weighted cloud approximates the second factor.
 # ```
 #
+# ```{exercise} 9.3 The second stage, checked
+# :label: ex-apf-code
+# :nonumber:
+# (Coding.) With the transition as proposal, write `second_stage(log_lik, log_pred, ancestors)`:
+# `log_lik[i]` is $\log p(z_k \mid x_k^i)$ for the moved particles, `log_pred[j]` the
+# first-stage $\log \hat p(z_k \mid x_{k-1}^j)$ of the parents, `ancestors[i]` the parent $a^i$
+# of particle $i$. Return the normalised second-stage log-weights. The checker names the
+# mistake it sees.
+# ```
+
+# %% tags=["answer"]
+def second_stage(log_lik, log_pred, ancestors):
+    """Your second-stage log-weights, normalised: shape (N,)."""
+    ...  # replace with your code
+
+
+print(check_apf_second_stage(second_stage))
+
+# %% [markdown]
+# ```{solution} ex-apf-code
+# :class: dropdown
+# The transition cancels against the proposal, and the ancestor's first-stage value is divided
+# out; the code is in the folded cell below (in JupyterLab, click its margin to unfold it).
+# ```
+
+# %% tags=["solution", "hide-input"] jupyter={"source_hidden": true}
+def second_stage(log_lik, log_pred, ancestors):
+    log_w = log_lik - log_pred[ancestors]  # p(z_k | x_k^i) / p^(z_k | x_(k-1)^(a_i))
+    return log_w - logsumexp(log_w)
+
+
+print(check_apf_second_stage(second_stage))
+
+# %% [markdown]
 # ## Takeaways
 #
 # - The auxiliary particle filter resamples *before* it moves, with first-stage weights
