@@ -25,6 +25,14 @@ exception is reported as a problem); ``str(report)`` prints the verdict.
   deterministic); a wrong one is compared with what each mistake of :data:`KALMAN_MISTAKES`
   computes (the gain with ``P_k^-`` instead of ``S_k``, no process noise, a variance read as a
   standard deviation, a NaN used as 0, a log-likelihood with ``P_k^-`` or without its constant, ...).
+* :func:`check_landmark_update` - ``fn(robot, m, P, z, A, C, R) -> (m_new, P_new, log_lik)``: one
+  particle's Kalman update of its map in the Rao-Blackwellised filter, against :func:`landmark_update`
+  to round-off; the mistakes of :data:`LANDMARK_MISTAKES` are named (the robot forgotten or of the
+  wrong sign, ``S`` without ``R``, no covariance update, a weight with ``R`` instead of ``S``).
+* :func:`check_apf_second_stage` - ``fn(log_lik, log_pred, ancestors) -> log_weights``: the auxiliary
+  filter's second-stage weights with the transition as proposal; the mistakes of
+  :data:`APF_MISTAKES` are named (first stage not divided out, divided at the particle's own index,
+  multiplied in again, not normalised).
 """
 
 from __future__ import annotations
