@@ -31,6 +31,14 @@ exception is reported as a problem); ``str(report)`` prints the verdict.
   ``p(z_k | x_{k-1})``, against :func:`scalar_optimal_proposal` to round-off; variances added instead
   of precisions, a mean blind to ``z_k``, the weight's variance ``q`` or ``r`` alone instead of
   ``q + r``, and the weight evaluated at the new particle instead of the parent are named.
+* :func:`check_landmark_update` - ``fn(robot, m, P, z, A, C, R) -> (m_new, P_new, log_lik)``: one
+  particle's Kalman update of its map in the Rao-Blackwellised filter, against :func:`landmark_update`
+  to round-off; the mistakes of :data:`LANDMARK_MISTAKES` are named (the robot forgotten or of the
+  wrong sign, ``S`` without ``R``, no covariance update, a weight with ``R`` instead of ``S``).
+* :func:`check_apf_second_stage` - ``fn(log_lik, log_pred, ancestors) -> log_weights``: the auxiliary
+  filter's second-stage weights with the transition as proposal; the mistakes of
+  :data:`APF_MISTAKES` are named (first stage not divided out, divided at the particle's own index,
+  multiplied in again, not normalised).
 """
 
 from __future__ import annotations
@@ -617,4 +625,147 @@ def check_optimal_proposal(fn: Callable, x_prev: np.ndarray = PROPOSAL_PARENTS, 
             f"for the parent x_(k-1) = {x[i]:g} your {name} is {got[i]:.6f}, the exact one {expected[i]:.6f}: "
             "the proposal is N(sigma^2 (a x_(k-1) / q + z_k / r), sigma^2) with sigma^2 = (1/q + 1/r)^(-1), "
             "the log-weight log N(z_k; a x_(k-1), q + r)")
+    return report
+
+
+# --- Rao-Blackwellised filter: one particle's Kalman update of its map (chapter 8) ---
+
+LANDMARK_MISTAKES: dict[str, str] = {
+    "no_robot": "the innovation forgets the robot: the measurement is relative to the particle's robot, "
+                "nu = z - A r - C m, not z - C m",
+    "robot_sign": "the robot's term has the wrong sign: z = A r + C l + v, so nu = z - A r - C m",
+    "s_without_r": "the innovation covariance misses the measurement noise: S = C P C^T + R, not C P C^T",
+    "no_cov_update": "the covariance is not updated: after a measurement P' = (I - K C) P, smaller than P",
+    "loglik_with_r": "the weight uses R where it needs S: the map is uncertain, so the predictive likelihood "
+                     "is N(nu; 0, C P C^T + R), not N(nu; 0, R)",
+}
+
+
+def landmark_update(robot: np.ndarray, m: np.ndarray, P: np.ndarray, z: np.ndarray, A: np.ndarray, C: np.ndarray,
+                    R: np.ndarray, mistake: str | None = None) -> tuple[np.ndarray, np.ndarray, float]:
+    """One particle's map update given its robot ``r``: ``(m', P', log N(nu; 0, S))``.
+
+    ``z = A r + C l + v``, ``v ~ N(0, R)``, map ``l ~ N(m, P)``: innovation ``nu = z - A r - C m``,
+    ``S = C P C^T + R``, gain ``K = P C^T S^{-1}``, ``m' = m + K nu``, ``P' = (I - K C) P``, and the
+    particle's log-weight increment ``log N(nu; 0, S)``. ``mistake`` (a key of
+    :data:`LANDMARK_MISTAKES`) computes instead what that mistake computes.
+    """
+    if mistake is not None and mistake not in LANDMARK_MISTAKES:
+        raise ValueError(f"unknown mistake {mistake!r}; one of {sorted(LANDMARK_MISTAKES)}")
+    robot_term = 0.0 if mistake == "no_robot" else -(A @ robot) if mistake == "robot_sign" else A @ robot
+    nu = z - robot_term - C @ m
+    S = C @ P @ C.T + (0.0 if mistake == "s_without_r" else R)
+    gain = P @ C.T @ np.linalg.inv(S)
+    cov = P if mistake == "no_cov_update" else (np.eye(len(m)) - gain @ C) @ P
+    S_lik = R if mistake == "loglik_with_r" else S
+    log_lik = -0.5 * (nu @ np.linalg.solve(S_lik, nu) + np.linalg.slogdet(2 * np.pi * S_lik)[1])
+    return m + gain @ nu, cov, float(log_lik)
+
+
+#: A particle of the two-landmark model seeing landmark 1: robot, map mean and covariance, z, A, C, R.
+LANDMARK_CASE = dict(
+    robot=np.array([0.7, -0.4]), m=np.array([2.0, 1.5, -1.0, 2.5]),
+    P=np.array([[0.30, 0.05, 0.0, 0.0], [0.05, 0.20, 0.0, 0.0], [0.0, 0.0, 0.25, -0.04], [0.0, 0.0, -0.04, 0.35]]),
+    z=np.array([1.1, 2.2]), A=-np.eye(2), C=np.hstack([np.eye(2), np.zeros((2, 2))]), R=0.01 * np.eye(2))
+
+
+def check_landmark_update(fn: Callable, rtol: float = 1e-9) -> CheckReport:
+    """Check a student's ``fn(robot, m, P, z, A, C, R) -> (m_new, P_new, log_lik)`` on :data:`LANDMARK_CASE`.
+
+    The update is deterministic, so each output must equal :func:`landmark_update` to ``rtol``;
+    one that does not is compared with every mistake of :data:`LANDMARK_MISTAKES`, and the report
+    names the one that fits.
+    """
+    report = CheckReport("map update of one particle")
+    case = {key: value.copy() for key, value in LANDMARK_CASE.items()}
+    answer = _answer(report, lambda: fn(**case), "fn(robot, m, P, z, A, C, R)", "return (m_new, P_new, log_lik)")
+    if answer is None:
+        return report
+    try:
+        m_new, P_new, log_lik = answer
+        m_new, P_new = np.asarray(m_new, dtype=float), np.asarray(P_new, dtype=float)
+        log_lik = float(np.asarray(log_lik, dtype=float).item())
+    except (TypeError, ValueError):
+        report.problems.append("return three things: the new map mean (shape (4,)), its covariance (4, 4) and the "
+                               "log-weight increment, one number")
+        return report
+    if m_new.shape != (4,) or P_new.shape != (4, 4):
+        report.problems.append(f"the mean has shape {m_new.shape} and the covariance {P_new.shape}: expected (4,) "
+                               "and (4, 4), the whole map of the particle")
+        return report
+
+    def same(got, expected) -> bool:
+        return all(np.allclose(g, e, rtol=rtol, atol=1e-12) for g, e in zip(got, expected))
+
+    got = (m_new, P_new, log_lik)
+    if same(got, landmark_update(**LANDMARK_CASE)):
+        return report
+    for mistake, why in LANDMARK_MISTAKES.items():
+        if same(got, landmark_update(**LANDMARK_CASE, mistake=mistake)):
+            report.problems.append(f"your update computes a known mistake: {why}")
+            return report
+    exact = landmark_update(**LANDMARK_CASE)
+    part = "mean" if not np.allclose(m_new, exact[0]) else "covariance" if not np.allclose(P_new, exact[1]) else \
+        "log-weight increment"
+    report.problems.append(f"the {part} differs from the Kalman update (nu = z - A r - C m, S = C P C^T + R, "
+                           "K = P C^T S^-1, m' = m + K nu, P' = (I - K C) P, log N(nu; 0, S)): check that line")
+    return report
+
+
+# --- Auxiliary particle filter: the second-stage weights (chapter 9) ---
+
+APF_MISTAKES: dict[str, str] = {
+    "no_division": "the first stage is not divided out: the ancestors were chosen in proportion to p^(z_k | x_(k-1)), "
+                   "so the second-stage weight is p(z_k | x_k^i) / p^(z_k | x_(k-1)^(a_i))",
+    "own_index": "the division uses particle i's own first-stage value: divide by that of its ancestor, "
+                 "log_pred[ancestors], since particle i was moved from x_(k-1)^(a_i)",
+    "multiplied": "the first-stage value is multiplied in again instead of divided out: subtract "
+                  "log_pred[ancestors], do not add it",
+    "unnormalised": "the log-weights are not normalised: subtract their logsumexp so the weights sum to one",
+}
+
+
+def apf_second_stage(log_lik: np.ndarray, log_pred: np.ndarray, ancestors: np.ndarray,
+                     mistake: str | None = None) -> np.ndarray:
+    """Normalised second-stage log-weights of the auxiliary filter with the transition as proposal.
+
+    ``log W_k^i = log p(z_k | x_k^i) - log p^(z_k | x_(k-1)^(a_i)) - logsumexp(...)``: the transition
+    and the proposal cancel, and the first-stage approximation ``p^`` of the ancestor is divided
+    out. ``mistake`` (a key of :data:`APF_MISTAKES`) computes instead what that mistake computes.
+    """
+    if mistake is not None and mistake not in APF_MISTAKES:
+        raise ValueError(f"unknown mistake {mistake!r}; one of {sorted(APF_MISTAKES)}")
+    pred = {"no_division": 0.0, "own_index": log_pred, "multiplied": -log_pred[ancestors]}.get(mistake,
+                                                                                                 log_pred[ancestors])
+    log_w = log_lik - pred
+    return log_w if mistake == "unnormalised" else log_w - logsumexp(log_w)
+
+
+def check_apf_second_stage(fn: Callable, n: int = 12, seed: int = 0) -> CheckReport:
+    """Check a student's ``fn(log_lik, log_pred, ancestors) -> log_weights`` against :func:`apf_second_stage`.
+
+    ``log_lik`` holds ``log p(z_k | x_k^i)`` of the moved particles, ``log_pred`` the first-stage
+    ``log p^(z_k | x_(k-1)^j)`` of the parents, ``ancestors`` the chosen parent of each particle.
+    A wrong answer is compared with each mistake of :data:`APF_MISTAKES`, and the report names it.
+    """
+    report = CheckReport("second-stage weights")
+    rng = np.random.default_rng(seed)
+    log_lik, log_pred = rng.normal(-3.0, 2.0, n), rng.normal(-3.0, 2.0, n)
+    ancestors = np.sort(rng.integers(0, n, n))
+    answer = _answer(report, lambda: fn(log_lik.copy(), log_pred.copy(), ancestors.copy()),
+                     "fn(log_lik, log_pred, ancestors)", "return the normalised log-weights, shape (N,)")
+    if answer is None:
+        return report
+    got = np.asarray(answer, dtype=float)
+    if got.shape != (n,):
+        report.problems.append(f"the answer has shape {got.shape}: return one log-weight per particle, shape ({n},)")
+        return report
+    if np.allclose(got, apf_second_stage(log_lik, log_pred, ancestors), atol=1e-10):
+        return report
+    for mistake, why in APF_MISTAKES.items():
+        if np.allclose(got, apf_second_stage(log_lik, log_pred, ancestors, mistake), atol=1e-10):
+            report.problems.append(f"your weights compute a known mistake: {why}")
+            return report
+    report.problems.append("the log-weights differ from log p(z_k | x_k^i) - log p^(z_k | x_(k-1)^(a_i)), normalised: "
+                           "check each term")
     return report

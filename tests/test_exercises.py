@@ -358,3 +358,81 @@ def test_an_unbiased_but_too_variable_resampler_is_named():
         assert len(report.problems) == 1, str(report)
         assert report.problems[0].startswith("the copy counts are right on average but too variable"), str(report)
         assert "one uniform shared by all" in report.problems[0]
+
+
+def _landmark(robot, m, P, z, A, C, R, **mistake):
+    """A student's map update, right unless a mistake is named."""
+    nu = z - C @ m if mistake.get("no_robot") else z - A @ robot - C @ m
+    S = C @ P @ C.T + (0 if mistake.get("s_without_r") else R)
+    K = P @ C.T @ np.linalg.inv(S)
+    S_lik = R if mistake.get("loglik_with_r") else S
+    log_lik = -0.5 * (nu @ np.linalg.inv(S_lik) @ nu + np.log(np.linalg.det(2 * np.pi * S_lik)))
+    P_new = P if mistake.get("no_cov_update") else P - K @ C @ P
+    return m + K @ nu, P_new, log_lik
+
+
+def test_the_reference_landmark_update_passes():
+    from pfcourse.exercises import check_landmark_update
+
+    report = check_landmark_update(_landmark)
+    assert report.ok, str(report)
+
+
+@pytest.mark.parametrize("mistake, says", [
+    ({"no_robot": True}, "forgets the robot"),
+    ({"s_without_r": True}, "misses the measurement noise"),
+    ({"no_cov_update": True}, "covariance is not updated"),
+    ({"loglik_with_r": True}, "uses R where it needs S"),
+])
+def test_landmark_update_mistakes_are_named(mistake, says):
+    from pfcourse.exercises import check_landmark_update
+
+    report = check_landmark_update(lambda *args, **kw: _landmark(*args, **kw, **mistake))
+    assert not report.ok and says in str(report), str(report)
+
+
+def test_landmark_update_bad_returns_are_reported():
+    from pfcourse.exercises import check_landmark_update
+
+    assert "returned None" in str(check_landmark_update(lambda **kw: None))
+    assert "raised" in str(check_landmark_update(lambda **kw: 1 / 0))
+    assert "three things" in str(check_landmark_update(lambda **kw: (1, 2)))
+
+
+def _second_stage(log_lik, log_pred, ancestors, mistake=None):
+    """A student's second-stage weights, right unless a mistake is named."""
+    if mistake == "no_division":
+        log_w = log_lik.copy()
+    elif mistake == "own_index":
+        log_w = log_lik - log_pred
+    elif mistake == "multiplied":
+        log_w = log_lik + log_pred[ancestors]
+    else:
+        log_w = log_lik - log_pred[ancestors]
+    return log_w if mistake == "unnormalised" else log_w - logsumexp(log_w)
+
+
+def test_the_reference_second_stage_passes():
+    from pfcourse.exercises import check_apf_second_stage
+
+    assert check_apf_second_stage(_second_stage).ok, str(check_apf_second_stage(_second_stage))
+
+
+@pytest.mark.parametrize("mistake, says", [
+    ("no_division", "first stage is not divided out"),
+    ("own_index", "own first-stage value"),
+    ("multiplied", "multiplied in again"),
+    ("unnormalised", "not normalised"),
+])
+def test_second_stage_mistakes_are_named(mistake, says):
+    from pfcourse.exercises import check_apf_second_stage
+
+    report = check_apf_second_stage(lambda a, b, c: _second_stage(a, b, c, mistake))
+    assert not report.ok and says in str(report), str(report)
+
+
+def test_second_stage_bad_returns_are_reported():
+    from pfcourse.exercises import check_apf_second_stage
+
+    assert "returned None" in str(check_apf_second_stage(lambda a, b, c: None))
+    assert "shape" in str(check_apf_second_stage(lambda a, b, c: a[:3]))

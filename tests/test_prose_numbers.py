@@ -39,6 +39,7 @@ EXEMPT: list[tuple[str, str, str]] = [
     ("resampling_schemes", "version 2.0.0", "the filterpy release whose bug is shown (pinned in requirements.txt)"),
     ("rao_blackwell", "FastSLAM 1.0", "the name of an algorithm (Montemerlo et al.)"),
     ("rao_blackwell", "FastSLAM 2.0", "the name of an algorithm (Montemerlo et al.)"),
+    ("auxiliary", "FastSLAM 2.0", "the name of an algorithm (Montemerlo et al.)"),
 ]
 
 _REMOVED = [
