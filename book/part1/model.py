@@ -83,7 +83,7 @@ print("diag(R)   =", np.diag(scenario.Rv))
 # :::{admonition} Algorithm 1.1: one run of the landmark model
 # :class: algorithm
 # 1. **Initial state.** Draw $x_0 = m_0 + L_0 e_0$, with $L_0 L_0^\top = P_0$ (Cholesky) and $e_0 \sim \mathcal N(0, I)$.
-# 2. **For** $k = 1, \dots, K - 1$: *move*, $x_k = F x_{k-1} + B + w_k$ with $w_k = L_Q e_k$, $L_Q L_Q^\top = Q$.
+# 2. **For** $k = 1, 2, \dots$ up to the last step: *move*, $x_k = F x_{k-1} + B + w_k$ with $w_k = L_Q e_k$, $L_Q L_Q^\top = Q$.
 # 3. **For every** $k$ and landmark $j$: *see*, is $l^j_k - r_k$ in the field of view? (never at $k = 0$);
 #    *measure*, $z^j_k = l^j_k - r_k + v^j_k$ if so, NaN ("not a number") in its two coordinates if not.
 # :::
@@ -191,8 +191,8 @@ EvidenceBlock(
 # The second variant has $M = 5$ landmarks around a circle. The robot goes round a centre
 # $c = (2, 1)$ m once every $40$ s, and sees a triangle pointing along its direction of travel
 # ($45^\circ$ either side, $6$ m deep). Turning about a centre other than the origin adds a
-# constant to the dynamics, $r_k = c + R_\omega (r_{k-1} - c) + w_k = R_\omega r_{k-1} + (I - R_\omega)\,c + w_k$,
-# with $R_\omega$ the rotation by $\omega\,\Delta t$: that constant is $B$ (zero for the landmarks).
+# constant to the dynamics, $r_k = c + \Omega (r_{k-1} - c) + w_k = \Omega r_{k-1} + (I - \Omega)\,c + w_k$,
+# with $\Omega$ the rotation by $\omega\,\Delta t$: that constant is $B$ (zero for the landmarks).
 
 # %%
 scenario5 = circle_scenario(n_landmarks=5)
@@ -238,8 +238,8 @@ HTML(animate_landmarks(scenario5, sim5, limits=(-4.0, 8.0)).to_jshtml())
 #
 # $$
 # p(x_k \mid x_{k-1}) = \mathcal N(x_k;\, F x_{k-1} + B,\, Q), \qquad
-# F = \begin{pmatrix} R_\omega & 0 \\ 0 & I_{2M} \end{pmatrix}, \quad
-# B = \begin{pmatrix} (I - R_\omega)\, c \\ 0 \end{pmatrix}
+# F = \begin{pmatrix} \Omega & 0 \\ 0 & I_{2M} \end{pmatrix}, \quad
+# B = \begin{pmatrix} (I - \Omega)\, c \\ 0 \end{pmatrix}
 # $$
 #
 # ($c = 0$ in the two-landmark model). The landmark block of $Q$ is $10^{-20} I$: for the
