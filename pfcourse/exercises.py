@@ -39,6 +39,11 @@ exception is reported as a problem); ``str(report)`` prints the verdict.
   filter's second-stage weights with the transition as proposal; the mistakes of
   :data:`APF_MISTAKES` are named (first stage not divided out, divided at the particle's own index,
   multiplied in again, not normalised).
+* :func:`check_log_likelihood` - ``fn(x, z, H, R) -> (N,)``: ``log N(z_s; H_s x^i, R_ss)`` for a cloud
+  of the two-landmark model, ``s`` the measured coordinates of ``z`` (NaN for an unseen landmark),
+  against :func:`landmark_log_likelihood`; the mistakes of :data:`LIKELIHOOD_MISTAKES` (NaN kept or
+  read as 0, the offset ``r - l``, ``R`` read as standard deviations, the leading block of ``R``
+  instead of the visible one, no normalising constant) are named.
 """
 
 from __future__ import annotations
@@ -768,4 +773,96 @@ def check_apf_second_stage(fn: Callable, n: int = 12, seed: int = 0) -> CheckRep
             return report
     report.problems.append("the log-weights differ from log p(z_k | x_k^i) - log p^(z_k | x_(k-1)^(a_i)), normalised: "
                            "check each term")
+    return report
+
+
+# The log-likelihood of a cloud of particles in the two-landmark model (chapter 1, exercise 1.4).
+# H maps the state (r_x, r_y, l1_x, l1_y, l2_x, l2_y) to the offsets l^j - r; R has a different
+# variance per landmark, so that its visible block differs from its leading block.
+LIKELIHOOD_H = np.kron(np.hstack([-np.ones((2, 1)), np.eye(2)]), np.eye(2))
+LIKELIHOOD_R = np.diag([0.01, 0.01, 0.04, 0.04]) + np.diag([0.004, 0.0, 0.01], 1) + np.diag([0.004, 0.0, 0.01], -1)
+LIKELIHOOD_CASES = (np.array([1.2, 0.6, 0.8, -0.4]), np.array([np.nan, np.nan, 0.9, -0.3]),
+                    np.array([1.1, 0.5, np.nan, np.nan]), np.full(4, np.nan))
+LIKELIHOOD_MISTAKES = {
+    "nan_as_zero": "it replaces a missing coordinate by 0 and keeps the whole R; an unmeasured landmark must "
+                   "leave the density: keep only the rows of z and H that are measured and the block R[seen, seen]",
+    "reversed_offset": "it predicts the measurement as r - l, the offset reversed; the model measures l^j - r, "
+                       "that is H x with H's -I block on the robot",
+    "r_as_sd": "it uses R as a matrix of standard deviations (R squared as the covariance); R is already the "
+               "covariance of the measurement noise, in m²",
+    "leading_block": "it takes the leading block R[:n, :n] of R instead of the block of the measured coordinates, "
+                     "R[seen][:, seen]; the two differ when the visible landmark is not the first",
+    "no_constant": "it misses the normalising term -(n log(2 pi) + log det R_seen) / 2, which the exercise asks "
+                   "for (it changes with the number n of coordinates measured)",
+}
+
+
+def landmark_log_likelihood(x: np.ndarray, z: np.ndarray, H: np.ndarray, R: np.ndarray,
+                            mistake: str | None = None) -> np.ndarray:
+    """``log N(z_s; H_s x^i, R_ss)`` for every particle ``x^i`` (rows of ``x``), with ``s`` the
+    measured (non-NaN) coordinates of ``z``, ``H_s`` their rows of ``H`` and ``R_ss`` their block of
+    ``R``; ``0`` for every particle when nothing is measured. ``mistake`` (a key of
+    :data:`LIKELIHOOD_MISTAKES`) computes that mistake instead."""
+    x, z = np.asarray(x, dtype=float), np.asarray(z, dtype=float)
+    seen = ~np.isnan(z)
+    if mistake == "nan_as_zero":
+        seen = np.ones(z.size, dtype=bool)
+    if not seen.any():
+        return np.zeros(len(x))
+    n = int(seen.sum())
+    predicted = x @ H[seen].T * (-1.0 if mistake == "reversed_offset" else 1.0)
+    d = np.where(np.isnan(z[seen]), 0.0, z[seen] - predicted)
+    block = R[:n, :n] if mistake == "leading_block" else R[np.ix_(seen, seen)]
+    if mistake == "r_as_sd":
+        block = block @ block
+    quad = np.einsum("ij,ij->i", d @ np.linalg.inv(block), d)
+    constant = 0.0 if mistake == "no_constant" else n * np.log(2 * np.pi) + np.linalg.slogdet(block)[1]
+    return -0.5 * (quad + constant)
+
+
+def check_log_likelihood(fn: Callable, n_particles: int = 50, seed: int = 0, rtol: float = 1e-9) -> CheckReport:
+    """Check a student's ``fn(x, z, H, R) -> (N,)``, the log-likelihoods ``log p(z | x^i)`` of a cloud.
+
+    ``x`` has shape ``(N, 6)`` (particles of the two-landmark model), ``z`` shape ``(4,)`` with NaN
+    for an unseen landmark. Each case of :data:`LIKELIHOOD_CASES` (both landmarks seen, only the
+    second, only the first, none) must equal :func:`landmark_log_likelihood` to ``rtol``; an answer
+    that does not is compared with each mistake of :data:`LIKELIHOOD_MISTAKES`, and the report names
+    the one that fits.
+    """
+    report = CheckReport("log-likelihood")
+    x = np.random.default_rng(seed).normal([2.0, 0.0, 3.0, 0.5, 3.0, -0.5], 0.3, size=(n_particles, 6))
+    answers = []
+    for z in LIKELIHOOD_CASES:
+        answer = _answer(report, lambda: fn(x.copy(), z.copy(), LIKELIHOOD_H.copy(), LIKELIHOOD_R.copy()),
+                         "fn(x, z, H, R)", "compute and return one log-likelihood per particle")
+        if answer is None:
+            return report
+        answer = np.asarray(answer, dtype=float)
+        if answer.shape != (n_particles,):
+            report.problems.append(f"the answer has shape {answer.shape}, not ({n_particles},): return one "
+                                   "log-likelihood per particle (a row of x)")
+            return report
+        answers.append(answer)
+    if any(np.isnan(a).any() for a in answers):
+        report.problems.append("the log-likelihood is NaN when a landmark is out of view: drop the NaN "
+                               "coordinates of z, with their rows of H and their rows and columns of R")
+        return report
+    def fits(mistake: str | None) -> bool:
+        return all(np.allclose(a, landmark_log_likelihood(x, z, LIKELIHOOD_H, LIKELIHOOD_R, mistake),
+                               rtol=rtol, atol=1e-9) for a, z in zip(answers, LIKELIHOOD_CASES))
+
+    if fits(None):
+        return report
+    for mistake, why in LIKELIHOOD_MISTAKES.items():
+        if fits(mistake):
+            report.problems.append(f"your function computes a known mistake: {why}")
+            return report
+    if np.any(answers[-1] != 0.0):
+        report.problems.append("with nothing in view (z all NaN) the likelihood is the constant 1: return "
+                               "zeros, one per particle")
+        return report
+    case = next(c for c, (a, z) in enumerate(zip(answers, LIKELIHOOD_CASES))
+                if not np.allclose(a, landmark_log_likelihood(x, z, LIKELIHOOD_H, LIKELIHOOD_R), rtol=rtol, atol=1e-9))
+    report.problems.append(f"with z = {LIKELIHOOD_CASES[case]} the values differ from log N(z_s; H_s x, R_ss): "
+                           "check the quadratic form (z_s - H_s x)^T R_ss^-1 (z_s - H_s x) and the term -(1/2)")
     return report

@@ -6,8 +6,8 @@ import numpy as np
 import pytest
 from scipy.special import logsumexp
 
-from pfcourse.exercises import (check_ancestors, check_kalman, check_optimal_proposal, check_resampler, check_sis,
-                                check_weight_update)
+from pfcourse.exercises import (check_ancestors, check_kalman, check_log_likelihood, check_optimal_proposal,
+                                check_resampler, check_sis, check_weight_update)
 from pfcourse.resampling import multinomial, residual, stratified, systematic
 
 
@@ -436,3 +436,63 @@ def test_second_stage_bad_returns_are_reported():
 
     assert "returned None" in str(check_apf_second_stage(lambda a, b, c: None))
     assert "shape" in str(check_apf_second_stage(lambda a, b, c: a[:3]))
+
+
+# The log-likelihood checker (chapter 1): the reference solution, and typical mistakes written
+# as a student would.
+def cloud_log_likelihood(x, z, H, R, *, nan_kept=False, reversed_offset=False, r_as_sd=False,
+                         whole_r=False, leading_block=False, no_constant=False, some_zero=False):
+    seen = np.ones(len(z), dtype=bool) if (nan_kept or whole_r) else ~np.isnan(z)
+    if not seen.any():
+        return np.full(len(x), 1e-3 if some_zero else 0.0)
+    d = (z[seen] + x @ H[seen].T) if reversed_offset else (z[seen] - x @ H[seen].T)
+    if whole_r:
+        d = np.nan_to_num(d)
+    S = R[: seen.sum(), : seen.sum()] if leading_block else R[np.ix_(seen, seen)]
+    if r_as_sd:
+        S = S @ S
+    quad = np.sum(d * np.linalg.solve(S, d.T).T, axis=1)
+    const = 0.0 if no_constant else seen.sum() * np.log(2 * np.pi) + np.log(np.linalg.det(S))
+    return -0.5 * (quad + const)
+
+
+def test_the_reference_log_likelihood_passes_and_matches_the_package_model():
+    from pfcourse.exercises import LIKELIHOOD_CASES, LIKELIHOOD_H, LIKELIHOOD_R
+    from pfcourse.landmarks.scenario import quadrant_scenario
+
+    assert check_log_likelihood(cloud_log_likelihood).ok, str(check_log_likelihood(cloud_log_likelihood))
+    model = quadrant_scenario().with_(Rv=LIKELIHOOD_R).model()
+    np.testing.assert_array_equal(model.H, LIKELIHOOD_H)
+    x = np.random.default_rng(1).normal(size=(7, 6))
+    for z in LIKELIHOOD_CASES:
+        np.testing.assert_allclose(cloud_log_likelihood(x, z, LIKELIHOOD_H, LIKELIHOOD_R),
+                                   model.log_likelihood(x, z, 1), rtol=1e-12)
+
+
+@pytest.mark.parametrize("mistake, says", [
+    ({"nan_kept": True}, "NaN when a landmark is out of view"),
+    ({"reversed_offset": True}, "the offset reversed"),
+    ({"r_as_sd": True}, "R as a matrix of standard deviations"),
+    ({"whole_r": True}, "keeps the whole R"),
+    ({"leading_block": True}, "leading block R[:n, :n]"),
+    ({"no_constant": True}, "misses the normalising term"),
+    ({"some_zero": True}, "return zeros, one per particle"),
+])
+def test_each_typical_log_likelihood_mistake_gets_its_own_sentence(mistake, says):
+    report = check_log_likelihood(lambda x, z, H, R: cloud_log_likelihood(x, z, H, R, **mistake))
+    assert not report.ok and len(report.problems) == 1
+    assert says in report.problems[0], report.problems[0]
+
+
+def test_every_named_log_likelihood_mistake_is_recognised_and_odd_answers_are_named():
+    from pfcourse.exercises import LIKELIHOOD_MISTAKES, landmark_log_likelihood
+
+    for mistake, why in LIKELIHOOD_MISTAKES.items():
+        report = check_log_likelihood(lambda x, z, H, R, m=mistake: landmark_log_likelihood(x, z, H, R, m))
+        assert report.problems == [f"your function computes a known mistake: {why}"], (mistake, str(report))
+    half = check_log_likelihood(lambda x, z, H, R: 2 * cloud_log_likelihood(x, z, H, R))
+    assert "the values differ from log N(z_s; H_s x, R_ss)" in half.problems[0], str(half)
+    assert "shape (50, 1)" in check_log_likelihood(lambda x, z, H, R: np.zeros((len(x), 1))).problems[0]
+    assert check_log_likelihood(lambda x, z, H, R: None).problems == [
+        "the function returned None: compute and return one log-likelihood per particle"]
+    assert "raised ZeroDivisionError" in str(check_log_likelihood(lambda x, z, H, R: 1 / 0))

@@ -9,91 +9,120 @@
 # %% [markdown]
 # # Simulating the landmark model
 #
-# Before filtering anything we need data, and we need to understand exactly how it was
-# made: a particle filter is only as right as the model it assumes. This chapter simulates
-# the two variants of the linear landmark model used throughout Part I and explains every
-# variable the simulator returns.
+# :::{admonition} In this chapter
+# :class: chapter-header
+# **You learn** what the linear landmark model of Part I simulates and what each of its
+# parameters $m_0$, $P_0$, $Q$, $R$ means physically, and how to write its three densities,
+# $p(x_0)$, $p(x_k \mid x_{k-1})$ and $p(z_k \mid x_k)$, when only some landmarks are in view.
 #
-# The set-up: a robot moves in the plane among $M$ landmarks whose positions are unknown
-# to it. When a landmark is inside the robot's field of view, the robot measures the
-# landmark's position *relative to itself*, $l^j - r$, with a small Gaussian error. It
-# must estimate both its own position and the landmarks' positions: a miniature of
-# simultaneous localization and mapping (SLAM).
+# **You need** Gaussian vectors and their affine maps; matrices in NumPy and a random generator.
+#
+# **Time:** about six minutes to read; the notebook runs in under half a minute.
+# :::
+#
+# Before filtering anything we need data, and we need to know exactly how it was made: a
+# particle filter is only as right as the model it assumes. A robot moves in the plane among
+# $M$ landmarks whose positions it does not know. When landmark $j$, at $l^j$, is inside the
+# robot's field of view, the robot measures its position *relative to itself*, $l^j - r_k$,
+# with a small Gaussian error; $r_k$ is the robot's position at step $k$. The robot must
+# estimate both, a miniature of simultaneous localisation and mapping (SLAM).
+#
+# ## The two-landmark model and its parameters (lab question 1)
+#
+# At each step of $\Delta t = 1$ s the robot turns by $\omega = \pi/4$ rad about the origin (once
+# round every $8$ s), perturbed by a small random step. A landmark is in view when it lies up
+# and to the right of the robot: $l^j_x - r_x > 0$ and $l^j_y - r_y > 0$. The state stacks the
+# robot's and the landmarks' positions, in metres, in the world frame:
+#
+# $$
+# x_k = \left(r_{x}, r_{y}, l^1_{x}, l^1_{y}, l^2_{x}, l^2_{y}\right)_k^\top \in \mathbb{R}^6,
+# \qquad x_k = F x_{k-1} + B + w_k, \qquad z_k = H_k x_k + v_k ,
+# $$
+#
+# with $w_k \sim \mathcal N(0, Q)$ and $v_k \sim \mathcal N(0, R)$. The scenario holds the
+# parameters (the code names them `mX0`, `PX0`, `Qw`, `Rv`).
 
 # %%
+import ipywidgets as widgets
 import matplotlib.pyplot as plt
 import numpy as np
-from IPython.display import HTML
-from myst_nb import glue
+import pandas as pd
+from IPython.display import HTML, display
 
-from pfcourse.landmarks.scenario import circle_scenario, quadrant_scenario, simulate
+from pfcourse import evidence
+from pfcourse.exercises import check_log_likelihood
+from pfcourse.figures.report import EvidenceBlock, glue_values
+from pfcourse.figures.widgets import control_panel, scale_slider, seed_box
 from pfcourse.landmarks.figures import animate_landmarks, landmark_scene
+from pfcourse.landmarks.scenario import circle_scenario, quadrant_scenario, simulate
 from pfcourse.style import COLORS, use_style
 
 use_style()
-
-# %% [markdown]
-# ## The two-landmark variant
-#
-# The first variant has two landmarks. At each time step of $\Delta t = 1$ s the robot turns
-# by $\omega = \pi/4$ rad about the origin, so it goes round once every $8$ s, perturbed by a
-# small random step. A landmark is in view when it lies up and to the right of the robot:
-# $l_x - r_x > 0$ and $l_y - r_y > 0$.
-#
-# The state at step $k$ stacks the robot position and the two landmark positions, all in the
-# world frame, in metres:
-#
-# $$
-# x_k = \left(r_{x}, r_{y}, l^1_{x}, l^1_{y}, l^2_{x}, l^2_{y}\right)_k^\top \in \mathbb{R}^6 .
-# $$
-#
-# The scenario object holds the parameters of the simulator.
-
-# %%
 scenario = quadrant_scenario()
-print("mX0 =", scenario.mX0)
-print("diag(PX0) =", np.diag(scenario.PX0))
-print("diag(Qw)  =", np.diag(scenario.Qw))
-print("diag(Rv)  =", np.diag(scenario.Rv))
+print("m_0       =", scenario.mX0)
+print("diag(P_0) =", np.diag(scenario.PX0))
+print("diag(Q)   =", np.diag(scenario.Qw))
+print("diag(R)   =", np.diag(scenario.Rv))
 
 # %% [markdown]
-# What they mean physically (lab question 1):
+# What they mean physically:
 #
-# - **`mX0`** is the expected initial state: the robot is believed to start near $(2, 0)$ m and
-#   the landmarks near $(-1, 4)$ m and $(4, -1)$ m.
-# - **`PX0`** is the covariance of the initial state: how far the truth may be from `mX0`.
-#   Its diagonal holds variances in m²; a variance of $0.2$ m² is a standard deviation of
-#   $\sqrt{0.2} \approx 0.45$ m, so the landmarks are known to within about a metre at the start.
-# - **`Qw`** is the covariance of the process noise $w_k$ added at every step: the robot's
-#   steps are perturbed by $0.05$ m (standard deviation) per axis, while the landmarks get
-#   a variance of $10^{-20}$ m², a standard deviation of $10^{-10}$ m: they do not move.
-#   This detail will matter a great deal for the particle filter.
-# - **`Rv`** is the covariance of the measurement noise $v_k$: every measured coordinate is
-#   off by $0.1$ m (standard deviation).
+# - **$m_0$** is the expected initial state: the robot starts near $(2, 0)$ m, the landmarks near
+#   $(-1, 4)$ m and $(4, -1)$ m.
+# - **$P_0$** is the covariance of the initial state, how far the truth may be from $m_0$. Its
+#   diagonal holds variances in m²: $0.2$ m² is a standard deviation of $\sqrt{0.2} \approx 0.45$ m,
+#   so the landmarks are known to within about a metre at the start.
+# - **$Q$** is the covariance of the process noise $w_k$: each step of the robot is perturbed by
+#   $0.05$ m (standard deviation) per axis, while the landmarks get a variance of $10^{-20}$ m²:
+#   they do not move. This detail matters a great deal for the particle filter.
+# - **$R$** is the covariance of the measurement noise $v_k$: every measured coordinate is off by
+#   $0.1$ m (standard deviation).
 #
-# ## One simulated run (lab question 1)
+# ## The simulator, in NumPy
 #
-# `simulate` draws the initial state from $\mathcal N(\text{mX0}, \text{PX0})$, moves it with
-# the dynamics, and measures the landmarks in view. The seed makes the run reproducible.
+# :::{admonition} Algorithm 1.1: one run of the landmark model
+# :class: algorithm
+# 1. **Initial state.** Draw $x_0 = m_0 + L_0 e_0$, with $L_0 L_0^\top = P_0$ (Cholesky) and $e_0 \sim \mathcal N(0, I)$.
+# 2. **For** $k = 1, 2, \dots$ up to the last step: *move*, $x_k = F x_{k-1} + B + w_k$ with $w_k = L_Q e_k$, $L_Q L_Q^\top = Q$.
+# 3. **For every** $k$ and landmark $j$: *see*, is $l^j_k - r_k$ in the field of view? (never at $k = 0$);
+#    *measure*, $z^j_k = l^j_k - r_k + v^j_k$ if so, NaN ("not a number") in its two coordinates if not.
+# :::
+#
+# The lines below are Algorithm 1.1, drawing the normal variates in the same order as the package's
+# `simulate` (initial state, then all process noises, then all measurement noises), so that the
+# same seed must give the same arrays.
 
 # %%
+def simulate_numpy(s, rng):
+    """One run of the two-landmark model: (states (K, 6), measurements (K, 4), seen (K, 2))."""
+    K, d = s.n_samples, s.dim_x
+    x = np.empty((K, d))
+    x[0] = s.mX0 + np.linalg.cholesky(s.PX0) @ rng.standard_normal(d)  # x_0 ~ N(m_0, P_0)
+    w = rng.standard_normal((K, d)) @ np.linalg.cholesky(s.Qw).T       # w_k ~ N(0, Q)
+    for k in range(1, K):
+        x[k] = s.F @ x[k - 1] + s.B + w[k]                             # x_k = F x_(k-1) + B + w_k
+    v = rng.standard_normal((K, 4)) @ np.linalg.cholesky(s.Rv).T       # v_k ~ N(0, R)
+    offsets = x[:, 2:].reshape(K, 2, 2) - x[:, None, :2]               # l^j - r, (K, 2, 2)
+    seen = (offsets[..., 0] > 0) & (offsets[..., 1] > 0)               # up and to the right
+    seen[0] = False                                                    # nothing measured at k = 0
+    z = offsets.reshape(K, 4) + v
+    z[~np.repeat(seen, 2, axis=1)] = np.nan                            # unseen landmark: NaN
+    return x, z, seen
+
+
+x, z, seen = simulate_numpy(scenario, np.random.default_rng(2024))
 sim = simulate(scenario, rng=2024)
-print("T:", sim.T.shape, " truth:", sim.truth.shape, " measurements:", sim.measurements.shape)
-print("T[:5]           =", sim.T[:5])
-print("truth[1]        =", np.round(sim.truth[1], 3))
-print("measurements[1] =", np.round(sim.measurements[1], 3))
-glue("model_t_last", float(sim.T[-1]), display=False)
+print("same states:      ", np.array_equal(x, sim.truth))
+print("same measurements:", np.array_equal(z, sim.measurements, equal_nan=True))
+print("same visibility:  ", np.array_equal(seen, sim.seen))
 
 # %% [markdown]
-# - **`T`** holds the sampling instants $t_k = k\,\Delta t$, here from $0$ to {glue:text}`model_t_last:.0f` s.
-# - **`truth`** holds the true state at each instant, one row per step, one column per state coordinate: what the
-#   filter tries to recover and never sees.
-# - **`measurements`** holds the measurements, one row per step, four columns: the offset
-#   $l^1 - r$ (two coordinates) then $l^2 - r$. A landmark out of view gives NaN
-#   ("not a number") in its two columns. The first row is all NaN: the first measurement
-#   is taken after the first move.
-#
-# The figure shows the run in the world frame.
+# The arrays are identical. `simulate` returns the instants `T` ($t_k = k\,\Delta t$), the
+# states `truth` (one row per step, what the filter tries to recover and never sees),
+# the `measurements` (the offsets $l^1 - r$ then $l^2 - r$, NaN for a landmark out of view; the
+# first row is all NaN) and the visibility `seen`. The figure shows the run in the world frame;
+# the animation replays it step by step (a landmark in view is green, with its measured offset
+# drawn from the robot).
 
 # %%
 fig, ax = plt.subplots(figsize=(5.5, 5.5))
@@ -102,19 +131,13 @@ ax.set_title("One run of the two-landmark model (50 s)")
 ax.legend(loc="lower left")
 plt.show()
 
-# %% [markdown]
-# The animation replays the run step by step: the shaded region is the field of view,
-# a landmark in view is green and the green segment drawn from the robot is its
-# measured offset $z^j_k$; a landmark out of view is grey. Press play or scrub the slider.
-
 # %%
 HTML(animate_landmarks(scenario, sim).to_jshtml())
 
 # %% [markdown]
 # ## What the robot gets to see
 #
-# The measurements are the only input of every filter in this part, so it is worth seeing
-# them as the filter does: a time series with holes.
+# The measurements are the only input of every filter in this part: a time series with holes.
 
 # %%
 fig, axes = plt.subplots(2, 1, figsize=(7, 4.5), sharex=True)
@@ -128,50 +151,48 @@ axes[0].set_title("Measured offsets; gaps are steps where the landmark is out of
 plt.show()
 
 # %% [markdown]
-# In this run each landmark is seen at some steps and not at others. How often, in general?
-# One run cannot say; a few hundred seeded runs can.
+# How often is a landmark in view, in general? One run cannot say; we simulate
+# {glue:text}`model_visibility_runs:d` seeded runs. Landmark $1$ is in view at
+# {glue:text}`model_seen_share_l1:.0%` of the steps on average (95 % interval
+# {glue:text}`model_seen_share_l1_low:.0%` to {glue:text}`model_seen_share_l1_high:.0%`).
 
-# %%
+# %% tags=["remove-input"] jupyter={"source_hidden": true}
 n_runs = 500
-seen = np.array([simulate(scenario, rng=seed).seen[1:] for seed in range(n_runs)])
-seen_fraction = seen.mean(axis=1)
-both = seen.all(axis=2).mean(axis=1)
-for j in range(2):
-    lo, med, hi = np.percentile(seen_fraction[:, j], [10, 50, 90])
-    print(f"landmark {j + 1}: in view at {med:.0%} of steps (10-90 % of runs: {lo:.0%} to {hi:.0%})")
-print(f"both at once: {np.median(both):.0%} of steps (median over {n_runs} runs)")
-nothing = (~seen.any(axis=2)).mean(axis=1)
-never = float(np.mean(nothing == 1.0))
-print(f"nothing in view: {np.median(nothing):.0%} of steps (median over runs; 10-90 %: "
-      f"{np.percentile(nothing, 10):.0%} to {np.percentile(nothing, 90):.0%}); "
-      f"{never:.1%} of the runs never see a landmark")
-glue("model_nothing_share", float(np.median(nothing)), display=False)
-glue("model_never_share", never, display=False)
-glue("model_seen_share_l1", float(np.median(seen_fraction[:, 0])), display=False)
-glue("model_seen_share_l2", float(np.median(seen_fraction[:, 1])), display=False)
-glue("model_both_share", float(np.median(both)), display=False)
-glue("model_visibility_runs", n_runs, display=False)
+seen_runs = np.array([simulate(scenario, rng=seed).seen[1:] for seed in range(n_runs)])  # (runs, steps, 2)
+shares = {"landmark 1": seen_runs[..., 0].mean(axis=1), "landmark 2": seen_runs[..., 1].mean(axis=1),
+          "both at once": seen_runs.all(axis=2).mean(axis=1), "nothing": (~seen_runs.any(axis=2)).mean(axis=1)}
+table = np.array(list(shares.values()))  # (4, runs)
+means, lows, highs = evidence.run_interval(lambda r: table[:, r].mean(axis=1), n_runs)
+rows = pd.DataFrame({"in view": list(shares), "mean share of steps": means, "95 % low": lows, "95 % high": highs})
+values = {name: (means[i], lows[i], highs[i]) for i, name in enumerate(shares)}
+never = evidence.rate(shares["nothing"] == 1.0)
+glue_values("model_", visibility_runs=n_runs, seen_share_l1=values["landmark 1"][0],
+            seen_share_l1_low=values["landmark 1"][1], seen_share_l1_high=values["landmark 1"][2],
+            seen_share_l2=values["landmark 2"][0], both_share=values["both at once"][0],
+            nothing_share=values["nothing"][0], never_share=never.estimate)
+EvidenceBlock(
+    f"landmark 1 is in view at {values['landmark 1'][0]:.0%} of the steps",
+    notes=[f"{n_runs} runs of simulate (seeds 0 to {n_runs - 1}), steps 1 to 49 (nothing is measured at step 0).",
+           "Mean over the runs of the share of steps, with its 95 % percentile-bootstrap interval over the runs "
+           "(see Reading the evidence).",
+           f"Runs that never see a landmark: {never}."],
+    tables=[("Share of the steps at which ... is in view", rows,
+             {"mean share of steps": ".1%", "95 % low": ".1%", "95 % high": ".1%"})],
+)
 
 # %% [markdown]
-# So in a typical run each landmark is measured at roughly a third of the steps
-# ({glue:text}`model_seen_share_l1:.0%` and {glue:text}`model_seen_share_l2:.0%`, medians over
-# {glue:text}`model_visibility_runs:d` runs), and the
-# robot sees nothing at all at {glue:text}`model_nothing_share:.0%` of the steps (median over
-# runs); {glue:text}`model_never_share:.1%` of the runs never see a landmark. A filter must
-# carry its estimate through those gaps using the dynamics alone.
+# Landmark $2$ is seen about as often ({glue:text}`model_seen_share_l2:.0%`), both at once rarely, and
+# the robot sees nothing at
+# {glue:text}`model_nothing_share:.0%` of the steps on average. A filter must carry its estimate
+# through those gaps with the dynamics alone.
 #
 # ## The $M$-landmark variant
 #
-# The second variant has $M = 5$ landmarks spread around a circle. The robot goes round a
-# centre $c = (2, 1)$ m once every $40$ s, and its field of view is a triangle pointing along its
-# direction of travel ($45^\circ$ either side, $6$ m deep). Turning about a centre other than the
-# origin adds a constant term to the dynamics,
-#
-# $$
-# r_k = c + R_\omega (r_{k-1} - c) + w_k = R_\omega r_{k-1} + (I - R_\omega)\,c + w_k ,
-# $$
-#
-# which is the vector $B$ in $x_k = F x_{k-1} + B + w_k$ (zero for the landmarks).
+# The second variant has $M = 5$ landmarks around a circle. The robot goes round a centre
+# $c = (2, 1)$ m once every $40$ s, and sees a triangle pointing along its direction of travel
+# ($45^\circ$ either side, $6$ m deep). Turning about a centre other than the origin adds a
+# constant to the dynamics, $r_k = c + \Omega (r_{k-1} - c) + w_k = \Omega r_{k-1} + (I - \Omega)\,c + w_k$,
+# with $\Omega$ the rotation by $\omega\,\Delta t$: that constant is $B$ (zero for the landmarks).
 
 # %%
 scenario5 = circle_scenario(n_landmarks=5)
@@ -194,106 +215,81 @@ plt.show()
 HTML(animate_landmarks(scenario5, sim5, limits=(-4.0, 8.0)).to_jshtml())
 
 # %% [markdown]
-# Here the set of visible landmarks changes as the robot turns: each landmark comes into
-# view, stays for a few steps and leaves. The rows of the measurement matrix that apply at
-# step $k$ change with it. We now turn this into the densities $p(x_0)$,
-# $p(x_k \mid x_{k-1})$ and $p(z_k \mid x_k)$ that every filter needs.
+# Each landmark comes into view, stays a few steps and leaves, so the rows of the measurement
+# matrix that apply at step $k$ change with it. We now turn the simulator into the three
+# densities every filter needs.
 #
 # (model-densities)=
 # ## The three densities (lab question 2)
 #
-# **Initial density.** The simulator draws $x_0 = m_{X0} + L_0 e$ with $L_0 L_0^\top = P_{X0}$
-# and $e \sim \mathcal N(0, I)$. An affine map of a Gaussian vector is Gaussian, with mean
-# $m_{X0}$ and covariance $L_0 \operatorname{Cov}(e) L_0^\top = P_{X0}$:
+# **Initial density.** The simulator draws $x_0 = m_0 + L_0 e_0$ with $e_0 \sim \mathcal N(0, I)$.
+# An affine map of a Gaussian vector is Gaussian, here with mean $m_0$ and covariance
+# $L_0 \operatorname{Cov}(e_0) L_0^\top = P_0$:
 #
 # $$
-# p(x_0) = \mathcal N(x_0;\, m_{X0},\, P_{X0})
-# = \frac{1}{\sqrt{(2\pi)^{d} \det P_{X0}}}
-#   \exp\!\left(-\tfrac12 (x_0 - m_{X0})^\top P_{X0}^{-1} (x_0 - m_{X0})\right),
+# p(x_0) = \mathcal N(x_0;\, m_0,\, P_0)
+# = \frac{1}{\sqrt{(2\pi)^{d} \det P_0}}
+#   \exp\!\left(-\tfrac12 (x_0 - m_0)^\top P_0^{-1} (x_0 - m_0)\right),
 # \qquad d = 2 + 2M .
 # $$
 #
-# **Transition density.** Given $x_{k-1}$, the next state $x_k = F x_{k-1} + B + w_k$ is a
-# constant plus the Gaussian noise $w_k \sim \mathcal N(0, Q_w)$, independent of the past, so
+# **Transition density.** Given $x_{k-1}$, the next state $x_k = F x_{k-1} + B + w_k$ is a constant
+# plus the noise $w_k \sim \mathcal N(0, Q)$, independent of the past, so
 #
 # $$
-# p(x_k \mid x_{k-1}) = \mathcal N(x_k;\, F x_{k-1} + B,\, Q_w), \qquad
-# F = \begin{pmatrix} R_\omega & 0 \\ 0 & I_{2M} \end{pmatrix}, \quad
-# B = \begin{pmatrix} (I - R_\omega)\, c \\ 0 \end{pmatrix},
+# p(x_k \mid x_{k-1}) = \mathcal N(x_k;\, F x_{k-1} + B,\, Q), \qquad
+# F = \begin{pmatrix} \Omega & 0 \\ 0 & I_{2M} \end{pmatrix}, \quad
+# B = \begin{pmatrix} (I - \Omega)\, c \\ 0 \end{pmatrix}
 # $$
 #
-# with $R_\omega$ the rotation by $\omega\,\Delta t$. The landmark block of $Q_w$ is
-# $10^{-20} I$: this density is, for the landmarks, almost a Dirac mass at the previous
-# position.
+# ($c = 0$ in the two-landmark model). The landmark block of $Q$ is $10^{-20} I$: for the
+# landmarks this density is almost a Dirac mass at the previous position.
 #
-# **Measurement density.** Let $V_k \subseteq \{1, \dots, M\}$ be the landmarks in view at
-# step $k$. Each one gives $z^j_k = l^j_k - r_k + v^j_k$, that is
-# $z^j_k = H^j x_k + v^j_k$ with $H^j = (-I_2, 0, \dots, I_2, \dots, 0)$ ($I_2$ in block
-# $j + 1$). Stacking the visible landmarks gives a measurement matrix and a noise covariance
-# whose *size changes with time*:
+# **Measurement density.** Let $V_k \subseteq \{1, \dots, M\}$ be the landmarks in view at step $k$.
+# Each gives $z^j_k = l^j_k - r_k + v^j_k = H^j x_k + v^j_k$, with $H^j = (-I_2, 0, \dots, I_2, \dots, 0)$
+# ($I_2$ in block $j + 1$). Stacking the visible landmarks gives a measurement matrix and a noise
+# covariance whose *size changes with time*:
 #
 # $$
 # H_k = \begin{pmatrix} H^{j_1} \\ \vdots \\ H^{j_{|V_k|}} \end{pmatrix} \in \mathbb R^{2|V_k| \times d},
-# \qquad R_k = R_v[I_k, I_k] \in \mathbb R^{2|V_k| \times 2|V_k|},
+# \qquad R_k = R[I_k, I_k],
 # \qquad
 # p(z_k \mid x_k) = \mathcal N(z_k;\, H_k x_k,\, R_k),
 # $$
 #
 # where $I_k = \{2j - 1, 2j : j \in V_k\}$ lists the measurement *coordinates* of the visible
-# landmarks ($R_v$ is $2M \times 2M$, indexed by coordinates, not by landmarks) and
-# $R_v[I_k, I_k]$ keeps those rows and columns. When nothing is
-# in view ($V_k = \emptyset$) there is no measurement and $p(z_k \mid x_k) = 1$: the
-# step is a pure prediction. In the code, `sim.measurements[k]` holds NaN for the unseen landmarks, and
-# `LinearGaussianModel.observed` extracts $z_k$, $H_k$ and $R_k$ from the non-NaN entries.
-#
-# A caveat: whether a landmark is visible depends on the true state, so strictly the
-# *pattern of NaN* is itself information. The filters here, like the lab's, treat the
-# visibility as given (they condition on which landmarks were seen but not on the
-# geometry that implies it), which is the standard simplification.
-#
-# One step of the simulated run above, checked against these formulas:
+# landmarks ($R$ is $2M \times 2M$, indexed by coordinates) and $R[I_k, I_k]$ keeps those rows
+# and columns. With nothing in view there is no measurement and $p(z_k \mid x_k) = 1$: the step
+# is a pure prediction. In code, the non-NaN entries of `sim.measurements[k]` are $z_k$, and
+# `model.observed` returns $H_k$ and $R_k$; `model.log_likelihood` evaluates $\log p(z_k \mid x_k)$
+# for a whole cloud of particles, which Exercise 1.4 asks you to write.
 
 # %%
-from pfcourse.gaussian import gaussian_logpdf
-
 model = scenario.model()
-k = int(np.flatnonzero(sim.seen.any(axis=1))[0])
+k = int(np.flatnonzero(sim.seen[:, 1] & ~sim.seen[:, 0])[0])  # a step with only landmark 2 in view
 mask, z_k, H_k, R_k = model.observed(sim.measurements[k])
 print(f"step {k}: landmarks in view {np.flatnonzero(sim.seen[k]) + 1}")
 print("H_k =\n", H_k.astype(int))
 print("R_k =\n", R_k)
-by_hand = gaussian_logpdf(z_k - H_k @ sim.truth[k], R_k)[0]
-print(f"log p(z_k | x_k) at the true state: {by_hand:.4f} (formula), "
-      f"{model.log_likelihood(sim.truth[k][None], sim.measurements[k], k)[0]:.4f} (model)")
 
 # %% [markdown]
-# ### Why the Kalman filter is exact here
+# A caveat: whether a landmark is visible depends on the true state, so strictly the *pattern of
+# NaN* is itself information. The filters here, like the lab's, condition on which landmarks
+# were seen but not on the geometry that implies it, the standard simplification.
 #
-# Suppose $p(x_{k-1} \mid z_{1:k-1}) = \mathcal N(m_{k-1}, P_{k-1})$. Then $x_k$ is an affine
-# function of the Gaussian pair $(x_{k-1}, w_k)$, so the prediction is Gaussian,
-# $\mathcal N(F m_{k-1} + B,\; F P_{k-1} F^\top + Q_w)$. And $(x_k, z_k)$ is jointly Gaussian,
-# since $z_k = H_k x_k + v_k$ is affine in $(x_k, v_k)$; conditioning a jointly Gaussian
-# vector on some of its components gives a Gaussian whose mean and covariance are the Kalman
-# update with the matrices $H_k$, $R_k$ of that step. By induction from $p(x_0)$, every
-# filtering density is Gaussian and the Kalman recursions compute its mean and covariance
-# *exactly*, for any sequence of visibility patterns: changing $H_k$ and $R_k$ with time
-# changes nothing in the argument. This is why, in the rest of Part I, the Kalman filter is
-# not "another method" but the **right answer**, against which every particle filter is
-# measured.
+# **Why the Kalman filter is exact here.** The initial density is Gaussian, and every later step
+# applies an affine map to Gaussian vectors ($F x_{k-1} + B + w_k$, then $H_k x_k + v_k$), which
+# keeps them jointly Gaussian, whatever the visibility pattern. So every filtering density
+# $p(x_k \mid z_{1:k})$ is Gaussian, and the Kalman filter computes its mean and covariance
+# exactly: {doc}`kalman` derives it. In the rest of Part I it is the right answer against which
+# every particle filter is measured.
 #
 # ## Try it
 #
-# The panel simulates either variant with the chosen seed and measurement-noise scale
-# (a factor on the standard deviations in `Rv`), and draws the world and which landmarks are
-# in view at each step.
+# The panel simulates either variant with the chosen seed and measurement-noise scale (a factor
+# on the standard deviations in $R$), and draws the world and which landmarks are in view.
 
 # %%
-import ipywidgets as widgets
-from IPython.display import display
-
-from pfcourse.figures.widgets import control_panel, scale_slider, seed_box
-
-
 def draw_model(variant, noise_scale, seed):
     sc = quadrant_scenario() if variant == "two landmarks" else circle_scenario(5)
     sc = sc.with_(Rv=noise_scale**2 * sc.Rv)
@@ -319,13 +315,14 @@ display(control_panel(
     draw_model,
     grid={"variant": ("two landmarks", "five landmarks"), "noise_scale": (0.3, 1.0, 3.0), "seed": (2024, 1, 2)},
     variant=widgets.Dropdown(options=["two landmarks", "five landmarks"], description="variant"),
-    noise_scale=scale_slider("Rv sd scale"), seed=seed_box(2024)))
+    noise_scale=scale_slider("R sd scale"), seed=seed_box(2024)))
 
 # %% [markdown]
 # ## Exercises
 #
-# ```{exercise}
+# ```{exercise} 1.1 Units of the process noise
 # :label: ex-model-units
+# :nonumber:
 # The landmarks' process-noise variance is $10^{-20}$ m². What standard deviation is that, and
 # how far would a landmark drift, in distribution, over the $50$ steps of a run?
 # ```
@@ -338,52 +335,90 @@ display(control_panel(
 # for every practical purpose.
 # ```
 #
-# ```{exercise}
+# ```{exercise} 1.2 Two landmarks rarely at once
 # :label: ex-model-visibility
-# In the two-landmark variant, why are the two landmarks rarely in view at the same time?
+# :nonumber:
+# In the two-landmark model, why are the two landmarks rarely in view at the same time?
 # Use the initial positions and the field of view.
 # ```
 #
 # ```{solution} ex-model-visibility
 # :class: dropdown
 # A landmark is in view when it is up and to the right of the robot. Landmark $1$ starts near
-# $(-1, 4)$ and landmark $2$ near $(4, -1)$, while the robot circles the origin at a radius of
-# about $2$ m. Landmark $1$ is to the right of the robot only when the robot is on the far left of
-# its circle, and landmark $2$ is above the robot only when the robot is at the bottom of it;
-# both hold only around the lower-left part of the circle, a short arc. The
-# {glue:text}`model_visibility_runs:d`-run statistics above put a number on it: both are in view
-# at {glue:text}`model_both_share:.0%` of the steps (median over runs).
+# $(-1, 4)$ and landmark $2$ near $(4, -1)$, while the robot circles the origin at about $2$ m.
+# Landmark $1$ is to the right of the robot only when the robot is on the far left of its circle,
+# landmark $2$ above it only when the robot is at the bottom; both hold only on the lower-left
+# part of the circle, a short arc. Over the {glue:text}`model_visibility_runs:d` runs above, both
+# are in view at {glue:text}`model_both_share:.0%` of the steps on average.
 # ```
 #
-# ```{exercise}
+# ```{exercise} 1.3 The likelihood by hand
 # :label: ex-model-likelihood
-# Write $p(z_k \mid x_k)$ at a step where only landmark $2$ of the two-landmark variant is in
+# :nonumber:
+# Write $p(z_k \mid x_k)$ at a step where only landmark $2$ of the two-landmark model is in
 # view: give $H_k$ and $R_k$ explicitly. What is it at a step where no landmark is in view?
 # ```
 #
 # ```{solution} ex-model-likelihood
 # :class: dropdown
 # $H_k = \begin{pmatrix} -1 & 0 & 0 & 0 & 1 & 0 \\ 0 & -1 & 0 & 0 & 0 & 1 \end{pmatrix}$ and
-# $R_k = 0.1^2 I_2$, so $p(z_k \mid x_k) = \mathcal N(z_k;\, l^2_k - r_k,\, 0.01 I_2)$. With no
-# landmark in view there is no measurement; the likelihood is the constant $1$, and both the
-# Kalman filter and the particle filter only predict.
+# $R_k = 0.1^2 I_2$, so $p(z_k \mid x_k) = \mathcal N(z_k;\, l^2_k - r_k,\, 0.01 I_2)$, the matrices
+# printed above. With no landmark in view there is no measurement; the likelihood is the
+# constant $1$, and both the Kalman filter and the particle filter only predict.
 # ```
 #
-# ```{exercise}
+# ```{exercise} 1.4 The log-likelihood of a cloud, and have it checked
 # :label: ex-model-code
-# (Coding.) Write `sees(x)` that returns, for a state $x$ of the two-landmark model, which
-# landmarks lie up and to the right of the robot, and check it against `scenario.visible` on
-# $1000$ states drawn from the prior.
+# :nonumber:
+# (Coding.) Write `log_likelihood(x, z, H, R)`: for particles `x` of shape `(N, 6)`, a measurement
+# `z` of shape `(4,)` with NaN for an unseen landmark, the full matrices $H$ ($4 \times 6$) and $R$
+# ($4 \times 4$), return the `N` values $\log \mathcal N(z_k;\, H_k x^i,\, R_k)$, normalising constant
+# included, and zeros when nothing is in view. The checker compares with the exact log-density
+# on clouds with both, one or no landmark in view, and names the mistake it sees.
 # ```
-#
-# ````{solution} ex-model-code
+
+# %% tags=["answer"]
+def log_likelihood(x, z, H, R):
+    """Your function: log N(z_k; H_k x^i, R_k) for every row x^i of x, shape (N,)."""
+    ...  # replace with your code
+
+
+print(check_log_likelihood(log_likelihood))
+
+# %% [markdown]
+# ```{solution} ex-model-code
 # :class: dropdown
-# ```{code} python
-# def sees(x):
-#     rel = x[..., 2:].reshape(x.shape[:-1] + (2, 2)) - x[..., None, :2]
-#     return (rel[..., 0] > 0) & (rel[..., 1] > 0)
-#
-# xs = scenario.model().sample_initial(1000, np.random.default_rng(0))
-# assert np.array_equal(sees(xs), scenario.visible(xs))
+# Keep the measured coordinates of $z$, their rows of $H$ and their block of $R$, then evaluate
+# the Gaussian log-density for all particles at once; the code is in the folded cell below (in
+# JupyterLab, click its margin to unfold it). It also agrees with `model.log_likelihood` on a
+# cloud drawn from $p(x_0)$ at every step of the run above.
 # ```
-# ````
+
+# %% tags=["solution", "hide-input"] jupyter={"source_hidden": true}
+def log_likelihood(x, z, H, R):
+    seen = ~np.isnan(z)                      # the measured coordinates
+    if not seen.any():
+        return np.zeros(len(x))              # nothing in view: p(z_k | x_k) = 1
+    d = z[seen] - x @ H[seen].T              # z_k - H_k x^i, (N, 2|V_k|)
+    R_k = R[np.ix_(seen, seen)]              # the block of the visible landmarks
+    quad = np.einsum("ij,ij->i", d @ np.linalg.inv(R_k), d)
+    return -0.5 * (quad + seen.sum() * np.log(2 * np.pi) + np.linalg.slogdet(R_k)[1])
+
+
+cloud = model.sample_initial(200, np.random.default_rng(0))
+print("agrees with model.log_likelihood:", all(
+    np.allclose(log_likelihood(cloud, zk, model.H, model.R), model.log_likelihood(cloud, zk, k))
+    for k, zk in enumerate(sim.measurements)))
+print(check_log_likelihood(log_likelihood))
+
+# %% [markdown]
+# ## Takeaways
+#
+# - The landmark model is linear and Gaussian: $x_k = F x_{k-1} + B + w_k$ with $w_k \sim \mathcal N(0, Q)$,
+#   $z_k = H_k x_k + v_k$ with $v_k \sim \mathcal N(0, R)$, started from $\mathcal N(m_0, P_0)$.
+# - $P_0$ says how well the start is known, $Q$ how much the state moves at random (nothing, for the
+#   landmarks), $R$ how noisy a measured offset is; all are covariances, in m².
+# - Only the landmarks in view are measured: $H_k$ keeps their rows of $H$ and $R_k$ their block of $R$,
+#   and with nothing in view the likelihood is $1$.
+# - Because every map is affine and every noise Gaussian, the Kalman filter is exact for this model
+#   ({doc}`kalman`): it is the reference for every particle filter of Part I.
