@@ -96,7 +96,7 @@ post_mean, post_sd = z / (1 + sd_v**2), np.sqrt(sd_v**2 / (1 + sd_v**2))
 print(f"posterior mean: estimate {estimate:.3f}, exact {post_mean:.3f}; "
       f"Z: estimate {np.exp(log_Z):.3f}, exact {stats.norm.pdf(z, 0, np.sqrt(1 + sd_v**2)):.3f}; ESS {ess:.1f} of {N}")
 
-# %%
+# %% tags=["hide-input"] jupyter={"source_hidden": true}
 grid = np.linspace(-3, 3, 400)
 fig, (ax, ax2) = plt.subplots(2, 1, figsize=(7, 4.2), sharex=True, height_ratios=(3, 2))
 ax.plot(grid, stats.norm.pdf(grid), color="tab:blue", label=r"proposal $q$ = prior N(0, 1)")
@@ -247,7 +247,7 @@ EvidenceBlock(
 # target, here a Cauchy ($t$ with one degree of freedom), for which $w$ is bounded. Both run
 # $N = 10^2$, $10^3$ and $10^4$ draws, {glue:text}`is_tail_runs:d` seeded runs each.
 
-# %%
+# %% tags=["hide-input"] jupyter={"source_hidden": true}
 def log_student(x, nu):
     """log density of Student's t with nu degrees of freedom."""
     return gammaln((nu + 1) / 2) - gammaln(nu / 2) - 0.5 * np.log(nu * np.pi) - (nu + 1) / 2 * np.log1p(x**2 / nu)
@@ -425,7 +425,7 @@ def my_filter(Z, N, rng, model, threshold=0.0, proposal=None):
 # proposal that looks at $z_k$: $q(x_k \mid x_{k-1}, z_k) = \mathcal N\big(\tfrac12 (0.9\, x_{k-1} + z_k),\ Q\big)$,
 # halfway between the prediction and the measurement.
 
-# %%
+# %% tags=["hide-input"] jupyter={"source_hidden": true}
 scalar = LinearGaussianModel(F=[[0.9]], H=[[1.0]], m0=[0.0], P0=[[1.0]], Q=[[0.5]], R=[[0.5]])
 halfway = DensityProposal(
     sample=lambda x, z, k, rng: 0.5 * (0.9 * x + z) + np.sqrt(0.5) * rng.standard_normal(x.shape),
@@ -470,7 +470,7 @@ for name, m, Z, proposal, tau in (("landmarks, transition, SIS", landmarks, Z_la
 # %% tags=["remove-input"] jupyter={"source_hidden": true}
 glue_values(mine_vs_engine_bound=ROUND_OFF)
 
-# %%
+# %% tags=["hide-input"] jupyter={"source_hidden": true}
 ll_runs = 100
 log_gap = {"transition": np.empty(ll_runs), "halfway": np.empty(ll_runs)}
 for s in range(ll_runs):

@@ -152,7 +152,7 @@ print(f"step {k}: {obs.sum() // 2} landmark(s) seen; largest difference from the
 # The run with seed $2024$ of the lab's model with $N = 100$: the first landmark's $x$ estimate and its
 # $\pm 3\sigma$ band, for SIR and for the Rao-Blackwellised filter, over the exact posterior.
 
-# %%
+# %% tags=["hide-input"] jupyter={"source_hidden": true}
 fig, axes = plt.subplots(1, 2, figsize=(7, 2.8), sharey=True)
 for ax, (name, r) in zip(axes, (("SIR", res_sir), ("RBPF (FastSLAM 2.0)", res_rb))):
     for res, label, color, alpha in ((kf, "Kalman", COLORS["kalman"], 0.25), (r, name, COLORS["estimate"], 0.35)):
@@ -205,7 +205,7 @@ table = table.reindex(pd.MultiIndex.from_product([ORDER, N_VALUES], names=["meth
 print(f"medians over {n_runs} runs (ESS/N: mean over runs with a measurement); errors in m")
 print(table.round(4).to_string())
 
-# %%
+# %% tags=["hide-input"] jupyter={"source_hidden": true}
 fig, (ax1, ax2) = plt.subplots(1, 2, figsize=(7, 3.9))
 styles = {"sir": ("tab:orange", "o"), "sir_optimal": ("tab:brown", "s"), "apf": ("tab:purple", "^"),
           "rbpf_prior": ("tab:blue", "v"), "rbpf_optimal": ("tab:red", "D"), "rb_apf": ("tab:green", "x")}
@@ -242,7 +242,7 @@ plt.show()
 # a Wilcoxon signed-rank test of whether the log ratios are symmetric about $\log 10$. When it
 # rejects and the interval lies above $10$, the ratio is said to exceed $10$.
 
-# %%
+# %% tags=["hide-input"] jupyter={"source_hidden": true}
 err = {m: np.array([runs[(runs.method == m) & (runs.N == n)].sort_values("seed").landmark_error
                     for n in N_VALUES]) for m in ORDER}  # (n_N, n_runs)
 logN = np.log(N_VALUES)
@@ -328,7 +328,7 @@ EvidenceBlock(
 # the particle count that reaches a target error follows. A count outside the measured
 # range ($N = 30$ to $3000$) is an extrapolation along the fitted line and is marked so.
 
-# %%
+# %% tags=["hide-input"] jupyter={"source_hidden": true}
 targets = (0.05, 0.02, 0.01)
 print("particles needed for a median landmark error (m) against the exact mean:")
 print(f"{'method':40s}" + "".join(f"{t:>16.2f}" for t in targets))
@@ -369,7 +369,7 @@ glue("rb_fewer_particles_max", float(f"{max(fewer):.2g}"), display=False)
 # $[\chi^2_{600}(0.025), \chi^2_{600}(0.975)] / 100$ at $95\,\%$ of the steps. The Kalman filter
 # is the reference.
 
-# %%
+# %% tags=["hide-input"] jupyter={"source_hidden": true}
 nees_cols = [c for c in quad.columns if c.startswith("nees_")]
 lo, hi = chi2_band(6, n_runs)
 
@@ -488,7 +488,7 @@ EvidenceBlock(
 # `tests/test_rao_blackwell.py`), so its logarithm is biased *down* (Jensen): the median
 # errors in the table are negative. Below, the spread at $N = 100$.
 
-# %%
+# %% tags=["hide-input"] jupyter={"source_hidden": true}
 for m in ORDER:
     ll = runs[(runs.method == m) & (runs.N == 100)].loglik_error
     q = np.percentile(ll, [10, 50, 90])
@@ -567,7 +567,7 @@ EvidenceBlock(
 # (state of dimension $12$, map of dimension $10$; the last line compares SIR's errors with
 # those of the two-landmark model, a Mann-Whitney test since the simulations differ):
 
-# %%
+# %% tags=["hide-input"] jupyter={"source_hidden": true}
 circ = data[(data.scenario == "circle") & (data.method != "kalman")]
 m5_notes, m5_mw, m5_cost_notes = [], {}, []
 circ_seen = np.array([simulate(circle_scenario(), rng=s).seen.any() for s in sorted(circ.seed.unique())])
@@ -615,7 +615,7 @@ print(f"entries of the map covariance per particle, five landmarks / two: {10 **
 # coordinates, last step) and the coverage of the truth by the filter's 95 % ellipse
 # (robot, last $10$ steps; per run, then compared run by run).
 
-# %%
+# %% tags=["hide-input"] jupyter={"source_hidden": true}
 from pfcourse.diagnostics import nees
 
 circle = circle_scenario()

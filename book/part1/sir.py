@@ -236,7 +236,7 @@ plt.show()
 # lineages of the final cloud meet on average {glue:text}`sir_coalescence_mean:.1f` steps back
 # (95 % interval {glue:text}`sir_coalescence_low:.1f` to {glue:text}`sir_coalescence_high:.1f`).
 
-# %%
+# %% tags=["hide-input"] jupyter={"source_hidden": true}
 n_runs, last = 100, 10  # runs; steps scored at the end of each run
 sims = [simulate(scenario, rng=s) for s in range(n_runs)]
 plain = [sir(model, s.measurements, 100, np.random.default_rng(seed + 10**6)) for seed, s in enumerate(sims)]
@@ -315,7 +315,7 @@ EvidenceBlock(
 # {glue:text}`sir_slope_high:.2f`), much slower than $-0.5$: more particles only postpone the
 # impoverishment.
 
-# %%
+# %% tags=["hide-input"] jupyter={"source_hidden": true}
 fixes = pd.read_csv("../data/sir_fixes.csv")
 Ns = np.array(sorted(fixes.N.unique()))
 
@@ -475,7 +475,7 @@ EvidenceBlock(
 # {glue:text}`fix_cov_k02_3000_low:.0%` to {glue:text}`fix_cov_k02_3000_high:.0%`), below the nominal
 # $95\%$: where it goes wrong, it does not know it.
 
-# %%
+# %% tags=["hide-input"] jupyter={"source_hidden": true}
 VARIANTS = {"sir": "SIR", "noise_filter_only": "noise in filter only", "noise_everywhere": "noise in simulator and filter",
             "roughening_0.1": "roughening c = 0.1", "roughening_0.2": "roughening c = 0.2",
             "roughening_0.4": "roughening c = 0.4"}
@@ -539,7 +539,7 @@ EvidenceBlock(
 # roughening constant $c$ ($c = 0$: none) and seed, and plots the landmark $1$ estimate and the
 # number of distinct values in the cloud.
 
-# %%
+# %% tags=["hide-input"] jupyter={"source_hidden": true}
 def draw_sir(n_particles, threshold, scheme, c, seed):
     s = simulate(scenario, rng=seed)
     pf = ParticleFilter(model, n_particles, threshold=threshold, resampler=scheme,
