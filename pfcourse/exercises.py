@@ -211,26 +211,24 @@ class ScalarModel:
 def _scalar_filter(z: np.ndarray, model: ScalarModel, last_only: bool = False) -> tuple[np.ndarray, np.ndarray]:
     """Mean and variance over the steps of the posterior the weighted cloud estimates.
 
-    ``last_only=False``: the Kalman filter, ``p(x_k | z_{1:k})``, exact for this model. With
-    ``last_only=True``, the limit of an SIS whose weights forget the previous step: the prior
-    marginal of ``x_j`` updated by ``z_j`` alone (``j`` the last measured step), moved on to ``k``.
+    ``last_only=False``: the Kalman filter, ``p(x_k | z_{1:k})``, exact for this model
+    (:func:`scalar_kalman`). With ``last_only=True``, the limit of an SIS whose weights forget the
+    previous step: the prior marginal of ``x_j`` updated by ``z_j`` alone (``j`` the last measured
+    step), moved on to ``k``.
     """
+    if not last_only:
+        return scalar_kalman(z, model)[:2]
     a, q, r = model.a, model.q, model.r
     mean, var = np.empty(len(z)), np.empty(len(z))
-    m, p = model.m0, model.p0  # the Kalman posterior
+    m, p = model.m0, model.p0  # the forgetful posterior
     prior_m, prior_p = model.m0, model.p0  # the prior marginal of x_k
     for k, zk in enumerate(z):
         if k > 0:
             m, p = a * m, a * a * p + q
             prior_m, prior_p = a * prior_m, a * a * prior_p + q
-        if last_only:
-            m, p = (m, p) if k > 0 else (prior_m, prior_p)
-            if not np.isnan(zk):
-                gain = prior_p / (prior_p + r)
-                m, p = prior_m + gain * (zk - prior_m), (1 - gain) * prior_p
-        elif not np.isnan(zk):
-            gain = p / (p + r)
-            m, p = m + gain * (zk - m), (1 - gain) * p
+        if not np.isnan(zk):
+            gain = prior_p / (prior_p + r)
+            m, p = prior_m + gain * (zk - prior_m), (1 - gain) * prior_p
         mean[k], var[k] = m, p
     return mean, var
 

@@ -37,7 +37,8 @@ from pfcourse import evidence
 
 from pfcourse.experiments.terrain import DIVERGED_ERROR, flight_study
 from pfcourse.seeding import data_rng, filter_rng
-from pfcourse.terrain.scenario import AircraftScenario, extended_kalman_filter, position_error, simulate
+from pfcourse.metrics import position_error
+from pfcourse.terrain.scenario import AircraftScenario, extended_kalman_filter, simulate
 from pfcourse.figures.clouds import animate_clouds
 from pfcourse.filter import ParticleFilter
 from pfcourse.style import COLORS, plain_log_axis, use_style

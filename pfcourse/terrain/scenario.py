@@ -49,7 +49,6 @@ from pfcourse.checks import (
     set_checked,
 )
 from pfcourse.errors import ParameterError
-from pfcourse.metrics import position_error  # noqa: F401  (its home was here; the chapters import it from here)
 from pfcourse.results import KalmanResult
 from pfcourse.terrain.map import TerrainMap
 from pfcourse.terrain.compiled import aircraft_transition, altimeter_log_likelihood
