@@ -6,7 +6,12 @@ mobile robot, the aircraft) and an estimate ``x^`` with covariance ``P``:
 * :func:`position_error` ``e_pos = sqrt((x^ - x)^2 + (y^ - y)^2)`` (m), the horizontal distance;
 * :func:`heading_error` ``e_theta = |wrap(theta^ - theta)|`` (rad), wrapped to ``[0, pi]``;
 * :func:`position_spread` ``sigma_pos = sqrt(P_xx + P_yy)`` (m), the filter's own horizontal
-  standard deviation: the root of the expected squared position error, were the filter right.
+  standard deviation: the root of the expected squared position error, were the filter right;
+* :func:`locked_from` and :func:`locked_on`, the book's one definition of *locked on* for a
+  robot: within :data:`LOCK_POSITION_M` metres and :data:`LOCK_HEADING_RAD` of the truth at
+  every step of the last :data:`LOCK_WINDOW_S` seconds of the run.
+
+Errors are signed ``estimate - truth`` wherever the book keeps a sign.
 
 Each takes arrays of any leading shape (a run ``(K, d)``, one step ``(d,)``, a cloud ``(N, d)``
 against one true state ``(d,)``, by broadcasting) and returns one value per row.  The NEES and
@@ -54,3 +59,33 @@ def position_spread(cov: Array) -> Array:
     """
     cov = np.asarray(cov, dtype=float)
     return np.sqrt(cov[..., 0, 0] + cov[..., 1, 1])
+
+
+#: Locked on (the book's one definition, every robot chapter and study): the estimate is within
+#: this distance of the true position (m) ...
+LOCK_POSITION_M = 1.0
+#: ... and this angle of the true heading (rad, 5 degrees) ...
+LOCK_HEADING_RAD = float(np.deg2rad(5.0))
+#: ... at every step of the run's last ``LOCK_WINDOW_S`` seconds.
+LOCK_WINDOW_S = 20.0
+
+
+def locked_from(pos_err: Array, head_err: Array, position_tolerance: float = LOCK_POSITION_M,
+                heading_tolerance: float = LOCK_HEADING_RAD) -> int:
+    """First step ``k0`` from which ``e_pos < position_tolerance`` and ``e_theta < heading_tolerance``
+    hold at every step to the end (``K``, the number of steps, if they fail at the last one)."""
+    ok = (np.asarray(pos_err) < position_tolerance) & (np.asarray(head_err) < heading_tolerance)
+    bad = np.flatnonzero(~ok)
+    return 0 if len(bad) == 0 else int(bad[-1] + 1)
+
+
+def locked_on(pos_err: Array, head_err: Array, dt: float, window_s: float = LOCK_WINDOW_S) -> bool:
+    """Locked on: within the tolerances at every one of the last ``ceil(window_s / dt)`` steps.
+
+    ``pos_err`` and ``head_err`` are the per-step errors of one run (:func:`position_error`,
+    :func:`heading_error`), ``dt`` its step (s).  A run shorter than the window is locked on only
+    if it is within the tolerances at every step.
+    """
+    n_steps = len(pos_err)
+    window = min(n_steps, int(np.ceil(window_s / dt - 1e-9)))
+    return locked_from(pos_err, head_err) <= n_steps - window

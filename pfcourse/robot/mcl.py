@@ -72,7 +72,7 @@ from pfcourse.checks import Array, check_probability
 from pfcourse.diagnostics import nees
 from pfcourse.errors import DegenerateWeightsError, ParameterError
 from pfcourse.filter import DensityProposal, ParticleFilter
-from pfcourse.metrics import heading_error, position_error, position_spread
+from pfcourse.metrics import LOCK_WINDOW_S, heading_error, locked_from, position_error, position_spread
 from pfcourse.results import FilterResult
 from pfcourse.jitter import RegularisedJitter
 from pfcourse.proposals import ProgressiveCorrection
@@ -421,16 +421,8 @@ def position_heading_errors(truth: Array, mean: Array) -> tuple[Array, Array]:
     return position_error(truth, mean), heading_error(truth, mean)
 
 
-def locked_from(pos_err: Array, head_err: Array, position_tolerance: float = 1.0,
-                heading_tolerance: float = np.deg2rad(5.0)) -> int:
-    """First step from which the estimate stays within the tolerances until the end (``K`` if it is off at the end)."""
-    ok = (pos_err < position_tolerance) & (head_err < heading_tolerance)
-    bad = np.flatnonzero(~ok)
-    return 0 if len(bad) == 0 else int(bad[-1] + 1)
-
-
-#: Lock-on: within 1 m and 5 deg of the truth at every one of the last ``LOCK_WINDOW`` steps.
-LOCK_WINDOW = 20
+#: Lock-on (:func:`pfcourse.metrics.locked_on`): the last ``LOCK_WINDOW`` steps of the robot's 1 s step.
+LOCK_WINDOW = int(LOCK_WINDOW_S)
 #: Wrong but confident: final NEES above this chi2_3 quantile.
 CONFIDENT_QUANTILE = 0.999
 
