@@ -40,7 +40,7 @@ STUDIES: dict[str, tuple[dict, dict]] = {
     "gap": ({"gap": [None, GAP]}, {"n_steps": 260, "keep_errors": True}),
     "dt_meas": ({"dt_meas": [1.0, 2.0, 5.0, 10.0, 20.0]}, {"n_steps": 200}),
     "n_landmarks": ({"n_landmarks": [1, 2, 3, 5, 10, 30]}, {}),
-    "initial": ({"initial": ["tracking", "uniform"], "n_particles": [300, 1000]}, {"n_steps": 50}),
+    "initial": ({"initial": ["tracking", "uniform"], "n_particles": [300, 1000]}, {"n_steps": 50, "keep_errors": True}),
 }
 #: Per-step columns of ``pf_run(..., keep_errors=True)``.
 ARRAY_COLUMNS = ("position_error", "position_sd", "heading_error")
