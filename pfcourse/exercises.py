@@ -44,6 +44,12 @@ exception is reported as a problem); ``str(report)`` prints the verdict.
   against :func:`landmark_log_likelihood`; the mistakes of :data:`LIKELIHOOD_MISTAKES` (NaN kept or
   read as 0, the offset ``r - l``, ``R`` read as standard deviations, the leading block of ``R``
   instead of the visible one, no normalising constant) are named.
+* :func:`check_consistency` - ``fn(errors, covariances) -> (average_nees, band, fraction)``: the
+  NEES check of a filter over ``R`` runs (chapter 20), the run-averaged NEES per step, the 95 % band
+  of an average of ``R`` chi-square variables with ``d`` degrees of freedom and the fraction of steps
+  inside it, against :func:`nees_consistency`; the mistakes of :data:`CONSISTENCY_MISTAKES` (a single
+  run's band, the band not divided by ``R``, ``P`` not inverted, a one-sided band, the runs summed)
+  are named.
 """
 
 from __future__ import annotations
@@ -863,4 +869,98 @@ def check_log_likelihood(fn: Callable, n_particles: int = 50, seed: int = 0, rto
                 if not np.allclose(a, landmark_log_likelihood(x, z, LIKELIHOOD_H, LIKELIHOOD_R), rtol=rtol, atol=1e-9))
     report.problems.append(f"with z = {LIKELIHOOD_CASES[case]} the values differ from log N(z_s; H_s x, R_ss): "
                            "check the quadratic form (z_s - H_s x)^T R_ss^-1 (z_s - H_s x) and the term -(1/2)")
+    return report
+
+
+# The NEES consistency check over R runs (chapter 20, exercise 20.1): errors of shape (R, K, d) and
+# covariances (R, K, d, d) of a filter that is consistent at most steps, over-confident at a few.
+CONSISTENCY_MISTAKES = {
+    "one_run_band": "its band is that of a single run, chi2_d quantiles; the average of R independent chi2_d "
+                    "values is chi2_(R d) / R, a band R times narrower in relative terms",
+    "band_not_divided": "its band is the chi2_(R d) quantiles themselves, not divided by R: that is the band of "
+                        "the sum over the runs, while the function returns their average",
+    "cov_not_inverted": "it computes e^T P e; the NEES weighs the error by the inverse covariance, e^T P^-1 e",
+    "one_sided": "its band is one-sided (0 up to the 95 % quantile); a consistent filter's average must be "
+                 "neither too large nor too small, so cut 2.5 % from each side",
+    "summed": "it sums the NEES over the runs instead of averaging them; the band is for the average",
+}
+
+
+def nees_consistency(errors: np.ndarray, covariances: np.ndarray, probability: float = 0.95,
+                     mistake: str | None = None) -> tuple[np.ndarray, tuple[float, float], float]:
+    """The NEES check over ``R`` runs: ``NEES_rk = e_rk^T P_rk^-1 e_rk``, its average over the runs per
+    step, the band ``chi2_(R d)^-1(a/2, 1 - a/2) / R`` (``a = 1 - probability``) and the fraction of the
+    steps whose average lies in it. ``mistake`` (a key of :data:`CONSISTENCY_MISTAKES`) computes that
+    mistake instead."""
+    from scipy import stats
+
+    errors, covariances = np.asarray(errors, dtype=float), np.asarray(covariances, dtype=float)
+    R, _, d = errors.shape
+    weight = covariances if mistake == "cov_not_inverted" else np.linalg.inv(covariances)
+    nees = np.einsum("rki,rkij,rkj->rk", errors, weight, errors)
+    average = nees.sum(axis=0) if mistake == "summed" else nees.mean(axis=0)
+    alpha = 1.0 - probability
+    quantiles = [0.0, 1 - alpha] if mistake == "one_sided" else [alpha / 2, 1 - alpha / 2]
+    dof, scale = (d, 1.0) if mistake == "one_run_band" else (R * d, 1.0 if mistake == "band_not_divided" else R)
+    low, high = (float(v) for v in stats.chi2.ppf(quantiles, dof) / scale)
+    return average, (low, high), float(np.mean((average >= low) & (average <= high)))
+
+
+def _consistency_case(seed: int = 0, runs: int = 20, steps: int = 60, d: int = 3) -> tuple[np.ndarray, np.ndarray]:
+    """Errors drawn from the covariances (a consistent filter) except over steps 40-49, where the true
+    errors are twice as large as the covariance says (an over-confident spell)."""
+    rng = np.random.default_rng(seed)
+    a = rng.normal(size=(runs, steps, d, d))
+    covariances = np.einsum("rkij,rklj->rkil", a, a) / d + 0.1 * np.eye(d)
+    errors = np.einsum("rkij,rkj->rki", np.linalg.cholesky(covariances), rng.normal(size=(runs, steps, d)))
+    errors[:, 40:50] *= 2.0
+    return errors, covariances
+
+
+def check_consistency(fn: Callable, seed: int = 0, rtol: float = 1e-9) -> CheckReport:
+    """Check a student's ``fn(errors, covariances) -> (average_nees, (low, high), fraction)``.
+
+    On :func:`_consistency_case` (20 runs, 60 steps, 3 dimensions), the three answers must equal
+    :func:`nees_consistency` to ``rtol``; a wrong answer is compared with each mistake of
+    :data:`CONSISTENCY_MISTAKES` and the report names the one that fits.
+    """
+    report = CheckReport("NEES consistency check")
+    errors, covariances = _consistency_case(seed)
+    answer = _answer(report, lambda: fn(errors.copy(), covariances.copy()), "fn(errors, covariances)",
+                     "return (average_nees, (low, high), fraction)")
+    if answer is None:
+        return report
+    try:
+        average, band, fraction = answer
+        average, band, fraction = np.asarray(average, dtype=float), tuple(float(b) for b in band), float(fraction)
+    except (TypeError, ValueError):
+        report.problems.append("the answer is not (average_nees, (low, high), fraction): return the per-step "
+                               "average, the band as two numbers and the fraction of steps inside it")
+        return report
+    if average.shape != (errors.shape[1],):
+        report.problems.append(f"average_nees has shape {average.shape}, not ({errors.shape[1]},): average the "
+                               "NEES over the runs (axis 0), one value per step")
+        return report
+
+    def fits(mistake: str | None) -> bool:
+        ref_average, ref_band, ref_fraction = nees_consistency(errors, covariances, mistake=mistake)
+        return (np.allclose(average, ref_average, rtol=rtol) and np.allclose(band, ref_band, rtol=rtol)
+                and abs(fraction - ref_fraction) < 1e-12)
+
+    if fits(None):
+        return report
+    for mistake, why in CONSISTENCY_MISTAKES.items():
+        if fits(mistake):
+            report.problems.append(f"your function computes a known mistake: {why}")
+            return report
+    ref_average, ref_band, _ = nees_consistency(errors, covariances)
+    if not np.allclose(average, ref_average, rtol=rtol):
+        report.problems.append("the run-averaged NEES differs from the mean over the runs of e^T P^-1 e: check "
+                               "the quadratic form, step by step and run by run")
+    elif not np.allclose(band, ref_band, rtol=rtol):
+        report.problems.append(f"the band {band} differs from the 2.5 % and 97.5 % quantiles of chi2_(R d) "
+                               f"divided by R, {tuple(round(b, 4) for b in ref_band)}")
+    else:
+        report.problems.append("the fraction differs from the share of steps whose average lies inside the "
+                               "band, bounds included")
     return report

@@ -496,3 +496,43 @@ def test_every_named_log_likelihood_mistake_is_recognised_and_odd_answers_are_na
     assert check_log_likelihood(lambda x, z, H, R: None).problems == [
         "the function returned None: compute and return one log-likelihood per particle"]
     assert "raised ZeroDivisionError" in str(check_log_likelihood(lambda x, z, H, R: 1 / 0))
+
+
+# --- check_consistency (chapter 20): the reference passes, each mistake is named
+from pfcourse.exercises import CONSISTENCY_MISTAKES, _consistency_case, check_consistency, nees_consistency
+
+
+def test_consistency_reference_passes_and_matches_the_package():
+    from pfcourse.diagnostics import chi2_band, fraction_in_band
+
+    def mine(errors, covariances):
+        return nees_consistency(errors, covariances)
+
+    assert check_consistency(mine).ok, str(check_consistency(mine))
+    errors, covs = _consistency_case()
+    average, band, fraction = nees_consistency(errors, covs)
+    assert band == pytest.approx(chi2_band(3, len(errors)), rel=1e-12)
+    assert fraction == fraction_in_band(average, band)
+    assert 0.6 < fraction < 0.95  # consistent outside the over-confident spell, outside the band within it
+    assert np.all(average[40:50] > band[1])
+
+
+@pytest.mark.parametrize("mistake", list(CONSISTENCY_MISTAKES))
+def test_consistency_mistakes_are_named(mistake):
+    report = check_consistency(lambda e, c: nees_consistency(e, c, mistake=mistake))
+    assert not report.ok and CONSISTENCY_MISTAKES[mistake] in report.problems[0]
+
+
+def test_consistency_shapes_and_other_errors_are_explained():
+    def per_run(e, c):  # averaged over the steps instead of the runs
+        average, band, fraction = nees_consistency(e, c)
+        return np.einsum("rki,rkij,rkj->rk", e, np.linalg.inv(c), e).mean(axis=1), band, fraction
+
+    assert "one value per step" in check_consistency(per_run).problems[0]
+    assert "not (average_nees" in check_consistency(lambda e, c: 3.0).problems[0]
+
+    def bounds_excluded(e, c):
+        average, (lo, hi), _ = nees_consistency(e, c)
+        return average, (lo, hi), float(np.mean((average > lo) & (average < hi))) - 0.5
+
+    assert "bounds included" in check_consistency(bounds_excluded).problems[0]
