@@ -14,8 +14,9 @@ without listing them here), served on 127.0.0.1:
   pfcourse/style.py, at the figure's dpi) scaled by displayed/natural width is >= 8 px;
 - every ``to_jshtml()`` animation plays (the frame shown changes after pressing play) and
   can be scrubbed (moving its slider changes the frame), and its buttons show icons;
-- every control panel works without a kernel: each control of its grid, moved, shows the
-  figure of the new grid point within 100 ms (pfcourse/figures/static_panel.py); no widget
+- every control panel works without a kernel, with no greyed control: each control, moved, shows
+  the figure of the new grid point (or, for a control outside the main grid, its one-factor
+  figure) within 100 ms (pfcourse/figures/static_panel.py); no widget
   view is left for a widget manager (the book loads none);
 - a full-page screenshot is saved to _build/browser/screenshots/.
 
@@ -241,7 +242,9 @@ def _check_panels(tab) -> int:
                 const img = panel.querySelector('img.pfcourse-panel-figure');
                 const problems = [], times = [];
                 const indices = () => data.controls.map((name, k) => data.enabled[k]
-                    ? parseInt(panel.querySelector(`[name="${name}"]`).value, 10) : 0);
+                    ? parseInt(panel.querySelector(`[name="${name}"]`).value, 10) : (data.defaults || [])[k] || 0);
+                const greyed = panel.querySelectorAll('label.pfcourse-control-off').length;
+                if (greyed) { problems.push(`${greyed} greyed control(s): every control must move the figure`); }
                 for (let k = 0; k < data.controls.length; k++) {
                     if (!data.enabled[k]) { continue; }
                     const input = panel.querySelector(`[name="${data.controls[k]}"]`);
@@ -251,7 +254,11 @@ def _check_panels(tab) -> int:
                     input.dispatchEvent(new Event(input.tagName === 'SELECT' ? 'change' : 'input'));
                     await img.decode();
                     times.push(performance.now() - t0);
-                    const expected = indices().reduce((sum, i, j) => sum + i * data.strides[j], 0);
+                    const main = data.main || data.controls.map(() => true);
+                    const idx = indices();
+                    const expected = main[k]
+                        ? idx.reduce((sum, i, j) => (main[j] ? sum + i * data.strides[j] : sum), 0)
+                        : data.side[String(k)][idx[k]];  // a side control: its one-factor figure
                     if (img.src !== data.images[expected]) {
                         problems.push(`${data.controls[k]}: figure ${expected} not shown`);
                     }

@@ -50,6 +50,12 @@ exception is reported as a problem); ``str(report)`` prints the verdict.
   inside it, against :func:`nees_consistency`; the mistakes of :data:`CONSISTENCY_MISTAKES` (a single
   run's band, the band not divided by ``R``, ``P`` not inverted, a one-sided band, the runs summed)
   are named.
+* :func:`check_ess` - ``fn(log_weights) -> ess``: the effective sample size ``1 / sum_i W_i^2`` from
+  log-weights (chapter 18), on cases that underflow and overflow in the linear domain; weights not
+  normalised, a fraction instead of a number and exponentiation without the maximum subtracted are named.
+* :func:`check_lock_on` - ``fn(pos_err, head_err, dt, window_s) -> bool``: the book's one definition of
+  *locked on* (:func:`pfcourse.metrics.locked_on`, chapter 19); the last step only, the heading ignored,
+  the window read in steps and the whole run required are named.
 """
 
 from __future__ import annotations
@@ -963,4 +969,148 @@ def check_consistency(fn: Callable, seed: int = 0, rtol: float = 1e-9) -> CheckR
     else:
         report.problems.append("the fraction differs from the share of steps whose average lies inside the "
                                "band, bounds included")
+    return report
+
+
+# The effective sample size from log-weights (chapter 18, exercise 18.1): cases whose weights underflow
+# (log-weights near -1000) or overflow (near +800) in the linear domain, and an ordinary one.
+ESS_CASES = (np.log(np.array([0.5, 0.25, 0.125, 0.125])), np.array([-1000.0, -1001.0, -1000.5, -1003.0, -1000.0]),
+             np.array([800.0, 799.0, 801.0]), np.array([0.0, -np.inf, -1.0, -2.0]))
+ESS_MISTAKES = {
+    "not_normalised": "it computes 1 / sum(w^2) from weights that do not sum to one; normalise first, "
+                      "W_i = w_i / sum_j w_j, then ESS = 1 / sum_i W_i^2",
+    "fraction": "it returns ESS / N, a fraction; the exercise asks for the effective number of particles",
+    "sum_over_sum_of_squares_linear": "it exponentiates the log-weights without subtracting their maximum, so they "
+                                      "underflow to 0 or overflow to inf; subtract max(log w) before exp "
+                                      "(the ESS does not change)",
+}
+
+
+def effective_sample_size_from_logs(log_weights: np.ndarray, mistake: str | None = None) -> float:
+    """``ESS = 1 / sum_i W_i^2`` with ``W_i = exp(l_i - logsumexp(l))`` for log-weights ``l`` (any
+    constant added to them cancels). ``mistake`` (a key of :data:`ESS_MISTAKES`) computes it instead."""
+    log_weights = np.asarray(log_weights, dtype=float)
+    with np.errstate(all="ignore"):
+        if mistake == "not_normalised":
+            w = np.exp(log_weights - np.max(log_weights))
+            return float(1.0 / np.sum(w**2))
+        if mistake == "sum_over_sum_of_squares_linear":
+            w = np.exp(log_weights)
+            return float(np.sum(w) ** 2 / np.sum(w**2))
+        w = np.exp(log_weights - logsumexp(log_weights))
+        ess = float(1.0 / np.sum(w**2))
+    return ess / len(log_weights) if mistake == "fraction" else ess
+
+
+def check_ess(fn: Callable, rtol: float = 1e-9) -> CheckReport:
+    """Check a student's ``fn(log_weights) -> ess`` on :data:`ESS_CASES` against
+    :func:`effective_sample_size_from_logs`; the mistakes of :data:`ESS_MISTAKES` are named."""
+    report = CheckReport("effective sample size")
+    answers = []
+    for case in ESS_CASES:
+        answer = _answer(report, lambda: fn(case.copy()), "fn(log_weights)", "return the ESS, a number")
+        if answer is None:
+            return report
+        try:
+            answers.append(float(answer))
+        except (TypeError, ValueError):
+            report.problems.append(f"the answer {answer!r} is not a number: return the ESS as one float")
+            return report
+
+    def fits(mistake: str | None) -> bool:
+        expected = [effective_sample_size_from_logs(c, mistake) for c in ESS_CASES]
+        return all((np.isnan(a) and np.isnan(e)) or np.isclose(a, e, rtol=rtol) for a, e in zip(answers, expected))
+
+    if fits(None):
+        return report
+    for mistake, why in ESS_MISTAKES.items():
+        if fits(mistake):
+            report.problems.append(f"your function computes a known mistake: {why}")
+            return report
+    if any(not np.isfinite(a) for a in answers):
+        report.problems.append("the ESS is not finite for log-weights near -1000 or +800: work in the log domain "
+                               "(subtract the largest log-weight, or use logsumexp) before exponentiating")
+        return report
+    report.problems.append("the values differ from 1 / sum_i W_i^2 with normalised weights W_i; a weight of 0 "
+                           "(log-weight -inf) must count for nothing")
+    return report
+
+
+# Locked on, the book's one definition (chapter 19, exercise 19.1): runs of per-step errors whose verdict
+# differs between the right definition and each mistake.
+LOCK_MISTAKES = {
+    "last_step": "it looks at the last step only; locked on means within the tolerances at every step of the "
+                 "last window_s seconds",
+    "position_only": "it ignores the heading; a robot within 1 m but facing the wrong way is not locked on",
+    "window_in_steps": "it reads window_s as a number of steps; with a step of dt seconds the window holds "
+                       "ceil(window_s / dt) steps",
+    "whole_run": "it requires the tolerances over the whole run; only the last window_s seconds count",
+}
+
+
+def lock_on_cases() -> list[tuple[np.ndarray, np.ndarray, float]]:
+    """Runs ``(pos_err, head_err, dt)``: each separates the right definition from at least one mistake."""
+    from pfcourse.metrics import LOCK_HEADING_RAD, LOCK_POSITION_M
+
+    good_p, good_h = 0.5 * LOCK_POSITION_M, 0.5 * LOCK_HEADING_RAD
+    cases = []
+    p, h = np.full(60, good_p), np.full(60, good_h)
+    p[50] = 3.0  # off 10 s before the end: not locked (last_step says locked)
+    cases.append((p, h.copy(), 1.0))
+    p, h = np.full(60, good_p), np.full(60, good_h)
+    h[-5:] = 3 * LOCK_HEADING_RAD  # heading off at the end (position_only says locked)
+    cases.append((p, h, 1.0))
+    p, h = np.full(120, good_p), np.full(120, good_h)
+    p[90] = 3.0  # dt = 0.5 s: step 90 is 15 s before the end, inside the 20 s window (20 steps: outside)
+    cases.append((p, h, 0.5))
+    p, h = np.full(60, good_p), np.full(60, good_h)
+    p[:10] = 50.0  # lost at the start, locked at the end (whole_run says not locked)
+    cases.append((p, h, 1.0))
+    return cases
+
+
+def lock_on_reference(pos_err: np.ndarray, head_err: np.ndarray, dt: float, window_s: float = 20.0,
+                      mistake: str | None = None) -> bool:
+    """:func:`pfcourse.metrics.locked_on`, or a mistake of :data:`LOCK_MISTAKES`."""
+    from pfcourse.metrics import LOCK_HEADING_RAD, LOCK_POSITION_M, locked_on
+
+    ok = (pos_err < LOCK_POSITION_M) & (head_err < LOCK_HEADING_RAD)
+    if mistake == "last_step":
+        return bool(ok[-1])
+    if mistake == "position_only":
+        return locked_on(pos_err, np.zeros_like(head_err), dt, window_s)
+    if mistake == "window_in_steps":
+        return bool(np.all(ok[-int(window_s):]))
+    if mistake == "whole_run":
+        return bool(np.all(ok))
+    return locked_on(pos_err, head_err, dt, window_s)
+
+
+def check_lock_on(fn: Callable) -> CheckReport:
+    """Check a student's ``fn(pos_err, head_err, dt, window_s) -> bool`` against
+    :func:`pfcourse.metrics.locked_on` on :func:`lock_on_cases`; the mistakes of :data:`LOCK_MISTAKES` are named."""
+    report = CheckReport("locked on")
+    answers = []
+    for pos, head, dt in lock_on_cases():
+        answer = _answer(report, lambda: fn(pos.copy(), head.copy(), dt, 20.0), "fn(pos_err, head_err, dt, window_s)",
+                         "return True or False")
+        if answer is None:
+            return report
+        if not isinstance(answer, (bool, np.bool_)):
+            report.problems.append(f"the answer {answer!r} is not True or False: return one verdict per run")
+            return report
+        answers.append(bool(answer))
+
+    def fits(mistake: str | None) -> bool:
+        return answers == [lock_on_reference(p, h, dt, 20.0, mistake) for p, h, dt in lock_on_cases()]
+
+    if fits(None):
+        return report
+    for mistake, why in LOCK_MISTAKES.items():
+        if fits(mistake):
+            report.problems.append(f"your function computes a known mistake: {why}")
+            return report
+    wrong = next(i for i, (a, (p, h, dt)) in enumerate(zip(answers, lock_on_cases())) if a != lock_on_reference(p, h, dt))
+    report.problems.append(f"run {wrong + 1} of the checker's runs gets the wrong verdict: within 1 m and 5 degrees "
+                           "(strictly) at every step of the last ceil(window_s / dt) steps")
     return report

@@ -536,3 +536,48 @@ def test_consistency_shapes_and_other_errors_are_explained():
         return average, (lo, hi), float(np.mean((average > lo) & (average < hi))) - 0.5
 
     assert "bounds included" in check_consistency(bounds_excluded).problems[0]
+
+
+# --- check_ess (chapter 18) and check_lock_on (chapter 19)
+from pfcourse.exercises import (ESS_MISTAKES, LOCK_MISTAKES, check_ess, check_lock_on,  # noqa: E402
+                                effective_sample_size_from_logs, lock_on_cases, lock_on_reference)
+
+
+def test_ess_reference_passes_and_agrees_with_the_package():
+    from pfcourse.diagnostics import effective_sample_size, normalize_log_weights
+
+    assert check_ess(effective_sample_size_from_logs).ok
+    for case in (np.log([0.5, 0.25, 0.125, 0.125]), np.array([-1000.0, -1001.0, -1000.5])):
+        weights, _ = normalize_log_weights(case)
+        assert effective_sample_size_from_logs(case) == pytest.approx(effective_sample_size(weights), rel=1e-12)
+    assert effective_sample_size_from_logs(np.zeros(7)) == pytest.approx(7.0)
+
+
+@pytest.mark.parametrize("mistake", list(ESS_MISTAKES))
+def test_ess_mistakes_are_named(mistake):
+    report = check_ess(lambda lw: effective_sample_size_from_logs(lw, mistake))
+    assert not report.ok and ESS_MISTAKES[mistake] in report.problems[0]
+
+
+def test_ess_other_answers_are_explained():
+    assert "not a number" in check_ess(lambda lw: "ten").problems[0]
+    assert "returned None" in check_ess(lambda lw: None).problems[0]
+    assert "differ from 1 / sum_i W_i^2" in check_ess(lambda lw: 2.0).problems[0]
+
+
+def test_lock_on_reference_passes_and_each_case_separates_a_mistake():
+    assert check_lock_on(lambda p, h, dt, w: lock_on_reference(p, h, dt, w)).ok
+    for mistake in LOCK_MISTAKES:  # some case tells each mistake from the definition
+        assert any(lock_on_reference(p, h, dt, 20.0, mistake) != lock_on_reference(p, h, dt)
+                   for p, h, dt in lock_on_cases()), mistake
+
+
+@pytest.mark.parametrize("mistake", list(LOCK_MISTAKES))
+def test_lock_on_mistakes_are_named(mistake):
+    report = check_lock_on(lambda p, h, dt, w: lock_on_reference(p, h, dt, w, mistake))
+    assert not report.ok and LOCK_MISTAKES[mistake] in report.problems[0]
+
+
+def test_lock_on_other_answers_are_explained():
+    assert "not True or False" in check_lock_on(lambda p, h, dt, w: 1.0).problems[0]
+    assert "wrong verdict" in check_lock_on(lambda p, h, dt, w: True).problems[0]

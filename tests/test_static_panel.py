@@ -49,7 +49,7 @@ def test_grid_is_row_major_and_keeps_what_draw_printed():
     assert len(panel.images) == 6
     expected = [f"a={a} b={b} c=0.5\n" for a in (1, 2, 3) for b in (10, 20)]
     assert list(panel.texts) == expected
-    assert panel.strides == [2, 1, 1]
+    assert panel.strides == [2, 1, 0]  # c, outside the grid, stays at its value
     assert panel.current == 1 * 2 + 0  # a = 2 is index 1, b = 10 index 0
     assert panel.texts[panel.current] == "a=2 b=10 c=0.5\n"
     assert plt.get_fignums() == []  # every figure closed
@@ -116,7 +116,9 @@ def test_control_panel_carries_the_widget_and_the_static_page():
     bundle = panel._repr_mimebundle_()
     assert "application/vnd.jupyter.widget-view+json" in bundle
     assert bundle["text/html"].startswith('<div class="pfcourse-panel"')
-    assert [c.enabled for c in panel.static.controls] == [True, False, False]
+    assert [c.enabled for c in panel.static.controls] == [True, True, True]  # no greyed control (issue 33)
+    assert [c.main for c in panel.static.controls] == [True, False, False]
+    assert panel.static.controls[1].values == (10, 20) and panel.static.controls[2].values == (0.0, 0.5, 100.0)
     # the live panel redraws on a change (the widget's Output gets a new figure)
     panel.widget.children[0].children[0].value = 1
 
@@ -145,6 +147,9 @@ def test_every_stored_panel_offers_two_controls_with_three_values(chapter, nb, p
     sizes = sorted((len(labels) for labels, on in zip(data["labels"], data["enabled"]) if on), reverse=True)
     assert len(sizes) >= 2 and sizes[1] >= 3, f"{chapter}: grid {sizes}"
     assert len(data["images"]) >= 9
+    greyed = [d for d, on in zip(data["descriptions"], data["enabled"]) if not on]
+    assert not greyed, f"{chapter}: controls that do not move the figure in the HTML book: {greyed} (issue 33)"
+    assert not [d for d in data["descriptions"] if "_" in d], f"{chapter}: a label in code, not words"
     assert "widgets" not in nb.metadata  # no widget state: the HTML book loads no widget manager
 
 
@@ -170,3 +175,50 @@ def test_a_pool_that_does_not_answer_is_replaced_by_the_serial_path(monkeypatch)
         panel = render_grid(draw_slow_in_workers, controls, workers=2)
     assert time.perf_counter() - start < 20
     assert panel == render_grid(draw_bars, controls, workers=1)
+
+
+def test_side_controls_are_drawn_one_factor_at_a_time():
+    controls = static_controls({"a": 2, "b": 10, "c": 0.5}, {"a": "a", "b": "b", "c": "c"},
+                               {"a": "range", "b": "select", "c": "range"}, {"a": (1, 2, 3)},
+                               side={"b": (10, 20, 30), "c": (0.5,)})
+    panel = render_grid(draw_bars, controls, workers=1)
+    assert [c.enabled for c in panel.controls] == [True, True, False]  # c offers one value: shown disabled
+    assert len(panel.images) == 3 + 2 and panel.grid_size == 3
+    assert panel.strides == [1, 0, 0]
+    assert panel.side[1] == {0: panel.current, 1: 3, 2: 4}  # b = 10 is the grid's figure at the defaults
+    assert panel.texts[3] == "a=2 b=20 c=0.5\n" and panel.texts[4] == "a=2 b=30 c=0.5\n"
+    page = panel_html(panel)
+    data = json.loads(re.search(r'<script type="application/json" class="pfcourse-panel-data">(.*?)</script>',
+                                page).group(1))
+    assert data["main"] == [True, False, False] and data["defaults"] == [1, 0, 0]
+    assert data["side"]["1"] == [panel.current, 3, 4]
+    assert '<p class="pfcourse-panel-nearest" hidden></p>' in page
+    assert "5 figures: each value of a, and each value of b with the other controls" in page
+    with pytest.raises(ParameterError, match="both in the grid and in the side values"):
+        static_controls({"a": 2}, {"a": "a"}, {"a": "range"}, {"a": (1, 2)}, side={"a": (1, 2)})
+    with pytest.raises(ParameterError, match="side values of 'b' does not contain its current value 10"):
+        static_controls({"b": 10}, {"b": "b"}, {"b": "select"}, {}, side={"b": (20, 30)})
+
+
+def test_values_read_as_a_reader_writes_them():
+    from pfcourse.figures.static_panel import format_value
+
+    assert [format_value(v) for v in (1 / 3, 2 / 3, 0.25, 0.1, 0.5, 1.0, 1e-5, 1000)] == \
+        ["1/3", "2/3", "0.25", "0.1", "0.5", "1", "1e-05", "1000"]
+    assert format_value((0.0, 6.0)) == "0–6"
+
+
+def test_offered_values_cover_every_kind_of_control():
+    from pfcourse.figures.widgets import offered_values, particle_slider, readable, scale_slider, seed_box
+
+    assert offered_values(widgets.Checkbox(value=False)) == (False, True)
+    assert offered_values(widgets.FloatSlider(value=0.5, min=0.0, max=1.0, step=0.05)) == (0.0, 0.5, 1.0)
+    assert offered_values(widgets.FloatSlider(value=0.0, min=0.0, max=1.0, step=0.05)) == (0.0, 0.5, 1.0)
+    assert offered_values(widgets.IntSlider(value=3, min=1, max=9)) == (1, 3, 9)
+    assert offered_values(scale_slider("s")) == pytest.approx((0.1, 1.0, 10.0))
+    assert offered_values(seed_box(7)) == (7, 8, 9)
+    values = offered_values(particle_slider(300))
+    assert 300 in values and values[0] == 10 and values[-1] == 10000 and len(values) <= 5
+    assert offered_values(widgets.Text(value="x")) == ("x",)
+    assert readable("n_particles", "n_particles") == "particles N" and readable("dt_meas", None) == "dt meas"
+    assert readable("x", "my words") == "my words"

@@ -29,7 +29,10 @@ def test_panel_redraws_with_the_new_values():
     calls = []
     n, seed = particle_slider(100), seed_box(3)
     panel = control_panel(recorder(calls), workers=1, n_particles=n, seed=seed)
-    assert calls == [{"n_particles": 100, "seed": 3}]  # the static figure, also the live panel's first
+    assert calls[0] == {"n_particles": 100, "seed": 3}  # the static figure, also the live panel's first
+    # then each other value of each control, one factor at a time (the HTML book's figures)
+    assert all(sum(c[k] != calls[0][k] for k in c) == 1 for c in calls[1:])
+    assert {c["seed"] for c in calls} == {3, 4, 5} and len({c["n_particles"] for c in calls}) == 4
     n.value = 1000
     assert calls[-1] == {"n_particles": 1000, "seed": 3}
     assert len(panel.widget.children) == 2

@@ -8,13 +8,16 @@ So the HTML book can offer a working panel without Python: when the chapter exec
 
     G = V_1 \\times V_2 \\times \\dots \\times V_k ,
 
-(the listed values of the gridded controls; every other control stays at its value),
-stores each figure as a PNG, and :func:`panel_html` writes the controls, the figure of
-the current values and the other figures as data. ``web/static/pfcourse-panels.js``
-(served by the book) switches the image when a control moves: point ``(i_1, ..., i_k)``
-of the grid is image number ``sum_j i_j * prod_{l > j} |V_l|`` (row-major order,
-as :func:`itertools.product` enumerates it). Controls that are not gridded are shown
-disabled, with their value.
+(the listed values of the *main* controls, every other control at its default), then, one
+factor at a time, at each other value of each *side* control with every other control at its
+default; it stores each figure as a PNG, and :func:`panel_html` writes the controls, the figure
+of the current values and the other figures as data. ``web/static/pfcourse-panels.js``
+(served by the book) switches the image when a control moves: point ``(i_1, ..., i_k)`` of the
+main grid is image number ``sum_j i_j * prod_{l > j} |V_l|`` (row-major order, as
+:func:`itertools.product` enumerates it); value ``i`` of side control ``s`` is image
+``side[s][i]``. A combination that was not computed (a side control moved while another control
+is off its default) shows the figure of the control moved last, with the others at their
+defaults, and says so in place. A control with a single value is shown disabled, with its value.
 """
 
 from __future__ import annotations
@@ -28,6 +31,7 @@ import json
 import os
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
+from fractions import Fraction
 
 import matplotlib.pyplot as plt
 import numpy as np
@@ -42,17 +46,19 @@ POOL_TIMEOUT = 120.0
 
 #: The one line every static panel shows under its controls.
 LIVE_NOTE = ("On this page the panel switches between figures computed when the chapter ran, for the "
-             "values listed under each control; every other value, and the greyed controls, are live "
-             "in JupyterLab (<code>python3 tasks.py lab</code>).")
+             "values each control offers; every value in between is live in JupyterLab "
+             "(<code>python3 tasks.py lab</code>).")
 
 
 @dataclass(frozen=True)
 class StaticControl:
     """One control as the HTML page shows it.
 
-    ``values`` are the grid's values (one value, with ``enabled`` False, for a control
-    that is not gridded); ``index`` is the position of the control's current value;
-    ``kind`` is ``"range"`` (an ordered slider) or ``"select"`` (a drop-down or a box).
+    ``values`` are the values offered (one value, with ``enabled`` False, for a control
+    that offers no other); ``index`` is the position of the control's current (default) value;
+    ``kind`` is ``"range"`` (an ordered slider) or ``"select"`` (a drop-down or a box);
+    ``main`` is True for a control of the full grid, False for a side control, whose other
+    values are drawn one factor at a time.
     """
 
     name: str
@@ -61,6 +67,7 @@ class StaticControl:
     index: int
     kind: str
     enabled: bool
+    main: bool = True
 
 
 @dataclass(frozen=True)
@@ -73,12 +80,34 @@ class StaticPanel:
 
     @property
     def strides(self) -> list[int]:
-        """Image number of grid point ``(i_1, ..., i_k)`` is ``sum_j i_j * strides[j]`` (row-major)."""
+        """Image number of main-grid point ``(i_1, ..., i_k)`` is ``sum_j i_j * strides[j]`` (row-major;
+        a side control's stride is 0: the main grid has it at its default)."""
         strides, stride = [], 1
         for control in reversed(self.controls):
-            strides.append(stride)
-            stride *= len(control.values)
+            strides.append(stride if control.main else 0)
+            stride *= len(control.values) if control.main else 1
         return strides[::-1]
+
+    @property
+    def grid_size(self) -> int:
+        """Number of figures of the main grid (the side figures follow them)."""
+        return int(np.prod([len(c.values) for c in self.controls if c.main]))
+
+    @property
+    def side(self) -> dict[int, dict[int, int]]:
+        """``side[k][i]``: image number of value ``i`` of side control ``k``, the others at their defaults
+        (the default value itself is the main grid's image at the defaults)."""
+        out, number = {}, self.grid_size
+        for k, control in enumerate(self.controls):
+            if control.main:
+                continue
+            out[k] = {}
+            for i in range(len(control.values)):
+                if i == control.index:
+                    out[k][i] = self.current
+                else:
+                    out[k][i], number = number, number + 1
+        return out
 
     @property
     def current(self) -> int:
@@ -92,8 +121,17 @@ class StaticPanel:
 
 
 def format_value(value) -> str:
-    """A control value as its readout shows it (``0.1``, ``1000``, ``(0, 6)``, ``robot``)."""
-    if isinstance(value, float):
+    """A control value as its readout shows it (``0.1``, ``1/3``, ``1000``, ``(0, 6)``, ``robot``).
+
+    A float that is a fraction with a small denominator no short decimal writes (thirds,
+    sixths, sevenths, ninths, ...) is written as that fraction.
+    """
+    if isinstance(value, (float, np.floating)) and not isinstance(value, bool):
+        value = float(value)
+        if np.isfinite(value) and value != round(value):
+            fraction = Fraction(value).limit_denominator(12)
+            if abs(float(fraction) - value) < 1e-9 and len(f"{value:g}") > 5:
+                return f"{fraction.numerator}/{fraction.denominator}"
         return f"{value:g}"
     if isinstance(value, tuple):
         return "–".join(format_value(v) for v in value)
@@ -165,7 +203,11 @@ def render_grid(draw: Callable[..., object], controls: Sequence[StaticControl],
     """
     global _job
     names = [c.name for c in controls]
-    points = [dict(zip(names, point)) for point in itertools.product(*(c.values for c in controls))]
+    defaults = {c.name: c.values[c.index] for c in controls}
+    main = [c.values if c.main else (c.values[c.index],) for c in controls]
+    points = [dict(zip(names, point)) for point in itertools.product(*main)]
+    points += [{**defaults, c.name: value} for c in controls if not c.main
+               for i, value in enumerate(c.values) if i != c.index]  # one factor at a time
     workers = min(workers or os.cpu_count() or 1, len(points))
     _job = (draw, points)
     try:
@@ -177,6 +219,22 @@ def render_grid(draw: Callable[..., object], controls: Sequence[StaticControl],
     finally:
         _job = None
     return StaticPanel(tuple(controls), tuple(r[0] for r in rendered), tuple(r[1] for r in rendered))
+
+
+def describe_grid(panel: StaticPanel) -> str:
+    """What the panel computed, in a sentence: the main grid, then the side controls one at a time."""
+    main = [c.description for c in panel.controls if c.enabled and c.main]
+    side = [c.description for c in panel.controls if c.enabled and not c.main]
+    def names(items: list[str]) -> str:
+        return items[0] if len(items) == 1 else ", ".join(items[:-1]) + " and " + items[-1]
+    parts = []
+    if len(main) > 1:
+        parts.append(f"every combination of {names(main)}")
+    elif main:
+        parts.append(f"each value of {main[0]}")
+    if side:
+        parts.append(f"each value of {names(side)} with the other controls at the values the page opens with")
+    return f"{len(panel.images)} figures: " + ", and ".join(parts) + "." if parts else "one figure."
 
 
 def _control_html(control: StaticControl) -> str:
@@ -206,13 +264,16 @@ def panel_html(panel: StaticPanel, alt: str = "the panel's figure") -> str:
     The figure shown first is the one at the controls' current values, so the page is
     right even before (or without) its script runs.
     """
-    gridded = [c for c in panel.controls if c.enabled]
     strides, current = panel.strides, panel.current
     uris = ["data:image/png;base64," + base64.b64encode(image).decode("ascii") for image in panel.images]
     data = {
         "controls": [c.name for c in panel.controls],
         "strides": strides,
         "enabled": [c.enabled for c in panel.controls],
+        "main": [c.main for c in panel.controls],
+        "defaults": [c.index for c in panel.controls],
+        "side": {str(k): [values[i] for i in range(len(values))] for k, values in panel.side.items()},
+        "descriptions": [c.description for c in panel.controls],
         "labels": [[format_value(v) for v in c.values] for c in panel.controls],
         "texts": list(panel.texts),
         "images": uris,
@@ -220,36 +281,45 @@ def panel_html(panel: StaticPanel, alt: str = "the panel's figure") -> str:
     controls = "".join(_control_html(c) for c in panel.controls)
     text = panel.texts[current]
     printed = f'<pre class="pfcourse-panel-text">{html.escape(text)}</pre>' if any(panel.texts) else ""
-    points = len(panel.images)
-    note = (f'<p class="pfcourse-panel-note">{points} figures over {len(gridded)} control'
-            f'{"s" if len(gridded) != 1 else ""}. {LIVE_NOTE}</p>')
+    note = f'<p class="pfcourse-panel-note">{html.escape(describe_grid(panel))} {LIVE_NOTE}</p>'
+    nearest = '<p class="pfcourse-panel-nearest" hidden></p>'
     payload = json.dumps(data, separators=(",", ":")).replace("</", "<\\/")
     return (f'<div class="pfcourse-panel" data-current="{current}">'
-            f'<div class="pfcourse-panel-controls">{controls}</div>{note}{printed}'
+            f'<div class="pfcourse-panel-controls">{controls}</div>{note}{nearest}{printed}'
             f'<img class="pfcourse-panel-figure" alt="{html.escape(alt)}" src="{uris[current]}">'
             f'<script type="application/json" class="pfcourse-panel-data">{payload}</script></div>')
 
 
 def static_controls(values: Mapping[str, object], descriptions: Mapping[str, str],
-                    kinds: Mapping[str, str], grid: Mapping[str, Sequence]) -> tuple[StaticControl, ...]:
-    """The controls of a static panel: gridded ones with their values, the others fixed at ``values``.
+                    kinds: Mapping[str, str], grid: Mapping[str, Sequence],
+                    side: Mapping[str, Sequence] | None = None) -> tuple[StaticControl, ...]:
+    """The controls of a static panel: the main ``grid``'s with their values, the ``side`` ones with
+    theirs (drawn one factor at a time), the others fixed at ``values`` (disabled).
 
-    Raises :class:`~pfcourse.errors.ParameterError` when the grid names an unknown control,
-    lists no value, or does not contain a control's current value (the page must open on a
-    figure of the grid).
+    Raises :class:`~pfcourse.errors.ParameterError` when the grid or the side values name an
+    unknown control or the same control twice, list no value, or do not contain a control's
+    current value (the page must open on a figure it has).
     """
-    unknown = set(grid) - set(values)
-    if unknown:
-        raise ParameterError(f"panel grid names controls the panel does not have: {sorted(unknown)}")
+    side = dict(side or {})
+    for what, offered in (("grid", grid), ("side values", side)):
+        unknown = set(offered) - set(values)
+        if unknown:
+            raise ParameterError(f"panel {what} names controls the panel does not have: {sorted(unknown)}")
+    both = set(grid) & set(side)
+    if both:
+        raise ParameterError(f"panel controls both in the grid and in the side values: {sorted(both)}")
     controls = []
     for name, value in values.items():
-        if name in grid:
-            options = tuple(grid[name])
-            if not options:
-                raise ParameterError(f"panel grid of {name!r} lists no value")
-            if value not in options:
-                raise ParameterError(f"panel grid of {name!r} does not contain its current value {value!r}: {options}")
-            controls.append(StaticControl(name, descriptions[name], options, options.index(value), kinds[name], True))
-        else:
-            controls.append(StaticControl(name, descriptions[name], (value,), 0, kinds[name], False))
+        offered = grid.get(name, side.get(name))
+        if offered is None or (name in side and len(tuple(offered)) == 1):
+            controls.append(StaticControl(name, descriptions[name], (value,), 0, kinds[name], False, name in grid))
+            continue
+        options = tuple(offered)
+        kind = "panel grid" if name in grid else "panel side values"
+        if not options:
+            raise ParameterError(f"{kind} of {name!r} lists no value")
+        if value not in options:
+            raise ParameterError(f"{kind} of {name!r} does not contain its current value {value!r}: {options}")
+        controls.append(StaticControl(name, descriptions[name], options, options.index(value), kinds[name], True,
+                                      name in grid))
     return tuple(controls)

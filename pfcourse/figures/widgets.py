@@ -10,8 +10,10 @@ values the HTML book offers without a kernel::
 
 In JupyterLab the panel is live: moving a control calls ``draw`` again.  The same
 output also carries a static version (:mod:`pfcourse.figures.static_panel`): the
-figures of every grid point, which the HTML book switches between in the browser
-(the book prefers ``text/html`` to the widget view, ``_config.yml``).  Tag the cell
+figures of every grid point, and of a few values of every other control one factor at a
+time (:func:`offered_values`, or the chapter's ``side=``), which the HTML book switches
+between in the browser (the book prefers ``text/html`` to the widget view, ``_config.yml``),
+so that every control the page shows moves its figure.  Tag the cell
 ``nbval-ignore-output``: widget outputs are not reproducible text.
 """
 
@@ -83,6 +85,58 @@ def control_grid_columns(columns: int, min_width: int = MIN_COLUMN_WIDTH) -> str
     return f"repeat(auto-fill, minmax(max({min_width}px, calc((100% - {columns - 1} * 8px) / {columns})), 1fr))"
 
 
+def _spread(options: Sequence, current, count: int) -> tuple:
+    """At most ``count`` of ``options``, evenly spread, always with the first, the last and ``current``."""
+    options = list(options)
+    if len(options) <= count:
+        return tuple(options)
+    picks = {round(i * (len(options) - 1) / (count - 1)) for i in range(count)}
+    picks.add(options.index(current))
+    return tuple(options[i] for i in sorted(picks))
+
+
+def offered_values(control: widgets.ValueWidget, count: int = 3) -> tuple:
+    """The values the HTML book offers for a control outside the main grid, one factor at a time.
+
+    Options of a drop-down or a selection slider (at most ``count`` + 1, spread over the list),
+    both states of a check box, the ends and the current value of a numeric slider (on a log
+    slider, of its exponent), and three consecutive seeds from the current one for an integer
+    box; a control of another kind offers its current value only.
+    """
+    value = control.value
+    if isinstance(control, (widgets.Dropdown, widgets.SelectionSlider, widgets.RadioButtons, widgets.ToggleButtons,
+                            widgets.Select)):
+        options = [o[1] if isinstance(o, tuple) else o for o in control.options]
+        return _spread(options, value, count + 1)
+    if isinstance(control, (widgets.Checkbox, widgets.ToggleButton)):
+        return (value, not value)
+    if isinstance(control, widgets.FloatLogSlider):
+        ends = [float(control.base ** control.min), float(control.base ** control.max)]
+        return tuple(sorted({ends[0], value, ends[1]}))
+    if isinstance(control, (widgets.IntSlider, widgets.FloatSlider)):
+        values = {control.min, value, control.max}
+        if len(values) < 3:  # the current value is an end: add the middle, on the slider's step
+            middle = control.min + round((control.max - control.min) / 2 / control.step) * control.step
+            values.add(type(value)(middle))
+        return tuple(sorted(values))
+    if isinstance(control, (widgets.BoundedIntText, widgets.IntText)):
+        top = getattr(control, "max", value + count - 1)
+        return tuple(v for v in range(value, value + count) if v <= top)
+    return (value,)
+
+
+#: Names the panels use, as the page shows them when a control has no description of its own.
+READABLE_NAMES = {"n_particles": "particles N", "threshold": "resampling threshold", "n_runs": "runs",
+                  "seed": "seed", "scheme": "resampling scheme"}
+
+
+def readable(name: str, description: str | None) -> str:
+    """A control's label in words: its description, else a readable version of its name."""
+    if description and description != name:
+        return description
+    return READABLE_NAMES.get(name, name.replace("_", " "))
+
+
 #: Widget types the static page shows as a slider over the grid's values (others: a drop-down).
 _RANGE_TYPES = (widgets.SelectionSlider, widgets.FloatSlider, widgets.IntSlider, widgets.FloatLogSlider,
                 widgets.IntRangeSlider, widgets.FloatRangeSlider, widgets.SelectionRangeSlider)
@@ -108,7 +162,7 @@ class Panel:
 
 def control_panel(draw: Callable[..., None], columns: int = 3, grid: Mapping[str, Sequence] | None = None,
                   alt: str = "the panel's figure", workers: int | None = None,
-                  **controls: widgets.ValueWidget) -> Panel:
+                  side: Mapping[str, Sequence] | None = None, **controls: widgets.ValueWidget) -> Panel:
     """Controls in a grid above the figure that ``draw(**values)`` makes; redrawn on every change.
 
     The grid has at most ``columns`` columns and wraps to fewer on a narrow page
@@ -116,18 +170,24 @@ def control_panel(draw: Callable[..., None], columns: int = 3, grid: Mapping[str
     for the controls the HTML book should offer, the values it offers (each list must
     contain the control's current value); the figures of every combination are made
     now (:func:`~pfcourse.figures.static_panel.render_grid`, over ``workers`` processes),
-    and the one at the current values is the live panel's first figure.
+    and the one at the current values is the live panel's first figure. Every other
+    control offers the values ``side`` lists for it (default :func:`offered_values`), each
+    drawn with the other controls at their current values.
     """
     global _last_panel
     _last_panel = (draw, controls)
 
-    descriptions = {name: control.description or name for name, control in controls.items()}
+    grid = dict(grid or {})
+    descriptions = {name: readable(name, control.description) for name, control in controls.items()}
     kinds = {name: "range" if isinstance(control, _RANGE_TYPES) else "select" for name, control in controls.items()}
+    side = {name: tuple((side or {}).get(name, offered_values(control))) for name, control in controls.items()
+            if name not in grid}
     static = render_grid(draw, static_controls({n: c.value for n, c in controls.items()}, descriptions,
-                                               kinds, grid or {}), workers)
+                                               kinds, grid, side), workers)
     current = static.current
 
-    for control in controls.values():
+    for name, control in controls.items():
+        control.description = descriptions[name]  # the words the static page shows, live too
         control.layout.width = "auto"  # fill the grid cell rather than overflow it at a fixed 300 px
         style = getattr(control, "style", None)
         if style is not None and hasattr(style, "description_width") and not style.description_width:
