@@ -953,27 +953,26 @@ def check_pose_density(fn: Callable, n_poses: int = 40, seed: int = 0, rtol: flo
                          "compute and return log q_z(x), one value per pose")
         if answer is None:
             return report
-        answer = np.asarray(answer, dtype=float)
-        if answer.shape != (n_poses,):
-            report.problems.append(f"the answer has shape {answer.shape}, not ({n_poses},): return one log-density "
-                                   "per pose (a row of x)")
-            return report
-        if not np.all(np.isfinite(answer)):
-            report.problems.append("some log-densities are NaN or infinite: every pose near the ring has a positive "
-                                   "density; compute it in the log domain")
-            return report
-        answers.append(answer)
-
-    def fits(mistake: str | None) -> bool:
-        return all(np.allclose(a, pose_reading_log_density(x, z, l, sd, mistake), rtol=rtol, atol=1e-9)
-                   for a, (z, l, sd, x) in zip(answers, cases))
-
-    if fits(None):
+        answers.append(np.asarray(answer, dtype=float))
+    wrong_shapes = [a.shape for a in answers if a.shape != (n_poses,)]
+    if wrong_shapes:
+        report.problems.append(f"the answer has shape {wrong_shapes[0]}, not ({n_poses},): return one log-density "
+                               "per pose (a row of x)")
         return report
-    for mistake, why in POSE_DENSITY_MISTAKES.items():
-        if fits(mistake):
-            report.problems.append(f"your function computes a known mistake: {why}")
-            return report
+    if not all(np.isfinite(a).all() for a in answers):
+        report.problems.append("some log-densities are NaN or infinite: every pose near the ring has a positive "
+                               "density; compute it in the log domain")
+        return report
+    # the exact density first, then each mistake: the first that every case matches names the answer
+    candidates = (None, *POSE_DENSITY_MISTAKES)
+    matched = next((m for m in candidates if all(
+        np.allclose(a, pose_reading_log_density(x, z, l, sd, m), rtol=rtol, atol=1e-9)
+        for a, (z, l, sd, x) in zip(answers, cases))), "none")
+    if matched is None:
+        return report
+    if matched != "none":
+        report.problems.append(f"your function computes a known mistake: {POSE_DENSITY_MISTAKES[matched]}")
+        return report
     case = next(c for c, (a, (z, l, sd, x)) in enumerate(zip(answers, cases))
                 if not np.allclose(a, pose_reading_log_density(x, z, l, sd), rtol=rtol, atol=1e-9))
     report.problems.append(f"for the reading z = {cases[case][0]} the values differ from log q_z(x): check the two "
