@@ -469,10 +469,12 @@ EvidenceBlock(
 # `kld_z` $= 0.99$ plugged in as the normal quantile $z_{1-\delta}$ itself, so $\delta \approx 0.16$;
 # we take at least $500$ (Nav2's default) and at most $5000$ particles (the ROS node's). With those
 # settings (stored study `kld_amcl`) the filter uses {glue:text}`kld_amcl_mean_n:.0f` particles on
-# average, close to the maximum: the bound never lets $N$ fall, and the final NEES of its locked-on
-# runs is {glue:text}`kld_amcl_nees:.1f`. The finer grid alone, with this book's $\varepsilon$ and
+# average, close to the maximum: the bound never lets $N$ fall, and the mean final NEES of its locked-on
+# runs, {glue:text}`kld_amcl_nees:.1f`, is below the band of a consistent filter (cautious, as the
+# filter's doubled noise variances make it). The finer grid alone, with this book's $\varepsilon$ and
 # $\delta$, keeps only {glue:text}`kld_fine_mean_n:.0f` particles and stays over-confident
-# ({glue:text}`kld_fine_nees:.1f`): what keeps the particles is AMCL's small $\varepsilon$, not its grid.
+# ({glue:text}`kld_fine_nees:.1f`): AMCL's bound, not its grid, keeps the particles, and with them
+# the savings KLD-sampling was for.
 
 # %% tags=["remove-input"] jupyter={"source_hidden": true}
 km = lt[(lt["method"] == "kld_mixture") & (lt["N"] == 2000)].iloc[0]
@@ -687,7 +689,7 @@ print(check_pose_density(log_q))
 #   robot; more particles barely help, and it fails with confidence.
 # - Drawing part of the particles from the reading, weighted against their own ancestor under a model
 #   that lets the robot be teleported, keeps the posterior exact, locks on in almost every run and
-#   recovers from a kidnapping within seconds; it spends the share it draws while the robot is tracked.
+#   recovers from most kidnappings within a few seconds; it spends the share it draws while the robot is tracked.
 # - Augmented MCL injects poses when the fast average of the likelihood falls below the slow one: a
 #   heuristic that helps after a kidnapping but not at the start.
 # - KLD-sampling saves particles only if its bound lets it; with AMCL's small $\varepsilon$ it keeps
