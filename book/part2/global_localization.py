@@ -78,6 +78,9 @@ def runs_of(method, n, table=lockon):
 
 
 print(f"tables made by {prov['code']} at commit {prov['git_commit'][:10]}; {prov['seeds']}; {N_RUNS} runs per setting")
+for name in ("kld_amcl", "tracking_cost"):
+    extra = json.loads((DATA / f"{name}.json").read_text())
+    print(f"{name}: made by {extra['code']} at commit {extra['git_commit'][:10]}; {extra['seeds']}")
 
 # %% [markdown]
 # ## Why the bootstrap filter fails
@@ -346,8 +349,8 @@ a2.set_ylabel("injection probability")
 plt.show()
 
 # %% [markdown]
-# The loop and the engine agree to round-off (within {glue:text}`aug_agree:.0e` m). Before the kidnapping
-# the readings fit as they always did and nothing is injected; after it the fast average falls and
+# The loop and the engine agree to round-off (within {glue:text}`aug_agree:.0e` m). In this run, before
+# the kidnapping the readings fit as they always did and nothing is injected; after it the fast average falls and
 # particles drawn from the readings come in until one of them fits the following readings too.
 #
 # ## Which method locks on?
