@@ -56,6 +56,11 @@ exception is reported as a problem); ``str(report)`` prints the verdict.
 * :func:`check_lock_on` - ``fn(pos_err, head_err, dt, window_s) -> bool``: the book's one definition of
   *locked on* (:func:`pfcourse.metrics.locked_on`, chapter 19); the last step only, the heading ignored,
   the window read in steps and the whole run required are named.
+* :func:`check_pose_density` - ``fn(x, z, landmark, sd) -> (N,)``: the log-density ``log q_z(x)`` of a
+  pose drawn from a range-bearing reading (chapter 11), against :func:`pose_reading_log_density`; the
+  mistakes of :data:`POSE_DENSITY_MISTAKES` (the bearing added, the Jacobian ``1 / h_r``, the
+  direction's ``1 / (2 pi)`` or the truncation ``Phi(r / s_r)`` left out, the residual not wrapped,
+  standard deviations read as variances) are named.
 """
 
 from __future__ import annotations
@@ -64,6 +69,7 @@ from collections.abc import Callable
 from dataclasses import dataclass, field
 
 import numpy as np
+from scipy import stats
 from scipy.special import logsumexp
 
 
@@ -1113,4 +1119,110 @@ def check_lock_on(fn: Callable) -> CheckReport:
     wrong = next(i for i, (a, (p, h, dt)) in enumerate(zip(answers, lock_on_cases())) if a != lock_on_reference(p, h, dt))
     report.problems.append(f"run {wrong + 1} of the checker's runs gets the wrong verdict: within 1 m and 5 degrees "
                            "(strictly) at every step of the last ceil(window_s / dt) steps")
+# ----------------------------------------------------------------------------- chapter 11
+#: Cases of :func:`check_pose_density`: (reading ``(r, b)``, landmark ``l``, standard deviations
+#: ``(s_r, s_b)``): a far reading, a short one (where the truncation to ``r' > 0`` matters) and one
+#: at a bearing near ``pi`` (where the bearing residual must be wrapped).
+POSE_DENSITY_CASES = (
+    (np.array([12.0, 0.7]), np.array([3.0, -4.0]), np.array([0.7, 0.025])),
+    (np.array([0.9, -2.0]), np.array([-10.0, 5.0]), np.array([0.7, 0.05])),
+    (np.array([20.0, 3.1]), np.array([0.0, 0.0]), np.array([0.7, 0.025])),
+)
+POSE_DENSITY_MISTAKES = {
+    "bearing_added": "it predicts the bearing as atan2(l - p) + theta; the landmark is seen at its direction "
+                     "minus the heading, h_b(x) = wrap(atan2(l_y - p_y, l_x - p_x) - theta)",
+    "no_jacobian": "it misses the Jacobian term -log h_r(x): the ring of radius r' has circumference 2 pi r', so the "
+                   "density of the position is the polar one divided by the radius",
+    "no_direction": "it misses the direction's density 1 / (2 pi): the direction phi of the robot seen from the "
+                    "landmark is drawn uniformly, the reading says nothing about it",
+    "no_truncation": "it misses the truncation term -log Phi(r / s_r): the range r' is drawn positive only, so its "
+                     "normal density is divided by P(r' > 0) = Phi(r / s_r)",
+    "unwrapped": "it does not wrap the bearing residual b - h_b(x) into (-pi, pi]: near a bearing of pi a pose that "
+                 "fits the reading gets a residual of almost 2 pi",
+    "variance_for_sd": "it uses s_r and s_b as variances; they are the standard deviations of the range and bearing "
+                       "noise",
+}
+
+
+def _wrap(angle: np.ndarray) -> np.ndarray:
+    return (np.asarray(angle) + np.pi) % (2.0 * np.pi) - np.pi
+
+
+def pose_reading_log_density(x: np.ndarray, z: np.ndarray, landmark: np.ndarray, sd: np.ndarray,
+                             mistake: str | None = None) -> np.ndarray:
+    """``log q_z(x)`` of the pose drawn from a range-bearing reading (chapter 11, Algorithm 11.1):
+
+        q_z(x) = N(h_r(x); r, s_r^2) N(wrap(b - h_b(x)); 0, s_b^2) / (Phi(r / s_r) 2 pi h_r(x)),
+
+    ``h_r(x) = |l - p|``, ``h_b(x) = wrap(atan2(l_y - p_y, l_x - p_x) - theta)`` for each pose
+    ``x = (p_x, p_y, theta)`` (rows), ``z = (r, b)``, ``sd = (s_r, s_b)``. ``mistake`` (a key of
+    :data:`POSE_DENSITY_MISTAKES`) computes that mistake instead."""
+    x = np.asarray(x, dtype=float)
+    r, b = (float(v) for v in z)
+    s_r, s_b = (float(v) ** 2 if mistake == "variance_for_sd" else float(v) for v in sd)
+    dx, dy = landmark[0] - x[:, 0], landmark[1] - x[:, 1]
+    h_r = np.hypot(dx, dy)
+    h_b = np.arctan2(dy, dx) + (x[:, 2] if mistake == "bearing_added" else -x[:, 2])
+    nu_b = (b - h_b) if mistake == "unwrapped" else _wrap(b - _wrap(h_b))
+    log_q = (-np.log(2 * np.pi * s_r * s_b) - 0.5 * (((r - h_r) / s_r) ** 2 + (nu_b / s_b) ** 2))
+    if mistake != "no_truncation":
+        log_q -= stats.norm.logcdf(r / s_r)
+    if mistake != "no_direction":
+        log_q -= np.log(2 * np.pi)
+    if mistake != "no_jacobian":
+        log_q -= np.log(h_r)
+    return log_q
+
+
+def _poses_near_reading(z: np.ndarray, landmark: np.ndarray, sd: np.ndarray, n: int,
+                        rng: np.random.Generator) -> np.ndarray:
+    """``n`` poses near the ring of the reading (twice its noise), where the density is worth checking."""
+    ranges = np.abs(z[0] + 2 * sd[0] * rng.standard_normal(n))
+    phi = rng.uniform(-np.pi, np.pi, n)
+    theta = _wrap(phi + np.pi - (z[1] + 2 * sd[1] * rng.standard_normal(n)))
+    return np.column_stack([landmark[0] + ranges * np.cos(phi), landmark[1] + ranges * np.sin(phi), theta])
+
+
+def check_pose_density(fn: Callable, n_poses: int = 40, seed: int = 0, rtol: float = 1e-9) -> CheckReport:
+    """Check a student's ``fn(x, z, landmark, sd) -> (N,)``: ``log q_z(x)`` of poses ``x`` (N, 3) for a
+    reading ``z = (r, b)`` of the landmark at ``landmark`` with noise standard deviations ``sd = (s_r, s_b)``.
+
+    Each case of :data:`POSE_DENSITY_CASES` must equal :func:`pose_reading_log_density` to ``rtol``;
+    an answer that does not is compared with each mistake of :data:`POSE_DENSITY_MISTAKES`, and the
+    report names the one that fits.
+    """
+    report = CheckReport("pose density")
+    rng = np.random.default_rng(seed)
+    cases = [(z, l, sd, _poses_near_reading(z, l, sd, n_poses, rng)) for z, l, sd in POSE_DENSITY_CASES]
+    answers = []
+    for z, l, sd, x in cases:
+        answer = _answer(report, lambda: fn(x.copy(), z.copy(), l.copy(), sd.copy()), "fn(x, z, landmark, sd)",
+                         "compute and return log q_z(x), one value per pose")
+        if answer is None:
+            return report
+        answers.append(np.asarray(answer, dtype=float))
+    wrong_shapes = [a.shape for a in answers if a.shape != (n_poses,)]
+    if wrong_shapes:
+        report.problems.append(f"the answer has shape {wrong_shapes[0]}, not ({n_poses},): return one log-density "
+                               "per pose (a row of x)")
+        return report
+    if not all(np.isfinite(a).all() for a in answers):
+        report.problems.append("some log-densities are NaN or infinite: every pose near the ring has a positive "
+                               "density; compute it in the log domain")
+        return report
+    # the exact density first, then each mistake: the first that every case matches names the answer
+    candidates = (None, *POSE_DENSITY_MISTAKES)
+    matched = next((m for m in candidates if all(
+        np.allclose(a, pose_reading_log_density(x, z, l, sd, m), rtol=rtol, atol=1e-9)
+        for a, (z, l, sd, x) in zip(answers, cases))), "none")
+    if matched is None:
+        return report
+    if matched != "none":
+        report.problems.append(f"your function computes a known mistake: {POSE_DENSITY_MISTAKES[matched]}")
+        return report
+    case = next(c for c, (a, (z, l, sd, x)) in enumerate(zip(answers, cases))
+                if not np.allclose(a, pose_reading_log_density(x, z, l, sd), rtol=rtol, atol=1e-9))
+    report.problems.append(f"for the reading z = {cases[case][0]} the values differ from log q_z(x): check the two "
+                           "Gaussian terms of the range and the wrapped bearing, and the terms -log Phi(r / s_r), "
+                           "-log 2 pi and -log h_r(x)")
     return report

@@ -581,3 +581,60 @@ def test_lock_on_mistakes_are_named(mistake):
 def test_lock_on_other_answers_are_explained():
     assert "not True or False" in check_lock_on(lambda p, h, dt, w: 1.0).problems[0]
     assert "wrong verdict" in check_lock_on(lambda p, h, dt, w: True).problems[0]
+# The pose-density checker (chapter 11): the reference solution, and typical mistakes written as a
+# student would.
+def pose_log_density(x, z, landmark, sd, *, bearing_added=False, no_jacobian=False, no_direction=False,
+                     no_truncation=False, unwrapped=False, variance_for_sd=False, halved=False):
+    from scipy.stats import norm
+
+    r, b = z
+    s_r, s_b = (sd**2 if variance_for_sd else sd)
+    d = landmark - x[:, :2]
+    h_r = np.linalg.norm(d, axis=1)
+    h_b = np.arctan2(d[:, 1], d[:, 0]) + (x[:, 2] if bearing_added else -x[:, 2])
+    nu_b = b - h_b if unwrapped else np.angle(np.exp(1j * (b - h_b)))
+    out = norm.logpdf(h_r, r, s_r) + norm.logpdf(nu_b, 0.0, s_b)
+    out -= 0.0 if no_truncation else norm.logcdf(r / s_r)
+    out -= 0.0 if no_direction else np.log(2 * np.pi)
+    out -= 0.0 if no_jacobian else np.log(h_r)
+    return out / 2 if halved else out
+
+
+def test_the_reference_pose_density_passes_and_is_the_package_proposal():
+    from pfcourse.exercises import POSE_DENSITY_CASES, check_pose_density
+    from pfcourse.robot.mcl import SensorPoseSampler
+
+    assert check_pose_density(pose_log_density).ok, str(check_pose_density(pose_log_density))
+    rng = np.random.default_rng(3)
+    for z, landmark, sd in POSE_DENSITY_CASES:
+        sampler = SensorPoseSampler(landmark[None, :], np.diag(sd**2))
+        x = sampler.sample(np.array([0.0, *z]), 25, rng)
+        np.testing.assert_allclose(pose_log_density(x, z, landmark, sd), sampler.log_density(x, np.array([0.0, *z])),
+                                   rtol=1e-12)
+
+
+@pytest.mark.parametrize("mistake, says", [
+    ({"bearing_added": True}, "predicts the bearing as atan2(l - p) + theta"),
+    ({"no_jacobian": True}, "misses the Jacobian term"),
+    ({"no_direction": True}, "misses the direction's density 1 / (2 pi)"),
+    ({"no_truncation": True}, "misses the truncation term"),
+    ({"unwrapped": True}, "does not wrap the bearing residual"),
+    ({"variance_for_sd": True}, "uses s_r and s_b as variances"),
+    ({"halved": True}, "the values differ from log q_z(x)"),
+])
+def test_each_typical_pose_density_mistake_gets_its_own_sentence(mistake, says):
+    from pfcourse.exercises import check_pose_density
+
+    report = check_pose_density(lambda x, z, landmark, sd: pose_log_density(x, z, landmark, sd, **mistake))
+    assert not report.ok and len(report.problems) == 1
+    assert says in report.problems[0], report.problems[0]
+
+
+def test_odd_pose_density_answers_are_named():
+    from pfcourse.exercises import check_pose_density
+
+    assert "shape (40, 1)" in check_pose_density(lambda x, z, l, sd: np.zeros((len(x), 1))).problems[0]
+    assert check_pose_density(lambda x, z, l, sd: None).problems == [
+        "the function returned None: compute and return log q_z(x), one value per pose"]
+    assert "NaN or infinite" in check_pose_density(lambda x, z, l, sd: np.full(len(x), np.nan)).problems[0]
+    assert "raised ZeroDivisionError" in str(check_pose_density(lambda x, z, l, sd: 1 / 0))

@@ -215,3 +215,24 @@ def test_tempered_method_counts_every_stage_of_progressive_correction():
     # ... every evaluation is a multiple of N, and after the tempered readings it is the bootstrap filter
     assert np.all(out["likelihood_evaluations"] % 500 == 0)
     assert np.all(out["likelihood_evaluations"][measured[10:]] == 500)
+
+
+def test_kld_bin_size_reaches_the_filter():
+    # Half-size bins in position: the same cloud occupies more bins, so KLD-sampling keeps more particles.
+    from pfcourse.robot.mcl import MethodSettings, run_method
+
+    sim = simulate_robot(None, 0, n_steps=15)
+    coarse = run_method(sim, "kld_mixture", 2000, 0)["n_used"]
+    fine = run_method(sim, "kld_mixture", 2000, 0,
+                      settings=MethodSettings(kld_bin_size=(0.5, 0.5, float(np.deg2rad(10.0)))))["n_used"]
+    assert fine[5:].mean() > coarse[5:].mean()
+
+
+@pytest.mark.parametrize("seed", [0, 1])
+def test_the_mixture_spends_its_share_drawn_from_the_reading_while_tracking(seed):
+    # A tenth of the particles drawn from the reading carry weights of order eps = 1e-3 while the robot is
+    # tracked, so the mixture's ESS is about 0.9 of the bootstrap filter's on the same run, never above it.
+    from pfcourse.experiments.global_localization import tracking_row
+
+    ratio = tracking_row(seed, "mixture", 2000)["ess_fraction"] / tracking_row(seed, "bootstrap", 2000)["ess_fraction"]
+    assert 0.8 < ratio < 0.97

@@ -4,7 +4,7 @@ Each function computes one row (one seeded run of one setting) from public funct
 study can tabulate hundreds of them and a test can re-compute any row alone.  Run ``r`` of
 every setting uses the seed ``r``: the same truths, landmarks and measurements for every
 method and ``N`` (common random numbers).  The tables ``anatomy``, ``lockon``, ``kidnap`` and
-``ekf_vs_pf`` are the registered studies ``global_localization/...`` of
+``ekf_vs_pf`` (and ``kld_amcl``, ``tracking_cost``) are the registered studies ``global_localization/...`` of
 :mod:`pfcourse.experiments.registry`; ``modes`` (per-step rows) and ``kld_trace`` (quantiles
 over the runs) are computed by ``tools/studies/global_localization_traces.py``.  The stored
 tables were written with 10 significant digits (``%.10g``) by the study's first script; a
@@ -16,6 +16,8 @@ from __future__ import annotations
 import math
 
 import numpy as np
+
+from scipy import stats
 
 from pfcourse.filter import ParticleFilter
 from pfcourse.metrics import heading_error, position_error
@@ -141,3 +143,51 @@ def ekf_row(seed: int, setting: str, n_particles: int = 300, burn_in: int = 20) 
         out.update({f"{name}_position_rmse": m.position_rmse, f"{name}_heading_rmse": m.heading_rmse,
                     f"{name}_mean_nees": m.mean_nees, f"{name}_failed": m.failed, f"{name}_seconds": m.seconds})
     return out
+
+
+#: KLD-sampling with the mixture proposal (``kld_mixture``) at other settings than the book's
+#: (1 m x 1 m x 10 deg bins, eps = 0.05, delta = 0.01, n_min = 100, n_max = 2000): AMCL's defaults
+#: (kld_err = 0.01; kld_z = 0.99, which AMCL's pf_resample_limit uses as the normal quantile itself,
+#: so delta = 1 - Phi(0.99); bins of 0.5 m x 0.5 m x 10 deg, hard-coded in its pf_kdtree.c;
+#: min_particles 500 as in Nav2, max_particles 5000 as in the ROS 1 node), and the book's bound on
+#: AMCL's finer grid alone.  Values: (n_max, MethodSettings).
+KLD_SETTINGS = {
+    "AMCL defaults": (5000, MethodSettings(kld_epsilon=0.01, kld_delta=float(stats.norm.sf(0.99)), kld_n_min=500,
+                                           kld_bin_size=(0.5, 0.5, float(np.deg2rad(10.0))))),
+    "book bound, 0.5 m bins": (2000, MethodSettings(kld_bin_size=(0.5, 0.5, float(np.deg2rad(10.0))))),
+}
+#: Methods and N of the tracking-cost study (what the mixture proposal spends while tracking).
+TRACKING = [("bootstrap", 2000), ("mixture", 2000)]
+COLUMNS["kld_amcl"] = ("seed", "setting", "locked_on", "lock_time", "final_error", "final_heading_error", "final_sd",
+                       "final_nees", "wrong_confident", "particle_steps", "mean_n", "seconds", "lost")
+COLUMNS["tracking_cost"] = ("seed", "method", "n", "ess_fraction", "position_rmse", "heading_rmse_deg")
+
+
+def kld_amcl_row(seed: int, setting: str, n_steps: int = 60) -> dict:
+    """:func:`~pfcourse.robot.mcl.global_run` of ``kld_mixture`` at one :data:`KLD_SETTINGS` setting."""
+    n_max, settings = KLD_SETTINGS[setting]
+    return {"seed": seed, "setting": setting, **global_run(seed, "kld_mixture", n_max, n_steps=n_steps, settings=settings)}
+
+
+def tracking_row(seed: int, method: str, n_particles: int, n_steps: int = 50, burn_in: int = 10) -> dict:
+    """Tracking from the known start (no kidnapping): what the mixture proposal spends on the poses it draws
+    from the reading.
+
+    ``ess_fraction``: mean of ESS_k / N over the measurement steps ``k >= burn_in`` (after weighting,
+    before resampling); ``position_rmse`` (m) and ``heading_rmse_deg`` over the same steps.  ``method``
+    is ``"bootstrap"`` or ``"mixture"`` (the kidnap model with :class:`MethodSettings`' teleport and share).
+    """
+    sim = simulate_robot(None, seed, n_steps=n_steps)
+    base = RobotModel.for_simulation(sim, initial="tracking")
+    if method == "bootstrap":
+        pf = ParticleFilter(base, n_particles)
+    else:
+        model = KidnapRobotModel(base, MethodSettings().teleport, global_start=False)
+        pf = ParticleFilter(model, n_particles, proposal=sensor_mixture_proposal(model, MethodSettings().share))
+    res = pf.run(sim.measurements, seed)
+    steps = np.arange(burn_in, n_steps)
+    steps = steps[sim.has_measurement[steps]]
+    pos = position_error(sim.truth[steps], res.mean[steps])
+    head = heading_error(sim.truth[steps], res.mean[steps])
+    return {"seed": seed, "method": method, "n": n_particles, "ess_fraction": float(np.mean(res.ess[steps]) / n_particles),
+            "position_rmse": float(np.sqrt(np.mean(pos**2))), "heading_rmse_deg": float(np.rad2deg(np.sqrt(np.mean(head**2))))}

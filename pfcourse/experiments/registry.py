@@ -274,6 +274,19 @@ STUDIES: dict[str, Study] = {study.name: study for study in [
                   "studies": terrain_studies.STUDIES,
                   "seeds": "flight r: pfcourse.seeding.data_rng(0, r); filter: pfcourse.seeding.filter_rng(0, r)",
                   "divergence": "final horizontal error > 500 m or every particle lost"}),
+    Study(name="global_localization/kld_amcl", row=global_localization.kld_amcl_row,
+          grid={"setting": list(global_localization.KLD_SETTINGS)}, n_runs=100, seeds="run", failures="raise",
+          table="global_localization/kld_amcl.csv", provenance="global_localization/kld_amcl.json",
+          columns=global_localization.COLUMNS["kld_amcl"], sample=2,
+          row_code="pfcourse/experiments/global_localization.py (kld_amcl_row)",
+          fields={"settings": {name: {"n_max": n, **vars(s)} for name, (n, s) in global_localization.KLD_SETTINGS.items()},
+                  "method": "kld_mixture (KLD-sampling with the mixture proposal, share MethodSettings.kld_share)"}),
+    Study(name="global_localization/tracking_cost", row=global_localization.tracking_row,
+          grid=tuple({"method": [m], "n_particles": [n]} for m, n in global_localization.TRACKING), n_runs=100,
+          seeds="run", failures="raise", table="global_localization/tracking_cost.csv",
+          provenance="global_localization/tracking_cost.json", columns=global_localization.COLUMNS["tracking_cost"],
+          stored_as={"n_particles": "n"}, sample=3,
+          row_code="pfcourse/experiments/global_localization.py (tracking_row)"),
 ]}
 
 

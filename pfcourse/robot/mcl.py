@@ -359,6 +359,7 @@ class MethodSettings:
     kld_n_min: int = 100
     kld_epsilon: float = 0.05
     kld_delta: float = 0.01
+    kld_bin_size: tuple[float, float, float] = (1.0, 1.0, float(np.deg2rad(10.0)))  # AMCL's: (0.5, 0.5, 10 deg)
     temper_readings: int = 10
     temper_ess: float = 0.5
     temper_kernel: float = 0.5
@@ -407,7 +408,8 @@ def run_method(sim: RobotSimulation, method: str, n_particles: int, seed: int, *
             model = KidnapRobotModel(base, settings.teleport, global_start=global_start)
             prop = sensor_mixture_proposal(model, settings.kld_share, settings.spread)
         res = kld_filter(model, sim.measurements, seed, n_max=n_particles, n_min=settings.kld_n_min,
-                         epsilon=settings.kld_epsilon, delta=settings.kld_delta, proposal=prop)
+                         epsilon=settings.kld_epsilon, delta=settings.kld_delta, bin_size=settings.kld_bin_size,
+                         proposal=prop)
     out["seconds"] = time.perf_counter() - start
     out["mean"], out["cov"] = res.mean, res.cov
     out["n_used"] = res.sizes
