@@ -864,3 +864,97 @@ def check_log_likelihood(fn: Callable, n_particles: int = 50, seed: int = 0, rto
     report.problems.append(f"with z = {LIKELIHOOD_CASES[case]} the values differ from log N(z_s; H_s x, R_ss): "
                            "check the quadratic form (z_s - H_s x)^T R_ss^-1 (z_s - H_s x) and the term -(1/2)")
     return report
+
+
+# --- chapter 21: the likelihood of one anonymous reading ------------------------------------------
+
+#: Landmarks, measurement covariance and sensor of the anonymous-reading checker.
+ANONYMOUS_LANDMARKS = np.array([[10.0, 0.0], [0.0, 12.0], [-9.0, -4.0]])
+ANONYMOUS_R = np.diag([0.5, np.deg2rad(2.0)]) ** 2
+#: Cases ``(z, p_detect, clutter_rate, max_range)``: an ordinary reading, one with its bearing
+#: near pi (where a bearing that is not wrapped is wrong), one without clutter.
+ANONYMOUS_CASES = (
+    (np.array([10.2, 0.05]), 0.8, 1.5, 30.0),
+    (np.array([9.1, 3.1]), 0.9, 0.5, 30.0),
+    (np.array([12.1, 1.55]), 0.7, 0.0, 30.0),
+)
+ANONYMOUS_MISTAKES = {
+    "no_clutter": "it forgets the clutter term (1 - P_D) lambda c(z): a reading that no landmark explains then "
+                  "makes a particle impossible instead of merely unlikely",
+    "no_division": "it does not divide P_D by the number of landmarks M: each landmark is the one looked at with "
+                   "probability 1/M, so the detection terms are (P_D / M) N(z; h_j(x), R)",
+    "sum_logs": "it sums the log-likelihoods of the terms instead of the likelihoods: the reading comes from one "
+                "landmark OR another OR the clutter, so the terms add as probabilities, with logsumexp in the "
+                "log domain",
+    "no_wrap": "it does not wrap the bearing innovation to (-pi, pi]: a reading at 179 degrees is then 358 "
+               "degrees from a prediction at -179 degrees instead of 2",
+    "no_exp": "it misses the factor e^{-lambda} (the probability that no other clutter reading appeared), "
+              "the term -lambda of the log-likelihood",
+}
+
+
+def anonymous_log_likelihood(x: np.ndarray, z: np.ndarray, landmarks: np.ndarray, R: np.ndarray, p_detect: float,
+                             clutter_rate: float, max_range: float, mistake: str | None = None) -> np.ndarray:
+    """``log p(z | x^i)`` of one anonymous range-bearing reading for every particle (rows of ``x``):
+
+    ``-lambda + log[ (1 - P_D) lambda c + sum_j (P_D / M) N(z; h_j(x), R) ]``, ``c = 1 / (2 pi r_max)``,
+    ``h_j(x) = (|l^j - p|, wrap(atan2(l^j - p) - theta))``, the bearing innovation wrapped; ``mistake``
+    (a key of :data:`ANONYMOUS_MISTAKES`) computes that mistake instead."""
+    x = np.asarray(x, dtype=float)
+    dx = landmarks[:, 0][None] - x[:, 0][:, None]  # (N, M)
+    dy = landmarks[:, 1][None] - x[:, 1][:, None]
+    nu_r = z[0] - np.hypot(dx, dy)
+    nu_b = z[1] - (np.arctan2(dy, dx) - x[:, 2][:, None])
+    if mistake != "no_wrap":
+        nu_b = np.angle(np.exp(1j * nu_b))
+    ell = -0.5 * (nu_r**2 / R[0, 0] + nu_b**2 / R[1, 1]) - np.log(2 * np.pi) - 0.5 * np.log(R[0, 0] * R[1, 1])
+    M = 1 if mistake == "no_division" else len(landmarks)
+    with np.errstate(divide="ignore"):
+        clutter = np.log((1 - p_detect) * clutter_rate / (2 * np.pi * max_range))
+        terms = np.column_stack([np.full(len(x), -np.inf if mistake == "no_clutter" else clutter),
+                                 np.log(p_detect / M) + ell])
+    if mistake == "sum_logs":
+        return -clutter_rate + np.sum(np.where(np.isinf(terms), 0.0, terms), axis=1)
+    return logsumexp(terms, axis=1) - (0.0 if mistake == "no_exp" else clutter_rate)
+
+
+def check_anonymous_likelihood(fn: Callable, n_particles: int = 60, seed: int = 0, rtol: float = 1e-9) -> CheckReport:
+    """Check a student's ``fn(x, z, landmarks, R, p_detect, clutter_rate, max_range) -> (N,)``, the
+    log-likelihood of one anonymous reading ``z = (range, bearing)`` for a cloud ``x`` ``(N, 3)``.
+
+    Each case of :data:`ANONYMOUS_CASES` must equal :func:`anonymous_log_likelihood` to ``rtol``; an
+    answer that does not is compared with each mistake of :data:`ANONYMOUS_MISTAKES` (forgotten
+    clutter, ``P_D`` not divided by ``M``, log-likelihoods summed, bearing not wrapped, no
+    ``e^{-lambda}``), and the report names the one that fits.
+    """
+    report = CheckReport("anonymous-reading log-likelihood")
+    x = np.random.default_rng(seed).normal([0.0, 0.0, 0.0], [3.0, 3.0, 0.5], size=(n_particles, 3))
+    answers = []
+    for z, p_detect, rate, max_range in ANONYMOUS_CASES:
+        answer = _answer(report, lambda: fn(x.copy(), z.copy(), ANONYMOUS_LANDMARKS.copy(), ANONYMOUS_R.copy(),
+                                            p_detect, rate, max_range),
+                         "fn(x, z, landmarks, R, p_detect, clutter_rate, max_range)",
+                         "compute and return one log-likelihood per particle")
+        if answer is None:
+            return report
+        answer = np.asarray(answer, dtype=float)
+        if answer.shape != (n_particles,):
+            report.problems.append(f"the answer has shape {answer.shape}, not ({n_particles},): return one "
+                                   "log-likelihood per particle (a row of x)")
+            return report
+        answers.append(answer)
+
+    def fits(mistake: str | None) -> bool:
+        return all(np.allclose(a, anonymous_log_likelihood(x, *case[:1], ANONYMOUS_LANDMARKS, ANONYMOUS_R,
+                                                           *case[1:], mistake=mistake),
+                               rtol=rtol, atol=1e-9, equal_nan=True) for a, case in zip(answers, ANONYMOUS_CASES))
+
+    if fits(None):
+        return report
+    for mistake, why in ANONYMOUS_MISTAKES.items():
+        if fits(mistake):
+            report.problems.append(f"your function computes a known mistake: {why}")
+            return report
+    report.problems.append("the values differ from -lambda + log[(1 - P_D) lambda c + sum_j (P_D / M) N(z; h_j(x), R)] "
+                           "with c = 1 / (2 pi r_max): check each term, in the log domain, and add them with logsumexp")
+    return report
