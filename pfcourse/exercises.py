@@ -795,6 +795,24 @@ LIKELIHOOD_MISTAKES = {
 }
 
 
+def _per_particle_answers(report: CheckReport, calls: list[Callable], n_particles: int,
+                          signature: str) -> list[np.ndarray] | None:
+    """The answers of ``calls`` (one per case), each one log-likelihood per particle, ``(n_particles,)``;
+    ``None`` after reporting, in one sentence, the first call that raised, returned None or the wrong shape."""
+    answers = []
+    for call in calls:
+        answer = _answer(report, call, signature, "compute and return one log-likelihood per particle")
+        if answer is None:
+            return None
+        answer = np.asarray(answer, dtype=float)
+        if answer.shape != (n_particles,):
+            report.problems.append(f"the answer has shape {answer.shape}, not ({n_particles},): return one "
+                                   "log-likelihood per particle (a row of x)")
+            return None
+        answers.append(answer)
+    return answers
+
+
 def landmark_log_likelihood(x: np.ndarray, z: np.ndarray, H: np.ndarray, R: np.ndarray,
                             mistake: str | None = None) -> np.ndarray:
     """``log N(z_s; H_s x^i, R_ss)`` for every particle ``x^i`` (rows of ``x``), with ``s`` the
@@ -829,18 +847,11 @@ def check_log_likelihood(fn: Callable, n_particles: int = 50, seed: int = 0, rto
     """
     report = CheckReport("log-likelihood")
     x = np.random.default_rng(seed).normal([2.0, 0.0, 3.0, 0.5, 3.0, -0.5], 0.3, size=(n_particles, 6))
-    answers = []
-    for z in LIKELIHOOD_CASES:
-        answer = _answer(report, lambda: fn(x.copy(), z.copy(), LIKELIHOOD_H.copy(), LIKELIHOOD_R.copy()),
-                         "fn(x, z, H, R)", "compute and return one log-likelihood per particle")
-        if answer is None:
-            return report
-        answer = np.asarray(answer, dtype=float)
-        if answer.shape != (n_particles,):
-            report.problems.append(f"the answer has shape {answer.shape}, not ({n_particles},): return one "
-                                   "log-likelihood per particle (a row of x)")
-            return report
-        answers.append(answer)
+    answers = _per_particle_answers(
+        report, [lambda z=z: fn(x.copy(), z.copy(), LIKELIHOOD_H.copy(), LIKELIHOOD_R.copy()) for z in LIKELIHOOD_CASES],
+        n_particles, "fn(x, z, H, R)")
+    if answers is None:
+        return report
     if any(np.isnan(a).any() for a in answers):
         report.problems.append("the log-likelihood is NaN when a landmark is out of view: drop the NaN "
                                "coordinates of z, with their rows of H and their rows and columns of R")
@@ -929,20 +940,12 @@ def check_anonymous_likelihood(fn: Callable, n_particles: int = 60, seed: int = 
     """
     report = CheckReport("anonymous-reading log-likelihood")
     x = np.random.default_rng(seed).normal([0.0, 0.0, 0.0], [3.0, 3.0, 0.5], size=(n_particles, 3))
-    answers = []
-    for z, p_detect, rate, max_range in ANONYMOUS_CASES:
-        answer = _answer(report, lambda: fn(x.copy(), z.copy(), ANONYMOUS_LANDMARKS.copy(), ANONYMOUS_R.copy(),
-                                            p_detect, rate, max_range),
-                         "fn(x, z, landmarks, R, p_detect, clutter_rate, max_range)",
-                         "compute and return one log-likelihood per particle")
-        if answer is None:
-            return report
-        answer = np.asarray(answer, dtype=float)
-        if answer.shape != (n_particles,):
-            report.problems.append(f"the answer has shape {answer.shape}, not ({n_particles},): return one "
-                                   "log-likelihood per particle (a row of x)")
-            return report
-        answers.append(answer)
+    answers = _per_particle_answers(
+        report, [lambda case=case: fn(x.copy(), case[0].copy(), ANONYMOUS_LANDMARKS.copy(), ANONYMOUS_R.copy(),
+                                      *case[1:]) for case in ANONYMOUS_CASES],
+        n_particles, "fn(x, z, landmarks, R, p_detect, clutter_rate, max_range)")
+    if answers is None:
+        return report
 
     def fits(mistake: str | None) -> bool:
         return all(np.allclose(a, anonymous_log_likelihood(x, *case[:1], ANONYMOUS_LANDMARKS, ANONYMOUS_R,
