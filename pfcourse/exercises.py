@@ -813,6 +813,24 @@ LIKELIHOOD_MISTAKES = {
 }
 
 
+def _per_particle_answers(report: CheckReport, calls: list[Callable], n_particles: int,
+                          signature: str) -> list[np.ndarray] | None:
+    """The answers of ``calls`` (one per case), each one log-likelihood per particle, ``(n_particles,)``;
+    ``None`` after reporting, in one sentence, the first call that raised, returned None or the wrong shape."""
+    answers = []
+    for call in calls:
+        answer = _answer(report, call, signature, "compute and return one log-likelihood per particle")
+        if answer is None:
+            return None
+        answer = np.asarray(answer, dtype=float)
+        if answer.shape != (n_particles,):
+            report.problems.append(f"the answer has shape {answer.shape}, not ({n_particles},): return one "
+                                   "log-likelihood per particle (a row of x)")
+            return None
+        answers.append(answer)
+    return answers
+
+
 def landmark_log_likelihood(x: np.ndarray, z: np.ndarray, H: np.ndarray, R: np.ndarray,
                             mistake: str | None = None) -> np.ndarray:
     """``log N(z_s; H_s x^i, R_ss)`` for every particle ``x^i`` (rows of ``x``), with ``s`` the
@@ -847,18 +865,11 @@ def check_log_likelihood(fn: Callable, n_particles: int = 50, seed: int = 0, rto
     """
     report = CheckReport("log-likelihood")
     x = np.random.default_rng(seed).normal([2.0, 0.0, 3.0, 0.5, 3.0, -0.5], 0.3, size=(n_particles, 6))
-    answers = []
-    for z in LIKELIHOOD_CASES:
-        answer = _answer(report, lambda: fn(x.copy(), z.copy(), LIKELIHOOD_H.copy(), LIKELIHOOD_R.copy()),
-                         "fn(x, z, H, R)", "compute and return one log-likelihood per particle")
-        if answer is None:
-            return report
-        answer = np.asarray(answer, dtype=float)
-        if answer.shape != (n_particles,):
-            report.problems.append(f"the answer has shape {answer.shape}, not ({n_particles},): return one "
-                                   "log-likelihood per particle (a row of x)")
-            return report
-        answers.append(answer)
+    answers = _per_particle_answers(
+        report, [lambda z=z: fn(x.copy(), z.copy(), LIKELIHOOD_H.copy(), LIKELIHOOD_R.copy()) for z in LIKELIHOOD_CASES],
+        n_particles, "fn(x, z, H, R)")
+    if answers is None:
+        return report
     if any(np.isnan(a).any() for a in answers):
         report.problems.append("the log-likelihood is NaN when a landmark is out of view: drop the NaN "
                                "coordinates of z, with their rows of H and their rows and columns of R")
@@ -1119,6 +1130,9 @@ def check_lock_on(fn: Callable) -> CheckReport:
     wrong = next(i for i, (a, (p, h, dt)) in enumerate(zip(answers, lock_on_cases())) if a != lock_on_reference(p, h, dt))
     report.problems.append(f"run {wrong + 1} of the checker's runs gets the wrong verdict: within 1 m and 5 degrees "
                            "(strictly) at every step of the last ceil(window_s / dt) steps")
+    return report
+
+
 # ----------------------------------------------------------------------------- chapter 11
 #: Cases of :func:`check_pose_density`: (reading ``(r, b)``, landmark ``l``, standard deviations
 #: ``(s_r, s_b)``): a far reading, a short one (where the truncation to ``r' > 0`` matters) and one
@@ -1225,4 +1239,87 @@ def check_pose_density(fn: Callable, n_poses: int = 40, seed: int = 0, rtol: flo
     report.problems.append(f"for the reading z = {cases[case][0]} the values differ from log q_z(x): check the two "
                            "Gaussian terms of the range and the wrapped bearing, and the terms -log Phi(r / s_r), "
                            "-log 2 pi and -log h_r(x)")
+# --- chapter 21: the likelihood of one anonymous reading ------------------------------------------
+
+#: Landmarks, measurement covariance and sensor of the anonymous-reading checker.
+ANONYMOUS_LANDMARKS = np.array([[10.0, 0.0], [0.0, 12.0], [-9.0, -4.0]])
+ANONYMOUS_R = np.diag([0.5, np.deg2rad(2.0)]) ** 2
+#: Cases ``(z, p_detect, clutter_rate, max_range)``: an ordinary reading, one with its bearing
+#: near pi (where a bearing that is not wrapped is wrong), one without clutter.
+ANONYMOUS_CASES = (
+    (np.array([10.2, 0.05]), 0.8, 1.5, 30.0),
+    (np.array([9.1, 3.1]), 0.9, 0.5, 30.0),
+    (np.array([12.1, 1.55]), 0.7, 0.0, 30.0),
+)
+ANONYMOUS_MISTAKES = {
+    "no_clutter": "it forgets the clutter term (1 - P_D) lambda c(z): a reading that no landmark explains then "
+                  "makes a particle impossible instead of merely unlikely",
+    "no_division": "it does not divide P_D by the number of landmarks M: each landmark is the one looked at with "
+                   "probability 1/M, so the detection terms are (P_D / M) N(z; h_j(x), R)",
+    "sum_logs": "it sums the log-likelihoods of the terms instead of the likelihoods: the reading comes from one "
+                "landmark OR another OR the clutter, so the terms add as probabilities, with logsumexp in the "
+                "log domain",
+    "no_wrap": "it does not wrap the bearing innovation to (-pi, pi]: a reading at 179 degrees is then 358 "
+               "degrees from a prediction at -179 degrees instead of 2",
+    "no_exp": "it misses the factor e^{-lambda} (the probability that no other clutter reading appeared), "
+              "the term -lambda of the log-likelihood",
+}
+
+
+def anonymous_log_likelihood(x: np.ndarray, z: np.ndarray, landmarks: np.ndarray, R: np.ndarray, p_detect: float,
+                             clutter_rate: float, max_range: float, mistake: str | None = None) -> np.ndarray:
+    """``log p(z | x^i)`` of one anonymous range-bearing reading for every particle (rows of ``x``):
+
+    ``-lambda + log[ (1 - P_D) lambda c + sum_j (P_D / M) N(z; h_j(x), R) ]``, ``c = 1 / (2 pi r_max)``,
+    ``h_j(x) = (|l^j - p|, wrap(atan2(l^j - p) - theta))``, the bearing innovation wrapped; ``mistake``
+    (a key of :data:`ANONYMOUS_MISTAKES`) computes that mistake instead."""
+    x = np.asarray(x, dtype=float)
+    dx = landmarks[:, 0][None] - x[:, 0][:, None]  # (N, M)
+    dy = landmarks[:, 1][None] - x[:, 1][:, None]
+    nu_r = z[0] - np.hypot(dx, dy)
+    nu_b = z[1] - (np.arctan2(dy, dx) - x[:, 2][:, None])
+    if mistake != "no_wrap":
+        nu_b = np.angle(np.exp(1j * nu_b))
+    ell = -0.5 * (nu_r**2 / R[0, 0] + nu_b**2 / R[1, 1]) - np.log(2 * np.pi) - 0.5 * np.log(R[0, 0] * R[1, 1])
+    M = 1 if mistake == "no_division" else len(landmarks)
+    with np.errstate(divide="ignore"):
+        clutter = np.log((1 - p_detect) * clutter_rate / (2 * np.pi * max_range))
+        terms = np.column_stack([np.full(len(x), -np.inf if mistake == "no_clutter" else clutter),
+                                 np.log(p_detect / M) + ell])
+    if mistake == "sum_logs":
+        return -clutter_rate + np.sum(np.where(np.isinf(terms), 0.0, terms), axis=1)
+    return logsumexp(terms, axis=1) - (0.0 if mistake == "no_exp" else clutter_rate)
+
+
+def check_anonymous_likelihood(fn: Callable, n_particles: int = 60, seed: int = 0, rtol: float = 1e-9) -> CheckReport:
+    """Check a student's ``fn(x, z, landmarks, R, p_detect, clutter_rate, max_range) -> (N,)``, the
+    log-likelihood of one anonymous reading ``z = (range, bearing)`` for a cloud ``x`` ``(N, 3)``.
+
+    Each case of :data:`ANONYMOUS_CASES` must equal :func:`anonymous_log_likelihood` to ``rtol``; an
+    answer that does not is compared with each mistake of :data:`ANONYMOUS_MISTAKES` (forgotten
+    clutter, ``P_D`` not divided by ``M``, log-likelihoods summed, bearing not wrapped, no
+    ``e^{-lambda}``), and the report names the one that fits.
+    """
+    report = CheckReport("anonymous-reading log-likelihood")
+    x = np.random.default_rng(seed).normal([0.0, 0.0, 0.0], [3.0, 3.0, 0.5], size=(n_particles, 3))
+    answers = _per_particle_answers(
+        report, [lambda case=case: fn(x.copy(), case[0].copy(), ANONYMOUS_LANDMARKS.copy(), ANONYMOUS_R.copy(),
+                                      *case[1:]) for case in ANONYMOUS_CASES],
+        n_particles, "fn(x, z, landmarks, R, p_detect, clutter_rate, max_range)")
+    if answers is None:
+        return report
+
+    def fits(mistake: str | None) -> bool:
+        return all(np.allclose(a, anonymous_log_likelihood(x, *case[:1], ANONYMOUS_LANDMARKS, ANONYMOUS_R,
+                                                           *case[1:], mistake=mistake),
+                               rtol=rtol, atol=1e-9, equal_nan=True) for a, case in zip(answers, ANONYMOUS_CASES))
+
+    if fits(None):
+        return report
+    for mistake, why in ANONYMOUS_MISTAKES.items():
+        if fits(mistake):
+            report.problems.append(f"your function computes a known mistake: {why}")
+            return report
+    report.problems.append("the values differ from -lambda + log[(1 - P_D) lambda c + sum_j (P_D / M) N(z; h_j(x), R)] "
+                           "with c = 1 / (2 pi r_max): check each term, in the log domain, and add them with logsumexp")
     return report

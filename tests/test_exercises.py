@@ -626,6 +626,49 @@ def test_each_typical_pose_density_mistake_gets_its_own_sentence(mistake, says):
     from pfcourse.exercises import check_pose_density
 
     report = check_pose_density(lambda x, z, landmark, sd: pose_log_density(x, z, landmark, sd, **mistake))
+# --- chapter 21: check_anonymous_likelihood ----------------------------------------------------------
+
+def anonymous_reading(x, z, landmarks, R, p_detect, clutter_rate, max_range, **mistake):
+    """A student's answer, written independently of the reference (a loop over the landmarks)."""
+    terms = [] if mistake.get("no_clutter") else [np.full(len(x), np.log((1 - p_detect) * clutter_rate
+                                                                         / (2 * np.pi * max_range))
+                                                          if clutter_rate > 0 else -np.inf)]
+    M = 1 if mistake.get("no_division") else len(landmarks)
+    for lx, ly in landmarks:
+        dx, dy = lx - x[:, 0], ly - x[:, 1]
+        nu = np.column_stack([z[0] - np.sqrt(dx**2 + dy**2), z[1] - np.arctan2(dy, dx) + x[:, 2]])
+        nu[:, 1] = (nu[:, 1] + np.pi) % (2 * np.pi) - np.pi
+        quad = np.einsum("ij,jk,ik->i", nu, np.linalg.inv(R), nu)
+        terms.append(np.log(p_detect / M) - 0.5 * quad - 0.5 * np.log(np.linalg.det(2 * np.pi * R)))
+    terms = np.array(terms)
+    if mistake.get("sum_logs"):
+        return -clutter_rate + np.sum(np.where(np.isinf(terms), 0.0, terms), axis=0)
+    return logsumexp(terms, axis=0) - clutter_rate
+
+
+def test_anonymous_reference_passes_and_is_the_package_mixture():
+    from pfcourse.exercises import ANONYMOUS_LANDMARKS, ANONYMOUS_R, check_anonymous_likelihood
+    from pfcourse.robot import RobotModel
+    from pfcourse.robot.association import ClutterSensor, mixture_log_likelihood
+
+    report = check_anonymous_likelihood(anonymous_reading)
+    assert report.ok, str(report)
+    base = RobotModel(ANONYMOUS_LANDMARKS, np.zeros((2, 3)), np.eye(3), ANONYMOUS_R)
+    x = np.random.default_rng(2).normal(0.0, 2.0, size=(9, 3))
+    z = np.array([9.0, 0.4])
+    np.testing.assert_allclose(anonymous_reading(x, z, ANONYMOUS_LANDMARKS, ANONYMOUS_R, 0.8, 1.5, 30.0),
+                               mixture_log_likelihood(base, ClutterSensor(0.8, 1.5, 30.0), x, z[None]), rtol=1e-12)
+
+
+@pytest.mark.parametrize("mistake, says", [
+    ({"no_clutter": True}, "forgets the clutter term"),
+    ({"no_division": True}, "does not divide P_D by the number of landmarks"),
+    ({"sum_logs": True}, "sums the log-likelihoods"),
+])
+def test_each_typical_anonymous_mistake_gets_its_own_sentence(mistake, says):
+    from pfcourse.exercises import check_anonymous_likelihood
+
+    report = check_anonymous_likelihood(lambda *args: anonymous_reading(*args, **mistake))
     assert not report.ok and len(report.problems) == 1
     assert says in report.problems[0], report.problems[0]
 
@@ -638,3 +681,13 @@ def test_odd_pose_density_answers_are_named():
         "the function returned None: compute and return log q_z(x), one value per pose"]
     assert "NaN or infinite" in check_pose_density(lambda x, z, l, sd: np.full(len(x), np.nan)).problems[0]
     assert "raised ZeroDivisionError" in str(check_pose_density(lambda x, z, l, sd: 1 / 0))
+def test_every_named_anonymous_mistake_is_recognised_and_odd_answers_are_named():
+    from pfcourse.exercises import ANONYMOUS_MISTAKES, anonymous_log_likelihood, check_anonymous_likelihood
+
+    for mistake, why in ANONYMOUS_MISTAKES.items():
+        report = check_anonymous_likelihood(lambda *a, m=mistake: anonymous_log_likelihood(*a, mistake=m))
+        assert report.problems == [f"your function computes a known mistake: {why}"]
+    assert "differ from -lambda" in check_anonymous_likelihood(lambda *a: anonymous_log_likelihood(*a) + 0.1).problems[0]
+    assert "shape" in check_anonymous_likelihood(lambda x, *a: np.zeros(3)).problems[0]
+    assert "raised ZeroDivisionError" in check_anonymous_likelihood(lambda *a: 1 / 0).problems[0]
+    assert "returned None" in check_anonymous_likelihood(lambda *a: None).problems[0]

@@ -35,7 +35,7 @@ import numpy as np
 import pandas as pd
 
 from pfcourse.errors import ParameterError, StepError
-from pfcourse.experiments import global_localization
+from pfcourse.experiments import association, global_localization
 from pfcourse.experiments import likelihood_studies as ls
 from pfcourse.experiments import rb_study, robot_studies, sir_fixes_study, terrain_remedies, terrain_studies
 from pfcourse.experiments.provenance import launch_commit, write_provenance
@@ -287,6 +287,17 @@ STUDIES: dict[str, Study] = {study.name: study for study in [
           provenance="global_localization/tracking_cost.json", columns=global_localization.COLUMNS["tracking_cost"],
           stored_as={"n_particles": "n"}, sample=3,
           row_code="pfcourse/experiments/global_localization.py (tracking_row)"),
+    Study(name="data_association", row=association.row, grid={"clutter_rate": list(association.CLUTTER_RATES)},
+          n_runs=association.N_RUNS, seeds="run", failures="raise", table="data_association.csv",
+          provenance="data_association.json",
+          columns=("clutter_rate", "seed", "pf_rmse_m", "ekf_rmse_m", "ekf_wrong", "clutter", "pf_seconds",
+                   "ekf_seconds"),
+          volatile=("pf_seconds", "ekf_seconds"), sample=3,
+          row_code="pfcourse/experiments/association.py (row), pfcourse/robot/association.py",
+          fields={"scenario": association.SCENARIO, "p_detect": association.P_DETECT,
+                  "max_range_m": association.MAX_RANGE, "n_particles": association.N_PARTICLES,
+                  "seeds": "run r: robot and readings from pfcourse.seeding.data_rng(0, r); "
+                           "particle filter: pfcourse.seeding.filter_rng(0, r)"}),
 ]}
 
 

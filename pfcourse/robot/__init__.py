@@ -2,7 +2,9 @@
 
 * :mod:`pfcourse.robot.scenario` - the scenario's settings, its simulator and the particle-filter model;
 * :mod:`pfcourse.robot.kalman` - the EKF and UKF references;
-* :mod:`pfcourse.robot.figures` - the scenario's figures.
+* :mod:`pfcourse.robot.figures` - the scenario's figures;
+* :mod:`pfcourse.robot.association` - anonymous readings with clutter and misses, the mixture
+  likelihood over associations and the nearest-neighbour EKF (unknown data association).
 """
 
 from pfcourse.robot.kalman import run_ekf, run_ukf
