@@ -194,7 +194,7 @@ EvidenceBlock(
 # overestimates pay for them. That heavy right tail makes a sample mean of $\hat p / p$ unreliable
 # (here {glue:text}`est_ratio_mean:.2f`): a finite sample usually misses the rare large values that
 # carry the mean, and then its mean falls **below** $1$; it jumps above $1$ when it catches one (the
-# stored study in the evidence block shows both). One works with $\log \hat p$, whose spread
+# stored study's means, in the evidence block, lie above $1$ while its medians are far below). One works with $\log \hat p$, whose spread
 # $\sigma$ is what matters below.
 #
 # ## Maximum likelihood with common random numbers
@@ -240,9 +240,8 @@ plt.show()
 # that with two seeds for $\theta' = 1 + 10^{-5}$, but already {glue:text}`crn_sd_ratio:.2f` times
 # it (95 % interval {glue:text}`crn_sd_ratio_low:.2f` to {glue:text}`crn_sd_ratio_high:.2f`) for
 # $\theta' = 1.1$, a grid step. So, with $N = 300$ and a resampling at every measured step, CRN buy
-# a **deterministic** curve (a search on it
-# converges, and gives the same answer when re-run), smooth only on a scale far finer than the
-# posterior's. They do not buy smoothness at the scale that matters, nor remove the bias of
+# a **deterministic** curve (a search on it converges, and gives the same answer when re-run),
+# smooth only on a scale far finer than the posterior's. They do not buy smoothness at the scale that matters, nor remove the bias of
 # $\log \hat p$, nor the spread of the maximum over datasets (next).
 
 # %% tags=["remove-input"] jupyter={"source_hidden": true}
@@ -362,9 +361,8 @@ EvidenceBlock(
 # (95 % interval {glue:text}`ml_shift_1000_low:.3f` to {glue:text}`ml_shift_1000_high:.3f`). A likely
 # cause, not measured here: the bias $-\sigma^2/2$ of $\log\hat p$ depends on $\theta$ (a smaller
 # assumed noise makes the weights more uneven and $\sigma$ larger), so it tilts the curve; CRN cannot
-# remove it. Nor do CRN shrink
-# the spread over datasets, which belongs to the data: the standard deviation of
-# $\log\hat\theta_{exact}$ is {glue:text}`ml_exact_spread:.2f`, several times the shift.
+# remove it. Nor do CRN shrink the spread over datasets, which belongs to the data: the standard deviation of
+# $\log\hat\theta_{exact}$ is {glue:text}`ml_exact_spread:.2f`, well above the shift.
 #
 # ## The posterior of $\theta$: particle marginal Metropolis-Hastings
 #
@@ -496,9 +494,14 @@ EvidenceBlock(
 # The exact posterior has mean {glue:text}`exact_post_mean:.3f` and standard deviation
 # {glue:text}`exact_post_sd:.3f`. The stored chain with $N = 300$ has a posterior mean
 # {glue:text}`pmmh_posterior_mean_error:.2f` exact standard deviations from the exact one, with a
-# Monte Carlo standard error of {glue:text}`pmmh_mcse_sd_300:.2f` in the same units. The trace of
+# Monte Carlo standard error of {glue:text}`pmmh_mcse_sd_300:.2f` in the same units: within two
+# standard errors. The trace of
 # $N = 100$ shows the price of a noisy estimate: it sticks for long stretches after a lucky
 # overestimate.
+#
+# The short chain run in the page has its mean {glue:text}`short_error:.2f` exact standard deviations
+# from the exact one, with a standard error of {glue:text}`short_mcse:.2f`: it shows the loop at work,
+# and the long chains are the evidence.
 #
 # ## How many particles: the variance of $\log \hat p$ near one
 #
@@ -574,8 +577,8 @@ EvidenceBlock(
 # {glue:text}`terrain_rf_ml_low:.2f` to {glue:text}`terrain_rf_ml_high:.2f`), below the truth. That
 # is no sign of a fault of the filter: on the linear model the **exact** ML scale has its median below
 # $1$ too ({glue:text}`ml_noise_scale_kalman:.3f`, with an interval that excludes $1$: evidence
-# above), because an ML variance estimate is skewed. The particle answer is as close to the truth as
-# the exact one is on the linear model.
+# above), because an ML variance estimate is skewed. A median below $1$ is expected here too; it
+# says nothing against the filter or its kernel.
 #
 # ## Exercises
 #
