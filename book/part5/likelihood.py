@@ -445,8 +445,9 @@ for ax, (n, g) in zip(trace_axes, chains.groupby("n_particles")):
     ax.plot(g["iteration"], g["theta"], color=colors[n], lw=0.6)
     ax.axvline(BURN_IN, color="k", lw=0.5, ls=":")
     ax.set_title(f"N = {n}", loc="left")
-    hist_ax.hist(g["theta"].to_numpy()[BURN_IN:], bins=30, range=(0.4, 1.8), density=True, histtype="step", lw=1.5,
-                 color=colors[n], label=f"stored, N = {n}")
+    if n > 100:  # the stuck chain's spike (trace above) would flatten the others
+        hist_ax.hist(g["theta"].to_numpy()[BURN_IN:], bins=30, range=(0.4, 1.8), density=True, histtype="step",
+                     lw=1.5, color=colors[n], label=f"stored, N = {n}")
 trace_axes[1].set_ylabel("noise scale θ")
 trace_axes[-1].set_xlabel("iteration")
 hist_ax.hist(chain, bins=15, range=(0.4, 1.8), density=True, color="0.8", label=f"in the page, N = 300")
