@@ -1323,3 +1323,96 @@ def check_anonymous_likelihood(fn: Callable, n_particles: int = 60, seed: int = 
     report.problems.append("the values differ from -lambda + log[(1 - P_D) lambda c + sum_j (P_D / M) N(z; h_j(x), R)] "
                            "with c = 1 / (2 pi r_max): check each term, in the log domain, and add them with logsumexp")
     return report
+
+
+# ---------------------------------------------------------------- chapter 22: the likelihood estimator
+ESTIMATOR_MISTAKES = {
+    "forgot_previous_weights": "it averages the new weights with 1/N instead of the previous weights W_(k-1): "
+                               "after a step without resampling the particles do not count equally, so "
+                               "p^(z_k | z_(1:k-1)) = sum_i W_(k-1)^i w_k^i",
+    "mean_of_logs": "it averages the log-weights instead of the weights: the mean of log w is below the log of "
+                    "the mean (Jensen), so the estimate is too low and no longer unbiased; take the logsumexp of "
+                    "log W_(k-1) + log w_k",
+    "plain_mean_of_logs": "it averages the log-weights instead of the weights (and without the previous weights "
+                          "W_(k-1)): the mean of log w is below the log of the mean (Jensen), so the estimate is "
+                          "too low; take the logsumexp of log W_(k-1) + log w_k",
+    "no_reset_after_resampling": "it keeps the weights W_k after a resampling: resampled particles carry equal "
+                                 "weights 1/N (their copies already stand for W_k), so set log W = -log N "
+                                 "whenever resampled[k] is true",
+    "unnormalised_weights": "it carries the unnormalised weights W_(k-1) w_k to the next step: divide them by "
+                            "their sum p^(z_k | z_(1:k-1)), else each factor counts the earlier ones again",
+}
+
+
+def likelihood_estimate(log_w: np.ndarray, resampled: np.ndarray, mistake: str | None = None) -> float:
+    """``log p^(z_{1:K}) = sum_k log sum_i W_{k-1}^i w~_k^i`` from a filter's log-weights (Algorithm 22.1).
+
+    ``log_w[k, i] = log w~_k^i`` (``0`` at a step without measurement), ``resampled[k]`` whether the cloud
+    was resampled after step ``k`` (then ``W_k^i = 1/N``); ``W_{-1}^i = 1/N``, ``W_k^i = W_{k-1}^i w~_k^i /
+    p^(z_k | z_{1:k-1})``.  ``mistake`` (a key of :data:`ESTIMATOR_MISTAKES`) computes that mistake instead.
+    """
+    log_w = np.asarray(log_w, dtype=float)
+    n = log_w.shape[1]
+    log_W, total = np.full(n, -np.log(n)), 0.0
+    for k, row in enumerate(log_w):
+        if mistake == "forgot_previous_weights":
+            log_W = np.full(n, -np.log(n))
+        a = log_W + row
+        if mistake in ("mean_of_logs", "plain_mean_of_logs"):
+            step = float(np.sum(np.exp(log_W) * row)) if mistake == "mean_of_logs" else float(np.mean(row))
+        else:
+            step = float(logsumexp(a))
+        total += step
+        log_W = a if mistake == "unnormalised_weights" else a - logsumexp(a)
+        if resampled[k] and mistake != "no_reset_after_resampling":
+            log_W = np.full(n, -np.log(n))
+    return total
+
+
+ESTIMATOR_RESAMPLED = np.array([False, True, False, False, True, False, False, True, False, False])
+
+
+def check_likelihood_estimate(fn: Callable, n_particles: int = 8, seed: int = 0, rtol: float = 1e-9) -> CheckReport:
+    """Check a student's ``fn(log_w, resampled) -> float``, the log of the particle likelihood estimate.
+
+    ``log_w`` (``(K, N)``) holds ``log w~_k^i`` of a filter's run and ``resampled`` (``(K,)``) whether the
+    cloud was resampled after each step (:data:`ESTIMATOR_RESAMPLED`: some steps are, some are not, so the
+    previous weights matter). The answer must equal :func:`likelihood_estimate` to ``rtol`` on ordinary
+    log-weights and on log-weights near ``-1000`` (whose exponentials underflow); an answer that does not is
+    compared with each mistake of :data:`ESTIMATOR_MISTAKES`, and the report names the one that fits.
+    """
+    report = CheckReport("likelihood estimator")
+    log_w = np.random.default_rng(seed).normal(-2.0, 1.5, size=(ESTIMATOR_RESAMPLED.size, n_particles))
+    answers = []
+    for case in (log_w, log_w - 1000.0):
+        answer = _answer(report, lambda: fn(case.copy(), ESTIMATOR_RESAMPLED.copy()), "fn(log_w, resampled)",
+                         "compute and return log p^(z_1:K), one float")
+        if answer is None:
+            return report
+        try:
+            answers.append(float(answer))
+        except (TypeError, ValueError):
+            report.problems.append(f"the function returned {type(answer).__name__}, not one float: return the "
+                                   "sum over the steps of log sum_i W_(k-1)^i w_k^i")
+            return report
+
+    def fits(mistake: str | None, case: int = 0) -> bool:
+        shift = -1000.0 * case
+        return bool(np.isclose(answers[case], likelihood_estimate(log_w + shift, ESTIMATOR_RESAMPLED, mistake),
+                               rtol=rtol, atol=1e-9))
+
+    if fits(None) and fits(None, 1):
+        return report
+    if fits(None):
+        report.problems.append(f"with log-weights near -1000 the answer is {answers[1]:.6g}, not "
+                               f"{likelihood_estimate(log_w - 1000.0, ESTIMATOR_RESAMPLED):.6g}: exp(-1000) "
+                               "underflows to 0, so sum the weights in the log domain (scipy.special.logsumexp)")
+        return report
+    for mistake, why in ESTIMATOR_MISTAKES.items():
+        if fits(mistake):
+            report.problems.append(f"your estimate matches a known mistake: {why}")
+            return report
+    report.problems.append(f"the answer is {answers[0]:.6g}, the estimate is "
+                           f"{likelihood_estimate(log_w, ESTIMATOR_RESAMPLED):.6g}: add log sum_i W_(k-1)^i w_k^i "
+                           "over the steps, with W normalised after each step and reset to 1/N after a resampling")
+    return report

@@ -691,3 +691,84 @@ def test_every_named_anonymous_mistake_is_recognised_and_odd_answers_are_named()
     assert "shape" in check_anonymous_likelihood(lambda x, *a: np.zeros(3)).problems[0]
     assert "raised ZeroDivisionError" in check_anonymous_likelihood(lambda *a: 1 / 0).problems[0]
     assert "returned None" in check_anonymous_likelihood(lambda *a: None).problems[0]
+
+
+# ---------------------------------------------------------------- chapter 22: the likelihood estimator
+def student_estimate(log_w, resampled, forgot_previous=False, mean_of_logs=False, no_reset=False,
+                     linear=False, unnormalised=False):
+    """A student's ``log p^(z_1:K)``, correct by default, with each typical mistake as an option."""
+    n = log_w.shape[1]
+    log_W, total = np.full(n, -np.log(n)), 0.0
+    for row, was_resampled in zip(log_w, resampled):
+        if forgot_previous:
+            log_W = np.full(n, -np.log(n))
+        a = log_W + row
+        if mean_of_logs:
+            step = np.mean(row)
+        elif linear:
+            step = np.log(np.sum(np.exp(a)))
+        else:
+            step = logsumexp(a)
+        total += step
+        log_W = a if unnormalised else a - logsumexp(a)
+        if was_resampled and not no_reset:
+            log_W = np.full(n, -np.log(n))
+    return total
+
+
+def test_the_reference_estimator_is_the_engines_log_likelihood():
+    from pfcourse.exercises import likelihood_estimate
+    from pfcourse.filter import ParticleFilter
+    from pfcourse.landmarks import quadrant_scenario, simulate
+
+    scenario = quadrant_scenario().with_(Qw=0.05**2 * np.eye(6), Rv=0.5**2 * np.eye(4))
+    model = scenario.model()
+    Z = simulate(scenario, 7).measurements
+    run = ParticleFilter(model, 200, threshold=0.5).run(Z, 3, store_particles=True)
+    assert 0 < run.resampled.sum() < (~np.isnan(Z).all(axis=1)).sum()  # some measured steps resample, some do not
+    log_w = np.array([np.zeros(200) if np.isnan(z).all() else model.log_likelihood(x, z, k)
+                      for k, (z, x) in enumerate(zip(Z, run.particles))])
+    assert likelihood_estimate(log_w, run.resampled) == pytest.approx(run.log_likelihood, rel=1e-10)
+
+
+def test_a_correct_likelihood_estimator_passes():
+    from pfcourse.exercises import check_likelihood_estimate
+
+    report = check_likelihood_estimate(student_estimate)
+    assert report.ok and str(report).endswith("every check passed"), str(report)
+
+
+@pytest.mark.parametrize("mistake, says", [
+    ({"forgot_previous": True}, "instead of the previous weights W_(k-1)"),
+    ({"no_reset": True}, "keeps the weights W_k after a resampling"),
+    ({"unnormalised": True}, "unnormalised weights"),
+    ({"linear": True}, "underflows to 0"),
+])
+def test_each_typical_estimator_mistake_gets_its_own_sentence(mistake, says):
+    from pfcourse.exercises import check_likelihood_estimate
+
+    report = check_likelihood_estimate(lambda log_w, resampled: student_estimate(log_w, resampled, **mistake))
+    assert not report.ok and len(report.problems) == 1
+    assert says in report.problems[0], report.problems[0]
+
+
+def test_averaging_log_weights_is_named_with_or_without_the_previous_weights():
+    from pfcourse.exercises import ESTIMATOR_MISTAKES, check_likelihood_estimate, likelihood_estimate
+
+    weighted = check_likelihood_estimate(lambda log_w, r: likelihood_estimate(log_w, r, "mean_of_logs"))
+    assert "averages the log-weights" in weighted.problems[0], str(weighted)
+    plain = check_likelihood_estimate(lambda log_w, r: student_estimate(log_w, r, mean_of_logs=True))
+    assert "averages the log-weights" in plain.problems[0] and "without the previous" in plain.problems[0], str(plain)
+    case = np.random.default_rng(0).normal(-2.0, 1.5, size=(10, 8))
+    from pfcourse.exercises import ESTIMATOR_RESAMPLED
+    values = [likelihood_estimate(case, ESTIMATOR_RESAMPLED, m) for m in [None, *ESTIMATOR_MISTAKES]]
+    assert len(np.unique(np.round(values, 6))) == len(values)  # every mistake gives its own number
+
+
+def test_odd_estimator_answers_are_named():
+    from pfcourse.exercises import check_likelihood_estimate
+
+    assert check_likelihood_estimate(lambda log_w, r: None).problems == [
+        "the function returned None: compute and return log p^(z_1:K), one float"]
+    assert "not one float" in check_likelihood_estimate(lambda log_w, r: np.zeros(3)).problems[0]
+    assert "raised ZeroDivisionError" in str(check_likelihood_estimate(lambda log_w, r: 1 / 0))
