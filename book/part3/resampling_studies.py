@@ -135,7 +135,7 @@ plt.show()
 # %% tags=["remove-input"] jupyter={"source_hidden": true}
 sis = th_table[th_table["threshold"] == 0.0]
 sis_overconfident = int((sis["mean_nees"] > 1e6).sum())
-th_vs = paired_vs(th_table, "threshold", 0.333)
+th_vs = paired_vs(th_table, "threshold", 0.333, printed=False)
 th_medians = median(th_table, "threshold", "position_rmse")
 resampling = th_medians[th_medians.index >= 0.2]
 resamples = median(th_table, "threshold", "resamples")
@@ -215,7 +215,7 @@ ax.legend(loc="upper left", bbox_to_anchor=(1.02, 1.0))
 plt.show()
 
 # %% tags=["remove-input"] jupyter={"source_hidden": true}
-lin_vs = paired_vs(lin_table, "threshold", 0.333, metric="robot_gap")
+lin_vs = paired_vs(lin_table, "threshold", 0.333, metric="robot_gap", printed=False)
 lin_robot = median(lin_table, "threshold", "robot_gap")
 lin_landmark = median(lin_table, "threshold", "landmark_gap")
 glue_values("lin_", robot_0=lin_robot[0.0], zero_vs_third=lin_vs[0.0].median, zero_vs_third_low=lin_vs[0.0].low,

@@ -40,10 +40,10 @@ def median(table: pd.DataFrame, by, metric: str) -> pd.Series:
     return summarize(table, by, metric)["q50"]
 
 
-def paired_vs(table: pd.DataFrame, by: str, reference, metric: str = "position_rmse") -> dict:
+def paired_vs(table: pd.DataFrame, by: str, reference, metric: str = "position_rmse", printed: bool = True) -> dict:
     """Each setting against ``reference`` on the same seeds: median ratio of ``metric``, its 95 % interval, Wilcoxon p.
 
-    Prints the table and returns ``{setting: pfcourse.evidence.Paired}``; runs that failed in
+    Prints the table (unless ``printed`` is False: an evidence block shows it) and returns ``{setting: pfcourse.evidence.Paired}``; runs that failed in
     either setting are left out.
     """
     ref = table[table[by] == reference].set_index("seed")[metric]
@@ -59,7 +59,8 @@ def paired_vs(table: pd.DataFrame, by: str, reference, metric: str = "position_r
         rows.append({by: value, f"{metric} ratio to {by} = {reference:g}": cmp.median, "95% CI low": cmp.low,
                      "95% CI high": cmp.high, "Wilcoxon p": cmp.pvalue, "paired runs": cmp.n,
                      "verdict": cmp.verdict().replace("A ", "")})
-    print(pd.DataFrame(rows).set_index(by).to_string(float_format=lambda v: f"{v:.3g}"))
+    if printed:
+        print(pd.DataFrame(rows).set_index(by).to_string(float_format=lambda v: f"{v:.3g}"))
     return out
 
 
