@@ -276,7 +276,7 @@ STUDIES: dict[str, Study] = {study.name: study for study in [
                   "divergence": "final horizontal error > 500 m or every particle lost"}),
     Study(name="terrain_map_error", row=terrain_remedies.map_error_row,
           grid={"setting": terrain_remedies.MAP_ERROR_SETTINGS},
-          n_runs=100, seeds="run", failures="raise", table="terrain_map_error.csv", provenance="terrain_map_error.json",
+          n_runs=50, seeds="run", failures="raise", table="terrain_map_error.csv", provenance="terrain_map_error.json",
           columns=terrain_remedies.MAP_ERROR_COLUMNS, seed_column="flight",
           cheap=lambda t: t["setting"] == "bootstrap N=3000", sample=2,  # the others take a second or more each
           row_code="pfcourse/experiments/terrain_remedies.py (map_error_row)",
