@@ -286,6 +286,13 @@ STUDIES: dict[str, Study] = {study.name: study for study in [
                   "seeds": "flight r: pfcourse.seeding.data_rng(0, r); filter: pfcourse.seeding.filter_rng(0, r); "
                            "map error: pfcourse.seeding.map_error_rng(0, r)",
                   "divergence": "final horizontal error > 500 m or every particle lost"}),
+    Study(name="terrain_error_paths", row=terrain_remedies.error_path_row,
+          grid={"setting": terrain_remedies.ERROR_PATH_SETTINGS},
+          n_runs=100, seeds="run", failures="raise", table="terrain_error_paths.csv",
+          provenance="terrain_error_paths.json", columns=terrain_remedies.ERROR_PATH_COLUMNS, seed_column="flight",
+          arrays=("errors",), sample=2, row_code="pfcourse/experiments/terrain_remedies.py (error_path_row)",
+          fields={"seeds": "flight r: pfcourse.seeding.data_rng(0, r); filter: pfcourse.seeding.filter_rng(0, r)",
+                  "divergence": "final horizontal error > 500 m or every particle lost"}),
 ]}
 
 

@@ -155,3 +155,24 @@ def map_error_row(seed: int, setting: str) -> dict:
         out = run_one(setting, seed, world, filter_terrain=seen)
     return {"setting": setting, "flight": seed, "final_error": out["final_error"], "mean_error": out["mean_error"],
             "lost": out["lost"], "map_error_sd": sd}
+
+
+#: The error-path study (``book/data/terrain_error_paths.csv`` and ``.npz``): the horizontal error of
+#: a setting at every step of flights 0-99, for its root-mean-square error over time against the
+#: posterior Cramér-Rao bound (the same flights and filter seeds as ``terrain_remedies``).
+ERROR_PATH_SETTINGS = ["regularised N=30000"]
+ERROR_PATH_COLUMNS = ("setting", "flight", "lost", "errors", "seconds")
+
+
+def error_path_row(seed: int, setting: str) -> dict:
+    """Flight ``seed`` filtered with ``setting``: lost flag and the horizontal error (m) at every step."""
+    terrain = jacksboro()
+    scenario = AircraftScenario()
+    flight = simulate(scenario, terrain, data_rng(0, seed))
+    pf, _ = make_filter(setting, scenario, terrain)
+    try:
+        res = pf.run(flight.measurements, rng=filter_rng(0, seed))
+    except DegenerateWeightsError:
+        return {"setting": setting, "flight": seed, "lost": True, "errors": np.full(scenario.n_steps, np.inf)}
+    e = position_error(flight.truth, res.mean)
+    return {"setting": setting, "flight": seed, "lost": bool(e[-1] > DIVERGED_ERROR), "errors": e}
