@@ -240,8 +240,8 @@ plt.show()
 # :::
 #
 # `ParticleFilter(scenario.model(terrain), N, threshold=0.5, resampler="multinomial")` runs it.
-# Step 2.2 in NumPy, on the engine's own particles of a flight, checked against the model's
-# compiled likelihood:
+# The weighting step in NumPy, on the engine's own particles of a flight, checked against the
+# model's compiled likelihood:
 
 # %%
 def altimeter_log_likelihood(particles, reading, terrain, Rf):
@@ -472,8 +472,8 @@ EvidenceBlock(
 #
 # Each setting is compared with the baseline **on the same flights**: the share of flights lost
 # with its Wilson interval and the exact McNemar test on the flights lost by one and not the
-# other; and, on the flights both converge on, the median ratio of final errors with its 95 %
-# bootstrap interval and the Wilcoxon signed-rank test. Each study's table is in its evidence block.
+# other; and, on the flights both converge on, the median ratio of final errors with its
+# 95 % bootstrap interval and the Wilcoxon signed-rank test. Each study's table is in its evidence block.
 
 # %% tags=["remove-input"] jupyter={"source_hidden": true}
 studies_table = pd.read_csv(Path("../data/terrain_studies.csv"))
@@ -637,10 +637,11 @@ study_evidence("period", "period", "measuring at 10 Hz ends closer to the truth;
 # unchanged). At $10$ Hz the regularised filter ends at {glue:text}`period_1_ratio:.2f` times the
 # baseline's error ({glue:text}`period_1_ratio_low:.2f`-{glue:text}`period_1_ratio_high:.2f`): the
 # ten times more readings help, as they should, here where the filter's map is the world's
-# ({doc}`terrain_cure` tests the claim with a map that is not). The kernel move after each of its
-# {glue:text}`period_fast_resamplings:.0f` resamplings keeps the cloud from running out of
-# distinct particles. Every $10$ s, the filter loses {glue:text}`period_0_lost:.2f` of the
-# flights: eight readings are too few.
+# ({doc}`terrain_cure` tests the claim with a map that is not). The kernel move after each
+# resampling keeps the cloud from running out of distinct particles.
+#
+# Every $10$ s, the filter loses {glue:text}`period_0_lost:.2f` of the flights: eight readings are
+# too few.
 
 # %% tags=["remove-input"] jupyter={"source_hidden": true}
 study_evidence("scheme", "scheme", "the three resampling schemes are not told apart")
@@ -785,8 +786,8 @@ display(panel)
 # ```{exercise} 14.4 Write the altimeter's likelihood, and have it checked
 # :label: ex-terrain-likelihood
 # :nonumber:
-# (Coding.) Write `my_log_likelihood(particles, y, heights, dx, dy, rf)`: step 2.2 of
-# Algorithm 14.1 without the help of `TerrainMap.height`. `particles` has shape `(N, 4)`, rows
+# (Coding.) Write `my_log_likelihood(particles, y, heights, dx, dy, rf)`: the weighting step
+# of Algorithm 14.1 without the help of `TerrainMap.height`. `particles` has shape `(N, 4)`, rows
 # $(x, y, z, \psi)$ in metres; `heights[i, j]` is the terrain height at $(j\,dx, i\,dy)$, row $0$
 # the southern edge; `rf` is the variance $R_f$. Interpolate the height bilinearly, return
 # $\log \mathcal N(y; z - h(x, y), R_f)$ for each particle, and $-\infty$ for a particle outside
