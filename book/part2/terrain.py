@@ -184,7 +184,7 @@ plt.show()
 # | prior std of $z$, $\psi$ | $100$ m, $20°$ | same | vertical and angular, not horizontal lengths |
 # | $Q_f$ | $\mathrm{diag}(3, 3, 0.6, 0.001 \cdot 180/\pi)^2$ | same | see below |
 # | $R = R_f$ | $20^2$ m² | same | the altimeter is the same |
-# | particles, threshold | $3000$, $N_\text{eff} < 0.5N$, multinomial | same | |
+# | particles, threshold | $3000$, $\mathrm{ESS} < 0.5N$, multinomial | same | |
 #
 # The heading entry of $Q_f$ is the one the report's code actually used: it meant $0.001$ rad
 # but multiplied by $180/\pi$ instead of $\pi/180$, which gives $0.057$ rad ($3.3°$) per second.
@@ -236,7 +236,7 @@ plt.show()
 #    2. *weight:* if a reading $y_k$ arrived, $\log \tilde w_k^i = \log W_{k-1}^i + \log p(y_k \mid x_k^i)$ with
 #       the bilinear height of the DEM ($-\infty$ off the map); normalise with a logsumexp;
 #    3. *estimate:* $\hat x_k = \sum_i W_k^i x_k^i$ (the heading by its circular mean);
-#    4. *resample* (multinomial) if $N_\text{eff} = 1/\sum_i (W_k^i)^2 < \tau N$, $\tau = 0.5$.
+#    4. *resample* (multinomial) if $\mathrm{ESS}_k = 1/\sum_i (W_k^i)^2 < \tau N$, $\tau = 0.5$.
 # :::
 #
 # `ParticleFilter(scenario.model(terrain), N, threshold=0.5, resampler="multinomial")` runs it.
@@ -373,10 +373,10 @@ HTML(anim.to_jshtml())
 # Watch the first seconds of the animation: the cloud does not shrink as one blob. After a
 # few readings it breaks into separate clusters, each a place on the map whose terrain
 # profile fits the readings so far, and only later do all but one die out. The posterior is
-# *multimodal*. The snapshots below say how much of the weight lies within $500$ m of the truth
-# at a few times: at $t = 0$ the weights are equal and this is the prior's mass near the truth;
-# later it grows as the readings rule out the other places, and the rest of the weight sits on
-# the other candidate clusters.
+# *multimodal*. Each snapshot's title gives the share of the weight within $500$ m of the truth
+# (the cross): at $t = 0$ the weights are equal and this is the prior's mass near the truth; it
+# grows only as the readings rule out the other places, and the rest of the weight sits on the
+# other candidate clusters.
 
 # %%
 fig, axes = plt.subplots(1, 4, figsize=(10, 3.5), layout="constrained")
@@ -387,7 +387,7 @@ for ax, k in zip(axes, (0, 4, 10, 30)):
     ax.plot(run.particles[k, idx, 0] / KM, run.particles[k, idx, 1] / KM, ".", ms=1.5, color=COLORS["particles"])
     ax.plot(flight.truth[k, 0] / KM, flight.truth[k, 1] / KM, "x", color=COLORS["truth"], ms=8, mew=2)
     near = np.sum(w[position_error(flight.truth[k], run.particles[k]) <= 500.0])
-    ax.set_title(f"t = {k} s: {near:.0%} of the weight\nwithin 500 m of the truth")
+    ax.set_title(f"t = {k} s\n{near:.0%} of weight within 500 m")
     c = flight.truth[k, :2] / KM
     ax.set_xlim(c[0] - 6, c[0] + 6)
     ax.set_ylim(c[1] - 6, c[1] + 6)
