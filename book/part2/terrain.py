@@ -637,8 +637,8 @@ study_evidence("period", "period", "measuring at 10 Hz ends closer to the truth;
 # unchanged). At $10$ Hz the regularised filter ends at {glue:text}`period_1_ratio:.2f` times the
 # baseline's error ({glue:text}`period_1_ratio_low:.2f`-{glue:text}`period_1_ratio_high:.2f`): the
 # ten times more readings help, as they should, here where the filter's map is the world's
-# ({doc}`terrain_cure` tests the claim with a map that is not). The kernel move after each
-# resampling keeps the cloud from running out of distinct particles.
+# ({doc}`terrain_cure` re-measures it with a map that is not, and there it fails). The kernel
+# move after each resampling keeps the cloud from running out of distinct particles.
 #
 # Every $10$ s, the filter loses {glue:text}`period_0_lost:.2f` of the flights: eight readings are
 # too few.
