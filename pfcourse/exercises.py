@@ -1416,3 +1416,163 @@ def check_likelihood_estimate(fn: Callable, n_particles: int = 8, seed: int = 0,
                            f"{likelihood_estimate(log_w, ESTIMATOR_RESAMPLED):.6g}: add log sum_i W_(k-1)^i w_k^i "
                            "over the steps, with W normalised after each step and reset to 1/N after a resampling")
     return report
+
+
+# ----------------------------------------------------------------------------------------------
+# Terrain navigation: the altimeter likelihood on a DEM, and the regularised filter's kernel move
+# ----------------------------------------------------------------------------------------------
+
+#: A small DEM for :func:`check_altimeter_likelihood`: 7 rows (north) by 9 columns (east), cells of
+#: 80 m east-west and 100 m north-south (unequal, and a non-square grid, so swapped axes show).
+ALTIMETER_HEIGHTS = 300.0 + 60.0 * np.sin(np.arange(7)[:, None] * 0.9) * np.cos(np.arange(9)[None, :] * 0.7) \
+    + 25.0 * np.arange(9)[None, :]
+ALTIMETER_DX, ALTIMETER_DY, ALTIMETER_RF = 80.0, 100.0, 20.0**2
+#: mistake -> the sentence that names it (:func:`altimeter_log_likelihood`'s ``mistake``).
+ALTIMETER_MISTAKES = {
+    "swapped": "x indexes the columns of the map (j = x / dx) and y its rows (i = y / dy), not the other way round",
+    "nearest": "the height is read at the nearest node: interpolate bilinearly between the four corners of the cell",
+    "rf_as_sd": "Rf is the variance of the altimeter's noise, so the standard deviation is sqrt(Rf)",
+    "sign": "the altimeter reads the height above the ground, z - h(x, y), not h(x, y) - z",
+    "no_constant": "the Gaussian log-density has the term -(1/2) log(2 pi Rf), which your values lack",
+}
+
+
+def altimeter_log_likelihood(particles: np.ndarray, y: float, heights: np.ndarray, dx: float, dy: float,
+                             rf: float, mistake: str | None = None) -> np.ndarray:
+    """``log N(y; z - h(x, y), Rf)`` of each particle ``(x, y, z, psi)``, ``h`` bilinear on ``heights[i, j]``
+    at ``(j dx, i dy)``; ``-inf`` outside ``[0, (nx-1) dx] x [0, (ny-1) dy]``. With a ``mistake`` of
+    :data:`ALTIMETER_MISTAKES`, what that mistake computes (for the checker)."""
+    p = np.asarray(particles, dtype=float)
+    h = np.asarray(heights, dtype=float)
+    if mistake == "swapped":
+        h, dx, dy = h.T, dy, dx
+    ny, nx = h.shape
+    col, row = p[:, 0] / dx, p[:, 1] / dy
+    inside = (col >= 0) & (col <= nx - 1) & (row >= 0) & (row <= ny - 1)
+    j = np.clip(np.floor(col), 0, nx - 2).astype(int)
+    i = np.clip(np.floor(row), 0, ny - 2).astype(int)
+    s, t = np.clip(col - j, 0, 1), np.clip(row - i, 0, 1)
+    if mistake == "nearest":
+        s, t = np.round(s), np.round(t)
+    ground = (1 - s) * (1 - t) * h[i, j] + s * (1 - t) * h[i, j + 1] + (1 - s) * t * h[i + 1, j] + s * t * h[i + 1, j + 1]
+    predicted = ground - p[:, 2] if mistake == "sign" else p[:, 2] - ground
+    var = rf**2 if mistake == "rf_as_sd" else rf
+    out = -0.5 * (y - predicted) ** 2 / var - (0.0 if mistake == "no_constant" else 0.5 * np.log(2 * np.pi * var))
+    return np.where(inside, out, -np.inf)
+
+
+def check_altimeter_likelihood(fn: Callable, seed: int = 0) -> CheckReport:
+    """Check ``fn(particles, y, heights, dx, dy, rf) -> (N,)``, the altimeter's log-likelihood on a DEM.
+
+    ``log p(y | x^i) = log N(y; z^i - h(x^i, y^i), Rf)``, with ``h`` the bilinear height of the map
+    ``heights[i, j]`` at ``(j dx, i dy)`` (row 0 the south) and ``-inf`` off the map. Compared with
+    :func:`altimeter_log_likelihood` to round-off on particles drawn over the test map
+    :data:`ALTIMETER_HEIGHTS` (a few of them off it); a wrong answer is compared with each mistake of
+    :data:`ALTIMETER_MISTAKES` and the one that fits is named.
+    """
+    report = CheckReport("altimeter likelihood")
+    rng = np.random.default_rng(seed)
+    ny, nx = ALTIMETER_HEIGHTS.shape
+    n = 200
+    particles = np.column_stack([rng.uniform(-40, (nx - 1) * ALTIMETER_DX + 40, n),
+                                 rng.uniform(-40, (ny - 1) * ALTIMETER_DY + 40, n),
+                                 rng.normal(1000.0, 30.0, n), rng.uniform(-np.pi, np.pi, n)])
+    y = 600.0
+    answer = _answer(report, lambda: fn(particles.copy(), y, ALTIMETER_HEIGHTS.copy(), ALTIMETER_DX, ALTIMETER_DY,
+                                        ALTIMETER_RF), "fn(particles, y, heights, dx, dy, rf)",
+                     "return one log-likelihood per particle")
+    if answer is None:
+        return report
+    answer = np.asarray(answer, dtype=float)
+    if answer.shape != (n,):
+        report.problems.append(f"the answer has shape {answer.shape}, not ({n},): return one log-likelihood per "
+                               "particle (a row of particles)")
+        return report
+    exact = altimeter_log_likelihood(particles, y, ALTIMETER_HEIGHTS, ALTIMETER_DX, ALTIMETER_DY, ALTIMETER_RF)
+    off = ~np.isfinite(exact)
+
+    def fits(values):
+        gone = ~np.isfinite(values)
+        return (np.array_equal(gone, answer == -np.inf)
+                and np.allclose(answer[~gone], values[~gone], rtol=1e-9, atol=1e-9))
+
+    if fits(exact):
+        return report
+    for mistake, why in ALTIMETER_MISTAKES.items():
+        if fits(altimeter_log_likelihood(particles, y, ALTIMETER_HEIGHTS, ALTIMETER_DX, ALTIMETER_DY,
+                                         ALTIMETER_RF, mistake)):
+            report.problems.append(f"your function computes a known mistake: {why}")
+            return report
+    if not np.all(answer[off] == -np.inf):
+        report.problems.append("a particle off the map must get log-likelihood -inf (likelihood zero: there is no "
+                               "terrain under it), not a number or NaN")
+        return report
+    k = int(np.argmax(np.where(off, -np.inf, np.abs(answer - exact))))
+    report.problems.append(f"particle {k} at ({particles[k, 0]:.0f}, {particles[k, 1]:.0f}) m gets {answer[k]:.4f}, "
+                           f"not {exact[k]:.4f}: check the bilinear weights (1-s)(1-t), s(1-t), (1-s)t, st and "
+                           "the Gaussian log-density of y - (z - h)")
+    return report
+
+
+#: The cloud of :func:`check_regularised_jitter`: N particles in d = 3 dimensions, correlated and of
+#: unequal scales (so that a move with S instead of S^{1/2}, or with the identity, shows).
+JITTER_N = 20_000
+JITTER_SCALE = 0.5
+JITTER_COV = np.array([[400.0**2, 0.6 * 400.0 * 50.0, 0.0], [0.6 * 400.0 * 50.0, 50.0**2, 0.0], [0.0, 0.0, 0.2**2]])
+
+
+def check_regularised_jitter(fn: Callable, seed: int = 0) -> CheckReport:
+    """Check ``fn(particles, scale, rng) -> moved``, the regularised filter's kernel move.
+
+    ``x^i <- x^i + h S^{1/2} eps^i``, ``eps^i ~ N(0, I_d)`` independent for each particle, ``S`` the
+    cloud's covariance and ``h = scale * h_opt``, ``h_opt = (4 / (d + 2))^{1/(d+4)} N^{-1/(d+4)}``. The
+    moves ``D = moved - particles`` of a cloud of :data:`JITTER_N` correlated particles must have mean 0
+    and covariance ``h^2 S``: whitened by ``S`` and divided by ``h^2``, the covariance of ``D`` must be
+    the identity within 0.06 per entry (six standard errors, ``sqrt(2/N)`` each); the typical mistakes
+    (no bandwidth, ``S`` for its square root, the identity for ``S``, one draw shared by every particle,
+    the wrong exponent of ``N``) are named.
+    """
+    report = CheckReport("regularised jitter")
+    rng = np.random.default_rng(seed)
+    n, d = JITTER_N, JITTER_COV.shape[0]
+    particles = rng.multivariate_normal([1000.0, -200.0, 1.0], JITTER_COV, n)
+    answer = _answer(report, lambda: fn(particles.copy(), JITTER_SCALE, np.random.default_rng(seed + 1)),
+                     "fn(particles, scale, rng)", "return the moved particles, an array like particles")
+    if answer is None:
+        return report
+    moved = np.asarray(answer, dtype=float)
+    if moved.shape != particles.shape:
+        report.problems.append(f"the answer has shape {moved.shape}, not {particles.shape}: return every particle, moved")
+        return report
+    D = moved - particles
+    S = np.cov(particles, rowvar=False)
+    h = JITTER_SCALE * (4.0 / (d + 2)) ** (1.0 / (d + 4)) * n ** (-1.0 / (d + 4))
+    L = np.linalg.cholesky(S)
+    white = np.linalg.solve(L, D.T).T  # moves in the cloud's own coordinates: covariance h^2 I if right
+    C = np.cov(white, rowvar=False)
+    if np.all(np.abs(C) < 1e-12 * h**2):
+        report.problems.append("every particle moves by the same amount (or not at all): draw one independent "
+                               "eps^i ~ N(0, I_d) per particle, an (N, d) array")
+        return report
+    if np.max(np.abs(white.mean(axis=0)) / np.sqrt(np.diag(C))) > 6 / np.sqrt(n):
+        report.problems.append("the moves do not average to zero: the kernel is centred on each particle, "
+                               "x^i + h S^(1/2) eps^i with eps^i of mean 0")
+        return report
+    if np.max(np.abs(C / h**2 - np.eye(d))) < 0.06:
+        return report
+    ratio = np.trace(C) / d / h**2
+    raw = np.cov(D, rowvar=False)
+    if np.max(np.abs(C - np.eye(d))) < 0.06:
+        why = "the moves have covariance S, not h^2 S: multiply the kernel draw by the bandwidth h = scale * h_opt"
+    elif np.allclose(np.diag(raw) / h**2, 1.0, atol=0.06):
+        why = ("the moves have the same spread in every direction: scale them by a square root of the cloud's "
+               "covariance S, so a component spread over km moves by more than one spread over cm")
+    elif np.allclose(np.diag(raw) / h**2, np.diag(S @ S), rtol=0.1):
+        why = "the moves have covariance h^2 S^2: multiply eps by a square root of S (Cholesky or eigen), not by S"
+    elif abs(ratio - (n ** (-1.0 / d) / n ** (-1.0 / (d + 4))) ** 2) < 0.1 * ratio:
+        why = "the bandwidth uses N^(-1/d): the optimal one is (4 / (d + 2))^(1/(d+4)) N^(-1/(d+4))"
+    else:
+        why = (f"the moves' covariance is {ratio:.3g} times h^2 S (averaged over the axes), not h^2 S: check h_opt "
+               "and the square root of S")
+    report.problems.append(why)
+    return report

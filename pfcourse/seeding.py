@@ -16,6 +16,8 @@ stream                    key (entropy)                     used by             
                                                             ``r`` (and its initial cloud)   stream (for one ``N``: the same initial cloud)
 :func:`likelihood_rng`    ``[seed, r, 2]``                  the filter estimating the       one stream per flight for every value of the
                                                             likelihood of a noise scale     scale: the likelihood is a smooth function of it
+:func:`map_error_rng`     ``[seed, r, 3]``                  the error field of the terrain  flight ``r``'s filter map is the same for every
+                                                            filter's map on flight ``r``    filter, ``N`` and measurement period
 :func:`reference_rng`     ``[seed, r, 100 + i]``            the large-``N`` reference       independent of the studies' filter streams, one
                                                             filters, repeat ``i``           per repeat ``i``
 :func:`sized_filter_rng`  ``[seed, N]``, ``[seed, r, N]``   a filter run once per particle  the data are shared; each ``N`` (and run) has
@@ -30,8 +32,8 @@ plain seed                ``s`` (an ``int``), offsets such  single runs of the c
 flight), ``N`` the number of particles.  Within a run, the data and the filter never share a
 stream, so changing a filter setting cannot change the data it is compared on.  Keys of
 different rows can coincide (``sized_filter_rng(s, 1, run=r)`` is ``filter_rng(s, r)``,
-``sized_filter_rng(s, 7)`` is ``kidnap_rng(s)``, and ``N`` = 0 or 2 with a run meets
-``data_rng`` and ``likelihood_rng``); no study of the book uses two such streams
+``sized_filter_rng(s, 7)`` is ``kidnap_rng(s)``, and ``N`` = 0, 2 or 3 with a run meets
+``data_rng``, ``likelihood_rng`` and ``map_error_rng``); no study of the book uses two such streams
 together, and ``tests/test_seeding.py`` lists the coincidences so that a new use can be
 checked against them.  The keys
 are fixed: a stream changed here changes every stored result of the book.  Provenance
@@ -79,6 +81,11 @@ def filter_rng(seed: int, run: int) -> np.random.Generator:
 def likelihood_rng(seed: int, run: int) -> np.random.Generator:
     """The filter estimating a likelihood on the data of run ``run``: ``default_rng([seed, run, 2])``."""
     return _run_stream(seed, run, 2)
+
+
+def map_error_rng(seed: int, run: int) -> np.random.Generator:
+    """The random error field of the filter's terrain map on run ``run``: ``default_rng([seed, run, 3])``."""
+    return _run_stream(seed, run, 3)
 
 
 def reference_rng(seed: int, run: int, repeat: int) -> np.random.Generator:

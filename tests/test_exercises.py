@@ -772,3 +772,87 @@ def test_odd_estimator_answers_are_named():
         "the function returned None: compute and return log p^(z_1:K), one float"]
     assert "not one float" in check_likelihood_estimate(lambda log_w, r: np.zeros(3)).problems[0]
     assert "raised ZeroDivisionError" in str(check_likelihood_estimate(lambda log_w, r: 1 / 0))
+
+
+# --- terrain: the altimeter likelihood on a DEM (chapter 14) and the regularised jitter (chapter 15) ---
+
+from pfcourse.exercises import (ALTIMETER_MISTAKES, altimeter_log_likelihood,  # noqa: E402
+                                check_altimeter_likelihood, check_regularised_jitter)
+
+
+def altimeter_bilinear(particles, y, heights, dx, dy, rf, mistake=None):
+    """A student's answer written apart from the checker's reference: scipy's bilinear interpolation."""
+    from scipy.ndimage import map_coordinates
+    ny, nx = heights.shape
+    col, row = particles[:, 0] / dx, particles[:, 1] / dy
+    inside = (col >= 0) & (col <= nx - 1) & (row >= 0) & (row <= ny - 1)
+    ground = map_coordinates(heights, [row, col], order=1, mode="nearest")
+    out = -0.5 * (y - (particles[:, 2] - ground)) ** 2 / rf - 0.5 * np.log(2 * np.pi * rf)
+    if mistake == "nan_off_map":
+        return np.where(inside, out, np.nan)
+    return np.where(inside, out, -np.inf)
+
+
+def test_the_reference_altimeter_likelihoods_pass():
+    assert check_altimeter_likelihood(altimeter_log_likelihood).ok
+    for seed in range(3):
+        report = check_altimeter_likelihood(altimeter_bilinear, seed=seed)
+        assert report.ok, str(report)
+
+
+@pytest.mark.parametrize("mistake, says", [
+    ("swapped", "x indexes the columns"),
+    ("nearest", "nearest node"),
+    ("rf_as_sd", "Rf is the variance"),
+    ("sign", "not h(x, y) - z"),
+    ("no_constant", "-(1/2) log(2 pi Rf)"),
+])
+def test_each_typical_altimeter_mistake_gets_its_own_sentence(mistake, says):
+    report = check_altimeter_likelihood(lambda *a: altimeter_log_likelihood(*a, mistake=mistake))
+    assert not report.ok and len(report.problems) == 1
+    assert says in report.problems[0] and report.problems[0].endswith(ALTIMETER_MISTAKES[mistake])
+
+
+def test_an_off_map_particle_that_is_not_minus_infinity_is_named():
+    report = check_altimeter_likelihood(lambda *a: altimeter_bilinear(*a, mistake="nan_off_map"))
+    assert not report.ok and "must get log-likelihood -inf" in report.problems[0]
+
+
+def test_an_empty_altimeter_answer_gets_a_plain_sentence():
+    report = check_altimeter_likelihood(lambda *a: None)
+    assert report.problems == ["the function returned None: return one log-likelihood per particle"]
+
+
+def regularised_move(particles, scale, rng, mistake=None):
+    """The kernel move x + h S^(1/2) eps, and its typical mistakes."""
+    n, d = particles.shape
+    S = np.cov(particles, rowvar=False)
+    h = scale * (4 / (d + 2)) ** (1 / (d + 4)) * n ** (-1 / (d + 4))
+    if mistake == "no_h":
+        h = 1.0
+    if mistake == "exponent":
+        h = scale * (4 / (d + 2)) ** (1 / (d + 4)) * n ** (-1 / d)
+    root = {"S": S, "identity": np.eye(d)}.get(mistake, np.linalg.cholesky(S))
+    eps = np.tile(rng.standard_normal(d), (n, 1)) if mistake == "shared" else rng.standard_normal((n, d))
+    return particles + h * eps @ root.T
+
+
+def test_the_reference_jitters_pass_on_every_seed_tried():
+    from pfcourse.jitter import RegularisedJitter
+    for seed in range(4):
+        for fn in (regularised_move, lambda p, s, rng: RegularisedJitter(s)(p, rng)):
+            report = check_regularised_jitter(fn, seed=seed)
+            assert report.ok, str(report)
+
+
+@pytest.mark.parametrize("mistake, says", [
+    ("no_h", "multiply the kernel draw by the bandwidth"),
+    ("exponent", "uses N^(-1/d)"),
+    ("S", "not by S"),
+    ("identity", "the same spread in every direction"),
+    ("shared", "every particle moves by the same amount"),
+])
+def test_each_typical_jitter_mistake_gets_its_own_sentence(mistake, says):
+    report = check_regularised_jitter(lambda p, s, rng: regularised_move(p, s, rng, mistake))
+    assert not report.ok and len(report.problems) == 1
+    assert says in report.problems[0], report.problems[0]

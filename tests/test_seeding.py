@@ -12,6 +12,7 @@ from pfcourse.seeding import (
     data_rng,
     filter_rng,
     kidnap_rng,
+    map_error_rng,
     likelihood_rng,
     reference_rng,
     replicate_seed,
@@ -36,6 +37,7 @@ STREAMS = [
     (lambda: sized_filter_rng(1, 300), [1, 300]),
     (lambda: sized_filter_rng(12, 1000, run=3), [12, 3, 1000]),
     (lambda: kidnap_rng(9), [9, 7]),
+    (lambda: map_error_rng(0, 5), [0, 5, 3]),
 ]
 
 
@@ -111,6 +113,7 @@ def test_the_documented_coincidences_of_keys():
     """Keys of different rows of the table that coincide (the module docstring lists them):
     a new use of two such streams together would correlate them."""
     coincident = [(sized_filter_rng(4, 1, run=9), filter_rng(4, 9)), (sized_filter_rng(4, 7), kidnap_rng(4)),
-                  (sized_filter_rng(4, 0, run=9), data_rng(4, 9)), (sized_filter_rng(4, 2, run=9), likelihood_rng(4, 9))]
+                  (sized_filter_rng(4, 0, run=9), data_rng(4, 9)), (sized_filter_rng(4, 2, run=9), likelihood_rng(4, 9)),
+                  (sized_filter_rng(4, 3, run=9), map_error_rng(4, 9))]
     for a, b in coincident:
         np.testing.assert_array_equal(draws(a), draws(b))

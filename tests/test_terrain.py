@@ -268,3 +268,24 @@ def test_summary_counts_lost_runs_as_infinite_without_nan():
     s = res.summary()
     assert s["final_median"] == 20.0 and s["final_q90"] == np.inf
     assert s["diverged"] == 0.25 and not any(np.isnan(v) for v in s.values())
+
+
+def test_a_mismatched_map_has_the_stated_error_and_no_more():
+    """mismatched_map: the error field's standard deviation is the stated one exactly; with no
+    smoothing and no error the map is the truth; a negative size is refused by name."""
+    from pfcourse.errors import ParameterError
+    from pfcourse.seeding import map_error_rng
+    from pfcourse.terrain.map import TerrainMap, mismatched_map
+
+    rng = np.random.default_rng(3)
+    world = TerrainMap(rng.normal(500.0, 80.0, (40, 50)), 90.0, 75.0)
+    same = mismatched_map(world, map_error_rng(0, 1), smoothing=0.0, error_sd=0.0)
+    np.testing.assert_array_equal(same.heights, world.heights)
+    noisy = mismatched_map(world, map_error_rng(0, 1), smoothing=0.0, error_sd=10.0)
+    assert abs(np.std(noisy.heights - world.heights) - 10.0) < 1e-9
+    again = mismatched_map(world, map_error_rng(0, 1), smoothing=0.0, error_sd=10.0)
+    np.testing.assert_array_equal(noisy.heights, again.heights)  # seeded: one map per flight
+    smooth = mismatched_map(world, map_error_rng(0, 1), smoothing=1.0, error_sd=0.0)
+    assert np.std(smooth.heights) < np.std(world.heights)  # smoothing removes the cell-to-cell relief
+    with pytest.raises(ParameterError, match="error_sd"):
+        mismatched_map(world, map_error_rng(0, 1), error_sd=-1.0)

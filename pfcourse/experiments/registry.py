@@ -298,6 +298,25 @@ STUDIES: dict[str, Study] = {study.name: study for study in [
                   "max_range_m": association.MAX_RANGE, "n_particles": association.N_PARTICLES,
                   "seeds": "run r: robot and readings from pfcourse.seeding.data_rng(0, r); "
                            "particle filter: pfcourse.seeding.filter_rng(0, r)"}),
+    Study(name="terrain_map_error", row=terrain_remedies.map_error_row,
+          grid={"setting": terrain_remedies.MAP_ERROR_SETTINGS},
+          n_runs=50, seeds="run", failures="raise", table="terrain_map_error.csv", provenance="terrain_map_error.json",
+          columns=terrain_remedies.MAP_ERROR_COLUMNS, seed_column="flight",
+          cheap=lambda t: t["setting"] == "bootstrap N=3000", sample=2,  # the others take a second or more each
+          row_code="pfcourse/experiments/terrain_remedies.py (map_error_row)",
+          fields={"map": "filter's DEM: pfcourse.terrain.map.mismatched_map(true DEM, map_error_rng(0, r)): "
+                         "Gaussian smoothing of MAP_SMOOTHING_CELLS cells plus an error field of MAP_ERROR_SD m "
+                         "correlated over MAP_ERROR_CORRELATION_CELLS cells",
+                  "seeds": "flight r: pfcourse.seeding.data_rng(0, r); filter: pfcourse.seeding.filter_rng(0, r); "
+                           "map error: pfcourse.seeding.map_error_rng(0, r)",
+                  "divergence": "final horizontal error > 500 m or every particle lost"}),
+    Study(name="terrain_error_paths", row=terrain_remedies.error_path_row,
+          grid={"setting": terrain_remedies.ERROR_PATH_SETTINGS},
+          n_runs=100, seeds="run", failures="raise", table="terrain_error_paths.csv",
+          provenance="terrain_error_paths.json", columns=terrain_remedies.ERROR_PATH_COLUMNS, seed_column="flight",
+          arrays=("errors",), sample=2, row_code="pfcourse/experiments/terrain_remedies.py (error_path_row)",
+          fields={"seeds": "flight r: pfcourse.seeding.data_rng(0, r); filter: pfcourse.seeding.filter_rng(0, r)",
+                  "divergence": "final horizontal error > 500 m or every particle lost"}),
 ]}
 
 

@@ -25,12 +25,14 @@ from __future__ import annotations
 import numpy as np
 
 from pfcourse.errors import DegenerateWeightsError, ParameterError
+from pfcourse.experiments import terrain_studies
 from pfcourse.experiments.terrain import DIVERGED_ERROR, jacksboro
 from pfcourse.filter import ParticleFilter
 from pfcourse.jitter import RegularisedJitter
 from pfcourse.proposals import ProgressiveCorrection
-from pfcourse.seeding import data_rng, filter_rng, reference_rng
+from pfcourse.seeding import data_rng, filter_rng, map_error_rng, reference_rng
 from pfcourse.metrics import position_error
+from pfcourse.terrain.map import mismatched_map
 from pfcourse.terrain.scenario import AircraftScenario, simulate
 
 #: Q_f with the horizontal entries divided by 3, like every other horizontal length of the scenario.
@@ -85,12 +87,14 @@ def make_filter(setting: str, scenario: AircraftScenario, terrain):
     return ParticleFilter(model, n, threshold=1.0, resampler="multinomial", proposal=pc, jitter=jitter), pc
 
 
-def run_one(setting: str, run: int, terrain, scenario: AircraftScenario | None = None) -> dict:
+def run_one(setting: str, run: int, terrain, scenario: AircraftScenario | None = None,
+            filter_terrain=None) -> dict:
     """Filter flight ``run`` with ``setting``: final and time-averaged horizontal error (m), lost flag,
-    likelihood evaluations per particle (the cost in particle-steps / N)."""
+    likelihood evaluations per particle (the cost in particle-steps / N).  The flight is flown over
+    ``terrain``; the filter uses ``filter_terrain`` (default: the same map)."""
     scenario = scenario or AircraftScenario()
     flight = simulate(scenario, terrain, data_rng(0, run))
-    pf, pc = make_filter(setting, scenario, terrain)
+    pf, pc = make_filter(setting, scenario, terrain if filter_terrain is None else filter_terrain)
     n = pf.n_particles
     try:
         res = pf.run(flight.measurements, rng=filter_rng(0, run))
@@ -122,3 +126,53 @@ def reference_row(seed: int, N: int, repeat: int) -> dict:
             "mean_x": float(res.mean[-1, 0]), "mean_y": float(res.mean[-1, 1]),
             "sd_x": float(np.sqrt(res.cov[-1, 0, 0])), "sd_y": float(np.sqrt(res.cov[-1, 1, 1])),
             "true_x": float(sim.truth[-1, 0]), "true_y": float(sim.truth[-1, 1])}
+
+
+#: The map-error study (``book/data/terrain_map_error.csv``): flight ``r`` is flown over the true DEM and
+#: filtered on :func:`pfcourse.terrain.map.mismatched_map` of it, drawn from
+#: :func:`pfcourse.seeding.map_error_rng` ``(0, r)`` (one map per flight, the same for every setting).
+#: The settings: the baseline, the best cure, the best cure measuring at 10 Hz (the terrain chapter's
+#: period study), and the best cure told of its map's error (``Rf = R + var(map - truth)``).
+MAP_ERROR_SETTINGS = ["bootstrap N=3000", "regularised N=30000", "regularised N=30000, 10 Hz",
+                      "regularised N=30000, Rf + map error"]
+MAP_ERROR_COLUMNS = ("setting", "flight", "final_error", "mean_error", "lost", "map_error_sd", "seconds")
+
+
+def map_error_row(seed: int, setting: str) -> dict:
+    """Flight ``seed`` over the true map, filtered with ``setting`` on a mismatched map: final and mean
+    horizontal error (m), lost flag, and the map's error ``std(filter map - true map)`` (m)."""
+    if setting not in MAP_ERROR_SETTINGS:
+        raise ParameterError(f"unknown setting {setting!r}; known: {MAP_ERROR_SETTINGS}")
+    world = jacksboro()
+    seen = mismatched_map(world, map_error_rng(0, seed))
+    sd = float(np.std(seen.heights - world.heights))
+    if setting == "regularised N=30000, 10 Hz":
+        out = terrain_studies.study_row("period", "every 0.1 s, dt = 0.1 s", seed, world, filter_terrain=seen)
+    elif setting == "regularised N=30000, Rf + map error":
+        scenario = AircraftScenario()
+        out = run_one("regularised N=30000", seed, world, scenario.with_(Rf=scenario.R + sd**2), filter_terrain=seen)
+    else:
+        out = run_one(setting, seed, world, filter_terrain=seen)
+    return {"setting": setting, "flight": seed, "final_error": out["final_error"], "mean_error": out["mean_error"],
+            "lost": out["lost"], "map_error_sd": sd}
+
+
+#: The error-path study (``book/data/terrain_error_paths.csv`` and ``.npz``): the horizontal error of
+#: a setting at every step of flights 0-99, for its root-mean-square error over time against the
+#: posterior Cramér-Rao bound (the same flights and filter seeds as ``terrain_remedies``).
+ERROR_PATH_SETTINGS = ["regularised N=30000"]
+ERROR_PATH_COLUMNS = ("setting", "flight", "lost", "errors", "seconds")
+
+
+def error_path_row(seed: int, setting: str) -> dict:
+    """Flight ``seed`` filtered with ``setting``: lost flag and the horizontal error (m) at every step."""
+    terrain = jacksboro()
+    scenario = AircraftScenario()
+    flight = simulate(scenario, terrain, data_rng(0, seed))
+    pf, _ = make_filter(setting, scenario, terrain)
+    try:
+        res = pf.run(flight.measurements, rng=filter_rng(0, seed))
+    except DegenerateWeightsError:
+        return {"setting": setting, "flight": seed, "lost": True, "errors": np.full(scenario.n_steps, np.inf)}
+    e = position_error(flight.truth, res.mean)
+    return {"setting": setting, "flight": seed, "lost": bool(e[-1] > DIVERGED_ERROR), "errors": e}

@@ -76,11 +76,12 @@ def configure(study: str, setting: str, scenario: AircraftScenario | None = None
     return (scenario.with_(**sc) if sc else scenario), options
 
 
-def study_row(study: str, setting: str, flight: int, terrain) -> dict:
-    """Filter flight ``flight`` with a setting: errors (m), lost flag, sigma at 50 and 75 s, resamplings, ESS."""
+def study_row(study: str, setting: str, flight: int, terrain, filter_terrain=None) -> dict:
+    """Filter flight ``flight`` with a setting: errors (m), lost flag, sigma at 50 and 75 s, resamplings, ESS.
+    The flight is flown over ``terrain``; the filter uses ``filter_terrain`` (default: the same map)."""
     scenario, options = configure(study, setting)
     sim = simulate(scenario, terrain, data_rng(0, flight))
-    pf = ParticleFilter(scenario.model(terrain), options["n_particles"], threshold=options["threshold"],
+    pf = ParticleFilter(scenario.model(terrain if filter_terrain is None else filter_terrain), options["n_particles"], threshold=options["threshold"],
                         resampler=options["resampler"], jitter=RegularisedJitter(KERNEL_SCALE, (3,)))
     row = {"study": study, "setting": setting, "flight": flight}
     try:

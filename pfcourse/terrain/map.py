@@ -38,10 +38,10 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.ndimage import map_coordinates
+from scipy.ndimage import gaussian_filter, map_coordinates
 
 from pfcourse.checks import as_matrix, check_real, set_checked
-from pfcourse.errors import OffMapError, ShapeError
+from pfcourse.errors import OffMapError, ParameterError, ShapeError
 
 #: Mean radius of the Earth (m), IUGG value; one degree of latitude is 111.195 km.
 EARTH_RADIUS = 6_371_000.0
@@ -201,6 +201,34 @@ def load_jacksboro() -> TerrainMap:
         deg_lon=deg_lon,
         deg_lat=deg_lat,
     )
+
+
+#: The filter's map in the map-error study: the world's DEM smoothed by a Gaussian of this many cells
+#: (one standard deviation: what a coarser survey or a wide altimeter footprint sees) ...
+MAP_SMOOTHING_CELLS = 1.0
+#: ... plus a random error field of this standard deviation (m; a modern global DEM's vertical error
+#: is of this order) ...
+MAP_ERROR_SD = 10.0
+#: ... correlated over about this many cells (the standard deviation of the Gaussian that filters white noise).
+MAP_ERROR_CORRELATION_CELLS = 2.0
+
+
+def mismatched_map(terrain: TerrainMap, rng: np.random.Generator, smoothing: float = MAP_SMOOTHING_CELLS,
+                   error_sd: float = MAP_ERROR_SD, correlation: float = MAP_ERROR_CORRELATION_CELLS) -> TerrainMap:
+    """A map that is not the truth: ``G_s * h + e``, with ``G_s * h`` the heights smoothed by a Gaussian of
+    ``smoothing`` cells (0: none) and ``e = error_sd * (G_c * w) / std(G_c * w)``, ``w`` white Gaussian noise
+    at the nodes drawn from ``rng`` and ``G_c`` a Gaussian of ``correlation`` cells (0: white), so that the
+    error field's sample standard deviation over the map is exactly ``error_sd`` (m).
+    """
+    for name, value in (("smoothing", smoothing), ("error_sd", error_sd), ("correlation", correlation)):
+        if not check_real(value, name) >= 0:
+            raise ParameterError(f"{name} must be non-negative, got {value}")
+    smooth = gaussian_filter(terrain.heights, smoothing, mode="nearest") if smoothing > 0 else terrain.heights.copy()
+    noise = rng.standard_normal(terrain.shape)
+    field = gaussian_filter(noise, correlation, mode="wrap") if correlation > 0 else noise
+    field = error_sd * field / np.std(field)
+    return TerrainMap(heights=smooth + field, dx=terrain.dx, dy=terrain.dy, west=terrain.west, south=terrain.south,
+                      deg_lon=terrain.deg_lon, deg_lat=terrain.deg_lat)
 
 
 def hillshade(terrain: TerrainMap, azimuth: float = 315.0, altitude: float = 45.0) -> np.ndarray:
