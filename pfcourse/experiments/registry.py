@@ -275,7 +275,7 @@ STUDIES: dict[str, Study] = {study.name: study for study in [
                   "seeds": "flight r: pfcourse.seeding.data_rng(0, r); filter: pfcourse.seeding.filter_rng(0, r)",
                   "divergence": "final horizontal error > 500 m or every particle lost"}),
     *(Study(name=f"maprobot/{name}", row=row, grid=grid, n_runs=100, seeds="run", failures="raise",
-            table=f"maprobot/{name}.csv", provenance="maprobot/provenance.json", columns=columns, sample=1,
+            table=f"maprobot/{name}.csv", provenance=f"maprobot/{name}.json", columns=columns, sample=1,
             row_code=f"pfcourse/experiments/maprobot.py ({row.__name__})",
             fields={"seeds": "run s: drive and scans pfcourse.seeding.data_rng(s, 0); filter filter_rng(s, 0); "
                              "kidnapping kidnap_rng(s)", "dt": maprobot.DT, "inject": maprobot.INJECT})
