@@ -834,18 +834,12 @@ def check_log_likelihood(fn: Callable, n_particles: int = 50, seed: int = 0, rto
     """
     report = CheckReport("log-likelihood")
     x = np.random.default_rng(seed).normal([2.0, 0.0, 3.0, 0.5, 3.0, -0.5], 0.3, size=(n_particles, 6))
-    answers = []
-    for z in LIKELIHOOD_CASES:
-        answer = _answer(report, lambda: fn(x.copy(), z.copy(), LIKELIHOOD_H.copy(), LIKELIHOOD_R.copy()),
-                         "fn(x, z, H, R)", "compute and return one log-likelihood per particle")
-        if answer is None:
-            return report
-        answer = np.asarray(answer, dtype=float)
-        if answer.shape != (n_particles,):
-            report.problems.append(f"the answer has shape {answer.shape}, not ({n_particles},): return one "
-                                   "log-likelihood per particle (a row of x)")
-            return report
-        answers.append(answer)
+    answers = _cloud_answers(report, [lambda z=z: fn(x.copy(), z.copy(), LIKELIHOOD_H.copy(), LIKELIHOOD_R.copy())
+                                      for z in LIKELIHOOD_CASES], "fn(x, z, H, R)",
+                             "compute and return one log-likelihood per particle", n_particles,
+                             "log-likelihood per particle (a row of x)")
+    if answers is None:
+        return report
     if any(np.isnan(a).any() for a in answers):
         report.problems.append("the log-likelihood is NaN when a landmark is out of view: drop the NaN "
                                "coordinates of z, with their rows of H and their rows and columns of R")
@@ -854,12 +848,8 @@ def check_log_likelihood(fn: Callable, n_particles: int = 50, seed: int = 0, rto
         return all(np.allclose(a, landmark_log_likelihood(x, z, LIKELIHOOD_H, LIKELIHOOD_R, mistake),
                                rtol=rtol, atol=1e-9) for a, z in zip(answers, LIKELIHOOD_CASES))
 
-    if fits(None):
+    if _settled(report, fits, LIKELIHOOD_MISTAKES):
         return report
-    for mistake, why in LIKELIHOOD_MISTAKES.items():
-        if fits(mistake):
-            report.problems.append(f"your function computes a known mistake: {why}")
-            return report
     if np.any(answers[-1] != 0.0):
         report.problems.append("with nothing in view (z all NaN) the likelihood is the constant 1: return "
                                "zeros, one per particle")
@@ -954,29 +944,18 @@ def check_likelihood_field(fn: Callable, n_particles: int = 40, seed: int = 0, r
         z = rng.uniform(0.1, field.max_range, n_beams)
         z[rng.random(n_beams) < 0.2] = field.max_range  # no echo
         cases.append((z, field))
-    answers = []
-    for z, field in cases:
-        answer = _answer(report, lambda: fn(poses.copy(), z.copy(), field), "fn(poses, z, field)",
-                         "compute and return one log-weight per pose")
-        if answer is None:
-            return report
-        answer = np.asarray(answer, dtype=float)
-        if answer.shape != (n_particles,):
-            report.problems.append(f"the answer has shape {answer.shape}, not ({n_particles},): return one "
-                                   "log-weight per pose (a row of poses), summed over the beams")
-            return report
-        answers.append(answer)
+    answers = _cloud_answers(report, [lambda z=z, f=f: fn(poses.copy(), z.copy(), f) for z, f in cases],
+                             "fn(poses, z, field)", "compute and return one log-weight per pose", n_particles,
+                             "log-weight per pose (a row of poses), summed over the beams")
+    if answers is None:
+        return report
 
     def fits(mistake: str | None) -> bool:
         return all(np.allclose(a, field_log_weights(poses, z, f, mistake), rtol=rtol, atol=1e-9)
                    for a, (z, f) in zip(answers, cases))
 
-    if fits(None):
+    if _settled(report, fits, FIELD_MISTAKES):
         return report
-    for mistake, why in FIELD_MISTAKES.items():
-        if fits(mistake):
-            report.problems.append(f"your function computes a known mistake: {why}")
-            return report
     if any(np.isnan(a).any() for a in answers):
         report.problems.append("some log-weights are NaN: an end point off the map is infinitely far from a wall "
                                "(distance_at returns inf), whose Gaussian term is 0, not NaN")
@@ -985,3 +964,33 @@ def check_likelihood_field(fn: Callable, n_particles: int = 40, seed: int = 0, r
                            "point, read its distance d to the nearest wall, and add log(z_hit N(d; 0, sigma^2) + "
                            "z_rand / z_max)")
     return report
+
+
+def _cloud_answers(report: CheckReport, calls: list[Callable], signature: str, what: str, n: int,
+                   one: str) -> list[np.ndarray] | None:
+    """The answers of ``calls`` (one per case), each of shape ``(n,)``; ``None`` after reporting, in one
+    sentence, the first that raised, returned ``None`` (``what`` to do) or has another shape (``one``
+    value per row expected)."""
+    answers = []
+    for call in calls:
+        answer = _answer(report, call, signature, what)
+        if answer is None:
+            return None
+        answer = np.asarray(answer, dtype=float)
+        if answer.shape != (n,):
+            report.problems.append(f"the answer has shape {answer.shape}, not ({n},): return one {one}")
+            return None
+        answers.append(answer)
+    return answers
+
+
+def _settled(report: CheckReport, fits: Callable[[str | None], bool], mistakes: dict[str, str]) -> bool:
+    """Whether the answer ``fits`` the reference (nothing to report) or one of ``mistakes`` (reported with
+    its reason); ``False`` leaves the answer to the caller's own diagnosis."""
+    if fits(None):
+        return True
+    for mistake, why in mistakes.items():
+        if fits(mistake):
+            report.problems.append(f"your function computes a known mistake: {why}")
+            return True
+    return False
