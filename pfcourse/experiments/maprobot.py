@@ -16,6 +16,7 @@ from functools import lru_cache
 import numpy as np
 
 from pfcourse.filter import ParticleFilter
+from pfcourse.sample_size import KLDSampling
 from pfcourse.maprobot.grid import ROUTE, OccupancyGrid, rooms_and_corridor
 from pfcourse.maprobot.likelihood_field import LikelihoodField
 from pfcourse.maprobot.model import MapRobotModel
@@ -33,6 +34,9 @@ GLOBAL_STEPS, GLOBAL_N = 200, 1000
 KIDNAP_STEPS, KIDNAP_STEP, KIDNAP_N = 240, 40, 1000
 TRACKING_STEPS, TRACKING_N = 160, 300
 METHODS = {"bootstrap": 0.0, "injection": INJECT}
+#: KLD-sampling with AMCL's defaults: at most 5000 and at least 100 particles, kld_err = 0.01,
+#: kld_z = 0.99 (delta = 0.01), bins of 0.5 m x 0.5 m x 10 degrees.
+AMCL_KLD = {"n_max": 5000, "n_min": 100, "epsilon": 0.01, "delta": 0.01, "bin_size": (0.5, 0.5, float(np.deg2rad(10.0)))}
 
 
 @lru_cache(maxsize=1)
@@ -110,3 +114,16 @@ def tracking_row(seed: int, n_particles: int = TRACKING_N) -> dict:
     pos, head = errors(run.truth, run_filter(run, seed, n_particles, start=run.truth[0]).mean)
     return {"position_rmse": float(np.sqrt(np.mean(pos**2))), "heading_rmse": float(np.sqrt(np.mean(head**2))),
             "locked_on": bool(locked_on(pos, head, DT))}
+
+
+def kld_tracking_row(seed: int) -> dict:
+    """Tracking from the known start (as :func:`tracking_row`, same drive) by KLD-sampling with
+    :data:`AMCL_KLD`: position RMSE (m), locked on, and the number of particles after step 0."""
+    run = simulate(seed, TRACKING_STEPS)
+    model = MapRobotModel(book_map(), field(), run.drive.odometry, motion=MOTION, start=run.truth[0])
+    policy = KLDSampling(AMCL_KLD["bin_size"], n_min=AMCL_KLD["n_min"], epsilon=AMCL_KLD["epsilon"],
+                         delta=AMCL_KLD["delta"])
+    res = ParticleFilter(model, AMCL_KLD["n_max"], sample_size=policy).run(run.scans, rng=filter_rng(seed, 0))
+    pos, head = errors(run.truth, res.mean)
+    return {"position_rmse": float(np.sqrt(np.mean(pos**2))), "locked_on": bool(locked_on(pos, head, DT)),
+            "mean_particles": float(np.mean(res.sizes[1:])), "max_particles_after_start": int(np.max(res.sizes[1:]))}

@@ -285,7 +285,9 @@ STUDIES: dict[str, Study] = {study.name: study for study in [
           ("kidnap", maprobot.kidnap_row, {"method": ["injection"], "n_particles": [maprobot.KIDNAP_N]},
            ("method", "n_particles", "seed", "recovered", "recovery_s", "tracked_before")),
           ("tracking", maprobot.tracking_row, {"n_particles": [maprobot.TRACKING_N]},
-           ("n_particles", "seed", "position_rmse", "heading_rmse", "locked_on"))]),
+           ("n_particles", "seed", "position_rmse", "heading_rmse", "locked_on")),
+          ("kld_tracking", maprobot.kld_tracking_row, {},
+           ("seed", "position_rmse", "locked_on", "mean_particles", "max_particles_after_start"))]),
 ]}
 
 
