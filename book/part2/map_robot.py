@@ -433,7 +433,7 @@ EvidenceBlock(
 # ## The kidnapped robot
 #
 # The filter tracks the robot from its known start; after $20$ s the robot is carried to another
-# waypoint of its route, and its odometry reports no motion. The bootstrap filter cannot follow. With
+# waypoint of its route, and its odometry reports no motion: the cloud stays where the robot was. With
 # injection, a particle that lands near the new pose scores far better than the lost cloud and takes
 # over, but only a few land near enough: within the $100$ s left after the kidnapping, the filter
 # recovers in {glue:text}`lf_kidnap_recovered_rate:.0%` of the runs. Those that recover take a median
