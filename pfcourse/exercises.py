@@ -61,6 +61,11 @@ exception is reported as a problem); ``str(report)`` prints the verdict.
   mistakes of :data:`POSE_DENSITY_MISTAKES` (the bearing added, the Jacobian ``1 / h_r``, the
   direction's ``1 / (2 pi)`` or the truncation ``Phi(r / s_r)`` left out, the residual not wrapped,
   standard deviations read as variances) are named.
+* :func:`check_likelihood_field` - ``fn(poses, z, field) -> (N,)``: the likelihood-field log-weights of one
+  scan for a cloud of poses (Thrun, Burgard and Fox 2005, table 6.3), against :func:`field_log_weights`;
+  the mistakes of :data:`FIELD_MISTAKES` (max-range beams kept, the heading left out of the beam's
+  direction, no ``z_rand / z_max`` term, no Gaussian constant, a product of densities that underflows)
+  are named.
 """
 
 from __future__ import annotations
@@ -1576,3 +1581,138 @@ def check_regularised_jitter(fn: Callable, seed: int = 0) -> CheckReport:
                "and the square root of S")
     report.problems.append(why)
     return report
+
+
+# --- chapter 13: the likelihood-field log-weight of one scan for a cloud -------------------------------
+#: The mistakes :func:`check_likelihood_field` names, each with its one-sentence reason.
+FIELD_MISTAKES = {
+    "max_range_kept": "beams at the maximum range z_max hit nothing and give no end point: leave them out of "
+                      "the sum, as table 6.3 does",
+    "no_heading": "a beam points along theta + a_b, the robot's heading plus the beam's angle, not along a_b alone",
+    "no_rand": "the term z_rand / z_max is missing: without it an end point far from every wall makes the weight "
+               "vanish, and one stray reading ruins a good pose",
+    "no_constant": "the Gaussian density needs its factor 1 / (sqrt(2 pi) sigma): without it z_hit and z_rand "
+                   "are mixed in the wrong proportion",
+    "product": "the densities are multiplied and then logged: the product of hundreds of beams underflows to 0 "
+               "(log 0 = -inf); add the logs instead",
+}
+
+
+def field_log_weights(poses: np.ndarray, z: np.ndarray, field, mistake: str | None = None) -> np.ndarray:
+    """Table 6.3 in the log domain, ``sum_{b: z_b < z_max} log(z_hit N(d(e_b); 0, sigma^2) + z_rand / z_max)``
+    (``field`` a :class:`pfcourse.maprobot.LikelihoodField`), or one mistake of :data:`FIELD_MISTAKES`."""
+    use = np.ones(len(z), dtype=bool) if mistake == "max_range_kept" else z < field.max_range
+    heading = (0.0 if mistake == "no_heading" else poses[:, 2:3]) + field.angles[use]
+    ends = np.stack([poses[:, 0:1] + z[use] * np.cos(heading), poses[:, 1:2] + z[use] * np.sin(heading)], axis=-1)
+    d = field.grid.distance_at(ends)
+    norm = 1.0 if mistake == "no_constant" else np.sqrt(2 * np.pi) * field.sigma
+    dens = field.z_hit * np.exp(-0.5 * (d / field.sigma) ** 2) / norm
+    if mistake != "no_rand":
+        dens = dens + field.z_rand / field.max_range
+    with np.errstate(divide="ignore"):
+        return np.log(np.prod(dens, axis=1)) if mistake == "product" else np.log(dens).sum(axis=1)
+
+
+class _RoomGrid:
+    """A 6 m x 4 m room of 0.1 m cells with a wall stub, and ``distance_at`` as
+    :class:`pfcourse.maprobot.OccupancyGrid` has it (distance transform, ``inf`` off the map)."""
+
+    resolution = 0.1
+
+    def __init__(self) -> None:
+        from scipy.ndimage import distance_transform_edt
+
+        occ = np.zeros((40, 60), dtype=bool)
+        occ[0, :] = occ[-1, :] = occ[:, 0] = occ[:, -1] = True
+        occ[10:30, 30] = True
+        self.occupied = occ
+        self.distance = distance_transform_edt(~occ) * self.resolution
+
+    def distance_at(self, xy: np.ndarray) -> np.ndarray:
+        xy = np.asarray(xy, dtype=float)
+        j = np.floor(xy[..., 0] / self.resolution).astype(np.int64)
+        i = np.floor(xy[..., 1] / self.resolution).astype(np.int64)
+        inside = (i >= 0) & (i < self.occupied.shape[0]) & (j >= 0) & (j < self.occupied.shape[1])
+        return np.where(inside, self.distance[np.where(inside, i, 0), np.where(inside, j, 0)], np.inf)
+
+
+@dataclass(frozen=True)
+class FieldCase:
+    """What ``fn(poses, z, field)`` is given as ``field``: the grid and the likelihood field's parameters."""
+
+    grid: _RoomGrid
+    angles: np.ndarray
+    max_range: float = 4.0
+    z_hit: float = 0.9
+    z_rand: float = 0.1
+    sigma: float = 0.2
+
+
+def check_likelihood_field(fn: Callable, n_particles: int = 40, seed: int = 0, rtol: float = 1e-9) -> CheckReport:
+    """Check a student's ``fn(poses, z, field) -> (N,)``: the likelihood-field log-weights of one scan ``z``
+    (``(B,)``) for a cloud ``poses`` (``(N, 3)``) in a room, ``field`` a :class:`FieldCase` (its
+    ``grid.distance_at``, ``angles``, ``max_range``, ``z_hit``, ``z_rand``, ``sigma``, as
+    :class:`pfcourse.maprobot.LikelihoodField` has them).  Two cases: a scan of 24 beams and one of 360
+    (where a product of densities underflows), about a fifth of the beams at the maximum range.  An answer off
+    :func:`field_log_weights` by more than ``rtol`` is compared with each mistake of :data:`FIELD_MISTAKES`."""
+    report = CheckReport("likelihood field")
+    grid = _RoomGrid()
+    rng = np.random.default_rng(seed)
+    poses = np.column_stack([rng.uniform(0.3, 5.7, n_particles), rng.uniform(0.3, 3.7, n_particles),
+                             rng.uniform(-np.pi, np.pi, n_particles)])
+    cases = []
+    for n_beams in (24, 360):
+        field = FieldCase(grid, np.linspace(-np.pi, np.pi, n_beams, endpoint=False))
+        z = rng.uniform(0.1, field.max_range, n_beams)
+        z[rng.random(n_beams) < 0.2] = field.max_range  # no echo
+        cases.append((z, field))
+    answers = _cloud_answers(report, [lambda z=z, f=f: fn(poses.copy(), z.copy(), f) for z, f in cases],
+                             "fn(poses, z, field)", "compute and return one log-weight per pose", n_particles,
+                             "log-weight per pose (a row of poses), summed over the beams")
+    if answers is None:
+        return report
+
+    def fits(mistake: str | None) -> bool:
+        return all(np.allclose(a, field_log_weights(poses, z, f, mistake), rtol=rtol, atol=1e-9)
+                   for a, (z, f) in zip(answers, cases))
+
+    if _settled(report, fits, FIELD_MISTAKES):
+        return report
+    if any(np.isnan(a).any() for a in answers):
+        report.problems.append("some log-weights are NaN: an end point off the map is infinitely far from a wall "
+                               "(distance_at returns inf), whose Gaussian term is 0, not NaN")
+        return report
+    report.problems.append("the log-weights differ from table 6.3's: for each beam shorter than z_max, find its end "
+                           "point, read its distance d to the nearest wall, and add log(z_hit N(d; 0, sigma^2) + "
+                           "z_rand / z_max)")
+    return report
+
+
+def _cloud_answers(report: CheckReport, calls: list[Callable], signature: str, what: str, n: int,
+                   one: str) -> list[np.ndarray] | None:
+    """The answers of ``calls`` (one per case), each of shape ``(n,)``; ``None`` after reporting, in one
+    sentence, the first that raised, returned ``None`` (``what`` to do) or has another shape (``one``
+    value per row expected)."""
+    answers = []
+    for call in calls:
+        answer = _answer(report, call, signature, what)
+        if answer is None:
+            return None
+        answer = np.asarray(answer, dtype=float)
+        if answer.shape != (n,):
+            report.problems.append(f"the answer has shape {answer.shape}, not ({n},): return one {one}")
+            return None
+        answers.append(answer)
+    return answers
+
+
+def _settled(report: CheckReport, fits: Callable[[str | None], bool], mistakes: dict[str, str]) -> bool:
+    """Whether the answer ``fits`` the reference (nothing to report) or one of ``mistakes`` (reported with
+    its reason); ``False`` leaves the answer to the caller's own diagnosis."""
+    if fits(None):
+        return True
+    for mistake, why in mistakes.items():
+        if fits(mistake):
+            report.problems.append(f"your function computes a known mistake: {why}")
+            return True
+    return False

@@ -678,6 +678,40 @@ row("simulate_robot: scenario is a dict", lambda: simulate_robot({"dt": 1.0}, 0)
     "scenario must be a RobotScenario")
 
 
+# --- the map robot (pfcourse.maprobot): refused when the object is built --------------------------------
+def _map_rows():
+    from pfcourse.errors import OffMapError
+    from pfcourse.maprobot import (LikelihoodField, MapRobotModel, OccupancyGrid, OdometryModel, Scanner,
+                                   cast_rays, rooms_and_corridor)
+    box = np.zeros((10, 10), dtype=bool)
+    box[0, :] = box[-1, :] = box[:, 0] = box[:, -1] = True
+    grid = OccupancyGrid(box, 0.1)
+    lf = LikelihoodField(grid, np.zeros(1))
+    return [
+        ("OccupancyGrid of floats", lambda: OccupancyGrid(np.zeros((5, 5)), 0.1), ShapeError, "boolean"),
+        ("OccupancyGrid all walls", lambda: OccupancyGrid(np.ones((5, 5), dtype=bool), 0.1), ParameterError,
+         "no free cell"),
+        ("OccupancyGrid resolution 0", lambda: OccupancyGrid(box, 0.0), ParameterError, "resolution"),
+        ("rooms_and_corridor resolution 2 m", lambda: rooms_and_corridor(2.0), ParameterError, "resolution"),
+        ("OdometryModel negative alpha", lambda: OdometryModel((0.1, -0.1, 0.1, 0.1)), ParameterError, "alpha_2"),
+        ("OdometryModel two alphas", lambda: OdometryModel((0.1, 0.1)), ShapeError, "four numbers"),
+        ("Scanner mixture weights not summing to 1", lambda: Scanner(z_hit=0.5), ParameterError, "must be 1"),
+        ("Scanner with no beam", lambda: Scanner(n_beams=0), ParameterError, "n_beams"),
+        ("cast_rays from inside a wall", lambda: cast_rays(grid, np.array([[0.05, 0.05, 0.0]]), np.zeros(1), 1.0),
+         OffMapError, "in a wall"),
+        ("LikelihoodField sigma 0", lambda: LikelihoodField(grid, np.zeros(1), sigma=0.0), ParameterError, "sigma"),
+        ("LikelihoodField scan of the wrong length", lambda: lf.log_likelihood(np.zeros((2, 3)), np.ones(2)),
+         MeasurementError, "1 ranges"),
+        ("MapRobotModel odometry (K, 2)", lambda: MapRobotModel(grid, lf, np.zeros((5, 2))), ShapeError, "odometry"),
+        ("MapRobotModel inject 2", lambda: MapRobotModel(grid, lf, np.zeros((5, 3)), inject=2.0), ParameterError,
+         "inject"),
+    ]
+
+
+for _label, _call, _error, _fragment in _map_rows():
+    row(f"map robot: {_label}", _call, _error, _fragment)
+
+
 # --- valid but unusual: documented treatments -------------------------------------------
 def _offset(c):
     """Weights are invariant to a constant: the filter's answer moves only by the model's own

@@ -856,3 +856,55 @@ def test_each_typical_jitter_mistake_gets_its_own_sentence(mistake, says):
     report = check_regularised_jitter(lambda p, s, rng: regularised_move(p, s, rng, mistake))
     assert not report.ok and len(report.problems) == 1
     assert says in report.problems[0], report.problems[0]
+
+
+# --- chapter 13: the likelihood-field log-weight (check_likelihood_field) -------------------------------
+def student_field(poses, z, field, keep_max=False, no_heading=False, no_rand=False, no_constant=False,
+                  product=False):
+    """A student's table 6.3, written independently of field_log_weights; each flag one typical mistake."""
+    out = np.zeros(len(poses))
+    dens_all = []
+    for b, (zb, ab) in enumerate(zip(z, field.angles)):
+        if zb >= field.max_range and not keep_max:
+            continue
+        direction = ab + (0.0 if no_heading else poses[:, 2])
+        ends = np.column_stack([poses[:, 0] + zb * np.cos(direction), poses[:, 1] + zb * np.sin(direction)])
+        d = field.grid.distance_at(ends)
+        gauss = np.exp(-d**2 / (2 * field.sigma**2)) / (1.0 if no_constant else np.sqrt(2 * np.pi) * field.sigma)
+        dens = field.z_hit * gauss + (0.0 if no_rand else field.z_rand / field.max_range)
+        dens_all.append(dens)
+        with np.errstate(divide="ignore"):
+            out += np.log(dens)
+    if product:
+        with np.errstate(divide="ignore"):
+            return np.log(np.prod(dens_all, axis=0))
+    return out
+
+
+def test_likelihood_field_checker_passes_the_reference():
+    from pfcourse.exercises import check_likelihood_field
+    report = check_likelihood_field(student_field)
+    assert report.ok, str(report)
+    assert str(report) == "likelihood field: every check passed"
+
+
+@pytest.mark.parametrize("mistake, says", [
+    ({"keep_max": True}, "beams at the maximum range"),
+    ({"no_heading": True}, "the robot's heading plus the beam's angle"),
+    ({"no_rand": True}, "the term z_rand / z_max is missing"),
+    ({"no_constant": True}, "factor 1 / (sqrt(2 pi) sigma)"),
+    ({"product": True}, "underflows to 0"),
+])
+def test_each_typical_likelihood_field_mistake_gets_its_own_sentence(mistake, says):
+    from pfcourse.exercises import check_likelihood_field
+    report = check_likelihood_field(lambda p, z, f: student_field(p, z, f, **mistake))
+    assert not report.ok and len(report.problems) == 1
+    assert says in report.problems[0], report.problems[0]
+
+
+def test_likelihood_field_checker_names_odd_answers():
+    from pfcourse.exercises import check_likelihood_field
+    assert "differ from table 6.3's" in check_likelihood_field(lambda p, z, f: 2 * student_field(p, z, f)).problems[0]
+    assert "shape (40, 1)" in check_likelihood_field(lambda p, z, f: np.zeros((len(p), 1))).problems[0]
+    assert check_likelihood_field(lambda p, z, f: None).problems == [
+        "the function returned None: compute and return one log-weight per pose"]

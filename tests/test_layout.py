@@ -26,7 +26,7 @@ from pathlib import Path
 import pytest
 
 PACKAGE = Path(__file__).resolve().parents[1] / "pfcourse"
-SCENARIOS = ("landmarks", "robot", "terrain")
+SCENARIOS = ("landmarks", "robot", "terrain", "maprobot")
 LAYER = {"core": 0, **{s: 1 for s in SCENARIOS}, "experiments": 2, "figures": 3}
 
 

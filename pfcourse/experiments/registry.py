@@ -37,7 +37,7 @@ import pandas as pd
 from pfcourse.errors import ParameterError, StepError
 from pfcourse.experiments import association, global_localization
 from pfcourse.experiments import likelihood_studies as ls
-from pfcourse.experiments import rb_study, robot_studies, sir_fixes_study, terrain_remedies, terrain_studies
+from pfcourse.experiments import maprobot, rb_study, robot_studies, sir_fixes_study, terrain_remedies, terrain_studies
 from pfcourse.experiments.provenance import launch_commit, write_provenance
 from pfcourse.experiments.robot import pf_run
 from pfcourse.experiments.store import DATA, load, save
@@ -317,6 +317,20 @@ STUDIES: dict[str, Study] = {study.name: study for study in [
           arrays=("errors",), sample=2, row_code="pfcourse/experiments/terrain_remedies.py (error_path_row)",
           fields={"seeds": "flight r: pfcourse.seeding.data_rng(0, r); filter: pfcourse.seeding.filter_rng(0, r)",
                   "divergence": "final horizontal error > 500 m or every particle lost"}),
+    *(Study(name=f"maprobot/{name}", row=row, grid=grid, n_runs=100, seeds="run", failures="raise",
+            table=f"maprobot/{name}.csv", provenance=f"maprobot/{name}.json", columns=columns, sample=1,
+            row_code=f"pfcourse/experiments/maprobot.py ({row.__name__})",
+            fields={"seeds": "run s: drive and scans pfcourse.seeding.data_rng(s, 0); filter filter_rng(s, 0); "
+                             "kidnapping kidnap_rng(s)", "dt": maprobot.DT, "inject": maprobot.INJECT})
+      for name, row, grid, columns in [
+          ("global", maprobot.global_row, {"method": list(maprobot.METHODS), "n_particles": [maprobot.GLOBAL_N]},
+           ("method", "n_particles", "seed", "locked_on", "locked_from_s", "final_position_error")),
+          ("kidnap", maprobot.kidnap_row, {"method": ["injection"], "n_particles": [maprobot.KIDNAP_N]},
+           ("method", "n_particles", "seed", "recovered", "recovery_s", "tracked_before")),
+          ("tracking", maprobot.tracking_row, {"n_particles": [maprobot.TRACKING_N]},
+           ("n_particles", "seed", "position_rmse", "heading_rmse", "locked_on")),
+          ("kld_tracking", maprobot.kld_tracking_row, {},
+           ("seed", "position_rmse", "locked_on", "mean_particles", "max_particles_after_start"))]),
 ]}
 
 

@@ -1,0 +1,129 @@
+"""Studies of the map robot (chapter *A robot on a map*): tracking, global localization, the kidnapped robot.
+
+Every run ``seed`` drives the book's map (:func:`pfcourse.maprobot.grid.rooms_and_corridor`) along
+:data:`pfcourse.maprobot.grid.ROUTE` from a waypoint drawn from the run's data stream
+(:func:`pfcourse.seeding.data_rng`), with the scanner :data:`SCANNER`; the filter draws from
+:func:`pfcourse.seeding.filter_rng` (the same stream for every method: common random numbers), the
+kidnapping from :func:`pfcourse.seeding.kidnap_rng`.  The filters resample at every step
+(``threshold = 1``, systematic), as Monte Carlo localization does.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from functools import lru_cache
+
+import numpy as np
+
+from pfcourse.filter import ParticleFilter
+from pfcourse.sample_size import KLDSampling
+from pfcourse.maprobot.grid import ROUTE, OccupancyGrid, rooms_and_corridor
+from pfcourse.maprobot.likelihood_field import LikelihoodField
+from pfcourse.maprobot.model import MapRobotModel
+from pfcourse.maprobot.motion import Drive, OdometryModel, simulate_drive
+from pfcourse.maprobot.scanner import Scanner
+from pfcourse.metrics import heading_error, locked_from, locked_on, position_error
+from pfcourse.seeding import data_rng, filter_rng, kidnap_rng
+
+DT = 0.5  # s between scans
+MOTION = OdometryModel((0.05, 0.05, 0.05, 0.05))
+SCANNER = Scanner(n_beams=24, max_range=8.0)
+FIELD_SIGMA = 0.2  # m, the likelihood field's sigma (wider than the scanner's 0.05 m: the model is approximate)
+INJECT = 0.1  # the kidnap model's probability of being carried anywhere per step
+GLOBAL_STEPS, GLOBAL_N = 200, 1000
+KIDNAP_STEPS, KIDNAP_STEP, KIDNAP_N = 240, 40, 1000
+TRACKING_STEPS, TRACKING_N = 160, 300
+METHODS = {"bootstrap": 0.0, "injection": INJECT}
+#: KLD-sampling with AMCL's defaults: at most 5000 and at least 100 particles, kld_err = 0.01,
+#: kld_z = 0.99 (delta = 0.01), bins of 0.5 m x 0.5 m x 10 degrees.
+AMCL_KLD = {"n_max": 5000, "n_min": 100, "epsilon": 0.01, "delta": 0.01, "bin_size": (0.5, 0.5, float(np.deg2rad(10.0)))}
+
+
+@lru_cache(maxsize=1)
+def book_map() -> OccupancyGrid:
+    """The book's map at 0.1 m cells (built once per process)."""
+    return rooms_and_corridor(0.1)
+
+
+def field(grid: OccupancyGrid | None = None) -> LikelihoodField:
+    """The filter's likelihood field for :data:`SCANNER` on ``grid`` (the book's map by default)."""
+    return LikelihoodField(grid or book_map(), SCANNER.angles, SCANNER.max_range, sigma=FIELD_SIGMA)
+
+
+@dataclass(frozen=True)
+class MapRun:
+    """One simulated drive and its scans ``(K, B)``."""
+
+    drive: Drive
+    scans: np.ndarray
+
+    @property
+    def truth(self) -> np.ndarray:
+        return self.drive.truth
+
+
+def simulate(seed: int, n_steps: int, kidnap_at: int | None = None) -> MapRun:
+    """Run ``seed``'s drive and scans; with ``kidnap_at``, the robot is carried at that step to a waypoint
+    of the route drawn by :func:`~pfcourse.seeding.kidnap_rng` and drives on from there, its odometry
+    unaware of the jump (it reads no motion at that step)."""
+    grid, rng = book_map(), data_rng(seed, 0)
+    start = int(rng.integers(len(ROUTE)))
+    drive = simulate_drive(ROUTE, n_steps, rng, motion=MOTION, dt=DT, start=start)
+    if kidnap_at is not None:
+        jump = int(kidnap_rng(seed).integers(len(ROUTE)))  # the waypoint it is carried to
+        rest = simulate_drive(ROUTE, n_steps - kidnap_at, rng, motion=MOTION, dt=DT, start=jump)
+        drive = Drive(truth=np.vstack([drive.truth[:kidnap_at], rest.truth]),
+                      odometry=np.vstack([drive.odometry[:kidnap_at], rest.odometry]), dt=DT)
+    scans = np.array([SCANNER.sample(SCANNER.true_ranges(grid, x), rng) for x in drive.truth])
+    return MapRun(drive=drive, scans=scans)
+
+
+def errors(truth: np.ndarray, mean: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Position (m) and heading (rad) errors of an estimate, per step."""
+    return position_error(truth, mean), heading_error(truth, mean)
+
+
+def run_filter(run: MapRun, seed: int, n_particles: int, *, inject: float = 0.0, start: np.ndarray | None = None):
+    """The MCL filter (resampling every step) on ``run``: the engine's result."""
+    model = MapRobotModel(book_map(), field(), run.drive.odometry, motion=MOTION, start=start, inject=inject)
+    return ParticleFilter(model, n_particles, threshold=1.0).run(run.scans, rng=filter_rng(seed, 0))
+
+
+def global_row(seed: int, method: str, n_particles: int = GLOBAL_N) -> dict:
+    """Global localization (uniform start) by ``method`` (:data:`METHODS`): locked on, final errors."""
+    run = simulate(seed, GLOBAL_STEPS)
+    pos, head = errors(run.truth, run_filter(run, seed, n_particles, inject=METHODS[method]).mean)
+    return {"locked_on": bool(locked_on(pos, head, DT)), "locked_from_s": locked_from(pos, head) * DT,
+            "final_position_error": float(pos[-1])}
+
+
+def kidnap_row(seed: int, method: str, n_particles: int = KIDNAP_N) -> dict:
+    """Tracking from the known start, the robot carried away at :data:`KIDNAP_STEP`: recovery time (s)
+    from the kidnapping to the step from which the estimate stays locked (NaN if it never recovers)."""
+    run = simulate(seed, KIDNAP_STEPS, kidnap_at=KIDNAP_STEP)
+    pos, head = errors(run.truth, run_filter(run, seed, n_particles, inject=METHODS[method], start=run.truth[0]).mean)
+    start = locked_from(pos, head)
+    recovered = bool(locked_on(pos, head, DT))
+    return {"recovered": recovered, "recovery_s": (max(start, KIDNAP_STEP) - KIDNAP_STEP) * DT if recovered else np.nan,
+            "tracked_before": bool(np.all(pos[10:KIDNAP_STEP] < 1.0))}
+
+
+def tracking_row(seed: int, n_particles: int = TRACKING_N) -> dict:
+    """Tracking from the known start (bootstrap): position RMSE (m) and heading RMSE (rad) over the run."""
+    run = simulate(seed, TRACKING_STEPS)
+    pos, head = errors(run.truth, run_filter(run, seed, n_particles, start=run.truth[0]).mean)
+    return {"position_rmse": float(np.sqrt(np.mean(pos**2))), "heading_rmse": float(np.sqrt(np.mean(head**2))),
+            "locked_on": bool(locked_on(pos, head, DT))}
+
+
+def kld_tracking_row(seed: int) -> dict:
+    """Tracking from the known start (as :func:`tracking_row`, same drive) by KLD-sampling with
+    :data:`AMCL_KLD`: position RMSE (m), locked on, and the number of particles after step 0."""
+    run = simulate(seed, TRACKING_STEPS)
+    model = MapRobotModel(book_map(), field(), run.drive.odometry, motion=MOTION, start=run.truth[0])
+    policy = KLDSampling(AMCL_KLD["bin_size"], n_min=AMCL_KLD["n_min"], epsilon=AMCL_KLD["epsilon"],
+                         delta=AMCL_KLD["delta"])
+    res = ParticleFilter(model, AMCL_KLD["n_max"], sample_size=policy).run(run.scans, rng=filter_rng(seed, 0))
+    pos, head = errors(run.truth, res.mean)
+    return {"position_rmse": float(np.sqrt(np.mean(pos**2))), "locked_on": bool(locked_on(pos, head, DT)),
+            "mean_particles": float(np.mean(res.sizes[1:])), "max_particles_after_start": int(np.max(res.sizes[1:]))}
