@@ -66,6 +66,9 @@ exception is reported as a problem); ``str(report)`` prints the verdict.
   the mistakes of :data:`FIELD_MISTAKES` (max-range beams kept, the heading left out of the beam's
   direction, no ``z_rand / z_max`` term, no Gaussian constant, a product of densities that underflows)
   are named.
+* :func:`check_paired_se` - ``fn(a, b) -> (paired_se, unpaired_se)``: the standard error of a difference of
+  means over the same runs, paired and as if unpaired (chapter 17); the population standard deviation,
+  a division by ``n``, standard deviations added and the pairing ignored are named.
 """
 
 from __future__ import annotations
@@ -1716,3 +1719,69 @@ def _settled(report: CheckReport, fits: Callable[[str | None], bool], mistakes: 
             report.problems.append(f"your function computes a known mistake: {why}")
             return True
     return False
+
+
+# --- chapter 17: what common random numbers buy -------------------------------------------------------
+#: Two settings' errors on the same 40 runs (the first run by run correlated with the second, as the
+#: settings of a study with common random numbers are).
+def _paired_case(seed: int = 17, runs: int = 40) -> tuple[np.ndarray, np.ndarray]:
+    rng = np.random.default_rng(seed)
+    world = rng.gamma(4.0, 0.1, runs)  # what each simulated world makes hard, shared by both settings
+    return world + rng.normal(0.0, 0.05, runs), 1.05 * world + rng.normal(0.0, 0.05, runs)
+
+
+PAIRED_CASE = _paired_case()
+PAIRED_MISTAKES = {
+    "ddof0": "it uses the population standard deviation (np.std's default, ddof=0); the sample standard "
+             "deviation divides by n - 1 (ddof=1)",
+    "over_n": "it divides the standard deviation by n instead of sqrt(n): the standard error of a mean is s / sqrt(n)",
+    "unpaired_sum": "its unpaired standard error adds the standard deviations, (s_a + s_b) / sqrt(n); independent "
+                    "errors add their variances: sqrt((s_a^2 + s_b^2) / n)",
+    "paired_as_unpaired": "its paired standard error ignores the pairing (it is the unpaired one); pair the runs: "
+                          "the standard deviation of the differences a_r - b_r, over sqrt(n)",
+}
+
+
+def paired_standard_errors(a: np.ndarray, b: np.ndarray, mistake: str | None = None) -> tuple[float, float]:
+    """Standard errors of ``mean(a) - mean(b)``: paired ``sd(a - b) / sqrt(n)``, and as if the runs were
+    independent, ``sqrt((sd(a)^2 + sd(b)^2) / n)`` (sample standard deviations, ``ddof=1``). ``mistake`` (a key
+    of :data:`PAIRED_MISTAKES`) computes it instead."""
+    a, b = np.asarray(a, dtype=float), np.asarray(b, dtype=float)
+    n, ddof = len(a), 0 if mistake == "ddof0" else 1
+    root = n if mistake == "over_n" else np.sqrt(n)
+    sa, sb, sd = a.std(ddof=ddof), b.std(ddof=ddof), (a - b).std(ddof=ddof)
+    unpaired = (sa + sb) / root if mistake == "unpaired_sum" else np.sqrt(sa**2 + sb**2) / root
+    paired = unpaired if mistake == "paired_as_unpaired" else sd / root
+    return float(paired), float(unpaired)
+
+
+def check_paired_se(fn: Callable, rtol: float = 1e-9) -> CheckReport:
+    """Check a student's ``fn(a, b) -> (paired_se, unpaired_se)`` on :data:`PAIRED_CASE` against
+    :func:`paired_standard_errors`; the mistakes of :data:`PAIRED_MISTAKES` are named."""
+    report = CheckReport("paired and unpaired standard errors")
+    a, b = PAIRED_CASE
+    answer = _answer(report, lambda: fn(a.copy(), b.copy()), "fn(a, b)", "return (paired_se, unpaired_se)")
+    if answer is None:
+        return report
+    try:
+        paired, unpaired = (float(v) for v in answer)
+    except (TypeError, ValueError):
+        report.problems.append("the answer is not two numbers: return (paired_se, unpaired_se)")
+        return report
+
+    def fits(mistake: str | None) -> bool:
+        return bool(np.allclose([paired, unpaired], paired_standard_errors(a, b, mistake), rtol=rtol))
+
+    if fits(None):
+        return report
+    for mistake, why in PAIRED_MISTAKES.items():
+        if fits(mistake):
+            report.problems.append(f"your function computes a known mistake: {why}")
+            return report
+    if paired > unpaired:
+        report.problems.append("the paired standard error is larger than the unpaired one, although the runs are "
+                               "strongly correlated: pair a_r with b_r of the same run")
+        return report
+    report.problems.append("the values differ from sd(a - b) / sqrt(n) and sqrt((sd(a)^2 + sd(b)^2) / n) with "
+                           "sample standard deviations")
+    return report

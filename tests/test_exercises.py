@@ -908,3 +908,27 @@ def test_likelihood_field_checker_names_odd_answers():
     assert "shape (40, 1)" in check_likelihood_field(lambda p, z, f: np.zeros((len(p), 1))).problems[0]
     assert check_likelihood_field(lambda p, z, f: None).problems == [
         "the function returned None: compute and return one log-weight per pose"]
+
+
+# --- check_paired_se (chapter 17)
+from pfcourse.exercises import PAIRED_CASE, PAIRED_MISTAKES, check_paired_se, paired_standard_errors  # noqa: E402
+
+
+def test_paired_se_reference_passes_and_pairing_pays():
+    assert check_paired_se(paired_standard_errors).ok
+    paired, unpaired = paired_standard_errors(*PAIRED_CASE)
+    assert paired < unpaired / 3  # the case's runs are strongly correlated
+    a, b = PAIRED_CASE
+    assert paired == pytest.approx(np.std(a - b, ddof=1) / np.sqrt(len(a)), rel=1e-12)
+
+
+@pytest.mark.parametrize("mistake", list(PAIRED_MISTAKES))
+def test_paired_se_mistakes_are_named(mistake):
+    report = check_paired_se(lambda a, b: paired_standard_errors(a, b, mistake))
+    assert not report.ok and PAIRED_MISTAKES[mistake] in report.problems[0]
+
+
+def test_paired_se_other_answers_are_explained():
+    assert "not two numbers" in check_paired_se(lambda a, b: 1.0).problems[0]
+    assert "larger than the unpaired" in check_paired_se(lambda a, b: (1.0, 0.5)).problems[0]
+    assert "differ from sd(a - b)" in check_paired_se(lambda a, b: (0.001, 0.5)).problems[0]

@@ -533,6 +533,7 @@ EvidenceBlock(
 # | a model linear given part of the state | the Rao-Blackwellised particle filter | plain SIR on the whole state | {doc}`../part1/rao_blackwell` |
 # | robot tracking from a known start | the EKF (the UKF is as good, dearer) | the particle filter, less accurate and over-confident | this chapter, {doc}`../part2/robot_vs_kalman` |
 # | global localization, the kidnapped robot | a particle filter that samples poses from the readings (mixture proposal, injection) | the bootstrap filter; any Kalman filter | {doc}`../part2/global_localization` |
+# | a robot with a range scanner on a map | MCL with the likelihood field, injecting poses for global localization | the bootstrap filter | {doc}`../part2/map_robot` |
 # | landmarks that look alike, clutter, missed detections | a particle filter weighing every association | the nearest-neighbour EKF | {doc}`data_association` |
 # | terrain navigation, small prior | the EKF | | this chapter |
 # | terrain navigation, wide prior | the regularised particle filter | the bootstrap filter; the EKF and the UKF | this chapter, {doc}`../part2/terrain_cure` |
@@ -546,6 +547,11 @@ EvidenceBlock(
 # - Global localization: the mixture proposal locks on in a share
 #   {glue:text}`../part2/global_localization.ipynb::mcl_lock_on_rate:.2f` of the runs, the bootstrap
 #   filter at the same cost in {glue:text}`../part2/global_localization.ipynb::bootstrap_lock_on_rate:.2f`.
+#
+# - On the map: with random injection, likelihood-field MCL locks on in a share
+#   {glue:text}`../part2/map_robot.ipynb::lf_global_lock_on_rate:.2f` of the runs, the bootstrap filter
+#   in {glue:text}`../part2/map_robot.ipynb::lf_bootstrap_lock_on_rate:.2f`: better, and still far from
+#   the landmark robot's cure.
 #
 # - Unknown data association: with four clutter readings per step on average, the particle filter's
 #   mean position RMSE is {glue:text}`data_association.ipynb::association_pf_rmse_m:.2f` m, the
