@@ -13,8 +13,8 @@
 # :class: chapter-header
 # **You learn** how the terrain navigator of the field samples only what it must: a Kalman
 # filter for the altitude inside each particle (the marginalised particle filter), how many
-# flights it loses against the filters of {doc}`terrain_cure`, and how a grid filter gives the
-# near-exact posterior to compare them with.
+# flights it loses against the filters of {doc}`terrain_cure`, and what a grid filter over the
+# rest of the state needs to be the near-exact reference.
 #
 # **You need** {doc}`terrain`, {doc}`terrain_cure` and {doc}`../part1/rao_blackwell`; the scalar
 # Kalman filter; NumPy arrays.
@@ -252,7 +252,7 @@ EvidenceBlock(
 )
 
 # %% [markdown]
-# Integrating the altitude out loses {glue:text}`terrain_mpf_lost_n3000:.2f` of the flights at
+# The marginalised filter loses {glue:text}`terrain_mpf_lost_n3000:.2f` of the flights at
 # $N = 3000$ (95 % interval {glue:text}`terrain_mpf_lost_n3000_low:.2f` to
 # {glue:text}`terrain_mpf_lost_n3000_high:.2f`), against {glue:text}`terrain_mpf_boot_n3000:.2f`
 # for the bootstrap filter on the same flights.
@@ -277,7 +277,7 @@ EvidenceBlock(
 # leaves in the cloud, the Kalman filter removes a dimension. Nothing stops a filter from doing
 # both.
 #
-# ## A grid filter as the near-exact reference
+# ## A grid filter: a reference only when fine enough
 #
 # With the altitude integrated out the posterior lives in three dimensions, $(x, y, \psi)$,
 # few enough for a grid. The **point-mass filter** {cite:p}`bergman1999thesis` holds the
