@@ -53,6 +53,14 @@ def test_the_weight_is_the_predictive_density_and_zero_off_the_map():
     assert np.allclose(p, 900.0 * 400.0 / 1300.0, rtol=1e-13) and m[2] == mean[2]
 
 
+def test_the_model_alone_refuses_to_weight():
+    from pfcourse.filter import ParticleFilter
+
+    readings = np.full((SHORT.n_steps, 1), 1250.0)
+    with pytest.raises(ParameterError, match="AltitudeKalmanProposal"):
+        ParticleFilter(MarginalisedTerrainModel(FLAT, SHORT), 10).run(readings, rng=0)
+
+
 def test_a_prior_that_couples_altitude_is_refused():
     P0 = np.diag([300.0, 300.0, 100.0, 0.1]) ** 2
     P0[0, 2] = P0[2, 0] = 10.0

@@ -109,9 +109,10 @@ class MarginalisedTerrainModel:
                         np.ascontiguousarray(particles[:, 0]), np.ascontiguousarray(particles[:, 1]))
 
     def log_likelihood(self, particles: Array, z: Array, k: int) -> Array:
-        """The predictive density ``log N(y_k; m - h(p), P + Rf)`` (no update: see :class:`AltitudeKalmanProposal`)."""
-        return altitude_kalman_update(particles[:, 2], particles[:, 4], self.ground(particles),
-                                      float(np.ravel(z)[0]), float(self.scenario.Rf))[2]
+        """Not available: weighting without updating the altitude filters would be wrong."""
+        raise ParameterError(f"step {k}: MarginalisedTerrainModel weights and updates the altitude in its proposal; "
+                             "run it with proposal=AltitudeKalmanProposal() (marginalised_filter does) and no "
+                             "reading at time 0")
 
 
 class AltitudeKalmanProposal:
