@@ -1785,3 +1785,71 @@ def check_paired_se(fn: Callable, rtol: float = 1e-9) -> CheckReport:
     report.problems.append("the values differ from sd(a - b) / sqrt(n) and sqrt((sd(a)^2 + sd(b)^2) / n) with "
                            "sample standard deviations")
     return report
+
+
+# --- Terrain navigation: each particle's altitude Kalman update (chapter 16) ---
+
+ALTITUDE_MISTAKES: dict[str, str] = {
+    "ground_sign": "the ground height has the wrong sign: the altimeter reads altitude minus ground, so the "
+                   "predicted reading is m - h(p) and the innovation y - m + h(p)",
+    "weight_with_r": "the weight uses Rf where it needs S = P + Rf: the altitude is uncertain, so the predictive "
+                     "density of the reading is N(y; m - h(p), P + Rf), not N(y; m - h(p), Rf)",
+    "no_var_update": "the variance is not updated: after a reading P' = (1 - K) P, smaller than P",
+    "gain_over_r": "the gain is P / Rf: it is K = P / (P + Rf), which stays below one",
+}
+
+
+def altitude_update(mean: np.ndarray, var: np.ndarray, ground: np.ndarray, reading: float, rf: float,
+                    mistake: str | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Every particle's altitude update: ``(m', P', log N(nu; 0, S))`` with ``nu = y - (m - h)``, ``S = P + Rf``,
+    ``K = P / S``, ``m' = m + K nu``, ``P' = (1 - K) P``.  ``mistake`` (a key of :data:`ALTITUDE_MISTAKES`)
+    computes instead what that mistake computes."""
+    if mistake is not None and mistake not in ALTITUDE_MISTAKES:
+        raise ValueError(f"unknown mistake {mistake!r}; one of {sorted(ALTITUDE_MISTAKES)}")
+    nu = reading - (mean + ground if mistake == "ground_sign" else mean - ground)
+    s = var + rf
+    gain = var / (rf if mistake == "gain_over_r" else s)
+    s_lik = rf if mistake == "weight_with_r" else s
+    log_lik = -0.5 * (nu * nu / s_lik + np.log(2 * np.pi * s_lik))
+    return mean + gain * nu, var if mistake == "no_var_update" else (1.0 - gain) * var, log_lik
+
+
+#: Five particles over the terrain: predicted altitude means, their common variance, ground heights, a reading, Rf.
+ALTITUDE_CASE = dict(mean=np.array([1500.0, 1460.0, 1530.0, 1495.0, 1510.0]), var=np.full(5, 900.0),
+                     ground=np.array([250.0, 310.0, 180.0, 270.0, 205.0]), reading=1225.0, rf=400.0)
+
+
+def check_altitude_update(fn: Callable, rtol: float = 1e-9) -> CheckReport:
+    """Check a student's ``fn(mean, var, ground, reading, rf) -> (mean_new, var_new, log_lik)`` on
+    :data:`ALTITUDE_CASE`: each output must equal :func:`altitude_update` to ``rtol``; one that does not
+    is compared with every mistake of :data:`ALTITUDE_MISTAKES`, and the report names the one that fits."""
+    report = CheckReport("altitude Kalman update of every particle")
+    case = {key: np.copy(value) if isinstance(value, np.ndarray) else value for key, value in ALTITUDE_CASE.items()}
+    answer = _answer(report, lambda: fn(**case), "fn(mean, var, ground, reading, rf)",
+                     "return (mean_new, var_new, log_lik)")
+    if answer is None:
+        return report
+    try:
+        got = tuple(np.broadcast_to(np.asarray(part, dtype=float), (5,)) for part in answer)
+        if len(got) != 3:
+            raise ValueError
+    except (TypeError, ValueError):
+        report.problems.append("return three arrays of one value per particle (shape (5,)): the new means, the new "
+                               "variances and the log-weight increments")
+        return report
+
+    def same(expected) -> bool:
+        return all(np.allclose(g, e, rtol=rtol, atol=1e-12) for g, e in zip(got, expected))
+
+    if same(altitude_update(**ALTITUDE_CASE)):
+        return report
+    for mistake, why in ALTITUDE_MISTAKES.items():
+        if same(altitude_update(**ALTITUDE_CASE, mistake=mistake)):
+            report.problems.append(f"your update computes a known mistake: {why}")
+            return report
+    exact = altitude_update(**ALTITUDE_CASE)
+    part = next(name for name, g, e in zip(("mean", "variance", "log-weight increment"), got, exact)
+                if not np.allclose(g, e, rtol=rtol, atol=1e-12))
+    report.problems.append(f"the {part} differs from the Kalman update (nu = y - (m - h), S = P + Rf, K = P / S, "
+                           "m' = m + K nu, P' = (1 - K) P, log N(nu; 0, S)): check that line")
+    return report

@@ -340,6 +340,15 @@ row("terrain simulate: rng = 'seed'", lambda: simulate_flight(AircraftScenario()
 row("terrain simulate: initial_state with NaN",
     lambda: simulate_flight(AircraftScenario(), _TINY_MAP, 0, initial_state=[np.nan, 0.0, 0.0, 0.0]), ParameterError,
     "initial_state must be finite")
+from pfcourse.terrain.marginalised import MarginalisedTerrainModel  # noqa: E402
+from pfcourse.terrain.point_mass import PointMassFilter  # noqa: E402
+
+row("terrain marginalised model: scenario is a dict", lambda: MarginalisedTerrainModel(_TINY_MAP, {"dt": 1.0}),
+    ParameterError, "scenario must be an AircraftScenario")
+row("terrain point-mass filter: cell = -1", lambda: PointMassFilter(_TINY_MAP, AircraftScenario(), cell=-1.0),
+    ParameterError, "cell and heading_step must be positive")
+row("terrain point-mass filter: terrain is an array", lambda: PointMassFilter(np.zeros((3, 4)), AircraftScenario()),
+    ParameterError, "terrain must be a TerrainMap")
 
 # --- kalman_filter (scenario A's exact reference) --------------------------------------------
 from pfcourse.kalman import kalman_filter  # noqa: E402

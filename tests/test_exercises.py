@@ -932,3 +932,47 @@ def test_paired_se_other_answers_are_explained():
     assert "not two numbers" in check_paired_se(lambda a, b: 1.0).problems[0]
     assert "larger than the unpaired" in check_paired_se(lambda a, b: (1.0, 0.5)).problems[0]
     assert "differ from sd(a - b)" in check_paired_se(lambda a, b: (0.001, 0.5)).problems[0]
+
+
+def _altitude(mean, var, ground, reading, rf, mistake=None):
+    """A student's altitude update of every particle, right unless a mistake is named."""
+    nu = reading - (mean + ground if mistake == "sign" else mean - ground)
+    s = var + rf
+    gain = var / s
+    new_var = var if mistake == "no_var" else (1 - gain) * var
+    s_lik = rf if mistake == "r" else s
+    return mean + gain * nu, new_var, -0.5 * nu**2 / s_lik - 0.5 * np.log(2 * np.pi * s_lik)
+
+
+def test_the_reference_altitude_update_passes():
+    from pfcourse.exercises import check_altitude_update
+
+    assert check_altitude_update(_altitude).ok, str(check_altitude_update(_altitude))
+
+
+@pytest.mark.parametrize("mistake, says", [
+    ("sign", "wrong sign"),
+    ("r", "uses Rf where it needs S"),
+    ("no_var", "variance is not updated"),
+])
+def test_altitude_update_mistakes_are_named(mistake, says):
+    from pfcourse.exercises import check_altitude_update
+
+    report = check_altitude_update(lambda *a, **kw: _altitude(*a, **kw, mistake=mistake))
+    assert not report.ok and says in str(report), str(report)
+
+
+def test_altitude_update_gain_and_bad_returns_are_reported():
+    from pfcourse.exercises import check_altitude_update
+
+    def gain_over_r(mean, var, ground, reading, rf):
+        k = var / rf
+        nu = reading - mean + ground
+        return mean + k * nu, (1 - k) * var, -0.5 * nu**2 / (var + rf) - 0.5 * np.log(2 * np.pi * (var + rf))
+
+    assert "gain is P / Rf" in str(check_altitude_update(gain_over_r))
+    assert "returned None" in str(check_altitude_update(lambda **kw: None))
+    assert "raised" in str(check_altitude_update(lambda **kw: 1 / 0))
+    assert "three arrays" in str(check_altitude_update(lambda **kw: (1, 2)))
+    assert "mean differs" in str(check_altitude_update(lambda mean, var, ground, reading, rf:
+                                                       (mean, *_altitude(mean, var, ground, reading, rf)[1:])))

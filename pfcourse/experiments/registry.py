@@ -37,7 +37,8 @@ import pandas as pd
 from pfcourse.errors import ParameterError, StepError
 from pfcourse.experiments import association, global_localization
 from pfcourse.experiments import likelihood_studies as ls
-from pfcourse.experiments import maprobot, rb_study, robot_studies, sir_fixes_study, terrain_remedies, terrain_studies
+from pfcourse.experiments import (maprobot, rb_study, robot_studies, sir_fixes_study, terrain_marginalised,
+                                  terrain_remedies, terrain_studies)
 from pfcourse.experiments.provenance import launch_commit, write_provenance
 from pfcourse.experiments.robot import pf_run
 from pfcourse.experiments.store import DATA, load, save
@@ -331,6 +332,21 @@ STUDIES: dict[str, Study] = {study.name: study for study in [
            ("n_particles", "seed", "position_rmse", "heading_rmse", "locked_on")),
           ("kld_tracking", maprobot.kld_tracking_row, {},
            ("seed", "position_rmse", "locked_on", "mean_particles", "max_particles_after_start"))]),
+    Study(name="terrain_mpf", row=terrain_marginalised.row, grid={"N": terrain_marginalised.SIZES},
+          n_runs=100, seeds="run", failures="raise", table="terrain_mpf.csv", provenance="terrain_mpf.json",
+          columns=terrain_marginalised.COLUMNS, seed_column="flight", cheap=lambda t: t["N"] <= 3000, sample=2,
+          row_code="pfcourse/experiments/terrain_marginalised.py (run_mpf)",
+          fields={"filter": "marginalised (altitude Kalman in each particle), multinomial resampling at ESS < N/2",
+                  "seeds": "flight r: pfcourse.seeding.data_rng(0, r); filter: pfcourse.seeding.filter_rng(0, r)",
+                  "divergence": "final horizontal error > 500 m or every particle lost"}),
+    Study(name="terrain_grid", row=terrain_marginalised.grid_row, grid={"cell": [c for c, _ in terrain_marginalised.CELLS]},
+          n_runs=terrain_marginalised.GRID_FLIGHTS, seeds="run", failures="raise", table="terrain_grid.csv",
+          provenance="terrain_grid.json", columns=terrain_marginalised.GRID_COLUMNS, seed_column="flight",
+          cheap=lambda t: t["cell"] == t["cell"].max(), sample=1,  # about 10 s a row
+          row_code="pfcourse/experiments/terrain_marginalised.py (run_grid)",
+          fields={"cells": terrain_marginalised.CELLS,
+                  "seeds": "flight r: pfcourse.seeding.data_rng(0, r); the grid filter draws nothing",
+                  "divergence": "final horizontal error > 500 m"}),
 ]}
 
 

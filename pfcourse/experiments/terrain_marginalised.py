@@ -1,0 +1,73 @@
+"""Seeded runs of the marginalised particle filter and of the point-mass filter on the terrain flights.
+
+The flights are those of :mod:`pfcourse.experiments.terrain_remedies` (flight ``r`` from
+:func:`pfcourse.seeding.data_rng` ``(0, r)``, the filter from :func:`pfcourse.seeding.filter_rng` ``(0, r)``),
+and so is the divergence rule: a flight is *lost* when the final horizontal error exceeds
+:data:`pfcourse.experiments.terrain.DIVERGED_ERROR` (500 m) or every particle died.  The filter is
+the engine with :class:`pfcourse.terrain.marginalised.AltitudeKalmanProposal`, resampling as the
+bootstrap rows of the remedies study (multinomial, at ESS < N/2), so the two are paired flight by flight.
+
+The study ``terrain_mpf`` stores :func:`row` in ``book/data/terrain_mpf.csv``; the study
+``terrain_grid`` stores :func:`grid_row` (the point-mass filter of :mod:`pfcourse.terrain.point_mass`
+at a cell size, with its final posterior mean) in ``book/data/terrain_grid.csv``.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from pfcourse.errors import DegenerateWeightsError
+from pfcourse.experiments.terrain import DIVERGED_ERROR, jacksboro
+from pfcourse.metrics import position_error
+from pfcourse.seeding import data_rng, filter_rng
+from pfcourse.terrain.marginalised import marginalised_filter
+from pfcourse.terrain.point_mass import PointMassFilter
+from pfcourse.terrain.scenario import AircraftScenario, simulate
+
+#: The marginalised filter's sizes, in the order they are stored.
+SIZES = [3000, 10000, 30000]
+COLUMNS = ("setting", "flight", "N", "final_error", "mean_error", "lost", "final_x", "final_y", "seconds")
+#: The point-mass filter's cell sizes (m) and heading bins (degrees), coarse to fine.
+CELLS = [(300.0, 6.0), (200.0, 4.0)]
+#: Flights 0 to GRID_FLIGHTS - 1 (the grid filter costs tens of seconds a flight).
+GRID_FLIGHTS = 12
+GRID_COLUMNS = ("cell", "flight", "final_error", "mean_error", "lost", "final_x", "final_y", "cells", "seconds")
+
+
+def run_mpf(n: int, run: int, terrain, scenario: AircraftScenario | None = None) -> dict:
+    """The marginalised filter with ``n`` particles on flight ``run``: errors (m), lost flag, final mean."""
+    scenario = scenario or AircraftScenario()
+    flight = simulate(scenario, terrain, data_rng(0, run))
+    pf = marginalised_filter(terrain, scenario, n, threshold=0.5, resampler="multinomial")
+    out = {"setting": f"marginalised N={n}", "flight": run, "N": n}
+    try:
+        res = pf.run(flight.measurements, rng=filter_rng(0, run))
+    except DegenerateWeightsError:
+        return {**out, "final_error": np.inf, "mean_error": np.inf, "lost": True, "final_x": np.nan, "final_y": np.nan}
+    e = position_error(flight.truth, res.mean)
+    return {**out, "final_error": float(e[-1]), "mean_error": float(np.mean(e)), "lost": bool(e[-1] > DIVERGED_ERROR),
+            "final_x": float(res.mean[-1, 0]), "final_y": float(res.mean[-1, 1])}
+
+
+def row(seed: int, N: int) -> dict:
+    """The study's row function: :func:`run_mpf` of flight ``seed`` with ``N`` particles."""
+    return run_mpf(N, seed, jacksboro())
+
+
+def run_grid(cell: float, heading_step_deg: float, run: int, terrain,
+             scenario: AircraftScenario | None = None) -> dict:
+    """The point-mass filter at ``cell`` metres and ``heading_step_deg`` degrees on flight ``run``."""
+    scenario = scenario or AircraftScenario()
+    flight = simulate(scenario, terrain, data_rng(0, run))
+    pmf = PointMassFilter(terrain, scenario, cell=cell, heading_step=np.radians(heading_step_deg))
+    res = pmf.run(flight.measurements)
+    e = position_error(flight.truth, res.mean)
+    return {"cell": cell, "flight": run, "final_error": float(e[-1]), "mean_error": float(np.mean(e)),
+            "lost": bool(e[-1] > DIVERGED_ERROR), "final_x": float(res.mean[-1, 0]), "final_y": float(res.mean[-1, 1]),
+            "cells": int(pmf.n_cells)}
+
+
+def grid_row(seed: int, cell: float) -> dict:
+    """The grid study's row function: :func:`run_grid` of flight ``seed`` at cell size ``cell`` (m)."""
+    heading = dict(CELLS)[cell]
+    return run_grid(cell, heading, seed, jacksboro())
