@@ -529,7 +529,7 @@ def test_range_bearing_log_weights_reference_passes_and_matches_the_engine():
 @pytest.mark.parametrize("mistake, says", [
     ({"wrap_innovation": False}, "not wrapped to (-pi, pi]"),
     ({"heading": False}, "without subtracting the particle's heading"),
-    ({"r_as_sd": True}, "R as a matrix of standard deviations"),
+    ({"r_as_sd": True}, "read as a matrix of standard deviations"),
     ({"constant": False}, "normalising term"),
 ])
 def test_each_typical_range_bearing_mistake_gets_its_own_sentence(mistake, says):
