@@ -25,7 +25,7 @@ BOOK = ROOT / "book"
 CHAPTERS = sorted(BOOK.rglob("*.py"))
 IN_FORM = ["part1/model", "part1/kalman", "part1/importance_sampling", "part1/sis", "part1/sir",
            "part1/resampling_schemes", "part1/proposals", "part1/rao_blackwell", "part1/auxiliary",
-           "part2/robot"]
+           "part2/robot", "part2/robot_vs_kalman"]
 MAX_NUMBERS_PER_PARAGRAPH = 4
 MAX_WORDS = 2500
 WORDS = {w: i for i, w in enumerate(
