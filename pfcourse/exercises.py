@@ -915,6 +915,14 @@ def range_bearing_log_weights(x: np.ndarray, landmark: np.ndarray, z: np.ndarray
     return -0.5 * (quad + constant)
 
 
+def _shaped(report: CheckReport, answer, shape: tuple[int, ...], what: str) -> bool:
+    """Whether ``answer`` has ``shape``; if not, report it, saying ``what`` to return instead."""
+    got = np.shape(answer)
+    if got != shape:
+        report.problems.append(f"the answer has shape {got}, not {shape}: return {what}")
+    return got == shape
+
+
 def _named_mistake(report: CheckReport, answer: np.ndarray, reference: Callable, mistakes: Mapping[str, str],
                    rtol: float, what: str) -> CheckReport:
     """Pass when ``answer`` equals ``reference(None)`` to ``rtol``; else name the mistake of ``mistakes``
@@ -947,12 +955,7 @@ def check_range_bearing_log_weights(fn: Callable, n_particles: int = 40, seed: i
     args = (RANGE_BEARING_LANDMARK, RANGE_BEARING_Z, RANGE_BEARING_R)
     answer = _answer(report, lambda: fn(x.copy(), *(a.copy() for a in args)), "fn(x, landmark, z, R)",
                      "compute and return one log-weight per particle")
-    if answer is None:
-        return report
-    answer = np.asarray(answer, dtype=float)
-    if answer.shape != (n_particles,):
-        report.problems.append(f"the answer has shape {answer.shape}, not ({n_particles},): return one "
-                               "log-weight per particle (a row of x)")
+    if answer is None or not _shaped(report, answer, (n_particles,), "one log-weight per particle (a row of x)"):
         return report
     return _named_mistake(report, answer, lambda m: range_bearing_log_weights(x, *args, mistake=m),
                           RANGE_BEARING_MISTAKES, rtol,
@@ -1002,12 +1005,10 @@ def check_range_bearing_jacobian(fn: Callable, rtol: float = 1e-6) -> CheckRepor
                          "compute and return the 2 x 3 matrix H")
         if answer is None:
             return report
-        answer = np.asarray(answer, dtype=float)
-        if answer.shape != (2, 3):
-            report.problems.append(f"the answer has shape {answer.shape}, not (2, 3): one row per measured "
-                                   "quantity (range, bearing), one column per state component (x, y, theta)")
+        if not _shaped(report, answer, (2, 3), "one row per measured quantity (range, bearing), one column "
+                                               "per state component (x, y, theta)"):
             return report
-        answers.append(answer)
+        answers.append(np.asarray(answer, dtype=float))
     return _named_mistake(report, np.array(answers),
                           lambda m: np.array([range_bearing_jacobian(s, lm, m) for s, lm in JACOBIAN_CASES]),
                           JACOBIAN_MISTAKES, rtol,
