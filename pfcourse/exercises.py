@@ -44,6 +44,13 @@ exception is reported as a problem); ``str(report)`` prints the verdict.
   against :func:`landmark_log_likelihood`; the mistakes of :data:`LIKELIHOOD_MISTAKES` (NaN kept or
   read as 0, the offset ``r - l``, ``R`` read as standard deviations, the leading block of ``R``
   instead of the visible one, no normalising constant) are named.
+* :func:`check_range_bearing_log_weights` - ``fn(x, landmark, z, R) -> (N,)``: the robot's
+  ``log N(nu^i; 0, R)`` for a range-bearing reading, on a cloud that sees the landmark right behind
+  it; the mistakes of :data:`RANGE_BEARING_MISTAKES` (bearing innovation not wrapped, heading not
+  subtracted, ``R`` read as standard deviations, no normalising constant) are named.
+* :func:`check_range_bearing_jacobian` - ``fn(state, landmark) -> (2, 3)``: the EKF's measurement
+  Jacobian of range and bearing at three poses; the mistakes of :data:`JACOBIAN_MISTAKES` (offset
+  reversed, ``+1`` for the heading, ``q`` for ``sqrt(q)``, ``dx`` and ``dy`` swapped) are named.
 """
 
 from __future__ import annotations
