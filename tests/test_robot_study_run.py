@@ -69,6 +69,8 @@ def test_filter_settings_are_written_once():
     assert FilterSettings().n_particles == 300 and FilterSettings().initial == "tracking"
     with pytest.raises(ParameterError, match="uniform cloud"):
         global_localization_run(SEEDS[0], 100, n_steps=10, initial="tracking")
+    with pytest.raises(ParameterError, match="position_tolerance"):
+        global_localization_run(SEEDS[0], 100, n_steps=10, position_tolerance=0.0)
     with pytest.raises(TypeError, match="n_particle"):  # a misspelt setting is no scenario field either
         pf_run(SEEDS[0], n_particle=100, n_steps=10)
 

@@ -25,7 +25,7 @@ from dataclasses import dataclass, fields
 import numpy as np
 
 from pfcourse.diagnostics import nees
-from pfcourse.checks import check_count
+from pfcourse.checks import check_count, check_real
 from pfcourse.errors import DegenerateWeightsError, NumericalError, ParameterError
 from pfcourse.filter import ParticleFilter
 from pfcourse.metrics import LOCK_HEADING_RAD, LOCK_POSITION_M, heading_error, locked_on, position_error, position_spread
@@ -201,6 +201,8 @@ def global_localization_run(
     """
     if "initial" in options:
         raise ParameterError("global_localization_run always starts from the uniform cloud: do not pass initial")
+    position_tolerance = check_real(position_tolerance, "position_tolerance", low=0.0, low_open=True)
+    heading_tolerance = check_real(heading_tolerance, "heading_tolerance", low=0.0, low_open=True)
     settings, scenario_changes = FilterSettings.split({**options, "n_particles": n_particles, "initial": "uniform"})
     sim = settings.simulate(seed, scenario, {"n_steps": n_steps, **scenario_changes})
     try:
