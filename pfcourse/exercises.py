@@ -44,6 +44,13 @@ exception is reported as a problem); ``str(report)`` prints the verdict.
   against :func:`landmark_log_likelihood`; the mistakes of :data:`LIKELIHOOD_MISTAKES` (NaN kept or
   read as 0, the offset ``r - l``, ``R`` read as standard deviations, the leading block of ``R``
   instead of the visible one, no normalising constant) are named.
+* :func:`check_range_bearing_log_weights` - ``fn(x, landmark, z, R) -> (N,)``: the robot's
+  ``log N(nu^i; 0, R)`` for a range-bearing reading, on a cloud that sees the landmark right behind
+  it; the mistakes of :data:`RANGE_BEARING_MISTAKES` (bearing innovation not wrapped, heading not
+  subtracted, ``R`` read as standard deviations, no normalising constant) are named.
+* :func:`check_range_bearing_jacobian` - ``fn(state, landmark) -> (2, 3)``: the EKF's measurement
+  Jacobian of range and bearing at three poses; the mistakes of :data:`JACOBIAN_MISTAKES` (offset
+  reversed, ``+1`` for the heading, ``q`` for ``sqrt(q)``, ``dx`` and ``dy`` swapped) are named.
 * :func:`check_consistency` - ``fn(errors, covariances) -> (average_nees, band, fraction)``: the
   NEES check of a filter over ``R`` runs (chapter 20), the run-averaged NEES per step, the 95 % band
   of an average of ``R`` chi-square variables with ``d`` degrees of freedom and the fraction of steps
@@ -73,7 +80,7 @@ exception is reported as a problem); ``str(report)`` prints the verdict.
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -1853,3 +1860,153 @@ def check_altitude_update(fn: Callable, rtol: float = 1e-9) -> CheckReport:
     report.problems.append(f"the {part} differs from the Kalman update (nu = y - (m - h), S = P + Rf, K = P / S, "
                            "m' = m + K nu, P' = (1 - K) P, log N(nu; 0, S)): check that line")
     return report
+
+
+# --- the robot's range-bearing measurement (chapters 10 and 12) -----------------------------------
+
+def _wrap(a: np.ndarray) -> np.ndarray:
+    """Angles wrapped to (-pi, pi]."""
+    return np.pi - np.mod(np.pi - np.asarray(a, dtype=float), 2 * np.pi)
+
+
+#: A cloud of robot poses ``(x, y, theta)`` around ``(1, -50, 0.02)`` and landmark ``(-20, -50)`` seen
+#: right behind: predicted bearings straddle the cut at +-pi, so a missing wrap shows.
+RANGE_BEARING_LANDMARK = np.array([-20.0, -50.0])
+RANGE_BEARING_Z = np.array([21.3, -3.13])
+RANGE_BEARING_R = np.diag([0.5, np.deg2rad(1.0)]) ** 2 * 2.0
+
+#: The typical mistakes of the log-weight of a range-bearing measurement, and why each is wrong.
+RANGE_BEARING_MISTAKES = {
+    "no_wrap": "the bearing innovation is not wrapped to (-pi, pi]: a bearing of 179 degrees against a "
+               "prediction of -179 degrees is 2 degrees off, not 358, so well-placed particles lose their weight",
+    "no_wrap_at_all": "the bearing innovation is not wrapped to (-pi, pi]: a bearing of 179 degrees against a "
+                      "prediction of -179 degrees is 2 degrees off, not 358, so well-placed particles lose their weight",
+    "no_heading": "the predicted bearing is the world direction atan2(dy, dx) without subtracting the "
+                  "particle's heading theta: the sensor measures the bearing relative to the robot",
+    "r_as_sd": "R is read as a matrix of standard deviations (you took its square): R holds variances",
+    "no_constant": "the normalising term -log(2 pi) - log(det R) / 2 is missing: it cancels in the "
+                   "normalised weights, but not in the likelihood of the data the filter estimates",
+}
+
+
+def range_bearing_log_weights(x: np.ndarray, landmark: np.ndarray, z: np.ndarray, R: np.ndarray,
+                              mistake: str | None = None) -> np.ndarray:
+    """``log N(nu^i; 0, R)`` with ``nu^i = (z_r - ||l - p^i||, wrap(z_b - (atan2(l_y - y^i, l_x - x^i) - theta^i)))``
+    for every pose ``x^i = (x^i, y^i, theta^i)`` (rows of ``x``). ``mistake`` (a key of
+    :data:`RANGE_BEARING_MISTAKES`) computes that mistake instead."""
+    x = np.asarray(x, dtype=float)
+    d = np.asarray(landmark, dtype=float) - x[:, :2]
+    heading = 0.0 if mistake == "no_heading" else x[:, 2]
+    bearing = np.arctan2(d[:, 1], d[:, 0]) - heading
+    if mistake == "no_wrap_at_all":
+        nu_b = z[1] - bearing
+    elif mistake == "no_wrap":  # the prediction wrapped, the innovation not
+        nu_b = z[1] - _wrap(bearing)
+    else:
+        nu_b = _wrap(z[1] - _wrap(bearing))
+    nu = np.column_stack([z[0] - np.hypot(d[:, 0], d[:, 1]), nu_b])
+    cov = R @ R if mistake == "r_as_sd" else R
+    quad = np.einsum("ij,jk,ik->i", nu, np.linalg.inv(cov), nu)
+    constant = 0.0 if mistake == "no_constant" else 2 * np.log(2 * np.pi) + np.linalg.slogdet(cov)[1]
+    return -0.5 * (quad + constant)
+
+
+def _shaped(report: CheckReport, answer, shape: tuple[int, ...], what: str) -> bool:
+    """Whether ``answer`` has ``shape``; if not, report it, saying ``what`` to return instead."""
+    got = np.shape(answer)
+    if got != shape:
+        report.problems.append(f"the answer has shape {got}, not {shape}: return {what}")
+    return got == shape
+
+
+def _named_mistake(report: CheckReport, answer: np.ndarray, reference: Callable, mistakes: Mapping[str, str],
+                   rtol: float, what: str) -> CheckReport:
+    """Pass when ``answer`` equals ``reference(None)`` to ``rtol``; else name the mistake of ``mistakes``
+    whose ``reference(mistake)`` it equals, or say in ``what`` which formula to check."""
+    def fits(mistake: str | None) -> bool:
+        return np.allclose(answer, reference(mistake), rtol=rtol, atol=1e-12)
+
+    if fits(None):
+        return report
+    for mistake, why in mistakes.items():
+        if fits(mistake):
+            report.problems.append(f"your function computes a known mistake: {why}")
+            return report
+    report.problems.append(what)
+    return report
+
+
+def check_range_bearing_log_weights(fn: Callable, n_particles: int = 40, seed: int = 0,
+                                    rtol: float = 1e-9) -> CheckReport:
+    """Check ``fn(x, landmark, z, R) -> (N,)``: the log-likelihood ``log N(nu^i; 0, R)`` of a range-bearing
+    measurement ``z = (range, bearing)`` of ``landmark`` for a cloud ``x`` of robot poses ``(N, 3)``.
+
+    The case (:data:`RANGE_BEARING_Z`) has predicted bearings on both sides of the cut at +-pi.
+    The answer must equal :func:`range_bearing_log_weights` to ``rtol``; otherwise the report names
+    the mistake of :data:`RANGE_BEARING_MISTAKES` it equals.
+    """
+    report = CheckReport("range-bearing log-weights")
+    x = np.random.default_rng(seed).normal([1.0, -50.0, 0.02], [0.5, 0.5, 0.03], size=(n_particles, 3))
+    x[:, 2] = _wrap(x[:, 2])
+    args = (RANGE_BEARING_LANDMARK, RANGE_BEARING_Z, RANGE_BEARING_R)
+    answer = _answer(report, lambda: fn(x.copy(), *(a.copy() for a in args)), "fn(x, landmark, z, R)",
+                     "compute and return one log-weight per particle")
+    if answer is None or not _shaped(report, answer, (n_particles,), "one log-weight per particle (a row of x)"):
+        return report
+    return _named_mistake(report, answer, lambda m: range_bearing_log_weights(x, *args, mistake=m),
+                          RANGE_BEARING_MISTAKES, rtol,
+                          "the values differ from log N(nu; 0, R): check the innovation "
+                          "nu = (z_r - range, wrap(z_b - bearing)) and the quadratic form nu^T R^-1 nu / 2")
+
+
+#: The typical mistakes of the measurement Jacobian of range and bearing, and why each is wrong.
+JACOBIAN_MISTAKES = {
+    "offset_reversed": "the signs of the position columns are reversed: with (dx, dy) = l - p the range "
+                       "shrinks as the robot moves towards the landmark, so d range / dx = -dx / sqrt(q)",
+    "heading_plus": "d bearing / d theta is +1: the bearing is atan2(dy, dx) - theta, so it is -1",
+    "range_over_q": "the range row divides by q = dx^2 + dy^2 instead of sqrt(q): d sqrt(q) / dx = -dx / sqrt(q)",
+    "bearing_swapped": "the bearing row swaps dx and dy: d atan2(dy, dx) / dx = dy / q and / dy = -dx / q",
+}
+JACOBIAN_CASES = (
+    (np.array([1.0, -50.0, 0.3]), np.array([-20.0, -45.0])),
+    (np.array([12.0, 7.0, -2.9]), np.array([15.0, 31.0])),
+    (np.array([-3.0, 4.0, 3.1]), np.array([-40.0, -2.0])),
+)
+
+
+def range_bearing_jacobian(state: np.ndarray, landmark: np.ndarray, mistake: str | None = None) -> np.ndarray:
+    """``H = dh/dx`` (2x3) of ``h(x) = (sqrt(q), atan2(dy, dx) - theta)``, ``(dx, dy) = l - p``, ``q = dx^2 + dy^2``:
+    ``[[-dx/sqrt(q), -dy/sqrt(q), 0], [dy/q, -dx/q, -1]]``. ``mistake`` (a key of :data:`JACOBIAN_MISTAKES`)
+    computes that mistake instead."""
+    dx, dy = np.asarray(landmark, dtype=float) - np.asarray(state, dtype=float)[:2]
+    q = dx * dx + dy * dy
+    sign = -1.0 if mistake == "offset_reversed" else 1.0
+    r = q if mistake == "range_over_q" else np.sqrt(q)
+    bx, by = (-dx / q, dy / q) if mistake == "bearing_swapped" else (dy / q, -dx / q)
+    return np.array([[-sign * dx / r, -sign * dy / r, 0.0],
+                     [sign * bx, sign * by, 1.0 if mistake == "heading_plus" else -1.0]])
+
+
+def check_range_bearing_jacobian(fn: Callable, rtol: float = 1e-6) -> CheckReport:
+    """Check ``fn(state, landmark) -> (2, 3)``, the EKF's measurement Jacobian of range and bearing.
+
+    On each case of :data:`JACOBIAN_CASES` the answer must equal :func:`range_bearing_jacobian` to
+    ``rtol`` (so a careful finite difference passes too); otherwise the report names the mistake of
+    :data:`JACOBIAN_MISTAKES` it equals.
+    """
+    report = CheckReport("range-bearing Jacobian")
+    answers = []
+    for state, landmark in JACOBIAN_CASES:
+        answer = _answer(report, lambda: fn(state.copy(), landmark.copy()), "fn(state, landmark)",
+                         "compute and return the 2 x 3 matrix H")
+        if answer is None:
+            return report
+        if not _shaped(report, answer, (2, 3), "one row per measured quantity (range, bearing), one column "
+                                               "per state component (x, y, theta)"):
+            return report
+        answers.append(np.asarray(answer, dtype=float))
+    return _named_mistake(report, np.array(answers),
+                          lambda m: np.array([range_bearing_jacobian(s, lm, m) for s, lm in JACOBIAN_CASES]),
+                          JACOBIAN_MISTAKES, rtol,
+                          "the matrix differs from dh/dx: differentiate sqrt(q) and atan2(dy, dx) - theta "
+                          "with (dx, dy) = l - p, and compare with a central finite difference")

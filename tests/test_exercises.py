@@ -7,6 +7,7 @@ import pytest
 from scipy.special import logsumexp
 
 from pfcourse.exercises import (check_ancestors, check_kalman, check_log_likelihood, check_optimal_proposal,
+                                check_range_bearing_jacobian, check_range_bearing_log_weights,
                                 check_resampler, check_sis, check_weight_update)
 from pfcourse.resampling import multinomial, residual, stratified, systematic
 
@@ -976,3 +977,92 @@ def test_altitude_update_gain_and_bad_returns_are_reported():
     assert "three arrays" in str(check_altitude_update(lambda **kw: (1, 2)))
     assert "mean differs" in str(check_altitude_update(lambda mean, var, ground, reading, rf:
                                                        (mean, *_altitude(mean, var, ground, reading, rf)[1:])))
+
+
+# --- check_range_bearing_log_weights and check_range_bearing_jacobian (chapters 10 and 12) -----------
+
+def robot_log_weights(x, landmark, z, R, wrap_innovation=True, heading=True, r_as_sd=False, constant=True):
+    """A student's answer, written independently of the reference; the flags make the typical mistakes."""
+    dx, dy = landmark[0] - x[:, 0], landmark[1] - x[:, 1]
+    bearing = np.arctan2(dy, dx) - (x[:, 2] if heading else 0.0)
+    bearing = np.angle(np.exp(1j * bearing))
+    nu_b = z[1] - bearing
+    if wrap_innovation:
+        nu_b = np.angle(np.exp(1j * nu_b))
+    nu = np.stack([z[0] - np.sqrt(dx**2 + dy**2), nu_b], axis=1)
+    cov = R @ R if r_as_sd else R
+    out = -0.5 * np.sum(nu @ np.linalg.inv(cov) * nu, axis=1)
+    return out - np.log(2 * np.pi) - 0.5 * np.log(np.linalg.det(cov)) if constant else out
+
+
+def test_range_bearing_log_weights_reference_passes_and_matches_the_engine():
+    from pfcourse.exercises import RANGE_BEARING_LANDMARK, RANGE_BEARING_R, RANGE_BEARING_Z, range_bearing_log_weights
+    from pfcourse.robot.scenario import RobotModel
+
+    assert check_range_bearing_log_weights(robot_log_weights).ok, str(check_range_bearing_log_weights(robot_log_weights))
+    x = np.random.default_rng(3).normal([1.0, -50.0, 0.0], [0.5, 0.5, 0.05], size=(30, 3))
+    model = RobotModel(RANGE_BEARING_LANDMARK[None], np.zeros((2, 3)), np.eye(3), RANGE_BEARING_R)
+    np.testing.assert_allclose(range_bearing_log_weights(x, RANGE_BEARING_LANDMARK, RANGE_BEARING_Z, RANGE_BEARING_R),
+                               model.log_likelihood(x, np.r_[0.0, RANGE_BEARING_Z], 1), rtol=1e-12)
+
+
+@pytest.mark.parametrize("mistake, says", [
+    ({"wrap_innovation": False}, "not wrapped to (-pi, pi]"),
+    ({"heading": False}, "without subtracting the particle's heading"),
+    ({"r_as_sd": True}, "read as a matrix of standard deviations"),
+    ({"constant": False}, "normalising term"),
+])
+def test_each_typical_range_bearing_mistake_gets_its_own_sentence(mistake, says):
+    report = check_range_bearing_log_weights(lambda x, l, z, R: robot_log_weights(x, l, z, R, **mistake))
+    assert not report.ok and len(report.problems) == 1
+    assert says in report.problems[0], report.problems[0]
+
+
+def test_odd_range_bearing_answers_are_named():
+    assert "differ from log N(nu; 0, R)" in check_range_bearing_log_weights(
+        lambda x, l, z, R: 2 * robot_log_weights(x, l, z, R)).problems[0]
+    assert "shape" in check_range_bearing_log_weights(lambda x, l, z, R: np.zeros(3)).problems[0]
+    assert "returned None" in check_range_bearing_log_weights(lambda x, l, z, R: None).problems[0]
+
+
+def robot_jacobian(state, landmark, offset_sign=1.0, heading=-1.0, range_power=0.5, swapped=False):
+    """A student's H, written independently; the keywords make the typical mistakes."""
+    dx, dy = offset_sign * (landmark[0] - state[0]), offset_sign * (landmark[1] - state[1])
+    q = dx**2 + dy**2
+    b = [-dx / q, dy / q] if swapped else [dy / q, -dx / q]
+    return np.array([[-dx / q**range_power, -dy / q**range_power, 0.0], [b[0], b[1], heading]])
+
+
+def test_range_bearing_jacobian_reference_and_finite_differences_pass():
+    from pfcourse.robot.kalman import measurement_jacobian
+    from pfcourse.robot.scenario import range_bearing
+
+    def central_difference(state, landmark, h=1e-6):
+        cols = []
+        for i in range(3):
+            e = np.zeros(3)
+            e[i] = h
+            d = range_bearing(state + e, landmark) - range_bearing(state - e, landmark)
+            d[1] = np.angle(np.exp(1j * d[1]))
+            cols.append(d / (2 * h))
+        return np.array(cols).T
+
+    for fn in (robot_jacobian, measurement_jacobian, central_difference):
+        assert check_range_bearing_jacobian(fn).ok, str(check_range_bearing_jacobian(fn))
+
+
+@pytest.mark.parametrize("mistake, says", [
+    ({"offset_sign": -1.0}, "signs of the position columns are reversed"),
+    ({"heading": 1.0}, "d bearing / d theta is +1"),
+    ({"range_power": 1.0}, "divides by q"),
+    ({"swapped": True}, "swaps dx and dy"),
+])
+def test_each_typical_jacobian_mistake_gets_its_own_sentence(mistake, says):
+    report = check_range_bearing_jacobian(lambda s, l: robot_jacobian(s, l, **mistake))
+    assert not report.ok and len(report.problems) == 1
+    assert says in report.problems[0], report.problems[0]
+
+
+def test_odd_jacobians_are_named():
+    assert "differs from dh/dx" in check_range_bearing_jacobian(lambda s, l: 2 * robot_jacobian(s, l)).problems[0]
+    assert "shape" in check_range_bearing_jacobian(lambda s, l: robot_jacobian(s, l).T).problems[0]

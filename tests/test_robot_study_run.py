@@ -69,6 +69,8 @@ def test_filter_settings_are_written_once():
     assert FilterSettings().n_particles == 300 and FilterSettings().initial == "tracking"
     with pytest.raises(ParameterError, match="uniform cloud"):
         global_localization_run(SEEDS[0], 100, n_steps=10, initial="tracking")
+    with pytest.raises(ParameterError, match="position_tolerance"):
+        global_localization_run(SEEDS[0], 100, n_steps=10, position_tolerance=0.0)
     with pytest.raises(TypeError, match="n_particle"):  # a misspelt setting is no scenario field either
         pf_run(SEEDS[0], n_particle=100, n_steps=10)
 
@@ -82,3 +84,21 @@ def test_study_with_batches_records_failures_per_replicate():
     assert (table.loc[odd, "status"] == "failed").all() and (table.loc[~odd, "status"] == "ok").all()
     assert table.loc[odd, "error"].str.contains("lost").all()
     assert summarize(table, "level", "m").loc[1.0, "n_failed"] == odd.sum()
+
+
+def test_global_localization_run_uses_the_books_lock_on_definition():
+    """Locked on is pfcourse.metrics.locked_on (every step of the last 20 s), not the last step alone."""
+    from pfcourse.experiments.robot import FilterSettings as Settings
+    from pfcourse.metrics import heading_error, locked_on, position_error
+
+    for seed, n in ((2, 3000), (4, 3000), (7, 1000)):
+        out = global_localization_run(seed, n, n_steps=40)
+        settings, changes = Settings.split({"n_particles": n, "initial": "uniform"})
+        sim = settings.simulate(seed, None, {"n_steps": 40, **changes})
+        res = settings.run_particle_filter(settings.model(sim), sim, seed)
+        expected = locked_on(position_error(sim.truth, res.mean), heading_error(sim.truth, res.mean), sim.scenario.dt)
+        assert out.locked_on == expected
+        assert out.position_error == float(position_error(sim.truth[-1], res.mean[-1]))
+    # a tolerance of half the book's is stricter: never locked on where the book's is not
+    assert not global_localization_run(7, 1000, n_steps=40, position_tolerance=0.5).locked_on or \
+        global_localization_run(7, 1000, n_steps=40).locked_on
