@@ -23,9 +23,10 @@ stream                    key (entropy)                     used by             
 :func:`sized_filter_rng`  ``[seed, N]``, ``[seed, r, N]``   a filter run once per particle  the data are shared; each ``N`` (and run) has
                                                             count ``N`` on shared data      its own filter stream
 :func:`kidnap_rng`        ``[seed, 7]``                     the kidnapped robot's new pose  the same kidnapping for every method and ``N``
-plain seed                ``s`` (an ``int``), offsets such  single runs of the chapters;    the same ``s`` in every setting; the offset keeps
-                          as ``s + 1``, ``s + 10**6``       a run's filter next to its      the filter's stream apart from the data's
-                                                            simulation
+plain seed                ``s`` (an ``int``) for the data;  single runs of the chapters;    the same ``s`` in every setting; the offset keeps
+:func:`run_filter_seed`   ``s + 1`` for its filter;         a run's filter next to its      the filter's stream apart from the data's
+:func:`study_filter_seed` ``s + 10**6`` in the landmark     simulation
+                          studies
 ========================  ================================  ==============================  =================================================
 
 ``seed`` is a study's base seed (``0`` in the book's terrain studies), ``r`` the run (or
@@ -105,3 +106,14 @@ def sized_filter_rng(seed: int, n_particles: int, run: int | None = None) -> np.
 def kidnap_rng(seed: int) -> np.random.Generator:
     """Where the robot of run ``seed`` is carried when kidnapped: ``default_rng([seed, 7])``."""
     return _rng(check_seed(seed), 7)
+
+
+def run_filter_seed(seed: int) -> int:
+    """The plain integer seed of the filter of a chapter's single run ``seed``: ``seed + 1`` (the data use ``seed``)."""
+    return check_seed(seed) + 1
+
+
+def study_filter_seed(seed: int) -> int:
+    """The plain integer seed of the filter of run ``seed`` in the landmark studies: ``seed + 10**6``, far from
+    every data seed of a study (the stored landmark tables were computed with it)."""
+    return check_seed(seed) + 10**6

@@ -117,3 +117,14 @@ def test_the_documented_coincidences_of_keys():
                   (sized_filter_rng(4, 3, run=9), map_error_rng(4, 9))]
     for a, b in coincident:
         np.testing.assert_array_equal(draws(a), draws(b))
+
+
+def test_plain_seed_offsets_are_named_and_checked():
+    from pfcourse.seeding import run_filter_seed, study_filter_seed
+
+    assert run_filter_seed(4) == 5 and study_filter_seed(4) == 1_000_004
+    for bad in (-1, 1.5, None, True):
+        with pytest.raises(ParameterError):
+            run_filter_seed(bad)
+        with pytest.raises(ParameterError):
+            study_filter_seed(bad)

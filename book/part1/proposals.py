@@ -124,6 +124,7 @@ from pfcourse.experiments.landmarks import kalman_scores
 from pfcourse.figures.report import EvidenceBlock, glue_values
 from pfcourse.style import COLORS, plain_log_axis, use_style
 from pfcourse.figures.widgets import control_panel, particle_slider, scale_slider, seed_box
+from pfcourse.seeding import run_filter_seed
 
 use_style()
 ROBOT, LANDMARKS = [0, 1], [2, 3, 4, 5]
@@ -457,7 +458,7 @@ def draw_proposals(n_particles, noise_scale, seed):
     ref = kalman_filter(m, s.measurements)
     fig, (a1, a2) = plt.subplots(1, 2, figsize=(10, 3.4))
     for (name, prop), c in zip(PROPOSALS.items(), (COLORS["particles"], COLORS["estimate"])):
-        r = ParticleFilter(m, n_particles, threshold=0.5, proposal=prop).run(s.measurements, rng=seed + 1)
+        r = ParticleFilter(m, n_particles, threshold=0.5, proposal=prop).run(s.measurements, rng=run_filter_seed(seed))
         a1.plot(s.T, r.ess, color=c, label=name)
         a2.plot(s.T, r.mean[:, 0] - ref.mean[:, 0], color=c, label=name)
     plain_log_axis(a1, "y")

@@ -617,6 +617,7 @@ print(f"entries of the map covariance per particle, five landmarks / two: {10 **
 
 # %% tags=["hide-input"] jupyter={"source_hidden": true}
 from pfcourse.diagnostics import nees
+from pfcourse.seeding import study_filter_seed
 
 circle = circle_scenario()
 cmodel = circle.model()
@@ -626,10 +627,10 @@ check = {name: {"collapse": [], "lm_sd": [], "robot_sd": [], "robot_cover": []} 
 for seed in range(100):
     s5 = simulate(circle, rng=seed)
     k5 = kalman_filter(cmodel, s5.measurements)
-    runs5 = {"SIS": ParticleFilter(cmodel, 100, threshold=0.0).run(s5.measurements, rng=seed + 10**6),
-             "SIR": ParticleFilter(cmodel, 100, threshold=1 / 3).run(s5.measurements, rng=seed + 10**6),
+    runs5 = {"SIS": ParticleFilter(cmodel, 100, threshold=0.0).run(s5.measurements, rng=study_filter_seed(seed)),
+             "SIR": ParticleFilter(cmodel, 100, threshold=1 / 3).run(s5.measurements, rng=study_filter_seed(seed)),
              "RBPF": crb.marginal(ParticleFilter(crb, 100, threshold=1 / 3, proposal=RaoBlackwellProposal(True))
-                                  .run(s5.measurements, rng=seed + 10**6))}
+                                  .run(s5.measurements, rng=study_filter_seed(seed)))}
     for name, r in runs5.items():
         sd_ratio = np.sqrt(np.clip(np.diag(r.cov[-1]), 1e-300, None) / np.diag(k5.cov[-1]))
         check[name]["lm_sd"].append(np.exp(np.mean(np.log(sd_ratio[2:]))))

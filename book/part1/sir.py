@@ -84,6 +84,7 @@ from pfcourse.figures.bands import posterior_bands
 from pfcourse.figures.report import EvidenceBlock, glue_values
 from pfcourse.style import COLORS, plain_log_axis, use_style
 from pfcourse.figures.widgets import control_panel, particle_slider, scheme_dropdown, seed_box, threshold_slider
+from pfcourse.seeding import run_filter_seed, study_filter_seed
 
 use_style()
 LABELS = ["robot x", "robot y", "L1 x", "L1 y", "L2 x", "L2 y"]
@@ -239,7 +240,7 @@ plt.show()
 # %% tags=["hide-input"] jupyter={"source_hidden": true}
 n_runs, last = 100, 10  # runs; steps scored at the end of each run
 sims = [simulate(scenario, rng=s) for s in range(n_runs)]
-plain = [sir(model, s.measurements, 100, np.random.default_rng(seed + 10**6)) for seed, s in enumerate(sims)]
+plain = [sir(model, s.measurements, 100, np.random.default_rng(study_filter_seed(seed))) for seed, s in enumerate(sims)]
 
 
 def coalescence(ancestors):
@@ -411,7 +412,7 @@ class LandmarkGibbs:
         return x
 
 
-moved = [sir(model, s.measurements, 100, np.random.default_rng(seed + 10**6), move=LandmarkGibbs(model, 100))
+moved = [sir(model, s.measurements, 100, np.random.default_rng(study_filter_seed(seed)), move=LandmarkGibbs(model, 100))
          for seed, s in enumerate(sims)]
 e_move = np.array([score(r, kalman_filter(model, s.measurements), s.truth, LANDMARKS).rmse[-last:].mean()
                    for r, s in zip(moved, sims)])
@@ -544,7 +545,7 @@ def draw_sir(n_particles, threshold, scheme, c, seed):
     s = simulate(scenario, rng=seed)
     pf = ParticleFilter(model, n_particles, threshold=threshold, resampler=scheme,
                         jitter=Roughening(c) if c > 0 else None)
-    r = pf.run(s.measurements, rng=seed + 1, store_particles=True)
+    r = pf.run(s.measurements, rng=run_filter_seed(seed), store_particles=True)
     ref = kalman_filter(model, s.measurements)
     fig, (a1, a2) = plt.subplots(1, 2, figsize=(10, 3.4))
     sd = np.sqrt(r.cov[:, 2, 2])

@@ -88,6 +88,7 @@ from pfcourse.figures.clouds import animate_clouds
 from pfcourse.figures.report import EvidenceBlock, glue_values
 from pfcourse.style import COLORS, plain_log_axis, use_style
 from pfcourse.figures.widgets import control_panel, particle_slider, scale_slider, seed_box
+from pfcourse.seeding import run_filter_seed, study_filter_seed
 
 use_style()
 LABELS = ["robot x", "robot y", "L1 x", "L1 y", "L2 x", "L2 y"]
@@ -201,7 +202,7 @@ ess = {N: np.empty((n_runs, horizon)) for N in N_values}
 for seed in range(n_runs):
     Z = simulate(scenario, rng=seed).measurements[:horizon]
     for N in N_values:
-        ess[N][seed] = ParticleFilter(model, N, threshold=0.0).run(Z, rng=1000 + seed).ess
+        ess[N][seed] = ParticleFilter(model, N, threshold=0.0).run(Z, rng=study_filter_seed(seed)).ess
 
 
 def first_below(e, level=2.0):
@@ -262,7 +263,7 @@ def per_n_table():
 
 EvidenceBlock(
     f"a hundred times more particles delays the collapse by {mean_delay:.1f} steps on average",
-    notes=[f"{n_runs} simulations (seeds 0 to {n_runs - 1}), the same for every N; filter seeds 1000 + s.",
+    notes=[f"{n_runs} simulations (seeds 0 to {n_runs - 1}), the same for every N; filter seeds pfcourse.seeding.study_filter_seed(s) = s + 10**6.",
            f"Delay of N = 10 000 over N = 100, run by run: mean {mean_delay:.2f} steps, 95 % interval "
            f"{low:.2f} to {high:.2f} (percentile bootstrap over the runs). The delays are small whole "
            f"numbers, so their median ({delay.median:.0f}) and its interval say less than the mean; "
@@ -282,7 +283,7 @@ EvidenceBlock(
 # %% tags=["remove-input"] jupyter={"source_hidden": true}
 sc2 = scenario.with_(Rv=2.0**2 * scenario.Rv)
 ess_broad = np.array([ParticleFilter(sc2.model(), 100, threshold=0.0).run(simulate(sc2, rng=seed).measurements[:horizon],
-                                                                          rng=1000 + seed).ess
+                                                                          rng=study_filter_seed(seed)).ess
                       for seed in range(n_runs)])
 first_broad, first_base = first_below(ess_broad), first_below(ess[100])
 slower = evidence.paired(first_broad, first_base)
@@ -324,7 +325,7 @@ def draw_sis(n_particles, noise_scale, seed):
     sc = scenario.with_(Rv=noise_scale**2 * scenario.Rv)
     s = simulate(sc, rng=seed)
     m = sc.model()
-    r = ParticleFilter(m, n_particles, threshold=0.0).run(s.measurements, rng=seed + 1)
+    r = ParticleFilter(m, n_particles, threshold=0.0).run(s.measurements, rng=run_filter_seed(seed))
     ref = kalman_filter(m, s.measurements)
     fig, (a1, a2) = plt.subplots(1, 2, figsize=(10, 3.4))
     a1.plot(s.T, r.ess, color=COLORS["estimate"])

@@ -26,14 +26,14 @@
 # The lab reports on the robot turn the knobs of the particle filter one at a time and judge
 # each setting from **one run**: one simulated path, one landmark layout, one draw of the
 # noises, one cloud of particles. Such a run can show a difference that is only luck and hide
-# one that is real; the reports also contradict each other. A *study* replaces the run by $R$
+# one that is real; the reports also contradict each other. A *study* replaces the run by $n_\text{runs}$
 # runs per setting, and two choices make it sharp.
 #
 # **Common random numbers.** Run $r$ uses the same seed in every setting, so all settings are
-# compared on the same $R$ simulated worlds. Most of a run's error comes from its world (a bad
+# compared on the same $n_\text{runs}$ simulated worlds. Most of a run's error comes from its world (a bad
 # landmark layout is bad for every setting), so the per-run difference $d_r = a_r - b_r$ between
 # two settings varies much less than either: the standard error of the mean difference is
-# $s_d / \sqrt R$, against $\sqrt{(s_a^2 + s_b^2)/R}$ for independent runs, and
+# $s_d / \sqrt{n_\text{runs}}$, against $\sqrt{(s_a^2 + s_b^2)/n_\text{runs}}$ for independent runs, and
 # $s_d^2 = s_a^2 + s_b^2 - 2\,\mathrm{cov}(a, b)$ is small when the runs are strongly
 # correlated.
 #
@@ -44,10 +44,10 @@
 #
 # :::{admonition} Algorithm 17.1: a paired study of two settings
 # :class: algorithm
-# 1. For $r = 1..R$: simulate world $r$ from seed $r$; run the filter with setting A and with
+# 1. For $r = 1..n_\text{runs}$: simulate world $r$ from seed $r$; run the filter with setting A and with
 #    setting B on it; record the errors $a_r$ and $b_r$.
 # 2. Per-run ratios $\rho_r = a_r / b_r$; report their median.
-# 3. Bootstrap: draw $R$ runs with replacement, $B$ times, and take the median of their ratios
+# 3. Bootstrap: draw $n_\text{runs}$ runs with replacement, $B$ times, and take the median of their ratios
 #    each time; the $2.5\,\%$ and $97.5\,\%$ quantiles of those medians are the 95 % interval.
 # 4. A ratio is *detected* when the interval excludes $1$.
 # :::
@@ -104,7 +104,7 @@ print(f"N = 1000 against 300, {N_RUNS} paired runs: median ratio {ratio:.3f}, 95
 # study of this page and of {doc}`resampling_studies` and {doc}`sensing_studies` is run this way:
 # {glue:text}`n_runs_per_setting:d` runs per setting of the robot of {doc}`../part2/robot`, scored by
 # the position RMSE after a transient of {glue:text}`robot_burn_in:d` s, by the time-averaged NEES
-# $\frac1K \sum_k e_k^\top P_k^{-1} e_k$ (about $3$ for a filter whose covariance matches its
+# $\frac1T \sum_k e_k^\top P_k^{-1} e_k$ (about $3$ for a filter whose covariance matches its
 # errors, {doc}`../part4/pf_vs_kalman`) and by the filter's own standard deviation. Unless a section
 # varies it, every run uses the reports' defaults: $N = 300$, $Q_\text{est} = 2 Q_\text{true}$,
 # $R_\text{est} = 2 R_\text{true}$, systematic resampling when $\text{ESS} < 0.5 N$, a measurement

@@ -42,8 +42,8 @@
 # :::{admonition} Algorithm 19.1: is a run locked on?
 # :class: algorithm
 # Input: per-step position errors $e^p_k$ (m) and heading errors $e^\theta_k$ (rad) of a run of
-# $K$ steps of $\Delta t$ seconds.
-# 1. $W = \lceil 20\,\text{s} / \Delta t \rceil$ steps (all $K$ if the run is shorter).
+# $T$ steps of $\Delta t$ seconds.
+# 1. $W = \lceil 20\,\text{s} / \Delta t \rceil$ steps (all $T$ if the run is shorter).
 # 2. Locked on if $e^p_k < 1$ m and $e^\theta_k < 5°$ for every $k$ among the last $W$ steps.
 # :::
 #

@@ -40,12 +40,12 @@
 # Consistency can be tested. If $e_k \sim \mathcal N(0, P_k)$ in $d$ dimensions, the
 # *normalised estimation error squared* $\text{NEES}_k = e_k^\top P_k^{-1} e_k$ is a
 # $\chi^2_d$ variable (whiten the error: $P_k^{-1/2} e_k$ is standard normal, and the NEES is
-# the sum of its $d$ squares). One run's NEES scatters too much to judge; averaged over $R$
-# independent runs, $R \cdot \overline{\text{NEES}}_k$ is a sum of $R$ independent $\chi^2_d$,
-# that is $\chi^2_{Rd}$, so the run-averaged NEES of a consistent filter falls in the band
+# the sum of its $d$ squares). One run's NEES scatters too much to judge; averaged over $n_\text{runs}$
+# independent runs, $n_\text{runs} \cdot \overline{\text{NEES}}_k$ is a sum of $n_\text{runs}$ independent $\chi^2_d$,
+# that is $\chi^2_{n_\text{runs} d}$, so the run-averaged NEES of a consistent filter falls in the band
 #
 # $$
-# \left[\tfrac{1}{R}\, F^{-1}_{\chi^2_{Rd}}(0.025),\; \tfrac{1}{R}\, F^{-1}_{\chi^2_{Rd}}(0.975)\right]
+# \left[\tfrac{1}{n_\text{runs}}\, F^{-1}_{\chi^2_{n_\text{runs} d}}(0.025),\; \tfrac{1}{n_\text{runs}}\, F^{-1}_{\chi^2_{n_\text{runs} d}}(0.975)\right]
 # $$
 #
 # at about $95\,\%$ of the steps {cite:p}`barshalom2001`. Above the band the filter is
@@ -55,12 +55,12 @@
 # space with $\dim z$ degrees of freedom; it needs no truth, so it is the check that works on
 # real data.
 #
-# :::{admonition} Algorithm 20.1: the consistency check of a filter over $R$ runs
+# :::{admonition} Algorithm 20.1: the consistency check of a filter over $n_\text{runs}$ runs
 # :class: algorithm
-# Input: errors $e_{r,k}$ and covariances $P_{r,k}$ of one filter on runs $r = 1..R$, steps $k$.
+# Input: errors $e_{r,k}$ and covariances $P_{r,k}$ of one filter on runs $r = 1..n_\text{runs}$, steps $k$.
 # 1. For every run and step, $\text{NEES}_{r,k} = e_{r,k}^\top P_{r,k}^{-1} e_{r,k}$.
-# 2. Average over the runs: $\overline{\text{NEES}}_k = \frac1R \sum_r \text{NEES}_{r,k}$.
-# 3. The band: the $2.5\,\%$ and $97.5\,\%$ quantiles of $\chi^2_{Rd}$, divided by $R$.
+# 2. Average over the runs: $\overline{\text{NEES}}_k = \frac{1}{n_\text{runs}} \sum_r \text{NEES}_{r,k}$.
+# 3. The band: the $2.5\,\%$ and $97.5\,\%$ quantiles of $\chi^2_{n_\text{runs} d}$, divided by $n_\text{runs}$.
 # 4. Report the fraction of steps whose average lies in the band ($0.95$ expected), and the
 #    fractions above (over-confident) and below (pessimistic).
 # :::
@@ -135,7 +135,7 @@ print(f"EKF, {ROBOT_RUNS} runs: band {band[0]:.2f} to {band[1]:.2f}; run-average
 glue_values("consistency_", band_low=band[0], band_high=band[1], ekf_inside=inside, runs=ROBOT_RUNS)
 
 # %% [markdown]
-# With $R = $ {glue:text}`consistency_runs:d` runs the band is
+# With $n_\text{runs} = $ {glue:text}`consistency_runs:d` runs the band is
 # {glue:text}`consistency_band_low:.2f`-{glue:text}`consistency_band_high:.2f` around the
 # $\chi^2_3$ mean of $3$, and the EKF's run-averaged NEES lies inside it at a fraction
 # {glue:text}`consistency_ekf_inside:.2f` of the steps: given the true noise levels, the EKF of
@@ -536,7 +536,7 @@ EvidenceBlock(
 # | a robot with a range scanner on a map | MCL with the likelihood field, injecting poses for global localization | the bootstrap filter | {doc}`../part2/map_robot` |
 # | landmarks that look alike, clutter, missed detections | a particle filter weighing every association | the nearest-neighbour EKF | {doc}`data_association` |
 # | terrain navigation, small prior | the EKF | | this chapter |
-# | terrain navigation, wide prior | the regularised particle filter | the bootstrap filter; the EKF and the UKF | this chapter, {doc}`../part2/terrain_cure` |
+# | terrain navigation, wide prior | the regularised particle filter, or the marginalised one (altitude integrated out) | the bootstrap filter; the EKF and the UKF | this chapter, {doc}`../part2/terrain_cure`, {doc}`../part2/terrain_marginalised` |
 #
 # The numbers behind the rows that this chapter does not measure:
 #
@@ -559,7 +559,9 @@ EvidenceBlock(
 #
 # - Terrain, wide prior: the bootstrap filter with $N = 3000$ loses
 #   {glue:text}`../part2/terrain_cure.ipynb::terrain_baseline_diverged:.0%` of the flights, the best
-#   remedy {glue:text}`../part2/terrain_cure.ipynb::terrain_best_diverged:.0%`.
+#   remedy {glue:text}`../part2/terrain_cure.ipynb::terrain_best_diverged:.0%`; with altitude integrated out by
+#   a Kalman filter in each particle, $N = 3000$ particles lose
+#   {glue:text}`../part2/terrain_marginalised.ipynb::terrain_mpf_lost_n3000:.0%`.
 #
 # On real data, check consistency with the NIS, which needs no truth; but, as the robot's particle
 # filter showed, a NIS in its band does not prove that the state covariance is right when the
@@ -719,8 +721,8 @@ print(check_consistency(my_consistency))
 # - When the posterior is one bump (the robot tracking, terrain from a small prior), the EKF is as
 #   accurate as anything and far cheaper in model evaluations; the particle filter's own covariance
 #   is then too small for its errors.
-# - Consistency is testable: average the NEES over $R$ runs and compare it with the band of
-#   $\chi^2_{Rd} / R$; the NIS needs no truth, but can miss an over-confident state covariance.
+# - Consistency is testable: average the NEES over $n_\text{runs}$ runs and compare it with the band of
+#   $\chi^2_{n_\text{runs} d} / n_\text{runs}$; the NIS needs no truth, but can miss an over-confident state covariance.
 # - When the posterior has several modes (global localization, terrain from a wide prior), the
 #   Kalman family loses the state, and a particle filter with a proposal or a jitter suited to the
 #   problem is the tool.

@@ -23,22 +23,22 @@
 # :::
 #
 # The lab reports tune the noise covariances of their filters by hand, trying scales from $0.1$ to
-# $100$ and judging each from one run. The data can choose instead. Let $\theta$ scale the
-# measurement noise the filter assumes, $R = \theta R_0$. The **likelihood** of $\theta$ is the
-# density of the measurements the filter saw, $p(z_{1:K} \mid \theta)$: large where the model
-# with $\theta$ predicts them well. On the linear landmark model the Kalman filter computes it
+# $100$ and judging each from one run. The data can choose instead. Let $\vartheta$ scale the
+# measurement noise the filter assumes, $R = \vartheta R_0$. The **likelihood** of $\vartheta$ is the
+# density of the measurements the filter saw, $p(z_{1:K} \mid \vartheta)$: large where the model
+# with $\vartheta$ predicts them well. On the linear landmark model the Kalman filter computes it
 # exactly ({doc}`../part1/kalman`), so every particle answer below is checked against the exact one.
 #
 # The model is the two-landmark model of Part I with process noise $0.05^2$ m² on **every**
 # coordinate, the landmarks' included (they drift slowly), and $R_0 = 0.5^2 I$ m²; the data,
-# $K = 50$ steps, are simulated with $\theta = 1$ (seed $7$). With the static landmarks of
+# $K = 50$ steps, are simulated with $\vartheta = 1$ (seed $7$). With the static landmarks of
 # Part I a bootstrap filter cannot renew a landmark's values once resampled, and its likelihood
 # estimate is useless ({doc}`../part1/sir`).
 #
 # ## The likelihood a particle filter computes
 #
 # The likelihood factorises into one-step predictions,
-# $p(z_{1:K}) = \prod_{k=1}^K p(z_k \mid z_{1:k-1})$ ($\theta$ dropped from the notation), and each
+# $p(z_{1:K}) = \prod_{k=1}^K p(z_k \mid z_{1:k-1})$ ($\vartheta$ dropped from the notation), and each
 # factor averages the measurement density over the predicted state:
 #
 # $$
@@ -199,12 +199,12 @@ EvidenceBlock(
 #
 # ## Maximum likelihood with common random numbers
 #
-# To maximise $\log \hat p(\theta)$ over $\theta$, estimate it on a grid. With a **new seed for
-# every $\theta$** the estimation noise differs from point to point, and the curve is jagged. With
-# **the same seed for every $\theta$** (common random numbers, CRN), and resampling at every measured
-# step ($\tau = 1$, so that the random stream is consumed in the same way whatever $\theta$), the
+# To maximise $\log \hat p(\vartheta)$ over $\vartheta$, estimate it on a grid. With a **new seed for
+# every $\vartheta$** the estimation noise differs from point to point, and the curve is jagged. With
+# **the same seed for every $\vartheta$** (common random numbers, CRN), and resampling at every measured
+# step ($\tau = 1$, so that the random stream is consumed in the same way whatever $\vartheta$), the
 # filter draws the same initial particles, the same transition noise and the same resampling
-# uniforms for every $\theta$; only the weights change:
+# uniforms for every $\vartheta$; only the weights change:
 
 # %%
 thetas = np.geomspace(0.4, 2.5, 17)
@@ -223,8 +223,8 @@ fig, axes = plt.subplots(1, 2, figsize=(7.5, 3), constrained_layout=True)
 for ax, offset in zip(axes, (0, exact_curve)):
     ax.plot(thetas, exact_curve - offset, color=COLORS["kalman"], lw=2, label="exact (Kalman)")
     ax.plot(thetas, crn_curve - offset, "o-", ms=3, color=COLORS["estimate"], label="PF, one seed (CRN)")
-    ax.plot(thetas, fresh_curve - offset, "s--", ms=3, color=COLORS["robot"], label="PF, a seed per θ")
-    ax.set(xscale="log", xlabel="noise scale θ")
+    ax.plot(thetas, fresh_curve - offset, "s--", ms=3, color=COLORS["robot"], label="PF, a seed per ϑ")
+    ax.set(xscale="log", xlabel="noise scale ϑ")
     plain_log_axis(ax, "x", subs=(1.0, 2.0, 5.0))
 axes[0].set_ylabel("log-likelihood (nats)")
 axes[1].set_ylabel("estimate − exact (nats)")
@@ -232,14 +232,14 @@ axes[0].legend(loc="lower center")
 plt.show()
 
 # %% [markdown]
-# Both estimated curves are jagged. With one seed the estimate is a continuous function of $\theta$
+# Both estimated curves are jagged. With one seed the estimate is a continuous function of $\vartheta$
 # except where a weight crosses a resampling uniform and a resampled index jumps; a jump sends one
 # particle down another path, and with systematic resampling it shifts the indices after it too. How
 # far the smoothness reaches is measured on pairs over $100$ seeds: the standard deviation of
-# $\log \hat p(\theta') - \log \hat p(1)$ with one seed is {glue:text}`crn_sd_ratio_small:.2f` times
-# that with two seeds for $\theta' = 1 + 10^{-5}$, but already {glue:text}`crn_sd_ratio:.2f` times
+# $\log \hat p(\vartheta') - \log \hat p(1)$ with one seed is {glue:text}`crn_sd_ratio_small:.2f` times
+# that with two seeds for $\vartheta' = 1 + 10^{-5}$, but already {glue:text}`crn_sd_ratio:.2f` times
 # it (95 % interval {glue:text}`crn_sd_ratio_low:.2f` to {glue:text}`crn_sd_ratio_high:.2f`) for
-# $\theta' = 1.1$, a grid step. So, with $N = 300$ and a resampling at every measured step, CRN buy
+# $\vartheta' = 1.1$, a grid step. So, with $N = 300$ and a resampling at every measured step, CRN buy
 # a **deterministic** curve (a search on it converges, and gives the same answer when re-run),
 # smooth only on a scale far finer than the posterior's. They do not buy smoothness at the scale that matters, nor remove the bias of
 # $\log \hat p$, nor the spread of the maximum over datasets (next).
@@ -262,16 +262,16 @@ sds = evidence.run_interval(sd_of_differences, SEEDS.size)
 glue_values(crn_sd_ratio_small=sds[0][3], crn_sd_ratio=sds[0][4], crn_sd_ratio_low=sds[1][4], crn_sd_ratio_high=sds[2][4])
 EvidenceBlock(
     "common random numbers keep neighbouring estimates together only over a tiny step",
-    notes=[f"{SEEDS.size} seeds s; with one seed both values use seed s, with two seeds θ' uses seed 1000 + s "
-           "(θ' = 1.1; two seeds give independent errors whatever the step); N = 300, resampling at every measured "
+    notes=[f"{SEEDS.size} seeds s; with one seed both values use seed s, with two seeds ϑ' uses seed 1000 + s "
+           "(ϑ' = 1.1; two seeds give independent errors whatever the step); N = 300, resampling at every measured "
            "step. Each seed is an independent replicate, so the bootstrap over seeds is valid (a test on the "
            "successive differences of one curve would not be: they are dependent).",
            f"Exact difference log p(1.1) - log p(1): {kalman_log_likelihood(scenario, Z, 1.1) - exact:.2f} nats; mean "
            f"estimated difference with one seed {np.mean(crn_1_1 - at_1):.2f}, with two seeds "
            f"{np.mean(fresh_1_1 - at_1):.2f}."],
-    tables=[("Standard deviation of log p^(θ') - log p^(1) (nats), 95 % bootstrap intervals over the seeds",
-             pd.DataFrame({"": ["one seed, θ' = 1 + 1e-5", "one seed, θ' = 1.1", "two seeds, θ' = 1.1",
-                                "ratio, θ' = 1 + 1e-5", "ratio, θ' = 1.1"], "sd": sds[0],
+    tables=[("Standard deviation of log p^(ϑ') - log p^(1) (nats), 95 % bootstrap intervals over the seeds",
+             pd.DataFrame({"": ["one seed, ϑ' = 1 + 1e-5", "one seed, ϑ' = 1.1", "two seeds, ϑ' = 1.1",
+                                "ratio, ϑ' = 1 + 1e-5", "ratio, ϑ' = 1.1"], "sd": sds[0],
                            "95% CI": [f"{lo:.2f} to {hi:.2f}" for lo, hi in zip(sds[1], sds[2])]}), {"sd": ".2f"})],
 )
 
@@ -288,7 +288,7 @@ def draw_likelihood_curve(n_particles, seed):
     fig, ax = plt.subplots(figsize=(7, 3), constrained_layout=True)
     ax.plot(thetas, exact_curve, color=COLORS["kalman"], lw=2, label="exact (Kalman)")
     ax.plot(thetas, est, "o-", ms=3, color=COLORS["estimate"], label=f"PF, N = {n_particles}, seed {seed}")
-    ax.set(xscale="log", xlabel="noise scale θ", ylabel="log-likelihood (nats)",
+    ax.set(xscale="log", xlabel="noise scale ϑ", ylabel="log-likelihood (nats)",
            ylim=(exact_curve.min() - 30, exact_curve.max() + 5))
     plain_log_axis(ax, "x", subs=(1.0, 2.0, 5.0))
     ax.legend(loc="lower right")
@@ -301,8 +301,8 @@ control_panel(draw_likelihood_curve, columns=2, grid={"n_particles": (10, 100, 1
 # %% [markdown]
 # ### The maximum over many datasets
 #
-# scipy's bounded search on $\log\theta$ maximises the exact curve and the CRN curve (one filter seed
-# per dataset, reused for every $\theta$). On this dataset:
+# scipy's bounded search on $\log\vartheta$ maximises the exact curve and the CRN curve (one filter seed
+# per dataset, reused for every $\vartheta$). On this dataset:
 
 # %%
 theta_exact, _ = max_likelihood_scale(lambda t: kalman_log_likelihood(scenario, Z, t))
@@ -312,7 +312,7 @@ print(f"exact ML theta = {theta_exact:.3f}; particle ML (N = 300, one seed) thet
 
 # %% [markdown]
 # `python3 tasks.py study likelihood` repeated this on {glue:text}`ml_n_datasets:d` simulated datasets
-# (truth $\theta = 1$), with $N = 300$ and $N = 1000$. The median exact ML scale is
+# (truth $\vartheta = 1$), with $N = 300$ and $N = 1000$. The median exact ML scale is
 # {glue:text}`ml_noise_scale_kalman:.3f` and the median particle ML scale with $N = 1000$ is
 # {glue:text}`ml_noise_scale_pf:.3f`. The exact one lies below $1$ for a reason that has nothing to
 # do with particles: the ML estimate of a variance is skewed, like $\chi^2_\nu / \nu$ for $\nu$
@@ -325,14 +325,14 @@ by_n = {n: g.sort_values("run") for n, g in ml.groupby("n_particles")}
 assert all((g["run"].to_numpy() == by_n[300]["run"].to_numpy()).all() for g in by_n.values())
 kal = by_n[300]["theta_kalman"].to_numpy()
 k_med = evidence.median_interval(kal)
-rows = [{"estimate": "exact (Kalman)", "median θ": k_med[0], "95% CI": f"{k_med[1]:.3f} to {k_med[2]:.3f}"}]
+rows = [{"estimate": "exact (Kalman)", "median ϑ": k_med[0], "95% CI": f"{k_med[1]:.3f} to {k_med[2]:.3f}"}]
 shifts = {}
 for n, g in by_n.items():
     pf = g["theta_pf"].to_numpy()
     med = evidence.median_interval(pf)
     shifts[n] = evidence.paired(np.log(pf), np.log(kal))
-    rows.append({"estimate": f"particle, N = {n}", "median θ": med[0], "95% CI": f"{med[1]:.3f} to {med[2]:.3f}",
-                 "median log(θ_PF / θ_exact)": shifts[n].median,
+    rows.append({"estimate": f"particle, N = {n}", "median ϑ": med[0], "95% CI": f"{med[1]:.3f} to {med[2]:.3f}",
+                 "median log(ϑ_PF / ϑ_exact)": shifts[n].median,
                  "its 95% CI": f"{shifts[n].low:.3f} to {shifts[n].high:.3f}", "Wilcoxon p": f"{shifts[n].pvalue:.1g}"})
 shrink = evidence.paired(np.log(by_n[1000]["theta_pf"].to_numpy() / kal), np.log(by_n[300]["theta_pf"].to_numpy() / kal))
 exact_spread = evidence.run_interval(lambda r: np.std(np.log(kal[r]), ddof=1), kal.size)
@@ -343,52 +343,52 @@ glue_values(ml_n_datasets=int(kal.size), ml_noise_scale_kalman=k_med[0],
 EvidenceBlock(
     "the particle ML scale is shifted up a little; the data limit it more",
     notes=[f"{kal.size} datasets (provenance in book/data/likelihood/ml.json); medians with percentile-bootstrap "
-           "intervals; particle against exact paired dataset by dataset (median of log(θ_PF / θ_exact), bootstrap "
+           "intervals; particle against exact paired dataset by dataset (median of log(ϑ_PF / ϑ_exact), bootstrap "
            "interval, Wilcoxon signed-rank test).",
            f"The exact median {k_med[0]:.3f} has an interval that excludes 1: the ML estimate of a variance has a median "
            f"below the truth even with an exact likelihood (median of chi2_nu / nu: {stats.chi2.median(14) / 14:.3f} "
            f"for nu = 14, {stats.chi2.median(40) / 40:.3f} for nu = 40).",
            f"Shift at N = 1000 minus shift at N = 300, same datasets: {shrink}.",
-           f"Spread of the exact estimate over datasets: sd of log θ_exact {exact_spread[0]:.3f} (95 % interval "
+           f"Spread of the exact estimate over datasets: sd of log ϑ_exact {exact_spread[0]:.3f} (95 % interval "
            f"{exact_spread[1]:.3f} to {exact_spread[2]:.3f})."],
     tables=[("ML noise scale over the datasets (truth 1)", pd.DataFrame(rows),
-             {"median θ": ".3f", "median log(θ_PF / θ_exact)": ".3f"})],
+             {"median ϑ": ".3f", "median log(ϑ_PF / ϑ_exact)": ".3f"})],
 )
 
 # %% [markdown]
 # On the same dataset the particle ML scale is shifted **up** against the exact one: the median of
-# $\log(\hat\theta_{PF} / \hat\theta_{exact})$ with $N = 1000$ is {glue:text}`ml_shift_1000:.3f`
+# $\log(\hat\vartheta_{PF} / \hat\vartheta_{exact})$ with $N = 1000$ is {glue:text}`ml_shift_1000:.3f`
 # (95 % interval {glue:text}`ml_shift_1000_low:.3f` to {glue:text}`ml_shift_1000_high:.3f`). A likely
-# cause, not measured here: the bias $-\sigma^2/2$ of $\log\hat p$ depends on $\theta$ (a smaller
+# cause, not measured here: the bias $-\sigma^2/2$ of $\log\hat p$ depends on $\vartheta$ (a smaller
 # assumed noise makes the weights more uneven and $\sigma$ larger), so it tilts the curve; CRN cannot
 # remove it. Nor do CRN shrink the spread over datasets, which belongs to the data: the standard deviation of
-# $\log\hat\theta_{exact}$ is {glue:text}`ml_exact_spread:.2f`, well above the shift.
+# $\log\hat\vartheta_{exact}$ is {glue:text}`ml_exact_spread:.2f`, well above the shift.
 #
-# ## The posterior of $\theta$: particle marginal Metropolis-Hastings
+# ## The posterior of $\vartheta$: particle marginal Metropolis-Hastings
 #
-# A maximum says nothing of how well the data pin $\theta$ down; the posterior
-# $p(\theta \mid z_{1:K}) \propto p(z_{1:K} \mid \theta)\, p(\theta)$ does. Take the prior flat in
-# $u = \log\theta$ on $[\log 0.1, \log 10]$. A Metropolis-Hastings random walk on $u$ would accept a
-# proposal $u'$ with probability $\min(1, p(z_{1:K} \mid \theta')/p(z_{1:K} \mid \theta))$.
+# A maximum says nothing of how well the data pin $\vartheta$ down; the posterior
+# $p(\vartheta \mid z_{1:K}) \propto p(z_{1:K} \mid \vartheta)\, p(\vartheta)$ does. Take the prior flat in
+# $u = \log\vartheta$ on $[\log 0.1, \log 10]$. A Metropolis-Hastings random walk on $u$ would accept a
+# proposal $u'$ with probability $\min(1, p(z_{1:K} \mid \vartheta')/p(z_{1:K} \mid \vartheta))$.
 # PMMH {cite:p}`andrieu2010` puts the particle estimate in place of the exact likelihood, and keeps
 # the estimate of the current point as part of the chain's state (it is never recomputed).
 #
 # Why that is exact: call $\xi$ all the random numbers a filter draws. The chain on
-# $(\theta, \xi)$ is an ordinary Metropolis-Hastings chain whose target is
-# $p(\theta)\, \hat p(z_{1:K} \mid \theta, \xi)\, q(\xi)$, with $q$ the distribution of $\xi$;
-# integrating $\xi$ out leaves $p(\theta)\, \mathbb E_\xi[\hat p] = p(\theta)\, p(z_{1:K} \mid \theta)$,
+# $(\vartheta, \xi)$ is an ordinary Metropolis-Hastings chain whose target is
+# $p(\vartheta)\, \hat p(z_{1:K} \mid \vartheta, \xi)\, q(\xi)$, with $q$ the distribution of $\xi$;
+# integrating $\xi$ out leaves $p(\vartheta)\, \mathbb E_\xi[\hat p] = p(\vartheta)\, p(z_{1:K} \mid \vartheta)$,
 # the exact posterior, because $\hat p$ is unbiased. $N$ changes how well the chain mixes, not where
 # it goes. A lucky overestimate is hard to leave, so a noisy $\hat p$ lowers the acceptance rate.
 #
-# :::{admonition} Algorithm 22.2: particle marginal Metropolis-Hastings on $u = \log\theta$
+# :::{admonition} Algorithm 22.2: particle marginal Metropolis-Hastings on $u = \log\vartheta$
 # :class: algorithm
-# 1. **Initialise.** $u = \log\theta_0$; $\ell = \log\hat p(z_{1:K} \mid e^{u})$ by Algorithm 22.1.
+# 1. **Initialise.** $u = \log\vartheta_0$; $\ell = \log\hat p(z_{1:K} \mid e^{u})$ by Algorithm 22.1.
 # 2. **For** $t = 1, \dots, T$:
 #    1. *propose:* $u' = u + s\,\varepsilon$, $\varepsilon \sim \mathcal N(0, 1)$;
 #    2. if $u'$ is outside the prior's support, reject it: go to the record step;
 #    3. *estimate and accept:* $\ell' = \log\hat p(z_{1:K} \mid e^{u'})$ from a **fresh** filter; draw
 #       $U \sim \mathcal U(0, 1)$; if $\log U < \ell' - \ell$, set $(u, \ell) \leftarrow (u', \ell')$;
-#    4. *record* $\theta_t = e^{u}$.
+#    4. *record* $\vartheta_t = e^{u}$.
 # :::
 #
 # The prior is flat in $u$ and the proposal symmetric, so both cancel in the ratio:
@@ -426,8 +426,8 @@ print(f"a short chain: {SHORT} iterations, N = 300, acceptance {accepted.mean():
 # %% [markdown]
 # The loop gives the same chain as `pfcourse.pmmh` with the same seed. The exact posterior to compare
 # with is the Kalman likelihood on a grid of $u$, normalised. A short chain of $T = 250$ iterations,
-# started at $\theta = 1$, runs in the page; the three long chains of the figure (started at
-# $\theta = 2$, $N = 100$, $300$ and $1000$) are stored data (`tools/studies/pmmh.py`, provenance in
+# started at $\vartheta = 1$, runs in the page; the three long chains of the figure (started at
+# $\vartheta = 2$, $N = 100$, $300$ and $1000$) are stored data (`tools/studies/pmmh.py`, provenance in
 # `book/data/likelihood/pmmh.json`).
 
 # %%
@@ -448,11 +448,11 @@ for ax, (n, g) in zip(trace_axes, chains.groupby("n_particles")):
     if n > 100:  # the stuck chain's spike (trace above) would flatten the others
         hist_ax.hist(g["theta"].to_numpy()[BURN_IN:], bins=30, range=(0.4, 1.8), density=True, histtype="step",
                      lw=1.5, color=colors[n], label=f"stored, N = {n}")
-trace_axes[1].set_ylabel("noise scale θ")
+trace_axes[1].set_ylabel("noise scale ϑ")
 trace_axes[-1].set_xlabel("iteration")
 hist_ax.hist(chain, bins=15, range=(0.4, 1.8), density=True, color="0.8", label=f"in the page, N = 300")
 hist_ax.plot(np.exp(u_grid), exact_density / np.exp(u_grid), color=COLORS["kalman"], lw=2, label="exact (Kalman grid)")
-hist_ax.set(xlim=(0.4, 1.8), xlabel="noise scale θ", ylabel="posterior density (per unit of θ)")
+hist_ax.set(xlim=(0.4, 1.8), xlabel="noise scale ϑ", ylabel="posterior density (per unit of ϑ)")
 hist_ax.legend(loc="upper center", bbox_to_anchor=(0.5, -0.2), ncols=2)
 plt.show()
 
@@ -464,12 +464,12 @@ for n, g in chains.groupby("n_particles"):
     mcse = kept.std(ddof=1) / np.sqrt(kept.size / tau)
     rows.append({"chain": f"stored, N = {n}", "var log p^ (bias study)": var_by_n.get(n, np.nan),
                  "acceptance": g["accepted"].to_numpy()[BURN_IN:].mean(), "IACT": tau, "ESS": kept.size / tau,
-                 "ESS per 10^6 particles": kept.size / tau / (n * kept.size) * 1e6, "mean θ": kept.mean(),
+                 "ESS per 10^6 particles": kept.size / tau / (n * kept.size) * 1e6, "mean ϑ": kept.mean(),
                  "(mean - exact)/sd": (kept.mean() - exact_mean) / exact_sd, "MCSE/sd": mcse / exact_sd})
 tau_short = integrated_autocorrelation_time(np.log(chain))
 rows.append({"chain": "in the page, N = 300", "var log p^ (bias study)": var_by_n[300], "acceptance": accepted.mean(),
              "IACT": tau_short, "ESS": SHORT / tau_short, "ESS per 10^6 particles": 1e6 / (tau_short * 300),
-             "mean θ": chain.mean(),
+             "mean ϑ": chain.mean(),
              "(mean - exact)/sd": (chain.mean() - exact_mean) / exact_sd,
              "MCSE/sd": chain.std(ddof=1) / np.sqrt(SHORT / tau_short) / exact_sd})
 pmmh_table = pd.DataFrame(rows).set_index("chain")
@@ -482,12 +482,12 @@ EvidenceBlock(
     "the PMMH posterior means lie near the exact one, within a few Monte Carlo standard errors",
     notes=[f"Exact posterior (Kalman likelihood on {u_grid.size} points of u, flat prior in u): mean {exact_mean:.3f}, "
            f"sd {exact_sd:.3f}.",
-           f"Stored chains: 1500 iterations each, the first {BURN_IN} dropped, step 0.25 in u, started at θ = 2, one chain "
+           f"Stored chains: 1500 iterations each, the first {BURN_IN} dropped, step 0.25 in u, started at ϑ = 2, one chain "
            "per N (a different seed could reorder close values). MCSE = sd / sqrt(ESS), ESS = kept / IACT (Sokal's window).",
-           f"The chain in the page: {SHORT} iterations from θ = 1, N = 300, no burn-in dropped (it starts in the bulk)."],
+           f"The chain in the page: {SHORT} iterations from ϑ = 1, N = 300, no burn-in dropped (it starts in the bulk)."],
     tables=[("PMMH chains against the exact posterior (errors in exact posterior sds)", pmmh_table,
              {"var log p^ (bias study)": ".2f", "acceptance": ".2f", "IACT": ".1f", "ESS": ".0f",
-              "ESS per 10^6 particles": ".0f", "mean θ": ".3f",
+              "ESS per 10^6 particles": ".0f", "mean ϑ": ".3f",
               "(mean - exact)/sd": ".2f", "MCSE/sd": ".2f"})],
 )
 
@@ -525,7 +525,7 @@ tuned_var = evidence.run_interval(lambda r: tuned[r].var(ddof=1), SEEDS.size)
 glue_values(n_tuned=n_tuned, loglik_var_at_tuned_n=tuned_var[0], tuned_var_low=tuned_var[1], tuned_var_high=tuned_var[2])
 EvidenceBlock(
     "the rule's N gives a variance of log p^ near one",
-    notes=[f"Pilot: the stored bias study (200 runs per N, resampling at every measured step, θ = 1). "
+    notes=[f"Pilot: the stored bias study (200 runs per N, resampling at every measured step, ϑ = 1). "
            f"N* = {N_PILOT} x {var_by_n[N_PILOT]:.2f}, rounded up to a hundred: {n_tuned}.",
            f"Check in the page: {SEEDS.size} runs of Algorithm 22.1 at N = {n_tuned} (seeds 0 to {SEEDS.size - 1}), "
            f"var(log p^) = {tuned_var[0]:.2f}, 95 % interval {tuned_var[1]:.2f} to {tuned_var[2]:.2f} (percentile "
@@ -623,13 +623,13 @@ print(check_likelihood_estimate(log_likelihood_from_run))
 # :label: ex-lik-crn
 # :nonumber:
 # Redraw the CRN curve with `threshold=0.5` instead of $1$. Why does it become jagged again, although
-# the seed is the same for every $\theta$?
+# the seed is the same for every $\vartheta$?
 # ```
 #
 # ```{solution} ex-lik-crn
 # :class: dropdown
-# With $\tau < 1$, whether the cloud is resampled at step $k$ depends on the ESS, hence on $\theta$.
-# Two values of $\theta$ then resample at different steps, consume a different number of uniforms,
+# With $\tau < 1$, whether the cloud is resampled at step $k$ depends on the ESS, hence on $\vartheta$.
+# Two values of $\vartheta$ then resample at different steps, consume a different number of uniforms,
 # and from then on use different random numbers: CRN are lost after the first step where the decisions
 # differ.
 # ```
@@ -643,8 +643,8 @@ print(check_likelihood_estimate(log_likelihood_from_run))
 #
 # ```{solution} ex-lik-pmmh
 # :class: dropdown
-# No. The extended target of $(\theta, \xi)$ is gone: the chain ("Monte Carlo within Metropolis") no
-# longer has $p(\theta \mid z_{1:K})$ as its stationary distribution, and its error depends on $N$
+# No. The extended target of $(\vartheta, \xi)$ is gone: the chain ("Monte Carlo within Metropolis") no
+# longer has $p(\vartheta \mid z_{1:K})$ as its stationary distribution, and its error depends on $N$
 # and does not vanish with more iterations. It mixes better, because it no longer sticks after a
 # lucky overestimate; PMMH is exact precisely because it keeps that estimate.
 # ```
@@ -653,7 +653,7 @@ print(check_likelihood_estimate(log_likelihood_from_run))
 #
 # - A particle filter estimates the likelihood as it runs: $\hat p(z_{1:K}) = \prod_k \sum_i W_{k-1}^i
 #   \tilde w_k^i$, unbiased for every $N$; its logarithm is biased down by about half its variance.
-# - Common random numbers make the estimated likelihood a smooth function of $\theta$ that a search
+# - Common random numbers make the estimated likelihood a smooth function of $\vartheta$ that a search
 #   can maximise; they do not remove its bias, nor the spread of the ML estimate over datasets.
 # - An ML variance has its median below the truth even with the exact likelihood: compare with the
 #   exact answer before blaming the particles.

@@ -35,6 +35,7 @@ from pfcourse.results import FilterResult
 from pfcourse.kalman import kalman_filter
 from pfcourse.results import KalmanResult
 from pfcourse.landmarks.scenario import LandmarkScenario, simulate
+from pfcourse.seeding import study_filter_seed
 
 
 @dataclass
@@ -106,5 +107,5 @@ def _scored_runs(scenario: LandmarkScenario, run_filter: Callable, seeds: list[i
     for seed in seeds:
         sim = simulate(scenario, rng=seed)
         kf = kalman_filter(model, sim.measurements)
-        out.append(score(run_filter(sim.measurements, seed + 10**6), kf, sim.truth, components))
+        out.append(score(run_filter(sim.measurements, study_filter_seed(seed)), kf, sim.truth, components))
     return out

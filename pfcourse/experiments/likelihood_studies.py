@@ -45,7 +45,7 @@ from pfcourse.filter import ParticleFilter
 from pfcourse.landmarks import quadrant_scenario, simulate
 from pfcourse.kalman import kalman_filter
 from pfcourse.robot import ANGLE_INDICES, RobotModel, RobotScenario, rmse, simulate_robot
-from pfcourse.seeding import data_rng, likelihood_rng, replicate_seed
+from pfcourse.seeding import data_rng, likelihood_rng, replicate_seed, run_filter_seed
 from pfcourse.terrain.scenario import AircraftScenario
 from pfcourse.terrain.scenario import simulate as simulate_flight
 
@@ -103,7 +103,7 @@ def bias_run(seed: int, n_particles: int) -> dict:
 
 def ml_run(seed: int, n_particles: int) -> dict:
     Z = simulate(SCENARIO, seed).measurements
-    filter_seed = seed + 1  # one filter seed for every theta: common random numbers
+    filter_seed = run_filter_seed(seed)  # one filter seed for every theta: common random numbers
     theta_k, nfev_k = max_likelihood_scale(lambda t: kalman_log_likelihood(SCENARIO, Z, t, NOISE), BOUNDS, XATOL)
     theta_p, nfev_p = max_likelihood_scale(
         lambda t: pf_log_likelihood(SCENARIO, Z, t, n_particles, filter_seed, NOISE), BOUNDS, XATOL)
@@ -133,7 +133,7 @@ def terrain_rf_run(seed: int, flight: int, n_particles: int) -> dict:
 def robot_noise_run(seed: int, n_particles: int) -> dict:
     sim = simulate_robot(ROBOT, seed)
     scales, nfev = max_likelihood_scales(
-        lambda t: robot_log_likelihood(sim, t[0], t[1], n_particles, seed + 1), np.array(ROBOT_START))
+        lambda t: robot_log_likelihood(sim, t[0], t[1], n_particles, run_filter_seed(seed)), np.array(ROBOT_START))
     out = {"q_ml": float(scales[0]), "r_ml": float(scales[1]), "nfev": nfev}
     for name, (q, r) in {"ml": scales, "hand": ROBOT_START, "truth": (1.0, 1.0)}.items():
         model = RobotModel.for_simulation(sim, q_scale=float(q), r_scale=float(r))
@@ -148,7 +148,7 @@ def landmarks_run(seed: int, n_particles: int) -> dict:
     model = SCENARIO.model()
     kf = kalman_filter(model, sim.measurements)
     m_s, P_s = rts_smoother(model, kf)
-    r = ParticleFilter(model, n_particles).run(sim.measurements, seed + 1, store_particles=True)
+    r = ParticleFilter(model, n_particles).run(sim.measurements, run_filter_seed(seed), store_particles=True)
     s = ffbsm(r.particles, r.weights, linear_gaussian_log_transition(model))
     sd_s = np.sqrt(np.diagonal(P_s, axis1=1, axis2=2))
     sd_f = np.sqrt(np.diagonal(kf.cov, axis1=1, axis2=2))
@@ -162,7 +162,7 @@ def landmarks_run(seed: int, n_particles: int) -> dict:
 def robot_gap_run(seed: int, n_particles: int) -> dict:
     sim = simulate_robot(ROBOT_GAP, seed)
     model = RobotModel.for_simulation(sim)
-    r = ParticleFilter(model, n_particles).run(sim.measurements, seed + 1, store_particles=True)
+    r = ParticleFilter(model, n_particles).run(sim.measurements, run_filter_seed(seed), store_particles=True)
     s = ffbsm(r.particles, r.weights, pairwise(partial(robot_transition_log_density, model)), model.angle_indices)
     t = np.arange(ROBOT_GAP.n_steps) * ROBOT_GAP.dt
     gap = (t >= ROBOT_GAP.gap[0]) & (t < ROBOT_GAP.gap[1])

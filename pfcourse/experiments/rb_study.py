@@ -28,6 +28,7 @@ from pfcourse.kalman import kalman_filter
 from pfcourse.proposals import FullyAdaptedAuxiliary, LinearGaussianOptimal, OptimalProposal
 from pfcourse.landmarks.rao_blackwell import RaoBlackwellModel, RaoBlackwellProposal
 from pfcourse.landmarks.scenario import LandmarkScenario, circle_scenario, quadrant_scenario, simulate
+from pfcourse.seeding import study_filter_seed
 
 #: Methods, in the order of the chapter: label, and whether the map is integrated out.
 METHODS: dict[str, str] = {
@@ -84,7 +85,7 @@ def row(seed: int, scenario: str, method: str, N: int) -> dict:
     nr = 2
     run, first_stage = make_filter(method, sc, N)
     start = time.perf_counter()
-    res = run(sim.measurements, seed + 10**6)
+    res = run(sim.measurements, study_filter_seed(seed))
     seconds = (time.perf_counter() - start) / len(sim.measurements)
     err = res.mean[-1] - kf.mean[-1]
     ess = np.array(first_stage) if first_stage is not None else res.ess[measured]
