@@ -274,6 +274,14 @@ STUDIES: dict[str, Study] = {study.name: study for study in [
                   "studies": terrain_studies.STUDIES,
                   "seeds": "flight r: pfcourse.seeding.data_rng(0, r); filter: pfcourse.seeding.filter_rng(0, r)",
                   "divergence": "final horizontal error > 500 m or every particle lost"}),
+    Study(name="smoothing/landmarks", row=smoothing_studies.landmarks_row,
+          grid={"n_particles": smoothing_studies.N_VALUES}, n_runs=smoothing_studies.N_RUNS, seeds="run",
+          failures="raise", table="smoothing/landmarks.csv", provenance="smoothing/landmarks.json",
+          cheap=lambda t: t["n_particles"] == t["n_particles"].min(), sample=1,
+          row_code="pfcourse/experiments/smoothing_studies.py (landmarks_row), pfcourse/smoothing.py",
+          fields={"lags": smoothing_studies.LAGS, "scenario": "quadrant_scenario().with_(Qw=0.05**2 I6, Rv=0.5**2 I4)",
+                  "seeds": f"run r: data pfcourse.seeding.data_rng({smoothing_studies.SEED}, r); filter and FFBSi "
+                           f"draws pfcourse.seeding.filter_rng({smoothing_studies.SEED}, r)"}),
 ]}
 
 
