@@ -38,6 +38,7 @@ from pfcourse.errors import ParameterError, StepError
 from pfcourse.experiments import global_localization
 from pfcourse.experiments import likelihood_studies as ls
 from pfcourse.experiments import rb_study, robot_studies, sir_fixes_study, terrain_remedies, terrain_studies
+from pfcourse.experiments import smoothing_studies
 from pfcourse.experiments.provenance import launch_commit, write_provenance
 from pfcourse.experiments.robot import pf_run
 from pfcourse.experiments.store import DATA, load, save
