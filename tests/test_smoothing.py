@@ -140,7 +140,11 @@ def test_recorder_keeps_the_run_and_fixed_lag_zero_is_the_filter(scalar):
     np.testing.assert_array_equal(r.particles, plain.particles)
     A = rec.ancestors(r)
     np.testing.assert_array_equal(A[0], np.arange(50))
-    np.testing.assert_array_equal(A[1:], np.array(rec.draws[:-1]))  # resampled after every step
+    steps = np.flatnonzero(r.resampled[:-1])  # resampled after these steps (ESS < N: not when nothing is seen)
+    assert len(steps) > 5
+    np.testing.assert_array_equal(A[steps + 1], np.array(rec.draws[:len(steps)]))
+    kept = np.setdiff1d(np.arange(1, len(z)), steps + 1)
+    np.testing.assert_array_equal(A[kept], np.tile(np.arange(50), (len(kept), 1)))
     np.testing.assert_allclose(fixed_lag_means(r.particles, r.weights, A, 0), r.mean, atol=1e-12)
     # a lag of one: the weights of step k+1 on the parents of its particles
     lag1 = fixed_lag_means(r.particles, r.weights, A, 1)
