@@ -24,8 +24,8 @@ from pfcourse.smoothing import (AncestorRecorder, ffbsi, ffbsm, fixed_lag_means,
 
 SCENARIO = quadrant_scenario().with_(Qw=0.05**2 * np.eye(6), Rv=0.5**2 * np.eye(4))
 SEED = 23
-N_VALUES = [50, 100, 200]
-N_RUNS = 50
+N_VALUES = [50, 100, 200, 400]
+N_RUNS = 100
 LAGS = [0, 1, 2, 4, 8, 16, 49]
 
 
