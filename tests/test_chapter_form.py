@@ -24,7 +24,8 @@ ROOT = Path(__file__).resolve().parents[1]
 BOOK = ROOT / "book"
 CHAPTERS = sorted(BOOK.rglob("*.py"))
 IN_FORM = ["part1/model", "part1/kalman", "part1/importance_sampling", "part1/sis", "part1/sir",
-           "part1/resampling_schemes", "part1/proposals", "part1/rao_blackwell", "part1/auxiliary"]
+           "part1/resampling_schemes", "part1/proposals", "part1/rao_blackwell", "part1/auxiliary",
+           "part5/smoothing"]
 MAX_NUMBERS_PER_PARAGRAPH = 4
 MAX_WORDS = 2500
 WORDS = {w: i for i, w in enumerate(
