@@ -90,12 +90,7 @@ def ffbsm(
     ``log_transition(new, old, k)`` returns the ``(N, N)`` matrix ``[log f(new_j | old_i)]_{j, i}``
     for ``x_k = new``, ``x_{k-1} = old`` (:func:`pairwise` builds it from a row-by-row density).
     """
-    particles = np.asarray(particles, dtype=float)
-    weights = np.asarray(weights, dtype=float)
-    if particles.ndim != 3 or weights.shape != particles.shape[:2]:
-        raise ShapeError(
-            f"particles must be (K, N, d) and weights (K, N); got {particles.shape} and {weights.shape} "
-            "(run the filter with store_particles=True)")
+    particles, weights = _check_clouds(particles, weights)
     K, n, d = particles.shape
     with np.errstate(divide="ignore"):
         log_w = np.log(weights)

@@ -390,7 +390,7 @@ EvidenceBlock(
 # A smoother that waits for the end of the run is of no use to a controller. The fixed-lag
 # smoother answers $p(x_k \mid z_{1:k+L})$ as soon as $z_{k+L}$ arrives, from the ancestral lines
 # only $L$ steps long: $\hat m_{k|k+L} = \sum_i W_{k+L}^i\, x_k^{(i)}$, with $x_k^{(i)}$ the ancestor at $k$
-# of particle $i$ of step $k+L$ {cite:p}`doucet2000`. It costs nothing beyond the filter's
+# of particle $i$ of step $k+L$. It costs nothing beyond the filter's
 # own $O(N)$ per step. Lag $L = 0$ is the filter; a lag as long as the run is the naive
 # smoother. A short lag leaves information out; a long one goes back through degenerate
 # lines. The study measures the compromise:
@@ -487,8 +487,8 @@ EvidenceBlock(
 
 # %% [markdown]
 # Inside the gap the smoothed position error is {glue:text}`smoother_gap_error_ratio:.2f` times
-# the filtered one (median of the per-run ratios over {glue:text}`smooth_robot_runs:d` runs, 95 %
-# interval {glue:text}`smooth_gap_low:.2f` to {glue:text}`smooth_gap_high:.2f`); outside it, where
+# the filtered one (median of the per-run ratios over {glue:text}`smooth_robot_runs:d` runs,
+# 95 % interval {glue:text}`smooth_gap_low:.2f` to {glue:text}`smooth_gap_high:.2f`); outside it, where
 # the filter has a measurement at every step, the ratio is {glue:text}`smooth_outside:.2f`. The
 # readings after the gap tell the smoother which dead-reckoned paths were right. Here the
 # process noise is large next to the cloud's spread, the opposite of the landmark model, and
