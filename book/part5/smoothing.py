@@ -394,8 +394,9 @@ EvidenceBlock(
 
 # %% [markdown]
 # In this run the {glue:text}`smooth_demo_resamplings:d` resampling steps leave
-# {glue:text}`smooth_demo_ancestors_0:d` distinct ancestor(s) at step $0$: the naive smoother's
-# estimate there rests on that few points, a band of width zero where the exact one is wide.
+# {glue:text}`smooth_demo_ancestors_0:d` distinct ancestors at step $0$: the naive smoother's
+# estimate there rests on that few points, a band almost of width zero where the exact one is wide.
+#
 # Over the study's datasets the mean number is {glue:text}`smooth_ancestors_0:.2f` (interval
 # {glue:text}`smooth_ancestors_0_low:.2f` to {glue:text}`smooth_ancestors_0_high:.2f`).
 #
@@ -513,8 +514,10 @@ EvidenceBlock(
 # %% [markdown]
 # Inside the gap the smoothed position error is {glue:text}`smoother_gap_error_ratio:.2f` times
 # the filtered one (median of the per-run ratios over {glue:text}`smooth_robot_runs:d` runs,
-# 95 % interval {glue:text}`smooth_gap_low:.2f` to {glue:text}`smooth_gap_high:.2f`); outside it, where
-# the filter has a measurement at every step, the ratio is {glue:text}`smooth_outside:.2f`. The
+# 95 % interval {glue:text}`smooth_gap_low:.2f` to {glue:text}`smooth_gap_high:.2f`).
+#
+# Outside the gap, where the filter has a measurement at every step, the ratio is
+# {glue:text}`smooth_outside:.2f`. The
 # readings after the gap tell the smoother which dead-reckoned paths were right. Here the
 # process noise is large next to the cloud's spread, the opposite of the landmark model, and
 # the backward kernel has many particles to choose from.
