@@ -280,6 +280,7 @@ for column, label, color in [("ffbsm_rts", "FFBSm", COLORS["estimate"]), ("ffbsi
 ax1.set(xscale="log", xlabel="number of particles N", ylabel="distance to the exact mean (sd)",
         title="Mean distance, 95 % intervals")
 ax1.set_xticks(N_VALUES, [str(n) for n in N_VALUES])
+ax1.xaxis.set_minor_locator(plt.NullLocator())
 ax1.legend(loc="upper right")
 ax2.plot(N_VALUES, [runs["ffbsm_densities"][n].iloc[0] / (len(Z) - 1) for n in N_VALUES], "o-",
          color=COLORS["estimate"], label="FFBSm: all pairs")
@@ -288,6 +289,7 @@ ax2.plot(N_VALUES, [runs["ffbsi_densities"][n].iloc[0] / (len(Z) - 1) / n for n 
 ax2.set(xscale="log", yscale="log", xlabel="number of particles N", ylabel="densities evaluated per step",
         title="Cost of one backward step")
 ax2.set_xticks(N_VALUES, [str(n) for n in N_VALUES])
+ax2.xaxis.set_minor_locator(plt.NullLocator())
 ax2.legend(loc="upper left")
 plt.show()
 
@@ -427,6 +429,7 @@ for n, color in zip(N_VALUES, ["tab:blue", COLORS["estimate"], "tab:purple", "ta
 ax.set(xscale="log", xlabel="lag L + 1 (steps)", ylabel="distance to the RTS mean (sd)",
        title="Fixed-lag smoother: mean distance and 95 % interval")
 ax.set_xticks(np.array(LAGS) + 1, [str(lag + 1) for lag in LAGS])
+ax.xaxis.set_minor_locator(plt.NullLocator())
 ax.legend(loc="upper left", bbox_to_anchor=(1.02, 1))
 plt.show()
 
