@@ -44,6 +44,10 @@ exception is reported as a problem); ``str(report)`` prints the verdict.
   against :func:`landmark_log_likelihood`; the mistakes of :data:`LIKELIHOOD_MISTAKES` (NaN kept or
   read as 0, the offset ``r - l``, ``R`` read as standard deviations, the leading block of ``R``
   instead of the visible one, no normalising constant) are named.
+* :func:`check_backward_weights` - ``fn(k, particles, weights, smoothed_next, log_transition) -> (N,)``:
+  one backward step of FFBSm (the smoothing chapter), against :func:`backward_weights` to round-off;
+  the mistakes of :data:`BACKWARD_MISTAKES` are named (the filter weight forgotten, the predictive
+  density summed over the wrong axis, the transition of the wrong time).
 """
 
 from __future__ import annotations

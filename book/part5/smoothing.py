@@ -537,10 +537,11 @@ EvidenceBlock(
 #
 # ```{solution} ex-smooth-collapse
 # :class: dropdown
-# With no process noise the transition density is a point mass: $p(x_{k+1}^j \mid x_k^i)$ is zero
-# unless the landmark coordinates of $x_k^i$ are exactly those of $x_{k+1}^j$, which happens only
-# for its own parent (or a copy of it). The backward kernel then follows the ancestry exactly,
-# and FFBSm reduces to the naive smoother, with its path degeneracy. With a process noise much
+# With no process noise on the landmarks the transition density is a point mass in their
+# coordinates: $p(x_{k+1}^j \mid x_k^i)$ is zero unless $x_k^i$ carries exactly the landmark values of
+# $x_{k+1}^j$, and only the particles of its own lineage do (landmark values are copied by
+# resampling, never renewed). The backward kernel cannot leave the ancestral lines, and FFBSm
+# is no better than the naive smoother, with its path degeneracy. With a process noise much
 # larger than the cloud's spread, the density is nearly flat over the cloud, the kernel is
 # nearly the filter's weights $W_k$, and the smoother adds little to the filter: the later
 # measurements say little about a state that moves that much.
