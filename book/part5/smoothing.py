@@ -406,8 +406,8 @@ EvidenceBlock(
 # above. Run by run, the naive smoother's distance to the RTS mean is
 # {glue:text}`smooth_naive_vs_ffbsm:.2f` times FFBSm's (95 % interval
 # {glue:text}`smooth_naive_vs_ffbsm_low:.2f` to {glue:text}`smooth_naive_vs_ffbsm_high:.2f`), for
-# $N$ densities per step instead of $N^2$. FFBSm pays off where the process noise is wide
-# enough for the kernel to choose among many particles, as in the robot's gap below.
+# $N$ densities per step instead of $N^2$. FFBSm pays off where its kernel can choose among
+# many particles, as in the robot's gap below.
 #
 # ## Fixed-lag smoothing: the online compromise
 #
@@ -501,13 +501,17 @@ assert (srob["status"] == "ok").all()
 gap = evidence.paired(srob["smoother_gap_error"], srob["filter_gap_error"], ratio=True)
 outside = evidence.paired(srob["smoother_outside_error"], srob["filter_outside_error"], ratio=True)
 glue_values(smoother_gap_error_ratio=gap.median)
-glue_values("smooth_", gap_low=gap.low, gap_high=gap.high, robot_runs=len(srob), outside=outside.median)
+glue_values("smooth_", gap_low=gap.low, gap_high=gap.high, robot_runs=len(srob), outside=outside.median,
+            robot_ess=float(srob["smoother_gap_ess_median"].median()))
 EvidenceBlock(
     f"in the gap the smoothed error is {gap.median:.2f} times the filtered one",
     notes=[f"{len(srob)} seeded runs (stored study likelihood/smoothing_robot, N = {srob['n_particles'].iloc[0]}; "
            "each O(N^2) backward pass takes seconds). Mean position error inside the gap, smoother / filter, run "
            f"by run: {gap}.",
-           f"Outside the gap, after the first 20 s: {outside}."],
+           f"Outside the gap, after the first 20 s: {outside}.",
+           "ESS of the smoothed weights inside the gap, each run's median: median over the runs "
+           f"{srob['smoother_gap_ess_median'].median():.1f}, range {srob['smoother_gap_ess_median'].min():.1f} to "
+           f"{srob['smoother_gap_ess_median'].max():.1f}."],
     tables=[("Median over the runs of the mean position error (m)",
              srob[["filter_gap_error", "smoother_gap_error", "filter_outside_error", "smoother_outside_error"]]
              .median().rename("median (m)").reset_index().rename(columns={"index": "error"}),
@@ -521,9 +525,10 @@ EvidenceBlock(
 #
 # Outside the gap, where the filter has a measurement at every step, the ratio is
 # {glue:text}`smooth_outside:.2f`. The
-# readings after the gap tell the smoother which dead-reckoned paths were right. Here the
-# process noise is large next to the cloud's spread, the opposite of the landmark model, and
-# the backward kernel has many particles to choose from.
+# readings after the gap tell the smoother which dead-reckoned paths were right. Unlike the
+# landmark model, the backward step keeps many particles here: inside the gap the smoothed
+# weights have an ESS of {glue:text}`smooth_robot_ess:.0f` of $300$ (median over the runs of each
+# run's median), where the landmark run above kept {glue:text}`smooth_demo_smoothed_ess:.0f` of $100$.
 #
 # ## Exercises
 #
