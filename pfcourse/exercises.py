@@ -44,6 +44,10 @@ exception is reported as a problem); ``str(report)`` prints the verdict.
   against :func:`landmark_log_likelihood`; the mistakes of :data:`LIKELIHOOD_MISTAKES` (NaN kept or
   read as 0, the offset ``r - l``, ``R`` read as standard deviations, the leading block of ``R``
   instead of the visible one, no normalising constant) are named.
+* :func:`check_backward_weights` - ``fn(k, particles, weights, smoothed_next, log_transition) -> (N,)``:
+  one backward step of FFBSm (the smoothing chapter), against :func:`backward_weights` to round-off;
+  the mistakes of :data:`BACKWARD_MISTAKES` are named (the filter weight forgotten, the predictive
+  density summed over the wrong axis, the transition of the wrong time).
 * :func:`check_range_bearing_log_weights` - ``fn(x, landmark, z, R) -> (N,)``: the robot's
   ``log N(nu^i; 0, R)`` for a range-bearing reading, on a cloud that sees the landmark right behind
   it; the mistakes of :data:`RANGE_BEARING_MISTAKES` (bearing innovation not wrapped, heading not
@@ -2010,3 +2014,101 @@ def check_range_bearing_jacobian(fn: Callable, rtol: float = 1e-6) -> CheckRepor
                           JACOBIAN_MISTAKES, rtol,
                           "the matrix differs from dh/dx: differentiate sqrt(q) and atan2(dy, dx) - theta "
                           "with (dx, dy) = l - p, and compare with a central finite difference")
+
+
+# --- the smoothing chapter: one backward step of FFBSm ---------------------------------------
+
+#: The smoothing exercise's case: a scalar AR(1) transition x_{k+1} = 0.9 x_k + w, w ~ N(0, 0.5),
+#: five stored clouds of 30 particles (spread 1 about a drifting centre), random filter weights, and
+#: random smoothed weights at step k + 1; the checked step is k = 2.
+BACKWARD_K, BACKWARD_N, BACKWARD_STEPS = 2, 30, 5
+BACKWARD_MISTAKES = {
+    "no_filter_weight": "the filter weight W_k^i is missing in front of the sum: the smoothed weight is the "
+                        "filter's weight times how well particle i predicts the smoothed cloud at k + 1",
+    "wrong_axis": "the predictive density is summed over the wrong axis: for each particle j at k + 1 it is "
+                  "sum_l W_k^l f(x_(k+1)^j | x_k^l), a sum over the particles at step k (the second index "
+                  "of log_transition's matrix)",
+    "wrong_time": "the transition is taken at the wrong time: the backward step from k + 1 to k needs "
+                  "f(x_(k+1)^j | x_k^i) and the filter weights W_k of step k, not another step's",
+}
+
+
+def _backward_case(seed: int = 0) -> tuple[np.ndarray, np.ndarray, np.ndarray, Callable]:
+    rng = np.random.default_rng(seed)
+    centres = np.cumsum(rng.normal(0, 0.5, BACKWARD_STEPS))
+    particles = (centres[:, None] + rng.standard_normal((BACKWARD_STEPS, BACKWARD_N)))[:, :, None]
+    weights = rng.dirichlet(np.ones(BACKWARD_N), BACKWARD_STEPS)
+    smoothed_next = rng.dirichlet(np.ones(BACKWARD_N))
+
+    def log_transition(new: np.ndarray, old: np.ndarray) -> np.ndarray:
+        """``[log N(new_j; 0.9 old_i, 0.5)]_{j, i}``."""
+        d = np.asarray(new, dtype=float)[:, 0][:, None] - 0.9 * np.asarray(old, dtype=float)[:, 0][None, :]
+        return -0.5 * d**2 / 0.5 - 0.5 * np.log(2 * np.pi * 0.5)
+
+    return particles, weights, smoothed_next, log_transition
+
+
+def backward_weights(k: int, particles: np.ndarray, weights: np.ndarray, smoothed_next: np.ndarray,
+                     log_transition: Callable, mistake: str | None = None) -> np.ndarray:
+    """FFBSm's backward step, in the log domain:
+    ``W_{k|K}^i = W_k^i sum_j W_{k+1|K}^j f(x_{k+1}^j | x_k^i) / sum_l W_k^l f(x_{k+1}^j | x_k^l)``;
+    ``mistake`` (a key of :data:`BACKWARD_MISTAKES`) computes that mistake instead."""
+    new, old, w = particles[k + 1], particles[k], weights[k]
+    if mistake == "wrong_time":
+        new, old, w = particles[k], particles[k - 1], weights[k - 1]
+    log_f = np.asarray(log_transition(new, old), dtype=float)  # [j, i]
+    with np.errstate(divide="ignore"):
+        log_w, log_next = np.log(w), np.log(smoothed_next)
+    if mistake == "wrong_axis":
+        log_den = logsumexp(log_f + log_w[None, :], axis=0)[None, :]
+    else:
+        log_den = logsumexp(log_f + log_w[None, :], axis=1)[:, None]
+    log_s = logsumexp(log_next[:, None] + log_f - log_den, axis=0)
+    if mistake != "no_filter_weight":
+        log_s = log_s + np.log(weights[k])
+    return np.exp(log_s - logsumexp(log_s))
+
+
+def check_backward_weights(fn: Callable, rtol: float = 1e-9) -> CheckReport:
+    """Check ``fn(k, particles, weights, smoothed_next, log_transition) -> (N,)``: FFBSm's smoothed weights
+    ``W_{k|K}`` of one backward step (:func:`backward_weights`) on :func:`_backward_case`, to round-off; a
+    wrong answer is compared with each mistake of :data:`BACKWARD_MISTAKES`, and the one it computes is named.
+    ``particles`` is ``(K, N, 1)``, ``weights`` ``(K, N)``, ``smoothed_next`` ``(N,)`` the smoothed weights
+    at ``k + 1``, and ``log_transition(new, old)`` the matrix ``[log f(new_j | old_i)]_{j, i}``."""
+    report = CheckReport("FFBSm backward weights")
+    particles, weights, smoothed_next, log_transition = _backward_case()
+    k = BACKWARD_K
+    answer = _answer(report, lambda: fn(k, particles.copy(), weights.copy(), smoothed_next.copy(), log_transition),
+                     "fn(k, particles, weights, smoothed_next, log_transition)",
+                     "compute the smoothed weights and return them, one per particle")
+    if answer is None:
+        return report
+    answer = np.asarray(answer, dtype=float)
+    if answer.shape != (BACKWARD_N,):
+        report.problems.append(f"the answer has shape {answer.shape}, not ({BACKWARD_N},): return one smoothed "
+                               "weight per particle of step k")
+        return report
+    if not np.all(np.isfinite(answer)) or np.any(answer < 0):
+        report.problems.append("some weights are negative, NaN or infinite: compute them in the log domain "
+                               "(logsumexp) and exponentiate at the end")
+        return report
+    if not np.isclose(answer.sum(), 1.0, rtol=1e-9):
+        report.problems.append(f"the weights sum to {answer.sum():.6g}, not 1: normalise them (divide by their sum)")
+        return report
+
+    def fits(mistake: str | None) -> bool:
+        return np.allclose(answer, backward_weights(k, particles, weights, smoothed_next, log_transition, mistake),
+                           rtol=rtol, atol=1e-12)
+
+    if fits(None):
+        return report
+    for mistake, why in BACKWARD_MISTAKES.items():
+        if fits(mistake):
+            report.problems.append(f"your weights match a known mistake: {why}")
+            return report
+    i = int(np.argmax(np.abs(answer - backward_weights(k, particles, weights, smoothed_next, log_transition))))
+    report.problems.append(f"particle {i}'s smoothed weight is {answer[i]:.4g}, not "
+                           f"{backward_weights(k, particles, weights, smoothed_next, log_transition)[i]:.4g}: "
+                           "check the ratio f(x_(k+1)^j | x_k^i) / sum_l W_k^l f(x_(k+1)^j | x_k^l) and its "
+                           "weighting by the smoothed weights W_(k+1|K)^j")
+    return report

@@ -14,6 +14,14 @@ with ``f`` the transition density.  The particles stay where the filter put them
 their weights change.  Cost: ``N^2`` transition densities per step, ``O(K N^2)`` in all
 (against ``O(K N)`` for the filter).  Computed in the log domain (``logsumexp``).
 
+**Backward simulation** (FFBSi, Godsill, Doucet and West 2004) draws whole trajectories from the
+same clouds: ``b_{K-1} ~ W_{K-1}``, then backwards ``P(b_k = i) \\propto W_k^i f(x_{k+1}^{b_{k+1}} \\mid x_k^i)``.
+Cost: ``N`` densities per step and per trajectory, ``O(K M N)`` for ``M`` trajectories.
+
+**Ancestral lines** (the naive smoother and its fixed-lag version): following the resampling's
+ancestor indices back from step ``t``, the weighted paths ``{x_{0:t}^{(i)}, W_t^i}`` estimate
+``p(x_{0:t} | z_{0:t})``; the fixed-lag estimate of ``x_k`` uses them at ``t = min(k + L, K - 1)``.
+
 **Rauch-Tung-Striebel** (1965): the exact smoother of a linear-Gaussian model, from the
 Kalman filter's means and covariances (filterpy's ``KalmanFilter.rts_smoother``).
 """
@@ -31,6 +39,7 @@ from scipy.special import logsumexp
 
 from pfcourse.errors import ParameterError, ShapeError
 from pfcourse.checks import Array
+from pfcourse.resampling import get_resampler
 from pfcourse.diagnostics import weighted_covariance, weighted_mean
 
 
@@ -81,12 +90,7 @@ def ffbsm(
     ``log_transition(new, old, k)`` returns the ``(N, N)`` matrix ``[log f(new_j | old_i)]_{j, i}``
     for ``x_k = new``, ``x_{k-1} = old`` (:func:`pairwise` builds it from a row-by-row density).
     """
-    particles = np.asarray(particles, dtype=float)
-    weights = np.asarray(weights, dtype=float)
-    if particles.ndim != 3 or weights.shape != particles.shape[:2]:
-        raise ShapeError(
-            f"particles must be (K, N, d) and weights (K, N); got {particles.shape} and {weights.shape} "
-            "(run the filter with store_particles=True)")
+    particles, weights = _check_clouds(particles, weights)
     K, n, d = particles.shape
     with np.errstate(divide="ignore"):
         log_w = np.log(weights)
@@ -126,3 +130,101 @@ def rts_smoother(model, kalman_result) -> tuple[Array, Array]:
     mean, cov, _, _ = kf.rts_smoother(kalman_result.mean, kalman_result.cov,
                                       Fs=[model.F] * K, Qs=[model.Q] * K)
     return mean, cov
+
+
+def _check_clouds(particles: Array, weights: Array) -> tuple[Array, Array]:
+    particles = np.asarray(particles, dtype=float)
+    weights = np.asarray(weights, dtype=float)
+    if particles.ndim != 3 or weights.shape != particles.shape[:2]:
+        raise ShapeError(
+            f"particles must be (K, N, d) and weights (K, N); got {particles.shape} and {weights.shape} "
+            "(run the filter with store_particles=True)")
+    return particles, weights
+
+
+def ffbsi(
+    particles: Array,
+    weights: Array,
+    log_transition: Callable[[Array, Array, int], Array],
+    n_draws: int,
+    rng: np.random.Generator,
+) -> Array:
+    """FFBSi backward simulation: ``n_draws`` trajectories ``(K, M, d)`` drawn from the stored clouds.
+
+    ``b_{K-1}^m ~ W_{K-1}``; for ``k = K-2 .. 0``:
+    ``P(b_k^m = i) = W_k^i f(x_{k+1}^{b_{k+1}^m} | x_k^i) / sum_l W_k^l f(x_{k+1}^{b_{k+1}^m} | x_k^l)``,
+    each index by inversion of one uniform ``u ~ rng.random(M)`` (the last step's too).  Their
+    average estimates the smoothed mean; ``log_transition`` as for :func:`ffbsm` (``M x N`` here).
+    """
+    particles, weights = _check_clouds(particles, weights)
+    if int(n_draws) != n_draws or n_draws < 1:
+        raise ParameterError(f"n_draws must be a positive integer, got {n_draws!r}")
+    K, n, _ = particles.shape
+    b = np.empty((K, int(n_draws)), dtype=np.int64)
+    b[-1] = _invert(np.log(weights[-1])[None, :], rng.random(n_draws))
+    with np.errstate(divide="ignore"):
+        log_w = np.log(weights)
+    for k in range(K - 2, -1, -1):
+        log_f = np.asarray(log_transition(particles[k + 1][b[k + 1]], particles[k], k + 1), dtype=float)
+        if log_f.shape != (n_draws, n):
+            raise ShapeError(f"step {k + 1}: log_transition returned shape {log_f.shape}, expected {(n_draws, n)}")
+        b[k] = _invert(log_w[k][None, :] + log_f, rng.random(n_draws))
+    return particles[np.arange(K)[:, None], b]
+
+
+def _invert(log_p: Array, u: Array) -> Array:
+    """Row ``m``'s index drawn by inversion of ``u_m``: the first ``i`` with ``cumsum(P_m)_i > u_m``."""
+    p = np.exp(log_p - logsumexp(log_p, axis=1, keepdims=True))
+    cdf = np.cumsum(p, axis=1)
+    return np.minimum((cdf < u[:, None] * cdf[:, -1:]).sum(axis=1), log_p.shape[1] - 1)
+
+
+class AncestorRecorder:
+    """A resampler for :class:`~pfcourse.filter.ParticleFilter` that records the ancestor indices it draws.
+
+    It draws exactly what the named resampler draws (same stream), so a filter run with it
+    gives the same clouds; :meth:`ancestors` then returns ``A`` ``(K, N)``: particle ``i`` at
+    step ``k`` descends from particle ``A[k, i]`` at step ``k - 1`` (``A[0]`` is the identity).
+    """
+
+    def __init__(self, resampler: str = "systematic") -> None:
+        self.resampler = get_resampler(resampler)
+        self.draws: list[Array] = []
+        self.__name__ = f"recording {getattr(self.resampler, '__name__', resampler)}"
+
+    def __call__(self, weights: Array, rng: np.random.Generator) -> Array:
+        indices = np.asarray(self.resampler(weights, rng))
+        self.draws.append(indices)
+        return indices
+
+    def ancestors(self, result) -> Array:
+        """``A`` ``(K, N)`` of the run ``result`` that used this recorder (its ``resampled`` flags)."""
+        K, n = len(result.resampled), result.n_particles
+        if len(self.draws) != int(np.sum(result.resampled)):
+            raise ParameterError("the recorder's draws do not match the run's resampled steps (one recorder per run)")
+        A = np.tile(np.arange(n), (K, 1))
+        draws = iter(self.draws)
+        for k in np.flatnonzero(result.resampled[:-1]):
+            A[k + 1] = next(draws)
+        return A
+
+
+def fixed_lag_means(particles: Array, weights: Array, ancestors: Array, lag: int) -> Array:
+    """Fixed-lag smoothed means ``(K, d)`` from the ancestral lines: with ``t = min(k + L, K - 1)``,
+    ``m_{k|t} = sum_i W_t^i x_k^{a(i, t -> k)}``, ``a`` the ancestor at ``k`` of particle ``i`` at ``t``.
+    ``lag = 0`` is the filter's mean; ``lag >= K - 1`` the naive (ancestral) smoother at every step."""
+    particles, weights = _check_clouds(particles, weights)
+    ancestors = np.asarray(ancestors)
+    if ancestors.shape != weights.shape:
+        raise ShapeError(f"ancestors must be (K, N) like the weights, got {ancestors.shape}")
+    if int(lag) != lag or lag < 0:
+        raise ParameterError(f"lag must be a non-negative integer, got {lag!r}")
+    K, n, d = particles.shape
+    means = np.empty((K, d))
+    for k in range(K):
+        t = min(k + int(lag), K - 1)
+        idx = np.arange(n)
+        for j in range(t, k, -1):
+            idx = ancestors[j][idx]
+        means[k] = weights[t] @ particles[k][idx]
+    return means

@@ -762,6 +762,22 @@ row("N = 5.0 (integral float)", lambda: run(n=5.0), None, "valid")
 row("threshold = 0 (SIS)", lambda: run(threshold=0), None, "valid")
 
 
+def _smoother_inputs():
+    from pfcourse.smoothing import ffbsi, fixed_lag_means
+    p, w = np.zeros((3, 4, 1)), np.ones((3, 4)) / 4
+    return ffbsi, fixed_lag_means, p, w
+
+
+row("ffbsi n_draws = 0", lambda: (lambda f, _, p, w: f(p, w, lambda a, b, k: np.zeros((len(a), len(b))), 0,
+                                                       np.random.default_rng(0)))(*_smoother_inputs()),
+    ParameterError, "n_draws")
+row("ffbsi clouds without store_particles", lambda: _smoother_inputs()[0](np.zeros((3, 4)), np.ones((3, 4)) / 4,
+                                                                           None, 2, np.random.default_rng(0)),
+    ShapeError, "store_particles")
+row("fixed_lag_means negative lag", lambda: (lambda _, f, p, w: f(p, w, np.zeros((3, 4), int), -1))(*_smoother_inputs()),
+    ParameterError, "lag")
+
+
 @pytest.mark.parametrize("label, call, error, fragment", ROWS, ids=[r[0] for r in ROWS])
 def test_bad_input(label, call, error, fragment):
     if error is None:

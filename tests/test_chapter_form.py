@@ -28,7 +28,7 @@ IN_FORM = ["part1/model", "part1/kalman", "part1/importance_sampling", "part1/si
            "part2/robot", "part2/global_localization", "part2/robot_vs_kalman", "part2/map_robot",
            "part2/terrain", "part2/terrain_cure", "part2/terrain_marginalised", "part3/robot_studies",
            "part3/resampling_studies", "part3/sensing_studies", "part4/pf_vs_kalman",
-           "part4/data_association", "part5/likelihood"]
+           "part4/data_association", "part5/likelihood", "part5/smoothing"]
 MAX_NUMBERS_PER_PARAGRAPH = 4
 MAX_WORDS = 2500
 WORDS = {w: i for i, w in enumerate(

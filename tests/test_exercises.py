@@ -1066,3 +1066,59 @@ def test_each_typical_jacobian_mistake_gets_its_own_sentence(mistake, says):
 def test_odd_jacobians_are_named():
     assert "differs from dh/dx" in check_range_bearing_jacobian(lambda s, l: 2 * robot_jacobian(s, l)).problems[0]
     assert "shape" in check_range_bearing_jacobian(lambda s, l: robot_jacobian(s, l).T).problems[0]
+
+
+# --- the smoothing chapter: check_backward_weights ---------------------------------------------
+
+def student_backward_weights(k, particles, weights, smoothed_next, log_transition, *, forget_filter_weight=False,
+                             wrong_axis=False, wrong_time=False):
+    """A student's FFBSm backward step written in the linear domain, with the typical mistakes as switches."""
+    step = k - 1 if wrong_time else k
+    f = np.exp(log_transition(particles[step + 1], particles[step]))  # f[j, i] = f(x_{k+1}^j | x_k^i)
+    w = weights[step]
+    predictive = (f * w[None, :]).sum(axis=0 if wrong_axis else 1)  # p(x_{k+1}^j | z_{0:k})
+    if wrong_axis:
+        s = (smoothed_next[:, None] * f / predictive[None, :]).sum(axis=0)
+    else:
+        s = (smoothed_next[:, None] * f / predictive[:, None]).sum(axis=0)
+    if not forget_filter_weight:
+        s = weights[k] * s
+    return s / s.sum()
+
+
+def test_the_reference_backward_weights_pass_and_match_ffbsm():
+    from pfcourse.exercises import BACKWARD_K, _backward_case, backward_weights, check_backward_weights
+    from pfcourse.smoothing import ffbsm
+
+    report = check_backward_weights(student_backward_weights)
+    assert report.ok, str(report)
+    particles, weights, smoothed_next, log_transition = _backward_case()
+    k = BACKWARD_K
+    # the package's FFBSm, started at k + 1 from the same smoothed weights, gives the same step
+    last = weights.copy()
+    last[k + 1] = smoothed_next
+    s = ffbsm(particles[k:k + 2], last[k:k + 2], lambda new, old, _: log_transition(new, old))
+    np.testing.assert_allclose(s.weights[0], backward_weights(k, particles, weights, smoothed_next, log_transition),
+                               rtol=1e-12)
+
+
+@pytest.mark.parametrize("mistake, says", [
+    ({"forget_filter_weight": True}, "the filter weight W_k^i is missing"),
+    ({"wrong_axis": True}, "summed over the wrong axis"),
+    ({"wrong_time": True}, "taken at the wrong time"),
+])
+def test_each_typical_backward_weights_mistake_gets_its_own_sentence(mistake, says):
+    from pfcourse.exercises import check_backward_weights
+
+    report = check_backward_weights(lambda *a: student_backward_weights(*a, **mistake))
+    assert not report.ok and len(report.problems) == 1
+    assert says in report.problems[0], report.problems[0]
+
+
+def test_odd_backward_weights_are_named():
+    from pfcourse.exercises import check_backward_weights
+
+    assert "shape (29,)" in check_backward_weights(lambda k, p, w, s, f: np.ones(29) / 29).problems[0]
+    assert "not " in check_backward_weights(lambda k, p, w, s, f: w[k]).problems[0]
+    assert "raised ZeroDivisionError" in str(check_backward_weights(lambda *a: 1 / 0))
+    assert "normalise them" in check_backward_weights(lambda *a: 2 * student_backward_weights(*a)).problems[0]

@@ -115,3 +115,49 @@ def test_bad_input(scalar):
         rts_smoother(shifted, kalman_filter(shifted, z))
     with pytest.raises(ShapeError, match="log_transition"):
         ffbsm(np.zeros((3, 4, 1)), np.ones((3, 4)) / 4, lambda new, old, k: np.zeros((4, 3)))
+
+
+def test_ffbsi_draws_the_ffbsm_marginals(scalar):
+    """Each FFBSi index b_k is distributed as the FFBSm weights W_{k|K} (Godsill, Doucet and West 2004):
+    the mean of M trajectories is within 5 standard errors sqrt(Var_{k|K} / M) of the FFBSm mean."""
+    from pfcourse.smoothing import ffbsi
+    model, z = scalar
+    r = ParticleFilter(model, 200).run(z, 4, store_particles=True)
+    s = ffbsm(r.particles, r.weights, linear_gaussian_log_transition(model))
+    M = 4000
+    paths = ffbsi(r.particles, r.weights, linear_gaussian_log_transition(model), M, np.random.default_rng(9))
+    assert paths.shape == (len(z), M, 1)
+    se = np.sqrt(s.cov[:, 0, 0] / M)
+    assert np.max(np.abs(paths.mean(axis=1)[:, 0] - s.mean[:, 0]) / se) < 5
+
+
+def test_recorder_keeps_the_run_and_fixed_lag_zero_is_the_filter(scalar):
+    from pfcourse.smoothing import AncestorRecorder, fixed_lag_means
+    model, z = scalar
+    plain = ParticleFilter(model, 50, threshold=1.0).run(z, 6, store_particles=True)
+    rec = AncestorRecorder()
+    r = ParticleFilter(model, 50, threshold=1.0, resampler=rec).run(z, 6, store_particles=True)
+    np.testing.assert_array_equal(r.particles, plain.particles)
+    A = rec.ancestors(r)
+    np.testing.assert_array_equal(A[0], np.arange(50))
+    steps = np.flatnonzero(r.resampled[:-1])  # resampled after these steps (ESS < N: not when nothing is seen)
+    assert len(steps) > 5
+    np.testing.assert_array_equal(A[steps + 1], np.array(rec.draws[:len(steps)]))
+    kept = np.setdiff1d(np.arange(1, len(z)), steps + 1)
+    np.testing.assert_array_equal(A[kept], np.tile(np.arange(50), (len(kept), 1)))
+    np.testing.assert_allclose(fixed_lag_means(r.particles, r.weights, A, 0), r.mean, atol=1e-12)
+    # a lag of one: the weights of step k+1 on the parents of its particles
+    lag1 = fixed_lag_means(r.particles, r.weights, A, 1)
+    np.testing.assert_allclose(lag1[3], r.weights[4] @ r.particles[3][A[4]], atol=1e-12)
+
+
+def test_bad_smoother_input(scalar):
+    from pfcourse.smoothing import fixed_lag_means, ffbsi
+    model, _ = scalar
+    p, w = np.zeros((3, 4, 1)), np.ones((3, 4)) / 4
+    with pytest.raises(ParameterError, match="n_draws"):
+        ffbsi(p, w, linear_gaussian_log_transition(model), 0, np.random.default_rng(0))
+    with pytest.raises(ParameterError, match="lag"):
+        fixed_lag_means(p, w, np.zeros((3, 4), int), -1)
+    with pytest.raises(ShapeError, match="ancestors"):
+        fixed_lag_means(p, w, np.zeros((2, 4), int), 1)

@@ -474,7 +474,7 @@ panel = control_panel(
     r_scale=scale_slider("R scale", 2.0),
     threshold=threshold_slider(0.5),
     scheme=scheme_dropdown("systematic"),
-    dt_meas=IntSlider(value=1, min=1, max=20, description="dt_meas (s)"),
+    dt_meas=IntSlider(value=1, min=1, max=20, description="time between readings (s)"),
     gap=Checkbox(value=False, description="gap 250-350 s"),
     landmarks=IntSlider(value=5, min=1, max=20, description="landmarks"),
     seed=seed_box(0),

@@ -37,8 +37,8 @@ import pandas as pd
 from pfcourse.errors import ParameterError, StepError
 from pfcourse.experiments import association, global_localization
 from pfcourse.experiments import likelihood_studies as ls
-from pfcourse.experiments import (maprobot, rb_study, robot_studies, sir_fixes_study, terrain_marginalised,
-                                  terrain_remedies, terrain_studies)
+from pfcourse.experiments import (maprobot, rb_study, robot_studies, sir_fixes_study, smoothing_studies,
+                                  terrain_marginalised, terrain_remedies, terrain_studies)
 from pfcourse.experiments.provenance import launch_commit, write_provenance
 from pfcourse.experiments.robot import pf_run
 from pfcourse.experiments.store import DATA, load, save
@@ -347,6 +347,14 @@ STUDIES: dict[str, Study] = {study.name: study for study in [
           fields={"cells": terrain_marginalised.CELLS,
                   "seeds": "flight r: pfcourse.seeding.data_rng(0, r); the grid filter draws nothing",
                   "divergence": "final horizontal error > 500 m"}),
+    Study(name="smoothing/landmarks", row=smoothing_studies.landmarks_row,
+          grid={"n_particles": smoothing_studies.N_VALUES}, n_runs=smoothing_studies.N_RUNS, seeds="run",
+          failures="raise", table="smoothing/landmarks.csv", provenance="smoothing/landmarks.json",
+          cheap=lambda t: t["n_particles"] == t["n_particles"].min(), sample=1,
+          row_code="pfcourse/experiments/smoothing_studies.py (landmarks_row), pfcourse/smoothing.py",
+          fields={"lags": smoothing_studies.LAGS, "scenario": "quadrant_scenario().with_(Qw=0.05**2 I6, Rv=0.5**2 I4)",
+                  "seeds": f"run r: data pfcourse.seeding.data_rng({smoothing_studies.SEED}, r); filter and FFBSi "
+                           f"draws pfcourse.seeding.filter_rng({smoothing_studies.SEED}, r)"}),
 ]}
 
 
