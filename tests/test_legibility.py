@@ -6,6 +6,7 @@ import matplotlib
 
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
+import pytest  # noqa: E402
 
 from pfcourse.figures.legibility import overlapping_texts  # noqa: E402
 
@@ -67,4 +68,26 @@ def test_a_suptitle_is_not_its_own_clash():
     axes[0].set_title("left")
     axes[1].set_title("right")
     assert overlapping_texts(fig) == []
+    plt.close(fig)
+
+
+def test_smallest_text_is_measured_at_column_width():
+    import matplotlib.pyplot as plt
+
+    from pfcourse.figures.legibility import COLUMN_PX, smallest_text_px
+
+    fig, ax = plt.subplots(figsize=(10, 4), dpi=100)
+    ax.plot([0, 1], [0, 1], label="a curve")
+    ax.legend(fontsize=6)
+    size, text = smallest_text_px(fig)
+    assert text == "a curve"
+    width = fig.get_tightbbox(fig.canvas.get_renderer()).width * 100
+    assert width > COLUMN_PX and size == pytest.approx(6 * 100 / 72 * COLUMN_PX / width)  # scaled down to the column
+    assert size < 8
+    plt.close(fig)
+    fig, ax = plt.subplots(figsize=(5, 3), dpi=100)  # narrower than the column: shown at its natural size
+    ax.set_xlabel("metres", fontsize=9)
+    ax.set_xticks([])
+    ax.set_yticks([])
+    assert smallest_text_px(fig)[0] == pytest.approx(9 * 100 / 72)
     plt.close(fig)

@@ -1,11 +1,14 @@
-"""Checks that a drawn figure can be read: no text drawn over another text.
+"""Checks that a drawn figure can be read: no text drawn over another, none too small at column width.
 
 The browser test measures each figure's smallest text on the page; what it cannot see in
 a PNG is two labels drawn on top of each other ("PF N=300" over "EKF" in an earlier
 accuracy-against-cost plot). :func:`overlapping_texts` finds them from the figure itself:
 every visible, non-empty text artist's box on the canvas (title, axis labels, tick labels,
 annotations, legend entries, colour-bar labels), and the pairs of boxes that intersect by
-more than ``tolerance`` pixels in both directions.
+more than ``tolerance`` pixels in both directions. :func:`smallest_text_px` measures every one of
+those texts (legends and annotations with a font size set in code included) as the HTML book shows
+it: a figure wider than the text column (:data:`COLUMN_PX`, at a 1280 px window) is scaled down to
+it, and its smallest text must stay at :data:`MIN_TEXT_PX` or more.
 """
 
 from __future__ import annotations
@@ -39,6 +42,29 @@ def overlapping_texts(figure: Figure, tolerance: float = 1.0) -> list[tuple[str,
     return pairs
 
 
+#: Width (CSS px) of the HTML book's text column in a 1280 px window: a wider figure is scaled down to it.
+COLUMN_PX = 688.0
+#: The smallest text a reader should have to read in a figure, in CSS px at column width.
+MIN_TEXT_PX = 8.0
+
+
+def smallest_text_px(figure: Figure, dpi: float | None = None, column_px: float = COLUMN_PX) -> tuple[float, str]:
+    """The smallest drawn text of ``figure`` as the page shows it (CSS px), and that text.
+
+    A text of ``s`` points is ``s dpi / 72`` pixels in the PNG; the PNG (the figure's tight box,
+    ``w`` pixels wide) is shown at ``min(w, column_px)`` pixels, so the text at
+    ``s dpi / 72 * min(1, column_px / w)``. ``dpi`` defaults to the figure's. Draws the figure once.
+    """
+    figure.canvas.draw()
+    renderer = figure.canvas.get_renderer()
+    dpi = float(dpi or figure.dpi)
+    width = figure.get_tightbbox(renderer).width * dpi  # inches to PNG pixels
+    scale = min(1.0, column_px / width) if width > 0 else 1.0
+    sizes = [(text.get_fontsize() * dpi / 72.0 * scale, text.get_text())
+             for text in dict.fromkeys(_drawn_texts(figure)) if text.get_visible() and text.get_text().strip()]
+    return min(sizes) if sizes else (float("inf"), "")
+
+
 def _legend_texts(legend) -> list[Text]:
     return [] if legend is None else [*legend.get_texts(), legend.get_title()]
 
@@ -69,7 +95,7 @@ def _centre(text: Text) -> tuple[float, float]:
 
 
 class LegibilityWarning(UserWarning):
-    """A figure shown in a notebook has texts drawn over each other."""
+    """A figure shown in a notebook has texts drawn over each other, or text too small at column width."""
 
 
 def check_shown_figures() -> bool:
@@ -96,6 +122,14 @@ def check_shown_figures() -> bool:
         if clashes:
             warnings.warn(f"texts drawn over each other in a figure: {clashes[:4]}", LegibilityWarning,
                           stacklevel=2)
+        import matplotlib as mpl
+
+        dpi = kwargs.get("dpi") or mpl.rcParams["savefig.dpi"]
+        size, text = smallest_text_px(figure, None if dpi == "figure" else dpi)
+        if size < MIN_TEXT_PX:
+            warnings.warn(f"text {text!r} shows at {size:.1f} px at the column width ({COLUMN_PX:.0f} px), "
+                          f"below {MIN_TEXT_PX:.0f} px: use the style's font sizes or a narrower figure",
+                          LegibilityWarning, stacklevel=2)
         return original(figure, *args, **kwargs)
 
     print_figure._checks_legibility = True
