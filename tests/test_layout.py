@@ -5,7 +5,8 @@ Every module of ``pfcourse`` belongs to one layer (README, "Layout"):
 0. **core**: the top-level modules ``pfcourse/*.py`` (the engine, its compiled loops, weights
    and resampling, results, errors and checks, angles, the Gaussian density, plot style, and
    the generic algorithms, one idea per module named after it: the linear-Gaussian model, the
-   Kalman filter, proposals, jitters, smoothing, PMMH, the executor loop);
+   Kalman filter, proposals, jitters, smoothing, PMMH, the executor loop), and the package
+   ``pfcourse.exercises`` (the exercises' checkers, one module per part of the book);
 1. **scenarios**: ``pfcourse.landmarks``, ``pfcourse.robot``, ``pfcourse.terrain``;
 2. **experiments**: ``pfcourse.experiments``;
 3. **figures**: ``pfcourse.figures``.
@@ -27,7 +28,7 @@ import pytest
 
 PACKAGE = Path(__file__).resolve().parents[1] / "pfcourse"
 SCENARIOS = ("landmarks", "robot", "terrain", "maprobot")
-LAYER = {"core": 0, **{s: 1 for s in SCENARIOS}, "experiments": 2, "figures": 3}
+LAYER = {"core": 0, "exercises": 0, **{s: 1 for s in SCENARIOS}, "experiments": 2, "figures": 3}
 
 
 def module_name(path: Path, package: Path = PACKAGE) -> str:
@@ -38,9 +39,10 @@ def module_name(path: Path, package: Path = PACKAGE) -> str:
 
 
 def group(module: str) -> str:
-    """``core``, a scenario name, ``experiments`` or ``figures`` for a ``pfcourse...`` module name."""
+    """``core``, a scenario name, ``experiments`` or ``figures`` for a ``pfcourse...`` module name
+    (``pfcourse.exercises.*`` is core)."""
     parts = module.split(".")
-    if len(parts) >= 2 and parts[1] in LAYER:
+    if len(parts) >= 2 and parts[1] in LAYER and parts[1] != "exercises":
         return parts[1]
     return "core"
 

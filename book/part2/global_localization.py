@@ -224,7 +224,7 @@ for ax, k in zip(axes, (1, 2, 4)):
     ax.set_aspect("equal")
     ax.set_xlabel("x (m)")
 axes[0].set_ylabel("y (m)")
-axes[2].legend(loc="upper left", bbox_to_anchor=(1.02, 1))
+fig.legend(*axes[0].get_legend_handles_labels(), loc="upper center", ncols=4, bbox_to_anchor=(0.5, 0.0))
 plt.show()
 
 # %% [markdown]

@@ -1,0 +1,212 @@
+"""Statistical checks of code a student writes in the exercises of the book, one module per part
+(:mod:`.part1` to :mod:`.part5`; the report and shared helpers in :mod:`.checking`).
+
+Each ``check_*`` function runs the student's function on cases with a known answer and
+returns a :class:`CheckReport`: ``ok`` and a list of ``problems``, each a sentence saying
+what is wrong and, where it can, why.  It never raises on a wrong answer (a student's
+exception is reported as a problem); ``str(report)`` prints the verdict.
+
+* :func:`check_resampler` - ``fn(weights, rng) -> indices``: right type, shape and range,
+  particles of weight 0 never chosen, and *unbiased*: the mean number of copies of particle
+  ``i`` over many draws is ``N W_i`` (a z-test per particle at 5 standard errors), and no more
+  variable than multinomial resampling (``sum_i Var N_i`` at most 1.5 times ``sum_i N W_i (1 - W_i)``).
+* :func:`check_weight_update` - ``fn(log_weights, log_likelihoods) -> log_weights``: the
+  normalised log-domain update ``log W_i + log p(z | x_i) - logsumexp_j(...)``, checked on
+  ordinary values and on likelihoods of ``e^{-1000}`` that underflow in the linear domain.
+* :func:`check_sis` - ``fn(z, n_particles, rng, model) -> (means, ess)``: a whole SIS filter
+  on a scalar linear-Gaussian model (:class:`ScalarModel`), against the Kalman filter, which
+  is exact. A wrong filter is compared with what the typical mistakes converge to (weights
+  that forget the previous step, particles moved without process noise, a variance read as a
+  standard deviation), so the report can say which mistake it sees, not only that the numbers
+  are off.
+* :func:`check_ancestors` - ``fn(ancestors) -> origins``: the genealogy of a resampled cloud,
+  each final particle's ancestor at step 0, on random ancestor indices; the steps followed
+  forwards, one generation only and the last step left out are named.
+* :func:`check_kalman` - ``fn(z, model) -> (means, variances, log_likelihood)``: a scalar Kalman
+  filter with missing measurements, against :func:`scalar_kalman` to round-off (it is
+  deterministic); a wrong one is compared with what each mistake of :data:`KALMAN_MISTAKES`
+  computes (the gain with ``P_k^-`` instead of ``S_k``, no process noise, a variance read as a
+  standard deviation, a NaN used as 0, a log-likelihood with ``P_k^-`` or without its constant, ...).
+* :func:`check_optimal_proposal` - ``fn(x_prev, z, model) -> (means, variances, log_weights)``: the
+  optimal importance function ``p(x_k | x_{k-1}, z_k)`` of a scalar model and its weight
+  ``p(z_k | x_{k-1})``, against :func:`scalar_optimal_proposal` to round-off; variances added instead
+  of precisions, a mean blind to ``z_k``, the weight's variance ``q`` or ``r`` alone instead of
+  ``q + r``, and the weight evaluated at the new particle instead of the parent are named.
+* :func:`check_landmark_update` - ``fn(robot, m, P, z, A, C, R) -> (m_new, P_new, log_lik)``: one
+  particle's Kalman update of its map in the Rao-Blackwellised filter, against :func:`landmark_update`
+  to round-off; the mistakes of :data:`LANDMARK_MISTAKES` are named (the robot forgotten or of the
+  wrong sign, ``S`` without ``R``, no covariance update, a weight with ``R`` instead of ``S``).
+* :func:`check_apf_second_stage` - ``fn(log_lik, log_pred, ancestors) -> log_weights``: the auxiliary
+  filter's second-stage weights with the transition as proposal; the mistakes of
+  :data:`APF_MISTAKES` are named (first stage not divided out, divided at the particle's own index,
+  multiplied in again, not normalised).
+* :func:`check_log_likelihood` - ``fn(x, z, H, R) -> (N,)``: ``log N(z_s; H_s x^i, R_ss)`` for a cloud
+  of the two-landmark model, ``s`` the measured coordinates of ``z`` (NaN for an unseen landmark),
+  against :func:`landmark_log_likelihood`; the mistakes of :data:`LIKELIHOOD_MISTAKES` (NaN kept or
+  read as 0, the offset ``r - l``, ``R`` read as standard deviations, the leading block of ``R``
+  instead of the visible one, no normalising constant) are named.
+* :func:`check_backward_weights` - ``fn(k, particles, weights, smoothed_next, log_transition) -> (N,)``:
+  one backward step of FFBSm (the smoothing chapter), against :func:`backward_weights` to round-off;
+  the mistakes of :data:`BACKWARD_MISTAKES` are named (the filter weight forgotten, the predictive
+  density summed over the wrong axis, the transition of the wrong time).
+* :func:`check_range_bearing_log_weights` - ``fn(x, landmark, z, R) -> (N,)``: the robot's
+  ``log N(nu^i; 0, R)`` for a range-bearing reading, on a cloud that sees the landmark right behind
+  it; the mistakes of :data:`RANGE_BEARING_MISTAKES` (bearing innovation not wrapped, heading not
+  subtracted, ``R`` read as standard deviations, no normalising constant) are named.
+* :func:`check_range_bearing_jacobian` - ``fn(state, landmark) -> (2, 3)``: the EKF's measurement
+  Jacobian of range and bearing at three poses; the mistakes of :data:`JACOBIAN_MISTAKES` (offset
+  reversed, ``+1`` for the heading, ``q`` for ``sqrt(q)``, ``dx`` and ``dy`` swapped) are named.
+* :func:`check_consistency` - ``fn(errors, covariances) -> (average_nees, band, fraction)``: the
+  NEES check of a filter over ``R`` runs (chapter 20), the run-averaged NEES per step, the 95 % band
+  of an average of ``R`` chi-square variables with ``d`` degrees of freedom and the fraction of steps
+  inside it, against :func:`nees_consistency`; the mistakes of :data:`CONSISTENCY_MISTAKES` (a single
+  run's band, the band not divided by ``R``, ``P`` not inverted, a one-sided band, the runs summed)
+  are named.
+* :func:`check_ess` - ``fn(log_weights) -> ess``: the effective sample size ``1 / sum_i W_i^2`` from
+  log-weights (chapter 18), on cases that underflow and overflow in the linear domain; weights not
+  normalised, a fraction instead of a number and exponentiation without the maximum subtracted are named.
+* :func:`check_lock_on` - ``fn(pos_err, head_err, dt, window_s) -> bool``: the book's one definition of
+  *locked on* (:func:`pfcourse.metrics.locked_on`, chapter 19); the last step only, the heading ignored,
+  the window read in steps and the whole run required are named.
+* :func:`check_pose_density` - ``fn(x, z, landmark, sd) -> (N,)``: the log-density ``log q_z(x)`` of a
+  pose drawn from a range-bearing reading (chapter 11), against :func:`pose_reading_log_density`; the
+  mistakes of :data:`POSE_DENSITY_MISTAKES` (the bearing added, the Jacobian ``1 / h_r``, the
+  direction's ``1 / (2 pi)`` or the truncation ``Phi(r / s_r)`` left out, the residual not wrapped,
+  standard deviations read as variances) are named.
+* :func:`check_likelihood_field` - ``fn(poses, z, field) -> (N,)``: the likelihood-field log-weights of one
+  scan for a cloud of poses (Thrun, Burgard and Fox 2005, table 6.3), against :func:`field_log_weights`;
+  the mistakes of :data:`FIELD_MISTAKES` (max-range beams kept, the heading left out of the beam's
+  direction, no ``z_rand / z_max`` term, no Gaussian constant, a product of densities that underflows)
+  are named.
+* :func:`check_paired_se` - ``fn(a, b) -> (paired_se, unpaired_se)``: the standard error of a difference of
+  means over the same runs, paired and as if unpaired (chapter 17); the population standard deviation,
+  a division by ``n``, standard deviations added and the pairing ignored are named.
+"""
+
+from __future__ import annotations
+
+from pfcourse.exercises.checking import (  # noqa: F401
+    CheckReport,
+    _answer,
+    _per_particle_answers,
+)
+from pfcourse.exercises.part1 import (  # noqa: F401
+    APF_MISTAKES,
+    KALMAN_CASE,
+    KALMAN_MISTAKES,
+    LANDMARK_CASE,
+    LANDMARK_MISTAKES,
+    LIKELIHOOD_CASES,
+    LIKELIHOOD_H,
+    LIKELIHOOD_MISTAKES,
+    LIKELIHOOD_R,
+    PROPOSAL_MODEL,
+    PROPOSAL_PARENTS,
+    PROPOSAL_Z,
+    SIS_CASE,
+    ScalarModel,
+    _VARIANCE_MARGIN,
+    _fits,
+    _log_normal,
+    _origins,
+    _per_step_answer,
+    _proposal_mistakes,
+    _scalar_filter,
+    apf_second_stage,
+    check_ancestors,
+    check_apf_second_stage,
+    check_kalman,
+    check_landmark_update,
+    check_log_likelihood,
+    check_optimal_proposal,
+    check_resampler,
+    check_sis,
+    check_weight_update,
+    landmark_log_likelihood,
+    landmark_update,
+    scalar_kalman,
+    scalar_optimal_proposal,
+)
+from pfcourse.exercises.part2 import (  # noqa: F401
+    ALTIMETER_DX,
+    ALTIMETER_DY,
+    ALTIMETER_HEIGHTS,
+    ALTIMETER_MISTAKES,
+    ALTIMETER_RF,
+    ALTITUDE_CASE,
+    ALTITUDE_MISTAKES,
+    FIELD_MISTAKES,
+    FieldCase,
+    JACOBIAN_CASES,
+    JACOBIAN_MISTAKES,
+    JITTER_COV,
+    JITTER_N,
+    JITTER_SCALE,
+    POSE_DENSITY_CASES,
+    POSE_DENSITY_MISTAKES,
+    RANGE_BEARING_LANDMARK,
+    RANGE_BEARING_MISTAKES,
+    RANGE_BEARING_R,
+    RANGE_BEARING_Z,
+    _RoomGrid,
+    _cloud_answers,
+    _named_mistake,
+    _poses_near_reading,
+    _settled,
+    _shaped,
+    _wrap,
+    _wrap,
+    altimeter_log_likelihood,
+    altitude_update,
+    check_altimeter_likelihood,
+    check_altitude_update,
+    check_likelihood_field,
+    check_pose_density,
+    check_range_bearing_jacobian,
+    check_range_bearing_log_weights,
+    check_regularised_jitter,
+    field_log_weights,
+    pose_reading_log_density,
+    range_bearing_jacobian,
+    range_bearing_log_weights,
+)
+from pfcourse.exercises.part3 import (  # noqa: F401
+    ESS_CASES,
+    ESS_MISTAKES,
+    LOCK_MISTAKES,
+    PAIRED_CASE,
+    PAIRED_MISTAKES,
+    _paired_case,
+    check_ess,
+    check_lock_on,
+    check_paired_se,
+    effective_sample_size_from_logs,
+    lock_on_cases,
+    lock_on_reference,
+    paired_standard_errors,
+)
+from pfcourse.exercises.part4 import (  # noqa: F401
+    ANONYMOUS_CASES,
+    ANONYMOUS_LANDMARKS,
+    ANONYMOUS_MISTAKES,
+    ANONYMOUS_R,
+    CONSISTENCY_MISTAKES,
+    _consistency_case,
+    anonymous_log_likelihood,
+    check_anonymous_likelihood,
+    check_consistency,
+    nees_consistency,
+)
+from pfcourse.exercises.part5 import (  # noqa: F401
+    BACKWARD_K,
+    BACKWARD_MISTAKES,
+    BACKWARD_N,
+    BACKWARD_STEPS,
+    ESTIMATOR_MISTAKES,
+    ESTIMATOR_RESAMPLED,
+    _backward_case,
+    backward_weights,
+    check_backward_weights,
+    check_likelihood_estimate,
+    likelihood_estimate,
+)

@@ -1,0 +1,57 @@
+"""The report every checker returns, and the helpers the checkers share (collecting a student's answer)."""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass, field
+
+import numpy as np
+
+
+@dataclass
+class CheckReport:
+    """Outcome of a check: ``ok`` when ``problems`` is empty."""
+
+    name: str
+    problems: list[str] = field(default_factory=list)
+
+    @property
+    def ok(self) -> bool:
+        return not self.problems
+
+    def __str__(self) -> str:
+        if self.ok:
+            return f"{self.name}: every check passed"
+        return f"{self.name}: {len(self.problems)} problem(s)\n" + "\n".join(f"- {p}" for p in self.problems)
+
+
+def _answer(report: CheckReport, call: Callable, signature: str, what: str):
+    """The student's answer ``call()``, or ``None`` after reporting, in one sentence, that the call
+    raised (the student's error, reported, not raised) or returned ``None`` (``what`` to do instead)."""
+    try:
+        with np.errstate(all="ignore"):
+            answer = call()
+    except Exception as exc:  # the student's error, reported
+        report.problems.append(f"calling {signature} raised {type(exc).__name__}: {exc}")
+        return None
+    if answer is None:
+        report.problems.append(f"the function returned None: {what}")
+    return answer
+
+
+def _per_particle_answers(report: CheckReport, calls: list[Callable], n_particles: int,
+                          signature: str) -> list[np.ndarray] | None:
+    """The answers of ``calls`` (one per case), each one log-likelihood per particle, ``(n_particles,)``;
+    ``None`` after reporting, in one sentence, the first call that raised, returned None or the wrong shape."""
+    answers = []
+    for call in calls:
+        answer = _answer(report, call, signature, "compute and return one log-likelihood per particle")
+        if answer is None:
+            return None
+        answer = np.asarray(answer, dtype=float)
+        if answer.shape != (n_particles,):
+            report.problems.append(f"the answer has shape {answer.shape}, not ({n_particles},): return one "
+                                   "log-likelihood per particle (a row of x)")
+            return None
+        answers.append(answer)
+    return answers

@@ -1,0 +1,782 @@
+"""Checkers of Part I (the linear landmark model and a scalar linear model: chapters 1-9)."""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.special import logsumexp
+
+from pfcourse.exercises.checking import CheckReport, _answer, _per_particle_answers
+
+
+_VARIANCE_MARGIN = 1.5  # a resampler adding more than 1.5 x multinomial's offspring variance is named
+
+
+def check_resampler(fn: Callable, n_draws: int = 4000, seed: int = 0) -> CheckReport:
+    """Check a resampler ``fn(weights, rng) -> N ancestor indices`` (see the module docstring).
+
+    Unbiasedness: for weights ``W`` (``N = 7``, one of them 0) the copy counts ``N_i`` of
+    ``n_draws`` calls must have mean ``N W_i`` within ``5 SE + 1e-9`` (SE from the sample
+    standard deviation of the counts; a deterministic scheme with biased counts has SE 0 and
+    fails). A correct unbiased scheme fails one of the 7 tests with probability below 1e-5.
+
+    Variance: an unbiased scheme whose total offspring variance ``sum_i Var N_i`` exceeds
+    ``1.5 sum_i N W_i (1 - W_i)``, multinomial resampling's, is named (one uniform shared by all
+    particles gives ``Var N_i = N^2 W_i (1 - W_i)``, ``N`` times multinomial's). Multinomial,
+    stratified, residual and systematic resampling stay at or below ``sum_i N W_i (1 - W_i)``; the
+    relative standard error of the measured total is a few per cent over 4000 draws.
+    """
+    report = CheckReport("resampler")
+    rng = np.random.default_rng(seed)
+    w = np.array([0.05, 0.3, 0.0, 0.12, 0.08, 0.25, 0.2])
+    n = w.size
+    first = _answer(report, lambda: fn(w.copy(), rng), "fn(weights, rng)",
+                    "write the resampler and return the N ancestor indices")
+    if first is None:
+        return report
+    first = np.asarray(first)
+    if first.shape != (n,):
+        report.problems.append(f"returned shape {first.shape}; expected ({n},), one ancestor index per particle")
+        return report
+    if first.dtype.kind not in "iu":
+        report.problems.append(f"returned dtype {first.dtype}; indices must be integers (use astype(int))")
+        return report
+    counts = np.empty((n_draws, n))
+    for t in range(n_draws):
+        idx = np.asarray(fn(w.copy(), rng))
+        if idx.min() < 0 or idx.max() >= n:
+            report.problems.append(
+                f"draw {t}: an index is out of range [0, {n}) (got {idx.min()}..{idx.max()}); "
+                "a cumulative sum that ends just below 1 needs its last value set to 1"
+            )
+            return report
+        counts[t] = np.bincount(idx, minlength=n)
+    if counts[:, 2].any():
+        report.problems.append(
+            "a particle of weight 0 was chosen: u must select the i with cumsum[i-1] < u <= cumsum[i] "
+            "(np.searchsorted(np.cumsum(w), u)), which never lands on a zero-width interval"
+        )
+    mean, se = counts.mean(axis=0), counts.std(axis=0, ddof=1) / np.sqrt(n_draws)
+    bad = np.abs(mean - n * w) > 5 * se + 1e-9
+    if bad.any():
+        i = int(np.argmax(np.abs(mean - n * w) - 5 * se))
+        report.problems.append(
+            f"biased: particle {i} of weight {w[i]} should get N W = {n * w[i]:.3f} copies on "
+            f"average, it got {mean[i]:.3f} (± {se[i]:.3f}) over {n_draws} draws"
+        )
+    if np.all(counts.std(axis=0) == 0) and not np.allclose(n * w, np.round(n * w)):
+        report.problems.append("the result never changes: the rng is not used")
+    total_var, multinomial_var = counts.var(axis=0, ddof=1).sum(), float(np.sum(n * w * (1 - w)))
+    if not bad.any() and total_var > _VARIANCE_MARGIN * multinomial_var:
+        report.problems.append(
+            f"the copy counts are right on average but too variable: sum of Var N_i is {total_var:.2f}, more "
+            f"than multinomial resampling's sum of N W_i (1 - W_i) = {multinomial_var:.2f}; each particle "
+            "needs a uniform of its own (u of shape (N,)), not one uniform shared by all"
+        )
+    try:
+        idx = np.asarray(fn(np.full(n, 1.0 / n), rng))
+        if idx.shape != (n,) or idx.min() < 0 or idx.max() >= n:
+            report.problems.append("uniform weights give indices of the wrong shape or out of range")
+    except Exception as exc:
+        report.problems.append(f"uniform weights raised {type(exc).__name__}: {exc}")
+    return report
+
+
+def check_weight_update(fn: Callable, seed: int = 0) -> CheckReport:
+    """Check ``fn(log_weights, log_likelihoods) -> new normalised log-weights`` (module docstring)."""
+    report = CheckReport("weight update")
+    rng = np.random.default_rng(seed)
+    cases = {
+        "ordinary values": (np.log(rng.dirichlet(np.ones(50))), rng.normal(-3.0, 2.0, 50)),
+        "likelihoods near e^-1000 (they underflow to 0 in the linear domain)": (
+            np.full(50, -np.log(50)), rng.normal(-1000.0, 3.0, 50)),
+        "one particle with weight 0 (log-weight -inf)": (
+            np.concatenate([[-np.inf], np.full(49, -np.log(49))]), rng.normal(-3.0, 1.0, 50)),
+    }
+    for name, (logw, loglik) in cases.items():
+        expected = logw + loglik - logsumexp(logw + loglik)
+        try:
+            with np.errstate(all="ignore"):
+                answer = fn(logw.copy(), loglik.copy())
+        except Exception as exc:
+            report.problems.append(f"{name}: raised {type(exc).__name__}: {exc}")
+            continue
+        if answer is None:
+            report.problems.append("the function returned None: write the update and return the new log-weights")
+            break
+        got = np.asarray(answer, dtype=float)
+        if got.shape != expected.shape:
+            report.problems.append(f"{name}: returned shape {got.shape}, expected {expected.shape}")
+        elif np.isnan(got).any():
+            report.problems.append(
+                f"{name}: NaN in the result; subtract the largest log-weight before exponentiating "
+                "(or use scipy.special.logsumexp)")
+        elif not np.allclose(np.exp(got), np.exp(expected), atol=1e-12, rtol=1e-9):
+            total = np.exp(got).sum()
+            hint = " (they do not sum to 1: normalise)" if abs(total - 1) > 1e-9 else ""
+            report.problems.append(f"{name}: wrong weights{hint}; largest error "
+                                   f"{np.abs(np.exp(got) - np.exp(expected)).max():.2e}")
+    return report
+
+
+@dataclass(frozen=True)
+class ScalarModel:
+    """``x_0 ~ N(m0, p0)``, ``x_k = a x_{k-1} + w_k`` with ``w_k ~ N(0, q)``, ``z_k = x_k + v_k``
+    with ``v_k ~ N(0, r)``: ``p0``, ``q`` and ``r`` are *variances*."""
+
+    a: float = 0.9
+    q: float = 0.5
+    r: float = 0.5
+    m0: float = 0.0
+    p0: float = 1.0
+
+
+def _scalar_filter(z: np.ndarray, model: ScalarModel, last_only: bool = False) -> tuple[np.ndarray, np.ndarray]:
+    """Mean and variance over the steps of the posterior the weighted cloud estimates.
+
+    ``last_only=False``: the Kalman filter, ``p(x_k | z_{1:k})``, exact for this model
+    (:func:`scalar_kalman`). With ``last_only=True``, the limit of an SIS whose weights forget the
+    previous step: the prior marginal of ``x_j`` updated by ``z_j`` alone (``j`` the last measured
+    step), moved on to ``k``.
+    """
+    if not last_only:
+        return scalar_kalman(z, model)[:2]
+    a, q, r = model.a, model.q, model.r
+    mean, var = np.empty(len(z)), np.empty(len(z))
+    m, p = model.m0, model.p0  # the forgetful posterior
+    prior_m, prior_p = model.m0, model.p0  # the prior marginal of x_k
+    for k, zk in enumerate(z):
+        if k > 0:
+            m, p = a * m, a * a * p + q
+            prior_m, prior_p = a * prior_m, a * a * prior_p + q
+        if not np.isnan(zk):
+            gain = prior_p / (prior_p + r)
+            m, p = prior_m + gain * (zk - prior_m), (1 - gain) * prior_p
+        mean[k], var[k] = m, p
+    return mean, var
+
+
+#: The measurements of :func:`check_sis`: none at step 0 (the cloud is the prior), one missing later.
+SIS_CASE = np.array([np.nan, 1.2, 2.0, np.nan, 0.3])
+
+
+def check_sis(fn: Callable, n_particles: int = 20_000, seed: int = 0, z: np.ndarray = SIS_CASE) -> CheckReport:
+    """Check a student's SIS ``fn(z, n_particles, rng, model) -> (means, ess)`` (module docstring).
+
+    ``z`` (default :data:`SIS_CASE`) has shape ``(K,)`` with NaN where nothing is measured (at
+    least at step 0); ``means`` and
+    ``ess`` have shape ``(K,)``: the weighted mean of the particles and the effective sample size
+    after each step. The means must agree with the Kalman filter's within six Monte Carlo
+    standard errors, ``sqrt(P_k / ESS_k)``, at every step (a correct SIS fails this with
+    probability below 1e-6); a filter that does not is compared with the limits of the typical
+    mistakes, and the report names the one that fits.
+    """
+    report = CheckReport("SIS")
+    model = ScalarModel()
+    answer = _per_step_answer(
+        report, lambda: fn(np.array(z, dtype=float), n_particles, np.random.default_rng(seed), model),
+        "fn(z, n_particles, rng, model)", "(means, ess)", ("mean", "ESS"), z.size)
+    if answer is None:
+        return report
+    means, ess = answer
+    k_steps = z.size
+    bad = ~(np.isfinite(means) & np.isfinite(ess))
+    if bad.any():
+        k = int(np.argmax(bad))
+        why = ("z[0] is NaN (nothing measured): skip the weight update when z_k is NaN" if np.isnan(z[k])
+               else "weights that all underflow to 0 give 0/0: keep log-weights and subtract their logsumexp")
+        report.problems.append(f"the mean or the ESS is NaN or infinite at step {k}; {why}")
+        return report
+    if abs(ess[0] - n_particles) > 1e-6 * n_particles:
+        report.problems.append(f"the ESS at step 0 is {ess[0]:.6g}, not N = {n_particles}: nothing is measured "
+                               "at step 0, so every weight is 1/N")
+        return report
+    if (ess < 1 - 1e-9).any() or (ess > n_particles * (1 + 1e-9)).any():
+        k = int(np.argmax((ess < 1 - 1e-9) | (ess > n_particles * (1 + 1e-9))))
+        report.problems.append(f"the ESS at step {k} is {ess[k]:.4g}, outside [1, N]: compute it from normalised "
+                               "weights, 1 / sum(W**2) with sum(W) = 1")
+        return report
+    exact = _scalar_filter(z, model)
+    if _fits(means, ess, *exact):
+        return report
+    mistakes = {
+        "the weights forget the previous steps: multiply the new likelihood into the previous weights "
+        "(log W_k = log W_(k-1) + log p(z_k | x_k)) instead of replacing them":
+            _scalar_filter(z, model, last_only=True),
+        "the particles move without process noise: add w_k ~ N(0, q) with variance q (standard deviation "
+        "sqrt(q)) when you propagate them": _scalar_filter(z, ScalarModel(q=0.0)),
+        "the likelihood uses r as a standard deviation: r is the variance of v_k, so the standard deviation "
+        "is sqrt(r)": _scalar_filter(z, ScalarModel(r=model.r**2)),
+        "the process noise uses q as a standard deviation: q is the variance of w_k, so the standard "
+        "deviation is sqrt(q)": _scalar_filter(z, ScalarModel(q=model.q**2)),
+    }
+    for why, (mean, var) in mistakes.items():
+        if _fits(means, ess, mean, var):
+            report.problems.append(f"your means match a known mistake, not the exact posterior: {why}")
+            return report
+    k = int(np.argmax(np.abs(means - exact[0]) / np.sqrt(exact[1] / np.clip(ess, 1, None))))
+    report.problems.append(
+        f"at step {k} your mean is {means[k]:.3f}, the exact (Kalman) mean is {exact[0][k]:.3f}, more than six "
+        f"Monte Carlo standard errors ({np.sqrt(exact[1][k] / max(ess[k], 1)):.3f}) away: check the proposal "
+        "(x_k = a x_(k-1) + w_k), the log-likelihood of z_k and the weighted mean")
+    return report
+
+
+def _per_step_answer(report: CheckReport, call: Callable, signature: str, returns: str, names: tuple[str, ...],
+                     k_steps: int, todo: str = "write the filter",
+                     per: str = "per step, step 0 included") -> tuple | None:
+    """The student's answer ``call()``: the tuple ``returns`` names, whose first ``len(names)`` entries are
+    arrays of one value per step, shape ``(k_steps,)``, converted to float; the rest as they are. ``None``,
+    with the problem reported in one sentence, when the call raises or returns ``None``, the wrong number
+    of values or arrays of the wrong shape. ``todo`` says what to write, ``per`` what each value belongs
+    to (a step by default; a parent for a proposal)."""
+    expected = returns.count(",") + 1
+    answer = _answer(report, call, signature, f"{todo} and return {returns}")
+    if answer is None:
+        return None
+    try:
+        with np.errstate(all="ignore"):
+            answer = tuple(answer)
+            if len(answer) != expected:
+                report.problems.append(f"the function returned {len(answer)} values; return {expected}: {returns}")
+                return None
+            arrays = [np.asarray(v, dtype=float) for v in answer[:len(names)]]
+    except Exception as exc:  # the student's error, reported
+        report.problems.append(f"calling {signature} raised {type(exc).__name__}: {exc}")
+        return None
+    if any(v.shape != (k_steps,) for v in arrays):
+        shapes = " and ".join(str(v.shape) for v in arrays)
+        report.problems.append(f"returned shapes {shapes}; expected ({k_steps},) each: "
+                               f"one {' and one '.join(names)} {per}")
+        return None
+    return (*arrays, *answer[len(names):])
+
+
+def _fits(means: np.ndarray, ess: np.ndarray, mean: np.ndarray, var: np.ndarray, z_max: float = 6.0) -> bool:
+    """Whether the cloud's means agree with a posterior's within ``z_max`` Monte Carlo standard errors."""
+    return bool(np.all(np.abs(means - mean) <= z_max * np.sqrt(var / np.clip(ess, 1, None)) + 1e-12))
+
+
+def _origins(ancestors: np.ndarray, steps: range) -> np.ndarray:
+    """Follow ``a = ancestors[k][a]`` over ``steps``, starting from every particle of the final step."""
+    a = np.arange(ancestors.shape[1])
+    for k in steps:
+        a = ancestors[k][a]
+    return a
+
+
+def check_ancestors(fn: Callable, seed: int = 0) -> CheckReport:
+    """Check a student's genealogy ``fn(ancestors) -> origins`` on random ancestor indices.
+
+    ``ancestors`` has shape ``(K, N)``: ``ancestors[k, i]`` is :math:`a_k^i`, the particle of step
+    ``k - 1`` that particle ``i`` of step ``k`` descends from (row 0 is unused). The answer must be,
+    for each particle ``i`` of the final step ``K - 1``, the particle of step 0 its lineage starts from,
+
+    .. math:: o^i = a_1^{a_2^{\\cdots a_{K-1}^i}},
+
+    that is ``a = ancestors[k][a]`` for ``k = K - 1, ..., 1``. A wrong answer is compared with
+    what the typical mistakes give (the steps followed forwards, one generation only, the last
+    step left out), so the report names the mistake.
+    """
+    report = CheckReport("genealogy")
+    rng = np.random.default_rng(seed)
+    n_steps, n = 7, 12
+    ancestors = np.sort(rng.integers(0, n, size=(n_steps, n)), axis=1)  # sorted, as the resamplers return them
+    ancestors[0] = np.arange(n)
+    ancestors[3] = np.arange(n)  # a step without resampling: each particle is its own parent
+    answer = _answer(report, lambda: fn(ancestors.copy()), "fn(ancestors)",
+                     "follow the ancestors back and return the origins")
+    if answer is None:
+        return report
+    answer = np.asarray(answer)
+    if answer.shape != (n,):
+        report.problems.append(f"returned shape {answer.shape}; expected ({n},): one step-0 origin per particle "
+                               "of the final step")
+        return report
+    if np.array_equal(answer, _origins(ancestors, range(n_steps - 1, 0, -1))):
+        return report
+    mistakes = {
+        "the steps are followed forwards (k = 1, 2, ...): a lineage is read backwards, from the final step "
+        "to step 0, a = ancestors[k][a] for k = K - 1, ..., 1": _origins(ancestors, range(1, n_steps)),
+        "only one generation is followed: ancestors[K - 1] gives the parents at step K - 2, and their own "
+        "parents must be followed down to step 0": ancestors[-1],
+        "the last step is left out: the lineage of a particle of step K - 1 starts with its parent "
+        "ancestors[K - 1][i]": _origins(ancestors, range(n_steps - 2, 0, -1)),
+    }
+    for why, wrong in mistakes.items():
+        if np.array_equal(answer, wrong):
+            report.problems.append(f"your origins match a known mistake: {why}")
+            return report
+    i = int(np.argmax(answer != _origins(ancestors, range(n_steps - 1, 0, -1))))
+    report.problems.append(f"particle {i} of the final step descends from particle "
+                           f"{_origins(ancestors, range(n_steps - 1, 0, -1))[i]} of step 0, not {answer[i]}: "
+                           "follow a = ancestors[k][a] from k = K - 1 down to k = 1")
+    return report
+
+
+#: The measurements of :func:`check_kalman`: none at step 0 (the filter starts from the prior), two missing later.
+KALMAN_CASE = np.array([np.nan, 1.2, 2.0, np.nan, 0.3, np.nan, -0.4])
+
+
+#: The typical mistakes of a scalar Kalman filter, each as the flag of :func:`scalar_kalman` that makes
+#: it, with the sentence that names it (what is wrong, and why).
+KALMAN_MISTAKES = {
+    "gain_with_p": "the gain divides by the predicted variance P_k^- instead of the innovation variance "
+                   "S_k = P_k^- + r: K_k = P_k^- / S_k weighs the prediction against the measurement noise",
+    "no_q": "the predicted variance forgets the process noise: P_k^- = a^2 P_(k-1) + q, the state moves "
+            "by w_k ~ N(0, q) at every step",
+    "r_as_sd": "the update uses r as a standard deviation: r is the variance of v_k, so S_k = P_k^- + r, "
+               "not P_k^- + r^2",
+    "q_as_sd": "the prediction uses q as a standard deviation: q is the variance of w_k, so P_k^- = a^2 P_(k-1) "
+               "+ q, not + q^2",
+    "predict_at_0": "step 0 is predicted: the filter starts from N(m0, p0) at step 0 and predicts only from "
+                    "step 1 on",
+    "nan_as_zero": "a missing measurement (NaN) is used as z_k = 0: when nothing is measured, skip the update "
+                   "(the filtering density is then the predicted one)",
+    "no_update_of_p": "the variance is not updated: after a measurement P_k = (1 - K_k) P_k^-, smaller than P_k^-",
+    "loglik_with_p": "the log-likelihood uses P_k^- where it needs S_k: the increment is log N(nu_k; 0, S_k), "
+                     "the innovation's density, with S_k = P_k^- + r",
+    "loglik_no_constant": "the log-likelihood misses the normalising term: log N(nu_k; 0, S_k) = "
+                          "-(nu_k^2 / S_k + log(2 pi S_k)) / 2",
+}
+
+
+def scalar_kalman(z: np.ndarray, model: ScalarModel, mistake: str | None = None) -> tuple[np.ndarray, np.ndarray, float]:
+    """The Kalman filter of a :class:`ScalarModel`: ``(means, variances, log_likelihood)`` over the steps.
+
+    Step 0 starts from ``N(m0, p0)``; step ``k > 0`` predicts ``m_k^- = a m_(k-1)``,
+    ``P_k^- = a^2 P_(k-1) + q``. A measured ``z_k`` updates with the innovation
+    ``nu_k = z_k - m_k^-``, its variance ``S_k = P_k^- + r`` and the gain ``K_k = P_k^- / S_k``:
+    ``m_k = m_k^- + K_k nu_k``, ``P_k = (1 - K_k) P_k^-``, and adds
+    ``log N(nu_k; 0, S_k) = -(nu_k^2 / S_k + log(2 pi S_k)) / 2`` to the log-likelihood; a NaN
+    ``z_k`` (nothing measured) skips the update. ``mistake`` (a key of :data:`KALMAN_MISTAKES`)
+    computes instead what that mistake computes.
+    """
+    if mistake is not None and mistake not in KALMAN_MISTAKES:
+        raise ValueError(f"unknown mistake {mistake!r}; one of {sorted(KALMAN_MISTAKES)}")
+    a = model.a
+    q = model.q**2 if mistake == "q_as_sd" else 0.0 if mistake == "no_q" else model.q
+    r = model.r**2 if mistake == "r_as_sd" else model.r
+    m, p, log_lik = model.m0, model.p0, 0.0
+    means, variances = np.empty(len(z)), np.empty(len(z))
+    for k, zk in enumerate(z):
+        if k > 0 or mistake == "predict_at_0":
+            m, p = a * m, a * a * p + q
+        if np.isnan(zk) and mistake == "nan_as_zero":
+            zk = 0.0
+        if not np.isnan(zk):
+            nu, s = zk - m, p + r
+            gain = 1.0 if mistake == "gain_with_p" else p / s
+            s_lik = p if mistake == "loglik_with_p" else s
+            log_lik += -0.5 * nu**2 / s_lik - (0.0 if mistake == "loglik_no_constant" else 0.5 * np.log(2 * np.pi * s_lik))
+            m = m + gain * nu
+            p = p if mistake == "no_update_of_p" else (1.0 - gain) * p
+        means[k], variances[k] = m, p
+    return means, variances, float(log_lik)
+
+
+def check_kalman(fn: Callable, z: np.ndarray = KALMAN_CASE, rtol: float = 1e-9) -> CheckReport:
+    """Check a student's ``fn(z, model) -> (means, variances, log_likelihood)`` on a :class:`ScalarModel`.
+
+    ``z`` (default :data:`KALMAN_CASE`) has shape ``(K,)``, NaN where nothing is measured;
+    ``means`` and ``variances`` have shape ``(K,)``, the mean and variance of ``p(x_k | z_{1:k})``
+    at every step, and ``log_likelihood`` is ``log p(z_{1:K}) = sum_k log N(nu_k; 0, S_k)``. The
+    filter is deterministic, so each must equal :func:`scalar_kalman` to ``rtol``; a filter that
+    does not is compared with every typical mistake of :data:`KALMAN_MISTAKES`, and the report
+    names the one that fits.
+    """
+    report = CheckReport("Kalman filter")
+    model = ScalarModel()
+    z = np.array(z, dtype=float)
+    answer = _per_step_answer(report, lambda: fn(z.copy(), model), "fn(z, model)",
+                              "(means, variances, log_likelihood)", ("mean", "variance"), z.size)
+    if answer is None:
+        return report
+    means, variances, log_lik = answer
+    try:
+        log_lik = float(np.asarray(log_lik, dtype=float).item())
+    except (TypeError, ValueError):
+        report.problems.append(f"the log-likelihood is {np.size(log_lik)} values, not one number: return the sum "
+                               "of the increments log N(nu_k; 0, S_k) over the measured steps")
+        return report
+    bad = ~(np.isfinite(means) & np.isfinite(variances))
+    if bad.any():
+        k = int(np.argmax(bad))
+        why = ("z_k is NaN (nothing measured): skip the update at such a step, the filtering density is then "
+               "the predicted one" if np.isnan(z[k]) else "check the update of that step")
+        report.problems.append(f"the mean or the variance is NaN or infinite at step {k}; {why}")
+        return report
+    if not np.isfinite(log_lik):
+        report.problems.append("the log-likelihood is NaN or infinite: add log N(nu_k; 0, S_k) only at the steps "
+                               "where something is measured (z_k not NaN)")
+        return report
+
+    def close(got, expected) -> bool:
+        return bool(np.allclose(got, expected, rtol=rtol, atol=1e-12))
+
+    exact = scalar_kalman(z, model)
+    filtered = close(means, exact[0]) and close(variances, exact[1])
+    if filtered and close(log_lik, exact[2]):
+        return report
+    for mistake, why in KALMAN_MISTAKES.items():
+        wrong = scalar_kalman(z, model, mistake)
+        if close(means, wrong[0]) and close(variances, wrong[1]) and (not filtered or close(log_lik, wrong[2])):
+            if not (close(wrong[0], exact[0]) and close(wrong[1], exact[1])) or not close(wrong[2], exact[2]):
+                report.problems.append(f"your filter computes a known mistake: {why}")
+                return report
+    if filtered:
+        report.problems.append(
+            f"the means and variances are right, the log-likelihood is not ({log_lik:.6f}, exact {exact[2]:.6f}): "
+            "add log N(nu_k; 0, S_k) at every measured step and nothing at a missing one")
+        return report
+    wrong_means = ~np.isclose(means, exact[0], rtol=rtol, atol=1e-12)
+    wrong_vars = ~np.isclose(variances, exact[1], rtol=rtol, atol=1e-12)
+    k = int(np.argmax(wrong_means | wrong_vars))
+    report.problems.append(
+        f"at step {k} your mean and variance are {means[k]:.6f} and {variances[k]:.6f}, the exact ones "
+        f"{exact[0][k]:.6f} and {exact[1][k]:.6f}: check the prediction (m_k^- = a m_(k-1), P_k^- = a^2 P_(k-1) + q) "
+        "and the update of that step")
+    return report
+
+
+#: The parents and the measurement of :func:`check_optimal_proposal`.
+PROPOSAL_PARENTS = np.array([-1.5, -0.2, 0.4, 1.1, 2.3])
+
+
+PROPOSAL_Z = 0.8
+
+
+#: The model of :func:`check_optimal_proposal`: ``q``, ``r`` and ``q + r`` all differ, so that a
+#: variance put in the place of another is seen.
+PROPOSAL_MODEL = ScalarModel(q=0.5, r=0.2)
+
+
+def _log_normal(x: np.ndarray, mean: np.ndarray | float, var: float) -> np.ndarray:
+    """``log N(x; mean, var)`` of a scalar Gaussian, elementwise."""
+    return -0.5 * ((x - mean) ** 2 / var + np.log(2 * np.pi * var))
+
+
+def scalar_optimal_proposal(x_prev: np.ndarray, z: float, model: ScalarModel) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The optimal proposal of a :class:`ScalarModel`: ``(means, variances, log_weights)`` per parent.
+
+    .. math::
+
+       p(x_k | x_{k-1}, z_k) = \\mathcal N\\big(\\sigma^2 (a x_{k-1} / q + z_k / r),\\ \\sigma^2\\big),
+       \\quad \\sigma^2 = (1/q + 1/r)^{-1}, \\qquad
+       \\log p(z_k | x_{k-1}) = \\log \\mathcal N(z_k;\\ a x_{k-1},\\ q + r).
+    """
+    x_prev = np.asarray(x_prev, dtype=float)
+    var = 1.0 / (1.0 / model.q + 1.0 / model.r)
+    return var * (model.a * x_prev / model.q + z / model.r), np.full(x_prev.shape, var), \
+        _log_normal(z, model.a * x_prev, model.q + model.r)
+
+
+def _proposal_mistakes(x: np.ndarray, z: float, model: ScalarModel) -> dict[str, dict[str, np.ndarray]]:
+    """What each typical mistake computes, by output (mean, variance, log-weight), with its sentence."""
+    a, q, r = model.a, model.q, model.r
+    right, added = 1.0 / (1.0 / q + 1.0 / r), q + r
+    m = right * (a * x / q + z / r)
+    return {
+        "variance": {
+            "the variances are added (q + r) where the precisions add: 1 / sigma^2 = 1 / q + 1 / r, since "
+            "both the transition and the measurement inform x_k": np.full(x.shape, added),
+            "the variance is q, the transition's: conditioning on z_k shrinks it to (1/q + 1/r)^(-1)":
+                np.full(x.shape, q),
+        },
+        "mean": {
+            "the mean is the prediction a x_(k-1), blind to z_k: it is sigma^2 (a x_(k-1) / q + z_k / r), "
+            "a precision-weighted average of prediction and measurement": a * x,
+            "the mean misses the factor sigma^2: it is sigma^2 (a x_(k-1) / q + z_k / r), not the bare sum "
+            "of the precision-weighted terms": a * x / q + z / r,
+            "the mean uses q + r as its variance: the variances were added where the precisions add, "
+            "sigma^2 = (1/q + 1/r)^(-1)": added * (a * x / q + z / r),
+            "the mean forgets the dynamics' factor a: the prediction of x_k is a x_(k-1), not x_(k-1)":
+                right * (x / q + z / r),
+        },
+        "log-weight": {
+            "the log-weight uses the variance q alone: z_k = a x_(k-1) + w_k + v_k, so its variance given "
+            "x_(k-1) is q + r": _log_normal(z, a * x, q),
+            "the log-weight uses the variance r alone: z_k = a x_(k-1) + w_k + v_k, so its variance given "
+            "x_(k-1) is q + r": _log_normal(z, a * x, r),
+            "the log-weight is evaluated at the new particle (the proposal's mean) instead of the parent: "
+            "the weight p(z_k | x_(k-1)) = N(z_k; a x_(k-1), q + r) depends only on x_(k-1)": _log_normal(z, m, r),
+            "the log-weight is evaluated at the new particle's mean with variance q + r: the weight "
+            "p(z_k | x_(k-1)) = N(z_k; a x_(k-1), q + r) is centred on the parent's prediction":
+                _log_normal(z, m, added),
+        },
+    }
+
+
+def check_optimal_proposal(fn: Callable, x_prev: np.ndarray = PROPOSAL_PARENTS, z: float = PROPOSAL_Z,
+                           rtol: float = 1e-9) -> CheckReport:
+    """Check a student's ``fn(x_prev, z, model) -> (means, variances, log_weights)`` on a :class:`ScalarModel`.
+
+    The model is :data:`PROPOSAL_MODEL`; ``x_prev`` (default :data:`PROPOSAL_PARENTS`) holds the parents ``x_{k-1}^i``, shape ``(N,)``, and
+    ``z`` is one measurement; each output has shape ``(N,)``: the mean and variance of
+    ``p(x_k | x_{k-1}^i, z_k)`` and ``log p(z_k | x_{k-1}^i)``. They must equal
+    :func:`scalar_optimal_proposal` to ``rtol``, the log-weights up to one constant common to all
+    parents (it cancels when the weights are normalised). A wrong output is compared with what each
+    typical mistake of that output computes, and the report names the one that fits.
+    """
+    report = CheckReport("optimal proposal")
+    model = PROPOSAL_MODEL
+    x = np.array(x_prev, dtype=float)
+    answer = _per_step_answer(report, lambda: fn(x.copy(), float(z), model), "fn(x_prev, z, model)",
+                              "(means, variances, log_weights)", ("mean", "variance", "log-weight"), x.size,
+                              todo="write the proposal", per="per parent")
+    if answer is None:
+        return report
+    exact = scalar_optimal_proposal(x, z, model)
+    outputs = dict(zip(("mean", "variance", "log-weight"), answer))
+
+    def close(name: str, got: np.ndarray, expected: np.ndarray) -> bool:
+        if name == "log-weight":  # a constant common to all parents cancels in the normalisation
+            got, expected = got - got[0], expected - expected[0]
+        return bool(np.all(np.isfinite(got)) and np.allclose(got, expected, rtol=rtol, atol=1e-12))
+
+    mistakes = _proposal_mistakes(x, z, model)
+    for (name, got), expected in zip(outputs.items(), exact):
+        if close(name, got, expected):
+            continue
+        why = next((why for why, wrong in mistakes[name].items() if close(name, got, wrong)), None)
+        if why is not None:
+            report.problems.append(f"your {name} computes a known mistake: {why}")
+            continue
+        i = int(np.argmax(~np.isclose(got, expected, rtol=rtol, atol=1e-12) | ~np.isfinite(got)))
+        report.problems.append(
+            f"for the parent x_(k-1) = {x[i]:g} your {name} is {got[i]:.6f}, the exact one {expected[i]:.6f}: "
+            "the proposal is N(sigma^2 (a x_(k-1) / q + z_k / r), sigma^2) with sigma^2 = (1/q + 1/r)^(-1), "
+            "the log-weight log N(z_k; a x_(k-1), q + r)")
+    return report
+
+
+LANDMARK_MISTAKES: dict[str, str] = {
+    "no_robot": "the innovation forgets the robot: the measurement is relative to the particle's robot, "
+                "nu = z - A r - C m, not z - C m",
+    "robot_sign": "the robot's term has the wrong sign: z = A r + C l + v, so nu = z - A r - C m",
+    "s_without_r": "the innovation covariance misses the measurement noise: S = C P C^T + R, not C P C^T",
+    "no_cov_update": "the covariance is not updated: after a measurement P' = (I - K C) P, smaller than P",
+    "loglik_with_r": "the weight uses R where it needs S: the map is uncertain, so the predictive likelihood "
+                     "is N(nu; 0, C P C^T + R), not N(nu; 0, R)",
+}
+
+
+def landmark_update(robot: np.ndarray, m: np.ndarray, P: np.ndarray, z: np.ndarray, A: np.ndarray, C: np.ndarray,
+                    R: np.ndarray, mistake: str | None = None) -> tuple[np.ndarray, np.ndarray, float]:
+    """One particle's map update given its robot ``r``: ``(m', P', log N(nu; 0, S))``.
+
+    ``z = A r + C l + v``, ``v ~ N(0, R)``, map ``l ~ N(m, P)``: innovation ``nu = z - A r - C m``,
+    ``S = C P C^T + R``, gain ``K = P C^T S^{-1}``, ``m' = m + K nu``, ``P' = (I - K C) P``, and the
+    particle's log-weight increment ``log N(nu; 0, S)``. ``mistake`` (a key of
+    :data:`LANDMARK_MISTAKES`) computes instead what that mistake computes.
+    """
+    if mistake is not None and mistake not in LANDMARK_MISTAKES:
+        raise ValueError(f"unknown mistake {mistake!r}; one of {sorted(LANDMARK_MISTAKES)}")
+    robot_term = 0.0 if mistake == "no_robot" else -(A @ robot) if mistake == "robot_sign" else A @ robot
+    nu = z - robot_term - C @ m
+    S = C @ P @ C.T + (0.0 if mistake == "s_without_r" else R)
+    gain = P @ C.T @ np.linalg.inv(S)
+    cov = P if mistake == "no_cov_update" else (np.eye(len(m)) - gain @ C) @ P
+    S_lik = R if mistake == "loglik_with_r" else S
+    log_lik = -0.5 * (nu @ np.linalg.solve(S_lik, nu) + np.linalg.slogdet(2 * np.pi * S_lik)[1])
+    return m + gain @ nu, cov, float(log_lik)
+
+
+#: A particle of the two-landmark model seeing landmark 1: robot, map mean and covariance, z, A, C, R.
+LANDMARK_CASE = dict(
+    robot=np.array([0.7, -0.4]), m=np.array([2.0, 1.5, -1.0, 2.5]),
+    P=np.array([[0.30, 0.05, 0.0, 0.0], [0.05, 0.20, 0.0, 0.0], [0.0, 0.0, 0.25, -0.04], [0.0, 0.0, -0.04, 0.35]]),
+    z=np.array([1.1, 2.2]), A=-np.eye(2), C=np.hstack([np.eye(2), np.zeros((2, 2))]), R=0.01 * np.eye(2))
+
+
+def check_landmark_update(fn: Callable, rtol: float = 1e-9) -> CheckReport:
+    """Check a student's ``fn(robot, m, P, z, A, C, R) -> (m_new, P_new, log_lik)`` on :data:`LANDMARK_CASE`.
+
+    The update is deterministic, so each output must equal :func:`landmark_update` to ``rtol``;
+    one that does not is compared with every mistake of :data:`LANDMARK_MISTAKES`, and the report
+    names the one that fits.
+    """
+    report = CheckReport("map update of one particle")
+    case = {key: value.copy() for key, value in LANDMARK_CASE.items()}
+    answer = _answer(report, lambda: fn(**case), "fn(robot, m, P, z, A, C, R)", "return (m_new, P_new, log_lik)")
+    if answer is None:
+        return report
+    try:
+        m_new, P_new, log_lik = answer
+        m_new, P_new = np.asarray(m_new, dtype=float), np.asarray(P_new, dtype=float)
+        log_lik = float(np.asarray(log_lik, dtype=float).item())
+    except (TypeError, ValueError):
+        report.problems.append("return three things: the new map mean (shape (4,)), its covariance (4, 4) and the "
+                               "log-weight increment, one number")
+        return report
+    if m_new.shape != (4,) or P_new.shape != (4, 4):
+        report.problems.append(f"the mean has shape {m_new.shape} and the covariance {P_new.shape}: expected (4,) "
+                               "and (4, 4), the whole map of the particle")
+        return report
+
+    def same(got, expected) -> bool:
+        return all(np.allclose(g, e, rtol=rtol, atol=1e-12) for g, e in zip(got, expected))
+
+    got = (m_new, P_new, log_lik)
+    if same(got, landmark_update(**LANDMARK_CASE)):
+        return report
+    for mistake, why in LANDMARK_MISTAKES.items():
+        if same(got, landmark_update(**LANDMARK_CASE, mistake=mistake)):
+            report.problems.append(f"your update computes a known mistake: {why}")
+            return report
+    exact = landmark_update(**LANDMARK_CASE)
+    part = "mean" if not np.allclose(m_new, exact[0]) else "covariance" if not np.allclose(P_new, exact[1]) else \
+        "log-weight increment"
+    report.problems.append(f"the {part} differs from the Kalman update (nu = z - A r - C m, S = C P C^T + R, "
+                           "K = P C^T S^-1, m' = m + K nu, P' = (I - K C) P, log N(nu; 0, S)): check that line")
+    return report
+
+
+APF_MISTAKES: dict[str, str] = {
+    "no_division": "the first stage is not divided out: the ancestors were chosen in proportion to p^(z_k | x_(k-1)), "
+                   "so the second-stage weight is p(z_k | x_k^i) / p^(z_k | x_(k-1)^(a_i))",
+    "own_index": "the division uses particle i's own first-stage value: divide by that of its ancestor, "
+                 "log_pred[ancestors], since particle i was moved from x_(k-1)^(a_i)",
+    "multiplied": "the first-stage value is multiplied in again instead of divided out: subtract "
+                  "log_pred[ancestors], do not add it",
+    "unnormalised": "the log-weights are not normalised: subtract their logsumexp so the weights sum to one",
+}
+
+
+def apf_second_stage(log_lik: np.ndarray, log_pred: np.ndarray, ancestors: np.ndarray,
+                     mistake: str | None = None) -> np.ndarray:
+    """Normalised second-stage log-weights of the auxiliary filter with the transition as proposal.
+
+    ``log W_k^i = log p(z_k | x_k^i) - log p^(z_k | x_(k-1)^(a_i)) - logsumexp(...)``: the transition
+    and the proposal cancel, and the first-stage approximation ``p^`` of the ancestor is divided
+    out. ``mistake`` (a key of :data:`APF_MISTAKES`) computes instead what that mistake computes.
+    """
+    if mistake is not None and mistake not in APF_MISTAKES:
+        raise ValueError(f"unknown mistake {mistake!r}; one of {sorted(APF_MISTAKES)}")
+    pred = {"no_division": 0.0, "own_index": log_pred, "multiplied": -log_pred[ancestors]}.get(mistake,
+                                                                                                 log_pred[ancestors])
+    log_w = log_lik - pred
+    return log_w if mistake == "unnormalised" else log_w - logsumexp(log_w)
+
+
+def check_apf_second_stage(fn: Callable, n: int = 12, seed: int = 0) -> CheckReport:
+    """Check a student's ``fn(log_lik, log_pred, ancestors) -> log_weights`` against :func:`apf_second_stage`.
+
+    ``log_lik`` holds ``log p(z_k | x_k^i)`` of the moved particles, ``log_pred`` the first-stage
+    ``log p^(z_k | x_(k-1)^j)`` of the parents, ``ancestors`` the chosen parent of each particle.
+    A wrong answer is compared with each mistake of :data:`APF_MISTAKES`, and the report names it.
+    """
+    report = CheckReport("second-stage weights")
+    rng = np.random.default_rng(seed)
+    log_lik, log_pred = rng.normal(-3.0, 2.0, n), rng.normal(-3.0, 2.0, n)
+    ancestors = np.sort(rng.integers(0, n, n))
+    answer = _answer(report, lambda: fn(log_lik.copy(), log_pred.copy(), ancestors.copy()),
+                     "fn(log_lik, log_pred, ancestors)", "return the normalised log-weights, shape (N,)")
+    if answer is None:
+        return report
+    got = np.asarray(answer, dtype=float)
+    if got.shape != (n,):
+        report.problems.append(f"the answer has shape {got.shape}: return one log-weight per particle, shape ({n},)")
+        return report
+    if np.allclose(got, apf_second_stage(log_lik, log_pred, ancestors), atol=1e-10):
+        return report
+    for mistake, why in APF_MISTAKES.items():
+        if np.allclose(got, apf_second_stage(log_lik, log_pred, ancestors, mistake), atol=1e-10):
+            report.problems.append(f"your weights compute a known mistake: {why}")
+            return report
+    report.problems.append("the log-weights differ from log p(z_k | x_k^i) - log p^(z_k | x_(k-1)^(a_i)), normalised: "
+                           "check each term")
+    return report
+
+
+# The log-likelihood of a cloud of particles in the two-landmark model (chapter 1, exercise 1.4).
+# H maps the state (r_x, r_y, l1_x, l1_y, l2_x, l2_y) to the offsets l^j - r; R has a different
+# variance per landmark, so that its visible block differs from its leading block.
+LIKELIHOOD_H = np.kron(np.hstack([-np.ones((2, 1)), np.eye(2)]), np.eye(2))
+
+
+LIKELIHOOD_R = np.diag([0.01, 0.01, 0.04, 0.04]) + np.diag([0.004, 0.0, 0.01], 1) + np.diag([0.004, 0.0, 0.01], -1)
+
+
+LIKELIHOOD_CASES = (np.array([1.2, 0.6, 0.8, -0.4]), np.array([np.nan, np.nan, 0.9, -0.3]),
+                    np.array([1.1, 0.5, np.nan, np.nan]), np.full(4, np.nan))
+
+
+LIKELIHOOD_MISTAKES = {
+    "nan_as_zero": "it replaces a missing coordinate by 0 and keeps the whole R; an unmeasured landmark must "
+                   "leave the density: keep only the rows of z and H that are measured and the block R[seen, seen]",
+    "reversed_offset": "it predicts the measurement as r - l, the offset reversed; the model measures l^j - r, "
+                       "that is H x with H's -I block on the robot",
+    "r_as_sd": "it uses R as a matrix of standard deviations (R squared as the covariance); R is already the "
+               "covariance of the measurement noise, in m²",
+    "leading_block": "it takes the leading block R[:n, :n] of R instead of the block of the measured coordinates, "
+                     "R[seen][:, seen]; the two differ when the visible landmark is not the first",
+    "no_constant": "it misses the normalising term -(n log(2 pi) + log det R_seen) / 2, which the exercise asks "
+                   "for (it changes with the number n of coordinates measured)",
+}
+
+
+def landmark_log_likelihood(x: np.ndarray, z: np.ndarray, H: np.ndarray, R: np.ndarray,
+                            mistake: str | None = None) -> np.ndarray:
+    """``log N(z_s; H_s x^i, R_ss)`` for every particle ``x^i`` (rows of ``x``), with ``s`` the
+    measured (non-NaN) coordinates of ``z``, ``H_s`` their rows of ``H`` and ``R_ss`` their block of
+    ``R``; ``0`` for every particle when nothing is measured. ``mistake`` (a key of
+    :data:`LIKELIHOOD_MISTAKES`) computes that mistake instead."""
+    x, z = np.asarray(x, dtype=float), np.asarray(z, dtype=float)
+    seen = ~np.isnan(z)
+    if mistake == "nan_as_zero":
+        seen = np.ones(z.size, dtype=bool)
+    if not seen.any():
+        return np.zeros(len(x))
+    n = int(seen.sum())
+    predicted = x @ H[seen].T * (-1.0 if mistake == "reversed_offset" else 1.0)
+    d = np.where(np.isnan(z[seen]), 0.0, z[seen] - predicted)
+    block = R[:n, :n] if mistake == "leading_block" else R[np.ix_(seen, seen)]
+    if mistake == "r_as_sd":
+        block = block @ block
+    quad = np.einsum("ij,ij->i", d @ np.linalg.inv(block), d)
+    constant = 0.0 if mistake == "no_constant" else n * np.log(2 * np.pi) + np.linalg.slogdet(block)[1]
+    return -0.5 * (quad + constant)
+
+
+def check_log_likelihood(fn: Callable, n_particles: int = 50, seed: int = 0, rtol: float = 1e-9) -> CheckReport:
+    """Check a student's ``fn(x, z, H, R) -> (N,)``, the log-likelihoods ``log p(z | x^i)`` of a cloud.
+
+    ``x`` has shape ``(N, 6)`` (particles of the two-landmark model), ``z`` shape ``(4,)`` with NaN
+    for an unseen landmark. Each case of :data:`LIKELIHOOD_CASES` (both landmarks seen, only the
+    second, only the first, none) must equal :func:`landmark_log_likelihood` to ``rtol``; an answer
+    that does not is compared with each mistake of :data:`LIKELIHOOD_MISTAKES`, and the report names
+    the one that fits.
+    """
+    report = CheckReport("log-likelihood")
+    x = np.random.default_rng(seed).normal([2.0, 0.0, 3.0, 0.5, 3.0, -0.5], 0.3, size=(n_particles, 6))
+    answers = _per_particle_answers(
+        report, [lambda z=z: fn(x.copy(), z.copy(), LIKELIHOOD_H.copy(), LIKELIHOOD_R.copy()) for z in LIKELIHOOD_CASES],
+        n_particles, "fn(x, z, H, R)")
+    if answers is None:
+        return report
+    if any(np.isnan(a).any() for a in answers):
+        report.problems.append("the log-likelihood is NaN when a landmark is out of view: drop the NaN "
+                               "coordinates of z, with their rows of H and their rows and columns of R")
+        return report
+    def fits(mistake: str | None) -> bool:
+        return all(np.allclose(a, landmark_log_likelihood(x, z, LIKELIHOOD_H, LIKELIHOOD_R, mistake),
+                               rtol=rtol, atol=1e-9) for a, z in zip(answers, LIKELIHOOD_CASES))
+
+    if fits(None):
+        return report
+    for mistake, why in LIKELIHOOD_MISTAKES.items():
+        if fits(mistake):
+            report.problems.append(f"your function computes a known mistake: {why}")
+            return report
+    if np.any(answers[-1] != 0.0):
+        report.problems.append("with nothing in view (z all NaN) the likelihood is the constant 1: return "
+                               "zeros, one per particle")
+        return report
+    case = next(c for c, (a, z) in enumerate(zip(answers, LIKELIHOOD_CASES))
+                if not np.allclose(a, landmark_log_likelihood(x, z, LIKELIHOOD_H, LIKELIHOOD_R), rtol=rtol, atol=1e-9))
+    report.problems.append(f"with z = {LIKELIHOOD_CASES[case]} the values differ from log N(z_s; H_s x, R_ss): "
+                           "check the quadratic form (z_s - H_s x)^T R_ss^-1 (z_s - H_s x) and the term -(1/2)")
+    return report

@@ -1,0 +1,641 @@
+"""Checkers of Part II (the robot and terrain navigation: chapters 10-16)."""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass, field
+
+import numpy as np
+from scipy import stats
+
+from pfcourse.exercises.checking import CheckReport, _answer
+
+
+# ----------------------------------------------------------------------------- chapter 11
+#: Cases of :func:`check_pose_density`: (reading ``(r, b)``, landmark ``l``, standard deviations
+#: ``(s_r, s_b)``): a far reading, a short one (where the truncation to ``r' > 0`` matters) and one
+#: at a bearing near ``pi`` (where the bearing residual must be wrapped).
+POSE_DENSITY_CASES = (
+    (np.array([12.0, 0.7]), np.array([3.0, -4.0]), np.array([0.7, 0.025])),
+    (np.array([0.9, -2.0]), np.array([-10.0, 5.0]), np.array([0.7, 0.05])),
+    (np.array([20.0, 3.1]), np.array([0.0, 0.0]), np.array([0.7, 0.025])),
+)
+
+
+POSE_DENSITY_MISTAKES = {
+    "bearing_added": "it predicts the bearing as atan2(l - p) + theta; the landmark is seen at its direction "
+                     "minus the heading, h_b(x) = wrap(atan2(l_y - p_y, l_x - p_x) - theta)",
+    "no_jacobian": "it misses the Jacobian term -log h_r(x): the ring of radius r' has circumference 2 pi r', so the "
+                   "density of the position is the polar one divided by the radius",
+    "no_direction": "it misses the direction's density 1 / (2 pi): the direction phi of the robot seen from the "
+                    "landmark is drawn uniformly, the reading says nothing about it",
+    "no_truncation": "it misses the truncation term -log Phi(r / s_r): the range r' is drawn positive only, so its "
+                     "normal density is divided by P(r' > 0) = Phi(r / s_r)",
+    "unwrapped": "it does not wrap the bearing residual b - h_b(x) into (-pi, pi]: near a bearing of pi a pose that "
+                 "fits the reading gets a residual of almost 2 pi",
+    "variance_for_sd": "it uses s_r and s_b as variances; they are the standard deviations of the range and bearing "
+                       "noise",
+}
+
+
+def _wrap(angle: np.ndarray) -> np.ndarray:
+    return (np.asarray(angle) + np.pi) % (2.0 * np.pi) - np.pi
+
+
+def pose_reading_log_density(x: np.ndarray, z: np.ndarray, landmark: np.ndarray, sd: np.ndarray,
+                             mistake: str | None = None) -> np.ndarray:
+    """``log q_z(x)`` of the pose drawn from a range-bearing reading (chapter 11, Algorithm 11.1):
+
+        q_z(x) = N(h_r(x); r, s_r^2) N(wrap(b - h_b(x)); 0, s_b^2) / (Phi(r / s_r) 2 pi h_r(x)),
+
+    ``h_r(x) = |l - p|``, ``h_b(x) = wrap(atan2(l_y - p_y, l_x - p_x) - theta)`` for each pose
+    ``x = (p_x, p_y, theta)`` (rows), ``z = (r, b)``, ``sd = (s_r, s_b)``. ``mistake`` (a key of
+    :data:`POSE_DENSITY_MISTAKES`) computes that mistake instead."""
+    x = np.asarray(x, dtype=float)
+    r, b = (float(v) for v in z)
+    s_r, s_b = (float(v) ** 2 if mistake == "variance_for_sd" else float(v) for v in sd)
+    dx, dy = landmark[0] - x[:, 0], landmark[1] - x[:, 1]
+    h_r = np.hypot(dx, dy)
+    h_b = np.arctan2(dy, dx) + (x[:, 2] if mistake == "bearing_added" else -x[:, 2])
+    nu_b = (b - h_b) if mistake == "unwrapped" else _wrap(b - _wrap(h_b))
+    log_q = (-np.log(2 * np.pi * s_r * s_b) - 0.5 * (((r - h_r) / s_r) ** 2 + (nu_b / s_b) ** 2))
+    if mistake != "no_truncation":
+        log_q -= stats.norm.logcdf(r / s_r)
+    if mistake != "no_direction":
+        log_q -= np.log(2 * np.pi)
+    if mistake != "no_jacobian":
+        log_q -= np.log(h_r)
+    return log_q
+
+
+def _poses_near_reading(z: np.ndarray, landmark: np.ndarray, sd: np.ndarray, n: int,
+                        rng: np.random.Generator) -> np.ndarray:
+    """``n`` poses near the ring of the reading (twice its noise), where the density is worth checking."""
+    ranges = np.abs(z[0] + 2 * sd[0] * rng.standard_normal(n))
+    phi = rng.uniform(-np.pi, np.pi, n)
+    theta = _wrap(phi + np.pi - (z[1] + 2 * sd[1] * rng.standard_normal(n)))
+    return np.column_stack([landmark[0] + ranges * np.cos(phi), landmark[1] + ranges * np.sin(phi), theta])
+
+
+def check_pose_density(fn: Callable, n_poses: int = 40, seed: int = 0, rtol: float = 1e-9) -> CheckReport:
+    """Check a student's ``fn(x, z, landmark, sd) -> (N,)``: ``log q_z(x)`` of poses ``x`` (N, 3) for a
+    reading ``z = (r, b)`` of the landmark at ``landmark`` with noise standard deviations ``sd = (s_r, s_b)``.
+
+    Each case of :data:`POSE_DENSITY_CASES` must equal :func:`pose_reading_log_density` to ``rtol``;
+    an answer that does not is compared with each mistake of :data:`POSE_DENSITY_MISTAKES`, and the
+    report names the one that fits.
+    """
+    report = CheckReport("pose density")
+    rng = np.random.default_rng(seed)
+    cases = [(z, l, sd, _poses_near_reading(z, l, sd, n_poses, rng)) for z, l, sd in POSE_DENSITY_CASES]
+    answers = []
+    for z, l, sd, x in cases:
+        answer = _answer(report, lambda: fn(x.copy(), z.copy(), l.copy(), sd.copy()), "fn(x, z, landmark, sd)",
+                         "compute and return log q_z(x), one value per pose")
+        if answer is None:
+            return report
+        answers.append(np.asarray(answer, dtype=float))
+    wrong_shapes = [a.shape for a in answers if a.shape != (n_poses,)]
+    if wrong_shapes:
+        report.problems.append(f"the answer has shape {wrong_shapes[0]}, not ({n_poses},): return one log-density "
+                               "per pose (a row of x)")
+        return report
+    if not all(np.isfinite(a).all() for a in answers):
+        report.problems.append("some log-densities are NaN or infinite: every pose near the ring has a positive "
+                               "density; compute it in the log domain")
+        return report
+    # the exact density first, then each mistake: the first that every case matches names the answer
+    candidates = (None, *POSE_DENSITY_MISTAKES)
+    matched = next((m for m in candidates if all(
+        np.allclose(a, pose_reading_log_density(x, z, l, sd, m), rtol=rtol, atol=1e-9)
+        for a, (z, l, sd, x) in zip(answers, cases))), "none")
+    if matched is None:
+        return report
+    if matched != "none":
+        report.problems.append(f"your function computes a known mistake: {POSE_DENSITY_MISTAKES[matched]}")
+        return report
+    case = next(c for c, (a, (z, l, sd, x)) in enumerate(zip(answers, cases))
+                if not np.allclose(a, pose_reading_log_density(x, z, l, sd), rtol=rtol, atol=1e-9))
+    report.problems.append(f"for the reading z = {cases[case][0]} the values differ from log q_z(x): check the two "
+                           "Gaussian terms of the range and the wrapped bearing, and the terms -log Phi(r / s_r), "
+                           "-log 2 pi and -log h_r(x)")
+
+
+#: A small DEM for :func:`check_altimeter_likelihood`: 7 rows (north) by 9 columns (east), cells of
+#: 80 m east-west and 100 m north-south (unequal, and a non-square grid, so swapped axes show).
+ALTIMETER_HEIGHTS = 300.0 + 60.0 * np.sin(np.arange(7)[:, None] * 0.9) * np.cos(np.arange(9)[None, :] * 0.7) \
+    + 25.0 * np.arange(9)[None, :]
+
+
+ALTIMETER_DX, ALTIMETER_DY, ALTIMETER_RF = 80.0, 100.0, 20.0**2
+
+
+#: mistake -> the sentence that names it (:func:`altimeter_log_likelihood`'s ``mistake``).
+ALTIMETER_MISTAKES = {
+    "swapped": "x indexes the columns of the map (j = x / dx) and y its rows (i = y / dy), not the other way round",
+    "nearest": "the height is read at the nearest node: interpolate bilinearly between the four corners of the cell",
+    "rf_as_sd": "Rf is the variance of the altimeter's noise, so the standard deviation is sqrt(Rf)",
+    "sign": "the altimeter reads the height above the ground, z - h(x, y), not h(x, y) - z",
+    "no_constant": "the Gaussian log-density has the term -(1/2) log(2 pi Rf), which your values lack",
+}
+
+
+def altimeter_log_likelihood(particles: np.ndarray, y: float, heights: np.ndarray, dx: float, dy: float,
+                             rf: float, mistake: str | None = None) -> np.ndarray:
+    """``log N(y; z - h(x, y), Rf)`` of each particle ``(x, y, z, psi)``, ``h`` bilinear on ``heights[i, j]``
+    at ``(j dx, i dy)``; ``-inf`` outside ``[0, (nx-1) dx] x [0, (ny-1) dy]``. With a ``mistake`` of
+    :data:`ALTIMETER_MISTAKES`, what that mistake computes (for the checker)."""
+    p = np.asarray(particles, dtype=float)
+    h = np.asarray(heights, dtype=float)
+    if mistake == "swapped":
+        h, dx, dy = h.T, dy, dx
+    ny, nx = h.shape
+    col, row = p[:, 0] / dx, p[:, 1] / dy
+    inside = (col >= 0) & (col <= nx - 1) & (row >= 0) & (row <= ny - 1)
+    j = np.clip(np.floor(col), 0, nx - 2).astype(int)
+    i = np.clip(np.floor(row), 0, ny - 2).astype(int)
+    s, t = np.clip(col - j, 0, 1), np.clip(row - i, 0, 1)
+    if mistake == "nearest":
+        s, t = np.round(s), np.round(t)
+    ground = (1 - s) * (1 - t) * h[i, j] + s * (1 - t) * h[i, j + 1] + (1 - s) * t * h[i + 1, j] + s * t * h[i + 1, j + 1]
+    predicted = ground - p[:, 2] if mistake == "sign" else p[:, 2] - ground
+    var = rf**2 if mistake == "rf_as_sd" else rf
+    out = -0.5 * (y - predicted) ** 2 / var - (0.0 if mistake == "no_constant" else 0.5 * np.log(2 * np.pi * var))
+    return np.where(inside, out, -np.inf)
+
+
+def check_altimeter_likelihood(fn: Callable, seed: int = 0) -> CheckReport:
+    """Check ``fn(particles, y, heights, dx, dy, rf) -> (N,)``, the altimeter's log-likelihood on a DEM.
+
+    ``log p(y | x^i) = log N(y; z^i - h(x^i, y^i), Rf)``, with ``h`` the bilinear height of the map
+    ``heights[i, j]`` at ``(j dx, i dy)`` (row 0 the south) and ``-inf`` off the map. Compared with
+    :func:`altimeter_log_likelihood` to round-off on particles drawn over the test map
+    :data:`ALTIMETER_HEIGHTS` (a few of them off it); a wrong answer is compared with each mistake of
+    :data:`ALTIMETER_MISTAKES` and the one that fits is named.
+    """
+    report = CheckReport("altimeter likelihood")
+    rng = np.random.default_rng(seed)
+    ny, nx = ALTIMETER_HEIGHTS.shape
+    n = 200
+    particles = np.column_stack([rng.uniform(-40, (nx - 1) * ALTIMETER_DX + 40, n),
+                                 rng.uniform(-40, (ny - 1) * ALTIMETER_DY + 40, n),
+                                 rng.normal(1000.0, 30.0, n), rng.uniform(-np.pi, np.pi, n)])
+    y = 600.0
+    answer = _answer(report, lambda: fn(particles.copy(), y, ALTIMETER_HEIGHTS.copy(), ALTIMETER_DX, ALTIMETER_DY,
+                                        ALTIMETER_RF), "fn(particles, y, heights, dx, dy, rf)",
+                     "return one log-likelihood per particle")
+    if answer is None:
+        return report
+    answer = np.asarray(answer, dtype=float)
+    if answer.shape != (n,):
+        report.problems.append(f"the answer has shape {answer.shape}, not ({n},): return one log-likelihood per "
+                               "particle (a row of particles)")
+        return report
+    exact = altimeter_log_likelihood(particles, y, ALTIMETER_HEIGHTS, ALTIMETER_DX, ALTIMETER_DY, ALTIMETER_RF)
+    off = ~np.isfinite(exact)
+
+    def fits(values):
+        gone = ~np.isfinite(values)
+        return (np.array_equal(gone, answer == -np.inf)
+                and np.allclose(answer[~gone], values[~gone], rtol=1e-9, atol=1e-9))
+
+    if fits(exact):
+        return report
+    for mistake, why in ALTIMETER_MISTAKES.items():
+        if fits(altimeter_log_likelihood(particles, y, ALTIMETER_HEIGHTS, ALTIMETER_DX, ALTIMETER_DY,
+                                         ALTIMETER_RF, mistake)):
+            report.problems.append(f"your function computes a known mistake: {why}")
+            return report
+    if not np.all(answer[off] == -np.inf):
+        report.problems.append("a particle off the map must get log-likelihood -inf (likelihood zero: there is no "
+                               "terrain under it), not a number or NaN")
+        return report
+    k = int(np.argmax(np.where(off, -np.inf, np.abs(answer - exact))))
+    report.problems.append(f"particle {k} at ({particles[k, 0]:.0f}, {particles[k, 1]:.0f}) m gets {answer[k]:.4f}, "
+                           f"not {exact[k]:.4f}: check the bilinear weights (1-s)(1-t), s(1-t), (1-s)t, st and "
+                           "the Gaussian log-density of y - (z - h)")
+    return report
+
+
+#: The cloud of :func:`check_regularised_jitter`: N particles in d = 3 dimensions, correlated and of
+#: unequal scales (so that a move with S instead of S^{1/2}, or with the identity, shows).
+JITTER_N = 20_000
+
+
+JITTER_SCALE = 0.5
+
+
+JITTER_COV = np.array([[400.0**2, 0.6 * 400.0 * 50.0, 0.0], [0.6 * 400.0 * 50.0, 50.0**2, 0.0], [0.0, 0.0, 0.2**2]])
+
+
+def check_regularised_jitter(fn: Callable, seed: int = 0) -> CheckReport:
+    """Check ``fn(particles, scale, rng) -> moved``, the regularised filter's kernel move.
+
+    ``x^i <- x^i + h S^{1/2} eps^i``, ``eps^i ~ N(0, I_d)`` independent for each particle, ``S`` the
+    cloud's covariance and ``h = scale * h_opt``, ``h_opt = (4 / (d + 2))^{1/(d+4)} N^{-1/(d+4)}``. The
+    moves ``D = moved - particles`` of a cloud of :data:`JITTER_N` correlated particles must have mean 0
+    and covariance ``h^2 S``: whitened by ``S`` and divided by ``h^2``, the covariance of ``D`` must be
+    the identity within 0.06 per entry (six standard errors, ``sqrt(2/N)`` each); the typical mistakes
+    (no bandwidth, ``S`` for its square root, the identity for ``S``, one draw shared by every particle,
+    the wrong exponent of ``N``) are named.
+    """
+    report = CheckReport("regularised jitter")
+    rng = np.random.default_rng(seed)
+    n, d = JITTER_N, JITTER_COV.shape[0]
+    particles = rng.multivariate_normal([1000.0, -200.0, 1.0], JITTER_COV, n)
+    answer = _answer(report, lambda: fn(particles.copy(), JITTER_SCALE, np.random.default_rng(seed + 1)),
+                     "fn(particles, scale, rng)", "return the moved particles, an array like particles")
+    if answer is None:
+        return report
+    moved = np.asarray(answer, dtype=float)
+    if moved.shape != particles.shape:
+        report.problems.append(f"the answer has shape {moved.shape}, not {particles.shape}: return every particle, moved")
+        return report
+    D = moved - particles
+    S = np.cov(particles, rowvar=False)
+    h = JITTER_SCALE * (4.0 / (d + 2)) ** (1.0 / (d + 4)) * n ** (-1.0 / (d + 4))
+    L = np.linalg.cholesky(S)
+    white = np.linalg.solve(L, D.T).T  # moves in the cloud's own coordinates: covariance h^2 I if right
+    C = np.cov(white, rowvar=False)
+    if np.all(np.abs(C) < 1e-12 * h**2):
+        report.problems.append("every particle moves by the same amount (or not at all): draw one independent "
+                               "eps^i ~ N(0, I_d) per particle, an (N, d) array")
+        return report
+    if np.max(np.abs(white.mean(axis=0)) / np.sqrt(np.diag(C))) > 6 / np.sqrt(n):
+        report.problems.append("the moves do not average to zero: the kernel is centred on each particle, "
+                               "x^i + h S^(1/2) eps^i with eps^i of mean 0")
+        return report
+    if np.max(np.abs(C / h**2 - np.eye(d))) < 0.06:
+        return report
+    ratio = np.trace(C) / d / h**2
+    raw = np.cov(D, rowvar=False)
+    if np.max(np.abs(C - np.eye(d))) < 0.06:
+        why = "the moves have covariance S, not h^2 S: multiply the kernel draw by the bandwidth h = scale * h_opt"
+    elif np.allclose(np.diag(raw) / h**2, 1.0, atol=0.06):
+        why = ("the moves have the same spread in every direction: scale them by a square root of the cloud's "
+               "covariance S, so a component spread over km moves by more than one spread over cm")
+    elif np.allclose(np.diag(raw) / h**2, np.diag(S @ S), rtol=0.1):
+        why = "the moves have covariance h^2 S^2: multiply eps by a square root of S (Cholesky or eigen), not by S"
+    elif abs(ratio - (n ** (-1.0 / d) / n ** (-1.0 / (d + 4))) ** 2) < 0.1 * ratio:
+        why = "the bandwidth uses N^(-1/d): the optimal one is (4 / (d + 2))^(1/(d+4)) N^(-1/(d+4))"
+    else:
+        why = (f"the moves' covariance is {ratio:.3g} times h^2 S (averaged over the axes), not h^2 S: check h_opt "
+               "and the square root of S")
+    report.problems.append(why)
+    return report
+
+
+# --- chapter 13: the likelihood-field log-weight of one scan for a cloud -------------------------------
+#: The mistakes :func:`check_likelihood_field` names, each with its one-sentence reason.
+FIELD_MISTAKES = {
+    "max_range_kept": "beams at the maximum range z_max hit nothing and give no end point: leave them out of "
+                      "the sum, as table 6.3 does",
+    "no_heading": "a beam points along theta + a_b, the robot's heading plus the beam's angle, not along a_b alone",
+    "no_rand": "the term z_rand / z_max is missing: without it an end point far from every wall makes the weight "
+               "vanish, and one stray reading ruins a good pose",
+    "no_constant": "the Gaussian density needs its factor 1 / (sqrt(2 pi) sigma): without it z_hit and z_rand "
+                   "are mixed in the wrong proportion",
+    "product": "the densities are multiplied and then logged: the product of hundreds of beams underflows to 0 "
+               "(log 0 = -inf); add the logs instead",
+}
+
+
+def field_log_weights(poses: np.ndarray, z: np.ndarray, field, mistake: str | None = None) -> np.ndarray:
+    """Table 6.3 in the log domain, ``sum_{b: z_b < z_max} log(z_hit N(d(e_b); 0, sigma^2) + z_rand / z_max)``
+    (``field`` a :class:`pfcourse.maprobot.LikelihoodField`), or one mistake of :data:`FIELD_MISTAKES`."""
+    use = np.ones(len(z), dtype=bool) if mistake == "max_range_kept" else z < field.max_range
+    heading = (0.0 if mistake == "no_heading" else poses[:, 2:3]) + field.angles[use]
+    ends = np.stack([poses[:, 0:1] + z[use] * np.cos(heading), poses[:, 1:2] + z[use] * np.sin(heading)], axis=-1)
+    d = field.grid.distance_at(ends)
+    norm = 1.0 if mistake == "no_constant" else np.sqrt(2 * np.pi) * field.sigma
+    dens = field.z_hit * np.exp(-0.5 * (d / field.sigma) ** 2) / norm
+    if mistake != "no_rand":
+        dens = dens + field.z_rand / field.max_range
+    with np.errstate(divide="ignore"):
+        return np.log(np.prod(dens, axis=1)) if mistake == "product" else np.log(dens).sum(axis=1)
+
+
+class _RoomGrid:
+    """A 6 m x 4 m room of 0.1 m cells with a wall stub, and ``distance_at`` as
+    :class:`pfcourse.maprobot.OccupancyGrid` has it (distance transform, ``inf`` off the map)."""
+
+    resolution = 0.1
+
+    def __init__(self) -> None:
+        from scipy.ndimage import distance_transform_edt
+
+        occ = np.zeros((40, 60), dtype=bool)
+        occ[0, :] = occ[-1, :] = occ[:, 0] = occ[:, -1] = True
+        occ[10:30, 30] = True
+        self.occupied = occ
+        self.distance = distance_transform_edt(~occ) * self.resolution
+
+    def distance_at(self, xy: np.ndarray) -> np.ndarray:
+        xy = np.asarray(xy, dtype=float)
+        j = np.floor(xy[..., 0] / self.resolution).astype(np.int64)
+        i = np.floor(xy[..., 1] / self.resolution).astype(np.int64)
+        inside = (i >= 0) & (i < self.occupied.shape[0]) & (j >= 0) & (j < self.occupied.shape[1])
+        return np.where(inside, self.distance[np.where(inside, i, 0), np.where(inside, j, 0)], np.inf)
+
+
+@dataclass(frozen=True)
+class FieldCase:
+    """What ``fn(poses, z, field)`` is given as ``field``: the grid and the likelihood field's parameters."""
+
+    grid: _RoomGrid
+    angles: np.ndarray
+    max_range: float = 4.0
+    z_hit: float = 0.9
+    z_rand: float = 0.1
+    sigma: float = 0.2
+
+
+def check_likelihood_field(fn: Callable, n_particles: int = 40, seed: int = 0, rtol: float = 1e-9) -> CheckReport:
+    """Check a student's ``fn(poses, z, field) -> (N,)``: the likelihood-field log-weights of one scan ``z``
+    (``(B,)``) for a cloud ``poses`` (``(N, 3)``) in a room, ``field`` a :class:`FieldCase` (its
+    ``grid.distance_at``, ``angles``, ``max_range``, ``z_hit``, ``z_rand``, ``sigma``, as
+    :class:`pfcourse.maprobot.LikelihoodField` has them).  Two cases: a scan of 24 beams and one of 360
+    (where a product of densities underflows), about a fifth of the beams at the maximum range.  An answer off
+    :func:`field_log_weights` by more than ``rtol`` is compared with each mistake of :data:`FIELD_MISTAKES`."""
+    report = CheckReport("likelihood field")
+    grid = _RoomGrid()
+    rng = np.random.default_rng(seed)
+    poses = np.column_stack([rng.uniform(0.3, 5.7, n_particles), rng.uniform(0.3, 3.7, n_particles),
+                             rng.uniform(-np.pi, np.pi, n_particles)])
+    cases = []
+    for n_beams in (24, 360):
+        field = FieldCase(grid, np.linspace(-np.pi, np.pi, n_beams, endpoint=False))
+        z = rng.uniform(0.1, field.max_range, n_beams)
+        z[rng.random(n_beams) < 0.2] = field.max_range  # no echo
+        cases.append((z, field))
+    answers = _cloud_answers(report, [lambda z=z, f=f: fn(poses.copy(), z.copy(), f) for z, f in cases],
+                             "fn(poses, z, field)", "compute and return one log-weight per pose", n_particles,
+                             "log-weight per pose (a row of poses), summed over the beams")
+    if answers is None:
+        return report
+
+    def fits(mistake: str | None) -> bool:
+        return all(np.allclose(a, field_log_weights(poses, z, f, mistake), rtol=rtol, atol=1e-9)
+                   for a, (z, f) in zip(answers, cases))
+
+    if _settled(report, fits, FIELD_MISTAKES):
+        return report
+    if any(np.isnan(a).any() for a in answers):
+        report.problems.append("some log-weights are NaN: an end point off the map is infinitely far from a wall "
+                               "(distance_at returns inf), whose Gaussian term is 0, not NaN")
+        return report
+    report.problems.append("the log-weights differ from table 6.3's: for each beam shorter than z_max, find its end "
+                           "point, read its distance d to the nearest wall, and add log(z_hit N(d; 0, sigma^2) + "
+                           "z_rand / z_max)")
+    return report
+
+
+def _cloud_answers(report: CheckReport, calls: list[Callable], signature: str, what: str, n: int,
+                   one: str) -> list[np.ndarray] | None:
+    """The answers of ``calls`` (one per case), each of shape ``(n,)``; ``None`` after reporting, in one
+    sentence, the first that raised, returned ``None`` (``what`` to do) or has another shape (``one``
+    value per row expected)."""
+    answers = []
+    for call in calls:
+        answer = _answer(report, call, signature, what)
+        if answer is None:
+            return None
+        answer = np.asarray(answer, dtype=float)
+        if answer.shape != (n,):
+            report.problems.append(f"the answer has shape {answer.shape}, not ({n},): return one {one}")
+            return None
+        answers.append(answer)
+    return answers
+
+
+def _settled(report: CheckReport, fits: Callable[[str | None], bool], mistakes: dict[str, str]) -> bool:
+    """Whether the answer ``fits`` the reference (nothing to report) or one of ``mistakes`` (reported with
+    its reason); ``False`` leaves the answer to the caller's own diagnosis."""
+    if fits(None):
+        return True
+    for mistake, why in mistakes.items():
+        if fits(mistake):
+            report.problems.append(f"your function computes a known mistake: {why}")
+            return True
+    return False
+
+
+ALTITUDE_MISTAKES: dict[str, str] = {
+    "ground_sign": "the ground height has the wrong sign: the altimeter reads altitude minus ground, so the "
+                   "predicted reading is m - h(p) and the innovation y - m + h(p)",
+    "weight_with_r": "the weight uses Rf where it needs S = P + Rf: the altitude is uncertain, so the predictive "
+                     "density of the reading is N(y; m - h(p), P + Rf), not N(y; m - h(p), Rf)",
+    "no_var_update": "the variance is not updated: after a reading P' = (1 - K) P, smaller than P",
+    "gain_over_r": "the gain is P / Rf: it is K = P / (P + Rf), which stays below one",
+}
+
+
+def altitude_update(mean: np.ndarray, var: np.ndarray, ground: np.ndarray, reading: float, rf: float,
+                    mistake: str | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Every particle's altitude update: ``(m', P', log N(nu; 0, S))`` with ``nu = y - (m - h)``, ``S = P + Rf``,
+    ``K = P / S``, ``m' = m + K nu``, ``P' = (1 - K) P``.  ``mistake`` (a key of :data:`ALTITUDE_MISTAKES`)
+    computes instead what that mistake computes."""
+    if mistake is not None and mistake not in ALTITUDE_MISTAKES:
+        raise ValueError(f"unknown mistake {mistake!r}; one of {sorted(ALTITUDE_MISTAKES)}")
+    nu = reading - (mean + ground if mistake == "ground_sign" else mean - ground)
+    s = var + rf
+    gain = var / (rf if mistake == "gain_over_r" else s)
+    s_lik = rf if mistake == "weight_with_r" else s
+    log_lik = -0.5 * (nu * nu / s_lik + np.log(2 * np.pi * s_lik))
+    return mean + gain * nu, var if mistake == "no_var_update" else (1.0 - gain) * var, log_lik
+
+
+#: Five particles over the terrain: predicted altitude means, their common variance, ground heights, a reading, Rf.
+ALTITUDE_CASE = dict(mean=np.array([1500.0, 1460.0, 1530.0, 1495.0, 1510.0]), var=np.full(5, 900.0),
+                     ground=np.array([250.0, 310.0, 180.0, 270.0, 205.0]), reading=1225.0, rf=400.0)
+
+
+def check_altitude_update(fn: Callable, rtol: float = 1e-9) -> CheckReport:
+    """Check a student's ``fn(mean, var, ground, reading, rf) -> (mean_new, var_new, log_lik)`` on
+    :data:`ALTITUDE_CASE`: each output must equal :func:`altitude_update` to ``rtol``; one that does not
+    is compared with every mistake of :data:`ALTITUDE_MISTAKES`, and the report names the one that fits."""
+    report = CheckReport("altitude Kalman update of every particle")
+    case = {key: np.copy(value) if isinstance(value, np.ndarray) else value for key, value in ALTITUDE_CASE.items()}
+    answer = _answer(report, lambda: fn(**case), "fn(mean, var, ground, reading, rf)",
+                     "return (mean_new, var_new, log_lik)")
+    if answer is None:
+        return report
+    try:
+        got = tuple(np.broadcast_to(np.asarray(part, dtype=float), (5,)) for part in answer)
+        if len(got) != 3:
+            raise ValueError
+    except (TypeError, ValueError):
+        report.problems.append("return three arrays of one value per particle (shape (5,)): the new means, the new "
+                               "variances and the log-weight increments")
+        return report
+
+    def same(expected) -> bool:
+        return all(np.allclose(g, e, rtol=rtol, atol=1e-12) for g, e in zip(got, expected))
+
+    if same(altitude_update(**ALTITUDE_CASE)):
+        return report
+    for mistake, why in ALTITUDE_MISTAKES.items():
+        if same(altitude_update(**ALTITUDE_CASE, mistake=mistake)):
+            report.problems.append(f"your update computes a known mistake: {why}")
+            return report
+    exact = altitude_update(**ALTITUDE_CASE)
+    part = next(name for name, g, e in zip(("mean", "variance", "log-weight increment"), got, exact)
+                if not np.allclose(g, e, rtol=rtol, atol=1e-12))
+    report.problems.append(f"the {part} differs from the Kalman update (nu = y - (m - h), S = P + Rf, K = P / S, "
+                           "m' = m + K nu, P' = (1 - K) P, log N(nu; 0, S)): check that line")
+    return report
+
+
+def _wrap(a: np.ndarray) -> np.ndarray:
+    """Angles wrapped to (-pi, pi]."""
+    return np.pi - np.mod(np.pi - np.asarray(a, dtype=float), 2 * np.pi)
+
+
+#: A cloud of robot poses ``(x, y, theta)`` around ``(1, -50, 0.02)`` and landmark ``(-20, -50)`` seen
+#: right behind: predicted bearings straddle the cut at +-pi, so a missing wrap shows.
+RANGE_BEARING_LANDMARK = np.array([-20.0, -50.0])
+
+
+RANGE_BEARING_Z = np.array([21.3, -3.13])
+
+
+RANGE_BEARING_R = np.diag([0.5, np.deg2rad(1.0)]) ** 2 * 2.0
+
+
+#: The typical mistakes of the log-weight of a range-bearing measurement, and why each is wrong.
+RANGE_BEARING_MISTAKES = {
+    "no_wrap": "the bearing innovation is not wrapped to (-pi, pi]: a bearing of 179 degrees against a "
+               "prediction of -179 degrees is 2 degrees off, not 358, so well-placed particles lose their weight",
+    "no_wrap_at_all": "the bearing innovation is not wrapped to (-pi, pi]: a bearing of 179 degrees against a "
+                      "prediction of -179 degrees is 2 degrees off, not 358, so well-placed particles lose their weight",
+    "no_heading": "the predicted bearing is the world direction atan2(dy, dx) without subtracting the "
+                  "particle's heading theta: the sensor measures the bearing relative to the robot",
+    "r_as_sd": "R is read as a matrix of standard deviations (you took its square): R holds variances",
+    "no_constant": "the normalising term -log(2 pi) - log(det R) / 2 is missing: it cancels in the "
+                   "normalised weights, but not in the likelihood of the data the filter estimates",
+}
+
+
+def range_bearing_log_weights(x: np.ndarray, landmark: np.ndarray, z: np.ndarray, R: np.ndarray,
+                              mistake: str | None = None) -> np.ndarray:
+    """``log N(nu^i; 0, R)`` with ``nu^i = (z_r - ||l - p^i||, wrap(z_b - (atan2(l_y - y^i, l_x - x^i) - theta^i)))``
+    for every pose ``x^i = (x^i, y^i, theta^i)`` (rows of ``x``). ``mistake`` (a key of
+    :data:`RANGE_BEARING_MISTAKES`) computes that mistake instead."""
+    x = np.asarray(x, dtype=float)
+    d = np.asarray(landmark, dtype=float) - x[:, :2]
+    heading = 0.0 if mistake == "no_heading" else x[:, 2]
+    bearing = np.arctan2(d[:, 1], d[:, 0]) - heading
+    if mistake == "no_wrap_at_all":
+        nu_b = z[1] - bearing
+    elif mistake == "no_wrap":  # the prediction wrapped, the innovation not
+        nu_b = z[1] - _wrap(bearing)
+    else:
+        nu_b = _wrap(z[1] - _wrap(bearing))
+    nu = np.column_stack([z[0] - np.hypot(d[:, 0], d[:, 1]), nu_b])
+    cov = R @ R if mistake == "r_as_sd" else R
+    quad = np.einsum("ij,jk,ik->i", nu, np.linalg.inv(cov), nu)
+    constant = 0.0 if mistake == "no_constant" else 2 * np.log(2 * np.pi) + np.linalg.slogdet(cov)[1]
+    return -0.5 * (quad + constant)
+
+
+def _shaped(report: CheckReport, answer, shape: tuple[int, ...], what: str) -> bool:
+    """Whether ``answer`` has ``shape``; if not, report it, saying ``what`` to return instead."""
+    got = np.shape(answer)
+    if got != shape:
+        report.problems.append(f"the answer has shape {got}, not {shape}: return {what}")
+    return got == shape
+
+
+def _named_mistake(report: CheckReport, answer: np.ndarray, reference: Callable, mistakes: Mapping[str, str],
+                   rtol: float, what: str) -> CheckReport:
+    """Pass when ``answer`` equals ``reference(None)`` to ``rtol``; else name the mistake of ``mistakes``
+    whose ``reference(mistake)`` it equals, or say in ``what`` which formula to check."""
+    def fits(mistake: str | None) -> bool:
+        return np.allclose(answer, reference(mistake), rtol=rtol, atol=1e-12)
+
+    if fits(None):
+        return report
+    for mistake, why in mistakes.items():
+        if fits(mistake):
+            report.problems.append(f"your function computes a known mistake: {why}")
+            return report
+    report.problems.append(what)
+    return report
+
+
+def check_range_bearing_log_weights(fn: Callable, n_particles: int = 40, seed: int = 0,
+                                    rtol: float = 1e-9) -> CheckReport:
+    """Check ``fn(x, landmark, z, R) -> (N,)``: the log-likelihood ``log N(nu^i; 0, R)`` of a range-bearing
+    measurement ``z = (range, bearing)`` of ``landmark`` for a cloud ``x`` of robot poses ``(N, 3)``.
+
+    The case (:data:`RANGE_BEARING_Z`) has predicted bearings on both sides of the cut at +-pi.
+    The answer must equal :func:`range_bearing_log_weights` to ``rtol``; otherwise the report names
+    the mistake of :data:`RANGE_BEARING_MISTAKES` it equals.
+    """
+    report = CheckReport("range-bearing log-weights")
+    x = np.random.default_rng(seed).normal([1.0, -50.0, 0.02], [0.5, 0.5, 0.03], size=(n_particles, 3))
+    x[:, 2] = _wrap(x[:, 2])
+    args = (RANGE_BEARING_LANDMARK, RANGE_BEARING_Z, RANGE_BEARING_R)
+    answer = _answer(report, lambda: fn(x.copy(), *(a.copy() for a in args)), "fn(x, landmark, z, R)",
+                     "compute and return one log-weight per particle")
+    if answer is None or not _shaped(report, answer, (n_particles,), "one log-weight per particle (a row of x)"):
+        return report
+    return _named_mistake(report, answer, lambda m: range_bearing_log_weights(x, *args, mistake=m),
+                          RANGE_BEARING_MISTAKES, rtol,
+                          "the values differ from log N(nu; 0, R): check the innovation "
+                          "nu = (z_r - range, wrap(z_b - bearing)) and the quadratic form nu^T R^-1 nu / 2")
+
+
+#: The typical mistakes of the measurement Jacobian of range and bearing, and why each is wrong.
+JACOBIAN_MISTAKES = {
+    "offset_reversed": "the signs of the position columns are reversed: with (dx, dy) = l - p the range "
+                       "shrinks as the robot moves towards the landmark, so d range / dx = -dx / sqrt(q)",
+    "heading_plus": "d bearing / d theta is +1: the bearing is atan2(dy, dx) - theta, so it is -1",
+    "range_over_q": "the range row divides by q = dx^2 + dy^2 instead of sqrt(q): d sqrt(q) / dx = -dx / sqrt(q)",
+    "bearing_swapped": "the bearing row swaps dx and dy: d atan2(dy, dx) / dx = dy / q and / dy = -dx / q",
+}
+
+
+JACOBIAN_CASES = (
+    (np.array([1.0, -50.0, 0.3]), np.array([-20.0, -45.0])),
+    (np.array([12.0, 7.0, -2.9]), np.array([15.0, 31.0])),
+    (np.array([-3.0, 4.0, 3.1]), np.array([-40.0, -2.0])),
+)
+
+
+def range_bearing_jacobian(state: np.ndarray, landmark: np.ndarray, mistake: str | None = None) -> np.ndarray:
+    """``H = dh/dx`` (2x3) of ``h(x) = (sqrt(q), atan2(dy, dx) - theta)``, ``(dx, dy) = l - p``, ``q = dx^2 + dy^2``:
+    ``[[-dx/sqrt(q), -dy/sqrt(q), 0], [dy/q, -dx/q, -1]]``. ``mistake`` (a key of :data:`JACOBIAN_MISTAKES`)
+    computes that mistake instead."""
+    dx, dy = np.asarray(landmark, dtype=float) - np.asarray(state, dtype=float)[:2]
+    q = dx * dx + dy * dy
+    sign = -1.0 if mistake == "offset_reversed" else 1.0
+    r = q if mistake == "range_over_q" else np.sqrt(q)
+    bx, by = (-dx / q, dy / q) if mistake == "bearing_swapped" else (dy / q, -dx / q)
+    return np.array([[-sign * dx / r, -sign * dy / r, 0.0],
+                     [sign * bx, sign * by, 1.0 if mistake == "heading_plus" else -1.0]])
+
+
+def check_range_bearing_jacobian(fn: Callable, rtol: float = 1e-6) -> CheckReport:
+    """Check ``fn(state, landmark) -> (2, 3)``, the EKF's measurement Jacobian of range and bearing.
+
+    On each case of :data:`JACOBIAN_CASES` the answer must equal :func:`range_bearing_jacobian` to
+    ``rtol`` (so a careful finite difference passes too); otherwise the report names the mistake of
+    :data:`JACOBIAN_MISTAKES` it equals.
+    """
+    report = CheckReport("range-bearing Jacobian")
+    answers = []
+    for state, landmark in JACOBIAN_CASES:
+        answer = _answer(report, lambda: fn(state.copy(), landmark.copy()), "fn(state, landmark)",
+                         "compute and return the 2 x 3 matrix H")
+        if answer is None:
+            return report
+        if not _shaped(report, answer, (2, 3), "one row per measured quantity (range, bearing), one column "
+                                               "per state component (x, y, theta)"):
+            return report
+        answers.append(np.asarray(answer, dtype=float))
+    return _named_mistake(report, np.array(answers),
+                          lambda m: np.array([range_bearing_jacobian(s, lm, m) for s, lm in JACOBIAN_CASES]),
+                          JACOBIAN_MISTAKES, rtol,
+                          "the matrix differs from dh/dx: differentiate sqrt(q) and atan2(dy, dx) - theta "
+                          "with (dx, dy) = l - p, and compare with a central finite difference")
