@@ -143,7 +143,8 @@ def nees(
     covariance: np.ndarray,
     angle_indices: Sequence[int] = (),
 ) -> np.ndarray:
-    """Normalised estimation error squared ``e^T P^{-1} e`` with ``e = x - m``, per time step.
+    """Normalised estimation error squared ``e^T P^{-1} e`` with ``e = m - x`` (estimate minus truth,
+    the book's one sign convention; the NEES does not depend on the sign), per time step.
 
     ``truth`` and ``estimate`` have shape ``(K, d)``, ``covariance`` ``(K, d, d)``;
     returns shape ``(K,)``.  Angle components of ``e`` are wrapped.  A step whose covariance
@@ -162,7 +163,7 @@ def nees(
             f"nees needs truth and estimate of shape (K, d) and covariance (K, d, d); got "
             f"{truth.shape}, {estimate.shape} and {covariance.shape}"
         )
-    err = truth - estimate
+    err = estimate - truth
     for j in angle_indices:
         err[:, j] = wrap_angle(err[:, j])
     with np.errstate(over="ignore", invalid="ignore", divide="ignore", under="ignore"):

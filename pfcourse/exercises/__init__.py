@@ -88,7 +88,9 @@ from __future__ import annotations
 from pfcourse.exercises.checking import (  # noqa: F401
     CheckReport,
     _answer,
+    _cloud_answers,
     _per_particle_answers,
+    _settled,
 )
 from pfcourse.exercises.part1 import (  # noqa: F401
     APF_MISTAKES,
@@ -149,10 +151,8 @@ from pfcourse.exercises.part2 import (  # noqa: F401
     RANGE_BEARING_R,
     RANGE_BEARING_Z,
     _RoomGrid,
-    _cloud_answers,
     _named_mistake,
     _poses_near_reading,
-    _settled,
     _shaped,
     _wrap,
     _wrap,

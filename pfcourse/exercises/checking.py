@@ -39,19 +39,38 @@ def _answer(report: CheckReport, call: Callable, signature: str, what: str):
     return answer
 
 
-def _per_particle_answers(report: CheckReport, calls: list[Callable], n_particles: int,
-                          signature: str) -> list[np.ndarray] | None:
-    """The answers of ``calls`` (one per case), each one log-likelihood per particle, ``(n_particles,)``;
-    ``None`` after reporting, in one sentence, the first call that raised, returned None or the wrong shape."""
+def _cloud_answers(report: CheckReport, calls: list[Callable], signature: str, what: str, n: int,
+                   one: str) -> list[np.ndarray] | None:
+    """The answers of ``calls`` (one per case), each of shape ``(n,)``; ``None`` after reporting, in one
+    sentence, the first that raised, returned ``None`` (``what`` to do) or has another shape (``one``
+    value per row expected)."""
     answers = []
     for call in calls:
-        answer = _answer(report, call, signature, "compute and return one log-likelihood per particle")
+        answer = _answer(report, call, signature, what)
         if answer is None:
             return None
         answer = np.asarray(answer, dtype=float)
-        if answer.shape != (n_particles,):
-            report.problems.append(f"the answer has shape {answer.shape}, not ({n_particles},): return one "
-                                   "log-likelihood per particle (a row of x)")
+        if answer.shape != (n,):
+            report.problems.append(f"the answer has shape {answer.shape}, not ({n},): return one {one}")
             return None
         answers.append(answer)
     return answers
+
+
+def _settled(report: CheckReport, fits: Callable[[str | None], bool], mistakes: dict[str, str]) -> bool:
+    """Whether the answer ``fits`` the reference (nothing to report) or one of ``mistakes`` (reported with
+    its reason); ``False`` leaves the answer to the caller's own diagnosis."""
+    if fits(None):
+        return True
+    for mistake, why in mistakes.items():
+        if fits(mistake):
+            report.problems.append(f"your function computes a known mistake: {why}")
+            return True
+    return False
+
+
+def _per_particle_answers(report: CheckReport, calls: list[Callable], n_particles: int,
+                          signature: str) -> list[np.ndarray] | None:
+    """:func:`_cloud_answers` for checkers whose answer is one log-likelihood per particle."""
+    return _cloud_answers(report, calls, signature, "compute and return one log-likelihood per particle",
+                          n_particles, "log-likelihood per particle (a row of x)")

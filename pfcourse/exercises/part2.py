@@ -8,7 +8,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy import stats
 
-from pfcourse.exercises.checking import CheckReport, _answer
+from pfcourse.exercises.checking import CheckReport, _answer, _cloud_answers, _settled
 
 
 # ----------------------------------------------------------------------------- chapter 11
@@ -390,34 +390,6 @@ def check_likelihood_field(fn: Callable, n_particles: int = 40, seed: int = 0, r
     return report
 
 
-def _cloud_answers(report: CheckReport, calls: list[Callable], signature: str, what: str, n: int,
-                   one: str) -> list[np.ndarray] | None:
-    """The answers of ``calls`` (one per case), each of shape ``(n,)``; ``None`` after reporting, in one
-    sentence, the first that raised, returned ``None`` (``what`` to do) or has another shape (``one``
-    value per row expected)."""
-    answers = []
-    for call in calls:
-        answer = _answer(report, call, signature, what)
-        if answer is None:
-            return None
-        answer = np.asarray(answer, dtype=float)
-        if answer.shape != (n,):
-            report.problems.append(f"the answer has shape {answer.shape}, not ({n},): return one {one}")
-            return None
-        answers.append(answer)
-    return answers
-
-
-def _settled(report: CheckReport, fits: Callable[[str | None], bool], mistakes: dict[str, str]) -> bool:
-    """Whether the answer ``fits`` the reference (nothing to report) or one of ``mistakes`` (reported with
-    its reason); ``False`` leaves the answer to the caller's own diagnosis."""
-    if fits(None):
-        return True
-    for mistake, why in mistakes.items():
-        if fits(mistake):
-            report.problems.append(f"your function computes a known mistake: {why}")
-            return True
-    return False
 
 
 ALTITUDE_MISTAKES: dict[str, str] = {
