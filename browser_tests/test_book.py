@@ -14,6 +14,8 @@ without listing them here), served on 127.0.0.1:
   pfcourse/style.py, at the figure's dpi) scaled by displayed/natural width is >= 8 px;
 - every ``to_jshtml()`` animation plays (the frame shown changes after pressing play) and
   can be scrubbed (moving its slider changes the frame), and its buttons show icons;
+- every chapter reads in one sitting: at most 17 screen-heights at 1280 x 900 (15 for Part III);
+- every exercise is titled "Exercise n.m: Title", numbered by chapter;
 - every control panel works without a kernel, with no greyed control: each control, moved, shows
   the figure of the new grid point (or, for a control outside the main grid, its one-factor
   figure) within 100 ms (pfcourse/figures/static_panel.py); no widget
@@ -111,6 +113,8 @@ def _check_page(browser, base: str, page: str, screenshot: Path | None) -> None:
         check("animations", _check_animations)
         check("images", _check_images)
         check("legible figures", _check_figure_text)
+        check("screen-heights", lambda tab: _check_page_height(tab, page))
+        check("exercise titles", _check_exercise_titles)
         if screenshot is not None:
             # From the top, with nothing focused (a focused "skip to content" link would show).
             tab.evaluate("() => { document.activeElement && document.activeElement.blur(); window.scrollTo(0, 0); }")
@@ -198,6 +202,28 @@ def _smallest_font_px() -> float:
                         "xtick.labelsize", "ytick.labelsize")
         ]
         return min(sizes) * mpl.rcParams["savefig.dpi"] / 72.0
+
+
+#: A chapter reads in one sitting: at most this many screen-heights at 1280 x 900 (issue 29), and the
+#: pages of Part III, split for it, at most 15 (issue 30).
+MAX_SCREENS = {"book/part3/": 15.0, "book/part": 17.0}
+
+
+def _check_page_height(tab, page: str) -> int:
+    """The page's height in screen-heights of the 900 px window, under its part's limit."""
+    limit = next((v for prefix, v in MAX_SCREENS.items() if page.startswith(prefix)), None)
+    screens = tab.evaluate("() => document.documentElement.scrollHeight") / 900
+    assert limit is None or screens <= limit, f"{screens:.1f} screen-heights (limit {limit:.0f})"
+    return round(screens)
+
+
+def _check_exercise_titles(tab) -> int:
+    """Exercises read "Exercise n.m: Title" (numbered by chapter), never "Exercise (n.m Title)"."""
+    titles = tab.evaluate("""() => Array.from(document.querySelectorAll('.exercise .admonition-title'))
+        .map(t => t.textContent.trim())""")
+    wrong = [t for t in titles if not re.match(r"^Exercise \d+\.\d+: ", t)]
+    assert not wrong, f"exercise titles not numbered by chapter: {wrong[:3]}"
+    return len(titles)
 
 
 def _check_figure_text(tab) -> int:

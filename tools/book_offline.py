@@ -20,6 +20,7 @@ the widget manager are redirected to local copies by configuration alone (``math
 from __future__ import annotations
 
 import hashlib
+import re
 from pathlib import Path
 from typing import Any
 
@@ -58,12 +59,18 @@ WIDGETS_SHIM = """
 WIDGET_MANAGER = "npm/html-manager/embed-amd.js"
 
 
+#: sphinx-exercise writes an unnumbered exercise titled "4.1 Title" as "Exercise (4.1 Title)"; the book
+#: numbers its exercises by chapter in the title itself, so the page shows "Exercise 4.1: Title" (issue 29).
+EXERCISE_TITLE = re.compile(r"Exercise \((\d+\.\d+) ([^<()]*(?:\([^<()]*\)[^<()]*)*)\)")
+
+
 def _localize_page(app, pagename: str, templatename: str, context: dict[str, Any], doctree) -> None:
     body = context.get("body")
     if body:
         for url, local in LOCAL_COPIES.items():
             if url in body:
                 body = body.replace(url, context["pathto"](local, 1))
+        body = EXERCISE_TITLE.sub(r"Exercise \1: \2", body)
         context["body"] = body
     scripts = context.get("script_files")
     if not scripts:

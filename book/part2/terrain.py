@@ -106,7 +106,7 @@ glue("terrain_dx", float(terrain.dx), display=False)
 glue("terrain_dy", float(terrain.dy), display=False)
 glue("terrain_flipped_summit_km", float(flipped_km), display=False)
 
-# %%
+# %% tags=["hide-input"] jupyter={"source_hidden": true}
 KM = 1000.0
 extent_km = np.array(terrain.extent) / KM
 shade = hillshade(terrain)
@@ -345,7 +345,7 @@ EvidenceBlock(
 # The animation shows the cloud over the map (every $3$ s; scrub with the slider). Each frame
 # draws $600$ of the $3000$ particles, chosen by weight.
 
-# %%
+# %% tags=["hide-input"] jupyter={"source_hidden": true}
 def map_window(flight, zoom=6.0):
     """Background of the cloud animation: the map around the middle of the flight (km)."""
     centre = flight.truth[len(flight.T) // 2, :2] / KM
@@ -378,7 +378,7 @@ HTML(anim.to_jshtml())
 # grows only as the readings rule out the other places, and the rest of the weight sits on the
 # other candidate clusters.
 
-# %%
+# %% tags=["hide-input"] jupyter={"source_hidden": true}
 fig, axes = plt.subplots(1, 4, figsize=(10, 3.5), layout="constrained")
 for ax, k in zip(axes, (0, 4, 10, 30)):
     heights = draw_map(ax, shaded=False)
@@ -657,7 +657,7 @@ study_evidence("scheme", "scheme", "the three resampling schemes are not told ap
 #
 # The figure gathers the losses of every setting against the baseline's interval.
 
-# %%
+# %% tags=["hide-input"] jupyter={"source_hidden": true}
 order = [(s, n) for s in ("Qf", "Rf", "N", "threshold", "gap", "period", "scheme")
          for n in studies_table.loc[studies_table["study"] == s, "setting"].unique()]
 fig, ax = plt.subplots(figsize=(7, 4.6), constrained_layout=True)
@@ -682,7 +682,7 @@ plt.show()
 # flight that the baseline loses;
 # try more particles or a larger $R_f$ on it).
 
-# %%
+# %% tags=["hide-input"] jupyter={"source_hidden": true}
 def draw(qf_scale=1.0, rf_scale=1.0, n_particles=3000, threshold=0.5, scheme="multinomial", seed=0):
     sc = scenario.with_(Qf=scenario.Qf * qf_scale, Rf=scenario.Rf * rf_scale)
     fl = simulate(sc, terrain, data_rng(0, seed))

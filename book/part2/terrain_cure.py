@@ -16,7 +16,7 @@
 # how far the filter that works is from the posterior Cramér-Rao bound, and what a map that is not
 # the truth does to it.
 #
-# **You need** {doc}`terrain` and {doc}`resampling_schemes`; covariance matrices and their square
+# **You need** {doc}`terrain` and {doc}`../part1/resampling_schemes`; covariance matrices and their square
 # roots; paired tests ({doc}`../evidence`).
 #
 # **Time:** about thirteen minutes to read; the notebook runs in under twenty seconds (the studies
