@@ -18,6 +18,7 @@ import jupytext
 import pytest
 import yaml
 
+from pfcourse.figures.report import GLUE_ROLE, paragraphs_outside_folds
 from test_start_here import prose_words, reading_minutes
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -34,9 +35,7 @@ MAX_WORDS = 2500
 WORDS = {w: i for i, w in enumerate(
     "zero one two three four five six seven eight nine ten eleven twelve thirteen fourteen fifteen sixteen "
     "seventeen eighteen nineteen twenty twenty-one twenty-two twenty-three twenty-four twenty-five".split())}
-GLUE = re.compile(r"\{glue(?::text)?\}`[^`]+`")
-FOLDED = re.compile(r"^(:{3,}|`{3,})\{(?:admonition|solution)\}[^\n]*\n(?:\s*:[a-z-]+:[^\n]*\n)*?"
-                    r"\s*:class:[^\n]*dropdown.*?^\1\s*$", re.S | re.M)
+GLUE = GLUE_ROLE
 
 
 def numbered_chapters() -> list[str]:
@@ -54,11 +53,6 @@ def cells(doc: str) -> list:
 
 def markdown(doc: str) -> str:
     return "\n\n".join(c.source for c in cells(doc) if c.cell_type == "markdown")
-
-
-def paragraphs_outside_folds(text: str) -> list[str]:
-    text = FOLDED.sub(" ", text)
-    return [p for p in re.split(r"\n\s*\n", text) if p.strip()]
 
 
 @pytest.mark.parametrize("doc", IN_FORM)

@@ -294,6 +294,16 @@ def second_stage(log_lik, log_pred, ancestors):
 
 print(check_apf_second_stage(second_stage))
 
+# %% tags=["remove-input"] jupyter={"source_hidden": true}
+# Part I's page quotes the most glued numbers any paragraph of Part I shows outside its evidence blocks.
+from pathlib import Path
+
+from pfcourse.figures.report import chapter_markdown, glued_numbers_per_paragraph
+
+part1_counts = [max(glued_numbers_per_paragraph(chapter_markdown(source)), default=0)
+                for source in sorted(Path(".").glob("*.py"))]
+glue_values(part1_max_numbers_per_paragraph=max(part1_counts), part1_chapters_counted=len(part1_counts))
+
 # %% [markdown]
 # ## Takeaways
 #

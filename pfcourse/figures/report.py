@@ -19,8 +19,10 @@ typed. Its plain-text form (what ``print`` and strict nbval see) lists the same 
 from __future__ import annotations
 
 import html
+import re
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
+from pathlib import Path
 
 import numpy as np
 import pandas as pd
@@ -87,3 +89,28 @@ class EvidenceBlock:
         for caption, table, formats in self.tables:
             lines += [caption, _formatted(table, formats).to_string(index=False)]
         return "\n".join(lines)
+
+
+#: A glued number in a chapter's markdown: ``{glue:text}`key:fmt``` or ``{glue}`key```.
+GLUE_ROLE = re.compile(r"\{glue(?::text)?\}`[^`]+`")
+#: A folded block (an admonition or solution whose class includes ``dropdown``), with its fences.
+FOLDED_BLOCK = re.compile(r"^(:{3,}|`{3,})\{(?:admonition|solution)\}[^\n]*\n(?:\s*:[a-z-]+:[^\n]*\n)*?"
+                          r"\s*:class:[^\n]*dropdown.*?^\1\s*$", re.S | re.M)
+
+
+def paragraphs_outside_folds(markdown: str) -> list[str]:
+    """The paragraphs of ``markdown`` (separated by blank lines) outside folded blocks."""
+    text = FOLDED_BLOCK.sub(" ", markdown)
+    return [p for p in re.split(r"\n\s*\n", text) if p.strip()]
+
+
+def glued_numbers_per_paragraph(markdown: str) -> list[int]:
+    """How many glued numbers each paragraph outside folded blocks quotes (the book's form allows four)."""
+    return [len(GLUE_ROLE.findall(p)) for p in paragraphs_outside_folds(markdown)]
+
+
+def chapter_markdown(source: str | Path) -> str:
+    """The markdown cells of a chapter's jupytext source ``book/partN/X.py``, joined by blank lines."""
+    import jupytext
+
+    return "\n\n".join(c.source for c in jupytext.read(Path(source)).cells if c.cell_type == "markdown")
