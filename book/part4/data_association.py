@@ -182,7 +182,7 @@ k, i = np.nonzero(data.origin == -1)  # clutter readings, drawn where they point
 angle = sim.truth[k, 2] + data.readings[k, i, 1]
 clutter_xy = sim.truth[k, :2] + data.readings[k, i, :1] * np.column_stack([np.cos(angle), np.sin(angle)])
 
-fig, (ax1, ax2) = plt.subplots(1, 2, figsize=(11, 4.2))
+fig, (ax1, ax2) = plt.subplots(1, 2, figsize=(9.5, 4.2))
 ax1.scatter(*clutter_xy.T, s=4, color=COLORS["unseen"], alpha=0.4, label="clutter readings")
 ax1.plot(*sim.landmarks.T, "k^", ms=9, label="landmarks (alike)")
 ax1.plot(*sim.truth[:, :2].T, "--", color=COLORS["truth"], label="truth")
@@ -263,7 +263,7 @@ print(f"lambda = {CLUTTER:g}: mean RMSE, particle filter {main['pf']:.2f} m, EKF
 print(f"the EKF loses: {main['ekf_loses']}; the particle filter loses: {main['pf_loses']}")
 
 # %%
-fig, (ax1, ax2) = plt.subplots(1, 2, figsize=(11, 3.6))
+fig, (ax1, ax2) = plt.subplots(1, 2, figsize=(9.5, 3.6))
 for key, name, color, shift in (("pf", "particle filter", COLORS["estimate"], -0.05),
                                 ("ekf", "nearest-neighbour EKF", COLORS["kalman"], 0.05)):
     m, lo, hi = np.array([results[r]["means"][:, 0 if key == "pf" else 1] for r in rates]).T

@@ -193,9 +193,9 @@ for ax, q in zip(axes, titles):
     ax.set_xlabel("number of particles N")
     ax.set_title(f"error of the {titles[q]}", fontsize=10)
 axes[0].set_ylabel("particle filter minus Kalman")
-axes[2].legend(loc="upper left", bbox_to_anchor=(1.02, 1.0))
 fig.suptitle(f"RMS over {LINEAR_RUNS} runs (line) and 10-90 % of the runs (band)", fontsize=10)
-plt.tight_layout()
+plt.tight_layout(rect=(0, 0.1, 1, 1))
+fig.legend(*axes[0].get_legend_handles_labels(), loc="lower center", ncols=3)
 plt.show()
 
 # %% tags=["remove-input"] jupyter={"source_hidden": true}
@@ -585,7 +585,7 @@ def draw(scenario="robot", n_particles=300):
     n = min(available, key=lambda a: abs(np.log(a / n_particles)))
     picks = [j for j, t in enumerate(runs[0]) if t.filter != "pf" or t.n_particles == n]
     fig, (ax1, ax2) = plt.subplots(1, 2, figsize=(10, 3.8))
-    fig.subplots_adjust(left=0.06, right=0.99, bottom=0.13, top=0.91, wspace=0.2)  # cheaper than tight_layout
+    fig.subplots_adjust(left=0.07, right=0.8, bottom=0.13, top=0.91, wspace=0.28)  # cheaper than tight_layout; legend at right
     steps = np.arange(1, len(runs[0][0].error))
     for j in picks:
         t0 = runs[0][j]
