@@ -16,6 +16,8 @@ without listing them here), served on 127.0.0.1:
   can be scrubbed (moving its slider changes the frame), and its buttons show icons;
 - every chapter reads in one sitting: at most 20 screen-heights at 1280 x 900 (15 for Part III);
 - every exercise is titled "Exercise n.m: Title", numbered by chapter;
+- on a 420 px window (a phone) the page does not scroll sideways and every figure's text is still
+  at least 8 px (a wide figure keeps its size and scrolls inside its output);
 - every control panel works without a kernel, with no greyed control: each control, moved, shows
   the figure of the new grid point (or, for a control outside the main grid, its one-factor
   figure) within 100 ms (pfcourse/figures/static_panel.py); no widget
@@ -115,6 +117,7 @@ def _check_page(browser, base: str, page: str, screenshot: Path | None) -> None:
         check("legible figures", _check_figure_text)
         check("screen-heights", lambda tab: _check_page_height(tab, page))
         check("exercise titles", _check_exercise_titles)
+        check("legible at 420 px", _check_narrow)
         if screenshot is not None:
             # From the top, with nothing focused (a focused "skip to content" link would show).
             tab.evaluate("() => { document.activeElement && document.activeElement.blur(); window.scrollTo(0, 0); }")
@@ -216,6 +219,23 @@ def _check_page_height(tab, page: str) -> int:
     screens = tab.evaluate("() => document.documentElement.scrollHeight") / 900
     assert limit is None or screens <= limit, f"{screens:.1f} screen-heights (limit {limit:.0f})"
     return round(screens)
+
+
+NARROW_PX = 420
+
+
+def _check_narrow(tab) -> int:
+    """On a phone-width window (NARROW_PX): the page does not scroll sideways (wide figures and code
+    scroll inside their outputs), and every figure's smallest text is still >= MIN_TEXT_PX. Leaves
+    the window at 1280 px."""
+    tab.set_viewport_size({"width": NARROW_PX, "height": 900})
+    try:
+        tab.wait_for_timeout(100)  # one layout pass
+        width = tab.evaluate("() => document.documentElement.scrollWidth")
+        assert width <= NARROW_PX + 1, f"the page scrolls sideways at {NARROW_PX} px ({width} px wide)"
+        return _check_figure_text(tab)
+    finally:
+        tab.set_viewport_size({"width": 1280, "height": 900})
 
 
 def _check_exercise_titles(tab) -> int:
