@@ -90,9 +90,13 @@ def _localize_page(app, pagename: str, templatename: str, context: dict[str, Any
 
 
 def setup(app) -> dict[str, Any]:
-    # A config value that changes with this file, so that editing it rewrites every page.
-    source = Path(__file__).read_bytes()
-    app.add_config_value("book_offline_digest", hashlib.sha256(source).hexdigest(), "html")
+    # A config value that changes with this file and with the book's own static files (web/static:
+    # its CSS and scripts), so that editing any of them rewrites every page and copies the static
+    # files again (an incremental build with no changed page copies nothing).
+    digest = hashlib.sha256(Path(__file__).read_bytes())
+    for static in sorted((Path(__file__).resolve().parents[1] / "web" / "static").glob("*")):
+        digest.update(static.name.encode() + static.read_bytes())
+    app.add_config_value("book_offline_digest", digest.hexdigest(), "html")
     # After myst-nb's handler (priority 500), which adds the widget scripts of the page.
     app.connect("html-page-context", _localize_page, priority=900)
     return {"parallel_read_safe": True, "parallel_write_safe": True, "version": "1.0"}
