@@ -426,7 +426,7 @@ EvidenceBlock(
 #
 # The panel runs the filter on a $400$-step run with your settings (tracking from the good
 # initial guess) and plots the position error with its ±3σ band. `Q scale` and `R scale`
-# multiply $Q$ and $R$ in the filter ($2$ by default), `dt_meas` is the time between readings,
+# multiply $Q$ and $R$ in the filter ($2$ by default), "time between readings" is the period of the readings,
 # `gap` removes the readings between $250$ s and $350$ s. Set `R scale` to $0.5$ and watch the
 # error leave its band; set `threshold` to $0$ (no resampling) and watch the filter degenerate;
 # turn on the gap and watch the band grow on odometry alone, then collapse at the next reading.
