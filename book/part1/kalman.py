@@ -465,8 +465,8 @@ def draw_kalman(noise_scale, process_scale, seed):
 
 # %% tags=["nbval-ignore-output"]
 display(control_panel(draw_kalman, grid={"noise_scale": (0.3, 1.0, 3.0), "process_scale": (0.3, 1.0, 3.0)},
-                      noise_scale=scale_slider("Rv sd scale"),
-                      process_scale=scale_slider("robot Qw sd scale"), seed=seed_box(2024)))
+                      noise_scale=scale_slider("measurement sd factor"),
+                      process_scale=scale_slider("robot process sd factor"), seed=seed_box(2024)))
 
 # %% [markdown]
 # ## Exercises

@@ -315,7 +315,7 @@ display(control_panel(
     draw_model,
     grid={"variant": ("two landmarks", "five landmarks"), "noise_scale": (0.3, 1.0, 3.0), "seed": (2024, 1, 2)},
     variant=widgets.Dropdown(options=["two landmarks", "five landmarks"], description="variant"),
-    noise_scale=scale_slider("R sd scale"), seed=seed_box(2024)))
+    noise_scale=scale_slider("measurement sd factor"), seed=seed_box(2024)))
 
 # %% [markdown]
 # ## Exercises

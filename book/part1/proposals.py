@@ -472,7 +472,7 @@ def draw_proposals(n_particles, noise_scale, seed):
 # %% tags=["nbval-ignore-output"]
 display(control_panel(draw_proposals, grid={"n_particles": (50, 200, 1000), "noise_scale": (0.1, 0.3, 1.0)},
                       n_particles=particle_slider(200),
-                      noise_scale=scale_slider("Rv sd scale", 0.1), seed=seed_box(2024)))
+                      noise_scale=scale_slider("measurement sd factor", 0.1), seed=seed_box(2024)))
 
 # %% [markdown]
 # ## Exercises

@@ -565,7 +565,7 @@ def draw_sir(n_particles, threshold, scheme, c, seed):
 display(control_panel(
     draw_sir, grid={"n_particles": (30, 100, 300, 1000), "threshold": (0.0, 1 / 3, 1.0)},
     n_particles=particle_slider(100), threshold=threshold_slider(1 / 3),
-    scheme=scheme_dropdown(), c=widgets.FloatSlider(value=0.0, min=0.0, max=0.5, step=0.05, description="c"),
+    scheme=scheme_dropdown(), c=widgets.FloatSlider(value=0.0, min=0.0, max=0.5, step=0.05, description="roughening c"),
     seed=seed_box(2024)))
 
 # %% [markdown]

@@ -344,7 +344,7 @@ def draw_sis(n_particles, noise_scale, seed):
 # %% tags=["nbval-ignore-output"]
 display(control_panel(draw_sis, grid={"n_particles": (10, 100, 1000, 10000), "noise_scale": (0.5, 1.0, 2.0)},
                       n_particles=particle_slider(100),
-                      noise_scale=scale_slider("Rv sd scale"), seed=seed_box(2024)))
+                      noise_scale=scale_slider("measurement sd factor"), seed=seed_box(2024)))
 
 # %% [markdown]
 # ## Exercises
