@@ -26,7 +26,7 @@ The map ``(r', phi, b') -> x`` has Jacobian determinant ``1 / r'``, so
 
     q_z(x) = N(h_r(x); r, s_r^2) N(wrap(b - h_b(x)); 0, s_b^2) / (Phi(r / s_r) 2 pi h_r(x)).
 
-The weight is the engine's (:class:`pfcourse.filter.DensityProposal`),
+The weight is the engine's (:class:`pfcourse.proposals.DensityProposal`),
 ``log w = log p(z | x) + log p(x | x^i) - log q(x | x^i, z)``: an importance sampler of the
 kidnap model's posterior, so the posterior is not biased.  ``phi_k = 1`` when ``eps_k = 1``
 (every particle from the reading: exact importance sampling of ``p(x_1 | z_1)``).  This is
@@ -71,11 +71,11 @@ from pfcourse.angles import wrap_angle
 from pfcourse.checks import Array, check_probability
 from pfcourse.diagnostics import nees
 from pfcourse.errors import DegenerateWeightsError, ParameterError
-from pfcourse.filter import DensityProposal, ParticleFilter
+from pfcourse.filter import ParticleFilter
 from pfcourse.metrics import LOCK_WINDOW_S, heading_error, locked_from, position_error, position_spread
 from pfcourse.results import FilterResult
 from pfcourse.jitter import RegularisedJitter
-from pfcourse.proposals import ProgressiveCorrection
+from pfcourse.proposals import DensityProposal, ProgressiveCorrection
 from pfcourse.sample_size import KLDSampling, kld_bound  # noqa: F401  (kld_bound: re-exported for the chapter)
 from pfcourse.seeding import kidnap_rng
 from pfcourse.robot.scenario import ANGLE_INDICES, RobotModel, RobotSimulation, motion, range_bearing, simulate_robot
@@ -211,7 +211,7 @@ class SensorPoseSampler:
 
 
 def sensor_mixture_proposal(model: KidnapRobotModel, share: float = 0.1, spread: float = 1.0) -> DensityProposal:
-    """The mixture ``(1 - phi_k) p_odo + phi_k q_z`` as an engine :class:`~pfcourse.filter.DensityProposal`.
+    """The mixture ``(1 - phi_k) p_odo + phi_k q_z`` as an engine :class:`~pfcourse.proposals.DensityProposal`.
 
     ``phi_k = share``, or 1 at a step whose prior is uniform (``model.eps(k) == 1``).
     ``spread`` scales the standard deviations of the drawn reading (1: the filter's ``REst``).
