@@ -1,7 +1,8 @@
 """Rows of the global-localization studies (chapter ``part2/global_localization``).
 
 :func:`global_run` and :func:`kidnap_run` are the study runs (one seeded experiment of one
-method of :mod:`pfcourse.robot.mcl`, its metrics as a dict).  Each ``*_row`` function computes
+method of :mod:`pfcourse.robot.mcl`, its metrics as a dict, with the lock-on window
+:data:`LOCK_WINDOW` and the wrong-but-confident threshold :data:`CONFIDENT_QUANTILE`).  Each ``*_row`` function computes
 one row (one seeded run of one setting) from public functions, so a
 study can tabulate hundreds of them and a test can re-compute any row alone.  Run ``r`` of
 every setting uses the seed ``r``: the same truths, landmarks and measurements for every
@@ -24,11 +25,10 @@ from scipy import stats
 from pfcourse.filter import ParticleFilter
 from pfcourse.diagnostics import nees
 from pfcourse.errors import DegenerateWeightsError
-from pfcourse.metrics import heading_error, locked_from, position_error, position_spread
+from pfcourse.metrics import LOCK_WINDOW_S, heading_error, locked_from, position_error, position_spread
 from pfcourse.robot.scenario import ANGLE_INDICES, RobotModel, simulate_robot
 from pfcourse.experiments.robot import compare_filters
-from pfcourse.robot.mcl import (CONFIDENT_QUANTILE, LOCK_WINDOW, KidnapRobotModel, MethodSettings, kidnap, kidnap_pose,
-                                run_method, sensor_mixture_proposal)
+from pfcourse.robot.mcl import KidnapRobotModel, MethodSettings, kidnap, kidnap_pose, run_method, sensor_mixture_proposal
 
 #: Settings of the EKF-beside-PF study (the Part III settings the text compares).
 EKF_SETTINGS = {
@@ -61,6 +61,12 @@ COLUMNS = {
     "ekf_vs_pf": ("seed", "setting", "pf_position_rmse", "pf_heading_rmse", "pf_mean_nees", "pf_failed", "pf_seconds",
                   "ekf_position_rmse", "ekf_heading_rmse", "ekf_mean_nees", "ekf_failed", "ekf_seconds"),
 }
+
+
+#: Lock-on (:func:`pfcourse.metrics.locked_on`): the last ``LOCK_WINDOW`` steps of the robot's 1 s step.
+LOCK_WINDOW = int(LOCK_WINDOW_S)
+#: Wrong but confident: final NEES above this chi2_3 quantile.
+CONFIDENT_QUANTILE = 0.999
 
 
 def position_heading_errors(truth: Array, mean: Array) -> tuple[Array, Array]:

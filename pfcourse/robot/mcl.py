@@ -56,7 +56,8 @@ until their number exceeds the bound
 posterior is below ``eps``.  The number of particles follows the spread of the cloud.
 
 :func:`run_method` filters one simulation with one of these methods; the study runs (a whole
-seeded experiment and its metrics) are in :mod:`pfcourse.experiments.global_localization`.
+seeded experiment and its metrics, the lock-on window, the wrong-but-confident threshold) are
+in :mod:`pfcourse.experiments.global_localization`.
 """
 
 from __future__ import annotations
@@ -74,7 +75,7 @@ from pfcourse.angles import wrap_angle
 from pfcourse.checks import Array, check_probability
 from pfcourse.errors import ParameterError
 from pfcourse.filter import ParticleFilter
-from pfcourse.metrics import LOCK_WINDOW_S, position_error
+from pfcourse.metrics import position_error
 from pfcourse.results import FilterResult
 from pfcourse.jitter import RegularisedJitter
 from pfcourse.proposals import DensityProposal, ProgressiveCorrection
@@ -417,12 +418,6 @@ def run_method(sim: RobotSimulation, method: str, n_particles: int, seed: int, *
     out["n_used"] = res.sizes
     out.setdefault("likelihood_evaluations", res.sizes)
     return out
-
-
-#: Lock-on (:func:`pfcourse.metrics.locked_on`): the last ``LOCK_WINDOW`` steps of the robot's 1 s step.
-LOCK_WINDOW = int(LOCK_WINDOW_S)
-#: Wrong but confident: final NEES above this chi2_3 quantile.
-CONFIDENT_QUANTILE = 0.999
 
 
 def kidnap_pose(seed: int, truth_at: Array, half_width: float = 60.0, min_distance: float = 30.0) -> Array:
