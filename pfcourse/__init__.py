@@ -31,15 +31,10 @@ from pfcourse.errors import (  # noqa: E402
     WeightError,
 )
 from pfcourse.results import FilterResult, KalmanResult  # noqa: E402
-from pfcourse.filter import (  # noqa: E402
-    DensityProposal,
-    ParticleFilter,
-    StateSpaceModel,
-    TransitionProposal,
-)
+from pfcourse.filter import ParticleFilter, StateSpaceModel  # noqa: E402
 from pfcourse.kalman import kalman_filter  # noqa: E402
 from pfcourse.linear_gaussian import LinearGaussianModel  # noqa: E402
-from pfcourse.proposals import OptimalProposal  # noqa: E402
+from pfcourse.proposals import DensityProposal, OptimalProposal, TransitionProposal  # noqa: E402
 
 __version__ = "0.2.0"
 

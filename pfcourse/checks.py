@@ -14,9 +14,11 @@ from functools import lru_cache
 
 import numpy as np
 
+from pfcourse import kernels
 from pfcourse.errors import (
     CovarianceError,
     MeasurementError,
+    ModelError,
     NumericalError,
     ParameterError,
     PfcourseError,
@@ -383,3 +385,42 @@ def check_measurements(measurements):
     if any(e is not z for e, z in zip(entries, measurements)):
         return entries
     return measurements
+
+
+def check_particles(particles: Array, expected: tuple[int, int], k: int, source: str) -> Array:
+    """Check a cloud that ``source`` returned at step ``k`` before anything else sees it: a real
+    array (``ModelError`` otherwise) of shape ``expected`` (``ShapeError``) with finite states
+    (``NumericalError``); returns it as floats."""
+    raw = np.asarray(particles) if particles is not None else None
+    if raw is None or raw.dtype.kind not in "fiu" or raw.dtype == bool:
+        kind = "None" if raw is None else f"dtype {raw.dtype}"
+        raise ModelError(f"step {k}: {source} returned {kind}, expected a real array of particles", step=k)
+    particles = raw.astype(float, copy=False)
+    if particles.shape != expected:
+        raise ShapeError(
+            f"step {k}: {source} returned particles of shape {particles.shape}, "
+            f"expected {expected}"
+        )
+    if not kernels.finite_minimum(particles.ravel())[0]:
+        raise NumericalError(
+            f"step {k}: {source} produced NaN or infinite particle states", step=k
+        )
+    return particles
+
+
+def check_log_terms(values: Array, n: int, k: int, source: str = "the log-likelihood") -> Array:
+    """Check log-densities that ``source`` returned at step ``k`` (one per particle) before they are
+    combined: a real array (``ModelError``) of shape ``(n,)`` (``ShapeError``); returns it as floats."""
+    raw = np.asarray(values) if values is not None else None
+    if raw is None or raw.dtype.kind not in "fiu" or raw.dtype == bool:
+        kind = "None" if raw is None else f"dtype {raw.dtype}"
+        raise ModelError(
+            f"step {k}: {source} (or a proposal's log-increment) is {kind}, "
+            "expected a real array (return -inf for impossible particles; a missing "
+            "measurement is None or NaN in the measurements, not in the likelihood)",
+            step=k,
+        )
+    values = raw.astype(float, copy=False)
+    if values.shape != (n,):
+        raise ShapeError(f"step {k}: {source} has shape {values.shape}, expected ({n},)")
+    return values

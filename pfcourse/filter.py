@@ -58,6 +58,8 @@ from pfcourse.checks import (
     check_fits,
     check_measurements,
     check_moments,
+    check_log_terms,
+    check_particles,
     check_probability,
     is_missing,
 )
@@ -70,6 +72,7 @@ from pfcourse.errors import (
     ParameterError,
     ShapeError,
 )
+from pfcourse.proposals import TransitionProposal
 from pfcourse.resampling import get_resampler, multinomial
 from pfcourse.results import FilterResult
 
@@ -132,84 +135,6 @@ class Proposal(Protocol):
     def propose(
         self, model: Model, particles: Array, z: Array, k: int, rng: np.random.Generator
     ) -> tuple[Array, Array]: ...
-
-
-class TransitionProposal:
-    """The prior as importance function: ``q = p(x_k | x_{k-1})``, so ``log_inc = log p(z_k | x_k)``."""
-
-    def propose(self, model, particles, z, k, rng):
-        new = model.sample_transition(particles, k, rng)
-        return new, model.log_likelihood(new, z, k)
-
-
-def check_particles(particles: Array, expected: tuple[int, int], k: int, source: str) -> Array:
-    """Check a cloud that ``source`` returned at step ``k`` before anything else sees it: a real
-    array (``ModelError`` otherwise) of shape ``expected`` (``ShapeError``) with finite states
-    (``NumericalError``); returns it as floats."""
-    raw = np.asarray(particles) if particles is not None else None
-    if raw is None or raw.dtype.kind not in "fiu" or raw.dtype == bool:
-        kind = "None" if raw is None else f"dtype {raw.dtype}"
-        raise ModelError(f"step {k}: {source} returned {kind}, expected a real array of particles", step=k)
-    particles = raw.astype(float, copy=False)
-    if particles.shape != expected:
-        raise ShapeError(
-            f"step {k}: {source} returned particles of shape {particles.shape}, "
-            f"expected {expected}"
-        )
-    if not kernels.finite_minimum(particles.ravel())[0]:
-        raise NumericalError(
-            f"step {k}: {source} produced NaN or infinite particle states", step=k
-        )
-    return particles
-
-
-def check_log_terms(values: Array, n: int, k: int, source: str = "the log-likelihood") -> Array:
-    """Check log-densities that ``source`` returned at step ``k`` (one per particle) before they are
-    combined: a real array (``ModelError``) of shape ``(n,)`` (``ShapeError``); returns it as floats."""
-    raw = np.asarray(values) if values is not None else None
-    if raw is None or raw.dtype.kind not in "fiu" or raw.dtype == bool:
-        kind = "None" if raw is None else f"dtype {raw.dtype}"
-        raise ModelError(
-            f"step {k}: {source} (or a proposal's log-increment) is {kind}, "
-            "expected a real array (return -inf for impossible particles; a missing "
-            "measurement is None or NaN in the measurements, not in the likelihood)",
-            step=k,
-        )
-    values = raw.astype(float, copy=False)
-    if values.shape != (n,):
-        raise ShapeError(f"step {k}: {source} has shape {values.shape}, expected ({n},)")
-    return values
-
-
-@dataclass(frozen=True)
-class DensityProposal:
-    """Any importance function given by a sampler and its log-density.
-
-    ``sample(particles, z, k, rng)`` draws ``x_k^i ~ q(. | x_{k-1}^i, z_k)`` and
-    ``log_density(new, particles, z, k)`` returns ``log q(x_k^i | x_{k-1}^i, z_k)``.
-    The model must provide ``transition_log_density``.
-    """
-
-    sample: Callable[[Array, Array, int, np.random.Generator], Array]
-    log_density: Callable[[Array, Array, Array, int], Array]
-
-    def propose(self, model, particles, z, k, rng):
-        transition_log_density = getattr(model, "transition_log_density", None)
-        if transition_log_density is None:
-            raise ModelError(
-                f"step {k}: DensityProposal needs model.transition_log_density(new, old, k) to weight "
-                "the particles"
-            )
-        new = check_particles(self.sample(particles, z, k, rng), particles.shape, k, "DensityProposal.sample")
-        n = len(particles)
-        terms = [
-            (model.log_likelihood(new, z, k), "model.log_likelihood"),
-            (transition_log_density(new, particles, k), "model.transition_log_density"),
-            (self.log_density(new, particles, z, k), "DensityProposal.log_density"),
-        ]
-        log_lik, log_p, log_q = (check_log_terms(term, n, k, source) for term, source in terms)
-        with np.errstate(invalid="ignore"):  # inf - inf: NaN, refused by the filter's check of the increments
-            return new, log_lik + log_p - log_q
 
 
 def _present(measurements: Sequence[Measurement] | Array):

@@ -1,9 +1,13 @@
-"""Importance functions (proposals) for the particle filter, beyond the model's transition.
+"""Importance functions (proposals) for the particle filter, all in this module.
 
 A proposal has ``propose(model, particles, z, k, rng) -> (new_particles, log_increment)``:
 it draws ``x_k`` from ``q(x_k | x_{k-1}, z_k)`` and returns the log of the incremental weight
-``p(z_k | x_k) f(x_k | x_{k-1}) / q(x_k | x_{k-1}, z_k)`` (the protocol, the transition and a
-proposal from a density are the engine's, in :mod:`pfcourse.filter`).
+``p(z_k | x_k) f(x_k | x_{k-1}) / q(x_k | x_{k-1}, z_k)`` (the protocol,
+:class:`~pfcourse.filter.Proposal`, is the engine's, in :mod:`pfcourse.filter`).
+
+**The transition** ``p(x_k | x_{k-1})`` (the bootstrap filter's, the engine's default):
+:class:`TransitionProposal`.  **Any density** given by a sampler and its log-density:
+:class:`DensityProposal` (the model must then provide ``transition_log_density``).
 
 **The optimal importance function** ``p(x_k | x_{k-1}, z_k)`` of a linear-Gaussian model
 (:class:`~pfcourse.linear_gaussian.LinearGaussianModel`): :class:`OptimalProposal`, and
@@ -47,12 +51,52 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from pfcourse.checks import Array, covariance_factor
+from pfcourse.checks import Array, check_log_terms, check_particles, covariance_factor
+from pfcourse.errors import ModelError
 from pfcourse.gaussian import gaussian_logpdf
 from pfcourse.jitter import RegularisedJitter
 from pfcourse.kernels import gather_rows
 from pfcourse.linear_gaussian import LinearGaussianModel
 from pfcourse.resampling import get_resampler
+
+
+class TransitionProposal:
+    """The prior as importance function: ``q = p(x_k | x_{k-1})``, so ``log_inc = log p(z_k | x_k)``."""
+
+    def propose(self, model, particles, z, k, rng):
+        new = model.sample_transition(particles, k, rng)
+        return new, model.log_likelihood(new, z, k)
+
+
+@dataclass(frozen=True)
+class DensityProposal:
+    """Any importance function given by a sampler and its log-density.
+
+    ``sample(particles, z, k, rng)`` draws ``x_k^i ~ q(. | x_{k-1}^i, z_k)`` and
+    ``log_density(new, particles, z, k)`` returns ``log q(x_k^i | x_{k-1}^i, z_k)``.
+    The model must provide ``transition_log_density``.
+    """
+
+    sample: Callable[[Array, Array, int, np.random.Generator], Array]
+    log_density: Callable[[Array, Array, Array, int], Array]
+
+    def propose(self, model, particles, z, k, rng):
+        transition_log_density = getattr(model, "transition_log_density", None)
+        if transition_log_density is None:
+            raise ModelError(
+                f"step {k}: DensityProposal needs model.transition_log_density(new, old, k) to weight "
+                "the particles"
+            )
+        new = check_particles(self.sample(particles, z, k, rng), particles.shape, k, "DensityProposal.sample")
+        n = len(particles)
+        terms = [
+            (model.log_likelihood(new, z, k), "model.log_likelihood"),
+            (transition_log_density(new, particles, k), "model.transition_log_density"),
+            (self.log_density(new, particles, z, k), "DensityProposal.log_density"),
+        ]
+        log_lik, log_p, log_q = (check_log_terms(term, n, k, source) for term, source in terms)
+        with np.errstate(invalid="ignore"):  # inf - inf: NaN, refused by the filter's check of the increments
+            return new, log_lik + log_p - log_q
 
 
 class OptimalProposal:

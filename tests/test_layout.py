@@ -141,6 +141,8 @@ CORE_HOMES = {
     "PMMHChain": "pmmh",
     "LinearGaussianModel": "linear_gaussian",
     "kalman_filter": "kalman",
+    "TransitionProposal": "proposals",
+    "DensityProposal": "proposals",
     "OptimalProposal": "proposals",
     "FullyAdaptedAuxiliary": "proposals",
     "ProgressiveCorrection": "proposals",

@@ -24,8 +24,9 @@ from __future__ import annotations
 import re
 from pathlib import Path
 
-import jupytext
 import pytest
+
+from prose_text import MATH_ROLES_CODE, markdown_cells
 
 ROOT = Path(__file__).resolve().parents[1]
 CHAPTERS = sorted((ROOT / "book").rglob("*.py"))
@@ -47,10 +48,7 @@ _REMOVED = [
     # admonition's body (note, tip, exercise, solution, ...) is prose and is checked.
     (r"^(`{3,}|:{3,})\{(?:figure|glue:figure|glue|code-cell|code|bibliography|math|raw)\}.*?^\1\s*$", " "),
     (r"^\s*(?:`{3,}|:{3,})[^\n]*$", " "),  # the fence lines of the other directives (admonitions)
-    (r"\$\$.*?\$\$", " "),  # display math
-    (r"(?<![\\$])\$(?!\$)(?:\\\$|[^$])+?(?<!\\)\$", " "),  # inline math
-    (r"\{[a-z:]+\}`[^`]*`", " "),  # roles: glue, cite, ref, numref, eq, doc, ...
-    (r"`[^`]*`", " "),  # code
+    *((pattern, " ") for pattern in MATH_ROLES_CODE),  # math, roles, code (tests/prose_text.py)
     (r"\]\([^)]*\)", "]"),  # link targets
     (r"<[^>]+>", " "),  # html tags and autolinks
     (r"^\s*:[a-z-]+:[^\n]*$", " "),  # directive options
@@ -79,13 +77,6 @@ def prose(text: str) -> str:
     for pattern, replacement in _REMOVED:
         text = re.sub(pattern, replacement, text, flags=re.S | re.M)
     return text
-
-
-def markdown_cells(source: Path) -> list[str]:
-    """The markdown cells of a chapter source (a page: one cell)."""
-    if source.suffix == ".md":
-        return [source.read_text()]
-    return [c.source if c.cell_type == "markdown" else "" for c in jupytext.read(source).cells]
 
 
 def typed_numerals(source: Path) -> list[tuple[int, str, str]]:

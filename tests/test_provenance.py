@@ -28,3 +28,34 @@ def test_rows_round_trip_floats_exactly(tmp_path):
         back = list(csv.DictReader(f))
     assert [float(r["x"]) for r in back] == list(values)
     assert [int(r["run"]) for r in back] == list(range(50))
+
+
+def _row(seed, x):
+    return {"value": float(seed + x)}
+
+
+def test_a_rerun_of_one_study_of_a_group_is_appended_to_the_groups_record(tmp_path, monkeypatch):
+    """``tasks.py study group/one`` keeps the group's shared record and appends the re-run to its
+    ``reruns`` list; the whole group writes the record afresh (studies on a temporary DATA)."""
+    from pfcourse.experiments import registry
+
+    studies = {name: registry.Study(name=name, row=_row, grid={"x": [1, 2]}, n_runs=2, seeds="run",
+                                    table=f"group/{name.split('/')[1]}.csv", provenance="group/provenance.json",
+                                    row_code="tests/test_provenance.py (_row)")
+               for name in ("group/a", "group/b")}
+    monkeypatch.setattr(registry, "STUDIES", studies)
+    monkeypatch.setattr(registry, "DATA", tmp_path)
+    (tmp_path / "group").mkdir()
+    path = tmp_path / "group" / "provenance.json"
+    registry.run("group")
+    group_record = json.loads(path.read_text())
+    assert set(group_record["studies"]) == {"group/a", "group/b"} and "reruns" not in group_record
+    registry.run("group/b")
+    registry.run("group/b")
+    record = json.loads(path.read_text())
+    reruns = record.pop("reruns")
+    assert record == group_record
+    assert [entry["study"] for entry in reruns] == ["b", "b"]
+    assert all(entry["rows"] == 4 and len(entry["git_commit"]) == 40 and entry["file"] == "b.csv" for entry in reruns)
+    registry.run("group")  # the whole group again: a fresh record
+    assert "reruns" not in json.loads(path.read_text())

@@ -17,9 +17,10 @@ import math
 import re
 from pathlib import Path
 
-import jupytext
 import pytest
 import yaml
+
+from prose_text import MATH_ROLES_CODE, markdown_cells
 
 ROOT = Path(__file__).resolve().parents[1]
 BOOK = ROOT / "book"
@@ -32,20 +33,14 @@ _NOT_PROSE = [
     r"^(:{3,}|`{3,})\{dropdown\}.*?^\1\s*$",
     r"^(`{3,}).*?^\1\s*$",  # code blocks
 ]
-# read as one word each: an equation, a formula, a role (a glued number, a citation, a link)
-_ONE_WORD = [r"\$\$.*?\$\$", r"(?<![\\$])\$(?!\$)(?:\\\$|[^$])+?(?<!\\)\$", r"\{[a-z:]+\}`[^`]*`", r"`[^`]*`"]
 
 
 def prose_words(path: Path) -> int:
     """Words of a chapter's (``.py``) or page's (``.md``) prose, folded evidence blocks excluded."""
-    if path.suffix == ".md":
-        cells = [path.read_text()]
-    else:
-        cells = [c.source for c in jupytext.read(path).cells if c.cell_type == "markdown"]
-    text = "\n".join(cells)
+    text = "\n".join(markdown_cells(path))
     for pattern in _NOT_PROSE:
         text = re.sub(pattern, " ", text, flags=re.S | re.M)
-    for pattern in _ONE_WORD:
+    for pattern in MATH_ROLES_CODE:  # read as one word each: an equation, a formula, a role, code
         text = re.sub(pattern, " word ", text, flags=re.S | re.M)
     return len(re.findall(r"[A-Za-z][A-Za-z'-]*", text))
 

@@ -77,7 +77,7 @@ from scipy.special import gammaln, logsumexp
 from pfcourse import ParticleFilter, evidence
 from pfcourse.exercises import check_resampler, check_weight_update
 from pfcourse.figures.report import EvidenceBlock, glue_values
-from pfcourse.filter import DensityProposal
+from pfcourse.proposals import DensityProposal
 from pfcourse.kalman import kalman_filter
 from pfcourse.landmarks.scenario import quadrant_scenario, simulate
 from pfcourse.linear_gaussian import LinearGaussianModel

@@ -53,12 +53,13 @@ from pfcourse import evidence
 from pfcourse.angles import wrap_angle
 from pfcourse.diagnostics import chi2_band
 from pfcourse.exercises import check_pose_density
+from pfcourse.experiments.global_localization import CONFIDENT_QUANTILE, LOCK_WINDOW
 from pfcourse.figures.report import EvidenceBlock, glue_values
 from pfcourse.filter import ParticleFilter
 from pfcourse.metrics import position_error
 from pfcourse.resampling import systematic
-from pfcourse.robot.mcl import (CONFIDENT_QUANTILE, LOCK_WINDOW, AugmentedMCL, KidnapRobotModel, SensorPoseSampler,
-                                kidnap, kidnap_pose, sensor_mixture_proposal)
+from pfcourse.robot.mcl import (AugmentedMCL, KidnapRobotModel, SensorPoseSampler, kidnap, kidnap_pose,
+                                sensor_mixture_proposal)
 from pfcourse.robot.scenario import RobotModel, simulate_robot
 from pfcourse.style import COLORS, use_style
 

@@ -1,6 +1,9 @@
 """Rows of the global-localization studies (chapter ``part2/global_localization``).
 
-Each function computes one row (one seeded run of one setting) from public functions, so a
+:func:`global_run` and :func:`kidnap_run` are the study runs (one seeded experiment of one
+method of :mod:`pfcourse.robot.mcl`, its metrics as a dict, with the lock-on window
+:data:`LOCK_WINDOW` and the wrong-but-confident threshold :data:`CONFIDENT_QUANTILE`).  Each ``*_row`` function computes
+one row (one seeded run of one setting) from public functions, so a
 study can tabulate hundreds of them and a test can re-compute any row alone.  Run ``r`` of
 every setting uses the seed ``r``: the same truths, landmarks and measurements for every
 method and ``N`` (common random numbers).  The tables ``anatomy``, ``lockon``, ``kidnap`` and
@@ -20,10 +23,12 @@ import numpy as np
 from scipy import stats
 
 from pfcourse.filter import ParticleFilter
-from pfcourse.metrics import heading_error, position_error
-from pfcourse.robot.scenario import RobotModel, simulate_robot
+from pfcourse.diagnostics import nees
+from pfcourse.errors import DegenerateWeightsError
+from pfcourse.metrics import LOCK_WINDOW_S, heading_error, locked_from, position_error, position_spread
+from pfcourse.robot.scenario import ANGLE_INDICES, RobotModel, simulate_robot
 from pfcourse.experiments.robot import compare_filters
-from pfcourse.robot.mcl import KidnapRobotModel, MethodSettings, global_run, kidnap_run, sensor_mixture_proposal
+from pfcourse.robot.mcl import KidnapRobotModel, MethodSettings, kidnap, kidnap_pose, run_method, sensor_mixture_proposal
 
 #: Settings of the EKF-beside-PF study (the Part III settings the text compares).
 EKF_SETTINGS = {
@@ -56,6 +61,90 @@ COLUMNS = {
     "ekf_vs_pf": ("seed", "setting", "pf_position_rmse", "pf_heading_rmse", "pf_mean_nees", "pf_failed", "pf_seconds",
                   "ekf_position_rmse", "ekf_heading_rmse", "ekf_mean_nees", "ekf_failed", "ekf_seconds"),
 }
+
+
+#: Lock-on (:func:`pfcourse.metrics.locked_on`): the last ``LOCK_WINDOW`` steps of the robot's 1 s step.
+LOCK_WINDOW = int(LOCK_WINDOW_S)
+#: Wrong but confident: final NEES above this chi2_3 quantile.
+CONFIDENT_QUANTILE = 0.999
+
+
+def position_heading_errors(truth: Array, mean: Array) -> tuple[Array, Array]:
+    """Per-step position error ``||p^ - p||`` (m) and absolute wrapped heading error (rad)
+    (:mod:`pfcourse.metrics`)."""
+    return position_error(truth, mean), heading_error(truth, mean)
+
+
+def global_run(seed: int, method: str, n_particles: int, *, n_steps: int = 60,
+               settings: MethodSettings = MethodSettings(), keep_trace: bool = False) -> dict:
+    """One global-localization run (uniform prior) of ``method``: lock-on and its metrics.
+
+    ``locked_on``: within 1 m and 5 deg at each of the last :data:`LOCK_WINDOW` steps;
+    ``lock_time`` (s): the first time from which it stays so (NaN if never);
+    ``final_nees``: NEES at the last step; ``wrong_confident``: not locked on and
+    ``final_nees > chi2_3`` quantile :data:`CONFIDENT_QUANTILE`; ``particle_steps``: sum over
+    steps of the likelihood evaluations (the number of particles, times the stages of progressive
+    correction for ``tempered``); ``mean_n``: the mean number of particles.
+    """
+    sim = simulate_robot(None, seed, n_steps=n_steps)
+    try:
+        out = run_method(sim, method, n_particles, seed, settings=settings)
+    except DegenerateWeightsError:
+        return {"locked_on": False, "lock_time": np.nan, "final_error": np.inf, "final_heading_error": np.inf,
+                "final_sd": np.inf, "final_nees": np.inf, "wrong_confident": False, "particle_steps": np.nan,
+                "mean_n": np.nan, "seconds": np.nan, "lost": True}
+    pos, head = position_heading_errors(sim.truth, out["mean"])
+    start = locked_from(pos, head)
+    locked = start <= n_steps - LOCK_WINDOW
+    final_nees = float(nees(sim.truth[-1:], out["mean"][-1:], out["cov"][-1:], ANGLE_INDICES)[0])
+    confident = final_nees > stats.chi2.ppf(CONFIDENT_QUANTILE, 3)
+    return {
+        "locked_on": bool(locked),
+        "lock_time": float(start * sim.scenario.dt) if start < n_steps else np.nan,
+        "final_error": float(pos[-1]),
+        "final_heading_error": float(head[-1]),
+        "final_sd": float(position_spread(out["cov"][-1])),
+        "final_nees": final_nees,
+        "wrong_confident": bool((not locked) and confident),
+        "particle_steps": int(np.sum(out["likelihood_evaluations"])),
+        "mean_n": float(np.mean(out["n_used"])),
+        "seconds": float(out["seconds"]),
+        "lost": False,
+        **({"n_used": out["n_used"], "position_error": pos} if keep_trace else {}),
+    }
+
+
+def kidnap_run(seed: int, method: str, n_particles: int, *, n_steps: int = 150, kidnap_step: int = 50,
+               detect_distance: float = 5.0, settings: MethodSettings = MethodSettings()) -> dict:
+    """One kidnapped-robot run: tracking from the known start, robot moved at ``kidnap_step``.
+
+    ``detection_s``: time from the kidnapping to the first step whose estimate is more than
+    ``detect_distance`` m from where the robot would have been without kidnapping (NaN if never);
+    ``recovery_s``: time from the kidnapping to the step from which the estimate stays within
+    1 m and 5 deg of the new truth until the end (NaN if it is not within them at the end);
+    ``recovered``: within them at each of the last :data:`LOCK_WINDOW` steps.
+    """
+    base = simulate_robot(None, seed, n_steps=n_steps)
+    sim = kidnap(base, kidnap_step, kidnap_pose(seed, base.truth[kidnap_step], base.scenario.half_width))
+    out = run_method(sim, method, n_particles, seed, global_start=False, settings=settings)
+    pos, head = position_heading_errors(sim.truth, out["mean"])
+    old_pos, _ = position_heading_errors(base.truth, out["mean"])
+    after = np.arange(kidnap_step, n_steps)
+    moved = np.flatnonzero(old_pos[after] > detect_distance)
+    start = locked_from(pos, head)
+    dt = sim.scenario.dt
+    before_ok = bool(np.all(pos[10:kidnap_step] < 1.0))
+    final_nees = float(nees(sim.truth[-1:], out["mean"][-1:], out["cov"][-1:], ANGLE_INDICES)[0])
+    return {
+        "tracking_before": before_ok,
+        "detection_s": float(moved[0] * dt) if len(moved) else np.nan,
+        "recovery_s": float((max(start, kidnap_step) - kidnap_step) * dt) if start < n_steps else np.nan,
+        "recovered": bool(start <= n_steps - LOCK_WINDOW),
+        "final_error": float(pos[-1]),
+        "final_nees": final_nees,
+        "particle_steps": int(np.sum(out["likelihood_evaluations"])),
+        "seconds": float(out["seconds"]),
+    }
 
 
 def _mahalanobis(model: RobotModel, particles: np.ndarray, z: np.ndarray, k: int) -> np.ndarray:
@@ -125,12 +214,12 @@ def mode_rows(seed: int, method: str, n_particles: int = 2000, n_steps: int = 21
 
 
 def lockon_row(seed: int, method: str, n_particles: int, n_steps: int = 60) -> dict:
-    """:func:`~pfcourse.robot.mcl.global_run` without its per-step arrays."""
+    """:func:`global_run` without its per-step arrays."""
     return {"seed": seed, "method": method, "n": n_particles, **global_run(seed, method, n_particles, n_steps=n_steps)}
 
 
 def kidnap_row(seed: int, method: str, n_particles: int) -> dict:
-    """:func:`~pfcourse.robot.mcl.kidnap_run` with its defaults."""
+    """:func:`kidnap_run` with its defaults."""
     return {"seed": seed, "method": method, "n": n_particles, **kidnap_run(seed, method, n_particles)}
 
 
@@ -164,7 +253,7 @@ COLUMNS["tracking_cost"] = ("seed", "method", "n", "ess_fraction", "position_rms
 
 
 def kld_amcl_row(seed: int, setting: str, n_steps: int = 60) -> dict:
-    """:func:`~pfcourse.robot.mcl.global_run` of ``kld_mixture`` at one :data:`KLD_SETTINGS` setting."""
+    """:func:`global_run` of ``kld_mixture`` at one :data:`KLD_SETTINGS` setting."""
     n_max, settings = KLD_SETTINGS[setting]
     return {"seed": seed, "setting": setting, **global_run(seed, "kld_mixture", n_max, n_steps=n_steps, settings=settings)}
 

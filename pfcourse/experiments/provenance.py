@@ -40,10 +40,9 @@ def tree_modified(root: Path = ROOT, paths: Iterable[str] = ("pfcourse", "tools"
     return bool(_git("status", "--porcelain", "--untracked-files=no", *paths, root=root))
 
 
-def write_provenance(path: Path, *, code: str | list[str], commit: str, seconds: float,
-                     root: Path = ROOT, **fields: Any) -> dict:
-    """Write the JSON provenance record of a stored table to ``path`` and return it."""
-    record = {
+def _record(code: str | list[str], commit: str, seconds: float, root: Path, fields: dict) -> dict:
+    """The fields every record has (code, commit, tree state, date, versions, wall time), then ``fields``."""
+    return {
         "code": code,
         "git_commit": commit,
         "working_tree_modified": tree_modified(root),
@@ -53,8 +52,29 @@ def write_provenance(path: Path, *, code: str | list[str], commit: str, seconds:
         "wall_seconds": round(float(seconds), 1),
         **fields,
     }
+
+
+def _write(path: Path, record: dict) -> None:
     Path(path).write_text(json.dumps(record, indent=2, default=str) + "\n")
+
+
+def write_provenance(path: Path, *, code: str | list[str], commit: str, seconds: float,
+                     root: Path = ROOT, **fields: Any) -> dict:
+    """Write the JSON provenance record of a stored table to ``path`` and return it."""
+    record = _record(code, commit, seconds, root, fields)
+    _write(path, record)
     return record
+
+
+def append_rerun(path: Path, *, code: str | list[str], commit: str, seconds: float,
+                 root: Path = ROOT, **fields: Any) -> dict:
+    """Append the record of a re-run of one study of a group to the ``reruns`` list of the group's
+    provenance file ``path``, keeping the group's record; return the appended entry."""
+    record = json.loads(Path(path).read_text())
+    entry = _record(code, commit, seconds, root, fields)
+    record.setdefault("reruns", []).append(entry)
+    _write(path, record)
+    return entry
 
 
 def write_rows(path: Path, rows: list[dict]) -> None:

@@ -39,7 +39,7 @@ from pfcourse.experiments import association, global_localization
 from pfcourse.experiments import likelihood_studies as ls
 from pfcourse.experiments import (maprobot, rb_study, robot_studies, sir_fixes_study, smoothing_studies,
                                   terrain_marginalised, terrain_remedies, terrain_studies)
-from pfcourse.experiments.provenance import launch_commit, write_provenance
+from pfcourse.experiments.provenance import append_rerun, launch_commit, write_provenance
 from pfcourse.experiments.robot import pf_run
 from pfcourse.experiments.store import DATA, load, save
 from pfcourse.experiments.study import grid_settings, run_study
@@ -376,7 +376,8 @@ def run(name: str, **options) -> None:
 
     A study alone in its provenance file has its fields at the top of the record; the studies of
     a group sharing one file are under ``studies``, with the fields they share (``n_runs``,
-    ``seeds``) also at the top.
+    ``seeds``) also at the top.  A re-run of some of the studies of such a group keeps the
+    group's record and appends one entry per study to its ``reruns`` list.
     """
     studies = select(name)
     start, commit = time.time(), launch_commit()
@@ -391,6 +392,14 @@ def run(name: str, **options) -> None:
                                "rows": len(table), "run_seconds": round(time.time() - t0, 1), **study.fields}
         print(f"{study.name}: {len(table)} rows, {records[study.name]['run_seconds']} s", flush=True)
     for path in {study.provenance for study in studies}:
+        sharing = [s for s in STUDIES.values() if s.provenance == path]
+        if len(sharing) > 1 and (DATA / path).exists() and not all(s in studies for s in sharing):
+            for s in studies:
+                if s.provenance == path:
+                    append_rerun(DATA / path, code="pfcourse/experiments/registry.py", commit=commit,
+                                 seconds=time.time() - start, study=s.name.split("/", 1)[-1], row_code=s.row_code,
+                                 **records[s.name])
+            continue
         group = [records[s.name] for s in studies if s.provenance == path]
         shared = {key: group[0][key] for key in ("n_runs", "seeds") if all(r[key] == group[0][key] for r in group)}
         fields = group[0] if len(group) == 1 else {**shared, "studies": {s.name: records[s.name] for s in studies

@@ -26,7 +26,7 @@ The map ``(r', phi, b') -> x`` has Jacobian determinant ``1 / r'``, so
 
     q_z(x) = N(h_r(x); r, s_r^2) N(wrap(b - h_b(x)); 0, s_b^2) / (Phi(r / s_r) 2 pi h_r(x)).
 
-The weight is the engine's (:class:`pfcourse.filter.DensityProposal`),
+The weight is the engine's (:class:`pfcourse.proposals.DensityProposal`),
 ``log w = log p(z | x) + log p(x | x^i) - log q(x | x^i, z)``: an importance sampler of the
 kidnap model's posterior, so the posterior is not biased.  ``phi_k = 1`` when ``eps_k = 1``
 (every particle from the reading: exact importance sampling of ``p(x_1 | z_1)``).  This is
@@ -54,6 +54,10 @@ until their number exceeds the bound
 ``k`` is the number of histogram bins the new particles occupy: with probability
 ``1 - delta`` the Kullback-Leibler divergence between the sample-based and the true binned
 posterior is below ``eps``.  The number of particles follows the spread of the cloud.
+
+:func:`run_method` filters one simulation with one of these methods; the study runs (a whole
+seeded experiment and its metrics, the lock-on window, the wrong-but-confident threshold) are
+in :mod:`pfcourse.experiments.global_localization`.
 """
 
 from __future__ import annotations
@@ -69,16 +73,15 @@ from scipy.special import logsumexp
 
 from pfcourse.angles import wrap_angle
 from pfcourse.checks import Array, check_probability
-from pfcourse.diagnostics import nees
-from pfcourse.errors import DegenerateWeightsError, ParameterError
-from pfcourse.filter import DensityProposal, ParticleFilter
-from pfcourse.metrics import LOCK_WINDOW_S, heading_error, locked_from, position_error, position_spread
+from pfcourse.errors import ParameterError
+from pfcourse.filter import ParticleFilter
+from pfcourse.metrics import position_error
 from pfcourse.results import FilterResult
 from pfcourse.jitter import RegularisedJitter
-from pfcourse.proposals import ProgressiveCorrection
+from pfcourse.proposals import DensityProposal, ProgressiveCorrection
 from pfcourse.sample_size import KLDSampling, kld_bound  # noqa: F401  (kld_bound: re-exported for the chapter)
 from pfcourse.seeding import kidnap_rng
-from pfcourse.robot.scenario import ANGLE_INDICES, RobotModel, RobotSimulation, motion, range_bearing, simulate_robot
+from pfcourse.robot.scenario import ANGLE_INDICES, RobotModel, RobotSimulation, motion, range_bearing
 
 _LOG_2PI = math.log(2.0 * math.pi)
 
@@ -211,7 +214,7 @@ class SensorPoseSampler:
 
 
 def sensor_mixture_proposal(model: KidnapRobotModel, share: float = 0.1, spread: float = 1.0) -> DensityProposal:
-    """The mixture ``(1 - phi_k) p_odo + phi_k q_z`` as an engine :class:`~pfcourse.filter.DensityProposal`.
+    """The mixture ``(1 - phi_k) p_odo + phi_k q_z`` as an engine :class:`~pfcourse.proposals.DensityProposal`.
 
     ``phi_k = share``, or 1 at a step whose prior is uniform (``model.eps(k) == 1``).
     ``spread`` scales the standard deviations of the drawn reading (1: the filter's ``REst``).
@@ -417,57 +420,6 @@ def run_method(sim: RobotSimulation, method: str, n_particles: int, seed: int, *
     return out
 
 
-def position_heading_errors(truth: Array, mean: Array) -> tuple[Array, Array]:
-    """Per-step position error ``||p^ - p||`` (m) and absolute wrapped heading error (rad)
-    (:mod:`pfcourse.metrics`)."""
-    return position_error(truth, mean), heading_error(truth, mean)
-
-
-#: Lock-on (:func:`pfcourse.metrics.locked_on`): the last ``LOCK_WINDOW`` steps of the robot's 1 s step.
-LOCK_WINDOW = int(LOCK_WINDOW_S)
-#: Wrong but confident: final NEES above this chi2_3 quantile.
-CONFIDENT_QUANTILE = 0.999
-
-
-def global_run(seed: int, method: str, n_particles: int, *, n_steps: int = 60,
-               settings: MethodSettings = MethodSettings(), keep_trace: bool = False) -> dict:
-    """One global-localization run (uniform prior) of ``method``: lock-on and its metrics.
-
-    ``locked_on``: within 1 m and 5 deg at each of the last :data:`LOCK_WINDOW` steps;
-    ``lock_time`` (s): the first time from which it stays so (NaN if never);
-    ``final_nees``: NEES at the last step; ``wrong_confident``: not locked on and
-    ``final_nees > chi2_3`` quantile :data:`CONFIDENT_QUANTILE`; ``particle_steps``: sum over
-    steps of the likelihood evaluations (the number of particles, times the stages of progressive
-    correction for ``tempered``); ``mean_n``: the mean number of particles.
-    """
-    sim = simulate_robot(None, seed, n_steps=n_steps)
-    try:
-        out = run_method(sim, method, n_particles, seed, settings=settings)
-    except DegenerateWeightsError:
-        return {"locked_on": False, "lock_time": np.nan, "final_error": np.inf, "final_heading_error": np.inf,
-                "final_sd": np.inf, "final_nees": np.inf, "wrong_confident": False, "particle_steps": np.nan,
-                "mean_n": np.nan, "seconds": np.nan, "lost": True}
-    pos, head = position_heading_errors(sim.truth, out["mean"])
-    start = locked_from(pos, head)
-    locked = start <= n_steps - LOCK_WINDOW
-    final_nees = float(nees(sim.truth[-1:], out["mean"][-1:], out["cov"][-1:], ANGLE_INDICES)[0])
-    confident = final_nees > stats.chi2.ppf(CONFIDENT_QUANTILE, 3)
-    return {
-        "locked_on": bool(locked),
-        "lock_time": float(start * sim.scenario.dt) if start < n_steps else np.nan,
-        "final_error": float(pos[-1]),
-        "final_heading_error": float(head[-1]),
-        "final_sd": float(position_spread(out["cov"][-1])),
-        "final_nees": final_nees,
-        "wrong_confident": bool((not locked) and confident),
-        "particle_steps": int(np.sum(out["likelihood_evaluations"])),
-        "mean_n": float(np.mean(out["n_used"])),
-        "seconds": float(out["seconds"]),
-        "lost": False,
-        **({"n_used": out["n_used"], "position_error": pos} if keep_trace else {}),
-    }
-
-
 def kidnap_pose(seed: int, truth_at: Array, half_width: float = 60.0, min_distance: float = 30.0) -> Array:
     """A pose uniform on the map at least ``min_distance`` m from ``truth_at`` (per run:
     :func:`pfcourse.seeding.kidnap_rng` ``(seed)``)."""
@@ -477,36 +429,3 @@ def kidnap_pose(seed: int, truth_at: Array, half_width: float = 60.0, min_distan
         pose = np.array([*rng.uniform(-margin, margin, 2), rng.uniform(-np.pi, np.pi)])
         if position_error(truth_at, pose) >= min_distance:
             return pose
-
-
-def kidnap_run(seed: int, method: str, n_particles: int, *, n_steps: int = 150, kidnap_step: int = 50,
-               detect_distance: float = 5.0, settings: MethodSettings = MethodSettings()) -> dict:
-    """One kidnapped-robot run: tracking from the known start, robot moved at ``kidnap_step``.
-
-    ``detection_s``: time from the kidnapping to the first step whose estimate is more than
-    ``detect_distance`` m from where the robot would have been without kidnapping (NaN if never);
-    ``recovery_s``: time from the kidnapping to the step from which the estimate stays within
-    1 m and 5 deg of the new truth until the end (NaN if it is not within them at the end);
-    ``recovered``: within them at each of the last :data:`LOCK_WINDOW` steps.
-    """
-    base = simulate_robot(None, seed, n_steps=n_steps)
-    sim = kidnap(base, kidnap_step, kidnap_pose(seed, base.truth[kidnap_step], base.scenario.half_width))
-    out = run_method(sim, method, n_particles, seed, global_start=False, settings=settings)
-    pos, head = position_heading_errors(sim.truth, out["mean"])
-    old_pos, _ = position_heading_errors(base.truth, out["mean"])
-    after = np.arange(kidnap_step, n_steps)
-    moved = np.flatnonzero(old_pos[after] > detect_distance)
-    start = locked_from(pos, head)
-    dt = sim.scenario.dt
-    before_ok = bool(np.all(pos[10:kidnap_step] < 1.0))
-    final_nees = float(nees(sim.truth[-1:], out["mean"][-1:], out["cov"][-1:], ANGLE_INDICES)[0])
-    return {
-        "tracking_before": before_ok,
-        "detection_s": float(moved[0] * dt) if len(moved) else np.nan,
-        "recovery_s": float((max(start, kidnap_step) - kidnap_step) * dt) if start < n_steps else np.nan,
-        "recovered": bool(start <= n_steps - LOCK_WINDOW),
-        "final_error": float(pos[-1]),
-        "final_nees": final_nees,
-        "particle_steps": int(np.sum(out["likelihood_evaluations"])),
-        "seconds": float(out["seconds"]),
-    }

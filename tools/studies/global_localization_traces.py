@@ -21,7 +21,7 @@ import pfcourse  # noqa: F401  (pins the arithmetic first)
 from pfcourse.experiments import global_localization as mcl_study
 from pfcourse.experiments.provenance import launch_commit, write_provenance
 from pfcourse.experiments.store import DATA, save
-from pfcourse.robot.mcl import MethodSettings, global_run
+from pfcourse.robot.mcl import MethodSettings
 
 OUT = DATA / "global_localization"
 
@@ -36,7 +36,7 @@ def main() -> None:
                                           for row in mcl_study.mode_rows(s, m)]))
     trace = []
     for m, n in mcl_study.TRACE:
-        runs = [global_run(s, m, n, keep_trace=True) for s in seeds]
+        runs = [mcl_study.global_run(s, m, n, keep_trace=True) for s in seeds]
         used = np.array([r["n_used"] for r in runs])
         err = np.array([r["position_error"] for r in runs])
         for k in range(used.shape[1]):
@@ -47,7 +47,7 @@ def main() -> None:
     write_provenance(
         OUT / "traces.json", code="tools/studies/global_localization_traces.py", commit=commit,
         seconds=time.time() - started, file=["modes.csv", "kld_trace.csv"],
-        row_functions="pfcourse/experiments/global_localization.py (mode_rows), pfcourse/robot/mcl.py (global_run)",
+        row_functions="pfcourse/experiments/global_localization.py (mode_rows, global_run)",
         seeds=f"run r uses seed r, r = 0..{args.runs - 1}, for every setting",
         settings={"kld_trace": mcl_study.TRACE, "method_settings": MethodSettings().__dict__},
     )
