@@ -272,3 +272,15 @@ def test_a_study_may_give_the_seeds_of_its_runs():
     assert list(table["seed"]) == [0, 1, 2, 0, 1, 2] and list(table["x"]) == [0, 1, 2, 0, 2, 4]
     with pytest.raises(ParameterError, match="one seed per run"):
         run_study(lambda seed: {}, {"a": [1]}, 3, seeds=[0, 1])
+
+
+def test_medians_tabulates_each_metric_per_setting():
+    import pandas as pd
+
+    from pfcourse.figures.study_tables import medians
+
+    table = pd.DataFrame({"n": [1, 1, 1, 2, 2, 2], "run": [0, 1, 2] * 2, "status": ["ok"] * 6,
+                          "a": [1.0, 2.0, 9.0, 4.0, 5.0, 6.0], "b": [0.0, 0.0, 1.0, 3.0, 3.0, 3.0]})
+    out = medians(table, "n", {"a": "A (m)", "b": "B"})
+    assert list(out.columns) == ["n", "A (m)", "B"]
+    assert list(out["A (m)"]) == [2.0, 5.0] and list(out["B"]) == [0.0, 3.0]

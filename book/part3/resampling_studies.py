@@ -68,7 +68,7 @@ from pfcourse.experiments.robot_studies import N_RUNS, N_STEPS
 from pfcourse.experiments.study import run_study, summarize
 from pfcourse.figures.report import EvidenceBlock, glue_values
 from pfcourse.figures.study import summary_band
-from pfcourse.figures.study_tables import median, paired_vs, show
+from pfcourse.figures.study_tables import median, medians, paired_vs, show
 from pfcourse.filter import ParticleFilter
 from pfcourse.kalman import kalman_filter
 from pfcourse.landmarks.scenario import quadrant_scenario, simulate
@@ -147,9 +147,9 @@ glue_values("th_", rmse_resampling_low=resampling.min(), rmse_resampling_high=re
 # the prose: theta = 1 has the smallest median RMSE and the largest mean ESS, and is measurably below 1/3
 assert th_medians.idxmin() == 1.0 and median(th_table, "threshold", "mean_ess_fraction").idxmax() == 1.0
 assert th_vs[1.0].verdict() == "A lower" and th_vs[0.1].verdict() == "A higher"
-summary = pd.concat([summarize(th_table, "threshold", m)["q50"].rename(name) for m, name in
-                     (("position_rmse", "median RMSE (m)"), ("mean_ess_fraction", "mean ESS / N"),
-                      ("resamples", "resamplings"), ("mean_nees", "median NEES"))], axis=1).reset_index()
+summary = medians(th_table, "threshold", {"position_rmse": "median RMSE (m)",
+                                          "mean_ess_fraction": "mean ESS / N", "resamples": "resamplings",
+                                          "mean_nees": "median NEES"})
 paired_table = pd.DataFrame([{"threshold": t, "RMSE / RMSE at 1/3": c.median, "low": c.low, "high": c.high,
                               "Wilcoxon p": c.pvalue, "verdict": c.verdict()} for t, c in th_vs.items()])
 EvidenceBlock(
@@ -297,9 +297,8 @@ EvidenceBlock(
            f"RMSE ratio multinomial / systematic: {scheme_rmse}; a ratio beyond {scheme_rmse.detectable:.2f} either "
            "way would have been detected.",
            f"NEES ratio multinomial / systematic: {scheme_nees}."],
-    tables=[("Medians over the runs", pd.concat([summarize(scheme_table, "scheme", m)["q50"].rename(name) for m, name in
-                                                 (("position_rmse", "median RMSE (m)"), ("mean_nees", "median NEES"),
-                                                  ("mean_ess_fraction", "mean ESS / N"))], axis=1).reset_index(),
+    tables=[("Medians over the runs", medians(scheme_table, "scheme", {
+                "position_rmse": "median RMSE (m)", "mean_nees": "median NEES", "mean_ess_fraction": "mean ESS / N"}),
              {"median RMSE (m)": ".3f", "median NEES": ".2f", "mean ESS / N": ".1%"})],
 )
 

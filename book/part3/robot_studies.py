@@ -72,7 +72,7 @@ from pfcourse.experiments.study import summarize
 from pfcourse.figures.report import EvidenceBlock, glue_values
 from pfcourse.figures.static_panel import format_value
 from pfcourse.figures.study import summary_band, time_band
-from pfcourse.figures.study_tables import glue_summary, median, paired_vs
+from pfcourse.figures.study_tables import glue_summary, median, medians, paired_vs
 from pfcourse.figures.widgets import control_panel
 from pfcourse.style import COLORS, plain_log_axis, use_style
 
@@ -162,10 +162,9 @@ EvidenceBlock(
     "more particles help in measurable, shrinking steps; below 100 the filter is over-confident",
     notes=[f"{N_RUNS} runs per N on the same seeds (stored study robot_studies/n_particles). Ratios: median of the "
            "per-run RMSE ratios, 95 % percentile bootstrap interval, Wilcoxon's p (pfcourse.evidence.paired)."],
-    tables=[("Medians and 10-90 % of the runs", pd.concat(
-        [summarize(n_table, "n_particles", m)["q50"].rename(n) for m, n in
-         (("position_rmse", "RMSE (m)"), ("mean_nees", "NEES"), ("mean_position_sd", "filter's sd (m)"))],
-        axis=1).reset_index(), {"RMSE (m)": ".3f", "NEES": ".3g", "filter's sd (m)": ".3f"}),
+    tables=[("Medians over the runs", medians(n_table, "n_particles", {
+                "position_rmse": "RMSE (m)", "mean_nees": "NEES", "mean_position_sd": "filter's sd (m)"}),
+             {"RMSE (m)": ".3f", "NEES": ".3g", "filter's sd (m)": ".3f"}),
             ("Each N against the next, run by run (RMSE with the smaller N / with the larger)",
              pd.DataFrame([{"N": f"{a} / {b}", "ratio": c.median, "low": c.low, "high": c.high, "Wilcoxon p": c.pvalue}
                            for (a, b), c in n_steps_vs.items()]),
@@ -232,12 +231,11 @@ glue_values("q_ratio_0.5", **{"": q_vs[0.5].median, "_low": q_vs[0.5].low, "_hig
 
 
 def scale_tables(table, key, vs):
-    medians = pd.concat([summarize(table, key, m)["q50"].rename(n) for m, n in
-                         (("position_rmse", "RMSE (m)"), ("mean_nees", "NEES"), ("mean_position_sd", "filter's sd (m)"),
-                          ("estimate_jitter", "jitter (m/step)"))], axis=1).reset_index()
+    medians_ = medians(table, key, {"position_rmse": "RMSE (m)", "mean_nees": "NEES",
+                                     "mean_position_sd": "filter's sd (m)", "estimate_jitter": "jitter (m/step)"})
     paired = pd.DataFrame([{key: s, "RMSE / default": c.median, "low": c.low, "high": c.high, "Wilcoxon p": c.pvalue,
                             "detectable": c.detectable, "verdict": c.verdict()} for s, c in vs.items()])
-    return [("Medians over the runs", medians, {"RMSE (m)": ".3f", "NEES": ".3g", "filter's sd (m)": ".3f",
+    return [("Medians over the runs", medians_, {"RMSE (m)": ".3f", "NEES": ".3g", "filter's sd (m)": ".3f",
                                                 "jitter (m/step)": ".3f"}),
             ("Each scale against the default (2), run by run", paired,
              {"RMSE / default": ".2f", "low": ".2f", "high": ".2f", "Wilcoxon p": ".2g", "detectable": ".2f"})]

@@ -62,7 +62,7 @@ from pfcourse.experiments.robot_studies import N_RUNS
 from pfcourse.experiments.study import summarize
 from pfcourse.figures.report import EvidenceBlock, glue_values
 from pfcourse.figures.study import summary_band, time_band
-from pfcourse.figures.study_tables import median, paired_vs
+from pfcourse.figures.study_tables import median, medians, paired_vs
 from pfcourse.metrics import locked_on
 from pfcourse.style import COLORS, use_style
 
@@ -206,10 +206,9 @@ EvidenceBlock(
     "the error grows with the measurement period, and the filter knows it",
     notes=[f"{N_RUNS} runs of 200 s per period, same seeds (stored study robot_studies/dt_meas). Ratios: each "
            "period against 1 s, run by run (pfcourse.evidence.paired)."],
-    tables=[("Medians over the runs", pd.concat(
-        [summarize(dt_table, "dt_meas", m)["q50"].rename(n) for m, n in
-         (("position_rmse", "position RMSE (m)"), ("heading_rmse_deg", "heading RMSE (deg)"),
-          ("mean_position_sd", "filter's sd (m)"), ("mean_nees", "median NEES"))], axis=1).reset_index(),
+    tables=[("Medians over the runs", medians(dt_table, "dt_meas", {
+                "position_rmse": "position RMSE (m)", "heading_rmse_deg": "heading RMSE (deg)",
+                "mean_position_sd": "filter's sd (m)", "mean_nees": "median NEES"}),
              {"position RMSE (m)": ".3f", "heading RMSE (deg)": ".2f", "filter's sd (m)": ".3f", "median NEES": ".2f"}),
             ("Position RMSE against a measurement every second, run by run",
              pd.DataFrame([{"dt_meas (s)": d, "ratio": c.median, "low": c.low, "high": c.high, "Wilcoxon p": c.pvalue}

@@ -91,6 +91,7 @@ from pfcourse.exercises.checking import (  # noqa: F401
     _cloud_answers,
     _per_particle_answers,
     _settled,
+    _shaped,
 )
 from pfcourse.exercises.part1 import (  # noqa: F401
     APF_MISTAKES,
@@ -153,7 +154,6 @@ from pfcourse.exercises.part2 import (  # noqa: F401
     _RoomGrid,
     _named_mistake,
     _poses_near_reading,
-    _shaped,
     _wrap,
     _wrap,
     altimeter_log_likelihood,

@@ -39,6 +39,14 @@ def _answer(report: CheckReport, call: Callable, signature: str, what: str):
     return answer
 
 
+def _shaped(report: CheckReport, answer, shape: tuple[int, ...], what: str) -> bool:
+    """Whether ``answer`` has ``shape``; if not, report it, saying ``what`` to return instead."""
+    got = np.shape(answer)
+    if got != shape:
+        report.problems.append(f"the answer has shape {got}, not {shape}: return {what}")
+    return got == shape
+
+
 def _cloud_answers(report: CheckReport, calls: list[Callable], signature: str, what: str, n: int,
                    one: str) -> list[np.ndarray] | None:
     """The answers of ``calls`` (one per case), each of shape ``(n,)``; ``None`` after reporting, in one
@@ -49,11 +57,9 @@ def _cloud_answers(report: CheckReport, calls: list[Callable], signature: str, w
         answer = _answer(report, call, signature, what)
         if answer is None:
             return None
-        answer = np.asarray(answer, dtype=float)
-        if answer.shape != (n,):
-            report.problems.append(f"the answer has shape {answer.shape}, not ({n},): return one {one}")
+        if not _shaped(report, answer, (n,), f"one {one}"):
             return None
-        answers.append(answer)
+        answers.append(np.asarray(answer, dtype=float))
     return answers
 
 

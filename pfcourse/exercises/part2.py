@@ -8,7 +8,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy import stats
 
-from pfcourse.exercises.checking import CheckReport, _answer, _cloud_answers, _settled
+from pfcourse.exercises.checking import CheckReport, _answer, _cloud_answers, _settled, _shaped
 
 
 # ----------------------------------------------------------------------------- chapter 11
@@ -184,13 +184,9 @@ def check_altimeter_likelihood(fn: Callable, seed: int = 0) -> CheckReport:
     answer = _answer(report, lambda: fn(particles.copy(), y, ALTIMETER_HEIGHTS.copy(), ALTIMETER_DX, ALTIMETER_DY,
                                         ALTIMETER_RF), "fn(particles, y, heights, dx, dy, rf)",
                      "return one log-likelihood per particle")
-    if answer is None:
+    if answer is None or not _shaped(report, answer, (n,), "one log-likelihood per particle (a row of particles)"):
         return report
     answer = np.asarray(answer, dtype=float)
-    if answer.shape != (n,):
-        report.problems.append(f"the answer has shape {answer.shape}, not ({n},): return one log-likelihood per "
-                               "particle (a row of particles)")
-        return report
     exact = altimeter_log_likelihood(particles, y, ALTIMETER_HEIGHTS, ALTIMETER_DX, ALTIMETER_DY, ALTIMETER_RF)
     off = ~np.isfinite(exact)
 
@@ -510,28 +506,12 @@ def range_bearing_log_weights(x: np.ndarray, landmark: np.ndarray, z: np.ndarray
     return -0.5 * (quad + constant)
 
 
-def _shaped(report: CheckReport, answer, shape: tuple[int, ...], what: str) -> bool:
-    """Whether ``answer`` has ``shape``; if not, report it, saying ``what`` to return instead."""
-    got = np.shape(answer)
-    if got != shape:
-        report.problems.append(f"the answer has shape {got}, not {shape}: return {what}")
-    return got == shape
-
-
 def _named_mistake(report: CheckReport, answer: np.ndarray, reference: Callable, mistakes: Mapping[str, str],
                    rtol: float, what: str) -> CheckReport:
     """Pass when ``answer`` equals ``reference(None)`` to ``rtol``; else name the mistake of ``mistakes``
-    whose ``reference(mistake)`` it equals, or say in ``what`` which formula to check."""
-    def fits(mistake: str | None) -> bool:
-        return np.allclose(answer, reference(mistake), rtol=rtol, atol=1e-12)
-
-    if fits(None):
-        return report
-    for mistake, why in mistakes.items():
-        if fits(mistake):
-            report.problems.append(f"your function computes a known mistake: {why}")
-            return report
-    report.problems.append(what)
+    whose ``reference(mistake)`` it equals (:func:`_settled`), or say in ``what`` which formula to check."""
+    if not _settled(report, lambda m: np.allclose(answer, reference(m), rtol=rtol, atol=1e-12), mistakes):
+        report.problems.append(what)
     return report
 
 

@@ -7,7 +7,7 @@ from collections.abc import Callable
 import numpy as np
 from scipy.special import logsumexp
 
-from pfcourse.exercises.checking import CheckReport, _answer
+from pfcourse.exercises.checking import CheckReport, _answer, _shaped
 
 
 # ---------------------------------------------------------------- chapter 22: the likelihood estimator
@@ -168,13 +168,9 @@ def check_backward_weights(fn: Callable, rtol: float = 1e-9) -> CheckReport:
     answer = _answer(report, lambda: fn(k, particles.copy(), weights.copy(), smoothed_next.copy(), log_transition),
                      "fn(k, particles, weights, smoothed_next, log_transition)",
                      "compute the smoothed weights and return them, one per particle")
-    if answer is None:
+    if answer is None or not _shaped(report, answer, (BACKWARD_N,), "one smoothed weight per particle of step k"):
         return report
     answer = np.asarray(answer, dtype=float)
-    if answer.shape != (BACKWARD_N,):
-        report.problems.append(f"the answer has shape {answer.shape}, not ({BACKWARD_N},): return one smoothed "
-                               "weight per particle of step k")
-        return report
     if not np.all(np.isfinite(answer)) or np.any(answer < 0):
         report.problems.append("some weights are negative, NaN or infinite: compute them in the log domain "
                                "(logsumexp) and exponentiate at the end")

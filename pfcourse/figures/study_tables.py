@@ -4,6 +4,7 @@ A study table (:func:`pfcourse.experiments.study.run_study`) has one row per run
 each run ``r`` on the same seed in every setting (common random numbers).  For a metric ``m``
 and a column ``by`` of settings:
 
+* :func:`medians` tabulates the medians of several metrics per setting;
 * :func:`show` prints, per setting, the median and the 10-90 % band of ``m`` over the runs
   and the number of failed runs;
 * :func:`paired_vs` compares every setting with a reference setting *run by run*: the median
@@ -33,6 +34,13 @@ def show(table: pd.DataFrame, by, metrics: dict[str, str], digits: int = 3) -> N
     out = pd.concat(parts, axis=1)
     out["failed"] = summarize(table, by, name)["n_failed"]
     print(out.to_string())
+
+
+def medians(table: pd.DataFrame, by, metrics: dict[str, str]) -> pd.DataFrame:
+    """The median over the runs of each metric per setting, one row per setting, the columns named
+    by ``metrics`` (metric -> label): the table an evidence block shows."""
+    return pd.concat([summarize(table, by, m)["q50"].rename(label) for m, label in metrics.items()],
+                     axis=1).reset_index()
 
 
 def median(table: pd.DataFrame, by, metric: str) -> pd.Series:
