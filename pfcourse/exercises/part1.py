@@ -8,7 +8,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.special import logsumexp
 
-from pfcourse.exercises.checking import CheckReport, _answer, _per_particle_answers
+from pfcourse.exercises.checking import CheckReport, _answer, _per_particle_answers, _settled, _shaped
 
 
 _VARIANCE_MARGIN = 1.5  # a resampler adding more than 1.5 x multinomial's offspring variance is named
@@ -676,16 +676,12 @@ def check_apf_second_stage(fn: Callable, n: int = 12, seed: int = 0) -> CheckRep
                      "fn(log_lik, log_pred, ancestors)", "return the normalised log-weights, shape (N,)")
     if answer is None:
         return report
+    if not _shaped(report, answer, (n,), "one log-weight per particle"):
+        return report
     got = np.asarray(answer, dtype=float)
-    if got.shape != (n,):
-        report.problems.append(f"the answer has shape {got.shape}: return one log-weight per particle, shape ({n},)")
+    if _settled(report, lambda mistake: np.allclose(got, apf_second_stage(log_lik, log_pred, ancestors, mistake),
+                                                    atol=1e-10), APF_MISTAKES):
         return report
-    if np.allclose(got, apf_second_stage(log_lik, log_pred, ancestors), atol=1e-10):
-        return report
-    for mistake, why in APF_MISTAKES.items():
-        if np.allclose(got, apf_second_stage(log_lik, log_pred, ancestors, mistake), atol=1e-10):
-            report.problems.append(f"your weights compute a known mistake: {why}")
-            return report
     report.problems.append("the log-weights differ from log p(z_k | x_k^i) - log p^(z_k | x_(k-1)^(a_i)), normalised: "
                            "check each term")
     return report
