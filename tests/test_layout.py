@@ -197,7 +197,7 @@ def test_every_stored_study_is_registered():
     """``python3 tasks.py study NAME`` runs a registered Study; ``tools/studies/`` keeps only the PMMH chains
     (a chain is one dependent sequence, not independent seeded runs: see tools/studies/pmmh.py), and no
     test loads a study script through ``sys.path``."""
-    assert sorted(p.name for p in (ROOT / "tools" / "studies").glob("*.py")) == ["global_localization_traces.py", "pmmh.py"]
+    assert sorted(p.name for p in (ROOT / "tools" / "studies").glob("*.py")) == ["pmmh.py"]
     for test in sorted((ROOT / "tests").glob("test_*.py")):
         source = test.read_text()
         for node in ast.walk(ast.parse(source)):

@@ -50,7 +50,6 @@ LOCKON = [("bootstrap", 300), ("bootstrap", 1000), ("bootstrap", 2000), ("bootst
           ("tempered", 300), ("tempered", 1000), ("tempered", 2000)]
 KIDNAP = [("bootstrap", 2000), ("mixture", 2000), ("augmented", 2000), ("kld", 2000), ("kld_mixture", 2000),
           ("tempered", 2000)]
-TRACE = [("kld", 30000), ("kld_mixture", 2000)]
 #: The stored tables' columns, in order.
 COLUMNS = {
     "anatomy": ("seed", "n", "nearest_m", "consistent_1", "expected_1", "ess_1", "consistent_3"),

@@ -248,6 +248,8 @@ STUDIES: dict[str, Study] = {study.name: study for study in [
           ("lockon", global_localization.lockon_row, global_localization.LOCKON,
            {"sample": 4, "cheap": lambda t: (t["n"] <= 10000) | (t["method"] != "bootstrap")}),  # 30 000: seconds
           ("kidnap", global_localization.kidnap_row, global_localization.KIDNAP, {"sample": 3})]),
+    _mcl_study("modes", global_localization.mode_run, {"method": list(global_localization.MODES)},
+               arrays=("mass_near_truth", "ess_fraction"), sample=2),
     _mcl_study("ekf_vs_pf", global_localization.ekf_row, {"setting": list(global_localization.EKF_SETTINGS)},
                volatile=("pf_seconds", "ekf_seconds"), fields={"ekf_settings": global_localization.EKF_SETTINGS}),
     Study(name="terrain_remedies", row=terrain_remedies.row, grid={"setting": terrain_remedies.STORED_SETTINGS},
