@@ -13,6 +13,7 @@ and every ``N`` sees the same simulations and starts from the same filter seed).
   (``+inf`` when the cloud's covariance is singular);
 * ``seconds_per_step``: wall time of the run over ``K`` (volatile: not re-computed by tests).
 
+The six filters are the named configurations :data:`FILTERS` (:mod:`pfcourse.filter_config`).
 Row ``method="kalman"`` (``N = 0``) holds the Kalman filter's own NEES.  The stored table lists,
 for each scenario and seed, the Kalman row and then every method and ``N``.
 """
@@ -32,6 +33,10 @@ from pfcourse.proposals import FullyAdaptedAuxiliary, LinearGaussianOptimal, Opt
 from pfcourse.landmarks.rao_blackwell import RaoBlackwellModel, RaoBlackwellProposal
 from pfcourse.landmarks.scenario import LandmarkScenario, circle_scenario, quadrant_scenario, simulate
 from pfcourse.seeding import study_filter_seed
+
+SCENARIOS = {"quadrant": quadrant_scenario, "circle": circle_scenario}
+THRESHOLD = 1 / 3  # the lab's resampling threshold, as in the SIR chapter
+
 
 def _sir(scenario: LandmarkScenario, n_particles: int, optimal: bool = False) -> ParticleFilter:
     return ParticleFilter(scenario.model(), n_particles, threshold=THRESHOLD,
@@ -66,8 +71,6 @@ FILTERS: dict[str, FilterConfig] = configurations(
 )
 #: name -> label (the chapters' legends and tables)
 METHODS: dict[str, str] = labels(FILTERS)
-SCENARIOS = {"quadrant": quadrant_scenario, "circle": circle_scenario}
-THRESHOLD = 1 / 3  # the lab's resampling threshold, as in the SIR chapter
 #: The stored study (``rao_blackwell`` in :mod:`pfcourse.experiments.registry`): N per scenario, seeds 0-99.
 N_VALUES = {"quadrant": [30, 100, 300, 1000, 3000], "circle": [100, 1000]}
 N_STEPS = 50  # both scenarios' ``n_samples``: columns nees_00 .. nees_49

@@ -55,7 +55,8 @@ until their number exceeds the bound
 ``1 - delta`` the Kullback-Leibler divergence between the sample-based and the true binned
 posterior is below ``eps``.  The number of particles follows the spread of the cloud.
 
-:func:`run_method` filters one simulation with one of these methods; the study runs (a whole
+:func:`run_method` filters one simulation with one of these methods, the named configurations
+:data:`FILTERS` (:mod:`pfcourse.filter_config`); the study runs (a whole
 seeded experiment and its metrics, the lock-on window, the wrong-but-confident threshold) are
 in :mod:`pfcourse.experiments.global_localization`.
 """
