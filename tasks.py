@@ -208,7 +208,8 @@ def knife_edge(args: list[str]) -> None:
 
 def study(args: list[str]) -> None:
     """Run the registered study NAME (pfcourse.experiments.registry; stored under book/data/) in the
-    pinned environment, or, for a study not yet registered, tools/studies/NAME.py."""
+    pinned environment, or `pmmh`, Part V's PMMH chains (tools/studies/pmmh.py: a chain is not a set
+    of independent runs, so it is the one stored computation that is not a registered study)."""
     if not args:
         raise SystemExit("usage: python3 tasks.py study NAME [ARGS...] (the registered studies: "
                          "pfcourse.experiments.registry.STUDIES)")

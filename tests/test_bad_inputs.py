@@ -778,6 +778,18 @@ row("fixed_lag_means negative lag", lambda: (lambda _, f, p, w: f(p, w, np.zeros
     ParameterError, "lag")
 
 
+
+def _configs():
+    from pfcourse.filter_config import FilterConfig, configurations, lookup
+    return FilterConfig, configurations, lookup
+
+
+row("FilterConfig without a callable build", lambda: _configs()[0]("a", "A", None), ParameterError, "callable build")
+row("FilterConfig n_particles = 0", lambda: _configs()[0]("a", "A", dict, 0), ParameterError, "n_particles")
+row("filter configurations named twice",
+    lambda: _configs()[1](_configs()[0]("a", "A", dict), _configs()[0]("a", "B", dict)), ParameterError, "named twice")
+row("unknown filter configuration", lambda: _configs()[2]({}, "sir"), ParameterError, "unknown filter configuration")
+
 @pytest.mark.parametrize("label, call, error, fragment", ROWS, ids=[r[0] for r in ROWS])
 def test_bad_input(label, call, error, fragment):
     if error is None:

@@ -148,6 +148,8 @@ CORE_HOMES = {
     "ProgressiveCorrection": "proposals",
     "Roughening": "jitter",
     "RegularisedJitter": "jitter",
+    "FilterConfig": "filter_config",
+    "configurations": "filter_config",
 }
 
 
@@ -161,3 +163,44 @@ def top_level_definitions(path: Path) -> set[str]:
 def test_a_generic_algorithm_lives_in_its_core_module_only(name):
     homes = [module_name(path) for path in MODULES if name in top_level_definitions(path)]
     assert homes == [f"pfcourse.{CORE_HOMES[name]}"], homes
+
+
+ROOT = PACKAGE.parent
+#: The registries of named filter configurations (README, "Layout"): one per scenario of a comparison.
+FILTER_REGISTRIES = ("pfcourse.experiments.rb_study", "pfcourse.experiments.terrain_remedies", "pfcourse.robot.mcl",
+                     "pfcourse.experiments.maprobot")
+
+
+@pytest.mark.parametrize("module", FILTER_REGISTRIES)
+def test_a_scenario_names_its_filters_in_one_registry(module):
+    """``FILTERS``: ``{name: FilterConfig}`` (pfcourse.filter_config), each filter built by its entry."""
+    import importlib
+
+    from pfcourse.filter_config import FilterConfig
+
+    filters = importlib.import_module(module).FILTERS
+    assert filters and all(isinstance(c, FilterConfig) and c.name == name for name, c in filters.items())
+
+
+def test_no_string_dispatch_factory():
+    """No ``make_filter`` (the factories that dispatched on a name with an if-chain) in the package or the
+    chapters: a filter is looked up by name in its registry (``FILTERS[name].build(...)``)."""
+    sources = [*MODULES, *sorted((ROOT / "book").rglob("*.py"))]
+    offenders = [str(path.relative_to(ROOT)) for path in sources
+                 if any(isinstance(node, ast.Name) and node.id == "make_filter" or
+                        isinstance(node, (ast.FunctionDef, ast.alias)) and getattr(node, "name", None) == "make_filter"
+                        for node in ast.walk(ast.parse(path.read_text())))]
+    assert not offenders, offenders
+
+
+def test_every_stored_study_is_registered():
+    """``python3 tasks.py study NAME`` runs a registered Study; ``tools/studies/`` keeps only the PMMH chains
+    (a chain is one dependent sequence, not independent seeded runs: see tools/studies/pmmh.py), and no
+    test loads a study script through ``sys.path``."""
+    assert sorted(p.name for p in (ROOT / "tools" / "studies").glob("*.py")) == ["pmmh.py"]
+    for test in sorted((ROOT / "tests").glob("test_*.py")):
+        source = test.read_text()
+        for node in ast.walk(ast.parse(source)):
+            if (isinstance(node, ast.Call) and isinstance(node.func, ast.Attribute)
+                    and ast.unparse(node.func.value) == "sys.path"):
+                assert "studies" not in ast.get_source_segment(source, node), test.name

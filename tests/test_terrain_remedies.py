@@ -66,3 +66,24 @@ def test_progressive_correction_targets_the_posterior():
     # posterior sd 0.0995; the regularisation inflates it by a factor sqrt(1 + h^2) ~ 1.0007 per stage
     assert abs(np.mean(means) - m) < 4 * np.std(means) / np.sqrt(20) + 1e-3
     assert np.mean(sds) == pytest.approx(np.sqrt(v), rel=0.05)
+
+
+def test_the_fresh_flight_studies_use_flights_no_other_study_used_and_record_their_criterion():
+    """The pre-registered studies (terrain_remedies.FRESH_FLIGHTS) run on flights of their own; their
+    stored provenance names the criterion decided before the flights were run."""
+    import json
+
+    import pandas as pd
+
+    from pfcourse.experiments.registry import STUDIES
+    from pfcourse.experiments.store import DATA
+    from pfcourse.experiments.terrain_remedies import FILTERS, FRESH_FLIGHTS
+
+    used = {r for name in ("terrain_remedies", "terrain_studies") for r in pd.read_csv(DATA / f"{name}.csv")["flight"]}
+    seen: set[int] = set()
+    for name, fresh in FRESH_FLIGHTS.items():
+        flights = set(STUDIES[name].layout()["seed"])
+        assert flights == set(fresh.flights) and not flights & used and not flights & seen, name
+        seen |= flights
+        assert json.loads((DATA / f"{name}.json").read_text())["criterion"] == fresh.criterion
+        assert set(fresh.settings.values()) <= set(FILTERS)

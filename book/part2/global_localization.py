@@ -54,6 +54,7 @@ from pfcourse.angles import wrap_angle
 from pfcourse.diagnostics import chi2_band
 from pfcourse.exercises import check_pose_density
 from pfcourse.experiments.global_localization import CONFIDENT_QUANTILE, LOCK_WINDOW
+from pfcourse.experiments.registry import STUDIES
 from pfcourse.figures.report import EvidenceBlock, glue_values
 from pfcourse.filter import ParticleFilter
 from pfcourse.metrics import position_error
@@ -66,9 +67,9 @@ from pfcourse.style import COLORS, use_style
 use_style()
 DATA = Path("../data/global_localization")
 prov = json.loads((DATA / "provenance.json").read_text())
-anatomy, modes, lockon, kid, ekf, kld_amcl, tracking = (
-    pd.read_csv(DATA / f"{name}.csv") for name in ("anatomy", "modes", "lockon", "kidnap", "ekf_vs_pf", "kld_amcl",
-                                                   "tracking_cost"))
+anatomy, lockon, kid, ekf, kld_amcl, tracking = (
+    pd.read_csv(DATA / f"{name}.csv") for name in ("anatomy", "lockon", "kidnap", "ekf_vs_pf", "kld_amcl", "tracking_cost"))
+modes = STUDIES["global_localization/modes"].load()  # per run: the mass near the truth at every step
 N_RUNS = int(lockon.groupby(["method", "n"]).size().min())
 glue_values(n_runs=N_RUNS, lock_window=LOCK_WINDOW)
 
@@ -101,8 +102,8 @@ tab = anatomy.groupby("n").agg(nearest_m=("nearest_m", "median"), expected_1=("e
                                consistent_1=("consistent_1", "mean"), ess_1=("ess_1", "median"),
                                consistent_3=("consistent_3", "mean"),
                                runs_with_any_3=("consistent_3", lambda c: int(np.sum(c > 0)))).reset_index()
-at20 = modes[modes["step"] == 20]
-near = {m: at20[at20["method"] == m].sort_values("seed")["mass_near_truth"].values > 0.5 for m in ("bootstrap", "mixture")}
+near = {m: np.array([mass[20] for mass in modes[modes["method"] == m].sort_values("seed")["mass_near_truth"]]) > 0.5
+        for m in ("bootstrap", "mixture")}
 near_test = evidence.paired_rates(near["mixture"], near["bootstrap"])
 row2k = tab[tab["n"] == 2000].iloc[0]
 glue_values(anatomy_consistent_2000=row2k["consistent_1"], anatomy_expected_2000=row2k["expected_1"],

@@ -389,9 +389,9 @@ drive = study.simulate(GLOBAL_SEED, study.GLOBAL_STEPS)
 t = np.arange(study.GLOBAL_STEPS) * study.DT
 fig, ax = plt.subplots(figsize=(8, 3.4))
 for method, color in [("bootstrap", COLORS["estimate"]), ("injection", COLORS["kalman"])]:
-    res = study.run_filter(drive, GLOBAL_SEED, study.GLOBAL_N, inject=study.METHODS[method])
+    res = study.run_filter(drive, GLOBAL_SEED, study.GLOBAL_N, method)
     ax.semilogy(t, np.maximum(position_error(drive.truth, res.mean), 1e-2), color=color,
-                label="bootstrap" if method == "bootstrap" else f"injection, ε = {study.INJECT}")
+                label=study.FILTERS[method].label)
 ax.axhline(1.0, color=COLORS["unseen"], ls="--", label="locked-on tolerance (1 m)")
 ax.set_xlabel("time t (s)")
 ax.set_ylabel("position error (m)")

@@ -47,7 +47,7 @@ from scipy import stats
 from pfcourse import evidence
 from pfcourse.exercises import check_regularised_jitter
 from pfcourse.experiments.store import load
-from pfcourse.experiments.terrain_remedies import SETTINGS, make_filter
+from pfcourse.experiments.terrain_remedies import FILTERS
 from pfcourse.figures.report import EvidenceBlock, glue_values
 from pfcourse.jitter import RegularisedJitter, optimal_bandwidth
 from pfcourse.seeding import data_rng, filter_rng
@@ -203,7 +203,7 @@ def regularised_move(particles, scale, rng, angle=3):
 
 
 flight = simulate(scenario, terrain, data_rng(0, 0))
-pf, _ = make_filter("bootstrap N=3000", scenario, terrain)
+pf = FILTERS["bootstrap N=3000"].build(scenario, terrain)
 cloud = pf.run(flight.measurements[:6], rng=filter_rng(0, 0), store_particles=True)
 resampled = cloud.particles[-1][np.random.default_rng(5).choice(3000, 3000, p=cloud.weights[-1])]
 ours = regularised_move(resampled, 0.2, np.random.default_rng(7))
@@ -235,7 +235,7 @@ glue_values("terrain_move_", tolerance=TOLERANCE, sd_x=float(np.std(ours[:, 0] -
 # %% tags=["remove-input"] jupyter={"source_hidden": true}
 ref_cost = 30000 * 80
 table = []
-for name in [s for s in SETTINGS if s in runs.columns]:
+for name in [s for s in FILTERS if s in runs.columns]:
     lost = runs[name].dropna().astype(bool)
     common = lost.index.intersection(base.index)
     versus = evidence.paired_rates(lost[common], base[common])  # exact McNemar on the same flights
@@ -252,7 +252,7 @@ for name in [s for s in SETTINGS if s in runs.columns]:
                   "McNemar p": versus.pvalue,
                   "median final error, converged (m)": final.loc[~lost, name].median(),
                   "Wilcoxon p (both converged)": p_w,
-                  "cost vs bootstrap N=30000": SETTINGS[name][0] * evals / ref_cost,
+                  "cost vs bootstrap N=30000": FILTERS[name].n_particles * evals / ref_cost,
                   "median s/flight": data.loc[data.setting == name, "seconds"].median()})
 table = pd.DataFrame(table).set_index("setting")
 affordable = table[table["cost vs bootstrap N=30000"] <= 1.0 + 1e-9]
@@ -363,7 +363,7 @@ plt.show()
 # A filter chosen as the best of many settings on the same $100$ flights looks better than it
 # is: among a dozen settings, one is likely to be lucky on those flights. The choice was
 # therefore put to a test decided before it ran and committed with its criterion before its
-# data existed (`tools/studies/terrain_confirmation.py`): the regularised filter with
+# data existed (the registered study `terrain_confirmation`): the regularised filter with
 # **stratified** resampling, the setting that lost the fewest of flights $0$ to $99$ in the
 # report's studies of {doc}`terrain`, flies the fresh flights $100$ to $199$; it passes if it
 # loses **fewer than $5$ of the $100$**. The regularised filter with multinomial resampling and
@@ -406,7 +406,7 @@ EvidenceBlock(
     notes=[f"Criterion, decided in advance: {confirm_meta['criterion']}: "
            f"{'met' if cand_rate.successes < 5 else 'not met'} ({cand_rate.successes} lost)."]
           + notes_c + [f"candidate vs multinomial: {cand_vs_mult}",
-                       "Cost-matched test (tools/studies/terrain_cost_matched.py, flights 200-299): the same filter "
+                       "Cost-matched test (the registered study terrain_cost_matched, flights 200-299): the same filter "
                        "with N = 20 000, which takes the bootstrap filter's wall time:"] + notes_m
           + [f"The bootstrap filter with N = 30 000 loses {lost_m[BOOT].sum()} of flights 200-299 and "
              f"{lost_c[BOOT].sum()} of flights 100-199: Fisher's exact p = {harder.pvalue:.3f}, so the second set is "
@@ -651,7 +651,7 @@ for flight_id, g in reference.groupby("flight"):
     m_half = g.loc[half, ["mean_x", "mean_y"]].to_numpy()
     ref_mean = m_big.mean(axis=0)
     sim = simulate(scenario, terrain, data_rng(0, flight_id))
-    pf, _ = make_filter("regularised N=30000", scenario, terrain)
+    pf = FILTERS["regularised N=30000"].build(scenario, terrain)
     estimate = pf.run(sim.measurements, rng=filter_rng(0, flight_id)).mean[-1, :2]
     rows.append({"flight": flight_id, "posterior sd (m)": sigma,
                  "seeds apart, N=5e5 (sd)": np.linalg.norm(m_half[0] - m_half[1]) / sigma,

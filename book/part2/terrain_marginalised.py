@@ -104,7 +104,7 @@ from pfcourse.terrain.map import load_jacksboro
 from pfcourse.terrain.marginalised import marginalised_filter
 from pfcourse.terrain.point_mass import PointMassFilter
 from pfcourse.terrain.scenario import AircraftScenario, simulate
-from pfcourse.experiments.terrain_remedies import make_filter
+from pfcourse.experiments.terrain_remedies import FILTERS
 
 use_style()
 terrain = load_jacksboro()
@@ -349,7 +349,7 @@ dist = {f"marginalised N={n}": np.hypot(*(mp[n] - gmean[fine]).T) for n in SIZES
 for name in ("bootstrap N=3000", "regularised N=3000"):  # their final means are not stored: re-run (same seeds)
     ends = []
     for r in flights:
-        pf, _ = make_filter(name, scenario, terrain)
+        pf = FILTERS[name].build(scenario, terrain)
         ends.append(pf.run(simulate(scenario, terrain, data_rng(0, r)).measurements, rng=filter_rng(0, r)).mean[-1, :2])
     ends = np.array(ends)
     same = np.allclose(np.hypot(*(ends - truth_end).T), final.loc[flights, name], rtol=1e-9)

@@ -7,11 +7,11 @@ one row (one seeded run of one setting) from public functions, so a
 study can tabulate hundreds of them and a test can re-compute any row alone.  Run ``r`` of
 every setting uses the seed ``r``: the same truths, landmarks and measurements for every
 method and ``N`` (common random numbers).  The tables ``anatomy``, ``lockon``, ``kidnap`` and
-``ekf_vs_pf`` (and ``kld_amcl``, ``tracking_cost``) are the registered studies ``global_localization/...`` of
-:mod:`pfcourse.experiments.registry`; ``modes`` (per-step rows) and ``kld_trace`` (quantiles
-over the runs) are computed by ``tools/studies/global_localization_traces.py``.  The stored
-tables were written with 10 significant digits (``%.10g``) by the study's first script; a
-re-run writes floats that round-trip exactly.
+``ekf_vs_pf``, ``modes`` (per-step arrays, :func:`mode_run`), ``kld_amcl`` and ``tracking_cost`` are the
+registered studies ``global_localization/...`` of :mod:`pfcourse.experiments.registry`.  The tables
+``anatomy``, ``lockon``, ``kidnap`` and ``ekf_vs_pf`` were written with 10 significant digits
+(``%.10g``) by the study's first script; a re-run writes floats that round-trip exactly (as
+``modes``, re-run when it became a registered study, is stored).
 """
 
 from __future__ import annotations
@@ -22,13 +22,13 @@ import numpy as np
 
 from scipy import stats
 
-from pfcourse.filter import ParticleFilter
 from pfcourse.diagnostics import nees
 from pfcourse.errors import DegenerateWeightsError
 from pfcourse.metrics import LOCK_WINDOW_S, heading_error, locked_from, position_error, position_spread
 from pfcourse.robot.scenario import ANGLE_INDICES, RobotModel, simulate_robot
 from pfcourse.experiments.robot import compare_filters
-from pfcourse.robot.mcl import KidnapRobotModel, MethodSettings, kidnap, kidnap_pose, run_method, sensor_mixture_proposal
+from pfcourse.filter_config import lookup
+from pfcourse.robot.mcl import FILTERS, MethodSettings, kidnap, kidnap_pose, run_method
 
 #: Settings of the EKF-beside-PF study (the Part III settings the text compares).
 EKF_SETTINGS = {
@@ -50,7 +50,6 @@ LOCKON = [("bootstrap", 300), ("bootstrap", 1000), ("bootstrap", 2000), ("bootst
           ("tempered", 300), ("tempered", 1000), ("tempered", 2000)]
 KIDNAP = [("bootstrap", 2000), ("mixture", 2000), ("augmented", 2000), ("kld", 2000), ("kld_mixture", 2000),
           ("tempered", 2000)]
-TRACE = [("kld", 30000), ("kld_mixture", 2000)]
 #: The stored tables' columns, in order.
 COLUMNS = {
     "anatomy": ("seed", "n", "nearest_m", "consistent_1", "expected_1", "ess_1", "consistent_3"),
@@ -190,27 +189,24 @@ def anatomy_row(seed: int, n_particles: int, within: float = 2.0) -> dict:
     return out
 
 
-def mode_rows(seed: int, method: str, n_particles: int = 2000, n_steps: int = 21,
-              radius: float = 2.0, heading: float = np.deg2rad(10.0)) -> list[dict]:
-    """Per step ``k``: the posterior weight within ``radius`` m and ``heading`` rad of the truth, and ESS / N.
+def mode_run(seed: int, method: str, n_particles: int = 2000, n_steps: int = 21,
+             radius: float = 2.0, heading: float = np.deg2rad(10.0)) -> dict:
+    """Per step ``k`` (arrays of ``n_steps``): ``mass_near_truth``, the posterior weight within ``radius`` m
+    and ``heading`` rad of the truth, and ``ess_fraction``, ESS / N.
 
-    ``method`` is ``"bootstrap"`` or ``"mixture"`` (defaults of :class:`MethodSettings`).
+    ``method`` is a method of :data:`pfcourse.robot.mcl.FILTERS` (the study: ``"bootstrap"`` and
+    ``"mixture"``, with the defaults of :class:`MethodSettings`).
     """
     sim = simulate_robot(None, seed, n_steps=n_steps)
     base = RobotModel.for_simulation(sim, initial="uniform")
-    if method == "bootstrap":
-        pf = ParticleFilter(base, n_particles)
-    else:
-        model = KidnapRobotModel(base, MethodSettings().teleport)
-        pf = ParticleFilter(model, n_particles, proposal=sensor_mixture_proposal(model, MethodSettings().share))
+    pf = lookup(FILTERS, method, "method").build(base, n_particles, MethodSettings(), True)
     res = pf.run(sim.measurements, seed, store_particles=True)
-    rows = []
+    mass = np.empty(n_steps)
     for k in range(n_steps):
         near = (position_error(sim.truth[k], res.particles[k]) < radius) & (
             heading_error(sim.truth[k], res.particles[k]) < heading)
-        rows.append({"seed": seed, "method": method, "step": k, "mass_near_truth": float(res.weights[k][near].sum()),
-                     "ess_fraction": float(res.ess[k] / n_particles)})
-    return rows
+        mass[k] = float(res.weights[k][near].sum())
+    return {"mass_near_truth": mass, "ess_fraction": res.ess / n_particles}
 
 
 def lockon_row(seed: int, method: str, n_particles: int, n_steps: int = 60) -> dict:
@@ -250,6 +246,9 @@ TRACKING = [("bootstrap", 2000), ("mixture", 2000)]
 COLUMNS["kld_amcl"] = ("seed", "setting", "locked_on", "lock_time", "final_error", "final_heading_error", "final_sd",
                        "final_nees", "wrong_confident", "particle_steps", "mean_n", "seconds", "lost")
 COLUMNS["tracking_cost"] = ("seed", "method", "n", "ess_fraction", "position_rmse", "heading_rmse_deg")
+COLUMNS["modes"] = ("method", "seed", "mass_near_truth", "ess_fraction")
+#: The methods of the per-step study ``modes`` (:func:`mode_run`, ``N = 2000``, steps 0-20).
+MODES = ("bootstrap", "mixture")
 
 
 def kld_amcl_row(seed: int, setting: str, n_steps: int = 60) -> dict:
@@ -264,15 +263,12 @@ def tracking_row(seed: int, method: str, n_particles: int, n_steps: int = 50, bu
 
     ``ess_fraction``: mean of ESS_k / N over the measurement steps ``k >= burn_in`` (after weighting,
     before resampling); ``position_rmse`` (m) and ``heading_rmse_deg`` over the same steps.  ``method``
-    is ``"bootstrap"`` or ``"mixture"`` (the kidnap model with :class:`MethodSettings`' teleport and share).
+    is a method of :data:`pfcourse.robot.mcl.FILTERS` (the study: ``"bootstrap"`` and ``"mixture"``, the kidnap
+    model with :class:`MethodSettings`' teleport and share).
     """
     sim = simulate_robot(None, seed, n_steps=n_steps)
     base = RobotModel.for_simulation(sim, initial="tracking")
-    if method == "bootstrap":
-        pf = ParticleFilter(base, n_particles)
-    else:
-        model = KidnapRobotModel(base, MethodSettings().teleport, global_start=False)
-        pf = ParticleFilter(model, n_particles, proposal=sensor_mixture_proposal(model, MethodSettings().share))
+    pf = lookup(FILTERS, method, "method").build(base, n_particles, MethodSettings(), False)
     res = pf.run(sim.measurements, seed)
     steps = np.arange(burn_in, n_steps)
     steps = steps[sim.has_measurement[steps]]

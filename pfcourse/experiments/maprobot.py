@@ -11,11 +11,12 @@ kidnapping from :func:`pfcourse.seeding.kidnap_rng`.  The filters resample at ev
 from __future__ import annotations
 
 from dataclasses import dataclass
-from functools import lru_cache
+from functools import lru_cache, partial
 
 import numpy as np
 
 from pfcourse.filter import ParticleFilter
+from pfcourse.filter_config import FilterConfig, configurations, lookup
 from pfcourse.sample_size import KLDSampling
 from pfcourse.maprobot.grid import ROUTE, OccupancyGrid, rooms_and_corridor
 from pfcourse.maprobot.likelihood_field import LikelihoodField
@@ -33,7 +34,6 @@ INJECT = 0.1  # the kidnap model's probability of being carried anywhere per ste
 GLOBAL_STEPS, GLOBAL_N = 200, 1000
 KIDNAP_STEPS, KIDNAP_STEP, KIDNAP_N = 240, 40, 1000
 TRACKING_STEPS, TRACKING_N = 160, 300
-METHODS = {"bootstrap": 0.0, "injection": INJECT}
 #: KLD-sampling with AMCL's defaults: at most 5000 and at least 100 particles, kld_err = 0.01,
 #: kld_z = 0.99 (delta = 0.01), bins of 0.5 m x 0.5 m x 10 degrees.
 AMCL_KLD = {"n_max": 5000, "n_min": 100, "epsilon": 0.01, "delta": 0.01, "bin_size": (0.5, 0.5, float(np.deg2rad(10.0)))}
@@ -83,16 +83,31 @@ def errors(truth: np.ndarray, mean: np.ndarray) -> tuple[np.ndarray, np.ndarray]
     return position_error(truth, mean), heading_error(truth, mean)
 
 
-def run_filter(run: MapRun, seed: int, n_particles: int, *, inject: float = 0.0, start: np.ndarray | None = None):
-    """The MCL filter (resampling every step) on ``run``: the engine's result."""
+def mcl_filter(run: MapRun, n_particles: int, *, inject: float = 0.0, start: np.ndarray | None = None) -> ParticleFilter:
+    """The MCL filter (resampling every step) of ``run``'s odometry, carried anywhere with probability ``inject``
+    per step; from ``start`` (tracking) or uniform in free space (``None``)."""
     model = MapRobotModel(book_map(), field(), run.drive.odometry, motion=MOTION, start=start, inject=inject)
-    return ParticleFilter(model, n_particles, threshold=1.0).run(run.scans, rng=filter_rng(seed, 0))
+    return ParticleFilter(model, n_particles, threshold=1.0)
+
+
+#: The map robot's filters: ``build(run, n_particles, start=None) -> ParticleFilter``.
+FILTERS: dict[str, FilterConfig] = configurations(
+    FilterConfig("bootstrap", "bootstrap", mcl_filter),
+    FilterConfig("injection", f"injection, ε = {INJECT}", partial(mcl_filter, inject=INJECT)),
+)
+
+
+def run_filter(run: MapRun, seed: int, n_particles: int, method: str = "bootstrap", *,
+               start: np.ndarray | None = None):
+    """The filter ``method`` of :data:`FILTERS` on ``run``: the engine's result."""
+    pf = lookup(FILTERS, method, "method").build(run, n_particles, start=start)
+    return pf.run(run.scans, rng=filter_rng(seed, 0))
 
 
 def global_row(seed: int, method: str, n_particles: int = GLOBAL_N) -> dict:
-    """Global localization (uniform start) by ``method`` (:data:`METHODS`): locked on, final errors."""
+    """Global localization (uniform start) by ``method`` (:data:`FILTERS`): locked on, final errors."""
     run = simulate(seed, GLOBAL_STEPS)
-    pos, head = errors(run.truth, run_filter(run, seed, n_particles, inject=METHODS[method]).mean)
+    pos, head = errors(run.truth, run_filter(run, seed, n_particles, method).mean)
     return {"locked_on": bool(locked_on(pos, head, DT)), "locked_from_s": locked_from(pos, head) * DT,
             "final_position_error": float(pos[-1])}
 
@@ -101,7 +116,7 @@ def kidnap_row(seed: int, method: str, n_particles: int = KIDNAP_N) -> dict:
     """Tracking from the known start, the robot carried away at :data:`KIDNAP_STEP`: recovery time (s)
     from the kidnapping to the step from which the estimate stays locked (NaN if it never recovers)."""
     run = simulate(seed, KIDNAP_STEPS, kidnap_at=KIDNAP_STEP)
-    pos, head = errors(run.truth, run_filter(run, seed, n_particles, inject=METHODS[method], start=run.truth[0]).mean)
+    pos, head = errors(run.truth, run_filter(run, seed, n_particles, method, start=run.truth[0]).mean)
     start = locked_from(pos, head)
     recovered = bool(locked_on(pos, head, DT))
     return {"recovered": recovered, "recovery_s": (max(start, KIDNAP_STEP) - KIDNAP_STEP) * DT if recovered else np.nan,

@@ -13,6 +13,7 @@ and every ``N`` sees the same simulations and starts from the same filter seed).
   (``+inf`` when the cloud's covariance is singular);
 * ``seconds_per_step``: wall time of the run over ``K`` (volatile: not re-computed by tests).
 
+The six filters are the named configurations :data:`FILTERS` (:mod:`pfcourse.filter_config`).
 Row ``method="kalman"`` (``N = 0``) holds the Kalman filter's own NEES.  The stored table lists,
 for each scenario and seed, the Kalman row and then every method and ``N``.
 """
@@ -20,27 +21,56 @@ for each scenario and seed, the Kalman row and then every method and ``N``.
 from __future__ import annotations
 
 import time
+from functools import partial
+
 import numpy as np
 
 from pfcourse.diagnostics import nees
 from pfcourse.filter import ParticleFilter
+from pfcourse.filter_config import FilterConfig, configurations, labels, lookup
 from pfcourse.kalman import kalman_filter
 from pfcourse.proposals import FullyAdaptedAuxiliary, LinearGaussianOptimal, OptimalProposal
 from pfcourse.landmarks.rao_blackwell import RaoBlackwellModel, RaoBlackwellProposal
 from pfcourse.landmarks.scenario import LandmarkScenario, circle_scenario, quadrant_scenario, simulate
 from pfcourse.seeding import study_filter_seed
 
-#: Methods, in the order of the chapter: label, and whether the map is integrated out.
-METHODS: dict[str, str] = {
-    "sir": "SIR, bootstrap",
-    "sir_optimal": "SIR, optimal proposal",
-    "apf": "auxiliary PF (fully adapted)",
-    "rbpf_prior": "RBPF, prior proposal (FastSLAM 1.0)",
-    "rbpf_optimal": "RBPF, optimal proposal (FastSLAM 2.0)",
-    "rb_apf": "RBPF, auxiliary (fully adapted)",
-}
 SCENARIOS = {"quadrant": quadrant_scenario, "circle": circle_scenario}
 THRESHOLD = 1 / 3  # the lab's resampling threshold, as in the SIR chapter
+
+
+def _sir(scenario: LandmarkScenario, n_particles: int, optimal: bool = False) -> ParticleFilter:
+    return ParticleFilter(scenario.model(), n_particles, threshold=THRESHOLD,
+                          proposal=OptimalProposal() if optimal else None)
+
+
+def _apf(scenario: LandmarkScenario, n_particles: int) -> ParticleFilter:
+    return ParticleFilter(scenario.model(), n_particles, threshold=1.0,
+                          proposal=FullyAdaptedAuxiliary(LinearGaussianOptimal()))
+
+
+def _rbpf(scenario: LandmarkScenario, n_particles: int, optimal: bool) -> ParticleFilter:
+    return ParticleFilter(RaoBlackwellModel(scenario.model()), n_particles, threshold=THRESHOLD,
+                          proposal=RaoBlackwellProposal(optimal=optimal))
+
+
+def _rb_apf(scenario: LandmarkScenario, n_particles: int) -> ParticleFilter:
+    return ParticleFilter(RaoBlackwellModel(scenario.model()), n_particles, threshold=1.0,
+                          proposal=FullyAdaptedAuxiliary(RaoBlackwellProposal(optimal=True)))
+
+
+#: The six filters, in the order of the chapter: ``build(scenario, n_particles) -> ParticleFilter``
+#: (a filter on a :class:`RaoBlackwellModel` integrates the map out; :func:`run_config` returns its
+#: marginal over the full state).
+FILTERS: dict[str, FilterConfig] = configurations(
+    FilterConfig("sir", "SIR, bootstrap", _sir),
+    FilterConfig("sir_optimal", "SIR, optimal proposal", partial(_sir, optimal=True)),
+    FilterConfig("apf", "auxiliary PF (fully adapted)", _apf),
+    FilterConfig("rbpf_prior", "RBPF, prior proposal (FastSLAM 1.0)", partial(_rbpf, optimal=False)),
+    FilterConfig("rbpf_optimal", "RBPF, optimal proposal (FastSLAM 2.0)", partial(_rbpf, optimal=True)),
+    FilterConfig("rb_apf", "RBPF, auxiliary (fully adapted)", _rb_apf),
+)
+#: name -> label (the chapters' legends and tables)
+METHODS: dict[str, str] = labels(FILTERS)
 #: The stored study (``rao_blackwell`` in :mod:`pfcourse.experiments.registry`): N per scenario, seeds 0-99.
 N_VALUES = {"quadrant": [30, 100, 300, 1000, 3000], "circle": [100, 1000]}
 N_STEPS = 50  # both scenarios' ``n_samples``: columns nees_00 .. nees_49
@@ -48,27 +78,14 @@ COLUMNS = ("scenario", "method", "N", "seed", "landmark_error", "robot_error", "
            "seconds_per_step", *(f"nees_{k:02d}" for k in range(N_STEPS)))
 
 
-def make_filter(method: str, scenario: LandmarkScenario, n_particles: int):
-    """``(run(Z, seed) -> FilterResult of the state, first_stage_ess_list or None)`` for a method."""
-    model = scenario.model()
-    if method in ("sir", "sir_optimal"):
-        prop = OptimalProposal() if method == "sir_optimal" else None
-        pf = ParticleFilter(model, n_particles, threshold=THRESHOLD, proposal=prop)
-        return (lambda Z, s: pf.run(Z, s)), None
-    if method == "apf":
-        prop = FullyAdaptedAuxiliary(LinearGaussianOptimal())
-        pf = ParticleFilter(model, n_particles, threshold=1.0, proposal=prop)
-        return (lambda Z, s: pf.run(Z, s)), prop.first_stage_ess
-    rb = RaoBlackwellModel(model)
-    if method in ("rbpf_prior", "rbpf_optimal"):
-        prop = RaoBlackwellProposal(optimal=method == "rbpf_optimal")
-        pf = ParticleFilter(rb, n_particles, threshold=THRESHOLD, proposal=prop)
-        return (lambda Z, s: rb.marginal(pf.run(Z, s))), None
-    if method == "rb_apf":
-        prop = FullyAdaptedAuxiliary(RaoBlackwellProposal(optimal=True))
-        pf = ParticleFilter(rb, n_particles, threshold=1.0, proposal=prop)
-        return (lambda Z, s: rb.marginal(pf.run(Z, s))), prop.first_stage_ess
-    raise ValueError(f"unknown method {method!r}; choose one of {sorted(METHODS)}")
+def run_config(method: str, scenario: LandmarkScenario, n_particles: int, Z, seed) -> tuple:
+    """Run the filter ``method`` of :data:`FILTERS` on ``Z``: its result over the full state (the
+    marginal of a Rao-Blackwellised filter) and the first-stage ESS of an auxiliary filter (else ``None``)."""
+    pf = lookup(FILTERS, method).build(scenario, n_particles)
+    res = pf.run(Z, seed)
+    if isinstance(pf.model, RaoBlackwellModel):
+        res = pf.model.marginal(res)
+    return res, getattr(pf.proposal, "first_stage_ess", None)
 
 
 def row(seed: int, scenario: str, method: str, N: int) -> dict:
@@ -83,9 +100,8 @@ def row(seed: int, scenario: str, method: str, N: int) -> dict:
                     **{f"nees_{k:02d}": v for k, v in enumerate(nees(sim.truth, kf.mean, kf.cov))})
     measured = sim.seen.any(axis=1)
     nr = 2
-    run, first_stage = make_filter(method, sc, N)
     start = time.perf_counter()
-    res = run(sim.measurements, study_filter_seed(seed))
+    res, first_stage = run_config(method, sc, N, sim.measurements, study_filter_seed(seed))
     seconds = (time.perf_counter() - start) / len(sim.measurements)
     err = res.mean[-1] - kf.mean[-1]
     ess = np.array(first_stage) if first_stage is not None else res.ess[measured]

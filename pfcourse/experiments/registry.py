@@ -35,6 +35,7 @@ import numpy as np
 import pandas as pd
 
 from pfcourse.errors import ParameterError, StepError
+from pfcourse.filter_config import labels
 from pfcourse.experiments import association, global_localization
 from pfcourse.experiments import likelihood_studies as ls
 from pfcourse.experiments import (maprobot, rb_study, robot_studies, sir_fixes_study, smoothing_studies,
@@ -247,13 +248,15 @@ STUDIES: dict[str, Study] = {study.name: study for study in [
           ("lockon", global_localization.lockon_row, global_localization.LOCKON,
            {"sample": 4, "cheap": lambda t: (t["n"] <= 10000) | (t["method"] != "bootstrap")}),  # 30 000: seconds
           ("kidnap", global_localization.kidnap_row, global_localization.KIDNAP, {"sample": 3})]),
+    _mcl_study("modes", global_localization.mode_run, {"method": list(global_localization.MODES)},
+               arrays=("mass_near_truth", "ess_fraction"), sample=2),
     _mcl_study("ekf_vs_pf", global_localization.ekf_row, {"setting": list(global_localization.EKF_SETTINGS)},
                volatile=("pf_seconds", "ekf_seconds"), fields={"ekf_settings": global_localization.EKF_SETTINGS}),
     Study(name="terrain_remedies", row=terrain_remedies.row, grid={"setting": terrain_remedies.STORED_SETTINGS},
           n_runs=100, seeds="run", failures="raise", table="terrain_remedies.csv", provenance="terrain_remedies.json",
           columns=terrain_remedies.COLUMNS, seed_column="flight", cheap=lambda t: t["N"] <= 10000, sample=4,
           row_code="pfcourse/experiments/terrain_remedies.py (run_one)",
-          fields={"settings": terrain_remedies.SETTINGS,
+          fields={"settings": labels(terrain_remedies.FILTERS),
                   "seeds": "flight r: pfcourse.seeding.data_rng(0, r); filter: pfcourse.seeding.filter_rng(0, r)",
                   "divergence": "final horizontal error > 500 m or every particle lost"}),
     Study(name="terrain_reference", row=terrain_remedies.reference_row,
@@ -324,7 +327,7 @@ STUDIES: dict[str, Study] = {study.name: study for study in [
             fields={"seeds": "run s: drive and scans pfcourse.seeding.data_rng(s, 0); filter filter_rng(s, 0); "
                              "kidnapping kidnap_rng(s)", "dt": maprobot.DT, "inject": maprobot.INJECT})
       for name, row, grid, columns in [
-          ("global", maprobot.global_row, {"method": list(maprobot.METHODS), "n_particles": [maprobot.GLOBAL_N]},
+          ("global", maprobot.global_row, {"method": list(maprobot.FILTERS), "n_particles": [maprobot.GLOBAL_N]},
            ("method", "n_particles", "seed", "locked_on", "locked_from_s", "final_position_error")),
           ("kidnap", maprobot.kidnap_row, {"method": ["injection"], "n_particles": [maprobot.KIDNAP_N]},
            ("method", "n_particles", "seed", "recovered", "recovery_s", "tracked_before")),
@@ -355,6 +358,15 @@ STUDIES: dict[str, Study] = {study.name: study for study in [
           fields={"lags": smoothing_studies.LAGS, "scenario": "quadrant_scenario().with_(Qw=0.05**2 I6, Rv=0.5**2 I4)",
                   "seeds": f"run r: data pfcourse.seeding.data_rng({smoothing_studies.SEED}, r); filter and FFBSi "
                            f"draws pfcourse.seeding.filter_rng({smoothing_studies.SEED}, r)"}),
+    *(Study(name=name, row=partial(terrain_remedies.fresh_flight_row, study=name), grid={"setting": list(fresh.settings)},
+            n_runs=len(fresh.flights), seeds="run", base_seed=fresh.flights.start, failures="raise",
+            table=f"{name}.csv", provenance=f"{name}.json", columns=terrain_remedies.FRESH_COLUMNS, seed_column="flight",
+            sample=2, row_code="pfcourse/experiments/terrain_remedies.py (fresh_flight_row)",
+            fields={"flights": [fresh.flights.start, fresh.flights.stop - 1], "criterion": fresh.criterion,
+                    "settings": fresh.settings,
+                    "seeds": "flight r: pfcourse.seeding.data_rng(0, r); filter: pfcourse.seeding.filter_rng(0, r)",
+                    "divergence": "final horizontal error > 500 m or every particle lost"})
+      for name, fresh in terrain_remedies.FRESH_FLIGHTS.items()),
 ]}
 
 

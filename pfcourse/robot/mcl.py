@@ -55,7 +55,8 @@ until their number exceeds the bound
 ``1 - delta`` the Kullback-Leibler divergence between the sample-based and the true binned
 posterior is below ``eps``.  The number of particles follows the spread of the cloud.
 
-:func:`run_method` filters one simulation with one of these methods; the study runs (a whole
+:func:`run_method` filters one simulation with one of these methods, the named configurations
+:data:`FILTERS` (:mod:`pfcourse.filter_config`); the study runs (a whole
 seeded experiment and its metrics, the lock-on window, the wrong-but-confident threshold) are
 in :mod:`pfcourse.experiments.global_localization`.
 """
@@ -66,6 +67,7 @@ import math
 import time
 from collections.abc import Sequence
 from dataclasses import dataclass
+from functools import partial
 
 import numpy as np
 from scipy import stats
@@ -75,6 +77,7 @@ from pfcourse.angles import wrap_angle
 from pfcourse.checks import Array, check_probability
 from pfcourse.errors import ParameterError
 from pfcourse.filter import ParticleFilter
+from pfcourse.filter_config import FilterConfig, configurations, lookup
 from pfcourse.metrics import position_error
 from pfcourse.results import FilterResult
 from pfcourse.jitter import RegularisedJitter
@@ -346,9 +349,6 @@ def kidnap(sim: RobotSimulation, step: int, pose: Sequence[float]) -> RobotSimul
     return RobotSimulation(truth, sim.odometry_path, sim.controls, sim.odometry, z, sim.landmarks, sim.scenario)
 
 
-METHODS = ("bootstrap", "mixture", "augmented", "kld", "kld_mixture", "tempered")
-
-
 @dataclass(frozen=True)
 class MethodSettings:
     """Tuning of the remedies (defaults used by the chapter)."""
@@ -368,9 +368,54 @@ class MethodSettings:
     temper_kernel: float = 0.5
 
 
+def _bootstrap(base: RobotModel, n_particles: int, settings: MethodSettings, global_start: bool) -> ParticleFilter:
+    return ParticleFilter(base, n_particles)
+
+
+def _mixture(base: RobotModel, n_particles: int, settings: MethodSettings, global_start: bool) -> ParticleFilter:
+    model = KidnapRobotModel(base, settings.teleport, global_start=global_start)
+    return ParticleFilter(model, n_particles, proposal=sensor_mixture_proposal(model, settings.share, settings.spread))
+
+
+def _tempered(base: RobotModel, n_particles: int, settings: MethodSettings, global_start: bool) -> ParticleFilter:
+    pc = ProgressiveCorrection(n_tempered=settings.temper_readings, ess_fraction=settings.temper_ess,
+                               kernel=RegularisedJitter(settings.temper_kernel, ANGLE_INDICES))
+    return ParticleFilter(base, n_particles, threshold=1.0, proposal=pc)
+
+
+def _augmented(base: RobotModel, n_particles: int, settings: MethodSettings, global_start: bool) -> ParticleFilter:
+    aug = AugmentedMCL(base, alpha_slow=settings.alpha_slow, alpha_fast=settings.alpha_fast)
+    return ParticleFilter(base, n_particles, threshold=1.0, proposal=aug, jitter=aug)
+
+
+def _kld(base: RobotModel, n_particles: int, settings: MethodSettings, global_start: bool,
+         mixture: bool = False) -> ParticleFilter:
+    model, prop = base, None
+    if mixture:
+        model = KidnapRobotModel(base, settings.teleport, global_start=global_start)
+        prop = sensor_mixture_proposal(model, settings.kld_share, settings.spread)
+    policy = KLDSampling(settings.kld_bin_size, n_min=settings.kld_n_min, epsilon=settings.kld_epsilon,
+                         delta=settings.kld_delta, batch=100)
+    return ParticleFilter(model, n_particles, proposal=prop, sample_size=policy)
+
+
+#: The global-localization methods: ``build(base, n_particles, settings, global_start) -> ParticleFilter``
+#: (``base``: the robot's :class:`RobotModel`; ``settings``: :class:`MethodSettings`; ``n_particles``
+#: is ``n_max`` for KLD-sampling).
+FILTERS: dict[str, FilterConfig] = configurations(
+    FilterConfig("bootstrap", "bootstrap", _bootstrap),
+    FilterConfig("mixture", "mixture proposal (reading and kidnap model)", _mixture),
+    FilterConfig("augmented", "augmented MCL", _augmented),
+    FilterConfig("kld", "KLD-sampling", _kld),
+    FilterConfig("kld_mixture", "KLD-sampling, mixture proposal", partial(_kld, mixture=True)),
+    FilterConfig("tempered", "progressive correction", _tempered),
+)
+METHODS = tuple(FILTERS)
+
+
 def run_method(sim: RobotSimulation, method: str, n_particles: int, seed: int, *, global_start: bool = True,
                settings: MethodSettings = MethodSettings()) -> dict:
-    """Filter ``sim`` with ``method`` (one of :data:`METHODS`); ``n_particles`` is ``N`` (``n_max`` for KLD).
+    """Filter ``sim`` with ``method`` (one of :data:`FILTERS`); ``n_particles`` is ``N`` (``n_max`` for KLD).
 
     ``tempered`` is progressive correction (Oudjane and Musso 2000, :class:`pfcourse.proposals.ProgressiveCorrection`)
     at the first ``settings.temper_readings`` readings, the bootstrap filter afterwards.
@@ -379,40 +424,21 @@ def run_method(sim: RobotSimulation, method: str, n_particles: int, seed: int, *
     cost behind ``particle_steps``), ``seconds`` and, for
     augmented MCL, ``injected`` (probability per resampling).
     """
-    if method not in METHODS:
-        raise ParameterError(f"unknown method {method!r}; choose among {METHODS}")
-    initial = "uniform" if global_start else "tracking"
-    base = RobotModel.for_simulation(sim, initial=initial)
+    config = lookup(FILTERS, method, "method")
+    base = RobotModel.for_simulation(sim, initial="uniform" if global_start else "tracking")
     out: dict = {}
     start = time.perf_counter()
-    if method == "bootstrap":
-        res = ParticleFilter(base, n_particles).run(sim.measurements, seed)
-    elif method == "mixture":
-        model = KidnapRobotModel(base, settings.teleport, global_start=global_start)
-        prop = sensor_mixture_proposal(model, settings.share, settings.spread)
-        res = ParticleFilter(model, n_particles, proposal=prop).run(sim.measurements, seed)
-    elif method == "tempered":
-        pc = ProgressiveCorrection(n_tempered=settings.temper_readings, ess_fraction=settings.temper_ess,
-                                   kernel=RegularisedJitter(settings.temper_kernel, ANGLE_INDICES))
-        res = ParticleFilter(base, n_particles, threshold=1.0, proposal=pc).run(sim.measurements, seed)
+    pf = config.build(base, n_particles, settings, global_start)
+    res = pf.run(sim.measurements, seed)
+    if isinstance(pf.proposal, ProgressiveCorrection):
         # each stage of progressive correction evaluates the likelihood of the whole cloud once more
         cost = res.sizes.copy()
         measured = np.flatnonzero(sim.has_measurement)
         measured = measured[measured > 0]
-        cost[measured[: len(pc.stages)]] *= np.asarray(pc.stages, dtype=cost.dtype)
+        cost[measured[: len(pf.proposal.stages)]] *= np.asarray(pf.proposal.stages, dtype=cost.dtype)
         out["likelihood_evaluations"] = cost
-    elif method == "augmented":
-        aug = AugmentedMCL(base, alpha_slow=settings.alpha_slow, alpha_fast=settings.alpha_fast)
-        res = ParticleFilter(base, n_particles, threshold=1.0, proposal=aug, jitter=aug).run(sim.measurements, seed)
-        out["injected"] = np.array(aug.injected)
-    else:
-        model, prop = base, None
-        if method == "kld_mixture":
-            model = KidnapRobotModel(base, settings.teleport, global_start=global_start)
-            prop = sensor_mixture_proposal(model, settings.kld_share, settings.spread)
-        res = kld_filter(model, sim.measurements, seed, n_max=n_particles, n_min=settings.kld_n_min,
-                         epsilon=settings.kld_epsilon, delta=settings.kld_delta, bin_size=settings.kld_bin_size,
-                         proposal=prop)
+    if isinstance(pf.proposal, AugmentedMCL):
+        out["injected"] = np.array(pf.proposal.injected)
     out["seconds"] = time.perf_counter() - start
     out["mean"], out["cov"] = res.mean, res.cov
     out["n_used"] = res.sizes
