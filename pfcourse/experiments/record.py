@@ -95,6 +95,11 @@ def no_estimate(n_steps: int, dim_x: int, dim_z: int = 1) -> KalmanResult:
     return result
 
 
+def failure_message(exc: StepError) -> str:
+    """How a failed run's error is written, here and in a study table: ``"ErrorType: message"``."""
+    return f"{type(exc).__name__}: {exc}"
+
+
 def record_run(run: Callable[[], R], score: Callable[[R], Mapping[str, Any]], *,
                setting: Mapping[str, Any] | None = None,
                shape: tuple[int, int, int] | None = None) -> RunRecord:
@@ -113,7 +118,7 @@ def record_run(run: Callable[[], R], score: Callable[[R], Mapping[str, Any]], *,
     except StepError as exc:
         seconds = time.perf_counter() - start
         scores = {} if shape is None else dict(score(no_estimate(*shape)))
-        return RunRecord(scores, "failed", f"{type(exc).__name__}: {exc}", seconds, setting)
+        return RunRecord(scores, "failed", failure_message(exc), seconds, setting)
     seconds = time.perf_counter() - start
     lost_at = getattr(result, "lost_at", None)
     status, error = ("ok", "") if lost_at is None else ("lost", f"no estimate from step {lost_at}")
