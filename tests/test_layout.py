@@ -161,3 +161,16 @@ def top_level_definitions(path: Path) -> set[str]:
 def test_a_generic_algorithm_lives_in_its_core_module_only(name):
     homes = [module_name(path) for path in MODULES if name in top_level_definitions(path)]
     assert homes == [f"pfcourse.{CORE_HOMES[name]}"], homes
+
+
+#: The experiment-level result classes that one run record replaced (issue 28): an experiment
+#: records a filter on a run as a pfcourse.experiments.record.RunRecord.
+REPLACED_BY_THE_RUN_RECORD = ("RunMetrics", "GlobalRun", "RunScores", "MonteCarloResult", "Track", "ConvergenceResult")
+
+
+def test_one_run_record():
+    defined = {name: [module_name(path) for path in MODULES if name in top_level_definitions(path)]
+               for name in ("RunRecord", "record_run", *REPLACED_BY_THE_RUN_RECORD)}
+    assert defined.pop("RunRecord") == ["pfcourse.experiments.record"]
+    assert defined.pop("record_run") == ["pfcourse.experiments.record"]
+    assert all(not homes for homes in defined.values()), defined
