@@ -63,6 +63,7 @@ def test_scores_stack_and_count_a_run_that_is_not_ok_as_given():
                RunRecord({}, "failed", "DegenerateWeightsError: lost")]
     np.testing.assert_array_equal(scores(records, "e", failed=np.inf), [[1.0, 2.0], [np.inf, np.inf], [np.inf, np.inf]])
     np.testing.assert_array_equal(scores(records[:2], "e"), [[1.0, 2.0], [3.0, np.nan]])
+    np.testing.assert_array_equal(scores(records[1:], "e", failed=np.inf), np.full((2, 2), np.inf))  # shape kept
     with pytest.raises(KeyError):
         scores(records, "e")  # a failed run without scores has none to stack
 

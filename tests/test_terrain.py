@@ -293,3 +293,20 @@ def test_a_mismatched_map_has_the_stated_error_and_no_more():
     assert np.std(smooth.heights) < np.std(world.heights)  # smoothing removes the cell-to-cell relief
     with pytest.raises(ParameterError, match="error_sd"):
         mismatched_map(world, map_error_rng(0, 1), error_sd=-1.0)
+
+
+def test_a_flight_whose_filter_dies_is_recorded_failed_and_counts_as_diverged(jacksboro, monkeypatch):
+    from pfcourse.errors import DegenerateWeightsError
+    from pfcourse.executor import SerialExecutor
+    from pfcourse.experiments.terrain import diverged, final_errors, flight_study
+    from pfcourse.filter import ParticleFilter
+
+    def dies(self, *args, **kwargs):
+        raise DegenerateWeightsError("every particle is off the map", step=2)
+
+    monkeypatch.setattr(ParticleFilter, "run", dies)
+    flights = flight_study(AircraftScenario().with_(duration=10.0), jacksboro, 2, n_particles=50,
+                           executor=SerialExecutor())
+    assert [f.status for f in flights] == ["failed", "failed"] and flights[0].error.startswith("DegenerateWeightsError")
+    assert np.all(np.isnan(flights[0].errors)) and flights[0].n_resamples == 0
+    assert np.all(final_errors(flights) == np.inf) and diverged(flights).all()

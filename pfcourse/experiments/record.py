@@ -132,5 +132,5 @@ def scores(records: Sequence[RunRecord], name: str, failed: Any = None) -> Array
     score's shape): ``failed=np.inf`` counts a lost or failed run as an infinite error.
     """
     values = [np.asarray(r.scores[name]) if failed is None or r.ok else None for r in records]
-    shape = next((v.shape for v in values if v is not None), ())
+    shape = next((np.shape(r.scores[name]) for r in records if name in r.scores), ())
     return np.array([np.broadcast_to(failed, shape) if v is None else v for v in values])
