@@ -3,7 +3,7 @@
 Every experiment of the book records a run the same way, as a :class:`RunRecord`:
 
 * ``setting``: what identifies the run (the filter, its ``N``, ...), ``{}`` if nothing;
-* ``scores``: the run's numbers and per-step arrays, named (``position_rmse``, ``error``, ...);
+* ``scores``: the run's numbers and per-step arrays, named (``position_rmse``, ``position_error``, ...);
 * ``status``: ``"ok"``; ``"lost"`` (the filter finished without an estimate from some step on:
   a Kalman estimate off the map, :attr:`pfcourse.results.KalmanResult.lost_at`); or
   ``"failed"`` (the filter raised a :class:`~pfcourse.errors.StepError`: every particle
@@ -13,7 +13,8 @@ Every experiment of the book records a run the same way, as a :class:`RunRecord`
 **One failure policy**, :func:`record_run`: a :class:`~pfcourse.errors.StepError` raised by the
 filter is data (the run is recorded ``"failed"`` with ``"ErrorType: message"``); any other
 exception is a bug or a bad setting and propagates.  It is the rule of the study runner
-(:func:`pfcourse.experiments.study.run_study`), whose table rows are these records flattened.
+(:func:`pfcourse.experiments.study.run_study`), whose rows carry the same ``status`` and
+``error`` (:func:`failure_message`) beside their setting, metrics and ``seconds``.
 
 **One way of recording a loss**: a lost filter has no estimate from the step ``k`` it was lost
 (NaN rows, as a Kalman result's rows from ``lost_at`` on), and a filter that failed has none

@@ -16,8 +16,8 @@ and returns a dictionary of metrics.  The result is a tidy table, one row per
 * **Failures are data.** A run that collapses (a :class:`~pfcourse.errors.StepError`:
   every particle impossible, a NaN) is recorded with ``status = "failed"`` and its
   message; the study goes on.  Configuration errors and bugs still stop it.  This is the
-  failure policy of every recorded run (:mod:`pfcourse.experiments.record`): a row is a
-  run record flattened, its setting, ``status``, ``error``, metrics and ``seconds``.
+  failure policy of every recorded run (:mod:`pfcourse.experiments.record`): a row holds what
+  a run record holds, its setting, ``status``, ``error``, metrics and ``seconds``.
 * **Batches.** ``run_batch(seeds=[...], **s)`` may replace ``run_one`` when a
   model can run several replicates at once; it returns one dictionary per seed,
   or, for a replicate that collapsed, the :class:`~pfcourse.errors.StepError`
