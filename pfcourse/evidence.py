@@ -24,7 +24,9 @@ book may write, always with the number of runs and an interval, and only through
   two such slopes on the same runs): ``scipy.stats.bootstrap`` resamples the runs themselves
   (their indices), so every array indexed by run is resampled together (:func:`run_interval`);
 - the **rate of a power law** ``e = a N^b``: the least-squares slope of ``log`` (median error over
-  the runs) against ``log N``, with its interval over the runs (:func:`log_slope`).
+  the runs) against ``log N``, with its interval over the runs (:func:`log_slope`);
+- the slope of a **regression through a few points** that are not runs to resample, with the
+  parametric ``t`` interval of the least-squares slope (:func:`regression_slope`).
 
 A claim of "no difference" is worded from the interval, not from a p-value above 0.05: the
 interval says how large a difference could hide in the study (``Paired.detectable``).
@@ -52,6 +54,7 @@ __all__ = [
     "median_interval",
     "run_interval",
     "log_slope",
+    "regression_slope",
 ]
 
 CONFIDENCE = 0.95
@@ -344,3 +347,26 @@ def log_slope(values, sizes, center: Callable = np.median, against=None, confide
         return b - fit(arrays[1][:, r]) if against is not None else b
 
     return run_interval(statistic, arrays[0].shape[1], confidence=confidence, seed=seed)
+
+
+def regression_slope(x, y, confidence: float = CONFIDENCE) -> tuple[float, float, float]:
+    r"""``(b, low, high)``: the least-squares slope of ``y`` on ``x`` and its parametric interval.
+
+    For points ``(x_j, y_j)``, ``j = 1 .. n``, with residuals ``r_j`` about the fitted line,
+
+    .. math:: \hat b \pm t_{n-2,\,(1+c)/2} \sqrt{\frac{\sum_j r_j^2 / (n - 2)}{\sum_j (x_j - \bar x)^2}},
+
+    the interval of the normal linear model (independent errors of equal variance about the line).
+    For a fit whose points are statistics of the same runs, :func:`run_interval` (resampling the
+    runs) is the sounder interval; this one serves where resampling the runs makes the statistic
+    undefined (the logarithm of a difference that some resampled sets make negative).
+    """
+    x, y = _samples(x, "x"), _samples(y, "y")
+    if x.size != y.size or x.size < 3 or np.ptp(x) == 0:
+        raise EvidenceError(f"a slope with an interval needs at least 3 points at 2 or more x values, got "
+                            f"{x.size} x and {y.size} y")
+    slope, intercept = np.polyfit(x, y, 1)
+    residuals = y - (intercept + slope * x)
+    se = float(np.sqrt(np.sum(residuals**2) / (x.size - 2) / np.sum((x - x.mean()) ** 2)))
+    half = float(stats.t.ppf(0.5 + confidence / 2, x.size - 2)) * se
+    return float(slope), float(slope) - half, float(slope) + half

@@ -206,3 +206,26 @@ def test_robot_tracks_and_summary_are_seeded_and_complete():
     assert list(table.index) == ["PF N=50", "EKF", "UKF"]
     assert table.loc["UKF", "evaluations"] == 7 and table.loc["PF N=50", "evaluations"] == 50
     assert table[["nees_in_band", "nis_in_band"]].apply(lambda c: c.between(0, 1)).all().all()
+
+
+def test_a_particle_filter_that_dies_is_lost_from_the_start(jacksboro, monkeypatch):
+    """terrain_tracks: a particle filter that loses every particle is recorded "failed", with inf error
+    and NEES at every step and inf NIS at every measured step (NaN where there is no reading), as a
+    Kalman filter lost at step 0 would be; summarize_tracks counts it as diverged."""
+    from pfcourse.errors import DegenerateWeightsError
+    from pfcourse.experiments.comparison import terrain_tracks
+    from pfcourse.seeding import data_rng
+
+    def dies(self, *args, **kwargs):
+        raise DegenerateWeightsError("every particle is off the map", step=2)
+
+    monkeypatch.setattr(ParticleFilter, "run", dies)
+    scenario = AircraftScenario().with_(duration=10.0)
+    runs = [terrain_tracks(0, r, scenario, jacksboro, (50,), kalman=("ekf",)) for r in range(2)]
+    pf = runs[0][0]
+    z = simulate(scenario, jacksboro, data_rng(0, 0)).measurements
+    assert pf.failed and pf.error.startswith("DegenerateWeightsError") and pf.n_particles == 50
+    assert np.all(np.isinf(pf.position_error)) and np.all(np.isinf(pf.nees))
+    assert np.array_equal(np.isnan(pf.nis), np.isnan(z[:, 0])) and np.all(np.isinf(pf.nis[~np.isnan(z[:, 0])]))
+    table = summarize_tracks(runs, dim_x=4, dim_z=1, diverged_error=500.0)
+    assert table.loc["PF N=50", "diverged"] == 1.0 and table.loc["PF N=50", "nees_in_band"] == 0.0

@@ -204,3 +204,16 @@ def test_every_stored_study_is_registered():
             if (isinstance(node, ast.Call) and isinstance(node.func, ast.Attribute)
                     and ast.unparse(node.func.value) == "sys.path"):
                 assert "studies" not in ast.get_source_segment(source, node), test.name
+
+
+#: The experiment-level result classes that one run record replaced (issue 28): an experiment
+#: records a filter on a run as a pfcourse.experiments.record.RunRecord.
+REPLACED_BY_THE_RUN_RECORD = ("RunMetrics", "GlobalRun", "RunScores", "MonteCarloResult", "Track", "ConvergenceResult")
+
+
+def test_one_run_record():
+    defined = {name: [module_name(path) for path in MODULES if name in top_level_definitions(path)]
+               for name in ("RunRecord", "record_run", *REPLACED_BY_THE_RUN_RECORD)}
+    assert defined.pop("RunRecord") == ["pfcourse.experiments.record"]
+    assert defined.pop("record_run") == ["pfcourse.experiments.record"]
+    assert all(not homes for homes in defined.values()), defined

@@ -102,3 +102,18 @@ def test_global_localization_run_uses_the_books_lock_on_definition():
     # a tolerance of half the book's is stricter: never locked on where the book's is not
     assert not global_localization_run(7, 1000, n_steps=40, position_tolerance=0.5).locked_on or \
         global_localization_run(7, 1000, n_steps=40).locked_on
+
+
+def test_a_filter_that_fails_is_recorded_failed_with_no_estimate(monkeypatch):
+    """Every particle impossible: the record says "failed" and why, the other filters of the run are
+    kept, and the failed one is scored as having no estimate (NaN RMSE and NEES, not locked on)."""
+    def dies(self, model, sim, seed):
+        raise DegenerateWeightsError("every particle has zero likelihood", step=4)
+
+    monkeypatch.setattr(FilterSettings, "run_particle_filter", dies)
+    out = compare_filters(SEEDS[0], filters=("pf", "ekf"), n_steps=30, burn_in=5)
+    assert out["pf"].failed and out["pf"].error == "DegenerateWeightsError: every particle has zero likelihood"
+    assert np.isnan(out["pf"].position_rmse) and np.isnan(out["pf"].mean_nees) and out["pf"].nees.shape == (25,)
+    assert out["ekf"].ok and np.isfinite(out["ekf"].position_rmse)
+    lost = global_localization_run(SEEDS[0], 100, n_steps=10)
+    assert lost.failed and not lost.locked_on and np.isnan(lost.position_error)

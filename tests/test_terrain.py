@@ -229,22 +229,24 @@ def test_ekf_converges_from_a_small_prior(jacksboro):
 
 
 def test_monte_carlo_is_seeded_and_first_n_runs_are_a_smaller_study(jacksboro):
+    from pfcourse.experiments.record import scores
     from pfcourse.experiments.terrain import flight_study
 
     scenario = AircraftScenario().with_(duration=10.0)
     a = flight_study(scenario, jacksboro, 6, method="ekf", seed=3)
     b = flight_study(scenario, jacksboro, 4, method="ekf", seed=3)
-    np.testing.assert_array_equal(a.first(4).errors, b.errors)
+    np.testing.assert_array_equal(scores(a[:4], "errors"), scores(b, "errors"))
     pf = flight_study(scenario, jacksboro, 3, n_particles=200, seed=3)
     pf_again = flight_study(scenario, jacksboro, 3, n_particles=200, seed=3)
-    np.testing.assert_array_equal(pf.errors, pf_again.errors)
-    assert pf.errors.shape == (3, 11) and np.all(pf.n_resamples >= 0)
+    np.testing.assert_array_equal(scores(pf, "errors"), scores(pf_again, "errors"))
+    assert scores(pf, "errors").shape == (3, 11) and np.all(scores(pf, "n_resamples") >= 0)
 
 
 def test_flight_study_does_not_depend_on_the_executor_or_the_batch_size(jacksboro):
     from concurrent.futures import ThreadPoolExecutor
 
     from pfcourse.executor import SerialExecutor
+    from pfcourse.experiments.record import scores
     from pfcourse.experiments.terrain import flight_study
 
     scenario = AircraftScenario().with_(duration=10.0)
@@ -255,17 +257,19 @@ def test_flight_study_does_not_depend_on_the_executor_or_the_batch_size(jacksbor
             others = [flight_study(scenario, jacksboro, 5, batch_size=2, **kwargs),  # the default pool
                       flight_study(scenario, jacksboro, 5, executor=threads, batch_size=1, **kwargs)]
         for other in others:
-            for field in ("errors", "sigma", "lost", "n_resamples"):
-                a, b = getattr(serial, field), getattr(other, field)
+            assert [r.status for r in serial] == [r.status for r in other], method
+            for field in ("errors", "sigma", "n_resamples"):
+                a, b = scores(serial, field), scores(other, field)
                 assert a.dtype == b.dtype and np.array_equal(a, b, equal_nan=True), (method, field)
 
 
 def test_summary_counts_lost_runs_as_infinite_without_nan():
-    from pfcourse.experiments.terrain import MonteCarloResult
+    from pfcourse.experiments.record import RunRecord
+    from pfcourse.experiments.terrain import flight_summary
 
-    errors = np.array([[100.0, 10.0], [100.0, 20.0], [100.0, 30.0], [np.nan, np.nan]])
-    res = MonteCarloResult(errors, np.ones_like(errors), np.array([False, False, False, True]), np.zeros(4, int))
-    s = res.summary()
+    errors = np.array([[100.0, 10.0], [100.0, 20.0], [100.0, 30.0], [100.0, np.nan]])
+    res = [RunRecord({"errors": e}, "ok" if k < 3 else "lost") for k, e in enumerate(errors)]
+    s = flight_summary(res)
     assert s["final_median"] == 20.0 and s["final_q90"] == np.inf
     assert s["diverged"] == 0.25 and not any(np.isnan(v) for v in s.values())
 
@@ -289,3 +293,20 @@ def test_a_mismatched_map_has_the_stated_error_and_no_more():
     assert np.std(smooth.heights) < np.std(world.heights)  # smoothing removes the cell-to-cell relief
     with pytest.raises(ParameterError, match="error_sd"):
         mismatched_map(world, map_error_rng(0, 1), error_sd=-1.0)
+
+
+def test_a_flight_whose_filter_dies_is_recorded_failed_and_counts_as_diverged(jacksboro, monkeypatch):
+    from pfcourse.errors import DegenerateWeightsError
+    from pfcourse.executor import SerialExecutor
+    from pfcourse.experiments.terrain import diverged, final_errors, flight_study
+    from pfcourse.filter import ParticleFilter
+
+    def dies(self, *args, **kwargs):
+        raise DegenerateWeightsError("every particle is off the map", step=2)
+
+    monkeypatch.setattr(ParticleFilter, "run", dies)
+    flights = flight_study(AircraftScenario().with_(duration=10.0), jacksboro, 2, n_particles=50,
+                           executor=SerialExecutor())
+    assert [f.status for f in flights] == ["failed", "failed"] and flights[0].error.startswith("DegenerateWeightsError")
+    assert np.all(np.isnan(flights[0].errors)) and flights[0].n_resamples == 0
+    assert np.all(final_errors(flights) == np.inf) and diverged(flights).all()

@@ -44,7 +44,7 @@ from myst_nb import glue
 
 from pfcourse import evidence
 
-from pfcourse.experiments.terrain import DIVERGED_ERROR, flight_study
+from pfcourse.experiments.terrain import DIVERGED_ERROR, diverged, final_errors, flight_study, flight_summary
 from pfcourse.seeding import data_rng, filter_rng
 from pfcourse.metrics import position_error
 from pfcourse.terrain.scenario import AircraftScenario, extended_kalman_filter, simulate
@@ -273,14 +273,14 @@ glue_values("terrain_likelihood_", tolerance=TOLERANCE)
 
 # %%
 baseline_60 = flight_study(scenario, terrain, 60, seed=0)
-final = baseline_60.final
+final = final_errors(baseline_60)
 print(f"final horizontal error over 60 flights: median {np.median(final):.0f} m, "
       f"10-90 %: {np.quantile(final, 0.1):.0f} to {np.quantile(final, 0.9):.0f} m")
-print(f"diverged (final error > {DIVERGED_ERROR:.0f} m): {baseline_60.diverged.sum()} of 60")
-good = int(np.flatnonzero(~baseline_60.diverged)[0])
-bad = int(np.flatnonzero(baseline_60.diverged)[0])
+print(f"diverged (final error > {DIVERGED_ERROR:.0f} m): {diverged(baseline_60).sum()} of 60")
+good = int(np.flatnonzero(~diverged(baseline_60))[0])
+bad = int(np.flatnonzero(diverged(baseline_60))[0])
 print("a converged flight:", good, "  a diverged flight:", bad)
-baseline_60_lost = evidence.rate(baseline_60.diverged)
+baseline_60_lost = evidence.rate(diverged(baseline_60))
 print(f"share lost: {baseline_60_lost}")
 glue("terrain_pf60_lost", baseline_60_lost.estimate, display=False)
 glue("terrain_pf60_low", baseline_60_lost.low, display=False)
@@ -411,33 +411,33 @@ tight = scenario.with_(P0=np.diag([30.0, 30.0, 5.0, 0.01]) ** 2, Qf=np.diag([1.0
 ekf_tight = flight_study(tight, terrain, 100, seed=0, method="ekf")
 
 # %% tags=["remove-input"] jupyter={"source_hidden": true}
-ekf_lost = evidence.rate(ekf.diverged)
-ekf_vs_pf = evidence.paired_rates(ekf.diverged[:len(baseline_60.diverged)], baseline_60.diverged)
+ekf_lost = evidence.rate(diverged(ekf))
+ekf_vs_pf = evidence.paired_rates(diverged(ekf)[:len(baseline_60)], diverged(baseline_60))
 # the exercise on a wide Rf: the EKF with Rf = 200^2 on the first 50 flights, against Rf = 20^2 on the same flights
 ekf_wide = flight_study(scenario.with_(Rf=200.0**2), terrain, 50, seed=0, method="ekf")
 # "one flight in three converges, to tens or a hundred metres": the converged share of the particle filter's
 # flights with its Wilson interval, and the final errors of the converged flights
-pf_converged = evidence.rate(~baseline_60.diverged)
-converged_final = baseline_60.final[~baseline_60.diverged]
+pf_converged = evidence.rate(~diverged(baseline_60))
+converged_final = final_errors(baseline_60)[~diverged(baseline_60)]
 glue_values("terrain_", ekf_lost=ekf_lost.estimate, ekf_low=ekf_lost.low,
             ekf_vs_pf=f"{ekf_vs_pf.only_a} / {ekf_vs_pf.only_b}", ekf_vs_pf_p=ekf_vs_pf.pvalue,
-            ekf_tight_lost=int(ekf_tight.diverged.sum()), ekf_flights=int(len(ekf.diverged)),
-            ekf_wide_lost=float(ekf_wide.diverged.mean()), ekf_first50_lost=float(ekf.diverged[:50].mean()),
+            ekf_tight_lost=int(diverged(ekf_tight).sum()), ekf_flights=len(ekf),
+            ekf_wide_lost=float(diverged(ekf_wide).mean()), ekf_first50_lost=float(diverged(ekf)[:50].mean()),
             pf60_converged=pf_converged.successes, pf60_converged_low=pf_converged.low,
             pf60_converged_high=pf_converged.high, pf60_converged_q10=float(np.quantile(converged_final, 0.1)),
             pf60_converged_median=float(np.median(converged_final)),
             pf60_converged_q90=float(np.quantile(converged_final, 0.9)))
-summaries = pd.DataFrame([{"filter": name, **res.summary()} for name, res in (
+summaries = pd.DataFrame([{"filter": name, **flight_summary(res)} for name, res in (
     ("EKF, report's prior", ekf), ("PF (N = 3000), report's prior", baseline_60), ("EKF, 30 m prior and small Qf", ekf_tight))])
 EvidenceBlock(
     "the EKF loses almost every flight from the report's prior, and almost none from a tight one",
-    notes=[f"EKF lost share: {ekf_lost}. EKF vs particle filter on the same {len(baseline_60.diverged)} flights: "
+    notes=[f"EKF lost share: {ekf_lost}. EKF vs particle filter on the same {len(baseline_60)} flights: "
            f"{ekf_vs_pf}.",
            f"Particle filter (N = 3000) converged: {pf_converged}; final error of the {len(converged_final)} "
            f"converged flights: median {np.median(converged_final):.0f} m, 10-90 % {np.quantile(converged_final, 0.1):.0f} "
            f"to {np.quantile(converged_final, 0.9):.0f} m, largest {converged_final.max():.0f} m.",
-           f"EKF with Rf = 200^2 on the first 50 flights: lost {ekf_wide.diverged.mean():.2f} "
-           f"(Rf = 20^2 on the same flights: {ekf.diverged[:50].mean():.2f})."],
+           f"EKF with Rf = 200^2 on the first 50 flights: lost {diverged(ekf_wide).mean():.2f} "
+           f"(Rf = 20^2 on the same flights: {diverged(ekf)[:50].mean():.2f})."],
     tables=[("Lost share and final error (m) per filter", summaries[["filter", "diverged", "final_median", "final_q10",
                                                                       "final_q90"]],
              {"diverged": ".2f", "final_median": ".0f", "final_q10": ".0f", "final_q90": ".0f"})],
@@ -774,7 +774,7 @@ display(panel)
 #
 # ```{solution} ex-terrain-ekf
 # :class: dropdown
-# `flight_study(scenario.with_(Rf=200.0**2), terrain, 50, method="ekf").summary()["diverged"]`
+# `flight_summary(flight_study(scenario.with_(Rf=200.0**2), terrain, 50, method="ekf"))["diverged"]`
 # is {glue:text}`terrain_ekf_wide_lost:.2f`: the EKF still loses the aircraft in most flights
 # ({glue:text}`terrain_ekf_first50_lost:.2f` with $R_f = 20^2$ on the same $50$ flights). A wider $R_f$ only makes each EKF update smaller;
 # it does not change the direction of the update, which comes from the terrain slope at the

@@ -173,7 +173,7 @@ def rms_over_runs(a, axis):
     return np.sqrt(np.mean(a**2, axis=axis))
 
 
-slopes = {name: {q: evidence.log_slope(getattr(res, q), N_LINEAR, center=rms_over_runs)
+slopes = {name: {q: evidence.log_slope(res[q], N_LINEAR, center=rms_over_runs)
                  for q in ("mean_error", "cov_error", "loglik_error")} for name, res in convergence.items()}
 titles = {"mean_error": "posterior mean (m)", "cov_error": "posterior covariance (m²)",
           "loglik_error": "log-likelihood (nats)"}
@@ -181,11 +181,11 @@ styles = {"every component moves": COLORS["estimate"], "report's static landmark
 fig, axes = plt.subplots(1, 3, figsize=(10, 3.6))
 for ax, q in zip(axes, titles):
     for name, res in convergence.items():
-        values = np.abs(getattr(res, q))
+        values = np.abs(res[q])
         lo, hi = np.quantile(values, [0.1, 0.9], axis=1)
         ax.fill_between(N_LINEAR, lo, hi, color=styles[name], alpha=0.2)
         ax.plot(N_LINEAR, rms_over_runs(values, 1), "o-", color=styles[name], label=name)
-    ref = rms_over_runs(np.abs(getattr(convergence["every component moves"], q)), 1)[0] * np.sqrt(N_LINEAR[0] / N_LINEAR)
+    ref = rms_over_runs(np.abs(convergence["every component moves"][q]), 1)[0] * np.sqrt(N_LINEAR[0] / N_LINEAR)
     ax.plot(N_LINEAR, ref, "k--", lw=1, label=r"$1/\sqrt{N}$")
     ax.set_xscale("log")
     ax.set_yscale("log")
@@ -204,8 +204,8 @@ for q in ("mean_error", "loglik_error"):
     for suffix, value in zip(("", "_low", "_high"), slopes["every component moves"][q]):
         glue(f"linear_{q.split('_')[0]}_slope{suffix}", value, display=False)
 kf_sd = np.sqrt(np.mean(np.diagonal(exact["every component moves"].cov, axis1=1, axis2=2)))
-err_1000 = rms_over_runs(convergence["every component moves"].mean_error, 1)[N_LINEAR == 1000][0]
-bias = {name: res.loglik_error.mean(axis=1) for name, res in convergence.items()}
+err_1000 = rms_over_runs(convergence["every component moves"]["mean_error"], 1)[N_LINEAR == 1000][0]
+bias = {name: res["loglik_error"].mean(axis=1) for name, res in convergence.items()}
 EvidenceBlock(
     "the particle filter's error falls like 1/sqrt(N) when every component moves, far slower with static landmarks",
     notes=[f"One data set of {versions['every component moves'].n_samples} steps per model, {LINEAR_RUNS} "
@@ -280,7 +280,7 @@ def comparison_table(table, extra=()):
     return table[list(cols)].rename(columns=cols).reset_index()
 
 
-rms = {(t.filter, t.n_particles): [float(np.sqrt(np.mean(t.error[ROBOT_BURN_IN:] ** 2))) for t in
+rms = {(t.filter, t.n_particles): [float(np.sqrt(np.mean(t.position_error[ROBOT_BURN_IN:] ** 2))) for t in
                                    (run[j] for run in robot_runs)] for j, t in enumerate(robot_runs[0])}
 ekf_key = ("ekf", 0)
 paired_rows = []
@@ -476,8 +476,8 @@ def per_flight(name, filter_label):
     j = [label(t) for t in terrain_runs[name][0]].index(filter_label)
     tracks = [run[j] for run in terrain_runs[name]]
     with np.errstate(over="ignore"):
-        rmse = np.array([np.sqrt(np.mean(t.error[TERRAIN_BURN_IN:] ** 2)) for t in tracks])
-    return rmse, np.array([not t.error[-1] <= DIVERGED_ERROR for t in tracks])
+        rmse = np.array([np.sqrt(np.mean(t.position_error[TERRAIN_BURN_IN:] ** 2)) for t in tracks])
+    return rmse, np.array([not t.position_error[-1] <= DIVERGED_ERROR for t in tracks])
 
 
 sp, wp = terrain_tables["terrain, small prior"], terrain_tables["terrain, report's prior"]
@@ -586,10 +586,10 @@ def draw(scenario="robot", n_particles=300):
     picks = [j for j, t in enumerate(runs[0]) if t.filter != "pf" or t.n_particles == n]
     fig, (ax1, ax2) = plt.subplots(1, 2, figsize=(10, 3.8))
     fig.subplots_adjust(left=0.07, right=0.8, bottom=0.13, top=0.91, wspace=0.28)  # cheaper than tight_layout; legend at right
-    steps = np.arange(1, len(runs[0][0].error))
+    steps = np.arange(1, len(runs[0][0].position_error))
     for j in picks:
         t0 = runs[0][j]
-        err = np.array([r[j].error[1:] for r in runs])
+        err = np.array([r[j].position_error[1:] for r in runs])
         with np.errstate(invalid="ignore"):
             q10, q50, q90 = np.quantile(err, [0.1, 0.5, 0.9], axis=0, method="inverted_cdf")
             avg_nees = np.mean([r[j].nees[1:] for r in runs], axis=0)

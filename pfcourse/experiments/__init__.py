@@ -1,5 +1,6 @@
 """Experiments: the Monte Carlo runner and the comparisons of particle filters with references.
 
+* :mod:`pfcourse.experiments.record` - one filter on one run, recorded (setting, scores, status, error);
 * :mod:`pfcourse.experiments.study` - seeded studies over a grid of settings, on any executor;
 * :mod:`pfcourse.experiments.landmarks` - scenario A's particle filters scored against the Kalman filter;
 * :mod:`pfcourse.experiments.robot` - one seeded robot run through the particle filter, EKF and UKF;

@@ -11,6 +11,10 @@ Three measurements, for every filter on every seeded run:
 * **cost**: wall-clock seconds of the filter's run, and the number of model evaluations
   per step (``N`` particles, ``2 d + 1`` sigma points, one linearisation point).
 
+Each filter on each run is one :class:`~pfcourse.experiments.record.RunRecord`: its setting
+``filter`` (``"pf"``, ``"ekf"``, ``"ukf"``) and ``n_particles`` (0 for a Kalman filter), its
+scores ``position_error`` (m), ``nees`` and ``nis`` (per step), ``seconds`` and ``status``.
+
 **Where the innovations come from.**  Every Kalman-family filter returns its own
 (:class:`pfcourse.results.KalmanResult`: ``innovation`` ``y_k`` and ``innovation_cov`` ``S_k``
 as the filter computed them, ``H P^- H^T + R`` for the EKF and the unscented transform plus
@@ -26,10 +30,8 @@ resampling).
 
 from __future__ import annotations
 
-import time
 from collections.abc import Sequence
 from concurrent.futures import Executor
-from dataclasses import dataclass
 
 import numpy as np
 import pandas as pd
@@ -37,11 +39,11 @@ import pandas as pd
 from pfcourse.angles import wrap_angle
 from pfcourse.checks import Array, check_count
 from pfcourse.diagnostics import chi2_band, fraction_in_band, nees, nis, predictive_moments
-from pfcourse.errors import DegenerateWeightsError
 from pfcourse.executor import run_tasks
+from pfcourse.experiments.record import RunRecord, record_run
 from pfcourse.filter import ParticleFilter
 from pfcourse.metrics import position_error
-from pfcourse.results import FilterResult
+from pfcourse.results import FilterResult, KalmanResult
 from pfcourse.robot.scenario import ANGLE_INDICES, RobotModel, range_bearing, simulate_robot
 from pfcourse.seeding import data_rng, filter_rng, sized_filter_rng
 from pfcourse.terrain.kalman import unscented_kalman_filter
@@ -87,20 +89,6 @@ def particle_innovations(result: FilterResult, measurements: Array, predict, noi
     return y, S
 
 
-@dataclass
-class Track:
-    """One filter on one run: per-step ``error`` (m), ``nees``, ``nis`` (NaN without a
-    measurement; ``inf`` once the filter is lost), run time ``seconds``, and ``lost``."""
-
-    filter: str
-    n_particles: int
-    error: Array
-    nees: Array
-    nis: Array
-    seconds: float
-    lost: bool = False
-
-
 def _safe_nees(truth, mean, cov, angle_indices) -> Array:
     """NEES with ``inf`` where the filter has no estimate or a singular covariance."""
     out = np.full(len(truth), np.inf)
@@ -111,8 +99,21 @@ def _safe_nees(truth, mean, cov, angle_indices) -> Array:
     return out
 
 
+def _innovations(result, particle_innovations_of) -> tuple[Array, Array]:
+    """A Kalman-family result's own innovations, or a particle filter's from its predicted clouds."""
+    if isinstance(result, KalmanResult):
+        return result.innovation, result.innovation_cov
+    return particle_innovations_of(result)
+
+
+def _tracks(filters: Sequence[tuple[str, int]], run, score, shape: tuple[int, int, int]) -> list[RunRecord]:
+    """One record per ``(filter, N)``: ``run(filter, N)`` scored by ``score`` (:func:`record_run`)."""
+    return [record_run(lambda: run(name, n), score, setting={"filter": name, "n_particles": n}, shape=shape)
+            for name, n in filters]
+
+
 def robot_tracks(seed: int, n_values: Sequence[int], *, n_steps: int = 100, q_scale: float = 1.0,
-                 r_scale: float = 1.0, kalman: Sequence[str] = ("ekf", "ukf"), **scenario) -> list[Track]:
+                 r_scale: float = 1.0, kalman: Sequence[str] = ("ekf", "ukf"), **scenario) -> list[RunRecord]:
     """The robot scenario: simulate run ``seed``, filter it with a PF per ``N`` and the EKF/UKF.
 
     Defaults differ from :func:`pfcourse.experiments.robot.compare_filters` in one respect:
@@ -125,96 +126,71 @@ def robot_tracks(seed: int, n_values: Sequence[int], *, n_steps: int = 100, q_sc
     sim = simulate_robot(None, seed, n_steps=n_steps, **scenario)
     model = RobotModel.for_simulation(sim, q_scale=q_scale, r_scale=r_scale)
     z = sim.measurements
-    tracks: list[Track] = []
-
-    def track(name, n, mean, cov, y, S, seconds):
-        err = position_error(sim.truth, mean)
-        return Track(name, n, err, _safe_nees(sim.truth, mean, cov, ANGLE_INDICES), nis(y, S), seconds)
 
     def predict(particles, zk, k):
         return range_bearing(particles, model.landmarks[int(zk[0])])
 
-    for n in n_values:
-        start = time.perf_counter()
-        res = ParticleFilter(model, n, threshold=0.5).run(z, sized_filter_rng(seed, n),
-                                                         store_particles=True)
-        seconds = time.perf_counter() - start
-        y, S = particle_innovations(res, z, predict, model.r_est, angle_indices=(1,))
-        tracks.append(track("pf", n, res.mean, res.cov, y, S, seconds))
-    for name in kalman:
-        start = time.perf_counter()
-        run = (run_ekf if name == "ekf" else run_ukf)(model, z)
-        seconds = time.perf_counter() - start
-        tracks.append(track(name, 0, run.mean, run.cov, run.innovation, run.innovation_cov, seconds))
-    return tracks
+    def run(name, n):
+        if name == "pf":
+            return ParticleFilter(model, n, threshold=0.5).run(z, sized_filter_rng(seed, n), store_particles=True)
+        return (run_ekf if name == "ekf" else run_ukf)(model, z)
+
+    def score(res) -> dict:
+        y, S = _innovations(res, lambda r: particle_innovations(r, z, predict, model.r_est, angle_indices=(1,)))
+        return {"position_error": position_error(sim.truth, res.mean),
+                "nees": _safe_nees(sim.truth, res.mean, res.cov, ANGLE_INDICES), "nis": nis(y, S)}
+
+    filters = [("pf", int(n)) for n in n_values] + [(name, 0) for name in kalman]
+    return _tracks(filters, run, score, (len(z), 3, 2))
 
 
 def terrain_tracks(seed: int, run: int, scenario: AircraftScenario, terrain: TerrainMap,
                    n_values: Sequence[int], *, kalman: Sequence[str] = ("ekf", "ukf"),
-                   resampler: str = "multinomial") -> list[Track]:
+                   resampler: str = "multinomial") -> list[RunRecord]:
     """Terrain navigation: flight ``run`` of a study with seed ``seed`` (as
     :func:`pfcourse.experiments.terrain.flight_study`: flight :func:`~pfcourse.seeding.data_rng`,
     particle filter :func:`~pfcourse.seeding.filter_rng`), filtered by a PF per ``N`` and the EKF/UKF.
 
-    Errors are horizontal position errors (m); a lost filter (every particle off the map,
-    or a Kalman estimate or sigma point off the map) has ``inf`` error, NEES and NIS from
-    the step it was lost (from the start for a particle filter).
+    Errors are horizontal position errors (m); a lost filter (every particle off the map: status
+    ``"failed"``; a Kalman estimate or sigma point off the map: ``"lost"``) has ``inf`` error,
+    NEES and NIS from the step it was lost (from the start for a particle filter).
     """
     flight = simulate_flight(scenario, terrain, data_rng(seed, run))
     z = flight.measurements
-    K = len(z)
-    tracks: list[Track] = []
-
-    def track(name, n, mean, cov, y, S, seconds, lost):
-        err = np.where(np.isnan(mean[:, 0]), np.inf, position_error(flight.truth, mean))
-        q = nis(y, S)
-        measured = ~np.isnan(z[:, 0])
-        q[measured & np.isnan(q)] = np.inf
-        return Track(name, n, err, _safe_nees(flight.truth, mean, cov, (3,)), q, seconds, lost)
+    measured = ~np.isnan(z[:, 0])
+    model = scenario.model(terrain)
 
     def predict(particles, zk, k):
         return predicted_measurement(particles, terrain)[:, None]
 
-    model = scenario.model(terrain)
-    for n in n_values:
-        start = time.perf_counter()
-        try:
-            res = ParticleFilter(model, n, threshold=0.5, resampler=resampler).run(
+    def run_filter(name, n):
+        if name == "pf":
+            return ParticleFilter(model, n, threshold=0.5, resampler=resampler).run(
                 z, filter_rng(seed, run), store_particles=True)
-        except DegenerateWeightsError:
-            inf = np.full(K, np.inf)
-            tracks.append(Track("pf", n, inf, inf, np.where(np.isnan(z[:, 0]), np.nan, np.inf),
-                                time.perf_counter() - start, True))
-            continue
-        seconds = time.perf_counter() - start
-        y, S = particle_innovations(res, z, predict, np.array([[scenario.Rf]]))
-        tracks.append(track("pf", n, res.mean, res.cov, y, S, seconds, False))
-    for name in kalman:
-        start = time.perf_counter()
-        if name == "ekf":
-            ekf = extended_kalman_filter(scenario, terrain, z)
-            seconds = time.perf_counter() - start
-            tracks.append(track("ekf", 0, ekf.mean, ekf.cov, ekf.innovation, ekf.innovation_cov, seconds,
-                                ekf.lost_at is not None))
-        else:
-            ukf = unscented_kalman_filter(scenario, terrain, z)
-            seconds = time.perf_counter() - start
-            tracks.append(track("ukf", 0, ukf.mean, ukf.cov, ukf.innovation, ukf.innovation_cov,
-                                seconds, ukf.lost_at is not None))
-    return tracks
+        return (extended_kalman_filter if name == "ekf" else unscented_kalman_filter)(scenario, terrain, z)
+
+    def score(res) -> dict:
+        y, S = _innovations(res, lambda r: particle_innovations(r, z, predict, np.array([[scenario.Rf]])))
+        q = nis(y, S)
+        q[measured & np.isnan(q)] = np.inf
+        return {"position_error": np.where(np.isnan(res.mean[:, 0]), np.inf, position_error(flight.truth, res.mean)),
+                "nees": _safe_nees(flight.truth, res.mean, res.cov, (3,)), "nis": q}
+
+    filters = [("pf", int(n)) for n in n_values] + [(name, 0) for name in kalman]
+    return _tracks(filters, run_filter, score, (len(z), 4, 1))
 
 
-def label(track: Track) -> str:
+def label(track: RunRecord) -> str:
     """``"PF N=300"``, ``"EKF"`` or ``"UKF"``."""
     return f"PF N={track.n_particles}" if track.filter == "pf" else track.filter.upper()
 
 
-def evaluations_per_step(track: Track, dim_x: int) -> int:
+def evaluations_per_step(track: RunRecord, dim_x: int) -> int:
     """Model evaluations per step: ``N`` (particles), ``2 d + 1`` (sigma points) or 1 (EKF)."""
     return {"pf": track.n_particles, "ukf": 2 * dim_x + 1, "ekf": 1}[track.filter]
 
 
-def summarize_tracks(runs: Sequence[Sequence[Track]], *, dim_x: int, dim_z: int, burn_in: int = 0,
+def summarize_tracks(runs: Sequence[Sequence[RunRecord]], *, dim_x: int, dim_z: int, burn_in: int = 0,
               diverged_error: float | None = None) -> pd.DataFrame:
     """One row per filter over ``R`` runs (``runs[r]`` holds the same filters in the same order).
 
@@ -234,7 +210,7 @@ def summarize_tracks(runs: Sequence[Sequence[Track]], *, dim_x: int, dim_z: int,
     rows = []
     for j, first in enumerate(runs[0]):
         tracks = [r[j] for r in runs]
-        err = np.array([t.error[burn_in:] for t in tracks])
+        err = np.array([t.position_error[burn_in:] for t in tracks])
         with np.errstate(invalid="ignore", over="ignore"):
             rmse = np.sqrt(np.mean(err**2, axis=1))
             nees_all = np.array([t.nees[burn_in:] for t in tracks])
@@ -253,35 +229,26 @@ def summarize_tracks(runs: Sequence[Sequence[Track]], *, dim_x: int, dim_z: int,
             "nis_in_band": fraction_in_band(nis_avg, nis_band),
             "nees_below": fraction_in_band(nees_avg, (-np.inf, np.nextafter(nees_band[0], -np.inf))),
             "nis_below": fraction_in_band(nis_avg, (-np.inf, np.nextafter(nis_band[0], -np.inf))),
-            "ms_per_step": 1000 * float(np.median([t.seconds for t in tracks])) / len(first.error),
+            "ms_per_step": 1000 * float(np.median([t.seconds for t in tracks])) / len(first.position_error),
             "evaluations": evaluations_per_step(first, dim_x),
         }
         if diverged_error is not None:
-            final = np.array([t.error[-1] for t in tracks])
+            final = np.array([t.position_error[-1] for t in tracks])
             row["diverged"] = float(np.mean(~(final <= diverged_error)))
         rows.append(row)
     return pd.DataFrame(rows).set_index("filter")
 
 
-@dataclass
-class ConvergenceResult:
-    """Errors of a particle filter against the exact Kalman filter, per ``N`` (rows) and run (columns).
-
-    ``mean_error``: RMS over steps and components of ``m^PF_k - m^KF_k`` (m);
-    ``cov_error``: RMS over steps of the Frobenius norm ``||P^PF_k - P^KF_k||_F`` (m^2);
-    ``loglik_error``: ``log p^(z_{0:K}) - log p(z_{0:K})`` (nats, signed).
-    """
-
-    n_values: Array
-    mean_error: Array
-    cov_error: Array
-    loglik_error: Array
-
-
 def linear_convergence(model, measurements: Array, kalman, n_values: Sequence[int], n_runs: int, *,
-                       seed: int = 0, threshold: float = 0.5, executor: Executor | None = None) -> ConvergenceResult:
+                       seed: int = 0, threshold: float = 0.5, executor: Executor | None = None) -> dict[str, Array]:
     """Run a bootstrap particle filter ``n_runs`` times per ``N`` on one data set and compare it
     with the Kalman result ``kalman`` (:func:`pfcourse.kalman.kalman_filter`).
+
+    Returns the table of errors per ``N`` (rows) and run (columns), arrays keyed:
+    ``mean_error``, the RMS over steps and components of ``m^PF_k - m^KF_k`` (m);
+    ``cov_error``, the RMS over steps of the Frobenius norm ``||P^PF_k - P^KF_k||_F`` (m^2);
+    ``loglik_error``, ``log p^(z_{0:K}) - log p(z_{0:K})`` (nats, signed); and ``n_values``.
+    A run that fails raises (these runs are on a linear-Gaussian model, where none should).
 
     Run ``r`` at ``N`` uses the random stream :func:`~pfcourse.seeding.sized_filter_rng`
     ``(seed, N, run=r)``, that is ``[seed, r, N]``.  The values of ``N`` are shared out by
@@ -293,7 +260,7 @@ def linear_convergence(model, measurements: Array, kalman, n_values: Sequence[in
     errors = run_tasks(_convergence_runs, [(model, measurements, kalman, int(n), n_runs, seed, threshold)
                                            for n in n_values], executor=executor)
     mean_err, cov_err, ll_err = (np.array(column) for column in zip(*errors))
-    return ConvergenceResult(n_values, mean_err, cov_err, ll_err)
+    return {"n_values": n_values, "mean_error": mean_err, "cov_error": cov_err, "loglik_error": ll_err}
 
 
 def _convergence_runs(model, measurements: Array, kalman, n: int, n_runs: int, seed: int,
@@ -309,13 +276,7 @@ def _convergence_runs(model, measurements: Array, kalman, n: int, n_runs: int, s
     return mean_err, cov_err, ll_err
 
 
-def loglog_slope(n_values: Array, values: Array) -> float:
-    """Least-squares slope of ``log(values)`` against ``log(N)``."""
-    return float(np.polyfit(np.log(n_values), np.log(values), 1)[0])
-
-
 __all__ = [
-    "ConvergenceResult", "Track",
-    "evaluations_per_step", "label", "linear_convergence", "loglog_slope", "particle_innovations",
+    "evaluations_per_step", "label", "linear_convergence", "particle_innovations",
     "robot_tracks", "summarize_tracks", "terrain_tracks",
 ]

@@ -23,7 +23,6 @@ from __future__ import annotations
 
 from collections.abc import Callable, Sequence
 from concurrent.futures import Executor
-from dataclasses import dataclass
 
 import numpy as np
 from scipy import stats
@@ -31,6 +30,7 @@ from scipy import stats
 from pfcourse.checks import check_count
 from pfcourse.diagnostics import nees
 from pfcourse.executor import run_tasks
+from pfcourse.experiments.record import RunRecord, scores
 from pfcourse.results import FilterResult
 from pfcourse.kalman import kalman_filter
 from pfcourse.results import KalmanResult
@@ -38,24 +38,18 @@ from pfcourse.landmarks.scenario import LandmarkScenario, simulate
 from pfcourse.seeding import study_filter_seed
 
 
-@dataclass
-class RunScores:
-    """Per-step scores of one run (arrays of shape ``(K,)``); see the module docstring."""
-
-    rmse: np.ndarray
-    log_var_ratio: np.ndarray
-    covered: np.ndarray
-    ess: np.ndarray
-    resampled: np.ndarray
-
-
 def score(
     result: FilterResult,
     kalman: KalmanResult,
     truth: np.ndarray,
     components: Sequence[int] | None = None,
-) -> RunScores:
-    """Scores of ``result`` against the Kalman posterior and the truth on ``components`` (all by default)."""
+) -> RunRecord:
+    """``result`` scored against the Kalman posterior and the truth on ``components`` (all by default).
+
+    The record's scores are per-step arrays of shape ``(K,)`` (see the module docstring):
+    ``rmse``, ``log_var_ratio`` (per component), ``covered``, and the filter's ``ess`` and
+    ``resampled``.
+    """
     idx = np.arange(truth.shape[1]) if components is None else np.asarray(components)
     err = result.mean[:, idx] - kalman.mean[:, idx]
     rmse = np.sqrt(np.mean(err**2, axis=1))
@@ -67,7 +61,8 @@ def score(
     dev = truth[:, idx] - result.mean[:, idx]
     limit = stats.chi2.ppf(0.95, len(idx))
     covered = nees(truth[:, idx], result.mean[:, idx], pf_cov) <= limit  # a collapsed step: inf
-    return RunScores(rmse, log_var_ratio / len(idx), covered, result.ess, result.resampled)
+    return RunRecord({"rmse": rmse, "log_var_ratio": log_var_ratio / len(idx), "covered": covered,
+                      "ess": result.ess, "resampled": result.resampled})
 
 
 def kalman_scores(
@@ -96,12 +91,11 @@ def kalman_scores(
     runs = [s for chunk in run_tasks(_scored_runs, [(scenario, run_filter, chunk, components, model)
                                                    for chunk in chunks], executor=executor)
             for s in chunk]
-    return {key: np.array([getattr(s, key) for s in runs])
-            for key in ("rmse", "log_var_ratio", "covered", "ess", "resampled")}
+    return {key: scores(runs, key) for key in ("rmse", "log_var_ratio", "covered", "ess", "resampled")}
 
 
 def _scored_runs(scenario: LandmarkScenario, run_filter: Callable, seeds: list[int],
-                 components: Sequence[int] | None, model) -> list[RunScores]:
+                 components: Sequence[int] | None, model) -> list[RunRecord]:
     """The runs ``seeds`` of :func:`kalman_scores`, scored."""
     out = []
     for seed in seeds:

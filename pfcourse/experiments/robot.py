@@ -2,10 +2,11 @@
 
 This is the unit a Monte Carlo study repeats: :func:`compare_filters` simulates
 run ``seed`` with the scenario settings given as keyword arguments, runs the
-particle filter, the EKF and/or the UKF on *the same* data, and returns, per
-filter, the position and heading RMSE, the time-averaged NEES and the run time.
-:func:`global_localization_run` does the same for one particle filter started
-from a cloud uniform over the map and says whether it locked on, and :func:`pf_run` returns
+particle filter, the EKF and/or the UKF on *the same* data, and records, per
+filter, the position and heading RMSE, the time-averaged NEES and the run time
+(a :class:`~pfcourse.experiments.record.RunRecord`).
+:func:`global_localization_run` records one particle filter started
+from a cloud uniform over the map and whether it locked on, and :func:`pf_run` returns
 the fuller row of a Part III study.  The three take the filter settings
 (:class:`FilterSettings`: the defaults and their meaning, written once) and the scenario
 changes as keyword arguments.
@@ -19,14 +20,14 @@ The metrics (``e_k = estimate_k - truth_k``, heading wrapped, steps ``k >= burn_
 
 from __future__ import annotations
 
-import time
 from dataclasses import dataclass, fields
 
 import numpy as np
 
 from pfcourse.diagnostics import nees
 from pfcourse.checks import check_count, check_real
-from pfcourse.errors import DegenerateWeightsError, NumericalError, ParameterError
+from pfcourse.errors import ParameterError
+from pfcourse.experiments.record import RunRecord, record_run
 from pfcourse.filter import ParticleFilter
 from pfcourse.metrics import LOCK_HEADING_RAD, LOCK_POSITION_M, heading_error, locked_on, position_error, position_spread
 from pfcourse.results import FilterResult
@@ -45,25 +46,12 @@ from pfcourse.robot.kalman import run_ekf, run_ukf
 FILTERS = ("pf", "ekf", "ukf")
 
 
-@dataclass(frozen=True)
-class RunMetrics:
-    """Summary of one filter on one run; ``failed`` is True if the filter raised (metrics are then NaN).
-
-    ``nees`` holds the per-step NEES for the steps ``k >= burn_in`` (``None`` if failed).
-    """
-
-    position_rmse: float
-    heading_rmse: float
-    mean_nees: float
-    seconds: float
-    failed: bool = False
-    nees: np.ndarray | None = None
-
-
-def _metrics(sim, mean, cov, seconds, burn_in) -> RunMetrics:
+def _metrics(sim, mean, cov, burn_in) -> dict:
+    """The scores of one robot run: ``position_rmse``, ``heading_rmse``, ``mean_nees`` and the
+    per-step ``nees`` of the steps ``k >= burn_in`` (NaN where the filter has no estimate)."""
     pos, head = rmse(sim.truth, mean, burn_in)
     per_step = nees(sim.truth[burn_in:], mean[burn_in:], cov[burn_in:], ANGLE_INDICES)
-    return RunMetrics(pos, head, float(np.mean(per_step)), seconds, False, per_step)
+    return {"position_rmse": pos, "heading_rmse": head, "mean_nees": float(np.mean(per_step)), "nees": per_step}
 
 
 @dataclass(frozen=True)
@@ -134,48 +122,33 @@ def compare_filters(
     filters: tuple[str, ...] = FILTERS,
     scenario: RobotScenario | None = None,
     **options,
-) -> dict[str, RunMetrics]:
+) -> dict[str, RunRecord]:
     """Simulate run ``seed`` and filter it with each of ``filters`` (``"pf"``, ``"ekf"``, ``"ukf"``).
 
     ``options`` are :class:`FilterSettings` fields (``n_particles``, ``q_scale``, ``r_scale``,
     ``threshold``, ``scheme``, ``initial``, ``initial_std``, ``burn_in``; defaults and meaning
     there) and :class:`~pfcourse.robot.scenario.RobotScenario` fields changing ``scenario``
-    (``n_steps``, ``dt_meas``, ``gap``, ``n_landmarks``, ``q_true``, ...).  A filter that
-    raises a :class:`~pfcourse.errors.DegenerateWeightsError` or
-    :class:`~pfcourse.errors.NumericalError` is reported with ``failed=True``.
+    (``n_steps``, ``dt_meas``, ``gap``, ``n_landmarks``, ``q_true``, ...).  Each filter's
+    record (:func:`~pfcourse.experiments.record.record_run`) has the scores ``position_rmse``,
+    ``heading_rmse``, ``mean_nees`` and the per-step ``nees`` (steps ``k >= burn_in``), and
+    ``seconds``; a filter that fails (a :class:`~pfcourse.errors.StepError`) is recorded
+    ``"failed"``, its scores NaN (no estimate).
     """
     unknown = set(filters) - set(FILTERS)
     if unknown:
         raise ParameterError(f"unknown filter(s) {sorted(unknown)}; choose among {FILTERS}")
     settings, scenario_changes = FilterSettings.split(options)
     sim = settings.simulate(seed, scenario, scenario_changes)
-    out: dict[str, RunMetrics] = {}
+    runners = {"pf": lambda model: settings.run_particle_filter(model, sim, seed),
+               "ekf": lambda model: run_ekf(model, sim.measurements),
+               "ukf": lambda model: run_ukf(model, sim.measurements)}
+    out: dict[str, RunRecord] = {}
     for name in filters:
         model = settings.model(sim, None if name == "pf" else "tracking")
-        start = time.perf_counter()
-        try:
-            if name == "pf":
-                res = settings.run_particle_filter(model, sim, seed)
-            elif name == "ekf":
-                res = run_ekf(model, sim.measurements)
-            else:
-                res = run_ukf(model, sim.measurements)
-        except (DegenerateWeightsError, NumericalError):
-            out[name] = RunMetrics(np.nan, np.nan, np.nan, time.perf_counter() - start, True)
-            continue
-        out[name] = _metrics(sim, res.mean, res.cov, time.perf_counter() - start, settings.burn_in)
+        out[name] = record_run(lambda: runners[name](model),
+                               lambda res: _metrics(sim, res.mean, res.cov, settings.burn_in),
+                               shape=(sim.scenario.n_steps, 3, 2))
     return out
-
-
-@dataclass(frozen=True)
-class GlobalRun:
-    """Outcome of :func:`global_localization_run`: lock-on flag (:func:`pfcourse.metrics.locked_on`),
-    final position error (m) and the filter's own final position standard deviation
-    ``sqrt(P_xx + P_yy)`` (m)."""
-
-    locked_on: bool
-    position_error: float
-    position_sd: float
 
 
 def global_localization_run(
@@ -187,8 +160,8 @@ def global_localization_run(
     heading_tolerance: float = LOCK_HEADING_RAD,
     scenario: RobotScenario | None = None,
     **options,
-) -> GlobalRun:
-    """Run the particle filter from a uniform cloud over the map and say whether it locked on.
+) -> RunRecord:
+    """Run the particle filter from a uniform cloud over the map and record whether it locked on.
 
     ``options`` are :class:`FilterSettings` fields (``q_scale``, ``r_scale``, ``threshold``,
     ``scheme``; the start is ``"uniform"``) and :class:`~pfcourse.robot.scenario.RobotScenario`
@@ -196,8 +169,10 @@ def global_localization_run(
     posterior mean within ``position_tolerance`` metres and ``heading_tolerance`` radians of the
     truth at every step of the last ``LOCK_WINDOW_S`` seconds (the whole run if it is shorter);
     other tolerances than the book's (1 m, 5 degrees) scale the errors before the test.
-    A filter that loses every particle (:class:`~pfcourse.errors.DegenerateWeightsError`)
-    has not locked on (error and standard deviation ``inf``).
+    The record's scores: ``locked_on``, the final position error ``position_error`` (m) and the
+    filter's own final position standard deviation ``position_sd`` ``sqrt(P_xx + P_yy)`` (m).
+    A filter that fails (every particle impossible) is recorded ``"failed"``: not locked on, its
+    error and standard deviation NaN (no estimate).
     """
     if "initial" in options:
         raise ParameterError("global_localization_run always starts from the uniform cloud: do not pass initial")
@@ -205,15 +180,17 @@ def global_localization_run(
     heading_tolerance = check_real(heading_tolerance, "heading_tolerance", low=0.0, low_open=True)
     settings, scenario_changes = FilterSettings.split({**options, "n_particles": n_particles, "initial": "uniform"})
     sim = settings.simulate(seed, scenario, {"n_steps": n_steps, **scenario_changes})
-    try:
-        res = settings.run_particle_filter(settings.model(sim), sim, seed)
-    except DegenerateWeightsError:
-        return GlobalRun(False, float("inf"), float("inf"))
-    dist = position_error(sim.truth, res.mean)
-    turn = heading_error(sim.truth, res.mean)
-    ok = locked_on(dist * (LOCK_POSITION_M / position_tolerance), turn * (LOCK_HEADING_RAD / heading_tolerance),
-                   sim.scenario.dt)
-    return GlobalRun(bool(ok), float(dist[-1]), float(position_spread(res.cov[-1])))
+
+    def score(res) -> dict:
+        dist = position_error(sim.truth, res.mean)
+        turn = heading_error(sim.truth, res.mean)
+        ok = locked_on(dist * (LOCK_POSITION_M / position_tolerance),
+                       turn * (LOCK_HEADING_RAD / heading_tolerance), sim.scenario.dt)
+        return {"locked_on": bool(ok), "position_error": float(dist[-1]),
+                "position_sd": float(position_spread(res.cov[-1]))}
+
+    return record_run(lambda: settings.run_particle_filter(settings.model(sim), sim, seed), score,
+                      shape=(sim.scenario.n_steps, 3, 2))
 
 
 def pf_run(
@@ -243,16 +220,16 @@ def pf_run(
     sim = settings.simulate(seed, scenario, scenario_changes)
     res = settings.run_particle_filter(settings.model(sim), sim, seed)
     burn_in = settings.burn_in
-    metrics = _metrics(sim, res.mean, res.cov, 0.0, burn_in)
+    metrics = _metrics(sim, res.mean, res.cov, burn_in)
     err = tracking_errors(sim.truth, res.mean)
     distance = position_error(sim.truth, res.mean)
     sd = position_spread(res.cov)
     jitter = np.diff(res.mean[burn_in:, :2], axis=0) - np.diff(sim.truth[burn_in:, :2], axis=0)
     measured = sim.has_measurement
     row = {
-        "position_rmse": metrics.position_rmse,
-        "heading_rmse": metrics.heading_rmse,
-        "mean_nees": metrics.mean_nees,
+        "position_rmse": metrics["position_rmse"],
+        "heading_rmse": metrics["heading_rmse"],
+        "mean_nees": metrics["mean_nees"],
         "final_position_error": float(distance[-1]),
         "final_heading_error": float(abs(err[-1, 2])),
         "mean_ess_fraction": float(np.mean(res.ess[measured]) / res.n_particles) if measured.any() else 1.0,

@@ -15,7 +15,9 @@ and returns a dictionary of metrics.  The result is a tidy table, one row per
   their differences are not blurred by different data.
 * **Failures are data.** A run that collapses (a :class:`~pfcourse.errors.StepError`:
   every particle impossible, a NaN) is recorded with ``status = "failed"`` and its
-  message; the study goes on.  Configuration errors and bugs still stop it.
+  message; the study goes on.  Configuration errors and bugs still stop it.  This is the
+  failure policy of every recorded run (:mod:`pfcourse.experiments.record`): a row holds what
+  a run record holds, its setting, ``status``, ``error``, metrics and ``seconds``.
 * **Batches.** ``run_batch(seeds=[...], **s)`` may replace ``run_one`` when a
   model can run several replicates at once; it returns one dictionary per seed,
   or, for a replicate that collapsed, the :class:`~pfcourse.errors.StepError`
@@ -46,6 +48,7 @@ import pandas as pd
 from pfcourse.checks import check_count
 from pfcourse.errors import ParameterError, StepError
 from pfcourse.executor import STALL_TIMEOUT, run_tasks
+from pfcourse.experiments.record import failure_message
 from pfcourse.seeding import replicate_seed
 
 Metrics = Mapping[str, float]
@@ -145,7 +148,7 @@ def _one_row(run_one, setting: dict, r: int, seed: int) -> dict:
     try:
         metrics, status, error = _metrics(run_one(seed=seed, **setting), setting, seed), "ok", ""
     except StepError as exc:
-        metrics, status, error = {}, "failed", f"{type(exc).__name__}: {exc}"
+        metrics, status, error = {}, "failed", failure_message(exc)
     return {**setting, "run": r, "seed": seed, "status": status, "error": error, **metrics,
             "seconds": time.perf_counter() - start}
 
@@ -153,7 +156,7 @@ def _one_row(run_one, setting: dict, r: int, seed: int) -> dict:
 def _batch_rows(run_batch, setting: dict, runs: list[int], seeds: list[int]) -> list[dict]:
     start = time.perf_counter()
     try:
-        results = [({}, "failed", f"{type(m).__name__}: {m}") if isinstance(m, StepError) else (_metrics(m, setting, seed), "ok", "")
+        results = [({}, "failed", failure_message(m)) if isinstance(m, StepError) else (_metrics(m, setting, seed), "ok", "")
                    for m, seed in zip(run_batch(seeds=seeds, **setting), seeds)]
         if len(results) != len(seeds):
             raise ParameterError(f"run_batch returned {len(results)} results for {len(seeds)} seeds")

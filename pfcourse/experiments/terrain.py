@@ -2,20 +2,24 @@
 
 Flight ``r`` of a study with seed ``s`` is drawn from :func:`pfcourse.seeding.data_rng` ``(s, r)`` and
 its particle filter from :func:`pfcourse.seeding.filter_rng` ``(s, r)``: every setting sees the same
-flights (common random numbers).
+flights (common random numbers).  :func:`flight_study` records each flight
+(:class:`~pfcourse.experiments.record.RunRecord`); :func:`final_errors`, :func:`average_errors`,
+:func:`diverged` and :func:`flight_summary` summarise the records, a lost or failed flight
+counting as an infinite error.
 """
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from concurrent.futures import Executor
-from dataclasses import dataclass
-from functools import cache
+from functools import cache, partial
 
 import numpy as np
 
 from pfcourse.checks import Array, check_count
-from pfcourse.errors import DegenerateWeightsError, ParameterError
+from pfcourse.errors import ParameterError
 from pfcourse.executor import run_tasks
+from pfcourse.experiments.record import RunRecord, record_run, scores
 from pfcourse.filter import ParticleFilter
 from pfcourse.seeding import data_rng, filter_rng
 from pfcourse.terrain.map import TerrainMap, load_jacksboro
@@ -34,52 +38,34 @@ def jacksboro() -> TerrainMap:
     return load_jacksboro()
 
 
-@dataclass
-class MonteCarloResult:
-    """Horizontal position errors of ``R`` seeded runs: ``errors`` ``(R, K)`` (m).
+def final_errors(flights: Sequence[RunRecord]) -> Array:
+    """Final horizontal error of each flight (m; ``inf`` for a lost or failed flight)."""
+    return scores(flights, "errors", failed=np.inf)[:, -1]
 
-    A run that lost every particle (``DegenerateWeightsError``) or whose EKF estimate left
-    the map has NaN errors from that step on; ``lost`` ``(R,)`` marks it.
-    ``sigma`` ``(R, K)`` is ``sqrt(P_xx + P_yy)`` of the filter, ``n_resamples`` ``(R,)``.
+
+def average_errors(flights: Sequence[RunRecord]) -> Array:
+    """Time-averaged horizontal error of each flight (m; ``inf`` for a lost or failed flight)."""
+    return np.mean(scores(flights, "errors", failed=np.inf), axis=1)
+
+
+def diverged(flights: Sequence[RunRecord]) -> Array:
+    """Flights lost, failed or with a final error above :data:`DIVERGED_ERROR`."""
+    return final_errors(flights) > DIVERGED_ERROR
+
+
+def flight_summary(flights: Sequence[RunRecord]) -> dict[str, float]:
+    """Median and 10 % / 90 % quantiles of the final and time-averaged errors, divergence rate.
+
+    Quantiles use the ``inverted_cdf`` rule, so a lost flight counts as an infinite error
+    without producing NaN.
     """
-
-    errors: Array
-    sigma: Array
-    lost: Array
-    n_resamples: Array
-
-    @property
-    def final(self) -> Array:
-        """Final horizontal error of each run (``inf`` for a lost run)."""
-        return np.where(self.lost, np.inf, self.errors[:, -1])
-
-    @property
-    def time_average(self) -> Array:
-        """Time-averaged horizontal error of each run (``inf`` for a lost run)."""
-        return np.where(self.lost, np.inf, np.mean(self.errors, axis=1))
-
-    @property
-    def diverged(self) -> Array:
-        """Runs lost or with a final error above :data:`DIVERGED_ERROR`."""
-        return self.final > DIVERGED_ERROR
-
-    def first(self, n: int) -> MonteCarloResult:
-        """The first ``n`` runs (the same flights as a study of ``n`` runs with the same seed)."""
-        return MonteCarloResult(self.errors[:n], self.sigma[:n], self.lost[:n], self.n_resamples[:n])
-
-    def summary(self) -> dict[str, float]:
-        """Median and 10 % / 90 % quantiles of the final and time-averaged errors, divergence rate.
-
-        Quantiles use the ``inverted_cdf`` rule, so a lost run counts as an infinite error
-        without producing NaN.
-        """
-        out = {}
-        for name, values in (("final", self.final), ("average", self.time_average)):
-            q10, q50, q90 = np.quantile(values, [0.1, 0.5, 0.9], method="inverted_cdf")
-            out[f"{name}_median"], out[f"{name}_q10"], out[f"{name}_q90"] = q50, q10, q90
-        out["diverged"] = float(np.mean(self.diverged))
-        out["runs"] = float(len(self.final))
-        return out
+    out = {}
+    for name, values in (("final", final_errors(flights)), ("average", average_errors(flights))):
+        q10, q50, q90 = np.quantile(values, [0.1, 0.5, 0.9], method="inverted_cdf")
+        out[f"{name}_median"], out[f"{name}_q10"], out[f"{name}_q90"] = q50, q10, q90
+    out["diverged"] = float(np.mean(diverged(flights)))
+    out["runs"] = float(len(flights))
+    return out
 
 
 def flight_study(
@@ -94,8 +80,8 @@ def flight_study(
     method: str = "pf",
     executor: Executor | None = None,
     batch_size: int = 10,
-) -> MonteCarloResult:
-    """Run ``n_runs`` seeded flights of ``scenario`` and filter each one.
+) -> list[RunRecord]:
+    """Run ``n_runs`` seeded flights of ``scenario`` and filter each one: one record per flight.
 
     Flight ``r`` is drawn with :func:`~pfcourse.seeding.data_rng` ``(seed, r)``: every setting of a study
     sees the same true flights and altimeter noise (common random numbers), so differences
@@ -104,6 +90,11 @@ def flight_study(
     ``(seed, r)``) or ``"ekf"``.  The flights are shared out, ``batch_size`` at a time, by
     :func:`~pfcourse.executor.run_tasks` (``executor=None``: a process pool over the
     cores); the result does not depend on the executor.
+
+    A flight's scores: the horizontal position ``errors`` ``(K,)`` (m), ``sigma`` ``(K,)`` the
+    filter's ``sqrt(P_xx + P_yy)`` (m), ``n_resamples``. An EKF whose estimate left the map is
+    recorded ``"lost"`` and a particle filter that lost every particle ``"failed"``; both have
+    NaN errors from the step they were lost (from the start for a failed one).
     """
     if method not in ("pf", "ekf"):
         raise ParameterError(f"method must be 'pf' or 'ekf', got {method!r}")
@@ -111,33 +102,25 @@ def flight_study(
     batch_size = check_count(batch_size, "batch_size")
     settings = (n_particles, threshold, resampler, seed, method)
     chunks = [list(range(start, min(start + batch_size, n_runs))) for start in range(0, n_runs, batch_size)]
-    runs = [run for chunk_runs in run_tasks(_flights, [(scenario, terrain, chunk, *settings) for chunk in chunks],
+    return [run for chunk_runs in run_tasks(_flights, [(scenario, terrain, chunk, *settings) for chunk in chunks],
                                             executor=executor)
             for run in chunk_runs]
-    errors, sigma, lost, n_resamples = (np.array(column) for column in zip(*runs))
-    return MonteCarloResult(errors=errors, sigma=sigma, lost=lost, n_resamples=n_resamples)
 
 
 def _flights(scenario: AircraftScenario, terrain: TerrainMap, runs: list[int], n_particles: int,
-             threshold: float, resampler: str, seed: int, method: str) -> list[tuple[Array, Array, bool, int]]:
-    """Flights ``runs`` of :func:`flight_study`: per run, the errors, ``sigma``, lost and resampling count."""
-    K = scenario.n_steps
+             threshold: float, resampler: str, seed: int, method: str) -> list[RunRecord]:
+    """Flights ``runs`` of :func:`flight_study`, recorded."""
     model = scenario.model(terrain)
     pf = ParticleFilter(model, n_particles, threshold=threshold, resampler=resampler)
     out = []
     for r in runs:
         flight = simulate(scenario, terrain, data_rng(seed, r))
-        n_resamples = 0
         if method == "ekf":
-            res = extended_kalman_filter(scenario, terrain, flight.measurements)
-            lost = res.lost_at is not None
+            run = partial(extended_kalman_filter, scenario, terrain, flight.measurements)
         else:
-            try:
-                res = pf.run(flight.measurements, rng=filter_rng(seed, r))
-            except DegenerateWeightsError:
-                out.append((np.full(K, np.nan), np.full(K, np.nan), True, 0))
-                continue
-            lost, n_resamples = False, res.n_resamples
-        out.append((position_error(flight.truth, res.mean), position_spread(res.cov),
-                    lost, n_resamples))
+            run = partial(pf.run, flight.measurements, rng=filter_rng(seed, r))
+        out.append(record_run(run, lambda res: {"errors": position_error(flight.truth, res.mean),
+                                                "sigma": position_spread(res.cov),
+                                                "n_resamples": getattr(res, "n_resamples", 0)},
+                              setting={"run": r}, shape=(scenario.n_steps, 4, 1)))
     return out
