@@ -141,6 +141,10 @@ CORE_HOMES = {
     "PMMHChain": "pmmh",
     "LinearGaussianModel": "linear_gaussian",
     "kalman_filter": "kalman",
+    "gaussian_filter": "kalman",
+    "GaussianModel": "kalman",
+    "Linearised": "kalman",
+    "Unscented": "kalman",
     "TransitionProposal": "proposals",
     "DensityProposal": "proposals",
     "OptimalProposal": "proposals",
@@ -161,3 +165,19 @@ def top_level_definitions(path: Path) -> set[str]:
 def test_a_generic_algorithm_lives_in_its_core_module_only(name):
     homes = [module_name(path) for path in MODULES if name in top_level_definitions(path)]
     assert homes == [f"pfcourse.{CORE_HOMES[name]}"], homes
+
+
+#: filterpy's Kalman classes and the modules allowed to import them: the family's one loop is
+#: pfcourse.kalman.gaussian_filter (README, "The package"); smoothing uses only KalmanFilter's RTS pass.
+FILTERPY_HOMES = {"KalmanFilter": {"pfcourse.smoothing"}, "ExtendedKalmanFilter": set(),
+                  "UnscentedKalmanFilter": set(), "MerweScaledSigmaPoints": {"pfcourse.kalman"},
+                  "unscented_transform": {"pfcourse.kalman"}}
+
+
+@pytest.mark.parametrize("name", sorted(FILTERPY_HOMES))
+def test_the_kalman_family_runs_in_one_loop(name):
+    users = {module_name(path) for path in MODULES
+             for node in ast.walk(ast.parse(path.read_text()))
+             if isinstance(node, ast.ImportFrom) and (node.module or "").startswith("filterpy")
+             and any(alias.name == name for alias in node.names)}
+    assert users == FILTERPY_HOMES[name], users
