@@ -110,6 +110,10 @@ class GaussianModel:
     on_domain: Callable[[Array], bool] | None = None
 
 
+#: What an update returns: the posterior mean and covariance, the innovation ``y``, its covariance ``S``, the gain.
+Update = tuple[Array, Array, Array, Array, Array]
+
+
 @lru_cache
 def _identity(n: int) -> Array:
     identity = np.eye(n)
@@ -130,14 +134,16 @@ class Linearised:
         """Where the update evaluates ``h``: the predicted mean."""
         return m[None, :]
 
-    def update(self, model: GaussianModel, m: Array, P: Array, points: Array, e: Measurement):
+    def update(self, model: GaussianModel, m: Array, P: Array, points: Array, e: Measurement) -> Update:
         H = e.H(m)
         PHT = np.dot(P, H.T)
         S = np.dot(H, PHT) + e.R
         gain = np.dot(PHT, self.inverse(S))
         y = model.residual_z(e.z, e.h(m))
         I_GH = _identity(len(m)) - np.dot(gain, H)
-        return m + np.dot(gain, y), np.dot(np.dot(I_GH, P), I_GH.T) + np.dot(np.dot(gain, e.R), gain.T), y, S, gain
+        mean = m + np.dot(gain, y)
+        cov = np.dot(np.dot(I_GH, P), I_GH.T) + np.dot(np.dot(gain, e.R), gain.T)
+        return mean, cov, y, S, gain
 
 
 class Unscented:
@@ -156,7 +162,7 @@ class Unscented:
         """Where the update evaluates ``h``: the sigma points of ``N(m, P)`` (the first is ``m``)."""
         return self.sigma.sigma_points(m, P)
 
-    def update(self, model: GaussianModel, m: Array, P: Array, points: Array, e: Measurement):
+    def update(self, model: GaussianModel, m: Array, P: Array, points: Array, e: Measurement) -> Update:
         seen = np.atleast_2d([e.h(point) for point in points])
         Wm, Wc = self.sigma.Wm, self.sigma.Wc
         z_hat, S = unscented_transform(seen, Wm, Wc, e.R, model.mean_z, model.residual_z)
