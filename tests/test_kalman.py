@@ -137,3 +137,32 @@ def test_a_filter_off_the_domain_of_h_is_lost_there():
     # the sigma points of N(m, P) reach sqrt(n P) ~ 0.1 below a mean of 0.05: the UKF stops at step 3
     ukf = gaussian_filter(gaussian, Unscented(gaussian), np.array([[3.0], [2.0], [1.0], [0.05]]), "UKF")
     assert ukf.lost_at == 3 and np.isfinite(ukf.mean[2, 0])
+
+
+def test_the_steps_are_filterpys_float_for_float():
+    """The linearised step with NumPy's inverse is filterpy's ``KalmanFilter``, the unscented step its
+    ``UnscentedKalmanFilter`` (same sigma points, same order of operations): equal floats."""
+    from filterpy.kalman import KalmanFilter, MerweScaledSigmaPoints, UnscentedKalmanFilter
+
+    model, z = _model(5), _readings(8, 6)
+    z[[2, 4]] = np.nan
+    gaussian = _as_functions(model)
+    ours = {"KF": gaussian_filter(gaussian, Linearised(np.linalg.inv), z, "KF"),
+            "UKF": gaussian_filter(gaussian, Unscented(gaussian, 0.5, 2.0, 1.0), z, "UKF")}
+    kf = KalmanFilter(dim_x=3, dim_z=2)
+    kf.x, kf.P, kf.F, kf.Q, kf.H, kf.R = model.m0.copy(), model.P0.copy(), model.F, model.Q, model.H, model.R
+    ukf = UnscentedKalmanFilter(dim_x=3, dim_z=2, dt=1.0, hx=lambda x: model.H @ x,
+                                fx=lambda x, dt: model.F @ x + model.B,
+                                points=MerweScaledSigmaPoints(3, alpha=0.5, beta=2.0, kappa=1.0))
+    ukf.x, ukf.P, ukf.Q, ukf.R = model.m0.copy(), model.P0.copy(), model.Q, model.R
+    ukf.sigmas_f = ukf.points_fn.sigma_points(ukf.x, ukf.P)  # filterpy's sigma points before a first predict
+    for k, zk in enumerate(z):
+        if k:
+            kf.predict(u=np.ones(1), B=model.B[:, None])
+            ukf.predict()
+        if not np.isnan(zk).all():
+            kf.update(zk)
+            ukf.update(zk)
+        for name, theirs in (("KF", kf), ("UKF", ukf)):
+            np.testing.assert_array_equal(ours[name].mean[k], np.ravel(theirs.x), err_msg=f"{name} {k}")
+            np.testing.assert_array_equal(ours[name].cov[k], theirs.P, err_msg=f"{name} {k}")
