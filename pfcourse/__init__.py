@@ -8,8 +8,9 @@ The notebooks teach; the plumbing lives here.  Main entry points:
 * :mod:`pfcourse.diagnostics` - ESS, weighted moments, NEES, ellipses;
 * :mod:`pfcourse.landmarks`, :mod:`pfcourse.robot`, :mod:`pfcourse.terrain` - the three scenarios;
 * :mod:`pfcourse.experiments` - Monte Carlo studies (any executor) and comparisons;
-* :func:`pfcourse.kalman.kalman_filter` - the exact Kalman reference (filterpy), on a
-  :class:`pfcourse.linear_gaussian.LinearGaussianModel`;
+* :func:`pfcourse.kalman.kalman_filter` - the exact Kalman reference, on a
+  :class:`pfcourse.linear_gaussian.LinearGaussianModel`, one of the Kalman family that
+  :func:`pfcourse.kalman.gaussian_filter` runs (KF, EKF, UKF);
 * :mod:`pfcourse.proposals`, :mod:`pfcourse.jitter`, :mod:`pfcourse.smoothing`, :mod:`pfcourse.pmmh`
   - importance functions, moves after resampling, smoothers, particle MCMC;
 * :func:`pfcourse.executor.run_tasks` - the one loop that shares calls over an executor.

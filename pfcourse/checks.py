@@ -293,7 +293,7 @@ def check_moments(particles: np.ndarray, cov: np.ndarray, linear: np.ndarray | N
 def check_estimate(k: int, name: str, *arrays) -> None:
     """Refuse a Kalman-type filter's output at step ``k`` (mean, covariance, log-likelihood
     increment...) with a NaN or infinite entry: an overflow, never returned silently."""
-    if not all(np.all(np.isfinite(a)) for a in arrays):
+    if not all(np.isfinite(a).all() for a in arrays):
         raise NumericalError(
             f"step {k}: the {name} produced NaN or infinite values (an overflow; rescale the model "
             "or the measurements)",

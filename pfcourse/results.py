@@ -102,13 +102,20 @@ class KalmanResult:
             name=name,
         )
 
-    def record_update(self, k: int, predicted: Array, innovation: Array, innovation_cov: Array, gain: Array) -> None:
-        """Store the update of step ``k`` (arrays of any shape with ``d``, ``m``, ``m x m``, ``d x m`` entries)."""
+    def record_update(self, k: int, predicted: Array, innovation: Array, innovation_cov: Array, gain: Array,
+                      components: Array | None = None) -> None:
+        """Store the update of step ``k`` (arrays of any shape with ``d``, ``m``, ``m x m``, ``d x m`` entries),
+        in the measured ``components`` (indices of ``m`` of the ``dim_z``; ``None``: all of them)."""
         d, m = self.gain.shape[1:]
         self.predicted[k] = np.reshape(predicted, d)
-        self.innovation[k] = np.reshape(innovation, m)
-        self.innovation_cov[k] = np.reshape(innovation_cov, (m, m))
-        self.gain[k] = np.reshape(gain, (d, m))
+        if components is None:
+            self.innovation[k] = np.reshape(innovation, m)
+            self.innovation_cov[k] = np.reshape(innovation_cov, (m, m))
+            self.gain[k] = np.reshape(gain, (d, m))
+        else:
+            self.innovation[k, components] = innovation
+            self.innovation_cov[k][np.ix_(components, components)] = innovation_cov
+            self.gain[k][:, components] = gain
 
     @property
     def log_likelihood(self) -> float:

@@ -141,6 +141,10 @@ CORE_HOMES = {
     "PMMHChain": "pmmh",
     "LinearGaussianModel": "linear_gaussian",
     "kalman_filter": "kalman",
+    "gaussian_filter": "kalman",
+    "GaussianModel": "kalman",
+    "Linearised": "kalman",
+    "Unscented": "kalman",
     "TransitionProposal": "proposals",
     "DensityProposal": "proposals",
     "OptimalProposal": "proposals",
@@ -217,3 +221,19 @@ def test_one_run_record():
     assert defined.pop("RunRecord") == ["pfcourse.experiments.record"]
     assert defined.pop("record_run") == ["pfcourse.experiments.record"]
     assert all(not homes for homes in defined.values()), defined
+
+
+#: filterpy's Kalman classes and the modules allowed to import them: the family's one loop is
+#: pfcourse.kalman.gaussian_filter (README, "The package"); smoothing uses only KalmanFilter's RTS pass.
+FILTERPY_HOMES = {"KalmanFilter": {"pfcourse.smoothing"}, "ExtendedKalmanFilter": set(),
+                  "UnscentedKalmanFilter": set(), "MerweScaledSigmaPoints": {"pfcourse.kalman"},
+                  "unscented_transform": {"pfcourse.kalman"}}
+
+
+@pytest.mark.parametrize("name", sorted(FILTERPY_HOMES))
+def test_the_kalman_family_runs_in_one_loop(name):
+    users = {module_name(path) for path in MODULES
+             for node in ast.walk(ast.parse(path.read_text()))
+             if isinstance(node, ast.ImportFrom) and (node.module or "").startswith("filterpy")
+             and any(alias.name == name for alias in node.names)}
+    assert users == FILTERPY_HOMES[name], users

@@ -1,10 +1,11 @@
-"""Extended and unscented Kalman filters for the robot of :mod:`pfcourse.robot.scenario`, through filterpy.
+"""Extended and unscented Kalman filters for the robot of :mod:`pfcourse.robot.scenario`: its model
+as the Kalman family reads it (:func:`kalman_model`), run by the one loop of :mod:`pfcourse.kalman`.
 
 Both filters read exactly the data the particle filter reads: the odometry
 ``u~_k`` (row ``k`` of the model's ``odometry``) and the measurement rows
 ``(j, range, bearing)`` (NaN when absent).
 
-**EKF** (:class:`filterpy.kalman.ExtendedKalmanFilter`).  Prediction with the
+**EKF** (:class:`pfcourse.kalman.Linearised`, filterpy's ``ExtendedKalmanFilter`` step for step).  Prediction with the
 Jacobians of ``f(x, u + w)`` at the current estimate ``m``::
 
     F = df/dx = [[1, 0, -(v_x s + v_y c) dt], [0, 1, (v_x c - v_y s) dt], [0, 0, 1]],
@@ -20,8 +21,8 @@ and the residual function ``z - h_j(m)`` with the bearing wrapped to (-pi, pi]
 innovation of 358 deg instead of -2 deg).  The heading estimate is wrapped after
 every step.
 
-**UKF** (:class:`filterpy.kalman.UnscentedKalmanFilter`, Van der Merwe's scaled
-sigma points).  The sigma points go through ``f(., u~)`` and ``h_j``; the
+**UKF** (:class:`pfcourse.kalman.Unscented`, filterpy's ``UnscentedKalmanFilter`` step for step,
+Van der Merwe's scaled sigma points).  The sigma points go through ``f(., u~)`` and ``h_j``; the
 additive process noise is ``G QEst G^T`` at the current estimate; means of
 headings and bearings are circular means, and every difference of angles
 (state residual, measurement residual) is wrapped.
@@ -32,19 +33,11 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from filterpy.kalman import ExtendedKalmanFilter, MerweScaledSigmaPoints, UnscentedKalmanFilter
 
 from pfcourse.angles import sigma_point_mean, wrap, wrap_angle
-from pfcourse.checks import (
-    Array,
-    as_vector,
-    check_covariance,
-    check_estimate,
-    check_measurements,
-    check_real,
-    numerical_step,
-)
+from pfcourse.checks import Array, as_vector, check_covariance, check_measurements, check_real
 from pfcourse.errors import MeasurementError, ModelError, ShapeError
+from pfcourse.kalman import GaussianModel, Linearised, Measurement, Transition, Unscented, gaussian_filter
 from pfcourse.results import KalmanResult
 from pfcourse.robot.scenario import INITIAL_STD, RobotModel, motion
 
@@ -142,45 +135,46 @@ def _check_measurements(measurements: Array, model: RobotModel) -> Array:
     return measurements
 
 
-def run_ekf(model: RobotModel, measurements: Array, initial_cov: Array | None = None) -> KalmanResult:
-    """Run the EKF on ``measurements`` ``(K, 3)`` with ``model``'s odometry, ``q_est`` and ``r_est``.
+def kalman_model(model: RobotModel, initial_cov: Array | None = None) -> GaussianModel:
+    """The robot as the Kalman family reads it (:class:`pfcourse.kalman.GaussianModel`; module docstring).
 
-    The prior is ``N(model.start, initial_cov)`` (default ``diag(model.initial_std)^2``,
-    the particle filter's tracking cloud).
+    ``f = motion(., u~_k)``, ``F`` and ``Q = G QEst G^T`` at the current estimate
+    (:func:`motion_jacobians`); at a step with a reading of landmark ``j``, ``h = h_j``
+    (:func:`range_bearing_one`), ``H`` from :func:`measurement_jacobian`, ``R = REst``;
+    headings and bearings through the residuals and means of this module.  The prior is
+    ``N(model.start, initial_cov)`` (default ``diag(model.initial_std)^2``, the particle filter's
+    tracking cloud).  The measurements are rows ``(j, range, bearing)``, NaN rows where nothing was
+    measured.
     """
     x0, P0 = _initial(model, initial_cov)
-    measurements = _check_measurements(measurements, model)
-    ekf = ExtendedKalmanFilter(dim_x=3, dim_z=2)
-    ekf.x = x0.reshape(3, 1)
-    ekf.P = P0.copy()
-    ekf.R = model.r_est.copy()
-    n_steps = len(measurements)
-    out = KalmanResult.empty(n_steps, 3, 2, "EKF")
-    for k in range(n_steps):
-        with numerical_step(k, "EKF"):
-            if k > 0:
-                u = model.odometry[k]
-                F, G = motion_jacobians(ekf.x[:, 0], u, model.dt)
-                ekf.x = motion(ekf.x[:, 0], u, model.dt).reshape(3, 1)
-                ekf.P = F @ ekf.P @ F.T + G @ model.q_est @ G.T
-            z = measurements[k]
-            if not np.isnan(z[0]):
-                landmark = model.landmarks[int(z[0])]
-                predicted = ekf.x.copy()
-                ekf.update(
-                    z[1:].reshape(2, 1),
-                    lambda x, lm: measurement_jacobian(x[:, 0], lm),
-                    lambda x, lm: range_bearing_one(x[:, 0], lm).reshape(2, 1),
-                    args=(landmark,),
-                    hx_args=(landmark,),
-                    residual=measurement_residual,
-                )
-                ekf.x[2, 0] = wrap(float(ekf.x[2, 0]))
-                out.record_update(k, predicted, ekf.y, ekf.S, ekf.K)
-        check_estimate(k, "EKF", ekf.x, ekf.P)
-        out.mean[k] = ekf.x[:, 0]
-        out.cov[k] = ekf.P
-    return out
+
+    def transition(k: int, m: Array) -> Transition:
+        u = model.odometry[k]
+        F, G = motion_jacobians(m, u, model.dt)
+        return Transition(lambda x: motion(x, u, model.dt), G @ model.q_est @ G.T, F)
+
+    def measurement(k: int, z: Array) -> Measurement | None:
+        if np.isnan(z[0]):
+            return None
+        landmark = model.landmarks[int(z[0])]
+        return Measurement(z[1:].copy(), lambda x: range_bearing_one(x, landmark), model.r_est,
+                           lambda x: measurement_jacobian(x, landmark))
+
+    return GaussianModel(x0, P0, 2, transition, measurement, state_residual, measurement_residual,
+                         state_mean, measurement_mean, wrap=_wrap_heading)
+
+
+def _wrap_heading(x: Array) -> Array:
+    x = x.copy()
+    x[2] = wrap(float(x[2]))
+    return x
+
+
+def run_ekf(model: RobotModel, measurements: Array, initial_cov: Array | None = None) -> KalmanResult:
+    """Run the EKF (:class:`pfcourse.kalman.Linearised`) on ``measurements`` ``(K, 3)`` with ``model``'s
+    odometry, ``q_est`` and ``r_est`` (:func:`kalman_model`)."""
+    gaussian = kalman_model(model, initial_cov)
+    return gaussian_filter(gaussian, Linearised(), _check_measurements(measurements, model), "EKF", log_likelihood=False)
 
 
 def run_ukf(
@@ -192,64 +186,25 @@ def run_ukf(
     beta: float = 2.0,
     kappa: float = 0.0,
 ) -> KalmanResult:
-    """Run the UKF on ``measurements`` ``(K, 3)``; sigma points ``MerweScaledSigmaPoints(3, alpha, beta, kappa)``.
+    """Run the UKF (:class:`pfcourse.kalman.Unscented`) on ``measurements`` ``(K, 3)``; sigma points
+    ``MerweScaledSigmaPoints(3, alpha, beta, kappa)``.
 
     With the defaults (``alpha = 1``, ``kappa = 0``) the six outer sigma points sit at
     ``m +/- sqrt(3 P)`` columns with weight 1/6 each and the centre point has mean
     weight 0: every weight used for means is non-negative.
     """
-    x0, P0 = _initial(model, initial_cov)
+    gaussian = kalman_model(model, initial_cov)
     measurements = _check_measurements(measurements, model)
     check_real(alpha, "alpha", low=0.0, high=1e100, low_open=True)  # beyond, alpha**2 overflows
     check_real(beta, "beta")
     check_real(kappa, "kappa", low=-3.0, low_open=True)  # alpha^2 (3 + kappa) > 0: the sigma points' spread
-    points = MerweScaledSigmaPoints(3, alpha=alpha, beta=beta, kappa=kappa, subtract=state_residual)
-
-    def fx(x, dt, u):
-        return motion(x, u, dt)
-
-    def hx(x, landmark):
-        return range_bearing_one(x, landmark)
-
-    ukf = UnscentedKalmanFilter(
-        dim_x=3,
-        dim_z=2,
-        dt=model.dt,
-        hx=hx,
-        fx=fx,
-        points=points,
-        x_mean_fn=state_mean,
-        z_mean_fn=measurement_mean,
-        residual_x=state_residual,
-        residual_z=measurement_residual,
-    )
-    ukf.x = x0.copy()
-    ukf.P = P0.copy()
-    ukf.R = model.r_est.copy()
-    n_steps = len(measurements)
-    out = KalmanResult.empty(n_steps, 3, 2, "UKF")
-    for k in range(n_steps):
-        with numerical_step(k, "UKF"):
-            if k > 0:
-                u = model.odometry[k]
-                _, G = motion_jacobians(ukf.x, u, model.dt)
-                ukf.Q = G @ model.q_est @ G.T
-                ukf.predict(u=u)
-                ukf.x[2] = wrap(float(ukf.x[2]))
-            z = measurements[k]
-            if not np.isnan(z[0]):
-                predicted = ukf.x.copy()
-                ukf.update(z[1:].copy(), landmark=model.landmarks[int(z[0])])
-                ukf.x[2] = wrap(float(ukf.x[2]))
-                out.record_update(k, predicted, ukf.y, ukf.S, ukf.K)
-        check_estimate(k, "UKF", ukf.x, ukf.P)
-        out.mean[k] = ukf.x
-        out.cov[k] = ukf.P
-    return out
+    steps = Unscented(gaussian, alpha=alpha, beta=beta, kappa=kappa)
+    return gaussian_filter(gaussian, steps, measurements, "UKF", log_likelihood=False)
 
 
 __all__ = [
     "INITIAL_STD",
+    "kalman_model",
     "measurement_jacobian",
     "measurement_mean",
     "measurement_residual",

@@ -25,8 +25,9 @@ Measurements arrive every ``measurement_period`` seconds, except inside an optio
 
 :class:`TerrainModel` is the particle filter's model (the protocol of
 :class:`~pfcourse.filter.ParticleFilter`); :func:`simulate` draws a flight and its
-measurements; :func:`extended_kalman_filter` runs filterpy's EKF with the terrain
-gradient as measurement Jacobian, ``H = [-dh/dx, -dh/dy, 1, 0]``.
+measurements; :func:`kalman_model` is the scenario as the Kalman family reads it and
+:func:`extended_kalman_filter` its EKF, with the terrain gradient as measurement Jacobian,
+``H = [-dh/dx, -dh/dy, 1, 0]``.
 """
 
 from __future__ import annotations
@@ -34,9 +35,8 @@ from __future__ import annotations
 from dataclasses import dataclass, field, replace
 
 import numpy as np
-from filterpy.kalman import ExtendedKalmanFilter
 
-from pfcourse.angles import wrap_angle
+from pfcourse.angles import sigma_point_mean, wrap_angle
 from pfcourse.checks import (
     Array,
     as_generator,
@@ -49,6 +49,7 @@ from pfcourse.checks import (
     set_checked,
 )
 from pfcourse.errors import ParameterError
+from pfcourse.kalman import GaussianModel, Linearised, Measurement, Transition, gaussian_filter
 from pfcourse.results import KalmanResult
 from pfcourse.terrain.map import TerrainMap
 from pfcourse.terrain.compiled import aircraft_transition, altimeter_log_likelihood
@@ -261,55 +262,59 @@ def simulate(
     return Flight(T=s.times, truth=X, measurements=Z, terrain_height=ground)
 
 
-class _TerrainEKF(ExtendedKalmanFilter):
-    """filterpy's EKF with the aircraft's nonlinear state prediction."""
+def state_residual(a: Array, b: Array) -> Array:
+    """``a - b`` for aircraft states ``(4,)`` with the heading difference wrapped."""
+    y = np.asarray(a, dtype=float) - np.asarray(b, dtype=float)
+    y[3] = wrap_angle(y[3])
+    return y
 
-    def __init__(self, speed: float, omega: float, dt: float) -> None:
-        super().__init__(dim_x=4, dim_z=1)
-        self.speed, self.omega, self.dt = speed, omega, dt
 
-    def predict_x(self, u=0) -> None:
-        self.x = propagate(self.x[:, 0], self.speed, self.omega, self.dt)[:, None]
+def state_mean(sigmas: Array, weights: Array) -> Array:
+    """Weighted mean of sigma points ``(n, 4)``; circular mean of the heading."""
+    return sigma_point_mean(sigmas, weights, (3,))
+
+
+def kalman_model(scenario: AircraftScenario, terrain: TerrainMap) -> GaussianModel:
+    """Scenario B as the Kalman family reads it (:class:`pfcourse.kalman.GaussianModel`).
+
+    Prior ``N(x0, P0)``; ``f`` = :func:`propagate`, ``F`` = :func:`dynamics_jacobian` at the
+    previous estimate, ``Q = Qf dt``; a reading ``y`` (NaN: none) has ``h(x) = z - h_terrain(x, y)``
+    (:func:`predicted_measurement`), ``H = [-dh/dx, -dh/dy, 1, 0]`` (:func:`measurement_jacobian`),
+    ``R = Rf``; the heading through :func:`state_residual` and :func:`state_mean`, wrapped in every
+    estimate.  ``h`` has no value off the map: a filter whose mean (or, for the UKF, a sigma point)
+    leaves it is lost there.
+    """
+    _check_flight(scenario, terrain)
+    s = scenario
+    Q, R = s.Qf * s.dt, np.array([[s.Rf]])
+
+    def transition(k: int, m: Array) -> Transition:
+        return Transition(lambda x: propagate(x, s.speed, s.omega, s.dt), Q, dynamics_jacobian(m, s.speed, s.dt))
+
+    def measurement(k: int, z: float) -> Measurement | None:
+        if np.isnan(z):
+            return None
+        return Measurement(np.array([z]), lambda x: np.array([predicted_measurement(x, terrain)]), R,
+                           lambda x: measurement_jacobian(x, terrain))
+
+    def wrap_heading(x: Array) -> Array:
+        x = x.copy()
+        x[3] = wrap_angle(x[3])
+        return x
+
+    return GaussianModel(s.x0, s.P0, 1, transition, measurement, residual_x=state_residual, mean_x=state_mean,
+                         wrap=wrap_heading, on_domain=lambda p: bool(terrain.contains(p[:, 0], p[:, 1]).all()))
 
 
 def extended_kalman_filter(
     scenario: AircraftScenario, terrain: TerrainMap, measurements: Array
 ) -> KalmanResult:
-    """Run filterpy's ``ExtendedKalmanFilter`` on scenario B.
+    """The EKF of scenario B (:func:`kalman_model`, :class:`pfcourse.kalman.Linearised`).
 
     Predict: ``x = f(x)``, ``P = F P F^T + Qf dt`` with ``F`` from :func:`dynamics_jacobian`
     at the previous estimate.  Update (when measured): ``H = [-dh/dx, -dh/dy, 1, 0]`` at the
     predicted estimate (:meth:`TerrainMap.gradient`), innovation ``y - (z - h(x, y))``,
     ``R = Rf``.  If the estimate leaves the map the run stops (``lost_at``; :class:`~pfcourse.results.KalmanResult`).
     """
-    s = scenario
-    measurements = np.asarray(measurements, dtype=float).reshape(-1)
-    K = len(measurements)
-    ekf = _TerrainEKF(s.speed, s.omega, s.dt)
-    ekf.x = s.x0.copy()[:, None]
-    ekf.P = s.P0.copy()
-    ekf.Q = s.Qf * s.dt
-    ekf.R = np.array([[s.Rf]])
-    out = KalmanResult.empty(K, 4, 1, "EKF")
-    for k in range(K):
-        if k > 0:
-            ekf.F = dynamics_jacobian(ekf.x[:, 0], s.speed, s.dt)
-            ekf.predict()
-        if not terrain.contains(ekf.x[0, 0], ekf.x[1, 0]):
-            out.lost_at = k
-            break
-        if not np.isnan(measurements[k]):
-            predicted = ekf.x.copy()
-            ekf.update(
-                np.array([[measurements[k]]]),
-                HJacobian=lambda x: measurement_jacobian(x[:, 0], terrain),
-                Hx=lambda x: np.array([[predicted_measurement(x[:, 0], terrain)]]),
-            )
-            ekf.x[3, 0] = wrap_angle(ekf.x[3, 0])
-            if not terrain.contains(ekf.x[0, 0], ekf.x[1, 0]):
-                out.lost_at = k
-                break
-            out.record_update(k, predicted, ekf.y, ekf.S, ekf.K)
-        out.mean[k] = ekf.x[:, 0]
-        out.cov[k] = ekf.P
-    return out
+    readings = np.asarray(measurements, dtype=float).reshape(-1)
+    return gaussian_filter(kalman_model(scenario, terrain), Linearised(), readings, "EKF", log_likelihood=False)
