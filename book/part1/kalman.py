@@ -112,8 +112,8 @@
 #       = -\tfrac12 \left(\nu_k^\top S_k^{-1} \nu_k + \log \det (2\pi S_k)\right)$ to $\ell$.
 # :::
 #
-# In `pfcourse` this is `kalman_filter(model, measurements)`, built on the `filterpy` library
-# {cite:p}`labbe2020`. Here is the algorithm in plain NumPy.
+# In `pfcourse` this is `kalman_filter(model, measurements)`, whose steps follow the `filterpy`
+# library's equations {cite:p}`labbe2020` (tested float for float against its `KalmanFilter`). Here is the algorithm in plain NumPy.
 
 # %%
 import matplotlib.pyplot as plt

@@ -119,7 +119,7 @@ def ekf(odometry, measurements, landmarks, Q, R, m0, P0, dt=1.0):
 
 # %% [markdown]
 # The check: on one run of the lab's scenario ($200$ s), this loop and the library's EKF
-# (`pfcourse.robot.kalman.run_ekf`, built on `filterpy`) must give the same means and
+# (`pfcourse.robot.kalman.run_ekf`, the package's one Kalman-family loop) must give the same means and
 # covariances, to round-off. The figure then shows the three filters' paths on that run, zoomed
 # on the start, where they converge from the initial guess.
 
@@ -256,7 +256,7 @@ EvidenceBlock(
 # most {glue:text}`ukf_ekf_max_diff_mm:.1f` mm in any run. **In run time** the EKF evaluates the
 # model once per step where the particle filter evaluates it $300$ times, yet on the machine
 # that built this page the particle filter took less time per run than the EKF (the timings,
-# which vary from machine to machine, are in the evidence): `filterpy`'s filters run each step
+# which vary from machine to machine, are in the evidence): the Kalman filters run each step
 # in Python, while the particle filter's loops are compiled.
 
 # %% tags=["remove-input", "nbval-ignore-output"] jupyter={"source_hidden": true}

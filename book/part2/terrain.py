@@ -402,7 +402,7 @@ plt.show()
 # measurement Jacobian is $H = [-\partial h/\partial x, -\partial h/\partial y, 1, 0]$, the
 # local slope of the DEM. With a prior $1.7$ km wide over terrain whose slope changes every
 # $100$ m, that slope says nothing about where the aircraft is. `extended_kalman_filter` runs
-# filterpy's EKF with exactly this Jacobian, on $100$ flights (the first $60$ are the particle
+# the EKF with exactly this Jacobian, on $100$ flights (the first $60$ are the particle
 # filter's), from the same prior, and from a prior about $50$ times tighter ($30$ m).
 
 # %%

@@ -370,7 +370,7 @@ EvidenceBlock(
 # %% [markdown]
 # **Cost.** In model evaluations the EKF is by far the cheapest: one, with its Jacobian, per
 # step, against {glue:text}`robot_ukf_evaluations:d` for the UKF and $N$ for the particle filter.
-# Wall time tells another story, because the implementations differ: `filterpy`'s EKF and UKF run
+# Wall time tells another story, because the implementations differ: the EKF and UKF run
 # each step in Python while the particle filter's inner loops are compiled; timed side by side,
 # the particle filter with $N = 1000$ takes {glue:text}`robot_time_pf1000_over_ekf:.1f` times the
 # EKF's time (95 % interval {glue:text}`robot_time_pf1000_over_ekf_low:.1f`-{glue:text}`robot_time_pf1000_over_ekf_high:.1f`)
