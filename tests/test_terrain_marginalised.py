@@ -10,7 +10,7 @@ from scipy.stats import norm
 from pfcourse.errors import ParameterError
 from pfcourse.terrain.map import TerrainMap
 from pfcourse.terrain.marginalised import MarginalisedTerrainModel, altitude_kalman_update, marginalised_filter
-from pfcourse.terrain.point_mass import PointMassFilter
+from pfcourse.terrain.point_mass import PointMassFilter, ground_on_lattice
 from pfcourse.terrain.scenario import AircraftScenario
 
 
@@ -84,7 +84,8 @@ def _layer_moments(w, x, y):
 def test_without_heading_noise_each_layer_moves_by_whole_cells_and_keeps_its_shape():
     # No heading noise, no readings: each heading layer is the prior moved along its dead-reckoned path.
     # The exact shift keeps every layer's spread (a bilinear shift would add f(1 - f) cell^2 a step) and
-    # leaves its mean within half a cell of the exact displacement, at the last step as at the first.
+    # moves its mean by the exact displacement: by whole cells on the lattice (within half a cell), and the
+    # layer's points lie at the lattice plus the layer's residual, at the last step as at the first.
     grid = PointMassFilter(WIDE, STRAIGHT, cell=50.0, heading_step=0.02, tail=0.0)
     w0 = grid.initial()[0]
     m0, mean0, var0 = _layer_moments(w0, grid.x, grid.y)
@@ -97,7 +98,19 @@ def test_without_heading_noise_each_layer_moves_by_whole_cells_and_keeps_its_sha
     assert np.allclose(var, var0[layers], rtol=1e-9)  # no numerical diffusion
     exact = mean0[layers] + grid.displacement[:, layers, -1].T
     assert np.all(np.abs(mean - exact) <= grid.cell / 2 + 1e-9)
+    assert np.allclose(mean + grid.residual.T, exact, rtol=0, atol=1e-6)
     assert np.abs(grid.displacement[:, layers, -1].T / grid.cell % 1 - 0.5).min() < 0.45  # not whole cells by luck
+
+
+def test_the_ground_on_the_lattice_is_the_map_s_bilinear_height():
+    rng = np.random.default_rng(5)
+    x, y = np.sort(rng.uniform(-500.0, 40500.0, 60)), np.sort(rng.uniform(-500.0, 40500.0, 50))
+    xs = np.arange(40) * 1000.0
+    terrain = TerrainMap(300.0 + 80.0 * np.sin(xs[None, :] / 9000.0) * np.cos(xs[:, None] / 7000.0), dx=1000.0, dy=1000.0)
+    expected = terrain.height(*np.meshgrid(x, y))
+    got = ground_on_lattice(terrain, x, y)
+    assert np.array_equal(np.isnan(got), np.isnan(expected)) and np.isnan(got).any()
+    assert np.allclose(got, expected, rtol=0, atol=1e-9, equal_nan=True)
 
 
 def test_the_spread_of_the_prior_is_the_model_s():

@@ -15,11 +15,14 @@ its displacement since ``t_0`` is summed exactly,
 
     D_j(k) = sum_{i < k} V dt (cos psi_j(t_i), sin psi_j(t_i)),
 
-and the layer is moved by whole cells, ``n_j(k) - n_j(k-1)`` with ``n_j(k) = round(D_j(k) / cell)``
-(per axis).  The shift is exact (no interpolation, no numerical diffusion): mass that keeps its
-heading bin sits within half a cell of where the dynamics put it, at every step, and that error does
-not grow.  Mass that changes bin (the heading noise) starts the other layer's rounding, so each
-change can add up to a cell; the resolution study measures what that leaves.  The heading noise
+and the layer's array is moved by whole cells, ``n_j(k) - n_j(k-1)`` with ``n_j(k) = round(D_j(k) / cell)``
+(per axis), while its points are taken to lie at the lattice plus the residual
+``rho_j(k) = D_j(k) - n_j(k) cell`` (less than half a cell): layer ``j``'s point ``(r, c)`` is at
+``(x_c, y_r) + rho_j(k)``.  The shift is exact (no interpolation, no numerical diffusion): mass that
+keeps its heading bin is where the dynamics put it, at every step, and the map is read there.
+Mass that changes bin (the heading noise) keeps its lattice point and takes the other layer's
+residual, a move of less than a cell;
+the resolution study measures what these moves leave.  The heading noise
 ``N(0, Qf_psi dt)`` is a convolution along the heading axis with the discrete Gaussian kernel
 ``T(n) = exp(-s) I_n(s)``, ``s = Qf_psi dt / dpsi^2`` (``scipy.special.ive``), whose variance is exactly
 ``s`` bins squared at any bin size; the altitude variance grows by ``Qf_z dt`` (``b += w Qf_z dt``).
@@ -28,9 +31,10 @@ a grid point into one with the mixture's mean and variance (moment matching).  T
 process noise (``sqrt(Qf_xx dt)``, a few metres) is far below a cell and is left out.
 
 **Update** (a product): at every grid point ``m = a / w``, ``P = b / w - m^2`` and, with the ground
-height ``h(p)`` of the point, the scalar Kalman update of :func:`pfcourse.terrain.marginalised.altitude_kalman_update`;
+height ``h(p)`` of the point (:func:`ground_on_lattice`, the map's bilinear height), the scalar Kalman update of :func:`pfcourse.terrain.marginalised.altitude_kalman_update`;
 ``w`` is multiplied by the predictive density ``N(y_k; m - h(p), P + Rf)`` and renormalised.
-The lattice covers the map only: mass moved off the map is dropped.
+The lattice covers the map only: mass moved off the map is dropped, and a point whose residual puts
+it off the map has probability zero at the next reading.
 
 The first box covers the prior's ``±position_sigmas`` standard deviations in position, cut to the
 map; the heading grid covers ``±heading_sigmas`` standard deviations of the heading's prior plus its
@@ -73,6 +77,28 @@ def heading_kernel(variance_bins: float) -> Array:
     return kernel / kernel.sum()
 
 
+def _axis_weights(coords: Array, spacing: float, n_nodes: int) -> tuple[Array, Array, Array]:
+    """Bilinear weights along one axis: node ``i`` below each coordinate, its fraction ``f`` to the next
+    node, and whether the coordinate is on the map (``0 <= coord <= (n_nodes - 1) spacing``)."""
+    u = coords / spacing
+    inside = (u >= 0) & (u <= n_nodes - 1)
+    i = np.clip(np.floor(u).astype(int), 0, n_nodes - 2)
+    return i, np.clip(u - i, 0.0, 1.0), inside
+
+
+def ground_on_lattice(terrain: TerrainMap, x: Array, y: Array) -> Array:
+    """``terrain.height`` at every ``(x[c], y[r])``, as an ``(len(y), len(x))`` array, NaN off the map: the same
+    bilinear formula, done one axis after the other (rows first, then columns)."""
+    ny, nx = terrain.shape
+    i, fx, in_x = _axis_weights(np.asarray(x, dtype=float), terrain.dx, nx)
+    r, fy, in_y = _axis_weights(np.asarray(y, dtype=float), terrain.dy, ny)
+    h = terrain.heights
+    rows = (1.0 - fy)[:, None] * h[r] + fy[:, None] * h[r + 1]  # (len(y), nx): along y at every map column
+    out = (1.0 - fx) * rows[:, i] + fx * rows[:, i + 1]
+    out[~(in_y[:, None] & in_x[None, :])] = np.nan
+    return out
+
+
 def _trimmed(mass: Array, tail: float) -> tuple[int, int]:
     """``(lo, hi)``: the shortest range of ``mass`` (a marginal) leaving at most ``tail`` of the total at each end."""
     c = np.cumsum(mass) / mass.sum()
@@ -90,7 +116,7 @@ class PointMassFilter:
 
     def __init__(self, terrain: TerrainMap, scenario: AircraftScenario, cell: float = 100.0,
                  heading_step: float = np.radians(2.0), position_sigmas: float = 3.5,
-                 heading_sigmas: float = 3.0, tail: float = 1e-12) -> None:
+                 heading_sigmas: float = 3.0, tail: float = 1e-9) -> None:
         _check_flight(scenario, terrain)
         self.cell = check_real(cell, "cell")
         self.heading_step = check_real(heading_step, "heading_step")
@@ -103,6 +129,7 @@ class PointMassFilter:
         if np.any(np.diag(np.diag(s.P0)) != s.P0) or np.any(np.diag(np.diag(s.Qf)) != s.Qf):
             raise ParameterError("the point-mass filter needs diagonal P0 and Qf (independent components)")
         self.terrain, self.scenario = terrain, s
+        self.step = 0  # the step k the arrays held describe
         sd_psi = float(np.sqrt(s.P0[3, 3] + s.Qf[3, 3] * s.duration))
         half = int(np.ceil(heading_sigmas * sd_psi / self.heading_step))
         self.offsets = np.arange(-half, half + 1) * self.heading_step  # psi_j - (psi_0 + omega t_k)
@@ -126,14 +153,19 @@ class PointMassFilter:
         if self.n_cells > MAX_CELLS:
             raise ParameterError(f"{self.n_cells} grid points (cell={cell} m, heading_step={heading_step} rad): "
                                  f"at most {MAX_CELLS}; take coarser cells")
-        X, Y = np.meshgrid(self.x_all, self.y_all)
-        self.ground_all = terrain.height(X, Y)  # (rows, columns) of the lattice
         self.kernel = heading_kernel(float(s.Qf[3, 3] * s.dt) / self.heading_step**2)
 
     @staticmethod
     def _size(box: tuple[int, ...]) -> int:
         j0, j1, r0, r1, c0, c1 = box
         return (j1 - j0) * (r1 - r0) * (c1 - c0)
+
+    @property
+    def residual(self) -> Array:
+        """``(2, layers)``: ``D_j(k) - n_j(k) cell`` along x and y for the layers held, at the step held: layer
+        ``j``'s point ``(r, c)`` lies at ``(x_c, y_r)`` plus this (within half a cell of the lattice)."""
+        j0, j1 = self.box[:2]
+        return self.displacement[:, j0:j1, self.step] - self.steps[:, j0:j1, self.step] * self.cell
 
     @property
     def x(self) -> Array:
@@ -149,6 +181,7 @@ class PointMassFilter:
         """``(w, a, b)`` of the prior: ``w`` the Gaussian prior's probabilities at the grid points,
         every altitude ``N(x0_z, P0_zz)``."""
         s = self.scenario
+        self.step = 0
         gx = -0.5 * (self.x - s.x0[0]) ** 2 / s.P0[0, 0]
         gy = -0.5 * (self.y - s.x0[1]) ** 2 / s.P0[1, 1]
         gpsi = -0.5 * self.offsets**2 / s.P0[3, 3]
@@ -184,7 +217,7 @@ class PointMassFilter:
                     stack[q][i, lo_r - dst_r0:hi_r - dst_r0, lo_c - dst_c0:hi_c - dst_c0]
         if radius > 0:
             moved = ndimage.correlate1d(moved, self.kernel, axis=1, mode="constant", cval=0.0)
-        self.box = new_box
+        self.box, self.step = new_box, k
         w, a, b = moved
         b = b + w * s.Qf[2, 2] * s.dt
         return w, a, b
@@ -194,8 +227,8 @@ class PointMassFilter:
         live = w > 0
         m = np.where(live, a / np.where(live, w, 1.0), 0.0)
         P = np.where(live, np.maximum(b / np.where(live, w, 1.0) - m * m, 1e-9), 1.0)
-        _, _, r0, r1, c0, c1 = self.box
-        ground = np.broadcast_to(self.ground_all[r0:r1, c0:c1], w.shape)
+        rx, ry = self.residual
+        ground = np.stack([ground_on_lattice(self.terrain, self.x + dx, self.y + dy) for dx, dy in zip(rx, ry)])
         m, P, log_lik = altitude_kalman_update(m, P, ground, reading, float(self.scenario.Rf))
         log_w = np.where(live, np.log(np.where(live, w, 1.0)) + log_lik, -np.inf)
         top = log_w.max()
@@ -220,10 +253,16 @@ class PointMassFilter:
         s = self.scenario
         total = w.sum()
         wx, wy, wpsi = w.sum(axis=(0, 1)) / total, w.sum(axis=(0, 2)) / total, w.sum(axis=(1, 2)) / total
-        mx, my = wx @ self.x, wy @ self.y
+        rx, ry = self.residual
+        # each layer's points lie at the lattice plus the layer's residual
+        mx, my = wx @ self.x + wpsi @ rx, wy @ self.y + wpsi @ ry
+        ex = (w.sum(axis=1) @ self.x) / total  # (layers,): sum over the layer of w x
+        ey = (w.sum(axis=2) @ self.y) / total
+        vx = wx @ self.x**2 + 2 * ex @ rx + wpsi @ rx**2 - mx**2
+        vy = wy @ self.y**2 + 2 * ey @ ry + wpsi @ ry**2 - my**2
         psi = s.x0[3] + s.omega * s.times[k] + self.offsets[self.box[0]:self.box[1]]
         mpsi = np.arctan2(wpsi @ np.sin(psi), wpsi @ np.cos(psi))
-        sd = np.sqrt([wx @ (self.x - mx) ** 2, wy @ (self.y - my) ** 2])
+        sd = np.sqrt(np.maximum([vx, vy], 0.0))
         return np.array([mx, my, a.sum() / total, wrap_angle(mpsi)]), sd
 
     def run(self, measurements: Array, keep: int | None = None) -> GridResult:
