@@ -135,6 +135,25 @@ def test_the_spread_of_the_prior_is_the_model_s():
     assert mc_var.sum() > 1.3 * np.trace(sc.P0[:2, :2])  # the heading noise spread it: the test can fail
 
 
+def test_the_grid_and_a_large_marginalised_particle_filter_agree_on_a_short_flight():
+    # Over the book's map, 15 readings: the grid (50 m, 1 degree) and the marginalised filter with 2 x 10^5
+    # particles approximate the same posterior; their final means must agree within half a cell on each
+    # axis (the grid's mass is within a cell of where it belongs; the particles' Monte Carlo error is a
+    # few metres), while the readings moved the mean far more than that from the dead-reckoned prior's.
+    from pfcourse.terrain.map import load_jacksboro
+    from pfcourse.terrain.scenario import simulate
+
+    terrain = load_jacksboro()
+    sc = AircraftScenario(duration=15.0, P0=np.diag([300.0, 300.0, 100.0, 0.05]) ** 2)
+    flight = simulate(sc, terrain, np.random.default_rng(7))
+    grid = PointMassFilter(terrain, sc, cell=50.0, heading_step=np.radians(1.0))
+    res = grid.run(flight.measurements)
+    pf = marginalised_filter(terrain, sc, 200_000, threshold=0.5).run(flight.measurements, rng=1)
+    assert np.all(np.abs(res.mean[-1, :2] - pf.mean[-1, :2]) <= grid.cell / 2)
+    prior = grid.run(np.full(sc.n_steps, np.nan)).mean[-1, :2]
+    assert np.hypot(*(res.mean[-1, :2] - prior)) > 2 * grid.cell
+
+
 def test_the_grid_posterior_mean_matches_a_brute_force_posterior():
     # One step, one reading, over a smooth synthetic map: the exact posterior of the position at t = 1,
     # altitude integrated out in closed form, summed over a fine grid of the prior (x0, y0, psi0).
