@@ -5,13 +5,12 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from scipy import ndimage
 from scipy.stats import norm
 
 from pfcourse.errors import ParameterError
 from pfcourse.terrain.map import TerrainMap
 from pfcourse.terrain.marginalised import MarginalisedTerrainModel, altitude_kalman_update, marginalised_filter
-from pfcourse.terrain.point_mass import PointMassFilter, bilinear_shift
+from pfcourse.terrain.point_mass import PointMassFilter, ground_on_lattice
 from pfcourse.terrain.scenario import AircraftScenario
 
 
@@ -68,11 +67,91 @@ def test_a_prior_that_couples_altitude_is_refused():
         MarginalisedTerrainModel(FLAT, SHORT.with_(P0=P0))
 
 
-@pytest.mark.parametrize("shift", [(0.3, -1.7), (2.5, 0.0), (-0.2, 0.9)])
-def test_bilinear_shift_is_scipys_order_one_shift(shift):
-    a = np.random.default_rng(1).random((3, 20, 30))
-    expected = ndimage.shift(a, (0, *shift), order=1, mode="grid-constant", cval=0.0, prefilter=False)
-    assert np.allclose(bilinear_shift(a, *shift), expected, rtol=0, atol=1e-13)
+WIDE = TerrainMap(np.full((40, 40), 250.0), dx=1000.0, dy=1000.0)
+STRAIGHT = AircraftScenario(duration=30.0, x0=np.array([20000.0, 20000.0, 1500.0, 0.4]),
+                            P0=np.diag([300.0, 300.0, 100.0, 0.1]) ** 2, Qf=np.diag([0.0, 0.0, 0.6, 0.0]) ** 2)
+
+
+def _layer_moments(w, x, y):
+    """Per heading layer: mass, mean (x, y) and variance (x, y) of w (layers, rows, columns)."""
+    mass = w.sum(axis=(1, 2))
+    mx, my = w.sum(axis=1) @ x / mass, w.sum(axis=2) @ y / mass
+    vx = w.sum(axis=1) @ x**2 / mass - mx**2
+    vy = w.sum(axis=2) @ y**2 / mass - my**2
+    return mass, np.column_stack([mx, my]), np.column_stack([vx, vy])
+
+
+def test_without_heading_noise_each_layer_moves_by_whole_cells_and_keeps_its_shape():
+    # No heading noise, no readings: each heading layer is the prior moved along its dead-reckoned path.
+    # The exact shift keeps every layer's spread (a bilinear shift would add f(1 - f) cell^2 a step) and
+    # moves its mean by the exact displacement: by whole cells on the lattice (within half a cell), and the
+    # layer's points lie at the lattice plus the layer's residual, at the last step as at the first.
+    grid = PointMassFilter(WIDE, STRAIGHT, cell=50.0, heading_step=0.02, tail=0.0)
+    w0 = grid.initial()[0]
+    m0, mean0, var0 = _layer_moments(w0, grid.x, grid.y)
+    K = STRAIGHT.n_steps
+    grid.run(np.full(K, np.nan), keep=K - 1)
+    j0 = grid.box[0]
+    mass, mean, var = _layer_moments(grid.kept, grid.kept_x, grid.kept_y)
+    layers = slice(j0, j0 + len(mass))
+    assert np.allclose(mass, m0[layers], rtol=1e-9)  # no mass changes heading
+    assert np.allclose(var, var0[layers], rtol=1e-9)  # no numerical diffusion
+    exact = mean0[layers] + grid.displacement[:, layers, -1].T
+    assert np.all(np.abs(mean - exact) <= grid.cell / 2 + 1e-9)
+    assert np.allclose(mean + grid.residual.T, exact, rtol=0, atol=1e-6)
+    assert np.abs(grid.displacement[:, layers, -1].T / grid.cell % 1 - 0.5).min() < 0.45  # not whole cells by luck
+
+
+def test_the_ground_on_the_lattice_is_the_map_s_bilinear_height():
+    rng = np.random.default_rng(5)
+    x, y = np.sort(rng.uniform(-500.0, 40500.0, 60)), np.sort(rng.uniform(-500.0, 40500.0, 50))
+    xs = np.arange(40) * 1000.0
+    terrain = TerrainMap(300.0 + 80.0 * np.sin(xs[None, :] / 9000.0) * np.cos(xs[:, None] / 7000.0), dx=1000.0, dy=1000.0)
+    expected = terrain.height(*np.meshgrid(x, y))
+    got = ground_on_lattice(terrain, x, y)
+    assert np.array_equal(np.isnan(got), np.isnan(expected)) and np.isnan(got).any()
+    assert np.allclose(got, expected, rtol=0, atol=1e-9, equal_nan=True)
+
+
+def test_the_spread_of_the_prior_is_the_model_s():
+    # Heading noise, no readings: the grid's position mean and covariance after K steps against a Monte
+    # Carlo of the filter's model (heading random walk, no horizontal noise).  Each step's whole-cell
+    # rounding is within a cell, so the grid's variance may differ by up to K cell^2 / 4 per axis, plus the
+    # Monte Carlo's sampling error (4 standard errors).
+    sc = STRAIGHT.with_(duration=20.0, Qf=np.diag([0.0, 0.0, 0.6, 0.04]) ** 2)
+    grid = PointMassFilter(WIDE, sc, cell=25.0, heading_step=np.radians(1.0), tail=1e-12)
+    K = sc.n_steps
+    res = grid.run(np.full(K, np.nan))
+    rng = np.random.default_rng(11)
+    n = 400_000
+    x = sc.x0[[0, 1, 3]] + rng.standard_normal((n, 3)) * np.sqrt(np.diag(sc.P0)[[0, 1, 3]])
+    for _ in range(K - 1):
+        x[:, 0] += sc.speed * sc.dt * np.cos(x[:, 2])
+        x[:, 1] += sc.speed * sc.dt * np.sin(x[:, 2])
+        x[:, 2] += sc.omega * sc.dt + np.sqrt(sc.Qf[3, 3] * sc.dt) * rng.standard_normal(n)
+    mc_mean, mc_var = x[:, :2].mean(axis=0), x[:, :2].var(axis=0)
+    assert np.all(np.abs(res.mean[-1, :2] - mc_mean) <= grid.cell / 2 + 4 * np.sqrt(mc_var / n))
+    assert np.all(np.abs(res.sd[-1] ** 2 - mc_var) <= K * grid.cell**2 / 4 + 4 * mc_var * np.sqrt(2 / n))
+    assert mc_var.sum() > 1.3 * np.trace(sc.P0[:2, :2])  # the heading noise spread it: the test can fail
+
+
+def test_the_grid_and_a_large_marginalised_particle_filter_agree_on_a_short_flight():
+    # Over the book's map, 15 readings: the grid (50 m, 1 degree) and the marginalised filter with 2 x 10^5
+    # particles approximate the same posterior; their final means must agree within half a cell on each
+    # axis (the grid's mass is within a cell of where it belongs; the particles' Monte Carlo error is a
+    # few metres), while the readings moved the mean far more than that from the dead-reckoned prior's.
+    from pfcourse.terrain.map import load_jacksboro
+    from pfcourse.terrain.scenario import simulate
+
+    terrain = load_jacksboro()
+    sc = AircraftScenario(duration=15.0, P0=np.diag([300.0, 300.0, 100.0, 0.05]) ** 2)
+    flight = simulate(sc, terrain, np.random.default_rng(7))
+    grid = PointMassFilter(terrain, sc, cell=50.0, heading_step=np.radians(1.0))
+    res = grid.run(flight.measurements)
+    pf = marginalised_filter(terrain, sc, 200_000, threshold=0.5).run(flight.measurements, rng=1)
+    assert np.all(np.abs(res.mean[-1, :2] - pf.mean[-1, :2]) <= grid.cell / 2)
+    prior = grid.run(np.full(sc.n_steps, np.nan)).mean[-1, :2]
+    assert np.hypot(*(res.mean[-1, :2] - prior)) > 2 * grid.cell
 
 
 def test_the_grid_posterior_mean_matches_a_brute_force_posterior():
@@ -94,7 +173,7 @@ def test_the_grid_posterior_mean_matches_a_brute_force_posterior():
     post = prior * norm.pdf(reading, 1500.0 - terrain.height(x1, y1), np.sqrt(s))
     exact = np.array([np.sum(post * x1), np.sum(post * y1)]) / post.sum()
     res = PointMassFilter(terrain, sc, cell=25.0, heading_step=0.01).run(np.array([np.nan, reading]))
-    # the moved prior is shifted by bilinear interpolation: within a tenth of a cell of the exact mean
+    # each heading layer moves by whole cells (each within half a cell): the mean within a tenth of a cell
     assert np.allclose(res.mean[1, :2], exact, atol=2.5)
     moved_prior = np.array([np.sum(prior * x1), np.sum(prior * y1)]) / prior.sum()
     assert np.linalg.norm(exact - moved_prior) > 20.0  # the reading moved the mean: the test can fail

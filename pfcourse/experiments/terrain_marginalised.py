@@ -9,7 +9,8 @@ bootstrap rows of the remedies study (multinomial, at ESS < N/2), so the two are
 
 The study ``terrain_mpf`` stores :func:`row` in ``book/data/terrain_mpf.csv``; the study
 ``terrain_grid`` stores :func:`grid_row` (the point-mass filter of :mod:`pfcourse.terrain.point_mass`
-at a cell size, with its final posterior mean) in ``book/data/terrain_grid.csv``.
+at each resolution of :data:`CELLS`, with its final posterior mean and standard deviations, and the grid
+points it held: ``cells`` on average over the steps, ``max_cells`` at most) in ``book/data/terrain_grid.csv``.
 """
 
 from __future__ import annotations
@@ -27,11 +28,13 @@ from pfcourse.terrain.scenario import AircraftScenario, simulate
 #: The marginalised filter's sizes, in the order they are stored.
 SIZES = [3000, 10000, 30000]
 COLUMNS = ("setting", "flight", "N", "final_error", "mean_error", "lost", "final_x", "final_y", "seconds")
-#: The point-mass filter's cell sizes (m) and heading bins (degrees), coarse to fine.
-CELLS = [(300.0, 6.0), (200.0, 4.0)]
-#: Flights 0 to GRID_FLIGHTS - 1 (the grid filter costs tens of seconds a flight).
+#: The point-mass filter's cell sizes (m) and heading bins (degrees), coarse to fine: each step divides both by
+#: sqrt(2) (the number of grid points grows by about 2.8).
+CELLS = [(400.0, 8.0), (283.0, 5.66), (200.0, 4.0), (141.0, 2.83), (100.0, 2.0)]
+#: Flights 0 to GRID_FLIGHTS - 1 (the finest grid costs tens of seconds a flight on the shared machine).
 GRID_FLIGHTS = 12
-GRID_COLUMNS = ("cell", "flight", "final_error", "mean_error", "lost", "final_x", "final_y", "cells", "seconds")
+GRID_COLUMNS = ("cell", "heading_deg", "flight", "final_error", "mean_error", "lost", "final_x", "final_y",
+                "final_sd_x", "final_sd_y", "cells", "max_cells", "seconds")
 
 
 def run_mpf(n: int, run: int, terrain, scenario: AircraftScenario | None = None) -> dict:
@@ -62,9 +65,10 @@ def run_grid(cell: float, heading_step_deg: float, run: int, terrain,
     pmf = PointMassFilter(terrain, scenario, cell=cell, heading_step=np.radians(heading_step_deg))
     res = pmf.run(flight.measurements)
     e = position_error(flight.truth, res.mean)
-    return {"cell": cell, "flight": run, "final_error": float(e[-1]), "mean_error": float(np.mean(e)),
-            "lost": bool(e[-1] > DIVERGED_ERROR), "final_x": float(res.mean[-1, 0]), "final_y": float(res.mean[-1, 1]),
-            "cells": int(pmf.n_cells)}
+    return {"cell": cell, "heading_deg": heading_step_deg, "flight": run, "final_error": float(e[-1]),
+            "mean_error": float(np.mean(e)), "lost": bool(e[-1] > DIVERGED_ERROR), "final_x": float(res.mean[-1, 0]),
+            "final_y": float(res.mean[-1, 1]), "final_sd_x": float(res.sd[-1, 0]), "final_sd_y": float(res.sd[-1, 1]),
+            "cells": float(np.mean(res.cells)), "max_cells": int(res.cells.max())}
 
 
 def grid_row(seed: int, cell: float) -> dict:
