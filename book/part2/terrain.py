@@ -679,8 +679,8 @@ plt.show()
 #
 # The panel reruns one flight with the settings you choose and draws the truth, the estimate
 # and the final cloud, with the error over time. Seed {glue:text}`terrain_diverged_flight:d` is a
-# flight that the baseline loses: the page shows it with the other settings at their first values;
-# in JupyterLab, try more particles or a larger $R_f$ on it.
+# flight that the baseline loses: the page shows it with the other settings at the values the panel
+# opens with; in JupyterLab, try more particles or a larger $R_f$ on it.
 
 # %% tags=["hide-input"] jupyter={"source_hidden": true}
 def draw(qf_scale=1.0, rf_scale=1.0, n_particles=3000, threshold=0.5, scheme="multinomial", seed=0):
