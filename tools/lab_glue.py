@@ -110,28 +110,38 @@ def to_lab(notebook: dict, load: Callable[[str], dict]) -> dict:
         except (ValueError, TypeError):
             return None
 
+    def translate(match: re.Match, expressions: list[dict[str, Any]]) -> str | None:
+        text = value(match.group(1))
+        if text is None:
+            return None
+        expression = _expression(match.group(1))
+        if all(e["expression"] != expression for e in expressions):
+            expressions.append({
+                "expression": expression,
+                "result": {"status": "ok", "data": {"text/plain": text}, "metadata": {}},
+            })
+        return "{eval}`" + expression + "`"
+
+    return _rewrite(notebook, ROLE, translate, METADATA)
+
+
+def _markdown(cell: dict) -> str:
+    return cell["source"] if isinstance(cell["source"], str) else "".join(cell["source"])
+
+
+def _rewrite(notebook: dict, pattern: re.Pattern, translate: Callable[[re.Match, list], str | None],
+             key: str) -> dict:
+    """Each match of ``pattern`` in a markdown cell -> ``translate(match, records)`` (``None``: left
+    as it is), which may append to the cell's ``records``; a cell with records keeps them in its
+    metadata under ``key``. In place; returns ``notebook``."""
     for cell in notebook.get("cells", []):
         if cell.get("cell_type") != "markdown":
             continue
-        source = cell["source"] if isinstance(cell["source"], str) else "".join(cell["source"])
-        expressions: list[dict[str, Any]] = []
-
-        def replace(match: re.Match) -> str:
-            text = value(match.group(1))
-            if text is None:
-                return match.group(0)
-            expression = _expression(match.group(1))
-            if all(e["expression"] != expression for e in expressions):
-                expressions.append({
-                    "expression": expression,
-                    "result": {"status": "ok", "data": {"text/plain": text}, "metadata": {}},
-                })
-            return "{eval}`" + expression + "`"
-
-        new = ROLE.sub(replace, source)
-        if expressions:
+        records: list = []
+        new = pattern.sub(lambda match: translate(match, records) or match.group(0), _markdown(cell))
+        if records:
             cell["source"] = new
-            cell.setdefault("metadata", {})[METADATA] = expressions
+            cell.setdefault("metadata", {})[key] = records
     return notebook
 
 
@@ -140,7 +150,7 @@ def from_lab(notebook: dict) -> dict:
     for cell in notebook.get("cells", []):
         if cell.get("cell_type") != "markdown":
             continue
-        source = cell["source"] if isinstance(cell["source"], str) else "".join(cell["source"])
+        source = _markdown(cell)
         new = EXPRESSION.sub(lambda m: "{glue:text}`" + json.loads(m.group(1)) + "`", source)
         if new != source:
             cell["source"] = new
@@ -154,9 +164,6 @@ def from_lab(notebook: dict) -> dict:
     return notebook
 
 
-
-def _markdown(cell: dict) -> str:
-    return cell["source"] if isinstance(cell["source"], str) else "".join(cell["source"])
 
 
 def page_targets(text: str) -> tuple[str | None, dict[str, str]]:
@@ -247,24 +254,13 @@ def links_to_lab(notebook: dict, path: Path, root: Path) -> dict:
         relative = Path(os.path.relpath(found, folder)).as_posix()
         return f"[{_link_text(text or title)}]({relative})"
 
-    for cell in notebook.get("cells", []):
-        if cell.get("cell_type") != "markdown":
-            continue
-        source = _markdown(cell)
-        made: list[dict[str, str]] = []
-
-        def replace(match: re.Match) -> str:
-            new = link(match)
-            if new is None:
-                return match.group(0)
+    def translate(match: re.Match, made: list[dict[str, str]]) -> str | None:
+        new = link(match)
+        if new is not None:
             made.append({"link": new, "role": match.group(0)})
-            return new
+        return new
 
-        new_source = XREF.sub(replace, source)
-        if made:
-            cell["source"] = new_source
-            cell.setdefault("metadata", {})[LINKS] = made
-    return notebook
+    return _rewrite(notebook, XREF, translate, LINKS)
 
 
 def links_from_lab(notebook: dict) -> dict:
