@@ -16,13 +16,22 @@ every page of the built book that shows a figure or a panel, opened in dark mode
 
 from __future__ import annotations
 
+import re
+
 import pytest
 
 from conftest import HTML, book_pages
 
-PAGES = [page for page in book_pages()
-         if "cell_output" in (HTML / page).read_text(encoding="utf-8", errors="replace")]
-PANEL_PAGES = [page for page in PAGES if "pfcourse-panel" in (HTML / page).read_text(encoding="utf-8")]
+
+
+def _shows_a_figure(text: str) -> bool:
+    """A cell output holding an image (the figures of a page), or a panel's figure."""
+    return "pfcourse-panel-figure" in text or re.search(r'cell_output[^>]*>(?:(?!</div>).)*?<img', text, re.S) is not None
+
+
+_TEXTS = {page: (HTML / page).read_text(encoding="utf-8", errors="replace") for page in book_pages()}
+PAGES = [page for page, text in _TEXTS.items() if _shows_a_figure(text)]
+PANEL_PAGES = [page for page in PAGES if "pfcourse-panel-figure" in _TEXTS[page]]
 #: WCAG 2 contrast ratio for normal text (level AA).
 MIN_CONTRAST = 4.5
 #: The figure card's relative luminance (white: 1; the theme's light grey #ced6dd: about 0.66).

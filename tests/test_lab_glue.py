@@ -54,13 +54,18 @@ def test_every_cross_chapter_reference_becomes_a_link_and_comes_back_unchanged(p
     for cell in lab["cells"]:
         if cell["cell_type"] != "markdown":
             continue
-        for match in lab_glue.XREF.finditer(cell["source"]):
+        for match in lab_glue.XREF.finditer(cell["source"]):  # left: a section of this notebook
             target = match.group(3) or match.group(4)
-            assert match.group(1) != "doc" and labels[target][0] == path, (path.name, match.group(0))
+            assert match.group(1) != "doc" and labels[target][0] == path and labels[target][2], (path.name, match.group(0))
         for entry in cell.get("metadata", {}).get(lab_glue.LINKS, []):
             assert entry["link"] in cell["source"] and entry["role"] not in cell["source"]
-            text, target = re.fullmatch(r"\[(.+)\]\(([^()]+)\)", entry["link"]).groups()
-            assert (path.parent / target).is_file() and (path.parent / target).resolve() != path.resolve()
+            link = re.fullmatch(r"\[(.+)\]\(([^()]+)\)", entry["link"])
+            if link is None:  # an exercise or a paragraph of this notebook: its title
+                text = re.fullmatch(r"\*([^*]+)\*", entry["link"]).group(1)
+                assert labels[re.search(r"<?([^<>`]+)>?`$", entry["role"]).group(1)][0] == path
+            else:
+                text, target = link.groups()
+                assert (path.parent / target).is_file() and (path.parent / target).resolve() != path.resolve()
             assert text.strip() and "`" not in text, entry
     back = lab_glue.links_from_lab(lab_glue.from_lab(lab))
     assert back == original
@@ -76,7 +81,9 @@ def test_a_reference_to_another_page_links_to_it_with_the_sections_title(tmp_pat
     here = tmp_path / "part1" / "kalman.ipynb"
     source = ("# Kalman\n\n(own)=\n## Own section\n\nSee {ref}`model-densities`, {ref}`these <model-densities>`, "
               "{numref}`ex-draw`, {ref}`a-paragraph`, {doc}`model`, {doc}`the symbols <../notation>`, "
-              "{doc}`/part1/model`, {ref}`own`, {ref}`nowhere` and {doc}`missing`; {ref}`model-densities` again.")
+              "{doc}`/part1/model`, {ref}`own`, {ref}`nowhere` and {doc}`missing`; {ref}`model-densities` again; "
+              "{ref}`ex-own` and {ref}`that paragraph <own-paragraph>` here.\n\n(own-paragraph)=\nA paragraph.\n\n"
+              "```{exercise} 2.1 Own\n:label: ex-own\n:nonumber:\nDo it.\n```\n")
     notebook = {"cells": [{"cell_type": "markdown", "metadata": {}, "source": source}]}
     here.write_text(json.dumps(notebook))
     lab = lab_glue.links_to_lab(copy.deepcopy(notebook), here, tmp_path)
@@ -84,7 +91,8 @@ def test_a_reference_to_another_page_links_to_it_with_the_sections_title(tmp_pat
     assert shown == ("# Kalman\n\n(own)=\n## Own section\n\nSee [The three densities](model.ipynb), [these](model.ipynb), "
                      "[Exercise 1.2: Draw it](model.ipynb), [The model](model.ipynb), [The model](model.ipynb), "
                      "[the symbols](../notation.md), [The model](model.ipynb), {ref}`own`, {ref}`nowhere` and "
-                     "{doc}`missing`; [The three densities](model.ipynb) again.")
+                     "{doc}`missing`; [The three densities](model.ipynb) again; *Exercise 2.1: Own* and "
+                     "*that paragraph* here.") + source[source.index(" here.") + len(" here."):]
     assert lab_glue.links_from_lab(lab) == notebook
     # a link the reader deleted in JupyterLab is not restored; the others are
     lab = lab_glue.links_to_lab(copy.deepcopy(notebook), here, tmp_path)

@@ -17,11 +17,12 @@ protocol's ``execute_request``), without a kernel, and re-evaluates them when th
   (``to_lab`` then ``from_lab`` gives back the notebook unchanged, tests/test_lab_glue.py).
 
 Cross-references to another chapter are translated the same way (:func:`links_to_lab`,
-:func:`links_from_lab`): jupyterlab-myst resolves ``{ref}``/``{numref}`` labels within the open
-notebook only, and shows any other as a bare label with a warning. On opening, a ``{ref}``,
-``{numref}`` or ``{doc}`` whose target is not in the notebook becomes a plain markdown link to
-the chapter that holds it (``[title](../part1/model.ipynb)``; the role's own text, else the
-section's or the chapter's title, from :func:`label_index` over the book's pages); the cell's
+:func:`links_from_lab`): jupyterlab-myst resolves ``{ref}``/``{numref}`` labels of the open
+notebook's sections only, and shows any other as a bare label with a warning. On opening, a
+``{ref}``, ``{numref}`` or ``{doc}`` whose target is not in the notebook becomes a plain markdown
+link to the chapter that holds it (``[title](../part1/model.ipynb)``; the role's own text, else
+the section's or the chapter's title, from :func:`label_index` over the book's pages), and one to
+an exercise or a paragraph of the notebook itself becomes its title in italics; the cell's
 ``pfcourse_links`` metadata keeps each original role, and saving puts it back, byte for byte.
 
 In the kernel (an IPython startup file, :func:`kernel_startup`), ``glued`` is defined and
@@ -166,21 +167,22 @@ def from_lab(notebook: dict) -> dict:
 
 
 
-def page_targets(text: str) -> tuple[str | None, dict[str, str]]:
-    """A page's title (its first ``#`` heading) and its labels -> titles, from its markdown.
+def page_targets(text: str) -> tuple[str | None, dict[str, tuple[str, bool]]]:
+    """A page's title (its first ``#`` heading) and its labels -> (title, is a section's), from its markdown.
 
-    Labels are ``(label)=`` targets (titled by the heading under them, else by the page's title) and the ``:label:`` of
-    exercise directives (titled "Exercise 4.1: Title", as the HTML book shows them).
+    Labels are ``(label)=`` targets (titled by the heading under them, else by the page's title) and
+    the ``:label:`` of exercise directives (titled "Exercise 4.1: Title", as the HTML book shows
+    them). Only a section's label is one jupyterlab-myst resolves within the notebook.
     """
     heading = HEADING.search(text)
     page = heading.group(1) if heading else None
-    labels = {m.group(1): page for m in ANCHOR.finditer(text) if page is not None}  # a paragraph's
-    labels.update({m.group(1): m.group(3) for m in TARGET.finditer(text)})        # or a section's
+    labels = {m.group(1): (page, False) for m in ANCHOR.finditer(text) if page is not None}  # a paragraph's
+    labels.update({m.group(1): (m.group(3), True) for m in TARGET.finditer(text)})        # or a section's
     for m in LABELLED.finditer(text):
         label = re.search(r"^:label:\s*(\S+)", m.group(4), re.M)
         if label and m.group(2) == "exercise":
             number, _, title = m.group(3).partition(" ")
-            labels[label.group(1)] = f"Exercise {number}: {title}" if title else f"Exercise {number}"
+            labels[label.group(1)] = (f"Exercise {number}: {title}" if title else f"Exercise {number}", False)
     return page, labels
 
 
@@ -194,10 +196,10 @@ def _page_text(path: Path) -> str:
 _PAGES: dict[Path, tuple[float, tuple[str | None, dict[str, str]]]] = {}  # path -> (mtime, targets)
 
 
-def label_index(root: Path) -> tuple[dict[str, tuple[Path, str]], dict[Path, str]]:
-    """Every page of the book under ``root`` (``.ipynb`` and ``.md``): ``label -> (page, title)`` and
-    ``page (without suffix) -> title``. Each page is read again only when it changed."""
-    labels: dict[str, tuple[Path, str]] = {}
+def label_index(root: Path) -> tuple[dict[str, tuple[Path, str, bool]], dict[Path, str]]:
+    """Every page of the book under ``root`` (``.ipynb`` and ``.md``): ``label -> (page, title, is a
+    section's)`` and ``page (without suffix) -> title``. Each page is read again only when it changed."""
+    labels: dict[str, tuple[Path, str, bool]] = {}
     titles: dict[Path, str] = {}
     for path in sorted([*root.rglob("*.ipynb"), *root.rglob("*.md")]):
         if any(part.startswith((".", "_")) for part in path.relative_to(root).parts):
@@ -211,8 +213,8 @@ def label_index(root: Path) -> tuple[dict[str, tuple[Path, str]], dict[Path, str
         title, own = _PAGES[path][1]
         if title is not None:
             titles.setdefault(path.with_suffix(""), title)
-        for label, text in own.items():
-            labels.setdefault(label, (path, text))
+        for label, (text, section) in own.items():
+            labels.setdefault(label, (path, text, section))
     return labels, titles
 
 
@@ -225,7 +227,8 @@ def links_to_lab(notebook: dict, path: Path, root: Path) -> dict:
 
     A ``{ref}``/``{numref}`` to a label of another page of the book under ``root``, and every
     ``{doc}``, become ``[text](relative path of the page)``, ``text`` the role's own or the title
-    of the section (or page); the cell's ``pfcourse_links`` metadata records each link and the role
+    of the section (or page); one to an exercise or a paragraph of this notebook, which
+    jupyterlab-myst does not resolve either, becomes that text in italics; the cell's ``pfcourse_links`` metadata records each link and the role
     it replaces, in order, for :func:`links_from_lab`. A target that is not found stays a role.
     """
     path = Path(path)
@@ -248,9 +251,11 @@ def links_to_lab(notebook: dict, path: Path, root: Path) -> dict:
                 return None
             title = titles.get(stem, target)
         else:
-            if target not in labels or labels[target][0].resolve() == path.resolve():
+            if target not in labels:
                 return None
-            found, title = labels[target]
+            found, title, section = labels[target]
+            if found.resolve() == path.resolve():  # in this notebook: jupyterlab-myst resolves a
+                return None if section else f"*{text or title}*"  # section's label only
         relative = Path(os.path.relpath(found, folder)).as_posix()
         return f"[{_link_text(text or title)}]({relative})"
 
