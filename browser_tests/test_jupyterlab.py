@@ -13,7 +13,10 @@ source calls ``control_panel``:
   drop-down to its next option) and requires the panel's figure to change within 2 s.
 
 JupyterLab renders the MyST markup with jupyterlab-myst (requirements.txt); the test also
-checks that it is active: no exercise directive (``:label:`` lines) is left as raw text.
+checks that it is active: no exercise directive (``:label:`` lines) is left as raw text. A
+cross-reference to another chapter (tools/lab_glue.py turns it into a markdown link) renders as a
+link and, clicked, opens that chapter's notebook; no "Cross reference target was not found" is
+logged.
 """
 
 from __future__ import annotations
@@ -199,12 +202,43 @@ def test_panel_live_in_jupyterlab(chapter: str, lab, browser) -> None:
         )
         SHOTS.mkdir(parents=True, exist_ok=True)
         tab.screenshot(path=SHOTS / (chapter.replace("/", "__").removesuffix(".ipynb") + ".png"))
-        print(f"{chapter}: ran in {run_s:.0f} s; moving the first {moved} redrew the figure")
+        opened = _check_cross_chapter_link(tab, chapter)
+        print(f"{chapter}: ran in {run_s:.0f} s; moving the first {moved} redrew the figure; "
+              f"the link to {opened} opened it")
         assert not blocked, f"{chapter}: requests leaving 127.0.0.1: {blocked[:5]}"
         problems = [m for m in console if not _ignorable(m)]
         assert not problems, f"{chapter}: {len(problems)} console error(s)/warning(s): {problems[:5]}"
     finally:
         context.close()
+
+
+def _cross_chapter_links(chapter: str) -> list[tuple[int, str, str]]:
+    """(cell index, link text, target) of each cross-chapter link the chapter opens with."""
+    notebook = json.loads((BOOK / chapter).read_text(encoding="utf-8"))
+    lab_glue.links_to_lab(notebook, BOOK / chapter, BOOK)
+    links = []
+    for index, cell in enumerate(notebook["cells"]):
+        for entry in cell.get("metadata", {}).get(lab_glue.LINKS, []):
+            if not entry["link"].startswith("["):  # an exercise of this chapter, shown as its title
+                continue
+            text, target = entry["link"][1:-1].split("](")
+            links.append((index, text.replace("\\[", "[").replace("\\]", "]"), target))
+    return links
+
+
+def _check_cross_chapter_link(tab, chapter: str) -> str:
+    """The chapter's first link to another notebook renders as a link (an ``<a>`` with its text) and,
+    clicked, opens that notebook in JupyterLab. Returns the notebook opened."""
+    links = [link for link in _cross_chapter_links(chapter) if link[2].endswith(".ipynb")]
+    assert links, f"{chapter}: no cross-chapter reference to check"
+    index, text, target = links[0]
+    tab.evaluate("(i) => window.jupyterapp.shell.currentWidget.content.scrollToItem(i, 'center')", index)
+    anchor = tab.locator(f".jp-MarkdownCell .myst a:text-is({json.dumps(text)})").first
+    anchor.wait_for(state="visible")
+    anchor.click()
+    expected = os.path.normpath(os.path.join(os.path.dirname(chapter), target))
+    tab.wait_for_function("(path) => window.jupyterapp.shell.currentWidget?.context?.path === path", arg=expected)
+    return expected
 
 
 def _glued_texts(chapter: str) -> list[str]:
@@ -235,10 +269,6 @@ def _ignorable(message: str) -> bool:
             # The widget manager's JSON-schema validator (ajv) compiling its own schema in
             # strict mode; the widgets render (the figure change above proves it).
             "strict mode: use allowUnionTypes",
-            # jupyterlab-myst resolves {ref}/{numref} within the open notebook only; a reference
-            # to another chapter's label is logged and shown as plain text (README: "JupyterLab
-            # as the book" lists it among the differences from the HTML book).
-            "Cross reference target was not found",
             # The browser's own line for the request to _JSHTML_ICONS aborted above.
             "Failed to load resource: net::ERR_INTERNET_DISCONNECTED",
         )

@@ -1,5 +1,6 @@
 """Glued numbers in JupyterLab (tools/lab_glue.py): every role of the book becomes an inline
-expression with the value myst-nb would print, and saving gives back the file unchanged."""
+expression with the value myst-nb would print, every cross-reference to another page a link to
+it, and saving gives back the file unchanged."""
 
 from __future__ import annotations
 
@@ -7,6 +8,7 @@ import asyncio
 import builtins
 import copy
 import json
+import re
 import shutil
 import sys
 from pathlib import Path
@@ -39,6 +41,63 @@ def test_every_role_shows_its_value_and_comes_back_unchanged(path: Path):
             assert "{eval}`" + expression["expression"] + "`" in cell["source"]
     back = lab_glue.from_lab(lab)
     assert back == original
+
+
+@pytest.mark.parametrize("path", NOTEBOOKS, ids=lambda p: p.stem)
+def test_every_cross_chapter_reference_becomes_a_link_and_comes_back_unchanged(path: Path):
+    """Opened, every {ref}/{numref}/{doc} whose target is on another page is a markdown link to
+    that page (which exists), and the roles left point into the notebook itself; saved, the
+    notebook is the one on disk (glue roles and links translated together, as the lab does)."""
+    original = nbformat.read(path, as_version=4)
+    lab = lab_glue.links_to_lab(lab_glue.to_lab(copy.deepcopy(original), _loader(path)), path, ROOT / "book")
+    labels, _ = lab_glue.label_index(ROOT / "book")
+    for cell in lab["cells"]:
+        if cell["cell_type"] != "markdown":
+            continue
+        for match in lab_glue.XREF.finditer(cell["source"]):  # left: a section of this notebook
+            target = match.group(3) or match.group(4)
+            assert match.group(1) != "doc" and labels[target][0] == path and labels[target][2], (path.name, match.group(0))
+        for entry in cell.get("metadata", {}).get(lab_glue.LINKS, []):
+            assert entry["link"] in cell["source"] and entry["role"] not in cell["source"]
+            link = re.fullmatch(r"\[(.+)\]\(([^()]+)\)", entry["link"])
+            if link is None:  # an exercise or a paragraph of this notebook: its title
+                text = re.fullmatch(r"\*([^*]+)\*", entry["link"]).group(1)
+                assert labels[re.search(r"<?([^<>`]+)>?`$", entry["role"]).group(1)][0] == path
+            else:
+                text, target = link.groups()
+                assert (path.parent / target).is_file() and (path.parent / target).resolve() != path.resolve()
+            assert text.strip() and "`" not in text, entry
+    back = lab_glue.links_from_lab(lab_glue.from_lab(lab))
+    assert back == original
+
+
+def test_a_reference_to_another_page_links_to_it_with_the_sections_title(tmp_path: Path):
+    (tmp_path / "part1").mkdir()
+    other = {"cells": [{"cell_type": "markdown", "metadata": {}, "source":
+                        "# The model\n\n(model-densities)=\n## The three densities\n\ntext\n\n(a-paragraph)=\n"
+                        "A paragraph.\n\n```{exercise} 1.2 Draw it\n:label: ex-draw\n:nonumber:\nDraw.\n```\n"}]}
+    (tmp_path / "part1" / "model.ipynb").write_text(json.dumps(other))
+    (tmp_path / "notation.md").write_text("# Notation\n\nsymbols\n")
+    here = tmp_path / "part1" / "kalman.ipynb"
+    source = ("# Kalman\n\n(own)=\n## Own section\n\nSee {ref}`model-densities`, {ref}`these <model-densities>`, "
+              "{numref}`ex-draw`, {ref}`a-paragraph`, {doc}`model`, {doc}`the symbols <../notation>`, "
+              "{doc}`/part1/model`, {ref}`own`, {ref}`nowhere` and {doc}`missing`; {ref}`model-densities` again; "
+              "{ref}`ex-own` and {ref}`that paragraph <own-paragraph>` here.\n\n(own-paragraph)=\nA paragraph.\n\n"
+              "```{exercise} 2.1 Own\n:label: ex-own\n:nonumber:\nDo it.\n```\n")
+    notebook = {"cells": [{"cell_type": "markdown", "metadata": {}, "source": source}]}
+    here.write_text(json.dumps(notebook))
+    lab = lab_glue.links_to_lab(copy.deepcopy(notebook), here, tmp_path)
+    shown = lab["cells"][0]["source"]
+    assert shown == ("# Kalman\n\n(own)=\n## Own section\n\nSee [The three densities](model.ipynb), [these](model.ipynb), "
+                     "[Exercise 1.2: Draw it](model.ipynb), [The model](model.ipynb), [The model](model.ipynb), "
+                     "[the symbols](../notation.md), [The model](model.ipynb), {ref}`own`, {ref}`nowhere` and "
+                     "{doc}`missing`; [The three densities](model.ipynb) again; *Exercise 2.1: Own* and "
+                     "*that paragraph* here.") + source[source.index(" here.") + len(" here."):]
+    assert lab_glue.links_from_lab(lab) == notebook
+    # a link the reader deleted in JupyterLab is not restored; the others are
+    lab = lab_glue.links_to_lab(copy.deepcopy(notebook), here, tmp_path)
+    lab["cells"][0]["source"] = lab["cells"][0]["source"].replace("[these](model.ipynb), ", "")
+    assert lab_glue.links_from_lab(lab)["cells"][0]["source"] == source.replace("{ref}`these <model-densities>`, ", "")
 
 
 def test_values_are_formatted_as_myst_nb_formats_them():
@@ -82,6 +141,8 @@ def test_the_contents_manager_translates_on_open_and_back_on_save(tmp_path: Path
     markdown = [c for c in model["content"]["cells"] if c["cell_type"] == "markdown"]
     assert any("{eval}`glued(" in c["source"] for c in markdown)
     assert not any(lab_glue.ROLE.search(c["source"]) for c in markdown)
+    links = [e["link"] for c in markdown for e in c["metadata"].get(lab_glue.LINKS, [])]
+    assert links and all(link in "".join(c["source"] for c in markdown) for link in links)
     assert (folder / chapter.name).read_bytes() == before
 
 

@@ -53,7 +53,8 @@ def test_tick_labels_outside_the_view_are_not_counted():
     ax.set_xlim(0.05, 0.5)
     ax.xaxis.set_major_locator(ticker.LogLocator(subs=(1.0, 2.0, 5.0)))
     ax.xaxis.set_major_formatter(ticker.FormatStrFormatter("%g"))
-    fig.canvas.draw()
+    ax.xaxis.set_minor_locator(ticker.NullLocator())  # as pfcourse.style.plain_log_axis: else the
+    fig.canvas.draw()                                 # minor label 6x10^-2 meets 0.05 (counted)
     kept = [t.get_text() for t in ax.get_xticklabels()]
     drawn = [t.get_text() for t in _drawn_texts(fig)]
     assert "0.01" in kept and "0.02" in kept
@@ -90,4 +91,52 @@ def test_smallest_text_is_measured_at_column_width():
     ax.set_xticks([])
     ax.set_yticks([])
     assert smallest_text_px(fig)[0] == pytest.approx(9 * 100 / 72)
+    plt.close(fig)
+
+
+def _log_axis_figure(width_in: float, minor_labels: bool = True):
+    """A log x axis over less than two decades (20 to 900), on which matplotlib labels the minor ticks
+    (2x10^1, 3x10^1, ...), unless ``minor_labels`` is False."""
+    from matplotlib import ticker
+
+    fig, ax = plt.subplots(figsize=(width_in, 2.5), layout="constrained")
+    ax.plot([20, 900], [1, 2])
+    ax.set_xscale("log")
+    ax.set_xlim(20, 900)
+    ax.set_xlabel("particles N")
+    if not minor_labels:
+        ax.xaxis.set_minor_formatter(ticker.NullFormatter())
+    return fig, ax
+
+
+def test_overlapping_minor_tick_labels_of_a_log_axis_are_found():
+    """Matplotlib's labels of a log axis's minor ticks ("2x10^1", "3x10^1", ...) crowd a narrow
+    axis; they are drawn as the major ones are, so the check counts them."""
+    fig, ax = _log_axis_figure(3.0)
+    fig.canvas.draw()
+    minor = [t.get_text() for t in ax.get_xticklabels(minor=True) if t.get_text()]
+    assert len(minor) >= 4  # the labels this test is about are there
+    pairs = overlapping_texts(fig)
+    assert any(a in minor and b in minor for a, b in pairs), pairs
+    plt.close(fig)
+
+
+def test_the_same_log_axis_with_its_minor_labels_off_or_room_enough_has_none():
+    fig, _ = _log_axis_figure(3.0, minor_labels=False)
+    assert overlapping_texts(fig) == []
+    plt.close(fig)
+    fig, _ = _log_axis_figure(12.0)  # wide enough for every minor label
+    assert overlapping_texts(fig) == []
+    plt.close(fig)
+
+
+def test_tick_labels_on_the_top_axis_meeting_the_title_are_found():
+    """label2 (a secondary side's tick labels) is counted: here the top tick labels meet the title,
+    drawn into the axes' top edge."""
+    fig, ax = plt.subplots(figsize=(4, 3))
+    ax.tick_params(labeltop=True)
+    ax.set_title("the title", y=1.0, pad=0)
+    labels = [t.get_text() for t in ax.get_xticklabels()]
+    pairs = overlapping_texts(fig)
+    assert any("the title" in pair and (set(pair) & set(labels)) for pair in pairs), pairs
     plt.close(fig)

@@ -16,6 +16,15 @@ protocol's ``execute_request``), without a kernel, and re-evaluates them when th
 - **saving**: the reverse, so the file on disk keeps the roles the book needs and nothing else
   (``to_lab`` then ``from_lab`` gives back the notebook unchanged, tests/test_lab_glue.py).
 
+Cross-references to another chapter are translated the same way (:func:`links_to_lab`,
+:func:`links_from_lab`): jupyterlab-myst resolves ``{ref}``/``{numref}`` labels of the open
+notebook's sections only, and shows any other as a bare label with a warning. On opening, a
+``{ref}``, ``{numref}`` or ``{doc}`` whose target is not in the notebook becomes a plain markdown
+link to the chapter that holds it (``[title](../part1/model.ipynb)``; the role's own text, else
+the section's or the chapter's title, from :func:`label_index` over the book's pages), and one to
+an exercise or a paragraph of the notebook itself becomes its title in italics; the cell's
+``pfcourse_links`` metadata keeps each original role, and saving puts it back, byte for byte.
+
 In the kernel (an IPython startup file, :func:`kernel_startup`), ``glued`` is defined and
 ``myst_nb.glue`` records what it glues, so a markdown cell run after the cells that glue shows
 the values of this run: change a setting, run the chapter, and its prose follows.
@@ -24,6 +33,7 @@ the values of this run: change a setting, run the chapter, and its prose follows
 from __future__ import annotations
 
 import json
+import os
 import re
 from pathlib import Path
 from typing import Any, Callable
@@ -31,6 +41,15 @@ from typing import Any, Callable
 ROLE = re.compile(r"\{glue:text\}`([^`]+)`")
 EXPRESSION = re.compile(r'\{eval\}`glued\(("(?:[^"\\]|\\.)*")\)`')
 METADATA = "user_expressions"
+#: Cross-reference roles: ``{ref}`label` ``, ``{ref}`text <label>` ``, the same for numref and doc.
+XREF = re.compile(r"\{(ref|numref|doc)\}`(?:([^`<]*?)\s*<([^`<>]+)>|([^`<>]+))`")
+#: A target line ``(label)=``; and one before a heading, with the heading it names.
+ANCHOR = re.compile(r"^\(([^()\s]+)\)=\s*$", re.M)
+TARGET = re.compile(r"^\(([^()\s]+)\)=\s*\n+(#+)\s+(.+?)\s*$", re.M)
+#: An exercise or solution directive with its title and ``:label:`` option.
+LABELLED = re.compile(r"^(`{3,}|:{3,})\{(exercise|solution)\}\s*(.*?)\s*\n((?::[a-z-]+:.*\n)*)", re.M)
+HEADING = re.compile(r"^#\s+(.+?)\s*$", re.M)
+LINKS = "pfcourse_links"
 
 
 def split(content: str) -> tuple[str | None, str, str]:
@@ -92,28 +111,38 @@ def to_lab(notebook: dict, load: Callable[[str], dict]) -> dict:
         except (ValueError, TypeError):
             return None
 
+    def translate(match: re.Match, expressions: list[dict[str, Any]]) -> str | None:
+        text = value(match.group(1))
+        if text is None:
+            return None
+        expression = _expression(match.group(1))
+        if all(e["expression"] != expression for e in expressions):
+            expressions.append({
+                "expression": expression,
+                "result": {"status": "ok", "data": {"text/plain": text}, "metadata": {}},
+            })
+        return "{eval}`" + expression + "`"
+
+    return _rewrite(notebook, ROLE, translate, METADATA)
+
+
+def _markdown(cell: dict) -> str:
+    return cell["source"] if isinstance(cell["source"], str) else "".join(cell["source"])
+
+
+def _rewrite(notebook: dict, pattern: re.Pattern, translate: Callable[[re.Match, list], str | None],
+             key: str) -> dict:
+    """Each match of ``pattern`` in a markdown cell -> ``translate(match, records)`` (``None``: left
+    as it is), which may append to the cell's ``records``; a cell with records keeps them in its
+    metadata under ``key``. In place; returns ``notebook``."""
     for cell in notebook.get("cells", []):
         if cell.get("cell_type") != "markdown":
             continue
-        source = cell["source"] if isinstance(cell["source"], str) else "".join(cell["source"])
-        expressions: list[dict[str, Any]] = []
-
-        def replace(match: re.Match) -> str:
-            text = value(match.group(1))
-            if text is None:
-                return match.group(0)
-            expression = _expression(match.group(1))
-            if all(e["expression"] != expression for e in expressions):
-                expressions.append({
-                    "expression": expression,
-                    "result": {"status": "ok", "data": {"text/plain": text}, "metadata": {}},
-                })
-            return "{eval}`" + expression + "`"
-
-        new = ROLE.sub(replace, source)
-        if expressions:
+        records: list = []
+        new = pattern.sub(lambda match: translate(match, records) or match.group(0), _markdown(cell))
+        if records:
             cell["source"] = new
-            cell.setdefault("metadata", {})[METADATA] = expressions
+            cell.setdefault("metadata", {})[key] = records
     return notebook
 
 
@@ -122,7 +151,7 @@ def from_lab(notebook: dict) -> dict:
     for cell in notebook.get("cells", []):
         if cell.get("cell_type") != "markdown":
             continue
-        source = cell["source"] if isinstance(cell["source"], str) else "".join(cell["source"])
+        source = _markdown(cell)
         new = EXPRESSION.sub(lambda m: "{glue:text}`" + json.loads(m.group(1)) + "`", source)
         if new != source:
             cell["source"] = new
@@ -133,6 +162,126 @@ def from_lab(notebook: dict) -> dict:
                 metadata[METADATA] = kept
             else:
                 del metadata[METADATA]
+    return notebook
+
+
+
+
+def page_targets(text: str) -> tuple[str | None, dict[str, tuple[str, bool]]]:
+    """A page's title (its first ``#`` heading) and its labels -> (title, is a section's), from its markdown.
+
+    Labels are ``(label)=`` targets (titled by the heading under them, else by the page's title) and
+    the ``:label:`` of exercise directives (titled "Exercise 4.1: Title", as the HTML book shows
+    them). Only a section's label is one jupyterlab-myst resolves within the notebook.
+    """
+    heading = HEADING.search(text)
+    page = heading.group(1) if heading else None
+    labels = {m.group(1): (page, False) for m in ANCHOR.finditer(text) if page is not None}  # a paragraph's
+    labels.update({m.group(1): (m.group(3), True) for m in TARGET.finditer(text)})        # or a section's
+    for m in LABELLED.finditer(text):
+        label = re.search(r"^:label:\s*(\S+)", m.group(4), re.M)
+        if label and m.group(2) == "exercise":
+            number, _, title = m.group(3).partition(" ")
+            labels[label.group(1)] = (f"Exercise {number}: {title}" if title else f"Exercise {number}", False)
+    return page, labels
+
+
+def _page_text(path: Path) -> str:
+    if path.suffix == ".ipynb":
+        notebook = json.loads(path.read_text(encoding="utf-8"))
+        return "\n\n".join(_markdown(c) for c in notebook.get("cells", []) if c.get("cell_type") == "markdown")
+    return path.read_text(encoding="utf-8")
+
+
+_PAGES: dict[Path, tuple[float, tuple[str | None, dict[str, str]]]] = {}  # path -> (mtime, targets)
+
+
+def label_index(root: Path) -> tuple[dict[str, tuple[Path, str, bool]], dict[Path, str]]:
+    """Every page of the book under ``root`` (``.ipynb`` and ``.md``): ``label -> (page, title, is a
+    section's)`` and ``page (without suffix) -> title``. Each page is read again only when it changed."""
+    labels: dict[str, tuple[Path, str, bool]] = {}
+    titles: dict[Path, str] = {}
+    for path in sorted([*root.rglob("*.ipynb"), *root.rglob("*.md")]):
+        if any(part.startswith((".", "_")) for part in path.relative_to(root).parts):
+            continue
+        mtime = path.stat().st_mtime
+        if path not in _PAGES or _PAGES[path][0] != mtime:
+            try:
+                _PAGES[path] = (mtime, page_targets(_page_text(path)))
+            except (OSError, ValueError):
+                continue
+        title, own = _PAGES[path][1]
+        if title is not None:
+            titles.setdefault(path.with_suffix(""), title)
+        for label, (text, section) in own.items():
+            labels.setdefault(label, (path, text, section))
+    return labels, titles
+
+
+def _link_text(text: str) -> str:
+    return text.replace("[", "\\[").replace("]", "\\]")
+
+
+def links_to_lab(notebook: dict, path: Path, root: Path) -> dict:
+    """Cross-references out of the notebook at ``path`` -> markdown links (in place; returns it).
+
+    A ``{ref}``/``{numref}`` to a label of another page of the book under ``root``, and every
+    ``{doc}``, become ``[text](relative path of the page)``, ``text`` the role's own or the title
+    of the section (or page); one to an exercise or a paragraph of this notebook, which
+    jupyterlab-myst does not resolve either, becomes that text in italics; the cell's ``pfcourse_links`` metadata records each link and the role
+    it replaces, in order, for :func:`links_from_lab`. A target that is not found stays a role.
+    """
+    path = Path(path)
+    labels, titles = label_index(root)
+    folder = path.parent
+
+    def page(stem: Path) -> Path | None:
+        for suffix in (".ipynb", ".md"):
+            if stem.with_suffix(suffix).exists():
+                return stem.with_suffix(suffix)
+        return None
+
+    def link(match: re.Match) -> str | None:
+        kind, text, target = match.group(1), match.group(2), match.group(3) or match.group(4)
+        if kind == "doc":
+            stem = (root / target.lstrip("/")) if target.startswith("/") else (folder / target)
+            stem = Path(os.path.normpath(stem))
+            found = page(stem)
+            if found is None or found.resolve() == path.resolve():
+                return None
+            title = titles.get(stem, target)
+        else:
+            if target not in labels:
+                return None
+            found, title, section = labels[target]
+            if found.resolve() == path.resolve():  # in this notebook: jupyterlab-myst resolves a
+                return None if section else f"*{text or title}*"  # section's label only
+        relative = Path(os.path.relpath(found, folder)).as_posix()
+        return f"[{_link_text(text or title)}]({relative})"
+
+    def translate(match: re.Match, made: list[dict[str, str]]) -> str | None:
+        new = link(match)
+        if new is not None:
+            made.append({"link": new, "role": match.group(0)})
+        return new
+
+    return _rewrite(notebook, XREF, translate, LINKS)
+
+
+def links_from_lab(notebook: dict) -> dict:
+    """The reverse of :func:`links_to_lab` (in place; returns ``notebook``): each recorded link, in
+    order, back to its role; a link the reader edited away is left as it is."""
+    for cell in notebook.get("cells", []):
+        if cell.get("cell_type") != "markdown" or LINKS not in cell.get("metadata", {}):
+            continue
+        source, out, cursor = _markdown(cell), [], 0
+        for entry in cell["metadata"].pop(LINKS):
+            at = source.find(entry["link"], cursor)
+            if at < 0:
+                continue
+            out += [source[cursor:at], entry["role"]]
+            cursor = at + len(entry["link"])
+        cell["source"] = "".join(out) + source[cursor:]
     return notebook
 
 
@@ -154,11 +303,12 @@ class GlueContentsManager(AsyncLargeFileManager):  # type: ignore[misc,valid-typ
                 return json.loads((folder / doc).read_text(encoding="utf-8"))
 
             to_lab(model["content"], load)
+            links_to_lab(model["content"], Path(self._get_os_path(path)), Path(self.root_dir))
         return model
 
     async def save(self, model, path=""):
         if model.get("type") == "notebook" and model.get("content") is not None:
-            from_lab(model["content"])
+            links_from_lab(from_lab(model["content"]))
         return await super().save(model, path)
 
 

@@ -426,10 +426,12 @@ EvidenceBlock(
 #
 # The panel runs the filter on a $400$-step run with your settings (tracking from the good
 # initial guess) and plots the position error with its ±3σ band. `Q scale` and `R scale`
-# multiply $Q$ and $R$ in the filter ($2$ by default), "time between readings" is the period of the readings,
-# `gap` removes the readings between $250$ s and $350$ s. Set `R scale` to $0.5$ and watch the
-# error leave its band; set `threshold` to $0$ (no resampling) and watch the filter degenerate;
-# turn on the gap and watch the band grow on odometry alone, then collapse at the next reading.
+# multiply $Q$ and $R$ in the filter ($2$ by default), `time between readings (s)` is the period of the
+# readings, `gap 250-350 s` removes the readings between $250$ s and $350$ s. Set `R scale` to $0.5$
+# and watch the band close in on the error while the filter resamples far more often (the title
+# counts the resamplings); set `resampling threshold` to $0$ (never resample) and watch the filter
+# degenerate: its band collapses to nothing while the error stays large; turn on the gap and watch
+# the band grow on odometry alone, then collapse at the next reading.
 
 # %%
 def draw(n_particles=300, q_scale=2.0, r_scale=2.0, threshold=0.5, scheme="systematic",
@@ -451,11 +453,15 @@ def draw(n_particles=300, q_scale=2.0, r_scale=2.0, threshold=0.5, scheme="syste
     axes[0].set_ylim(s.truth[:, 1].min() - 3, s.truth[:, 1].max() + 3)
     axes[0].set_title("paths (black: truth, dashed: odometry)")
     axes[0].yaxis.set_major_locator(MaxNLocator(5))  # fewer tick labels: cheaper to redraw
-    axes[1].fill_between(t, 0, 3 * position_spread(r.cov), color=COLORS["estimate"], alpha=0.2, lw=0,
-                         label="3 σ (position)")
-    axes[1].plot(t, position_error(s.truth, r.mean), color=COLORS["estimate"], lw=0.8, label="position error")
-    if gap:
-        axes[1].axvspan(250, 350, color="0.85", label="no measurements")
+    band = 3 * position_spread(r.cov)
+    error = position_error(s.truth, r.mean)
+    axes[1].fill_between(t, 0, band, color=COLORS["estimate"], alpha=0.2, lw=0, label="3 σ (position)")
+    axes[1].plot(t, error, color=COLORS["estimate"], lw=0.8, label="position error")
+    if gap:  # behind the band, which grows there
+        axes[1].axvspan(250, 350, color="0.85", label="no measurements", zorder=0)
+    if band.min() < error.min() / 10:  # a collapsed cloud: its spread falls to round-off, and a log
+        axes[1].set_ylim(error.min() / 3, 3 * max(error.max(), band.max()))  # axis over every decade
+                                                                           # down to it has no tick
     p, h = rmse(s.truth, r.mean)
     axes[1].set_title(f"RMSE {p:.2f} m, {np.degrees(h):.2f} deg; {r.n_resamples} resamplings")
     axes[1].set_xlabel("time (s)")

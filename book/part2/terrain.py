@@ -679,8 +679,8 @@ plt.show()
 #
 # The panel reruns one flight with the settings you choose and draws the truth, the estimate
 # and the final cloud, with the error over time. Seed {glue:text}`terrain_diverged_flight:d` is a
-# flight that the baseline loses: the page shows it with the other settings at their first values;
-# in JupyterLab, try more particles or a larger $R_f$ on it.
+# flight that the baseline loses: the page shows it with the other settings at the values the panel
+# opens with; in JupyterLab, try more particles or a larger $R_f$ on it.
 
 # %% tags=["hide-input"] jupyter={"source_hidden": true}
 def draw(qf_scale=1.0, rf_scale=1.0, n_particles=3000, threshold=0.5, scheme="multinomial", seed=0):
@@ -688,7 +688,8 @@ def draw(qf_scale=1.0, rf_scale=1.0, n_particles=3000, threshold=0.5, scheme="mu
     fl = simulate(sc, terrain, data_rng(0, seed))
     res = ParticleFilter(sc.model(terrain), n_particles, threshold=threshold, resampler=scheme).run(
         fl.measurements, rng=filter_rng(0, seed), store_particles=True)
-    fig, (ax1, ax2) = plt.subplots(1, 2, figsize=(10, 4.2), width_ratios=[1, 1.3])
+    # the map's colour bar (taken from the left axes) keeps clear of the error axis's labels
+    fig, (ax1, ax2) = plt.subplots(1, 2, figsize=(10, 4.2), width_ratios=[1, 1.3], gridspec_kw={"wspace": 0.38})
     c = fl.truth[40, :2] / KM
     fig.colorbar(draw_map(ax1, shaded=False, window=((c[0] - 7, c[0] + 7), (c[1] - 7, c[1] + 7))), ax=ax1,
                  shrink=0.8, label="terrain height (m)")

@@ -605,6 +605,10 @@ def draw(scenario="robot", n_particles=300):
     ax2.set_ylabel(f"NEES averaged over {len(runs)} runs")
     plain_log_axis(ax1, "y", subs=(1.0, 2.0, 5.0))  # as plain_log, without minor ticks (a faster redraw)
     plain_log_axis(ax2, "y", subs=(1.0, 2.0, 5.0))
+    for ax in (ax1, ax2):  # over more than five decades (a lost run's NEES), 1-2-5 labels would
+        low, high = ax.get_ylim()  # overlap: one tick per decade
+        if high > 1e5 * low:
+            plain_log_axis(ax, "y", subs=(1.0,))
     ax2.legend(loc="upper left", bbox_to_anchor=(1.01, 1.0))
     shown = f"N = {n}" + ("" if n == n_particles else f" (nearest to {n_particles} that was run)")
     ax1.set_title(f"{scenario}, {shown}: median and 10-90 %", fontsize=10)

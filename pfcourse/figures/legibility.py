@@ -23,7 +23,8 @@ def overlapping_texts(figure: Figure, tolerance: float = 1.0) -> list[tuple[str,
     """Pairs ``(text, text)`` of drawn texts of ``figure`` whose boxes overlap (empty list: none).
 
     Draws the figure once. The texts are those a reader sees: each axes' titles, axis
-    labels, offset texts, the tick labels inside the view, its annotations and texts, its
+    labels, offset texts, the visible tick labels inside the view (major and minor, bottom and
+    top, left and right: two tick labels of one axis drawn over each other count), its annotations and texts, its
     legend's entries and title; the figure's own texts and legends. ``tolerance`` (pixels)
     ignores boxes that only touch.
     """
@@ -81,9 +82,11 @@ def _drawn_texts(figure: Figure) -> list[Text]:
         texts += [axes.title, axes._left_title, axes._right_title, axes.xaxis.label, axes.yaxis.label,
                   axes.xaxis.get_offset_text(), axes.yaxis.get_offset_text()]
         box = axes.bbox
-        texts += [t for t in axes.get_xticklabels()  # tick labels of ticks inside the view
+        # The visible tick labels of ticks inside the view, major and minor (a log axis labels its
+        # minor ticks when it spans few decades), on both sides (label2: top or right).
+        texts += [t for t in axes.get_xticklabels(which="both")
                   if box.x0 - 1 <= _centre(t)[0] <= box.x1 + 1]
-        texts += [t for t in axes.get_yticklabels() if box.y0 - 1 <= _centre(t)[1] <= box.y1 + 1]
+        texts += [t for t in axes.get_yticklabels(which="both") if box.y0 - 1 <= _centre(t)[1] <= box.y1 + 1]
         texts += [t for t in axes.texts if axes.bbox.overlaps(t.get_window_extent())]
         texts += _legend_texts(axes.get_legend())
     return texts
