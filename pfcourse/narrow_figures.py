@@ -5,22 +5,26 @@ window, :data:`PHONE_COLUMN_PX` (388 px) in a 420 px one. A figure whose tight P
 pixels wide and whose smallest text is ``s`` pixels shows that text at
 ``s min(1, C / W)`` pixels in a column of ``C`` pixels; on a phone a 1000 px study figure
 would show its 9 pt (12.5 px) text at 4.9 px. Below :data:`MIN_TEXT_PX` (8 px), the figure
-needs another layout, which :func:`narrow_layout` makes from the figure itself:
+gets a narrow copy, its axes in one column, made in the cheapest way that reads:
 
-* its axes that sit side by side (columns of its grid) are stacked in one column, in reading
-  order (row by row), each as wide as the phone's column; an axes sharing its neighbour's
-  y axis gets its tick labels back;
-* the figure is :data:`PHONE_WIDTH_IN` inches wide, so its text keeps its natural size;
-* a legend placed right of its axes (``bbox_to_anchor=(1.02, 1)``) goes under it, a
-  figure legend under the figure, in at most two columns; long titles wrap;
-* margins are set by hand (:data:`MARGINS_IN`), so the copy costs one drawing.
+1. **cut** (:func:`sliced_image`): each cell of the figure's grid of axes, with what it draws
+   around it (labels, legend, a colour bar in the cell), and the figure's title and legends,
+   are cut out of the drawing just made and stacked, row by row: no drawing at all; used
+   when the stack is narrow enough for its text to stay at 8 px or more in the column;
+2. **laid out anew** (:func:`narrow_layout`, on a pickled copy for a figure shown, in place
+   for a panel's figure, which is closed next): the figure :data:`PHONE_WIDTH_IN` inches wide,
+   its axes stacked in one column in reading order (an axes sharing its neighbour's y axis
+   gets its tick labels back), a legend right of its axes moved under it, a figure legend
+   under the figure (at most two columns), long titles wrapped, margins measured from what
+   the axes draw around them (no layout engine where the colour bars allow): one drawing.
+   This is the way for a single wide axes and for stacks that would still be too wide.
 
 :func:`install` adds a display formatter to IPython: each figure shown in a notebook is stored
-as its usual ``image/png`` and, when it needs the narrow copy, also as ``text/html``: a
-``<picture>`` whose ``<source>`` serves the narrow PNG to windows up to :data:`NARROW_MEDIA`
-and whose ``<img>`` is the usual PNG (the HTML book prefers ``text/html``; JupyterLab shows
-either). The figure itself is not changed: the narrow layout is made on a copy.  Figures
-that stay readable when scaled to the phone's column get no copy (no cost, no weight).
+as its usual ``image/png`` (drawn once, :func:`tight_drawing`) and, when it needs the narrow
+copy, also as ``text/html``: a ``<picture>`` whose ``<source>`` serves the narrow PNG to
+windows up to :data:`NARROW_MEDIA` and whose ``<img>`` is the usual PNG (the HTML book prefers
+``text/html``; JupyterLab shows either). The figure shown is not changed. Figures that stay
+readable when scaled to the phone's column get no copy (no cost, no weight).
 """
 
 from __future__ import annotations
@@ -39,7 +43,7 @@ from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 from matplotlib.gridspec import GridSpec
 from matplotlib.text import Text
-from matplotlib.transforms import ScaledTranslation
+from matplotlib.transforms import Bbox, ScaledTranslation
 from PIL import Image
 
 #: The HTML book's text column in a 420 px window (a phone), in CSS px (measured in chromium).
@@ -48,8 +52,8 @@ PHONE_COLUMN_PX = 388.0
 MIN_TEXT_PX = 8.0
 #: Width of the narrow copy in inches (at the book's 100 dpi, 375 px: the column less a margin).
 PHONE_WIDTH_IN = 3.75
-#: Height of one stacked panel of the narrow copy, in inches (within these bounds of the original's).
-PANEL_HEIGHT_IN = (2.4, 3.2)
+#: Height of one stacked axes of the narrow copy, in inches (the original's row height, within these bounds).
+PANEL_HEIGHT_IN = (2.2, 3.0)
 #: The windows that are served the narrow copy (the book's narrow-screen style starts there too).
 NARROW_MEDIA = "(max-width: 760px)"
 #: What :func:`install` adds to IPython's display formatters, so that it is added once.
@@ -158,42 +162,123 @@ def _legend_height(legend) -> float:
     return 0.1 + rows * legend._fontsize * 1.5 / 72.0 + (0.25 if legend.get_title().get_text() else 0.0)
 
 
-#: Room (inches) around each stacked panel: left of it for the y tick labels and axis label, right,
-#: above for its title, below for the x tick labels and axis label.
-MARGINS_IN = {"left": 0.8, "right": 0.15, "top": 0.35, "bottom": 0.55}
+#: Bounds (inches) of the room kept around each stacked panel for what its axes draw outside their
+#: box (tick labels and axis labels, the title, a colour bar's labels), measured on the figure.
+MARGIN_BOUNDS_IN = {"left": (0.3, 1.8), "right": (0.1, 1.2), "top": (0.1, 0.8), "bottom": (0.1, 0.9)}
+
+
+def _margins(figure: Figure) -> dict[str, float]:
+    """Inches each side of the axes' boxes needs for what they draw outside them (legends apart),
+    the most over the figure's axes, with a 0.12 in pad (tick labels change as the axes do), within :data:`MARGIN_BOUNDS_IN`."""
+    renderer = figure.canvas.get_renderer()
+    room = dict.fromkeys(MARGIN_BOUNDS_IN, 0.0)
+    for axes in figure.axes:
+        if not axes.get_visible():
+            continue
+        tight, box = axes.get_tightbbox(renderer, bbox_extra_artists=[]), axes.bbox
+        for side, inches in (("left", box.x0 - tight.x0), ("right", tight.x1 - box.x1),
+                             ("top", tight.y1 - box.y1), ("bottom", box.y0 - tight.y0)):
+            room[side] = max(room[side], inches / figure.dpi)
+    return {side: min(max(room[side] + 0.12, low), high) for side, (low, high) in MARGIN_BOUNDS_IN.items()}
+
+
+def _panel_height(axes, width_in: float, default: float) -> float:
+    """Height (inches) of a stacked panel: its axes' own shape for a fixed aspect (a map), else ``default``."""
+    aspect = axes.get_aspect()
+    if aspect == "auto":
+        return default
+    low, high = PANEL_HEIGHT_IN
+    return min(max(width_in * float(aspect) * axes.get_data_ratio(), 1.2), high)
 
 
 def narrow_layout(figure: Figure, width_in: float = PHONE_WIDTH_IN) -> Figure:
     """Lay ``figure`` out for a phone's column, in place (see the module's docstring); returns it.
 
-    The layout is placed by hand (margins :data:`MARGINS_IN`), without a layout engine, so that
-    the narrow copy costs one drawing.
+    The layout is placed by hand (margins measured by :func:`_margins`), without a layout engine
+    where the figure's colour bars allow, so that the narrow copy costs one drawing.
     """
     width, height = figure.get_size_inches()
     cells = _cells(figure)
+    margins = _margins(figure)
     grid_rows = max((len({ax.get_subplotspec().get_topmost_subplotspec().rowspan.start for ax in figure.axes
                            if ax.get_subplotspec() is not None})), 1)
-    panels = max(len(cells), 1)
     low, high = PANEL_HEIGHT_IN
-    axes_height = min(max(height / grid_rows, low), high, width_in * 0.9) - 0.5
+    default = min(max(height / grid_rows, low), high, width_in * 0.8)
+    loose_bars = [ax for ax in figure.axes if ax.get_subplotspec() is None and hasattr(ax, "_colorbar")]
     under_axes, under_figure = _legends_under(figure)
     with contextlib.suppress(RuntimeError):  # colour bars tied to a layout engine keep it
         figure.set_layout_engine("none")
+    placed = figure.get_layout_engine() is None
+    bar_room = margins["right"] + 0.25 if placed and loose_bars else 0.0  # a shared colour bar, beside panel 1
+    right = margins["right"] + bar_room
+    inner = width_in - margins["left"] - right
+    heights = [_panel_height(cell[0], inner, default) for cell in cells] or [default]
+    titles = [t for ax in figure.axes for t in (ax.title,) if len(t.get_text()) > 30]
+    if figure._suptitle is not None:
+        titles.append(figure._suptitle)
+    for text in titles:
+        text.set_wrap(True)  # a long title wraps at the figure's edge instead of widening it
+    top = margins["top"] + (0.2 if titles else 0.0)
     title = 0.45 if figure._suptitle is not None else 0.0
-    panel = axes_height + MARGINS_IN["top"] + MARGINS_IN["bottom"] + under_axes
-    total = panels * panel + title + under_figure
+    gap = top + margins["bottom"] + under_axes
+    total = sum(heights) + len(heights) * gap + title + under_figure
     figure.set_size_inches(width_in, total)
-    grid = GridSpec(panels, 1, figure=figure, left=MARGINS_IN["left"] / width_in,
-                    right=1 - MARGINS_IN["right"] / width_in,
-                    top=1 - (title + MARGINS_IN["top"]) / total,
-                    bottom=(MARGINS_IN["bottom"] + under_axes + under_figure) / total,
-                    hspace=(panel - axes_height) / axes_height)
+    grid = GridSpec(len(heights), 1, figure=figure, height_ratios=heights, left=margins["left"] / width_in,
+                    right=1 - right / width_in, top=1 - (title + top) / total,
+                    bottom=(margins["bottom"] + under_axes + under_figure) / total,
+                    hspace=gap / (sum(heights) / len(heights)))
     if cells:
         _stack_axes(figure, grid)
-    for text in figure.findobj(Text):
-        if len(text.get_text()) > 30:
-            text.set_wrap(True)
+        if bar_room:
+            first = grid[0, 0].get_position(figure)
+            for bar in loose_bars:
+                bar.set_position([first.x1 + 0.1 / width_in, first.y0, 0.15 / width_in, first.height])
     return figure
+
+
+def sliced_image(figure: Figure, drawing: tuple[Image.Image, tuple[int, int]],
+                 column_px: float = PHONE_COLUMN_PX) -> Image.Image | None:
+    """The figure's panels cut out of its drawing and stacked in one column, row by row: no drawing.
+
+    ``drawing`` is the figure's last drawing and its corner on the canvas (:func:`tight_drawing`).
+    The pieces are the figure's title, each cell of its grid of axes (with what the axes draw
+    around them: labels, legend, a colour bar in the cell) and the figure's legends. ``None``
+    when the figure has fewer than two cells, when a piece lies outside the drawing, or when the
+    stack would still need scaling that brings its text under :data:`MIN_TEXT_PX` in a column of
+    ``column_px``: then :func:`narrow_layout` draws it anew.
+    """
+    cells = _cells(figure)
+    if len(cells) < 2:
+        return None
+    image, (left, top) = drawing
+    renderer = figure.canvas.get_renderer()
+    height = figure.bbox.height
+    boxes = [figure._suptitle.get_window_extent(renderer)] if figure._suptitle is not None else []
+    boxes += [Bbox.union([axes.get_tightbbox(renderer) for axes in cell]) for cell in cells]
+    boxes += [legend.get_window_extent(renderer) for legend in figure.legends]
+    pad = 0.05 * figure.dpi
+    pieces = []
+    for box in boxes:  # canvas pixels (y up) to the drawing's (y down, from its corner)
+        x0, x1 = int(box.x0 - pad) - left, int(np.ceil(box.x1 + pad)) - left
+        y0, y1 = int(height - box.y1 - pad) - top, int(np.ceil(height - box.y0 + pad)) - top
+        if x0 < -1 or y0 < -1 or x1 > image.width + 1 or y1 > image.height + 1:
+            return None
+        pieces.append(image.crop((max(x0, 0), max(y0, 0), min(x1, image.width), min(y1, image.height))))
+    width = max(piece.width for piece in pieces)
+    if needs_narrow_copy(width, smallest_font_px(figure, figure.dpi), column_px):
+        return None
+    stack = Image.new("RGB", (width, sum(piece.height for piece in pieces)), "white")
+    row = 0
+    for piece in pieces:
+        stack.paste(piece, ((width - piece.width) // 2, row))
+        row += piece.height
+    return stack
+
+
+def narrow_image(figure: Figure, drawing: tuple[Image.Image, tuple[int, int]]) -> Image.Image:
+    """The figure's narrow copy: its panels cut from ``drawing`` and stacked (:func:`sliced_image`)
+    where that reads, else the figure laid out anew in place (:func:`narrow_layout`) and drawn."""
+    return sliced_image(figure, drawing) or tight_image(narrow_layout(figure))
 
 
 def narrow_copy(figure: Figure, width_in: float = PHONE_WIDTH_IN) -> Figure:
@@ -215,8 +300,9 @@ def narrow_copy(figure: Figure, width_in: float = PHONE_WIDTH_IN) -> Figure:
     return narrow_layout(copy, width_in)
 
 
-def tight_image(figure: Figure) -> Image.Image:
-    """The figure's tight box (what is drawn, with ``savefig``'s 0.1 in pad) as an RGB image.
+def tight_drawing(figure: Figure) -> tuple[Image.Image, tuple[int, int]]:
+    """The figure's tight box (what is drawn, with ``savefig``'s 0.1 in pad) as an RGB image, and
+    where that image's top left corner lies on the figure's canvas (pixels from its left and top).
 
     One drawing when everything drawn lies inside the figure's frame (the canvas is cropped),
     else one more, saving into the box that holds everything (as ``bbox_inches="tight"``).
@@ -224,16 +310,24 @@ def tight_image(figure: Figure) -> Image.Image:
     figure.canvas.draw()
     box = figure.get_tightbbox(figure.canvas.get_renderer())  # inches
     width, height = figure.get_size_inches()
+    dpi = figure.dpi
     if box.x0 >= 0 and box.y0 >= 0 and box.x1 <= width and box.y1 <= height:
-        pad, dpi = 0.1, figure.dpi
+        pad = 0.1
         left, bottom = max(box.x0 - pad, 0.0), max(box.y0 - pad, 0.0)
         right, top = min(box.x1 + pad, width), min(box.y1 + pad, height)
+        corner = (int(left * dpi), int((height - top) * dpi))
         image = Image.fromarray(np.asarray(figure.canvas.buffer_rgba())).convert("RGB")
-        return image.crop((int(left * dpi), int((height - top) * dpi),
-                           int(np.ceil(right * dpi)), int(np.ceil((height - bottom) * dpi))))
+        return image.crop((*corner, int(np.ceil(right * dpi)), int(np.ceil((height - bottom) * dpi)))), corner
     buffer = io.BytesIO()
-    figure.savefig(buffer, format="png", bbox_inches=box.padded(0.1))
-    return Image.open(io.BytesIO(buffer.getvalue())).convert("RGB")
+    padded = box.padded(0.1)
+    figure.savefig(buffer, format="png", bbox_inches=padded)
+    corner = (int(round(padded.x0 * dpi)), int(round((height - padded.y1) * dpi)))
+    return Image.open(io.BytesIO(buffer.getvalue())).convert("RGB"), corner
+
+
+def tight_image(figure: Figure) -> Image.Image:
+    """The figure's tight box as an RGB image (:func:`tight_drawing`)."""
+    return tight_drawing(figure)[0]
 
 
 def picture_html(png: bytes, narrow_png: bytes, alt: str = "") -> str:
@@ -244,34 +338,42 @@ def picture_html(png: bytes, narrow_png: bytes, alt: str = "") -> str:
             f'<img src="{uri(png)}" alt="{html.escape(alt)}"></picture>')
 
 
-def _print_png(figure: Figure) -> bytes:
-    """The figure as the notebook shows it: its tight box at the figure's dpi.
+def _encode(image: Image.Image) -> bytes:
+    out = io.BytesIO()
+    image.save(out, format="PNG")
+    return out.getvalue()
+
+
+def _print_png(figure: Figure) -> tuple[bytes, tuple[Image.Image, tuple[int, int]] | None]:
+    """The figure as the notebook shows it (its tight box at the figure's dpi), and that drawing
+    (:func:`tight_drawing`) when it was made here.
 
     Where the tests' legibility check is installed (it wraps IPython's ``print_figure``), through
-    that function, so every figure shown, narrow copies included, is checked; elsewhere with
-    :func:`tight_image` (one drawing instead of ``print_figure``'s two).
+    that function, so every figure shown, narrow copies laid out anew included, is checked;
+    elsewhere with :func:`tight_drawing` (one drawing instead of ``print_figure``'s two).
     """
     from IPython.core import pylabtools
 
     if getattr(pylabtools.print_figure, "_checks_legibility", False) or figure.dpi != mpl.rcParams["savefig.dpi"]:
-        return pylabtools.print_figure(figure, "png", bbox_inches="tight")
-    out = io.BytesIO()
-    tight_image(figure).save(out, format="PNG")
-    return out.getvalue()
+        return pylabtools.print_figure(figure, "png", bbox_inches="tight"), None
+    drawing = tight_drawing(figure)
+    return _encode(drawing[0]), drawing
 
 
 def figure_bundle(figure: Figure) -> dict:
     """The display data of a figure: ``image/png``, and ``text/html`` with the narrow copy when needed."""
-    png = _print_png(figure)
+    png, drawing = _print_png(figure)
     bundle = {"image/png": base64.b64encode(png).decode("ascii")}
     dpi = mpl.rcParams["savefig.dpi"]
     dpi = figure.dpi if dpi == "figure" else dpi
     if _ENABLED[-1] and needs_narrow_copy(png_width(png), smallest_font_px(figure, dpi)):
+        narrow = None
         try:
-            narrow = _print_png(narrow_copy(figure))
+            sliced = sliced_image(figure, drawing or tight_drawing(figure))  # (drawn again under the tests)
+            narrow = _encode(sliced) if sliced is not None else _print_png(narrow_copy(figure))[0]
         except (pickle.PicklingError, TypeError, AttributeError, ValueError) as exc:
             warnings.warn(f"no narrow copy of a figure for phones: {type(exc).__name__}: {exc}", stacklevel=2)
-        else:
+        if narrow is not None:
             bundle["text/html"] = picture_html(png, narrow)
     return bundle
 

@@ -66,7 +66,7 @@ def test_the_copy_stacks_the_axes_in_reading_order_at_the_phones_width():
     assert all(abs(b.x0 - boxes[0].x0) < 1e-9 and abs(b.width - boxes[0].width) < 1e-9 for b in boxes)
     assert boxes[0].y0 > boxes[1].y1 and boxes[1].y0 > boxes[2].y1  # panel 0 on top, then 1, then 2
     assert [ax.get_title() for ax in copy.axes] == ["panel 0", "panel 1", "panel 2"]
-    png = nf._print_png(copy)
+    png = nf._print_png(copy)[0]
     assert nf.png_width(png) <= nf.PHONE_COLUMN_PX  # shown at its natural size: text unscaled
     assert nf.smallest_font_px(copy, copy.dpi) >= nf.MIN_TEXT_PX
     # the figure shown is untouched, and the copy is not left among pyplot's figures
@@ -87,7 +87,7 @@ def test_no_text_of_the_copy_is_cut_or_drawn_over_another():
     under = legend.get_window_extent(renderer)
     axes_box = copy.axes[2].get_window_extent(renderer)
     assert under.y1 < axes_box.y0  # the legend right of the axes went under it
-    assert nf.png_width(nf._print_png(copy)) <= nf.PHONE_COLUMN_PX
+    assert nf.png_width(nf._print_png(copy)[0]) <= nf.PHONE_COLUMN_PX
     # the shared y axis's tick labels are back on the panels that were right of the first
     assert all(label.get_visible() for label in copy.axes[1].get_yticklabels())
 
@@ -104,7 +104,29 @@ def test_a_colour_bar_moves_with_its_axes():
         a, b = image_axes.get_position(), bar.get_position()
         assert b.x0 >= a.x1 - 1e-9 and b.y0 < a.y1 and b.y1 > a.y0  # beside its own map, at its height
     assert maps[0].get_position().y0 > maps[1].get_position().y1
-    assert nf.png_width(nf._print_png(copy)) <= nf.PHONE_COLUMN_PX
+    assert nf.png_width(nf._print_png(copy)[0]) <= nf.PHONE_COLUMN_PX
+
+
+def test_panels_cut_from_the_drawing_are_stacked_in_reading_order():
+    fig, axes = three_panels()
+    drawing = nf.tight_drawing(fig)
+    whole = drawing[0]
+    stack = nf.sliced_image(fig, drawing)
+    assert stack is not None
+    assert stack.width <= nf.PHONE_COLUMN_PX and stack.width < whole.width / 2
+    assert whole.height * 2.5 < stack.height <= whole.height * 3.5
+    # the first piece is the first panel with its labels, pixel for pixel, at the top of the stack
+    canvas = Image.fromarray(np.asarray(fig.canvas.buffer_rgba())).convert("RGB")
+    box, pad = axes[0].get_tightbbox(fig.canvas.get_renderer()), 0.05 * fig.dpi
+    piece = canvas.crop((int(box.x0 - pad), int(canvas.height - box.y1 - pad),
+                         int(np.ceil(box.x1 + pad)), int(np.ceil(canvas.height - box.y0 + pad))))
+    assert drawing[1] == (int(fig.get_tightbbox().x0 * fig.dpi - 10), int(canvas.height - fig.get_tightbbox().y1 * fig.dpi - 10))
+    left = (stack.width - piece.width) // 2
+    assert np.array_equal(np.asarray(stack.crop((left, 0, left + piece.width, piece.height))), np.asarray(piece))
+    # a figure with one cell is not cut; neither is one whose legend lies outside the canvas
+    one, ax = plt.subplots(figsize=(9, 3))
+    ax.plot([0, 1])
+    assert nf.sliced_image(one, nf.tight_drawing(one)) is None
 
 
 def test_the_one_drawing_png_is_the_tight_box_savefig_saves():

@@ -150,7 +150,11 @@ def _png(figure, colours: int = 256) -> bytes:
     inside the figure's frame, else (a label or legend outside it) by saving once more
     into the box that holds everything.
     """
-    image = narrow_figures.tight_image(figure)
+    return _quantized_png(narrow_figures.tight_image(figure), colours)
+
+
+def _quantized_png(image: Image.Image, colours: int = 256) -> bytes:
+    """An RGB image as a palette PNG of at most ``colours`` colours."""
     quantized = image.quantize(colors=colours, method=Image.Quantize.FASTOCTREE, dither=Image.Dither.NONE)
     out = io.BytesIO()
     quantized.save(out, format="PNG")
@@ -177,11 +181,10 @@ def _render_point(number: int) -> tuple[bytes, str, bytes | None]:
             plt.close(figure_number)
         raise ParameterError(f"a panel's draw must make one figure; at {values} it made {len(new)}")
     figure = plt.figure(new[0])
-    image = _png(figure)
-    narrow = None
-    if narrow_figures.needs_narrow_copy(narrow_figures.png_width(image),
-                                        narrow_figures.smallest_font_px(figure, figure.dpi)):
-        narrow = _png(narrow_figures.narrow_layout(figure))  # the figure is closed next: laid out in place
+    drawing = narrow_figures.tight_drawing(figure)
+    image, narrow = _quantized_png(drawing[0]), None
+    if narrow_figures.needs_narrow_copy(drawing[0].width, narrow_figures.smallest_font_px(figure, figure.dpi)):
+        narrow = _quantized_png(narrow_figures.narrow_image(figure, drawing))  # closed next: may change it
     plt.close(figure)
     return image, printed.getvalue(), narrow
 
