@@ -132,7 +132,8 @@ def _cells(figure: Figure) -> list[list]:
 
 
 def _legends_under(figure: Figure) -> tuple[float, float]:
-    """Move legends that sit right of their axes under them, and figure legends under the figure.
+    """Put legends that sit right of their axes under them, and figure legends under the figure, in
+    at most two columns (each made anew from its entries, font and title).
 
     Returns the heights (inches) to leave under an axes and under the figure for them.
     """
@@ -144,20 +145,28 @@ def _legends_under(figure: Figure) -> tuple[float, float]:
             continue
         anchor = legend.get_bbox_to_anchor().transformed(axes.transAxes.inverted())
         if anchor.x0 >= 0.99:  # anchored at or past the right edge: outside the axes
-            legend.set_bbox_to_anchor((0.5, 0.0), transform=axes.transAxes + below)
-            legend.set_loc("upper center")
-            legend._ncols = min(2, len(legend.get_texts()))
-            under_axes = max(under_axes, _legend_height(legend))
-    for legend in figure.legends:
-        legend.set_bbox_to_anchor((0.5, 0.0), transform=figure.transFigure)
-        legend.set_loc("lower center")
-        legend._ncols = min(2, len(legend.get_texts()))
-        under_figure += _legend_height(legend)
+            new = _two_columns(axes, legend, loc="upper center", bbox_to_anchor=(0.5, 0.0),
+                               bbox_transform=axes.transAxes + below)
+            under_axes = max(under_axes, _legend_height(new))
+    for legend in list(figure.legends):
+        new = _two_columns(figure, legend, loc="lower center", bbox_to_anchor=(0.5, 0.0),
+                           bbox_transform=figure.transFigure)
+        under_figure += _legend_height(new)
     return under_axes, under_figure
 
 
+def _two_columns(owner, legend, **placement):
+    """``legend`` of ``owner`` (an axes or the figure) replaced by one of the same entries in at
+    most two columns, placed as ``placement`` says."""
+    labels = [text.get_text() for text in legend.get_texts()]
+    title = legend.get_title().get_text()
+    legend.remove()
+    return owner.legend(legend.legend_handles, labels, ncols=min(2, len(labels)), fontsize=legend._fontsize,
+                        frameon=legend.get_frame_on(), title=title or None, **placement)
+
+
 def _legend_height(legend) -> float:
-    """Inches a legend of ``legend._ncols`` columns takes (its rows of text and a margin)."""
+    """Inches a legend takes (its rows of text and a margin)."""
     rows = -(-len(legend.get_texts()) // max(legend._ncols, 1))
     return 0.1 + rows * legend._fontsize * 1.5 / 72.0 + (0.25 if legend.get_title().get_text() else 0.0)
 
