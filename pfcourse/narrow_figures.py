@@ -140,11 +140,8 @@ def _legends_under(figure: Figure) -> tuple[float, float]:
     below = ScaledTranslation(0, -0.55, figure.dpi_scale_trans)  # under the tick labels and axis label
     under_axes = under_figure = 0.0
     for axes in figure.axes:
-        legend = axes.get_legend()
-        if legend is None:
-            continue
-        anchor = legend.get_bbox_to_anchor().transformed(axes.transAxes.inverted())
-        if anchor.x0 >= 0.99:  # anchored at or past the right edge: outside the axes
+        legend = _outside_legend(axes)
+        if legend is not None:
             new = _two_columns(axes, legend, loc="upper center", bbox_to_anchor=(0.5, 0.0),
                                bbox_transform=axes.transAxes + below)
             under_axes = max(under_axes, _legend_height(new))
@@ -153,6 +150,15 @@ def _legends_under(figure: Figure) -> tuple[float, float]:
                            bbox_transform=figure.transFigure)
         under_figure += _legend_height(new)
     return under_axes, under_figure
+
+
+def _outside_legend(axes):
+    """The axes' legend if it is anchored at or past the axes' right edge (outside them), else None."""
+    legend = axes.get_legend()
+    if legend is None:
+        return None
+    anchor = legend.get_bbox_to_anchor().transformed(axes.transAxes.inverted())
+    return legend if anchor.x0 >= 0.99 else None
 
 
 def _two_columns(owner, legend, **placement):
@@ -251,28 +257,35 @@ def sliced_image(figure: Figure, drawing: tuple[Image.Image, tuple[int, int]],
 
     ``drawing`` is the figure's last drawing and its corner on the canvas (:func:`tight_drawing`).
     The pieces are the figure's title, each cell of its grid of axes (with what the axes draw
-    around them: labels, legend, a colour bar in the cell) and the figure's legends. ``None``
-    when the figure has fewer than two cells, when a piece lies outside the drawing, or when the
+    around them: labels, legend, a colour bar in the cell), a legend placed right of its axes
+    (under them), and the figure's legends. ``None`` when the figure has fewer than two cells and
+    no such legend, when a piece lies outside the drawing, or when the
     stack would still need scaling that brings its text under :data:`MIN_TEXT_PX` in a column of
     ``column_px``: then :func:`narrow_layout` draws it anew.
     """
     cells = _cells(figure)
-    if len(cells) < 2:
+    outside = {axes: _outside_legend(axes) for cell in cells for axes in cell if _outside_legend(axes)}
+    if len(cells) < 2 and not outside:
         return None
     image, (left, top) = drawing
     renderer = figure.canvas.get_renderer()
     height = figure.bbox.height
     boxes = [figure._suptitle.get_window_extent(renderer)] if figure._suptitle is not None else []
-    boxes += [Bbox.union([axes.get_tightbbox(renderer) for axes in cell]) for cell in cells]
+    for cell in cells:  # a cell without its legend placed outside it, then that legend
+        boxes.append(Bbox.union([axes.get_tightbbox(renderer, bbox_extra_artists=[
+            artist for artist in axes.get_default_bbox_extra_artists() if artist is not outside.get(axes)])
+            for axes in cell]))
+        boxes += [outside[axes].get_window_extent(renderer) for axes in cell if axes in outside]
     boxes += [legend.get_window_extent(renderer) for legend in figure.legends]
     pad = 0.05 * figure.dpi
     pieces = []
     for box in boxes:  # canvas pixels (y up) to the drawing's (y down, from its corner)
-        x0, x1 = int(box.x0 - pad) - left, int(np.ceil(box.x1 + pad)) - left
-        y0, y1 = int(height - box.y1 - pad) - top, int(np.ceil(height - box.y0 + pad)) - top
+        x0, x1 = box.x0 - left, box.x1 - left
+        y0, y1 = height - box.y1 - top, height - box.y0 - top
         if x0 < -1 or y0 < -1 or x1 > image.width + 1 or y1 > image.height + 1:
-            return None
-        pieces.append(image.crop((max(x0, 0), max(y0, 0), min(x1, image.width), min(y1, image.height))))
+            return None  # drawn outside the drawing
+        pieces.append(image.crop((max(int(x0 - pad), 0), max(int(y0 - pad), 0),
+                                  min(int(np.ceil(x1 + pad)), image.width), min(int(np.ceil(y1 + pad)), image.height))))
     width = max(piece.width for piece in pieces)
     if needs_narrow_copy(width, smallest_font_px(figure, figure.dpi), column_px):
         return None

@@ -123,10 +123,14 @@ def test_panels_cut_from_the_drawing_are_stacked_in_reading_order():
     assert drawing[1] == (int(fig.get_tightbbox().x0 * fig.dpi - 10), int(canvas.height - fig.get_tightbbox().y1 * fig.dpi - 10))
     left = (stack.width - piece.width) // 2
     assert np.array_equal(np.asarray(stack.crop((left, 0, left + piece.width, piece.height))), np.asarray(piece))
-    # a figure with one cell is not cut; neither is one whose legend lies outside the canvas
-    one, ax = plt.subplots(figsize=(9, 3))
-    ax.plot([0, 1])
+    # a figure with one cell is not cut, unless its legend sits right of it: that goes under it
+    one, ax = plt.subplots(figsize=(5.5, 3))
+    ax.plot([0, 1], label="a line")
     assert nf.sliced_image(one, nf.tight_drawing(one)) is None
+    ax.legend(loc="upper left", bbox_to_anchor=(1.02, 1))
+    drawing = nf.tight_drawing(one)
+    stack = nf.sliced_image(one, drawing)
+    assert stack is not None and stack.width < drawing[0].width and stack.height > drawing[0].height
 
 
 def test_the_one_drawing_png_is_the_tight_box_savefig_saves():
