@@ -206,6 +206,17 @@ def _panel_height(axes, width_in: float, default: float) -> float:
     return min(max(width_in * float(aspect) * axes.get_data_ratio(), 1.2), high)
 
 
+def _wrapped_height(figure: Figure, text: Text, width_in: float) -> float:
+    """Inches a text takes wrapped at ``width_in`` (each of its lines as wide as drawn, cut into
+    as many lines as that width needs), with a margin."""
+    renderer = figure.canvas.get_renderer()
+    lines = 0
+    for line in text.get_text().split("\n"):
+        drawn, _, _ = renderer.get_text_width_height_descent(line, text.get_fontproperties(), ismath=False)
+        lines += max(1, int(np.ceil(drawn / figure.dpi / (0.9 * width_in))))
+    return 0.15 + lines * text.get_fontsize() * 1.35 / 72.0
+
+
 def narrow_layout(figure: Figure, width_in: float = PHONE_WIDTH_IN) -> Figure:
     """Lay ``figure`` out for a phone's column, in place (see the module's docstring); returns it.
 
@@ -234,7 +245,7 @@ def narrow_layout(figure: Figure, width_in: float = PHONE_WIDTH_IN) -> Figure:
     for text in titles:
         text.set_wrap(True)  # a long title wraps at the figure's edge instead of widening it
     top = margins["top"] + (0.2 if titles else 0.0)
-    title = 0.45 if figure._suptitle is not None else 0.0
+    title = _wrapped_height(figure, figure._suptitle, width_in) if figure._suptitle is not None else 0.0
     gap = top + margins["bottom"] + under_axes
     total = sum(heights) + len(heights) * gap + title + under_figure
     figure.set_size_inches(width_in, total)
@@ -265,12 +276,13 @@ def sliced_image(figure: Figure, drawing: tuple[Image.Image, tuple[int, int]],
     """
     cells = _cells(figure)
     outside = {axes: _outside_legend(axes) for cell in cells for axes in cell if _outside_legend(axes)}
-    if len(cells) < 2 and not outside:
+    if len(cells) < 2 and not outside and len(figure.subfigs) < 2:
         return None
     image, (left, top) = drawing
     renderer = figure.canvas.get_renderer()
     height = figure.bbox.height
     boxes = [figure._suptitle.get_window_extent(renderer)] if figure._suptitle is not None else []
+    boxes += [subfigure.get_tightbbox(renderer) for subfigure in figure.subfigs]  # side by side: one piece each
     for cell in cells:  # a cell without its legend placed outside it, then that legend
         boxes.append(Bbox.union([axes.get_tightbbox(renderer, bbox_extra_artists=[
             artist for artist in axes.get_default_bbox_extra_artists() if artist is not outside.get(axes)])
