@@ -398,12 +398,14 @@ def figure_bundle(figure: Figure) -> dict:
     """The display data of a figure: ``image/png``, and ``text/html`` with the narrow copy when needed."""
     png, drawing = _print_png(figure)
     bundle = {"image/png": base64.b64encode(png).decode("ascii")}
-    dpi = mpl.rcParams["savefig.dpi"]
-    dpi = figure.dpi if dpi == "figure" else dpi
-    if _ENABLED[-1] and needs_narrow_copy(png_width(png), smallest_font_px(figure, dpi)):
+    if not _ENABLED[-1]:
+        return bundle
+    if drawing is None:  # under the tests: the book's own drawing, so that they decide as the book did
+        drawing = tight_drawing(figure)  # (``print_figure`` pads beyond the frame, which this crop does not)
+    if needs_narrow_copy(drawing[0].width, smallest_font_px(figure, figure.dpi)):
         narrow = None
         try:
-            sliced = sliced_image(figure, drawing or tight_drawing(figure))  # (drawn again under the tests)
+            sliced = sliced_image(figure, drawing)
             narrow = _encode(sliced) if sliced is not None else _print_png(narrow_copy(figure))[0]
         except (pickle.PicklingError, TypeError, AttributeError, ValueError) as exc:
             warnings.warn(f"no narrow copy of a figure for phones: {type(exc).__name__}: {exc}", stacklevel=2)
