@@ -16,8 +16,9 @@ without listing them here), served on 127.0.0.1:
   can be scrubbed (moving its slider changes the frame), and its buttons show icons;
 - every chapter reads in one sitting: at most 20 screen-heights at 1280 x 900 (15 for Part III);
 - every exercise is titled "Exercise n.m: Title", numbered by chapter;
-- on a 420 px window (a phone) the page does not scroll sideways and every figure's text is still
-  at least 8 px (a wide figure keeps its size and scrolls inside its output);
+- on a 420 px window (a phone) the page does not scroll sideways, no figure is wider than its output
+  (none scrolls sideways inside it: a figure too wide to read scaled to the column carries a narrow
+  copy, pfcourse/narrow_figures.py) and every figure's text is still at least 8 px;
 - every control panel works without a kernel, with no greyed control: each control, moved, shows
   the figure of the new grid point (or, for a control outside the main grid, its one-factor
   figure) within 100 ms (pfcourse/figures/static_panel.py); no widget
@@ -225,14 +226,31 @@ NARROW_PX = 420
 
 
 def _check_narrow(tab) -> int:
-    """On a phone-width window (NARROW_PX): the page does not scroll sideways (wide figures and code
-    scroll inside their outputs), and every figure's smallest text is still >= MIN_TEXT_PX. Leaves
-    the window at 1280 px."""
+    """On a phone-width window (NARROW_PX): the page does not scroll sideways, no figure is wider than
+    its output (none scrolls sideways inside it: wide figures carry a narrow copy, served there by a
+    ``<picture>`` or the panel's script, pfcourse/narrow_figures.py), and every figure's smallest text
+    is still >= MIN_TEXT_PX. Leaves the window at 1280 px."""
     tab.set_viewport_size({"width": NARROW_PX, "height": 900})
     try:
         tab.wait_for_timeout(100)  # one layout pass
+        tab.evaluate("""() => Promise.all(Array.from(document.querySelectorAll('div.cell_output img'))
+            .map(img => img.decode().catch(() => null)))""")  # the narrow copies the window now selects
         width = tab.evaluate("() => document.documentElement.scrollWidth")
         assert width <= NARROW_PX + 1, f"the page scrolls sideways at {NARROW_PX} px ({width} px wide)"
+        wide = tab.evaluate(
+            """() => Array.from(document.querySelectorAll('div.cell_output img, .animation img'))
+                .filter(img => img.naturalWidth > 0 && img.getBoundingClientRect().width > 0)
+                .map(img => {
+                    const box = img.closest('div.pfcourse-panel, div.animation, div.cell_output');
+                    const output = img.closest('div.cell_output') || box;
+                    return {shown: img.getBoundingClientRect().width, room: box.clientWidth,
+                            scrolls: output.scrollWidth > output.clientWidth + 1,
+                            src: (img.currentSrc || img.src || '').slice(0, 60)};
+                })
+                .filter(f => f.shown > f.room + 1 || f.scrolls)"""
+        )
+        assert not wide, (f"{len(wide)} figure(s) wider than their output at {NARROW_PX} px (they scroll "
+                          f"sideways): {[(round(f['shown']), f['room'], f['src']) for f in wide[:5]]}")
         return _check_figure_text(tab)
     finally:
         tab.set_viewport_size({"width": 1280, "height": 900})
@@ -255,7 +273,7 @@ def _check_figure_text(tab) -> int:
         """() => Array.from(document.querySelectorAll('div.cell_output img, .animation img'))
             .filter(img => img.naturalWidth > 0 && img.getBoundingClientRect().width > 0)
             .map(img => ({shown: img.getBoundingClientRect().width, natural: img.naturalWidth,
-                          src: (img.getAttribute('src') || '').slice(0, 60)}))"""
+                          src: (img.currentSrc || img.getAttribute('src') || '').slice(0, 60)}))"""
     )
     small = [
         f"{f['src']} ({f['natural']} px shown at {f['shown']:.0f} px: text "

@@ -13,6 +13,7 @@ import matplotlib as mpl
 from matplotlib import ticker
 from matplotlib.patches import Ellipse
 
+from pfcourse import narrow_figures
 from pfcourse.diagnostics import confidence_ellipse
 
 #: Colours used for the same thing in every figure.
@@ -44,8 +45,13 @@ STYLE = {
 
 
 def use_style() -> None:
-    """Apply the book's matplotlib style (sizes, grid, fonts) to every later figure."""
+    """Apply the book's matplotlib style (sizes, grid, fonts) to every later figure.
+
+    In a notebook it also shows every wide figure with a narrow copy for phones
+    (:mod:`pfcourse.narrow_figures`).
+    """
     mpl.rcParams.update(STYLE)
+    narrow_figures.install()
 
 
 

@@ -37,6 +37,7 @@ import matplotlib.pyplot as plt
 import numpy as np
 from PIL import Image
 
+from pfcourse import narrow_figures
 from pfcourse.errors import ParameterError
 from pfcourse.executor import run_tasks
 
@@ -72,11 +73,14 @@ class StaticControl:
 
 @dataclass(frozen=True)
 class StaticPanel:
-    """The controls, the grid's figures (PNG bytes, row-major order) and printed text of each point."""
+    """The controls, the grid's figures (PNG bytes, row-major order), printed text of each point and narrow copies."""
 
     controls: tuple[StaticControl, ...]
     images: tuple[bytes, ...]
     texts: tuple[str, ...]
+    #: For each image, its narrow copy for a phone's column (:mod:`pfcourse.narrow_figures`), or None
+    #: where the image stays readable scaled to it; empty: none made.
+    narrow_images: tuple[bytes | None, ...] = ()
 
     @property
     def strides(self) -> list[int]:
@@ -116,8 +120,8 @@ class StaticPanel:
 
     @property
     def size(self) -> int:
-        """Bytes of PNG data the panel carries (before base64)."""
-        return sum(len(image) for image in self.images)
+        """Bytes of PNG data the panel carries (before base64), narrow copies included."""
+        return sum(len(image) for image in (*self.images, *self.narrow_images) if image)
 
 
 def format_value(value) -> str:
@@ -146,21 +150,11 @@ def _png(figure, colours: int = 256) -> bytes:
     inside the figure's frame, else (a label or legend outside it) by saving once more
     into the box that holds everything.
     """
-    figure.canvas.draw()
-    renderer = figure.canvas.get_renderer()
-    box = figure.get_tightbbox(renderer)  # inches
-    width, height = figure.get_size_inches()
-    if box.x0 >= 0 and box.y0 >= 0 and box.x1 <= width and box.y1 <= height:
-        pad, dpi = 0.1, figure.dpi  # savefig's pad_inches, inside the figure's frame
-        left, bottom = max(box.x0 - pad, 0.0), max(box.y0 - pad, 0.0)
-        right, top = min(box.x1 + pad, width), min(box.y1 + pad, height)
-        image = Image.fromarray(np.asarray(figure.canvas.buffer_rgba())).convert("RGB")
-        image = image.crop((int(left * dpi), int((height - top) * dpi),
-                            int(np.ceil(right * dpi)), int(np.ceil((height - bottom) * dpi))))
-    else:  # one more drawing, into the box that holds everything
-        buffer = io.BytesIO()
-        figure.savefig(buffer, format="png", bbox_inches=box.padded(0.1))
-        image = Image.open(io.BytesIO(buffer.getvalue())).convert("RGB")
+    return _quantized_png(narrow_figures.tight_image(figure), colours)
+
+
+def _quantized_png(image: Image.Image, colours: int = 256) -> bytes:
+    """An RGB image as a palette PNG of at most ``colours`` colours."""
     quantized = image.quantize(colors=colours, method=Image.Quantize.FASTOCTREE, dither=Image.Dither.NONE)
     out = io.BytesIO()
     quantized.save(out, format="PNG")
@@ -172,8 +166,9 @@ def _png(figure, colours: int = 256) -> bytes:
 _job: tuple[Callable[..., object], list[dict]] | None = None
 
 
-def _render_point(number: int) -> tuple[bytes, str]:
-    """PNG and printed text of grid point ``number`` of the rendering under way (see :data:`_job`)."""
+def _render_point(number: int) -> tuple[bytes, str, bytes | None]:
+    """PNG, printed text and narrow copy's PNG (or None) of grid point ``number`` of the rendering under
+    way (see :data:`_job`)."""
     draw, points = _job
     values = points[number]
     before = set(plt.get_fignums())
@@ -186,9 +181,12 @@ def _render_point(number: int) -> tuple[bytes, str]:
             plt.close(figure_number)
         raise ParameterError(f"a panel's draw must make one figure; at {values} it made {len(new)}")
     figure = plt.figure(new[0])
-    image = _png(figure)
+    drawing = narrow_figures.tight_drawing(figure)
+    image, narrow = _quantized_png(drawing[0]), None
+    if narrow_figures.needs_narrow_copy(drawing[0].width, narrow_figures.smallest_font_px(figure, figure.dpi)):
+        narrow = _quantized_png(narrow_figures.narrow_image(figure, drawing))  # closed next: may change it
     plt.close(figure)
-    return image, printed.getvalue()
+    return image, printed.getvalue(), narrow
 
 
 def render_grid(draw: Callable[..., object], controls: Sequence[StaticControl],
@@ -218,7 +216,8 @@ def render_grid(draw: Callable[..., object], controls: Sequence[StaticControl],
                                  stall_timeout=POOL_TIMEOUT)
     finally:
         _job = None
-    return StaticPanel(tuple(controls), tuple(r[0] for r in rendered), tuple(r[1] for r in rendered))
+    return StaticPanel(tuple(controls), tuple(r[0] for r in rendered), tuple(r[1] for r in rendered),
+                       tuple(r[2] for r in rendered))
 
 
 def describe_grid(panel: StaticPanel) -> str:
@@ -265,7 +264,9 @@ def panel_html(panel: StaticPanel, alt: str = "the panel's figure") -> str:
     right even before (or without) its script runs.
     """
     strides, current = panel.strides, panel.current
-    uris = ["data:image/png;base64," + base64.b64encode(image).decode("ascii") for image in panel.images]
+    def uri(image: bytes | None) -> str | None:
+        return None if image is None else "data:image/png;base64," + base64.b64encode(image).decode("ascii")
+    uris = [uri(image) for image in panel.images]
     data = {
         "controls": [c.name for c in panel.controls],
         "strides": strides,
@@ -278,6 +279,9 @@ def panel_html(panel: StaticPanel, alt: str = "the panel's figure") -> str:
         "texts": list(panel.texts),
         "images": uris,
     }
+    if any(panel.narrow_images):  # phones: pfcourse-panels.js shows these in a narrow window
+        data["narrow"] = [uri(image) for image in panel.narrow_images]
+        data["narrowMedia"] = narrow_figures.NARROW_MEDIA
     controls = "".join(_control_html(c) for c in panel.controls)
     text = panel.texts[current]
     printed = f'<pre class="pfcourse-panel-text">{html.escape(text)}</pre>' if any(panel.texts) else ""

@@ -25,6 +25,7 @@ import ipywidgets as widgets
 import matplotlib.pyplot as plt
 from IPython.display import Image, display
 
+from pfcourse import narrow_figures
 from pfcourse.figures.static_panel import StaticPanel, panel_html, render_grid, static_controls
 from pfcourse.resampling import SCHEMES
 
@@ -195,7 +196,7 @@ def control_panel(draw: Callable[..., None], columns: int = 3, grid: Mapping[str
     output = widgets.Output()
 
     def redraw(change=None) -> None:
-        with output:
+        with output, narrow_figures.without_narrow_copies():
             output.clear_output(wait=True)
             draw(**{name: control.value for name, control in controls.items()})
             plt.show()

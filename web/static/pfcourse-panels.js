@@ -5,7 +5,9 @@
    with.  Main grid: image number = sum of (control's index x its stride).  Side control k
    at value i: image data.side[k][i].  A combination that was not computed (a side control
    moved while another control is off its first value) shows the figure of the control moved
-   last, with the others at their first values, and says so under the controls. */
+   last, with the others at their first values, and says so under the controls.
+   Phones: a figure too wide to read scaled to a phone's column has a narrow copy (data.narrow,
+   pfcourse/narrow_figures.py), shown while the window matches data.narrowMedia. */
 (function () {
   "use strict";
   function setUp(panel) {
@@ -16,6 +18,10 @@
     var main = data.main || data.controls.map(function () { return true; });
     var defaults = data.defaults || data.controls.map(function () { return 0; });
     var lastMoved = null;
+    var narrow = data.narrow && window.matchMedia ? window.matchMedia(data.narrowMedia) : null;
+    function source(image) {
+      return (narrow && narrow.matches && data.narrow[image]) || data.images[image];
+    }
     var inputs = data.controls.map(function (name, k) {
       return data.enabled[k] ? panel.querySelector('[name="' + name + '"]') : null;
     });
@@ -52,8 +58,8 @@
           nearest.hidden = true;
         }
       }
-      if (String(pick.image) !== panel.dataset.current || !img.src) {
-        img.src = data.images[pick.image];
+      if (String(pick.image) !== panel.dataset.current || !img.src || img.src !== source(pick.image)) {
+        img.src = source(pick.image);
         if (text) { text.textContent = data.texts[pick.image]; }
         panel.dataset.current = String(pick.image);
       }
@@ -64,6 +70,9 @@
       input.addEventListener("input", moved);
       input.addEventListener("change", moved);
     });
+    if (narrow) {  // the window crossed the phone width: the other copy of the figure
+      if (narrow.addEventListener) { narrow.addEventListener("change", update); } else { narrow.addListener(update); }
+    }
     update();
     panel.classList.add("pfcourse-panel-ready");
   }
