@@ -200,9 +200,8 @@ for sd_v in (1.0, 0.3, 0.1):
 # %% tags=["remove-input"] jupyter={"source_hidden": true}
 def toy_row(sd_v):
     t = toy[sd_v]
-    var_ratio = evidence.run_interval(lambda r: N * t["estimate"][r].var(ddof=1) / t["sigma2"], reps, n_resamples=2000)
-    kong = evidence.run_interval(lambda r: t["estimate"][r].var(ddof=1) * t["ess"][r].mean() / t["post_var"], reps,
-                                 n_resamples=2000)
+    var_ratio = evidence.run_interval(lambda r: N * t["estimate"][r].var(ddof=1) / t["sigma2"], reps)
+    kong = evidence.run_interval(lambda r: t["estimate"][r].var(ddof=1) * t["ess"][r].mean() / t["post_var"], reps)
     return {"sd_v": sd_v, "exact mean": z / (1 + sd_v**2), "mean of estimates": t["estimate"].mean(),
             "N Var(estimates)": N * t["estimate"].var(ddof=1), "sigma^2 (quadrature)": t["sigma2"],
             "ratio": var_ratio[0], "ratio low": var_ratio[1], "ratio high": var_ratio[2],
@@ -222,7 +221,7 @@ EvidenceBlock(
     "the asymptotic variance predicts the estimates' spread, and the ESS overstates it",
     notes=[f"N = {N} prior draws, z = {z}, {reps} seeded repetitions per measurement sd (one generator, seed 0, "
            "drawn in turn). 'ratio' is N Var(estimates) / sigma^2, with its 95 % percentile-bootstrap interval over "
-           "the repetitions (2000 resamples, see Reading the evidence); 'measured Var ESS / Var_pi' is the "
+           f"the repetitions ({evidence.N_RESAMPLES} resamples, see Reading the evidence); 'measured Var ESS / Var_pi' is the "
            "variance of the estimates over Var_pi / (mean ESS), with its interval (low, high).",
            "The predicted ESS ratio uses the ESS of the limit, N / E_q w^2; the measured one the mean of "
            "1 / sum W^2, which differs at small N, hence the gap at sd 0.1. At N = 100 the estimator's O(1/N) "
@@ -308,7 +307,7 @@ plt.show()
 def rms_slope(err):
     """Slope of log RMS error against log N, with its interval over the runs."""
     return evidence.run_interval(lambda r: np.polyfit(np.log(sizes), 0.5 * np.log(np.mean(err[r] ** 2, axis=0)), 1)[0],
-                                 runs, n_resamples=2000)
+                                 runs)
 
 
 slopes = {name: rms_slope(t["err"]) for name, t in tail.items()}
@@ -323,7 +322,7 @@ EvidenceBlock(
     notes=[f"Target t with {nu} degrees of freedom, phi = 1{{|x| > 3}}, exact I = {exact:.4f}. {runs} runs; run s "
            "draws from the generator of seed s for every N and both proposals (common random numbers).",
            "Slope of log RMS error on log N (least squares over the three N), 95 % percentile-bootstrap interval "
-           "over the runs (2000 resamples): " + "; ".join(f"{n}: {v:.2f} ({lo:.2f} to {hi:.2f})"
+           f"over the runs ({evidence.N_RESAMPLES} resamples): " + "; ".join(f"{n}: {v:.2f} ({lo:.2f} to {hi:.2f})"
                                                            for n, (v, lo, hi) in slopes.items()) + ".",
            "Coverage: share of runs whose interval estimate ± 1.96 sqrt(I^(1 - I^) / ESS) contains I, with its "
            "Wilson interval (see Reading the evidence)."],
@@ -479,10 +478,10 @@ for s in range(ll_runs):
     for name, proposal in (("transition", None), ("halfway", halfway)):
         log_incs = my_filter(Z, 100, np.random.default_rng(20_000 + s), scalar, 1 / 3, proposal)[2]
         log_gap[name][s] = log_incs.sum() - exact_ll                   # log p^(z_{1:K}) - log p(z_{1:K})
-ratio = {name: evidence.run_interval(lambda r: np.exp(g[r]).mean(), ll_runs, n_resamples=2000)
+ratio = {name: evidence.run_interval(lambda r: np.exp(g[r]).mean(), ll_runs)
          for name, g in log_gap.items()}
 var_ratio = evidence.run_interval(  # paired: both proposals on the same data sets
-    lambda r: log_gap["halfway"][r].var(ddof=1) / log_gap["transition"][r].var(ddof=1), ll_runs, n_resamples=2000)
+    lambda r: log_gap["halfway"][r].var(ddof=1) / log_gap["transition"][r].var(ddof=1), ll_runs)
 print("mean of p^(z_1:K) / p(z_1:K), 95 % interval: "
       + "; ".join(f"{name} {v:.3f} ({lo:.3f} to {hi:.3f})" for name, (v, lo, hi) in ratio.items()))
 
@@ -500,7 +499,7 @@ print("mean of p^(z_1:K) / p(z_1:K), 95 % interval: "
 # {doc}`proposals` builds the best such proposal.
 
 # %% tags=["remove-input"] jupyter={"source_hidden": true}
-log_mean = {name: evidence.run_interval(lambda r: g[r].mean(), ll_runs, n_resamples=2000) for name, g in log_gap.items()}
+log_mean = {name: evidence.run_interval(lambda r: g[r].mean(), ll_runs) for name, g in log_gap.items()}
 glue_values("is_ll_", runs=ll_runs, ratio_transition=ratio["transition"][0], ratio_transition_low=ratio["transition"][1],
             ratio_transition_high=ratio["transition"][2], var_ratio=var_ratio[0], var_ratio_low=var_ratio[1],
             var_ratio_high=var_ratio[2])
@@ -510,7 +509,7 @@ EvidenceBlock(
            f"s = 0 to {ll_runs - 1}; both proposals on the same data. Variance of log p^ with the halfway proposal over "
            f"that with the transition, paired over the data sets: {var_ratio[0]:.2f} ({var_ratio[1]:.2f} to "
            f"{var_ratio[2]:.2f}). Intervals: 95 % percentile bootstrap over "
-           "the runs, 2000 resamples (see Reading the evidence)."],
+           f"the runs, {evidence.N_RESAMPLES} resamples (see Reading the evidence)."],
     tables=[("Estimated against exact (Kalman) likelihood", pd.DataFrame(
         [{"proposal": name, "mean p^/p": ratio[name][0], "low": ratio[name][1], "high": ratio[name][2],
           "mean log p^ - log p": log_mean[name][0], "log low": log_mean[name][1], "log high": log_mean[name][2],
