@@ -75,7 +75,7 @@ def position_heading_errors(truth: Array, mean: Array) -> tuple[Array, Array]:
 
 
 def global_run(seed: int, method: str, n_particles: int, *, n_steps: int = 60,
-               settings: MethodSettings = MethodSettings(), keep_trace: bool = False) -> dict:
+               settings: MethodSettings = MethodSettings()) -> dict:
     """One global-localization run (uniform prior) of ``method``: lock-on and its metrics.
 
     ``locked_on``: within 1 m and 5 deg at each of the last :data:`LOCK_WINDOW` steps;
@@ -109,7 +109,6 @@ def global_run(seed: int, method: str, n_particles: int, *, n_steps: int = 60,
         "mean_n": float(np.mean(out["n_used"])),
         "seconds": float(out["seconds"]),
         "lost": False,
-        **({"n_used": out["n_used"], "position_error": pos} if keep_trace else {}),
     }
 
 
