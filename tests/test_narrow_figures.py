@@ -158,7 +158,11 @@ def test_the_display_data_carry_the_copy_only_when_it_is_needed():
         assert set(nf.figure_bundle(wide)) == {"image/png"}
 
 
-def test_install_outside_ipython_does_nothing():
+def test_install_outside_ipython_does_nothing(monkeypatch):
+    import IPython
+
+    # Another test of the session may have started an IPython shell: pretend none is running.
+    monkeypatch.setattr(IPython, "get_ipython", lambda: None)
     assert nf.install() is False
 
 
