@@ -202,8 +202,7 @@ def plot_estimates(sim, kf, axes, labels):
         ax.set_ylabel(f"{labels[j]} (m)")
     for ax in axes[-1]:
         ax.set_xlabel("time t (s)")
-    axes.flat[0].figure.legend(*axes.flat[0].get_legend_handles_labels(), loc="upper center", ncols=3,
-                               fontsize=8, frameon=False, bbox_to_anchor=(0.5, 0.95))  # above the panels, off the data
+    axes.flat[0].figure.legend(*axes.flat[0].get_legend_handles_labels(), loc="upper center", ncols=3, frameon=False, bbox_to_anchor=(0.5, 0.95))  # above the panels, off the data
 
 
 fig, axes = plt.subplots(3, 2, figsize=(9, 6.5), sharex=True)
@@ -258,7 +257,7 @@ ax.fill_between(sim.T, *np.percentile(eps, [10, 90], axis=0), color=COLORS["kalm
 ax.axhspan(lo, hi, color="gray", alpha=0.3, label="95 % band of the mean")
 ax.set_xlabel("time t (s)")
 ax.set_ylabel("NEES (dimensionless)")
-ax.legend(loc="upper right", fontsize=8)
+ax.legend(loc="upper right")
 plt.show()
 
 # %% [markdown]
@@ -302,7 +301,7 @@ ax.set_xlabel("time t (s)")
 ax.set_ylabel("posterior sd (m)")
 plain_log_axis(ax, "y", subs=(1.0, 2.0, 5.0))
 ax.set_title("Landmark uncertainty shrinks at sightings, stays flat or shrinks in between")
-ax.legend(loc="lower left", ncols=2, fontsize=8)
+ax.legend(loc="lower left", ncols=2)
 plt.show()
 
 # %% [markdown]
@@ -385,7 +384,7 @@ ax.set_ylim(top=0.6)  # the prior sd, 0.45 m, below the top tick
 ax.set_xlabel("time t (s)")
 ax.set_ylabel("posterior sd (m)")
 ax.set_title("Five landmarks: each sd drops when its landmark passes through the view")
-ax.legend(ncols=3, fontsize=8)
+ax.legend(ncols=3)
 plt.show()
 
 # %% [markdown]

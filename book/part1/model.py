@@ -202,7 +202,7 @@ print("B =", np.round(scenario5.B, 3))
 fig, (ax1, ax2) = plt.subplots(1, 2, figsize=(10, 4.5), width_ratios=[1, 1.3])
 landmark_scene(scenario5, sim5, ax=ax1, limits=(-4.0, 8.0))
 ax1.set_title("Five landmarks, triangular field of view")
-ax1.legend(loc="lower left", fontsize=8)
+ax1.legend(loc="lower left")
 ax2.imshow(sim5.seen.T, aspect="auto", interpolation="nearest", cmap="Greens",
            extent=(sim5.T[0] - 0.5, sim5.T[-1] + 0.5, 5.5, 0.5))
 ax2.set_yticks(range(1, 6), [f"L{j}" for j in range(1, 6)])

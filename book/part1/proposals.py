@@ -316,7 +316,7 @@ for ax in (ax1, ax2):
     ax.set_yscale("log")
 ax1.set_ylabel("ESS / N at measurement steps")
 ax1.set_title(f"N = 200, {n_runs} runs (all measurement steps)")
-ax1.legend(fontsize=8)
+ax1.legend()
 ax2.set_ylabel("RMS error vs Kalman mean (m)")
 ax2.set_title(f"Per-run error, {n_runs} runs")
 plt.show()
@@ -391,7 +391,7 @@ ax.set_xlim(0, 49)
 ax.set_ylim(0.8, 250)
 ax.set_xlabel("time t (s)")
 ax.set_ylabel("ESS (particles)")
-ax.legend(fontsize=8, loc="lower right")
+ax.legend(loc="lower right")
 head = ax.set_title("")
 
 
@@ -464,7 +464,7 @@ def draw_proposals(n_particles, noise_scale, seed):
     plain_log_axis(a1, "y")
     a1.set_xlabel("time t (s)")
     a1.set_ylabel("ESS (particles)")
-    a1.legend(fontsize=8)
+    a1.legend()
     a2.set_xlabel("time t (s)")
     a2.set_ylabel("robot x: PF - Kalman (m)")
 

@@ -164,7 +164,7 @@ for ax, (name, r) in zip(axes, (("SIR", res_sir), ("RBPF (FastSLAM 2.0)", res_rb
     ax.set_title(f"{name}, N = 100", fontsize=10)
     ax.set_xlabel("time t (s)")
 axes[0].set_ylabel("landmark 1, x (m)")
-axes[1].legend(fontsize=8, loc="upper right")
+axes[1].legend(loc="upper right")
 plt.show()
 
 # %% [markdown]
@@ -229,7 +229,7 @@ ax2.set_xlabel("particles N")
 ax2.set_ylabel("wall time per step (ms)")
 ax2.set_title("median over runs", fontsize=10)
 fig.tight_layout(rect=(0, 0.2, 1, 1))
-fig.legend(*ax1.get_legend_handles_labels(), loc="lower center", ncol=3, fontsize=8, bbox_to_anchor=(0.5, 0.0))
+fig.legend(*ax1.get_legend_handles_labels(), loc="lower center", ncol=3, bbox_to_anchor=(0.5, 0.0))
 plt.show()
 
 # %% [markdown]
@@ -395,7 +395,7 @@ ax2.set_title("N = 100 (above 1e6 drawn at 1e6)", fontsize=10)
 for ax in (ax1, ax2):
     ax.axhspan(lo, hi, color="gray", alpha=0.3)
     ax.set_xlabel("time step k")
-    ax.legend(fontsize=7, loc="upper right")
+    ax.legend(loc="upper right")
 ax1.set_ylabel(f"NEES, mean of {n_runs} runs")
 ax1.set_ylim(3, 60)
 ax2.set_ylim(3, 3e6)

@@ -175,14 +175,14 @@ for row, (name, u) in enumerate(draws.items()):
     if name != "multinomial":
         ax.vlines(np.arange(n8 + 1) / n8, y - 0.2, y + 0.2, color="k", lw=0.5, ls=":")
     counts = np.bincount(np.searchsorted(edges[1:], u, side="right"), minlength=n8)
-    ax.text(1.02, y, f"{name}\ncopies {counts.tolist()}", va="center", fontsize=8)
+    ax.text(1.02, y, f"{name}\ncopies {counts.tolist()}", va="center")
 redges = np.concatenate([[0.0], np.cumsum(resid)])
 u_res = rng.random(R)
 for i in range(n8):
     ax.barh(0, resid[i], left=redges[i], height=0.35, color=cmap(i), alpha=0.6)
 ax.vlines(u_res, 0.2, 0.45, color="k", lw=1.5)
 extra = np.bincount(np.searchsorted(redges[1:], u_res, side="right"), minlength=n8)
-ax.text(1.02, 0, f"residual: sure {copies.tolist()}\n+ drawn {extra.tolist()}", va="center", fontsize=8)
+ax.text(1.02, 0, f"residual: sure {copies.tolist()}\n+ drawn {extra.tolist()}", va="center")
 ax.set_yticks([])
 ax.set_xlim(0, 1.4)
 ax.set_xticks(np.linspace(0, 1, 6))
@@ -377,7 +377,7 @@ ax.loglog(sizes, np.array(sizes) * times["systematic"][-1] / sizes[-1], "k:", la
 ax.set_xlabel("number of particles n")
 ax.set_ylabel("time per resampling (s)")
 ax.set_title("Median of 5 runs per size")
-ax.legend(fontsize=8)
+ax.legend()
 plt.show()
 
 # %% [markdown]
@@ -413,7 +413,7 @@ ax.set_xticks(pos, [f"{i + 1}" for i in pos])
 ax.set_xlabel("particle i")
 ax.set_ylabel("mean number of copies")
 ax.set_title(f"Mean offspring over {reps} resamplings")
-ax.legend(fontsize=8)
+ax.legend()
 plt.show()
 
 # %% [markdown]
@@ -465,7 +465,7 @@ def draw_offspring(scheme, spread, seed):
     ax.plot(np.arange(n), n * ww, "k_", ms=8, mew=2, label=r"$n W_i$")
     ax.set_xlabel("particle i")
     ax.set_ylabel("number of copies")
-    ax.legend(fontsize=8)
+    ax.legend()
 
 
 # %% tags=["nbval-ignore-output"]

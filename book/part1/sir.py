@@ -179,7 +179,7 @@ ax.set_yscale("log")
 ax.set_xlabel("time t (s)")
 ax.set_ylabel("count (particles)")
 ax.set_title("SIR, N = 100: the weights recover, the landmark values do not")
-ax.legend(fontsize=8, loc="lower left")
+ax.legend(loc="lower left")
 plt.show()
 
 # %% tags=["remove-input"] jupyter={"source_hidden": true}
@@ -494,7 +494,7 @@ ax1.set_ylabel("landmark error vs exact mean (m)")
 ax2.set_xlabel("particles N")
 ax2.set_ylabel("coverage of the 95 % ellipsoid")
 fig.tight_layout(rect=(0, 0.15, 1, 1))
-fig.legend(*ax1.get_legend_handles_labels(), loc="lower center", ncol=4, fontsize=8, frameon=False)
+fig.legend(*ax1.get_legend_handles_labels(), loc="lower center", ncol=4, frameon=False)
 plt.show()
 
 # %% tags=["remove-input"] jupyter={"source_hidden": true}
@@ -554,7 +554,7 @@ def draw_sir(n_particles, threshold, scheme, c, seed):
     a1.plot(s.T, r.mean[:, 2], color=COLORS["estimate"], label="SIR")
     a1.set_xlabel("time t (s)")
     a1.set_ylabel("L1 x (m)")
-    a1.legend(fontsize=8)
+    a1.legend()
     a2.plot(s.T, [n_distinct(p[:, 2]) for p in r.particles], color=COLORS["estimate"])
     plain_log_axis(a2, "y")
     a2.set_xlabel("time t (s)")

@@ -226,7 +226,7 @@ for N, c in zip(N_values, ("tab:red", "tab:purple", "tab:blue")):
 ax1.set_xlabel("step k")
 ax1.set_ylabel("ESS / N")
 ax1.set_title(f"SIS: median and 10-90 % band, {n_runs} runs")
-ax1.legend(fontsize=8, loc="lower left")  # the curves start at the top left
+ax1.legend(loc="lower left")  # the curves start at the top left
 ax2.boxplot([first_below(ess[N]) for N in N_values], tick_labels=[str(N) for N in N_values])
 ax2.set_xlabel("number of particles N")
 ax2.set_ylabel("first step with ESS < 2")
@@ -338,7 +338,7 @@ def draw_sis(n_particles, noise_scale, seed):
     a2.plot(s.T, s.truth[:, 2], "--", color=COLORS["truth"], label="truth")
     a2.set_xlabel("time t (s)")
     a2.set_ylabel("L1 x (m)")
-    a2.legend(fontsize=8)
+    a2.legend()
 
 
 # %% tags=["nbval-ignore-output"]

@@ -699,7 +699,7 @@ def draw(qf_scale=1.0, rf_scale=1.0, n_particles=3000, threshold=0.5, scheme="mu
     ax1.plot(res.mean[:, 0] / KM, res.mean[:, 1] / KM, color=COLORS["estimate"], label="estimate")
     ax1.set_xlim(c[0] - 7, c[0] + 7)
     ax1.set_ylim(c[1] - 7, c[1] + 7)
-    ax1.legend(loc="lower left", fontsize=8)
+    ax1.legend(loc="lower left")
     e = position_error(fl.truth, res.mean)
     ax2.plot(fl.T, e, color=COLORS["estimate"], label="horizontal error")
     ax2.plot(fl.T, 3 * np.sqrt(res.cov[:, 0, 0] + res.cov[:, 1, 1]), "--", color=COLORS["estimate"], alpha=0.6,
@@ -707,7 +707,7 @@ def draw(qf_scale=1.0, rf_scale=1.0, n_particles=3000, threshold=0.5, scheme="mu
     plain_log_axis(ax2, "y")
     ax2.set_xlabel("time t (s)")
     ax2.set_ylabel("error (m)")
-    ax2.legend(loc="upper right", fontsize=8)
+    ax2.legend(loc="upper right")
     ax2.set_title(f"final error {e[-1]:.0f} m")
 
 

@@ -27,6 +27,6 @@ def posterior_bands(times, truth, kalman, estimate, labels, estimate_name: str, 
         ax.set_ylabel(f"{labels[j]} (m)")
     for ax in axes[-1]:
         ax.set_xlabel("time t (s)")
-    axes.flat[0].legend(fontsize=8, loc="upper right")
+    axes.flat[0].legend(loc="upper right")
     fig.suptitle(title)
     return fig

@@ -130,7 +130,7 @@ def animate_clouds(
             head.set_text(title(name, k, res))
         if legend:  # under the axes, off the cloud
             handles, labels = axes[0].get_legend_handles_labels()
-            artists.append(fig.legend(handles, labels, loc="lower center", ncols=min(len(labels), 4), fontsize=8))
+            artists.append(fig.legend(handles, labels, loc="lower center", ncols=min(len(labels), 4)))
         return artists
 
     # Frames are saved without a tight box: lay the figure out once, on the first frame, with

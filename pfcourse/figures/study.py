@@ -55,7 +55,7 @@ def summary_band(
         for p, top, failed in zip(pos, hi, summary["n_failed"].to_numpy()):
             if failed:
                 ax.annotate(f"{failed} failed", (p, top), xytext=(0, 4), textcoords="offset points",
-                            ha="center", fontsize=7, color=color)
+                            ha="center", color=color)
     return ax
 
 
