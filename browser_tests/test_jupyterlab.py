@@ -185,8 +185,13 @@ def test_panel_live_in_jupyterlab(chapter: str, lab, browser) -> None:
         before = figure.get_attribute("src")
         handle = panel.locator(".widget-gridbox .noUi-handle").first
         if handle.count():
-            handle.focus()
-            tab.keyboard.press("ArrowRight")
+            readout = panel.locator(".widget-gridbox .widget-readout").first
+            shown = readout.inner_text() if readout.count() else None
+            for _ in range(3):  # a key press that lands before the slider listens moves nothing: press again
+                handle.focus()
+                tab.keyboard.press("ArrowRight")
+                if shown is None or _changes(tab, readout, shown):
+                    break
             moved = "slider"
         else:
             select = panel.locator(".widget-gridbox select").first
@@ -210,6 +215,16 @@ def test_panel_live_in_jupyterlab(chapter: str, lab, browser) -> None:
         assert not problems, f"{chapter}: {len(problems)} console error(s)/warning(s): {problems[:5]}"
     finally:
         context.close()
+
+
+def _changes(tab, locator, text: str, timeout_s: float = 1.0) -> bool:
+    """Whether ``locator``'s text differs from ``text`` within ``timeout_s``."""
+    end = time.monotonic() + timeout_s
+    while time.monotonic() < end:
+        if locator.inner_text() != text:
+            return True
+        tab.wait_for_timeout(50)
+    return False
 
 
 def _cross_chapter_links(chapter: str) -> list[tuple[int, str, str]]:
