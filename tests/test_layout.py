@@ -237,3 +237,19 @@ def test_the_kalman_family_runs_in_one_loop(name):
              if isinstance(node, ast.ImportFrom) and (node.module or "").startswith("filterpy")
              and any(alias.name == name for alias in node.names)}
     assert users == FILTERPY_HOMES[name], users
+
+
+#: The modules that may catch a filter's collapse (a StepError): the one failure policy (the run record and
+#: the study runner), and the likelihood estimate, whose value is exactly 0 (-inf in logs) when every
+#: particle has zero weight (an estimate, not a recorded failure).
+COLLAPSE_CATCHERS = {"pfcourse.experiments.record", "pfcourse.experiments.study", "pfcourse.experiments.likelihood"}
+
+
+def test_only_the_failure_policy_catches_a_collapse():
+    """A row function lets a StepError through to the study runner, which records it (issue 28)."""
+    collapse = {"StepError", "DegenerateWeightsError", "NumericalError", "ModelError"}
+    catchers = {module_name(path) for path in MODULES for node in ast.walk(ast.parse(path.read_text()))
+                if isinstance(node, ast.ExceptHandler) and node.type is not None
+                and collapse & {n.id if isinstance(n, ast.Name) else getattr(n, "attr", "")
+                                for n in ast.walk(node.type)}}
+    assert catchers == COLLAPSE_CATCHERS, catchers

@@ -9,6 +9,7 @@ times excepted; the store reads back what it writes.
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import zlib
 
@@ -16,7 +17,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from pfcourse.errors import ParameterError, StepError
+from pfcourse.errors import DegenerateWeightsError, ParameterError, StepError
 from pfcourse.experiments.registry import STUDIES, Study, same, select
 from pfcourse.experiments.store import DATA, load, save
 
@@ -104,3 +105,32 @@ def test_a_study_is_run_stored_and_recorded_by_name(tmp_path, monkeypatch):
     assert record["studies"]["toy/one"]["seeds"] == "run r: seed 5 + r" and "n_runs" not in record
     with pytest.raises(StepError, match="toy/one"):
         registry.Study(**{**toys[0].__dict__, "failures": "raise"}).compute()
+
+
+def _collapse(seed, **setting):
+    raise DegenerateWeightsError("every particle has zero likelihood", step=7)
+
+
+@pytest.mark.parametrize("name", ["terrain_remedies", "terrain_studies", "terrain_error_paths", "terrain_mpf",
+                                  "terrain_confirmation", "global_localization/lockon"])
+def test_a_filter_that_loses_every_particle_is_recorded_by_the_runner(name):
+    """No row function catches a collapse: the study runner records it (status failed, its message) with the
+    study's failed scores (a terrain flight lost at an infinite error, a global run not locked on), and the
+    row keeps its seed and setting columns; the table has the stored columns."""
+    study = STUDIES[name]
+    table = dataclasses.replace(study, row=_collapse).compute(n_runs=2)
+    stored = study.load()
+    assert list(table.columns) == list(study.columns) and set(table.columns) == set(stored.columns)
+    assert (table["status"] == "failed").all() and table["error"].str.startswith("DegenerateWeightsError: every particle").all()
+    assert list(table[study.seed_column or "seed"]) == list(study.layout(n_runs=2)["seed"])
+    for column, value in study.failed_scores.items():
+        assert all(same(v, value) for v in table[column]), column
+    if "final_error" in table:
+        assert np.isinf(table["final_error"]).all()
+    assert "lost" not in table or table["lost"].all()
+
+
+def test_failed_scores_need_the_record_policy():
+    with pytest.raises(ParameterError, match="failed_scores"):
+        Study(name="x", row=dict, grid={"a": [1]}, n_runs=1, table="x.csv", provenance="x.json", failures="raise",
+              failed_scores={"lost": True})

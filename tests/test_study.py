@@ -284,3 +284,22 @@ def test_medians_tabulates_each_metric_per_setting():
     out = medians(table, "n", {"a": "A (m)", "b": "B"})
     assert list(out.columns) == ["n", "A (m)", "B"]
     assert list(out["A (m)"]) == [2.0, 5.0] and list(out["B"]) == [0.0, 3.0]
+
+
+@pytest.mark.parametrize("batched", [False, True])
+def test_a_collapsed_run_takes_the_studys_failed_scores(batched):
+    def one(seed: int, level: float) -> dict:
+        if seed % 2 == 0:
+            raise DegenerateWeightsError("collapse", step=2)
+        return {"error_m": level, "lost": False}
+
+    def batch(seeds: list[int], level: float) -> list[dict]:
+        return [one(seed, level) for seed in seeds]
+
+    kwargs = {"run_batch": batch, "batch_size": 3} if batched else {"run_one": one}
+    table = run_study(kwargs.pop("run_one", None), {"level": [1.0]}, 10, progress=False,
+                      failed_scores={"error_m": np.inf, "lost": True}, **kwargs)
+    failed = table["status"] == "failed"
+    assert list(failed) == [s % 2 == 0 for s in table["seed"]] and failed.any() and (~failed).any()
+    assert np.isinf(table.loc[failed, "error_m"]).all() and table.loc[failed, "lost"].all()
+    assert (table.loc[~failed, "error_m"] == 1.0).all() and not table.loc[~failed, "lost"].any()

@@ -23,7 +23,6 @@ import numpy as np
 from scipy import stats
 
 from pfcourse.diagnostics import nees
-from pfcourse.errors import DegenerateWeightsError
 from pfcourse.metrics import LOCK_WINDOW_S, heading_error, locked_from, position_error, position_spread
 from pfcourse.robot.scenario import ANGLE_INDICES, RobotModel, simulate_robot
 from pfcourse.experiments.robot import compare_filters
@@ -53,14 +52,19 @@ KIDNAP = [("bootstrap", 2000), ("mixture", 2000), ("augmented", 2000), ("kld", 2
 #: The stored tables' columns, in order.
 COLUMNS = {
     "anatomy": ("seed", "n", "nearest_m", "consistent_1", "expected_1", "ess_1", "consistent_3"),
-    "lockon": ("seed", "method", "n", "locked_on", "lock_time", "final_error", "final_heading_error", "final_sd",
-               "final_nees", "wrong_confident", "particle_steps", "mean_n", "seconds", "lost"),
+    "lockon": ("seed", "method", "n", "status", "error", "locked_on", "lock_time", "final_error", "final_heading_error",
+               "final_sd", "final_nees", "wrong_confident", "particle_steps", "mean_n", "seconds"),
     "kidnap": ("seed", "method", "n", "tracking_before", "detection_s", "recovery_s", "recovered", "final_error",
                "final_nees", "particle_steps", "seconds"),
     "ekf_vs_pf": ("seed", "setting", "pf_position_rmse", "pf_heading_rmse", "pf_mean_nees", "pf_failed", "pf_seconds",
                   "ekf_position_rmse", "ekf_heading_rmse", "ekf_mean_nees", "ekf_failed", "ekf_seconds"),
 }
 
+
+#: A stored study's scores of a global run whose filter failed (every particle impossible: the study
+#: runner's ``failed_scores``): not locked on, infinitely far, and not "wrong but confident".
+FAILED_RUN = {"locked_on": False, "final_error": np.inf, "final_heading_error": np.inf, "final_sd": np.inf,
+              "final_nees": np.inf, "wrong_confident": False}
 
 #: Lock-on (:func:`pfcourse.metrics.locked_on`): the last ``LOCK_WINDOW`` steps of the robot's 1 s step.
 LOCK_WINDOW = int(LOCK_WINDOW_S)
@@ -86,12 +90,7 @@ def global_run(seed: int, method: str, n_particles: int, *, n_steps: int = 60,
     correction for ``tempered``); ``mean_n``: the mean number of particles.
     """
     sim = simulate_robot(None, seed, n_steps=n_steps)
-    try:
-        out = run_method(sim, method, n_particles, seed, settings=settings)
-    except DegenerateWeightsError:
-        return {"locked_on": False, "lock_time": np.nan, "final_error": np.inf, "final_heading_error": np.inf,
-                "final_sd": np.inf, "final_nees": np.inf, "wrong_confident": False, "particle_steps": np.nan,
-                "mean_n": np.nan, "seconds": np.nan, "lost": True}
+    out = run_method(sim, method, n_particles, seed, settings=settings)
     pos, head = position_heading_errors(sim.truth, out["mean"])
     start = locked_from(pos, head)
     locked = start <= n_steps - LOCK_WINDOW
@@ -108,7 +107,6 @@ def global_run(seed: int, method: str, n_particles: int, *, n_steps: int = 60,
         "particle_steps": int(np.sum(out["likelihood_evaluations"])),
         "mean_n": float(np.mean(out["n_used"])),
         "seconds": float(out["seconds"]),
-        "lost": False,
     }
 
 
@@ -242,8 +240,9 @@ KLD_SETTINGS = {
 }
 #: Methods and N of the tracking-cost study (what the mixture proposal spends while tracking).
 TRACKING = [("bootstrap", 2000), ("mixture", 2000)]
-COLUMNS["kld_amcl"] = ("seed", "setting", "locked_on", "lock_time", "final_error", "final_heading_error", "final_sd",
-                       "final_nees", "wrong_confident", "particle_steps", "mean_n", "seconds", "lost")
+COLUMNS["kld_amcl"] = ("seed", "setting", "status", "error", "locked_on", "lock_time", "final_error",
+                       "final_heading_error", "final_sd", "final_nees", "wrong_confident", "particle_steps", "mean_n",
+                       "seconds")
 COLUMNS["tracking_cost"] = ("seed", "method", "n", "ess_fraction", "position_rmse", "heading_rmse_deg")
 COLUMNS["modes"] = ("method", "seed", "mass_near_truth", "ess_fraction")
 #: The methods of the per-step study ``modes`` (:func:`mode_run`, ``N = 2000``, steps 0-20).

@@ -29,6 +29,7 @@ import time
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 from functools import partial
+from typing import Any
 from pathlib import Path
 
 import numpy as np
@@ -43,6 +44,7 @@ from pfcourse.experiments import (maprobot, rb_study, robot_studies, sir_fixes_s
 from pfcourse.experiments.provenance import append_rerun, launch_commit, write_provenance
 from pfcourse.experiments.robot import pf_run
 from pfcourse.experiments.store import DATA, load, save
+from pfcourse.experiments.terrain import LOST_FLIGHT
 from pfcourse.experiments.study import grid_settings, run_study
 from pfcourse.seeding import replicate_seed
 
@@ -51,9 +53,9 @@ SEED_RULES: dict[str, Callable[[int, int], int]] = {
     "replicate": replicate_seed,  # run_study's default: SeedSequence([b, r])
     "run": lambda b, r: b + r,  # the run's number, counted from b (a flight, a simulation seed)
 }
-#: Failure policies: ``record`` keeps a collapsed run as a row with ``status="failed"`` and its
-#: message (run_study's rule); ``raise`` refuses to store a table with a collapsed run (its table
-#: has no status column).
+#: Failure policies: ``record`` keeps a collapsed run as a row with ``status="failed"``, its
+#: message and the study's ``failed_scores`` (run_study's rule); ``raise`` refuses to store a table
+#: with a collapsed run (its table has no status column).
 FAILURES = ("record", "raise")
 
 
@@ -78,6 +80,7 @@ class Study:
     seeds: str = "replicate"
     base_seed: int = 0
     failures: str = "record"
+    failed_scores: Mapping[str, Any] = field(default_factory=dict)  # a collapsed run's metrics (failures="record")
     columns: tuple[str, ...] | None = None
     order: tuple[str, ...] = ()
     seed_column: str | None = "seed"  # None: the table keeps no seed (one run, its seed the rule's)
@@ -96,6 +99,9 @@ class Study:
         if self.seeds not in SEED_RULES or self.failures not in FAILURES:
             raise ParameterError(f"study {self.name}: seeds must be one of {list(SEED_RULES)} and failures one "
                                  f"of {FAILURES}, got {self.seeds!r}, {self.failures!r}")
+        if self.failed_scores and self.failures != "record":
+            raise ParameterError(f"study {self.name}: failed_scores score the collapsed runs a table records; "
+                                 f"give them with failures='record'")
         if self.seed_column is None and self.n_runs != 1:
             raise ParameterError(f"study {self.name}: a table that keeps no seed column must have one run per setting")
 
@@ -112,13 +118,19 @@ class Study:
         n_runs = self.n_runs if n_runs is None else n_runs
         seeds = [SEED_RULES[self.seeds](self.base_seed, r) for r in range(n_runs)]
         options = {"progress": False, **options}
-        table = pd.concat([run_study(self.row, grid, n_runs, seeds=seeds, **options) for grid in self.grids],
+        table = pd.concat([run_study(self.row, grid, n_runs, seeds=seeds, failed_scores=self.failed_scores, **options)
+                           for grid in self.grids],
                           ignore_index=True)
         if self.failures == "raise" and (table["status"] != "ok").any():
             failed = table[table["status"] != "ok"].iloc[0]
             raise StepError(f"study {self.name}: run {failed['run']} failed ({failed['error']})")
+        # The stored seed and renamed setting columns come from the runner, so that a failed run has them too.
+        if self.seed_column is not None:
+            table[self.seed_column] = [SEED_RULES[self.seeds](self.base_seed, r) for r in table["run"]]
+        for key, column in self.stored_as.items():
+            table[column] = table[key]
         table = self._ordered(table)
-        return table[list(self.columns)] if self.columns is not None else table
+        return table.reindex(columns=list(self.columns)) if self.columns is not None else table  # NaN: no run gave it
 
     def layout(self, n_runs: int | None = None) -> pd.DataFrame:
         """Setting, ``run`` and ``seed`` of every row of the table, in the stored order (nothing is run)."""
@@ -183,7 +195,8 @@ def _likelihood_study(name: str, row: Callable, grid: dict, n_runs: int, base_se
 
 def _mcl_study(name: str, row: Callable, grid, **options) -> Study:
     """A table of the global-localization chapter (stored rounded to 10 significant digits: compared at 1e-9)."""
-    return Study(name=f"global_localization/{name}", row=row, grid=grid, n_runs=100, seeds="run", failures="raise",
+    options = {"failures": "raise", **options}
+    return Study(name=f"global_localization/{name}", row=row, grid=grid, n_runs=100, seeds="run",
                  table=f"global_localization/{name}.csv", provenance="global_localization/provenance.json",
                  columns=global_localization.COLUMNS[name], rtol=1e-9,
                  row_code=f"pfcourse/experiments/global_localization.py ({row.__name__})", **options)
@@ -195,6 +208,11 @@ def _robot_study(name: str, grid: dict, options: dict) -> Study:
                  provenance="robot_studies/provenance.json", literals=robot_studies.literal_columns(name), arrays=robot_studies.ARRAY_COLUMNS,
                  errors_as_text=True, row_code="pfcourse/experiments/robot.py (pf_run)", fields={"grid": grid, "options": options})
 
+
+#: The terrain flight studies record a filter that lost every particle as a lost flight (infinite error).
+_FLIGHTS = {"failures": "record", "failed_scores": LOST_FLIGHT, "errors_as_text": True}
+#: The global-localization runs record a filter that lost every particle as a failed run, not locked on.
+_GLOBAL_RUNS = {"failures": "record", "failed_scores": global_localization.FAILED_RUN, "errors_as_text": True}
 
 #: Every stored study, by name.  A group (``robot_studies``) is the studies named ``group/...``.
 STUDIES: dict[str, Study] = {study.name: study for study in [
@@ -246,14 +264,15 @@ STUDIES: dict[str, Study] = {study.name: study for study in [
                  stored_as={"n_particles": "n"}, **options)
       for name, row, pairs, options in [
           ("lockon", global_localization.lockon_row, global_localization.LOCKON,
-           {"sample": 4, "cheap": lambda t: (t["n"] <= 10000) | (t["method"] != "bootstrap")}),  # 30 000: seconds
+           {"sample": 4, "cheap": lambda t: (t["n"] <= 10000) | (t["method"] != "bootstrap"),  # 30 000: seconds
+            **_GLOBAL_RUNS}),
           ("kidnap", global_localization.kidnap_row, global_localization.KIDNAP, {"sample": 3})]),
     _mcl_study("modes", global_localization.mode_run, {"method": list(global_localization.MODES)},
                arrays=("mass_near_truth", "ess_fraction"), sample=2),
     _mcl_study("ekf_vs_pf", global_localization.ekf_row, {"setting": list(global_localization.EKF_SETTINGS)},
                volatile=("pf_seconds", "ekf_seconds"), fields={"ekf_settings": global_localization.EKF_SETTINGS}),
     Study(name="terrain_remedies", row=terrain_remedies.row, grid={"setting": terrain_remedies.STORED_SETTINGS},
-          n_runs=100, seeds="run", failures="raise", table="terrain_remedies.csv", provenance="terrain_remedies.json",
+          n_runs=100, seeds="run", table="terrain_remedies.csv", **_FLIGHTS, provenance="terrain_remedies.json",
           columns=terrain_remedies.COLUMNS, seed_column="flight", cheap=lambda t: t["N"] <= 10000, sample=4,
           row_code="pfcourse/experiments/terrain_remedies.py (run_one)",
           fields={"settings": labels(terrain_remedies.FILTERS),
@@ -269,7 +288,7 @@ STUDIES: dict[str, Study] = {study.name: study for study in [
                   "filter": "bootstrap, systematic resampling at ESS < N/2"}),
     Study(name="terrain_studies", row=terrain_studies.row,
           grid=tuple({"study": [study], "setting": list(group)} for study, group in terrain_studies.STUDIES.items()),
-          n_runs=100, seeds="run", failures="raise", table="terrain_studies.csv", provenance="terrain_studies.json",
+          n_runs=100, seeds="run", table="terrain_studies.csv", **_FLIGHTS, provenance="terrain_studies.json",
           columns=terrain_studies.COLUMNS, seed_column="flight",
           cheap=lambda t: t["setting"] != "every 0.1 s, dt = 0.1 s", sample=3,  # the 10 Hz runs take seconds each
           row_code="pfcourse/experiments/terrain_studies.py (study_row)",
@@ -279,7 +298,7 @@ STUDIES: dict[str, Study] = {study.name: study for study in [
                   "seeds": "flight r: pfcourse.seeding.data_rng(0, r); filter: pfcourse.seeding.filter_rng(0, r)",
                   "divergence": "final horizontal error > 500 m or every particle lost"}),
     Study(name="global_localization/kld_amcl", row=global_localization.kld_amcl_row,
-          grid={"setting": list(global_localization.KLD_SETTINGS)}, n_runs=100, seeds="run", failures="raise",
+          grid={"setting": list(global_localization.KLD_SETTINGS)}, n_runs=100, seeds="run", **_GLOBAL_RUNS,
           table="global_localization/kld_amcl.csv", provenance="global_localization/kld_amcl.json",
           columns=global_localization.COLUMNS["kld_amcl"], sample=2,
           row_code="pfcourse/experiments/global_localization.py (kld_amcl_row)",
@@ -304,7 +323,7 @@ STUDIES: dict[str, Study] = {study.name: study for study in [
                            "particle filter: pfcourse.seeding.filter_rng(0, r)"}),
     Study(name="terrain_map_error", row=terrain_remedies.map_error_row,
           grid={"setting": terrain_remedies.MAP_ERROR_SETTINGS},
-          n_runs=50, seeds="run", failures="raise", table="terrain_map_error.csv", provenance="terrain_map_error.json",
+          n_runs=50, seeds="run", table="terrain_map_error.csv", **_FLIGHTS, provenance="terrain_map_error.json",
           columns=terrain_remedies.MAP_ERROR_COLUMNS, seed_column="flight",
           cheap=lambda t: t["setting"] == "bootstrap N=3000", sample=2,  # the others take a second or more each
           row_code="pfcourse/experiments/terrain_remedies.py (map_error_row)",
@@ -316,7 +335,7 @@ STUDIES: dict[str, Study] = {study.name: study for study in [
                   "divergence": "final horizontal error > 500 m or every particle lost"}),
     Study(name="terrain_error_paths", row=terrain_remedies.error_path_row,
           grid={"setting": terrain_remedies.ERROR_PATH_SETTINGS},
-          n_runs=100, seeds="run", failures="raise", table="terrain_error_paths.csv",
+          n_runs=100, seeds="run", table="terrain_error_paths.csv", **{**_FLIGHTS, "failed_scores": terrain_remedies.LOST_PATH},
           provenance="terrain_error_paths.json", columns=terrain_remedies.ERROR_PATH_COLUMNS, seed_column="flight",
           arrays=("errors",), sample=2, row_code="pfcourse/experiments/terrain_remedies.py (error_path_row)",
           fields={"seeds": "flight r: pfcourse.seeding.data_rng(0, r); filter: pfcourse.seeding.filter_rng(0, r)",
@@ -336,7 +355,7 @@ STUDIES: dict[str, Study] = {study.name: study for study in [
           ("kld_tracking", maprobot.kld_tracking_row, {},
            ("seed", "position_rmse", "locked_on", "mean_particles", "max_particles_after_start"))]),
     Study(name="terrain_mpf", row=terrain_marginalised.row, grid={"N": terrain_marginalised.SIZES},
-          n_runs=100, seeds="run", failures="raise", table="terrain_mpf.csv", provenance="terrain_mpf.json",
+          n_runs=100, seeds="run", table="terrain_mpf.csv", **_FLIGHTS, provenance="terrain_mpf.json",
           columns=terrain_marginalised.COLUMNS, seed_column="flight", cheap=lambda t: t["N"] <= 3000, sample=2,
           row_code="pfcourse/experiments/terrain_marginalised.py (run_mpf)",
           fields={"filter": "marginalised (altitude Kalman in each particle), multinomial resampling at ESS < N/2",
@@ -359,8 +378,8 @@ STUDIES: dict[str, Study] = {study.name: study for study in [
                   "seeds": f"run r: data pfcourse.seeding.data_rng({smoothing_studies.SEED}, r); filter and FFBSi "
                            f"draws pfcourse.seeding.filter_rng({smoothing_studies.SEED}, r)"}),
     *(Study(name=name, row=partial(terrain_remedies.fresh_flight_row, study=name), grid={"setting": list(fresh.settings)},
-            n_runs=len(fresh.flights), seeds="run", base_seed=fresh.flights.start, failures="raise",
-            table=f"{name}.csv", provenance=f"{name}.json", columns=terrain_remedies.FRESH_COLUMNS, seed_column="flight",
+            n_runs=len(fresh.flights), seeds="run", base_seed=fresh.flights.start,
+            table=f"{name}.csv", **_FLIGHTS, provenance=f"{name}.json", columns=terrain_remedies.FRESH_COLUMNS, seed_column="flight",
             sample=2, row_code="pfcourse/experiments/terrain_remedies.py (fresh_flight_row)",
             fields={"flights": [fresh.flights.start, fresh.flights.stop - 1], "criterion": fresh.criterion,
                     "settings": fresh.settings,

@@ -7,7 +7,8 @@ need more than a number or a plain word:
 * ``literals``: settings that are not all numbers (``None``, tuples, quoted names), written as
   Python literals and read back with :func:`ast.literal_eval`;
 * ``arrays``: per-step columns (one NumPy array per row), kept beside the table in
-  ``NAME.npz`` (one 2-D array per column, one row per table row, NaN for a run that failed).
+  ``NAME.npz`` (one 2-D array per column, one row per table row; a row all NaN, a failed run
+  that the study gives no scores, reads back as NaN).
 
 With ``errors_as_text``, the empty ``error`` messages of
 :func:`~pfcourse.experiments.study.run_study`'s rows are read back as ``""`` (not NaN, what
@@ -61,8 +62,7 @@ def load(path: Path, *, literals: Sequence[str] = (), arrays: Sequence[str] = ()
         table["error"] = ["" if isinstance(v, float) else v for v in table["error"]]  # read back as NaN
     arrays_path = path.with_suffix(".npz")
     if arrays and arrays_path.exists():
-        ok = table["status"] == "ok" if "status" in table.columns else pd.Series(True, index=table.index)
         with np.load(arrays_path) as stored:
             for column in arrays:
-                table[column] = [row if good else np.nan for row, good in zip(stored[column], ok)]
+                table[column] = [np.nan if np.isnan(row).all() else row for row in stored[column]]
     return table

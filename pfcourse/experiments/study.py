@@ -15,7 +15,9 @@ and returns a dictionary of metrics.  The result is a tidy table, one row per
   their differences are not blurred by different data.
 * **Failures are data.** A run that collapses (a :class:`~pfcourse.errors.StepError`:
   every particle impossible, a NaN) is recorded with ``status = "failed"`` and its
-  message; the study goes on.  Configuration errors and bugs still stop it.  This is the
+  message, and scored as the study says a collapsed run scores (``failed_scores``: a terrain
+  flight whose particles all died is lost, with an infinite error); the study goes on.  A row
+  function never catches a collapse itself.  Configuration errors and bugs still stop it.  This is the
   failure policy of every recorded run (:mod:`pfcourse.experiments.record`): a row holds what
   a run record holds, its setting, ``status``, ``error``, metrics and ``seconds``.
 * **Batches.** ``run_batch(seeds=[...], **s)`` may replace ``run_one`` when a
@@ -41,6 +43,7 @@ import itertools
 import time
 from collections.abc import Callable, Iterable, Mapping, Sequence
 from concurrent.futures import Executor
+from typing import Any
 
 import numpy as np
 import pandas as pd
@@ -78,13 +81,15 @@ def run_study(
     progress: bool = True,
     executor: Executor | None = None,
     stall_timeout: float | None = STALL_TIMEOUT,
+    failed_scores: Mapping[str, Any] | None = None,
 ) -> pd.DataFrame:
     """Run every setting of ``grid`` ``n_runs`` times and return one row per run.
 
     Columns: the grid's parameters, ``run`` (replicate index), ``seed``,
     ``status`` (``"ok"`` or ``"failed"``), ``error`` (message of a failed run),
     the metrics returned by the run, and ``seconds`` (wall time of the run, or of
-    its share of a batch).
+    its share of a batch).  A failed run's metrics are ``failed_scores`` (how the study scores a run
+    that collapsed, e.g. an infinite error; default: none, NaN in the table).
 
     Replicate ``r`` has seed ``replicate_seed(base_seed, r)``, or ``seeds[r]`` when ``seeds``
     (``n_runs`` integers) is given: a study whose runs are seeded by their index passes
@@ -117,7 +122,8 @@ def run_study(
             for row in chunk_rows:
                 bar.advance(1, row["status"])
 
-    chunks = run_tasks(task, [(fn, setting, chunk, [seeds[r] for r in chunk]) for setting, chunk in tasks],
+    failed = dict(failed_scores or {})
+    chunks = run_tasks(task, [(fn, setting, chunk, [seeds[r] for r in chunk], failed) for setting, chunk in tasks],
                        executor=executor, stall_timeout=stall_timeout, on_result=advance)
     rows = [row for chunk_rows in chunks for row in chunk_rows]
     if bar:
@@ -125,14 +131,14 @@ def run_study(
     return pd.DataFrame(rows)
 
 
-def _runs_task(run_one, setting: dict, runs: list[int], seeds: list[int]) -> list[dict]:
+def _runs_task(run_one, setting: dict, runs: list[int], seeds: list[int], failed: dict) -> list[dict]:
     """One task of a study: runs ``runs`` of ``setting``, one at a time (module level, so it pickles)."""
-    return [_one_row(run_one, setting, r, seed) for r, seed in zip(runs, seeds)]
+    return [_one_row(run_one, setting, r, seed, failed) for r, seed in zip(runs, seeds)]
 
 
-def _batch_task(run_batch, setting: dict, runs: list[int], seeds: list[int]) -> list[dict]:
+def _batch_task(run_batch, setting: dict, runs: list[int], seeds: list[int], failed: dict) -> list[dict]:
     """One task of a study: runs ``runs`` of ``setting`` in one call of ``run_batch``."""
-    return _batch_rows(run_batch, setting, runs, seeds)
+    return _batch_rows(run_batch, setting, runs, seeds, failed)
 
 
 def _metrics(result, setting: dict, seed: int) -> dict:
@@ -143,26 +149,26 @@ def _metrics(result, setting: dict, seed: int) -> dict:
     return dict(result)
 
 
-def _one_row(run_one, setting: dict, r: int, seed: int) -> dict:
+def _one_row(run_one, setting: dict, r: int, seed: int, failed: dict) -> dict:
     start = time.perf_counter()
     try:
         metrics, status, error = _metrics(run_one(seed=seed, **setting), setting, seed), "ok", ""
     except StepError as exc:
-        metrics, status, error = {}, "failed", failure_message(exc)
+        metrics, status, error = failed, "failed", failure_message(exc)
     return {**setting, "run": r, "seed": seed, "status": status, "error": error, **metrics,
             "seconds": time.perf_counter() - start}
 
 
-def _batch_rows(run_batch, setting: dict, runs: list[int], seeds: list[int]) -> list[dict]:
+def _batch_rows(run_batch, setting: dict, runs: list[int], seeds: list[int], failed: dict) -> list[dict]:
     start = time.perf_counter()
     try:
-        results = [({}, "failed", failure_message(m)) if isinstance(m, StepError) else (_metrics(m, setting, seed), "ok", "")
+        results = [(failed, "failed", failure_message(m)) if isinstance(m, StepError) else (_metrics(m, setting, seed), "ok", "")
                    for m, seed in zip(run_batch(seeds=seeds, **setting), seeds)]
         if len(results) != len(seeds):
             raise ParameterError(f"run_batch returned {len(results)} results for {len(seeds)} seeds")
     except StepError:
         # One collapse spoils the batch: redo its runs one at a time to find which.
-        return [_one_row(lambda seed, **s: run_batch(seeds=[seed], **s)[0], setting, r, seed)
+        return [_one_row(lambda seed, **s: run_batch(seeds=[seed], **s)[0], setting, r, seed, failed)
                 for r, seed in zip(runs, seeds)]
     share = (time.perf_counter() - start) / len(seeds)
     return [{**setting, "run": r, "seed": seed, "status": status, "error": error, **m, "seconds": share}

@@ -30,6 +30,16 @@ from pfcourse.terrain.scenario import AircraftScenario, extended_kalman_filter, 
 #: A run whose final horizontal error exceeds this (m) is counted as diverged: about five
 #: DEM cells, and thirty times the error of a converged particle filter in this scenario.
 DIVERGED_ERROR = 500.0
+#: A stored study's scores of a flight whose filter failed (every particle impossible: the study
+#: runner's ``failed_scores``): lost, with an infinite error.
+LOST_FLIGHT = {"final_error": np.inf, "mean_error": np.inf, "lost": True}
+
+
+def flight_scores(truth: Array, mean: Array) -> dict:
+    """A stored study's scores of a flight: final and time-averaged horizontal error (m), and
+    ``lost``, a final error above :data:`DIVERGED_ERROR`."""
+    e = position_error(truth, mean)
+    return {"final_error": float(e[-1]), "mean_error": float(np.mean(e)), "lost": bool(e[-1] > DIVERGED_ERROR)}
 
 
 @cache

@@ -3,7 +3,8 @@
 The flights are those of :mod:`pfcourse.experiments.terrain_remedies` (flight ``r`` from
 :func:`pfcourse.seeding.data_rng` ``(0, r)``, the filter from :func:`pfcourse.seeding.filter_rng` ``(0, r)``),
 and so is the divergence rule: a flight is *lost* when the final horizontal error exceeds
-:data:`pfcourse.experiments.terrain.DIVERGED_ERROR` (500 m) or every particle died.  The filter is
+:data:`pfcourse.experiments.terrain.DIVERGED_ERROR` (500 m) or every particle died (recorded by the
+study runner, as in the remedies study).  The filter is
 the engine with :class:`pfcourse.terrain.marginalised.AltitudeKalmanProposal`, resampling as the
 bootstrap rows of the remedies study (multinomial, at ESS < N/2), so the two are paired flight by flight.
 
@@ -17,9 +18,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from pfcourse.errors import DegenerateWeightsError
-from pfcourse.experiments.terrain import DIVERGED_ERROR, jacksboro
-from pfcourse.metrics import position_error
+from pfcourse.experiments.terrain import flight_scores, jacksboro
 from pfcourse.seeding import data_rng, filter_rng
 from pfcourse.terrain.marginalised import marginalised_filter
 from pfcourse.terrain.point_mass import PointMassFilter
@@ -27,7 +26,7 @@ from pfcourse.terrain.scenario import AircraftScenario, simulate
 
 #: The marginalised filter's sizes, in the order they are stored.
 SIZES = [3000, 10000, 30000]
-COLUMNS = ("setting", "flight", "N", "final_error", "mean_error", "lost", "final_x", "final_y", "seconds")
+COLUMNS = ("setting", "flight", "status", "error", "N", "final_error", "mean_error", "lost", "final_x", "final_y", "seconds")
 #: The point-mass filter's cell sizes (m) and heading bins (degrees), coarse to fine: each step divides both by
 #: sqrt(2) (the number of grid points grows by about 2.8).
 CELLS = [(400.0, 8.0), (283.0, 5.66), (200.0, 4.0), (141.0, 2.83), (100.0, 2.0)]
@@ -42,13 +41,8 @@ def run_mpf(n: int, run: int, terrain, scenario: AircraftScenario | None = None)
     scenario = scenario or AircraftScenario()
     flight = simulate(scenario, terrain, data_rng(0, run))
     pf = marginalised_filter(terrain, scenario, n, threshold=0.5, resampler="multinomial")
-    out = {"setting": f"marginalised N={n}", "flight": run, "N": n}
-    try:
-        res = pf.run(flight.measurements, rng=filter_rng(0, run))
-    except DegenerateWeightsError:
-        return {**out, "final_error": np.inf, "mean_error": np.inf, "lost": True, "final_x": np.nan, "final_y": np.nan}
-    e = position_error(flight.truth, res.mean)
-    return {**out, "final_error": float(e[-1]), "mean_error": float(np.mean(e)), "lost": bool(e[-1] > DIVERGED_ERROR),
+    res = pf.run(flight.measurements, rng=filter_rng(0, run))
+    return {"setting": f"marginalised N={n}", "flight": run, "N": n, **flight_scores(flight.truth, res.mean),
             "final_x": float(res.mean[-1, 0]), "final_y": float(res.mean[-1, 1])}
 
 
@@ -64,9 +58,8 @@ def run_grid(cell: float, heading_step_deg: float, run: int, terrain,
     flight = simulate(scenario, terrain, data_rng(0, run))
     pmf = PointMassFilter(terrain, scenario, cell=cell, heading_step=np.radians(heading_step_deg))
     res = pmf.run(flight.measurements)
-    e = position_error(flight.truth, res.mean)
-    return {"cell": cell, "heading_deg": heading_step_deg, "flight": run, "final_error": float(e[-1]),
-            "mean_error": float(np.mean(e)), "lost": bool(e[-1] > DIVERGED_ERROR), "final_x": float(res.mean[-1, 0]),
+    return {"cell": cell, "heading_deg": heading_step_deg, "flight": run, **flight_scores(flight.truth, res.mean),
+            "final_x": float(res.mean[-1, 0]),
             "final_y": float(res.mean[-1, 1]), "final_sd_x": float(res.sd[-1, 0]), "final_sd_y": float(res.sd[-1, 1]),
             "cells": float(np.mean(res.cells)), "max_cells": int(res.cells.max())}
 

@@ -4,8 +4,9 @@ A *setting* is a name in :data:`FILTERS`; flight ``r`` is drawn from :func:`pfco
 ``(0, r)`` (common random numbers: every setting sees the same truths and altimeter noise) and
 the filter from :func:`pfcourse.seeding.filter_rng` ``(0, r)``.  **Divergence**: a run is *lost* when its
 final horizontal error exceeds :data:`pfcourse.experiments.terrain.DIVERGED_ERROR` (500 m) or every particle
-died.  The study ``terrain_remedies`` of :mod:`pfcourse.experiments.registry` writes the rows to
-``book/data/terrain_remedies.csv``; ``tests/test_stored_studies.py`` recomputes a seeded sample of them.
+died (the filter raised; the study runner records the flight ``failed``, scored
+:data:`~pfcourse.experiments.terrain.LOST_FLIGHT`: lost, with an infinite error).  The study
+``terrain_remedies`` of :mod:`pfcourse.experiments.registry` writes the rows to ``book/data/terrain_remedies.csv``; ``tests/test_stored_studies.py`` recomputes a seeded sample of them.
 
 The study ``terrain_reference`` (``book/data/terrain_reference.csv``, :func:`reference_row`) is a
 reference posterior for five flights.  The exact filtering posterior of the terrain problem has no
@@ -27,9 +28,9 @@ from functools import partial
 
 import numpy as np
 
-from pfcourse.errors import DegenerateWeightsError, ParameterError
+from pfcourse.errors import ParameterError
 from pfcourse.experiments import terrain_studies
-from pfcourse.experiments.terrain import DIVERGED_ERROR, jacksboro
+from pfcourse.experiments.terrain import DIVERGED_ERROR, flight_scores, jacksboro
 from pfcourse.filter import ParticleFilter
 from pfcourse.filter_config import FilterConfig, configurations, lookup
 from pfcourse.jitter import RegularisedJitter
@@ -89,7 +90,7 @@ STORED_SETTINGS = ["bootstrap N=3000", "bootstrap N=30000", "bootstrap N=10000",
                    "bootstrap N=3000, Qf/3", "tempered+regularised N=3000", "regularised N=10000",
                    "regularised h=1 N=3000", "tempered N=3000", "regularised N=30000", "bootstrap N=100000",
                    "tempered+regularised N=10000"]
-COLUMNS = ("setting", "flight", "N", "final_error", "mean_error", "lost", "evaluations", "seconds")
+COLUMNS = ("setting", "flight", "status", "error", "N", "final_error", "mean_error", "lost", "evaluations", "seconds")
 #: The reference posterior (book/data/terrain_reference.csv): flights 0-4, two sizes, two filter seeds
 #: ``reference_rng(0, flight, repeat)`` (not filter_rng's), the stored column ``seed`` being ``repeat``.
 REFERENCE_SIZES = [500_000, 1_000_000]
@@ -107,16 +108,10 @@ def run_one(setting: str, run: int, terrain, scenario: AircraftScenario | None =
     pf = lookup(FILTERS, setting).build(scenario, terrain if filter_terrain is None else filter_terrain)
     pc = pf.proposal if isinstance(pf.proposal, ProgressiveCorrection) else None
     n = pf.n_particles
-    try:
-        res = pf.run(flight.measurements, rng=filter_rng(0, run))
-    except DegenerateWeightsError:
-        return {"setting": setting, "flight": run, "N": n, "final_error": np.inf, "mean_error": np.inf,
-                "lost": True, "evaluations": np.nan}
-    e = position_error(flight.truth, res.mean)
+    res = pf.run(flight.measurements, rng=filter_rng(0, run))
     measured = int(np.sum(~np.isnan(flight.measurements[:, 0])))
     evaluations = measured if pc is None else int(np.sum(pc.stages))
-    return {"setting": setting, "flight": run, "N": n, "final_error": float(e[-1]),
-            "mean_error": float(np.mean(e)), "lost": bool(e[-1] > DIVERGED_ERROR),
+    return {"setting": setting, "flight": run, "N": n, **flight_scores(flight.truth, res.mean),
             "evaluations": evaluations}
 
 
@@ -146,7 +141,7 @@ def reference_row(seed: int, N: int, repeat: int) -> dict:
 #: period study), and the best cure told of its map's error (``Rf = R + var(map - truth)``).
 MAP_ERROR_SETTINGS = ["bootstrap N=3000", "regularised N=30000", "regularised N=30000, 10 Hz",
                       "regularised N=30000, Rf + map error"]
-MAP_ERROR_COLUMNS = ("setting", "flight", "final_error", "mean_error", "lost", "map_error_sd", "seconds")
+MAP_ERROR_COLUMNS = ("setting", "flight", "status", "error", "final_error", "mean_error", "lost", "map_error_sd", "seconds")
 
 
 def map_error_row(seed: int, setting: str) -> dict:
@@ -172,7 +167,9 @@ def map_error_row(seed: int, setting: str) -> dict:
 #: a setting at every step of flights 0-99, for its root-mean-square error over time against the
 #: posterior Cramér-Rao bound (the same flights and filter seeds as ``terrain_remedies``).
 ERROR_PATH_SETTINGS = ["regularised N=30000"]
-ERROR_PATH_COLUMNS = ("setting", "flight", "lost", "errors", "seconds")
+ERROR_PATH_COLUMNS = ("setting", "flight", "status", "error", "lost", "errors", "seconds")
+#: The error-path study's scores of a flight whose filter failed: lost, infinitely far at every step.
+LOST_PATH = {"lost": True, "errors": np.full(AircraftScenario().n_steps, np.inf)}
 
 
 def error_path_row(seed: int, setting: str) -> dict:
@@ -181,10 +178,7 @@ def error_path_row(seed: int, setting: str) -> dict:
     scenario = AircraftScenario()
     flight = simulate(scenario, terrain, data_rng(0, seed))
     pf = lookup(FILTERS, setting).build(scenario, terrain)
-    try:
-        res = pf.run(flight.measurements, rng=filter_rng(0, seed))
-    except DegenerateWeightsError:
-        return {"setting": setting, "flight": seed, "lost": True, "errors": np.full(scenario.n_steps, np.inf)}
+    res = pf.run(flight.measurements, rng=filter_rng(0, seed))
     e = position_error(flight.truth, res.mean)
     return {"setting": setting, "flight": seed, "lost": bool(e[-1] > DIVERGED_ERROR), "errors": e}
 
@@ -236,7 +230,7 @@ FRESH_FLIGHTS: dict[str, FreshFlights] = {
                          "ratio to the bootstrap N = 30000 of at most 1",
         {name: name for name in ("regularised, stratified, N=20000", "bootstrap N=30000")}),
 }
-FRESH_COLUMNS = ("setting", "flight", "final_error", "mean_error", "lost", "seconds")
+FRESH_COLUMNS = ("setting", "flight", "status", "error", "final_error", "mean_error", "lost", "seconds")
 
 
 def fresh_flight_row(seed: int, setting: str, study: str) -> dict:

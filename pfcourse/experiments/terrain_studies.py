@@ -20,12 +20,12 @@ from __future__ import annotations
 
 import numpy as np
 
-from pfcourse.errors import DegenerateWeightsError, ParameterError
-from pfcourse.experiments.terrain import DIVERGED_ERROR, jacksboro
+from pfcourse.errors import ParameterError
+from pfcourse.experiments.terrain import flight_scores, jacksboro
 from pfcourse.filter import ParticleFilter
 from pfcourse.jitter import RegularisedJitter
 from pfcourse.seeding import data_rng, filter_rng
-from pfcourse.metrics import position_error, position_spread
+from pfcourse.metrics import position_spread
 from pfcourse.terrain.scenario import AircraftScenario, simulate
 
 BASELINE_N = 30000
@@ -51,8 +51,8 @@ STUDIES: dict[str, dict[str, dict]] = {
 SCENARIO_KEYS = ("Qf_factor", "Rf", "gap", "measurement_period", "dt")
 FILTER_KEYS = ("n_particles", "threshold", "resampler")
 #: The stored columns of book/data/terrain_studies.csv, in order.
-COLUMNS = ("study", "setting", "flight", "final_error", "mean_error", "lost", "sigma_50", "sigma_75",
-           "resamplings", "median_ess_fraction", "seconds")
+COLUMNS = ("study", "setting", "flight", "status", "error", "final_error", "mean_error", "lost", "sigma_50",
+           "sigma_75", "resamplings", "median_ess_fraction", "seconds")
 
 
 def settings() -> list[tuple[str, str]]:
@@ -83,18 +83,12 @@ def study_row(study: str, setting: str, flight: int, terrain, filter_terrain=Non
     sim = simulate(scenario, terrain, data_rng(0, flight))
     pf = ParticleFilter(scenario.model(terrain if filter_terrain is None else filter_terrain), options["n_particles"], threshold=options["threshold"],
                         resampler=options["resampler"], jitter=RegularisedJitter(KERNEL_SCALE, (3,)))
-    row = {"study": study, "setting": setting, "flight": flight}
-    try:
-        res = pf.run(sim.measurements, rng=filter_rng(0, flight))
-    except DegenerateWeightsError:
-        return {**row, "final_error": np.inf, "mean_error": np.inf, "lost": True, "sigma_50": np.nan,
-                "sigma_75": np.nan, "resamplings": -1, "median_ess_fraction": np.nan}
-    e = position_error(sim.truth, res.mean)
+    res = pf.run(sim.measurements, rng=filter_rng(0, flight))
     sigma = position_spread(res.cov)
     k50, k75 = (int(round(t / scenario.dt)) for t in (50.0, 75.0))
     measured = ~np.isnan(sim.measurements[:, 0])
-    return {**row, "final_error": float(e[-1]), "mean_error": float(np.mean(e)),
-            "lost": bool(e[-1] > DIVERGED_ERROR), "sigma_50": float(sigma[k50]), "sigma_75": float(sigma[k75]),
+    return {"study": study, "setting": setting, "flight": flight, **flight_scores(sim.truth, res.mean),
+            "sigma_50": float(sigma[k50]), "sigma_75": float(sigma[k75]),
             "resamplings": int(res.n_resamples),
             "median_ess_fraction": float(np.median(res.ess[measured]) / options["n_particles"])}
 
