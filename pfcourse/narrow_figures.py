@@ -84,10 +84,16 @@ def smallest_font_px(figure: Figure, dpi: float) -> float:
     return min(sizes, default=mpl.rcParams["font.size"]) * dpi / 72.0
 
 
+def shown_px(text_px: float, width_px: float, column_px: float) -> float:
+    """The size on the page (CSS px) of a text ``text_px`` pixels high in a PNG ``width_px`` wide, shown
+    at most as wide as a column of ``column_px``: ``text_px min(1, column_px / width_px)``."""
+    return text_px * min(1.0, column_px / width_px) if width_px > 0 else text_px
+
+
 def needs_narrow_copy(width_px: float, smallest_px: float, column_px: float = PHONE_COLUMN_PX) -> bool:
     """Whether a figure ``width_px`` wide, whose smallest text is ``smallest_px``, is too small to
-    read scaled to the phone's column: ``smallest_px min(1, column_px / width_px) < MIN_TEXT_PX``."""
-    return smallest_px * min(1.0, column_px / width_px) < MIN_TEXT_PX
+    read scaled to the phone's column (:func:`shown_px` below :data:`MIN_TEXT_PX`)."""
+    return shown_px(smallest_px, width_px, column_px) < MIN_TEXT_PX
 
 
 def _stack_axes(figure: Figure, grid: GridSpec) -> int:

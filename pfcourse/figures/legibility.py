@@ -18,6 +18,8 @@ import itertools
 from matplotlib.figure import Figure
 from matplotlib.text import Text
 
+from pfcourse.narrow_figures import shown_px
+
 
 def overlapping_texts(figure: Figure, tolerance: float = 1.0) -> list[tuple[str, str]]:
     """Pairs ``(text, text)`` of drawn texts of ``figure`` whose boxes overlap (empty list: none).
@@ -60,8 +62,7 @@ def smallest_text_px(figure: Figure, dpi: float | None = None, column_px: float 
     renderer = figure.canvas.get_renderer()
     dpi = float(dpi or figure.dpi)
     width = figure.get_tightbbox(renderer).width * dpi  # inches to PNG pixels
-    scale = min(1.0, column_px / width) if width > 0 else 1.0
-    sizes = [(text.get_fontsize() * dpi / 72.0 * scale, text.get_text())
+    sizes = [(shown_px(text.get_fontsize() * dpi / 72.0, width, column_px), text.get_text())
              for text in dict.fromkeys(_drawn_texts(figure)) if text.get_visible() and text.get_text().strip()]
     return min(sizes) if sizes else (float("inf"), "")
 
