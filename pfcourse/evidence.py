@@ -287,7 +287,8 @@ def median_interval(x, confidence: float = CONFIDENCE, seed: int = 0) -> tuple[f
 
 
 def run_interval(statistic: Callable[[np.ndarray], float | np.ndarray], n_runs: int,
-                 confidence: float = CONFIDENCE, seed: int = 0, n_resamples: int = N_RESAMPLES):
+                 confidence: float = CONFIDENCE, seed: int = 0, n_resamples: int = N_RESAMPLES,
+                 vectorized: bool = False):
     """``(value, low, high)``: ``statistic(runs)`` on all runs, and its percentile-bootstrap interval.
 
     ``statistic`` receives an array of run indices (all of them, then resamples drawn with
@@ -295,6 +296,10 @@ def run_interval(statistic: Callable[[np.ndarray], float | np.ndarray], n_runs: 
     several statistics (then ``value``, ``low`` and ``high`` are arrays); statistics of several
     arrays indexed by run (two filters on the same simulations) are resampled together, paired.
     Resampling is ``scipy.stats.bootstrap`` over the indices ``0 .. n_runs - 1``.
+
+    With ``vectorized=True`` a float ``statistic`` also takes a 2-D array of indices, one resample
+    per row, and returns one value per row (reducing over the last axis): one call instead of one
+    per resample, and the same interval (the same resamples).
     """
     if int(n_runs) != n_runs or n_runs < 2:
         raise EvidenceError(f"an interval over runs needs at least 2 runs, got {n_runs!r}")
@@ -302,8 +307,8 @@ def run_interval(statistic: Callable[[np.ndarray], float | np.ndarray], n_runs: 
     value = np.asarray(statistic(runs), dtype=float)
     if not np.all(np.isfinite(value)):
         raise EvidenceError(f"the statistic of all {n_runs} runs is {value}")
-    res = stats.bootstrap((runs,), lambda r: np.asarray(statistic(r.astype(int)), dtype=float), vectorized=False,
-                          confidence_level=confidence, n_resamples=n_resamples, method="percentile",
+    res = stats.bootstrap((runs,), lambda r, axis=-1: np.asarray(statistic(r.astype(int)), dtype=float),
+                          vectorized=vectorized, confidence_level=confidence, n_resamples=n_resamples, method="percentile",
                           random_state=np.random.default_rng(seed))
     low, high = np.asarray(res.confidence_interval.low), np.asarray(res.confidence_interval.high)
     if value.ndim == 0:
@@ -338,15 +343,18 @@ def log_slope(values, sizes, center: Callable = np.median, against=None, confide
     if x.size < 2 or np.ptp(x) == 0:
         raise EvidenceError("a slope needs at least two different sizes")
 
-    def fit(a: np.ndarray) -> float:
-        y = np.log(center(a, axis=1))
-        return float(np.sum((x - x.mean()) * (y - y.mean())) / np.sum((x - x.mean()) ** 2))
+    dx = (x - x.mean()).reshape(-1, 1)
 
-    def statistic(r: np.ndarray) -> float:
+    def fit(a: np.ndarray) -> np.ndarray:  # a: (sizes, runs) or (sizes, resamples, runs)
+        y = np.log(center(a, axis=-1)).reshape(x.size, -1)
+        return np.sum(dx * (y - y.mean(axis=0)), axis=0) / np.sum(dx**2)
+
+    def statistic(r: np.ndarray) -> np.ndarray:  # one slope per row of r (vectorized)
         b = fit(arrays[0][:, r])
-        return b - fit(arrays[1][:, r]) if against is not None else b
+        b = b - fit(arrays[1][:, r]) if against is not None else b
+        return b.reshape(np.shape(r)[:-1])
 
-    return run_interval(statistic, arrays[0].shape[1], confidence=confidence, seed=seed)
+    return run_interval(statistic, arrays[0].shape[1], confidence=confidence, seed=seed, vectorized=True)
 
 
 def regression_slope(x, y, confidence: float = CONFIDENCE) -> tuple[float, float, float]:

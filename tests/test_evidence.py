@@ -159,6 +159,33 @@ def test_run_interval_of_several_statistics_at_once():
     assert value[0] == single[0] and np.all(low < value) and np.all(value < high)
 
 
+def test_a_vectorized_statistic_gives_the_same_interval():
+    """The same resamples, one call: the interval of a statistic that takes a 2-D array of indices is
+    that of the one-resample-at-a-time statistic, float for float."""
+    x = np.random.default_rng(1).lognormal(size=150)
+    one = ev.run_interval(lambda r: np.mean(x[r]) / np.median(x[r]), 150, seed=4, n_resamples=999)
+    rows = ev.run_interval(lambda r: np.mean(x[r], axis=-1) / np.median(x[r], axis=-1), 150, seed=4,
+                           n_resamples=999, vectorized=True)
+    assert one == rows
+
+
+def test_log_slope_is_the_least_squares_slope_of_the_resampled_centres():
+    """log_slope (vectorized) against the slope written for one resample at a time: the same floats."""
+    sizes = np.array([30, 100, 300, 1000, 3000])
+    rng = np.random.default_rng(2)
+    a, b = rng.lognormal(size=(2, 5, 60)) * sizes[:, None] ** -0.5
+    x = np.log(sizes)
+
+    def slope(e, r, center=np.median):
+        y = np.log(center(e[:, r], axis=1))
+        return float(np.sum((x - x.mean()) * (y - y.mean())) / np.sum((x - x.mean()) ** 2))
+
+    assert ev.log_slope(a, sizes, seed=3) == ev.run_interval(lambda r: slope(a, r), 60, seed=3)
+    assert ev.log_slope(a, sizes, against=b, seed=3) == ev.run_interval(lambda r: slope(a, r) - slope(b, r), 60,
+                                                                        seed=3)
+    assert ev.log_slope(a, sizes, center=np.mean) == ev.run_interval(lambda r: slope(a, r, np.mean), 60)
+
+
 @pytest.mark.parametrize("n_runs", [1, 0, 2.5])
 def test_run_interval_refuses_too_few_runs(n_runs):
     with pytest.raises(ev.EvidenceError, match="at least 2 runs"):

@@ -430,8 +430,9 @@ def per_run_last10(method, n):
 # logarithm of the excess is undefined for resampled runs whose average falls below 6, so no bootstrap over runs)
 excess_slope, excess_slope_low, excess_slope_high = evidence.regression_slope(
     logN, np.log([last10[n] - 6 for n in N_VALUES]))
-excess_3000, excess_3000_low, excess_3000_high = evidence.run_interval(
-    lambda r: per_run_last10("rbpf_optimal", 3000)[r].mean() - 6, n_runs, seed=3)
+last10_3000 = per_run_last10("rbpf_optimal", 3000)
+excess_3000, excess_3000_low, excess_3000_high = evidence.run_interval(lambda r: last10_3000[r].mean() - 6, n_runs,
+                                                                       seed=3)
 print(f"RBPF (FastSLAM 2.0): slope of log(last-10-step NEES - 6) on log N over N = {N_VALUES}: {excess_slope:.2f} "
       f"(95 % regression interval {excess_slope_low:.2f} to {excess_slope_high:.2f}); "
       f"excess at N = 3000 {excess_3000:.2f} (95 % bootstrap interval over the runs {excess_3000_low:.2f} to "
