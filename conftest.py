@@ -6,7 +6,8 @@ inherits this environment):
 * one OpenBLAS thread (see tasks.py);
 * an IPython startup file for those kernels that warns when a figure is shown with texts
   drawn over each other (pfcourse/figures/legibility.py): the warning is an output strict
-  nbval does not expect, so the notebook fails;
+  nbval does not expect, so the notebook fails; and the startup of the book's own execution
+  that spares each kernel an unused import (tools/execute_notebooks.py, NO_IRI_GRAMMAR);
 * one arithmetic on every x86-64 CPU (pfcourse/arithmetic.py): NumPy without its AVX-512
   code paths, OpenBLAS with its Haswell kernels, so that the stored notebook outputs and the
   bit-for-bit unit tests hold on AVX2 and AVX-512 machines alike.
@@ -43,6 +44,9 @@ def _legibility_startup() -> None:
     startup.mkdir(parents=True)
     (startup / "00-legibility.py").write_text(
         "from pfcourse.figures.legibility import check_shown_figures\ncheck_shown_figures()\n")
+    from tools.execute_notebooks import NO_IRI_GRAMMAR  # as the book's own execution (see there)
+
+    (startup / "00-no-iri-grammar.py").write_text(NO_IRI_GRAMMAR)
     os.environ["IPYTHONDIR"] = str(folder)
     os.environ["PFCOURSE_LEGIBILITY_IPYTHONDIR"] = str(folder)  # so a test can start kernels without it
     atexit.register(shutil.rmtree, folder, ignore_errors=True)

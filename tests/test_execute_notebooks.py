@@ -42,3 +42,17 @@ def test_streams_are_stored_merged_whatever_the_kernel_cut():
     assert [(o["output_type"], o.get("name"), o.get("text")) for o in merged] == [
         ("stream", "stdout", "a\nb\n"), ("stream", "stderr", "w\n"), ("display_data", None, None),
         ("stream", "stdout", "c\nd")]
+
+
+def test_the_kernels_do_without_the_iri_grammar_and_glue_still_works():
+    """NO_IRI_GRAMMAR (the startup of the book's kernels and the tests'): nbformat, imported by
+    myst-nb's glue, loads without rfc3987-syntax and still validates a notebook."""
+    import subprocess
+    import sys
+
+    check = load_tool().NO_IRI_GRAMMAR + (
+        "import nbformat, sys\n"
+        "nbformat.validate(nbformat.v4.new_notebook(cells=[nbformat.v4.new_code_cell('1')]))\n"
+        "from myst_nb.ext.glue import glue\n"
+        "assert sys.modules['rfc3987_syntax'] is None\n")
+    subprocess.run([sys.executable, "-c", check], check=True, timeout=60)

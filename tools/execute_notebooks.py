@@ -33,6 +33,14 @@ import uuid as _uuid
 _uuid_rng = _random.Random({seed!r})
 _uuid.uuid4 = lambda: _uuid.UUID(int=_uuid_rng.getrandbits(128), version=4)
 """
+# Run in the kernels of the book's execution and of the tests (conftest.py): myst-nb's glue imports
+# nbformat, whose jsonschema loads its optional IRI format checker, rfc3987-syntax, which compiles a
+# grammar at import: 1.2 s in every kernel, a tenth of the book's execution. Nothing in a chapter
+# checks IRIs, so these kernels do without it (jsonschema then leaves the "iri" format unchecked).
+NO_IRI_GRAMMAR = """
+import sys as _sys
+_sys.modules.setdefault("rfc3987_syntax", None)
+"""
 
 
 def execute(source: Path, extra_startup: str = "", store: bool = True) -> nbformat.NotebookNode:
@@ -45,6 +53,7 @@ def execute(source: Path, extra_startup: str = "", store: bool = True) -> nbform
         startup = Path(ipython_dir) / "profile_default" / "startup"
         startup.mkdir(parents=True)
         (startup / "00-seeded-uuids.py").write_text(SEEDED_UUIDS.format(seed=source.stem))
+        (startup / "00-no-iri-grammar.py").write_text(NO_IRI_GRAMMAR)
         if extra_startup:
             (startup / "01-extra.py").write_text(extra_startup)
         previous = os.environ.get("IPYTHONDIR")
