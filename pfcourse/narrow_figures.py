@@ -386,16 +386,19 @@ def _encode(image: Image.Image) -> bytes:
 
 def _print_png(figure: Figure) -> tuple[bytes, tuple[Image.Image, tuple[int, int]] | None]:
     """The figure as the notebook shows it (its tight box at the figure's dpi), and that drawing
-    (:func:`tight_drawing`) when it was made here.
+    (:func:`tight_drawing`: one drawing instead of ``print_figure``'s two) when it was made here.
 
-    Where the tests' legibility check is installed (it wraps IPython's ``print_figure``), through
-    that function, so every figure shown, narrow copies laid out anew included, is checked;
-    elsewhere with :func:`tight_drawing` (one drawing instead of ``print_figure``'s two).
+    Where the tests' legibility check is installed (it wraps IPython's ``print_figure`` and names
+    its check there), the figure is checked first, so every figure shown, narrow copies laid out
+    anew included, is checked.
     """
     from IPython.core import pylabtools
 
-    if getattr(pylabtools.print_figure, "_checks_legibility", False) or figure.dpi != mpl.rcParams["savefig.dpi"]:
+    if figure.dpi != mpl.rcParams["savefig.dpi"]:
         return pylabtools.print_figure(figure, "png", bbox_inches="tight"), None
+    check = getattr(pylabtools.print_figure, "_checks_legibility", None)
+    if callable(check):
+        check(figure)
     drawing = tight_drawing(figure)
     return _encode(drawing[0]), drawing
 
@@ -406,8 +409,8 @@ def figure_bundle(figure: Figure) -> dict:
     bundle = {"image/png": base64.b64encode(png).decode("ascii")}
     if not _ENABLED[-1]:
         return bundle
-    if drawing is None:  # under the tests: the book's own drawing, so that they decide as the book did
-        drawing = tight_drawing(figure)  # (``print_figure`` pads beyond the frame, which this crop does not)
+    if drawing is None:  # a figure at another dpi: the book's own drawing decides (``print_figure`` pads
+        drawing = tight_drawing(figure)  # beyond the frame, which this crop does not)
     if needs_narrow_copy(drawing[0].width, smallest_font_px(figure, figure.dpi)):
         narrow = None
         try:

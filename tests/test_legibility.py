@@ -140,3 +140,51 @@ def test_tick_labels_on_the_top_axis_meeting_the_title_are_found():
     pairs = overlapping_texts(fig)
     assert any("the title" in pair and (set(pair) & set(labels)) for pair in pairs), pairs
     plt.close(fig)
+
+
+def test_an_illegible_figure_warns_and_a_clean_one_does_not():
+    import warnings
+
+    from pfcourse.figures.legibility import LegibilityWarning, warn_if_illegible
+
+    fig, ax = plt.subplots(figsize=(4, 3), dpi=100)
+    ax.annotate("PF N=300", (0.5, 0.5))
+    ax.annotate("EKF", (0.52, 0.5))
+    with pytest.warns(LegibilityWarning, match="drawn over each other"):
+        warn_if_illegible(fig)
+    plt.close(fig)
+    fig, ax = plt.subplots(figsize=(10, 4), dpi=100)
+    ax.plot([0, 1], [0, 1], label="a curve")
+    ax.legend(fontsize=6)
+    with pytest.warns(LegibilityWarning, match="'a curve' shows at"):
+        warn_if_illegible(fig)
+    plt.close(fig)
+    fig, ax = plt.subplots(figsize=(5, 3), dpi=100)
+    ax.set_xlabel("metres")
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        warn_if_illegible(fig)
+    plt.close(fig)
+
+
+def test_a_figure_shown_by_the_books_formatter_is_checked(monkeypatch):
+    """Under the tests' check, the book's figure formatter (pfcourse.narrow_figures, which draws the
+    figure itself, not through print_figure) checks every figure it shows, its narrow copy included."""
+    from IPython.core import pylabtools
+
+    from pfcourse import narrow_figures
+
+    checked = []
+
+    def print_figure(figure, *args, **kwargs):
+        raise AssertionError("the book's formatter draws the figure itself")
+
+    print_figure._checks_legibility = checked.append
+    monkeypatch.setattr(pylabtools, "print_figure", print_figure)
+    monkeypatch.setitem(plt.rcParams, "savefig.dpi", 100)  # the book's style
+    fig, ax = plt.subplots(figsize=(9, 3), dpi=100)  # one wide axes: a narrow copy laid out anew
+    ax.plot([0, 1], [0, 1])
+    ax.set_title("a wide figure")
+    bundle = narrow_figures.figure_bundle(fig)
+    assert "text/html" in bundle and checked[0] is fig and len(checked) == 2  # the figure, then its copy
+    plt.close(fig)

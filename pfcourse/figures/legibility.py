@@ -21,16 +21,17 @@ from matplotlib.text import Text
 from pfcourse.narrow_figures import shown_px
 
 
-def overlapping_texts(figure: Figure, tolerance: float = 1.0) -> list[tuple[str, str]]:
+def overlapping_texts(figure: Figure, tolerance: float = 1.0, drawn: bool = False) -> list[tuple[str, str]]:
     """Pairs ``(text, text)`` of drawn texts of ``figure`` whose boxes overlap (empty list: none).
 
     Draws the figure once. The texts are those a reader sees: each axes' titles, axis
     labels, offset texts, the visible tick labels inside the view (major and minor, bottom and
     top, left and right: two tick labels of one axis drawn over each other count), its annotations and texts, its
     legend's entries and title; the figure's own texts and legends. ``tolerance`` (pixels)
-    ignores boxes that only touch.
+    ignores boxes that only touch. ``drawn``: the figure was just drawn (it is not drawn again).
     """
-    figure.canvas.draw()
+    if not drawn:
+        figure.canvas.draw()
     renderer = figure.canvas.get_renderer()
     boxes = []
     for text in dict.fromkeys(_drawn_texts(figure)):  # each once (a suptitle is also a figure text)
@@ -51,14 +52,17 @@ COLUMN_PX = 688.0
 MIN_TEXT_PX = 8.0
 
 
-def smallest_text_px(figure: Figure, dpi: float | None = None, column_px: float = COLUMN_PX) -> tuple[float, str]:
+def smallest_text_px(figure: Figure, dpi: float | None = None, column_px: float = COLUMN_PX,
+                     drawn: bool = False) -> tuple[float, str]:
     """The smallest drawn text of ``figure`` as the page shows it (CSS px), and that text.
 
     A text of ``s`` points is ``s dpi / 72`` pixels in the PNG; the PNG (the figure's tight box,
     ``w`` pixels wide) is shown at ``min(w, column_px)`` pixels, so the text at
-    ``s dpi / 72 * min(1, column_px / w)``. ``dpi`` defaults to the figure's. Draws the figure once.
+    ``s dpi / 72 * min(1, column_px / w)``. ``dpi`` defaults to the figure's. Draws the figure once
+    (unless ``drawn``: it was just drawn).
     """
-    figure.canvas.draw()
+    if not drawn:
+        figure.canvas.draw()
     renderer = figure.canvas.get_renderer()
     dpi = float(dpi or figure.dpi)
     width = figure.get_tightbbox(renderer).width * dpi  # inches to PNG pixels
@@ -102,6 +106,22 @@ class LegibilityWarning(UserWarning):
     """A figure shown in a notebook has texts drawn over each other, or text too small at column width."""
 
 
+def warn_if_illegible(figure: Figure, dpi: float | None = None) -> None:
+    """Warn (:class:`LegibilityWarning`) if texts of ``figure`` overlap or its smallest text shows below
+    :data:`MIN_TEXT_PX` at the column width (at ``dpi``, default the figure's). Draws the figure once."""
+    import warnings
+
+    figure.canvas.draw()
+    clashes = overlapping_texts(figure, drawn=True)
+    if clashes:
+        warnings.warn(f"texts drawn over each other in a figure: {clashes[:4]}", LegibilityWarning, stacklevel=3)
+    size, text = smallest_text_px(figure, dpi, drawn=True)
+    if size < MIN_TEXT_PX:
+        warnings.warn(f"text {text!r} shows at {size:.1f} px at the column width ({COLUMN_PX:.0f} px), "
+                      f"below {MIN_TEXT_PX:.0f} px: use the style's font sizes or a narrower figure",
+                      LegibilityWarning, stacklevel=3)
+
+
 def check_shown_figures() -> bool:
     """In IPython, warn (:class:`LegibilityWarning`) for every figure shown with overlapping texts.
 
@@ -122,20 +142,12 @@ def check_shown_figures() -> bool:
         return True
 
     def print_figure(figure, *args, **kwargs):
-        clashes = overlapping_texts(figure)
-        if clashes:
-            warnings.warn(f"texts drawn over each other in a figure: {clashes[:4]}", LegibilityWarning,
-                          stacklevel=2)
         import matplotlib as mpl
 
         dpi = kwargs.get("dpi") or mpl.rcParams["savefig.dpi"]
-        size, text = smallest_text_px(figure, None if dpi == "figure" else dpi)
-        if size < MIN_TEXT_PX:
-            warnings.warn(f"text {text!r} shows at {size:.1f} px at the column width ({COLUMN_PX:.0f} px), "
-                          f"below {MIN_TEXT_PX:.0f} px: use the style's font sizes or a narrower figure",
-                          LegibilityWarning, stacklevel=2)
+        warn_if_illegible(figure, None if dpi == "figure" else dpi)
         return original(figure, *args, **kwargs)
 
-    print_figure._checks_legibility = True
+    print_figure._checks_legibility = warn_if_illegible  # for figures shown without print_figure (narrow_figures)
     pylabtools.print_figure = print_figure
     return True
