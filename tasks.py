@@ -80,7 +80,11 @@ VENDOR = [
     ("font-awesome/fonts", "font-awesome/fonts"),
     ("font-awesome/README.md", "font-awesome/README.md"),
 ]
-VENDOR_SKIP = ("*.map", "embed.js", "embed.js.LICENSE.txt")  # not used by the book
+# Not used by the book: source maps, the widget manager's non-AMD build, font formats no current
+# browser asks for (Font Awesome's and the widget manager's CSS list woff2 first), and the speech
+# rules of MathJax's other languages (the book is English: en.json, base.json and nemeth.json stay).
+VENDOR_SKIP = ("*.map", "embed.js", "embed.js.LICENSE.txt", "*.eot", "*.ttf", "*.otf", "fontawesome-webfont.svg",
+               *(f"{language}.json" for language in ("ca", "da", "de", "es", "fr", "hi", "it", "nb", "nn", "sv")))
 
 
 def run(*cmd: str | Path, **kw) -> None:

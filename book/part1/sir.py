@@ -71,6 +71,7 @@ import matplotlib.pyplot as plt
 import numpy as np
 import pandas as pd
 from IPython.display import display
+from matplotlib.collections import LineCollection
 from scipy.special import logsumexp
 
 from pfcourse import evidence
@@ -216,13 +217,13 @@ def lineages(ancestors):
 
 
 alive = lineages(mine.ancestors)
+# the link of particle i at step k to its parent: from (k - 1, a_k^i) to (k, i), one segment per (k, i)
+step, child = np.meshgrid(np.arange(1, len(sim.T)), np.arange(mine.ancestors.shape[1]), indexing="ij")
+links = np.stack([np.stack([step - 1, mine.ancestors[1:]], axis=-1), np.stack([step, child], axis=-1)], axis=2)
 fig, ax = plt.subplots(figsize=(9, 3.6))
-for k in range(1, len(sim.T)):
-    for i in np.flatnonzero(~alive[k]):
-        ax.plot([k - 1, k], [mine.ancestors[k, i], i], color="0.8", lw=0.4)
-for k in range(1, len(sim.T)):
-    for i in np.flatnonzero(alive[k]):
-        ax.plot([k - 1, k], [mine.ancestors[k, i], i], color=COLORS["estimate"], lw=0.8)
+ax.add_collection(LineCollection(links[~alive[1:]], color="0.8", lw=0.4))  # thousands of segments, one artist
+ax.add_collection(LineCollection(links[alive[1:]], color=COLORS["estimate"], lw=0.8))
+ax.autoscale_view()
 ax.set_xlabel("step k")
 ax.set_ylabel("particle index i")
 ax.set_title("SIR, N = 100: lineages of the final cloud (red) among all links (grey)")
