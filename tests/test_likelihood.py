@@ -138,36 +138,3 @@ def test_bad_input_raises_named_errors(short):
         max_likelihood_scale(lambda t: 0.0, bounds=(2.0, 1.0))
     with pytest.raises(ParameterError, match="prior"):
         pmmh(lambda t, r: 0.0, stats.uniform(0, 1), 100.0, 10, 0.1, 0)
-
-
-def test_two_scales_by_ml_reach_the_exact_maximum(short):
-    """Joint (Qw, Rv) scales: Nelder-Mead on the exact curve ends at a maximum (no better neighbour)."""
-    scenario, sim = short
-    from pfcourse.experiments.likelihood import max_likelihood_scales
-
-    def f(t):
-        return kalman_filter_ll(scenario, sim.measurements, t)
-
-    theta, nfev = max_likelihood_scales(f, np.array([1.0, 1.0]), xatol=1e-5)
-    best = f(theta)
-    for step in ([0.02, 0], [-0.02, 0], [0, 0.02], [0, -0.02]):
-        neighbour = theta * np.exp(step)
-        if np.all((neighbour >= 0.1) & (neighbour <= 10)):  # a maximum on the boundary is allowed
-            assert best >= f(neighbour) - 1e-6
-    with pytest.raises(ParameterError, match="inside the bounds"):
-        max_likelihood_scales(f, np.array([20.0, 1.0]))
-
-
-def kalman_filter_ll(scenario, Z, t):
-    from pfcourse import kalman_filter
-    return kalman_filter(scenario.model(Qw=t[0] * scenario.Qw, Rv=t[1] * scenario.Rv), Z).log_likelihood
-
-
-def test_robot_likelihood_peaks_near_the_true_measurement_noise():
-    from pfcourse.experiments.likelihood import robot_log_likelihood
-    from pfcourse.robot import RobotScenario, simulate_robot
-
-    sim = simulate_robot(RobotScenario().with_(n_steps=150), 3)
-    lls = [robot_log_likelihood(sim, 1.0, r, 300, 9) for r in (0.25, 1.0, 4.0)]
-    # 150 range-bearing readings: a factor 4 in R costs many nats (about 150 (log 4 - 3/4) / 2 > 40 at 4x)
-    assert lls[1] > lls[0] + 10 and lls[1] > lls[2] + 10

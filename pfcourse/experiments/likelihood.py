@@ -28,7 +28,7 @@ from collections.abc import Callable
 
 import numpy as np
 from scipy import integrate
-from scipy.optimize import minimize, minimize_scalar
+from scipy.optimize import minimize_scalar
 
 from typing import TYPE_CHECKING
 
@@ -134,40 +134,6 @@ def grid_posterior_2d(log_likelihood: np.ndarray, u1: np.ndarray, u2: np.ndarray
         out[f"{name}_mean"] = float(mean)
         out[f"{name}_sd"] = float(np.sqrt(integrate.trapezoid((t - mean) ** 2 * marginal, u)))
     return out
-
-
-def max_likelihood_scales(
-    log_likelihood: Callable[[np.ndarray], float], start: np.ndarray, bounds: tuple[float, float] = (0.1, 10.0),
-    xatol: float = 1e-3,
-) -> tuple[np.ndarray, int]:
-    """``argmax`` of ``log_likelihood(theta)`` over several scales ``theta`` in ``bounds``, on ``log theta``.
-
-    scipy's bounded Nelder-Mead (``minimize(method="Nelder-Mead", bounds=...)``), which needs
-    no gradient (a particle estimate has none that is reliable).  Returns
-    ``(theta_hat, number of likelihood evaluations)``.
-    """
-    lo, hi = bounds
-    if not 0 < lo < hi:
-        raise ParameterError(f"bounds must satisfy 0 < low < high, got {bounds}")
-    start = np.asarray(start, dtype=float)
-    if np.any(start <= lo) or np.any(start >= hi):
-        raise ParameterError(f"the start {start} must lie inside the bounds {bounds}")
-    result = minimize(lambda u: -log_likelihood(np.exp(u)), np.log(start), method="Nelder-Mead",
-                      bounds=[(np.log(lo), np.log(hi))] * start.size, options={"xatol": xatol, "fatol": 1e-3})
-    return np.exp(result.x), int(result.nfev)
-
-
-def robot_log_likelihood(sim, q_scale: float, r_scale: float, n_particles: int,
-                         seed: int | np.random.Generator) -> float:
-    """Particle estimate of ``log p(z | Q_est = q_scale Q_true, R_est = r_scale R_true)`` for a robot run.
-
-    Resamples at every measured step (``threshold = 1``), so one ``seed`` gives common random
-    numbers across the scales (the odometry noise is ``q_std * e`` with the same ``e``).
-    """
-    from pfcourse.robot import RobotModel
-
-    model = RobotModel.for_simulation(sim, q_scale=q_scale, r_scale=r_scale)
-    return ParticleFilter(model, n_particles, threshold=1.0).run(sim.measurements, seed).log_likelihood
 
 
 def terrain_log_likelihood(scenario, terrain, Z: np.ndarray, rf_scale: float, n_particles: int,

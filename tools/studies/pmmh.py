@@ -1,11 +1,9 @@
 """Part V's PMMH chains, stored under book/data/likelihood/ (the other Part V studies are registered:
 pfcourse.experiments.likelihood_studies, `python3 tasks.py study likelihood`).
 
-    python3 tasks.py study pmmh [pmmh] [pmmh2]
+    python3 tasks.py study pmmh
 
-* ``pmmh.csv``: one PMMH chain per N in N_PMMH on the chapter's dataset (theta scales Rv);
-* ``pmmh2.csv``: PMMH over the two scales (theta_q of Qw, theta_r of Rv) at once, one chain per N
-  in N_PMMH2.
+``pmmh.csv``: one PMMH chain per N in N_PMMH on the chapter's dataset (theta scales Rv).
 
 A chain is not a table of independent seeded runs (each row depends on the one before), so it
 is not a registered study; each file has a ``.json`` beside it with its provenance, and
@@ -22,10 +20,8 @@ import numpy as np
 import pandas as pd
 
 import pfcourse  # noqa: F401  (pins the arithmetic before numpy computes anything)
-from pfcourse.experiments.likelihood_studies import (BOUNDS, DATA_SEED, N_PMMH, N_PMMH2, PMMH2_ITERATIONS,
-                                                     PMMH2_SEED, PMMH2_STEP, PMMH2_THETA0, PMMH_ITERATIONS,
-                                                     PMMH_SEED, PMMH_STEP, PMMH_THETA0, SCENARIO_TEXT,
-                                                     pmmh2_chain, pmmh_chain)
+from pfcourse.experiments.likelihood_studies import (BOUNDS, DATA_SEED, N_PMMH, PMMH_ITERATIONS, PMMH_SEED,
+                                                     PMMH_STEP, PMMH_THETA0, SCENARIO_TEXT, pmmh_chain)
 from pfcourse.experiments.provenance import launch_commit, write_provenance
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -49,22 +45,7 @@ def main(parts: list[str]) -> None:
                          n_particles=N_PMMH, iterations=PMMH_ITERATIONS, step_log_theta=PMMH_STEP,
                          theta0=PMMH_THETA0, prior=f"log-uniform on {BOUNDS}", chain_seeds=seeds,
                          seeds=f"replicate_seed({PMMH_SEED}, n_particles)", scenario=SCENARIO_TEXT)
-    if "pmmh2" in parts:
-        start = time.perf_counter()
-        frames, seeds = [], {}
-        for n in N_PMMH2:
-            chain, seeds[n] = pmmh2_chain(n)
-            frames.append(pd.DataFrame({"n_particles": n, "iteration": np.arange(len(chain.theta)),
-                                        "theta_q": chain.theta[:, 0], "theta_r": chain.theta[:, 1],
-                                        "log_likelihood": chain.log_likelihood, "accepted": chain.accepted}))
-        pd.concat(frames).to_csv(OUT / "pmmh2.csv", index=False)
-        write_provenance(OUT / "pmmh2.json", code="tools/studies/pmmh.py", commit=commit,
-                         seconds=time.perf_counter() - start, file="pmmh2.csv", data_seed=DATA_SEED,
-                         n_particles=N_PMMH2, iterations=PMMH2_ITERATIONS, step_log_theta=PMMH2_STEP,
-                         theta0=PMMH2_THETA0, noises=["Qw", "Rv"],
-                         prior=f"log-uniform on {BOUNDS} for each scale, independent", chain_seeds=seeds,
-                         seeds=f"replicate_seed({PMMH2_SEED}, n_particles)", scenario=SCENARIO_TEXT)
 
 
 if __name__ == "__main__":
-    main(sys.argv[1:] or ["pmmh", "pmmh2"])
+    main(sys.argv[1:] or ["pmmh"])
