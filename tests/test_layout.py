@@ -253,3 +253,16 @@ def test_only_the_failure_policy_catches_a_collapse():
                 and collapse & {n.id if isinstance(n, ast.Name) else getattr(n, "attr", "")
                                 for n in ast.walk(node.type)}}
     assert catchers == COLLAPSE_CATCHERS, catchers
+
+
+#: Hand-made statistics that pfcourse.evidence provides (issue 28): a slope with its interval is
+#: evidence.log_slope or evidence.regression_slope, a resampled interval evidence.run_interval (one
+#: resample count, N_RESAMPLES).
+HAND_STATISTICS = ("np.polyfit", "stats.bootstrap", "linregress", "np.linalg.lstsq")
+
+
+@pytest.mark.parametrize("chapter", sorted((ROOT / "book").glob("part*/*.py")), ids=lambda p: p.stem)
+def test_chapters_compute_slopes_and_intervals_through_evidence(chapter):
+    source = chapter.read_text()
+    code = "\n".join(line.split("#")[0] for line in source.splitlines())  # comments may name them
+    assert not [name for name in HAND_STATISTICS if name in code]

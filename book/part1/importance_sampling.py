@@ -306,8 +306,7 @@ plt.show()
 # %% tags=["remove-input"] jupyter={"source_hidden": true}
 def rms_slope(err):
     """Slope of log RMS error against log N, with its interval over the runs."""
-    return evidence.run_interval(lambda r: np.polyfit(np.log(sizes), 0.5 * np.log(np.mean(err[r] ** 2, axis=0)), 1)[0],
-                                 runs)
+    return evidence.log_slope(err.T, sizes, center=lambda e, axis: np.sqrt(np.mean(e**2, axis=axis)))
 
 
 slopes = {name: rms_slope(t["err"]) for name, t in tail.items()}

@@ -328,14 +328,8 @@ def errors(variant):
     return rows.error.to_numpy().reshape(len(Ns), -1)
 
 
-def slope(e, runs):
-    """Least-squares slope of log(median error) against log N, over the runs `runs`."""
-    x, y = np.log(Ns) - np.log(Ns).mean(), np.log(np.median(e[:, runs], axis=1))
-    return x @ (y - y.mean()) / (x @ x)
-
-
 e_sir = errors("sir")
-sir_slope = evidence.run_interval(lambda runs: slope(e_sir, runs), e_sir.shape[1])
+sir_slope = evidence.log_slope(e_sir, Ns)  # slope of log(median error) on log N, interval over the runs
 print("median landmark error of SIR (m):", dict(zip(Ns.tolist(), np.median(e_sir, axis=1).round(3))))
 print(f"log-log slope {sir_slope[0]:.2f} (95 % interval {sir_slope[1]:.2f} to {sir_slope[2]:.2f}); healthy: -0.50")
 
@@ -499,8 +493,7 @@ fig.legend(*ax1.get_legend_handles_labels(), loc="lower center", ncol=4, frameon
 plt.show()
 
 # %% tags=["remove-input"] jupyter={"source_hidden": true}
-fix_slope = {v: evidence.run_interval(lambda runs, e=errors(v): slope(e, runs), e_sir.shape[1])
-             for v in ("noise_filter_only", "noise_everywhere")}
+fix_slope = {v: evidence.log_slope(errors(v), Ns) for v in ("noise_filter_only", "noise_everywhere")}
 k_tests = {n: evidence.paired(errors("roughening_0.4")[i], errors("roughening_0.2")[i], ratio=True)
            for i, n in enumerate(Ns)}
 glue_values("fix_", slope_filter_only=fix_slope["noise_filter_only"][0],

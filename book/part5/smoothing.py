@@ -297,8 +297,7 @@ plt.show()
 i100 = N_VALUES.index(100)
 ffbsm_n100, ffbsi_n100 = ([v[i100] for v in mean_ci[c]] for c in ("ffbsm_rts", "ffbsi_rts"))
 si_over_sm = evidence.paired(dist["ffbsi_rts"][:, i100], dist["ffbsm_rts"][:, i100], ratio=True)
-log_n = np.log(N_VALUES)
-slope = evidence.run_interval(lambda r: np.polyfit(log_n, np.log(dist["ffbsm_rts"][r].mean(axis=0)), 1)[0], len(runs))
+slope = evidence.log_slope(dist["ffbsm_rts"].T, N_VALUES, center=np.mean)  # log(mean distance) on log N
 gain = evidence.paired(study["rts_truth_error"][study["n_particles"] == 100],
                        study["kalman_truth_error"][study["n_particles"] == 100], ratio=True)
 glue_values(ffbsm_rts_distance_n100=ffbsm_n100[0], ffbsi_rts_distance_n100=ffbsi_n100[0])
