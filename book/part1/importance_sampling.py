@@ -81,6 +81,7 @@ from pfcourse.proposals import DensityProposal
 from pfcourse.kalman import kalman_filter
 from pfcourse.landmarks.scenario import quadrant_scenario, simulate
 from pfcourse.linear_gaussian import LinearGaussianModel
+from pfcourse.seeding import data_rng, filter_rng, study_filter_seed
 from pfcourse.style import plain_log_axis, use_style
 
 use_style()
@@ -472,10 +473,10 @@ glue_values(mine_vs_engine_bound=ROUND_OFF)
 ll_runs = 100
 log_gap = {"transition": np.empty(ll_runs), "halfway": np.empty(ll_runs)}
 for s in range(ll_runs):
-    Z = simulate_scalar(50, np.random.default_rng(10_000 + s))
+    Z = simulate_scalar(50, data_rng(0, s))  # data and filter: two streams of run s (pfcourse.seeding)
     exact_ll = kalman_filter(scalar, Z).log_likelihood_increments.sum()  # log p(z_{1:K}), exact
     for name, proposal in (("transition", None), ("halfway", halfway)):
-        log_incs = my_filter(Z, 100, np.random.default_rng(20_000 + s), scalar, 1 / 3, proposal)[2]
+        log_incs = my_filter(Z, 100, filter_rng(0, s), scalar, 1 / 3, proposal)[2]
         log_gap[name][s] = log_incs.sum() - exact_ll                   # log p^(z_{1:K}) - log p(z_{1:K})
 ratio = {name: evidence.run_interval(lambda r: np.exp(g[r]).mean(), ll_runs)
          for name, g in log_gap.items()}
@@ -553,7 +554,7 @@ for sd in (0.1, 0.01):
     sc = scenario.with_(Rv=sd**2 * np.eye(4))
     m = sc.model()
     failures[sd] = evidence.rate(np.array([
-        linear_sis_fails(simulate(sc, rng=s).measurements, 100, np.random.default_rng(10**6 + s), m)
+        linear_sis_fails(simulate(sc, rng=s).measurements, 100, np.random.default_rng(study_filter_seed(s)), m)
         for s in range(n_runs)]))
     print(f"measurement sd {sd} m: linear-domain weights fail in {failures[sd]}")
 

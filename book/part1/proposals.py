@@ -124,7 +124,7 @@ from pfcourse.experiments.landmarks import kalman_scores
 from pfcourse.figures.report import EvidenceBlock, glue_values
 from pfcourse.style import COLORS, plain_log_axis, use_style
 from pfcourse.figures.widgets import control_panel, particle_slider, scale_slider, seed_box
-from pfcourse.seeding import run_filter_seed
+from pfcourse.seeding import run_filter_seed, study_filter_seed
 
 use_style()
 ROBOT, LANDMARKS = [0, 1], [2, 3, 4, 5]
@@ -215,7 +215,7 @@ for seed in range(n_runs):
     kf = kalman_filter(model, sim.measurements)
     measured = sim.seen.any(axis=1)
     for name, prop in PROPOSALS.items():
-        r = ParticleFilter(model, N, threshold=1 / 3, proposal=prop).run(sim.measurements, rng=10**6 + seed)
+        r = ParticleFilter(model, N, threshold=1 / 3, proposal=prop).run(sim.measurements, rng=study_filter_seed(seed))
         err = (r.mean - kf.mean)[-last:]
         lab[name]["ess"].append(np.mean(r.ess[measured]) / N if measured.any() else np.nan)
         lab[name]["robot"].append(np.sqrt(np.mean(err[:, ROBOT] ** 2)))
@@ -246,7 +246,7 @@ glue_values("prop_", n_runs=n_runs, last_steps=last, lab_ess_gain=t_ess.median, 
             lab_unmoved=unmoved.estimate, lab_unmoved_low=unmoved.low, lab_unmoved_high=unmoved.high)
 EvidenceBlock(
     "on the lab's model the optimal proposal raises the ESS, not the accuracy",
-    notes=[f"{n_runs} simulations (seeds 0 to {n_runs - 1}), filter seeds 10^6 + seed, the same for both proposals; "
+    notes=[f"{n_runs} simulations (seeds 0 to {n_runs - 1}), filter seeds study_filter_seed(seed) = seed + 10^6, the same for both proposals; "
            f"N = {N}, threshold 1/3. Runs are a fraction of a second each, so {n_runs} keep the chapter within its "
            "time budget; the intervals below say what they can resolve.",
            "Each line is the per-run ratio (optimal / bootstrap for the ESS, bootstrap / optimal for the errors): "
@@ -352,7 +352,7 @@ for scale in scales:
 EvidenceBlock(
     "with noise on every component and sharp measurements, the optimal proposal is far more accurate",
     notes=[f"{n_runs} simulations per setting (seeds 0 to {n_runs - 1}), the same for both proposals "
-           "(filter seeds 10^6 + seed); N = 200, threshold 1/2. Ratios are per run, "
+           "(filter seeds study_filter_seed(seed) = seed + 10^6); N = 200, threshold 1/2. Ratios are per run, "
            "with the 95 % interval of their median and Wilcoxon's test (see Reading the evidence).", *notes,
            "The one-point theory: for one observed coordinate, a prior cloud concentrated at one point and a "
            "measurement at its predicted value, the bootstrap keeps r sqrt(r^2 + 2 q^2) / (r^2 + q^2) of the "

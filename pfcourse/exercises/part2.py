@@ -9,6 +9,7 @@ import numpy as np
 from scipy import stats
 
 from pfcourse.exercises.checking import CheckReport, _answer, _cloud_answers, _settled, _shaped
+from pfcourse.seeding import run_filter_seed
 
 
 # ----------------------------------------------------------------------------- chapter 11
@@ -239,7 +240,7 @@ def check_regularised_jitter(fn: Callable, seed: int = 0) -> CheckReport:
     rng = np.random.default_rng(seed)
     n, d = JITTER_N, JITTER_COV.shape[0]
     particles = rng.multivariate_normal([1000.0, -200.0, 1.0], JITTER_COV, n)
-    answer = _answer(report, lambda: fn(particles.copy(), JITTER_SCALE, np.random.default_rng(seed + 1)),
+    answer = _answer(report, lambda: fn(particles.copy(), JITTER_SCALE, np.random.default_rng(run_filter_seed(seed))),
                      "fn(particles, scale, rng)", "return the moved particles, an array like particles")
     if answer is None:
         return report
