@@ -505,7 +505,7 @@ glue_values("is_ll_", runs=ll_runs, ratio_transition=ratio["transition"][0], rat
             var_ratio_high=var_ratio[2])
 EvidenceBlock(
     "the estimated likelihood is unbiased, with either proposal",
-    notes=[f"Scalar model, K = 50 steps, N = 100, tau = 1/3; data seeds 10000 + s, filter seeds 20000 + s, "
+    notes=[f"Scalar model, K = 50 steps, N = 100, tau = 1/3; data and filter streams data_rng(0, s) and filter_rng(0, s) (pfcourse.seeding), "
            f"s = 0 to {ll_runs - 1}; both proposals on the same data. Variance of log p^ with the halfway proposal over "
            f"that with the transition, paired over the data sets: {var_ratio[0]:.2f} ({var_ratio[1]:.2f} to "
            f"{var_ratio[2]:.2f}). Intervals: 95 % percentile bootstrap over "

@@ -242,8 +242,8 @@ plt.show()
 # it (95 % interval {glue:text}`crn_sd_ratio_low:.2f` to {glue:text}`crn_sd_ratio_high:.2f`) for
 # $\vartheta' = 1.1$, a grid step. So, with $N = 300$ and a resampling at every measured step, CRN buy
 # a **deterministic** curve (a search on it converges, and gives the same answer when re-run),
-# smooth only on a scale far finer than the posterior's. They do not buy smoothness at the scale that matters, nor remove the bias of
-# $\log \hat p$, nor the spread of the maximum over datasets (next).
+# smooth only on a scale far finer than the posterior's. They buy little smoothness at the scale that matters,
+# and remove neither the bias of $\log \hat p$ nor the spread of the maximum over datasets (next).
 
 # %% tags=["remove-input"] jupyter={"source_hidden": true}
 tiny = scenario.model(Rv=(1 + 1e-5) * scenario.Rv)
