@@ -80,10 +80,12 @@ VENDOR = [
     ("font-awesome/fonts", "font-awesome/fonts"),
     ("font-awesome/README.md", "font-awesome/README.md"),
 ]
-# Not used by the book: source maps, the widget manager's non-AMD build, font formats no current
-# browser asks for (Font Awesome's and the widget manager's CSS list woff2 first), and the speech
-# rules of MathJax's other languages (the book is English: en.json, base.json and nemeth.json stay).
-VENDOR_SKIP = ("*.map", "embed.js", "embed.js.LICENSE.txt", "*.eot", "*.ttf", "*.otf", "fontawesome-webfont.svg",
+# Not used by the book: source maps, the widget manager's non-AMD build and its library alone
+# (embed-amd.js defines the library's module itself, by name), font formats no current browser asks
+# for (Font Awesome's and the widget manager's CSS list woff2 first), and the speech rules of
+# MathJax's other languages (the book is English: en.json, base.json and nemeth.json stay).
+VENDOR_SKIP = ("*.map", "embed.js", "embed.js.LICENSE.txt", "libembed-amd.js", "*.eot", "*.ttf", "*.otf",
+               "fontawesome-webfont.svg",
                *(f"{language}.json" for language in ("ca", "da", "de", "es", "fr", "hi", "it", "nb", "nn", "sv")))
 
 
