@@ -188,3 +188,29 @@ def test_a_figure_shown_by_the_books_formatter_is_checked(monkeypatch):
     bundle = narrow_figures.figure_bundle(fig)
     assert "text/html" in bundle and checked[0] is fig and len(checked) == 2  # the figure, then its copy
     plt.close(fig)
+
+
+@pytest.mark.parametrize("workers", [1, 2])
+def test_a_panel_figure_is_checked_too(monkeypatch, workers):
+    """Under the tests' check, each figure a static panel renders (in forked workers too) is checked,
+    and what is found is warned in the notebook's process with the grid point."""
+    from IPython.core import pylabtools
+
+    from pfcourse.figures.legibility import LegibilityWarning, warn_if_illegible
+    from pfcourse.figures.static_panel import StaticControl, render_grid
+
+    def print_figure(figure, *args, **kwargs):
+        return b""
+
+    print_figure._checks_legibility = warn_if_illegible
+    monkeypatch.setattr(pylabtools, "print_figure", print_figure)
+
+    def draw(shift):
+        fig, ax = plt.subplots(figsize=(4, 3), dpi=100)
+        ax.annotate("PF N=300", (0.5, 0.5))
+        ax.annotate("EKF", (0.5 + shift, 0.5))
+
+    controls = [StaticControl("shift", "shift", (0.02, 0.4), 0, "range", True)]
+    with pytest.warns(LegibilityWarning, match=r"at \{'shift': 0.02\}: texts drawn over each other") as caught:
+        render_grid(draw, controls, workers=workers)
+    assert not [w for w in caught if "0.4" in str(w.message)]

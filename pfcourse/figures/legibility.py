@@ -122,6 +122,16 @@ def warn_if_illegible(figure: Figure, dpi: float | None = None) -> None:
                       LegibilityWarning, stacklevel=3)
 
 
+def installed_check():
+    """The check :func:`check_shown_figures` installed in this process (:func:`warn_if_illegible`), or None."""
+    try:
+        import IPython.core.pylabtools as pylabtools
+    except ImportError:
+        return None
+    check = getattr(pylabtools.print_figure, "_checks_legibility", None)
+    return check if callable(check) else None
+
+
 def check_shown_figures() -> bool:
     """In IPython, warn (:class:`LegibilityWarning`) for every figure shown with overlapping texts.
 

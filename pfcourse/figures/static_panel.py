@@ -29,6 +29,7 @@ import io
 import itertools
 import json
 import os
+import warnings
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 from fractions import Fraction
@@ -40,6 +41,7 @@ from PIL import Image
 from pfcourse import narrow_figures
 from pfcourse.errors import ParameterError
 from pfcourse.executor import run_tasks
+from pfcourse.figures.legibility import LegibilityWarning, installed_check
 
 #: Seconds a pool of workers may go without finishing a figure before the rest of the grid is
 #: rendered in this process instead (one figure of the book takes well under a second).
@@ -161,15 +163,16 @@ def _quantized_png(image: Image.Image, colours: int = 256) -> bytes:
     return out.getvalue()
 
 
-#: The draw function and the grid points of the rendering under way; forked workers
-#: inherit them (nothing is pickled but the point's number and the PNG that comes back).
-_job: tuple[Callable[..., object], list[dict]] | None = None
+#: The draw function, the grid points of the rendering under way and the legibility check (the
+#: tests', or None); forked workers inherit them (nothing is pickled but the point's number and
+#: what comes back).
+_job: tuple[Callable[..., object], list[dict], Callable | None] | None = None
 
 
-def _render_point(number: int) -> tuple[bytes, str, bytes | None]:
-    """PNG, printed text and narrow copy's PNG (or None) of grid point ``number`` of the rendering under
-    way (see :data:`_job`)."""
-    draw, points = _job
+def _render_point(number: int) -> tuple[bytes, str, bytes | None, list[str]]:
+    """PNG, printed text, narrow copy's PNG (or None) of grid point ``number`` of the rendering under
+    way (see :data:`_job`), and what the legibility check found in its figure (under the tests)."""
+    draw, points, check = _job
     values = points[number]
     before = set(plt.get_fignums())
     printed = io.StringIO()
@@ -181,12 +184,18 @@ def _render_point(number: int) -> tuple[bytes, str, bytes | None]:
             plt.close(figure_number)
         raise ParameterError(f"a panel's draw must make one figure; at {values} it made {len(new)}")
     figure = plt.figure(new[0])
+    problems: list[str] = []
+    if check is not None:  # in a worker, whose warnings would not reach the notebook: sent back
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always", LegibilityWarning)
+            check(figure)
+        problems = [str(w.message) for w in caught if issubclass(w.category, LegibilityWarning)]
     drawing = narrow_figures.tight_drawing(figure)
     image, narrow = _quantized_png(drawing[0]), None
     if narrow_figures.needs_narrow_copy(drawing[0].width, narrow_figures.smallest_font_px(figure, figure.dpi)):
         narrow = _quantized_png(narrow_figures.narrow_image(figure, drawing))  # closed next: may change it
     plt.close(figure)
-    return image, printed.getvalue(), narrow
+    return image, printed.getvalue(), narrow, problems
 
 
 def render_grid(draw: Callable[..., object], controls: Sequence[StaticControl],
@@ -197,7 +206,8 @@ def render_grid(draw: Callable[..., object], controls: Sequence[StaticControl],
     The points are shared out over ``workers`` forked processes (default: one per core;
     1: in this process, as ``draw`` must be when it starts process pools itself); the
     result is the same either way. Raises :class:`~pfcourse.errors.ParameterError`
-    naming the grid point where ``draw`` made no figure or several.
+    naming the grid point where ``draw`` made no figure or several. Where the tests' legibility
+    check is installed, every figure is checked, and what it finds is warned here with the point.
     """
     global _job
     names = [c.name for c in controls]
@@ -207,7 +217,7 @@ def render_grid(draw: Callable[..., object], controls: Sequence[StaticControl],
     points += [{**defaults, c.name: value} for c in controls if not c.main
                for i, value in enumerate(c.values) if i != c.index]  # one factor at a time
     workers = min(workers or os.cpu_count() or 1, len(points))
-    _job = (draw, points)
+    _job = (draw, points, installed_check())
     try:
         if workers < 2:
             rendered = [_render_point(k) for k in range(len(points))]
@@ -216,6 +226,9 @@ def render_grid(draw: Callable[..., object], controls: Sequence[StaticControl],
                                  stall_timeout=POOL_TIMEOUT)
     finally:
         _job = None
+    for point, (*_, problems) in zip(points, rendered):
+        for problem in problems:
+            warnings.warn(f"a panel's figure at {point}: {problem}", LegibilityWarning, stacklevel=2)
     return StaticPanel(tuple(controls), tuple(r[0] for r in rendered), tuple(r[1] for r in rendered),
                        tuple(r[2] for r in rendered))
 
