@@ -308,8 +308,8 @@ def run_interval(statistic: Callable[[np.ndarray], float | np.ndarray], n_runs: 
     if not np.all(np.isfinite(value)):
         raise EvidenceError(f"the statistic of all {n_runs} runs is {value}")
     res = stats.bootstrap((runs,), lambda r, axis=-1: np.asarray(statistic(r.astype(int)), dtype=float),
-                          vectorized=vectorized, confidence_level=confidence, n_resamples=n_resamples, method="percentile",
-                          random_state=np.random.default_rng(seed))
+                          vectorized=vectorized, confidence_level=confidence, n_resamples=n_resamples,
+                          method="percentile", random_state=np.random.default_rng(seed))
     low, high = np.asarray(res.confidence_interval.low), np.asarray(res.confidence_interval.high)
     if value.ndim == 0:
         return float(value), float(low), float(high)

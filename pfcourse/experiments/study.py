@@ -162,8 +162,9 @@ def _one_row(run_one, setting: dict, r: int, seed: int, failed: dict) -> dict:
 def _batch_rows(run_batch, setting: dict, runs: list[int], seeds: list[int], failed: dict) -> list[dict]:
     start = time.perf_counter()
     try:
-        results = [(failed, "failed", failure_message(m)) if isinstance(m, StepError) else (_metrics(m, setting, seed), "ok", "")
-                   for m, seed in zip(run_batch(seeds=seeds, **setting), seeds)]
+        outcomes = run_batch(seeds=seeds, **setting)
+        results = [(failed, "failed", failure_message(m)) if isinstance(m, StepError)
+                   else (_metrics(m, setting, seed), "ok", "") for m, seed in zip(outcomes, seeds)]
         if len(results) != len(seeds):
             raise ParameterError(f"run_batch returned {len(results)} results for {len(seeds)} seeds")
     except StepError:

@@ -26,7 +26,8 @@ from pfcourse.terrain.scenario import AircraftScenario, simulate
 
 #: The marginalised filter's sizes, in the order they are stored.
 SIZES = [3000, 10000, 30000]
-COLUMNS = ("setting", "flight", "status", "error", "N", "final_error", "mean_error", "lost", "final_x", "final_y", "seconds")
+COLUMNS = ("setting", "flight", "status", "error", "N", "final_error", "mean_error", "lost", "final_x", "final_y",
+           "seconds")
 #: The point-mass filter's cell sizes (m) and heading bins (degrees), coarse to fine: each step divides both by
 #: sqrt(2) (the number of grid points grows by about 2.8).
 CELLS = [(400.0, 8.0), (283.0, 5.66), (200.0, 4.0), (141.0, 2.83), (100.0, 2.0)]

@@ -6,7 +6,8 @@ the filter from :func:`pfcourse.seeding.filter_rng` ``(0, r)``.  **Divergence**:
 final horizontal error exceeds :data:`pfcourse.experiments.terrain.DIVERGED_ERROR` (500 m) or every particle
 died (the filter raised; the study runner records the flight ``failed``, scored
 :data:`~pfcourse.experiments.terrain.LOST_FLIGHT`: lost, with an infinite error).  The study
-``terrain_remedies`` of :mod:`pfcourse.experiments.registry` writes the rows to ``book/data/terrain_remedies.csv``; ``tests/test_stored_studies.py`` recomputes a seeded sample of them.
+``terrain_remedies`` of :mod:`pfcourse.experiments.registry` writes the rows to
+``book/data/terrain_remedies.csv``; ``tests/test_stored_studies.py`` recomputes a seeded sample of them.
 
 The study ``terrain_reference`` (``book/data/terrain_reference.csv``, :func:`reference_row`) is a
 reference posterior for five flights.  The exact filtering posterior of the terrain problem has no
