@@ -10,11 +10,13 @@ gets a narrow copy, its axes in one column, made in the cheapest way that reads:
 1. **cut** (:func:`sliced_image`): each cell of the figure's grid of axes, with what it draws
    around it (labels, legend, a colour bar in the cell), and the figure's title and legends,
    are cut out of the drawing just made and stacked, row by row: no drawing at all; used
-   when the stack is narrow enough for its text to stay at 8 px or more in the column;
+   when the stack is narrow enough for its text to stay at 8 px or more in the column, and
+   no x axis shared over rows is labelled on the bottom row only (in a grid of several columns);
 2. **laid out anew** (:func:`narrow_layout`, on a pickled copy for a figure shown, in place
    for a panel's figure, which is closed next): the figure :data:`PHONE_WIDTH_IN` inches wide,
    its axes stacked in one column in reading order (an axes sharing its neighbour's y axis
-   gets its tick labels back), a legend right of its axes moved under it, a figure legend
+   gets its tick labels back; a shared x axis is labelled under the last panel of each run of
+   panels sharing it), a legend right of its axes moved under it, a figure legend
    under the figure (at most two columns), long titles wrapped, margins measured from what
    the axes draw around them (no layout engine where the colour bars allow): one drawing.
    This is the way for a single wide axes and for stacks that would still be too wide.
@@ -116,10 +118,37 @@ def _stack_axes(figure: Figure, grid: GridSpec) -> int:
                 nested._subplot_spec = grid[number, 0]
             if top.colspan.start > 0 and axes.get_shared_y_axes().get_siblings(axes)[1:]:
                 axes.yaxis.set_tick_params(labelleft=True)  # its neighbour's labels are no longer beside it
+    _label_shared_x_below(figure)
     for axes in figure.axes:
         if axes.get_subplotspec() is not None:
             axes._set_position(axes.get_subplotspec().get_position(figure))
     return len(_cells(figure))
+
+
+def _label_shared_x_below(figure: Figure) -> None:
+    """In the stacked column, an x axis shared with the panel below is labelled there only: each
+    panel whose next panel does not share its x axis shows the tick labels and the axis label
+    (taken from a sibling that has one: ``sharex`` kept them on the original's bottom row only)."""
+    stacked = [cell[0] for cell in _cells(figure)]
+    for axes, below in zip(stacked, [*stacked[1:], None]):
+        siblings = axes.get_shared_x_axes().get_siblings(axes)
+        if len(siblings) < 2:
+            continue
+        shown = below is None or below not in siblings
+        axes.xaxis.set_tick_params(which="both", labelbottom=shown)
+        if shown and not axes.get_xlabel():
+            axes.set_xlabel(next((s.get_xlabel() for s in siblings if s.get_xlabel()), ""))
+        axes.xaxis.label.set_visible(shown)
+
+
+def _x_labelled_on_bottom_row_only(figure: Figure) -> bool:
+    """Whether the figure's grid has several columns and an x axis shared by panels of several rows
+    is labelled on the bottom row only (``sharex``): cut out and stacked row by row, those labels
+    would sit under the wrong panels."""
+    cells = _cells(figure)
+    columns = {cell[0].get_subplotspec().get_topmost_subplotspec().colspan.start for cell in cells}
+    return len(columns) > 1 and any(len(cell[0].get_shared_x_axes().get_siblings(cell[0])) > 1
+                                    and not cell[0].xaxis.get_tick_params()["labelbottom"] for cell in cells)
 
 
 def _cells(figure: Figure) -> list[list]:
@@ -276,13 +305,14 @@ def sliced_image(figure: Figure, drawing: tuple[Image.Image, tuple[int, int]],
     The pieces are the figure's title, each cell of its grid of axes (with what the axes draw
     around them: labels, legend, a colour bar in the cell), a legend placed right of its axes
     (under them), and the figure's legends. ``None`` when the figure has fewer than two cells and
-    no such legend, when a piece lies outside the drawing, or when the
+    no such legend, when its shared x axes are labelled on its bottom row only (in several columns),
+    when a piece lies outside the drawing, or when the
     stack would still need scaling that brings its text under :data:`MIN_TEXT_PX` in a column of
     ``column_px``: then :func:`narrow_layout` draws it anew.
     """
     cells = _cells(figure)
     outside = {axes: _outside_legend(axes) for cell in cells for axes in cell if _outside_legend(axes)}
-    if len(cells) < 2 and not outside and len(figure.subfigs) < 2:
+    if (len(cells) < 2 and not outside and len(figure.subfigs) < 2) or _x_labelled_on_bottom_row_only(figure):
         return None
     image, (left, top) = drawing
     renderer = figure.canvas.get_renderer()

@@ -133,6 +133,26 @@ def test_panels_cut_from_the_drawing_are_stacked_in_reading_order():
     assert stack is not None and stack.width < drawing[0].width and stack.height > drawing[0].height
 
 
+@pytest.mark.parametrize("sharex", [True, "col"])
+def test_a_shared_x_axis_is_labelled_under_the_last_panel_sharing_it(sharex):
+    """sharex labels only the bottom row; stacked row by row, an x axis is labelled under the last of
+    each run of panels that share it (all six with sharex=True; each panel with "col", whose
+    neighbour in the stack is in the other column), never cut from the drawing."""
+    fig, axes = plt.subplots(3, 2, figsize=(9, 6.5), sharex=sharex)
+    for k, ax in enumerate(axes.flat):
+        ax.plot(np.arange(50.0), np.sin(np.arange(50.0) / 5 + k))
+        ax.set_ylabel(f"panel {k}")
+    for ax in axes[-1]:
+        ax.set_xlabel("time t (s)")
+    assert nf.sliced_image(fig, nf.tight_drawing(fig)) is None
+    copy = nf.narrow_copy(fig)
+    stacked = [cell[0] for cell in nf._cells(copy)]
+    shown = [ax.xaxis.get_tick_params()["labelbottom"] and ax.xaxis.label.get_visible() for ax in stacked]
+    assert shown == ([False] * 5 + [True] if sharex is True else [True] * 6)
+    assert all(ax.get_xlabel() == "time t (s)" for ax, s in zip(stacked, shown) if s)
+    assert [ax.xaxis.get_tick_params()["labelbottom"] for ax in axes.flat] == [False] * 4 + [True] * 2  # shown: unchanged
+
+
 def test_the_one_drawing_png_is_the_tight_box_savefig_saves():
     fig, _ = three_panels()
     buffer = io.BytesIO()
