@@ -56,6 +56,8 @@ MIN_TEXT_PX = 8.0
 PHONE_WIDTH_IN = 3.75
 #: Height of one stacked axes of the narrow copy, in inches (the original's row height, within these bounds).
 PANEL_HEIGHT_IN = (2.2, 3.0)
+#: Room (inches) under a stacked panel whose x axis is labelled under the panel below (tick marks only).
+UNLABELLED_GAP_IN = 0.15
 #: The windows that are served the narrow copy (the book's narrow-screen style starts there too).
 NARROW_MEDIA = "(max-width: 760px)"
 #: What :func:`install` adds to IPython's display formatters, so that it is added once.
@@ -125,16 +127,24 @@ def _stack_axes(figure: Figure, grid: GridSpec) -> int:
     return len(_cells(figure))
 
 
+def _x_labels_shown(cells: list[list]) -> list[bool | None]:
+    """For each cell in stacking order, whether its x axis is labelled under it in the stacked column:
+    a shared x axis only under the last of a run of panels sharing it (``None``: not shared, as drawn)."""
+    stacked = [cell[0] for cell in cells]
+    return [None if len(siblings := axes.get_shared_x_axes().get_siblings(axes)) < 2
+            else below is None or below not in siblings for axes, below in zip(stacked, [*stacked[1:], None])]
+
+
 def _label_shared_x_below(figure: Figure) -> None:
-    """In the stacked column, an x axis shared with the panel below is labelled there only: each
-    panel whose next panel does not share its x axis shows the tick labels and the axis label
-    (taken from a sibling that has one: ``sharex`` kept them on the original's bottom row only)."""
-    stacked = [cell[0] for cell in _cells(figure)]
-    for axes, below in zip(stacked, [*stacked[1:], None]):
-        siblings = axes.get_shared_x_axes().get_siblings(axes)
-        if len(siblings) < 2:
+    """In the stacked column, an x axis shared with the panel below is labelled there only
+    (:func:`_x_labels_shown`), with the axis label of a sibling that has one (``sharex`` kept them on
+    the original's bottom row only)."""
+    cells = _cells(figure)
+    for cell, shown in zip(cells, _x_labels_shown(cells)):
+        if shown is None:
             continue
-        shown = below is None or below not in siblings
+        axes = cell[0]
+        siblings = axes.get_shared_x_axes().get_siblings(axes)
         axes.xaxis.set_tick_params(which="both", labelbottom=shown)
         if shown and not axes.get_xlabel():
             axes.set_xlabel(next((s.get_xlabel() for s in siblings if s.get_xlabel()), ""))
@@ -281,7 +291,10 @@ def narrow_layout(figure: Figure, width_in: float = PHONE_WIDTH_IN) -> Figure:
         text.set_wrap(True)  # a long title wraps at the figure's edge instead of widening it
     top = margins["top"] + (0.2 if titles else 0.0)
     title = _wrapped_height(figure, figure._suptitle, width_in) if figure._suptitle is not None else 0.0
-    gap = top + margins["bottom"] + under_axes
+    shown = _x_labels_shown(cells)
+    # between panels, room for their x labels, unless only the last panel shows them (one shared x axis)
+    between = margins["bottom"] if not cells or any(s is None or s for s in shown[:-1]) else UNLABELLED_GAP_IN
+    gap = top + between + under_axes
     total = sum(heights) + len(heights) * gap + title + under_figure
     figure.set_size_inches(width_in, total)
     grid = GridSpec(len(heights), 1, figure=figure, height_ratios=heights, left=margins["left"] / width_in,

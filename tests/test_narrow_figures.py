@@ -150,6 +150,12 @@ def test_a_shared_x_axis_is_labelled_under_the_last_panel_sharing_it(sharex):
     shown = [ax.xaxis.get_tick_params()["labelbottom"] and ax.xaxis.label.get_visible() for ax in stacked]
     assert shown == ([False] * 5 + [True] if sharex is True else [True] * 6)
     assert all(ax.get_xlabel() == "time t (s)" for ax, s in zip(stacked, shown) if s)
+    # room between panels for x labels only where a panel shows them
+    gaps = [(upper.get_position().y0 - lower.get_position().y1) * copy.get_size_inches()[1]
+            for upper, lower in zip(stacked, stacked[1:])]
+    copy.canvas.draw()
+    label_room = max((ax.bbox.y0 - ax.get_tightbbox().y0) / copy.dpi for ax in stacked)
+    assert all(g < label_room for g in gaps) if sharex is True else all(g > label_room for g in gaps)
     assert [ax.xaxis.get_tick_params()["labelbottom"] for ax in axes.flat] == [False] * 4 + [True] * 2  # shown: unchanged
 
 
