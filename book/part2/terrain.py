@@ -311,13 +311,13 @@ for ax, j, name in zip(axes[:2], (0, 1), ("x (east)", "y (north)")):
     ax.set_ylabel(f"{name} error (m)")
     ax.set_yscale("symlog", linthresh=100)
     ax.set_yticks([-1e4, -1e3, -100, 0, 100, 1e3, 1e4])
-axes[0].legend(loc="upper right")
 axes[2].plot(t, flight.terrain_height, color=COLORS["truth"], label="terrain under the aircraft")
 axes[2].plot(t, flight.truth[:, 2] - flight.measurements[:, 0], ".", ms=3, color=COLORS["estimate"], label="altitude - altimeter reading")
 axes[2].set_ylabel("height (m)")
 axes[2].set_xlabel("time t (s)")
-axes[2].legend(loc="upper left")
 axes[0].set_title(f"Flight {good}: position error and 3-sigma band (N = 3000)")
+(h0, l0), (h2, l2) = axes[0].get_legend_handles_labels(), axes[2].get_legend_handles_labels()
+fig.legend(h0 + h2, l0 + l2, loc="upper center", ncols=2, bbox_to_anchor=(0.5, 0.0))  # under the figure, off the data
 plt.show()
 e_h = position_error(flight.truth, run.mean)
 z = np.abs(err[:, :2]) / sig[:, :2]  # error in units of the filter's standard deviation, x and y
