@@ -57,7 +57,7 @@ import scipy.linalg
 from filterpy.kalman import MerweScaledSigmaPoints, unscented_transform
 from filterpy.stats import logpdf
 
-from pfcourse.checks import Array, check_estimate, check_measurements, is_missing, numerical_step
+from pfcourse.checks import Array, check_estimate, check_measurements, check_real, is_missing, numerical_step
 from pfcourse.errors import MeasurementError, ModelError
 from pfcourse.linear_gaussian import LinearGaussianModel
 from pfcourse.results import KalmanResult
@@ -151,7 +151,11 @@ class Unscented:
     docstring); the sigma points of ``N(m, P)`` are ``m`` and ``m (-) -/+ columns of sqrt((n + lambda) P)``."""
 
     def __init__(self, model: GaussianModel, alpha: float = 1.0, beta: float = 2.0, kappa: float = 0.0) -> None:
-        self.sigma = MerweScaledSigmaPoints(len(model.m0), alpha=alpha, beta=beta, kappa=kappa,
+        n = len(model.m0)
+        check_real(alpha, "alpha", low=0.0, high=1e100, low_open=True)  # beyond, alpha**2 overflows
+        check_real(beta, "beta")
+        check_real(kappa, "kappa", low=-float(n), low_open=True)  # alpha^2 (n + kappa) > 0: the points' spread
+        self.sigma = MerweScaledSigmaPoints(n, alpha=alpha, beta=beta, kappa=kappa,
                                             subtract=model.residual_x)
 
     def predict(self, model: GaussianModel, m: Array, P: Array, t: Transition) -> tuple[Array, Array]:

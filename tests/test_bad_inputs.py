@@ -340,6 +340,12 @@ row("terrain simulate: rng = 'seed'", lambda: simulate_flight(AircraftScenario()
 row("terrain simulate: initial_state with NaN",
     lambda: simulate_flight(AircraftScenario(), _TINY_MAP, 0, initial_state=[np.nan, 0.0, 0.0, 0.0]), ParameterError,
     "initial_state must be finite")
+from pfcourse.terrain.kalman import unscented_kalman_filter  # noqa: E402
+
+for label, kw, fragment in [("alpha=0", {"alpha": 0.0}, "alpha must lie in (0.0"),
+                            ("kappa=-4", {"kappa": -4.0}, "kappa must lie in (-4.0")]:  # four states
+    row(f"terrain UKF {label}", lambda kw=kw: unscented_kalman_filter(AircraftScenario(), _TINY_MAP, np.zeros(3), **kw),
+        ParameterError, fragment)
 from pfcourse.terrain.marginalised import MarginalisedTerrainModel  # noqa: E402
 from pfcourse.terrain.point_mass import PointMassFilter  # noqa: E402
 

@@ -35,7 +35,7 @@ import math
 import numpy as np
 
 from pfcourse.angles import sigma_point_mean, wrap, wrap_angle
-from pfcourse.checks import Array, as_vector, check_covariance, check_measurements, check_real
+from pfcourse.checks import Array, as_vector, check_covariance, check_measurements
 from pfcourse.errors import MeasurementError, ModelError, ShapeError
 from pfcourse.kalman import GaussianModel, Linearised, Measurement, Transition, Unscented, gaussian_filter
 from pfcourse.results import KalmanResult
@@ -195,9 +195,6 @@ def run_ukf(
     """
     gaussian = kalman_model(model, initial_cov)
     measurements = _check_measurements(measurements, model)
-    check_real(alpha, "alpha", low=0.0, high=1e100, low_open=True)  # beyond, alpha**2 overflows
-    check_real(beta, "beta")
-    check_real(kappa, "kappa", low=-3.0, low_open=True)  # alpha^2 (3 + kappa) > 0: the sigma points' spread
     steps = Unscented(gaussian, alpha=alpha, beta=beta, kappa=kappa)
     return gaussian_filter(gaussian, steps, measurements, "UKF", log_likelihood=False)
 
