@@ -31,16 +31,23 @@ from typing import Any
 
 from bs4 import BeautifulSoup
 from docutils import nodes
+from sphinx import addnodes
 from sphinx.transforms.post_transforms import SphinxPostTransform
 
-#: LaTeX preamble: evidence blocks in small type with a rule on the left, panel captions small.
+#: LaTeX preamble: evidence blocks in small type, indented; panel captions small, in italics.
 PREAMBLE = r"""
 \makeatletter
-\@namedef{sphinxclasspfcourseevidence}{\par\small\begingroup\leftskip1.2em}
+\@namedef{sphinxclasspfcourseevidence}{\par\begingroup\footnotesize\leftskip1.2em}
 \@namedef{endsphinxclasspfcourseevidence}{\par\endgroup\medskip}
 \@namedef{sphinxclasspfcoursepanelcaption}{\par\small\itshape}
 \@namedef{endsphinxclasspfcoursepanelcaption}{\par\medskip}
 \makeatother
+% Headings with math become PDF bookmarks: under unicode-math (loaded by jupyter-book's LaTeX
+% preamble) a Greek letter is a math character that a PDF string cannot hold.
+\AtBeginDocument{\pdfstringdefDisableCommands{\def\vartheta{\textvartheta}\def\sigma{\textsigma}%
+  \def\text#1{#1}\def\hat#1{#1}\def\log{log }}}
+\providecommand{\textvartheta}{\ifmmode\vartheta\else ϑ\fi}
+\providecommand{\textsigma}{\ifmmode\sigma\else σ\fi}
 """
 
 DATA_URI = re.compile(r"data:image/png;base64,([A-Za-z0-9+/=]+)")
@@ -161,6 +168,55 @@ class PrintedOutputs(SphinxPostTransform):
         return [image, note]
 
 
+class PartsOfChapters(SphinxPostTransform):
+    """Number the printed book's chapters as the HTML book does.
+
+    jupyter-book's LaTeX turns each caption of ``_toc.yml`` into a ``\\part``, under which a part's
+    page (``book/partN/index``) is a chapter and the part's chapters are its sections (5.1, 5.2, ...),
+    while the HTML book numbers its chapters through the parts (Algorithm 5.1 is chapter 5's). Here a
+    part page's text goes onto the part's opening page and its chapters become chapters, numbered
+    from 1 at Part I; the chapters before it ("Before you start") are lettered A, B, ...
+    """
+
+    default_priority = 800  # after sphinx-jupyterbook-latex arranged the parts (700)
+    builders = ("latex",)
+
+    def run(self, **kwargs: Any) -> None:
+        parts = [s for s in self.document.findall(nodes.section) if str(s.get("docname", "")).startswith(
+            ("Part ", "Before you start", "Back matter"))]
+        for part in parts:
+            for index in [s for s in part.findall(nodes.section)
+                          if str(s.get("docname", "")).endswith("/index") and s is not part]:
+                self.lift_chapters(part, index)
+        front = next((p for p in parts if p["docname"].startswith("Before you start")), None)
+        if front is not None:
+            front.insert(1, nodes.raw("", r"\renewcommand{\thechapter}{\Alph{chapter}}"
+                                          r"\renewcommand{\theHchapter}{front.\Alph{chapter}}", format="latex"))
+            front.append(nodes.raw("", r"\renewcommand{\thechapter}{\arabic{chapter}}"
+                                       r"\renewcommand{\theHchapter}{\arabic{chapter}}\setcounter{chapter}{0}",
+                                   format="latex"))
+
+    @staticmethod
+    def lift_chapters(part: nodes.section, index: nodes.section) -> None:
+        """The part page's body in place of the part page, followed by its chapters' files, as chapters."""
+
+        def section_of(node: nodes.Node) -> nodes.Node | None:
+            node = node.parent
+            while node is not None and not isinstance(node, nodes.section):
+                node = node.parent
+            return node
+
+        chapters = [f for f in index.findall(addnodes.start_of_file) if section_of(f) is index]
+        for f in chapters:
+            f.parent.remove(f)
+        body = [c for c in index.children if not isinstance(c, nodes.title) and c.astext().strip()]
+        holder = index.parent if isinstance(index.parent, addnodes.start_of_file) else index
+        container, position = holder.parent, holder.parent.index(holder)
+        container.remove(holder)
+        for offset, node in enumerate([*body, *chapters]):
+            container.insert(position + offset, node)
+
+
 def add_preamble(app, config) -> None:
     """The evidence blocks' and panel captions' LaTeX environments, after the configured preamble."""
     elements = dict(config.latex_elements or {})
@@ -170,5 +226,6 @@ def add_preamble(app, config) -> None:
 
 def setup(app) -> dict[str, Any]:
     app.add_post_transform(PrintedOutputs)
+    app.add_post_transform(PartsOfChapters)
     app.connect("config-inited", add_preamble)
     return {"parallel_read_safe": True, "parallel_write_safe": True}
