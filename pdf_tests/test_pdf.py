@@ -4,7 +4,8 @@ Run by `tasks.py pdf` right after the build, on `_build/latex/particle-filters-m
 poppler's pdfinfo, pdftotext and pdffonts. Checked:
 - it has pages in the hundreds, and every chapter's title, in the order of the table of contents;
 - every glued number of a sample of chapters, formatted as the HTML book formats it, is printed;
-- no unresolved reference ("??") and every font embedded;
+- no unresolved reference ("??"), no output printed as the Python repr of an HTML object or a widget,
+  and every font embedded;
 - nothing is printed past the text block's right edge (a wide table or a long code line must wrap or
   shrink, never run into the margin).
 """
@@ -105,6 +106,12 @@ def test_every_glued_number_of_the_chapter_is_printed(doc, pages):
 def test_no_unresolved_reference(pages):
     hits = [i + 1 for i, page in enumerate(pages) if "??" in page]
     assert not hits, f"'??' (an unresolved reference) on pages {hits}"
+
+
+def test_no_output_is_printed_as_a_python_repr_of_html_or_a_widget(pages):
+    reprs = re.compile(r"<IPython\.core\.display\.HTML object>|^\s*(VBox|HBox|GridBox|interactive)\(children=", re.M)
+    hits = [i + 1 for i, page in enumerate(pages) if reprs.search(page)]
+    assert not hits, f"an HTML-only output printed as its Python repr on pages {hits}"
 
 
 def test_every_font_is_embedded():

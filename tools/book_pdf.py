@@ -127,7 +127,7 @@ class PrintedOutputs(SphinxPostTransform):
                 bundle.replace_self(evidence_nodes(BeautifulSoup(markup, "html.parser")))
             elif 'class="pfcourse-panel"' in markup:
                 bundle.replace_self(self.panel_nodes(BeautifulSoup(markup, "html.parser")))
-            elif "animation" in markup and JSHTML_FRAME.search(markup):
+            elif JSHTML_FRAME.search(markup):
                 frames = JSHTML_FRAME.findall(markup)
                 last = max(frames, key=lambda f: int(f[0]))[1].replace("\\n", "")
                 caption = (f"An animation of {len(frames)} frames in the HTML book and in JupyterLab; "
