@@ -18,7 +18,8 @@
 # **You need** Bayes' rule and the Gaussian density; NumPy arrays and a random generator
 # (`rng = np.random.default_rng(seed)`).
 #
-# **Time:** about twenty minutes to read; the notebook runs in a few seconds.
+# **Time:** about nineteen minutes to read, plus the exercise; the notebook runs in under half a
+# minute.
 # :::
 #
 # ## The scene
@@ -179,13 +180,14 @@ plt.show()
 #
 # The grid is exact up to its cells, and we can check how much those cost: a second grid
 # with cells half as wide (the checker's, written separately) moves the belief's mean by at most
-# {glue:text}`onramp_grid_precision:.1e` m over the run. So below, the grid **is** the right
+# {glue:text}`onramp_grid_precision_mm:.1f` mm over the run. So below, the grid **is** the right
 # answer, to well under a millimetre.
 #
 # ## Particles: samples of the belief
 #
 # The grid has $5000$ cells for one number, the position. A robot on a floor has three numbers
-# (two coordinates and a heading): at the same spacing that is millions of cells, and an aircraft
+# (two coordinates and a heading): a floor $20$ m square at the same spacing, with the heading in
+# steps of one degree, is $2000 \times 2000 \times 360 \approx 1.4 \times 10^9$ cells, and an aircraft
 # or a map of landmarks is hopeless. The way out is to keep **samples** of the belief instead of
 # the belief itself: $N$ guesses, *particles*, scattered so that more of them sit where the belief
 # is high. A histogram of the particles then looks like the belief.
@@ -226,11 +228,14 @@ plt.show()
 #
 # :::{admonition} Algorithm 0.1: the particle filter
 # :class: algorithm
-# Draw $x_0^i$ from the belief before any reading, for $i = 1, \dots, N$. Then, for each reading $z_k$:
-# 1. *predict:* $x_k^i = x_{k-1}^i + u + w_k^i$, with $w_k^i$ drawn from the slip's Gaussian;
-# 2. *weight:* $w^i \propto p(z_k \mid x_k^i)$, rescaled so that $\sum_i w^i = 1$;
-# 3. *estimate:* the position is about $\sum_i w^i x_k^i$;
-# 4. *resample:* draw $N$ indices $a^i$ with probabilities $w^1, \dots, w^N$ and set $x_k^i = x_k^{a^i}$.
+# Draw $N$ particles $x^1, \dots, x^N$ from the belief before any reading. Then, for each reading $z_k$:
+# 1. *predict:* move each particle, $x^i \leftarrow x^i + u + \varepsilon^i$, with $u$ the commanded move
+#    and $\varepsilon^i$ a fresh draw of the slip;
+# 2. *weight:* give particle $i$ the weight $w^i \propto p(z_k \mid x^i)$, rescaled so the weights add up
+#    to one;
+# 3. *estimate:* the position is about the weighted mean of the particles, $\sum_i w^i x^i$;
+# 4. *resample:* draw $N$ indices $a^1, \dots, a^N$, each index $j$ with probability $w^j$, and replace
+#    particle $i$ by a copy of particle $a^i$.
 # :::
 
 # %% tags=["hide-input"] jupyter={"source_hidden": true}
@@ -330,19 +335,37 @@ fine_means, _ = two_beacon_grid(z[:, None], {"beacons": (BEACON,), "offset": OFF
                                              "motion_sd": MOTION_SD, "range_sd": RANGE_SD, "rail": RAIL},
                                 cell=0.005)
 glue_values("onramp_", pf_grid_distance=float(distance.mean()), pf_grid_distance_last=float(distance[-1]),
-            grid_precision=float(np.abs(fine_means - grid_means).max()), steps=len(z),
+            grid_precision_mm=1000 * float(np.abs(fine_means - grid_means).max()), steps=len(z),
             first_mean=float(grid_means[0]))
 
 # %% [markdown]
-# At the first step both means sit near the middle of the rail, at
-# {glue:text}`onramp_first_mean:.1f` m: the belief has two peaks, and its mean falls between
-# them, where the robot certainly is not. A mean is a poor summary of two peaks; the belief is the
+# At the first step the grid's mean sits near the middle of the rail, at
+# {glue:text}`onramp_first_mean:.1f` m, and the particles' with it: the belief has two peaks, and
+# its mean falls between them, where the robot certainly is not. A mean is a poor summary of two peaks; the belief is the
 # answer. Within a few steps one peak wins and the means follow the robot.
 #
 # Averaged over the {glue:text}`onramp_steps:d` steps, the particle filter's mean is
 # {glue:text}`onramp_pf_grid_distance:.3f` m from the grid's exact mean (at the last step,
 # {glue:text}`onramp_pf_grid_distance_last:.3f` m). That is the price of using a thousand samples
-# instead of the belief itself, and it shrinks as $N$ grows (try it in the panel below).
+# instead of the belief itself. Does it shrink with more particles? Run the filter a hundred times
+# for each $N$, each time with another seed, and average:
+
+# %%
+gaps = {}
+for n in (10, 100, 1000):
+    runs = [particle_filter(z, n, np.random.default_rng(s)) for s in range(100)]
+    gaps[n] = np.mean([np.abs(m - grid_means).mean() for m in runs])
+    print(f"N = {n:>4}: {gaps[n]:.3f} m from the grid, averaged over the run")
+
+# %% tags=["remove-input"] jupyter={"source_hidden": true}
+glue_values("onramp_", shrink_100_to_1000=float(gaps[100] / gaps[1000]), gap_10=float(gaps[10]))
+
+# %% [markdown]
+# Ten times more particles, from $N = 100$ to $1000$, bring the filter
+# {glue:text}`onramp_shrink_100_to_1000:.1f` times closer to the grid: about $\sqrt{10}$, the rate
+# at which an average of random samples improves. With $10$ particles the filter is
+# {glue:text}`onramp_gap_10:.1f` m off on average: so few particles can settle on the wrong peak
+# and stay there (the panel below shows a run where they do).
 #
 # ## Why resample? Degeneracy, seen
 #
