@@ -393,9 +393,10 @@ kept = weights_without_resampling(z, 100, np.random.default_rng(4), shown_steps)
 fig, axes = plt.subplots(1, 3, figsize=(10, 2.9), sharey=True)
 for ax, k in zip(axes, shown_steps):
     x, w = kept[k]
+    ax.axvline(truth[k - 1], color="0.55", ls="--", lw=1, zorder=0)
     ax.vlines(x, 0, w, color=COLORS["particles"], lw=1.5)
-    ax.axvline(truth[k - 1], color=COLORS["truth"], ls="--", lw=1)
-    ax.set_xlim(-1, 36)
+    ax.plot(x, w, "o", color=COLORS["particles"], ms=3)
+    ax.set_xlim(-1, 38)
     ax.set_title(f"after step {k}")
     ax.set_xlabel("position x (m)")
 axes[0].set_ylabel("weight")
