@@ -6,6 +6,10 @@ returns a :class:`CheckReport`: ``ok`` and a list of ``problems``, each a senten
 what is wrong and, where it can, why.  It never raises on a wrong answer (a student's
 exception is reported as a problem); ``str(report)`` prints the verdict.
 
+* :func:`check_two_beacon_filter` - ``fn(z, n_particles, rng, model) -> means``: the on-ramp's particle
+  filter for a robot on a rail ranging two beacons (:mod:`.onramp`), against the exact grid; one
+  beacon read, no motion noise, a standard deviation squared, the unweighted mean and a missing
+  reading used are named, and the filter must draw from the generator it is given.
 * :func:`check_resampler` - ``fn(weights, rng) -> indices``: right type, shape and range,
   particles of weight 0 never chosen, and *unbiased*: the mean number of copies of particle
   ``i`` over many draws is ``N W_i`` (a z-test per particle at 5 standard errors), and no more
@@ -92,6 +96,14 @@ from pfcourse.exercises.checking import (  # noqa: F401
     _per_particle_answers,
     _settled,
     _shaped,
+)
+from pfcourse.exercises.onramp import (  # noqa: F401
+    INFLATION,
+    TWO_BEACONS,
+    TWO_BEACON_MISTAKES,
+    check_two_beacon_filter,
+    two_beacon_case,
+    two_beacon_grid,
 )
 from pfcourse.exercises.part1 import (  # noqa: F401
     APF_MISTAKES,
