@@ -84,6 +84,134 @@ def check_resampler(fn: Callable, n_draws: int = 4000, seed: int = 0) -> CheckRe
     return report
 
 
+#: The weights of :func:`check_stratified_resampler`, in eighths: particle 1's segment straddles two strata
+#: half and half (stratified: 0, 1 or 2 copies; systematic: always exactly one), particle 2 weighs nothing.
+STRATIFIED_WEIGHTS = np.array([0.5, 1.0, 0.0, 1.5, 1.0, 0.5, 2.0, 1.5]) / 8
+
+
+def _offspring_variances(w: np.ndarray) -> dict[str, np.ndarray]:
+    """Exact ``Var N_i`` of each particle under stratified, systematic and multinomial resampling."""
+    n = w.size
+    c = np.concatenate([[0.0], np.cumsum(w)])
+    lo, hi = np.arange(n) / n, np.arange(1, n + 1) / n
+    p = n * np.clip(np.minimum(hi[None], c[1:, None]) - np.maximum(lo[None], c[:-1, None]), 0, None)
+    r = n * w - np.floor(n * w + 1e-12)
+    return {"stratified": (p * (1 - p)).sum(axis=1), "systematic": r * (1 - r), "multinomial": n * w * (1 - w)}
+
+
+def _draws_from_its_generator(report: CheckReport, call: Callable) -> bool:
+    """Whether ``call(rng)`` leaves NumPy's global state alone, repeats itself for one seed and changes
+    with the seed; if not, say which, in one sentence, and return False."""
+    state = np.random.get_state()
+    try:
+        first, again = np.asarray(call(np.random.default_rng(1))), np.asarray(call(np.random.default_rng(1)))
+        others = [np.asarray(call(np.random.default_rng(s))) for s in range(2, 12)]
+    except Exception as exc:  # the student's error, reported
+        report.problems.append(f"calling fn(weights, rng) raised {type(exc).__name__}: {exc}")
+        return False
+    moved = not all(np.array_equal(a, b) for a, b in zip(state[1:], np.random.get_state()[1:]))
+    np.random.set_state(state)
+    if moved:
+        report.problems.append(
+            "it draws from NumPy's global generator (np.random.random, np.random.rand, ...), not from the rng it "
+            "is given: draw with rng.random(...), so that a seeded run gives the same answer")
+    elif not np.array_equal(first, again):
+        report.problems.append(
+            "two calls with generators of the same seed gave different answers: draw every uniform from the rng "
+            "argument, and from nothing else")
+    elif all(np.array_equal(first, o) for o in others):
+        report.problems.append(
+            "the result never changes with the seed: the rng is not used (each stratum needs a random uniform, "
+            "not its midpoint)")
+    return not report.problems
+
+
+def check_stratified_resampler(fn: Callable, n_draws: int = 4000, seed: int = 0) -> CheckReport:
+    """Check a stratified resampler ``fn(weights, rng) -> N ancestor indices``.
+
+    The weights are :data:`STRATIFIED_WEIGHTS` (``N = 8``). First the generator: NumPy's global state must
+    be untouched, one seed must give one answer and eleven seeds more than one. Then ``n_draws`` calls
+    (one generator seeded ``seed``): indices in range, no particle of weight 0 drawn, mean copy counts
+    ``N W_i`` within ``5 SE + 1e-9``, and each particle's ``Var N_i`` equal to stratified resampling's
+    exact ``sum_j p_ij (1 - p_ij)`` within ``5 SE + 0.02`` (SE from the counts' fourth moment). Where the
+    variances are wrong, the scheme whose exact variances are nearest (systematic, multinomial) is named:
+    particle 1 (``N W_1 = 1``, astride two strata) has variance 0 under systematic resampling, 1/2 under
+    stratified and 7/8 under multinomial, about 50 standard errors apart at 4000 draws.
+    """
+    state = np.random.get_state()  # a student's draws from the global generator are undone
+    try:
+        return _check_stratified(fn, n_draws, seed)
+    finally:
+        np.random.set_state(state)
+
+
+def _check_stratified(fn: Callable, n_draws: int, seed: int) -> CheckReport:
+    report = CheckReport("stratified resampler")
+    w = STRATIFIED_WEIGHTS
+    n = w.size
+    first = _answer(report, lambda: fn(w.copy(), np.random.default_rng(seed)), "fn(weights, rng)",
+                    "write the resampler and return the N ancestor indices")
+    if first is None:
+        return report
+    first = np.asarray(first)
+    if first.shape != (n,):
+        report.problems.append(f"returned shape {first.shape}; expected ({n},), one ancestor index per particle "
+                               "(indices, not copy counts)")
+        return report
+    if first.dtype.kind not in "iu":
+        report.problems.append(f"returned dtype {first.dtype}; indices must be integers (use astype(int))")
+        return report
+    if not _draws_from_its_generator(report, lambda g: fn(w.copy(), g)):
+        return report
+    rng = np.random.default_rng(seed)
+    counts = np.empty((n_draws, n))
+    for t in range(n_draws):
+        idx = np.asarray(fn(w.copy(), rng))
+        if idx.shape != (n,) or idx.min() < 0 or idx.max() >= n:
+            report.problems.append(
+                f"draw {t}: an index is out of range [0, {n}) (got {idx.min()}..{idx.max()}): the ancestor of u is "
+                "the i with C[i-1] <= u < C[i], np.searchsorted(C, u, side='right'), capped at N - 1")
+            return report
+        counts[t] = np.bincount(idx, minlength=n)
+    if counts[:, 2].any():
+        report.problems.append(
+            "a particle of weight 0 was chosen: its segment of the bar has no width, so no uniform can select "
+            "it; search the cumulative weights with side='right'")
+        return report
+    mean, se = counts.mean(axis=0), counts.std(axis=0, ddof=1) / np.sqrt(n_draws)
+    bad = np.abs(mean - n * w) > 5 * se + 1e-9
+    if bad.any():
+        i = int(np.argmax(np.abs(mean - n * w) - 5 * se))
+        report.problems.append(
+            f"biased: particle {i} of weight {w[i]} should get N W = {n * w[i]:.3f} copies on average, it got "
+            f"{mean[i]:.3f} (± {se[i]:.3f}) over {n_draws} draws; the uniforms must cover [0, 1) evenly")
+        return report
+    var = counts.var(axis=0, ddof=1)
+    var_se = np.sqrt(np.maximum(((counts - mean) ** 4).mean(axis=0) - var**2, 0) / n_draws)
+    exact = _offspring_variances(w)
+    if np.all(np.abs(var - exact["stratified"]) <= 5 * var_se + 0.02):
+        return report
+    nearest = min(("systematic", "multinomial"), key=lambda s: np.abs(var - exact[s]).sum())
+    fits_nearest = np.all(np.abs(var - exact[nearest]) <= 5 * var_se + 0.02)
+    if fits_nearest and nearest == "systematic":
+        report.problems.append(
+            f"the copies vary like systematic resampling's (particle 1 got exactly one copy in every draw, "
+            f"where stratified resampling gives it 0, 1 or 2, Var N_1 = {exact['stratified'][1]:.2f}): each "
+            "stratum needs its own uniform, rng.random(N), not one uniform shared by all")
+    elif fits_nearest:
+        report.problems.append(
+            f"the copies vary like multinomial resampling's (Var N_1 = {var[1]:.2f}, stratified gives "
+            f"{exact['stratified'][1]:.2f}): put uniform j in its stratum, u_j = (j + U_j) / N, instead of "
+            "anywhere in [0, 1)")
+    else:
+        i = int(np.argmax(np.abs(var - exact["stratified"]) / (var_se + 0.02)))
+        report.problems.append(
+            f"the copy counts are right on average but their variance is not stratified resampling's: particle "
+            f"{i} has Var N_i = {var[i]:.2f}, where one independent uniform per stratum gives "
+            f"{exact['stratified'][i]:.2f}")
+    return report
+
+
 def check_weight_update(fn: Callable, seed: int = 0) -> CheckReport:
     """Check ``fn(log_weights, log_likelihoods) -> new normalised log-weights`` (module docstring)."""
     report = CheckReport("weight update")
