@@ -264,12 +264,12 @@ HTML(animate_landmarks(scenario5, sim5, limits=(-4.0, 8.0)).to_jshtml())
 # $$
 # \begin{aligned}
 # p(x_0) &= \mathcal N(x_0;\, m_0,\, P_0)\\
-# &= \frac{\exp\!\left(-\tfrac12 e^\top P_0^{-1} e\right)}{\sqrt{(2\pi)^{d} \det P_0}},
-# \quad e = x_0 - m_0 ,
+# &\propto \exp\!\left(-\tfrac12 (x_0 - m_0)^\top P_0^{-1} (x_0 - m_0)\right),
 # \end{aligned}
 # $$
 #
-# with $d = 2 + 2M$ the dimension of the state.
+# whose normalising constant is $1 / \sqrt{(2\pi)^{d} \det P_0}$, with $d = 2 + 2M$ the
+# dimension of the state.
 #
 # **Transition density.** Given $x_{k-1}$, the next state $x_k = F x_{k-1} + B + w_k$ is a constant
 # plus the noise $w_k \sim \mathcal N(0, Q)$, independent of the past, so
@@ -285,20 +285,20 @@ HTML(animate_landmarks(scenario5, sim5, limits=(-4.0, 8.0)).to_jshtml())
 # ($c = 0$ in the two-landmark model). The landmark block of $Q$ is $10^{-20} I$: for the
 # landmarks this density is almost a Dirac mass at the previous position.
 #
-# **Measurement density.** Let $V_k \subseteq \{1, \dots, M\}$ be the landmarks in view at step $k$.
+# **Measurement density.** Let $\mathcal V_k \subseteq \{1, \dots, M\}$ be the landmarks in view at step $k$.
 # Each gives $z^j_k = l^j_k - r_k + v^j_k = H^j x_k + v^j_k$, with $H^j = (-I_2, 0, \dots, I_2, \dots, 0)$
 # ($I_2$ in block $j + 1$). Stacking the visible landmarks gives a measurement matrix and a noise
 # covariance whose *size changes with time*:
 #
 # $$
 # \begin{aligned}
-# H_k &= \begin{pmatrix} H^{j_1} \\ \vdots \\ H^{j_{|V_k|}} \end{pmatrix}, \qquad R_k = R[I_k, I_k],\\
+# H_k &= \begin{pmatrix} H^{j_1} \\ \vdots \\ H^{j_{|\mathcal V_k|}} \end{pmatrix}, \qquad R_k = R[\mathcal I_k, \mathcal I_k],\\
 # p(z_k \mid x_k) &= \mathcal N(z_k;\, H_k x_k,\, R_k),
 # \end{aligned}
 # $$
 #
-# where $I_k = \{2j - 1, 2j : j \in V_k\}$ lists the measurement *coordinates* of the visible
-# landmarks ($R$ is $2M \times 2M$, indexed by coordinates) and $R[I_k, I_k]$ keeps those rows
+# where $\mathcal I_k = \{2j - 1, 2j : j \in \mathcal V_k\}$ lists the measurement *coordinates* of the visible
+# landmarks ($R$ is $2M \times 2M$, indexed by coordinates) and $R[\mathcal I_k, \mathcal I_k]$ keeps those rows
 # and columns. With nothing in view there is no measurement and $p(z_k \mid x_k) = 1$: the step
 # is a pure prediction. In code, the non-NaN entries of a row of `z` are $z_k$, and the same
 # mask picks $H_k$ and $R_k$ out of the matrices above (Exercise 1.4 turns this into the
@@ -446,7 +446,7 @@ def log_likelihood(x, z, H, R):
     seen = ~np.isnan(z)                      # the measured coordinates
     if not seen.any():
         return np.zeros(len(x))              # nothing in view: p(z_k | x_k) = 1
-    d = z[seen] - x @ H[seen].T              # z_k - H_k x^i, (N, 2|V_k|)
+    d = z[seen] - x @ H[seen].T              # z_k - H_k x^i, (N, 2 |V_k|)
     R_k = R[np.ix_(seen, seen)]              # the block of the visible landmarks
     quad = np.einsum("ij,ij->i", d @ np.linalg.inv(R_k), d)
     return -0.5 * (quad + seen.sum() * np.log(2 * np.pi) + np.linalg.slogdet(R_k)[1])
