@@ -102,3 +102,77 @@ def test_nothing_returned_and_counts_returned_are_named():
         "the function returned None: write the resampler and return the N ancestor indices"]
     report = check_stratified_resampler(lambda w, rng: np.zeros((len(w), 2), dtype=int))
     assert report.problems[0].startswith("returned shape (8, 2)")
+
+
+# The constant-velocity Kalman checker of the Kalman chapter (exercise 2.3): a model the chapter does not
+# show, checked against the exact filter; a student's filter, right unless a mistake is named.
+def student_cv(z, dt, q, r, m0, P0, *, nan_kept=False, swap_q=False, wrong_shape=False):
+    F = np.array([[1.0, dt], [0.0, 1.0]])
+    Q = q * np.array([[dt**3 / 3, dt**2 / 2], [dt**2 / 2, dt]])
+    if swap_q:  # the corners of Q swapped: dt^3 / 3 on the velocity
+        Q = q * np.array([[dt, dt**2 / 2], [dt**2 / 2, dt**3 / 3]])
+    H = np.array([[1.0, 0.0]])
+    m, P, log_lik, means, covs = m0, P0, 0.0, [], []
+    for k, zk in enumerate(z):
+        if k > 0:
+            m, P = F @ m, F @ P @ F.T + Q
+        if nan_kept or not np.isnan(zk):
+            nu = np.array([zk]) - H @ m
+            S = H @ P @ H.T + r
+            K = P @ H.T @ np.linalg.inv(S)
+            m, P = m + K @ nu, P - K @ S @ K.T
+            log_lik += -0.5 * (nu @ np.linalg.solve(S, nu) + np.log(np.linalg.det(2 * np.pi * S)))
+        means.append(m)
+        covs.append(P)
+    means = np.array(means)
+    return (means[:, 0] if wrong_shape else means), np.array(covs), float(log_lik)
+
+
+def test_the_reference_cv_filter_passes_and_is_the_package_filter():
+    from pfcourse.exercises.part1 import CV_CASE, check_cv_kalman, cv_kalman
+    from pfcourse.kalman import kalman_filter
+    from pfcourse.linear_gaussian import LinearGaussianModel
+
+    assert check_cv_kalman(student_cv).ok, str(check_cv_kalman(student_cv))
+    c = CV_CASE
+    dt, q = c["dt"], c["q"]
+    lg = LinearGaussianModel(F=[[1.0, dt], [0.0, 1.0]], H=[[1.0, 0.0]], m0=c["m0"], P0=c["P0"],
+                             Q=q * np.array([[dt**3 / 3, dt**2 / 2], [dt**2 / 2, dt]]), R=[[c["r"]]])
+    ref = kalman_filter(lg, c["z"][:, None])
+    means, covs, log_lik = cv_kalman(**c)
+    np.testing.assert_allclose(means, ref.mean, rtol=1e-12, atol=1e-14)
+    np.testing.assert_allclose(covs, ref.cov, rtol=1e-12, atol=1e-14)
+    np.testing.assert_allclose(log_lik, ref.log_likelihood, rtol=1e-12)
+
+
+def test_every_named_cv_mistake_is_recognised_from_its_own_numbers():
+    from pfcourse.exercises.part1 import CV_MISTAKES, check_cv_kalman, cv_kalman
+
+    assert len(set(CV_MISTAKES.values())) == len(CV_MISTAKES) >= 4
+    for mistake, why in CV_MISTAKES.items():
+        report = check_cv_kalman(lambda z, dt, q, r, m0, P0, m=mistake: cv_kalman(z, dt, q, r, m0, P0, m))
+        assert report.problems == [f"your filter computes a known mistake: {why}"], (mistake, str(report))
+
+
+@pytest.mark.parametrize("mistake, says", [
+    ({"nan_kept": True}, "the mean or the covariance is NaN at step 0"),
+    ({"swap_q": True}, "at step 1 your mean is"),
+    ({"wrong_shape": True}, "returned shapes (8,), (8, 2, 2) and ()"),
+])
+def test_a_students_other_cv_mistakes_get_their_own_sentence(mistake, says):
+    from pfcourse.exercises.part1 import check_cv_kalman
+
+    report = check_cv_kalman(lambda *a: student_cv(*a, **mistake))
+    assert len(report.problems) == 1 and report.problems[0].startswith(says), str(report)
+
+
+def test_a_cv_answer_of_the_wrong_form_is_named():
+    from pfcourse.exercises.part1 import check_cv_kalman
+
+    assert check_cv_kalman(lambda *a: None).problems == [
+        "the function returned None: write the filter and return (means, covariances, log_likelihood)"]
+    assert "raised ZeroDivisionError" in str(check_cv_kalman(lambda *a: 1 / 0))
+    assert check_cv_kalman(lambda *a: student_cv(*a)[:2]).problems[0].startswith(
+        "the answer is not (means, covariances, log_likelihood)")
+    right_filter = check_cv_kalman(lambda *a: (*student_cv(*a)[:2], 0.0))
+    assert right_filter.problems[0].startswith("the means and covariances are right, the log-likelihood is not")

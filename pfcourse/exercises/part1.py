@@ -569,6 +569,108 @@ def check_kalman(fn: Callable, z: np.ndarray = KALMAN_CASE, rtol: float = 1e-9) 
     return report
 
 
+#: The case of :func:`check_cv_kalman`: a constant-velocity model sampled every ``dt = 0.5`` s; its
+#: position is measured (variance ``r``), nothing at step 0, two readings missing later.
+CV_CASE = {"z": np.array([np.nan, 0.9, 1.1, np.nan, 1.8, 2.6, np.nan, 3.1]), "dt": 0.5, "q": 0.2, "r": 0.25,
+           "m0": np.array([0.0, 1.0]), "P0": np.diag([1.0, 0.5])}
+
+#: The typical mistakes of a constant-velocity Kalman filter, each as the flag of :func:`cv_kalman`
+#: that makes it, with the sentence that names it.
+CV_MISTAKES = {
+    "q_identity": "the process noise is q I: a random acceleration moves the position and the velocity "
+                  "together, Q = q [[dt^3/3, dt^2/2], [dt^2/2, dt]]",
+    "dt_ignored": "the dynamics ignore the time step: the position moves by dt times the velocity, "
+                  "F = [[1, dt], [0, 1]], not [[1, 1], [0, 1]]",
+    "f_transposed": "F is transposed: the position moves by dt times the velocity, F = [[1, dt], [0, 1]], "
+                    "and the velocity does not move with the position",
+    "h_velocity": "the measurement is the position, not the velocity: H = [[1, 0]]",
+    "predict_at_0": "the filter predicts before step 0: the estimate at step 0 is the prior (m0, P0), and the "
+                    "first prediction comes at step 1",
+    "loglik_no_constant": "the log-likelihood misses the normalising term: log N(nu; 0, S) = "
+                          "-(nu^2 / S + log(2 pi S)) / 2",
+}
+
+
+def cv_kalman(z: np.ndarray, dt: float, q: float, r: float, m0: np.ndarray, P0: np.ndarray,
+              mistake: str | None = None) -> tuple[np.ndarray, np.ndarray, float]:
+    """The exact Kalman filter of the constant-velocity model (means ``(K, 2)``, covariances ``(K, 2, 2)``,
+    log-likelihood), or the one that makes ``mistake`` (a key of :data:`CV_MISTAKES`)."""
+    step = 1.0 if mistake == "dt_ignored" else dt
+    F = np.array([[1.0, step], [0.0, 1.0]])
+    F = F.T if mistake == "f_transposed" else F
+    Q = q * np.eye(2) if mistake == "q_identity" else q * np.array([[dt**3 / 3, dt**2 / 2], [dt**2 / 2, dt]])
+    H = np.array([0.0, 1.0]) if mistake == "h_velocity" else np.array([1.0, 0.0])
+    m, P, log_lik = np.asarray(m0, float), np.asarray(P0, float), 0.0
+    means, covs = [], []
+    for k, zk in enumerate(z):
+        if k > 0 or mistake == "predict_at_0":
+            m, P = F @ m, F @ P @ F.T + Q
+        if not np.isnan(zk):
+            nu, s = zk - H @ m, H @ P @ H + r
+            gain = P @ H / s
+            m, P = m + gain * nu, P - np.outer(gain, gain) * s
+            log_lik += -0.5 * nu**2 / s - (0.0 if mistake == "loglik_no_constant" else 0.5 * np.log(2 * np.pi * s))
+        means.append(m)
+        covs.append(P)
+    return np.array(means), np.array(covs), log_lik
+
+
+def check_cv_kalman(fn: Callable, rtol: float = 1e-9) -> CheckReport:
+    """Check ``fn(z, dt, q, r, m0, P0) -> (means (K, 2), covariances (K, 2, 2), log_likelihood)``, the Kalman
+    filter of the constant-velocity model (position and velocity, the position measured), on
+    :data:`CV_CASE` against the exact :func:`cv_kalman`; a wrong answer is compared with each mistake of
+    :data:`CV_MISTAKES` so that the report names it."""
+    report = CheckReport("constant-velocity Kalman filter")
+    case = CV_CASE
+    n_steps = case["z"].size
+    answer = _answer(report, lambda: fn(case["z"].copy(), case["dt"], case["q"], case["r"], case["m0"].copy(),
+                                        case["P0"].copy()),
+                     "fn(z, dt, q, r, m0, P0)", "write the filter and return (means, covariances, log_likelihood)")
+    if answer is None:
+        return report
+    try:
+        means, covs, log_lik = answer
+        means, covs, log_lik = np.asarray(means, float), np.asarray(covs, float), np.asarray(log_lik, float)
+    except (TypeError, ValueError) as exc:
+        report.problems.append(f"the answer is not (means, covariances, log_likelihood): {exc}")
+        return report
+    if means.shape != (n_steps, 2) or covs.shape != (n_steps, 2, 2) or log_lik.shape != ():
+        report.problems.append(
+            f"returned shapes {means.shape}, {covs.shape} and {log_lik.shape}; expected ({n_steps}, 2), "
+            f"({n_steps}, 2, 2) and (): one mean and one covariance per step, step 0 included, and one number")
+        return report
+    if not (np.isfinite(means).all() and np.isfinite(covs).all()):
+        k = int(np.argmax(~np.isfinite(means).all(axis=1) | ~np.isfinite(covs).all(axis=(1, 2))))
+        report.problems.append(f"the mean or the covariance is NaN at step {k}: when z_k is NaN nothing is "
+                               "measured, so skip the update (m_k = m_k^-, P_k = P_k^-)")
+        return report
+
+    def close(got, expected) -> bool:
+        return bool(np.allclose(got, expected, rtol=rtol, atol=1e-12))
+
+    exact = cv_kalman(**case)
+    filtered = close(means, exact[0]) and close(covs, exact[1])
+    if filtered and close(log_lik, exact[2]):
+        return report
+    for mistake, why in CV_MISTAKES.items():
+        wrong = cv_kalman(**case, mistake=mistake)
+        if close(means, wrong[0]) and close(covs, wrong[1]) and close(log_lik, wrong[2]):
+            report.problems.append(f"your filter computes a known mistake: {why}")
+            return report
+    if filtered:
+        report.problems.append(
+            f"the means and covariances are right, the log-likelihood is not ({float(log_lik):.6f}, exact "
+            f"{exact[2]:.6f}): add log N(nu_k; 0, S_k) at every measured step and nothing at a missing one")
+        return report
+    wrong = ~(np.isclose(means, exact[0], rtol=rtol, atol=1e-12).all(axis=1)
+              & np.isclose(covs, exact[1], rtol=rtol, atol=1e-12).all(axis=(1, 2)))
+    k = int(np.argmax(wrong))
+    report.problems.append(
+        f"at step {k} your mean is {np.round(means[k], 4).tolist()}, the exact one "
+        f"{np.round(exact[0][k], 4).tolist()}: check the model's F, Q and H and the update of that step")
+    return report
+
+
 #: The parents and the measurement of :func:`check_optimal_proposal`.
 PROPOSAL_PARENTS = np.array([-1.5, -0.2, 0.4, 1.1, 2.3])
 
