@@ -39,7 +39,6 @@ from scipy import stats
 
 from pfcourse import evidence
 from pfcourse.diagnostics import chi2_band, nees
-from pfcourse.exercises import check_kalman
 from pfcourse.kalman import kalman_filter
 from pfcourse.landmarks.figures import landmark_scene
 from pfcourse.landmarks.scenario import circle_scenario, quadrant_scenario, simulate
@@ -529,54 +528,72 @@ display(control_panel(draw_kalman, grid={"noise_scale": (0.3, 1.0, 3.0), "proces
 # cross-covariance, landmark $1$.
 # ```
 #
-# ```{exercise} 2.3 Write a Kalman filter, and have it checked
+# ```{exercise} 2.3 A tracker with a velocity, and have it checked
 # :label: ex-kalman-code
 # :nonumber:
-# (Coding.) Write `my_kalman(z, model)`, Algorithm 2.1 for the scalar model
-# $x_0 \sim \mathcal N(m_0, p_0)$, $x_k = a x_{k-1} + w_k$, $w_k \sim \mathcal N(0, q)$,
-# $z_k = x_k + v_k$, $v_k \sim \mathcal N(0, r)$, whose parameters are `model.a`, `model.q`,
-# `model.r`, `model.m0`, `model.p0` (variances, not standard deviations). `z` has shape `(K,)`,
-# NaN where nothing is measured (always at step $0$). Return the filtering means and variances,
-# two arrays of shape `(K,)`, and the log-likelihood $\sum_k \log \mathcal N(\nu_k; 0, S_k)$.
-# The checker compares them with the exact ones and names the mistake it sees.
+# (Coding.) A cart moves on a line with a velocity that drifts at random. Its state is
+# $x_k = (\xi_k, \dot\xi_k)$, position (m) and velocity (m/s), sampled every $\Delta t$ seconds; a
+# random acceleration of spectral density $q$ gives
+#
+# $$
+# \begin{aligned}
+# x_k &= \begin{pmatrix} 1 & \Delta t \\ 0 & 1 \end{pmatrix} x_{k-1} + w_k,\\
+# Q &= q \begin{pmatrix} \Delta t^3/3 & \Delta t^2/2 \\ \Delta t^2/2 & \Delta t \end{pmatrix},
+# \end{aligned}
+# $$
+#
+# with $w_k \sim \mathcal N(0, Q)$. Only the position is measured, $z_k = \xi_k + v_k$ with
+# $v_k \sim \mathcal N(0, r)$, NaN where nothing is measured (always at step $0$), and
+# $x_0 \sim \mathcal N(m_0, P_0)$. Write `my_cv_kalman(z, dt, q, r, m0, P0)` for this model: `z` has
+# shape `(K,)`; return the filtering means `(K, 2)`, covariances `(K, 2, 2)` and the
+# log-likelihood. The checker compares them with the exact ones and names the mistake it sees.
+# Which of the model's matrices differ from the landmark model's, and how does the filter learn
+# a velocity it never measures?
 # ```
 
 # %% tags=["answer"]
-from pfcourse.exercises import check_kalman
+from pfcourse.exercises.part1 import check_cv_kalman
 
 
-def my_kalman(z, model):
-    """Your Kalman filter: return (means, variances, log_likelihood)."""
+def my_cv_kalman(z, dt, q, r, m0, P0):
+    """Your filter: return (means (K, 2), covariances (K, 2, 2), log-lik)."""
     ...  # replace with your code
 
 
-print(check_kalman(my_kalman))
+print(check_cv_kalman(my_cv_kalman))
 
 # %% [markdown]
 # ```{solution} ex-kalman-code
 # :class: dropdown
-# Algorithm 2.1 with scalars; the code is in the folded cell below (in JupyterLab, click its
-# margin to unfold it).
+# Algorithm 2.1 with $F = \begin{pmatrix} 1 & \Delta t \\ 0 & 1 \end{pmatrix}$, the $Q$ above,
+# $H = (1, 0)$ and $B = 0$; the code is in the folded cell below (in JupyterLab, click its margin
+# to unfold it). The velocity is never measured, but the prediction couples it to the position
+# (the off-diagonal of $F P F^\top$): two positions measured $\Delta t$ apart say how fast the
+# cart moved, so the gain $K_k$ has a velocity row too.
 # ```
 
 # %% tags=["solution", "hide-input"] jupyter={"source_hidden": true}
-def my_kalman(z, model):
-    m, p, log_lik = model.m0, model.p0, 0.0
-    means, variances = [], []
+def my_cv_kalman(z, dt, q, r, m0, P0):
+    F = np.array([[1.0, dt], [0.0, 1.0]])
+    Q = q * np.array([[dt**3 / 3, dt**2 / 2], [dt**2 / 2, dt]])
+    H = np.array([[1.0, 0.0]])
+    m, P, log_lik = m0, P0, 0.0
+    means, covs = [], []
     for k, zk in enumerate(z):
         if k > 0:  # predict
-            m, p = model.a * m, model.a**2 * p + model.q
+            m, P = F @ m, F @ P @ F.T + Q
         if not np.isnan(zk):  # update, and add the likelihood increment
-            nu, s = zk - m, p + model.r
-            gain = p / s
-            m, p = m + gain * nu, (1 - gain) * p
-            log_lik += -0.5 * (nu**2 / s + np.log(2 * np.pi * s))
+            nu = np.array([zk]) - H @ m
+            S = H @ P @ H.T + r
+            K = np.linalg.solve(S, H @ P).T
+            m, P = m + K @ nu, P - K @ S @ K.T
+            log_lik -= 0.5 * (nu @ np.linalg.solve(S, nu) + np.linalg.slogdet(2 * np.pi * S)[1])
         means.append(m)
-        variances.append(p)
-    return np.array(means), np.array(variances), log_lik
+        covs.append(P)
+    return np.array(means), np.array(covs), log_lik
 
 
-print(check_kalman(my_kalman))
+print(check_cv_kalman(my_cv_kalman))
 
 # %% [markdown]
 # ## Takeaways
