@@ -96,7 +96,10 @@ plt.show()
 # $$
 #
 # $$
-# p(z_k \mid z_{1:k-1}) = \int p(z_k \mid x_k)\, p(x_k \mid z_{1:k-1})\, dx_k .
+# \begin{aligned}
+# p(z_k \mid z_{1:k-1}) = \int & p(z_k \mid x_k)\\
+# & \times p(x_k \mid z_{1:k-1})\, dx_k .
+# \end{aligned}
 # $$
 #
 # The denominator, the **likelihood increment**, is the density of the new measurement given
@@ -120,7 +123,10 @@ plt.show()
 # so it is Gaussian, with
 #
 # $$
-# m_k^- = F m_{k-1} + B, \qquad P_k^- = F P_{k-1} F^\top + Q .
+# \begin{aligned}
+# m_k^- &= F m_{k-1} + B,\\
+# P_k^- &= F P_{k-1} F^\top + Q .
+# \end{aligned}
 # $$
 #
 # **Update.** Given $z_{1:k-1}$, the pair $(x_k, z_k)$ is jointly Gaussian, since
@@ -533,19 +539,19 @@ display(control_panel(draw_kalman, grid={"noise_scale": (0.3, 1.0, 3.0), "proces
 # :nonumber:
 # (Coding.) A cart moves on a line with a velocity that drifts at random. Its state is
 # $x_k = (\xi_k, \dot\xi_k)$, position (m) and velocity (m/s), sampled every $\Delta t$ seconds; a
-# random acceleration of spectral density $q$ gives
+# random acceleration of spectral density $\sigma_a^2$ gives
 #
 # $$
 # \begin{aligned}
 # x_k &= \begin{pmatrix} 1 & \Delta t \\ 0 & 1 \end{pmatrix} x_{k-1} + w_k,\\
-# Q &= q \begin{pmatrix} \Delta t^3/3 & \Delta t^2/2 \\ \Delta t^2/2 & \Delta t \end{pmatrix},
+# Q &= \sigma_a^2 \begin{pmatrix} \Delta t^3/3 & \Delta t^2/2 \\ \Delta t^2/2 & \Delta t \end{pmatrix},
 # \end{aligned}
 # $$
 #
 # with $w_k \sim \mathcal N(0, Q)$. Only the position is measured, $z_k = \xi_k + v_k$ with
-# $v_k \sim \mathcal N(0, r)$, NaN where nothing is measured (always at step $0$), and
-# $x_0 \sim \mathcal N(m_0, P_0)$. Write `my_cv_kalman(z, dt, q, r, m0, P0)` for this model: `z` has
-# shape `(K,)`; return the filtering means `(K, 2)`, covariances `(K, 2, 2)` and the
+# $v_k \sim \mathcal N(0, \sigma_v^2)$, NaN where nothing is measured (always at step $0$), and
+# $x_0 \sim \mathcal N(m_0, P_0)$. Write `my_cv_kalman(z, dt, q, r, m0, P0)` for this model, with
+# `q` $= \sigma_a^2$ and `r` $= \sigma_v^2$ (variances): `z` has shape `(K,)`; return the filtering means `(K, 2)`, covariances `(K, 2, 2)` and the
 # log-likelihood. The checker compares them with the exact ones and names the mistake it sees.
 # Which of the model's matrices differ from the landmark model's, and how does the filter learn
 # a velocity it never measures?
