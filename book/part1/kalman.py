@@ -185,7 +185,7 @@ plt.show()
 
 # %%
 import numpy as np
-from pfcourse.landmarks import circle_scenario, quadrant_scenario, simulate
+from pfcourse.landmarks import quadrant_scenario, simulate
 
 
 def kalman(Z, model):
