@@ -8,9 +8,10 @@ particles ``x_k^i`` with normalised weights ``W_k^i``.  At every step ``k``:
 2. **weight** in the log domain,
    ``log w_k^i = log W_{k-1}^i + log p(z_k | x_k^i) + log p(x_k^i | x_{k-1}^i) - log q(x_k^i | x_{k-1}^i, z_k)``
    (the last two cancel for the bootstrap proposal);
-3. **normalise** ``W_k^i = exp(log w_k^i - logsumexp_j log w_k^j)`` and record the
-   weighted mean, covariance, the effective sample size ``ESS = 1 / sum_i (W_k^i)^2``
-   and the log-likelihood increment ``log p^(z_k | z_{0:k-1}) = logsumexp_i(log W_{k-1}^i + log inc_k^i)``;
+3. **normalise** ``W_k^i = exp(log w_k^i - logsumexp_j log w_k^j)``, with the effective
+   sample size ``ESS = 1 / sum_i (W_k^i)^2`` and the log-likelihood increment
+   ``log p^(z_k | z_{0:k-1}) = logsumexp_i(log W_{k-1}^i + log inc_k^i)`` (the weighted mean and
+   covariance are the moments collector's, :mod:`pfcourse.collectors`);
 4. **resample** (SIR) when ``ESS < threshold * N``, then reset the weights to ``1/N``.
    ``threshold = 0`` never resamples (SIS); ``threshold = 1`` resamples at every
    step whose weights are not exactly uniform.
