@@ -421,6 +421,8 @@ class ParticleFilter:
         :class:`~pfcourse.errors.ModelError` (a missing ``name`` or method) or a
         :class:`~pfcourse.errors.ParameterError` (a name twice, a collector that does not fit
         this filter, such as the clouds of a variable ``N``).
+
+        ``store_particles=True`` is the deprecated spelling of ``collect=[Clouds()]``.
         """
         rng = as_generator(rng)
         measurements = check_measurements(measurements)
