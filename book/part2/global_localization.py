@@ -62,6 +62,7 @@ from pfcourse.resampling import systematic
 from pfcourse.robot.mcl import (AugmentedMCL, KidnapRobotModel, SensorPoseSampler, kidnap, kidnap_pose,
                                 sensor_mixture_proposal)
 from pfcourse.robot.scenario import RobotModel, simulate_robot
+from pfcourse.seeding import run_filter_seed
 from pfcourse.style import COLORS, use_style
 
 use_style()
@@ -213,7 +214,7 @@ print("the same poses as the package's sampler, to the last bit:", np.array_equa
 # %%
 kmodel = KidnapRobotModel(model, teleport=1e-3)
 res = ParticleFilter(kmodel, 2000, proposal=sensor_mixture_proposal(kmodel, share=0.1)).run(
-    sim.measurements, rng=5, store_particles=True)
+    sim.measurements, rng=run_filter_seed(5), store_particles=True)
 fig, axes = plt.subplots(1, 3, figsize=(10, 3.6), sharex=True, sharey=True)
 for ax, k in zip(axes, (1, 2, 4)):
     alive = res.weights[k] > res.weights[k].max() / 100
