@@ -538,7 +538,7 @@ EvidenceBlock(
 # the two, for a Gaussian $\log\hat p$ whose variance $\sigma^2$ falls like $1/N$, and they answer
 # for different proposals. For a **random walk** such as Algorithm 22.2, {cite:t}`sherlock2015`
 # find the computing time per independent draw smallest at $\sigma^2 \approx 3.3$
-# ($\sigma \approx 1.8$). {cite:t}`doucet2015` find $\sigma$ between about $1$ and $1.7$
+# ($\sigma \approx 1.8$; derived for a target of many dimensions, a rough guide in one). {cite:t}`doucet2015` find $\sigma$ between about $1$ and $1.7$
 # ($\sigma^2$ from $1$ to about $2.9$): about $1$ when the proposal would make the chain with the
 # exact likelihood mix well (an efficient proposal, such as a good independent one), up to $1.7$ when
 # it would mix badly. The chain here is a random walk, so the first target applies; both optima are
@@ -668,7 +668,7 @@ EvidenceBlock(
 # of the estimate, not the likelihood.
 #
 # The filter's kernel also changes the model. The regularised filter adds a kernel jitter to the
-# particles at each step, so the altitude it predicts is more spread than the aircraft's own
+# particles at each step, so the readings it predicts are more spread than the aircraft's own
 # motion allows; part of the readings' scatter is then explained before the altimeter noise
 # is, which would pull the ML scale of $R_f$ down (not measured here). The low median is
 # therefore no evidence about the altimeter: a particle ML estimate needs many more particles,
