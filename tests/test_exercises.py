@@ -628,6 +628,10 @@ def test_each_typical_pose_density_mistake_gets_its_own_sentence(mistake, says):
     from pfcourse.exercises import check_pose_density
 
     report = check_pose_density(lambda x, z, landmark, sd: pose_log_density(x, z, landmark, sd, **mistake))
+    assert report is not None and not report.ok and len(report.problems) == 1, report
+    assert says in report.problems[0], report.problems[0]
+
+
 # --- chapter 21: check_anonymous_likelihood ----------------------------------------------------------
 
 def anonymous_reading(x, z, landmarks, R, p_detect, clutter_rate, max_range, **mistake):

@@ -19,7 +19,7 @@
 # **You need** {doc}`robot` and {doc}`../part1/proposals`; a change of variables in a density;
 # NumPy arrays and a random generator.
 #
-# **Time:** about twenty-four minutes to read; the notebook runs in about twenty seconds (the studies are
+# **Time:** about twenty-five minutes to read; the notebook runs in about twenty seconds (the studies are
 # stored data).
 # :::
 #
@@ -62,6 +62,7 @@ from pfcourse.resampling import systematic
 from pfcourse.robot.mcl import (AugmentedMCL, KidnapRobotModel, SensorPoseSampler, kidnap, kidnap_pose,
                                 sensor_mixture_proposal)
 from pfcourse.robot.scenario import RobotModel, simulate_robot
+from pfcourse.seeding import run_filter_seed
 from pfcourse.style import COLORS, use_style
 
 use_style()
@@ -215,7 +216,7 @@ kmodel = KidnapRobotModel(model, teleport=1e-3)
 pf = ParticleFilter(kmodel, 2000, proposal=sensor_mixture_proposal(kmodel, share=0.1))
 # step the filter through its first readings, keeping the clouds of steps 1, 2 and 4
 shown = {}
-for step in pf.steps(sim.measurements, rng=5):
+for step in pf.steps(sim.measurements, rng=run_filter_seed(5)):
     if step.k in (1, 2, 4):
         shown[step.k] = step
     if step.k == 4:
