@@ -129,7 +129,9 @@ class Proposal(Protocol):
 
     ``propose`` returns ``(x_k, log_inc)`` with
     ``log_inc^i = log p(z_k | x_k^i) + log p(x_k^i | x_{k-1}^i) - log q(x_k^i | x_{k-1}^i, z_k)``.
-    It is called only at steps that have a measurement.
+    It is called only at steps that have a measurement.  A proposal that draws the ancestors
+    itself (the auxiliary filter) sets ``draws_ancestors = True``: it is then also given
+    ``log_weights=log W_{k-1}`` (normalised), and its increments are added to them as usual.
     """
 
     def propose(
@@ -343,20 +345,21 @@ class ParticleFilter:
         ``None`` when ``z_k`` is missing (the particles then move through the transition).
         """
         if k > 0:
-            cloud.particles, log_inc = self._move(cloud.particles, z, k, rng)
+            cloud.particles, log_inc = self._move(cloud.particles, z, k, rng, cloud.log_weights)
             return log_inc
         cloud.particles = self._check_particles(self.model.sample_initial(cloud.size, rng), k, "sample_initial")
         if z is None:
             return None
         return self._check_log_increments(self.model.log_likelihood(cloud.particles, z, k), k, cloud.size)
 
-    def _move(self, parents: Array, z: Array | None, k: int,
-              rng: np.random.Generator) -> tuple[Array, Array | None]:
+    def _move(self, parents: Array, z: Array | None, k: int, rng: np.random.Generator,
+              log_weights: Array | None = None) -> tuple[Array, Array | None]:
         """Draw ``x_k^i ~ q(. | x_{k-1}^i, z_k)`` for each row ``x_{k-1}^i`` of ``parents`` (checked).
 
         Returns ``(x_k, log inc_k)`` with ``log inc_k^i = log p(z_k | x_k^i) + log p(x_k^i | x_{k-1}^i)
         - log q(x_k^i | x_{k-1}^i, z_k)`` (checked), or ``(x_k, None)`` when ``z_k`` is missing: then
         ``q`` is the transition whatever the proposal.  Shared by the fixed and the variable ``N``.
+        ``log_weights`` (``log W_{k-1}``, equal if ``None``) go to a proposal that draws ancestors.
         """
         m = len(parents)
         if z is None or type(self.proposal) is TransitionProposal:
@@ -365,7 +368,10 @@ class ParticleFilter:
                 return new, None
             log_inc = self.model.log_likelihood(new, z, k)
         else:
-            proposed = self.proposal.propose(self.model, parents, z, k, rng)
+            if getattr(self.proposal, "draws_ancestors", False):
+                proposed = self.proposal.propose(self.model, parents, z, k, rng, log_weights=log_weights)
+            else:
+                proposed = self.proposal.propose(self.model, parents, z, k, rng)
             if not isinstance(proposed, tuple) or len(proposed) != 2:
                 raise ModelError(f"step {k}: proposal.propose must return (particles, log_increments)", step=k)
             new = self._check_particles(proposed[0], k, "proposal.propose", m)

@@ -454,19 +454,66 @@ print(f"Kalman filter: posterior standard deviation of a landmark coordinate at 
       f"{n_runs} runs: {kalman_lm_sd:.3f} m")
 glue("kalman_landmark_sd_last", float(kalman_lm_sd), display=False)
 
+# Where the excess comes from, on the same runs at N = 100 (FastSLAM 2.0, the study's seeds, re-run):
+# the NEES with the filter's mean and the EXACT covariance isolates the mean's sampling error;
+# (m^ - m)^T P^-1 (m^ - m) is that error alone; the sd ratios measure how the mixture covariance shrinks.
+from pfcourse.diagnostics import nees
+from pfcourse.seeding import study_filter_seed
+
+parts = {"mean_only": [], "mean_error": [], "lm_sd": [], "robot_sd": [], "check": []}
+for s in sorted(quad.seed.unique()):
+    s_sim = simulate(scenario, rng=int(s))
+    s_kf = kalman_filter(model, s_sim.measurements)
+    s_pf = rb.marginal(ParticleFilter(rb, 100, threshold=1 / 3, proposal=RaoBlackwellProposal(True))
+                       .run(s_sim.measurements, rng=study_filter_seed(int(s))))
+    last = slice(-10, None)
+    parts["check"].append(nees(s_sim.truth[last], s_pf.mean[last], s_pf.cov[last]).mean())
+    parts["mean_only"].append(nees(s_sim.truth[last], s_pf.mean[last], s_kf.cov[last]).mean())
+    parts["mean_error"].append(nees(s_kf.mean[last], s_pf.mean[last], s_kf.cov[last]).mean())
+    sd_ratio = np.sqrt(np.diag(s_pf.cov[-1]) / np.diag(s_kf.cov[-1]))
+    parts["lm_sd"].append(np.exp(np.mean(np.log(sd_ratio[2:]))))
+    parts["robot_sd"].append(np.exp(np.mean(np.log(sd_ratio[:2]))))
+parts = {name: np.array(v) for name, v in parts.items()}
+assert np.allclose(parts["check"], per_run_last10("rbpf_optimal", 100))  # the stored NEES, reproduced
+print(f"RBPF (FastSLAM 2.0), N = 100, last 10 steps, mean of {n_runs} runs: NEES {parts['check'].mean():.2f}; "
+      f"with the exact covariance {parts['mean_only'].mean():.2f}; the mean's sampling error alone, "
+      f"(m^ - m)^T P^-1 (m^ - m), {parts['mean_error'].mean():.2f}; Kalman {per_run_last10('kalman', 0).mean():.2f}")
+print(f"sd / exact sd at the last step (medians over the runs): landmarks {np.median(parts['lm_sd']):.2f}, "
+      f"robot {np.median(parts['robot_sd']):.2f}")
+glue_values("rbpf_nees_",
+            excess_n100=float(last10[100] - 6),
+            exact_cov_n100=parts["mean_only"].mean(),
+            mean_error_n100=parts["mean_error"].mean(),
+            cov_share_n100=float(last10[100] - parts["mean_only"].mean()),
+            lm_sd_ratio_n100=np.median(parts["lm_sd"]),
+            robot_sd_ratio_n100=np.median(parts["robot_sd"]))
+
 # %% [markdown]
 # With $N = 100$ the Rao-Blackwellised filter is too confident: over the last $10$ steps its
 # run-averaged NEES is {glue:text}`rbpf_nees_last10_n100:.1f` instead of $6$, where SIR's is
-# {glue:text}`sir_nees_last10_n100:.1e`. The reason is the Monte Carlo error itself: the
-# filter's covariance is that of the posterior, but its mean also carries a sampling error of
-# the same order as the posterior's spread, and nothing in the covariance accounts for it.
+# {glue:text}`sir_nees_last10_n100:.1e`. Two things make up the excess of
+# {glue:text}`rbpf_nees_excess_n100:.1f`, and the same runs, re-run here, separate them.
+#
+# - **The mean carries a sampling error.** Its landmark error against the exact mean is
+#   {glue:text}`rbpf_landmark_error_n100:.3f` m in the median run, against a posterior standard
+#   deviation of {glue:text}`kalman_landmark_sd_last:.3f` m. Measured with the exact covariance,
+#   $(\hat m_k - m_k)^\top P_k^{-1} (\hat m_k - m_k)$, that error alone adds
+#   {glue:text}`rbpf_nees_mean_error_n100:.1f` to the NEES.
+# - **The covariance is shrunk too.** The mixture covariance is not the posterior's:
+#   resampling thins the robot paths (path degeneracy), and the maps that ride on fewer paths
+#   agree more than the posterior allows. At the last step the landmark standard deviation is
+#   {glue:text}`rbpf_nees_lm_sd_ratio_n100:.2f` of the exact one and the robot's
+#   {glue:text}`rbpf_nees_robot_sd_ratio_n100:.2f` (on the five-landmark model below, the
+#   landmarks' is {glue:text}`m5_rbpf_lm_sd:.2f`). With the exact covariance in place of the
+#   filter's, the NEES falls to {glue:text}`rbpf_nees_exact_cov_n100:.1f`: the shrunk covariance
+#   accounts for the other {glue:text}`rbpf_nees_cov_share_n100:.1f`.
 #
 # The excess shrinks with $N$: at $N = 3000$ the last-$10$-step NEES is
 # {glue:text}`rbpf_nees_last10_n3000:.1f` (per run, the $N = 100$ value is a median
 # {glue:text}`rbpf_nees_100_3000_ratio:.1f` times the $N = 3000$ one, 95 % interval
 # {glue:text}`rbpf_nees_100_3000_low:.1f`-{glue:text}`rbpf_nees_100_3000_high:.1f`). A consistent
-# filter at small $N$ would have to add an estimate of its own Monte Carlo variance to its
-# covariance.
+# filter at small $N$ would have to widen its covariance by its own Monte Carlo variance and
+# by what path degeneracy removed from the mixture.
 
 # %% tags=["remove-input"] jupyter={"source_hidden": true}
 EvidenceBlock(
@@ -479,6 +526,13 @@ EvidenceBlock(
            f"The sampling error of the mean: landmark error against the exact mean at N = 100, median "
            f"{np.median(err['rbpf_optimal'][i100]):.3f} m; posterior standard deviation of a landmark coordinate "
            f"(Kalman, last step, median run) {kalman_lm_sd:.3f} m.",
+           f"The excess of the last-10-step NEES at N = 100, {last10[100] - 6:.2f}, split on the same runs (re-run "
+           f"with the study's seeds; the re-run reproduces the stored NEES): with the filter's mean and the exact "
+           f"covariance the NEES is {parts['mean_only'].mean():.2f} (Kalman's own, on these runs, "
+           f"{per_run_last10('kalman', 0).mean():.2f}); the mean's sampling error alone, (m^ - m)^T P^-1 (m^ - m), "
+           f"averages {parts['mean_error'].mean():.2f}; the rest, {last10[100] - parts['mean_only'].mean():.2f}, "
+           f"is the shrunk covariance (sd / exact sd at the last step, medians: landmarks "
+           f"{np.median(parts['lm_sd']):.2f}, robot {np.median(parts['robot_sd']):.2f}).",
            f"Per-run NEES over the last 10 steps, N = 100 / N = 3000: {nees_100_3000} (see the page on evidence).",
            f"The excess of the run-averaged last-10-step NEES over 6 falls as N to the power {excess_slope:.2f} "
            f"(95 % interval {excess_slope_low:.2f} to {excess_slope_high:.2f}, the t interval of the least-squares "

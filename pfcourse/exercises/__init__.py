@@ -40,6 +40,11 @@ exception is reported as a problem); ``str(report)`` prints the verdict.
   filter's second-stage weights with the transition as proposal; the mistakes of
   :data:`APF_MISTAKES` are named (first stage not divided out, divided at the particle's own index,
   multiplied in again, not normalised).
+* :func:`check_apf_step` - ``fn(x, log_w, z, rng) -> (x_new, log_evidence)``: one fully adapted step
+  of the auxiliary filter on a scaled-sensor AR(1) model (:data:`APF_STEP_MODEL`), against the exact
+  mixture it draws from (:func:`apf_step_exact`): the generator is checked, and the mistakes of
+  :data:`APF_STEP_MISTAKES` are named (``W_(k-1)`` dropped, the predictive variance ``r``, the scale
+  ``c`` forgotten, the transition as move, moved then resampled).
 * :func:`check_log_likelihood` - ``fn(x, z, H, R) -> (N,)``: ``log N(z_s; H_s x^i, R_ss)`` for a cloud
   of the two-landmark model, ``s`` the measured coordinates of ``z`` (NaN for an unseen landmark),
   against :func:`landmark_log_likelihood`; the mistakes of :data:`LIKELIHOOD_MISTAKES` (NaN kept or
@@ -115,9 +120,13 @@ from pfcourse.exercises.part1 import (  # noqa: F401
     _per_step_answer,
     _proposal_mistakes,
     _scalar_filter,
+    APF_STEP_MISTAKES,
+    APF_STEP_MODEL,
     apf_second_stage,
+    apf_step_exact,
     check_ancestors,
     check_apf_second_stage,
+    check_apf_step,
     check_kalman,
     check_landmark_update,
     check_log_likelihood,

@@ -687,6 +687,136 @@ def check_apf_second_stage(fn: Callable, n: int = 12, seed: int = 0) -> CheckRep
     return report
 
 
+# The fully adapted auxiliary filter on a model the chapter does not show (chapter 9, exercise 9.3):
+# x_k = a x_(k-1) + w_k, w_k ~ N(0, q); z_k = c x_k + v_k, v_k ~ N(0, r).
+APF_STEP_MODEL = {"a": 0.8, "c": 2.0, "q": 0.5, "r": 0.4}
+
+APF_STEP_MISTAKES: dict[str, str] = {
+    "no_weights": "W_(k-1) is dropped from the first stage: the ancestors must be drawn in proportion to "
+                  "W_(k-1)^i p(z_k | x_(k-1)^i) and the likelihood is log sum_i W_(k-1)^i p(z_k | x_(k-1)^i); "
+                  "without W the step forgets every earlier measurement",
+    "predictive_r": "the predictive likelihood p(z_k | x_(k-1)) is given the variance r; the state still moves "
+                    "(variance q) before it is measured, so its variance is c^2 q + r",
+    "no_c": "the sensor's scale c is forgotten: z_k = c x_k + v_k predicts c a x_(k-1) with variance c^2 q + r, "
+            "and the optimal gain is c q / (c^2 q + r)",
+    "transition_move": "the children move with the transition N(a x, q), not the optimal proposal: to leave the "
+                       "step equally weighted each chosen parent must move by p(x_k | x_(k-1), z_k) = "
+                       "N(a x + K (z - c a x), q r / (c^2 q + r)), K = c q / (c^2 q + r)",
+    "move_then_resample": "the particles are moved, then resampled: the copies of a parent are then duplicates of "
+                          "one moved particle; resample the parents first, then move each copy with its own noise",
+}
+
+
+def apf_step_exact(x: np.ndarray, log_w: np.ndarray, z: float, mistake: str | None = None,
+                   model: dict | None = None) -> tuple[float, float, float]:
+    """``(log p^(z_k | z_(1:k-1)), mean, variance)`` of one fully adapted step's new cloud, exactly.
+
+    The new particles are drawn from the mixture ``sum_i lambda^i N(mu^i, v)`` with
+    ``lambda^i`` proportional to ``W^i N(z; c a x^i, c^2 q + r)``, ``mu^i = a x^i + K (z - c a x^i)``
+    and ``v = q r / (c^2 q + r)``; ``mistake`` (a key of :data:`APF_STEP_MISTAKES`) gives what that
+    mistake draws instead.
+    """
+    if mistake is not None and mistake not in APF_STEP_MISTAKES:
+        raise ValueError(f"unknown mistake {mistake!r}; one of {sorted(APF_STEP_MISTAKES)}")
+    m = APF_STEP_MODEL if model is None else model
+    a, c, q, r = m["a"], m["c"], m["q"], m["r"]
+    scale = 1.0 if mistake == "no_c" else c
+    s = r if mistake == "predictive_r" else scale**2 * q + r
+    log_p = -0.5 * ((z - scale * a * x) ** 2 / s + np.log(2 * np.pi * s))
+    log_lam = log_p + (0.0 if mistake == "no_weights" else log_w)
+    log_evidence = float(logsumexp(log_lam) - (np.log(len(x)) if mistake == "no_weights" else 0.0))
+    lam = np.exp(log_lam - logsumexp(log_lam))
+    if mistake == "transition_move":
+        mu, v = a * x, q
+    else:
+        gain = scale * q / (scale**2 * q + r)
+        mu, v = a * x + gain * (z - scale * a * x), q - gain * scale * q
+    mean = float(lam @ mu)
+    return log_evidence, mean, float(v + lam @ mu**2 - mean**2)
+
+
+def check_apf_step(fn: Callable, n: int = 200, n_calls: int = 40, seed: int = 0) -> CheckReport:
+    """Check a student's ``fn(x, log_w, z, rng) -> (x_new, log_evidence)``, the fully adapted step of
+    the auxiliary filter on :data:`APF_STEP_MODEL` (exercise 9.3).
+
+    On one weighted cloud of ``n`` particles: the generator (same seed, same answer; another seed,
+    another; NumPy's global state untouched), the likelihood increment against
+    ``log sum_i W^i N(z; c a x^i, c^2 q + r)`` to round-off, distinct children (no duplicates), and
+    the mean and variance of the ``n_calls n`` children of ``n_calls`` seeded calls against the exact
+    mixture's within 5 standard errors (a correct step fails with probability below 1e-5). A wrong
+    answer is compared with each mistake of :data:`APF_STEP_MISTAKES`, and the report names it.
+    """
+    report = CheckReport("fully adapted auxiliary step")
+    rng = np.random.default_rng(seed)
+    x = rng.normal(0.0, 1.0, n)
+    log_w = -2.0 * (x - 1.0) ** 2  # earlier measurements favour x near 1
+    log_w -= logsumexp(log_w)
+    z = 2.5
+
+    def call(s):
+        return fn(x.copy(), log_w.copy(), z, np.random.default_rng(s))
+
+    state = np.random.get_state()
+    answer = _answer(report, lambda: call(1), "fn(x, log_w, z, rng)",
+                     "return the new particles (shape (N,)) and the log-likelihood increment")
+    if answer is None:
+        return report
+    if not isinstance(answer, tuple) or len(answer) != 2:
+        report.problems.append("the answer is not a pair: return (x_new, log_evidence)")
+        return report
+    if not _shaped(report, answer[0], (n,), "one new particle per particle") or \
+            not _shaped(report, np.asarray(answer[1]), (), "one number, log p^(z_k | z_(1:k-1))"):
+        return report
+    again, other = call(1), call(2)
+    drew_global = not _same_state(state, np.random.get_state())
+    np.random.set_state(state)
+    if drew_global:
+        report.problems.append("it draws from NumPy's global np.random instead of the generator rng it is given: "
+                               "use rng.random(), rng.standard_normal(), ... so that a seed gives one answer")
+        return report
+    if not np.array_equal(np.asarray(answer[0]), np.asarray(again[0])):
+        report.problems.append("the same seed gave different particles: draw every random number from rng")
+        return report
+    if np.array_equal(np.asarray(answer[0]), np.asarray(other[0])):
+        report.problems.append("another seed gave the same particles: the rng it is given is not used")
+        return report
+    got = float(answer[1])
+    if not np.isclose(got, apf_step_exact(x, log_w, z)[0], rtol=0, atol=1e-9):
+        for mistake in ("no_weights", "predictive_r", "no_c"):
+            if np.isclose(got, apf_step_exact(x, log_w, z, mistake)[0], rtol=0, atol=1e-9):
+                report.problems.append(f"your function computes a known mistake: {APF_STEP_MISTAKES[mistake]}")
+                return report
+        report.problems.append(f"the log-likelihood increment is {got:.6f}, not log sum_i W^i N(z; c a x^i, "
+                               f"c^2 q + r) = {apf_step_exact(x, log_w, z)[0]:.6f}: check that line")
+        return report
+    children = np.asarray(answer[0], dtype=float)
+    if np.unique(children).size < 0.9 * n:
+        report.problems.append(f"your function computes a known mistake: {APF_STEP_MISTAKES['move_then_resample']} "
+                               f"({np.unique(children).size} distinct values among {n} particles)")
+        return report
+    pooled = np.concatenate([np.asarray(call(100 + t)[0], dtype=float) for t in range(n_calls)])
+    mean, var = pooled.mean(), pooled.var(ddof=1)
+    se_mean = np.sqrt(var / pooled.size)
+    se_var = np.sqrt(max(np.mean((pooled - mean) ** 4) - var**2, 0.0) / pooled.size)
+
+    def fits(mistake):
+        _, m, v = apf_step_exact(x, log_w, z, mistake)
+        return abs(mean - m) < 5 * se_mean and abs(var - v) < 5 * se_var
+
+    if _settled(report, fits, {k: APF_STEP_MISTAKES[k] for k in ("transition_move", "no_weights", "no_c")}):
+        return report
+    _, m, v = apf_step_exact(x, log_w, z)
+    report.problems.append(f"the new particles have mean {mean:.3f} and variance {var:.3f} over {pooled.size} draws, "
+                           f"not the filtering density's {m:.3f} and {v:.3f}: check the ancestors' probabilities "
+                           "and the optimal move")
+    return report
+
+
+def _same_state(a, b) -> bool:
+    """Whether two states of NumPy's global generator (``np.random.get_state()``) are equal."""
+    return a[0] == b[0] and np.array_equal(a[1], b[1]) and tuple(a[2:]) == tuple(b[2:])
+
+
 # The log-likelihood of a cloud of particles in the two-landmark model (chapter 1, exercise 1.4).
 # H maps the state (r_x, r_y, l1_x, l1_y, l2_x, l2_y) to the offsets l^j - r; R has a different
 # variance per landmark, so that its visible block differs from its leading block.
