@@ -577,6 +577,6 @@ print(check_optimal_proposal(my_optimal))
 # :class: dropdown
 # Lab A's question 8, "is a particle filter adequate for this problem?", is answered in
 # {ref}`answer-q8`, and again, with the cure measured, in {ref}`answer-q8-cure`. Report 000
-# concluded that it was not "unless a better importance function is found"; exercise 7.2
-# weighs that verdict ({doc}`../labs`).
+# concluded that it was not "unless a better importance function is found"; the exercise
+# *A first verdict* weighs that verdict ({doc}`../labs`).
 # :::
