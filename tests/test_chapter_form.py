@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import json
 import re
+import sys
 from pathlib import Path
 
 import jupytext
@@ -20,6 +21,9 @@ import yaml
 
 from pfcourse.figures.report import GLUE_ROLE, paragraphs_outside_folds
 from test_start_here import prose_words, reading_minutes
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tools"))
+from reading_times import in_words  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]
 BOOK = ROOT / "book"
@@ -32,9 +36,7 @@ IN_FORM = ["part1/model", "part1/kalman", "part1/importance_sampling", "part1/si
            "part4/data_association", "part5/likelihood", "part5/smoothing"]
 MAX_NUMBERS_PER_PARAGRAPH = 4
 MAX_WORDS = 2500
-WORDS = {w: i for i, w in enumerate(
-    "zero one two three four five six seven eight nine ten eleven twelve thirteen fourteen fifteen sixteen "
-    "seventeen eighteen nineteen twenty twenty-one twenty-two twenty-three twenty-four twenty-five".split())}
+WORDS = {in_words(n): n for n in range(100)}
 GLUE = GLUE_ROLE
 
 

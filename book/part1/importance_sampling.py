@@ -20,7 +20,7 @@
 # densities, the law of large numbers and the central limit theorem; NumPy arrays and a random
 # generator.
 #
-# **Time:** about nine minutes to read; the notebook runs in under half a minute.
+# **Time:** about twenty-six minutes to read; the notebook runs in under half a minute.
 # :::
 #
 # ## The idea: weight draws from another density

@@ -19,7 +19,7 @@
 # **You need** {doc}`model`; conditioning a Gaussian vector on some of its components;
 # NumPy's matrix products and `np.linalg.solve`.
 #
-# **Time:** about six minutes to read; the notebook runs in under half a minute.
+# **Time:** about twenty-six minutes to read; the notebook runs in under half a minute.
 # :::
 #
 # (kalman-recursion)=

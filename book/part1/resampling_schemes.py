@@ -18,7 +18,7 @@
 # **You need** {doc}`sir`; the binomial and multinomial distributions; NumPy's `cumsum` and
 # `searchsorted`.
 #
-# **Time:** about seven minutes to read; the notebook runs in under half a minute.
+# **Time:** about twenty-six minutes to read; the notebook runs in under half a minute.
 # :::
 #
 # ## The idea: one picture, four ways of drawing the uniforms

@@ -18,7 +18,7 @@
 # **You need** {doc}`sis`; Gaussian densities and the conjugate update of a Gaussian mean; NumPy
 # indexing with an array of indices.
 #
-# **Time:** about eight minutes to read; the notebook runs in under half a minute.
+# **Time:** about twenty-five minutes to read; the notebook runs in under half a minute.
 # :::
 #
 # (sir-algorithm)=

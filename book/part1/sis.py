@@ -18,7 +18,7 @@
 # **You need** {doc}`model` and {doc}`importance_sampling`; Gaussian densities; NumPy arrays
 # and a random generator.
 #
-# **Time:** about five minutes to read; the notebook runs in under half a minute.
+# **Time:** about nineteen minutes to read; the notebook runs in under half a minute.
 # :::
 #
 # (sis-algorithm)=

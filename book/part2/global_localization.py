@@ -19,7 +19,7 @@
 # **You need** {doc}`robot` and {doc}`../part1/proposals`; a change of variables in a density;
 # NumPy arrays and a random generator.
 #
-# **Time:** about eleven minutes to read; the notebook runs in about twenty seconds (the studies are
+# **Time:** about twenty-four minutes to read; the notebook runs in about twenty seconds (the studies are
 # stored data).
 # :::
 #

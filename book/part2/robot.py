@@ -19,7 +19,7 @@
 # **You need** {doc}`../part1/sir` (the bootstrap filter, resampling when the ESS is low);
 # sines and cosines of a heading; NumPy arrays.
 #
-# **Time:** about seven minutes to read; the notebook runs in about half a minute.
+# **Time:** about twenty-six minutes to read; the notebook runs in about half a minute.
 # :::
 #
 # A wheeled robot knows its map, five landmarks at known positions, but not where it is. Its

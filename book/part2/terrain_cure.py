@@ -19,7 +19,7 @@
 # **You need** {doc}`terrain` and {doc}`../part1/resampling_schemes`; covariance matrices and their square
 # roots; paired tests ({doc}`../evidence`).
 #
-# **Time:** about thirteen minutes to read; the notebook runs in under twenty seconds (the studies
+# **Time:** about thirty minutes to read; the notebook runs in under twenty seconds (the studies
 # are stored).
 # :::
 #

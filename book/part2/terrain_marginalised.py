@@ -19,7 +19,7 @@
 # **You need** {doc}`terrain`, {doc}`terrain_cure` and {doc}`../part1/rao_blackwell`; the scalar
 # Kalman filter; NumPy arrays.
 #
-# **Time:** about seven minutes to read; the notebook runs in about twenty seconds (the studies
+# **Time:** about nineteen minutes to read; the notebook runs in about twenty seconds (the studies
 # over the flights are stored).
 # :::
 #

@@ -19,7 +19,7 @@
 # **You need** {doc}`robot_studies` (how a study is run and read), {doc}`../part1/sir` and
 # {doc}`../part1/resampling_schemes`.
 #
-# **Time:** about six minutes to read; the notebook runs in about twenty seconds.
+# **Time:** about sixteen minutes to read; the notebook runs in about twenty seconds.
 # :::
 #
 # ## The idea: resample when the weights say so
