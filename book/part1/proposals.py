@@ -75,11 +75,7 @@
 # $$
 #
 # $G_k$ plays the role of the Kalman gain $K_k$, with $Q$ in the place of $P_k^-$; $\Sigma_k$ is
-# the same for every particle, only the mean $\mu_k^i$ moves with the parent. For a scalar state,
-# $x_k = a x_{k-1} + w_k$ and $z_k = x_k + v_k$ with variances $q$ and $r$, the same formulas read
-# $\sigma^2 = (1/q + 1/r)^{-1}$, $\mu^i = \sigma^2 (a x_{k-1}^i / q + z_k / r)$ and
-# $p(z_k \mid x_{k-1}^i) = \mathcal N(z_k;\, a x_{k-1}^i,\, q + r)$: the precisions add, and the
-# mean is the precision-weighted average of the prediction and the measurement.
+# the same for every particle, only the mean $\mu_k^i$ moves with the parent.
 #
 # Two consequences can be read off the formulas before any experiment.
 #
@@ -527,7 +523,8 @@ display(control_panel(draw_proposals, grid={"n_particles": (50, 200, 1000), "noi
 # :nonumber:
 # (Coding.) Write `my_optimal(x_prev, z, model)` for the scalar model
 # $x_k = a x_{k-1} + w_k$, $w_k \sim \mathcal N(0, q)$, $z_k = x_k + v_k$, $v_k \sim \mathcal N(0, r)$,
-# whose parameters are `model.a`, `model.q`, `model.r` (variances). `x_prev` holds the parents,
+# whose parameters are `model.a`, `model.q`, `model.r` (variances): the chapter wrote the
+# landmark model's matrices, derive the scalar case from them. `x_prev` holds the parents,
 # shape `(N,)`, and `z` is one measurement. Return three arrays of shape `(N,)`: the mean and the
 # variance of $p(x_k \mid x_{k-1}^i, z_k)$, and the log-weight $\log p(z_k \mid x_{k-1}^i)$ (a constant
 # common to all parents may be left out). The checker compares them with the exact formulas
@@ -535,6 +532,9 @@ display(control_panel(draw_proposals, grid={"n_particles": (50, 200, 1000), "noi
 # ```
 
 # %% tags=["answer"]
+from pfcourse.exercises import check_optimal_proposal
+
+
 def my_optimal(x_prev, z, model):
     """Your optimal proposal: return (means, variances, log_weights), three arrays of shape (N,)."""
     ...  # replace with your code
@@ -545,8 +545,12 @@ print(check_optimal_proposal(my_optimal))
 # %% [markdown]
 # ```{solution} ex-prop-code
 # :class: dropdown
-# The scalar formulas of {ref}`optimal-proposal`; the code is in the folded cell below (in
-# JupyterLab, click its margin to unfold it).
+# The formulas of {ref}`optimal-proposal` with $F = a$, $B = 0$, $H = 1$, $Q = q$, $R = r$:
+# $C = q + r$, $G = q / (q + r)$, so $\sigma^2 = (1 - G)\, q = (1/q + 1/r)^{-1}$,
+# $\mu^i = a x_{k-1}^i + G (z_k - a x_{k-1}^i) = \sigma^2 (a x_{k-1}^i / q + z_k / r)$ and
+# $p(z_k \mid x_{k-1}^i) = \mathcal N(z_k;\, a x_{k-1}^i,\, q + r)$: the precisions add, and the
+# mean is the precision-weighted average of the prediction and the measurement. The code is in
+# the folded cell below (in JupyterLab, click its margin to unfold it).
 # ```
 
 # %% tags=["solution", "hide-input"] jupyter={"source_hidden": true}

@@ -18,7 +18,7 @@
 #
 # **You need** {doc}`kalman`, {doc}`sir` and {doc}`proposals` (the optimal proposal).
 #
-# **Time:** about twenty-three minutes to read; the notebook runs in about a minute and a quarter.
+# **Time:** about twenty minutes to read; the notebook runs in about a minute and a quarter.
 # :::
 #
 # The previous chapters end on a failure: SIS degenerates, SIR cannot move the static
@@ -80,7 +80,7 @@
 # ($\operatorname{Cov}(l) = \sum_i W^i P^i + \operatorname{Cov}_W(m^i)$, the law of total
 # covariance). The engine itself is unchanged.
 
-# %%
+# %% tags=["hide-input"] jupyter={"source_hidden": true}
 import matplotlib.pyplot as plt
 import numpy as np
 import pandas as pd
@@ -122,24 +122,44 @@ for name, r in (("SIR", res_sir), ("RBPF", res_rb)):
 # single matrix.
 
 # %%
-k = int(np.flatnonzero(sim.seen.any(axis=1))[0])
-cloud = rb.sample_initial(100, np.random.default_rng(0))
-for j in range(1, k):
-    cloud = rb.sample_transition(cloud, j, np.random.default_rng(j))
-z = sim.measurements[k]
-robot, m, P = rb.unpack(cloud)
-P = P[0] + rb.Ql                                   # predict: the map is static
-obs = ~np.isnan(z)
-A, C, R = model.H[obs][:, :2], model.H[obs][:, 2:], model.R[np.ix_(obs, obs)]
-rng = np.random.default_rng(7)
-r_new = robot @ rb.Fr.T + rb.Br + rng.standard_normal(robot.shape) @ np.linalg.cholesky(rb.Qr).T
-innovation = z[obs] - r_new @ A.T - m @ C.T        # what each particle's map predicted, vs z_k
-S = C @ P @ C.T + R
-log_w = stats.multivariate_normal(cov=S).logpdf(innovation)
-gain = P @ C.T @ np.linalg.inv(S)
-m_new = m + innovation @ gain.T                    # every particle's Kalman update
-P_new = (np.eye(4) - gain @ C) @ P
+import numpy as np
+from scipy import stats
+from pfcourse.landmarks.scenario import quadrant_scenario, simulate
 
+model = quadrant_scenario().model()  # F, B, Q, H, R, m0, P0 of the landmark model
+sim = simulate(quadrant_scenario(), rng=2024)
+Fr, Br, Qr = model.F[:2, :2], model.B[:2], model.Q[:2, :2]  # robot blocks
+Ql = model.Q[2:, 2:]  # map block: static landmarks, 1e-20
+
+# the cloud just before the first measured step k: 100 robots, maps at the prior
+k = int(np.flatnonzero(sim.seen.any(axis=1))[0])
+rng = np.random.default_rng(0)
+L0, Lq = np.linalg.cholesky(model.P0[:2, :2]), np.linalg.cholesky(Qr)
+robot = model.m0[:2] + rng.standard_normal((100, 2)) @ L0.T
+for j in range(1, k):
+    robot = robot @ Fr.T + Br + rng.standard_normal(robot.shape) @ Lq.T
+m = np.tile(model.m0[2:], (100, 1))  # each particle's map mean
+P = model.P0[2:, 2:] + (k - 1) * Ql  # their shared covariance
+
+# one FastSLAM 1.0 step
+z = sim.measurements[k]
+obs = ~np.isnan(z)
+A, C = model.H[obs][:, :2], model.H[obs][:, 2:]
+R = model.R[np.ix_(obs, obs)]
+rng = np.random.default_rng(7)
+noise = rng.standard_normal(robot.shape) @ Lq.T
+r_new = robot @ Fr.T + Br + noise  # move the robots
+P_pred = P + Ql  # predict the map: it is static
+# what each particle's map predicts, against z_k
+innovation = z[obs] - r_new @ A.T - m @ C.T
+S = C @ P_pred @ C.T + R
+log_w = stats.multivariate_normal(cov=S).logpdf(innovation)
+gain = P_pred @ C.T @ np.linalg.inv(S)
+m_new = m + innovation @ gain.T  # each particle's Kalman update
+P_new = (np.eye(4) - gain @ C) @ P_pred
+
+# %% tags=["hide-input"] jupyter={"source_hidden": true}
+cloud = rb.pack(robot, m, P)
 packed, log_inc = RaoBlackwellProposal(optimal=False).propose(rb, cloud, z, k, np.random.default_rng(7))
 r_pkg, m_pkg, P_pkg = rb.unpack(packed)
 print(f"step {k}: {obs.sum() // 2} landmark(s) seen; largest difference from the package: robot "
@@ -187,7 +207,7 @@ plt.show()
 # measured steps {cite:p}`kong1994`, the NEES of the filter against the truth at each step, and the wall time
 # per step.
 
-# %%
+# %% tags=["hide-input"] jupyter={"source_hidden": true}
 data = pd.read_csv("../data/rao_blackwell.csv")
 quad = data[data.scenario == "quadrant"]
 runs = quad[quad.method != "kalman"]
@@ -826,6 +846,9 @@ EvidenceBlock(
 # ```
 
 # %% tags=["answer"]
+from pfcourse.exercises import check_landmark_update
+
+
 def update_map(robot, m, P, z, A, C, R):
     """Your map update: return (m_new, P_new, log_lik)."""
     ...  # replace with your code
