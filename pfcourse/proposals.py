@@ -25,7 +25,7 @@ from exactly that target, the new particles are equally weighted:
 
 .. math::
 
-   \\lambda^i \\propto W_{k-1}^i\\, p(z_k \\mid x_{k-1}^i), \\qquad A^i \\sim \\mathrm{Cat}(\\lambda),
+   \\beta^i \\propto W_{k-1}^i\\, p(z_k \\mid x_{k-1}^i), \\qquad A^i \\sim \\mathrm{Cat}(\\beta),
    \\qquad x_k^i \\sim p(x_k \\mid x_{k-1}^{A^i}, z_k), \\qquad
    \\hat p(z_k \\mid z_{0:k-1}) = \\sum_i W_{k-1}^i\\, p(z_k \\mid x_{k-1}^i).
 
@@ -152,7 +152,7 @@ class FullyAdaptedAuxiliary:
     ``inner`` provides ``log_predictive(model, particles, z, k)`` and a fully adapted
     ``propose`` (its incremental weight is that predictive likelihood, whatever is drawn):
     :class:`LinearGaussianOptimal`, or :class:`~pfcourse.landmarks.rao_blackwell.RaoBlackwellProposal`
-    with ``optimal=True``.  ``first_stage_ess`` records ``1 / sum_i (lambda^i)^2`` of the
+    with ``optimal=True``.  ``first_stage_ess`` records ``1 / sum_i (beta^i)^2`` of the
     first-stage weights at each measured step (the engine's ESS is then always ``N``).
 
     It reads the weights of the cloud it moves (``draws_ancestors``), so it is right at any

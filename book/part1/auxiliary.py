@@ -162,13 +162,13 @@ assert log_z_sir == log_z_apf  # the same weights, so the same likelihood increm
 # $$
 #
 # whose marginal in $x_k$ is the particle approximation of the filtering density. SIR draws the
-# pair from $\lambda^a\, q(x_k \mid x_{k-1}^a, z_k)$ with **first-stage weights**
-# $\lambda^a \propto W_{k-1}^a\, \hat p(z_k \mid x_{k-1}^a)$, and corrects with the
-# **second-stage weight** $\pi / (\lambda q)$:
+# pair from $\beta^a\, q(x_k \mid x_{k-1}^a, z_k)$ with **first-stage weights**
+# $\beta^a \propto W_{k-1}^a\, \hat p(z_k \mid x_{k-1}^a)$, and corrects with the
+# **second-stage weight** $\pi / (\beta q)$:
 #
 # $$
-# w_k^i \;\propto\; \frac{p(z_k \mid x_k^i)\, p(x_k^i \mid x_{k-1}^{a^i})}
-#   {\hat p(z_k \mid x_{k-1}^{a^i})\; q(x_k^i \mid x_{k-1}^{a^i}, z_k)} .
+# \tilde w_k^i \;\propto\; \frac{p(z_k \mid x_k^i)\, p(x_k^i \mid x_{k-1}^{a_k^i})}
+#   {\hat p(z_k \mid x_{k-1}^{a_k^i})\; q(x_k^i \mid x_{k-1}^{a_k^i}, z_k)} .
 # $$
 #
 # $W_{k-1}$ sits in the first stage: a filter that resamples only now and then (threshold
@@ -186,10 +186,10 @@ assert log_z_sir == log_z_apf  # the same weights, so the same likelihood increm
 # :class: algorithm
 # 1. **Initialise.** Draw $x_0^i \sim p(x_0)$; set $W_0^i = 1/N$.
 # 2. **For** $k = 1, 2, \dots$, if $z_k$ measures something:
-#    1. *first stage:* $\log \lambda^i = \log W_{k-1}^i + \log \hat p(z_k \mid x_{k-1}^i)$,
+#    1. *first stage:* $\log \beta^i = \log W_{k-1}^i + \log \hat p(z_k \mid x_{k-1}^i)$,
 #       normalised;
-#    2. *choose ancestors:* $a^1, \dots, a^N$ by resampling $\lambda$;
-#    3. *move:* $x_k^i \sim q(x_k \mid x_{k-1}^{a^i}, z_k)$, each copy on its own;
+#    2. *choose ancestors:* $a_k^1, \dots, a_k^N$ by resampling $\beta$;
+#    3. *move:* $x_k^i \sim q(x_k \mid x_{k-1}^{a_k^i}, z_k)$, each copy on its own;
 #    4. *second stage:* $\log W_k^i$ = the log of the ratio above, normalised (equal when
 #       fully adapted);
 #    5. *likelihood:* $\log \hat p(z_k \mid z_{1:k-1})$ = the log of
@@ -352,7 +352,7 @@ EvidenceBlock(
 # ```{solution} ex-apf-second-stage
 # :class: dropdown
 # With $q = p(x_k \mid x_{k-1})$ the transition cancels:
-# $w_k^i \propto p(z_k \mid x_k^i) / p(z_k \mid F x_{k-1}^{a^i} + B)$, the likelihood of the
+# $\tilde w_k^i \propto p(z_k \mid x_k^i) / p(z_k \mid F x_{k-1}^{a_k^i} + B)$, the likelihood of the
 # moved particle over that of its parent's predicted mean. It varies most when the process
 # noise $Q$ is large against $R$: the moved particles then land far from the predicted means,
 # and the first stage, which only saw the means, chose the parents badly.
