@@ -834,46 +834,51 @@ EvidenceBlock(
 # the marginal $\mathcal N(z_k; A r^- + C m^-, S)$, free of $r_k$.
 # ```
 #
-# ```{exercise} 8.2 One particle's map update, checked
+# ```{exercise} 8.2 FastSLAM 2.0's move, checked
 # :label: ex-rb-code
 # :nonumber:
-# (Coding.) Write `update_map(robot, m, P, z, A, C, R)`: the third step of Algorithm 8.1 for one
-# particle whose robot is at `robot` (shape `(2,)`), with map mean `m` (shape `(4,)`) and
-# covariance `P` (`(4, 4)`), given the visible part `z` of the measurement and the matrices
-# `A`, `C`, `R` of those rows. Return the updated mean, the updated covariance and the
-# particle's log-weight increment $\log \mathcal N(\nu;\ 0,\ C P C^\top + R)$. The checker
-# compares with the exact formulas and names the mistake it sees.
+# (Coding.) The NumPy step above is FastSLAM 1.0: the robots move blind to $z_k$. Write the
+# FastSLAM 2.0 move of the exercise above for a whole cloud,
+# `fastslam2_move(r_pred, m_pred, P_pred, z, A, C, Qr, R, rng)`: `r_pred` holds the robots'
+# predictions $r^-$ (shape `(N, 2)`), `m_pred` the maps' predicted means $m^-$ (`(N, 4)`),
+# `P_pred` their shared covariance $P^-$ (`(4, 4)`); `z`, `A`, `C`, `R` are the visible rows.
+# Draw each robot from the optimal proposal, with every random number from `rng`, and return
+# the robots and their log-weights (a constant common to all may be left out). The checker
+# compares with the exact law and names the mistake it sees.
 # ```
 
 # %% tags=["answer"]
-from pfcourse.exercises import check_landmark_update
+from pfcourse.exercises import check_fastslam2_move
 
 
-def update_map(robot, m, P, z, A, C, R):
-    """Your map update: return (m_new, P_new, log_lik)."""
+def fastslam2_move(r_pred, m_pred, P_pred, z, A, C, Qr, R, rng):
+    """Your move: return (robots (N, 2), log_w (N,))."""
     ...  # replace with your code
 
 
-print(check_landmark_update(update_map))
+print(check_fastslam2_move(fastslam2_move))
 
 # %% [markdown]
 # ```{solution} ex-rb-code
 # :class: dropdown
-# The Kalman update of the map with the robot's term moved to the left,
-# $z_k - A r_k^i = C l + v_k$; the code is in the folded cell below (in JupyterLab, click its
-# margin to unfold it).
+# With $S = A Q_r A^\top + C P^- C^\top + R$, $G = Q_r A^\top S^{-1}$ and
+# $\nu^i = z_k - A r^{-,i} - C m^{-,i}$: $r_k^i \sim \mathcal N(r^{-,i} + G \nu^i,\ Q_r - G S G^\top)$,
+# and the log-weight is $\log \mathcal N(\nu^i;\ 0,\ S)$ whatever robot is drawn. The code is in
+# the folded cell below (in JupyterLab, click its margin to unfold it).
 # ```
 
 # %% tags=["solution", "hide-input"] jupyter={"source_hidden": true}
-def update_map(robot, m, P, z, A, C, R):
-    nu = z - A @ robot - C @ m                 # what the particle's map predicted, vs z
-    S = C @ P @ C.T + R
-    gain = P @ C.T @ np.linalg.inv(S)
-    log_lik = -0.5 * (nu @ np.linalg.solve(S, nu) + np.linalg.slogdet(2 * np.pi * S)[1])
-    return m + gain @ nu, (np.eye(len(m)) - gain @ C) @ P, log_lik
+def fastslam2_move(r_pred, m_pred, P_pred, z, A, C, Qr, R, rng):
+    S = A @ Qr @ A.T + C @ P_pred @ C.T + R
+    G = Qr @ A.T @ np.linalg.inv(S)
+    nu = z - r_pred @ A.T - m_pred @ C.T  # each parent's innovation
+    L = np.linalg.cholesky(Qr - G @ S @ G.T)
+    robots = r_pred + nu @ G.T + rng.standard_normal(r_pred.shape) @ L.T
+    log_w = stats.multivariate_normal(cov=S).logpdf(nu)
+    return robots, log_w
 
 
-print(check_landmark_update(update_map))
+print(check_fastslam2_move(fastslam2_move))
 
 # %% [markdown]
 # ```{exercise} 8.3 A shared map covariance
