@@ -141,7 +141,9 @@ class Proposal(Protocol):
     ``log_inc^i = log p(z_k | x_k^i) + log p(x_k^i | x_{k-1}^i) - log q(x_k^i | x_{k-1}^i, z_k)``.
     It is called only at steps that have a measurement.  A proposal that brings the likelihood
     in by stages (progressive correction) returns ``(x_k, log_inc, stages)``, the number of
-    times it weighted the cloud: the step reports it (:attr:`Step.stages`).
+    times it weighted the cloud: the step reports it (:attr:`Step.stages`).  A proposal that draws
+    the ancestors itself (the auxiliary filter) sets ``draws_ancestors = True``: it is then also
+    given ``log_weights=log W_{k-1}`` (normalised), and its increments are added to them as usual.
     """
 
     def propose(
@@ -457,22 +459,23 @@ class ParticleFilter:
         proposal's stages.
         """
         if k > 0:
-            cloud.particles, log_inc, stages = self._move(cloud.particles, z, k, rng)
+            cloud.particles, log_inc, stages = self._move(cloud.particles, z, k, rng, cloud.log_weights)
             return log_inc, stages
         cloud.particles = self._check_particles(self.model.sample_initial(cloud.size, rng), k, "sample_initial")
         if z is None:
             return None, 1
         return self._check_log_increments(self.model.log_likelihood(cloud.particles, z, k), k, cloud.size), 1
 
-    def _move(self, parents: Array, z: Array | None, k: int,
-              rng: np.random.Generator) -> tuple[Array, Array | None, int]:
+    def _move(self, parents: Array, z: Array | None, k: int, rng: np.random.Generator,
+              log_weights: Array | None = None) -> tuple[Array, Array | None, int]:
         """Draw ``x_k^i ~ q(. | x_{k-1}^i, z_k)`` for each row ``x_{k-1}^i`` of ``parents`` (checked).
 
         Returns ``(x_k, log inc_k, stages)`` with ``log inc_k^i = log p(z_k | x_k^i) + log p(x_k^i | x_{k-1}^i)
         - log q(x_k^i | x_{k-1}^i, z_k)`` (checked), or ``(x_k, None, 1)`` when ``z_k`` is missing: then
         ``q`` is the transition whatever the proposal.  ``stages`` is the third item of what the
         proposal returned, if it returned one (:class:`Proposal`), else 1.  Shared by the fixed and
-        the variable ``N``.
+        the variable ``N``.  ``log_weights`` (``log W_{k-1}``, equal if ``None``) go to a proposal that draws
+        ancestors.
         """
         m, stages = len(parents), 1
         if z is None or type(self.proposal) is TransitionProposal:
@@ -481,7 +484,10 @@ class ParticleFilter:
                 return new, None, 1
             log_inc = self.model.log_likelihood(new, z, k)
         else:
-            proposed = self.proposal.propose(self.model, parents, z, k, rng)
+            if getattr(self.proposal, "draws_ancestors", False):
+                proposed = self.proposal.propose(self.model, parents, z, k, rng, log_weights=log_weights)
+            else:
+                proposed = self.proposal.propose(self.model, parents, z, k, rng)
             if not isinstance(proposed, tuple) or len(proposed) not in (2, 3):
                 raise ModelError(f"step {k}: proposal.propose must return (particles, log_increments) "
                                  "or (particles, log_increments, stages)", step=k)

@@ -45,10 +45,20 @@ exception is reported as a problem); ``str(report)`` prints the verdict.
   particle's Kalman update of its map in the Rao-Blackwellised filter, against :func:`landmark_update`
   to round-off; the mistakes of :data:`LANDMARK_MISTAKES` are named (the robot forgotten or of the
   wrong sign, ``S`` without ``R``, no covariance update, a weight with ``R`` instead of ``S``).
+* :func:`check_fastslam2_move` - ``fn(r_pred, m_pred, P_pred, z, A, C, Qr, R, rng) -> (robots, log_w)``:
+  FastSLAM 2.0's robot move and weight for a cloud, against :func:`fastslam2_exact` (the weights up to a
+  constant, the robots standardised by the exact proposal); the generator is checked, and the mistakes
+  of :data:`FASTSLAM2_MISTAKES` are named (FastSLAM 1.0's weight, ``S`` without the map, the weight at
+  the new robot, the transition as move, the covariance not shrunk).
 * :func:`check_apf_second_stage` - ``fn(log_lik, log_pred, ancestors) -> log_weights``: the auxiliary
   filter's second-stage weights with the transition as proposal; the mistakes of
   :data:`APF_MISTAKES` are named (first stage not divided out, divided at the particle's own index,
   multiplied in again, not normalised).
+* :func:`check_apf_step` - ``fn(x, log_w, z, rng) -> (x_new, log_evidence)``: one fully adapted step
+  of the auxiliary filter on a scaled-sensor AR(1) model (:data:`APF_STEP_MODEL`), against the exact
+  mixture it draws from (:func:`apf_step_exact`): the generator is checked, and the mistakes of
+  :data:`APF_STEP_MISTAKES` are named (``W_(k-1)`` dropped, the predictive variance ``r``, the scale
+  ``c`` forgotten, the transition as move, moved then resampled).
 * :func:`check_log_likelihood` - ``fn(x, z, H, R) -> (N,)``: ``log N(z_s; H_s x^i, R_ss)`` for a cloud
   of the two-landmark model, ``s`` the measured coordinates of ``z`` (NaN for an unseen landmark),
   against :func:`landmark_log_likelihood`; the mistakes of :data:`LIKELIHOOD_MISTAKES` (NaN kept or
@@ -132,10 +142,18 @@ from pfcourse.exercises.part1 import (  # noqa: F401
     _per_step_answer,
     _proposal_mistakes,
     _scalar_filter,
+    APF_STEP_MISTAKES,
+    APF_STEP_MODEL,
     apf_second_stage,
+    apf_step_exact,
+    fastslam2_exact,
+    FASTSLAM2_CASE,
+    FASTSLAM2_MISTAKES,
     check_ancestors,
     check_apf_second_stage,
+    check_apf_step,
     check_cv_kalman,
+    check_fastslam2_move,
     check_kalman,
     check_landmark_update,
     check_log_likelihood,

@@ -864,6 +864,136 @@ def check_landmark_update(fn: Callable, rtol: float = 1e-9) -> CheckReport:
     return report
 
 
+# FastSLAM 2.0's robot move for a cloud (chapter 8, exercise 8.2): one landmark in view, measured as
+# its offset from the robot, z = A r + C l + v with A = -I and C = [I, 0]; every particle shares the
+# map covariance P_pred.
+FASTSLAM2_CASE = dict(
+    Qr=np.diag([0.04, 0.09]),
+    R=np.array([[0.02, 0.005], [0.005, 0.03]]),
+    P_pred=np.array([[0.05, 0.01, 0.0, 0.0], [0.01, 0.04, 0.0, 0.0], [0.0, 0.0, 0.2, 0.0], [0.0, 0.0, 0.0, 0.2]]),
+    A=-np.eye(2),
+    C=np.hstack([np.eye(2), np.zeros((2, 2))]),
+    z=np.array([1.1, 0.4]),
+)
+
+FASTSLAM2_MISTAKES: dict[str, str] = {
+    "fastslam1_weight": "the weight leaves out the robot's own motion noise: with the optimal proposal the weight is "
+                        "p(z_k | r_(k-1), map) = N(z; A r^- + C m^-, A Q_r A^T + C P^- C^T + R), not FastSLAM 1.0's "
+                        "C P^- C^T + R",
+    "no_map_in_s": "S leaves out the map's uncertainty C P^- C^T: the landmark's position is not known, so "
+                   "S = A Q_r A^T + C P^- C^T + R, in the weight and in the gain",
+    "new_robot_weight": "the weight is evaluated at the new robot: with the optimal proposal it is the predictive "
+                        "likelihood of the parent, N(z; A r^- + C m^-, S), whatever robot is drawn",
+    "transition_move": "the robots move with the transition N(r^-, Q_r), blind to z: the optimal proposal is "
+                       "N(r^- + G (z - A r^- - C m^-), Q_r - G S G^T) with G = Q_r A^T S^-1",
+    "no_shrink": "the robots are drawn with the covariance Q_r: conditioning on z shrinks it to Q_r - G S G^T",
+}
+
+
+def fastslam2_exact(r_pred: np.ndarray, m_pred: np.ndarray, mistake: str | None = None,
+                    case: dict | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """``(means (N, 2), covariance (2, 2), log_w (N,))`` of FastSLAM 2.0's robot proposal and weight.
+
+    ``S = A Q_r A^T + C P C^T + R``, ``G = Q_r A^T S^-1``, ``nu = z - A r^- - C m^-``: the new robot
+    is ``N(r^- + G nu, Q_r - G S G^T)`` and the weight ``log N(nu; 0, S)``. ``mistake`` (a key of
+    :data:`FASTSLAM2_MISTAKES` other than ``new_robot_weight``, which depends on the draw) gives what
+    that mistake computes instead.
+    """
+    c = FASTSLAM2_CASE if case is None else case
+    Qr, R, P, A, C, z = (c[k] for k in ("Qr", "R", "P_pred", "A", "C", "z"))
+    S_map = C @ P @ C.T + R
+    S = A @ Qr @ A.T + (R if mistake == "no_map_in_s" else S_map)
+    nu = z - r_pred @ A.T - m_pred @ C.T
+    S_w = S_map if mistake == "fastslam1_weight" else S
+    log_w = -0.5 * (np.einsum("ij,ij->i", nu @ np.linalg.inv(S_w), nu) + np.linalg.slogdet(2 * np.pi * S_w)[1])
+    G = Qr @ A.T @ np.linalg.inv(S)
+    if mistake == "transition_move":
+        return r_pred.copy(), Qr, log_w
+    cov = Qr if mistake == "no_shrink" else Qr - G @ S @ G.T
+    return r_pred + nu @ G.T, cov, log_w
+
+
+def check_fastslam2_move(fn: Callable, n: int = 60, n_calls: int = 60, seed: int = 0) -> CheckReport:
+    """Check a student's ``fn(r_pred, m_pred, P_pred, z, A, C, Qr, R, rng) -> (robots, log_w)`` (exercise 8.2).
+
+    On :data:`FASTSLAM2_CASE`: the generator (same seed, same answer; another seed, another; NumPy's
+    global state untouched); the log-weights against :func:`fastslam2_exact` up to a constant common
+    to all particles; and the robots of ``n_calls`` seeded calls, standardised by the exact proposal
+    (mean and Cholesky factor per particle), whose ``2 n n_calls`` values must have mean 0 and variance
+    1 within 5 standard errors. A wrong answer is compared with each mistake of
+    :data:`FASTSLAM2_MISTAKES`, and the report names it.
+    """
+    report = CheckReport("FastSLAM 2.0 robot move")
+    c = FASTSLAM2_CASE
+    rng = np.random.default_rng(seed)
+    r_pred = rng.normal(0.0, 0.3, (n, 2))
+    m_pred = np.array([1.0, 0.5, -1.0, 2.0]) + rng.normal(0.0, 0.3, (n, 4))
+
+    def call(s):
+        return fn(r_pred.copy(), m_pred.copy(), c["P_pred"].copy(), c["z"].copy(), c["A"].copy(), c["C"].copy(),
+                  c["Qr"].copy(), c["R"].copy(), np.random.default_rng(s))
+
+    state = np.random.get_state()
+    answer = _answer(report, lambda: call(1), "fn(r_pred, m_pred, P_pred, z, A, C, Qr, R, rng)",
+                     "return the new robots (shape (N, 2)) and their log-weights (shape (N,))")
+    if answer is None:
+        return report
+    if not isinstance(answer, tuple) or len(answer) != 2:
+        report.problems.append("the answer is not a pair: return (robots, log_w)")
+        return report
+    if not _shaped(report, answer[0], (n, 2), "one new robot per particle, shape (N, 2)") or \
+            not _shaped(report, answer[1], (n,), "one log-weight per particle"):
+        return report
+    again, other = call(1), call(2)
+    drew_global = not _same_state(state, np.random.get_state())
+    np.random.set_state(state)
+    if drew_global:
+        report.problems.append("it draws from NumPy's global np.random instead of the generator rng it is given: "
+                               "use rng.standard_normal(...) so that a seed gives one answer")
+        return report
+    if not np.array_equal(np.asarray(answer[0]), np.asarray(again[0])):
+        report.problems.append("the same seed gave different robots: draw every random number from rng")
+        return report
+    if np.array_equal(np.asarray(answer[0]), np.asarray(other[0])):
+        report.problems.append("another seed gave the same robots: the rng it is given is not used")
+        return report
+    robots, log_w = np.asarray(answer[0], dtype=float), np.asarray(answer[1], dtype=float)
+
+    def same_up_to_constant(a, b):
+        d = a - b
+        return bool(np.all(np.isfinite(d)) and np.ptp(d) < 1e-8)
+
+    if not same_up_to_constant(log_w, fastslam2_exact(r_pred, m_pred)[2]):
+        for mistake in ("fastslam1_weight", "no_map_in_s"):
+            if same_up_to_constant(log_w, fastslam2_exact(r_pred, m_pred, mistake)[2]):
+                report.problems.append(f"your function computes a known mistake: {FASTSLAM2_MISTAKES[mistake]}")
+                return report
+        S_map = c["C"] @ c["P_pred"] @ c["C"].T + c["R"]
+        nu_new = c["z"] - robots @ c["A"].T - m_pred @ c["C"].T
+        for S in (S_map, c["A"] @ c["Qr"] @ c["A"].T + S_map):
+            at_new = -0.5 * np.einsum("ij,ij->i", nu_new @ np.linalg.inv(S), nu_new)
+            if same_up_to_constant(log_w, at_new):
+                report.problems.append(f"your function computes a known mistake: "
+                                       f"{FASTSLAM2_MISTAKES['new_robot_weight']}")
+                return report
+        report.problems.append("the log-weights differ from log N(z; A r^- + C m^-, A Q_r A^T + C P^- C^T + R) "
+                               "(up to a constant): check the innovation and S")
+        return report
+    draws = [robots] + [np.asarray(call(100 + t)[0], dtype=float) for t in range(n_calls - 1)]
+
+    def fits(mistake):
+        means, cov, _ = fastslam2_exact(r_pred, m_pred, mistake)
+        L_inv = np.linalg.inv(np.linalg.cholesky(cov))
+        e = np.concatenate([((d - means) @ L_inv.T).ravel() for d in draws])
+        return abs(e.mean()) < 5 / np.sqrt(e.size) and abs(e.var() - 1.0) < 5 * np.sqrt(2.0 / e.size)
+
+    if _settled(report, fits, {k: FASTSLAM2_MISTAKES[k] for k in ("transition_move", "no_shrink", "no_map_in_s")}):
+        return report
+    report.problems.append("the new robots do not follow N(r^- + G nu, Q_r - G S G^T), G = Q_r A^T S^-1: check the "
+                           "gain, the innovation and the covariance's Cholesky factor")
+    return report
+
+
 APF_MISTAKES: dict[str, str] = {
     "no_division": "the first stage is not divided out: the ancestors were chosen in proportion to p^(z_k | x_(k-1)), "
                    "so the second-stage weight is p(z_k | x_k^i) / p^(z_k | x_(k-1)^(a_i))",
@@ -915,6 +1045,136 @@ def check_apf_second_stage(fn: Callable, n: int = 12, seed: int = 0) -> CheckRep
     report.problems.append("the log-weights differ from log p(z_k | x_k^i) - log p^(z_k | x_(k-1)^(a_i)), normalised: "
                            "check each term")
     return report
+
+
+# The fully adapted auxiliary filter on a model the chapter does not show (chapter 9, exercise 9.3):
+# x_k = a x_(k-1) + w_k, w_k ~ N(0, q); z_k = c x_k + v_k, v_k ~ N(0, r).
+APF_STEP_MODEL = {"a": 0.8, "c": 2.0, "q": 0.5, "r": 0.4}
+
+APF_STEP_MISTAKES: dict[str, str] = {
+    "no_weights": "W_(k-1) is dropped from the first stage: the ancestors must be drawn in proportion to "
+                  "W_(k-1)^i p(z_k | x_(k-1)^i) and the likelihood is log sum_i W_(k-1)^i p(z_k | x_(k-1)^i); "
+                  "without W the step forgets every earlier measurement",
+    "predictive_r": "the predictive likelihood p(z_k | x_(k-1)) is given the variance r; the state still moves "
+                    "(variance q) before it is measured, so its variance is c^2 q + r",
+    "no_c": "the sensor's scale c is forgotten: z_k = c x_k + v_k predicts c a x_(k-1) with variance c^2 q + r, "
+            "and the optimal gain is c q / (c^2 q + r)",
+    "transition_move": "the children move with the transition N(a x, q), not the optimal proposal: to leave the "
+                       "step equally weighted each chosen parent must move by p(x_k | x_(k-1), z_k) = "
+                       "N(a x + K (z - c a x), q r / (c^2 q + r)), K = c q / (c^2 q + r)",
+    "move_then_resample": "the particles are moved, then resampled: the copies of a parent are then duplicates of "
+                          "one moved particle; resample the parents first, then move each copy with its own noise",
+}
+
+
+def apf_step_exact(x: np.ndarray, log_w: np.ndarray, z: float, mistake: str | None = None,
+                   model: dict | None = None) -> tuple[float, float, float]:
+    """``(log p^(z_k | z_(1:k-1)), mean, variance)`` of one fully adapted step's new cloud, exactly.
+
+    The new particles are drawn from the mixture ``sum_i lambda^i N(mu^i, v)`` with
+    ``lambda^i`` proportional to ``W^i N(z; c a x^i, c^2 q + r)``, ``mu^i = a x^i + K (z - c a x^i)``
+    and ``v = q r / (c^2 q + r)``; ``mistake`` (a key of :data:`APF_STEP_MISTAKES`) gives what that
+    mistake draws instead.
+    """
+    if mistake is not None and mistake not in APF_STEP_MISTAKES:
+        raise ValueError(f"unknown mistake {mistake!r}; one of {sorted(APF_STEP_MISTAKES)}")
+    m = APF_STEP_MODEL if model is None else model
+    a, c, q, r = m["a"], m["c"], m["q"], m["r"]
+    scale = 1.0 if mistake == "no_c" else c
+    s = r if mistake == "predictive_r" else scale**2 * q + r
+    log_p = -0.5 * ((z - scale * a * x) ** 2 / s + np.log(2 * np.pi * s))
+    log_lam = log_p + (0.0 if mistake == "no_weights" else log_w)
+    log_evidence = float(logsumexp(log_lam) - (np.log(len(x)) if mistake == "no_weights" else 0.0))
+    lam = np.exp(log_lam - logsumexp(log_lam))
+    if mistake == "transition_move":
+        mu, v = a * x, q
+    else:
+        gain = scale * q / (scale**2 * q + r)
+        mu, v = a * x + gain * (z - scale * a * x), q - gain * scale * q
+    mean = float(lam @ mu)
+    return log_evidence, mean, float(v + lam @ mu**2 - mean**2)
+
+
+def check_apf_step(fn: Callable, n: int = 200, n_calls: int = 40, seed: int = 0) -> CheckReport:
+    """Check a student's ``fn(x, log_w, z, rng) -> (x_new, log_evidence)``, the fully adapted step of
+    the auxiliary filter on :data:`APF_STEP_MODEL` (exercise 9.3).
+
+    On one weighted cloud of ``n`` particles: the generator (same seed, same answer; another seed,
+    another; NumPy's global state untouched), the likelihood increment against
+    ``log sum_i W^i N(z; c a x^i, c^2 q + r)`` to round-off, distinct children (no duplicates), and
+    the mean and variance of the ``n_calls n`` children of ``n_calls`` seeded calls against the exact
+    mixture's within 5 standard errors (a correct step fails with probability below 1e-5). A wrong
+    answer is compared with each mistake of :data:`APF_STEP_MISTAKES`, and the report names it.
+    """
+    report = CheckReport("fully adapted auxiliary step")
+    rng = np.random.default_rng(seed)
+    x = rng.normal(0.0, 1.0, n)
+    log_w = -2.0 * (x - 1.0) ** 2  # earlier measurements favour x near 1
+    log_w -= logsumexp(log_w)
+    z = 2.5
+
+    def call(s):
+        return fn(x.copy(), log_w.copy(), z, np.random.default_rng(s))
+
+    state = np.random.get_state()
+    answer = _answer(report, lambda: call(1), "fn(x, log_w, z, rng)",
+                     "return the new particles (shape (N,)) and the log-likelihood increment")
+    if answer is None:
+        return report
+    if not isinstance(answer, tuple) or len(answer) != 2:
+        report.problems.append("the answer is not a pair: return (x_new, log_evidence)")
+        return report
+    if not _shaped(report, answer[0], (n,), "one new particle per particle") or \
+            not _shaped(report, np.asarray(answer[1]), (), "one number, log p^(z_k | z_(1:k-1))"):
+        return report
+    again, other = call(1), call(2)
+    drew_global = not _same_state(state, np.random.get_state())
+    np.random.set_state(state)
+    if drew_global:
+        report.problems.append("it draws from NumPy's global np.random instead of the generator rng it is given: "
+                               "use rng.random(), rng.standard_normal(), ... so that a seed gives one answer")
+        return report
+    if not np.array_equal(np.asarray(answer[0]), np.asarray(again[0])):
+        report.problems.append("the same seed gave different particles: draw every random number from rng")
+        return report
+    if np.array_equal(np.asarray(answer[0]), np.asarray(other[0])):
+        report.problems.append("another seed gave the same particles: the rng it is given is not used")
+        return report
+    got = float(answer[1])
+    if not np.isclose(got, apf_step_exact(x, log_w, z)[0], rtol=0, atol=1e-9):
+        for mistake in ("no_weights", "predictive_r", "no_c"):
+            if np.isclose(got, apf_step_exact(x, log_w, z, mistake)[0], rtol=0, atol=1e-9):
+                report.problems.append(f"your function computes a known mistake: {APF_STEP_MISTAKES[mistake]}")
+                return report
+        report.problems.append(f"the log-likelihood increment is {got:.6f}, not log sum_i W^i N(z; c a x^i, "
+                               f"c^2 q + r) = {apf_step_exact(x, log_w, z)[0]:.6f}: check that line")
+        return report
+    children = np.asarray(answer[0], dtype=float)
+    if np.unique(children).size < 0.9 * n:
+        report.problems.append(f"your function computes a known mistake: {APF_STEP_MISTAKES['move_then_resample']} "
+                               f"({np.unique(children).size} distinct values among {n} particles)")
+        return report
+    pooled = np.concatenate([np.asarray(call(100 + t)[0], dtype=float) for t in range(n_calls)])
+    mean, var = pooled.mean(), pooled.var(ddof=1)
+    se_mean = np.sqrt(var / pooled.size)
+    se_var = np.sqrt(max(np.mean((pooled - mean) ** 4) - var**2, 0.0) / pooled.size)
+
+    def fits(mistake):
+        _, m, v = apf_step_exact(x, log_w, z, mistake)
+        return abs(mean - m) < 5 * se_mean and abs(var - v) < 5 * se_var
+
+    if _settled(report, fits, {k: APF_STEP_MISTAKES[k] for k in ("transition_move", "no_weights", "no_c")}):
+        return report
+    _, m, v = apf_step_exact(x, log_w, z)
+    report.problems.append(f"the new particles have mean {mean:.3f} and variance {var:.3f} over {pooled.size} draws, "
+                           f"not the filtering density's {m:.3f} and {v:.3f}: check the ancestors' probabilities "
+                           "and the optimal move")
+    return report
+
+
+def _same_state(a, b) -> bool:
+    """Whether two states of NumPy's global generator (``np.random.get_state()``) are equal."""
+    return a[0] == b[0] and np.array_equal(a[1], b[1]) and tuple(a[2:]) == tuple(b[2:])
 
 
 # The log-likelihood of a cloud of particles in the two-landmark model (chapter 1, exercise 1.4).
