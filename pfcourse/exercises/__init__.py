@@ -22,6 +22,10 @@ exception is reported as a problem); ``str(report)`` prints the verdict.
 * :func:`check_ancestors` - ``fn(ancestors) -> origins``: the genealogy of a resampled cloud,
   each final particle's ancestor at step 0, on random ancestor indices; the steps followed
   forwards, one generation only and the last step left out are named.
+* :func:`check_multinomial_resampler` - ``fn(weights, rng) -> indices``: multinomial resampling
+  (``N`` independent draws), drawn from the generator it is given (NumPy's global state untouched,
+  same seed same answer, another seed another), unbiased, and told apart from stratified and
+  systematic resampling (too little offspring variance) and from one shared uniform (too much).
 * :func:`check_kalman` - ``fn(z, model) -> (means, variances, log_likelihood)``: a scalar Kalman
   filter with missing measurements, against :func:`scalar_kalman` to round-off (it is
   deterministic); a wrong one is compared with what each mistake of :data:`KALMAN_MISTAKES`
@@ -121,6 +125,7 @@ from pfcourse.exercises.part1 import (  # noqa: F401
     check_kalman,
     check_landmark_update,
     check_log_likelihood,
+    check_multinomial_resampler,
     check_optimal_proposal,
     check_resampler,
     check_sis,
