@@ -19,7 +19,7 @@
 # **You need** {doc}`sis`; Gaussian densities and the conjugate update of a Gaussian mean; NumPy
 # indexing with an array of indices.
 #
-# **Time:** about twenty-four minutes to read; the notebook runs in under half a minute.
+# **Time:** about twenty-three minutes to read; the notebook runs in under half a minute.
 # :::
 #
 # (sir-algorithm)=
@@ -685,7 +685,9 @@ var_ratio = evidence.run_interval(  # paired: both proposals on the same data se
 
 # %% [markdown]
 # Both give the engine's means, ESS and likelihood increments to round-off (all differences
-# below {glue:text}`mine_vs_engine_bound:.0e`). Is the likelihood estimate right? For the scalar
+# below {glue:text}`mine_vs_engine_bound:.0e`).
+#
+# Is the likelihood estimate right? For the scalar
 # model the Kalman filter gives the exact $\log p(z_{1:K})$. Over {glue:text}`is_ll_runs:d`
 # simulated data sets ($N = 100$, $\tau = 1/3$), the mean of $\hat p(z_{1:K}) / p(z_{1:K})$ with
 # the transition is {glue:text}`is_ll_ratio_transition:.3f`
@@ -747,8 +749,8 @@ def draw_sir(n_particles, threshold, scheme, c, seed):
     a1.semilogy(s.T, np.sqrt(ref.cov[:, 2, 2]), "--", color=COLORS["kalman"], label="Kalman sd")
     a1.set_ylim(1e-4, 1.0)
     a1.set_xlabel("time t (s)")
-    a1.set_ylabel("L1 x (m)")
-    a1.legend(loc="lower left", fontsize=8)
+    a1.set_ylabel("L1 x: error and sd (m)")
+    a1.legend(loc="center right", fontsize=8)
     a2.plot(s.T, [n_distinct(p[:, 2]) for p in r.particles], color=COLORS["estimate"])
     a2.set_yscale("log")
     a2.set_ylim(0.8, 1.3 * n_particles)

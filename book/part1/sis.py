@@ -346,7 +346,9 @@ EvidenceBlock(
 # model's measurement noise ($\sigma_v = 0.1$ m) and with a ten times sharper one
 # ($\sigma_v = 0.01$ m, simulator and filter alike). With $0.1$ m it fails in
 # {glue:text}`linear_fail_sd01` runs (at most {glue:text}`linear_fail_sd01_high:.0%` of runs): a
-# single run would not show the problem. With $0.01$ m it fails in {glue:text}`linear_fail_sd001`
+# single run would not show the problem.
+#
+# With $0.01$ m it fails in {glue:text}`linear_fail_sd001`
 # runs ({glue:text}`linear_fail_sd001_low:.0%` to {glue:text}`linear_fail_sd001_high:.0%`). The
 # log-domain update cannot fail this way: subtracting the largest log-weight before
 # exponentiating keeps the best particle at weight $e^0$.
