@@ -127,3 +127,62 @@ def test_the_sis_checker_checks_the_generator(feed, says):
     else:
         assert not report.ok and len(report.problems) == 1, str(report)
         assert says in report.problems[0], report.problems[0]
+
+
+# The importance-sampling exercise: the reference answer and its typical mistakes, each a flag that
+# changes one line, as a student would write them.
+def toy_sampler(z, sd_v, n, rng, *, mistake=None, draw=None):
+    from scipy import stats
+    from scipy.special import logsumexp
+
+    x = z / 2 + (draw(rng) if draw else rng).standard_normal(n)
+    scale = sd_v**2 if mistake == "sd_as_variance" else sd_v
+    log_lik = stats.norm.logpdf(z, loc=x, scale=scale)
+    log_prior, log_q = stats.norm.logpdf(x), stats.norm.logpdf(x, z / 2, 1.0)
+    log_w = {"likelihood_only": log_lik, "no_proposal": log_lik + log_prior,
+             "no_prior": log_lik - log_q}.get(mistake, log_lik + log_prior - log_q)
+    W = np.exp(log_w - logsumexp(log_w))
+    return W @ x, 1.0 / np.sum(W**2)
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_the_reference_importance_sampler_passes(seed):
+    from pfcourse.exercises import check_importance_sampler
+
+    assert check_importance_sampler(toy_sampler, seed=seed).ok
+
+
+@pytest.mark.parametrize("mistake, draw, says", [
+    ("likelihood_only", None, "the likelihood alone"),
+    ("no_proposal", None, "leaves out - log q(x)"),
+    ("no_prior", None, "leaves out the prior"),
+    ("sd_as_variance", None, "sd_v^2 as its standard deviation"),
+    (None, lambda rng: np.random.default_rng(), "same seed gave different"),
+    (None, lambda rng: np.random.default_rng(5), "whatever the generator's seed"),
+    (None, lambda rng: GlobalNumpy(), "NumPy's global generator"),
+])
+def test_each_typical_importance_sampling_mistake_gets_its_own_sentence(mistake, draw, says):
+    from pfcourse.exercises import check_importance_sampler
+
+    report = check_importance_sampler(lambda z, s, n, rng: toy_sampler(z, s, n, rng, mistake=mistake, draw=draw))
+    assert not report.ok and len(report.problems) == 1, str(report)
+    assert says in report.problems[0], report.problems[0]
+
+
+def test_the_importance_sampler_checker_names_a_missing_answer_and_a_bad_ess():
+    from pfcourse.exercises import check_importance_sampler
+
+    assert "returned None" in check_importance_sampler(lambda z, s, n, rng: None).problems[0]
+    assert "outside [1, n]" in check_importance_sampler(
+        lambda z, s, n, rng: (toy_sampler(z, s, n, rng)[0], 2.0 * n)).problems[0]
+
+
+def test_the_limits_of_the_mistakes_are_apart_from_the_exact_mean():
+    """Each mistake's limit is at least 0.1 from the exact mean and from the others (the checker's six
+    standard errors are about 0.03 at n = 20 000), so it can name it."""
+    from pfcourse.exercises import IS_TOY_CASE, IS_TOY_MISTAKES, toy_is_limit
+
+    means = [toy_is_limit(*IS_TOY_CASE)[0]] + [toy_is_limit(*IS_TOY_CASE, m)[0] for m in IS_TOY_MISTAKES]
+    gaps = np.abs(np.subtract.outer(means, means))[np.triu_indices(len(means), 1)]
+    assert gaps.min() > 0.1
+    assert toy_is_limit(*IS_TOY_CASE)[0] == pytest.approx(IS_TOY_CASE[0] / (1 + IS_TOY_CASE[1] ** 2))

@@ -31,7 +31,7 @@ from scipy import integrate, stats
 from scipy.special import gammaln, logsumexp
 
 from pfcourse import evidence
-from pfcourse.exercises import check_weight_update
+from pfcourse.exercises import check_importance_sampler, check_weight_update
 from pfcourse.figures.report import EvidenceBlock, glue_values
 from pfcourse.style import plain_log_axis, use_style
 
@@ -440,7 +440,48 @@ EvidenceBlock(
 # %% [markdown]
 # ## Exercises
 #
-# ```{exercise} 3.1 The weight update in the log domain
+# ```{exercise} 3.1 A proposal that is not the prior
+# :label: ex-is-proposal
+# :nonumber:
+# (Coding.) On the toy, propose from $q = \mathcal N(z/2,\ 1)$, halfway between the prior mean and
+# the measurement, instead of the prior. Write `estimate_mean(z, sd_v, n, rng)`: draw $n$ particles
+# from $q$ with the generator `rng`, weight them by $\tilde\pi / q$ in the log domain, and return
+# the self-normalised estimate of the posterior mean and the ESS. The checker compares it with the
+# exact mean $z / (1 + \sigma_v^2)$ and names the mistake it sees.
+# ```
+
+# %% tags=["answer"]
+from pfcourse.exercises import check_importance_sampler, check_weight_update
+
+
+def estimate_mean(z, sd_v, n, rng):
+    """Your sampler: return (estimate of the posterior mean, ESS)."""
+    ...  # replace with your code
+
+
+print(check_importance_sampler(estimate_mean))
+
+# %% [markdown]
+# ```{solution} ex-is-proposal
+# :class: dropdown
+# The weight has three terms now: $\log \tilde w^i = \log p(z \mid x^i) + \log p(x^i) - \log q(x^i)$;
+# with the prior as proposal the last two cancel, here they do not. The code is in the folded cell
+# below (in JupyterLab, click its margin to unfold it).
+# ```
+
+# %% tags=["solution", "hide-input"] jupyter={"source_hidden": true}
+def estimate_mean(z, sd_v, n, rng):
+    x = z / 2 + rng.standard_normal(n)
+    log_w = (stats.norm.logpdf(z, loc=x, scale=sd_v) + stats.norm.logpdf(x)
+             - stats.norm.logpdf(x, z / 2, 1.0))
+    W = np.exp(log_w - logsumexp(log_w))
+    return W @ x, 1.0 / np.sum(W**2)
+
+
+print(check_importance_sampler(estimate_mean))
+
+# %% [markdown]
+# ```{exercise} 3.2 The weight update in the log domain
 # :label: ex-is-weights
 # :nonumber:
 # (Coding.) A filter updates weights it already has: write `update(log_W, log_lik)` returning
@@ -450,9 +491,6 @@ EvidenceBlock(
 # ```
 
 # %% tags=["answer"]
-from pfcourse.exercises import check_weight_update
-
-
 def update(log_W, log_lik):
     """Your weight update: return the normalised log-weights."""
     ...  # replace with your code
@@ -486,7 +524,7 @@ def update_linear(log_W, log_lik):
 print(check_weight_update(update_linear))
 
 # %% [markdown]
-# ```{exercise} 3.2 The ESS and the spread of the weights
+# ```{exercise} 3.3 The ESS and the spread of the weights
 # :label: ex-is-ess
 # :nonumber:
 # Show that $1/\sum_i (W^i)^2 = N / (1 + \operatorname{cv}^2)$ where $\operatorname{cv}^2$ is
@@ -504,7 +542,7 @@ print(check_weight_update(update_linear))
 # = \mathbb E_q[w^2]$ by the law of large numbers.
 # ```
 #
-# ```{exercise} 3.3 Which tails are heavy enough?
+# ```{exercise} 3.4 Which tails are heavy enough?
 # :label: ex-is-tails
 # :nonumber:
 # For the target $t_\nu$ and a Student proposal $t_\mu$, for which $\mu$ is $\mathbb E_q[w^2]$

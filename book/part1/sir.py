@@ -61,7 +61,7 @@
 #
 # The function below is Algorithm 5.1 for the landmark model of {doc}`model`, loaded by one call
 # (its matrices `F`, `B`, `Q`, `H`, `m0`, `P0` and $R = \sigma_v^2 I$, written out in {doc}`sis`).
-# It is the SIS loop of {doc}`sis` plus four lines of systematic resampling, and it keeps the
+# It is the SIS loop of {doc}`sis` plus a few lines of systematic resampling, and it keeps the
 # ancestor indices: `ancestors[k, i]` is $a_k^i$. The optional `move` is for later in the chapter.
 
 # %% tags=["remove-input"] jupyter={"source_hidden": true}

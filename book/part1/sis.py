@@ -67,9 +67,11 @@ model = scenario.model()  # the simulator's own noise models
 # *incremental weight* $G_k^i$:
 #
 # $$
-# \tilde w_k^i = W_{k-1}^i\, G_k^i, \qquad
-# G_k^i = \frac{p(z_k \mid x_k^i)\, p(x_k^i \mid x_{k-1}^i)}{q(x_k^i \mid x_{k-1}^i, z_k)},
-# \qquad W_k^i = \frac{\tilde w_k^i}{\sum_j \tilde w_k^j} .
+# \tilde w_k^i = W_{k-1}^i\, G_k^i, \qquad W_k^i = \frac{\tilde w_k^i}{\sum_j \tilde w_k^j},
+# $$
+#
+# $$
+# G_k^i = \frac{p(z_k \mid x_k^i)\, p(x_k^i \mid x_{k-1}^i)}{q(x_k^i \mid x_{k-1}^i, z_k)} .
 # $$
 #
 # The simplest proposal is the transition itself, $q = p(x_k \mid x_{k-1})$, the *bootstrap*

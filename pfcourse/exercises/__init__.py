@@ -10,6 +10,10 @@ exception is reported as a problem); ``str(report)`` prints the verdict.
   particles of weight 0 never chosen, and *unbiased*: the mean number of copies of particle
   ``i`` over many draws is ``N W_i`` (a z-test per particle at 5 standard errors), and no more
   variable than multinomial resampling (``sum_i Var N_i`` at most 1.5 times ``sum_i N W_i (1 - W_i)``).
+* :func:`check_importance_sampler` - ``fn(z, sd_v, n, rng) -> (estimate, ess)``: self-normalised
+  importance sampling of a Gaussian posterior mean with a proposal that is not the prior, against the
+  exact mean; weights that leave out the proposal or the prior, the likelihood alone, a variance read
+  as a standard deviation and a generator other than ``rng`` are named.
 * :func:`check_weight_update` - ``fn(log_weights, log_likelihoods) -> log_weights``: the
   normalised log-domain update ``log W_i + log p(z | x_i) - logsumexp_j(...)``, checked on
   ordinary values and on likelihoods of ``e^{-1000}`` that underflow in the linear domain.
@@ -101,6 +105,8 @@ from pfcourse.exercises.part1 import (  # noqa: F401
     APF_MISTAKES,
     KALMAN_CASE,
     KALMAN_MISTAKES,
+    IS_TOY_CASE,
+    IS_TOY_MISTAKES,
     LANDMARK_CASE,
     LANDMARK_MISTAKES,
     LIKELIHOOD_CASES,
@@ -122,6 +128,7 @@ from pfcourse.exercises.part1 import (  # noqa: F401
     apf_second_stage,
     check_ancestors,
     check_apf_second_stage,
+    check_importance_sampler,
     check_kalman,
     check_landmark_update,
     check_log_likelihood,
@@ -134,6 +141,7 @@ from pfcourse.exercises.part1 import (  # noqa: F401
     landmark_update,
     scalar_kalman,
     scalar_optimal_proposal,
+    toy_is_limit,
 )
 from pfcourse.exercises.part2 import (  # noqa: F401
     ALTIMETER_DX,

@@ -121,6 +121,98 @@ def check_weight_update(fn: Callable, seed: int = 0) -> CheckReport:
     return report
 
 
+#: The case of :func:`check_importance_sampler`: the measurement z and the noise sd sd_v of the toy.
+IS_TOY_CASE = (3.0, 0.5)
+
+#: The typical mistakes of the importance-sampling exercise: the weight each one computes, in words.
+IS_TOY_MISTAKES = {
+    "likelihood_only": "the weight is the likelihood alone, as with the prior as proposal; with q = N(z/2, 1) "
+                       "it is log p(z | x) + log p(x) - log q(x)",
+    "no_proposal": "the weight leaves out - log q(x): draws from q must be divided by q, w = p(z | x) p(x) / q(x)",
+    "no_prior": "the weight leaves out the prior, + log p(x): the target is the posterior, p(z | x) p(x) up to a "
+                "constant",
+    "sd_as_variance": "the likelihood uses sd_v^2 as its standard deviation: sd_v is the standard deviation of v "
+                      "(scipy.stats.norm.logpdf(z, loc=x, scale=sd_v))",
+}
+
+
+def toy_is_limit(z: float, sd_v: float, mistake: str | None = None) -> tuple[float, float]:
+    """Mean and variance of the density a self-normalised importance sampler with proposal N(z/2, 1)
+    targets on the toy (prior N(0, 1), z = x + v, v ~ N(0, sd_v^2)): the posterior, or what the weight of
+    ``mistake`` (a key of :data:`IS_TOY_MISTAKES`) makes of it, ``q x target-of-the-weight``.
+
+    Every factor is Gaussian in x, so the limit is a product of Gaussians: precisions add (the proposal's
+    with the sign it has in q x weight) and so do precision-weighted means.
+    """
+    if mistake is not None and mistake not in IS_TOY_MISTAKES:
+        raise ValueError(f"unknown mistake {mistake!r}; one of {sorted(IS_TOY_MISTAKES)}")
+    lik_var = sd_v**4 if mistake == "sd_as_variance" else sd_v**2
+    # (precision, mean) of the factors of q(x) w(x): the likelihood, the prior, the proposal
+    factors = {"likelihood_only": [(1 / lik_var, z), (1.0, z / 2)],
+               "no_proposal": [(1 / lik_var, z), (1.0, 0.0), (1.0, z / 2)],
+               "no_prior": [(1 / lik_var, z)]}.get(mistake, [(1 / lik_var, z), (1.0, 0.0)])
+    precision = sum(p for p, _ in factors)
+    return sum(p * m for p, m in factors) / precision, 1 / precision
+
+
+def check_importance_sampler(fn: Callable, n: int = 20_000, seed: int = 0) -> CheckReport:
+    """Check ``fn(z, sd_v, n, rng) -> (estimate, ess)`` (importance sampling, exercise 3.1), leaving NumPy's
+    global ``np.random`` state as it was.
+
+    ``fn`` draws ``n`` particles from the proposal ``N(z / 2, 1)`` and returns the self-normalised estimate
+    of the posterior mean of the toy (prior ``N(0, 1)``, ``z = x + v``, ``v ~ N(0, sd_v^2)``) and the ESS.
+    The estimate must be within six Monte Carlo standard errors ``sqrt(var / ESS)`` of the exact mean
+    ``z / (1 + sd_v^2)`` at :data:`IS_TOY_CASE` (a correct sampler fails with probability about 2e-9); a
+    wrong one is compared with the limits of :data:`IS_TOY_MISTAKES`, and the report names the mistake.
+    The random numbers must come from ``rng`` (:func:`_generator_problem`, on 500 particles).
+    """
+    saved = np.random.get_state()
+    try:
+        return _check_importance_sampler(fn, n, seed)
+    finally:
+        np.random.set_state(saved)
+
+
+def _check_importance_sampler(fn: Callable, n: int, seed: int) -> CheckReport:
+    report = CheckReport("importance sampler")
+    z, sd_v = IS_TOY_CASE
+    answer = _answer(report, lambda: fn(z, sd_v, n, np.random.default_rng(seed)), "fn(z, sd_v, n, rng)",
+                     "write the sampler and return (estimate, ess)")
+    if answer is None:
+        return report
+    try:
+        estimate, ess = (float(v) for v in answer)
+    except Exception:
+        report.problems.append("return two numbers, (estimate, ess): the weighted mean of the draws and "
+                               "1 / sum(W**2)")
+        return report
+    if not (np.isfinite(estimate) and np.isfinite(ess)):
+        report.problems.append("the estimate or the ESS is NaN or infinite: keep the weights in the log domain and "
+                               "subtract their logsumexp before exponentiating")
+        return report
+    if not 1 - 1e-9 <= ess <= n * (1 + 1e-9):
+        report.problems.append(f"the ESS is {ess:.4g}, outside [1, n]: compute it from normalised weights, "
+                               "1 / sum(W**2) with sum(W) = 1")
+        return report
+    problem = _generator_problem(lambda rng: float(fn(z, sd_v, 500, rng)[0]), lambda a, b: a == b,
+                                 what="estimate")
+    if problem is not None:
+        report.problems.append(problem)
+        return report
+
+    def fits(mistake: str | None) -> bool:
+        mean, var = toy_is_limit(z, sd_v, mistake)
+        return abs(estimate - mean) <= 6 * np.sqrt(var / ess)
+
+    if _settled(report, fits, IS_TOY_MISTAKES):
+        return report
+    mean, var = toy_is_limit(z, sd_v)
+    report.problems.append(f"the estimate {estimate:.4f} is more than six Monte Carlo standard errors "
+                           f"({np.sqrt(var / ess):.4f}) from the exact posterior mean {mean:.4f}: check the draws "
+                           "(x ~ N(z/2, 1)), the three terms of the log-weight and the normalisation")
+    return report
+
+
 @dataclass(frozen=True)
 class ScalarModel:
     """``x_0 ~ N(m0, p0)``, ``x_k = a x_{k-1} + w_k`` with ``w_k ~ N(0, q)``, ``z_k = x_k + v_k``
