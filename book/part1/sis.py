@@ -19,7 +19,7 @@
 # **You need** {doc}`model` and {doc}`importance_sampling`; Gaussian densities; NumPy arrays
 # and a random generator.
 #
-# **Time:** about thirteen minutes to read; the notebook runs in under half a minute.
+# **Time:** about fourteen minutes to read; the notebook runs in under half a minute.
 # :::
 
 # %% tags=["remove-input"] jupyter={"source_hidden": true}
