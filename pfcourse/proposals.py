@@ -199,33 +199,31 @@ def tempering_exponent(loglik: Array, remaining: float, ess_fraction: float) -> 
 class ProgressiveCorrection:
     """Importance function doing progressive correction at the first ``n_tempered`` readings.
 
-    Afterwards it is the transition (bootstrap).  ``stages`` records how many likelihood
-    evaluations each step cost (the price in particle-steps).
+    Afterwards it is the transition (bootstrap).  ``propose`` returns ``(x_k, log_inc, stages)``:
+    how many times it weighted the cloud (the price in particle-steps), which the filter's step
+    reports (:attr:`pfcourse.filter.Step.stages`, collected by :class:`pfcourse.collectors.Stages`).
     """
 
     n_tempered: int = 5
     ess_fraction: float = 0.5
     kernel: RegularisedJitter = field(default_factory=lambda: RegularisedJitter(0.5, (3,)))
     max_stages: int = 50
-    stages: list = field(default_factory=list)
     _seen: int = 0
 
     def reset(self) -> None:
-        self.stages, self._seen = [], 0
+        self._seen = 0
 
     def propose(self, model, particles, z, k, rng):
         new = model.sample_transition(particles, k, rng)
         loglik = model.log_likelihood(new, z, k)
         self._seen += 1
         if self._seen > self.n_tempered:
-            self.stages.append(1)
-            return new, loglik
+            return new, loglik, 1
         remaining, constant, n_stages = 1.0, 0.0, 1
         while True:
             lam = tempering_exponent(loglik, remaining, self.ess_fraction)
             if lam >= remaining or n_stages >= self.max_stages:
-                self.stages.append(n_stages)
-                return new, remaining * loglik + constant
+                return new, remaining * loglik + constant, n_stages
             a = lam * loglik
             top = np.max(a)
             w = np.exp(a - top)

@@ -2,7 +2,7 @@
 
 **Forward filtering, backward smoothing** (FFBSm, the marginal smoother of Doucet, Godsill
 and Andrieu 2000 and Godsill, Doucet and West 2004).  The filter's weighted clouds
-``{x_k^i, W_k^i}`` (``FilterResult`` with ``store_particles=True``) are reweighted backwards,
+``{x_k^i, W_k^i}`` (``FilterResult`` of ``run(..., collect=[Clouds()])``) are reweighted backwards,
 from ``W_{K-1|K-1} = W_{K-1}``:
 
 .. math::
@@ -19,7 +19,7 @@ same clouds: ``b_{K-1} ~ W_{K-1}``, then backwards ``P(b_k = i) \\propto W_k^i f
 Cost: ``N`` densities per step and per trajectory, ``O(K M N)`` for ``M`` trajectories.
 
 **Ancestral lines** (the naive smoother and its fixed-lag version): following the resampling's
-ancestor indices back from step ``t``, the weighted paths ``{x_{0:t}^{(i)}, W_t^i}`` estimate
+ancestor indices (``run(..., collect=[Ancestors()])``, :class:`pfcourse.collectors.Ancestors`) back from step ``t``, the weighted paths ``{x_{0:t}^{(i)}, W_t^i}`` estimate
 ``p(x_{0:t} | z_{0:t})``; the fixed-lag estimate of ``x_k`` uses them at ``t = min(k + L, K - 1)``.
 
 **Rauch-Tung-Striebel** (1965): the exact smoother of a linear-Gaussian model, from the
@@ -138,7 +138,7 @@ def _check_clouds(particles: Array, weights: Array) -> tuple[Array, Array]:
     if particles.ndim != 3 or weights.shape != particles.shape[:2]:
         raise ShapeError(
             f"particles must be (K, N, d) and weights (K, N); got {particles.shape} and {weights.shape} "
-            "(run the filter with store_particles=True)")
+            "(run the filter with collect=[Clouds()], pfcourse.collectors)")
     return particles, weights
 
 
@@ -179,8 +179,11 @@ def _invert(log_p: Array, u: Array) -> Array:
     return np.minimum((cdf < u[:, None] * cdf[:, -1:]).sum(axis=1), log_p.shape[1] - 1)
 
 
+# TODO(issue 44): remove after Part I/V merge (book/part5/smoothing.py uses it; the ancestors collector replaces it)
 class AncestorRecorder:
-    """A resampler for :class:`~pfcourse.filter.ParticleFilter` that records the ancestor indices it draws.
+    """Deprecated: collect the ancestors instead (``run(..., collect=[Ancestors()])``, the same ``A``).
+
+    A resampler for :class:`~pfcourse.filter.ParticleFilter` that records the ancestor indices it draws.
 
     It draws exactly what the named resampler draws (same stream), so a filter run with it
     gives the same clouds; :meth:`ancestors` then returns ``A`` ``(K, N)``: particle ``i`` at

@@ -18,7 +18,7 @@
 #
 # **You need** {doc}`sir`, {doc}`proposals` (the optimal proposal) and {doc}`rao_blackwell`.
 #
-# **Time:** about four minutes to read; the notebook runs in about half a minute.
+# **Time:** about fourteen minutes to read; the notebook runs in about half a minute.
 # :::
 #
 # ## The idea: resample by what the next measurement will say

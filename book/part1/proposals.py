@@ -18,7 +18,7 @@
 # **You need** {doc}`kalman` (Gaussian conditioning), {doc}`sis` and {doc}`sir`; NumPy arrays
 # and a random generator.
 #
-# **Time:** about eight minutes to read; the notebook runs in under a minute.
+# **Time:** about twenty-nine minutes to read; the notebook runs in under a minute.
 # :::
 #
 # Report 000 concludes that particle filtering is unsuited to the landmark problem "unless a

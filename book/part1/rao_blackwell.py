@@ -18,7 +18,7 @@
 #
 # **You need** {doc}`kalman`, {doc}`sir` and {doc}`proposals` (the optimal proposal).
 #
-# **Time:** about eleven minutes to read; the notebook runs in under a minute.
+# **Time:** about twenty-two minutes to read; the notebook runs in under a minute.
 # :::
 #
 # The previous chapters end on a failure: SIS degenerates, SIR cannot move the static

@@ -19,7 +19,7 @@
 # **You need** {doc}`../part1/sir` (the bootstrap filter, resampling when the ESS is low);
 # sines and cosines of a heading; NumPy arrays.
 #
-# **Time:** about seven minutes to read; the notebook runs in about half a minute.
+# **Time:** about twenty-six minutes to read; the notebook runs in about half a minute.
 # :::
 #
 # A wheeled robot knows its map, five landmarks at known positions, but not where it is. Its
@@ -83,6 +83,7 @@ from pfcourse.figures.clouds import animate_clouds
 from pfcourse.figures.report import EvidenceBlock, glue_values
 from pfcourse.figures.widgets import (control_panel, particle_slider, scale_slider, scheme_dropdown, seed_box,
                                       threshold_slider)
+from pfcourse.collectors import Clouds
 from pfcourse.filter import ParticleFilter
 from pfcourse.metrics import LOCK_WINDOW_S, position_error, position_spread
 from pfcourse.robot.figures import error_bands, landmarks_background, robot_map, sight_overlay
@@ -173,8 +174,7 @@ def mcl(odometry, measurements, landmarks, Q, R, x0, x0_sd, n, tau, rng, dt=1.0)
 N, TAU = 300, 0.5
 mine = mcl(sim.odometry, sim.measurements, sim.landmarks, model.q_est, model.r_est, sim.truth[0],
            np.array(INITIAL_STD), N, TAU, np.random.default_rng(3))
-result = ParticleFilter(model, N, threshold=TAU, resampler="systematic").run(sim.measurements, rng=3,
-                                                                            store_particles=True)
+result = ParticleFilter(model, N, threshold=TAU, resampler="systematic").run(sim.measurements, rng=3)
 gap = tracking_errors(result.mean, mine)
 ROUND_OFF = 1e-9
 print(f"largest difference from the engine's means over {len(gap)} steps below {ROUND_OFF:.0e} "
@@ -311,7 +311,7 @@ EvidenceBlock(
 # %%
 sim_g = simulate_robot(rng=5, n_steps=30)
 model_g = RobotModel.for_simulation(sim_g, initial="uniform")
-res_g = ParticleFilter(model_g, 20000).run(sim_g.measurements, rng=5, store_particles=True)
+res_g = ParticleFilter(model_g, 20000).run(sim_g.measurements, rng=5, collect=[Clouds()])
 snap = [0, 1, 2, 3, 10, 29]
 fig, axes = plt.subplots(2, 3, figsize=(10.5, 7.2), sharex=True, sharey=True)
 for ax, k in zip(axes.flat, snap):

@@ -19,7 +19,7 @@
 # **You need** {doc}`robot_studies` (how a study is run and read), {doc}`../part1/sir` and
 # {doc}`../part1/resampling_schemes`.
 #
-# **Time:** about six minutes to read; the notebook runs in about twenty seconds.
+# **Time:** about seventeen minutes to read; the notebook runs in about twenty seconds.
 # :::
 #
 # ## The idea: resample when the weights say so
@@ -69,6 +69,7 @@ from pfcourse.experiments.study import run_study, summarize
 from pfcourse.figures.report import EvidenceBlock, glue_values
 from pfcourse.figures.study import summary_band
 from pfcourse.figures.study_tables import median, medians, paired_vs, show
+from pfcourse.collectors import Clouds
 from pfcourse.filter import ParticleFilter
 from pfcourse.kalman import kalman_filter
 from pfcourse.landmarks.scenario import quadrant_scenario, simulate
@@ -95,7 +96,7 @@ def adaptive_resampling(particles, log_w, theta, rng):
 LINEAR = quadrant_scenario()
 LINEAR_MODEL = LINEAR.model()
 sim = simulate(LINEAR, 0)
-run = ParticleFilter(LINEAR_MODEL, 100, threshold=0.5).run(sim.measurements, rng=filter_rng(0, 0), store_particles=True)
+run = ParticleFilter(LINEAR_MODEL, 100, threshold=0.5).run(sim.measurements, rng=filter_rng(0, 0), collect=[Clouds()])
 decisions = [adaptive_resampling(x, np.log(w), 0.5, np.random.default_rng(0))[2:]
              for x, w in zip(run.particles, run.weights)]
 ess_mine = np.array([d[0] for d in decisions])

@@ -18,7 +18,7 @@
 #
 # **You need** {doc}`../part2/robot` and {doc}`../evidence` (the intervals and tests).
 #
-# **Time:** about seven minutes to read; the notebook runs in about twenty seconds.
+# **Time:** about twenty-one minutes to read; the notebook runs in about twenty seconds.
 # :::
 #
 # ## The idea: one question, many runs, the same worlds

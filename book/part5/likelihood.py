@@ -19,7 +19,7 @@
 # {doc}`../part2/terrain_cure`; Metropolis-Hastings
 # in one line (propose, accept with a ratio); NumPy.
 #
-# **Time:** about ten minutes to read; the notebook runs in about twenty seconds.
+# **Time:** about twenty-nine minutes to read; the notebook runs in about twenty seconds.
 # :::
 #
 # The lab reports tune the noise covariances of their filters by hand, trying scales from $0.1$ to

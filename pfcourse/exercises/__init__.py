@@ -6,6 +6,15 @@ returns a :class:`CheckReport`: ``ok`` and a list of ``problems``, each a senten
 what is wrong and, where it can, why.  It never raises on a wrong answer (a student's
 exception is reported as a problem); ``str(report)`` prints the verdict.
 
+* :func:`check_two_beacon_filter` - ``fn(z, n_particles, rng, model) -> means``: the on-ramp's particle
+  filter for a robot on a rail ranging two beacons (:mod:`.onramp`), against the exact grid; one
+  beacon read, no motion noise, a standard deviation squared, the unweighted mean and a missing
+  reading used are named, and the filter must draw from the generator it is given.
+* :func:`check_cv_kalman` - the Kalman filter of a constant-velocity model (chapter 2's variant),
+  against the exact filter; six typical mistakes named (:mod:`.part1`).
+* :func:`check_stratified_resampler` - ``fn(weights, rng) -> indices``: stratified resampling, told
+  apart from systematic and multinomial by the exact offspring variance of a particle that straddles
+  two strata; it must draw from the generator it is given (:mod:`.part1`).
 * :func:`check_resampler` - ``fn(weights, rng) -> indices``: right type, shape and range,
   particles of weight 0 never chosen, and *unbiased*: the mean number of copies of particle
   ``i`` over many draws is ``N W_i`` (a z-test per particle at 5 standard errors), and no more
@@ -101,6 +110,14 @@ from pfcourse.exercises.checking import (  # noqa: F401
     _settled,
     _shaped,
 )
+from pfcourse.exercises.onramp import (  # noqa: F401
+    INFLATION,
+    TWO_BEACONS,
+    TWO_BEACON_MISTAKES,
+    check_two_beacon_filter,
+    two_beacon_case,
+    two_beacon_grid,
+)
 from pfcourse.exercises.part1 import (  # noqa: F401
     APF_MISTAKES,
     KALMAN_CASE,
@@ -128,6 +145,7 @@ from pfcourse.exercises.part1 import (  # noqa: F401
     apf_second_stage,
     check_ancestors,
     check_apf_second_stage,
+    check_cv_kalman,
     check_importance_sampler,
     check_kalman,
     check_landmark_update,
@@ -136,6 +154,7 @@ from pfcourse.exercises.part1 import (  # noqa: F401
     check_optimal_proposal,
     check_resampler,
     check_sis,
+    check_stratified_resampler,
     check_weight_update,
     landmark_log_likelihood,
     landmark_update,

@@ -84,6 +84,134 @@ def check_resampler(fn: Callable, n_draws: int = 4000, seed: int = 0) -> CheckRe
     return report
 
 
+#: The weights of :func:`check_stratified_resampler`, in eighths: particle 1's segment straddles two strata
+#: half and half (stratified: 0, 1 or 2 copies; systematic: always exactly one), particle 2 weighs nothing.
+STRATIFIED_WEIGHTS = np.array([0.5, 1.0, 0.0, 1.5, 1.0, 0.5, 2.0, 1.5]) / 8
+
+
+def _offspring_variances(w: np.ndarray) -> dict[str, np.ndarray]:
+    """Exact ``Var N_i`` of each particle under stratified, systematic and multinomial resampling."""
+    n = w.size
+    c = np.concatenate([[0.0], np.cumsum(w)])
+    lo, hi = np.arange(n) / n, np.arange(1, n + 1) / n
+    p = n * np.clip(np.minimum(hi[None], c[1:, None]) - np.maximum(lo[None], c[:-1, None]), 0, None)
+    r = n * w - np.floor(n * w + 1e-12)
+    return {"stratified": (p * (1 - p)).sum(axis=1), "systematic": r * (1 - r), "multinomial": n * w * (1 - w)}
+
+
+def _draws_from_its_generator(report: CheckReport, call: Callable) -> bool:
+    """Whether ``call(rng)`` leaves NumPy's global state alone, repeats itself for one seed and changes
+    with the seed; if not, say which, in one sentence, and return False."""
+    state = np.random.get_state()
+    try:
+        first, again = np.asarray(call(np.random.default_rng(1))), np.asarray(call(np.random.default_rng(1)))
+        others = [np.asarray(call(np.random.default_rng(s))) for s in range(2, 12)]
+    except Exception as exc:  # the student's error, reported
+        report.problems.append(f"calling fn(weights, rng) raised {type(exc).__name__}: {exc}")
+        return False
+    moved = not all(np.array_equal(a, b) for a, b in zip(state[1:], np.random.get_state()[1:]))
+    np.random.set_state(state)
+    if moved:
+        report.problems.append(
+            "it draws from NumPy's global generator (np.random.random, np.random.rand, ...), not from the rng it "
+            "is given: draw with rng.random(...), so that a seeded run gives the same answer")
+    elif not np.array_equal(first, again):
+        report.problems.append(
+            "two calls with generators of the same seed gave different answers: draw every uniform from the rng "
+            "argument, and from nothing else")
+    elif all(np.array_equal(first, o) for o in others):
+        report.problems.append(
+            "the result never changes with the seed: the rng is not used (each stratum needs a random uniform, "
+            "not its midpoint)")
+    return not report.problems
+
+
+def check_stratified_resampler(fn: Callable, n_draws: int = 4000, seed: int = 0) -> CheckReport:
+    """Check a stratified resampler ``fn(weights, rng) -> N ancestor indices``.
+
+    The weights are :data:`STRATIFIED_WEIGHTS` (``N = 8``). First the generator: NumPy's global state must
+    be untouched, one seed must give one answer and eleven seeds more than one. Then ``n_draws`` calls
+    (one generator seeded ``seed``): indices in range, no particle of weight 0 drawn, mean copy counts
+    ``N W_i`` within ``5 SE + 1e-9``, and each particle's ``Var N_i`` equal to stratified resampling's
+    exact ``sum_j p_ij (1 - p_ij)`` within ``5 SE + 0.02`` (SE from the counts' fourth moment). Where the
+    variances are wrong, the scheme whose exact variances are nearest (systematic, multinomial) is named:
+    particle 1 (``N W_1 = 1``, astride two strata) has variance 0 under systematic resampling, 1/2 under
+    stratified and 7/8 under multinomial, about 50 standard errors apart at 4000 draws.
+    """
+    state = np.random.get_state()  # a student's draws from the global generator are undone
+    try:
+        return _check_stratified(fn, n_draws, seed)
+    finally:
+        np.random.set_state(state)
+
+
+def _check_stratified(fn: Callable, n_draws: int, seed: int) -> CheckReport:
+    report = CheckReport("stratified resampler")
+    w = STRATIFIED_WEIGHTS
+    n = w.size
+    first = _answer(report, lambda: fn(w.copy(), np.random.default_rng(seed)), "fn(weights, rng)",
+                    "write the resampler and return the N ancestor indices")
+    if first is None:
+        return report
+    first = np.asarray(first)
+    if first.shape != (n,):
+        report.problems.append(f"returned shape {first.shape}; expected ({n},), one ancestor index per particle "
+                               "(indices, not copy counts)")
+        return report
+    if first.dtype.kind not in "iu":
+        report.problems.append(f"returned dtype {first.dtype}; indices must be integers (use astype(int))")
+        return report
+    if not _draws_from_its_generator(report, lambda g: fn(w.copy(), g)):
+        return report
+    rng = np.random.default_rng(seed)
+    counts = np.empty((n_draws, n))
+    for t in range(n_draws):
+        idx = np.asarray(fn(w.copy(), rng))
+        if idx.shape != (n,) or idx.min() < 0 or idx.max() >= n:
+            report.problems.append(
+                f"draw {t}: an index is out of range [0, {n}) (got {idx.min()}..{idx.max()}): the ancestor of u is "
+                "the i with C[i-1] <= u < C[i], np.searchsorted(C, u, side='right'), capped at N - 1")
+            return report
+        counts[t] = np.bincount(idx, minlength=n)
+    if counts[:, 2].any():
+        report.problems.append(
+            "a particle of weight 0 was chosen: its segment of the bar has no width, so no uniform can select "
+            "it; search the cumulative weights with side='right'")
+        return report
+    mean, se = counts.mean(axis=0), counts.std(axis=0, ddof=1) / np.sqrt(n_draws)
+    bad = np.abs(mean - n * w) > 5 * se + 1e-9
+    if bad.any():
+        i = int(np.argmax(np.abs(mean - n * w) - 5 * se))
+        report.problems.append(
+            f"biased: particle {i} of weight {w[i]} should get N W = {n * w[i]:.3f} copies on average, it got "
+            f"{mean[i]:.3f} (± {se[i]:.3f}) over {n_draws} draws; the uniforms must cover [0, 1) evenly")
+        return report
+    var = counts.var(axis=0, ddof=1)
+    var_se = np.sqrt(np.maximum(((counts - mean) ** 4).mean(axis=0) - var**2, 0) / n_draws)
+    exact = _offspring_variances(w)
+    if np.all(np.abs(var - exact["stratified"]) <= 5 * var_se + 0.02):
+        return report
+    nearest = min(("systematic", "multinomial"), key=lambda s: np.abs(var - exact[s]).sum())
+    fits_nearest = np.all(np.abs(var - exact[nearest]) <= 5 * var_se + 0.02)
+    if fits_nearest and nearest == "systematic":
+        report.problems.append(
+            f"the copies vary like systematic resampling's (particle 1 got exactly one copy in every draw, "
+            f"where stratified resampling gives it 0, 1 or 2, Var N_1 = {exact['stratified'][1]:.2f}): each "
+            "stratum needs its own uniform, rng.random(N), not one uniform shared by all")
+    elif fits_nearest:
+        report.problems.append(
+            f"the copies vary like multinomial resampling's (Var N_1 = {var[1]:.2f}, stratified gives "
+            f"{exact['stratified'][1]:.2f}): put uniform j in its stratum, u_j = (j + U_j) / N, instead of "
+            "anywhere in [0, 1)")
+    else:
+        i = int(np.argmax(np.abs(var - exact["stratified"]) / (var_se + 0.02)))
+        report.problems.append(
+            f"the copy counts are right on average but their variance is not stratified resampling's: particle "
+            f"{i} has Var N_i = {var[i]:.2f}, where one independent uniform per stratum gives "
+            f"{exact['stratified'][i]:.2f}")
+    return report
+
+
 def check_weight_update(fn: Callable, seed: int = 0) -> CheckReport:
     """Check ``fn(log_weights, log_likelihoods) -> new normalised log-weights`` (module docstring)."""
     report = CheckReport("weight update")
@@ -662,6 +790,108 @@ def check_kalman(fn: Callable, z: np.ndarray = KALMAN_CASE, rtol: float = 1e-9) 
         f"at step {k} your mean and variance are {means[k]:.6f} and {variances[k]:.6f}, the exact ones "
         f"{exact[0][k]:.6f} and {exact[1][k]:.6f}: check the prediction (m_k^- = a m_(k-1), P_k^- = a^2 P_(k-1) + q) "
         "and the update of that step")
+    return report
+
+
+#: The case of :func:`check_cv_kalman`: a constant-velocity model sampled every ``dt = 0.5`` s; its
+#: position is measured (variance ``r``), nothing at step 0, two readings missing later.
+CV_CASE = {"z": np.array([np.nan, 0.9, 1.1, np.nan, 1.8, 2.6, np.nan, 3.1]), "dt": 0.5, "q": 0.2, "r": 0.25,
+           "m0": np.array([0.0, 1.0]), "P0": np.diag([1.0, 0.5])}
+
+#: The typical mistakes of a constant-velocity Kalman filter, each as the flag of :func:`cv_kalman`
+#: that makes it, with the sentence that names it.
+CV_MISTAKES = {
+    "q_identity": "the process noise is q I: a random acceleration moves the position and the velocity "
+                  "together, Q = q [[dt^3/3, dt^2/2], [dt^2/2, dt]]",
+    "dt_ignored": "the dynamics ignore the time step: the position moves by dt times the velocity, "
+                  "F = [[1, dt], [0, 1]], not [[1, 1], [0, 1]]",
+    "f_transposed": "F is transposed: the position moves by dt times the velocity, F = [[1, dt], [0, 1]], "
+                    "and the velocity does not move with the position",
+    "h_velocity": "the measurement is the position, not the velocity: H = [[1, 0]]",
+    "predict_at_0": "the filter predicts before step 0: the estimate at step 0 is the prior (m0, P0), and the "
+                    "first prediction comes at step 1",
+    "loglik_no_constant": "the log-likelihood misses the normalising term: log N(nu; 0, S) = "
+                          "-(nu^2 / S + log(2 pi S)) / 2",
+}
+
+
+def cv_kalman(z: np.ndarray, dt: float, q: float, r: float, m0: np.ndarray, P0: np.ndarray,
+              mistake: str | None = None) -> tuple[np.ndarray, np.ndarray, float]:
+    """The exact Kalman filter of the constant-velocity model (means ``(K, 2)``, covariances ``(K, 2, 2)``,
+    log-likelihood), or the one that makes ``mistake`` (a key of :data:`CV_MISTAKES`)."""
+    step = 1.0 if mistake == "dt_ignored" else dt
+    F = np.array([[1.0, step], [0.0, 1.0]])
+    F = F.T if mistake == "f_transposed" else F
+    Q = q * np.eye(2) if mistake == "q_identity" else q * np.array([[dt**3 / 3, dt**2 / 2], [dt**2 / 2, dt]])
+    H = np.array([0.0, 1.0]) if mistake == "h_velocity" else np.array([1.0, 0.0])
+    m, P, log_lik = np.asarray(m0, float), np.asarray(P0, float), 0.0
+    means, covs = [], []
+    for k, zk in enumerate(z):
+        if k > 0 or mistake == "predict_at_0":
+            m, P = F @ m, F @ P @ F.T + Q
+        if not np.isnan(zk):
+            nu, s = zk - H @ m, H @ P @ H + r
+            gain = P @ H / s
+            m, P = m + gain * nu, P - np.outer(gain, gain) * s
+            log_lik += -0.5 * nu**2 / s - (0.0 if mistake == "loglik_no_constant" else 0.5 * np.log(2 * np.pi * s))
+        means.append(m)
+        covs.append(P)
+    return np.array(means), np.array(covs), log_lik
+
+
+def check_cv_kalman(fn: Callable, rtol: float = 1e-9) -> CheckReport:
+    """Check ``fn(z, dt, q, r, m0, P0) -> (means (K, 2), covariances (K, 2, 2), log_likelihood)``, the Kalman
+    filter of the constant-velocity model (position and velocity, the position measured), on
+    :data:`CV_CASE` against the exact :func:`cv_kalman`; a wrong answer is compared with each mistake of
+    :data:`CV_MISTAKES` so that the report names it."""
+    report = CheckReport("constant-velocity Kalman filter")
+    case = CV_CASE
+    n_steps = case["z"].size
+    answer = _answer(report, lambda: fn(case["z"].copy(), case["dt"], case["q"], case["r"], case["m0"].copy(),
+                                        case["P0"].copy()),
+                     "fn(z, dt, q, r, m0, P0)", "write the filter and return (means, covariances, log_likelihood)")
+    if answer is None:
+        return report
+    try:
+        means, covs, log_lik = answer
+        means, covs, log_lik = np.asarray(means, float), np.asarray(covs, float), np.asarray(log_lik, float)
+    except (TypeError, ValueError) as exc:
+        report.problems.append(f"the answer is not (means, covariances, log_likelihood): {exc}")
+        return report
+    if means.shape != (n_steps, 2) or covs.shape != (n_steps, 2, 2) or log_lik.shape != ():
+        report.problems.append(
+            f"returned shapes {means.shape}, {covs.shape} and {log_lik.shape}; expected ({n_steps}, 2), "
+            f"({n_steps}, 2, 2) and (): one mean and one covariance per step, step 0 included, and one number")
+        return report
+    if not (np.isfinite(means).all() and np.isfinite(covs).all()):
+        k = int(np.argmax(~np.isfinite(means).all(axis=1) | ~np.isfinite(covs).all(axis=(1, 2))))
+        report.problems.append(f"the mean or the covariance is NaN at step {k}: when z_k is NaN nothing is "
+                               "measured, so skip the update (m_k = m_k^-, P_k = P_k^-)")
+        return report
+
+    def close(got, expected) -> bool:
+        return bool(np.allclose(got, expected, rtol=rtol, atol=1e-12))
+
+    exact = cv_kalman(**case)
+    filtered = close(means, exact[0]) and close(covs, exact[1])
+    if filtered and close(log_lik, exact[2]):
+        return report
+    for mistake, why in CV_MISTAKES.items():
+        wrong = cv_kalman(**case, mistake=mistake)
+        if close(means, wrong[0]) and close(covs, wrong[1]) and close(log_lik, wrong[2]):
+            report.problems.append(f"your filter computes a known mistake: {why}")
+            return report
+    if filtered:
+        report.problems.append(
+            f"the means and covariances are right, the log-likelihood is not ({float(log_lik):.6f}, exact "
+            f"{exact[2]:.6f}): add log N(nu_k; 0, S_k) at every measured step and nothing at a missing one")
+        return report
+    wrong = ~(np.isclose(means, exact[0], rtol=rtol, atol=1e-12).all(axis=1)
+              & np.isclose(covs, exact[1], rtol=rtol, atol=1e-12).all(axis=(1, 2)))
+    k = int(np.argmax(wrong))
+    report.problems.append(
+        f"at step {k} your mean is {np.round(means[k], 4).tolist()}, the exact one "
+        f"{np.round(exact[0][k], 4).tolist()}: check the model's F, Q and H and the update of that step")
     return report
 
 

@@ -31,6 +31,7 @@ from pfcourse.pmmh import pmmh
 from pfcourse.smoothing import ffbsm, pairwise
 from pfcourse.robot.scenario import robot_transition_log_density
 from pfcourse.experiments.terrain import jacksboro
+from pfcourse.collectors import Clouds
 from pfcourse.filter import ParticleFilter
 from pfcourse.landmarks import quadrant_scenario, simulate
 from pfcourse.robot import RobotModel, RobotScenario, simulate_robot
@@ -99,7 +100,7 @@ def terrain_rf_run(seed: int, flight: int, n_particles: int) -> dict:
 def robot_gap_run(seed: int, n_particles: int) -> dict:
     sim = simulate_robot(ROBOT_GAP, seed)
     model = RobotModel.for_simulation(sim)
-    r = ParticleFilter(model, n_particles).run(sim.measurements, run_filter_seed(seed), store_particles=True)
+    r = ParticleFilter(model, n_particles).run(sim.measurements, run_filter_seed(seed), collect=[Clouds()])
     s = ffbsm(r.particles, r.weights, pairwise(partial(robot_transition_log_density, model)), model.angle_indices)
     t = np.arange(ROBOT_GAP.n_steps) * ROBOT_GAP.dt
     gap = (t >= ROBOT_GAP.gap[0]) & (t < ROBOT_GAP.gap[1])
