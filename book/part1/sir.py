@@ -410,7 +410,7 @@ EvidenceBlock(
 
 # %%
 class LandmarkGibbs:
-    """After each resampling, draw l ~ p(l | r_{0:k}, z_{1:k}) (resample-move)."""
+    """Resample-move: after resampling, draw l ~ p(l | r_{0:k}, z_{1:k})."""
 
     def __init__(self, model, N):
         # prior mean and variance of each landmark coordinate, and sigma_v^2
