@@ -81,7 +81,7 @@ from pfcourse.errors import (
     ParameterError,
     ShapeError,
 )
-from pfcourse.collectors import Clouds, start_collectors
+from pfcourse.collectors import start_collectors
 from pfcourse.proposals import TransitionProposal
 from pfcourse.resampling import get_resampler, multinomial
 from pfcourse.results import FilterResult
@@ -386,7 +386,6 @@ class ParticleFilter:
         rng: np.random.Generator | int | None = None,
         *,
         collect: Sequence = (),
-        store_particles: bool = False,
     ) -> FilterResult:
         """Filter the measurements ``z_0, ..., z_{K-1}`` and return a :class:`FilterResult`.
 
@@ -423,14 +422,10 @@ class ParticleFilter:
         :class:`~pfcourse.errors.ModelError` (a missing ``name`` or method) or a
         :class:`~pfcourse.errors.ParameterError` (a name twice, a collector that does not fit
         this filter, such as the clouds of a variable ``N``).
-
-        ``store_particles=True`` is the deprecated spelling of ``collect=[Clouds()]``.
         """
         rng = as_generator(rng)
         measurements = check_measurements(measurements)
         collect = list(collect) if isinstance(collect, (list, tuple)) else collect
-        if store_particles:  # TODO(issue 44): remove after Part I/V merge (the keyword is deprecated)
-            collect = [*collect, Clouds()] if isinstance(collect, list) else collect
         collectors = start_collectors(self, len(measurements), collect)
         for step in self._steps(measurements, rng):
             for collector in collectors:
