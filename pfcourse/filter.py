@@ -354,6 +354,10 @@ class ParticleFilter:
         self._custom_resampler = not isinstance(resampler, str)
         if proposal is not None and not callable(getattr(proposal, "propose", None)):
             raise ModelError(f"proposal must have a propose(model, particles, z, k, rng) method, got {proposal!r}")
+        hook = getattr(proposal, "propose_with_ancestors", None)
+        if getattr(proposal, "draws_ancestors", False) and not callable(hook):
+            raise ModelError(f"a proposal that draws ancestors (draws_ancestors = True) must have a method "
+                             f"propose_with_ancestors(model, particles, z, k, rng, log_weights), got {proposal!r}")
         if jitter is not None and not callable(jitter):
             raise ModelError(f"jitter must be a function (particles, rng) -> particles, got {jitter!r}")
         angles = getattr(model, "angle_indices", ())
