@@ -235,6 +235,18 @@ def test_the_genealogy_follows_the_first_stage(threshold):
     assert not run.resampled[1]
 
 
+def test_a_variable_n_composes_the_first_stage_with_its_batches():
+    """With a sample_size policy each batch's ancestors are composed with the first stage's: child i
+    equals particle ancestors[i] of the step before."""
+    from pfcourse.sample_size import KLDSampling
+
+    pf = ParticleFilter(WALK, 300, proposal=FullyAdaptedAuxiliary(IdentityMove()),
+                        sample_size=KLDSampling([0.2], n_min=50, batch=50))
+    steps = list(pf.steps(Z_GAP, rng=1))
+    for k in (1, 3, 4):
+        np.testing.assert_array_equal(steps[k].particles, steps[k - 1].particles[steps[k].ancestors])
+
+
 def test_every_child_is_kept_when_some_weights_are_zero():
     """A zero weight at step 0 (never resampled, threshold 0): the auxiliary step keeps all N children,
     each from a live parent, with equal weights (the filter before the fix kept only the M live slots)."""
