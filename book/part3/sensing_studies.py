@@ -228,8 +228,10 @@ EvidenceBlock(
 # Report 002 is confirmed and sized: with a measurement every $20$ s instead of every second the
 # position RMSE is, run by run, {glue:text}`dt_ratio_20:.2f` times the error (95 % interval
 # {glue:text}`dt_ratio_20_low:.2f`-{glue:text}`dt_ratio_20_high:.2f`), and the filter's own standard
-# deviation grows with it: the filter does not become over-confident (its median NEES goes from
-# {glue:text}`dt_nees_1:.2f` to {glue:text}`dt_nees_20:.2f`, below $3$ throughout: pessimistic).
+# deviation grows with it.
+#
+# The filter does not become over-confident: its median NEES goes from
+# {glue:text}`dt_nees_1:.2f` to {glue:text}`dt_nees_20:.2f`, below $3$ throughout: pessimistic.
 #
 # Report 004's explanation is not the cause: a filter can absorb several measurements between two
 # predictions (it updates the weights with each). What happens in the reports' code is simpler: a

@@ -19,7 +19,7 @@
 # {doc}`../part2/terrain_cure`; Metropolis-Hastings
 # in one line (propose, accept with a ratio); NumPy.
 #
-# **Time:** about thirty-two minutes to read; the notebook runs in about twenty seconds.
+# **Time:** about twenty-seven minutes to read; the notebook runs in about twenty seconds.
 # :::
 #
 # The lab reports tune the noise covariances of their filters by hand, trying scales from $0.1$ to
@@ -224,16 +224,19 @@ EvidenceBlock(
 # carry the mean, and then its mean falls **below** $1$; it jumps above $1$ when it catches one. So
 # unbiasedness is checked on the log scale: if $\log \hat p$ is Gaussian,
 # $\log \mathbb E[\hat p / p]$ is its mean error plus half its variance, here
-# {glue:text}`est_lognormal_check:.2f` nats. Where $\log\hat p$ is close to Gaussian, at
+# {glue:text}`est_lognormal_check:.2f` nats.
+#
+# That check assumes a Gaussian $\log\hat p$. Where it is close to Gaussian, at
 # $N = 1000$, the check gives {glue:text}`est_check_1000:.2f` nats
 # ({glue:text}`est_check_1000_low:.2f` to {glue:text}`est_check_1000_high:.2f`): it holds $0$. With
 # fewer particles it fails, because $\log\hat p$ is not Gaussian (folded below). One works with
 # $\log \hat p$, whose spread $\sigma$ is what matters below.
 #
-# :::{dropdown} Why the check fails with fewer particles
-# On the stored study's $200$ runs per $N$ the statistic is {glue:text}`est_check_300:.2f` at $N = 300$ and {glue:text}`est_check_100:.2f` at
-# $N = 100$, and the data exclude $0$ at both. The check fails there, not the estimator:
-# $\log \hat p$ is not Gaussian but skewed to the left (skewness {glue:text}`est_skew_300:.2f` and
+# :::{admonition} Why the check fails with fewer particles
+# :class: dropdown
+# On the stored study's $200$ runs per $N$ the statistic is {glue:text}`est_check_300:.2f` at
+# $N = 300$ and {glue:text}`est_check_100:.2f` at $N = 100$, and the data exclude $0$ at both.
+# The check fails there, not the estimator: $\log \hat p$ is not Gaussian but skewed to the left (skewness {glue:text}`est_skew_300:.2f` and
 # {glue:text}`est_skew_100:.2f`), which pushes mean plus half variance up; the next term of
 # $\log \mathbb E[\hat p / p]$, a sixth of the third cumulant, brings $N = 300$ down to
 # {glue:text}`est_third_300:.2f`; the higher cumulants carry the rest.
@@ -362,7 +365,8 @@ print(f"exact ML theta = {theta_exact:.3f}; particle ML (N = 300, one seed) thet
 # {glue:text}`ml_noise_scale_pf:.3f`. The exact one lies below $1$ for a reason that has nothing
 # to do with particles: the ML estimate of a variance is skewed (folded below).
 #
-# :::{dropdown} Why the exact ML scale lies below the truth
+# :::{admonition} Why the exact ML scale lies below the truth
+# :class: dropdown
 # The ML estimate of a variance is skewed. From $n$ independent Gaussian
 # residuals it is the truth times $\chi^2_n / n$ ($n$ degrees of freedom), whose median is below $1$
 # for every $n$. Here $n$ is not a count of measurements (the scale is estimated through the
@@ -680,7 +684,8 @@ EvidenceBlock(
 # it stays bounded when $N$ grows in proportion {cite:p}`berard2014`. So $N$ must grow with the
 # number of steps, and a PMMH iteration then costs a number of steps squared.
 #
-# :::{dropdown} How sure is the choice of $N$ here, and how the variance grows on these data
+# :::{admonition} How sure is the choice of $N$ here, and how the variance grows on these data
+# :class: dropdown
 # With $N = 300$
 # ($\mathrm{var}\,\log\hat p =$ {glue:text}`loglik_var_300:.1f`, near $3.3$) the chain gives
 # {glue:text}`pmmh_ess_per_mp_300:.0f` effective draws per million particles spent; with $N = 1000$
@@ -776,7 +781,8 @@ EvidenceBlock(
 # noise, the kernel's change of model, and lost tracks (folded below); the study does not separate
 # the first two.
 #
-# :::{dropdown} The three causes of the large gains
+# :::{admonition} The three causes of the large gains
+# :class: dropdown
 #
 # - **Monte Carlo noise.** The search maximises the estimate's error along with the likelihood: a
 #   jagged CRN curve has maxima that an exact curve does not.
@@ -785,10 +791,11 @@ EvidenceBlock(
 #   allows; part of the readings' scatter is then explained before the altimeter noise is, which
 #   would pull the ML scale of $R_f$ down (not measured here).
 # - **Lost tracks.** The two largest gains, {glue:text}`terrain_rf_lost_gain_a:.0f` and
-#   {glue:text}`terrain_rf_lost_gain_b:.0f` nats, are flights whose filter at the true scale lost
-#   the aircraft (log-likelihood {glue:text}`terrain_rf_lost_truth_a:.0f` and
+#   {glue:text}`terrain_rf_lost_gain_b:.0f` nats, are flights whose filter at the true scale
+#   collapsed (log-likelihood {glue:text}`terrain_rf_lost_truth_a:.0f` and
 #   {glue:text}`terrain_rf_lost_truth_b:.0f`, against a median of
-#   {glue:text}`terrain_rf_truth_median:.0f` over the flights); a wider assumed noise keeps the track.
+#   {glue:text}`terrain_rf_truth_median:.0f` over the flights); at another scale the filter keeps
+#   the track, and the search finds that scale.
 #   Without them the share above $1.92$ is still {glue:text}`terrain_rf_gain_share_kept:.2f`.
 # :::
 #
