@@ -7,8 +7,10 @@ chapter ``n``, every number from ``n`` on moves up by one:
 
     python tools/renumber_chapters.py FIRST_SHIFTED [--by 1]
 
-It edits the markdown of every chapter source (book/**/*.py), its stored notebook's markdown cells
-(markdown has no outputs: nothing needs re-executing) and the book's pages (book/*.md).
+It edits every chapter source (book/**/*.py), its stored notebook's markdown cells (markdown has no
+outputs: nothing needs re-executing), the book's pages (book/**/*.md) and the exercise checkers'
+comments ("chapter 18", "exercise 18.1"). A stored notebook's code cell that prints such a number is
+not changed: regenerate that notebook.
 """
 
 from __future__ import annotations
@@ -20,11 +22,15 @@ from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
 NUMBERED = re.compile(r"((?:Algorithm|Exercise|Exercises|exercise|\{exercise\}) )(\d+)(\.\d+)")
+#: "chapter 18" in the exercise checkers' comments and docstrings.
+CHAPTER = re.compile(r"(\bchapter )(\d+)()\b")
 
 
-def shifted(text: str, first: int, by: int) -> str:
-    return NUMBERED.sub(lambda m: m.group(1) + str(int(m.group(2)) + by if int(m.group(2)) >= first
-                                                   else m.group(2)) + m.group(3), text)
+def shifted(text: str, first: int, by: int, patterns=(NUMBERED,)) -> str:
+    for pattern in patterns:
+        text = pattern.sub(lambda m: m.group(1) + str(int(m.group(2)) + by if int(m.group(2)) >= first
+                                                      else m.group(2)) + m.group(3), text)
+    return text
 
 
 def main(first: int, by: int) -> None:
@@ -42,6 +48,8 @@ def main(first: int, by: int) -> None:
             notebook.write_text(json.dumps(data, indent=1, ensure_ascii=False) + "\n")
     for page in sorted((ROOT / "book").glob("**/*.md")):
         page.write_text(shifted(page.read_text(), first, by))
+    for module in sorted((ROOT / "pfcourse" / "exercises").glob("*.py")):
+        module.write_text(shifted(module.read_text(), first, by, (NUMBERED, CHAPTER)))
 
 
 if __name__ == "__main__":
