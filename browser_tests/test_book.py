@@ -273,10 +273,17 @@ def _at_width(tab, width: int) -> None:
     web/static/pfcourse-render.js (it marks <html> with the width it laid out for)."""
     tab.set_viewport_size({"width": width, "height": 900})
     tab.wait_for_timeout(100)
+    # The theme settles its sidebars over a few frames after a resize: wait for the article's width
+    # to hold still between two polls, and for the script's pass at that width.
     tab.wait_for_function(
-        """(width) => !document.querySelector('script[src*="pfcourse-render"]')
-            || document.documentElement.dataset.pfcourseLayout === String(width)""",
-        arg=width, timeout=FRAME_TIMEOUT_MS)
+        """(width) => {
+            const article = document.querySelector('article.bd-article') || document.body;
+            const now = article.getBoundingClientRect().width, before = window.__pfcourseArticleWidth;
+            window.__pfcourseArticleWidth = now;
+            return now === before && (!document.querySelector('script[src*="pfcourse-render"]')
+                || document.documentElement.dataset.pfcourseLayout === String(width));
+        }""",
+        arg=width, polling=150, timeout=FRAME_TIMEOUT_MS)
 
 
 #: What "cut off" means, in the page: for every code or output block and table (scrollWidth past
@@ -298,14 +305,22 @@ _OVERFLOW_JS = r"""() => {
       - parseFloat(s.borderTopWidth) - parseFloat(s.borderBottomWidth) > 0;
     return fade || bar;
   };
+  // Past the column is a fault only for what no box around it scrolls.
+  const inScroller = (el) => {
+    for (let e = el.parentElement; e && e !== article; e = e.parentElement) if (scrolls(e)) return true;
+    return false;
+  };
   const out = {boxes: 0, formulas: 0, displays: 0, clipped: [], uncued: [], display: [], inline: [], outside: []};
-  for (const el of article.querySelectorAll('pre, table')) {
-    if (!visible(el) || el.closest('mjx-container')) continue;
+  for (const content of article.querySelectorAll('pre, table')) {
+    if (!visible(content) || content.closest('mjx-container')) continue;
+    // A table the theme wraps in a scrolling container (its only child): the container is the box.
+    const parent = content.parentElement;
+    const el = !scrolls(content) && parent && parent.children.length === 1 && scrolls(parent) ? parent : content;
     out.boxes++;
     const right = el.getBoundingClientRect().right;
-    if (right > edge + 1) out.outside.push(`${el.tagName.toLowerCase()} ${Math.round(right - edge)} px past the column: ${label(el)}`);
+    if (right > edge + 1 && !inScroller(el)) out.outside.push(`${content.tagName.toLowerCase()} ${Math.round(right - edge)} px past the column: ${label(el)}`);
     if (el.scrollWidth <= el.clientWidth + 1) continue;
-    const text = `${el.tagName.toLowerCase()} (${el.scrollWidth} px in ${el.clientWidth} px): ${label(el)}`;
+    const text = `${content.tagName.toLowerCase()} (${el.scrollWidth} px in ${el.clientWidth} px): ${label(el)}`;
     if (!scrolls(el)) out.clipped.push(text);
     else if (!cued(el)) out.uncued.push(text);
   }
@@ -317,7 +332,7 @@ _OVERFLOW_JS = r"""() => {
     out.formulas++;
     if (display) out.displays++;
     const r = box.getBoundingClientRect();
-    if (r.right > edge + 1) out.outside.push(`formula ${Math.round(r.right - edge)} px past the column: ${label(box)}`);
+    if (r.right > edge + 1 && !inScroller(box)) out.outside.push(`formula ${Math.round(r.right - edge)} px past the column: ${label(box)}`);
     const need = math.getBoundingClientRect().width;
     if (need <= r.width + 1 || (scrolls(box) && box.scrollWidth > box.clientWidth + 1 && cued(box))) continue;
     (display ? out.display : out.inline).push(

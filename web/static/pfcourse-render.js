@@ -15,7 +15,7 @@
   "use strict";
   var MIN_SCALE = 0.8;
   var SCROLLERS = "div.highlight pre, div.cell_output pre, pre.literal-block, div.cell_output table, "
-    + "div.math > mjx-container, span.math.pfcourse-math-scrolls";
+    + "div.pst-scrollable-table-container, div.math > mjx-container, span.math.pfcourse-math-scrolls";
   var TRAILING = /^[.,;:!?)\]\u2019\u201d]+/;
   var LEADING = /[(\[\u2018\u201c]+$/;
 
@@ -83,6 +83,10 @@
   }
 
   function markScrollers(root) {
+    // A box that no longer scrolls (a formula that fits at this width) loses its fade.
+    root.querySelectorAll(".pfcourse-more-right, .pfcourse-more-left").forEach(function (box) {
+      if (!box.matches(SCROLLERS)) { box.classList.remove("pfcourse-more-right", "pfcourse-more-left"); }
+    });
     root.querySelectorAll(SCROLLERS).forEach(function (box) {
       if (!box.dataset.pfcourseCue) {
         box.dataset.pfcourseCue = "1";
@@ -119,7 +123,17 @@
     window.addEventListener("resize", relayout);
     // A folded block (an evidence block, a solution, hidden code) lays out its content when opened.
     document.addEventListener("toggle", relayout, true);
-    if (window.ResizeObserver) { new ResizeObserver(relayout).observe(root); }
+    // Widths change after this first pass when a folded block opens, an image or a web font
+    // (MathJax's) arrives: the page's column and every formula are watched.
+    if (window.ResizeObserver) {
+      var watch = new ResizeObserver(relayout);
+      watch.observe(root);
+      root.querySelectorAll("article, mjx-math, span.math, " + SCROLLERS).forEach(function (el) { watch.observe(el); });
+    }
+    if (document.fonts) {
+      document.fonts.addEventListener("loadingdone", relayout);
+      document.fonts.ready.then(relayout);
+    }
   }
 
   function whenTypeset(then) {
