@@ -5,7 +5,8 @@
 - every part's page links to every chapter of its part.
 
 Reading time (issue 39), as ``start_here.md`` states it: the words of the prose (markdown outside
-code blocks and folded evidence blocks; a formula, a code span or a role counts as one word) at
+code blocks and folded blocks such as evidence and solutions, exercises included; a formula, a code
+span or a role counts as one word) at
 150 words a minute, plus 30 s for each display equation outside folded blocks and 6 s for each
 line of code the reader sees (code cells not hidden or removed), rounded up to a minute. A stated
 time may be off by a quarter
@@ -33,9 +34,9 @@ START_HERE = (BOOK / "start_here.md").read_text()
 
 _NOT_PROSE = [
     # folded evidence blocks: a dropdown (``:::{dropdown}``, ``:::{admonition} ... :class: dropdown``)
-    r"^(:{3,}|`{3,})\{(?:dropdown|admonition)\}[^\n]*\n(?:(?!\1)[^\n]*\n)*?\s*:class:[^\n]*dropdown.*?^\1\s*$",
+    r"^(:{3,}|`{3,})\{(?:dropdown|admonition|solution)\}[^\n]*\n(?:(?!\1)[^\n]*\n)*?\s*:class:[^\n]*dropdown.*?^\1\s*$",
     r"^(:{3,}|`{3,})\{dropdown\}.*?^\1\s*$",
-    r"^(`{3,}).*?^\1\s*$",  # code blocks
+    r"^(`{3,})(?!\{exercise\}).*?^\1\s*$",  # code blocks (an exercise's text is read)
 ]
 
 
