@@ -176,3 +176,65 @@ def test_a_cv_answer_of_the_wrong_form_is_named():
         "the answer is not (means, covariances, log_likelihood)")
     right_filter = check_cv_kalman(lambda *a: (*student_cv(*a)[:2], 0.0))
     assert right_filter.problems[0].startswith("the means and covariances are right, the log-likelihood is not")
+
+
+def test_a_generator_seeded_inside_is_not_called_a_midpoint():
+    seeded_inside = check_stratified_resampler(lambda w, rng: stratified(w, np.random.default_rng(0)))
+    assert len(seeded_inside.problems) == 1
+    assert "a generator seeded inside the function" in seeded_inside.problems[0]
+    assert "midpoint" not in seeded_inside.problems[0]
+    midpoints = check_stratified_resampler(MISTAKES["midpoints"][0])
+    assert "it is the midpoints' answer" in midpoints.problems[0], str(midpoints)
+
+
+# Typical mistakes of the constant-velocity filter with the noise variances, written as a student would.
+def student_cv_noise(z, dt, q, r, m0, P0, *, piecewise_q=False, r_as_sd=False, q_as_sd=False):
+    F = np.array([[1.0, dt], [0.0, 1.0]])
+    if piecewise_q:  # filterpy's Q_discrete_white_noise(dim=2, dt=dt, var=q)
+        Q = q * np.array([[dt**4 / 4, dt**3 / 2], [dt**3 / 2, dt**2]])
+    else:
+        Q = (q**2 if q_as_sd else q) * np.array([[dt**3 / 3, dt**2 / 2], [dt**2 / 2, dt]])
+    m, P, log_lik, means, covs = m0, P0, 0.0, [], []
+    for k, zk in enumerate(z):
+        if k > 0:
+            m, P = F @ m, F @ P @ F.T + Q
+        if not np.isnan(zk):
+            S = P[0, 0] + (r**2 if r_as_sd else r)
+            K = P[:, 0] / S
+            nu = zk - m[0]
+            m, P = m + K * nu, P - np.outer(K, K) * S
+            log_lik -= 0.5 * (nu**2 / S + np.log(2 * np.pi * S))
+        means.append(m)
+        covs.append(P)
+    return np.array(means), np.array(covs), log_lik
+
+
+@pytest.mark.parametrize("mistake, says", [
+    ({"piecewise_q": True}, "piecewise-constant acceleration"),
+    ({"r_as_sd": True}, "r is already the variance"),
+    ({"q_as_sd": True}, "q is already a variance"),
+])
+def test_a_wrong_process_or_reading_noise_is_named(mistake, says):
+    from pfcourse.exercises.part1 import check_cv_kalman
+
+    assert check_cv_kalman(student_cv_noise).ok
+    report = check_cv_kalman(lambda *a: student_cv_noise(*a, **mistake))
+    assert len(report.problems) == 1 and says in report.problems[0], str(report)
+
+
+def test_the_block_of_the_inverse_of_r_is_named():
+    from pfcourse.exercises.part1 import LIKELIHOOD_R, check_log_likelihood
+
+    def block_of_inverse(x, z, H, R):
+        seen = ~np.isnan(z)
+        if not seen.any():
+            return np.zeros(len(x))
+        d = z[seen] - x @ H[seen].T
+        quad = np.einsum("ij,jk,ik->i", d, np.linalg.inv(R)[np.ix_(seen, seen)], d)
+        R_k = R[np.ix_(seen, seen)]
+        return -0.5 * (quad + seen.sum() * np.log(2 * np.pi) + np.linalg.slogdet(R_k)[1])
+
+    # the two differ only when measured and unmeasured coordinates are correlated
+    assert LIKELIHOOD_R[1, 2] != 0
+    report = check_log_likelihood(block_of_inverse)
+    assert len(report.problems) == 1 and "inv(R)[seen, seen]" in report.problems[0], str(report)

@@ -99,9 +99,10 @@ def _offspring_variances(w: np.ndarray) -> dict[str, np.ndarray]:
     return {"stratified": (p * (1 - p)).sum(axis=1), "systematic": r * (1 - r), "multinomial": n * w * (1 - w)}
 
 
-def _draws_from_its_generator(report: CheckReport, call: Callable) -> bool:
+def _draws_from_its_generator(report: CheckReport, call: Callable, midpoints: np.ndarray | None = None) -> bool:
     """Whether ``call(rng)`` leaves NumPy's global state alone, repeats itself for one seed and changes
-    with the seed; if not, say which, in one sentence, and return False."""
+    with the seed; if not, say which, in one sentence, and return False. ``midpoints``, the answer of
+    each stratum's midpoint in place of its uniform, tells that mistake from a generator made inside."""
     state = np.random.get_state()
     try:
         first, again = np.asarray(call(np.random.default_rng(1))), np.asarray(call(np.random.default_rng(1)))
@@ -120,9 +121,14 @@ def _draws_from_its_generator(report: CheckReport, call: Callable) -> bool:
             "two calls with generators of the same seed gave different answers: draw every uniform from the rng "
             "argument, and from nothing else")
     elif all(np.array_equal(first, o) for o in others):
-        report.problems.append(
-            "the result never changes with the seed: the rng is not used (each stratum needs a random uniform, "
-            "not its midpoint)")
+        if midpoints is not None and np.array_equal(first, midpoints):
+            report.problems.append(
+                "the result never changes with the seed: it is the midpoints' answer, and each stratum needs a "
+                "random uniform drawn with rng.random, not its midpoint")
+        else:
+            report.problems.append(
+                "the result never changes with the seed: the rng it is given is not used (a generator seeded "
+                "inside the function?); draw every uniform from the rng argument")
     return not report.problems
 
 
@@ -161,7 +167,8 @@ def _check_stratified(fn: Callable, n_draws: int, seed: int) -> CheckReport:
     if first.dtype.kind not in "iu":
         report.problems.append(f"returned dtype {first.dtype}; indices must be integers (use astype(int))")
         return report
-    if not _draws_from_its_generator(report, lambda g: fn(w.copy(), g)):
+    midpoints = np.minimum(np.searchsorted(np.cumsum(w), (np.arange(n) + 0.5) / n, side="right"), n - 1)
+    if not _draws_from_its_generator(report, lambda g: fn(w.copy(), g), midpoints):
         return report
     rng = np.random.default_rng(seed)
     counts = np.empty((n_draws, n))
@@ -588,6 +595,13 @@ CV_MISTAKES = {
                     "first prediction comes at step 1",
     "loglik_no_constant": "the log-likelihood misses the normalising term: log N(nu; 0, S) = "
                           "-(nu^2 / S + log(2 pi S)) / 2",
+    "q_piecewise": "your Q is the piecewise-constant acceleration's, q [[dt^4/4, dt^3/2], [dt^3/2, dt^2]] "
+                   "(filterpy's Q_discrete_white_noise): this model's acceleration is white noise of spectral "
+                   "density q, whose Q is q [[dt^3/3, dt^2/2], [dt^2/2, dt]]",
+    "q_as_sd": "your Q is built from q squared: q is already a variance (sigma_a^2), so Q = q [[dt^3/3, dt^2/2], "
+               "[dt^2/2, dt]] with q itself",
+    "r_as_sd": "your innovation variance uses r squared: r is already the variance sigma_v^2 of a reading, "
+               "so S = H P H^T + r",
 }
 
 
@@ -599,6 +613,11 @@ def cv_kalman(z: np.ndarray, dt: float, q: float, r: float, m0: np.ndarray, P0: 
     F = np.array([[1.0, step], [0.0, 1.0]])
     F = F.T if mistake == "f_transposed" else F
     Q = q * np.eye(2) if mistake == "q_identity" else q * np.array([[dt**3 / 3, dt**2 / 2], [dt**2 / 2, dt]])
+    if mistake == "q_piecewise":
+        Q = q * np.array([[dt**4 / 4, dt**3 / 2], [dt**3 / 2, dt**2]])
+    if mistake == "q_as_sd":
+        Q = Q * q
+    r = r**2 if mistake == "r_as_sd" else r
     H = np.array([0.0, 1.0]) if mistake == "h_velocity" else np.array([1.0, 0.0])
     m, P, log_lik = np.asarray(m0, float), np.asarray(P0, float), 0.0
     means, covs = [], []
@@ -1183,7 +1202,9 @@ def _same_state(a, b) -> bool:
 LIKELIHOOD_H = np.kron(np.hstack([-np.ones((2, 1)), np.eye(2)]), np.eye(2))
 
 
-LIKELIHOOD_R = np.diag([0.01, 0.01, 0.04, 0.04]) + np.diag([0.004, 0.0, 0.01], 1) + np.diag([0.004, 0.0, 0.01], -1)
+#: Correlated across the two landmarks (the 0.002 between coordinates 2 and 3), so that the inverse of
+#: R's block differs from the block of R's inverse, and the checker can tell the two apart.
+LIKELIHOOD_R = np.diag([0.01, 0.01, 0.04, 0.04]) + np.diag([0.004, 0.002, 0.01], 1) + np.diag([0.004, 0.002, 0.01], -1)
 
 
 LIKELIHOOD_CASES = (np.array([1.2, 0.6, 0.8, -0.4]), np.array([np.nan, np.nan, 0.9, -0.3]),
@@ -1199,6 +1220,9 @@ LIKELIHOOD_MISTAKES = {
                "covariance of the measurement noise, in m²",
     "leading_block": "it takes the leading block R[:n, :n] of R instead of the block of the measured coordinates, "
                      "R[seen][:, seen]; the two differ when the visible landmark is not the first",
+    "inverse_block": "it takes the block of R's inverse, inv(R)[seen, seen], instead of the inverse of R's "
+                     "block, inv(R[seen, seen]); they differ when the measured coordinates are correlated with "
+                     "unmeasured ones: invert R_k, the block of the coordinates measured",
     "no_constant": "it misses the normalising term -(n log(2 pi) + log det R_seen) / 2, which the exercise asks "
                    "for (it changes with the number n of coordinates measured)",
 }
@@ -1222,7 +1246,8 @@ def landmark_log_likelihood(x: np.ndarray, z: np.ndarray, H: np.ndarray, R: np.n
     block = R[:n, :n] if mistake == "leading_block" else R[np.ix_(seen, seen)]
     if mistake == "r_as_sd":
         block = block @ block
-    quad = np.einsum("ij,ij->i", d @ np.linalg.inv(block), d)
+    precision = np.linalg.inv(R)[np.ix_(seen, seen)] if mistake == "inverse_block" else np.linalg.inv(block)
+    quad = np.einsum("ij,ij->i", d @ precision, d)
     constant = 0.0 if mistake == "no_constant" else n * np.log(2 * np.pi) + np.linalg.slogdet(block)[1]
     return -0.5 * (quad + constant)
 
@@ -1259,6 +1284,7 @@ def check_log_likelihood(fn: Callable, n_particles: int = 50, seed: int = 0, rto
         return report
     case = next(c for c, (a, z) in enumerate(zip(answers, LIKELIHOOD_CASES))
                 if not np.allclose(a, landmark_log_likelihood(x, z, LIKELIHOOD_H, LIKELIHOOD_R), rtol=rtol, atol=1e-9))
-    report.problems.append(f"with z = {LIKELIHOOD_CASES[case]} the values differ from log N(z_s; H_s x, R_ss): "
-                           "check the quadratic form (z_s - H_s x)^T R_ss^-1 (z_s - H_s x) and the term -(1/2)")
+    report.problems.append(f"with z = {LIKELIHOOD_CASES[case]} the values differ from log N(z_k; H_k x^i, R_k): "
+                           "check the quadratic form (z_k - H_k x^i)^T R_k^-1 (z_k - H_k x^i) and the constant "
+                           "-(m log(2 pi) + log det R_k) / 2, with m the number of coordinates measured")
     return report
