@@ -300,13 +300,13 @@ plt.show()
 # Over the {glue:text}`kalman_nees_runs:d` runs the time-averaged NEES has mean
 # {glue:text}`kalman_nees_mean:.2f` ({glue:text}`kalman_nees_mean_low:.2f`-{glue:text}`kalman_nees_mean_high:.2f`),
 # for $6$ expected: the data exclude an overconfidence of the bands beyond
-# {glue:text}`kalman_nees_excess_high:.0f` % in the NEES, and a bias of a few percent from the
-# state-dependent visibility is within what $200$ runs cannot resolve.
-#
-# As a control, the same runs' true states are measured again with the visibility pattern of
-# another run, which does not depend on this run's state: the model for which the filter is
-# exact. The mean NEES is then {glue:text}`kalman_nees_control_mean:.2f`
-# ({glue:text}`kalman_nees_control_low:.2f`-{glue:text}`kalman_nees_control_high:.2f`).
+# {glue:text}`kalman_nees_excess_high:.0f` % in the NEES. As a control, the same runs' true
+# states are measured again with the visibility pattern of another run, which does not depend
+# on this run's state: the model for which the filter is exact. Its mean NEES is
+# {glue:text}`kalman_nees_control_mean:.2f`
+# ({glue:text}`kalman_nees_control_low:.2f`-{glue:text}`kalman_nees_control_high:.2f`), so
+# $200$ runs cannot tell the simulator from the exact case: a bias of a few percent from the
+# state-dependent visibility would be too small for them to resolve.
 
 # %% tags=["remove-input"] jupyter={"source_hidden": true}
 inside = np.mean((eps.mean(axis=0) >= lo) & (eps.mean(axis=0) <= hi))

@@ -122,8 +122,8 @@ plt.show()
 # (resampling-numpy)=
 # ## The algorithm in NumPy, checked against the package
 #
-# Algorithm 6.1 in a few lines, for three of the schemes (the stratified one is
-# Exercise 6.3): one function inverts the cumulative weights, and each scheme only makes its
+# Algorithm 6.1 in a few lines, for three of the schemes, drawing $n = N$ particles (the
+# stratified one, for any $n$, is Exercise 6.3): one function inverts the cumulative weights, and each scheme only makes its
 # uniforms.
 
 # %%
@@ -532,25 +532,27 @@ display(control_panel(draw_offspring, grid={"scheme": tuple(SCHEMES), "spread": 
 # errors too few.
 # ```
 #
-# ```{exercise} 6.3 Write stratified resampling, and have it checked
+# ```{exercise} 6.3 Stratified resampling to a new cloud size, and have it checked
 # :label: ex-resampling-code
 # :nonumber:
-# (Coding.) The chapter's code shows multinomial, systematic and residual resampling, not the
-# stratified scheme. Write `my_stratified(W, rng)`: one independent uniform in each stratum
-# $[(j-1)/N, j/N)$, drawn from the generator `rng` it is given, returning the $N$ ancestor
-# indices as integers. The checker resamples eight weights thousands of times. One particle's
-# segment lies astride two strata, half in each, so stratified resampling gives it $0$, $1$ or
-# $2$ copies while systematic resampling always gives it exactly one: the checker tells the
-# schemes apart by that count's variance. It also checks the generator (same seed, same
-# answer; another seed, another; NumPy's global generator untouched) and names what it sees.
+# (Coding.) A filter sometimes changes its number of particles, drawing $n$ new particles from
+# $N$ weighted ones (more particles when the cloud is spread out, fewer when it is tight). The
+# chapter's code always draws $n = N$, and not with the stratified scheme. Write
+# `my_stratified(W, n, rng)`: $n$ strata, one independent uniform in each, drawn from the
+# generator `rng` it is given, returning the $n$ ancestor indices as integers (each in
+# $0, \dots, N - 1$). The checker draws $12$ particles from eight weights thousands of times. One
+# particle's segment lies astride two strata, half in each, so stratified resampling gives it
+# $0$, $1$ or $2$ copies while systematic resampling always gives it exactly one: the checker
+# tells the schemes apart by that count's variance. It also checks the generator (same seed,
+# same answer; another seed, another; NumPy's global generator untouched) and names what it sees.
 # ```
 
 # %% tags=["answer"]
 from pfcourse.exercises import check_stratified_resampler
 
 
-def my_stratified(W, rng):
-    """Your stratified resampler: N ancestor indices (integers in [0, N))."""
+def my_stratified(W, n, rng):
+    """Your stratified resampler: n ancestor indices (integers in [0, N))."""
     ...  # replace with your code
 
 
@@ -559,23 +561,23 @@ print(check_stratified_resampler(my_stratified))
 # %% [markdown]
 # ```{solution} ex-resampling-code
 # :class: dropdown
-# Algorithm 6.1 with one uniform per stratum, `rng.random(N)` where systematic resampling has
-# `rng.random()`; the code is in the folded cell below (in JupyterLab, click its margin to
-# unfold it). Capping the index at $N - 1$ guards against a cumulative sum that ends just
-# below $1$.
+# Algorithm 6.1 with $n$ strata of width $1/n$ and one uniform in each, `rng.random(n)`; the
+# strata are cut by the number drawn, $n$, while the cumulative weights have $N$ entries. The
+# code is in the folded cell below (in JupyterLab, click its margin to unfold it). Capping the
+# index at $N - 1$ guards against a cumulative sum that ends just below $1$.
 # ```
 
 # %% tags=["solution", "hide-input"] jupyter={"source_hidden": true}
-def my_stratified(W, rng):
-    n = len(W)
+def my_stratified(W, n, rng):
     u = (np.arange(n) + rng.random(n)) / n
     i = np.searchsorted(np.cumsum(W), u, side="right")
-    return np.minimum(i, n - 1)
+    return np.minimum(i, len(W) - 1)
 
 
 print("same as pfcourse.resampling.stratified:", all(
-    np.array_equal(my_stratified(W_test, np.random.default_rng(s)),
-                   SCHEMES["stratified"](W_test, np.random.default_rng(s))) for s in range(n_seeds)))
+    np.array_equal(my_stratified(W_test, m, np.random.default_rng(s)),
+                   SCHEMES["stratified"](W_test, np.random.default_rng(s), n=m))
+    for s in range(n_seeds) for m in (30, 50, 80)))
 print(check_stratified_resampler(my_stratified))
 
 # %% [markdown]
