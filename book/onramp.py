@@ -18,7 +18,7 @@
 # **You need** Bayes' rule and the Gaussian density; NumPy arrays and a random generator
 # (`rng = np.random.default_rng(seed)`).
 #
-# **Time:** about nineteen minutes to read, plus the exercise; the notebook runs in under half a
+# **Time:** about twenty minutes to read, plus the exercise; the notebook runs in under half a
 # minute.
 # :::
 #
@@ -375,7 +375,9 @@ glue_values("onramp_", shrink_100_to_1000=float(gaps[100] / gaps[1000]), gap_10=
 # %% [markdown]
 # Ten times more particles, from $N = 100$ to $1000$, bring the filter
 # {glue:text}`onramp_shrink_100_to_1000:.1f` times closer to the grid: about $\sqrt{10}$, the rate
-# at which an average of random samples improves. With $10$ particles the average hides two
+# at which an average of random samples improves.
+#
+# With $10$ particles the average hides two
 # kinds of run: in {glue:text}`onramp_lost_10:d` of {glue:text}`onramp_lost_runs:d` runs the ten
 # particles settle on the wrong peak and lose the robot, about
 # {glue:text}`onramp_lost_10_off:.0f` m off over the run; the others are about

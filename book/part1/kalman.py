@@ -19,7 +19,7 @@
 # **You need** {doc}`model`; conditioning a Gaussian vector on some of its components;
 # NumPy's matrix products and `np.linalg.solve`.
 #
-# **Time:** about seventeen minutes to read; the notebook runs in under half a minute.
+# **Time:** about eighteen minutes to read; the notebook runs in under half a minute.
 # :::
 #
 # Here is the answer this chapter derives, on the run of {doc}`model`: for each coordinate of
@@ -297,10 +297,12 @@ ax.legend(loc="upper right")
 plt.show()
 
 # %% [markdown]
-# Over the {glue:text}`kalman_nees_runs:d` runs the time-averaged NEES has mean
+# Over these runs the time-averaged NEES has mean
 # {glue:text}`kalman_nees_mean:.2f` ({glue:text}`kalman_nees_mean_low:.2f`-{glue:text}`kalman_nees_mean_high:.2f`),
 # for $6$ expected: the data exclude an overconfidence of the bands beyond
-# {glue:text}`kalman_nees_excess_high:.0f` % in the NEES. As a control, the same runs' true
+# {glue:text}`kalman_nees_excess_high:.0f` % in the NEES.
+#
+# As a control, the same runs' true
 # states are measured again with the visibility pattern of another run, which does not depend
 # on this run's state: the model for which the filter is exact. Its mean NEES is
 # {glue:text}`kalman_nees_control_mean:.2f`

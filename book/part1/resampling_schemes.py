@@ -18,7 +18,7 @@
 # **You need** {doc}`sir`; the binomial and multinomial distributions; NumPy's `cumsum` and
 # `searchsorted`.
 #
-# **Time:** about twelve minutes to read; the notebook runs in under half a minute.
+# **Time:** about fourteen minutes to read; the notebook runs in under half a minute.
 # :::
 #
 # ## The idea: one picture, four ways of drawing the uniforms
@@ -439,11 +439,13 @@ plt.show()
 # %% [markdown]
 # Particles {glue:text}`filterpy_no_copy_first:d` to {glue:text}`filterpy_no_copy_last:d`
 # ($n W_i < 1$) get {glue:text}`filterpy_no_copy_total:d` copies from filterpy's version in
-# all the resamplings, where they should get $n W_i$ on average:
-# {glue:text}`filterpy_no_copy_se_min:.0f` to {glue:text}`filterpy_no_copy_se_max:.0f` standard
-# errors too few. Particle $3$ ($n W_i = 1.5$) gets too few as well,
-# {glue:text}`filterpy_third_mean:.2f` copies on average; only the
-# {glue:text}`filterpy_too_many:d` heaviest get too many, up to
+# all the resamplings, where they should get $n W_i$ on average.
+#
+# That is {glue:text}`filterpy_no_copy_se_min:.0f` to {glue:text}`filterpy_no_copy_se_max:.0f`
+# standard errors too few. Particle $3$ ($n W_i = 1.5$) gets too few as well,
+# {glue:text}`filterpy_third_mean:.2f` copies on average.
+#
+# Only the {glue:text}`filterpy_too_many:d` heaviest get too many, up to
 # {glue:text}`filterpy_residual_max_se:.0f` standard errors away. Inside a filter this is
 # a systematic shrinking of the posterior towards its heaviest particles.
 #
