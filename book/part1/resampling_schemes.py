@@ -373,10 +373,11 @@ EvidenceBlock(
 # residual resampling sorts only the uniforms of its random remainder. The figure shows, for
 # each size, the fastest of $7$ timings after a warm-up call, each timing averaged over enough
 # calls to last about a millisecond (timings vary between machines and runs, so only the
-# figure is shown). Below about $n = 10^3$ the fixed cost of a call dominates; above it the
-# time grows roughly in proportion to $n$ (the dotted line), except for a jump where the arrays
-# (about a megabyte at $n = 10^5$) outgrow the processor's fast caches: a memory effect that an
-# operation count does not show, and whose place depends on the machine.
+# figure is shown). Below about $n = 10^3$ the fixed cost of a call dominates. From $10^3$ to
+# $10^5$ the time grows roughly in proportion to $n$ (the dotted line), as the operation count
+# says. Beyond, on the machine that stored this figure, it grows faster: not more arithmetic but
+# slower memory, as the arrays (megabytes long) outgrow the processor's caches, at a size that
+# depends on the machine.
 
 # %% tags=["hide-input"] jupyter={"source_hidden": true}
 sizes = [10**e for e in range(2, 7)]
