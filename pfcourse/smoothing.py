@@ -39,7 +39,6 @@ from scipy.special import logsumexp
 
 from pfcourse.errors import ParameterError, ShapeError
 from pfcourse.checks import Array
-from pfcourse.resampling import get_resampler
 from pfcourse.diagnostics import weighted_covariance, weighted_mean
 
 
@@ -177,39 +176,6 @@ def _invert(log_p: Array, u: Array) -> Array:
     p = np.exp(log_p - logsumexp(log_p, axis=1, keepdims=True))
     cdf = np.cumsum(p, axis=1)
     return np.minimum((cdf < u[:, None] * cdf[:, -1:]).sum(axis=1), log_p.shape[1] - 1)
-
-
-# TODO(issue 44): remove after Part I/V merge (book/part5/smoothing.py uses it; the ancestors collector replaces it)
-class AncestorRecorder:
-    """Deprecated: collect the ancestors instead (``run(..., collect=[Ancestors()])``, the same ``A``).
-
-    A resampler for :class:`~pfcourse.filter.ParticleFilter` that records the ancestor indices it draws.
-
-    It draws exactly what the named resampler draws (same stream), so a filter run with it
-    gives the same clouds; :meth:`ancestors` then returns ``A`` ``(K, N)``: particle ``i`` at
-    step ``k`` descends from particle ``A[k, i]`` at step ``k - 1`` (``A[0]`` is the identity).
-    """
-
-    def __init__(self, resampler: str = "systematic") -> None:
-        self.resampler = get_resampler(resampler)
-        self.draws: list[Array] = []
-        self.__name__ = f"recording {getattr(self.resampler, '__name__', resampler)}"
-
-    def __call__(self, weights: Array, rng: np.random.Generator) -> Array:
-        indices = np.asarray(self.resampler(weights, rng))
-        self.draws.append(indices)
-        return indices
-
-    def ancestors(self, result) -> Array:
-        """``A`` ``(K, N)`` of the run ``result`` that used this recorder (its ``resampled`` flags)."""
-        K, n = len(result.resampled), result.n_particles
-        if len(self.draws) != int(np.sum(result.resampled)):
-            raise ParameterError("the recorder's draws do not match the run's resampled steps (one recorder per run)")
-        A = np.tile(np.arange(n), (K, 1))
-        draws = iter(self.draws)
-        for k in np.flatnonzero(result.resampled[:-1]):
-            A[k + 1] = next(draws)
-        return A
 
 
 def fixed_lag_means(particles: Array, weights: Array, ancestors: Array, lag: int) -> Array:

@@ -34,13 +34,13 @@ from reading_times import in_words  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]
 BOOK = ROOT / "book"
-FIRST_TEXT = ["onramp", "part1/model", "part1/kalman", "part1/resampling_schemes"]
+FIRST_TEXT = ["onramp", "part1/model", "part1/kalman", "part1/sis", "part1/sir", "part1/resampling_schemes"]
 HIDDEN = {"remove-input", "hide-input", "remove-cell"}
 MAX_LINE = 80
 MAX_MINUTES = 25
 WORDS = {in_words(n): n for n in range(100)}
 PFCOURSE_IMPORT = re.compile(r"^\s*(?:from\s+pfcourse[\w.]*\s+import\b|import\s+pfcourse\b)")
-CHECKER_IMPORT = re.compile(r"^\s*from\s+pfcourse\.exercises\s+import\s+check_\w+\s*$")
+CHECKER_IMPORT = re.compile(r"^\s*from\s+pfcourse\.exercises\s+import\s+check_\w+(\s*,\s*check_\w+)*\s*$")
 def source(doc: str) -> Path:
     return BOOK / f"{doc}.py"
 

@@ -151,26 +151,6 @@ def test_ancestors_collected_and_fixed_lag_zero_is_the_filter(scalar):
     np.testing.assert_allclose(lag1[3], r.weights[4] @ r.particles[3][A[4]], atol=1e-12)
 
 
-# TODO(issue 44): remove after Part I/V merge, with AncestorRecorder
-def test_the_ancestors_collector_gives_the_smoother_the_recorders_ancestry(scalar):
-    """The collector replaces the recording resampler: the same clouds, the same A, the same smoothed floats."""
-    from pfcourse.collectors import Ancestors
-    from pfcourse.smoothing import AncestorRecorder, fixed_lag_means
-    model, z = scalar
-    rec = AncestorRecorder()
-    old = ParticleFilter(model, 50, threshold=0.5, resampler=rec).run(z, 6, collect=[Clouds()])
-    new = ParticleFilter(model, 50, threshold=0.5).run(z, 6, collect=[Clouds(), Ancestors()])
-    A = new.collected["ancestors"]
-    assert A.dtype == rec.ancestors(old).dtype and old.n_resamples > 3
-    np.testing.assert_array_equal(A, rec.ancestors(old))
-    for lag in (0, 1, 5, len(z)):
-        assert fixed_lag_means(new.particles, new.weights, A, lag).tobytes() == \
-            fixed_lag_means(old.particles, old.weights, rec.ancestors(old), lag).tobytes()
-    smoothed = [ffbsm(r.particles, r.weights, linear_gaussian_log_transition(model)) for r in (old, new)]
-    assert smoothed[0].mean.tobytes() == smoothed[1].mean.tobytes()
-    assert smoothed[0].weights.tobytes() == smoothed[1].weights.tobytes()
-
-
 def test_bad_smoother_input(scalar):
     from pfcourse.smoothing import fixed_lag_means, ffbsi
     model, _ = scalar

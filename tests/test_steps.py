@@ -249,14 +249,6 @@ def test_a_proposals_stages_must_be_a_count():
     assert list(stages.collected["stages"]) == [1, 3, 3]  # step 0 is weighted by the model, once
 
 
-# TODO(issue 44): remove after Part I/V merge, with the store_particles keyword
-def test_the_deprecated_store_particles_keyword_collects_the_clouds(landmarks):
-    model, z = landmarks
-    old = ParticleFilter(model, 50).run(z, 1, store_particles=True)
-    new = ParticleFilter(model, 50).run(z, 1, collect=[Clouds()])
-    assert same(old.particles, new.particles) and same(old.weights, new.weights)
-
-
 def test_the_always_collected_records_are_the_results_fields(landmarks):
     model, z = landmarks
     result = ParticleFilter(model, 50).run(z, 1)

@@ -162,7 +162,7 @@ plt.show()
 # is measured the update is skipped: $m_k = m_k^-$, $P_k = P_k^-$. Which coordinates are
 # measured depends on the true state (a landmark is seen only up and to the right of the
 # robot), so this filter is exact for the model that treats the visibility pattern as given,
-# a known input choosing $H_k$ and $R_k$ ({ref}`model-exact`): the model every filter of Part I
+# a known input choosing $H_k$ and $R_k$ ({ref}`which model it solves exactly <model-exact>`): the model every filter of Part I
 # assumes.
 #
 # :::{admonition} Algorithm 2.1: the Kalman filter, with missing measurements

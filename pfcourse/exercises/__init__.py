@@ -19,6 +19,10 @@ exception is reported as a problem); ``str(report)`` prints the verdict.
   particles of weight 0 never chosen, and *unbiased*: the mean number of copies of particle
   ``i`` over many draws is ``N W_i`` (a z-test per particle at 5 standard errors), and no more
   variable than multinomial resampling (``sum_i Var N_i`` at most 1.5 times ``sum_i N W_i (1 - W_i)``).
+* :func:`check_importance_sampler` - ``fn(z, sd_v, n, rng) -> (estimate, ess)``: self-normalised
+  importance sampling of a Gaussian posterior mean with a proposal that is not the prior, against the
+  exact mean; weights that leave out the proposal or the prior, the likelihood alone, a variance read
+  as a standard deviation and a generator other than ``rng`` are named.
 * :func:`check_weight_update` - ``fn(log_weights, log_likelihoods) -> log_weights``: the
   normalised log-domain update ``log W_i + log p(z | x_i) - logsumexp_j(...)``, checked on
   ordinary values and on likelihoods of ``e^{-1000}`` that underflow in the linear domain.
@@ -31,6 +35,10 @@ exception is reported as a problem); ``str(report)`` prints the verdict.
 * :func:`check_ancestors` - ``fn(ancestors) -> origins``: the genealogy of a resampled cloud,
   each final particle's ancestor at step 0, on random ancestor indices; the steps followed
   forwards, one generation only and the last step left out are named.
+* :func:`check_multinomial_resampler` - ``fn(weights, rng) -> indices``: multinomial resampling
+  (``N`` independent draws), drawn from the generator it is given (NumPy's global state untouched,
+  same seed same answer, another seed another), unbiased, and told apart from stratified and
+  systematic resampling (too little offspring variance) and from one shared uniform (too much).
 * :func:`check_kalman` - ``fn(z, model) -> (means, variances, log_likelihood)``: a scalar Kalman
   filter with missing measurements, against :func:`scalar_kalman` to round-off (it is
   deterministic); a wrong one is compared with what each mistake of :data:`KALMAN_MISTAKES`
@@ -48,8 +56,8 @@ exception is reported as a problem); ``str(report)`` prints the verdict.
 * :func:`check_fastslam2_move` - ``fn(r_pred, m_pred, P_pred, z, A, C, Qr, R, rng) -> (robots, log_w)``:
   FastSLAM 2.0's robot move and weight for a cloud, against :func:`fastslam2_exact` (the weights up to a
   constant, the robots standardised by the exact proposal); the generator is checked, and the mistakes
-  of :data:`FASTSLAM2_MISTAKES` are named (FastSLAM 1.0's weight, ``S`` without the map, the weight at
-  the new robot, the transition as move, the covariance not shrunk).
+  of :data:`FASTSLAM2_MISTAKES` are named (the weight without the motion noise, ``S`` without the map,
+  the weight at the new robot, the transition as move, the covariance not shrunk).
 * :func:`check_apf_second_stage` - ``fn(log_lik, log_pred, ancestors) -> log_weights``: the auxiliary
   filter's second-stage weights with the transition as proposal; the mistakes of
   :data:`APF_MISTAKES` are named (first stage not divided out, divided at the particle's own index,
@@ -124,6 +132,8 @@ from pfcourse.exercises.part1 import (  # noqa: F401
     APF_MISTAKES,
     KALMAN_CASE,
     KALMAN_MISTAKES,
+    IS_TOY_CASE,
+    IS_TOY_MISTAKES,
     LANDMARK_CASE,
     LANDMARK_MISTAKES,
     LIKELIHOOD_CASES,
@@ -154,9 +164,11 @@ from pfcourse.exercises.part1 import (  # noqa: F401
     check_apf_step,
     check_cv_kalman,
     check_fastslam2_move,
+    check_importance_sampler,
     check_kalman,
     check_landmark_update,
     check_log_likelihood,
+    check_multinomial_resampler,
     check_optimal_proposal,
     check_resampler,
     check_sis,
@@ -166,6 +178,7 @@ from pfcourse.exercises.part1 import (  # noqa: F401
     landmark_update,
     scalar_kalman,
     scalar_optimal_proposal,
+    toy_is_limit,
 )
 from pfcourse.exercises.part2 import (  # noqa: F401
     ALTIMETER_DX,

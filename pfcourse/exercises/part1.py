@@ -266,6 +266,98 @@ def check_weight_update(fn: Callable, seed: int = 0) -> CheckReport:
     return report
 
 
+#: The case of :func:`check_importance_sampler`: the measurement z and the noise sd sd_v of the toy.
+IS_TOY_CASE = (3.0, 0.5)
+
+#: The typical mistakes of the importance-sampling exercise: the weight each one computes, in words.
+IS_TOY_MISTAKES = {
+    "likelihood_only": "the weight is the likelihood alone, as with the prior as proposal; with q = N(z/2, 1) "
+                       "it is log p(z | x) + log p(x) - log q(x)",
+    "no_proposal": "the weight leaves out - log q(x): draws from q must be divided by q, w = p(z | x) p(x) / q(x)",
+    "no_prior": "the weight leaves out the prior, + log p(x): the target is the posterior, p(z | x) p(x) up to a "
+                "constant",
+    "sd_as_variance": "the likelihood uses sd_v^2 as its standard deviation: sd_v is the standard deviation of v "
+                      "(scipy.stats.norm.logpdf(z, loc=x, scale=sd_v))",
+}
+
+
+def toy_is_limit(z: float, sd_v: float, mistake: str | None = None) -> tuple[float, float]:
+    """Mean and variance of the density a self-normalised importance sampler with proposal N(z/2, 1)
+    targets on the toy (prior N(0, 1), z = x + v, v ~ N(0, sd_v^2)): the posterior, or what the weight of
+    ``mistake`` (a key of :data:`IS_TOY_MISTAKES`) makes of it, ``q x target-of-the-weight``.
+
+    Every factor is Gaussian in x, so the limit is a product of Gaussians: precisions add (the proposal's
+    with the sign it has in q x weight) and so do precision-weighted means.
+    """
+    if mistake is not None and mistake not in IS_TOY_MISTAKES:
+        raise ValueError(f"unknown mistake {mistake!r}; one of {sorted(IS_TOY_MISTAKES)}")
+    lik_var = sd_v**4 if mistake == "sd_as_variance" else sd_v**2
+    # (precision, mean) of the factors of q(x) w(x): the likelihood, the prior, the proposal
+    factors = {"likelihood_only": [(1 / lik_var, z), (1.0, z / 2)],
+               "no_proposal": [(1 / lik_var, z), (1.0, 0.0), (1.0, z / 2)],
+               "no_prior": [(1 / lik_var, z)]}.get(mistake, [(1 / lik_var, z), (1.0, 0.0)])
+    precision = sum(p for p, _ in factors)
+    return sum(p * m for p, m in factors) / precision, 1 / precision
+
+
+def check_importance_sampler(fn: Callable, n: int = 20_000, seed: int = 0) -> CheckReport:
+    """Check ``fn(z, sd_v, n, rng) -> (estimate, ess)`` (importance sampling, exercise 3.1), leaving NumPy's
+    global ``np.random`` state as it was.
+
+    ``fn`` draws ``n`` particles from the proposal ``N(z / 2, 1)`` and returns the self-normalised estimate
+    of the posterior mean of the toy (prior ``N(0, 1)``, ``z = x + v``, ``v ~ N(0, sd_v^2)``) and the ESS.
+    The estimate must be within six Monte Carlo standard errors ``sqrt(var / ESS)`` of the exact mean
+    ``z / (1 + sd_v^2)`` at :data:`IS_TOY_CASE` (a correct sampler fails with probability about 2e-9); a
+    wrong one is compared with the limits of :data:`IS_TOY_MISTAKES`, and the report names the mistake.
+    The random numbers must come from ``rng`` (:func:`_generator_problem`, on 500 particles).
+    """
+    saved = np.random.get_state()
+    try:
+        return _check_importance_sampler(fn, n, seed)
+    finally:
+        np.random.set_state(saved)
+
+
+def _check_importance_sampler(fn: Callable, n: int, seed: int) -> CheckReport:
+    report = CheckReport("importance sampler")
+    z, sd_v = IS_TOY_CASE
+    answer = _answer(report, lambda: fn(z, sd_v, n, np.random.default_rng(seed)), "fn(z, sd_v, n, rng)",
+                     "write the sampler and return (estimate, ess)")
+    if answer is None:
+        return report
+    try:
+        estimate, ess = (float(v) for v in answer)
+    except Exception:
+        report.problems.append("return two numbers, (estimate, ess): the weighted mean of the draws and "
+                               "1 / sum(W**2)")
+        return report
+    if not (np.isfinite(estimate) and np.isfinite(ess)):
+        report.problems.append("the estimate or the ESS is NaN or infinite: keep the weights in the log domain and "
+                               "subtract their logsumexp before exponentiating")
+        return report
+    if not 1 - 1e-9 <= ess <= n * (1 + 1e-9):
+        report.problems.append(f"the ESS is {ess:.4g}, outside [1, n]: compute it from normalised weights, "
+                               "1 / sum(W**2) with sum(W) = 1")
+        return report
+    problem = _generator_problem(lambda rng: float(fn(z, sd_v, 500, rng)[0]), lambda a, b: a == b,
+                                 what="estimate")
+    if problem is not None:
+        report.problems.append(problem)
+        return report
+
+    def fits(mistake: str | None) -> bool:
+        mean, var = toy_is_limit(z, sd_v, mistake)
+        return abs(estimate - mean) <= 6 * np.sqrt(var / ess)
+
+    if _settled(report, fits, IS_TOY_MISTAKES):
+        return report
+    mean, var = toy_is_limit(z, sd_v)
+    report.problems.append(f"the estimate {estimate:.4f} is more than six Monte Carlo standard errors "
+                           f"({np.sqrt(var / ess):.4f}) from the exact posterior mean {mean:.4f}: check the draws "
+                           "(x ~ N(z/2, 1)), the three terms of the log-weight and the normalisation")
+    return report
+
+
 @dataclass(frozen=True)
 class ScalarModel:
     """``x_0 ~ N(m0, p0)``, ``x_k = a x_{k-1} + w_k`` with ``w_k ~ N(0, q)``, ``z_k = x_k + v_k``
@@ -308,6 +400,15 @@ SIS_CASE = np.array([np.nan, 1.2, 2.0, np.nan, 0.3])
 
 
 def check_sis(fn: Callable, n_particles: int = 20_000, seed: int = 0, z: np.ndarray = SIS_CASE) -> CheckReport:
+    """Check a student's SIS ``fn`` (:func:`_check_sis`), leaving NumPy's global ``np.random`` state as it was."""
+    saved = np.random.get_state()
+    try:
+        return _check_sis(fn, n_particles, seed, z)
+    finally:
+        np.random.set_state(saved)
+
+
+def _check_sis(fn: Callable, n_particles: int, seed: int, z: np.ndarray) -> CheckReport:
     """Check a student's SIS ``fn(z, n_particles, rng, model) -> (means, ess)`` (module docstring).
 
     ``z`` (default :data:`SIS_CASE`) has shape ``(K,)`` with NaN where nothing is measured (at
@@ -316,7 +417,8 @@ def check_sis(fn: Callable, n_particles: int = 20_000, seed: int = 0, z: np.ndar
     after each step. The means must agree with the Kalman filter's within six Monte Carlo
     standard errors, ``sqrt(P_k / ESS_k)``, at every step (a correct SIS fails this with
     probability below 1e-6); a filter that does not is compared with the limits of the typical
-    mistakes, and the report names the one that fits.
+    mistakes, and the report names the one that fits. The filter must draw its random numbers from
+    the generator it is given (:func:`_generator_problem`, on 200 particles).
     """
     report = CheckReport("SIS")
     model = ScalarModel()
@@ -342,6 +444,12 @@ def check_sis(fn: Callable, n_particles: int = 20_000, seed: int = 0, z: np.ndar
         k = int(np.argmax((ess < 1 - 1e-9) | (ess > n_particles * (1 + 1e-9))))
         report.problems.append(f"the ESS at step {k} is {ess[k]:.4g}, outside [1, N]: compute it from normalised "
                                "weights, 1 / sum(W**2) with sum(W) = 1")
+        return report
+    problem = _generator_problem(lambda rng: fn(np.array(z, dtype=float), 200, rng, model),
+                                 lambda a, b: np.array_equal(np.asarray(a[0], dtype=float), np.asarray(b[0], dtype=float),
+                                                             equal_nan=True), what="set of means")
+    if problem is not None:
+        report.problems.append(problem)
         return report
     exact = _scalar_filter(z, model)
     if _fits(means, ess, *exact):
@@ -458,6 +566,122 @@ def check_ancestors(fn: Callable, seed: int = 0) -> CheckReport:
     report.problems.append(f"particle {i} of the final step descends from particle "
                            f"{_origins(ancestors, range(n_steps - 1, 0, -1))[i]} of step 0, not {answer[i]}: "
                            "follow a = ancestors[k][a] from k = K - 1 down to k = 1")
+    return report
+
+
+def _global_state_key() -> tuple:
+    """NumPy's global ``np.random`` state, comparable with ``==``."""
+    name, keys, pos, has_gauss, cached = np.random.get_state()
+    return name, keys.tobytes(), pos, has_gauss, cached
+
+
+def _generator_problem(call: Callable, same: Callable[[object, object], bool], seeds: tuple[int, ...] = (1, 2, 3, 4),
+                       what: str = "answer") -> str | None:
+    """One sentence if ``call(rng)`` does not draw its random numbers from the generator ``rng`` it is given.
+
+    Checked in turn: NumPy's global ``np.random`` state is untouched (it is saved and restored); two
+    generators of the same seed give the same answer (``same(a, b)``); another seed gives another
+    answer for at least one of ``seeds[1:]``. ``None`` when all three hold, or when a call raises
+    (the caller reports that).
+    """
+    saved = np.random.get_state()
+    try:
+        before = _global_state_key()
+        first = call(np.random.default_rng(seeds[0]))
+        touched = _global_state_key() != before
+    except Exception:
+        return None
+    finally:
+        np.random.set_state(saved)
+    if touched:
+        return ("it draws from NumPy's global generator (np.random.random, np.random.choice, ...), not from the "
+                "generator rng it is given: use rng.random(...), so that a seed fixes the result")
+    try:
+        again = call(np.random.default_rng(seeds[0]))
+        others = [call(np.random.default_rng(s)) for s in seeds[1:]]
+    except Exception:
+        return None
+    if not same(first, again):
+        return (f"two generators of the same seed gave different {what}s: draw every random number from the rng "
+                "argument (no np.random.default_rng() of your own inside the function)")
+    if all(same(first, other) for other in others):
+        return (f"the {what} is the same whatever the generator's seed: the rng argument is not used, so the "
+                "result is not random")
+    return None
+
+
+def check_multinomial_resampler(fn: Callable, n_draws: int = 4000, seed: int = 0) -> CheckReport:
+    """Check multinomial resampling ``fn`` (:func:`_check_multinomial_resampler`), leaving NumPy's global
+    ``np.random`` state as it was."""
+    saved = np.random.get_state()
+    try:
+        return _check_multinomial_resampler(fn, n_draws, seed)
+    finally:
+        np.random.set_state(saved)
+
+
+def _check_multinomial_resampler(fn: Callable, n_draws: int, seed: int) -> CheckReport:
+    """Check multinomial resampling ``fn(weights, rng) -> N ancestor indices`` (SIR, exercise 5.3).
+
+    The indices must be ``N`` independent draws from the weights, taken from the generator ``rng``
+    (:func:`_generator_problem`: global state untouched, same seed same answer, another seed another
+    answer). On ``W`` (``N = 7``, one weight 0), over ``n_draws`` calls: a particle of weight 0 is never
+    chosen; the copy counts ``N_i`` have mean ``N W_i`` within ``5 SE + 1e-9``; and their total variance
+    ``sum_i Var N_i`` is multinomial's ``sum_i N W_i (1 - W_i)`` within a factor ``[0.8, 1.25]``
+    (measured 0.995 for multinomial, 0.37 stratified, 0.20 systematic, 0.43 residual, about 7 for one
+    uniform shared by all; its relative standard error is about 2 % over 4000 draws).
+    """
+    report = CheckReport("multinomial resampler")
+    w = np.array([0.05, 0.3, 0.0, 0.12, 0.08, 0.25, 0.2])
+    n = w.size
+    first = _answer(report, lambda: fn(w.copy(), np.random.default_rng(seed)), "fn(weights, rng)",
+                    "write the resampler and return the N ancestor indices")
+    if first is None:
+        return report
+    first = np.asarray(first)
+    if first.shape != (n,):
+        report.problems.append(f"returned shape {first.shape}; expected ({n},), one ancestor index per particle")
+        return report
+    if first.dtype.kind not in "iu":
+        report.problems.append(f"returned dtype {first.dtype}; indices must be integers (np.searchsorted gives them)")
+        return report
+    problem = _generator_problem(lambda rng: np.asarray(fn(w.copy(), rng)), np.array_equal, what="set of indices")
+    if problem is not None:
+        report.problems.append(problem)
+        return report
+    rng = np.random.default_rng(seed)
+    counts = np.empty((n_draws, n))
+    for t in range(n_draws):
+        idx = np.asarray(fn(w.copy(), rng))
+        if idx.min() < 0 or idx.max() >= n:
+            report.problems.append(
+                f"draw {t}: an index is out of range [0, {n}) (got {idx.min()}..{idx.max()}): np.searchsorted on "
+                "the cumulative weights gives 0..N-1, with the last cumulative weight set to 1")
+            return report
+        counts[t] = np.bincount(idx, minlength=n)
+    if counts[:, 2].any():
+        report.problems.append(
+            "a particle of weight 0 was chosen: a uniform u must select the i with cumsum[i-1] <= u < cumsum[i] "
+            "(np.searchsorted(np.cumsum(W), u, side='right')), never a zero-width interval")
+        return report
+    mean, se = counts.mean(axis=0), counts.std(axis=0, ddof=1) / np.sqrt(n_draws)
+    bad = np.abs(mean - n * w) > 5 * se + 1e-9
+    if bad.any():
+        i = int(np.argmax(np.abs(mean - n * w) - 5 * se))
+        report.problems.append(
+            f"biased: particle {i} of weight {w[i]} should get N W = {n * w[i]:.3f} copies on average, it got "
+            f"{mean[i]:.3f} (± {se[i]:.3f}) over {n_draws} draws: each index is j with probability W_j")
+        return report
+    ratio = counts.var(axis=0, ddof=1).sum() / float(np.sum(n * w * (1 - w)))
+    if ratio < 0.8:
+        report.problems.append(
+            f"the copy counts vary {ratio:.2f} times as much as multinomial resampling's: this is a stratified or "
+            "systematic resampler (uniforms spread over the strata [i/N, (i+1)/N)); multinomial resampling draws "
+            "N independent uniforms on [0, 1)")
+    elif ratio > 1.25:
+        report.problems.append(
+            f"the copy counts vary {ratio:.2f} times as much as multinomial resampling's: the N draws are not "
+            "independent (one uniform shared by all particles?); draw N uniforms, rng.random(N)")
     return report
 
 
@@ -906,9 +1130,9 @@ FASTSLAM2_CASE = dict(
 )
 
 FASTSLAM2_MISTAKES: dict[str, str] = {
-    "fastslam1_weight": "the weight leaves out the robot's own motion noise: with the optimal proposal the weight is "
-                        "p(z_k | r_(k-1), map) = N(z; A r^- + C m^-, A Q_r A^T + C P^- C^T + R), not FastSLAM 1.0's "
-                        "C P^- C^T + R",
+    "fastslam1_weight": "the weight's covariance leaves out the robot's motion noise: the innovation z - A r^- - C m^- "
+                        "is taken at the parent's prediction r^-, from which the robot still moves by Q_r, so its "
+                        "covariance is S = A Q_r A^T + C P^- C^T + R, not C P^- C^T + R",
     "no_map_in_s": "S leaves out the map's uncertainty C P^- C^T: the landmark's position is not known, so "
                    "S = A Q_r A^T + C P^- C^T + R, in the weight and in the gain",
     "new_robot_weight": "the weight is evaluated at the new robot: with the optimal proposal it is the predictive "
