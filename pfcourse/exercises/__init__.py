@@ -12,7 +12,7 @@ exception is reported as a problem); ``str(report)`` prints the verdict.
   reading used are named, and the filter must draw from the generator it is given.
 * :func:`check_cv_kalman` - the Kalman filter of a constant-velocity model (chapter 2's variant),
   against the exact filter; six typical mistakes named (:mod:`.part1`).
-* :func:`check_stratified_resampler` - ``fn(weights, rng) -> indices``: stratified resampling, told
+* :func:`check_stratified_resampler` - ``fn(weights, n, rng) -> indices``: stratified resampling, told
   apart from systematic and multinomial by the exact offspring variance of a particle that straddles
   two strata; it must draw from the generator it is given (:mod:`.part1`).
 * :func:`check_resampler` - ``fn(weights, rng) -> indices``: right type, shape and range,
