@@ -250,7 +250,7 @@ w_pic = norm.pdf(z[1], beacon_range(after), RANGE_SD)
 w_pic /= w_pic.sum()
 picked = after[pic_rng.choice(n_pic, size=n_pic, p=w_pic)]
 likelihood_2 = norm.pdf(z[1], beacon_range(cells), RANGE_SD)
-fig, axes = plt.subplots(3, 1, figsize=(8, 5.6), sharex=True)
+fig, axes = plt.subplots(3, 1, figsize=(6.4, 5.6), sharex=True)
 axes[0].plot(before, np.full(n_pic, 1.0), "o", color="0.6", ms=5, label="before")
 axes[0].plot(after, np.zeros(n_pic), "o", color=COLORS["particles"], ms=5, label="after the move")
 for a, b in zip(before, after):
