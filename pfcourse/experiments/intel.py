@@ -34,6 +34,7 @@ from scipy.special import logsumexp
 
 from pfcourse.angles import wrap_angle
 from pfcourse.checks import Array
+from pfcourse.errors import ParameterError
 from pfcourse.maprobot.carmen import CarmenLog, read_carmen, relative_pose
 from pfcourse.maprobot.grid import OccupancyGrid
 from pfcourse.maprobot.likelihood_field import LikelihoodField
@@ -52,7 +53,7 @@ Z_MAX = 25.5
 BEAM_STEP = 4
 SIGMA = 0.2
 Z_HIT, Z_RAND = 0.9, 0.1
-MOTION = OdometryModel((0.05, 0.05, 0.05, 0.05))
+MOTION = OdometryModel((0.01, 0.005, 0.01, 0.005))
 #: Lock-on: the last ``LOCK_WINDOW`` scans, at least ``LOCK_SHARE`` of them within 1 m and the tolerance.
 LOCK_WINDOW = 15
 LOCK_SHARE = 0.8
@@ -71,9 +72,26 @@ class Split:
     ranges: Array  # held-out scans
     odometry: Array  # held-out increments, row 0 zero
 
-    def field(self, beam_step: int = BEAM_STEP, z_hit: float = Z_HIT, z_rand: float = Z_RAND) -> LikelihoodField:
-        return LikelihoodField(self.grid, self.log.angles[::beam_step], max_range=Z_MAX, z_hit=z_hit,
-                               z_rand=z_rand, sigma=SIGMA)
+    def field(self, beam_step: int = BEAM_STEP, z_hit: float = Z_HIT, z_rand: float = Z_RAND,
+              beta: float = 1.0) -> LikelihoodField:
+        """The likelihood field on every ``beam_step``-th beam; ``beta < 1``: its log tempered by ``beta``."""
+        field = LikelihoodField(self.grid, self.log.angles[::beam_step], max_range=Z_MAX, z_hit=z_hit,
+                                z_rand=z_rand, sigma=SIGMA)
+        return field if beta == 1.0 else TemperedField(field, beta)
+
+
+@dataclass(frozen=True, eq=False)
+class TemperedField:
+    """``beta log p(z | x)`` of a likelihood field (the scan counted as ``beta`` of its beams' evidence)."""
+
+    field: LikelihoodField
+    beta: float
+
+    def __getattr__(self, name):
+        return getattr(self.field, name)
+
+    def log_likelihood(self, poses: Array, z: Array) -> Array:
+        return self.beta * self.field.log_likelihood(poses, z)
 
 
 @lru_cache(maxsize=1)
@@ -147,6 +165,8 @@ KLD_BIN = (0.5, 0.5, float(np.deg2rad(10.0)))
 KLD_EPSILON, KLD_DELTA = 0.05, 0.01
 INJECT_SHARE, INJECT_EVERY = 0.1, 2
 KIDNAP_EPS = 0.01
+#: Scans of history an injected pose is carried through before it is weighed against the cloud.
+HISTORY = 5
 GLOBAL_STEPS = 40
 N_GLOBAL = 100
 
@@ -166,42 +186,53 @@ def stratified(parts: list[tuple[float, Array, Array]]) -> tuple[Array, Array]:
 
 def global_filter(sp: Split, first: int, steps: int, rng: np.random.Generator, *, inject_share: float = INJECT_SHARE,
                   eps: float = KIDNAP_EPS, n_start: int = N_START, n_start_scan: int = N_START_SCAN,
-                  beta: float = 1.0, z_hit: float = Z_HIT, z_rand: float = Z_RAND):
+                  history: int = HISTORY, z_hit: float = Z_HIT, z_rand: float = Z_RAND, beta: float = 1.0):
     """Global localization on held-out scans ``first ... first + steps - 1``: estimates ``(steps, 3)``
     and the number of particles at each step.
 
     Step 0 draws ``n_start`` poses from the uniform prior ``u`` and ``n_start_scan`` from the scan's
     proposal ``q``, weighted as a stratified sample of ``u`` (half the mass each:
     ``p(z | x)`` and ``u / q p(z | x)``).  Each later step resamples to the KLD bound's number of
-    particles, moves them by the odometry, and (every ``INJECT_EVERY``-th scan) adds a share drawn
-    from the scan's proposal, weighted as the module's docstring says."""
-    field = sp.field(z_hit=z_hit, z_rand=z_rand)
+    particles and moves them by the odometry.  Every ``INJECT_EVERY``-th scan from ``history`` on, a
+    share of poses is drawn from the proposal of the scan ``history`` steps back and carried to now
+    by the odometry, each scan scoring them: a pose with a history.  Their weight is that of a
+    kidnapping ``history`` steps ago, relative to the tracked cloud's own predictive likelihood
+    ``Z_j`` of those scans:
+
+        log W = log eps - log R + log u - log q + sum_{j=k-h}^{k} log p(z_j | x_j) - sum_{j=k-h}^{k-1} log Z_j,
+
+    and a moved particle's ``log (1 - eps) - log M + log p(z_k | x_k)``."""
+    field = sp.field(z_hit=z_hit, z_rand=z_rand, beta=beta)
     zs = sp.ranges[first:first + steps, ::BEAM_STEP]
-
-    def loglik(x, z):
-        return beta * field.log_likelihood(x, z)
-
+    odo = sp.odometry[first:first + steps]
     parts = [(0.5, sp.free.sample_free(n_start, rng), None)]
     if n_start_scan > 0:
         q_x, log_q = scan_proposal(sp.free, field, zs[0], n_start_scan, rng)
         parts.append((0.5, q_x, uniform_log_density(sp.free, q_x) - log_q))
     else:
         parts[0] = (1.0, parts[0][1], None)
-    x, log_w = stratified([(m, p, loglik(p, zs[0]) + (0.0 if extra is None else extra))
+    x, log_w = stratified([(m, p, field.log_likelihood(p, zs[0]) + (0.0 if extra is None else extra))
                            for m, p, extra in parts])
+    log_z = np.zeros(steps)  # the tracked cloud's predictive log-likelihood of each scan
     est, sizes = np.empty((steps, 3)), np.empty(steps, dtype=int)
     for k in range(steps):
         if k > 0:
             W = np.exp(log_w - logsumexp(log_w))
             bins = len(np.unique(cell_codes(x[_resample(W, N_MAX, rng)], KLD_BIN)))
             n = int(np.clip(kld_bound(bins, KLD_EPSILON, KLD_DELTA), N_MIN, N_MAX))
-            inject = inject_share > 0 and k % INJECT_EVERY == 0
+            inject = inject_share > 0 and k > history and k % INJECT_EVERY == 0
             r = int(round(inject_share * n)) if inject else 0
-            moved = MOTION.sample(x[_resample(W, n - r, rng)], sp.odometry[first + k], rng)
-            lw_m = loglik(moved, zs[k])
+            moved = MOTION.sample(x[_resample(W, n - r, rng)], odo[k], rng)
+            lw_m = field.log_likelihood(moved, zs[k])
+            log_z[k] = logsumexp(lw_m) - np.log(len(moved))
             if r > 0:
-                inj, log_q = scan_proposal(sp.free, field, zs[k], r, rng)
-                lw_r = uniform_log_density(sp.free, inj) - log_q + loglik(inj, zs[k])
+                j0 = k - history
+                inj, log_q = scan_proposal(sp.free, field, zs[j0], r, rng)
+                lw_r = uniform_log_density(sp.free, inj) - log_q + field.log_likelihood(inj, zs[j0])
+                for j in range(j0 + 1, k + 1):
+                    inj = MOTION.sample(inj, odo[j], rng)
+                    lw_r = lw_r + field.log_likelihood(inj, zs[j])
+                lw_r = lw_r - log_z[j0:k].sum()
                 x, log_w = stratified([(1 - eps, moved, lw_m), (eps, inj, lw_r)])
             else:
                 x, log_w = moved, lw_m
@@ -218,11 +249,20 @@ def _resample(W: Array, m: int, rng: np.random.Generator) -> Array:
     return np.searchsorted(c, (rng.random() + np.arange(m)) / m, side="right").clip(max=len(W) - 1)
 
 
+#: The global-localization filters of the stored study: the cure (sensor resetting from the scan, with
+#: history) and the same filter with uniform particles only (as many at the start, no injection).
+METHODS = {"scan": "sensor resetting from the scan", "uniform": "uniform start only"}
+GLOBAL_COLUMNS = ("method", "seed", "start_scan", "locked_on", "final_position_error", "final_heading_error",
+                  "mean_particles")
+
+
 def global_row(seed: int, *, method: str = "scan") -> dict:
     """One global run: start scan from the seed, filter seeded by it (``method``: ``"scan"`` the cure,
     ``"uniform"`` the same number of uniform particles at the start and no injection); lock-on and errors."""
     sp = split()
     first = global_start(seed)
+    if method not in METHODS:
+        raise ParameterError(f"method must be one of {list(METHODS)}, got {method!r}")
     options = {} if method == "scan" else {"inject_share": 0.0, "n_start": N_START + N_START_SCAN, "n_start_scan": 0}
     est, sizes = global_filter(sp, first, GLOBAL_STEPS, np.random.default_rng([41, seed, 1]), **options)
     truth = sp.poses[first:first + GLOBAL_STEPS]
