@@ -100,8 +100,9 @@ glue_values("intel_", n_scans=log.n_scans, n_odometry=log.n_odometry, minutes=mi
 
 # %% [markdown]
 # The robot drove {glue:text}`intel_path_m:.0f` m in {glue:text}`intel_minutes:.0f` minutes, scanning
-# every {glue:text}`intel_step_m:.2f` m or so (the median step). Chained from the first pose, its
-# odometry alone ends {glue:text}`intel_full_dead_reckoning_m:.0f` m and
+# every {glue:text}`intel_step_m:.2f` m or so (the median step).
+#
+# Chained from the first pose, the odometry alone ends {glue:text}`intel_full_dead_reckoning_m:.0f` m and
 # {glue:text}`intel_full_dead_reckoning_deg:.0f` degrees away from the corrected pose: the heading
 # change the encoders report falls short of the corrected one by about
 # {glue:text}`intel_under_rotation_deg:.1f` degrees a step on average, and those small errors compound.
@@ -406,6 +407,7 @@ EvidenceBlock(
 # With sensor resetting the filter locks on in {glue:text}`intel_global_lock_on_rate:.0%` of the runs
 # ({glue:text}`intel_global_lock_on_rate_low:.0%`-{glue:text}`intel_global_lock_on_rate_high:.0%`);
 # the same filter with uniform particles only, in {glue:text}`intel_global_uniform_lock_on_rate:.0%`.
+#
 # The resetting does not pay on this log: on the same runs, a gain of more than
 # {glue:text}`intel_global_gain_high_points:.0f` points is excluded by the data. Here the cure, as
 # built, does not work.
