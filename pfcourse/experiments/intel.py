@@ -186,7 +186,8 @@ def stratified(parts: list[tuple[float, Array, Array]]) -> tuple[Array, Array]:
 
 def global_filter(sp: Split, first: int, steps: int, rng: np.random.Generator, *, inject_share: float = INJECT_SHARE,
                   eps: float = KIDNAP_EPS, n_start: int = N_START, n_start_scan: int = N_START_SCAN,
-                  history: int = HISTORY, z_hit: float = Z_HIT, z_rand: float = Z_RAND, beta: float = 1.0):
+                  history: int = HISTORY, z_hit: float = Z_HIT, z_rand: float = Z_RAND, beta: float = 1.0,
+                  n_min: int = N_MIN):
     """Global localization on held-out scans ``first ... first + steps - 1``: estimates ``(steps, 3)``
     and the number of particles at each step.
 
@@ -219,7 +220,7 @@ def global_filter(sp: Split, first: int, steps: int, rng: np.random.Generator, *
         if k > 0:
             W = np.exp(log_w - logsumexp(log_w))
             bins = len(np.unique(cell_codes(x[_resample(W, N_MAX, rng)], KLD_BIN)))
-            n = int(np.clip(kld_bound(bins, KLD_EPSILON, KLD_DELTA), N_MIN, N_MAX))
+            n = int(np.clip(kld_bound(bins, KLD_EPSILON, KLD_DELTA), n_min, N_MAX))
             inject = inject_share > 0 and k > history and k % INJECT_EVERY == 0
             r = int(round(inject_share * n)) if inject else 0
             moved = MOTION.sample(x[_resample(W, n - r, rng)], odo[k], rng)
@@ -251,19 +252,26 @@ def _resample(W: Array, m: int, rng: np.random.Generator) -> Array:
 
 #: The global-localization filters of the stored study: the cure (sensor resetting from the scan, with
 #: history) and the same filter with uniform particles only (as many at the start, no injection).
-METHODS = {"scan": "sensor resetting from the scan", "uniform": "uniform start only"}
+METHODS = {"scan": "sensor resetting from the scan", "uniform": "uniform start only",
+           "tempered": "uniform start, field tempered"}
+#: The tempered filter: the field's log-likelihood times TEMPER_BETA, at least TEMPER_N_MIN particles.
+TEMPER_BETA, TEMPER_N_MIN = 0.3, 2000
 GLOBAL_COLUMNS = ("method", "seed", "start_scan", "locked_on", "final_position_error", "final_heading_error",
                   "mean_particles")
 
 
 def global_row(seed: int, *, method: str = "scan") -> dict:
     """One global run: start scan from the seed, filter seeded by it (``method``: ``"scan"`` the cure,
-    ``"uniform"`` the same number of uniform particles at the start and no injection); lock-on and errors."""
+    ``"uniform"`` the same number of uniform particles at the start and no injection, ``"tempered"`` that
+    with the field's log tempered by ``TEMPER_BETA`` and at least ``TEMPER_N_MIN`` particles); lock-on
+    and errors."""
     sp = split()
     first = global_start(seed)
     if method not in METHODS:
         raise ParameterError(f"method must be one of {list(METHODS)}, got {method!r}")
     options = {} if method == "scan" else {"inject_share": 0.0, "n_start": N_START + N_START_SCAN, "n_start_scan": 0}
+    if method == "tempered":
+        options.update(beta=TEMPER_BETA, n_min=TEMPER_N_MIN)
     est, sizes = global_filter(sp, first, GLOBAL_STEPS, np.random.default_rng([41, seed, 1]), **options)
     truth = sp.poses[first:first + GLOBAL_STEPS]
     pos, head = position_error(truth, est), heading_error(truth, est)
