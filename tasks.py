@@ -4,6 +4,8 @@
     python3 tasks.py build         build the HTML book into _build/html (warnings are errors)
     python3 tasks.py test          unit tests + strict `pytest --nbval` on every notebook
     python3 tasks.py browser-test  every built page in a real browser (chromium), network blocked
+    python3 tasks.py pdf           the printed book, _build/latex/particle-filters-measured.pdf (XeLaTeX,
+                                   installed with apt-get when missing), then its test
     python3 tasks.py notebooks     regenerate book/**/*.ipynb from their .py sources and execute them
     python3 tasks.py lab           open the notebooks in JupyterLab (widgets live)
     python3 tasks.py bench         benchmark against a lab-style loop and `particles` (bench/bench.py)
@@ -181,6 +183,33 @@ def browser_test(args: list[str]) -> None:
     print(f"\nScreenshots of every page: {BUILD / 'browser' / 'screenshots'}")
 
 
+#: Debian's packages the printed book needs: XeLaTeX with the LaTeX packages Sphinx and jupyter-book use,
+#: latexmk, the FreeSerif/FreeSans fonts, and poppler's tools for its test.
+TEX_PACKAGES = ("texlive-latex-recommended", "texlive-latex-extra", "texlive-fonts-recommended", "texlive-xetex",
+                "latexmk", "fonts-freefont-otf", "poppler-utils")
+
+
+def apt_install(packages: tuple[str, ...], missing: bool) -> None:
+    if not missing:
+        return
+    apt = shutil.which("apt-get")
+    if apt is None:
+        sys.exit(f"error: needs Debian's {' '.join(packages)} and there is no apt-get to install them")
+    sudo = [] if os.geteuid() == 0 else ["sudo"]
+    env = dict(os.environ, DEBIAN_FRONTEND="noninteractive")
+    run(*sudo, apt, "update", "-q", env=env)
+    run(*sudo, apt, "install", "-y", "-q", *packages, env=env)
+
+
+def pdf(args: list[str]) -> None:
+    """The printed book, _build/latex/particle-filters-measured.pdf (XeLaTeX), then its test (pdf_tests/)."""
+    apt_install(TEX_PACKAGES, missing=not all(shutil.which(t) for t in ("xelatex", "latexmk", "pdftotext")))
+    shutil.rmtree(BUILD / "latex", ignore_errors=True)  # latexmk takes a failed run's leftovers as up to date
+    run(BIN / "jupyter-book", "build", ".", "--builder", "pdflatex", *args)
+    run(PY, "-m", "pytest", "pdf_tests", "-p", "no:cacheprovider")
+    print(f"\nThe printed book is {BUILD / 'latex' / 'particle-filters-measured.pdf'}")
+
+
 def test(args: list[str]) -> None:
     if ARITHMETIC.reproduces_stored_outputs():
         mode = "--nbval"  # every stored output compared, bit for bit
@@ -242,6 +271,7 @@ COMMANDS = {
     "build": build,
     "test": test,
     "browser-test": browser_test,
+    "pdf": pdf,
     "notebooks": notebooks,
     "lab": lab,
     "bench": bench,

@@ -26,7 +26,10 @@ book may write, always with the number of runs and an interval, and only through
 - the **rate of a power law** ``e = a N^b``: the least-squares slope of ``log`` (median error over
   the runs) against ``log N``, with its interval over the runs (:func:`log_slope`);
 - the slope of a **regression through a few points** that are not runs to resample, with the
-  parametric ``t`` interval of the least-squares slope (:func:`regression_slope`).
+  parametric ``t`` interval of the least-squares slope (:func:`regression_slope`);
+- a **family of comparisons** (every level of a sweep against one reference): Holm's step-down
+  adjustment of their p-values (:func:`holm`), which keeps the chance of any false "difference"
+  in the family at most ``alpha``, and the verdicts it allows (:func:`holm_verdicts`).
 
 A claim of "no difference" is worded from the interval, not from a p-value above 0.05: the
 interval says how large a difference could hide in the study (``Paired.detectable``).
@@ -55,6 +58,8 @@ __all__ = [
     "run_interval",
     "log_slope",
     "regression_slope",
+    "holm",
+    "holm_verdicts",
 ]
 
 CONFIDENCE = 0.95
@@ -378,3 +383,42 @@ def regression_slope(x, y, confidence: float = CONFIDENCE) -> tuple[float, float
     se = float(np.sqrt(np.sum(residuals**2) / (x.size - 2) / np.sum((x - x.mean()) ** 2)))
     half = float(stats.t.ppf(0.5 + confidence / 2, x.size - 2)) * se
     return float(slope), float(slope) - half, float(slope) + half
+
+
+def holm(pvalues) -> np.ndarray:
+    r"""Holm's step-down adjusted p-values, in the order given.
+
+    With the ``m`` p-values sorted, :math:`p_{(1)} \le \dots \le p_{(m)}`, the adjusted value of the
+    ``i``-th is :math:`\max_{j \le i} \min(1, (m - j + 1)\, p_{(j)})`; rejecting every hypothesis
+    whose adjusted value is below ``alpha`` keeps the family-wise error rate (the chance of one or
+    more false rejections) at most ``alpha`` whatever the dependence between the tests (Holm, 1979).
+    """
+    p = _samples(pvalues, "pvalues")
+    if np.any((p < 0) | (p > 1)):
+        raise EvidenceError(f"p-values must lie in [0, 1], got {p}")
+    order = np.argsort(p, kind="stable")
+    m = p.size
+    adjusted = np.minimum(1.0, np.maximum.accumulate((m - np.arange(m)) * p[order]))
+    out = np.empty(m)
+    out[order] = adjusted
+    return out
+
+
+def holm_verdicts(comparisons: dict, alpha: float | None = None) -> dict:
+    """``{key: (verdict, Holm-adjusted p)}`` for a family of :class:`Paired` comparisons.
+
+    The verdict is :meth:`Paired.verdict`'s with each Wilcoxon p replaced by its Holm-adjusted
+    value (:func:`holm` over the whole family): a difference is declared only where the interval
+    excludes "no difference" and the adjusted p is below ``alpha`` (default ``1 - confidence``), so
+    the chance of declaring any false difference in the family is at most ``alpha``.
+    """
+    if not comparisons or not all(isinstance(c, Paired) for c in comparisons.values()):
+        raise EvidenceError("holm_verdicts needs a non-empty dict of pfcourse.evidence.Paired")
+    keys = list(comparisons)
+    adjusted = holm([comparisons[k].pvalue for k in keys])
+    out = {}
+    for key, p in zip(keys, adjusted):
+        c = comparisons[key]
+        level = 1 - c.confidence if alpha is None else alpha
+        out[key] = (Paired(c.n, c.median, c.low, c.high, float(p), c.ratio, c.confidence).verdict(level), float(p))
+    return out

@@ -8,9 +8,10 @@ particles ``x_k^i`` with normalised weights ``W_k^i``.  At every step ``k``:
 2. **weight** in the log domain,
    ``log w_k^i = log W_{k-1}^i + log p(z_k | x_k^i) + log p(x_k^i | x_{k-1}^i) - log q(x_k^i | x_{k-1}^i, z_k)``
    (the last two cancel for the bootstrap proposal);
-3. **normalise** ``W_k^i = exp(log w_k^i - logsumexp_j log w_k^j)`` and record the
-   weighted mean, covariance, the effective sample size ``ESS = 1 / sum_i (W_k^i)^2``
-   and the log-likelihood increment ``log p^(z_k | z_{0:k-1}) = logsumexp_i(log W_{k-1}^i + log inc_k^i)``;
+3. **normalise** ``W_k^i = exp(log w_k^i - logsumexp_j log w_k^j)``, with the effective
+   sample size ``ESS = 1 / sum_i (W_k^i)^2`` and the log-likelihood increment
+   ``log p^(z_k | z_{0:k-1}) = logsumexp_i(log W_{k-1}^i + log inc_k^i)`` (the weighted mean and
+   covariance are the moments collector's, :mod:`pfcourse.collectors`);
 4. **resample** (SIR) when ``ESS < threshold * N``, then reset the weights to ``1/N``.
    ``threshold = 0`` never resamples (SIS); ``threshold = 1`` resamples at every
    step whose weights are not exactly uniform.
@@ -31,10 +32,19 @@ unchanged: the particles move through the transition only.  A measurement with
 as "not observed".  Any NaN produced by the model, and a step at which every
 particle has zero likelihood, raise a named error that gives the step.
 
-:meth:`ParticleFilter.run` is that loop, one named part per step: ``_propose`` (step 1; with a
-variable ``N``, ``_propose_variable_n``, whose batches share ``_move`` with it), ``_weight``
-(steps 2 and 3), ``_record`` (the moments and the ESS of step 3 into the result) and
-``_resample`` (step 4).  The weighted cloud they pass on is a ``_Cloud``.
+**Stepping and collecting.** :meth:`ParticleFilter.steps` is that loop as a generator: it yields
+a :class:`Step` (the weighted cloud, the ancestors drawn by its resampling, the ESS, the
+log-likelihood increment) at the end of every step, so a reader can write
+``for step in pf.steps(z, rng): ...`` and watch the cloud move.  :meth:`ParticleFilter.run` is
+built on it: each step is shown to *collectors* (:mod:`pfcourse.collectors`), which keep what
+they need and return their record at the end; the moments, the ESS, the resampling flags, the
+log-likelihood increments and the sizes are always collected (the fields of
+:class:`~pfcourse.results.FilterResult`), the clouds, the ancestors and the proposal's stages
+on request (``collect=[Clouds(), Ancestors()]``).  Inside a step the named parts are
+``_propose`` (step 1; with a variable ``N`` the policy's batches, :class:`_VariableSize`,
+which share ``_move`` with it), ``_weight`` (steps 2 and 3) and ``_resample`` (step 4); the
+choice between a fixed and a variable ``N`` is made once, when the filter is built
+(:class:`_FixedSize` or :class:`_VariableSize`), not at each step.
 
 Steps 3 and 4 run as compiled loops (:mod:`pfcourse.kernels`): one pass over the particles
 for the weights, the ESS and the log-likelihood increment (the same floats as
@@ -45,7 +55,7 @@ compiles them too (:class:`pfcourse.robot.scenario.RobotModel` does).
 
 from __future__ import annotations
 
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass
 from typing import Protocol
 
@@ -57,7 +67,6 @@ from pfcourse.checks import (
     check_count,
     check_fits,
     check_measurements,
-    check_moments,
     check_log_terms,
     check_particles,
     check_probability,
@@ -72,6 +81,7 @@ from pfcourse.errors import (
     ParameterError,
     ShapeError,
 )
+from pfcourse.collectors import start_collectors
 from pfcourse.proposals import TransitionProposal
 from pfcourse.resampling import get_resampler, multinomial
 from pfcourse.results import FilterResult
@@ -129,7 +139,11 @@ class Proposal(Protocol):
 
     ``propose`` returns ``(x_k, log_inc)`` with
     ``log_inc^i = log p(z_k | x_k^i) + log p(x_k^i | x_{k-1}^i) - log q(x_k^i | x_{k-1}^i, z_k)``.
-    It is called only at steps that have a measurement.
+    It is called only at steps that have a measurement.  A proposal that brings the likelihood
+    in by stages (progressive correction) returns ``(x_k, log_inc, stages)``, the number of
+    times it weighted the cloud: the step reports it (:attr:`Step.stages`).  A proposal that draws
+    the ancestors itself (the auxiliary filter) sets ``draws_ancestors = True``: it is then also
+    given ``log_weights=log W_{k-1}`` (normalised), and its increments are added to them as usual.
     """
 
     def propose(
@@ -174,38 +188,103 @@ class _Cloud:
         self.scratch = np.empty(n)
 
 
-@dataclass
-class _Trace:
-    """The run's per-step output, filled by :meth:`ParticleFilter._record` (fields of :class:`FilterResult`)."""
+@dataclass(frozen=True)
+class Step:
+    """The state of a particle filter at the end of step ``k`` (yielded by :meth:`ParticleFilter.steps`).
 
-    mean: Array
-    cov: Array
-    ess: Array
-    resampled: Array
-    log_likelihood_increments: Array
-    sizes: Array
-    particles: Array | None
-    weights: Array | None
-    is_angle: Array  # the components whose mean is circular
-    linear: Array | None  # the components whose variance must stay finite (None: all)
+    ``particles`` ``(N_k, d)``, ``log_weights`` and ``weights`` ``(N_k,)``: the weighted cloud after
+    the update of step ``k`` (before any resampling; ``weights = exp(log_weights)``, normalised).
+    ``ess``: ``1 / sum_i (W_k^i)^2``.  ``log_likelihood_increment``: ``log p^(z_k | z_{0:k-1})``
+    (0 without a measurement).  ``ancestors``: the indices the step's resampling drew, or ``None``
+    when the step did not resample.  With a fixed ``N`` the resampling comes at the end of the
+    step: particle ``i`` of step ``k + 1`` descends from ``particles[ancestors[i]]``.  With a
+    ``sample_size`` policy it comes first: ``particles[i]`` descends from particle ``ancestors[i]``
+    of step ``k - 1``.  ``stages``: how many times the proposal weighted the cloud at this step
+    (the stages of progressive correction; 1 otherwise).
 
-    @classmethod
-    def empty(cls, n_steps: int, n: int, d: int, store_particles: bool, angle_indices: Sequence[int]) -> _Trace:
-        """Arrays for ``n_steps`` steps of ``n`` particles in ``d`` dimensions (the cloud only if stored)."""
-        is_angle = np.zeros(d, dtype=bool)
-        is_angle[list(angle_indices)] = True
-        return cls(
-            mean=np.empty((n_steps, d)),
-            cov=np.empty((n_steps, d, d)),
-            ess=np.empty(n_steps),
-            resampled=np.zeros(n_steps, dtype=bool),
-            log_likelihood_increments=np.zeros(n_steps),
-            sizes=np.empty(n_steps, dtype=np.int64),
-            particles=np.empty((n_steps, n, d)) if store_particles else None,
-            weights=np.empty((n_steps, n)) if store_particles else None,
-            is_angle=is_angle,
-            linear=~is_angle if is_angle.any() else None,
-        )
+    The filter never writes into a step's arrays after yielding it, so a collector may keep them.
+    """
+
+    k: int
+    particles: Array
+    log_weights: Array
+    weights: Array
+    ess: float
+    log_likelihood_increment: float
+    ancestors: Array | None = None
+    stages: int = 1
+
+    @property
+    def size(self) -> int:
+        """The number of particles ``N_k``."""
+        return len(self.weights)
+
+    @property
+    def resampled(self) -> bool:
+        """Whether the step resampled (``ancestors`` is not ``None``)."""
+        return self.ancestors is not None
+
+
+class _FixedSize:
+    """``N`` particles at every step: each particle moves (step 1), the cloud is resampled at the end of
+    a step whose ``ESS < threshold * N`` (step 4)."""
+
+    def __init__(self, pf: ParticleFilter) -> None:
+        self.pf = pf
+
+    def propose(self, cloud: _Cloud, z: Array | None, k: int,
+                rng: np.random.Generator) -> tuple[Array | None, Array | None, int]:
+        """``(log inc_k, None, stages)``: no ancestors drawn before the move."""
+        log_inc, stages = self.pf._propose(cloud, z, k, rng)
+        return log_inc, None, stages
+
+    def select(self, cloud: _Cloud, ess: float, k: int, rng: np.random.Generator) -> Array | None:
+        """Step 4: the ancestors drawn when ``ESS < threshold * N``, else ``None``."""
+        if ess < self.pf.threshold * cloud.size * (1.0 - 1e-12):
+            return self.pf._resample(cloud, k, rng)
+        return None
+
+
+class _VariableSize:
+    """A ``sample_size`` policy (module docstring): at each measurement step after the first, the cloud
+    is drawn in batches whose ancestors are drawn first (multinomial); there is no step 4."""
+
+    def __init__(self, pf: ParticleFilter, policy) -> None:
+        self.pf, self.policy = pf, policy
+
+    def propose(self, cloud: _Cloud, z: Array | None, k: int,
+                rng: np.random.Generator) -> tuple[Array | None, Array | None, int]:
+        """Step 1, in place: ``(log inc_k, ancestors, stages)``; the batches at measurement steps ``k > 0``.
+
+        Each batch of ``m`` particles: ancestors ``A_i`` by multinomial resampling of the previous
+        weighted cloud, then ``x_k^i ~ q(. | x_{k-1}^{A_i}, z_k)`` (``_move``), until
+        ``n >= min(max(needed, n_min), n_particles)``.  The new cloud starts from the uniform
+        weights ``1/n`` (the ancestors carried the old ones).  ``stages``: the most of any batch.
+        """
+        if k == 0 or z is None:
+            log_inc, stages = self.pf._propose(cloud, z, k, rng)
+            return log_inc, None, stages
+        policy, n_max = self.policy, self.pf.n_particles
+        policy.reset()
+        new_x, new_log, drawn, stages = [], [], [], 1
+        n, needed = 0, policy.n_min
+        while n < min(max(needed, policy.n_min), n_max):
+            m = int(min(n_max - n, max(policy.batch, min(needed, n_max) - n)))
+            drawn.append(multinomial(cloud.weights, rng, m))
+            x, log_inc, batch_stages = self.pf._move(kernels.gather_rows(cloud.particles, drawn[-1]), z, k, rng)
+            new_x.append(x)
+            new_log.append(log_inc)
+            stages = max(stages, batch_stages)
+            n += m
+            needed = policy.needed(x)
+            if isinstance(needed, (bool, np.bool_)) or not isinstance(needed, (int, np.integer)) or needed < 0:
+                raise ModelError(f"step {k}: sample_size.needed must return a count >= 0, got {needed!r}", step=k)
+        cloud.restart(np.concatenate(new_x))
+        return np.concatenate(new_log), np.concatenate(drawn), stages
+
+    def select(self, cloud: _Cloud, ess: float, k: int, rng: np.random.Generator) -> None:
+        """No resampling at the end of the step: the next one draws its ancestors itself."""
+        return None
 
 
 class ParticleFilter:
@@ -284,13 +363,29 @@ class ParticleFilter:
                 raise ParameterError("jitter and sample_size cannot be combined: with a variable N the "
                                      "ancestors are drawn inside the step, there is no resampled cloud to jitter")
         self.sample_size = sample_size
+        self._size = _FixedSize(self) if sample_size is None else _VariableSize(self, sample_size)
+
+    def steps(self, measurements: Sequence[Measurement] | Array,
+              rng: np.random.Generator | int | None = None) -> Iterator[Step]:
+        """Filter ``z_0, ..., z_{K-1}`` one step at a time: a generator of one :class:`Step` per step.
+
+        The measurements and ``rng`` are read as by :meth:`run` (and checked here, before the first
+        step).  Each step is drawn when the loop asks for it, with the same random draws in the
+        same order as :meth:`run`, which is this loop with collectors::
+
+            for step in pf.steps(z, rng=1):
+                print(step.k, step.ess, step.particles.mean(axis=0))
+        """
+        rng = as_generator(rng)
+        measurements = check_measurements(measurements)
+        return self._steps(measurements, rng)
 
     def run(
         self,
         measurements: Sequence[Measurement] | Array,
         rng: np.random.Generator | int | None = None,
         *,
-        store_particles: bool = False,
+        collect: Sequence = (),
     ) -> FilterResult:
         """Filter the measurements ``z_0, ..., z_{K-1}`` and return a :class:`FilterResult`.
 
@@ -301,101 +396,103 @@ class ParticleFilter:
         (:class:`~pfcourse.errors.ParameterError` if it is not).  A scalar measurement
         series may be 1-D (shape ``(K,)`` or a list of floats): it is read as ``(K, 1)``.
 
-        Each step is :meth:`_propose` (or :meth:`_propose_variable_n`, which resamples the
-        ancestors itself), :meth:`_weight`, :meth:`_record` and, with a fixed ``N``,
-        :meth:`_resample` when ``ESS < threshold * N``.
+        **Collectors.** Every :class:`Step` of :meth:`steps` is shown to the collectors, and each
+        returns its record at the end.  The moments, the ESS, the resampling flags, the
+        log-likelihood increments and the sizes are always collected (the result's fields);
+        ``collect`` adds others, whose records are ``result.collected[name]``
+        (:mod:`pfcourse.collectors`: ``Clouds()``, which also fills ``result.particles`` and
+        ``result.weights``, ``Ancestors()``, ``Stages()``).  A collector is any object with
+
+        * ``name``, the key of its record (distinct, and none of the fields above);
+        * ``collect(step)``, called at the end of every step with the :class:`Step`;
+        * ``result()``, called once after the last step: the record;
+        * optionally ``start(pf, n_steps)``, called when the run is built (this filter, the
+          number of steps), to reset or allocate, or to refuse a filter it cannot serve.
+
+        A collector of the largest weight at each step, in five lines::
+
+            class LargestWeight(Collector):           # pfcourse.collectors.Collector
+                name = "largest_weight"
+                def fetch(self, step):                # one value per step ...
+                    return step.weights.max()         # ... result(): their array
+
+            pf.run(z, rng, collect=[LargestWeight()]).collected["largest_weight"]
+
+        A malformed collector is refused, before the first step, with a
+        :class:`~pfcourse.errors.ModelError` (a missing ``name`` or method) or a
+        :class:`~pfcourse.errors.ParameterError` (a name twice, a collector that does not fit
+        this filter, such as the clouds of a variable ``N``).
         """
         rng = as_generator(rng)
         measurements = check_measurements(measurements)
-        variable_n = self.sample_size is not None
-        if store_particles and variable_n:
-            raise ParameterError("store_particles needs a fixed number of particles (this filter has a sample_size policy)")
-        trace, cloud = self._allocate(len(measurements), store_particles)
-        for k, z in enumerate(_present(measurements)):
-            if variable_n and k > 0 and z is not None:
-                log_inc = self._propose_variable_n(cloud, z, k, rng)
-                trace.resampled[k] = True  # the new cloud's ancestors were drawn by resampling
-            else:
-                log_inc = self._propose(cloud, z, k, rng)
-            ess, log_evidence = self._weight(cloud, log_inc, z, k)
-            self._record(trace, k, cloud, ess, log_evidence)
-            if not variable_n and ess < self.threshold * cloud.size * (1.0 - 1e-12):
-                self._resample(cloud, k, rng)
-                trace.resampled[k] = True
-        return self._result(trace)
+        collect = list(collect) if isinstance(collect, (list, tuple)) else collect
+        collectors = start_collectors(self, len(measurements), collect)
+        for step in self._steps(measurements, rng):
+            for collector in collectors:
+                collector.collect(step)
+        records = {collector.name: collector.result() for collector in collectors}
+        return self._result(records)
 
     # ------------------------------------------------------------------ the parts of a step
-    def _allocate(self, n_steps: int, store_particles: bool) -> tuple[_Trace, _Cloud]:
-        """The per-step output arrays and the initial (empty, uniformly weighted) cloud of ``N`` particles."""
-        n, d = self.n_particles, self.dim_x
-        try:
-            return _Trace.empty(n_steps, n, d, store_particles, self.angle_indices), _Cloud(n)
-        except (MemoryError, ValueError):
-            raise ParameterError(
-                f"before step 0: n_particles={n}, dim_x={d} and {n_steps} steps need more memory "
-                "than this machine has"
-            ) from None
+    def _steps(self, measurements: Sequence[Measurement] | Array, rng: np.random.Generator) -> Iterator[Step]:
+        """The loop (checked inputs): steps 1 to 3, the step's state, step 4, then the :class:`Step`."""
+        cloud = _Cloud(self.n_particles)
+        for k, z in enumerate(_present(measurements)):
+            log_inc, ancestors, stages = self._size.propose(cloud, z, k, rng)
+            ess, log_evidence = self._weight(cloud, log_inc, z, k)
+            particles, log_weights, weights = cloud.particles, cloud.log_weights, cloud.weights
+            if ancestors is None:
+                ancestors = self._size.select(cloud, ess, k, rng)
+            yield Step(k, particles, log_weights, weights, ess, log_evidence, ancestors, stages)
 
-    def _propose(self, cloud: _Cloud, z: Array | None, k: int, rng: np.random.Generator) -> Array | None:
+    def _propose(self, cloud: _Cloud, z: Array | None, k: int,
+                 rng: np.random.Generator) -> tuple[Array | None, int]:
         """Step 1, in place: ``x_0^i ~ p(x_0)`` at step 0, ``x_k^i ~ q(x_k | x_{k-1}^i, z_k)`` afterwards.
 
         Returns the checked log-increments ``log inc_k^i`` (``log p(z_0 | x_0^i)`` at step 0), or
-        ``None`` when ``z_k`` is missing (the particles then move through the transition).
+        ``None`` when ``z_k`` is missing (the particles then move through the transition), and the
+        proposal's stages.
         """
         if k > 0:
-            cloud.particles, log_inc = self._move(cloud.particles, z, k, rng)
-            return log_inc
+            cloud.particles, log_inc, stages = self._move(cloud.particles, z, k, rng, cloud.log_weights)
+            return log_inc, stages
         cloud.particles = self._check_particles(self.model.sample_initial(cloud.size, rng), k, "sample_initial")
         if z is None:
-            return None
-        return self._check_log_increments(self.model.log_likelihood(cloud.particles, z, k), k, cloud.size)
+            return None, 1
+        return self._check_log_increments(self.model.log_likelihood(cloud.particles, z, k), k, cloud.size), 1
 
-    def _move(self, parents: Array, z: Array | None, k: int,
-              rng: np.random.Generator) -> tuple[Array, Array | None]:
+    def _move(self, parents: Array, z: Array | None, k: int, rng: np.random.Generator,
+              log_weights: Array | None = None) -> tuple[Array, Array | None, int]:
         """Draw ``x_k^i ~ q(. | x_{k-1}^i, z_k)`` for each row ``x_{k-1}^i`` of ``parents`` (checked).
 
-        Returns ``(x_k, log inc_k)`` with ``log inc_k^i = log p(z_k | x_k^i) + log p(x_k^i | x_{k-1}^i)
-        - log q(x_k^i | x_{k-1}^i, z_k)`` (checked), or ``(x_k, None)`` when ``z_k`` is missing: then
-        ``q`` is the transition whatever the proposal.  Shared by the fixed and the variable ``N``.
+        Returns ``(x_k, log inc_k, stages)`` with ``log inc_k^i = log p(z_k | x_k^i) + log p(x_k^i | x_{k-1}^i)
+        - log q(x_k^i | x_{k-1}^i, z_k)`` (checked), or ``(x_k, None, 1)`` when ``z_k`` is missing: then
+        ``q`` is the transition whatever the proposal.  ``stages`` is the third item of what the
+        proposal returned, if it returned one (:class:`Proposal`), else 1.  Shared by the fixed and
+        the variable ``N``.  ``log_weights`` (``log W_{k-1}``, equal if ``None``) go to a proposal that draws
+        ancestors.
         """
-        m = len(parents)
+        m, stages = len(parents), 1
         if z is None or type(self.proposal) is TransitionProposal:
             new = self._check_particles(self.model.sample_transition(parents, k, rng), k, "sample_transition", m)
             if z is None:
-                return new, None
+                return new, None, 1
             log_inc = self.model.log_likelihood(new, z, k)
         else:
-            proposed = self.proposal.propose(self.model, parents, z, k, rng)
-            if not isinstance(proposed, tuple) or len(proposed) != 2:
-                raise ModelError(f"step {k}: proposal.propose must return (particles, log_increments)", step=k)
+            if getattr(self.proposal, "draws_ancestors", False):
+                proposed = self.proposal.propose(self.model, parents, z, k, rng, log_weights=log_weights)
+            else:
+                proposed = self.proposal.propose(self.model, parents, z, k, rng)
+            if not isinstance(proposed, tuple) or len(proposed) not in (2, 3):
+                raise ModelError(f"step {k}: proposal.propose must return (particles, log_increments) "
+                                 "or (particles, log_increments, stages)", step=k)
+            if len(proposed) == 3:
+                stages = proposed[2]
+                if isinstance(stages, (bool, np.bool_)) or not isinstance(stages, (int, np.integer)) or stages < 1:
+                    raise ModelError(f"step {k}: the proposal's stages must be a count >= 1, got {stages!r}", step=k)
             new = self._check_particles(proposed[0], k, "proposal.propose", m)
             log_inc = proposed[1]
-        return new, self._check_log_increments(log_inc, k, m)
-
-    def _propose_variable_n(self, cloud: _Cloud, z: Array, k: int, rng: np.random.Generator) -> Array:
-        """Step 1 with a ``sample_size`` policy, in place: draw the cloud of measurement step ``k`` in batches.
-
-        Each batch of ``m`` particles: ancestors ``A_i`` by multinomial resampling of the previous
-        weighted cloud, then ``x_k^i ~ q(. | x_{k-1}^{A_i}, z_k)`` (:meth:`_move`), until
-        ``n >= min(max(needed, n_min), n_particles)``.  The new cloud starts from the uniform
-        weights ``1/n`` (the ancestors carried the old ones); returns its log-increments.
-        """
-        policy, n_max = self.sample_size, self.n_particles
-        policy.reset()
-        new_x, new_log = [], []
-        n, needed = 0, policy.n_min
-        while n < min(max(needed, policy.n_min), n_max):
-            m = int(min(n_max - n, max(policy.batch, min(needed, n_max) - n)))
-            parents = kernels.gather_rows(cloud.particles, multinomial(cloud.weights, rng, m))
-            x, log_inc = self._move(parents, z, k, rng)
-            new_x.append(x)
-            new_log.append(log_inc)
-            n += m
-            needed = policy.needed(x)
-            if isinstance(needed, (bool, np.bool_)) or not isinstance(needed, (int, np.integer)) or needed < 0:
-                raise ModelError(f"step {k}: sample_size.needed must return a count >= 0, got {needed!r}", step=k)
-        cloud.restart(np.concatenate(new_x))
-        return np.concatenate(new_log)
+        return new, self._check_log_increments(log_inc, k, m), int(stages)
 
     def _weight(self, cloud: _Cloud, log_inc: Array | None, z: Array | None, k: int) -> tuple[float, float]:
         """Steps 2 and 3, in place: ``log W_k^i = log W_{k-1}^i + log inc_k^i - L_k``, ``W_k^i = exp(log W_k^i)``.
@@ -409,6 +506,7 @@ class ParticleFilter:
         if log_inc is None:
             return 1.0 / kernels.sum_of_squares(cloud.weights), 0.0  # effective_sample_size(weights), same float
         cloud.weights = np.empty(cloud.size)
+        cloud.log_weights = cloud.log_weights.copy()  # the last step's, yielded, stay as they were
         top = log_inc.max()
         shift = top if 700.0 < abs(top) < np.inf else 0.0
         if shift != 0.0:
@@ -425,22 +523,9 @@ class ParticleFilter:
             )
         return ess, log_evidence
 
-    def _record(self, trace: _Trace, k: int, cloud: _Cloud, ess: float, log_evidence: float) -> None:
-        """Step 3's output: the size, ESS and ``L_k`` of step ``k``, the weighted moments
-        ``m_k = sum_i W_k^i x_k^i`` and ``P_k = sum_i W_k^i (x_k^i - m_k)(x_k^i - m_k)^T`` (circular
-        mean and wrapped deviations for the angles), and the cloud itself if stored."""
-        trace.sizes[k] = cloud.size
-        trace.ess[k] = ess
-        trace.log_likelihood_increments[k] = log_evidence
-        trace.mean[k], trace.cov[k] = kernels.weighted_moments(cloud.particles, cloud.weights, trace.is_angle)
-        check_moments(cloud.particles, trace.cov[k], trace.linear, k)
-        if trace.particles is not None:
-            trace.particles[k] = cloud.particles
-            trace.weights[k] = cloud.weights
-
-    def _resample(self, cloud: _Cloud, k: int, rng: np.random.Generator) -> None:
+    def _resample(self, cloud: _Cloud, k: int, rng: np.random.Generator) -> Array:
         """Step 4, in place: ``x^i <- x^{A_i}`` with ancestors ``A`` from the resampler, the optional
-        jitter, and the weights reset to ``W^i = 1/N``."""
+        jitter, and the weights reset to ``W^i = 1/N``.  Returns ``A``."""
         indices = self.resampler(cloud.weights, rng)
         if self._custom_resampler:
             indices = self._check_indices(indices, k)
@@ -448,25 +533,29 @@ class ParticleFilter:
         if self.jitter is not None:
             particles = self._check_particles(self.jitter(particles, rng), k, "jitter")
         cloud.restart(particles)
+        return indices
 
-    def _result(self, trace: _Trace) -> FilterResult:
-        """The run's :class:`FilterResult`, with the filter's settings."""
+    def _result(self, records: dict) -> FilterResult:
+        """The run's :class:`FilterResult` from the collectors' records, with the filter's settings."""
+        mean, cov = records.pop("moments")
+        clouds = records.get("clouds")
         return FilterResult(
-            mean=trace.mean,
-            cov=trace.cov,
-            ess=trace.ess,
-            resampled=trace.resampled,
-            log_likelihood_increments=trace.log_likelihood_increments,
+            mean=mean,
+            cov=cov,
+            ess=records.pop("ess"),
+            resampled=records.pop("resampled"),
+            log_likelihood_increments=records.pop("log_likelihood_increments"),
             n_particles=self.n_particles,
-            particles=trace.particles,
-            weights=trace.weights,
+            particles=None if clouds is None else clouds[0],
+            weights=None if clouds is None else clouds[1],
             settings={
                 "threshold": self.threshold,
                 "resampler": getattr(self.resampler, "__name__", str(self.resampler)),
                 "proposal": type(self.proposal).__name__,
                 "sample_size": None if self.sample_size is None else type(self.sample_size).__name__,
             },
-            sizes=trace.sizes,
+            sizes=records.pop("sizes"),
+            collected=records,
         )
 
     def _check_indices(self, indices, k: int) -> np.ndarray:

@@ -12,15 +12,24 @@ Adding a configuration is adding one entry to its dict.
 instance ``build(scenario, n_particles) -> ParticleFilter`` for scenario A's filters, or
 ``build(scenario, terrain) -> ParticleFilter`` for the terrain filters, whose particle count is
 part of the configuration (``n_particles``).
+
+:class:`FilterSettings` is a filter's settings as a typed record (``N``, threshold, resampler,
+proposal, jitter, sample-size policy) with one ``build(model)``, a label derived from its fields
+and a provenance record of plain data (:meth:`FilterSettings.record`).
 """
 
 from __future__ import annotations
 
+import copy
+import dataclasses
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from typing import Any
 
-from pfcourse.errors import ParameterError
+from pfcourse.checks import check_count, check_probability
+from pfcourse.errors import ModelError, ParameterError
+from pfcourse.filter import ParticleFilter
+from pfcourse.resampling import SCHEMES
 
 
 @dataclass(frozen=True)
@@ -64,3 +73,95 @@ def lookup(registry: Mapping[str, FilterConfig], name: str, what: str = "filter 
 def labels(registry: Mapping[str, FilterConfig]) -> dict[str, str]:
     """``{name: label}`` of ``registry``, in its order (the legends and tables of a comparison)."""
     return {name: config.label for name, config in registry.items()}
+
+
+# ---------------------------------------------------------------------------------------------------
+# A filter's settings as data (issue 44, item 2): one typed record, one ``build(model)``, its label
+# and its provenance record derived from its fields.  The registries above do not hold these yet.
+
+_NAMES = {"TransitionProposal": "bootstrap", "ProgressiveCorrection": "progressive correction",
+          "RegularisedJitter": "regularised", "Roughening": "roughened", "KLDSampling": "KLD-sampling",
+          "OptimalProposal": "optimal proposal", "LinearGaussianOptimal": "optimal proposal",
+          "FullyAdaptedAuxiliary": "fully adapted auxiliary"}
+
+
+def describe(component: Any) -> Any:
+    """A component of a filter (proposal, jitter, sample-size policy) as plain data: ``None``, or
+    ``{"type": class name, field: value, ...}`` of its public dataclass fields (nested components
+    described the same way, arrays as lists), or of another object's public attributes that are
+    numbers, names, tuples or arrays."""
+    if component is None or isinstance(component, (bool, int, float, str)):
+        return component
+    if isinstance(component, (tuple, list)):
+        return [describe(c) for c in component]
+    if hasattr(component, "tolist"):
+        return component.tolist()
+    out: dict[str, Any] = {"type": type(component).__name__}
+    if dataclasses.is_dataclass(component):
+        out.update({f.name: describe(getattr(component, f.name)) for f in dataclasses.fields(component)
+                    if not f.name.startswith("_")})
+    else:  # its public settings that are data (numbers, names, arrays), not its state or its model
+        out.update({name: describe(value) for name, value in vars(component).items()
+                    if not name.startswith("_") and (value is None or hasattr(value, "tolist")
+                                                     or isinstance(value, (bool, int, float, str, tuple)))})
+    return out
+
+
+@dataclass(frozen=True)
+class FilterSettings:
+    """A particle filter's settings as a typed record: ``N``, the resampling rule (``threshold``,
+    ``resampler``, a name of :data:`pfcourse.resampling.SCHEMES`), and the components as
+    templates: ``proposal`` (``None``: the transition, the bootstrap filter), ``jitter`` (``None``:
+    none) and ``sample_size`` (``None``: a fixed ``N``).
+
+    :meth:`build` makes the filter of a model, with fresh copies of the components (a stateful
+    one, such as progressive correction, which counts the readings it saw, starts anew in every
+    filter); :attr:`label` and :meth:`record` are derived from the fields (the label for legends,
+    the record, plain data, for a study's provenance).  Checked when the record is made.
+    """
+
+    n_particles: int
+    threshold: float = 0.5
+    resampler: str = "systematic"
+    proposal: Any = None
+    jitter: Any = None
+    sample_size: Any = None
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "n_particles", check_count(self.n_particles, "n_particles"))
+        object.__setattr__(self, "threshold", check_probability(self.threshold, "threshold"))
+        if not isinstance(self.resampler, str) or self.resampler not in SCHEMES:
+            raise ParameterError(f"resampler must be one of {list(SCHEMES)} (a name: settings are data), "
+                                 f"got {self.resampler!r}")
+        if self.proposal is not None and not callable(getattr(self.proposal, "propose", None)):
+            raise ModelError(f"proposal must have a propose(model, particles, z, k, rng) method, got {self.proposal!r}")
+        if self.jitter is not None and not callable(self.jitter):
+            raise ModelError(f"jitter must be a function (particles, rng) -> particles, got {self.jitter!r}")
+        if self.sample_size is not None and not callable(getattr(self.sample_size, "needed", None)):
+            raise ModelError(f"sample_size has no callable needed (see pfcourse.sample_size), got {self.sample_size!r}")
+
+    def build(self, model) -> ParticleFilter:
+        """The particle filter of ``model`` with these settings (fresh copies of the components)."""
+        return ParticleFilter(model, self.n_particles, threshold=self.threshold, resampler=self.resampler,
+                              proposal=copy.deepcopy(self.proposal), jitter=copy.deepcopy(self.jitter),
+                              sample_size=copy.deepcopy(self.sample_size))
+
+    @property
+    def label(self) -> str:
+        """``"<proposal>[, <jitter>][, <resampler> at ESS < <threshold> N], N = <n>"`` from the fields
+        (e.g. ``"progressive correction, regularised, multinomial at ESS < 1 N, N = 3000"``)."""
+        parts = [_NAMES.get(type(self.proposal).__name__, type(self.proposal).__name__)
+                 if self.proposal is not None else "bootstrap"]
+        if self.jitter is not None:
+            parts.append(_NAMES.get(type(self.jitter).__name__, type(self.jitter).__name__))
+        if self.sample_size is not None:
+            parts.append(_NAMES.get(type(self.sample_size).__name__, type(self.sample_size).__name__))
+            return ", ".join(parts) + f", N <= {self.n_particles}"
+        parts.append(f"{self.resampler} at ESS < {self.threshold:g} N")
+        return ", ".join(parts) + f", N = {self.n_particles}"
+
+    def record(self) -> dict[str, Any]:
+        """The settings as plain data (JSON-ready): what a study's provenance writes of its filter."""
+        return {"n_particles": self.n_particles, "threshold": self.threshold, "resampler": self.resampler,
+                "proposal": describe(self.proposal), "jitter": describe(self.jitter),
+                "sample_size": describe(self.sample_size)}

@@ -18,20 +18,25 @@ When the predictive likelihood ``p(z_k | x_{k-1})`` and the optimal importance f
 ``p(x_k | x_{k-1}, z_k)`` are both known in closed form (a linear-Gaussian model, or the
 robot of a Rao-Blackwellised filter), the auxiliary filter *first* resamples the parents
 with probabilities proportional to ``W_{k-1}^i p(z_k | x_{k-1}^i)`` and *then* moves each
-chosen parent with the optimal importance function.  The new weights are all equal:
+chosen parent with the optimal importance function.  It is SIR on the extended target
+``pi(a, x_k)``, proportional to ``W_{k-1}^a p(z_k | x_{k-1}^a) p(x_k | x_{k-1}^a, z_k)``, of the
+ancestor and the new state (Johansen and Doucet 2008), whose marginal in ``x_k`` is the filtering density; drawn
+from exactly that target, the new particles are equally weighted:
 
 .. math::
 
-   a^i = \\log p(z_k \\mid x_{k-1}^i), \\qquad A^i \\sim \\mathrm{Cat}\\big(e^{a^i} / \\textstyle\\sum_j e^{a^j}\\big),
+   \\beta^i \\propto W_{k-1}^i\\, p(z_k \\mid x_{k-1}^i), \\qquad A^i \\sim \\mathrm{Cat}(\\beta),
    \\qquad x_k^i \\sim p(x_k \\mid x_{k-1}^{A^i}, z_k), \\qquad
-   \\hat p(z_k \\mid z_{0:k-1}) = \\frac1N \\sum_i e^{a^i}.
+   \\hat p(z_k \\mid z_{0:k-1}) = \\sum_i W_{k-1}^i\\, p(z_k \\mid x_{k-1}^i).
 
-Compared with SIR and the same optimal importance function, the cloud is resampled
-*before* the move, so no two children of a duplicated parent coincide.  It runs in the
-engine as a :class:`~pfcourse.filter.Proposal` that returns the constant incremental
-weight ``log (1/N) sum_i e^{a^i}`` for every particle; the engine must hand it uniform
-weights, so use it with ``threshold=1`` (resample whenever the weights are not uniform,
-which then never happens after the first measured step).
+Compared with SIR and the same optimal importance function (whose weights are the same
+``W_{k-1}^i p(z_k | x_{k-1}^i)``), only the order changes: resample, then move, so each copy
+of a parent gets its own move instead of being a duplicate of one moved particle.  It runs in
+the engine as a :class:`~pfcourse.filter.Proposal` that draws the ancestors itself
+(``draws_ancestors = True``): the engine hands it the cloud's log-weights ``log W_{k-1}^i`` and
+adds the increments it returns to them, so the increment of slot ``i`` is
+``log p^(z_k | z_{0:k-1}) - log W_{k-1}^i`` (up to a constant): the new weights are equal
+whatever the resampling threshold left in ``W_{k-1}``.
 
 **Progressive correction** (Oudjane and Musso 2000), as an importance function
 (:class:`ProgressiveCorrection`): at the first ``n_tempered`` readings the likelihood
@@ -147,18 +152,32 @@ class FullyAdaptedAuxiliary:
     ``inner`` provides ``log_predictive(model, particles, z, k)`` and a fully adapted
     ``propose`` (its incremental weight is that predictive likelihood, whatever is drawn):
     :class:`LinearGaussianOptimal`, or :class:`~pfcourse.landmarks.rao_blackwell.RaoBlackwellProposal`
-    with ``optimal=True``.  ``first_stage_ess`` records ``1 / sum_i (W^i)^2`` of the
+    with ``optimal=True``.  ``first_stage_ess`` records ``1 / sum_i (beta^i)^2`` of the
     first-stage weights at each measured step (the engine's ESS is then always ``N``).
+
+    It reads the weights of the cloud it moves (``draws_ancestors``), so it is right at any
+    resampling threshold: with equal weights ``W_{k-1}^i = 1/N`` (``threshold=1``, or no
+    measurement at step 0) the first stage is ``p(z_k | x_{k-1}^i)`` alone, and every slot
+    gets the increment ``log (1/N) sum_i p(z_k | x_{k-1}^i)``.  A slot of weight zero cannot
+    carry a child (the engine multiplies its increment by that weight): when ``M < N`` slots
+    have a positive weight, ``M`` of the ``N`` children, chosen at random, fill them.
     """
+
+    draws_ancestors = True
 
     def __init__(self, inner, resampler: str | Callable = "systematic") -> None:
         self.inner = inner
         self.resampler = get_resampler(resampler)
         self.first_stage_ess: list[float] = []
 
-    def propose(self, model, particles: Array, z: Array, k: int, rng: np.random.Generator):
+    def propose(self, model, particles: Array, z: Array, k: int, rng: np.random.Generator,
+                log_weights: Array | None = None):
+        """``(x_k, log inc_k)``; ``log_weights`` are the cloud's normalised ``log W_{k-1}`` (equal if ``None``)."""
         n = particles.shape[0]
         a = np.asarray(self.inner.log_predictive(model, particles, z, k), dtype=float)
+        equal = log_weights is None or bool(np.all(log_weights == log_weights[0]))
+        if not equal:
+            a = a + log_weights  # log W_{k-1}^i + log p(z_k | x_{k-1}^i)
         top = a.max()
         w = np.exp(a - top)
         total = w.sum()
@@ -166,7 +185,17 @@ class FullyAdaptedAuxiliary:
         self.first_stage_ess.append(float(1.0 / np.sum(w**2)))
         parents = particles[self.resampler(w, rng)]
         new, _ = self.inner.propose(model, parents, z, k, rng)
-        return new, np.full(n, top + np.log(total) - np.log(n))
+        if equal:  # log (1/N) sum_i p(z_k | x_{k-1}^i), the same for every slot
+            return new, np.full(n, top + np.log(total) - np.log(n))
+        # log p^(z_k | z_{0:k-1}) = log sum_i W_{k-1}^i p(z_k | x_{k-1}^i), spread over the live slots
+        live = log_weights > -np.inf
+        m = int(live.sum())
+        log_inc = np.full(n, -np.inf)
+        log_inc[live] = top + np.log(total) - np.log(m) - log_weights[live]
+        if m < n:
+            new = new.copy()
+            new[live] = new[rng.permutation(n)[:m]]
+        return new, log_inc
 
 
 def tempering_exponent(loglik: Array, remaining: float, ess_fraction: float) -> float:
@@ -199,33 +228,31 @@ def tempering_exponent(loglik: Array, remaining: float, ess_fraction: float) -> 
 class ProgressiveCorrection:
     """Importance function doing progressive correction at the first ``n_tempered`` readings.
 
-    Afterwards it is the transition (bootstrap).  ``stages`` records how many likelihood
-    evaluations each step cost (the price in particle-steps).
+    Afterwards it is the transition (bootstrap).  ``propose`` returns ``(x_k, log_inc, stages)``:
+    how many times it weighted the cloud (the price in particle-steps), which the filter's step
+    reports (:attr:`pfcourse.filter.Step.stages`, collected by :class:`pfcourse.collectors.Stages`).
     """
 
     n_tempered: int = 5
     ess_fraction: float = 0.5
     kernel: RegularisedJitter = field(default_factory=lambda: RegularisedJitter(0.5, (3,)))
     max_stages: int = 50
-    stages: list = field(default_factory=list)
     _seen: int = 0
 
     def reset(self) -> None:
-        self.stages, self._seen = [], 0
+        self._seen = 0
 
     def propose(self, model, particles, z, k, rng):
         new = model.sample_transition(particles, k, rng)
         loglik = model.log_likelihood(new, z, k)
         self._seen += 1
         if self._seen > self.n_tempered:
-            self.stages.append(1)
-            return new, loglik
+            return new, loglik, 1
         remaining, constant, n_stages = 1.0, 0.0, 1
         while True:
             lam = tempering_exponent(loglik, remaining, self.ess_fraction)
             if lam >= remaining or n_stages >= self.max_stages:
-                self.stages.append(n_stages)
-                return new, remaining * loglik + constant
+                return new, remaining * loglik + constant, n_stages
             a = lam * loglik
             top = np.max(a)
             w = np.exp(a - top)

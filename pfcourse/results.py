@@ -35,10 +35,12 @@ class FilterResult:
     update at each step (before any resampling); ``ess`` ``(K,)`` is the effective
     sample size at that moment; ``resampled`` ``(K,)`` says whether the cloud was
     resampled after it; ``log_likelihood_increments`` ``(K,)`` holds
-    ``log p^(z_k | z_{0:k-1})`` (0 at steps without a measurement).  With
-    ``store_particles=True``, ``particles`` ``(K, N, d)`` and ``weights`` ``(K, N)``
-    hold the weighted cloud at each step.  ``sizes`` ``(K,)`` is the number of particles at
+    ``log p^(z_k | z_{0:k-1})`` (0 at steps without a measurement).  With the clouds
+    collected (``run(..., collect=[Clouds()])``), ``particles`` ``(K, N, d)`` and ``weights``
+    ``(K, N)`` hold the weighted cloud at each step.  ``sizes`` ``(K,)`` is the number of particles at
     each step (``n_particles`` throughout, unless the filter has a ``sample_size`` policy).
+    ``collected`` holds the records of the collectors given to ``run``, by name
+    (:mod:`pfcourse.collectors`).
     """
 
     mean: Array
@@ -51,6 +53,7 @@ class FilterResult:
     weights: Array | None = None
     settings: dict = field(default_factory=dict)
     sizes: Array | None = None
+    collected: dict = field(default_factory=dict)
 
     def __post_init__(self) -> None:
         if self.sizes is None:

@@ -2,7 +2,7 @@
 
 **Forward filtering, backward smoothing** (FFBSm, the marginal smoother of Doucet, Godsill
 and Andrieu 2000 and Godsill, Doucet and West 2004).  The filter's weighted clouds
-``{x_k^i, W_k^i}`` (``FilterResult`` with ``store_particles=True``) are reweighted backwards,
+``{x_k^i, W_k^i}`` (``FilterResult`` of ``run(..., collect=[Clouds()])``) are reweighted backwards,
 from ``W_{K-1|K-1} = W_{K-1}``:
 
 .. math::
@@ -19,7 +19,7 @@ same clouds: ``b_{K-1} ~ W_{K-1}``, then backwards ``P(b_k = i) \\propto W_k^i f
 Cost: ``N`` densities per step and per trajectory, ``O(K M N)`` for ``M`` trajectories.
 
 **Ancestral lines** (the naive smoother and its fixed-lag version): following the resampling's
-ancestor indices back from step ``t``, the weighted paths ``{x_{0:t}^{(i)}, W_t^i}`` estimate
+ancestor indices (``run(..., collect=[Ancestors()])``, :class:`pfcourse.collectors.Ancestors`) back from step ``t``, the weighted paths ``{x_{0:t}^{(i)}, W_t^i}`` estimate
 ``p(x_{0:t} | z_{0:t})``; the fixed-lag estimate of ``x_k`` uses them at ``t = min(k + L, K - 1)``.
 
 **Rauch-Tung-Striebel** (1965): the exact smoother of a linear-Gaussian model, from the
@@ -39,7 +39,6 @@ from scipy.special import logsumexp
 
 from pfcourse.errors import ParameterError, ShapeError
 from pfcourse.checks import Array
-from pfcourse.resampling import get_resampler
 from pfcourse.diagnostics import weighted_covariance, weighted_mean
 
 
@@ -138,7 +137,7 @@ def _check_clouds(particles: Array, weights: Array) -> tuple[Array, Array]:
     if particles.ndim != 3 or weights.shape != particles.shape[:2]:
         raise ShapeError(
             f"particles must be (K, N, d) and weights (K, N); got {particles.shape} and {weights.shape} "
-            "(run the filter with store_particles=True)")
+            "(run the filter with collect=[Clouds()], pfcourse.collectors)")
     return particles, weights
 
 
@@ -177,36 +176,6 @@ def _invert(log_p: Array, u: Array) -> Array:
     p = np.exp(log_p - logsumexp(log_p, axis=1, keepdims=True))
     cdf = np.cumsum(p, axis=1)
     return np.minimum((cdf < u[:, None] * cdf[:, -1:]).sum(axis=1), log_p.shape[1] - 1)
-
-
-class AncestorRecorder:
-    """A resampler for :class:`~pfcourse.filter.ParticleFilter` that records the ancestor indices it draws.
-
-    It draws exactly what the named resampler draws (same stream), so a filter run with it
-    gives the same clouds; :meth:`ancestors` then returns ``A`` ``(K, N)``: particle ``i`` at
-    step ``k`` descends from particle ``A[k, i]`` at step ``k - 1`` (``A[0]`` is the identity).
-    """
-
-    def __init__(self, resampler: str = "systematic") -> None:
-        self.resampler = get_resampler(resampler)
-        self.draws: list[Array] = []
-        self.__name__ = f"recording {getattr(self.resampler, '__name__', resampler)}"
-
-    def __call__(self, weights: Array, rng: np.random.Generator) -> Array:
-        indices = np.asarray(self.resampler(weights, rng))
-        self.draws.append(indices)
-        return indices
-
-    def ancestors(self, result) -> Array:
-        """``A`` ``(K, N)`` of the run ``result`` that used this recorder (its ``resampled`` flags)."""
-        K, n = len(result.resampled), result.n_particles
-        if len(self.draws) != int(np.sum(result.resampled)):
-            raise ParameterError("the recorder's draws do not match the run's resampled steps (one recorder per run)")
-        A = np.tile(np.arange(n), (K, 1))
-        draws = iter(self.draws)
-        for k in np.flatnonzero(result.resampled[:-1]):
-            A[k + 1] = next(draws)
-        return A
 
 
 def fixed_lag_means(particles: Array, weights: Array, ancestors: Array, lag: int) -> Array:

@@ -6,6 +6,7 @@ tests/test_prose_numbers.py (typed numbers: each piece is removed).
 
 from __future__ import annotations
 
+import re
 from pathlib import Path
 
 import jupytext
@@ -18,6 +19,20 @@ MATH_ROLES_CODE = [
     r"\{[a-z:]+\}`[^`]*`",  # roles: glue, cite, ref, numref, eq, doc, ...
     r"`[^`]*`",  # code
 ]
+
+
+HIDDEN_CODE_TAGS = {"remove-input", "hide-input", "remove-cell"}
+
+
+def visible_code_lines(source: Path) -> int:
+    """Non-blank lines of the code a reader sees: code cells not tagged ``remove-input``,
+    ``hide-input`` or ``remove-cell`` (a page: the lines of its fenced code blocks)."""
+    if source.suffix == ".md":
+        blocks = re.findall(r"^(`{3,})[^\n]*\n(.*?)^\1\s*$", source.read_text(), flags=re.S | re.M)
+        return sum(1 for _, body in blocks for line in body.splitlines() if line.strip())
+    return sum(1 for c in jupytext.read(source).cells
+               if c.cell_type == "code" and not HIDDEN_CODE_TAGS & set(c.metadata.get("tags", []))
+               for line in c.source.splitlines() if line.strip())
 
 
 def markdown_cells(source: Path) -> list[str]:

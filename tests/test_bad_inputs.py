@@ -11,6 +11,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from pfcourse.collectors import Clouds
 from pfcourse import ParticleFilter, StateSpaceModel
 from pfcourse import diagnostics, resampling
 from pfcourse.errors import (
@@ -268,9 +269,9 @@ row("sample_size with jitter", lambda: ParticleFilter(rw_model(), N, sample_size
 row("KLD bin_size of 0", lambda: KLDSampling([0.0]), ParameterError, "bin_size")
 row("KLD bin_size for 2 components on a 1-D model",
     lambda: ParticleFilter(rw_model(), N, sample_size=KLDSampling([1.0, 1.0])).run(Z, 0), ParameterError, "2 widths")
-row("store_particles with a variable N",
-    lambda: ParticleFilter(rw_model(), N, sample_size=KLDSampling([1.0])).run(Z, 0, store_particles=True),
-    ParameterError, "store_particles needs a fixed number")
+row("the clouds of a variable N",
+    lambda: ParticleFilter(rw_model(), N, sample_size=KLDSampling([1.0])).run(Z, 0, collect=[Clouds()]),
+    ParameterError, "the clouds collector needs a fixed number")
 
 
 # --- the remaining robot scenario fields -------------------------------------------------------
@@ -733,7 +734,7 @@ def _offset(c):
     rounding of ``c + log p`` (relative 2**-52 of ``c``), and the weights stay normalised."""
     base = run(rw_model())
     shifted = ParticleFilter(rw_model(loglik=lambda x, z, k: c - 0.5 * (z[0] - x[:, 0]) ** 2), N).run(
-        Z, 0, store_particles=True)
+        Z, 0, collect=[Clouds()])
     assert np.allclose(shifted.weights.sum(axis=1), 1.0, rtol=0, atol=1e-12)
     assert np.all(np.isfinite(shifted.mean)) and np.all(np.isfinite(shifted.log_likelihood_increments))
     if abs(c) <= 1e9:  # the model's rounding of c - r^2/2 is 1e9 * 2**-53 ~ 1e-7 per particle
@@ -747,7 +748,7 @@ for c in [1e9, -1e9, 1e300, -1e300]:
 
 def _pm_1e308():
     r = ParticleFilter(rw_model(loglik=lambda x, z, k: np.where(np.arange(len(x)) % 2 == 0, 1e308, -1e308)), N,
-                       threshold=0.0).run(Z, 0, store_particles=True)
+                       threshold=0.0).run(Z, 0, collect=[Clouds()])
     assert np.allclose(r.weights.sum(axis=1), 1.0)
     assert np.all(np.isfinite(r.weights))
 
@@ -777,9 +778,9 @@ def _smoother_inputs():
 row("ffbsi n_draws = 0", lambda: (lambda f, _, p, w: f(p, w, lambda a, b, k: np.zeros((len(a), len(b))), 0,
                                                        np.random.default_rng(0)))(*_smoother_inputs()),
     ParameterError, "n_draws")
-row("ffbsi clouds without store_particles", lambda: _smoother_inputs()[0](np.zeros((3, 4)), np.ones((3, 4)) / 4,
+row("ffbsi clouds not collected", lambda: _smoother_inputs()[0](np.zeros((3, 4)), np.ones((3, 4)) / 4,
                                                                            None, 2, np.random.default_rng(0)),
-    ShapeError, "store_particles")
+    ShapeError, "Clouds")
 row("fixed_lag_means negative lag", lambda: (lambda _, f, p, w: f(p, w, np.zeros((3, 4), int), -1))(*_smoother_inputs()),
     ParameterError, "lag")
 

@@ -8,6 +8,7 @@ import numpy as np
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
+from pfcourse.collectors import Clouds
 from pfcourse import ParticleFilter, StateSpaceModel
 from pfcourse.errors import PfcourseError
 
@@ -75,7 +76,7 @@ def test_filter_never_crashes_nor_returns_nan(n, threshold, dim_x, init_kind, tr
     try:
         with np.errstate(all="ignore"):
             result = ParticleFilter(model, n, threshold=threshold, resampler=resampler).run(
-                measurements, 0, store_particles=True)
+                measurements, 0, collect=[Clouds()])
     except PfcourseError:
         return
     assert np.all(np.isfinite(result.weights))
@@ -224,7 +225,7 @@ def _indices_of(weights_size):
 def _lg_pf(proposal=None):
     def call(measurements=Z2, n_particles=20, threshold=0.5, rng=0):
         return pfcourse.ParticleFilter(LinearGaussianModel(**LG), n_particles, threshold=threshold,
-                                       proposal=proposal).run(measurements, rng, store_particles=True)
+                                       proposal=proposal).run(measurements, rng, collect=[Clouds()])
     return call
 
 
@@ -233,7 +234,7 @@ def _ssm_pf(dim_x=1, rng=0):
     model = pfcourse.StateSpaceModel(
         dim_x, lambda n, g: g.normal(size=(n, d)), lambda x, k, g: x + g.normal(0, 0.3, x.shape),
         lambda x, z, k: -0.5 * (z[0] - x[:, 0]) ** 2)
-    return pfcourse.ParticleFilter(model, 20).run(Z1, rng, store_particles=True)
+    return pfcourse.ParticleFilter(model, 20).run(Z1, rng, collect=[Clouds()])
 
 
 def _density_pf(proposed=np.zeros((20, 1)), log_q=np.zeros(20)):
@@ -241,7 +242,7 @@ def _density_pf(proposed=np.zeros((20, 1)), log_q=np.zeros(20)):
                                      lambda x, z, k: -0.5 * (z[0] - x[:, 0]) ** 2,
                                      transition_log_density=lambda new, old, k: np.zeros(len(old)))
     proposal = DensityProposal(sample=lambda x, z, k, g: proposed, log_density=lambda new, x, z, k: log_q)
-    return pfcourse.ParticleFilter(model, 20, proposal=proposal).run(Z1, 0, store_particles=True)
+    return pfcourse.ParticleFilter(model, 20, proposal=proposal).run(Z1, 0, collect=[Clouds()])
 
 
 SIM = robot.simulate_robot(None, 0, n_steps=12)
@@ -262,12 +263,12 @@ STATES = np.array([[0.0, 0.0, 0.1], [1.0, -2.0, 3.0], [5.0, 5.0, -1.0], [0.5, 0.
 
 def _robot_pf(**changes):
     model = robot.RobotModel(**{**ROBOT_MODEL_ARGS, **changes})
-    return pfcourse.ParticleFilter(model, 20).run(ROBOT_Z, 0, store_particles=True)
+    return pfcourse.ParticleFilter(model, 20).run(ROBOT_Z, 0, collect=[Clouds()])
 
 
 def _terrain_pf(heights=TINY_TERRAIN.heights, dx=10000.0, dy=10000.0):
     model = terrain.TerrainModel(terrain.TerrainMap(heights, dx=dx, dy=dy), terrain.AircraftScenario(**AIRCRAFT))
-    return pfcourse.ParticleFilter(model, 20).run(FLIGHT.measurements, 0, store_particles=True)
+    return pfcourse.ParticleFilter(model, 20).run(FLIGHT.measurements, 0, collect=[Clouds()])
 
 
 def _flight(rng=0, initial_state=FLIGHT.truth[0], **fields):

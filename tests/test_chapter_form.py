@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import json
 import re
+import sys
 from pathlib import Path
 
 import jupytext
@@ -19,12 +20,16 @@ import pytest
 import yaml
 
 from pfcourse.figures.report import GLUE_ROLE, paragraphs_outside_folds
-from test_start_here import prose_words, reading_minutes
+from test_first_text import FIRST_TEXT
+from test_start_here import reading_minutes
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tools"))
+from reading_times import in_words  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]
 BOOK = ROOT / "book"
 CHAPTERS = sorted(BOOK.rglob("*.py"))
-IN_FORM = ["part1/model", "part1/kalman", "part1/importance_sampling", "part1/sis", "part1/sir",
+IN_FORM = ["onramp", "part1/model", "part1/kalman", "part1/importance_sampling", "part1/sis", "part1/sir",
            "part1/resampling_schemes", "part1/proposals", "part1/rao_blackwell", "part1/auxiliary",
            "part2/robot", "part2/global_localization", "part2/robot_vs_kalman", "part2/map_robot",
            "part2/real_robot",
@@ -32,10 +37,8 @@ IN_FORM = ["part1/model", "part1/kalman", "part1/importance_sampling", "part1/si
            "part3/resampling_studies", "part3/sensing_studies", "part4/pf_vs_kalman",
            "part4/data_association", "part5/likelihood", "part5/smoothing"]
 MAX_NUMBERS_PER_PARAGRAPH = 4
-MAX_WORDS = 2500
-WORDS = {w: i for i, w in enumerate(
-    "zero one two three four five six seven eight nine ten eleven twelve thirteen fourteen fifteen sixteen "
-    "seventeen eighteen nineteen twenty twenty-one twenty-two twenty-three twenty-four twenty-five".split())}
+MAX_MINUTES_NOT_YET_CUT = 33
+WORDS = {in_words(n): n for n in range(100)}
 GLUE = GLUE_ROLE
 
 
@@ -46,6 +49,11 @@ def numbered_chapters() -> list[str]:
         if part["caption"].startswith("Part"):
             entries += [s["file"].removeprefix("book/") for c in part["chapters"] for s in c.get("sections", [])]
     return entries
+
+
+def chapter_number(doc: str) -> int:
+    """A chapter's number in the book: its place among the parts' chapters; 0 for the on-ramp, before them."""
+    return 0 if doc == "onramp" else numbered_chapters().index(doc) + 1
 
 
 def cells(doc: str) -> list:
@@ -75,7 +83,7 @@ def test_an_algorithm_box_comes_before_the_first_study(doc):
     text = markdown(doc)
     box = re.search(r":::\{admonition\} Algorithm (\d+)\.(\d+)[^\n]*\n:class: algorithm\n", text)
     assert box, f"{doc}: no algorithm box (':::{{admonition}} Algorithm n.m: ...' with ':class: algorithm')"
-    assert int(box.group(1)) == numbered_chapters().index(doc) + 1, f"{doc}: the algorithm's number is not the chapter's"
+    assert int(box.group(1)) == chapter_number(doc), f"{doc}: the algorithm's number is not the chapter's"
 
 
 @pytest.mark.parametrize("doc", IN_FORM)
@@ -88,12 +96,16 @@ def test_paragraphs_quote_at_most_four_glued_numbers_outside_evidence(doc):
 
 @pytest.mark.parametrize("doc", IN_FORM)
 def test_the_chapter_reads_in_about_twenty_minutes(doc):
-    assert prose_words(BOOK / f"{doc}.py") <= MAX_WORDS
+    # A rewritten chapter (tests/test_first_text.py's FIRST_TEXT) reads in at most 25 minutes by the
+    # honest rule; the others, not yet cut (issue 39), may not grow past MAX_MINUTES_NOT_YET_CUT.
+    minutes = reading_minutes([BOOK / f"{doc}.py"])
+    limit = 25 if doc in FIRST_TEXT else MAX_MINUTES_NOT_YET_CUT
+    assert minutes <= limit, f"{doc}: {minutes} minutes to read (at most {limit}): cut or fold"
 
 
 @pytest.mark.parametrize("doc", IN_FORM)
 def test_exercises_are_numbered_by_chapter_and_one_is_checked(doc):
-    text, number = markdown(doc), numbered_chapters().index(doc) + 1
+    text, number = markdown(doc), chapter_number(doc)
     titles = re.findall(r"```\{exercise\} (\d+)\.(\d+) [^\n]+\n:label: [^\n]+\n:nonumber:\n", text)
     assert len(titles) == text.count("{exercise}"), f"{doc}: every exercise is titled 'n.m ...' and :nonumber:"
     assert [(int(c), int(e)) for c, e in titles] == [(number, e) for e in range(1, len(titles) + 1)]

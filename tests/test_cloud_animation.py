@@ -10,6 +10,7 @@ import pytest
 
 from pfcourse.figures.clouds import animate_clouds
 from pfcourse.errors import ParameterError
+from pfcourse.collectors import Clouds
 from pfcourse.filter import ParticleFilter
 from pfcourse.kalman import kalman_filter
 from pfcourse.landmarks.scenario import quadrant_scenario, simulate
@@ -19,7 +20,7 @@ def test_frames_and_artists():
     scenario = quadrant_scenario()
     sim = simulate(scenario, rng=0)
     model = scenario.model()
-    res = ParticleFilter(model, 20, threshold=0.5).run(sim.measurements, rng=1, store_particles=True)
+    res = ParticleFilter(model, 20, threshold=0.5).run(sim.measurements, rng=1, collect=[Clouds()])
     anim = animate_clouds({"SIR": res}, kalman_filter(model, sim.measurements), sim.truth, frames=range(3))
     html = anim.to_jshtml()
     # One embedded PNG per requested step.
@@ -42,7 +43,7 @@ def test_one_function_serves_the_robot_and_the_terrain_views():
     from pfcourse.robot.figures import landmarks_background, sight_overlay
 
     sim = simulate_robot(None, 1, n_steps=12)
-    res = ParticleFilter(RobotModel.for_simulation(sim), 100).run(sim.measurements, 1, store_particles=True)
+    res = ParticleFilter(RobotModel.for_simulation(sim), 100).run(sim.measurements, 1, collect=[Clouds()])
     robot = animate(
         {"PF": res}, None, sim.truth, [0, 5, 11], None, follow=2.0, ellipses=False, trail=True,
         background=landmarks_background(sim), overlay=sight_overlay(sim), legend=True,

@@ -8,6 +8,7 @@ from scipy import stats
 
 from pfcourse.terrain.scenario import AircraftScenario, extended_kalman_filter, simulate
 from pfcourse.terrain.kalman import state_mean, unscented_kalman_filter
+from pfcourse.collectors import Clouds
 from pfcourse.angles import wrap_angle
 from pfcourse.experiments.comparison import (
     particle_innovations,
@@ -92,7 +93,7 @@ def test_particle_innovations_converge_to_the_kalman_ones():
         x = F * x + rng.normal(0, np.sqrt(Q)) if k else rng.normal(0, 1)
         z[k] = x + rng.normal(0, np.sqrt(R))
     kf = kalman_filter(model, z)
-    pf = ParticleFilter(model, 20000, threshold=0.5).run(z, 1, store_particles=True)
+    pf = ParticleFilter(model, 20000, threshold=0.5).run(z, 1, collect=[Clouds()])
     y, S = particle_innovations(pf, z, lambda p, zk, k: p, np.array([[R]]))
     m_pred = F * kf.mean[:-1, 0]
     P_pred = F**2 * kf.cov[:-1, 0, 0] + Q

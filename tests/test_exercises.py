@@ -9,6 +9,7 @@ from scipy.special import logsumexp
 from pfcourse.exercises import (check_ancestors, check_kalman, check_log_likelihood, check_optimal_proposal,
                                 check_range_bearing_jacobian, check_range_bearing_log_weights,
                                 check_resampler, check_sis, check_weight_update)
+from pfcourse.collectors import Clouds
 from pfcourse.resampling import multinomial, residual, stratified, systematic
 
 
@@ -627,6 +628,10 @@ def test_each_typical_pose_density_mistake_gets_its_own_sentence(mistake, says):
     from pfcourse.exercises import check_pose_density
 
     report = check_pose_density(lambda x, z, landmark, sd: pose_log_density(x, z, landmark, sd, **mistake))
+    assert report is not None and not report.ok and len(report.problems) == 1, report
+    assert says in report.problems[0], report.problems[0]
+
+
 # --- chapter 21: check_anonymous_likelihood ----------------------------------------------------------
 
 def anonymous_reading(x, z, landmarks, R, p_detect, clutter_rate, max_range, **mistake):
@@ -725,7 +730,7 @@ def test_the_reference_estimator_is_the_engines_log_likelihood():
     scenario = quadrant_scenario().with_(Qw=0.05**2 * np.eye(6), Rv=0.5**2 * np.eye(4))
     model = scenario.model()
     Z = simulate(scenario, 7).measurements
-    run = ParticleFilter(model, 200, threshold=0.5).run(Z, 3, store_particles=True)
+    run = ParticleFilter(model, 200, threshold=0.5).run(Z, 3, collect=[Clouds()])
     assert 0 < run.resampled.sum() < (~np.isnan(Z).all(axis=1)).sum()  # some measured steps resample, some do not
     log_w = np.array([np.zeros(200) if np.isnan(z).all() else model.log_likelihood(x, z, k)
                       for k, (z, x) in enumerate(zip(Z, run.particles))])

@@ -18,6 +18,7 @@ from pfcourse import (
     StateSpaceModel,
     kalman_filter,
 )
+from pfcourse.collectors import Clouds
 from pfcourse.gaussian import gaussian_logpdf
 from pfcourse.landmarks.scenario import quadrant_scenario, simulate
 
@@ -149,7 +150,7 @@ def test_same_seed_same_result_and_different_seed_different_result(noisy_landmar
 
 def test_stored_particles_reproduce_the_reported_moments(noisy_landmarks):
     model, sim, _ = noisy_landmarks
-    r = ParticleFilter(model, 100).run(sim.measurements, rng=5, store_particles=True)
+    r = ParticleFilter(model, 100).run(sim.measurements, rng=5, collect=[Clouds()])
     assert r.particles.shape == (len(sim.measurements), 100, 6) and r.weights.shape == (len(sim.measurements), 100)
     np.testing.assert_allclose(r.weights.sum(axis=1), 1.0)
     k = 9

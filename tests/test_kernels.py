@@ -9,6 +9,7 @@ import numpy as np
 import pytest
 from scipy.special import logsumexp
 
+from pfcourse.collectors import Clouds
 from pfcourse import arithmetic, kernels
 from pfcourse.angles import wrap_angle
 from pfcourse.diagnostics import (
@@ -199,7 +200,7 @@ def test_robot_likelihood_kernel_is_the_gaussian_of_the_wrapped_innovation():
 def test_filter_moments_match_the_numpy_moments_of_the_stored_cloud():
     sim = simulate_robot(rng=2, n_steps=30)
     model = RobotModel.for_simulation(sim)
-    result = ParticleFilter(model, 500).run(sim.measurements, 11, store_particles=True)
+    result = ParticleFilter(model, 500).run(sim.measurements, 11, collect=[Clouds()])
     for k in range(30):
         mean = weighted_mean(result.particles[k], result.weights[k], (2,))
         np.testing.assert_allclose(result.mean[k], mean, rtol=1e-12, atol=1e-13)

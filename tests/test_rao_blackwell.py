@@ -5,6 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from pfcourse.collectors import Clouds
 from pfcourse import LinearGaussianModel, ParticleFilter, kalman_filter
 from pfcourse.proposals import FullyAdaptedAuxiliary, LinearGaussianOptimal
 from pfcourse.errors import ParameterError
@@ -55,7 +56,7 @@ def test_marginal_is_the_law_of_total_covariance():
     sc = short_scenario()
     rb = RaoBlackwellModel(sc.model())
     sim = simulate(sc, rng=1)
-    raw = ParticleFilter(rb, 40, proposal=RaoBlackwellProposal(True)).run(sim.measurements, rng=2, store_particles=True)
+    raw = ParticleFilter(rb, 40, proposal=RaoBlackwellProposal(True)).run(sim.measurements, rng=2, collect=[Clouds()])
     res = rb.marginal(raw)
     k = sc.n_samples - 1
     robot, mean, cov = rb.unpack(raw.particles[k])

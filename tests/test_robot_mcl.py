@@ -7,6 +7,7 @@ import pytest
 from scipy import stats
 
 from pfcourse.errors import ParameterError
+from pfcourse.collectors import Clouds
 from pfcourse.filter import ParticleFilter
 from pfcourse.robot.scenario import RobotModel, range_bearing, simulate_robot
 from pfcourse.sample_size import kld_bound
@@ -70,7 +71,7 @@ def test_first_step_posterior_matches_a_grid():
     sim, base, model = _models(seed=4, n_steps=2)
     z = np.array([[np.nan] * 3, [0.0, 2.0, 0.3]])
     n = 40_000
-    res = ParticleFilter(model, n, proposal=sensor_mixture_proposal(model)).run(z, 5, store_particles=True)
+    res = ParticleFilter(model, n, proposal=sensor_mixture_proposal(model)).run(z, 5, collect=[Clouds()])
     lm = sim.landmarks[0]
     s_r = np.sqrt(base.r_est[0, 0])
     g = np.arange(-6 + 0.005, 6, 0.01)

@@ -6,6 +6,7 @@ import numpy as np
 import pytest
 
 from pfcourse.errors import ParameterError, ShapeError
+from pfcourse.collectors import Clouds
 from pfcourse.filter import ParticleFilter
 from pfcourse.landmarks.scenario import quadrant_scenario, simulate
 from pfcourse.jitter import Roughening, roughening_scale
@@ -55,7 +56,7 @@ def test_filter_without_jitter_is_unchanged_and_jitter_diversifies_landmarks():
     explicit_none = ParticleFilter(model, 300, threshold=0.5, jitter=None).run(sim.measurements, rng=4)
     np.testing.assert_array_equal(plain.mean, explicit_none.mean)
     rough = ParticleFilter(model, 300, threshold=0.5, jitter=Roughening(0.2)).run(
-        sim.measurements, rng=4, store_particles=True
+        sim.measurements, rng=4, collect=[Clouds()]
     )
     # Without jitter the static landmark coordinates keep at most as many distinct values
     # as survived the first resampling; with jitter every particle is distinct.

@@ -10,6 +10,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from pfcourse.collectors import Clouds
 from pfcourse import LinearGaussianModel, ParticleFilter, kalman_filter
 from pfcourse.errors import ModelError, ParameterError
 from pfcourse.sample_size import KLDSampling, cell_codes, kld_bound
@@ -127,8 +128,8 @@ def test_bad_policy_output_and_settings_are_named():
 
     with pytest.raises(ModelError, match="step 1: sample_size.needed must return a count"):
         ParticleFilter(random_walk(), 100, sample_size=Broken(10)).run(data(random_walk(), 0), 0)
-    with pytest.raises(ParameterError, match="store_particles needs a fixed number"):
-        ParticleFilter(random_walk(), 100, sample_size=Constant(10)).run(data(random_walk(), 0), 0, store_particles=True)
+    with pytest.raises(ParameterError, match="the clouds collector needs a fixed number"):
+        ParticleFilter(random_walk(), 100, sample_size=Constant(10)).run(data(random_walk(), 0), 0, collect=[Clouds()])
     with pytest.raises(ParameterError, match="bin_size"):
         KLDSampling([0.0])
     with pytest.raises(ParameterError, match="2 widths"):

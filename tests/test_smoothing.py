@@ -9,6 +9,7 @@ import numpy as np
 import pytest
 from scipy import stats
 
+from pfcourse.collectors import Clouds
 from pfcourse import LinearGaussianModel, ParticleFilter
 from pfcourse.errors import ParameterError, ShapeError
 from pfcourse import kalman_filter
@@ -57,7 +58,7 @@ def test_ffbsm_converges_to_rts(scalar):
     sd = np.sqrt(P_s[:, 0, 0])
     errors = []
     for n in (100, 1600):
-        r = ParticleFilter(model, n).run(z, 3, store_particles=True)
+        r = ParticleFilter(model, n).run(z, 3, collect=[Clouds()])
         s = ffbsm(r.particles, r.weights, linear_gaussian_log_transition(model))
         np.testing.assert_allclose(s.weights.sum(axis=1), 1.0, atol=1e-12)
         np.testing.assert_array_equal(s.weights[-1], r.weights[-1])
@@ -108,7 +109,7 @@ def test_robot_transition_density_inverts_the_motion(robot):
 
 def test_bad_input(scalar):
     model, z = scalar
-    with pytest.raises(ShapeError, match="store_particles"):
+    with pytest.raises(ShapeError, match="Clouds"):
         ffbsm(np.zeros((3, 4)), np.ones((3, 4)) / 4, linear_gaussian_log_transition(model))
     shifted = LinearGaussianModel(F=[[0.9]], H=[[1.0]], m0=[0.0], P0=[[2.0]], Q=[[1.0]], R=[[1.0]], B=[1.0])
     with pytest.raises(ParameterError, match="B = 0"):
@@ -122,7 +123,7 @@ def test_ffbsi_draws_the_ffbsm_marginals(scalar):
     the mean of M trajectories is within 5 standard errors sqrt(Var_{k|K} / M) of the FFBSm mean."""
     from pfcourse.smoothing import ffbsi
     model, z = scalar
-    r = ParticleFilter(model, 200).run(z, 4, store_particles=True)
+    r = ParticleFilter(model, 200).run(z, 4, collect=[Clouds()])
     s = ffbsm(r.particles, r.weights, linear_gaussian_log_transition(model))
     M = 4000
     paths = ffbsi(r.particles, r.weights, linear_gaussian_log_transition(model), M, np.random.default_rng(9))
@@ -131,18 +132,17 @@ def test_ffbsi_draws_the_ffbsm_marginals(scalar):
     assert np.max(np.abs(paths.mean(axis=1)[:, 0] - s.mean[:, 0]) / se) < 5
 
 
-def test_recorder_keeps_the_run_and_fixed_lag_zero_is_the_filter(scalar):
-    from pfcourse.smoothing import AncestorRecorder, fixed_lag_means
+def test_ancestors_collected_and_fixed_lag_zero_is_the_filter(scalar):
+    from pfcourse.collectors import Ancestors
+    from pfcourse.smoothing import fixed_lag_means
     model, z = scalar
-    plain = ParticleFilter(model, 50, threshold=1.0).run(z, 6, store_particles=True)
-    rec = AncestorRecorder()
-    r = ParticleFilter(model, 50, threshold=1.0, resampler=rec).run(z, 6, store_particles=True)
-    np.testing.assert_array_equal(r.particles, plain.particles)
-    A = rec.ancestors(r)
+    r = ParticleFilter(model, 50, threshold=1.0).run(z, 6, collect=[Clouds(), Ancestors()])
+    A = r.collected["ancestors"]
     np.testing.assert_array_equal(A[0], np.arange(50))
     steps = np.flatnonzero(r.resampled[:-1])  # resampled after these steps (ESS < N: not when nothing is seen)
     assert len(steps) > 5
-    np.testing.assert_array_equal(A[steps + 1], np.array(rec.draws[:len(steps)]))
+    drawn = [s.ancestors for s in ParticleFilter(model, 50, threshold=1.0).steps(z, 6) if s.resampled]
+    np.testing.assert_array_equal(A[steps + 1], np.array(drawn[:len(steps)]))
     kept = np.setdiff1d(np.arange(1, len(z)), steps + 1)
     np.testing.assert_array_equal(A[kept], np.tile(np.arange(50), (len(kept), 1)))
     np.testing.assert_allclose(fixed_lag_means(r.particles, r.weights, A, 0), r.mean, atol=1e-12)

@@ -7,6 +7,7 @@ import numpy as np
 import pytest
 from scipy.stats import norm
 
+from pfcourse.collectors import Clouds
 from pfcourse.errors import ParameterError
 from pfcourse.terrain.map import TerrainMap
 from pfcourse.terrain.marginalised import MarginalisedTerrainModel, altitude_kalman_update, marginalised_filter
@@ -36,7 +37,7 @@ def test_on_a_flat_map_every_particle_is_the_scalar_kalman_filter():
     rng = np.random.default_rng(3)
     readings = 1500.0 - 250.0 + 20.0 * rng.standard_normal(SHORT.n_steps)
     readings[~SHORT.measured()] = np.nan
-    res = marginalised_filter(FLAT, SHORT, 50, threshold=0.5).run(readings[:, None], rng=4, store_particles=True)
+    res = marginalised_filter(FLAT, SHORT, 50, threshold=0.5).run(readings[:, None], rng=4, collect=[Clouds()])
     m, p = _scalar_kalman(readings, 250.0, 1500.0, 100.0**2, SHORT.Qf[2, 2] * SHORT.dt, SHORT.Rf)
     assert np.allclose(res.particles[:, :, 2], m[:, None], rtol=1e-13, atol=0)
     assert np.allclose(res.particles[:, :, 4], p[:, None], rtol=1e-13, atol=0)

@@ -10,6 +10,7 @@ from scipy.stats import norm
 from pfcourse.errors import ParameterError
 from pfcourse.filter import ParticleFilter, StateSpaceModel
 from pfcourse.jitter import RegularisedJitter, optimal_bandwidth
+from pfcourse.collectors import Stages
 from pfcourse.proposals import ProgressiveCorrection, tempering_exponent
 
 
@@ -59,8 +60,8 @@ def test_progressive_correction_targets_the_posterior():
     means, sds = [], []
     for seed in range(20):
         pc = ProgressiveCorrection(n_tempered=1, kernel=RegularisedJitter(0.2))
-        res = ParticleFilter(model, 4000, threshold=1.0, proposal=pc).run(z, rng=seed)
-        assert pc.stages[0] > 2  # it did temper
+        res = ParticleFilter(model, 4000, threshold=1.0, proposal=pc).run(z, rng=seed, collect=[Stages()])
+        assert res.collected["stages"][1] > 2  # it did temper
         means.append(res.mean[1, 0])
         sds.append(np.sqrt(res.cov[1, 0, 0]))
     # posterior sd 0.0995; the regularisation inflates it by a factor sqrt(1 + h^2) ~ 1.0007 per stage

@@ -18,6 +18,7 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
 from pfcourse import ParticleFilter, kalman_filter  # noqa: E402
+from pfcourse.collectors import Clouds  # noqa: E402
 from pfcourse.landmarks.scenario import quadrant_scenario, simulate  # noqa: E402
 from pfcourse.style import COLORS, use_style  # noqa: E402
 
@@ -30,7 +31,7 @@ def main() -> None:
     model = scenario.model()
     sim = simulate(scenario, 2024)
     kf = kalman_filter(model, sim.measurements)
-    sir = ParticleFilter(model, N, threshold=0.5).run(sim.measurements, rng=1, store_particles=True)
+    sir = ParticleFilter(model, N, threshold=0.5).run(sim.measurements, rng=1, collect=[Clouds()])
 
     fig, (ax1, ax2) = plt.subplots(1, 2, figsize=(11, 4.6), width_ratios=[1, 1.25])
     ax1.plot(*sim.truth[:, :2].T, color=COLORS["truth"], lw=1, label="true robot path")

@@ -17,32 +17,17 @@
 #
 # **You need** Gaussian vectors and their affine maps; matrices in NumPy and a random generator.
 #
-# **Time:** about six minutes to read; the notebook runs in under half a minute.
+# **Time:** about eighteen minutes to read; the notebook runs in under half a minute.
 # :::
 #
 # Before filtering anything we need data, and we need to know exactly how it was made: a
-# particle filter is only as right as the model it assumes. A robot moves in the plane among
-# $M$ landmarks whose positions it does not know. When landmark $j$, at $l^j$, is inside the
-# robot's field of view, the robot measures its position *relative to itself*, $l^j - r_k$,
-# with a small Gaussian error; $r_k$ is the robot's position at step $k$. The robot must
-# estimate both, a miniature of simultaneous localisation and mapping (SLAM).
-#
-# ## The two-landmark model and its parameters (lab question 1)
-#
-# At each step of $\Delta t = 1$ s the robot turns by $\omega = \pi/4$ rad about the origin (once
-# round every $8$ s), perturbed by a small random step. A landmark is in view when it lies up
-# and to the right of the robot: $l^j_x - r_x > 0$ and $l^j_y - r_y > 0$. The state stacks the
-# robot's and the landmarks' positions, in metres, in the world frame:
-#
-# $$
-# x_k = \left(r_{x}, r_{y}, l^1_{x}, l^1_{y}, l^2_{x}, l^2_{y}\right)_k^\top \in \mathbb{R}^6,
-# \qquad x_k = F x_{k-1} + B + w_k, \qquad z_k = H_k x_k + v_k ,
-# $$
-#
-# with $w_k \sim \mathcal N(0, Q)$ and $v_k \sim \mathcal N(0, R)$. The scenario holds the
-# parameters (the code names them `mX0`, `PX0`, `Qw`, `Rv`).
+# particle filter is only as right as the model it assumes. Here is the scene. A robot drives
+# round a circle among landmarks whose positions it does not know. When a landmark is in its
+# field of view, the robot measures where the landmark is *relative to itself*, with a small
+# error. From these readings alone it must estimate both its own path and the map, a miniature
+# of simultaneous localisation and mapping (SLAM).
 
-# %%
+# %% tags=["remove-input"] jupyter={"source_hidden": true}
 import ipywidgets as widgets
 import matplotlib.pyplot as plt
 import numpy as np
@@ -59,10 +44,67 @@ from pfcourse.style import COLORS, use_style
 
 use_style()
 scenario = quadrant_scenario()
-print("m_0       =", scenario.mX0)
-print("diag(P_0) =", np.diag(scenario.PX0))
-print("diag(Q)   =", np.diag(scenario.Qw))
-print("diag(R)   =", np.diag(scenario.Rv))
+sim = simulate(scenario, rng=2024)
+
+# %% tags=["hide-input"] jupyter={"source_hidden": true}
+fig, ax = plt.subplots(figsize=(5.5, 5.5))
+landmark_scene(scenario, sim, ax=ax)
+ax.set_title("One run of the two-landmark model (50 s)")
+ax.legend(loc="lower left")
+plt.show()
+
+# %% [markdown]
+# The figure is one run of $50$ s. The robot (its true path in black) goes round the origin;
+# the two landmarks sit still; a landmark is in view when it lies up and to the right of the
+# robot. The animation replays the run step by step: a landmark in view turns green, and its
+# measured offset is drawn from the robot.
+
+# %% tags=["hide-input"] jupyter={"source_hidden": true}
+HTML(animate_landmarks(scenario, sim).to_jshtml())
+
+# %% [markdown]
+# ## The two-landmark model and its parameters
+#
+# At each step of $\Delta t = 1$ s the robot turns by $\omega = \pi/4$ rad about the origin
+# (once round every $8$ s), perturbed by a small random step. Landmark $j$, at $l^j$, is in view
+# when $l^j_x - r_x > 0$ and $l^j_y - r_y > 0$, where $r_k$ is the robot's position at step
+# $k$. The state stacks the robot's and the landmarks' positions, in metres, in the world frame:
+#
+# $$
+# \begin{aligned}
+# x_k &= \left(r_{x}, r_{y}, l^1_{x}, l^1_{y}, l^2_{x}, l^2_{y}\right)_k^\top,\\
+# x_k &= F x_{k-1} + B + w_k,\\
+# z_k &= H_k x_k + v_k ,
+# \end{aligned}
+# $$
+#
+# with $w_k \sim \mathcal N(0, Q)$ and $v_k \sim \mathcal N(0, R)$. Here are the matrices, in NumPy;
+# the package's `quadrant_scenario()` holds the same (its names are `mX0`, `PX0`, `Qw`, `Rv`).
+
+# %%
+import numpy as np
+from pfcourse.landmarks import quadrant_scenario, simulate
+
+a = np.pi / 4  # the turn per step, omega * dt (rad)
+Omega = np.array([[np.cos(a), -np.sin(a)], [np.sin(a), np.cos(a)]])
+F = np.eye(6)
+F[:2, :2] = Omega  # the robot turns; the landmarks stay
+B = np.zeros(6)  # turning about the origin adds no constant
+m0 = np.array([2.0, 0.0, -1.0, 4.0, 4.0, -1.0])
+P0 = np.diag([0.1, 0.2, 0.2, 0.2, 0.2, 0.2])
+Q = np.diag([0.05**2, 0.05**2, 1e-20, 1e-20, 1e-20, 1e-20])
+R = 0.1**2 * np.eye(4)
+# offsets l^1 - r and l^2 - r, when both are in view
+H = np.array([[-1, 0, 1, 0, 0, 0],
+              [0, -1, 0, 1, 0, 0],
+              [-1, 0, 0, 0, 1, 0],
+              [0, -1, 0, 0, 0, 1]], dtype=float)
+
+ref = quadrant_scenario()
+ours = (m0, P0, Q, R, F, B, H)
+theirs = (ref.mX0, ref.PX0, ref.Qw, ref.Rv, ref.F, ref.B, ref.model().H)
+print("same as quadrant_scenario():",
+      all(np.allclose(u, v) for u, v in zip(ours, theirs)))
 
 # %% [markdown]
 # What they mean physically:
@@ -83,63 +125,55 @@ print("diag(R)   =", np.diag(scenario.Rv))
 # :::{admonition} Algorithm 1.1: one run of the landmark model
 # :class: algorithm
 # 1. **Initial state.** Draw $x_0 = m_0 + L_0 e_0$, with $L_0 L_0^\top = P_0$ (Cholesky) and $e_0 \sim \mathcal N(0, I)$.
-# 2. **For** $k = 1, 2, \dots$ up to the last step: *move*, $x_k = F x_{k-1} + B + w_k$ with $w_k = L_Q e_k$, $L_Q L_Q^\top = Q$.
-# 3. **For every** $k$ and landmark $j$: *see*, is $l^j_k - r_k$ in the field of view? (never at $k = 0$);
-#    *measure*, $z^j_k = l^j_k - r_k + v^j_k$ if so, NaN ("not a number") in its two coordinates if not.
+# 2. **For** $k = 1, 2, \dots$ up to the last step: *move*, $x_k = F x_{k-1} + B + w_k$ with $w_k = L_Q e_k$ and $L_Q L_Q^\top = Q$.
+# 3. **For every** $k$ and landmark $j$: *see*, is $l^j_k - r_k$ in the field of view (never at $k = 0$)?
+#    *Measure*, $z^j_k = l^j_k - r_k + v^j_k$ if so, NaN ("not a number") in its two coordinates if not.
 # :::
 #
-# The lines below are Algorithm 1.1, drawing the normal variates in the same order as the package's
-# `simulate` (initial state, then all process noises, then all measurement noises), so that the
-# same seed must give the same arrays.
+# The lines below are Algorithm 1.1. They draw the normal variates in the same order as the
+# package's `simulate` (initial state, then all process noises, then all measurement noises),
+# so the same seed must give the same arrays.
 
 # %%
-def simulate_numpy(s, rng):
-    """One run of the two-landmark model: (states (K, 6), measurements (K, 4), seen (K, 2))."""
-    K, d = s.n_samples, s.dim_x
-    x = np.empty((K, d))
-    x[0] = s.mX0 + np.linalg.cholesky(s.PX0) @ rng.standard_normal(d)  # x_0 ~ N(m_0, P_0)
-    w = rng.standard_normal((K, d)) @ np.linalg.cholesky(s.Qw).T       # w_k ~ N(0, Q)
-    for k in range(1, K):
-        x[k] = s.F @ x[k - 1] + s.B + w[k]                             # x_k = F x_(k-1) + B + w_k
-    v = rng.standard_normal((K, 4)) @ np.linalg.cholesky(s.Rv).T       # v_k ~ N(0, R)
-    offsets = x[:, 2:].reshape(K, 2, 2) - x[:, None, :2]               # l^j - r, (K, 2, 2)
-    seen = (offsets[..., 0] > 0) & (offsets[..., 1] > 0)               # up and to the right
-    seen[0] = False                                                    # nothing measured at k = 0
-    z = offsets.reshape(K, 4) + v
-    z[~np.repeat(seen, 2, axis=1)] = np.nan                            # unseen landmark: NaN
+def simulate_numpy(n_steps, rng):
+    """One run: states (n, 6), measurements (n, 4), seen (n, 2), n = n_steps."""
+    x = np.empty((n_steps, 6))
+    # x_0 ~ N(m_0, P_0)
+    x[0] = m0 + np.linalg.cholesky(P0) @ rng.standard_normal(6)
+    # w_k ~ N(0, Q), one row per step
+    w = rng.standard_normal((n_steps, 6)) @ np.linalg.cholesky(Q).T
+    for k in range(1, n_steps):
+        x[k] = F @ x[k - 1] + B + w[k]
+    # v_k ~ N(0, R)
+    v = rng.standard_normal((n_steps, 4)) @ np.linalg.cholesky(R).T
+    # offsets l^j - r, shape (n_steps, landmark, axis)
+    offsets = x[:, 2:].reshape(n_steps, 2, 2) - x[:, None, :2]
+    # in view: up and to the right; nothing is measured at k = 0
+    seen = (offsets[..., 0] > 0) & (offsets[..., 1] > 0)
+    seen[0] = False
+    z = offsets.reshape(n_steps, 4) + v
+    z[~np.repeat(seen, 2, axis=1)] = np.nan  # unseen landmark: NaN
     return x, z, seen
 
 
-x, z, seen = simulate_numpy(scenario, np.random.default_rng(2024))
-sim = simulate(scenario, rng=2024)
+x, z, seen = simulate_numpy(50, np.random.default_rng(2024))
+sim = simulate(ref, rng=2024)
 print("same states:      ", np.array_equal(x, sim.truth))
-print("same measurements:", np.array_equal(z, sim.measurements, equal_nan=True))
+print("same measurements:",
+      np.array_equal(z, sim.measurements, equal_nan=True))
 print("same visibility:  ", np.array_equal(seen, sim.seen))
 
 # %% [markdown]
 # The arrays are identical. `simulate` returns the instants `T` ($t_k = k\,\Delta t$), the
 # states `truth` (one row per step, what the filter tries to recover and never sees),
 # the `measurements` (the offsets $l^1 - r$ then $l^2 - r$, NaN for a landmark out of view; the
-# first row is all NaN) and the visibility `seen`. The figure shows the run in the world frame;
-# the animation replays it step by step (a landmark in view is green, with its measured offset
-# drawn from the robot).
-
-# %%
-fig, ax = plt.subplots(figsize=(5.5, 5.5))
-landmark_scene(scenario, sim, ax=ax)
-ax.set_title("One run of the two-landmark model (50 s)")
-ax.legend(loc="lower left")
-plt.show()
-
-# %%
-HTML(animate_landmarks(scenario, sim).to_jshtml())
-
-# %% [markdown]
+# first row is all NaN) and the visibility `seen`.
+#
 # ## What the robot gets to see
 #
 # The measurements are the only input of every filter in this part: a time series with holes.
 
-# %%
+# %% tags=["hide-input"] jupyter={"source_hidden": true}
 fig, axes = plt.subplots(2, 1, figsize=(7, 4.5), sharex=True)
 for j, ax in enumerate(axes):
     ax.plot(sim.T, sim.measurements[:, 2 * j], "o-", ms=3, label=r"$l_x - r_x$")
@@ -153,8 +187,8 @@ plt.show()
 # %% [markdown]
 # How often is a landmark in view, in general? One run cannot say; we simulate
 # {glue:text}`model_visibility_runs:d` seeded runs. Landmark $1$ is in view at
-# {glue:text}`model_seen_share_l1:.0%` of the steps on average (95 % interval
-# {glue:text}`model_seen_share_l1_low:.0%` to {glue:text}`model_seen_share_l1_high:.0%`).
+# {glue:text}`model_seen_share_l1:.0%` ({glue:text}`model_seen_share_l1_low:.0%`-{glue:text}`model_seen_share_l1_high:.0%`)
+# of the steps on average.
 
 # %% tags=["remove-input"] jupyter={"source_hidden": true}
 n_runs = 500
@@ -193,8 +227,9 @@ EvidenceBlock(
 # ($45^\circ$ either side, $6$ m deep). Turning about a centre other than the origin adds a
 # constant to the dynamics, $r_k = c + \Omega (r_{k-1} - c) + w_k = \Omega r_{k-1} + (I - \Omega)\,c + w_k$,
 # with $\Omega$ the rotation by $\omega\,\Delta t$: that constant is $B$ (zero for the landmarks).
+# The figure shows one run and, on the right, which landmark is in view at each step.
 
-# %%
+# %% tags=["hide-input"] jupyter={"source_hidden": true}
 scenario5 = circle_scenario(n_landmarks=5)
 sim5 = simulate(scenario5, rng=2024)
 print("B =", np.round(scenario5.B, 3))
@@ -211,7 +246,7 @@ ax2.set_title("Which landmark is in view (green) at each step")
 ax2.grid(False)
 plt.show()
 
-# %%
+# %% tags=["hide-input"] jupyter={"source_hidden": true}
 HTML(animate_landmarks(scenario5, sim5, limits=(-4.0, 8.0)).to_jshtml())
 
 # %% [markdown]
@@ -220,76 +255,85 @@ HTML(animate_landmarks(scenario5, sim5, limits=(-4.0, 8.0)).to_jshtml())
 # densities every filter needs.
 #
 # (model-densities)=
-# ## The three densities (lab question 2)
+# ## The three densities
 #
 # **Initial density.** The simulator draws $x_0 = m_0 + L_0 e_0$ with $e_0 \sim \mathcal N(0, I)$.
 # An affine map of a Gaussian vector is Gaussian, here with mean $m_0$ and covariance
 # $L_0 \operatorname{Cov}(e_0) L_0^\top = P_0$:
 #
 # $$
-# p(x_0) = \mathcal N(x_0;\, m_0,\, P_0)
-# = \frac{1}{\sqrt{(2\pi)^{d} \det P_0}}
-#   \exp\!\left(-\tfrac12 (x_0 - m_0)^\top P_0^{-1} (x_0 - m_0)\right),
-# \qquad d = 2 + 2M .
+# \begin{aligned}
+# p(x_0) &= \mathcal N(x_0;\, m_0,\, P_0)\\
+# &\propto \exp\!\left(-\tfrac12 (x_0 - m_0)^\top P_0^{-1} (x_0 - m_0)\right),
+# \end{aligned}
 # $$
+#
+# whose normalising constant is $1 / \sqrt{(2\pi)^{d} \det P_0}$, with $d = 2 + 2M$ the
+# dimension of the state.
 #
 # **Transition density.** Given $x_{k-1}$, the next state $x_k = F x_{k-1} + B + w_k$ is a constant
 # plus the noise $w_k \sim \mathcal N(0, Q)$, independent of the past, so
 #
 # $$
-# p(x_k \mid x_{k-1}) = \mathcal N(x_k;\, F x_{k-1} + B,\, Q), \qquad
-# F = \begin{pmatrix} \Omega & 0 \\ 0 & I_{2M} \end{pmatrix}, \quad
+# \begin{aligned}
+# p(x_k \mid x_{k-1}) &= \mathcal N(x_k;\, F x_{k-1} + B,\, Q),\\
+# F = \begin{pmatrix} \Omega & 0 \\ 0 & I_{2M} \end{pmatrix}&, \quad
 # B = \begin{pmatrix} (I - \Omega)\, c \\ 0 \end{pmatrix}
+# \end{aligned}
 # $$
 #
 # ($c = 0$ in the two-landmark model). The landmark block of $Q$ is $10^{-20} I$: for the
 # landmarks this density is almost a Dirac mass at the previous position.
 #
-# **Measurement density.** Let $V_k \subseteq \{1, \dots, M\}$ be the landmarks in view at step $k$.
+# **Measurement density.** Let $\mathcal V_k \subseteq \{1, \dots, M\}$ be the landmarks in view at step $k$.
 # Each gives $z^j_k = l^j_k - r_k + v^j_k = H^j x_k + v^j_k$, with $H^j = (-I_2, 0, \dots, I_2, \dots, 0)$
 # ($I_2$ in block $j + 1$). Stacking the visible landmarks gives a measurement matrix and a noise
 # covariance whose *size changes with time*:
 #
 # $$
-# H_k = \begin{pmatrix} H^{j_1} \\ \vdots \\ H^{j_{|V_k|}} \end{pmatrix} \in \mathbb R^{2|V_k| \times d},
-# \qquad R_k = R[I_k, I_k],
-# \qquad
-# p(z_k \mid x_k) = \mathcal N(z_k;\, H_k x_k,\, R_k),
+# \begin{aligned}
+# H_k &= \begin{pmatrix} H^{j_1} \\ \vdots \\ H^{j_{|\mathcal V_k|}} \end{pmatrix}, \qquad R_k = R[\mathcal I_k, \mathcal I_k],\\
+# p(z_k \mid x_k) &= \mathcal N(z_k;\, H_k x_k,\, R_k),
+# \end{aligned}
 # $$
 #
-# where $I_k = \{2j - 1, 2j : j \in V_k\}$ lists the measurement *coordinates* of the visible
-# landmarks ($R$ is $2M \times 2M$, indexed by coordinates) and $R[I_k, I_k]$ keeps those rows
+# where $\mathcal I_k = \{2j - 1, 2j : j \in \mathcal V_k\}$ lists the measurement *coordinates* of the visible
+# landmarks ($R$ is $2M \times 2M$, indexed by coordinates) and $R[\mathcal I_k, \mathcal I_k]$ keeps those rows
 # and columns. With nothing in view there is no measurement and $p(z_k \mid x_k) = 1$: the step
-# is a pure prediction. In code, the non-NaN entries of `sim.measurements[k]` are $z_k$, and
-# `model.observed` returns $H_k$ and $R_k$; `model.log_likelihood` evaluates $\log p(z_k \mid x_k)$
-# for a whole cloud of particles, which Exercise 1.4 asks you to write.
+# is a pure prediction. In code, the non-NaN entries of a row of `z` are $z_k$, and the same
+# mask picks $H_k$ and $R_k$ out of the matrices above (Exercise 1.4 turns this into the
+# log-likelihood of a whole cloud of particles):
 
 # %%
-model = scenario.model()
-k = int(np.flatnonzero(sim.seen[:, 1] & ~sim.seen[:, 0])[0])  # a step with only landmark 2 in view
-mask, z_k, H_k, R_k = model.observed(sim.measurements[k])
-print(f"step {k}: landmarks in view {np.flatnonzero(sim.seen[k]) + 1}")
+# a step with only landmark 2 in view
+k = int(np.flatnonzero(seen[:, 1] & ~seen[:, 0])[0])
+measured = ~np.isnan(z[k])  # the coordinates in view
+H_k, R_k = H[measured], R[np.ix_(measured, measured)]
+print(f"step {k}: z_k = {z[k][measured].round(3)}")
 print("H_k =\n", H_k.astype(int))
 print("R_k =\n", R_k)
 
 # %% [markdown]
-# A caveat: whether a landmark is visible depends on the true state, so strictly the *pattern of
-# NaN* is itself information. The filters here, like the lab's, condition on which landmarks
-# were seen but not on the geometry that implies it, the standard simplification.
-#
-# **Why the Kalman filter is exact here.** The initial density is Gaussian, and every later step
-# applies an affine map to Gaussian vectors ($F x_{k-1} + B + w_k$, then $H_k x_k + v_k$), which
-# keeps them jointly Gaussian, whatever the visibility pattern. So every filtering density
-# $p(x_k \mid z_{1:k})$ is Gaussian, and the Kalman filter computes its mean and covariance
-# exactly: {doc}`kalman` derives it. In the rest of Part I it is the right answer against which
-# every particle filter is measured.
+# (model-exact)=
+# **Which model the Kalman filter solves exactly.** Whether a landmark is in view depends on
+# the true state: it is seen only when it lies up and to the right of the robot. So the *pattern
+# of NaN* is itself information, and the true posterior given the data is not Gaussian (a
+# landmark not seen is not up and to the right, which cuts the Gaussian). The filters of Part I
+# treat the visibility pattern as given, a known input that chooses $H_k$ and
+# $R_k$, and ignore what it implies about the geometry. For that model, the one that treats
+# visibility as given, the initial density is Gaussian and every step applies an affine map to
+# Gaussian vectors ($F x_{k-1} + B + w_k$, then $H_k x_k + v_k$ with $H_k$ fixed by the pattern),
+# so every filtering density $p(x_k \mid z_{1:k})$ is Gaussian and the Kalman filter computes
+# its mean and covariance exactly: {doc}`kalman` derives it. In the rest of Part I it is the
+# right answer against which every particle filter, which makes the same simplification, is
+# measured.
 #
 # ## Try it
 #
 # The panel simulates either variant with the chosen seed and measurement-noise scale (a factor
 # on the standard deviations in $R$), and draws the world and which landmarks are in view.
 
-# %%
+# %% tags=["hide-input"] jupyter={"source_hidden": true}
 def draw_model(variant, noise_scale, seed):
     sc = quadrant_scenario() if variant == "two landmarks" else circle_scenario(5)
     sc = sc.with_(Rv=noise_scale**2 * sc.Rv)
@@ -298,9 +342,9 @@ def draw_model(variant, noise_scale, seed):
     fig, (a1, a2) = plt.subplots(1, 2, figsize=(10, 4.2), width_ratios=[1, 1.3])
     landmark_scene(sc, s, ax=a1, limits=limits)
     for j in range(sc.n_landmarks):
-        seen = s.seen[:, j]
-        a1.plot(s.truth[seen, 0] + s.measurements[seen, 2 * j], s.truth[seen, 1] + s.measurements[seen, 2 * j + 1], ".",
-                ms=3, color=COLORS["seen"])
+        in_view = s.seen[:, j]
+        a1.plot(s.truth[in_view, 0] + s.measurements[in_view, 2 * j],
+                s.truth[in_view, 1] + s.measurements[in_view, 2 * j + 1], ".", ms=3, color=COLORS["seen"])
     a1.set_title("robot + measured offsets (dots)")
     a2.imshow(s.seen.T, aspect="auto", interpolation="nearest", cmap="Greens",
               extent=(s.T[0] - 0.5, s.T[-1] + 0.5, sc.n_landmarks + 0.5, 0.5))
@@ -310,7 +354,7 @@ def draw_model(variant, noise_scale, seed):
     a2.grid(False)
 
 
-# %% tags=["nbval-ignore-output"]
+# %% tags=["nbval-ignore-output", "hide-input"] jupyter={"source_hidden": true}
 display(control_panel(
     draw_model,
     grid={"variant": ("two landmarks", "five landmarks"), "noise_scale": (0.3, 1.0, 3.0), "seed": (2024, 1, 2)},
@@ -378,8 +422,11 @@ display(control_panel(
 # ```
 
 # %% tags=["answer"]
+from pfcourse.exercises import check_log_likelihood
+
+
 def log_likelihood(x, z, H, R):
-    """Your function: log N(z_k; H_k x^i, R_k) for every row x^i of x, shape (N,)."""
+    """Your function: log N(z_k; H_k x^i, R_k) for each row x^i, shape (N,)."""
     ...  # replace with your code
 
 
@@ -399,12 +446,13 @@ def log_likelihood(x, z, H, R):
     seen = ~np.isnan(z)                      # the measured coordinates
     if not seen.any():
         return np.zeros(len(x))              # nothing in view: p(z_k | x_k) = 1
-    d = z[seen] - x @ H[seen].T              # z_k - H_k x^i, (N, 2|V_k|)
+    d = z[seen] - x @ H[seen].T              # z_k - H_k x^i, (N, 2 |V_k|)
     R_k = R[np.ix_(seen, seen)]              # the block of the visible landmarks
     quad = np.einsum("ij,ij->i", d @ np.linalg.inv(R_k), d)
     return -0.5 * (quad + seen.sum() * np.log(2 * np.pi) + np.linalg.slogdet(R_k)[1])
 
 
+model = scenario.model()
 cloud = model.sample_initial(200, np.random.default_rng(0))
 print("agrees with model.log_likelihood:", all(
     np.allclose(log_likelihood(cloud, zk, model.H, model.R), model.log_likelihood(cloud, zk, k))
@@ -420,5 +468,13 @@ print(check_log_likelihood(log_likelihood))
 #   landmarks), $R$ how noisy a measured offset is; all are covariances, in m².
 # - Only the landmarks in view are measured: $H_k$ keeps their rows of $H$ and $R_k$ their block of $R$,
 #   and with nothing in view the likelihood is $1$.
-# - Because every map is affine and every noise Gaussian, the Kalman filter is exact for this model
-#   ({doc}`kalman`): it is the reference for every particle filter of Part I.
+# - Because every map is affine and every noise Gaussian, the Kalman filter is exact for the model
+#   that treats the visibility pattern as given ({doc}`kalman`): it is the reference for every
+#   particle filter of Part I, which treats visibility the same way.
+#
+# :::{dropdown} From the labs
+# This chapter answers the first two questions of the landmark lab: what the parameters
+# $m_0$, $P_0$, $Q$, $R$ mean physically (the list under the matrices above) and which three
+# densities define the model ({ref}`model-densities`). The two-landmark variant is the lab's
+# first set-up and the five-landmark one its later variant; {doc}`../labs` describes the labs.
+# :::

@@ -18,13 +18,13 @@
 # **You need** {doc}`kalman` (Gaussian conditioning), {doc}`sis` and {doc}`sir`; NumPy arrays
 # and a random generator.
 #
-# **Time:** about eight minutes to read; the notebook runs in under a minute.
+# **Time:** about sixteen minutes to read; the notebook runs in about a minute.
 # :::
 #
-# Report 000 concludes that particle filtering is unsuited to the landmark problem "unless a
-# better importance function is found". In this model the best one is known in closed form.
-# This chapter derives it, writes it in NumPy, measures what it gains against the exact
-# (Kalman) posterior, and then answers lab question 8 with the evidence of the whole part.
+# SIS and SIR have not done well on the landmark model: is a better importance function the
+# cure? In this model the best one is known in closed form. This chapter derives it, writes it
+# in NumPy, measures what it gains against the exact (Kalman) posterior, and then asks whether
+# a particle filter is adequate for this problem at all.
 #
 # (optimal-proposal)=
 # ## The idea: look at the measurement before moving
@@ -36,6 +36,8 @@
 #   \frac{p(z_k \mid x_k^i)\, p(x_k^i \mid x_{k-1}^i)}{q(x_k^i \mid x_{k-1}^i, z_k)} .
 # $$
 #
+# Here $\tilde w_k^i$ is the unnormalised weight ({doc}`../notation`): the previous normalised
+# weight $W_{k-1}^i$ times the *incremental weight*, the fraction.
 # The bootstrap filter takes $q = p(x_k \mid x_{k-1})$: it places the particles blind to $z_k$
 # and pays for it in the weights. Bayes' rule for $x_k$ given $x_{k-1}$ and $z_k$ reads
 # $p(x_k \mid x_{k-1}, z_k) = p(z_k \mid x_k)\, p(x_k \mid x_{k-1}) / p(z_k \mid x_{k-1})$. Take
@@ -73,11 +75,7 @@
 # $$
 #
 # $G_k$ plays the role of the Kalman gain $K_k$, with $Q$ in the place of $P_k^-$; $\Sigma_k$ is
-# the same for every particle, only the mean $\mu_k^i$ moves with the parent. For a scalar state,
-# $x_k = a x_{k-1} + w_k$ and $z_k = x_k + v_k$ with variances $q$ and $r$, the same formulas read
-# $\sigma^2 = (1/q + 1/r)^{-1}$, $\mu^i = \sigma^2 (a x_{k-1}^i / q + z_k / r)$ and
-# $p(z_k \mid x_{k-1}^i) = \mathcal N(z_k;\, a x_{k-1}^i,\, q + r)$: the precisions add, and the
-# mean is the precision-weighted average of the prediction and the measurement.
+# the same for every particle, only the mean $\mu_k^i$ moves with the parent.
 #
 # Two consequences can be read off the formulas before any experiment.
 #
@@ -106,7 +104,7 @@
 # In `pfcourse` the importance function is an argument of the engine:
 # `ParticleFilter(model, N, threshold=tau, proposal=OptimalProposal())`.
 
-# %%
+# %% tags=["remove-input"] jupyter={"source_hidden": true}
 import matplotlib.pyplot as plt
 import numpy as np
 import pandas as pd
@@ -116,6 +114,7 @@ from scipy.special import logsumexp
 
 from pfcourse import evidence
 from pfcourse.exercises import check_optimal_proposal
+from pfcourse.collectors import Clouds
 from pfcourse.filter import ParticleFilter
 from pfcourse.kalman import kalman_filter
 from pfcourse.landmarks.scenario import quadrant_scenario, simulate
@@ -145,6 +144,12 @@ def measured_steps(sc, n_runs):
 # `x_prev` are the parents, `z` the measurement with NaN where a landmark is out of view.
 
 # %%
+import numpy as np
+from pfcourse.landmarks.scenario import quadrant_scenario
+
+model = quadrant_scenario().model()  # F, B, Q, H, R of the landmark model
+
+
 def optimal_step(x_prev, z, model, rng):
     """Draw x_k^i ~ p(x_k | x_(k-1)^i, z_k); return them and log p(z_k | x_(k-1)^i)."""
     F, B, Q = model.F, model.B, model.Q
@@ -164,13 +169,14 @@ def optimal_step(x_prev, z, model, rng):
     return x_new, -0.5 * (quad + np.linalg.slogdet(2 * np.pi * C)[1])
 
 
+# %% tags=["hide-input"] jupyter={"source_hidden": true}
 sim = simulate(scenario, rng=2024)
 N = 100
 rng = np.random.default_rng(1)  # the engine's draws, in the engine's order
 x = model.sample_initial(N, rng)
 log_W = np.full(N, -np.log(N))
 engine = ParticleFilter(model, N, threshold=0.0, proposal=OptimalProposal())
-res = engine.run(sim.measurements, rng=1, store_particles=True)
+res = engine.run(sim.measurements, rng=1, collect=[Clouds()])
 gaps_x, gaps_w = [], []
 for k, z in enumerate(sim.measurements):
     if k > 0:
@@ -207,7 +213,7 @@ EvidenceBlock(
 # is scored against the exact Kalman posterior over its last {glue:text}`prop_last_steps:d`
 # steps, and its ESS averaged over the steps with a measurement.
 
-# %%
+# %% tags=["hide-input"] jupyter={"source_hidden": true}
 n_runs, N, last = 50, 500, 10
 lab = {name: {"ess": [], "robot": [], "landmarks": [], "resampled": []} for name in PROPOSALS}
 for seed in range(n_runs):
@@ -228,8 +234,9 @@ for name, d in lab.items():
 
 # %% [markdown]
 # The weights improve: per run, the optimal proposal's mean ESS is a median
-# {glue:text}`prop_lab_ess_gain:.2f` times the bootstrap's (95 % interval
-# {glue:text}`prop_lab_ess_gain_low:.2f` to {glue:text}`prop_lab_ess_gain_high:.2f`).
+# {glue:text}`prop_lab_ess_gain:.2f` times the bootstrap's
+# ({glue:text}`prop_lab_ess_gain_low:.2f`-{glue:text}`prop_lab_ess_gain_high:.2f`, the notation of
+# {doc}`../evidence`).
 
 # %% tags=["remove-input"] jupyter={"source_hidden": true}
 with_meas = ~np.isnan(lab["bootstrap"]["ess"])
@@ -251,10 +258,10 @@ EvidenceBlock(
            "time budget; the intervals below say what they can resolve.",
            "Each line is the per-run ratio (optimal / bootstrap for the ESS, bootstrap / optimal for the errors): "
            "its median, the 95 % interval of that median, Wilcoxon's signed-rank test of no difference, and the "
-           "smallest ratio the runs could have detected (see Reading the evidence).",
+           "largest factor either way the interval leaves possible (see Reading the evidence).",
            *(f"{what}: {t}" for what, t in tests.items()),
-           f"The robot's ratio: no difference detected; the interval leaves a factor up to {t_robot.detectable:.3f} "
-           "either way possible, the smallest effect this study could have seen.",
+           f"The robot's ratio: factors beyond {t_robot.detectable:.3f} either way are excluded by the data; "
+           "smaller ones are not (no power is computed here).",
            f"Runs whose landmark errors agree within 1 %: {unmoved}.",
            f"{int((~with_meas).sum())} runs have no measurement at all and are left out of the ESS comparison."],
     tables=[("Medians over the runs", pd.DataFrame(
@@ -267,14 +274,14 @@ EvidenceBlock(
 )
 
 # %% [markdown]
-# The accuracy does not follow. The robot error shows no detectable change: the per-run ratio
-# bootstrap / optimal lies between {glue:text}`prop_lab_robot_ratio_low:.2f` and
-# {glue:text}`prop_lab_robot_ratio_high:.2f` (95 % interval), so only a gain beyond a factor
-# {glue:text}`prop_lab_robot_detectable:.2f` could have been seen.
+# The accuracy does not follow. The per-run ratio of the robot errors, bootstrap / optimal,
+# lies in {glue:text}`prop_lab_robot_ratio_low:.2f`-{glue:text}`prop_lab_robot_ratio_high:.2f`:
+# a gain or a loss beyond a factor {glue:text}`prop_lab_robot_detectable:.2f` is excluded by the
+# data, a smaller one is not.
 #
 # The landmark errors of the two proposals agree within $1\,\%$ in
-# {glue:text}`prop_lab_unmoved:.0%` of the runs (95 % interval {glue:text}`prop_lab_unmoved_low:.0%`
-# to {glue:text}`prop_lab_unmoved_high:.0%`), as the formula predicted: the landmark hypotheses are
+# {glue:text}`prop_lab_unmoved:.0%` of the runs
+# ({glue:text}`prop_lab_unmoved_low:.0%`-{glue:text}`prop_lab_unmoved_high:.0%`), as the formula predicted: the landmark hypotheses are
 # still those drawn at time $0$, only better weighted.
 #
 # ## Where the optimal proposal shines: process noise on every component
@@ -286,7 +293,7 @@ EvidenceBlock(
 # (broad). SIR with $N = 200$, $\tau = 1/2$, {glue:text}`prop_n_runs:d` runs per setting, errors
 # against this model's Kalman filter over all six coordinates.
 
-# %%
+# %% tags=["hide-input"] jupyter={"source_hidden": true}
 Q_all = scenario.Qw.copy()
 Q_all[2:, 2:] = 0.05**2 * np.eye(4)
 scales = (0.1, 1.0)  # multiply the lab's measurement standard deviation, 0.1 m
@@ -299,7 +306,7 @@ for scale in scales:
         sweep[scale, name] = (r["ess"][meas_s].reshape(-1) / 200, r["rmse"].mean(axis=1))
         ess_per_run[scale, name] = np.nanmean(np.where(meas_s, r["ess"], np.nan), axis=1) / 200
 
-# %%
+# %% tags=["hide-input"] jupyter={"source_hidden": true}
 fig, (ax1, ax2) = plt.subplots(1, 2, figsize=(10, 3.6))
 pos = np.arange(len(scales))
 for off, name, c in ((-0.18, "bootstrap", COLORS["particles"]), (0.18, "optimal", COLORS["estimate"])):
@@ -323,8 +330,8 @@ plt.show()
 
 # %% [markdown]
 # With sharp measurements the bootstrap's error against the exact mean is a median
-# {glue:text}`prop_sharp_err_ratio:.1f` times the optimal proposal's, run by run (95 % interval
-# {glue:text}`prop_sharp_err_ratio_low:.1f` to {glue:text}`prop_sharp_err_ratio_high:.1f`), for the
+# {glue:text}`prop_sharp_err_ratio:.1f` times the optimal proposal's, run by run
+# ({glue:text}`prop_sharp_err_ratio_low:.1f`-{glue:text}`prop_sharp_err_ratio_high:.1f`), for the
 # same $N$. With broad measurements the gain shrinks, as the formula says, to
 # {glue:text}`prop_broad_err_ratio:.2f`.
 
@@ -376,7 +383,7 @@ EvidenceBlock(
 # $N = 200$), and shows the ESS of both proposals over time. A reader without a kernel can
 # scrub it.
 
-# %%
+# %% tags=["hide-input"] jupyter={"source_hidden": true}
 frame_scales = np.geomspace(0.05, 2.0, 12)
 curves = []
 for scale in frame_scales:
@@ -411,28 +418,29 @@ glue_values("prop_", anim_rv_sd_min=0.1 * frame_scales[0], anim_rv_sd_max=0.1 * 
 
 # %% [markdown]
 # (answer-q8)=
-# ## Is particle filtering adequate for this problem? (lab question 8)
+# ## Is particle filtering adequate for this problem?
 #
 # The evidence of Part I, all on the lab's model (static landmarks), against the exact
 # posterior:
 #
 # 1. **SIS** ({doc}`sis`): the ESS falls to about one particle within a few steps for every $N$
-#    tried, up to $10^4$; more particles buy about one step per factor of ten.
+#    tried, up to $10^4$; each tenfold increase of $N$ delays the collapse by only about
+#    {glue:text}`sis.ipynb::sis_delay_per_decade:.1f` steps.
 # 2. **SIR** ({doc}`sir`): the weights recover, but the static landmarks impoverish; the
 #    landmark error against the exact mean falls roughly as $N^{-1/4}$ instead of
 #    $N^{-1/2}$, and the filter's own ellipsoid almost never covers the truth.
 # 3. **The lab's fix** (landmark noise in the filter) and **roughening** make the estimate
 #    converge, at the cost of a changed model: too cautious for the first, overconfident
 #    tails for the second.
-# 4. **The optimal importance function** (this chapter) raises the ESS, without a detectable
-#    gain in accuracy on the lab's model, and multiplies it by
+# 4. **The optimal importance function** (this chapter) raises the ESS, with no gain in
+#    accuracy on the lab's model beyond the small factor the data leave open, and multiplies it by
 #    {glue:text}`prop_sharp_ess_gain:.0f` when every component is noisy and measurements are
 #    sharp; but it cannot move static landmarks, whose error hardly changes.
 #
 # So the answer is: **not as the lab formulated it.** A particle filter over the full state
 # spends its particles on a part of the state (the static map) that it cannot explore, while
-# the exact answer is a Kalman filter costing a few matrix products per step. The report's
-# "unless a better importance function is found" is half right: the better idea is not a
+# the exact answer is a Kalman filter costing a few matrix products per step. "Unless a
+# better importance function is found" is half right: the better idea is not a
 # better proposal for the landmarks but *not sampling them at all*. Given the robot path, the
 # landmarks are linear-Gaussian and can be integrated out exactly by a Kalman filter per
 # particle, which is Rao-Blackwellisation {cite:p}`doucet2000`, the principle behind FastSLAM
@@ -450,7 +458,7 @@ glue_values("prop_", anim_rv_sd_min=0.1 * frame_scales[0], anim_rv_sd_max=0.1 * 
 # measurement-noise scale and seed, and plots both ESS curves and the robot's $x$ error against
 # the Kalman mean. At which noise scale do the two ESS curves meet?
 
-# %%
+# %% tags=["hide-input"] jupyter={"source_hidden": true}
 def draw_proposals(n_particles, noise_scale, seed):
     sc = scenario.with_(Qw=Q_all, Rv=noise_scale**2 * scenario.Rv)
     s = simulate(sc, rng=seed)
@@ -492,11 +500,11 @@ display(control_panel(draw_proposals, grid={"n_particles": (50, 200, 1000), "noi
 # with $H_k$ and $R$ restricted to the landmarks in view.
 # ```
 #
-# ```{exercise} 7.2 The lab's conclusion
+# ```{exercise} 7.2 A first verdict
 # :label: ex-prop-q8
 # :nonumber:
-# (Lab question 8.) The lab's conclusion was that particle filtering is unsuited here "unless
-# a better importance function is found". Using the measurements of this part, say which part
+# A first verdict on this model was that particle filtering is unsuited here "unless a better
+# importance function is found". Using the measurements of this part, say which part
 # of that conclusion holds and which does not.
 # ```
 #
@@ -516,7 +524,8 @@ display(control_panel(draw_proposals, grid={"n_particles": (50, 200, 1000), "noi
 # :nonumber:
 # (Coding.) Write `my_optimal(x_prev, z, model)` for the scalar model
 # $x_k = a x_{k-1} + w_k$, $w_k \sim \mathcal N(0, q)$, $z_k = x_k + v_k$, $v_k \sim \mathcal N(0, r)$,
-# whose parameters are `model.a`, `model.q`, `model.r` (variances). `x_prev` holds the parents,
+# whose parameters are `model.a`, `model.q`, `model.r` (variances): the chapter wrote the
+# landmark model's matrices, derive the scalar case from them. `x_prev` holds the parents,
 # shape `(N,)`, and `z` is one measurement. Return three arrays of shape `(N,)`: the mean and the
 # variance of $p(x_k \mid x_{k-1}^i, z_k)$, and the log-weight $\log p(z_k \mid x_{k-1}^i)$ (a constant
 # common to all parents may be left out). The checker compares them with the exact formulas
@@ -524,6 +533,9 @@ display(control_panel(draw_proposals, grid={"n_particles": (50, 200, 1000), "noi
 # ```
 
 # %% tags=["answer"]
+from pfcourse.exercises import check_optimal_proposal
+
+
 def my_optimal(x_prev, z, model):
     """Your optimal proposal: return (means, variances, log_weights), three arrays of shape (N,)."""
     ...  # replace with your code
@@ -534,8 +546,12 @@ print(check_optimal_proposal(my_optimal))
 # %% [markdown]
 # ```{solution} ex-prop-code
 # :class: dropdown
-# The scalar formulas of {ref}`optimal-proposal`; the code is in the folded cell below (in
-# JupyterLab, click its margin to unfold it).
+# The formulas of {ref}`optimal-proposal` with $F = a$, $B = 0$, $H = 1$, $Q = q$, $R = r$:
+# $C = q + r$, $G = q / (q + r)$, so $\sigma^2 = (1 - G)\, q = (1/q + 1/r)^{-1}$,
+# $\mu^i = a x_{k-1}^i + G (z_k - a x_{k-1}^i) = \sigma^2 (a x_{k-1}^i / q + z_k / r)$ and
+# $p(z_k \mid x_{k-1}^i) = \mathcal N(z_k;\, a x_{k-1}^i,\, q + r)$: the precisions add, and the
+# mean is the precision-weighted average of the prediction and the measurement. The code is in
+# the folded cell below (in JupyterLab, click its margin to unfold it).
 # ```
 
 # %% tags=["solution", "hide-input"] jupyter={"source_hidden": true}
@@ -561,3 +577,11 @@ print(check_optimal_proposal(my_optimal))
 #   they are broad.
 # - It cannot move what has no process noise: on the lab's static map it weights better but
 #   estimates no better; the cure is to integrate the landmarks out ({doc}`rao_blackwell`).
+#
+# :::{admonition} From the labs
+# :class: dropdown
+# Lab A's question 8, "is a particle filter adequate for this problem?", is answered in
+# {ref}`answer-q8`, and again, with the cure measured, in {ref}`answer-q8-cure`. Report 000
+# concluded that it was not "unless a better importance function is found"; the exercise
+# *A first verdict* weighs that verdict ({doc}`../labs`).
+# :::

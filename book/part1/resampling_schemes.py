@@ -18,66 +18,30 @@
 # **You need** {doc}`sir`; the binomial and multinomial distributions; NumPy's `cumsum` and
 # `searchsorted`.
 #
-# **Time:** about seven minutes to read; the notebook runs in under half a minute.
+# **Time:** about twelve minutes to read; the notebook runs in under half a minute.
 # :::
 #
 # ## The idea: one picture, four ways of drawing the uniforms
 #
-# Resampling replaces a weighted cloud by an unweighted one. Writing $N_i$ for the number of
-# copies ("offspring") of particle $i$ among the $n$ new particles, every scheme here is
-# **unbiased**, $\mathbb E[N_i] = n W_i$, so the resampled cloud estimates the same
-# expectations as the weighted one. They differ in how much randomness they add, measured by
-# $\operatorname{Var} N_i$: that variance is the resampling step's own contribution, Monte Carlo
-# noise added to the estimates that follow it {cite:p}`douc2005,hol2006`. A lower
-# $\operatorname{Var} N_i$ does not by itself order the filters' estimator variances: residual
-# and stratified resampling provably add no more conditional variance than multinomial
-# resampling, but systematic resampling, whose offspring counts are the least variable here,
-# can give a larger estimator variance than multinomial resampling on some weights, since its
-# counts are correlated across particles {cite:p}`douc2005`.
-#
-# All four invert the cumulative weights $C_i = W_1 + \dots + W_i$ ($C_0 = 0$): a uniform
-# $u \in [0, 1)$ selects the index $i$ with $C_{i-1} \le u < C_i$, so particle $i$ owns a
-# segment of length $W_i$ of the bar $[0, 1)$. They differ only in the uniforms.
-#
-# :::{admonition} Algorithm 6.1: resampling by inverting the cumulative weights
-# :class: algorithm
-# Given normalised weights $W_1, \dots, W_N$ and the number $n$ of particles to draw:
-# 1. **Cumulate:** $C_i = W_1 + \dots + W_i$ for $i = 1, \dots, N$ (set $C_N = 1$ against round-off).
-# 2. **Draw the uniforms** $u^1, \dots, u^n$ in $[0, 1)$, by one of:
-#    - *multinomial:* $u^j \sim \mathcal U[0, 1)$, independent;
-#    - *stratified:* $u^j = (j - 1 + U^j)/n$, $U^j \sim \mathcal U[0, 1)$ independent: one uniform in each stratum $[(j-1)/n, j/n)$;
-#    - *systematic:* $u^j = (j - 1 + U)/n$ with one $U \sim \mathcal U[0, 1)$ for all $j$: evenly spaced;
-#    - *residual:* first $\lfloor n W_i \rfloor$ sure copies of each particle, then $R = n - \sum_i \lfloor n W_i \rfloor$
-#      multinomial uniforms on the remainders $\rho_i = (n W_i - \lfloor n W_i \rfloor)/R$ (cumulated and inverted like the weights).
-# 3. **Invert:** the ancestor $a^j$ is the $i$ with $C_{i-1} \le u^j < C_i$ (`np.searchsorted(C, u, side="right")`).
-# 4. **Copy:** $x^j \leftarrow x^{a^j}$, $W^j \leftarrow 1/n$.
-# :::
-#
-# Counting the uniforms that fall on particle $i$'s segment gives each scheme's
-# $\operatorname{Var} N_i$:
-#
-# | scheme | $\operatorname{Var} N_i$ |
-# |---|---|
-# | multinomial | $n W_i (1 - W_i)$ |
-# | stratified | $\sum_j p_{ij}(1 - p_{ij})$ |
-# | systematic | $r_i (1 - r_i)$, $r_i = n W_i - \lfloor n W_i \rfloor$ |
-# | residual | $R\, \rho_i (1 - \rho_i)$ |
-#
-# Here $p_{ij} = n\,\lvert [(j-1)/n, j/n) \cap [C_{i-1}, C_i) \rvert$ is the chance that the
-# uniform of stratum $j$ lands on particle $i$: for stratified resampling $N_i$ is a sum of
-# independent Bernoulli variables, one per stratum, hence its variance. Multinomial counts are
-# binomial; systematic counts are $\lfloor n W_i \rfloor$ or one more (the first exercise below).
+# Resampling replaces a weighted cloud by an unweighted one. Lay the weights end to end on the
+# bar $[0, 1)$: particle $i$ owns a segment of length $W_i$. Throw $n$ uniforms on the bar;
+# each picks the particle whose segment it falls in. The figure shows eight particles and
+# four ways of throwing the uniforms (the ticks above each bar). Multinomial uniforms are
+# independent, so they may cluster and leave a heavy particle without offspring; stratified
+# resampling puts one uniform in each eighth of the bar; systematic resampling uses one
+# offset for all eight, evenly spaced. Residual resampling first gives $\lfloor 8 W_i \rfloor$
+# sure copies and draws only the rest from the leftover weights (lower bar).
 
-# %%
+# %% tags=["remove-input"] jupyter={"source_hidden": true}
 import timeit
 
 import filterpy.monte_carlo as fp
+import ipywidgets as widgets
 import matplotlib.pyplot as plt
 import numpy as np
 import pandas as pd
 from IPython.display import display
 
-from pfcourse.exercises import check_resampler
 from pfcourse.figures.report import EvidenceBlock, glue_values
 from pfcourse.figures.widgets import control_panel, scheme_dropdown, seed_box
 from pfcourse.resampling import SCHEMES
@@ -86,73 +50,7 @@ from pfcourse.style import use_style
 use_style()
 SCHEME_COLORS = dict(zip(SCHEMES, ("tab:blue", "tab:orange", "tab:green", "tab:purple")))
 
-# %% [markdown]
-# (resampling-numpy)=
-# ## The algorithm in NumPy, checked on the engine
-#
-# Algorithm 6.1 in a few lines: one function inverts the cumulative weights, and each scheme
-# only makes its uniforms. The engine's functions in `pfcourse.resampling` draw the same
-# uniforms from the same generator, so with the same seed they must return the same indices.
-
-# %%
-def invert(W, u):
-    """Step 3: the i with C_{i-1} <= u < C_i, for each uniform u (sorted indices)."""
-    C = np.cumsum(W)
-    return np.minimum(np.searchsorted(C, np.sort(u), side="right"), len(W) - 1)
-
-
-def my_multinomial(W, rng):
-    return invert(W, rng.random(len(W)))
-
-
-def my_stratified(W, rng):
-    n = len(W)
-    return invert(W, (np.arange(n) + rng.random(n)) / n)
-
-
-def my_systematic(W, rng):
-    n = len(W)
-    return invert(W, (np.arange(n) + rng.random()) / n)
-
-
-def my_residual(W, rng):
-    n = len(W)
-    sure = np.floor(n * W).astype(int)  # sure copies
-    R = n - sure.sum()
-    rho = (n * W - sure) / R  # remainders, summing to one
-    drawn = invert(rho, rng.random(R)) if R > 0 else np.array([], dtype=int)
-    return np.repeat(np.arange(n), sure + np.bincount(drawn, minlength=n))
-
-
-mine = {"multinomial": my_multinomial, "stratified": my_stratified,
-        "systematic": my_systematic, "residual": my_residual}
-W_test = np.random.default_rng(3).lognormal(0.0, 1.0, 50)
-W_test /= W_test.sum()
-n_seeds = 200
-same = {name: all(np.array_equal(mine[name](W_test, np.random.default_rng(s)),
-                                 SCHEMES[name](W_test, np.random.default_rng(s))) for s in range(n_seeds))
-        for name in SCHEMES}
-print(f"same indices as pfcourse.resampling for seeds 0..{n_seeds - 1}:", same)
-
-# %% [markdown]
-# All four give the engine's indices for every one of {glue:text}`numpy_seeds:d` seeds. The
-# engine adds checks of the weights, an `n` different from $N$, and a single merge pass over
-# the sorted uniforms instead of a binary search for each.
-
-# %% tags=["remove-input"] jupyter={"source_hidden": true}
-assert all(same.values())
-glue_values(numpy_seeds=n_seeds)
-# %% [markdown]
-# ## How each scheme maps uniforms to indices
-#
-# The bar is $[0, 1)$ cut into the cumulative weights of eight particles (the width of segment $i$
-# is $W_i$); the ticks above it are the uniforms each scheme draws ($n = 8$), and each uniform
-# picks the segment it falls in. Multinomial uniforms may cluster and leave a heavy particle
-# without offspring; stratified puts one uniform in each eighth; systematic uses one offset
-# for all eight, evenly spaced. Residual first gives $\lfloor 8 W_i \rfloor$ copies (the count
-# on each segment) and draws only the remaining $R$ from the leftover weights (lower bar).
-
-# %%
+# %% tags=["hide-input"] jupyter={"source_hidden": true}
 rng = np.random.default_rng(7)
 w8 = np.array([0.04, 0.21, 0.02, 0.30, 0.08, 0.15, 0.05, 0.15])
 n8 = len(w8)
@@ -191,13 +89,120 @@ ax.set_title("Uniforms (ticks) falling on the cumulative weights of 8 particles"
 plt.show()
 
 # %% [markdown]
-# ## Offspring-count variance, measured against the closed forms
+# Writing $N_i$ for the number of copies ("offspring") of particle $i$ among the $n$ new
+# particles, every scheme here is **unbiased**, $\mathbb E[N_i] = n W_i$, so the resampled
+# cloud estimates the same expectations as the weighted one. They differ in how much
+# randomness they add, measured by $\operatorname{Var} N_i$: that variance is the resampling
+# step's own contribution, Monte Carlo noise added to the estimates that follow it
+# {cite:p}`douc2005,hol2006`.
+#
+# In symbols, the bar is cut at the cumulative weights $C_i = W_1 + \dots + W_i$ ($C_0 = 0$),
+# and a uniform $u \in [0, 1)$ selects the index $i$ with $C_{i-1} \le u < C_i$. The schemes
+# differ only in the uniforms.
+#
+# :::{admonition} Algorithm 6.1: resampling by inverting the cumulative weights
+# :class: algorithm
+# Given normalised weights $W_1, \dots, W_N$ and the number $n$ of particles to draw:
+# 1. **Cumulate:** $C_i = W_1 + \dots + W_i$ for $i = 1, \dots, N$, and set $C_N = 1$ against round-off.
+# 2. **Draw the uniforms** $u^1, \dots, u^n$ in $[0, 1)$, by one of:
+#    - *multinomial:* $u^j \sim \mathcal U[0, 1)$, independent of each other;
+#    - *stratified:* $u^j = (j - 1 + U^j)/n$ with $U^j \sim \mathcal U[0, 1)$ independent, one uniform in each stratum;
+#    - *systematic:* $u^j = (j - 1 + U)/n$ with one $U \sim \mathcal U[0, 1)$ for all $j$, evenly spaced;
+#    - *residual:* first $\lfloor n W_i \rfloor$ sure copies of each particle, then
+#      $n_\mathrm{r} = n - \sum_i \lfloor n W_i \rfloor$ multinomial uniforms on the
+#      remainders $\rho_i = (n W_i - \lfloor n W_i \rfloor)/n_\mathrm{r}$, cumulated and inverted like the weights.
+# 3. **Invert:** the ancestor $a^j$ is the $i$ with $C_{i-1} \le u^j < C_i$, that is `np.searchsorted(C, u, side="right")`.
+# 4. **Copy:** $x^j \leftarrow x^{a^j}$ and $W^j \leftarrow 1/n$ for every $j$.
+# :::
+#
+# (resampling-numpy)=
+# ## The algorithm in NumPy, checked on the engine
+#
+# Algorithm 6.1 in a few lines, for three of the schemes (the stratified one is
+# Exercise 6.3): one function inverts the cumulative weights, and each scheme only makes its
+# uniforms.
+
+# %%
+import numpy as np
+
+
+def invert(W, u):
+    """Step 3: the i with C_{i-1} <= u < C_i for each u (sorted indices)."""
+    C = np.cumsum(W)
+    i = np.searchsorted(C, np.sort(u), side="right")
+    return np.minimum(i, len(W) - 1)
+
+
+def my_multinomial(W, rng):
+    return invert(W, rng.random(len(W)))
+
+
+def my_systematic(W, rng):
+    n = len(W)
+    return invert(W, (np.arange(n) + rng.random()) / n)
+
+
+def my_residual(W, rng):
+    n = len(W)
+    sure = np.floor(n * W).astype(int)  # sure copies
+    n_r = n - sure.sum()  # copies left to draw
+    rho = (n * W - sure) / max(n_r, 1)  # remainders, sum one
+    drawn = invert(rho, rng.random(n_r))
+    extra = np.bincount(drawn, minlength=n)
+    return np.repeat(np.arange(n), sure + extra)
+
+
+W = np.array([0.04, 0.21, 0.02, 0.30, 0.08, 0.15, 0.05, 0.15])
+print(my_systematic(W, np.random.default_rng(7)))
+
+# %% [markdown]
+# The engine's functions in `pfcourse.resampling` draw the same uniforms from the same
+# generator, so with the same seed they must return the same indices; they do, for every one
+# of {glue:text}`numpy_seeds:d` seeds. The engine adds checks of the weights, an `n` different
+# from $N$, and a single merge pass over the sorted uniforms instead of a binary search for each.
+
+# %% tags=["remove-input"] jupyter={"source_hidden": true}
+mine = {"multinomial": my_multinomial, "systematic": my_systematic, "residual": my_residual}
+W_test = np.random.default_rng(3).lognormal(0.0, 1.0, 50)
+W_test /= W_test.sum()
+n_seeds = 200
+same = {name: all(np.array_equal(mine[name](W_test, np.random.default_rng(s)),
+                                 SCHEMES[name](W_test, np.random.default_rng(s))) for s in range(n_seeds))
+        for name in mine}
+assert all(same.values())
+glue_values(numpy_seeds=n_seeds)
+# %% [markdown]
+# ## How much randomness each scheme adds
+#
+# Counting the uniforms that fall on particle $i$'s segment gives each scheme's
+# $\operatorname{Var} N_i$:
+#
+# | scheme | $\operatorname{Var} N_i$ |
+# |---|---|
+# | multinomial | $n W_i (1 - W_i)$ |
+# | stratified | $\sum_j p_{ij}(1 - p_{ij})$ |
+# | systematic | $\delta_i (1 - \delta_i)$, $\delta_i = n W_i - \lfloor n W_i \rfloor$ |
+# | residual | $n_\mathrm{r}\, \rho_i (1 - \rho_i)$ |
+#
+# Here $p_{ij} = n\,\lvert [(j-1)/n, j/n) \cap [C_{i-1}, C_i) \rvert$ is the chance that the
+# uniform of stratum $j$ lands on particle $i$: for stratified resampling $N_i$ is a sum of
+# independent Bernoulli variables, one per stratum, hence its variance. Multinomial counts are
+# binomial; systematic counts are $\lfloor n W_i \rfloor$ or one more (Exercise 6.1).
+#
+# A lower $\operatorname{Var} N_i$ does not by itself order the filters' estimator variances:
+# residual and stratified resampling provably add no more conditional variance than
+# multinomial resampling, but systematic resampling, whose counts are the least variable
+# here, can give a larger estimator variance than multinomial resampling on some weights,
+# since its counts are correlated across particles {cite:p}`douc2005`.
+#
+# %% [markdown]
+# ### Measured against the closed forms
 #
 # For a fixed set of $n = 50$ weights (drawn once, fairly uneven: ESS
 # {glue:text}`weights_ess:.1f`), each scheme is run {glue:text}`n_reps:d` times, one seed each
 # (seeds $0, 1, 2, \dots$), and each particle's copies are counted.
 
-# %%
+# %% tags=["hide-input"] jupyter={"source_hidden": true}
 n = 50
 w = np.random.default_rng(3).lognormal(0.0, 1.0, n)
 w /= w.sum()
@@ -278,11 +283,11 @@ EvidenceBlock(
 # positions $x_i$ (here $x_i = i / n$) and the estimate of the mean after resampling,
 # $\hat\mu = \frac1n \sum_i N_i x_i$, whose variance is $\frac{1}{n^2} x^\top \operatorname{Cov}(N) x$.
 # Closed forms: multinomial $\frac1n \operatorname{Var}_W(x)$; residual
-# $\frac{R}{n^2} \operatorname{Var}_\rho(x)$; stratified $\frac{1}{n^2}\sum_j \operatorname{Var}(x \mid \text{stratum } j)$
+# $\frac{n_\mathrm{r}}{n^2} \operatorname{Var}_\rho(x)$; stratified $\frac{1}{n^2}\sum_j \operatorname{Var}(x \mid \text{stratum } j)$
 # (strata are independent). Systematic has no simple general formula, but $N$ depends on the
 # single offset $U$ only, so we integrate over $U$ numerically ($20\,000$ values of $U$).
 
-# %%
+# %% tags=["hide-input"] jupyter={"source_hidden": true}
 x = np.arange(n) / n
 rho = r / R
 U = (np.arange(20_000) + 0.5) / 20_000
@@ -361,7 +366,7 @@ EvidenceBlock(
 # $5$ timings per size on this machine (timings vary between machines and runs, so only the
 # figure is shown; its shape, not its numbers, is the point).
 
-# %%
+# %% tags=["hide-input"] jupyter={"source_hidden": true}
 sizes = [10**e for e in range(2, 7)]
 times = {name: [] for name in SCHEMES}
 for m in sizes:
@@ -381,7 +386,7 @@ ax.legend()
 plt.show()
 
 # %% [markdown]
-# %% [markdown]
+# (resampling-filterpy)=
 # ## Testing a resampler: filterpy's residual resampling is biased
 #
 # Unbiasedness, $\mathbb E[N_i] = n W_i$, is the property every scheme must have, and it can be
@@ -393,7 +398,7 @@ plt.show()
 # resamplings each (one seed each, from $0$ up; filterpy uses NumPy's global generator, which
 # we seed).
 
-# %%
+# %% tags=["hide-input"] jupyter={"source_hidden": true}
 w10 = np.array([0.31, 0.22, 0.15, 0.09, 0.08, 0.06, 0.04, 0.03, 0.015, 0.005])
 reps = 20_000
 ours = np.array([np.bincount(SCHEMES["residual"](w10, np.random.default_rng(s)), minlength=10)
@@ -424,8 +429,7 @@ plt.show()
 # a systematic shrinking of the posterior towards its heaviest particles.
 #
 # `pfcourse.resampling.residual` matches $n W_i$ to within sampling error (largest deviation
-# {glue:text}`pfcourse_residual_max_se:.1f` standard errors over the ten particles);
-# `tests/test_resampling.py` checks both.
+# {glue:text}`pfcourse_residual_max_se:.1f` standard errors over the ten particles).
 
 # %% tags=["remove-input"] jupyter={"source_hidden": true}
 se = np.sqrt(np.maximum(ours.var(axis=0, ddof=1), 1e-12) / reps)
@@ -452,10 +456,7 @@ EvidenceBlock(
 # The panel resamples {glue:text}`n_weights:d` particles with the chosen scheme and seed, for weights of chosen
 # unevenness, and shows each particle's offspring count against $n W_i$.
 
-# %%
-import ipywidgets as widgets
-
-
+# %% tags=["hide-input"] jupyter={"source_hidden": true}
 def draw_offspring(scheme, spread, seed):
     ww = np.random.default_rng(3).lognormal(0.0, spread, n)
     ww /= ww.sum()
@@ -468,7 +469,7 @@ def draw_offspring(scheme, spread, seed):
     ax.legend()
 
 
-# %% tags=["nbval-ignore-output"]
+# %% tags=["nbval-ignore-output", "hide-input"] jupyter={"source_hidden": true}
 display(control_panel(draw_offspring, grid={"scheme": tuple(SCHEMES), "spread": (0.0, 1.0, 3.0)},
                       scheme=scheme_dropdown(),
                       spread=widgets.FloatSlider(value=1.0, min=0.0, max=3.0, step=0.1, description="log-weight sd"),
@@ -488,14 +489,14 @@ display(control_panel(draw_offspring, grid={"scheme": tuple(SCHEMES), "spread": 
 # :class: dropdown
 # The points $(j - 1 + U)/n$ are spaced exactly $1/n$ apart, so an interval of length $W_i$
 # contains either $\lfloor n W_i \rfloor$ or $\lfloor n W_i \rfloor + 1$ of them. Since the
-# mean is $n W_i$, the second happens with probability $r_i = n W_i - \lfloor n W_i \rfloor$:
-# a Bernoulli($r_i$) on top of a constant, variance $r_i (1 - r_i) \le 1/4$.
+# mean is $n W_i$, the second happens with probability $\delta_i = n W_i - \lfloor n W_i \rfloor$:
+# a Bernoulli($\delta_i$) on top of a constant, variance $\delta_i (1 - \delta_i) \le 1/4$.
 # ```
 #
 # ```{exercise} 6.2 A test that catches the bug
 # :label: ex-resampling-bias
 # :nonumber:
-# (Lab question 7, testing.) Design a test that would have caught filterpy's residual bug,
+# Design a test that would have caught filterpy's residual bug,
 # using only the property that every scheme must satisfy.
 # ```
 #
@@ -510,38 +511,48 @@ display(control_panel(draw_offspring, grid={"scheme": tuple(SCHEMES), "spread": 
 # ```{exercise} 6.3 Write stratified resampling, and have it checked
 # :label: ex-resampling-code
 # :nonumber:
-# (Coding.) Write `my_stratified(W, rng)`: stratified resampling of the normalised weights `W`
-# (shape `(N,)`), one uniform in each stratum $[(j-1)/N, j/N)$, returning the $N$ ancestor
-# indices as integers. Write it without looking at {ref}`resampling-numpy`. The checker
-# resamples weights with one zero among them a few thousand times and names what it sees: an
-# index out of range, a particle of weight zero drawn, copy counts that are wrong on average, or
-# copy counts right on average that vary more than multinomial resampling's.
+# (Coding.) The chapter's code shows multinomial, systematic and residual resampling, not the
+# stratified scheme. Write `my_stratified(W, rng)`: one independent uniform in each stratum
+# $[(j-1)/N, j/N)$, drawn from the generator `rng` it is given, returning the $N$ ancestor
+# indices as integers. The checker resamples eight weights thousands of times. One particle's
+# segment lies astride two strata, half in each, so stratified resampling gives it $0$, $1$ or
+# $2$ copies while systematic resampling always gives it exactly one: the checker tells the
+# schemes apart by that count's variance. It also checks the generator (same seed, same
+# answer; another seed, another; NumPy's global generator untouched) and names what it sees.
 # ```
 
 # %% tags=["answer"]
+from pfcourse.exercises import check_stratified_resampler
+
+
 def my_stratified(W, rng):
-    """Your stratified resampler: return N ancestor indices (integers in [0, N))."""
+    """Your stratified resampler: N ancestor indices (integers in [0, N))."""
     ...  # replace with your code
 
 
-print(check_resampler(my_stratified))
+print(check_stratified_resampler(my_stratified))
 
 # %% [markdown]
 # ```{solution} ex-resampling-code
 # :class: dropdown
-# Algorithm 6.1 with one uniform per stratum; the code is in the folded cell below (in
-# JupyterLab, click its margin to unfold it). Capping the index at $N - 1$ guards against a
-# cumulative sum that ends just below $1$.
+# Algorithm 6.1 with one uniform per stratum, `rng.random(N)` where systematic resampling has
+# `rng.random()`; the code is in the folded cell below (in JupyterLab, click its margin to
+# unfold it). Capping the index at $N - 1$ guards against a cumulative sum that ends just
+# below $1$.
 # ```
 
 # %% tags=["solution", "hide-input"] jupyter={"source_hidden": true}
 def my_stratified(W, rng):
     n = len(W)
     u = (np.arange(n) + rng.random(n)) / n
-    return np.minimum(np.searchsorted(np.cumsum(W), u, side="right"), n - 1)
+    i = np.searchsorted(np.cumsum(W), u, side="right")
+    return np.minimum(i, n - 1)
 
 
-print(check_resampler(my_stratified))
+print("same as pfcourse.resampling.stratified:", all(
+    np.array_equal(my_stratified(W_test, np.random.default_rng(s)),
+                   SCHEMES["stratified"](W_test, np.random.default_rng(s))) for s in range(n_seeds)))
+print(check_stratified_resampler(my_stratified))
 
 # %% [markdown]
 # ## Takeaways
@@ -556,3 +567,9 @@ print(check_resampler(my_stratified))
 #   no general guarantee against multinomial resampling.
 # - Test a resampler for unbiasedness on weights with some $n W_i < 1$: filterpy's residual
 #   resampling fails that test.
+#
+# :::{dropdown} From the labs
+# The labs ask how a resampler can be tested. This chapter's answer is in
+# {ref}`resampling-filterpy`: the unbiasedness test, on weights some of which get no sure
+# copy, and the bias it finds in filterpy's residual resampling. {doc}`../labs` describes the labs.
+# :::

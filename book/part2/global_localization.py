@@ -19,7 +19,7 @@
 # **You need** {doc}`robot` and {doc}`../part1/proposals`; a change of variables in a density;
 # NumPy arrays and a random generator.
 #
-# **Time:** about eleven minutes to read; the notebook runs in about twenty seconds (the studies are
+# **Time:** about twenty-five minutes to read; the notebook runs in about twenty seconds (the studies are
 # stored data).
 # :::
 #
@@ -62,6 +62,7 @@ from pfcourse.resampling import systematic
 from pfcourse.robot.mcl import (AugmentedMCL, KidnapRobotModel, SensorPoseSampler, kidnap, kidnap_pose,
                                 sensor_mixture_proposal)
 from pfcourse.robot.scenario import RobotModel, simulate_robot
+from pfcourse.seeding import run_filter_seed
 from pfcourse.style import COLORS, use_style
 
 use_style()
@@ -212,13 +213,20 @@ print("the same poses as the package's sampler, to the last bit:", np.array_equa
 
 # %%
 kmodel = KidnapRobotModel(model, teleport=1e-3)
-res = ParticleFilter(kmodel, 2000, proposal=sensor_mixture_proposal(kmodel, share=0.1)).run(
-    sim.measurements, rng=5, store_particles=True)
+pf = ParticleFilter(kmodel, 2000, proposal=sensor_mixture_proposal(kmodel, share=0.1))
+# step the filter through its first readings, keeping the clouds of steps 1, 2 and 4
+shown = {}
+for step in pf.steps(sim.measurements, rng=run_filter_seed(5)):
+    if step.k in (1, 2, 4):
+        shown[step.k] = step
+    if step.k == 4:
+        break
 fig, axes = plt.subplots(1, 3, figsize=(10, 3.6), sharex=True, sharey=True)
-for ax, k in zip(axes, (1, 2, 4)):
-    alive = res.weights[k] > res.weights[k].max() / 100
-    ax.scatter(res.particles[k, :, 0], res.particles[k, :, 1], s=1, color="0.75", label="all particles")
-    ax.scatter(res.particles[k, alive, 0], res.particles[k, alive, 1], s=5, color=COLORS["particles"],
+for ax, (k, step) in zip(axes, shown.items()):
+    x, w = step.particles, step.weights
+    alive = w > w.max() / 100
+    ax.scatter(x[:, 0], x[:, 1], s=1, color="0.75", label="all particles")
+    ax.scatter(x[alive, 0], x[alive, 1], s=5, color=COLORS["particles"],
                label="within 1 % of the largest weight")
     ax.plot(sim.landmarks[:, 0], sim.landmarks[:, 1], "*k", ms=9, label="landmarks")
     ax.plot(*sim.truth[k, :2], "o", color=COLORS["truth"], mfc="none", ms=11, mew=2, label="truth")

@@ -17,7 +17,7 @@
 #
 # **You need** {doc}`robot` and {doc}`global_localization`; Gaussian densities; NumPy arrays.
 #
-# **Time:** about nine minutes to read; the notebook runs in about ten seconds on a quiet machine
+# **Time:** about twenty-eight minutes to read; the notebook runs in about ten seconds on a quiet machine
 # (longer on a busy one); its four studies are stored, as they take minutes.
 # :::
 #

@@ -19,7 +19,7 @@
 # **You need** {doc}`../part1/sir` (the bootstrap filter, resampling when the ESS is low);
 # sines and cosines of a heading; NumPy arrays.
 #
-# **Time:** about seven minutes to read; the notebook runs in about half a minute.
+# **Time:** about twenty-six minutes to read; the notebook runs in about half a minute.
 # :::
 #
 # A wheeled robot knows its map, five landmarks at known positions, but not where it is. Its
@@ -83,7 +83,9 @@ from pfcourse.figures.clouds import animate_clouds
 from pfcourse.figures.report import EvidenceBlock, glue_values
 from pfcourse.figures.widgets import (control_panel, particle_slider, scale_slider, scheme_dropdown, seed_box,
                                       threshold_slider)
+from pfcourse.collectors import Clouds
 from pfcourse.filter import ParticleFilter
+from pfcourse.seeding import run_filter_seed
 from pfcourse.metrics import LOCK_WINDOW_S, position_error, position_spread
 from pfcourse.robot.figures import error_bands, landmarks_background, robot_map, sight_overlay
 from pfcourse.robot.scenario import INITIAL_STD, RobotModel, motion, rmse, simulate_robot, tracking_errors
@@ -172,9 +174,9 @@ def mcl(odometry, measurements, landmarks, Q, R, x0, x0_sd, n, tau, rng, dt=1.0)
 # %%
 N, TAU = 300, 0.5
 mine = mcl(sim.odometry, sim.measurements, sim.landmarks, model.q_est, model.r_est, sim.truth[0],
-           np.array(INITIAL_STD), N, TAU, np.random.default_rng(3))
-result = ParticleFilter(model, N, threshold=TAU, resampler="systematic").run(sim.measurements, rng=3,
-                                                                            store_particles=True)
+           np.array(INITIAL_STD), N, TAU, np.random.default_rng(run_filter_seed(3)))
+result = ParticleFilter(model, N, threshold=TAU, resampler="systematic").run(
+    sim.measurements, rng=run_filter_seed(3))
 gap = tracking_errors(result.mean, mine)
 ROUND_OFF = 1e-9
 print(f"largest difference from the engine's means over {len(gap)} steps below {ROUND_OFF:.0e} "
@@ -188,7 +190,7 @@ print(f"largest difference from the engine's means over {len(gap)} steps below {
 glue_values(mcl_bound=ROUND_OFF)
 EvidenceBlock(
     "the NumPy loop is the engine's run",
-    notes=[f"Same seed (3), same scenario run, N = {N}, tau = {TAU}, systematic resampling; the engine "
+    notes=[f"Same filter seed (run_filter_seed(3) = 4; the data use 3), same scenario run, N = {N}, tau = {TAU}, systematic resampling; the engine "
            f"resampled at {result.n_resamples} of {len(gap)} steps.",
            "The remaining differences come from the order of floating-point operations (the engine computes the "
            "weighted mean relative to the first particle, and the range as sqrt(dx^2 + dy^2))."],
@@ -311,7 +313,7 @@ EvidenceBlock(
 # %%
 sim_g = simulate_robot(rng=5, n_steps=30)
 model_g = RobotModel.for_simulation(sim_g, initial="uniform")
-res_g = ParticleFilter(model_g, 20000).run(sim_g.measurements, rng=5, store_particles=True)
+res_g = ParticleFilter(model_g, 20000).run(sim_g.measurements, rng=run_filter_seed(5), collect=[Clouds()])
 snap = [0, 1, 2, 3, 10, 29]
 fig, axes = plt.subplots(2, 3, figsize=(10.5, 7.2), sharex=True, sharey=True)
 for ax, k in zip(axes.flat, snap):
@@ -351,7 +353,7 @@ for k in snap:
                       "mean's distance from the truth (m)": float(position_error(sim_g.truth[k], res_g.mean[k]))})
 glue_values(ring_mean_error_m=snap_rows[1]["mean's distance from the truth (m)"])
 EvidenceBlock("one Gaussian summarises the ring wrongly",
-              notes=["The run of the figure (seed 5, N = 20 000), at the times of its panels."],
+              notes=["The run of the figure (data seed 5, filter seed run_filter_seed(5) = 6, N = 20 000), at the times of its panels."],
               tables=[("The cloud at each panel's time", pd.DataFrame(snap_rows),
                        {"ESS": ".0f", "mean's distance from the truth (m)": ".1f"})])
 
@@ -443,7 +445,7 @@ def draw(n_particles=300, q_scale=2.0, r_scale=2.0, threshold=0.5, scheme="syste
         fig, axes = plt.subplots(1, 2, figsize=(10, 3.6), gridspec_kw={"width_ratios": [1, 2]})
         fig.subplots_adjust(left=0.065, right=0.99, bottom=0.14, top=0.91, wspace=0.22)
     try:
-        r = ParticleFilter(m, n_particles, threshold=threshold, resampler=scheme).run(s.measurements, seed)
+        r = ParticleFilter(m, n_particles, threshold=threshold, resampler=scheme).run(s.measurements, run_filter_seed(seed))
     except DegenerateWeightsError as exc:  # every particle lost: say so instead of failing
         axes[1].text(0.5, 0.5, f"filter lost track at step {exc.step}", ha="center", transform=axes[1].transAxes)
         return

@@ -19,7 +19,7 @@
 # **You need** {doc}`../part1/sir` and {doc}`../part1/kalman`; bilinear interpolation; NumPy
 # arrays; paired tests ({doc}`../evidence`).
 #
-# **Time:** about twelve minutes to read; the notebook runs in about twenty seconds (the studies
+# **Time:** about thirty-one minutes to read; the notebook runs in about twenty seconds (the studies
 # are stored).
 # :::
 #
@@ -51,6 +51,7 @@ from pfcourse.terrain.scenario import AircraftScenario, extended_kalman_filter, 
 from pfcourse.exercises import check_altimeter_likelihood
 from pfcourse.figures.clouds import animate_clouds
 from pfcourse.figures.report import EvidenceBlock, glue_values
+from pfcourse.collectors import Clouds
 from pfcourse.filter import ParticleFilter
 from pfcourse.style import COLORS, plain_log_axis, use_style
 from pfcourse.terrain.map import hillshade, load_jacksboro
@@ -255,7 +256,7 @@ def altimeter_log_likelihood(particles, reading, terrain, Rf):
 model = scenario.model(terrain)
 check_flight = simulate(scenario, terrain, data_rng(0, 0))
 stored = ParticleFilter(model, 3000, threshold=0.5, resampler="multinomial").run(
-    check_flight.measurements, rng=filter_rng(0, 0), store_particles=True)
+    check_flight.measurements, rng=filter_rng(0, 0), collect=[Clouds()])
 TOLERANCE = 1e-9  # in log-likelihood: round-off only
 worst = 0.0
 for k in (1, 5, 20, 80):
@@ -299,7 +300,7 @@ glue("terrain_diverged_flight", bad, display=False)
 # %%
 pf = ParticleFilter(scenario.model(terrain), 3000, threshold=0.5, resampler="multinomial")
 flight = simulate(scenario, terrain, data_rng(0, good))
-run = pf.run(flight.measurements, rng=filter_rng(0, good), store_particles=True)
+run = pf.run(flight.measurements, rng=filter_rng(0, good), collect=[Clouds()])
 err = run.mean - flight.truth  # estimate - truth, the book's sign
 sig = np.sqrt(np.diagonal(run.cov, axis1=1, axis2=2))
 t = flight.T
@@ -687,7 +688,7 @@ def draw(qf_scale=1.0, rf_scale=1.0, n_particles=3000, threshold=0.5, scheme="mu
     sc = scenario.with_(Qf=scenario.Qf * qf_scale, Rf=scenario.Rf * rf_scale)
     fl = simulate(sc, terrain, data_rng(0, seed))
     res = ParticleFilter(sc.model(terrain), n_particles, threshold=threshold, resampler=scheme).run(
-        fl.measurements, rng=filter_rng(0, seed), store_particles=True)
+        fl.measurements, rng=filter_rng(0, seed), collect=[Clouds()])
     # the map's colour bar (taken from the left axes) keeps clear of the error axis's labels
     fig, (ax1, ax2) = plt.subplots(1, 2, figsize=(10, 4.2), width_ratios=[1, 1.3], gridspec_kw={"wspace": 0.38})
     c = fl.truth[40, :2] / KM

@@ -19,7 +19,7 @@
 # **You need** {doc}`terrain` and {doc}`../part1/resampling_schemes`; covariance matrices and their square
 # roots; paired tests ({doc}`../evidence`).
 #
-# **Time:** about thirteen minutes to read; the notebook runs in under twenty seconds (the studies
+# **Time:** about thirty minutes to read; the notebook runs in under twenty seconds (the studies
 # are stored).
 # :::
 #
@@ -204,8 +204,9 @@ def regularised_move(particles, scale, rng, angle=3):
 
 flight = simulate(scenario, terrain, data_rng(0, 0))
 pf = FILTERS["bootstrap N=3000"].build(scenario, terrain)
-cloud = pf.run(flight.measurements[:6], rng=filter_rng(0, 0), store_particles=True)
-resampled = cloud.particles[-1][np.random.default_rng(5).choice(3000, 3000, p=cloud.weights[-1])]
+# step the filter through the first six readings and keep the last step's weighted cloud
+last = list(pf.steps(flight.measurements[:6], rng=filter_rng(0, 0)))[-1]
+resampled = last.particles[np.random.default_rng(5).choice(3000, 3000, p=last.weights)]
 ours = regularised_move(resampled, 0.2, np.random.default_rng(7))
 package = RegularisedJitter(0.2, (3,))(resampled, np.random.default_rng(7))
 TOLERANCE = 1e-9  # metres and radians: the same draws, so round-off only

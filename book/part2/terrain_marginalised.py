@@ -19,7 +19,7 @@
 # **You need** {doc}`terrain`, {doc}`terrain_cure` and {doc}`../part1/rao_blackwell`; the scalar
 # Kalman filter; NumPy arrays.
 #
-# **Time:** about seven minutes to read; the notebook runs in about twenty seconds (the studies
+# **Time:** about twenty minutes to read; the notebook runs in about twenty seconds (the studies
 # over the flights are stored).
 # :::
 #
@@ -316,14 +316,15 @@ SNAP_CELL, SNAP_HEADING = CELLS[1]  # one of the study's resolutions
 fl = simulate(scenario, terrain, data_rng(0, FLIGHT))
 grid = PointMassFilter(terrain, scenario, cell=SNAP_CELL, heading_step=np.radians(SNAP_HEADING))
 grid.run(fl.measurements[: SNAPSHOT + 1], keep=SNAPSHOT)
-cloud = marginalised_filter(terrain, scenario, 3000, threshold=0.5, resampler="multinomial").run(
-    fl.measurements[: SNAPSHOT + 1], rng=filter_rng(0, FLIGHT), store_particles=True)
+pf = marginalised_filter(terrain, scenario, 3000, threshold=0.5, resampler="multinomial")
+# the weighted cloud of the last step, the snapshot
+cloud = list(pf.steps(fl.measurements[: SNAPSHOT + 1], rng=filter_rng(0, FLIGHT)))[-1]
 post = grid.kept.sum(axis=0)
 fig, ax = plt.subplots(figsize=(7.0, 4.6))
 c = grid.cell / 2
 im = ax.imshow(post / post.max(), origin="lower", cmap="Greys",
                extent=(grid.kept_x[0] - c, grid.kept_x[-1] + c, grid.kept_y[0] - c, grid.kept_y[-1] + c))
-ax.plot(*cloud.particles[SNAPSHOT][::5, :2].T, ".", ms=1.5, color="tab:green", label="marginalised PF (1 in 5)")
+ax.plot(*cloud.particles[::5, :2].T, ".", ms=1.5, color="tab:green", label="marginalised PF (1 in 5)")
 ax.plot(*fl.truth[SNAPSHOT, :2], "x", color="tab:red", ms=9, mew=2, label="truth")
 ax.set_xlabel("east (m)")
 ax.set_ylabel("north (m)")

@@ -13,12 +13,12 @@
 # :class: chapter-header
 # **You learn** how to settle a question about a filter's settings with many seeded runs
 # instead of one: common random numbers, a paired comparison with its interval, and the
-# difference a study could have detected; then what the number of particles and the noise
+# differences a study's data exclude; then what the number of particles and the noise
 # levels the filter assumes do to the robot of Part II.
 #
 # **You need** {doc}`../part2/robot` and {doc}`../evidence` (the intervals and tests).
 #
-# **Time:** about seven minutes to read; the notebook runs in about twenty seconds.
+# **Time:** about twenty-one minutes to read; the notebook runs in about twenty seconds.
 # :::
 #
 # ## The idea: one question, many runs, the same worlds
@@ -152,23 +152,33 @@ plt.show()
 n_vs = paired_vs(n_table, "n_particles", 300, printed=False)
 n_grid = sorted(n_by_run.columns)
 n_steps_vs = {(a, b): evidence.paired(n_by_run[a], n_by_run[b], ratio=True) for a, b in zip(n_grid, n_grid[1:])}
+# each sweep is one family of comparisons: verdicts from Holm-adjusted p-values (family-wise rate 5 %)
+n_holm, n_steps_holm = evidence.holm_verdicts(n_vs), evidence.holm_verdicts(n_steps_vs)
 # the prose: 1000 particles are measurably (a little) better than 300, and fewer are worse; every step is measurable
-assert n_vs[1000].verdict() == "A lower" and all(n_vs[n].verdict() == "A higher" for n in (20, 50, 100))
-assert all(cmp.verdict() == "A higher" for cmp in n_steps_vs.values())
+assert n_holm[1000][0] == "A lower" and all(n_holm[n][0] == "A higher" for n in (20, 50, 100))
+assert all(v == "A higher" for v, _ in n_steps_holm.values())
 glue_summary(n_table, "n_particles", "position_rmse", "n_rmse")
 glue_summary(n_table, "n_particles", "mean_nees", "n_nees")
 glue_values("n_ratio_1000", **{"": n_vs[1000].median, "_low": n_vs[1000].low, "_high": n_vs[1000].high})
 EvidenceBlock(
     "more particles help in measurable, shrinking steps; below 100 the filter is over-confident",
     notes=[f"{N_RUNS} runs per N on the same seeds (stored study robot_studies/n_particles). Ratios: median of the "
-           "per-run RMSE ratios, 95 % percentile bootstrap interval, Wilcoxon's p (pfcourse.evidence.paired)."],
+           "per-run RMSE ratios, 95 % percentile bootstrap interval, Wilcoxon's p (pfcourse.evidence.paired).",
+           "The steps between successive N are one family, each N against 300 another: verdicts need the "
+           "Holm-adjusted p below 0.05 (pfcourse.evidence.holm_verdicts), so the chance of any false verdict in a "
+           "family is at most 5 %."],
     tables=[("Medians over the runs", medians(n_table, "n_particles", {
                 "position_rmse": "RMSE (m)", "mean_nees": "NEES", "mean_position_sd": "filter's sd (m)"}),
              {"RMSE (m)": ".3f", "NEES": ".3g", "filter's sd (m)": ".3f"}),
             ("Each N against the next, run by run (RMSE with the smaller N / with the larger)",
-             pd.DataFrame([{"N": f"{a} / {b}", "ratio": c.median, "low": c.low, "high": c.high, "Wilcoxon p": c.pvalue}
+             pd.DataFrame([{"N": f"{a} / {b}", "ratio": c.median, "low": c.low, "high": c.high, "Wilcoxon p": c.pvalue,
+                            "Holm p": n_steps_holm[(a, b)][1], "verdict": n_steps_holm[(a, b)][0]}
                            for (a, b), c in n_steps_vs.items()]),
-             {"ratio": ".2f", "low": ".2f", "high": ".2f", "Wilcoxon p": ".2g"})],
+             {"ratio": ".2f", "low": ".2f", "high": ".2f", "Wilcoxon p": ".2g", "Holm p": ".2g"}),
+            ("Each N against 300, run by run", pd.DataFrame(
+                [{"N": n, "ratio": c.median, "low": c.low, "high": c.high, "Wilcoxon p": c.pvalue,
+                  "Holm p": n_holm[n][1], "verdict": n_holm[n][0]} for n, c in n_vs.items()]),
+             {"ratio": ".2f", "low": ".2f", "high": ".2f", "Wilcoxon p": ".2g", "Holm p": ".2g"})],
 )
 
 # %% [markdown]
@@ -221,30 +231,36 @@ noise_scale_figure(q_table, "q_scale", "$Q_{est}$ scale")
 
 # %% tags=["remove-input"] jupyter={"source_hidden": true}
 q_vs = paired_vs(q_table, "q_scale", 2, printed=False)
+q_holm = evidence.holm_verdicts(q_vs)  # the six scales against the default: one family (Holm)
 # the prose says no scale is measurably better than the default, and which ones are worse
-assert all(c.verdict() != "A lower" for c in q_vs.values())
-assert [q for q, c in q_vs.items() if c.verdict() == "A higher"] == [0.25, 0.5, 20, 100]
+assert all(v != "A lower" for v, _ in q_holm.values())
+assert [q for q, (v, _) in q_holm.items() if v == "A higher"] == [0.25, 0.5, 20, 100]
 assert median(q_table, "q_scale", "position_rmse").idxmin() == 2  # "the default sits at the bottom"
 glue_summary(q_table, "q_scale", "mean_nees", "q_nees")
 glue_summary(q_table, "q_scale", "estimate_jitter", "q_jitter")
 glue_values("q_ratio_0.5", **{"": q_vs[0.5].median, "_low": q_vs[0.5].low, "_high": q_vs[0.5].high})
 
 
-def scale_tables(table, key, vs):
+def scale_tables(table, key, vs, holm):
     medians_ = medians(table, key, {"position_rmse": "RMSE (m)", "mean_nees": "NEES",
                                      "mean_position_sd": "filter's sd (m)", "estimate_jitter": "jitter (m/step)"})
     paired = pd.DataFrame([{key: s, "RMSE / default": c.median, "low": c.low, "high": c.high, "Wilcoxon p": c.pvalue,
-                            "detectable": c.detectable, "verdict": c.verdict()} for s, c in vs.items()])
+                            "Holm p": holm[s][1], "excluded beyond": c.detectable, "verdict": holm[s][0]}
+                           for s, c in vs.items()])
     return [("Medians over the runs", medians_, {"RMSE (m)": ".3f", "NEES": ".3g", "filter's sd (m)": ".3f",
                                                 "jitter (m/step)": ".3f"}),
             ("Each scale against the default (2), run by run", paired,
-             {"RMSE / default": ".2f", "low": ".2f", "high": ".2f", "Wilcoxon p": ".2g", "detectable": ".2f"})]
+             {"RMSE / default": ".2f", "low": ".2f", "high": ".2f", "Wilcoxon p": ".2g", "Holm p": ".2g",
+              "excluded beyond": ".2f"})]
 
 
 EvidenceBlock(
     "no Q_est scale beats the default; below 1 the filter becomes over-confident",
-    notes=[f"{N_RUNS} runs per scale on the same seeds (stored study robot_studies/q_scale)."],
-    tables=scale_tables(q_table, "q_scale", q_vs),
+    notes=[f"{N_RUNS} runs per scale on the same seeds (stored study robot_studies/q_scale).",
+           "The six scales against the default are one family: a verdict needs the interval to exclude 1 and the "
+           "Holm-adjusted p below 0.05 (pfcourse.evidence.holm_verdicts). 'Excluded beyond': the factor beyond which "
+           "the interval excludes the ratio, either way."],
+    tables=scale_tables(q_table, "q_scale", q_vs, q_holm),
 )
 
 # %% [markdown]
@@ -299,16 +315,18 @@ noise_scale_figure(r_table, "r_scale", "$R_{est}$ scale")
 
 # %% tags=["remove-input"] jupyter={"source_hidden": true}
 r_vs = paired_vs(r_table, "r_scale", 2, printed=False)
+r_holm = evidence.holm_verdicts(r_vs)  # the six scales against the default: one family (Holm)
 # the prose: only the scales below the truth are measurably worse, none is better
-assert [r for r, c in r_vs.items() if c.verdict() != "no difference detected"] == [0.25, 0.5]
-assert all(r_vs[r].verdict() == "A higher" for r in (0.25, 0.5))
+assert [r for r, (v, _) in r_holm.items() if v != "no difference detected"] == [0.25, 0.5]
+assert all(r_holm[r][0] == "A higher" for r in (0.25, 0.5))
 glue_summary(r_table, "r_scale", "mean_nees", "r_nees")
 glue_values("r_", detectable=max(c.detectable for r, c in r_vs.items() if r >= 1), ratio_100=r_vs[100].median,
             ratio_100_low=r_vs[100].low, ratio_100_high=r_vs[100].high)
 EvidenceBlock(
     "the filter does not lose the robot at any R_est scale; a wrong scale spoils its covariance more than its accuracy",
-    notes=[f"{N_RUNS} runs per scale on the same seeds (stored study robot_studies/r_scale)."],
-    tables=scale_tables(r_table, "r_scale", r_vs),
+    notes=[f"{N_RUNS} runs per scale on the same seeds (stored study robot_studies/r_scale).",
+           "The six scales against the default are one family: verdicts from Holm-adjusted p-values, as above."],
+    tables=scale_tables(r_table, "r_scale", r_vs, r_holm),
 )
 
 # %% [markdown]
@@ -316,8 +334,8 @@ EvidenceBlock(
 # does **not** lose the robot: even at $100$ times the true variance its RMSE is
 # {glue:text}`r_ratio_100:.2f` times the default's, run by run (95 % interval
 # {glue:text}`r_ratio_100_low:.2f`-{glue:text}`r_ratio_100_high:.2f`). From a scale of $1$ up no
-# difference is detected, and the study bounds it to a factor of at most
-# {glue:text}`r_detectable:.2f` either way. The landmarks are observed every second, and even a
+# difference is detected, and the data exclude a factor beyond {glue:text}`r_detectable:.2f`
+# either way. The landmarks are observed every second, and even a
 # filter that believes the range error is ten times larger than it is averages many of them.
 #
 # Report 004's bracket is right about the filter's *honesty* more than its accuracy: below $1$ the
@@ -463,8 +481,8 @@ print(check_paired_se(my_se))
 # - Judge a setting over many seeded runs, not one: a single run's difference can be luck.
 # - Common random numbers (the same seeds for every setting) make the per-run differences small,
 #   so a paired comparison detects what independent runs would need many more runs to see.
-# - Report a paired ratio with its interval, and, when no difference is found, the difference the
-#   study could have detected.
+# - Report a paired ratio with its interval, and, when no difference is found, the differences the
+#   data exclude (those beyond the interval); a sweep of many levels controls its family-wise error.
 # - On the robot, $300$ particles suffice; a noise level assumed too small makes the filter
 #   over-confident, one assumed too large makes it pessimistic, and both matter more for its
 #   covariance than for its accuracy.

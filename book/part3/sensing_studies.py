@@ -18,7 +18,7 @@
 #
 # **You need** {doc}`robot_studies` (how a study is run and read) and {doc}`../part2/robot`.
 #
-# **Time:** about six minutes to read; the notebook runs in about fifteen seconds.
+# **Time:** about nineteen minutes to read; the notebook runs in about fifteen seconds.
 # :::
 #
 # ## The idea: prediction spreads, measurement gathers
@@ -197,7 +197,8 @@ plt.show()
 
 # %% tags=["remove-input"] jupyter={"source_hidden": true}
 dt_vs = paired_vs(dt_table, "dt_meas", 1.0, printed=False)
-assert all(c.verdict() == "A higher" for c in dt_vs.values())  # the prose: the error grows with the period
+dt_holm = evidence.holm_verdicts(dt_vs)  # every period against 1 s: one family (Holm)
+assert all(v == "A higher" for v, _ in dt_holm.values())  # the prose: the error grows with the period
 dt_rmse = median(dt_table, "dt_meas", "position_rmse")
 glue_values("dt_", rmse_1=dt_rmse[1.0], rmse_2=dt_rmse[2.0], rmse_20=dt_rmse[20.0], ratio_20=dt_vs[20.0].median,
             ratio_20_low=dt_vs[20.0].low, ratio_20_high=dt_vs[20.0].high,
@@ -205,14 +206,16 @@ glue_values("dt_", rmse_1=dt_rmse[1.0], rmse_2=dt_rmse[2.0], rmse_20=dt_rmse[20.
 EvidenceBlock(
     "the error grows with the measurement period, and the filter knows it",
     notes=[f"{N_RUNS} runs of 200 s per period, same seeds (stored study robot_studies/dt_meas). Ratios: each "
-           "period against 1 s, run by run (pfcourse.evidence.paired)."],
+           "period against 1 s, run by run (pfcourse.evidence.paired); the periods are one family, verdicts from "
+           "Holm-adjusted p-values (pfcourse.evidence.holm_verdicts: family-wise error rate at most 5 %)."],
     tables=[("Medians over the runs", medians(dt_table, "dt_meas", {
                 "position_rmse": "position RMSE (m)", "heading_rmse_deg": "heading RMSE (deg)",
                 "mean_position_sd": "filter's sd (m)", "mean_nees": "median NEES"}),
              {"position RMSE (m)": ".3f", "heading RMSE (deg)": ".2f", "filter's sd (m)": ".3f", "median NEES": ".2f"}),
             ("Position RMSE against a measurement every second, run by run",
-             pd.DataFrame([{"dt_meas (s)": d, "ratio": c.median, "low": c.low, "high": c.high, "Wilcoxon p": c.pvalue}
-                           for d, c in dt_vs.items()]), {"ratio": ".2f", "low": ".2f", "high": ".2f",
+             pd.DataFrame([{"dt_meas (s)": d, "ratio": c.median, "low": c.low, "high": c.high, "Wilcoxon p": c.pvalue,
+                            "Holm p": dt_holm[d][1], "verdict": dt_holm[d][0]}
+                           for d, c in dt_vs.items()]), {"ratio": ".2f", "low": ".2f", "high": ".2f", "Holm p": ".2g",
                                                          "Wilcoxon p": ".2g"})],
 )
 
@@ -263,9 +266,10 @@ plt.show()
 
 # %% tags=["remove-input"] jupyter={"source_hidden": true}
 lm_vs = paired_vs(lm_table, "n_landmarks", 3, printed=False)
+lm_holm = evidence.holm_verdicts(lm_vs)  # every number of landmarks against 3: one family (Holm)
 # the prose: fewer than 3 landmarks are measurably worse, more than 3 not measurably different
-assert all(lm_vs[m].verdict() == "A higher" for m in (1, 2))
-assert all(lm_vs[m].verdict() == "no difference detected" for m in (5, 10, 30))
+assert all(lm_holm[m][0] == "A higher" for m in (1, 2))
+assert all(lm_holm[m][0] == "no difference detected" for m in (5, 10, 30))
 lm_medians = median(lm_table, "n_landmarks", "position_rmse")
 BAD_RUN = 0.3  # "bad runs": an RMSE above 0.3 m
 by_run = lm_table.pivot(index="run", columns="n_landmarks", values="position_rmse")
@@ -280,7 +284,9 @@ glue_values("lm_", rmse_1=lm_medians[1], rmse_2=lm_medians[2], ratio_2=lm_vs[2].
             q90_gain=q90_gain[0], q90_gain_low=q90_gain[1], q90_gain_high=q90_gain[2])
 EvidenceBlock(
     "from three landmarks on the typical error is flat; more landmarks still cut the bad runs",
-    notes=[f"{N_RUNS} runs per number of landmarks, same seeds (stored study robot_studies/n_landmarks).",
+    notes=[f"{N_RUNS} runs per number of landmarks, same seeds (stored study robot_studies/n_landmarks). Every "
+           "number against 3 is one family: verdicts from Holm-adjusted p-values (pfcourse.evidence.holm_verdicts); "
+           "'excluded beyond': the factor beyond which the 95 % interval excludes the ratio, either way.",
            f"Runs with an RMSE above {BAD_RUN} m, 3 landmarks against 30: {bad_runs}.",
            f"90 % quantile of the RMSE, 3 minus 30 landmarks on the same runs: {q90_gain[0]:.3f} m, 95 % bootstrap "
            f"interval {q90_gain[1]:.3f} to {q90_gain[2]:.3f} m."],
@@ -291,8 +297,10 @@ EvidenceBlock(
         axis=1).reset_index(), {"median RMSE (m)": ".3f", "90 % (m)": ".3f", "heading RMSE (deg)": ".2f"}),
             ("Position RMSE against 3 landmarks, run by run",
              pd.DataFrame([{"landmarks": m, "ratio": c.median, "low": c.low, "high": c.high, "Wilcoxon p": c.pvalue,
-                            "detectable": c.detectable} for m, c in lm_vs.items()]),
-             {"ratio": ".2f", "low": ".2f", "high": ".2f", "Wilcoxon p": ".2g", "detectable": ".2f"})],
+                            "Holm p": lm_holm[m][1], "excluded beyond": c.detectable, "verdict": lm_holm[m][0]}
+                           for m, c in lm_vs.items()]),
+             {"ratio": ".2f", "low": ".2f", "high": ".2f", "Wilcoxon p": ".2g", "Holm p": ".2g",
+              "excluded beyond": ".2f"})],
 )
 
 # %% [markdown]
@@ -302,8 +310,8 @@ EvidenceBlock(
 # Two landmarks still give {glue:text}`lm_ratio_2:.2f` times the
 # error of three, run by run (95 % interval {glue:text}`lm_ratio_2_low:.2f`-{glue:text}`lm_ratio_2_high:.2f`).
 #
-# From three landmarks on no paired difference is detected (a factor beyond
-# {glue:text}`lm_detectable:.2f` either way would have been seen): report 004's "little influence"
+# From three landmarks on no paired difference is detected, and the data exclude a factor beyond
+# {glue:text}`lm_detectable:.2f` either way: report 004's "little influence"
 # holds from three on. What more landmarks still buy is fewer bad runs, since a layout with every
 # landmark on one side becomes unlikely: the 90 % quantile of the RMSE falls by
 # {glue:text}`lm_q90_gain:.3f` m from three landmarks to thirty (95 % interval

@@ -18,7 +18,7 @@
 # **You need** {doc}`../part2/robot` and {doc}`../part2/robot_vs_kalman`; the log-domain weights of
 # {doc}`../part1/sis`; Poisson and uniform distributions.
 #
-# **Time:** about seven minutes to read; the notebook runs in under half a minute.
+# **Time:** about twenty-one minutes to read; the notebook runs in under half a minute.
 # :::
 #
 # ## The idea: a reading from somewhere

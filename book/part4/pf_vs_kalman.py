@@ -19,7 +19,7 @@
 # **You need** {doc}`../part1/kalman`, {doc}`../part2/robot_vs_kalman` and {doc}`../part2/terrain`;
 # the chi-square distribution.
 #
-# **Time:** about nine minutes to read; the notebook runs in about half a minute.
+# **Time:** about thirty-two minutes to read; the notebook runs in about half a minute.
 # :::
 #
 # ## The idea: accurate, honest, affordable

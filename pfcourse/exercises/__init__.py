@@ -6,10 +6,23 @@ returns a :class:`CheckReport`: ``ok`` and a list of ``problems``, each a senten
 what is wrong and, where it can, why.  It never raises on a wrong answer (a student's
 exception is reported as a problem); ``str(report)`` prints the verdict.
 
+* :func:`check_two_beacon_filter` - ``fn(z, n_particles, rng, model) -> means``: the on-ramp's particle
+  filter for a robot on a rail ranging two beacons (:mod:`.onramp`), against the exact grid; one
+  beacon read, no motion noise, a standard deviation squared, the unweighted mean and a missing
+  reading used are named, and the filter must draw from the generator it is given.
+* :func:`check_cv_kalman` - the Kalman filter of a constant-velocity model (chapter 2's variant),
+  against the exact filter; six typical mistakes named (:mod:`.part1`).
+* :func:`check_stratified_resampler` - ``fn(weights, rng) -> indices``: stratified resampling, told
+  apart from systematic and multinomial by the exact offspring variance of a particle that straddles
+  two strata; it must draw from the generator it is given (:mod:`.part1`).
 * :func:`check_resampler` - ``fn(weights, rng) -> indices``: right type, shape and range,
   particles of weight 0 never chosen, and *unbiased*: the mean number of copies of particle
   ``i`` over many draws is ``N W_i`` (a z-test per particle at 5 standard errors), and no more
   variable than multinomial resampling (``sum_i Var N_i`` at most 1.5 times ``sum_i N W_i (1 - W_i)``).
+* :func:`check_importance_sampler` - ``fn(z, sd_v, n, rng) -> (estimate, ess)``: self-normalised
+  importance sampling of a Gaussian posterior mean with a proposal that is not the prior, against the
+  exact mean; weights that leave out the proposal or the prior, the likelihood alone, a variance read
+  as a standard deviation and a generator other than ``rng`` are named.
 * :func:`check_weight_update` - ``fn(log_weights, log_likelihoods) -> log_weights``: the
   normalised log-domain update ``log W_i + log p(z | x_i) - logsumexp_j(...)``, checked on
   ordinary values and on likelihoods of ``e^{-1000}`` that underflow in the linear domain.
@@ -22,6 +35,10 @@ exception is reported as a problem); ``str(report)`` prints the verdict.
 * :func:`check_ancestors` - ``fn(ancestors) -> origins``: the genealogy of a resampled cloud,
   each final particle's ancestor at step 0, on random ancestor indices; the steps followed
   forwards, one generation only and the last step left out are named.
+* :func:`check_multinomial_resampler` - ``fn(weights, rng) -> indices``: multinomial resampling
+  (``N`` independent draws), drawn from the generator it is given (NumPy's global state untouched,
+  same seed same answer, another seed another), unbiased, and told apart from stratified and
+  systematic resampling (too little offspring variance) and from one shared uniform (too much).
 * :func:`check_kalman` - ``fn(z, model) -> (means, variances, log_likelihood)``: a scalar Kalman
   filter with missing measurements, against :func:`scalar_kalman` to round-off (it is
   deterministic); a wrong one is compared with what each mistake of :data:`KALMAN_MISTAKES`
@@ -36,10 +53,20 @@ exception is reported as a problem); ``str(report)`` prints the verdict.
   particle's Kalman update of its map in the Rao-Blackwellised filter, against :func:`landmark_update`
   to round-off; the mistakes of :data:`LANDMARK_MISTAKES` are named (the robot forgotten or of the
   wrong sign, ``S`` without ``R``, no covariance update, a weight with ``R`` instead of ``S``).
+* :func:`check_fastslam2_move` - ``fn(r_pred, m_pred, P_pred, z, A, C, Qr, R, rng) -> (robots, log_w)``:
+  FastSLAM 2.0's robot move and weight for a cloud, against :func:`fastslam2_exact` (the weights up to a
+  constant, the robots standardised by the exact proposal); the generator is checked, and the mistakes
+  of :data:`FASTSLAM2_MISTAKES` are named (FastSLAM 1.0's weight, ``S`` without the map, the weight at
+  the new robot, the transition as move, the covariance not shrunk).
 * :func:`check_apf_second_stage` - ``fn(log_lik, log_pred, ancestors) -> log_weights``: the auxiliary
   filter's second-stage weights with the transition as proposal; the mistakes of
   :data:`APF_MISTAKES` are named (first stage not divided out, divided at the particle's own index,
   multiplied in again, not normalised).
+* :func:`check_apf_step` - ``fn(x, log_w, z, rng) -> (x_new, log_evidence)``: one fully adapted step
+  of the auxiliary filter on a scaled-sensor AR(1) model (:data:`APF_STEP_MODEL`), against the exact
+  mixture it draws from (:func:`apf_step_exact`): the generator is checked, and the mistakes of
+  :data:`APF_STEP_MISTAKES` are named (``W_(k-1)`` dropped, the predictive variance ``r``, the scale
+  ``c`` forgotten, the transition as move, moved then resampled).
 * :func:`check_log_likelihood` - ``fn(x, z, H, R) -> (N,)``: ``log N(z_s; H_s x^i, R_ss)`` for a cloud
   of the two-landmark model, ``s`` the measured coordinates of ``z`` (NaN for an unseen landmark),
   against :func:`landmark_log_likelihood`; the mistakes of :data:`LIKELIHOOD_MISTAKES` (NaN kept or
@@ -93,10 +120,20 @@ from pfcourse.exercises.checking import (  # noqa: F401
     _settled,
     _shaped,
 )
+from pfcourse.exercises.onramp import (  # noqa: F401
+    INFLATION,
+    TWO_BEACONS,
+    TWO_BEACON_MISTAKES,
+    check_two_beacon_filter,
+    two_beacon_case,
+    two_beacon_grid,
+)
 from pfcourse.exercises.part1 import (  # noqa: F401
     APF_MISTAKES,
     KALMAN_CASE,
     KALMAN_MISTAKES,
+    IS_TOY_CASE,
+    IS_TOY_MISTAKES,
     LANDMARK_CASE,
     LANDMARK_MISTAKES,
     LIKELIHOOD_CASES,
@@ -115,20 +152,33 @@ from pfcourse.exercises.part1 import (  # noqa: F401
     _per_step_answer,
     _proposal_mistakes,
     _scalar_filter,
+    APF_STEP_MISTAKES,
+    APF_STEP_MODEL,
     apf_second_stage,
+    apf_step_exact,
+    fastslam2_exact,
+    FASTSLAM2_CASE,
+    FASTSLAM2_MISTAKES,
     check_ancestors,
     check_apf_second_stage,
+    check_apf_step,
+    check_cv_kalman,
+    check_fastslam2_move,
+    check_importance_sampler,
     check_kalman,
     check_landmark_update,
     check_log_likelihood,
+    check_multinomial_resampler,
     check_optimal_proposal,
     check_resampler,
     check_sis,
+    check_stratified_resampler,
     check_weight_update,
     landmark_log_likelihood,
     landmark_update,
     scalar_kalman,
     scalar_optimal_proposal,
+    toy_is_limit,
 )
 from pfcourse.exercises.part2 import (  # noqa: F401
     ALTIMETER_DX,

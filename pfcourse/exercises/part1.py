@@ -84,6 +84,134 @@ def check_resampler(fn: Callable, n_draws: int = 4000, seed: int = 0) -> CheckRe
     return report
 
 
+#: The weights of :func:`check_stratified_resampler`, in eighths: particle 1's segment straddles two strata
+#: half and half (stratified: 0, 1 or 2 copies; systematic: always exactly one), particle 2 weighs nothing.
+STRATIFIED_WEIGHTS = np.array([0.5, 1.0, 0.0, 1.5, 1.0, 0.5, 2.0, 1.5]) / 8
+
+
+def _offspring_variances(w: np.ndarray) -> dict[str, np.ndarray]:
+    """Exact ``Var N_i`` of each particle under stratified, systematic and multinomial resampling."""
+    n = w.size
+    c = np.concatenate([[0.0], np.cumsum(w)])
+    lo, hi = np.arange(n) / n, np.arange(1, n + 1) / n
+    p = n * np.clip(np.minimum(hi[None], c[1:, None]) - np.maximum(lo[None], c[:-1, None]), 0, None)
+    r = n * w - np.floor(n * w + 1e-12)
+    return {"stratified": (p * (1 - p)).sum(axis=1), "systematic": r * (1 - r), "multinomial": n * w * (1 - w)}
+
+
+def _draws_from_its_generator(report: CheckReport, call: Callable) -> bool:
+    """Whether ``call(rng)`` leaves NumPy's global state alone, repeats itself for one seed and changes
+    with the seed; if not, say which, in one sentence, and return False."""
+    state = np.random.get_state()
+    try:
+        first, again = np.asarray(call(np.random.default_rng(1))), np.asarray(call(np.random.default_rng(1)))
+        others = [np.asarray(call(np.random.default_rng(s))) for s in range(2, 12)]
+    except Exception as exc:  # the student's error, reported
+        report.problems.append(f"calling fn(weights, rng) raised {type(exc).__name__}: {exc}")
+        return False
+    moved = not all(np.array_equal(a, b) for a, b in zip(state[1:], np.random.get_state()[1:]))
+    np.random.set_state(state)
+    if moved:
+        report.problems.append(
+            "it draws from NumPy's global generator (np.random.random, np.random.rand, ...), not from the rng it "
+            "is given: draw with rng.random(...), so that a seeded run gives the same answer")
+    elif not np.array_equal(first, again):
+        report.problems.append(
+            "two calls with generators of the same seed gave different answers: draw every uniform from the rng "
+            "argument, and from nothing else")
+    elif all(np.array_equal(first, o) for o in others):
+        report.problems.append(
+            "the result never changes with the seed: the rng is not used (each stratum needs a random uniform, "
+            "not its midpoint)")
+    return not report.problems
+
+
+def check_stratified_resampler(fn: Callable, n_draws: int = 4000, seed: int = 0) -> CheckReport:
+    """Check a stratified resampler ``fn(weights, rng) -> N ancestor indices``.
+
+    The weights are :data:`STRATIFIED_WEIGHTS` (``N = 8``). First the generator: NumPy's global state must
+    be untouched, one seed must give one answer and eleven seeds more than one. Then ``n_draws`` calls
+    (one generator seeded ``seed``): indices in range, no particle of weight 0 drawn, mean copy counts
+    ``N W_i`` within ``5 SE + 1e-9``, and each particle's ``Var N_i`` equal to stratified resampling's
+    exact ``sum_j p_ij (1 - p_ij)`` within ``5 SE + 0.02`` (SE from the counts' fourth moment). Where the
+    variances are wrong, the scheme whose exact variances are nearest (systematic, multinomial) is named:
+    particle 1 (``N W_1 = 1``, astride two strata) has variance 0 under systematic resampling, 1/2 under
+    stratified and 7/8 under multinomial, about 50 standard errors apart at 4000 draws.
+    """
+    state = np.random.get_state()  # a student's draws from the global generator are undone
+    try:
+        return _check_stratified(fn, n_draws, seed)
+    finally:
+        np.random.set_state(state)
+
+
+def _check_stratified(fn: Callable, n_draws: int, seed: int) -> CheckReport:
+    report = CheckReport("stratified resampler")
+    w = STRATIFIED_WEIGHTS
+    n = w.size
+    first = _answer(report, lambda: fn(w.copy(), np.random.default_rng(seed)), "fn(weights, rng)",
+                    "write the resampler and return the N ancestor indices")
+    if first is None:
+        return report
+    first = np.asarray(first)
+    if first.shape != (n,):
+        report.problems.append(f"returned shape {first.shape}; expected ({n},), one ancestor index per particle "
+                               "(indices, not copy counts)")
+        return report
+    if first.dtype.kind not in "iu":
+        report.problems.append(f"returned dtype {first.dtype}; indices must be integers (use astype(int))")
+        return report
+    if not _draws_from_its_generator(report, lambda g: fn(w.copy(), g)):
+        return report
+    rng = np.random.default_rng(seed)
+    counts = np.empty((n_draws, n))
+    for t in range(n_draws):
+        idx = np.asarray(fn(w.copy(), rng))
+        if idx.shape != (n,) or idx.min() < 0 or idx.max() >= n:
+            report.problems.append(
+                f"draw {t}: an index is out of range [0, {n}) (got {idx.min()}..{idx.max()}): the ancestor of u is "
+                "the i with C[i-1] <= u < C[i], np.searchsorted(C, u, side='right'), capped at N - 1")
+            return report
+        counts[t] = np.bincount(idx, minlength=n)
+    if counts[:, 2].any():
+        report.problems.append(
+            "a particle of weight 0 was chosen: its segment of the bar has no width, so no uniform can select "
+            "it; search the cumulative weights with side='right'")
+        return report
+    mean, se = counts.mean(axis=0), counts.std(axis=0, ddof=1) / np.sqrt(n_draws)
+    bad = np.abs(mean - n * w) > 5 * se + 1e-9
+    if bad.any():
+        i = int(np.argmax(np.abs(mean - n * w) - 5 * se))
+        report.problems.append(
+            f"biased: particle {i} of weight {w[i]} should get N W = {n * w[i]:.3f} copies on average, it got "
+            f"{mean[i]:.3f} (± {se[i]:.3f}) over {n_draws} draws; the uniforms must cover [0, 1) evenly")
+        return report
+    var = counts.var(axis=0, ddof=1)
+    var_se = np.sqrt(np.maximum(((counts - mean) ** 4).mean(axis=0) - var**2, 0) / n_draws)
+    exact = _offspring_variances(w)
+    if np.all(np.abs(var - exact["stratified"]) <= 5 * var_se + 0.02):
+        return report
+    nearest = min(("systematic", "multinomial"), key=lambda s: np.abs(var - exact[s]).sum())
+    fits_nearest = np.all(np.abs(var - exact[nearest]) <= 5 * var_se + 0.02)
+    if fits_nearest and nearest == "systematic":
+        report.problems.append(
+            f"the copies vary like systematic resampling's (particle 1 got exactly one copy in every draw, "
+            f"where stratified resampling gives it 0, 1 or 2, Var N_1 = {exact['stratified'][1]:.2f}): each "
+            "stratum needs its own uniform, rng.random(N), not one uniform shared by all")
+    elif fits_nearest:
+        report.problems.append(
+            f"the copies vary like multinomial resampling's (Var N_1 = {var[1]:.2f}, stratified gives "
+            f"{exact['stratified'][1]:.2f}): put uniform j in its stratum, u_j = (j + U_j) / N, instead of "
+            "anywhere in [0, 1)")
+    else:
+        i = int(np.argmax(np.abs(var - exact["stratified"]) / (var_se + 0.02)))
+        report.problems.append(
+            f"the copy counts are right on average but their variance is not stratified resampling's: particle "
+            f"{i} has Var N_i = {var[i]:.2f}, where one independent uniform per stratum gives "
+            f"{exact['stratified'][i]:.2f}")
+    return report
+
+
 def check_weight_update(fn: Callable, seed: int = 0) -> CheckReport:
     """Check ``fn(log_weights, log_likelihoods) -> new normalised log-weights`` (module docstring)."""
     report = CheckReport("weight update")
@@ -118,6 +246,98 @@ def check_weight_update(fn: Callable, seed: int = 0) -> CheckReport:
             hint = " (they do not sum to 1: normalise)" if abs(total - 1) > 1e-9 else ""
             report.problems.append(f"{name}: wrong weights{hint}; largest error "
                                    f"{np.abs(np.exp(got) - np.exp(expected)).max():.2e}")
+    return report
+
+
+#: The case of :func:`check_importance_sampler`: the measurement z and the noise sd sd_v of the toy.
+IS_TOY_CASE = (3.0, 0.5)
+
+#: The typical mistakes of the importance-sampling exercise: the weight each one computes, in words.
+IS_TOY_MISTAKES = {
+    "likelihood_only": "the weight is the likelihood alone, as with the prior as proposal; with q = N(z/2, 1) "
+                       "it is log p(z | x) + log p(x) - log q(x)",
+    "no_proposal": "the weight leaves out - log q(x): draws from q must be divided by q, w = p(z | x) p(x) / q(x)",
+    "no_prior": "the weight leaves out the prior, + log p(x): the target is the posterior, p(z | x) p(x) up to a "
+                "constant",
+    "sd_as_variance": "the likelihood uses sd_v^2 as its standard deviation: sd_v is the standard deviation of v "
+                      "(scipy.stats.norm.logpdf(z, loc=x, scale=sd_v))",
+}
+
+
+def toy_is_limit(z: float, sd_v: float, mistake: str | None = None) -> tuple[float, float]:
+    """Mean and variance of the density a self-normalised importance sampler with proposal N(z/2, 1)
+    targets on the toy (prior N(0, 1), z = x + v, v ~ N(0, sd_v^2)): the posterior, or what the weight of
+    ``mistake`` (a key of :data:`IS_TOY_MISTAKES`) makes of it, ``q x target-of-the-weight``.
+
+    Every factor is Gaussian in x, so the limit is a product of Gaussians: precisions add (the proposal's
+    with the sign it has in q x weight) and so do precision-weighted means.
+    """
+    if mistake is not None and mistake not in IS_TOY_MISTAKES:
+        raise ValueError(f"unknown mistake {mistake!r}; one of {sorted(IS_TOY_MISTAKES)}")
+    lik_var = sd_v**4 if mistake == "sd_as_variance" else sd_v**2
+    # (precision, mean) of the factors of q(x) w(x): the likelihood, the prior, the proposal
+    factors = {"likelihood_only": [(1 / lik_var, z), (1.0, z / 2)],
+               "no_proposal": [(1 / lik_var, z), (1.0, 0.0), (1.0, z / 2)],
+               "no_prior": [(1 / lik_var, z)]}.get(mistake, [(1 / lik_var, z), (1.0, 0.0)])
+    precision = sum(p for p, _ in factors)
+    return sum(p * m for p, m in factors) / precision, 1 / precision
+
+
+def check_importance_sampler(fn: Callable, n: int = 20_000, seed: int = 0) -> CheckReport:
+    """Check ``fn(z, sd_v, n, rng) -> (estimate, ess)`` (importance sampling, exercise 3.1), leaving NumPy's
+    global ``np.random`` state as it was.
+
+    ``fn`` draws ``n`` particles from the proposal ``N(z / 2, 1)`` and returns the self-normalised estimate
+    of the posterior mean of the toy (prior ``N(0, 1)``, ``z = x + v``, ``v ~ N(0, sd_v^2)``) and the ESS.
+    The estimate must be within six Monte Carlo standard errors ``sqrt(var / ESS)`` of the exact mean
+    ``z / (1 + sd_v^2)`` at :data:`IS_TOY_CASE` (a correct sampler fails with probability about 2e-9); a
+    wrong one is compared with the limits of :data:`IS_TOY_MISTAKES`, and the report names the mistake.
+    The random numbers must come from ``rng`` (:func:`_generator_problem`, on 500 particles).
+    """
+    saved = np.random.get_state()
+    try:
+        return _check_importance_sampler(fn, n, seed)
+    finally:
+        np.random.set_state(saved)
+
+
+def _check_importance_sampler(fn: Callable, n: int, seed: int) -> CheckReport:
+    report = CheckReport("importance sampler")
+    z, sd_v = IS_TOY_CASE
+    answer = _answer(report, lambda: fn(z, sd_v, n, np.random.default_rng(seed)), "fn(z, sd_v, n, rng)",
+                     "write the sampler and return (estimate, ess)")
+    if answer is None:
+        return report
+    try:
+        estimate, ess = (float(v) for v in answer)
+    except Exception:
+        report.problems.append("return two numbers, (estimate, ess): the weighted mean of the draws and "
+                               "1 / sum(W**2)")
+        return report
+    if not (np.isfinite(estimate) and np.isfinite(ess)):
+        report.problems.append("the estimate or the ESS is NaN or infinite: keep the weights in the log domain and "
+                               "subtract their logsumexp before exponentiating")
+        return report
+    if not 1 - 1e-9 <= ess <= n * (1 + 1e-9):
+        report.problems.append(f"the ESS is {ess:.4g}, outside [1, n]: compute it from normalised weights, "
+                               "1 / sum(W**2) with sum(W) = 1")
+        return report
+    problem = _generator_problem(lambda rng: float(fn(z, sd_v, 500, rng)[0]), lambda a, b: a == b,
+                                 what="estimate")
+    if problem is not None:
+        report.problems.append(problem)
+        return report
+
+    def fits(mistake: str | None) -> bool:
+        mean, var = toy_is_limit(z, sd_v, mistake)
+        return abs(estimate - mean) <= 6 * np.sqrt(var / ess)
+
+    if _settled(report, fits, IS_TOY_MISTAKES):
+        return report
+    mean, var = toy_is_limit(z, sd_v)
+    report.problems.append(f"the estimate {estimate:.4f} is more than six Monte Carlo standard errors "
+                           f"({np.sqrt(var / ess):.4f}) from the exact posterior mean {mean:.4f}: check the draws "
+                           "(x ~ N(z/2, 1)), the three terms of the log-weight and the normalisation")
     return report
 
 
@@ -163,6 +383,15 @@ SIS_CASE = np.array([np.nan, 1.2, 2.0, np.nan, 0.3])
 
 
 def check_sis(fn: Callable, n_particles: int = 20_000, seed: int = 0, z: np.ndarray = SIS_CASE) -> CheckReport:
+    """Check a student's SIS ``fn`` (:func:`_check_sis`), leaving NumPy's global ``np.random`` state as it was."""
+    saved = np.random.get_state()
+    try:
+        return _check_sis(fn, n_particles, seed, z)
+    finally:
+        np.random.set_state(saved)
+
+
+def _check_sis(fn: Callable, n_particles: int, seed: int, z: np.ndarray) -> CheckReport:
     """Check a student's SIS ``fn(z, n_particles, rng, model) -> (means, ess)`` (module docstring).
 
     ``z`` (default :data:`SIS_CASE`) has shape ``(K,)`` with NaN where nothing is measured (at
@@ -171,7 +400,8 @@ def check_sis(fn: Callable, n_particles: int = 20_000, seed: int = 0, z: np.ndar
     after each step. The means must agree with the Kalman filter's within six Monte Carlo
     standard errors, ``sqrt(P_k / ESS_k)``, at every step (a correct SIS fails this with
     probability below 1e-6); a filter that does not is compared with the limits of the typical
-    mistakes, and the report names the one that fits.
+    mistakes, and the report names the one that fits. The filter must draw its random numbers from
+    the generator it is given (:func:`_generator_problem`, on 200 particles).
     """
     report = CheckReport("SIS")
     model = ScalarModel()
@@ -197,6 +427,12 @@ def check_sis(fn: Callable, n_particles: int = 20_000, seed: int = 0, z: np.ndar
         k = int(np.argmax((ess < 1 - 1e-9) | (ess > n_particles * (1 + 1e-9))))
         report.problems.append(f"the ESS at step {k} is {ess[k]:.4g}, outside [1, N]: compute it from normalised "
                                "weights, 1 / sum(W**2) with sum(W) = 1")
+        return report
+    problem = _generator_problem(lambda rng: fn(np.array(z, dtype=float), 200, rng, model),
+                                 lambda a, b: np.array_equal(np.asarray(a[0], dtype=float), np.asarray(b[0], dtype=float),
+                                                             equal_nan=True), what="set of means")
+    if problem is not None:
+        report.problems.append(problem)
         return report
     exact = _scalar_filter(z, model)
     if _fits(means, ess, *exact):
@@ -313,6 +549,122 @@ def check_ancestors(fn: Callable, seed: int = 0) -> CheckReport:
     report.problems.append(f"particle {i} of the final step descends from particle "
                            f"{_origins(ancestors, range(n_steps - 1, 0, -1))[i]} of step 0, not {answer[i]}: "
                            "follow a = ancestors[k][a] from k = K - 1 down to k = 1")
+    return report
+
+
+def _global_state_key() -> tuple:
+    """NumPy's global ``np.random`` state, comparable with ``==``."""
+    name, keys, pos, has_gauss, cached = np.random.get_state()
+    return name, keys.tobytes(), pos, has_gauss, cached
+
+
+def _generator_problem(call: Callable, same: Callable[[object, object], bool], seeds: tuple[int, ...] = (1, 2, 3, 4),
+                       what: str = "answer") -> str | None:
+    """One sentence if ``call(rng)`` does not draw its random numbers from the generator ``rng`` it is given.
+
+    Checked in turn: NumPy's global ``np.random`` state is untouched (it is saved and restored); two
+    generators of the same seed give the same answer (``same(a, b)``); another seed gives another
+    answer for at least one of ``seeds[1:]``. ``None`` when all three hold, or when a call raises
+    (the caller reports that).
+    """
+    saved = np.random.get_state()
+    try:
+        before = _global_state_key()
+        first = call(np.random.default_rng(seeds[0]))
+        touched = _global_state_key() != before
+    except Exception:
+        return None
+    finally:
+        np.random.set_state(saved)
+    if touched:
+        return ("it draws from NumPy's global generator (np.random.random, np.random.choice, ...), not from the "
+                "generator rng it is given: use rng.random(...), so that a seed fixes the result")
+    try:
+        again = call(np.random.default_rng(seeds[0]))
+        others = [call(np.random.default_rng(s)) for s in seeds[1:]]
+    except Exception:
+        return None
+    if not same(first, again):
+        return (f"two generators of the same seed gave different {what}s: draw every random number from the rng "
+                "argument (no np.random.default_rng() of your own inside the function)")
+    if all(same(first, other) for other in others):
+        return (f"the {what} is the same whatever the generator's seed: the rng argument is not used, so the "
+                "result is not random")
+    return None
+
+
+def check_multinomial_resampler(fn: Callable, n_draws: int = 4000, seed: int = 0) -> CheckReport:
+    """Check multinomial resampling ``fn`` (:func:`_check_multinomial_resampler`), leaving NumPy's global
+    ``np.random`` state as it was."""
+    saved = np.random.get_state()
+    try:
+        return _check_multinomial_resampler(fn, n_draws, seed)
+    finally:
+        np.random.set_state(saved)
+
+
+def _check_multinomial_resampler(fn: Callable, n_draws: int, seed: int) -> CheckReport:
+    """Check multinomial resampling ``fn(weights, rng) -> N ancestor indices`` (SIR, exercise 5.3).
+
+    The indices must be ``N`` independent draws from the weights, taken from the generator ``rng``
+    (:func:`_generator_problem`: global state untouched, same seed same answer, another seed another
+    answer). On ``W`` (``N = 7``, one weight 0), over ``n_draws`` calls: a particle of weight 0 is never
+    chosen; the copy counts ``N_i`` have mean ``N W_i`` within ``5 SE + 1e-9``; and their total variance
+    ``sum_i Var N_i`` is multinomial's ``sum_i N W_i (1 - W_i)`` within a factor ``[0.8, 1.25]``
+    (measured 0.995 for multinomial, 0.37 stratified, 0.20 systematic, 0.43 residual, about 7 for one
+    uniform shared by all; its relative standard error is about 2 % over 4000 draws).
+    """
+    report = CheckReport("multinomial resampler")
+    w = np.array([0.05, 0.3, 0.0, 0.12, 0.08, 0.25, 0.2])
+    n = w.size
+    first = _answer(report, lambda: fn(w.copy(), np.random.default_rng(seed)), "fn(weights, rng)",
+                    "write the resampler and return the N ancestor indices")
+    if first is None:
+        return report
+    first = np.asarray(first)
+    if first.shape != (n,):
+        report.problems.append(f"returned shape {first.shape}; expected ({n},), one ancestor index per particle")
+        return report
+    if first.dtype.kind not in "iu":
+        report.problems.append(f"returned dtype {first.dtype}; indices must be integers (np.searchsorted gives them)")
+        return report
+    problem = _generator_problem(lambda rng: np.asarray(fn(w.copy(), rng)), np.array_equal, what="set of indices")
+    if problem is not None:
+        report.problems.append(problem)
+        return report
+    rng = np.random.default_rng(seed)
+    counts = np.empty((n_draws, n))
+    for t in range(n_draws):
+        idx = np.asarray(fn(w.copy(), rng))
+        if idx.min() < 0 or idx.max() >= n:
+            report.problems.append(
+                f"draw {t}: an index is out of range [0, {n}) (got {idx.min()}..{idx.max()}): np.searchsorted on "
+                "the cumulative weights gives 0..N-1, with the last cumulative weight set to 1")
+            return report
+        counts[t] = np.bincount(idx, minlength=n)
+    if counts[:, 2].any():
+        report.problems.append(
+            "a particle of weight 0 was chosen: a uniform u must select the i with cumsum[i-1] <= u < cumsum[i] "
+            "(np.searchsorted(np.cumsum(W), u, side='right')), never a zero-width interval")
+        return report
+    mean, se = counts.mean(axis=0), counts.std(axis=0, ddof=1) / np.sqrt(n_draws)
+    bad = np.abs(mean - n * w) > 5 * se + 1e-9
+    if bad.any():
+        i = int(np.argmax(np.abs(mean - n * w) - 5 * se))
+        report.problems.append(
+            f"biased: particle {i} of weight {w[i]} should get N W = {n * w[i]:.3f} copies on average, it got "
+            f"{mean[i]:.3f} (± {se[i]:.3f}) over {n_draws} draws: each index is j with probability W_j")
+        return report
+    ratio = counts.var(axis=0, ddof=1).sum() / float(np.sum(n * w * (1 - w)))
+    if ratio < 0.8:
+        report.problems.append(
+            f"the copy counts vary {ratio:.2f} times as much as multinomial resampling's: this is a stratified or "
+            "systematic resampler (uniforms spread over the strata [i/N, (i+1)/N)); multinomial resampling draws "
+            "N independent uniforms on [0, 1)")
+    elif ratio > 1.25:
+        report.problems.append(
+            f"the copy counts vary {ratio:.2f} times as much as multinomial resampling's: the N draws are not "
+            "independent (one uniform shared by all particles?); draw N uniforms, rng.random(N)")
     return report
 
 
@@ -438,6 +790,108 @@ def check_kalman(fn: Callable, z: np.ndarray = KALMAN_CASE, rtol: float = 1e-9) 
         f"at step {k} your mean and variance are {means[k]:.6f} and {variances[k]:.6f}, the exact ones "
         f"{exact[0][k]:.6f} and {exact[1][k]:.6f}: check the prediction (m_k^- = a m_(k-1), P_k^- = a^2 P_(k-1) + q) "
         "and the update of that step")
+    return report
+
+
+#: The case of :func:`check_cv_kalman`: a constant-velocity model sampled every ``dt = 0.5`` s; its
+#: position is measured (variance ``r``), nothing at step 0, two readings missing later.
+CV_CASE = {"z": np.array([np.nan, 0.9, 1.1, np.nan, 1.8, 2.6, np.nan, 3.1]), "dt": 0.5, "q": 0.2, "r": 0.25,
+           "m0": np.array([0.0, 1.0]), "P0": np.diag([1.0, 0.5])}
+
+#: The typical mistakes of a constant-velocity Kalman filter, each as the flag of :func:`cv_kalman`
+#: that makes it, with the sentence that names it.
+CV_MISTAKES = {
+    "q_identity": "the process noise is q I: a random acceleration moves the position and the velocity "
+                  "together, Q = q [[dt^3/3, dt^2/2], [dt^2/2, dt]]",
+    "dt_ignored": "the dynamics ignore the time step: the position moves by dt times the velocity, "
+                  "F = [[1, dt], [0, 1]], not [[1, 1], [0, 1]]",
+    "f_transposed": "F is transposed: the position moves by dt times the velocity, F = [[1, dt], [0, 1]], "
+                    "and the velocity does not move with the position",
+    "h_velocity": "the measurement is the position, not the velocity: H = [[1, 0]]",
+    "predict_at_0": "the filter predicts before step 0: the estimate at step 0 is the prior (m0, P0), and the "
+                    "first prediction comes at step 1",
+    "loglik_no_constant": "the log-likelihood misses the normalising term: log N(nu; 0, S) = "
+                          "-(nu^2 / S + log(2 pi S)) / 2",
+}
+
+
+def cv_kalman(z: np.ndarray, dt: float, q: float, r: float, m0: np.ndarray, P0: np.ndarray,
+              mistake: str | None = None) -> tuple[np.ndarray, np.ndarray, float]:
+    """The exact Kalman filter of the constant-velocity model (means ``(K, 2)``, covariances ``(K, 2, 2)``,
+    log-likelihood), or the one that makes ``mistake`` (a key of :data:`CV_MISTAKES`)."""
+    step = 1.0 if mistake == "dt_ignored" else dt
+    F = np.array([[1.0, step], [0.0, 1.0]])
+    F = F.T if mistake == "f_transposed" else F
+    Q = q * np.eye(2) if mistake == "q_identity" else q * np.array([[dt**3 / 3, dt**2 / 2], [dt**2 / 2, dt]])
+    H = np.array([0.0, 1.0]) if mistake == "h_velocity" else np.array([1.0, 0.0])
+    m, P, log_lik = np.asarray(m0, float), np.asarray(P0, float), 0.0
+    means, covs = [], []
+    for k, zk in enumerate(z):
+        if k > 0 or mistake == "predict_at_0":
+            m, P = F @ m, F @ P @ F.T + Q
+        if not np.isnan(zk):
+            nu, s = zk - H @ m, H @ P @ H + r
+            gain = P @ H / s
+            m, P = m + gain * nu, P - np.outer(gain, gain) * s
+            log_lik += -0.5 * nu**2 / s - (0.0 if mistake == "loglik_no_constant" else 0.5 * np.log(2 * np.pi * s))
+        means.append(m)
+        covs.append(P)
+    return np.array(means), np.array(covs), log_lik
+
+
+def check_cv_kalman(fn: Callable, rtol: float = 1e-9) -> CheckReport:
+    """Check ``fn(z, dt, q, r, m0, P0) -> (means (K, 2), covariances (K, 2, 2), log_likelihood)``, the Kalman
+    filter of the constant-velocity model (position and velocity, the position measured), on
+    :data:`CV_CASE` against the exact :func:`cv_kalman`; a wrong answer is compared with each mistake of
+    :data:`CV_MISTAKES` so that the report names it."""
+    report = CheckReport("constant-velocity Kalman filter")
+    case = CV_CASE
+    n_steps = case["z"].size
+    answer = _answer(report, lambda: fn(case["z"].copy(), case["dt"], case["q"], case["r"], case["m0"].copy(),
+                                        case["P0"].copy()),
+                     "fn(z, dt, q, r, m0, P0)", "write the filter and return (means, covariances, log_likelihood)")
+    if answer is None:
+        return report
+    try:
+        means, covs, log_lik = answer
+        means, covs, log_lik = np.asarray(means, float), np.asarray(covs, float), np.asarray(log_lik, float)
+    except (TypeError, ValueError) as exc:
+        report.problems.append(f"the answer is not (means, covariances, log_likelihood): {exc}")
+        return report
+    if means.shape != (n_steps, 2) or covs.shape != (n_steps, 2, 2) or log_lik.shape != ():
+        report.problems.append(
+            f"returned shapes {means.shape}, {covs.shape} and {log_lik.shape}; expected ({n_steps}, 2), "
+            f"({n_steps}, 2, 2) and (): one mean and one covariance per step, step 0 included, and one number")
+        return report
+    if not (np.isfinite(means).all() and np.isfinite(covs).all()):
+        k = int(np.argmax(~np.isfinite(means).all(axis=1) | ~np.isfinite(covs).all(axis=(1, 2))))
+        report.problems.append(f"the mean or the covariance is NaN at step {k}: when z_k is NaN nothing is "
+                               "measured, so skip the update (m_k = m_k^-, P_k = P_k^-)")
+        return report
+
+    def close(got, expected) -> bool:
+        return bool(np.allclose(got, expected, rtol=rtol, atol=1e-12))
+
+    exact = cv_kalman(**case)
+    filtered = close(means, exact[0]) and close(covs, exact[1])
+    if filtered and close(log_lik, exact[2]):
+        return report
+    for mistake, why in CV_MISTAKES.items():
+        wrong = cv_kalman(**case, mistake=mistake)
+        if close(means, wrong[0]) and close(covs, wrong[1]) and close(log_lik, wrong[2]):
+            report.problems.append(f"your filter computes a known mistake: {why}")
+            return report
+    if filtered:
+        report.problems.append(
+            f"the means and covariances are right, the log-likelihood is not ({float(log_lik):.6f}, exact "
+            f"{exact[2]:.6f}): add log N(nu_k; 0, S_k) at every measured step and nothing at a missing one")
+        return report
+    wrong = ~(np.isclose(means, exact[0], rtol=rtol, atol=1e-12).all(axis=1)
+              & np.isclose(covs, exact[1], rtol=rtol, atol=1e-12).all(axis=(1, 2)))
+    k = int(np.argmax(wrong))
+    report.problems.append(
+        f"at step {k} your mean is {np.round(means[k], 4).tolist()}, the exact one "
+        f"{np.round(exact[0][k], 4).tolist()}: check the model's F, Q and H and the update of that step")
     return report
 
 
@@ -634,6 +1088,136 @@ def check_landmark_update(fn: Callable, rtol: float = 1e-9) -> CheckReport:
     return report
 
 
+# FastSLAM 2.0's robot move for a cloud (chapter 8, exercise 8.2): one landmark in view, measured as
+# its offset from the robot, z = A r + C l + v with A = -I and C = [I, 0]; every particle shares the
+# map covariance P_pred.
+FASTSLAM2_CASE = dict(
+    Qr=np.diag([0.04, 0.09]),
+    R=np.array([[0.02, 0.005], [0.005, 0.03]]),
+    P_pred=np.array([[0.05, 0.01, 0.0, 0.0], [0.01, 0.04, 0.0, 0.0], [0.0, 0.0, 0.2, 0.0], [0.0, 0.0, 0.0, 0.2]]),
+    A=-np.eye(2),
+    C=np.hstack([np.eye(2), np.zeros((2, 2))]),
+    z=np.array([1.1, 0.4]),
+)
+
+FASTSLAM2_MISTAKES: dict[str, str] = {
+    "fastslam1_weight": "the weight leaves out the robot's own motion noise: with the optimal proposal the weight is "
+                        "p(z_k | r_(k-1), map) = N(z; A r^- + C m^-, A Q_r A^T + C P^- C^T + R), not FastSLAM 1.0's "
+                        "C P^- C^T + R",
+    "no_map_in_s": "S leaves out the map's uncertainty C P^- C^T: the landmark's position is not known, so "
+                   "S = A Q_r A^T + C P^- C^T + R, in the weight and in the gain",
+    "new_robot_weight": "the weight is evaluated at the new robot: with the optimal proposal it is the predictive "
+                        "likelihood of the parent, N(z; A r^- + C m^-, S), whatever robot is drawn",
+    "transition_move": "the robots move with the transition N(r^-, Q_r), blind to z: the optimal proposal is "
+                       "N(r^- + G (z - A r^- - C m^-), Q_r - G S G^T) with G = Q_r A^T S^-1",
+    "no_shrink": "the robots are drawn with the covariance Q_r: conditioning on z shrinks it to Q_r - G S G^T",
+}
+
+
+def fastslam2_exact(r_pred: np.ndarray, m_pred: np.ndarray, mistake: str | None = None,
+                    case: dict | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """``(means (N, 2), covariance (2, 2), log_w (N,))`` of FastSLAM 2.0's robot proposal and weight.
+
+    ``S = A Q_r A^T + C P C^T + R``, ``G = Q_r A^T S^-1``, ``nu = z - A r^- - C m^-``: the new robot
+    is ``N(r^- + G nu, Q_r - G S G^T)`` and the weight ``log N(nu; 0, S)``. ``mistake`` (a key of
+    :data:`FASTSLAM2_MISTAKES` other than ``new_robot_weight``, which depends on the draw) gives what
+    that mistake computes instead.
+    """
+    c = FASTSLAM2_CASE if case is None else case
+    Qr, R, P, A, C, z = (c[k] for k in ("Qr", "R", "P_pred", "A", "C", "z"))
+    S_map = C @ P @ C.T + R
+    S = A @ Qr @ A.T + (R if mistake == "no_map_in_s" else S_map)
+    nu = z - r_pred @ A.T - m_pred @ C.T
+    S_w = S_map if mistake == "fastslam1_weight" else S
+    log_w = -0.5 * (np.einsum("ij,ij->i", nu @ np.linalg.inv(S_w), nu) + np.linalg.slogdet(2 * np.pi * S_w)[1])
+    G = Qr @ A.T @ np.linalg.inv(S)
+    if mistake == "transition_move":
+        return r_pred.copy(), Qr, log_w
+    cov = Qr if mistake == "no_shrink" else Qr - G @ S @ G.T
+    return r_pred + nu @ G.T, cov, log_w
+
+
+def check_fastslam2_move(fn: Callable, n: int = 60, n_calls: int = 60, seed: int = 0) -> CheckReport:
+    """Check a student's ``fn(r_pred, m_pred, P_pred, z, A, C, Qr, R, rng) -> (robots, log_w)`` (exercise 8.2).
+
+    On :data:`FASTSLAM2_CASE`: the generator (same seed, same answer; another seed, another; NumPy's
+    global state untouched); the log-weights against :func:`fastslam2_exact` up to a constant common
+    to all particles; and the robots of ``n_calls`` seeded calls, standardised by the exact proposal
+    (mean and Cholesky factor per particle), whose ``2 n n_calls`` values must have mean 0 and variance
+    1 within 5 standard errors. A wrong answer is compared with each mistake of
+    :data:`FASTSLAM2_MISTAKES`, and the report names it.
+    """
+    report = CheckReport("FastSLAM 2.0 robot move")
+    c = FASTSLAM2_CASE
+    rng = np.random.default_rng(seed)
+    r_pred = rng.normal(0.0, 0.3, (n, 2))
+    m_pred = np.array([1.0, 0.5, -1.0, 2.0]) + rng.normal(0.0, 0.3, (n, 4))
+
+    def call(s):
+        return fn(r_pred.copy(), m_pred.copy(), c["P_pred"].copy(), c["z"].copy(), c["A"].copy(), c["C"].copy(),
+                  c["Qr"].copy(), c["R"].copy(), np.random.default_rng(s))
+
+    state = np.random.get_state()
+    answer = _answer(report, lambda: call(1), "fn(r_pred, m_pred, P_pred, z, A, C, Qr, R, rng)",
+                     "return the new robots (shape (N, 2)) and their log-weights (shape (N,))")
+    if answer is None:
+        return report
+    if not isinstance(answer, tuple) or len(answer) != 2:
+        report.problems.append("the answer is not a pair: return (robots, log_w)")
+        return report
+    if not _shaped(report, answer[0], (n, 2), "one new robot per particle, shape (N, 2)") or \
+            not _shaped(report, answer[1], (n,), "one log-weight per particle"):
+        return report
+    again, other = call(1), call(2)
+    drew_global = not _same_state(state, np.random.get_state())
+    np.random.set_state(state)
+    if drew_global:
+        report.problems.append("it draws from NumPy's global np.random instead of the generator rng it is given: "
+                               "use rng.standard_normal(...) so that a seed gives one answer")
+        return report
+    if not np.array_equal(np.asarray(answer[0]), np.asarray(again[0])):
+        report.problems.append("the same seed gave different robots: draw every random number from rng")
+        return report
+    if np.array_equal(np.asarray(answer[0]), np.asarray(other[0])):
+        report.problems.append("another seed gave the same robots: the rng it is given is not used")
+        return report
+    robots, log_w = np.asarray(answer[0], dtype=float), np.asarray(answer[1], dtype=float)
+
+    def same_up_to_constant(a, b):
+        d = a - b
+        return bool(np.all(np.isfinite(d)) and np.ptp(d) < 1e-8)
+
+    if not same_up_to_constant(log_w, fastslam2_exact(r_pred, m_pred)[2]):
+        for mistake in ("fastslam1_weight", "no_map_in_s"):
+            if same_up_to_constant(log_w, fastslam2_exact(r_pred, m_pred, mistake)[2]):
+                report.problems.append(f"your function computes a known mistake: {FASTSLAM2_MISTAKES[mistake]}")
+                return report
+        S_map = c["C"] @ c["P_pred"] @ c["C"].T + c["R"]
+        nu_new = c["z"] - robots @ c["A"].T - m_pred @ c["C"].T
+        for S in (S_map, c["A"] @ c["Qr"] @ c["A"].T + S_map):
+            at_new = -0.5 * np.einsum("ij,ij->i", nu_new @ np.linalg.inv(S), nu_new)
+            if same_up_to_constant(log_w, at_new):
+                report.problems.append(f"your function computes a known mistake: "
+                                       f"{FASTSLAM2_MISTAKES['new_robot_weight']}")
+                return report
+        report.problems.append("the log-weights differ from log N(z; A r^- + C m^-, A Q_r A^T + C P^- C^T + R) "
+                               "(up to a constant): check the innovation and S")
+        return report
+    draws = [robots] + [np.asarray(call(100 + t)[0], dtype=float) for t in range(n_calls - 1)]
+
+    def fits(mistake):
+        means, cov, _ = fastslam2_exact(r_pred, m_pred, mistake)
+        L_inv = np.linalg.inv(np.linalg.cholesky(cov))
+        e = np.concatenate([((d - means) @ L_inv.T).ravel() for d in draws])
+        return abs(e.mean()) < 5 / np.sqrt(e.size) and abs(e.var() - 1.0) < 5 * np.sqrt(2.0 / e.size)
+
+    if _settled(report, fits, {k: FASTSLAM2_MISTAKES[k] for k in ("transition_move", "no_shrink", "no_map_in_s")}):
+        return report
+    report.problems.append("the new robots do not follow N(r^- + G nu, Q_r - G S G^T), G = Q_r A^T S^-1: check the "
+                           "gain, the innovation and the covariance's Cholesky factor")
+    return report
+
+
 APF_MISTAKES: dict[str, str] = {
     "no_division": "the first stage is not divided out: the ancestors were chosen in proportion to p^(z_k | x_(k-1)), "
                    "so the second-stage weight is p(z_k | x_k^i) / p^(z_k | x_(k-1)^(a_i))",
@@ -685,6 +1269,136 @@ def check_apf_second_stage(fn: Callable, n: int = 12, seed: int = 0) -> CheckRep
     report.problems.append("the log-weights differ from log p(z_k | x_k^i) - log p^(z_k | x_(k-1)^(a_i)), normalised: "
                            "check each term")
     return report
+
+
+# The fully adapted auxiliary filter on a model the chapter does not show (chapter 9, exercise 9.3):
+# x_k = a x_(k-1) + w_k, w_k ~ N(0, q); z_k = c x_k + v_k, v_k ~ N(0, r).
+APF_STEP_MODEL = {"a": 0.8, "c": 2.0, "q": 0.5, "r": 0.4}
+
+APF_STEP_MISTAKES: dict[str, str] = {
+    "no_weights": "W_(k-1) is dropped from the first stage: the ancestors must be drawn in proportion to "
+                  "W_(k-1)^i p(z_k | x_(k-1)^i) and the likelihood is log sum_i W_(k-1)^i p(z_k | x_(k-1)^i); "
+                  "without W the step forgets every earlier measurement",
+    "predictive_r": "the predictive likelihood p(z_k | x_(k-1)) is given the variance r; the state still moves "
+                    "(variance q) before it is measured, so its variance is c^2 q + r",
+    "no_c": "the sensor's scale c is forgotten: z_k = c x_k + v_k predicts c a x_(k-1) with variance c^2 q + r, "
+            "and the optimal gain is c q / (c^2 q + r)",
+    "transition_move": "the children move with the transition N(a x, q), not the optimal proposal: to leave the "
+                       "step equally weighted each chosen parent must move by p(x_k | x_(k-1), z_k) = "
+                       "N(a x + K (z - c a x), q r / (c^2 q + r)), K = c q / (c^2 q + r)",
+    "move_then_resample": "the particles are moved, then resampled: the copies of a parent are then duplicates of "
+                          "one moved particle; resample the parents first, then move each copy with its own noise",
+}
+
+
+def apf_step_exact(x: np.ndarray, log_w: np.ndarray, z: float, mistake: str | None = None,
+                   model: dict | None = None) -> tuple[float, float, float]:
+    """``(log p^(z_k | z_(1:k-1)), mean, variance)`` of one fully adapted step's new cloud, exactly.
+
+    The new particles are drawn from the mixture ``sum_i lambda^i N(mu^i, v)`` with
+    ``lambda^i`` proportional to ``W^i N(z; c a x^i, c^2 q + r)``, ``mu^i = a x^i + K (z - c a x^i)``
+    and ``v = q r / (c^2 q + r)``; ``mistake`` (a key of :data:`APF_STEP_MISTAKES`) gives what that
+    mistake draws instead.
+    """
+    if mistake is not None and mistake not in APF_STEP_MISTAKES:
+        raise ValueError(f"unknown mistake {mistake!r}; one of {sorted(APF_STEP_MISTAKES)}")
+    m = APF_STEP_MODEL if model is None else model
+    a, c, q, r = m["a"], m["c"], m["q"], m["r"]
+    scale = 1.0 if mistake == "no_c" else c
+    s = r if mistake == "predictive_r" else scale**2 * q + r
+    log_p = -0.5 * ((z - scale * a * x) ** 2 / s + np.log(2 * np.pi * s))
+    log_lam = log_p + (0.0 if mistake == "no_weights" else log_w)
+    log_evidence = float(logsumexp(log_lam) - (np.log(len(x)) if mistake == "no_weights" else 0.0))
+    lam = np.exp(log_lam - logsumexp(log_lam))
+    if mistake == "transition_move":
+        mu, v = a * x, q
+    else:
+        gain = scale * q / (scale**2 * q + r)
+        mu, v = a * x + gain * (z - scale * a * x), q - gain * scale * q
+    mean = float(lam @ mu)
+    return log_evidence, mean, float(v + lam @ mu**2 - mean**2)
+
+
+def check_apf_step(fn: Callable, n: int = 200, n_calls: int = 40, seed: int = 0) -> CheckReport:
+    """Check a student's ``fn(x, log_w, z, rng) -> (x_new, log_evidence)``, the fully adapted step of
+    the auxiliary filter on :data:`APF_STEP_MODEL` (exercise 9.3).
+
+    On one weighted cloud of ``n`` particles: the generator (same seed, same answer; another seed,
+    another; NumPy's global state untouched), the likelihood increment against
+    ``log sum_i W^i N(z; c a x^i, c^2 q + r)`` to round-off, distinct children (no duplicates), and
+    the mean and variance of the ``n_calls n`` children of ``n_calls`` seeded calls against the exact
+    mixture's within 5 standard errors (a correct step fails with probability below 1e-5). A wrong
+    answer is compared with each mistake of :data:`APF_STEP_MISTAKES`, and the report names it.
+    """
+    report = CheckReport("fully adapted auxiliary step")
+    rng = np.random.default_rng(seed)
+    x = rng.normal(0.0, 1.0, n)
+    log_w = -2.0 * (x - 1.0) ** 2  # earlier measurements favour x near 1
+    log_w -= logsumexp(log_w)
+    z = 2.5
+
+    def call(s):
+        return fn(x.copy(), log_w.copy(), z, np.random.default_rng(s))
+
+    state = np.random.get_state()
+    answer = _answer(report, lambda: call(1), "fn(x, log_w, z, rng)",
+                     "return the new particles (shape (N,)) and the log-likelihood increment")
+    if answer is None:
+        return report
+    if not isinstance(answer, tuple) or len(answer) != 2:
+        report.problems.append("the answer is not a pair: return (x_new, log_evidence)")
+        return report
+    if not _shaped(report, answer[0], (n,), "one new particle per particle") or \
+            not _shaped(report, np.asarray(answer[1]), (), "one number, log p^(z_k | z_(1:k-1))"):
+        return report
+    again, other = call(1), call(2)
+    drew_global = not _same_state(state, np.random.get_state())
+    np.random.set_state(state)
+    if drew_global:
+        report.problems.append("it draws from NumPy's global np.random instead of the generator rng it is given: "
+                               "use rng.random(), rng.standard_normal(), ... so that a seed gives one answer")
+        return report
+    if not np.array_equal(np.asarray(answer[0]), np.asarray(again[0])):
+        report.problems.append("the same seed gave different particles: draw every random number from rng")
+        return report
+    if np.array_equal(np.asarray(answer[0]), np.asarray(other[0])):
+        report.problems.append("another seed gave the same particles: the rng it is given is not used")
+        return report
+    got = float(answer[1])
+    if not np.isclose(got, apf_step_exact(x, log_w, z)[0], rtol=0, atol=1e-9):
+        for mistake in ("no_weights", "predictive_r", "no_c"):
+            if np.isclose(got, apf_step_exact(x, log_w, z, mistake)[0], rtol=0, atol=1e-9):
+                report.problems.append(f"your function computes a known mistake: {APF_STEP_MISTAKES[mistake]}")
+                return report
+        report.problems.append(f"the log-likelihood increment is {got:.6f}, not log sum_i W^i N(z; c a x^i, "
+                               f"c^2 q + r) = {apf_step_exact(x, log_w, z)[0]:.6f}: check that line")
+        return report
+    children = np.asarray(answer[0], dtype=float)
+    if np.unique(children).size < 0.9 * n:
+        report.problems.append(f"your function computes a known mistake: {APF_STEP_MISTAKES['move_then_resample']} "
+                               f"({np.unique(children).size} distinct values among {n} particles)")
+        return report
+    pooled = np.concatenate([np.asarray(call(100 + t)[0], dtype=float) for t in range(n_calls)])
+    mean, var = pooled.mean(), pooled.var(ddof=1)
+    se_mean = np.sqrt(var / pooled.size)
+    se_var = np.sqrt(max(np.mean((pooled - mean) ** 4) - var**2, 0.0) / pooled.size)
+
+    def fits(mistake):
+        _, m, v = apf_step_exact(x, log_w, z, mistake)
+        return abs(mean - m) < 5 * se_mean and abs(var - v) < 5 * se_var
+
+    if _settled(report, fits, {k: APF_STEP_MISTAKES[k] for k in ("transition_move", "no_weights", "no_c")}):
+        return report
+    _, m, v = apf_step_exact(x, log_w, z)
+    report.problems.append(f"the new particles have mean {mean:.3f} and variance {var:.3f} over {pooled.size} draws, "
+                           f"not the filtering density's {m:.3f} and {v:.3f}: check the ancestors' probabilities "
+                           "and the optimal move")
+    return report
+
+
+def _same_state(a, b) -> bool:
+    """Whether two states of NumPy's global generator (``np.random.get_state()``) are equal."""
+    return a[0] == b[0] and np.array_equal(a[1], b[1]) and tuple(a[2:]) == tuple(b[2:])
 
 
 # The log-likelihood of a cloud of particles in the two-landmark model (chapter 1, exercise 1.4).

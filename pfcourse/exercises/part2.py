@@ -120,6 +120,7 @@ def check_pose_density(fn: Callable, n_poses: int = 40, seed: int = 0, rtol: flo
     report.problems.append(f"for the reading z = {cases[case][0]} the values differ from log q_z(x): check the two "
                            "Gaussian terms of the range and the wrapped bearing, and the terms -log Phi(r / s_r), "
                            "-log 2 pi and -log h_r(x)")
+    return report
 
 
 #: A small DEM for :func:`check_altimeter_likelihood`: 7 rows (north) by 9 columns (east), cells of

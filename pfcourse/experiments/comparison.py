@@ -24,7 +24,7 @@ For the particle filter, the predictive distribution of ``z_k`` is the mixture
 ``sum_i W_{k-1}^i N(z; h(x_k^i), R)`` over the *predicted* particles (after the move,
 before the weighting by ``z_k``); ``S_k`` is its covariance,
 :func:`pfcourse.diagnostics.predictive_moments`.  The bootstrap filter stores exactly
-these particles (``store_particles=True``), with weights ``W_{k-1}`` (uniform after a
+these particles (``collect=[Clouds()]``), with weights ``W_{k-1}`` (uniform after a
 resampling).
 """
 
@@ -38,6 +38,7 @@ import pandas as pd
 
 from pfcourse.angles import wrap_angle
 from pfcourse.checks import Array, check_count
+from pfcourse.collectors import Clouds
 from pfcourse.diagnostics import chi2_band, fraction_in_band, nees, nis, predictive_moments
 from pfcourse.executor import run_tasks
 from pfcourse.experiments.record import RunRecord, record_run
@@ -60,7 +61,7 @@ def particle_innovations(result: FilterResult, measurements: Array, predict, noi
                          angle_indices: Sequence[int] = ()) -> tuple[Array, Array]:
     """Innovations ``y_k = z_k - z-bar_k`` and covariances ``S_k`` of a bootstrap particle filter.
 
-    ``result`` must come from ``run(..., store_particles=True)`` with the transition as
+    ``result`` must come from ``run(..., collect=[Clouds()])`` with the transition as
     proposal, so that ``result.particles[k]`` are the predicted particles of step ``k``.
     ``predict(particles, z, k)`` returns ``h(x^i)`` ``(N, m)`` for the measurement ``z``
     (NaN rows for particles where ``h`` is undefined: they are left out, since their
@@ -68,7 +69,7 @@ def particle_innovations(result: FilterResult, measurements: Array, predict, noi
     Returns ``(y, S)`` of shapes ``(K, m)`` and ``(K, m, m)``, NaN without a measurement.
     """
     if result.particles is None:
-        raise ValueError("particle_innovations needs a run with store_particles=True")
+        raise ValueError("particle_innovations needs a run with its clouds collected (collect=[Clouds()])")
     noise_cov = np.atleast_2d(np.asarray(noise_cov, dtype=float))
     m = noise_cov.shape[0]
     K, n = result.weights.shape
@@ -132,7 +133,7 @@ def robot_tracks(seed: int, n_values: Sequence[int], *, n_steps: int = 100, q_sc
 
     def run(name, n):
         if name == "pf":
-            return ParticleFilter(model, n, threshold=0.5).run(z, sized_filter_rng(seed, n), store_particles=True)
+            return ParticleFilter(model, n, threshold=0.5).run(z, sized_filter_rng(seed, n), collect=[Clouds()])
         return (run_ekf if name == "ekf" else run_ukf)(model, z)
 
     def score(res) -> dict:
@@ -166,7 +167,7 @@ def terrain_tracks(seed: int, run: int, scenario: AircraftScenario, terrain: Ter
     def run_filter(name, n):
         if name == "pf":
             return ParticleFilter(model, n, threshold=0.5, resampler=resampler).run(
-                z, filter_rng(seed, run), store_particles=True)
+                z, filter_rng(seed, run), collect=[Clouds()])
         return (extended_kalman_filter if name == "ekf" else unscented_kalman_filter)(scenario, terrain, z)
 
     def score(res) -> dict:

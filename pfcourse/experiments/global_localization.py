@@ -22,6 +22,7 @@ import numpy as np
 
 from scipy import stats
 
+from pfcourse.collectors import Clouds
 from pfcourse.diagnostics import nees
 from pfcourse.metrics import LOCK_WINDOW_S, heading_error, locked_from, position_error, position_spread
 from pfcourse.robot.scenario import ANGLE_INDICES, RobotModel, simulate_robot
@@ -197,7 +198,7 @@ def mode_run(seed: int, method: str, n_particles: int = 2000, n_steps: int = 21,
     sim = simulate_robot(None, seed, n_steps=n_steps)
     base = RobotModel.for_simulation(sim, initial="uniform")
     pf = lookup(FILTERS, method, "method").build(base, n_particles, MethodSettings(), True)
-    res = pf.run(sim.measurements, seed, store_particles=True)
+    res = pf.run(sim.measurements, seed, collect=[Clouds()])
     mass = np.empty(n_steps)
     for k in range(n_steps):
         near = (position_error(sim.truth[k], res.particles[k]) < radius) & (

@@ -31,6 +31,7 @@ from pfcourse.pmmh import pmmh
 from pfcourse.smoothing import ffbsm, pairwise
 from pfcourse.robot.scenario import robot_transition_log_density
 from pfcourse.experiments.terrain import jacksboro
+from pfcourse.collectors import Clouds
 from pfcourse.filter import ParticleFilter
 from pfcourse.landmarks import quadrant_scenario, simulate
 from pfcourse.robot import RobotModel, RobotScenario, simulate_robot
@@ -55,6 +56,24 @@ SCENARIO_TEXT = "quadrant_scenario().with_(Qw=0.05**2 I6, Rv=0.5**2 I4), 50 samp
 
 ROBOT_GAP = RobotScenario().with_(n_steps=160, gap=(60.0, 110.0))
 N_ROBOT_GAP, ROBOT_GAP_RUNS, ROBOT_GAP_SEED = 300, 100, 5
+
+#: What each study's provenance record says of its scenario and seeds, study by study: each row
+#: function's own model (the scripts these studies came from stamped the landmark scenario on every
+#: table, the altimeter study's included).
+PROVENANCE_FIELDS = {
+    "bias": {"scenario": SCENARIO_TEXT, "data_seed": DATA_SEED, "theta": 1.0},
+    "ml": {"scenario": SCENARIO_TEXT, "bounds": BOUNDS, "xatol_log_theta": XATOL,
+           "filter_seed": "run_filter_seed(the run's seed), the same for every theta (common random numbers)"},
+    "smoothing_robot": {"scenario": "RobotScenario().with_(n_steps=160, gap=(60.0, 110.0))",
+                        "filter_seed": "run_filter_seed(the run's seed)"},
+    "terrain_rf": {"scenario": "AircraftScenario() over jacksboro(): the terrain chapters' flights; "
+                               "rf_scale multiplies the altimeter variance R_f",
+                   "filter": "terrain_log_likelihood: regularised filter (kernel_scale 0.2), multinomial "
+                             "resampling at every reading",
+                   "bounds": TERRAIN_BOUNDS, "xatol_log_theta": XATOL, "truth": 1.0,
+                   "seeds": "flight r: pfcourse.seeding.data_rng(0, r); filter: pfcourse.seeding.likelihood_rng(0, r) "
+                            "for every scale (the row's seed column is unused)"},
+}
 
 
 def chapter_data():
@@ -99,7 +118,7 @@ def terrain_rf_run(seed: int, flight: int, n_particles: int) -> dict:
 def robot_gap_run(seed: int, n_particles: int) -> dict:
     sim = simulate_robot(ROBOT_GAP, seed)
     model = RobotModel.for_simulation(sim)
-    r = ParticleFilter(model, n_particles).run(sim.measurements, run_filter_seed(seed), store_particles=True)
+    r = ParticleFilter(model, n_particles).run(sim.measurements, run_filter_seed(seed), collect=[Clouds()])
     s = ffbsm(r.particles, r.weights, pairwise(partial(robot_transition_log_density, model)), model.angle_indices)
     t = np.arange(ROBOT_GAP.n_steps) * ROBOT_GAP.dt
     gap = (t >= ROBOT_GAP.gap[0]) & (t < ROBOT_GAP.gap[1])

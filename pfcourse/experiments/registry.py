@@ -190,7 +190,8 @@ def _likelihood_study(name: str, row: Callable, grid: dict, n_runs: int, base_se
     """A Part V study: run_study's table without its wall times, in book/data/likelihood/."""
     return Study(name=f"likelihood/{name}", row=row, grid=grid, n_runs=n_runs, base_seed=base_seed,
                  table=f"likelihood/{name}.csv", provenance=f"likelihood/{name}.json",
-                 row_code=f"pfcourse/experiments/likelihood_studies.py ({row.__name__})", **options)
+                 row_code=f"pfcourse/experiments/likelihood_studies.py ({row.__name__})",
+                 fields=ls.PROVENANCE_FIELDS[name], **options)
 
 
 def _mcl_study(name: str, row: Callable, grid, **options) -> Study:

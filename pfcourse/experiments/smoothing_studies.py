@@ -15,11 +15,12 @@ from __future__ import annotations
 
 import numpy as np
 
+from pfcourse.collectors import Ancestors, Clouds
 from pfcourse.filter import ParticleFilter
 from pfcourse.kalman import kalman_filter
 from pfcourse.landmarks import quadrant_scenario, simulate
 from pfcourse.seeding import data_rng, filter_rng
-from pfcourse.smoothing import (AncestorRecorder, ffbsi, ffbsm, fixed_lag_means, linear_gaussian_log_transition,
+from pfcourse.smoothing import (ffbsi, ffbsm, fixed_lag_means, linear_gaussian_log_transition,
                                 rts_smoother)
 
 SCENARIO = quadrant_scenario().with_(Qw=0.05**2 * np.eye(6), Rv=0.5**2 * np.eye(4))
@@ -49,9 +50,8 @@ def landmarks_row(seed: int, n_particles: int) -> dict:
         return base(new, old, k)
 
     rng = filter_rng(SEED, seed)
-    recorder = AncestorRecorder()
-    r = ParticleFilter(model, n_particles, resampler=recorder).run(sim.measurements, rng, store_particles=True)
-    ancestors = recorder.ancestors(r)
+    r = ParticleFilter(model, n_particles).run(sim.measurements, rng, collect=[Clouds(), Ancestors()])
+    ancestors = r.collected["ancestors"]
     out = {"filter_vs_kalman": distance(r.mean, kf.mean, sd_f)}
     out["ffbsm_rts"] = distance(ffbsm(r.particles, r.weights, log_f).mean)
     out["ffbsm_densities"] = int(sum(calls))

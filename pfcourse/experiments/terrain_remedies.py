@@ -29,6 +29,7 @@ from functools import partial
 
 import numpy as np
 
+from pfcourse.collectors import Stages
 from pfcourse.errors import ParameterError
 from pfcourse.experiments import terrain_studies
 from pfcourse.experiments.terrain import DIVERGED_ERROR, flight_scores, jacksboro
@@ -107,11 +108,13 @@ def run_one(setting: str, run: int, terrain, scenario: AircraftScenario | None =
     scenario = scenario or AircraftScenario()
     flight = simulate(scenario, terrain, data_rng(0, run))
     pf = lookup(FILTERS, setting).build(scenario, terrain if filter_terrain is None else filter_terrain)
-    pc = pf.proposal if isinstance(pf.proposal, ProgressiveCorrection) else None
     n = pf.n_particles
-    res = pf.run(flight.measurements, rng=filter_rng(0, run))
-    measured = int(np.sum(~np.isnan(flight.measurements[:, 0])))
-    evaluations = measured if pc is None else int(np.sum(pc.stages))
+    res = pf.run(flight.measurements, rng=filter_rng(0, run), collect=[Stages()])
+    measured = ~np.isnan(flight.measurements[:, 0])
+    if isinstance(pf.proposal, ProgressiveCorrection):  # its stages, at the measured steps after the first
+        evaluations = int(np.sum(res.collected["stages"][1:][measured[1:]]))
+    else:
+        evaluations = int(np.sum(measured))
     return {"setting": setting, "flight": run, "N": n, **flight_scores(flight.truth, res.mean),
             "evaluations": evaluations}
 

@@ -46,7 +46,7 @@ def animate_clouds(
     title: Callable[[str, int, FilterResult], str] | None = None,
     legend: bool = False,
 ) -> FuncAnimation:
-    """Animate the clouds of ``results`` (each run with ``store_particles=True``), one panel each.
+    """Animate the clouds of ``results`` (each run with ``collect=[Clouds()]``), one panel each.
 
     ``truth`` ``(K, d)``; ``blocks`` the pairs of state indices drawn as clouds (default
     ``(0, 1), (2, 3), ...``); ``kalman`` an exact reference whose ellipses are drawn too
@@ -60,7 +60,7 @@ def animate_clouds(
     """
     for name, res in results.items():
         if res.particles is None:
-            raise ParameterError(f"{name}: run the filter with store_particles=True to animate its cloud")
+            raise ParameterError(f"{name}: run the filter with collect=[Clouds()] to animate its cloud")
     truth = np.asarray(truth, dtype=float)
     if blocks is None:
         blocks = [(2 * j, 2 * j + 1) for j in range(truth.shape[1] // 2)]

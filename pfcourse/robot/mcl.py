@@ -75,6 +75,7 @@ from scipy.special import logsumexp
 
 from pfcourse.angles import wrap_angle
 from pfcourse.checks import Array, check_probability
+from pfcourse.collectors import Stages
 from pfcourse.errors import ParameterError
 from pfcourse.filter import ParticleFilter
 from pfcourse.filter_config import FilterConfig, configurations, lookup
@@ -429,20 +430,14 @@ def run_method(sim: RobotSimulation, method: str, n_particles: int, seed: int, *
     out: dict = {}
     start = time.perf_counter()
     pf = config.build(base, n_particles, settings, global_start)
-    res = pf.run(sim.measurements, seed)
-    if isinstance(pf.proposal, ProgressiveCorrection):
-        # each stage of progressive correction evaluates the likelihood of the whole cloud once more
-        cost = res.sizes.copy()
-        measured = np.flatnonzero(sim.has_measurement)
-        measured = measured[measured > 0]
-        cost[measured[: len(pf.proposal.stages)]] *= np.asarray(pf.proposal.stages, dtype=cost.dtype)
-        out["likelihood_evaluations"] = cost
+    res = pf.run(sim.measurements, seed, collect=[Stages()])
     if isinstance(pf.proposal, AugmentedMCL):
         out["injected"] = np.array(pf.proposal.injected)
     out["seconds"] = time.perf_counter() - start
     out["mean"], out["cov"] = res.mean, res.cov
     out["n_used"] = res.sizes
-    out.setdefault("likelihood_evaluations", res.sizes)
+    # each stage of progressive correction evaluates the likelihood of the whole cloud once more
+    out["likelihood_evaluations"] = res.sizes * res.collected["stages"]
     return out
 
 

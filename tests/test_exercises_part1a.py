@@ -1,0 +1,188 @@
+"""The checkers of the opening of Part I (SIS and SIR) check the generator, and name each mistake.
+
+Issue 39: a function that draws random numbers is checked to draw them from the generator it is
+given (same seed, same answer; another seed, another answer; NumPy's global state untouched), and
+the multinomial resampler of the SIR chapter is told apart from the systematic and stratified ones.
+Each typical mistake gets its own sentence, tested here with the sentence it must contain.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from pfcourse.exercises import check_multinomial_resampler, check_sis
+from pfcourse.resampling import multinomial, residual, stratified, systematic
+from test_exercises import sis
+
+
+def inverse_cdf(w, rng):
+    """The reference answer of the SIR chapter's exercise."""
+    cumulative = np.cumsum(w)
+    cumulative[-1] = 1.0
+    return np.searchsorted(cumulative, rng.random(len(w)), side="right")
+
+
+def global_numpy(w, rng):
+    return np.searchsorted(np.cumsum(w), np.random.random(len(w)), side="right")
+
+
+def own_generator(w, rng):
+    return np.searchsorted(np.cumsum(w), np.random.default_rng().random(len(w)), side="right")
+
+
+def fixed_generator(w, rng):
+    return np.searchsorted(np.cumsum(w), np.random.default_rng(0).random(len(w)), side="right")
+
+
+def shared_uniform(w, rng):
+    return np.searchsorted(np.cumsum(w), np.full(len(w), rng.random()), side="right")
+
+
+def uniform_indices(w, rng):
+    return rng.integers(0, len(w), len(w))
+
+
+def off_by_one(w, rng):
+    return np.searchsorted(np.cumsum(w), rng.random(len(w)), side="right") + 1
+
+
+def float_indices(w, rng):
+    return inverse_cdf(w, rng).astype(float)
+
+
+def left_side_biased(w, rng):
+    """Picks the particle before the right one: biased, and it chooses the zero-weight particle."""
+    return np.maximum(np.searchsorted(np.cumsum(w), rng.random(len(w)), side="right") - 1, 0)
+
+
+@pytest.mark.parametrize("seed", range(3))
+def test_the_reference_and_the_package_multinomial_pass(seed):
+    assert check_multinomial_resampler(inverse_cdf, seed=seed).ok
+    assert check_multinomial_resampler(multinomial, seed=seed, n_draws=2000).ok
+
+
+@pytest.mark.parametrize("mistake, says", [
+    (global_numpy, "NumPy's global generator"),
+    (own_generator, "same seed gave different"),
+    (fixed_generator, "whatever the generator's seed"),
+    (systematic, "stratified or systematic"),
+    (stratified, "stratified or systematic"),
+    (residual, "stratified or systematic"),
+    (shared_uniform, "one uniform shared"),
+    (uniform_indices, "weight 0 was chosen"),
+    (left_side_biased, "weight 0 was chosen"),
+    (off_by_one, "out of range"),
+    (float_indices, "must be integers"),
+    (lambda w, rng: None, "returned None"),
+    (lambda w, rng: inverse_cdf(w, rng)[:-1], "one ancestor index per particle"),
+])
+def test_each_typical_resampler_mistake_gets_its_own_sentence(mistake, says):
+    report = check_multinomial_resampler(mistake, n_draws=2000)
+    assert not report.ok and len(report.problems) == 1, str(report)
+    assert says in report.problems[0], report.problems[0]
+
+
+def test_a_biased_resampler_is_named_biased():
+    def heavy_first(w, rng):  # moves 10 % of the mass of every particle onto the first
+        v = 0.9 * w
+        v[0] += 0.1
+        return inverse_cdf(v, rng)
+
+    report = check_multinomial_resampler(heavy_first, n_draws=2000)
+    assert not report.ok and "biased" in report.problems[0], str(report)
+
+
+def test_the_checkers_leave_numpys_global_state_as_they_found_it():
+    np.random.seed(123)
+    expected = np.random.random()
+    np.random.seed(123)
+    check_multinomial_resampler(global_numpy, n_draws=200)
+    check_sis(lambda z, n, rng, model: sis(z, n, np.random.default_rng(np.random.randint(1 << 30)), model))
+    assert np.random.random() == expected
+
+
+def sis_from(generator):
+    """The reference SIS of tests/test_exercises.py, fed another generator than the one it is given."""
+    return lambda z, n, rng, model: sis(z, n, generator(rng), model)
+
+
+class GlobalNumpy:
+    """A generator-like object whose draws come from NumPy's global state (np.random)."""
+
+    def standard_normal(self, size=None):
+        return np.random.standard_normal(size)
+
+
+@pytest.mark.parametrize("feed, says", [
+    (lambda rng: GlobalNumpy(), "NumPy's global generator"),
+    (lambda rng: np.random.default_rng(), "same seed gave different"),
+    (lambda rng: np.random.default_rng(7), "whatever the generator's seed"),
+    (lambda rng: rng, None),
+])
+def test_the_sis_checker_checks_the_generator(feed, says):
+    report = check_sis(sis_from(feed))
+    if says is None:
+        assert report.ok, str(report)
+    else:
+        assert not report.ok and len(report.problems) == 1, str(report)
+        assert says in report.problems[0], report.problems[0]
+
+
+# The importance-sampling exercise: the reference answer and its typical mistakes, each a flag that
+# changes one line, as a student would write them.
+def toy_sampler(z, sd_v, n, rng, *, mistake=None, draw=None):
+    from scipy import stats
+    from scipy.special import logsumexp
+
+    x = z / 2 + (draw(rng) if draw else rng).standard_normal(n)
+    scale = sd_v**2 if mistake == "sd_as_variance" else sd_v
+    log_lik = stats.norm.logpdf(z, loc=x, scale=scale)
+    log_prior, log_q = stats.norm.logpdf(x), stats.norm.logpdf(x, z / 2, 1.0)
+    log_w = {"likelihood_only": log_lik, "no_proposal": log_lik + log_prior,
+             "no_prior": log_lik - log_q}.get(mistake, log_lik + log_prior - log_q)
+    W = np.exp(log_w - logsumexp(log_w))
+    return W @ x, 1.0 / np.sum(W**2)
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_the_reference_importance_sampler_passes(seed):
+    from pfcourse.exercises import check_importance_sampler
+
+    assert check_importance_sampler(toy_sampler, seed=seed).ok
+
+
+@pytest.mark.parametrize("mistake, draw, says", [
+    ("likelihood_only", None, "the likelihood alone"),
+    ("no_proposal", None, "leaves out - log q(x)"),
+    ("no_prior", None, "leaves out the prior"),
+    ("sd_as_variance", None, "sd_v^2 as its standard deviation"),
+    (None, lambda rng: np.random.default_rng(), "same seed gave different"),
+    (None, lambda rng: np.random.default_rng(5), "whatever the generator's seed"),
+    (None, lambda rng: GlobalNumpy(), "NumPy's global generator"),
+])
+def test_each_typical_importance_sampling_mistake_gets_its_own_sentence(mistake, draw, says):
+    from pfcourse.exercises import check_importance_sampler
+
+    report = check_importance_sampler(lambda z, s, n, rng: toy_sampler(z, s, n, rng, mistake=mistake, draw=draw))
+    assert not report.ok and len(report.problems) == 1, str(report)
+    assert says in report.problems[0], report.problems[0]
+
+
+def test_the_importance_sampler_checker_names_a_missing_answer_and_a_bad_ess():
+    from pfcourse.exercises import check_importance_sampler
+
+    assert "returned None" in check_importance_sampler(lambda z, s, n, rng: None).problems[0]
+    assert "outside [1, n]" in check_importance_sampler(
+        lambda z, s, n, rng: (toy_sampler(z, s, n, rng)[0], 2.0 * n)).problems[0]
+
+
+def test_the_limits_of_the_mistakes_are_apart_from_the_exact_mean():
+    """Each mistake's limit is at least 0.1 from the exact mean and from the others (the checker's six
+    standard errors are about 0.03 at n = 20 000), so it can name it."""
+    from pfcourse.exercises import IS_TOY_CASE, IS_TOY_MISTAKES, toy_is_limit
+
+    means = [toy_is_limit(*IS_TOY_CASE)[0]] + [toy_is_limit(*IS_TOY_CASE, m)[0] for m in IS_TOY_MISTAKES]
+    gaps = np.abs(np.subtract.outer(means, means))[np.triu_indices(len(means), 1)]
+    assert gaps.min() > 0.1
+    assert toy_is_limit(*IS_TOY_CASE)[0] == pytest.approx(IS_TOY_CASE[0] / (1 + IS_TOY_CASE[1] ** 2))

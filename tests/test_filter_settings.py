@@ -1,0 +1,74 @@
+"""A filter's settings as data (pfcourse.filter_config.FilterSettings): one build(model) giving the
+filter written by hand float for float, fresh components per filter, a label and a provenance
+record derived from the fields, bad fields refused by name when the record is made."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+
+from pfcourse import LinearGaussianModel, ParticleFilter
+from pfcourse.collectors import Stages
+from pfcourse.errors import ModelError, ParameterError
+from pfcourse.filter_config import FilterSettings
+from pfcourse.jitter import RegularisedJitter
+from pfcourse.proposals import ProgressiveCorrection
+from pfcourse.sample_size import KLDSampling
+
+MODEL = LinearGaussianModel(F=[[1.0]], H=[[1.0]], m0=[0.0], P0=[[100.0]], Q=[[1.0]], R=[[0.01]])
+Z = (np.cumsum(np.random.default_rng(0).normal(size=15)))[:, None]
+
+
+def tempered(n=300):
+    return FilterSettings(n, 1.0, "multinomial", ProgressiveCorrection(n_tempered=3, kernel=RegularisedJitter(0.3, (0,))),
+                          RegularisedJitter(0.2, (0,)))
+
+
+def test_build_is_the_filter_written_by_hand_float_for_float():
+    by_hand = ParticleFilter(MODEL, 300, threshold=1.0, resampler="multinomial",
+                             proposal=ProgressiveCorrection(n_tempered=3, kernel=RegularisedJitter(0.3, (0,))),
+                             jitter=RegularisedJitter(0.2, (0,))).run(Z, 4, collect=[Stages()])
+    built = tempered().build(MODEL).run(Z, 4, collect=[Stages()])
+    assert built.mean.tobytes() == by_hand.mean.tobytes()
+    assert built.log_likelihood_increments.tobytes() == by_hand.log_likelihood_increments.tobytes()
+    assert built.collected["stages"][1] > 1  # it tempered
+
+
+def test_every_filter_built_gets_fresh_components():
+    # progressive correction counts the readings it saw: a shared one would not temper in a second filter
+    settings = tempered()
+    first, second = (settings.build(MODEL).run(Z, 4, collect=[Stages()]) for _ in range(2))
+    assert first.mean.tobytes() == second.mean.tobytes()
+    assert np.array_equal(first.collected["stages"], second.collected["stages"])
+
+
+def test_label_and_record_come_from_the_fields():
+    assert FilterSettings(3000).label == "bootstrap, systematic at ESS < 0.5 N, N = 3000"
+    assert tempered(3000).label == "progressive correction, regularised, multinomial at ESS < 1 N, N = 3000"
+    assert FilterSettings(20000, sample_size=KLDSampling([1.0])).label == "bootstrap, KLD-sampling, N <= 20000"
+    variants = [FilterSettings(3000), FilterSettings(1000), FilterSettings(3000, 0.3), FilterSettings(3000, resampler="stratified"),
+                FilterSettings(3000, jitter=RegularisedJitter(0.2)), tempered(3000)]
+    assert len({v.label for v in variants}) == len(variants)
+    record = tempered(3000).record()
+    assert json.loads(json.dumps(record)) == record  # plain data
+    assert record["proposal"]["type"] == "ProgressiveCorrection" and record["proposal"]["n_tempered"] == 3
+    assert record["jitter"] == {"type": "RegularisedJitter", "scale": 0.2, "angle_indices": [0]}
+    kld = FilterSettings(20000, sample_size=KLDSampling([0.5, 0.5])).record()["sample_size"]
+    assert kld["type"] == "KLDSampling" and kld["bin_size"] == [0.5, 0.5]
+    assert tempered(3000).record() == tempered(3000).record() != tempered(1000).record()
+
+
+@pytest.mark.parametrize("fields, error, message", [
+    ({"n_particles": 0}, ParameterError, "n_particles"),
+    ({"n_particles": 10, "threshold": 1.5}, ParameterError, "threshold"),
+    ({"n_particles": 10, "resampler": "magic"}, ParameterError, "resampler must be one of"),
+    ({"n_particles": 10, "resampler": lambda w, rng: w}, ParameterError, "a name: settings are data"),
+    ({"n_particles": 10, "proposal": "optimal"}, ModelError, "proposal must have a propose"),
+    ({"n_particles": 10, "jitter": 0.2}, ModelError, "jitter must be a function"),
+    ({"n_particles": 10, "sample_size": 100}, ModelError, "sample_size has no callable needed"),
+])
+def test_bad_settings_are_refused_when_the_record_is_made(fields, error, message):
+    with pytest.raises(error, match=message):
+        FilterSettings(**fields)

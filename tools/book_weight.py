@@ -1,0 +1,149 @@
+"""Sphinx extension of the book: a lighter HTML book (issue 45).
+
+Loaded through ``sphinx: local_extensions`` in ``_config.yml``; it acts when the HTML builder has
+finished. A chapter's figures come out of its notebook as inline images (``data:`` URIs, base64:
+a third larger than the file, and loaded with the page even when a panel never shows them), each
+figure with its phone copy. Here, in every page of the built book:
+
+- each inline PNG becomes a file ``_images/inline/<digest>.png``, named by its content (a figure
+  shown twice is stored once), and the page links it; the panels' figure lists
+  (``pfcourse-panels.js`` sets an image's ``src`` from them) link their files the same way, so a
+  panel's other settings load only when the reader picks them;
+- each such PNG is stored as small as it stays faithful: re-compressed, and as an adaptive
+  256-colour palette when that changes no pixel by more than ``MAX_CHANNEL_ERROR`` levels out of
+  255 in any channel (antialiased text and lines keep their shape), else as it was;
+- the notebooks offered for download (``_sources/``) keep each figure once: the phone copy of a
+  figure (``<picture class="pfcourse-figure">``, beside the figure's own ``image/png``) goes, a
+  panel keeps only the figure it opens with (running the cell brings the live panel back), and
+  every PNG is the re-compressed one.
+"""
+
+from __future__ import annotations
+
+import base64
+import hashlib
+import io
+import json
+import os
+import re
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from PIL import Image
+
+#: An inline PNG; in an animation's script its base64 is broken into lines (a backslash ending each).
+DATA_URI = re.compile(r"data:image/png;base64,([A-Za-z0-9+/=]+(?:\\\n[A-Za-z0-9+/=]+)*)")
+#: Largest change of a channel (0-255) an adaptive palette may make to any pixel of a figure.
+MAX_CHANNEL_ERROR = 8
+FOLDER = "_images/inline"
+PANEL_DATA = re.compile(r'(<script type="application/json" class="pfcourse-panel-data">)(.*?)(</script>)', re.S)
+
+
+def smallest_exact_png(data: bytes) -> bytes:
+    """The PNG ``data`` stored as small as :data:`MAX_CHANNEL_ERROR` allows (see the module docstring).
+
+    A figure drawn on an opaque background is quantized as RGB by maximum coverage (on the book's
+    figures it keeps every channel within a few levels where the octree method, the only one
+    Pillow offers for RGBA, moves antialiased edges by up to thirty).
+    """
+    image = Image.open(io.BytesIO(data))
+    image.load()
+    rgba = np.asarray(image.convert("RGBA"))
+    candidates = [data]
+    if (rgba[..., 3] == 255).all():
+        rgb = image.convert("RGB")
+        paletted = rgb.quantize(colors=256, method=Image.Quantize.MAXCOVERAGE, dither=Image.Dither.NONE)
+        error = np.abs(np.asarray(paletted.convert("RGB"), dtype=int) - rgba[..., :3]).max()
+        if error <= MAX_CHANNEL_ERROR:
+            out = io.BytesIO()
+            paletted.save(out, format="PNG", optimize=True)
+            candidates.append(out.getvalue())
+    out = io.BytesIO()
+    image.save(out, format="PNG", optimize=True)
+    candidates.append(out.getvalue())
+    return min(candidates, key=len)
+
+
+class InlineImages:
+    """Writes each inline PNG once under ``outdir/_images/inline`` and gives its path."""
+
+    def __init__(self, outdir: Path) -> None:
+        self.outdir = outdir
+        self.folder = outdir / FOLDER
+        self.folder.mkdir(parents=True, exist_ok=True)
+        self.known: dict[str, str] = {}
+
+    def file_for(self, encoded: str) -> Path:
+        key = hashlib.sha256(encoded.encode()).hexdigest()
+        if key not in self.known:
+            data = base64.b64decode(encoded.replace("\\\n", ""))
+            name = f"{hashlib.sha256(data).hexdigest()[:20]}.png"
+            path = self.folder / name
+            if not path.exists():
+                path.write_bytes(smallest_exact_png(data))
+            self.known[key] = name
+        return self.folder / self.known[key]
+
+    def recompressed(self, text: str, inline: bool) -> str:
+        """``text`` (HTML with inline PNGs, or one PNG's base64) with each PNG as stored in the folder."""
+        def again(encoded: str) -> str:
+            return base64.b64encode(self.file_for(encoded).read_bytes()).decode()
+
+        if not inline:
+            return again(text.strip())
+        return DATA_URI.sub(lambda m: "data:image/png;base64," + again(m.group(1)), text)
+
+    def rewrite(self, page: Path) -> None:
+        text = page.read_text(encoding="utf-8")
+        if "data:image/png;base64," not in text:
+            return
+        here = page.parent
+
+        def link(match: re.Match) -> str:
+            return os.path.relpath(self.file_for(match.group(1)), here).replace(os.sep, "/")
+
+        page.write_text(DATA_URI.sub(link, text), encoding="utf-8")
+
+
+def lighter_notebook(notebook: dict, images: InlineImages) -> dict:
+    """A notebook to download: each figure once, each PNG as small as it stays exact.
+
+    A figure's phone copy (``<picture>`` beside its ``image/png``) goes; a panel keeps the figure it
+    opens with (its live widget comes back when the cell runs), not its grid of figures.
+    """
+    for cell in notebook.get("cells", []):
+        for output in cell.get("outputs", []):
+            data = output.get("data", {})
+            markup = "".join(data.get("text/html", ""))
+            if markup.startswith('<picture class="pfcourse-figure">') and "image/png" in data:
+                del data["text/html"]
+            elif 'class="pfcourse-panel"' in markup:
+                opening = re.search(r'<img class="pfcourse-panel-figure"[^>]*>', markup)
+                data["text/html"] = ('<div class="pfcourse-panel-opening">' + (opening.group(0) if opening else "")
+                                     + "<p>The panel's figure at the settings it opens with: run the cell for the "
+                                     "live panel.</p></div>")
+            for key in ("text/html", "image/png"):
+                if key in data:
+                    data[key] = images.recompressed("".join(data[key]) if key == "text/html" else data[key],
+                                                    inline=key == "text/html")
+    return notebook
+
+
+def lighten(app, exception) -> None:
+    if exception is not None or app.builder.format != "html":
+        return
+    outdir = Path(app.outdir)
+    images = InlineImages(outdir)
+    for page in sorted(outdir.rglob("*.html")):
+        if "_static" not in page.relative_to(outdir).parts:
+            images.rewrite(page)
+    for notebook in sorted((outdir / "_sources").rglob("*.ipynb")):
+        content = json.loads(notebook.read_text(encoding="utf-8"))
+        notebook.write_text(json.dumps(lighter_notebook(content, images), indent=1, ensure_ascii=False) + "\n",
+                            encoding="utf-8")
+
+
+def setup(app) -> dict[str, Any]:
+    app.connect("build-finished", lighten)
+    return {"parallel_read_safe": True, "parallel_write_safe": True}
