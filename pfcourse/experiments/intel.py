@@ -278,3 +278,53 @@ def global_row(seed: int, *, method: str = "scan") -> dict:
     return {"start_scan": first, "locked_on": locked_on_share(pos, head, heading_tolerance(sp.log)),
             "final_position_error": float(pos[-1]), "final_heading_error": float(head[-1]),
             "mean_particles": float(sizes[1:].mean())}
+
+
+#: Tracking from the known start (the chapter's MCL): the odometry noise a_1..a_4, the particle count,
+#: the start spread, the seeds (the chapter's run is seed 1) and the maps the first half is tracked on.
+TRACK_A = (0.01, 0.005, 0.01, 0.005)
+TRACK_N, TRACK_START_STD = 1000, (0.2, 0.2, 0.05)
+TRACK_SEEDS = range(1, 31)
+TRACK_MAPS = {"second half": MAP_PART, "whole run": slice(0, N_SCANS)}
+TRACK_COLUMNS = ("map", "seed", "median_position_error", "p90_position_error", "final_position_error",
+                 "final_heading_error", "tracking_at_end", "lost_scan")
+
+
+@lru_cache(maxsize=2)
+def _track_split(map_name: str) -> Split:
+    if map_name == "second half":
+        return split()
+    if map_name not in TRACK_MAPS:
+        raise ParameterError(f"map must be one of {list(TRACK_MAPS)}, got {map_name!r}")
+    sp, log = split(), split().log
+    part = TRACK_MAPS[map_name]
+    m = build_map(log.poses[part], log.ranges[part], log.angles, max_range=Z_MAX)
+    return Split(log=log, map=m, grid=m.grid(), free=m.free_grid(), poses=m.to_map(log.poses[HELD_OUT]),
+                 ranges=sp.ranges, odometry=sp.odometry)
+
+
+def tracking_row(seed: int, *, map: str = "second half") -> dict:  # noqa: A002 (the study's setting)
+    """One tracking run of the first half from the corrected start (the chapter's filter, systematic
+    resampling at every scan), filter seeded by ``default_rng(seed)``, on the map ``map``. ``lost_scan``:
+    the first scan from which the position error stays above ``LOCK_POSITION_M`` to the end (-1: never);
+    ``tracking_at_end``: the last scan within ``LOCK_POSITION_M`` and the heading tolerance."""
+    from pfcourse.filter import ParticleFilter
+    from pfcourse.maprobot import MapRobotModel
+
+    def systematic(W, rng):  # the chapter's resampler, draw for draw
+        c = np.cumsum(W)
+        return np.searchsorted(c / c[-1], (np.arange(len(W)) + rng.random()) / len(W))
+
+    sp = _track_split(map)
+    model = MapRobotModel(sp.grid, sp.field(), sp.odometry, motion=OdometryModel(TRACK_A), start=sp.poses[0],
+                          start_std=TRACK_START_STD)
+    run = ParticleFilter(model, TRACK_N, threshold=1.0, resampler=systematic).run(
+        sp.ranges[:, ::BEAM_STEP], rng=np.random.default_rng(seed))
+    pos, head = position_error(sp.poses, run.mean), heading_error(sp.poses, run.mean)
+    far = pos > LOCK_POSITION_M
+    tail = np.flatnonzero(~far)
+    lost = -1 if not far[-1] else int(tail[-1] + 1 if len(tail) else 0)
+    return {"median_position_error": float(np.median(pos)), "p90_position_error": float(np.quantile(pos, 0.9)),
+            "final_position_error": float(pos[-1]), "final_heading_error": float(head[-1]),
+            "tracking_at_end": bool(pos[-1] < LOCK_POSITION_M and head[-1] < heading_tolerance(sp.log)),
+            "lost_scan": lost}

@@ -377,6 +377,13 @@ STUDIES: dict[str, Study] = {study.name: study for study in [
                   "map": "scans 455-909 of book/data/intel/intel-corrected.log.gz; runs on scans 0-454",
                   "steps": intel.GLOBAL_STEPS, "lock_on": "within 1 m and 3 x the odometry's RMS heading error "
                   f"of a step, at {intel.LOCK_SHARE} of the last {intel.LOCK_WINDOW} scans"}),
+    Study(name="intel/tracking", row=intel.tracking_row, grid={"map": list(intel.TRACK_MAPS)},
+          n_runs=len(intel.TRACK_SEEDS), seeds="run", base_seed=intel.TRACK_SEEDS.start, failures="raise",
+          table="intel/tracking.csv", provenance="intel/tracking.json", columns=intel.TRACK_COLUMNS, sample=1,
+          row_code="pfcourse/experiments/intel.py (tracking_row)",
+          fields={"seeds": "run s: filter numpy.random.default_rng(s), s = 1..30 (the chapter's run is s = 1)",
+                  "maps": "second half: scans 455-909; whole run: scans 0-909; tracked: scans 0-454",
+                  "filter": f"N = {intel.TRACK_N}, odometry a = {intel.TRACK_A}, every {intel.BEAM_STEP}th beam"}),
     *(Study(name=name, row=partial(terrain_remedies.fresh_flight_row, study=name), grid={"setting": list(fresh.settings)},
             n_runs=len(fresh.flights), seeds="run", base_seed=fresh.flights.start,
             table=f"{name}.csv", **_FLIGHTS, provenance=f"{name}.json", columns=terrain_remedies.FRESH_COLUMNS, seed_column="flight",
