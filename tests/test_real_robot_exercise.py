@@ -38,6 +38,18 @@ def test_the_mistakes_differ_from_the_answer_and_from_each_other_on_the_cases():
     assert np.isinf(beam_log_likelihood(z, z_star, beam, "product")).any()
 
 
+def test_a_beam_with_no_echo_changes_no_normalised_weight():
+    # the exercise's claim: log z_none is added to every pose alike, so leaving those beams out is the same
+    # filter (hence not a named mistake)
+    for z, z_star, beam in beam_cases(30, 1):
+        full = beam_log_likelihood(z, z_star, beam)
+        echo = z < beam.z_max
+        part = beam_log_likelihood(z[echo], z_star[:, echo], beam)
+        assert (~echo).any()
+        assert np.allclose(full - part, (~echo).sum() * np.log(beam.z_none), rtol=0, atol=1e-9)
+        assert np.allclose(full - full.max(), part - part.max(), rtol=0, atol=1e-9)
+
+
 def test_broken_answers_are_reported_not_raised():
     assert "raised ZeroDivisionError" in check_beam_model(lambda z, zs, b: 1 / 0).problems[0]
     assert "returned None" in check_beam_model(lambda z, zs, b: None).problems[0]

@@ -11,9 +11,10 @@ Burgard and Fox 2005, section 6.3, without the "short" part):
 
     log p(z | x) = sum_b log p(z_b | x),
 
-``beam`` holding ``z_hit``, ``z_rand``, ``z_none``, ``sigma`` and ``z_max``.  Unlike the likelihood
-field, a beam with no echo is evidence here: its probability ``z_none`` is the same for every pose,
-but an echo where a pose expects none (or none where it expects a wall) is scored.  The answer is
+``beam`` holding ``z_hit``, ``z_rand``, ``z_none``, ``sigma`` and ``z_max``.  A beam with no echo adds
+``log z_none`` to every pose alike, so it changes no normalised weight: leaving such beams out, as the
+likelihood field does, is the same filter, and the checker does not call it a mistake (it accepts the
+answer only with the term, which the exercise asks for).  An echo where a pose expects none is scored.  The answer is
 compared with :func:`beam_log_likelihood` on a scan of 12 beams and one of 360 (where a product of
 densities underflows); a wrong one with each mistake of :data:`BEAM_MISTAKES`.
 """
@@ -40,8 +41,6 @@ class BeamCase:
 
 
 BEAM_MISTAKES: dict[str, str] = {
-    "no_echo_left_out": "beams with no echo are left out, as the likelihood field does: in the beam model they "
-                        "count, with probability z_none, so every scan has the same number of terms",
     "no_rand": "the term z_rand / z_max is missing: without it one echo far from the expected range (a person "
                "walking by) makes the weight vanish",
     "no_constant": "the Gaussian density needs its factor 1 / (sqrt(2 pi) sigma): without it z_hit and z_rand "
@@ -64,8 +63,6 @@ def beam_log_likelihood(z: np.ndarray, z_star: np.ndarray, beam: BeamCase, mista
     rand = 0.0 if mistake == "no_rand" else beam.z_rand / beam.z_max
     none = beam.z_none if mistake == "none_everywhere" else 0.0
     dens = np.where(echo, hit + rand + none, beam.z_none)
-    if mistake == "no_echo_left_out":
-        dens = np.where(echo, dens, 1.0)
     with np.errstate(divide="ignore"):
         if mistake == "product":
             return np.log(np.prod(dens, axis=1))
