@@ -141,7 +141,8 @@ EvidenceBlock(
 #
 # The reference has a floor: on a turn on the spot the corrected pose moves a median
 # {glue:text}`intel_on_spot_corrected_cm:.1f` cm, the odometry's {glue:text}`intel_on_spot_odometry_cm:.1f`
-# cm (one reference point is off the wheel axis), so a few centimetres against it say nothing.
+# cm (the corrected pose's reference point is apparently off the wheel axis), so a few
+# centimetres against it say nothing.
 #
 # ## The picture: a map, a path, and the odometry drifting away
 #
@@ -567,8 +568,8 @@ EvidenceBlock(
 #
 # Runs that start later, where the path runs a median {glue:text}`intel_lock_late_path_m:.1f` m from
 # it, lock on in {glue:text}`intel_lock_bin2_rate:.0%` ($200$-$299$) and
-# {glue:text}`intel_lock_bin3_rate:.0%` ($300$-$454$). Where the map half saw the same rooms from
-# nearby, the filter finds the robot; where it did not, it rarely does.
+# {glue:text}`intel_lock_bin3_rate:.0%` ($300$-$454$). Lock-on follows how close the start lies to
+# where the map half went (the uniform start shows the same pattern, in the evidence block).
 #
 # :::{admonition} Going further: tempering the field, and what AMCL does
 # :class: dropdown
@@ -585,8 +586,8 @@ EvidenceBlock(
 # an unnormalised hit term $z_{\mathrm{hit}} e^{-d^2 / 2\sigma^2} + z_{\mathrm{rand}} / z_{\max}$
 # with distances capped at `laser_likelihood_max_dist` $= 2$ m; a scan weight of
 # $1 + \sum_b p_b^3$ instead of the product over beams, which caps the ratio of two particles' weights
-# at about $1 + B$ for $B$ beams; and, in the first ROS's `amcl` (not nav2's), skipping the beams
-# that most particles fail to explain (beam skipping).
+# at about $1 + B$ for $B$ beams; and `amcl`'s beam skipping, which drops the beams that most
+# particles fail to explain.
 # :::
 #
 # ## Try it: the map
