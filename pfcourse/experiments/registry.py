@@ -37,7 +37,7 @@ import pandas as pd
 
 from pfcourse.errors import ParameterError, StepError
 from pfcourse.filter_config import labels
-from pfcourse.experiments import association, global_localization
+from pfcourse.experiments import association, global_localization, intel
 from pfcourse.experiments import likelihood_studies as ls
 from pfcourse.experiments import (maprobot, rb_study, robot_studies, sir_fixes_study, smoothing_studies,
                                   terrain_marginalised, terrain_remedies, terrain_studies)
@@ -369,6 +369,21 @@ STUDIES: dict[str, Study] = {study.name: study for study in [
           fields={"lags": smoothing_studies.LAGS, "scenario": "quadrant_scenario().with_(Qw=0.05**2 I6, Rv=0.5**2 I4)",
                   "seeds": f"run r: data pfcourse.seeding.data_rng({smoothing_studies.SEED}, r); filter and FFBSi "
                            f"draws pfcourse.seeding.filter_rng({smoothing_studies.SEED}, r)"}),
+    Study(name="intel/global", row=intel.global_row, grid={"method": list(intel.METHODS)}, n_runs=intel.N_GLOBAL,
+          seeds="run", failures="raise", table="intel/global.csv", provenance="intel/global.json",
+          columns=intel.GLOBAL_COLUMNS, sample=1, cheap=lambda t: t["method"] == "uniform",
+          row_code="pfcourse/experiments/intel.py (global_row, global_filter)",
+          fields={"seeds": "run s: start scan numpy.random.default_rng([41, s]); filter default_rng([41, s, 1])",
+                  "map": "scans 455-909 of book/data/intel/intel-corrected.log.gz; runs on scans 0-454",
+                  "steps": intel.GLOBAL_STEPS, "lock_on": "within 1 m and 3 x the odometry's RMS heading error "
+                  f"of a step, at {intel.LOCK_SHARE} of the last {intel.LOCK_WINDOW} scans"}),
+    Study(name="intel/tracking", row=intel.tracking_row, grid={"map": list(intel.TRACK_MAPS)},
+          n_runs=len(intel.TRACK_SEEDS), seeds="run", base_seed=intel.TRACK_SEEDS.start, failures="raise",
+          table="intel/tracking.csv", provenance="intel/tracking.json", columns=intel.TRACK_COLUMNS, sample=1,
+          row_code="pfcourse/experiments/intel.py (tracking_row)",
+          fields={"seeds": "run s: filter numpy.random.default_rng(s), s = 1..30 (the chapter's run is s = 1)",
+                  "maps": "second half: scans 455-909; whole run: scans 0-909; tracked: scans 0-454",
+                  "filter": f"N = {intel.TRACK_N}, odometry a = {intel.TRACK_A}, every {intel.BEAM_STEP}th beam"}),
     *(Study(name=name, row=partial(terrain_remedies.fresh_flight_row, study=name), grid={"setting": list(fresh.settings)},
             n_runs=len(fresh.flights), seeds="run", base_seed=fresh.flights.start,
             table=f"{name}.csv", **_FLIGHTS, provenance=f"{name}.json", columns=terrain_remedies.FRESH_COLUMNS, seed_column="flight",
