@@ -147,23 +147,33 @@ def measured_steps(sc, n_runs):
 import numpy as np
 from pfcourse.landmarks.scenario import quadrant_scenario
 
-model = quadrant_scenario().model()  # F, B, Q, H, R of the landmark model
+# F, B, Q, H, R of the landmark model
+model = quadrant_scenario().model()
 
 
 def optimal_step(x_prev, z, model, rng):
-    """Draw x_k^i ~ p(x_k | x_(k-1)^i, z_k); return them and log p(z_k | x_(k-1)^i)."""
+    """Draw x_k^i ~ p(x_k | x_(k-1)^i, z_k); return them and the log-weights
+    log p(z_k | x_(k-1)^i)."""
     F, B, Q = model.F, model.B, model.Q
-    pred = x_prev @ F.T + B  # the parents' predictions, (N, d)
+    # the parents' predictions, (N, d)
+    pred = x_prev @ F.T + B
     seen = ~np.isnan(z)
-    if not seen.any():  # nothing measured: move through the transition, weights unchanged
-        return pred + rng.standard_normal(x_prev.shape) @ np.linalg.cholesky(Q).T, np.zeros(len(x_prev))
+    if not seen.any():
+        # nothing measured: move through the transition, weights unchanged
+        noise = rng.standard_normal(x_prev.shape) @ np.linalg.cholesky(Q).T
+        return pred + noise, np.zeros(len(x_prev))
     H, R = model.H[seen], model.R[np.ix_(seen, seen)]
-    C = H @ Q @ H.T + R  # covariance of z_k given x_(k-1)
-    G = np.linalg.solve(C, H @ Q).T  # G_k = Q H^T C^-1 (C is symmetric)
-    Sigma = Q - G @ C @ G.T  # (I - G_k H_k) Q, the same for every particle
-    nu = z[seen] - pred @ H.T  # z_k - H_k x̄_k^i, (N, measured)
-    mu = pred + nu @ G.T  # the proposal's means
-    L = np.linalg.cholesky(0.5 * (Sigma + Sigma.T))  # symmetrised against round-off
+    # covariance of z_k given x_(k-1)
+    C = H @ Q @ H.T + R
+    # G_k = Q H^T C^-1 (C is symmetric)
+    G = np.linalg.solve(C, H @ Q).T
+    # (I - G_k H_k) Q, the same for every particle
+    Sigma = Q - G @ C @ G.T
+    # z_k - H_k x̄_k^i, (N, measured), and the proposal's means
+    nu = z[seen] - pred @ H.T
+    mu = pred + nu @ G.T
+    # symmetrised against round-off
+    L = np.linalg.cholesky(0.5 * (Sigma + Sigma.T))
     x_new = mu + rng.standard_normal(x_prev.shape) @ L.T
     quad = np.einsum("ij,ij->i", nu @ np.linalg.inv(C), nu)
     return x_new, -0.5 * (quad + np.linalg.slogdet(2 * np.pi * C)[1])
@@ -477,7 +487,7 @@ def draw_proposals(n_particles, noise_scale, seed):
     a2.set_ylabel("robot x: PF - Kalman (m)")
 
 
-# %% tags=["nbval-ignore-output"]
+# %% tags=["nbval-ignore-output", "hide-input"] jupyter={"source_hidden": true}
 display(control_panel(draw_proposals, grid={"n_particles": (50, 200, 1000), "noise_scale": (0.1, 0.3, 1.0)},
                       n_particles=particle_slider(200),
                       noise_scale=scale_slider("measurement sd factor", 0.1), seed=seed_box(2024)))
@@ -537,7 +547,7 @@ from pfcourse.exercises import check_optimal_proposal
 
 
 def my_optimal(x_prev, z, model):
-    """Your optimal proposal: return (means, variances, log_weights), three arrays of shape (N,)."""
+    """Your optimal proposal: (means, variances, log_weights), each (N,)."""
     ...  # replace with your code
 
 

@@ -94,7 +94,10 @@ from pfcourse.figures.report import EvidenceBlock, glue_values
 from pfcourse.experiments.rb_study import METHODS
 from pfcourse.landmarks.rao_blackwell import RaoBlackwellModel, RaoBlackwellProposal
 from pfcourse.landmarks.scenario import circle_scenario, quadrant_scenario, simulate
+from pfcourse.figures.widgets import control_panel, particle_slider, seed_box
+from pfcourse.seeding import run_filter_seed
 from pfcourse.style import COLORS, use_style
+from IPython.display import display
 
 use_style()
 scenario = quadrant_scenario()
@@ -126,7 +129,8 @@ import numpy as np
 from scipy import stats
 from pfcourse.landmarks.scenario import quadrant_scenario, simulate
 
-model = quadrant_scenario().model()  # F, B, Q, H, R, m0, P0 of the landmark model
+# F, B, Q, H, R, m0, P0 of the landmark model
+model = quadrant_scenario().model()
 sim = simulate(quadrant_scenario(), rng=2024)
 Fr, Br, Qr = model.F[:2, :2], model.B[:2], model.Q[:2, :2]  # robot blocks
 Ql = model.Q[2:, 2:]  # map block: static landmarks, 1e-20
@@ -766,7 +770,7 @@ glue("m5_rbpf_robot_cover_low", cover_low, display=False)
 
 # %% tags=["remove-input"] jupyter={"source_hidden": true}
 EvidenceBlock(
-    "report 003's findings on the five-landmark model",
+    "three earlier findings on the five-landmark model, checked",
     notes=[f"SD / exact SD at the last step (medians over 100 runs): SIS landmarks {np.median(check['SIS']['lm_sd']):.1g}; "
            f"SIR landmarks {np.median(check['SIR']['lm_sd']):.1g}, robot {np.median(check['SIR']['robot_sd']):.2g}; "
            f"RBPF landmarks {np.median(check['RBPF']['lm_sd']):.2f}, robot {np.median(check['RBPF']['robot_sd']):.2f}.",
@@ -813,6 +817,41 @@ EvidenceBlock(
 # filter is that it keeps working when the robot part becomes nonlinear (range and bearing,
 # Part II), where FastSLAM was born.
 #
+# ## Try it
+#
+# The panel reruns the one-run figure above (landmark 1's $x$ estimate and $\pm 3\sigma$ band of
+# SIR and of the Rao-Blackwellised filter, over the Kalman band) for the chosen $N$ and
+# simulation seed. Does SIR's band keep the Kalman band's width at any $N$?
+
+# %% tags=["hide-input"] jupyter={"source_hidden": true}
+def draw_one_run(n_particles, seed):
+    s = simulate(scenario, rng=seed)
+    exact = kalman_filter(model, s.measurements)
+    filters = {"SIR": ParticleFilter(model, n_particles, threshold=1 / 3),
+               "RBPF (FastSLAM 2.0)": ParticleFilter(rb, n_particles, threshold=1 / 3,
+                                                     proposal=RaoBlackwellProposal(optimal=True))}
+    fig, axes = plt.subplots(1, 2, figsize=(7, 2.8), sharey=True)
+    for ax, (name, pf) in zip(axes, filters.items()):
+        r = pf.run(s.measurements, rng=run_filter_seed(seed))
+        r = rb.marginal(r) if name != "SIR" else r
+        for res, label, color, alpha in ((exact, "Kalman", COLORS["kalman"], 0.25),
+                                         (r, name, COLORS["estimate"], 0.35)):
+            sd = np.sqrt(res.cov[:, 2, 2])
+            ax.fill_between(s.T, res.mean[:, 2] - 3 * sd, res.mean[:, 2] + 3 * sd, color=color, alpha=alpha,
+                            label=rf"{label} $\pm3\sigma$")
+            ax.plot(s.T, res.mean[:, 2], color=color, lw=1)
+        ax.plot(s.T, s.truth[:, 2], color=COLORS["truth"], ls="--", lw=0.8, label="truth")
+        ax.set_title(f"{name}, N = {n_particles}", fontsize=10)
+        ax.set_xlabel("time t (s)")
+    axes[0].set_ylabel("landmark 1, x (m)")
+    axes[1].legend(loc="upper right", fontsize=8)
+
+
+# %% tags=["nbval-ignore-output", "hide-input"] jupyter={"source_hidden": true}
+display(control_panel(draw_one_run, grid={"n_particles": (10, 100, 1000)},
+                      n_particles=particle_slider(100, 1, 3), seed=seed_box(2024)))
+
+# %% [markdown]
 # ## Exercises
 #
 # ```{exercise} 8.1 The optimal robot proposal

@@ -39,6 +39,7 @@ from pfcourse.errors import ParameterError, StepError
 from pfcourse.filter_config import labels
 from pfcourse.experiments import association, global_localization
 from pfcourse.experiments import likelihood_studies as ls
+from pfcourse.experiments import part1_studies
 from pfcourse.experiments import (maprobot, rb_study, robot_studies, sir_fixes_study, smoothing_studies,
                                   terrain_marginalised, terrain_remedies, terrain_studies)
 from pfcourse.experiments.provenance import append_rerun, launch_commit, write_provenance
@@ -236,6 +237,21 @@ STUDIES: dict[str, Study] = {study.name: study for study in [
           row_code="pfcourse/experiments/rb_study.py, pfcourse/landmarks/rao_blackwell.py, pfcourse/landmarks/auxiliary.py",
           fields={"methods": rb_study.METHODS, "threshold": rb_study.THRESHOLD,
                   "seeds": "simulation seed s, filter seed s + 10**6 (same for every method and N)"}),
+    Study(name="proposals", row=part1_studies.proposals_row,
+          grid={"setting": part1_studies.SETTINGS, "proposal": part1_studies.PROPOSALS}, n_runs=50, seeds="run",
+          failures="raise", table="proposals.csv", provenance="proposals.json",
+          columns=("setting", "proposal", "seed", "ess", "ess_sum", "n_measured", "resampled", "robot",
+                   "landmarks", "rmse"), sample=4, row_code="pfcourse/experiments/part1_studies.py",
+          fields={"seeds": "simulation seed s = 0-49, filter seed s + 10**6 (same for both proposals)",
+                  "lab": "N = 500, threshold 1/3", "sharp_broad": "N = 200, threshold 1/2, process noise "
+                  "0.05^2 m^2 on every coordinate, measurement sd 0.1 and 1 times the lab's"}),
+    Study(name="rb_five_landmarks", row=part1_studies.five_landmarks_row,
+          grid={"method": part1_studies.FIVE_METHODS}, n_runs=100, seeds="run", failures="raise",
+          table="rb_five_landmarks.csv", provenance="rb_five_landmarks.json",
+          columns=("method", "seed", "collapse", "lm_sd", "robot_sd", "robot_cover"), sample=4,
+          row_code="pfcourse/experiments/part1_studies.py",
+          fields={"seeds": "simulation seed s = 0-99, filter seed s + 10**6 (same for every method)",
+                  "N": part1_studies.N_FIVE}),
     *(_robot_study(name, grid, options) for name, (grid, options) in robot_studies.STUDIES.items()),
     *(_likelihood_study(name, row, {"n_particles": n}, runs, seed, columns=("n_particles", "run", "seed", "status", "error", *metrics), **options)
       for name, row, n, runs, seed, metrics, options in [
