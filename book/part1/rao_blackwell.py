@@ -707,28 +707,9 @@ print(f"entries of the map covariance per particle, five landmarks / two: {10 **
 # (robot, last $10$ steps; per run, then compared run by run).
 
 # %% tags=["hide-input"] jupyter={"source_hidden": true}
-from pfcourse.diagnostics import nees
-from pfcourse.seeding import study_filter_seed
-
-circle = circle_scenario()
-cmodel = circle.model()
-crb = RaoBlackwellModel(cmodel)
-limit2 = stats.chi2.ppf(0.95, 2)
-check = {name: {"collapse": [], "lm_sd": [], "robot_sd": [], "robot_cover": []} for name in ("SIS", "SIR", "RBPF")}
-for seed in range(100):
-    s5 = simulate(circle, rng=seed)
-    k5 = kalman_filter(cmodel, s5.measurements)
-    runs5 = {"SIS": ParticleFilter(cmodel, 100, threshold=0.0).run(s5.measurements, rng=study_filter_seed(seed)),
-             "SIR": ParticleFilter(cmodel, 100, threshold=1 / 3).run(s5.measurements, rng=study_filter_seed(seed)),
-             "RBPF": crb.marginal(ParticleFilter(crb, 100, threshold=1 / 3, proposal=RaoBlackwellProposal(True))
-                                  .run(s5.measurements, rng=study_filter_seed(seed)))}
-    for name, r in runs5.items():
-        sd_ratio = np.sqrt(np.clip(np.diag(r.cov[-1]), 1e-300, None) / np.diag(k5.cov[-1]))
-        check[name]["lm_sd"].append(np.exp(np.mean(np.log(sd_ratio[2:]))))
-        check[name]["robot_sd"].append(np.exp(np.mean(np.log(sd_ratio[:2]))))
-        check[name]["robot_cover"].append(np.mean(nees(s5.truth[-10:, :2], r.mean[-10:, :2], r.cov[-10:, :2, :2]) <= limit2))
-        below = np.flatnonzero(r.ess < 1.5)
-        check[name]["collapse"].append(below[0] if below.size else np.nan)
+five = pd.read_csv("../data/rb_five_landmarks.csv")
+check = {name: {what: five[five.method == name].sort_values("seed")[what].to_numpy()
+                for what in ("collapse", "lm_sd", "robot_sd", "robot_cover")} for name in ("SIS", "SIR", "RBPF")}
 for name, c in check.items():
     cover = np.mean(c["robot_cover"])
     print(f"{name:4s}: ESS < 1.5 first at step {np.nanmedian(c['collapse']):.0f} (median; never in "
@@ -771,7 +752,9 @@ glue("m5_rbpf_robot_cover_low", cover_low, display=False)
 # %% tags=["remove-input"] jupyter={"source_hidden": true}
 EvidenceBlock(
     "three earlier findings on the five-landmark model, checked",
-    notes=[f"SD / exact SD at the last step (medians over 100 runs): SIS landmarks {np.median(check['SIS']['lm_sd']):.1g}; "
+    notes=["The runs are stored by python3 tasks.py study rb_five_landmarks in book/data/rb_five_landmarks.csv, "
+           "with their provenance; tests/test_stored_studies.py re-computes a sample of the rows.",
+           f"SD / exact SD at the last step (medians over 100 runs): SIS landmarks {np.median(check['SIS']['lm_sd']):.1g}; "
            f"SIR landmarks {np.median(check['SIR']['lm_sd']):.1g}, robot {np.median(check['SIR']['robot_sd']):.2g}; "
            f"RBPF landmarks {np.median(check['RBPF']['lm_sd']):.2f}, robot {np.median(check['RBPF']['robot_sd']):.2f}.",
            f"Robot coverage per run, RBPF - SIR: mean difference {cover_diff[0]:.0%} of the steps (95 % bootstrap "
