@@ -802,7 +802,7 @@ EvidenceBlock(
 #
 # ## Try it
 #
-# The panel reruns the one-run figure above (landmark 1's $x$ estimate and $\pm 3\sigma$ band of
+# The panel reruns the one-run figure above (the first landmark's $x$ estimate and $\pm 3\sigma$ band of
 # SIR and of the Rao-Blackwellised filter, over the Kalman band) for the chosen $N$ and
 # simulation seed. Does SIR's band keep the Kalman band's width at any $N$?
 
