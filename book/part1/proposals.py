@@ -321,9 +321,10 @@ for ax in (ax1, ax2):
     ax.set_yscale("log")
 ax1.set_ylabel("mean ESS / N at measured steps")
 ax1.set_title(f"N = 200, per run, {n_runs} runs")
-ax1.legend()
 ax2.set_ylabel("RMS error vs Kalman mean (m)")
 ax2.set_title(f"Per-run error, {n_runs} runs")
+fig.tight_layout(rect=(0, 0.1, 1, 1))
+fig.legend(*ax1.get_legend_handles_labels(), loc="lower center", ncol=3, bbox_to_anchor=(0.5, 0.0))
 plt.show()
 
 # %% [markdown]
