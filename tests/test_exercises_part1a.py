@@ -186,3 +186,54 @@ def test_the_limits_of_the_mistakes_are_apart_from_the_exact_mean():
     gaps = np.abs(np.subtract.outer(means, means))[np.triu_indices(len(means), 1)]
     assert gaps.min() > 0.1
     assert toy_is_limit(*IS_TOY_CASE)[0] == pytest.approx(IS_TOY_CASE[0] / (1 + IS_TOY_CASE[1] ** 2))
+
+
+# Samplers that estimate the right mean from the wrong proposal, or return a wrong ESS (review fixp1a,
+# item 3): the checker compares ESS / n with its closed-form limit 1 / E_q[w^2] and takes its
+# tolerance from the exact asymptotic variance, not from the student's ESS.
+def gaussian_proposal_sampler(z, sd_v, n, rng, q_mean, q_sd):
+    from scipy import stats
+    from scipy.special import logsumexp
+
+    x = q_mean + q_sd * rng.standard_normal(n)
+    log_w = stats.norm.logpdf(z, x, sd_v) + stats.norm.logpdf(x) - stats.norm.logpdf(x, q_mean, q_sd)
+    W = np.exp(log_w - logsumexp(log_w))
+    return W @ x, 1.0 / np.sum(W**2)
+
+
+def exact_posterior_sampler(z, sd_v, n, rng):
+    x = z / (1 + sd_v**2) + np.sqrt(sd_v**2 / (1 + sd_v**2)) * rng.standard_normal(n)
+    return x.mean(), float(n)
+
+
+@pytest.mark.parametrize("sampler, says", [
+    (lambda z, s, n, rng: gaussian_proposal_sampler(z, s, n, rng, 0.0, 1.0), "draws from the prior N(0, 1)"),
+    (exact_posterior_sampler, "every weight is the same"),
+    (lambda z, s, n, rng: gaussian_proposal_sampler(z, s, n, rng, z / 2, 3.0), "the estimate is right but"),
+    (lambda z, s, n, rng: (toy_sampler(z, s, n, rng)[0], n / 2), "the estimate is right but"),
+    (lambda z, s, n, rng: (toy_sampler(z, s, n, rng, mistake="no_prior")[0], 1.0), "leaves out the prior"),
+])
+def test_the_importance_sampler_checker_checks_the_proposal_and_the_ess(sampler, says):
+    from pfcourse.exercises import check_importance_sampler
+
+    report = check_importance_sampler(sampler)
+    assert not report.ok and len(report.problems) == 1, str(report)
+    assert says in report.problems[0], report.problems[0]
+
+
+def test_the_toy_ess_ratio_and_kong_ratio_are_the_closed_forms():
+    """1 / E_q[w^2] = 0.383 for q = N(z/2, 1), and sigma^2 / (Var_pi E_q[w^2]) = 0.61, against quadrature."""
+    from scipy import integrate, stats
+
+    from pfcourse.exercises import IS_TOY_CASE, toy_is_ess_ratio, toy_is_limit
+    from pfcourse.exercises.part1 import _gauss_chi2
+
+    z, sd_v = IS_TOY_CASE
+    m, v = toy_is_limit(z, sd_v)
+    ratio = lambda x: stats.norm.pdf(x, m, np.sqrt(v)) ** 2 / stats.norm.pdf(x, z / 2, 1.0)  # noqa: E731
+    e_w2 = integrate.quad(ratio, -10, 15)[0]
+    sigma2 = integrate.quad(lambda x: ratio(x) * (x - m) ** 2, -10, 15)[0]
+    assert toy_is_ess_ratio(z, sd_v) == pytest.approx(1 / e_w2, rel=1e-8)
+    assert _gauss_chi2(m, v, z / 2, 1.0)[1] == pytest.approx(sigma2, rel=1e-8)
+    assert toy_is_ess_ratio(z, sd_v) == pytest.approx(0.383, abs=5e-4)
+    assert sigma2 / (v * e_w2) == pytest.approx(0.61, abs=5e-3)
