@@ -425,6 +425,52 @@ def _scalar_filter(z: np.ndarray, model: ScalarModel, last_only: bool = False) -
     return mean, var
 
 
+def _sis_ess_ratio(z: np.ndarray, model: ScalarModel, mode: str = "sis") -> np.ndarray:
+    """The limit of ``ESS_k / N`` per step, ``1 / E[W^2]`` in closed form (Kong et al. 1994).
+
+    ``mode="sis"``: the weight of a path drawn from the prior is ``prod_j N(z_j; x_j, r)`` over the
+    measured steps, and with ``N(z; x, r)^2 = N(z; x, r/2) / sqrt(4 pi r)`` both ``E[w]`` and ``E[w^2]``
+    are Gaussian densities of the measured ``z_j`` under the prior. ``"resample"``: a filter that
+    resamples before each measured step weights the one-step predictive (Kalman) by the last
+    likelihood only;
+    ``"forget"``: a filter whose weights forget the previous steps weights the prior marginal by it.
+    """
+    from scipy import stats
+
+    n_steps, r = len(z), model.r
+    var = np.empty(n_steps)
+    var[0] = model.p0
+    for k in range(1, n_steps):
+        var[k] = model.a**2 * var[k - 1] + model.q
+    mean = model.m0 * model.a ** np.arange(n_steps)
+    i, j = np.meshgrid(np.arange(n_steps), np.arange(n_steps), indexing="ij")
+    cov = model.a ** np.abs(i - j) * var[np.minimum(i, j)]
+    if mode == "resample":
+        m_f, p_f = scalar_kalman(z, model)[:2]
+    out = np.ones(n_steps)
+    for k in range(n_steps):
+        measured = np.flatnonzero(~np.isnan(z[:k + 1]))
+        if measured.size == 0:
+            continue
+        if mode == "sis":
+            idx, mu, S = measured, mean[measured], cov[np.ix_(measured, measured)]
+        else:
+            last = measured[-1]
+            if mode == "forget":
+                mu, S = mean[[last]], np.array([[var[last]]])
+            elif last == 0:
+                mu, S = np.array([model.m0]), np.array([[model.p0]])
+            else:
+                mu = np.array([model.a * m_f[last - 1]])
+                S = np.array([[model.a**2 * p_f[last - 1] + model.q]])
+            idx = np.array([last])
+        d, zz = idx.size, z[idx]
+        log_e2 = -d / 2 * np.log(4 * np.pi * r) + stats.multivariate_normal.logpdf(zz, mu, S + r / 2 * np.eye(d))
+        log_e1 = stats.multivariate_normal.logpdf(zz, mu, S + r * np.eye(d))
+        out[k] = np.exp(2 * log_e1 - log_e2)
+    return out
+
+
 #: The measurements of :func:`check_sis`: none at step 0 (the cloud is the prior), one missing later.
 SIS_CASE = np.array([np.nan, 1.2, 2.0, np.nan, 0.3])
 
@@ -445,7 +491,8 @@ def _check_sis(fn: Callable, n_particles: int, seed: int, z: np.ndarray) -> Chec
     least at step 0); ``means`` and
     ``ess`` have shape ``(K,)``: the weighted mean of the particles and the effective sample size
     after each step. The means must agree with the Kalman filter's within six Monte Carlo
-    standard errors, ``sqrt(P_k / ESS_k)``, at every step (a correct SIS fails this with
+    standard errors, ``sqrt(P_k / ESS_k)`` with the reference ESS ``N / E[W_k^2]`` in closed form
+    (:func:`_sis_ess_ratio`), at every step, and the ESS must be within 10 % of that reference (a correct SIS fails this with
     probability below 1e-6); a filter that does not is compared with the limits of the typical
     mistakes, and the report names the one that fits. The filter must draw its random numbers from
     the generator it is given (:func:`_generator_problem`, on 200 particles).
@@ -482,27 +529,50 @@ def _check_sis(fn: Callable, n_particles: int, seed: int, z: np.ndarray) -> Chec
         report.problems.append(problem)
         return report
     exact = _scalar_filter(z, model)
-    if _fits(means, ess, *exact):
+    # the reference ESS, N / E[W^2] in closed form: it sets the tolerance, the student's does not
+    rtol = 0.1 * max(1.0, np.sqrt(20_000 / n_particles))
+    ref = np.maximum(n_particles * _sis_ess_ratio(z, model), 1.0)
+
+    def near(ratio: np.ndarray) -> bool:
+        target = np.maximum(n_particles * ratio, 1.0)
+        return bool(np.all(np.abs(ess - target) <= rtol * target + 2.0))
+
+    if _fits(means, ref, *exact):
+        if near(_sis_ess_ratio(z, model)):
+            return report
+        if near(_sis_ess_ratio(z, model, "resample")):
+            report.problems.append("your ESS is that of a filter that resamples at every step (SIR): SIS never "
+                                   "resamples, so the weights keep multiplying and the ESS keeps falling")
+            return report
+        k = int(np.argmax(np.abs(ess - ref) / ref))
+        report.problems.append(f"the means are right but the ESS at step {k} is {ess[k]:.4g}, not about "
+                               f"{ref[k]:.4g} (1 / E[W^2] in closed form): return 1 / sum(W**2) of the "
+                               "normalised weights after each step")
         return report
     mistakes = {
+        "the particles are never weighted: multiply each weight by p(z_k | x_k) when z_k is measured, "
+        "or the cloud stays the prior": (_scalar_filter(np.full_like(z, np.nan), model),
+                                         np.ones(len(z))),
         "the weights forget the previous steps: multiply the new likelihood into the previous weights "
         "(log W_k = log W_(k-1) + log p(z_k | x_k)) instead of replacing them":
-            _scalar_filter(z, model, last_only=True),
+            (_scalar_filter(z, model, last_only=True), _sis_ess_ratio(z, model, "forget")),
         "the particles move without process noise: add w_k ~ N(0, q) with variance q (standard deviation "
-        "sqrt(q)) when you propagate them": _scalar_filter(z, ScalarModel(q=0.0)),
+        "sqrt(q)) when you propagate them": (_scalar_filter(z, ScalarModel(q=0.0)),
+                                             _sis_ess_ratio(z, ScalarModel(q=0.0))),
         "the likelihood uses r as a standard deviation: r is the variance of v_k, so the standard deviation "
-        "is sqrt(r)": _scalar_filter(z, ScalarModel(r=model.r**2)),
+        "is sqrt(r)": (_scalar_filter(z, ScalarModel(r=model.r**2)), _sis_ess_ratio(z, ScalarModel(r=model.r**2))),
         "the process noise uses q as a standard deviation: q is the variance of w_k, so the standard "
-        "deviation is sqrt(q)": _scalar_filter(z, ScalarModel(q=model.q**2)),
+        "deviation is sqrt(q)": (_scalar_filter(z, ScalarModel(q=model.q**2)),
+                                 _sis_ess_ratio(z, ScalarModel(q=model.q**2))),
     }
-    for why, (mean, var) in mistakes.items():
-        if _fits(means, ess, mean, var):
+    for why, ((mean, var), ratio) in mistakes.items():
+        if _fits(means, np.maximum(n_particles * ratio, 1.0), mean, var):
             report.problems.append(f"your means match a known mistake, not the exact posterior: {why}")
             return report
-    k = int(np.argmax(np.abs(means - exact[0]) / np.sqrt(exact[1] / np.clip(ess, 1, None))))
+    k = int(np.argmax(np.abs(means - exact[0]) / np.sqrt(exact[1] / ref)))
     report.problems.append(
         f"at step {k} your mean is {means[k]:.3f}, the exact (Kalman) mean is {exact[0][k]:.3f}, more than six "
-        f"Monte Carlo standard errors ({np.sqrt(exact[1][k] / max(ess[k], 1)):.3f}) away: check the proposal "
+        f"Monte Carlo standard errors ({np.sqrt(exact[1][k] / ref[k]):.3f}) away: check the proposal "
         "(x_k = a x_(k-1) + w_k), the log-likelihood of z_k and the weighted mean")
     return report
 
