@@ -60,6 +60,8 @@ def left_side_biased(w, rng):
 def test_the_reference_and_the_package_multinomial_pass(seed):
     assert check_multinomial_resampler(inverse_cdf, seed=seed).ok
     assert check_multinomial_resampler(multinomial, seed=seed, n_draws=2000).ok
+    # rng.choice inverts the cumulative weights with N uniforms: the text allows it, the checker passes it
+    assert check_multinomial_resampler(lambda w, rng: rng.choice(len(w), len(w), p=w), seed=seed, n_draws=2000).ok
 
 
 @pytest.mark.parametrize("mistake, says", [
@@ -68,7 +70,7 @@ def test_the_reference_and_the_package_multinomial_pass(seed):
     (fixed_generator, "whatever the generator's seed"),
     (systematic, "stratified or systematic"),
     (stratified, "stratified or systematic"),
-    (residual, "stratified or systematic"),
+    (residual, "this is residual resampling"),
     (shared_uniform, "one uniform shared"),
     (uniform_indices, "weight 0 was chosen"),
     (left_side_biased, "weight 0 was chosen"),
@@ -282,3 +284,30 @@ def test_the_closed_form_sis_ess_matches_the_reference_filter():
 
     runs = np.array([sis(SIS_CASE, 20_000, np.random.default_rng(s), ScalarModel())[1] for s in range(40)])
     assert np.allclose(runs.mean(0) / 20_000, _sis_ess_ratio(SIS_CASE, ScalarModel()), atol=0.003)
+
+
+# The genealogy checker (review fixp1a, item 14): the indexing turned round and the first step left out
+# get their own sentences.
+def origins_variant(ancestors, mistake=None):
+    a = np.arange(ancestors.shape[1])
+    stop = 1 if mistake == "skip_first" else 0
+    for k in range(len(ancestors) - 1, stop, -1):
+        a = a[ancestors[k]] if mistake == "turned_round" else ancestors[k][a]
+    return a
+
+
+@pytest.mark.parametrize("mistake, says", [
+    (None, None),
+    ("turned_round", "a[ancestors[k]] instead of ancestors[k][a]"),
+    ("skip_first", "the first step is left out"),
+])
+def test_the_genealogy_checker_names_the_indexing_and_the_first_step(mistake, says):
+    from pfcourse.exercises import check_ancestors
+
+    for seed in range(5):
+        report = check_ancestors(lambda a: origins_variant(a, mistake), seed=seed)
+        if says is None:
+            assert report.ok, str(report)
+        else:
+            assert not report.ok and len(report.problems) == 1, str(report)
+            assert says in report.problems[0], report.problems[0]

@@ -118,9 +118,10 @@ def sir(model, Z, N, rng, tau=1 / 3, move=None):
     """Algorithm 5.1, systematic resampling: moments, ESS and ancestors."""
     n_steps, d = len(Z), model.dim_x
     L0, LQ = np.linalg.cholesky(model.P0), np.linalg.cholesky(model.Q)
-    out = SimpleNamespace(mean=np.empty((n_steps, d)), cov=np.empty((n_steps, d, d)),
-                          ess=np.empty(n_steps), resampled=np.zeros(n_steps, bool),
-                          ancestors=np.tile(np.arange(N), (n_steps, 1)))
+    T1 = n_steps
+    out = SimpleNamespace(mean=np.empty((T1, d)), cov=np.empty((T1, d, d)),
+                          ess=np.empty(T1), resampled=np.zeros(T1, bool),
+                          ancestors=np.tile(np.arange(N), (T1, 1)))
     log_W = np.full(N, -np.log(N))
     for k, z in enumerate(Z):
         if k == 0:
@@ -827,8 +828,9 @@ display(control_panel(
 # (Coding.) The chapter's filter resamples systematically, with one uniform shared by all
 # particles. Write the other classic scheme, *multinomial* resampling, `resample(W, rng)`: $N$
 # ancestor indices drawn independently, each equal to $j$ with probability $W^j$, using only the
-# generator `rng` (no `np.random.choice`: invert the cumulative weights). The checker tells it
-# apart from systematic and stratified resampling, which have smaller offspring variance, and
+# generator `rng`, by inverting the cumulative weights (`rng.choice(N, N, p=W)` does the same
+# and passes, but write the inversion). The checker tells it apart from systematic, stratified
+# and residual resampling, which have smaller offspring variance, and
 # checks that it draws from `rng`.
 # ```
 

@@ -630,8 +630,9 @@ def check_ancestors(fn: Callable, seed: int = 0) -> CheckReport:
     .. math:: o^i = a_1^{a_2^{\\cdots a_{K-1}^i}},
 
     that is ``a = ancestors[k][a]`` for ``k = K - 1, ..., 1``. A wrong answer is compared with
-    what the typical mistakes give (the steps followed forwards, one generation only, the last
-    step left out), so the report names the mistake.
+    what the typical mistakes give (the steps followed forwards or the indexing turned round, one
+    generation only, the last step left out, the first step left out), so the report names the
+    mistake.
     """
     report = CheckReport("genealogy")
     rng = np.random.default_rng(seed)
@@ -651,12 +652,16 @@ def check_ancestors(fn: Callable, seed: int = 0) -> CheckReport:
     if np.array_equal(answer, _origins(ancestors, range(n_steps - 1, 0, -1))):
         return report
     mistakes = {
-        "the steps are followed forwards (k = 1, 2, ...): a lineage is read backwards, from the final step "
-        "to step 0, a = ancestors[k][a] for k = K - 1, ..., 1": _origins(ancestors, range(1, n_steps)),
+        "the steps are followed forwards (k = 1, 2, ...), or the indexing is turned round (a[ancestors[k]] "
+        "instead of ancestors[k][a], which composes the steps in the forward order): a lineage is read "
+        "backwards, from the final step to step 0, a = ancestors[k][a] for k = K - 1, ..., 1":
+            _origins(ancestors, range(1, n_steps)),
         "only one generation is followed: ancestors[K - 1] gives the parents at step K - 2, and their own "
         "parents must be followed down to step 0": ancestors[-1],
         "the last step is left out: the lineage of a particle of step K - 1 starts with its parent "
         "ancestors[K - 1][i]": _origins(ancestors, range(n_steps - 2, 0, -1)),
+        "the first step is left out (the loop stops at k = 2): range(K - 1, 0, -1) runs down to k = 1, "
+        "whose ancestors are the particles of step 0": _origins(ancestors, range(n_steps - 1, 1, -1)),
     }
     for why, wrong in mistakes.items():
         if np.array_equal(answer, wrong):
@@ -729,7 +734,10 @@ def _check_multinomial_resampler(fn: Callable, n_draws: int, seed: int) -> Check
     chosen; the copy counts ``N_i`` have mean ``N W_i`` within ``5 SE + 1e-9``; and their total variance
     ``sum_i Var N_i`` is multinomial's ``sum_i N W_i (1 - W_i)`` within a factor ``[0.8, 1.25]``
     (measured 0.995 for multinomial, 0.37 stratified, 0.20 systematic, 0.43 residual, about 7 for one
-    uniform shared by all; its relative standard error is about 2 % over 4000 draws).
+    uniform shared by all; its relative standard error is about 2 % over 4000 draws). Residual
+    resampling is told apart by its deterministic copies: at least ``floor(N W_i)`` in every draw, and
+    sometimes more than ``ceil(N W_i)`` (which systematic resampling never gives). ``rng.choice(N, N,
+    p=W)`` passes: it inverts the cumulative weights with ``N`` uniforms, as the exercise asks.
     """
     report = CheckReport("multinomial resampler")
     w = np.array([0.05, 0.3, 0.0, 0.12, 0.08, 0.25, 0.2])
@@ -773,7 +781,13 @@ def _check_multinomial_resampler(fn: Callable, n_draws: int, seed: int) -> Check
             f"{mean[i]:.3f} (± {se[i]:.3f}) over {n_draws} draws: each index is j with probability W_j")
         return report
     ratio = counts.var(axis=0, ddof=1).sum() / float(np.sum(n * w * (1 - w)))
-    if ratio < 0.8:
+    low, high = np.floor(n * w), np.ceil(n * w)
+    if ratio < 0.8 and (counts >= low).all() and (counts > high).any():
+        report.problems.append(
+            f"the copy counts vary {ratio:.2f} times as much as multinomial resampling's, and every particle "
+            "always gets at least floor(N W_i) copies: this is residual resampling (deterministic copies, then "
+            "draws on the remainders); multinomial resampling draws N independent uniforms on [0, 1)")
+    elif ratio < 0.8:
         report.problems.append(
             f"the copy counts vary {ratio:.2f} times as much as multinomial resampling's: this is a stratified or "
             "systematic resampler (uniforms spread over the strata [i/N, (i+1)/N)); multinomial resampling draws "
