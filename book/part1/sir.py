@@ -19,7 +19,7 @@
 # **You need** {doc}`sis`; Gaussian densities and the conjugate update of a Gaussian mean; NumPy
 # indexing with an array of indices.
 #
-# **Time:** about twenty-three minutes to read; the notebook runs in under half a minute.
+# **Time:** about twenty-four minutes to read; the notebook runs in under half a minute.
 # :::
 #
 # (sir-algorithm)=
@@ -339,7 +339,8 @@ EvidenceBlock(
 #
 # The error of the SIR landmark means against the **exact posterior mean** (the Kalman filter's,
 # not the truth) is pure Monte Carlo error; for a healthy particle filter it falls as
-# $1/\sqrt N$. A stored study runs SIR with $\tau = 1/3$ on the $100$ simulations above, for $N$
+# $1/\sqrt N$. A larger study, run once and stored with the book, runs SIR with $\tau = 1/3$
+# on the $100$ simulations above, for $N$
 # from $100$ to $3000$, and scores the RMS error over the four landmark coordinates, averaged over
 # the last $10$ steps. The median error falls with slope {glue:text}`sir_slope:.2f` in $\log N$
 # ({glue:text}`sir_slope_low:.2f` to {glue:text}`sir_slope_high:.2f`), much slower than $-0.5$:

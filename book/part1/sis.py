@@ -19,7 +19,7 @@
 # **You need** {doc}`model` and {doc}`importance_sampling`; Gaussian densities; NumPy arrays
 # and a random generator.
 #
-# **Time:** about fourteen minutes to read; the notebook runs in under half a minute.
+# **Time:** about fifteen minutes to read; the notebook runs in under half a minute.
 # :::
 
 # %% tags=["remove-input"] jupyter={"source_hidden": true}
@@ -324,7 +324,8 @@ EvidenceBlock(
 # $2$ within {glue:text}`sis_horizon:d` steps in {glue:text}`sis_broad_collapsed:.0%` of the runs
 # (at least {glue:text}`sis_broad_collapsed_low:.0%`). Broader noise delays the collapse by a
 # median of {glue:text}`sis_broad_delay:.0f` step: later in {glue:text}`sis_broad_later:d` of the
-# runs, earlier in {glue:text}`sis_broad_earlier:d`. It does not stop it.
+# {glue:text}`sis_degeneracy_runs:d` runs, earlier in {glue:text}`sis_broad_earlier:d`. It does
+# not stop it.
 
 # %% tags=["remove-input"] jupyter={"source_hidden": true}
 sc2 = scenario.with_(Rv=2.0**2 * scenario.Rv)
