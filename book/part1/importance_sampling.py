@@ -210,6 +210,7 @@ glue_values("is_picture_ess_", sd1=picture_ess[1.0], sd03=picture_ess[0.3], sd01
 # $\sigma_v = 1$: the variance of the estimates over {glue:text}`is_toy_reps:,d` seeded
 # repetitions is {glue:text}`is_var_ratio_sd1:.2f` ({glue:text}`is_var_ratio_sd1_low:.2f` to
 # {glue:text}`is_var_ratio_sd1_high:.2f`) times $\sigma^2 / N$, with $\sigma^2$ by quadrature.
+#
 # It is only a limit: at $\sigma_v = 0.3$, where the hundred draws are worth about
 # {glue:text}`is_ess_sd03:.0f`, the ratio is already {glue:text}`is_var_ratio_sd03:.2f`
 # ({glue:text}`is_var_ratio_sd03_low:.2f` to {glue:text}`is_var_ratio_sd03_high:.2f`), the

@@ -502,7 +502,7 @@ EvidenceBlock(
 # The star is resample-move at $N = 100$.
 #
 # Roughening needs its constant tuned per $N$: $c = 0.4$ beats $c = 0.2$ at $N = 100$ and loses at
-# $N = 3000$ (evidence below). Even at $c = 0.2$ and $N = 3000$, the 95 % ellipsoid of its cloud
+# $N = 3000$ (evidence below). Even at $c = 0.2$ and $N = 3000$, the $95\%$ ellipsoid of its cloud
 # (from the cloud's mean and covariance) contains the truth at
 # only {glue:text}`fix_cov_k02_3000:.0%` of the scored steps on average
 # ({glue:text}`fix_cov_k02_3000_low:.0%` to {glue:text}`fix_cov_k02_3000_high:.0%`), below the
@@ -702,8 +702,9 @@ var_ratio = evidence.run_interval(  # paired: both proposals on the same data se
 # simulated data sets ($N = 100$, $\tau = 1/3$, $T = 49$), the mean of
 # $\hat p(z_{1:T}) / p(z_{1:T})$ with the transition is {glue:text}`is_ll_ratio_transition:.3f`:
 # the data exclude a bias beyond {glue:text}`is_ll_bias_low:.0%`/+{glue:text}`is_ll_bias_high:.0%`,
-# no more, since a mean of skewed ratios is hard to pin down. The sharper check is on the log
-# scale. If $\log \hat p - \log p$ is nearly Gaussian, of variance $v$, then
+# no more, since a mean of skewed ratios is hard to pin down.
+#
+# The sharper check is on the log scale. If $\log \hat p - \log p$ is nearly Gaussian, of variance $v$, then
 # $\mathbb E[\hat p / p] = e^{\mathbb E[\log \hat p - \log p] + v/2}$, so an unbiased $\hat p$ has
 # its logarithm biased low by $v/2$. Measured: {glue:text}`is_ll_log_mean_transition:.3f`
 # ({glue:text}`is_ll_log_mean_transition_low:.3f` to

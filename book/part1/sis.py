@@ -276,9 +276,10 @@ plt.show()
 # %% [markdown]
 # Multiplying $N$ by $100$ delays the collapse by {glue:text}`sis_delay_mean:.1f` steps on
 # average ({glue:text}`sis_delay_mean_low:.1f` to {glue:text}`sis_delay_mean_high:.1f`), that is
-# {glue:text}`sis_delay_per_decade:.1f` steps per factor of ten in $N$. Both are lower bounds: a
-# run that never collapses within {glue:text}`sis_horizon:d` steps counts as collapsing at step
-# {glue:text}`sis_horizon:d`, and {glue:text}`sis_never_100:d`, {glue:text}`sis_never_1000:d` and
+# {glue:text}`sis_delay_per_decade:.1f` steps per factor of ten in $N$.
+#
+# Both are lower bounds: a run that never collapses within the window counts as collapsing at its
+# end, and {glue:text}`sis_never_100:d`, {glue:text}`sis_never_1000:d` and
 # {glue:text}`sis_never_10000:d` runs never did at the three $N$. Each step with a landmark
 # in view multiplies the weights by a likelihood that is sharp ($0.1$ m noise) next to the prior
 # spread of the landmarks ($\sqrt{0.2} \approx 0.45$ m), so the $N$ needed grows exponentially
@@ -322,7 +323,9 @@ EvidenceBlock(
 # Does broader measurement noise change the collapse? The same runs with the measurement
 # noise's standard deviation doubled (simulator and filter alike): the ESS still falls below
 # $2$ within {glue:text}`sis_horizon:d` steps in {glue:text}`sis_broad_collapsed:.0%` of the runs
-# (at least {glue:text}`sis_broad_collapsed_low:.0%`). Broader noise delays the collapse by a
+# (at least {glue:text}`sis_broad_collapsed_low:.0%`).
+#
+# Broader noise delays the collapse by a
 # median of {glue:text}`sis_broad_delay:.0f` step: later in {glue:text}`sis_broad_later:d` of the
 # {glue:text}`sis_degeneracy_runs:d` runs, earlier in {glue:text}`sis_broad_earlier:d`. It does
 # not stop it.
@@ -360,7 +363,9 @@ EvidenceBlock(
 # model's measurement noise ($\sigma_v = 0.1$ m) and with a ten times sharper one
 # ($\sigma_v = 0.01$ m, simulator and filter alike). With $0.1$ m it fails in
 # {glue:text}`linear_fail_sd01` runs (at most {glue:text}`linear_fail_sd01_high:.0%` of runs):
-# the linear domain survives this sensor. With $0.01$ m it fails in {glue:text}`linear_fail_sd001`
+# the linear domain survives this sensor.
+#
+# With $0.01$ m it fails in {glue:text}`linear_fail_sd001`
 # runs ({glue:text}`linear_fail_sd001_low:.0%` to {glue:text}`linear_fail_sd001_high:.0%`). The
 # log-domain update cannot fail this way: subtracting the largest log-weight before
 # exponentiating keeps the best particle at weight $e^0$.
