@@ -23,6 +23,13 @@ without listing them here), served on 127.0.0.1:
   the figure of the new grid point (or, for a control outside the main grid, its one-factor
   figure) within 100 ms (pfcourse/figures/static_panel.py); no widget
   view is left for a widget manager (the book loads none);
+- nothing is cut off at 1280 px or at 420 px (issue 39): a code or output block, a table, a display
+  or an inline formula wider than its box scrolls in it (no ``overflow: hidden`` clipping it) and
+  shows that it does (its hidden side fades out, web/static/pfcourse-render.js; a scrollbar is not
+  enough: phones and overlay scrollbars hide it), and none reaches past the column;
+- no punctuation mark right after an inline formula starts a line alone, at 1280 px and at 420 px;
+- every cross-reference shows its number: no link reads a bare "Exercise", "Section", "Fig." ...,
+  and no "??" is left in the text;
 - a full-page screenshot is saved to _build/browser/screenshots/.
 
 The same checks run on each page opened from disk (file://), as a reader opening
@@ -119,6 +126,11 @@ def _check_page(browser, base: str, page: str, screenshot: Path | None) -> None:
         check("screen-heights", lambda tab: _check_page_height(tab, page))
         check("exercise titles", _check_exercise_titles)
         check("legible at 420 px", _check_narrow)
+        check("nothing cut off at 1280 px", lambda tab: _check_overflow(tab, 1280))
+        check("nothing cut off at 420 px", lambda tab: _check_overflow(tab, NARROW_PX))
+        check("punctuation after formulas at 1280 px", lambda tab: _check_math_punctuation(tab, 1280))
+        check("punctuation after formulas at 420 px", lambda tab: _check_math_punctuation(tab, NARROW_PX))
+        check("cross-references", _check_references)
         if screenshot is not None:
             # From the top, with nothing focused (a focused "skip to content" link would show).
             tab.evaluate("() => { document.activeElement && document.activeElement.blur(); window.scrollTo(0, 0); }")
@@ -254,6 +266,179 @@ def _check_narrow(tab) -> int:
         return _check_figure_text(tab)
     finally:
         tab.set_viewport_size({"width": 1280, "height": 900})
+
+
+def _at_width(tab, width: int) -> None:
+    """Resize the window and wait for the page's layout at that width, including the pass of
+    web/static/pfcourse-render.js (it marks <html> with the width it laid out for)."""
+    tab.set_viewport_size({"width": width, "height": 900})
+    tab.wait_for_timeout(100)
+    # The theme settles its sidebars over a few frames after a resize: wait for the article's width
+    # to hold still between two polls, and for the script's pass at that width.
+    tab.wait_for_function(
+        """(width) => {
+            const article = document.querySelector('article.bd-article') || document.body;
+            const now = article.getBoundingClientRect().width, before = window.__pfcourseArticleWidth;
+            window.__pfcourseArticleWidth = now;
+            return now === before && (!document.querySelector('script[src*="pfcourse-render"]')
+                || document.documentElement.dataset.pfcourseLayout === String(width));
+        }""",
+        arg=width, polling=150, timeout=FRAME_TIMEOUT_MS)
+
+
+#: What "cut off" means, in the page: for every code or output block and table (scrollWidth past
+#: clientWidth) and every typeset formula (its math wider than its box, the box being the display
+#: formula's container or the inline formula's span.math, which the theme clips): it must scroll
+#: (overflow-x auto or scroll) and show that it does, by a fading edge (a mask gradient) or a
+#: scrollbar that takes room (headless chromium hides scrollbars, so a fade is what counts here).
+#: Nothing may reach past the article's column either.
+_OVERFLOW_JS = r"""() => {
+  const article = document.querySelector('article.bd-article') || document.querySelector('main') || document.body;
+  const edge = article.getBoundingClientRect().right;
+  const visible = (el) => { const r = el.getBoundingClientRect(); return r.width > 0 && r.height > 0; };
+  const label = (el) => (el.textContent || '').trim().replace(/\s+/g, ' ').slice(0, 50);
+  const scrolls = (el) => ['auto', 'scroll'].includes(getComputedStyle(el).overflowX);
+  const cued = (el) => {
+    const s = getComputedStyle(el);
+    const fade = /gradient/.test(s.maskImage || '') || /gradient/.test(s.webkitMaskImage || '');
+    const bar = el.offsetHeight - el.clientHeight
+      - parseFloat(s.borderTopWidth) - parseFloat(s.borderBottomWidth) > 0;
+    return fade || bar;
+  };
+  // Past the column is a fault only for what no box around it scrolls.
+  const inScroller = (el) => {
+    for (let e = el.parentElement; e && e !== article; e = e.parentElement) if (scrolls(e)) return true;
+    return false;
+  };
+  const out = {boxes: 0, formulas: 0, displays: 0, clipped: [], uncued: [], display: [], inline: [], outside: []};
+  for (const content of article.querySelectorAll('pre, table')) {
+    if (!visible(content) || content.closest('mjx-container')) continue;
+    // A table the theme wraps in a scrolling container (its only child): the container is the box.
+    const parent = content.parentElement;
+    const el = !scrolls(content) && parent && parent.children.length === 1 && scrolls(parent) ? parent : content;
+    out.boxes++;
+    const right = el.getBoundingClientRect().right;
+    if (right > edge + 1 && !inScroller(el)) out.outside.push(`${content.tagName.toLowerCase()} ${Math.round(right - edge)} px past the column: ${label(el)}`);
+    if (el.scrollWidth <= el.clientWidth + 1) continue;
+    const text = `${content.tagName.toLowerCase()} (${el.scrollWidth} px in ${el.clientWidth} px): ${label(el)}`;
+    if (!scrolls(el)) out.clipped.push(text);
+    else if (!cued(el)) out.uncued.push(text);
+  }
+  for (const container of article.querySelectorAll('mjx-container')) {
+    const math = container.querySelector('mjx-math');
+    const display = container.getAttribute('display') === 'true';
+    const box = display ? container : (container.closest('span.math') || container);
+    if (!math || !visible(box)) continue;
+    out.formulas++;
+    if (display) out.displays++;
+    const r = box.getBoundingClientRect();
+    if (r.right > edge + 1 && !inScroller(box)) out.outside.push(`formula ${Math.round(r.right - edge)} px past the column: ${label(box)}`);
+    const need = math.getBoundingClientRect().width;
+    if (need <= r.width + 1 || (scrolls(box) && box.scrollWidth > box.clientWidth + 1 && cued(box))) continue;
+    (display ? out.display : out.inline).push(
+      `${Math.round(need)} px in ${Math.round(r.width)} px, ${scrolls(box) ? 'scrolls with no cue' : 'cut off'}`
+      + `${box.closest('.algorithm') ? ' (algorithm box)' : ''}: ${label(box)}`);
+  }
+  return out;
+}"""
+
+
+def _check_overflow(tab, width: int) -> int:
+    """At ``width``: no code/output block, table or formula cut off, or scrolling with no cue, or past
+    the column (see _OVERFLOW_JS). Returns the number of boxes and formulas checked. Leaves 1280 px."""
+    try:
+        _at_width(tab, width)
+        found = tab.evaluate(_OVERFLOW_JS)
+    finally:
+        if width != 1280:
+            _at_width(tab, 1280)
+    problems = [
+        f"{len(found[key])} {what}: {found[key][:3]}"
+        for key, what in [
+            ("display", f"of {found['displays']} display formula(s) wider than their column"),
+            ("inline", "inline formula(s) wider than their line"),
+            ("clipped", "code/output block(s) or table(s) cut off (no overflow auto/scroll)"),
+            ("uncued", "code/output block(s) or table(s) scrolling with no visible cue"),
+            ("outside", "box(es) reaching past the column"),
+        ]
+        if found[key]
+    ]
+    assert not problems, f"at {width} px: " + "; ".join(problems)
+    return found["boxes"] + found["formulas"]
+
+
+#: For every inline formula followed by a punctuation mark: the mark's first character must be on the
+#: formula's line (its top above the formula's bottom, and not left of the formula's start).
+_PUNCTUATION_JS = r"""() => {
+  const article = document.querySelector('article.bd-article') || document.querySelector('main') || document.body;
+  const out = {checked: 0, orphans: []};
+  for (const span of article.querySelectorAll('span.math')) {
+    const math = span.querySelector('mjx-container');
+    if (!math || !span.getBoundingClientRect().width) continue;
+    const walker = document.createTreeWalker(article, NodeFilter.SHOW_TEXT);
+    walker.currentNode = span;
+    let text = walker.nextNode();
+    while (text && span.contains(text)) text = walker.nextNode();
+    if (!text || !/^[.,;:!?)\]]/.test(text.data)) continue;
+    out.checked++;
+    const range = document.createRange();
+    range.setStart(text, 0);
+    range.setEnd(text, 1);
+    const p = range.getClientRects()[0], m = math.getBoundingClientRect();
+    if (p && (p.top >= m.bottom - 1 || p.left < m.left - 1)) {
+      out.orphans.push(`"${text.data[0]}" after ${(span.textContent || '').trim().slice(0, 40)}`
+                       + (span.closest('.algorithm') ? ' (algorithm box)' : ''));
+    }
+  }
+  return out;
+}"""
+
+
+def _check_math_punctuation(tab, width: int) -> int:
+    """At ``width``: no punctuation mark after an inline formula wraps onto the next line alone."""
+    try:
+        _at_width(tab, width)
+        found = tab.evaluate(_PUNCTUATION_JS)
+    finally:
+        if width != 1280:
+            _at_width(tab, 1280)
+    orphans = found["orphans"]
+    in_boxes = sum("(algorithm box)" in o for o in orphans)
+    assert not orphans, (f"at {width} px, {len(orphans)} punctuation mark(s) alone at the start of a line after "
+                         f"an inline formula ({in_boxes} in algorithm boxes): {orphans[:4]}")
+    return found["checked"]
+
+
+#: The text of a reference whose number was lost: a label word alone (a {ref} to an unnumbered
+#: exercise reads "Exercise"), or Sphinx's "??" for an unresolved number.
+_BARE_REFERENCE = re.compile(
+    r"^(?:Exercise|Solution|Section|Chapter|Part|Fig\.?|Figure|Table|Equation|Eq\.|Algorithm|Listing|Proof)s?$"
+    r"|\?\?", re.IGNORECASE)
+
+
+def _check_references(tab) -> int:
+    """Every cross-reference shows its number or title; no "??" in the page's text outside code."""
+    found = tab.evaluate(
+        r"""() => {
+            const article = document.querySelector('article.bd-article') || document.querySelector('main') || document.body;
+            const refs = Array.from(article.querySelectorAll('a.reference.internal, a.reference'))
+                .map(a => ({text: a.textContent.trim().replace(/\s+/g, ' '),
+                            context: (a.parentElement.textContent || '').replace(/\s+/g, ' ')}));
+            const copy = article.cloneNode(true);
+            copy.querySelectorAll('pre, code, script, mjx-container, .highlight').forEach(e => e.remove());
+            return {refs, text: copy.textContent};
+        }"""
+    )
+    bare = []
+    for ref in found["refs"]:
+        if _BARE_REFERENCE.search(ref["text"]):
+            i = ref["context"].find(ref["text"])
+            bare.append(ref["context"][max(0, i - 40): i + len(ref["text"]) + 20])
+    unresolved = [found["text"][max(0, i - 40): i + 20] for i in (m.start() for m in re.finditer(r"\?\?", found["text"]))]
+    assert not bare and not unresolved, (
+        f"{len(bare)} reference(s) without their number: {bare[:3]}"
+        + (f"; {len(unresolved)} '??' in the text: {unresolved[:3]}" if unresolved else ""))
+    return len(found["refs"])
 
 
 def _check_exercise_titles(tab) -> int:

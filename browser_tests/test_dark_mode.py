@@ -11,7 +11,10 @@ every page of the built book that shows a figure or a panel, opened in dark mode
 - every text of a panel (control labels, readouts, the values under a slider, the hint under the
   controls, and the note a combination that was not computed shows) has a contrast ratio of at
   least 4.5 (WCAG AA, normal text) against the background it is drawn on (the page's colours
-  composited from the element up).
+  composited from the element up);
+- every evidence block (``details.pfcourse-evidence``, pfcourse/figures/report.py) sits on the same
+  dark background, closed and open, whether or not it holds a table (issue 39: the theme painted
+  the ones without a table a light slab), and its text reads on it (contrast ratio at least 4.5).
 """
 
 from __future__ import annotations
@@ -32,6 +35,11 @@ def _shows_a_figure(text: str) -> bool:
 _TEXTS = {page: (HTML / page).read_text(encoding="utf-8", errors="replace") for page in book_pages()}
 PAGES = [page for page, text in _TEXTS.items() if _shows_a_figure(text)]
 PANEL_PAGES = [page for page in PAGES if "pfcourse-panel-figure" in _TEXTS[page]]
+EVIDENCE_PAGES = [page for page, text in _TEXTS.items() if 'class="pfcourse-evidence"' in text]
+#: Evidence blocks alike: no colour channel of their backgrounds further apart than this (0-255).
+MAX_EVIDENCE_SPREAD = 8
+#: ... and dark (relative luminance at most this; the page itself is about 0.007).
+MAX_EVIDENCE_LUMINANCE = 0.05
 #: WCAG 2 contrast ratio for normal text (level AA).
 MIN_CONTRAST = 4.5
 #: The figure card's relative luminance (white: 1; the theme's light grey #ced6dd: about 0.66).
@@ -72,6 +80,7 @@ def _dark_tab(browser, page: str, base_url: str):
 
 def test_pages_found() -> None:
     assert len(PAGES) >= 20 and len(PANEL_PAGES) >= 5, (len(PAGES), len(PANEL_PAGES))
+    assert len(EVIDENCE_PAGES) >= 15, len(EVIDENCE_PAGES)
 
 
 @pytest.mark.parametrize("page", PAGES)
@@ -123,5 +132,33 @@ def test_panel_text_reads_in_dark_mode(page: str, base_url: str, browser) -> Non
         low = [t for t in texts if t["ratio"] < MIN_CONTRAST]
         assert not low, f"{page}: {len(low)} panel text(s) under a {MIN_CONTRAST} contrast ratio in dark mode: {low[:4]}"
         print(f"{page}: {len(texts)} panel texts, lowest contrast {min(t['ratio'] for t in texts):.1f}")
+    finally:
+        context.close()
+
+
+@pytest.mark.parametrize("page", EVIDENCE_PAGES)
+def test_evidence_blocks_alike_in_dark_mode(page: str, base_url: str, browser) -> None:
+    context, tab = _dark_tab(browser, page, base_url)
+    try:
+        blocks = tab.evaluate("() => {" + _COLOURS + """
+            const blocks = Array.from(document.querySelectorAll('details.pfcourse-evidence'));
+            const look = (d) => { const s = d.querySelector('summary'); const bg = background(s);
+                                  const fg = over(parse(getComputedStyle(s).color), bg);
+                                  return {bg: bg.slice(0, 3).map(Math.round), luminance: luminance(bg),
+                                          ratio: contrast(fg, bg)}; };
+            return blocks.map(d => { const closed = look(d); d.open = true; const open = look(d); d.open = false;
+                                     return {title: d.querySelector('summary').textContent.trim().slice(0, 50),
+                                             table: !!d.querySelector('table'), closed, open}; });
+        }""")
+        assert blocks, f"{page}: no evidence block found"
+        looks = [(b["title"], b["table"], state, b[state]) for b in blocks for state in ("closed", "open")]
+        spread = max(max(look[3]["bg"][i] for look in looks) - min(look[3]["bg"][i] for look in looks) for i in range(3))
+        light = [(t, table, state, look["bg"]) for t, table, state, look in looks if look["luminance"] > MAX_EVIDENCE_LUMINANCE]
+        low = [(t, state, round(look["ratio"], 1)) for t, _, state, look in looks if look["ratio"] < MIN_CONTRAST]
+        assert not light and spread <= MAX_EVIDENCE_SPREAD, (
+            f"{page}: evidence blocks not alike in dark mode (backgrounds {spread} apart in a colour channel); "
+            f"{len(light)} of {len(looks)} on a light background (title, has a table, state, rgb): {light[:3]}")
+        assert not low, f"{page}: evidence block text under a {MIN_CONTRAST} contrast ratio in dark mode: {low[:3]}"
+        print(f"{page}: {len(blocks)} evidence blocks, background {looks[0][3]['bg']}")
     finally:
         context.close()

@@ -4,6 +4,7 @@ Run by `tasks.py pdf` right after the build, on `_build/latex/particle-filters-m
 poppler's pdfinfo, pdftotext and pdffonts. Checked:
 - it has pages in the hundreds, and every chapter's title, in the order of the table of contents;
 - every glued number of a sample of chapters, formatted as the HTML book formats it, is printed;
+- each chapter's solutions are printed together at its end;
 - no unresolved reference ("??"), no output printed as the Python repr of an HTML object or a widget,
   and every font embedded;
 - nothing is printed past the text block's right edge (a wide table or a long code line must wrap or
@@ -101,6 +102,17 @@ def test_every_glued_number_of_the_chapter_is_printed(doc, pages):
     assert texts, f"{doc} quotes no formatted glued number"
     missing = [(name, shown) for name, shown in texts if shown.lower() not in text]
     assert not missing, f"{doc}: glued numbers not found in the PDF: {missing}"
+
+
+def test_each_chapter_prints_its_solutions_at_its_end(pages):
+    """Solutions follow the chapter's last section (tools/book_pdf.py), one block per chapter that has any."""
+    chapters = [c for c in chapter_titles()]
+    with_solutions = sum(1 for source in sorted((ROOT / "book").rglob("*.py"))
+                         if "{solution}" in source.read_text() and str(source.relative_to(ROOT).with_suffix(""))
+                         in (ROOT / "_toc.yml").read_text())
+    text = " ".join(pages)
+    assert chapters and text.count("Solutions to the exercises") == with_solutions, (
+        f"{text.count('Solutions to the exercises')} solution blocks printed for {with_solutions} chapters with solutions")
 
 
 def test_no_unresolved_reference(pages):

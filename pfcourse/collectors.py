@@ -110,13 +110,20 @@ class LogLikelihood(_PerStep):
 
 
 class Resampled(_PerStep):
-    """``resampled`` ``(K,)``: whether each step resampled."""
+    """``resampled`` ``(K,)``: whether the cloud of each step was resampled after it: by the step's own
+    resampling, or by the first stage of the next step's proposal (:attr:`~pfcourse.filter.Step.parents`,
+    the auxiliary filter)."""
 
     name = "resampled"
     dtype = bool
 
     def fetch(self, step: Step) -> bool:
         return step.resampled
+
+    def collect(self, step: Step) -> None:
+        self.values[step.k] = step.resampled
+        if step.parents is not None and step.k > 0:
+            self.values[step.k - 1] = True
 
 
 class Sizes(_PerStep):
@@ -187,7 +194,9 @@ class Clouds:
 class Ancestors:
     """``ancestors``: ``A`` ``(K, N)``, particle ``i`` of step ``k`` descends from particle ``A[k, i]`` of
     step ``k - 1`` (the identity where no resampling came between them, and at ``k = 0``): the
-    ancestral lines of :func:`pfcourse.smoothing.fixed_lag_means`.  Needs a fixed ``N``."""
+    ancestral lines of :func:`pfcourse.smoothing.fixed_lag_means`.  The ancestors a proposal drew
+    before its move (:attr:`~pfcourse.filter.Step.parents`, the auxiliary filter) are composed
+    with those of the previous step's resampling.  Needs a fixed ``N``."""
 
     name = "ancestors"
 
@@ -197,6 +206,8 @@ class Ancestors:
         self.lines[:] = np.arange(pf.n_particles)
 
     def collect(self, step: Step) -> None:
+        if step.parents is not None and step.k > 0:
+            self.lines[step.k] = self.lines[step.k][step.parents]
         if step.ancestors is not None and step.k + 1 < len(self.lines):
             self.lines[step.k + 1] = step.ancestors
 

@@ -385,6 +385,41 @@ def regression_slope(x, y, confidence: float = CONFIDENCE) -> tuple[float, float
     return float(slope), float(slope) - half, float(slope) + half
 
 
+def log_mean_exp(x, order: int = 3) -> float:
+    r"""``log E[e^X]`` from the first ``order`` (2 or 3) cumulants of the sample ``x``.
+
+    .. math:: \log \mathbb E[e^X] = \kappa_1 + \kappa_2 / 2 + \kappa_3 / 6 + \dots,
+
+    with the cumulants estimated by their unbiased k-statistics (``scipy.stats.kstat``). With
+    ``order=2`` this is the Gaussian value ``mean + var / 2``; the third-order term corrects it for
+    skewness (a left-skewed ``X``, as the log of a particle likelihood estimate, makes
+    ``mean + var / 2`` too high). For ``X = log p^ - log p``, an unbiased ``p^`` gives 0.
+    """
+    x = _samples(x, "x")
+    if order not in (2, 3):
+        raise EvidenceError(f"order must be 2 or 3, got {order!r}")
+    if x.size < 4:
+        raise EvidenceError(f"cumulants up to the third need at least 4 values, got {x.size}")
+    value = stats.kstat(x, 1) + stats.kstat(x, 2) / 2
+    return float(value + (stats.kstat(x, 3) / 6 if order == 3 else 0.0))
+
+
+def iact_relative_sd(tau: float, n: int, c: float = 5.0) -> float:
+    r"""Relative standard deviation of an integrated autocorrelation time estimated from one chain.
+
+    Sokal's approximation for a window of ``M`` lags (``M`` about ``c tau``, the window of
+    :func:`pfcourse.pmmh.integrated_autocorrelation_time`) on ``n`` draws:
+
+    .. math:: \frac{\mathrm{sd}(\hat\tau)}{\tau} \approx \sqrt{\frac{2 (2M + 1)}{n}}.
+    """
+    if not (np.isfinite(tau) and tau >= 1):
+        raise EvidenceError(f"an autocorrelation time is at least 1, got {tau!r}")
+    if int(n) != n or n < 2:
+        raise EvidenceError(f"a chain needs at least 2 draws, got {n!r}")
+    window = int(np.ceil(c * tau))
+    return float(np.sqrt(2 * (2 * window + 1) / n))
+
+
 def holm(pvalues) -> np.ndarray:
     r"""Holm's step-down adjusted p-values, in the order given.
 

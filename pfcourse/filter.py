@@ -142,8 +142,12 @@ class Proposal(Protocol):
     It is called only at steps that have a measurement.  A proposal that brings the likelihood
     in by stages (progressive correction) returns ``(x_k, log_inc, stages)``, the number of
     times it weighted the cloud: the step reports it (:attr:`Step.stages`).  A proposal that draws
-    the ancestors itself (the auxiliary filter) sets ``draws_ancestors = True``: it is then also
-    given ``log_weights=log W_{k-1}`` (normalised), and its increments are added to them as usual.
+    the ancestors itself (the auxiliary filter) sets ``draws_ancestors = True`` and has a method
+    ``propose_with_ancestors(model, particles, z, k, rng, log_weights=log W_{k-1})`` (normalised
+    weights) returning ``(x_k, log_inc, ancestors)``: ``x_k^i`` descends from ``particles[ancestors[i]]``,
+    the children start from equal weights (unequal ``W_{k-1}`` are reset to ``1/N``) and the step
+    records the ancestors (:attr:`Step.parents`); ``ancestors=None`` says that none were drawn at
+    this step (the increments are then added to ``log W_{k-1}`` as those of ``propose``).
     """
 
     def propose(
@@ -200,7 +204,12 @@ class Step:
     step: particle ``i`` of step ``k + 1`` descends from ``particles[ancestors[i]]``.  With a
     ``sample_size`` policy it comes first: ``particles[i]`` descends from particle ``ancestors[i]``
     of step ``k - 1``.  ``stages``: how many times the proposal weighted the cloud at this step
-    (the stages of progressive correction; 1 otherwise).
+    (the stages of progressive correction; 1 otherwise).  ``parents``: with a fixed ``N``, the
+    ancestors a proposal drew before its move (the auxiliary filter's first stage), else ``None``:
+    ``particles[i]`` descends from particle ``parents[i]`` of the cloud that ended step ``k - 1``
+    (after its own resampling, if it had one).  That first stage resamples the cloud of step
+    ``k - 1``: the ``resampled`` record and the :class:`~pfcourse.collectors.Ancestors` lines
+    file it there.
 
     The filter never writes into a step's arrays after yielding it, so a collector may keep them.
     """
@@ -213,6 +222,7 @@ class Step:
     log_likelihood_increment: float
     ancestors: Array | None = None
     stages: int = 1
+    parents: Array | None = None
 
     @property
     def size(self) -> int:
@@ -221,7 +231,7 @@ class Step:
 
     @property
     def resampled(self) -> bool:
-        """Whether the step resampled (``ancestors`` is not ``None``)."""
+        """Whether the step resampled (``ancestors`` is not ``None``; not the first stage of ``parents``)."""
         return self.ancestors is not None
 
 
@@ -233,10 +243,10 @@ class _FixedSize:
         self.pf = pf
 
     def propose(self, cloud: _Cloud, z: Array | None, k: int,
-                rng: np.random.Generator) -> tuple[Array | None, Array | None, int]:
-        """``(log inc_k, None, stages)``: no ancestors drawn before the move."""
-        log_inc, stages = self.pf._propose(cloud, z, k, rng)
-        return log_inc, None, stages
+                rng: np.random.Generator) -> tuple[Array | None, Array | None, int, Array | None]:
+        """``(log inc_k, None, stages, parents)``: the ancestors a proposal drew before its move, if any."""
+        log_inc, stages, parents = self.pf._propose(cloud, z, k, rng)
+        return log_inc, None, stages, parents
 
     def select(self, cloud: _Cloud, ess: float, k: int, rng: np.random.Generator) -> Array | None:
         """Step 4: the ancestors drawn when ``ESS < threshold * N``, else ``None``."""
@@ -253,17 +263,19 @@ class _VariableSize:
         self.pf, self.policy = pf, policy
 
     def propose(self, cloud: _Cloud, z: Array | None, k: int,
-                rng: np.random.Generator) -> tuple[Array | None, Array | None, int]:
-        """Step 1, in place: ``(log inc_k, ancestors, stages)``; the batches at measurement steps ``k > 0``.
+                rng: np.random.Generator) -> tuple[Array | None, Array | None, int, None]:
+        """Step 1, in place: ``(log inc_k, ancestors, stages, None)``; the batches at measurement steps ``k > 0``.
 
         Each batch of ``m`` particles: ancestors ``A_i`` by multinomial resampling of the previous
         weighted cloud, then ``x_k^i ~ q(. | x_{k-1}^{A_i}, z_k)`` (``_move``), until
         ``n >= min(max(needed, n_min), n_particles)``.  The new cloud starts from the uniform
         weights ``1/n`` (the ancestors carried the old ones).  ``stages``: the most of any batch.
+        A proposal that draws ancestors within a batch composes with the batch's: ``ancestors``
+        are always those of the step ``k - 1`` cloud.
         """
         if k == 0 or z is None:
-            log_inc, stages = self.pf._propose(cloud, z, k, rng)
-            return log_inc, None, stages
+            log_inc, stages, _ = self.pf._propose(cloud, z, k, rng)
+            return log_inc, None, stages, None
         policy, n_max = self.policy, self.pf.n_particles
         policy.reset()
         new_x, new_log, drawn, stages = [], [], [], 1
@@ -271,7 +283,9 @@ class _VariableSize:
         while n < min(max(needed, policy.n_min), n_max):
             m = int(min(n_max - n, max(policy.batch, min(needed, n_max) - n)))
             drawn.append(multinomial(cloud.weights, rng, m))
-            x, log_inc, batch_stages = self.pf._move(kernels.gather_rows(cloud.particles, drawn[-1]), z, k, rng)
+            x, log_inc, batch_stages, chosen = self.pf._move(kernels.gather_rows(cloud.particles, drawn[-1]), z, k, rng)
+            if chosen is not None:
+                drawn[-1] = drawn[-1][chosen]
             new_x.append(x)
             new_log.append(log_inc)
             stages = max(stages, batch_stages)
@@ -280,7 +294,7 @@ class _VariableSize:
             if isinstance(needed, (bool, np.bool_)) or not isinstance(needed, (int, np.integer)) or needed < 0:
                 raise ModelError(f"step {k}: sample_size.needed must return a count >= 0, got {needed!r}", step=k)
         cloud.restart(np.concatenate(new_x))
-        return np.concatenate(new_log), np.concatenate(drawn), stages
+        return np.concatenate(new_log), np.concatenate(drawn), stages, None
 
     def select(self, cloud: _Cloud, ess: float, k: int, rng: np.random.Generator) -> None:
         """No resampling at the end of the step: the next one draws its ancestors itself."""
@@ -340,6 +354,10 @@ class ParticleFilter:
         self._custom_resampler = not isinstance(resampler, str)
         if proposal is not None and not callable(getattr(proposal, "propose", None)):
             raise ModelError(f"proposal must have a propose(model, particles, z, k, rng) method, got {proposal!r}")
+        hook = getattr(proposal, "propose_with_ancestors", None)
+        if getattr(proposal, "draws_ancestors", False) and not callable(hook):
+            raise ModelError(f"a proposal that draws ancestors (draws_ancestors = True) must have a method "
+                             f"propose_with_ancestors(model, particles, z, k, rng, log_weights), got {proposal!r}")
         if jitter is not None and not callable(jitter):
             raise ModelError(f"jitter must be a function (particles, rng) -> particles, got {jitter!r}")
         angles = getattr(model, "angle_indices", ())
@@ -438,49 +456,58 @@ class ParticleFilter:
         """The loop (checked inputs): steps 1 to 3, the step's state, step 4, then the :class:`Step`."""
         cloud = _Cloud(self.n_particles)
         for k, z in enumerate(_present(measurements)):
-            log_inc, ancestors, stages = self._size.propose(cloud, z, k, rng)
+            log_inc, ancestors, stages, parents = self._size.propose(cloud, z, k, rng)
             ess, log_evidence = self._weight(cloud, log_inc, z, k)
             particles, log_weights, weights = cloud.particles, cloud.log_weights, cloud.weights
             if ancestors is None:
                 ancestors = self._size.select(cloud, ess, k, rng)
-            yield Step(k, particles, log_weights, weights, ess, log_evidence, ancestors, stages)
+            yield Step(k, particles, log_weights, weights, ess, log_evidence, ancestors, stages, parents)
 
     def _propose(self, cloud: _Cloud, z: Array | None, k: int,
-                 rng: np.random.Generator) -> tuple[Array | None, int]:
+                 rng: np.random.Generator) -> tuple[Array | None, int, Array | None]:
         """Step 1, in place: ``x_0^i ~ p(x_0)`` at step 0, ``x_k^i ~ q(x_k | x_{k-1}^i, z_k)`` afterwards.
 
         Returns the checked log-increments ``log inc_k^i`` (``log p(z_0 | x_0^i)`` at step 0), or
-        ``None`` when ``z_k`` is missing (the particles then move through the transition), and the
-        proposal's stages.
+        ``None`` when ``z_k`` is missing (the particles then move through the transition), the
+        proposal's stages and the ancestors it drew (``None`` unless it draws them: the children
+        then start from equal weights, ``W_{k-1}`` reset to ``1/N`` unless already equal).
         """
         if k > 0:
-            cloud.particles, log_inc, stages = self._move(cloud.particles, z, k, rng, cloud.log_weights)
-            return log_inc, stages
+            cloud.particles, log_inc, stages, parents = self._move(cloud.particles, z, k, rng, cloud.log_weights)
+            if parents is not None and not np.all(cloud.log_weights == cloud.log_weights[0]):
+                cloud.restart(cloud.particles)
+            return log_inc, stages, parents
         cloud.particles = self._check_particles(self.model.sample_initial(cloud.size, rng), k, "sample_initial")
         if z is None:
-            return None, 1
-        return self._check_log_increments(self.model.log_likelihood(cloud.particles, z, k), k, cloud.size), 1
+            return None, 1, None
+        return self._check_log_increments(self.model.log_likelihood(cloud.particles, z, k), k, cloud.size), 1, None
 
     def _move(self, parents: Array, z: Array | None, k: int, rng: np.random.Generator,
-              log_weights: Array | None = None) -> tuple[Array, Array | None, int]:
+              log_weights: Array | None = None) -> tuple[Array, Array | None, int, Array | None]:
         """Draw ``x_k^i ~ q(. | x_{k-1}^i, z_k)`` for each row ``x_{k-1}^i`` of ``parents`` (checked).
 
-        Returns ``(x_k, log inc_k, stages)`` with ``log inc_k^i = log p(z_k | x_k^i) + log p(x_k^i | x_{k-1}^i)
+        Returns ``(x_k, log inc_k, stages, ancestors)`` with ``log inc_k^i = log p(z_k | x_k^i) + log p(x_k^i | x_{k-1}^i)
         - log q(x_k^i | x_{k-1}^i, z_k)`` (checked), or ``(x_k, None, 1)`` when ``z_k`` is missing: then
         ``q`` is the transition whatever the proposal.  ``stages`` is the third item of what the
-        proposal returned, if it returned one (:class:`Proposal`), else 1.  Shared by the fixed and
-        the variable ``N``.  ``log_weights`` (``log W_{k-1}``, equal if ``None``) go to a proposal that draws
-        ancestors.
+        proposal returned, if it returned one (:class:`Proposal`), else 1.  ``ancestors``: those a
+        proposal that draws them returned (checked), else ``None``.  Shared by the fixed and the
+        variable ``N``.  ``log_weights`` (``log W_{k-1}``, equal if ``None``) go to a proposal that
+        draws ancestors.
         """
-        m, stages = len(parents), 1
+        m, stages, ancestors = len(parents), 1, None
         if z is None or type(self.proposal) is TransitionProposal:
             new = self._check_particles(self.model.sample_transition(parents, k, rng), k, "sample_transition", m)
             if z is None:
-                return new, None, 1
+                return new, None, 1, None
             log_inc = self.model.log_likelihood(new, z, k)
         else:
             if getattr(self.proposal, "draws_ancestors", False):
-                proposed = self.proposal.propose(self.model, parents, z, k, rng, log_weights=log_weights)
+                proposed = self.proposal.propose_with_ancestors(self.model, parents, z, k, rng, log_weights=log_weights)
+                if not isinstance(proposed, tuple) or len(proposed) != 3:
+                    raise ModelError(f"step {k}: proposal.propose_with_ancestors must return "
+                                     "(particles, log_increments, ancestors)", step=k)
+                ancestors = None if proposed[2] is None else self._check_indices(proposed[2], k, m)
+                proposed = proposed[:2]
             else:
                 proposed = self.proposal.propose(self.model, parents, z, k, rng)
             if not isinstance(proposed, tuple) or len(proposed) not in (2, 3):
@@ -492,7 +519,7 @@ class ParticleFilter:
                     raise ModelError(f"step {k}: the proposal's stages must be a count >= 1, got {stages!r}", step=k)
             new = self._check_particles(proposed[0], k, "proposal.propose", m)
             log_inc = proposed[1]
-        return new, self._check_log_increments(log_inc, k, m), int(stages)
+        return new, self._check_log_increments(log_inc, k, m), int(stages), ancestors
 
     def _weight(self, cloud: _Cloud, log_inc: Array | None, z: Array | None, k: int) -> tuple[float, float]:
         """Steps 2 and 3, in place: ``log W_k^i = log W_{k-1}^i + log inc_k^i - L_k``, ``W_k^i = exp(log W_k^i)``.
@@ -558,10 +585,11 @@ class ParticleFilter:
             collected=records,
         )
 
-    def _check_indices(self, indices, k: int) -> np.ndarray:
-        """A custom resampler's output must be N integer indices in [0, N) (checked before the compiled gather)."""
+    def _check_indices(self, indices, k: int, n: int | None = None) -> np.ndarray:
+        """A custom resampler's (or a proposal's) output must be ``n`` integer indices in [0, n), ``n = N``
+        unless given (checked before the compiled gather)."""
         arr = np.asarray(indices)
-        n = self.n_particles
+        n = self.n_particles if n is None else n
         if arr.dtype.kind not in "iu" or arr.dtype == bool:
             raise ModelError(f"step {k}: the resampler returned dtype {arr.dtype}, expected integer indices", step=k)
         if arr.shape != (n,):

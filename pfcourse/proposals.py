@@ -33,10 +33,10 @@ Compared with SIR and the same optimal importance function (whose weights are th
 ``W_{k-1}^i p(z_k | x_{k-1}^i)``), only the order changes: resample, then move, so each copy
 of a parent gets its own move instead of being a duplicate of one moved particle.  It runs in
 the engine as a :class:`~pfcourse.filter.Proposal` that draws the ancestors itself
-(``draws_ancestors = True``): the engine hands it the cloud's log-weights ``log W_{k-1}^i`` and
-adds the increments it returns to them, so the increment of slot ``i`` is
-``log p^(z_k | z_{0:k-1}) - log W_{k-1}^i`` (up to a constant): the new weights are equal
-whatever the resampling threshold left in ``W_{k-1}``.
+(``draws_ancestors = True``): the engine hands it the cloud's log-weights ``log W_{k-1}^i``, and
+it returns the new particles, the increment ``log p^(z_k | z_{0:k-1})`` of every slot and the
+ancestors ``A^i`` it drew; the engine gives the children equal weights whatever the resampling
+threshold left in ``W_{k-1}``, and records the ancestors (the genealogy).
 
 **Progressive correction** (Oudjane and Musso 2000), as an importance function
 (:class:`ProgressiveCorrection`): at the first ``n_tempered`` readings the likelihood
@@ -158,9 +158,11 @@ class FullyAdaptedAuxiliary:
     It reads the weights of the cloud it moves (``draws_ancestors``), so it is right at any
     resampling threshold: with equal weights ``W_{k-1}^i = 1/N`` (``threshold=1``, or no
     measurement at step 0) the first stage is ``p(z_k | x_{k-1}^i)`` alone, and every slot
-    gets the increment ``log (1/N) sum_i p(z_k | x_{k-1}^i)``.  A slot of weight zero cannot
-    carry a child (the engine multiplies its increment by that weight): when ``M < N`` slots
-    have a positive weight, ``M`` of the ``N`` children, chosen at random, fill them.
+    gets the increment ``log (1/N) sum_i p(z_k | x_{k-1}^i)``.  In the engine
+    (:meth:`propose_with_ancestors`) it reports the ancestors it drew, which the run records
+    (:attr:`pfcourse.filter.Step.parents`; the ``resampled`` flag and the
+    :class:`~pfcourse.collectors.Ancestors` lines of the step before), and all ``N`` children
+    are kept, equally weighted, even when some ``W_{k-1}^i`` are zero.
     """
 
     draws_ancestors = True
@@ -170,9 +172,9 @@ class FullyAdaptedAuxiliary:
         self.resampler = get_resampler(resampler)
         self.first_stage_ess: list[float] = []
 
-    def propose(self, model, particles: Array, z: Array, k: int, rng: np.random.Generator,
-                log_weights: Array | None = None):
-        """``(x_k, log inc_k)``; ``log_weights`` are the cloud's normalised ``log W_{k-1}`` (equal if ``None``)."""
+    def _select_and_move(self, model, particles: Array, z: Array, k: int, rng: np.random.Generator,
+                         log_weights: Array | None):
+        """The first stage and the move: ``(x_k, ancestors, log p^(z_k | z_{0:k-1}), equal)``."""
         n = particles.shape[0]
         a = np.asarray(self.inner.log_predictive(model, particles, z, k), dtype=float)
         equal = log_weights is None or bool(np.all(log_weights == log_weights[0]))
@@ -183,15 +185,41 @@ class FullyAdaptedAuxiliary:
         total = w.sum()
         w /= total
         self.first_stage_ess.append(float(1.0 / np.sum(w**2)))
-        parents = particles[self.resampler(w, rng)]
-        new, _ = self.inner.propose(model, parents, z, k, rng)
+        ancestors = np.asarray(self.resampler(w, rng))
+        new, _ = self.inner.propose(model, particles[ancestors], z, k, rng)
+        # log sum_i W_{k-1}^i p(z_k | x_{k-1}^i), with W_{k-1}^i = 1/N when the weights are equal
+        log_evidence = top + np.log(total) - np.log(n) if equal else top + np.log(total)
+        return new, ancestors, log_evidence, equal
+
+    def propose_with_ancestors(self, model, particles: Array, z: Array, k: int, rng: np.random.Generator,
+                               log_weights: Array | None = None):
+        """The engine's hook: ``(x_k, log inc_k, ancestors)``, ``x_k^i`` moved from ``x_{k-1}^{ancestors[i]}``.
+
+        Every one of the ``N`` children is kept, and every slot gets the same increment
+        ``log p^(z_k | z_{0:k-1}) = log sum_i W_{k-1}^i p(z_k | x_{k-1}^i)``: the children are drawn
+        from the extended target, so they are equally weighted, and the engine gives them the
+        weights ``1/N`` (it resets unequal ``W_{k-1}``; equal ones it keeps as they are).
+        """
+        new, ancestors, log_evidence, _ = self._select_and_move(model, particles, z, k, rng, log_weights)
+        return new, np.full(particles.shape[0], log_evidence), ancestors
+
+    def propose(self, model, particles: Array, z: Array, k: int, rng: np.random.Generator,
+                log_weights: Array | None = None):
+        """``(x_k, log inc_k)`` for increments added to ``log W_{k-1}`` (equal if ``None``), used alone.
+
+        The engine calls :meth:`propose_with_ancestors` instead.  Here slot ``i`` gets
+        ``log p^(z_k | z_{0:k-1}) - log M - log W_{k-1}^i`` over the ``M`` slots of positive weight;
+        a slot of weight zero cannot carry a child, so when ``M < N``, ``M`` of the ``N``
+        children, chosen at random, fill the live slots (the others are lost).
+        """
+        n = particles.shape[0]
+        new, _, log_evidence, equal = self._select_and_move(model, particles, z, k, rng, log_weights)
         if equal:  # log (1/N) sum_i p(z_k | x_{k-1}^i), the same for every slot
-            return new, np.full(n, top + np.log(total) - np.log(n))
-        # log p^(z_k | z_{0:k-1}) = log sum_i W_{k-1}^i p(z_k | x_{k-1}^i), spread over the live slots
+            return new, np.full(n, log_evidence)
         live = log_weights > -np.inf
         m = int(live.sum())
         log_inc = np.full(n, -np.inf)
-        log_inc[live] = top + np.log(total) - np.log(m) - log_weights[live]
+        log_inc[live] = log_evidence - np.log(m) - log_weights[live]
         if m < n:
             new = new.copy()
             new[live] = new[rng.permutation(n)[:m]]

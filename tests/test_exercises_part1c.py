@@ -129,3 +129,12 @@ def test_the_fastslam2_generator_is_checked_and_bad_answers_named():
     assert "do not follow" in str(shifted)
     wrong_weight = check_fastslam2_move(lambda *a: (fastslam2_move(*a)[0], fastslam2_move(*a)[1] ** 2))
     assert "log-weights differ" in str(wrong_weight)
+
+
+def test_the_weight_without_motion_noise_is_named_for_what_it_computes():
+    """That mistake takes C P^- C^T + R at the parent's prediction: its sentence says so, and does not
+    call it FastSLAM 1.0's weight (that one is taken at the new robot, the mistake new_robot_weight)."""
+    message = FASTSLAM2_MISTAKES["fastslam1_weight"]
+    assert "parent's prediction" in message and "A Q_r A^T" in message
+    assert "FastSLAM 1.0" not in message
+    assert "new robot" in FASTSLAM2_MISTAKES["new_robot_weight"]

@@ -15,6 +15,10 @@ object>``):
 - **Animations** (``FuncAnimation.to_jshtml()``): the last frame, captioned as an animation in the
   HTML book.
 
+Three things are arranged for paper: chapters are numbered as in the HTML book (:class:`PartsOfChapters`),
+each chapter's solutions are printed at its end (:class:`SolutionsAtChapterEnd`), and a solution's
+folded code is printed with it (:class:`SolutionCodePrinted`; other folded code is not printed).
+
 Each such output's mime bundle is replaced before myst-nb selects a mime type (its
 ``SelectMimeType`` post-transform runs at priority 4). Images are written under
 ``_build/pdf_images/`` (named by their content) and registered with the environment, so the
@@ -51,7 +55,8 @@ PREAMBLE = r"""
 """
 
 DATA_URI = re.compile(r"data:image/png;base64,([A-Za-z0-9+/=]+)")
-JSHTML_FRAME = re.compile(r'frames\[(\d+)\]\s*=\s*"data:image/png;base64,([A-Za-z0-9+/=\\n]+)"')
+#: A frame of matplotlib's animation player; its base64 is broken into lines, each ending in a backslash.
+JSHTML_FRAME = re.compile(r'frames\[(\d+)\]\s*=\s*"data:image/png;base64,((?:[A-Za-z0-9+/=]|\\\n)+)"')
 
 
 def _html_of(bundle: nodes.Element) -> str | None:
@@ -129,7 +134,7 @@ class PrintedOutputs(SphinxPostTransform):
                 bundle.replace_self(self.panel_nodes(BeautifulSoup(markup, "html.parser")))
             elif JSHTML_FRAME.search(markup):
                 frames = JSHTML_FRAME.findall(markup)
-                last = max(frames, key=lambda f: int(f[0]))[1].replace("\\n", "")
+                last = max(frames, key=lambda f: int(f[0]))[1].replace("\\\n", "")
                 caption = (f"An animation of {len(frames)} frames in the HTML book and in JupyterLab; "
                            "printed here, its last frame.")
                 bundle.replace_self(self.figure(last, caption))
@@ -217,6 +222,65 @@ class PartsOfChapters(SphinxPostTransform):
             container.insert(position + offset, node)
 
 
+class SolutionsAtChapterEnd(SphinxPostTransform):
+    """Print each chapter's solutions at its end, after its takeaways, as a course book does.
+
+    The HTML book folds a solution under its exercise (a ``{solution}`` block and the code cell
+    tagged ``solution`` that follows it); on paper they would give the answer away on the same page.
+    """
+
+    default_priority = 810
+    builders = ("latex",)
+
+    def run(self, **kwargs: Any) -> None:
+        from sphinx_exercise.nodes import solution_node
+
+        for start in list(self.document.findall(addnodes.start_of_file)):
+            if start.get("docname") not in self.env.found_docs:  # a part's wrapper, not a chapter
+                continue
+            chapter = next((c for c in start.children if isinstance(c, nodes.section)), None)
+            if chapter is None:
+                continue
+            moved = [n for n in chapter.findall(lambda n: isinstance(n, solution_node) or (
+                isinstance(n, nodes.container) and n.get("nb_element") == "cell_code"
+                and "solution" in n.get("cell_metadata", {}).get("tags", [])))]
+            moved = [n for n in moved if not any(a in moved for a in _ancestors(n))]
+            if not moved:
+                continue
+            for node in moved:
+                node.parent.remove(node)
+            chapter += nodes.rubric(text="Solutions to the exercises")
+            chapter.extend(moved)
+
+
+class SolutionCodePrinted(SphinxPostTransform):
+    """Print a solution's code. Folded code (tag ``hide-input``: setup, glue, figure drawing) is left
+    out of the printed book by sphinx-jupyterbook-latex, which cannot unfold it; a solution's code is
+    folded in the HTML book only so that it does not give the answer away, and is the solution."""
+
+    default_priority = 805  # after sphinx-jupyterbook-latex hid the folded inputs (400)
+    builders = ("latex",)
+
+    def run(self, **kwargs: Any) -> None:
+        from sphinx_jupyterbook_latex.nodes import HiddenCellNode
+
+        for cell in list(self.document.findall(nodes.container)):
+            if "tag_solution" not in cell.get("classes", []):
+                continue
+            for hidden in [c for c in cell.children if isinstance(c, HiddenCellNode)
+                           and "cell_input" in c.get("classes", [])]:
+                shown = nodes.container("", *hidden.children, classes=hidden["classes"], nb_element="cell_code_source")
+                hidden.replace_self(shown)
+
+
+def _ancestors(node: nodes.Node) -> list[nodes.Node]:
+    found, node = [], node.parent
+    while node is not None:
+        found.append(node)
+        node = node.parent
+    return found
+
+
 def add_preamble(app, config) -> None:
     """The evidence blocks' and panel captions' LaTeX environments, after the configured preamble."""
     elements = dict(config.latex_elements or {})
@@ -227,5 +291,7 @@ def add_preamble(app, config) -> None:
 def setup(app) -> dict[str, Any]:
     app.add_post_transform(PrintedOutputs)
     app.add_post_transform(PartsOfChapters)
+    app.add_post_transform(SolutionsAtChapterEnd)
+    app.add_post_transform(SolutionCodePrinted)
     app.connect("config-inited", add_preamble)
     return {"parallel_read_safe": True, "parallel_write_safe": True}

@@ -589,7 +589,7 @@ print(check_weight_update(update_linear))
 #
 # :::{admonition} From the labs
 # :class: dropdown
-# Lab A ({doc}`labs`) asks which importance function to use (its question 4). This chapter gives
+# Lab A ({doc}`../labs`) asks which importance function to use (its question 4). This chapter gives
 # the ground the answer stands on: the lab's choice, the prior (the transition) as proposal,
 # makes the weight the likelihood; it works when the likelihood is not much sharper than the
 # prior, and its weights concentrate when it is ("Why the weights concentrate"). {doc}`sis` and

@@ -917,7 +917,7 @@ print("distinct step-0 ancestors of the final cloud in the run above:", len(np.u
 #
 # :::{admonition} From the labs
 # :class: dropdown
-# Lab A ({doc}`labs`) asks to add resampling when the effective sample size falls below a
+# Lab A ({doc}`../labs`) asks to add resampling when the effective sample size falls below a
 # threshold and to test it (questions 6 and 7): Algorithm 5.1, its twenty-odd lines and
 # "How often does SIR resample?" answer them. Its question 4 asks how to fix what goes wrong:
 # the report gave the landmarks process noise, in the filter or, read another way, in the

@@ -549,7 +549,7 @@ print(check_sis(my_sis))
 #
 # :::{admonition} From the labs
 # :class: dropdown
-# Lab A ({doc}`labs`) asks to write SIS for the landmark model (its question 3: the twenty lines
+# Lab A ({doc}`../labs`) asks to write SIS for the landmark model (its question 3: the twenty lines
 # above and Exercise 4.1), how many particles and which importance function, what goes wrong
 # and how to fix it (question 4: "Does a larger N save SIS?", "How to choose N" and
 # Exercise 4.2), and to check the degeneracy of the weights with the effective sample size (question 5:

@@ -307,6 +307,8 @@ print(f"this run: position RMSE {np.sqrt(np.mean(err**2)):.3f} m with N = {N_DEM
 # to {glue:text}`lf_tracking_rmse_m_high:.3f`), a fraction of the $0.2$ m width of the likelihood field.
 
 # %% tags=["remove-input"] jupyter={"source_hidden": true}
+from pfcourse.figures.report import spread_table  # a spread over runs as a table with units
+
 glue_values("lf_", engine_tolerance=TOL)
 cost = {name: json.loads(STUDIES[f"maprobot/{name}"].path.with_suffix(".json").read_text())["wall_seconds"]
         for name in ("tracking", "global", "kidnap")}
@@ -334,8 +336,7 @@ EvidenceBlock(
            f"{np.degrees(head_high):.2f}).",
            f"Locked on at the end (within 1 m and 5 degrees over the last 20 s): {tracked}.",
            stored("tracking")],
-    tables=[("Per-run position RMSE (m), over the runs",
-             tracking["position_rmse"].describe(percentiles=[0.1, 0.5, 0.9]).to_frame().T, {})],
+    tables=[("Per-run position RMSE, over the runs", *spread_table(tracking["position_rmse"], "m", ".3f"))],
 )
 
 # %% [markdown]
@@ -462,8 +463,7 @@ EvidenceBlock(
            f"{med_low:.1f}-{med_high:.1f} s (percentile bootstrap over those runs; see Reading the evidence). "
            "It is a median among survivors: it says how fast a recovery is when one happens, not how often.",
            stored("kidnap")],
-    tables=[("Recovery time of the recovered runs (s)", kid.loc[kid["recovered"], "recovery_s"]
-             .describe(percentiles=[0.1, 0.5, 0.9]).to_frame().T, {})],
+    tables=[("Recovery time of the recovered runs", *spread_table(times, "s", ".1f"))],
 )
 
 # %% [markdown]

@@ -56,8 +56,8 @@ exception is reported as a problem); ``str(report)`` prints the verdict.
 * :func:`check_fastslam2_move` - ``fn(r_pred, m_pred, P_pred, z, A, C, Qr, R, rng) -> (robots, log_w)``:
   FastSLAM 2.0's robot move and weight for a cloud, against :func:`fastslam2_exact` (the weights up to a
   constant, the robots standardised by the exact proposal); the generator is checked, and the mistakes
-  of :data:`FASTSLAM2_MISTAKES` are named (FastSLAM 1.0's weight, ``S`` without the map, the weight at
-  the new robot, the transition as move, the covariance not shrunk).
+  of :data:`FASTSLAM2_MISTAKES` are named (the weight without the motion noise, ``S`` without the map,
+  the weight at the new robot, the transition as move, the covariance not shrunk).
 * :func:`check_apf_second_stage` - ``fn(log_lik, log_pred, ancestors) -> log_weights``: the auxiliary
   filter's second-stage weights with the transition as proposal; the mistakes of
   :data:`APF_MISTAKES` are named (first stage not divided out, divided at the particle's own index,

@@ -1232,9 +1232,9 @@ FASTSLAM2_CASE = dict(
 )
 
 FASTSLAM2_MISTAKES: dict[str, str] = {
-    "fastslam1_weight": "the weight leaves out the robot's own motion noise: with the optimal proposal the weight is "
-                        "p(z_k | r_(k-1), map) = N(z; A r^- + C m^-, A Q_r A^T + C P^- C^T + R), not FastSLAM 1.0's "
-                        "C P^- C^T + R",
+    "fastslam1_weight": "the weight's covariance leaves out the robot's motion noise: the innovation z - A r^- - C m^- "
+                        "is taken at the parent's prediction r^-, from which the robot still moves by Q_r, so its "
+                        "covariance is S = A Q_r A^T + C P^- C^T + R, not C P^- C^T + R",
     "no_map_in_s": "S leaves out the map's uncertainty C P^- C^T: the landmark's position is not known, so "
                    "S = A Q_r A^T + C P^- C^T + R, in the weight and in the gain",
     "new_robot_weight": "the weight is evaluated at the new robot: with the optimal proposal it is the predictive "

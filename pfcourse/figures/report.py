@@ -10,7 +10,10 @@ module is that plumbing, so a chapter's visible code stays the code that teaches
   element, closed until the reader opens it, in the HTML book and in JupyterLab alike (both
   render a cell's HTML output; no markdown directive is needed), holding notes and tables;
 * :func:`html_table` renders a table as an HTML table with each column's number format (a
-  printed table wraps into broken rows at the column edge; an HTML table scrolls).
+  printed table wraps into broken rows at the column edge; an HTML table scrolls). A float
+  column given no format whose numbers carry more digits than a reader can use (a mean such as
+  ``0.05973297374498274``) shows :data:`SIGNIFICANT_DIGITS` significant digits instead;
+  other columns show as pandas shows them.
 
 The numbers an evidence block shows are formatted from the computation itself, so none is
 typed. Its plain-text form (what ``print`` and strict nbval see) lists the same numbers.
@@ -42,13 +45,55 @@ def glue_values(prefix: str = "", **values) -> None:
         glue(prefix + name, value.item() if isinstance(value, np.generic) else value, display=False)
 
 
+#: The significant digits of a float column that has no format and too many digits.
+SIGNIFICANT_DIGITS = 4
+#: A float "has too many digits" when its shortest repr carries more significant digits than this
+#: (float noise such as 3.8000000000000007, or an unrounded mean); 0.25 or 1e-05 keep their text.
+_MAX_PLAIN_DIGITS = 6
+
+
+def _significant_digits(value: float) -> int:
+    """How many significant digits the shortest repr of ``value`` shows (0.0597329 -> 6, 26.0 -> 2)."""
+    mantissa = repr(abs(float(value))).split("e")[0]
+    return len(mantissa.replace(".", "").strip("0"))
+
+
+def significant(value: float, digits: int = SIGNIFICANT_DIGITS) -> str:
+    """``value`` with ``digits`` significant digits, without trailing zeros, and without an exponent
+    for everyday magnitudes: 0.05973297 -> "0.05973", 33.2307 -> "33.23", 26.0 -> "26",
+    123456.7 -> "123457"; below 1e-4 in scientific notation (1.23456e-05 -> "1.235e-05")."""
+    if not np.isfinite(value):
+        return str(value)
+    if value == 0:
+        return "0"
+    magnitude = int(np.floor(np.log10(abs(value))))
+    if magnitude < -4:
+        mantissa, exponent = f"{value:.{digits - 1}e}".split("e")
+        return (mantissa.rstrip("0").rstrip(".") if "." in mantissa else mantissa) + "e" + exponent
+    text = f"{value:.{max(0, digits - 1 - magnitude)}f}"
+    return text.rstrip("0").rstrip(".") if "." in text else text
+
+
+def _default_format(column: pd.Series) -> pd.Series | None:
+    """A float column with too many digits, shown with SIGNIFICANT_DIGITS; None to leave it as it is."""
+    if not pd.api.types.is_float_dtype(column):
+        return None
+    values = column.dropna()
+    if not any(_significant_digits(v) > _MAX_PLAIN_DIGITS for v in values if np.isfinite(v)):
+        return None
+    return pd.Series([significant(v) if pd.notna(v) else "" for v in column], index=column.index)
+
+
 def _formatted(table: pd.DataFrame, formats: Mapping[str, str]) -> pd.DataFrame:
     unknown = set(formats) - set(table.columns)
     if unknown:
         raise ParameterError(f"formats name columns the table does not have: {sorted(unknown)}")
     shown = table.copy()
-    for column, spec in formats.items():
-        shown[column] = [format(v, spec) if pd.notna(v) else "" for v in table[column]]
+    for column in table.columns:
+        if column in formats:
+            shown[column] = [format(v, formats[column]) if pd.notna(v) else "" for v in table[column]]
+        elif (default := _default_format(table[column])) is not None:
+            shown[column] = default
     return shown.astype(str)
 
 
@@ -56,6 +101,26 @@ def html_table(table: pd.DataFrame, formats: Mapping[str, str] | None = None) ->
     """The table as HTML, without its index, each column in ``formats`` formatted with its spec."""
     shown = _formatted(table, formats or {})
     return shown.to_html(index=False, border=0, classes="pfcourse-table", escape=True)
+
+
+def spread_table(values, unit: str, spec: str, percentiles: Sequence[float] = (0.1, 0.5, 0.9),
+                 count: str = "runs") -> tuple[pd.DataFrame, dict[str, str]]:
+    """The spread of ``values`` over runs as one table row with its units, and its formats.
+
+    The numbers are pandas' ``describe`` (count, mean, standard deviation, minimum, the
+    ``percentiles``, maximum); the columns are named for a reader, each with ``unit``
+    ("mean (m)", "sd (m)", "10 % (m)", "median (m)", ...), the count as an integer and every
+    other number with ``spec``. Use as ``tables=[(caption, *spread_table(...))]``.
+    """
+    if not unit or not isinstance(unit, str):
+        raise ParameterError("a spread table needs the unit of its values (e.g. 'm', 's')")
+    described = pd.Series(values, dtype=float).describe(percentiles=list(percentiles))
+    names = {"count": count, "mean": f"mean ({unit})", "std": f"sd ({unit})", "min": f"min ({unit})",
+             "max": f"max ({unit})", "50%": f"median ({unit})"}
+    table = described.to_frame().T.rename(
+        columns=lambda c: names.get(c, f"{c.rstrip('%')} % ({unit})" if c.endswith("%") else c))
+    formats = {column: (".0f" if column == count else spec) for column in table.columns}
+    return table.reset_index(drop=True), formats
 
 
 @dataclass
