@@ -509,7 +509,8 @@ def _check_panels(tab) -> int:
                     const expected = main[k]
                         ? idx.reduce((sum, i, j) => (main[j] ? sum + i * data.strides[j] : sum), 0)
                         : data.side[String(k)][idx[k]];  // a side control: its one-factor figure
-                    if (img.src !== data.images[expected]) {
+                    // a figure is a file (tools/book_weight.py) or inline: compare resolved URLs
+                    if (img.src !== new URL(data.images[expected], document.baseURI).href) {
                         problems.push(`${data.controls[k]}: figure ${expected} not shown`);
                     }
                     input.value = before;

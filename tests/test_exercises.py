@@ -493,7 +493,8 @@ def test_every_named_log_likelihood_mistake_is_recognised_and_odd_answers_are_na
         report = check_log_likelihood(lambda x, z, H, R, m=mistake: landmark_log_likelihood(x, z, H, R, m))
         assert report.problems == [f"your function computes a known mistake: {why}"], (mistake, str(report))
     half = check_log_likelihood(lambda x, z, H, R: 2 * cloud_log_likelihood(x, z, H, R))
-    assert "the values differ from log N(z_s; H_s x, R_ss)" in half.problems[0], str(half)
+    assert "the values differ from log N(z_k; H_k x^i, R_k)" in half.problems[0], str(half)
+    assert half.problems[0].endswith("with m the number of coordinates measured"), str(half)
     assert "shape (50, 1)" in check_log_likelihood(lambda x, z, H, R: np.zeros((len(x), 1))).problems[0]
     assert check_log_likelihood(lambda x, z, H, R: None).problems == [
         "the function returned None: compute and return one log-likelihood per particle"]

@@ -54,7 +54,7 @@ ax.legend(loc="lower left")
 plt.show()
 
 # %% [markdown]
-# The figure is one run of $50$ s. The robot (its true path in black) goes round the origin;
+# The figure is one run of $50$ s. The robot (its true path, the blue line) goes round the origin;
 # the two landmarks sit still; a landmark is in view when it lies up and to the right of the
 # robot. The animation replays the run step by step: a landmark in view turns green, and its
 # measured offset is drawn from the robot.
@@ -79,7 +79,7 @@ HTML(animate_landmarks(scenario, sim).to_jshtml())
 # $$
 #
 # with $w_k \sim \mathcal N(0, Q)$ and $v_k \sim \mathcal N(0, R)$. Here are the matrices, in NumPy;
-# the package's `quadrant_scenario()` holds the same (its names are `mX0`, `PX0`, `Qw`, `Rv`).
+# the package's `quadrant_scenario()` holds the same matrices, as the cell checks.
 
 # %%
 import numpy as np
@@ -116,7 +116,8 @@ print("same as quadrant_scenario():",
 #   so the landmarks are known to within about a metre at the start.
 # - **$Q$** is the covariance of the process noise $w_k$: each step of the robot is perturbed by
 #   $0.05$ m (standard deviation) per axis, while the landmarks get a variance of $10^{-20}$ m²:
-#   they do not move. This detail matters a great deal for the particle filter.
+#   they do not move. For a particle filter this means a particle's landmark coordinates are
+#   never perturbed after the first draw, so resampling can only copy values drawn at the start.
 # - **$R$** is the covariance of the measurement noise $v_k$: every measured coordinate is off by
 #   $0.1$ m (standard deviation).
 #
@@ -164,7 +165,8 @@ print("same measurements:",
 print("same visibility:  ", np.array_equal(seen, sim.seen))
 
 # %% [markdown]
-# The arrays are identical. `simulate` returns the instants `T` ($t_k = k\,\Delta t$), the
+# The arrays are identical. `simulate` returns the times of the steps, `sim.T`
+# ($t_k = k\,\Delta t$; the attribute's name, not the last step $T$ of {doc}`../notation`), the
 # states `truth` (one row per step, what the filter tries to recover and never sees),
 # the `measurements` (the offsets $l^1 - r$ then $l^2 - r$, NaN for a landmark out of view; the
 # first row is all NaN) and the visibility `seen`.
@@ -200,22 +202,31 @@ means, lows, highs = evidence.run_interval(lambda r: table[:, r].mean(axis=1), n
 rows = pd.DataFrame({"in view": list(shares), "mean share of steps": means, "95 % low": lows, "95 % high": highs})
 values = {name: (means[i], lows[i], highs[i]) for i, name in enumerate(shares)}
 never = evidence.rate(shares["nothing"] == 1.0)
+# paired over the runs: landmark 1's share minus landmark 2's
+diff_runs = shares["landmark 1"] - shares["landmark 2"]
+diff, diff_low, diff_high = evidence.run_interval(lambda r: diff_runs[r].mean(), n_runs)
 glue_values("model_", visibility_runs=n_runs, seen_share_l1=values["landmark 1"][0],
             seen_share_l1_low=values["landmark 1"][1], seen_share_l1_high=values["landmark 1"][2],
             seen_share_l2=values["landmark 2"][0], both_share=values["both at once"][0],
-            nothing_share=values["nothing"][0], never_share=never.estimate)
+            nothing_share=values["nothing"][0], never_share=never.estimate,
+            seen_share_diff_low=100 * diff_low, seen_share_diff_high=100 * diff_high)
 EvidenceBlock(
     f"landmark 1 is in view at {values['landmark 1'][0]:.0%} of the steps",
     notes=[f"{n_runs} runs of simulate (seeds 0 to {n_runs - 1}), steps 1 to 49 (nothing is measured at step 0).",
            "Mean over the runs of the share of steps, with its 95 % percentile-bootstrap interval over the runs "
-           "(see Reading the evidence).",
-           f"Runs that never see a landmark: {never}."],
+           "(the book's page Reading the evidence explains it).",
+           f"Landmark 1's share minus landmark 2's, paired over the runs: {100 * diff:+.1f} points, 95 % interval "
+           f"{100 * diff_low:+.1f} to {100 * diff_high:+.1f} points.",
+           f"Runs that never see a landmark: {never.successes} of {n_runs} "
+           f"({never.estimate:.1%}; 95 % Wilson interval {never.low:.1%} to {never.high:.1%})."],
     tables=[("Share of the steps at which ... is in view", rows,
              {"mean share of steps": ".1%", "95 % low": ".1%", "95 % high": ".1%"})],
 )
 
 # %% [markdown]
-# Landmark $2$ is seen about as often ({glue:text}`model_seen_share_l2:.0%`), both at once rarely, and
+# Landmark $2$ is seen about as often ({glue:text}`model_seen_share_l2:.0%`): the paired difference
+# lies between {glue:text}`model_seen_share_diff_low:+.1f` and
+# {glue:text}`model_seen_share_diff_high:+.1f` percentage points. Both are seen at once rarely, and
 # the robot sees nothing at
 # {glue:text}`model_nothing_share:.0%` of the steps on average. A filter must carry its estimate
 # through those gaps with the dynamics alone.
@@ -473,7 +484,8 @@ print(check_log_likelihood(log_likelihood))
 #   particle filter of Part I, which treats visibility the same way.
 #
 # :::{dropdown} From the labs
-# This chapter answers the first two questions of the landmark lab: what the parameters
+# This chapter answers the first two questions of the landmark lab (the first lab the book
+# comes from): what the parameters
 # $m_0$, $P_0$, $Q$, $R$ mean physically (the list under the matrices above) and which three
 # densities define the model ({ref}`model-densities`). The two-landmark variant is the lab's
 # first set-up and the five-landmark one its later variant; {doc}`../labs` describes the labs.

@@ -18,7 +18,7 @@
 # **You need** {doc}`kalman` (Gaussian conditioning), {doc}`sis` and {doc}`sir`; NumPy arrays
 # and a random generator.
 #
-# **Time:** about sixteen minutes to read; the notebook runs in about a minute.
+# **Time:** about seventeen minutes to read; the notebook runs in about twenty seconds.
 # :::
 #
 # SIS and SIR have not done well on the landmark model: is a better importance function the
@@ -119,7 +119,7 @@ from pfcourse.filter import ParticleFilter
 from pfcourse.kalman import kalman_filter
 from pfcourse.landmarks.scenario import quadrant_scenario, simulate
 from pfcourse.proposals import OptimalProposal
-from pfcourse.experiments.landmarks import kalman_scores
+from pfcourse.experiments.part1_studies import ALL_NOISE, LAST, N_LAB, NOISE_SCALES
 from pfcourse.figures.report import EvidenceBlock, glue_values
 from pfcourse.style import COLORS, plain_log_axis, use_style
 from pfcourse.figures.widgets import control_panel, particle_slider, scale_slider, seed_box
@@ -132,11 +132,6 @@ model = scenario.model()  # the simulator's own noise models
 PROPOSALS = {"bootstrap": None, "optimal": OptimalProposal()}
 
 
-def measured_steps(sc, n_runs):
-    """Which steps of the simulations with seeds 0, ..., n_runs - 1 have a measurement."""
-    return np.array([simulate(sc, rng=s).seen.any(axis=1) for s in range(n_runs)])
-
-
 # %% [markdown]
 # ## The idea in NumPy, checked on the engine
 #
@@ -147,23 +142,33 @@ def measured_steps(sc, n_runs):
 import numpy as np
 from pfcourse.landmarks.scenario import quadrant_scenario
 
-model = quadrant_scenario().model()  # F, B, Q, H, R of the landmark model
+# F, B, Q, H, R of the landmark model
+model = quadrant_scenario().model()
 
 
 def optimal_step(x_prev, z, model, rng):
-    """Draw x_k^i ~ p(x_k | x_(k-1)^i, z_k); return them and log p(z_k | x_(k-1)^i)."""
+    """Draw x_k^i ~ p(x_k | x_(k-1)^i, z_k); return them and the log-weights
+    log p(z_k | x_(k-1)^i)."""
     F, B, Q = model.F, model.B, model.Q
-    pred = x_prev @ F.T + B  # the parents' predictions, (N, d)
+    # the parents' predictions, (N, d)
+    pred = x_prev @ F.T + B
     seen = ~np.isnan(z)
-    if not seen.any():  # nothing measured: move through the transition, weights unchanged
-        return pred + rng.standard_normal(x_prev.shape) @ np.linalg.cholesky(Q).T, np.zeros(len(x_prev))
+    if not seen.any():
+        # nothing measured: move through the transition, weights unchanged
+        noise = rng.standard_normal(x_prev.shape) @ np.linalg.cholesky(Q).T
+        return pred + noise, np.zeros(len(x_prev))
     H, R = model.H[seen], model.R[np.ix_(seen, seen)]
-    C = H @ Q @ H.T + R  # covariance of z_k given x_(k-1)
-    G = np.linalg.solve(C, H @ Q).T  # G_k = Q H^T C^-1 (C is symmetric)
-    Sigma = Q - G @ C @ G.T  # (I - G_k H_k) Q, the same for every particle
-    nu = z[seen] - pred @ H.T  # z_k - H_k x̄_k^i, (N, measured)
-    mu = pred + nu @ G.T  # the proposal's means
-    L = np.linalg.cholesky(0.5 * (Sigma + Sigma.T))  # symmetrised against round-off
+    # covariance of z_k given x_(k-1)
+    C = H @ Q @ H.T + R
+    # G_k = Q H^T C^-1 (C is symmetric)
+    G = np.linalg.solve(C, H @ Q).T
+    # (I - G_k H_k) Q, the same for every particle
+    Sigma = Q - G @ C @ G.T
+    # z_k - H_k x̄_k^i, (N, measured), and the proposal's means
+    nu = z[seen] - pred @ H.T
+    mu = pred + nu @ G.T
+    # symmetrised against round-off
+    L = np.linalg.cholesky(0.5 * (Sigma + Sigma.T))
     x_new = mu + rng.standard_normal(x_prev.shape) @ L.T
     quad = np.einsum("ij,ij->i", nu @ np.linalg.inv(C), nu)
     return x_new, -0.5 * (quad + np.linalg.slogdet(2 * np.pi * C)[1])
@@ -211,23 +216,15 @@ EvidenceBlock(
 # SIR with $\tau = 1/3$ and $N = 500$ on {glue:text}`prop_n_runs:d` simulations of the lab's
 # model (static landmarks), the same simulations and filter seeds for both proposals. Each run
 # is scored against the exact Kalman posterior over its last {glue:text}`prop_last_steps:d`
-# steps, and its ESS averaged over the steps with a measurement.
+# steps, and its ESS averaged over the steps with a measurement. These runs, and those of the
+# next section, are stored by `python3 tasks.py study proposals` in `book/data/proposals.csv`,
+# with their provenance; `tests/test_stored_studies.py` re-computes a sample of the rows.
 
 # %% tags=["hide-input"] jupyter={"source_hidden": true}
-n_runs, N, last = 50, 500, 10
-lab = {name: {"ess": [], "robot": [], "landmarks": [], "resampled": []} for name in PROPOSALS}
-for seed in range(n_runs):
-    sim = simulate(scenario, rng=seed)
-    kf = kalman_filter(model, sim.measurements)
-    measured = sim.seen.any(axis=1)
-    for name, prop in PROPOSALS.items():
-        r = ParticleFilter(model, N, threshold=1 / 3, proposal=prop).run(sim.measurements, rng=study_filter_seed(seed))
-        err = (r.mean - kf.mean)[-last:]
-        lab[name]["ess"].append(np.mean(r.ess[measured]) / N if measured.any() else np.nan)
-        lab[name]["robot"].append(np.sqrt(np.mean(err[:, ROBOT] ** 2)))
-        lab[name]["landmarks"].append(np.sqrt(np.mean(err[:, LANDMARKS] ** 2)))
-        lab[name]["resampled"].append(r.resampled.mean())
-lab = {name: {what: np.array(v) for what, v in d.items()} for name, d in lab.items()}
+study = pd.read_csv("../data/proposals.csv")
+n_runs, N, last = study.seed.nunique(), N_LAB, LAST
+lab = {name: {what: study[(study.setting == "lab") & (study.proposal == name)].sort_values("seed")[what].to_numpy()
+              for what in ("ess", "robot", "landmarks", "resampled")} for name in PROPOSALS}
 for name, d in lab.items():
     print(f"{name:9s}: mean ESS/N at measured steps {np.nanmean(d['ess']):.2f}; RMS error vs Kalman mean, "
           f"robot {np.median(d['robot']):.3f} m, landmarks {np.median(d['landmarks']):.3f} m (medians of {n_runs} runs)")
@@ -254,8 +251,8 @@ glue_values("prop_", n_runs=n_runs, last_steps=last, lab_ess_gain=t_ess.median, 
 EvidenceBlock(
     "on the lab's model the optimal proposal raises the ESS, not the accuracy",
     notes=[f"{n_runs} simulations (seeds 0 to {n_runs - 1}), filter seeds study_filter_seed(seed) = seed + 10^6, the same for both proposals; "
-           f"N = {N}, threshold 1/3. Runs are a fraction of a second each, so {n_runs} keep the chapter within its "
-           "time budget; the intervals below say what they can resolve.",
+           f"N = {N}, threshold 1/3 (the stored study proposals, book/data/proposals.csv). {n_runs} runs per "
+           "setting; the intervals below say what they can resolve.",
            "Each line is the per-run ratio (optimal / bootstrap for the ESS, bootstrap / optimal for the errors): "
            "its median, the 95 % interval of that median, Wilcoxon's signed-rank test of no difference, and the "
            "largest factor either way the interval leaves possible (see Reading the evidence).",
@@ -295,22 +292,23 @@ EvidenceBlock(
 
 # %% tags=["hide-input"] jupyter={"source_hidden": true}
 Q_all = scenario.Qw.copy()
-Q_all[2:, 2:] = 0.05**2 * np.eye(4)
-scales = (0.1, 1.0)  # multiply the lab's measurement standard deviation, 0.1 m
+Q_all[2:, 2:] = ALL_NOISE * np.eye(4)
+scales = (NOISE_SCALES["sharp"], NOISE_SCALES["broad"])  # times the lab's measurement sd, 0.1 m
 sweep, ess_per_run = {}, {}
-for scale in scales:
-    sc = scenario.with_(Qw=Q_all, Rv=scale**2 * scenario.Rv)
-    meas_s = measured_steps(sc, n_runs)
-    for name, prop in PROPOSALS.items():
-        r = kalman_scores(sc, ParticleFilter(sc.model(), 200, threshold=0.5, proposal=prop).run, n_runs)
-        sweep[scale, name] = (r["ess"][meas_s].reshape(-1) / 200, r["rmse"].mean(axis=1))
-        ess_per_run[scale, name] = np.nanmean(np.where(meas_s, r["ess"], np.nan), axis=1) / 200
+for scale, key in zip(scales, ("sharp", "broad")):
+    for name in PROPOSALS:
+        rows = study[(study.setting == key) & (study.proposal == name)].sort_values("seed")
+        # pooled mean ESS / N over all measured steps of all runs; per-run error
+        pooled = rows.ess_sum.sum() / rows.n_measured.sum()
+        sweep[scale, name] = (pooled, rows.rmse.to_numpy())
+        ess_per_run[scale, name] = rows.ess.to_numpy()
 
 # %% tags=["hide-input"] jupyter={"source_hidden": true}
 fig, (ax1, ax2) = plt.subplots(1, 2, figsize=(10, 3.6))
 pos = np.arange(len(scales))
 for off, name, c in ((-0.18, "bootstrap", COLORS["particles"]), (0.18, "optimal", COLORS["estimate"])):
-    for ax, values in ((ax1, [sweep[s, name][0] for s in scales]), (ax2, [sweep[s, name][1] for s in scales])):
+    for ax, values in ((ax1, [ess_per_run[s, name][~np.isnan(ess_per_run[s, name])] for s in scales]),
+                       (ax2, [sweep[s, name][1] for s in scales])):
         b = ax.boxplot(values, positions=pos + off, widths=0.3, patch_artist=True,
                        medianprops={"color": COLORS["truth"], "linewidth": 2})
         for patch in b["boxes"]:
@@ -321,11 +319,12 @@ for ax in (ax1, ax2):
     ax.set_xticks(pos, [f"Rv sd = {0.1 * s:.2f} m" for s in scales])
     ax.set_xlabel("measurement noise (process noise sd 0.05 m)")
     ax.set_yscale("log")
-ax1.set_ylabel("ESS / N at measurement steps")
-ax1.set_title(f"N = 200, {n_runs} runs (all measurement steps)")
-ax1.legend()
+ax1.set_ylabel("mean ESS / N at measured steps")
+ax1.set_title(f"N = 200, per run, {n_runs} runs")
 ax2.set_ylabel("RMS error vs Kalman mean (m)")
 ax2.set_title(f"Per-run error, {n_runs} runs")
+fig.tight_layout(rect=(0, 0.1, 1, 1))
+fig.legend(*ax1.get_legend_handles_labels(), loc="lower center", ncol=3, bbox_to_anchor=(0.5, 0.0))
 plt.show()
 
 # %% [markdown]
@@ -339,7 +338,7 @@ plt.show()
 rows, notes = [], []
 for scale in scales:
     key = "sharp" if scale == scales[0] else "broad"
-    (eb, rb), (eo, ro) = sweep[scale, "bootstrap"], sweep[scale, "optimal"]
+    (eb, rb), (eo, ro) = sweep[scale, "bootstrap"], sweep[scale, "optimal"]  # eb, eo: pooled ESS / N
     q, rr = 0.05, 0.1 * scale
     one_axis = rr * np.sqrt(rr**2 + 2 * q**2) / (rr**2 + q**2)  # bootstrap ESS / optimal ESS, one point, one axis
     eb_run, eo_run = ess_per_run[scale, "bootstrap"], ess_per_run[scale, "optimal"]
@@ -348,18 +347,19 @@ for scale in scales:
     t_err = evidence.paired(rb, ro, ratio=True)
     glue_values(f"prop_{key}_", err_ratio=t_err.median, err_ratio_low=t_err.low, err_ratio_high=t_err.high,
                 ess_ratio=t_ess.median, ess_ratio_low=t_ess.low, ess_ratio_high=t_ess.high,
-                ess_gain=eo.mean() / eb.mean(), theory_one_axis=one_axis, theory_two_axes=one_axis**2)
+                ess_gain=eo / eb, theory_one_axis=one_axis, theory_two_axes=one_axis**2)
     glue_values("prop_", **{f"rv_sd_{key}": rr})
     notes += [f"Rv sd = {rr:.2f} m (r/q = {rr / q:.1f}), bootstrap / optimal per run, mean ESS / N: {t_ess}.",
               f"Rv sd = {rr:.2f} m, bootstrap / optimal per run, RMS error: {t_err}."]
-    rows.append({"Rv sd (m)": rr, "mean ESS/N bootstrap": eb.mean(), "mean ESS/N optimal": eo.mean(),
-                 "ratio of the means": eb.mean() / eo.mean(), "one-point theory, one axis": one_axis,
+    rows.append({"Rv sd (m)": rr, "mean ESS/N bootstrap": eb, "mean ESS/N optimal": eo,
+                 "ratio of the means": eb / eo, "one-point theory, one axis": one_axis,
                  "one-point theory, two axes": one_axis**2, "median error bootstrap (m)": np.median(rb),
                  "median error optimal (m)": np.median(ro)})
 EvidenceBlock(
     "with noise on every component and sharp measurements, the optimal proposal is far more accurate",
     notes=[f"{n_runs} simulations per setting (seeds 0 to {n_runs - 1}), the same for both proposals "
-           "(filter seeds study_filter_seed(seed) = seed + 10^6); N = 200, threshold 1/2. Ratios are per run, "
+           "(filter seeds study_filter_seed(seed) = seed + 10^6; the stored study proposals); N = 200, "
+           "threshold 1/2. Ratios are per run, "
            "with the 95 % interval of their median and Wilcoxon's test (see Reading the evidence).", *notes,
            "The one-point theory: for one observed coordinate, a prior cloud concentrated at one point and a "
            "measurement at its predicted value, the bootstrap keeps r sqrt(r^2 + 2 q^2) / (r^2 + q^2) of the "
@@ -477,7 +477,7 @@ def draw_proposals(n_particles, noise_scale, seed):
     a2.set_ylabel("robot x: PF - Kalman (m)")
 
 
-# %% tags=["nbval-ignore-output"]
+# %% tags=["nbval-ignore-output", "hide-input"] jupyter={"source_hidden": true}
 display(control_panel(draw_proposals, grid={"n_particles": (50, 200, 1000), "noise_scale": (0.1, 0.3, 1.0)},
                       n_particles=particle_slider(200),
                       noise_scale=scale_slider("measurement sd factor", 0.1), seed=seed_box(2024)))
@@ -537,7 +537,7 @@ from pfcourse.exercises import check_optimal_proposal
 
 
 def my_optimal(x_prev, z, model):
-    """Your optimal proposal: return (means, variances, log_weights), three arrays of shape (N,)."""
+    """Your optimal proposal: (means, variances, log_weights), each (N,)."""
     ...  # replace with your code
 
 

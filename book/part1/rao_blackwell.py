@@ -18,7 +18,7 @@
 #
 # **You need** {doc}`kalman`, {doc}`sir` and {doc}`proposals` (the optimal proposal).
 #
-# **Time:** about twenty minutes to read; the notebook runs in about a minute and a quarter.
+# **Time:** about twenty minutes to read; the notebook runs in about forty seconds.
 # :::
 #
 # The previous chapters end on a failure: SIS degenerates, SIR cannot move the static
@@ -94,7 +94,10 @@ from pfcourse.figures.report import EvidenceBlock, glue_values
 from pfcourse.experiments.rb_study import METHODS
 from pfcourse.landmarks.rao_blackwell import RaoBlackwellModel, RaoBlackwellProposal
 from pfcourse.landmarks.scenario import circle_scenario, quadrant_scenario, simulate
+from pfcourse.figures.widgets import control_panel, particle_slider, seed_box
+from pfcourse.seeding import run_filter_seed
 from pfcourse.style import COLORS, use_style
+from IPython.display import display
 
 use_style()
 scenario = quadrant_scenario()
@@ -126,7 +129,8 @@ import numpy as np
 from scipy import stats
 from pfcourse.landmarks.scenario import quadrant_scenario, simulate
 
-model = quadrant_scenario().model()  # F, B, Q, H, R, m0, P0 of the landmark model
+# F, B, Q, H, R, m0, P0 of the landmark model
+model = quadrant_scenario().model()
 sim = simulate(quadrant_scenario(), rng=2024)
 Fr, Br, Qr = model.F[:2, :2], model.B[:2], model.Q[:2, :2]  # robot blocks
 Ql = model.Q[2:, 2:]  # map block: static landmarks, 1e-20
@@ -703,28 +707,9 @@ print(f"entries of the map covariance per particle, five landmarks / two: {10 **
 # (robot, last $10$ steps; per run, then compared run by run).
 
 # %% tags=["hide-input"] jupyter={"source_hidden": true}
-from pfcourse.diagnostics import nees
-from pfcourse.seeding import study_filter_seed
-
-circle = circle_scenario()
-cmodel = circle.model()
-crb = RaoBlackwellModel(cmodel)
-limit2 = stats.chi2.ppf(0.95, 2)
-check = {name: {"collapse": [], "lm_sd": [], "robot_sd": [], "robot_cover": []} for name in ("SIS", "SIR", "RBPF")}
-for seed in range(100):
-    s5 = simulate(circle, rng=seed)
-    k5 = kalman_filter(cmodel, s5.measurements)
-    runs5 = {"SIS": ParticleFilter(cmodel, 100, threshold=0.0).run(s5.measurements, rng=study_filter_seed(seed)),
-             "SIR": ParticleFilter(cmodel, 100, threshold=1 / 3).run(s5.measurements, rng=study_filter_seed(seed)),
-             "RBPF": crb.marginal(ParticleFilter(crb, 100, threshold=1 / 3, proposal=RaoBlackwellProposal(True))
-                                  .run(s5.measurements, rng=study_filter_seed(seed)))}
-    for name, r in runs5.items():
-        sd_ratio = np.sqrt(np.clip(np.diag(r.cov[-1]), 1e-300, None) / np.diag(k5.cov[-1]))
-        check[name]["lm_sd"].append(np.exp(np.mean(np.log(sd_ratio[2:]))))
-        check[name]["robot_sd"].append(np.exp(np.mean(np.log(sd_ratio[:2]))))
-        check[name]["robot_cover"].append(np.mean(nees(s5.truth[-10:, :2], r.mean[-10:, :2], r.cov[-10:, :2, :2]) <= limit2))
-        below = np.flatnonzero(r.ess < 1.5)
-        check[name]["collapse"].append(below[0] if below.size else np.nan)
+five = pd.read_csv("../data/rb_five_landmarks.csv")
+check = {name: {what: five[five.method == name].sort_values("seed")[what].to_numpy()
+                for what in ("collapse", "lm_sd", "robot_sd", "robot_cover")} for name in ("SIS", "SIR", "RBPF")}
 for name, c in check.items():
     cover = np.mean(c["robot_cover"])
     print(f"{name:4s}: ESS < 1.5 first at step {np.nanmedian(c['collapse']):.0f} (median; never in "
@@ -766,8 +751,10 @@ glue("m5_rbpf_robot_cover_low", cover_low, display=False)
 
 # %% tags=["remove-input"] jupyter={"source_hidden": true}
 EvidenceBlock(
-    "report 003's findings on the five-landmark model",
-    notes=[f"SD / exact SD at the last step (medians over 100 runs): SIS landmarks {np.median(check['SIS']['lm_sd']):.1g}; "
+    "three earlier findings on the five-landmark model, checked",
+    notes=["The runs are stored by python3 tasks.py study rb_five_landmarks in book/data/rb_five_landmarks.csv, "
+           "with their provenance; tests/test_stored_studies.py re-computes a sample of the rows.",
+           f"SD / exact SD at the last step (medians over 100 runs): SIS landmarks {np.median(check['SIS']['lm_sd']):.1g}; "
            f"SIR landmarks {np.median(check['SIR']['lm_sd']):.1g}, robot {np.median(check['SIR']['robot_sd']):.2g}; "
            f"RBPF landmarks {np.median(check['RBPF']['lm_sd']):.2f}, robot {np.median(check['RBPF']['robot_sd']):.2f}.",
            f"Robot coverage per run, RBPF - SIR: mean difference {cover_diff[0]:.0%} of the steps (95 % bootstrap "
@@ -813,6 +800,41 @@ EvidenceBlock(
 # filter is that it keeps working when the robot part becomes nonlinear (range and bearing,
 # Part II), where FastSLAM was born.
 #
+# ## Try it
+#
+# The panel reruns the one-run figure above (the first landmark's $x$ estimate and $\pm 3\sigma$ band of
+# SIR and of the Rao-Blackwellised filter, over the Kalman band) for the chosen $N$ and
+# simulation seed. Does SIR's band keep the Kalman band's width at any $N$?
+
+# %% tags=["hide-input"] jupyter={"source_hidden": true}
+def draw_one_run(n_particles, seed):
+    s = simulate(scenario, rng=seed)
+    exact = kalman_filter(model, s.measurements)
+    filters = {"SIR": ParticleFilter(model, n_particles, threshold=1 / 3),
+               "RBPF (FastSLAM 2.0)": ParticleFilter(rb, n_particles, threshold=1 / 3,
+                                                     proposal=RaoBlackwellProposal(optimal=True))}
+    fig, axes = plt.subplots(1, 2, figsize=(7, 2.8), sharey=True)
+    for ax, (name, pf) in zip(axes, filters.items()):
+        r = pf.run(s.measurements, rng=run_filter_seed(seed))
+        r = rb.marginal(r) if name != "SIR" else r
+        for res, label, color, alpha in ((exact, "Kalman", COLORS["kalman"], 0.25),
+                                         (r, name, COLORS["estimate"], 0.35)):
+            sd = np.sqrt(res.cov[:, 2, 2])
+            ax.fill_between(s.T, res.mean[:, 2] - 3 * sd, res.mean[:, 2] + 3 * sd, color=color, alpha=alpha,
+                            label=rf"{label} $\pm3\sigma$")
+            ax.plot(s.T, res.mean[:, 2], color=color, lw=1)
+        ax.plot(s.T, s.truth[:, 2], color=COLORS["truth"], ls="--", lw=0.8, label="truth")
+        ax.set_title(f"{name}, N = {n_particles}", fontsize=10)
+        ax.set_xlabel("time t (s)")
+    axes[0].set_ylabel("landmark 1, x (m)")
+    axes[1].legend(loc="upper right", fontsize=8)
+
+
+# %% tags=["nbval-ignore-output", "hide-input"] jupyter={"source_hidden": true}
+display(control_panel(draw_one_run, grid={"n_particles": (10, 100, 1000)},
+                      n_particles=particle_slider(100, 1, 3), seed=seed_box(2024)))
+
+# %% [markdown]
 # ## Exercises
 #
 # ```{exercise} 8.1 The optimal robot proposal

@@ -18,19 +18,23 @@
 # **You need** {doc}`sir`; the binomial and multinomial distributions; NumPy's `cumsum` and
 # `searchsorted`.
 #
-# **Time:** about twelve minutes to read; the notebook runs in under half a minute.
+# **Time:** about fourteen minutes to read; the notebook runs in under half a minute.
 # :::
 #
 # ## The idea: one picture, four ways of drawing the uniforms
 #
-# Resampling replaces a weighted cloud by an unweighted one. Lay the weights end to end on the
+# Resampling replaces a weighted cloud by an unweighted one. Everything in this chapter happens
+# at one step, so we drop the step from the notation: $W_i$ is particle $i$'s normalised weight
+# ($W_k^i$ of {doc}`sir`), $N$ the number of particles before resampling and $n$ the number
+# drawn. Lay the weights end to end on the
 # bar $[0, 1)$: particle $i$ owns a segment of length $W_i$. Throw $n$ uniforms on the bar;
 # each picks the particle whose segment it falls in. The figure shows eight particles and
 # four ways of throwing the uniforms (the ticks above each bar). Multinomial uniforms are
 # independent, so they may cluster and leave a heavy particle without offspring; stratified
 # resampling puts one uniform in each eighth of the bar; systematic resampling uses one
 # offset for all eight, evenly spaced. Residual resampling first gives $\lfloor 8 W_i \rfloor$
-# sure copies and draws only the rest from the leftover weights (lower bar).
+# sure copies and draws only the rest from the leftover weights (lower bar). Each scheme's
+# uniforms come from its own generator seeded with $7$, as in the code further down.
 
 # %% tags=["remove-input"] jupyter={"source_hidden": true}
 import timeit
@@ -51,15 +55,14 @@ use_style()
 SCHEME_COLORS = dict(zip(SCHEMES, ("tab:blue", "tab:orange", "tab:green", "tab:purple")))
 
 # %% tags=["hide-input"] jupyter={"source_hidden": true}
-rng = np.random.default_rng(7)
 w8 = np.array([0.04, 0.21, 0.02, 0.30, 0.08, 0.15, 0.05, 0.15])
 n8 = len(w8)
 edges = np.concatenate([[0.0], np.cumsum(w8)])
 cmap = plt.get_cmap("tab10")
 draws = {
-    "multinomial": rng.random(n8),
-    "stratified": (np.arange(n8) + rng.random(n8)) / n8,
-    "systematic": (np.arange(n8) + rng.random()) / n8,
+    "multinomial": np.random.default_rng(7).random(n8),
+    "stratified": (np.arange(n8) + np.random.default_rng(7).random(n8)) / n8,
+    "systematic": (np.arange(n8) + np.random.default_rng(7).random()) / n8,
 }
 copies = np.floor(n8 * w8).astype(int)
 R = n8 - copies.sum()
@@ -75,7 +78,7 @@ for row, (name, u) in enumerate(draws.items()):
     counts = np.bincount(np.searchsorted(edges[1:], u, side="right"), minlength=n8)
     ax.text(1.02, y, f"{name}\ncopies {counts.tolist()}", va="center")
 redges = np.concatenate([[0.0], np.cumsum(resid)])
-u_res = rng.random(R)
+u_res = np.random.default_rng(7).random(R)
 for i in range(n8):
     ax.barh(0, resid[i], left=redges[i], height=0.35, color=cmap(i), alpha=0.6)
 ax.vlines(u_res, 0.2, 0.45, color="k", lw=1.5)
@@ -90,7 +93,7 @@ plt.show()
 
 # %% [markdown]
 # Writing $N_i$ for the number of copies ("offspring") of particle $i$ among the $n$ new
-# particles, every scheme here is **unbiased**, $\mathbb E[N_i] = n W_i$, so the resampled
+# particles (a count, not to be confused with $N$), every scheme here is **unbiased**, $\mathbb E[N_i] = n W_i$, so the resampled
 # cloud estimates the same expectations as the weighted one. They differ in how much
 # randomness they add, measured by $\operatorname{Var} N_i$: that variance is the resampling
 # step's own contribution, Monte Carlo noise added to the estimates that follow it
@@ -103,7 +106,7 @@ plt.show()
 # :::{admonition} Algorithm 6.1: resampling by inverting the cumulative weights
 # :class: algorithm
 # Given normalised weights $W_1, \dots, W_N$ and the number $n$ of particles to draw:
-# 1. **Cumulate:** $C_i = W_1 + \dots + W_i$ for $i = 1, \dots, N$, and set $C_N = 1$ against round-off.
+# 1. **Cumulate:** $C_i = W_1 + \dots + W_i$ for $i = 1, \dots, N$.
 # 2. **Draw the uniforms** $u^1, \dots, u^n$ in $[0, 1)$, by one of:
 #    - *multinomial:* $u^j \sim \mathcal U[0, 1)$, independent of each other;
 #    - *stratified:* $u^j = (j - 1 + U^j)/n$ with $U^j \sim \mathcal U[0, 1)$ independent, one uniform in each stratum;
@@ -111,15 +114,16 @@ plt.show()
 #    - *residual:* first $\lfloor n W_i \rfloor$ sure copies of each particle, then
 #      $n_\mathrm{r} = n - \sum_i \lfloor n W_i \rfloor$ multinomial uniforms on the
 #      remainders $\rho_i = (n W_i - \lfloor n W_i \rfloor)/n_\mathrm{r}$, cumulated and inverted like the weights.
-# 3. **Invert:** the ancestor $a^j$ is the $i$ with $C_{i-1} \le u^j < C_i$, that is `np.searchsorted(C, u, side="right")`.
-# 4. **Copy:** $x^j \leftarrow x^{a^j}$ and $W^j \leftarrow 1/n$ for every $j$.
+# 3. **Invert:** the ancestor $a^j$ is the $i$ with $C_{i-1} \le u^j < C_i$, that is `np.searchsorted(C, u, side="right")`,
+#    capped at $N$ against round-off (a $C_N$ that ends just below $1$).
+# 4. **Copy:** the $j$-th new particle is $x_{a^j}$, with weight $1/n$, for every $j$.
 # :::
 #
 # (resampling-numpy)=
-# ## The algorithm in NumPy, checked on the engine
+# ## The algorithm in NumPy, checked against the package
 #
-# Algorithm 6.1 in a few lines, for three of the schemes (the stratified one is
-# Exercise 6.3): one function inverts the cumulative weights, and each scheme only makes its
+# Algorithm 6.1 in a few lines, for three of the schemes, drawing $n = N$ particles (the
+# stratified one, for any $n$, is Exercise 6.3): one function inverts the cumulative weights, and each scheme only makes its
 # uniforms.
 
 # %%
@@ -156,9 +160,9 @@ W = np.array([0.04, 0.21, 0.02, 0.30, 0.08, 0.15, 0.05, 0.15])
 print(my_systematic(W, np.random.default_rng(7)))
 
 # %% [markdown]
-# The engine's functions in `pfcourse.resampling` draw the same uniforms from the same
+# The package's functions in `pfcourse.resampling` draw the same uniforms from the same
 # generator, so with the same seed they must return the same indices; they do, for every one
-# of {glue:text}`numpy_seeds:d` seeds. The engine adds checks of the weights, an `n` different
+# of {glue:text}`numpy_seeds:d` seeds. The package adds checks of the weights, an `n` different
 # from $N$, and a single merge pass over the sorted uniforms instead of a binary search for each.
 
 # %% tags=["remove-input"] jupyter={"source_hidden": true}
@@ -198,7 +202,8 @@ glue_values(numpy_seeds=n_seeds)
 # %% [markdown]
 # ### Measured against the closed forms
 #
-# For a fixed set of $n = 50$ weights (drawn once, fairly uneven: ESS
+# For a fixed set of $n = 50$ weights (drawn once, fairly uneven: effective sample size
+# $\mathrm{ESS} = 1 / \sum_i W_i^2$, as in {doc}`sir`,
 # {glue:text}`weights_ess:.1f`), each scheme is run {glue:text}`n_reps:d` times, one seed each
 # (seeds $0, 1, 2, \dots$), and each particle's copies are counted.
 
@@ -316,6 +321,9 @@ for name in SCHEMES:
 # {glue:text}`systematic_estimate_var_factor:.0f` and stratified resampling by
 # {glue:text}`stratified_estimate_var_factor:.0f`: here $x_i$ increases with $i$, so
 # neighbouring strata see neighbouring values, the case in which stratification helps most.
+# Systematic resampling gains less than stratified here because its strata share one offset
+# $U$: a large $U$ moves every stratum's pick to a larger $x_i$ at once, so its errors are
+# positively correlated across strata and add up instead of cancelling.
 #
 # For positions that jump around with $i$ ($x_i$ drawn uniformly, once) the gains of stratified
 # and systematic resampling are much smaller, factors of {glue:text}`jumpy_stratified_factor:.1f`
@@ -362,9 +370,14 @@ EvidenceBlock(
 # Each scheme here costs a cumulative sum and one merge pass of sorted uniforms along it
 # (`pfcourse.kernels.inverse_cdf_sorted`), $O(n)$: stratified and systematic uniforms are
 # born sorted, multinomial resampling sorts its $n$ uniforms first ($O(n \log n)$), and
-# residual resampling sorts only the uniforms of its random remainder. The figure shows the median of
-# $5$ timings per size on this machine (timings vary between machines and runs, so only the
-# figure is shown; its shape, not its numbers, is the point).
+# residual resampling sorts only the uniforms of its random remainder. The figure shows, for
+# each size, the fastest of $7$ timings after a warm-up call, each timing averaged over enough
+# calls to last about a millisecond (timings vary between machines and runs, so only the
+# figure is shown). Below about $n = 10^3$ the fixed cost of a call dominates. From $10^3$ to
+# $10^5$ the time grows roughly in proportion to $n$ (the dotted line), as the operation count
+# says. Beyond, on the machine that stored this figure, it grows faster: not more arithmetic but
+# slower memory, as the arrays (megabytes long) outgrow the processor's caches, at a size that
+# depends on the machine.
 
 # %% tags=["hide-input"] jupyter={"source_hidden": true}
 sizes = [10**e for e in range(2, 7)]
@@ -374,14 +387,17 @@ for m in sizes:
     wm /= wm.sum()
     g = np.random.default_rng(1)
     for name, f in SCHEMES.items():
-        times[name].append(np.median(timeit.repeat(lambda: f(wm, g), number=1, repeat=5)))
+        f(wm, g)  # warm-up
+        calls = max(1, 100_000 // m)
+        best = min(timeit.repeat(lambda: f(wm, g), number=calls, repeat=7)) / calls
+        times[name].append(best)
 fig, ax = plt.subplots(figsize=(6, 3.6))
 for name in SCHEMES:
     ax.loglog(sizes, times[name], "o-", color=SCHEME_COLORS[name], label=name)
-ax.loglog(sizes, np.array(sizes) * times["systematic"][-1] / sizes[-1], "k:", label=r"$\propto n$")
+ax.loglog(sizes, np.array(sizes) * times["systematic"][2] / sizes[2], "k:", label=r"$\propto n$")
 ax.set_xlabel("number of particles n")
 ax.set_ylabel("time per resampling (s)")
-ax.set_title("Median of 5 runs per size")
+ax.set_title("Fastest of 7 timings per size")
 ax.legend()
 plt.show()
 
@@ -393,8 +409,8 @@ plt.show()
 # tested: over many seeded resamplings of fixed weights, the mean number of copies of each
 # particle must equal $n W_i$ within a few standard errors. `filterpy.monte_carlo.residual_resample`
 # (version 2.0.0) fails it. It computes the leftover weights as `weights - num_copies` instead
-# of `n * weights - num_copies`, so a particle with $n W_i < 1$ (no sure copy) gets too few
-# copies and heavy particles get too many. Below, ten weights, {glue:text}`filterpy_reps:d`
+# of `n * weights - num_copies`, so the leftover copies go almost only to the particles with
+# sure copies: the light ones get too few, and the heaviest too many. Below, ten weights, {glue:text}`filterpy_reps:d`
 # resamplings each (one seed each, from $0$ up; filterpy uses NumPy's global generator, which
 # we seed).
 
@@ -424,8 +440,14 @@ plt.show()
 # %% [markdown]
 # Particles {glue:text}`filterpy_no_copy_first:d` to {glue:text}`filterpy_no_copy_last:d`
 # ($n W_i < 1$) get {glue:text}`filterpy_no_copy_total:d` copies from filterpy's version in
-# all the resamplings, where they should get $n W_i$ on average; the heavy ones get too many,
-# up to {glue:text}`filterpy_residual_max_se:.0f` standard errors away. Inside a filter this is
+# all the resamplings, where they should get $n W_i$ on average.
+#
+# That is {glue:text}`filterpy_no_copy_se_min:.0f` to {glue:text}`filterpy_no_copy_se_max:.0f`
+# standard errors too few. Particle $3$ ($n W_i = 1.5$) gets too few as well,
+# {glue:text}`filterpy_third_mean:.2f` copies on average.
+#
+# Only the {glue:text}`filterpy_too_many:d` heaviest get too many, up to
+# {glue:text}`filterpy_residual_max_se:.0f` standard errors away. Inside a filter this is
 # a systematic shrinking of the posterior towards its heaviest particles.
 #
 # `pfcourse.resampling.residual` matches $n W_i$ to within sampling error (largest deviation
@@ -435,6 +457,10 @@ plt.show()
 se = np.sqrt(np.maximum(ours.var(axis=0, ddof=1), 1e-12) / reps)
 dev_ours, dev_theirs = (ours.mean(0) - 10 * w10) / se, (theirs.mean(0) - 10 * w10) / se
 no_sure_copy = np.flatnonzero(10 * w10 < 1)
+no_copy_se = np.abs(dev_theirs[no_sure_copy])
+assert dev_theirs[2] < -3 and np.isclose(10 * w10[2], 1.5)
+glue_values(filterpy_no_copy_se_min=no_copy_se.min(), filterpy_no_copy_se_max=no_copy_se.max(),
+            filterpy_third_mean=theirs[:, 2].mean(), filterpy_too_many=int((dev_theirs > 3).sum()))
 glue_values(filterpy_reps=reps, pfcourse_residual_max_se=np.abs(dev_ours).max(),
             filterpy_residual_max_se=np.abs(dev_theirs).max(), filterpy_no_copy_first=int(no_sure_copy[0] + 1),
             filterpy_no_copy_last=int(no_sure_copy[-1] + 1), filterpy_no_copy_total=int(theirs[:, no_sure_copy].sum()))
@@ -504,29 +530,32 @@ display(control_panel(draw_offspring, grid={"scheme": tuple(SCHEMES), "spread": 
 # :class: dropdown
 # Unbiasedness: for fixed weights, the mean offspring count over many seeded resamplings
 # must equal $n W_i$ within a few standard errors $\sqrt{\operatorname{Var} N_i / \text{reps}}$.
-# Use weights with some $n W_i < 1$: filterpy gives them no copies in the run above, hundreds of
-# standard errors away ({glue:text}`filterpy_residual_max_se:.0f` above).
+# Use weights with some $n W_i < 1$: filterpy gives them no copies in the run above,
+# {glue:text}`filterpy_no_copy_se_min:.0f` to {glue:text}`filterpy_no_copy_se_max:.0f` standard
+# errors too few.
 # ```
 #
-# ```{exercise} 6.3 Write stratified resampling, and have it checked
+# ```{exercise} 6.3 Stratified resampling to a new cloud size, and have it checked
 # :label: ex-resampling-code
 # :nonumber:
-# (Coding.) The chapter's code shows multinomial, systematic and residual resampling, not the
-# stratified scheme. Write `my_stratified(W, rng)`: one independent uniform in each stratum
-# $[(j-1)/N, j/N)$, drawn from the generator `rng` it is given, returning the $N$ ancestor
-# indices as integers. The checker resamples eight weights thousands of times. One particle's
-# segment lies astride two strata, half in each, so stratified resampling gives it $0$, $1$ or
-# $2$ copies while systematic resampling always gives it exactly one: the checker tells the
-# schemes apart by that count's variance. It also checks the generator (same seed, same
-# answer; another seed, another; NumPy's global generator untouched) and names what it sees.
+# (Coding.) A filter sometimes changes its number of particles, drawing $n$ new particles from
+# $N$ weighted ones (more particles when the cloud is spread out, fewer when it is tight). The
+# chapter's code always draws $n = N$, and not with the stratified scheme. Write
+# `my_stratified(W, n, rng)`: $n$ strata, one independent uniform in each, drawn from the
+# generator `rng` it is given, returning the $n$ ancestor indices as integers (each in
+# $0, \dots, N - 1$). The checker draws $12$ particles from eight weights thousands of times. One
+# particle's segment lies astride two strata, half in each, so stratified resampling gives it
+# $0$, $1$ or $2$ copies while systematic resampling always gives it exactly one: the checker
+# tells the schemes apart by that count's variance. It also checks the generator (same seed,
+# same answer; another seed, another; NumPy's global generator untouched) and names what it sees.
 # ```
 
 # %% tags=["answer"]
 from pfcourse.exercises import check_stratified_resampler
 
 
-def my_stratified(W, rng):
-    """Your stratified resampler: N ancestor indices (integers in [0, N))."""
+def my_stratified(W, n, rng):
+    """Your stratified resampler: n ancestor indices (integers in [0, N))."""
     ...  # replace with your code
 
 
@@ -535,23 +564,23 @@ print(check_stratified_resampler(my_stratified))
 # %% [markdown]
 # ```{solution} ex-resampling-code
 # :class: dropdown
-# Algorithm 6.1 with one uniform per stratum, `rng.random(N)` where systematic resampling has
-# `rng.random()`; the code is in the folded cell below (in JupyterLab, click its margin to
-# unfold it). Capping the index at $N - 1$ guards against a cumulative sum that ends just
-# below $1$.
+# Algorithm 6.1 with $n$ strata of width $1/n$ and one uniform in each, `rng.random(n)`; the
+# strata are cut by the number drawn, $n$, while the cumulative weights have $N$ entries. The
+# code is in the folded cell below (in JupyterLab, click its margin to unfold it). Capping the
+# index at $N - 1$ guards against a cumulative sum that ends just below $1$.
 # ```
 
 # %% tags=["solution", "hide-input"] jupyter={"source_hidden": true}
-def my_stratified(W, rng):
-    n = len(W)
+def my_stratified(W, n, rng):
     u = (np.arange(n) + rng.random(n)) / n
     i = np.searchsorted(np.cumsum(W), u, side="right")
-    return np.minimum(i, n - 1)
+    return np.minimum(i, len(W) - 1)
 
 
 print("same as pfcourse.resampling.stratified:", all(
-    np.array_equal(my_stratified(W_test, np.random.default_rng(s)),
-                   SCHEMES["stratified"](W_test, np.random.default_rng(s))) for s in range(n_seeds)))
+    np.array_equal(my_stratified(W_test, m, np.random.default_rng(s)),
+                   SCHEMES["stratified"](W_test, np.random.default_rng(s), n=m))
+    for s in range(n_seeds) for m in (30, 50, 80)))
 print(check_stratified_resampler(my_stratified))
 
 # %% [markdown]
@@ -563,8 +592,10 @@ print(check_stratified_resampler(my_stratified))
 # - All four are unbiased, $\mathbb E[N_i] = n W_i$; multinomial adds the most offspring
 #   variance, and the closed forms of $\operatorname{Var} N_i$ match what is measured.
 # - A smaller $\operatorname{Var} N_i$ is the resampling step's own noise, not a ranking of
-#   the filters: systematic resampling's gain depends on the order of the particles, and it has
-#   no general guarantee against multinomial resampling.
+#   the filters: the gains of stratified and systematic resampling both depend on the order of
+#   the particles, and on ordered positions systematic resampling gains less than stratified
+#   (its errors are positively correlated across strata); it has no general guarantee against
+#   multinomial resampling.
 # - Test a resampler for unbiasedness on weights with some $n W_i < 1$: filterpy's residual
 #   resampling fails that test.
 #

@@ -55,7 +55,7 @@
 # space with $\dim z$ degrees of freedom; it needs no truth, so it is the check that works on
 # real data.
 #
-# :::{admonition} Algorithm 20.1: the consistency check of a filter over $n_\text{runs}$ runs
+# :::{admonition} Algorithm 21.1: the consistency check of a filter over $n_\text{runs}$ runs
 # :class: algorithm
 # Input: errors $e_{r,k}$ and covariances $P_{r,k}$ of one filter on runs $r = 1..n_\text{runs}$, steps $k$.
 # 1. For every run and step, $\text{NEES}_{r,k} = e_{r,k}^\top P_{r,k}^{-1} e_{r,k}$.
@@ -102,7 +102,7 @@ use_style()
 
 
 def consistency(errors, covariances, probability=0.95):
-    """Algorithm 20.1: run-averaged NEES per step, the band, and the fraction of steps in it."""
+    """Algorithm 21.1: run-averaged NEES per step, the band, and the fraction of steps in it."""
     R, K, d = errors.shape
     nees_rk = np.einsum("rki,rkij,rkj->rk", errors, np.linalg.inv(covariances), errors)  # step 1
     average = nees_rk.mean(axis=0)  # step 2
@@ -216,7 +216,7 @@ EvidenceBlock(
            f"the exact posterior standard deviation ({kf_sd:.3f} m).",
            "Mean log-likelihood error at N = 100 and 3000: " + "; ".join(
                f"{name} {b[0]:+.2f} and {b[-1]:+.2f} nats" for name, b in bias.items())
-           + ". The log of an unbiased likelihood estimate is biased down (exercise 20.2 below); with static "
+           + ". The log of an unbiased likelihood estimate is biased down (exercise 21.2 below); with static "
              "landmarks that bias dominates."],
     tables=[("Fitted slope of log(RMS error) on log N, with its 95 % interval",
              pd.DataFrame([{"model": name, "error of": q.split("_")[0], "slope": s, "low": lo, "high": hi}
@@ -627,10 +627,10 @@ display(panel)
 # %% [markdown]
 # ## Exercises
 #
-# ```{exercise} 20.1 Write the consistency check, and have it checked
+# ```{exercise} 21.1 Write the consistency check, and have it checked
 # :label: ex-pfk-consistency
 # :nonumber:
-# (Coding.) Write `my_consistency(errors, covariances)`, Algorithm 20.1: `errors` has shape
+# (Coding.) Write `my_consistency(errors, covariances)`, Algorithm 21.1: `errors` has shape
 # `(R, K, d)` (runs, steps, state dimension) and `covariances` shape `(R, K, d, d)`. Return the
 # run-averaged NEES (shape `(K,)`), the 95 % band as a pair `(low, high)`, and the fraction of
 # steps whose average lies in the band, bounds included. The checker runs it on a filter that is
@@ -639,7 +639,7 @@ display(panel)
 
 # %% tags=["answer"]
 def my_consistency(errors, covariances):
-    """Your Algorithm 20.1: return (average_nees, (low, high), fraction)."""
+    """Your Algorithm 21.1: return (average_nees, (low, high), fraction)."""
     ...  # replace with your code
 
 
@@ -648,7 +648,7 @@ print(check_consistency(my_consistency))
 # %% [markdown]
 # ```{solution} ex-pfk-consistency
 # :class: dropdown
-# Algorithm 20.1 step by step; the code is in the folded cell below (in JupyterLab, click its
+# Algorithm 21.1 step by step; the code is in the folded cell below (in JupyterLab, click its
 # margin to unfold it).
 # ```
 
@@ -664,7 +664,7 @@ def my_consistency(errors, covariances):
 print(check_consistency(my_consistency))
 
 # %% [markdown]
-# ```{exercise} 20.2 The bias of a log-likelihood
+# ```{exercise} 21.2 The bias of a log-likelihood
 # :label: ex-kalman-slope
 # :nonumber:
 # The particle filter's likelihood estimate $\hat p(z_{1:K})$ is unbiased. Explain why the error
@@ -681,7 +681,7 @@ print(check_consistency(my_consistency))
 # huge, so the bias dominates over the range of $N$ computed (the evidence of the linear Gaussian section).
 # ```
 #
-# ```{exercise} 20.3 Why the NIS misses the particle filter's over-confidence
+# ```{exercise} 21.3 Why the NIS misses the particle filter's over-confidence
 # :label: ex-kalman-nis
 # :nonumber:
 # On the robot, the particle filter's NIS is close to consistent while its NEES is far above
@@ -700,7 +700,7 @@ print(check_consistency(my_consistency))
 # $R$), rarer measurements, or a gap in the measurements.
 # ```
 #
-# ```{exercise} 20.4 Why the UKF does not rescue terrain navigation
+# ```{exercise} 21.4 Why the UKF does not rescue terrain navigation
 # :label: ex-kalman-ukf
 # :nonumber:
 # Why does the UKF not rescue the terrain problem from the report's prior, although it does

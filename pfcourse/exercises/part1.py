@@ -84,14 +84,17 @@ def check_resampler(fn: Callable, n_draws: int = 4000, seed: int = 0) -> CheckRe
     return report
 
 
-#: The weights of :func:`check_stratified_resampler`, in eighths: particle 1's segment straddles two strata
-#: half and half (stratified: 0, 1 or 2 copies; systematic: always exactly one), particle 2 weighs nothing.
-STRATIFIED_WEIGHTS = np.array([0.5, 1.0, 0.0, 1.5, 1.0, 0.5, 2.0, 1.5]) / 8
+#: The weights of :func:`check_stratified_resampler` (``N = 8``), in twelfths, and the number of particles
+#: drawn, ``n = 12``: particle 1's segment straddles two of the twelve strata half and half (stratified:
+#: 0, 1 or 2 copies; systematic: always exactly one), particle 2 weighs nothing.
+STRATIFIED_WEIGHTS = np.array([0.5, 1.0, 0.0, 2.5, 1.5, 2.0, 3.0, 1.5]) / 12
+STRATIFIED_DRAWS = 12
 
 
-def _offspring_variances(w: np.ndarray) -> dict[str, np.ndarray]:
-    """Exact ``Var N_i`` of each particle under stratified, systematic and multinomial resampling."""
-    n = w.size
+def _offspring_variances(w: np.ndarray, n: int | None = None) -> dict[str, np.ndarray]:
+    """Exact ``Var N_i`` of each particle under stratified, systematic and multinomial resampling drawing
+    ``n`` particles (``N``, the number of weights, by default)."""
+    n = w.size if n is None else n
     c = np.concatenate([[0.0], np.cumsum(w)])
     lo, hi = np.arange(n) / n, np.arange(1, n + 1) / n
     p = n * np.clip(np.minimum(hi[None], c[1:, None]) - np.maximum(lo[None], c[:-1, None]), 0, None)
@@ -99,15 +102,16 @@ def _offspring_variances(w: np.ndarray) -> dict[str, np.ndarray]:
     return {"stratified": (p * (1 - p)).sum(axis=1), "systematic": r * (1 - r), "multinomial": n * w * (1 - w)}
 
 
-def _draws_from_its_generator(report: CheckReport, call: Callable) -> bool:
+def _draws_from_its_generator(report: CheckReport, call: Callable, midpoints: np.ndarray | None = None) -> bool:
     """Whether ``call(rng)`` leaves NumPy's global state alone, repeats itself for one seed and changes
-    with the seed; if not, say which, in one sentence, and return False."""
+    with the seed; if not, say which, in one sentence, and return False. ``midpoints``, the answer of
+    each stratum's midpoint in place of its uniform, tells that mistake from a generator made inside."""
     state = np.random.get_state()
     try:
         first, again = np.asarray(call(np.random.default_rng(1))), np.asarray(call(np.random.default_rng(1)))
         others = [np.asarray(call(np.random.default_rng(s))) for s in range(2, 12)]
     except Exception as exc:  # the student's error, reported
-        report.problems.append(f"calling fn(weights, rng) raised {type(exc).__name__}: {exc}")
+        report.problems.append(f"calling fn(weights, n, rng) raised {type(exc).__name__}: {exc}")
         return False
     moved = not all(np.array_equal(a, b) for a, b in zip(state[1:], np.random.get_state()[1:]))
     np.random.set_state(state)
@@ -120,23 +124,30 @@ def _draws_from_its_generator(report: CheckReport, call: Callable) -> bool:
             "two calls with generators of the same seed gave different answers: draw every uniform from the rng "
             "argument, and from nothing else")
     elif all(np.array_equal(first, o) for o in others):
-        report.problems.append(
-            "the result never changes with the seed: the rng is not used (each stratum needs a random uniform, "
-            "not its midpoint)")
+        if midpoints is not None and np.array_equal(first, midpoints):
+            report.problems.append(
+                "the result never changes with the seed: it is the midpoints' answer, and each stratum needs a "
+                "random uniform drawn with rng.random, not its midpoint")
+        else:
+            report.problems.append(
+                "the result never changes with the seed: the rng it is given is not used (a generator seeded "
+                "inside the function?); draw every uniform from the rng argument")
     return not report.problems
 
 
 def check_stratified_resampler(fn: Callable, n_draws: int = 4000, seed: int = 0) -> CheckReport:
-    """Check a stratified resampler ``fn(weights, rng) -> N ancestor indices``.
+    """Check a stratified resampler ``fn(weights, n, rng) -> n ancestor indices``, drawing ``n`` particles
+    from ``N`` weights, ``n`` and ``N`` different.
 
-    The weights are :data:`STRATIFIED_WEIGHTS` (``N = 8``). First the generator: NumPy's global state must
-    be untouched, one seed must give one answer and eleven seeds more than one. Then ``n_draws`` calls
-    (one generator seeded ``seed``): indices in range, no particle of weight 0 drawn, mean copy counts
-    ``N W_i`` within ``5 SE + 1e-9``, and each particle's ``Var N_i`` equal to stratified resampling's
-    exact ``sum_j p_ij (1 - p_ij)`` within ``5 SE + 0.02`` (SE from the counts' fourth moment). Where the
-    variances are wrong, the scheme whose exact variances are nearest (systematic, multinomial) is named:
-    particle 1 (``N W_1 = 1``, astride two strata) has variance 0 under systematic resampling, 1/2 under
-    stratified and 7/8 under multinomial, about 50 standard errors apart at 4000 draws.
+    The weights are :data:`STRATIFIED_WEIGHTS` (``N = 8``), ``n`` is :data:`STRATIFIED_DRAWS` (12). First
+    the generator: NumPy's global state must be untouched, one seed must give one answer and eleven seeds
+    more than one. Then ``n_draws`` calls (one generator seeded ``seed``): indices in range, no particle of
+    weight 0 drawn, mean copy counts ``n W_i`` within ``5 SE + 1e-9``, and each particle's ``Var N_i``
+    equal to stratified resampling's exact ``sum_j p_ij (1 - p_ij)`` within ``5 SE + 0.02`` (SE from the
+    counts' fourth moment). Where the variances are wrong, the scheme whose exact variances are nearest
+    (systematic, multinomial) is named: particle 1 (``n W_1 = 1``, astride two strata) has variance 0
+    under systematic resampling, 1/2 under stratified and 11/12 under multinomial, about 50 standard
+    errors apart at 4000 draws.
     """
     state = np.random.get_state()  # a student's draws from the global generator are undone
     try:
@@ -148,31 +159,36 @@ def check_stratified_resampler(fn: Callable, n_draws: int = 4000, seed: int = 0)
 def _check_stratified(fn: Callable, n_draws: int, seed: int) -> CheckReport:
     report = CheckReport("stratified resampler")
     w = STRATIFIED_WEIGHTS
-    n = w.size
-    first = _answer(report, lambda: fn(w.copy(), np.random.default_rng(seed)), "fn(weights, rng)",
-                    "write the resampler and return the N ancestor indices")
+    N, n = w.size, STRATIFIED_DRAWS
+    first = _answer(report, lambda: fn(w.copy(), n, np.random.default_rng(seed)), "fn(weights, n, rng)",
+                    "write the resampler and return the n ancestor indices")
     if first is None:
         return report
     first = np.asarray(first)
+    if first.shape == (N,):
+        report.problems.append(f"returned {N} indices, one per weight; the resampler must draw n = {n} new "
+                               "particles: n strata of width 1/n, one uniform in each, so n indices")
+        return report
     if first.shape != (n,):
-        report.problems.append(f"returned shape {first.shape}; expected ({n},), one ancestor index per particle "
-                               "(indices, not copy counts)")
+        report.problems.append(f"returned shape {first.shape}; expected ({n},), one ancestor index per new "
+                               "particle (indices, not copy counts)")
         return report
     if first.dtype.kind not in "iu":
         report.problems.append(f"returned dtype {first.dtype}; indices must be integers (use astype(int))")
         return report
-    if not _draws_from_its_generator(report, lambda g: fn(w.copy(), g)):
+    midpoints = np.minimum(np.searchsorted(np.cumsum(w), (np.arange(n) + 0.5) / n, side="right"), N - 1)
+    if not _draws_from_its_generator(report, lambda g: fn(w.copy(), n, g), midpoints):
         return report
     rng = np.random.default_rng(seed)
-    counts = np.empty((n_draws, n))
+    counts = np.empty((n_draws, N))
     for t in range(n_draws):
-        idx = np.asarray(fn(w.copy(), rng))
-        if idx.shape != (n,) or idx.min() < 0 or idx.max() >= n:
+        idx = np.asarray(fn(w.copy(), n, rng))
+        if idx.shape != (n,) or idx.min() < 0 or idx.max() >= N:
             report.problems.append(
-                f"draw {t}: an index is out of range [0, {n}) (got {idx.min()}..{idx.max()}): the ancestor of u is "
+                f"draw {t}: an index is out of range [0, {N}) (got {idx.min()}..{idx.max()}): the ancestor of u is "
                 "the i with C[i-1] <= u < C[i], np.searchsorted(C, u, side='right'), capped at N - 1")
             return report
-        counts[t] = np.bincount(idx, minlength=n)
+        counts[t] = np.bincount(idx, minlength=N)
     if counts[:, 2].any():
         report.problems.append(
             "a particle of weight 0 was chosen: its segment of the bar has no width, so no uniform can select "
@@ -183,12 +199,13 @@ def _check_stratified(fn: Callable, n_draws: int, seed: int) -> CheckReport:
     if bad.any():
         i = int(np.argmax(np.abs(mean - n * w) - 5 * se))
         report.problems.append(
-            f"biased: particle {i} of weight {w[i]} should get N W = {n * w[i]:.3f} copies on average, it got "
-            f"{mean[i]:.3f} (± {se[i]:.3f}) over {n_draws} draws; the uniforms must cover [0, 1) evenly")
+            f"biased: particle {i} of weight {w[i]:.4f} should get n W = {n * w[i]:.3f} copies on average, it got "
+            f"{mean[i]:.3f} (± {se[i]:.3f}) over {n_draws} draws; the uniforms must cover [0, 1) evenly, "
+            "one in each of the n strata of width 1/n")
         return report
     var = counts.var(axis=0, ddof=1)
     var_se = np.sqrt(np.maximum(((counts - mean) ** 4).mean(axis=0) - var**2, 0) / n_draws)
-    exact = _offspring_variances(w)
+    exact = _offspring_variances(w, n)
     if np.all(np.abs(var - exact["stratified"]) <= 5 * var_se + 0.02):
         return report
     nearest = min(("systematic", "multinomial"), key=lambda s: np.abs(var - exact[s]).sum())
@@ -197,11 +214,11 @@ def _check_stratified(fn: Callable, n_draws: int, seed: int) -> CheckReport:
         report.problems.append(
             f"the copies vary like systematic resampling's (particle 1 got exactly one copy in every draw, "
             f"where stratified resampling gives it 0, 1 or 2, Var N_1 = {exact['stratified'][1]:.2f}): each "
-            "stratum needs its own uniform, rng.random(N), not one uniform shared by all")
+            "stratum needs its own uniform, rng.random(n), not one uniform shared by all")
     elif fits_nearest:
         report.problems.append(
             f"the copies vary like multinomial resampling's (Var N_1 = {var[1]:.2f}, stratified gives "
-            f"{exact['stratified'][1]:.2f}): put uniform j in its stratum, u_j = (j + U_j) / N, instead of "
+            f"{exact['stratified'][1]:.2f}): put uniform j in its stratum, u_j = (j + U_j) / n, instead of "
             "anywhere in [0, 1)")
     else:
         i = int(np.argmax(np.abs(var - exact["stratified"]) / (var_se + 0.02)))
@@ -943,6 +960,13 @@ CV_MISTAKES = {
                     "first prediction comes at step 1",
     "loglik_no_constant": "the log-likelihood misses the normalising term: log N(nu; 0, S) = "
                           "-(nu^2 / S + log(2 pi S)) / 2",
+    "q_piecewise": "your Q is the piecewise-constant acceleration's, q [[dt^4/4, dt^3/2], [dt^3/2, dt^2]] "
+                   "(filterpy's Q_discrete_white_noise): this model's acceleration is white noise of spectral "
+                   "density q, whose Q is q [[dt^3/3, dt^2/2], [dt^2/2, dt]]",
+    "q_as_sd": "your Q is built from q squared: q is already a variance (sigma_a^2), so Q = q [[dt^3/3, dt^2/2], "
+               "[dt^2/2, dt]] with q itself",
+    "r_as_sd": "your innovation variance uses r squared: r is already the variance sigma_v^2 of a reading, "
+               "so S = H P H^T + r",
 }
 
 
@@ -954,6 +978,11 @@ def cv_kalman(z: np.ndarray, dt: float, q: float, r: float, m0: np.ndarray, P0: 
     F = np.array([[1.0, step], [0.0, 1.0]])
     F = F.T if mistake == "f_transposed" else F
     Q = q * np.eye(2) if mistake == "q_identity" else q * np.array([[dt**3 / 3, dt**2 / 2], [dt**2 / 2, dt]])
+    if mistake == "q_piecewise":
+        Q = q * np.array([[dt**4 / 4, dt**3 / 2], [dt**3 / 2, dt**2]])
+    if mistake == "q_as_sd":
+        Q = Q * q
+    r = r**2 if mistake == "r_as_sd" else r
     H = np.array([0.0, 1.0]) if mistake == "h_velocity" else np.array([1.0, 0.0])
     m, P, log_lik = np.asarray(m0, float), np.asarray(P0, float), 0.0
     means, covs = [], []
@@ -1538,7 +1567,9 @@ def _same_state(a, b) -> bool:
 LIKELIHOOD_H = np.kron(np.hstack([-np.ones((2, 1)), np.eye(2)]), np.eye(2))
 
 
-LIKELIHOOD_R = np.diag([0.01, 0.01, 0.04, 0.04]) + np.diag([0.004, 0.0, 0.01], 1) + np.diag([0.004, 0.0, 0.01], -1)
+#: Correlated across the two landmarks (the 0.002 between coordinates 2 and 3), so that the inverse of
+#: R's block differs from the block of R's inverse, and the checker can tell the two apart.
+LIKELIHOOD_R = np.diag([0.01, 0.01, 0.04, 0.04]) + np.diag([0.004, 0.002, 0.01], 1) + np.diag([0.004, 0.002, 0.01], -1)
 
 
 LIKELIHOOD_CASES = (np.array([1.2, 0.6, 0.8, -0.4]), np.array([np.nan, np.nan, 0.9, -0.3]),
@@ -1554,6 +1585,9 @@ LIKELIHOOD_MISTAKES = {
                "covariance of the measurement noise, in m²",
     "leading_block": "it takes the leading block R[:n, :n] of R instead of the block of the measured coordinates, "
                      "R[seen][:, seen]; the two differ when the visible landmark is not the first",
+    "inverse_block": "it takes the block of R's inverse, inv(R)[seen, seen], instead of the inverse of R's "
+                     "block, inv(R[seen, seen]); they differ when the measured coordinates are correlated with "
+                     "unmeasured ones: invert R_k, the block of the coordinates measured",
     "no_constant": "it misses the normalising term -(n log(2 pi) + log det R_seen) / 2, which the exercise asks "
                    "for (it changes with the number n of coordinates measured)",
 }
@@ -1577,7 +1611,8 @@ def landmark_log_likelihood(x: np.ndarray, z: np.ndarray, H: np.ndarray, R: np.n
     block = R[:n, :n] if mistake == "leading_block" else R[np.ix_(seen, seen)]
     if mistake == "r_as_sd":
         block = block @ block
-    quad = np.einsum("ij,ij->i", d @ np.linalg.inv(block), d)
+    precision = np.linalg.inv(R)[np.ix_(seen, seen)] if mistake == "inverse_block" else np.linalg.inv(block)
+    quad = np.einsum("ij,ij->i", d @ precision, d)
     constant = 0.0 if mistake == "no_constant" else n * np.log(2 * np.pi) + np.linalg.slogdet(block)[1]
     return -0.5 * (quad + constant)
 
@@ -1614,6 +1649,7 @@ def check_log_likelihood(fn: Callable, n_particles: int = 50, seed: int = 0, rto
         return report
     case = next(c for c, (a, z) in enumerate(zip(answers, LIKELIHOOD_CASES))
                 if not np.allclose(a, landmark_log_likelihood(x, z, LIKELIHOOD_H, LIKELIHOOD_R), rtol=rtol, atol=1e-9))
-    report.problems.append(f"with z = {LIKELIHOOD_CASES[case]} the values differ from log N(z_s; H_s x, R_ss): "
-                           "check the quadratic form (z_s - H_s x)^T R_ss^-1 (z_s - H_s x) and the term -(1/2)")
+    report.problems.append(f"with z = {LIKELIHOOD_CASES[case]} the values differ from log N(z_k; H_k x^i, R_k): "
+                           "check the quadratic form (z_k - H_k x^i)^T R_k^-1 (z_k - H_k x^i) and the constant "
+                           "-(m log(2 pi) + log det R_k) / 2, with m the number of coordinates measured")
     return report

@@ -37,8 +37,9 @@ import pandas as pd
 
 from pfcourse.errors import ParameterError, StepError
 from pfcourse.filter_config import labels
-from pfcourse.experiments import association, global_localization
+from pfcourse.experiments import association, global_localization, intel
 from pfcourse.experiments import likelihood_studies as ls
+from pfcourse.experiments import part1_studies
 from pfcourse.experiments import (maprobot, rb_study, robot_studies, sir_fixes_study, smoothing_studies,
                                   terrain_marginalised, terrain_remedies, terrain_studies)
 from pfcourse.experiments.provenance import append_rerun, launch_commit, write_provenance
@@ -236,6 +237,21 @@ STUDIES: dict[str, Study] = {study.name: study for study in [
           row_code="pfcourse/experiments/rb_study.py, pfcourse/landmarks/rao_blackwell.py, pfcourse/landmarks/auxiliary.py",
           fields={"methods": rb_study.METHODS, "threshold": rb_study.THRESHOLD,
                   "seeds": "simulation seed s, filter seed s + 10**6 (same for every method and N)"}),
+    Study(name="proposals", row=part1_studies.proposals_row,
+          grid={"setting": part1_studies.SETTINGS, "proposal": part1_studies.PROPOSALS}, n_runs=50, seeds="run",
+          failures="raise", table="proposals.csv", provenance="proposals.json",
+          columns=("setting", "proposal", "seed", "ess", "ess_sum", "n_measured", "resampled", "robot",
+                   "landmarks", "rmse"), sample=4, row_code="pfcourse/experiments/part1_studies.py",
+          fields={"seeds": "simulation seed s = 0-49, filter seed s + 10**6 (same for both proposals)",
+                  "lab": "N = 500, threshold 1/3", "sharp_broad": "N = 200, threshold 1/2, process noise "
+                  "0.05^2 m^2 on every coordinate, measurement sd 0.1 and 1 times the lab's"}),
+    Study(name="rb_five_landmarks", row=part1_studies.five_landmarks_row,
+          grid={"method": part1_studies.FIVE_METHODS}, n_runs=100, seeds="run", failures="raise",
+          table="rb_five_landmarks.csv", provenance="rb_five_landmarks.json",
+          columns=("method", "seed", "collapse", "lm_sd", "robot_sd", "robot_cover"), sample=4,
+          row_code="pfcourse/experiments/part1_studies.py",
+          fields={"seeds": "simulation seed s = 0-99, filter seed s + 10**6 (same for every method)",
+                  "N": part1_studies.N_FIVE}),
     *(_robot_study(name, grid, options) for name, (grid, options) in robot_studies.STUDIES.items()),
     *(_likelihood_study(name, row, {"n_particles": n}, runs, seed, columns=("n_particles", "run", "seed", "status", "error", *metrics), **options)
       for name, row, n, runs, seed, metrics, options in [
@@ -369,6 +385,21 @@ STUDIES: dict[str, Study] = {study.name: study for study in [
           fields={"lags": smoothing_studies.LAGS, "scenario": "quadrant_scenario().with_(Qw=0.05**2 I6, Rv=0.5**2 I4)",
                   "seeds": f"run r: data pfcourse.seeding.data_rng({smoothing_studies.SEED}, r); filter and FFBSi "
                            f"draws pfcourse.seeding.filter_rng({smoothing_studies.SEED}, r)"}),
+    Study(name="intel/global", row=intel.global_row, grid={"method": list(intel.METHODS)}, n_runs=intel.N_GLOBAL,
+          seeds="run", failures="raise", table="intel/global.csv", provenance="intel/global.json",
+          columns=intel.GLOBAL_COLUMNS, sample=1, cheap=lambda t: t["method"] == "uniform",
+          row_code="pfcourse/experiments/intel.py (global_row, global_filter)",
+          fields={"seeds": "run s: start scan numpy.random.default_rng([41, s]); filter default_rng([41, s, 1])",
+                  "map": "scans 455-909 of book/data/intel/intel-corrected.log.gz; runs on scans 0-454",
+                  "steps": intel.GLOBAL_STEPS, "lock_on": "within 1 m and 3 x the odometry's RMS heading error "
+                  f"of a step, at {intel.LOCK_SHARE} of the last {intel.LOCK_WINDOW} scans"}),
+    Study(name="intel/tracking", row=intel.tracking_row, grid={"map": list(intel.TRACK_MAPS)},
+          n_runs=len(intel.TRACK_SEEDS), seeds="run", base_seed=intel.TRACK_SEEDS.start, failures="raise",
+          table="intel/tracking.csv", provenance="intel/tracking.json", columns=intel.TRACK_COLUMNS, sample=1,
+          row_code="pfcourse/experiments/intel.py (tracking_row)",
+          fields={"seeds": "run s: filter numpy.random.default_rng(s), s = 1..30 (the chapter's run is s = 1)",
+                  "maps": "second half: scans 455-909; whole run: scans 0-909; tracked: scans 0-454",
+                  "filter": f"N = {intel.TRACK_N}, odometry a = {intel.TRACK_A}, every {intel.BEAM_STEP}th beam"}),
     *(Study(name=name, row=partial(terrain_remedies.fresh_flight_row, study=name), grid={"setting": list(fresh.settings)},
             n_runs=len(fresh.flights), seeds="run", base_seed=fresh.flights.start,
             table=f"{name}.csv", **_FLIGHTS, provenance=f"{name}.json", columns=terrain_remedies.FRESH_COLUMNS, seed_column="flight",
