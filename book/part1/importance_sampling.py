@@ -14,12 +14,12 @@
 # **You learn** why draws from one density, weighted, estimate expectations under another; why
 # the weights concentrate on a few draws when the target is much narrower than the proposal;
 # how accurate the weighted estimate is, what the effective sample size says and does not say,
-# and why a proposal must not have lighter tails than its target.
+# and why a proposal must not have much lighter tails than its target.
 #
 # **You need** Gaussian densities, the law of large numbers and the central limit theorem;
 # NumPy arrays and a random generator.
 #
-# **Time:** about fifteen minutes to read; the notebook runs in under half a minute.
+# **Time:** about sixteen minutes to read; the notebook runs in under half a minute.
 # :::
 
 # %% tags=["remove-input"] jupyter={"source_hidden": true}
@@ -171,7 +171,9 @@ glue_values("is_picture_ess_", sd1=picture_ess[1.0], sd03=picture_ess[0.3], sd01
 # With $\sigma_v = 1$ the hundred draws are worth {glue:text}`is_picture_ess_sd1:.0f`; with
 # $\sigma_v = 0.1$, about {glue:text}`is_picture_ess_sd01:.0f`. Nothing went wrong in the second
 # case: the posterior is simply ten times narrower than the prior, and a blind proposal puts
-# only a few draws in it. A particle filter meets this at every step, and the weights of a
+# only a few draws in it. In the top panel the weights, proportional to $p(z \mid x)$, are
+# largest near $x = z = 1$ while the posterior peaks at $z / (1 + \sigma_v^2) = 1/2$: the draws
+# already follow the prior, so the weights carry only the likelihood. A particle filter meets this at every step, and the weights of a
 # whole path multiply these ratios together ({doc}`sis`). How many draws are the weighted draws
 # worth, and how accurate is the estimate? That is the effective sample size.
 #
@@ -195,7 +197,7 @@ glue_values("is_picture_ess_", sd1=picture_ess[1.0], sd03=picture_ess[0.3], sd01
 # finite when that expectation is. Replace $(\varphi - I)^2$ by its average under $\pi$, as if
 # the weight and the function did not vary together, and
 # $\sigma^2 \approx \operatorname{Var}_\pi(\varphi)\, \mathbb E_q[w^2]$. This is the approximation
-# of {cite:t}`kong1994`:
+# of {cite:t}`kong1992` and {cite:t}`kong1994`:
 #
 # $$
 # \operatorname{Var}(\hat I_N) \approx \frac{\operatorname{Var}_\pi(\varphi)}{\mathrm{ESS}}, \qquad
@@ -204,10 +206,15 @@ glue_values("is_picture_ess_", sd1=picture_ess[1.0], sd03=picture_ess[0.3], sd01
 #
 # The last form is measured from the weights ({ref}`the ESS exercise <ex-is-ess>` derives it):
 # $N$ weighted draws are worth ESS draws from $\pi$. It looks at the weights only, not at
-# $\varphi$. On the toy, with $N = 100$ and $\varphi(x) = x$, the asymptotic variance holds: at
-# $\sigma_v = 1$ the variance of the estimates over {glue:text}`is_toy_reps:,d` seeded
+# $\varphi$. On the toy, with $N = 100$ and $\varphi(x) = x$, the asymptotic variance holds at
+# $\sigma_v = 1$: the variance of the estimates over {glue:text}`is_toy_reps:,d` seeded
 # repetitions is {glue:text}`is_var_ratio_sd1:.2f` ({glue:text}`is_var_ratio_sd1_low:.2f` to
 # {glue:text}`is_var_ratio_sd1_high:.2f`) times $\sigma^2 / N$, with $\sigma^2$ by quadrature.
+#
+# It is only a limit: at $\sigma_v = 0.3$, where the hundred draws are worth about
+# {glue:text}`is_ess_sd03:.0f`, the ratio is already {glue:text}`is_var_ratio_sd03:.2f`
+# ({glue:text}`is_var_ratio_sd03_low:.2f` to {glue:text}`is_var_ratio_sd03_high:.2f`), the
+# terms of order $1/N^2$ no longer negligible.
 
 # %% tags=["hide-input"] jupyter={"source_hidden": true}
 def quad(f, lo, hi, at):
@@ -264,6 +271,8 @@ row = {s: toy_table.iloc[i] for i, s in enumerate(toy)}
 glue_values(is_toy_reps=reps, is_var_ratio_sd1=row[1.0]["ratio"], is_var_ratio_sd1_low=row[1.0]["ratio low"],
             is_var_ratio_sd1_high=row[1.0]["ratio high"],
             is_var_ratio_sd01=row[0.1]["ratio"], is_ess_sd01=row[0.1]["mean ESS"],
+            is_var_ratio_sd03=row[0.3]["ratio"], is_var_ratio_sd03_low=row[0.3]["ratio low"],
+            is_var_ratio_sd03_high=row[0.3]["ratio high"], is_ess_sd03=row[0.3]["mean ESS"],
             kong_ratio_r1=row[1.0]["measured Var ESS / Var_pi"], kong_ratio_r01=row[0.1]["measured Var ESS / Var_pi"],
             is_kong_predicted_sd1=row[1.0]["predicted sigma^2 / (Var_pi E_q w^2)"])
 EvidenceBlock(
@@ -285,14 +294,19 @@ EvidenceBlock(
 )
 
 # %% [markdown]
-# Is the ESS on the safe side? Not in general. The exact ratio of $\sigma^2$ to Kong's
-# $\operatorname{Var}_\pi(\varphi)\, \mathbb E_q[w^2]$ is
-# $\mathbb E_\pi[w\, (\varphi - I)^2] / (\mathbb E_\pi[w]\, \operatorname{Var}_\pi \varphi)$: above
-# $1$ when the large weights fall where $\varphi$ is far from its mean, below $1$ when they fall
-# where it is close. Here the weight $w \propto p(z \mid x)$ peaks at $x = z$, which lies beyond
-# the posterior mean $z / (1 + \sigma_v^2)$, in the posterior's right tail. For $\varphi(x) = x$
-# at $\sigma_v = 1$ the ratio is {glue:text}`is_kong_predicted_sd1:.2f` by quadrature (measured:
-# {glue:text}`kong_ratio_r1:.2f`), so the ESS overstates the variance.
+# Is the rule $\operatorname{Var}_\pi(\varphi) / \mathrm{ESS}$ on the safe side? Not in general.
+# Since $w = \pi / q$, $\mathbb E_q[w^2] = \int \pi^2 / q = \mathbb E_\pi[w]$, so the exact ratio
+# of $\sigma^2$ to Kong's $\operatorname{Var}_\pi(\varphi)\, \mathbb E_q[w^2]$ is
+# $\mathbb E_\pi[w\, (\varphi - I)^2] / (\mathbb E_\pi[w]\, \operatorname{Var}_\pi \varphi)$: the
+# average of $(\varphi - I)^2$ under the density $\pi^2 / q$ (normalised), over its average
+# under $\pi$. It is above $1$ when the large weights fall where $\varphi$ is far from its mean,
+# below $1$ when they fall where it is close. Take $\varphi(x) = x$, $z = 1$, $\sigma_v = 1$:
+# the weight $w \propto p(z \mid x)$ peaks at $x = z = 1$, only $1/\sqrt 2$ of a posterior
+# standard deviation above the posterior mean $1/2$, where $(x - I)^2 = 1/4$ is below
+# $\operatorname{Var}_\pi = 1/2$. And $\pi^2 / q \propto \mathcal N(2/3,\ 1/3)$ is narrower than
+# $\pi$, so the ratio is $(1/3 + 1/36) / (1/2) = 13/18$, or
+# {glue:text}`is_kong_predicted_sd1:.2f` by quadrature (measured:
+# {glue:text}`kong_ratio_r1:.2f`): here the rule overstates the variance.
 
 # %% [markdown]
 # For a tail probability it is the other way round. With $m$ and $s$ the posterior mean and
@@ -339,8 +353,11 @@ EvidenceBlock(
 # ## When the proposal's tails are too light
 #
 # The variance $\sigma^2$ is finite only if $\mathbb E_q[w^2 (\varphi - I)^2]$ is, and
-# $\mathbb E_q[w^2] = \int \pi^2 / q$ diverges when $q$ decays faster than $\pi$ in the tails:
-# there the weights are unbounded, with infinite variance. Then the central limit theorem does not
+# $\mathbb E_q[w^2] = \int \pi^2 / q$ is infinite when $\pi^2 / q$ is not integrable, that is
+# when $q$ has much lighter tails than $\pi$. Slightly lighter tails are not enough: the weights
+# are then unbounded but can keep a finite variance (a Gaussian $q$ with
+# $\sigma_q^2 > \sigma_\pi^2 / 2$ does, and {ref}`exercise 3.4 <ex-is-tails>` finds the same for
+# Student proposals). With infinite variance the central limit theorem does not
 # apply and the ESS cannot be trusted. Take a Student $t$ target with $\nu = 3$ degrees of freedom, whose tails
 # decay like $|x|^{-4}$, and estimate the probability of its tails, $\varphi(x) = \mathbb 1\{|x| > 3\}$
 # (exact from the $t$ distribution function). The proposal $\mathcal N(0, 1)$ decays like
@@ -566,7 +583,8 @@ print(check_weight_update(update_linear))
 # - The estimate's asymptotic variance is $\mathbb E_q[w^2 (\varphi - I)^2] / N$; the ESS rule
 #   $\operatorname{Var}_\pi(\varphi) / \mathrm{ESS}$ ignores $\varphi$ and can be off either way,
 #   more than twofold for a tail probability.
-# - A proposal with lighter tails than the target gives weights of infinite variance: the error
+# - A proposal with much lighter tails than the target ($\pi^2 / q$ not integrable) gives weights
+#   of infinite variance: the error
 #   stops shrinking like $1/\sqrt N$ and the ESS does not warn. Propose wider, never narrower.
 #
 # :::{admonition} From the labs

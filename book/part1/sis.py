@@ -19,7 +19,7 @@
 # **You need** {doc}`model` and {doc}`importance_sampling`; Gaussian densities; NumPy arrays
 # and a random generator.
 #
-# **Time:** about fourteen minutes to read; the notebook runs in under half a minute.
+# **Time:** about fifteen minutes to read; the notebook runs in under half a minute.
 # :::
 
 # %% tags=["remove-input"] jupyter={"source_hidden": true}
@@ -80,15 +80,16 @@ model = scenario.model()  # the simulator's own noise models
 # Unrolled, **a particle's weight is the likelihood of its whole path**,
 # $W_k^i \propto \prod_{j \le k} p(z_j \mid x_j^i)$. That product is also why SIS fails: each
 # measurement multiplies the weights by a factor that favours a few paths, and the variance of
-# the weights can only grow with $k$ {cite:p}`doucet2000`. The effective sample size
+# the weights, taken over the data as well as the draws, can only grow with $k$
+# {cite:p}`kong1994,doucet2000`; for one fixed data set it almost always grows too. The effective sample size
 # $\mathrm{ESS}_k = 1 / \sum_i (W_k^i)^2$ counts how many particles still count.
 #
 # :::{admonition} Algorithm 4.1: sequential importance sampling with the bootstrap proposal
 # :class: algorithm
 # 1. **Initialise.** Draw $x_0^i \sim p(x_0)$ for $i = 1, \dots, N$; set $\log W_0^i = -\log N$.
 # 2. **For** $k = 1, 2, \dots$:
-#    1. *propose:* $x_k^i \sim p(x_k \mid x_{k-1}^i)$, here $x_k^i = F x_{k-1}^i + w_k^i$,
-#       $w_k^i \sim \mathcal N(0, Q)$;
+#    1. *propose:* $x_k^i \sim p(x_k \mid x_{k-1}^i)$, here
+#       $x_k^i \sim \mathcal N(F x_{k-1}^i,\ Q)$;
 #    2. *weight:* $\log \tilde w_k^i = \log W_{k-1}^i + \log p(z_k \mid x_k^i)$ (the second term
 #       is $0$ when nothing is measured);
 #    3. *normalise:* $\log W_k^i = \log \tilde w_k^i - \operatorname{logsumexp}_j \log \tilde w_k^j$;
@@ -121,7 +122,7 @@ Z = simulate(quadrant_scenario(), rng=2024).measurements  # (50, 4)
 
 
 def sis(Z, N, rng):
-    """Algorithm 4.1: the weighted means (K, 6) and the ESS (K,)."""
+    """Algorithm 4.1: the weighted means (T + 1, 6) and the ESS (T + 1,)."""
     L0, LQ = np.linalg.cholesky(P0), np.linalg.cholesky(Q)
     x = m0 + rng.standard_normal((N, 6)) @ L0.T
     log_W = np.full(N, -np.log(N))
@@ -162,11 +163,13 @@ path_gap = np.abs(W_path - res.weights).max()
 print(f"the matrices are the package's model: {same_model}")
 print(f"the twenty lines give the engine's means and ESS (within {ROUND_OFF:.0e}): {gap < ROUND_OFF}")
 print(f"the engine's weights are the likelihoods of the paths (within {ROUND_OFF:.0e}): {path_gap < ROUND_OFF}")
-glue_values(sis_path_weight_bound=ROUND_OFF)
+glue_values(sis_path_weight_bound=ROUND_OFF, sis_first_below2=int(np.argmax(ess < 2)))
 
 # %% [markdown]
-# The ESS falls from $100$ to about one particle within a few steps. The same lines with the
-# same seed give the means and ESS of the book's engine, `ParticleFilter(model, N, threshold=0)`,
+# The ESS falls from $100$ to below $2$ already at step {glue:text}`sis_first_below2:d`. The same
+# lines with the same seed give the means and ESS of the book's engine,
+# `ParticleFilter(model, N, threshold=0)` (it resamples when the ESS falls below `threshold`
+# times $N$, so with $0$ it never does: it is SIS),
 # to round-off (below {glue:text}`sis_path_weight_bound:.0e`), and the engine's weights are the
 # likelihoods of the stored paths, multiplied along each path. Now look at what that product
 # does to the estimate.
@@ -205,7 +208,8 @@ EvidenceBlock(
 
 # %% [markdown]
 # The weight histograms show where the mass goes: at step $k = 0$ every weight is $1/N$; after a
-# couple of measurements most weights are negligible; soon one particle holds it all. The
+# couple of measurements most weights are negligible (the bar at $-30$ holds every weight below
+# $10^{-30}$); soon one particle holds it all. The
 # animation shows the cloud (dot size proportional to weight) with the 95 % ellipses of the
 # robot and the two landmarks: SIS in red, the exact posterior in green.
 
@@ -216,7 +220,7 @@ for ax, k in zip(axes, steps):
     ax.hist(np.log10(np.maximum(res.weights[k], 1e-30)), bins=30, range=(-30, 0),
             color=COLORS["particles"])
     ax.set_title(f"k = {k}, ESS = {res.ess[k]:.1f}")
-    ax.set_xlabel(r"$\log_{10} W_k^i$")
+    ax.set_xlabel(r"$\log_{10} W_k^i$ (below $-30$: at $-30$)")
 axes[0].set_ylabel("number of particles")
 plt.show()
 
@@ -272,7 +276,11 @@ plt.show()
 # %% [markdown]
 # Multiplying $N$ by $100$ delays the collapse by {glue:text}`sis_delay_mean:.1f` steps on
 # average ({glue:text}`sis_delay_mean_low:.1f` to {glue:text}`sis_delay_mean_high:.1f`), that is
-# {glue:text}`sis_delay_per_decade:.1f` steps per factor of ten in $N$. Each step with a landmark
+# {glue:text}`sis_delay_per_decade:.1f` steps per factor of ten in $N$.
+#
+# Both are lower bounds: a run that never collapses within the window counts as collapsing at its
+# end, and {glue:text}`sis_never_100:d`, {glue:text}`sis_never_1000:d` and
+# {glue:text}`sis_never_10000:d` runs never did at the three $N$. Each step with a landmark
 # in view multiplies the weights by a likelihood that is sharp ($0.1$ m noise) next to the prior
 # spread of the landmarks ($\sqrt{0.2} \approx 0.45$ m), so the $N$ needed grows exponentially
 # with the number of informative steps.
@@ -286,7 +294,8 @@ glue_values("sis_", degeneracy_runs=n_runs, horizon=horizon, median_first_100=me
             delay_high=delay.high, delay_pvalue=delay.pvalue, delay_mean=mean_delay, delay_mean_low=low,
             delay_mean_high=high, delay_per_decade=per_decade, delay_per_decade_low=low / 2,
             delay_per_decade_high=high / 2,
-            decades_needed=int(round((horizon - medians[10_000]) / per_decade)))
+            decades_needed=int(round((horizon - medians[10_000]) / per_decade)),
+            **{f"never_{N}": int(np.sum(first_below(ess[N]) == horizon)) for N in N_values})
 
 
 def per_n_table():
@@ -314,8 +323,12 @@ EvidenceBlock(
 # Does broader measurement noise change the collapse? The same runs with the measurement
 # noise's standard deviation doubled (simulator and filter alike): the ESS still falls below
 # $2$ within {glue:text}`sis_horizon:d` steps in {glue:text}`sis_broad_collapsed:.0%` of the runs
-# (at least {glue:text}`sis_broad_collapsed_low:.0%`). Broader noise slows the collapse by little;
-# it does not stop it.
+# (at least {glue:text}`sis_broad_collapsed_low:.0%`).
+#
+# Broader noise delays the collapse by a
+# median of {glue:text}`sis_broad_delay:.0f` step: later in {glue:text}`sis_broad_later:d` of the
+# {glue:text}`sis_degeneracy_runs:d` runs, earlier in {glue:text}`sis_broad_earlier:d`. It does
+# not stop it.
 
 # %% tags=["remove-input"] jupyter={"source_hidden": true}
 sc2 = scenario.with_(Rv=2.0**2 * scenario.Rv)
@@ -331,7 +344,7 @@ glue_values("sis_broad_", later=n_later, earlier=n_earlier, sign_p=sign_p, first
             collapsed=collapsed_broad.estimate, collapsed_low=collapsed_broad.low)
 EvidenceBlock(
     "doubling the measurement noise does not stop the collapse",
-    notes=[f"N = 100, measurement sd doubled vs the lab's, same seeds: ESS < 2 first at step "
+    notes=[f"N = 100, measurement sd doubled vs the model's, same seeds: ESS < 2 first at step "
            f"{np.median(first_broad):.0f} vs {np.median(first_base):.0f} (medians); delay run by run "
            f"(steps): {slower}.",
            f"Sign test: the collapse comes later with the broader noise in {n_later} runs, earlier in "
@@ -349,8 +362,8 @@ EvidenceBlock(
 # run that linear-domain SIS on {glue:text}`linear_runs:d` simulations ($N = 100$), with the
 # model's measurement noise ($\sigma_v = 0.1$ m) and with a ten times sharper one
 # ($\sigma_v = 0.01$ m, simulator and filter alike). With $0.1$ m it fails in
-# {glue:text}`linear_fail_sd01` runs (at most {glue:text}`linear_fail_sd01_high:.0%` of runs): a
-# single run would not show the problem.
+# {glue:text}`linear_fail_sd01` runs (at most {glue:text}`linear_fail_sd01_high:.0%` of runs):
+# the linear domain survives this sensor.
 #
 # With $0.01$ m it fails in {glue:text}`linear_fail_sd001`
 # runs ({glue:text}`linear_fail_sd001_low:.0%` to {glue:text}`linear_fail_sd001_high:.0%`). The
@@ -399,7 +412,8 @@ EvidenceBlock(
 #   particles blindly, then judges them by $z_k$. {doc}`proposals` builds the best one,
 #   $p(x_k \mid x_{k-1}, z_k)$, which looks at $z_k$ first.
 # - **The number of particles** should keep the Monte Carlo error,
-#   $\approx \sqrt{\operatorname{tr} P / \mathrm{ESS}}$, small next to the posterior spread. For
+#   $\approx \sqrt{\operatorname{tr} P_k / \mathrm{ESS}_k}$ with $P_k$ the posterior covariance
+#   (the sum of its variances, $\operatorname{tr} P_k$, in m²), small next to the posterior spread. For
 #   SIS no affordable $N$ does, as measured above.
 # - **What goes wrong, and the fix:** the weights degenerate. The fix is to resample when the
 #   ESS falls too low ({doc}`sir`), and to propose better ({doc}`proposals`).
@@ -417,16 +431,17 @@ def draw_sis(n_particles, noise_scale, seed):
     m = sc.model()
     r = ParticleFilter(m, n_particles, threshold=0.0).run(s.measurements, rng=run_filter_seed(seed))
     ref = kalman_filter(m, s.measurements)
+    steps = np.arange(len(s.T))
     fig, (a1, a2) = plt.subplots(1, 2, figsize=(10, 3.4))
-    a1.plot(s.T, r.ess, color=COLORS["estimate"])
+    a1.plot(steps, r.ess, color=COLORS["estimate"])
     plain_log_axis(a1, "y")
-    a1.set_xlabel("time t (s)")
+    a1.set_xlabel("step k")
     a1.set_ylabel("ESS (particles)")
     a1.set_ylim(0.8, n_particles * 1.2)
-    a2.plot(s.T, ref.mean[:, 2], color=COLORS["kalman"], label="Kalman")
-    a2.plot(s.T, r.mean[:, 2], color=COLORS["estimate"], label="SIS")
-    a2.plot(s.T, s.truth[:, 2], "--", color=COLORS["truth"], label="truth")
-    a2.set_xlabel("time t (s)")
+    a2.plot(steps, ref.mean[:, 2], color=COLORS["kalman"], label="Kalman")
+    a2.plot(steps, r.mean[:, 2], color=COLORS["estimate"], label="SIS")
+    a2.plot(steps, s.truth[:, 2], "--", color=COLORS["truth"], label="truth")
+    a2.set_xlabel("step k")
     a2.set_ylabel("L1 x (m)")
     a2.legend()
 
@@ -472,11 +487,12 @@ display(control_panel(draw_sis, grid={"n_particles": (10, 100, 1000, 10000), "no
 # :label: ex-sis-code
 # :nonumber:
 # (Coding.) The same filter on another model: write `my_sis(z, n_particles, rng, model)`, SIS
-# with the bootstrap proposal for the scalar model $x_0 \sim \mathcal N(m_0, p_0)$, $x_k = a x_{k-1} + w_k$, $w_k \sim \mathcal N(0, q)$,
+# with the bootstrap proposal for the scalar model $x_0 \sim \mathcal N(m_0, p_0)$,
+# $x_k \sim \mathcal N(a x_{k-1}, q)$,
 # $z_k = x_k + v_k$, $v_k \sim \mathcal N(0, r)$, whose parameters are `model.a`, `model.q`,
-# `model.r`, `model.m0`, `model.p0` (variances, not standard deviations). `z` has shape `(K,)`,
+# `model.r`, `model.m0`, `model.p0` (variances, not standard deviations). `z` has shape `(T + 1,)`,
 # NaN where nothing is measured (always at step $0$). Return the weighted means and the ESS,
-# two arrays of shape `(K,)`, and draw every random number from `rng`. The checker runs it
+# two arrays of shape `(T + 1,)`, and draw every random number from `rng`. The checker runs it
 # against the Kalman filter, which is exact for this model, runs it twice on the same seed and
 # once on another, and names the mistake it sees.
 # ```
@@ -537,6 +553,6 @@ print(check_sis(my_sis))
 # above and Exercise 4.1), how many particles and which importance function, what goes wrong
 # and how to fix it (question 4: "Does a larger N save SIS?", "How to choose N" and
 # Exercise 4.2), and to check the degeneracy of the weights with the effective sample size (question 5:
-# the first run and its figures). The lab multiplied the weights themselves; "Why the log
-# domain" measures when that fails.
+# the first run and its figures). The lab's code multiplied the weights themselves; "Why the
+# log domain" measures when that fails.
 # :::

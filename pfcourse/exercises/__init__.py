@@ -179,6 +179,7 @@ from pfcourse.exercises.part1 import (  # noqa: F401
     scalar_kalman,
     scalar_optimal_proposal,
     toy_is_limit,
+    toy_is_ess_ratio,
 )
 from pfcourse.exercises.part2 import (  # noqa: F401
     ALTIMETER_DX,

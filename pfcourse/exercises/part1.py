@@ -300,16 +300,42 @@ def toy_is_limit(z: float, sd_v: float, mistake: str | None = None) -> tuple[flo
     return sum(p * m for p, m in factors) / precision, 1 / precision
 
 
+def _gauss_chi2(mean: float, var: float, q_mean: float, q_var: float) -> tuple[float, float]:
+    """``E_q[w^2] = int pi^2 / q`` and the asymptotic variance ``sigma^2 = int pi^2 (x - mean)^2 / q`` of the
+    self-normalised estimate of the mean of ``pi = N(mean, var)`` from draws of ``q = N(q_mean, q_var)``.
+
+    ``pi^2 / q`` is a Gaussian of precision ``a = 2 / var - 1 / q_var`` times a constant ``C``; both
+    integrals are infinite when ``a <= 0`` (``q`` much lighter-tailed than ``pi``).
+    """
+    a = 2 / var - 1 / q_var
+    if a <= 0:
+        return np.inf, np.inf
+    b = 2 * mean / var - q_mean / q_var
+    c = -mean**2 / var + q_mean**2 / (2 * q_var)
+    C = np.sqrt(q_var) / (var * np.sqrt(a)) * np.exp(b * b / (2 * a) + c)
+    return C, C * (1 / a + (b / a - mean) ** 2)
+
+
+def toy_is_ess_ratio(z: float, sd_v: float, q_mean: float | None = None, q_var: float = 1.0) -> float:
+    """The limit of ESS / n on the toy, ``1 / E_q[w^2]`` (proposal ``N(z/2, 1)`` unless given)."""
+    mean, var = toy_is_limit(z, sd_v)
+    return 1 / _gauss_chi2(mean, var, z / 2 if q_mean is None else q_mean, q_var)[0]
+
+
 def check_importance_sampler(fn: Callable, n: int = 20_000, seed: int = 0) -> CheckReport:
     """Check ``fn(z, sd_v, n, rng) -> (estimate, ess)`` (importance sampling, exercise 3.1), leaving NumPy's
     global ``np.random`` state as it was.
 
     ``fn`` draws ``n`` particles from the proposal ``N(z / 2, 1)`` and returns the self-normalised estimate
     of the posterior mean of the toy (prior ``N(0, 1)``, ``z = x + v``, ``v ~ N(0, sd_v^2)``) and the ESS.
-    The estimate must be within six Monte Carlo standard errors ``sqrt(var / ESS)`` of the exact mean
-    ``z / (1 + sd_v^2)`` at :data:`IS_TOY_CASE` (a correct sampler fails with probability about 2e-9); a
-    wrong one is compared with the limits of :data:`IS_TOY_MISTAKES`, and the report names the mistake.
-    The random numbers must come from ``rng`` (:func:`_generator_problem`, on 500 particles).
+    The estimate must be within six Monte Carlo standard errors ``sqrt(sigma^2 / n)`` of the exact mean
+    ``z / (1 + sd_v^2)`` at :data:`IS_TOY_CASE`, with ``sigma^2`` the exact asymptotic variance for this
+    proposal (:func:`_gauss_chi2`; a correct sampler fails with probability about 2e-9); a wrong one is
+    compared with the limits of :data:`IS_TOY_MISTAKES`, and the report names the mistake. The ESS / n
+    must be within 10 % of its limit ``1 / E_q[w^2]`` (0.383 at :data:`IS_TOY_CASE`; its Monte Carlo
+    standard deviation at n = 20 000 is 0.003, so 10 % is over ten of them), which tells the asked
+    proposal from the prior, an exact posterior sampler or a wider Gaussian. The random numbers must come
+    from ``rng`` (:func:`_generator_problem`, on 500 particles).
     """
     saved = np.random.get_state()
     try:
@@ -347,14 +373,35 @@ def _check_importance_sampler(fn: Callable, n: int, seed: int) -> CheckReport:
 
     def fits(mistake: str | None) -> bool:
         mean, var = toy_is_limit(z, sd_v, mistake)
-        return abs(estimate - mean) <= 6 * np.sqrt(var / ess)
+        sigma2 = _gauss_chi2(mean, var, z / 2, 1.0)[1]
+        return abs(estimate - mean) <= 6 * np.sqrt(sigma2 / n)
 
+    ratio, expected = ess / n, toy_is_ess_ratio(z, sd_v)
+    rtol = 0.1 * max(1.0, np.sqrt(20_000 / n))
+    near = lambda r: abs(ratio - r) <= rtol * r  # noqa: E731
+    if fits(None) and near(expected):
+        return report
+    if ratio >= 1 - 1e-9:
+        report.problems.append("the ESS equals n, so every weight is the same: the draws must come from the "
+                               "proposal N(z/2, 1), not from the posterior, and carry the weight "
+                               "p(z | x) p(x) / q(x)")
+        return report
+    if near(toy_is_ess_ratio(z, sd_v, 0.0, 1.0)):
+        report.problems.append(f"the ESS / n is {ratio:.3f}, what draws from the prior N(0, 1) give: the "
+                               f"exercise asks for the proposal N(z/2, 1), whose ESS / n is {expected:.3f}")
+        return report
+    if fits(None):
+        report.problems.append(f"the estimate is right but the ESS / n is {ratio:.3f}, not about {expected:.3f}, "
+                               "the value for draws from N(z/2, 1): draw x = z/2 + rng.standard_normal(n) "
+                               "(standard deviation 1) and return 1 / sum(W**2) of the normalised weights")
+        return report
     if _settled(report, fits, IS_TOY_MISTAKES):
         return report
     mean, var = toy_is_limit(z, sd_v)
+    sigma2 = _gauss_chi2(mean, var, z / 2, 1.0)[1]
     report.problems.append(f"the estimate {estimate:.4f} is more than six Monte Carlo standard errors "
-                           f"({np.sqrt(var / ess):.4f}) from the exact posterior mean {mean:.4f}: check the draws "
-                           "(x ~ N(z/2, 1)), the three terms of the log-weight and the normalisation")
+                           f"({np.sqrt(sigma2 / n):.4f}) from the exact posterior mean {mean:.4f}: check the "
+                           "draws (x ~ N(z/2, 1)), the three terms of the log-weight and the normalisation")
     return report
 
 
@@ -395,6 +442,52 @@ def _scalar_filter(z: np.ndarray, model: ScalarModel, last_only: bool = False) -
     return mean, var
 
 
+def _sis_ess_ratio(z: np.ndarray, model: ScalarModel, mode: str = "sis") -> np.ndarray:
+    """The limit of ``ESS_k / N`` per step, ``1 / E[W^2]`` in closed form (Kong et al. 1994).
+
+    ``mode="sis"``: the weight of a path drawn from the prior is ``prod_j N(z_j; x_j, r)`` over the
+    measured steps, and with ``N(z; x, r)^2 = N(z; x, r/2) / sqrt(4 pi r)`` both ``E[w]`` and ``E[w^2]``
+    are Gaussian densities of the measured ``z_j`` under the prior. ``"resample"``: a filter that
+    resamples before each measured step weights the one-step predictive (Kalman) by the last
+    likelihood only;
+    ``"forget"``: a filter whose weights forget the previous steps weights the prior marginal by it.
+    """
+    from scipy import stats
+
+    n_steps, r = len(z), model.r
+    var = np.empty(n_steps)
+    var[0] = model.p0
+    for k in range(1, n_steps):
+        var[k] = model.a**2 * var[k - 1] + model.q
+    mean = model.m0 * model.a ** np.arange(n_steps)
+    i, j = np.meshgrid(np.arange(n_steps), np.arange(n_steps), indexing="ij")
+    cov = model.a ** np.abs(i - j) * var[np.minimum(i, j)]
+    if mode == "resample":
+        m_f, p_f = scalar_kalman(z, model)[:2]
+    out = np.ones(n_steps)
+    for k in range(n_steps):
+        measured = np.flatnonzero(~np.isnan(z[:k + 1]))
+        if measured.size == 0:
+            continue
+        if mode == "sis":
+            idx, mu, S = measured, mean[measured], cov[np.ix_(measured, measured)]
+        else:
+            last = measured[-1]
+            if mode == "forget":
+                mu, S = mean[[last]], np.array([[var[last]]])
+            elif last == 0:
+                mu, S = np.array([model.m0]), np.array([[model.p0]])
+            else:
+                mu = np.array([model.a * m_f[last - 1]])
+                S = np.array([[model.a**2 * p_f[last - 1] + model.q]])
+            idx = np.array([last])
+        d, zz = idx.size, z[idx]
+        log_e2 = -d / 2 * np.log(4 * np.pi * r) + stats.multivariate_normal.logpdf(zz, mu, S + r / 2 * np.eye(d))
+        log_e1 = stats.multivariate_normal.logpdf(zz, mu, S + r * np.eye(d))
+        out[k] = np.exp(2 * log_e1 - log_e2)
+    return out
+
+
 #: The measurements of :func:`check_sis`: none at step 0 (the cloud is the prior), one missing later.
 SIS_CASE = np.array([np.nan, 1.2, 2.0, np.nan, 0.3])
 
@@ -415,7 +508,8 @@ def _check_sis(fn: Callable, n_particles: int, seed: int, z: np.ndarray) -> Chec
     least at step 0); ``means`` and
     ``ess`` have shape ``(K,)``: the weighted mean of the particles and the effective sample size
     after each step. The means must agree with the Kalman filter's within six Monte Carlo
-    standard errors, ``sqrt(P_k / ESS_k)``, at every step (a correct SIS fails this with
+    standard errors, ``sqrt(P_k / ESS_k)`` with the reference ESS ``N / E[W_k^2]`` in closed form
+    (:func:`_sis_ess_ratio`), at every step, and the ESS must be within 10 % of that reference (a correct SIS fails this with
     probability below 1e-6); a filter that does not is compared with the limits of the typical
     mistakes, and the report names the one that fits. The filter must draw its random numbers from
     the generator it is given (:func:`_generator_problem`, on 200 particles).
@@ -452,27 +546,50 @@ def _check_sis(fn: Callable, n_particles: int, seed: int, z: np.ndarray) -> Chec
         report.problems.append(problem)
         return report
     exact = _scalar_filter(z, model)
-    if _fits(means, ess, *exact):
+    # the reference ESS, N / E[W^2] in closed form: it sets the tolerance, the student's does not
+    rtol = 0.1 * max(1.0, np.sqrt(20_000 / n_particles))
+    ref = np.maximum(n_particles * _sis_ess_ratio(z, model), 1.0)
+
+    def near(ratio: np.ndarray) -> bool:
+        target = np.maximum(n_particles * ratio, 1.0)
+        return bool(np.all(np.abs(ess - target) <= rtol * target + 2.0))
+
+    if _fits(means, ref, *exact):
+        if near(_sis_ess_ratio(z, model)):
+            return report
+        if near(_sis_ess_ratio(z, model, "resample")):
+            report.problems.append("your ESS is that of a filter that resamples at every step (SIR): SIS never "
+                                   "resamples, so the weights keep multiplying and the ESS keeps falling")
+            return report
+        k = int(np.argmax(np.abs(ess - ref) / ref))
+        report.problems.append(f"the means are right but the ESS at step {k} is {ess[k]:.4g}, not about "
+                               f"{ref[k]:.4g} (1 / E[W^2] in closed form): return 1 / sum(W**2) of the "
+                               "normalised weights after each step")
         return report
     mistakes = {
+        "the particles are never weighted: multiply each weight by p(z_k | x_k) when z_k is measured, "
+        "or the cloud stays the prior": (_scalar_filter(np.full_like(z, np.nan), model),
+                                         np.ones(len(z))),
         "the weights forget the previous steps: multiply the new likelihood into the previous weights "
         "(log W_k = log W_(k-1) + log p(z_k | x_k)) instead of replacing them":
-            _scalar_filter(z, model, last_only=True),
+            (_scalar_filter(z, model, last_only=True), _sis_ess_ratio(z, model, "forget")),
         "the particles move without process noise: add w_k ~ N(0, q) with variance q (standard deviation "
-        "sqrt(q)) when you propagate them": _scalar_filter(z, ScalarModel(q=0.0)),
+        "sqrt(q)) when you propagate them": (_scalar_filter(z, ScalarModel(q=0.0)),
+                                             _sis_ess_ratio(z, ScalarModel(q=0.0))),
         "the likelihood uses r as a standard deviation: r is the variance of v_k, so the standard deviation "
-        "is sqrt(r)": _scalar_filter(z, ScalarModel(r=model.r**2)),
+        "is sqrt(r)": (_scalar_filter(z, ScalarModel(r=model.r**2)), _sis_ess_ratio(z, ScalarModel(r=model.r**2))),
         "the process noise uses q as a standard deviation: q is the variance of w_k, so the standard "
-        "deviation is sqrt(q)": _scalar_filter(z, ScalarModel(q=model.q**2)),
+        "deviation is sqrt(q)": (_scalar_filter(z, ScalarModel(q=model.q**2)),
+                                 _sis_ess_ratio(z, ScalarModel(q=model.q**2))),
     }
-    for why, (mean, var) in mistakes.items():
-        if _fits(means, ess, mean, var):
+    for why, ((mean, var), ratio) in mistakes.items():
+        if _fits(means, np.maximum(n_particles * ratio, 1.0), mean, var):
             report.problems.append(f"your means match a known mistake, not the exact posterior: {why}")
             return report
-    k = int(np.argmax(np.abs(means - exact[0]) / np.sqrt(exact[1] / np.clip(ess, 1, None))))
+    k = int(np.argmax(np.abs(means - exact[0]) / np.sqrt(exact[1] / ref)))
     report.problems.append(
         f"at step {k} your mean is {means[k]:.3f}, the exact (Kalman) mean is {exact[0][k]:.3f}, more than six "
-        f"Monte Carlo standard errors ({np.sqrt(exact[1][k] / max(ess[k], 1)):.3f}) away: check the proposal "
+        f"Monte Carlo standard errors ({np.sqrt(exact[1][k] / ref[k]):.3f}) away: check the proposal "
         "(x_k = a x_(k-1) + w_k), the log-likelihood of z_k and the weighted mean")
     return report
 
@@ -530,8 +647,9 @@ def check_ancestors(fn: Callable, seed: int = 0) -> CheckReport:
     .. math:: o^i = a_1^{a_2^{\\cdots a_{K-1}^i}},
 
     that is ``a = ancestors[k][a]`` for ``k = K - 1, ..., 1``. A wrong answer is compared with
-    what the typical mistakes give (the steps followed forwards, one generation only, the last
-    step left out), so the report names the mistake.
+    what the typical mistakes give (the steps followed forwards or the indexing turned round, one
+    generation only, the last step left out, the first step left out), so the report names the
+    mistake.
     """
     report = CheckReport("genealogy")
     rng = np.random.default_rng(seed)
@@ -551,12 +669,16 @@ def check_ancestors(fn: Callable, seed: int = 0) -> CheckReport:
     if np.array_equal(answer, _origins(ancestors, range(n_steps - 1, 0, -1))):
         return report
     mistakes = {
-        "the steps are followed forwards (k = 1, 2, ...): a lineage is read backwards, from the final step "
-        "to step 0, a = ancestors[k][a] for k = K - 1, ..., 1": _origins(ancestors, range(1, n_steps)),
+        "the steps are followed forwards (k = 1, 2, ...), or the indexing is turned round (a[ancestors[k]] "
+        "instead of ancestors[k][a], which composes the steps in the forward order): a lineage is read "
+        "backwards, from the final step to step 0, a = ancestors[k][a] for k = K - 1, ..., 1":
+            _origins(ancestors, range(1, n_steps)),
         "only one generation is followed: ancestors[K - 1] gives the parents at step K - 2, and their own "
         "parents must be followed down to step 0": ancestors[-1],
         "the last step is left out: the lineage of a particle of step K - 1 starts with its parent "
         "ancestors[K - 1][i]": _origins(ancestors, range(n_steps - 2, 0, -1)),
+        "the first step is left out (the loop stops at k = 2): range(K - 1, 0, -1) runs down to k = 1, "
+        "whose ancestors are the particles of step 0": _origins(ancestors, range(n_steps - 1, 1, -1)),
     }
     for why, wrong in mistakes.items():
         if np.array_equal(answer, wrong):
@@ -629,7 +751,10 @@ def _check_multinomial_resampler(fn: Callable, n_draws: int, seed: int) -> Check
     chosen; the copy counts ``N_i`` have mean ``N W_i`` within ``5 SE + 1e-9``; and their total variance
     ``sum_i Var N_i`` is multinomial's ``sum_i N W_i (1 - W_i)`` within a factor ``[0.8, 1.25]``
     (measured 0.995 for multinomial, 0.37 stratified, 0.20 systematic, 0.43 residual, about 7 for one
-    uniform shared by all; its relative standard error is about 2 % over 4000 draws).
+    uniform shared by all; its relative standard error is about 2 % over 4000 draws). Residual
+    resampling is told apart by its deterministic copies: at least ``floor(N W_i)`` in every draw, and
+    sometimes more than ``ceil(N W_i)`` (which systematic resampling never gives). ``rng.choice(N, N,
+    p=W)`` passes: it inverts the cumulative weights with ``N`` uniforms, as the exercise asks.
     """
     report = CheckReport("multinomial resampler")
     w = np.array([0.05, 0.3, 0.0, 0.12, 0.08, 0.25, 0.2])
@@ -673,7 +798,13 @@ def _check_multinomial_resampler(fn: Callable, n_draws: int, seed: int) -> Check
             f"{mean[i]:.3f} (± {se[i]:.3f}) over {n_draws} draws: each index is j with probability W_j")
         return report
     ratio = counts.var(axis=0, ddof=1).sum() / float(np.sum(n * w * (1 - w)))
-    if ratio < 0.8:
+    low, high = np.floor(n * w), np.ceil(n * w)
+    if ratio < 0.8 and (counts >= low).all() and (counts > high).any():
+        report.problems.append(
+            f"the copy counts vary {ratio:.2f} times as much as multinomial resampling's, and every particle "
+            "always gets at least floor(N W_i) copies: this is residual resampling (deterministic copies, then "
+            "draws on the remainders); multinomial resampling draws N independent uniforms on [0, 1)")
+    elif ratio < 0.8:
         report.problems.append(
             f"the copy counts vary {ratio:.2f} times as much as multinomial resampling's: this is a stratified or "
             "systematic resampler (uniforms spread over the strata [i/N, (i+1)/N)); multinomial resampling draws "
