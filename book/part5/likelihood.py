@@ -47,15 +47,15 @@
 #
 # After the move of step $k$ the particles $x_k^i$, still carrying the weights $W_{k-1}^i$ of
 # step $k-1$, are a weighted sample of $p(x_k \mid z_{1:k-1})$, and the bootstrap weight
-# $\tilde w_k^i = p(z_k \mid x_k^i)$ is the integrand. So
+# $G_k^i = p(z_k \mid x_k^i)$ is the integrand. So
 #
 # $$
 # \hat p(z_{1:K}) = \prod_{k=1}^K \hat p(z_k \mid z_{1:k-1}),
-# \qquad \hat p(z_k \mid z_{1:k-1}) = \sum_{i=1}^N W_{k-1}^i\, \tilde w_k^i ,
+# \qquad \hat p(z_k \mid z_{1:k-1}) = \sum_{i=1}^N W_{k-1}^i\, G_k^i ,
 # $$
 #
 # with $W_{k-1}^i = 1/N$ after a resampling, and a factor $1$ at a step without measurement.
-# The same sum is the normaliser of the new weights, $W_k^i = W_{k-1}^i \tilde w_k^i /
+# The same sum is the normaliser of the new weights, $W_k^i = W_{k-1}^i G_k^i /
 # \hat p(z_k \mid z_{1:k-1})$: the filter already computes it.
 #
 # **Why $\hat p$ is unbiased** {cite:p}`delmoral2004`: given everything drawn up to step $k-1$,
@@ -77,10 +77,10 @@
 # 2. **For** $k = 1, \dots, K$:
 #    1. *move:* $x_k^i \sim p(x_k \mid x_{k-1}^i)$;
 #    2. if nothing is measured at step $k$, go to the next step;
-#    3. *weight:* $\log \tilde w_k^i = \log p(z_k \mid x_k^i)$;
-#    4. *likelihood factor:* $L_k = \operatorname{logsumexp}_i (\log W_{k-1}^i + \log \tilde w_k^i)$,
-#       i.e. $\log \sum_i W_{k-1}^i \tilde w_k^i$; $\ell \leftarrow \ell + L_k$;
-#    5. *normalise:* $\log W_k^i = \log W_{k-1}^i + \log \tilde w_k^i - L_k$;
+#    3. *weight:* $\log G_k^i = \log p(z_k \mid x_k^i)$;
+#    4. *likelihood factor:* $L_k = \operatorname{logsumexp}_i (\log W_{k-1}^i + \log G_k^i)$,
+#       i.e. $\log \sum_i W_{k-1}^i G_k^i$; $\ell \leftarrow \ell + L_k$;
+#    5. *normalise:* $\log W_k^i = \log W_{k-1}^i + \log G_k^i - L_k$;
 #    6. *resample* if $\mathrm{ESS}_k < \tau N$: ancestors $A^i$ drawn with probabilities $W_k$,
 #       $x_k^i \leftarrow x_k^{A^i}$, $\log W_k^i = -\log N$.
 # 3. **Return** $\ell = \log \hat p(z_{1:K})$.
@@ -807,7 +807,7 @@ EvidenceBlock(
 # ```{exercise} 23.1 The likelihood estimator from a filter's weights
 # :label: ex-lik-estimator
 # :nonumber:
-# A filter's run left, for each step $k$, the log-weights $\log\tilde w_k^i$ of its moved particles
+# A filter's run left, for each step $k$, the log-weights $\logG_k^i$ of its moved particles
 # (`log_w`, shape $(K, N)$, zero at a step without measurement) and whether the cloud was resampled
 # after step $k$ (`resampled`, shape $(K,)$). Write `log_likelihood_from_run(log_w, resampled)`,
 # returning $\log\hat p(z_{1:K})$ of Algorithm 23.1 in the log domain. The checker compares it with
@@ -873,7 +873,7 @@ print(check_likelihood_estimate(log_likelihood_from_run))
 # ## Takeaways
 #
 # - A particle filter estimates the likelihood as it runs: $\hat p(z_{1:K}) = \prod_k \sum_i W_{k-1}^i
-#   \tilde w_k^i$, unbiased for every $N$; its logarithm is biased down by about half its variance.
+#   G_k^i$, unbiased for every $N$; its logarithm is biased down by about half its variance.
 # - Common random numbers make the estimated likelihood a deterministic function of $\vartheta$ (a
 #   search on it gives the same answer when re-run), but not a smooth one at the scale that matters:
 #   each resampling step jumps when a weight crosses a uniform, so at a grid step they keep
