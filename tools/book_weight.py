@@ -12,6 +12,7 @@ figure with its phone copy. Here, in every page of the built book:
 - each such PNG is stored as small as it stays faithful: re-compressed, and as an adaptive
   256-colour palette when that changes no pixel by more than ``MAX_CHANNEL_ERROR`` levels out of
   255 in any channel (antialiased text and lines keep their shape), else as it was;
+- figures no page links any more (an incremental build's leftovers) and the theme's source maps go;
 - the notebooks offered for download (``_sources/``) keep each figure once: the phone copy of a
   figure (``<picture class="pfcourse-figure">``, beside the figure's own ``image/png``) goes, a
   panel keeps only the figure it opens with (running the cell brings the live panel back), and
@@ -130,6 +131,19 @@ def lighter_notebook(notebook: dict, images: InlineImages) -> dict:
     return notebook
 
 
+def collect_unused(outdir: Path) -> None:
+    """Delete the inline figures no page links any more (an incremental build leaves the old ones), and
+    the theme's source maps (``*.map``: read only by a browser's developer tools)."""
+    linked = set()
+    for page in outdir.rglob("*.html"):
+        linked.update(re.findall(r"_images/inline/([0-9a-f]+\.png)", page.read_text(encoding="utf-8")))
+    for image in (outdir / FOLDER).glob("*.png"):
+        if image.name not in linked:
+            image.unlink()
+    for source_map in (outdir / "_static").rglob("*.map"):
+        source_map.unlink()
+
+
 def lighten(app, exception) -> None:
     if exception is not None or app.builder.format != "html":
         return
@@ -138,6 +152,7 @@ def lighten(app, exception) -> None:
     for page in sorted(outdir.rglob("*.html")):
         if "_static" not in page.relative_to(outdir).parts:
             images.rewrite(page)
+    collect_unused(outdir)
     for notebook in sorted((outdir / "_sources").rglob("*.ipynb")):
         content = json.loads(notebook.read_text(encoding="utf-8"))
         notebook.write_text(json.dumps(lighter_notebook(content, images), indent=1, ensure_ascii=False) + "\n",

@@ -275,8 +275,7 @@ EvidenceBlock(
 # given the robot's path they are linear-Gaussian, so a Kalman filter per particle computes them
 # exactly (Rao-Blackwellisation, {doc}`../part1/rao_blackwell`), or, more generally, to carry each
 # particle's sufficient statistics of the static coordinates and redraw them from their posterior
-# given those statistics at each step {cite:p}`storvik2002,fearnhead2002` (exercise
-# {ref}`ex-studies-linear-n`).
+# given those statistics at each step {cite:p}`storvik2002,fearnhead2002` ({ref}`exercise 19.4 <ex-studies-linear-n>`).
 #
 # ## The resampling scheme
 #

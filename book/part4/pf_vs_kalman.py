@@ -315,7 +315,7 @@ EvidenceBlock(
 # the runs {glue:text}`robot_pf1000_nees_above_low:.2f`-{glue:text}`robot_pf1000_nees_above_high:.2f`):
 # its covariance, estimated from a resampled cloud, is too small for its error. Its NIS looks as
 # good as the Kalman filters', because the measurement noise $R$ dominates $S_k$ and hides the
-# under-estimated state spread (exercise {ref}`ex-kalman-nis`): on real data, where only the NIS can be computed,
+# under-estimated state spread ({ref}`exercise 21.3 <ex-kalman-nis>`): on real data, where only the NIS can be computed,
 # this over-confidence would go unnoticed.
 
 # %% tags=["remove-input"] jupyter={"source_hidden": true}
@@ -439,8 +439,7 @@ EvidenceBlock(
 # **The report's prior: the order reverses.** The EKF and the UKF lose
 # {glue:text}`terrain_wide_ekf_lost:.0%` and {glue:text}`terrain_wide_ukf_lost:.0%` of the
 # flights: the slope of the terrain at a wrong guess says nothing about where the right one is,
-# and nine sigma points and one covariance cannot describe several separate modes (exercise
-# {ref}`ex-kalman-ukf`). The particle filter is the only filter whose share of lost flights falls as $N$ grows,
+# and nine sigma points and one covariance cannot describe several separate modes ({ref}`exercise 21.4 <ex-kalman-ukf>`). The particle filter is the only filter whose share of lost flights falls as $N$ grows,
 # here to {glue:text}`terrain_wide_pf3000_lost:.0%` at $N = 3000$.
 #
 # Over more flights, {doc}`../part2/terrain_cure` measures that it still loses {glue:text}`../part2/terrain_cure.ipynb::terrain_baseline_diverged:.0%`

@@ -807,7 +807,7 @@ EvidenceBlock(
 # ```{exercise} 23.1 The likelihood estimator from a filter's weights
 # :label: ex-lik-estimator
 # :nonumber:
-# A filter's run left, for each step $k$, the log-weights $\logG_k^i$ of its moved particles
+# A filter's run left, for each step $k$, the log-weights $\log G_k^i$ of its moved particles
 # (`log_w`, shape $(K, N)$, zero at a step without measurement) and whether the cloud was resampled
 # after step $k$ (`resampled`, shape $(K,)$). Write `log_likelihood_from_run(log_w, resampled)`,
 # returning $\log\hat p(z_{1:K})$ of Algorithm 23.1 in the log domain. The checker compares it with
