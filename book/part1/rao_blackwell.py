@@ -869,8 +869,8 @@ display(control_panel(draw_one_run, grid={"n_particles": (10, 100, 1000)},
 # Given $r_{k-1}^i$ and the particle's map filter, $r_k \sim \mathcal N(r^-, Q_r)$ and
 # $l \sim \mathcal N(m^-, P^-)$ independently, and $z_k = A r_k + C l + v_k$. So $(r_k, z_k)$ is
 # jointly Gaussian with $\operatorname{Cov}(z_k) = S = A Q_r A^\top + C P^- C^\top + R$ and
-# $\operatorname{Cov}(r_k, z_k) = Q_r A^\top$. Conditioning: $r_k \mid z_k \sim \mathcal N(r^- + G(z_k - A r^- - C m^-),
-# Q_r - G S G^\top)$ with $G = Q_r A^\top S^{-1}$. The incremental weight
+# $\operatorname{Cov}(r_k, z_k) = Q_r A^\top$. Conditioning: $r_k \mid z_k \sim \mathcal N(r^- + K_r(z_k - A r^- - C m^-),
+# Q_r - K_r S K_r^\top)$ with $K_r = Q_r A^\top S^{-1}$. The incremental weight
 # $p(z_k \mid r_k, \cdot)\, p(r_k \mid r_{k-1}) / q(r_k) = p(z_k \mid r_{k-1}^i, z_{1:k-1})$ is
 # the marginal $\mathcal N(z_k; A r^- + C m^-, S)$, free of $r_k$.
 # ```
@@ -902,8 +902,8 @@ print(check_fastslam2_move(fastslam2_move))
 # %% [markdown]
 # ```{solution} ex-rb-code
 # :class: dropdown
-# With $S = A Q_r A^\top + C P^- C^\top + R$, $G = Q_r A^\top S^{-1}$ and
-# $\nu^i = z_k - A r^{-,i} - C m^{-,i}$: $r_k^i \sim \mathcal N(r^{-,i} + G \nu^i,\ Q_r - G S G^\top)$,
+# With $S = A Q_r A^\top + C P^- C^\top + R$, $K_r = Q_r A^\top S^{-1}$ and
+# $\nu^i = z_k - A r^{-,i} - C m^{-,i}$: $r_k^i \sim \mathcal N(r^{-,i} + K_r \nu^i,\ Q_r - K_r S K_r^\top)$,
 # and the log-weight is $\log \mathcal N(\nu^i;\ 0,\ S)$ whatever robot is drawn. The code is in
 # the folded cell below (in JupyterLab, click its margin to unfold it).
 # ```
@@ -911,10 +911,10 @@ print(check_fastslam2_move(fastslam2_move))
 # %% tags=["solution", "hide-input"] jupyter={"source_hidden": true}
 def fastslam2_move(r_pred, m_pred, P_pred, z, A, C, Qr, R, rng):
     S = A @ Qr @ A.T + C @ P_pred @ C.T + R
-    G = Qr @ A.T @ np.linalg.inv(S)
+    Kr = Qr @ A.T @ np.linalg.inv(S)
     nu = z - r_pred @ A.T - m_pred @ C.T  # each parent's innovation
-    L = np.linalg.cholesky(Qr - G @ S @ G.T)
-    robots = r_pred + nu @ G.T + rng.standard_normal(r_pred.shape) @ L.T
+    L = np.linalg.cholesky(Qr - Kr @ S @ Kr.T)
+    robots = r_pred + nu @ Kr.T + rng.standard_normal(r_pred.shape) @ L.T
     log_w = stats.multivariate_normal(cov=S).logpdf(nu)
     return robots, log_w
 
