@@ -60,26 +60,26 @@
 # $$
 # \begin{pmatrix} x_k \\ z_k \end{pmatrix} \Bigm| x_{k-1}^i \;\sim\;
 # \mathcal N\!\left( \begin{pmatrix} \bar x_k^i \\ H_k \bar x_k^i \end{pmatrix},
-# \begin{pmatrix} Q & Q H_k^\top \\ H_k Q & C_k \end{pmatrix} \right),
-# \qquad C_k = H_k Q H_k^\top + R .
+# \begin{pmatrix} Q & Q H_k^\top \\ H_k Q & S_k \end{pmatrix} \right),
+# \qquad S_k = H_k Q H_k^\top + R .
 # $$
 #
-# The marginal of $z_k$ is the weight, $p(z_k \mid x_{k-1}^i) = \mathcal N(z_k;\, H_k \bar x_k^i,\, C_k)$.
+# The marginal of $z_k$ is the weight, $p(z_k \mid x_{k-1}^i) = \mathcal N(z_k;\, H_k \bar x_k^i,\, S_k)$.
 # Conditioning $x_k$ on $z_k$ is the Kalman update of {doc}`kalman`, applied to one particle with
 # prior covariance $Q$:
 #
 # $$
 # p(x_k \mid x_{k-1}^i, z_k) = \mathcal N\big(\mu_k^i,\ \Sigma_k\big), \qquad
-# \mu_k^i = \bar x_k^i + G_k (z_k - H_k \bar x_k^i), \qquad
-# \Sigma_k = (I - G_k H_k)\, Q, \qquad G_k = Q H_k^\top C_k^{-1} .
+# \mu_k^i = \bar x_k^i + K_k (z_k - H_k \bar x_k^i), \qquad
+# \Sigma_k = (I - K_k H_k)\, Q, \qquad K_k = Q H_k^\top S_k^{-1} .
 # $$
 #
-# $G_k$ plays the role of the Kalman gain $K_k$, with $Q$ in the place of $P_k^-$; $\Sigma_k$ is
+# $K_k$ is the gain of this local Kalman update, with $Q$ in the place of $P_k^-$; $\Sigma_k$ is
 # the same for every particle, only the mean $\mu_k^i$ moves with the parent.
 #
 # Two consequences can be read off the formulas before any experiment.
 #
-# - When $R$ is broad next to $Q$, $G_k \approx 0$ and the optimal importance function is the
+# - When $R$ is broad next to $Q$, $K_k \approx 0$ and the optimal importance function is the
 #   bootstrap one: nothing to gain. When $R$ is sharp, the bootstrap wastes most particles and
 #   the optimal proposal saves them.
 # - For the lab's static landmarks the process noise is $10^{-20}$ m²: the landmark block of
@@ -93,9 +93,9 @@
 #    1. *predict:* $\bar x_k^i = F x_{k-1}^i + B$;
 #    2. *if nothing is measured:* $x_k^i = \bar x_k^i + w_k^i$, $w_k^i \sim \mathcal N(0, Q)$, and the
 #       weights stay, and the step goes on to the estimate;
-#    3. *propose:* $C_k = H_k Q H_k^\top + R$, $G_k = Q H_k^\top C_k^{-1}$, $\Sigma_k = (I - G_k H_k) Q$;
-#       draw $x_k^i \sim \mathcal N\big(\bar x_k^i + G_k (z_k - H_k \bar x_k^i),\ \Sigma_k\big)$;
-#    4. *weight:* $\log \tilde w_k^i = \log W_{k-1}^i + \log \mathcal N(z_k;\, H_k \bar x_k^i,\, C_k)$ (the
+#    3. *propose:* $S_k = H_k Q H_k^\top + R$, $K_k = Q H_k^\top S_k^{-1}$, $\Sigma_k = (I - K_k H_k) Q$;
+#       draw $x_k^i \sim \mathcal N\big(\bar x_k^i + K_k (z_k - H_k \bar x_k^i),\ \Sigma_k\big)$;
+#    4. *weight:* $\log \tilde w_k^i = \log W_{k-1}^i + \log \mathcal N(z_k;\, H_k \bar x_k^i,\, S_k)$ (the
 #       parent's prediction, not the new particle), then normalise with a logsumexp;
 #    5. *estimate* $\hat m_k$, $\hat P_k$ and $\mathrm{ESS}_k$ as in Algorithm 4.1;
 #    6. *resample* when $\mathrm{ESS}_k < \tau N$ ({doc}`sir`).
@@ -159,19 +159,19 @@ def optimal_step(x_prev, z, model, rng):
         return pred + noise, np.zeros(len(x_prev))
     H, R = model.H[seen], model.R[np.ix_(seen, seen)]
     # covariance of z_k given x_(k-1)
-    C = H @ Q @ H.T + R
-    # G_k = Q H^T C^-1 (C is symmetric)
-    G = np.linalg.solve(C, H @ Q).T
-    # (I - G_k H_k) Q, the same for every particle
-    Sigma = Q - G @ C @ G.T
+    S = H @ Q @ H.T + R
+    # K_k = Q H^T S^-1 (S is symmetric)
+    K = np.linalg.solve(S, H @ Q).T
+    # (I - K_k H_k) Q, the same for every particle
+    Sigma = Q - K @ S @ K.T
     # z_k - H_k x̄_k^i, (N, measured), and the proposal's means
     nu = z[seen] - pred @ H.T
-    mu = pred + nu @ G.T
+    mu = pred + nu @ K.T
     # symmetrised against round-off
     L = np.linalg.cholesky(0.5 * (Sigma + Sigma.T))
     x_new = mu + rng.standard_normal(x_prev.shape) @ L.T
-    quad = np.einsum("ij,ij->i", nu @ np.linalg.inv(C), nu)
-    return x_new, -0.5 * (quad + np.linalg.slogdet(2 * np.pi * C)[1])
+    quad = np.einsum("ij,ij->i", nu @ np.linalg.inv(S), nu)
+    return x_new, -0.5 * (quad + np.linalg.slogdet(2 * np.pi * S)[1])
 
 
 # %% tags=["hide-input"] jupyter={"source_hidden": true}
@@ -340,7 +340,8 @@ for scale in scales:
     key = "sharp" if scale == scales[0] else "broad"
     (eb, rb), (eo, ro) = sweep[scale, "bootstrap"], sweep[scale, "optimal"]  # eb, eo: pooled ESS / N
     q, rr = 0.05, 0.1 * scale
-    one_axis = rr * np.sqrt(rr**2 + 2 * q**2) / (rr**2 + q**2)  # bootstrap ESS / optimal ESS, one point, one axis
+    # bootstrap ESS / optimal ESS, one point, one axis: z = l - r has prior variance 2 q^2
+    one_axis = rr * np.sqrt(rr**2 + 4 * q**2) / (rr**2 + 2 * q**2)
     eb_run, eo_run = ess_per_run[scale, "bootstrap"], ess_per_run[scale, "optimal"]
     ok = ~np.isnan(eb_run)
     t_ess = evidence.paired(eb_run[ok], eo_run[ok], ratio=True)
@@ -362,8 +363,10 @@ EvidenceBlock(
            "threshold 1/2. Ratios are per run, "
            "with the 95 % interval of their median and Wilcoxon's test (see Reading the evidence).", *notes,
            "The one-point theory: for one observed coordinate, a prior cloud concentrated at one point and a "
-           "measurement at its predicted value, the bootstrap keeps r sqrt(r^2 + 2 q^2) / (r^2 + q^2) of the "
-           "optimal proposal's ESS (q, r: standard deviations)."],
+           "measurement at its predicted value, the bootstrap keeps r sqrt(r^2 + 2 s^2) / (r^2 + s^2) of the "
+           "optimal proposal's ESS, where s^2 is the prior variance of the measured quantity; here z = l - r "
+           "with robot and landmark each of variance q^2, so s^2 = 2 q^2 and the fraction is "
+           "r sqrt(r^2 + 4 q^2) / (r^2 + 2 q^2) (q, r: standard deviations)."],
     tables=[("The two settings (means over all measurement steps of all runs)", pd.DataFrame(rows),
              {c: ".3f" for c in rows[0]})],
 )
@@ -372,9 +375,10 @@ EvidenceBlock(
 # The ESS tells the same story: with sharp measurements the optimal proposal keeps
 # {glue:text}`prop_sharp_ess_gain:.0f` times as many effective particles as the bootstrap. With
 # broad ones the bootstrap keeps a median {glue:text}`prop_broad_ess_ratio:.2f` of the optimal
-# proposal's ESS per run, below what a cloud concentrated at one point would give (one-point
-# theory, in the evidence above): here the cloud is spread and several coordinates are measured
-# at once (an explanation, not tested here).
+# proposal's ESS per run, below the {glue:text}`prop_broad_theory_two_axes:.2f` that a cloud
+# concentrated at one point would give with two measured axes (one-point theory, in the evidence
+# above, which shows the sharp setting below its value too): here the cloud is spread and several
+# coordinates are measured at once (an explanation, not tested here).
 #
 # ## Scrubbing the noise ratio
 #
@@ -444,7 +448,7 @@ glue_values("prop_", anim_rv_sd_min=0.1 * frame_scales[0], anim_rv_sd_max=0.1 * 
 # better proposal for the landmarks but *not sampling them at all*. Given the robot path, the
 # landmarks are linear-Gaussian and can be integrated out exactly by a Kalman filter per
 # particle, which is Rao-Blackwellisation {cite:p}`doucet2000`, the principle behind FastSLAM
-# {cite:p}`thrun2005`. Particle filters earn their keep when the model is nonlinear or
+# {cite:p}`montemerlo2002,montemerlo2003`. Particle filters earn their keep when the model is nonlinear or
 # non-Gaussian, as in Parts II and III.
 #
 # {doc}`rao_blackwell` builds that filter through the same engine and measures it: sampling
@@ -547,8 +551,8 @@ print(check_optimal_proposal(my_optimal))
 # ```{solution} ex-prop-code
 # :class: dropdown
 # The formulas of {ref}`optimal-proposal` with $F = a$, $B = 0$, $H = 1$, $Q = q$, $R = r$:
-# $C = q + r$, $G = q / (q + r)$, so $\sigma^2 = (1 - G)\, q = (1/q + 1/r)^{-1}$,
-# $\mu^i = a x_{k-1}^i + G (z_k - a x_{k-1}^i) = \sigma^2 (a x_{k-1}^i / q + z_k / r)$ and
+# $S = q + r$, $K = q / (q + r)$, so $\sigma^2 = (1 - K)\, q = (1/q + 1/r)^{-1}$,
+# $\mu^i = a x_{k-1}^i + K (z_k - a x_{k-1}^i) = \sigma^2 (a x_{k-1}^i / q + z_k / r)$ and
 # $p(z_k \mid x_{k-1}^i) = \mathcal N(z_k;\, a x_{k-1}^i,\, q + r)$: the precisions add, and the
 # mean is the precision-weighted average of the prediction and the measurement. The code is in
 # the folded cell below (in JupyterLab, click its margin to unfold it).

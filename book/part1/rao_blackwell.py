@@ -34,7 +34,8 @@
 #
 # Split the state into the robot $r_k$ and the map $l = (l^1, \dots, l^M)$. The robot moves
 # on its own ($F$, $Q_w$ and $P_0$ have no robot-map blocks), and a measurement is
-# $z_k = C_k l - A'_k r_k + v_k$, linear in $l$ once the robot path is fixed. So
+# $z_k = A_k r_k + C_k l + v_k$ ($A_k$, $C_k$: the robot and map columns of the visible rows of
+# $H_k$), linear in $l$ once the robot path is fixed. So
 #
 # $$
 # p(r_{0:k}, l \mid z_{1:k}) = p(r_{0:k} \mid z_{1:k})\;
@@ -63,7 +64,7 @@
 #    or from its optimal proposal $p(r_k \mid r_{k-1}^i, z_k)$, a Gaussian that uses the map
 #    filter's uncertainty (FastSLAM 2.0; derived in the exercises);
 # 2. **weight** by how well the particle's map predicted $z_k$:
-#    $\log w_k^i = \log W_{k-1}^i + \log \mathcal N(z_k;\ A r_k^i + C m^-,\ C P^- C^\top + R)$ for
+#    $\log \tilde w_k^i = \log W_{k-1}^i + \log \mathcal N(z_k;\ A r_k^i + C m^-,\ C P^- C^\top + R)$ for
 #    the prior proposal, $\log \mathcal N(z_k;\ A r^- + C m^-,\ A Q_r A^\top + C P^- C^\top + R)$
 #    for the optimal one;
 # 3. **update the map filter** with $z_k - A r_k^i = C l + v_k$: innovation
@@ -477,12 +478,13 @@ print(f"Kalman filter: posterior standard deviation of a landmark coordinate at 
 glue("kalman_landmark_sd_last", float(kalman_lm_sd), display=False)
 
 # Where the excess comes from, on the same runs at N = 100 (FastSLAM 2.0, the study's seeds, re-run):
-# the NEES with the filter's mean and the EXACT covariance isolates the mean's sampling error;
-# (m^ - m)^T P^-1 (m^ - m) is that error alone; the sd ratios measure how the mixture covariance shrinks.
+# the NEES with the filter's mean and the EXACT covariance isolates the mean's sampling error, the
+# NEES with the EXACT mean and the filter's covariance the shrunk covariance (what both add beyond the
+# sum of the two is their interaction); (m^ - m)^T P^-1 (m^ - m) is the mean's error alone; the sd ratios measure how the mixture covariance shrinks.
 from pfcourse.diagnostics import nees
 from pfcourse.seeding import study_filter_seed
 
-parts = {"mean_only": [], "mean_error": [], "lm_sd": [], "robot_sd": [], "check": []}
+parts = {"mean_only": [], "cov_only": [], "mean_error": [], "lm_sd": [], "robot_sd": [], "check": []}
 for s in sorted(quad.seed.unique()):
     s_sim = simulate(scenario, rng=int(s))
     s_kf = kalman_filter(model, s_sim.measurements)
@@ -491,14 +493,17 @@ for s in sorted(quad.seed.unique()):
     last = slice(-10, None)
     parts["check"].append(nees(s_sim.truth[last], s_pf.mean[last], s_pf.cov[last]).mean())
     parts["mean_only"].append(nees(s_sim.truth[last], s_pf.mean[last], s_kf.cov[last]).mean())
+    parts["cov_only"].append(nees(s_sim.truth[last], s_kf.mean[last], s_pf.cov[last]).mean())
     parts["mean_error"].append(nees(s_kf.mean[last], s_pf.mean[last], s_kf.cov[last]).mean())
     sd_ratio = np.sqrt(np.diag(s_pf.cov[-1]) / np.diag(s_kf.cov[-1]))
     parts["lm_sd"].append(np.exp(np.mean(np.log(sd_ratio[2:]))))
     parts["robot_sd"].append(np.exp(np.mean(np.log(sd_ratio[:2]))))
 parts = {name: np.array(v) for name, v in parts.items()}
+kalman_runs = per_run_last10("kalman", 0).mean()
 assert np.allclose(parts["check"], per_run_last10("rbpf_optimal", 100))  # the stored NEES, reproduced
 print(f"RBPF (FastSLAM 2.0), N = 100, last 10 steps, mean of {n_runs} runs: NEES {parts['check'].mean():.2f}; "
-      f"with the exact covariance {parts['mean_only'].mean():.2f}; the mean's sampling error alone, "
+      f"with the exact covariance {parts['mean_only'].mean():.2f}; with the exact mean "
+      f"{parts['cov_only'].mean():.2f}; the mean's sampling error alone, "
       f"(m^ - m)^T P^-1 (m^ - m), {parts['mean_error'].mean():.2f}; Kalman {per_run_last10('kalman', 0).mean():.2f}")
 print(f"sd / exact sd at the last step (medians over the runs): landmarks {np.median(parts['lm_sd']):.2f}, "
       f"robot {np.median(parts['robot_sd']):.2f}")
@@ -506,8 +511,12 @@ glue_values("rbpf_nees_",
             excess_n100=float(last10[100] - 6),
             exact_cov_n100=parts["mean_only"].mean(),
             mean_error_n100=parts["mean_error"].mean(),
-            cov_share_n100=float(last10[100] - parts["mean_only"].mean()),
-            kalman_runs=per_run_last10("kalman", 0).mean(),
+            exact_mean_n100=parts["cov_only"].mean(),
+            mean_share_n100=parts["mean_only"].mean() - kalman_runs,
+            cov_share_n100=parts["cov_only"].mean() - kalman_runs,
+            interaction_n100=float(last10[100] - parts["mean_only"].mean() - parts["cov_only"].mean()
+                                   + kalman_runs),
+            kalman_runs=kalman_runs,
             lm_sd_ratio_n100=np.median(parts["lm_sd"]),
             robot_sd_ratio_n100=np.median(parts["robot_sd"]))
 
@@ -530,11 +539,17 @@ glue_values("rbpf_nees_",
 #   {glue:text}`rbpf_nees_robot_sd_ratio_n100:.2f` (on the five-landmark model below, the
 #   landmarks' is {glue:text}`m5_rbpf_lm_sd:.2f`).
 #
-# With the exact covariance in place of the filter's, the NEES falls to
-# {glue:text}`rbpf_nees_exact_cov_n100:.1f`: the shrunk covariance accounts for the other
-# {glue:text}`rbpf_nees_cov_share_n100:.1f` of the excess; the rest is the mean's error and the
-# chance spread of these runs (the Kalman filter's own NEES on them is
-# {glue:text}`rbpf_nees_kalman_runs:.1f`).
+# How much each adds depends on which is replaced first, so replace each alone. The Kalman
+# filter's own NEES on these runs is {glue:text}`rbpf_nees_kalman_runs:.1f` (its excess over
+# $6$ is chance). With the exact covariance in place of the filter's, the NEES is
+# {glue:text}`rbpf_nees_exact_cov_n100:.1f`: the mean alone adds
+# {glue:text}`rbpf_nees_mean_share_n100:.1f`.
+#
+# With the exact mean and the filter's covariance, the NEES is
+# {glue:text}`rbpf_nees_exact_mean_n100:.1f`: the shrunk covariance alone adds
+# {glue:text}`rbpf_nees_cov_share_n100:.1f`. The remaining
+# {glue:text}`rbpf_nees_interaction_n100:.1f` is their interaction: the mean's error judged by a
+# covariance too small for it.
 #
 # The excess shrinks with $N$: at $N = 3000$ the last-$10$-step NEES is
 # {glue:text}`rbpf_nees_last10_n3000:.1f` (per run, the $N = 100$ value is a median
@@ -558,8 +573,12 @@ EvidenceBlock(
            f"with the study's seeds; the re-run reproduces the stored NEES): with the filter's mean and the exact "
            f"covariance the NEES is {parts['mean_only'].mean():.2f} (Kalman's own, on these runs, "
            f"{per_run_last10('kalman', 0).mean():.2f}); the mean's sampling error alone, (m^ - m)^T P^-1 (m^ - m), "
-           f"averages {parts['mean_error'].mean():.2f}; the rest, {last10[100] - parts['mean_only'].mean():.2f}, "
-           f"is the shrunk covariance (sd / exact sd at the last step, medians: landmarks "
+           f"averages {parts['mean_error'].mean():.2f}; with the exact mean and the filter's covariance it is "
+           f"{parts['cov_only'].mean():.2f}. Over the Kalman filter's {kalman_runs:.2f}: the mean alone adds "
+           f"{parts['mean_only'].mean() - kalman_runs:.2f}, the shrunk covariance alone "
+           f"{parts['cov_only'].mean() - kalman_runs:.2f}, their interaction (the mean's error judged by the "
+           f"shrunk covariance) {last10[100] - parts['mean_only'].mean() - parts['cov_only'].mean() + kalman_runs:.2f} "
+           f"(sd / exact sd at the last step, medians: landmarks "
            f"{np.median(parts['lm_sd']):.2f}, robot {np.median(parts['robot_sd']):.2f}).",
            f"Per-run NEES over the last 10 steps, N = 100 / N = 3000: {nees_100_3000} (see the page on evidence).",
            f"The excess of the run-averaged last-10-step NEES over 6 falls as N to the power {excess_slope:.2f} "
@@ -850,8 +869,8 @@ display(control_panel(draw_one_run, grid={"n_particles": (10, 100, 1000)},
 # Given $r_{k-1}^i$ and the particle's map filter, $r_k \sim \mathcal N(r^-, Q_r)$ and
 # $l \sim \mathcal N(m^-, P^-)$ independently, and $z_k = A r_k + C l + v_k$. So $(r_k, z_k)$ is
 # jointly Gaussian with $\operatorname{Cov}(z_k) = S = A Q_r A^\top + C P^- C^\top + R$ and
-# $\operatorname{Cov}(r_k, z_k) = Q_r A^\top$. Conditioning: $r_k \mid z_k \sim \mathcal N(r^- + G(z_k - A r^- - C m^-),
-# Q_r - G S G^\top)$ with $G = Q_r A^\top S^{-1}$. The incremental weight
+# $\operatorname{Cov}(r_k, z_k) = Q_r A^\top$. Conditioning: $r_k \mid z_k \sim \mathcal N(r^- + K_r(z_k - A r^- - C m^-),
+# Q_r - K_r S K_r^\top)$ with $K_r = Q_r A^\top S^{-1}$. The incremental weight
 # $p(z_k \mid r_k, \cdot)\, p(r_k \mid r_{k-1}) / q(r_k) = p(z_k \mid r_{k-1}^i, z_{1:k-1})$ is
 # the marginal $\mathcal N(z_k; A r^- + C m^-, S)$, free of $r_k$.
 # ```
@@ -883,8 +902,8 @@ print(check_fastslam2_move(fastslam2_move))
 # %% [markdown]
 # ```{solution} ex-rb-code
 # :class: dropdown
-# With $S = A Q_r A^\top + C P^- C^\top + R$, $G = Q_r A^\top S^{-1}$ and
-# $\nu^i = z_k - A r^{-,i} - C m^{-,i}$: $r_k^i \sim \mathcal N(r^{-,i} + G \nu^i,\ Q_r - G S G^\top)$,
+# With $S = A Q_r A^\top + C P^- C^\top + R$, $K_r = Q_r A^\top S^{-1}$ and
+# $\nu^i = z_k - A r^{-,i} - C m^{-,i}$: $r_k^i \sim \mathcal N(r^{-,i} + K_r \nu^i,\ Q_r - K_r S K_r^\top)$,
 # and the log-weight is $\log \mathcal N(\nu^i;\ 0,\ S)$ whatever robot is drawn. The code is in
 # the folded cell below (in JupyterLab, click its margin to unfold it).
 # ```
@@ -892,10 +911,10 @@ print(check_fastslam2_move(fastslam2_move))
 # %% tags=["solution", "hide-input"] jupyter={"source_hidden": true}
 def fastslam2_move(r_pred, m_pred, P_pred, z, A, C, Qr, R, rng):
     S = A @ Qr @ A.T + C @ P_pred @ C.T + R
-    G = Qr @ A.T @ np.linalg.inv(S)
+    Kr = Qr @ A.T @ np.linalg.inv(S)
     nu = z - r_pred @ A.T - m_pred @ C.T  # each parent's innovation
-    L = np.linalg.cholesky(Qr - G @ S @ G.T)
-    robots = r_pred + nu @ G.T + rng.standard_normal(r_pred.shape) @ L.T
+    L = np.linalg.cholesky(Qr - Kr @ S @ Kr.T)
+    robots = r_pred + nu @ Kr.T + rng.standard_normal(r_pred.shape) @ L.T
     log_w = stats.multivariate_normal(cov=S).logpdf(nu)
     return robots, log_w
 
@@ -926,8 +945,10 @@ print(check_fastslam2_move(fastslam2_move))
 #   can be computed exactly: each particle carries a robot position and its own Kalman filter.
 # - The map is never sampled, so nothing impoverishes: the error falls at the Monte Carlo rate
 #   $N^{-1/2}$, while SIR's stalls, and the gap widens with $N$.
-# - The particle's weight is the predictive likelihood of $z_k$ under its own map,
-#   $\mathcal N(\nu;\ 0,\ C P C^\top + R)$, not the likelihood with the map's uncertainty left out.
+# - The particle's weight is the predictive likelihood of $z_k$ under its own map, not the
+#   likelihood with the map's uncertainty left out: $\mathcal N(z_k;\ A r_k^i + C m^-,\ C P^- C^\top + R)$
+#   at the drawn robot for FastSLAM 1.0, and $\mathcal N(z_k;\ A r^- + C m^-,\ A Q_r A^\top + C P^- C^\top + R)$
+#   at the predicted robot $r^-$ for FastSLAM 2.0.
 # - At small $N$ the filter is still overconfident: its mean carries a sampling error, and
 #   resampling shrinks its mixture covariance; each particle pays for a map covariance, more so
 #   with more landmarks.
