@@ -345,7 +345,7 @@ def draw_panel(n_particles, z, seed):
 
 display(control_panel(draw_panel, grid={"n_particles": (10, 20, 50)}, n_particles=particle_slider(N_PICTURE, 1, 2),
                       z=widgets.FloatSlider(value=Z_PICTURE, min=-1.0, max=3.0, step=0.1,
-                                            description="measurement z_k"),
+                                            description="the measurement"),
                       seed=seed_box(3)))
 
 # %% [markdown]
