@@ -135,6 +135,35 @@ def _draws_from_its_generator(report: CheckReport, call: Callable, midpoints: np
     return not report.problems
 
 
+def _offspring_counts(report: CheckReport, draw: Callable, n_draws: int, n: int, n_weights: int,
+                      rng: np.random.Generator, range_hint: str, zero_hint: str) -> np.ndarray | None:
+    """Copy counts ``(n_draws, n_weights)`` of ``n_draws`` calls ``draw(rng)`` of ``n`` ancestor indices, or
+    ``None`` with the problem reported: an index out of range (``range_hint`` says how to draw it), or the
+    weight-0 particle (index 2 of both checkers' weights) chosen (``zero_hint`` says why it cannot be)."""
+    counts = np.empty((n_draws, n_weights))
+    for t in range(n_draws):
+        idx = np.asarray(draw(rng))
+        if idx.shape != (n,) or idx.min() < 0 or idx.max() >= n_weights:
+            report.problems.append(f"draw {t}: an index is out of range [0, {n_weights}) (got {idx.min()}.."
+                                   f"{idx.max()}): {range_hint}")
+            return None
+        counts[t] = np.bincount(idx, minlength=n_weights)
+    if counts[:, 2].any():
+        report.problems.append(f"a particle of weight 0 was chosen: {zero_hint}")
+        return None
+    return counts
+
+
+def _most_biased(counts: np.ndarray, w: np.ndarray, n: int) -> tuple[int, float, float] | None:
+    """The particle whose mean copy count is farthest from ``n W_i`` beyond 5 standard errors (an unbiased
+    scheme gives ``E N_i = n W_i``): ``(i, mean, se)``, or ``None`` when every particle is within."""
+    mean, se = counts.mean(axis=0), counts.std(axis=0, ddof=1) / np.sqrt(len(counts))
+    if not (np.abs(mean - n * w) > 5 * se + 1e-9).any():
+        return None
+    i = int(np.argmax(np.abs(mean - n * w) - 5 * se))
+    return i, float(mean[i]), float(se[i])
+
+
 def check_stratified_resampler(fn: Callable, n_draws: int = 4000, seed: int = 0) -> CheckReport:
     """Check a stratified resampler ``fn(weights, n, rng) -> n ancestor indices``, drawing ``n`` particles
     from ``N`` weights, ``n`` and ``N`` different.
@@ -179,32 +208,23 @@ def _check_stratified(fn: Callable, n_draws: int, seed: int) -> CheckReport:
     midpoints = np.minimum(np.searchsorted(np.cumsum(w), (np.arange(n) + 0.5) / n, side="right"), N - 1)
     if not _draws_from_its_generator(report, lambda g: fn(w.copy(), n, g), midpoints):
         return report
-    rng = np.random.default_rng(seed)
-    counts = np.empty((n_draws, N))
-    for t in range(n_draws):
-        idx = np.asarray(fn(w.copy(), n, rng))
-        if idx.shape != (n,) or idx.min() < 0 or idx.max() >= N:
-            report.problems.append(
-                f"draw {t}: an index is out of range [0, {N}) (got {idx.min()}..{idx.max()}): the ancestor of u is "
-                "the i with C[i-1] <= u < C[i], np.searchsorted(C, u, side='right'), capped at N - 1")
-            return report
-        counts[t] = np.bincount(idx, minlength=N)
-    if counts[:, 2].any():
-        report.problems.append(
-            "a particle of weight 0 was chosen: its segment of the bar has no width, so no uniform can select "
-            "it; search the cumulative weights with side='right'")
+    counts = _offspring_counts(
+        report, lambda rng: fn(w.copy(), n, rng), n_draws, n, N, np.random.default_rng(seed),
+        "the ancestor of u is the i with C[i-1] <= u < C[i], np.searchsorted(C, u, side='right'), capped at N - 1",
+        "its segment of the bar has no width, so no uniform can select it; search the cumulative weights with "
+        "side='right'")
+    if counts is None:
         return report
-    mean, se = counts.mean(axis=0), counts.std(axis=0, ddof=1) / np.sqrt(n_draws)
-    bad = np.abs(mean - n * w) > 5 * se + 1e-9
-    if bad.any():
-        i = int(np.argmax(np.abs(mean - n * w) - 5 * se))
+    biased = _most_biased(counts, w, n)
+    if biased is not None:
+        i, mean_i, se_i = biased
         report.problems.append(
             f"biased: particle {i} of weight {w[i]:.4f} should get n W = {n * w[i]:.3f} copies on average, it got "
-            f"{mean[i]:.3f} (± {se[i]:.3f}) over {n_draws} draws; the uniforms must cover [0, 1) evenly, "
+            f"{mean_i:.3f} (± {se_i:.3f}) over {n_draws} draws; the uniforms must cover [0, 1) evenly, "
             "one in each of the n strata of width 1/n")
         return report
     var = counts.var(axis=0, ddof=1)
-    var_se = np.sqrt(np.maximum(((counts - mean) ** 4).mean(axis=0) - var**2, 0) / n_draws)
+    var_se = np.sqrt(np.maximum(((counts - counts.mean(axis=0)) ** 4).mean(axis=0) - var**2, 0) / n_draws)
     exact = _offspring_variances(w, n)
     if np.all(np.abs(var - exact["stratified"]) <= 5 * var_se + 0.02):
         return report
@@ -774,28 +794,19 @@ def _check_multinomial_resampler(fn: Callable, n_draws: int, seed: int) -> Check
     if problem is not None:
         report.problems.append(problem)
         return report
-    rng = np.random.default_rng(seed)
-    counts = np.empty((n_draws, n))
-    for t in range(n_draws):
-        idx = np.asarray(fn(w.copy(), rng))
-        if idx.min() < 0 or idx.max() >= n:
-            report.problems.append(
-                f"draw {t}: an index is out of range [0, {n}) (got {idx.min()}..{idx.max()}): np.searchsorted on "
-                "the cumulative weights gives 0..N-1, with the last cumulative weight set to 1")
-            return report
-        counts[t] = np.bincount(idx, minlength=n)
-    if counts[:, 2].any():
-        report.problems.append(
-            "a particle of weight 0 was chosen: a uniform u must select the i with cumsum[i-1] <= u < cumsum[i] "
-            "(np.searchsorted(np.cumsum(W), u, side='right')), never a zero-width interval")
+    counts = _offspring_counts(
+        report, lambda rng: fn(w.copy(), rng), n_draws, n, n, np.random.default_rng(seed),
+        "np.searchsorted on the cumulative weights gives 0..N-1, with the last cumulative weight set to 1",
+        "a uniform u must select the i with cumsum[i-1] <= u < cumsum[i] (np.searchsorted(np.cumsum(W), u, "
+        "side='right')), never a zero-width interval")
+    if counts is None:
         return report
-    mean, se = counts.mean(axis=0), counts.std(axis=0, ddof=1) / np.sqrt(n_draws)
-    bad = np.abs(mean - n * w) > 5 * se + 1e-9
-    if bad.any():
-        i = int(np.argmax(np.abs(mean - n * w) - 5 * se))
+    biased = _most_biased(counts, w, n)
+    if biased is not None:
+        i, mean_i, se_i = biased
         report.problems.append(
             f"biased: particle {i} of weight {w[i]} should get N W = {n * w[i]:.3f} copies on average, it got "
-            f"{mean[i]:.3f} (± {se[i]:.3f}) over {n_draws} draws: each index is j with probability W_j")
+            f"{mean_i:.3f} (± {se_i:.3f}) over {n_draws} draws: each index is j with probability W_j")
         return report
     ratio = counts.var(axis=0, ddof=1).sum() / float(np.sum(n * w * (1 - w)))
     low, high = np.floor(n * w), np.ceil(n * w)
