@@ -135,6 +135,22 @@ def _draws_from_its_generator(report: CheckReport, call: Callable, midpoints: np
     return not report.problems
 
 
+def _seed_problem(state: tuple, answer: tuple, again: tuple, other: tuple, what: str, how: str) -> str | None:
+    """What is wrong with the draws of a function given a generator, or ``None``: ``answer`` and ``again``
+    came from one seed, ``other`` from another, and NumPy's global state was ``state`` before (restored
+    here). ``what`` names the drawn first item ("robots"), ``how`` the draws to use ("rng.random()")."""
+    drew_global = not _same_state(state, np.random.get_state())
+    np.random.set_state(state)
+    if drew_global:
+        return ("it draws from NumPy's global np.random instead of the generator rng it is given: "
+                f"use {how} so that a seed gives one answer")
+    if not np.array_equal(np.asarray(answer[0]), np.asarray(again[0])):
+        return f"the same seed gave different {what}: draw every random number from rng"
+    if np.array_equal(np.asarray(answer[0]), np.asarray(other[0])):
+        return f"another seed gave the same {what}: the rng it is given is not used"
+    return None
+
+
 def _offspring_counts(report: CheckReport, draw: Callable, n_draws: int, n: int, n_weights: int,
                       rng: np.random.Generator, range_hint: str, zero_hint: str) -> np.ndarray | None:
     """Copy counts ``(n_draws, n_weights)`` of ``n_draws`` calls ``draw(rng)`` of ``n`` ancestor indices, or
@@ -1339,18 +1355,9 @@ def check_fastslam2_move(fn: Callable, n: int = 60, n_calls: int = 60, seed: int
     if not _shaped(report, answer[0], (n, 2), "one new robot per particle, shape (N, 2)") or \
             not _shaped(report, answer[1], (n,), "one log-weight per particle"):
         return report
-    again, other = call(1), call(2)
-    drew_global = not _same_state(state, np.random.get_state())
-    np.random.set_state(state)
-    if drew_global:
-        report.problems.append("it draws from NumPy's global np.random instead of the generator rng it is given: "
-                               "use rng.standard_normal(...) so that a seed gives one answer")
-        return report
-    if not np.array_equal(np.asarray(answer[0]), np.asarray(again[0])):
-        report.problems.append("the same seed gave different robots: draw every random number from rng")
-        return report
-    if np.array_equal(np.asarray(answer[0]), np.asarray(other[0])):
-        report.problems.append("another seed gave the same robots: the rng it is given is not used")
+    problem = _seed_problem(state, answer, *(call(1), call(2)), "robots", "rng.standard_normal(...)")
+    if problem is not None:
+        report.problems.append(problem)
         return report
     robots, log_w = np.asarray(answer[0], dtype=float), np.asarray(answer[1], dtype=float)
 
@@ -1522,18 +1529,10 @@ def check_apf_step(fn: Callable, n: int = 200, n_calls: int = 40, seed: int = 0)
     if not _shaped(report, answer[0], (n,), "one new particle per particle") or \
             not _shaped(report, np.asarray(answer[1]), (), "one number, log p^(z_k | z_(1:k-1))"):
         return report
-    again, other = call(1), call(2)
-    drew_global = not _same_state(state, np.random.get_state())
-    np.random.set_state(state)
-    if drew_global:
-        report.problems.append("it draws from NumPy's global np.random instead of the generator rng it is given: "
-                               "use rng.random(), rng.standard_normal(), ... so that a seed gives one answer")
-        return report
-    if not np.array_equal(np.asarray(answer[0]), np.asarray(again[0])):
-        report.problems.append("the same seed gave different particles: draw every random number from rng")
-        return report
-    if np.array_equal(np.asarray(answer[0]), np.asarray(other[0])):
-        report.problems.append("another seed gave the same particles: the rng it is given is not used")
+    problem = _seed_problem(state, answer, *(call(1), call(2)), "particles",
+                            "rng.random(), rng.standard_normal(), ...")
+    if problem is not None:
+        report.problems.append(problem)
         return report
     got = float(answer[1])
     if not np.isclose(got, apf_step_exact(x, log_w, z)[0], rtol=0, atol=1e-9):
