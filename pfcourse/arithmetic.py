@@ -197,14 +197,13 @@ def check(stacklevel: int = 3) -> RuntimeArithmetic | None:
     if not state.is_pinned and not _checked:
         blas = ", ".join(sorted(set(state.blas_cores.values()))) or "unknown"
         warnings.warn(
-            "pfcourse: NumPy was started before pfcourse with CPU-specific code paths "
-            f"(SIMD: {', '.join(state.numpy_simd) or 'baseline'}; OpenBLAS kernels: {blas}). "
-            "Your results are correct, but they can differ in the last digits from the book's, "
-            "and a particle filter can turn such a difference into a visibly different run. "
-            "To get the book's numbers exactly, start Jupyter with `python3 tasks.py lab`, or "
-            "restart the kernel and run `import pfcourse` before `import numpy`, or set "
-            + " ".join(f'{k}="{v}"' for k, v in PINNED_ENVIRONMENT.items())
-            + " in the environment before starting Python.",
+            # short on purpose: a student pasting a chapter's code sees it once; the README's
+            # "One arithmetic on every x86-64 CPU" explains the rest
+            "pfcourse: NumPy was imported before pfcourse, so your results (correct) may differ "
+            "from the book's in the last digits. For the book's exact numbers, restart and run "
+            "`import pfcourse` first, or start Jupyter with `python3 tasks.py lab`. "
+            f"(SIMD: {', '.join(state.numpy_simd) or 'baseline'}; OpenBLAS kernels: {blas}; "
+            "or set " + " ".join(f'{k}="{v}"' for k, v in PINNED_ENVIRONMENT.items()) + ")",
             ReproducibilityWarning,
             stacklevel=stacklevel,
         )
