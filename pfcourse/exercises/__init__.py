@@ -108,10 +108,17 @@ exception is reported as a problem); ``str(report)`` prints the verdict.
 * :func:`check_paired_se` - ``fn(a, b) -> (paired_se, unpaired_se)``: the standard error of a difference of
   means over the same runs, paired and as if unpaired (chapter 18); the population standard deviation,
   a division by ``n``, standard deviations added and the pairing ignored are named.
+
+Each Part ends with a capstone (:mod:`.capstones`):
+
+* :func:`check_sv_filter` - ``fn(y, n, rng, model) -> (means, log_likelihood)``: Part I's capstone, a
+  particle filter for the stochastic volatility model :class:`SVModel`, against a converged grid; its
+  means tested for bias and its likelihood for unbiasedness over seeded runs, seven typical mistakes named.
 """
 
 from __future__ import annotations
 
+from pfcourse.exercises.capstones import SVModel, check_sv_filter, sv_bootstrap, sv_grid  # noqa: F401
 from pfcourse.exercises.checking import (  # noqa: F401
     CheckReport,
     _answer,

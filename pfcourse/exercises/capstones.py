@@ -1,0 +1,218 @@
+"""Capstone exercises: at the end of a Part, the reader writes a whole filter for a model the Part has not
+shown, and the checker measures it against a near-exact answer.
+
+* :func:`check_sv_filter` - ``fn(y, n, rng, model) -> (means, log_likelihood)``: a particle filter for the
+  stochastic volatility model (:class:`SVModel`, Part I's capstone), against a converged grid
+  (:func:`sv_grid`). The filtering means are tested for bias over seeded runs, the likelihood estimate
+  for unbiasedness (``E[p_hat] = p``); the typical mistakes are named: the likelihood's standard deviation
+  ``beta e^{x}`` instead of ``beta e^{x/2}``, the initial cloud drawn from ``N(0, sigma^2)`` instead of the
+  stationary law, the mean read before the weighting, no resampling, ``log sum`` instead of ``log mean`` of
+  the weights, the mean of the log-weights instead of the log of their mean, and draws from NumPy's global
+  generator instead of ``rng``.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.special import logsumexp
+
+from pfcourse.errors import ParameterError
+from pfcourse.exercises.checking import CheckReport, _answer
+from pfcourse.exercises.part1 import _generator_problem
+
+
+@dataclass(frozen=True)
+class SVModel:
+    """The stochastic volatility model of a return series ``y_k`` (Part I's capstone):
+
+    ``x_0 ~ N(0, sigma^2 / (1 - phi^2))`` (the stationary law), ``x_k = phi x_{k-1} + sigma v_k``,
+    ``y_k = beta exp(x_k / 2) w_k`` for ``k = 1, ..., T``, with ``v_k, w_k ~ N(0, 1)`` independent:
+    ``x_k`` is the log-variance of the return, ``y_k | x_k ~ N(0, beta^2 e^{x_k})``. ``sigma`` and ``beta``
+    are standard deviations."""
+
+    phi: float = 0.9
+    sigma: float = 0.5
+    beta: float = 1.0
+
+    def __post_init__(self) -> None:
+        if not -1.0 < self.phi < 1.0:
+            raise ParameterError(f"SVModel: phi = {self.phi} must lie in (-1, 1) for the stationary law to exist")
+        for name in ("sigma", "beta"):
+            if not getattr(self, name) > 0.0:
+                raise ParameterError(f"SVModel: {name} = {getattr(self, name)} must be a positive standard deviation")
+
+    @property
+    def stationary_sd(self) -> float:
+        """The standard deviation ``sigma / sqrt(1 - phi^2)`` of the stationary law of ``x_k``."""
+        return self.sigma / np.sqrt(1.0 - self.phi ** 2)
+
+    def simulate(self, n_steps: int, rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray]:
+        """States ``x_0..x_T`` and returns ``y_1..y_T`` (``n_steps = T``)."""
+        x = np.empty(n_steps + 1)
+        x[0] = self.stationary_sd * rng.standard_normal()
+        for k in range(1, n_steps + 1):
+            x[k] = self.phi * x[k - 1] + self.sigma * rng.standard_normal()
+        y = self.beta * np.exp(x[1:] / 2) * rng.standard_normal(n_steps)
+        return x, y
+
+
+#: The mistakes whose large-N limit the grid computes (:func:`sv_grid`), with the sentence that names each.
+SV_MEAN_MISTAKES = {
+    "sd_exp_x": ("your weights use the standard deviation beta exp(x_k); the model's variance is beta^2 exp(x_k), "
+                 "so its standard deviation is beta exp(x_k / 2)"),
+    "prior": ("your early means fit an initial cloud drawn from N(0, sigma^2); x_0 comes from the stationary law "
+              "N(0, sigma^2 / (1 - phi^2)), wider by 1 / sqrt(1 - phi^2)"),
+    "predicted": ("your means are those of the predicted cloud, read before the weighting: the filtering mean "
+                  "E[x_k | y_1..y_k] is the weighted mean after the reading y_k is used"),
+}
+SV_LIKELIHOOD_MISTAKES = {
+    "log_sum": ("your log-likelihood is about T log N too large: each step's factor is the MEAN of the "
+                "unnormalised weights, log (1/N) sum_i g(y_k | x_k^i), not their sum"),
+    "mean_log": ("your log-likelihood is the mean of the log-weights, which lies below the log of the mean "
+                 "weight (Jensen): each step adds logsumexp(log g) - log N"),
+}
+
+
+def sv_grid(y: np.ndarray, model: SVModel, mistake: str | None = None, n_grid: int = 1601,
+            width: float = 8.0) -> tuple[np.ndarray, float]:
+    """The filtering means ``E[x_k | y_1..y_k]`` (``k = 1..T``) and the log-likelihood ``log p(y_1..y_T)``
+    on a grid of ``n_grid`` points over ``+-width`` stationary standard deviations (converged: doubling
+    ``n_grid`` moves them by less than 1e-8, ``tests/test_capstones.py``).
+
+    The point-mass recursion: ``p_k^- = K p_{k-1}`` with ``K_{ji} = N(x_j; phi x_i, sigma^2) dx``, then
+    ``p_k \\propto g(y_k | x) p_k^-`` and ``log p(y_1..y_T) = sum_k log sum_j g(y_k | x_j) p_k^-(x_j)``.
+    ``mistake`` (a key of :data:`SV_MEAN_MISTAKES` or :data:`SV_LIKELIHOOD_MISTAKES`) returns instead what a
+    filter with that mistake converges to as its number of particles grows.
+    """
+    s = model.stationary_sd
+    x = np.linspace(-width * s, width * s, n_grid)
+    log_k = -0.5 * ((x[:, None] - model.phi * x[None, :]) / model.sigma) ** 2
+    kernel = np.exp(log_k - logsumexp(log_k, axis=0, keepdims=True))  # columns sum to 1: mass moves from i
+    sd0 = model.sigma if mistake == "prior" else s
+    log_p = -0.5 * (x / sd0) ** 2
+    p = np.exp(log_p - logsumexp(log_p))
+    log_var = 2 * x + 2 * np.log(model.beta) if mistake == "sd_exp_x" else x + 2 * np.log(model.beta)
+    means, log_lik = np.empty(len(y)), 0.0
+    for k, yk in enumerate(y):
+        pred = kernel @ p
+        log_g = -0.5 * (np.log(2 * np.pi) + log_var + yk ** 2 * np.exp(-log_var))
+        log_c = logsumexp(log_g, b=pred)
+        log_lik += float(pred @ log_g) if mistake == "mean_log" else log_c
+        post = pred * np.exp(log_g - log_c)
+        p = post / post.sum()
+        means[k] = x @ (pred if mistake == "predicted" else p)
+    return means, log_lik
+
+
+def sv_bootstrap(y: np.ndarray, n: int, rng: np.random.Generator, model: SVModel) -> tuple[np.ndarray, float]:
+    """The reference answer: a bootstrap filter with multinomial resampling at every step."""
+    x = model.stationary_sd * rng.standard_normal(n)
+    means, log_lik = np.empty(len(y)), 0.0
+    for k, yk in enumerate(y):
+        x = model.phi * x + model.sigma * rng.standard_normal(n)
+        log_var = x + 2 * np.log(model.beta)
+        log_w = -0.5 * (np.log(2 * np.pi) + log_var + yk ** 2 * np.exp(-log_var))
+        log_c = logsumexp(log_w)
+        log_lik += log_c - np.log(n)
+        w = np.exp(log_w - log_c)
+        means[k] = w @ x
+        x = x[rng.choice(n, size=n, p=w)]
+    return means, log_lik
+
+
+#: The capstone's data: 60 returns of the default model, simulated with seed 2026.
+SV_STEPS, SV_DATA_SEED = 60, 2026
+
+
+def check_sv_filter(fn: Callable, n: int = 2000, n_runs: int = 24, seed: int = 0,
+                    model: SVModel | None = None) -> CheckReport:
+    """:func:`_check_sv_filter`, leaving NumPy's global ``np.random`` state as it was."""
+    saved = np.random.get_state()
+    try:
+        return _check_sv_filter(fn, n, n_runs, seed, model)
+    finally:
+        np.random.set_state(saved)
+
+
+def _check_sv_filter(fn: Callable, n: int, n_runs: int, seed: int, model: SVModel | None) -> CheckReport:
+    """Check a particle filter ``fn(y, n, rng, model) -> (means, log_likelihood)`` for the stochastic
+    volatility model against the converged grid (:func:`sv_grid`), over ``n_runs`` seeded runs.
+
+    In turn: the answer's shape and finiteness; draws from the generator it is given
+    (:func:`~pfcourse.exercises.part1._generator_problem`); the spread of the means over the runs at most
+    three times that of a resampled filter (:func:`sv_bootstrap`; SIS's collapsed weights spread far more);
+    the means' bias, ``max_k |z_k|`` at most 5 with ``z_k`` the mean over runs minus the grid's mean over its
+    standard error (a correct filter's bias, ``O(1/N)``, is far below it); the likelihood estimate's
+    unbiasedness: ``mean(log p_hat) + var(log p_hat) / 2 - log p`` within 5 standard errors plus 0.05 (for a
+    near-Gaussian ``log p_hat``, ``E[p_hat] = p`` says exactly that). A failure is compared with the large-N
+    limit of each typical mistake, so that it is named."""
+    model = model or SVModel()
+    report = CheckReport("check_sv_filter")
+    _, y = model.simulate(SV_STEPS, np.random.default_rng(SV_DATA_SEED))
+    signature = "fn(y, n, rng, model)"
+    answers = []
+    for run in range(n_runs):
+        answer = _answer(report, lambda: fn(y.copy(), n, np.random.default_rng(seed + run), model), signature,
+                         "return (means, log_likelihood): the filtering mean of each step and log p_hat(y)")
+        if answer is None:
+            return report
+        try:
+            means, log_lik = answer
+            means, log_lik = np.asarray(means, dtype=float), float(log_lik)
+        except (TypeError, ValueError):
+            report.problems.append("return a pair (means, log_likelihood): an array of T means and one number")
+            return report
+        if means.shape != (len(y),):
+            report.problems.append(f"the means have shape {means.shape}, not ({len(y)},): return one filtering "
+                                   "mean per reading y_1..y_T")
+            return report
+        if not (np.isfinite(means).all() and np.isfinite(log_lik)):
+            report.problems.append("the answer holds NaN or infinity: compute the weights in the log domain "
+                                   "and normalise with logsumexp")
+            return report
+        answers.append((means, log_lik))
+    problem = _generator_problem(lambda rng: fn(y.copy(), 200, rng, model),
+                                 lambda a, b: np.array_equal(np.asarray(a[0]), np.asarray(b[0])), what="mean")
+    if problem:
+        report.problems.append(problem)
+        return report
+    m = np.array([a[0] for a in answers])
+    ell = np.array([a[1] for a in answers])
+    ref = np.array([sv_bootstrap(y, n, np.random.default_rng(10_000 + r), model)[0] for r in range(n_runs)])
+    spread, ref_spread = m.std(axis=0, ddof=1).mean(), ref.std(axis=0, ddof=1).mean()
+    if spread > 3 * ref_spread:
+        report.problems.append(
+            f"your means vary over seeds {spread / ref_spread:.0f} times as much as a resampled filter's: "
+            "without resampling the weights collapse onto a few particles; resample after each weighting")
+        return report
+    exact, exact_log_lik = sv_grid(y, model)
+
+    def worst_z(target: np.ndarray) -> float:
+        se = m.std(axis=0, ddof=1) / np.sqrt(n_runs) + 1e-12
+        return float(np.max(np.abs((m.mean(axis=0) - target) / se)))
+
+    if worst_z(exact) > 5:
+        for mistake, why in SV_MEAN_MISTAKES.items():
+            if worst_z(sv_grid(y, model, mistake)[0]) <= 5:
+                report.problems.append(why)
+                return report
+        k = int(np.argmax(np.abs(m.mean(axis=0) - exact)))
+        report.problems.append(
+            f"your mean at step {k + 1} averages {m.mean(axis=0)[k]:.3f} over {n_runs} runs where the exact "
+            f"filter's is {exact[k]:.3f}, further than chance allows: check the move, the weight and the mean")
+        return report
+    se = ell.std(ddof=1) / np.sqrt(n_runs)
+    gap = ell.mean() + ell.var(ddof=1) / 2 - exact_log_lik
+    if abs(gap) > 5 * se + 0.05:
+        if abs(gap - len(y) * np.log(n)) <= 5 * se + 0.05:
+            report.problems.append(SV_LIKELIHOOD_MISTAKES["log_sum"])
+        elif abs(ell.mean() - sv_grid(y, model, "mean_log")[1]) <= 5 * se + 0.05:
+            report.problems.append(SV_LIKELIHOOD_MISTAKES["mean_log"])
+        else:
+            report.problems.append(
+                f"your log-likelihood averages {ell.mean():.2f} where log p(y) = {exact_log_lik:.2f}: the "
+                "estimate must be unbiased for p(y), the product over steps of the mean unnormalised weight")
+    return report
