@@ -408,7 +408,7 @@ EvidenceBlock(
 # AMCL does not fix $N$: it uses KLD-sampling {cite:p}`fox2003`, which draws particles until their
 # number exceeds a bound that grows with the number of histogram bins they occupy, so that with
 # probability $1 - \delta$ the Kullback-Leibler divergence between the sample and the true posterior
-# stays under $\varepsilon$. ROS 1 amcl's defaults are at most $5000$ and at least $100$ particles,
+# stays under $\varepsilon$. The defaults of amcl in ROS Noetic are at most $5000$ and at least $100$ particles,
 # `kld_err` $= 0.01$ and `kld_z` $= 0.99$, with bins of $0.5$ m $\times$ $0.5$ m $\times$ $10°$. Its
 # `kld_z` is not $1 - \delta$ but the normal quantile $z_{1-\delta}$ that enters the bound, so
 # $\delta$ = {glue:text}`lf_kld_delta:.2f`. With these settings, on the same drives, KLD-sampling
@@ -426,7 +426,7 @@ ratio = evidence.paired(kld["position_rmse"].to_numpy(), prod["position_rmse"].t
 glue_values("lf_", kld_delta=study.AMCL_KLD["delta"], kld_mean_particles=mean_n, kld_mean_particles_low=mean_n_low,
             kld_mean_particles_high=mean_n_high, kld_rmse_ratio=ratio.median)
 EvidenceBlock(
-    "with ROS 1 amcl's defaults, KLD-sampling keeps more particles than tracking needs",
+    "with Noetic amcl's defaults, KLD-sampling keeps more particles than tracking needs",
     notes=[f"The {len(kld)} drives of the tracking study, filtered by KLD-sampling (Fox 2003): at most "
            f"{study.AMCL_KLD['n_max']}, at least {study.AMCL_KLD['n_min']} particles, epsilon = kld_err = "
            f"{study.AMCL_KLD['epsilon']}, delta = 1 - Phi(kld_z = 0.99) = {study.AMCL_KLD['delta']:.3f}, bins of "
@@ -448,7 +448,7 @@ EvidenceBlock(
 # AMCL, the adaptive MCL of ROS ({cite:t}`thrun2005`, chapter $8$; KLD-sampling {cite:p}`fox2003`),
 # is what most indoor robots run. It is Algorithm 13.1 with KLD-sampling, the odometry model, the
 # likelihood field by default, and recovery by injected poses switched off by default. Its defaults
-# differ between ROS 1 and ROS 2 (nav2); the folded table quotes both from their sources. One
+# differ between ROS Noetic and its successor nav2; the folded table quotes both from their sources. One
 # difference from the book is in the code, not in the parameters: **AMCL does not multiply the
 # beams' probabilities; it adds their cubes.** With the beam probability unnormalised,
 #
@@ -463,14 +463,14 @@ EvidenceBlock(
 # and furniture the map lacks block many beams, and a loss of information where the map is right.
 
 # %% [markdown]
-# :::{admonition} AMCL's defaults, ROS 1 and nav2, from their sources
+# :::{admonition} AMCL's defaults, ROS Noetic and nav2, from their sources
 # :class: dropdown
-# ROS 1: `ros-planning/navigation`, branch `noetic-devel` at commit `9ad6441` (amcl `1.17.3`),
+# ROS Noetic: `ros-planning/navigation`, branch `noetic-devel` at commit `9ad6441` (amcl `1.17.3`),
 # `amcl/cfg/AMCL.cfg` and `amcl/src/amcl/sensors/amcl_laser.cpp`. nav2: `ros-planning/navigation2`
 # at commit `b6c36c3` (nav2_amcl `1.3.1`), `nav2_amcl/src/amcl_node.cpp` and
 # `nav2_amcl/src/sensors/laser/likelihood_field_model.cpp`.
 #
-# | parameter | ROS 1 amcl | nav2 amcl | this chapter |
+# | parameter | Noetic amcl | nav2 amcl | this chapter |
 # | --- | --- | --- | --- |
 # | particles, min - max | `100` - `5000` | `500` - `2000` | `300` fixed |
 # | KLD error `kld_err` / `pf_err` | `0.01` | `0.05` | - |
@@ -485,8 +485,8 @@ EvidenceBlock(
 # | `resample_interval` | `2` | `1` | `1` |
 # | `update_min_d` (m), `update_min_a` (rad) | `0.2`, $\pi/6$ | `0.25`, `0.2` | every scan |
 #
-# Both sources carry the comment "this should have a normalization of 1/(sqrt(2pi)*sigma)" above
-# the Gaussian term and "here we have an ad-hoc weighting scheme for combining beam probs" above
+# Both sources carry the comment `this should have a normalization of 1/(sqrt(2pi)*sigma)` above
+# the Gaussian term and `here we have an ad-hoc weighting scheme for combining beam probs` above
 # the sum of cubes; the beam model (`laser_model_type: beam`) combines its beams the same way.
 # :::
 
@@ -498,7 +498,8 @@ EvidenceBlock(
 # still locks on in {glue:text}`lf_cubes_tracking_lock_on_rate:.0%` of the drives. Started lost
 # (uniform poses, $N = 1000$, random injection $\varepsilon = 0.1$, $100$ s), the cubes lock on in
 # {glue:text}`lf_cubes_global_lock_on_rate:.0%` of the drives, the product in
-# {glue:text}`lf_global_lock_on_rate:.0%`: a flat weight cannot single out the right room.
+# {glue:text}`lf_global_lock_on_rate:.0%`: flat weights give the particles in the right room little
+# advantage over those in its twins.
 
 # %% tags=["remove-input"] jupyter={"source_hidden": true}
 amcl_global = STUDIES["maprobot/amcl_global"].load()

@@ -100,6 +100,9 @@ exception is reported as a problem); ``str(report)`` prints the verdict.
   mistakes of :data:`POSE_DENSITY_MISTAKES` (the bearing added, the Jacobian ``1 / h_r``, the
   direction's ``1 / (2 pi)`` or the truncation ``Phi(r / s_r)`` left out, the residual not wrapped,
   standard deviations read as variances) are named.
+* :func:`check_beam_reading` - ``fn(z_star, scanner, rng) -> z``: one reading per beam drawn from the four-part
+  beam model (chapter 13's coding exercise), checked by the shares of readings below, near and beyond ``z*``
+  and at ``z_max``, and by the generator it draws from; the mistakes of :data:`BEAM_MISTAKES` are named;
 * :func:`check_likelihood_field` - ``fn(poses, z, field) -> (N,)``: the likelihood-field log-weights of one
   scan for a cloud of poses (Thrun, Burgard and Fox 2005, table 6.3), against :func:`field_log_weights`;
   the mistakes of :data:`FIELD_MISTAKES` (max-range beams kept, the heading left out of the beam's
