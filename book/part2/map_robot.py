@@ -17,7 +17,7 @@
 #
 # **You need** {doc}`robot` and {doc}`../part1/sir`; Gaussian densities; NumPy arrays.
 #
-# **Time:** about twenty minutes to read; the notebook runs in about fifteen seconds on a quiet machine
+# **Time:** about twenty-three minutes to read; the notebook runs in about fifteen seconds on a quiet machine
 # (longer on a busy one); its studies are stored, as they take minutes.
 # :::
 #
@@ -497,9 +497,9 @@ EvidenceBlock(
 # the drives): the cloud stays wide because the scan barely tells its particles apart. Tracking
 # still locks on in {glue:text}`lf_cubes_tracking_lock_on_rate:.0%` of the drives. Started lost
 # (uniform poses, $N = 1000$, random injection $\varepsilon = 0.1$, $100$ s), the cubes lock on in
-# {glue:text}`lf_cubes_global_lock_on_rate:.0%` of the drives, the product in
-# {glue:text}`lf_global_lock_on_rate:.0%`: flat weights give the particles in the right room little
-# advantage over those in its twins.
+# {glue:text}`lf_cubes_global_lock_on_rate:.0%` of the drives and the product in
+# {glue:text}`lf_global_lock_on_rate:.0%`, a difference these hundred drives leave open
+# ({glue:text}`lf_cubes_global_diff_low:+.0f` to {glue:text}`lf_cubes_global_diff_high:+.0f` points).
 
 # %% tags=["remove-input"] jupyter={"source_hidden": true}
 amcl_global = STUDIES["maprobot/amcl_global"].load()
@@ -517,7 +517,8 @@ glue_values("lf_", cubes_ess_share=cubes["mean_ess_share"].mean(), cubes_rmse_ra
             cubes_tracking_lock_on_rate=track_pair.a.estimate, cubes_global_lock_on_rate=global_pair.a.estimate,
             n_global=len(g_prod), global_lock_on_rate=global_pair.b.estimate, global_lock_on_rate_low=global_pair.b.low,
             global_lock_on_rate_high=global_pair.b.high, bootstrap_lock_on_rate=boot_pair.b.estimate,
-            bootstrap_lock_on_rate_low=boot_pair.b.low, bootstrap_lock_on_rate_high=boot_pair.b.high)
+            bootstrap_lock_on_rate_low=boot_pair.b.low, bootstrap_lock_on_rate_high=boot_pair.b.high,
+            cubes_global_diff_low=100 * global_pair.difference_low, cubes_global_diff_high=100 * global_pair.difference_high)
 summary = pd.DataFrame([
     {"drives": "tracking", "weighting": name, "mean ESS / N": g["mean_ess_share"].mean(),
      "10 % ESS / N": g["p10_ess_share"].mean(), "mean position RMSE (m)": g["position_rmse"].mean(),
@@ -550,14 +551,15 @@ EvidenceBlock(
 # The beam model is the scanner's own: it casts each beam of each particle through the grid to the
 # first wall and scores the reading by the four-part mixture. It costs what the field avoids:
 # about {glue:text}`lf_beam_cells_per_lookup:.0f` cell visits for every look-up of the field, and
-# {glue:text}`lf_beam_cost_ratio:.0f` times its time per scan, measured on $300$ particles. Each
+# {glue:text}`lf_beam_cost_ratio:.0f` times its time per scan in this book's NumPy, measured on
+# $300$ particles. Each
 # is wrong somewhere. The field ignores what lies between the robot and the end point, so it
 # scores a pose whose beams would have been stopped by a wall as if they had not been: it "sees
 # through walls". The beam model knows occlusion, but its likelihood, exact for this simulator, is
 # sharp: along a line through the truth (figure below) it stays within $10$ nats of its best over
-# {glue:text}`lf_beam_width_cm:.0f` cm, the field over {glue:text}`lf_field_width_cm:.0f` cm, and a
-# cloud of a few hundred particles spread over decimetres is left with one or two of them. Real
-# scans add what neither models: beams that are not independent, glass, people.
+# {glue:text}`lf_beam_width_cm:.0f` cm, the field over {glue:text}`lf_field_width_cm:.0f` cm, so the
+# beam model asks for a cloud dense at the scale of centimetres where the field is content with
+# decimetres. Real scans add what neither models: beams that are not independent, glass, people.
 
 # %% tags=["hide-input"] jupyter={"source_hidden": true}
 offsets = np.linspace(-0.6, 0.6, 121)
