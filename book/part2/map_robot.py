@@ -325,7 +325,9 @@ plt.show()
 
 # %% [markdown]
 # Over {glue:text}`lf_n_tracking:d` seeded drives of $80$ s the position RMSE is
-# {glue:text}`lf_tracking_rmse_m:.3f` m on average ({glue:text}`lf_tracking_rmse_m_low:.3f`-{glue:text}`lf_tracking_rmse_m_high:.3f`).
+# {glue:text}`lf_tracking_rmse_m:.3f` m on average
+# ({glue:text}`lf_tracking_rmse_m_low:.3f`-{glue:text}`lf_tracking_rmse_m_high:.3f`).
+#
 # The price of so sharp a scan is the ESS: on average {glue:text}`lf_tracking_ess_share:.0%` of
 # $N$ after weighting, and {glue:text}`lf_tracking_ess_p10:.0%` in the tenth of the steps where it
 # is lowest. $N = 300$ behaves like a few dozen independent particles, which is enough to track.
@@ -411,7 +413,9 @@ EvidenceBlock(
 # stays under $\varepsilon$. The defaults of amcl in ROS Noetic are at most $5000$ and at least $100$ particles,
 # `kld_err` $= 0.01$ and `kld_z` $= 0.99$, with bins of $0.5$ m $\times$ $0.5$ m $\times$ $10°$. Its
 # `kld_z` is not $1 - \delta$ but the normal quantile $z_{1-\delta}$ that enters the bound, so
-# $\delta$ = {glue:text}`lf_kld_delta:.2f`. With these settings, on the same drives, KLD-sampling
+# $\delta$ = {glue:text}`lf_kld_delta:.2f`.
+#
+# With these settings, on the same drives, KLD-sampling
 # keeps {glue:text}`lf_kld_mean_particles:.0f` particles on average while tracking
 # ({glue:text}`lf_kld_mean_particles_low:.0f`-{glue:text}`lf_kld_mean_particles_high:.0f`), more than
 # the $N = 300$ that tracks well, for a position RMSE {glue:text}`lf_kld_rmse_ratio:.2f` times that
@@ -495,7 +499,9 @@ EvidenceBlock(
 # the ESS after weighting rises to {glue:text}`lf_cubes_ess_share:.0%` of $N$ on average, and the
 # position RMSE is {glue:text}`lf_cubes_rmse_ratio:.1f` times that of the product (median ratio over
 # the drives): the cloud stays wide because the scan barely tells its particles apart. Tracking
-# still locks on in {glue:text}`lf_cubes_tracking_lock_on_rate:.0%` of the drives. Started lost
+# still locks on in {glue:text}`lf_cubes_tracking_lock_on_rate:.0%` of the drives.
+#
+# Started lost
 # (uniform poses, $N = 1000$, random injection $\varepsilon = 0.1$, $100$ s), the cubes lock on in
 # {glue:text}`lf_cubes_global_lock_on_rate:.0%` of the drives and the product in
 # {glue:text}`lf_global_lock_on_rate:.0%`, a difference these hundred drives leave open
@@ -614,7 +620,7 @@ EvidenceBlock(
 #
 # Tracking starts from the known pose. Started anywhere, with the particles uniform in free space,
 # the filter must tell the look-alike rooms apart, and plain MCL often settles in a twin and stays
-# there: over {glue:text}`lf_n_global:d` drives of $100$ s with $N = 1000$, random injection of
+# there: over $100$ drives of $100$ s with $N = 1000$, random injection of
 # uniform poses ($\varepsilon = 0.1$) locks on in {glue:text}`lf_global_lock_on_rate:.0%` of them
 # ({glue:text}`lf_global_lock_on_rate_low:.0%`-{glue:text}`lf_global_lock_on_rate_high:.0%`), the
 # bootstrap filter in {glue:text}`lf_bootstrap_lock_on_rate:.0%`. {doc}`map_global` measures how
