@@ -220,15 +220,16 @@ X, Y = np.meshgrid(xs, ys)
 poses = np.column_stack([X.ravel(), Y.ravel(), np.full(X.size, demo.truth[k_show, 2])])
 score = field.log_likelihood(poses, demo.scans[k_show]).reshape(X.shape)
 score[~grid.is_free(poses).reshape(X.shape)] = np.nan
-fig, ax = plt.subplots(figsize=(9, 4.2))
+fig, ax = plt.subplots(figsize=(8, 5.4))
 im = ax.imshow(score - np.nanmax(score), origin="lower", extent=(0.2, xs[-1] + 0.05, 0.2, ys[-1] + 0.05),
                cmap="magma", vmin=-150, vmax=0)
 ax.plot(*demo.truth[k_show, :2], "x", color="tab:cyan", ms=10, mew=2)
 ax.set_xlabel("x (m)")
 ax.set_ylabel("y (m)")
 ax.grid(False)
-fig.colorbar(im, ax=ax, label="log-likelihood minus its maximum")
-ax.set_title("The scan's log-likelihood over the map; cross: the truth")
+fig.colorbar(im, ax=ax, orientation="horizontal", fraction=0.06, pad=0.2,
+             label="log-likelihood minus its maximum")
+ax.set_title("The scan scored over the map (cross: truth)")
 plt.show()
 
 # %% [markdown]
