@@ -100,6 +100,9 @@ exception is reported as a problem); ``str(report)`` prints the verdict.
   mistakes of :data:`POSE_DENSITY_MISTAKES` (the bearing added, the Jacobian ``1 / h_r``, the
   direction's ``1 / (2 pi)`` or the truncation ``Phi(r / s_r)`` left out, the residual not wrapped,
   standard deviations read as variances) are named.
+* :func:`check_beam_reading` - ``fn(z_star, scanner, rng) -> z``: one reading per beam drawn from the four-part
+  beam model (chapter 13's coding exercise), checked by the shares of readings below, near and beyond ``z*``
+  and at ``z_max``, and by the generator it draws from; the mistakes of :data:`BEAM_MISTAKES` are named;
 * :func:`check_likelihood_field` - ``fn(poses, z, field) -> (N,)``: the likelihood-field log-weights of one
   scan for a cloud of poses (Thrun, Burgard and Fox 2005, table 6.3), against :func:`field_log_weights`;
   the mistakes of :data:`FIELD_MISTAKES` (max-range beams kept, the heading left out of the beam's
@@ -196,6 +199,8 @@ from pfcourse.exercises.part2 import (  # noqa: F401
     ALTIMETER_RF,
     ALTITUDE_CASE,
     ALTITUDE_MISTAKES,
+    BEAM_CASE,
+    BEAM_MISTAKES,
     FIELD_MISTAKES,
     FieldCase,
     JACOBIAN_CASES,
@@ -218,11 +223,13 @@ from pfcourse.exercises.part2 import (  # noqa: F401
     altitude_update,
     check_altimeter_likelihood,
     check_altitude_update,
+    check_beam_reading,
     check_likelihood_field,
     check_pose_density,
     check_range_bearing_jacobian,
     check_range_bearing_log_weights,
     check_regularised_jitter,
+    beam_reading_reference,
     field_log_weights,
     pose_reading_log_density,
     range_bearing_jacobian,

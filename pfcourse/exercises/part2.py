@@ -388,6 +388,117 @@ def check_likelihood_field(fn: Callable, n_particles: int = 40, seed: int = 0, r
     return report
 
 
+#: The scanner of :func:`check_beam_reading`: the book's, with more short readings and lambda = 2 per m
+#: (so that an exponential of scale lambda instead of 1 / lambda shows).
+BEAM_CASE = dict(z_hit=0.75, z_short=0.1, z_max=0.05, z_rand=0.1, sigma_hit=0.05, lambda_short=2.0, max_range=8.0)
+#: The typical mistakes of a beam-model reading, each detected by its own test (tests/test_exercises.py).
+Z_STAR = 0.75  # m, the true range of every beam of the check
+BEAM_MISTAKES = ("hit_unclipped", "global_rng", "no_max", "rand_to_z_star", "short_untruncated", "short_scale")
+
+
+def beam_reading_reference(z_star, scanner, rng, mistake: str | None = None):
+    """One reading per beam by the four-part beam model (:meth:`pfcourse.maprobot.Scanner.sample`), or
+    a mistake of :data:`BEAM_MISTAKES`."""
+    z_star = np.asarray(z_star, dtype=float)
+    if mistake == "global_rng":
+        rng = np.random.mtrand._rand
+    u = rng.random((4, len(z_star)))
+    part = np.searchsorted(np.cumsum([scanner.z_hit, scanner.z_short, scanner.z_max]), u[0], side="right")
+    hit = z_star + scanner.sigma_hit * stats.norm.ppf(u[1])
+    hit = hit if mistake == "hit_unclipped" else np.clip(hit, 0.0, scanner.max_range)
+    lam = 1.0 / scanner.lambda_short if mistake == "short_scale" else scanner.lambda_short
+    cut = 1.0 if mistake == "short_untruncated" else -np.expm1(-lam * z_star)
+    short = -np.log1p(-u[2] * cut) / lam
+    rand = u[3] * (z_star if mistake == "rand_to_z_star" else scanner.max_range)
+    no_echo = rand if mistake == "no_max" else np.full_like(z_star, scanner.max_range)
+    return np.choose(part, [hit, short, no_echo, rand])
+
+
+def check_beam_reading(fn: Callable, n_beams: int = 100000, seed: int = 0) -> CheckReport:
+    """Check a student's ``fn(z_star, scanner, rng) -> z``: one reading per beam (``z_star`` ``(B,)``, the
+    true ranges) drawn from the four-part beam model of ``scanner`` (its ``z_hit, z_short, z_max, z_rand,
+    sigma_hit, lambda_short, max_range``; :data:`BEAM_CASE`) with the generator ``rng``.
+
+    Every beam has ``z* = 0.75 m`` (and ``7.98 m`` for the clipping test): the shares of readings below
+    ``z* - 0.2``, within ``0.2`` of ``z*``, beyond ``z* + 0.2`` and at ``z_max``, and the mean short
+    reading, must agree with the model's within five standard errors; the draws must come from ``rng``."""
+    from types import SimpleNamespace
+
+    report = CheckReport("beam-model reading")
+    scanner = SimpleNamespace(**BEAM_CASE)
+    zmax = scanner.max_range
+    state = np.random.get_state()
+    calls = [(np.full(n_beams, Z_STAR), seed), (np.full(n_beams, Z_STAR), seed), (np.full(n_beams, Z_STAR), seed + 1),
+             (np.full(n_beams, zmax - 0.02), seed)]
+    answers = []
+    for z_star, s in calls:
+        a = _answer(report, lambda: fn(z_star.copy(), scanner, np.random.default_rng(s)), "fn(z_star, scanner, rng)",
+                    "return the array of readings, one per beam")
+        if a is None:
+            np.random.set_state(state)
+            return report
+        a = np.asarray(a, dtype=float)
+        if a.shape != z_star.shape:
+            np.random.set_state(state)
+            report.problems.append(f"the readings have shape {a.shape}, not {z_star.shape}: one reading per beam")
+            return report
+        answers.append(a)
+    z, again, other, far = answers
+    if np.any(~np.isfinite(z)) or np.any(z < 0) or np.any(far < 0):
+        np.random.set_state(state)
+        report.problems.append("a reading is negative or not finite: every part of the beam model gives a range in "
+                               "[0, z_max]")
+        return report
+    if np.any(far > zmax + 1e-9):
+        np.random.set_state(state)
+        report.problems.append("some readings exceed z_max: a hit drawn beyond the maximum range must be clipped to "
+                               "z_max (the scanner reports nothing farther)")
+        return report
+    from pfcourse.exercises.part1 import _seed_problem
+
+    problem = _seed_problem(state, (z,), (again,), (other,), "readings", "rng.random(), rng.normal(), ...")
+    if problem:
+        report.problems.append(problem)
+        return report
+    ref = beam_reading_reference(np.full(400000, Z_STAR), scanner, np.random.default_rng(12345))
+
+    def shares(x):
+        return np.array([np.mean(x < Z_STAR - 0.2), np.mean(np.abs(x - Z_STAR) <= 0.2),
+                         np.mean((x > Z_STAR + 0.2) & (x < zmax)),
+                         np.mean(x >= zmax)])
+
+    got, want = shares(z), shares(ref)
+    se = np.sqrt(want * (1 - want) / n_beams + want * (1 - want) / len(ref))
+    off = np.abs(got - want) > 5 * se + 1e-12
+    if off[3] and got[3] < want[3]:
+        report.problems.append(f"{got[3]:.3f} of the readings are at z_max, the model gives {want[3]:.3f}: the "
+                               "no-echo part returns exactly z_max with probability z_max")
+    elif off[2] and got[2] < want[2]:
+        report.problems.append(f"{got[2]:.3f} of the readings lie beyond z* + 0.2 m, the model gives {want[2]:.3f}: "
+                               "the random part is uniform on [0, z_max], not on [0, z*]")
+    elif off[2]:
+        report.problems.append(f"{got[2]:.3f} of the readings lie beyond z* + 0.2 m, the model gives {want[2]:.3f}: "
+                               "a short reading is an exponential truncated to [0, z*] (something in the way is "
+                               "nearer than the wall)")
+    elif off[0] and not off[3]:
+        report.problems.append(f"{got[0]:.3f} of the readings lie below z* - 0.2 m, the model gives {want[0]:.3f}: "
+                               "a short reading is Exp(lambda_short), of rate lambda_short (mean 1 / lambda_short "
+                               "before truncation; numpy's rng.exponential takes the scale 1 / lambda)")
+    elif off.any():
+        names = ["below z* - 0.2 m", "within 0.2 m of z*", "beyond z* + 0.2 m", "at z_max"]
+        k = int(np.argmax(np.abs(got - want) / np.maximum(se, 1e-12)))
+        report.problems.append(f"{got[k]:.3f} of the readings are {names[k]}, the model gives {want[k]:.3f}: draw the "
+                               "part of each beam with probabilities z_hit, z_short, z_max, z_rand, then its reading")
+    else:
+        low, ref_low = z[z < Z_STAR - 0.2], ref[ref < Z_STAR - 0.2]
+        se_mean = np.sqrt(ref_low.var() / len(low) + ref_low.var() / len(ref_low))
+        if abs(low.mean() - ref_low.mean()) > 5 * se_mean:
+            report.problems.append(f"the short readings average {low.mean():.3f} m, the model's {ref_low.mean():.3f} "
+                                   "m: Exp(lambda_short) has rate lambda_short, so mean 1 / lambda_short before "
+                                   "truncation (numpy's exponential takes the scale 1 / lambda)")
+    return report
+
+
 
 
 ALTITUDE_MISTAKES: dict[str, str] = {

@@ -38,6 +38,7 @@ from pfcourse.errors import ParameterError
 from pfcourse.maprobot.carmen import CarmenLog, read_carmen, relative_pose
 from pfcourse.maprobot.grid import OccupancyGrid
 from pfcourse.maprobot.likelihood_field import LikelihoodField
+from pfcourse.metrics import locked_on
 from pfcourse.maprobot.mapping import LogOddsMap, build_map
 from pfcourse.maprobot.motion import OdometryModel
 from pfcourse.metrics import heading_error, position_error
@@ -119,8 +120,8 @@ def heading_tolerance(log: CarmenLog) -> float:
 def locked_on_share(pos_err: Array, head_err: Array, tolerance: float) -> bool:
     """Locked on: within ``LOCK_POSITION_M`` and ``tolerance`` at ``LOCK_SHARE`` or more of the last
     ``LOCK_WINDOW`` steps."""
-    ok = (np.asarray(pos_err)[-LOCK_WINDOW:] < LOCK_POSITION_M) & (np.asarray(head_err)[-LOCK_WINDOW:] < tolerance)
-    return bool(ok.mean() >= LOCK_SHARE)
+    return locked_on(pos_err, head_err, 1.0, LOCK_WINDOW, share=LOCK_SHARE, position_tolerance=LOCK_POSITION_M,
+                     heading_tolerance=tolerance)
 
 
 def uniform_log_density(free: OccupancyGrid, x: Array) -> Array:

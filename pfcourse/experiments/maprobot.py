@@ -12,6 +12,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 from functools import lru_cache, partial
+from types import SimpleNamespace
 
 import numpy as np
 
@@ -23,7 +24,10 @@ from pfcourse.maprobot.likelihood_field import LikelihoodField
 from pfcourse.maprobot.model import MapRobotModel
 from pfcourse.maprobot.motion import Drive, OdometryModel, simulate_drive
 from pfcourse.maprobot.scanner import Scanner
+from pfcourse.maprobot import lock_on
+from pfcourse.maprobot.amcl import CubesLikelihoodField
 from pfcourse.metrics import heading_error, locked_from, locked_on, position_error
+from scipy import stats
 from pfcourse.seeding import data_rng, filter_rng, kidnap_rng
 
 DT = 0.5  # s between scans
@@ -34,9 +38,14 @@ INJECT = 0.1  # the kidnap model's probability of being carried anywhere per ste
 GLOBAL_STEPS, GLOBAL_N = 200, 1000
 KIDNAP_STEPS, KIDNAP_STEP, KIDNAP_N = 240, 40, 1000
 TRACKING_STEPS, TRACKING_N = 160, 300
-#: KLD-sampling with AMCL's defaults: at most 5000 and at least 100 particles, kld_err = 0.01,
-#: kld_z = 0.99 (delta = 0.01), bins of 0.5 m x 0.5 m x 10 degrees.
-AMCL_KLD = {"n_max": 5000, "n_min": 100, "epsilon": 0.01, "delta": 0.01, "bin_size": (0.5, 0.5, float(np.deg2rad(10.0)))}
+#: KLD-sampling with ROS 1 amcl's defaults (navigation 1.17.3, amcl/cfg/AMCL.cfg): at most 5000 and at
+#: least 100 particles, kld_err = 0.01, kld_z = 0.99; kld_z is the standard normal quantile z_{1-delta}
+#: (pf.c's pf_resample_limit), so delta = 1 - Phi(0.99) = 0.161; bins of 0.5 m x 0.5 m x 10 degrees.
+AMCL_KLD = {"n_max": 5000, "n_min": 100, "epsilon": 0.01, "delta": float(stats.norm.sf(0.99)),
+            "bin_size": (0.5, 0.5, float(np.deg2rad(10.0)))}
+#: How a scan's beams are combined into a weight: the product of the likelihood field (the book's),
+#: or AMCL's 1 + sum of cubes (pfcourse.maprobot.amcl).
+WEIGHTINGS = ("product", "cubes")
 
 
 @lru_cache(maxsize=1)
@@ -45,9 +54,11 @@ def book_map() -> OccupancyGrid:
     return rooms_and_corridor(0.1)
 
 
-def field(grid: OccupancyGrid | None = None) -> LikelihoodField:
-    """The filter's likelihood field for :data:`SCANNER` on ``grid`` (the book's map by default)."""
-    return LikelihoodField(grid or book_map(), SCANNER.angles, SCANNER.max_range, sigma=FIELD_SIGMA)
+def field(grid: OccupancyGrid | None = None, weighting: str = "product") -> LikelihoodField:
+    """The filter's likelihood field for :data:`SCANNER` on ``grid`` (the book's map by default); with
+    ``weighting="cubes"``, AMCL's sum of cubes of the same beam probabilities."""
+    kind = {"product": LikelihoodField, "cubes": CubesLikelihoodField}[weighting]
+    return kind(grid or book_map(), SCANNER.angles, SCANNER.max_range, sigma=FIELD_SIGMA)
 
 
 @dataclass(frozen=True)
@@ -83,10 +94,12 @@ def errors(truth: np.ndarray, mean: np.ndarray) -> tuple[np.ndarray, np.ndarray]
     return position_error(truth, mean), heading_error(truth, mean)
 
 
-def mcl_filter(run: MapRun, n_particles: int, *, inject: float = 0.0, start: np.ndarray | None = None) -> ParticleFilter:
+def mcl_filter(run: MapRun, n_particles: int, *, inject: float = 0.0, start: np.ndarray | None = None,
+               weighting: str = "product") -> ParticleFilter:
     """The MCL filter (resampling every step) of ``run``'s odometry, carried anywhere with probability ``inject``
-    per step; from ``start`` (tracking) or uniform in free space (``None``)."""
-    model = MapRobotModel(book_map(), field(), run.drive.odometry, motion=MOTION, start=start, inject=inject)
+    per step; from ``start`` (tracking) or uniform in free space (``None``); beams combined by ``weighting``."""
+    model = MapRobotModel(book_map(), field(weighting=weighting), run.drive.odometry, motion=MOTION, start=start,
+                          inject=inject)
     return ParticleFilter(model, n_particles, threshold=1.0)
 
 
@@ -98,9 +111,9 @@ FILTERS: dict[str, FilterConfig] = configurations(
 
 
 def run_filter(run: MapRun, seed: int, n_particles: int, method: str = "bootstrap", *,
-               start: np.ndarray | None = None):
-    """The filter ``method`` of :data:`FILTERS` on ``run``: the engine's result."""
-    pf = lookup(FILTERS, method, "method").build(run, n_particles, start=start)
+               start: np.ndarray | None = None, weighting: str = "product"):
+    """The filter ``method`` of :data:`FILTERS` on ``run`` (beams combined by ``weighting``): the engine's result."""
+    pf = lookup(FILTERS, method, "method").build(run, n_particles, start=start, weighting=weighting)
     return pf.run(run.scans, rng=filter_rng(seed, 0))
 
 
@@ -123,12 +136,31 @@ def kidnap_row(seed: int, method: str, n_particles: int = KIDNAP_N) -> dict:
             "tracked_before": bool(np.all(pos[10:KIDNAP_STEP] < 1.0))}
 
 
-def tracking_row(seed: int, n_particles: int = TRACKING_N) -> dict:
-    """Tracking from the known start (bootstrap): position RMSE (m) and heading RMSE (rad) over the run."""
+def ess_scores(ess: np.ndarray, n_particles: int) -> dict:
+    """The ESS after weighting, as a share of ``N``: its mean over the steps after the first and its 10th percentile."""
+    share = np.asarray(ess[1:], dtype=float) / n_particles
+    return {"mean_ess_share": float(share.mean()), "p10_ess_share": float(np.quantile(share, 0.1))}
+
+
+def tracking_row(seed: int, n_particles: int = TRACKING_N, weighting: str = "product") -> dict:
+    """Tracking from the known start (bootstrap), beams combined by ``weighting``: position RMSE (m),
+    heading RMSE (rad), locked on (:func:`pfcourse.maprobot.lock_on.locked_on`), the ESS (share of N)."""
     run = simulate(seed, TRACKING_STEPS)
-    pos, head = errors(run.truth, run_filter(run, seed, n_particles, start=run.truth[0]).mean)
+    res = run_filter(run, seed, n_particles, start=run.truth[0], weighting=weighting)
+    pos, head = errors(run.truth, res.mean)
     return {"position_rmse": float(np.sqrt(np.mean(pos**2))), "heading_rmse": float(np.sqrt(np.mean(head**2))),
-            "locked_on": bool(locked_on(pos, head, DT))}
+            "locked_on": bool(lock_on.locked_on(pos, head, DT)),
+            "locked_on_every_step_5deg": bool(locked_on(pos, head, DT)), **ess_scores(res.ess, n_particles)}
+
+
+def amcl_global_row(seed: int, weighting: str, method: str = "injection", n_particles: int = GLOBAL_N) -> dict:
+    """Global localization (uniform start) by ``method`` with beams combined by ``weighting``: locked on
+    (:func:`pfcourse.maprobot.lock_on.locked_on`), the final position error (m), the ESS (share of N)."""
+    run = simulate(seed, GLOBAL_STEPS)
+    res = run_filter(run, seed, n_particles, method, weighting=weighting)
+    pos, head = errors(run.truth, res.mean)
+    return {"locked_on": bool(lock_on.locked_on(pos, head, DT)), "final_position_error": float(pos[-1]),
+            **ess_scores(res.ess, n_particles)}
 
 
 def kld_tracking_row(seed: int) -> dict:
@@ -140,5 +172,45 @@ def kld_tracking_row(seed: int) -> dict:
                          delta=AMCL_KLD["delta"])
     res = ParticleFilter(model, AMCL_KLD["n_max"], sample_size=policy).run(run.scans, rng=filter_rng(seed, 0))
     pos, head = errors(run.truth, res.mean)
-    return {"position_rmse": float(np.sqrt(np.mean(pos**2))), "locked_on": bool(locked_on(pos, head, DT)),
+    return {"position_rmse": float(np.sqrt(np.mean(pos**2))), "locked_on": bool(lock_on.locked_on(pos, head, DT)),
             "mean_particles": float(np.mean(res.sizes[1:])), "max_particles_after_start": int(np.max(res.sizes[1:]))}
+
+
+def book_drive(seed: int = 0, n_steps: int = TRACKING_STEPS) -> SimpleNamespace:
+    """The map robot's map and the drive ``seed`` as plain arrays, for code a reader can paste:
+    ``distance`` (the distance transform of the grid, m, rows along y), ``resolution`` (m),
+    ``occupied`` (bool), ``angles`` (beam angles, rad), ``max_range`` (m), ``alphas`` (a_1..a_4),
+    ``scans`` ``(K, B)``, ``odometry`` ``(K, 3)`` (row k moves the robot from step k - 1 to k) and
+    ``truth`` ``(K, 3)``."""
+    grid, run = book_map(), simulate(seed, n_steps)
+    return SimpleNamespace(distance=grid.distance.copy(), resolution=grid.resolution, occupied=grid.occupied.copy(),
+                           angles=SCANNER.angles.copy(), max_range=SCANNER.max_range, alphas=MOTION.alphas,
+                           scans=run.scans, odometry=run.drive.odometry, truth=run.truth)
+
+
+def sensor_cost_row(seed: int, n_particles: int = TRACKING_N, repeats: int = 3) -> dict:
+    """The cost of weighting one cloud by one scan: the likelihood field against the beam model, on the
+    scan at step 68 of drive ``seed``, ``n_particles`` poses around the truth (sd 0.2 m, 0.2 m, 0.05 rad).
+    Deterministic: the look-ups of the field and the grid cells the beam model's ray casting visits; the
+    wall times (s, best of ``repeats``) are indicative only."""
+    import time
+
+    from pfcourse.maprobot.amcl import beam_log_likelihood
+
+    run = simulate(seed, 69)
+    grid, f, z = book_map(), field(), run.scans[68]
+    rng = np.random.default_rng(seed)
+    poses = run.truth[68] + rng.standard_normal((n_particles, 3)) * (0.2, 0.2, 0.05)
+    poses = poses[grid.is_free(poses)]
+    times = {"field": [], "beam": []}
+    for _ in range(repeats):
+        t0 = time.perf_counter()
+        f.log_likelihood(poses, z)
+        times["field"].append(time.perf_counter() - t0)
+        t0 = time.perf_counter()
+        beam_log_likelihood(grid, SCANNER, poses, z)
+        times["beam"].append(time.perf_counter() - t0)
+    steps = len(np.arange(grid.resolution / 4, SCANNER.max_range + grid.resolution / 4, grid.resolution / 4))
+    return {"n_poses": len(poses), "field_lookups": int(len(poses) * np.sum(z < SCANNER.max_range)),
+            "beam_cells": int(len(poses) * SCANNER.n_beams * steps),
+            "field_seconds": min(times["field"]), "beam_seconds": min(times["beam"])}
