@@ -1,10 +1,10 @@
 """Cross-check of the static-parameters chapter's SMC^2 against Chopin's `particles` library (its SMC2).
 
 A scalar model, x_k = 0.9 x_{k-1} + w_k (w_k ~ N(0, 0.3^2), x_0 ~ N(0, 1)), z_k = x_k + v_k with
-v_k ~ N(0, theta) and theta ~ inverse-gamma(3, 2), 100 steps simulated with theta = 1 (seed 3). On
+v_k ~ N(0, theta) and theta ~ inverse-gamma(3, 2), 50 steps simulated with theta = 1 (seed 3). On
 these data: the exact posterior of theta (Kalman likelihood on a grid), pfcourse.static_parameters.smc2
-(N_theta = 200, N_x = 100) and particles' SMC2 (N = 200 theta-particles, N_x = 100, its default
-waste-free moves), 10 seeds each; stored in book/data/static_parameters/particles_check.json.
+(N_theta = 200, N_x = 50) and particles' SMC2 (N = 200 theta-particles, N_x = 50, its default
+waste-free moves), 8 seeds each; stored in book/data/static_parameters/particles_check.json.
 
 `particles` needs numpy < 2, so it runs in its own environment (default /work/venv-particles-sp,
 made with `python3 -m venv ... && .../pip install -r bench/requirements-particles.txt`; or
@@ -34,7 +34,7 @@ from pfcourse.static_parameters import InverseGamma, NoiseScaleProblem, smc2
 
 ROOT = Path(__file__).resolve().parents[1]
 OUT = ROOT / "book" / "data" / "static_parameters" / "particles_check.json"
-PHI, SIGMA_X, K, SEED, SEEDS, N_THETA, N_X = 0.9, 0.3, 100, 3, range(10), 200, 100
+PHI, SIGMA_X, K, SEED, SEEDS, N_THETA, N_X = 0.9, 0.3, 50, 3, range(8), 200, 50
 
 CHILD = r"""
 import json, sys

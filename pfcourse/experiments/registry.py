@@ -391,11 +391,15 @@ STUDIES: dict[str, Study] = {study.name: study for study in [
             cheap=cheap, sample=2, row_code=f"pfcourse/experiments/static_parameters_study.py ({row.__name__}), "
                                             "pfcourse/static_parameters.py", fields={**sps.PROVENANCE, **more})
       for name, row, grid, columns, cheap, more in [
-          ("main", sps.main_row, sps.MAIN_GRIDS, sps.MAIN_COLUMNS,
-           lambda t: (t["method"] != "smc2") & (t["n"] == 1000), {}),
-          ("long", sps.long_row, {"method": ["liu_west", "storvik"], "T": sps.LONG_T}, sps.LONG_COLUMNS,
+          ("main", sps.main_row, sps.MAIN_GRIDS, sps.MAIN_COLUMNS, lambda t: t["n"] == 1000, {}),
+          ("long", sps.long_row, sps.LONG_GRIDS, sps.LONG_COLUMNS,
            lambda t: t["T"] == 50, {"N": sps.LONG_N, "long_data": f"{sps.LONG_K} steps, seed {sps.DATA_SEED}"}),
       ]),
+    Study(name="static_parameters/smc2", row=sps.main_row, grid=sps.SMC2_GRID, n_runs=sps.SMC2_RUNS, seeds="run",
+          failures="raise", table="static_parameters/smc2.csv", provenance="static_parameters/smc2.json",
+          columns=sps.MAIN_COLUMNS, sample=1,  # about 2 s a row
+          row_code="pfcourse/experiments/static_parameters_study.py (main_row), pfcourse/static_parameters.py",
+          fields={**sps.PROVENANCE, "runs": "fewer than 100: SMC^2 is the expensive sampler"}),
     Study(name="intel/global", row=intel.global_row, grid={"method": list(intel.METHODS)}, n_runs=intel.N_GLOBAL,
           seeds="run", failures="raise", table="intel/global.csv", provenance="intel/global.json",
           columns=intel.GLOBAL_COLUMNS, sample=1, cheap=lambda t: t["method"] == "uniform",
