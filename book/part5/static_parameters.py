@@ -392,8 +392,8 @@ GLUE.update(page_error_lw=page_errors["lw"], page_error_ss=page_errors["ss"], pa
 # statistics give their mixture of inverse gammas directly. In this run the posterior means lie
 # {glue:text}`page_error_lw:.2f`, {glue:text}`page_error_ss:.2f` and {glue:text}`page_error_smc2:.2f`
 # exact standard deviations from the exact mean (Liu-West, sufficient statistics, SMC²). One run
-# says little; the stored study repeats each sampler $100$ times on these data, run $r$ with seed
-# $r$ for all three.
+# says little; the stored study repeats each sampler $100$ times on these data ($50$ for SMC²),
+# run $r$ with seed $r$ for all three.
 #
 # **The measure.** For each run, the error of its posterior mean in exact posterior standard
 # deviations, $(\hat\mu - \mu) / \sigma$; over the runs, its median absolute value (the glued
@@ -416,7 +416,7 @@ for (method, n), g in main.groupby(["method", "n"], sort=False):
                  "its 95% CI": f"{med[1]:.2f} to {med[2]:.2f}", "bias (mean error)": bias[0],
                  "bias 95% CI": f"{bias[1]:.2f} to {bias[2]:.2f}", "spread (sd of error)": e.std(ddof=1),
                  "median sd / exact sd": g["sd_ratio"].median(),
-                 "evaluations per step": g["evaluations"].median() / measured_steps,
+                 "evaluations per measured step": g["evaluations"].median() / measured_steps,
                  "seconds per step": g["seconds"].median() / len(Z)})
 table = pd.DataFrame(rows)
 BIG = 5000
@@ -426,7 +426,7 @@ s2_vs_ss = evidence.paired(np.abs(s2), np.abs(ss[:s2.size]), ratio=True)  # SMC�
 lw_shrink = evidence.paired(np.abs(lw), np.abs(err[("liu_west", 1000)]), ratio=True)
 ss_shrink = evidence.paired(np.abs(ss), np.abs(err[("storvik", 1000)]), ratio=True)
 cost = table.set_index(["sampler", "size"])
-smc2_evals = float(cost.loc[("SMC²", f"N_ϑ = 100, N_x = {sps.SMC2_NX}"), "evaluations per step"])
+smc2_evals = float(cost.loc[("SMC²", f"N_ϑ = 100, N_x = {sps.SMC2_NX}"), "evaluations per measured step"])
 smc2_moves = main[main.method == "smc2"]["moves"].median()
 smc2_accept = main[main.method == "smc2"]["acceptance"].median()
 GLUE.update(liu_west_posterior_error=float(np.median(np.abs(lw))), storvik_posterior_error=float(np.median(np.abs(ss))),
@@ -461,7 +461,7 @@ EvidenceBlock(
            "from the stored runs on a shared 2-core machine (indicative)."],
     tables=[("Posterior mean against the exact one, in exact posterior sds, and cost", table,
              {"median |error|": ".2f", "bias (mean error)": ".2f", "spread (sd of error)": ".2f",
-              "median sd / exact sd": ".2f", "evaluations per step": ".0f", "seconds per step": ".4f"})],
+              "median sd / exact sd": ".2f", "evaluations per measured step": ".0f", "seconds per step": ".4f"})],
 )
 
 # %% [markdown]
@@ -472,6 +472,7 @@ EvidenceBlock(
 #
 # Liu-West's error is {glue:text}`lw_vs_ss:.1f` times that of the sufficient statistics, run by
 # run ({glue:text}`lw_vs_ss_low:.1f` to {glue:text}`lw_vs_ss_high:.1f`), with as many particles.
+#
 # Five times more particles multiply the sufficient statistics' error by
 # {glue:text}`ss_shrink:.2f`, close to the $1/\sqrt 5$ of a Monte Carlo error, and Liu-West's by
 # {glue:text}`lw_shrink:.2f`: over $50$ steps the runs cannot separate the kernel's error from the
@@ -484,7 +485,7 @@ EvidenceBlock(
 # Liu-West.
 #
 # They do not cost the same. The sufficient statistics evaluate $N$ measurement densities per
-# step; SMC² evaluates {glue:text}`smc2_evals_per_step:.0f` per step on average,
+# measured step; SMC² evaluates {glue:text}`smc2_evals_per_step:.0f` per measured step on average,
 # {glue:text}`smc2_cost_ratio:.1f` times as many as the sufficient statistics with $N = 5000$, a
 # share {glue:text}`smc2_move_share:.2f` of them in the PMMH moves that re-run the filters from
 # the start. SMC² buys generality, not accuracy per evaluation: it needs no conjugate form, only a
