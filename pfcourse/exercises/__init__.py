@@ -53,6 +53,11 @@ exception is reported as a problem); ``str(report)`` prints the verdict.
   particle's Kalman update of its map in the Rao-Blackwellised filter, against :func:`landmark_update`
   to round-off; the mistakes of :data:`LANDMARK_MISTAKES` are named (the robot forgotten or of the
   wrong sign, ``S`` without ``R``, no covariance update, a weight with ``R`` instead of ``S``).
+* :func:`check_storvik_step` - ``fn(x, a, b, z, rng) -> (x_new, a_new, b_new, log_w)``: one step of
+  Storvik's sufficient-statistic filter for a random walk's unknown process-noise variance
+  (:mod:`.static_parameters`): the generator, the conjugate update and the weights exactly, the law of
+  the moves by a Kolmogorov-Smirnov test against the Student t; the mistakes of :data:`STORVIK_MISTAKES`
+  are named.
 * :func:`check_fastslam2_move` - ``fn(r_pred, m_pred, P_pred, z, A, C, Qr, R, rng) -> (robots, log_w)``:
   FastSLAM 2.0's robot move and weight for a cloud, against :func:`fastslam2_exact` (the weights up to a
   constant, the robots standardised by the exact proposal); the generator is checked, and the mistakes
@@ -274,4 +279,11 @@ from pfcourse.exercises.part5 import (  # noqa: F401
     check_backward_weights,
     check_likelihood_estimate,
     likelihood_estimate,
+)
+from pfcourse.exercises.static_parameters import (  # noqa: F401
+    STORVIK_MISTAKES,
+    STORVIK_R,
+    check_storvik_step,
+    storvik_case,
+    storvik_step_reference,
 )

@@ -40,6 +40,7 @@ from pfcourse.filter_config import labels
 from pfcourse.experiments import association, global_localization, intel
 from pfcourse.experiments import likelihood_studies as ls
 from pfcourse.experiments import part1_studies
+from pfcourse.experiments import static_parameters_study as sps
 from pfcourse.experiments import (maprobot, rb_study, robot_studies, sir_fixes_study, smoothing_studies,
                                   terrain_marginalised, terrain_remedies, terrain_studies)
 from pfcourse.experiments.provenance import append_rerun, launch_commit, write_provenance
@@ -392,6 +393,20 @@ STUDIES: dict[str, Study] = {study.name: study for study in [
           fields={"lags": smoothing_studies.LAGS, "scenario": "quadrant_scenario().with_(Qw=0.05**2 I6, Rv=0.5**2 I4)",
                   "seeds": f"run r: data pfcourse.seeding.data_rng({smoothing_studies.SEED}, r); filter and FFBSi "
                            f"draws pfcourse.seeding.filter_rng({smoothing_studies.SEED}, r)"}),
+    *(Study(name=f"static_parameters/{name}", row=row, grid=grid, n_runs=sps.N_RUNS, seeds="run", failures="raise",
+            table=f"static_parameters/{name}.csv", provenance=f"static_parameters/{name}.json", columns=columns,
+            cheap=cheap, sample=2, row_code=f"pfcourse/experiments/static_parameters_study.py ({row.__name__}), "
+                                            "pfcourse/static_parameters.py", fields={**sps.PROVENANCE, **more})
+      for name, row, grid, columns, cheap, more in [
+          ("main", sps.main_row, sps.MAIN_GRIDS, sps.MAIN_COLUMNS, lambda t: t["n"] == 1000, {}),
+          ("long", sps.long_row, sps.LONG_GRIDS, sps.LONG_COLUMNS,
+           lambda t: t["T"] == 50, {"N": sps.LONG_N, "long_data": f"{sps.LONG_K} steps, seed {sps.DATA_SEED}"}),
+      ]),
+    Study(name="static_parameters/smc2", row=sps.main_row, grid=sps.SMC2_GRID, n_runs=sps.SMC2_RUNS, seeds="run",
+          failures="raise", table="static_parameters/smc2.csv", provenance="static_parameters/smc2.json",
+          columns=sps.MAIN_COLUMNS, sample=1,  # about 2 s a row
+          row_code="pfcourse/experiments/static_parameters_study.py (main_row), pfcourse/static_parameters.py",
+          fields={**sps.PROVENANCE, "runs": "fewer than 100: SMC^2 is the expensive sampler"}),
     Study(name="intel/global", row=intel.global_row, grid={"method": list(intel.METHODS)}, n_runs=intel.N_GLOBAL,
           seeds="run", failures="raise", table="intel/global.csv", provenance="intel/global.json",
           columns=intel.GLOBAL_COLUMNS, sample=1, cheap=lambda t: t["method"] == "uniform",
