@@ -40,6 +40,7 @@ from pfcourse.filter_config import labels
 from pfcourse.experiments import association, global_localization, intel
 from pfcourse.experiments import likelihood_studies as ls
 from pfcourse.experiments import part1_studies
+from pfcourse.experiments import pmcmc_studies as pm
 from pfcourse.experiments import (maprobot, rb_study, robot_studies, sir_fixes_study, smoothing_studies,
                                   terrain_marginalised, terrain_remedies, terrain_studies)
 from pfcourse.experiments.provenance import append_rerun, launch_commit, write_provenance
@@ -385,6 +386,16 @@ STUDIES: dict[str, Study] = {study.name: study for study in [
           fields={"lags": smoothing_studies.LAGS, "scenario": "quadrant_scenario().with_(Qw=0.05**2 I6, Rv=0.5**2 I4)",
                   "seeds": f"run r: data pfcourse.seeding.data_rng({smoothing_studies.SEED}, r); filter and FFBSi "
                            f"draws pfcourse.seeding.filter_rng({smoothing_studies.SEED}, r)"}),
+    *(Study(name=f"pmcmc/{name}", row=row, grid=({key: values, "iterations": [length]},
+                                                 {key: [check], "iterations": [pm.CHECK_ITERATIONS]}),
+            n_runs=pm.N_CHAINS, base_seed=pm.SEEDS[name], failures="raise", table=f"pmcmc/{name}.csv",
+            provenance=f"pmcmc/{name}.json", arrays=arrays, sample=1,
+            cheap=lambda t: t["iterations"] == pm.CHECK_ITERATIONS,
+            row_code=f"pfcourse/experiments/pmcmc_studies.py ({row.__name__})", fields=pm.PROVENANCE_FIELDS[name])
+      for name, row, key, values, length, check, arrays in (
+          ("tuning", pm.tuning_row, "n_particles", pm.N_TUNING, pm.ITERATIONS, pm.N_TUNING[0], ("theta", "accepted")),
+          ("correlated", pm.correlated_row, "rho", pm.RHOS, pm.ITERATIONS, pm.RHOS[-1], ("theta", "accepted")),
+          ("pgas", pm.pgas_row, "ancestor_sampling", [True, False], pm.PGAS_SWEEPS, True, ("theta",)))),
     Study(name="intel/global", row=intel.global_row, grid={"method": list(intel.METHODS)}, n_runs=intel.N_GLOBAL,
           seeds="run", failures="raise", table="intel/global.csv", provenance="intel/global.json",
           columns=intel.GLOBAL_COLUMNS, sample=1, cheap=lambda t: t["method"] == "uniform",
