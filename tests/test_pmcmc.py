@@ -231,13 +231,12 @@ def test_stored_chains_start_as_their_short_check_chains(name):
     from pfcourse.experiments.pmcmc_studies import CHECK_ITERATIONS
     from pfcourse.experiments.registry import STUDIES
 
-    study = STUDIES[name]
-    table = study.load()
-    short = table[table["iterations"] == CHECK_ITERATIONS]
-    long = table[table["iterations"] != CHECK_ITERATIONS]
-    key = [k for k in study.grids[1] if k != "iterations"][0]
-    assert len(short) == study.n_runs and len(long) == study.n_runs * len(study.grids[0][key])
+    study, check = STUDIES[name], STUDIES[name + "_check"]
+    long, short = study.load(), check.load()
+    key = [k for k in check.grid if k != "iterations"][0]
+    assert len(short) == check.n_runs and (short["iterations"] == CHECK_ITERATIONS).all()
+    assert len(long) == study.n_runs * len(study.grid[key])
     for _, row in short.iterrows():
         match = long[(long["seed"] == row["seed"]) & (long[key] == row[key])]
         assert len(match) == 1
-        assert np.array_equal(match.iloc[0]["theta"][:CHECK_ITERATIONS], row["theta"][:CHECK_ITERATIONS])
+        assert np.array_equal(match.iloc[0]["theta"][:CHECK_ITERATIONS], row["theta"])

@@ -386,16 +386,18 @@ STUDIES: dict[str, Study] = {study.name: study for study in [
           fields={"lags": smoothing_studies.LAGS, "scenario": "quadrant_scenario().with_(Qw=0.05**2 I6, Rv=0.5**2 I4)",
                   "seeds": f"run r: data pfcourse.seeding.data_rng({smoothing_studies.SEED}, r); filter and FFBSi "
                            f"draws pfcourse.seeding.filter_rng({smoothing_studies.SEED}, r)"}),
-    *(Study(name=f"pmcmc/{name}", row=row, grid=({key: values, "iterations": [length]},
-                                                 {key: [check], "iterations": [pm.CHECK_ITERATIONS]}),
-            n_runs=pm.N_CHAINS, base_seed=pm.SEEDS[name], failures="raise", table=f"pmcmc/{name}.csv",
-            provenance=f"pmcmc/{name}.json", arrays=arrays, sample=1,
-            cheap=lambda t: t["iterations"] == pm.CHECK_ITERATIONS,
-            row_code=f"pfcourse/experiments/pmcmc_studies.py ({row.__name__})", fields=pm.PROVENANCE_FIELDS[name])
+    # one chain per row; a long chain takes minutes, so the test re-computes the short chains of the
+    # "_check" study, whose seeds are the long ones' (tests/test_pmcmc.py: each is the start of its long chain)
+    *(Study(name=f"pmcmc/{name}{suffix}", row=row, grid=grid, n_runs=pm.N_CHAINS, base_seed=pm.SEEDS[name],
+            failures="raise", table=f"pmcmc/{name}{suffix}.csv", provenance=f"pmcmc/{name}.json", arrays=arrays,
+            sample=0 if not suffix else 1, row_code=f"pfcourse/experiments/pmcmc_studies.py ({row.__name__})",
+            fields=pm.PROVENANCE_FIELDS[name])
       for name, row, key, values, length, check, arrays in (
           ("tuning", pm.tuning_row, "n_particles", pm.N_TUNING, pm.ITERATIONS, pm.N_TUNING[0], ("theta", "accepted")),
           ("correlated", pm.correlated_row, "rho", pm.RHOS, pm.ITERATIONS, pm.RHOS[-1], ("theta", "accepted")),
-          ("pgas", pm.pgas_row, "ancestor_sampling", [True, False], pm.PGAS_SWEEPS, True, ("theta",)))),
+          ("pgas", pm.pgas_row, "ancestor_sampling", [True, False], pm.PGAS_SWEEPS, True, ("theta",)))
+      for suffix, grid in (("", {key: values, "iterations": [length]}),
+                           ("_check", {key: [check], "iterations": [pm.CHECK_ITERATIONS]}))),
     Study(name="intel/global", row=intel.global_row, grid={"method": list(intel.METHODS)}, n_runs=intel.N_GLOBAL,
           seeds="run", failures="raise", table="intel/global.csv", provenance="intel/global.json",
           columns=intel.GLOBAL_COLUMNS, sample=1, cheap=lambda t: t["method"] == "uniform",
