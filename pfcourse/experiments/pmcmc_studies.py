@@ -33,9 +33,9 @@ START = (0.5, 2.0)
 STEP = 0.25              # random walk on log theta (the likelihood chapter's)
 N_TUNING = [100, 200, 400, 800]
 N_CHAINS = 4
-ITERATIONS = 300
+ITERATIONS = 600
 N_CORRELATED, RHOS = 200, [0.0, 0.99]
-N_PGAS, PGAS_SWEEPS = 50, 200
+N_PGAS, PGAS_SWEEPS = 50, 400
 CHECK_ITERATIONS = 20
 SEEDS = {"tuning": 43, "correlated": 44, "pgas": 45}
 
