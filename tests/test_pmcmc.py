@@ -131,7 +131,7 @@ def _scalar_model(q=1.0):
 @pytest.mark.parametrize("rho", [0.0, 0.5, 0.9, 0.99])
 def test_one_step_correlation_equals_its_closed_form(rho):
     # one measured step: p^ = mean_i g(U_i), so corr(p^(U), p^(U')) = corr(g(U), g(U')) for every N
-    model, n, pairs = _scalar_model(), 5, 1500
+    model, n, pairs = _scalar_model(), 5, 800
     rng = np.random.default_rng(int(rho * 100))
     a, b = np.empty(pairs), np.empty(pairs)
     for i in range(pairs):
@@ -147,7 +147,7 @@ def test_one_step_correlation_equals_its_closed_form(rho):
 def test_sorting_keeps_the_estimates_together_over_many_steps():
     # 1-D, 20 steps: with sorted resampling the log-likelihoods at rho = 0.99 stay correlated; unsorted
     # they lose much of it (one ancestor that jumps sends a particle down another path)
-    model, n, k, reps = _scalar_model(0.5), 50, 20, 120
+    model, n, k, reps = _scalar_model(0.5), 50, 20, 80
     Z = np.random.default_rng(0).normal(size=(k, 1))
     rng = np.random.default_rng(1)
     out = {True: [], False: []}
