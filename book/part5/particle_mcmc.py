@@ -19,7 +19,7 @@
 # **You need** {doc}`likelihood` (PMMH, the variance of $\log\hat p$); Gibbs sampling in one line
 # (draw each block given the others); NumPy.
 #
-# **Time:** about twenty minutes to read; the notebook runs in about twenty seconds.
+# **Time:** about twenty-two minutes to read; the notebook runs in about twenty seconds.
 # :::
 
 # %% tags=["remove-input"] jupyter={"source_hidden": true}
@@ -267,10 +267,13 @@ EvidenceBlock(
 # The exact posterior has mean {glue:text}`exact_post_mean_pm:.3f` and standard deviation
 # {glue:text}`exact_post_sd_pm:.3f`. The four chains with ancestor sampling put the posterior mean
 # {glue:text}`pgas_posterior_mean_error:.2f` posterior standard deviations from the exact one,
-# with a Monte Carlo standard error of {glue:text}`pgas_mcse:.2f` in the same units. Their
-# $\hat R$ (below) is {glue:text}`pgas_rhat:.3f`; without ancestor sampling it is
-# {glue:text}`pgas_rhat_no_as:.3f` and the chains hold {glue:text}`pgas_ess_no_as:.0f` effective
-# draws against {glue:text}`pgas_ess:.0f`.
+# with a Monte Carlo standard error of {glue:text}`pgas_mcse:.2f` in the same units: about two
+# standard errors.
+#
+# Their $\hat R$ (next section) is {glue:text}`pgas_rhat:.3f`, and
+# {glue:text}`pgas_rhat_no_as:.3f` without ancestor sampling, both close to $1$ for chains this
+# short; the effective draws differ more, {glue:text}`pgas_ess:.0f` with ancestor sampling against
+# {glue:text}`pgas_ess_no_as:.0f` without.
 #
 # ## Several chains: $\hat R$ and the effective sample size
 #
@@ -353,13 +356,13 @@ walk = StateSpaceModel(1, lambda n, r: r.standard_normal((n, 1)), lambda x, k, r
                        lambda x, zk, k: stats.norm.logpdf(zk[0], x[:, 0], 1.0))
 engine_same = abs(correlated_log_likelihood(walk, z[:, None], 50, u.ravel()) - log_p_hat(u, z)) < TOL
 assert engine_same  # the prose: the NumPy filter is pfcourse.correlated's, normal for normal
-RHOS, PAIRS = (0.0, 0.9, 0.99, 0.999), 100
+RHOS, PAIRS = (0.0, 0.9, 0.99, 0.999), 100  # the prose says 100 pairs
 
 
-def pair_correlation(rho, sort, seed):
+def pair_correlation(rho, sort, seed, pairs=PAIRS):
     r = np.random.default_rng([seed, int(rho * 1000), sort])
     a, b = [], []
-    for _ in range(PAIRS):
+    for _ in range(pairs):
         u0 = r.standard_normal((30, 51))
         a.append(log_p_hat(u0, z, sort))
         b.append(log_p_hat(cn(u0, rho, r), z, sort))
@@ -373,7 +376,7 @@ def fisher_interval(a, b):
 
 walk_corr = {(rho, s): fisher_interval(*pair_correlation(rho, s, 3)) for rho in RHOS for s in (True, False)}
 # the landmark model (6-D state): Hilbert-sorted engine at N = 200, rho = 0.99; expensive, so 40 pairs
-LM_PAIRS, LM_N = 40, pm.N_CORRELATED
+LM_PAIRS, LM_N = 40, pm.N_CORRELATED  # the prose says 40 pairs
 r = np.random.default_rng(4)
 lm = []
 for _ in range(LM_PAIRS):
@@ -403,12 +406,13 @@ plt.show()
 # %% [markdown]
 # The code reproduces `pfcourse.correlated` (the engine reading the same normals) to round-off.
 # The figure shows the correlation of the log-likelihood estimates before and after a move, over
-# {glue:text}`corr_pairs:d` pairs per point (95 % intervals). On the scalar walk at $\rho = 0.99$
-# sorting keeps {glue:text}`walk_corr_sorted:.2f` ({glue:text}`walk_corr_sorted_low:.2f` to
+# $100$ pairs per point (95 % intervals). On the scalar walk at $\rho = 0.99$ sorting keeps
+# {glue:text}`walk_corr_sorted:.2f` ({glue:text}`walk_corr_sorted_low:.2f` to
 # {glue:text}`walk_corr_sorted_high:.2f`), against {glue:text}`walk_corr_unsorted:.2f` unsorted.
+#
 # On the landmark model, whose state has six coordinates, the Hilbert-sorted filter with
 # $N = 200$ keeps only {glue:text}`landmark_corr:.2f` ({glue:text}`landmark_corr_low:.2f` to
-# {glue:text}`landmark_corr_high:.2f`, {glue:text}`landmark_pairs:d` pairs): in six dimensions
+# {glue:text}`landmark_corr_high:.2f`, over $40$ pairs): in six dimensions
 # neighbours along the curve are often far apart in space, and fifty steps of resampling undo
 # what sorting kept. This is why common random numbers stop helping once resampling is involved
 # ({doc}`likelihood`): the estimate jumps.
@@ -473,7 +477,7 @@ EvidenceBlock(
 
 # %% tags=["nbval-ignore-output", "hide-input"] jupyter={"source_hidden": true}
 def draw_pairs(rho, order):
-    a, b = pair_correlation(rho, order == "sorted", 5)
+    a, b = pair_correlation(rho, order == "sorted", 5, pairs=40)
     fig, ax = plt.subplots(figsize=(4.5, 3.5), constrained_layout=True)
     ax.plot(a, b, "o", ms=3, color=COLORS["estimate"])
     lims = [min(a.min(), b.min()), max(a.max(), b.max())]
@@ -562,10 +566,13 @@ EvidenceBlock(
 # %% [markdown]
 # The most effective draws per particle come at $N =$ {glue:text}`pmmh_best_n:d`, where
 # $\mathrm{var}\,\log\hat p$ at the posterior mean is {glue:text}`pmmh_var_loglik_at_best_n:.1f`
-# ({glue:text}`pmmh_var_best_low:.1f` to {glue:text}`pmmh_var_best_high:.1f`). Its lead over the
-# next best, $N =$ {glue:text}`pmmh_second_n:d`, is a factor {glue:text}`pmmh_best_over_second:.1f`
+# ({glue:text}`pmmh_var_best_low:.1f` to {glue:text}`pmmh_var_best_high:.1f`).
+#
+# Its lead over the next best, $N =$ {glue:text}`pmmh_second_n:d`, is a factor {glue:text}`pmmh_best_over_second:.1f`
 # ({glue:text}`pmmh_best_over_second_low:.1f` to {glue:text}`pmmh_best_over_second_high:.1f`):
-# four chains of this length do not separate the two. At $N = 100$ the chains disagree,
+# four chains of this length do not separate the two.
+#
+# At $N = 100$ the chains disagree,
 # $\hat R =$ {glue:text}`pmmh_rhat_100:.2f`: a single chain there would have reported a posterior
 # it had not explored.
 #
