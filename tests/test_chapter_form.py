@@ -35,7 +35,7 @@ IN_FORM = ["onramp", "part1/model", "part1/kalman", "part1/importance_sampling",
            "part2/real_robot",
            "part2/terrain", "part2/terrain_cure", "part2/terrain_marginalised", "part3/robot_studies",
            "part3/resampling_studies", "part3/sensing_studies", "part4/pf_vs_kalman",
-           "part4/data_association", "part5/likelihood", "part5/smoothing",
+           "part4/data_association", "part5/likelihood", "part5/particle_mcmc", "part5/smoothing",
            "part5/static_parameters"]
 MAX_NUMBERS_PER_PARAGRAPH = 4
 MAX_MINUTES_NOT_YET_CUT = 33

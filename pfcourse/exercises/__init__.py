@@ -267,6 +267,7 @@ from pfcourse.exercises.part4 import (  # noqa: F401
     check_consistency,
     nees_consistency,
 )
+from pfcourse.exercises.particle_mcmc import check_ancestor_index  # noqa: F401
 from pfcourse.exercises.part5 import (  # noqa: F401
     BACKWARD_K,
     BACKWARD_MISTAKES,

@@ -41,6 +41,7 @@ from pfcourse.experiments import association, global_localization, intel
 from pfcourse.experiments import likelihood_studies as ls
 from pfcourse.experiments import part1_studies
 from pfcourse.experiments import static_parameters_study as sps
+from pfcourse.experiments import pmcmc_studies as pm
 from pfcourse.experiments import (maprobot, rb_study, robot_studies, sir_fixes_study, smoothing_studies,
                                   terrain_marginalised, terrain_remedies, terrain_studies)
 from pfcourse.experiments.provenance import append_rerun, launch_commit, write_provenance
@@ -407,6 +408,18 @@ STUDIES: dict[str, Study] = {study.name: study for study in [
           columns=sps.MAIN_COLUMNS, sample=1,  # about 2 s a row
           row_code="pfcourse/experiments/static_parameters_study.py (main_row), pfcourse/static_parameters.py",
           fields={**sps.PROVENANCE, "runs": "fewer than 100: SMC^2 is the expensive sampler"}),
+    # one chain per row; a long chain takes minutes, so the test re-computes the short chains of the
+    # "_check" study, whose seeds are the long ones' (tests/test_pmcmc.py: each is the start of its long chain)
+    *(Study(name=f"pmcmc/{name}{suffix}", row=row, grid=grid, n_runs=pm.N_CHAINS, base_seed=pm.SEEDS[name],
+            failures="raise", table=f"pmcmc/{name}{suffix}.csv", provenance=f"pmcmc/{name}.json", arrays=arrays,
+            sample=0 if not suffix else 1, row_code=f"pfcourse/experiments/pmcmc_studies.py ({row.__name__})",
+            fields=pm.PROVENANCE_FIELDS[name])
+      for name, row, key, values, length, check, arrays in (
+          ("tuning", pm.tuning_row, "n_particles", pm.N_TUNING, pm.ITERATIONS, pm.N_TUNING[0], ("theta", "accepted")),
+          ("correlated", pm.correlated_row, "rho", pm.RHOS, pm.ITERATIONS, pm.RHOS[-1], ("theta", "accepted")),
+          ("pgas", pm.pgas_row, "ancestor_sampling", [True, False], pm.PGAS_SWEEPS, True, ("theta",)))
+      for suffix, grid in (("", {key: values, "iterations": [length]}),
+                           ("_check", {key: [check], "iterations": [pm.CHECK_ITERATIONS]}))),
     Study(name="intel/global", row=intel.global_row, grid={"method": list(intel.METHODS)}, n_runs=intel.N_GLOBAL,
           seeds="run", failures="raise", table="intel/global.csv", provenance="intel/global.json",
           columns=intel.GLOBAL_COLUMNS, sample=1, cheap=lambda t: t["method"] == "uniform",
