@@ -101,6 +101,118 @@ def check_consistency(fn: Callable, seed: int = 0, rtol: float = 1e-9) -> CheckR
     return report
 
 
+# The NIS check with missing readings (chapter 21, exercise 21.1): innovations (R, K, m) and their
+# covariances (R, K, m, m), NaN where run r had no reading at step k.
+MISSING_NIS_MISTAKES = {
+    "divided_by_all_runs": "it divides the sum of the NIS by all R runs, counting a run without a reading as a "
+                           "NIS of 0; average over the n_k runs that have a reading at step k",
+    "band_all_runs": "its band is that of an average over all R runs; at a step where only n_k runs have a "
+                     "reading the average is chi2_(n_k m) / n_k, a wider band",
+    "one_run_band": "its band is that of a single run, chi2_m quantiles; an average of n_k independent chi2_m "
+                    "values is chi2_(n_k m) / n_k",
+    "band_not_divided": "its band is the chi2_(n_k m) quantiles themselves, not divided by n_k: the band of the "
+                        "sum over the runs, while the function returns their average",
+    "cov_not_inverted": "it computes y^T S y; the NIS weighs the innovation by the inverse covariance, y^T S^-1 y",
+    "fraction_over_all_steps": "its fraction counts the steps where no run has a reading (as outside the band); "
+                               "a step without a reading says nothing: count only the steps with n_k >= 1",
+}
+
+
+def missing_nis_consistency(innovations: np.ndarray, covariances: np.ndarray, probability: float = 0.95,
+                            mistake: str | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray, float]:
+    """The NIS check over ``R`` runs with missing readings: per step ``k``, the ``n_k`` runs with a reading,
+    the average of their ``y^T S^-1 y``, the band ``chi2_(n_k m)^-1(a/2, 1 - a/2) / n_k``
+    (``a = 1 - probability``; NaN where ``n_k = 0``) and the fraction of the steps with ``n_k >= 1``
+    whose average lies in its band.  ``mistake`` (a key of :data:`MISSING_NIS_MISTAKES`) computes that
+    mistake instead."""
+    y, S = np.asarray(innovations, dtype=float), np.asarray(covariances, dtype=float)
+    R, K, m = y.shape
+    present = ~np.isnan(y).any(axis=2)
+    safe_S = np.where(present[..., None, None], S, np.eye(m))
+    weight = safe_S if mistake == "cov_not_inverted" else np.linalg.inv(safe_S)
+    nis = np.einsum("rki,rkij,rkj->rk", np.where(present[..., None], y, 0.0), weight,
+                    np.where(present[..., None], y, 0.0))
+    n_k = present.sum(axis=0)
+    seen = n_k > 0
+    with np.errstate(invalid="ignore", divide="ignore"):
+        average = nis.sum(axis=0) / (R if mistake == "divided_by_all_runs" else n_k)
+    average[~seen] = np.nan
+    alpha = 1.0 - probability
+    n_band = np.full(K, R) if mistake == "band_all_runs" else n_k
+    dof = np.full(K, m) if mistake == "one_run_band" else n_band * m
+    scale = 1.0 if mistake in ("one_run_band", "band_not_divided") else n_band
+    with np.errstate(invalid="ignore", divide="ignore"):
+        low = np.where(seen, stats.chi2.ppf(alpha / 2, np.maximum(dof, 1)) / scale, np.nan)
+        high = np.where(seen, stats.chi2.ppf(1 - alpha / 2, np.maximum(dof, 1)) / scale, np.nan)
+    inside = seen & (average >= low) & (average <= high)
+    fraction = inside.sum() / (K if mistake == "fraction_over_all_steps" else seen.sum())
+    return average, low, high, float(fraction)
+
+
+def _missing_nis_case(seed: int = 0, runs: int = 12, steps: int = 60, m: int = 2) -> tuple[np.ndarray, np.ndarray]:
+    """Innovations drawn from their covariances (a consistent filter) except over steps 40-49 (twice as
+    large: over-confident); each run has a reading at a step with probability 0.6, none at steps 10-14."""
+    rng = np.random.default_rng(seed)
+    a = rng.normal(size=(runs, steps, m, m))
+    S = np.einsum("rkij,rklj->rkil", a, a) / m + 0.1 * np.eye(m)
+    y = np.einsum("rkij,rkj->rki", np.linalg.cholesky(S), rng.normal(size=(runs, steps, m)))
+    y[:, 40:50] *= 2.0
+    missing = rng.random((runs, steps)) > 0.6
+    missing[:, 10:15] = True
+    y[missing] = np.nan
+    S[missing] = np.nan
+    return y, S
+
+
+def check_missing_nis(fn: Callable, seed: int = 0, rtol: float = 1e-9) -> CheckReport:
+    """Check a student's ``fn(innovations, covariances) -> (average_nis, low, high, fraction)`` on
+    :func:`_missing_nis_case`: each answer must equal :func:`missing_nis_consistency` (NaN where no run has
+    a reading); a wrong answer is compared with each mistake of :data:`MISSING_NIS_MISTAKES`."""
+    report = CheckReport("NIS check with missing readings")
+    y, S = _missing_nis_case(seed)
+    K = y.shape[1]
+    answer = _answer(report, lambda: fn(y.copy(), S.copy()), "fn(innovations, covariances)",
+                     "return (average_nis, low, high, fraction)")
+    if answer is None:
+        return report
+    try:
+        average, low, high, fraction = answer
+        average, low, high = (np.asarray(v, dtype=float) for v in (average, low, high))
+        fraction = float(fraction)
+    except (TypeError, ValueError):
+        report.problems.append("the answer is not (average_nis, low, high, fraction): return the per-step average, "
+                               "the per-step band as two arrays and the fraction of steps inside it")
+        return report
+    for name, value in (("average_nis", average), ("low", low), ("high", high)):
+        if value.shape != (K,):
+            report.problems.append(f"{name} has shape {value.shape}, not ({K},): one value per step (the band "
+                                   "depends on how many runs have a reading at that step)")
+            return report
+
+    def fits(mistake: str | None) -> bool:
+        ref = missing_nis_consistency(y, S, mistake=mistake)
+        return (all(np.allclose(a, b, rtol=rtol, equal_nan=True) for a, b in zip((average, low, high), ref[:3]))
+                and abs(fraction - ref[3]) < 1e-12)
+
+    if _settled(report, fits, MISSING_NIS_MISTAKES):
+        return report
+    ref = missing_nis_consistency(y, S)
+    if not np.array_equal(np.isnan(average), np.isnan(ref[0])):
+        report.problems.append("average_nis must be NaN exactly at the steps where no run has a reading (steps "
+                               "10-14 here), and a number elsewhere")
+    elif not np.allclose(average, ref[0], rtol=rtol, equal_nan=True):
+        report.problems.append("the average NIS differs from the mean of y^T S^-1 y over the runs that have a "
+                               "reading at the step: check the quadratic form and which runs you count")
+    elif not (np.allclose(low, ref[1], rtol=rtol, equal_nan=True) and np.allclose(high, ref[2], rtol=rtol,
+                                                                                  equal_nan=True)):
+        report.problems.append("the band differs from the 2.5 % and 97.5 % quantiles of chi2_(n_k m) divided by "
+                               "n_k, n_k the runs with a reading at the step (NaN where n_k = 0)")
+    else:
+        report.problems.append("the fraction differs from the share of the steps with a reading whose average "
+                               "lies inside its band, bounds included")
+    return report
+
+
 #: Landmarks, measurement covariance and sensor of the anonymous-reading checker.
 ANONYMOUS_LANDMARKS = np.array([[10.0, 0.0], [0.0, 12.0], [-9.0, -4.0]])
 
@@ -184,4 +296,77 @@ def check_anonymous_likelihood(fn: Callable, n_particles: int = 60, seed: int = 
         return report
     report.problems.append("the values differ from -lambda + log[(1 - P_D) lambda c + sum_j (P_D / M) N(z; h_j(x), R)] "
                            "with c = 1 / (2 pi r_max): check each term, in the log domain, and add them with logsumexp")
+    return report
+
+
+# The anonymous range-only reading (chapter 22, exercise 22.2): a sensor that measures the range
+# alone, clutter uniform over [0, r_max].
+RANGE_ONLY_VAR = 0.5**2
+#: Cases ``(r, p_detect, clutter_rate, max_range)``: ordinary, without clutter, dense clutter.
+RANGE_ONLY_CASES = ((10.3, 0.8, 1.5, 30.0), (11.7, 0.9, 0.0, 30.0), (6.0, 0.6, 4.0, 50.0))
+RANGE_ONLY_MISTAKES = {
+    "bearing_density": "its clutter density is 1 / (2 pi r_max), that of a range-and-bearing sensor; a clutter "
+                       "range alone is uniform over [0, r_max], of density 1 / r_max",
+    "no_clutter": "it forgets the clutter term (1 - P_D) lambda / r_max: a range that no landmark explains then "
+                  "makes a particle impossible instead of merely unlikely",
+    "no_division": "it does not divide P_D by the number of landmarks M: each landmark is the one looked at with "
+                   "probability 1/M",
+    "sum_logs": "it sums the log-likelihoods of the terms instead of the likelihoods: the range comes from one "
+                "landmark OR another OR the clutter, so the terms add as probabilities (logsumexp)",
+    "sd_as_variance": "it uses the variance sigma^2 where the Gaussian needs the standard deviation (or the "
+                      "reverse): the density of the range is N(r; |l^j - p|, sigma^2), sigma^2 the variance given",
+    "linear_domain": "it adds the densities outside the log domain: for a particle far from every landmark "
+                     "exp(log N) underflows to 0 and its log-likelihood becomes -inf; use logsumexp",
+    "no_exp": "it misses the factor e^{-lambda} (no other clutter reading appeared), the term -lambda",
+}
+
+
+def range_only_log_likelihood(x: np.ndarray, r: float, landmarks: np.ndarray, var: float, p_detect: float,
+                              clutter_rate: float, max_range: float, mistake: str | None = None) -> np.ndarray:
+    """``log p(r | x^i) = -lambda + log[ (1 - P_D) lambda / r_max + sum_j (P_D / M) N(r; |l^j - p^i|, var) ]``
+    for every particle (rows of ``x``, position in the first two columns); ``mistake`` (a key of
+    :data:`RANGE_ONLY_MISTAKES`) computes that mistake instead."""
+    x = np.asarray(x, dtype=float)
+    dist = np.hypot(landmarks[:, 0][None] - x[:, :1], landmarks[:, 1][None] - x[:, 1:2])  # (N, M)
+    v = np.sqrt(var) if mistake == "sd_as_variance" else var
+    ell = -0.5 * (r - dist) ** 2 / v - 0.5 * np.log(2 * np.pi * v)
+    M = 1 if mistake == "no_division" else len(landmarks)
+    density = 1 / (2 * np.pi * max_range) if mistake == "bearing_density" else 1 / max_range
+    with np.errstate(divide="ignore"):
+        clutter = np.log((1 - p_detect) * clutter_rate * density)
+    terms = np.column_stack([np.full(len(x), -np.inf if mistake == "no_clutter" else clutter),
+                             np.log(p_detect / M) + ell])
+    if mistake == "sum_logs":
+        return -clutter_rate + np.sum(np.where(np.isinf(terms), 0.0, terms), axis=1)
+    if mistake == "linear_domain":
+        with np.errstate(divide="ignore", under="ignore"):
+            return np.log(np.sum(np.exp(terms), axis=1)) - clutter_rate
+    return logsumexp(terms, axis=1) - (0.0 if mistake == "no_exp" else clutter_rate)
+
+
+def check_range_only_anonymous(fn: Callable, n_particles: int = 60, seed: int = 0, rtol: float = 1e-9) -> CheckReport:
+    """Check a student's ``fn(x, r, landmarks, var, p_detect, clutter_rate, max_range) -> (N,)``, the
+    log-likelihood of one anonymous range ``r`` for a cloud ``x`` ``(N, 3)`` (five particles far from every
+    landmark, where only the log domain keeps the value finite without clutter); each case of
+    :data:`RANGE_ONLY_CASES` must equal :func:`range_only_log_likelihood`, and a wrong answer is compared
+    with each mistake of :data:`RANGE_ONLY_MISTAKES`."""
+    report = CheckReport("anonymous range-only log-likelihood")
+    x = np.random.default_rng(seed).normal([0.0, 0.0, 0.0], [3.0, 3.0, 0.5], size=(n_particles, 3))
+    x[:5, :2] += 300.0  # far from every landmark
+    answers = _per_particle_answers(
+        report, [lambda case=case: fn(x.copy(), case[0], ANONYMOUS_LANDMARKS.copy(), RANGE_ONLY_VAR, *case[1:])
+                 for case in RANGE_ONLY_CASES],
+        n_particles, "fn(x, r, landmarks, var, p_detect, clutter_rate, max_range)")
+    if answers is None:
+        return report
+
+    def fits(mistake: str | None) -> bool:
+        return all(np.allclose(a, range_only_log_likelihood(x, case[0], ANONYMOUS_LANDMARKS, RANGE_ONLY_VAR,
+                                                            *case[1:], mistake=mistake),
+                               rtol=rtol, atol=1e-9, equal_nan=True) for a, case in zip(answers, RANGE_ONLY_CASES))
+
+    if _settled(report, fits, RANGE_ONLY_MISTAKES):
+        return report
+    report.problems.append("the values differ from -lambda + log[(1 - P_D) lambda / r_max + sum_j (P_D / M) "
+                           "N(r; |l^j - p|, sigma^2)]: check each term, in the log domain, and add them with logsumexp")
     return report
