@@ -121,3 +121,87 @@ def test_range_only_reduces_to_a_gaussian_and_other_errors_are_explained():
     assert "raised" in check_range_only_anonymous(lambda *a: 1 / 0).problems[0]
     report = check_range_only_anonymous(lambda x, *a: student_range_only(x, *a) + 0.1)
     assert "check each term" in report.problems[0]
+
+
+# --- the capstone (exercise 22.3): a whole particle filter of a target in clutter ----------------------------
+from pfcourse.exercises import CLUTTER_PF_MISTAKES, check_clutter_pf, clutter_target_posterior  # noqa: E402
+from pfcourse.exercises.part4 import CLUTTER_PF_DATA, clutter_pf_reference, clutter_target_readings  # noqa: E402
+
+
+def student_clutter_pf(readings, n, rng, r=1.0, resample_every_step=False):
+    """As a student writes it: systematic resampling when the ESS falls below n/2, weights carried over."""
+    F = np.array([[1.0, 1.0], [0.0, 1.0]])
+    Q = 0.5 * np.array([[1 / 3, 1 / 2], [1 / 2, 1.0]])
+    p_d, lam, length = 0.7, 3.0, 30.0
+    x = rng.multivariate_normal([10.0, 0.5], np.diag([4.0, 1.0]), size=n)
+    log_w = np.full(n, -np.log(n))
+    means = []
+    for z in readings:
+        x = x @ F.T + rng.multivariate_normal(np.zeros(2), Q, size=n)
+        g = stats.norm.logpdf(z[None, :], loc=x[:, :1], scale=np.sqrt(r))
+        terms = np.column_stack([np.full(n, np.log((1 - p_d) * lam / length)), np.log(p_d) + g])
+        log_w = log_w + logsumexp(terms, axis=1)
+        log_w -= logsumexp(log_w)
+        w = np.exp(log_w)
+        means.append(w @ x[:, 0])
+        if resample_every_step or 1 / np.sum(w**2) < n / 2:
+            idx = np.searchsorted(np.cumsum(w), (rng.random() + np.arange(n)) / n)
+            x, log_w = x[np.minimum(idx, n - 1)], np.full(n, -np.log(n))
+    return np.array(means)
+
+
+def test_clutter_pf_reference_and_a_students_filter_pass():
+    assert check_clutter_pf(student_clutter_pf).ok, str(check_clutter_pf(student_clutter_pf))
+    assert check_clutter_pf(lambda r, n, rng: clutter_pf_reference(r, n, rng)).ok
+
+
+def test_the_exact_posterior_is_the_kalman_filter_without_clutter_and_is_converged():
+    """With one reading per step, every history but 'that reading is the target's' pruned, the mixture is
+    a Kalman filter; and pruning at 1e-12 moves the answer by less than 1e-6 of a standard deviation."""
+    from pfcourse.exercises import part4
+
+    readings = clutter_target_readings(CLUTTER_PF_DATA[0])
+    fine, sd = clutter_target_posterior(readings, prune=1e-16)
+    coarse, _ = clutter_target_posterior(readings)
+    assert np.max(np.abs(fine - coarse) / sd) < 1e-6
+    saved = dict(part4.CLUTTER_TARGET)
+    try:
+        part4.CLUTTER_TARGET.update(p_detect=1.0 - 1e-12, clutter_rate=1e-12)
+        z = [np.array([11.0 + k]) for k in range(5)]
+        mean, sd = clutter_target_posterior(z)
+        F, Q = part4._clutter_target_model()
+        m, P = np.array([10.0, 0.5]), np.diag([4.0, 1.0])
+        for k, zk in enumerate(z):
+            m, P = F @ m, F @ P @ F.T + Q
+            K = P[:, 0] / (P[0, 0] + 1.0)
+            m, P = m + K * (zk[0] - m[0]), P - np.outer(K, P[0])
+            assert abs(mean[k] - m[0]) < 1e-9 and abs(sd[k] - np.sqrt(P[0, 0])) < 1e-9
+    finally:
+        part4.CLUTTER_TARGET.clear()
+        part4.CLUTTER_TARGET.update(saved)
+
+
+@pytest.mark.parametrize("mistake", list(CLUTTER_PF_MISTAKES))
+def test_clutter_pf_mistakes_are_named(mistake):
+    report = check_clutter_pf(lambda r, n, rng: clutter_pf_reference(r, n, rng, mistake))
+    assert report.problems == [f"your function computes a known mistake: {CLUTTER_PF_MISTAKES[mistake]}"]
+
+
+def test_clutter_pf_draws_from_its_generator_and_other_errors_are_explained():
+    def global_draws(readings, n, rng):
+        return clutter_pf_reference(readings, n, np.random.default_rng(np.random.randint(1 << 30)))
+
+    state = np.random.get_state()
+    assert "global np.random" in check_clutter_pf(global_draws).problems[0]
+    assert all(a == b for a, b in zip(state[1], np.random.get_state()[1]))  # the checker restores it
+    fixed = check_clutter_pf(lambda r, n, rng: clutter_pf_reference(r, n, np.random.default_rng(5)))
+    assert "another seed gave the same estimates" in fixed.problems[0]
+    fresh = iter(range(100))
+    drifting = check_clutter_pf(lambda r, n, rng: clutter_pf_reference(r, n, np.random.default_rng([next(fresh),
+                                                                                                  int(rng.integers(9))])))
+    assert "same seed gave different estimates" in drifting.problems[0]
+    assert "shape" in check_clutter_pf(lambda r, n, rng: np.zeros(3)).problems[0]
+    assert "raised" in check_clutter_pf(lambda r, n, rng: 1 / 0).problems[0]
+    assert "not finite" in check_clutter_pf(lambda r, n, rng: clutter_pf_reference(r, n, rng) * np.nan).problems[0]
+    wrong_noise = check_clutter_pf(lambda r, n, rng: student_clutter_pf(r, n, rng, r=9.0))
+    assert "posterior standard deviations" in wrong_noise.problems[0]

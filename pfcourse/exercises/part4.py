@@ -370,3 +370,199 @@ def check_range_only_anonymous(fn: Callable, n_particles: int = 60, seed: int = 
     report.problems.append("the values differ from -lambda + log[(1 - P_D) lambda / r_max + sum_j (P_D / M) "
                            "N(r; |l^j - p|, sigma^2)]: check each term, in the log domain, and add them with logsumexp")
     return report
+
+
+# The capstone of Part IV (chapter 22, exercise 22.3): a whole particle filter for a model the Part has
+# not shown, a target on a line in clutter, checked against its exact posterior (a Gaussian mixture over
+# every history of associations, pruned only below 1e-12 of the largest weight).
+#: The model: x = (position m, velocity m/s), x_k = F x_{k-1} + w_k, w_k ~ N(0, Q); a reading of the
+#: position with probability p_detect (noise variance r), Poisson(clutter_rate) clutter uniform on [0, length].
+CLUTTER_TARGET = {"dt": 1.0, "q": 0.5, "r": 1.0, "p_detect": 0.7, "clutter_rate": 3.0, "length": 30.0,
+                  "m0": (10.0, 0.5), "P0": (4.0, 1.0), "steps": 12}
+CLUTTER_PF_MISTAKES = {
+    "no_miss": "it leaves out the event 'the target was missed and every reading is clutter', (1 - P_D) lambda c; "
+               "then one reading must be the target's, and a step whose readings are all clutter drags the cloud",
+    "density_not_divided": "its clutter density is 1 instead of 1 / L: a clutter reading is uniform over [0, L], so "
+                           "the missed event weighs (1 - P_D) lambda / L",
+    "all_readings_target": "it treats every reading of a step as a measurement of the target (a product of "
+                           "Gaussians); at most one is the target's, so the likelihood is a sum over which one",
+    "no_process_noise": "its particles move without process noise (x_k = F x_{k-1}); the model adds w_k ~ N(0, Q), "
+                        "and without it the resampled copies of a particle never differ again",
+}
+#: Particles and seeds of the statistical check, and its tolerance: the root-mean-square distance of the
+#: estimates from an exact posterior mean, in units of that posterior's standard deviation.
+CLUTTER_PF_N, CLUTTER_PF_SEEDS, CLUTTER_PF_TOLERANCE = 2000, 6, 0.3
+#: The seeds of the checker's two data sets (clutter_target_readings): in the first the clutter often
+#: surrounds the target; in the second a filter without process noise loses it.
+CLUTTER_PF_DATA = (0, 4)
+
+
+def _clutter_target_model() -> tuple[np.ndarray, np.ndarray]:
+    c = CLUTTER_TARGET
+    F = np.array([[1.0, c["dt"]], [0.0, 1.0]])
+    Q = c["q"] * np.array([[c["dt"] ** 3 / 3, c["dt"] ** 2 / 2], [c["dt"] ** 2 / 2, c["dt"]]])
+    return F, Q
+
+
+def clutter_target_readings(seed: int = 0) -> list[np.ndarray]:
+    """The checker's data: ``steps`` steps of readings (positions, m) of one simulated target."""
+    c = CLUTTER_TARGET
+    F, Q = _clutter_target_model()
+    rng = np.random.default_rng(seed)
+    x = rng.normal(c["m0"], np.sqrt(c["P0"]))
+    readings = []
+    for _ in range(c["steps"]):
+        x = F @ x + rng.multivariate_normal(np.zeros(2), Q)
+        z = list(rng.uniform(0.0, c["length"], rng.poisson(c["clutter_rate"])))
+        if rng.random() < c["p_detect"]:
+            z.append(x[0] + np.sqrt(c["r"]) * rng.standard_normal())
+        readings.append(rng.permutation(np.array(z, dtype=float)))
+    return readings
+
+
+def clutter_target_posterior(readings: list[np.ndarray], mistake: str | None = None,
+                             prune: float = 1e-12) -> tuple[np.ndarray, np.ndarray]:
+    """The exact posterior mean and standard deviation of the position at each step (``(K,)`` each): a
+    Kalman filter per history of associations, weighted (miss: ``(1 - P_D) lambda / L``; reading ``i``:
+    ``P_D N(z_i; H m, S)``, the factors common to every event of a step cancelled), components below
+    ``prune`` times the largest weight dropped.  ``mistake`` (a key of :data:`CLUTTER_PF_MISTAKES`) gives
+    the exact posterior of that mistaken model instead."""
+    c = CLUTTER_TARGET
+    F, Q = _clutter_target_model()
+    if mistake == "no_process_noise":
+        Q = np.zeros((2, 2))
+    miss_weight = (1 - c["p_detect"]) * c["clutter_rate"] / (1.0 if mistake == "density_not_divided" else c["length"])
+    detect_weight = c["p_detect"]
+    log_w, m, P = np.zeros(1), np.array([c["m0"]], dtype=float), np.diag(c["P0"])[None].astype(float)
+    means, sds = [], []
+    for z in readings:
+        m = m @ F.T
+        P = F @ P @ F.T + Q
+        S = P[:, 0, 0] + c["r"]  # (C,)
+        gain = P[:, :, 0] / S[:, None]  # (C, 2)
+        if mistake == "all_readings_target":
+            for zi in z:
+                S = P[:, 0, 0] + c["r"]
+                gain = P[:, :, 0] / S[:, None]
+                log_w = log_w - 0.5 * ((zi - m[:, 0]) ** 2 / S + np.log(2 * np.pi * S))
+                m = m + gain * (zi - m[:, 0])[:, None]
+                P = P - gain[:, :, None] * P[:, None, 0, :]
+        else:
+            new_w, new_m, new_P = [], [], []
+            if mistake != "no_miss" or len(z) == 0:
+                new_w.append(log_w + np.log(miss_weight))
+                new_m.append(m)
+                new_P.append(P)
+            for zi in z:
+                nu = zi - m[:, 0]
+                new_w.append(log_w + np.log(detect_weight) - 0.5 * (nu**2 / S + np.log(2 * np.pi * S)))
+                new_m.append(m + gain * nu[:, None])
+                new_P.append(P - gain[:, :, None] * P[:, None, 0, :])
+            log_w, m, P = np.concatenate(new_w), np.concatenate(new_m), np.concatenate(new_P)
+        keep = log_w >= log_w.max() + np.log(prune)
+        log_w, m, P = log_w[keep] - logsumexp(log_w[keep]), m[keep], P[keep]
+        w = np.exp(log_w)
+        mean = w @ m[:, 0]
+        means.append(mean)
+        sds.append(np.sqrt(w @ (P[:, 0, 0] + (m[:, 0] - mean) ** 2)))
+    return np.array(means), np.array(sds)
+
+
+def clutter_pf_reference(readings: list[np.ndarray], n: int, rng: np.random.Generator,
+                         mistake: str | None = None) -> np.ndarray:
+    """A bootstrap particle filter of :data:`CLUTTER_TARGET` (multinomial resampling at every step): the
+    posterior mean position after each step's readings; ``mistake`` (a key of :data:`CLUTTER_PF_MISTAKES`)
+    makes that mistake."""
+    c = CLUTTER_TARGET
+    F, Q = _clutter_target_model()
+    length = 1.0 if mistake == "density_not_divided" else c["length"]
+    x = rng.normal(c["m0"], np.sqrt(c["P0"]), size=(n, 2))
+    out = []
+    for z in readings:
+        x = x @ F.T
+        if mistake != "no_process_noise":
+            x = x + rng.multivariate_normal(np.zeros(2), Q, size=n)
+        log_g = -0.5 * (z[None, :] - x[:, :1]) ** 2 / c["r"] - 0.5 * np.log(2 * np.pi * c["r"])  # (n, readings)
+        if mistake == "all_readings_target":
+            log_w = log_g.sum(axis=1)
+        else:
+            missed = [] if (mistake == "no_miss" and len(z)) else [
+                np.full((n, 1), np.log((1 - c["p_detect"]) * c["clutter_rate"] / length))]
+            log_w = logsumexp(np.concatenate(missed + [np.log(c["p_detect"]) + log_g], axis=1), axis=1)
+        w = np.exp(log_w - logsumexp(log_w))
+        out.append(w @ x[:, 0])
+        x = x[rng.choice(n, size=n, p=w)]
+    return np.array(out)
+
+
+NOT_FINITE = ("some estimates are not finite: keep the weights in the log domain and normalise them with "
+              "logsumexp, so that a step whose readings fit no particle well still works")
+
+
+def check_clutter_pf(fn: Callable, seed: int = 0) -> CheckReport:
+    """Check a student's whole particle filter ``fn(readings, n, rng) -> (K,)`` posterior mean positions for
+    the target of :data:`CLUTTER_TARGET`: it draws from ``rng`` alone (same seed, same answer; another seed,
+    another; NumPy's global state untouched), and on the data sets :data:`CLUTTER_PF_DATA`, over
+    :data:`CLUTTER_PF_SEEDS` seeds with :data:`CLUTTER_PF_N` particles, its estimates lie within
+    :data:`CLUTTER_PF_TOLERANCE` posterior standard deviations (root mean square) of the exact posterior
+    mean. An answer that does not is compared with the checker's own filter making each mistake of
+    :data:`CLUTTER_PF_MISTAKES` (:func:`clutter_pf_reference`, other seeds), and the report names the one
+    it fits."""
+    from pfcourse.exercises.part1 import _seed_problem
+
+    report = CheckReport("particle filter of a target in clutter")
+    datasets = [clutter_target_readings(d) for d in CLUTTER_PF_DATA]
+    K = len(datasets[0])
+
+    def call(s, readings=datasets[0]):
+        return fn([z.copy() for z in readings], CLUTTER_PF_N, np.random.default_rng([seed, s]))
+
+    state = np.random.get_state()
+    answer = _answer(report, lambda: call(0), "fn(readings, n, rng)", "return the posterior mean position at "
+                     "each step, shape (K,)")
+    if answer is None:
+        np.random.set_state(state)
+        return report
+    answer = np.asarray(answer, dtype=float)
+    if answer.shape != (K,):
+        np.random.set_state(state)
+        report.problems.append(f"the answer has shape {answer.shape}, not ({K},): return one posterior mean "
+                               "position per step (after that step's readings)")
+        return report
+    if not np.isfinite(answer).all():
+        np.random.set_state(state)
+        report.problems.append(NOT_FINITE)
+        return report
+    again, other = np.asarray(call(0), dtype=float), np.asarray(call(1), dtype=float)
+    problem = _seed_problem(state, (answer,), (again,), (other,), "estimates", "rng.normal(...), rng.random(...)")
+    if problem:
+        report.problems.append(problem)
+        return report
+    estimates = np.array([np.concatenate([np.asarray(call(s, readings), dtype=float) for readings in datasets])
+                          for s in range(CLUTTER_PF_SEEDS)])
+    np.random.set_state(state)
+    if not np.isfinite(estimates).all():
+        report.problems.append(NOT_FINITE)
+        return report
+    exact = [clutter_target_posterior(readings) for readings in datasets]
+    mean, sd = np.concatenate([m for m, _ in exact]), np.concatenate([v for _, v in exact])
+    distance = float(np.sqrt(np.mean(((estimates - mean) / sd) ** 2)))
+    if distance <= CLUTTER_PF_TOLERANCE:
+        return report
+    # A mistaken filter is compared with the same mistake made by the checker's own filter, on other seeds:
+    # the exact posterior of a mistaken model is no help, since a mistaken filter is itself far from it.
+    student = estimates.mean(axis=0)
+    for mistake, why in CLUTTER_PF_MISTAKES.items():
+        theirs = np.array([np.concatenate([clutter_pf_reference(readings, CLUTTER_PF_N,
+                                                                np.random.default_rng([seed, 100, s]), mistake)
+                                           for readings in datasets]) for s in range(CLUTTER_PF_SEEDS)])
+        spread = np.sqrt((estimates.var(axis=0, ddof=1) + theirs.var(axis=0, ddof=1)) / CLUTTER_PF_SEEDS)
+        if np.sqrt(np.mean(((student - theirs.mean(axis=0)) / (spread + CLUTTER_PF_TOLERANCE * sd)) ** 2)) <= 2.0:
+            report.problems.append(f"your function computes a known mistake: {why}")
+            return report
+    report.problems.append(f"the estimates are {distance:.2f} posterior standard deviations (root mean square "
+                           f"over {CLUTTER_PF_SEEDS} seeds, {len(datasets)} data sets and {K} steps) from the exact "
+                           f"posterior mean, more than the {CLUTTER_PF_TOLERANCE} a particle filter with "
+                           f"{CLUTTER_PF_N} particles stays within: check the motion, the weight of each event and "
+                           "the resampling")
+    return report
