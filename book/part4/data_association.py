@@ -245,7 +245,7 @@ glue_values("association_", check_tolerance=TOLERANCE)
 #    $P = \sum_e \beta_e \big(P_e + (m_e - m)(m_e - m)^\top\big)$.
 # :::
 #
-# The last term of step 4 is what the nearest-neighbour EKF lacks: when two origins both fit, the
+# The last term of the moment match is what the nearest-neighbour EKF lacks: when two origins both fit, the
 # spread between their updates widens $P$ instead of being thrown away. In NumPy:
 
 # %%

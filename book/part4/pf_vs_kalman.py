@@ -920,8 +920,9 @@ print(check_missing_nis(my_missing_nis))
 # :::{admonition} From the labs
 # :class: dropdown
 # Lab A ({doc}`../labs`) ends by asking whether a particle filter is adequate for its landmark
-# model (its question 8): section 1 answers that the Kalman filter is exact there, and
-# {doc}`../part1/rao_blackwell` what a particle filter needs to compete. Lab C asks whether the
-# particle filter is better than an extended Kalman filter, and at what cost: section 2 answers it
-# for accuracy, consistency and cost, and the decision table for every problem of the book.
+# model (its question 8): the linear Gaussian section answers that the Kalman filter is exact
+# there, and {doc}`../part1/rao_blackwell` what a particle filter needs to compete. Lab C asks
+# whether the particle filter is better than an extended Kalman filter, and at what cost: the
+# robot section answers it for accuracy, consistency and cost, and the decision table for every
+# problem of the book.
 # :::
