@@ -381,8 +381,8 @@ glue_values("pdaf_", rmse_m=pdaf_mean)
 # The PDA filter removes that tail: it loses {glue:text}`association_pdaf_loses:.0%` of the runs.
 # Run by run, its RMSE is {glue:text}`association_pdaf_over_pf:.2f` times the particle filter's
 # (median ratio, {glue:text}`association_pdaf_over_pf_low:.2f`-{glue:text}`association_pdaf_over_pf_high:.2f`):
-# slightly better, as a Kalman update is when its linearisation holds, for a cost of $nM + 1$ small
-# Kalman updates per step against $N = 500$ mixture likelihoods.
+# slightly better, for a cost of $nM + 1$ small Kalman updates per step against $N = 500$ mixture
+# likelihoods.
 #
 # So for this robot the lesson is not "a particle filter or a Kalman filter" but "choose, or
 # average": a Kalman filter that keeps every origin in its update is as safe as the particle filter

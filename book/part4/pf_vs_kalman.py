@@ -420,10 +420,9 @@ EvidenceBlock(
 #
 # The inflated noise costs little accuracy: run by run its RMSE is
 # {glue:text}`robot_fix_q2_rmse_ratio:.3f` times the plain filter's
-# ({glue:text}`robot_fix_q2_rmse_ratio_low:.3f`-{glue:text}`robot_fix_q2_rmse_ratio_high:.3f`). It
-# works because the cloud, resampled at most steps, loses spread faster than the true error grows;
-# more process noise in the proposal restores it. This is the "jitter" of {doc}`../part1/sir` made
-# part of the model, and the reason the lab's filters assume twice the true noise.
+# ({glue:text}`robot_fix_q2_rmse_ratio_low:.3f`-{glue:text}`robot_fix_q2_rmse_ratio_high:.3f`).
+# More process noise in the filter widens the predicted cloud at every step, where roughening
+# widens it only after a resampling: the jitter of {doc}`../part1/sir`, made part of the model.
 
 # %% tags=["remove-input"] jupyter={"source_hidden": true}
 fixes = STUDIES["robot_consistency_fixes"].load().sort_values(["setting", "seed"])
