@@ -37,7 +37,7 @@ import pandas as pd
 
 from pfcourse.errors import ParameterError, StepError
 from pfcourse.filter_config import labels
-from pfcourse.experiments import association, global_localization, intel
+from pfcourse.experiments import association, comparison, global_localization, intel
 from pfcourse.experiments import likelihood_studies as ls
 from pfcourse.experiments import part1_studies
 from pfcourse.experiments import static_parameters_study as sps
@@ -331,6 +331,25 @@ STUDIES: dict[str, Study] = {study.name: study for study in [
                   "max_range_m": association.MAX_RANGE, "n_particles": association.N_PARTICLES,
                   "seeds": "run r: robot and readings from pfcourse.seeding.data_rng(0, r); "
                            "particle filter: pfcourse.seeding.filter_rng(0, r)"}),
+    Study(name="data_association_pdaf", row=association.pdaf_row,
+          grid={"clutter_rate": list(association.CLUTTER_RATES)}, n_runs=association.N_RUNS, seeds="run",
+          failures="raise", table="data_association_pdaf.csv", provenance="data_association_pdaf.json",
+          columns=("clutter_rate", "seed", "pdaf_rmse_m", "pdaf_nees_mean", "pdaf_seconds"),
+          volatile=("pdaf_seconds",), sample=3,
+          row_code="pfcourse/experiments/association.py (pdaf_row), pfcourse/robot/association.py (run_pdaf)",
+          fields={"scenario": association.SCENARIO, "p_detect": association.P_DETECT,
+                  "max_range_m": association.MAX_RANGE, "gate_probability": 0.99,
+                  "seeds": "run r: robot and readings from pfcourse.seeding.data_rng(0, r), as data_association"}),
+    Study(name="robot_consistency_fixes", row=comparison.consistency_fix_row,
+          grid={"setting": list(comparison.CONSISTENCY_FIXES)}, n_runs=100, seeds="run", failures="raise",
+          table="robot_consistency_fixes.csv", provenance="robot_consistency_fixes.json",
+          columns=("setting", "seed", "rmse_m", "nees_mean", "nees"), arrays=("nees",), sample=2,
+          row_code="pfcourse/experiments/comparison.py (consistency_fix_row)",
+          fields={"scenario": f"robot_tracks' robot, {comparison.CONSISTENCY_STEPS} steps, true noise levels "
+                              "in the data; burn-in " + str(comparison.CONSISTENCY_BURN_IN) + " steps",
+                  "settings": {k: {"N": v[0], "q_scale": v[1], "roughening_K": v[2]}
+                               for k, v in comparison.CONSISTENCY_FIXES.items()},
+                  "seeds": "run s: robot simulate_robot(None, s); filter pfcourse.seeding.filter_rng(0, s)"}),
     Study(name="terrain_map_error", row=terrain_remedies.map_error_row,
           grid={"setting": terrain_remedies.MAP_ERROR_SETTINGS},
           n_runs=50, seeds="run", table="terrain_map_error.csv", **_FLIGHTS, provenance="terrain_map_error.json",
