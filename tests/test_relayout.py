@@ -43,7 +43,7 @@ def repo(tmp_path: Path) -> Path:
         "pfcourse/filter.py": "from . import kernels\n\ndef go():\n    return kernels\n",
         "pfcourse/kernels.py": "",
         "pfcourse/errors.py": "",
-        "pfcourse/evidence.py": "from .errors import *  # noqa\n",
+        "pfcourse/executor.py": "from .errors import *  # noqa\n",
         "pfcourse/style.py": "import pfcourse.narrow_figures as nf\n",
         "pfcourse/narrow_figures.py": "",
         "pfcourse/figures/__init__.py": "",
@@ -58,7 +58,7 @@ def repo(tmp_path: Path) -> Path:
             "from pfcourse.experiments import (likelihood,  # methods\n    store)\n"
             "from pfcourse.landmarks import figures as lf\n"
             "PATH = 'pfcourse/experiments/store.py'\n"),
-        "tests/test_x.py": "import pfcourse.figures.report\nmock = 'pfcourse.evidence.stats'\n",
+        "tests/test_x.py": "import pfcourse.figures.report\nmock = 'pfcourse.executor.stats'\n",
         "README.md": "The tree: `pfcourse/figures/` and `pfcourse.experiments.registry`.\n",
     }
     for rel, text in files.items():
@@ -86,10 +86,10 @@ def test_moves_and_rewrites(repo: Path) -> None:
     assert "from pfcourse.book.figures import landmarks as lf\n" in registry
     assert "PATH = 'pfcourse/studies/store.py'" in registry
     assert (repo / "pfcourse/book/report.py").read_text() == "from pfcourse.book import style\n"
-    assert (repo / "pfcourse/studies/evidence.py").read_text() == "from pfcourse.errors import *  # noqa\n"
+    assert (repo / "pfcourse/studies/executor.py").read_text() == "from pfcourse.errors import *  # noqa\n"
     assert (repo / "pfcourse/filter.py").read_text().startswith("from pfcourse import kernels\n")
     assert (repo / "tests/test_x.py").read_text() == ("import pfcourse.book.report\n"
-                                                      "mock = 'pfcourse.studies.evidence.stats'\n")
+                                                      "mock = 'pfcourse.studies.executor.stats'\n")
     assert "`pfcourse/book/figures/` and `pfcourse.studies.registry`" in (repo / "README.md").read_text()
     nb = json.loads((repo / "book/x.ipynb").read_text())
     markdown, code = nb["cells"]
@@ -100,6 +100,8 @@ def test_moves_and_rewrites(repo: Path) -> None:
     assert all(len(line.rstrip("\n")) <= 80 for line in code["source"])
     assert "".join(code["source"][2:4]).startswith("from pfcourse.scenarios.landmarks.scenario import (\n")
     assert code["outputs"] == NOTEBOOK["cells"][1]["outputs"]  # outputs are never rewritten
+    # nor the strings of a chapter's code, which its stored outputs print
+    assert code["source"][-1] == "print('pfcourse.style is printed')"
     # moved with git mv: the index has the new paths, not the old ones
     index = git(repo, "ls-files").split()
     assert "pfcourse/book/report.py" in index and "pfcourse/figures/report.py" not in index
@@ -120,14 +122,14 @@ def test_files_added_later_at_old_paths(repo: Path) -> None:
     git(repo, "-c", "user.name=t", "-c", "user.email=t@t", "commit", "-qm", "new layout")
     # another branch, merged after the move, adds a study module and a test at the old paths
     write(repo, "pfcourse/experiments/new_study.py", "from pfcourse.experiments.store import x\n"
-                                                      "from pfcourse import evidence\n")
+                                                      "from pfcourse import executor\n")
     git(repo, "add", "-A")
     write(repo, "tests/test_new.py", "from pfcourse.experiments import new_study\n")
     plan, changed = relayout.relayout(repo)
     assert [(str(o), str(n)) for o, n, _ in plan] == [("pfcourse/experiments/new_study.py",
                                                       "pfcourse/studies/new_study.py")]
     assert (repo / "pfcourse/studies/new_study.py").read_text() == ("from pfcourse.studies.store import x\n"
-                                                                   "from pfcourse.studies import evidence\n")
+                                                                   "from pfcourse.studies import executor\n")
     assert (repo / "tests/test_new.py").read_text() == "from pfcourse.studies import new_study\n"
     assert not (repo / "pfcourse/experiments").exists()
 
