@@ -310,7 +310,7 @@ print(f"this run: position RMSE {np.sqrt(np.mean(err**2)):.3f} m with N = {N_DEM
 from pfcourse.figures.report import spread_table  # a spread over runs as a table with units
 
 glue_values("lf_", engine_tolerance=TOL)
-cost = {name: json.loads(STUDIES[f"maprobot/{name}"].path.with_suffix(".json").read_text())["wall_seconds"]
+cost = {name: STUDIES[f"maprobot/{name}"].load().attrs["provenance"]["wall_seconds"]
         for name in ("tracking", "global", "kidnap")}
 
 
@@ -355,7 +355,7 @@ EvidenceBlock(
 
 # %% tags=["remove-input"] jupyter={"source_hidden": true}
 kld = STUDIES["maprobot/kld_tracking"].load().sort_values("seed")
-cost["kld_tracking"] = json.loads(STUDIES["maprobot/kld_tracking"].path.with_suffix(".json").read_text())["wall_seconds"]
+cost["kld_tracking"] = kld.attrs["provenance"]["wall_seconds"]
 assert (kld["seed"].to_numpy() == tracking["seed"].to_numpy()).all()
 mean_n, mean_n_low, mean_n_high = evidence.run_interval(lambda r: kld["mean_particles"].to_numpy()[r].mean(), len(kld))
 ratio = evidence.paired(kld["position_rmse"].to_numpy(), tracking["position_rmse"].to_numpy(), ratio=True)
