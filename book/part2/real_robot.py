@@ -486,7 +486,7 @@ assert (scan["seed"].to_numpy() == unif["seed"].to_numpy()).all()
 assert (temp["seed"].to_numpy() == unif["seed"].to_numpy()).all()
 pair = evidence.paired_rates(scan["locked_on"].to_numpy(), unif["locked_on"].to_numpy())
 pair_t = evidence.paired_rates(temp["locked_on"].to_numpy(), unif["locked_on"].to_numpy())
-wall = json.loads(STUDIES["intel/global"].path.with_suffix(".json").read_text())["wall_seconds"]
+wall = study.attrs["provenance"]["wall_seconds"]
 turn_rms_all = intel.odometry_heading_rms(log)
 tol = intel.heading_tolerance(log)
 

@@ -44,6 +44,7 @@ from myst_nb import glue
 
 from pfcourse import evidence
 
+from pfcourse.experiments.registry import STUDIES
 from pfcourse.experiments.terrain import DIVERGED_ERROR, diverged, final_errors, flight_study, flight_summary
 from pfcourse.seeding import data_rng, filter_rng
 from pfcourse.metrics import position_error
@@ -477,8 +478,8 @@ EvidenceBlock(
 # 95 % bootstrap interval and the Wilcoxon signed-rank test. Each study's table is in its evidence block.
 
 # %% tags=["remove-input"] jupyter={"source_hidden": true}
-studies_table = pd.read_csv(Path("../data/terrain_studies.csv"))
-studies_meta = json.loads(Path("../data/terrain_studies.json").read_text())
+studies_table = STUDIES["terrain_studies"].load()
+studies_meta = studies_table.attrs["provenance"]
 base_rows = studies_table[studies_table["study"] == "baseline"].sort_values("flight")
 # wall time of one run, as stored by the study (one row per flight and setting; indicative only)
 base_s = evidence.median_interval(base_rows["seconds"].to_numpy())

@@ -104,6 +104,7 @@ from pfcourse.terrain.map import load_jacksboro
 from pfcourse.terrain.marginalised import marginalised_filter
 from pfcourse.terrain.point_mass import PointMassFilter
 from pfcourse.terrain.scenario import AircraftScenario, simulate
+from pfcourse.experiments.registry import STUDIES
 from pfcourse.experiments.terrain_marginalised import CELLS
 from pfcourse.experiments.terrain_remedies import FILTERS
 
@@ -174,9 +175,9 @@ glue_values("terrain_mpf_", check_tolerance=TOLERANCE)
 # flight ({doc}`../evidence` explains the tests and intervals).
 
 # %% tags=["hide-input"] jupyter={"source_hidden": true}
-remedies = pd.read_csv(Path("../data/terrain_remedies.csv"))
-mpf = pd.read_csv(Path("../data/terrain_mpf.csv"))
-print("study commit:", json.loads(Path("../data/terrain_mpf.json").read_text())["git_commit"][:10])
+remedies = STUDIES["terrain_remedies"].load()
+mpf = STUDIES["terrain_mpf"].load()
+print("study commit:", mpf.attrs["provenance"]["git_commit"][:10])
 table = pd.concat([remedies, mpf[remedies.columns.intersection(mpf.columns)]], ignore_index=True)
 lost = table.pivot(index="flight", columns="setting", values="lost").astype(bool)
 final = table.pivot(index="flight", columns="setting", values="final_error")
@@ -351,8 +352,8 @@ print(f"grid points held at t = {SNAPSHOT} s: {grid.kept.size:,}; posterior mass
 # where refining it no longer moves its answer.
 
 # %% tags=["hide-input"] jupyter={"source_hidden": true}
-gridrows = pd.read_csv(Path("../data/terrain_grid.csv"))
-print("study commit:", json.loads(Path("../data/terrain_grid.json").read_text())["git_commit"][:10])
+gridrows = STUDIES["terrain_grid"].load()
+print("study commit:", gridrows.attrs["provenance"]["git_commit"][:10])
 flights = sorted(gridrows.flight.unique())
 cells = sorted(gridrows.cell.unique(), reverse=True)  # coarse to fine
 fine, coarse = cells[-1], cells[-2]  # the finest grid and the one before it
@@ -395,7 +396,7 @@ dtable = pd.DataFrame(drows)
 print(dtable.drop(columns=["95 % interval (m)"]).to_string(index=False, float_format=lambda v: f"{v:.3g}"))
 
 # The bootstrap filter with a million particles (terrain_reference, two seeds) on the first flights.
-reference = pd.read_csv(Path("../data/terrain_reference.csv"))
+reference = STUDIES["terrain_reference"].load()
 big = reference[reference.N == reference.N.max()]
 ref_mean = big.groupby("flight")[["mean_x", "mean_y"]].mean()
 ref_flights = [r for r in ref_mean.index if r in flights]

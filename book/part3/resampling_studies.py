@@ -63,8 +63,8 @@ from scipy.special import logsumexp
 
 from pfcourse import evidence
 from pfcourse.exercises import check_ess
-from pfcourse.experiments import robot_studies as stored
 from pfcourse.experiments.robot_studies import N_RUNS, N_STEPS
+from pfcourse.experiments.registry import robot_study
 from pfcourse.experiments.study import run_study, summarize
 from pfcourse.figures.report import EvidenceBlock, glue_values
 from pfcourse.figures.study import summary_band
@@ -78,7 +78,6 @@ from pfcourse.seeding import filter_rng
 from pfcourse.style import COLORS, use_style
 
 use_style()
-robot_study = stored.find  # the stored table of a study, stated as its grid (it refuses a grid not stored)
 glue("n_runs_per_setting", N_RUNS, display=False)
 
 

@@ -67,8 +67,8 @@ from myst_nb import glue
 
 from pfcourse import evidence
 from pfcourse.exercises import check_paired_se
-from pfcourse.experiments import robot_studies as stored
 from pfcourse.experiments.robot_studies import BURN_IN, N_RUNS, N_STEPS
+from pfcourse.experiments.registry import robot_study
 from pfcourse.experiments.study import summarize
 from pfcourse.figures.report import EvidenceBlock, glue_values
 from pfcourse.figures.static_panel import format_value
@@ -78,7 +78,6 @@ from pfcourse.figures.widgets import control_panel
 from pfcourse.style import COLORS, plain_log_axis, use_style
 
 use_style()
-robot_study = stored.find  # the stored table of a study, stated as its grid (it refuses a grid not stored)
 glue("n_runs_per_setting", N_RUNS, display=False)
 
 

@@ -57,8 +57,8 @@ from myst_nb import glue
 
 from pfcourse import evidence
 from pfcourse.exercises import check_lock_on
-from pfcourse.experiments import robot_studies as stored
 from pfcourse.experiments.robot_studies import N_RUNS
+from pfcourse.experiments.registry import robot_study
 from pfcourse.experiments.study import summarize
 from pfcourse.figures.report import EvidenceBlock, glue_values
 from pfcourse.figures.study import summary_band, time_band
@@ -67,7 +67,6 @@ from pfcourse.metrics import locked_on
 from pfcourse.style import COLORS, use_style
 
 use_style()
-robot_study = stored.find  # the stored table of a study, stated as its grid (it refuses a grid not stored)
 glue("n_runs_per_setting", N_RUNS, display=False)
 
 

@@ -99,6 +99,7 @@ from scipy.special import logsumexp
 from pfcourse import evidence
 from pfcourse.exercises import check_likelihood_estimate
 from pfcourse.experiments.likelihood import grid_posterior, kalman_log_likelihood, max_likelihood_scale
+from pfcourse.experiments.registry import STUDIES
 from pfcourse.figures.report import EvidenceBlock, glue_values
 from pfcourse.figures.widgets import control_panel, particle_slider, seed_box
 from pfcourse.filter import ParticleFilter
@@ -155,7 +156,7 @@ print(f"{SEEDS.size} runs, N = 300: mean error of log p^ {errors.mean():.2f} nat
       f"mean of p^/p = {np.exp(errors).mean():.2f}, median of p^/p = {np.median(np.exp(errors)):.2f}")
 
 # %% tags=["remove-input"] jupyter={"source_hidden": true}
-bias = pd.read_csv(DATA + "bias.csv")
+bias = STUDIES["likelihood/bias"].load()
 assert (bias["status"] == "ok").all()
 mean_err = evidence.run_interval(lambda r: errors[r].mean(), errors.size)
 half_var = evidence.run_interval(lambda r: -errors[r].var(ddof=1) / 2, errors.size)
@@ -377,7 +378,7 @@ print(f"exact ML theta = {theta_exact:.3f}; particle ML (N = 300, one seed) thet
 # :::
 
 # %% tags=["remove-input"] jupyter={"source_hidden": true}
-ml = pd.read_csv(DATA + "ml.csv")
+ml = STUDIES["likelihood/ml"].load()
 assert (ml["status"] == "ok").all()
 by_n = {n: g.sort_values("run") for n, g in ml.groupby("n_particles")}
 assert all((g["run"].to_numpy() == by_n[300]["run"].to_numpy()).all() for g in by_n.values())
@@ -720,7 +721,7 @@ EvidenceBlock(
 # exists there; the truth is $1$.
 
 # %% tags=["remove-input"] jupyter={"source_hidden": true}
-trf = pd.read_csv(DATA + "terrain_rf.csv")
+trf = STUDIES["likelihood/terrain_rf"].load()
 assert (trf["status"] == "ok").all()
 rf = trf["rf_scale_ml"].to_numpy()
 rf_med = evidence.median_interval(rf)

@@ -94,6 +94,7 @@ from scipy.stats import norm
 
 from pfcourse import evidence
 from pfcourse.exercises import check_backward_weights
+from pfcourse.experiments.registry import STUDIES
 from pfcourse.experiments.smoothing_studies import LAGS, SCENARIO
 from pfcourse.figures.report import EvidenceBlock, glue_values
 from pfcourse.filter import ParticleFilter
@@ -471,7 +472,7 @@ EvidenceBlock(
 # $J = N$ trajectories, from the filter's own generator, in the same runs.
 
 # %%
-study = pd.read_csv("../data/smoothing/landmarks.csv")
+study = STUDIES["smoothing/landmarks"].load()
 N_VALUES = sorted(study["n_particles"].unique())
 runs = study.pivot(index="run", columns="n_particles")
 METHODS = {"ffbsm_rts": "FFBSm", "ffbsi_rts": "FFBSi", "filter_vs_kalman": "filter vs Kalman"}
@@ -723,7 +724,7 @@ ax.legend(loc="upper left", bbox_to_anchor=(1.02, 1))
 plt.show()
 
 # %% tags=["remove-input"] jupyter={"source_hidden": true}
-srob = pd.read_csv("../data/likelihood/smoothing_robot.csv")
+srob = STUDIES["likelihood/smoothing_robot"].load()
 assert (srob["status"] == "ok").all()
 gap = evidence.paired(srob["smoother_gap_error"], srob["filter_gap_error"], ratio=True)
 outside = evidence.paired(srob["smoother_outside_error"], srob["filter_outside_error"], ratio=True)

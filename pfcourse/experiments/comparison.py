@@ -43,6 +43,7 @@ from pfcourse.diagnostics import chi2_band, fraction_in_band, nees, nis, predict
 from pfcourse.executor import run_tasks
 from pfcourse.experiments.record import RunRecord, record_run
 from pfcourse.filter import ParticleFilter
+from pfcourse import metrics
 from pfcourse.metrics import position_error
 from pfcourse.results import FilterResult, KalmanResult
 from pfcourse.robot.scenario import ANGLE_INDICES, RobotModel, range_bearing, simulate_robot
@@ -246,7 +247,7 @@ def summarize_tracks(runs: Sequence[Sequence[RunRecord]], *, dim_x: int, dim_z: 
         tracks = [r[j] for r in runs]
         err = np.array([t.position_error[burn_in:] for t in tracks])
         with np.errstate(invalid="ignore", over="ignore"):
-            rmse = np.sqrt(np.mean(err**2, axis=1))
+            rmse = metrics.rmse(err, axis=1)
             nees_all = np.array([t.nees[burn_in:] for t in tracks])
             nis_all = np.array([t.nis[burn_in:] for t in tracks])
             nis_steps = ~np.all(np.isnan(nis_all), axis=0)
@@ -304,7 +305,7 @@ def _convergence_runs(model, measurements: Array, kalman, n: int, n_runs: int, s
     mean_err, cov_err, ll_err = np.empty(n_runs), np.empty(n_runs), np.empty(n_runs)
     for r in range(n_runs):
         res = pf.run(measurements, sized_filter_rng(seed, n, run=r))
-        mean_err[r] = np.sqrt(np.mean((res.mean - kalman.mean) ** 2))
+        mean_err[r] = metrics.rmse(res.mean - kalman.mean)
         cov_err[r] = np.sqrt(np.mean(np.sum((res.cov - kalman.cov) ** 2, axis=(1, 2))))
         ll_err[r] = res.log_likelihood - kalman.log_likelihood
     return mean_err, cov_err, ll_err

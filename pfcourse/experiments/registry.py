@@ -24,6 +24,7 @@ provenance names the commit), and commit the table.
 from __future__ import annotations
 
 import argparse
+import json
 import sys
 import time
 from collections.abc import Callable, Mapping, Sequence
@@ -36,7 +37,7 @@ import numpy as np
 import pandas as pd
 
 from pfcourse.errors import ParameterError, StepError
-from pfcourse.filter_config import labels
+from pfcourse.filter_config import records
 from pfcourse.experiments import association, comparison, global_localization, intel
 from pfcourse.experiments import likelihood_studies as ls
 from pfcourse.experiments import part1_studies
@@ -150,10 +151,17 @@ class Study:
         return table.iloc[np.lexsort(keys[::-1])].reset_index(drop=True)  # lexsort is stable
 
     def load(self) -> pd.DataFrame:
-        """The stored table (as :meth:`compute` returns it, ``seconds`` as stored)."""
+        """The stored table (as :meth:`compute` returns it, ``seconds`` as stored), its provenance
+        record in ``table.attrs["provenance"]``: the one way a chapter reads a stored study."""
         if not self.path.exists():
             raise FileNotFoundError(f"{self.path} is missing: run `python3 tasks.py study {self.name}`")
-        return load(self.path, literals=self.literals, arrays=self.arrays, errors_as_text=self.errors_as_text)
+        table = load(self.path, literals=self.literals, arrays=self.arrays, errors_as_text=self.errors_as_text)
+        table.attrs["provenance"] = self.provenance_record()
+        return table
+
+    def provenance_record(self) -> dict:
+        """The provenance record written beside the table (shared by the studies of a group)."""
+        return json.loads((DATA / self.provenance).read_text())
 
     def save(self, table: pd.DataFrame) -> None:
         save(self.path, table, literals=self.literals, arrays=self.arrays)
@@ -285,7 +293,7 @@ STUDIES: dict[str, Study] = {study.name: study for study in [
           n_runs=100, seeds="run", table="terrain_remedies.csv", **_FLIGHTS, provenance="terrain_remedies.json",
           columns=terrain_remedies.COLUMNS, seed_column="flight", cheap=lambda t: t["N"] <= 10000, sample=4,
           row_code="pfcourse/experiments/terrain_remedies.py (run_one)",
-          fields={"settings": labels(terrain_remedies.FILTERS),
+          fields={"settings": records(terrain_remedies.FILTERS),
                   "seeds": "flight r: pfcourse.seeding.data_rng(0, r); filter: pfcourse.seeding.filter_rng(0, r)",
                   "divergence": "final horizontal error > 500 m or every particle lost"}),
     Study(name="terrain_reference", row=terrain_remedies.reference_row,
@@ -464,6 +472,22 @@ STUDIES: dict[str, Study] = {study.name: study for study in [
                     "divergence": "final horizontal error > 500 m or every particle lost"})
       for name, fresh in terrain_remedies.FRESH_FLIGHTS.items()),
 ]}
+
+
+def robot_study(grid: dict, **options) -> pd.DataFrame:
+    """The stored robot study (``robot_studies/NAME``) with exactly this grid and these ``pf_run``
+    options (besides :data:`~pfcourse.experiments.robot_studies.DEFAULTS`), read by its
+    :meth:`Study.load`.
+
+    Lets a chapter state each study as it would run it, ``robot_study({"r_scale": [...]})``; a grid
+    or options that no stored study has are refused with a :class:`~pfcourse.errors.ParameterError`
+    (run them with ``run_study`` instead), so the chapter cannot drift from the data.
+    """
+    for name, (stored_grid, stored_options) in robot_studies.STUDIES.items():
+        if stored_grid == grid and stored_options == options:
+            return STUDIES[f"robot_studies/{name}"].load()
+    raise ParameterError(f"no stored robot study has grid {grid} and options {options}; "
+                         f"stored: {list(robot_studies.STUDIES)} (pfcourse.experiments.robot_studies.STUDIES)")
 
 
 def select(name: str) -> list[Study]:
