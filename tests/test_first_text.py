@@ -35,7 +35,7 @@ from reading_times import in_words  # noqa: E402
 ROOT = Path(__file__).resolve().parents[1]
 BOOK = ROOT / "book"
 FIRST_TEXT = ["onramp", "part1/model", "part1/kalman", "part1/sis", "part1/sir", "part1/resampling_schemes",
-              "part1/proposals", "part1/rao_blackwell", "part1/auxiliary"]
+              "part1/proposals", "part1/rao_blackwell", "part1/auxiliary", "part2/map_global"]
 HIDDEN = {"remove-input", "hide-input", "remove-cell"}
 MAX_LINE = 80
 MAX_MINUTES = 25
