@@ -87,6 +87,9 @@ def stored(name):
 # The cell below computes it for one drive with the likelihood field of {doc}`map_robot`.
 
 # %%
+import numpy as np
+from scipy.special import logsumexp
+
 from pfcourse.experiments import maprobot as study
 
 grid, field, motion = study.book_map(), study.field(), study.MOTION
@@ -149,7 +152,7 @@ ax2.set_title("The truth's log-odds against its twins")
 plt.show()
 
 # %% [markdown]
-# The twin of seed 1 is the half-turn: its path runs through the rooms opposite, seeing the same
+# The half-turn twin of seed $1$ runs through the rooms opposite the robot's, seeing the same
 # walls. The margin stays at zero for as long as the robot sees nothing that tells the twins apart,
 # and jumps when the box or an end of the corridor comes into view. Over $100$ drives the margin
 # stays at zero for the first seconds and then climbs to hundreds of nats by $100$ s, with the slow
@@ -289,7 +292,7 @@ def scan_proposal(z, n, rng, m=500, headings=24, keep=200, rounds=3, tries=8):
     for _ in range(rounds):  # 3. each moves to its best nudge, if better
         t = c[:, None] + rng.standard_normal((keep, tries, 3)) * H
         t[..., 2] = wrap(t[..., 2])
-        ts = 0.5 * field.log_likelihood(t.reshape(-1, 3), z).reshape(keep, tries)
+        ts = 0.5 * field.log_likelihood(t.reshape(-1, 3), z).reshape(keep, -1)
         j = ts.argmax(axis=1)
         up = ts[np.arange(keep), j] > s
         c[up], s[up] = t[up, j[up]], ts[up, j[up]]
@@ -298,14 +301,14 @@ def scan_proposal(z, n, rng, m=500, headings=24, keep=200, rounds=3, tries=8):
     x[:, 2] = wrap(x[:, 2])
     d = x[:, None] - c[None]
     d[..., 2] = wrap(d[..., 2])
-    log_k = -0.5 * ((d / H) ** 2).sum(-1) - 1.5 * np.log(2 * np.pi) - np.log(H).sum()
+    log_k = -0.5 * ((d / H) ** 2).sum(-1) - np.log((2 * np.pi)**1.5 * H.prod())
     return x, logsumexp(log_k + log_v, axis=1)
 
 
 k_room = 150  # the robot in a room
 x_q, log_q = scan_proposal(drive.scans[k_room], 300, np.random.default_rng(5))
-near = position_error(drive.truth[k_room], x_q) < 0.5
-print(f"{near.mean():.0%} of the poses within 0.5 m of the robot, the rest on twins")
+near = np.hypot(*(x_q[:, :2] - drive.truth[k_room, :2]).T) < 0.5
+print(f"{near.mean():.0%} of the 300 poses are within 0.5 m of the robot")
 
 # %% tags=["hide-input"] jupyter={"source_hidden": true}
 x_e, log_q_e = engine.scan_proposal(grid, field, drive.scans[k_room], 300, np.random.default_rng(5))
@@ -383,7 +386,7 @@ print(f"the same poses and log-weights as pfcourse.maprobot.global_mcl.injected,
 #    4. *estimate:* weighted mean position and circular mean heading.
 # :::
 #
-# The package's `global_mcl` is this algorithm, each of its steps the code above. Run on seed 1:
+# The package's `global_mcl` is this algorithm, each of its steps the code above. Run on seed $1$:
 
 # %% tags=["hide-input"] jupyter={"source_hidden": true}
 demo_rng = np.random.default_rng([41, 1, 2])
@@ -424,7 +427,10 @@ glue_values("lf_", demo_decided_s=float((decided_at[0] + 1) * study.DT), demo_lo
 # Over the {glue:text}`lf_n_global:d` drives of the twin study, from a uniform start, the cure is
 # locked on in {glue:text}`lf_global_lock_on_rate:.0%` of them
 # ({glue:text}`lf_global_lock_on_rate_low:.0%`-{glue:text}`lf_global_lock_on_rate_high:.0%`),
-# against the {glue:text}`lf_decided_rate:.0%` the evidence decides.
+# against the {glue:text}`lf_decided_rate:.0%` the evidence decides: short of the bound. Of the {glue:text}`lf_global_missed:d` drives it misses,
+# {glue:text}`lf_global_missed_late:d` end within $1$ m of the robot, found too late for the
+# window; the others still hold the half-turn twin at the end, where the evidence had chosen but no
+# injected pose gathered enough of it in its $10$ s of history to take over.
 
 # %% tags=["remove-input"] jupyter={"source_hidden": true}
 glob = STUDIES["map_global/global"].load().sort_values("seed")
@@ -434,10 +440,12 @@ glue_values("lf_", n_global=len(glob), global_lock_on_rate=pair.a.estimate, glob
             global_lock_on_rate_high=pair.a.high, step_heading_sd_deg=np.degrees(lock_on.step_heading_sd(motion, mg.STEP_M)),
             heading_tolerance_deg=np.degrees(mg.HEADING_TOL), global_mean_particles=glob["mean_particles"].mean(),
             global_decided_gap=pair.difference)
-missed = glob.loc[~glob["locked_on"].to_numpy(), ["seed", "final_position_error", "locked_from_s"]].merge(
+missed = glob.loc[~glob["locked_on"].to_numpy(), ["seed", "final_position_error", "final_heading_error"]].merge(
     twins_table[["seed", "decided", "final_margin"]], on="seed")
+missed_late = int((missed["final_position_error"] < lock_on.POSITION_TOLERANCE_M).sum())
+glue_values("lf_", global_missed=len(missed), global_missed_late=missed_late)
 EvidenceBlock(
-    "the cure locks on about as often as the evidence decides",
+    "the cure locks on in most drives, short of what the evidence decides",
     notes=[f"{len(glob)} drives (the twin study's), 100 s each, uniform start; the filter of Algorithm 14.1 "
            f"({engine.SETTINGS}); its random numbers from numpy.random.default_rng([41, seed, 2]).",
            f"Locked on (within 1 m and {np.degrees(mg.HEADING_TOL):.1f} degrees at 80 % of the last 20 s): "
@@ -446,13 +454,13 @@ EvidenceBlock(
            f"Mean number of particles after the start: {glob['mean_particles'].mean():.0f}.",
            stored("global")],
     tables=[("The drives the cure does not lock on", missed,
-             {"final_position_error": ".2f", "locked_from_s": ".1f", "final_margin": ".1f"})],
+             {"final_position_error": ".2f", "final_heading_error": ".2f", "final_margin": ".1f"})],
 )
 
 # %% [markdown]
 # ## The kidnapped robot
 #
-# The same filter, started at the robot's known pose (300 particles around it), tracks it for
+# The same filter, started at the robot's known pose ($300$ particles around it), tracks it for
 # $20$ s; then the robot is carried to another waypoint of its route while its odometry reports no
 # motion, and drives on for $100$ s. The scans stop fitting the cloud, $w_{\mathrm{fast}}$ drops
 # below $w_{\mathrm{slow}}$, $\varepsilon_k$ rises, and the injected poses, which fit the new scans,
@@ -462,10 +470,14 @@ EvidenceBlock(
 # Those that recover are locked on for good a median {glue:text}`lf_kidnap_recovery_median_s:.0f` s after
 # the kidnapping ({glue:text}`lf_kidnap_recovery_median_s_low:.0f`-{glue:text}`lf_kidnap_recovery_median_s_high:.0f` s):
 # at least the $10$ s of history an injected pose needs, plus the time the robot takes to see what
-# tells its new room from the twins.
+# tells its new room from the twins. Of the {glue:text}`lf_kidnap_missed:d` runs that do not recover,
+# {glue:text}`lf_kidnap_missed_late:d` end within $1$ m of the robot, found too late for the window.
 
 # %% tags=["remove-input"] jupyter={"source_hidden": true}
 kid = STUDIES["map_global/kidnap"].load()
+kid_missed = kid[~kid["recovered"].to_numpy()]
+glue_values("lf_", kidnap_missed=len(kid_missed),
+            kidnap_missed_late=int((kid_missed["final_position_error"] < lock_on.POSITION_TOLERANCE_M).sum()))
 times = kid.loc[kid["recovered"], "recovery_s"].to_numpy()
 med, med_low, med_high = evidence.median_interval(times)
 recovered = evidence.rate(kid["recovered"].to_numpy())
@@ -473,7 +485,7 @@ glue_values("lf_", n_kidnap=len(kid), kidnap_recovered_rate=recovered.estimate,
             kidnap_recovered_rate_low=recovered.low, kidnap_recovered_rate_high=recovered.high,
             kidnap_recovery_median_s=med, kidnap_recovery_median_s_low=med_low, kidnap_recovery_median_s_high=med_high)
 EvidenceBlock(
-    "the kidnapped robot is found again",
+    "the kidnapped robot is found again in most runs",
     notes=[f"{len(kid)} runs (seeds 0-{len(kid) - 1}, the drives of maprobot/kidnap): tracked from the known start, "
            f"kidnapped at t = {study.KIDNAP_STEP * study.DT:.0f} s to a waypoint drawn by kidnap_rng(seed), run to "
            f"t = {study.KIDNAP_STEPS * study.DT:.0f} s.",
@@ -491,7 +503,7 @@ EvidenceBlock(
 # %% [markdown]
 # ## Explore: the poses a scan proposes
 #
-# The panel draws the proposal for the scan of seed 1 at $75$ s, with more or fewer candidates and
+# The panel draws the proposal for the scan of seed $1$ at $75$ s, with more or fewer candidates and
 # rounds of nudging. With few candidates and no nudging, no candidate lands close enough to the
 # truth and the drawn poses gather on the twins or on near misses; the nudges pull candidates into
 # the narrow basins where the scan fits.
@@ -582,7 +594,9 @@ print(check_reset_weights(my_reset))
 #   AMCL's `kld_z` is the normal quantile $z_{1 - \delta}$, not $\delta$.
 # - Poses drawn from the scan must be weighted by $u / q$ times their likelihood; carried over a
 #   few seconds of scans and weighed against the cloud's own evidence for those scans, a right pose
-#   can win against a wrong cloud, and a kidnapped robot is found again.
+#   can win against a wrong cloud, and a kidnapped robot is found again in most runs.
+# - The cure still falls short of the bound: a pose with ten seconds of history carries only the
+#   evidence of those seconds, while the twin margin is the sum over the whole drive.
 #
 # :::{admonition} From the labs
 # :class: dropdown
