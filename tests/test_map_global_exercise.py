@@ -67,3 +67,9 @@ def test_the_exact_evidence_is_a_converged_quadrature():
     assert abs(Z / Z2 - 1) < 1e-6 and abs(mean - mean2) < 1e-6
     # the evidence is the likelihood averaged over the corridor: at most the sensor's peak density over L... times L
     assert 0 < Z < 1 / (np.sqrt(2 * np.pi) * c.sigma)
+
+
+def test_an_unanswered_exercise_says_what_to_return():
+    report = check_reset_weights(lambda z, n, rng, c: None)
+    assert report.problems == ["the function returned None: return the poses and their log-weights, two arrays of "
+                               "shape (n,)"]

@@ -109,7 +109,12 @@ def check_reset_weights(fn: Callable, corridor: Corridor = Corridor(), n: int = 
 
     def call(seed, z=READINGS[0]):
         try:
-            x, log_w = fn(z, n, np.random.default_rng(seed), corridor)
+            out = fn(z, n, np.random.default_rng(seed), corridor)
+            if out is None:
+                report.problems.append("the function returned None: return the poses and their log-weights, "
+                                       "two arrays of shape (n,)")
+                return None
+            x, log_w = out
             return np.asarray(x, dtype=float), np.asarray(log_w, dtype=float)
         except Exception as exc:  # a student's bug is reported, not raised
             report.problems.append(f"the function raised {type(exc).__name__}: {exc}")
