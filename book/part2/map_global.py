@@ -424,10 +424,12 @@ glue_values("lf_", demo_decided_s=float((decided_at[0] + 1) * study.DT), demo_lo
 # a filter that follows the robot may carry such an error between two scans, and the rule allows
 # three times that, {glue:text}`lf_heading_tolerance_deg:.1f`°.
 #
-# Over the {glue:text}`lf_n_global:d` drives of the twin study, from a uniform start, the cure is
+# Over the $100$ drives of the twin study, from a uniform start, the cure is
 # locked on in {glue:text}`lf_global_lock_on_rate:.0%` of them
 # ({glue:text}`lf_global_lock_on_rate_low:.0%`-{glue:text}`lf_global_lock_on_rate_high:.0%`),
-# against the {glue:text}`lf_decided_rate:.0%` the evidence decides: short of the bound. Of the {glue:text}`lf_global_missed:d` drives it misses,
+# against the {glue:text}`lf_decided_rate:.0%` the evidence decides: short of the bound.
+#
+# Of the {glue:text}`lf_global_missed:d` drives it misses,
 # {glue:text}`lf_global_missed_late:d` end within the tolerances, found too late for the window; the
 # others end on a twin, where the evidence had chosen but no injected pose gathered enough of it in
 # its $10$ s of history to take over.
@@ -465,13 +467,16 @@ EvidenceBlock(
 # $20$ s; then the robot is carried to another waypoint of its route while its odometry reports no
 # motion, and drives on for $100$ s. The scans stop fitting the cloud, $w_{\mathrm{fast}}$ drops
 # below $w_{\mathrm{slow}}$, $\varepsilon_k$ rises, and the injected poses, which fit the new scans,
-# take the weight. Over {glue:text}`lf_n_kidnap:d` seeded runs the filter recovers (is locked on at
+# take the weight. Over $100$ seeded runs the filter recovers (is locked on at
 # the end) in {glue:text}`lf_kidnap_recovered_rate:.0%` of them
 # ({glue:text}`lf_kidnap_recovered_rate_low:.0%`-{glue:text}`lf_kidnap_recovered_rate_high:.0%`).
+#
 # Those that recover are locked on for good a median {glue:text}`lf_kidnap_recovery_median_s:.0f` s after
 # the kidnapping ({glue:text}`lf_kidnap_recovery_median_s_low:.0f`-{glue:text}`lf_kidnap_recovery_median_s_high:.0f` s):
 # at least the $10$ s of history an injected pose needs, plus the time the robot takes to see what
-# tells its new room from the twins. Of the {glue:text}`lf_kidnap_missed:d` runs that do not recover,
+# tells its new room from the twins.
+#
+# Of the {glue:text}`lf_kidnap_missed:d` runs that do not recover,
 # {glue:text}`lf_kidnap_missed_late:d` end within $1$ m of the robot's position, too late for the window.
 
 # %% tags=["remove-input"] jupyter={"source_hidden": true}
