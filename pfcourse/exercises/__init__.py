@@ -113,6 +113,10 @@ exception is reported as a problem); ``str(report)`` prints the verdict.
   the mistakes of :data:`FIELD_MISTAKES` (max-range beams kept, the heading left out of the beam's
   direction, no ``z_rand / z_max`` term, no Gaussian constant, a product of densities that underflows)
   are named.
+* :func:`check_reset_weights` - ``fn(z, n, rng, corridor) -> (poses, log_w)``: poses drawn from a reading
+  (sensor resetting) for a door-distance sensor in a corridor, weighted ``u / q p`` (the chapter
+  *Finding the robot on the map*, :mod:`.map_global`); the generator is checked, and equal weights,
+  the likelihood alone, the prior left out and the kernel's constant left out are named.
 * :func:`check_paired_se` - ``fn(a, b) -> (paired_se, unpaired_se)``: the standard error of a difference of
   means over the same runs, paired and as if unpaired (chapter 19); the population standard deviation,
   a division by ``n``, standard deviations added and the pairing ignored are named.
@@ -134,6 +138,10 @@ from pfcourse.exercises.checking import (  # noqa: F401
     _per_particle_answers,
     _settled,
     _shaped,
+)
+from pfcourse.exercises.map_global import (  # noqa: F401
+    RESET_MISTAKES,
+    check_reset_weights,
 )
 from pfcourse.exercises.onramp import (  # noqa: F401
     INFLATION,

@@ -38,7 +38,7 @@ import pandas as pd
 
 from pfcourse.errors import ParameterError, StepError
 from pfcourse.filter_config import records
-from pfcourse.experiments import association, comparison, global_localization, intel
+from pfcourse.experiments import association, comparison, global_localization, intel, map_global
 from pfcourse.experiments import likelihood_studies as ls
 from pfcourse.experiments import part1_studies
 from pfcourse.experiments import static_parameters_study as sps
@@ -398,6 +398,17 @@ STUDIES: dict[str, Study] = {study.name: study for study in [
            ("seed", "n_poses", "field_lookups", "beam_cells", "field_seconds", "beam_seconds")),
           ("kld_tracking", maprobot.kld_tracking_row, {},
            ("seed", "position_rmse", "locked_on", "mean_particles", "max_particles_after_start"))]),
+    *(Study(name=f"map_global/{name}", row=row, grid={}, n_runs=100, seeds="run", failures="raise",
+            table=f"map_global/{name}.csv", provenance=f"map_global/{name}.json", columns=columns, sample=1,
+            row_code=f"pfcourse/experiments/map_global.py ({row.__name__}), pfcourse/maprobot/global_mcl.py",
+            fields={"seeds": "run s: drive and scans as maprobot/global and maprobot/kidnap (data_rng(s, 0), "
+                             "kidnap_rng(s)); filter numpy.random.default_rng([41, s, 2])",
+                    "dt": maprobot.DT, "heading_tolerance_rad": map_global.HEADING_TOL,
+                    "lock_on": "pfcourse.maprobot.lock_on.locked_on: within 1 m and 3 sd of one step's odometry "
+                               "heading noise at 80 % of the last 20 s"})
+      for name, row, columns in [("twins", map_global.twin_row, map_global.TWIN_COLUMNS),
+                                 ("global", map_global.global_row, map_global.GLOBAL_COLUMNS),
+                                 ("kidnap", map_global.kidnap_row, map_global.KIDNAP_COLUMNS)]),
     Study(name="terrain_mpf", row=terrain_marginalised.row, grid={"N": terrain_marginalised.SIZES},
           n_runs=100, seeds="run", table="terrain_mpf.csv", **_FLIGHTS, provenance="terrain_mpf.json",
           columns=terrain_marginalised.COLUMNS, seed_column="flight", cheap=lambda t: t["N"] <= 3000, sample=2,
