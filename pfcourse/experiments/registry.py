@@ -395,13 +395,15 @@ STUDIES: dict[str, Study] = {study.name: study for study in [
                          "multinomial resampling at ESS < N/2",
                   "seeds": "flight r: pfcourse.seeding.data_rng(0, r); filter: pfcourse.seeding.filter_rng(0, r)",
                   "divergence": "final horizontal error > 500 m or every particle lost"}),
-    Study(name="terrain_costs", row=terrain_field.cost_row, grid={"setting": list(terrain_field.COST_FILTERS)},
+    Study(name="terrain_costs", row=terrain_field.cost_row, grid={"timed": ["terrain decision"]},
           n_runs=terrain_field.COST_FLIGHTS, seeds="run", failures="raise", table="terrain_costs.csv",
-          provenance="terrain_costs.json", columns=terrain_field.COST_COLUMNS, seed_column="flight", sample=2,
-          volatile=("seconds", "seconds_per_run"), cheap=lambda t: t["N"] <= 3000,
+          provenance="terrain_costs.json", columns=terrain_field.COST_COLUMNS, seed_column="flight", sample=1,
+          volatile=("seconds", *terrain_field.COST_TIMES),
           row_code="pfcourse/experiments/terrain_field.py (cost_row)",
-          fields={"timing": "every filter on flights 0-9, one after the other in one process; each run twice, "
-                            "the second timed (time.perf_counter)"}),
+          fields={"filters": {name: n for name, (_, n) in terrain_field.COST_FILTERS.items()},
+                  "timing": "flight r: every filter in one process, a warm-up round then 2 rounds in an order "
+                            "rotating with the round and the flight; CPU time (time.process_time) of the faster "
+                            "round, s"}),
     Study(name="smoothing/landmarks", row=smoothing_studies.landmarks_row,
           grid={"n_particles": smoothing_studies.N_VALUES}, n_runs=smoothing_studies.N_RUNS, seeds="run",
           failures="raise", table="smoothing/landmarks.csv", provenance="smoothing/landmarks.json",
