@@ -140,3 +140,30 @@ def cost_row(seed: int, timed: str = "terrain decision") -> dict:
     out.update({f"completed_{COST_FILTERS[n][0]}": completed[n] for n in names})
     out.update({f"cpu_{COST_FILTERS[n][0]}": best[n] for n in names})
     return out
+
+
+def map_error_family(map_error_lost, map_bias_lost, best_true_lost) -> dict:
+    """Every comparison of lost flights the map-error studies make, as ``{name: (PairedRates, Holm p)}``.
+
+    ``map_error_lost``: flights x settings of ``terrain_map_error`` (booleans); ``map_bias_lost``: the same for
+    ``terrain_map_bias``; ``best_true_lost``: the regularised N = 30000 filter's lost flags on the true map,
+    for ``terrain_map_error``'s flights.  Each comparison is an exact McNemar test on the paired flights
+    (:func:`pfcourse.evidence.paired_rates`); Holm's adjustment (:func:`pfcourse.evidence.holm`) is over the
+    whole family, so a claim that survives it survives having looked at all of them.
+    """
+    from pfcourse import evidence
+
+    best, hz, told = "regularised N=30000", "regularised N=30000, 10 Hz", "regularised N=30000, Rf + map error"
+    pairs = {"regularised, map error vs true map": (map_error_lost[best], best_true_lost),
+             "regularised, 10 Hz vs 1 Hz": (map_error_lost[hz], map_error_lost[best]),
+             "regularised, Rf + map variance vs Rf": (map_error_lost[told], map_error_lost[best])}
+    for rate in MAP_BIAS_RATES:
+        for remedy in MAP_BIAS_REMEDIES[1:]:
+            pairs[f"marginalised {rate}, {remedy} vs none"] = (map_bias_lost[f"{rate}: {remedy}"],
+                                                               map_bias_lost[f"{rate}: marginalised"])
+    for remedy in MAP_BIAS_REMEDIES:
+        pairs[f"marginalised, {remedy}, 10 Hz vs 1 Hz"] = (map_bias_lost[f"10 Hz: {remedy}"],
+                                                          map_bias_lost[f"1 Hz: {remedy}"])
+    tests = {name: evidence.paired_rates(a, b) for name, (a, b) in pairs.items()}
+    adjusted = evidence.holm([t.pvalue for t in tests.values()])
+    return {name: (t, float(p)) for (name, t), p in zip(tests.items(), adjusted)}

@@ -6,7 +6,7 @@ A filter's map ``h_f`` is not the ground ``h``: with ``b(p) = h_f(p) - h(p)`` th
 
 so the map's error enters the reading exactly as the altitude does: linearly.  Along the flight ``b`` is
 a correlated process (the error field is smooth), modelled as first-order Gauss-Markov **in the distance
-flown** ``d = V dt`` per step (Gustafsson et al. 2002 use such states for a terrain map's bias):
+flown** ``d = V dt`` per step:
 
     b_k = a b_{k-1} + w_b,   a = exp(-d / L),   w_b ~ N(0, sigma_b^2 (1 - a^2)),   b_0 ~ N(0, sigma_b^2),
 
