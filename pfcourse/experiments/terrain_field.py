@@ -38,7 +38,7 @@ FIELD_CELLS = [50.0, 25.0, 12.5]
 FIELD_SETTINGS = [f"grid {c:g} m" for c in FIELD_CELLS] + ["bootstrap N=3000"]
 FIELD_COLUMNS = ("setting", "flight", "final_x", "final_y", "final_sd_x", "final_sd_y", "final_error", "true_x",
                  "true_y", "seconds")
-FIELD_FLIGHTS = 100
+FIELD_FLIGHTS = 50
 
 
 def field_row(seed: int, setting: str) -> dict:
@@ -60,13 +60,13 @@ def field_row(seed: int, setting: str) -> dict:
             "true_x": float(flight.truth[-1, 0]), "true_y": float(flight.truth[-1, 1])}
 
 
-#: The map-bias study: (rate, remedy) settings, flights 0-99 (0-49 are those of terrain_map_error).
+#: The map-bias study: (rate, remedy) settings, flights 0-49 (those of terrain_map_error).
 MAP_BIAS_RATES = {"1 Hz": {}, "10 Hz": {"measurement_period": 0.1, "dt": 0.1}}
 MAP_BIAS_REMEDIES = ["marginalised", "R inflated", "bias state"]
 MAP_BIAS_SETTINGS = [f"{rate}: {remedy}" for rate in MAP_BIAS_RATES for remedy in MAP_BIAS_REMEDIES]
 MAP_BIAS_COLUMNS = ("setting", "flight", "status", "error", "final_error", "mean_error", "lost", "map_error_sd",
                     "length", "seconds")
-MAP_BIAS_FLIGHTS = 100
+MAP_BIAS_FLIGHTS = 50
 MAP_BIAS_N = 3000
 
 
