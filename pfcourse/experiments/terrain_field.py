@@ -161,6 +161,8 @@ def map_error_family(map_error_lost, map_bias_lost, best_true_lost) -> dict:
         for remedy in MAP_BIAS_REMEDIES[1:]:
             pairs[f"marginalised {rate}, {remedy} vs none"] = (map_bias_lost[f"{rate}: {remedy}"],
                                                                map_bias_lost[f"{rate}: marginalised"])
+        pairs[f"marginalised {rate}, bias state vs R inflated"] = (map_bias_lost[f"{rate}: bias state"],
+                                                                  map_bias_lost[f"{rate}: R inflated"])
     for remedy in MAP_BIAS_REMEDIES:
         pairs[f"marginalised, {remedy}, 10 Hz vs 1 Hz"] = (map_bias_lost[f"10 Hz: {remedy}"],
                                                           map_bias_lost[f"1 Hz: {remedy}"])
