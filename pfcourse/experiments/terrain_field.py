@@ -97,7 +97,7 @@ COST_FILTERS = {"EKF": ("ekf", 0), "UKF": ("ukf", 0), "bootstrap N=3000": ("boot
                 "marginalised N=3000": ("mpf3k", 3000), "bias state N=3000": ("bias3k", 3000),
                 "regularised N=30000": ("rpf30k", 30000), "bootstrap N=30000": ("boot30k", 30000)}
 COST_TIMES = tuple(f"cpu_{c}" for c, _ in COST_FILTERS.values())
-COST_COLUMNS = ("flight", "steps", *(f"completed_{c}" for c, _ in COST_FILTERS.values()), *COST_TIMES)
+COST_COLUMNS = ("timed", "flight", "steps", *(f"completed_{c}" for c, _ in COST_FILTERS.values()), *COST_TIMES)
 COST_FLIGHTS = 10
 COST_REPEATS = 2
 
