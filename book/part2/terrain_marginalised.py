@@ -296,11 +296,14 @@ print("study commit:", json.loads(Path("../data/terrain_costs.json").read_text()
 cost_rows = []
 for name, (cid, n) in COST_FILTERS.items():
     cpu = costs[f"cpu_{cid}"]
-    to_boot = evidence.paired(cpu / max(n, 1), costs["cpu_boot3k"] / 3000, ratio=True)
-    cost_rows.append({"filter": name, "N": n, "ms per run (median)": 1000 * cpu.median(),
-                      "µs per particle-step": 1e6 * (cpu / (costs.steps * max(n, 1))).median(),
-                      "per particle-step / bootstrap's": to_boot.median,
-                      "95 % interval": f"{to_boot.low:.2f}-{to_boot.high:.2f}"})
+    row = {"filter": name, "N": n, "ms per run (median)": 1000 * cpu.median(),
+           "µs per particle-step (Kalman: per step)": 1e6 * (cpu / (costs.steps * max(n, 1))).median(),
+           "per particle-step / bootstrap's": np.nan, "95 % interval": ""}
+    if n > 0:
+        to_boot = evidence.paired(cpu / n, costs["cpu_boot3k"] / 3000, ratio=True)
+        row.update({"per particle-step / bootstrap's": to_boot.median,
+                    "95 % interval": f"{to_boot.low:.2f}-{to_boot.high:.2f}"})
+    cost_rows.append(row)
 cost_table = pd.DataFrame(cost_rows)
 print(cost_table.drop(columns=["95 % interval"]).to_string(index=False, float_format=lambda v: f"{v:.3g}"))
 
@@ -318,9 +321,10 @@ EvidenceBlock(
            "the faster round. Ratios: median of the per-flight ratios, 95 % bootstrap interval over the flights.",
            f"Marginalised / bootstrap, N = 3000: {mpf_cost}.",
            f"Regularised / bootstrap, N = 30000: {rpf_cost}.",
-           "The Kalman filters' rows are per step (N = 0 is counted as one)."],
+           "The Kalman filters' rows are per step (they carry no particles)."],
     tables=[("Processor time of each filter, one run per flight", cost_table,
-             {"ms per run (median)": ".3g", "µs per particle-step": ".3g", "per particle-step / bootstrap's": ".2f"})],
+             {"ms per run (median)": ".3g", "µs per particle-step (Kalman: per step)": ".3g",
+              "per particle-step / bootstrap's": ".2f"})],
 )
 
 # %% [markdown]
@@ -541,7 +545,8 @@ from scipy import ndimage, special
 
 def point_mass(readings, d, terrain, cell, sd0, drift, R):
     """Posterior mean of p_k, on a lattice of the error e = p - d_k."""
-    e = np.arange(-4 * sd0, 4 * sd0 + cell / 2, cell)  # one axis of the lattice
+    half = np.ceil(4 * sd0 / cell) * cell
+    e = np.arange(-half, half + cell / 2, cell)  # one axis of the lattice
     ex, ey = np.meshgrid(e, e)
     w = np.exp(-0.5 * (ex**2 + ey**2) / sd0**2)  # the prior N(0, sd0^2 I)
     w /= w.sum()
@@ -710,8 +715,13 @@ plt.show()
 # %% tags=["remove-input"] jupyter={"source_hidden": true}
 mm = pd.read_csv(Path("../data/terrain_map_error.csv"))
 mm_lost = mm.pivot(index="flight", columns="setting", values="lost").astype(bool)
-best_true = lost.loc[mm_lost.index, "regularised N=30000"]
-family = map_error_family(mm_lost, mb_lost, best_true)
+# the same flights on the true map: the remedies study, and the period study's 10 Hz runs
+period = pd.read_csv(Path("../data/terrain_studies.csv"))
+period = period[period["setting"] == "every 0.1 s, dt = 0.1 s"].set_index("flight").loc[mm_lost.index]
+true_map = {"bootstrap N=3000": lost.loc[mm_lost.index, "bootstrap N=3000"],
+            "regularised N=30000": lost.loc[mm_lost.index, "regularised N=30000"],
+            "regularised N=30000, 10 Hz": period["lost"].astype(bool)}
+family = map_error_family(mm_lost, mb_lost, true_map)
 holm_p = {name: p for name, (_, p) in family.items()}
 share = {name: evidence.rate(mb_lost[name]) for name in MAP_BIAS_SETTINGS}
 glue_values("terrain_", bias_state_lost_1hz=share["1 Hz: bias state"].estimate,
@@ -734,9 +744,10 @@ L_b, d10 = float(mb["length"].iloc[0]), scenario.speed * 0.1
 glue_values("terrain_", bias_gm_corr_10m=float(np.exp(-d10 / L_b)), bias_field_corr_10m=float(np.exp(-(d10 / L_b) ** 2)),
             bias_fresh_ratio=float((1 - np.exp(-d10 / L_b)) / (1 - np.exp(-(d10 / L_b) ** 2))))
 established = [name for name, p in holm_p.items() if p < 0.05]
-assert set(established) == {"marginalised 1 Hz, bias state vs none", "marginalised 10 Hz, bias state vs none",
-                            "marginalised 10 Hz, R inflated vs none", "marginalised 10 Hz, bias state vs R inflated"}
-glue_values("terrain_", bias_established_max_holm_p=max(holm_p[n] for n in established))
+ours_established = [n for n in established if n.startswith("marginalised")]
+assert set(ours_established) == {"marginalised 1 Hz, bias state vs none", "marginalised 10 Hz, bias state vs none",
+                                 "marginalised 10 Hz, R inflated vs none",
+                                 "marginalised 10 Hz, bias state vs R inflated"}, established
 family_table = pd.DataFrame([{"comparison (A vs B)": name, "flights": t.a.n, "lost A": t.a.estimate,
                               "lost B": t.b.estimate, "only A / only B": f"{t.only_a} / {t.only_b}",
                               "McNemar p": t.pvalue, "Holm p": p} for name, (t, p) in family.items()])

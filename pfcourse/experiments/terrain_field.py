@@ -142,21 +142,21 @@ def cost_row(seed: int, timed: str = "terrain decision") -> dict:
     return out
 
 
-def map_error_family(map_error_lost, map_bias_lost, best_true_lost) -> dict:
+def map_error_family(map_error_lost, map_bias_lost, true_map: dict) -> dict:
     """Every comparison of lost flights the map-error studies make, as ``{name: (PairedRates, Holm p)}``.
 
     ``map_error_lost``: flights x settings of ``terrain_map_error`` (booleans); ``map_bias_lost``: the same for
-    ``terrain_map_bias``; ``best_true_lost``: the regularised N = 30000 filter's lost flags on the true map,
-    for ``terrain_map_error``'s flights.  Each comparison is an exact McNemar test on the paired flights
+    ``terrain_map_bias``; ``true_map``: for each setting of ``terrain_map_error`` run on the true map too, its
+    lost flags there on the same flights.  Each comparison is an exact McNemar test on the paired flights
     (:func:`pfcourse.evidence.paired_rates`); Holm's adjustment (:func:`pfcourse.evidence.holm`) is over the
     whole family, so a claim that survives it survives having looked at all of them.
     """
     from pfcourse import evidence
 
     best, hz, told = "regularised N=30000", "regularised N=30000, 10 Hz", "regularised N=30000, Rf + map error"
-    pairs = {"regularised, map error vs true map": (map_error_lost[best], best_true_lost),
-             "regularised, 10 Hz vs 1 Hz": (map_error_lost[hz], map_error_lost[best]),
-             "regularised, Rf + map variance vs Rf": (map_error_lost[told], map_error_lost[best])}
+    pairs = {f"{name}, map error vs true map": (map_error_lost[name], lost) for name, lost in true_map.items()}
+    pairs.update({"regularised, 10 Hz vs 1 Hz": (map_error_lost[hz], map_error_lost[best]),
+                  "regularised, Rf + map variance vs Rf": (map_error_lost[told], map_error_lost[best])})
     for rate in MAP_BIAS_RATES:
         for remedy in MAP_BIAS_REMEDIES[1:]:
             pairs[f"marginalised {rate}, {remedy} vs none"] = (map_bias_lost[f"{rate}: {remedy}"],
