@@ -397,8 +397,7 @@ print(f"grid points held at t = {SNAPSHOT} s: {grid.kept.size:,}; posterior mass
 
 # %% [markdown]
 # After $20$ readings both still spread over kilometres: the profile flown so far matches
-# several places of the map. The grid shows every such place, including those a cloud of
-# $3000$ particles samples thinly or not at all.
+# several places of the map, and the grid holds every one of them.
 #
 # The grid ran on the first flights at five resolutions, from $\delta = 400$ m down, each
 # dividing the cell and the heading bin by $\sqrt 2$ (`python3 tasks.py study terrain_grid`).
@@ -779,11 +778,11 @@ EvidenceBlock(
 # at $10$ Hz, and at $10$ Hz inflating $R_f$ beats the bias state. Whether measuring faster hurts or
 # helps any of these filters, fifty flights do not settle.
 #
-# Why would the state do worse than the cruder remedy at $10$ Hz? A likely reason, not tested here:
+# Why would the state do worse than the cruder remedy at $10$ Hz? A likely reason, untested:
 # readings $10$ m apart have map errors correlated at {glue:text}`terrain_bias_field_corr_10m:.4f`,
 # while the first-order model says {glue:text}`terrain_bias_gm_corr_10m:.3f`, so it takes each
 # reading's error for about {glue:text}`terrain_bias_fresh_ratio:.0f` times more fresh than it is.
-# A smoother bias model (second order) is the next thing to try.
+# A smoother (second-order) bias model is the next thing to try.
 #
 # ## Exercises
 #
