@@ -19,7 +19,7 @@
 # **You need** {doc}`terrain` and {doc}`../part1/resampling_schemes`; covariance matrices and their square
 # roots; paired tests ({doc}`../evidence`).
 #
-# **Time:** about thirty minutes to read; the notebook runs in under twenty seconds (the studies
+# **Time:** about twenty-one minutes to read; the notebook runs in under twenty seconds (the studies
 # are stored).
 # :::
 #
@@ -527,11 +527,12 @@ EvidenceBlock(
 )
 
 # %% [markdown]
-# At the end of the flight the converged flights' RMSE, {glue:text}`terrain_converged_rmse:.0f` m,
-# is {glue:text}`terrain_best_rmse_over_filter_bound:.2f` times the bound computed with the filter's
-# own process noise, {glue:text}`terrain_filter_bound_final:.0f` m
-# ({glue:text}`terrain_best_rmse_over_filter_bound_lo:.2f`-{glue:text}`terrain_best_rmse_over_filter_bound_hi:.2f`),
-# and {glue:text}`terrain_best_rmse_over_noise_free_bound:.1f` times the noise-free one.
+# At the end of the flight the converged flights' RMSE is
+# {glue:text}`terrain_best_rmse_over_filter_bound:.2f`
+# ({glue:text}`terrain_best_rmse_over_filter_bound_lo:.2f`-{glue:text}`terrain_best_rmse_over_filter_bound_hi:.2f`)
+# times the bound computed with the filter's own process noise.
+#
+# It is {glue:text}`terrain_best_rmse_over_noise_free_bound:.1f` times the noise-free one.
 #
 # The two bounds answer two questions. The filter assumes the aircraft's heading wanders by about
 # {glue:text}`terrain_filter_heading_noise_deg:.1f` degrees per second (its $Q_f$); for an aircraft
@@ -648,13 +649,16 @@ EvidenceBlock(
 # **Measuring faster with a wrong map: a warning, not a verdict.** Measuring ten times a second,
 # the same filter loses {glue:text}`terrain_map_hz_lost:.0%` of the flights, against
 # {glue:text}`terrain_map_error_best_lost:.0%` at $1$ Hz on the same flights and maps. Taken alone
-# the difference looks real; corrected for all {glue:text}`terrain_map_family_size:d` comparisons of
-# the two map-error studies (this one and the next chapter's, in the evidence block), fifty flights
-# do not establish it. What they do establish is that at $10$ Hz the wrong map costs flights: the
+# the difference looks real; corrected for all the comparisons of the two map-error studies (this
+# one and the next chapter's, in the evidence block), fifty flights do not establish it.
+#
+# What they do establish is that at $10$ Hz the wrong map costs flights: the
 # same filter loses {glue:text}`terrain_map_hz_true_lost:.0%` of them on the true map. The mechanism
 # is plausible: at $100$ m/s ten readings a second fall $10$ m
 # apart, inside one patch of map error, and a filter that treats their errors as independent counts
-# the same error many times. On the flights both converge, the $10$ Hz filter's final error is
+# the same error many times.
+#
+# On the flights both converge, the $10$ Hz filter's final error is
 # {glue:text}`terrain_map_hz_ratio:.2f` times the $1$ Hz filter's
 # ({glue:text}`terrain_map_hz_lo:.2f`-{glue:text}`terrain_map_hz_hi:.2f`), against
 # {glue:text}`terrain_map_hz_true:.2f` on the true map.

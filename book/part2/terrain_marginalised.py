@@ -19,7 +19,7 @@
 # **You need** {doc}`terrain`, {doc}`terrain_cure` and {doc}`../part1/rao_blackwell`; the scalar
 # Kalman filter; NumPy arrays.
 #
-# **Time:** about twenty minutes to read; the notebook runs in about twenty seconds (the studies
+# **Time:** about twenty-five minutes to read; the notebook runs in about twenty seconds (the studies
 # over the flights are stored).
 # :::
 #
@@ -273,7 +273,9 @@ EvidenceBlock(
 # The marginalised filter loses {glue:text}`terrain_mpf_lost_n3000:.2f`
 # ({glue:text}`terrain_mpf_lost_n3000_low:.2f`-{glue:text}`terrain_mpf_lost_n3000_high:.2f`) of the
 # flights at $N = 3000$, against {glue:text}`terrain_mpf_boot_n3000:.2f` for the bootstrap filter
-# on the same flights. At $N = 3 \times 10^4$ it loses {glue:text}`terrain_mpf_lost_n30000:.2f`,
+# on the same flights.
+#
+# At $N = 3 \times 10^4$ it loses {glue:text}`terrain_mpf_lost_n30000:.2f`,
 # against {glue:text}`terrain_mpf_boot_n30000:.2f`. On the flights both keep at that size, its RMS
 # final error is {glue:text}`terrain_mpf_rms_ratio:.2f` times the bootstrap's.
 #
@@ -330,8 +332,9 @@ EvidenceBlock(
 # %% [markdown]
 # Per particle and step the marginalised filter costs {glue:text}`terrain_mpf_cost_ratio:.2f` times the
 # bootstrap filter ({glue:text}`terrain_mpf_cost_ratio_low:.2f`-{glue:text}`terrain_mpf_cost_ratio_high:.2f`):
-# both read the map once per particle, and the scalar Kalman update is cheap beside it. At equal
-# cost it wins clearly: with $N = 3000$ it costs less than the bootstrap filter with $N = 10^4$, which
+# both read the map once per particle, and the scalar Kalman update is cheap beside it.
+#
+# At equal cost it wins clearly: with $N = 3000$ it costs less than the bootstrap filter with $N = 10^4$, which
 # still loses {glue:text}`terrain_mpf_boot_n10000:.2f` of the flights. The regularised filter's kernel
 # costs {glue:text}`terrain_rpf_cost_ratio:.2f` times the bootstrap filter per particle-step, so
 # comparing the two remedies at the same $N$ is close to comparing them at the same cost.
@@ -506,8 +509,7 @@ EvidenceBlock(
 # (the evidence block gives every step, and the grid's posterior is wider than that of a bootstrap
 # filter with a million particles). So it is **not** a reference for accuracy on this problem: its
 # RMS final error, {glue:text}`terrain_grid_rmse_m:.0f` m, is largely its own resolution, and a
-# particle filter that ends within {glue:text}`terrain_grid_shift_max:.0f` m of it is within the
-# grid's own error.
+# particle filter that ends that close to it is within the grid's own error.
 #
 # It does tell a lost flight from a kept one, because a lost flight ends kilometres away. The grid
 # loses {glue:text}`terrain_grid_lost:d` of the {glue:text}`terrain_grid_flights:d` flights, where
@@ -617,7 +619,7 @@ glue_values("terrain_", pointmass_refinement_shift_m=float(np.median(shift)),
             field_drift=field.drift, field_flights=len(fflights), field_pf_far=int(pf_lost.sum()),
             field_grid_spread_m=float(np.median(grid_spread)),
             field_grid_rmse_m=float(np.sqrt(np.mean(grid_err**2))),
-            field_pf_kept_median_m=float(np.median(to_grid[~pf_lost])),
+            field_pf_kept_median_m=float(np.median(to_grid[~pf_lost])), field_grid_max_error_m=float(grid_err.max()),
             filter_heading_deg=float(np.degrees(np.sqrt(scenario.Qf[3, 3]))))
 EvidenceBlock(
     "on the field's problem the grid has converged, and the bootstrap filter is measured against it",
@@ -633,16 +635,19 @@ EvidenceBlock(
 )
 
 # %% [markdown]
-# On the {glue:text}`terrain_field_flights:d` flights, halving the cells from $25$ m to $12.5$ m moves
-# the final estimate by a
+# On these flights, halving the cells from $25$ m to $12.5$ m moves the final estimate by a
 # median of {glue:text}`terrain_pointmass_refinement_shift_m:.1f` m (at most
 # {glue:text}`terrain_pointmass_refinement_shift_max_m:.1f` m), against a posterior spread of about
 # {glue:text}`terrain_field_grid_spread_m:.0f` m: this grid has converged, and it is the exact
-# answer to compare with. The bootstrap filter with $N = 3000$ ends a median
+# answer to compare with.
+#
+# The bootstrap filter with $N = 3000$ ends a median
 # {glue:text}`terrain_pf_to_pointmass_m:.1f` m from it
-# ({glue:text}`terrain_pf_to_pointmass_low_m:.1f`-{glue:text}`terrain_pf_to_pointmass_high_m:.1f`),
-# and more than $500$ m away on {glue:text}`terrain_field_pf_far:d` of the
-# {glue:text}`terrain_field_flights:d` flights, where the posterior itself was not lost.
+# ({glue:text}`terrain_pf_to_pointmass_low_m:.1f`-{glue:text}`terrain_pf_to_pointmass_high_m:.1f`).
+#
+# It ends more than $500$ m away on {glue:text}`terrain_field_pf_far:d` of the
+# {glue:text}`terrain_field_flights:d` flights, where the grid's own error never exceeds
+# {glue:text}`terrain_field_grid_max_error_m:.0f` m.
 #
 # Which problem does the book solve? The four-dimensional one, with its generous heading noise,
 # in {doc}`terrain`, {doc}`terrain_cure` and most of this chapter: a hard test for a particle
@@ -769,12 +774,15 @@ EvidenceBlock(
 # %% [markdown]
 # With the wrong map and no remedy, the marginalised filter loses
 # {glue:text}`terrain_bias_none_lost_1hz:.2f` of the flights at $1$ Hz and
-# {glue:text}`terrain_bias_none_lost_10hz:.2f` at $10$ Hz. Carrying the error as a state, it loses
+# {glue:text}`terrain_bias_none_lost_10hz:.2f` at $10$ Hz.
+#
+# Carrying the error as a state, it loses
 # {glue:text}`terrain_bias_state_lost_1hz:.2f` at $1$ Hz and {glue:text}`terrain_bias_state_lost_10hz:.2f`
 # at $10$ Hz; inflating $R_f$, {glue:text}`terrain_bias_inflated_lost_1hz:.2f` and
-# {glue:text}`terrain_bias_inflated_lost_10hz:.2f`. Corrected for all
-# {glue:text}`terrain_bias_family:d` comparisons of the two map-error studies (evidence block), four
-# differences stand: the bias state beats no remedy at both rates, inflating $R_f$ beats no remedy
+# {glue:text}`terrain_bias_inflated_lost_10hz:.2f`.
+#
+# Corrected for all {glue:text}`terrain_bias_family:d` comparisons of the two map-error studies
+# (evidence block), four differences among these filters stand: the bias state beats no remedy at both rates, inflating $R_f$ beats no remedy
 # at $10$ Hz, and at $10$ Hz inflating $R_f$ beats the bias state. Whether measuring faster hurts or
 # helps any of these filters, fifty flights do not settle.
 #
