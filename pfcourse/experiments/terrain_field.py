@@ -20,7 +20,7 @@ import time
 
 import numpy as np
 
-from pfcourse.errors import DegenerateWeightsError, ParameterError
+from pfcourse.errors import ParameterError
 from pfcourse.experiments import terrain_remedies
 from pfcourse.experiments.terrain import flight_scores, jacksboro
 from pfcourse.filter import ParticleFilter
@@ -103,7 +103,8 @@ COST_REPEATS = 2
 
 
 def _run_cost_filter(setting: str, scenario: AircraftScenario, terrain, flight, seed: int) -> bool:
-    """Run ``setting`` on ``flight``; ``True`` when it ends on the map with particles alive."""
+    """Run ``setting`` on ``flight``; ``True`` when it ends on the map (a Kalman filter may leave it; a particle
+    filter that loses every particle raises, and the study, run with ``failures="raise"``, stops)."""
     if setting == "EKF":
         return extended_kalman_filter(scenario, terrain, flight.measurements).lost_at is None
     if setting == "UKF":
@@ -114,10 +115,7 @@ def _run_cost_filter(setting: str, scenario: AircraftScenario, terrain, flight, 
         pf = map_bias_filter(terrain, scenario, 3000, 12.0, 300.0, threshold=0.5, resampler="multinomial")
     else:
         pf = lookup(terrain_remedies.FILTERS, setting).build(scenario, terrain)
-    try:
-        pf.run(flight.measurements, rng=filter_rng(0, seed))
-    except DegenerateWeightsError:  # every particle lost: timed up to there
-        return False
+    pf.run(flight.measurements, rng=filter_rng(0, seed))  # every particle lost: raises, the study refuses it
     return True
 
 
