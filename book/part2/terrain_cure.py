@@ -535,14 +535,17 @@ EvidenceBlock(
 # It is {glue:text}`terrain_best_rmse_over_noise_free_bound:.1f` times the noise-free one.
 #
 # The two bounds answer two questions. The filter assumes the aircraft's heading wanders by about
-# {glue:text}`terrain_filter_heading_noise_deg:.1f` degrees per second (its $Q_f$); for an aircraft
-# that really wandered so, no estimator could do much better than this filter does: it is nearly
-# efficient *for its model*. The gap to the noise-free bound is the price of that model: a filter that believes the
-# aircraft may turn at random cannot pile up the evidence of a long profile as firmly as one that knows
-# the path is a smooth arc. The gap is the model's noise, not the estimator. Neither bound limits the
-# error over *all* flights, lost ones included, which is {glue:text}`terrain_all_rmse:.0f` m: a bound
-# from local slopes cannot see look-alike places. The field's own problem, with the heading known from
-# an inertial system, is the next chapter's reference.
+# {glue:text}`terrain_filter_heading_noise_deg:.1f` degrees per second (its $Q_f$). For an aircraft
+# that really wandered so, no estimator could beat the first bound, and the filter's error on these
+# flights is close to it: the filter extracts about what its own model allows. The gap to the
+# noise-free bound is the price of that model: a filter that believes the aircraft may turn at
+# random cannot pile up the evidence of a long profile as firmly as one that knows the path is a
+# smooth arc. The gap is the model's noise, not the estimator's inefficiency.
+#
+# Both bounds also hold over all the flights, lost ones included, whose RMSE is
+# {glue:text}`terrain_all_rmse:.0f` m, far above them: a bound built from local slopes cannot see
+# the look-alike places that make a filter lose the aircraft. The field's own problem, with the
+# heading known from an inertial system, is the next chapter's reference.
 #
 # ## A map that is not the truth
 #
