@@ -84,16 +84,16 @@ exception is reported as a problem); ``str(report)`` prints the verdict.
   Jacobian of range and bearing at three poses; the mistakes of :data:`JACOBIAN_MISTAKES` (offset
   reversed, ``+1`` for the heading, ``q`` for ``sqrt(q)``, ``dx`` and ``dy`` swapped) are named.
 * :func:`check_consistency` - ``fn(errors, covariances) -> (average_nees, band, fraction)``: the
-  NEES check of a filter over ``R`` runs (chapter 21), the run-averaged NEES per step, the 95 % band
+  NEES check of a filter over ``R`` runs (chapter 22), the run-averaged NEES per step, the 95 % band
   of an average of ``R`` chi-square variables with ``d`` degrees of freedom and the fraction of steps
   inside it, against :func:`nees_consistency`; the mistakes of :data:`CONSISTENCY_MISTAKES` (a single
   run's band, the band not divided by ``R``, ``P`` not inverted, a one-sided band, the runs summed)
   are named.
 * :func:`check_ess` - ``fn(log_weights) -> ess``: the effective sample size ``1 / sum_i W_i^2`` from
-  log-weights (chapter 19), on cases that underflow and overflow in the linear domain; weights not
+  log-weights (chapter 20), on cases that underflow and overflow in the linear domain; weights not
   normalised, a fraction instead of a number and exponentiation without the maximum subtracted are named.
 * :func:`check_lock_on` - ``fn(pos_err, head_err, dt, window_s) -> bool``: the book's one definition of
-  *locked on* (:func:`pfcourse.metrics.locked_on`, chapter 20); the last step only, the heading ignored,
+  *locked on* (:func:`pfcourse.metrics.locked_on`, chapter 21); the last step only, the heading ignored,
   the window read in steps and the whole run required are named.
 * :func:`check_pose_density` - ``fn(x, z, landmark, sd) -> (N,)``: the log-density ``log q_z(x)`` of a
   pose drawn from a range-bearing reading (chapter 11), against :func:`pose_reading_log_density`; the
@@ -106,7 +106,7 @@ exception is reported as a problem); ``str(report)`` prints the verdict.
   direction, no ``z_rand / z_max`` term, no Gaussian constant, a product of densities that underflows)
   are named.
 * :func:`check_paired_se` - ``fn(a, b) -> (paired_se, unpaired_se)``: the standard error of a difference of
-  means over the same runs, paired and as if unpaired (chapter 18); the population standard deviation,
+  means over the same runs, paired and as if unpaired (chapter 19); the population standard deviation,
   a division by ``n``, standard deviations added and the pairing ignored are named.
 """
 
