@@ -19,7 +19,7 @@
 # **You need** {doc}`../part1/sir` and {doc}`../part1/kalman`; bilinear interpolation; NumPy
 # arrays; paired tests ({doc}`../evidence`).
 #
-# **Time:** about thirty-one minutes to read; the notebook runs in about twenty seconds (the studies
+# **Time:** about nineteen minutes to read; the notebook runs in about twenty seconds (the studies
 # are stored).
 # :::
 #
@@ -32,7 +32,7 @@
 # a map lookup, with no formula and a slope that changes from one $90$ m cell to the next, and a
 # profile can fit several places at once: a problem made for a particle filter.
 
-# %%
+# %% tags=["remove-input"] jupyter={"source_hidden": true}
 import json
 from pathlib import Path
 
@@ -49,7 +49,6 @@ from pfcourse.experiments.terrain import DIVERGED_ERROR, diverged, final_errors,
 from pfcourse.seeding import data_rng, filter_rng
 from pfcourse.metrics import position_error
 from pfcourse.terrain.scenario import AircraftScenario, extended_kalman_filter, simulate
-from pfcourse.exercises import check_altimeter_likelihood
 from pfcourse.figures.clouds import animate_clouds
 from pfcourse.figures.report import EvidenceBlock, glue_values
 from pfcourse.collectors import Clouds
@@ -91,7 +90,7 @@ use_style()
 # south-west cell; heights between the grid nodes are bilinear. The tests
 # (`tests/test_terrain.py`) check the orientation, the units and the interpolation.
 
-# %%
+# %% tags=["hide-input"] jupyter={"source_hidden": true}
 terrain = load_jacksboro()
 lon, lat = terrain.to_lonlat(*np.multiply(np.unravel_index(np.argmax(terrain.heights), terrain.shape)[::-1], (terrain.dx, terrain.dy)))
 print(f"cells: {terrain.dx:.1f} m (east) x {terrain.dy:.1f} m (north); grid {terrain.shape[1]} x {terrain.shape[0]}")
@@ -194,7 +193,7 @@ plt.show()
 # $(21, 11)$ km heading $150°$ (north-west), turning right, and crosses from the valley onto the
 # plateau. The altitude, $1500$ m, clears the highest summit.
 
-# %%
+# %% tags=["hide-input"] jupyter={"source_hidden": true}
 scenario = AircraftScenario()
 print("speed", scenario.speed, "m/s; omega", scenario.omega, "rad/s; dt", scenario.dt, "s; duration", scenario.duration, "s")
 print("x0 =", np.round(scenario.x0, 3))
@@ -246,14 +245,21 @@ plt.show()
 # model's compiled likelihood:
 
 # %%
+import numpy as np
+
+
 def altimeter_log_likelihood(particles, reading, terrain, Rf):
-    """log N(y; z - h(x, y), Rf) per particle; h bilinear on the DEM, -inf off the map."""
-    ground = terrain.height(particles[:, 0], particles[:, 1])  # bilinear, NaN off the map
-    predicted = particles[:, 2] - ground  # the height above the ground each particle predicts
-    log_lik = -0.5 * (reading - predicted) ** 2 / Rf - 0.5 * np.log(2 * np.pi * Rf)
+    """log N(y; z - h(x, y), Rf) per particle; -inf off the map."""
+    # the ground under each particle (bilinear on the DEM), NaN off the map
+    ground = terrain.height(particles[:, 0], particles[:, 1])
+    # the height above the ground each particle predicts
+    predicted = particles[:, 2] - ground
+    log_lik = (-0.5 * (reading - predicted) ** 2 / Rf
+               - 0.5 * np.log(2 * np.pi * Rf))
     return np.where(np.isnan(ground), -np.inf, log_lik)
 
 
+# %% tags=["hide-input"] jupyter={"source_hidden": true}
 model = scenario.model(terrain)
 check_flight = simulate(scenario, terrain, data_rng(0, 0))
 stored = ParticleFilter(model, 3000, threshold=0.5, resampler="multinomial").run(
@@ -273,7 +279,7 @@ glue_values("terrain_likelihood_", tolerance=TOLERANCE)
 # not evidence, so before looking at one flight we run the filter on $60$ seeded flights, to show
 # a typical flight and a failed one.
 
-# %%
+# %% tags=["hide-input"] jupyter={"source_hidden": true}
 baseline_60 = flight_study(scenario, terrain, 60, seed=0)
 final = final_errors(baseline_60)
 print(f"final horizontal error over 60 flights: median {np.median(final):.0f} m, "
@@ -298,7 +304,7 @@ glue("terrain_diverged_flight", bad, display=False)
 # remedies; first, a flight where it works. The filter is rerun on that flight with the same seed,
 # storing the particles.
 
-# %%
+# %% tags=["hide-input"] jupyter={"source_hidden": true}
 pf = ParticleFilter(scenario.model(terrain), 3000, threshold=0.5, resampler="multinomial")
 flight = simulate(scenario, terrain, data_rng(0, good))
 run = pf.run(flight.measurements, rng=filter_rng(0, good), collect=[Clouds()])
@@ -407,7 +413,7 @@ plt.show()
 # the EKF with exactly this Jacobian, on $100$ flights (the first $60$ are the particle
 # filter's), from the same prior, and from a prior about $50$ times tighter ($30$ m).
 
-# %%
+# %% tags=["hide-input"] jupyter={"source_hidden": true}
 ekf = flight_study(scenario, terrain, 100, seed=0, method="ekf")
 tight = scenario.with_(P0=np.diag([30.0, 30.0, 5.0, 0.01]) ** 2, Qf=np.diag([1.0, 1.0, 0.1, 0.001]) ** 2)
 ekf_tight = flight_study(tight, terrain, 100, seed=0, method="ekf")
@@ -713,7 +719,7 @@ def draw(qf_scale=1.0, rf_scale=1.0, n_particles=3000, threshold=0.5, scheme="mu
     ax2.set_title(f"final error {e[-1]:.0f} m")
 
 
-# %% tags=["nbval-ignore-output"]
+# %% tags=["nbval-ignore-output", "hide-input"] jupyter={"source_hidden": true}
 panel = control_panel(
     draw,
     grid={"n_particles": (300, 1000, 3000), "rf_scale": (1.0, 2.0, 5.0)},
@@ -799,6 +805,9 @@ display(panel)
 # ```
 
 # %% tags=["answer"]
+from pfcourse.exercises import check_altimeter_likelihood
+
+
 def my_log_likelihood(particles, y, heights, dx, dy, rf):
     """Your altimeter log-likelihood: return an array of shape (N,)."""
     ...  # replace with your code

@@ -567,6 +567,85 @@ def check_altitude_update(fn: Callable, rtol: float = 1e-9) -> CheckReport:
     return report
 
 
+#: The typical mistakes of the two-state (altitude, map bias) Kalman update, and why each is wrong.
+BIAS_MISTAKES: dict[str, str] = {
+    "bias_ignored": "the predicted reading leaves out the map bias: the reading is z + b - h_f(p), so the "
+                    "innovation is y - (m_z + m_b - h_f) and H = [1, 1]",
+    "no_cross_term": "S leaves out the covariance of altitude and bias: with H = [1, 1], S = P_zz + 2 P_zb + "
+                     "P_bb + Rf, and after the first reading P_zb is not zero",
+    "weight_with_r": "the weight uses Rf where it needs S = H P H^T + Rf: altitude and bias are uncertain, so the "
+                     "predictive density of the reading is N(nu; 0, S), not N(nu; 0, Rf)",
+    "no_cov_update": "the covariance is not updated: after a reading P' = P - K K^T S, smaller than P",
+    "one_gain": "both states get the altitude's gain: the gain is K = P H^T / S, (P_zz + P_zb) / S for the "
+                "altitude and (P_zb + P_bb) / S for the bias",
+}
+
+
+def bias_update(m: np.ndarray, P: np.ndarray, ground: np.ndarray, reading: float, rf: float,
+                mistake: str | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Every particle's update of ``(z, b)``: ``m`` ``(N, 2)``, ``P`` ``(N, 3)`` = ``(P_zz, P_zb, P_bb)``,
+    ``H = [1, 1]``; returns ``(m', P', log N(nu; 0, S))``.  ``mistake`` (a key of :data:`BIAS_MISTAKES`)
+    computes instead what that mistake computes."""
+    if mistake is not None and mistake not in BIAS_MISTAKES:
+        raise ValueError(f"unknown mistake {mistake!r}; one of {sorted(BIAS_MISTAKES)}")
+    pzz, pzb, pbb = P[:, 0], P[:, 1], P[:, 2]
+    predicted = m[:, 0] - ground + (0.0 if mistake == "bias_ignored" else m[:, 1])
+    nu = reading - predicted
+    s = pzz + (0.0 if mistake == "no_cross_term" else 2.0 * pzb) + pbb + rf
+    kz = (pzz + pzb) / s
+    kb = kz if mistake == "one_gain" else (pzb + pbb) / s
+    s_lik = rf if mistake == "weight_with_r" else s
+    log_lik = -0.5 * (nu * nu / s_lik + np.log(2 * np.pi * s_lik))
+    m_new = np.column_stack([m[:, 0] + kz * nu, m[:, 1] + kb * nu])
+    P_new = P.copy() if mistake == "no_cov_update" else np.column_stack(
+        [pzz - kz * kz * s, pzb - kz * kb * s, pbb - kb * kb * s])
+    return m_new, P_new, log_lik
+
+
+#: Five particles after some readings: (altitude, bias) means, covariances (P_zz, P_zb, P_bb) with a
+#: non-zero cross term, ground heights on the filter's map, a reading, Rf.
+BIAS_CASE = dict(m=np.array([[1500.0, 4.0], [1460.0, -6.0], [1530.0, 2.5], [1495.0, 0.0], [1510.0, -1.5]]),
+                 P=np.tile([300.0, -80.0, 120.0], (5, 1)), ground=np.array([250.0, 310.0, 180.0, 270.0, 205.0]),
+                 reading=1225.0, rf=400.0)
+
+
+def check_bias_update(fn: Callable, rtol: float = 1e-9) -> CheckReport:
+    """Check ``fn(m, P, ground, reading, rf) -> (m_new, P_new, log_lik)`` on :data:`BIAS_CASE` against
+    :func:`bias_update`; a wrong answer is compared with every mistake of :data:`BIAS_MISTAKES`, and the report
+    names the one that fits."""
+    report = CheckReport("altitude and map-bias Kalman update of every particle")
+    case = {key: np.copy(value) if isinstance(value, np.ndarray) else value for key, value in BIAS_CASE.items()}
+    answer = _answer(report, lambda: fn(**case), "fn(m, P, ground, reading, rf)", "return (m_new, P_new, log_lik)")
+    if answer is None:
+        return report
+    shapes = ((5, 2), (5, 3), (5,))
+    try:
+        if len(answer) != 3:
+            raise ValueError
+        got = tuple(np.asarray(part, dtype=float).reshape(shape) for part, shape in zip(answer, shapes))
+    except (TypeError, ValueError):
+        report.problems.append("return three arrays: the new means (N, 2), the new covariances (N, 3) as "
+                               "(P_zz, P_zb, P_bb), and the log-weight increments (N,)")
+        return report
+
+    def same(expected) -> bool:
+        return all(np.allclose(g, e, rtol=rtol, atol=1e-9) for g, e in zip(got, expected))
+
+    if same(bias_update(**BIAS_CASE)):
+        return report
+    for mistake, why in BIAS_MISTAKES.items():
+        if same(bias_update(**BIAS_CASE, mistake=mistake)):
+            report.problems.append(f"your update computes a known mistake: {why}")
+            return report
+    exact = bias_update(**BIAS_CASE)
+    part = next(name for name, g, e in zip(("means", "covariances", "log-weight increments"), got, exact)
+                if not np.allclose(g, e, rtol=rtol, atol=1e-9))
+    report.problems.append(f"the {part} differ from the Kalman update with H = [1, 1] (nu = y - (m_z + m_b - h_f), "
+                           "S = H P H^T + Rf, K = P H^T / S, m' = m + K nu, P' = P - K K^T S, log N(nu; 0, S)): "
+                           "check that line")
+    return report
+
+
 def _wrap(a: np.ndarray) -> np.ndarray:
     """Angles wrapped to (-pi, pi]."""
     return np.pi - np.mod(np.pi - np.asarray(a, dtype=float), 2 * np.pi)

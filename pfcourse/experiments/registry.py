@@ -44,7 +44,7 @@ from pfcourse.experiments import part1_studies
 from pfcourse.experiments import static_parameters_study as sps
 from pfcourse.experiments import pmcmc_studies as pm
 from pfcourse.experiments import (maprobot, rb_study, robot_studies, sir_fixes_study, smoothing_studies,
-                                  terrain_marginalised, terrain_remedies, terrain_studies)
+                                  terrain_field, terrain_marginalised, terrain_remedies, terrain_studies)
 from pfcourse.experiments.provenance import append_rerun, launch_commit, write_provenance
 from pfcourse.experiments.robot import pf_run
 from pfcourse.experiments.store import DATA, load, save
@@ -424,6 +424,33 @@ STUDIES: dict[str, Study] = {study.name: study for study in [
           fields={"cells": terrain_marginalised.CELLS,
                   "seeds": "flight r: pfcourse.seeding.data_rng(0, r); the grid filter draws nothing",
                   "divergence": "final horizontal error > 500 m"}),
+    Study(name="terrain_field", row=terrain_field.field_row, grid={"setting": terrain_field.FIELD_SETTINGS},
+          n_runs=terrain_field.FIELD_FLIGHTS, seeds="run", failures="raise", table="terrain_field.csv",
+          provenance="terrain_field.json", columns=terrain_field.FIELD_COLUMNS, seed_column="flight", sample=2,
+          cheap=lambda t: t["setting"] != "grid 12.5 m",
+          row_code="pfcourse/experiments/terrain_field.py (field_row), pfcourse/terrain/field.py",
+          fields={"problem": "2-D: INS displacement known up to a drift of 3 m per axis per second, barometric "
+                             "altitude known; readings h(p) + N(0, 20^2)", "settings": terrain_field.FIELD_SETTINGS,
+                  "seeds": "flight r: pfcourse.seeding.data_rng(0, r); filter: pfcourse.seeding.filter_rng(0, r)"}),
+    Study(name="terrain_map_bias", row=terrain_field.map_bias_row, grid={"setting": terrain_field.MAP_BIAS_SETTINGS},
+          n_runs=terrain_field.MAP_BIAS_FLIGHTS, seeds="run", table="terrain_map_bias.csv", **_FLIGHTS,
+          provenance="terrain_map_bias.json", columns=terrain_field.MAP_BIAS_COLUMNS, seed_column="flight",
+          cheap=lambda t: t["setting"].str.startswith("1 Hz"), sample=2,
+          row_code="pfcourse/experiments/terrain_field.py (map_bias_row), pfcourse/terrain/map_bias.py",
+          fields={"map": "filter's DEM: pfcourse.terrain.map.mismatched_map(true DEM, map_error_rng(0, r)), "
+                         "as terrain_map_error", "filter": f"marginalised, N = {terrain_field.MAP_BIAS_N}, "
+                         "multinomial resampling at ESS < N/2",
+                  "seeds": "flight r: pfcourse.seeding.data_rng(0, r); filter: pfcourse.seeding.filter_rng(0, r)",
+                  "divergence": "final horizontal error > 500 m or every particle lost"}),
+    Study(name="terrain_costs", row=terrain_field.cost_row, grid={"timed": ["terrain decision"]},
+          n_runs=terrain_field.COST_FLIGHTS, seeds="run", failures="raise", table="terrain_costs.csv",
+          provenance="terrain_costs.json", columns=terrain_field.COST_COLUMNS, seed_column="flight", sample=1,
+          volatile=("seconds", *terrain_field.COST_TIMES),
+          row_code="pfcourse/experiments/terrain_field.py (cost_row)",
+          fields={"filters": {name: n for name, (_, n) in terrain_field.COST_FILTERS.items()},
+                  "timing": "flight r: every filter in one process, a warm-up round then 2 rounds in an order "
+                            "rotating with the round and the flight; CPU time (time.process_time) of the faster "
+                            "round, s"}),
     Study(name="smoothing/landmarks", row=smoothing_studies.landmarks_row,
           grid={"n_particles": smoothing_studies.N_VALUES}, n_runs=smoothing_studies.N_RUNS, seeds="run",
           failures="raise", table="smoothing/landmarks.csv", provenance="smoothing/landmarks.json",
