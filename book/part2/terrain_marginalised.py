@@ -64,7 +64,7 @@
 # depend on the particle: it depends only on which steps had a reading. Every particle carries
 # the same $P_k$, and only the means $m_k^i$ differ.
 #
-# :::{admonition} Algorithm 18.1: Marginalised particle filter for terrain navigation
+# :::{admonition} Algorithm 19.1: Marginalised particle filter for terrain navigation
 # :class: algorithm
 # **Input:** readings $y^{\text{alt}}_{1:K}$, the prior $\mathcal N(x_0, P_0)$ (no altitude
 # cross-terms), $Q_f$, $R_f$, the map $h$, $N$.
@@ -134,7 +134,7 @@ def resample(W, rng):
 
 
 def marginalised_pf(readings, terrain, sc, n, rng):
-    """Algorithm 18.1: the weighted mean of (x, y) at each step."""
+    """Algorithm 19.1: the weighted mean of (x, y) at each step."""
     L0 = np.linalg.cholesky(sc.P0[np.ix_(SAMPLED, SAMPLED)])
     Lq = np.linalg.cholesky(sc.Qf[np.ix_(SAMPLED, SAMPLED)] * sc.dt)
     # columns x, y, psi
@@ -799,7 +799,7 @@ EvidenceBlock(
 #
 # ## Exercises
 #
-# ```{exercise} 18.1 The altitude and the map's bias, updated together
+# ```{exercise} 19.1 The altitude and the map's bias, updated together
 # :label: ex-mpf-code
 # :nonumber:
 # (Coding.) The map-bias filter above gives each particle a Kalman filter of two states, the
@@ -846,7 +846,7 @@ def my_bias_update(m, P, ground, reading, rf):
 print(check_bias_update(my_bias_update))
 
 # %% [markdown]
-# ```{exercise} 18.2 Why one variance for all particles?
+# ```{exercise} 19.2 Why one variance for all particles?
 # :label: ex-mpf-variance
 # :nonumber:
 # Show from the update equations that $P_k$ is the same for every particle. Would it still be
