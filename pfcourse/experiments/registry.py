@@ -41,7 +41,8 @@ from pfcourse.experiments import association, global_localization, intel
 from pfcourse.experiments import likelihood_studies as ls
 from pfcourse.experiments import part1_studies
 from pfcourse.experiments import (maprobot, rb_study, robot_studies, sir_fixes_study, smoothing_studies,
-                                  terrain_marginalised, terrain_remedies, terrain_studies)
+                                  terrain_marginalised, terrain_remedies, terrain_studies,
+                                  why_it_works)
 from pfcourse.experiments.provenance import append_rerun, launch_commit, write_provenance
 from pfcourse.experiments.robot import pf_run
 from pfcourse.experiments.store import DATA, load, save
@@ -252,6 +253,13 @@ STUDIES: dict[str, Study] = {study.name: study for study in [
           row_code="pfcourse/experiments/part1_studies.py",
           fields={"seeds": "simulation seed s = 0-99, filter seed s + 10**6 (same for every method)",
                   "N": part1_studies.N_FIVE}),
+    Study(name="why_it_works", row=why_it_works.row, grid=why_it_works.GRID, n_runs=why_it_works.N_RUNS,
+          failures="raise", table="why_it_works.csv", provenance="why_it_works.json", columns=why_it_works.COLUMNS,
+          cheap=lambda t: (t["T"] <= 50) & (t["N"] <= 1000), sample=3,
+          row_code="pfcourse/experiments/why_it_works.py",
+          fields={"data": f"drifting landmark scenario, simulation seed {why_it_works.DATA_SEED}, "
+                          f"{why_it_works.T_MAX + 1} samples", "filter": "bootstrap, systematic resampling",
+                  "seeds": "replicate_seed(0, r), the same for every setting"}),
     *(_robot_study(name, grid, options) for name, (grid, options) in robot_studies.STUDIES.items()),
     *(_likelihood_study(name, row, {"n_particles": n}, runs, seed, columns=("n_particles", "run", "seed", "status", "error", *metrics), **options)
       for name, row, n, runs, seed, metrics, options in [
