@@ -22,6 +22,8 @@ import numpy as np
 from pfcourse.filter import ParticleFilter
 from pfcourse.kalman import kalman_filter
 from pfcourse.landmarks.scenario import quadrant_scenario, simulate
+from pfcourse.linear_gaussian import LinearGaussianModel
+from pfcourse.seeding import data_rng, filter_rng
 
 DATA_SEED = 7
 T_MAX = 400
@@ -64,3 +66,56 @@ def row(seed: int, T: int, N: int, tau: float) -> dict:
     out = {f"log_ratio_{t}": float(gap[t]) if t <= T else float("nan") for t in T_VALUES}
     error = result.mean[T_FIXED] - kf.mean[T_FIXED]
     return dict(out, error_robot_x=float(error[0]), error_landmark_x=float(error[2]))
+
+
+# --- var(log p^) against T over many data sets (study why_it_works_growth) ---
+GROWTH_N = 500
+GROWTH_FILTER_RUNS = [0, 1, 2, 3]  # filter runs per data set: the variance given the data is estimated within
+GROWTH_DATASETS = 100
+GROWTH_COLUMNS = ("N", "filter_run", "seed", *(f"log_ratio_{t}" for t in T_VALUES))
+
+
+@lru_cache(maxsize=4)
+def _dataset(seed: int) -> tuple:
+    scenario = drifting_scenario()
+    model, Z = scenario.model(), simulate(scenario, rng=seed).measurements
+    return model, Z, kalman_filter(model, Z).log_likelihood_increments
+
+
+def growth_row(seed: int, N: int, filter_run: int) -> dict:
+    """``log p^(z_{1:t}) - log p(z_{1:t})`` at every checkpoint ``t`` of one bootstrap run (threshold 1) on
+    data set ``seed`` (simulation seed), the filter's generator ``filter_rng(seed, filter_run)``."""
+    model, Z, exact_increments = _dataset(int(seed))
+    result = ParticleFilter(model, int(N), threshold=1.0).run(Z, rng=filter_rng(int(seed), int(filter_run)))
+    gap = np.cumsum(result.log_likelihood_increments - exact_increments)
+    return {f"log_ratio_{t}": float(gap[t]) for t in T_VALUES}
+
+
+# --- the CLT on a scalar model (study why_it_works_clt) ---
+CLT_N_VALUES = [100, 300, 1000, 3000, 10000]
+CLT_RUNS = 400
+CLT_STEPS = 50
+SCALAR = LinearGaussianModel(F=[[0.9]], H=[[1.0]], m0=[0.0], P0=[[1.0]], Q=[[0.5]], R=[[0.5]])
+
+
+@lru_cache(maxsize=1)
+def scalar_data() -> tuple:
+    """``(Z, kf)``: ``CLT_STEPS + 1`` samples of :data:`SCALAR` (``z_0`` missing), seed ``DATA_SEED``, and their Kalman filter."""
+    rng = data_rng(DATA_SEED, 0)
+    x = np.empty(CLT_STEPS + 1)
+    x[0] = rng.standard_normal()
+    for k in range(1, CLT_STEPS + 1):
+        x[k] = 0.9 * x[k - 1] + np.sqrt(0.5) * rng.standard_normal()
+    Z = (x + np.sqrt(0.5) * rng.standard_normal(CLT_STEPS + 1))[:, None]
+    Z[0] = np.nan
+    return Z, kalman_filter(SCALAR, Z)
+
+
+def clt_row(seed: int, N: int) -> dict:
+    """One bootstrap run (threshold 1) on the scalar data: the filter mean's error against Kalman at the
+    last step and at step ``CLT_STEPS // 2``, and ``log p^ - log p``."""
+    Z, kf = scalar_data()
+    result = ParticleFilter(SCALAR, int(N), threshold=1.0).run(Z, rng=seed)
+    error = result.mean[:, 0] - kf.mean[:, 0]
+    return dict(error_last=float(error[-1]), error_middle=float(error[CLT_STEPS // 2]),
+                log_ratio=float(result.log_likelihood_increments.sum() - kf.log_likelihood_increments.sum()))
