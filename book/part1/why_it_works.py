@@ -307,13 +307,14 @@ EvidenceBlock(
 # gives $\gamma_{k-1}(\psi)$, which is $\gamma_k(\varphi)$ by the definition of $\gamma$ (one more
 # move and one more potential). With $\varphi = 1$, $\mathbb E[\hat Z_k] = Z_k$. $\square$ The
 # same lines, with the weights carried instead of reset, cover a filter that resamples only when
-# its ESS is low {cite:p}`whiteley2016`; {cite:t}`chopin2020` prove it in this form (chapters 11
-# and 16).
+# its ESS is low {cite:p}`whiteley2016`; {cite:t}`chopin2020` prove it in this form (chapters $11$
+# and $16$).
 #
 # **Shown.** Over the {glue:text}`fk_runs:d` runs of the first picture (bootstrap, $N = 1000$,
 # $T = 50$), the mean of $\hat p / p$ is {glue:text}`fk_ratio_mean:.2f`
-# ({glue:text}`fk_ratio_low:.2f`-{glue:text}`fk_ratio_high:.2f`). The logarithm is another
-# matter: $\log$ is concave, so $\mathbb E[\log \hat p] < \log p$, and if $\log \hat p$ is nearly
+# ({glue:text}`fk_ratio_low:.2f`-{glue:text}`fk_ratio_high:.2f`).
+#
+# The logarithm is another matter: $\log$ is concave, so $\mathbb E[\log \hat p] < \log p$, and if $\log \hat p$ is nearly
 # Gaussian with variance $v$, unbiasedness forces its mean to $\log p - v/2$. Measured: a mean
 # of {glue:text}`fk_log_mean:.2f` against $-v/2 =$ {glue:text}`fk_half_var:.2f`.
 
@@ -388,7 +389,9 @@ EvidenceBlock(
 # ($x_k = 0.9\, x_{k-1} + w_k$, $z_k = x_k + v_k$, $Q = R = 0.5$, $T = 50$), $N$ times the variance
 # of the filter mean's error against the Kalman mean stays between
 # {glue:text}`fk_clt_nvar_min:.2f` and {glue:text}`fk_clt_nvar_max:.2f` m² from $N = 100$ to
-# $10\,000$. We estimate $V_k$ by many runs (not by the genealogy-based estimator of
+# $10\,000$.
+#
+# We estimate $V_k$ by many runs (not by the genealogy-based estimator of
 # {cite:t}`lee2018`, which uses a single run), as $N$ times the variance at the largest $N$:
 # {glue:text}`fk_clt_v:.2f` m² ({glue:text}`fk_clt_v_low:.2f`-{glue:text}`fk_clt_v_high:.2f`).
 # Scaled by $\sqrt N$, the errors look alike at every $N$, and Gaussian:
@@ -471,6 +474,7 @@ EvidenceBlock(
 # ({glue:text}`fk_loglik_var_slope_T_low:.2f`-{glue:text}`fk_loglik_var_slope_T_high:.2f`); the
 # mean over data sets grows more slowly, pulled up at small $T$ by a few data sets whose
 # estimates vary far more than the others' (folded below).
+#
 # At fixed $T = 50$, $N$ times the variance varies across $N$ from $250$ to $4000$ with a
 # coefficient of variation of {glue:text}`fk_loglik_var_times_n_cv:.2f`.
 
