@@ -5,7 +5,7 @@ measurement noise ``0.5^2 I`` m^2, as in Part V), one simulated data set of ``T_
 samples (simulation seed ``DATA_SEED``), and the bootstrap filter of the engine run on its first
 ``T + 1`` samples with ``N`` particles and resampling threshold ``tau``.  One row per
 (``T``, ``N``, ``tau``, seed): the filter's seed is the row's seed (the registry's
-``replicate`` rule), the same for every setting (common random numbers).  Metrics, against the
+``run`` rule: 0, 1, ...), the same for every setting (common random numbers).  Metrics, against the
 exact Kalman filter of the same data:
 
 * ``log_ratio``: ``log p^(z_{1:T}) - log p(z_{1:T})``;
