@@ -90,3 +90,21 @@ def test_the_reference_estimate_is_unbiased_with_many_particles():
     logs = np.array([fk_run(M, G, len(Z), 2000, np.random.default_rng(s)) for s in range(20)])
     gap = logs - fk_exact_log_likelihood(Z)
     assert abs(gap.mean()) < 4 * gap.std(ddof=1) / np.sqrt(len(gap)) + 0.5 * gap.var(ddof=1)
+
+
+def test_the_studys_checkpoints_are_those_of_shorter_runs():
+    # row() reads log p^(z_1:t) at t = 25 from a run over more steps: the filter is causal, so it must equal
+    # the same seed's run that stops at t = 25 (same random numbers up to there)
+    from pfcourse.experiments.why_it_works import row
+    short, longer = row(seed=3, T=25, N=100, tau=1.0), row(seed=3, T=50, N=100, tau=1.0)
+    assert short["log_ratio_25"] == longer["log_ratio_25"]
+    assert np.isnan(short["log_ratio_50"]) and np.isfinite(longer["log_ratio_50"])
+
+
+def test_the_particles_crosscheck_density_is_the_gaussian_log_density():
+    from scipy.stats import multivariate_normal
+
+    from pfcourse.experiments.why_it_works_particles import _log_gauss
+    cov = np.array([[0.3, 0.1], [0.1, 0.5]])
+    residual = np.random.default_rng(0).normal(size=(5, 2))
+    assert np.allclose(_log_gauss(residual, cov), multivariate_normal(cov=cov).logpdf(residual), atol=1e-12)

@@ -58,13 +58,13 @@ def row(seed: int, T: int, N: int, tau: float) -> dict:
 
     ``log_ratio_t`` is ``log p^(z_{1:t}) - log p(z_{1:t})`` at each checkpoint ``t <= T`` (the filter
     is causal: the first ``t + 1`` increments of a run are those of a run on ``t + 1`` samples), NaN
-    beyond ``T``; the errors are those of the filter means at step ``T_FIXED``.
+    beyond ``T``; the errors are those of the filter means at step ``T_FIXED`` (NaN if ``T < T_FIXED``).
     """
     model, Z, kf = data()
     result = ParticleFilter(model, int(N), threshold=float(tau)).run(Z[:T + 1], rng=seed)
     gap = np.cumsum(result.log_likelihood_increments - kf.log_likelihood_increments[:T + 1])
     out = {f"log_ratio_{t}": float(gap[t]) if t <= T else float("nan") for t in T_VALUES}
-    error = result.mean[T_FIXED] - kf.mean[T_FIXED]
+    error = result.mean[T_FIXED] - kf.mean[T_FIXED] if T >= T_FIXED else np.full(model.dim_x, np.nan)
     return dict(out, error_robot_x=float(error[0]), error_landmark_x=float(error[2]))
 
 
