@@ -387,8 +387,8 @@ EvidenceBlock(
 # The theorem is proved for multinomial resampling at every step (and residual); for systematic
 # resampling, used here, no general proof exists, so what follows is a measurement.
 #
-# On a model where the filter forgets its past, the scalar model of {doc}`importance_sampling`
-# ($x_k = 0.9\, x_{k-1} + w_k$, $z_k = x_k + v_k$, $Q = R = 0.5$, $T = 50$), $N$ times the variance
+# On a model where the filter forgets its past, the scalar model of the last section of
+# {doc}`sir` ($x_k = 0.9\, x_{k-1} + w_k$, $z_k = x_k + v_k$, $Q = R = 0.5$, $T = 50$), $N$ times the variance
 # of the filter mean's error against the Kalman mean stays between
 # {glue:text}`fk_clt_nvar_min:.2f` and {glue:text}`fk_clt_nvar_max:.2f` m² from $N = 100$ to
 # $10\,000$.
