@@ -30,7 +30,7 @@ ROOT = Path(__file__).resolve().parents[1]
 BOOK = ROOT / "book"
 CHAPTERS = sorted(BOOK.rglob("*.py"))
 IN_FORM = ["onramp", "part1/model", "part1/kalman", "part1/importance_sampling", "part1/sis", "part1/sir",
-           "part1/resampling_schemes", "part1/proposals", "part1/rao_blackwell", "part1/auxiliary",
+           "part1/why_it_works", "part1/resampling_schemes", "part1/proposals", "part1/rao_blackwell", "part1/auxiliary",
            "part2/robot", "part2/global_localization", "part2/robot_vs_kalman", "part2/map_robot", "part2/map_global",
            "part2/real_robot",
            "part2/terrain", "part2/terrain_cure", "part2/terrain_marginalised", "part3/robot_studies",

@@ -67,6 +67,10 @@ exception is reported as a problem); ``str(report)`` prints the verdict.
   filter's second-stage weights with the transition as proposal; the mistakes of
   :data:`APF_MISTAKES` are named (first stage not divided out, divided at the particle's own index,
   multiplied in again, not normalised).
+* :func:`check_guided_fk` - ``make_guided(Z) -> (M, G)``: the Feynman-Kac pair of a guided filter whose
+  proposal is ``N(z_k, 2)`` on a scalar model (:mod:`.why_it_works`); the generator and the laws of ``M``
+  are checked, ``G`` against its exact value (the bootstrap potential kept, ``log q`` left out or added,
+  the transition left out are named), then the unbiasedness of its likelihood estimate against Kalman.
 * :func:`check_apf_step` - ``fn(x, log_w, z, rng) -> (x_new, log_evidence)``: one fully adapted step
   of the auxiliary filter on a scaled-sensor AR(1) model (:data:`APF_STEP_MODEL`), against the exact
   mixture it draws from (:func:`apf_step_exact`): the generator is checked, and the mistakes of
@@ -203,6 +207,13 @@ from pfcourse.exercises.part1 import (  # noqa: F401
     scalar_optimal_proposal,
     toy_is_limit,
     toy_is_ess_ratio,
+)
+from pfcourse.exercises.why_it_works import (  # noqa: F401
+    FK_MISTAKES,
+    check_guided_fk,
+    fk_exact_log_likelihood,
+    fk_guided_exact,
+    fk_simulate,
 )
 from pfcourse.exercises.part2 import (  # noqa: F401
     ALTIMETER_DX,

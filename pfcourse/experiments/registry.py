@@ -44,7 +44,8 @@ from pfcourse.experiments import part1_studies
 from pfcourse.experiments import static_parameters_study as sps
 from pfcourse.experiments import pmcmc_studies as pm
 from pfcourse.experiments import (maprobot, rb_study, robot_studies, sir_fixes_study, smoothing_studies,
-                                  terrain_field, terrain_marginalised, terrain_remedies, terrain_studies)
+                                  terrain_field, terrain_marginalised, terrain_remedies, terrain_studies,
+                                  why_it_works)
 from pfcourse.experiments.provenance import append_rerun, launch_commit, write_provenance
 from pfcourse.experiments.robot import pf_run
 from pfcourse.experiments.store import DATA, load, save
@@ -262,6 +263,28 @@ STUDIES: dict[str, Study] = {study.name: study for study in [
           row_code="pfcourse/experiments/part1_studies.py",
           fields={"seeds": "simulation seed s = 0-99, filter seed s + 10**6 (same for every method)",
                   "N": part1_studies.N_FIVE}),
+    # why_it_works and why_it_works_clt: seeds "run" (0, 1, ...), small enough to survive a row of floats
+    Study(name="why_it_works", row=why_it_works.row, grid=why_it_works.GRID, n_runs=why_it_works.N_RUNS,
+          seeds="run", failures="raise", table="why_it_works.csv", provenance="why_it_works.json", columns=why_it_works.COLUMNS,
+          cheap=lambda t: (t["T"] <= 50) & (t["N"] <= 1000), sample=3,
+          row_code="pfcourse/experiments/why_it_works.py",
+          fields={"data": f"drifting landmark scenario, simulation seed {why_it_works.DATA_SEED}, "
+                          f"{why_it_works.T_MAX + 1} samples", "filter": "bootstrap, systematic resampling",
+                  "seeds": "filter seed r = 0, 1, ..., the same for every setting"}),
+    Study(name="why_it_works_growth", row=why_it_works.growth_row,
+          grid={"N": [why_it_works.GROWTH_N], "filter_run": why_it_works.GROWTH_FILTER_RUNS},
+          n_runs=why_it_works.GROWTH_DATASETS, seeds="run", failures="raise", table="why_it_works_growth.csv",
+          provenance="why_it_works_growth.json", columns=why_it_works.GROWTH_COLUMNS, sample=2,
+          row_code="pfcourse/experiments/why_it_works.py (growth_row)",
+          fields={"data": f"drifting landmark scenario, {why_it_works.T_MAX + 1} samples, simulation seed s = 0-99",
+                  "filter": "bootstrap, threshold 1, systematic; generator filter_rng(s, filter_run)"}),
+    Study(name="why_it_works_clt", row=why_it_works.clt_row, grid={"N": why_it_works.CLT_N_VALUES},
+          n_runs=why_it_works.CLT_RUNS, seeds="run", failures="raise", table="why_it_works_clt.csv",
+          provenance="why_it_works_clt.json", columns=("N", "seed", "error_last", "error_middle", "log_ratio"),
+          cheap=lambda t: t["N"] <= 1000, sample=3, row_code="pfcourse/experiments/why_it_works.py (clt_row)",
+          fields={"data": f"scalar model x_k = 0.9 x_(k-1) + w_k, z_k = x_k + v_k, Q = R = 0.5, "
+                          f"{why_it_works.CLT_STEPS + 1} samples, data_rng({why_it_works.DATA_SEED}, 0)",
+                  "filter": "bootstrap, threshold 1, systematic", "seeds": "filter seed r = 0, 1, ..."}),
     *(_robot_study(name, grid, options) for name, (grid, options) in robot_studies.STUDIES.items()),
     *(_likelihood_study(name, row, {"n_particles": n}, runs, seed, columns=("n_particles", "run", "seed", "status", "error", *metrics), **options)
       for name, row, n, runs, seed, metrics, options in [
