@@ -105,7 +105,7 @@ def test_the_solution_printed_in_part_one_passes():
     import re
     text = (Path(__file__).resolve().parents[1] / "book/part1/index.md").read_text()
     solution = text.split(":::{admonition} A solution", 1)[1]
-    code = re.search(r"```python\n(.*?)```", solution, re.S).group(1)
+    code = re.search(r"```{code} python\n(.*?)```", solution, re.S).group(1)
     namespace = {}
     exec(code, namespace)
     assert check_sv_filter(namespace["my_sv_filter"]).ok
