@@ -80,6 +80,11 @@ exception is reported as a problem); ``str(report)`` prints the verdict.
   ``log N(nu^i; 0, R)`` for a range-bearing reading, on a cloud that sees the landmark right behind
   it; the mistakes of :data:`RANGE_BEARING_MISTAKES` (bearing innovation not wrapped, heading not
   subtracted, ``R`` read as standard deviations, no normalising constant) are named.
+* :func:`check_velocity_motion` - ``fn(x, u, sd, dt, rng) -> (N, 3)``: chapter 10's variant motion model,
+  every particle driven along an arc by its own noisy ``(v, omega)``; a large cloud's means and spreads
+  against the model's, headings wrapped, one draw per particle, the generator; the mistakes of
+  :data:`VELOCITY_MISTAKES` (a straight step, the arc turned the wrong way, ``sd`` read as a variance, the
+  noise put on the pose) are named.
 * :func:`check_range_bearing_jacobian` - ``fn(state, landmark) -> (2, 3)``: the EKF's measurement
   Jacobian of range and bearing at three poses; the mistakes of :data:`JACOBIAN_MISTAKES` (offset
   reversed, ``+1`` for the heading, ``q`` for ``sqrt(q)``, ``dx`` and ``dy`` swapped) are named.
@@ -214,6 +219,7 @@ from pfcourse.exercises.part2 import (  # noqa: F401
     RANGE_BEARING_MISTAKES,
     RANGE_BEARING_R,
     RANGE_BEARING_Z,
+    VELOCITY_MISTAKES,
     _RoomGrid,
     _named_mistake,
     _poses_near_reading,
@@ -229,11 +235,13 @@ from pfcourse.exercises.part2 import (  # noqa: F401
     check_range_bearing_jacobian,
     check_range_bearing_log_weights,
     check_regularised_jitter,
+    check_velocity_motion,
     beam_reading_reference,
     field_log_weights,
     pose_reading_log_density,
     range_bearing_jacobian,
     range_bearing_log_weights,
+    velocity_motion,
 )
 from pfcourse.exercises.part3 import (  # noqa: F401
     ESS_CASES,

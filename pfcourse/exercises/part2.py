@@ -651,6 +651,119 @@ def check_range_bearing_log_weights(fn: Callable, n_particles: int = 40, seed: i
                           "nu = (z_r - range, wrap(z_b - bearing)) and the quadratic form nu^T R^-1 nu / 2")
 
 
+#: The velocity motion model's check (chapter 10's exercise): every particle starts at the same pose, heading
+#: 3 rad, so that the new headings cross the cut at +-pi; command (v, omega), its noise sds, and the step (s).
+VELOCITY_POSE = np.array([0.0, 0.0, 3.0])
+VELOCITY_U = np.array([2.0, 0.8])
+VELOCITY_SD = np.array([0.2, 0.1])
+VELOCITY_DT = 1.5
+#: The typical mistakes of the velocity motion model, and why each is wrong (the statistical ones: their
+#: large-cloud statistics are compared with the answer's).
+VELOCITY_MISTAKES = {
+    "straight": ("you move the particle in a straight line along its old heading (x + v cos(theta) dt): the "
+                 "velocity model drives along an arc of radius v / omega, x' = x + v/omega (sin(theta + omega "
+                 "dt) - sin(theta))"),
+    "turn_sign": ("your arc turns the wrong way: with omega > 0 the robot turns left, y' = y + v/omega "
+                  "(cos(theta) - cos(theta + omega dt)), not the opposite difference"),
+    "sd_as_variance": ("your cloud is too narrow: sd holds standard deviations, so the noisy command is "
+                       "v + sd_v * e, not v + sd_v**2 * e (or a draw with variance sd)"),
+    "pose_noise": ("you add the noise to the new pose instead of to the command (v, omega): the model's "
+                   "noise perturbs the speed and the turn rate, and the cloud bends along the arc"),
+}
+
+
+def velocity_motion(x: np.ndarray, u: np.ndarray, sd: np.ndarray, dt: float, rng: np.random.Generator,
+                    mistake: str | None = None) -> np.ndarray:
+    """The velocity motion model (Thrun, Burgard and Fox 2005, table 5.3, without its third noise): every pose
+    ``(x, y, theta)`` of ``x`` (N, 3) drives along an arc with its own noisy command ``(v, omega) + sd * e``,
+    ``e ~ N(0, I)``; the heading wrapped to (-pi, pi]. ``mistake`` (a key of :data:`VELOCITY_MISTAKES`)
+    computes that mistake instead."""
+    x = np.asarray(x, dtype=float)
+    n = len(x)
+    scale = np.asarray(sd) ** 2 if mistake == "sd_as_variance" else np.asarray(sd)
+    e = rng.standard_normal((n, 2))
+    v, w = (u[0], u[1]) if mistake == "pose_noise" else (u[0] + scale[0] * e[:, 0], u[1] + scale[1] * e[:, 1])
+    th, th_new = x[:, 2], x[:, 2] + w * dt
+    if mistake == "straight":
+        px, py = x[:, 0] + v * np.cos(th) * dt, x[:, 1] + v * np.sin(th) * dt
+    else:
+        r = v / w
+        turn = -1.0 if mistake == "turn_sign" else 1.0
+        px = x[:, 0] + r * (np.sin(th_new) - np.sin(th))
+        py = x[:, 1] + turn * r * (np.cos(th) - np.cos(th_new))
+    out = np.column_stack([px, py, _wrap(th_new)])
+    if mistake == "pose_noise":  # the same spread, put on the pose: v dt along x and y, omega dt on theta
+        out += np.column_stack([scale[0] * dt * e, scale[1] * dt * rng.standard_normal(n)])
+        out[:, 2] = _wrap(out[:, 2])
+    return out
+
+
+def _motion_features(x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Means and standard deviations of ``(x, y, cos theta, sin theta)`` over a cloud."""
+    f = np.column_stack([x[:, 0], x[:, 1], np.cos(x[:, 2]), np.sin(x[:, 2])])
+    return f.mean(axis=0), f.std(axis=0)
+
+
+def check_velocity_motion(fn: Callable, n: int = 100_000, seed: int = 0) -> CheckReport:
+    """Check ``fn(x, u, sd, dt, rng) -> (N, 3)``, the velocity motion model, leaving NumPy's global state
+    as it was (:func:`_check_velocity_motion`)."""
+    saved = np.random.get_state()
+    try:
+        return _check_velocity_motion(fn, n, seed)
+    finally:
+        np.random.set_state(saved)
+
+
+def _check_velocity_motion(fn: Callable, n: int, seed: int) -> CheckReport:
+    """In turn: the answer's shape and finiteness; headings wrapped to (-pi, pi]; a cloud that spreads (one
+    noise draw per particle, not one shared); the generator (:func:`~pfcourse.exercises.part1._generator_problem`);
+    then the means and standard deviations of ``(x, y, cos theta, sin theta)`` over ``n`` particles against
+    those of 4n reference draws: every difference within 6 standard errors (a correct answer's largest of the
+    eight is below 4 in all but about 1 in 4000 checks). A failure is compared with each typical mistake of
+    :data:`VELOCITY_MISTAKES`, so that it is named."""
+    from pfcourse.exercises.part1 import _generator_problem
+
+    report = CheckReport("velocity motion model")
+    start = np.tile(VELOCITY_POSE, (n, 1))
+    args = (VELOCITY_U, VELOCITY_SD, VELOCITY_DT)
+    answer = _answer(report, lambda: fn(start.copy(), *(np.copy(a) for a in args), np.random.default_rng(seed)),
+                     "fn(x, u, sd, dt, rng)", "return the moved cloud, one pose (x, y, theta) per row of x")
+    if answer is None or not _shaped(report, answer, (n, 3), "one moved pose (x, y, theta) per row of x"):
+        return report
+    answer = np.asarray(answer, dtype=float)
+    if not np.isfinite(answer).all():
+        report.problems.append("the cloud holds NaN or infinity: the arc's radius v / omega needs omega != 0; "
+                               "check the division")
+        return report
+    if np.any(np.abs(answer[:, 2]) > np.pi + 1e-9):
+        report.problems.append("some headings lie outside (-pi, pi]: wrap theta + omega dt, or the heading "
+                               "drifts off by multiples of 2 pi and circular means break")
+        return report
+    if np.all(answer[:, :2].std(axis=0) < 1e-9):
+        report.problems.append("every particle lands on the same pose: draw one noise pair per particle "
+                               "(rng.standard_normal((N, 2))), not one pair shared by the whole cloud")
+        return report
+    problem = _generator_problem(lambda rng: fn(start[:200].copy(), *(np.copy(a) for a in args), rng),
+                                 lambda a, b: np.array_equal(np.asarray(a), np.asarray(b)), what="cloud")
+    if problem:
+        report.problems.append(problem)
+        return report
+    mean, sd = _motion_features(answer)
+
+    def fits(mistake: str | None) -> bool:
+        ref = velocity_motion(np.tile(VELOCITY_POSE, (4 * n, 1)), *args, np.random.default_rng(10_000),
+                              mistake=mistake)
+        ref_mean, ref_sd = _motion_features(ref)
+        se_mean = np.sqrt(sd**2 / n + ref_sd**2 / (4 * n)) + 1e-12
+        se_sd = ref_sd * np.sqrt(1 / (2 * n) + 1 / (8 * n)) * 2 + 1e-12  # doubled: the features are not Gaussian
+        return max(np.max(np.abs(mean - ref_mean) / se_mean), np.max(np.abs(sd - ref_sd) / se_sd)) <= 6
+
+    if not _settled(report, fits, VELOCITY_MISTAKES):
+        report.problems.append("the moved cloud's mean or spread differs from the velocity model's: draw "
+                               "(v, omega) + sd * e for each particle, then move along the arc of radius v / omega")
+    return report
+
+
 #: The typical mistakes of the measurement Jacobian of range and bearing, and why each is wrong.
 JACOBIAN_MISTAKES = {
     "offset_reversed": "the signs of the position columns are reversed: with (dx, dy) = l - p the range "
