@@ -122,11 +122,16 @@ Each Part ends with a capstone (:mod:`.capstones`):
 * :func:`check_sv_filter` - ``fn(y, n, rng, model) -> (means, log_likelihood)``: Part I's capstone, a
   particle filter for the stochastic volatility model :class:`SVModel`, against a converged grid; its
   means tested for bias and its likelihood for unbiasedness over seeded runs, seven typical mistakes named.
+* :func:`check_bearing_filter` - ``fn(z, observer, n, rng, model) -> (means, log_likelihood)``: Part II's
+  capstone, a particle filter for bearing-only tracking of a drifting target from a moving observer
+  (:class:`BearingModel`), against a converged grid in the plane; eight typical mistakes named.
 """
 
 from __future__ import annotations
 
 from pfcourse.exercises.capstones import SVModel, check_sv_filter, sv_bootstrap, sv_grid  # noqa: F401
+from pfcourse.exercises.capstones import (  # noqa: F401
+    BearingModel, bearing_bootstrap, bearing_grid, check_bearing_filter)
 from pfcourse.exercises.checking import (  # noqa: F401
     CheckReport,
     _answer,
