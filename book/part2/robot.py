@@ -249,7 +249,9 @@ EvidenceBlock(
 # reckoning ends a median {glue:text}`dr_final_m:.1f` m
 # ({glue:text}`dr_final_low_m:.1f`-{glue:text}`dr_final_high_m:.1f`) from the true position, while
 # the filter's position error in the run shown stays below {glue:text}`pf_max_error_m:.2f` m at
-# every step. The package's engine (`ParticleFilter`), which the next chapters call, runs this
+# every step.
+#
+# The package's engine (`ParticleFilter`), which the next chapters call, runs this
 # very loop: with the same seed its means agree with these to round-off (below
 # {glue:text}`mcl_bound:.0e` m and rad at every step).
 
@@ -581,7 +583,7 @@ display(panel)
 # :nonumber:
 # (Coding.) Many robots report a forward speed $v$ and a turn rate $\omega$, and drive along
 # an arc rather than the chapter's straight step: the *velocity motion model*
-# ({cite:t}`thrun2005`, table 5.3). Over a step $\Delta t$, with $\theta' = \theta + \omega
+# ({cite:t}`thrun2005`, table $5.3$). Over a step $\Delta t$, with $\theta' = \theta + \omega
 # \Delta t$, a pose moves to
 #
 # $$
@@ -590,7 +592,7 @@ display(panel)
 # \theta' \text{ wrapped to } (-\pi, \pi].
 # $$
 #
-# Write `my_velocity_motion(x, u, sd, dt, rng)`, the move of this filter's step 1: each row of
+# Write `my_velocity_motion(x, u, sd, dt, rng)`, the move of this filter's first step: each row of
 # `x` (shape `(N, 3)`) draws its own noisy command $(v + s_v e_1,\ \omega + s_\omega e_2)$,
 # $e \sim \mathcal N(0, I)$, with `u` $= (v, \omega)$, `sd` $= (s_v, s_\omega)$ (standard
 # deviations) and the generator `rng`, then drives along its arc. The checker moves $100\,000$
