@@ -188,3 +188,39 @@ def test_the_solution_printed_in_part_two_passes():
     namespace = {}
     exec(code, namespace)
     assert check_bearing_filter(namespace["my_bearing_filter"]).ok
+
+
+# ----------------------------------------------------------------------------- chapter 12's exercise
+from pfcourse.exercises import RELATIVE_MISTAKES, check_relative_jacobian, relative_landmark_jacobian  # noqa: E402
+
+
+def relative(state, landmark):
+    c, s = np.cos(state[2]), np.sin(state[2])
+    return np.array([[c, s], [-s, c]]) @ (np.asarray(landmark) - state[:2])
+
+
+def test_the_relative_jacobian_is_the_derivative():
+    """A central difference of z = R(theta)^T (l - p) agrees with the reference, and passes the checker."""
+    def numeric(state, landmark, h=1e-6):
+        cols = []
+        for i in range(3):
+            e = np.zeros(3)
+            e[i] = h
+            cols.append((relative(state + e, landmark) - relative(state - e, landmark)) / (2 * h))
+        return np.column_stack(cols)
+    state, landmark = np.array([1.0, -2.0, 0.7]), np.array([12.0, 5.0])
+    assert np.allclose(numeric(state, landmark), relative_landmark_jacobian(state, landmark), atol=1e-7)
+    assert check_relative_jacobian(numeric).ok
+    assert check_relative_jacobian(relative_landmark_jacobian).ok
+
+
+@pytest.mark.parametrize("mistake", list(RELATIVE_MISTAKES))
+def test_each_jacobian_mistake_gets_its_own_sentence(mistake):
+    report = check_relative_jacobian(lambda st, lm: relative_landmark_jacobian(st, lm, mistake))
+    assert not report.ok and len(report.problems) == 1 and RELATIVE_MISTAKES[mistake] in report.problems[0]
+
+
+def test_a_wrong_shape_and_an_unknown_mistake_are_reported():
+    assert "2, 3" in check_relative_jacobian(lambda st, lm: np.zeros(3)).problems[0]
+    other = check_relative_jacobian(lambda st, lm: 2 * relative_landmark_jacobian(st, lm))
+    assert "differentiate each" in other.problems[0]

@@ -88,6 +88,10 @@ exception is reported as a problem); ``str(report)`` prints the verdict.
 * :func:`check_range_bearing_jacobian` - ``fn(state, landmark) -> (2, 3)``: the EKF's measurement
   Jacobian of range and bearing at three poses; the mistakes of :data:`JACOBIAN_MISTAKES` (offset
   reversed, ``+1`` for the heading, ``q`` for ``sqrt(q)``, ``dx`` and ``dy`` swapped) are named.
+* :func:`check_relative_jacobian` - ``fn(state, landmark) -> (2, 3)``: chapter 12's variant sensor, the
+  Jacobian of the landmark measured in the robot's frame ``R(theta)^T (l - p)``; the mistakes of
+  :data:`RELATIVE_MISTAKES` (``R`` not transposed, offset reversed, heading column zero or of the wrong
+  sign) are named.
 * :func:`check_consistency` - ``fn(errors, covariances) -> (average_nees, band, fraction)``: the
   NEES check of a filter over ``R`` runs (chapter 21), the run-averaged NEES per step, the 95 % band
   of an average of ``R`` chi-square variables with ``d`` degrees of freedom and the fraction of steps
@@ -224,6 +228,8 @@ from pfcourse.exercises.part2 import (  # noqa: F401
     RANGE_BEARING_MISTAKES,
     RANGE_BEARING_R,
     RANGE_BEARING_Z,
+    RELATIVE_CASES,
+    RELATIVE_MISTAKES,
     VELOCITY_MISTAKES,
     _RoomGrid,
     _named_mistake,
@@ -238,6 +244,7 @@ from pfcourse.exercises.part2 import (  # noqa: F401
     check_likelihood_field,
     check_pose_density,
     check_range_bearing_jacobian,
+    check_relative_jacobian,
     check_range_bearing_log_weights,
     check_regularised_jitter,
     check_velocity_motion,
@@ -245,6 +252,7 @@ from pfcourse.exercises.part2 import (  # noqa: F401
     field_log_weights,
     pose_reading_log_density,
     range_bearing_jacobian,
+    relative_landmark_jacobian,
     range_bearing_log_weights,
     velocity_motion,
 )

@@ -817,3 +817,68 @@ def check_range_bearing_jacobian(fn: Callable, rtol: float = 1e-6) -> CheckRepor
                           JACOBIAN_MISTAKES, rtol,
                           "the matrix differs from dh/dx: differentiate sqrt(q) and atan2(dy, dx) - theta "
                           "with (dx, dy) = l - p, and compare with a central finite difference")
+
+#: The landmark measured in the robot's frame (chapter 12's exercise): ``z = R(theta)^T (l - p)``, the
+#: typical mistakes of its Jacobian and why each is wrong.
+RELATIVE_MISTAKES = {
+    "no_transpose": "you differentiate R(theta) (l - p): the landmark in the robot's frame is R(theta)^T (l - p), "
+                    "the world offset turned by -theta, so row 1 is (-cos, -sin) and row 2 (sin, -cos) in x and y",
+    "offset_reversed": "the signs of the position columns are reversed: the offset is l - p, so moving the "
+                       "robot by +dx moves the landmark by -dx in its frame: d z / d(x, y) = -R(theta)^T",
+    "no_theta": "the heading column is zero: turning the robot turns the landmark in its frame, "
+                "d z / d theta = (-sin dx + cos dy, -cos dx - sin dy) with (dx, dy) = l - p",
+    "theta_sign": "the heading column has the wrong sign: d z / d theta = (-sin dx + cos dy, -cos dx - sin dy), "
+                  "the offset turned by -theta - pi/2",
+}
+
+
+def relative_landmark_jacobian(state: np.ndarray, landmark: np.ndarray, mistake: str | None = None) -> np.ndarray:
+    """``H = d z / d (x, y, theta)`` of ``z = R(theta)^T (l - p)``, the landmark in the robot's frame (2, 3).
+    ``mistake`` (a key of :data:`RELATIVE_MISTAKES`) computes that mistake instead."""
+    c, s = np.cos(state[2]), np.sin(state[2])
+    dx, dy = landmark[0] - state[0], landmark[1] - state[1]
+    if mistake == "no_transpose":
+        return np.array([[-c, s, -s * dx - c * dy], [-s, -c, c * dx - s * dy]])
+    pos = np.array([[-c, -s], [s, -c]])
+    theta = np.array([-s * dx + c * dy, -c * dx - s * dy])
+    if mistake == "offset_reversed":
+        pos = -pos
+    if mistake == "no_theta":
+        theta = np.zeros(2)
+    if mistake == "theta_sign":
+        theta = -theta
+    return np.column_stack([pos, theta])
+
+
+#: Poses and landmarks of :func:`check_relative_jacobian`: headings away from 0 and pi/2, where
+#: swapped sines and cosines would pass.
+RELATIVE_CASES = (
+    (np.array([1.0, -2.0, 0.7]), np.array([12.0, 5.0])),
+    (np.array([-3.0, 4.0, -2.4]), np.array([-20.0, -6.0])),
+    (np.array([0.5, 0.5, 2.9]), np.array([8.0, -15.0])),
+)
+
+
+def check_relative_jacobian(fn: Callable, rtol: float = 1e-6) -> CheckReport:
+    """Check ``fn(state, landmark) -> (2, 3)``: the Jacobian of the landmark measured in the robot's frame,
+    ``z = R(theta)^T (l - p)``, at the poses of :data:`RELATIVE_CASES` against
+    :func:`relative_landmark_jacobian` (to ``rtol``: a careful central difference passes); the mistakes of
+    :data:`RELATIVE_MISTAKES` are named. The function draws no random numbers: no generator to check."""
+    report = CheckReport("relative-landmark Jacobian")
+    answers = []
+    for state, landmark in RELATIVE_CASES:
+        answer = _answer(report, lambda: fn(state.copy(), landmark.copy()), "fn(state, landmark)",
+                         "return the 2 x 3 matrix H = dz/dx")
+        if answer is None or not _shaped(report, answer, (2, 3), "H = dz/dx, rows (forward, left), "
+                                         "columns (x, y, theta)"):
+            return report
+        answers.append(np.asarray(answer, dtype=float))
+
+    def fits(mistake: str | None) -> bool:
+        return all(np.allclose(a, relative_landmark_jacobian(st, lm, mistake), rtol=rtol, atol=1e-9)
+                   for a, (st, lm) in zip(answers, RELATIVE_CASES))
+
+    if not _settled(report, fits, RELATIVE_MISTAKES):
+        report.problems.append("H differs from the derivative of R(theta)^T (l - p): differentiate each of the two "
+                               "coordinates in x, y and theta, and check the signs")
+    return report
