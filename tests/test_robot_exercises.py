@@ -224,3 +224,55 @@ def test_a_wrong_shape_and_an_unknown_mistake_are_reported():
     assert "2, 3" in check_relative_jacobian(lambda st, lm: np.zeros(3)).problems[0]
     other = check_relative_jacobian(lambda st, lm: 2 * relative_landmark_jacobian(st, lm))
     assert "differentiate each" in other.problems[0]
+
+
+# ----------------------------------------------------------------------------- chapter 11's exercise
+from pfcourse.exercises import (BEARING_POSE_CASE, BEARING_POSE_MISTAKES, bearing_pose_draw,  # noqa: E402
+                                check_bearing_pose_draw)
+
+
+def student_pose(b, landmark, sd_b, r_max, n, rng, mistake=None):
+    draw = np.random if mistake == "global" else rng
+    r = r_max * np.sqrt(draw.random(n))
+    phi = draw.uniform(-np.pi, np.pi, n)
+    theta = phi + np.pi - (b + sd_b * draw.standard_normal(n))
+    return np.column_stack([landmark[0] + r * np.cos(phi), landmark[1] + r * np.sin(phi),
+                            theta if mistake == "no_wrap" else wrap(theta)])
+
+
+def test_the_pose_draw_references_pass():
+    assert check_bearing_pose_draw(lambda *a: bearing_pose_draw(*a)).ok
+    for seed in (0, 1, 2):
+        report = check_bearing_pose_draw(student_pose, seed=seed)
+        assert report.ok, str(report)
+
+
+@pytest.mark.parametrize("mistake", list(BEARING_POSE_MISTAKES))
+def test_each_pose_draw_mistake_gets_its_own_sentence(mistake):
+    report = check_bearing_pose_draw(lambda *a: bearing_pose_draw(*a, mistake=mistake))
+    assert not report.ok and len(report.problems) == 1, str(report)
+    assert BEARING_POSE_MISTAKES[mistake] in report.problems[0]
+
+
+@pytest.mark.parametrize("mistake, says", [("no_wrap", "outside (-pi, pi]"), ("global", "NumPy's global generator")])
+def test_the_direct_pose_draw_mistakes_are_named(mistake, says):
+    report = check_bearing_pose_draw(lambda *a: student_pose(*a, mistake=mistake))
+    assert not report.ok and says in report.problems[0], str(report)
+
+
+def test_the_pose_draw_names_a_generator_of_its_own_and_leaves_the_global_state():
+    own = check_bearing_pose_draw(lambda b, l, s, r, n, rng: student_pose(b, l, s, r, n, np.random.default_rng(7)))
+    assert "whatever the generator's seed" in own.problems[0]
+    np.random.seed(5)
+    expected = np.random.random()
+    np.random.seed(5)
+    check_bearing_pose_draw(lambda *a: student_pose(*a, mistake="global"))
+    assert np.random.random() == expected
+
+
+def test_the_drawn_poses_see_the_landmark_at_the_bearing():
+    """Without bearing noise every drawn pose sees the landmark exactly at b."""
+    case = BEARING_POSE_CASE
+    x = bearing_pose_draw(case["b"], case["landmark"], 0.0, case["r_max"], 1000, np.random.default_rng(1))
+    d = case["landmark"] - x[:, :2]
+    assert np.allclose(wrap(np.arctan2(d[:, 1], d[:, 0]) - x[:, 2] - case["b"]), 0.0, atol=1e-9)

@@ -109,6 +109,10 @@ exception is reported as a problem); ``str(report)`` prints the verdict.
   mistakes of :data:`POSE_DENSITY_MISTAKES` (the bearing added, the Jacobian ``1 / h_r``, the
   direction's ``1 / (2 pi)`` or the truncation ``Phi(r / s_r)`` left out, the residual not wrapped,
   standard deviations read as variances) are named.
+* :func:`check_bearing_pose_draw` - ``fn(b, landmark, sd_b, r_max, n, rng) -> (n, 3)``: chapter 11's variant,
+  poses drawn from a bearing-only reading; a large cloud's statistics against the model's, the generator, and
+  the mistakes of :data:`BEARING_POSE_MISTAKES` (range uniform instead of the disc, half a circle, no ``pi``,
+  the bearing's sign, ``sd`` as a variance) named.
 * :func:`check_beam_reading` - ``fn(z_star, scanner, rng) -> z``: one reading per beam drawn from the four-part
   beam model (chapter 13's coding exercise), checked by the shares of readings below, near and beyond ``z*``
   and at ``z_max``, and by the generator it draws from; the mistakes of :data:`BEAM_MISTAKES` are named;
@@ -224,6 +228,8 @@ from pfcourse.exercises.part2 import (  # noqa: F401
     JITTER_SCALE,
     POSE_DENSITY_CASES,
     POSE_DENSITY_MISTAKES,
+    BEARING_POSE_CASE,
+    BEARING_POSE_MISTAKES,
     RANGE_BEARING_LANDMARK,
     RANGE_BEARING_MISTAKES,
     RANGE_BEARING_R,
@@ -242,6 +248,7 @@ from pfcourse.exercises.part2 import (  # noqa: F401
     check_altitude_update,
     check_beam_reading,
     check_likelihood_field,
+    check_bearing_pose_draw,
     check_pose_density,
     check_range_bearing_jacobian,
     check_relative_jacobian,
@@ -251,6 +258,7 @@ from pfcourse.exercises.part2 import (  # noqa: F401
     beam_reading_reference,
     field_log_weights,
     pose_reading_log_density,
+    bearing_pose_draw,
     range_bearing_jacobian,
     relative_landmark_jacobian,
     range_bearing_log_weights,

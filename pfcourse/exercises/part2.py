@@ -122,6 +122,109 @@ def check_pose_density(fn: Callable, n_poses: int = 40, seed: int = 0, rtol: flo
                            "-log 2 pi and -log h_r(x)")
     return report
 
+#: Chapter 11's exercise: a pose drawn from a bearing-only reading. The landmark, the bearing (rad), its
+#: standard deviation (rad) and the radius (m) of the disc around the landmark the robot is known to be in.
+BEARING_POSE_CASE = dict(landmark=np.array([10.0, -20.0]), b=0.8, sd_b=0.05, r_max=40.0)
+#: The typical mistakes of the bearing-only draw, and why each is wrong (compared by a large cloud's statistics).
+BEARING_POSE_MISTAKES = {
+    "uniform_range": ("your positions crowd the landmark: a range drawn uniformly on [0, r_max] is not a position "
+                      "uniform on the disc, whose range has density 2r / r_max^2: draw r = r_max sqrt(u)"),
+    "half_circle": ("your positions cover only half of the disc: the reading says nothing about the side of the "
+                    "landmark the robot is on, so the direction phi is uniform on (-pi, pi]"),
+    "no_pi": ("your robots face away from the landmark: seen from p = l + r (cos phi, sin phi) the landmark lies "
+              "in direction phi + pi, so theta = wrap(phi + pi - b')"),
+    "bearing_sign": ("your headings add the bearing: the landmark appears at bearing b' = (phi + pi) - theta, "
+                     "so theta = wrap(phi + pi - b'), not phi + pi + b'"),
+    "sd_as_variance": ("your bearings are too precise: sd_b is a standard deviation, b' = b + sd_b * e, not "
+                       "b + sd_b**2 * e"),
+}
+
+
+def bearing_pose_draw(b: float, landmark: np.ndarray, sd_b: float, r_max: float, n: int, rng: np.random.Generator,
+                      mistake: str | None = None) -> np.ndarray:
+    """``n`` poses ``(x, y, theta)`` drawn given a bearing-only reading ``b`` of ``landmark``: a position uniform
+    on the disc of radius ``r_max`` around it (``r = r_max sqrt(u)``, ``phi ~ U(-pi, pi)``), a bearing
+    ``b' ~ N(b, sd_b^2)`` and the heading ``theta = wrap(phi + pi - b')`` that makes the landmark appear at
+    ``b'``. ``mistake`` (a key of :data:`BEARING_POSE_MISTAKES`) computes that mistake instead."""
+    u = rng.random(n)
+    r = r_max * (u if mistake == "uniform_range" else np.sqrt(u))
+    phi = rng.uniform(0.0, np.pi, n) if mistake == "half_circle" else rng.uniform(-np.pi, np.pi, n)
+    sd = sd_b ** 2 if mistake == "sd_as_variance" else sd_b
+    b_drawn = b + sd * rng.standard_normal(n)
+    shift = 0.0 if mistake == "no_pi" else np.pi
+    theta = phi + shift + b_drawn if mistake == "bearing_sign" else phi + shift - b_drawn
+    return np.column_stack([landmark[0] + r * np.cos(phi), landmark[1] + r * np.sin(phi), _wrap(theta)])
+
+
+def _bearing_pose_features(x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Means and sds of (range / r_max, cos phi, sin phi, bearing residual) of drawn poses."""
+    case = BEARING_POSE_CASE
+    d = x[:, :2] - case["landmark"]
+    phi = np.arctan2(d[:, 1], d[:, 0])
+    residual = _wrap(case["b"] - _wrap(phi + np.pi - x[:, 2]))
+    f = np.column_stack([np.hypot(d[:, 0], d[:, 1]) / case["r_max"], np.cos(phi), np.sin(phi), residual])
+    return f.mean(axis=0), f.std(axis=0)
+
+
+def check_bearing_pose_draw(fn: Callable, n: int = 100_000, seed: int = 0) -> CheckReport:
+    """Check ``fn(b, landmark, sd_b, r_max, n, rng) -> (n, 3)``, leaving NumPy's global state as it was
+    (:func:`_check_bearing_pose_draw`)."""
+    saved = np.random.get_state()
+    try:
+        return _check_bearing_pose_draw(fn, n, seed)
+    finally:
+        np.random.set_state(saved)
+
+
+def _check_bearing_pose_draw(fn: Callable, n: int, seed: int) -> CheckReport:
+    """In turn: shape and finiteness; headings in (-pi, pi]; positions within ``r_max`` of the landmark; the
+    generator (:func:`~pfcourse.exercises.part1._generator_problem`); then the means and standard deviations of
+    (range / r_max, cos phi, sin phi, bearing residual) against 4n reference draws, every difference within
+    6 standard errors (doubled for the standard deviations). A failure is compared with each mistake of
+    :data:`BEARING_POSE_MISTAKES`, so that it is named."""
+    from pfcourse.exercises.part1 import _generator_problem
+
+    case = BEARING_POSE_CASE
+    report = CheckReport("pose from a bearing-only reading")
+
+    def call(k, rng):
+        return fn(case["b"], case["landmark"].copy(), case["sd_b"], case["r_max"], k, rng)
+
+    answer = _answer(report, lambda: call(n, np.random.default_rng(seed)), "fn(b, landmark, sd_b, r_max, n, rng)",
+                     "return the n drawn poses, one (x, y, theta) per row")
+    if answer is None or not _shaped(report, answer, (n, 3), "n poses, one (x, y, theta) per row"):
+        return report
+    answer = np.asarray(answer, dtype=float)
+    if not np.isfinite(answer).all():
+        report.problems.append("the poses hold NaN or infinity")
+        return report
+    if np.any(np.abs(answer[:, 2]) > np.pi + 1e-9):
+        report.problems.append("some headings lie outside (-pi, pi]: wrap theta")
+        return report
+    if np.any(np.hypot(*(answer[:, :2] - case["landmark"]).T) > case["r_max"] * (1 + 1e-9)):
+        report.problems.append("some positions lie farther than r_max from the landmark: the robot is known to be "
+                               "within r_max of it, so the range is at most r_max")
+        return report
+    problem = _generator_problem(lambda rng: call(200, rng), lambda a, b: np.array_equal(np.asarray(a), np.asarray(b)),
+                                 what="pose")
+    if problem:
+        report.problems.append(problem)
+        return report
+    mean, sd = _bearing_pose_features(answer)
+
+    def fits(mistake: str | None) -> bool:
+        ref = bearing_pose_draw(case["b"], case["landmark"], case["sd_b"], case["r_max"], 4 * n,
+                                np.random.default_rng(10_000), mistake=mistake)
+        ref_mean, ref_sd = _bearing_pose_features(ref)
+        se_mean = np.sqrt(sd**2 / n + ref_sd**2 / (4 * n)) + 1e-12
+        se_sd = ref_sd * np.sqrt(1 / (2 * n) + 1 / (8 * n)) * 2 + 1e-12
+        return max(np.max(np.abs(mean - ref_mean) / se_mean), np.max(np.abs(sd - ref_sd) / se_sd)) <= 6
+
+    if not _settled(report, fits, BEARING_POSE_MISTAKES):
+        report.problems.append("the poses' spread differs from the model's: a position uniform on the disc, a "
+                               "direction uniform on the circle, b' = b + sd_b e and theta = wrap(phi + pi - b')")
+    return report
+
 
 #: A small DEM for :func:`check_altimeter_likelihood`: 7 rows (north) by 9 columns (east), cells of
 #: 80 m east-west and 100 m north-south (unequal, and a non-square grid, so swapped axes show).
