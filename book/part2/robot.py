@@ -213,13 +213,16 @@ N, TAU = 300, 0.5
 rng = np.random.default_rng(4)
 mine = mcl(sim.odometry, sim.measurements, sim.landmarks, Q, R,
            sim.truth[0], x0_sd, N, TAU, rng)
-fig, ax = plt.subplots(figsize=(7, 4.5))
-ax.plot(*sim.landmarks.T, "k*", ms=10, label="landmarks")
-ax.plot(*sim.truth[:, :2].T, "k", label="truth")
-ax.plot(*sim.odometry_path[:, :2].T, "--", label="dead reckoning")
-ax.plot(*mine[:, :2].T, label="particle filter")
-ax.set(xlabel="x (m)", ylabel="y (m)", aspect="equal")
-ax.legend(loc="upper left", bbox_to_anchor=(1.02, 1))
+fig, axes = plt.subplots(1, 2, figsize=(10, 4.5))
+for ax in axes:
+    ax.plot(*sim.landmarks.T, "k*", ms=10, label="landmarks")
+    ax.plot(*sim.truth[:, :2].T, "k", lw=3, label="truth")
+    ax.plot(*sim.odometry_path[:, :2].T, "--", label="dead reckoning")
+    ax.plot(*mine[:, :2].T, label="particle filter")
+    ax.set(xlabel="x (m)", ylabel="y (m)")
+axes[0].set(title="the map", aspect="equal")
+axes[1].set(title="zoom on the path", xlim=(-12, 8), ylim=(-52, -24))
+axes[0].legend(loc="upper left")
 plt.show()
 
 # %% tags=["remove-input"] jupyter={"source_hidden": true}
