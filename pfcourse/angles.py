@@ -43,8 +43,14 @@ def sigma_point_mean(points: np.ndarray, weights: np.ndarray, angle_indices=()) 
     """
     m = weights @ points
     for j in angle_indices:
-        m[j] = np.arctan2(weights @ np.sin(points[:, j]), weights @ np.cos(points[:, j]))
+        m[j] = resultant_direction(points[:, j], weights)
     return m
+
+
+def resultant_direction(angles: np.ndarray, weights: np.ndarray) -> float:
+    """``atan2(sum_i w_i sin a_i, sum_i w_i cos a_i)`` as two dot products, with no resultant check
+    (the weights may be negative): the circular mean of the sigma points and of a grid filter's layers."""
+    return np.arctan2(weights @ np.sin(angles), weights @ np.cos(angles))
 
 
 def circular_mean(angles: np.ndarray, weights: np.ndarray | None = None, axis: int = 0):
@@ -56,14 +62,16 @@ def circular_mean(angles: np.ndarray, weights: np.ndarray | None = None, axis: i
     circle) the mean is undefined and NaN is returned.
     """
     angles = np.asarray(angles, dtype=float)
-    if weights is None:
-        weights = np.full(angles.shape[axis], 1.0 / angles.shape[axis])
-    weights = np.asarray(weights, dtype=float)
-    shape = [1] * angles.ndim
-    shape[axis] = -1
-    w = weights.reshape(shape)
-    s = np.sum(w * np.sin(angles), axis=axis)
-    c = np.sum(w * np.cos(angles), axis=axis)
+    if weights is None:  # equal weights: the mean of the unit vectors
+        s, c, total = np.mean(np.sin(angles), axis=axis), np.mean(np.cos(angles), axis=axis), 1.0
+    else:
+        weights = np.asarray(weights, dtype=float)
+        shape = [1] * angles.ndim
+        shape[axis] = -1
+        w = weights.reshape(shape)
+        s = np.sum(w * np.sin(angles), axis=axis)
+        c = np.sum(w * np.cos(angles), axis=axis)
+        total = np.sum(np.abs(weights))
     resultant = np.hypot(s, c)
     mean = np.arctan2(s, c)
-    return np.where(resultant > 1e-12 * np.sum(np.abs(weights)), mean, np.nan)
+    return np.where(resultant > 1e-12 * total, mean, np.nan)

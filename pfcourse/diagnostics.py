@@ -7,7 +7,10 @@
 * the normalised estimation error squared (Bar-Shalom, Li and Kirubarajan 2001)
   ``NEES_k = (x_k - m_k)^T P_k^{-1} (x_k - m_k)``, chi-square with ``d`` degrees
   of freedom for a consistent Gaussian estimator, and its acceptance band;
-* the confidence ellipse of a 2-D Gaussian.
+* the confidence ellipse of a 2-D Gaussian;
+* for several MCMC chains of one quantity, the split potential scale reduction factor
+  ``R-hat`` and the effective sample size (:func:`split_rhat`, :func:`chain_ess`;
+  Gelman et al. 2013, ch. 11, and Geyer's initial monotone sequence).
 """
 
 from __future__ import annotations
@@ -135,6 +138,58 @@ def weighted_covariance(
     linear[list(angle_indices)] = False
     check_moments(particles, cov, linear)
     return cov
+
+
+def _chains(chains, name: str = "chains") -> np.ndarray:
+    x = _real_array(chains, name, 2)
+    if x.shape[0] < 1 or x.shape[1] < 4:
+        raise ShapeError(f"{name} must be (m chains, n >= 4 draws), got shape {x.shape}")
+    return x
+
+
+def split_rhat(chains) -> float:
+    """Split ``R-hat`` of ``chains`` ``(m, n)``: each chain cut in two halves, then
+    ``sqrt(var+ / W)`` with ``W`` the mean within-half variance and
+    ``var+ = (n' - 1) / n' W + B / n'`` (``B / n'`` the variance of the half means, ``n'`` a half's
+    length).  Near 1 when the chains agree; above about 1.01 they have not mixed (Vehtari et al. 2021).
+    """
+    x = _chains(chains)
+    half = x.shape[1] // 2
+    halves = np.concatenate([x[:, :half], x[:, x.shape[1] - half:]])
+    n = halves.shape[1]
+    W = halves.var(axis=1, ddof=1).mean()
+    if W == 0:
+        raise ShapeError("split_rhat needs chains that move (a within-chain variance > 0)")
+    var_plus = (n - 1) / n * W + halves.mean(axis=1).var(ddof=1)
+    return float(np.sqrt(var_plus / W))
+
+
+def chain_ess(chains) -> float:
+    """Effective sample size of ``chains`` ``(m, n)`` together: ``m n / tau``.
+
+    ``tau = -1 + 2 sum_k (rho_2k + rho_2k+1)`` over Geyer's initial positive, monotone sequence of
+    pair sums; the autocorrelations ``rho_t = 1 - (W - mean_j gamma_jt) / var+`` combine the chains'
+    autocovariances ``gamma_jt`` with the between-chain variance, so chains that disagree have a
+    small ESS (Gelman et al. 2013, ch. 11).  One chain: ``chains[None]``.
+    """
+    x = _chains(chains)
+    m, n = x.shape
+    centred = x - x.mean(axis=1, keepdims=True)
+    size = 1 << int(np.ceil(np.log2(2 * n)))
+    f = np.fft.rfft(centred, size, axis=1)
+    acov = np.fft.irfft(f * np.conj(f), size, axis=1)[:, :n] / n  # biased autocovariances
+    W = (acov[:, 0] * n / (n - 1)).mean()
+    if W == 0:
+        raise ShapeError("chain_ess needs chains that move (a within-chain variance > 0)")
+    var_plus = (n - 1) / n * W + (x.mean(axis=1).var(ddof=1) if m > 1 else 0.0)
+    rho = 1.0 - (W - acov.mean(axis=0)) / var_plus
+    rho[0] = 1.0
+    pairs = rho[: 2 * (n // 2)].reshape(-1, 2).sum(axis=1)
+    positive = np.flatnonzero(pairs <= 0)
+    pairs = pairs[: positive[0]] if positive.size else pairs
+    pairs = np.minimum.accumulate(pairs)  # initial monotone sequence
+    tau = max(-1.0 + 2.0 * pairs.sum(), 1.0 / np.log10(m * n))
+    return float(m * n / tau)
 
 
 def nees(

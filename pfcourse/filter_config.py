@@ -44,6 +44,17 @@ class FilterConfig:
     label: str
     build: Callable[..., Any]
     n_particles: int | None = None
+    settings: FilterSettings | None = None  # the filter's settings as data, when the configuration has them
+
+    def record(self) -> dict[str, Any]:
+        """The configuration as plain data for a study's provenance: its label, and its settings'
+        record when it has one (:meth:`FilterSettings.record`)."""
+        out: dict[str, Any] = {"label": self.label}
+        if self.n_particles is not None:
+            out["n_particles"] = self.n_particles
+        if self.settings is not None:
+            out.update(self.settings.record())
+        return out
 
     def __post_init__(self) -> None:
         if not self.name or not callable(self.build):
@@ -70,6 +81,11 @@ def lookup(registry: Mapping[str, FilterConfig], name: str, what: str = "filter 
     return registry[name]
 
 
+def records(registry: Mapping[str, FilterConfig]) -> dict[str, dict[str, Any]]:
+    """``{name: record}`` of ``registry`` (:meth:`FilterConfig.record`): a comparison's filters in its provenance."""
+    return {name: config.record() for name, config in registry.items()}
+
+
 def labels(registry: Mapping[str, FilterConfig]) -> dict[str, str]:
     """``{name: label}`` of ``registry``, in its order (the legends and tables of a comparison)."""
     return {name: config.label for name, config in registry.items()}
@@ -77,7 +93,7 @@ def labels(registry: Mapping[str, FilterConfig]) -> dict[str, str]:
 
 # ---------------------------------------------------------------------------------------------------
 # A filter's settings as data (issue 44, item 2): one typed record, one ``build(model)``, its label
-# and its provenance record derived from its fields.  The registries above do not hold these yet.
+# and its provenance record derived from its fields (the terrain registry holds them).
 
 _NAMES = {"TransitionProposal": "bootstrap", "ProgressiveCorrection": "progressive correction",
           "RegularisedJitter": "regularised", "Roughening": "roughened", "KLDSampling": "KLD-sampling",
@@ -148,12 +164,16 @@ class FilterSettings:
 
     @property
     def label(self) -> str:
-        """``"<proposal>[, <jitter>][, <resampler> at ESS < <threshold> N], N = <n>"`` from the fields
-        (e.g. ``"progressive correction, regularised, multinomial at ESS < 1 N, N = 3000"``)."""
-        parts = [_NAMES.get(type(self.proposal).__name__, type(self.proposal).__name__)
-                 if self.proposal is not None else "bootstrap"]
+        """``"<proposal>[, <jitter>], <resampler> at ESS < <threshold> N, N = <n>"`` from the fields (the
+        transition proposal named "bootstrap" when nothing moves the particles after resampling; e.g.
+        ``"progressive correction, regularised at 0.2 h_opt, multinomial at ESS < 1 N, N = 3000"``)."""
+        parts = ([_NAMES.get(type(self.proposal).__name__, type(self.proposal).__name__)] if self.proposal is not None
+                 else [] if self.jitter is not None else ["bootstrap"])
         if self.jitter is not None:
-            parts.append(_NAMES.get(type(self.jitter).__name__, type(self.jitter).__name__))
+            name = _NAMES.get(type(self.jitter).__name__, type(self.jitter).__name__)
+            if type(self.jitter).__name__ == "RegularisedJitter":  # its kernel's width, a multiple of h_opt
+                name += f" at {self.jitter.scale:g} h_opt"
+            parts.append(name)
         if self.sample_size is not None:
             parts.append(_NAMES.get(type(self.sample_size).__name__, type(self.sample_size).__name__))
             return ", ".join(parts) + f", N <= {self.n_particles}"

@@ -39,7 +39,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from pfcourse.angles import wrap_angle
+from pfcourse.angles import circular_mean, wrap_angle
 from pfcourse.checks import Array
 from pfcourse.errors import ParameterError, ShapeError
 
@@ -89,7 +89,7 @@ def cloud_covariance(particles: Array, angle_indices=()) -> Array:
     """Equal-weight covariance of an ``(N, d)`` cloud; angles as wrapped deviations from the circular mean."""
     x = np.array(particles, dtype=float)
     for j in angle_indices:
-        mean = np.arctan2(np.mean(np.sin(x[:, j])), np.mean(np.cos(x[:, j])))
+        mean = circular_mean(x[:, j])
         x[:, j] = wrap_angle(x[:, j] - mean)
     return np.atleast_2d(np.cov(x, rowvar=False))
 

@@ -32,6 +32,12 @@ from pfcourse.angles import wrap_angle
 from pfcourse.checks import Array
 
 
+def rmse(errors: Array, axis: int | None = None):
+    """Root mean square error ``sqrt(mean(e^2))`` of ``errors`` over ``axis`` (all of them by default):
+    the one RMSE of the package (of a position error, a heading error, a state, ...)."""
+    return np.sqrt(np.mean(np.asarray(errors) ** 2, axis=axis))
+
+
 def position_error(truth: Array, estimate: Array) -> Array:
     """Horizontal position error ``sqrt((x^ - x)^2 + (y^ - y)^2)`` (m), one per row.
 

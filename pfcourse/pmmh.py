@@ -13,8 +13,14 @@ with a fresh, independent particle filter for every proposal and the current est
 exact posterior ``p(theta | z)`` for any number of particles; ``N`` only changes how
 well it mixes.
 
+:func:`correlated_pmmh` is the correlated pseudo-marginal version (Deligiannidis, Doucet and
+Pitt 2018): the filter's random numbers ``U`` (standard normals, :mod:`pfcourse.correlated`) are
+part of the chain's state and move with ``theta`` by a Crank-Nicolson step
+``U' = rho U + sqrt(1 - rho^2) e``, which keeps ``N(0, I)`` invariant, so the acceptance ratio is
+the same as above; ``rho = 0`` gives back plain PMMH (fresh numbers at every proposal).
+
 :func:`integrated_autocorrelation_time` measures how well a chain mixes: ``n / tau`` is its
-effective sample size.
+effective sample size (several chains: :func:`pfcourse.diagnostics.chain_ess`).
 """
 
 from __future__ import annotations
@@ -117,3 +123,50 @@ def integrated_autocorrelation_time(x: np.ndarray, c: float = 5.0) -> float:
     window = np.arange(n) >= c * taus
     m = int(np.argmax(window)) if window.any() else n - 1
     return float(taus[m])
+
+
+def correlated_pmmh(
+    log_likelihood_estimate: Callable[[float, np.ndarray], float],
+    prior: stats.rv_continuous,
+    theta0: float,
+    n_normals: int,
+    n_iterations: int,
+    step: float,
+    rho: float,
+    rng: np.random.Generator | int,
+) -> PMMHChain:
+    """Correlated PMMH on ``u = log theta`` (module docstring): a scalar ``theta``.
+
+    ``log_likelihood_estimate(theta, normals)`` returns ``log Z^(theta)`` computed from the
+    ``n_normals`` standard normals it is given (e.g.
+    :func:`pfcourse.correlated.correlated_log_likelihood`); the proposal is
+    ``u' = u + step e`` and ``U' = rho U + sqrt(1 - rho^2) e'``; a ``u'`` outside the prior's
+    support is rejected without a filter run (``U`` stays).
+    """
+    from pfcourse.correlated import crank_nicolson
+
+    n_iterations = check_count(n_iterations, "n_iterations")
+    n_normals = check_count(n_normals, "n_normals")
+    if not step > 0:
+        raise ParameterError(f"step must be > 0, got {step}")
+    if not 0.0 <= rho <= 1.0:
+        raise ParameterError(f"rho must be in [0, 1], got {rho}")
+    rng = np.random.default_rng(rng)
+    u = float(np.log(theta0))
+    log_prior = float(prior.logpdf(u))
+    if not np.isfinite(log_prior):
+        raise ParameterError(f"theta0 = {theta0} has zero prior density")
+    normals = rng.standard_normal(n_normals)
+    log_lik = float(log_likelihood_estimate(float(np.exp(u)), normals))
+    thetas, lls = np.empty(n_iterations), np.empty(n_iterations)
+    accepted = np.zeros(n_iterations, dtype=bool)
+    for i in range(n_iterations):
+        u_new = float(u + step * rng.standard_normal())
+        log_prior_new = float(prior.logpdf(u_new))
+        if np.isfinite(log_prior_new):
+            normals_new = crank_nicolson(normals, rho, rng)
+            log_lik_new = float(log_likelihood_estimate(float(np.exp(u_new)), normals_new))
+            if np.log(rng.uniform()) < log_lik_new + log_prior_new - log_lik - log_prior:
+                u, log_prior, log_lik, normals, accepted[i] = u_new, log_prior_new, log_lik_new, normals_new, True
+        thetas[i], lls[i] = np.exp(u), log_lik
+    return PMMHChain(theta=thetas, log_likelihood=lls, accepted=accepted)

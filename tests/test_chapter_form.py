@@ -31,11 +31,12 @@ BOOK = ROOT / "book"
 CHAPTERS = sorted(BOOK.rglob("*.py"))
 IN_FORM = ["onramp", "part1/model", "part1/kalman", "part1/importance_sampling", "part1/sis", "part1/sir",
            "part1/resampling_schemes", "part1/proposals", "part1/rao_blackwell", "part1/auxiliary",
-           "part2/robot", "part2/global_localization", "part2/robot_vs_kalman", "part2/map_robot",
+           "part2/robot", "part2/global_localization", "part2/robot_vs_kalman", "part2/map_robot", "part2/map_global",
            "part2/real_robot",
            "part2/terrain", "part2/terrain_cure", "part2/terrain_marginalised", "part3/robot_studies",
            "part3/resampling_studies", "part3/sensing_studies", "part4/pf_vs_kalman",
-           "part4/data_association", "part5/likelihood", "part5/smoothing"]
+           "part4/data_association", "part5/likelihood", "part5/particle_mcmc", "part5/smoothing",
+           "part5/static_parameters"]
 MAX_NUMBERS_PER_PARAGRAPH = 4
 MAX_MINUTES_NOT_YET_CUT = 33
 WORDS = {in_words(n): n for n in range(100)}

@@ -46,10 +46,12 @@ def test_every_filter_built_gets_fresh_components():
 
 def test_label_and_record_come_from_the_fields():
     assert FilterSettings(3000).label == "bootstrap, systematic at ESS < 0.5 N, N = 3000"
-    assert tempered(3000).label == "progressive correction, regularised, multinomial at ESS < 1 N, N = 3000"
+    assert tempered(3000).label == "progressive correction, regularised at 0.2 h_opt, multinomial at ESS < 1 N, N = 3000"
+    assert FilterSettings(3000, jitter=RegularisedJitter(1.0)).label == "regularised at 1 h_opt, systematic at ESS < 0.5 N, N = 3000"
     assert FilterSettings(20000, sample_size=KLDSampling([1.0])).label == "bootstrap, KLD-sampling, N <= 20000"
     variants = [FilterSettings(3000), FilterSettings(1000), FilterSettings(3000, 0.3), FilterSettings(3000, resampler="stratified"),
-                FilterSettings(3000, jitter=RegularisedJitter(0.2)), tempered(3000)]
+                FilterSettings(3000, jitter=RegularisedJitter(0.2)), FilterSettings(3000, jitter=RegularisedJitter(1.0)),
+                tempered(3000)]
     assert len({v.label for v in variants}) == len(variants)
     record = tempered(3000).record()
     assert json.loads(json.dumps(record)) == record  # plain data
@@ -72,3 +74,17 @@ def test_label_and_record_come_from_the_fields():
 def test_bad_settings_are_refused_when_the_record_is_made(fields, error, message):
     with pytest.raises(error, match=message):
         FilterSettings(**fields)
+
+
+def test_the_terrain_registry_holds_settings_records():
+    """Each terrain filter is a FilterSettings record: its N, label and provenance record derived from it
+    (tests/test_stored_studies.py re-computes their stored rows float for float)."""
+    from pfcourse.experiments.terrain_remedies import FILTERS
+    from pfcourse.filter_config import records
+
+    assert all(c.settings is not None and c.n_particles == c.settings.n_particles for c in FILTERS.values())
+    assert len({c.label for c in FILTERS.values()}) == len(FILTERS)  # the label tells them apart
+    written = records(FILTERS)
+    assert json.loads(json.dumps(written)) == written
+    assert written["regularised h=1 N=3000"]["jitter"]["scale"] == 1.0
+    assert written["tempered N=3000"]["proposal"]["type"] == "ProgressiveCorrection"

@@ -6,11 +6,13 @@ and checks that each table has every setting and run).
 from __future__ import annotations
 
 import json
+from pathlib import Path
 
 import pytest
 
 from pfcourse.errors import ParameterError
 from pfcourse.experiments import robot_studies as rs
+from pfcourse.experiments.registry import robot_study
 
 
 def test_provenance_records_the_seeds_and_settings():
@@ -20,12 +22,21 @@ def test_provenance_records_the_seeds_and_settings():
     assert record["git_commit"] and "replicate_seed(0, r)" in record["seeds"]
 
 
-def test_find_returns_the_stored_study_and_refuses_others():
-    table = rs.find({"scheme": ["multinomial", "residual", "stratified", "systematic"]})
+def test_robot_study_reads_the_stored_study_and_refuses_others():
+    table = robot_study({"scheme": ["multinomial", "residual", "stratified", "systematic"]})
     assert set(table["scheme"]) == {"multinomial", "residual", "stratified", "systematic"}
+    assert table.attrs["provenance"] == json.loads((rs.DATA / "provenance.json").read_text())  # and its provenance
     with pytest.raises(ParameterError, match="no stored robot study"):
-        rs.find({"r_scale": [1, 2]})
+        robot_study({"r_scale": [1, 2]})
     with pytest.raises(ParameterError, match="no stored robot study"):
-        rs.find({"q_scale": [0.25, 0.5, 1, 2, 5, 20, 100]})  # stored with keep_errors=True
+        robot_study({"q_scale": [0.25, 0.5, 1, 2, 5, 20, 100]})  # stored with keep_errors=True
     with pytest.raises(ParameterError, match="unknown robot study"):
-        rs.load("nope")
+        rs.literal_columns("nope")
+
+
+def test_robot_studies_do_not_import_the_registry():
+    """The registry is built from robot_studies.STUDIES; the reader lives in the registry (no cycle)."""
+    import ast
+    tree = ast.parse(Path(rs.__file__).read_text())
+    imported = {n.module for n in ast.walk(tree) if isinstance(n, ast.ImportFrom)}
+    assert not any(m and m.endswith(".registry") for m in imported)

@@ -31,6 +31,7 @@ from scipy.stats import norm
 
 from pfcourse import LinearGaussianModel, ParticleFilter, evidence, kalman_filter
 from pfcourse.experiments.rb_study import METHODS
+from pfcourse.experiments.registry import STUDIES
 from pfcourse.figures.report import EvidenceBlock, glue_values
 from pfcourse.landmarks.rao_blackwell import RaoBlackwellModel, RaoBlackwellProposal
 from pfcourse.landmarks.scenario import quadrant_scenario, simulate
@@ -230,7 +231,7 @@ print(f"apf_step vs FullyAdaptedAuxiliary, unequal W_(k-1): particles differ by 
 # landmark errors against the Kalman mean at the last step.
 
 # %% tags=["hide-input"] jupyter={"source_hidden": true}
-data = pd.read_csv("../data/rao_blackwell.csv")
+data = STUDIES["rao_blackwell"].load()
 quad = data[(data.scenario == "quadrant") & (data.method != "kalman")]
 N_VALUES = [int(n) for n in sorted(quad.N.unique())]
 seeds = sorted(quad.seed.unique())

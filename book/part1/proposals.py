@@ -120,6 +120,7 @@ from pfcourse.kalman import kalman_filter
 from pfcourse.landmarks.scenario import quadrant_scenario, simulate
 from pfcourse.proposals import OptimalProposal
 from pfcourse.experiments.part1_studies import ALL_NOISE, LAST, N_LAB, NOISE_SCALES
+from pfcourse.experiments.registry import STUDIES
 from pfcourse.figures.report import EvidenceBlock, glue_values
 from pfcourse.style import COLORS, plain_log_axis, use_style
 from pfcourse.figures.widgets import control_panel, particle_slider, scale_slider, seed_box
@@ -221,7 +222,7 @@ EvidenceBlock(
 # with their provenance; `tests/test_stored_studies.py` re-computes a sample of the rows.
 
 # %% tags=["hide-input"] jupyter={"source_hidden": true}
-study = pd.read_csv("../data/proposals.csv")
+study = STUDIES["proposals"].load()
 n_runs, N, last = study.seed.nunique(), N_LAB, LAST
 lab = {name: {what: study[(study.setting == "lab") & (study.proposal == name)].sort_values("seed")[what].to_numpy()
               for what in ("ess", "robot", "landmarks", "resampled")} for name in PROPOSALS}

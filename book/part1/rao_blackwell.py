@@ -93,6 +93,7 @@ from pfcourse.diagnostics import chi2_band
 from pfcourse.exercises import check_landmark_update
 from pfcourse.figures.report import EvidenceBlock, glue_values
 from pfcourse.experiments.rb_study import METHODS
+from pfcourse.experiments.registry import STUDIES
 from pfcourse.landmarks.rao_blackwell import RaoBlackwellModel, RaoBlackwellProposal
 from pfcourse.landmarks.scenario import circle_scenario, quadrant_scenario, simulate
 from pfcourse.figures.widgets import control_panel, particle_slider, seed_box
@@ -213,7 +214,7 @@ plt.show()
 # per step.
 
 # %% tags=["hide-input"] jupyter={"source_hidden": true}
-data = pd.read_csv("../data/rao_blackwell.csv")
+data = STUDIES["rao_blackwell"].load()
 quad = data[data.scenario == "quadrant"]
 runs = quad[quad.method != "kalman"]
 N_VALUES = [int(n) for n in sorted(runs.N.unique())]
@@ -726,7 +727,7 @@ print(f"entries of the map covariance per particle, five landmarks / two: {10 **
 # (robot, last $10$ steps; per run, then compared run by run).
 
 # %% tags=["hide-input"] jupyter={"source_hidden": true}
-five = pd.read_csv("../data/rb_five_landmarks.csv")
+five = STUDIES["rb_five_landmarks"].load()
 check = {name: {what: five[five.method == name].sort_values("seed")[what].to_numpy()
                 for what in ("collapse", "lm_sd", "robot_sd", "robot_cover")} for name in ("SIS", "SIR", "RBPF")}
 for name, c in check.items():

@@ -80,6 +80,7 @@ from scipy.special import logsumexp
 from pfcourse import evidence
 from pfcourse.exercises import check_ancestors, check_multinomial_resampler
 from pfcourse.experiments.landmarks import score
+from pfcourse.experiments.registry import STUDIES
 from pfcourse.collectors import Clouds
 from pfcourse.filter import ParticleFilter
 from pfcourse.jitter import Roughening
@@ -347,7 +348,7 @@ EvidenceBlock(
 # more particles only postpone the impoverishment.
 
 # %% tags=["hide-input"] jupyter={"source_hidden": true}
-fixes = pd.read_csv("../data/sir_fixes.csv")
+fixes = STUDIES["sir_fixes"].load()
 Ns = np.array(sorted(fixes.N.unique()))
 
 

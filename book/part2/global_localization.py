@@ -73,10 +73,10 @@ from pfcourse.style import COLORS, use_style
 
 use_style()
 DATA = Path("../data/global_localization")
-prov = json.loads((DATA / "provenance.json").read_text())
 anatomy, lockon, kid, ekf, kld_amcl, tracking = (
-    pd.read_csv(DATA / f"{name}.csv") for name in ("anatomy", "lockon", "kidnap", "ekf_vs_pf", "kld_amcl", "tracking_cost"))
+    STUDIES[f"global_localization/{name}"].load() for name in ("anatomy", "lockon", "kidnap", "ekf_vs_pf", "kld_amcl", "tracking_cost"))
 modes = STUDIES["global_localization/modes"].load()  # per run: the mass near the truth at every step
+prov = lockon.attrs["provenance"]
 N_RUNS = int(lockon.groupby(["method", "n"]).size().min())
 glue_values(n_runs=N_RUNS, lock_window=LOCK_WINDOW)
 
@@ -87,8 +87,8 @@ def runs_of(method, n, table=lockon):
 
 
 print(f"tables made by {prov['code']} at commit {prov['git_commit'][:10]}; {prov['seeds']}; {N_RUNS} runs per setting")
-for name in ("kld_amcl", "tracking_cost"):
-    extra = json.loads((DATA / f"{name}.json").read_text())
+for name, table in (("kld_amcl", kld_amcl), ("tracking_cost", tracking)):
+    extra = table.attrs["provenance"]
     print(f"{name}: made by {extra['code']} at commit {extra['git_commit'][:10]}; {extra['seeds']}")
 
 # %% [markdown]

@@ -57,7 +57,7 @@ demo = study.simulate(0, study.TRACKING_STEPS)
 
 
 def stored(name):
-    seconds = json.loads(STUDIES[f"maprobot/{name}"].path.with_suffix(".json").read_text())["wall_seconds"]
+    seconds = STUDIES[f"maprobot/{name}"].load().attrs["provenance"]["wall_seconds"]
     return (f"Stored study maprobot/{name} (book/data/maprobot/{name}.csv, provenance in {name}.json): "
             f"{seconds:.0f} s of computing on a shared 2-core machine.")
 

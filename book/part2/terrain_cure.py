@@ -46,7 +46,7 @@ from scipy import stats
 
 from pfcourse import evidence
 from pfcourse.exercises import check_regularised_jitter
-from pfcourse.experiments.store import load
+from pfcourse.experiments.registry import STUDIES
 from pfcourse.experiments.terrain_remedies import FILTERS
 from pfcourse.figures.report import EvidenceBlock, glue_values
 from pfcourse.jitter import RegularisedJitter, optimal_bandwidth
@@ -59,8 +59,8 @@ from pfcourse.terrain.scenario import AircraftScenario, simulate
 use_style()
 terrain = load_jacksboro()
 scenario = AircraftScenario()
-data = pd.read_csv(Path("../data/terrain_remedies.csv"))
-provenance = json.loads(Path("../data/terrain_remedies.json").read_text())
+data = STUDIES["terrain_remedies"].load()
+provenance = data.attrs["provenance"]
 print("study commits:", sorted({r["commit"][:10] for r in provenance["runs"]}))
 
 # %% [markdown]
@@ -169,9 +169,9 @@ EvidenceBlock(
 # wide and $h_\text{opt}$ itself throws every particle off its terrain match: the chapter's filter
 # uses $h = 0.2\,h_\text{opt}$, a factor chosen on flights $0$ to $11$ among $0.05$, $0.2$ and $1$.
 #
-# :::{admonition} Algorithm 16.1: the regularised particle filter (kernel move after resampling)
+# :::{admonition} Algorithm 17.1: the regularised particle filter (kernel move after resampling)
 # :class: algorithm
-# 1. Run the particle filter of {doc}`terrain` (Algorithm 15.1): propagate, weight by the
+# 1. Run the particle filter of {doc}`terrain` (Algorithm 16.1): propagate, weight by the
 #    altimeter's likelihood, normalise.
 # 2. **If** $\mathrm{ESS}_k < \tau N$: resample, then **move** the equally weighted cloud:
 #    1. $\hat\Sigma = \frac{1}{N-1}\sum_i (x^i - \bar x)(x^i - \bar x)^\top$, with heading deviations from
@@ -188,7 +188,7 @@ EvidenceBlock(
 
 # %%
 def regularised_move(particles, scale, rng, angle=3):
-    """Algorithm 16.1, step 2: x^i + h S^(1/2) eps^i, h = scale * h_opt(N, d), heading wrapped."""
+    """Algorithm 17.1, step 2: x^i + h S^(1/2) eps^i, h = scale * h_opt(N, d), heading wrapped."""
     n, d = particles.shape
     x = particles.copy()
     mean_angle = np.arctan2(np.mean(np.sin(x[:, angle])), np.mean(np.cos(x[:, angle])))
@@ -374,10 +374,10 @@ plt.show()
 BOOT = "bootstrap N=30000"
 
 
-def against_bootstrap(csv, candidate, prefix):
+def against_bootstrap(study, candidate, prefix):
     """A fresh-flight study: the candidate's losses (Wilson), paired with the bootstrap filter's
     (exact McNemar) and its wall time per flight (paired ratio); glued under ``prefix``."""
-    table = pd.read_csv(Path("../data") / csv)
+    table = STUDIES[study].load()
     lost = table.pivot(index="flight", columns="setting", values="lost").astype(bool)
     secs = table.pivot(index="flight", columns="setting", values="seconds")
     loss = evidence.rate(lost[candidate])
@@ -392,12 +392,12 @@ def against_bootstrap(csv, candidate, prefix):
 
 CAND = "regularised, stratified (candidate)"
 MULT = "regularised, multinomial (chapter's baseline)"
-lost_c, cand_rate, notes_c = against_bootstrap("terrain_confirmation.csv", CAND, "terrain_fresh")
+lost_c, cand_rate, notes_c = against_bootstrap("terrain_confirmation", CAND, "terrain_fresh")
 cand_vs_mult = evidence.paired_rates(lost_c[CAND], lost_c[MULT])
-confirm_meta = json.loads(Path("../data/terrain_confirmation.json").read_text())
+confirm_meta = STUDIES["terrain_confirmation"].load().attrs["provenance"]
 glue_values("terrain_fresh_", flights=int(cand_rate.n), mult_lost=int(lost_c[MULT].sum()),
             vs_mult_p=float(cand_vs_mult.pvalue))
-lost_m, _, notes_m = against_bootstrap("terrain_cost_matched.csv", "regularised, stratified, N=20000", "terrain_cost")
+lost_m, _, notes_m = against_bootstrap("terrain_cost_matched", "regularised, stratified, N=20000", "terrain_cost")
 # the two sets of fresh flights, seen by the same bootstrap filter (different flights: Fisher's exact test)
 harder = stats.fisher_exact([[lost_m[BOOT].sum(), (~lost_m[BOOT]).sum()],
                              [lost_c[BOOT].sum(), (~lost_c[BOOT]).sum()]])
@@ -460,7 +460,7 @@ EvidenceBlock(
 X = np.array(truths)  # the same 100 flights
 free = np.array([terrain_bound_noise_free(scenario, terrain, x) for x in X])  # (flights, steps, 4, 4)
 B = free[:, :, 0, 0] + free[:, :, 1, 1]  # B_xx + B_yy along each flight (m^2)
-paths = load(Path("../data/terrain_error_paths.csv"), arrays=("errors",)).sort_values("flight")
+paths = STUDIES["terrain_error_paths"].load().sort_values("flight")
 assert paths["setting"].eq(best).all()  # the stored paths are the best filter's
 E = np.stack(paths["errors"].to_numpy())  # horizontal error (m), (flights, steps)
 converged = ~paths["lost"].to_numpy(bool)
@@ -541,11 +541,11 @@ EvidenceBlock(
 # the intervals say what that costs.
 
 # %% tags=["remove-input"] jupyter={"source_hidden": true}
-mm = pd.read_csv(Path("../data/terrain_map_error.csv"))
+mm = STUDIES["terrain_map_error"].load()
 mm_lost = mm.pivot(index="flight", columns="setting", values="lost").astype(bool)
 mm_final = mm.pivot(index="flight", columns="setting", values="final_error")
 flights = mm_lost.index.to_numpy()
-studies = pd.read_csv(Path("../data/terrain_studies.csv"))
+studies = STUDIES["terrain_studies"].load()
 fast = studies[studies["setting"] == "every 0.1 s, dt = 0.1 s"].set_index("flight").loc[flights]
 slow = studies[studies["setting"] == "baseline"].set_index("flight").loc[flights]
 true_map = {"bootstrap N=3000": runs["bootstrap N=3000"].loc[flights].astype(bool),
@@ -642,7 +642,7 @@ EvidenceBlock(
 # $\sigma = \sqrt{\operatorname{var} x + \operatorname{var} y}$.
 
 # %% tags=["remove-input"] jupyter={"source_hidden": true}
-reference = pd.read_csv(Path("../data/terrain_reference.csv"))
+reference = STUDIES["terrain_reference"].load()
 big, half = reference["N"].max(), reference["N"].min()
 rows = []
 for flight_id, g in reference.groupby("flight"):
@@ -685,7 +685,7 @@ EvidenceBlock(
 #
 # ## Exercises
 #
-# ```{exercise} 16.1 The bandwidth of a multimodal cloud
+# ```{exercise} 17.1 The bandwidth of a multimodal cloud
 # :label: ex-terrain-bandwidth
 # :nonumber:
 # Compute the regularised filter's optimal bandwidth $h_\text{opt}$ for $N = 3000$ and
@@ -704,7 +704,7 @@ EvidenceBlock(
 # single blob; this is why the chapter's filter uses $0.2\,h_\text{opt}$.
 # ```
 #
-# ```{exercise} 16.2 Write the kernel move, and have it checked
+# ```{exercise} 17.2 Write the kernel move, and have it checked
 # :label: ex-terrain-jitter
 # :nonumber:
 # (Coding.) Write `my_move(particles, scale, rng)`: the regularised filter's move of an equally
@@ -726,7 +726,7 @@ print(check_regularised_jitter(my_move))
 # %% [markdown]
 # ```{solution} ex-terrain-jitter
 # :class: dropdown
-# The move of Algorithm 16.1 without the heading; any square root of $\hat\Sigma$ will do (here Cholesky's).
+# The move of Algorithm 17.1 without the heading; any square root of $\hat\Sigma$ will do (here Cholesky's).
 # The code is in the folded cell below (in JupyterLab, click its margin to unfold it).
 # ```
 

@@ -64,7 +64,7 @@
 # depend on the particle: it depends only on which steps had a reading. Every particle carries
 # the same $P_k$, and only the means $m_k^i$ differ.
 #
-# :::{admonition} Algorithm 17.1: Marginalised particle filter for terrain navigation
+# :::{admonition} Algorithm 18.1: Marginalised particle filter for terrain navigation
 # :class: algorithm
 # **Input:** readings $y^{\text{alt}}_{1:K}$, the prior $\mathcal N(x_0, P_0)$ (no altitude
 # cross-terms), $Q_f$, $R_f$, the map $h$, $N$.
@@ -104,6 +104,7 @@ from pfcourse.terrain.map import load_jacksboro
 from pfcourse.terrain.marginalised import marginalised_filter
 from pfcourse.terrain.point_mass import PointMassFilter
 from pfcourse.terrain.scenario import AircraftScenario, simulate
+from pfcourse.experiments.registry import STUDIES
 from pfcourse.experiments.terrain_marginalised import CELLS
 from pfcourse.experiments.terrain_remedies import FILTERS
 
@@ -114,7 +115,7 @@ SAMPLED = [0, 1, 3]  # x, y, psi: the components the particles sample
 
 
 def marginalised_pf(readings, terrain, sc, n, rng):
-    """Algorithm 17.1: the weighted mean of (x, y) at each step."""
+    """Algorithm 18.1: the weighted mean of (x, y) at each step."""
     L0 = np.linalg.cholesky(sc.P0[np.ix_(SAMPLED, SAMPLED)])
     Lq = np.linalg.cholesky(sc.Qf[np.ix_(SAMPLED, SAMPLED)] * sc.dt)
     p = sc.x0[SAMPLED] + rng.standard_normal((n, 3)) @ L0.T  # columns x, y, psi
@@ -174,9 +175,9 @@ glue_values("terrain_mpf_", check_tolerance=TOLERANCE)
 # flight ({doc}`../evidence` explains the tests and intervals).
 
 # %% tags=["hide-input"] jupyter={"source_hidden": true}
-remedies = pd.read_csv(Path("../data/terrain_remedies.csv"))
-mpf = pd.read_csv(Path("../data/terrain_mpf.csv"))
-print("study commit:", json.loads(Path("../data/terrain_mpf.json").read_text())["git_commit"][:10])
+remedies = STUDIES["terrain_remedies"].load()
+mpf = STUDIES["terrain_mpf"].load()
+print("study commit:", mpf.attrs["provenance"]["git_commit"][:10])
 table = pd.concat([remedies, mpf[remedies.columns.intersection(mpf.columns)]], ignore_index=True)
 lost = table.pivot(index="flight", columns="setting", values="lost").astype(bool)
 final = table.pivot(index="flight", columns="setting", values="final_error")
@@ -351,8 +352,8 @@ print(f"grid points held at t = {SNAPSHOT} s: {grid.kept.size:,}; posterior mass
 # where refining it no longer moves its answer.
 
 # %% tags=["hide-input"] jupyter={"source_hidden": true}
-gridrows = pd.read_csv(Path("../data/terrain_grid.csv"))
-print("study commit:", json.loads(Path("../data/terrain_grid.json").read_text())["git_commit"][:10])
+gridrows = STUDIES["terrain_grid"].load()
+print("study commit:", gridrows.attrs["provenance"]["git_commit"][:10])
 flights = sorted(gridrows.flight.unique())
 cells = sorted(gridrows.cell.unique(), reverse=True)  # coarse to fine
 fine, coarse = cells[-1], cells[-2]  # the finest grid and the one before it
@@ -395,7 +396,7 @@ dtable = pd.DataFrame(drows)
 print(dtable.drop(columns=["95 % interval (m)"]).to_string(index=False, float_format=lambda v: f"{v:.3g}"))
 
 # The bootstrap filter with a million particles (terrain_reference, two seeds) on the first flights.
-reference = pd.read_csv(Path("../data/terrain_reference.csv"))
+reference = STUDIES["terrain_reference"].load()
 big = reference[reference.N == reference.N.max()]
 ref_mean = big.groupby("flight")[["mean_x", "mean_y"]].mean()
 ref_flights = [r for r in ref_mean.index if r in flights]
@@ -486,14 +487,14 @@ EvidenceBlock(
 #
 # ## Exercises
 #
-# ```{exercise} 17.1 The altitude's Kalman update, for every particle at once
+# ```{exercise} 18.1 The altitude's Kalman update, for every particle at once
 # :label: ex-mpf-code
 # :nonumber:
 # (Coding.) Write `my_altitude_update(mean, var, ground, reading, rf)`: for arrays of predicted
 # altitude means $m^i$, variances $P^-$ and ground heights $h(p^i)$ (one per particle), a reading
 # $y^{\text{alt}}_k$ and the altimeter's variance $R_f$, return the updated means, the updated
 # variances and the log-weight increments $\log \mathcal N(\nu^i; 0, S)$ (three arrays, one value
-# per particle), as in Algorithm 17.1. The checker compares with the exact update and
+# per particle), as in Algorithm 18.1. The checker compares with the exact update and
 # names the mistake it recognises.
 # ```
 
@@ -524,7 +525,7 @@ def my_altitude_update(mean, var, ground, reading, rf):
 print(check_altitude_update(my_altitude_update))
 
 # %% [markdown]
-# ```{exercise} 17.2 Why one variance for all particles?
+# ```{exercise} 18.2 Why one variance for all particles?
 # :label: ex-mpf-variance
 # :nonumber:
 # Show from the update equations that $P_k$ is the same for every particle. Would it still be

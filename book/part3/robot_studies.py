@@ -42,7 +42,7 @@
 # the runs), Wilcoxon's signed-rank test, and the ratios the data exclude (those beyond the
 # interval; {doc}`../evidence`).
 #
-# :::{admonition} Algorithm 18.1: a paired study of two settings
+# :::{admonition} Algorithm 19.1: a paired study of two settings
 # :class: algorithm
 # 1. For $r = 1..n_\text{runs}$: simulate world $r$ from seed $r$; run the filter with setting A and with
 #    setting B on it; record the errors $a_r$ and $b_r$.
@@ -67,8 +67,8 @@ from myst_nb import glue
 
 from pfcourse import evidence
 from pfcourse.exercises import check_paired_se
-from pfcourse.experiments import robot_studies as stored
 from pfcourse.experiments.robot_studies import BURN_IN, N_RUNS, N_STEPS
+from pfcourse.experiments.registry import robot_study
 from pfcourse.experiments.study import summarize
 from pfcourse.figures.report import EvidenceBlock, glue_values
 from pfcourse.figures.static_panel import format_value
@@ -78,12 +78,11 @@ from pfcourse.figures.widgets import control_panel
 from pfcourse.style import COLORS, plain_log_axis, use_style
 
 use_style()
-robot_study = stored.find  # the stored table of a study, stated as its grid (it refuses a grid not stored)
 glue("n_runs_per_setting", N_RUNS, display=False)
 
 
 def paired_ratio(a, b, n_boot=2000, seed=0):
-    """Algorithm 18.1, steps 2-4: median per-run ratio a/b and its 95 % percentile bootstrap interval."""
+    """Algorithm 19.1, steps 2-4: median per-run ratio a/b and its 95 % percentile bootstrap interval."""
     ratios = np.asarray(a) / np.asarray(b)  # step 2
     rng = np.random.default_rng(seed)
     runs = rng.integers(0, len(ratios), size=(n_boot, len(ratios)))  # step 3: runs drawn with replacement
@@ -416,7 +415,7 @@ control_panel(
 # %% [markdown]
 # ## Exercises
 #
-# ```{exercise} 18.1 What pairing buys, computed and checked
+# ```{exercise} 19.1 What pairing buys, computed and checked
 # :label: ex-studies-se
 # :nonumber:
 # (Coding.) Write `my_se(a, b)`: for the errors `a` and `b` of two settings on the same runs (arrays of
@@ -451,7 +450,7 @@ def my_se(a, b):
 print(check_paired_se(my_se))
 
 # %% [markdown]
-# ```{exercise} 18.2 Particles or measurements?
+# ```{exercise} 19.2 Particles or measurements?
 # :label: ex-studies-budget
 # :nonumber:
 # From the studies of this page and of {doc}`sensing_studies`, which change of the defaults moves the median

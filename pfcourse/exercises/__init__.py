@@ -53,6 +53,11 @@ exception is reported as a problem); ``str(report)`` prints the verdict.
   particle's Kalman update of its map in the Rao-Blackwellised filter, against :func:`landmark_update`
   to round-off; the mistakes of :data:`LANDMARK_MISTAKES` are named (the robot forgotten or of the
   wrong sign, ``S`` without ``R``, no covariance update, a weight with ``R`` instead of ``S``).
+* :func:`check_storvik_step` - ``fn(x, a, b, z, rng) -> (x_new, a_new, b_new, log_w)``: one step of
+  Storvik's sufficient-statistic filter for a random walk's unknown process-noise variance
+  (:mod:`.static_parameters`): the generator, the conjugate update and the weights exactly, the law of
+  the moves by a Kolmogorov-Smirnov test against the Student t; the mistakes of :data:`STORVIK_MISTAKES`
+  are named.
 * :func:`check_fastslam2_move` - ``fn(r_pred, m_pred, P_pred, z, A, C, Qr, R, rng) -> (robots, log_w)``:
   FastSLAM 2.0's robot move and weight for a cloud, against :func:`fastslam2_exact` (the weights up to a
   constant, the robots standardised by the exact proposal); the generator is checked, and the mistakes
@@ -93,16 +98,16 @@ exception is reported as a problem); ``str(report)`` prints the verdict.
   :data:`RELATIVE_MISTAKES` (``R`` not transposed, offset reversed, heading column zero or of the wrong
   sign) are named.
 * :func:`check_consistency` - ``fn(errors, covariances) -> (average_nees, band, fraction)``: the
-  NEES check of a filter over ``R`` runs (chapter 21), the run-averaged NEES per step, the 95 % band
+  NEES check of a filter over ``R`` runs (chapter 22), the run-averaged NEES per step, the 95 % band
   of an average of ``R`` chi-square variables with ``d`` degrees of freedom and the fraction of steps
   inside it, against :func:`nees_consistency`; the mistakes of :data:`CONSISTENCY_MISTAKES` (a single
   run's band, the band not divided by ``R``, ``P`` not inverted, a one-sided band, the runs summed)
   are named.
 * :func:`check_ess` - ``fn(log_weights) -> ess``: the effective sample size ``1 / sum_i W_i^2`` from
-  log-weights (chapter 19), on cases that underflow and overflow in the linear domain; weights not
+  log-weights (chapter 20), on cases that underflow and overflow in the linear domain; weights not
   normalised, a fraction instead of a number and exponentiation without the maximum subtracted are named.
 * :func:`check_lock_on` - ``fn(pos_err, head_err, dt, window_s) -> bool``: the book's one definition of
-  *locked on* (:func:`pfcourse.metrics.locked_on`, chapter 20); the last step only, the heading ignored,
+  *locked on* (:func:`pfcourse.metrics.locked_on`, chapter 21); the last step only, the heading ignored,
   the window read in steps and the whole run required are named.
 * :func:`check_pose_density` - ``fn(x, z, landmark, sd) -> (N,)``: the log-density ``log q_z(x)`` of a
   pose drawn from a range-bearing reading (chapter 11), against :func:`pose_reading_log_density`; the
@@ -121,8 +126,12 @@ exception is reported as a problem); ``str(report)`` prints the verdict.
   the mistakes of :data:`FIELD_MISTAKES` (max-range beams kept, the heading left out of the beam's
   direction, no ``z_rand / z_max`` term, no Gaussian constant, a product of densities that underflows)
   are named.
+* :func:`check_reset_weights` - ``fn(z, n, rng, corridor) -> (poses, log_w)``: poses drawn from a reading
+  (sensor resetting) for a door-distance sensor in a corridor, weighted ``u / q p`` (the chapter
+  *Finding the robot on the map*, :mod:`.map_global`); the generator is checked, and equal weights,
+  the likelihood alone, the prior left out and the kernel's constant left out are named.
 * :func:`check_paired_se` - ``fn(a, b) -> (paired_se, unpaired_se)``: the standard error of a difference of
-  means over the same runs, paired and as if unpaired (chapter 18); the population standard deviation,
+  means over the same runs, paired and as if unpaired (chapter 19); the population standard deviation,
   a division by ``n``, standard deviations added and the pairing ignored are named.
 
 Each Part ends with a capstone (:mod:`.capstones`):
@@ -147,6 +156,10 @@ from pfcourse.exercises.checking import (  # noqa: F401
     _per_particle_answers,
     _settled,
     _shaped,
+)
+from pfcourse.exercises.map_global import (  # noqa: F401
+    RESET_MISTAKES,
+    check_reset_weights,
 )
 from pfcourse.exercises.onramp import (  # noqa: F401
     INFLATION,
@@ -284,13 +297,28 @@ from pfcourse.exercises.part4 import (  # noqa: F401
     ANONYMOUS_LANDMARKS,
     ANONYMOUS_MISTAKES,
     ANONYMOUS_R,
+    CLUTTER_PF_MISTAKES,
+    CLUTTER_TARGET,
     CONSISTENCY_MISTAKES,
+    MISSING_NIS_MISTAKES,
+    RANGE_ONLY_CASES,
+    RANGE_ONLY_MISTAKES,
+    RANGE_ONLY_VAR,
     _consistency_case,
+    _missing_nis_case,
     anonymous_log_likelihood,
+    clutter_target_posterior,
+    clutter_target_readings,
     check_anonymous_likelihood,
+    check_clutter_pf,
     check_consistency,
+    check_missing_nis,
+    check_range_only_anonymous,
+    missing_nis_consistency,
     nees_consistency,
+    range_only_log_likelihood,
 )
+from pfcourse.exercises.particle_mcmc import check_ancestor_index  # noqa: F401
 from pfcourse.exercises.part5 import (  # noqa: F401
     BACKWARD_K,
     BACKWARD_MISTAKES,
@@ -303,4 +331,11 @@ from pfcourse.exercises.part5 import (  # noqa: F401
     check_backward_weights,
     check_likelihood_estimate,
     likelihood_estimate,
+)
+from pfcourse.exercises.static_parameters import (  # noqa: F401
+    STORVIK_MISTAKES,
+    STORVIK_R,
+    check_storvik_step,
+    storvik_case,
+    storvik_step_reference,
 )

@@ -14,7 +14,8 @@ for every clutter rate (common random numbers).
 
 Metrics: ``pf_rmse_m`` and ``ekf_rmse_m``, ``sqrt(mean_k |p^_k - p_k|^2)`` over every step (m);
 ``ekf_wrong``, the readings the EKF gave to a wrong landmark (or a clutter reading to a landmark);
-``clutter``, the clutter readings of the run.
+``clutter``, the clutter readings of the run.  :func:`pdaf_row` runs the PDA filter on the same
+readings (the study ``data_association_pdaf``).
 """
 
 from __future__ import annotations
@@ -25,7 +26,7 @@ import numpy as np
 
 from pfcourse.filter import ParticleFilter
 from pfcourse.metrics import position_error
-from pfcourse.robot.association import AssociationModel, ClutterSensor, run_nn_ekf, simulate_readings
+from pfcourse.robot.association import AssociationModel, ClutterSensor, run_nn_ekf, run_pdaf, simulate_readings
 from pfcourse.robot.scenario import RobotModel, RobotSimulation, simulate_robot
 from pfcourse.seeding import data_rng, filter_rng
 
@@ -65,3 +66,19 @@ def row(seed: int, clutter_rate: float) -> dict:
     return {"pf_rmse_m": position_rmse(sim.truth, pf.mean), "ekf_rmse_m": position_rmse(sim.truth, ekf.mean),
             "ekf_wrong": int(np.sum((chosen >= 0) & (chosen != readings.origin))),
             "clutter": int(readings.clutter_counts.sum()), "pf_seconds": t1 - t0, "ekf_seconds": t2 - t1}
+
+
+def pdaf_row(seed: int, clutter_rate: float) -> dict:
+    """The PDA filter (:func:`~pfcourse.robot.association.run_pdaf`, gate as the nearest-neighbour EKF's)
+    on run ``seed``, the same readings as :func:`row`'s: its RMSE, its mean NEES over the steps, its run time."""
+    sim, sensor, readings = simulate_run(seed, clutter_rate)
+    model = AssociationModel(RobotModel.for_simulation(sim), sensor)
+    t0 = time.perf_counter()
+    pdaf, _ = run_pdaf(model, readings.readings)
+    t1 = time.perf_counter()
+    from pfcourse.experiments.comparison import _safe_nees
+    from pfcourse.robot.scenario import ANGLE_INDICES
+
+    nees = _safe_nees(sim.truth, pdaf.mean, pdaf.cov, ANGLE_INDICES)
+    return {"pdaf_rmse_m": position_rmse(sim.truth, pdaf.mean), "pdaf_nees_mean": float(np.mean(nees)),
+            "pdaf_seconds": t1 - t0}

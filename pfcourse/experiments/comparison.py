@@ -43,6 +43,7 @@ from pfcourse.diagnostics import chi2_band, fraction_in_band, nees, nis, predict
 from pfcourse.executor import run_tasks
 from pfcourse.experiments.record import RunRecord, record_run
 from pfcourse.filter import ParticleFilter
+from pfcourse import metrics
 from pfcourse.metrics import position_error
 from pfcourse.results import FilterResult, KalmanResult
 from pfcourse.robot.scenario import ANGLE_INDICES, RobotModel, range_bearing, simulate_robot
@@ -145,6 +146,39 @@ def robot_tracks(seed: int, n_values: Sequence[int], *, n_steps: int = 100, q_sc
     return _tracks(filters, run, score, (len(z), 3, 2))
 
 
+#: What might fix the robot particle filter's over-confidence (the "what is fixable" study):
+#: setting -> (particles N, process-noise scale of the filter's Q, roughening constant K or None).
+CONSISTENCY_FIXES = {
+    "PF N=1000": (1000, 1.0, None),
+    "PF N=3000": (3000, 1.0, None),
+    "PF N=1000, roughening K=0.2": (1000, 1.0, 0.2),
+    "PF N=1000, filter's Q x2": (1000, 2.0, None),
+    "PF N=1000, filter's Q x4": (1000, 4.0, None),
+}
+CONSISTENCY_STEPS, CONSISTENCY_BURN_IN = 100, 20
+
+
+def consistency_fix_row(seed: int, setting: str) -> dict:
+    """Run ``seed`` of the robot of :func:`robot_tracks` (true noise levels in the data) through the
+    particle filter of ``setting`` (:data:`CONSISTENCY_FIXES`): the position RMSE (m) and the mean NEES
+    after :data:`CONSISTENCY_BURN_IN` steps, and the NEES of every step (``nees``, an array).
+
+    The filter's stream is ``filter_rng(0, seed)`` whatever the setting, and the data the same
+    (``simulate_robot(None, seed)``): the settings are paired run by run.
+    """
+    from pfcourse.jitter import Roughening
+
+    n, q_scale, K = CONSISTENCY_FIXES[setting]
+    sim = simulate_robot(None, seed, n_steps=CONSISTENCY_STEPS)
+    model = RobotModel.for_simulation(sim, q_scale=q_scale, r_scale=1.0)
+    jitter = None if K is None else Roughening(K)
+    res = ParticleFilter(model, n, threshold=0.5, jitter=jitter).run(sim.measurements, filter_rng(0, seed))
+    nees_k = _safe_nees(sim.truth, res.mean, res.cov, ANGLE_INDICES)
+    err = position_error(sim.truth, res.mean)[CONSISTENCY_BURN_IN:]
+    return {"rmse_m": float(np.sqrt(np.mean(err**2))), "nees_mean": float(np.mean(nees_k[CONSISTENCY_BURN_IN:])),
+            "nees": nees_k}
+
+
 def terrain_tracks(seed: int, run: int, scenario: AircraftScenario, terrain: TerrainMap,
                    n_values: Sequence[int], *, kalman: Sequence[str] = ("ekf", "ukf"),
                    resampler: str = "multinomial") -> list[RunRecord]:
@@ -213,7 +247,7 @@ def summarize_tracks(runs: Sequence[Sequence[RunRecord]], *, dim_x: int, dim_z: 
         tracks = [r[j] for r in runs]
         err = np.array([t.position_error[burn_in:] for t in tracks])
         with np.errstate(invalid="ignore", over="ignore"):
-            rmse = np.sqrt(np.mean(err**2, axis=1))
+            rmse = metrics.rmse(err, axis=1)
             nees_all = np.array([t.nees[burn_in:] for t in tracks])
             nis_all = np.array([t.nis[burn_in:] for t in tracks])
             nis_steps = ~np.all(np.isnan(nis_all), axis=0)
@@ -271,7 +305,7 @@ def _convergence_runs(model, measurements: Array, kalman, n: int, n_runs: int, s
     mean_err, cov_err, ll_err = np.empty(n_runs), np.empty(n_runs), np.empty(n_runs)
     for r in range(n_runs):
         res = pf.run(measurements, sized_filter_rng(seed, n, run=r))
-        mean_err[r] = np.sqrt(np.mean((res.mean - kalman.mean) ** 2))
+        mean_err[r] = metrics.rmse(res.mean - kalman.mean)
         cov_err[r] = np.sqrt(np.mean(np.sum((res.cov - kalman.cov) ** 2, axis=(1, 2))))
         ll_err[r] = res.log_likelihood - kalman.log_likelihood
     return mean_err, cov_err, ll_err

@@ -43,6 +43,7 @@ from pfcourse.maprobot.mapping import LogOddsMap, build_map
 from pfcourse.maprobot.motion import OdometryModel
 from pfcourse.metrics import heading_error, position_error
 from pfcourse.sample_size import cell_codes, kld_bound
+from pfcourse import metrics
 
 #: The map part and the held-out part of the run (scan indices): the second half maps, the first is localized.
 N_SCANS = 910
@@ -108,7 +109,7 @@ def split() -> Split:
 def odometry_heading_rms(log: CarmenLog) -> float:
     """RMS (rad) of the heading the odometry reports for one step between scans, minus the corrected one."""
     true = relative_pose(log.poses[:-1], log.poses[1:])[:, 2]
-    return float(np.sqrt(np.mean(wrap_angle(log.relative_motion()[1:, 2] - true) ** 2)))
+    return float(metrics.rmse(wrap_angle(log.relative_motion()[1:, 2] - true)))
 
 
 def heading_tolerance(log: CarmenLog) -> float:

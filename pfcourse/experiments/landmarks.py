@@ -36,6 +36,7 @@ from pfcourse.kalman import kalman_filter
 from pfcourse.results import KalmanResult
 from pfcourse.landmarks.scenario import LandmarkScenario, simulate
 from pfcourse.seeding import study_filter_seed
+from pfcourse import metrics
 
 
 def score(
@@ -52,7 +53,7 @@ def score(
     """
     idx = np.arange(truth.shape[1]) if components is None else np.asarray(components)
     err = result.mean[:, idx] - kalman.mean[:, idx]
-    rmse = np.sqrt(np.mean(err**2, axis=1))
+    rmse = metrics.rmse(err, axis=1)
     pf_cov = result.cov[:, idx][:, :, idx]
     kf_cov = kalman.cov[:, idx][:, :, idx]
     sign_pf, logdet_pf = np.linalg.slogdet(pf_cov + 1e-300 * np.eye(len(idx)))

@@ -30,17 +30,24 @@ import numpy as np
 from scipy import integrate
 from scipy.optimize import minimize_scalar
 
-from typing import TYPE_CHECKING
+from typing import Any, Protocol
 
 from pfcourse import ParameterError, ParticleFilter, kalman_filter
-
-if TYPE_CHECKING:
-    from pfcourse.landmarks import LandmarkScenario
 
 NOISES = ("Rv", "Qw")
 
 
-def scaled_model(scenario: LandmarkScenario, theta, noise: str | tuple[str, ...] = "Rv"):
+class NoiseScaledScenario(Protocol):
+    """What these methods need of a scenario (scenario A's ``LandmarkScenario`` is one): its noise
+    covariances ``Rv`` and ``Qw``, and ``model(**noises)``, its linear-Gaussian model with them replaced."""
+
+    Rv: np.ndarray
+    Qw: np.ndarray
+
+    def model(self, **noises: Any) -> Any: ...
+
+
+def scaled_model(scenario: NoiseScaledScenario, theta, noise: str | tuple[str, ...] = "Rv"):
     """The filter's model with ``noise`` (``"Rv"`` or ``"Qw"``) multiplied by ``theta > 0``.
 
     Several scales at once: ``noise=("Qw", "Rv")`` with ``theta = (theta_q, theta_r)``.
@@ -56,13 +63,13 @@ def scaled_model(scenario: LandmarkScenario, theta, noise: str | tuple[str, ...]
     return scenario.model(**{n: float(t) * getattr(scenario, n) for n, t in zip(names, thetas)})
 
 
-def kalman_log_likelihood(scenario: LandmarkScenario, Z: np.ndarray, theta, noise: str | tuple[str, ...] = "Rv") -> float:
+def kalman_log_likelihood(scenario: NoiseScaledScenario, Z: np.ndarray, theta, noise: str | tuple[str, ...] = "Rv") -> float:
     """Exact ``log p(z_{0:K-1} | theta) = sum_k log N(y_k; 0, S_k(theta))`` (Kalman innovations)."""
     return kalman_filter(scaled_model(scenario, theta, noise), Z).log_likelihood
 
 
 def pf_log_likelihood(
-    scenario: LandmarkScenario,
+    scenario: NoiseScaledScenario,
     Z: np.ndarray,
     theta,
     n_particles: int,

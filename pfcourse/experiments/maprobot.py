@@ -29,6 +29,7 @@ from pfcourse.maprobot.amcl import CubesLikelihoodField
 from pfcourse.metrics import heading_error, locked_from, locked_on, position_error
 from scipy import stats
 from pfcourse.seeding import data_rng, filter_rng, kidnap_rng
+from pfcourse import metrics
 
 DT = 0.5  # s between scans
 MOTION = OdometryModel((0.05, 0.05, 0.05, 0.05))
@@ -148,7 +149,7 @@ def tracking_row(seed: int, n_particles: int = TRACKING_N, weighting: str = "pro
     run = simulate(seed, TRACKING_STEPS)
     res = run_filter(run, seed, n_particles, start=run.truth[0], weighting=weighting)
     pos, head = errors(run.truth, res.mean)
-    return {"position_rmse": float(np.sqrt(np.mean(pos**2))), "heading_rmse": float(np.sqrt(np.mean(head**2))),
+    return {"position_rmse": float(metrics.rmse(pos)), "heading_rmse": float(metrics.rmse(head)),
             "locked_on": bool(lock_on.locked_on(pos, head, DT)),
             "locked_on_every_step_5deg": bool(locked_on(pos, head, DT)), **ess_scores(res.ess, n_particles)}
 
@@ -172,7 +173,7 @@ def kld_tracking_row(seed: int) -> dict:
                          delta=AMCL_KLD["delta"])
     res = ParticleFilter(model, AMCL_KLD["n_max"], sample_size=policy).run(run.scans, rng=filter_rng(seed, 0))
     pos, head = errors(run.truth, res.mean)
-    return {"position_rmse": float(np.sqrt(np.mean(pos**2))), "locked_on": bool(lock_on.locked_on(pos, head, DT)),
+    return {"position_rmse": float(metrics.rmse(pos)), "locked_on": bool(lock_on.locked_on(pos, head, DT)),
             "mean_particles": float(np.mean(res.sizes[1:])), "max_particles_after_start": int(np.max(res.sizes[1:]))}
 
 

@@ -36,6 +36,7 @@ from pfcourse.landmarks.rao_blackwell import RaoBlackwellModel, RaoBlackwellProp
 from pfcourse.landmarks.scenario import circle_scenario, quadrant_scenario, simulate
 from pfcourse.proposals import OptimalProposal
 from pfcourse.seeding import study_filter_seed
+from pfcourse import metrics
 
 ROBOT, LANDMARKS = [0, 1], [2, 3, 4, 5]
 LAST = 10
@@ -76,8 +77,8 @@ def proposals_row(seed: int, setting: str, proposal: str) -> dict:
            "n_measured": int(measured.sum()), "resampled": float(np.mean(r.resampled))}
     if setting == "lab":
         err = (r.mean - kf.mean)[-LAST:]
-        out.update(robot=float(np.sqrt(np.mean(err[:, ROBOT] ** 2))),
-                   landmarks=float(np.sqrt(np.mean(err[:, LANDMARKS] ** 2))), rmse=np.nan)
+        out.update(robot=float(metrics.rmse(err[:, ROBOT])),
+                   landmarks=float(metrics.rmse(err[:, LANDMARKS])), rmse=np.nan)
     else:
         out.update(robot=np.nan, landmarks=np.nan, rmse=float(score(r, kf, sim.truth).scores["rmse"].mean()))
     return out

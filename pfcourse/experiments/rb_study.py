@@ -33,6 +33,7 @@ from pfcourse.proposals import FullyAdaptedAuxiliary, LinearGaussianOptimal, Opt
 from pfcourse.landmarks.rao_blackwell import RaoBlackwellModel, RaoBlackwellProposal
 from pfcourse.landmarks.scenario import LandmarkScenario, circle_scenario, quadrant_scenario, simulate
 from pfcourse.seeding import study_filter_seed
+from pfcourse import metrics
 
 SCENARIOS = {"quadrant": quadrant_scenario, "circle": circle_scenario}
 THRESHOLD = 1 / 3  # the lab's resampling threshold, as in the SIR chapter
@@ -107,8 +108,8 @@ def row(seed: int, scenario: str, method: str, N: int) -> dict:
     ess = np.array(first_stage) if first_stage is not None else res.ess[measured]
     return dict(
         scenario=scenario, method=method, N=N, seed=seed,
-        landmark_error=float(np.sqrt(np.mean(err[nr:] ** 2))),
-        robot_error=float(np.sqrt(np.mean(err[:nr] ** 2))),
+        landmark_error=float(metrics.rmse(err[nr:])),
+        robot_error=float(metrics.rmse(err[:nr])),
         loglik_error=res.log_likelihood - kf.log_likelihood,
         ess=float(np.mean(ess) / N),
         seconds_per_step=seconds,

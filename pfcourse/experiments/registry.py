@@ -24,6 +24,7 @@ provenance names the commit), and commit the table.
 from __future__ import annotations
 
 import argparse
+import json
 import sys
 import time
 from collections.abc import Callable, Mapping, Sequence
@@ -36,10 +37,12 @@ import numpy as np
 import pandas as pd
 
 from pfcourse.errors import ParameterError, StepError
-from pfcourse.filter_config import labels
-from pfcourse.experiments import association, global_localization, intel
+from pfcourse.filter_config import records
+from pfcourse.experiments import association, comparison, global_localization, intel, map_global
 from pfcourse.experiments import likelihood_studies as ls
 from pfcourse.experiments import part1_studies
+from pfcourse.experiments import static_parameters_study as sps
+from pfcourse.experiments import pmcmc_studies as pm
 from pfcourse.experiments import (maprobot, rb_study, robot_studies, sir_fixes_study, smoothing_studies,
                                   terrain_marginalised, terrain_remedies, terrain_studies)
 from pfcourse.experiments.provenance import append_rerun, launch_commit, write_provenance
@@ -148,10 +151,17 @@ class Study:
         return table.iloc[np.lexsort(keys[::-1])].reset_index(drop=True)  # lexsort is stable
 
     def load(self) -> pd.DataFrame:
-        """The stored table (as :meth:`compute` returns it, ``seconds`` as stored)."""
+        """The stored table (as :meth:`compute` returns it, ``seconds`` as stored), its provenance
+        record in ``table.attrs["provenance"]``: the one way a chapter reads a stored study."""
         if not self.path.exists():
             raise FileNotFoundError(f"{self.path} is missing: run `python3 tasks.py study {self.name}`")
-        return load(self.path, literals=self.literals, arrays=self.arrays, errors_as_text=self.errors_as_text)
+        table = load(self.path, literals=self.literals, arrays=self.arrays, errors_as_text=self.errors_as_text)
+        table.attrs["provenance"] = self.provenance_record()
+        return table
+
+    def provenance_record(self) -> dict:
+        """The provenance record written beside the table (shared by the studies of a group)."""
+        return json.loads((DATA / self.provenance).read_text())
 
     def save(self, table: pd.DataFrame) -> None:
         save(self.path, table, literals=self.literals, arrays=self.arrays)
@@ -283,7 +293,7 @@ STUDIES: dict[str, Study] = {study.name: study for study in [
           n_runs=100, seeds="run", table="terrain_remedies.csv", **_FLIGHTS, provenance="terrain_remedies.json",
           columns=terrain_remedies.COLUMNS, seed_column="flight", cheap=lambda t: t["N"] <= 10000, sample=4,
           row_code="pfcourse/experiments/terrain_remedies.py (run_one)",
-          fields={"settings": labels(terrain_remedies.FILTERS),
+          fields={"settings": records(terrain_remedies.FILTERS),
                   "seeds": "flight r: pfcourse.seeding.data_rng(0, r); filter: pfcourse.seeding.filter_rng(0, r)",
                   "divergence": "final horizontal error > 500 m or every particle lost"}),
     Study(name="terrain_reference", row=terrain_remedies.reference_row,
@@ -329,6 +339,25 @@ STUDIES: dict[str, Study] = {study.name: study for study in [
                   "max_range_m": association.MAX_RANGE, "n_particles": association.N_PARTICLES,
                   "seeds": "run r: robot and readings from pfcourse.seeding.data_rng(0, r); "
                            "particle filter: pfcourse.seeding.filter_rng(0, r)"}),
+    Study(name="data_association_pdaf", row=association.pdaf_row,
+          grid={"clutter_rate": list(association.CLUTTER_RATES)}, n_runs=association.N_RUNS, seeds="run",
+          failures="raise", table="data_association_pdaf.csv", provenance="data_association_pdaf.json",
+          columns=("clutter_rate", "seed", "pdaf_rmse_m", "pdaf_nees_mean", "pdaf_seconds"),
+          volatile=("pdaf_seconds",), sample=3,
+          row_code="pfcourse/experiments/association.py (pdaf_row), pfcourse/robot/association.py (run_pdaf)",
+          fields={"scenario": association.SCENARIO, "p_detect": association.P_DETECT,
+                  "max_range_m": association.MAX_RANGE, "gate_probability": 0.99,
+                  "seeds": "run r: robot and readings from pfcourse.seeding.data_rng(0, r), as data_association"}),
+    Study(name="robot_consistency_fixes", row=comparison.consistency_fix_row,
+          grid={"setting": list(comparison.CONSISTENCY_FIXES)}, n_runs=100, seeds="run", failures="raise",
+          table="robot_consistency_fixes.csv", provenance="robot_consistency_fixes.json",
+          columns=("setting", "seed", "rmse_m", "nees_mean", "nees"), arrays=("nees",), sample=2,
+          row_code="pfcourse/experiments/comparison.py (consistency_fix_row)",
+          fields={"scenario": f"robot_tracks' robot, {comparison.CONSISTENCY_STEPS} steps, true noise levels "
+                              "in the data; burn-in " + str(comparison.CONSISTENCY_BURN_IN) + " steps",
+                  "settings": {k: {"N": v[0], "q_scale": v[1], "roughening_K": v[2]}
+                               for k, v in comparison.CONSISTENCY_FIXES.items()},
+                  "seeds": "run s: robot simulate_robot(None, s); filter pfcourse.seeding.filter_rng(0, s)"}),
     Study(name="terrain_map_error", row=terrain_remedies.map_error_row,
           grid={"setting": terrain_remedies.MAP_ERROR_SETTINGS},
           n_runs=50, seeds="run", table="terrain_map_error.csv", **_FLIGHTS, provenance="terrain_map_error.json",
@@ -369,6 +398,17 @@ STUDIES: dict[str, Study] = {study.name: study for study in [
            ("seed", "n_poses", "field_lookups", "beam_cells", "field_seconds", "beam_seconds")),
           ("kld_tracking", maprobot.kld_tracking_row, {},
            ("seed", "position_rmse", "locked_on", "mean_particles", "max_particles_after_start"))]),
+    *(Study(name=f"map_global/{name}", row=row, grid={}, n_runs=100, seeds="run", failures="raise",
+            table=f"map_global/{name}.csv", provenance=f"map_global/{name}.json", columns=columns, sample=1,
+            row_code=f"pfcourse/experiments/map_global.py ({row.__name__}), pfcourse/maprobot/global_mcl.py",
+            fields={"seeds": "run s: drive and scans as maprobot/global and maprobot/kidnap (data_rng(s, 0), "
+                             "kidnap_rng(s)); filter numpy.random.default_rng([41, s, 2])",
+                    "dt": maprobot.DT, "heading_tolerance_rad": map_global.HEADING_TOL,
+                    "lock_on": "pfcourse.maprobot.lock_on.locked_on: within 1 m and 3 sd of one step's odometry "
+                               "heading noise at 80 % of the last 20 s"})
+      for name, row, columns in [("twins", map_global.twin_row, map_global.TWIN_COLUMNS),
+                                 ("global", map_global.global_row, map_global.GLOBAL_COLUMNS),
+                                 ("kidnap", map_global.kidnap_row, map_global.KIDNAP_COLUMNS)]),
     Study(name="terrain_mpf", row=terrain_marginalised.row, grid={"N": terrain_marginalised.SIZES},
           n_runs=100, seeds="run", table="terrain_mpf.csv", **_FLIGHTS, provenance="terrain_mpf.json",
           columns=terrain_marginalised.COLUMNS, seed_column="flight", cheap=lambda t: t["N"] <= 3000, sample=2,
@@ -392,6 +432,32 @@ STUDIES: dict[str, Study] = {study.name: study for study in [
           fields={"lags": smoothing_studies.LAGS, "scenario": "quadrant_scenario().with_(Qw=0.05**2 I6, Rv=0.5**2 I4)",
                   "seeds": f"run r: data pfcourse.seeding.data_rng({smoothing_studies.SEED}, r); filter and FFBSi "
                            f"draws pfcourse.seeding.filter_rng({smoothing_studies.SEED}, r)"}),
+    *(Study(name=f"static_parameters/{name}", row=row, grid=grid, n_runs=sps.N_RUNS, seeds="run", failures="raise",
+            table=f"static_parameters/{name}.csv", provenance=f"static_parameters/{name}.json", columns=columns,
+            cheap=cheap, sample=2, row_code=f"pfcourse/experiments/static_parameters_study.py ({row.__name__}), "
+                                            "pfcourse/static_parameters.py", fields={**sps.PROVENANCE, **more})
+      for name, row, grid, columns, cheap, more in [
+          ("main", sps.main_row, sps.MAIN_GRIDS, sps.MAIN_COLUMNS, lambda t: t["n"] == 1000, {}),
+          ("long", sps.long_row, sps.LONG_GRIDS, sps.LONG_COLUMNS,
+           lambda t: t["T"] == 50, {"N": sps.LONG_N, "long_data": f"{sps.LONG_K} steps, seed {sps.DATA_SEED}"}),
+      ]),
+    Study(name="static_parameters/smc2", row=sps.main_row, grid=sps.SMC2_GRID, n_runs=sps.SMC2_RUNS, seeds="run",
+          failures="raise", table="static_parameters/smc2.csv", provenance="static_parameters/smc2.json",
+          columns=sps.MAIN_COLUMNS, sample=1,  # about 2 s a row
+          row_code="pfcourse/experiments/static_parameters_study.py (main_row), pfcourse/static_parameters.py",
+          fields={**sps.PROVENANCE, "runs": "fewer than 100: SMC^2 is the expensive sampler"}),
+    # one chain per row; a long chain takes minutes, so the test re-computes the short chains of the
+    # "_check" study, whose seeds are the long ones' (tests/test_pmcmc.py: each is the start of its long chain)
+    *(Study(name=f"pmcmc/{name}{suffix}", row=row, grid=grid, n_runs=pm.N_CHAINS, base_seed=pm.SEEDS[name],
+            failures="raise", table=f"pmcmc/{name}{suffix}.csv", provenance=f"pmcmc/{name}.json", arrays=arrays,
+            sample=0 if not suffix else 1, row_code=f"pfcourse/experiments/pmcmc_studies.py ({row.__name__})",
+            fields=pm.PROVENANCE_FIELDS[name])
+      for name, row, key, values, length, check, arrays in (
+          ("tuning", pm.tuning_row, "n_particles", pm.N_TUNING, pm.ITERATIONS, pm.N_TUNING[0], ("theta", "accepted")),
+          ("correlated", pm.correlated_row, "rho", pm.RHOS, pm.ITERATIONS, pm.RHOS[-1], ("theta", "accepted")),
+          ("pgas", pm.pgas_row, "ancestor_sampling", [True, False], pm.PGAS_SWEEPS, True, ("theta",)))
+      for suffix, grid in (("", {key: values, "iterations": [length]}),
+                           ("_check", {key: [check], "iterations": [pm.CHECK_ITERATIONS]}))),
     Study(name="intel/global", row=intel.global_row, grid={"method": list(intel.METHODS)}, n_runs=intel.N_GLOBAL,
           seeds="run", failures="raise", table="intel/global.csv", provenance="intel/global.json",
           columns=intel.GLOBAL_COLUMNS, sample=1, cheap=lambda t: t["method"] == "uniform",
@@ -417,6 +483,22 @@ STUDIES: dict[str, Study] = {study.name: study for study in [
                     "divergence": "final horizontal error > 500 m or every particle lost"})
       for name, fresh in terrain_remedies.FRESH_FLIGHTS.items()),
 ]}
+
+
+def robot_study(grid: dict, **options) -> pd.DataFrame:
+    """The stored robot study (``robot_studies/NAME``) with exactly this grid and these ``pf_run``
+    options (besides :data:`~pfcourse.experiments.robot_studies.DEFAULTS`), read by its
+    :meth:`Study.load`.
+
+    Lets a chapter state each study as it would run it, ``robot_study({"r_scale": [...]})``; a grid
+    or options that no stored study has are refused with a :class:`~pfcourse.errors.ParameterError`
+    (run them with ``run_study`` instead), so the chapter cannot drift from the data.
+    """
+    for name, (stored_grid, stored_options) in robot_studies.STUDIES.items():
+        if stored_grid == grid and stored_options == options:
+            return STUDIES[f"robot_studies/{name}"].load()
+    raise ParameterError(f"no stored robot study has grid {grid} and options {options}; "
+                         f"stored: {list(robot_studies.STUDIES)} (pfcourse.experiments.robot_studies.STUDIES)")
 
 
 def select(name: str) -> list[Study]:

@@ -5,7 +5,8 @@ runs per setting (run ``r`` has seed ``replicate_seed(0, r)`` in every study: co
 numbers), through :func:`pfcourse.experiments.study.run_study`. Together they take about
 50 s on two cores, a sixth of the book's execution budget, so they are registered studies
 (``robot_studies/NAME`` in :mod:`pfcourse.experiments.registry`), run once by
-``python3 tasks.py study robot_studies`` and stored; the chapter reads them (:func:`find`),
+``python3 tasks.py study robot_studies`` and stored; the chapter reads them
+(:func:`pfcourse.experiments.registry.robot_study`, which reads ``STUDIES[...].load()``),
 and ``tests/test_stored_studies.py`` re-runs a seeded sample of rows and requires the
 same numbers.
 
@@ -19,8 +20,6 @@ per table row; a failed run's row is NaN).
 from __future__ import annotations
 
 from pathlib import Path
-
-import pandas as pd
 
 from pfcourse.errors import ParameterError
 
@@ -52,26 +51,3 @@ def literal_columns(name: str) -> tuple[str, ...]:
         raise ParameterError(f"unknown robot study {name!r}; known: {list(STUDIES)}")
     return tuple(column for column, values in STUDIES[name][0].items()
                  if not all(isinstance(v, (int, float)) and not isinstance(v, bool) for v in values))
-
-
-def load(name: str) -> pd.DataFrame:
-    """Study ``name`` as ``run_study`` returned it (per-step columns as arrays; ``seconds`` as stored)."""
-    literal_columns(name)  # refuses an unknown name
-    from pfcourse.experiments.registry import STUDIES as REGISTERED  # the registry imports this module
-
-    return REGISTERED[f"robot_studies/{name}"].load()
-
-
-def find(grid: dict, **options) -> pd.DataFrame:
-    """The stored study with exactly this grid and these ``pf_run`` options (besides DEFAULTS).
-
-    Lets a chapter state each study as it would run it, ``find({"r_scale": [...]})``, and read
-    the stored table; a grid or options that no stored study has are refused with a
-    :class:`~pfcourse.errors.ParameterError` (run them with ``run_study`` instead), so the
-    chapter cannot drift from the data.
-    """
-    for name, (stored_grid, stored_options) in STUDIES.items():
-        if stored_grid == grid and stored_options == options:
-            return load(name)
-    raise ParameterError(f"no stored robot study has grid {grid} and options {options}; "
-                         f"stored: {list(STUDIES)} (pfcourse.experiments.robot_studies.STUDIES)")

@@ -22,6 +22,7 @@ from pfcourse.landmarks import quadrant_scenario, simulate
 from pfcourse.seeding import data_rng, filter_rng
 from pfcourse.smoothing import (ffbsi, ffbsm, fixed_lag_means, linear_gaussian_log_transition,
                                 rts_smoother)
+from pfcourse import metrics
 
 SCENARIO = quadrant_scenario().with_(Qw=0.05**2 * np.eye(6), Rv=0.5**2 * np.eye(4))
 SEED = 23
@@ -40,7 +41,7 @@ def landmarks_row(seed: int, n_particles: int) -> dict:
     sd_f = np.sqrt(np.diagonal(kf.cov, axis1=1, axis2=2))
 
     def distance(mean, exact=m_s, sd=sd_s) -> float:
-        return float(np.sqrt(np.mean(((mean - exact) / sd) ** 2)))
+        return float(metrics.rmse((mean - exact) / sd))
 
     calls = []
     base = linear_gaussian_log_transition(model)
@@ -64,6 +65,6 @@ def landmarks_row(seed: int, n_particles: int) -> dict:
     for k in range(len(ancestors) - 1, 0, -1):
         idx = ancestors[k][idx]
     out["ancestors_at_0"] = int(len(np.unique(idx)))
-    out["rts_truth_error"] = float(np.sqrt(np.mean((m_s - sim.truth) ** 2)))
+    out["rts_truth_error"] = float(metrics.rmse(m_s - sim.truth))
     out["kalman_truth_error"] = float(np.sqrt(np.mean((kf.mean - sim.truth) ** 2)))
     return out

@@ -34,7 +34,7 @@ from pfcourse.errors import ParameterError
 from pfcourse.experiments import terrain_studies
 from pfcourse.experiments.terrain import DIVERGED_ERROR, flight_scores, jacksboro
 from pfcourse.filter import ParticleFilter
-from pfcourse.filter_config import FilterConfig, configurations, lookup
+from pfcourse.filter_config import FilterConfig, FilterSettings, configurations, lookup
 from pfcourse.jitter import RegularisedJitter
 from pfcourse.proposals import ProgressiveCorrection
 from pfcourse.seeding import data_rng, filter_rng, map_error_rng, reference_rng
@@ -45,47 +45,41 @@ from pfcourse.terrain.scenario import AircraftScenario, simulate
 #: Q_f with the horizontal entries divided by 3, like every other horizontal length of the scenario.
 QF_SCALED = np.diag([1.0, 1.0, 0.6, 0.001 * 180.0 / np.pi]) ** 2
 
-def _bootstrap(scenario: AircraftScenario, terrain, n_particles: int, **options) -> ParticleFilter:
-    """The bootstrap filter, multinomial resampling at ESS < N/2 (``options`` change the scenario, e.g. ``Qf``)."""
-    sc = scenario.with_(**options) if options else scenario
-    return ParticleFilter(sc.model(terrain), n_particles, threshold=0.5, resampler="multinomial")
+def _settings(n_particles: int, jitter_scale: float | None = None, resampler: str = "multinomial",
+              tempered: bool = False) -> FilterSettings:
+    """A terrain filter's settings: resampling at ESS < N/2 (at every stage with progressive
+    correction, 5 tempered stages), the kernel move at ``jitter_scale`` x h_opt on the horizontal
+    position if given (heading, component 3, an angle)."""
+    return FilterSettings(n_particles, threshold=1.0 if tempered else 0.5, resampler=resampler,
+                          proposal=ProgressiveCorrection(n_tempered=5) if tempered else None,
+                          jitter=RegularisedJitter(jitter_scale, (3,)) if jitter_scale is not None else None)
 
 
-def _regularised(scenario: AircraftScenario, terrain, n_particles: int, scale: float = 0.2,
-                 resampler: str = "multinomial") -> ParticleFilter:
-    """The regularised filter: resampling at ESS < N/2, then the kernel move at ``scale`` x h_opt."""
-    return ParticleFilter(scenario.model(terrain), n_particles, threshold=0.5, resampler=resampler,
-                          jitter=RegularisedJitter(scale, (3,)))
+def _build(scenario: AircraftScenario, terrain, settings: FilterSettings, model: dict) -> ParticleFilter:
+    """The filter of ``settings`` on the terrain model (``model``: the filter's own scenario changes, e.g. ``Qf``)."""
+    return settings.build((scenario.with_(**model) if model else scenario).model(terrain))
 
 
-def _tempered(scenario: AircraftScenario, terrain, n_particles: int, scale: float | None = None) -> ParticleFilter:
-    """Progressive correction (5 tempered stages, resampling at every stage), with the kernel move if ``scale``."""
-    jitter = RegularisedJitter(scale, (3,)) if scale is not None else None
-    return ParticleFilter(scenario.model(terrain), n_particles, threshold=1.0, resampler="multinomial",
-                          proposal=ProgressiveCorrection(n_tempered=5), jitter=jitter)
-
-
-def _config(name: str, label: str, build, n_particles: int, **options) -> FilterConfig:
-    return FilterConfig(name, label, partial(build, n_particles=n_particles, **options), n_particles)
+def _config(name: str, settings: FilterSettings, note: str = "", **model) -> FilterConfig:
+    """The configuration ``name``: its label derived from ``settings`` (and ``note`` on the model)."""
+    return FilterConfig(name, settings.label + note, partial(_build, settings=settings, model=model),
+                        settings.n_particles, settings)
 
 
 #: The terrain filters by name: ``build(scenario, terrain) -> ParticleFilter`` (a fresh one: the
-#: progressive correction counts readings), ``n_particles`` fixed by the configuration.  The kernel
-#: is at 0.2 x the optimal bandwidth (chosen on flights 0-11 among 0.05, 0.2 and 1: h_opt itself,
-#: fitted to one Gaussian, spreads a multimodal cloud over km).
+#: progressive correction counts readings), each one a :class:`~pfcourse.filter_config.FilterSettings`
+#: record.  The kernel is at 0.2 x the optimal bandwidth (chosen on flights 0-11 among 0.05, 0.2 and 1:
+#: h_opt itself, fitted to one Gaussian, spreads a multimodal cloud over km).
 FILTERS: dict[str, FilterConfig] = configurations(
-    *(_config(f"bootstrap N={n}", f"bootstrap, N = {n}", _bootstrap, n) for n in (3000, 10000, 30000, 100000)),
-    _config("bootstrap N=3000, Qf/3", "bootstrap, N = 3000, horizontal Q_f / 3", _bootstrap, 3000, Qf=QF_SCALED),
-    _config("regularised h=1 N=3000", "regularised, kernel at h_opt, N = 3000", _regularised, 3000, scale=1.0),
-    *(_config(f"regularised N={n}", f"regularised, N = {n}", _regularised, n) for n in (3000, 10000, 30000)),
-    _config("tempered N=3000", "progressive correction, N = 3000", _tempered, 3000),
-    *(_config(f"tempered+regularised N={n}", f"progressive correction and kernel, N = {n}", _tempered, n, scale=0.2)
-      for n in (3000, 10000)),
+    *(_config(f"bootstrap N={n}", _settings(n)) for n in (3000, 10000, 30000, 100000)),
+    _config("bootstrap N=3000, Qf/3", _settings(3000), ", horizontal Q_f / 3", Qf=QF_SCALED),
+    _config("regularised h=1 N=3000", _settings(3000, jitter_scale=1.0)),
+    *(_config(f"regularised N={n}", _settings(n, jitter_scale=0.2)) for n in (3000, 10000, 30000)),
+    _config("tempered N=3000", _settings(3000, tempered=True)),
+    *(_config(f"tempered+regularised N={n}", _settings(n, jitter_scale=0.2, tempered=True)) for n in (3000, 10000)),
     # the candidates of the fresh-flight studies (FRESH_FLIGHTS)
-    _config("regularised, stratified, N=30000", "regularised, stratified resampling, N = 30000", _regularised, 30000,
-            resampler="stratified"),
-    _config("regularised, stratified, N=20000", "regularised, stratified resampling, N = 20000", _regularised, 20000,
-            resampler="stratified"),
+    *(_config(f"regularised, stratified, N={n}", _settings(n, jitter_scale=0.2, resampler="stratified"))
+      for n in (30000, 20000)),
 )
 #: The stored table's settings, in the order they were run (book/data/terrain_remedies.csv), and its columns.
 STORED_SETTINGS = ["bootstrap N=3000", "bootstrap N=30000", "bootstrap N=10000", "regularised N=3000",

@@ -35,6 +35,14 @@ smallest Mahalanobis distance ``d_j^2 = nu_j^T S_j^{-1} nu_j``, ``nu_j = z - h_j
 a chi-square quantile with two degrees of freedom); a reading outside every gate is taken
 for clutter (nearest-neighbour data association with gating, Bar-Shalom et al. 2001).
 
+**The PDA filter** (:func:`run_pdaf`, Bar-Shalom and Tse 1975) does not choose: it linearises
+``h_j`` at the predicted mean, so that under the Gaussian prediction ``N(m, P)`` the posterior of
+the step is a mixture over the same origins as the particle filter's likelihood, one Kalman update
+per event "reading ``i`` from landmark ``j``" and one "every reading is clutter" (the prediction
+itself), weighted ``beta_0 ~ (1 - P_D P_G) lambda c`` and ``beta_ij ~ (P_D / M) N(z_i; h_j(m), S_j)``
+(``P_G`` the gate probability, readings outside the gate of ``j`` left out); it keeps that
+mixture's mean and covariance (:func:`pda_update`).
+
 **How the data reach a filter**: :func:`simulate_readings` returns ``(K, C, 2)`` readings
 ``(range, bearing)``, rows of NaN padding each step to ``C`` (the largest count of the
 run, at least 1), and the origin of each reading, ``(K, C)`` (the landmark's index, ``-1``
@@ -255,5 +263,107 @@ def run_nn_ekf(model: AssociationModel, readings: Array, gate_probability: float
     return out, chosen
 
 
+def pda_update(mean: Array, cov: Array, readings: Array, predicted: Array, jacobians: Array, R: Array,
+               sensor: ClutterSensor, gate_probability: float | None = GATE_PROBABILITY,
+               angle_index: int | None = 1) -> tuple[Array, Array, Array]:
+    """One probabilistic data association update (Bar-Shalom and Tse 1975) over ``M`` look-alike origins.
+
+    ``readings`` ``(n, 2)`` (no padding), ``predicted`` ``(M, 2)`` the predicted reading ``h_j(m)`` of
+    each landmark and ``jacobians`` ``(M, 2, d)`` its Jacobian at ``mean``; ``R`` the measurement
+    covariance.  Events: ``0``, every reading is clutter (weight ``(1 - P_D P_G) lambda c``, the
+    prediction unchanged); ``(i, j)``, reading ``i`` comes from landmark ``j`` (weight
+    ``(P_D / M) N(z_i; h_j(m), S_j)``, its Kalman update), kept when ``d_ij^2 <= gamma`` (the gate;
+    ``gate_probability=None``: no gate, ``P_G = 1``).  Returns the moment-matched mean and
+    covariance of the mixture of the events' posteriors, and the events' probabilities
+    ``(1 + n M,)`` (``beta_0`` first, then ``beta_ij`` row by row; 0 outside the gate).
+    The innovation's component ``angle_index`` is wrapped to ``(-pi, pi]``.
+    """
+    mean, cov = np.asarray(mean, float), np.asarray(cov, float)
+    z = np.asarray(readings, float).reshape(-1, 2)
+    n, M = len(z), len(predicted)
+    if gate_probability is None:
+        gamma, p_gate = np.inf, 1.0
+    else:
+        p_gate = check_probability(gate_probability, "gate_probability")
+        if not 0 < p_gate < 1:
+            raise ParameterError(f"gate_probability must lie strictly between 0 and 1, got {p_gate}")
+        gamma = float(stats.chi2.ppf(p_gate, z.shape[1]))
+    lam, log_c = sensor.clutter_rate, sensor.clutter_log_density
+    with np.errstate(divide="ignore"):
+        log_beta = [np.log1p(-sensor.p_detect * p_gate) + np.log(lam) + log_c if lam > 0 else -np.inf]
+    means, covs = [mean], [cov]
+    for i in range(n):
+        for j in range(M):
+            H = jacobians[j]
+            S = H @ cov @ H.T + R
+            nu = z[i] - predicted[j]
+            if angle_index is not None:
+                nu[angle_index] = wrap(float(nu[angle_index]))
+            d2 = float(nu @ np.linalg.solve(S, nu))
+            if d2 > gamma:
+                log_beta.append(-np.inf)
+                means.append(mean)
+                covs.append(cov)
+                continue
+            gain = np.linalg.solve(S, H @ cov).T
+            IKH = np.eye(len(mean)) - gain @ H
+            means.append(mean + gain @ nu)
+            covs.append(IKH @ cov @ IKH.T + gain @ R @ gain.T)
+            log_beta.append(np.log(sensor.p_detect / M) - 0.5 * (d2 + np.linalg.slogdet(2 * np.pi * S)[1]))
+    log_beta = np.array(log_beta)
+    if not np.isfinite(log_beta).any():  # nothing in any gate and no clutter: nothing to learn
+        return mean, cov, np.r_[1.0, np.zeros(n * M)]
+    beta = np.exp(log_beta - logsumexp(log_beta))
+    means, covs = np.array(means), np.array(covs)
+    new_mean = beta @ means
+    spread = means - new_mean
+    new_cov = np.einsum("e,eab->ab", beta, covs) + np.einsum("e,ea,eb->ab", beta, spread, spread)
+    return new_mean, 0.5 * (new_cov + new_cov.T), beta
+
+
+def run_pdaf(model: AssociationModel, readings: Array, gate_probability: float | None = GATE_PROBABILITY,
+             initial_cov: Array | None = None) -> tuple[KalmanResult, Array]:
+    """The EKF of :mod:`pfcourse.robot.kalman` with probabilistic data association (:func:`pda_update`):
+    at each step with readings, every reading and every landmark at once, no choice made.
+
+    Returns the result and the ``(K,)`` probability the filter gave, at each step, to "every
+    reading is clutter" (``beta_0``; 1 at a step without readings).
+    """
+    if not isinstance(model, AssociationModel):
+        raise ModelError(f"run_pdaf needs an AssociationModel, got {type(model).__name__}")
+    if gate_probability is not None:
+        p = check_probability(gate_probability, "gate_probability")
+        if not 0 < p < 1:
+            raise ParameterError(f"gate_probability must lie strictly between 0 and 1, got {p}")
+    readings = np.asarray(readings, dtype=float)
+    if readings.ndim != 3 or readings.shape[2] != 2:
+        raise ShapeError(f"readings must have shape (K, C, 2), got {readings.shape}")
+    base = model.base
+    if len(readings) > len(base.odometry):
+        raise ShapeError(f"{len(readings)} steps of readings but only {len(base.odometry)} odometry rows")
+    x = np.array(base.start, dtype=float)
+    P = np.diag(np.asarray(base.initial_std, dtype=float) ** 2) if initial_cov is None else np.array(initial_cov, float)
+    out = KalmanResult.empty(len(readings), 3, 2, "PDAF")
+    none_true = np.ones(len(readings))
+    for k in range(len(readings)):
+        with numerical_step(k, "PDAF"):
+            if k > 0:
+                u = base.odometry[k]
+                F, G = motion_jacobians(x, u, base.dt)
+                x = motion(x, u, base.dt)
+                P = F @ P @ F.T + G @ base.q_est @ G.T
+            z = _present_readings(readings[k], k)
+            if len(z):
+                predicted = np.array([range_bearing_one(x, landmark) for landmark in base.landmarks])
+                jacobians = np.array([measurement_jacobian(x, landmark) for landmark in base.landmarks])
+                x, P, beta = pda_update(x, P, z, predicted, jacobians, base.r_est, model.sensor, gate_probability)
+                x[2] = wrap(float(x[2]))
+                none_true[k] = beta[0]
+        check_estimate(k, "PDAF", x, P)
+        out.mean[k] = x
+        out.cov[k] = P
+    return out, none_true
+
+
 __all__ = ["AnonymousReadings", "AssociationModel", "ClutterSensor", "GATE_PROBABILITY", "mixture_log_likelihood",
-           "run_nn_ekf", "simulate_readings"]
+           "pda_update", "run_nn_ekf", "run_pdaf", "simulate_readings"]

@@ -48,7 +48,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy import ndimage, special
 
-from pfcourse.angles import wrap_angle
+from pfcourse.angles import resultant_direction, wrap_angle
 from pfcourse.checks import Array, check_real
 from pfcourse.errors import DegenerateWeightsError, ParameterError
 from pfcourse.terrain.map import TerrainMap
@@ -261,7 +261,7 @@ class PointMassFilter:
         vx = wx @ self.x**2 + 2 * ex @ rx + wpsi @ rx**2 - mx**2
         vy = wy @ self.y**2 + 2 * ey @ ry + wpsi @ ry**2 - my**2
         psi = s.x0[3] + s.omega * s.times[k] + self.offsets[self.box[0]:self.box[1]]
-        mpsi = np.arctan2(wpsi @ np.sin(psi), wpsi @ np.cos(psi))
+        mpsi = resultant_direction(psi, wpsi)
         sd = np.sqrt(np.maximum([vx, vy], 0.0))
         return np.array([mx, my, a.sum() / total, wrap_angle(mpsi)]), sd
 
