@@ -590,12 +590,15 @@ display(panel)
 # \Delta t$, a pose moves to
 #
 # $$
-# x' = x + \tfrac{v}{\omega}\big(\sin\theta' - \sin\theta\big), \qquad
-# y' = y + \tfrac{v}{\omega}\big(\cos\theta - \cos\theta'\big), \qquad
-# \theta' \text{ wrapped to } (-\pi, \pi].
+# \begin{aligned}
+# x' &= x + \tfrac{v}{\omega}\big(\sin\theta' - \sin\theta\big),\\
+# y' &= y + \tfrac{v}{\omega}\big(\cos\theta - \cos\theta'\big),
+# \end{aligned}
 # $$
 #
-# Write `my_velocity_motion(x, u, sd, dt, rng)`, the move of this filter's first step: each row of
+# and $\theta'$ is wrapped to $(-\pi, \pi]$.
+#
+# Write `my_velocity_motion(x, u, sd, dt, rng)`, the *move* of Algorithm 10.1 for this model: each row of
 # `x` (shape `(N, 3)`) draws its own noisy command $(v + s_v e_1,\ \omega + s_\omega e_2)$,
 # $e \sim \mathcal N(0, I)$, with `u` $= (v, \omega)$, `sd` $= (s_v, s_\omega)$ (standard
 # deviations) and the generator `rng`, then drives along its arc. The checker moves $100\,000$
