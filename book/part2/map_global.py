@@ -373,7 +373,7 @@ same_inj = all(np.allclose(a, b, rtol=0, atol=TOL) for a, b in zip(ours_inj, pkg
 print(f"the same poses and log-weights as pfcourse.maprobot.global_mcl.injected, to {TOL:.0e}: {same_inj}")
 
 # %% [markdown]
-# :::{admonition} Algorithm 14.1: global localization with KLD-sampling and evidence-weighted sensor resetting
+# :::{admonition} Algorithm 15.1: global localization with KLD-sampling and evidence-weighted sensor resetting
 # :class: algorithm
 # 1. **Start.** Draw $20000$ poses from $u$ and $2000$ from $q$ for the first scan; weight them
 #    $p(z_0 \mid x)$ and $\frac{u}{q}\, p(z_0 \mid x)$, half the mass to each group.
@@ -449,7 +449,7 @@ missed_late = int(((missed["final_position_error"] < lock_on.POSITION_TOLERANCE_
 glue_values("lf_", global_missed=len(missed), global_missed_late=missed_late)
 EvidenceBlock(
     "the cure locks on in most drives, short of what the evidence decides",
-    notes=[f"{len(glob)} drives (the twin study's), 100 s each, uniform start; the filter of Algorithm 14.1 "
+    notes=[f"{len(glob)} drives (the twin study's), 100 s each, uniform start; the filter of Algorithm 15.1 "
            f"({engine.SETTINGS}); its random numbers from numpy.random.default_rng([41, seed, 2]).",
            f"Locked on (within 1 m and {np.degrees(mg.HEADING_TOL):.1f} degrees at 80 % of the last 20 s): "
            f"{pair.a}; decided by the evidence: {pair.b} (Wilson intervals).",
@@ -539,7 +539,7 @@ display(panel)
 # %% [markdown]
 # ## Exercise
 #
-# ```{exercise} 14.1 Poses from a reading, weighted right, for another sensor
+# ```{exercise} 15.1 Poses from a reading, weighted right, for another sensor
 # :label: ex-map-global-reset
 # :nonumber:
 # (Coding.) A robot stands somewhere in a corridor $[0, L]$ with doors at known places $d_i$; its

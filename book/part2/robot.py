@@ -115,9 +115,9 @@ EvidenceBlock("the lab's noise levels", notes=["The filter assumes twice these v
 # $p(z_k \mid x_k^i) = \mathcal N(\nu_k^i; 0, R_\text{est})$, with the *innovation*
 # $\nu_k^i = \big(z_r - h_r(x_k^i),\ \operatorname{wrap}(z_b - h_b(x_k^i))\big)$. The wrap matters:
 # a measured bearing of $179°$ and a predicted one of $-179°$ are $2°$ apart, not $358°$, and
-# without it the particles nearest the truth would lose their weight (Exercise 10.1).
+# without it the particles nearest the truth would lose their weight (Exercise 11.1).
 #
-# :::{admonition} Algorithm 10.1: Monte Carlo localization
+# :::{admonition} Algorithm 11.1: Monte Carlo localization
 # :class: algorithm
 # 1. **Initialise.** Draw $x_0^i \sim p(x_0)$ for $i = 1, \dots, N$; set $\log W_0^i = -\log N$.
 # 2. **For** $k = 1, 2, \dots$:
@@ -152,7 +152,7 @@ x0_sd = np.array([1.0, 1.0, 0.1])
 print(sim.odometry.shape, sim.measurements.shape, sim.landmarks.shape)
 
 # %% [markdown]
-# In NumPy, Algorithm 10.1 is the loop below, with one helper for angles:
+# In NumPy, Algorithm 11.1 is the loop below, with one helper for angles:
 
 
 # %%
@@ -162,7 +162,7 @@ def wrap(a):
 
 
 def mcl(odometry, readings, landmarks, Q, R, x0, x0_sd, n, tau, rng):
-    """Algorithm 10.1 with dt = 1 s; returns the (K, 3) posterior means."""
+    """Algorithm 11.1 with dt = 1 s; returns the (K, 3) posterior means."""
     # the lab's Q is diagonal: one sd per command
     q_sd = np.sqrt(np.diag(Q))
     R_inv = np.linalg.inv(R)
@@ -525,7 +525,7 @@ display(panel)
 # %% [markdown]
 # ## Exercises
 #
-# ```{exercise} 10.1 The bearing wrap
+# ```{exercise} 11.1 The bearing wrap
 # :label: ex-robot-wrap
 # :nonumber:
 # A particle has heading $0°$ and the landmark it looks at lies, from the particle, in the
@@ -546,7 +546,7 @@ display(panel)
 # robot.
 # ```
 #
-# ```{exercise} 10.2 The mean of two headings
+# ```{exercise} 11.2 The mean of two headings
 # :label: ex-robot-heading-mean
 # :nonumber:
 # Two particles of equal weight have headings $179°$ and $-179°$. What do the arithmetic
@@ -562,7 +562,7 @@ display(panel)
 # angles are wrapped to $(-\pi, \pi]$).
 # ```
 #
-# ```{exercise} 10.3 How lucky must the start be?
+# ```{exercise} 11.3 How lucky must the start be?
 # :label: ex-robot-global
 # :nonumber:
 # In the global-localization runs, estimate the probability that at least one of $N$
@@ -581,7 +581,7 @@ display(panel)
 # rings.
 # ```
 #
-# ```{exercise} 10.4 Another motion model, in code
+# ```{exercise} 11.4 Another motion model, in code
 # :label: ex-robot-code
 # :nonumber:
 # (Coding.) Many robots report a forward speed $v$ and a turn rate $\omega$, and drive along
@@ -598,7 +598,7 @@ display(panel)
 #
 # and $\theta'$ is wrapped to $(-\pi, \pi]$.
 #
-# Write `my_velocity_motion(x, u, sd, dt, rng)`, the *move* of Algorithm 10.1 for this model: each row of
+# Write `my_velocity_motion(x, u, sd, dt, rng)`, the *move* of Algorithm 11.1 for this model: each row of
 # `x` (shape `(N, 3)`) draws its own noisy command $(v + s_v e_1,\ \omega + s_\omega e_2)$,
 # $e \sim \mathcal N(0, I)$, with `u` $= (v, \omega)$, `sd` $= (s_v, s_\omega)$ (standard
 # deviations) and the generator `rng`, then drives along its arc. The checker moves $100\,000$

@@ -55,7 +55,7 @@
 # Two details matter for angles: the innovation wraps its
 # bearing, as in MCL, and the heading estimate is wrapped after every step.
 #
-# :::{admonition} Algorithm 12.1: EKF localization with known landmarks
+# :::{admonition} Algorithm 13.1: EKF localization with known landmarks
 # :class: algorithm
 # 1. **Initialise** $m_0$, $P_0$.
 # 2. **For** $k = 1, 2, \dots$:
@@ -117,7 +117,7 @@ def wrap(a):
 
 
 def ekf(odometry, readings, landmarks, Q, R, m, P, dt=1.0):
-    """Algorithm 12.1; returns the (K, 3) means and (K, 3, 3) covariances."""
+    """Algorithm 13.1; returns the (K, 3) means and (K, 3, 3) covariances."""
     means, covs = [], []
     for k, (u, z) in enumerate(zip(odometry, readings)):
         if k > 0:
@@ -327,7 +327,7 @@ EvidenceBlock(
 # the steps, as it should when a filter assumes twice the true variances. The particle filter's
 # NEES is higher, inside the band at {glue:text}`pf_inside_band:.0%` of the steps. That is not
 # better calibration but two errors partly cancelling: the Monte Carlo error of $300$ particles
-# adds to the estimation error while the assumed noise inflates the covariance (Exercise 12.2).
+# adds to the estimation error while the assumed noise inflates the covariance (Exercise 13.2).
 
 # %% tags=["remove-input"] jupyter={"source_hidden": true}
 avg = {k: np.mean([r[k].nees for r in runs], axis=0) for k in names}
@@ -438,7 +438,7 @@ display(control_panel(draw_compare, grid={"prior_sd": (1.0, 5.0, 10.0), "n_parti
 # %% [markdown]
 # ## Exercises
 #
-# ```{exercise} 12.1 Another sensor's Jacobian, in code
+# ```{exercise} 13.1 Another sensor's Jacobian, in code
 # :label: ex-robot-jacobian
 # :nonumber:
 # (Coding.) A stereo camera or a laser feature extractor does not report range and bearing but
@@ -480,7 +480,7 @@ def my_jacobian(state, landmark):
 print(check_relative_jacobian(my_jacobian))
 
 # %% [markdown]
-# ```{exercise} 12.2 Why is the NEES below three?
+# ```{exercise} 13.2 Why is the NEES below three?
 # :label: ex-robot-nees
 # :nonumber:
 # Why is the time-averaged NEES of all three filters below $3$ in the default comparison?

@@ -85,7 +85,7 @@ exception is reported as a problem); ``str(report)`` prints the verdict.
   ``log N(nu^i; 0, R)`` for a range-bearing reading, on a cloud that sees the landmark right behind
   it; the mistakes of :data:`RANGE_BEARING_MISTAKES` (bearing innovation not wrapped, heading not
   subtracted, ``R`` read as standard deviations, no normalising constant) are named.
-* :func:`check_velocity_motion` - ``fn(x, u, sd, dt, rng) -> (N, 3)``: chapter 10's variant motion model,
+* :func:`check_velocity_motion` - ``fn(x, u, sd, dt, rng) -> (N, 3)``: chapter 11's variant motion model,
   every particle driven along an arc by its own noisy ``(v, omega)``; a large cloud's means and spreads
   against the model's, headings wrapped, one draw per particle, the generator; the mistakes of
   :data:`VELOCITY_MISTAKES` (a straight step, the arc turned the wrong way, ``sd`` read as a variance, the
@@ -93,33 +93,33 @@ exception is reported as a problem); ``str(report)`` prints the verdict.
 * :func:`check_range_bearing_jacobian` - ``fn(state, landmark) -> (2, 3)``: the EKF's measurement
   Jacobian of range and bearing at three poses; the mistakes of :data:`JACOBIAN_MISTAKES` (offset
   reversed, ``+1`` for the heading, ``q`` for ``sqrt(q)``, ``dx`` and ``dy`` swapped) are named.
-* :func:`check_relative_jacobian` - ``fn(state, landmark) -> (2, 3)``: chapter 12's variant sensor, the
+* :func:`check_relative_jacobian` - ``fn(state, landmark) -> (2, 3)``: chapter 13's variant sensor, the
   Jacobian of the landmark measured in the robot's frame ``R(theta)^T (l - p)``; the mistakes of
   :data:`RELATIVE_MISTAKES` (``R`` not transposed, offset reversed, heading column zero or of the wrong
   sign) are named.
 * :func:`check_consistency` - ``fn(errors, covariances) -> (average_nees, band, fraction)``: the
-  NEES check of a filter over ``R`` runs (chapter 22), the run-averaged NEES per step, the 95 % band
+  NEES check of a filter over ``R`` runs (chapter 23), the run-averaged NEES per step, the 95 % band
   of an average of ``R`` chi-square variables with ``d`` degrees of freedom and the fraction of steps
   inside it, against :func:`nees_consistency`; the mistakes of :data:`CONSISTENCY_MISTAKES` (a single
   run's band, the band not divided by ``R``, ``P`` not inverted, a one-sided band, the runs summed)
   are named.
 * :func:`check_ess` - ``fn(log_weights) -> ess``: the effective sample size ``1 / sum_i W_i^2`` from
-  log-weights (chapter 20), on cases that underflow and overflow in the linear domain; weights not
+  log-weights (chapter 21), on cases that underflow and overflow in the linear domain; weights not
   normalised, a fraction instead of a number and exponentiation without the maximum subtracted are named.
 * :func:`check_lock_on` - ``fn(pos_err, head_err, dt, window_s) -> bool``: the book's one definition of
-  *locked on* (:func:`pfcourse.metrics.locked_on`, chapter 21); the last step only, the heading ignored,
+  *locked on* (:func:`pfcourse.metrics.locked_on`, chapter 22); the last step only, the heading ignored,
   the window read in steps and the whole run required are named.
 * :func:`check_pose_density` - ``fn(x, z, landmark, sd) -> (N,)``: the log-density ``log q_z(x)`` of a
-  pose drawn from a range-bearing reading (chapter 11), against :func:`pose_reading_log_density`; the
+  pose drawn from a range-bearing reading (chapter 12), against :func:`pose_reading_log_density`; the
   mistakes of :data:`POSE_DENSITY_MISTAKES` (the bearing added, the Jacobian ``1 / h_r``, the
   direction's ``1 / (2 pi)`` or the truncation ``Phi(r / s_r)`` left out, the residual not wrapped,
   standard deviations read as variances) are named.
-* :func:`check_bearing_pose_draw` - ``fn(b, landmark, sd_b, r_max, n, rng) -> (n, 3)``: chapter 11's variant,
+* :func:`check_bearing_pose_draw` - ``fn(b, landmark, sd_b, r_max, n, rng) -> (n, 3)``: chapter 12's variant,
   poses drawn from a bearing-only reading; a large cloud's statistics against the model's, the generator, and
   the mistakes of :data:`BEARING_POSE_MISTAKES` (range uniform instead of the disc, half a circle, no ``pi``,
   the bearing's sign, ``sd`` as a variance) named.
 * :func:`check_beam_reading` - ``fn(z_star, scanner, rng) -> z``: one reading per beam drawn from the four-part
-  beam model (chapter 13's coding exercise), checked by the shares of readings below, near and beyond ``z*``
+  beam model (chapter 14's coding exercise), checked by the shares of readings below, near and beyond ``z*``
   and at ``z_max``, and by the generator it draws from; the mistakes of :data:`BEAM_MISTAKES` are named;
 * :func:`check_likelihood_field` - ``fn(poses, z, field) -> (N,)``: the likelihood-field log-weights of one
   scan for a cloud of poses (Thrun, Burgard and Fox 2005, table 6.3), against :func:`field_log_weights`;
@@ -131,7 +131,7 @@ exception is reported as a problem); ``str(report)`` prints the verdict.
   *Finding the robot on the map*, :mod:`.map_global`); the generator is checked, and equal weights,
   the likelihood alone, the prior left out and the kernel's constant left out are named.
 * :func:`check_paired_se` - ``fn(a, b) -> (paired_se, unpaired_se)``: the standard error of a difference of
-  means over the same runs, paired and as if unpaired (chapter 19); the population standard deviation,
+  means over the same runs, paired and as if unpaired (chapter 20); the population standard deviation,
   a division by ``n``, standard deviations added and the pairing ignored are named.
 
 Each Part ends with a capstone (:mod:`.capstones`):

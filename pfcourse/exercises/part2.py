@@ -12,7 +12,7 @@ from pfcourse.exercises.checking import CheckReport, _answer, _cloud_answers, _s
 from pfcourse.seeding import run_filter_seed
 
 
-# ----------------------------------------------------------------------------- chapter 11
+# ----------------------------------------------------------------------------- chapter 12
 #: Cases of :func:`check_pose_density`: (reading ``(r, b)``, landmark ``l``, standard deviations
 #: ``(s_r, s_b)``): a far reading, a short one (where the truncation to ``r' > 0`` matters) and one
 #: at a bearing near ``pi`` (where the bearing residual must be wrapped).
@@ -45,7 +45,7 @@ def _wrap(angle: np.ndarray) -> np.ndarray:
 
 def pose_reading_log_density(x: np.ndarray, z: np.ndarray, landmark: np.ndarray, sd: np.ndarray,
                              mistake: str | None = None) -> np.ndarray:
-    """``log q_z(x)`` of the pose drawn from a range-bearing reading (chapter 11, Algorithm 11.1):
+    """``log q_z(x)`` of the pose drawn from a range-bearing reading (chapter 12, Algorithm 12.1):
 
         q_z(x) = N(h_r(x); r, s_r^2) N(wrap(b - h_b(x)); 0, s_b^2) / (Phi(r / s_r) 2 pi h_r(x)),
 
@@ -386,7 +386,7 @@ def check_regularised_jitter(fn: Callable, seed: int = 0) -> CheckReport:
     return report
 
 
-# --- chapter 13: the likelihood-field log-weight of one scan for a cloud -------------------------------
+# --- chapter 14: the likelihood-field log-weight of one scan for a cloud -------------------------------
 #: The mistakes :func:`check_likelihood_field` names, each with its one-sentence reason.
 FIELD_MISTAKES = {
     "max_range_kept": "beams at the maximum range z_max hit nothing and give no end point: leave them out of "
@@ -754,7 +754,7 @@ def check_range_bearing_log_weights(fn: Callable, n_particles: int = 40, seed: i
                           "nu = (z_r - range, wrap(z_b - bearing)) and the quadratic form nu^T R^-1 nu / 2")
 
 
-#: The velocity motion model's check (chapter 10's exercise): every particle starts at the same pose, heading
+#: The velocity motion model's check (chapter 11's exercise): every particle starts at the same pose, heading
 #: 3 rad, so that the new headings cross the cut at +-pi; command (v, omega), its noise sds, and the step (s).
 VELOCITY_POSE = np.array([0.0, 0.0, 3.0])
 VELOCITY_U = np.array([2.0, 0.8])
@@ -921,7 +921,7 @@ def check_range_bearing_jacobian(fn: Callable, rtol: float = 1e-6) -> CheckRepor
                           "the matrix differs from dh/dx: differentiate sqrt(q) and atan2(dy, dx) - theta "
                           "with (dx, dy) = l - p, and compare with a central finite difference")
 
-#: The landmark measured in the robot's frame (chapter 12's exercise): ``z = R(theta)^T (l - p)``, the
+#: The landmark measured in the robot's frame (chapter 13's exercise): ``z = R(theta)^T (l - p)``, the
 #: typical mistakes of its Jacobian and why each is wrong.
 RELATIVE_MISTAKES = {
     "no_transpose": "you differentiate R(theta) (l - p): the landmark in the robot's frame is R(theta)^T (l - p), "
