@@ -47,6 +47,8 @@ _REMOVED = [
     # Directives whose body is not prose (figures, glue figures, code, bibliography); an
     # admonition's body (note, tip, exercise, solution, ...) is prose and is checked.
     (r"^(`{3,}|:{3,})\{(?:figure|glue:figure|glue|code-cell|code|bibliography|math|raw)\}.*?^\1\s*$", " "),
+    (r"^(`{3,})python\s*$.*?^\1\s*$", " "),  # a code block in an admonition (a capstone's solution)
+    (r"^\([\w-]+\)=\s*$", " "),  # a label target, "(capstone-2)="
     (r"^\s*(?:`{3,}|:{3,})[^\n]*$", " "),  # the fence lines of the other directives (admonitions)
     *((pattern, " ") for pattern in MATH_ROLES_CODE),  # math, roles, code (tests/prose_text.py)
     (r"\]\([^)]*\)", "]"),  # link targets

@@ -19,7 +19,7 @@
 # **You need** {doc}`robot` and {doc}`../part1/proposals`; a change of variables in a density;
 # NumPy arrays and a random generator.
 #
-# **Time:** about twenty-five minutes to read; the notebook runs in about twenty seconds (the studies are
+# **Time:** about twenty-one minutes to read; the notebook runs in about twenty seconds (the studies are
 # stored data).
 # :::
 #
@@ -34,10 +34,13 @@
 # at every step of its last $20$ s. A run that is right at the end by chance, while its estimate
 # still jumps between modes, does not count.
 #
-# **The numbers** come from stored studies (`python3 tasks.py study global_localization`, registered
-# in `pfcourse.experiments.registry`, tables and provenance in `book/data/global_localization/`):
-# run $r$ uses seed $r$ for every method and $N$, so every comparison is paired (common random
-# numbers); `tests/test_stored_studies.py` re-computes a sample of the rows.
+# :::{admonition} Where the numbers come from
+# :class: dropdown
+# From stored studies (`python3 tasks.py study global_localization`, registered in
+# `pfcourse.experiments.registry`, tables and provenance in `book/data/global_localization/`): run $r$
+# uses seed $r$ for every method and $N$, so every comparison is paired (common random numbers);
+# `tests/test_stored_studies.py` re-computes a sample of the rows.
+# :::
 
 # %% tags=["remove-input"] jupyter={"source_hidden": true}
 import json
@@ -52,7 +55,10 @@ from scipy.special import logsumexp
 from pfcourse import evidence
 from pfcourse.angles import wrap_angle
 from pfcourse.diagnostics import chi2_band
-from pfcourse.exercises import check_pose_density
+from pfcourse.exercises import check_bearing_pose_draw
+from IPython.display import display
+from ipywidgets import Dropdown
+from pfcourse.figures.widgets import control_panel, particle_slider, seed_box
 from pfcourse.experiments.global_localization import CONFIDENT_QUANTILE, LOCK_WINDOW
 from pfcourse.experiments.registry import STUDIES
 from pfcourse.figures.report import EvidenceBlock, glue_values
@@ -178,40 +184,65 @@ EvidenceBlock(
 #    with $q = (1-\rho_k)\, p_\text{odo} + \rho_k\, q_z$; normalise, and resample when the ESS is low.
 # :::
 #
-# The *draw* step in NumPy, beside the package's sampler (`pfcourse.robot.mcl.SensorPoseSampler`) fed the same
-# random stream:
+# The *draw* step in NumPy, on a run of the chapter {doc}`robot` scenario loaded by one helper:
 
 # %%
+import matplotlib.pyplot as plt
+import numpy as np
+from pfcourse.robot.scenario import simulate_robot
+
+sim = simulate_robot(rng=5, n_steps=60)
+# the filter's range and bearing sds: twice the simulator's variances
+sd = np.sqrt(2 * np.diag(sim.scenario.r_true))
+
+
+def wrap(a):
+    """Angles mapped to (-pi, pi]."""
+    return a - 2 * np.pi * np.ceil((a - np.pi) / (2 * np.pi))
+
+
 def pose_from_reading(z, landmarks, sd, n, rng):
-    """n poses (x, y, theta) drawn from q_z: the reading z = (j, r, b), noise sd = (s_r, s_b)."""
+    """n poses (x, y, theta) drawn from q_z, the reading z = (j, r, b)."""
     j, r, b = int(z[0]), z[1], z[2]
     ranges = r + sd[0] * rng.standard_normal(n)
-    while (ranges <= 0).any():  # r' > 0: redraw the (rare) others
+    # r' > 0: redraw the (rare) others
+    while (ranges <= 0).any():
         bad = ranges <= 0
         ranges[bad] = r + sd[0] * rng.standard_normal(bad.sum())
     bearings = b + sd[1] * rng.standard_normal(n)
-    phi = rng.uniform(-np.pi, np.pi, n)  # the side of the landmark: unknown
+    # the side of the landmark the robot is on: unknown
+    phi = rng.uniform(-np.pi, np.pi, n)
     x = np.empty((n, 3))
     x[:, 0] = landmarks[j, 0] + ranges * np.cos(phi)
     x[:, 1] = landmarks[j, 1] + ranges * np.sin(phi)
-    x[:, 2] = wrap_angle(phi + np.pi - bearings)  # the landmark then appears at bearing b'
+    # the landmark then appears at bearing b'
+    x[:, 2] = wrap(phi + np.pi - bearings)
     return x
 
 
-sim = simulate_robot(rng=5, n_steps=60)
-model = RobotModel.for_simulation(sim, initial="uniform")
-sd = np.sqrt(np.diag(model.r_est))
-mine = pose_from_reading(sim.measurements[1], sim.landmarks, sd, 2000, np.random.default_rng(1))
-package = SensorPoseSampler(sim.landmarks, model.r_est).sample(sim.measurements[1], 2000, np.random.default_rng(1))
-print("the same poses as the package's sampler, to the last bit:", np.array_equal(mine, package))
+z = sim.measurements[1]
+mine = pose_from_reading(z, sim.landmarks, sd, 2000, np.random.default_rng(1))
+fig, ax = plt.subplots(figsize=(5, 5))
+ax.scatter(mine[:, 0], mine[:, 1], s=1, label="poses drawn")
+ax.plot(*sim.landmarks.T, "k*", ms=10, label="landmarks")
+ax.plot(*sim.truth[1, :2], "o", mfc="none", ms=11, mew=2, label="truth")
+ax.set(xlabel="x (m)", ylabel="y (m)", aspect="equal")
+ax.legend(loc="upper left", bbox_to_anchor=(1.02, 1))
+plt.show()
 
 # %% [markdown]
-# The package's mixture proposal (`sensor_mixture_proposal`) uses that sampler to propose, and the
-# density $q_z$ to weight; the tests of `pfcourse.robot.mcl` check its weights against a fine grid at
-# the first step and against a bootstrap filter with $10^6$ particles on the same kidnap model. One run,
-# at the first readings:
+# The poses form the ring of the reading, and the truth lies on it. The package's sampler
+# (`pfcourse.robot.mcl.SensorPoseSampler`), fed the same random stream, draws the same poses to the
+# last bit; its mixture proposal (`sensor_mixture_proposal`) uses that sampler to propose, and the
+# density $q_z$ to weight (the tests of `pfcourse.robot.mcl` check its weights against a fine grid
+# at the first step and against a bootstrap filter with $10^6$ particles on the same kidnap model).
+# One run, at the first readings:
 
-# %%
+# %% tags=["hide-input"] jupyter={"source_hidden": true}
+model = RobotModel.for_simulation(sim, initial="uniform")
+assert np.array_equal(sd, np.sqrt(np.diag(model.r_est)))
+package = SensorPoseSampler(sim.landmarks, model.r_est).sample(sim.measurements[1], 2000, np.random.default_rng(1))
+assert np.array_equal(mine, package), "the NumPy draw is the package's sampler"
 kmodel = KidnapRobotModel(model, teleport=1e-3)
 pf = ParticleFilter(kmodel, 2000, proposal=sensor_mixture_proposal(kmodel, share=0.1))
 # step the filter through its first readings, keeping the clouds of steps 1, 2 and 4
@@ -247,8 +278,8 @@ plt.show()
 # reading far from its ancestor can only be explained by a teleport, so its weight is of order
 # $\epsilon$: while the filter tracks, those particles are spent. Over {glue:text}`track_runs:d` runs of
 # tracking from the known start ($N = 2000$, stored study `tracking_cost`), the mixture's mean ESS is,
-# run by run, a share {glue:text}`track_ess_ratio:.2f` of the bootstrap filter's (median ratio; 95 % interval
-# {glue:text}`track_ess_low:.2f` to {glue:text}`track_ess_high:.2f`): about the share
+# run by run, a share {glue:text}`track_ess_ratio:.2f` of the bootstrap filter's (median ratio,
+# {glue:text}`track_ess_low:.2f`-{glue:text}`track_ess_high:.2f`): about the share
 # $\rho_k = 0.1$ drawn from the reading is lost. The position error shows no measurable change (its
 # interval is in the evidence block): the price is paid in particles, not in accuracy.
 
@@ -298,11 +329,11 @@ EvidenceBlock(
 #       by a pose drawn from $z_k$ (the *draw* of Algorithm 12.1).
 # :::
 #
-# In NumPy, with the averages in the log domain (the likelihoods underflow), on a run whose robot is
-# carried to a random pose at $t = 50$ s, checked against the package's `AugmentedMCL` run by the
-# engine with the same random stream:
+# The loop in NumPy, with the averages in the log domain (the likelihoods underflow), is in the
+# folded cell below; it runs on a run whose robot is carried to a random pose at $t = 50$ s, beside
+# the package's `AugmentedMCL` run by the engine with the same random stream.
 
-# %%
+# %% tags=["hide-input"] jupyter={"source_hidden": true}
 def augmented_mcl(model, measurements, n, rng, k_slow=0.01, k_fast=0.1):
     """Algorithm 12.2: position means (steps, 2) and the injection probability of each reading."""
     sd = np.sqrt(np.diag(model.r_est))
@@ -398,13 +429,13 @@ ax.set_xscale("log")
 ax.set_xlabel("number of particles N")
 ax.set_ylabel("share of runs locked on")
 ax.set_ylim(-0.03, 1.03)
-ax.set_title(f"{N_RUNS} runs per point, 95 % Wilson intervals")
+ax.set_title(f"{N_RUNS} runs per point, 95 % intervals")
 ax.legend(loc="upper left", bbox_to_anchor=(1.02, 1))
 plt.show()
 
 # %% [markdown]
-# With $N$ = {glue:text}`best_n` particles the best remedy locks on in a share {glue:text}`mcl_lock_on_rate:.2f` of the runs (95 % Wilson
-# interval {glue:text}`best_low:.2f` to {glue:text}`best_high:.2f`).
+# With $N$ = {glue:text}`best_n` particles the best remedy locks on in a share
+# {glue:text}`mcl_lock_on_rate:.2f` of the runs ({glue:text}`best_low:.2f`-{glue:text}`best_high:.2f`).
 
 # %% [markdown]
 # The bootstrap filter with the same $N$ locks on in {glue:text}`bootstrap_lock_on_rate:.2f` of the same
@@ -477,8 +508,7 @@ EvidenceBlock(
 #
 # KLD-sampling draws particles until their number exceeds a bound that grows with the number $k$ of
 # histogram bins they occupy,
-# $n(k) \approx \chi^2_{k-1, 1-\delta} / (2\varepsilon)$ (Wilson-Hilferty's form in
-# `pfcourse.sample_size.kld_bound`): with probability $1-\delta$ the Kullback-Leibler divergence between
+# $n(k) \approx \chi^2_{k-1, 1-\delta} / (2\varepsilon)$ (`pfcourse.sample_size.kld_bound`): with probability $1-\delta$ the Kullback-Leibler divergence between
 # the sample's histogram and the true one is below $\varepsilon$ {cite:p}`fox2003`. A spread cloud gets
 # many particles, a tight one few. This book's setting is $\varepsilon = 0.05$, $\delta = 0.01$, bins of
 # $1$ m × $1$ m × $10°$, $N$ between $100$ and $2000$. Alone, KLD-sampling does not help while the right
@@ -632,6 +662,39 @@ EvidenceBlock(
 )
 
 # %% [markdown]
+# ## Try it
+#
+# The panel starts a filter from the uniform prior on a $60$ s run and plots its position error.
+# Which proposal finds the robot with $300$ particles? Does the bootstrap filter find it with ten
+# times more? Change the seed: on which runs does it still miss?
+
+# %% tags=["hide-input"] jupyter={"source_hidden": true}
+def draw_global(proposal="mixture", n_particles=300, seed=0):
+    s = simulate_robot(rng=seed, n_steps=60)
+    m = RobotModel.for_simulation(s, initial="uniform")
+    if proposal == "mixture":
+        km = KidnapRobotModel(m, teleport=1e-3)
+        flt = ParticleFilter(km, n_particles, proposal=sensor_mixture_proposal(km, share=0.1))
+    else:
+        flt = ParticleFilter(m, n_particles)
+    res = flt.run(s.measurements, run_filter_seed(seed))
+    err = position_error(s.truth, res.mean)
+    fig, ax = plt.subplots(figsize=(8, 3.4))
+    ax.semilogy(np.arange(len(err)), np.maximum(err, 1e-2), color=COLORS["estimate"])
+    ax.axhline(1.0, color="0.5", ls="--", lw=1)
+    ax.set_ylim(1e-2, 200)
+    ax.set_xlabel("time (s)")
+    ax.set_ylabel("position error (m)")
+    ax.set_title(f"{proposal}, N = {n_particles}: final error {err[-1]:.2f} m (dashed: 1 m)")
+
+
+# %% tags=["nbval-ignore-output", "hide-input"] jupyter={"source_hidden": true}
+display(control_panel(draw_global, grid={"proposal": ("bootstrap", "mixture"), "n_particles": (300, 3000)},
+                      side={"seed": (0, 1, 2)},
+                      proposal=Dropdown(options=["bootstrap", "mixture"], value="mixture", description="proposal"),
+                      n_particles=particle_slider(300, 2, 4), seed=seed_box(0)))
+
+# %% [markdown]
 # ## Exercises
 #
 # ```{exercise} 12.1 The density of a pose drawn from a reading
@@ -653,40 +716,49 @@ EvidenceBlock(
 # ring is longer.
 # ```
 #
-# ```{exercise} 12.2 Write the proposal's density, and have it checked
+# ```{exercise} 12.2 Poses from a bearing-only reading, in code
 # :label: ex-gl-density
 # :nonumber:
-# (Coding.) Write `log_q(x, z, landmark, sd)`: $\log q_z(x)$ for poses `x` of shape `(N, 3)` (rows
-# $(p_x, p_y, \theta)$), a reading `z` $= (r, b)$ of the landmark at `landmark` (shape `(2,)`), and the
-# standard deviations `sd` $= (\sigma_r, \sigma_b)$. Return one value per pose. The checker compares it
-# with the package's density and names the mistake it sees.
+# (Coding.) A camera sees landmark $l$ at bearing $b$ but gives no range; the robot is known to be
+# within $r_{\max}$ of the landmark, anywhere on that disc. Write
+# `my_pose_from_bearing(b, landmark, sd_b, r_max, n, rng)`: $n$ poses drawn from that knowledge, one
+# $(x, y, \theta)$ per row, with a position *uniform on the disc* around `landmark`, a bearing
+# $b' \sim \mathcal N(b, \sigma_b^2)$ (`sd_b` $= \sigma_b$) and the heading that makes the landmark
+# appear at $b'$, every random number drawn from `rng`. The checker draws $100\,000$ poses and
+# compares their spread with the model's; it names the mistake it sees.
 # ```
 
 # %% tags=["answer"]
-def log_q(x, z, landmark, sd):
-    """Your log q_z(x): one value per row of x."""
+from pfcourse.exercises import check_bearing_pose_draw
+
+
+def my_pose_from_bearing(b, landmark, sd_b, r_max, n, rng):
+    """Your draw: an (n, 3) array of poses (x, y, theta)."""
     ...  # replace with your code
 
 
-print(check_pose_density(log_q))
+print(check_bearing_pose_draw(my_pose_from_bearing))
 
 # %% [markdown]
 # ```{solution} ex-gl-density
 # :class: dropdown
-# The formula of the section "A proposal from the reading", term by term; the code is in the folded cell
-# below (in JupyterLab, click its margin to unfold it).
+# A position uniform on the disc has a range of density $2r/r_{\max}^2$, so draw
+# $r = r_{\max}\sqrt{u}$ with $u$ uniform (not $r$ uniform, which crowds the landmark); the direction
+# $\phi$ is uniform on the circle, and the heading is $\operatorname{wrap}(\phi + \pi - b')$ as in
+# Algorithm 12.1. The code is in the folded cell below (in JupyterLab, click its margin to unfold
+# it).
 # ```
 
 # %% tags=["solution", "hide-input"] jupyter={"source_hidden": true}
-def log_q(x, z, landmark, sd):
-    r, b = z
-    h_r = np.hypot(landmark[0] - x[:, 0], landmark[1] - x[:, 1])
-    h_b = wrap_angle(np.arctan2(landmark[1] - x[:, 1], landmark[0] - x[:, 0]) - x[:, 2])
-    return (stats.norm.logpdf(h_r, r, sd[0]) + stats.norm.logpdf(wrap_angle(b - h_b), 0.0, sd[1])
-            - stats.norm.logcdf(r / sd[0]) - np.log(2 * np.pi) - np.log(h_r))
+def my_pose_from_bearing(b, landmark, sd_b, r_max, n, rng):
+    r = r_max * np.sqrt(rng.random(n))
+    phi = rng.uniform(-np.pi, np.pi, n)
+    bearing = b + sd_b * rng.standard_normal(n)
+    return np.column_stack([landmark[0] + r * np.cos(phi), landmark[1] + r * np.sin(phi),
+                            wrap(phi + np.pi - bearing)])
 
 
-print(check_pose_density(log_q))
+print(check_bearing_pose_draw(my_pose_from_bearing))
 
 # %% [markdown]
 # ```{exercise} 12.3 A teleport after locking on?
@@ -719,3 +791,11 @@ print(check_pose_density(log_q))
 # - KLD-sampling saves particles only if its bound lets it; with AMCL's small $\varepsilon$ it keeps
 #   nearly all of them.
 # - Locked on means within $1$ m and $5°$ at every step of the last $20$ s, in every chapter.
+#
+# :::{admonition} From the labs
+# :class: dropdown
+# Lab C ({doc}`../labs`) starts the robot "with a cloud spread over the whole map": global
+# localization. This chapter answers that question: why the bootstrap filter fails ("Why the
+# bootstrap filter fails"), what makes it reliable ("Which method locks on?") and what happens when
+# the robot is carried away ("The kidnapped robot").
+# :::

@@ -13,20 +13,18 @@
 # :class: chapter-header
 # **You learn** Monte Carlo localization (MCL), the particle filter as robotics teaches it:
 # move every particle with the noisy odometry, weight it by a range-bearing reading, resample;
-# written in NumPy, checked against the package's engine, then used to track a robot and to
-# find one that starts anywhere on the map.
+# written in NumPy, then used to track a robot and to find one that starts anywhere on the map.
 #
 # **You need** {doc}`../part1/sir` (the bootstrap filter, resampling when the ESS is low);
 # sines and cosines of a heading; NumPy arrays.
 #
-# **Time:** about twenty-six minutes to read; the notebook runs in about half a minute.
+# **Time:** about eighteen minutes to read; the notebook runs in about half a minute.
 # :::
 #
 # A wheeled robot knows its map, five landmarks at known positions, but not where it is. Its
 # wheels tell it how it moved (*odometry*), with an error; a sensor measures the range and the
-# bearing of one landmark at a time, and knows which one. This is the lab's scenario
-# (reports 002 and 004), and the classic setting of Monte Carlo localization
-# {cite:p}`thrun2005`.
+# bearing of one landmark at a time, and knows which one. This is the classic setting of Monte
+# Carlo localization {cite:p}`thrun2005`.
 #
 # ## The model
 #
@@ -57,7 +55,7 @@
 # \quad v_k \sim \mathcal N(0, R),
 # $$
 #
-# with $R = \operatorname{diag}(\sigma_r^2, \sigma_b^2)$: range and bearing errors. The lab's
+# with $R = \operatorname{diag}(\sigma_r^2, \sigma_b^2)$: range and bearing errors. The
 # settings: $\Delta t = 1$ s, {glue:text}`n_steps:d` steps, {glue:text}`n_landmarks:d` landmarks
 # drawn uniformly in $[-60, 60]^2$ m, one of them seen every second; the filter assumes twice
 # the true variances, $Q_\text{est} = 2Q$ and $R_\text{est} = 2R$. The evidence block lists
@@ -77,7 +75,7 @@ from pfcourse.angles import wrap_angle
 from pfcourse.checks import as_generator
 from pfcourse.diagnostics import nees
 from pfcourse.errors import DegenerateWeightsError
-from pfcourse.exercises import check_range_bearing_log_weights
+from pfcourse.exercises import check_velocity_motion
 from pfcourse.experiments.robot import global_localization_run
 from pfcourse.figures.clouds import animate_clouds
 from pfcourse.figures.report import EvidenceBlock, glue_values
@@ -134,64 +132,114 @@ EvidenceBlock("the lab's noise levels", notes=["The filter assumes twice these v
 #
 # Table 8.2 of {cite:t}`thrun2005` is this loop with resampling at every step and linear weights;
 # here the weights live in the log domain and resampling waits for the ESS to fall below
-# $\tau N$, as everywhere in this book. In NumPy:
+# $\tau N$, as everywhere in this book.
+
+# %% [markdown]
+# The data of one run come from one helper, as plain arrays: the odometry $u_k$ (one row per
+# second), the readings $(j, z_r, z_b)$ (NaN when no landmark is seen), the landmarks and the
+# true path. The filter's noise is twice the simulator's.
 
 # %%
-def mcl(odometry, measurements, landmarks, Q, R, x0, x0_sd, n, tau, rng, dt=1.0):
-    """Algorithm 11.1 from a Gaussian start N(x0, diag(x0_sd)^2); returns the (K, 3) posterior means."""
-    q_sd = np.sqrt(np.diag(Q))  # the lab's Q is diagonal
-    R_inv, log_norm = np.linalg.inv(R), -np.log(2 * np.pi) - 0.5 * np.linalg.slogdet(R)[1]
+import matplotlib.pyplot as plt
+import numpy as np
+from scipy.special import logsumexp
+from pfcourse.robot.scenario import simulate_robot
+
+sim = simulate_robot(rng=3)
+Q, R = 2 * sim.scenario.q_true, 2 * sim.scenario.r_true
+# the initial cloud: the true start plus noise of 1 m, 1 m and 0.1 rad
+x0_sd = np.array([1.0, 1.0, 0.1])
+print(sim.odometry.shape, sim.measurements.shape, sim.landmarks.shape)
+
+# %% [markdown]
+# In NumPy, Algorithm 11.1 is the loop below, with one helper for angles:
+
+
+# %%
+def wrap(a):
+    """Angles mapped to (-pi, pi]."""
+    return a - 2 * np.pi * np.ceil((a - np.pi) / (2 * np.pi))
+
+
+def mcl(odometry, readings, landmarks, Q, R, x0, x0_sd, n, tau, rng):
+    """Algorithm 11.1 with dt = 1 s; returns the (K, 3) posterior means."""
+    # the lab's Q is diagonal: one sd per command
+    q_sd = np.sqrt(np.diag(Q))
+    R_inv = np.linalg.inv(R)
+    log_norm = -np.log(2 * np.pi) - 0.5 * np.linalg.slogdet(R)[1]
     x = x0 + x0_sd * rng.standard_normal((n, 3))
-    x[:, 2] = wrap_angle(x[:, 2])
+    x[:, 2] = wrap(x[:, 2])
     log_W = np.full(n, -np.log(n))
     means = []
-    for k, (u, z) in enumerate(zip(odometry, measurements)):
-        if k > 0:  # 1. sample the motion model: the odometry plus noise, then f
+    for k, (u, z) in enumerate(zip(odometry, readings)):
+        if k > 0:
+            # 1. move: the odometry plus noise, then f
             v = u + q_sd * rng.standard_normal((n, 3))
             c, s = np.cos(x[:, 2]), np.sin(x[:, 2])
-            x = np.column_stack([x[:, 0] + (v[:, 0] * c - v[:, 1] * s) * dt,
-                                 x[:, 1] + (v[:, 0] * s + v[:, 1] * c) * dt, wrap_angle(x[:, 2] + v[:, 2] * dt)])
-        if not np.isnan(z[0]):  # 2. weight by the range and bearing of landmark j, in logs
+            x = np.column_stack([x[:, 0] + v[:, 0] * c - v[:, 1] * s,
+                                 x[:, 1] + v[:, 0] * s + v[:, 1] * c,
+                                 wrap(x[:, 2] + v[:, 2])])
+        if not np.isnan(z[0]):
+            # 2. weight by the range and bearing of landmark j
             d = landmarks[int(z[0])] - x[:, :2]
+            bearing = np.arctan2(d[:, 1], d[:, 0]) - x[:, 2]
             nu = np.column_stack([z[1] - np.hypot(d[:, 0], d[:, 1]),
-                                  wrap_angle(z[2] - (np.arctan2(d[:, 1], d[:, 0]) - x[:, 2]))])
-            log_W = log_W + log_norm - 0.5 * np.einsum("ij,jk,ik->i", nu, R_inv, nu)
-            log_W = log_W - logsumexp(log_W)  # 3. normalise
+                                  wrap(z[2] - bearing)])
+            quad = np.einsum("ij,jk,ik->i", nu, R_inv, nu)
+            log_W = log_W + log_norm - 0.5 * quad
+            # 3. normalise
+            log_W = log_W - logsumexp(log_W)
         W = np.exp(log_W)
-        means.append([W @ x[:, 0], W @ x[:, 1], np.arctan2(W @ np.sin(x[:, 2]), W @ np.cos(x[:, 2]))])
-        if 1.0 / np.sum(W**2) < tau * n:  # 4. resample (systematic) when the ESS is low
-            a = np.searchsorted(np.cumsum(W), (np.arange(n) + rng.random()) / n, side="right")
+        heading = np.arctan2(W @ np.sin(x[:, 2]), W @ np.cos(x[:, 2]))
+        means.append([W @ x[:, 0], W @ x[:, 1], heading])
+        # 4. resample (systematic) when the ESS is low
+        if 1.0 / np.sum(W**2) < tau * n:
+            u0 = (np.arange(n) + rng.random()) / n
+            a = np.searchsorted(np.cumsum(W), u0, side="right")
             x, log_W = x[np.minimum(a, n - 1)], np.full(n, -np.log(n))
     return np.array(means)
 
 
 # %% [markdown]
-# The engine, `ParticleFilter` with the robot's model (`RobotModel`), draws its random numbers
-# in the same order: the start, then one noise draw per particle and step, then one uniform per
-# resampling. With the same seed the two must therefore give the same run, not only the same
-# distribution. Both run on the lab's scenario with $N = 300$ and $\tau = 1/2$:
+# ## Tracking from a good initial guess
+#
+# The initial cloud is the truth plus Gaussian noise of standard deviations
+# {glue:text}`init_sd_pos:.0f` m in each coordinate and {glue:text}`init_sd_heading:.1f` rad in
+# heading. Run the loop with $N = 300$ particles and $\tau = 1/2$, and draw the true path, dead
+# reckoning and the filter's estimate:
 
 # %%
 N, TAU = 300, 0.5
-mine = mcl(sim.odometry, sim.measurements, sim.landmarks, model.q_est, model.r_est, sim.truth[0],
-           np.array(INITIAL_STD), N, TAU, np.random.default_rng(run_filter_seed(3)))
+rng = np.random.default_rng(4)
+mine = mcl(sim.odometry, sim.measurements, sim.landmarks, Q, R,
+           sim.truth[0], x0_sd, N, TAU, rng)
+fig, axes = plt.subplots(1, 2, figsize=(10, 4.5))
+for ax in axes:
+    ax.plot(*sim.landmarks.T, "k*", ms=10, label="landmarks")
+    ax.plot(*sim.truth[:, :2].T, "k", lw=3, label="truth")
+    ax.plot(*sim.odometry_path[:, :2].T, "--", label="dead reckoning")
+    ax.plot(*mine[:, :2].T, label="particle filter")
+    ax.set(xlabel="x (m)", ylabel="y (m)")
+axes[0].set(title="the map", aspect="equal")
+axes[1].set(title="zoom on the path", xlim=(-12, 8), ylim=(-52, -24))
+axes[0].legend(loc="upper left")
+plt.show()
+
+# %% tags=["remove-input"] jupyter={"source_hidden": true}
+model = RobotModel.for_simulation(sim)
+assert run_filter_seed(3) == 4  # the seed of the visible run
 result = ParticleFilter(model, N, threshold=TAU, resampler="systematic").run(
     sim.measurements, rng=run_filter_seed(3))
 gap = tracking_errors(result.mean, mine)
 ROUND_OFF = 1e-9
-print(f"largest difference from the engine's means over {len(gap)} steps below {ROUND_OFF:.0e} "
-      f"(m and rad): {np.abs(gap).max() < ROUND_OFF}")
-
-# %% [markdown]
-# The two agree to round-off (below {glue:text}`mcl_bound:.0e` m and rad at every step of the
-# run): the chapters that follow call the engine, and this loop is what it does.
-
-# %% tags=["remove-input"] jupyter={"source_hidden": true}
+assert np.abs(gap).max() < ROUND_OFF
 glue_values(mcl_bound=ROUND_OFF)
 EvidenceBlock(
     "the NumPy loop is the engine's run",
-    notes=[f"Same filter seed (run_filter_seed(3) = 4; the data use 3), same scenario run, N = {N}, tau = {TAU}, systematic resampling; the engine "
-           f"resampled at {result.n_resamples} of {len(gap)} steps.",
+    notes=[f"Same filter seed (run_filter_seed(3) = 4; the data use 3), same scenario run, N = {N}, "
+           f"tau = {TAU}, systematic resampling; the engine resampled at {result.n_resamples} of {len(gap)} "
+           "steps. The engine draws its random numbers in the same order: the start, one noise draw per "
+           "particle and step, one uniform per resampling.",
            "The remaining differences come from the order of floating-point operations (the engine computes the "
            "weighted mean relative to the first particle, and the range as sqrt(dx^2 + dy^2))."],
     tables=[("Largest absolute difference over the run", pd.DataFrame(
@@ -200,30 +248,15 @@ EvidenceBlock(
 )
 
 # %% [markdown]
-# ## Tracking from a good initial guess
-#
-# The initial cloud is the truth plus Gaussian noise of standard deviations
-# {glue:text}`init_sd_pos:.0f` m in each coordinate and {glue:text}`init_sd_heading:.1f` rad in
-# heading. The figure shows the run above: the true path, dead reckoning, and the filter's
-# estimate.
-
-# %%
-fig, axes = plt.subplots(1, 2, figsize=(10, 5))
-robot_map(sim, {"particle filter": result.mean}, ax=axes[0])
-axes[0].set_title("The whole run")
-robot_map(sim, {"particle filter": result.mean}, ax=axes[1])
-axes[1].set_xlim(sim.truth[:, 0].min() - 8, sim.truth[:, 0].max() + 8)
-axes[1].set_ylim(sim.truth[:, 1].min() - 3, sim.truth[:, 1].max() + 3)
-axes[1].set_title("Zoom on the path")
-axes[1].get_legend().remove()
-plt.tight_layout()
-plt.show()
-
-# %% [markdown]
 # The estimate lies on the true path; dead reckoning does not. Over $100$ seeded runs, dead
-# reckoning ends a median {glue:text}`dr_final_m:.1f` m from the true position (95 % interval
-# {glue:text}`dr_final_low_m:.1f` to {glue:text}`dr_final_high_m:.1f` m), while the filter's
-# position error in the run shown stays below {glue:text}`pf_max_error_m:.2f` m at every step.
+# reckoning ends a median {glue:text}`dr_final_m:.1f` m
+# ({glue:text}`dr_final_low_m:.1f`-{glue:text}`dr_final_high_m:.1f`) from the true position, while
+# the filter's position error in the run shown stays below {glue:text}`pf_max_error_m:.2f` m at
+# every step.
+#
+# The package's engine (`ParticleFilter`), which the next chapters call, runs this
+# very loop: with the same seed its means agree with these to round-off (below
+# {glue:text}`mcl_bound:.0e` m and rad at every step).
 
 # %% tags=["remove-input"] jupyter={"source_hidden": true}
 def odometry_of(seed):
@@ -268,7 +301,7 @@ EvidenceBlock(
 # it believes it is. The figure plots the error per coordinate against the filter's own
 # $\pm 3\sigma$ band.
 
-# %%
+# %% tags=["hide-input"] jupyter={"source_hidden": true}
 error_bands(sim, result.mean, result.cov, label="particle filter error")
 plt.suptitle(f"Error and ±3σ band of the particle filter (one run, N = {N})")
 plt.tight_layout()
@@ -310,7 +343,7 @@ EvidenceBlock(
 # with one mean and one covariance, cannot even represent that prior; MCL needs only enough
 # particles. The figure runs it with $N = 20\,000$.
 
-# %%
+# %% tags=["hide-input"] jupyter={"source_hidden": true}
 sim_g = simulate_robot(rng=5, n_steps=30)
 model_g = RobotModel.for_simulation(sim_g, initial="uniform")
 res_g = ParticleFilter(model_g, 20000).run(sim_g.measurements, rng=run_filter_seed(5), collect=[Clouds()])
@@ -357,7 +390,7 @@ EvidenceBlock("one Gaussian summarises the ring wrongly",
               tables=[("The cloud at each panel's time", pd.DataFrame(snap_rows),
                        {"ESS": ".0f", "mean's distance from the truth (m)": ".1f"})])
 
-# %%
+# %% tags=["hide-input"] jupyter={"source_hidden": true}
 anim_g = animate_clouds({"PF": res_g}, None, sim_g.truth, list(range(0, 12)) + [15, 20, 25, 29],
                         (-sim_g.scenario.half_width, sim_g.scenario.half_width), 400, ellipses=False, max_points=3000,
                         trail=True, background=landmarks_background(sim_g), overlay=sight_overlay(sim_g),
@@ -372,7 +405,7 @@ HTML(anim_g.to_jshtml())
 # runs last $30$ s, and the same {glue:text}`lock_runs:d` simulated runs are filtered with each $N$:
 # a few runs only, since the large clouds are expensive, so the intervals are wide.
 
-# %%
+# %% tags=["hide-input"] jupyter={"source_hidden": true}
 n_values = [1000, 3000, 10000, 30000]
 seeds = range(12)
 runs = [[global_localization_run(s, n, n_steps=30) for s in seeds] for n in n_values]
@@ -386,7 +419,7 @@ ax.set_xscale("log")
 ax.set_xlabel("number of particles N")
 ax.set_ylabel("share of runs locked on")
 ax.set_ylim(-0.05, 1.05)
-ax.set_title(f"Global localization, {len(seeds)} seeded runs (95 % Wilson intervals)")
+ax.set_title(f"Global localization, {len(seeds)} seeded runs (95 % intervals)")
 plt.show()
 
 # %% [markdown]
@@ -435,7 +468,7 @@ EvidenceBlock(
 # degenerate: its band collapses to nothing while the error stays large; turn on the gap and watch
 # the band grow on odometry alone, then collapse at the next reading.
 
-# %%
+# %% tags=["hide-input"] jupyter={"source_hidden": true}
 def draw(n_particles=300, q_scale=2.0, r_scale=2.0, threshold=0.5, scheme="systematic",
          dt_meas=1, gap=False, landmarks=5, seed=0, axes=None):
     s = simulate_robot(rng=seed, n_steps=400, dt_meas=float(dt_meas),
@@ -473,7 +506,7 @@ def draw(n_particles=300, q_scale=2.0, r_scale=2.0, threshold=0.5, scheme="syste
     axes[1].legend(loc="upper right")
 
 
-# %% tags=["nbval-ignore-output"]
+# %% tags=["nbval-ignore-output", "hide-input"] jupyter={"source_hidden": true}
 panel = control_panel(
     draw,
     grid={"n_particles": (30, 100, 300, 1000), "r_scale": (0.5, 2.0, 8.0)},
@@ -548,42 +581,60 @@ display(panel)
 # rings.
 # ```
 #
-# ```{exercise} 11.4 The weight of a reading, in code
+# ```{exercise} 11.4 Another motion model, in code
 # :label: ex-robot-code
 # :nonumber:
-# (Coding.) Write `my_log_weights(x, landmark, z, R)`: for a cloud `x` of poses, shape `(N, 3)`
-# with rows $(x, y, \theta)$, a landmark $l$ of shape `(2,)`, a reading `z` $= (z_r, z_b)$ and
-# the $2 \times 2$ covariance `R` (variances), return the $N$ values
-# $\log \mathcal N(\nu^i; 0, R)$ (the weighting step of Algorithm 11.1), normalising constant included (it
-# cancels in the weights, but not in the likelihood of the data). The checker's cloud sees the
-# landmark right behind it, where the bearing wrap matters, and names the mistake it sees.
+# (Coding.) Many robots report a forward speed $v$ and a turn rate $\omega$, and drive along
+# an arc rather than the chapter's straight step: the *velocity motion model*
+# ({cite:t}`thrun2005`, table $5.3$). Over a step $\Delta t$, with $\theta' = \theta + \omega
+# \Delta t$, a pose moves to
+#
+# $$
+# \begin{aligned}
+# x' &= x + \tfrac{v}{\omega}\big(\sin\theta' - \sin\theta\big),\\
+# y' &= y + \tfrac{v}{\omega}\big(\cos\theta - \cos\theta'\big),
+# \end{aligned}
+# $$
+#
+# and $\theta'$ is wrapped to $(-\pi, \pi]$.
+#
+# Write `my_velocity_motion(x, u, sd, dt, rng)`, the *move* of Algorithm 11.1 for this model: each row of
+# `x` (shape `(N, 3)`) draws its own noisy command $(v + s_v e_1,\ \omega + s_\omega e_2)$,
+# $e \sim \mathcal N(0, I)$, with `u` $= (v, \omega)$, `sd` $= (s_v, s_\omega)$ (standard
+# deviations) and the generator `rng`, then drives along its arc. The checker moves $100\,000$
+# copies of one pose and compares the cloud's mean and spread with the model's; it names the
+# mistake it sees.
 # ```
 
 # %% tags=["answer"]
-def my_log_weights(x, landmark, z, R):
-    """Your step 2: return log N(nu^i; 0, R), one value per row of x."""
+from pfcourse.exercises import check_velocity_motion
+
+
+def my_velocity_motion(x, u, sd, dt, rng):
+    """Your velocity motion model: the (N, 3) moved cloud."""
     ...  # replace with your code
 
 
-print(check_range_bearing_log_weights(my_log_weights))
+print(check_velocity_motion(my_velocity_motion))
 
 # %% [markdown]
 # ```{solution} ex-robot-code
 # :class: dropdown
-# The innovation with the bearing wrapped, then the Gaussian log-density; the code is in the
-# folded cell below (in JupyterLab, click its margin to unfold it).
+# One pair of standard normals per particle, the noisy command, then the arc; the code is in
+# the folded cell below (in JupyterLab, click its margin to unfold it).
 # ```
 
 # %% tags=["solution", "hide-input"] jupyter={"source_hidden": true}
-def my_log_weights(x, landmark, z, R):
-    d = landmark - x[:, :2]
-    nu = np.column_stack([z[0] - np.hypot(d[:, 0], d[:, 1]),
-                          wrap_angle(z[1] - (np.arctan2(d[:, 1], d[:, 0]) - x[:, 2]))])
-    quad = np.einsum("ij,jk,ik->i", nu, np.linalg.inv(R), nu)
-    return -0.5 * quad - np.log(2 * np.pi) - 0.5 * np.linalg.slogdet(R)[1]
+def my_velocity_motion(x, u, sd, dt, rng):
+    e = rng.standard_normal((len(x), 2))
+    v, w = u[0] + sd[0] * e[:, 0], u[1] + sd[1] * e[:, 1]
+    th, th_new = x[:, 2], x[:, 2] + w * dt
+    return np.column_stack([x[:, 0] + v / w * (np.sin(th_new) - np.sin(th)),
+                            x[:, 1] + v / w * (np.cos(th) - np.cos(th_new)),
+                            wrap(th_new)])
 
 
-print(check_range_bearing_log_weights(my_log_weights))
+print(check_velocity_motion(my_velocity_motion))
 
 # %% [markdown]
 # ## Takeaways
@@ -597,3 +648,12 @@ print(check_range_bearing_log_weights(my_log_weights))
 # - From nowhere, the posterior is a set of rings no Gaussian can represent; the bootstrap
 #   filter needs many particles and still locks on wrongly when resampling impoverishes the
 #   cloud, which {doc}`global_localization` cures.
+#
+# :::{admonition} From the labs
+# :class: dropdown
+# Lab C ({doc}`../labs`) localizes a robot among five landmarks from range-bearing readings. Its
+# tracking question (a good initial guess: does the filter follow the robot, and is its
+# uncertainty honest?) is answered in "Tracking from a good initial guess"; its global
+# localization question is opened in "Starting from nowhere" and answered in
+# {doc}`global_localization`.
+# :::

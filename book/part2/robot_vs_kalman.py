@@ -27,8 +27,8 @@
 # answers to a nonlinear model keep one mean and one covariance: the **extended Kalman filter**
 # linearizes the motion and measurement functions at the current estimate, the **unscented
 # Kalman filter** propagates a few deterministic *sigma points* through them
-# {cite:p}`labbe2020`. This chapter derives the first, checks it against the library, and runs
-# the three filters on *the same* simulated runs.
+# {cite:p}`labbe2020`. This chapter derives the first, writes it in NumPy, and runs the three
+# filters on *the same* simulated runs.
 #
 # ## The idea: linearize at the estimate
 #
@@ -52,7 +52,7 @@
 # d_y/q & -d_x/q & -1 \end{pmatrix}
 # $$
 #
-# (Exercise 13.1 asks you to code it). Two details matter for angles: the innovation wraps its
+# Two details matter for angles: the innovation wraps its
 # bearing, as in MCL, and the heading estimate is wrapped after every step.
 #
 # :::{admonition} Algorithm 13.1: EKF localization with known landmarks
@@ -69,7 +69,7 @@
 #
 # The covariance update is Joseph's form, which stays symmetric and positive in floating point.
 # The UKF replaces $F_k$, $G_k$ and $H_k$ by sigma points; for the robot it needs circular means
-# of headings and bearings and wrapped differences (`pfcourse.robot.kalman`). In NumPy:
+# of headings and bearings and wrapped differences (`pfcourse.robot.kalman`).
 
 # %% tags=["remove-input"] jupyter={"source_hidden": true}
 import matplotlib.pyplot as plt
@@ -79,7 +79,12 @@ import pandas as pd
 from pfcourse import evidence
 from pfcourse.angles import wrap_angle
 from pfcourse.diagnostics import chi2_band
-from pfcourse.exercises import check_range_bearing_jacobian
+from pfcourse.exercises import check_relative_jacobian
+from ipywidgets import Dropdown
+from IPython.display import display
+from pfcourse.figures.widgets import control_panel, particle_slider, seed_box
+from pfcourse.metrics import position_error
+from pfcourse.seeding import run_filter_seed
 from pfcourse.experiments.robot import compare_filters
 from pfcourse.figures.report import EvidenceBlock, glue_values
 from pfcourse.filter import ParticleFilter
@@ -91,25 +96,54 @@ from pfcourse.style import COLORS, use_style
 use_style()
 
 
+# %% [markdown]
+# One run of the chapter {doc}`robot` scenario, $200$ s long, comes from one helper as plain
+# arrays; the filter assumes twice the simulator's noise, and its prior is the true start with
+# standard deviations of $1$ m, $1$ m and $0.1$ rad. In NumPy:
+
 # %%
-def ekf(odometry, measurements, landmarks, Q, R, m0, P0, dt=1.0):
+import matplotlib.pyplot as plt
+import numpy as np
+from pfcourse.robot.scenario import simulate_robot
+
+sim = simulate_robot(rng=3, n_steps=200)
+Q, R = 2 * sim.scenario.q_true, 2 * sim.scenario.r_true
+m0, P0 = sim.truth[0], np.diag([1.0, 1.0, 0.1]) ** 2
+
+
+def wrap(a):
+    """Angles mapped to (-pi, pi]."""
+    return a - 2 * np.pi * np.ceil((a - np.pi) / (2 * np.pi))
+
+
+def ekf(odometry, readings, landmarks, Q, R, m, P, dt=1.0):
     """Algorithm 13.1; returns the (K, 3) means and (K, 3, 3) covariances."""
-    m, P, means, covs = m0.copy(), P0.copy(), [], []
-    for k, (u, z) in enumerate(zip(odometry, measurements)):
-        if k > 0:  # 1. predict with the Jacobians at the previous mean
+    means, covs = [], []
+    for k, (u, z) in enumerate(zip(odometry, readings)):
+        if k > 0:
+            # 1. predict, with the Jacobians at the previous mean
             c, s = np.cos(m[2]), np.sin(m[2])
-            F = np.array([[1, 0, -(u[0] * s + u[1] * c) * dt], [0, 1, (u[0] * c - u[1] * s) * dt], [0, 0, 1]])
-            G = np.array([[c * dt, -s * dt, 0], [s * dt, c * dt, 0], [0, 0, dt]])
-            m, P = motion(m, u, dt), F @ P @ F.T + G @ Q @ G.T
-        if not np.isnan(z[0]):  # 2. update with landmark j
+            F = np.array([[1, 0, -(u[0] * s + u[1] * c) * dt],
+                          [0, 1, (u[0] * c - u[1] * s) * dt],
+                          [0, 0, 1]])
+            G = np.array([[c * dt, -s * dt, 0], [s * dt, c * dt, 0],
+                          [0, 0, dt]])
+            m = np.array([m[0] + (u[0] * c - u[1] * s) * dt,
+                          m[1] + (u[0] * s + u[1] * c) * dt,
+                          wrap(m[2] + u[2] * dt)])
+            P = F @ P @ F.T + G @ Q @ G.T
+        if not np.isnan(z[0]):
+            # 2. update with landmark j
             dx, dy = landmarks[int(z[0])] - m[:2]
             q = dx * dx + dy * dy
-            H = np.array([[-dx / np.sqrt(q), -dy / np.sqrt(q), 0], [dy / q, -dx / q, -1]])
-            nu = np.array([z[1] - np.sqrt(q), wrap_angle(z[2] - (np.arctan2(dy, dx) - m[2]))])
+            H = np.array([[-dx / np.sqrt(q), -dy / np.sqrt(q), 0],
+                          [dy / q, -dx / q, -1]])
+            nu = np.array([z[1] - np.sqrt(q),
+                           wrap(z[2] - (np.arctan2(dy, dx) - m[2]))])
             S = H @ P @ H.T + R
             K = P @ H.T @ np.linalg.inv(S)
             m = m + K @ nu
-            m[2] = wrap_angle(m[2])
+            m[2] = wrap(m[2])
             I_KH = np.eye(3) - K @ H
             P = I_KH @ P @ I_KH.T + K @ R @ K.T
         means.append(m)
@@ -118,21 +152,33 @@ def ekf(odometry, measurements, landmarks, Q, R, m0, P0, dt=1.0):
 
 
 # %% [markdown]
-# The check: on one run of the lab's scenario ($200$ s), this loop and the library's EKF
-# (`pfcourse.robot.kalman.run_ekf`, the package's one Kalman-family loop) must give the same means and
-# covariances, to round-off. The figure then shows the three filters' paths on that run, zoomed
-# on the start, where they converge from the initial guess.
+# Run it, and plot its position error against its own $3\sigma$ band:
 
 # %%
-sim = simulate_robot(rng=3, n_steps=200)
+mine, mine_cov = ekf(sim.odometry, sim.measurements, sim.landmarks, Q, R,
+                     m0, P0)
+error = np.hypot(*(mine[:, :2] - sim.truth[:, :2]).T)
+band = 3 * np.sqrt(mine_cov[:, 0, 0] + mine_cov[:, 1, 1])
+fig, ax = plt.subplots(figsize=(7, 3.2))
+ax.plot(error, label="position error")
+ax.plot(band, "--", label="3 σ of the EKF")
+ax.set(xlabel="time (s)", ylabel="metres", yscale="log")
+ax.legend(loc="upper right")
+plt.show()
+
+# %% [markdown]
+# The error stays well inside the band once the first readings have pulled the estimate in.
+# This loop is the library's EKF (`pfcourse.robot.kalman.run_ekf`), which the rest of the
+# chapter runs: the means and covariances agree to round-off (below
+# {glue:text}`ekf_bound:.0e`). The figure below shows the three filters' paths on this run,
+# zoomed on the start, where they converge from the initial guess.
+
+# %% tags=["hide-input"] jupyter={"source_hidden": true}
 model = RobotModel.for_simulation(sim)
-mine, mine_cov = ekf(sim.odometry, sim.measurements, sim.landmarks, model.q_est, model.r_est, sim.truth[0],
-                     np.diag(np.array(INITIAL_STD) ** 2))
 ekf_run = run_ekf(model, sim.measurements)
 ROUND_OFF = 1e-9
-print(f"largest difference from the library's EKF below {ROUND_OFF:.0e}: means "
-      f"{np.abs(tracking_errors(ekf_run.mean, mine)).max() < ROUND_OFF}, covariances "
-      f"{np.abs(mine_cov - ekf_run.cov).max() < ROUND_OFF}")
+assert np.abs(tracking_errors(ekf_run.mean, mine)).max() < ROUND_OFF
+assert np.abs(mine_cov - ekf_run.cov).max() < ROUND_OFF
 pf = ParticleFilter(model, 300).run(sim.measurements, 3)
 ukf = run_ukf(model, sim.measurements)
 ax = robot_map(sim, {"particle filter": pf.mean, "EKF": ekf_run.mean, "UKF": ukf.mean}, odometry=True)
@@ -142,10 +188,9 @@ ax.set_title("First 200 s of one run")
 plt.show()
 
 # %% [markdown]
-# The NumPy loop is the library's EKF (differences below {glue:text}`ekf_bound:.0e`). On this
-# run the EKF and UKF paths are nearly indistinguishable, at most {glue:text}`ekf_ukf_gap_m:.3f` m
-# apart: with a reading every second the estimate stays within decimetres of the truth, and
-# over decimetres range and bearing are almost linear.
+# On this run the EKF and UKF paths are nearly indistinguishable, at most
+# {glue:text}`ekf_ukf_gap_m:.3f` m apart: with a reading every second the estimate stays within
+# decimetres of the truth, and over decimetres range and bearing are almost linear.
 
 # %% tags=["remove-input"] jupyter={"source_hidden": true}
 gap_ukf = float(np.max(np.hypot(*(ekf_run.mean[:, :2] - ukf.mean[:, :2]).T)))
@@ -187,7 +232,7 @@ def column(key, attr, source=None):
     return np.array([getattr(r[key], attr) for r in (source or runs)])
 
 
-# %%
+# %% tags=["hide-input"] jupyter={"source_hidden": true}
 fig, axes = plt.subplots(1, 3, figsize=(10, 3.8))
 for i, (key, label) in enumerate(names.items()):
     for ax, values in zip(axes[:2], (column(key, "position_rmse"), np.degrees(column(key, "heading_rmse")))):
@@ -213,8 +258,9 @@ plt.show()
 # %% [markdown]
 # **The EKF is slightly more accurate than the particle filter here.** On the same runs the
 # particle filter's position RMSE exceeds the EKF's by a median of
-# {glue:text}`pos_diff_median_m:.3f` m (95 % interval {glue:text}`pos_diff_low_m:.3f` to
-# {glue:text}`pos_diff_high_m:.3f` m): a real difference, of about a centimetre. With a reading
+# {glue:text}`pos_diff_median_m:.3f` m
+# ({glue:text}`pos_diff_low_m:.3f`-{glue:text}`pos_diff_high_m:.3f`): a real difference, of
+# about a centimetre. With a reading
 # every second the posterior is close to Gaussian and the linearization is accurate, so the
 # particle filter's Monte Carlo error only adds noise. The heading tells the same story
 # (evidence).
@@ -341,14 +387,16 @@ EvidenceBlock(
 # {glue:text}`wide_ekf_rmse:.2f` m): a few readings of different landmarks pin the state down
 # before linearization errors accumulate. The particle filter with $N = 300$ is now the weak
 # one: its position RMSE is a median {glue:text}`wide_ratio:.1f` times the EKF's on the same run
-# (95 % interval {glue:text}`wide_ratio_low:.1f` to {glue:text}`wide_ratio_high:.1f`). Its
-# $300$ particles are spread over a far larger prior volume (evidence); the first readings leave a handful of them with weight, and resampling
+# ({glue:text}`wide_ratio_low:.1f`-{glue:text}`wide_ratio_high:.1f`).
+#
+# Its $300$ particles are spread over a far larger prior volume (evidence); the first readings
+# leave a handful of them with weight, and resampling
 # concentrates the cloud on those, a little off and too confident: the sample impoverishment of
 # {doc}`robot`, in a milder form.
 #
 # Ten times more particles, $N = 3000$, cut the particle filter's position RMSE to a median
-# {glue:text}`many_ratio:.2f` times its value with $N = 300$ on the same runs (95 % interval
-# {glue:text}`many_ratio_low:.2f` to {glue:text}`many_ratio_high:.2f`), which leaves it at
+# {glue:text}`many_ratio:.2f` times its value with $N = 300$ on the same runs
+# ({glue:text}`many_ratio_low:.2f`-{glue:text}`many_ratio_high:.2f`), which leaves it at
 # {glue:text}`many_vs_ekf:.1f` times the EKF's (evidence).
 #
 # The honest summary for this robot: when the initial guess is good, or merely Gaussian and
@@ -356,44 +404,80 @@ EvidenceBlock(
 # the posterior is not one bump: global localization and the kidnapped robot
 # ({doc}`global_localization`).
 #
+# ## Try it
+#
+# The panel runs the particle filter and the EKF on one $60$ s run, both started from the same
+# prior around the true start, and plots their position errors. Widen the prior: at which
+# spread does the particle filter with $300$ particles fall behind the EKF, and how many
+# particles does it need to catch up? Change the seed: is the answer the same on another run?
+
+# %% tags=["hide-input"] jupyter={"source_hidden": true}
+def draw_compare(prior_sd=5.0, n_particles=300, seed=0):
+    s = simulate_robot(rng=seed, n_steps=60)
+    m = RobotModel.for_simulation(s, initial_std=(prior_sd, prior_sd, prior_sd / 10))
+    res = ParticleFilter(m, n_particles).run(s.measurements, run_filter_seed(seed))
+    res_ekf = run_ekf(m, s.measurements)
+    t = np.arange(len(s.truth))
+    fig, ax = plt.subplots(figsize=(8, 3.4))
+    for label, r, color in (("particle filter", res, COLORS["estimate"]), ("EKF", res_ekf, COLORS["kalman"])):
+        err = position_error(s.truth, r.mean)
+        ax.semilogy(t, np.maximum(err, 1e-3), color=color,
+                    label=f"{label}: RMSE after 10 s {np.sqrt(np.mean(err[10:] ** 2)):.2f} m")
+    ax.set_ylim(1e-3, 30)
+    ax.set_xlabel("time (s)")
+    ax.set_ylabel("position error (m)")
+    ax.legend(loc="upper right")
+
+
+# %% tags=["nbval-ignore-output", "hide-input"] jupyter={"source_hidden": true}
+display(control_panel(draw_compare, grid={"prior_sd": (1.0, 5.0, 10.0), "n_particles": (100, 300, 3000)},
+                      side={"seed": (0, 1, 2)},
+                      prior_sd=Dropdown(options=[1.0, 5.0, 10.0], value=5.0, description="prior sd (m)"),
+                      n_particles=particle_slider(300, 2, 4), seed=seed_box(0)))
+
+# %% [markdown]
 # ## Exercises
 #
-# ```{exercise} 13.1 The measurement Jacobian, in code
+# ```{exercise} 13.1 Another sensor's Jacobian, in code
 # :label: ex-robot-jacobian
 # :nonumber:
-# (Coding.) Write `my_jacobian(state, landmark)`: the $2 \times 3$ matrix
-# $H = \partial h_j / \partial x$ of range and bearing at `state` $= (x, y, \theta)$ for a
-# landmark `landmark` $= l^j$ (derived above). The checker compares it at three poses with the
-# exact derivative (a careful central difference also passes) and names the mistake it sees.
+# (Coding.) A stereo camera or a laser feature extractor does not report range and bearing but
+# the landmark's position in the robot's own frame, $x$ forward and $y$ to the left:
+# $z = R(\theta)^\top (l^j - p)$, with $p = (x, y)$ and $R(\theta)$ the rotation by $\theta$.
+# An EKF for this sensor needs its Jacobian. Write `my_jacobian(state, landmark)`: the
+# $2 \times 3$ matrix $H = \partial z / \partial (x, y, \theta)$ at `state` $= (x, y, \theta)$
+# for `landmark` $= l^j$. The checker compares it at three poses with the exact derivative (a
+# careful central difference also passes) and names the mistake it sees.
 # ```
 
 # %% tags=["answer"]
+from pfcourse.exercises import check_relative_jacobian
+
+
 def my_jacobian(state, landmark):
-    """Your H = dh/dx: a (2, 3) array, rows (range, bearing), columns (x, y, theta)."""
+    """Your H = dz/dx: (2, 3), rows (forward, left), columns (x, y, theta)."""
     ...  # replace with your code
 
 
-print(check_range_bearing_jacobian(my_jacobian))
+print(check_relative_jacobian(my_jacobian))
 
 # %% [markdown]
 # ```{solution} ex-robot-jacobian
 # :class: dropdown
-# The range is $\sqrt q$, with $\partial \sqrt q/\partial x = -d_x/\sqrt q$ and
-# $\partial \sqrt q / \partial y = -d_y / \sqrt q$; it does not depend on $\theta$. The bearing
-# $\operatorname{atan2}(d_y, d_x) - \theta$ has derivatives $d_y / q$ in $x$, $-d_x/q$ in $y$ and
-# $-1$ in $\theta$. The code is in the folded cell below (in JupyterLab, click its margin). A
-# central difference with step $10^{-6}$ agrees to about $10^{-9}$, if the difference of the two
-# bearings is wrapped before dividing by the step.
+# With $(d_x, d_y) = l^j - p$, $c = \cos\theta$ and $s = \sin\theta$, the sensor reads
+# $z = (c d_x + s d_y,\ -s d_x + c d_y)$. In $x$ and $y$ the derivative is $-R(\theta)^\top$,
+# rows $(-c, -s)$ and $(s, -c)$; in $\theta$ it is $(-s d_x + c d_y,\ -c d_x - s d_y)$. The code
+# is in the folded cell below (in JupyterLab, click its margin).
 # ```
 
 # %% tags=["solution", "hide-input"] jupyter={"source_hidden": true}
 def my_jacobian(state, landmark):
+    c, s = np.cos(state[2]), np.sin(state[2])
     dx, dy = landmark[0] - state[0], landmark[1] - state[1]
-    q = dx * dx + dy * dy
-    return np.array([[-dx / np.sqrt(q), -dy / np.sqrt(q), 0.0], [dy / q, -dx / q, -1.0]])
+    return np.array([[-c, -s, -s * dx + c * dy], [s, -c, -c * dx - s * dy]])
 
 
-print(check_range_bearing_jacobian(my_jacobian))
+print(check_relative_jacobian(my_jacobian))
 
 # %% [markdown]
 # ```{exercise} 13.2 Why is the NEES below three?
@@ -425,3 +509,11 @@ print(check_range_bearing_jacobian(my_jacobian))
 #   times more particles narrow the gap.
 # - The particle filter earns its cost when the posterior is not one bump: global localization
 #   and the kidnapped robot.
+#
+# :::{admonition} From the labs
+# :class: dropdown
+# Lab C ({doc}`../labs`) asks whether the particle filter is better than an extended Kalman
+# filter, and at what cost. This chapter answers it on the same simulated runs: "Monte Carlo
+# comparison" (accuracy, consistency and run time from a good initial guess) and "A poor initial
+# guess" (a wide prior).
+# :::

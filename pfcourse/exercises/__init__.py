@@ -89,9 +89,18 @@ exception is reported as a problem); ``str(report)`` prints the verdict.
   ``log N(nu^i; 0, R)`` for a range-bearing reading, on a cloud that sees the landmark right behind
   it; the mistakes of :data:`RANGE_BEARING_MISTAKES` (bearing innovation not wrapped, heading not
   subtracted, ``R`` read as standard deviations, no normalising constant) are named.
+* :func:`check_velocity_motion` - ``fn(x, u, sd, dt, rng) -> (N, 3)``: chapter 11's variant motion model,
+  every particle driven along an arc by its own noisy ``(v, omega)``; a large cloud's means and spreads
+  against the model's, headings wrapped, one draw per particle, the generator; the mistakes of
+  :data:`VELOCITY_MISTAKES` (a straight step, the arc turned the wrong way, ``sd`` read as a variance, the
+  noise put on the pose) are named.
 * :func:`check_range_bearing_jacobian` - ``fn(state, landmark) -> (2, 3)``: the EKF's measurement
   Jacobian of range and bearing at three poses; the mistakes of :data:`JACOBIAN_MISTAKES` (offset
   reversed, ``+1`` for the heading, ``q`` for ``sqrt(q)``, ``dx`` and ``dy`` swapped) are named.
+* :func:`check_relative_jacobian` - ``fn(state, landmark) -> (2, 3)``: chapter 13's variant sensor, the
+  Jacobian of the landmark measured in the robot's frame ``R(theta)^T (l - p)``; the mistakes of
+  :data:`RELATIVE_MISTAKES` (``R`` not transposed, offset reversed, heading column zero or of the wrong
+  sign) are named.
 * :func:`check_consistency` - ``fn(errors, covariances) -> (average_nees, band, fraction)``: the
   NEES check of a filter over ``R`` runs (chapter 23), the run-averaged NEES per step, the 95 % band
   of an average of ``R`` chi-square variables with ``d`` degrees of freedom and the fraction of steps
@@ -109,6 +118,10 @@ exception is reported as a problem); ``str(report)`` prints the verdict.
   mistakes of :data:`POSE_DENSITY_MISTAKES` (the bearing added, the Jacobian ``1 / h_r``, the
   direction's ``1 / (2 pi)`` or the truncation ``Phi(r / s_r)`` left out, the residual not wrapped,
   standard deviations read as variances) are named.
+* :func:`check_bearing_pose_draw` - ``fn(b, landmark, sd_b, r_max, n, rng) -> (n, 3)``: chapter 12's variant,
+  poses drawn from a bearing-only reading; a large cloud's statistics against the model's, the generator, and
+  the mistakes of :data:`BEARING_POSE_MISTAKES` (range uniform instead of the disc, half a circle, no ``pi``,
+  the bearing's sign, ``sd`` as a variance) named.
 * :func:`check_beam_reading` - ``fn(z_star, scanner, rng) -> z``: one reading per beam drawn from the four-part
   beam model (chapter 14's coding exercise), checked by the shares of readings below, near and beyond ``z*``
   and at ``z_max``, and by the generator it draws from; the mistakes of :data:`BEAM_MISTAKES` are named;
@@ -130,11 +143,16 @@ Each Part ends with a capstone (:mod:`.capstones`):
 * :func:`check_sv_filter` - ``fn(y, n, rng, model) -> (means, log_likelihood)``: Part I's capstone, a
   particle filter for the stochastic volatility model :class:`SVModel`, against a converged grid; its
   means tested for bias and its likelihood for unbiasedness over seeded runs, seven typical mistakes named.
+* :func:`check_bearing_filter` - ``fn(z, observer, n, rng, model) -> (means, log_likelihood)``: Part II's
+  capstone, a particle filter for bearing-only tracking of a drifting target from a moving observer
+  (:class:`BearingModel`), against a converged grid in the plane; eight typical mistakes named.
 """
 
 from __future__ import annotations
 
 from pfcourse.exercises.capstones import SVModel, check_sv_filter, sv_bootstrap, sv_grid  # noqa: F401
+from pfcourse.exercises.capstones import (  # noqa: F401
+    BearingModel, bearing_bootstrap, bearing_grid, check_bearing_filter)
 from pfcourse.exercises.checking import (  # noqa: F401
     CheckReport,
     _answer,
@@ -236,10 +254,15 @@ from pfcourse.exercises.part2 import (  # noqa: F401
     JITTER_SCALE,
     POSE_DENSITY_CASES,
     POSE_DENSITY_MISTAKES,
+    BEARING_POSE_CASE,
+    BEARING_POSE_MISTAKES,
     RANGE_BEARING_LANDMARK,
     RANGE_BEARING_MISTAKES,
     RANGE_BEARING_R,
     RANGE_BEARING_Z,
+    RELATIVE_CASES,
+    RELATIVE_MISTAKES,
+    VELOCITY_MISTAKES,
     _RoomGrid,
     _named_mistake,
     _poses_near_reading,
@@ -252,15 +275,21 @@ from pfcourse.exercises.part2 import (  # noqa: F401
     check_beam_reading,
     check_bias_update,
     check_likelihood_field,
+    check_bearing_pose_draw,
     check_pose_density,
     check_range_bearing_jacobian,
+    check_relative_jacobian,
     check_range_bearing_log_weights,
     check_regularised_jitter,
+    check_velocity_motion,
     beam_reading_reference,
     field_log_weights,
     pose_reading_log_density,
+    bearing_pose_draw,
     range_bearing_jacobian,
+    relative_landmark_jacobian,
     range_bearing_log_weights,
+    velocity_motion,
 )
 from pfcourse.exercises.part3 import (  # noqa: F401
     ESS_CASES,

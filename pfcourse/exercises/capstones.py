@@ -9,6 +9,12 @@ shown, and the checker measures it against a near-exact answer.
   stationary law, the mean read before the weighting, no resampling, ``log sum`` instead of ``log mean`` of
   the weights, the mean of the log-weights instead of the log of their mean, and draws from NumPy's global
   generator instead of ``rng``.
+* :func:`check_bearing_filter` - ``fn(z, observer, n, rng, model) -> (means, log_likelihood)``: a particle
+  filter for bearing-only tracking of a drifting target from a moving observer (:class:`BearingModel`,
+  Part II's capstone), against a converged grid in the plane (:func:`bearing_grid`), tested as above; the
+  mistakes named: the random walk's ``q^2`` for ``q``, the initial cloud of spread ``q``, the mean read before
+  the weighting, the bearing residual not wrapped, no resampling, ``log sum`` and ``mean log`` for the
+  likelihood, and NumPy's global generator.
 """
 
 from __future__ import annotations
@@ -215,4 +221,222 @@ def _check_sv_filter(fn: Callable, n: int, n_runs: int, seed: int, model: SVMode
             report.problems.append(
                 f"your log-likelihood averages {ell.mean():.2f} where log p(y) = {exact_log_lik:.2f}: the "
                 "estimate must be unbiased for p(y), the product over steps of the mean unnormalised weight")
+    return report
+
+
+# ----------------------------------------------------------------------------- Part II's capstone
+#: Part II's capstone: bearing-only tracking. The observer circles the origin at ``BEARING_OBSERVER_RADIUS`` m,
+#: starting south of it, once in ``BEARING_STEPS`` steps; the data are simulated with ``BEARING_DATA_SEED``.
+BEARING_STEPS, BEARING_DATA_SEED, BEARING_OBSERVER_RADIUS = 40, 2027, 30.0
+
+
+@dataclass(frozen=True)
+class BearingModel:
+    """Bearing-only tracking of a drifting target from a moving observer (Part II's capstone):
+
+    ``p_0 ~ N(m0, s0^2 I)``, ``p_k = p_{k-1} + q w_k`` (a random walk of the target's position in the plane,
+    m), ``z_k = wrap(atan2(p_y - o_y, p_x - o_x) + sigma v_k)`` for ``k = 1..T``, with ``w_k ~ N(0, I_2)``,
+    ``v_k ~ N(0, 1)`` independent and the observer's positions ``o_k`` known (:meth:`observer`). ``s0``, ``q``
+    (m) and ``sigma`` (rad) are standard deviations. The density of a bearing is taken as
+    ``N(wrap(z - h(p)); 0, sigma^2)``: the wrapped normal's other terms are below ``exp(-(pi / sigma)^2 / 2)``,
+    nothing in double precision for ``sigma < 0.3``."""
+
+    m0: tuple[float, float] = (0.0, 0.0)
+    s0: float = 5.0
+    q: float = 0.5
+    sigma: float = 0.05
+
+    def __post_init__(self) -> None:
+        for name in ("s0", "q", "sigma"):
+            if not getattr(self, name) > 0.0:
+                raise ParameterError(f"BearingModel: {name} = {getattr(self, name)} must be a positive "
+                                     "standard deviation")
+        if not self.sigma < 0.3:
+            raise ParameterError(f"BearingModel: sigma = {self.sigma} rad is too wide for the normal density of the "
+                                 "wrapped residual to be the wrapped normal's; use sigma < 0.3 rad")
+
+    @staticmethod
+    def observer(n_steps: int = BEARING_STEPS) -> np.ndarray:
+        """The observer's positions ``o_1..o_T`` (T, 2): once around the origin, counter-clockwise from the south,
+        so that it passes east of the target, where the bearing crosses +-pi."""
+        phi = -np.pi / 2 + 2 * np.pi * np.arange(1, n_steps + 1) / n_steps
+        return BEARING_OBSERVER_RADIUS * np.column_stack([np.cos(phi), np.sin(phi)])
+
+    def simulate(self, n_steps: int, rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray]:
+        """Positions ``p_0..p_T`` (T + 1, 2) and bearings ``z_1..z_T`` (rad)."""
+        p = np.empty((n_steps + 1, 2))
+        p[0] = np.asarray(self.m0) + self.s0 * rng.standard_normal(2)
+        for k in range(1, n_steps + 1):
+            p[k] = p[k - 1] + self.q * rng.standard_normal(2)
+        o = self.observer(n_steps)
+        h = np.arctan2(p[1:, 1] - o[:, 1], p[1:, 0] - o[:, 0])
+        return p, _wrap_angle(h + self.sigma * rng.standard_normal(n_steps))
+
+
+def _wrap_angle(a):
+    """Angles mapped to (-pi, pi]."""
+    return a - 2 * np.pi * np.ceil((a - np.pi) / (2 * np.pi))
+
+
+#: The mistakes whose large-N limit the grid computes (:func:`bearing_grid`), with the sentence that names each.
+BEARING_MEAN_MISTAKES = {
+    "q_variance": ("your target drifts with standard deviation q^2 per step: q is the random walk's standard "
+                   "deviation, so a step is p + q * rng.standard_normal(2)"),
+    "prior": ("your early means fit an initial cloud of spread q around m0: the target starts from "
+              "N(m0, s0^2 I), s0 = 5 m, far wider than one step of the random walk"),
+    "predicted": ("your means are those of the predicted cloud, read before the weighting: the filtering mean "
+                  "E[p_k | z_1..z_k] is the weighted mean after the bearing z_k is used"),
+    "no_wrap": ("your bearing residual is not wrapped to (-pi, pi]: east of the target the bearing is near "
+                "+-pi, and a reading of 3.13 rad against a prediction of -3.13 rad is 0.02 rad off, not 6.26"),
+}
+BEARING_LIKELIHOOD_MISTAKES = {
+    "log_sum": ("your log-likelihood is about T log N too large: each step's factor is the MEAN of the "
+                "unnormalised weights, log (1/N) sum_i g(z_k | p_k^i), not their sum"),
+    "mean_log": ("your log-likelihood is the mean of the log-weights, which lies below the log of the mean "
+                 "weight (Jensen): each step adds logsumexp(log g) - log N"),
+}
+
+
+def bearing_grid(z: np.ndarray, model: BearingModel, mistake: str | None = None, n_grid: int = 251,
+                 half_width: float = 25.0) -> tuple[np.ndarray, float]:
+    """The filtering means ``E[p_k | z_1..z_k]`` (T, 2) and ``log p(z_1..z_T)`` by Bayes' rule on a grid of
+    ``n_grid^2`` points over ``m0 +- half_width`` m (converged: ``tests/test_robot_exercises.py`` moves ``n_grid``
+    and ``half_width``). The random walk is separable: a step convolves the grid's masses with a Gaussian
+    kernel along x, then along y (``K p K^T``, columns of ``K`` summing to 1). ``mistake`` (a key of
+    :data:`BEARING_MEAN_MISTAKES` or :data:`BEARING_LIKELIHOOD_MISTAKES`) returns instead what a filter with
+    that mistake converges to as its number of particles grows."""
+    gx = model.m0[0] + np.linspace(-half_width, half_width, n_grid)
+    gy = model.m0[1] + np.linspace(-half_width, half_width, n_grid)
+    q = model.q ** 2 if mistake == "q_variance" else model.q
+
+    def kernel(g):
+        log_k = -0.5 * ((g[:, None] - g[None, :]) / q) ** 2
+        return np.exp(log_k - logsumexp(log_k, axis=0, keepdims=True))
+
+    kx, ky = kernel(gx), kernel(gy)
+    s0 = model.q if mistake == "prior" else model.s0
+    log_p = -0.5 * (((gx[:, None] - model.m0[0]) / s0) ** 2 + ((gy[None, :] - model.m0[1]) / s0) ** 2)
+    p = np.exp(log_p - logsumexp(log_p))  # p[i, j]: mass at (gx[i], gy[j])
+    o = model.observer(len(z))
+    means, log_lik = np.empty((len(z), 2)), 0.0
+    for k, zk in enumerate(z):
+        pred = kx @ p @ ky.T
+        pred = np.maximum(pred, 0.0)
+        h = np.arctan2(gy[None, :] - o[k, 1], gx[:, None] - o[k, 0])
+        r = zk - h if mistake == "no_wrap" else _wrap_angle(zk - h)
+        log_g = -0.5 * (r / model.sigma) ** 2 - np.log(np.sqrt(2 * np.pi) * model.sigma)
+        log_c = logsumexp(log_g, b=pred)
+        log_lik += float(np.sum(pred * log_g)) if mistake == "mean_log" else log_c
+        post = pred * np.exp(log_g - log_c)
+        p = post / post.sum()
+        w = pred if mistake == "predicted" else p
+        means[k] = [gx @ w.sum(axis=1), gy @ w.sum(axis=0)]
+    return means, log_lik
+
+
+def bearing_bootstrap(z: np.ndarray, observer: np.ndarray, n: int, rng: np.random.Generator,
+                      model: BearingModel) -> tuple[np.ndarray, float]:
+    """The reference answer: a bootstrap filter with multinomial resampling at every step."""
+    o = observer
+    p = np.asarray(model.m0) + model.s0 * rng.standard_normal((n, 2))
+    means, log_lik = np.empty((len(z), 2)), 0.0
+    for k, zk in enumerate(z):
+        p = p + model.q * rng.standard_normal((n, 2))
+        h = np.arctan2(p[:, 1] - o[k, 1], p[:, 0] - o[k, 0])
+        log_w = -0.5 * (_wrap_angle(zk - h) / model.sigma) ** 2 - np.log(np.sqrt(2 * np.pi) * model.sigma)
+        log_c = logsumexp(log_w)
+        log_lik += log_c - np.log(n)
+        w = np.exp(log_w - log_c)
+        means[k] = w @ p
+        p = p[rng.choice(n, size=n, p=w)]
+    return means, log_lik
+
+
+def check_bearing_filter(fn: Callable, n: int = 2000, n_runs: int = 24, seed: int = 0,
+                         model: BearingModel | None = None) -> CheckReport:
+    """:func:`_check_bearing_filter`, leaving NumPy's global ``np.random`` state as it was."""
+    saved = np.random.get_state()
+    try:
+        return _check_bearing_filter(fn, n, n_runs, seed, model)
+    finally:
+        np.random.set_state(saved)
+
+
+def _check_bearing_filter(fn: Callable, n: int, n_runs: int, seed: int,
+                          model: BearingModel | None) -> CheckReport:
+    """Check a particle filter ``fn(z, observer, n, rng, model) -> (means, log_likelihood)`` for bearing-only
+    tracking against the converged grid (:func:`bearing_grid`), over ``n_runs`` seeded runs, as
+    :func:`_check_sv_filter` does for Part I's capstone: shape and finiteness; the generator; the spread of the
+    means at most three times a resampled filter's (:func:`bearing_bootstrap`); no mean (x or y, any step)
+    further from the grid's than 5 standard errors of the mean over runs; ``mean(log p_hat) + var(log p_hat) / 2``
+    within 5 standard errors plus 0.05 of ``log p(z)``. A failure is compared with the large-N limit of each
+    typical mistake, so that it is named."""
+    model = model or BearingModel()
+    report = CheckReport("check_bearing_filter")
+    _, z = model.simulate(BEARING_STEPS, np.random.default_rng(BEARING_DATA_SEED))
+    obs = model.observer(BEARING_STEPS)
+    signature = "fn(z, observer, n, rng, model)"
+    answers = []
+    for run in range(n_runs):
+        answer = _answer(report, lambda: fn(z.copy(), obs.copy(), n, np.random.default_rng(seed + run), model),
+                         signature, "return (means, log_likelihood): the filtering mean of each step and log p_hat(z)")
+        if answer is None:
+            return report
+        try:
+            means, log_lik = answer
+            means, log_lik = np.asarray(means, dtype=float), float(log_lik)
+        except (TypeError, ValueError):
+            report.problems.append("return a pair (means, log_likelihood): a (T, 2) array of means and one number")
+            return report
+        if means.shape != (len(z), 2):
+            report.problems.append(f"the means have shape {means.shape}, not ({len(z)}, 2): return one filtering "
+                                   "mean (x, y) per bearing z_1..z_T")
+            return report
+        if not (np.isfinite(means).all() and np.isfinite(log_lik)):
+            report.problems.append("the answer holds NaN or infinity: compute the weights in the log domain "
+                                   "and normalise with logsumexp")
+            return report
+        answers.append((means, log_lik))
+    problem = _generator_problem(lambda rng: fn(z.copy(), obs.copy(), 200, rng, model),
+                                 lambda a, b: np.array_equal(np.asarray(a[0]), np.asarray(b[0])), what="mean")
+    if problem:
+        report.problems.append(problem)
+        return report
+    m = np.array([a[0] for a in answers])
+    ell = np.array([a[1] for a in answers])
+    ref = np.array([bearing_bootstrap(z, obs, n, np.random.default_rng(10_000 + r), model)[0] for r in range(n_runs)])
+    spread, ref_spread = m.std(axis=0, ddof=1).mean(), ref.std(axis=0, ddof=1).mean()
+    if spread > 3 * ref_spread:
+        report.problems.append(
+            f"your means vary over seeds {spread / ref_spread:.0f} times as much as a resampled filter's: "
+            "without resampling the weights collapse onto a few particles; resample after each weighting")
+        return report
+    exact, exact_log_lik = bearing_grid(z, model)
+    se = m.std(axis=0, ddof=1) / np.sqrt(n_runs) + 1e-12
+
+    def worst_z(target: np.ndarray) -> float:
+        return float(np.max(np.abs((m.mean(axis=0) - target) / se)))
+
+    if worst_z(exact) > 5:
+        for mistake, why in BEARING_MEAN_MISTAKES.items():
+            if worst_z(bearing_grid(z, model, mistake)[0]) <= 5:
+                report.problems.append(why)
+                return report
+        k, c = np.unravel_index(int(np.argmax(np.abs(m.mean(axis=0) - exact) / se)), exact.shape)
+        report.problems.append(
+            f"your mean {'xy'[c]} at step {k + 1} averages {m.mean(axis=0)[k, c]:.2f} m over {n_runs} runs where the "
+            f"exact filter's is {exact[k, c]:.2f} m, further than chance allows: check the move, the weight and "
+            "the mean")
+        return report
+    se_ell = ell.std(ddof=1) / np.sqrt(n_runs)
+    gap = ell.mean() + ell.var(ddof=1) / 2 - exact_log_lik
+    if abs(gap) > 5 * se_ell + 0.05:
+        if abs(gap - len(z) * np.log(n)) <= 5 * se_ell + 0.05:
+            report.problems.append(BEARING_LIKELIHOOD_MISTAKES["log_sum"])
+        elif abs(ell.mean() - bearing_grid(z, model, "mean_log")[1]) <= 5 * se_ell + 0.05:
+            report.problems.append(BEARING_LIKELIHOOD_MISTAKES["mean_log"])
+        else:
+            report.problems.append(
+                f"your log-likelihood averages {ell.mean():.2f} where log p(z) = {exact_log_lik:.2f}: the "
+                "estimate must be unbiased for p(z), the product over steps of the mean unnormalised weight")
     return report

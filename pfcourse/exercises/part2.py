@@ -122,6 +122,109 @@ def check_pose_density(fn: Callable, n_poses: int = 40, seed: int = 0, rtol: flo
                            "-log 2 pi and -log h_r(x)")
     return report
 
+#: Chapter 11's exercise: a pose drawn from a bearing-only reading. The landmark, the bearing (rad), its
+#: standard deviation (rad) and the radius (m) of the disc around the landmark the robot is known to be in.
+BEARING_POSE_CASE = dict(landmark=np.array([10.0, -20.0]), b=0.8, sd_b=0.05, r_max=40.0)
+#: The typical mistakes of the bearing-only draw, and why each is wrong (compared by a large cloud's statistics).
+BEARING_POSE_MISTAKES = {
+    "uniform_range": ("your positions crowd the landmark: a range drawn uniformly on [0, r_max] is not a position "
+                      "uniform on the disc, whose range has density 2r / r_max^2: draw r = r_max sqrt(u)"),
+    "half_circle": ("your positions cover only half of the disc: the reading says nothing about the side of the "
+                    "landmark the robot is on, so the direction phi is uniform on (-pi, pi]"),
+    "no_pi": ("your robots face away from the landmark: seen from p = l + r (cos phi, sin phi) the landmark lies "
+              "in direction phi + pi, so theta = wrap(phi + pi - b')"),
+    "bearing_sign": ("your headings add the bearing: the landmark appears at bearing b' = (phi + pi) - theta, "
+                     "so theta = wrap(phi + pi - b'), not phi + pi + b'"),
+    "sd_as_variance": ("your bearings are too precise: sd_b is a standard deviation, b' = b + sd_b * e, not "
+                       "b + sd_b**2 * e"),
+}
+
+
+def bearing_pose_draw(b: float, landmark: np.ndarray, sd_b: float, r_max: float, n: int, rng: np.random.Generator,
+                      mistake: str | None = None) -> np.ndarray:
+    """``n`` poses ``(x, y, theta)`` drawn given a bearing-only reading ``b`` of ``landmark``: a position uniform
+    on the disc of radius ``r_max`` around it (``r = r_max sqrt(u)``, ``phi ~ U(-pi, pi)``), a bearing
+    ``b' ~ N(b, sd_b^2)`` and the heading ``theta = wrap(phi + pi - b')`` that makes the landmark appear at
+    ``b'``. ``mistake`` (a key of :data:`BEARING_POSE_MISTAKES`) computes that mistake instead."""
+    u = rng.random(n)
+    r = r_max * (u if mistake == "uniform_range" else np.sqrt(u))
+    phi = rng.uniform(0.0, np.pi, n) if mistake == "half_circle" else rng.uniform(-np.pi, np.pi, n)
+    sd = sd_b ** 2 if mistake == "sd_as_variance" else sd_b
+    b_drawn = b + sd * rng.standard_normal(n)
+    shift = 0.0 if mistake == "no_pi" else np.pi
+    theta = phi + shift + b_drawn if mistake == "bearing_sign" else phi + shift - b_drawn
+    return np.column_stack([landmark[0] + r * np.cos(phi), landmark[1] + r * np.sin(phi), _wrap(theta)])
+
+
+def _bearing_pose_features(x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Means and sds of (range / r_max, cos phi, sin phi, bearing residual) of drawn poses."""
+    case = BEARING_POSE_CASE
+    d = x[:, :2] - case["landmark"]
+    phi = np.arctan2(d[:, 1], d[:, 0])
+    residual = _wrap(case["b"] - _wrap(phi + np.pi - x[:, 2]))
+    f = np.column_stack([np.hypot(d[:, 0], d[:, 1]) / case["r_max"], np.cos(phi), np.sin(phi), residual])
+    return f.mean(axis=0), f.std(axis=0)
+
+
+def check_bearing_pose_draw(fn: Callable, n: int = 100_000, seed: int = 0) -> CheckReport:
+    """Check ``fn(b, landmark, sd_b, r_max, n, rng) -> (n, 3)``, leaving NumPy's global state as it was
+    (:func:`_check_bearing_pose_draw`)."""
+    saved = np.random.get_state()
+    try:
+        return _check_bearing_pose_draw(fn, n, seed)
+    finally:
+        np.random.set_state(saved)
+
+
+def _check_bearing_pose_draw(fn: Callable, n: int, seed: int) -> CheckReport:
+    """In turn: shape and finiteness; headings in (-pi, pi]; positions within ``r_max`` of the landmark; the
+    generator (:func:`~pfcourse.exercises.part1._generator_problem`); then the means and standard deviations of
+    (range / r_max, cos phi, sin phi, bearing residual) against 4n reference draws, every difference within
+    6 standard errors (doubled for the standard deviations). A failure is compared with each mistake of
+    :data:`BEARING_POSE_MISTAKES`, so that it is named."""
+    from pfcourse.exercises.part1 import _generator_problem
+
+    case = BEARING_POSE_CASE
+    report = CheckReport("pose from a bearing-only reading")
+
+    def call(k, rng):
+        return fn(case["b"], case["landmark"].copy(), case["sd_b"], case["r_max"], k, rng)
+
+    answer = _answer(report, lambda: call(n, np.random.default_rng(seed)), "fn(b, landmark, sd_b, r_max, n, rng)",
+                     "return the n drawn poses, one (x, y, theta) per row")
+    if answer is None or not _shaped(report, answer, (n, 3), "n poses, one (x, y, theta) per row"):
+        return report
+    answer = np.asarray(answer, dtype=float)
+    if not np.isfinite(answer).all():
+        report.problems.append("the poses hold NaN or infinity")
+        return report
+    if np.any(np.abs(answer[:, 2]) > np.pi + 1e-9):
+        report.problems.append("some headings lie outside (-pi, pi]: wrap theta")
+        return report
+    if np.any(np.hypot(*(answer[:, :2] - case["landmark"]).T) > case["r_max"] * (1 + 1e-9)):
+        report.problems.append("some positions lie farther than r_max from the landmark: the robot is known to be "
+                               "within r_max of it, so the range is at most r_max")
+        return report
+    problem = _generator_problem(lambda rng: call(200, rng), lambda a, b: np.array_equal(np.asarray(a), np.asarray(b)),
+                                 what="pose")
+    if problem:
+        report.problems.append(problem)
+        return report
+    mean, sd = _bearing_pose_features(answer)
+
+    def fits(mistake: str | None) -> bool:
+        ref = bearing_pose_draw(case["b"], case["landmark"], case["sd_b"], case["r_max"], 4 * n,
+                                np.random.default_rng(10_000), mistake=mistake)
+        ref_mean, ref_sd = _bearing_pose_features(ref)
+        se_mean = np.sqrt(sd**2 / n + ref_sd**2 / (4 * n)) + 1e-12
+        se_sd = ref_sd * np.sqrt(1 / (2 * n) + 1 / (8 * n)) * 2 + 1e-12
+        return max(np.max(np.abs(mean - ref_mean) / se_mean), np.max(np.abs(sd - ref_sd) / se_sd)) <= 6
+
+    if not _settled(report, fits, BEARING_POSE_MISTAKES):
+        report.problems.append("the poses' spread differs from the model's: a position uniform on the disc, a "
+                               "direction uniform on the circle, b' = b + sd_b e and theta = wrap(phi + pi - b')")
+    return report
+
 
 #: A small DEM for :func:`check_altimeter_likelihood`: 7 rows (north) by 9 columns (east), cells of
 #: 80 m east-west and 100 m north-south (unequal, and a non-square grid, so swapped axes show).
@@ -730,6 +833,119 @@ def check_range_bearing_log_weights(fn: Callable, n_particles: int = 40, seed: i
                           "nu = (z_r - range, wrap(z_b - bearing)) and the quadratic form nu^T R^-1 nu / 2")
 
 
+#: The velocity motion model's check (chapter 11's exercise): every particle starts at the same pose, heading
+#: 3 rad, so that the new headings cross the cut at +-pi; command (v, omega), its noise sds, and the step (s).
+VELOCITY_POSE = np.array([0.0, 0.0, 3.0])
+VELOCITY_U = np.array([2.0, 0.8])
+VELOCITY_SD = np.array([0.2, 0.1])
+VELOCITY_DT = 1.5
+#: The typical mistakes of the velocity motion model, and why each is wrong (the statistical ones: their
+#: large-cloud statistics are compared with the answer's).
+VELOCITY_MISTAKES = {
+    "straight": ("you move the particle in a straight line along its old heading (x + v cos(theta) dt): the "
+                 "velocity model drives along an arc of radius v / omega, x' = x + v/omega (sin(theta + omega "
+                 "dt) - sin(theta))"),
+    "turn_sign": ("your arc turns the wrong way: with omega > 0 the robot turns left, y' = y + v/omega "
+                  "(cos(theta) - cos(theta + omega dt)), not the opposite difference"),
+    "sd_as_variance": ("your cloud is too narrow: sd holds standard deviations, so the noisy command is "
+                       "v + sd_v * e, not v + sd_v**2 * e (or a draw with variance sd)"),
+    "pose_noise": ("you add the noise to the new pose instead of to the command (v, omega): the model's "
+                   "noise perturbs the speed and the turn rate, and the cloud bends along the arc"),
+}
+
+
+def velocity_motion(x: np.ndarray, u: np.ndarray, sd: np.ndarray, dt: float, rng: np.random.Generator,
+                    mistake: str | None = None) -> np.ndarray:
+    """The velocity motion model (Thrun, Burgard and Fox 2005, table 5.3, without its third noise): every pose
+    ``(x, y, theta)`` of ``x`` (N, 3) drives along an arc with its own noisy command ``(v, omega) + sd * e``,
+    ``e ~ N(0, I)``; the heading wrapped to (-pi, pi]. ``mistake`` (a key of :data:`VELOCITY_MISTAKES`)
+    computes that mistake instead."""
+    x = np.asarray(x, dtype=float)
+    n = len(x)
+    scale = np.asarray(sd) ** 2 if mistake == "sd_as_variance" else np.asarray(sd)
+    e = rng.standard_normal((n, 2))
+    v, w = (u[0], u[1]) if mistake == "pose_noise" else (u[0] + scale[0] * e[:, 0], u[1] + scale[1] * e[:, 1])
+    th, th_new = x[:, 2], x[:, 2] + w * dt
+    if mistake == "straight":
+        px, py = x[:, 0] + v * np.cos(th) * dt, x[:, 1] + v * np.sin(th) * dt
+    else:
+        r = v / w
+        turn = -1.0 if mistake == "turn_sign" else 1.0
+        px = x[:, 0] + r * (np.sin(th_new) - np.sin(th))
+        py = x[:, 1] + turn * r * (np.cos(th) - np.cos(th_new))
+    out = np.column_stack([px, py, _wrap(th_new)])
+    if mistake == "pose_noise":  # the same spread, put on the pose: v dt along x and y, omega dt on theta
+        out += np.column_stack([scale[0] * dt * e, scale[1] * dt * rng.standard_normal(n)])
+        out[:, 2] = _wrap(out[:, 2])
+    return out
+
+
+def _motion_features(x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Means and standard deviations of ``(x, y, cos theta, sin theta)`` over a cloud."""
+    f = np.column_stack([x[:, 0], x[:, 1], np.cos(x[:, 2]), np.sin(x[:, 2])])
+    return f.mean(axis=0), f.std(axis=0)
+
+
+def check_velocity_motion(fn: Callable, n: int = 100_000, seed: int = 0) -> CheckReport:
+    """Check ``fn(x, u, sd, dt, rng) -> (N, 3)``, the velocity motion model, leaving NumPy's global state
+    as it was (:func:`_check_velocity_motion`)."""
+    saved = np.random.get_state()
+    try:
+        return _check_velocity_motion(fn, n, seed)
+    finally:
+        np.random.set_state(saved)
+
+
+def _check_velocity_motion(fn: Callable, n: int, seed: int) -> CheckReport:
+    """In turn: the answer's shape and finiteness; headings wrapped to (-pi, pi]; a cloud that spreads (one
+    noise draw per particle, not one shared); the generator (:func:`~pfcourse.exercises.part1._generator_problem`);
+    then the means and standard deviations of ``(x, y, cos theta, sin theta)`` over ``n`` particles against
+    those of 4n reference draws: every difference within 6 standard errors (a correct answer's largest of the
+    eight is below 4 in all but about 1 in 4000 checks). A failure is compared with each typical mistake of
+    :data:`VELOCITY_MISTAKES`, so that it is named."""
+    from pfcourse.exercises.part1 import _generator_problem
+
+    report = CheckReport("velocity motion model")
+    start = np.tile(VELOCITY_POSE, (n, 1))
+    args = (VELOCITY_U, VELOCITY_SD, VELOCITY_DT)
+    answer = _answer(report, lambda: fn(start.copy(), *(np.copy(a) for a in args), np.random.default_rng(seed)),
+                     "fn(x, u, sd, dt, rng)", "return the moved cloud, one pose (x, y, theta) per row of x")
+    if answer is None or not _shaped(report, answer, (n, 3), "one moved pose (x, y, theta) per row of x"):
+        return report
+    answer = np.asarray(answer, dtype=float)
+    if not np.isfinite(answer).all():
+        report.problems.append("the cloud holds NaN or infinity: the arc's radius v / omega needs omega != 0; "
+                               "check the division")
+        return report
+    if np.any(np.abs(answer[:, 2]) > np.pi + 1e-9):
+        report.problems.append("some headings lie outside (-pi, pi]: wrap theta + omega dt, or the heading "
+                               "drifts off by multiples of 2 pi and circular means break")
+        return report
+    if np.all(answer[:, :2].std(axis=0) < 1e-9):
+        report.problems.append("every particle lands on the same pose: draw one noise pair per particle "
+                               "(rng.standard_normal((N, 2))), not one pair shared by the whole cloud")
+        return report
+    problem = _generator_problem(lambda rng: fn(start[:200].copy(), *(np.copy(a) for a in args), rng),
+                                 lambda a, b: np.array_equal(np.asarray(a), np.asarray(b)), what="cloud")
+    if problem:
+        report.problems.append(problem)
+        return report
+    mean, sd = _motion_features(answer)
+
+    def fits(mistake: str | None) -> bool:
+        ref = velocity_motion(np.tile(VELOCITY_POSE, (4 * n, 1)), *args, np.random.default_rng(10_000),
+                              mistake=mistake)
+        ref_mean, ref_sd = _motion_features(ref)
+        se_mean = np.sqrt(sd**2 / n + ref_sd**2 / (4 * n)) + 1e-12
+        se_sd = ref_sd * np.sqrt(1 / (2 * n) + 1 / (8 * n)) * 2 + 1e-12  # doubled: the features are not Gaussian
+        return max(np.max(np.abs(mean - ref_mean) / se_mean), np.max(np.abs(sd - ref_sd) / se_sd)) <= 6
+
+    if not _settled(report, fits, VELOCITY_MISTAKES):
+        report.problems.append("the moved cloud's mean or spread differs from the velocity model's: draw "
+                               "(v, omega) + sd * e for each particle, then move along the arc of radius v / omega")
+    return report
+
+
 #: The typical mistakes of the measurement Jacobian of range and bearing, and why each is wrong.
 JACOBIAN_MISTAKES = {
     "offset_reversed": "the signs of the position columns are reversed: with (dx, dy) = l - p the range "
@@ -783,3 +999,68 @@ def check_range_bearing_jacobian(fn: Callable, rtol: float = 1e-6) -> CheckRepor
                           JACOBIAN_MISTAKES, rtol,
                           "the matrix differs from dh/dx: differentiate sqrt(q) and atan2(dy, dx) - theta "
                           "with (dx, dy) = l - p, and compare with a central finite difference")
+
+#: The landmark measured in the robot's frame (chapter 13's exercise): ``z = R(theta)^T (l - p)``, the
+#: typical mistakes of its Jacobian and why each is wrong.
+RELATIVE_MISTAKES = {
+    "no_transpose": "you differentiate R(theta) (l - p): the landmark in the robot's frame is R(theta)^T (l - p), "
+                    "the world offset turned by -theta, so row 1 is (-cos, -sin) and row 2 (sin, -cos) in x and y",
+    "offset_reversed": "the signs of the position columns are reversed: the offset is l - p, so moving the "
+                       "robot by +dx moves the landmark by -dx in its frame: d z / d(x, y) = -R(theta)^T",
+    "no_theta": "the heading column is zero: turning the robot turns the landmark in its frame, "
+                "d z / d theta = (-sin dx + cos dy, -cos dx - sin dy) with (dx, dy) = l - p",
+    "theta_sign": "the heading column has the wrong sign: d z / d theta = (-sin dx + cos dy, -cos dx - sin dy), "
+                  "the offset turned by -theta - pi/2",
+}
+
+
+def relative_landmark_jacobian(state: np.ndarray, landmark: np.ndarray, mistake: str | None = None) -> np.ndarray:
+    """``H = d z / d (x, y, theta)`` of ``z = R(theta)^T (l - p)``, the landmark in the robot's frame (2, 3).
+    ``mistake`` (a key of :data:`RELATIVE_MISTAKES`) computes that mistake instead."""
+    c, s = np.cos(state[2]), np.sin(state[2])
+    dx, dy = landmark[0] - state[0], landmark[1] - state[1]
+    if mistake == "no_transpose":
+        return np.array([[-c, s, -s * dx - c * dy], [-s, -c, c * dx - s * dy]])
+    pos = np.array([[-c, -s], [s, -c]])
+    theta = np.array([-s * dx + c * dy, -c * dx - s * dy])
+    if mistake == "offset_reversed":
+        pos = -pos
+    if mistake == "no_theta":
+        theta = np.zeros(2)
+    if mistake == "theta_sign":
+        theta = -theta
+    return np.column_stack([pos, theta])
+
+
+#: Poses and landmarks of :func:`check_relative_jacobian`: headings away from 0 and pi/2, where
+#: swapped sines and cosines would pass.
+RELATIVE_CASES = (
+    (np.array([1.0, -2.0, 0.7]), np.array([12.0, 5.0])),
+    (np.array([-3.0, 4.0, -2.4]), np.array([-20.0, -6.0])),
+    (np.array([0.5, 0.5, 2.9]), np.array([8.0, -15.0])),
+)
+
+
+def check_relative_jacobian(fn: Callable, rtol: float = 1e-6) -> CheckReport:
+    """Check ``fn(state, landmark) -> (2, 3)``: the Jacobian of the landmark measured in the robot's frame,
+    ``z = R(theta)^T (l - p)``, at the poses of :data:`RELATIVE_CASES` against
+    :func:`relative_landmark_jacobian` (to ``rtol``: a careful central difference passes); the mistakes of
+    :data:`RELATIVE_MISTAKES` are named. The function draws no random numbers: no generator to check."""
+    report = CheckReport("relative-landmark Jacobian")
+    answers = []
+    for state, landmark in RELATIVE_CASES:
+        answer = _answer(report, lambda: fn(state.copy(), landmark.copy()), "fn(state, landmark)",
+                         "return the 2 x 3 matrix H = dz/dx")
+        if answer is None or not _shaped(report, answer, (2, 3), "H = dz/dx, rows (forward, left), "
+                                         "columns (x, y, theta)"):
+            return report
+        answers.append(np.asarray(answer, dtype=float))
+
+    def fits(mistake: str | None) -> bool:
+        return all(np.allclose(a, relative_landmark_jacobian(st, lm, mistake), rtol=rtol, atol=1e-9)
+                   for a, (st, lm) in zip(answers, RELATIVE_CASES))
+
+    if not _settled(report, fits, RELATIVE_MISTAKES):
+        report.problems.append("H differs from the derivative of R(theta)^T (l - p): differentiate each of the two "
+                               "coordinates in x, y and theta, and check the signs")
+    return report
