@@ -252,6 +252,7 @@ TINY_TERRAIN = terrain.TerrainMap(np.array([[0.0, 50.0, 20.0, 0.0], [10.0, 80.0,
                                             [5.0, 20.0, 10.0, 0.0]]), dx=10000.0, dy=10000.0)
 AIRCRAFT = dataclasses.asdict(terrain.AircraftScenario(duration=6.0))
 FLIGHT = terrain.simulate(terrain.AircraftScenario(**AIRCRAFT), TINY_TERRAIN, 0)
+FIELD = dataclasses.asdict(terrain.FieldScenario(duration=6.0))
 QUADRANT = {**dataclasses.asdict(landmarks.quadrant_scenario()), "n_samples": K}
 ROBOT_SCENARIO = {**{f.name: getattr(robot.RobotScenario(), f.name) for f in dataclasses.fields(robot.RobotScenario)},
                   "n_steps": 12, "gap": (3.0, 5.0), "landmarks": np.array([[0.0, 10.0], [5.0, -5.0]])}
@@ -274,6 +275,10 @@ def _terrain_pf(heights=TINY_TERRAIN.heights, dx=10000.0, dy=10000.0):
 def _flight(rng=0, initial_state=FLIGHT.truth[0], **fields):
     return terrain.simulate(terrain.AircraftScenario(**{**AIRCRAFT, **fields}), TINY_TERRAIN, rng,
                             initial_state=initial_state)
+
+
+def _field_flight(rng=0, **fields):
+    return terrain.simulate_field(terrain.FieldScenario(**{**FIELD, **fields}), TINY_TERRAIN, rng)
 
 
 def _landmark_run(rng=0, **fields):
@@ -359,6 +364,10 @@ ENTRY_POINTS = {
         {"rng": 0, "initial_state": FLIGHT.truth[0], **{k: AIRCRAFT[k] for k in (
             "speed", "omega", "dt", "duration", "x0", "P0", "Qf", "R", "Rf", "measurement_period")}},
         _finite("truth", "terrain_height")),
+    "FieldScenario + simulate_field": (
+        {"FieldScenario", "simulate_field"}, _field_flight,
+        {"rng": 0, **{k: FIELD[k] for k in ("speed", "omega", "heading0", "dt", "duration", "x0", "sd0", "drift", "R")}},
+        _finite("truth")),
     "TerrainMap + TerrainModel": ({"TerrainMap", "TerrainModel"}, _terrain_pf,
                                   {"heights": TINY_TERRAIN.heights, "dx": 10000.0, "dy": 10000.0}, _valid_filter_result),
 }

@@ -36,6 +36,7 @@ from pfcourse.errors import DegenerateWeightsError, OffMapError, ParameterError
 from pfcourse.terrain.compiled import bilinear
 from pfcourse.terrain.map import TerrainMap
 from pfcourse.terrain.point_mass import _trimmed, heading_kernel
+from pfcourse.terrain.scenario import MAX_STEPS
 
 _LOG_2PI = float(np.log(2.0 * np.pi))
 #: Most lattice points the point-mass filter may hold.
@@ -66,6 +67,9 @@ class FieldScenario:
             if name in ("dt", "duration", "sd0", "drift", "R") and value <= 0:
                 raise ParameterError(f"{name} must be positive, got {value}")
             set_checked(self, **{name: value})
+        if not self.duration / self.dt <= MAX_STEPS:
+            raise ParameterError(f"duration / dt = {self.duration / self.dt:.3g} steps: at most {MAX_STEPS} "
+                                 "steps are simulated")
         x0 = np.asarray(self.x0, dtype=float)
         if x0.shape != (2,) or not np.all(np.isfinite(x0)):
             raise ParameterError(f"x0 must be two finite numbers (m), got {self.x0!r}")
