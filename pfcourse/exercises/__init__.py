@@ -122,6 +122,10 @@ Each Part ends with a capstone (:mod:`.capstones`):
 * :func:`check_sv_filter` - ``fn(y, n, rng, model) -> (means, log_likelihood)``: Part I's capstone, a
   particle filter for the stochastic volatility model :class:`SVModel`, against a converged grid; its
   means tested for bias and its likelihood for unbiasedness over seeded runs, seven typical mistakes named.
+* :func:`check_count_filter` - ``fn(y, n, rng, model) -> means`` and :func:`check_count_study` -
+  ``fn(filter_fn, y, model, n_values, n_runs, seed) -> rmse``: Part III's capstone, a particle filter for
+  Poisson counts with a hidden log-rate (:class:`CountModel`) against a converged grid, and a seeded study
+  of its RMSE against the number of particles with common random numbers; nine typical mistakes named.
 """
 
 from __future__ import annotations
@@ -254,6 +258,14 @@ from pfcourse.exercises.part3 import (  # noqa: F401
     lock_on_cases,
     lock_on_reference,
     paired_standard_errors,
+)
+from pfcourse.exercises.capstones import (  # noqa: F401  (Part III's capstone)
+    CountModel,
+    check_count_filter,
+    check_count_study,
+    count_bootstrap,
+    count_data,
+    count_grid,
 )
 from pfcourse.exercises.part4 import (  # noqa: F401
     ANONYMOUS_CASES,
