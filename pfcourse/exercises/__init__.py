@@ -245,12 +245,15 @@ from pfcourse.exercises.part2 import (  # noqa: F401
     range_bearing_log_weights,
 )
 from pfcourse.exercises.part3 import (  # noqa: F401
+    ADAPTIVE_MISTAKES,
     ESS_CASES,
     ESS_MISTAKES,
     LOCK_MISTAKES,
     PAIRED_CASE,
     PAIRED_MISTAKES,
     _paired_case,
+    adaptive_residual,
+    check_adaptive_residual,
     check_ess,
     check_lock_on,
     check_paired_se,
