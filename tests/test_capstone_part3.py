@@ -155,7 +155,7 @@ def test_the_solution_printed_in_part_three_passes():
     """The solution in book/part3/index.md is the code the reader sees: run it through both checkers."""
     text = (Path(__file__).resolve().parents[1] / "book/part3/index.md").read_text()
     solution = text.split(":::{admonition} A solution", 1)[1]
-    code = re.search(r"```python\n(.*?)```", solution, re.S).group(1)
+    code = re.search(r"```\{code\} python\n(.*?)```", solution, re.S).group(1)
     namespace = {}
     exec(code.replace("print(", "(lambda *a: None)("), namespace)
     assert check_count_filter(namespace["my_count_filter"]).ok

@@ -19,7 +19,7 @@
 # **You need** {doc}`robot_studies` (how a study is run and read), {doc}`../part1/sir` and
 # {doc}`../part1/resampling_schemes`.
 #
-# **Time:** about eighteen minutes to read; the notebook runs in about twenty seconds.
+# **Time:** about twelve minutes to read; the notebook runs in about twenty seconds.
 # :::
 #
 # ## The idea: resample when the weights say so
@@ -50,7 +50,7 @@
 # 4. Otherwise keep the particles and their weights.
 # :::
 #
-# In NumPy, with systematic resampling for step 3, tried on a cloud of $100$ particles
+# In NumPy, with systematic resampling as the scheme, tried on a cloud of $100$ particles
 # weighted by one reading:
 
 # %% tags=["remove-input"] jupyter={"source_hidden": true}
@@ -430,7 +430,7 @@ EvidenceBlock(
 # :label: ex-resampling-ess
 # :nonumber:
 # (Coding.) Write `my_adaptive_residual(particles, log_w, tau, rng)`: Algorithm 19.1 with
-# *residual* resampling in step 3. Particle $i$ first gets $\lfloor N W^i \rfloor$ copies; the
+# *residual* resampling as its scheme. Particle $i$ first gets $\lfloor N W^i \rfloor$ copies; the
 # $R = N - \sum_i \lfloor N W^i \rfloor$ remaining copies are drawn independently, with
 # probabilities proportional to the residuals $N W^i - \lfloor N W^i \rfloor$. Return
 # `(particles, log_w)`, the cloud after the rule, and draw every random number from `rng`. The
@@ -452,7 +452,7 @@ print(check_adaptive_residual(my_adaptive_residual))
 # %% [markdown]
 # ```{solution} ex-resampling-ess
 # :class: dropdown
-# Steps 1, 2 and 4 as above; step 3 builds the copy counts, deterministic part first. The code is
+# The rule is as above; the resampling builds the copy counts, deterministic part first. The code is
 # in the folded cell below (in JupyterLab, click its margin to unfold it).
 # ```
 

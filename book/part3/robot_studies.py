@@ -18,7 +18,7 @@
 #
 # **You need** {doc}`../part2/robot` and {doc}`../evidence` (the intervals and tests).
 #
-# **Time:** about twenty-one minutes to read; the notebook runs in about twenty seconds.
+# **Time:** about twelve minutes to read; the notebook runs in about twenty seconds.
 # :::
 #
 # ## The idea: one question, many runs, the same worlds
@@ -40,7 +40,8 @@
 # **A paired comparison with its interval.** For errors, which are positive and skewed, the book
 # compares the per-run *ratios* $a_r / b_r$: their median and a 95 % interval for it, found by
 # resampling the runs. Ratios outside the interval are excluded by the data. The book writes such
-# a ratio compactly, "0.97 (0.95-0.99)": the median, then the interval ({doc}`../evidence`).
+# a ratio compactly, as in $0.97\ (0.95\text{-}0.99)$: the median, then the interval
+# ({doc}`../evidence`).
 #
 # :::{admonition} Algorithm 18.1: a paired study of two settings
 # :class: algorithm
