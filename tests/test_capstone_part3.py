@@ -108,7 +108,9 @@ def test_the_reference_study_passes_and_shows_the_monte_carlo_rate():
     ("shared", "share one generator"),
 ])
 def test_each_typical_mistake_of_the_study_gets_its_own_sentence(mistake, says):
-    wrong = lambda f, y, model, ns, runs, seed: count_study_reference(f, y, model, ns, runs, seed, mistake)  # noqa: E731
+    def wrong(f, y, model, ns, runs, seed):
+        return count_study_reference(f, y, model, ns, runs, seed, mistake)
+
     report = check_count_study(wrong)
     assert not report.ok and len(report.problems) == 1, str(report)
     assert says in report.problems[0], report.problems[0]

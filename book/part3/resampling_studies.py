@@ -178,7 +178,8 @@ control_panel(
 # **Three claims, and a contradiction**, each made from single runs: only thresholds near $1/3$
 # work well, and resampling at every step is counter-productive; $\tau = 0$ is degenerate, $0.5$
 # good and $1$ degenerate again; above $0.5$ resampling no longer happens. The last claim
-# reverses the rule: a larger $\tau$ resamples *more* often. We run the robot of {doc}`../part2/robot` with seven thresholds, on the same
+# reverses the rule: a larger $\tau$ resamples *more* often. We run the robot of
+# {doc}`../part2/robot` with seven thresholds, on the same
 # {glue:text}`n_runs_per_setting:d` seeded worlds for every threshold.
 
 # %% tags=["hide-input"] jupyter={"source_hidden": true}
