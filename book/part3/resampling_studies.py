@@ -40,7 +40,7 @@
 # From log-weights $\ell^i$, the ESS is computed without leaving the log domain:
 # $W^i = \exp(\ell^i - \operatorname{logsumexp}_j \ell^j)$.
 #
-# :::{admonition} Algorithm 19.1: adaptive resampling
+# :::{admonition} Algorithm 21.1: adaptive resampling
 # :class: algorithm
 # At step $k$, after the weight update (log-weights $\ell_k^i$):
 # 1. Normalise: $W_k^i = \exp\big(\ell_k^i - \operatorname{logsumexp}_j \ell_k^j\big)$.
@@ -97,7 +97,7 @@ def systematic(w, rng):
 
 
 def adaptive_resampling(particles, log_w, tau, rng):
-    """Algorithm 19.1; returns particles, log-weights, ESS, resampled."""
+    """Algorithm 21.1; returns particles, log-weights, ESS, resampled."""
     n = len(log_w)
     # step 1: normalised weights, in the log domain
     w = np.exp(log_w - logsumexp(log_w))
@@ -342,7 +342,7 @@ EvidenceBlock(
 # given the robot's path they are linear-Gaussian, so a Kalman filter per particle computes them
 # exactly (Rao-Blackwellisation, {doc}`../part1/rao_blackwell`), or, more generally, to carry each
 # particle's sufficient statistics of the static coordinates and redraw them from their posterior
-# given those statistics at each step {cite:p}`storvik2002,fearnhead2002` ({ref}`exercise 19.4 <ex-studies-linear-n>`).
+# given those statistics at each step {cite:p}`storvik2002,fearnhead2002` ({ref}`exercise 21.4 <ex-studies-linear-n>`).
 #
 # ## The resampling scheme
 #
@@ -427,10 +427,10 @@ EvidenceBlock(
 #
 # ## Exercises
 #
-# ```{exercise} 19.1 Adaptive resampling with another scheme
+# ```{exercise} 21.1 Adaptive resampling with another scheme
 # :label: ex-resampling-ess
 # :nonumber:
-# (Coding.) Write `my_adaptive_residual(particles, log_w, tau, rng)`: Algorithm 19.1 with
+# (Coding.) Write `my_adaptive_residual(particles, log_w, tau, rng)`: Algorithm 21.1 with
 # *residual* resampling as its scheme. Particle $i$ first gets $\lfloor N W^i \rfloor$ copies; the
 # $R = N - \sum_i \lfloor N W^i \rfloor$ remaining copies are drawn independently, with
 # probabilities proportional to the residuals $N W^i - \lfloor N W^i \rfloor$. Return
@@ -444,7 +444,7 @@ from pfcourse.exercises import check_adaptive_residual
 
 
 def my_adaptive_residual(particles, log_w, tau, rng):
-    """Your cloud (particles, log_w) after Algorithm 19.1, residual."""
+    """Your cloud (particles, log_w) after Algorithm 21.1, residual."""
     ...  # replace with your code
 
 
@@ -476,7 +476,7 @@ def my_adaptive_residual(particles, log_w, tau, rng):
 print(check_adaptive_residual(my_adaptive_residual))
 
 # %% [markdown]
-# ```{exercise} 19.2 Which threshold resamples most?
+# ```{exercise} 21.2 Which threshold resamples most?
 # :label: ex-resampling-most
 # :nonumber:
 # Without running anything: at a given step, which of $\tau = 0.2$ and $\tau = 0.7$ resamples
@@ -490,7 +490,7 @@ print(check_adaptive_residual(my_adaptive_residual))
 # even $\tau = 1$ keeps the cloud; any other step is resampled.
 # ```
 #
-# ```{exercise} 19.3 What common random numbers buy
+# ```{exercise} 21.3 What common random numbers buy
 # :label: ex-studies-paired
 # :nonumber:
 # The scheme study compares multinomial and systematic resampling on the same
@@ -512,7 +512,7 @@ print(check_adaptive_residual(my_adaptive_residual))
 # uses common random numbers.
 # ```
 #
-# ```{exercise} 19.4 The threshold cannot cure static landmarks
+# ```{exercise} 21.4 The threshold cannot cure static landmarks
 # :label: ex-studies-linear-n
 # :nonumber:
 # On the linear model, measure how the distance between the particle filter's mean and

@@ -43,7 +43,7 @@
 # a ratio compactly, as in $0.97\ (0.95\text{-}0.99)$: the median, then the interval
 # ({doc}`../evidence`).
 #
-# :::{admonition} Algorithm 18.1: a paired study of two settings
+# :::{admonition} Algorithm 20.1: a paired study of two settings
 # :class: algorithm
 # 1. For $r = 1..n_\text{runs}$: simulate world $r$ from seed $r$; run the filter with setting A and with
 #    setting B on it; record the errors $a_r$ and $b_r$.
@@ -88,7 +88,7 @@ from pfcourse.experiments.robot_studies import find
 
 
 def paired_ratio(a, b, n_boot=2000, seed=0):
-    """Algorithm 18.1, steps 2-4: the median ratio a/b, its interval."""
+    """Algorithm 20.1, steps 2-4: the median ratio a/b, its interval."""
     # step 2: the per-run ratios
     ratios = np.asarray(a) / np.asarray(b)
     # step 3: n_boot resamples of the runs, with replacement
@@ -428,7 +428,7 @@ control_panel(
 # %% [markdown]
 # ## Exercises
 #
-# ```{exercise} 18.1 What pairing buys, computed and checked
+# ```{exercise} 20.1 What pairing buys, computed and checked
 # :label: ex-studies-se
 # :nonumber:
 # (Coding.) Write `my_se(a, b)`: for the errors `a` and `b` of two settings on the same runs (arrays of
@@ -466,7 +466,7 @@ def my_se(a, b):
 print(check_paired_se(my_se))
 
 # %% [markdown]
-# ```{exercise} 18.2 Particles or measurements?
+# ```{exercise} 20.2 Particles or measurements?
 # :label: ex-studies-budget
 # :nonumber:
 # From the studies of this page and of {doc}`sensing_studies`, which change of the defaults moves the median

@@ -161,7 +161,7 @@ control_panel(
 # book uses this one definition everywhere (`pfcourse.metrics.locked_on`, the same as in
 # {doc}`../part2/global_localization`).
 #
-# :::{admonition} Algorithm 20.1: is a run locked on?
+# :::{admonition} Algorithm 22.1: is a run locked on?
 # :class: algorithm
 # Input: per-step position errors $e^p_k$ (m) and heading errors $e^\theta_k$ (rad) of a run of
 # $T$ steps of $\Delta t$ seconds.
@@ -169,7 +169,7 @@ control_panel(
 # 2. Locked on if $e^p_k < 1$ m and $e^\theta_k < 5°$ for every $k$ among the last $W$ steps.
 # :::
 #
-# Writing it in NumPy is {ref}`exercise 20.1 <ex-sensing-lock>`.
+# Writing it in NumPy is {ref}`exercise 22.1 <ex-sensing-lock>`.
 
 # %% [markdown]
 # ## A gap in the measurements
@@ -430,7 +430,7 @@ for m in (2, 3, 5):
 # **The question.** What is knowing the start worth? A cloud around the true position
 # (tracking) against a cloud uniform over the map (global localization). We run
 # {glue:text}`n_runs_per_setting:d` runs of $50$ s from each start, with $300$ and $1000$
-# particles, and count the runs locked on (Algorithm 20.1).
+# particles, and count the runs locked on (Algorithm 22.1).
 
 # %% tags=["hide-input"] jupyter={"source_hidden": true}
 init_table = robot_study({"initial": ["tracking", "uniform"], "n_particles": [300, 1000]}, n_steps=50,
@@ -479,7 +479,7 @@ EvidenceBlock(
 #
 # ## Exercises
 #
-# ```{exercise} 20.1 Locked on, written and checked
+# ```{exercise} 22.1 Locked on, written and checked
 # :label: ex-sensing-lock
 # :nonumber:
 # (Coding.) Write `my_lock(pos_err, head_err, dt, window_s)`: `True` when the run whose per-step
@@ -494,7 +494,7 @@ from pfcourse.exercises import check_lock_on
 
 
 def my_lock(pos_err, head_err, dt, window_s):
-    """Your Algorithm 20.1: True or False."""
+    """Your Algorithm 22.1: True or False."""
     ...  # replace with your code
 
 
@@ -503,7 +503,7 @@ print(check_lock_on(my_lock))
 # %% [markdown]
 # ```{solution} ex-sensing-lock
 # :class: dropdown
-# Algorithm 20.1 with the window as a parameter; the code is in the folded cell below (in
+# Algorithm 22.1 with the window as a parameter; the code is in the folded cell below (in
 # JupyterLab, click its margin to unfold it). The book's own version, `pfcourse.metrics.locked_on`,
 # gives the same verdict on every run of the initialization study.
 # ```
@@ -522,7 +522,7 @@ assert [my_lock(p, h, 1.0, 20.0) for p, h in zip(ok_runs["position_error"], ok_r
     locked_on(p, h, dt=1.0) for p, h in zip(ok_runs["position_error"], ok_runs["heading_error"])]
 
 # %% [markdown]
-# ```{exercise} 20.2 A gap in a Kalman filter
+# ```{exercise} 22.2 A gap in a Kalman filter
 # :label: ex-sensing-gap
 # :nonumber:
 # For a scalar random walk $x_k = x_{k-1} + w_k$, $w_k \sim \mathcal N(0, q)$, measured as

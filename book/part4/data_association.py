@@ -66,7 +66,7 @@
 # Gaussian density is ever exponentiated, and a particle far from every landmark keeps a finite
 # log-weight {cite:p}`bartse1975`.
 #
-# :::{admonition} Algorithm 22.1: the particle filter with anonymous readings
+# :::{admonition} Algorithm 24.1: the particle filter with anonymous readings
 # :class: algorithm
 # 1. **Initialise** $x_0^i$ around the start; $\log W_0^i = -\log N$.
 # 2. **For** $k = 1, 2, \dots$:
@@ -88,7 +88,7 @@
 # if $d_j^2 \le \gamma$, with $\gamma$ the $99\,\%$ quantile of $\chi^2_2$ (a correct reading falls
 # outside the gate once in a hundred); otherwise call the reading clutter.
 #
-# :::{admonition} Algorithm 22.2: the EKF with nearest-neighbour association
+# :::{admonition} Algorithm 24.2: the EKF with nearest-neighbour association
 # :class: algorithm
 # 1. **Predict** $\hat m, P$ with the odometry, as the robot's EKF ({doc}`../part2/robot_vs_kalman`).
 # 2. **For each reading** $z$ of the step: $j^\star = \arg\min_j d_j^2$; if $d_{j^\star}^2 \le \gamma$,
@@ -129,7 +129,7 @@ model = AssociationModel(RobotModel.for_simulation(sim), sensor)
 # %% [markdown]
 # ## The mixture weight in NumPy, checked on the package
 #
-# The function below is the *weight* step of Algorithm 22.1 for a cloud `x` of shape $(N, 3)$ and the
+# The function below is the *weight* step of Algorithm 24.1 for a cloud `x` of shape $(N, 3)$ and the
 # readings of one step (rows of NaN pad a step to a fixed width): every particle against every
 # reading and every landmark at once, then one `logsumexp` per particle.
 
@@ -348,7 +348,7 @@ EvidenceBlock(
 # %% [markdown]
 # ## Exercises
 #
-# ```{exercise} 22.1 An empty step
+# ```{exercise} 24.1 An empty step
 # :label: ex-assoc-empty
 # :nonumber:
 # A measurement step brings no reading at all. Write $p(\varnothing \mid x)$ for the model of this
@@ -365,7 +365,7 @@ EvidenceBlock(
 # $e^{-\lambda} \tfrac1M \sum_j \big(1 - P_D(x, l^j)\big)$.
 # ```
 #
-# ```{exercise} 22.2 The likelihood of one anonymous reading
+# ```{exercise} 24.2 The likelihood of one anonymous reading
 # :label: ex-assoc-code
 # :nonumber:
 # (Coding.) Write `my_anonymous(x, z, landmarks, R, p_detect, clutter_rate, max_range)`: the

@@ -55,7 +55,7 @@
 # space with $\dim z$ degrees of freedom; it needs no truth, so it is the check that works on
 # real data.
 #
-# :::{admonition} Algorithm 21.1: the consistency check of a filter over $n_\text{runs}$ runs
+# :::{admonition} Algorithm 23.1: the consistency check of a filter over $n_\text{runs}$ runs
 # :class: algorithm
 # Input: errors $e_{r,k}$ and covariances $P_{r,k}$ of one filter on runs $r = 1..n_\text{runs}$, steps $k$.
 # 1. For every run and step, $\text{NEES}_{r,k} = e_{r,k}^\top P_{r,k}^{-1} e_{r,k}$.
@@ -102,7 +102,7 @@ use_style()
 
 
 def consistency(errors, covariances, probability=0.95):
-    """Algorithm 21.1: run-averaged NEES per step, the band, and the fraction of steps in it."""
+    """Algorithm 23.1: run-averaged NEES per step, the band, and the fraction of steps in it."""
     R, K, d = errors.shape
     nees_rk = np.einsum("rki,rkij,rkj->rk", errors, np.linalg.inv(covariances), errors)  # step 1
     average = nees_rk.mean(axis=0)  # step 2
@@ -216,7 +216,7 @@ EvidenceBlock(
            f"the exact posterior standard deviation ({kf_sd:.3f} m).",
            "Mean log-likelihood error at N = 100 and 3000: " + "; ".join(
                f"{name} {b[0]:+.2f} and {b[-1]:+.2f} nats" for name, b in bias.items())
-           + ". The log of an unbiased likelihood estimate is biased down (exercise 21.2 below); with static "
+           + ". The log of an unbiased likelihood estimate is biased down (exercise 23.2 below); with static "
              "landmarks that bias dominates."],
     tables=[("Fitted slope of log(RMS error) on log N, with its 95 % interval",
              pd.DataFrame([{"model": name, "error of": q.split("_")[0], "slope": s, "low": lo, "high": hi}
@@ -315,7 +315,7 @@ EvidenceBlock(
 # the runs {glue:text}`robot_pf1000_nees_above_low:.2f`-{glue:text}`robot_pf1000_nees_above_high:.2f`):
 # its covariance, estimated from a resampled cloud, is too small for its error. Its NIS looks as
 # good as the Kalman filters', because the measurement noise $R$ dominates $S_k$ and hides the
-# under-estimated state spread ({ref}`exercise 21.3 <ex-kalman-nis>`): on real data, where only the NIS can be computed,
+# under-estimated state spread ({ref}`exercise 23.3 <ex-kalman-nis>`): on real data, where only the NIS can be computed,
 # this over-confidence would go unnoticed.
 
 # %% tags=["remove-input"] jupyter={"source_hidden": true}
@@ -439,7 +439,7 @@ EvidenceBlock(
 # **The report's prior: the order reverses.** The EKF and the UKF lose
 # {glue:text}`terrain_wide_ekf_lost:.0%` and {glue:text}`terrain_wide_ukf_lost:.0%` of the
 # flights: the slope of the terrain at a wrong guess says nothing about where the right one is,
-# and nine sigma points and one covariance cannot describe several separate modes ({ref}`exercise 21.4 <ex-kalman-ukf>`). The particle filter is the only filter whose share of lost flights falls as $N$ grows,
+# and nine sigma points and one covariance cannot describe several separate modes ({ref}`exercise 23.4 <ex-kalman-ukf>`). The particle filter is the only filter whose share of lost flights falls as $N$ grows,
 # here to {glue:text}`terrain_wide_pf3000_lost:.0%` at $N = 3000$.
 #
 # Over more flights, {doc}`../part2/terrain_cure` measures that it still loses {glue:text}`../part2/terrain_cure.ipynb::terrain_baseline_diverged:.0%`
@@ -626,10 +626,10 @@ display(panel)
 # %% [markdown]
 # ## Exercises
 #
-# ```{exercise} 21.1 Write the consistency check, and have it checked
+# ```{exercise} 23.1 Write the consistency check, and have it checked
 # :label: ex-pfk-consistency
 # :nonumber:
-# (Coding.) Write `my_consistency(errors, covariances)`, Algorithm 21.1: `errors` has shape
+# (Coding.) Write `my_consistency(errors, covariances)`, Algorithm 23.1: `errors` has shape
 # `(R, K, d)` (runs, steps, state dimension) and `covariances` shape `(R, K, d, d)`. Return the
 # run-averaged NEES (shape `(K,)`), the 95 % band as a pair `(low, high)`, and the fraction of
 # steps whose average lies in the band, bounds included. The checker runs it on a filter that is
@@ -638,7 +638,7 @@ display(panel)
 
 # %% tags=["answer"]
 def my_consistency(errors, covariances):
-    """Your Algorithm 21.1: return (average_nees, (low, high), fraction)."""
+    """Your Algorithm 23.1: return (average_nees, (low, high), fraction)."""
     ...  # replace with your code
 
 
@@ -647,7 +647,7 @@ print(check_consistency(my_consistency))
 # %% [markdown]
 # ```{solution} ex-pfk-consistency
 # :class: dropdown
-# Algorithm 21.1 step by step; the code is in the folded cell below (in JupyterLab, click its
+# Algorithm 23.1 step by step; the code is in the folded cell below (in JupyterLab, click its
 # margin to unfold it).
 # ```
 
@@ -663,7 +663,7 @@ def my_consistency(errors, covariances):
 print(check_consistency(my_consistency))
 
 # %% [markdown]
-# ```{exercise} 21.2 The bias of a log-likelihood
+# ```{exercise} 23.2 The bias of a log-likelihood
 # :label: ex-kalman-slope
 # :nonumber:
 # The particle filter's likelihood estimate $\hat p(z_{1:K})$ is unbiased. Explain why the error
@@ -680,7 +680,7 @@ print(check_consistency(my_consistency))
 # huge, so the bias dominates over the range of $N$ computed (the evidence of the linear Gaussian section).
 # ```
 #
-# ```{exercise} 21.3 Why the NIS misses the particle filter's over-confidence
+# ```{exercise} 23.3 Why the NIS misses the particle filter's over-confidence
 # :label: ex-kalman-nis
 # :nonumber:
 # On the robot, the particle filter's NIS is close to consistent while its NEES is far above
@@ -699,7 +699,7 @@ print(check_consistency(my_consistency))
 # $R$), rarer measurements, or a gap in the measurements.
 # ```
 #
-# ```{exercise} 21.4 Why the UKF does not rescue terrain navigation
+# ```{exercise} 23.4 Why the UKF does not rescue terrain navigation
 # :label: ex-kalman-ukf
 # :nonumber:
 # Why does the UKF not rescue the terrain problem from the report's prior, although it does

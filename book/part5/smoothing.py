@@ -65,7 +65,7 @@
 # the transition density for all $N^2$ pairs $(j, i)$ at every step: $O(N^2)$ per step against the
 # filter's $O(N)$.
 #
-# :::{admonition} Algorithm 24.1: forward filtering, backward smoothing (FFBSm)
+# :::{admonition} Algorithm 27.1: forward filtering, backward smoothing (FFBSm)
 # :class: algorithm
 # 1. **Forward.** Run the particle filter and store every weighted cloud $\{x_k^i, W_k^i\}$, $k = 0, \dots, T$.
 # 2. **Start.** $W_{T|T}^i = W_T^i$.
@@ -115,12 +115,12 @@ pf = ParticleFilter(model, 100).run(Z, 21, collect=[Clouds(), Ancestors()])
 log_f = linear_gaussian_log_transition(model)  # log_f(new, old, k)[j, i] = log p(new_j | old_i)
 
 # %% [markdown]
-# Algorithm 24.1 in NumPy, on the stored clouds `pf.particles` (shape $(T+1, N, d)$) and
+# Algorithm 27.1 in NumPy, on the stored clouds `pf.particles` (shape $(T+1, N, d)$) and
 # `pf.weights` ($(T+1, N)$):
 
 # %%
 def my_ffbsm(particles, weights, log_f):
-    """Smoothed weights W_{k|T}, shape (T+1, N), by Algorithm 24.1 in the log domain."""
+    """Smoothed weights W_{k|T}, shape (T+1, N), by Algorithm 27.1 in the log domain."""
     n_steps = len(weights)
     log_w = np.log(weights)
     log_s = np.empty_like(log_w)
@@ -151,7 +151,7 @@ assert gap_ffbsm < 1e-12
 # clouds $p(x_k = x_k^i \mid x_{k+1}, z_{1:k}) \propto W_k^i\, p(x_{k+1} \mid x_k^i)$. Drawing an index at
 # the last step and then one per step backwards is forward filtering, backward simulation (FFBSi).
 #
-# :::{admonition} Algorithm 24.2: forward filtering, backward simulation (FFBSi)
+# :::{admonition} Algorithm 27.2: forward filtering, backward simulation (FFBSi)
 # :class: algorithm
 # 1. **Forward.** Run the particle filter and store every weighted cloud.
 # 2. **For** each trajectory $s = 1, \dots, J$: draw $b_T \sim \{W_T^i\}$, that is $P(b_T = i) = W_T^i$.
@@ -168,7 +168,7 @@ assert gap_ffbsm < 1e-12
 
 # %%
 def my_ffbsi(particles, weights, log_f, n_draws, rng):
-    """n_draws trajectories, shape (T+1, n_draws, d), by Algorithm 24.2."""
+    """n_draws trajectories, shape (T+1, n_draws, d), by Algorithm 27.2."""
     n_steps, n = weights.shape
 
     def draw(log_p, u):  # index s: the first i with cumulative probability (row s of log_p) > u_s
@@ -759,7 +759,7 @@ EvidenceBlock(
 #
 # ## Exercises
 #
-# ```{exercise} 24.1 When does the backward kernel collapse?
+# ```{exercise} 27.1 When does the backward kernel collapse?
 # :label: ex-smooth-collapse
 # :nonumber:
 # On the landmark model, what would the FFBSm backward kernel look like if the process noise
@@ -779,7 +779,7 @@ EvidenceBlock(
 # measurements say little about a state that moves that much.
 # ```
 #
-# ```{exercise} 24.2 One backward step of FFBSm, checked
+# ```{exercise} 27.2 One backward step of FFBSm, checked
 # :label: ex-smooth-code
 # :nonumber:
 # (Coding.) Write `my_backward_weights(k, particles, weights, smoothed_next, log_transition)`:
