@@ -18,16 +18,16 @@
 #
 # **You need** {doc}`../part2/robot` and {doc}`../evidence` (the intervals and tests).
 #
-# **Time:** about twenty-one minutes to read; the notebook runs in about twenty seconds.
+# **Time:** about twelve minutes to read; the notebook runs in about twenty seconds.
 # :::
 #
 # ## The idea: one question, many runs, the same worlds
 #
-# The lab reports on the robot turn the knobs of the particle filter one at a time and judge
-# each setting from **one run**: one simulated path, one landmark layout, one draw of the
-# noises, one cloud of particles. Such a run can show a difference that is only luck and hide
-# one that is real; the reports also contradict each other. A *study* replaces the run by $n_\text{runs}$
-# runs per setting, and two choices make it sharp.
+# Turn one knob of the robot's particle filter, run it once with each setting, and compare
+# the two errors: that is how settings are usually judged, and it is fragile. One run is one
+# simulated path, one landmark layout, one draw of the noises, one cloud of particles; it can
+# show a difference that is only luck and hide one that is real. A *study* replaces the run by
+# $n_\text{runs}$ runs per setting, and two choices make it sharp.
 #
 # **Common random numbers.** Run $r$ uses the same seed in every setting, so all settings are
 # compared on the same $n_\text{runs}$ simulated worlds. Most of a run's error comes from its world (a bad
@@ -38,25 +38,26 @@
 # correlated.
 #
 # **A paired comparison with its interval.** For errors, which are positive and skewed, the book
-# compares the per-run *ratios* $a_r / b_r$: their median, a 95 % bootstrap interval (resample
-# the runs), Wilcoxon's signed-rank test, and the ratios the data exclude (those beyond the
-# interval; {doc}`../evidence`).
+# compares the per-run *ratios* $a_r / b_r$: their median and a 95 % interval for it, found by
+# resampling the runs. Ratios outside the interval are excluded by the data. The book writes such
+# a ratio compactly, as in $0.97\ (0.95\text{-}0.99)$: the median, then the interval
+# ({doc}`../evidence`).
 #
 # :::{admonition} Algorithm 20.1: a paired study of two settings
 # :class: algorithm
 # 1. For $r = 1..n_\text{runs}$: simulate world $r$ from seed $r$; run the filter with setting A and with
 #    setting B on it; record the errors $a_r$ and $b_r$.
 # 2. Per-run ratios $\rho_r = a_r / b_r$; report their median.
-# 3. Bootstrap: draw $n_\text{runs}$ runs with replacement, $B$ times, and take the median of their ratios
-#    each time; the $2.5\,\%$ and $97.5\,\%$ quantiles of those medians are the 95 % interval.
-# 4. A ratio is *detected* when the interval excludes $1$ and Wilcoxon's $p$ is below $0.05$; when
-#    several settings are compared at once, that $p$ is first Holm-adjusted over the family.
+# 3. Resample: draw $n_\text{runs}$ runs with replacement, $B$ times, and take the median of their
+#    ratios each time; the $2.5\,\%$ and $97.5\,\%$ quantiles of those medians are the 95 % interval.
+# 4. A ratio is *detected* when the interval excludes $1$ (the evidence blocks add a rank test,
+#    adjusted when several settings are compared at once).
 # :::
 #
 # The last three steps in NumPy, on the study of the number of particles below ($N = 1000$ against
-# $N = 300$), checked against the package's `pfcourse.evidence.paired`:
+# $N = 300$). The study is stored: `find` returns its table, one row per setting and run.
 
-# %%
+# %% tags=["remove-input"] jupyter={"source_hidden": true}
 import ipywidgets as widgets
 import matplotlib.pyplot as plt
 import numpy as np
@@ -67,8 +68,8 @@ from myst_nb import glue
 
 from pfcourse import evidence
 from pfcourse.exercises import check_paired_se
-from pfcourse.experiments.robot_studies import BURN_IN, N_RUNS, N_STEPS
 from pfcourse.experiments.registry import robot_study
+from pfcourse.experiments.robot_studies import BURN_IN, N_RUNS, N_STEPS
 from pfcourse.experiments.study import summarize
 from pfcourse.figures.report import EvidenceBlock, glue_values
 from pfcourse.figures.static_panel import format_value
@@ -80,27 +81,39 @@ from pfcourse.style import COLORS, plain_log_axis, use_style
 use_style()
 glue("n_runs_per_setting", N_RUNS, display=False)
 
+# %%
+import numpy as np
+from pfcourse.experiments.registry import robot_study
+
 
 def paired_ratio(a, b, n_boot=2000, seed=0):
-    """Algorithm 20.1, steps 2-4: median per-run ratio a/b and its 95 % percentile bootstrap interval."""
-    ratios = np.asarray(a) / np.asarray(b)  # step 2
+    """Algorithm 20.1, steps 2-4: the median ratio a/b, its interval."""
+    # step 2: the per-run ratios
+    ratios = np.asarray(a) / np.asarray(b)
+    # step 3: n_boot resamples of the runs, with replacement
     rng = np.random.default_rng(seed)
-    runs = rng.integers(0, len(ratios), size=(n_boot, len(ratios)))  # step 3: runs drawn with replacement
+    runs = rng.integers(0, len(ratios), size=(n_boot, len(ratios)))
     medians = np.median(ratios[runs], axis=1)
     low, high = np.quantile(medians, [0.025, 0.975])
-    return np.median(ratios), low, high, not low <= 1.0 <= high  # step 4
+    # step 4: detected when the interval excludes 1
+    return np.median(ratios), low, high, not low <= 1.0 <= high
 
 
-n_table = robot_study({"n_particles": [20, 50, 100, 300, 1000]})
-n_by_run = n_table.pivot(index="run", columns="n_particles", values="position_rmse")
-ratio, low, high, detected = paired_ratio(n_by_run[1000], n_by_run[300])
+table = robot_study({"n_particles": [20, 50, 100, 300, 1000]})
+by_run = table.pivot(index="run", columns="n_particles",
+                     values="position_rmse")
+ratio, low, high, detected = paired_ratio(by_run[1000], by_run[300])
+print(f"N = 1000 against 300, {len(by_run)} paired runs:")
+print(f"median ratio {ratio:.3f} ({low:.3f}-{high:.3f}), detected: {detected}")
+
+# %% tags=["remove-input"] jupyter={"source_hidden": true}
+n_table, n_by_run = table, by_run
 package = evidence.paired(n_by_run[1000], n_by_run[300], ratio=True)
 assert np.isclose(ratio, package.median) and abs(low - package.low) < 0.01 and abs(high - package.high) < 0.01
-print(f"N = 1000 against 300, {N_RUNS} paired runs: median ratio {ratio:.3f}, 95 % interval {low:.3f}-{high:.3f} "
-      f"(package: {package.low:.3f}-{package.high:.3f}); detected: {detected}")
 
 # %% [markdown]
-# The two intervals agree to the bootstrap's own noise (the package draws its own resamples). Every
+# The package's own comparison (`pfcourse.evidence.paired`, used in the rest of the book) agrees
+# with these few lines to within the noise of the resampling. Every
 # study of this page and of {doc}`resampling_studies` and {doc}`sensing_studies` is run this way:
 # {glue:text}`n_runs_per_setting:d` runs per setting of the robot of {doc}`../part2/robot`, scored by
 # the position RMSE after a transient of {glue:text}`robot_burn_in:d` s, by the time-averaged NEES
@@ -128,11 +141,10 @@ EvidenceBlock(
 # %% [markdown]
 # ## The number of particles
 #
-# **The question.** The robot reports keep $N = 300$ throughout; the terrain report finds that
-# $300$ particles give a biased estimate and $30\,000$ a good one, from one run each. How many
-# particles does this robot need?
+# **The question.** How many particles does this robot need? $300$ is the default; more
+# particles cost time in proportion.
 
-# %%
+# %% tags=["hide-input"] jupyter={"source_hidden": true}
 fig, axes = plt.subplots(1, 2, figsize=(10, 3.6))
 summary_band(summarize(n_table, "n_particles", "position_rmse"), axes[0], color=COLORS["estimate"])
 summary_band(summarize(n_table, "n_particles", "mean_nees"), axes[1], color=COLORS["estimate"])
@@ -185,7 +197,7 @@ EvidenceBlock(
 # %% [markdown]
 # The error falls steeply from $20$ to $50$ particles and by smaller, still measurable steps
 # after that. Paired run by run with $300$ particles, $1000$ give {glue:text}`n_ratio_1000:.2f`
-# times the RMSE (95 % interval {glue:text}`n_ratio_1000_low:.2f`-{glue:text}`n_ratio_1000_high:.2f`):
+# ({glue:text}`n_ratio_1000_low:.2f`-{glue:text}`n_ratio_1000_high:.2f`) times the RMSE:
 # more than tripling the cloud buys a measurable but small gain. The error does not tend to zero: it
 # tends to the error of the exact posterior mean, which no number of particles can beat.
 #
@@ -196,12 +208,13 @@ EvidenceBlock(
 #
 # ## The process noise the filter assumes ($Q_\text{est}$)
 #
-# **The reports' claims.** Report 002: a larger $Q_\text{est}$ makes the filter trust the odometry
-# less, which gives a jerkier estimated path and a wider cloud. Report 004: results degrade when the
-# factor is below about $1$ or above about $5$; too small a factor makes the filter over-confident.
-# We scale $Q_\text{est} = s\, Q_\text{true}$ for $s$ from $0.25$ to $100$ (the default is $2$).
+# **The claims to test.** A larger $Q_\text{est}$ makes the filter trust the odometry less,
+# which should give a jerkier estimated path and a wider cloud; results should degrade when the
+# factor is below about $1$ or above about $5$, and too small a factor should make the filter
+# over-confident. We scale $Q_\text{est} = s\, Q_\text{true}$ for $s$ from $0.25$ to $100$ (the
+# default is $2$).
 
-# %%
+# %% tags=["hide-input"] jupyter={"source_hidden": true}
 q_values = [0.25, 0.5, 1, 2, 5, 20, 100]
 q_table = robot_study({"q_scale": q_values}, keep_errors=True)
 
@@ -265,16 +278,16 @@ EvidenceBlock(
 )
 
 # %% [markdown]
-# Report 002's description holds: from the default to $100$ times $Q_\text{true}$ the jitter of the
+# The jerkier path is there: from the default to $100$ times $Q_\text{true}$ the jitter of the
 # estimated path grows from {glue:text}`q_jitter_2:.3f` to {glue:text}`q_jitter_100:.3f` m per step.
 #
-# Report 004's bracket is right on both sides, though the low side costs less accuracy than
+# The bracket from $1$ to $5$ is right on both sides, though the low side costs less accuracy than
 # confidence: no scale is measurably better than $2$, and at $0.5$ the RMSE is
-# {glue:text}`q_ratio_0.5:.2f` times the default's, run by run (95 % interval
-# {glue:text}`q_ratio_0.5_low:.2f`-{glue:text}`q_ratio_0.5_high:.2f`).
+# {glue:text}`q_ratio_0.5:.2f` ({glue:text}`q_ratio_0.5_low:.2f`-{glue:text}`q_ratio_0.5_high:.2f`)
+# times the default's, run by run.
 #
 # Below $1$ the filter becomes over-confident: its median NEES is {glue:text}`q_nees_0.25:.0f` at
-# $0.25$, against $3$ for a consistent filter. That is report 004's "over-fitting", made measurable.
+# $0.25$, against $3$ for a consistent filter.
 # Large factors keep the filter honest (NEES {glue:text}`q_nees_100:.1f` at $100$, a pessimistic
 # filter) but waste the odometry's information.
 #
@@ -282,7 +295,7 @@ EvidenceBlock(
 # second (red) and of the filter's own standard deviation $\sqrt{P_{xx} + P_{yy}}$ (green). Where the
 # green band lies below the red one, the filter claims more precision than it has.
 
-# %%
+# %% tags=["hide-input"] jupyter={"source_hidden": true}
 t = np.arange(N_STEPS)
 fig, ax = plt.subplots(figsize=(5.5, 4.0), dpi=72)
 
@@ -306,11 +319,11 @@ HTML(anim.to_jshtml())
 # %% [markdown]
 # ## The measurement noise the filter assumes ($R_\text{est}$)
 #
-# **The reports' claims.** Report 002: a larger $R_\text{est}$ makes the filter trust the landmarks
-# less, so the path is smoother, the covariance larger, and in the limit the filter cannot locate the
-# robot. Report 004: results degrade below a factor of about $1$ and above about $5$.
+# **The claims to test.** A larger $R_\text{est}$ makes the filter trust the landmarks less, so
+# the path should be smoother, the covariance larger, and in the limit the filter should lose the
+# robot; results should degrade below a factor of about $1$ and above about $5$.
 
-# %%
+# %% tags=["hide-input"] jupyter={"source_hidden": true}
 r_table = robot_study({"r_scale": [0.25, 0.5, 1, 2, 5, 20, 100]})
 noise_scale_figure(r_table, "r_scale", "$R_{est}$ scale")
 
@@ -331,15 +344,14 @@ EvidenceBlock(
 )
 
 # %% [markdown]
-# The direction of report 002's claims holds (a smoother path, a wider covariance), but the filter
+# The direction of these claims holds (a smoother path, a wider covariance), but the filter
 # does **not** lose the robot: even at $100$ times the true variance its RMSE is
-# {glue:text}`r_ratio_100:.2f` times the default's, run by run (95 % interval
-# {glue:text}`r_ratio_100_low:.2f`-{glue:text}`r_ratio_100_high:.2f`). From a scale of $1$ up no
-# difference is detected, and the data exclude a factor beyond {glue:text}`r_detectable:.2f`
-# either way. The landmarks are observed every second, and even a
+# {glue:text}`r_ratio_100:.2f` ({glue:text}`r_ratio_100_low:.2f`-{glue:text}`r_ratio_100_high:.2f`)
+# times the default's, run by run. From a scale of $1$ up no difference is detected, and the data
+# exclude a factor beyond {glue:text}`r_detectable:.2f` either way. The landmarks are observed every second, and even a
 # filter that believes the range error is ten times larger than it is averages many of them.
 #
-# Report 004's bracket is right about the filter's *honesty* more than its accuracy: below $1$ the
+# The bracket from $1$ to $5$ is right about the filter's *honesty* more than its accuracy: below $1$ the
 # filter is over-confident (median NEES {glue:text}`r_nees_0.25:.0f` at $0.25$), above $5$ more and
 # more pessimistic ({glue:text}`r_nees_100:.2f` at $100$). A wrong noise model spoils the covariance
 # that comes with the estimate before it spoils the estimate.
@@ -383,7 +395,7 @@ for i, (what, key) in enumerate([("N 300 -> 1000, gain", "budget_n_gain"), ("dt_
 assert budget_low[2] > 0  # the solution: halving the measurement rate costs more than tripling N gains
 
 
-# %%
+# %% tags=["hide-input"] jupyter={"source_hidden": true}
 PANEL_STUDIES = {"particles N": ("n_particles", n_table), "Q_est scale": ("q_scale", q_table),
                  "R_est scale": ("r_scale", r_table), "resampling threshold": ("threshold", th_table),
                  "measurement period (s)": ("dt_meas", dt_table), "landmarks": ("n_landmarks", lm_table)}
@@ -403,7 +415,7 @@ def draw_first_runs(study, n_runs):
     ax.legend(loc="upper left", bbox_to_anchor=(1.0, 1.0))
 
 
-# %% tags=["nbval-ignore-output"]
+# %% tags=["nbval-ignore-output", "hide-input"] jupyter={"source_hidden": true}
 control_panel(
     draw_first_runs,
     columns=2,
@@ -426,6 +438,9 @@ control_panel(
 # ```
 
 # %% tags=["answer"]
+from pfcourse.exercises import check_paired_se
+
+
 def my_se(a, b):
     """Your (paired_se, unpaired_se)."""
     ...  # replace with your code
@@ -462,7 +477,7 @@ print(check_paired_se(my_se))
 # ```{solution} ex-studies-budget
 # :class: dropdown
 # Tripling $N$ lowers the median RMSE by about {glue:text}`budget_n_gain:.3f` m
-# ({glue:text}`n_rmse_300:.3f` m to {glue:text}`n_rmse_1000:.3f` m; 95 % bootstrap interval
+# ({glue:text}`n_rmse_300:.3f` m to {glue:text}`n_rmse_1000:.3f` m; 95 % interval
 # {glue:text}`budget_n_gain_low:.3f`-{glue:text}`budget_n_gain_high:.3f` m), while measuring
 # half as often raises it by about {glue:text}`budget_dt_loss:.3f` m ({glue:text}`dt_rmse_1:.3f` m
 # to {glue:text}`dt_rmse_2:.3f` m, on the $200$ s runs of that study; interval
@@ -488,3 +503,15 @@ print(check_paired_se(my_se))
 # - On the robot, $300$ particles suffice; a noise level assumed too small makes the filter
 #   over-confident, one assumed too large makes it pessimistic, and both matter more for its
 #   covariance than for its accuracy.
+
+# %% [markdown]
+# :::{admonition} From the labs
+# :class: dropdown
+# Lab C ({doc}`../labs`) asks what the filter's assumed noise levels change (reports 002 and 004
+# judged them from one run each): the sections on $Q_\text{est}$ and $R_\text{est}$ answer it over
+# {glue:text}`n_runs_per_setting:d` runs per setting. Report 002 described the jerkier path and the
+# wider cloud; report 004 put the good scales between about $1$ and $5$ and called the
+# over-confident filter "over-fitting". The terrain lab (Lab B, report 001) found $300$ particles
+# biased and $30\,000$ good from one run each; the number of particles is studied here for the
+# robot. {doc}`resampling_studies` and {doc}`sensing_studies` answer the lab's other questions.
+# :::

@@ -146,6 +146,10 @@ Each Part ends with a capstone (:mod:`.capstones`):
 * :func:`check_bearing_filter` - ``fn(z, observer, n, rng, model) -> (means, log_likelihood)``: Part II's
   capstone, a particle filter for bearing-only tracking of a drifting target from a moving observer
   (:class:`BearingModel`), against a converged grid in the plane; eight typical mistakes named.
+* :func:`check_count_filter` - ``fn(y, n, rng, model) -> means`` and :func:`check_count_study` -
+  ``fn(filter_fn, y, model, n_values, n_runs, seed) -> rmse``: Part III's capstone, a particle filter for
+  Poisson counts with a hidden log-rate (:class:`CountModel`) against a converged grid, and a seeded study
+  of its RMSE against the number of particles with common random numbers; nine typical mistakes named.
 """
 
 from __future__ import annotations
@@ -292,12 +296,15 @@ from pfcourse.exercises.part2 import (  # noqa: F401
     velocity_motion,
 )
 from pfcourse.exercises.part3 import (  # noqa: F401
+    ADAPTIVE_MISTAKES,
     ESS_CASES,
     ESS_MISTAKES,
     LOCK_MISTAKES,
     PAIRED_CASE,
     PAIRED_MISTAKES,
     _paired_case,
+    adaptive_residual,
+    check_adaptive_residual,
     check_ess,
     check_lock_on,
     check_paired_se,
@@ -305,6 +312,14 @@ from pfcourse.exercises.part3 import (  # noqa: F401
     lock_on_cases,
     lock_on_reference,
     paired_standard_errors,
+)
+from pfcourse.exercises.capstones import (  # noqa: F401  (Part III's capstone)
+    CountModel,
+    check_count_filter,
+    check_count_study,
+    count_bootstrap,
+    count_data,
+    count_grid,
 )
 from pfcourse.exercises.part4 import (  # noqa: F401
     ANONYMOUS_CASES,

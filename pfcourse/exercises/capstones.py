@@ -358,6 +358,157 @@ def check_bearing_filter(fn: Callable, n: int = 2000, n_runs: int = 24, seed: in
     saved = np.random.get_state()
     try:
         return _check_bearing_filter(fn, n, n_runs, seed, model)
+# --------------------------------------------------------------------------------------------------------------
+# Part III's capstone: a filter for counts, and a seeded study of its error against the number of particles.
+# --------------------------------------------------------------------------------------------------------------
+
+@dataclass(frozen=True)
+class CountModel:
+    """Counts driven by a hidden log-rate (Part III's capstone):
+
+    ``x_0 ~ N(0, sigma^2 / (1 - phi^2))`` (the stationary law), ``x_k = phi x_{k-1} + sigma v_k``,
+    ``y_k | x_k ~ Poisson(exp(mu + x_k))`` for ``k = 1, ..., T``, with ``v_k ~ N(0, 1)``: ``exp(mu)`` is the
+    typical rate, ``x_k`` its log-deviation. ``sigma`` is a standard deviation."""
+
+    phi: float = 0.95
+    sigma: float = 0.3
+    mu: float = 1.0
+
+    def __post_init__(self) -> None:
+        if not -1.0 < self.phi < 1.0:
+            raise ParameterError(f"CountModel: phi = {self.phi} must lie in (-1, 1) for the stationary law to exist")
+        if not self.sigma > 0.0:
+            raise ParameterError(f"CountModel: sigma = {self.sigma} must be a positive standard deviation")
+        if not np.isfinite(self.mu):
+            raise ParameterError(f"CountModel: mu = {self.mu} must be a finite log-rate")
+
+    @property
+    def stationary_sd(self) -> float:
+        """The standard deviation ``sigma / sqrt(1 - phi^2)`` of the stationary law of ``x_k``."""
+        return self.sigma / np.sqrt(1.0 - self.phi ** 2)
+
+    def simulate(self, n_steps: int, rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray]:
+        """States ``x_0..x_T`` and counts ``y_1..y_T`` (``n_steps = T``)."""
+        x = np.empty(n_steps + 1)
+        x[0] = self.stationary_sd * rng.standard_normal()
+        for k in range(1, n_steps + 1):
+            x[k] = self.phi * x[k - 1] + self.sigma * rng.standard_normal()
+        return x, rng.poisson(np.exp(self.mu + x[1:]))
+
+
+#: The filter's mistakes whose large-N limit :func:`count_grid` computes, with the sentence that names each.
+COUNT_MISTAKES = {
+    "no_mu": ("your weights use the rate exp(x_k); the model's rate is exp(mu + x_k): x_k is the log-deviation "
+              "from the typical rate exp(mu), so the log-weight is y_k (mu + x_k) - exp(mu + x_k)"),
+    "rate_as_sd": ("your weights treat y_k as Gaussian around exp(mu + x_k); y_k is a Poisson count, whose "
+                   "log-probability is y_k (mu + x_k) - exp(mu + x_k) - log(y_k!)"),
+    "prior": ("your early means fit an initial cloud drawn from N(0, sigma^2); x_0 comes from the stationary law "
+              "N(0, sigma^2 / (1 - phi^2)), wider by 1 / sqrt(1 - phi^2)"),
+    "predicted": ("your means are those of the predicted cloud, read before the weighting: the filtering mean "
+                  "E[x_k | y_1..y_k] is the weighted mean after the count y_k is used"),
+}
+
+
+def count_grid(y: np.ndarray, model: CountModel, mistake: str | None = None, n_grid: int = 1601,
+               width: float = 8.0) -> np.ndarray:
+    """The filtering means ``E[x_k | y_1..y_k]`` (``k = 1..T``) on a grid of ``n_grid`` points over ``+-width``
+    stationary standard deviations (converged: doubling ``n_grid`` moves them by less than 1e-8,
+    ``tests/test_capstone_part3.py``). ``mistake`` (a key of :data:`COUNT_MISTAKES`) returns instead what a
+    filter with that mistake converges to as its number of particles grows."""
+    s = model.stationary_sd
+    x = np.linspace(-width * s, width * s, n_grid)
+    log_k = -0.5 * ((x[:, None] - model.phi * x[None, :]) / model.sigma) ** 2
+    kernel = np.exp(log_k - logsumexp(log_k, axis=0, keepdims=True))
+    sd0 = model.sigma if mistake == "prior" else s
+    log_p = -0.5 * (x / sd0) ** 2
+    p = np.exp(log_p - logsumexp(log_p))
+    log_rate = x if mistake == "no_mu" else model.mu + x
+    means = np.empty(len(y))
+    for k, yk in enumerate(np.asarray(y, dtype=float)):
+        pred = kernel @ p
+        if mistake == "rate_as_sd":
+            log_g = -0.5 * (yk - np.exp(log_rate)) ** 2
+        else:
+            log_g = yk * log_rate - np.exp(log_rate)
+        post = pred * np.exp(log_g - log_g.max())
+        p = post / post.sum()
+        means[k] = x @ (pred if mistake == "predicted" else p)
+    return means
+
+
+def count_bootstrap(y: np.ndarray, n: int, rng: np.random.Generator, model: CountModel) -> np.ndarray:
+    """The reference answer: a bootstrap filter for the counts, systematic resampling at every step."""
+    x = model.stationary_sd * rng.standard_normal(n)
+    means = np.empty(len(y))
+    for k, yk in enumerate(y):
+        x = model.phi * x + model.sigma * rng.standard_normal(n)
+        log_w = yk * (model.mu + x) - np.exp(model.mu + x)
+        w = np.exp(log_w - logsumexp(log_w))
+        means[k] = w @ x
+        cum = np.cumsum(w)
+        cum[-1] = 1.0
+        x = x[np.searchsorted(cum, (rng.random() + np.arange(n)) / n)]
+    return means
+
+
+def count_study_reference(filter_fn: Callable, y: np.ndarray, model: CountModel, n_values, n_runs: int,
+                          seed: int, mistake: str | None = None) -> np.ndarray:
+    """The study the capstone asks for: ``rmse[i, r]``, the root mean square over the steps of the
+    difference between the means of ``filter_fn`` with ``n_values[i]`` particles and the grid's exact means,
+    run ``r`` drawing from ``np.random.default_rng(seed + r)`` for every ``N`` (common random numbers).
+    ``mistake`` builds instead what a study with that mistake returns (:data:`STUDY_MISTAKES`)."""
+    exact = count_grid(y, model)
+    target = exact
+    if mistake == "truth":
+        target = model.simulate(len(y), np.random.default_rng(COUNT_DATA_SEED))[0][1:]
+    out = np.empty((len(n_values), n_runs))
+    shared = np.random.default_rng(seed)
+    for i, n in enumerate(n_values):
+        for r in range(n_runs):
+            if mistake == "independent":
+                rng = np.random.default_rng([seed + r, i])
+            elif mistake == "one_seed":
+                rng = np.random.default_rng(seed)
+            elif mistake == "shared":
+                rng = shared
+            else:
+                rng = np.random.default_rng(seed + r)
+            err = np.asarray(filter_fn(np.array(y), n, rng, model), dtype=float) - target
+            out[i, r] = np.mean(err ** 2) if mistake == "mse" else np.sqrt(np.mean(err ** 2))
+    return out
+
+
+#: The study's typical mistakes, with the sentence that names each.
+STUDY_MISTAKES = {
+    "truth": ("your errors are measured against the simulated states; the study asks for the filter's own "
+              "(Monte Carlo) error, against the exact filtering means count_grid(y, model), which no number "
+              "of particles can beat"),
+    "mse": ("your numbers are mean squared errors; the study asks for their square root, the RMSE over "
+            "the steps, in the units of x"),
+    "independent": ("your runs draw different random numbers for each N: use np.random.default_rng(seed + r) "
+                    "for run r whatever N is (common random numbers), so the N are compared on the same draws"),
+    "one_seed": ("all your runs are the same run: run r must use the seed seed + r, so the runs differ and "
+                 "their spread is the Monte Carlo error"),
+    "shared": ("your runs share one generator that goes on drawing from run to run, so run r depends on "
+               "the runs before it: give run r its own np.random.default_rng(seed + r)"),
+}
+
+#: The capstone's data: 50 counts of the default model, simulated with seed 2027.
+COUNT_STEPS, COUNT_DATA_SEED = 50, 2027
+
+
+def count_data(model: CountModel | None = None) -> np.ndarray:
+    """The capstone's counts ``y_1..y_50``."""
+    model = model or CountModel()
+    return model.simulate(COUNT_STEPS, np.random.default_rng(COUNT_DATA_SEED))[1]
+
+
+def check_count_filter(fn: Callable, n: int = 1000, n_runs: int = 24, seed: int = 0,
+                       model: CountModel | None = None) -> CheckReport:
+    """:func:`_check_count_filter`, leaving NumPy's global ``np.random`` state as it was."""
+    saved = np.random.get_state()
+    try:
+        return _check_count_filter(fn, n, n_runs, seed, model)
     finally:
         np.random.set_state(saved)
 
@@ -405,6 +556,43 @@ def _check_bearing_filter(fn: Callable, n: int, n_runs: int, seed: int,
     m = np.array([a[0] for a in answers])
     ell = np.array([a[1] for a in answers])
     ref = np.array([bearing_bootstrap(z, obs, n, np.random.default_rng(10_000 + r), model)[0] for r in range(n_runs)])
+def _check_count_filter(fn: Callable, n: int, n_runs: int, seed: int, model: CountModel | None) -> CheckReport:
+    """Check a particle filter ``fn(y, n, rng, model) -> means`` for the count model against the converged
+    grid (:func:`count_grid`) over ``n_runs`` seeded runs: shape and finiteness; draws from the generator it
+    is given; the means' spread over the runs at most three times a resampled filter's
+    (:func:`count_bootstrap`); their bias, ``max_k |z_k|`` at most 5 (``z_k``: mean over the runs minus the
+    grid's mean, over its standard error; a correct filter's bias is ``O(1/N)``, far below). A failure is
+    compared with the large-N limit of each typical mistake, so that it is named."""
+    model = model or CountModel()
+    report = CheckReport("check_count_filter")
+    y = count_data(model)
+    runs = []
+    for run in range(n_runs):
+        answer = _answer(report, lambda: fn(y.copy(), n, np.random.default_rng(seed + run), model),
+                         "fn(y, n, rng, model)", "return the filtering mean of each step, an array of shape (T,)")
+        if answer is None:
+            return report
+        try:
+            means = np.asarray(answer, dtype=float)
+        except (TypeError, ValueError):
+            report.problems.append("return one array: the filtering mean of each step")
+            return report
+        if means.shape != (len(y),):
+            report.problems.append(f"the means have shape {means.shape}, not ({len(y)},): return one filtering "
+                                   "mean per count y_1..y_T")
+            return report
+        if not np.isfinite(means).all():
+            report.problems.append("the means hold NaN or infinity: compute the weights in the log domain and "
+                                   "normalise with logsumexp (a count of 10 makes exp(y log rate) overflow)")
+            return report
+        runs.append(means)
+    problem = _generator_problem(lambda rng: fn(y.copy(), 200, rng, model),
+                                 lambda a, b: np.array_equal(np.asarray(a), np.asarray(b)), what="mean")
+    if problem:
+        report.problems.append(problem)
+        return report
+    m = np.array(runs)
+    ref = np.array([count_bootstrap(y, n, np.random.default_rng(10_000 + r), model) for r in range(n_runs)])
     spread, ref_spread = m.std(axis=0, ddof=1).mean(), ref.std(axis=0, ddof=1).mean()
     if spread > 3 * ref_spread:
         report.problems.append(
@@ -439,4 +627,67 @@ def _check_bearing_filter(fn: Callable, n: int, n_runs: int, seed: int,
             report.problems.append(
                 f"your log-likelihood averages {ell.mean():.2f} where log p(z) = {exact_log_lik:.2f}: the "
                 "estimate must be unbiased for p(z), the product over steps of the mean unnormalised weight")
+    exact = count_grid(y, model)
+    if worst_z(exact) > 5:
+        for mistake, why in COUNT_MISTAKES.items():
+            if worst_z(count_grid(y, model, mistake)) <= 5:
+                report.problems.append(why)
+                return report
+        k = int(np.argmax(np.abs(m.mean(axis=0) - exact)))
+        report.problems.append(
+            f"your mean at step {k + 1} averages {m.mean(axis=0)[k]:.3f} over {n_runs} runs where the exact "
+            f"filter's is {exact[k]:.3f}, further than chance allows: check the move, the weight and the mean")
+    return report
+
+
+#: The study the checker asks for: these numbers of particles, this many runs, seeds from this one.
+STUDY_N, STUDY_RUNS, STUDY_SEED = (100, 400, 1600), 20, 0
+
+
+def check_count_study(fn: Callable, model: CountModel | None = None) -> CheckReport:
+    """:func:`_check_count_study`, leaving NumPy's global ``np.random`` state as it was."""
+    saved = np.random.get_state()
+    try:
+        return _check_count_study(fn, model)
+    finally:
+        np.random.set_state(saved)
+
+
+def _check_count_study(fn: Callable, model: CountModel | None) -> CheckReport:
+    """Check a study ``fn(filter_fn, y, model, n_values, n_runs, seed) -> rmse`` (shape
+    ``(len(n_values), n_runs)``) against :func:`count_study_reference`, run with the reference filter
+    :func:`count_bootstrap` (so the check does not depend on the reader's filter): the study must match it
+    to rounding. A mismatch is compared with each typical mistake of :data:`STUDY_MISTAKES`, so that it is
+    named."""
+    model = model or CountModel()
+    report = CheckReport("check_count_study")
+    y = count_data(model)
+    args = (count_bootstrap, y, model, STUDY_N, STUDY_RUNS, STUDY_SEED)
+    answer = _answer(report, lambda: fn(*args), "fn(filter_fn, y, model, n_values, n_runs, seed)",
+                     "return the array rmse[i, r] of the RMSE of run r with n_values[i] particles")
+    if answer is None:
+        return report
+    try:
+        rmse = np.asarray(answer, dtype=float)
+    except (TypeError, ValueError):
+        report.problems.append("return one array rmse[i, r]: one row per number of particles, one column per run")
+        return report
+    shape = (len(STUDY_N), STUDY_RUNS)
+    if rmse.shape != shape:
+        hint = " (rows and columns swapped?)" if rmse.shape == shape[::-1] else ""
+        report.problems.append(f"the study has shape {rmse.shape}, not {shape}{hint}: one row per number of "
+                               "particles, one column per run")
+        return report
+    expected = count_study_reference(*args)
+    if np.allclose(rmse, expected, rtol=1e-9, atol=1e-12):
+        return report
+    for mistake, why in STUDY_MISTAKES.items():
+        if np.allclose(rmse, count_study_reference(*args, mistake=mistake), rtol=1e-9, atol=1e-12):
+            report.problems.append(why)
+            return report
+    i, r = np.unravel_index(int(np.argmax(np.abs(rmse - expected))), shape)
+    report.problems.append(
+        f"with N = {STUDY_N[i]} your run {r} has RMSE {rmse[i, r]:.4g} where the study's is {expected[i, r]:.4g}: "
+        "run r draws from np.random.default_rng(seed + r), and its RMSE is that of its means against "
+        "count_grid(y, model) over the steps")
     return report

@@ -72,6 +72,138 @@ def check_ess(fn: Callable, rtol: float = 1e-9) -> CheckReport:
     return report
 
 
+# Adaptive resampling with residual resampling (chapter 21, exercise 21.1): the rule of Algorithm 21.1 with
+# the scheme the chapter does not print.
+ADAPTIVE_MISTAKES = {
+    "reversed": "it resamples a cloud whose ESS is at least tau N, or keeps one whose ESS is below it: resample "
+                "only when ESS < tau N, so that tau = 0 never resamples and a larger tau resamples more often",
+    "kept_weights": "after resampling it keeps the old log-weights: each copy now stands for 1/N of the cloud, "
+                    "so reset every log-weight to -log N (keeping the old ones counts the weights twice)",
+    "multinomial": "a particle got fewer than floor(N W_i) copies: residual resampling first gives particle i "
+                   "exactly floor(N W_i) copies and draws only the R = N - sum_i floor(N W_i) remaining ones",
+    "systematic": "no particle ever got more than ceil(N W_i) copies, as with systematic or stratified "
+                  "resampling: residual resampling draws the R remaining copies independently (multinomially) "
+                  "from the residual weights N W_i - floor(N W_i), so a particle can get two of them",
+    "biased": "the average number of copies of a particle is not N W_i: draw the R remaining copies with "
+              "probabilities proportional to the residuals N W_i - floor(N W_i), normalised to sum to one",
+}
+
+
+def adaptive_residual(particles: np.ndarray, log_w: np.ndarray, tau: float, rng: np.random.Generator,
+                      mistake: str | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """Algorithm 21.1 with residual resampling: when ``ESS < tau N``, ``floor(N W_i)`` copies of particle ``i``
+    and ``R = N - sum floor(N W_i)`` more drawn multinomially from the residuals; log-weights reset to
+    ``-log N``. ``mistake`` (a key of :data:`ADAPTIVE_MISTAKES`) makes it instead."""
+    n = len(log_w)
+    w = np.exp(log_w - logsumexp(log_w))
+    ess = 1.0 / np.sum(w ** 2)
+    if (ess < tau * n) if mistake == "reversed" else (ess >= tau * n):
+        return particles, log_w
+    if mistake == "multinomial":
+        idx = rng.choice(n, size=n, p=w)
+    elif mistake == "systematic":
+        cum = np.cumsum(w)
+        cum[-1] = 1.0
+        idx = np.searchsorted(cum, (rng.random() + np.arange(n)) / n)
+    else:
+        counts = np.floor(n * w).astype(int)
+        rest = n - counts.sum()
+        if rest > 0:
+            residual = np.ones(n) if mistake == "biased" else n * w - counts
+            counts += np.bincount(rng.choice(n, size=rest, p=residual / residual.sum()), minlength=n)
+        idx = np.repeat(np.arange(n), counts)
+    new_w = log_w[idx] if mistake == "kept_weights" else np.full(n, -np.log(n))
+    return particles[idx], new_w
+
+
+def _adaptive_cases() -> dict[str, tuple[np.ndarray, float]]:
+    """Log-weights and thresholds: kept (ESS at or above tau N) and resampled (ESS below it)."""
+    uneven = np.log(np.array([3.9, 1.4, 1.3, 1.2, 0.6, 0.5, 0.5, 0.3, 0.2, 0.1]) / 10) + 700.0  # ESS ~ 4.7
+    mild = np.log(np.linspace(1.0, 2.0, 10))  # ESS ~ 9.6
+    return {"keep_low_tau": (uneven, 0.3), "keep_mild": (mild, 0.9), "keep_zero": (uneven, 0.0),
+            "resample": (uneven, 0.5), "resample_mild": (mild, 1.0)}
+
+
+def check_adaptive_residual(fn: Callable, n_draws: int = 2000, seed: int = 0) -> CheckReport:
+    """:func:`_check_adaptive_residual`, leaving NumPy's global ``np.random`` state as it was."""
+    saved = np.random.get_state()
+    try:
+        return _check_adaptive_residual(fn, n_draws, seed)
+    finally:
+        np.random.set_state(saved)
+
+
+def _check_adaptive_residual(fn: Callable, n_draws: int, seed: int) -> CheckReport:
+    """Check ``fn(particles, log_w, tau, rng) -> (particles, log_w)``, adaptive resampling with residual
+    resampling: clouds with ``ESS >= tau N`` come back unchanged, the others with equal log-weights; the
+    generator is the one given; over ``n_draws`` resamplings every particle gets at least ``floor(N W_i)``
+    copies, some get more than ``ceil(N W_i)`` (residual, not systematic), and the mean number of copies is
+    ``N W_i`` within 5 standard errors. Each mistake of :data:`ADAPTIVE_MISTAKES` is named."""
+    from pfcourse.exercises.part1 import _generator_problem
+
+    report = CheckReport("check_adaptive_residual")
+    signature = "fn(particles, log_w, tau, rng)"
+    what = "return (particles, log_w): the cloud after the rule, and its log-weights"
+
+    def call(log_w, tau, rng):
+        n = len(log_w)
+        answer = _answer(report, lambda: fn(np.arange(n, dtype=float), log_w.copy(), tau, rng), signature, what)
+        if answer is None:
+            return None
+        try:
+            parts, new_w = (np.asarray(a, dtype=float) for a in answer)
+        except (TypeError, ValueError):
+            report.problems.append("return a pair (particles, log_w) of two arrays")
+            return None
+        if parts.shape != (n,) or new_w.shape != (n,):
+            report.problems.append(f"return N = {n} particles and N log-weights, not shapes {parts.shape} and "
+                                   f"{new_w.shape}")
+            return None
+        if not np.isin(parts, np.arange(n)).all():
+            report.problems.append("the particles returned are not copies of the particles given: resampling "
+                                   "copies particles, it does not move them")
+            return None
+        return parts.astype(int), new_w
+
+    rng = np.random.default_rng(seed)
+    cases = _adaptive_cases()
+    for name, (log_w, tau) in cases.items():
+        out = call(log_w, tau, rng)
+        if out is None:
+            return report
+        kept = np.array_equal(out[0], np.arange(len(log_w))) and np.allclose(out[1], log_w)
+        if name.startswith("keep") and not kept or name.startswith("resample") and kept:
+            report.problems.append(ADAPTIVE_MISTAKES["reversed"])
+            return report
+        if name.startswith("resample") and not np.allclose(out[1], out[1][0]):
+            report.problems.append(ADAPTIVE_MISTAKES["kept_weights"])
+            return report
+    log_w, tau = cases["resample"]
+    problem = _generator_problem(lambda g: call(log_w, tau, g), lambda a, b: np.array_equal(a[0], b[0]),
+                                 what="resampled cloud")
+    if problem:
+        report.problems.append(problem)
+        return report
+    n = len(log_w)
+    w = np.exp(log_w - logsumexp(log_w))
+    counts = np.empty((n_draws, n), dtype=int)
+    for d in range(n_draws):
+        out = call(log_w, tau, rng)
+        if out is None:
+            return report
+        counts[d] = np.bincount(out[0], minlength=n)
+    if (counts < np.floor(n * w)).any():
+        report.problems.append(ADAPTIVE_MISTAKES["multinomial"])
+        return report
+    if not (counts > np.ceil(n * w)).any():
+        report.problems.append(ADAPTIVE_MISTAKES["systematic"])
+        return report
+    se = counts.std(axis=0, ddof=1) / np.sqrt(n_draws) + 1e-12
+    if np.max(np.abs(counts.mean(axis=0) - n * w) / se) > 5:
+        report.problems.append(ADAPTIVE_MISTAKES["biased"])
+    return report
+
+
 # Locked on, the book's one definition (chapter 22, exercise 22.1): runs of per-step errors whose verdict
 # differs between the right definition and each mistake.
 LOCK_MISTAKES = {
