@@ -358,6 +358,90 @@ def check_bearing_filter(fn: Callable, n: int = 2000, n_runs: int = 24, seed: in
     saved = np.random.get_state()
     try:
         return _check_bearing_filter(fn, n, n_runs, seed, model)
+    finally:
+        np.random.set_state(saved)
+
+
+def _check_bearing_filter(fn: Callable, n: int, n_runs: int, seed: int,
+                          model: BearingModel | None) -> CheckReport:
+    """Check a particle filter ``fn(z, observer, n, rng, model) -> (means, log_likelihood)`` for bearing-only
+    tracking against the converged grid (:func:`bearing_grid`), over ``n_runs`` seeded runs, as
+    :func:`_check_sv_filter` does for Part I's capstone: shape and finiteness; the generator; the spread of the
+    means at most three times a resampled filter's (:func:`bearing_bootstrap`); no mean (x or y, any step)
+    further from the grid's than 5 standard errors of the mean over runs; ``mean(log p_hat) + var(log p_hat) / 2``
+    within 5 standard errors plus 0.05 of ``log p(z)``. A failure is compared with the large-N limit of each
+    typical mistake, so that it is named."""
+    model = model or BearingModel()
+    report = CheckReport("check_bearing_filter")
+    _, z = model.simulate(BEARING_STEPS, np.random.default_rng(BEARING_DATA_SEED))
+    obs = model.observer(BEARING_STEPS)
+    signature = "fn(z, observer, n, rng, model)"
+    answers = []
+    for run in range(n_runs):
+        answer = _answer(report, lambda: fn(z.copy(), obs.copy(), n, np.random.default_rng(seed + run), model),
+                         signature, "return (means, log_likelihood): the filtering mean of each step and log p_hat(z)")
+        if answer is None:
+            return report
+        try:
+            means, log_lik = answer
+            means, log_lik = np.asarray(means, dtype=float), float(log_lik)
+        except (TypeError, ValueError):
+            report.problems.append("return a pair (means, log_likelihood): a (T, 2) array of means and one number")
+            return report
+        if means.shape != (len(z), 2):
+            report.problems.append(f"the means have shape {means.shape}, not ({len(z)}, 2): return one filtering "
+                                   "mean (x, y) per bearing z_1..z_T")
+            return report
+        if not (np.isfinite(means).all() and np.isfinite(log_lik)):
+            report.problems.append("the answer holds NaN or infinity: compute the weights in the log domain "
+                                   "and normalise with logsumexp")
+            return report
+        answers.append((means, log_lik))
+    problem = _generator_problem(lambda rng: fn(z.copy(), obs.copy(), 200, rng, model),
+                                 lambda a, b: np.array_equal(np.asarray(a[0]), np.asarray(b[0])), what="mean")
+    if problem:
+        report.problems.append(problem)
+        return report
+    m = np.array([a[0] for a in answers])
+    ell = np.array([a[1] for a in answers])
+    ref = np.array([bearing_bootstrap(z, obs, n, np.random.default_rng(10_000 + r), model)[0] for r in range(n_runs)])
+    spread, ref_spread = m.std(axis=0, ddof=1).mean(), ref.std(axis=0, ddof=1).mean()
+    if spread > 3 * ref_spread:
+        report.problems.append(
+            f"your means vary over seeds {spread / ref_spread:.0f} times as much as a resampled filter's: "
+            "without resampling the weights collapse onto a few particles; resample after each weighting")
+        return report
+    exact, exact_log_lik = bearing_grid(z, model)
+    se = m.std(axis=0, ddof=1) / np.sqrt(n_runs) + 1e-12
+
+    def worst_z(target: np.ndarray) -> float:
+        return float(np.max(np.abs((m.mean(axis=0) - target) / se)))
+
+    if worst_z(exact) > 5:
+        for mistake, why in BEARING_MEAN_MISTAKES.items():
+            if worst_z(bearing_grid(z, model, mistake)[0]) <= 5:
+                report.problems.append(why)
+                return report
+        k, c = np.unravel_index(int(np.argmax(np.abs(m.mean(axis=0) - exact) / se)), exact.shape)
+        report.problems.append(
+            f"your mean {'xy'[c]} at step {k + 1} averages {m.mean(axis=0)[k, c]:.2f} m over {n_runs} runs where the "
+            f"exact filter's is {exact[k, c]:.2f} m, further than chance allows: check the move, the weight and "
+            "the mean")
+        return report
+    se_ell = ell.std(ddof=1) / np.sqrt(n_runs)
+    gap = ell.mean() + ell.var(ddof=1) / 2 - exact_log_lik
+    if abs(gap) > 5 * se_ell + 0.05:
+        if abs(gap - len(z) * np.log(n)) <= 5 * se_ell + 0.05:
+            report.problems.append(BEARING_LIKELIHOOD_MISTAKES["log_sum"])
+        elif abs(ell.mean() - bearing_grid(z, model, "mean_log")[1]) <= 5 * se_ell + 0.05:
+            report.problems.append(BEARING_LIKELIHOOD_MISTAKES["mean_log"])
+        else:
+            report.problems.append(
+                f"your log-likelihood averages {ell.mean():.2f} where log p(z) = {exact_log_lik:.2f}: the "
+                "estimate must be unbiased for p(z), the product over steps of the mean unnormalised weight")
+    return report
+
+
 # --------------------------------------------------------------------------------------------------------------
 # Part III's capstone: a filter for counts, and a seeded study of its error against the number of particles.
 # --------------------------------------------------------------------------------------------------------------
@@ -513,49 +597,6 @@ def check_count_filter(fn: Callable, n: int = 1000, n_runs: int = 24, seed: int 
         np.random.set_state(saved)
 
 
-def _check_bearing_filter(fn: Callable, n: int, n_runs: int, seed: int,
-                          model: BearingModel | None) -> CheckReport:
-    """Check a particle filter ``fn(z, observer, n, rng, model) -> (means, log_likelihood)`` for bearing-only
-    tracking against the converged grid (:func:`bearing_grid`), over ``n_runs`` seeded runs, as
-    :func:`_check_sv_filter` does for Part I's capstone: shape and finiteness; the generator; the spread of the
-    means at most three times a resampled filter's (:func:`bearing_bootstrap`); no mean (x or y, any step)
-    further from the grid's than 5 standard errors of the mean over runs; ``mean(log p_hat) + var(log p_hat) / 2``
-    within 5 standard errors plus 0.05 of ``log p(z)``. A failure is compared with the large-N limit of each
-    typical mistake, so that it is named."""
-    model = model or BearingModel()
-    report = CheckReport("check_bearing_filter")
-    _, z = model.simulate(BEARING_STEPS, np.random.default_rng(BEARING_DATA_SEED))
-    obs = model.observer(BEARING_STEPS)
-    signature = "fn(z, observer, n, rng, model)"
-    answers = []
-    for run in range(n_runs):
-        answer = _answer(report, lambda: fn(z.copy(), obs.copy(), n, np.random.default_rng(seed + run), model),
-                         signature, "return (means, log_likelihood): the filtering mean of each step and log p_hat(z)")
-        if answer is None:
-            return report
-        try:
-            means, log_lik = answer
-            means, log_lik = np.asarray(means, dtype=float), float(log_lik)
-        except (TypeError, ValueError):
-            report.problems.append("return a pair (means, log_likelihood): a (T, 2) array of means and one number")
-            return report
-        if means.shape != (len(z), 2):
-            report.problems.append(f"the means have shape {means.shape}, not ({len(z)}, 2): return one filtering "
-                                   "mean (x, y) per bearing z_1..z_T")
-            return report
-        if not (np.isfinite(means).all() and np.isfinite(log_lik)):
-            report.problems.append("the answer holds NaN or infinity: compute the weights in the log domain "
-                                   "and normalise with logsumexp")
-            return report
-        answers.append((means, log_lik))
-    problem = _generator_problem(lambda rng: fn(z.copy(), obs.copy(), 200, rng, model),
-                                 lambda a, b: np.array_equal(np.asarray(a[0]), np.asarray(b[0])), what="mean")
-    if problem:
-        report.problems.append(problem)
-        return report
-    m = np.array([a[0] for a in answers])
-    ell = np.array([a[1] for a in answers])
-    ref = np.array([bearing_bootstrap(z, obs, n, np.random.default_rng(10_000 + r), model)[0] for r in range(n_runs)])
 def _check_count_filter(fn: Callable, n: int, n_runs: int, seed: int, model: CountModel | None) -> CheckReport:
     """Check a particle filter ``fn(y, n, rng, model) -> means`` for the count model against the converged
     grid (:func:`count_grid`) over ``n_runs`` seeded runs: shape and finiteness; draws from the generator it
@@ -599,34 +640,11 @@ def _check_count_filter(fn: Callable, n: int, n_runs: int, seed: int, model: Cou
             f"your means vary over seeds {spread / ref_spread:.0f} times as much as a resampled filter's: "
             "without resampling the weights collapse onto a few particles; resample after each weighting")
         return report
-    exact, exact_log_lik = bearing_grid(z, model)
     se = m.std(axis=0, ddof=1) / np.sqrt(n_runs) + 1e-12
 
     def worst_z(target: np.ndarray) -> float:
         return float(np.max(np.abs((m.mean(axis=0) - target) / se)))
 
-    if worst_z(exact) > 5:
-        for mistake, why in BEARING_MEAN_MISTAKES.items():
-            if worst_z(bearing_grid(z, model, mistake)[0]) <= 5:
-                report.problems.append(why)
-                return report
-        k, c = np.unravel_index(int(np.argmax(np.abs(m.mean(axis=0) - exact) / se)), exact.shape)
-        report.problems.append(
-            f"your mean {'xy'[c]} at step {k + 1} averages {m.mean(axis=0)[k, c]:.2f} m over {n_runs} runs where the "
-            f"exact filter's is {exact[k, c]:.2f} m, further than chance allows: check the move, the weight and "
-            "the mean")
-        return report
-    se_ell = ell.std(ddof=1) / np.sqrt(n_runs)
-    gap = ell.mean() + ell.var(ddof=1) / 2 - exact_log_lik
-    if abs(gap) > 5 * se_ell + 0.05:
-        if abs(gap - len(z) * np.log(n)) <= 5 * se_ell + 0.05:
-            report.problems.append(BEARING_LIKELIHOOD_MISTAKES["log_sum"])
-        elif abs(ell.mean() - bearing_grid(z, model, "mean_log")[1]) <= 5 * se_ell + 0.05:
-            report.problems.append(BEARING_LIKELIHOOD_MISTAKES["mean_log"])
-        else:
-            report.problems.append(
-                f"your log-likelihood averages {ell.mean():.2f} where log p(z) = {exact_log_lik:.2f}: the "
-                "estimate must be unbiased for p(z), the product over steps of the mean unnormalised weight")
     exact = count_grid(y, model)
     if worst_z(exact) > 5:
         for mistake, why in COUNT_MISTAKES.items():
