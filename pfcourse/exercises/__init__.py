@@ -122,11 +122,14 @@ Each Part ends with a capstone (:mod:`.capstones`):
 * :func:`check_sv_filter` - ``fn(y, n, rng, model) -> (means, log_likelihood)``: Part I's capstone, a
   particle filter for the stochastic volatility model :class:`SVModel`, against a converged grid; its
   means tested for bias and its likelihood for unbiasedness over seeded runs, seven typical mistakes named.
+* :func:`check_sv_smoother` - ``fn(y, n, rng, model) -> means``: Part V's capstone, a particle smoother for
+  the same model, against the grid's smoothed means; four typical mistakes named, the generator checked.
 """
 
 from __future__ import annotations
 
 from pfcourse.exercises.capstones import SVModel, check_sv_filter, sv_bootstrap, sv_grid  # noqa: F401
+from pfcourse.exercises.capstones import check_sv_smoother, sv_ffbsm, sv_grid_smoother  # noqa: F401
 from pfcourse.exercises.checking import (  # noqa: F401
     CheckReport,
     _answer,
