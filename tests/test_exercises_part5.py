@@ -85,3 +85,56 @@ def test_the_checker_leaves_numpys_global_state_alone():
     np.random.seed(5)
     check_adapted_likelihood(lambda *args: adapted_student(*args, mistake="global"))
     assert np.random.random() == expected
+
+
+def lag_student(particles, weights, ancestors, lag, mistake=None):
+    """The fixed-lag smoother as a student writes it, one mistake switched on."""
+    T = len(weights) - 1
+    means = []
+    for k in range(T + 1):
+        t = min(k + lag, T)
+        if mistake == "end_not_clipped" and k + lag > T:
+            means.append(weights[k] @ particles[k])
+            continue
+        idx = np.arange(weights.shape[1])
+        last = k + 1 if mistake == "one_step_short" else k
+        for j in range(t, last, -1):
+            idx = ancestors[j - 1][idx] if mistake == "shifted_ancestors" else ancestors[j][idx]
+        if mistake == "no_ancestry":
+            means.append(weights[t] @ particles[t])
+        elif mistake == "filter_weights":
+            means.append(weights[k] @ particles[k][idx])
+        else:
+            means.append(weights[t] @ particles[k][idx])
+    return np.array(means)
+
+
+def test_the_fixed_lag_reference_passes_and_agrees_with_the_package():
+    from pfcourse.exercises import check_fixed_lag, fixed_lag_reference
+    from pfcourse.exercises.part5 import _fixed_lag_case
+    from pfcourse.smoothing import fixed_lag_means
+    assert check_fixed_lag(lag_student).ok, str(check_fixed_lag(lag_student))
+    particles, weights, ancestors = _fixed_lag_case()
+    for lag in (0, 2, 3, 20):
+        assert np.allclose(fixed_lag_reference(particles, weights, ancestors, lag),
+                           fixed_lag_means(particles, weights, ancestors, lag))
+
+
+@pytest.mark.parametrize("mistake, says", [
+    ("filter_weights", "carry THEIR weights"),
+    ("no_ancestry", "follow each one's ancestor indices"),
+    ("one_step_short", "one step too few"),
+    ("shifted_ancestors", "ancestors[j - 1] where ancestors[j] belongs"),
+    ("end_not_clipped", "min(k + L, T)"),
+])
+def test_each_typical_mistake_of_the_fixed_lag_smoother_gets_its_own_sentence(mistake, says):
+    from pfcourse.exercises import check_fixed_lag
+    report = check_fixed_lag(lambda *args: lag_student(*args, mistake=mistake))
+    assert not report.ok and len(report.problems) == 1, str(report)
+    assert says in report.problems[0], report.problems[0]
+
+
+def test_the_fixed_lag_checker_names_a_wrong_shape_and_none():
+    from pfcourse.exercises import check_fixed_lag
+    assert "not (8, 2)" in check_fixed_lag(lambda p, w, a, lag: np.zeros((8, 3))).problems[0]
+    assert "returned None" in check_fixed_lag(lambda p, w, a, lag: None).problems[0]

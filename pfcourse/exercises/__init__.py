@@ -296,6 +296,8 @@ from pfcourse.exercises.part5 import (  # noqa: F401
     _backward_case,
     adapted_log_likelihood,
     check_adapted_likelihood,
+    check_fixed_lag,
+    fixed_lag_reference,
     backward_weights,
     check_backward_weights,
     check_likelihood_estimate,

@@ -328,3 +328,81 @@ def check_backward_weights(fn: Callable, rtol: float = 1e-9) -> CheckReport:
                            "check the ratio f(x_(k+1)^j | x_k^i) / sum_l W_k^l f(x_(k+1)^j | x_k^l) and its "
                            "weighting by the smoothed weights W_(k+1|K)^j")
     return report
+
+
+# ---------------------------------------------------------------- chapter 25: the fixed-lag smoother
+FIXED_LAG_MISTAKES = {
+    "filter_weights": ("it weights the ancestors with the filter weights W_k of step k: the ancestors at k of "
+                       "the particles of step t = k + L carry THEIR weights, W_t^i"),
+    "no_ancestry": ("it averages the particles of step k + L themselves: follow each one's ancestor indices "
+                    "back to step k and average those ancestors' positions"),
+    "one_step_short": ("it follows the ancestor indices one step too few: from step t, apply ancestors[t], "
+                       "ancestors[t - 1], ..., ancestors[k + 1] (ancestors[j] points from step j to step j - 1)"),
+    "shifted_ancestors": ("it applies ancestors[j - 1] where ancestors[j] belongs: ancestors[j, i] is the index "
+                          "at step j - 1 of the parent of particle i of step j"),
+    "end_not_clipped": ("its last L means are the filter's: near the end use t = min(k + L, T), the last step, "
+                        "not the filter at k"),
+}
+
+
+def fixed_lag_reference(particles: np.ndarray, weights: np.ndarray, ancestors: np.ndarray, lag: int,
+                        mistake: str | None = None) -> np.ndarray:
+    """``m_{k|t} = sum_i W_t^i x_k^{a(i, t -> k)}``, ``t = min(k + L, T)`` (``pfcourse.smoothing.
+    fixed_lag_means``); ``mistake`` (a key of :data:`FIXED_LAG_MISTAKES`) computes that mistake instead."""
+    n_steps, n, _ = particles.shape
+    means = np.empty((n_steps, particles.shape[2]))
+    for k in range(n_steps):
+        t = k + lag if mistake == "end_not_clipped" else min(k + lag, n_steps - 1)
+        if t > n_steps - 1:
+            means[k] = weights[k] @ particles[k]
+            continue
+        idx = np.arange(n)
+        stop = k + 1 if mistake == "one_step_short" else k
+        for j in range(t, stop, -1):
+            idx = ancestors[j - 1 if mistake == "shifted_ancestors" else j][idx]
+        at = t if mistake == "no_ancestry" else k
+        w = weights[k] if mistake == "filter_weights" else weights[t]
+        means[k] = w @ particles[at][idx if mistake != "no_ancestry" else np.arange(n)]
+    return means
+
+
+def _fixed_lag_case(seed: int = 0) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Eight stored clouds of 12 particles in 2-D, random weights, random ancestor indices."""
+    rng = np.random.default_rng(seed)
+    particles = rng.normal(size=(8, 12, 2)) + np.arange(8)[:, None, None]
+    weights = rng.dirichlet(np.ones(12), size=8)
+    ancestors = rng.integers(0, 12, size=(8, 12))
+    ancestors[0] = np.arange(12)
+    return particles, weights, ancestors
+
+
+def check_fixed_lag(fn: Callable, lag: int = 3, rtol: float = 1e-9) -> CheckReport:
+    """Check ``fn(particles, weights, ancestors, lag) -> (T+1, d)``, the fixed-lag smoothed means, against
+    :func:`fixed_lag_reference` on :func:`_fixed_lag_case` (lag 3 and lag 0); a wrong answer is compared with
+    each mistake of :data:`FIXED_LAG_MISTAKES`, and the one it computes is named. The function draws no
+    random numbers, so there is no generator to check."""
+    report = CheckReport("fixed-lag smoother")
+    particles, weights, ancestors = _fixed_lag_case()
+    for case_lag in (lag, 0):
+        answer = _answer(report, lambda: fn(particles.copy(), weights.copy(), ancestors.copy(), case_lag),
+                         "fn(particles, weights, ancestors, lag)", "return the smoothed means, shape (T+1, d)")
+        if answer is None:
+            return report
+        answer = np.asarray(answer, dtype=float)
+        if answer.shape != (particles.shape[0], particles.shape[2]):
+            report.problems.append(f"the answer has shape {answer.shape}, not {(particles.shape[0], particles.shape[2])}:"
+                                   " one mean per step, with the state's dimension")
+            return report
+        if np.allclose(answer, fixed_lag_reference(particles, weights, ancestors, case_lag), rtol=rtol, atol=1e-12):
+            continue
+        for mistake, why in FIXED_LAG_MISTAKES.items():
+            if np.allclose(answer, fixed_lag_reference(particles, weights, ancestors, case_lag, mistake),
+                           rtol=rtol, atol=1e-12):
+                report.problems.append(f"with lag {case_lag}: {why}")
+                return report
+        k = int(np.argmax(np.abs(answer - fixed_lag_reference(particles, weights, ancestors, case_lag)).sum(axis=1)))
+        report.problems.append(f"with lag {case_lag} the mean of step {k} is {np.round(answer[k], 4)}, not "
+                               f"{np.round(fixed_lag_reference(particles, weights, ancestors, case_lag)[k], 4)}: "
+                               "trace the particles of step min(k + L, T) back to step k and weight them by W_t")
+        return report
+    return report
