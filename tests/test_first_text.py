@@ -36,7 +36,8 @@ ROOT = Path(__file__).resolve().parents[1]
 BOOK = ROOT / "book"
 FIRST_TEXT = ["onramp", "part1/model", "part1/kalman", "part1/sis", "part1/sir", "part1/resampling_schemes",
               "part1/proposals", "part1/rao_blackwell", "part1/auxiliary", "part2/map_robot",
-              "part4/pf_vs_kalman", "part4/data_association", "part5/particle_mcmc", "part5/static_parameters"]
+              "part4/pf_vs_kalman", "part4/data_association", "part5/likelihood", "part5/particle_mcmc",
+              "part5/smoothing", "part5/static_parameters"]
 HIDDEN = {"remove-input", "hide-input", "remove-cell"}
 MAX_LINE = 80
 MAX_MINUTES = 25

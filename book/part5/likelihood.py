@@ -168,12 +168,14 @@ assert abs(mine - engine) < TOL  # the prose: the code reproduces the engine to 
 
 # %%
 SEEDS = np.arange(100)
-at_1 = np.array([log_likelihood_estimate(model, Z, 300, np.random.default_rng(s),
-                                         threshold=1.0) for s in SEEDS])
+at_1 = np.array([
+    log_likelihood_estimate(model, Z, 300, np.random.default_rng(s),
+                            threshold=1.0)
+    for s in SEEDS])
 errors = at_1 - exact
 ratio = np.exp(errors)
-print(f"{SEEDS.size} runs, N = 300: mean error of log p^ {errors.mean():.2f} nats,"
-      f" -var/2 = {-errors.var(ddof=1) / 2:.2f}")
+print(f"{SEEDS.size} runs, N = 300: mean error of log p^"
+      f" {errors.mean():.2f} nats, -var/2 = {-errors.var(ddof=1) / 2:.2f}")
 print(f"p^/p: mean {ratio.mean():.2f}, median {np.median(ratio):.2f}")
 
 # %% tags=["remove-input"] jupyter={"source_hidden": true}
@@ -278,7 +280,7 @@ thetas = np.geomspace(0.4, 2.5, 17)
 
 
 def curve(n, seeds):
-    """log p^(theta) on the grid thetas, the filter at theta seeded by seeds[i]."""
+    """log p^ on the grid thetas; the filter at thetas[i] uses seeds[i]."""
     return np.array([
         log_likelihood_estimate(scenario.model(Rv=t * scenario.Rv), Z, n,
                                 np.random.default_rng(s), threshold=1.0)
@@ -378,8 +380,9 @@ control_panel(draw_likelihood_curve, columns=2, grid={"n_particles": (10, 100, 1
 theta_exact, _ = max_likelihood_scale(
     lambda t: kalman_log_likelihood(scenario, Z, t))
 theta_pf, _ = max_likelihood_scale(
-    lambda t: log_likelihood_estimate(scenario.model(Rv=t * scenario.Rv), Z, 300,
-                                      np.random.default_rng(11), threshold=1.0))
+    lambda t: log_likelihood_estimate(
+        scenario.model(Rv=t * scenario.Rv), Z, 300, np.random.default_rng(11),
+        threshold=1.0))
 print(f"exact ML theta = {theta_exact:.3f}")
 print(f"particle ML (N = 300, one seed) theta = {theta_pf:.3f}")
 
