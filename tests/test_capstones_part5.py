@@ -107,7 +107,7 @@ def test_the_checker_leaves_numpys_global_state_alone():
 def test_the_solution_printed_in_part_five_passes():
     text = (Path(__file__).resolve().parents[1] / "book/part5/index.md").read_text()
     solution = text.split(":::{admonition} A solution", 1)[1]
-    code = re.search(r"```python\n(.*?)```", solution, re.S).group(1)
+    code = re.search(r"```\{code\} python\n(.*?)```", solution, re.S).group(1)
     namespace = {}
     exec(code, namespace)
     assert check_sv_smoother(namespace["my_sv_smoother"]).ok

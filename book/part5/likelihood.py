@@ -842,7 +842,7 @@ EvidenceBlock(
 # moving it, by $p(z_k \mid x_{k-1}^i) = \mathcal N(z_k;\, a x_{k-1}^i,\, q^2 + r^2)$, resamples, and
 # moves from $p(x_k \mid x_{k-1}, z_k)$, a Gaussian of variance $s^2 = (q^{-2} + r^{-2})^{-1}$ and
 # mean $s^2 (a x_{k-1} / q^2 + z_k / r^2)$. Write `adapted_log_likelihood(z, n, rng, a, q, r)`, its
-# estimate $\log \hat p(z_{1:K})$, drawing from `rng`. The checker compares 40 runs with the Kalman
+# estimate $\log \hat p(z_{1:K})$, drawing from `rng`. The checker compares $40$ runs with the Kalman
 # likelihood and with the spread of a bootstrap filter, and names the mistakes it recognises.
 # ```
 
