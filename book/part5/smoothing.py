@@ -413,8 +413,8 @@ EvidenceBlock(
 # %% [markdown]
 # On this model the particle smoothers follow the exact one. Over $100$ datasets FFBSm's mean is
 # on average
-# {glue:text}`smooth_lin_ffbsm_rts:.2f` exact standard deviations from the RTS mean (95 % interval
-# {glue:text}`smooth_lin_ffbsm_rts_low:.2f` to {glue:text}`smooth_lin_ffbsm_rts_high:.2f`), the
+# {glue:text}`smooth_lin_ffbsm_rts:.2f` exact standard deviations from the RTS mean ({glue:text}`smooth_lin_ffbsm_rts_low:.2f` to
+# {glue:text}`smooth_lin_ffbsm_rts_high:.2f`), the
 # same order as the filter's distance from the Kalman filter, {glue:text}`smooth_lin_filter_kf:.2f`.
 #
 # The backward kernel keeps about {glue:text}`smooth_lin_kernel_ess:.0f` of the $100$ particles
@@ -423,7 +423,7 @@ EvidenceBlock(
 # by run, median).
 #
 # Inside the gap the smoothed error against the truth is
-# {glue:text}`smooth_lin_gain:.2f` times the filter's (95 % interval {glue:text}`smooth_lin_gain_low:.2f`
+# {glue:text}`smooth_lin_gain:.2f` times the filter's ({glue:text}`smooth_lin_gain_low:.2f`
 # to {glue:text}`smooth_lin_gain_high:.2f`); the exact smoother's is
 # {glue:text}`smooth_lin_exact_gain:.2f` times the Kalman filter's.
 #
@@ -589,7 +589,7 @@ EvidenceBlock(
 
 # %% [markdown]
 # With $N = 100$ the FFBSm mean is on average {glue:text}`ffbsm_rts_distance_n100:.2f` exact
-# standard deviations from the RTS mean (95 % interval {glue:text}`smooth_n100_ffbsm_low:.2f` to
+# standard deviations from the RTS mean ({glue:text}`smooth_n100_ffbsm_low:.2f` to
 # {glue:text}`smooth_n100_ffbsm_high:.2f`).
 #
 # The FFBSi mean of $J = N$ trajectories, on the same runs, is on average
@@ -598,7 +598,7 @@ EvidenceBlock(
 # the collapse of the kernel (the paired ratio is in the evidence).
 #
 # Both shrink slowly with $N$: the slope of the log distance against $\log N$ is
-# {glue:text}`smooth_slope:.2f` (interval {glue:text}`smooth_slope_low:.2f` to
+# {glue:text}`smooth_slope:.2f` ({glue:text}`smooth_slope_low:.2f` to
 # {glue:text}`smooth_slope_high:.2f`), flatter than the $-0.5$ of a Monte Carlo error whose
 # effective sample grew in proportion to $N$.
 #
@@ -669,13 +669,13 @@ EvidenceBlock(
 # {glue:text}`smooth_demo_ancestors_0:d` distinct ancestors at step $0$: the naive smoother's
 # estimate there rests on that few points, a band almost of width zero where the exact one is wide.
 #
-# Over the study's datasets the mean number is {glue:text}`smooth_ancestors_0:.2f` (interval
-# {glue:text}`smooth_ancestors_0_low:.2f` to {glue:text}`smooth_ancestors_0_high:.2f`).
+# Over the study's datasets the mean number is {glue:text}`smooth_ancestors_0:.2f`
+# ({glue:text}`smooth_ancestors_0_low:.2f` to {glue:text}`smooth_ancestors_0_high:.2f`).
 #
 # On this model FFBSm does not escape the merged lines: its kernel retraces them, as measured
 # above. Run by run, the naive smoother's distance to the RTS mean is
-# {glue:text}`smooth_naive_vs_ffbsm:.2f` times FFBSm's (95 % interval
-# {glue:text}`smooth_naive_vs_ffbsm_low:.2f` to {glue:text}`smooth_naive_vs_ffbsm_high:.2f`), for
+# {glue:text}`smooth_naive_vs_ffbsm:.2f` times FFBSm's ({glue:text}`smooth_naive_vs_ffbsm_low:.2f` to
+# {glue:text}`smooth_naive_vs_ffbsm_high:.2f`), for
 # $N$ densities per step instead of $N^2$. FFBSm pays off where its kernel can choose among
 # many particles, as on the scalar model above and in the robot's gap below.
 #
@@ -732,11 +732,11 @@ EvidenceBlock(
 # The distance falls with the lag: each later measurement still says something about the
 # slowly drifting landmarks. At $N = 100$ the best lag of those tried is
 # $L =$ {glue:text}`smooth_best_lag:d`, whose distance is {glue:text}`smooth_best_vs_filter:.2f`
-# times the filter's, run by run (95 % interval {glue:text}`smooth_best_vs_filter_low:.2f` to
+# times the filter's, run by run ({glue:text}`smooth_best_vs_filter_low:.2f` to
 # {glue:text}`smooth_best_vs_filter_high:.2f`).
 #
 # Against the whole run (the naive smoother) the same lag's ratio is
-# {glue:text}`smooth_best_vs_naive:.2f` (interval {glue:text}`smooth_best_vs_naive_low:.2f` to
+# {glue:text}`smooth_best_vs_naive:.2f` ({glue:text}`smooth_best_vs_naive_low:.2f` to
 # {glue:text}`smooth_best_vs_naive_high:.2f`): over a run of this length a long lag does not
 # lose, and an online smoother that waits that many steps gives up little.
 #
@@ -794,8 +794,8 @@ EvidenceBlock(
 
 # %% [markdown]
 # Inside the gap the smoothed position error is {glue:text}`smoother_gap_error_ratio:.2f` times
-# the filtered one (median of the per-run ratios over {glue:text}`smooth_robot_runs:d` runs,
-# 95 % interval {glue:text}`smooth_gap_low:.2f` to {glue:text}`smooth_gap_high:.2f`).
+# the filtered one (median over {glue:text}`smooth_robot_runs:d` runs,
+# {glue:text}`smooth_gap_low:.2f` to {glue:text}`smooth_gap_high:.2f`).
 #
 # Outside the gap, where the filter has a measurement at every step, the ratio is
 # {glue:text}`smooth_outside:.2f`. The
