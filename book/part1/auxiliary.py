@@ -189,7 +189,7 @@ glue_values("aux_", distinct_sir=distinct["move, then resample"], distinct_apf=d
 # SIR with the optimal proposal. The landmark model is fully adapted twice: on the full state
 # (everything is Gaussian) and on the robot of the Rao-Blackwellised filter.
 #
-# :::{admonition} Algorithm 9.1: the auxiliary particle filter
+# :::{admonition} Algorithm 10.1: the auxiliary particle filter
 # :class: algorithm
 # 1. **Initialise.** Draw $x_0^i \sim p(x_0)$; set $W_0^i = 1/N$.
 # 2. **For** $k = 1, 2, \dots$, if $z_k$ measures something:
@@ -352,7 +352,7 @@ display(control_panel(draw_panel, grid={"n_particles": (10, 20, 50)}, n_particle
 # %% [markdown]
 # ## Exercises
 #
-# ```{exercise} 9.1 The second stage when the first is approximate
+# ```{exercise} 10.1 The second stage when the first is approximate
 # :label: ex-apf-second-stage
 # :nonumber:
 # On the full state, take $\hat p(z_k \mid x_{k-1}) = p(z_k \mid F x_{k-1} + B)$ (the likelihood
@@ -369,7 +369,7 @@ display(control_panel(draw_panel, grid={"n_particles": (10, 20, 50)}, n_particle
 # and the first stage, which only saw the means, chose the parents badly.
 # ```
 #
-# ```{exercise} 9.2 Fully adapted means unweighted
+# ```{exercise} 10.2 Fully adapted means unweighted
 # :label: ex-apf-adapted
 # :nonumber:
 # Show that with $\hat p = p(z_k \mid x_{k-1})$ and $q = p(x_k \mid x_{k-1}, z_k)$ every
@@ -380,12 +380,12 @@ display(control_panel(draw_panel, grid={"n_particles": (10, 20, 50)}, n_particle
 # ```{solution} ex-apf-adapted
 # :class: dropdown
 # Bayes' rule for one step, $p(z_k \mid x_k)\, p(x_k \mid x_{k-1}) = p(z_k \mid x_{k-1})\,
-# p(x_k \mid x_{k-1}, z_k)$, makes the ratio of Algorithm 9.1 equal to $1$. The estimate:
+# p(x_k \mid x_{k-1}, z_k)$, makes the ratio of Algorithm 10.1 equal to $1$. The estimate:
 # $p(z_k \mid z_{1:k-1}) = \int p(z_k \mid x_{k-1})\, p(x_{k-1} \mid z_{1:k-1})\, dx_{k-1}$, and the
 # weighted cloud approximates the second factor.
 # ```
 #
-# ```{exercise} 9.3 A fully adapted step for a scaled sensor
+# ```{exercise} 10.3 A fully adapted step for a scaled sensor
 # :label: ex-apf-code
 # :nonumber:
 # (Coding.) Another model: $x_k = a\, x_{k-1} + w_k$ with $w_k \sim \mathcal N(0, q)$, read by a

@@ -86,7 +86,7 @@
 #   $\Sigma_k$ is as tiny as that of $Q$. **The optimal proposal cannot move a landmark either.** It
 #   weights better, but it cannot create the diversity that resampling destroyed.
 #
-# :::{admonition} Algorithm 7.1: SIR with the optimal importance function (linear-Gaussian model)
+# :::{admonition} Algorithm 8.1: SIR with the optimal importance function (linear-Gaussian model)
 # :class: algorithm
 # 1. **Initialise.** Draw $x_0^i \sim p(x_0)$ for $i = 1, \dots, N$; set $\log W_0^i = -\log N$.
 # 2. **For** $k = 1, 2, \dots$:
@@ -136,7 +136,7 @@ PROPOSALS = {"bootstrap": None, "optimal": OptimalProposal()}
 # %% [markdown]
 # ## The idea in NumPy, checked on the engine
 #
-# One step of Algorithm 7.1 for the landmark model, for the whole cloud at once: the rows of
+# One step of Algorithm 8.1 for the landmark model, for the whole cloud at once: the rows of
 # `x_prev` are the parents, `z` the measurement with NaN where a landmark is out of view.
 
 # %%
@@ -490,7 +490,7 @@ display(control_panel(draw_proposals, grid={"n_particles": (50, 200, 1000), "noi
 # %% [markdown]
 # ## Exercises
 #
-# ```{exercise} 7.1 The weight does not see the new particle
+# ```{exercise} 8.1 The weight does not see the new particle
 # :label: ex-prop-weight
 # :nonumber:
 # Show that with the optimal importance function the incremental weight is
@@ -505,7 +505,7 @@ display(control_panel(draw_proposals, grid={"n_particles": (50, 200, 1000), "noi
 # with $H_k$ and $R$ restricted to the landmarks in view.
 # ```
 #
-# ```{exercise} 7.2 A first verdict
+# ```{exercise} 8.2 A first verdict
 # :label: ex-prop-q8
 # :nonumber:
 # A first verdict on this model was that particle filtering is unsuited here "unless a better
@@ -524,7 +524,7 @@ display(control_panel(draw_proposals, grid={"n_particles": (50, 200, 1000), "noi
 # measured in {doc}`rao_blackwell`).
 # ```
 #
-# ```{exercise} 7.3 Write the optimal proposal, and have it checked
+# ```{exercise} 8.3 Write the optimal proposal, and have it checked
 # :label: ex-prop-code
 # :nonumber:
 # (Coding.) Write `my_optimal(x_prev, z, model)` for the scalar model

@@ -55,7 +55,7 @@
 # conditions on the model and the proposal {cite:p}`chopin2004`. Whether it helps at the $N$
 # one can afford is measured below.
 #
-# :::{admonition} Algorithm 8.1: the Rao-Blackwellised particle filter (FastSLAM) for the landmark model
+# :::{admonition} Algorithm 9.1: the Rao-Blackwellised particle filter (FastSLAM) for the landmark model
 # :class: algorithm
 # For each particle $i$, with the predicted robot $r^- = F_r r_{k-1}^i + B_r$ and map filter
 # $(m^-, P^-)$ ($A$, $C$: the robot and map columns of the visible rows of $H$):
@@ -857,7 +857,7 @@ display(control_panel(draw_one_run, grid={"n_particles": (10, 100, 1000)},
 # %% [markdown]
 # ## Exercises
 #
-# ```{exercise} 8.1 The optimal robot proposal
+# ```{exercise} 9.1 The optimal robot proposal
 # :label: ex-rb-fastslam2
 # :nonumber:
 # Show that with the optimal robot proposal the incremental weight is
@@ -876,7 +876,7 @@ display(control_panel(draw_one_run, grid={"n_particles": (10, 100, 1000)},
 # the marginal $\mathcal N(z_k; A r^- + C m^-, S)$, free of $r_k$.
 # ```
 #
-# ```{exercise} 8.2 FastSLAM 2.0's move, checked
+# ```{exercise} 9.2 FastSLAM 2.0's move, checked
 # :label: ex-rb-code
 # :nonumber:
 # (Coding.) The NumPy step above is FastSLAM 1.0: the robots move blind to $z_k$. Write the
@@ -923,7 +923,7 @@ def fastslam2_move(r_pred, m_pred, P_pred, z, A, C, Qr, R, rng):
 print(check_fastslam2_move(fastslam2_move))
 
 # %% [markdown]
-# ```{exercise} 8.3 A shared map covariance
+# ```{exercise} 9.3 A shared map covariance
 # :label: ex-rb-shared
 # :nonumber:
 # Why do all particles share the same map covariance $P_k^i$ in this model, and would they

@@ -103,7 +103,7 @@ plt.show()
 # and a uniform $u \in [0, 1)$ selects the index $i$ with $C_{i-1} \le u < C_i$. The schemes
 # differ only in the uniforms.
 #
-# :::{admonition} Algorithm 6.1: resampling by inverting the cumulative weights
+# :::{admonition} Algorithm 7.1: resampling by inverting the cumulative weights
 # :class: algorithm
 # Given normalised weights $W_1, \dots, W_N$ and the number $n$ of particles to draw:
 # 1. **Cumulate:** $C_i = W_1 + \dots + W_i$ for $i = 1, \dots, N$.
@@ -122,8 +122,8 @@ plt.show()
 # (resampling-numpy)=
 # ## The algorithm in NumPy, checked against the package
 #
-# Algorithm 6.1 in a few lines, for three of the schemes, drawing $n = N$ particles (the
-# stratified one, for any $n$, is Exercise 6.3): one function inverts the cumulative weights, and each scheme only makes its
+# Algorithm 7.1 in a few lines, for three of the schemes, drawing $n = N$ particles (the
+# stratified one, for any $n$, is Exercise 7.3): one function inverts the cumulative weights, and each scheme only makes its
 # uniforms.
 
 # %%
@@ -191,7 +191,7 @@ glue_values(numpy_seeds=n_seeds)
 # Here $p_{ij} = n\,\lvert [(j-1)/n, j/n) \cap [C_{i-1}, C_i) \rvert$ is the chance that the
 # uniform of stratum $j$ lands on particle $i$: for stratified resampling $N_i$ is a sum of
 # independent Bernoulli variables, one per stratum, hence its variance. Multinomial counts are
-# binomial; systematic counts are $\lfloor n W_i \rfloor$ or one more (Exercise 6.1).
+# binomial; systematic counts are $\lfloor n W_i \rfloor$ or one more (Exercise 7.1).
 #
 # A lower $\operatorname{Var} N_i$ does not by itself order the filters' estimator variances:
 # residual and stratified resampling provably add no more conditional variance than
@@ -504,7 +504,7 @@ display(control_panel(draw_offspring, grid={"scheme": tuple(SCHEMES), "spread": 
 # %% [markdown]
 # ## Exercises
 #
-# ```{exercise} 6.1 Systematic offspring counts
+# ```{exercise} 7.1 Systematic offspring counts
 # :label: ex-resampling-systematic
 # :nonumber:
 # Show that with systematic resampling $N_i \in \{\lfloor n W_i \rfloor, \lfloor n W_i \rfloor + 1\}$,
@@ -519,7 +519,7 @@ display(control_panel(draw_offspring, grid={"scheme": tuple(SCHEMES), "spread": 
 # a Bernoulli($\delta_i$) on top of a constant, variance $\delta_i (1 - \delta_i) \le 1/4$.
 # ```
 #
-# ```{exercise} 6.2 A test that catches the bug
+# ```{exercise} 7.2 A test that catches the bug
 # :label: ex-resampling-bias
 # :nonumber:
 # Design a test that would have caught filterpy's residual bug,
@@ -535,7 +535,7 @@ display(control_panel(draw_offspring, grid={"scheme": tuple(SCHEMES), "spread": 
 # errors too few.
 # ```
 #
-# ```{exercise} 6.3 Stratified resampling to a new cloud size, and have it checked
+# ```{exercise} 7.3 Stratified resampling to a new cloud size, and have it checked
 # :label: ex-resampling-code
 # :nonumber:
 # (Coding.) A filter sometimes changes its number of particles, drawing $n$ new particles from
@@ -564,7 +564,7 @@ print(check_stratified_resampler(my_stratified))
 # %% [markdown]
 # ```{solution} ex-resampling-code
 # :class: dropdown
-# Algorithm 6.1 with $n$ strata of width $1/n$ and one uniform in each, `rng.random(n)`; the
+# Algorithm 7.1 with $n$ strata of width $1/n$ and one uniform in each, `rng.random(n)`; the
 # strata are cut by the number drawn, $n$, while the cumulative weights have $N$ entries. The
 # code is in the folded cell below (in JupyterLab, click its margin to unfold it). Capping the
 # index at $N - 1$ guards against a cumulative sum that ends just below $1$.

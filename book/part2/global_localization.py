@@ -166,7 +166,7 @@ EvidenceBlock(
 # \tilde w_k^i = W_{k-1}^i\,\frac{p(z_k \mid x_k^i)\, p(x_k^i \mid x_{k-1}^i)}{q(x_k^i \mid x_{k-1}^i, z_k)} .
 # $$
 #
-# :::{admonition} Algorithm 11.1: a pose from a range-bearing reading, and the mixture proposal
+# :::{admonition} Algorithm 12.1: a pose from a range-bearing reading, and the mixture proposal
 # :class: algorithm
 # 1. **Pose from the reading** $z = (j, r, b)$ (*draw*): draw $r' \sim \mathcal N(r, \sigma_r^2)$ (redraw if
 #    $r' \le 0$), $b' \sim \mathcal N(b, \sigma_b^2)$, $\phi \sim \mathcal U(-\pi, \pi)$; return
@@ -284,7 +284,7 @@ EvidenceBlock(
 # suddenly fit worse than they used to, the fast average drops below the slow one and new poses come in.
 # The injected particles get no importance weight: it is a heuristic, not an importance sampler.
 #
-# :::{admonition} Algorithm 11.2: augmented MCL
+# :::{admonition} Algorithm 12.2: augmented MCL
 # :class: algorithm
 # 1. **Initialise** $x_0^i \sim p(x_0)$; $\ell_\text{slow}$ and $\ell_\text{fast}$ unset.
 # 2. **For** each step $k$ with a reading $z_k$:
@@ -295,7 +295,7 @@ EvidenceBlock(
 #       (both start at the first $\bar\ell_k$);
 #    4. *resample* $N$ particles by their normalised weights $W_k^i$;
 #    5. *inject:* replace each particle, with probability $\max(0, 1 - \ell_\text{fast}/\ell_\text{slow})$,
-#       by a pose drawn from $z_k$ (the *draw* of Algorithm 11.1).
+#       by a pose drawn from $z_k$ (the *draw* of Algorithm 12.1).
 # :::
 #
 # In NumPy, with the averages in the log domain (the likelihoods underflow), on a run whose robot is
@@ -304,7 +304,7 @@ EvidenceBlock(
 
 # %%
 def augmented_mcl(model, measurements, n, rng, k_slow=0.01, k_fast=0.1):
-    """Algorithm 11.2: position means (steps, 2) and the injection probability of each reading."""
+    """Algorithm 12.2: position means (steps, 2) and the injection probability of each reading."""
     sd = np.sqrt(np.diag(model.r_est))
     x = model.sample_initial(n, rng)
     log_slow = log_fast = None
@@ -634,7 +634,7 @@ EvidenceBlock(
 # %% [markdown]
 # ## Exercises
 #
-# ```{exercise} 11.1 The density of a pose drawn from a reading
+# ```{exercise} 12.1 The density of a pose drawn from a reading
 # :label: ex-gl-jacobian
 # :nonumber:
 # Derive $q_z$: start from the density of $(r', \phi, b')$, write the inverse map
@@ -653,7 +653,7 @@ EvidenceBlock(
 # ring is longer.
 # ```
 #
-# ```{exercise} 11.2 Write the proposal's density, and have it checked
+# ```{exercise} 12.2 Write the proposal's density, and have it checked
 # :label: ex-gl-density
 # :nonumber:
 # (Coding.) Write `log_q(x, z, landmark, sd)`: $\log q_z(x)$ for poses `x` of shape `(N, 3)` (rows
@@ -689,7 +689,7 @@ def log_q(x, z, landmark, sd):
 print(check_pose_density(log_q))
 
 # %% [markdown]
-# ```{exercise} 11.3 A teleport after locking on?
+# ```{exercise} 12.3 A teleport after locking on?
 # :label: ex-gl-teleport
 # :nonumber:
 # After the filter has locked on, how likely does the kidnap model find it that the robot was just

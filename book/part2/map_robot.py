@@ -240,7 +240,7 @@ plt.show()
 # models: move every particle by the odometry, weight it by the scan, resample. Robots resample at
 # every scan with the low-variance (systematic) sampler {cite:p}`thrun2005`.
 #
-# :::{admonition} Algorithm 13.1: Monte Carlo localization with the likelihood field
+# :::{admonition} Algorithm 14.1: Monte Carlo localization with the likelihood field
 # :class: algorithm
 # 1. **Initialise.** Draw $x_0^i$, $i = 1, \dots, N$, around the known start pose.
 # 2. **For** each scan $z_k$, $k = 0, 1, \dots$:
@@ -252,7 +252,7 @@ plt.show()
 #    5. *resample:* $x_k^i \leftarrow x_k^{A_i}$ with systematic ancestors $A_i$.
 # :::
 #
-# The cell below is Algorithm 13.1 in NumPy, run on the drive with $N = 300$ particles.
+# The cell below is Algorithm 14.1 in NumPy, run on the drive with $N = 300$ particles.
 
 # %%
 def systematic(W, rng):
@@ -451,7 +451,7 @@ EvidenceBlock(
 # ## AMCL as it is
 #
 # AMCL, the adaptive MCL of ROS ({cite:t}`thrun2005`, chapter $8$; KLD-sampling {cite:p}`fox2003`),
-# is what most indoor robots run. It is Algorithm 13.1 with KLD-sampling, the odometry model, the
+# is what most indoor robots run. It is Algorithm 14.1 with KLD-sampling, the odometry model, the
 # likelihood field by default, and recovery by injected poses switched off by default. Its defaults
 # differ between ROS Noetic and its successor nav2; the folded table quotes both from their sources. One
 # difference from the book is in the code, not in the parameters: **AMCL does not multiply the
@@ -658,7 +658,7 @@ display(control_panel(draw_tracking, grid={"n_particles": (20, 50, 300), "weight
 # %% [markdown]
 # ## Exercises
 #
-# ```{exercise} 13.1 How flat can AMCL's weights be?
+# ```{exercise} 14.1 How flat can AMCL's weights be?
 # :label: ex-map-cubes
 # :nonumber:
 # With the chapter's field ($z_{\mathrm{hit}} = 0.9$, $z_{\mathrm{rand}} = 0.1$, $\sigma = 0.2$ m,
@@ -676,7 +676,7 @@ display(control_panel(draw_tracking, grid={"n_particles": (20, 50, 300), "weight
 # $145^{22} \approx 10^{47}$ for the scan: the product can single out one pose, the cubes cannot.
 # ```
 #
-# ```{exercise} 13.2 Draw a scan from the beam model, and have it checked
+# ```{exercise} 14.2 Draw a scan from the beam model, and have it checked
 # :label: ex-map-code
 # :nonumber:
 # (Coding.) The chapter scores scans; the simulator draws them from the beam model. Write

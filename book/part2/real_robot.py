@@ -194,7 +194,7 @@ glue_values("intel_", dead_reckoning_final_error_m=dr_error[-1],
 # a door that opens later can still flip its cells. A cell ends up occupied where $l > 0$, free where
 # $l < 0$, unknown where no beam came.
 #
-# :::{admonition} Algorithm 14.1: occupancy grid mapping with known poses
+# :::{admonition} Algorithm 16.1: occupancy grid mapping with known poses
 # :class: algorithm
 # 1. Set $l(m) = 0$ for every cell.
 # 2. **For** each scan $z_k$ taken at the known pose $x_k$:
@@ -628,7 +628,7 @@ display(panel)
 # %% [markdown]
 # ## Exercises
 #
-# ```{exercise} 14.1 The beam model instead of the likelihood field
+# ```{exercise} 16.1 The beam model instead of the likelihood field
 # :label: ex-intel-beam
 # :nonumber:
 # (Coding.) The likelihood field scores where a beam *ends*. The beam model {cite:p}`thrun2005`
@@ -671,7 +671,7 @@ def my_beam(z, z_star, beam):
 print(check_beam_model(my_beam))
 
 # %% [markdown]
-# ```{exercise} 14.2 A map from the other half
+# ```{exercise} 16.2 A map from the other half
 # :label: ex-intel-other
 # :nonumber:
 # Build the map from the first half (`MAP = slice(0, 455)`) and track the second half from its

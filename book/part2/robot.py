@@ -117,9 +117,9 @@ EvidenceBlock("the lab's noise levels", notes=["The filter assumes twice these v
 # $p(z_k \mid x_k^i) = \mathcal N(\nu_k^i; 0, R_\text{est})$, with the *innovation*
 # $\nu_k^i = \big(z_r - h_r(x_k^i),\ \operatorname{wrap}(z_b - h_b(x_k^i))\big)$. The wrap matters:
 # a measured bearing of $179°$ and a predicted one of $-179°$ are $2°$ apart, not $358°$, and
-# without it the particles nearest the truth would lose their weight (Exercise 10.1).
+# without it the particles nearest the truth would lose their weight (Exercise 11.1).
 #
-# :::{admonition} Algorithm 10.1: Monte Carlo localization
+# :::{admonition} Algorithm 11.1: Monte Carlo localization
 # :class: algorithm
 # 1. **Initialise.** Draw $x_0^i \sim p(x_0)$ for $i = 1, \dots, N$; set $\log W_0^i = -\log N$.
 # 2. **For** $k = 1, 2, \dots$:
@@ -138,7 +138,7 @@ EvidenceBlock("the lab's noise levels", notes=["The filter assumes twice these v
 
 # %%
 def mcl(odometry, measurements, landmarks, Q, R, x0, x0_sd, n, tau, rng, dt=1.0):
-    """Algorithm 10.1 from a Gaussian start N(x0, diag(x0_sd)^2); returns the (K, 3) posterior means."""
+    """Algorithm 11.1 from a Gaussian start N(x0, diag(x0_sd)^2); returns the (K, 3) posterior means."""
     q_sd = np.sqrt(np.diag(Q))  # the lab's Q is diagonal
     R_inv, log_norm = np.linalg.inv(R), -np.log(2 * np.pi) - 0.5 * np.linalg.slogdet(R)[1]
     x = x0 + x0_sd * rng.standard_normal((n, 3))
@@ -492,7 +492,7 @@ display(panel)
 # %% [markdown]
 # ## Exercises
 #
-# ```{exercise} 10.1 The bearing wrap
+# ```{exercise} 11.1 The bearing wrap
 # :label: ex-robot-wrap
 # :nonumber:
 # A particle has heading $0°$ and the landmark it looks at lies, from the particle, in the
@@ -513,7 +513,7 @@ display(panel)
 # robot.
 # ```
 #
-# ```{exercise} 10.2 The mean of two headings
+# ```{exercise} 11.2 The mean of two headings
 # :label: ex-robot-heading-mean
 # :nonumber:
 # Two particles of equal weight have headings $179°$ and $-179°$. What do the arithmetic
@@ -529,7 +529,7 @@ display(panel)
 # angles are wrapped to $(-\pi, \pi]$).
 # ```
 #
-# ```{exercise} 10.3 How lucky must the start be?
+# ```{exercise} 11.3 How lucky must the start be?
 # :label: ex-robot-global
 # :nonumber:
 # In the global-localization runs, estimate the probability that at least one of $N$
@@ -548,13 +548,13 @@ display(panel)
 # rings.
 # ```
 #
-# ```{exercise} 10.4 The weight of a reading, in code
+# ```{exercise} 11.4 The weight of a reading, in code
 # :label: ex-robot-code
 # :nonumber:
 # (Coding.) Write `my_log_weights(x, landmark, z, R)`: for a cloud `x` of poses, shape `(N, 3)`
 # with rows $(x, y, \theta)$, a landmark $l$ of shape `(2,)`, a reading `z` $= (z_r, z_b)$ and
 # the $2 \times 2$ covariance `R` (variances), return the $N$ values
-# $\log \mathcal N(\nu^i; 0, R)$ (the weighting step of Algorithm 10.1), normalising constant included (it
+# $\log \mathcal N(\nu^i; 0, R)$ (the weighting step of Algorithm 11.1), normalising constant included (it
 # cancels in the weights, but not in the likelihood of the data). The checker's cloud sees the
 # landmark right behind it, where the bearing wrap matters, and names the mistake it sees.
 # ```

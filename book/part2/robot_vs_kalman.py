@@ -52,10 +52,10 @@
 # d_y/q & -d_x/q & -1 \end{pmatrix}
 # $$
 #
-# (Exercise 12.1 asks you to code it). Two details matter for angles: the innovation wraps its
+# (Exercise 13.1 asks you to code it). Two details matter for angles: the innovation wraps its
 # bearing, as in MCL, and the heading estimate is wrapped after every step.
 #
-# :::{admonition} Algorithm 12.1: EKF localization with known landmarks
+# :::{admonition} Algorithm 13.1: EKF localization with known landmarks
 # :class: algorithm
 # 1. **Initialise** $m_0$, $P_0$.
 # 2. **For** $k = 1, 2, \dots$:
@@ -93,7 +93,7 @@ use_style()
 
 # %%
 def ekf(odometry, measurements, landmarks, Q, R, m0, P0, dt=1.0):
-    """Algorithm 12.1; returns the (K, 3) means and (K, 3, 3) covariances."""
+    """Algorithm 13.1; returns the (K, 3) means and (K, 3, 3) covariances."""
     m, P, means, covs = m0.copy(), P0.copy(), [], []
     for k, (u, z) in enumerate(zip(odometry, measurements)):
         if k > 0:  # 1. predict with the Jacobians at the previous mean
@@ -281,7 +281,7 @@ EvidenceBlock(
 # the steps, as it should when a filter assumes twice the true variances. The particle filter's
 # NEES is higher, inside the band at {glue:text}`pf_inside_band:.0%` of the steps. That is not
 # better calibration but two errors partly cancelling: the Monte Carlo error of $300$ particles
-# adds to the estimation error while the assumed noise inflates the covariance (Exercise 12.2).
+# adds to the estimation error while the assumed noise inflates the covariance (Exercise 13.2).
 
 # %% tags=["remove-input"] jupyter={"source_hidden": true}
 avg = {k: np.mean([r[k].nees for r in runs], axis=0) for k in names}
@@ -358,7 +358,7 @@ EvidenceBlock(
 #
 # ## Exercises
 #
-# ```{exercise} 12.1 The measurement Jacobian, in code
+# ```{exercise} 13.1 The measurement Jacobian, in code
 # :label: ex-robot-jacobian
 # :nonumber:
 # (Coding.) Write `my_jacobian(state, landmark)`: the $2 \times 3$ matrix
@@ -396,7 +396,7 @@ def my_jacobian(state, landmark):
 print(check_range_bearing_jacobian(my_jacobian))
 
 # %% [markdown]
-# ```{exercise} 12.2 Why is the NEES below three?
+# ```{exercise} 13.2 Why is the NEES below three?
 # :label: ex-robot-nees
 # :nonumber:
 # Why is the time-averaged NEES of all three filters below $3$ in the default comparison?

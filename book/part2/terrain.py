@@ -230,7 +230,7 @@ plt.show()
 # fractional position $(s, t) \in [0, 1]^2$, $h = (1-s)(1-t) h_{00} + s(1-t) h_{10} + (1-s)t\, h_{01} + st\, h_{11}$.
 # A particle off the map has no terrain under it: likelihood zero, log-likelihood $-\infty$.
 #
-# :::{admonition} Algorithm 15.1: the bootstrap particle filter for terrain navigation
+# :::{admonition} Algorithm 17.1: the bootstrap particle filter for terrain navigation
 # :class: algorithm
 # 1. **Initialise.** Draw $x_0^i \sim \mathcal N(\hat x_0, P_0)$, $i = 1, \dots, N$; $\log W_0^i = -\log N$.
 # 2. **For** $k = 1, 2, \dots$:
@@ -729,7 +729,7 @@ display(panel)
 # %% [markdown]
 # ## Exercises
 #
-# ```{exercise} 15.1 Metres per cell
+# ```{exercise} 17.1 Metres per cell
 # :label: ex-terrain-units
 # :nonumber:
 # A cell of the DEM spans $3$ arc-seconds in each direction. Compute its width and height in
@@ -746,7 +746,7 @@ display(panel)
 # in $x$, and a particle's $x$ would map to the wrong column.
 # ```
 #
-# ```{exercise} 15.2 A wider likelihood
+# ```{exercise} 17.2 A wider likelihood
 # :label: ex-terrain-rf
 # :nonumber:
 # With the bootstrap filter, the first version of this chapter's study of $R_f$ found that
@@ -767,7 +767,7 @@ display(panel)
 # errors in the table). More particles fix the same problem without the cost.
 # ```
 #
-# ```{exercise} 15.3 A wider likelihood for the EKF
+# ```{exercise} 17.3 A wider likelihood for the EKF
 # :label: ex-terrain-ekf
 # :nonumber:
 # Use `extended_kalman_filter` on the flights of the chapter with the report's prior, but with
@@ -786,11 +786,11 @@ display(panel)
 # prior; widening it only delays the choice between modes.
 # ```
 #
-# ```{exercise} 15.4 Write the altimeter's likelihood, and have it checked
+# ```{exercise} 17.4 Write the altimeter's likelihood, and have it checked
 # :label: ex-terrain-likelihood
 # :nonumber:
 # (Coding.) Write `my_log_likelihood(particles, y, heights, dx, dy, rf)`: the weighting step
-# of Algorithm 15.1 without the help of `TerrainMap.height`. `particles` has shape `(N, 4)`, rows
+# of Algorithm 17.1 without the help of `TerrainMap.height`. `particles` has shape `(N, 4)`, rows
 # $(x, y, z, \psi)$ in metres; `heights[i, j]` is the terrain height at $(j\,dx, i\,dy)$, row $0$
 # the southern edge; `rf` is the variance $R_f$. Interpolate the height bilinearly, return
 # $\log \mathcal N(y; z - h(x, y), R_f)$ for each particle, and $-\infty$ for a particle outside

@@ -169,9 +169,9 @@ EvidenceBlock(
 # wide and $h_\text{opt}$ itself throws every particle off its terrain match: the chapter's filter
 # uses $h = 0.2\,h_\text{opt}$, a factor chosen on flights $0$ to $11$ among $0.05$, $0.2$ and $1$.
 #
-# :::{admonition} Algorithm 16.1: the regularised particle filter (kernel move after resampling)
+# :::{admonition} Algorithm 18.1: the regularised particle filter (kernel move after resampling)
 # :class: algorithm
-# 1. Run the particle filter of {doc}`terrain` (Algorithm 15.1): propagate, weight by the
+# 1. Run the particle filter of {doc}`terrain` (Algorithm 17.1): propagate, weight by the
 #    altimeter's likelihood, normalise.
 # 2. **If** $\mathrm{ESS}_k < \tau N$: resample, then **move** the equally weighted cloud:
 #    1. $\hat\Sigma = \frac{1}{N-1}\sum_i (x^i - \bar x)(x^i - \bar x)^\top$, with heading deviations from
@@ -188,7 +188,7 @@ EvidenceBlock(
 
 # %%
 def regularised_move(particles, scale, rng, angle=3):
-    """Algorithm 16.1, step 2: x^i + h S^(1/2) eps^i, h = scale * h_opt(N, d), heading wrapped."""
+    """Algorithm 18.1, step 2: x^i + h S^(1/2) eps^i, h = scale * h_opt(N, d), heading wrapped."""
     n, d = particles.shape
     x = particles.copy()
     mean_angle = np.arctan2(np.mean(np.sin(x[:, angle])), np.mean(np.cos(x[:, angle])))
@@ -685,7 +685,7 @@ EvidenceBlock(
 #
 # ## Exercises
 #
-# ```{exercise} 16.1 The bandwidth of a multimodal cloud
+# ```{exercise} 18.1 The bandwidth of a multimodal cloud
 # :label: ex-terrain-bandwidth
 # :nonumber:
 # Compute the regularised filter's optimal bandwidth $h_\text{opt}$ for $N = 3000$ and
@@ -704,7 +704,7 @@ EvidenceBlock(
 # single blob; this is why the chapter's filter uses $0.2\,h_\text{opt}$.
 # ```
 #
-# ```{exercise} 16.2 Write the kernel move, and have it checked
+# ```{exercise} 18.2 Write the kernel move, and have it checked
 # :label: ex-terrain-jitter
 # :nonumber:
 # (Coding.) Write `my_move(particles, scale, rng)`: the regularised filter's move of an equally
@@ -726,7 +726,7 @@ print(check_regularised_jitter(my_move))
 # %% [markdown]
 # ```{solution} ex-terrain-jitter
 # :class: dropdown
-# The move of Algorithm 16.1 without the heading; any square root of $\hat\Sigma$ will do (here Cholesky's).
+# The move of Algorithm 18.1 without the heading; any square root of $\hat\Sigma$ will do (here Cholesky's).
 # The code is in the folded cell below (in JupyterLab, click its margin to unfold it).
 # ```
 

@@ -64,7 +64,7 @@
 # depend on the particle: it depends only on which steps had a reading. Every particle carries
 # the same $P_k$, and only the means $m_k^i$ differ.
 #
-# :::{admonition} Algorithm 17.1: Marginalised particle filter for terrain navigation
+# :::{admonition} Algorithm 19.1: Marginalised particle filter for terrain navigation
 # :class: algorithm
 # **Input:** readings $y^{\text{alt}}_{1:K}$, the prior $\mathcal N(x_0, P_0)$ (no altitude
 # cross-terms), $Q_f$, $R_f$, the map $h$, $N$.
@@ -115,7 +115,7 @@ SAMPLED = [0, 1, 3]  # x, y, psi: the components the particles sample
 
 
 def marginalised_pf(readings, terrain, sc, n, rng):
-    """Algorithm 17.1: the weighted mean of (x, y) at each step."""
+    """Algorithm 19.1: the weighted mean of (x, y) at each step."""
     L0 = np.linalg.cholesky(sc.P0[np.ix_(SAMPLED, SAMPLED)])
     Lq = np.linalg.cholesky(sc.Qf[np.ix_(SAMPLED, SAMPLED)] * sc.dt)
     p = sc.x0[SAMPLED] + rng.standard_normal((n, 3)) @ L0.T  # columns x, y, psi
@@ -487,14 +487,14 @@ EvidenceBlock(
 #
 # ## Exercises
 #
-# ```{exercise} 17.1 The altitude's Kalman update, for every particle at once
+# ```{exercise} 19.1 The altitude's Kalman update, for every particle at once
 # :label: ex-mpf-code
 # :nonumber:
 # (Coding.) Write `my_altitude_update(mean, var, ground, reading, rf)`: for arrays of predicted
 # altitude means $m^i$, variances $P^-$ and ground heights $h(p^i)$ (one per particle), a reading
 # $y^{\text{alt}}_k$ and the altimeter's variance $R_f$, return the updated means, the updated
 # variances and the log-weight increments $\log \mathcal N(\nu^i; 0, S)$ (three arrays, one value
-# per particle), as in Algorithm 17.1. The checker compares with the exact update and
+# per particle), as in Algorithm 19.1. The checker compares with the exact update and
 # names the mistake it recognises.
 # ```
 
@@ -525,7 +525,7 @@ def my_altitude_update(mean, var, ground, reading, rf):
 print(check_altitude_update(my_altitude_update))
 
 # %% [markdown]
-# ```{exercise} 17.2 Why one variance for all particles?
+# ```{exercise} 19.2 Why one variance for all particles?
 # :label: ex-mpf-variance
 # :nonumber:
 # Show from the update equations that $P_k$ is the same for every particle. Would it still be

@@ -40,7 +40,7 @@
 # From log-weights $\ell^i$, the ESS is computed without leaving the log domain:
 # $W^i = \exp(\ell^i - \operatorname{logsumexp}_j \ell^j)$.
 #
-# :::{admonition} Algorithm 19.1: adaptive resampling
+# :::{admonition} Algorithm 21.1: adaptive resampling
 # :class: algorithm
 # At step $k$, after the weight update (log-weights $\ell_k^i$):
 # 1. Normalise: $W_k^i = \exp\big(\ell_k^i - \operatorname{logsumexp}_j \ell_k^j\big)$.
@@ -82,7 +82,7 @@ glue("n_runs_per_setting", N_RUNS, display=False)
 
 
 def adaptive_resampling(particles, log_w, tau, rng):
-    """Algorithm 19.1: resample when ESS < tau N; returns particles, log-weights, ESS, resampled."""
+    """Algorithm 21.1: resample when ESS < tau N; returns particles, log-weights, ESS, resampled."""
     n = len(log_w)
     w = np.exp(log_w - logsumexp(log_w))  # step 1
     ess = 1.0 / np.sum(w**2)  # step 2
@@ -274,7 +274,7 @@ EvidenceBlock(
 # given the robot's path they are linear-Gaussian, so a Kalman filter per particle computes them
 # exactly (Rao-Blackwellisation, {doc}`../part1/rao_blackwell`), or, more generally, to carry each
 # particle's sufficient statistics of the static coordinates and redraw them from their posterior
-# given those statistics at each step {cite:p}`storvik2002,fearnhead2002` ({ref}`exercise 19.4 <ex-studies-linear-n>`).
+# given those statistics at each step {cite:p}`storvik2002,fearnhead2002` ({ref}`exercise 21.4 <ex-studies-linear-n>`).
 #
 # ## The resampling scheme
 #
@@ -359,7 +359,7 @@ EvidenceBlock(
 #
 # ## Exercises
 #
-# ```{exercise} 19.1 The effective sample size, in the log domain, checked
+# ```{exercise} 21.1 The effective sample size, in the log domain, checked
 # :label: ex-resampling-ess
 # :nonumber:
 # (Coding.) Write `my_ess(log_weights)`: the effective sample size $1 / \sum_i (W^i)^2$ of a cloud
@@ -379,7 +379,7 @@ print(check_ess(my_ess))
 # %% [markdown]
 # ```{solution} ex-resampling-ess
 # :class: dropdown
-# The first two steps of Algorithm 19.1; the code is in the folded cell below (in JupyterLab, click its
+# The first two steps of Algorithm 21.1; the code is in the folded cell below (in JupyterLab, click its
 # margin to unfold it).
 # ```
 
@@ -392,7 +392,7 @@ def my_ess(log_weights):
 print(check_ess(my_ess))
 
 # %% [markdown]
-# ```{exercise} 19.2 Which threshold resamples most?
+# ```{exercise} 21.2 Which threshold resamples most?
 # :label: ex-resampling-most
 # :nonumber:
 # Without running anything: at a given step, which of $\tau = 0.2$ and $\tau = 0.7$ resamples
@@ -406,7 +406,7 @@ print(check_ess(my_ess))
 # even $\tau = 1$ keeps the cloud; any other step is resampled.
 # ```
 #
-# ```{exercise} 19.3 What common random numbers buy
+# ```{exercise} 21.3 What common random numbers buy
 # :label: ex-studies-paired
 # :nonumber:
 # The scheme study compares multinomial and systematic resampling on the same
@@ -428,7 +428,7 @@ print(check_ess(my_ess))
 # uses common random numbers.
 # ```
 #
-# ```{exercise} 19.4 The threshold cannot cure static landmarks
+# ```{exercise} 21.4 The threshold cannot cure static landmarks
 # :label: ex-studies-linear-n
 # :nonumber:
 # On the linear model, measure how the distance between the particle filter's mean and

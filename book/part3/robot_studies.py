@@ -42,7 +42,7 @@
 # the runs), Wilcoxon's signed-rank test, and the ratios the data exclude (those beyond the
 # interval; {doc}`../evidence`).
 #
-# :::{admonition} Algorithm 18.1: a paired study of two settings
+# :::{admonition} Algorithm 20.1: a paired study of two settings
 # :class: algorithm
 # 1. For $r = 1..n_\text{runs}$: simulate world $r$ from seed $r$; run the filter with setting A and with
 #    setting B on it; record the errors $a_r$ and $b_r$.
@@ -82,7 +82,7 @@ glue("n_runs_per_setting", N_RUNS, display=False)
 
 
 def paired_ratio(a, b, n_boot=2000, seed=0):
-    """Algorithm 18.1, steps 2-4: median per-run ratio a/b and its 95 % percentile bootstrap interval."""
+    """Algorithm 20.1, steps 2-4: median per-run ratio a/b and its 95 % percentile bootstrap interval."""
     ratios = np.asarray(a) / np.asarray(b)  # step 2
     rng = np.random.default_rng(seed)
     runs = rng.integers(0, len(ratios), size=(n_boot, len(ratios)))  # step 3: runs drawn with replacement
@@ -415,7 +415,7 @@ control_panel(
 # %% [markdown]
 # ## Exercises
 #
-# ```{exercise} 18.1 What pairing buys, computed and checked
+# ```{exercise} 20.1 What pairing buys, computed and checked
 # :label: ex-studies-se
 # :nonumber:
 # (Coding.) Write `my_se(a, b)`: for the errors `a` and `b` of two settings on the same runs (arrays of
@@ -450,7 +450,7 @@ def my_se(a, b):
 print(check_paired_se(my_se))
 
 # %% [markdown]
-# ```{exercise} 18.2 Particles or measurements?
+# ```{exercise} 20.2 Particles or measurements?
 # :label: ex-studies-budget
 # :nonumber:
 # From the studies of this page and of {doc}`sensing_studies`, which change of the defaults moves the median

@@ -39,7 +39,7 @@
 # book uses this one definition everywhere (`pfcourse.metrics.locked_on`, the same as in
 # {doc}`../part2/global_localization`).
 #
-# :::{admonition} Algorithm 20.1: is a run locked on?
+# :::{admonition} Algorithm 22.1: is a run locked on?
 # :class: algorithm
 # Input: per-step position errors $e^p_k$ (m) and heading errors $e^\theta_k$ (rad) of a run of
 # $T$ steps of $\Delta t$ seconds.
@@ -71,7 +71,7 @@ glue("n_runs_per_setting", N_RUNS, display=False)
 
 
 def my_locked_on(pos_err, head_err, dt, window_s=20.0):
-    """Algorithm 20.1."""
+    """Algorithm 22.1."""
     window = min(len(pos_err), int(np.ceil(window_s / dt - 1e-9)))  # step 1
     ok = (pos_err[-window:] < 1.0) & (head_err[-window:] < np.deg2rad(5.0))  # step 2
     return bool(np.all(ok))
@@ -343,7 +343,7 @@ for m in (2, 3, 5):
 # **The question.** The reports start the cloud around the true position and leave the uniform
 # start (global localization) commented out; they do not study it. We run
 # {glue:text}`n_runs_per_setting:d` runs of $50$ s from each start, with $300$ and $1000$
-# particles, and count the runs locked on (Algorithm 20.1).
+# particles, and count the runs locked on (Algorithm 22.1).
 
 # %%
 init_table["locked_on"] = [locked_on(p, h, dt=1.0) if status == "ok" else False
@@ -390,7 +390,7 @@ EvidenceBlock(
 #
 # ## Exercises
 #
-# ```{exercise} 20.1 Locked on, written and checked
+# ```{exercise} 22.1 Locked on, written and checked
 # :label: ex-sensing-lock
 # :nonumber:
 # (Coding.) Write `my_lock(pos_err, head_err, dt, window_s)`: `True` when the run whose per-step
@@ -402,7 +402,7 @@ EvidenceBlock(
 
 # %% tags=["answer"]
 def my_lock(pos_err, head_err, dt, window_s):
-    """Your Algorithm 20.1: True or False."""
+    """Your Algorithm 22.1: True or False."""
     ...  # replace with your code
 
 
@@ -411,7 +411,7 @@ print(check_lock_on(my_lock))
 # %% [markdown]
 # ```{solution} ex-sensing-lock
 # :class: dropdown
-# Algorithm 20.1 with the window as a parameter; the code is in the folded cell below (in
+# Algorithm 22.1 with the window as a parameter; the code is in the folded cell below (in
 # JupyterLab, click its margin to unfold it).
 # ```
 
@@ -424,7 +424,7 @@ def my_lock(pos_err, head_err, dt, window_s):
 print(check_lock_on(my_lock))
 
 # %% [markdown]
-# ```{exercise} 20.2 A gap in a Kalman filter
+# ```{exercise} 22.2 A gap in a Kalman filter
 # :label: ex-sensing-gap
 # :nonumber:
 # For a scalar random walk $x_k = x_{k-1} + w_k$, $w_k \sim \mathcal N(0, q)$, measured as

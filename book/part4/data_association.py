@@ -149,7 +149,7 @@ EvidenceBlock(
 # In the log domain the bracket is one $\operatorname{logsumexp}$ over $nM + 1$ terms per
 # particle, so no Gaussian density is ever exponentiated.
 #
-# :::{admonition} Algorithm 22.1: the particle filter with anonymous readings
+# :::{admonition} Algorithm 24.1: the particle filter with anonymous readings
 # :class: algorithm
 # 1. **Initialise** $x_0^i$ around the start; $\log W_0^i = -\log N$.
 # 2. **For** $k = 1, 2, \dots$:
@@ -233,7 +233,7 @@ glue_values("association_", check_tolerance=TOLERANCE)
 #   clutter" the weight $\beta_0 \propto (1 - P_D P_G)\, \lambda c$ ($P_G = 0.99$, the gate's
 #   probability; the factors common to every event cancel).
 #
-# :::{admonition} Algorithm 22.2: the PDA filter, one step
+# :::{admonition} Algorithm 24.2: the PDA filter, one step
 # :class: algorithm
 # 1. **Predict** $\hat m, P$ with the odometry, as the robot's EKF ({doc}`../part2/robot_vs_kalman`).
 # 2. **Events**: $e = 0$ keeps $(\hat m, P)$ with $\log \beta_0 = \log\big((1 - P_D P_G)\lambda c\big)$;
@@ -474,7 +474,7 @@ display(control_panel(draw, columns=3, grid={"clutter_rate": tuple(rates), "kalm
 # %% [markdown]
 # ## Exercises
 #
-# ```{exercise} 22.1 An empty step
+# ```{exercise} 24.1 An empty step
 # :label: ex-assoc-empty
 # :nonumber:
 # A measurement step brings no reading at all. Write $p(\varnothing \mid x)$ for the model of this
@@ -491,7 +491,7 @@ display(control_panel(draw, columns=3, grid={"clutter_rate": tuple(rates), "kalm
 # $e^{-\lambda} \tfrac1M \sum_j \big(1 - P_D(x, l^j)\big)$.
 # ```
 #
-# ```{exercise} 22.2 A range-only sensor
+# ```{exercise} 24.2 A range-only sensor
 # :label: ex-assoc-code
 # :nonumber:
 # (Coding.) A cheaper sensor measures the range alone: $r = \lVert l^j - p \rVert + v$,
@@ -539,7 +539,7 @@ def my_range_only(x, r, landmarks, var, p_detect, lam, r_max):
 print(check_range_only_anonymous(my_range_only))
 
 # %% [markdown]
-# ```{exercise} 22.3 Capstone: a target in clutter
+# ```{exercise} 24.3 Capstone: a target in clutter
 # :label: ex-assoc-capstone
 # :nonumber:
 # (Coding: a whole filter.) A target moves on a line with a nearly constant velocity: its state is

@@ -142,7 +142,7 @@ plt.show()
 # $y_k = z_k - \hat z_k$ and its predicted covariance $S_k$, is the same test in measurement space
 # with $\dim z$ degrees of freedom; it needs no truth, so it is the check that works on real data.
 #
-# :::{admonition} Algorithm 21.1: the consistency check of a filter over $n_\text{runs}$ runs
+# :::{admonition} Algorithm 23.1: the consistency check of a filter over $n_\text{runs}$ runs
 # :class: algorithm
 # Input: errors $e_{r,k}$ and covariances $P_{r,k}$ of one filter on runs $r = 1..n_\text{runs}$, steps $k$.
 # 1. For every run and step, $\text{NEES}_{r,k} = e_{r,k}^\top P_{r,k}^{-1} e_{r,k}$.
@@ -161,7 +161,7 @@ from pfcourse.robot import RobotModel, run_ekf, simulate_robot
 
 
 def consistency(errors, covariances, probability=0.95):
-    """Algorithm 21.1: run-averaged NEES, the band, fraction inside."""
+    """Algorithm 23.1: run-averaged NEES, the band, fraction inside."""
     R, K, d = errors.shape
     # step 1: e^T P^-1 e for every run and step
     nees_rk = np.einsum("rki,rkij,rkj->rk", errors,
@@ -280,7 +280,7 @@ EvidenceBlock(
            f"the exact posterior standard deviation ({kf_sd:.3f} m).",
            "Mean log-likelihood error at N = 100 and 3000: " + "; ".join(
                f"{name} {b[0]:+.2f} and {b[-1]:+.2f} nats" for name, b in bias.items())
-           + ". The log of an unbiased likelihood estimate is biased down (exercise 21.2 below); with static "
+           + ". The log of an unbiased likelihood estimate is biased down (exercise 23.2 below); with static "
              "landmarks that bias dominates."],
     tables=[("Fitted slope of log(RMS error) on log N, with its 95 % interval",
              pd.DataFrame([{"model": name, "error of": q.split("_")[0], "slope": s, "low": lo, "high": hi}
@@ -354,7 +354,7 @@ EvidenceBlock(
 # ({glue:text}`robot_pf1000_nees_above_low:.2f`-{glue:text}`robot_pf1000_nees_above_high:.2f`):
 # its covariance, estimated from a resampled cloud, is too small for its error. Its NIS looks as
 # good as the Kalman filters', because the measurement noise $R$ dominates $S_k$ and hides the
-# under-estimated state spread ({ref}`exercise 21.3 <ex-kalman-nis>`): on real data, where only the
+# under-estimated state spread ({ref}`exercise 23.3 <ex-kalman-nis>`): on real data, where only the
 # NIS can be computed, this over-confidence would go unnoticed.
 
 
@@ -539,7 +539,7 @@ EvidenceBlock(
 # **The report's prior: the order reverses.** The EKF and the UKF lose
 # {glue:text}`terrain_wide_ekf_lost:.0%` and {glue:text}`terrain_wide_ukf_lost:.0%` of the flights:
 # the slope of the terrain at a wrong guess says nothing about where the right one is, and one
-# covariance cannot describe several separate modes ({ref}`exercise 21.4 <ex-kalman-ukf>`). The
+# covariance cannot describe several separate modes ({ref}`exercise 23.4 <ex-kalman-ukf>`). The
 # particle filter is the only filter whose share of lost flights falls as $N$ grows, here to
 # {glue:text}`terrain_wide_pf3000_lost:.0%` at $N = 3000$; {doc}`../part2/terrain_cure` and
 # {doc}`../part2/terrain_marginalised` measure it over more flights and cure it.
@@ -794,7 +794,7 @@ display(panel)
 # %% [markdown]
 # ## Exercises
 #
-# ```{exercise} 21.1 The NIS check when readings are missing
+# ```{exercise} 23.1 The NIS check when readings are missing
 # :label: ex-pfk-consistency
 # :nonumber:
 # (Coding.) On real data only the NIS can be computed, and a sensor does not read at every step:
@@ -849,7 +849,7 @@ def my_missing_nis(innovations, covariances):
 print(check_missing_nis(my_missing_nis))
 
 # %% [markdown]
-# ```{exercise} 21.2 The bias of a log-likelihood
+# ```{exercise} 23.2 The bias of a log-likelihood
 # :label: ex-kalman-slope
 # :nonumber:
 # The particle filter's likelihood estimate $\hat p(z_{1:K})$ is unbiased. Explain why the error
@@ -866,7 +866,7 @@ print(check_missing_nis(my_missing_nis))
 # huge, so the bias dominates over the range of $N$ computed (the evidence of the linear Gaussian section).
 # ```
 #
-# ```{exercise} 21.3 Why the NIS misses the particle filter's over-confidence
+# ```{exercise} 23.3 Why the NIS misses the particle filter's over-confidence
 # :label: ex-kalman-nis
 # :nonumber:
 # On the robot, the particle filter's NIS is close to consistent while its NEES is far above
@@ -885,7 +885,7 @@ print(check_missing_nis(my_missing_nis))
 # $R$), rarer measurements, or a gap in the measurements.
 # ```
 #
-# ```{exercise} 21.4 Why the UKF does not rescue terrain navigation
+# ```{exercise} 23.4 Why the UKF does not rescue terrain navigation
 # :label: ex-kalman-ukf
 # :nonumber:
 # Why does the UKF not rescue the terrain problem from the report's prior, although it does

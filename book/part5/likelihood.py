@@ -75,7 +75,7 @@
 # $\mathbb E[\hat p] = p\, e^{b + \sigma^2/2}$, and unbiasedness forces $b = -\sigma^2/2$; $\sigma^2$
 # shrinks like $1/N$.
 #
-# :::{admonition} Algorithm 23.1: the particle estimate of the likelihood
+# :::{admonition} Algorithm 25.1: the particle estimate of the likelihood
 # :class: algorithm
 # 1. **Initialise.** Draw $x_0^i \sim p(x_0)$; set $\log W_0^i = -\log N$ and $\ell = 0$.
 # 2. **For** $k = 1, \dots, K$:
@@ -125,7 +125,7 @@ model = scenario.model()
 
 
 def log_likelihood_estimate(model, Z, n, rng, threshold=0.5):
-    """log p^(z_1:K) from a bootstrap filter (Algorithm 23.1)."""
+    """log p^(z_1:K) from a bootstrap filter (Algorithm 25.1)."""
     # x_0^i ~ p(x_0)
     x = model.sample_initial(n, rng)
     log_W, log_p = np.full(n, -np.log(n)), 0.0
@@ -218,7 +218,7 @@ glue_values(est_tol=TOL, est_mean_err=mean_err[0], est_half_var=half_var[0], est
             est_check_1000_high=stored[1000]["check"][2])
 EvidenceBlock(
     "log p^ is biased down by about var/2",
-    notes=[f"In the page: {SEEDS.size} runs of Algorithm 23.1 (seeds 0 to {SEEDS.size - 1}), N = 300, threshold 1. "
+    notes=[f"In the page: {SEEDS.size} runs of Algorithm 25.1 (seeds 0 to {SEEDS.size - 1}), N = 300, threshold 1. "
            f"Mean error of log p^: {mean_err[0]:.2f} nats (95 % interval {mean_err[1]:.2f} to {mean_err[2]:.2f}); "
            f"-var/2: {half_var[0]:.2f} ({half_var[1]:.2f} to {half_var[2]:.2f}); mean + var/2, the log of E[p^/p] "
            f"if log p^ is Gaussian: {check[0]:.2f} ({check[1]:.2f} to {check[2]:.2f}); intervals by percentile "
@@ -471,9 +471,9 @@ EvidenceBlock(
 # the exact posterior, because $\hat p$ is unbiased. $N$ changes how well the chain mixes, not where
 # it goes. A lucky overestimate is hard to leave, so a noisy $\hat p$ lowers the acceptance rate.
 #
-# :::{admonition} Algorithm 23.2: particle marginal Metropolis-Hastings on $u = \log\vartheta$
+# :::{admonition} Algorithm 25.2: particle marginal Metropolis-Hastings on $u = \log\vartheta$
 # :class: algorithm
-# 1. **Initialise.** $u = \log\vartheta_0$; $\ell = \log\hat p(z_{1:K} \mid e^{u})$ by Algorithm 23.1.
+# 1. **Initialise.** $u = \log\vartheta_0$; $\ell = \log\hat p(z_{1:K} \mid e^{u})$ by Algorithm 25.1.
 # 2. **For** $t = 1, \dots, T$:
 #    1. *propose:* $u' = u + s\,\varepsilon$, $\varepsilon \sim \mathcal N(0, 1)$;
 #    2. if $u'$ is outside the prior's support, reject it: go to the record step;
@@ -486,7 +486,7 @@ EvidenceBlock(
 
 # %%
 def pmmh_loop(log_p_hat, theta0, n_iterations, step, rng, bounds=(0.1, 10.0)):
-    """PMMH on u = log theta, flat prior on [log a, log b] (Algorithm 23.2)."""
+    """PMMH on u = log theta, flat prior on [log a, log b] (Algorithm 25.2)."""
     low, high = np.log(bounds)
     u = np.log(theta0)
     ell = log_p_hat(theta0, rng)
@@ -614,7 +614,7 @@ EvidenceBlock(
 # ## How many particles: the variance of $\log \hat p$
 #
 # More particles make each iteration dearer; fewer make the chain stickier. For a random walk
-# such as Algorithm 23.2 the computing time per independent draw is smallest when the variance
+# such as Algorithm 25.2 the computing time per independent draw is smallest when the variance
 # of $\log\hat p$ is about $3.3$ {cite:p}`sherlock2015`; for an efficient proposal the target is
 # about $1$ {cite:p}`doucet2015`. A pilot run at $N_0$ gives
 # $N^* = N_0\, \mathrm{var}_{N_0}(\log\hat p) / \sigma^2_\text{target}$. Here the pilot
@@ -641,7 +641,7 @@ growth = evidence.run_interval(lambda r: at_1[r].var(ddof=1) / half[r].var(ddof=
 
 
 def log_factors(model, Z, n, rng):
-    """The factors L_k of Algorithm 23.1 (threshold 1), step by step; same random numbers as above."""
+    """The factors L_k of Algorithm 25.1 (threshold 1), step by step; same random numbers as above."""
     x, factors = model.sample_initial(n, rng), np.zeros(len(Z))
     for k, z in enumerate(Z):
         if k > 0:
@@ -688,7 +688,7 @@ EvidenceBlock(
            f"{pilot_var:.2f} at N = {N_PILOT}. N* = {N_PILOT} x {pilot_var:.2f} / target, rounded up to a hundred: "
            f"{n_rw} for the random-walk target 3.3 (Sherlock et al. 2015), {n_tuned} for the target 1 of an "
            "efficient proposal (Doucet et al. 2015).",
-           f"Check in the page: {SEEDS.size} runs of Algorithm 23.1 at N = {n_tuned} (seeds 0 to {SEEDS.size - 1}), "
+           f"Check in the page: {SEEDS.size} runs of Algorithm 25.1 at N = {n_tuned} (seeds 0 to {SEEDS.size - 1}), "
            f"var(log p^) = {tuned_var[0]:.2f}, 95 % interval {tuned_var[1]:.2f} to {tuned_var[2]:.2f} (percentile "
            "bootstrap over the runs).",
            f"Stored chains (previous evidence block), ESS per 10^6 particles spent: N = 300 (var {var_by_n[300]:.2f}) "
@@ -834,7 +834,7 @@ EvidenceBlock(
 #
 # ## Exercises
 #
-# ```{exercise} 23.1 The likelihood of a fully adapted filter
+# ```{exercise} 25.1 The likelihood of a fully adapted filter
 # :label: ex-lik-estimator
 # :nonumber:
 # On the scalar model $x_0 \sim \mathcal N(0, 1)$, $x_k = a x_{k-1} + q v_k$, $z_k = x_k + r w_k$
@@ -880,7 +880,7 @@ def adapted_log_likelihood(z, n, rng, a, q, r):
 print(check_adapted_likelihood(adapted_log_likelihood))
 
 # %% [markdown]
-# ```{exercise} 23.2 Common random numbers and the threshold
+# ```{exercise} 25.2 Common random numbers and the threshold
 # :label: ex-lik-crn
 # :nonumber:
 # Redraw the CRN curve with `threshold=0.5` instead of $1$. Why does it become jagged again, although
@@ -895,7 +895,7 @@ print(check_adapted_likelihood(adapted_log_likelihood))
 # differ.
 # ```
 #
-# ```{exercise} 23.3 Re-estimating the current point
+# ```{exercise} 25.3 Re-estimating the current point
 # :label: ex-lik-pmmh
 # :nonumber:
 # A student re-estimates $\hat p$ at the current point at every iteration of PMMH "to be fair to both

@@ -116,7 +116,7 @@ plt.show()
 # the weight of particle $j$ times the density of moving from it to the reference's next state.
 # The reference's future is then grafted onto a new past at every step.
 #
-# :::{admonition} Algorithm 24.1: conditional SMC with ancestor sampling (one sweep)
+# :::{admonition} Algorithm 26.1: conditional SMC with ancestor sampling (one sweep)
 # :class: algorithm
 # 1. Draw $x_0^i \sim p(x_0)$ for $i \ne 0$; set $x_0^0 = x_0^{\text{ref}}$; $\log W_0^i = -\log N$.
 # 2. **For** $k = 0, \dots, K$:
@@ -152,7 +152,7 @@ def draw(log_p, rng):
 
 
 def csmc_as(model, Z, n, ref, rng):
-    """One sweep of Algorithm 24.1: a new path given the reference."""
+    """One sweep of Algorithm 26.1: a new path given the reference."""
     K, d = ref.shape
     x, A = np.empty((K, n, d)), np.tile(np.arange(n), (K, 1))
     x[0] = model.sample_initial(n, rng)
@@ -588,7 +588,7 @@ EvidenceBlock(
 #
 # ## Exercise
 #
-# ```{exercise} 24.1 Ancestor sampling for another model
+# ```{exercise} 26.1 Ancestor sampling for another model
 # :label: ex-pmcmc-ancestor
 # :nonumber:
 # Take the scalar model $x_k = a\, x_{k-1} + \sigma w_k$, $w_k \sim \mathcal N(0, 1)$. Write

@@ -65,7 +65,7 @@
 # the transition density for all $N^2$ pairs $(j, i)$ at every step: $O(N^2)$ per step against the
 # filter's $O(N)$.
 #
-# :::{admonition} Algorithm 25.1: forward filtering, backward smoothing (FFBSm)
+# :::{admonition} Algorithm 27.1: forward filtering, backward smoothing (FFBSm)
 # :class: algorithm
 # 1. **Forward.** Run the particle filter and store every weighted cloud $\{x_k^i, W_k^i\}$, $k = 0, \dots, T$.
 # 2. **Start.** $W_{T|T}^i = W_T^i$.
@@ -118,12 +118,12 @@ run = landmark_smoothing_run()
 Z, log_f = run.Z, run.log_f
 
 # %% [markdown]
-# Algorithm 25.1 in NumPy, on the stored clouds `run.particles` (shape $(T+1, N, d)$) and
+# Algorithm 27.1 in NumPy, on the stored clouds `run.particles` (shape $(T+1, N, d)$) and
 # `run.weights` ($(T+1, N)$):
 
 # %%
 def my_ffbsm(particles, weights, log_f):
-    """Smoothed weights W_{k|T}, shape (T+1, N), by Algorithm 25.1."""
+    """Smoothed weights W_{k|T}, shape (T+1, N), by Algorithm 27.1."""
     n_steps = len(weights)
     log_w = np.log(weights)
     log_s = np.empty_like(log_w)
@@ -162,7 +162,7 @@ assert gap_ffbsm < 1e-12  # the prose: the package's weights to round-off
 # clouds $p(x_k = x_k^i \mid x_{k+1}, z_{1:k}) \propto W_k^i\, p(x_{k+1} \mid x_k^i)$. Drawing an index at
 # the last step and then one per step backwards is forward filtering, backward simulation (FFBSi).
 #
-# :::{admonition} Algorithm 25.2: forward filtering, backward simulation (FFBSi)
+# :::{admonition} Algorithm 27.2: forward filtering, backward simulation (FFBSi)
 # :class: algorithm
 # 1. **Forward.** Run the particle filter and store every weighted cloud.
 # 2. **For** each trajectory $s = 1, \dots, J$: draw $b_T \sim \{W_T^i\}$, that is $P(b_T = i) = W_T^i$.
@@ -179,7 +179,7 @@ assert gap_ffbsm < 1e-12  # the prose: the package's weights to round-off
 
 # %%
 def my_ffbsi(particles, weights, log_f, n_draws, rng):
-    """n_draws trajectories, shape (T+1, n_draws, d), by Algorithm 25.2."""
+    """n_draws trajectories, shape (T+1, n_draws, d), by Algorithm 27.2."""
     n_steps, n = weights.shape
 
     def draw(log_p, u):
@@ -806,7 +806,7 @@ EvidenceBlock(
 #
 # ## Exercises
 #
-# ```{exercise} 25.1 When does the backward kernel collapse?
+# ```{exercise} 27.1 When does the backward kernel collapse?
 # :label: ex-smooth-collapse
 # :nonumber:
 # On the landmark model, what would the FFBSm backward kernel look like if the process noise
@@ -826,7 +826,7 @@ EvidenceBlock(
 # measurements say little about a state that moves that much.
 # ```
 #
-# ```{exercise} 25.2 The fixed-lag smoother
+# ```{exercise} 27.2 The fixed-lag smoother
 # :label: ex-smooth-code
 # :nonumber:
 # (Coding.) Write `fixed_lag(particles, weights, ancestors, lag)`: the fixed-lag means

@@ -215,7 +215,7 @@ def liu_west(Z, n, rng, delta=0.98):
 # and weights with it; {cite:t}`fearnhead2002` uses the statistics in the same way. Integrating it
 # out, as here, is their Rao-Blackwellised form.
 #
-# :::{admonition} Algorithm 26.1: the sufficient-statistic filter for a noise scale
+# :::{admonition} Algorithm 28.1: the sufficient-statistic filter for a noise scale
 # :class: algorithm
 # 1. **Initialise.** $x_0^i \sim p(x_0)$, $b^i = b_0$, $a = a_0$.
 # 2. **For** $k = 1, \dots, K$:
@@ -278,7 +278,7 @@ GLUE.update(code_tol=TOL, ss_mean_page=ours_ss)
 # **every** $N_x$, and the PMMH move leaves it invariant, exactly as in {doc}`likelihood`. The price is
 # that each move re-runs the filter from the start: a move at step $k$ costs $k N_\vartheta N_x$.
 #
-# :::{admonition} Algorithm 26.2: SMC²
+# :::{admonition} Algorithm 28.2: SMC²
 # :class: algorithm
 # 1. **Initialise.** $\vartheta^j \sim p(\vartheta)$, each with a filter of $N_x$ particles; $\log W^j = -\log N_\vartheta$.
 # 2. **For** $k = 1, \dots, K$:
@@ -606,7 +606,7 @@ EvidenceBlock(
 #
 # ## Exercises
 #
-# ```{exercise} 26.1 The sufficient-statistic step for a process-noise scale
+# ```{exercise} 28.1 The sufficient-statistic step for a process-noise scale
 # :label: ex-sp-storvik
 # :nonumber:
 # (Coding.) Another parameter: a scalar random walk $x_k = x_{k-1} + w_k$ whose process noise
@@ -653,7 +653,7 @@ def storvik_step(x, a, b, z, rng):
 print(check_storvik_step(storvik_step))
 
 # %% [markdown]
-# ```{exercise} 26.2 Why not more jitter?
+# ```{exercise} 28.2 Why not more jitter?
 # :label: ex-sp-jitter
 # :nonumber:
 # A student replaces Liu and West's kernel by a plain jitter, $u^i \leftarrow u^i + h\, s_u\,

@@ -89,24 +89,24 @@ exception is reported as a problem); ``str(report)`` prints the verdict.
   Jacobian of range and bearing at three poses; the mistakes of :data:`JACOBIAN_MISTAKES` (offset
   reversed, ``+1`` for the heading, ``q`` for ``sqrt(q)``, ``dx`` and ``dy`` swapped) are named.
 * :func:`check_consistency` - ``fn(errors, covariances) -> (average_nees, band, fraction)``: the
-  NEES check of a filter over ``R`` runs (chapter 21), the run-averaged NEES per step, the 95 % band
+  NEES check of a filter over ``R`` runs (chapter 23), the run-averaged NEES per step, the 95 % band
   of an average of ``R`` chi-square variables with ``d`` degrees of freedom and the fraction of steps
   inside it, against :func:`nees_consistency`; the mistakes of :data:`CONSISTENCY_MISTAKES` (a single
   run's band, the band not divided by ``R``, ``P`` not inverted, a one-sided band, the runs summed)
   are named.
 * :func:`check_ess` - ``fn(log_weights) -> ess``: the effective sample size ``1 / sum_i W_i^2`` from
-  log-weights (chapter 19), on cases that underflow and overflow in the linear domain; weights not
+  log-weights (chapter 21), on cases that underflow and overflow in the linear domain; weights not
   normalised, a fraction instead of a number and exponentiation without the maximum subtracted are named.
 * :func:`check_lock_on` - ``fn(pos_err, head_err, dt, window_s) -> bool``: the book's one definition of
-  *locked on* (:func:`pfcourse.metrics.locked_on`, chapter 20); the last step only, the heading ignored,
+  *locked on* (:func:`pfcourse.metrics.locked_on`, chapter 22); the last step only, the heading ignored,
   the window read in steps and the whole run required are named.
 * :func:`check_pose_density` - ``fn(x, z, landmark, sd) -> (N,)``: the log-density ``log q_z(x)`` of a
-  pose drawn from a range-bearing reading (chapter 11), against :func:`pose_reading_log_density`; the
+  pose drawn from a range-bearing reading (chapter 12), against :func:`pose_reading_log_density`; the
   mistakes of :data:`POSE_DENSITY_MISTAKES` (the bearing added, the Jacobian ``1 / h_r``, the
   direction's ``1 / (2 pi)`` or the truncation ``Phi(r / s_r)`` left out, the residual not wrapped,
   standard deviations read as variances) are named.
 * :func:`check_beam_reading` - ``fn(z_star, scanner, rng) -> z``: one reading per beam drawn from the four-part
-  beam model (chapter 13's coding exercise), checked by the shares of readings below, near and beyond ``z*``
+  beam model (chapter 14's coding exercise), checked by the shares of readings below, near and beyond ``z*``
   and at ``z_max``, and by the generator it draws from; the mistakes of :data:`BEAM_MISTAKES` are named;
 * :func:`check_likelihood_field` - ``fn(poses, z, field) -> (N,)``: the likelihood-field log-weights of one
   scan for a cloud of poses (Thrun, Burgard and Fox 2005, table 6.3), against :func:`field_log_weights`;
@@ -114,7 +114,7 @@ exception is reported as a problem); ``str(report)`` prints the verdict.
   direction, no ``z_rand / z_max`` term, no Gaussian constant, a product of densities that underflows)
   are named.
 * :func:`check_paired_se` - ``fn(a, b) -> (paired_se, unpaired_se)``: the standard error of a difference of
-  means over the same runs, paired and as if unpaired (chapter 18); the population standard deviation,
+  means over the same runs, paired and as if unpaired (chapter 20); the population standard deviation,
   a division by ``n``, standard deviations added and the pairing ignored are named.
 
 Each Part ends with a capstone (:mod:`.capstones`):

@@ -1275,7 +1275,7 @@ def check_landmark_update(fn: Callable, rtol: float = 1e-9) -> CheckReport:
     return report
 
 
-# FastSLAM 2.0's robot move for a cloud (chapter 8, exercise 8.2): one landmark in view, measured as
+# FastSLAM 2.0's robot move for a cloud (chapter 9, exercise 9.2): one landmark in view, measured as
 # its offset from the robot, z = A r + C l + v with A = -I and C = [I, 0]; every particle shares the
 # map covariance P_pred.
 FASTSLAM2_CASE = dict(
@@ -1325,7 +1325,7 @@ def fastslam2_exact(r_pred: np.ndarray, m_pred: np.ndarray, mistake: str | None 
 
 
 def check_fastslam2_move(fn: Callable, n: int = 60, n_calls: int = 60, seed: int = 0) -> CheckReport:
-    """Check a student's ``fn(r_pred, m_pred, P_pred, z, A, C, Qr, R, rng) -> (robots, log_w)`` (exercise 8.2).
+    """Check a student's ``fn(r_pred, m_pred, P_pred, z, A, C, Qr, R, rng) -> (robots, log_w)`` (exercise 9.2).
 
     On :data:`FASTSLAM2_CASE`: the generator (same seed, same answer; another seed, another; NumPy's
     global state untouched); the log-weights against :func:`fastslam2_exact` up to a constant common
@@ -1449,7 +1449,7 @@ def check_apf_second_stage(fn: Callable, n: int = 12, seed: int = 0) -> CheckRep
     return report
 
 
-# The fully adapted auxiliary filter on a model the chapter does not show (chapter 9, exercise 9.3):
+# The fully adapted auxiliary filter on a model the chapter does not show (chapter 10, exercise 10.3):
 # x_k = a x_(k-1) + w_k, w_k ~ N(0, q); z_k = c x_k + v_k, v_k ~ N(0, r).
 APF_STEP_MODEL = {"a": 0.8, "c": 2.0, "q": 0.5, "r": 0.4}
 
@@ -1499,7 +1499,7 @@ def apf_step_exact(x: np.ndarray, log_w: np.ndarray, z: float, mistake: str | No
 
 def check_apf_step(fn: Callable, n: int = 200, n_calls: int = 40, seed: int = 0) -> CheckReport:
     """Check a student's ``fn(x, log_w, z, rng) -> (x_new, log_evidence)``, the fully adapted step of
-    the auxiliary filter on :data:`APF_STEP_MODEL` (exercise 9.3).
+    the auxiliary filter on :data:`APF_STEP_MODEL` (exercise 10.3).
 
     On one weighted cloud of ``n`` particles: the generator (same seed, same answer; another seed,
     another; NumPy's global state untouched), the likelihood increment against

@@ -12,7 +12,7 @@ from pfcourse.exercises.checking import CheckReport, _answer, _cloud_answers, _s
 from pfcourse.seeding import run_filter_seed
 
 
-# ----------------------------------------------------------------------------- chapter 11
+# ----------------------------------------------------------------------------- chapter 12
 #: Cases of :func:`check_pose_density`: (reading ``(r, b)``, landmark ``l``, standard deviations
 #: ``(s_r, s_b)``): a far reading, a short one (where the truncation to ``r' > 0`` matters) and one
 #: at a bearing near ``pi`` (where the bearing residual must be wrapped).
@@ -45,7 +45,7 @@ def _wrap(angle: np.ndarray) -> np.ndarray:
 
 def pose_reading_log_density(x: np.ndarray, z: np.ndarray, landmark: np.ndarray, sd: np.ndarray,
                              mistake: str | None = None) -> np.ndarray:
-    """``log q_z(x)`` of the pose drawn from a range-bearing reading (chapter 11, Algorithm 11.1):
+    """``log q_z(x)`` of the pose drawn from a range-bearing reading (chapter 12, Algorithm 12.1):
 
         q_z(x) = N(h_r(x); r, s_r^2) N(wrap(b - h_b(x)); 0, s_b^2) / (Phi(r / s_r) 2 pi h_r(x)),
 
@@ -283,7 +283,7 @@ def check_regularised_jitter(fn: Callable, seed: int = 0) -> CheckReport:
     return report
 
 
-# --- chapter 13: the likelihood-field log-weight of one scan for a cloud -------------------------------
+# --- chapter 14: the likelihood-field log-weight of one scan for a cloud -------------------------------
 #: The mistakes :func:`check_likelihood_field` names, each with its one-sentence reason.
 FIELD_MISTAKES = {
     "max_range_kept": "beams at the maximum range z_max hit nothing and give no end point: leave them out of "

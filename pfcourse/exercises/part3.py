@@ -10,7 +10,7 @@ from scipy.special import logsumexp
 from pfcourse.exercises.checking import CheckReport, _answer, _settled
 
 
-# The effective sample size from log-weights (chapter 19, exercise 19.1): cases whose weights underflow
+# The effective sample size from log-weights (chapter 21, exercise 21.1): cases whose weights underflow
 # (log-weights near -1000) or overflow (near +800) in the linear domain, and an ordinary one.
 ESS_CASES = (np.log(np.array([0.5, 0.25, 0.125, 0.125])), np.array([-1000.0, -1001.0, -1000.5, -1003.0, -1000.0]),
              np.array([800.0, 799.0, 801.0]), np.array([0.0, -np.inf, -1.0, -2.0]))
@@ -72,7 +72,7 @@ def check_ess(fn: Callable, rtol: float = 1e-9) -> CheckReport:
     return report
 
 
-# Locked on, the book's one definition (chapter 20, exercise 20.1): runs of per-step errors whose verdict
+# Locked on, the book's one definition (chapter 22, exercise 22.1): runs of per-step errors whose verdict
 # differs between the right definition and each mistake.
 LOCK_MISTAKES = {
     "last_step": "it looks at the last step only; locked on means within the tolerances at every step of the "
@@ -148,7 +148,7 @@ def check_lock_on(fn: Callable) -> CheckReport:
     return report
 
 
-# --- chapter 18: what common random numbers buy -------------------------------------------------------
+# --- chapter 20: what common random numbers buy -------------------------------------------------------
 #: Two settings' errors on the same 40 runs (the first run by run correlated with the second, as the
 #: settings of a study with common random numbers are).
 def _paired_case(seed: int = 17, runs: int = 40) -> tuple[np.ndarray, np.ndarray]:

@@ -11,7 +11,7 @@ from scipy.special import logsumexp
 from pfcourse.exercises.checking import CheckReport, _answer, _per_particle_answers, _settled
 
 
-# The NEES consistency check over R runs (chapter 21, exercise 21.1): errors of shape (R, K, d) and
+# The NEES consistency check over R runs (chapter 23, exercise 23.1): errors of shape (R, K, d) and
 # covariances (R, K, d, d) of a filter that is consistent at most steps, over-confident at a few.
 CONSISTENCY_MISTAKES = {
     "one_run_band": "its band is that of a single run, chi2_d quantiles; the average of R independent chi2_d "
@@ -101,7 +101,7 @@ def check_consistency(fn: Callable, seed: int = 0, rtol: float = 1e-9) -> CheckR
     return report
 
 
-# The NIS check with missing readings (chapter 21, exercise 21.1): innovations (R, K, m) and their
+# The NIS check with missing readings (chapter 23, exercise 23.1): innovations (R, K, m) and their
 # covariances (R, K, m, m), NaN where run r had no reading at step k.
 MISSING_NIS_MISTAKES = {
     "divided_by_all_runs": "it divides the sum of the NIS by all R runs, counting a run without a reading as a "
@@ -299,7 +299,7 @@ def check_anonymous_likelihood(fn: Callable, n_particles: int = 60, seed: int = 
     return report
 
 
-# The anonymous range-only reading (chapter 22, exercise 22.2): a sensor that measures the range
+# The anonymous range-only reading (chapter 24, exercise 24.2): a sensor that measures the range
 # alone, clutter uniform over [0, r_max].
 RANGE_ONLY_VAR = 0.5**2
 #: Cases ``(r, p_detect, clutter_rate, max_range)``: ordinary, without clutter, dense clutter.
@@ -372,7 +372,7 @@ def check_range_only_anonymous(fn: Callable, n_particles: int = 60, seed: int = 
     return report
 
 
-# The capstone of Part IV (chapter 22, exercise 22.3): a whole particle filter for a model the Part has
+# The capstone of Part IV (chapter 24, exercise 24.3): a whole particle filter for a model the Part has
 # not shown, a target on a line in clutter, checked against its exact posterior (a Gaussian mixture over
 # every history of associations, pruned only below 1e-12 of the largest weight).
 #: The model: x = (position m, velocity m/s), x_k = F x_{k-1} + w_k, w_k ~ N(0, Q); a reading of the

@@ -10,7 +10,7 @@ from scipy.special import logsumexp
 from pfcourse.exercises.checking import CheckReport, _answer, _settled, _shaped
 
 
-# ---------------------------------------------------------------- chapter 23: the likelihood estimator
+# ---------------------------------------------------------------- chapter 25: the likelihood estimator
 ESTIMATOR_MISTAKES = {
     "forgot_previous_weights": "it averages the new weights with 1/N instead of the previous weights W_(k-1): "
                                "after a step without resampling the particles do not count equally, so "
@@ -30,7 +30,7 @@ ESTIMATOR_MISTAKES = {
 
 
 def likelihood_estimate(log_w: np.ndarray, resampled: np.ndarray, mistake: str | None = None) -> float:
-    """``log p^(z_{1:K}) = sum_k log sum_i W_{k-1}^i w~_k^i`` from a filter's log-weights (Algorithm 23.1).
+    """``log p^(z_{1:K}) = sum_k log sum_i W_{k-1}^i w~_k^i`` from a filter's log-weights (Algorithm 25.1).
 
     ``log_w[k, i] = log w~_k^i`` (``0`` at a step without measurement), ``resampled[k]`` whether the cloud
     was resampled after step ``k`` (then ``W_k^i = 1/N``); ``W_{-1}^i = 1/N``, ``W_k^i = W_{k-1}^i w~_k^i /
@@ -330,7 +330,7 @@ def check_backward_weights(fn: Callable, rtol: float = 1e-9) -> CheckReport:
     return report
 
 
-# ---------------------------------------------------------------- chapter 25: the fixed-lag smoother
+# ---------------------------------------------------------------- chapter 27: the fixed-lag smoother
 FIXED_LAG_MISTAKES = {
     "filter_weights": ("it weights the ancestors with the filter weights W_k of step k: the ancestors at k of "
                        "the particles of step t = k + L carry THEIR weights, W_t^i"),
