@@ -39,7 +39,8 @@ FIRST_TEXT = ["onramp", "part1/model", "part1/kalman", "part1/sis", "part1/sir",
               "part1/proposals", "part1/rao_blackwell", "part1/auxiliary", "part2/map_robot", "part2/map_global",
               "part4/pf_vs_kalman", "part4/data_association", "part5/particle_mcmc", "part5/static_parameters",
               "part2/robot", "part2/robot_vs_kalman", "part2/global_localization",
-              "part3/robot_studies", "part3/resampling_studies", "part3/sensing_studies"]
+              "part3/robot_studies", "part3/resampling_studies", "part3/sensing_studies",
+              "part5/likelihood", "part5/smoothing"]
 HIDDEN = {"remove-input", "hide-input", "remove-cell"}
 MAX_LINE = 80
 MAX_MINUTES = 25

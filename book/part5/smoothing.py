@@ -19,7 +19,7 @@
 # **You need** {doc}`../part1/sir` (resampling, ancestors) and {doc}`../part1/kalman`; Bayes'
 # rule and the Markov property; NumPy broadcasting and `logsumexp`.
 #
-# **Time:** about twenty-seven minutes to read; the notebook runs in about twenty seconds (its
+# **Time:** about twenty-three minutes to read; the notebook runs in about twenty seconds (its
 # studies over many runs are stored data).
 # :::
 #
@@ -80,68 +80,78 @@
 # The scenario is the linear landmark model of {doc}`likelihood`, with process noise
 # $0.05^2$ m² on **every** component, the landmarks' included: the landmarks drift slowly, and the
 # bootstrap filter stays in its working regime. Measurement noise $R = 0.5^2 I$ m², one dataset
-# (seed $7$), a filter with $N = 100$ particles:
+# (seed $7$), a filter with $N = 100$ particles, loaded by one helper call:
 
-# %%
-import time
+# %% tags=["remove-input"] jupyter={"source_hidden": true}
 from functools import partial
+from types import SimpleNamespace
 
-import matplotlib.pyplot as plt
-import numpy as np
 import pandas as pd
-from scipy.special import logsumexp
-from scipy.stats import norm
 
 from pfcourse import evidence
-from pfcourse.exercises import check_backward_weights
 from pfcourse.experiments.registry import STUDIES
-from pfcourse.experiments.smoothing_studies import LAGS, SCENARIO
+from pfcourse.experiments.smoothing_studies import LAGS
 from pfcourse.figures.report import EvidenceBlock, glue_values
+from pfcourse.figures.widgets import control_panel, particle_slider, seed_box
 from pfcourse.filter import ParticleFilter
 from pfcourse.kalman import kalman_filter
-from pfcourse.landmarks import simulate
 from pfcourse.linear_gaussian import LinearGaussianModel
 from pfcourse.robot import RobotModel, RobotScenario, simulate_robot
 from pfcourse.robot.scenario import robot_transition_log_density
 from pfcourse.collectors import Ancestors, Clouds
-from pfcourse.smoothing import ffbsi, ffbsm, linear_gaussian_log_transition, pairwise, rts_smoother
+from pfcourse.smoothing import ffbsi, ffbsm, pairwise, rts_smoother
 from pfcourse.style import COLORS, use_style
 
 use_style()
-model = SCENARIO.model()
-sim = simulate(SCENARIO, 7)
-Z = sim.measurements
-# keep every step's cloud and weights, and each particle's ancestor index
-pf = ParticleFilter(model, 100).run(Z, 21, collect=[Clouds(), Ancestors()])
-log_f = linear_gaussian_log_transition(model)  # log_f(new, old, k)[j, i] = log p(new_j | old_i)
+
+# %%
+import matplotlib.pyplot as plt
+import numpy as np
+from scipy.special import logsumexp
+from scipy.stats import norm
+
+from pfcourse.experiments.smoothing_studies import landmark_smoothing_run
+
+# a bootstrap filter's run (N = 100) that kept every step's cloud, weights
+# and ancestor indices; log_f(new, old, k)[j, i] = log p(new_j | old_i)
+run = landmark_smoothing_run()
+Z, log_f = run.Z, run.log_f
 
 # %% [markdown]
-# Algorithm 27.1 in NumPy, on the stored clouds `pf.particles` (shape $(T+1, N, d)$) and
-# `pf.weights` ($(T+1, N)$):
+# Algorithm 27.1 in NumPy, on the stored clouds `run.particles` (shape $(T+1, N, d)$) and
+# `run.weights` ($(T+1, N)$):
 
 # %%
 def my_ffbsm(particles, weights, log_f):
-    """Smoothed weights W_{k|T}, shape (T+1, N), by Algorithm 27.1 in the log domain."""
+    """Smoothed weights W_{k|T}, shape (T+1, N), by Algorithm 27.1."""
     n_steps = len(weights)
     log_w = np.log(weights)
     log_s = np.empty_like(log_w)
     log_s[-1] = log_w[-1]
     for k in range(n_steps - 2, -1, -1):
-        ell = log_f(particles[k + 1], particles[k], k + 1)            # [j, i]
-        log_c = logsumexp(log_w[k][None, :] + ell, axis=1)            # predictive density at x_{k+1}^j
-        log_s[k] = log_w[k] + logsumexp(log_s[k + 1][:, None] + ell - log_c[:, None], axis=0)
+        # ell[j, i] = log p(x_{k+1}^j | x_k^i)
+        ell = log_f(particles[k + 1], particles[k], k + 1)
+        # log of the predictive density at x_{k+1}^j
+        log_c = logsumexp(log_w[k][None, :] + ell, axis=1)
+        back = logsumexp(log_s[k + 1][:, None] + ell - log_c[:, None], axis=0)
+        log_s[k] = log_w[k] + back
         log_s[k] -= logsumexp(log_s[k])
     return np.exp(log_s)
 
 
-W_smooth = my_ffbsm(pf.particles, pf.weights, log_f)
+W_smooth = my_ffbsm(run.particles, run.weights, log_f)
+smoothed_x = np.sum(W_smooth * run.particles[:, :, 2], axis=1)
+print(f"smoothed x of landmark 1 at t = 0: {smoothed_x[0]:.2f} m")
+
+# %% tags=["remove-input"] jupyter={"source_hidden": true}
+model, sim, pf = run.model, run.sim, run.pf
 engine = ffbsm(pf.particles, pf.weights, log_f)
 gap_ffbsm = np.abs(W_smooth - engine.weights).max()
-print(f"largest difference from pfcourse.smoothing.ffbsm's weights: {gap_ffbsm:.1e}")
-assert gap_ffbsm < 1e-12
+assert gap_ffbsm < 1e-12  # the prose: the package's weights to round-off
 
 # %% [markdown]
-# The weights agree with the package's to round-off (below $10^{-12}$).
+# The weights agree with those of the book's smoother (`pfcourse.smoothing.ffbsm`) to round-off
+# (below $10^{-12}$).
 #
 # ## Backward simulation: whole trajectories
 #
@@ -172,25 +182,31 @@ def my_ffbsi(particles, weights, log_f, n_draws, rng):
     """n_draws trajectories, shape (T+1, n_draws, d), by Algorithm 27.2."""
     n_steps, n = weights.shape
 
-    def draw(log_p, u):  # index s: the first i with cumulative probability (row s of log_p) > u_s
-        cdf = np.cumsum(np.exp(log_p - logsumexp(log_p, axis=1, keepdims=True)), axis=1)
+    def draw(log_p, u):
+        # row s: the first i whose cumulative probability exceeds u_s
+        p = np.exp(log_p - logsumexp(log_p, axis=1, keepdims=True))
+        cdf = np.cumsum(p, axis=1)
         return np.minimum((cdf < u[:, None] * cdf[:, -1:]).sum(axis=1), n - 1)
 
     b = np.empty((n_steps, n_draws), dtype=int)
     b[-1] = draw(np.log(weights[-1])[None, :], rng.random(n_draws))
     for k in range(n_steps - 2, -1, -1):
-        ell = log_f(particles[k + 1][b[k + 1]], particles[k], k + 1)  # [s, i], one row per trajectory
+        # ell[s, i]: one row per trajectory
+        ell = log_f(particles[k + 1][b[k + 1]], particles[k], k + 1)
         b[k] = draw(np.log(weights[k])[None, :] + ell, rng.random(n_draws))
     return particles[np.arange(n_steps)[:, None], b]
 
 
-paths = my_ffbsi(pf.particles, pf.weights, log_f, 100, np.random.default_rng(5))
+paths = my_ffbsi(run.particles, run.weights, log_f, 100,
+                 np.random.default_rng(5))
+print(f"{paths.shape[1]} trajectories of {paths.shape[0]} steps")
+
+# %% tags=["remove-input"] jupyter={"source_hidden": true}
 same = np.array_equal(paths, ffbsi(pf.particles, pf.weights, log_f, 100, np.random.default_rng(5)))
-print(f"the same trajectories as pfcourse.smoothing.ffbsi with the same generator: {same}")
-assert same
+assert same  # the prose: the package's trajectories with the same generator
 
 # %% [markdown]
-# With the same generator the two draw the same trajectories.
+# With the same generator it draws the same trajectories as the book's `pfcourse.smoothing.ffbsi`.
 #
 # ## Where smoothing pays: a scalar linear model
 #
@@ -200,12 +216,10 @@ assert same
 # and no reading for $k = 25, \dots, 39$. The filter can only extrapolate through the gap; the smoother also knows where
 # the state came out of it. The transition density is as wide as the filter's cloud, so the backward
 # kernel has many particles to choose from. The exact answer is the RTS smoother
-# (`pfcourse.smoothing.rts_smoother`):
+# (`pfcourse.smoothing.rts_smoother`). The model and its transition density in NumPy:
 
 # %%
 PHI, Q_SD, R_SD, T_LIN, GAP = 1.0, 0.5, 1.0, 60, (25, 40)
-scalar = LinearGaussianModel(F=[[PHI]], H=[[1.0]], m0=[0.0], P0=[[1.0]],
-                             Q=[[Q_SD**2]], R=[[R_SD**2]])
 
 
 def simulate_scalar(rng):
@@ -225,6 +239,9 @@ def log_f_scalar(new, old, k):
 
 
 x_lin, z_lin = simulate_scalar(np.random.default_rng(7))
+
+# %% tags=["remove-input"] jupyter={"source_hidden": true}
+scalar = LinearGaussianModel(F=[[PHI]], H=[[1.0]], m0=[0.0], P0=[[1.0]], Q=[[Q_SD**2]], R=[[R_SD**2]])
 kf_lin = kalman_filter(scalar, z_lin)
 rts_lin, rts_cov_lin = rts_smoother(scalar, kf_lin)
 pf_lin = ParticleFilter(scalar, 100).run(z_lin, 8, collect=[Clouds(), Ancestors()])
@@ -232,8 +249,6 @@ W_lin = my_ffbsm(pf_lin.particles, pf_lin.weights, log_f_scalar)
 ffbsm_lin = np.sum(W_lin * pf_lin.particles[:, :, 0], axis=1)
 ffbsi_lin = my_ffbsi(pf_lin.particles, pf_lin.weights, log_f_scalar, 100,
                      np.random.default_rng(9)).mean(axis=1)[:, 0]
-
-# %% tags=["remove-input"] jupyter={"source_hidden": true}
 # the naive smoother: the final particles' ancestral lines
 A_lin = pf_lin.collected["ancestors"]
 lines_lin = np.empty((T_LIN, 100), dtype=int)
@@ -256,6 +271,30 @@ ax.plot(k_lin, naive_lin, color="0.5", lw=1, label="ancestral lines (naive)")
 ax.set(xlabel="step k", ylabel="state x", title="Scalar model: particle smoothers against the exact smoother")
 ax.legend(loc="upper left", bbox_to_anchor=(1.02, 1), fontsize=8)
 plt.show()
+
+# %% [markdown]
+# ### Try it
+#
+# The panel reruns the filter and FFBSm on the scalar model's data for a number of particles and
+# a filter seed. With $10$ particles the smoothed mean wanders off the exact one inside the gap;
+# with $100$ it follows it closely, and the seed moves only the details.
+
+# %% tags=["hide-input"] jupyter={"source_hidden": true}
+def draw_scalar_smoother(n_particles, seed):
+    run_ = ParticleFilter(scalar, n_particles).run(z_lin, seed, collect=[Clouds()])
+    W = my_ffbsm(run_.particles, run_.weights, log_f_scalar)
+    fig, ax = plt.subplots(figsize=(7, 3), constrained_layout=True)
+    ax.axvspan(GAP[0] - 0.5, GAP[1] - 0.5, color="0.92", label="no reading")
+    ax.plot(k_lin, rts_lin[:, 0], color=COLORS["kalman"], lw=2, label="RTS mean (exact)")
+    ax.plot(k_lin, np.sum(W * run_.particles[:, :, 0], axis=1), color=COLORS["estimate"], lw=1.3,
+            label=f"FFBSm, N = {n_particles}, seed {seed}")
+    ax.set(xlabel="step k", ylabel="state x", ylim=(rts_lin[:, 0].min() - 3, rts_lin[:, 0].max() + 3))
+    ax.legend(loc="upper left", bbox_to_anchor=(1.02, 1), fontsize=8)
+
+
+# %% tags=["nbval-ignore-output", "hide-input"] jupyter={"source_hidden": true}
+control_panel(draw_scalar_smoother, columns=2, grid={"n_particles": (10, 30, 100), "seed": (8, 9, 10)},
+              n_particles=particle_slider(30, 1, 2), seed=seed_box(8))
 
 # %% tags=["remove-input"] jupyter={"source_hidden": true}
 # the same over 100 datasets, vectorised over the runs: a bootstrap filter resampling (systematically) at
@@ -374,8 +413,8 @@ EvidenceBlock(
 # %% [markdown]
 # On this model the particle smoothers follow the exact one. Over $100$ datasets FFBSm's mean is
 # on average
-# {glue:text}`smooth_lin_ffbsm_rts:.2f` exact standard deviations from the RTS mean (95 % interval
-# {glue:text}`smooth_lin_ffbsm_rts_low:.2f` to {glue:text}`smooth_lin_ffbsm_rts_high:.2f`), the
+# {glue:text}`smooth_lin_ffbsm_rts:.2f` exact standard deviations from the RTS mean ({glue:text}`smooth_lin_ffbsm_rts_low:.2f` to
+# {glue:text}`smooth_lin_ffbsm_rts_high:.2f`), the
 # same order as the filter's distance from the Kalman filter, {glue:text}`smooth_lin_filter_kf:.2f`.
 #
 # The backward kernel keeps about {glue:text}`smooth_lin_kernel_ess:.0f` of the $100$ particles
@@ -384,7 +423,7 @@ EvidenceBlock(
 # by run, median).
 #
 # Inside the gap the smoothed error against the truth is
-# {glue:text}`smooth_lin_gain:.2f` times the filter's (95 % interval {glue:text}`smooth_lin_gain_low:.2f`
+# {glue:text}`smooth_lin_gain:.2f` times the filter's ({glue:text}`smooth_lin_gain_low:.2f`
 # to {glue:text}`smooth_lin_gain_high:.2f`); the exact smoother's is
 # {glue:text}`smooth_lin_exact_gain:.2f` times the Kalman filter's.
 #
@@ -393,15 +432,18 @@ EvidenceBlock(
 # The landmark model of {doc}`likelihood` is the opposite case: process noise $0.05^2$ m² on
 # every coordinate, the landmarks drifting slowly, and a cloud much wider than one step of that
 # drift. The figure compares both smoothers with the exact answer for the $x$ coordinate of
-# landmark $1$ (first seen late in the run, so the smoother has most to add early on).
-
-# %%
-kf = kalman_filter(model, Z)
-rts_mean, rts_cov = rts_smoother(model, kf)
-t = sim.T  # times (s)
-j = 2  # landmark 1, x
+# landmark $1$, measured at only {glue:text}`smooth_demo_lm1_seen:d` of the
+# {glue:text}`smooth_demo_steps:d` steps, in short bursts from $t =$
+# {glue:text}`smooth_demo_lm1_first:.0f` s on: between the bursts the filter can only carry its
+# last estimate, and the smoother knows the next burst.
 
 # %% tags=["hide-input"] jupyter={"source_hidden": true}
+rts_mean, rts_cov, kf = run.rts_mean, run.rts_cov, SimpleNamespace(mean=run.kf_mean)
+t = sim.T  # times (s)
+j = 2  # landmark 1, x
+seen_lm1 = np.flatnonzero(~np.isnan(Z[:, 0]))  # z_k[0] = landmark 1's x minus the robot's
+assert model.H[0, j] == 1
+glue_values("smooth_demo_", lm1_seen=int(seen_lm1.size), steps=len(Z), lm1_first=float(t[seen_lm1[0]]))
 sd = np.sqrt(rts_cov[:, j, j])
 fig, ax = plt.subplots(figsize=(8, 3.4), constrained_layout=True)
 ax.fill_between(t, rts_mean[:, j] - 2 * sd, rts_mean[:, j] + 2 * sd, color=COLORS["kalman"], alpha=0.2,
@@ -423,7 +465,7 @@ for k in range(len(Z) - 1):
     p = np.exp(ell - logsumexp(ell, axis=1, keepdims=True))
     kernel_ess.append(np.mean(1 / np.sum(p**2, axis=1)))
 kernel_ess = np.array(kernel_ess)
-A = pf.collected["ancestors"]  # A[k, i]: the ancestor at step k-1 of particle i at step k
+A = run.ancestors  # A[k, i]: the ancestor at step k-1 of particle i at step k
 parent_share = np.mean([np.mean(np.all(pf.particles[k][np.argmax(log_f(pf.particles[k + 1], pf.particles[k], k + 1)
                                                                    + np.log(pf.weights[k])[None, :], axis=1)]
                                        == pf.particles[k][A[k + 1]], axis=1)) for k in range(len(Z) - 1)])
@@ -471,7 +513,7 @@ EvidenceBlock(
 # of $(\hat m_{k|T} - m_{k|T}) / \sqrt{P_{k|T}}$, in exact standard deviations. FFBSi draws
 # $J = N$ trajectories, from the filter's own generator, in the same runs.
 
-# %%
+# %% tags=["remove-input"] jupyter={"source_hidden": true}
 study = STUDIES["smoothing/landmarks"].load()
 N_VALUES = sorted(study["n_particles"].unique())
 runs = study.pivot(index="run", columns="n_particles")
@@ -547,7 +589,7 @@ EvidenceBlock(
 
 # %% [markdown]
 # With $N = 100$ the FFBSm mean is on average {glue:text}`ffbsm_rts_distance_n100:.2f` exact
-# standard deviations from the RTS mean (95 % interval {glue:text}`smooth_n100_ffbsm_low:.2f` to
+# standard deviations from the RTS mean ({glue:text}`smooth_n100_ffbsm_low:.2f` to
 # {glue:text}`smooth_n100_ffbsm_high:.2f`).
 #
 # The FFBSi mean of $J = N$ trajectories, on the same runs, is on average
@@ -556,7 +598,7 @@ EvidenceBlock(
 # the collapse of the kernel (the paired ratio is in the evidence).
 #
 # Both shrink slowly with $N$: the slope of the log distance against $\log N$ is
-# {glue:text}`smooth_slope:.2f` (interval {glue:text}`smooth_slope_low:.2f` to
+# {glue:text}`smooth_slope:.2f` ({glue:text}`smooth_slope_low:.2f` to
 # {glue:text}`smooth_slope_high:.2f`), flatter than the $-0.5$ of a Monte Carlo error whose
 # effective sample grew in proportion to $N$.
 #
@@ -580,11 +622,15 @@ EvidenceBlock(
 # time they merge, and early on all $N$ paths share a handful of ancestors, or one.
 
 # %%
+# lines[k, i]: the ancestor at step k of final particle i
+A = run.ancestors
 lines = np.empty((len(Z), 100), dtype=int)
 lines[-1] = np.arange(100)
 for k in range(len(Z) - 1, 0, -1):
-    lines[k - 1] = A[k][lines[k]]  # the ancestor at step k-1 of each final particle
+    # A[k, i]: the index at step k - 1 of particle i's parent
+    lines[k - 1] = A[k][lines[k]]
 distinct = np.array([len(np.unique(row)) for row in lines])
+print(f"distinct ancestors at step 0: {distinct[0]} of 100")
 
 
 # %% tags=["hide-input"] jupyter={"source_hidden": true}
@@ -623,13 +669,13 @@ EvidenceBlock(
 # {glue:text}`smooth_demo_ancestors_0:d` distinct ancestors at step $0$: the naive smoother's
 # estimate there rests on that few points, a band almost of width zero where the exact one is wide.
 #
-# Over the study's datasets the mean number is {glue:text}`smooth_ancestors_0:.2f` (interval
-# {glue:text}`smooth_ancestors_0_low:.2f` to {glue:text}`smooth_ancestors_0_high:.2f`).
+# Over the study's datasets the mean number is {glue:text}`smooth_ancestors_0:.2f`
+# ({glue:text}`smooth_ancestors_0_low:.2f` to {glue:text}`smooth_ancestors_0_high:.2f`).
 #
 # On this model FFBSm does not escape the merged lines: its kernel retraces them, as measured
 # above. Run by run, the naive smoother's distance to the RTS mean is
-# {glue:text}`smooth_naive_vs_ffbsm:.2f` times FFBSm's (95 % interval
-# {glue:text}`smooth_naive_vs_ffbsm_low:.2f` to {glue:text}`smooth_naive_vs_ffbsm_high:.2f`), for
+# {glue:text}`smooth_naive_vs_ffbsm:.2f` times FFBSm's ({glue:text}`smooth_naive_vs_ffbsm_low:.2f` to
+# {glue:text}`smooth_naive_vs_ffbsm_high:.2f`), for
 # $N$ densities per step instead of $N^2$. FFBSm pays off where its kernel can choose among
 # many particles, as on the scalar model above and in the robot's gap below.
 #
@@ -643,7 +689,7 @@ EvidenceBlock(
 # smoother. A short lag leaves information out; a long one goes back through merged lines,
 # and in a long run those would leave one ancestor. The study measures the compromise:
 
-# %%
+# %% tags=["remove-input"] jupyter={"source_hidden": true}
 lag_columns = [f"lag_{lag}_rts" for lag in LAGS]
 
 # %% tags=["hide-input"] jupyter={"source_hidden": true}
@@ -686,11 +732,11 @@ EvidenceBlock(
 # The distance falls with the lag: each later measurement still says something about the
 # slowly drifting landmarks. At $N = 100$ the best lag of those tried is
 # $L =$ {glue:text}`smooth_best_lag:d`, whose distance is {glue:text}`smooth_best_vs_filter:.2f`
-# times the filter's, run by run (95 % interval {glue:text}`smooth_best_vs_filter_low:.2f` to
+# times the filter's, run by run ({glue:text}`smooth_best_vs_filter_low:.2f` to
 # {glue:text}`smooth_best_vs_filter_high:.2f`).
 #
 # Against the whole run (the naive smoother) the same lag's ratio is
-# {glue:text}`smooth_best_vs_naive:.2f` (interval {glue:text}`smooth_best_vs_naive_low:.2f` to
+# {glue:text}`smooth_best_vs_naive:.2f` ({glue:text}`smooth_best_vs_naive_low:.2f` to
 # {glue:text}`smooth_best_vs_naive_high:.2f`): over a run of this length a long lag does not
 # lose, and an online smoother that waits that many steps gives up little.
 #
@@ -705,7 +751,7 @@ EvidenceBlock(
 # (`robot_transition_log_density`, tested against the sampler). One run: $160$ s, no
 # measurement for $t \in [60, 110)$ s, $N = 300$.
 
-# %%
+# %% tags=["remove-input"] jupyter={"source_hidden": true}
 ROBOT = RobotScenario().with_(n_steps=160, gap=(60.0, 110.0))
 rsim = simulate_robot(ROBOT, 11)
 rmodel = RobotModel.for_simulation(rsim)
@@ -748,8 +794,8 @@ EvidenceBlock(
 
 # %% [markdown]
 # Inside the gap the smoothed position error is {glue:text}`smoother_gap_error_ratio:.2f` times
-# the filtered one (median of the per-run ratios over {glue:text}`smooth_robot_runs:d` runs,
-# 95 % interval {glue:text}`smooth_gap_low:.2f` to {glue:text}`smooth_gap_high:.2f`).
+# the filtered one (median over {glue:text}`smooth_robot_runs:d` runs,
+# {glue:text}`smooth_gap_low:.2f` to {glue:text}`smooth_gap_high:.2f`).
 #
 # Outside the gap, where the filter has a measurement at every step, the ratio is
 # {glue:text}`smooth_outside:.2f`. The
@@ -780,34 +826,43 @@ EvidenceBlock(
 # measurements say little about a state that moves that much.
 # ```
 #
-# ```{exercise} 27.2 One backward step of FFBSm, checked
+# ```{exercise} 27.2 The fixed-lag smoother
 # :label: ex-smooth-code
 # :nonumber:
-# (Coding.) Write `my_backward_weights(k, particles, weights, smoothed_next, log_transition)`:
-# the smoothed weights $W_{k|T}^i$ of step $k$ (shape `(N,)`) from the stored clouds `particles`
-# `(T+1, N, 1)` and filter weights `weights` `(T+1, N)`, the smoothed weights `smoothed_next` of
-# step $k+1$, and `log_transition(new, old)`, the matrix $[\log p(\text{new}_j \mid \text{old}_i)]_{j,i}$.
-# The checker compares with the exact step and names the mistake it recognises.
+# (Coding.) Write `fixed_lag(particles, weights, ancestors, lag)`: the fixed-lag means
+# $\hat m_{k|t} = \sum_i W_t^i\, x_k^{(i)}$ with $t = \min(k + L, T)$ and $x_k^{(i)}$ the ancestor at
+# step $k$ of particle $i$ of step $t$, for every $k = 0, \dots, T$ (shape `(T+1, d)`). The arrays
+# are those of `run`: `ancestors[k, i]` is the index at step $k-1$ of particle $i$'s parent. The
+# checker compares with the exact answer at lags $3$ and $0$ and names the mistake it recognises.
 # ```
 
 # %% tags=["answer"]
-def my_backward_weights(k, particles, weights, smoothed_next, log_transition):
-    """Your step: return W_{k|T}, shape (N,)."""
-    ...  # replace with your code
+from pfcourse.exercises import check_fixed_lag
 
 
-print(check_backward_weights(my_backward_weights))
+def fixed_lag(particles, weights, ancestors, lag):
+    """Your smoother: return the fixed-lag means, shape (T+1, d)."""
+    return np.zeros((len(weights), particles.shape[2]))  # replace
+
+
+print(check_fixed_lag(fixed_lag))
 
 # %% tags=["solution", "hide-input"] jupyter={"source_hidden": true}
-def my_backward_weights(k, particles, weights, smoothed_next, log_transition):
-    """W_{k|T}^i = W_k^i sum_j W_{k+1|T}^j p(x_{k+1}^j | x_k^i) / c^j, in the log domain."""
-    ell = log_transition(particles[k + 1], particles[k])                # [j, i]
-    log_c = logsumexp(np.log(weights[k])[None, :] + ell, axis=1)        # predictive density at x_{k+1}^j
-    log_s = np.log(weights[k]) + logsumexp(np.log(smoothed_next)[:, None] + ell - log_c[:, None], axis=0)
-    return np.exp(log_s - logsumexp(log_s))
+def fixed_lag(particles, weights, ancestors, lag):
+    """m_k|t = sum_i W_t^i x_k^(ancestor of i), t = min(k + L, T)."""
+    T = len(weights) - 1
+    means = np.empty((T + 1, particles.shape[2]))
+    for k in range(T + 1):
+        t = min(k + lag, T)
+        idx = np.arange(weights.shape[1])
+        # from step t back to step k, one parent at a time
+        for j in range(t, k, -1):
+            idx = ancestors[j][idx]
+        means[k] = weights[t] @ particles[k][idx]
+    return means
 
 
-print(check_backward_weights(my_backward_weights))
+print(check_fixed_lag(fixed_lag))
 
 # %% [markdown]
 # ## Takeaways

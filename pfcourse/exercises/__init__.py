@@ -150,6 +150,8 @@ Each Part ends with a capstone (:mod:`.capstones`):
   ``fn(filter_fn, y, model, n_values, n_runs, seed) -> rmse``: Part III's capstone, a particle filter for
   Poisson counts with a hidden log-rate (:class:`CountModel`) against a converged grid, and a seeded study
   of its RMSE against the number of particles with common random numbers; nine typical mistakes named.
+* :func:`check_sv_smoother` - ``fn(y, n, rng, model) -> means``: Part V's capstone, a particle smoother for
+  the same model, against the grid's smoothed means; four typical mistakes named, the generator checked.
 """
 
 from __future__ import annotations
@@ -157,6 +159,7 @@ from __future__ import annotations
 from pfcourse.exercises.capstones import SVModel, check_sv_filter, sv_bootstrap, sv_grid  # noqa: F401
 from pfcourse.exercises.capstones import (  # noqa: F401
     BearingModel, bearing_bootstrap, bearing_grid, check_bearing_filter)
+from pfcourse.exercises.capstones import check_sv_smoother, sv_ffbsm, sv_grid_smoother  # noqa: F401
 from pfcourse.exercises.checking import (  # noqa: F401
     CheckReport,
     _answer,
@@ -353,9 +356,14 @@ from pfcourse.exercises.part5 import (  # noqa: F401
     BACKWARD_MISTAKES,
     BACKWARD_N,
     BACKWARD_STEPS,
+    ADAPTED_MISTAKES,
     ESTIMATOR_MISTAKES,
     ESTIMATOR_RESAMPLED,
     _backward_case,
+    adapted_log_likelihood,
+    check_adapted_likelihood,
+    check_fixed_lag,
+    fixed_lag_reference,
     backward_weights,
     check_backward_weights,
     check_likelihood_estimate,

@@ -709,3 +709,170 @@ def _check_count_study(fn: Callable, model: CountModel | None) -> CheckReport:
         "run r draws from np.random.default_rng(seed + r), and its RMSE is that of its means against "
         "count_grid(y, model) over the steps")
     return report
+
+
+# --- Part V's capstone: a smoother for the stochastic volatility model -------------------------------------
+
+#: The mistakes of a particle smoother whose large-N limit the grid computes (:func:`sv_grid_smoother`), with
+#: the sentence that names each.
+SV_SMOOTHER_MISTAKES = {
+    "filter": ("your means are the filter's, E[x_k | y_1..y_k]: the smoother reweights each stored cloud "
+               "backwards, from step T down to step 1, so that every mean uses all the returns"),
+    "no_filter_weights": ("your backward weights leave out the filter weights W_k^i of the stored cloud: "
+                          "W_k|T^i is W_k^i times the sum over j of W_k+1|T^j f(x_k+1^j | x_k^i) / c^j"),
+    "no_normaliser": ("your backward weights do not divide by the predictive density c^j = sum_l W_k^l "
+                      "f(x_k+1^j | x_k^l): without it the particles of step k+1 that many x_k^i could "
+                      "reach count too much"),
+    "no_phi": ("your transition density centres x_k+1 on x_k; the model moves x_k+1 = phi x_k + sigma v, so "
+               "f(x_k+1 | x_k) is the Gaussian density N(x_k+1; phi x_k, sigma^2)"),
+}
+
+
+def sv_grid_smoother(y: np.ndarray, model: SVModel, mistake: str | None = None, n_grid: int = 1601,
+                     width: float = 8.0) -> np.ndarray:
+    """The smoothed means ``E[x_k | y_1..y_T]`` (``k = 1..T``) on the grid of :func:`sv_grid` (converged:
+    ``tests/test_capstones_part5.py``).
+
+    Forward: the filtering densities ``p_k`` and predictions ``p_k^- = K p_{k-1}``; backward, from
+    ``s_T = p_T``: ``s_k = p_k * K^T (s_{k+1} / p_{k+1}^-)`` (the grid's form of FFBSm's weights).
+    ``mistake`` (a key of :data:`SV_SMOOTHER_MISTAKES`) returns instead what a smoother with that mistake
+    converges to as its number of particles grows (the stored clouds taken before resampling)."""
+    s = model.stationary_sd
+    x = np.linspace(-width * s, width * s, n_grid)
+
+    def kernel_of(phi: float) -> np.ndarray:
+        log_k = -0.5 * ((x[:, None] - phi * x[None, :]) / model.sigma) ** 2
+        return np.exp(log_k - logsumexp(log_k, axis=0, keepdims=True))  # kernel[j, i]: from x_i to x_j
+
+    kernel = kernel_of(model.phi)
+    p = np.exp(-0.5 * (x / s) ** 2)
+    p /= p.sum()
+    filt, pred = [], []
+    for yk in y:
+        prior = kernel @ p
+        log_var = x + 2 * np.log(model.beta)
+        log_g = -0.5 * (log_var + yk ** 2 * np.exp(-log_var))
+        post = prior * np.exp(log_g - log_g.max())
+        p = post / post.sum()
+        filt.append(p)
+        pred.append(prior)
+    if mistake == "filter":
+        return np.array([x @ f for f in filt])
+    back = kernel_of(1.0) if mistake == "no_phi" else kernel
+    smooth = [filt[-1]]
+    for k in range(len(y) - 2, -1, -1):
+        base = pred[k] if mistake == "no_filter_weights" else filt[k]
+        if mistake == "no_normaliser":
+            ratio = smooth[0]
+        else:
+            c = back @ filt[k]
+            ratio = np.divide(smooth[0], c, out=np.zeros_like(c), where=c > 1e-300)
+        sk = base * (back.T @ ratio)
+        smooth.insert(0, sk / sk.sum())
+    return np.array([x @ sk for sk in smooth])
+
+
+def sv_ffbsm(y: np.ndarray, n: int, rng: np.random.Generator, model: SVModel) -> np.ndarray:
+    """The reference answer: a bootstrap filter (multinomial resampling at every step) storing its weighted
+    clouds before resampling, then FFBSm's backward weights; the smoothed means of ``k = 1..T``."""
+    x = model.stationary_sd * rng.standard_normal(n)
+    clouds, log_ws = [], []
+    for yk in y:
+        x = model.phi * x + model.sigma * rng.standard_normal(n)
+        log_var = x + 2 * np.log(model.beta)
+        log_w = -0.5 * (log_var + yk ** 2 * np.exp(-log_var))
+        log_w -= logsumexp(log_w)
+        clouds.append(x)
+        log_ws.append(log_w)
+        x = x[rng.choice(n, size=n, p=np.exp(log_w))]
+    log_s = log_ws[-1]
+    means = [np.exp(log_s) @ clouds[-1]]
+    for k in range(len(y) - 2, -1, -1):
+        # ell[j, i] = log f(x_{k+1}^j | x_k^i), up to a constant
+        ell = -0.5 * ((clouds[k + 1][:, None] - model.phi * clouds[k][None, :]) / model.sigma) ** 2
+        log_c = logsumexp(log_ws[k][None, :] + ell, axis=1)
+        log_s = log_ws[k] + logsumexp(log_s[:, None] + ell - log_c[:, None], axis=0)
+        log_s -= logsumexp(log_s)
+        means.insert(0, np.exp(log_s) @ clouds[k])
+    return np.array(means)
+
+
+#: Part V's capstone data: 60 returns of the default model, simulated with seed 3 (Part I's data, seed 2026,
+#: hold a return of -20.6 whose spike the stored clouds before it cover too thinly for FFBSm at N = 300).
+SV_SMOOTHER_DATA_SEED = 3
+
+
+def check_sv_smoother(fn: Callable, n: int = 300, n_runs: int = 20, seed: int = 0,
+                      model: SVModel | None = None) -> CheckReport:
+    """:func:`_check_sv_smoother`, leaving NumPy's global ``np.random`` state as it was."""
+    saved = np.random.get_state()
+    try:
+        return _check_sv_smoother(fn, n, n_runs, seed, model)
+    finally:
+        np.random.set_state(saved)
+
+
+def _check_sv_smoother(fn: Callable, n: int, n_runs: int, seed: int, model: SVModel | None) -> CheckReport:
+    """Check a particle smoother ``fn(y, n, rng, model) -> means`` (``E[x_k | y_1..y_T]``, ``k = 1..T``) for
+    the stochastic volatility model against the converged grid (:func:`sv_grid_smoother`), over ``n_runs``
+    seeded runs on 60 returns (seed :data:`SV_SMOOTHER_DATA_SEED`).
+
+    In turn: the answer's shape and finiteness; draws from the generator it is given
+    (:func:`~pfcourse.exercises.part1._generator_problem`); the means' bias, ``max_k |z_k|`` at most 5 with
+    ``z_k`` the mean over the runs minus the grid's smoothed mean over its standard error (FFBSm's bias,
+    ``O(1/N)``, is far below it at ``N = 300`` on these data). A failure is compared with the large-N limit of each
+    typical mistake of :data:`SV_SMOOTHER_MISTAKES`, and the nearest is named when it is within chance of the
+    answer or at least twice as near as the exact answer and every other mistake."""
+    model = model or SVModel()
+    report = CheckReport("check_sv_smoother")
+    _, y = model.simulate(SV_STEPS, np.random.default_rng(SV_SMOOTHER_DATA_SEED))
+    signature = "fn(y, n, rng, model)"
+    answers = []
+    for run in range(n_runs):
+        answer = _answer(report, lambda: fn(y.copy(), n, np.random.default_rng(seed + run), model), signature,
+                         "return the smoothed means E[x_k | y_1..y_T], one per reading")
+        if answer is None:
+            return report
+        try:
+            means = np.asarray(answer, dtype=float)
+        except (TypeError, ValueError):
+            report.problems.append("return one array of T smoothed means, not a tuple or a list of arrays")
+            return report
+        if means.shape != (len(y),):
+            report.problems.append(f"the means have shape {means.shape}, not ({len(y)},): return one smoothed "
+                                   "mean per reading y_1..y_T")
+            return report
+        if not np.isfinite(means).all():
+            report.problems.append("the answer holds NaN or infinity: compute the backward weights in the log "
+                                   "domain and normalise them with logsumexp")
+            return report
+        answers.append(means)
+    problem = _generator_problem(lambda rng: fn(y.copy(), 100, rng, model),
+                                 lambda a, b: np.array_equal(np.asarray(a), np.asarray(b)), what="smoothed mean")
+    if problem:
+        report.problems.append(problem)
+        return report
+    m = np.array(answers)
+    se = m.std(axis=0, ddof=1) / np.sqrt(n_runs) + 1e-12
+
+    def worst_z(target: np.ndarray) -> float:
+        return float(np.max(np.abs((m.mean(axis=0) - target) / se)))
+
+    exact = sv_grid_smoother(y, model)
+    exact_z = worst_z(exact)
+    if exact_z > 5:
+        # the mistake whose large-N limit lies nearest the answer is named when it is within chance of it,
+        # or at least twice as near as the exact answer and every other mistake (a mistake's particle
+        # version can converge more slowly than the correct smoother)
+        zs = {mistake: worst_z(sv_grid_smoother(y, model, mistake)) for mistake in SV_SMOOTHER_MISTAKES}
+        best = min(zs, key=zs.get)
+        others = [exact_z] + [z for mistake, z in zs.items() if mistake != best]
+        if zs[best] <= 5 or zs[best] <= 0.5 * min(others):
+            report.problems.append(SV_SMOOTHER_MISTAKES[best])
+            return report
+        k = int(np.argmax(np.abs(m.mean(axis=0) - exact)))
+        report.problems.append(
+            f"your smoothed mean at step {k + 1} averages {m.mean(axis=0)[k]:.3f} over {n_runs} runs where the "
+            f"exact smoother's is {exact[k]:.3f}, further than chance allows: check the stored clouds, the "
+            "transition density and the backward weights")
+    return report

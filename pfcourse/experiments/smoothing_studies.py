@@ -68,3 +68,25 @@ def landmarks_row(seed: int, n_particles: int) -> dict:
     out["rts_truth_error"] = float(metrics.rmse(m_s - sim.truth))
     out["kalman_truth_error"] = float(np.sqrt(np.mean((kf.mean - sim.truth) ** 2)))
     return out
+
+
+def landmark_smoothing_run(data_seed: int = 7, n_particles: int = 100, filter_seed: int = 21):
+    """The smoothing chapter's run (``book/part5/smoothing.py``), loaded by one call: the landmark model
+    :data:`SCENARIO`, its data (``data_seed``), a bootstrap filter of ``n_particles`` that stores every
+    step's cloud, weights and ancestor indices, the Kalman filter and the exact RTS smoother.
+
+    Returns a namespace: ``particles`` ``(T+1, N, 6)``, ``weights`` ``(T+1, N)``, ``ancestors`` ``(T+1, N)``
+    (``ancestors[k, i]``: the index at step ``k-1`` of particle ``i``'s parent), ``log_f(new, old, k)`` (the
+    matrix ``[log p(new_j | old_i)]``), ``times``, ``truth``, ``Z``, ``kf_mean``, ``rts_mean``, ``rts_cov``,
+    and ``model``, ``sim``, ``pf`` themselves."""
+    from types import SimpleNamespace
+
+    model = SCENARIO.model()
+    sim = simulate(SCENARIO, data_seed)
+    pf = ParticleFilter(model, n_particles).run(sim.measurements, filter_seed, collect=[Clouds(), Ancestors()])
+    kf = kalman_filter(model, sim.measurements)
+    rts_mean, rts_cov = rts_smoother(model, kf)
+    return SimpleNamespace(model=model, sim=sim, pf=pf, particles=pf.particles, weights=pf.weights,
+                           ancestors=pf.collected["ancestors"], log_f=linear_gaussian_log_transition(model),
+                           times=sim.T, truth=sim.truth, Z=sim.measurements, kf_mean=kf.mean,
+                           rts_mean=rts_mean, rts_cov=rts_cov)
