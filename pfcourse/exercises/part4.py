@@ -388,6 +388,20 @@ CLUTTER_PF_MISTAKES = {
                            "Gaussians); at most one is the target's, so the likelihood is a sum over which one",
     "no_process_noise": "its particles move without process noise (x_k = F x_{k-1}); the model adds w_k ~ N(0, Q), "
                         "and without it the resampled copies of a particle never differ again",
+    "miss_without_rate": "its missed event weighs (1 - P_D) / L, without the clutter rate lambda: when the target is "
+                         "missed the step's readings are clutter, and that event's weight carries their rate, "
+                         "(1 - P_D) lambda / L",
+    "detect_without_pd": "its detection terms are N(z_i; p, 1) without the detection probability: a reading is the "
+                         "target's only if the target was detected, so each term is P_D N(z_i; p, 1)",
+    "miss_without_one_minus_pd": "its missed event weighs lambda / L, without (1 - P_D): the target is missed with "
+                                 "probability 1 - P_D, so that event weighs (1 - P_D) lambda / L",
+    "detect_over_n": "it divides P_D by the number of readings of the step: the readings' order says nothing, but "
+                     "the factor that divides is common to every event and cancels, so the term is P_D N(z_i; p, 1) "
+                     "beside (1 - P_D) lambda / L",
+    "no_first_prediction": "it weighs the initial cloud at the first step without moving it: x_0 is the state "
+                           "before the first step, so every step, the first too, starts with x_k = F x_{k-1} + w_k",
+    "prior_mean": "it returns the mean of the predicted cloud, before the weights: the estimate after a step's "
+                  "readings is the weighted mean, sum_i w_i p_i",
 }
 #: Particles and seeds of the statistical check, and its tolerance: the root-mean-square distance of the
 #: estimates from an exact posterior mean, in units of that posterior's standard deviation.
@@ -476,21 +490,24 @@ def clutter_pf_reference(readings: list[np.ndarray], n: int, rng: np.random.Gene
     c = CLUTTER_TARGET
     F, Q = _clutter_target_model()
     length = 1.0 if mistake == "density_not_divided" else c["length"]
+    miss = {"miss_without_rate": 1 - c["p_detect"], "miss_without_one_minus_pd": c["clutter_rate"]}.get(
+        mistake, (1 - c["p_detect"]) * c["clutter_rate"]) / length
     x = rng.normal(c["m0"], np.sqrt(c["P0"]), size=(n, 2))
     out = []
-    for z in readings:
-        x = x @ F.T
-        if mistake != "no_process_noise":
-            x = x + rng.multivariate_normal(np.zeros(2), Q, size=n)
+    for k, z in enumerate(readings):
+        if mistake != "no_first_prediction" or k > 0:
+            x = x @ F.T
+            if mistake != "no_process_noise":
+                x = x + rng.multivariate_normal(np.zeros(2), Q, size=n)
         log_g = -0.5 * (z[None, :] - x[:, :1]) ** 2 / c["r"] - 0.5 * np.log(2 * np.pi * c["r"])  # (n, readings)
+        detect = {"detect_without_pd": 1.0, "detect_over_n": c["p_detect"] / max(len(z), 1)}.get(mistake, c["p_detect"])
         if mistake == "all_readings_target":
             log_w = log_g.sum(axis=1)
         else:
-            missed = [] if (mistake == "no_miss" and len(z)) else [
-                np.full((n, 1), np.log((1 - c["p_detect"]) * c["clutter_rate"] / length))]
-            log_w = logsumexp(np.concatenate(missed + [np.log(c["p_detect"]) + log_g], axis=1), axis=1)
+            missed = [] if (mistake == "no_miss" and len(z)) else [np.full((n, 1), np.log(miss))]
+            log_w = logsumexp(np.concatenate(missed + [np.log(detect) + log_g], axis=1), axis=1)
         w = np.exp(log_w - logsumexp(log_w))
-        out.append(w @ x[:, 0])
+        out.append(x[:, 0].mean() if mistake == "prior_mean" else w @ x[:, 0])
         x = x[rng.choice(n, size=n, p=w)]
     return np.array(out)
 
