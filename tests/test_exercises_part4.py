@@ -1,5 +1,5 @@
-"""Part IV's variant exercises: the NIS check with missing readings (chapter 21) and the likelihood of
-an anonymous range-only reading (chapter 22). Each checker passes a reference written as a student
+"""Part IV's variant exercises: the NIS check with missing readings (chapter 23) and the likelihood of
+an anonymous range-only reading (chapter 24). Each checker passes a reference written as a student
 would, names each typical mistake in its own sentence, and explains shapes and other errors."""
 
 from __future__ import annotations
@@ -123,7 +123,7 @@ def test_range_only_reduces_to_a_gaussian_and_other_errors_are_explained():
     assert "check each term" in report.problems[0]
 
 
-# --- the capstone (exercise 22.3): a whole particle filter of a target in clutter ----------------------------
+# --- the capstone (exercise 24.3): a whole particle filter of a target in clutter ----------------------------
 from pfcourse.exercises import CLUTTER_PF_MISTAKES, check_clutter_pf, clutter_target_posterior  # noqa: E402
 from pfcourse.exercises.part4 import CLUTTER_PF_DATA, clutter_pf_reference, clutter_target_readings  # noqa: E402
 

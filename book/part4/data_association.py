@@ -18,7 +18,7 @@
 # **You need** {doc}`../part2/robot` and {doc}`../part2/robot_vs_kalman`; the log-domain weights of
 # {doc}`../part1/sis`; Poisson and uniform distributions.
 #
-# **Time:** about eighteen minutes to read; the notebook runs in under half a minute.
+# **Time:** about nineteen minutes to read; the notebook runs in under half a minute.
 # :::
 #
 # The robot of {doc}`../part2/robot` knows which landmark each range and bearing comes from. Real
@@ -597,7 +597,7 @@ print(check_range_only_anonymous(my_range_only))
 # Write `my_clutter_pf(readings, n, rng)`: a particle filter with `n` particles, every random number
 # drawn from the generator `rng`, that returns the posterior mean position after each step's
 # readings (`readings` is a list of arrays, one a step, possibly empty). The checker runs it with
-# $2000$ particles on six seeds and two data sets, and compares it with the exact posterior, a
+# $2000$ particles on eight seeds and four data sets, and compares their mean with the exact posterior, a
 # Kalman filter per history of associations; it names the mistake it sees.
 # ```
 

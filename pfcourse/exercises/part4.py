@@ -11,8 +11,8 @@ from scipy.special import logsumexp
 from pfcourse.exercises.checking import CheckReport, _answer, _per_particle_answers, _settled
 
 
-# The NEES consistency check over R runs (chapter 23, exercise 23.1): errors of shape (R, K, d) and
-# covariances (R, K, d, d) of a filter that is consistent at most steps, over-confident at a few.
+# The NEES consistency check over R runs (no chapter asks for it now; kept for a variant): errors of
+# shape (R, K, d) and covariances (R, K, d, d) of a filter that is consistent at most steps, over-confident at a few.
 CONSISTENCY_MISTAKES = {
     "one_run_band": "its band is that of a single run, chi2_d quantiles; the average of R independent chi2_d "
                     "values is chi2_(R d) / R, a band R times narrower in relative terms",
