@@ -407,11 +407,15 @@ glue_values("pdaf_", rmse_m=pdaf_mean)
 #
 # The PDA filter removes that tail: it loses {glue:text}`association_pdaf_loses:.0%` of the runs,
 # {glue:text}`association_pdaf_vs_nn_lost_low_pts:.0f`-{glue:text}`association_pdaf_vs_nn_lost_high_pts:.0f`
-# points fewer than the nearest-neighbour EKF on the same runs. Run by run, its RMSE is
-# {glue:text}`association_pdaf_over_pf:.2f` times the particle filter's; but the nearest-neighbour
-# EKF's is {glue:text}`association_ekf_over_pf:.2f` times, so the difference is the particle
-# filter's own Monte Carlo error at $N = 500$, not a merit of PDA. Per run (median, on a shared
-# machine) the PDA filter took {glue:text}`association_pdaf_seconds:.1f` s, the particle filter
+# points fewer than the nearest-neighbour EKF on the same runs.
+#
+# Run by run, the PDA filter's RMSE is {glue:text}`association_pdaf_over_pf:.2f` times the
+# particle filter's; but the nearest-neighbour EKF's is {glue:text}`association_ekf_over_pf:.2f`
+# times, so the difference is the particle filter's own Monte Carlo error at $N = 500$, not a
+# merit of PDA.
+#
+# Per run (median; timed in separate studies on a shared machine, so only indicative) the PDA
+# filter took {glue:text}`association_pdaf_seconds:.1f` s and the particle filter
 # {glue:text}`association_pf_seconds:.1f` s.
 #
 # So for this robot the lesson is not "a particle filter or a Kalman filter" but "choose, or
@@ -470,7 +474,7 @@ EvidenceBlock(
            "on a shared machine, so the ratios are indicative only.",
            f"The PDA filter's own consistency at lambda = {CLUTTER:g}: its NEES averaged over the steps of a run has "
            f"median {np.median(pdaf_nees):.2f} over the runs (3 for a consistent filter; the filters assume "
-           "twice the true noise, so below 3 is expected).",
+           "twice the true measurement and process covariances, so below 3 is expected).",
            "A filter loses a run when its RMSE exceeds twice the other's; shares with 95 % Wilson intervals; "
            "ratios: median of the per-run ratios, bootstrap interval and Wilcoxon's signed-rank p "
            "(pfcourse.evidence; see Reading the evidence, evidence.md)."],
