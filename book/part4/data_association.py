@@ -354,13 +354,13 @@ for j, (key, shift) in enumerate((("pf", -0.08), ("ekf", 0.0), ("pdaf", 0.08))):
                                                            [100 * x.high for x in losses] - share],
                      marker="o", capsize=3, color=FILTER_COLORS[key], label=NAMES[key])
 seq_losses = [results[r]["loses"]["seq"] for r in rates]
-ax2.plot(np.array(rates) + 0.16, [100 * x.estimate for x in seq_losses], "s--", ms=4, color=SEQ_COLOR, label=SEQ_NAME)
+(seq_line,) = ax2.plot(np.array(rates) + 0.16, [100 * x.estimate for x in seq_losses], "s--", ms=4, color=SEQ_COLOR,
+                       label=SEQ_NAME)
 ax1.set(xlabel=r"clutter rate $\lambda$ (readings per step)", ylabel="mean position RMSE (m)")
 ax1.set_title("Mean over 100 runs, 95 % interval")
 ax2.set(xlabel=r"clutter rate $\lambda$ (readings per step)", ylabel="runs lost (%)")
 ax2.set_title("RMSE more than twice the PF's")
-handles = ax1.get_legend_handles_labels()[0] + ax2.get_legend_handles_labels()[0][-1:]
-ax2.legend(handles=handles, loc="upper left", bbox_to_anchor=(1.02, 1))
+ax2.legend(handles=ax1.get_legend_handles_labels()[0] + [seq_line], loc="upper left", bbox_to_anchor=(1.02, 1))
 plt.tight_layout()
 plt.show()
 
