@@ -111,6 +111,53 @@ def test_nn_ekf_gates_out_far_clutter(sim):
     assert chosen[5, 1] == -1
 
 
+def _pairs_d2(model, x, P, z):
+    """d^2 of every (reading, landmark) pair of one step, (n, M), from the prediction (x, P)."""
+    from pfcourse.robot.kalman import measurement_jacobian, measurement_residual, range_bearing_one
+
+    out = np.empty((len(z), len(model.base.landmarks)))
+    for i, zi in enumerate(z):
+        for j, landmark in enumerate(model.base.landmarks):
+            H = measurement_jacobian(x, landmark)
+            nu = measurement_residual(zi, range_bearing_one(x, landmark))
+            out[i, j] = nu @ np.linalg.solve(H @ P @ H.T + model.base.r_est, nu)
+    return out
+
+
+def test_nn_standard_filter_updates_once_with_the_nearest_gated_pair(sim):
+    """rule="nearest" (Bar-Shalom, Daum and Huang 2009): at most one reading a step is used, and it is the
+    pair of smallest d^2 over every reading and landmark, recomputed here from the filter's own prediction;
+    with several readings in a step, the sequential variant may use more than one."""
+    sensor = ClutterSensor(0.9, 4.0)
+    r = simulate_readings(sim, sensor, 2)
+    model = AssociationModel(RobotModel.for_simulation(sim), sensor)
+    res, chosen = run_nn_ekf(model, r.readings)
+    used = np.sum(chosen >= 0, axis=1)
+    assert used.max() == 1 and used.sum() > 50
+    gamma = stats.chi2.ppf(0.99, 2)
+    checked = 0
+    for k in np.flatnonzero(used[1:] == 1)[:40] + 1:
+        z = r.readings[k][~np.isnan(r.readings[k]).all(axis=1)]
+        x, P = res.predicted[k], _predicted_cov(model, res, k)
+        d2 = _pairs_d2(model, x, P, z)
+        i, j = np.unravel_index(np.argmin(d2), d2.shape)
+        present = np.flatnonzero(~np.isnan(r.readings[k]).all(axis=1))
+        assert d2[i, j] <= gamma and chosen[k, present[i]] == j
+        checked += 1
+    assert checked == 40
+    _, sequential = run_nn_ekf(model, r.readings, rule="sequential")
+    assert np.sum(sequential >= 0, axis=1).max() > 1
+
+
+def _predicted_cov(model, res, k):
+    """The covariance the filter predicted at step k, from its covariance at k - 1."""
+    from pfcourse.robot.kalman import motion_jacobians
+
+    u = model.base.odometry[k]
+    F, G = motion_jacobians(res.mean[k - 1], u, model.base.dt)
+    return F @ res.cov[k - 1] @ F.T + G @ model.base.q_est @ G.T
+
+
 def test_study_row_is_seeded():
     a = study.row(seed=0, clutter_rate=1.0)
     b = study.row(seed=0, clutter_rate=1.0)
@@ -141,6 +188,7 @@ _MODEL = AssociationModel(RobotModel.for_simulation(_SIM), ClutterSensor())
     (lambda: run_nn_ekf(_MODEL, np.zeros((7, 1, 2))), ShapeError, "only 6 odometry rows"),
     (lambda: run_nn_ekf(_MODEL, np.zeros((6, 1, 2)), gate_probability=1.0), ParameterError, "strictly between"),
     (lambda: run_nn_ekf(_MODEL, np.full((6, 1, 2), np.inf)), MeasurementError, "step 0: a reading must have"),
+    (lambda: run_nn_ekf(_MODEL, np.zeros((6, 1, 2)), rule="nearest-two"), ParameterError, "rule must be one of"),
 ])
 def test_bad_inputs_are_named(call, error, fragment):
     with pytest.raises(error) as info:

@@ -1,5 +1,5 @@
-"""Part IV's variant exercises: the NIS check with missing readings (chapter 21) and the likelihood of
-an anonymous range-only reading (chapter 22). Each checker passes a reference written as a student
+"""Part IV's variant exercises: the NIS check with missing readings (chapter 23) and the likelihood of
+an anonymous range-only reading (chapter 24). Each checker passes a reference written as a student
 would, names each typical mistake in its own sentence, and explains shapes and other errors."""
 
 from __future__ import annotations
@@ -123,27 +123,35 @@ def test_range_only_reduces_to_a_gaussian_and_other_errors_are_explained():
     assert "check each term" in report.problems[0]
 
 
-# --- the capstone (exercise 22.3): a whole particle filter of a target in clutter ----------------------------
+# --- the capstone (exercise 24.3): a whole particle filter of a target in clutter ----------------------------
 from pfcourse.exercises import CLUTTER_PF_MISTAKES, check_clutter_pf, clutter_target_posterior  # noqa: E402
 from pfcourse.exercises.part4 import CLUTTER_PF_DATA, clutter_pf_reference, clutter_target_readings  # noqa: E402
 
 
-def student_clutter_pf(readings, n, rng, r=1.0, resample_every_step=False):
-    """As a student writes it: systematic resampling when the ESS falls below n/2, weights carried over."""
+def student_clutter_pf(readings, n, rng, r=1.0, resample_every_step=False, mistake=None):
+    """As a student writes it: systematic resampling when the ESS falls below n/2, weights carried over;
+    ``mistake`` plants one of the mistakes a student makes (test_planted_clutter_pf_mistakes_are_named)."""
     F = np.array([[1.0, 1.0], [0.0, 1.0]])
     Q = 0.5 * np.array([[1 / 3, 1 / 2], [1 / 2, 1.0]])
     p_d, lam, length = 0.7, 3.0, 30.0
+    miss = {"miss_without_rate": (1 - p_d) / length, "miss_without_one_minus_pd": lam / length,
+            "density_not_divided": (1 - p_d) * lam}.get(mistake, (1 - p_d) * lam / length)
     x = rng.multivariate_normal([10.0, 0.5], np.diag([4.0, 1.0]), size=n)
     log_w = np.full(n, -np.log(n))
     means = []
-    for z in readings:
-        x = x @ F.T + rng.multivariate_normal(np.zeros(2), Q, size=n)
+    for k, z in enumerate(readings):
+        if mistake != "no_first_prediction" or k > 0:
+            x = x @ F.T + (0 if mistake == "no_process_noise" else rng.multivariate_normal(np.zeros(2), Q, size=n))
+        predicted_mean = np.exp(log_w) @ x[:, 0]
         g = stats.norm.logpdf(z[None, :], loc=x[:, :1], scale=np.sqrt(r))
-        terms = np.column_stack([np.full(n, np.log((1 - p_d) * lam / length)), np.log(p_d) + g])
-        log_w = log_w + logsumexp(terms, axis=1)
+        detect = {"detect_without_pd": 1.0, "detect_over_n": p_d / max(len(z), 1)}.get(mistake, p_d)
+        terms = np.column_stack([np.full(n, np.log(miss)), np.log(detect) + g])
+        if mistake == "no_miss" and len(z):
+            terms = terms[:, 1:]
+        log_w = log_w + (g.sum(axis=1) if mistake == "all_readings_target" else logsumexp(terms, axis=1))
         log_w -= logsumexp(log_w)
         w = np.exp(log_w)
-        means.append(w @ x[:, 0])
+        means.append(predicted_mean if mistake == "prior_mean" else w @ x[:, 0])
         if resample_every_step or 1 / np.sum(w**2) < n / 2:
             idx = np.searchsorted(np.cumsum(w), (rng.random() + np.arange(n)) / n)
             x, log_w = x[np.minimum(idx, n - 1)], np.full(n, -np.log(n))
@@ -185,6 +193,23 @@ def test_the_exact_posterior_is_the_kalman_filter_without_clutter_and_is_converg
 def test_clutter_pf_mistakes_are_named(mistake):
     report = check_clutter_pf(lambda r, n, rng: clutter_pf_reference(r, n, rng, mistake))
     assert report.problems == [f"your function computes a known mistake: {CLUTTER_PF_MISTAKES[mistake]}"]
+
+
+@pytest.mark.parametrize("mistake", ["miss_without_rate", "detect_without_pd", "no_first_prediction",
+                                     "miss_without_one_minus_pd", "detect_over_n", "prior_mean", "no_miss",
+                                     "density_not_divided", "no_process_noise"])
+def test_planted_clutter_pf_mistakes_are_named(mistake):
+    """The mistakes a reviewer planted in the chapter's solution, planted in a student's filter (systematic
+    resampling at ESS < n/2, not the checker's own filter): each fails, with its own sentence."""
+    report = check_clutter_pf(lambda r, n, rng: student_clutter_pf(r, n, rng, mistake=mistake))
+    assert report.problems == [f"your function computes a known mistake: {CLUTTER_PF_MISTAKES[mistake]}"]
+
+
+def test_an_unlisted_clutter_pf_mistake_is_not_given_a_wrong_name():
+    """A filter whose reading noise is wrong (variance 2 for 1) makes no listed mistake: the report says how far
+    it is from the exact posterior, without naming one."""
+    report = check_clutter_pf(lambda r, n, rng: student_clutter_pf(r, n, rng, r=2.0))
+    assert len(report.problems) == 1 and "posterior standard deviations" in report.problems[0], report.problems
 
 
 def test_clutter_pf_draws_from_its_generator_and_other_errors_are_explained():

@@ -19,7 +19,7 @@
 # **You need** {doc}`../part1/sir` (resampling, ancestors) and {doc}`../part1/kalman`; Bayes'
 # rule and the Markov property; NumPy broadcasting and `logsumexp`.
 #
-# **Time:** about twenty-three minutes to read; the notebook runs in about twenty seconds (its
+# **Time:** about twenty-four minutes to read; the notebook runs in about twenty seconds (its
 # studies over many runs are stored data).
 # :::
 #

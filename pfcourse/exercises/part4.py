@@ -11,8 +11,8 @@ from scipy.special import logsumexp
 from pfcourse.exercises.checking import CheckReport, _answer, _per_particle_answers, _settled
 
 
-# The NEES consistency check over R runs (chapter 23, exercise 23.1): errors of shape (R, K, d) and
-# covariances (R, K, d, d) of a filter that is consistent at most steps, over-confident at a few.
+# The NEES consistency check over R runs (no chapter asks for it now; kept for a variant): errors of
+# shape (R, K, d) and covariances (R, K, d, d) of a filter that is consistent at most steps, over-confident at a few.
 CONSISTENCY_MISTAKES = {
     "one_run_band": "its band is that of a single run, chi2_d quantiles; the average of R independent chi2_d "
                     "values is chi2_(R d) / R, a band R times narrower in relative terms",
@@ -388,13 +388,33 @@ CLUTTER_PF_MISTAKES = {
                            "Gaussians); at most one is the target's, so the likelihood is a sum over which one",
     "no_process_noise": "its particles move without process noise (x_k = F x_{k-1}); the model adds w_k ~ N(0, Q), "
                         "and without it the resampled copies of a particle never differ again",
+    "miss_without_rate": "its missed event weighs (1 - P_D) / L, without the clutter rate lambda: when the target is "
+                         "missed the step's readings are clutter, and that event's weight carries their rate, "
+                         "(1 - P_D) lambda / L",
+    "detect_without_pd": "its detection terms are N(z_i; p, 1) without the detection probability: a reading is the "
+                         "target's only if the target was detected, so each term is P_D N(z_i; p, 1)",
+    "miss_without_one_minus_pd": "its missed event weighs lambda / L, without (1 - P_D): the target is missed with "
+                                 "probability 1 - P_D, so that event weighs (1 - P_D) lambda / L",
+    "detect_over_n": "it divides P_D by the number of readings of the step: the readings' order says nothing, but "
+                     "the factor that divides is common to every event and cancels, so the term is P_D N(z_i; p, 1) "
+                     "beside (1 - P_D) lambda / L",
+    "no_first_prediction": "it weighs the initial cloud at the first step without moving it: x_0 is the state "
+                           "before the first step, so every step, the first too, starts with x_k = F x_{k-1} + w_k",
+    "prior_mean": "it returns the mean of the predicted cloud, before the weights: the estimate after a step's "
+                  "readings is the weighted mean, sum_i w_i p_i",
 }
 #: Particles and seeds of the statistical check, and its tolerance: the root-mean-square distance of the
 #: estimates from an exact posterior mean, in units of that posterior's standard deviation.
-CLUTTER_PF_N, CLUTTER_PF_SEEDS, CLUTTER_PF_TOLERANCE = 2000, 6, 0.3
-#: The seeds of the checker's two data sets (clutter_target_readings): in the first the clutter often
-#: surrounds the target; in the second a filter without process noise loses it.
-CLUTTER_PF_DATA = (0, 4)
+#: The distance is that of the mean over the seeds: a correct filter's is about 0.03 on these data, forgetting
+#: lambda in the missed event gives about 0.3 and dropping P_D from the detections about 0.14.
+CLUTTER_PF_N, CLUTTER_PF_SEEDS, CLUTTER_PF_TOLERANCE = 2000, 8, 0.07
+#: The seeds of the checker's data sets (clutter_target_readings): chosen among the first sixteen for steps
+#: where the target is missed in clutter, so that the weights of the missed and detected events matter.
+CLUTTER_PF_DATA = (9, 10, 13, 14)
+#: A mistake is named when the answer's mean over the seeds lies within MATCH (root mean square, in units of
+#: the two filters' Monte Carlo standard error) of the checker's filter making it, and every other listed
+#: mistake lies beyond MARGIN; otherwise the report says how far the answer is, without naming a mistake.
+CLUTTER_PF_MATCH, CLUTTER_PF_MARGIN = 2.0, 2.5
 
 
 def _clutter_target_model() -> tuple[np.ndarray, np.ndarray]:
@@ -476,21 +496,24 @@ def clutter_pf_reference(readings: list[np.ndarray], n: int, rng: np.random.Gene
     c = CLUTTER_TARGET
     F, Q = _clutter_target_model()
     length = 1.0 if mistake == "density_not_divided" else c["length"]
+    miss = {"miss_without_rate": 1 - c["p_detect"], "miss_without_one_minus_pd": c["clutter_rate"]}.get(
+        mistake, (1 - c["p_detect"]) * c["clutter_rate"]) / length
     x = rng.normal(c["m0"], np.sqrt(c["P0"]), size=(n, 2))
     out = []
-    for z in readings:
-        x = x @ F.T
-        if mistake != "no_process_noise":
-            x = x + rng.multivariate_normal(np.zeros(2), Q, size=n)
+    for k, z in enumerate(readings):
+        if mistake != "no_first_prediction" or k > 0:
+            x = x @ F.T
+            if mistake != "no_process_noise":
+                x = x + rng.multivariate_normal(np.zeros(2), Q, size=n)
         log_g = -0.5 * (z[None, :] - x[:, :1]) ** 2 / c["r"] - 0.5 * np.log(2 * np.pi * c["r"])  # (n, readings)
+        detect = {"detect_without_pd": 1.0, "detect_over_n": c["p_detect"] / max(len(z), 1)}.get(mistake, c["p_detect"])
         if mistake == "all_readings_target":
             log_w = log_g.sum(axis=1)
         else:
-            missed = [] if (mistake == "no_miss" and len(z)) else [
-                np.full((n, 1), np.log((1 - c["p_detect"]) * c["clutter_rate"] / length))]
-            log_w = logsumexp(np.concatenate(missed + [np.log(c["p_detect"]) + log_g], axis=1), axis=1)
+            missed = [] if (mistake == "no_miss" and len(z)) else [np.full((n, 1), np.log(miss))]
+            log_w = logsumexp(np.concatenate(missed + [np.log(detect) + log_g], axis=1), axis=1)
         w = np.exp(log_w - logsumexp(log_w))
-        out.append(w @ x[:, 0])
+        out.append(x[:, 0].mean() if mistake == "prior_mean" else w @ x[:, 0])
         x = x[rng.choice(n, size=n, p=w)]
     return np.array(out)
 
@@ -546,23 +569,27 @@ def check_clutter_pf(fn: Callable, seed: int = 0) -> CheckReport:
         return report
     exact = [clutter_target_posterior(readings) for readings in datasets]
     mean, sd = np.concatenate([m for m, _ in exact]), np.concatenate([v for _, v in exact])
-    distance = float(np.sqrt(np.mean(((estimates - mean) / sd) ** 2)))
+    student = estimates.mean(axis=0)
+    distance = float(np.sqrt(np.mean(((student - mean) / sd) ** 2)))
     if distance <= CLUTTER_PF_TOLERANCE:
         return report
     # A mistaken filter is compared with the same mistake made by the checker's own filter, on other seeds:
     # the exact posterior of a mistaken model is no help, since a mistaken filter is itself far from it.
-    student = estimates.mean(axis=0)
-    for mistake, why in CLUTTER_PF_MISTAKES.items():
+    scores = {}
+    for mistake in CLUTTER_PF_MISTAKES:
         theirs = np.array([np.concatenate([clutter_pf_reference(readings, CLUTTER_PF_N,
                                                                 np.random.default_rng([seed, 100, s]), mistake)
                                            for readings in datasets]) for s in range(CLUTTER_PF_SEEDS)])
         spread = np.sqrt((estimates.var(axis=0, ddof=1) + theirs.var(axis=0, ddof=1)) / CLUTTER_PF_SEEDS)
-        if np.sqrt(np.mean(((student - theirs.mean(axis=0)) / (spread + CLUTTER_PF_TOLERANCE * sd)) ** 2)) <= 2.0:
-            report.problems.append(f"your function computes a known mistake: {why}")
-            return report
-    report.problems.append(f"the estimates are {distance:.2f} posterior standard deviations (root mean square "
-                           f"over {CLUTTER_PF_SEEDS} seeds, {len(datasets)} data sets and {K} steps) from the exact "
-                           f"posterior mean, more than the {CLUTTER_PF_TOLERANCE} a particle filter with "
-                           f"{CLUTTER_PF_N} particles stays within: check the motion, the weight of each event and "
-                           "the resampling")
+        scores[mistake] = float(np.sqrt(np.mean(((student - theirs.mean(axis=0)) / (spread + 1e-3 * sd)) ** 2)))
+    best, *others = sorted(scores, key=scores.get)
+    np.random.set_state(state)
+    if scores[best] <= CLUTTER_PF_MATCH and all(scores[m] > CLUTTER_PF_MARGIN for m in others):
+        report.problems.append(f"your function computes a known mistake: {CLUTTER_PF_MISTAKES[best]}")
+        return report
+    report.problems.append(f"the estimates, averaged over {CLUTTER_PF_SEEDS} seeds, are {distance:.2f} posterior "
+                           f"standard deviations (root mean square over {len(datasets)} data sets and {K} steps) "
+                           f"from the exact posterior mean, more than the {CLUTTER_PF_TOLERANCE} a particle filter "
+                           f"with {CLUTTER_PF_N} particles stays within: check the motion, the weight of each "
+                           "event (missed: (1 - P_D) lambda / L; reading i: P_D N(z_i; p, 1)) and the resampling")
     return report

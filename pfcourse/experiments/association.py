@@ -12,10 +12,12 @@ Seeds (:mod:`pfcourse.seeding`): run ``r`` simulates its robot and readings from
 runs on ``filter_rng(0, r)``; the EKF is deterministic.  The robot and its detections are the same
 for every clutter rate (common random numbers).
 
-Metrics: ``pf_rmse_m`` and ``ekf_rmse_m``, ``sqrt(mean_k |p^_k - p_k|^2)`` over every step (m);
+Metrics: ``pf_rmse_m`` and ``ekf_rmse_m`` (the *sequential* nearest-neighbour EKF, every gated
+reading in turn), ``sqrt(mean_k |p^_k - p_k|^2)`` over every step (m);
 ``ekf_wrong``, the readings the EKF gave to a wrong landmark (or a clutter reading to a landmark);
 ``clutter``, the clutter readings of the run.  :func:`pdaf_row` runs the PDA filter on the same
-readings (the study ``data_association_pdaf``).
+readings (the study ``data_association_pdaf``), :func:`nn_row` the nearest-neighbour standard
+filter, one update a step (the study ``data_association_nn``).
 """
 
 from __future__ import annotations
@@ -55,13 +57,13 @@ def position_rmse(truth, estimate) -> float:
 
 def row(seed: int, clutter_rate: float) -> dict:
     """The particle filter (:data:`N_PARTICLES`, bootstrap, systematic resampling at ESS < N/2) and the
-    nearest-neighbour EKF on run ``seed``: RMSEs, the EKF's wrong associations, run times."""
+    sequential nearest-neighbour EKF (``run_nn_ekf(..., rule="sequential")``) on run ``seed``: RMSEs, the EKF's wrong associations, run times."""
     sim, sensor, readings = simulate_run(seed, clutter_rate)
     model = AssociationModel(RobotModel.for_simulation(sim), sensor)
     t0 = time.perf_counter()
     pf = ParticleFilter(model, N_PARTICLES).run(readings.readings, rng=filter_rng(0, seed))
     t1 = time.perf_counter()
-    ekf, chosen = run_nn_ekf(model, readings.readings)
+    ekf, chosen = run_nn_ekf(model, readings.readings, rule="sequential")
     t2 = time.perf_counter()
     return {"pf_rmse_m": position_rmse(sim.truth, pf.mean), "ekf_rmse_m": position_rmse(sim.truth, ekf.mean),
             "ekf_wrong": int(np.sum((chosen >= 0) & (chosen != readings.origin))),
@@ -82,3 +84,20 @@ def pdaf_row(seed: int, clutter_rate: float) -> dict:
     nees = _safe_nees(sim.truth, pdaf.mean, pdaf.cov, ANGLE_INDICES)
     return {"pdaf_rmse_m": position_rmse(sim.truth, pdaf.mean), "pdaf_nees_mean": float(np.mean(nees)),
             "pdaf_seconds": t1 - t0}
+
+
+def nn_row(seed: int, clutter_rate: float) -> dict:
+    """The nearest-neighbour standard filter (:func:`~pfcourse.robot.association.run_nn_ekf`, ``rule="nearest"``:
+    the single gated reading nearest the prediction, one update a step) on run ``seed``, the same readings as
+    :func:`row`'s: its RMSE, its wrong associations and run time; and how many steps of the run the sequential
+    variant of :func:`row` updated more than once (``sequential_multi_steps``)."""
+    sim, sensor, readings = simulate_run(seed, clutter_rate)
+    model = AssociationModel(RobotModel.for_simulation(sim), sensor)
+    t0 = time.perf_counter()
+    nn, chosen = run_nn_ekf(model, readings.readings, rule="nearest")
+    t1 = time.perf_counter()
+    _, sequential = run_nn_ekf(model, readings.readings, rule="sequential")
+    return {"nn_rmse_m": position_rmse(sim.truth, nn.mean),
+            "nn_wrong": int(np.sum((chosen >= 0) & (chosen != readings.origin))),
+            "sequential_multi_steps": int(np.sum(np.sum(sequential >= 0, axis=1) > 1)),
+            "nn_seconds": t1 - t0}

@@ -29,11 +29,14 @@ one ``logsumexp`` over ``n M + 1`` terms per particle (:func:`mixture_log_likeli
 A step with no reading has ``p = (1 - P_D) e^{-lambda}``, the same for every state: it
 leaves the weights unchanged (the engine skips it).
 
-**The EKF must choose** (:func:`run_nn_ekf`): for each reading it takes the landmark of
-smallest Mahalanobis distance ``d_j^2 = nu_j^T S_j^{-1} nu_j``, ``nu_j = z - h_j(m)``,
-``S_j = H_j P H_j^T + R``, and updates with it only when ``d_j^2 <= gamma`` (the *gate*,
-a chi-square quantile with two degrees of freedom); a reading outside every gate is taken
-for clutter (nearest-neighbour data association with gating, Bar-Shalom et al. 2001).
+**The EKF must choose** (:func:`run_nn_ekf`): the nearest-neighbour standard filter
+(Bar-Shalom, Daum and Huang 2009) computes, for every reading ``i`` and landmark ``j``, the
+Mahalanobis distance ``d_ij^2 = nu_ij^T S_j^{-1} nu_ij``, ``nu_ij = z_i - h_j(m)``,
+``S_j = H_j P H_j^T + R``, and updates once a step with the single pair of smallest ``d_ij^2``,
+if it is inside the *gate* ``d_ij^2 <= gamma`` (a chi-square quantile with two degrees of
+freedom); every other reading is taken for clutter.  ``rule="sequential"`` is the variant the
+book first used (*sequential nearest neighbour*): every reading in turn, each gated one updating
+with its nearest landmark before the next is associated, so that a step can bring several updates.
 
 **The PDA filter** (:func:`run_pdaf`, Bar-Shalom and Tse 1975) does not choose: it linearises
 ``h_j`` at the predicted mean, so that under the Gaussian prediction ``N(m, P)`` the posterior of
@@ -199,15 +202,23 @@ class AssociationModel:
         return mixture_log_likelihood(self.base, self.sensor, particles, z, k)
 
 
+NN_RULES = ("nearest", "sequential")
+
+
 def run_nn_ekf(model: AssociationModel, readings: Array, gate_probability: float = GATE_PROBABILITY,
-               initial_cov: Array | None = None) -> tuple[KalmanResult, Array]:
+               initial_cov: Array | None = None, rule: str = "nearest") -> tuple[KalmanResult, Array]:
     """The EKF of :mod:`pfcourse.robot.kalman` that chooses an association: nearest neighbour by
     Mahalanobis distance, gated at ``gamma = chi2_2.ppf(gate_probability)`` (module docstring).
 
-    Readings are taken one at a time, in their (shuffled) order; each accepted one updates the
-    mean and covariance before the next is associated.  Returns the result and the ``(K, C)``
-    chosen landmark of each reading (``-1``: outside every gate, taken for clutter; ``-2``: padding).
+    ``rule="nearest"`` (the nearest-neighbour standard filter): at each step the one gated pair
+    (reading, landmark) of smallest distance updates the mean and covariance, once.
+    ``rule="sequential"``: the readings are taken one at a time, in their (shuffled) order; each
+    gated one updates with its nearest landmark before the next is associated.  Returns the result
+    and the ``(K, C)`` chosen landmark of each reading (``-1``: not used, taken for clutter;
+    ``-2``: padding).
     """
+    if rule not in NN_RULES:
+        raise ParameterError(f"rule must be one of {NN_RULES}, got {rule!r}")
     if not isinstance(model, AssociationModel):
         raise ModelError(f"run_nn_ekf needs an AssociationModel, got {type(model).__name__}")
     p = check_probability(gate_probability, "gate_probability")
@@ -232,23 +243,26 @@ def run_nn_ekf(model: AssociationModel, readings: Array, gate_probability: float
                 F, G = motion_jacobians(x, u, base.dt)
                 x = motion(x, u, base.dt)
                 P = F @ P @ F.T + G @ base.q_est @ G.T
-            for i, z in enumerate(readings[k]):
-                if np.isnan(z).all():
-                    continue
-                if not np.isfinite(z).all():
-                    raise MeasurementError(f"step {k}: a reading must have a finite range and bearing, got {z}")
+            present = [i for i, z in enumerate(readings[k]) if not np.isnan(z).all()]
+            for i in present:
+                if not np.isfinite(readings[k, i]).all():
+                    raise MeasurementError(f"step {k}: a reading must have a finite range and bearing, "
+                                           f"got {readings[k, i]}")
+                chosen[k, i] = -1
+            groups = [present] if rule == "nearest" else [[i] for i in present]
+            for group in groups:
                 d2, best = np.inf, None
-                for j, landmark in enumerate(base.landmarks):
-                    H = measurement_jacobian(x, landmark)
-                    S = H @ P @ H.T + R
-                    nu = measurement_residual(z, range_bearing_one(x, landmark))
-                    dj = float(nu @ np.linalg.solve(S, nu))
-                    if dj < d2:
-                        d2, best = dj, (j, H, S, nu)
+                for i in group:
+                    for j, landmark in enumerate(base.landmarks):
+                        H = measurement_jacobian(x, landmark)
+                        S = H @ P @ H.T + R
+                        nu = measurement_residual(readings[k, i], range_bearing_one(x, landmark))
+                        dj = float(nu @ np.linalg.solve(S, nu))
+                        if dj < d2:
+                            d2, best = dj, (i, j, H, S, nu)
                 if d2 > gamma:
-                    chosen[k, i] = -1
                     continue
-                j, H, S, nu = best
+                i, j, H, S, nu = best
                 gain = np.linalg.solve(S, H @ P).T  # P H^T S^-1 (S and P symmetric)
                 predicted = x.copy()
                 x = x + gain @ nu
@@ -365,5 +379,5 @@ def run_pdaf(model: AssociationModel, readings: Array, gate_probability: float |
     return out, none_true
 
 
-__all__ = ["AnonymousReadings", "AssociationModel", "ClutterSensor", "GATE_PROBABILITY", "mixture_log_likelihood",
+__all__ = ["AnonymousReadings", "AssociationModel", "ClutterSensor", "GATE_PROBABILITY", "NN_RULES", "mixture_log_likelihood",
            "pda_update", "run_nn_ekf", "run_pdaf", "simulate_readings"]
