@@ -18,7 +18,7 @@
 #
 # **You need** {doc}`sir`. Expectations of products of random variables; NumPy.
 #
-# **Time:** about twenty-one minutes to read; the notebook runs in about twenty seconds.
+# **Time:** about twenty-three minutes to read; the notebook runs in about twenty seconds.
 # :::
 #
 # The bootstrap filter of {doc}`sir` moves the particles blind and weights them by the
@@ -246,8 +246,8 @@ for name, (M, G) in pairs.items():
 # of densities reduces to it. Run with the same seed, the twenty-five lines
 # give what the book's engine gives for each filter (`ParticleFilter` with the transition, with
 # `LinearGaussianOptimal()` and with `FullyAdaptedAuxiliary(...)`), to round-off (below
-# {glue:text}`fk_engine_bound:.0e`), the auxiliary filter's means read before $G_k$ and its
-# increments one step later.
+# {glue:text}`fk_engine_bound:.0e`; the curves and the circles below coincide), the auxiliary
+# filter's means read before $G_k$ and its increments one step later.
 
 # %% tags=["remove-input"] jupyter={"source_hidden": true}
 ROUND_OFF = 1e-9
@@ -263,6 +263,18 @@ for name, (M, G) in pairs.items():
     gaps[name] = (np.abs(mine - engine.mean).max(), np.abs(log_l[:len(log_l) - shift] - inc[shift:]).max(),
                   abs(log_l.sum() - inc.sum()))
 assert max(max(g) for g in gaps.values()) < ROUND_OFF
+fig, ax = plt.subplots(figsize=(7, 3.2))
+for (name, (M, G)), color in zip(pairs.items(), (COLORS["estimate"], COLORS["particles"], COLORS["kalman"])):
+    moved, weighted, _ = fk_filter(M, G, len(Z), 100, np.random.default_rng(1))
+    engine = ParticleFilter(model, 100, threshold=1.0, **engines[name]).run(Z, rng=1)
+    ax.plot((moved if name == "auxiliary" else weighted)[:, 0], color=color, lw=1.5, label=f"{name}: Algorithm 6.1")
+    ax.plot(engine.mean[:, 0], "o", color=color, ms=3, mfc="none", label=f"{name}: the book's engine")
+ax.set_xlabel("step k")
+ax.set_ylabel("filter mean of the robot's x (m)")
+ax.legend(loc="center left", bbox_to_anchor=(1.01, 0.5), fontsize=7)
+ax.set_title("One algorithm, three pairs, N = 100, the same seed", fontsize=9)
+fig.tight_layout()
+plt.show()
 glue_values("fk_", engine_bound=ROUND_OFF)
 EvidenceBlock(
     "the generic algorithm with three pairs gives the engine's three filters",
@@ -425,9 +437,11 @@ scheme_nvar = {s: evidence.run_interval(lambda r: study.RESAMPLING_N * np.var(e[
 fig, (a1, a2) = plt.subplots(1, 2, figsize=(9, 3.3))
 a1.errorbar(clt_n, nvar[:, 0], yerr=[nvar[:, 0] - nvar[:, 1], nvar[:, 2] - nvar[:, 0]], fmt="o-",
             color=COLORS["estimate"], capsize=3, label="systematic, 400 runs per N")
-m = scheme_nvar["multinomial"]
-a1.errorbar([study.RESAMPLING_N * 1.08], [m[0]], yerr=[[m[0] - m[1]], [m[2] - m[0]]], fmt="s",
-            color=COLORS["particles"], capsize=3, label=f"multinomial, {by_scheme['multinomial'].size} runs")
+for scheme, shift, marker in (("multinomial", 1.1, "s"), ("systematic", 0.9, "D")):
+    m = scheme_nvar[scheme]
+    a1.errorbar([study.RESAMPLING_N * shift], [m[0]], yerr=[[m[0] - m[1]], [m[2] - m[0]]], fmt=marker,
+                color=COLORS["particles"] if scheme == "multinomial" else COLORS["estimate"], mfc="white",
+                capsize=3, label=f"{scheme}, {by_scheme[scheme].size} runs")
 a1.axhline(v_exact, color=COLORS["kalman"], lw=2, label=r"exact $V_{50}$")
 a1.set_xscale("log")
 plain_log_axis(a1, "x")
@@ -513,7 +527,7 @@ EvidenceBlock(
 # In $N$, the scalar model shows the $1/N$ law: from $N = 100$ to $10\,000$,
 # $\mathrm{var}\,\log\hat p$ falls with slope {glue:text}`fk_clt_loglik_slope_N:.2f`
 # ({glue:text}`fk_clt_loglik_slope_N_low:.2f`-{glue:text}`fk_clt_loglik_slope_N_high:.2f`) on
-# log-log axes (right).
+# log-log axes (right), close to the law's $-1$.
 #
 # The landmark model at $T = 50$ is not yet in that regime: from $N = 250$ to $4000$ the variance
 # falls with slope {glue:text}`fk_loglik_var_slope_N:.2f`
@@ -536,8 +550,8 @@ n_var = np.array([evidence.run_interval(lambda r: n * np.var(g[r], ddof=1), g.si
 clt_logs = np.array([column(clt, "log_ratio", N=n) for n in clt_n])
 scalar_nvar = np.array([evidence.run_interval(lambda r: n * np.var(g[r], ddof=1), g.size)
                         for n, g in zip(clt_n, clt_logs)])
-slope_n = evidence.log_slope(by_n, Ns, center=lambda v: np.var(v, ddof=1))
-scalar_slope_n = evidence.log_slope(clt_logs, clt_n, center=lambda v: np.var(v, ddof=1))
+slope_n = evidence.log_slope(by_n, Ns, center=lambda v, axis: np.var(v, axis=axis, ddof=1))
+scalar_slope_n = evidence.log_slope(clt_logs, clt_n, center=lambda v, axis: np.var(v, axis=axis, ddof=1))
 cv = evidence.run_interval(lambda r: np.std(Ns * by_n[:, r].var(axis=1, ddof=1), ddof=1)
                            / np.mean(Ns * by_n[:, r].var(axis=1, ddof=1)), by_n.shape[1])
 fig, (a1, a2) = plt.subplots(1, 2, figsize=(9, 3.3))
