@@ -421,7 +421,8 @@ EvidenceBlock(
 # number of runs it gives {glue:text}`fk_clt_nvar_systematic:.3f`
 # ({glue:text}`fk_clt_nvar_systematic_low:.3f`-{glue:text}`fk_clt_nvar_systematic_high:.3f`),
 # *below* $V_{50}$: systematic resampling adds less noise than the theorem's multinomial draw.
-# From $N = 100$ to $10\,000$ it stays between {glue:text}`fk_clt_nvar_min:.2f` and
+#
+# With systematic resampling, from $N = 100$ to $10\,000$, $N$ times the variance stays between {glue:text}`fk_clt_nvar_min:.2f` and
 # {glue:text}`fk_clt_nvar_max:.2f`, and the errors scaled by $\sqrt N$ look alike at every $N$
 # (Gaussian from $N = 300$ on; folded below):
 
