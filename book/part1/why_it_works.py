@@ -325,8 +325,7 @@ EvidenceBlock(
 # move and one more potential). With $\varphi = 1$, $\mathbb E[\hat Z_k] = Z_k$. $\square$ The
 # same lines, with the weights carried instead of reset, cover a filter that resamples only when
 # its ESS is low, because the decision to resample is made from $\mathcal F_{k-1}$ alone
-# {cite:p}`whiteley2016`. {cite:t}`chopin2020` give a textbook account of the case that
-# resamples at every step.
+# {cite:p}`whiteley2016`.
 #
 # **Shown.** Over the {glue:text}`fk_runs:d` runs of the first picture (bootstrap, $N = 1000$,
 # $T = 50$), the mean of $\hat p / p$ is {glue:text}`fk_ratio_mean:.2f`
