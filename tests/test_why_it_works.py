@@ -1,5 +1,5 @@
-"""The chapter "Why it works": its exercise checker, its stored study's row function and its generic
-Feynman-Kac algorithm against the engine."""
+"""The chapter "Why it works": its exercise checker, its stored studies' row functions and the exact
+asymptotic variance of the CLT (the chapter's own cell checks its generic algorithm against the engine)."""
 
 from __future__ import annotations
 
@@ -108,3 +108,46 @@ def test_the_particles_crosscheck_density_is_the_gaussian_log_density():
     cov = np.array([[0.3, 0.1], [0.1, 0.5]])
     residual = np.random.default_rng(0).normal(size=(5, 2))
     assert np.allclose(_log_gauss(residual, cov), multivariate_normal(cov=cov).logpdf(residual), atol=1e-12)
+
+
+def test_the_clt_variance_at_step_0_is_the_closed_form():
+    # one importance-sampling step: V_0 = eta_0(G^2 (x - mu)^2) / eta_0(G)^2 with eta_0 = N(0, 1) and
+    # G = N(z; x, r); G^2 is a Gaussian in x of variance r/2 times 1 / (2 sqrt(pi r)), so it is in closed form
+    from scipy.stats import norm
+
+    from pfcourse.experiments.why_it_works import clt_variance
+    z, r = 0.7, 0.5
+    mu = z / (1 + r)
+    s2, m2 = (r / 2) / (1 + r / 2), z / (1 + r / 2)
+    top = norm.pdf(z, 0, np.sqrt(1 + r / 2)) / (2 * np.sqrt(np.pi * r)) * (s2 + (m2 - mu) ** 2)
+    exact = top / norm.pdf(z, 0, np.sqrt(1 + r)) ** 2
+    assert clt_variance(np.array([[z]]), 0) == pytest.approx(exact, rel=1e-9)
+    # nothing measured at step 0: V_0 is the prior's variance, 1
+    assert clt_variance(np.array([[np.nan]]), 0) == pytest.approx(1.0, rel=1e-9)
+
+
+def test_the_clt_variance_does_not_depend_on_the_grid():
+    from pfcourse.experiments.why_it_works import clt_variance
+    assert clt_variance(n_grid=401) == pytest.approx(clt_variance(n_grid=1201, half_width=12.0), rel=1e-6)
+
+
+def test_the_stored_multinomial_runs_agree_with_the_clt_variance():
+    # N var of the filter mean over 2000 multinomial runs at N = 1000: its standard error is about
+    # V sqrt(2 / R); the stored value must lie within 4 of them of V (plus a 1/N finite-N allowance)
+    import pandas as pd
+
+    from pfcourse.experiments.store import DATA
+    from pfcourse.experiments.why_it_works import RESAMPLING_N, clt_variance
+    table = pd.read_csv(DATA / "why_it_works_resampling.csv")
+    errors = table[table.resampling == "multinomial"].error_last.to_numpy()
+    v, n_var = clt_variance(), RESAMPLING_N * np.var(errors, ddof=1)
+    assert abs(n_var - v) < 4 * v * np.sqrt(2 / (len(errors) - 1)) + 10 * v / RESAMPLING_N
+
+
+def test_the_resampling_row_converges_to_the_kalman_mean():
+    # N = 20000: the error is about sqrt(V / N) = 0.006; 5 standard deviations
+    from pfcourse.experiments.why_it_works import clt_variance, resampling_row
+    for scheme in ("multinomial", "systematic"):
+        out = resampling_row(seed=1, resampling=scheme, N=20000)
+        assert abs(out["error_last"]) < 5 * np.sqrt(clt_variance() / 20000)
+        assert abs(out["log_ratio"]) < 0.5

@@ -285,6 +285,14 @@ STUDIES: dict[str, Study] = {study.name: study for study in [
           fields={"data": f"scalar model x_k = 0.9 x_(k-1) + w_k, z_k = x_k + v_k, Q = R = 0.5, "
                           f"{why_it_works.CLT_STEPS + 1} samples, data_rng({why_it_works.DATA_SEED}, 0)",
                   "filter": "bootstrap, threshold 1, systematic", "seeds": "filter seed r = 0, 1, ..."}),
+    Study(name="why_it_works_resampling", row=why_it_works.resampling_row,
+          grid={"resampling": why_it_works.RESAMPLING_SCHEMES}, n_runs=why_it_works.RESAMPLING_RUNS, seeds="run",
+          failures="raise", table="why_it_works_resampling.csv", provenance="why_it_works_resampling.json",
+          columns=("resampling", "seed", "error_last", "log_ratio"), sample=3,
+          row_code="pfcourse/experiments/why_it_works.py (resampling_row)",
+          fields={"data": f"the scalar data of why_it_works_clt, data_rng({why_it_works.DATA_SEED}, 0)",
+                  "filter": f"bootstrap, threshold 1, N = {why_it_works.RESAMPLING_N}, multinomial or systematic",
+                  "seeds": "filter seed r = 0, 1, ..., the same for both schemes"}),
     *(_robot_study(name, grid, options) for name, (grid, options) in robot_studies.STUDIES.items()),
     *(_likelihood_study(name, row, {"n_particles": n}, runs, seed, columns=("n_particles", "run", "seed", "status", "error", *metrics), **options)
       for name, row, n, runs, seed, metrics, options in [
