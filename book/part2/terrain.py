@@ -19,7 +19,7 @@
 # **You need** {doc}`../part1/sir` and {doc}`../part1/kalman`; bilinear interpolation; NumPy
 # arrays; paired tests ({doc}`../evidence`).
 #
-# **Time:** about nineteen minutes to read; the notebook runs in about twenty seconds (the studies
+# **Time:** about seventeen minutes to read; the notebook runs in about twenty seconds (the studies
 # are stored).
 # :::
 #

@@ -19,7 +19,7 @@
 # **You need** {doc}`terrain` and {doc}`../part1/resampling_schemes`; covariance matrices and their square
 # roots; paired tests ({doc}`../evidence`).
 #
-# **Time:** about twenty-one minutes to read; the notebook runs in under twenty seconds (the studies
+# **Time:** about twenty-three minutes to read; the notebook runs in under twenty seconds (the studies
 # are stored).
 # :::
 #
@@ -522,14 +522,16 @@ fig, axes = plt.subplots(2, 1, figsize=(7.5, 6.4), sharex=True)
 panels = [("flights as simulated (no process noise)", E, converged, B_strict, np.sqrt(B.mean(axis=0))),
           ("flights drawn from the filter's model ($Q_f$)", E_m, kept_m, Bm_strict, Bm_per)]
 for ax, (title, err, kept, strict, per) in zip(axes, panels):
-    ax.plot(t, rmse(err[kept]), label=f"filter, {kept.sum()} kept of {len(err)}")
+    ax.plot(t, rmse(err[kept]), label="filter, kept flights")
     ax.plot(t, strict, "k--", label="bound (strict)")
     ax.plot(t, per, "k:", label="per-flight bounds, RMS")
     ax.set_yscale("log")
     ax.set_ylabel("horizontal RMSE (m)")
-    ax.set_title(title)
-    ax.legend(loc="upper right")
+    ax.set_title(f"{title}: {kept.sum()} of {len(err)} kept")
 axes[1].set_xlabel("time t (s)")
+# one legend for both panels, below them, off the data
+fig.legend(*axes[0].get_legend_handles_labels(), loc="lower center", ncol=3)
+fig.subplots_adjust(bottom=0.15, hspace=0.3)
 plt.show()
 
 # %% tags=["remove-input"] jupyter={"source_hidden": true}
@@ -608,9 +610,9 @@ EvidenceBlock(
 # On the flights as simulated it is {glue:text}`terrain_best_rmse_over_noise_free_bound:.1f`
 # times theirs, {glue:text}`terrain_noise_free_bound_strict_final:.0f` m.
 #
-# Neither is near $1$, and the two are about the same: the filter is as far from its bound when its
-# model is right as when its $Q_f$ is far larger than the truth's (no) process noise. So the
-# mismatch of the model does not explain the gap.
+# Neither is near $1$, and the two are close (their intervals, in the evidence block, overlap): the
+# filter is about as far from its bound when its model is right as when its $Q_f$ is far larger
+# than the truth's (no) process noise. So the mismatch of the model does not explain the gap.
 #
 # Nor does the bound say that a better filter would be five times as accurate. It is built from
 # the local slopes of the map, averaged over the flights before inversion, and the flights differ

@@ -282,17 +282,15 @@ EvidenceBlock(
 # final error is {glue:text}`terrain_mpf_rms_ratio:.2f` times the bootstrap's.
 #
 # The gain has a simple source: the bootstrap filter spends its particles on a fourth dimension
-# whose posterior is known in closed form. What the marginalised filter does *not* do is beat
+# whose posterior is known in closed form. It does *not* beat
 # the regularised filter of {doc}`terrain_cure`, which loses {glue:text}`terrain_mpf_rpf_n3000:.2f`
 # of the flights at $N = 3000$. The two remedies treat different ills: the kernel refills the gaps
-# that resampling leaves in the cloud, the Kalman filter removes a dimension. Nothing stops a filter
-# from doing both.
+# that resampling leaves in the cloud, the Kalman filter removes a dimension.
 #
 
 # %% [markdown]
 # **What does it cost?** Every filter of the terrain decision was timed on
-# {glue:text}`terrain_cost_flights:d` flights in one process, one after the other in an order that
-# rotates with the flight (`python3 tasks.py study terrain_costs`).
+# {glue:text}`terrain_cost_flights:d` flights in one process (the evidence block says how).
 
 # %% tags=["hide-input"] jupyter={"source_hidden": true}
 costs = STUDIES["terrain_costs"].load()
@@ -357,10 +355,6 @@ EvidenceBlock(
 # {glue:text}`terrain_mpf_vs_equal_cost_high_pts:.0f` points (95 % interval, evidence above).
 # Even with $10^4$ particles, more than twice the cost, the bootstrap filter loses
 # {glue:text}`terrain_mpf_boot_n10000:.2f`.
-#
-# The regularised filter's kernel costs {glue:text}`terrain_rpf_cost_ratio:.2f` times the bootstrap
-# filter per particle-step, so comparing the two remedies at the same $N$ is nearly comparing them at
-# equal cost.
 #
 # ## A grid filter over position and heading: lost or kept
 #
@@ -675,17 +669,14 @@ EvidenceBlock(
 # {glue:text}`terrain_field_flights:d` flights, where the grid's own error never exceeds
 # {glue:text}`terrain_field_grid_max_error_m:.0f` m.
 #
-# The median distance is {glue:text}`terrain_field_pf_in_spreads:.1f` posterior spreads, where
-# the Monte Carlo error of a mean of $3000$ independent draws would be about
-# {glue:text}`terrain_field_mc_error_m:.1f` m. The cloud is not $3000$ independent draws: with a
-# drift of only {glue:text}`terrain_field_drift:.0f` m per second to spread them, the copies that
-# resampling makes stay nearly on top of each other (sample impoverishment). Our reading, not
-# measured here, is that the far flights are the same failure carried further.
+# The median distance is {glue:text}`terrain_field_pf_in_spreads:.1f` posterior spreads, against
+# a Monte Carlo error of about {glue:text}`terrain_field_mc_error_m:.1f` m for $3000$ independent
+# draws. With a drift of {glue:text}`terrain_field_drift:.0f` m per second to spread them, the
+# copies that resampling makes stay nearly on top of each other: sample impoverishment.
 #
-# Which problem does the book solve? The four-dimensional one, with its generous heading noise,
-# in {doc}`terrain`, {doc}`terrain_cure` and most of this chapter: a hard test for a particle
-# filter. The field's two-dimensional one in this section, where a
-# grid is cheap and exact, and where the particle filter's job is to match it.
+# Which problem does the book solve? The lab's four-dimensional one in {doc}`terrain`,
+# {doc}`terrain_cure` and most of this chapter; the field's two-dimensional one in this section,
+# where a grid is exact.
 #
 # ## Map error as a state
 #
@@ -821,11 +812,13 @@ EvidenceBlock(
 # at $10$ Hz, and at $10$ Hz inflating $R_f$ beats the bias state. Whether measuring faster hurts or
 # helps any of these filters, fifty flights do not settle.
 #
-# Why would the state do worse than the cruder remedy at $10$ Hz? A likely reason, untested:
+# :::{dropdown} Going further: why the state may do worse at 10 Hz
+# A likely reason, untested:
 # readings $10$ m apart have map errors correlated at {glue:text}`terrain_bias_field_corr_10m:.4f`,
 # while the first-order model says {glue:text}`terrain_bias_gm_corr_10m:.3f`, so it takes each
 # reading's error for about {glue:text}`terrain_bias_fresh_ratio:.0f` times more fresh than it is.
 # A smoother (second-order) bias model is the next thing to try.
+# :::
 #
 # ## Exercises
 #
