@@ -859,6 +859,7 @@ print(check_altimeter_likelihood(my_log_likelihood))
 # $R_f$, $N$, the resampling threshold and scheme, a gap in the readings and the reading period
 # change the final error. Its report answered from one run each; the baseline run it took as the
 # filter's accuracy ended $309$ m from the truth, while that filter loses most flights here
-# ("Why this problem needs a particle filter"). Each setting's study above gives the report's single-run answer in its
-# evidence block beside the hundred-flight one; its $10$ Hz run was in fact the $1$ Hz baseline.
+# ("Why this problem needs a particle filter"). Each setting's study above gives the report's
+# single-run answer in its evidence block beside the hundred-flight one; its $10$ Hz run was in
+# fact the $1$ Hz baseline.
 # :::

@@ -26,7 +26,7 @@
 # The previous chapter's particle filter ($N = 3000$ particles, resampling
 # when $\mathrm{ESS} < N/2$), loses the aircraft in a large share of the flights. This chapter
 # measures why, tries the standard remedies on the *same* flights, and compares the filter that
-# converges with the best accuracy any estimator can reach.
+# converges with the bound on the accuracy of any estimator.
 #
 # **Lost**, everywhere below: the filter's final horizontal error exceeds $500$ m (about five DEM
 # cells) or every particle died. The studies cost minutes, so they were computed by
