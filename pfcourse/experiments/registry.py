@@ -473,7 +473,14 @@ STUDIES: dict[str, Study] = {study.name: study for study in [
           fields={"problem": "2-D: INS displacement known up to a drift of 3 m per axis per second, barometric "
                              "altitude known; readings h(p) + N(0, 20^2)", "settings": terrain_field.FIELD_SETTINGS,
                   "seeds": "flight r: pfcourse.seeding.data_rng(0, r); filter: pfcourse.seeding.filter_rng(0, r)"}),
-    Study(name="terrain_map_bias", row=terrain_field.map_bias_row, grid={"setting": terrain_field.MAP_BIAS_SETTINGS},
+    Study(name="terrain_field_pf", row=terrain_field.field_pf_row, grid={"setting": list(terrain_field.FIELD_PF_SETTINGS)},
+          n_runs=terrain_field.FIELD_FLIGHTS, seeds="run", failures="raise", table="terrain_field_pf.csv",
+          provenance="terrain_field_pf.json", columns=terrain_field.FIELD_COLUMNS, seed_column="flight", sample=2,
+          row_code="pfcourse/experiments/terrain_field.py (field_pf_row)",
+          fields={"problem": "the 2-D field problem of terrain_field, its flights and filter seeds "
+                             "(data_rng(0, r), filter_rng(0, r))",
+                  "settings": {k: {"N": n, "kernel_scale": sc} for k, (n, sc) in terrain_field.FIELD_PF_SETTINGS.items()}}),
+ grid={"setting": terrain_field.MAP_BIAS_SETTINGS},
           n_runs=terrain_field.MAP_BIAS_FLIGHTS, seeds="run", table="terrain_map_bias.csv", **_FLIGHTS,
           provenance="terrain_map_bias.json", columns=terrain_field.MAP_BIAS_COLUMNS, seed_column="flight",
           cheap=lambda t: t["setting"].str.startswith("1 Hz"), sample=2,
