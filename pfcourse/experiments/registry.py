@@ -480,7 +480,7 @@ STUDIES: dict[str, Study] = {study.name: study for study in [
           fields={"problem": "the 2-D field problem of terrain_field, its flights and filter seeds "
                              "(data_rng(0, r), filter_rng(0, r))",
                   "settings": {k: {"N": n, "kernel_scale": sc} for k, (n, sc) in terrain_field.FIELD_PF_SETTINGS.items()}}),
- grid={"setting": terrain_field.MAP_BIAS_SETTINGS},
+    Study(name="terrain_map_bias", row=terrain_field.map_bias_row, grid={"setting": terrain_field.MAP_BIAS_SETTINGS},
           n_runs=terrain_field.MAP_BIAS_FLIGHTS, seeds="run", table="terrain_map_bias.csv", **_FLIGHTS,
           provenance="terrain_map_bias.json", columns=terrain_field.MAP_BIAS_COLUMNS, seed_column="flight",
           cheap=lambda t: t["setting"].str.startswith("1 Hz"), sample=2,
