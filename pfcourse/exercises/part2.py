@@ -681,6 +681,12 @@ BIAS_MISTAKES: dict[str, str] = {
     "no_cov_update": "the covariance is not updated: after a reading P' = P - K K^T S, smaller than P",
     "one_gain": "both states get the altitude's gain: the gain is K = P H^T / S, (P_zz + P_zb) / S for the "
                 "altitude and (P_zb + P_bb) / S for the bias",
+    "innovation_flipped": "the innovation has the wrong sign: nu = y - (m_z + m_b - h_f), the reading minus its "
+                          "prediction, so a reading above the prediction moves the means up",
+    "ground_added": "the ground height is added: the altimeter reads the height above the ground, so the "
+                    "predicted reading is m_z + m_b - h_f, with the ground subtracted",
+    "covariance_order": "the covariance columns are in the wrong order: return them as (P_zz, P_zb, P_bb), "
+                        "the altitude's variance, the cross term, the bias's variance",
 }
 
 
@@ -692,8 +698,9 @@ def bias_update(m: np.ndarray, P: np.ndarray, ground: np.ndarray, reading: float
     if mistake is not None and mistake not in BIAS_MISTAKES:
         raise ValueError(f"unknown mistake {mistake!r}; one of {sorted(BIAS_MISTAKES)}")
     pzz, pzb, pbb = P[:, 0], P[:, 1], P[:, 2]
-    predicted = m[:, 0] - ground + (0.0 if mistake == "bias_ignored" else m[:, 1])
-    nu = reading - predicted
+    predicted = m[:, 0] + (ground if mistake == "ground_added" else -ground) + (0.0 if mistake == "bias_ignored"
+                                                                             else m[:, 1])
+    nu = predicted - reading if mistake == "innovation_flipped" else reading - predicted
     s = pzz + (0.0 if mistake == "no_cross_term" else 2.0 * pzb) + pbb + rf
     kz = (pzz + pzb) / s
     kb = kz if mistake == "one_gain" else (pzb + pbb) / s
@@ -702,6 +709,8 @@ def bias_update(m: np.ndarray, P: np.ndarray, ground: np.ndarray, reading: float
     m_new = np.column_stack([m[:, 0] + kz * nu, m[:, 1] + kb * nu])
     P_new = P.copy() if mistake == "no_cov_update" else np.column_stack(
         [pzz - kz * kz * s, pzb - kz * kb * s, pbb - kb * kb * s])
+    if mistake == "covariance_order":  # (P_zz, P_bb, P_zb)
+        P_new = P_new[:, [0, 2, 1]]
     return m_new, P_new, log_lik
 
 

@@ -419,6 +419,24 @@ STUDIES: dict[str, Study] = {study.name: study for study in [
           arrays=("errors",), sample=2, row_code="pfcourse/experiments/terrain_remedies.py (error_path_row)",
           fields={"seeds": "flight r: pfcourse.seeding.data_rng(0, r); filter: pfcourse.seeding.filter_rng(0, r)",
                   "divergence": "final horizontal error > 500 m or every particle lost"}),
+    Study(name="terrain_model_flights", row=terrain_remedies.model_flight_row,
+          grid={"setting": terrain_remedies.MODEL_FLIGHT_SETTINGS}, n_runs=100, seeds="run",
+          table="terrain_model_flights.csv", **{**_FLIGHTS, "failed_scores": terrain_remedies.LOST_MODEL_FLIGHT},
+          provenance="terrain_model_flights.json", columns=terrain_remedies.MODEL_FLIGHT_COLUMNS, seed_column="flight",
+          arrays=("errors",), sample=2, row_code="pfcourse/experiments/terrain_remedies.py (model_flight_row)",
+          fields={"seeds": "flight r: pfcourse.experiments.terrain_remedies.model_flight(scenario, terrain, "
+                           "pfcourse.seeding.data_rng(1, r)) (process noise Qf dt, readings N(0, Rf)); "
+                           "filter: pfcourse.seeding.filter_rng(1, r)",
+                  "divergence": "final horizontal error > 500 m or every particle lost"}),
+    Study(name="terrain_equal_cost", row=terrain_remedies.equal_cost_row,
+          grid={"setting": list(terrain_remedies.EQUAL_COST_FILTERS)}, n_runs=100, seeds="run",
+          table="terrain_equal_cost.csv", **_FLIGHTS, provenance="terrain_equal_cost.json",
+          columns=terrain_remedies.EQUAL_COST_COLUMNS, seed_column="flight", sample=4,
+          row_code="pfcourse/experiments/terrain_remedies.py (equal_cost_row)",
+          fields={"settings": records(terrain_remedies.EQUAL_COST_FILTERS),
+                  "seeds": "flight r: pfcourse.seeding.data_rng(0, r); filter: pfcourse.seeding.filter_rng(0, r) "
+                           "(the flights and filter seeds of terrain_remedies and terrain_mpf)",
+                  "divergence": "final horizontal error > 500 m or every particle lost"}),
     *(Study(name=f"maprobot/{name}", row=row, grid=grid, n_runs=20 if name == "sensor_cost" else 100, seeds="run",
             failures="raise", volatile=("seconds", "field_seconds", "beam_seconds"),
             table=f"maprobot/{name}.csv", provenance=f"maprobot/{name}.json", columns=columns, sample=1,
@@ -474,6 +492,13 @@ STUDIES: dict[str, Study] = {study.name: study for study in [
           fields={"problem": "2-D: INS displacement known up to a drift of 3 m per axis per second, barometric "
                              "altitude known; readings h(p) + N(0, 20^2)", "settings": terrain_field.FIELD_SETTINGS,
                   "seeds": "flight r: pfcourse.seeding.data_rng(0, r); filter: pfcourse.seeding.filter_rng(0, r)"}),
+    Study(name="terrain_field_pf", row=terrain_field.field_pf_row, grid={"setting": list(terrain_field.FIELD_PF_SETTINGS)},
+          n_runs=terrain_field.FIELD_FLIGHTS, seeds="run", failures="raise", table="terrain_field_pf.csv",
+          provenance="terrain_field_pf.json", columns=terrain_field.FIELD_COLUMNS, seed_column="flight", sample=2,
+          row_code="pfcourse/experiments/terrain_field.py (field_pf_row)",
+          fields={"problem": "the 2-D field problem of terrain_field, its flights and filter seeds "
+                             "(data_rng(0, r), filter_rng(0, r))",
+                  "settings": {k: {"N": n, "kernel_scale": sc} for k, (n, sc) in terrain_field.FIELD_PF_SETTINGS.items()}}),
     Study(name="terrain_map_bias", row=terrain_field.map_bias_row, grid={"setting": terrain_field.MAP_BIAS_SETTINGS},
           n_runs=terrain_field.MAP_BIAS_FLIGHTS, seeds="run", table="terrain_map_bias.csv", **_FLIGHTS,
           provenance="terrain_map_bias.json", columns=terrain_field.MAP_BIAS_COLUMNS, seed_column="flight",

@@ -40,7 +40,9 @@ from pfcourse.proposals import ProgressiveCorrection
 from pfcourse.seeding import data_rng, filter_rng, map_error_rng, reference_rng
 from pfcourse.metrics import position_error
 from pfcourse.terrain.map import mismatched_map
-from pfcourse.terrain.scenario import AircraftScenario, simulate
+from pfcourse.angles import wrap_angle
+from pfcourse.checks import covariance_factor
+from pfcourse.terrain.scenario import AircraftScenario, Flight, propagate, simulate
 
 #: Q_f with the horizontal entries divided by 3, like every other horizontal length of the scenario.
 QF_SCALED = np.diag([1.0, 1.0, 0.6, 0.001 * 180.0 / np.pi]) ** 2
@@ -241,3 +243,79 @@ def fresh_flight_row(seed: int, setting: str, study: str) -> dict:
     out = run_one(fresh.settings[setting], seed, jacksboro())
     return {"setting": setting, "flight": seed, "final_error": out["final_error"], "mean_error": out["mean_error"],
             "lost": out["lost"]}
+
+
+#: The model-flight study (``book/data/terrain_model_flights.csv`` and ``.npz``): flights drawn from
+#: **the filter's own model** (:func:`model_flight`: the initial state from ``N(x0, P0)``, process
+#: noise ``N(0, Qf dt)`` at every step, readings with noise ``N(0, Rf)``), flight ``r`` from
+#: ``data_rng(MODEL_FLIGHT_SEED, r)`` (seed 1: not the flights of the other studies), filtered by the
+#: best filter with ``filter_rng(MODEL_FLIGHT_SEED, r)``.  On these flights the posterior Cramér-Rao
+#: bound with ``Q = Qf dt`` (information averaged over the flights, :func:`pfcourse.terrain.pcrb.terrain_pcrb`
+#: of all of them) is the bound of the filter's error: the efficiency of the filter under its own model.
+MODEL_FLIGHT_SEED = 1
+MODEL_FLIGHT_SETTINGS = ["regularised N=30000"]
+MODEL_FLIGHT_COLUMNS = ("setting", "flight", "status", "error", "lost", "final_error", "redraws", "errors", "seconds")
+#: The model-flight study's scores of a flight whose filter failed: lost, infinitely far at every step.
+LOST_MODEL_FLIGHT = {**LOST_PATH, "final_error": np.inf, "redraws": -1}
+#: Redraws of a model flight that leaves the map before the study gives up (a ParameterError).
+MODEL_FLIGHT_TRIES = 50
+
+
+def model_flight(scenario: AircraftScenario, terrain, rng: np.random.Generator) -> tuple[Flight, int]:
+    """A flight drawn from the filter's own model, and how many drawn flights left the map first.
+
+    The truth starts from ``N(x0, P0)`` and moves by :func:`~pfcourse.terrain.scenario.propagate`
+    plus ``N(0, Qf dt)``; the readings are ``z - h(x, y) + N(0, Rf)`` at the measured steps.  A flight
+    that leaves the map is drawn again from the same generator (so the flights are the model's,
+    conditioned on staying over the map; the bound is averaged over the same flights).
+    """
+    s = scenario
+    L0, Lq = covariance_factor(s.P0), covariance_factor(s.Qf * s.dt)
+    for tries in range(MODEL_FLIGHT_TRIES):
+        X = np.empty((s.n_steps, 4))
+        X[0] = s.x0 + L0 @ rng.standard_normal(4)
+        X[0, 3] = wrap_angle(X[0, 3])
+        for k in range(1, s.n_steps):
+            X[k] = propagate(X[k - 1], s.speed, s.omega, s.dt) + Lq @ rng.standard_normal(4)
+            X[k, 3] = wrap_angle(X[k, 3])
+        noise = rng.normal(0.0, np.sqrt(s.Rf), s.n_steps)
+        if terrain.contains(X[:, 0], X[:, 1]).all():
+            ground = terrain.height(X[:, 0], X[:, 1])
+            Z = np.where(s.measured(), X[:, 2] - ground + noise, np.nan)[:, None]
+            return Flight(T=s.times, truth=X, measurements=Z, terrain_height=ground), tries
+    raise ParameterError(f"{MODEL_FLIGHT_TRIES} model flights in a row left the map: the scenario does not fit it")
+
+
+def model_flight_row(seed: int, setting: str) -> dict:
+    """Model flight ``seed`` (:func:`model_flight` from ``data_rng(MODEL_FLIGHT_SEED, seed)``) filtered
+    with ``setting``: lost flag, final and per-step horizontal error (m), the map redraws."""
+    if setting not in MODEL_FLIGHT_SETTINGS:
+        raise ParameterError(f"unknown setting {setting!r}; known: {MODEL_FLIGHT_SETTINGS}")
+    terrain = jacksboro()
+    scenario = AircraftScenario()
+    flight, redraws = model_flight(scenario, terrain, data_rng(MODEL_FLIGHT_SEED, seed))
+    pf = lookup(FILTERS, setting).build(scenario, terrain)
+    res = pf.run(flight.measurements, rng=filter_rng(MODEL_FLIGHT_SEED, seed))
+    e = position_error(flight.truth, res.mean)
+    return {"setting": setting, "flight": seed, "lost": bool(e[-1] > DIVERGED_ERROR), "final_error": float(e[-1]),
+            "redraws": redraws, "errors": e}
+
+
+#: The equal-cost study (``book/data/terrain_equal_cost.csv``): the bootstrap filter with the number of
+#: particles that costs what the marginalised filter with N = 3000 costs (3000 x the measured cost ratio
+#: of ``terrain_costs``, 1.23: about 3700), on flights 0-99 with the seeds of ``terrain_remedies`` and
+#: ``terrain_mpf`` (flight ``data_rng(0, r)``, filter ``filter_rng(0, r)``), for a paired comparison.
+EQUAL_COST_N = 3700
+EQUAL_COST_FILTERS: dict[str, FilterConfig] = configurations(_config(f"bootstrap N={EQUAL_COST_N}", _settings(EQUAL_COST_N)))
+EQUAL_COST_COLUMNS = ("setting", "flight", "status", "error", "N", "final_error", "mean_error", "lost")
+
+
+def equal_cost_row(seed: int, setting: str) -> dict:
+    """Flight ``seed`` (``data_rng(0, seed)``) filtered with ``setting`` of :data:`EQUAL_COST_FILTERS`
+    (``filter_rng(0, seed)``): final and mean horizontal error (m), lost flag."""
+    terrain = jacksboro()
+    scenario = AircraftScenario()
+    flight = simulate(scenario, terrain, data_rng(0, seed))
+    pf = lookup(EQUAL_COST_FILTERS, setting).build(scenario, terrain)
+    res = pf.run(flight.measurements, rng=filter_rng(0, seed))
+    return {"setting": setting, "flight": seed, "N": pf.n_particles, **flight_scores(flight.truth, res.mean)}

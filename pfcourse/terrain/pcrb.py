@@ -104,3 +104,42 @@ def terrain_bound_noise_free(scenario: AircraftScenario, terrain, trajectory: Ar
     F = np.array([dynamics_jacobian(x, scenario.speed, scenario.dt) for x in X])
     H = np.array([measurement_jacobian(x, terrain) for x in X])
     return deterministic_bound(np.linalg.inv(scenario.P0), F, H, np.array([[scenario.Rf]]), scenario.measured())
+
+
+def weighted_pcrb_recursion(J0: Array, F: Array, Q: Array, H: Array, R: Array, measured: Array,
+                            weights: Array) -> Array:
+    """:func:`pcrb_recursion` with the expectations weighted, for many weightings at once.
+
+    ``weights`` ``(B, M)``: row ``b`` weighs the ``M`` trajectories (e.g. the counts of a bootstrap
+    resample; each row is normalised to sum to one).  Returns the bounds ``(B, K, d, d)``; a row of
+    equal weights gives :func:`pcrb_recursion`.  Used for the bootstrap interval of a bound whose
+    expectation is estimated from the same flights as the error it is compared with.
+    """
+    F = np.asarray(F, dtype=float)
+    H = np.asarray(H, dtype=float)
+    W = np.atleast_2d(np.asarray(weights, dtype=float))
+    if F.ndim != 4 or H.ndim != 4 or F.shape[:2] != H.shape[:2] or W.shape[1] != F.shape[0]:
+        raise ShapeError(f"F must be (M, K, d, d), H (M, K, m, d) and weights (B, M), got {F.shape}, {H.shape} "
+                         f"and {W.shape}")
+    if np.any(W < 0) or np.any(W.sum(axis=1) <= 0):
+        raise ShapeError("weights must be non-negative with a positive sum in every row")
+    W = W / W.sum(axis=1, keepdims=True)
+    M, K, d, _ = F.shape
+    Qi = np.linalg.inv(Q)
+    Ri = np.linalg.inv(np.atleast_2d(R))
+    info = np.einsum("mkji,jl,mkln->mkin", H, Ri, H)  # H^T R^-1 H per trajectory and step
+    FQF = np.einsum("mkji,jl,mkln->mkin", F, Qi, F)
+    avg = lambda A: np.einsum("bm,mij->bij", W, A)  # weighted mean over the trajectories, per weighting
+    J = np.broadcast_to(np.asarray(J0, dtype=float), (len(W), d, d)).copy()
+    out = np.empty((len(W), K, d, d))
+    if measured[0]:
+        J = J + avg(info[:, 0])
+    out[:, 0] = np.linalg.inv(J)
+    for k in range(K - 1):
+        D11 = avg(FQF[:, k])
+        D12 = -np.swapaxes(avg(F[:, k]), 1, 2) @ Qi
+        D22 = Qi + (avg(info[:, k + 1]) if measured[k + 1] else 0.0)
+        J = D22 - np.swapaxes(D12, 1, 2) @ np.linalg.solve(J + D11, D12)
+        J = 0.5 * (J + np.swapaxes(J, 1, 2))
+        out[:, k + 1] = np.linalg.inv(J)
+    return out
