@@ -13,7 +13,7 @@ import numpy as np
 
 from pfcourse.experiments import maprobot as study
 from pfcourse.maprobot import lock_on
-from pfcourse.maprobot.global_mcl import PREVIOUS, SETTINGS, GlobalSettings, global_mcl
+from pfcourse.maprobot.global_mcl import POOR_FIT, SETTINGS, GlobalSettings, global_mcl
 from pfcourse.maprobot.twins import twin_margin
 from pfcourse.metrics import heading_error, position_error
 
@@ -64,14 +64,14 @@ def global_row(seed: int, settings: GlobalSettings = SETTINGS) -> dict:
             "mean_particles": float(res.sizes[1:].mean()), "start_particles": int(res.sizes[0])}
 
 
-def previous_global_row(seed: int) -> dict:
-    """:func:`global_row` with the first cure's settings (:data:`pfcourse.maprobot.global_mcl.PREVIOUS`)."""
-    return global_row(seed, PREVIOUS)
+def poor_fit_global_row(seed: int) -> dict:
+    """:func:`global_row` with the variant :data:`pfcourse.maprobot.global_mcl.POOR_FIT`."""
+    return global_row(seed, POOR_FIT)
 
 
-def previous_kidnap_row(seed: int) -> dict:
-    """:func:`kidnap_row` with the first cure's settings (:data:`pfcourse.maprobot.global_mcl.PREVIOUS`)."""
-    return kidnap_row(seed, PREVIOUS)
+def poor_fit_kidnap_row(seed: int) -> dict:
+    """:func:`kidnap_row` with the variant :data:`pfcourse.maprobot.global_mcl.POOR_FIT`."""
+    return kidnap_row(seed, POOR_FIT)
 
 
 def kidnap_row(seed: int, settings: GlobalSettings = SETTINGS) -> dict:
