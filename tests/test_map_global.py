@@ -181,7 +181,8 @@ def test_poor_fit_only_injects_only_while_the_scans_fit_worse_than_they_used_to(
     grid, field = study.book_map(), study.field()
     run = study.simulate(3, 40, kidnap_at=20)
     # a slow average that follows the last few seconds, so that the kidnapping shows within the run
-    s = gm.with_settings(n_min=300, n_max=1000, history=6, inject_min=50, inject_every=2, alpha_slow=0.05, alpha_fast=0.5)
+    s = gm.with_settings(n_min=300, n_max=1000, history=6, inject_min=50, inject_every=2, alpha_slow=0.05, alpha_fast=0.5,
+                         poor_fit_only=True)
     assert gm.POOR_FIT.poor_fit_only and not gm.SETTINGS.poor_fit_only
     a = gm.global_mcl(grid, field, study.MOTION, run.scans, run.drive.odometry, np.random.default_rng(1), s,
                       start=run.truth[0])
