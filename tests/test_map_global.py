@@ -129,7 +129,7 @@ def test_the_proposal_density_is_the_mixture_it_draws_from():
 def test_the_cure_draws_from_its_generator_and_is_deterministic():
     grid, field = study.book_map(), study.field()
     run = study.simulate(4, 30)
-    s = gm.with_settings(n_start=2000, n_start_scan=200, history=8, inject_min=50, n_max=1000)
+    s = gm.with_settings(n_start=2000, n_start_scan=200, history=8, inject_min=50, n_max=1000, poor_fit_only=False)
     state = np.random.get_state()
     a = gm.global_mcl(grid, field, study.MOTION, run.scans, run.drive.odometry, np.random.default_rng(1), s)
     b = gm.global_mcl(grid, field, study.MOTION, run.scans, run.drive.odometry, np.random.default_rng(1), s)
@@ -175,3 +175,22 @@ def test_decided_uses_the_lock_on_share_of_the_window():
     assert mg.decided(m)
     m[-window + 8] = 0.0
     assert not mg.decided(m)
+
+
+def test_poor_fit_only_injects_only_while_the_scans_fit_worse_than_they_used_to():
+    grid, field = study.book_map(), study.field()
+    run = study.simulate(3, 40, kidnap_at=20)
+    # a slow average that follows the last few seconds, so that the kidnapping shows within the run
+    s = gm.with_settings(n_min=300, n_max=1000, history=6, inject_min=50, inject_every=2, alpha_slow=0.05, alpha_fast=0.5,
+                         poor_fit_only=True)
+    assert gm.POOR_FIT.poor_fit_only and not gm.SETTINGS.poor_fit_only
+    a = gm.global_mcl(grid, field, study.MOTION, run.scans, run.drive.odometry, np.random.default_rng(1), s,
+                      start=run.truth[0])
+    b = gm.global_mcl(grid, field, study.MOTION, run.scans, run.drive.odometry, np.random.default_rng(1),
+                      gm.replace(s, poor_fit_only=False), start=run.truth[0])
+    inj_a, inj_b = np.flatnonzero(a.injected_mass > 0), np.flatnonzero(b.injected_mass > 0)
+    # without the rule: every inject_every-th step from the history on; with it, only where eps is above its floor
+    assert np.array_equal(inj_b, np.arange(s.history, 40, s.inject_every))
+    assert np.all(a.eps[inj_a] > s.eps_min) and len(inj_a) < len(inj_b)
+    # the kidnapping (robot carried away, odometry silent) is a poor fit: some injection follows it
+    assert np.any(inj_a >= 20)

@@ -13,7 +13,7 @@ import numpy as np
 
 from pfcourse.experiments import maprobot as study
 from pfcourse.maprobot import lock_on
-from pfcourse.maprobot.global_mcl import SETTINGS, global_mcl
+from pfcourse.maprobot.global_mcl import POOR_FIT, SETTINGS, GlobalSettings, global_mcl
 from pfcourse.maprobot.twins import twin_margin
 from pfcourse.metrics import heading_error, position_error
 
@@ -51,10 +51,12 @@ def twin_row(seed: int) -> dict:
     return row
 
 
-def global_row(seed: int) -> dict:
-    """The cure (:func:`pfcourse.maprobot.global_mcl.global_mcl`) from a uniform start on ``seed``'s drive."""
+def global_row(seed: int, settings: GlobalSettings = SETTINGS) -> dict:
+    """The cure (:func:`pfcourse.maprobot.global_mcl.global_mcl` with ``settings``) from a uniform start on
+    ``seed``'s drive."""
     run = study.simulate(seed, study.GLOBAL_STEPS)
-    res = global_mcl(study.book_map(), study.field(), study.MOTION, run.scans, run.drive.odometry, filter_rng(seed))
+    res = global_mcl(study.book_map(), study.field(), study.MOTION, run.scans, run.drive.odometry, filter_rng(seed),
+                     settings)
     pos, head = position_error(run.truth, res.mean), heading_error(run.truth, res.mean)
     return {"locked_on": lock_on.locked_on(pos, head, study.DT, HEADING_TOL),
             "locked_from_s": lock_on.locked_from(pos, head, study.DT, HEADING_TOL) * study.DT,
@@ -62,12 +64,23 @@ def global_row(seed: int) -> dict:
             "mean_particles": float(res.sizes[1:].mean()), "start_particles": int(res.sizes[0])}
 
 
-def kidnap_row(seed: int) -> dict:
-    """The cure tracking ``seed``'s kidnap drive from the known start: recovered (locked on at the end),
-    the time (s) from the kidnapping to the step from which it stays locked on (NaN if not recovered)."""
+def poor_fit_global_row(seed: int) -> dict:
+    """:func:`global_row` with the variant :data:`pfcourse.maprobot.global_mcl.POOR_FIT`."""
+    return global_row(seed, POOR_FIT)
+
+
+def poor_fit_kidnap_row(seed: int) -> dict:
+    """:func:`kidnap_row` with the variant :data:`pfcourse.maprobot.global_mcl.POOR_FIT`."""
+    return kidnap_row(seed, POOR_FIT)
+
+
+def kidnap_row(seed: int, settings: GlobalSettings = SETTINGS) -> dict:
+    """The cure (``settings``) tracking ``seed``'s kidnap drive from the known start: recovered (locked on
+    at the end), the time (s) from the kidnapping to the step from which it stays locked on (NaN if not
+    recovered)."""
     run = study.simulate(seed, study.KIDNAP_STEPS, kidnap_at=study.KIDNAP_STEP)
     res = global_mcl(study.book_map(), study.field(), study.MOTION, run.scans, run.drive.odometry, filter_rng(seed),
-                     start=run.truth[0])
+                     settings, start=run.truth[0])
     pos, head = position_error(run.truth, res.mean), heading_error(run.truth, res.mean)
     recovered = lock_on.locked_on(pos, head, study.DT, HEADING_TOL)
     start = lock_on.locked_from(pos, head, study.DT, HEADING_TOL)
