@@ -234,7 +234,7 @@ glue_values("terrain_move_", tolerance=TOLERANCE, sd_x=float(np.std(ours[:, 0] -
 # (the first five readings brought in as likelihoods raised to powers $\lambda_j$ summing to $1$,
 # each the largest keeping the effective sample size at $N/2$, with resampling and a kernel move
 # between stages), and $Q_f$ scaled like every other horizontal length (divided by $3$). Cost is
-# counted here in **likelihood evaluations** ($N$ per reading, plus one per extra stage), relative
+# counted here in **likelihood evaluations** ($N$ per reading, plus $N$ per extra stage), relative
 # to the bootstrap filter with $N = 30\,000$; processor time comes after. Each setting is compared
 # with the baseline flight by flight (the tests are in the evidence block).
 
@@ -300,7 +300,7 @@ glue_values("terrain_", best_diverged=float(table.loc[best, "lost rate"]), best_
 EvidenceBlock(
     f"the {best} filter loses the fewest flights at no more likelihood evaluations than the bootstrap filter "
     "with N = 30 000",
-    notes=[f"{len(runs)} flights, the same for every setting (regularised h=1 was run on flights 0-11 only). Cost: "
+    notes=[f"{len(runs)} flights, the same for every setting. Cost: "
            "likelihood evaluations relative to the bootstrap filter with N = 30 000; the wall time per flight was "
            "measured on a shared machine and is indicative only. McNemar: exact test on the flights lost by one "
            "setting and not the baseline; Wilcoxon: signed-rank test of the final errors on the flights both "
@@ -757,8 +757,7 @@ EvidenceBlock(
 # ## A reference posterior for five flights
 #
 # A reference posterior says what the exact filter would answer on a given flight. Here the reference is the bootstrap filter (no
-# kernel, no tempering: consistent as $N$ grows) run with so many particles that **doubling $N$
-# changes nothing**: $N = 5 \times 10^5$ and $10^6$, two independent seeds each, on flights $0$ to
+# kernel, no tempering: consistent as $N$ grows) run with as many particles as the book can afford: $N = 5 \times 10^5$ and $10^6$, two independent seeds each, on flights $0$ to
 # $4$ (`python3 tasks.py study terrain_reference`). Distances between posterior means are measured
 # in units of the posterior's own spread at the final step,
 # $\sigma = \sqrt{\operatorname{var} x + \operatorname{var} y}$.
@@ -793,7 +792,7 @@ glue_values("terrain_ref_", doubling_max=float(ref_table["N doubled, same seed (
             far=int((ref_table["truth to reference (m)"] > 500).sum()),
             lost_rule_sd=float((500 / ref_table["posterior sd (m)"]).min()))
 EvidenceBlock(
-    "the reference is settled to a tenth of the posterior's spread",
+    "how far the reference itself moves with N and the seed",
     notes=["Five flights fixed in advance (the first five): an illustration, not a study."],
     tables=[("Distances between final posterior means, in posterior standard deviations", ref_table,
              {c: ".2f" for c in ref_table.columns if c != "flight"})],
@@ -803,7 +802,7 @@ EvidenceBlock(
 # With $10^6$ particles the two seeds' final means are at most
 # {glue:text}`terrain_ref_seeds_max:.2f` posterior standard deviations apart, and doubling $N$ at a
 # fixed seed moves the mean by at most {glue:text}`terrain_ref_doubling_max:.2f`: the reference is
-# settled. The regularised filter with $N = 30\,000$ ends a median
+# settled to about that much, no better. The regularised filter with $N = 30\,000$ ends a median
 # {glue:text}`terrain_ref_filter_median:.2f` posterior standard deviations from it (at most
 # {glue:text}`terrain_ref_filter_max:.2f`): its own error, Monte Carlo and kernel, is of the same
 # order as the posterior's spread on these flights, not negligible beside it.

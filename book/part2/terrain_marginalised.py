@@ -570,7 +570,8 @@ def point_mass(readings, d, terrain, cell, sd0, drift, R):
     ex, ey = np.meshgrid(e, e)
     w = np.exp(-0.5 * (ex**2 + ey**2) / sd0**2)  # the prior N(0, sd0^2 I)
     w /= w.sum()
-    # the drift as a discrete Gaussian kernel, variance drift^2 / cell^2 cells^2
+    # the drift as a discrete Gaussian kernel: I_n(t) e^(-t) for cells
+    # n = -3..3 (scipy's ive) has variance t = drift^2 / cell^2 cells^2
     kernel = special.ive(np.arange(-3, 4), drift**2 / cell**2)
     means = []
     for k, y in enumerate(readings):
@@ -745,7 +746,7 @@ for shift, (remedy, color) in zip((-0.2, 0.0, 0.2), zip(MAP_BIAS_REMEDIES, ("tab
     rates = [evidence.rate(mb_lost[f"{rate}: {remedy}"]) for rate in MAP_BIAS_RATES]
     est = np.array([r.estimate for r in rates])
     ax.errorbar(np.arange(2) + shift, est, yerr=[est - [r.low for r in rates], [r.high for r in rates] - est],
-                fmt="o", capsize=3, color=color, label=remedy)
+                fmt="o", capsize=3, color=color, label="no remedy" if remedy == "marginalised" else remedy)
 ax.set_xticks([0, 1], list(MAP_BIAS_RATES))
 ax.set_xlim(-0.6, 1.6)
 ax.set_ylabel("share of the flights lost")
