@@ -491,6 +491,12 @@ STUDIES: dict[str, Study] = {study.name: study for study in [
           ("long", sps.long_row, sps.LONG_GRIDS, sps.LONG_COLUMNS,
            lambda t: t["T"] == 50, {"N": sps.LONG_N, "long_data": f"{sps.LONG_K} steps, seed {sps.DATA_SEED}"}),
       ]),
+    Study(name="static_parameters/long_big", row=sps.long_row, grid=sps.LONG_BIG_GRID, n_runs=sps.N_RUNS, seeds="run",
+          failures="raise", table="static_parameters/long_big.csv", provenance="static_parameters/long_big.json",
+          columns=sps.LONG_BIG_COLUMNS, sample=1,  # about 7 s a row
+          row_code="pfcourse/experiments/static_parameters_study.py (long_row), pfcourse/static_parameters.py",
+          fields={**sps.PROVENANCE, "long_data": f"{sps.LONG_K} steps, seed {sps.DATA_SEED}",
+                  "pairing": "run r has the seed of run r of static_parameters/long"}),
     Study(name="static_parameters/smc2", row=sps.main_row, grid=sps.SMC2_GRID, n_runs=sps.SMC2_RUNS, seeds="run",
           failures="raise", table="static_parameters/smc2.csv", provenance="static_parameters/smc2.json",
           columns=sps.MAIN_COLUMNS, sample=1,  # about 2 s a row

@@ -10,7 +10,7 @@ Kalman likelihood on a grid of ``log theta``.
 - :func:`main_row`: the three samplers on the chapter's ``K = 50`` steps;
 - :func:`long_row`: Liu-West and the sufficient-statistic filter on the first ``T`` steps of a
   longer simulation (seed 7, ``LONG_K`` steps), where path degeneracy of the statistics shows
-  (``LONG_N`` particles).
+  (``LONG_N`` particles; the study ``long_big`` repeats Liu-West at ``T = 400`` with 5000).
 
 Run ``r`` has seed ``r``: every sampler draws from ``numpy.random.default_rng(r)`` (common
 random numbers across the samplers of one run).
@@ -41,6 +41,10 @@ LONG_K = 400
 LONG_GRIDS = ({"method": ["storvik"], "T": [50, 400]}, {"method": ["liu_west"], "T": [400]})
 LONG_T = [50, 400]
 LONG_N = 1000
+#: Liu-West on the long data with five times the particles (static_parameters/long_big): does N shrink its error?
+LONG_BIG_GRID = {"method": ["liu_west"], "T": [400], "n": [5000]}
+LONG_BIG_COLUMNS = ("method", "T", "n", "run", "seed", "status", "mean", "sd", "exact_mean", "exact_sd", "error",
+                    "sd_ratio", "evaluations", "ancestors", "seconds")
 U_GRID_MAIN = np.linspace(np.log(0.3), np.log(2.5), 61)
 U_GRID_LONG = np.linspace(np.log(0.4), np.log(2.2), 121)
 MAIN_COLUMNS = ("method", "n", "run", "seed", "status", "mean", "sd", "exact_mean", "exact_sd", "error", "sd_ratio",
