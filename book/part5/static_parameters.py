@@ -19,7 +19,7 @@
 # **You need** {doc}`likelihood` (the likelihood estimate, PMMH) and {doc}`../part1/sir`
 # (resampling, the static landmarks); the inverse-gamma distribution; NumPy.
 #
-# **Time:** about twenty-three minutes to read; the notebook runs in about half a minute (its
+# **Time:** about twenty-four minutes to read; the notebook runs in about half a minute (its
 # studies over many runs are stored data).
 # :::
 
@@ -578,12 +578,13 @@ EvidenceBlock(
 # Liu-West fares worse over the long run: after {glue:text}`long_t:d` steps its posterior is
 # {glue:text}`lw_long_sd_ratio:.2f` times as wide as the exact one, and its median error
 # {glue:text}`lw_long_error:.2f` exact standard deviations: it is too sure of a wrong value.
-# The kernel keeps the cloud's variance, so the narrowing comes from resampling, which copies a
-# few values faster than the small jitter separates them. With
-# $N =$ {glue:text}`lw_big_n:d` particles the median error is {glue:text}`lw_long_big_error:.2f`,
+# The kernel keeps the cloud's variance; what narrows it is resampling, which copies a few values
+# faster than the small jitter separates them, and more particles slow that down. With
+# $N =$ {glue:text}`lw_big_n:d` the median error is {glue:text}`lw_long_big_error:.2f`,
 # a factor {glue:text}`lw_long_shrink:.2f` of that with $N = 1000$, run by run
 # ({glue:text}`lw_long_shrink_low:.2f` to {glue:text}`lw_long_shrink_high:.2f`), and the
-# posterior {glue:text}`lw_long_big_sd_ratio:.2f` times as wide as the exact one.
+# posterior is {glue:text}`lw_long_big_sd_ratio:.2f` times as wide as the exact one. At these $N$
+# most of Liu-West's error is Monte Carlo error, not the kernel's bias.
 #
 # ## Try it
 #
@@ -718,8 +719,9 @@ glue_values(**GLUE)
 # - A static parameter put into the state is never moved: the filter only re-weights the values drawn
 #   from its prior, and the posterior it shows is a few spikes.
 # - Liu and West's shrunk kernel keeps the cloud's mean and variance and separates the copies, but it
-#   changes the model, and over {glue:text}`long_t:d` steps with $N = 1000$ its posterior ends
-#   {glue:text}`lw_long_sd_ratio:.2f` times as wide as the exact one, and off centre.
+#   changes the model a little. Over {glue:text}`long_t:d` steps with $N = 1000$ its posterior
+#   ends {glue:text}`lw_long_sd_ratio:.2f` times as wide as the exact one, and off centre;
+#   five times more particles shrink the error, so here too $N$ must grow with the data.
 # - When the parameter is conjugate given the path, each particle can carry a sufficient statistic
 #   and integrate the parameter out (Storvik, Fearnhead): exact and cheap, but the statistics
 #   degenerate with the paths, so $N$ must grow with the length of the data.
