@@ -295,11 +295,13 @@ EvidenceBlock(
 #
 # Their $\hat R$ (next section) is {glue:text}`pgas_rhat:.3f`, and
 # {glue:text}`pgas_rhat_no_as:.3f` without ancestor sampling: both above the threshold of
-# {glue:text}`rhat_max:.2f`, so these chains are too short to be called converged. Per particle,
-# ancestor sampling gives {glue:text}`pgas_as_gain:.2f` times the effective draws of plain
-# conditional SMC ({glue:text}`pgas_as_gain_low:.2f` to {glue:text}`pgas_as_gain_high:.2f`): four
-# chains of {glue:text}`pgas_sweeps:d` sweeps do not separate the two. Degeneracy is mild here:
-# only {glue:text}`pm_measured_steps:d` of the {glue:text}`pm_steps:d` steps are measured, and
+# $1.01$, so these chains are too short to be called converged.
+#
+# Per particle, ancestor sampling gives {glue:text}`pgas_as_gain:.2f` times the effective draws of
+# plain conditional SMC ({glue:text}`pgas_as_gain_low:.2f` to {glue:text}`pgas_as_gain_high:.2f`):
+# four chains of {glue:text}`pgas_sweeps:d` sweeps do not separate the two.
+#
+# Degeneracy is mild here: only {glue:text}`pm_measured_steps:d` of the {glue:text}`pm_steps:d` steps are measured, and
 # conditional SMC resamples only at those.
 #
 # ## Several chains: $\hat R$ and the effective sample size
@@ -442,10 +444,13 @@ plt.show()
 #
 # On the landmark model, whose state has six coordinates, the Hilbert-sorted filter with
 # $N = 200$ keeps only {glue:text}`landmark_corr:.2f` ({glue:text}`landmark_corr_low:.2f` to
-# {glue:text}`landmark_corr_high:.2f`, over $40$ pairs) at $\rho = 0.99$, and moving $\rho$ closer
-# to $1$ does not bring the correlation back: at $\rho =$ {glue:text}`landmark_top_rho:.4f` it is
-# {glue:text}`landmark_corr_top:.2f` ({glue:text}`landmark_corr_top_low:.2f` to
-# {glue:text}`landmark_corr_top_high:.2f`). The estimate is not continuous in $U$: in six
+# {glue:text}`landmark_corr_high:.2f`, over $40$ pairs) at $\rho = 0.99$.
+#
+# Moving $\rho$ closer to $1$ does not bring the correlation back: at
+# $\rho =$ {glue:text}`landmark_top_rho:.4f` it is {glue:text}`landmark_corr_top:.2f`
+# ({glue:text}`landmark_corr_top_low:.2f` to {glue:text}`landmark_corr_top_high:.2f`).
+#
+# The estimate is not continuous in $U$: in six
 # dimensions neighbours along the curve are often far apart in space, and one particle that
 # changes its parent shifts the ranks, and so the normals, of many others, at each of the
 # {glue:text}`pm_measured_steps:d` measured steps. This is why common random numbers stop
@@ -615,7 +620,9 @@ EvidenceBlock(
 #
 # At $N = 100$ the chains disagree,
 # $\hat R =$ {glue:text}`pmmh_rhat_100:.2f`: a single chain there would have reported a posterior
-# it had not explored. No setting passes the threshold of {glue:text}`rhat_max:.2f`, not even the
+# it had not explored.
+#
+# No setting passes the threshold of $1.01$, not even the
 # best $N$ ($\hat R =$ {glue:text}`pmmh_rhat_best:.3f`); the lowest is
 # {glue:text}`pmmh_rhat_min:.3f` at $N =$ {glue:text}`pmmh_rhat_min_n:d`. The chains are too
 # short to be called converged, and their effective draws are rough counts.

@@ -490,7 +490,9 @@ EvidenceBlock(
 # statistics) and {glue:text}`smc2_bias:.2f` (SMC²) standard deviations, intervals in the folded
 # table. The exact samplers are exact only in the limit: the sufficient statistics' bias shrinks
 # from $N = 1000$ to $N = 5000$, and SMC² with only $N_\vartheta = 100$ values is as biased as
-# Liu-West. Its median error is {glue:text}`s2_vs_lw:.2f` times Liu-West's, run by run
+# Liu-West.
+#
+# SMC²'s median error is {glue:text}`s2_vs_lw:.2f` times Liu-West's, run by run
 # ({glue:text}`s2_vs_lw_low:.2f` to {glue:text}`s2_vs_lw_high:.2f`): the runs do not separate the two.
 #
 # They do not cost the same. The sufficient statistics evaluate $N$ measurement densities per
@@ -579,12 +581,14 @@ EvidenceBlock(
 # {glue:text}`lw_long_sd_ratio:.2f` times as wide as the exact one, and its median error
 # {glue:text}`lw_long_error:.2f` exact standard deviations: it is too sure of a wrong value.
 # The kernel keeps the cloud's variance; what narrows it is resampling, which copies a few values
-# faster than the small jitter separates them, and more particles slow that down. With
-# $N =$ {glue:text}`lw_big_n:d` the median error is {glue:text}`lw_long_big_error:.2f`,
+# faster than the small jitter separates them, and more particles slow that down.
+#
+# With five times the particles the median error is {glue:text}`lw_long_big_error:.2f`,
 # a factor {glue:text}`lw_long_shrink:.2f` of that with $N = 1000$, run by run
-# ({glue:text}`lw_long_shrink_low:.2f` to {glue:text}`lw_long_shrink_high:.2f`), and the
-# posterior is {glue:text}`lw_long_big_sd_ratio:.2f` times as wide as the exact one. At these $N$
-# most of Liu-West's error is Monte Carlo error, not the kernel's bias.
+# ({glue:text}`lw_long_shrink_low:.2f` to {glue:text}`lw_long_shrink_high:.2f`).
+#
+# Its posterior is then {glue:text}`lw_long_big_sd_ratio:.2f` times as wide as the exact one. At
+# these $N$ most of Liu-West's error is Monte Carlo error, not the kernel's bias.
 #
 # ## Try it
 #
@@ -640,11 +644,13 @@ EvidenceBlock(
 # %% [markdown]
 # A second implementation: on a scalar model, the SMC² of Chopin's `particles` library has its
 # posterior mean {glue:text}`particles_error:.2f` exact standard deviations from the exact one, on
-# average over its {glue:text}`particles_runs:d` seeds ({glue:text}`particles_error_low:.2f` to
+# average over its seeds ({glue:text}`particles_error_low:.2f` to
 # {glue:text}`particles_error_high:.2f`); the chapter's SMC² gives {glue:text}`pf_smc2_error:.2f`
-# on the same data. The two differ by {glue:text}`pf_minus_particles:.2f`
-# ({glue:text}`pf_minus_particles_low:.2f` to {glue:text}`pf_minus_particles_high:.2f`): so few
-# seeds do not separate them, and differences beyond that interval are excluded by the data.
+# on the same data.
+#
+# The two differ by {glue:text}`pf_minus_particles:.2f`
+# ({glue:text}`pf_minus_particles_low:.2f` to {glue:text}`pf_minus_particles_high:.2f`): their
+# {glue:text}`particles_runs:d` seeds each do not separate them, and differences beyond that interval are excluded by the data.
 #
 # ## Exercises
 #
