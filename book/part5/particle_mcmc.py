@@ -431,7 +431,7 @@ lm_c = np.array([lm_by_rho[rho] for rho in pm.PAIR_RHOS])
 ax.errorbar(1 - np.array(pm.PAIR_RHOS), lm_c[:, 0], yerr=[lm_c[:, 0] - lm_c[:, 1], lm_c[:, 2] - lm_c[:, 0]], fmt="s--",
             ms=5, color=COLORS["kalman"], label="landmark model (6-D), Hilbert", capsize=2)
 ax.set(xscale="log", xlabel="1 − ρ  (ρ = 0 at the right)", ylabel="corr(log p̂(U), log p̂(U'))", ylim=(-0.35, 1.05))
-plain_log_axis(ax, "x")
+plain_log_axis(ax, "x", subs=(1.0,))
 ax.legend(loc="lower left", fontsize=8)
 plt.show()
 
