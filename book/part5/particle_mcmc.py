@@ -389,11 +389,11 @@ assert engine_same  # the prose: the NumPy filter is pfcourse.correlated's, norm
 RHOS, PAIRS = (0.0, 0.9, 0.99, 0.999), 100  # the prose says 100 pairs
 
 
-def pair_correlation(rho, sort, seed, pairs=PAIRS):
+def pair_correlation(rho, sort, seed, pairs=PAIRS, n=50):
     r = np.random.default_rng([seed, int(rho * 1000), sort])
     a, b = [], []
     for _ in range(pairs):
-        u0 = r.standard_normal((30, 51))
+        u0 = r.standard_normal((30, n + 1))
         a.append(log_p_hat(u0, z, sort))
         b.append(log_p_hat(cn(u0, rho, r), z, sort))
     return np.array(a), np.array(b)
@@ -513,24 +513,26 @@ EvidenceBlock(
 #
 # ### Try it
 #
-# The panel draws the two estimates of each pair on the scalar walk for a $\rho$ and with or
-# without sorting. The closer the dots lie to the diagonal, the less noise reaches the acceptance
-# ratio.
+# The panel draws the two estimates of each pair on the scalar walk, sorted and unsorted, for a
+# $\rho$ and a number of particles. The closer the dots lie to the diagonal, the less noise
+# reaches the acceptance ratio.
 
 # %% tags=["nbval-ignore-output", "hide-input"] jupyter={"source_hidden": true}
-def draw_pairs(rho, order):
-    a, b = pair_correlation(rho, order == "sorted", 5, pairs=40)
+def draw_pairs(rho, n):
     fig, ax = plt.subplots(figsize=(4.5, 3.5), constrained_layout=True)
-    ax.plot(a, b, "o", ms=3, color=COLORS["estimate"])
-    lims = [min(a.min(), b.min()), max(a.max(), b.max())]
-    ax.plot(lims, lims, color="0.5", lw=0.8)
-    ax.set(xlabel="log p̂(U) (nats)", ylabel="log p̂(U') (nats)",
-           title=f"ρ = {rho}, {order}: correlation {np.corrcoef(a, b)[0, 1]:.2f}")
+    lims = []
+    for order, color in (("sorted", COLORS["estimate"]), ("unsorted", COLORS["robot"])):
+        a, b = pair_correlation(rho, order == "sorted", 5, pairs=40, n=n)
+        ax.plot(a, b, "o", ms=3, color=color, label=f"{order}: corr. {np.corrcoef(a, b)[0, 1]:.2f}")
+        lims += [min(a.min(), b.min()), max(a.max(), b.max())]
+    ax.plot([min(lims), max(lims)], [min(lims), max(lims)], color="0.5", lw=0.8)
+    ax.set(xlabel="log p̂(U) (nats)", ylabel="log p̂(U') (nats)", title=f"ρ = {rho}, N = {n}")
+    ax.legend(loc="upper left", fontsize=8)
 
 
-display(control_panel(draw_pairs, columns=2, grid={"rho": (0.9, 0.99, 0.999), "order": ("sorted", "unsorted")},
+display(control_panel(draw_pairs, columns=2, grid={"rho": (0.9, 0.99, 0.999), "n": (25, 50, 100)},
                       rho=Dropdown(options=[0.9, 0.99, 0.999], value=0.99, description="ρ"),
-                      order=Dropdown(options=["sorted", "unsorted"], value="sorted", description="order")))
+                      n=Dropdown(options=[25, 50, 100], value=50, description="particles N")))
 
 # %% [markdown]
 # ## How many particles, measured on several chains
