@@ -13,6 +13,7 @@ import itertools
 import numpy as np
 import pytest
 from scipy import signal, stats
+from scipy.special import logsumexp
 
 from pfcourse import StateSpaceModel
 from pfcourse.correlated import (NormalStream, correlated_log_likelihood, crank_nicolson, hilbert_keys,
@@ -51,8 +52,8 @@ def _exact_posterior():
     return paths, p / p.sum()
 
 
-def _kernel_output(n_draws, proposal_class=AncestorSamplingProposal, n_particles=2, seed=0):
-    """Start each sweep from a path drawn from the exact posterior; count the paths CSMC-AS returns."""
+def _kernel_output(n_draws, proposal_class=AncestorSamplingProposal, n_particles=2, seed=0, ancestor_sampling=True):
+    """Start each sweep from a path drawn from the exact posterior; count the paths CSMC(-AS) returns."""
     import pfcourse.csmc as csmc
 
     paths, post = _exact_posterior()
@@ -63,7 +64,7 @@ def _kernel_output(n_draws, proposal_class=AncestorSamplingProposal, n_particles
     try:
         for start in rng.choice(len(paths), n_draws, p=post):
             ref = np.array(paths[start])[:, None]
-            new = conditional_smc(model, Z2, n_particles, ref, rng).path[:, 0]
+            new = conditional_smc(model, Z2, n_particles, ref, rng, ancestor_sampling).path[:, 0]
             counts[paths.index(tuple(new))] += 1
     finally:
         csmc.AncestorSamplingProposal = original
@@ -74,6 +75,28 @@ def test_pgas_leaves_the_exact_posterior_invariant():
     # If x* ~ p(x | z), one CSMC-AS sweep returns x' ~ p(x | z): a chi-square test of the counts
     counts, post = _kernel_output(4000)
     assert stats.chisquare(counts, counts.sum() * post).pvalue > 1e-3
+
+
+def test_plain_csmc_leaves_the_exact_posterior_invariant():
+    # the same enumerated test for conditional SMC without ancestor sampling (the stored no-AS chains)
+    counts, post = _kernel_output(4000, ancestor_sampling=False, seed=1)
+    assert stats.chisquare(counts, counts.sum() * post).pvalue > 1e-3
+
+
+class _ReferenceDroppedAtResampling(AncestorSamplingProposal):
+    """A typical mistake of plain CSMC: the reference's ancestor drawn like the others' (not kept at 0)."""
+
+    def propose_with_ancestors(self, model, particles, z, k, rng, log_weights=None):
+        n = len(particles)
+        log_weights = np.full(n, -np.log(n)) if log_weights is None else np.asarray(log_weights, dtype=float)
+        ancestors = rng.choice(n, n, p=np.exp(log_weights - logsumexp(log_weights)))
+        new = model.sample_transition(particles[ancestors], k, rng)
+        return new, model.log_likelihood(new, z, k), ancestors
+
+
+def test_the_plain_csmc_test_detects_a_reference_that_loses_its_past():
+    counts, post = _kernel_output(4000, _ReferenceDroppedAtResampling, ancestor_sampling=False, seed=1)
+    assert stats.chisquare(counts, counts.sum() * post).pvalue < 1e-6
 
 
 class _AncestorsByWeightOnly(AncestorSamplingProposal):

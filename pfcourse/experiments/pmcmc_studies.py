@@ -11,6 +11,8 @@ as R-hat needs).
   measured step) for each ``N`` in ``N_TUNING``;
 * ``correlated``: PMMH with the filter's normals moved by Crank-Nicolson (``rho > 0``) or drawn
   afresh (``rho = 0``), the same Hilbert-sorted estimator (:mod:`pfcourse.correlated`);
+* ``pairs``: no chain, pairs of estimates before and after a Crank-Nicolson move of the normals
+  for each ``rho`` in ``PAIR_RHOS`` (the correlation the correlated chains can use);
 * ``pgas``: particle Gibbs, conditional SMC with and without ancestor sampling, then the noise
   scale from its inverse-gamma conditional (:mod:`pfcourse.csmc`).
 
@@ -23,7 +25,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from pfcourse.correlated import correlated_log_likelihood, normals_needed
+from pfcourse.correlated import correlated_log_likelihood, crank_nicolson, normals_needed
 from pfcourse.csmc import noise_scale_draw, particle_gibbs
 from pfcourse.experiments.likelihood import pf_log_likelihood, scaled_model
 from pfcourse.experiments.likelihood_studies import BOUNDS, DATA_SEED, PRIOR, SCENARIO, SCENARIO_TEXT, chapter_data
@@ -38,6 +40,8 @@ N_CORRELATED, RHOS = 200, [0.0, 0.99]
 N_PGAS, PGAS_SWEEPS = 50, 400
 CHECK_ITERATIONS = 20
 SEEDS = {"tuning": 43, "correlated": 44, "pgas": 45}
+#: the correlation of the Hilbert-sorted estimate before and after a Crank-Nicolson move, on the landmark model
+PAIR_RHOS, PAIR_RUNS, PAIR_SEED = [0.99, 0.999, 0.9999], 40, 46
 
 
 def _start(rng: np.random.Generator) -> float:
@@ -84,6 +88,19 @@ def pgas_row(seed: int, ancestor_sampling: bool, iterations: int, n_particles: i
     return _chain_columns(theta0, chain.theta)
 
 
+def pair_row(seed: int, rho: float, n_particles: int = N_CORRELATED) -> dict:
+    """One pair of Hilbert-sorted estimates at theta = 1: log p^(U) and log p^(U') with U' = rho U + sqrt(1 - rho^2) e.
+
+    ``U`` and ``e`` come from ``default_rng(seed)`` in that order, so the pairs of one seed share them across rho.
+    """
+    Z = chapter_data().measurements
+    model = SCENARIO.model()
+    rng = np.random.default_rng(seed)
+    u = rng.standard_normal(normals_needed(model.dim_x, n_particles, len(Z)))
+    return {"log_p": correlated_log_likelihood(model, Z, n_particles, u),
+            "log_p_moved": correlated_log_likelihood(model, Z, n_particles, crank_nicolson(u, rho, rng))}
+
+
 PROVENANCE_FIELDS = {
     "tuning": {"scenario": SCENARIO_TEXT, "data_seed": DATA_SEED, "prior": f"flat in log theta on {BOUNDS}",
                "start": f"log-uniform on {START}, drawn from the chain's generator", "step_log_theta": STEP,
@@ -92,6 +109,11 @@ PROVENANCE_FIELDS = {
                    "start": f"log-uniform on {START}", "step_log_theta": STEP, "n_particles": N_CORRELATED,
                    "filter": "bootstrap on pfcourse.correlated.NormalStream, clouds in Hilbert order, systematic "
                              "resampling at every measured step; rho = 0: fresh normals at every proposal"},
+    "pairs": {"scenario": SCENARIO_TEXT, "data_seed": DATA_SEED, "theta": 1.0, "n_particles": N_CORRELATED,
+              "estimator": "pfcourse.correlated.correlated_log_likelihood (Hilbert order, systematic resampling at "
+                           "every measured step)",
+              "seeds": f"pair r: numpy.random.default_rng({PAIR_SEED} + r) draws U, then the Crank-Nicolson normals; "
+                       "the same U and normals for every rho"},
     "pgas": {"scenario": SCENARIO_TEXT, "data_seed": DATA_SEED, "prior": f"flat in log theta on {BOUNDS}",
              "start": f"log-uniform on {START}; first path from an unconditional run", "n_particles": N_PGAS,
              "theta_given_path": "inverse-gamma(m/2, S/2) truncated to the prior's support"},

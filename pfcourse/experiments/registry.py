@@ -538,6 +538,12 @@ STUDIES: dict[str, Study] = {study.name: study for study in [
           ("long", sps.long_row, sps.LONG_GRIDS, sps.LONG_COLUMNS,
            lambda t: t["T"] == 50, {"N": sps.LONG_N, "long_data": f"{sps.LONG_K} steps, seed {sps.DATA_SEED}"}),
       ]),
+    Study(name="static_parameters/long_big", row=sps.long_row, grid=sps.LONG_BIG_GRID, n_runs=sps.N_RUNS, seeds="run",
+          failures="raise", table="static_parameters/long_big.csv", provenance="static_parameters/long_big.json",
+          columns=sps.LONG_BIG_COLUMNS, sample=1,  # about 7 s a row
+          row_code="pfcourse/experiments/static_parameters_study.py (long_row), pfcourse/static_parameters.py",
+          fields={**sps.PROVENANCE, "long_data": f"{sps.LONG_K} steps, seed {sps.DATA_SEED}",
+                  "pairing": "run r has the seed of run r of static_parameters/long"}),
     Study(name="static_parameters/smc2", row=sps.main_row, grid=sps.SMC2_GRID, n_runs=sps.SMC2_RUNS, seeds="run",
           failures="raise", table="static_parameters/smc2.csv", provenance="static_parameters/smc2.json",
           columns=sps.MAIN_COLUMNS, sample=1,  # about 2 s a row
@@ -555,6 +561,10 @@ STUDIES: dict[str, Study] = {study.name: study for study in [
           ("pgas", pm.pgas_row, "ancestor_sampling", [True, False], pm.PGAS_SWEEPS, True, ("theta",)))
       for suffix, grid in (("", {key: values, "iterations": [length]}),
                            ("_check", {key: [check], "iterations": [pm.CHECK_ITERATIONS]}))),
+    Study(name="pmcmc/pairs", row=pm.pair_row, grid={"rho": pm.PAIR_RHOS}, n_runs=pm.PAIR_RUNS, seeds="run",
+          base_seed=pm.PAIR_SEED, failures="raise", table="pmcmc/pairs.csv", provenance="pmcmc/pairs.json", sample=1,
+          row_code="pfcourse/experiments/pmcmc_studies.py (pair_row), pfcourse/correlated.py",
+          fields=pm.PROVENANCE_FIELDS["pairs"]),
     Study(name="intel/global", row=intel.global_row, grid={"method": list(intel.METHODS)}, n_runs=intel.N_GLOBAL,
           seeds="run", failures="raise", table="intel/global.csv", provenance="intel/global.json",
           columns=intel.GLOBAL_COLUMNS, sample=1, cheap=lambda t: t["method"] == "uniform",

@@ -9,7 +9,8 @@ Kalman likelihood on a grid of ``log theta``.
 
 - :func:`main_row`: the three samplers on the chapter's ``K = 50`` steps;
 - :func:`long_row`: Liu-West and the sufficient-statistic filter on the first ``T`` steps of a
-  longer simulation (seed 7, ``LONG_K`` steps), where path degeneracy of the statistics shows.
+  longer simulation (seed 7, ``LONG_K`` steps), where path degeneracy of the statistics shows
+  (``LONG_N`` particles; the study ``long_big`` repeats Liu-West at ``T = 400`` with 5000).
 
 Run ``r`` has seed ``r``: every sampler draws from ``numpy.random.default_rng(r)`` (common
 random numbers across the samplers of one run).
@@ -40,6 +41,10 @@ LONG_K = 400
 LONG_GRIDS = ({"method": ["storvik"], "T": [50, 400]}, {"method": ["liu_west"], "T": [400]})
 LONG_T = [50, 400]
 LONG_N = 1000
+#: Liu-West on the long data with five times the particles (static_parameters/long_big): does N shrink its error?
+LONG_BIG_GRID = {"method": ["liu_west"], "T": [400], "n": [5000]}
+LONG_BIG_COLUMNS = ("method", "T", "n", "run", "seed", "status", "mean", "sd", "exact_mean", "exact_sd", "error",
+                    "sd_ratio", "evaluations", "ancestors", "seconds")
 U_GRID_MAIN = np.linspace(np.log(0.3), np.log(2.5), 61)
 U_GRID_LONG = np.linspace(np.log(0.4), np.log(2.2), 121)
 MAIN_COLUMNS = ("method", "n", "run", "seed", "status", "mean", "sd", "exact_mean", "exact_sd", "error", "sd_ratio",
@@ -116,9 +121,9 @@ def main_row(seed: int, method: str, n: int) -> dict:
     return scores
 
 
-def long_row(seed: int, method: str, T: int) -> dict:
-    """One run of ``method`` (N = 1000) on the first ``T`` steps of the long data."""
+def long_row(seed: int, method: str, T: int, n: int = LONG_N) -> dict:
+    """One run of ``method`` (``n`` particles, by default ``LONG_N``) on the first ``T`` steps of the long data."""
     start = time.perf_counter()
-    result = run_sampler(method, LONG_N, long_data(T), np.random.default_rng(seed))
+    result = run_sampler(method, n, long_data(T), np.random.default_rng(seed))
     seconds = time.perf_counter() - start
     return _scores(result, exact(T), seconds)
