@@ -530,7 +530,7 @@ def draw(candidates=500, rounds=3):
 panel = control_panel(
     draw,
     grid={"candidates": (100, 500, 2000)},
-    side={"rounds": (0, 3)},
+    side={"rounds": (0, 1, 3)},
     candidates=SelectionSlider(options=[100, 500, 2000], value=500, description="candidate positions"),
     rounds=SelectionSlider(options=[0, 1, 3], value=3, description="rounds of nudges"),
 )
