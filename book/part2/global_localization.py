@@ -29,10 +29,12 @@
 # chapter makes it work on the same robot, landmarks and noise, and measures what each remedy buys.
 #
 # (gl-locked-on)=
-# **Locked on** is the book's one definition (`pfcourse.metrics.locked_on`, used by every robot
-# chapter and study): a run is locked on if the posterior mean is within $1$ m and $5°$ of the truth
+# **Locked on** (`pfcourse.metrics.locked_on`, the function every robot chapter calls): in the
+# landmark chapters a run is locked on if the posterior mean is within $1$ m and $5°$ of the truth
 # at every step of its last $20$ s. A run that is right at the end by chance, while its estimate
-# still jumps between modes, does not count.
+# still jumps between modes, does not count. This is a stricter convention than the map robot's
+# ({doc}`map_robot` derives its heading tolerance from its odometry noise and allows a few bad
+# steps): a run locked on here is locked on by that rule too, so these rates are on the safe side.
 #
 # :::{admonition} Where the numbers come from
 # :class: dropdown
@@ -790,7 +792,8 @@ print(check_bearing_pose_draw(my_pose_from_bearing))
 #   heuristic that helps after a kidnapping but not at the start.
 # - KLD-sampling saves particles only if its bound lets it; with AMCL's small $\varepsilon$ it keeps
 #   nearly all of them.
-# - Locked on means within $1$ m and $5°$ at every step of the last $20$ s, in every chapter.
+# - Locked on here means within $1$ m and $5°$ at every step of the last $20$ s: stricter than the
+#   map robot's rule, so a run counted here would count there too.
 #
 # :::{admonition} From the labs
 # :class: dropdown

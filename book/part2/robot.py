@@ -401,7 +401,7 @@ HTML(anim_g.to_jshtml())
 # ### Does it lock on?
 #
 # A run is *locked on* when the posterior mean is within $1$ m and $5°$ of the truth at every
-# step of the last $20$ s (`pfcourse.metrics.locked_on`, the book's one definition). Here the
+# step of the last $20$ s (`pfcourse.metrics.locked_on` with the landmark chapters' strict settings). Here the
 # runs last $30$ s, and the same {glue:text}`lock_runs:d` simulated runs are filtered with each $N$:
 # a few runs only, since the large clouds are expensive, so the intervals are wide.
 

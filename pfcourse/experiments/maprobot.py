@@ -118,25 +118,6 @@ def run_filter(run: MapRun, seed: int, n_particles: int, method: str = "bootstra
     return pf.run(run.scans, rng=filter_rng(seed, 0))
 
 
-def global_row(seed: int, method: str, n_particles: int = GLOBAL_N) -> dict:
-    """Global localization (uniform start) by ``method`` (:data:`FILTERS`): locked on, final errors."""
-    run = simulate(seed, GLOBAL_STEPS)
-    pos, head = errors(run.truth, run_filter(run, seed, n_particles, method).mean)
-    return {"locked_on": bool(locked_on(pos, head, DT)), "locked_from_s": locked_from(pos, head) * DT,
-            "final_position_error": float(pos[-1])}
-
-
-def kidnap_row(seed: int, method: str, n_particles: int = KIDNAP_N) -> dict:
-    """Tracking from the known start, the robot carried away at :data:`KIDNAP_STEP`: recovery time (s)
-    from the kidnapping to the step from which the estimate stays locked (NaN if it never recovers)."""
-    run = simulate(seed, KIDNAP_STEPS, kidnap_at=KIDNAP_STEP)
-    pos, head = errors(run.truth, run_filter(run, seed, n_particles, method, start=run.truth[0]).mean)
-    start = locked_from(pos, head)
-    recovered = bool(locked_on(pos, head, DT))
-    return {"recovered": recovered, "recovery_s": (max(start, KIDNAP_STEP) - KIDNAP_STEP) * DT if recovered else np.nan,
-            "tracked_before": bool(np.all(pos[10:KIDNAP_STEP] < 1.0))}
-
-
 def ess_scores(ess: np.ndarray, n_particles: int) -> dict:
     """The ESS after weighting, as a share of ``N``: its mean over the steps after the first and its 10th percentile."""
     share = np.asarray(ess[1:], dtype=float) / n_particles

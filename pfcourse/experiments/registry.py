@@ -407,10 +407,6 @@ STUDIES: dict[str, Study] = {study.name: study for study in [
             fields={"seeds": "run s: drive and scans pfcourse.seeding.data_rng(s, 0); filter filter_rng(s, 0); "
                              "kidnapping kidnap_rng(s)", "dt": maprobot.DT, "inject": maprobot.INJECT})
       for name, row, grid, columns in [
-          ("global", maprobot.global_row, {"method": list(maprobot.FILTERS), "n_particles": [maprobot.GLOBAL_N]},
-           ("method", "n_particles", "seed", "locked_on", "locked_from_s", "final_position_error")),
-          ("kidnap", maprobot.kidnap_row, {"method": ["injection"], "n_particles": [maprobot.KIDNAP_N]},
-           ("method", "n_particles", "seed", "recovered", "recovery_s", "tracked_before")),
           ("tracking", maprobot.tracking_row, {"n_particles": [maprobot.TRACKING_N], "weighting": list(maprobot.WEIGHTINGS)},
            ("weighting", "n_particles", "seed", "position_rmse", "heading_rmse", "locked_on",
             "locked_on_every_step_5deg", "mean_ess_share", "p10_ess_share")),
