@@ -17,7 +17,7 @@
 #
 # **You need** {doc}`robot` and {doc}`../part1/sir`; Gaussian densities; NumPy arrays.
 #
-# **Time:** about twenty-three minutes to read; the notebook runs in about fifteen seconds on a quiet machine
+# **Time:** about twenty-four minutes to read; the notebook runs in about fifteen seconds on a quiet machine
 # (longer on a busy one); its studies are stored, as they take minutes.
 # :::
 #

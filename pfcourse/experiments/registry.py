@@ -48,6 +48,7 @@ from pfcourse.experiments import (maprobot, rb_study, robot_studies, sir_fixes_s
                                   why_it_works)
 from pfcourse.experiments.provenance import append_rerun, launch_commit, write_provenance
 from pfcourse.experiments.robot import pf_run
+from pfcourse.experiments import robot as robot_experiments
 from pfcourse.experiments.store import DATA, load, save
 from pfcourse.experiments.terrain import LOST_FLIGHT
 from pfcourse.experiments.study import grid_settings, run_study
@@ -371,6 +372,12 @@ STUDIES: dict[str, Study] = {study.name: study for study in [
           fields={"scenario": association.SCENARIO, "p_detect": association.P_DETECT,
                   "max_range_m": association.MAX_RANGE, "gate_probability": 0.99,
                   "seeds": "run r: robot and readings from pfcourse.seeding.data_rng(0, r), as data_association"}),
+    Study(name="robot/dead_reckoning", row=robot_experiments.dead_reckoning_row, grid={}, n_runs=100, seeds="run",
+          failures="raise", table="robot/dead_reckoning.csv", provenance="robot/dead_reckoning.json",
+          columns=("seed", "dr_final_m", "pf_final_m", "pf_max_m"), sample=1,
+          row_code="pfcourse/experiments/robot.py (dead_reckoning_row)",
+          fields={"seeds": "run s: simulate_robot(rng=s), filter run_filter_seed(s)",
+                  "filter": "bootstrap, N = 300, threshold 0.5, systematic"}),
     Study(name="robot_consistency_fixes", row=comparison.consistency_fix_row,
           grid={"setting": list(comparison.CONSISTENCY_FIXES)}, n_runs=100, seeds="run", failures="raise",
           table="robot_consistency_fixes.csv", provenance="robot_consistency_fixes.json",
