@@ -1,4 +1,5 @@
-"""Studies of the map robot (chapter *A robot on a map*): tracking, global localization, the kidnapped robot.
+"""Studies of the map robot (chapter *A robot on a map*): tracking, AMCL's cubes, KLD-sampling, the sensor cost;
+the drives (with an optional kidnapping) are also those of *Global localization on the map*.
 
 Every run ``seed`` drives the book's map (:func:`pfcourse.maprobot.grid.rooms_and_corridor`) along
 :data:`pfcourse.maprobot.grid.ROUTE` from a waypoint drawn from the run's data stream
@@ -26,7 +27,7 @@ from pfcourse.maprobot.motion import Drive, OdometryModel, simulate_drive
 from pfcourse.maprobot.scanner import Scanner
 from pfcourse.maprobot import lock_on
 from pfcourse.maprobot.amcl import CubesLikelihoodField
-from pfcourse.metrics import heading_error, locked_from, locked_on, position_error
+from pfcourse.metrics import heading_error, locked_on, position_error
 from scipy import stats
 from pfcourse.seeding import data_rng, filter_rng, kidnap_rng
 from pfcourse import metrics
