@@ -581,7 +581,9 @@ EvidenceBlock(
 # of {glue:text}`kidnap_runs:d` runs, with a median recovery time of
 # {glue:text}`kidnap_recovery_median_s:.0f` s: the teleport hypothesis explains the first reading after
 # the kidnapping better than the odometry particles can, and the next readings cut the new ring down to
-# one pose. Augmented MCL, on the same runs, recovers in {glue:text}`kidnap_aug_rate:.2f`: after a
+# one pose.
+#
+# Augmented MCL, on the same runs, recovers in {glue:text}`kidnap_aug_rate:.2f`: after a
 # kidnapping its injection is the better remedy. The bootstrap filter recovers in
 # {glue:text}`kidnap_boot_rate:.2f`: its estimate drifts off as a confident, wrong track. Recovery
 # is not always quick: the mean recovery time of the mixture is {glue:text}`kidnap_recovery_mean_s:.0f` s

@@ -384,6 +384,7 @@ EvidenceBlock(
 #
 # By this rule tracking locks on in {glue:text}`lf_tracking_lock_on_rate:.0%` of the drives
 # ({glue:text}`lf_tracking_lock_on_rate_low:.0%`-{glue:text}`lf_tracking_lock_on_rate_high:.0%`).
+#
 # The tolerance is generous: {glue:text}`lf_tolerance_over_heading_rmse:.0f` times the heading RMSE
 # of these tracking runs. It need not be tight, since what it must reject is a filter in a twin room,
 # which is off by $180°$ or by $5$ m or more. The landmark chapters use the same function
@@ -573,7 +574,9 @@ EvidenceBlock(
 # every look-up of the field. This book's NumPy marches every beam to $z_{\max}$ instead
 # ({glue:text}`lf_beam_cells_per_lookup:.0f` quarter-cell steps a beam) and takes
 # {glue:text}`lf_beam_cost_ratio:.0f` times the field's time per scan on $300$ particles: a bound
-# for this code, not the model's cost. Each model is wrong somewhere. The field ignores what lies
+# for this code, not the model's cost.
+#
+# Each model is wrong somewhere. The field ignores what lies
 # between the robot and the end point, so it scores a pose whose beams would have been stopped by
 # a wall as if they had not been (it "sees through walls"; this chapter does not measure how often
 # that matters). The beam model knows occlusion. Along a line through the truth (figure below),

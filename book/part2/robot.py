@@ -251,9 +251,10 @@ EvidenceBlock(
 # %% [markdown]
 # The estimate lies on the true path; dead reckoning does not. Over $100$ seeded runs, dead
 # reckoning ends a median {glue:text}`dr_final_m:.1f` m
-# ({glue:text}`dr_final_low_m:.1f`-{glue:text}`dr_final_high_m:.1f`) from the true position. The
-# filter, run on the same $100$ simulations, ends a median {glue:text}`pf_final_m:.2f` m from it,
-# and closer than dead reckoning in {glue:text}`pf_closer_runs:d` of them.
+# ({glue:text}`dr_final_low_m:.1f`-{glue:text}`dr_final_high_m:.1f`) from the true position.
+#
+# The filter, run on the same $100$ simulations, ends a median {glue:text}`pf_final_m:.2f` m from
+# it, and closer than dead reckoning in {glue:text}`pf_closer_runs:d` of them.
 #
 # The package's engine (`ParticleFilter`), which the next chapters call, runs this
 # very loop: with the same seed its means agree with these to round-off (below
