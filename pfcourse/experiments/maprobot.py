@@ -127,13 +127,16 @@ def ess_scores(ess: np.ndarray, n_particles: int) -> dict:
 
 def tracking_row(seed: int, n_particles: int = TRACKING_N, weighting: str = "product") -> dict:
     """Tracking from the known start (bootstrap), beams combined by ``weighting``: position RMSE (m),
-    heading RMSE (rad), locked on (:func:`pfcourse.maprobot.lock_on.locked_on`), the ESS (share of N)."""
+    heading RMSE (rad), locked on (:func:`pfcourse.maprobot.lock_on.locked_on`), the largest heading error
+    (rad) over the steps the rule looks at (the last ``lock_on.WINDOW_S``), the ESS (share of N)."""
     run = simulate(seed, TRACKING_STEPS)
     res = run_filter(run, seed, n_particles, start=run.truth[0], weighting=weighting)
     pos, head = errors(run.truth, res.mean)
     return {"position_rmse": float(metrics.rmse(pos)), "heading_rmse": float(metrics.rmse(head)),
             "locked_on": bool(lock_on.locked_on(pos, head, DT)),
-            "locked_on_every_step_5deg": bool(locked_on(pos, head, DT)), **ess_scores(res.ess, n_particles)}
+            "locked_on_every_step_5deg": bool(locked_on(pos, head, DT)),
+            "max_window_heading_error": float(np.max(head[-int(np.ceil(lock_on.WINDOW_S / DT - 1e-9)):])),
+            **ess_scores(res.ess, n_particles)}
 
 
 def amcl_global_row(seed: int, weighting: str, method: str = "injection", n_particles: int = GLOBAL_N) -> dict:

@@ -416,7 +416,7 @@ STUDIES: dict[str, Study] = {study.name: study for study in [
       for name, row, grid, columns in [
           ("tracking", maprobot.tracking_row, {"n_particles": [maprobot.TRACKING_N], "weighting": list(maprobot.WEIGHTINGS)},
            ("weighting", "n_particles", "seed", "position_rmse", "heading_rmse", "locked_on",
-            "locked_on_every_step_5deg", "mean_ess_share", "p10_ess_share")),
+            "locked_on_every_step_5deg", "max_window_heading_error", "mean_ess_share", "p10_ess_share")),
           ("amcl_global", maprobot.amcl_global_row, ({"weighting": list(maprobot.WEIGHTINGS), "method": ["injection"]},
                                                   {"weighting": ["product"], "method": ["bootstrap"]}),
            ("weighting", "method", "seed", "locked_on", "final_position_error", "mean_ess_share", "p10_ess_share")),
