@@ -69,8 +69,10 @@ def position_spread(cov: Array) -> Array:
     return np.sqrt(cov[..., 0, 0] + cov[..., 1, 1])
 
 
-#: Locked on (the book's one definition, every robot chapter and study): the estimate is within
-#: this distance of the true position (m) ...
+#: Locked on (one function, :func:`locked_on`, with parameters): the estimate is within this
+#: distance of the true position (m) ...  The defaults below (every step, 5 degrees) are the landmark
+#: robot's stricter convention (Chapters 11-13); the map robot (:mod:`pfcourse.maprobot.lock_on`) calls
+#: the same function with ``share = 0.8`` and a heading tolerance derived from its own odometry noise.
 LOCK_POSITION_M = 1.0
 #: ... and this angle of the true heading (rad, 5 degrees) ...
 LOCK_HEADING_RAD = float(np.deg2rad(5.0))

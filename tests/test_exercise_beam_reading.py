@@ -26,7 +26,9 @@ def test_the_reference_and_another_correct_answer_pass():
 
 SAYS = {"hit_unclipped": "clipped to z_max", "global_rng": "global np.random", "no_max": "no-echo part",
         "rand_to_z_star": "uniform on [0, z_max], not on [0, z*]", "short_untruncated": "truncated to [0, z*]",
-        "short_scale": "rate lambda_short"}
+        "short_scale": "rate lambda_short", "hit_no_noise": "has no noise", "hit_variance_as_sd": "too tight",
+        "hit_double_sd": "too wide", "max_rand_swapped": "swapped",
+        "one_part_per_scan": "one part for the whole scan"}
 
 
 @pytest.mark.parametrize("mistake", BEAM_MISTAKES)
@@ -56,3 +58,16 @@ def test_odd_answers_are_explained():
     assert "raised ZeroDivisionError" in check_beam_reading(lambda z, s, r: 1 / 0).problems[0]
     only_hits = check_beam_reading(lambda z, s, r: np.clip(r.normal(z, s.sigma_hit), 0, s.max_range)).problems[0]
     assert "readings" in only_hits
+
+
+def test_the_hit_spread_and_the_parts_are_checked_each_with_its_own_sentence():
+    says = {"hit_no_noise": "standard deviation sigma_hit", "hit_variance_as_sd": "standard deviation sigma_hit",
+            "hit_double_sd": "standard deviation sigma_hit", "max_rand_swapped": "swapped",
+            "one_part_per_scan": "one part for the whole scan"}
+    for mistake, said in says.items():
+        report = check_beam_reading(lambda z, s, r, m=mistake: beam_reading_reference(z, s, r, m))
+        assert not report.ok and len(report.problems) == 1, mistake
+        assert said in report.problems[0], (mistake, report.problems[0])
+    narrow = check_beam_reading(lambda z, s, r: beam_reading_reference(z, s, r, "hit_no_noise")).problems[0]
+    wide = check_beam_reading(lambda z, s, r: beam_reading_reference(z, s, r, "hit_double_sd")).problems[0]
+    assert float(narrow.split()[0]) > 0.9 and float(wide.split()[0]) < 0.5

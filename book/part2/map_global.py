@@ -492,7 +492,7 @@ glue_values("lf_", n_kidnap=len(kid), kidnap_recovered_rate=recovered.estimate,
             kidnap_recovery_median_s=med, kidnap_recovery_median_s_low=med_low, kidnap_recovery_median_s_high=med_high)
 EvidenceBlock(
     "the kidnapped robot is found again in most runs",
-    notes=[f"{len(kid)} runs (seeds 0-{len(kid) - 1}, the drives of maprobot/kidnap): tracked from the known start, "
+    notes=[f"{len(kid)} runs (seeds 0-{len(kid) - 1}, drives of pfcourse.experiments.maprobot.simulate): tracked from the known start, "
            f"kidnapped at t = {study.KIDNAP_STEP * study.DT:.0f} s to a waypoint drawn by kidnap_rng(seed), run to "
            f"t = {study.KIDNAP_STEPS * study.DT:.0f} s.",
            f"Tracked before the kidnapping (error below 1 m from 5 s on): "

@@ -301,9 +301,9 @@ EvidenceBlock(
 # **The UKF brings nothing over the EKF here:** its position RMSE differs from the EKF's by at
 # most {glue:text}`ukf_ekf_max_diff_mm:.1f` mm in any run. **In run time** the EKF evaluates the
 # model once per step where the particle filter evaluates it $300$ times, yet on the machine
-# that built this page the particle filter took less time per run than the EKF (the timings,
-# which vary from machine to machine, are in the evidence): the Kalman filters run each step
-# in Python, while the particle filter's loops are compiled.
+# that built this page the particle filter took about the same time per run as the EKF (the
+# timings, which vary from machine to machine, are in the evidence): the Kalman filters run each
+# step in Python, while the particle filter's loops are compiled.
 
 # %% tags=["remove-input", "nbval-ignore-output"] jupyter={"source_hidden": true}
 rows = []

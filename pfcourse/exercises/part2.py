@@ -496,7 +496,8 @@ def check_likelihood_field(fn: Callable, n_particles: int = 40, seed: int = 0, r
 BEAM_CASE = dict(z_hit=0.75, z_short=0.1, z_max=0.05, z_rand=0.1, sigma_hit=0.05, lambda_short=2.0, max_range=8.0)
 #: The typical mistakes of a beam-model reading, each detected by its own test (tests/test_exercises.py).
 Z_STAR = 0.75  # m, the true range of every beam of the check
-BEAM_MISTAKES = ("hit_unclipped", "global_rng", "no_max", "rand_to_z_star", "short_untruncated", "short_scale")
+BEAM_MISTAKES = ("hit_unclipped", "global_rng", "no_max", "rand_to_z_star", "short_untruncated", "short_scale",
+                 "hit_no_noise", "hit_variance_as_sd", "hit_double_sd", "max_rand_swapped", "one_part_per_scan")
 
 
 def beam_reading_reference(z_star, scanner, rng, mistake: str | None = None):
@@ -506,8 +507,13 @@ def beam_reading_reference(z_star, scanner, rng, mistake: str | None = None):
     if mistake == "global_rng":
         rng = np.random.mtrand._rand
     u = rng.random((4, len(z_star)))
-    part = np.searchsorted(np.cumsum([scanner.z_hit, scanner.z_short, scanner.z_max]), u[0], side="right")
-    hit = z_star + scanner.sigma_hit * stats.norm.ppf(u[1])
+    if mistake == "one_part_per_scan":
+        u[0] = u[0, 0]
+    p_max = scanner.z_rand if mistake == "max_rand_swapped" else scanner.z_max
+    part = np.searchsorted(np.cumsum([scanner.z_hit, scanner.z_short, p_max]), u[0], side="right")
+    sd = {"hit_no_noise": 0.0, "hit_variance_as_sd": scanner.sigma_hit ** 2,
+          "hit_double_sd": 2.0 * scanner.sigma_hit}.get(mistake, scanner.sigma_hit)
+    hit = z_star + sd * stats.norm.ppf(u[1])
     hit = hit if mistake == "hit_unclipped" else np.clip(hit, 0.0, scanner.max_range)
     lam = 1.0 / scanner.lambda_short if mistake == "short_scale" else scanner.lambda_short
     cut = 1.0 if mistake == "short_untruncated" else -np.expm1(-lam * z_star)
@@ -563,7 +569,37 @@ def check_beam_reading(fn: Callable, n_beams: int = 100000, seed: int = 0) -> Ch
     if problem:
         report.problems.append(problem)
         return report
+    # one part drawn for a whole scan: some scan of 400 beams is all hits or has almost none
+    for i in range(20):
+        scan = np.asarray(fn(np.full(400, Z_STAR), scanner, np.random.default_rng(seed + 2 + i)), dtype=float)
+        near = np.mean(np.abs(scan - Z_STAR) <= 0.2)
+        if near > 0.99 or near < 0.3:
+            np.random.set_state(state)
+            report.problems.append(f"in one scan of 400 beams {near:.0%} of the readings lie within 0.2 m of z*, the "
+                                   "model gives about 77 %: draw the part (hit, short, no echo, random) of each beam "
+                                   "separately, not one part for the whole scan")
+            return report
     ref = beam_reading_reference(np.full(400000, Z_STAR), scanner, np.random.default_rng(12345))
+
+    # the spread of the hits: the share of the readings within 0.2 m of z* that lie within 0.05 m of it
+    def tight(x):
+        near = np.abs(x - Z_STAR) <= 0.2
+        return np.mean(np.abs(x[near] - Z_STAR) <= scanner.sigma_hit), near.sum()
+
+    (t_got, n_got), (t_want, n_ref) = tight(z), tight(ref)
+    # 0.05 absorbs what other mistakes (a short or random part of the wrong shape) move this share by
+    if abs(t_got - t_want) > max(5 * np.sqrt(t_want * (1 - t_want) * (1 / n_got + 1 / n_ref)), 0.05):
+        np.random.set_state(state)
+        said = (f"{t_got:.2f} of the readings within 0.2 m of z* lie within sigma_hit of it, the model gives "
+                f"{t_want:.2f}: a hit is z* plus Gaussian noise of standard deviation sigma_hit")
+        if np.mean(z == Z_STAR) > 0.5:
+            said += "; here most readings equal z* exactly: the hit has no noise"
+        elif t_got > t_want:
+            said += ", not sigma_hit**2 (the hits are too tight: is the variance used as the standard deviation?)"
+        else:
+            said += ", not twice sigma_hit (the hits are too wide)"
+        report.problems.append(said)
+        return report
 
     def shares(x):
         return np.array([np.mean(x < Z_STAR - 0.2), np.mean(np.abs(x - Z_STAR) <= 0.2),
@@ -573,7 +609,11 @@ def check_beam_reading(fn: Callable, n_beams: int = 100000, seed: int = 0) -> Ch
     got, want = shares(z), shares(ref)
     se = np.sqrt(want * (1 - want) / n_beams + want * (1 - want) / len(ref))
     off = np.abs(got - want) > 5 * se + 1e-12
-    if off[3] and got[3] < want[3]:
+    if off[3] and got[3] > want[3]:
+        report.problems.append(f"{got[3]:.3f} of the readings are at z_max, the model gives {want[3]:.3f}: the "
+                               "reading z_max comes with probability z_max and a uniform reading with z_rand (are the two weights "
+                               "swapped?)")
+    elif off[3] and got[3] < want[3]:
         report.problems.append(f"{got[3]:.3f} of the readings are at z_max, the model gives {want[3]:.3f}: the "
                                "no-echo part returns exactly z_max with probability z_max")
     elif off[2] and got[2] < want[2]:

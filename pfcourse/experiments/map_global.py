@@ -1,7 +1,7 @@
 """Studies of the chapter *Finding the robot on the map*: the twin margin, and the cure on the map robot.
 
-Run ``seed`` is the drive of :func:`pfcourse.experiments.maprobot.simulate` (the same drives as the
-studies ``maprobot/global`` and ``maprobot/kidnap``); the cure's filter draws from
+Run ``seed`` is the drive of :func:`pfcourse.experiments.maprobot.simulate` (the drives of map_robot's
+stored studies); the cure's filter draws from
 ``numpy.random.default_rng([41, seed, 2])``.  Lock-on is :func:`pfcourse.maprobot.lock_on.locked_on`
 with the heading tolerance of three standard deviations of one straight step's odometry heading noise
 (:data:`HEADING_TOL`).

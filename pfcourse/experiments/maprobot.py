@@ -1,4 +1,5 @@
-"""Studies of the map robot (chapter *A robot on a map*): tracking, global localization, the kidnapped robot.
+"""Studies of the map robot (chapter *A robot on a map*): tracking, AMCL's cubes, KLD-sampling, the sensor cost;
+the drives (with an optional kidnapping) are also those of *Global localization on the map*.
 
 Every run ``seed`` drives the book's map (:func:`pfcourse.maprobot.grid.rooms_and_corridor`) along
 :data:`pfcourse.maprobot.grid.ROUTE` from a waypoint drawn from the run's data stream
@@ -26,7 +27,7 @@ from pfcourse.maprobot.motion import Drive, OdometryModel, simulate_drive
 from pfcourse.maprobot.scanner import Scanner
 from pfcourse.maprobot import lock_on
 from pfcourse.maprobot.amcl import CubesLikelihoodField
-from pfcourse.metrics import heading_error, locked_from, locked_on, position_error
+from pfcourse.metrics import heading_error, locked_on, position_error
 from scipy import stats
 from pfcourse.seeding import data_rng, filter_rng, kidnap_rng
 from pfcourse import metrics
@@ -118,25 +119,6 @@ def run_filter(run: MapRun, seed: int, n_particles: int, method: str = "bootstra
     return pf.run(run.scans, rng=filter_rng(seed, 0))
 
 
-def global_row(seed: int, method: str, n_particles: int = GLOBAL_N) -> dict:
-    """Global localization (uniform start) by ``method`` (:data:`FILTERS`): locked on, final errors."""
-    run = simulate(seed, GLOBAL_STEPS)
-    pos, head = errors(run.truth, run_filter(run, seed, n_particles, method).mean)
-    return {"locked_on": bool(locked_on(pos, head, DT)), "locked_from_s": locked_from(pos, head) * DT,
-            "final_position_error": float(pos[-1])}
-
-
-def kidnap_row(seed: int, method: str, n_particles: int = KIDNAP_N) -> dict:
-    """Tracking from the known start, the robot carried away at :data:`KIDNAP_STEP`: recovery time (s)
-    from the kidnapping to the step from which the estimate stays locked (NaN if it never recovers)."""
-    run = simulate(seed, KIDNAP_STEPS, kidnap_at=KIDNAP_STEP)
-    pos, head = errors(run.truth, run_filter(run, seed, n_particles, method, start=run.truth[0]).mean)
-    start = locked_from(pos, head)
-    recovered = bool(locked_on(pos, head, DT))
-    return {"recovered": recovered, "recovery_s": (max(start, KIDNAP_STEP) - KIDNAP_STEP) * DT if recovered else np.nan,
-            "tracked_before": bool(np.all(pos[10:KIDNAP_STEP] < 1.0))}
-
-
 def ess_scores(ess: np.ndarray, n_particles: int) -> dict:
     """The ESS after weighting, as a share of ``N``: its mean over the steps after the first and its 10th percentile."""
     share = np.asarray(ess[1:], dtype=float) / n_particles
@@ -145,13 +127,16 @@ def ess_scores(ess: np.ndarray, n_particles: int) -> dict:
 
 def tracking_row(seed: int, n_particles: int = TRACKING_N, weighting: str = "product") -> dict:
     """Tracking from the known start (bootstrap), beams combined by ``weighting``: position RMSE (m),
-    heading RMSE (rad), locked on (:func:`pfcourse.maprobot.lock_on.locked_on`), the ESS (share of N)."""
+    heading RMSE (rad), locked on (:func:`pfcourse.maprobot.lock_on.locked_on`), the largest heading error
+    (rad) over the steps the rule looks at (the last ``lock_on.WINDOW_S``), the ESS (share of N)."""
     run = simulate(seed, TRACKING_STEPS)
     res = run_filter(run, seed, n_particles, start=run.truth[0], weighting=weighting)
     pos, head = errors(run.truth, res.mean)
     return {"position_rmse": float(metrics.rmse(pos)), "heading_rmse": float(metrics.rmse(head)),
             "locked_on": bool(lock_on.locked_on(pos, head, DT)),
-            "locked_on_every_step_5deg": bool(locked_on(pos, head, DT)), **ess_scores(res.ess, n_particles)}
+            "locked_on_every_step_5deg": bool(locked_on(pos, head, DT)),
+            "max_window_heading_error": float(np.max(head[-int(np.ceil(lock_on.WINDOW_S / DT - 1e-9)):])),
+            **ess_scores(res.ess, n_particles)}
 
 
 def amcl_global_row(seed: int, weighting: str, method: str = "injection", n_particles: int = GLOBAL_N) -> dict:

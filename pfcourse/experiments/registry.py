@@ -48,6 +48,7 @@ from pfcourse.experiments import (maprobot, rb_study, robot_studies, sir_fixes_s
                                   why_it_works)
 from pfcourse.experiments.provenance import append_rerun, launch_commit, write_provenance
 from pfcourse.experiments.robot import pf_run
+from pfcourse.experiments import robot as robot_experiments
 from pfcourse.experiments.store import DATA, load, save
 from pfcourse.experiments.terrain import LOST_FLIGHT
 from pfcourse.experiments.study import grid_settings, run_study
@@ -390,6 +391,12 @@ STUDIES: dict[str, Study] = {study.name: study for study in [
                   "rule": "nearest-neighbour standard filter: the single gated (reading, landmark) pair of "
                           "smallest Mahalanobis distance, one update a step (Bar-Shalom, Daum and Huang 2009)",
                   "seeds": "run r: robot and readings from pfcourse.seeding.data_rng(0, r), as data_association"}),
+    Study(name="robot/dead_reckoning", row=robot_experiments.dead_reckoning_row, grid={}, n_runs=100, seeds="run",
+          failures="raise", table="robot/dead_reckoning.csv", provenance="robot/dead_reckoning.json",
+          columns=("seed", "dr_final_m", "pf_final_m", "pf_max_m"), sample=1,
+          row_code="pfcourse/experiments/robot.py (dead_reckoning_row)",
+          fields={"seeds": "run s: simulate_robot(rng=s), filter run_filter_seed(s)",
+                  "filter": "bootstrap, N = 300, threshold 0.5, systematic"}),
     Study(name="robot_consistency_fixes", row=comparison.consistency_fix_row,
           grid={"setting": list(comparison.CONSISTENCY_FIXES)}, n_runs=100, seeds="run", failures="raise",
           table="robot_consistency_fixes.csv", provenance="robot_consistency_fixes.json",
@@ -444,13 +451,9 @@ STUDIES: dict[str, Study] = {study.name: study for study in [
             fields={"seeds": "run s: drive and scans pfcourse.seeding.data_rng(s, 0); filter filter_rng(s, 0); "
                              "kidnapping kidnap_rng(s)", "dt": maprobot.DT, "inject": maprobot.INJECT})
       for name, row, grid, columns in [
-          ("global", maprobot.global_row, {"method": list(maprobot.FILTERS), "n_particles": [maprobot.GLOBAL_N]},
-           ("method", "n_particles", "seed", "locked_on", "locked_from_s", "final_position_error")),
-          ("kidnap", maprobot.kidnap_row, {"method": ["injection"], "n_particles": [maprobot.KIDNAP_N]},
-           ("method", "n_particles", "seed", "recovered", "recovery_s", "tracked_before")),
           ("tracking", maprobot.tracking_row, {"n_particles": [maprobot.TRACKING_N], "weighting": list(maprobot.WEIGHTINGS)},
            ("weighting", "n_particles", "seed", "position_rmse", "heading_rmse", "locked_on",
-            "locked_on_every_step_5deg", "mean_ess_share", "p10_ess_share")),
+            "locked_on_every_step_5deg", "max_window_heading_error", "mean_ess_share", "p10_ess_share")),
           ("amcl_global", maprobot.amcl_global_row, ({"weighting": list(maprobot.WEIGHTINGS), "method": ["injection"]},
                                                   {"weighting": ["product"], "method": ["bootstrap"]}),
            ("weighting", "method", "seed", "locked_on", "final_position_error", "mean_ess_share", "p10_ess_share")),

@@ -242,3 +242,18 @@ def pf_run(
         row["position_sd"] = sd
         row["heading_error"] = np.abs(err[:, 2])
     return row
+
+
+def dead_reckoning_row(seed: int, n_particles: int = 300, threshold: float = 0.5) -> dict:
+    """Run ``seed`` of the landmark robot's default scenario (chapter *A robot among landmarks*): the
+    final position error (m) of dead reckoning (the odometry integrated from the true start) and of the
+    bootstrap filter (``n_particles``, resampling below ``threshold``, systematic, filter seed
+    :func:`pfcourse.seeding.run_filter_seed`), and the filter's largest position error over the run."""
+    from pfcourse.seeding import run_filter_seed
+
+    sim = simulate_robot(rng=seed)
+    res = ParticleFilter(RobotModel.for_simulation(sim), n_particles, threshold=threshold,
+                         resampler="systematic").run(sim.measurements, rng=run_filter_seed(seed))
+    pf_error = position_error(sim.truth, res.mean)
+    return {"dr_final_m": float(position_error(sim.truth[-1], sim.odometry_path[-1])),
+            "pf_final_m": float(pf_error[-1]), "pf_max_m": float(pf_error.max())}
