@@ -702,7 +702,7 @@ def draw_global(proposal="mixture", n_particles=300, seed=0):
 
 
 # %% tags=["nbval-ignore-output", "hide-input"] jupyter={"source_hidden": true}
-display(control_panel(draw_global, grid={"proposal": ("bootstrap", "mixture"), "n_particles": (300, 3000)},
+display(control_panel(draw_global, grid={"proposal": ("bootstrap", "mixture"), "n_particles": (300, 1000, 3000)},
                       side={"seed": (0, 1, 2)},
                       proposal=Dropdown(options=["bootstrap", "mixture"], value="mixture", description="proposal"),
                       n_particles=particle_slider(300, 2, 4), seed=seed_box(0)))

@@ -678,12 +678,13 @@ EvidenceBlock(
 # ## Try it
 #
 # The panel tracks the drive of this chapter with $N$ particles, the beams combined by the product
-# of the likelihood field or by AMCL's sum of cubes. Which $N$ still tracks with the product? What
-# do the cubes do to the error and to the ESS?
+# of the likelihood field or by AMCL's sum of cubes, and the filter's random numbers drawn from one
+# of three seeds. Which $N$ still tracks with the product, whatever the seed? What do the cubes do
+# to the error and to the ESS?
 
 # %% tags=["hide-input"] jupyter={"source_hidden": true}
-def draw_tracking(n_particles, weighting):
-    res = study.run_filter(demo, 0, n_particles, start=demo.truth[0], weighting=weighting)
+def draw_tracking(n_particles, weighting, seed=0):
+    res = study.run_filter(demo, seed, n_particles, start=demo.truth[0], weighting=weighting)
     time_s = np.arange(len(demo.truth)) * study.DT
     fig, (a1, a2) = plt.subplots(1, 2, figsize=(10, 3.2))
     a1.semilogy(time_s, np.maximum(position_error(demo.truth, res.mean), 1e-3), color=COLORS["estimate"])
@@ -698,7 +699,8 @@ def draw_tracking(n_particles, weighting):
 
 # %% tags=["nbval-ignore-output", "hide-input"] jupyter={"source_hidden": true}
 display(control_panel(draw_tracking, grid={"n_particles": (20, 50, 300), "weighting": ("product", "cubes")},
-                      n_particles=particle_slider(300, 1, 3),
+                      side={"seed": (0, 1, 2)}, n_particles=particle_slider(300, 1, 3),
+                      seed=widgets.SelectionSlider(options=[0, 1, 2], value=0, description="filter seed"),
                       weighting=widgets.Dropdown(options=["product", "cubes"], value="product",
                                                  description="beams combined by")))
 
