@@ -2,13 +2,15 @@
 that only a browser can show.
 
 Loaded through ``sphinx: local_extensions`` in ``_config.yml``; it acts for the LaTeX builder only
-(the HTML book is untouched). Three kinds of cell output are HTML alone, which LaTeX cannot typeset
+(the HTML book is untouched). Four kinds of cell output are HTML alone, which LaTeX cannot typeset
 (myst-nb would fall back to their plain-text form, a widget's repr or ``<IPython.core.display.HTML
 object>``):
 
 - **Evidence blocks** (``pfcourse.figures.report.EvidenceBlock``, ``<details
   class="pfcourse-evidence">``): printed small, as "Evidence: <claim>", their notes as paragraphs
   and their tables as tables (the book's audit stays in the printed book).
+- **Tables a chapter displays on their own** (``report.html_table``, ``<table class="pfcourse-table">``):
+  typeset as tables.
 - **Control panels** (``pfcourse.figures.static_panel``, ``<div class="pfcourse-panel">``): the
   figure of the settings the page opens with, captioned with what the HTML book lets the reader
   change (each control and the values it offers).
@@ -132,6 +134,9 @@ class PrintedOutputs(SphinxPostTransform):
                 bundle.replace_self(evidence_nodes(BeautifulSoup(markup, "html.parser")))
             elif 'class="pfcourse-panel"' in markup:
                 bundle.replace_self(self.panel_nodes(BeautifulSoup(markup, "html.parser")))
+            elif markup.lstrip().startswith("<table") and "pfcourse-table" in markup:
+                # a table a chapter displays on its own (report.html_table): typeset as a table
+                bundle.replace_self(table_node(BeautifulSoup(markup, "html.parser").find("table")))
             elif JSHTML_FRAME.search(markup):
                 frames = JSHTML_FRAME.findall(markup)
                 last = max(frames, key=lambda f: int(f[0]))[1].replace("\\\n", "")

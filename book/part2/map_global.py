@@ -7,7 +7,7 @@
 # ---
 
 # %% [markdown]
-# # Finding the robot on the map: global localization and the kidnapped robot
+# # Finding the robot on the map
 #
 # :::{admonition} In this chapter
 # :class: chapter-header

@@ -668,6 +668,12 @@ def ancestor_index(log_W, x_prev, x_ref, a, sigma, rng):
 
 print(check_ancestor_index(ancestor_index))
 
+# %% [markdown]
+# ```{solution} ex-pmcmc-ancestor
+# :class: dropdown
+# The log-weights of the ancestor step, $\log W_{k-1}^j + \log p(x'_k \mid x_{k-1}^j)$, normalised in
+# the log domain, then one draw with `rng`; the code is in the folded cell below.
+# ```
 
 # %% tags=["solution", "hide-input"] jupyter={"source_hidden": true}
 def ancestor_index(log_W, x_prev, x_ref, a, sigma, rng):
