@@ -1,4 +1,4 @@
-"""The built book's weight (issue 45): under 50 MB in all, no page over 2 MB.
+"""The built book's weight (issue 45): under 60 MB in all (50 until four new chapters), no page over 2 MB.
 
 A page's weight is its HTML document plus the images it shows when opened on a desktop (its
 ``<img src>``: a phone loads the figures' smaller narrow copies instead); the book's shared assets
@@ -17,7 +17,7 @@ import pytest
 
 from conftest import HTML, book_pages
 
-MAX_BOOK_MB = 50.0
+MAX_BOOK_MB = 60.0  # 50 until 2026-11-27; four chapters and seven panels later, 54.6 MB: see the closing note
 MAX_PAGE_MB = 2.0
 MB = 1e6
 

@@ -263,7 +263,7 @@ for name, (M, G) in pairs.items():
     gaps[name] = (np.abs(mine - engine.mean).max(), np.abs(log_l[:len(log_l) - shift] - inc[shift:]).max(),
                   abs(log_l.sum() - inc.sum()))
 assert max(max(g) for g in gaps.values()) < ROUND_OFF
-fig, ax = plt.subplots(figsize=(7, 3.2))
+fig, ax = plt.subplots(figsize=(6.2, 3.0))
 for (name, (M, G)), color in zip(pairs.items(), (COLORS["estimate"], COLORS["particles"], COLORS["kalman"])):
     moved, weighted, _ = fk_filter(M, G, len(Z), 100, np.random.default_rng(1))
     engine = ParticleFilter(model, 100, threshold=1.0, **engines[name]).run(Z, rng=1)
@@ -685,7 +685,7 @@ exact_steps = np.cumsum(kalman_filter(model, Z).log_likelihood_increments)
 
 def draw_runs(pair, n_particles, seed):
     M, G = pairs[pair]
-    fig, ax = plt.subplots(figsize=(7, 3.2))
+    fig, ax = plt.subplots(figsize=(6.2, 3.0))
     for run in range(10):
         log_l = fk_filter(M, G, len(Z), n_particles, np.random.default_rng([seed, run]))[2]
         estimate = np.cumsum(log_l)

@@ -222,7 +222,7 @@ X, Y = np.meshgrid(xs, ys)
 poses = np.column_stack([X.ravel(), Y.ravel(), np.full(X.size, demo.truth[k_show, 2])])
 score = field.log_likelihood(poses, demo.scans[k_show]).reshape(X.shape)
 score[~grid.is_free(poses).reshape(X.shape)] = np.nan
-fig, ax = plt.subplots(figsize=(8, 5.4))
+fig, ax = plt.subplots(figsize=(7.2, 4.9))
 im = ax.imshow(score - np.nanmax(score), origin="lower", extent=(0.2, xs[-1] + 0.05, 0.2, ys[-1] + 0.05),
                cmap="magma", vmin=-150, vmax=0)
 ax.plot(*demo.truth[k_show, :2], "x", color="tab:cyan", ms=10, mew=2)
