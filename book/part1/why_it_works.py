@@ -644,12 +644,12 @@ fig, (a1, a2) = plt.subplots(1, 2, figsize=(9, 3.2))
 for ax, values, label in ((a1, tau_ratio, r"mean of $\hat p / p$"), (a2, tau_var, r"var $\log \hat p$")):
     ax.errorbar(taus, values[:, 0], yerr=[values[:, 0] - values[:, 1], values[:, 2] - values[:, 0]], fmt="o",
                 color=COLORS["estimate"], capsize=3)
-    ax.set_xlabel(r"threshold $\tau$ (resample when ESS $< \tau N$)")
+    ax.set_xlabel(r"threshold $\tau$ (ESS $< \tau N$)")
     ax.set_ylabel(label)
 a1.axhline(1.0, color=COLORS["kalman"], lw=2)
 a1.set_ylim(0, 2)
 a2.set_ylim(0, 1.2 * tau_var[:, 2].max())
-fig.suptitle(f"Bootstrap filter, N = {N0}, T = {T0}: {by_tau.shape[1]} runs per threshold (95 % intervals)")
+fig.suptitle(f"Bootstrap, N = {N0}, T = {T0}: {by_tau.shape[1]} runs per threshold")
 fig.tight_layout()
 plt.show()
 
