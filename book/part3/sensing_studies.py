@@ -148,7 +148,7 @@ control_panel(
     draw_gap,
     columns=2,
     grid={"gap_steps": (0, 10, 25, 50), "reading_sd": (0.25, 0.5, 1.0)},
-    gap_steps=widgets.SelectionSlider(options=[0, 10, 25, 50], value=50, description="gap (steps)"),
+    gap_steps=widgets.SelectionSlider(options=[0, 10, 25, 50], value=25, description="gap (steps)"),
     reading_sd=widgets.SelectionSlider(options=[0.25, 0.5, 1.0], value=0.5, description="reading sd"),
 )
 
