@@ -5,7 +5,7 @@ inherits this environment):
 
 * one OpenBLAS thread (see tasks.py);
 * an IPython startup file for those kernels that warns when a figure is shown with texts
-  drawn over each other (pfcourse/figures/legibility.py): the warning is an output strict
+  drawn over each other (pfcourse/book/legibility.py): the warning is an output strict
   nbval does not expect, so the notebook fails; and the startup of the book's own execution
   that spares each kernel an unused import (tools/execute_notebooks.py, NO_IRI_GRAMMAR);
 * one arithmetic on every x86-64 CPU (pfcourse/arithmetic.py): NumPy without its AVX-512
@@ -43,7 +43,7 @@ def _legibility_startup() -> None:
     startup = folder / "profile_default" / "startup"
     startup.mkdir(parents=True)
     (startup / "00-legibility.py").write_text(
-        "from pfcourse.figures.legibility import check_shown_figures\ncheck_shown_figures()\n")
+        "from pfcourse.book.legibility import check_shown_figures\ncheck_shown_figures()\n")
     from tools.execute_notebooks import NO_IRI_GRAMMAR  # as the book's own execution (see there)
 
     (startup / "00-no-iri-grammar.py").write_text(NO_IRI_GRAMMAR)

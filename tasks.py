@@ -11,7 +11,7 @@
     python3 tasks.py bench         benchmark against a lab-style loop and `particles` (bench/bench.py)
     python3 tasks.py knife-edge    execute notebooks with a last-bit perturbation of the arithmetic
                                    and list the stored outputs that change (tools/perturbed_arithmetic.py)
-    python3 tasks.py study NAME    run the heavy study NAME of pfcourse.experiments.registry and store
+    python3 tasks.py study NAME    run the heavy study NAME of pfcourse.studies.registry and store
                                    it under book/data/ (with its provenance)
 
 Extra arguments after `test` and `browser-test` go to pytest; after `notebooks`, they name
@@ -242,17 +242,17 @@ def knife_edge(args: list[str]) -> None:
 
 
 def study(args: list[str]) -> None:
-    """Run the registered study NAME (pfcourse.experiments.registry; stored under book/data/) in the
+    """Run the registered study NAME (pfcourse.studies.registry; stored under book/data/) in the
     pinned environment, or `pmmh`, Part V's PMMH chains (tools/studies/pmmh.py: a chain is not a set
     of independent runs, so it is the one stored computation that is not a registered study)."""
     if not args:
         raise SystemExit("usage: python3 tasks.py study NAME [ARGS...] (the registered studies: "
-                         "pfcourse.experiments.registry.STUDIES)")
+                         "pfcourse.studies.registry.STUDIES)")
     script = ROOT / "tools" / "studies" / f"{args[0]}.py"
     if script.exists():
         run(PY, script, *args[1:])
     else:
-        run(PY, "-m", "pfcourse.experiments.registry", *args)
+        run(PY, "-m", "pfcourse.studies.registry", *args)
 
 
 def lab(args: list[str]) -> None:

@@ -15,8 +15,8 @@ resampling when ESS < N/2, the weighted mean as the estimate):
   which needs numpy < 2 and so runs in its own virtual environment, bench/.venv-particles,
   made here from the pinned bench/requirements-particles.txt on first use;
 
-on two models: the range-bearing robot (pfcourse.robot.scenario, default scenario, 100 steps) and
-the linear landmark model (pfcourse.landmarks.scenario.circle_scenario, 12 states, 50 steps), for
+on two models: the range-bearing robot (pfcourse.scenarios.robot.scenario, default scenario, 100 steps) and
+the linear landmark model (pfcourse.scenarios.landmarks.scenario.circle_scenario, 12 states, 50 steps), for
 N = 1e3 ... 1e6.  It reports particle-steps per second (median of several runs), the
 ratios against the loop and against `particles`, the peak memory per particle (tracemalloc
 peak of one extra run divided by N, the same method in both environments) and each
@@ -48,8 +48,8 @@ import numba
 import numpy as np
 
 from pfcourse.filter import ParticleFilter
-from pfcourse.landmarks.scenario import circle_scenario, simulate
-from pfcourse.robot.scenario import RobotModel, simulate_robot
+from pfcourse.scenarios.landmarks.scenario import circle_scenario, simulate
+from pfcourse.scenarios.robot.scenario import RobotModel, simulate_robot
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from loop_filters import landmark_loop_filter, robot_loop_filter  # noqa: E402
@@ -158,7 +158,7 @@ def ensure_particles_venv() -> Path:
 WIDGET_TIMING = """
 import time as _time
 import matplotlib.pyplot as _plt
-from pfcourse.figures.widgets import redraw_last_panel as _redraw
+from pfcourse.book.panels import redraw_last_panel as _redraw
 _plt.switch_backend("Agg")
 _plt.close("all")
 _times = []

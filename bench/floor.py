@@ -21,7 +21,7 @@ import numba
 import numpy as np
 
 from pfcourse.filter import ParticleFilter
-from pfcourse.robot.scenario import RobotModel, simulate_robot
+from pfcourse.scenarios.robot.scenario import RobotModel, simulate_robot
 
 N = 100_000
 

@@ -44,7 +44,7 @@ class NoMeasurement(dists.ProbDist):
 
 
 class RobotMotion(dists.ProbDist):
-    """``x = f(xp, u~ + w)``, ``w ~ N(0, diag(q_std^2))``: pfcourse.robot.scenario's transition, same formulas."""
+    """``x = f(xp, u~ + w)``, ``w ~ N(0, diag(q_std^2))``: pfcourse.scenarios.robot.scenario's transition, same formulas."""
 
     dim = 3
 

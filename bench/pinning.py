@@ -35,8 +35,8 @@ WORK = r"""
 import json, time
 import numpy as np
 from pfcourse import ParticleFilter, arithmetic
-from pfcourse.landmarks import circle_scenario, simulate
-from pfcourse.robot import RobotModel, simulate_robot
+from pfcourse.scenarios.landmarks import circle_scenario, simulate
+from pfcourse.scenarios.robot import RobotModel, simulate_robot
 
 def best(f, n=3):
     times = []

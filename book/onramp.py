@@ -37,10 +37,10 @@
 import ipywidgets as widgets
 from IPython.display import display
 
-from pfcourse.exercises.onramp import two_beacon_grid
-from pfcourse.figures.report import glue_values
-from pfcourse.figures.widgets import control_panel
-from pfcourse.style import COLORS, use_style
+from pfcourse.book.exercises.onramp import two_beacon_grid
+from pfcourse.book.report import glue_values
+from pfcourse.book.panels import control_panel
+from pfcourse.book.style import COLORS, use_style
 
 use_style()
 
@@ -491,7 +491,7 @@ display(control_panel(
 # ```
 
 # %% tags=["answer"]
-from pfcourse.exercises import check_two_beacon_filter
+from pfcourse.book.exercises import check_two_beacon_filter
 
 
 def my_filter(z, n_particles, rng, model):

@@ -11,17 +11,17 @@ without listing them here), served on 127.0.0.1:
   a TeX error;
 - every image has loaded;
 - every figure is legible: its smallest text (the smallest font size of the book's style,
-  pfcourse/style.py, at the figure's dpi) scaled by displayed/natural width is >= 8 px;
+  pfcourse/book/style.py, at the figure's dpi) scaled by displayed/natural width is >= 8 px;
 - every ``to_jshtml()`` animation plays (the frame shown changes after pressing play) and
   can be scrubbed (moving its slider changes the frame), and its buttons show icons;
 - every chapter reads in one sitting: at most 20 screen-heights at 1280 x 900 (15 for Part III);
 - every exercise is titled "Exercise n.m: Title", numbered by chapter;
 - on a 420 px window (a phone) the page does not scroll sideways, no figure is wider than its output
   (none scrolls sideways inside it: a figure too wide to read scaled to the column carries a narrow
-  copy, pfcourse/narrow_figures.py) and every figure's text is still at least 8 px;
+  copy, pfcourse/book/narrow_figures.py) and every figure's text is still at least 8 px;
 - every control panel works without a kernel, with no greyed control: each control, moved, shows
   the figure of the new grid point (or, for a control outside the main grid, its one-factor
-  figure) within 100 ms (pfcourse/figures/static_panel.py); no widget
+  figure) within 100 ms (pfcourse/book/static_panel.py); no widget
   view is left for a widget manager (the book loads none);
 - nothing is cut off at 1280 px or at 420 px (issue 39): a code or output block, a table, a display
   or an inline formula wider than its box scrolls in it (no ``overflow: hidden`` clipping it) and
@@ -209,7 +209,7 @@ def _smallest_font_px() -> float:
     import matplotlib as mpl
     from matplotlib.font_manager import FontProperties
 
-    from pfcourse.style import STYLE
+    from pfcourse.book.style import STYLE
 
     with mpl.rc_context(STYLE):
         sizes = [
@@ -240,7 +240,7 @@ NARROW_PX = 420
 def _check_narrow(tab) -> int:
     """On a phone-width window (NARROW_PX): the page does not scroll sideways, no figure is wider than
     its output (none scrolls sideways inside it: wide figures carry a narrow copy, served there by a
-    ``<picture>`` or the panel's script, pfcourse/narrow_figures.py), and every figure's smallest text
+    ``<picture>`` or the panel's script, pfcourse/book/narrow_figures.py), and every figure's smallest text
     is still >= MIN_TEXT_PX. Leaves the window at 1280 px."""
     tab.set_viewport_size({"width": NARROW_PX, "height": 900})
     try:

@@ -12,7 +12,7 @@ every page of the built book that shows a figure or a panel, opened in dark mode
   controls, and the note a combination that was not computed shows) has a contrast ratio of at
   least 4.5 (WCAG AA, normal text) against the background it is drawn on (the page's colours
   composited from the element up);
-- every evidence block (``details.pfcourse-evidence``, pfcourse/figures/report.py) sits on the same
+- every evidence block (``details.pfcourse-evidence``, pfcourse/book/report.py) sits on the same
   dark background, closed and open, whether or not it holds a table (issue 39: the theme painted
   the ones without a table a light slab), and its text reads on it (contrast ratio at least 4.5).
 """

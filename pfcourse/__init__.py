@@ -6,14 +6,14 @@ The notebooks teach; the plumbing lives here.  Main entry points:
   loops compiled with numba in :mod:`pfcourse.kernels`);
 * :mod:`pfcourse.resampling` - multinomial, stratified, systematic, residual;
 * :mod:`pfcourse.diagnostics` - ESS, weighted moments, NEES, ellipses;
-* :mod:`pfcourse.landmarks`, :mod:`pfcourse.robot`, :mod:`pfcourse.terrain` - the three scenarios;
-* :mod:`pfcourse.experiments` - Monte Carlo studies (any executor) and comparisons;
+* :mod:`pfcourse.scenarios.landmarks`, :mod:`pfcourse.scenarios.robot`, :mod:`pfcourse.scenarios.terrain` - the three scenarios;
+* :mod:`pfcourse.studies` - Monte Carlo studies (any executor) and comparisons;
 * :func:`pfcourse.kalman.kalman_filter` - the exact Kalman reference, on a
   :class:`pfcourse.linear_gaussian.LinearGaussianModel`, one of the Kalman family that
   :func:`pfcourse.kalman.gaussian_filter` runs (KF, EKF, UKF);
 * :mod:`pfcourse.proposals`, :mod:`pfcourse.jitter`, :mod:`pfcourse.smoothing`, :mod:`pfcourse.pmmh`
   - importance functions, moves after resampling, smoothers, particle MCMC;
-* :func:`pfcourse.executor.run_tasks` - the one loop that shares calls over an executor.
+* :func:`pfcourse.studies.executor.run_tasks` - the one loop that shares calls over an executor.
 """
 
 # First, before anything loads NumPy: the CPU code paths the book's floats were computed with

@@ -43,7 +43,7 @@ from typing import Callable
 import numpy as np
 from scipy import stats
 
-from .errors import PfcourseError
+from pfcourse.errors import PfcourseError
 
 __all__ = [
     "EvidenceError",

@@ -50,7 +50,7 @@ Steps 3 and 4 run as compiled loops (:mod:`pfcourse.kernels`): one pass over the
 for the weights, the ESS and the log-likelihood increment (the same floats as
 :func:`~pfcourse.diagnostics.normalize_log_weights`), two for the moments, one merge pass
 for the resampled indices.  The model's own methods are plain NumPy unless the model
-compiles them too (:class:`pfcourse.robot.scenario.RobotModel` does).
+compiles them too (:class:`pfcourse.scenarios.robot.scenario.RobotModel` does).
 """
 
 from __future__ import annotations
@@ -72,7 +72,7 @@ from pfcourse.checks import (
     check_probability,
     is_missing,
 )
-from . import kernels
+from pfcourse import kernels
 from pfcourse.errors import (
     DegenerateWeightsError,
     MeasurementError,

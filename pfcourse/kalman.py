@@ -43,7 +43,7 @@ that overflows to NaN or infinity raises :class:`~pfcourse.errors.NumericalError
 
 :func:`kalman_filter` is the KF of a :class:`~pfcourse.linear_gaussian.LinearGaussianModel`,
 the reference of every particle filter on such a model; the scenarios' EKFs and UKFs
-(:mod:`pfcourse.robot.kalman`, :mod:`pfcourse.terrain.kalman`) give the loop their model.
+(:mod:`pfcourse.scenarios.robot.kalman`, :mod:`pfcourse.scenarios.terrain.kalman`) give the loop their model.
 """
 
 from __future__ import annotations

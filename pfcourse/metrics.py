@@ -11,7 +11,7 @@ mobile robot, the aircraft) and an estimate ``x^`` with covariance ``P``:
   robot: within a position and a heading tolerance of the truth at a share of the steps of the
   last :data:`LOCK_WINDOW_S` seconds of the run (by default :data:`LOCK_POSITION_M` metres,
   :data:`LOCK_HEADING_RAD`, every step: the landmark robots; the map robot's tolerance and share,
-  derived from its odometry, are in :mod:`pfcourse.maprobot.lock_on`).
+  derived from its odometry, are in :mod:`pfcourse.scenarios.maprobot.lock_on`).
 
 Errors are signed ``estimate - truth`` wherever the book keeps a sign.
 
@@ -71,7 +71,7 @@ def position_spread(cov: Array) -> Array:
 
 #: Locked on (one function, :func:`locked_on`, with parameters): the estimate is within this
 #: distance of the true position (m) ...  The defaults below (every step, 5 degrees) are the landmark
-#: robot's stricter convention (Chapters 11-13); the map robot (:mod:`pfcourse.maprobot.lock_on`) calls
+#: robot's stricter convention (Chapters 11-13); the map robot (:mod:`pfcourse.scenarios.maprobot.lock_on`) calls
 #: the same function with ``share = 0.8`` and a heading tolerance derived from its own odometry noise.
 LOCK_POSITION_M = 1.0
 #: ... and this angle of the true heading (rad, 5 degrees) ...

@@ -151,7 +151,7 @@ class FullyAdaptedAuxiliary:
 
     ``inner`` provides ``log_predictive(model, particles, z, k)`` and a fully adapted
     ``propose`` (its incremental weight is that predictive likelihood, whatever is drawn):
-    :class:`LinearGaussianOptimal`, or :class:`~pfcourse.landmarks.rao_blackwell.RaoBlackwellProposal`
+    :class:`LinearGaussianOptimal`, or :class:`~pfcourse.scenarios.landmarks.rao_blackwell.RaoBlackwellProposal`
     with ``optimal=True``.  ``first_stage_ess`` records ``1 / sum_i (beta^i)^2`` of the
     first-stage weights at each measured step (the engine's ESS is then always ``N``).
 

@@ -39,7 +39,7 @@ together, and ``tests/test_seeding.py`` lists the coincidences so that a new use
 checked against them.  The keys
 are fixed: a stream changed here changes every stored result of the book.  Provenance
 records written before these names existed describe :func:`data_rng` as
-``pfcourse.experiments.terrain.flight_seed`` and the other list keys by their entropy lists,
+``pfcourse.studies.terrain.flight_seed`` and the other list keys by their entropy lists,
 as in the table.
 
 Every function refuses a seed, run or count that is not a non-negative integer

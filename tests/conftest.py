@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from pfcourse.kalman import kalman_filter
-from pfcourse.landmarks.scenario import quadrant_scenario, simulate
+from pfcourse.scenarios.landmarks.scenario import quadrant_scenario, simulate
 
 
 @pytest.fixture(scope="session")

@@ -15,13 +15,13 @@ import pfcourse  # noqa: F401  (before NumPy: the pinned arithmetic)
 import numpy as np
 
 from pfcourse.kalman import kalman_filter
-from pfcourse.landmarks.scenario import quadrant_scenario, simulate as simulate_landmarks
+from pfcourse.scenarios.landmarks.scenario import quadrant_scenario, simulate as simulate_landmarks
 from pfcourse.linear_gaussian import LinearGaussianModel
-from pfcourse.robot.kalman import run_ekf, run_ukf
-from pfcourse.robot.scenario import RobotModel, simulate_robot
-from pfcourse.terrain.kalman import unscented_kalman_filter
-from pfcourse.terrain.map import load_jacksboro
-from pfcourse.terrain.scenario import AircraftScenario, extended_kalman_filter, simulate as simulate_flight
+from pfcourse.scenarios.robot.kalman import run_ekf, run_ukf
+from pfcourse.scenarios.robot.scenario import RobotModel, simulate_robot
+from pfcourse.scenarios.terrain.kalman import unscented_kalman_filter
+from pfcourse.scenarios.terrain.map import load_jacksboro
+from pfcourse.scenarios.terrain.scenario import AircraftScenario, extended_kalman_filter, simulate as simulate_flight
 
 REFERENCE = Path(__file__).parent / "data" / "kalman_reference.npz"
 FIELDS = ("mean", "cov", "innovation", "innovation_cov", "predicted", "gain", "log_likelihood_increments")

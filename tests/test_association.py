@@ -1,4 +1,4 @@
-"""Unknown data association (pfcourse.robot.association): the simulator of anonymous readings,
+"""Unknown data association (pfcourse.scenarios.robot.association): the simulator of anonymous readings,
 the mixture likelihood over associations, the nearest-neighbour EKF and their bad inputs."""
 
 from __future__ import annotations
@@ -9,9 +9,9 @@ from scipy import stats
 from scipy.special import logsumexp
 
 from pfcourse.errors import MeasurementError, ModelError, ParameterError, ShapeError
-from pfcourse.experiments import association as study
-from pfcourse.robot import RobotModel, simulate_robot
-from pfcourse.robot.association import (
+from pfcourse.studies import association as study
+from pfcourse.scenarios.robot import RobotModel, simulate_robot
+from pfcourse.scenarios.robot.association import (
     AssociationModel,
     ClutterSensor,
     mixture_log_likelihood,
@@ -91,7 +91,7 @@ def test_same_detections_whatever_the_clutter(sim):
 def test_nn_ekf_without_clutter_is_the_ekf(sim):
     """P_D = 1, no clutter, landmarks far apart: every reading goes to its own landmark and the
     estimates are those of the known-association EKF."""
-    from pfcourse.robot import run_ekf
+    from pfcourse.scenarios.robot import run_ekf
 
     sensor = ClutterSensor(1.0, 0.0)
     r = simulate_readings(sim, sensor, 1)
@@ -113,7 +113,7 @@ def test_nn_ekf_gates_out_far_clutter(sim):
 
 def _pairs_d2(model, x, P, z):
     """d^2 of every (reading, landmark) pair of one step, (n, M), from the prediction (x, P)."""
-    from pfcourse.robot.kalman import measurement_jacobian, measurement_residual, range_bearing_one
+    from pfcourse.scenarios.robot.kalman import measurement_jacobian, measurement_residual, range_bearing_one
 
     out = np.empty((len(z), len(model.base.landmarks)))
     for i, zi in enumerate(z):
@@ -151,7 +151,7 @@ def test_nn_standard_filter_updates_once_with_the_nearest_gated_pair(sim):
 
 def _predicted_cov(model, res, k):
     """The covariance the filter predicted at step k, from its covariance at k - 1."""
-    from pfcourse.robot.kalman import motion_jacobians
+    from pfcourse.scenarios.robot.kalman import motion_jacobians
 
     u = model.base.odometry[k]
     F, G = motion_jacobians(res.mean[k - 1], u, model.base.dt)

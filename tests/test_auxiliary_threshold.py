@@ -23,8 +23,8 @@ from scipy.stats import norm
 from pfcourse import ParticleFilter, StateSpaceModel, kalman_filter
 from pfcourse.collectors import Ancestors, Clouds
 from pfcourse.errors import ModelError, ShapeError
-from pfcourse.landmarks.rao_blackwell import RaoBlackwellModel, RaoBlackwellProposal
-from pfcourse.landmarks.scenario import quadrant_scenario, simulate
+from pfcourse.scenarios.landmarks.rao_blackwell import RaoBlackwellModel, RaoBlackwellProposal
+from pfcourse.scenarios.landmarks.scenario import quadrant_scenario, simulate
 from pfcourse.linear_gaussian import LinearGaussianModel
 from pfcourse.proposals import FullyAdaptedAuxiliary, LinearGaussianOptimal
 

@@ -26,11 +26,11 @@ from pfcourse.errors import (
     WeightError,
 )
 from pfcourse.linear_gaussian import LinearGaussianModel
-from pfcourse.landmarks.scenario import quadrant_scenario
+from pfcourse.scenarios.landmarks.scenario import quadrant_scenario
 from pfcourse.diagnostics import nees, nis
-from pfcourse.executor import SerialExecutor
-from pfcourse.experiments.study import run_study
-from pfcourse.robot import RobotScenario, simulate_robot
+from pfcourse.studies.executor import SerialExecutor
+from pfcourse.studies.study import run_study
+from pfcourse.scenarios.robot import RobotScenario, simulate_robot
 from pfcourse.sample_size import KLDSampling
 
 N = 20
@@ -296,8 +296,8 @@ for field, value, error, fragment in [
 row("simulate_robot rng=1.5", lambda: simulate_robot(None, 1.5), ParameterError, "rng must be a numpy Generator")
 
 # --- the terrain scenario (AircraftScenario, simulate) ---------------------------------------
-from pfcourse.terrain.map import TerrainMap  # noqa: E402
-from pfcourse.terrain.scenario import AircraftScenario, simulate as simulate_flight  # noqa: E402
+from pfcourse.scenarios.terrain.map import TerrainMap  # noqa: E402
+from pfcourse.scenarios.terrain.scenario import AircraftScenario, simulate as simulate_flight  # noqa: E402
 
 for field, value, error, fragment in [
     ("dt", np.nan, ParameterError, "dt must be finite"),
@@ -341,14 +341,14 @@ row("terrain simulate: rng = 'seed'", lambda: simulate_flight(AircraftScenario()
 row("terrain simulate: initial_state with NaN",
     lambda: simulate_flight(AircraftScenario(), _TINY_MAP, 0, initial_state=[np.nan, 0.0, 0.0, 0.0]), ParameterError,
     "initial_state must be finite")
-from pfcourse.terrain.kalman import unscented_kalman_filter  # noqa: E402
+from pfcourse.scenarios.terrain.kalman import unscented_kalman_filter  # noqa: E402
 
 for label, kw, fragment in [("alpha=0", {"alpha": 0.0}, "alpha must lie in (0.0"),
                             ("kappa=-4", {"kappa": -4.0}, "kappa must lie in (-4.0")]:  # four states
     row(f"terrain UKF {label}", lambda kw=kw: unscented_kalman_filter(AircraftScenario(), _TINY_MAP, np.zeros(3), **kw),
         ParameterError, fragment)
-from pfcourse.terrain.marginalised import MarginalisedTerrainModel  # noqa: E402
-from pfcourse.terrain.point_mass import PointMassFilter  # noqa: E402
+from pfcourse.scenarios.terrain.marginalised import MarginalisedTerrainModel  # noqa: E402
+from pfcourse.scenarios.terrain.point_mass import PointMassFilter  # noqa: E402
 
 row("terrain marginalised model: scenario is a dict", lambda: MarginalisedTerrainModel(_TINY_MAP, {"dt": 1.0}),
     ParameterError, "scenario must be an AircraftScenario")
@@ -396,8 +396,8 @@ def _kalman_missing():
 row("kalman_filter: None / empty / NaN measurements are missing", _kalman_missing, None, "missing")
 
 # --- run_ekf / run_ukf (the robot's Kalman references) ----------------------------------------
-from pfcourse.robot.kalman import run_ekf, run_ukf  # noqa: E402
-from pfcourse.robot.scenario import RobotModel  # noqa: E402
+from pfcourse.scenarios.robot.kalman import run_ekf, run_ukf  # noqa: E402
+from pfcourse.scenarios.robot.scenario import RobotModel  # noqa: E402
 
 _SIM = simulate_robot(None, 0, n_steps=6)
 _RM = RobotModel.for_simulation(_SIM)
@@ -465,9 +465,9 @@ def _no_circular_mean():
 # --- issue 27: every array parameter of a constructor, checked when the object is built -------
 from dataclasses import asdict  # noqa: E402
 
-from pfcourse.landmarks.scenario import LandmarkScenario, simulate as simulate_landmarks  # noqa: E402
+from pfcourse.scenarios.landmarks.scenario import LandmarkScenario, simulate as simulate_landmarks  # noqa: E402
 from pfcourse.resampling import SCHEMES  # noqa: E402
-from pfcourse.terrain.scenario import TerrainModel  # noqa: E402
+from pfcourse.scenarios.terrain.scenario import TerrainModel  # noqa: E402
 
 _LG_ARGS = {"F": np.eye(2), "H": np.eye(2), "m0": np.zeros(2), "P0": np.eye(2), "Q": np.eye(2), "R": np.eye(2),
             "B": np.zeros(2)}
@@ -694,10 +694,10 @@ row("simulate_robot: scenario is a dict", lambda: simulate_robot({"dt": 1.0}, 0)
     "scenario must be a RobotScenario")
 
 
-# --- the map robot (pfcourse.maprobot): refused when the object is built --------------------------------
+# --- the map robot (pfcourse.scenarios.maprobot): refused when the object is built --------------------------------
 def _map_rows():
     from pfcourse.errors import OffMapError
-    from pfcourse.maprobot import (LikelihoodField, MapRobotModel, OccupancyGrid, OdometryModel, Scanner,
+    from pfcourse.scenarios.maprobot import (LikelihoodField, MapRobotModel, OccupancyGrid, OdometryModel, Scanner,
                                    cast_rays, rooms_and_corridor)
     box = np.zeros((10, 10), dtype=bool)
     box[0, :] = box[-1, :] = box[:, 0] = box[:, -1] = True

@@ -95,7 +95,7 @@ from pathlib import Path  # noqa: E402
 import pytest  # noqa: E402
 
 import pfcourse  # noqa: E402
-from pfcourse import landmarks, robot, terrain  # noqa: E402
+from pfcourse.scenarios import landmarks, robot, terrain  # noqa: E402
 from pfcourse import DensityProposal, LinearGaussianModel, OptimalProposal, kalman_filter  # noqa: E402
 from pfcourse.resampling import SCHEMES  # noqa: E402
 

@@ -15,7 +15,7 @@ import numpy as np
 
 from pfcourse.filter import ParticleFilter
 from pfcourse.metrics import position_error, position_spread
-from pfcourse.robot.scenario import RobotModel, simulate_robot
+from pfcourse.scenarios.robot.scenario import RobotModel, simulate_robot
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "bench"))
 from loop_filters import robot_loop_filter  # noqa: E402

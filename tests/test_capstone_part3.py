@@ -9,9 +9,9 @@ import pytest
 from scipy.special import logsumexp
 
 from pfcourse.errors import ParameterError
-from pfcourse.exercises import (CountModel, check_count_filter, check_count_study, count_bootstrap, count_data,
+from pfcourse.book.exercises import (CountModel, check_count_filter, check_count_study, count_bootstrap, count_data,
                                 count_grid)
-from pfcourse.exercises.capstones import STUDY_N, STUDY_RUNS, count_study_reference
+from pfcourse.book.exercises.capstones import STUDY_N, STUDY_RUNS, count_study_reference
 
 
 def student(y, n, rng, model, mistake=None):

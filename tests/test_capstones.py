@@ -6,8 +6,8 @@ import pytest
 from scipy.special import logsumexp
 
 from pfcourse.errors import ParameterError
-from pfcourse.exercises import SVModel, check_sv_filter, sv_bootstrap, sv_grid
-from pfcourse.exercises.capstones import SV_DATA_SEED, SV_STEPS
+from pfcourse.book.exercises import SVModel, check_sv_filter, sv_bootstrap, sv_grid
+from pfcourse.book.exercises.capstones import SV_DATA_SEED, SV_STEPS
 
 
 def student(y, n, rng, model, mistake=None):

@@ -9,8 +9,8 @@ import numpy as np
 import pytest
 from scipy.special import logsumexp
 
-from pfcourse.exercises import SVModel, check_sv_smoother, sv_ffbsm, sv_grid, sv_grid_smoother
-from pfcourse.exercises.capstones import SV_SMOOTHER_DATA_SEED, SV_STEPS
+from pfcourse.book.exercises import SVModel, check_sv_smoother, sv_ffbsm, sv_grid, sv_grid_smoother
+from pfcourse.book.exercises.capstones import SV_SMOOTHER_DATA_SEED, SV_STEPS
 
 
 def student(y, n, rng, model, mistake=None):

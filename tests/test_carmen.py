@@ -1,5 +1,5 @@
-"""The CARMEN loader (pfcourse.maprobot.carmen) on small logs written here and on the Intel log; the
-occupancy grid mapping (pfcourse.maprobot.mapping) on a scan of a known wall."""
+"""The CARMEN loader (pfcourse.scenarios.maprobot.carmen) on small logs written here and on the Intel log; the
+occupancy grid mapping (pfcourse.scenarios.maprobot.mapping) on a scan of a known wall."""
 
 from __future__ import annotations
 
@@ -10,9 +10,9 @@ import numpy as np
 import pytest
 
 from pfcourse.errors import MeasurementError
-from pfcourse.maprobot.carmen import (INTEL_LOG, INTEL_SHA256, NO_RETURN, CarmenFormatError, compose, parse_carmen,
+from pfcourse.scenarios.maprobot.carmen import (INTEL_LOG, INTEL_SHA256, NO_RETURN, CarmenFormatError, compose, parse_carmen,
                                       read_carmen, relative_pose)
-from pfcourse.maprobot.mapping import L_FREE, L_OCC, build_map
+from pfcourse.scenarios.maprobot.mapping import L_FREE, L_OCC, build_map
 
 
 def flaser(ranges, pose, t=0.0):

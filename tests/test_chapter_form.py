@@ -19,7 +19,7 @@ import jupytext
 import pytest
 import yaml
 
-from pfcourse.figures.report import GLUE_ROLE, paragraphs_outside_folds
+from pfcourse.book.report import GLUE_ROLE, paragraphs_outside_folds
 from test_first_text import FIRST_TEXT
 from test_start_here import reading_minutes
 
@@ -113,7 +113,7 @@ def test_exercises_are_numbered_by_chapter_and_one_is_checked(doc):
     tagged = [(c.metadata.get("tags", []), c.source) for c in cells(doc) if c.cell_type == "code"]
     answers = [src for tags, src in tagged if "answer" in tags]
     solutions = [src for tags, src in tagged if "solution" in tags]
-    assert answers and all("check_" in a for a in answers), f"{doc}: no answer cell calling a pfcourse.exercises checker"
+    assert answers and all("check_" in a for a in answers), f"{doc}: no answer cell calling a pfcourse.book.exercises checker"
     assert len(solutions) == len(answers), f"{doc}: every answer cell needs its solution cell"
 
 

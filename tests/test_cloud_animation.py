@@ -8,12 +8,12 @@ matplotlib.use("Agg")
 
 import pytest
 
-from pfcourse.figures.clouds import animate_clouds
+from pfcourse.book.figures.clouds import animate_clouds
 from pfcourse.errors import ParameterError
 from pfcourse.collectors import Clouds
 from pfcourse.filter import ParticleFilter
 from pfcourse.kalman import kalman_filter
-from pfcourse.landmarks.scenario import quadrant_scenario, simulate
+from pfcourse.scenarios.landmarks.scenario import quadrant_scenario, simulate
 
 
 def test_frames_and_artists():
@@ -38,9 +38,9 @@ def test_missing_particles_raise_a_named_error():
 def test_one_function_serves_the_robot_and_the_terrain_views():
     """The robot view (window following the truth, hooks for the landmarks and the observed one)
     and the terrain view (km, particles drawn by weight, paths) are options of the same function."""
-    from pfcourse.figures.clouds import animate_clouds as animate
-    from pfcourse.robot import RobotModel, simulate_robot
-    from pfcourse.robot.figures import landmarks_background, sight_overlay
+    from pfcourse.book.figures.clouds import animate_clouds as animate
+    from pfcourse.scenarios.robot import RobotModel, simulate_robot
+    from pfcourse.book.figures.robot import landmarks_background, sight_overlay
 
     sim = simulate_robot(None, 1, n_steps=12)
     res = ParticleFilter(RobotModel.for_simulation(sim), 100).run(sim.measurements, 1, collect=[Clouds()])

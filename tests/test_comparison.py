@@ -6,11 +6,11 @@ import numpy as np
 import pytest
 from scipy import stats
 
-from pfcourse.terrain.scenario import AircraftScenario, extended_kalman_filter, simulate
-from pfcourse.terrain.kalman import state_mean, unscented_kalman_filter
+from pfcourse.scenarios.terrain.scenario import AircraftScenario, extended_kalman_filter, simulate
+from pfcourse.scenarios.terrain.kalman import state_mean, unscented_kalman_filter
 from pfcourse.collectors import Clouds
 from pfcourse.angles import wrap_angle
-from pfcourse.experiments.comparison import (
+from pfcourse.studies.comparison import (
     particle_innovations,
     robot_tracks,
     summarize_tracks,
@@ -20,11 +20,11 @@ from pfcourse.errors import ShapeError
 from pfcourse.filter import ParticleFilter
 from pfcourse.kalman import kalman_filter
 from pfcourse.linear_gaussian import LinearGaussianModel
-from pfcourse.landmarks.scenario import quadrant_scenario
-from pfcourse.landmarks.scenario import simulate as simulate_landmarks
-from pfcourse.robot.scenario import RobotModel, simulate_robot
-from pfcourse.robot.kalman import run_ekf, run_ukf
-from pfcourse.terrain.map import load_jacksboro
+from pfcourse.scenarios.landmarks.scenario import quadrant_scenario
+from pfcourse.scenarios.landmarks.scenario import simulate as simulate_landmarks
+from pfcourse.scenarios.robot.scenario import RobotModel, simulate_robot
+from pfcourse.scenarios.robot.kalman import run_ekf, run_ukf
+from pfcourse.scenarios.terrain.map import load_jacksboro
 
 TIGHT = dict(P0=np.diag([30.0, 30.0, 5.0, 0.01]) ** 2, Qf=np.diag([1.0, 1.0, 0.1, 0.001]) ** 2)
 
@@ -214,7 +214,7 @@ def test_a_particle_filter_that_dies_is_lost_from_the_start(jacksboro, monkeypat
     and NEES at every step and inf NIS at every measured step (NaN where there is no reading), as a
     Kalman filter lost at step 0 would be; summarize_tracks counts it as diverged."""
     from pfcourse.errors import DegenerateWeightsError
-    from pfcourse.experiments.comparison import terrain_tracks
+    from pfcourse.studies.comparison import terrain_tracks
     from pfcourse.seeding import data_rng
 
     def dies(self, *args, **kwargs):

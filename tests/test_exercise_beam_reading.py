@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from pfcourse.exercises import BEAM_MISTAKES, beam_reading_reference, check_beam_reading
+from pfcourse.book.exercises import BEAM_MISTAKES, beam_reading_reference, check_beam_reading
 
 
 def student_reading(z_star, scanner, rng):

@@ -7,7 +7,7 @@ import pytest
 from scipy import stats
 from scipy.special import logsumexp
 
-from pfcourse.exercises.particle_mcmc import ANCESTOR_MISTAKES, check_ancestor_index
+from pfcourse.book.exercises.particle_mcmc import ANCESTOR_MISTAKES, check_ancestor_index
 
 
 def reference(log_W, x_prev, x_ref, a, sigma, rng):

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 from scipy.special import logsumexp
 
-from pfcourse.exercises import (check_ancestors, check_kalman, check_log_likelihood, check_optimal_proposal,
+from pfcourse.book.exercises import (check_ancestors, check_kalman, check_log_likelihood, check_optimal_proposal,
                                 check_range_bearing_jacobian, check_range_bearing_log_weights,
                                 check_resampler, check_sis, check_weight_update)
 from pfcourse.collectors import Clouds
@@ -215,7 +215,7 @@ def kalman_report(**mistake):
 
 
 def test_the_reference_kalman_passes_and_matches_the_package_filter():
-    from pfcourse.exercises import KALMAN_CASE, ScalarModel, scalar_kalman
+    from pfcourse.book.exercises import KALMAN_CASE, ScalarModel, scalar_kalman
     from pfcourse.kalman import kalman_filter
     from pfcourse.linear_gaussian import LinearGaussianModel
 
@@ -247,7 +247,7 @@ def test_each_typical_kalman_mistake_gets_its_own_sentence(mistake, says):
 
 
 def test_every_named_kalman_mistake_is_recognised_from_its_own_numbers():
-    from pfcourse.exercises import KALMAN_MISTAKES, scalar_kalman
+    from pfcourse.book.exercises import KALMAN_MISTAKES, scalar_kalman
 
     for mistake, why in KALMAN_MISTAKES.items():
         report = check_kalman(lambda z, model, m=mistake: scalar_kalman(z, model, m))
@@ -292,7 +292,7 @@ def optimal_proposal(x_prev, z, model, *, var_added=False, mean_blind=False, wei
 
 
 def test_the_reference_optimal_proposal_passes_and_matches_the_package_proposal():
-    from pfcourse.exercises import PROPOSAL_MODEL, PROPOSAL_PARENTS, PROPOSAL_Z, scalar_optimal_proposal
+    from pfcourse.book.exercises import PROPOSAL_MODEL, PROPOSAL_PARENTS, PROPOSAL_Z, scalar_optimal_proposal
     from pfcourse.linear_gaussian import LinearGaussianModel
     from pfcourse.proposals import LinearGaussianOptimal
 
@@ -374,7 +374,7 @@ def _landmark(robot, m, P, z, A, C, R, **mistake):
 
 
 def test_the_reference_landmark_update_passes():
-    from pfcourse.exercises import check_landmark_update
+    from pfcourse.book.exercises import check_landmark_update
 
     report = check_landmark_update(_landmark)
     assert report.ok, str(report)
@@ -387,14 +387,14 @@ def test_the_reference_landmark_update_passes():
     ({"loglik_with_r": True}, "uses R where it needs S"),
 ])
 def test_landmark_update_mistakes_are_named(mistake, says):
-    from pfcourse.exercises import check_landmark_update
+    from pfcourse.book.exercises import check_landmark_update
 
     report = check_landmark_update(lambda *args, **kw: _landmark(*args, **kw, **mistake))
     assert not report.ok and says in str(report), str(report)
 
 
 def test_landmark_update_bad_returns_are_reported():
-    from pfcourse.exercises import check_landmark_update
+    from pfcourse.book.exercises import check_landmark_update
 
     assert "returned None" in str(check_landmark_update(lambda **kw: None))
     assert "raised" in str(check_landmark_update(lambda **kw: 1 / 0))
@@ -415,7 +415,7 @@ def _second_stage(log_lik, log_pred, ancestors, mistake=None):
 
 
 def test_the_reference_second_stage_passes():
-    from pfcourse.exercises import check_apf_second_stage
+    from pfcourse.book.exercises import check_apf_second_stage
 
     assert check_apf_second_stage(_second_stage).ok, str(check_apf_second_stage(_second_stage))
 
@@ -427,14 +427,14 @@ def test_the_reference_second_stage_passes():
     ("unnormalised", "not normalised"),
 ])
 def test_second_stage_mistakes_are_named(mistake, says):
-    from pfcourse.exercises import check_apf_second_stage
+    from pfcourse.book.exercises import check_apf_second_stage
 
     report = check_apf_second_stage(lambda a, b, c: _second_stage(a, b, c, mistake))
     assert not report.ok and says in str(report), str(report)
 
 
 def test_second_stage_bad_returns_are_reported():
-    from pfcourse.exercises import check_apf_second_stage
+    from pfcourse.book.exercises import check_apf_second_stage
 
     assert "returned None" in str(check_apf_second_stage(lambda a, b, c: None))
     assert "shape" in str(check_apf_second_stage(lambda a, b, c: a[:3]))
@@ -459,8 +459,8 @@ def cloud_log_likelihood(x, z, H, R, *, nan_kept=False, reversed_offset=False, r
 
 
 def test_the_reference_log_likelihood_passes_and_matches_the_package_model():
-    from pfcourse.exercises import LIKELIHOOD_CASES, LIKELIHOOD_H, LIKELIHOOD_R
-    from pfcourse.landmarks.scenario import quadrant_scenario
+    from pfcourse.book.exercises import LIKELIHOOD_CASES, LIKELIHOOD_H, LIKELIHOOD_R
+    from pfcourse.scenarios.landmarks.scenario import quadrant_scenario
 
     assert check_log_likelihood(cloud_log_likelihood).ok, str(check_log_likelihood(cloud_log_likelihood))
     model = quadrant_scenario().with_(Rv=LIKELIHOOD_R).model()
@@ -487,7 +487,7 @@ def test_each_typical_log_likelihood_mistake_gets_its_own_sentence(mistake, says
 
 
 def test_every_named_log_likelihood_mistake_is_recognised_and_odd_answers_are_named():
-    from pfcourse.exercises import LIKELIHOOD_MISTAKES, landmark_log_likelihood
+    from pfcourse.book.exercises import LIKELIHOOD_MISTAKES, landmark_log_likelihood
 
     for mistake, why in LIKELIHOOD_MISTAKES.items():
         report = check_log_likelihood(lambda x, z, H, R, m=mistake: landmark_log_likelihood(x, z, H, R, m))
@@ -502,7 +502,7 @@ def test_every_named_log_likelihood_mistake_is_recognised_and_odd_answers_are_na
 
 
 # --- check_consistency (chapter 20): the reference passes, each mistake is named
-from pfcourse.exercises import CONSISTENCY_MISTAKES, _consistency_case, check_consistency, nees_consistency
+from pfcourse.book.exercises import CONSISTENCY_MISTAKES, _consistency_case, check_consistency, nees_consistency
 
 
 def test_consistency_reference_passes_and_matches_the_package():
@@ -542,7 +542,7 @@ def test_consistency_shapes_and_other_errors_are_explained():
 
 
 # --- check_ess (chapter 18) and check_lock_on (chapter 19)
-from pfcourse.exercises import (ESS_MISTAKES, LOCK_MISTAKES, check_ess, check_lock_on,  # noqa: E402
+from pfcourse.book.exercises import (ESS_MISTAKES, LOCK_MISTAKES, check_ess, check_lock_on,  # noqa: E402
                                 effective_sample_size_from_logs, lock_on_cases, lock_on_reference)
 
 
@@ -604,8 +604,8 @@ def pose_log_density(x, z, landmark, sd, *, bearing_added=False, no_jacobian=Fal
 
 
 def test_the_reference_pose_density_passes_and_is_the_package_proposal():
-    from pfcourse.exercises import POSE_DENSITY_CASES, check_pose_density
-    from pfcourse.robot.mcl import SensorPoseSampler
+    from pfcourse.book.exercises import POSE_DENSITY_CASES, check_pose_density
+    from pfcourse.scenarios.robot.mcl import SensorPoseSampler
 
     assert check_pose_density(pose_log_density).ok, str(check_pose_density(pose_log_density))
     rng = np.random.default_rng(3)
@@ -626,7 +626,7 @@ def test_the_reference_pose_density_passes_and_is_the_package_proposal():
     ({"halved": True}, "the values differ from log q_z(x)"),
 ])
 def test_each_typical_pose_density_mistake_gets_its_own_sentence(mistake, says):
-    from pfcourse.exercises import check_pose_density
+    from pfcourse.book.exercises import check_pose_density
 
     report = check_pose_density(lambda x, z, landmark, sd: pose_log_density(x, z, landmark, sd, **mistake))
     assert report is not None and not report.ok and len(report.problems) == 1, report
@@ -654,9 +654,9 @@ def anonymous_reading(x, z, landmarks, R, p_detect, clutter_rate, max_range, **m
 
 
 def test_anonymous_reference_passes_and_is_the_package_mixture():
-    from pfcourse.exercises import ANONYMOUS_LANDMARKS, ANONYMOUS_R, check_anonymous_likelihood
-    from pfcourse.robot import RobotModel
-    from pfcourse.robot.association import ClutterSensor, mixture_log_likelihood
+    from pfcourse.book.exercises import ANONYMOUS_LANDMARKS, ANONYMOUS_R, check_anonymous_likelihood
+    from pfcourse.scenarios.robot import RobotModel
+    from pfcourse.scenarios.robot.association import ClutterSensor, mixture_log_likelihood
 
     report = check_anonymous_likelihood(anonymous_reading)
     assert report.ok, str(report)
@@ -673,7 +673,7 @@ def test_anonymous_reference_passes_and_is_the_package_mixture():
     ({"sum_logs": True}, "sums the log-likelihoods"),
 ])
 def test_each_typical_anonymous_mistake_gets_its_own_sentence(mistake, says):
-    from pfcourse.exercises import check_anonymous_likelihood
+    from pfcourse.book.exercises import check_anonymous_likelihood
 
     report = check_anonymous_likelihood(lambda *args: anonymous_reading(*args, **mistake))
     assert not report.ok and len(report.problems) == 1
@@ -681,7 +681,7 @@ def test_each_typical_anonymous_mistake_gets_its_own_sentence(mistake, says):
 
 
 def test_odd_pose_density_answers_are_named():
-    from pfcourse.exercises import check_pose_density
+    from pfcourse.book.exercises import check_pose_density
 
     assert "shape (40, 1)" in check_pose_density(lambda x, z, l, sd: np.zeros((len(x), 1))).problems[0]
     assert check_pose_density(lambda x, z, l, sd: None).problems == [
@@ -689,7 +689,7 @@ def test_odd_pose_density_answers_are_named():
     assert "NaN or infinite" in check_pose_density(lambda x, z, l, sd: np.full(len(x), np.nan)).problems[0]
     assert "raised ZeroDivisionError" in str(check_pose_density(lambda x, z, l, sd: 1 / 0))
 def test_every_named_anonymous_mistake_is_recognised_and_odd_answers_are_named():
-    from pfcourse.exercises import ANONYMOUS_MISTAKES, anonymous_log_likelihood, check_anonymous_likelihood
+    from pfcourse.book.exercises import ANONYMOUS_MISTAKES, anonymous_log_likelihood, check_anonymous_likelihood
 
     for mistake, why in ANONYMOUS_MISTAKES.items():
         report = check_anonymous_likelihood(lambda *a, m=mistake: anonymous_log_likelihood(*a, mistake=m))
@@ -724,9 +724,9 @@ def student_estimate(log_w, resampled, forgot_previous=False, mean_of_logs=False
 
 
 def test_the_reference_estimator_is_the_engines_log_likelihood():
-    from pfcourse.exercises import likelihood_estimate
+    from pfcourse.book.exercises import likelihood_estimate
     from pfcourse.filter import ParticleFilter
-    from pfcourse.landmarks import quadrant_scenario, simulate
+    from pfcourse.scenarios.landmarks import quadrant_scenario, simulate
 
     scenario = quadrant_scenario().with_(Qw=0.05**2 * np.eye(6), Rv=0.5**2 * np.eye(4))
     model = scenario.model()
@@ -739,7 +739,7 @@ def test_the_reference_estimator_is_the_engines_log_likelihood():
 
 
 def test_a_correct_likelihood_estimator_passes():
-    from pfcourse.exercises import check_likelihood_estimate
+    from pfcourse.book.exercises import check_likelihood_estimate
 
     report = check_likelihood_estimate(student_estimate)
     assert report.ok and str(report).endswith("every check passed"), str(report)
@@ -752,7 +752,7 @@ def test_a_correct_likelihood_estimator_passes():
     ({"linear": True}, "underflows to 0"),
 ])
 def test_each_typical_estimator_mistake_gets_its_own_sentence(mistake, says):
-    from pfcourse.exercises import check_likelihood_estimate
+    from pfcourse.book.exercises import check_likelihood_estimate
 
     report = check_likelihood_estimate(lambda log_w, resampled: student_estimate(log_w, resampled, **mistake))
     assert not report.ok and len(report.problems) == 1
@@ -760,20 +760,20 @@ def test_each_typical_estimator_mistake_gets_its_own_sentence(mistake, says):
 
 
 def test_averaging_log_weights_is_named_with_or_without_the_previous_weights():
-    from pfcourse.exercises import ESTIMATOR_MISTAKES, check_likelihood_estimate, likelihood_estimate
+    from pfcourse.book.exercises import ESTIMATOR_MISTAKES, check_likelihood_estimate, likelihood_estimate
 
     weighted = check_likelihood_estimate(lambda log_w, r: likelihood_estimate(log_w, r, "mean_of_logs"))
     assert "averages the log-weights" in weighted.problems[0], str(weighted)
     plain = check_likelihood_estimate(lambda log_w, r: student_estimate(log_w, r, mean_of_logs=True))
     assert "averages the log-weights" in plain.problems[0] and "without the previous" in plain.problems[0], str(plain)
     case = np.random.default_rng(0).normal(-2.0, 1.5, size=(10, 8))
-    from pfcourse.exercises import ESTIMATOR_RESAMPLED
+    from pfcourse.book.exercises import ESTIMATOR_RESAMPLED
     values = [likelihood_estimate(case, ESTIMATOR_RESAMPLED, m) for m in [None, *ESTIMATOR_MISTAKES]]
     assert len(np.unique(np.round(values, 6))) == len(values)  # every mistake gives its own number
 
 
 def test_odd_estimator_answers_are_named():
-    from pfcourse.exercises import check_likelihood_estimate
+    from pfcourse.book.exercises import check_likelihood_estimate
 
     assert check_likelihood_estimate(lambda log_w, r: None).problems == [
         "the function returned None: compute and return log p^(z_1:K), one float"]
@@ -783,7 +783,7 @@ def test_odd_estimator_answers_are_named():
 
 # --- terrain: the altimeter likelihood on a DEM (chapter 14) and the regularised jitter (chapter 15) ---
 
-from pfcourse.exercises import (ALTIMETER_MISTAKES, altimeter_log_likelihood,  # noqa: E402
+from pfcourse.book.exercises import (ALTIMETER_MISTAKES, altimeter_log_likelihood,  # noqa: E402
                                 check_altimeter_likelihood, check_regularised_jitter)
 
 
@@ -889,7 +889,7 @@ def student_field(poses, z, field, keep_max=False, no_heading=False, no_rand=Fal
 
 
 def test_likelihood_field_checker_passes_the_reference():
-    from pfcourse.exercises import check_likelihood_field
+    from pfcourse.book.exercises import check_likelihood_field
     report = check_likelihood_field(student_field)
     assert report.ok, str(report)
     assert str(report) == "likelihood field: every check passed"
@@ -903,14 +903,14 @@ def test_likelihood_field_checker_passes_the_reference():
     ({"product": True}, "underflows to 0"),
 ])
 def test_each_typical_likelihood_field_mistake_gets_its_own_sentence(mistake, says):
-    from pfcourse.exercises import check_likelihood_field
+    from pfcourse.book.exercises import check_likelihood_field
     report = check_likelihood_field(lambda p, z, f: student_field(p, z, f, **mistake))
     assert not report.ok and len(report.problems) == 1
     assert says in report.problems[0], report.problems[0]
 
 
 def test_likelihood_field_checker_names_odd_answers():
-    from pfcourse.exercises import check_likelihood_field
+    from pfcourse.book.exercises import check_likelihood_field
     assert "differ from table 6.3's" in check_likelihood_field(lambda p, z, f: 2 * student_field(p, z, f)).problems[0]
     assert "shape (40, 1)" in check_likelihood_field(lambda p, z, f: np.zeros((len(p), 1))).problems[0]
     assert check_likelihood_field(lambda p, z, f: None).problems == [
@@ -918,7 +918,7 @@ def test_likelihood_field_checker_names_odd_answers():
 
 
 # --- check_paired_se (chapter 17)
-from pfcourse.exercises import PAIRED_CASE, PAIRED_MISTAKES, check_paired_se, paired_standard_errors  # noqa: E402
+from pfcourse.book.exercises import PAIRED_CASE, PAIRED_MISTAKES, check_paired_se, paired_standard_errors  # noqa: E402
 
 
 def test_paired_se_reference_passes_and_pairing_pays():
@@ -952,7 +952,7 @@ def _altitude(mean, var, ground, reading, rf, mistake=None):
 
 
 def test_the_reference_altitude_update_passes():
-    from pfcourse.exercises import check_altitude_update
+    from pfcourse.book.exercises import check_altitude_update
 
     assert check_altitude_update(_altitude).ok, str(check_altitude_update(_altitude))
 
@@ -963,14 +963,14 @@ def test_the_reference_altitude_update_passes():
     ("no_var", "variance is not updated"),
 ])
 def test_altitude_update_mistakes_are_named(mistake, says):
-    from pfcourse.exercises import check_altitude_update
+    from pfcourse.book.exercises import check_altitude_update
 
     report = check_altitude_update(lambda *a, **kw: _altitude(*a, **kw, mistake=mistake))
     assert not report.ok and says in str(report), str(report)
 
 
 def test_altitude_update_gain_and_bad_returns_are_reported():
-    from pfcourse.exercises import check_altitude_update
+    from pfcourse.book.exercises import check_altitude_update
 
     def gain_over_r(mean, var, ground, reading, rf):
         k = var / rf
@@ -1002,8 +1002,8 @@ def robot_log_weights(x, landmark, z, R, wrap_innovation=True, heading=True, r_a
 
 
 def test_range_bearing_log_weights_reference_passes_and_matches_the_engine():
-    from pfcourse.exercises import RANGE_BEARING_LANDMARK, RANGE_BEARING_R, RANGE_BEARING_Z, range_bearing_log_weights
-    from pfcourse.robot.scenario import RobotModel
+    from pfcourse.book.exercises import RANGE_BEARING_LANDMARK, RANGE_BEARING_R, RANGE_BEARING_Z, range_bearing_log_weights
+    from pfcourse.scenarios.robot.scenario import RobotModel
 
     assert check_range_bearing_log_weights(robot_log_weights).ok, str(check_range_bearing_log_weights(robot_log_weights))
     x = np.random.default_rng(3).normal([1.0, -50.0, 0.0], [0.5, 0.5, 0.05], size=(30, 3))
@@ -1040,8 +1040,8 @@ def robot_jacobian(state, landmark, offset_sign=1.0, heading=-1.0, range_power=0
 
 
 def test_range_bearing_jacobian_reference_and_finite_differences_pass():
-    from pfcourse.robot.kalman import measurement_jacobian
-    from pfcourse.robot.scenario import range_bearing
+    from pfcourse.scenarios.robot.kalman import measurement_jacobian
+    from pfcourse.scenarios.robot.scenario import range_bearing
 
     def central_difference(state, landmark, h=1e-6):
         cols = []
@@ -1093,7 +1093,7 @@ def student_backward_weights(k, particles, weights, smoothed_next, log_transitio
 
 
 def test_the_reference_backward_weights_pass_and_match_ffbsm():
-    from pfcourse.exercises import BACKWARD_K, _backward_case, backward_weights, check_backward_weights
+    from pfcourse.book.exercises import BACKWARD_K, _backward_case, backward_weights, check_backward_weights
     from pfcourse.smoothing import ffbsm
 
     report = check_backward_weights(student_backward_weights)
@@ -1114,7 +1114,7 @@ def test_the_reference_backward_weights_pass_and_match_ffbsm():
     ({"wrong_time": True}, "taken at the wrong time"),
 ])
 def test_each_typical_backward_weights_mistake_gets_its_own_sentence(mistake, says):
-    from pfcourse.exercises import check_backward_weights
+    from pfcourse.book.exercises import check_backward_weights
 
     report = check_backward_weights(lambda *a: student_backward_weights(*a, **mistake))
     assert not report.ok and len(report.problems) == 1
@@ -1122,7 +1122,7 @@ def test_each_typical_backward_weights_mistake_gets_its_own_sentence(mistake, sa
 
 
 def test_odd_backward_weights_are_named():
-    from pfcourse.exercises import check_backward_weights
+    from pfcourse.book.exercises import check_backward_weights
 
     assert "shape (29,)" in check_backward_weights(lambda k, p, w, s, f: np.ones(29) / 29).problems[0]
     assert "not " in check_backward_weights(lambda k, p, w, s, f: w[k]).problems[0]

@@ -11,7 +11,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from pfcourse.exercises import check_multinomial_resampler, check_sis
+from pfcourse.book.exercises import check_multinomial_resampler, check_sis
 from pfcourse.resampling import multinomial, residual, stratified, systematic
 from test_exercises import sis
 
@@ -149,7 +149,7 @@ def toy_sampler(z, sd_v, n, rng, *, mistake=None, draw=None):
 
 @pytest.mark.parametrize("seed", range(4))
 def test_the_reference_importance_sampler_passes(seed):
-    from pfcourse.exercises import check_importance_sampler
+    from pfcourse.book.exercises import check_importance_sampler
 
     assert check_importance_sampler(toy_sampler, seed=seed).ok
 
@@ -164,7 +164,7 @@ def test_the_reference_importance_sampler_passes(seed):
     (None, lambda rng: GlobalNumpy(), "NumPy's global generator"),
 ])
 def test_each_typical_importance_sampling_mistake_gets_its_own_sentence(mistake, draw, says):
-    from pfcourse.exercises import check_importance_sampler
+    from pfcourse.book.exercises import check_importance_sampler
 
     report = check_importance_sampler(lambda z, s, n, rng: toy_sampler(z, s, n, rng, mistake=mistake, draw=draw))
     assert not report.ok and len(report.problems) == 1, str(report)
@@ -172,7 +172,7 @@ def test_each_typical_importance_sampling_mistake_gets_its_own_sentence(mistake,
 
 
 def test_the_importance_sampler_checker_names_a_missing_answer_and_a_bad_ess():
-    from pfcourse.exercises import check_importance_sampler
+    from pfcourse.book.exercises import check_importance_sampler
 
     assert "returned None" in check_importance_sampler(lambda z, s, n, rng: None).problems[0]
     assert "outside [1, n]" in check_importance_sampler(
@@ -182,7 +182,7 @@ def test_the_importance_sampler_checker_names_a_missing_answer_and_a_bad_ess():
 def test_the_limits_of_the_mistakes_are_apart_from_the_exact_mean():
     """Each mistake's limit is at least 0.1 from the exact mean and from the others (the checker's six
     standard errors are about 0.03 at n = 20 000), so it can name it."""
-    from pfcourse.exercises import IS_TOY_CASE, IS_TOY_MISTAKES, toy_is_limit
+    from pfcourse.book.exercises import IS_TOY_CASE, IS_TOY_MISTAKES, toy_is_limit
 
     means = [toy_is_limit(*IS_TOY_CASE)[0]] + [toy_is_limit(*IS_TOY_CASE, m)[0] for m in IS_TOY_MISTAKES]
     gaps = np.abs(np.subtract.outer(means, means))[np.triu_indices(len(means), 1)]
@@ -216,7 +216,7 @@ def exact_posterior_sampler(z, sd_v, n, rng):
     (lambda z, s, n, rng: (toy_sampler(z, s, n, rng, mistake="no_prior")[0], 1.0), "leaves out the prior"),
 ])
 def test_the_importance_sampler_checker_checks_the_proposal_and_the_ess(sampler, says):
-    from pfcourse.exercises import check_importance_sampler
+    from pfcourse.book.exercises import check_importance_sampler
 
     report = check_importance_sampler(sampler)
     assert not report.ok and len(report.problems) == 1, str(report)
@@ -227,8 +227,8 @@ def test_the_toy_ess_ratio_and_kong_ratio_are_the_closed_forms():
     """1 / E_q[w^2] = 0.383 for q = N(z/2, 1), and sigma^2 / (Var_pi E_q[w^2]) = 0.61, against quadrature."""
     from scipy import integrate, stats
 
-    from pfcourse.exercises import IS_TOY_CASE, toy_is_ess_ratio, toy_is_limit
-    from pfcourse.exercises.part1 import _gauss_chi2
+    from pfcourse.book.exercises import IS_TOY_CASE, toy_is_ess_ratio, toy_is_limit
+    from pfcourse.book.exercises.part1 import _gauss_chi2
 
     z, sd_v = IS_TOY_CASE
     m, v = toy_is_limit(z, sd_v)
@@ -279,8 +279,8 @@ def test_the_sis_checker_compares_the_ess_with_its_closed_form(flags, says):
 
 def test_the_closed_form_sis_ess_matches_the_reference_filter():
     """N / E[W_k^2] against the mean ESS of 40 seeded runs of the reference SIS (sd of ESS/N about 0.003)."""
-    from pfcourse.exercises import SIS_CASE
-    from pfcourse.exercises.part1 import ScalarModel, _sis_ess_ratio
+    from pfcourse.book.exercises import SIS_CASE
+    from pfcourse.book.exercises.part1 import ScalarModel, _sis_ess_ratio
 
     runs = np.array([sis(SIS_CASE, 20_000, np.random.default_rng(s), ScalarModel())[1] for s in range(40)])
     assert np.allclose(runs.mean(0) / 20_000, _sis_ess_ratio(SIS_CASE, ScalarModel()), atol=0.003)
@@ -302,7 +302,7 @@ def origins_variant(ancestors, mistake=None):
     ("skip_first", "the first step is left out"),
 ])
 def test_the_genealogy_checker_names_the_indexing_and_the_first_step(mistake, says):
-    from pfcourse.exercises import check_ancestors
+    from pfcourse.book.exercises import check_ancestors
 
     for seed in range(5):
         report = check_ancestors(lambda a: origins_variant(a, mistake), seed=seed)

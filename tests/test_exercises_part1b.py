@@ -11,7 +11,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from pfcourse.exercises.part1 import (STRATIFIED_DRAWS, STRATIFIED_WEIGHTS, _offspring_variances,
+from pfcourse.book.exercises.part1 import (STRATIFIED_DRAWS, STRATIFIED_WEIGHTS, _offspring_variances,
                                      check_stratified_resampler)
 
 
@@ -148,7 +148,7 @@ def student_cv(z, dt, q, r, m0, P0, *, nan_kept=False, swap_q=False, wrong_shape
 
 
 def test_the_reference_cv_filter_passes_and_is_the_package_filter():
-    from pfcourse.exercises.part1 import CV_CASE, check_cv_kalman, cv_kalman
+    from pfcourse.book.exercises.part1 import CV_CASE, check_cv_kalman, cv_kalman
     from pfcourse.kalman import kalman_filter
     from pfcourse.linear_gaussian import LinearGaussianModel
 
@@ -165,7 +165,7 @@ def test_the_reference_cv_filter_passes_and_is_the_package_filter():
 
 
 def test_every_named_cv_mistake_is_recognised_from_its_own_numbers():
-    from pfcourse.exercises.part1 import CV_MISTAKES, check_cv_kalman, cv_kalman
+    from pfcourse.book.exercises.part1 import CV_MISTAKES, check_cv_kalman, cv_kalman
 
     assert len(set(CV_MISTAKES.values())) == len(CV_MISTAKES) >= 4
     for mistake, why in CV_MISTAKES.items():
@@ -179,14 +179,14 @@ def test_every_named_cv_mistake_is_recognised_from_its_own_numbers():
     ({"wrong_shape": True}, "returned shapes (8,), (8, 2, 2) and ()"),
 ])
 def test_a_students_other_cv_mistakes_get_their_own_sentence(mistake, says):
-    from pfcourse.exercises.part1 import check_cv_kalman
+    from pfcourse.book.exercises.part1 import check_cv_kalman
 
     report = check_cv_kalman(lambda *a: student_cv(*a, **mistake))
     assert len(report.problems) == 1 and report.problems[0].startswith(says), str(report)
 
 
 def test_a_cv_answer_of_the_wrong_form_is_named():
-    from pfcourse.exercises.part1 import check_cv_kalman
+    from pfcourse.book.exercises.part1 import check_cv_kalman
 
     assert check_cv_kalman(lambda *a: None).problems == [
         "the function returned None: write the filter and return (means, covariances, log_likelihood)"]
@@ -225,7 +225,7 @@ def student_cv_noise(z, dt, q, r, m0, P0, *, piecewise_q=False, r_as_sd=False, q
     ({"q_as_sd": True}, "q is already a variance"),
 ])
 def test_a_wrong_process_or_reading_noise_is_named(mistake, says):
-    from pfcourse.exercises.part1 import check_cv_kalman
+    from pfcourse.book.exercises.part1 import check_cv_kalman
 
     assert check_cv_kalman(student_cv_noise).ok
     report = check_cv_kalman(lambda *a: student_cv_noise(*a, **mistake))
@@ -233,7 +233,7 @@ def test_a_wrong_process_or_reading_noise_is_named(mistake, says):
 
 
 def test_the_block_of_the_inverse_of_r_is_named():
-    from pfcourse.exercises.part1 import LIKELIHOOD_R, check_log_likelihood
+    from pfcourse.book.exercises.part1 import LIKELIHOOD_R, check_log_likelihood
 
     def block_of_inverse(x, z, H, R):
         seen = ~np.isnan(z)

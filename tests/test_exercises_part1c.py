@@ -8,7 +8,7 @@ import pytest
 from scipy.special import logsumexp
 from scipy.stats import norm
 
-from pfcourse.exercises import APF_STEP_MISTAKES, APF_STEP_MODEL, check_apf_step
+from pfcourse.book.exercises import APF_STEP_MISTAKES, APF_STEP_MODEL, check_apf_step
 
 A, C, Q, R = (APF_STEP_MODEL[k] for k in ("a", "c", "q", "r"))
 
@@ -81,7 +81,7 @@ def test_an_unknown_error_is_described_and_bad_answers_are_named():
 
 # --- exercise 8.2: FastSLAM 2.0's robot move (rao_blackwell) ---------------------------------------
 
-from pfcourse.exercises import FASTSLAM2_MISTAKES, check_fastslam2_move  # noqa: E402
+from pfcourse.book.exercises import FASTSLAM2_MISTAKES, check_fastslam2_move  # noqa: E402
 
 
 def fastslam2_move(r_pred, m_pred, P_pred, z, A, C, Qr, R, rng, mistake=None):

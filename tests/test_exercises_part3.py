@@ -4,7 +4,7 @@ the generator is checked, NumPy's global state is left alone."""
 import numpy as np
 import pytest
 
-from pfcourse.exercises import ADAPTIVE_MISTAKES, adaptive_residual, check_adaptive_residual
+from pfcourse.book.exercises import ADAPTIVE_MISTAKES, adaptive_residual, check_adaptive_residual
 
 
 def test_the_reference_passes_on_several_seeds():

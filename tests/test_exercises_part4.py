@@ -9,7 +9,7 @@ import pytest
 from scipy import stats
 from scipy.special import logsumexp
 
-from pfcourse.exercises import (
+from pfcourse.book.exercises import (
     MISSING_NIS_MISTAKES,
     RANGE_ONLY_MISTAKES,
     _missing_nis_case,
@@ -124,8 +124,8 @@ def test_range_only_reduces_to_a_gaussian_and_other_errors_are_explained():
 
 
 # --- the capstone (exercise 24.3): a whole particle filter of a target in clutter ----------------------------
-from pfcourse.exercises import CLUTTER_PF_MISTAKES, check_clutter_pf, clutter_target_posterior  # noqa: E402
-from pfcourse.exercises.part4 import CLUTTER_PF_DATA, clutter_pf_reference, clutter_target_readings  # noqa: E402
+from pfcourse.book.exercises import CLUTTER_PF_MISTAKES, check_clutter_pf, clutter_target_posterior  # noqa: E402
+from pfcourse.book.exercises.part4 import CLUTTER_PF_DATA, clutter_pf_reference, clutter_target_readings  # noqa: E402
 
 
 def student_clutter_pf(readings, n, rng, r=1.0, resample_every_step=False, mistake=None):
@@ -166,7 +166,7 @@ def test_clutter_pf_reference_and_a_students_filter_pass():
 def test_the_exact_posterior_is_the_kalman_filter_without_clutter_and_is_converged():
     """With one reading per step, every history but 'that reading is the target's' pruned, the mixture is
     a Kalman filter; and pruning at 1e-12 moves the answer by less than 1e-6 of a standard deviation."""
-    from pfcourse.exercises import part4
+    from pfcourse.book.exercises import part4
 
     readings = clutter_target_readings(CLUTTER_PF_DATA[0])
     fine, sd = clutter_target_posterior(readings, prune=1e-16)

@@ -6,8 +6,8 @@ import numpy as np
 import pytest
 from scipy.special import logsumexp
 
-from pfcourse.exercises import adapted_log_likelihood, check_adapted_likelihood
-from pfcourse.exercises.part5 import ADAPTED_A, ADAPTED_Q, ADAPTED_R, adapted_data, scalar_kalman_log_likelihood
+from pfcourse.book.exercises import adapted_log_likelihood, check_adapted_likelihood
+from pfcourse.book.exercises.part5 import ADAPTED_A, ADAPTED_Q, ADAPTED_R, adapted_data, scalar_kalman_log_likelihood
 
 
 def adapted_student(z, n, rng, a, q, r, mistake=None):
@@ -110,8 +110,8 @@ def lag_student(particles, weights, ancestors, lag, mistake=None):
 
 
 def test_the_fixed_lag_reference_passes_and_agrees_with_the_package():
-    from pfcourse.exercises import check_fixed_lag, fixed_lag_reference
-    from pfcourse.exercises.part5 import _fixed_lag_case
+    from pfcourse.book.exercises import check_fixed_lag, fixed_lag_reference
+    from pfcourse.book.exercises.part5 import _fixed_lag_case
     from pfcourse.smoothing import fixed_lag_means
     assert check_fixed_lag(lag_student).ok, str(check_fixed_lag(lag_student))
     particles, weights, ancestors = _fixed_lag_case()
@@ -128,13 +128,13 @@ def test_the_fixed_lag_reference_passes_and_agrees_with_the_package():
     ("end_not_clipped", "min(k + L, T)"),
 ])
 def test_each_typical_mistake_of_the_fixed_lag_smoother_gets_its_own_sentence(mistake, says):
-    from pfcourse.exercises import check_fixed_lag
+    from pfcourse.book.exercises import check_fixed_lag
     report = check_fixed_lag(lambda *args: lag_student(*args, mistake=mistake))
     assert not report.ok and len(report.problems) == 1, str(report)
     assert says in report.problems[0], report.problems[0]
 
 
 def test_the_fixed_lag_checker_names_a_wrong_shape_and_none():
-    from pfcourse.exercises import check_fixed_lag
+    from pfcourse.book.exercises import check_fixed_lag
     assert "not (8, 2)" in check_fixed_lag(lambda p, w, a, lag: np.zeros((8, 3))).problems[0]
     assert "returned None" in check_fixed_lag(lambda p, w, a, lag: None).problems[0]

@@ -11,7 +11,7 @@ from scipy.special import logsumexp
 
 from pfcourse.diagnostics import _logsumexp, normalize_log_weights
 from pfcourse.errors import DegenerateWeightsError
-from pfcourse.robot.scenario import Q_TRUE, R_TRUE, RobotModel, simulate_robot
+from pfcourse.scenarios.robot.scenario import Q_TRUE, R_TRUE, RobotModel, simulate_robot
 
 
 def log_weight_vectors(count, seed=0):

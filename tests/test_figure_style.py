@@ -1,4 +1,4 @@
-"""Every chapter draws its figures in the book's one style (pfcourse.style.use_style)."""
+"""Every chapter draws its figures in the book's one style (pfcourse.book.style.use_style)."""
 
 from __future__ import annotations
 
@@ -17,6 +17,6 @@ def test_chapter_with_figures_uses_the_book_style(source: Path) -> None:
     if not re.search(r"^\s*(import matplotlib|from matplotlib)", text, flags=re.M):
         return
     assert re.search(r"^use_style\(\)|^plotting\.use_style\(\)", text, flags=re.M), (
-        f"{source.name} draws figures: call pfcourse.style.use_style() at the top"
+        f"{source.name} draws figures: call pfcourse.book.style.use_style() at the top"
     )
 

@@ -20,7 +20,7 @@ from pfcourse import (
 )
 from pfcourse.collectors import Clouds
 from pfcourse.gaussian import gaussian_logpdf
-from pfcourse.landmarks.scenario import quadrant_scenario, simulate
+from pfcourse.scenarios.landmarks.scenario import quadrant_scenario, simulate
 
 N_VALUES = (250, 1000, 4000)
 N_RUNS = 40

@@ -79,7 +79,7 @@ def test_bad_settings_are_refused_when_the_record_is_made(fields, error, message
 def test_the_terrain_registry_holds_settings_records():
     """Each terrain filter is a FilterSettings record: its N, label and provenance record derived from it
     (tests/test_stored_studies.py re-computes their stored rows float for float)."""
-    from pfcourse.experiments.terrain_remedies import FILTERS
+    from pfcourse.studies.terrain_remedies import FILTERS
     from pfcourse.filter_config import records
 
     assert all(c.settings is not None and c.n_particles == c.settings.n_particles for c in FILTERS.values())

@@ -46,7 +46,7 @@ MAX_LINE = 80
 MAX_MINUTES = 25
 WORDS = {in_words(n): n for n in range(100)}
 PFCOURSE_IMPORT = re.compile(r"^\s*(?:from\s+pfcourse[\w.]*\s+import\b|import\s+pfcourse\b)")
-CHECKER_IMPORT = re.compile(r"^\s*from\s+pfcourse\.exercises\s+import\s+check_\w+(\s*,\s*check_\w+)*\s*$")
+CHECKER_IMPORT = re.compile(r"^\s*from\s+pfcourse\.book\.exercises\s+import\s+check_\w+(\s*,\s*check_\w+)*\s*$")
 def source(doc: str) -> Path:
     return BOOK / f"{doc}.py"
 

@@ -1,4 +1,4 @@
-"""The Intel log's experiments (pfcourse.experiments.intel): the held-out split, the lock-on rule, the
+"""The Intel log's experiments (pfcourse.studies.intel): the held-out split, the lock-on rule, the
 scan proposal's density, and a global run's determinism."""
 
 from __future__ import annotations
@@ -10,8 +10,8 @@ from scipy.stats import norm
 
 from pfcourse.angles import wrap_angle
 from pfcourse.errors import ParameterError
-from pfcourse.experiments import intel
-from pfcourse.maprobot.carmen import relative_pose
+from pfcourse.studies import intel
+from pfcourse.scenarios.maprobot.carmen import relative_pose
 
 
 def test_the_map_is_built_from_the_other_half_and_holds_the_held_out_path():

@@ -20,7 +20,7 @@ from pfcourse.diagnostics import (
 )
 from pfcourse.filter import ParticleFilter
 from pfcourse.resampling import multinomial, residual, stratified, systematic
-from pfcourse.robot.scenario import (
+from pfcourse.scenarios.robot.scenario import (
     R_TRUE,
     RobotModel,
     _log_likelihood,

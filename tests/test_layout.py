@@ -6,10 +6,10 @@ Every module of ``pfcourse`` belongs to one layer (README, "Layout"):
    and resampling, results, errors and checks, angles, the Gaussian density, plot style, and
    the generic algorithms, one idea per module named after it: the linear-Gaussian model, the
    Kalman filter, proposals, jitters, smoothing, PMMH, the executor loop), and the package
-   ``pfcourse.exercises`` (the exercises' checkers, one module per part of the book);
-1. **scenarios**: ``pfcourse.landmarks``, ``pfcourse.robot``, ``pfcourse.terrain``;
-2. **experiments**: ``pfcourse.experiments``;
-3. **figures**: ``pfcourse.figures``.
+   ``pfcourse.book.exercises`` (the exercises' checkers, one module per part of the book);
+1. **scenarios**: ``pfcourse.scenarios.landmarks``, ``pfcourse.scenarios.robot``, ``pfcourse.scenarios.terrain``;
+2. **experiments**: ``pfcourse.studies``;
+3. **figures**: ``pfcourse.book.figures``.
 
 A module may import from its own layer or a lower one, and a scenario only from the core and
 from itself (scenarios do not know each other).  A generic algorithm is defined in its core
@@ -40,7 +40,7 @@ def module_name(path: Path, package: Path = PACKAGE) -> str:
 
 def group(module: str) -> str:
     """``core``, a scenario name, ``experiments`` or ``figures`` for a ``pfcourse...`` module name
-    (``pfcourse.exercises.*`` is core)."""
+    (``pfcourse.book.exercises.*`` is core)."""
     parts = module.split(".")
     if len(parts) >= 2 and parts[1] in LAYER and parts[1] != "exercises":
         return parts[1]
@@ -64,7 +64,7 @@ def imported_modules(path: Path, package_dir: Path = PACKAGE) -> list[tuple[int,
                 target = node.module or ""
             if target.split(".")[0] != "pfcourse":
                 continue
-            # ``from pfcourse import robot`` imports the subpackage ``pfcourse.robot``
+            # ``from pfcourse import robot`` imports the subpackage ``pfcourse.scenarios.robot``
             for alias in node.names:
                 candidate = f"{target}.{alias.name}"
                 sub = package_dir.parent / Path(*candidate.split("."))
@@ -108,11 +108,11 @@ def test_the_rule_catches_an_upward_import(tmp_path):
     fake = tmp_path / "pfcourse"
     (fake / "robot").mkdir(parents=True)
     (fake / "experiments").mkdir()
-    (fake / "filter.py").write_text("from pfcourse.robot.scenario import RobotModel\n")
+    (fake / "filter.py").write_text("from pfcourse.scenarios.robot.scenario import RobotModel\n")
     (fake / "robot" / "scenario.py").write_text(
-        "from ..experiments import study\nfrom pfcourse.landmarks import simulate\nfrom ..filter import x\n"
+        "from ..experiments import study\nfrom pfcourse.scenarios.landmarks import simulate\nfrom ..filter import x\n"
     )
-    (fake / "experiments" / "study.py").write_text("from pfcourse.robot import scenario\nimport pfcourse.filter\n")
+    (fake / "experiments" / "study.py").write_text("from pfcourse.scenarios.robot import scenario\nimport pfcourse.filter\n")
     assert len(violations(fake / "filter.py", fake)) == 1
     assert len(violations(fake / "robot" / "scenario.py", fake)) == 2
     assert violations(fake / "experiments" / "study.py", fake) == []
@@ -171,8 +171,8 @@ def test_a_generic_algorithm_lives_in_its_core_module_only(name):
 
 ROOT = PACKAGE.parent
 #: The registries of named filter configurations (README, "Layout"): one per scenario of a comparison.
-FILTER_REGISTRIES = ("pfcourse.experiments.rb_study", "pfcourse.experiments.terrain_remedies", "pfcourse.robot.mcl",
-                     "pfcourse.experiments.maprobot")
+FILTER_REGISTRIES = ("pfcourse.studies.rb_study", "pfcourse.studies.terrain_remedies", "pfcourse.scenarios.robot.mcl",
+                     "pfcourse.studies.maprobot")
 
 
 @pytest.mark.parametrize("module", FILTER_REGISTRIES)
@@ -211,15 +211,15 @@ def test_every_stored_study_is_registered():
 
 
 #: The experiment-level result classes that one run record replaced (issue 28): an experiment
-#: records a filter on a run as a pfcourse.experiments.record.RunRecord.
+#: records a filter on a run as a pfcourse.studies.record.RunRecord.
 REPLACED_BY_THE_RUN_RECORD = ("RunMetrics", "GlobalRun", "RunScores", "MonteCarloResult", "Track", "ConvergenceResult")
 
 
 def test_one_run_record():
     defined = {name: [module_name(path) for path in MODULES if name in top_level_definitions(path)]
                for name in ("RunRecord", "record_run", *REPLACED_BY_THE_RUN_RECORD)}
-    assert defined.pop("RunRecord") == ["pfcourse.experiments.record"]
-    assert defined.pop("record_run") == ["pfcourse.experiments.record"]
+    assert defined.pop("RunRecord") == ["pfcourse.studies.record"]
+    assert defined.pop("record_run") == ["pfcourse.studies.record"]
     assert all(not homes for homes in defined.values()), defined
 
 
@@ -242,7 +242,7 @@ def test_the_kalman_family_runs_in_one_loop(name):
 #: The modules that may catch a filter's collapse (a StepError): the one failure policy (the run record and
 #: the study runner), and the likelihood estimate, whose value is exactly 0 (-inf in logs) when every
 #: particle has zero weight (an estimate, not a recorded failure).
-COLLAPSE_CATCHERS = {"pfcourse.experiments.record", "pfcourse.experiments.study", "pfcourse.experiments.likelihood"}
+COLLAPSE_CATCHERS = {"pfcourse.studies.record", "pfcourse.studies.study", "pfcourse.likelihood"}
 
 
 def test_only_the_failure_policy_catches_a_collapse():

@@ -8,7 +8,7 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import pytest  # noqa: E402
 
-from pfcourse.figures.legibility import overlapping_texts  # noqa: E402
+from pfcourse.book.legibility import overlapping_texts  # noqa: E402
 
 
 def test_two_annotations_on_the_same_spot_are_found():
@@ -45,7 +45,7 @@ def test_tick_labels_outside_the_view_are_not_counted():
     starts at 0.05), placed off the axes where they can meet other labels; they are not drawn."""
     from matplotlib import ticker
 
-    from pfcourse.figures.legibility import _drawn_texts
+    from pfcourse.book.legibility import _drawn_texts
 
     fig, ax = plt.subplots(figsize=(6, 4), layout="constrained")
     ax.errorbar([0.06, 0.1, 0.45], [0.26, 0.19, 0.19], yerr=0.05, fmt="o")
@@ -53,7 +53,7 @@ def test_tick_labels_outside_the_view_are_not_counted():
     ax.set_xlim(0.05, 0.5)
     ax.xaxis.set_major_locator(ticker.LogLocator(subs=(1.0, 2.0, 5.0)))
     ax.xaxis.set_major_formatter(ticker.FormatStrFormatter("%g"))
-    ax.xaxis.set_minor_locator(ticker.NullLocator())  # as pfcourse.style.plain_log_axis: else the
+    ax.xaxis.set_minor_locator(ticker.NullLocator())  # as pfcourse.book.style.plain_log_axis: else the
     fig.canvas.draw()                                 # minor label 6x10^-2 meets 0.05 (counted)
     kept = [t.get_text() for t in ax.get_xticklabels()]
     drawn = [t.get_text() for t in _drawn_texts(fig)]
@@ -75,7 +75,7 @@ def test_a_suptitle_is_not_its_own_clash():
 def test_smallest_text_is_measured_at_column_width():
     import matplotlib.pyplot as plt
 
-    from pfcourse.figures.legibility import COLUMN_PX, smallest_text_px
+    from pfcourse.book.legibility import COLUMN_PX, smallest_text_px
 
     fig, ax = plt.subplots(figsize=(10, 4), dpi=100)
     ax.plot([0, 1], [0, 1], label="a curve")
@@ -145,7 +145,7 @@ def test_tick_labels_on_the_top_axis_meeting_the_title_are_found():
 def test_an_illegible_figure_warns_and_a_clean_one_does_not():
     import warnings
 
-    from pfcourse.figures.legibility import LegibilityWarning, warn_if_illegible
+    from pfcourse.book.legibility import LegibilityWarning, warn_if_illegible
 
     fig, ax = plt.subplots(figsize=(4, 3), dpi=100)
     ax.annotate("PF N=300", (0.5, 0.5))
@@ -168,11 +168,11 @@ def test_an_illegible_figure_warns_and_a_clean_one_does_not():
 
 
 def test_a_figure_shown_by_the_books_formatter_is_checked(monkeypatch):
-    """Under the tests' check, the book's figure formatter (pfcourse.narrow_figures, which draws the
+    """Under the tests' check, the book's figure formatter (pfcourse.book.narrow_figures, which draws the
     figure itself, not through print_figure) checks every figure it shows, its narrow copy included."""
     from IPython.core import pylabtools
 
-    from pfcourse import narrow_figures
+    from pfcourse.book import narrow_figures
 
     checked = []
 
@@ -196,8 +196,8 @@ def test_a_panel_figure_is_checked_too(monkeypatch, workers):
     and what is found is warned in the notebook's process with the grid point."""
     from IPython.core import pylabtools
 
-    from pfcourse.figures.legibility import LegibilityWarning, warn_if_illegible
-    from pfcourse.figures.static_panel import StaticControl, render_grid
+    from pfcourse.book.legibility import LegibilityWarning, warn_if_illegible
+    from pfcourse.book.static_panel import StaticControl, render_grid
 
     def print_figure(figure, *args, **kwargs):
         return b""

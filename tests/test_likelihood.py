@@ -8,8 +8,8 @@ import pytest
 from scipy import stats
 
 from pfcourse.errors import ParameterError
-from pfcourse.landmarks import quadrant_scenario, simulate
-from pfcourse.experiments.likelihood import (
+from pfcourse.scenarios.landmarks import quadrant_scenario, simulate
+from pfcourse.likelihood import (
     grid_posterior,
     kalman_log_likelihood,
     max_likelihood_scale,

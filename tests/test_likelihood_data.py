@@ -1,5 +1,5 @@
 """The stored studies of Part V (book/data/likelihood/): every table has its provenance and no failed
-run; the PMMH chains are what pfcourse.experiments.likelihood_studies computes (their first
+run; the PMMH chains are what pfcourse.studies.likelihood_studies computes (their first
 iterations re-computed). The other tables are registered studies, whose rows
 tests/test_stored_studies.py re-computes.
 """
@@ -13,7 +13,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from pfcourse.experiments import likelihood_studies as ls
+from pfcourse.studies import likelihood_studies as ls
 
 ROOT = Path(__file__).resolve().parents[1]
 DATA = ROOT / "book" / "data" / "likelihood"

@@ -1,4 +1,4 @@
-"""PMMH over two noise scales (pfcourse.pmmh) and the exact 2-D grid posterior (pfcourse.experiments.likelihood)."""
+"""PMMH over two noise scales (pfcourse.pmmh) and the exact 2-D grid posterior (pfcourse.likelihood)."""
 
 from __future__ import annotations
 
@@ -7,9 +7,9 @@ import pytest
 from scipy import stats
 
 from pfcourse import ParameterError
-from pfcourse.experiments.likelihood import grid_posterior_2d, kalman_log_likelihood, scaled_model
+from pfcourse.likelihood import grid_posterior_2d, kalman_log_likelihood, scaled_model
 from pfcourse.pmmh import pmmh
-from pfcourse.landmarks import quadrant_scenario
+from pfcourse.scenarios.landmarks import quadrant_scenario
 
 
 def test_two_scales_scale_both_covariances():
@@ -39,7 +39,7 @@ def test_vector_pmmh_with_the_exact_likelihood_targets_the_grid_posterior():
     # with the exact (Kalman) likelihood PMMH is plain random-walk Metropolis on (log q, log r):
     # its posterior mean of theta_r lies within a few Monte Carlo standard errors of the grid's
     sc = quadrant_scenario().with_(Qw=0.05**2 * np.eye(6), Rv=0.5**2 * np.eye(4))
-    from pfcourse.landmarks import simulate
+    from pfcourse.scenarios.landmarks import simulate
     Z = simulate(sc, 7).measurements[:20]
     prior = stats.uniform(np.log(0.1), np.log(10.0) - np.log(0.1))
     chain = pmmh(lambda t, rng: kalman_log_likelihood(sc, Z, t, ("Qw", "Rv")), prior, np.array([1.0, 1.0]),

@@ -1,5 +1,5 @@
 """The chapter *Finding the robot on the map*: the lock-on rule, the twins, and the cure's parts
-(pfcourse.maprobot.lock_on, .twins, .global_mcl)."""
+(pfcourse.scenarios.maprobot.lock_on, .twins, .global_mcl)."""
 
 from __future__ import annotations
 
@@ -9,13 +9,13 @@ from scipy import stats
 from scipy.special import logsumexp
 
 from pfcourse.errors import ParameterError, ShapeError
-from pfcourse.experiments import map_global as mg
-from pfcourse.experiments import maprobot as study
-from pfcourse.maprobot import global_mcl as gm
-from pfcourse.maprobot import lock_on
-from pfcourse.maprobot.grid import rooms_and_corridor
-from pfcourse.maprobot.motion import OdometryModel
-from pfcourse.maprobot.twins import TWINS, path_log_likelihoods, twin_margin, twin_poses
+from pfcourse.studies import map_global as mg
+from pfcourse.studies import maprobot as study
+from pfcourse.scenarios.maprobot import global_mcl as gm
+from pfcourse.scenarios.maprobot import lock_on
+from pfcourse.scenarios.maprobot.grid import rooms_and_corridor
+from pfcourse.scenarios.maprobot.motion import OdometryModel
+from pfcourse.scenarios.maprobot.twins import TWINS, path_log_likelihoods, twin_margin, twin_poses
 
 
 def test_the_heading_tolerance_is_three_sd_of_one_straight_step():
@@ -93,7 +93,7 @@ def test_a_twin_without_the_box_sees_the_same_scans_and_a_wall_ends_a_path():
     assert margin.shape == best.shape == (40,)
     assert np.all(margin <= best + 1e-12)  # against all twins together is at most against the best one
     # on the map without its box (symmetric under the half-turn), the half-turn twin scores as the path itself
-    from pfcourse.maprobot.likelihood_field import LikelihoodField
+    from pfcourse.scenarios.maprobot.likelihood_field import LikelihoodField
     occ = grid.occupied
     sym = type(grid)(occ & occ[::-1, ::-1], grid.resolution)
     assert np.array_equal(sym.occupied, sym.occupied[::-1, ::-1]) and not np.array_equal(occ, occ[::-1, ::-1])

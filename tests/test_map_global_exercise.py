@@ -1,4 +1,4 @@
-"""The map-global chapter's checker (pfcourse.exercises.map_global): the reference answer passes, each typical
+"""The map-global chapter's checker (pfcourse.book.exercises.map_global): the reference answer passes, each typical
 mistake is named with its own message, the generator is checked, and a broken answer is reported, never raised."""
 
 from __future__ import annotations
@@ -6,7 +6,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from pfcourse.exercises.map_global import (RESET_MISTAKES, Corridor, check_reset_weights, exact_evidence,
+from pfcourse.book.exercises.map_global import (RESET_MISTAKES, Corridor, check_reset_weights, exact_evidence,
                                            reset_answer)
 
 

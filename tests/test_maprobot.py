@@ -8,9 +8,9 @@ import pytest
 
 from pfcourse.errors import MeasurementError, OffMapError, ParameterError, ShapeError
 from pfcourse.filter import ParticleFilter
-from pfcourse.maprobot import (LikelihoodField, MapRobotModel, OccupancyGrid, OdometryModel, Scanner, cast_rays,
+from pfcourse.scenarios.maprobot import (LikelihoodField, MapRobotModel, OccupancyGrid, OdometryModel, Scanner, cast_rays,
                                odometry_increments, rooms_and_corridor, simulate_drive)
-from pfcourse.maprobot.grid import ROUTE
+from pfcourse.scenarios.maprobot.grid import ROUTE
 
 
 def box_grid(n: int = 10, resolution: float = 0.1) -> OccupancyGrid:

@@ -5,9 +5,9 @@ import numpy as np
 import pytest
 from scipy import stats
 
-from pfcourse.experiments import maprobot as study
-from pfcourse.maprobot import OdometryModel, lock_on
-from pfcourse.maprobot.amcl import CubesLikelihoodField, beam_log_likelihood
+from pfcourse.studies import maprobot as study
+from pfcourse.scenarios.maprobot import OdometryModel, lock_on
+from pfcourse.scenarios.maprobot.amcl import CubesLikelihoodField, beam_log_likelihood
 from pfcourse.metrics import locked_on as metrics_locked_on
 
 

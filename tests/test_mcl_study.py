@@ -1,7 +1,7 @@
 """The provenance the global-localization chapter prints (book/data/global_localization/provenance.json).
 
 Every table of the chapter, the per-step ``modes`` included, is a registered study
-(``global_localization/...`` of pfcourse.experiments.registry), re-computed by tests/test_stored_studies.py.
+(``global_localization/...`` of pfcourse.studies.registry), re-computed by tests/test_stored_studies.py.
 """
 
 from __future__ import annotations

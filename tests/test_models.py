@@ -7,7 +7,7 @@ import pytest
 from scipy import stats
 
 from pfcourse import CovarianceError, LinearGaussianModel, ShapeError, kalman_filter
-from pfcourse.landmarks.scenario import circle_scenario, quadrant_scenario, rotation, simulate
+from pfcourse.scenarios.landmarks.scenario import circle_scenario, quadrant_scenario, rotation, simulate
 
 
 def test_report_defaults_of_the_quadrant_scenario():

@@ -1,4 +1,4 @@
-"""Narrow copies of wide figures for phones (pfcourse/narrow_figures.py, issue 33).
+"""Narrow copies of wide figures for phones (pfcourse/book/narrow_figures.py, issue 33).
 
 Checked here: which figures need a copy (the arithmetic of a text scaled to the phone's column);
 the copy stacks side-by-side axes in one column, in reading order, at the phone's width, with
@@ -23,9 +23,9 @@ import numpy as np  # noqa: E402
 import pytest  # noqa: E402
 from PIL import Image  # noqa: E402
 
-from pfcourse import narrow_figures as nf  # noqa: E402
-from pfcourse.figures.static_panel import panel_html, render_grid, static_controls  # noqa: E402
-from pfcourse.style import STYLE  # noqa: E402
+from pfcourse.book import narrow_figures as nf  # noqa: E402
+from pfcourse.book.static_panel import panel_html, render_grid, static_controls  # noqa: E402
+from pfcourse.book.style import STYLE  # noqa: E402
 
 
 @pytest.fixture(autouse=True)
@@ -76,7 +76,7 @@ def test_the_copy_stacks_the_axes_in_reading_order_at_the_phones_width():
 
 
 def test_no_text_of_the_copy_is_cut_or_drawn_over_another():
-    from pfcourse.figures.legibility import overlapping_texts
+    from pfcourse.book.legibility import overlapping_texts
 
     fig, _ = three_panels(legend_outside=True, sharey=True)
     copy = nf.narrow_copy(fig)

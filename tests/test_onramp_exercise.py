@@ -1,4 +1,4 @@
-"""The on-ramp's exercise checker (pfcourse.exercises.onramp): the reader's particle filter for two
+"""The on-ramp's exercise checker (pfcourse.book.exercises.onramp): the reader's particle filter for two
 beacons, checked against the exact grid. It accepts the reference on every seed tried, names each
 typical mistake in its own sentence, and requires the filter to draw from the generator it is given."""
 
@@ -7,7 +7,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from pfcourse.exercises import (INFLATION, TWO_BEACONS, check_two_beacon_filter, two_beacon_case,
+from pfcourse.book.exercises import (INFLATION, TWO_BEACONS, check_two_beacon_filter, two_beacon_case,
                                 two_beacon_grid)
 
 
@@ -113,7 +113,7 @@ def test_the_stored_error_variance_is_what_the_reference_shows_on_other_seeds():
     adds variance, so a bound from a plain sample would be too tight."""
     from scipy.stats import chi2
 
-    from pfcourse.exercises.onramp import ERROR_VARIANCE
+    from pfcourse.book.exercises.onramp import ERROR_VARIANCE
 
     z = two_beacon_case()
     mean, var = two_beacon_grid(z)
@@ -138,7 +138,7 @@ def test_a_filter_using_a_tenth_of_its_particles_fails_on_every_seed_tried():
 def test_the_bonferroni_z_is_the_family_wise_rate_over_the_steps():
     from scipy.stats import norm
 
-    from pfcourse.exercises.onramp import ALPHA, tolerance_z
+    from pfcourse.book.exercises.onramp import ALPHA, tolerance_z
 
     z16 = tolerance_z(16)
     assert 2 * norm.sf(z16) * 16 == pytest.approx(ALPHA)

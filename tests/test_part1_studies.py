@@ -1,4 +1,4 @@
-"""The row functions of Part I's stored studies (pfcourse.experiments.part1_studies) measure what they say.
+"""The row functions of Part I's stored studies (pfcourse.studies.part1_studies) measure what they say.
 
 tests/test_stored_studies.py re-computes a sample of the stored rows; these tests check properties
 the theory gives for single runs, and that a bad setting is refused.
@@ -9,7 +9,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from pfcourse.experiments import part1_studies as ps
+from pfcourse.studies import part1_studies as ps
 
 
 def test_a_setting_or_method_that_does_not_exist_is_refused():

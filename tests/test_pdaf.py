@@ -1,4 +1,4 @@
-"""The probabilistic data association filter (pfcourse.robot.association.pda_update, run_pdaf):
+"""The probabilistic data association filter (pfcourse.scenarios.robot.association.pda_update, run_pdaf):
 its update is the moment match of the exact posterior mixture of a linear Gaussian prediction,
 computed here by brute force on a grid; its gate; its run; its bad inputs."""
 
@@ -9,8 +9,8 @@ import pytest
 from scipy import stats
 
 from pfcourse.errors import ModelError, ParameterError, ShapeError
-from pfcourse.robot import RobotModel, run_ekf, simulate_robot
-from pfcourse.robot.association import AssociationModel, ClutterSensor, pda_update, run_pdaf, simulate_readings
+from pfcourse.scenarios.robot import RobotModel, run_ekf, simulate_robot
+from pfcourse.scenarios.robot.association import AssociationModel, ClutterSensor, pda_update, run_pdaf, simulate_readings
 
 # A tiny linear case: a 2-D state, two look-alike "landmarks" h_j(x) = H_j x + b_j, two readings.
 MEAN = np.array([1.0, -0.5])

@@ -1,4 +1,4 @@
-"""Figure helpers of pfcourse.style draw what they say."""
+"""Figure helpers of pfcourse.book.style draw what they say."""
 
 from __future__ import annotations
 
@@ -10,7 +10,7 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
-from pfcourse.figures.bands import posterior_bands  # noqa: E402
+from pfcourse.book.figures.bands import posterior_bands  # noqa: E402
 
 
 def test_posterior_bands_draws_one_panel_per_component():
@@ -25,7 +25,7 @@ def test_posterior_bands_draws_one_panel_per_component():
 
 
 def test_plain_log_axis_labels_plain_numbers_without_minor_ticks():
-    from pfcourse.style import plain_log_axis
+    from pfcourse.book.style import plain_log_axis
 
     fig, ax = plt.subplots()
     ax.plot([1, 2], [0.02, 40.0])

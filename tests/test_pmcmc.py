@@ -251,8 +251,8 @@ def test_split_rhat_is_one_for_mixed_chains_and_large_for_separated_ones():
 # ---------------------------------------------------------------- stored chains
 @pytest.mark.parametrize("name", ["pmcmc/tuning", "pmcmc/correlated", "pmcmc/pgas"])
 def test_stored_chains_start_as_their_short_check_chains(name):
-    from pfcourse.experiments.pmcmc_studies import CHECK_ITERATIONS
-    from pfcourse.experiments.registry import STUDIES
+    from pfcourse.studies.pmcmc_studies import CHECK_ITERATIONS
+    from pfcourse.studies.registry import STUDIES
 
     study, check = STUDIES[name], STUDIES[name + "_check"]
     long, short = study.load(), check.load()

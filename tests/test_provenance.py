@@ -1,4 +1,4 @@
-"""pfcourse.experiments.provenance: every stored study records the same fields, rows round-trip."""
+"""pfcourse.studies.provenance: every stored study records the same fields, rows round-trip."""
 
 from __future__ import annotations
 
@@ -7,7 +7,7 @@ import json
 
 import numpy as np
 
-from pfcourse.experiments.provenance import launch_commit, write_provenance, write_rows
+from pfcourse.studies.provenance import launch_commit, write_provenance, write_rows
 
 
 def test_provenance_records_commit_versions_and_the_study_fields(tmp_path):
@@ -37,7 +37,7 @@ def _row(seed, x):
 def test_a_rerun_of_one_study_of_a_group_is_appended_to_the_groups_record(tmp_path, monkeypatch):
     """``tasks.py study group/one`` keeps the group's shared record and appends the re-run to its
     ``reruns`` list; the whole group writes the record afresh (studies on a temporary DATA)."""
-    from pfcourse.experiments import registry
+    from pfcourse.studies import registry
 
     studies = {name: registry.Study(name=name, row=_row, grid={"x": [1, 2]}, n_runs=2, seeds="run",
                                     table=f"group/{name.split('/')[1]}.csv", provenance="group/provenance.json",

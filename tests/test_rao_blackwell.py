@@ -9,8 +9,8 @@ from pfcourse.collectors import Clouds
 from pfcourse import LinearGaussianModel, ParticleFilter, kalman_filter
 from pfcourse.proposals import FullyAdaptedAuxiliary, LinearGaussianOptimal
 from pfcourse.errors import ParameterError
-from pfcourse.landmarks.scenario import quadrant_scenario, simulate
-from pfcourse.landmarks.rao_blackwell import RaoBlackwellError, RaoBlackwellModel, RaoBlackwellProposal
+from pfcourse.scenarios.landmarks.scenario import quadrant_scenario, simulate
+from pfcourse.scenarios.landmarks.rao_blackwell import RaoBlackwellError, RaoBlackwellModel, RaoBlackwellProposal
 
 def short_scenario(n_samples=12):
     return quadrant_scenario().with_(n_samples=n_samples)

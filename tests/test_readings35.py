@@ -8,8 +8,8 @@ import pytest
 
 from pfcourse import evidence
 from pfcourse.evidence import EvidenceError, Paired, holm, holm_verdicts
-from pfcourse.experiments import likelihood_studies as ls
-from pfcourse.experiments.registry import STUDIES
+from pfcourse.studies import likelihood_studies as ls
+from pfcourse.studies.registry import STUDIES
 
 ROOT = Path(__file__).resolve().parents[1]
 

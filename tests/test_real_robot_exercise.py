@@ -1,4 +1,4 @@
-"""The real-robot chapter's checker (pfcourse.exercises.real_robot): the reference answer passes, each
+"""The real-robot chapter's checker (pfcourse.book.exercises.real_robot): the reference answer passes, each
 typical mistake is named with its own message, and a broken answer is reported, never raised."""
 
 from __future__ import annotations
@@ -6,7 +6,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from pfcourse.exercises.real_robot import BEAM_MISTAKES, beam_cases, beam_log_likelihood, check_beam_model
+from pfcourse.book.exercises.real_robot import BEAM_MISTAKES, beam_cases, beam_log_likelihood, check_beam_model
 
 
 def reference(z, z_star, beam):

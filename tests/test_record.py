@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from pfcourse.errors import DegenerateWeightsError, ParameterError
-from pfcourse.experiments.record import RunRecord, no_estimate, record_run, scores
+from pfcourse.studies.record import RunRecord, no_estimate, record_run, scores
 from pfcourse.results import KalmanResult
 
 

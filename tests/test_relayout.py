@@ -49,7 +49,8 @@ def repo(tmp_path: Path) -> Path:
         "pfcourse/figures/__init__.py": "",
         "pfcourse/figures/report.py": "from pfcourse import style\n",
         "pfcourse/landmarks/__init__.py": "from pfcourse.landmarks.scenario import LandmarkScenario\n",
-        "pfcourse/landmarks/scenario.py": "LandmarkScenario = simulate_run = aa = 1\n",
+        "pfcourse/landmarks/scenario.py": "LandmarkScenario = simulate_run = aa = 1\n"
+                                          "DATA = Path(__file__).resolve().parents[2] / 'book'\n",
         "pfcourse/landmarks/figures.py": "from pfcourse.style import x\n",
         "pfcourse/experiments/__init__.py": "",
         "pfcourse/experiments/likelihood.py": "",
@@ -58,7 +59,7 @@ def repo(tmp_path: Path) -> Path:
             "from pfcourse.experiments import (likelihood,  # methods\n    store)\n"
             "from pfcourse.landmarks import figures as lf\n"
             "PATH = 'pfcourse/experiments/store.py'\n"),
-        "tests/test_x.py": "import pfcourse.figures.report\nmock = 'pfcourse.executor.stats'\n",
+        "tests/test_x.py": "import pfcourse.figures.report\nmock = 'pfcourse.executor.stats'\nPATTERN = r'pfcourse\\.exercises\\s'\n",
         "README.md": "The tree: `pfcourse/figures/` and `pfcourse.experiments.registry`.\n",
     }
     for rel, text in files.items():
@@ -81,6 +82,8 @@ def test_moves_and_rewrites(repo: Path) -> None:
     }
     assert not (repo / "pfcourse/figures").exists() and not (repo / "pfcourse/experiments").exists()
     assert (repo / "pfcourse/book/__init__.py").exists() and (repo / "pfcourse/scenarios/__init__.py").exists()
+    # a path from the module's own file still reaches the repository's root, one folder deeper
+    assert "Path(__file__).resolve().parents[3] / 'book'" in (repo / "pfcourse/scenarios/landmarks/scenario.py").read_text()
     registry = (repo / "pfcourse/studies/registry.py").read_text()
     assert "from pfcourse import likelihood  # methods\nfrom pfcourse.studies import store\n" in registry
     assert "from pfcourse.book.figures import landmarks as lf\n" in registry
@@ -89,7 +92,8 @@ def test_moves_and_rewrites(repo: Path) -> None:
     assert (repo / "pfcourse/studies/executor.py").read_text() == "from pfcourse.errors import *  # noqa\n"
     assert (repo / "pfcourse/filter.py").read_text().startswith("from pfcourse import kernels\n")
     assert (repo / "tests/test_x.py").read_text() == ("import pfcourse.book.report\n"
-                                                      "mock = 'pfcourse.studies.executor.stats'\n")
+                                                      "mock = 'pfcourse.studies.executor.stats'\n"
+                                                      "PATTERN = r'pfcourse\\.book\\.exercises\\s'\n")
     assert "`pfcourse/book/figures/` and `pfcourse.studies.registry`" in (repo / "README.md").read_text()
     nb = json.loads((repo / "book/x.ipynb").read_text())
     markdown, code = nb["cells"]

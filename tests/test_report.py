@@ -1,4 +1,4 @@
-"""pfcourse.figures.report: evidence blocks fold, show every number they are given, and refuse no title."""
+"""pfcourse.book.report: evidence blocks fold, show every number they are given, and refuse no title."""
 
 from __future__ import annotations
 
@@ -6,7 +6,7 @@ import pandas as pd
 import pytest
 
 from pfcourse.errors import ParameterError
-from pfcourse.figures.report import EvidenceBlock, html_table
+from pfcourse.book.report import EvidenceBlock, html_table
 
 TABLE = pd.DataFrame({"N": [100, 1000], "error": [0.123456, 0.0456789], "method": ["SIS", "SIR <b>"]})
 
@@ -39,7 +39,7 @@ def test_glue_values_glues_numpy_scalars_as_plain_numbers(monkeypatch):
     import myst_nb
     import numpy as np
 
-    from pfcourse.figures.report import glue_values
+    from pfcourse.book.report import glue_values
 
     glued = {}
     monkeypatch.setattr(myst_nb, "glue", lambda name, value, display: glued.update({name: (value, display)}))

@@ -1,4 +1,4 @@
-"""pfcourse.figures.report: a table's float column given no format shows sensible digits (issue 39).
+"""pfcourse.book.report: a table's float column given no format shows sensible digits (issue 39).
 
 A raw ``describe()`` printed 17-digit floats (0.05973297374498274) in an evidence table. A float
 column with no format and more digits than a reader can use now shows four significant digits;
@@ -15,7 +15,7 @@ import pandas as pd
 import pytest
 
 from pfcourse.errors import ParameterError
-from pfcourse.figures.report import SIGNIFICANT_DIGITS, EvidenceBlock, html_table, significant, spread_table
+from pfcourse.book.report import SIGNIFICANT_DIGITS, EvidenceBlock, html_table, significant, spread_table
 
 
 @pytest.mark.parametrize(

@@ -9,7 +9,7 @@ from scipy import stats
 from pfcourse.angles import wrap_angle
 from pfcourse.errors import CovarianceError, ParameterError, ShapeError
 from pfcourse.filter import ParticleFilter
-from pfcourse.robot.scenario import (
+from pfcourse.scenarios.robot.scenario import (
     Q_TRUE,
     R_TRUE,
     RobotModel,
@@ -20,8 +20,8 @@ from pfcourse.robot.scenario import (
     simulate_robot,
     tracking_errors,
 )
-from pfcourse.experiments.robot import compare_filters, global_localization_run
-from pfcourse.robot.kalman import (
+from pfcourse.studies.robot import compare_filters, global_localization_run
+from pfcourse.scenarios.robot.kalman import (
     measurement_jacobian,
     measurement_residual,
     motion_jacobians,

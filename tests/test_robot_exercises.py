@@ -4,7 +4,7 @@ tracking): the reference answers pass, each typical mistake gets its own sentenc
 import numpy as np
 import pytest
 
-from pfcourse.exercises import VELOCITY_MISTAKES, check_velocity_motion, velocity_motion
+from pfcourse.book.exercises import VELOCITY_MISTAKES, check_velocity_motion, velocity_motion
 
 
 def wrap(a):
@@ -76,8 +76,8 @@ def test_a_straight_step_is_the_arc_for_a_small_turn():
 from scipy.special import logsumexp  # noqa: E402
 
 from pfcourse.errors import ParameterError  # noqa: E402
-from pfcourse.exercises import BearingModel, bearing_bootstrap, bearing_grid, check_bearing_filter  # noqa: E402
-from pfcourse.exercises.capstones import BEARING_DATA_SEED, BEARING_STEPS  # noqa: E402
+from pfcourse.book.exercises import BearingModel, bearing_bootstrap, bearing_grid, check_bearing_filter  # noqa: E402
+from pfcourse.book.exercises.capstones import BEARING_DATA_SEED, BEARING_STEPS  # noqa: E402
 
 
 def student_filter(z, observer, n, rng, model, mistake=None):
@@ -191,7 +191,7 @@ def test_the_solution_printed_in_part_two_passes():
 
 
 # ----------------------------------------------------------------------------- chapter 12's exercise
-from pfcourse.exercises import RELATIVE_MISTAKES, check_relative_jacobian, relative_landmark_jacobian  # noqa: E402
+from pfcourse.book.exercises import RELATIVE_MISTAKES, check_relative_jacobian, relative_landmark_jacobian  # noqa: E402
 
 
 def relative(state, landmark):
@@ -227,7 +227,7 @@ def test_a_wrong_shape_and_an_unknown_mistake_are_reported():
 
 
 # ----------------------------------------------------------------------------- chapter 11's exercise
-from pfcourse.exercises import (BEARING_POSE_CASE, BEARING_POSE_MISTAKES, bearing_pose_draw,  # noqa: E402
+from pfcourse.book.exercises import (BEARING_POSE_CASE, BEARING_POSE_MISTAKES, bearing_pose_draw,  # noqa: E402
                                 check_bearing_pose_draw)
 
 

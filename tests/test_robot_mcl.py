@@ -1,4 +1,4 @@
-"""The remedies of pfcourse.robot.mcl: correct densities and weights, Fox's bound, the injection rule."""
+"""The remedies of pfcourse.scenarios.robot.mcl: correct densities and weights, Fox's bound, the injection rule."""
 
 from __future__ import annotations
 
@@ -9,9 +9,9 @@ from scipy import stats
 from pfcourse.errors import ParameterError
 from pfcourse.collectors import Clouds
 from pfcourse.filter import ParticleFilter
-from pfcourse.robot.scenario import RobotModel, range_bearing, simulate_robot
+from pfcourse.scenarios.robot.scenario import RobotModel, range_bearing, simulate_robot
 from pfcourse.sample_size import kld_bound
-from pfcourse.robot.mcl import (
+from pfcourse.scenarios.robot.mcl import (
     AugmentedMCL,
     KidnapRobotModel,
     SensorPoseSampler,
@@ -220,7 +220,7 @@ def test_tempered_method_counts_every_stage_of_progressive_correction():
 
 def test_kld_bin_size_reaches_the_filter():
     # Half-size bins in position: the same cloud occupies more bins, so KLD-sampling keeps more particles.
-    from pfcourse.robot.mcl import MethodSettings, run_method
+    from pfcourse.scenarios.robot.mcl import MethodSettings, run_method
 
     sim = simulate_robot(None, 0, n_steps=15)
     coarse = run_method(sim, "kld_mixture", 2000, 0)["n_used"]
@@ -233,7 +233,7 @@ def test_kld_bin_size_reaches_the_filter():
 def test_the_mixture_spends_its_share_drawn_from_the_reading_while_tracking(seed):
     # A tenth of the particles drawn from the reading carry weights of order eps = 1e-3 while the robot is
     # tracked, so the mixture's ESS is about 0.9 of the bootstrap filter's on the same run, never above it.
-    from pfcourse.experiments.global_localization import tracking_row
+    from pfcourse.studies.global_localization import tracking_row
 
     ratio = tracking_row(seed, "mixture", 2000)["ess_fraction"] / tracking_row(seed, "bootstrap", 2000)["ess_fraction"]
     assert 0.8 < ratio < 0.97

@@ -11,8 +11,8 @@ from pathlib import Path
 import pytest
 
 from pfcourse.errors import ParameterError
-from pfcourse.experiments import robot_studies as rs
-from pfcourse.experiments.registry import robot_study
+from pfcourse.studies import robot_studies as rs
+from pfcourse.studies.registry import robot_study
 
 
 def test_provenance_records_the_seeds_and_settings():

@@ -1,6 +1,6 @@
 """The robot study row (`pf_run`) is the engine's run: the same numbers as `compare_filters`, seed by seed.
 
-Part III runs its studies through :func:`pfcourse.experiments.robot.pf_run` (one
+Part III runs its studies through :func:`pfcourse.studies.robot.pf_run` (one
 :class:`~pfcourse.filter.ParticleFilter` run per seed, the runs spread over the cores by the
 study runner); there is no second filter to keep in step.
 """
@@ -11,8 +11,8 @@ import numpy as np
 import pytest
 
 from pfcourse.errors import DegenerateWeightsError, ParameterError
-from pfcourse.experiments.robot import FilterSettings, compare_filters, global_localization_run, pf_run
-from pfcourse.experiments.study import run_study, summarize
+from pfcourse.studies.robot import FilterSettings, compare_filters, global_localization_run, pf_run
+from pfcourse.studies.study import run_study, summarize
 
 SEEDS = [3, 11, 2024]
 
@@ -88,7 +88,7 @@ def test_study_with_batches_records_failures_per_replicate():
 
 def test_global_localization_run_uses_the_books_lock_on_definition():
     """Locked on is pfcourse.metrics.locked_on (every step of the last 20 s), not the last step alone."""
-    from pfcourse.experiments.robot import FilterSettings as Settings
+    from pfcourse.studies.robot import FilterSettings as Settings
     from pfcourse.metrics import heading_error, locked_on, position_error
 
     for seed, n in ((2, 3000), (4, 3000), (7, 1000)):

@@ -8,7 +8,7 @@ import pytest
 from pfcourse.errors import ParameterError, ShapeError
 from pfcourse.collectors import Clouds
 from pfcourse.filter import ParticleFilter
-from pfcourse.landmarks.scenario import quadrant_scenario, simulate
+from pfcourse.scenarios.landmarks.scenario import quadrant_scenario, simulate
 from pfcourse.jitter import Roughening, roughening_scale
 
 

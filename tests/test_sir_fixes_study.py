@@ -9,7 +9,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from pfcourse.experiments.sir_fixes_study import variant_row
+from pfcourse.studies.sir_fixes_study import variant_row
 
 DATA = Path(__file__).resolve().parents[1] / "book" / "data" / "sir_fixes.csv"
 

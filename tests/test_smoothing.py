@@ -13,8 +13,8 @@ from pfcourse.collectors import Clouds
 from pfcourse import LinearGaussianModel, ParticleFilter
 from pfcourse.errors import ParameterError, ShapeError
 from pfcourse import kalman_filter
-from pfcourse.robot import RobotModel, RobotScenario, simulate_robot
-from pfcourse.robot.scenario import robot_transition_log_density
+from pfcourse.scenarios.robot import RobotModel, RobotScenario, simulate_robot
+from pfcourse.scenarios.robot.scenario import robot_transition_log_density
 from pfcourse.smoothing import ffbsm, linear_gaussian_log_transition, pairwise, rts_smoother
 
 
@@ -101,7 +101,7 @@ def test_robot_transition_density_inverts_the_motion(robot):
     rng = np.random.default_rng(2)
     old = np.column_stack([rng.normal(0, 5, 50), rng.normal(-40, 5, 50), rng.uniform(-np.pi, np.pi, 50)])
     w = rng.multivariate_normal(np.zeros(3), model.q_est, 50)
-    from pfcourse.robot import motion
+    from pfcourse.scenarios.robot import motion
     new = motion(old, model.odometry[3] + w, model.dt)
     expected = stats.multivariate_normal(np.zeros(3), model.q_est).logpdf(w) - 3 * np.log(model.dt)
     np.testing.assert_allclose(robot_transition_log_density(model, new, old, 3), expected, rtol=1e-9)

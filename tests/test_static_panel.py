@@ -25,8 +25,8 @@ import pytest  # noqa: E402
 from PIL import Image  # noqa: E402
 
 from pfcourse.errors import ParameterError  # noqa: E402
-from pfcourse.figures.static_panel import panel_html, render_grid, static_controls  # noqa: E402
-from pfcourse.figures.widgets import Panel, control_panel  # noqa: E402
+from pfcourse.book.static_panel import panel_html, render_grid, static_controls  # noqa: E402
+from pfcourse.book.panels import Panel, control_panel  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -159,8 +159,8 @@ def test_a_pool_that_does_not_answer_is_replaced_by_the_serial_path(monkeypatch)
     import os
     import time
 
-    from pfcourse.executor import StudyWarning
-    from pfcourse.figures import static_panel
+    from pfcourse.studies.executor import StudyWarning
+    from pfcourse.book import static_panel
 
     parent = os.getpid()
 
@@ -202,7 +202,7 @@ def test_side_controls_are_drawn_one_factor_at_a_time():
 
 
 def test_values_read_as_a_reader_writes_them():
-    from pfcourse.figures.static_panel import format_value
+    from pfcourse.book.static_panel import format_value
 
     assert [format_value(v) for v in (1 / 3, 2 / 3, 0.25, 0.1, 0.5, 1.0, 1e-5, 1000)] == \
         ["1/3", "2/3", "0.25", "0.1", "0.5", "1", "1e-05", "1000"]
@@ -210,7 +210,7 @@ def test_values_read_as_a_reader_writes_them():
 
 
 def test_offered_values_cover_every_kind_of_control():
-    from pfcourse.figures.widgets import offered_values, particle_slider, readable, scale_slider, seed_box
+    from pfcourse.book.panels import offered_values, particle_slider, readable, scale_slider, seed_box
 
     assert offered_values(widgets.Checkbox(value=False)) == (False, True)
     assert offered_values(widgets.FloatSlider(value=0.5, min=0.0, max=1.0, step=0.05)) == (0.0, 0.5, 1.0)

@@ -121,7 +121,7 @@ def test_bad_input_gets_a_named_error_when_the_object_is_built():
 
 def student_step(x, a, b, z, rng, mistake=None):
     """A student's Storvik step for the random walk's process-noise variance, typical mistakes as switches."""
-    from pfcourse.exercises import STORVIK_R as r
+    from pfcourse.book.exercises import STORVIK_R as r
 
     if mistake == "mean_theta":
         theta = b / (a - 1)
@@ -145,7 +145,7 @@ def student_step(x, a, b, z, rng, mistake=None):
 
 
 def test_the_reference_storvik_step_passes():
-    from pfcourse.exercises import check_storvik_step, storvik_step_reference
+    from pfcourse.book.exercises import check_storvik_step, storvik_step_reference
 
     assert check_storvik_step(storvik_step_reference).ok
     report = check_storvik_step(student_step)
@@ -163,7 +163,7 @@ def test_the_reference_storvik_step_passes():
     ("one_theta", "one theta is drawn for every particle"),
 ])
 def test_each_typical_storvik_mistake_gets_its_own_sentence(mistake, says):
-    from pfcourse.exercises import check_storvik_step
+    from pfcourse.book.exercises import check_storvik_step
 
     report = check_storvik_step(lambda *args: student_step(*args, mistake=mistake))
     assert not report.ok and len(report.problems) == 1
@@ -171,7 +171,7 @@ def test_each_typical_storvik_mistake_gets_its_own_sentence(mistake, says):
 
 
 def test_the_storvik_checker_checks_the_generator_and_odd_answers():
-    from pfcourse.exercises import check_storvik_step
+    from pfcourse.book.exercises import check_storvik_step
 
     state = np.random.get_state()
     assert "rng it is given is not used" in str(check_storvik_step(

@@ -17,10 +17,10 @@ from pfcourse.collectors import ALWAYS, Ancestors, Clouds, Collector, Stages
 from pfcourse.errors import ModelError, ParameterError
 from pfcourse.jitter import RegularisedJitter
 from pfcourse.kernels import weighted_moments
-from pfcourse.landmarks.scenario import quadrant_scenario, simulate
+from pfcourse.scenarios.landmarks.scenario import quadrant_scenario, simulate
 from pfcourse.proposals import ProgressiveCorrection
 from pfcourse.resampling import systematic
-from pfcourse.robot.scenario import RobotModel, simulate_robot
+from pfcourse.scenarios.robot.scenario import RobotModel, simulate_robot
 from pfcourse.sample_size import KLDSampling
 
 

@@ -1,6 +1,6 @@
 """Every registered study's stored table (book/data/) is what its record computes.
 
-For each study of pfcourse.experiments.registry: the stored table has exactly the rows its
+For each study of pfcourse.studies.registry: the stored table has exactly the rows its
 record describes (every setting, every run's seed, in order) and a provenance record; a
 seeded sample of its cheap rows is re-run from the recorded setting and seed and must give
 the same numbers, float for float (the pinned arithmetic, tests/test_arithmetic.py), wall
@@ -18,8 +18,8 @@ import pandas as pd
 import pytest
 
 from pfcourse.errors import DegenerateWeightsError, ParameterError, StepError
-from pfcourse.experiments.registry import STUDIES, Study, same, select
-from pfcourse.experiments.store import DATA, load, save
+from pfcourse.studies.registry import STUDIES, Study, same, select
+from pfcourse.studies.store import DATA, load, save
 
 REGISTERED = list(STUDIES.values())
 IDS = [study.name for study in REGISTERED]
@@ -83,7 +83,7 @@ def _toy_row(seed, a, b):
 
 def test_a_study_is_run_stored_and_recorded_by_name(tmp_path, monkeypatch):
     """`tasks.py study NAME` end to end on a toy group: tables, order, failures, provenance."""
-    import pfcourse.experiments.registry as registry
+    import pfcourse.studies.registry as registry
 
     monkeypatch.setattr(registry, "DATA", tmp_path)
     toys = [Study(name="toy/one", row=_toy_row, grid=({"a": [2], "b": ["p"]}, {"a": [1, 3], "b": ["q"]}), n_runs=2,
@@ -101,7 +101,7 @@ def test_a_study_is_run_stored_and_recorded_by_name(tmp_path, monkeypatch):
     assert list(two.columns) == ["a", "b", "seed", "x"]
     assert same(two.iloc[1]["x"], toys[1].recompute(two.iloc[1])["x"])
     record = json.loads((tmp_path / "toy" / "provenance.json").read_text())
-    assert record["code"] == "pfcourse/experiments/registry.py" and set(record["studies"]) == {"toy/one", "toy/two"}
+    assert record["code"] == "pfcourse/studies/registry.py" and set(record["studies"]) == {"toy/one", "toy/two"}
     assert record["studies"]["toy/one"]["seeds"] == "run r: seed 5 + r" and "n_runs" not in record
     with pytest.raises(StepError, match="toy/one"):
         registry.Study(**{**toys[0].__dict__, "failures": "raise"}).compute()

@@ -9,8 +9,8 @@ import numpy as np
 import pytest
 
 from pfcourse import DegenerateWeightsError, ParameterError, ParticleFilter, kalman_filter
-from pfcourse.landmarks.scenario import quadrant_scenario, simulate
-from pfcourse.experiments.study import grid_settings, run_study, summarize
+from pfcourse.scenarios.landmarks.scenario import quadrant_scenario, simulate
+from pfcourse.studies.study import grid_settings, run_study, summarize
 from pfcourse.seeding import replicate_seed
 
 
@@ -121,7 +121,7 @@ def test_grid_order_last_key_fastest():
 def _robot_rows(executor) -> "pd.DataFrame":
     from functools import partial
 
-    from pfcourse.experiments.robot import pf_run
+    from pfcourse.studies.robot import pf_run
 
     table = run_study(partial(pf_run, n_steps=25, burn_in=5), {"n_particles": [30, 120]}, 6,
                       batch_size=4, progress=False, executor=executor)
@@ -131,7 +131,7 @@ def _robot_rows(executor) -> "pd.DataFrame":
 def test_rows_do_not_depend_on_the_executor_or_its_workers():
     from concurrent.futures import ProcessPoolExecutor, ThreadPoolExecutor
 
-    from pfcourse.executor import SerialExecutor
+    from pfcourse.studies.executor import SerialExecutor
 
     serial = _robot_rows(SerialExecutor())
     assert len(serial) == 12 and (serial["status"] == "ok").all()
@@ -143,7 +143,7 @@ def test_rows_do_not_depend_on_the_executor_or_its_workers():
 
 def test_a_dask_cluster_gives_the_same_rows():
     distributed = pytest.importorskip("distributed")
-    from pfcourse.executor import SerialExecutor
+    from pfcourse.studies.executor import SerialExecutor
 
     serial = _robot_rows(SerialExecutor())
     cluster = distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True,
@@ -179,7 +179,7 @@ def test_pool_workers_run_one_blas_thread():
     """Forked workers must not inherit a BLAS thread per core (they would spin against each other)."""
     import scipy.linalg  # noqa: F401  (loads SciPy's OpenBLAS too)
 
-    from pfcourse.executor import default_executor
+    from pfcourse.studies.executor import default_executor
 
     executor, owned = default_executor(_blas_threads)
     if not owned:
@@ -221,7 +221,7 @@ def _dies_in_a_worker(seed: int, a: int) -> dict:
 @pytest.mark.parametrize("run_one, reason, stall_timeout",
                          [(_hangs_in_a_worker, "finished in", 2.0), (_dies_in_a_worker, "died", 30.0)])
 def test_a_stuck_or_broken_pool_is_replaced_and_the_rows_are_unchanged(run_one, reason, stall_timeout):
-    from pfcourse.executor import SerialExecutor, StudyWarning, default_executor
+    from pfcourse.studies.executor import SerialExecutor, StudyWarning, default_executor
 
     if not default_executor(run_one)[1]:
         pytest.skip("one core or no fork: no pool")
@@ -255,7 +255,7 @@ def _refuses_three(x: int) -> int:
 def test_run_tasks_keeps_the_order_of_its_arguments_and_raises_a_task_error():
     from concurrent.futures import ThreadPoolExecutor
 
-    from pfcourse.executor import run_tasks
+    from pfcourse.studies.executor import run_tasks
 
     seen = []
     with ThreadPoolExecutor(3) as pool:
@@ -277,7 +277,7 @@ def test_a_study_may_give_the_seeds_of_its_runs():
 def test_medians_tabulates_each_metric_per_setting():
     import pandas as pd
 
-    from pfcourse.figures.study_tables import medians
+    from pfcourse.book.figures.study_tables import medians
 
     table = pd.DataFrame({"n": [1, 1, 1, 2, 2, 2], "run": [0, 1, 2] * 2, "status": ["ok"] * 6,
                           "a": [1.0, 2.0, 9.0, 4.0, 5.0, 6.0], "b": [0.0, 0.0, 1.0, 3.0, 3.0, 3.0]})

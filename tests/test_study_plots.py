@@ -11,7 +11,7 @@ import pandas as pd
 import pytest
 
 from pfcourse.errors import ShapeError
-from pfcourse.figures.study import summary_band, time_band
+from pfcourse.book.figures.study import summary_band, time_band
 
 
 def test_summary_band_draws_the_quantiles():

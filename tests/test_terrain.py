@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 from scipy import stats
 
-from pfcourse.terrain.scenario import (
+from pfcourse.scenarios.terrain.scenario import (
     AircraftScenario,
     dynamics_jacobian,
     extended_kalman_filter,
@@ -18,7 +18,7 @@ from pfcourse.terrain.scenario import (
 from pfcourse.errors import DegenerateWeightsError, OffMapError, ShapeError
 from pfcourse.filter import ParticleFilter
 from pfcourse.metrics import position_error
-from pfcourse.terrain.map import EARTH_RADIUS, TerrainMap, load_jacksboro, metres_per_degree
+from pfcourse.scenarios.terrain.map import EARTH_RADIUS, TerrainMap, load_jacksboro, metres_per_degree
 
 
 @pytest.fixture(scope="module")
@@ -229,8 +229,8 @@ def test_ekf_converges_from_a_small_prior(jacksboro):
 
 
 def test_monte_carlo_is_seeded_and_first_n_runs_are_a_smaller_study(jacksboro):
-    from pfcourse.experiments.record import scores
-    from pfcourse.experiments.terrain import flight_study
+    from pfcourse.studies.record import scores
+    from pfcourse.studies.terrain import flight_study
 
     scenario = AircraftScenario().with_(duration=10.0)
     a = flight_study(scenario, jacksboro, 6, method="ekf", seed=3)
@@ -245,9 +245,9 @@ def test_monte_carlo_is_seeded_and_first_n_runs_are_a_smaller_study(jacksboro):
 def test_flight_study_does_not_depend_on_the_executor_or_the_batch_size(jacksboro):
     from concurrent.futures import ThreadPoolExecutor
 
-    from pfcourse.executor import SerialExecutor
-    from pfcourse.experiments.record import scores
-    from pfcourse.experiments.terrain import flight_study
+    from pfcourse.studies.executor import SerialExecutor
+    from pfcourse.studies.record import scores
+    from pfcourse.studies.terrain import flight_study
 
     scenario = AircraftScenario().with_(duration=10.0)
     for method, n in (("pf", 20), ("ekf", None)):
@@ -264,8 +264,8 @@ def test_flight_study_does_not_depend_on_the_executor_or_the_batch_size(jacksbor
 
 
 def test_summary_counts_lost_runs_as_infinite_without_nan():
-    from pfcourse.experiments.record import RunRecord
-    from pfcourse.experiments.terrain import flight_summary
+    from pfcourse.studies.record import RunRecord
+    from pfcourse.studies.terrain import flight_summary
 
     errors = np.array([[100.0, 10.0], [100.0, 20.0], [100.0, 30.0], [100.0, np.nan]])
     res = [RunRecord({"errors": e}, "ok" if k < 3 else "lost") for k, e in enumerate(errors)]
@@ -279,7 +279,7 @@ def test_a_mismatched_map_has_the_stated_error_and_no_more():
     smoothing and no error the map is the truth; a negative size is refused by name."""
     from pfcourse.errors import ParameterError
     from pfcourse.seeding import map_error_rng
-    from pfcourse.terrain.map import TerrainMap, mismatched_map
+    from pfcourse.scenarios.terrain.map import TerrainMap, mismatched_map
 
     rng = np.random.default_rng(3)
     world = TerrainMap(rng.normal(500.0, 80.0, (40, 50)), 90.0, 75.0)
@@ -297,8 +297,8 @@ def test_a_mismatched_map_has_the_stated_error_and_no_more():
 
 def test_a_flight_whose_filter_dies_is_recorded_failed_and_counts_as_diverged(jacksboro, monkeypatch):
     from pfcourse.errors import DegenerateWeightsError
-    from pfcourse.executor import SerialExecutor
-    from pfcourse.experiments.terrain import diverged, final_errors, flight_study
+    from pfcourse.studies.executor import SerialExecutor
+    from pfcourse.studies.terrain import diverged, final_errors, flight_study
     from pfcourse.filter import ParticleFilter
 
     def dies(self, *args, **kwargs):

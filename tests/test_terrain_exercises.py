@@ -6,7 +6,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from pfcourse.exercises import check_bias_update
+from pfcourse.book.exercises import check_bias_update
 
 
 def _student(m, P, ground, reading, rf, mistake=None):

@@ -10,11 +10,11 @@ from scipy.stats import norm
 from pfcourse.collectors import Clouds
 from pfcourse.errors import ParameterError
 from pfcourse.filter import ParticleFilter
-from pfcourse.terrain.field import FieldModel, FieldPointMass, FieldScenario, simulate_field
-from pfcourse.terrain.map import TerrainMap, mismatched_map
-from pfcourse.terrain.map_bias import (MapBiasTerrainModel, bias_kalman_update, correlation_length, inflated_rf,
+from pfcourse.scenarios.terrain.field import FieldModel, FieldPointMass, FieldScenario, simulate_field
+from pfcourse.scenarios.terrain.map import TerrainMap, mismatched_map
+from pfcourse.scenarios.terrain.map_bias import (MapBiasTerrainModel, bias_kalman_update, correlation_length, inflated_rf,
                                        map_bias_filter, readings_per_length)
-from pfcourse.terrain.scenario import AircraftScenario
+from pfcourse.scenarios.terrain.scenario import AircraftScenario
 
 # A tilted plane: h(x, y) = 100 + 0.05 x - 0.03 y is linear, and bilinear interpolation of a plane is exact,
 # so the 2-D problem on it is linear-Gaussian and the Kalman filter is its exact posterior.

@@ -7,9 +7,9 @@ import pytest
 
 from pfcourse.angles import wrap_angle
 from pfcourse.checks import covariance_factor
-from pfcourse.terrain.scenario import AircraftScenario, predicted_measurement, propagate
-from pfcourse.terrain.map import load_jacksboro
-from pfcourse.terrain.compiled import bilinear
+from pfcourse.scenarios.terrain.scenario import AircraftScenario, predicted_measurement, propagate
+from pfcourse.scenarios.terrain.map import load_jacksboro
+from pfcourse.scenarios.terrain.compiled import bilinear
 
 
 def log_likelihood_definition(model, particles, z):

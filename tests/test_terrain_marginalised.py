@@ -9,10 +9,10 @@ from scipy.stats import norm
 
 from pfcourse.collectors import Clouds
 from pfcourse.errors import ParameterError
-from pfcourse.terrain.map import TerrainMap
-from pfcourse.terrain.marginalised import MarginalisedTerrainModel, altitude_kalman_update, marginalised_filter
-from pfcourse.terrain.point_mass import PointMassFilter, ground_on_lattice
-from pfcourse.terrain.scenario import AircraftScenario
+from pfcourse.scenarios.terrain.map import TerrainMap
+from pfcourse.scenarios.terrain.marginalised import MarginalisedTerrainModel, altitude_kalman_update, marginalised_filter
+from pfcourse.scenarios.terrain.point_mass import PointMassFilter, ground_on_lattice
+from pfcourse.scenarios.terrain.scenario import AircraftScenario
 
 
 def _scalar_kalman(readings, ground, m0, p0, q, r):
@@ -141,8 +141,8 @@ def test_the_grid_and_a_large_marginalised_particle_filter_agree_on_a_short_flig
     # particles approximate the same posterior; their final means must agree within half a cell on each
     # axis (the grid's mass is within a cell of where it belongs; the particles' Monte Carlo error is a
     # few metres), while the readings moved the mean far more than that from the dead-reckoned prior's.
-    from pfcourse.terrain.map import load_jacksboro
-    from pfcourse.terrain.scenario import simulate
+    from pfcourse.scenarios.terrain.map import load_jacksboro
+    from pfcourse.scenarios.terrain.scenario import simulate
 
     terrain = load_jacksboro()
     sc = AircraftScenario(duration=15.0, P0=np.diag([300.0, 300.0, 100.0, 0.05]) ** 2)

@@ -7,11 +7,11 @@ import numpy as np
 import pytest
 
 from pfcourse.errors import ShapeError
-from pfcourse.experiments.terrain_remedies import model_flight
+from pfcourse.studies.terrain_remedies import model_flight
 from pfcourse.seeding import data_rng
-from pfcourse.terrain.map import load_jacksboro
-from pfcourse.terrain.pcrb import pcrb_recursion, weighted_pcrb_recursion
-from pfcourse.terrain.scenario import AircraftScenario, dynamics_jacobian, measurement_jacobian, propagate
+from pfcourse.scenarios.terrain.map import load_jacksboro
+from pfcourse.scenarios.terrain.pcrb import pcrb_recursion, weighted_pcrb_recursion
+from pfcourse.scenarios.terrain.scenario import AircraftScenario, dynamics_jacobian, measurement_jacobian, propagate
 
 
 @pytest.fixture(scope="module")

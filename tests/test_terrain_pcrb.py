@@ -6,10 +6,10 @@ import numpy as np
 import pytest
 
 from pfcourse.seeding import data_rng
-from pfcourse.terrain.scenario import AircraftScenario, simulate
+from pfcourse.scenarios.terrain.scenario import AircraftScenario, simulate
 from pfcourse.errors import ShapeError
-from pfcourse.terrain.map import load_jacksboro
-from pfcourse.terrain.pcrb import horizontal_bound, pcrb_recursion, terrain_pcrb
+from pfcourse.scenarios.terrain.map import load_jacksboro
+from pfcourse.scenarios.terrain.pcrb import horizontal_bound, pcrb_recursion, terrain_pcrb
 
 
 def kalman_covariances(P0, F, Q, H, R, measured):
@@ -64,7 +64,7 @@ def test_terrain_bound_starts_at_the_prior_and_readings_shrink_it():
 
 
 def test_noise_free_bound_is_the_kalman_covariance_with_q_zero_and_below_the_noisy_one():
-    from pfcourse.terrain.pcrb import deterministic_bound, terrain_bound_noise_free
+    from pfcourse.scenarios.terrain.pcrb import deterministic_bound, terrain_bound_noise_free
 
     rng = np.random.default_rng(2)
     d, K = 3, 25

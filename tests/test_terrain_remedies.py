@@ -76,9 +76,9 @@ def test_the_fresh_flight_studies_use_flights_no_other_study_used_and_record_the
 
     import pandas as pd
 
-    from pfcourse.experiments.registry import STUDIES
-    from pfcourse.experiments.store import DATA
-    from pfcourse.experiments.terrain_remedies import FILTERS, FRESH_FLIGHTS
+    from pfcourse.studies.registry import STUDIES
+    from pfcourse.studies.store import DATA
+    from pfcourse.studies.terrain_remedies import FILTERS, FRESH_FLIGHTS
 
     used = {r for name in ("terrain_remedies", "terrain_studies") for r in pd.read_csv(DATA / f"{name}.csv")["flight"]}
     seen: set[int] = set()

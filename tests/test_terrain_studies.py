@@ -12,7 +12,7 @@ import pandas as pd
 import pytest
 
 from pfcourse.errors import ParameterError
-from pfcourse.experiments import terrain_studies as ts
+from pfcourse.studies import terrain_studies as ts
 
 DATA = Path(__file__).resolve().parents[1] / "book" / "data"
 TABLE = pd.read_csv(DATA / "terrain_studies.csv")

@@ -6,8 +6,8 @@ import numpy as np
 
 from pfcourse.filter import ParticleFilter
 from pfcourse.kalman import kalman_filter
-from pfcourse.landmarks.scenario import quadrant_scenario
-from pfcourse.experiments.landmarks import kalman_scores
+from pfcourse.scenarios.landmarks.scenario import quadrant_scenario
+from pfcourse.studies.landmarks import kalman_scores
 
 
 class KalmanAsFilter:
@@ -43,7 +43,7 @@ def test_a_collapsed_particle_cloud_is_scored_overconfident():
 def test_scores_do_not_depend_on_the_executor():
     from concurrent.futures import ThreadPoolExecutor
 
-    from pfcourse.executor import SerialExecutor
+    from pfcourse.studies.executor import SerialExecutor
 
     scenario = quadrant_scenario()
     pf = ParticleFilter(scenario.model(), 100, threshold=0.5)
@@ -59,9 +59,9 @@ def test_scores_do_not_depend_on_the_executor():
 
 
 def test_linear_convergence_does_not_depend_on_the_executor():
-    from pfcourse.experiments.comparison import linear_convergence
-    from pfcourse.executor import SerialExecutor
-    from pfcourse.landmarks.scenario import simulate
+    from pfcourse.studies.comparison import linear_convergence
+    from pfcourse.studies.executor import SerialExecutor
+    from pfcourse.scenarios.landmarks.scenario import simulate
 
     scenario = quadrant_scenario()
     model = scenario.model()

@@ -6,8 +6,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from pfcourse.exercises import FK_MISTAKES, check_guided_fk, fk_exact_log_likelihood, fk_guided_exact, fk_simulate
-from pfcourse.exercises.why_it_works import FK_MODEL, fk_run
+from pfcourse.book.exercises import FK_MISTAKES, check_guided_fk, fk_exact_log_likelihood, fk_guided_exact, fk_simulate
+from pfcourse.book.exercises.why_it_works import FK_MODEL, fk_run
 
 
 def _with_move(move):
@@ -95,7 +95,7 @@ def test_the_reference_estimate_is_unbiased_with_many_particles():
 def test_the_studys_checkpoints_are_those_of_shorter_runs():
     # row() reads log p^(z_1:t) at t = 25 from a run over more steps: the filter is causal, so it must equal
     # the same seed's run that stops at t = 25 (same random numbers up to there)
-    from pfcourse.experiments.why_it_works import row
+    from pfcourse.studies.why_it_works import row
     short, longer = row(seed=3, T=25, N=100, tau=1.0), row(seed=3, T=50, N=100, tau=1.0)
     assert short["log_ratio_25"] == longer["log_ratio_25"]
     assert np.isnan(short["log_ratio_50"]) and np.isfinite(longer["log_ratio_50"])
@@ -104,7 +104,7 @@ def test_the_studys_checkpoints_are_those_of_shorter_runs():
 def test_the_particles_crosscheck_density_is_the_gaussian_log_density():
     from scipy.stats import multivariate_normal
 
-    from pfcourse.experiments.why_it_works_particles import _log_gauss
+    from pfcourse.studies.why_it_works_particles import _log_gauss
     cov = np.array([[0.3, 0.1], [0.1, 0.5]])
     residual = np.random.default_rng(0).normal(size=(5, 2))
     assert np.allclose(_log_gauss(residual, cov), multivariate_normal(cov=cov).logpdf(residual), atol=1e-12)
@@ -115,7 +115,7 @@ def test_the_clt_variance_at_step_0_is_the_closed_form():
     # G = N(z; x, r); G^2 is a Gaussian in x of variance r/2 times 1 / (2 sqrt(pi r)), so it is in closed form
     from scipy.stats import norm
 
-    from pfcourse.experiments.why_it_works import clt_variance
+    from pfcourse.studies.why_it_works import clt_variance
     z, r = 0.7, 0.5
     mu = z / (1 + r)
     s2, m2 = (r / 2) / (1 + r / 2), z / (1 + r / 2)
@@ -127,7 +127,7 @@ def test_the_clt_variance_at_step_0_is_the_closed_form():
 
 
 def test_the_clt_variance_does_not_depend_on_the_grid():
-    from pfcourse.experiments.why_it_works import clt_variance
+    from pfcourse.studies.why_it_works import clt_variance
     assert clt_variance(n_grid=401) == pytest.approx(clt_variance(n_grid=1201, half_width=12.0), rel=1e-6)
 
 
@@ -136,8 +136,8 @@ def test_the_stored_multinomial_runs_agree_with_the_clt_variance():
     # V sqrt(2 / R); the stored value must lie within 4 of them of V (plus a 1/N finite-N allowance)
     import pandas as pd
 
-    from pfcourse.experiments.store import DATA
-    from pfcourse.experiments.why_it_works import RESAMPLING_N, clt_variance
+    from pfcourse.studies.store import DATA
+    from pfcourse.studies.why_it_works import RESAMPLING_N, clt_variance
     table = pd.read_csv(DATA / "why_it_works_resampling.csv")
     errors = table[table.resampling == "multinomial"].error_last.to_numpy()
     v, n_var = clt_variance(), RESAMPLING_N * np.var(errors, ddof=1)
@@ -146,7 +146,7 @@ def test_the_stored_multinomial_runs_agree_with_the_clt_variance():
 
 def test_the_resampling_row_converges_to_the_kalman_mean():
     # N = 20000: the error is about sqrt(V / N) = 0.006; 5 standard deviations
-    from pfcourse.experiments.why_it_works import clt_variance, resampling_row
+    from pfcourse.studies.why_it_works import clt_variance, resampling_row
     for scheme in ("multinomial", "systematic"):
         out = resampling_row(seed=1, resampling=scheme, N=20000)
         assert abs(out["error_last"]) < 5 * np.sqrt(clt_variance() / 20000)

@@ -7,7 +7,7 @@ import matplotlib
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 
-from pfcourse.figures.widgets import (  # noqa: E402
+from pfcourse.book.panels import (  # noqa: E402
     control_panel,
     particle_slider,
     scale_slider,
@@ -49,7 +49,7 @@ def test_control_defaults_and_ranges():
 
 
 def test_redraw_last_panel_uses_the_current_values():
-    from pfcourse.figures.widgets import redraw_last_panel
+    from pfcourse.book.panels import redraw_last_panel
 
     calls = []
     threshold = threshold_slider(0.3)

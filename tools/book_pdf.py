@@ -6,12 +6,12 @@ Loaded through ``sphinx: local_extensions`` in ``_config.yml``; it acts for the 
 (myst-nb would fall back to their plain-text form, a widget's repr or ``<IPython.core.display.HTML
 object>``):
 
-- **Evidence blocks** (``pfcourse.figures.report.EvidenceBlock``, ``<details
+- **Evidence blocks** (``pfcourse.book.report.EvidenceBlock``, ``<details
   class="pfcourse-evidence">``): printed small, as "Evidence: <claim>", their notes as paragraphs
   and their tables as tables (the book's audit stays in the printed book).
 - **Tables a chapter displays on their own** (``report.html_table``, ``<table class="pfcourse-table">``):
   typeset as tables.
-- **Control panels** (``pfcourse.figures.static_panel``, ``<div class="pfcourse-panel">``): the
+- **Control panels** (``pfcourse.book.static_panel``, ``<div class="pfcourse-panel">``): the
   figure of the settings the page opens with, captioned with what the HTML book lets the reader
   change (each control and the values it offers).
 - **Animations** (``FuncAnimation.to_jshtml()``): the last frame, captioned as an animation in the

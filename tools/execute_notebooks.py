@@ -4,7 +4,7 @@
 
 Each ``X.py`` becomes ``X.ipynb`` next to it, executed top to bottom in a fresh
 kernel (working directory: the notebook's folder), without widget state (the
-HTML book shows each panel's static version, pfcourse/figures/static_panel.py;
+HTML book shows each panel's static version, pfcourse/book/static_panel.py;
 JupyterLab makes the widgets live when the cells run) and without timing metadata,
 so that a re-run of an unchanged source gives the same file.
 """

@@ -19,8 +19,8 @@ import numpy as np  # noqa: E402
 
 from pfcourse import ParticleFilter, kalman_filter  # noqa: E402
 from pfcourse.collectors import Clouds  # noqa: E402
-from pfcourse.landmarks.scenario import quadrant_scenario, simulate  # noqa: E402
-from pfcourse.style import COLORS, use_style  # noqa: E402
+from pfcourse.scenarios.landmarks.scenario import quadrant_scenario, simulate  # noqa: E402
+from pfcourse.book.style import COLORS, use_style  # noqa: E402
 
 N, RUNS = 1000, 50
 

@@ -127,6 +127,9 @@ def planned_moves(root: Path, moves: dict[str, str] = MOVES) -> list[tuple[Path,
     return out
 
 
+FILE_PARENTS = re.compile(r"(__file__\)(?:\.resolve\(\))?\.parents\[)(\d+)\]")
+
+
 def apply_moves(root: Path, plan, dry_run: bool) -> None:
     for old, new, tracked in plan:
         print(f"move {old} -> {new}")
@@ -139,6 +142,13 @@ def apply_moves(root: Path, plan, dry_run: bool) -> None:
             git("mv", str(old), str(new), root=root)
         else:
             (root / old).rename(root / new)
+        depth = len(new.parts) - len(old.parts)
+        if depth:  # a path found from the module's own file (the repository's root, book/data) keeps its target
+            text = (root / new).read_text(encoding="utf-8")
+            fixed = FILE_PARENTS.sub(lambda m: f"{m.group(1)}{int(m.group(2)) + depth}]", text)
+            if fixed != text:
+                (root / new).write_text(fixed, encoding="utf-8")
+                print(f"parents of __file__ in {new} shifted by {depth}")
     if dry_run:
         return
     # every folder of pfcourse with modules is a package; the new ones get their docstring
@@ -163,6 +173,7 @@ def apply_moves(root: Path, plan, dry_run: bool) -> None:
 # ------------------------------------------------------------------------------------- rewriting
 
 DOTTED = re.compile(r"(?<![\w.])pfcourse(?:\.\w+)+")
+ESCAPED = re.compile(r"(?<![\w.])pfcourse(?:\\\.\w+)+")  # in a regular expression: pfcourse\.exercises
 SLASHED = re.compile(r"(?<![\w/.])pfcourse(?:/\w+)+(?:\.py\b|/)?")
 FROM_LINE = re.compile(r"^(\s*)from (pfcourse[\w.]*) import ([\w ,]+?)(\s*#.*)?$")
 
@@ -170,6 +181,7 @@ FROM_LINE = re.compile(r"^(\s*)from (pfcourse[\w.]*) import ([\w ,]+?)(\s*#.*)?$
 def rewrite_names(line: str, moves: dict[str, str]) -> str:
     """Dotted and slashed module names of ``line`` in the new layout."""
     line = DOTTED.sub(lambda m: new_name(m.group(0), moves), line)
+    line = ESCAPED.sub(lambda m: new_name(m.group(0).replace("\\.", "."), moves).replace(".", "\\."), line)
 
     def slashed(m: re.Match) -> str:
         text = m.group(0)

@@ -29,7 +29,7 @@ import pfcourse  # noqa: F401  (pins the arithmetic before NumPy)
 import numpy as np
 
 from pfcourse import LinearGaussianModel
-from pfcourse.experiments.provenance import launch_commit, write_provenance
+from pfcourse.studies.provenance import launch_commit, write_provenance
 from pfcourse.static_parameters import InverseGamma, NoiseScaleProblem, smc2
 
 ROOT = Path(__file__).resolve().parents[1]

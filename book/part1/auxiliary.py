@@ -30,14 +30,14 @@ from scipy.special import logsumexp
 from scipy.stats import norm
 
 from pfcourse import LinearGaussianModel, ParticleFilter, evidence, kalman_filter
-from pfcourse.experiments.rb_study import METHODS
-from pfcourse.experiments.registry import STUDIES
-from pfcourse.figures.report import EvidenceBlock, glue_values
-from pfcourse.landmarks.rao_blackwell import RaoBlackwellModel, RaoBlackwellProposal
-from pfcourse.landmarks.scenario import quadrant_scenario, simulate
+from pfcourse.studies.rb_study import METHODS
+from pfcourse.studies.registry import STUDIES
+from pfcourse.book.report import EvidenceBlock, glue_values
+from pfcourse.scenarios.landmarks.rao_blackwell import RaoBlackwellModel, RaoBlackwellProposal
+from pfcourse.scenarios.landmarks.scenario import quadrant_scenario, simulate
 from pfcourse.proposals import FullyAdaptedAuxiliary, LinearGaussianOptimal
-from pfcourse.figures.widgets import control_panel, particle_slider, seed_box
-from pfcourse.style import COLORS, use_style
+from pfcourse.book.panels import control_panel, particle_slider, seed_box
+from pfcourse.book.style import COLORS, use_style
 from IPython.display import display
 import ipywidgets as widgets
 
@@ -399,7 +399,7 @@ display(control_panel(draw_panel, grid={"n_particles": (10, 20, 50)}, n_particle
 # ```
 
 # %% tags=["answer"]
-from pfcourse.exercises import check_apf_step
+from pfcourse.book.exercises import check_apf_step
 
 a, c, q, r = 0.8, 2.0, 0.5, 0.4
 

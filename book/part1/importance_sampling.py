@@ -31,9 +31,10 @@ from scipy import integrate, stats
 from scipy.special import gammaln, logsumexp
 
 from pfcourse import evidence
-from pfcourse.exercises import check_importance_sampler, check_weight_update
-from pfcourse.figures.report import EvidenceBlock, glue_values
-from pfcourse.style import plain_log_axis, use_style
+from pfcourse.book.exercises import (
+    check_importance_sampler, check_weight_update)
+from pfcourse.book.report import EvidenceBlock, glue_values
+from pfcourse.book.style import plain_log_axis, use_style
 
 use_style()
 
@@ -468,7 +469,8 @@ EvidenceBlock(
 # ```
 
 # %% tags=["answer"]
-from pfcourse.exercises import check_importance_sampler, check_weight_update
+from pfcourse.book.exercises import (
+    check_importance_sampler, check_weight_update)
 
 
 def estimate_mean(z, sd_v, n, rng):

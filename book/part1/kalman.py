@@ -40,11 +40,11 @@ from scipy import stats
 from pfcourse import evidence
 from pfcourse.diagnostics import chi2_band, nees
 from pfcourse.kalman import kalman_filter
-from pfcourse.landmarks.figures import landmark_scene
-from pfcourse.landmarks.scenario import circle_scenario, quadrant_scenario, simulate
-from pfcourse.figures.report import EvidenceBlock, glue_values
-from pfcourse.style import COLORS, ellipse_patch, plain_log_axis, use_style
-from pfcourse.figures.widgets import control_panel, scale_slider, seed_box
+from pfcourse.book.figures.landmarks import landmark_scene
+from pfcourse.scenarios.landmarks.scenario import circle_scenario, quadrant_scenario, simulate
+from pfcourse.book.report import EvidenceBlock, glue_values
+from pfcourse.book.style import COLORS, ellipse_patch, plain_log_axis, use_style
+from pfcourse.book.panels import control_panel, scale_slider, seed_box
 
 use_style()
 LABELS = ["robot x", "robot y", "L1 x", "L1 y", "L2 x", "L2 y"]
@@ -186,7 +186,7 @@ plt.show()
 
 # %%
 import numpy as np
-from pfcourse.landmarks import quadrant_scenario, simulate
+from pfcourse.scenarios.landmarks import quadrant_scenario, simulate
 
 
 def kalman(Z, model):
@@ -590,7 +590,7 @@ display(control_panel(draw_kalman, grid={"noise_scale": (0.3, 1.0, 3.0), "proces
 # ```
 
 # %% tags=["answer"]
-from pfcourse.exercises import check_cv_kalman
+from pfcourse.book.exercises import check_cv_kalman
 
 
 def my_cv_kalman(z, dt, q, r, m0, P0):

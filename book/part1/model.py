@@ -35,12 +35,12 @@ import pandas as pd
 from IPython.display import HTML, display
 
 from pfcourse import evidence
-from pfcourse.exercises import check_log_likelihood
-from pfcourse.figures.report import EvidenceBlock, glue_values
-from pfcourse.figures.widgets import control_panel, scale_slider, seed_box
-from pfcourse.landmarks.figures import animate_landmarks, landmark_scene
-from pfcourse.landmarks.scenario import circle_scenario, quadrant_scenario, simulate
-from pfcourse.style import COLORS, use_style
+from pfcourse.book.exercises import check_log_likelihood
+from pfcourse.book.report import EvidenceBlock, glue_values
+from pfcourse.book.panels import control_panel, scale_slider, seed_box
+from pfcourse.book.figures.landmarks import animate_landmarks, landmark_scene
+from pfcourse.scenarios.landmarks.scenario import circle_scenario, quadrant_scenario, simulate
+from pfcourse.book.style import COLORS, use_style
 
 use_style()
 scenario = quadrant_scenario()
@@ -83,7 +83,7 @@ HTML(animate_landmarks(scenario, sim).to_jshtml())
 
 # %%
 import numpy as np
-from pfcourse.landmarks import quadrant_scenario, simulate
+from pfcourse.scenarios.landmarks import quadrant_scenario, simulate
 
 a = np.pi / 4  # the turn per step, omega * dt (rad)
 Omega = np.array([[np.cos(a), -np.sin(a)], [np.sin(a), np.cos(a)]])
@@ -433,7 +433,7 @@ display(control_panel(
 # ```
 
 # %% tags=["answer"]
-from pfcourse.exercises import check_log_likelihood
+from pfcourse.book.exercises import check_log_likelihood
 
 
 def log_likelihood(x, z, H, R):

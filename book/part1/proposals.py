@@ -113,17 +113,17 @@ from matplotlib.animation import FuncAnimation
 from scipy.special import logsumexp
 
 from pfcourse import evidence
-from pfcourse.exercises import check_optimal_proposal
+from pfcourse.book.exercises import check_optimal_proposal
 from pfcourse.collectors import Clouds
 from pfcourse.filter import ParticleFilter
 from pfcourse.kalman import kalman_filter
-from pfcourse.landmarks.scenario import quadrant_scenario, simulate
+from pfcourse.scenarios.landmarks.scenario import quadrant_scenario, simulate
 from pfcourse.proposals import OptimalProposal
-from pfcourse.experiments.part1_studies import ALL_NOISE, LAST, N_LAB, NOISE_SCALES
-from pfcourse.experiments.registry import STUDIES
-from pfcourse.figures.report import EvidenceBlock, glue_values
-from pfcourse.style import COLORS, plain_log_axis, use_style
-from pfcourse.figures.widgets import control_panel, particle_slider, scale_slider, seed_box
+from pfcourse.studies.part1_studies import ALL_NOISE, LAST, N_LAB, NOISE_SCALES
+from pfcourse.studies.registry import STUDIES
+from pfcourse.book.report import EvidenceBlock, glue_values
+from pfcourse.book.style import COLORS, plain_log_axis, use_style
+from pfcourse.book.panels import control_panel, particle_slider, scale_slider, seed_box
 from pfcourse.seeding import run_filter_seed, study_filter_seed
 
 use_style()
@@ -141,7 +141,7 @@ PROPOSALS = {"bootstrap": None, "optimal": OptimalProposal()}
 
 # %%
 import numpy as np
-from pfcourse.landmarks.scenario import quadrant_scenario
+from pfcourse.scenarios.landmarks.scenario import quadrant_scenario
 
 # F, B, Q, H, R of the landmark model
 model = quadrant_scenario().model()
@@ -538,7 +538,7 @@ display(control_panel(draw_proposals, grid={"n_particles": (50, 200, 1000), "noi
 # ```
 
 # %% tags=["answer"]
-from pfcourse.exercises import check_optimal_proposal
+from pfcourse.book.exercises import check_optimal_proposal
 
 
 def my_optimal(x_prev, z, model):

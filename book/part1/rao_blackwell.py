@@ -90,15 +90,15 @@ from scipy import stats
 
 from pfcourse import ParticleFilter, evidence, kalman_filter
 from pfcourse.diagnostics import chi2_band
-from pfcourse.exercises import check_landmark_update
-from pfcourse.figures.report import EvidenceBlock, glue_values
-from pfcourse.experiments.rb_study import METHODS
-from pfcourse.experiments.registry import STUDIES
-from pfcourse.landmarks.rao_blackwell import RaoBlackwellModel, RaoBlackwellProposal
-from pfcourse.landmarks.scenario import circle_scenario, quadrant_scenario, simulate
-from pfcourse.figures.widgets import control_panel, particle_slider, seed_box
+from pfcourse.book.exercises import check_landmark_update
+from pfcourse.book.report import EvidenceBlock, glue_values
+from pfcourse.studies.rb_study import METHODS
+from pfcourse.studies.registry import STUDIES
+from pfcourse.scenarios.landmarks.rao_blackwell import RaoBlackwellModel, RaoBlackwellProposal
+from pfcourse.scenarios.landmarks.scenario import circle_scenario, quadrant_scenario, simulate
+from pfcourse.book.panels import control_panel, particle_slider, seed_box
 from pfcourse.seeding import run_filter_seed
-from pfcourse.style import COLORS, use_style
+from pfcourse.book.style import COLORS, use_style
 from IPython.display import display
 
 use_style()
@@ -129,7 +129,7 @@ for name, r in (("SIR", res_sir), ("RBPF", res_rb)):
 # %%
 import numpy as np
 from scipy import stats
-from pfcourse.landmarks.scenario import quadrant_scenario, simulate
+from pfcourse.scenarios.landmarks.scenario import quadrant_scenario, simulate
 
 # F, B, Q, H, R, m0, P0 of the landmark model
 model = quadrant_scenario().model()
@@ -890,7 +890,7 @@ display(control_panel(draw_one_run, grid={"n_particles": (10, 100, 1000)},
 # ```
 
 # %% tags=["answer"]
-from pfcourse.exercises import check_fastslam2_move
+from pfcourse.book.exercises import check_fastslam2_move
 
 
 def fastslam2_move(r_pred, m_pred, P_pred, z, A, C, Qr, R, rng):

@@ -46,10 +46,10 @@ import numpy as np
 import pandas as pd
 from IPython.display import display
 
-from pfcourse.figures.report import EvidenceBlock, glue_values
-from pfcourse.figures.widgets import control_panel, scheme_dropdown, seed_box
+from pfcourse.book.report import EvidenceBlock, glue_values
+from pfcourse.book.panels import control_panel, scheme_dropdown, seed_box
 from pfcourse.resampling import SCHEMES
-from pfcourse.style import use_style
+from pfcourse.book.style import use_style
 
 use_style()
 SCHEME_COLORS = dict(zip(SCHEMES, ("tab:blue", "tab:orange", "tab:green", "tab:purple")))
@@ -551,7 +551,7 @@ display(control_panel(draw_offspring, grid={"scheme": tuple(SCHEMES), "spread": 
 # ```
 
 # %% tags=["answer"]
-from pfcourse.exercises import check_stratified_resampler
+from pfcourse.book.exercises import check_stratified_resampler
 
 
 def my_stratified(W, n, rng):

@@ -78,18 +78,18 @@ from matplotlib.collections import LineCollection
 from scipy.special import logsumexp
 
 from pfcourse import evidence
-from pfcourse.exercises import check_ancestors, check_multinomial_resampler
-from pfcourse.experiments.landmarks import score
-from pfcourse.experiments.registry import STUDIES
+from pfcourse.book.exercises import check_ancestors, check_multinomial_resampler
+from pfcourse.studies.landmarks import score
+from pfcourse.studies.registry import STUDIES
 from pfcourse.collectors import Clouds
 from pfcourse.filter import ParticleFilter
 from pfcourse.jitter import Roughening
 from pfcourse.kalman import kalman_filter
-from pfcourse.landmarks.scenario import quadrant_scenario, simulate
-from pfcourse.figures.bands import posterior_bands
-from pfcourse.figures.report import EvidenceBlock, glue_values
-from pfcourse.style import COLORS, plain_log_axis, use_style
-from pfcourse.figures.widgets import control_panel, particle_slider, scheme_dropdown, seed_box, threshold_slider
+from pfcourse.scenarios.landmarks.scenario import quadrant_scenario, simulate
+from pfcourse.book.figures.bands import posterior_bands
+from pfcourse.book.report import EvidenceBlock, glue_values
+from pfcourse.book.style import COLORS, plain_log_axis, use_style
+from pfcourse.book.panels import control_panel, particle_slider, scheme_dropdown, seed_box, threshold_slider
 from pfcourse.linear_gaussian import LinearGaussianModel
 from pfcourse.proposals import DensityProposal
 from pfcourse.seeding import data_rng, filter_rng
@@ -109,7 +109,7 @@ from types import SimpleNamespace
 
 import numpy as np
 from scipy.special import logsumexp
-from pfcourse.landmarks.scenario import quadrant_scenario, simulate
+from pfcourse.scenarios.landmarks.scenario import quadrant_scenario, simulate
 
 model = quadrant_scenario().model()
 Z = simulate(quadrant_scenario(), rng=2024).measurements
@@ -838,7 +838,7 @@ display(control_panel(
 # ```
 
 # %% tags=["answer"]
-from pfcourse.exercises import check_ancestors, check_multinomial_resampler
+from pfcourse.book.exercises import check_ancestors, check_multinomial_resampler
 
 
 def resample(W, rng):

@@ -31,16 +31,16 @@ from IPython.display import HTML, display
 from scipy.special import logsumexp
 
 from pfcourse import evidence
-from pfcourse.exercises import check_sis
+from pfcourse.book.exercises import check_sis
 from pfcourse.collectors import Clouds
 from pfcourse.filter import ParticleFilter
 from pfcourse.kalman import kalman_filter
-from pfcourse.landmarks.scenario import quadrant_scenario, simulate
-from pfcourse.figures.bands import posterior_bands
-from pfcourse.figures.clouds import animate_clouds
-from pfcourse.figures.report import EvidenceBlock, glue_values
-from pfcourse.style import COLORS, plain_log_axis, use_style
-from pfcourse.figures.widgets import control_panel, particle_slider, scale_slider, seed_box
+from pfcourse.scenarios.landmarks.scenario import quadrant_scenario, simulate
+from pfcourse.book.figures.bands import posterior_bands
+from pfcourse.book.figures.clouds import animate_clouds
+from pfcourse.book.report import EvidenceBlock, glue_values
+from pfcourse.book.style import COLORS, plain_log_axis, use_style
+from pfcourse.book.panels import control_panel, particle_slider, scale_slider, seed_box
 from pfcourse.seeding import run_filter_seed, study_filter_seed
 
 use_style()
@@ -106,7 +106,7 @@ model = scenario.model()  # the simulator's own noise models
 # %%
 import numpy as np
 from scipy.special import logsumexp
-from pfcourse.landmarks.scenario import quadrant_scenario, simulate
+from pfcourse.scenarios.landmarks.scenario import quadrant_scenario, simulate
 
 c, s = np.cos(np.pi / 4), np.sin(np.pi / 4)
 F = np.eye(6)
@@ -498,7 +498,7 @@ display(control_panel(draw_sis, grid={"n_particles": (10, 100, 1000, 10000), "no
 # ```
 
 # %% tags=["answer"]
-from pfcourse.exercises import check_sis
+from pfcourse.book.exercises import check_sis
 
 
 def my_sis(z, n_particles, rng, model):

@@ -44,13 +44,13 @@ from IPython.display import display
 from scipy import stats
 
 from pfcourse import evidence
-from pfcourse.experiments import why_it_works as study
-from pfcourse.exercises import check_guided_fk
-from pfcourse.figures.report import EvidenceBlock, glue_values
-from pfcourse.figures.widgets import control_panel, particle_slider, seed_box
+from pfcourse.studies import why_it_works as study
+from pfcourse.book.exercises import check_guided_fk
+from pfcourse.book.report import EvidenceBlock, glue_values
+from pfcourse.book.panels import control_panel, particle_slider, seed_box
 from pfcourse.filter import ParticleFilter
 from pfcourse.proposals import FullyAdaptedAuxiliary, LinearGaussianOptimal
-from pfcourse.style import COLORS, plain_log_axis, use_style
+from pfcourse.book.style import COLORS, plain_log_axis, use_style
 
 use_style()
 DATA = "../data/"
@@ -180,7 +180,7 @@ def fk_filter(M, G, n_steps, N, rng, tau=1.0):
 
 # %%
 from scipy.stats import multivariate_normal as mvn
-from pfcourse.landmarks.scenario import quadrant_scenario, simulate
+from pfcourse.scenarios.landmarks.scenario import quadrant_scenario, simulate
 
 scenario = quadrant_scenario().with_(Qw=0.05**2 * np.eye(6),
                                      Rv=0.5**2 * np.eye(4))
@@ -426,7 +426,7 @@ EvidenceBlock(
 # (Gaussian from $N = 300$ on; folded below):
 
 # %% tags=["hide-input"] jupyter={"source_hidden": true}
-v_exact = study.clt_variance()  # the quadrature: pfcourse/experiments/why_it_works.py, clt_variance
+v_exact = study.clt_variance()  # the quadrature: pfcourse/studies/why_it_works.py, clt_variance
 clt_n = np.array(study.CLT_N_VALUES)
 errors = np.array([column(clt, "error_last", N=n) for n in clt_n])
 nvar = np.array([evidence.run_interval(lambda r: n * np.var(e[r], ddof=1), e.size) for n, e in zip(clt_n, errors)])
@@ -722,7 +722,7 @@ display(control_panel(draw_runs, grid={"pair": ("bootstrap", "guided", "auxiliar
 # ```
 
 # %% tags=["answer"]
-from pfcourse.exercises import check_guided_fk
+from pfcourse.book.exercises import check_guided_fk
 
 
 def make_guided(Z):

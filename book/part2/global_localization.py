@@ -39,7 +39,7 @@
 # :::{admonition} Where the numbers come from
 # :class: dropdown
 # From stored studies (`python3 tasks.py study global_localization`, registered in
-# `pfcourse.experiments.registry`, tables and provenance in `book/data/global_localization/`): run $r$
+# `pfcourse.studies.registry`, tables and provenance in `book/data/global_localization/`): run $r$
 # uses seed $r$ for every method and $N$, so every comparison is paired (common random numbers);
 # `tests/test_stored_studies.py` re-computes a sample of the rows.
 # :::
@@ -57,21 +57,21 @@ from scipy.special import logsumexp
 from pfcourse import evidence
 from pfcourse.angles import wrap_angle
 from pfcourse.diagnostics import chi2_band
-from pfcourse.exercises import check_bearing_pose_draw
+from pfcourse.book.exercises import check_bearing_pose_draw
 from IPython.display import display
 from ipywidgets import Dropdown
-from pfcourse.figures.widgets import control_panel, particle_slider, seed_box
-from pfcourse.experiments.global_localization import CONFIDENT_QUANTILE, LOCK_WINDOW
-from pfcourse.experiments.registry import STUDIES
-from pfcourse.figures.report import EvidenceBlock, glue_values
+from pfcourse.book.panels import control_panel, particle_slider, seed_box
+from pfcourse.studies.global_localization import CONFIDENT_QUANTILE, LOCK_WINDOW
+from pfcourse.studies.registry import STUDIES
+from pfcourse.book.report import EvidenceBlock, glue_values
 from pfcourse.filter import ParticleFilter
 from pfcourse.metrics import position_error
 from pfcourse.resampling import systematic
-from pfcourse.robot.mcl import (AugmentedMCL, KidnapRobotModel, SensorPoseSampler, kidnap, kidnap_pose,
+from pfcourse.scenarios.robot.mcl import (AugmentedMCL, KidnapRobotModel, SensorPoseSampler, kidnap, kidnap_pose,
                                 sensor_mixture_proposal)
-from pfcourse.robot.scenario import RobotModel, simulate_robot
+from pfcourse.scenarios.robot.scenario import RobotModel, simulate_robot
 from pfcourse.seeding import run_filter_seed
-from pfcourse.style import COLORS, use_style
+from pfcourse.book.style import COLORS, use_style
 
 use_style()
 DATA = Path("../data/global_localization")
@@ -191,7 +191,7 @@ EvidenceBlock(
 # %%
 import matplotlib.pyplot as plt
 import numpy as np
-from pfcourse.robot.scenario import simulate_robot
+from pfcourse.scenarios.robot.scenario import simulate_robot
 
 sim = simulate_robot(rng=5, n_steps=60)
 # the filter's range and bearing sds: twice the simulator's variances
@@ -234,9 +234,9 @@ plt.show()
 
 # %% [markdown]
 # The poses form the ring of the reading, and the truth lies on it. The package's sampler
-# (`pfcourse.robot.mcl.SensorPoseSampler`), fed the same random stream, draws the same poses to the
+# (`pfcourse.scenarios.robot.mcl.SensorPoseSampler`), fed the same random stream, draws the same poses to the
 # last bit; its mixture proposal (`sensor_mixture_proposal`) uses that sampler to propose, and the
-# density $q_z$ to weight (the tests of `pfcourse.robot.mcl` check its weights against a fine grid
+# density $q_z$ to weight (the tests of `pfcourse.scenarios.robot.mcl` check its weights against a fine grid
 # at the first step and against a bootstrap filter with $10^6$ particles on the same kidnap model).
 # One run, at the first readings:
 
@@ -293,7 +293,7 @@ glue_values("track_", runs=len(tb), ess_ratio=ess_ratio.median, ess_low=ess_rati
 EvidenceBlock(
     "while tracking, the mixture proposal keeps less of its effective sample size than the bootstrap filter",
     notes=[f"{len(tb)} runs of 50 s from the known start (no kidnapping), N = 2000, same runs for both filters "
-           "(pfcourse.experiments.global_localization.tracking_row); ESS and errors over the measured steps 10 to 49.",
+           "(pfcourse.studies.global_localization.tracking_row); ESS and errors over the measured steps 10 to 49.",
            f"Mean ESS / N, mixture over bootstrap, run by run: {ess_ratio}.",
            f"Position RMSE, mixture minus bootstrap (m): {rmse_diff}; the spent particles cost effective sample "
            "size, and this test says what it did to the error.",
@@ -742,7 +742,7 @@ display(control_panel(draw_global, grid={"proposal": ("bootstrap", "mixture"), "
 # ```
 
 # %% tags=["answer"]
-from pfcourse.exercises import check_bearing_pose_draw
+from pfcourse.book.exercises import check_bearing_pose_draw
 
 
 def my_pose_from_bearing(b, landmark, sd_b, r_max, n, rng):

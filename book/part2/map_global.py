@@ -41,18 +41,18 @@ from scipy.special import logsumexp
 from scipy.stats import norm
 
 from pfcourse import evidence
-from pfcourse.experiments import map_global as mg
-from pfcourse.experiments import maprobot as study
-from pfcourse.experiments.registry import STUDIES
-from pfcourse.figures.report import EvidenceBlock, glue_values
-from pfcourse.figures.widgets import control_panel
-from pfcourse.maprobot import global_mcl as engine
-from pfcourse.maprobot import lock_on
-from pfcourse.maprobot.figures import draw_map
-from pfcourse.maprobot.twins import twin_margin
+from pfcourse.studies import map_global as mg
+from pfcourse.studies import maprobot as study
+from pfcourse.studies.registry import STUDIES
+from pfcourse.book.report import EvidenceBlock, glue_values
+from pfcourse.book.panels import control_panel
+from pfcourse.scenarios.maprobot import global_mcl as engine
+from pfcourse.scenarios.maprobot import lock_on
+from pfcourse.book.figures.maprobot import draw_map
+from pfcourse.scenarios.maprobot.twins import twin_margin
 from pfcourse.metrics import heading_error, position_error
 from pfcourse.sample_size import kld_bound as engine_kld_bound
-from pfcourse.style import COLORS, use_style
+from pfcourse.book.style import COLORS, use_style
 
 use_style()
 TOL = 1e-9  # the chapter's code and the package's give the same numbers to this
@@ -90,7 +90,7 @@ def stored(name):
 import numpy as np
 from scipy.special import logsumexp
 
-from pfcourse.experiments import maprobot as study
+from pfcourse.studies import maprobot as study
 
 grid, field, motion = study.book_map(), study.field(), study.MOTION
 drive = study.simulate(1, 200)  # seed 1: 200 scans, 0.5 s apart
@@ -125,7 +125,7 @@ print(f"twin margin at 20 s: {margin[39]:.1f} nats, at 100 s: {margin[-1]:.1f}")
 
 # %% tags=["hide-input"] jupyter={"source_hidden": true}
 same_margin = np.allclose(margin, twin_margin(grid, field, drive.truth, drive.scans)[0], rtol=0, atol=TOL)
-print(f"the same margin as pfcourse.maprobot.twins.twin_margin, to {TOL:.0e}: {same_margin}")
+print(f"the same margin as pfcourse.scenarios.maprobot.twins.twin_margin, to {TOL:.0e}: {same_margin}")
 t = np.arange(len(margin)) * study.DT
 fig, (ax1, ax2) = plt.subplots(1, 2, figsize=(11, 3.6), gridspec_kw={"width_ratios": [1.3, 1]})
 draw_map(ax1, grid)
@@ -313,7 +313,7 @@ print(f"{near.mean():.0%} of the 300 poses are within 0.5 m of the robot")
 # %% tags=["hide-input"] jupyter={"source_hidden": true}
 x_e, log_q_e = engine.scan_proposal(grid, field, drive.scans[k_room], 300, np.random.default_rng(5))
 same_q = np.allclose(x_q, x_e, rtol=0, atol=TOL) and np.allclose(log_q, log_q_e, rtol=0, atol=TOL)
-print(f"the same poses and log q as pfcourse.maprobot.global_mcl.scan_proposal, to {TOL:.0e}: {same_q}")
+print(f"the same poses and log q as pfcourse.scenarios.maprobot.global_mcl.scan_proposal, to {TOL:.0e}: {same_q}")
 
 # %% [markdown]
 # ## Injected as a kidnapping, weighted by their evidence
@@ -370,7 +370,7 @@ ours_inj = injected(drive.scans, drive.drive.odometry, 170, 200, log_z_demo, np.
 pkg_inj = engine.injected(grid, field, motion, drive.scans, drive.drive.odometry, 170, 200, log_z_demo,
                           np.random.default_rng(3))
 same_inj = all(np.allclose(a, b, rtol=0, atol=TOL) for a, b in zip(ours_inj, pkg_inj))
-print(f"the same poses and log-weights as pfcourse.maprobot.global_mcl.injected, to {TOL:.0e}: {same_inj}")
+print(f"the same poses and log-weights as pfcourse.scenarios.maprobot.global_mcl.injected, to {TOL:.0e}: {same_inj}")
 
 # %% [markdown]
 # :::{admonition} Algorithm 15.1: global localization with KLD-sampling and evidence-weighted sensor resetting
@@ -492,7 +492,7 @@ glue_values("lf_", n_kidnap=len(kid), kidnap_recovered_rate=recovered.estimate,
             kidnap_recovery_median_s=med, kidnap_recovery_median_s_low=med_low, kidnap_recovery_median_s_high=med_high)
 EvidenceBlock(
     "the kidnapped robot is found again in most runs",
-    notes=[f"{len(kid)} runs (seeds 0-{len(kid) - 1}, drives of pfcourse.experiments.maprobot.simulate): tracked from the known start, "
+    notes=[f"{len(kid)} runs (seeds 0-{len(kid) - 1}, drives of pfcourse.studies.maprobot.simulate): tracked from the known start, "
            f"kidnapped at t = {study.KIDNAP_STEP * study.DT:.0f} s to a waypoint drawn by kidnap_rng(seed), run to "
            f"t = {study.KIDNAP_STEPS * study.DT:.0f} s.",
            f"Tracked before the kidnapping (error below 1 m from 5 s on): "
@@ -555,7 +555,7 @@ display(panel)
 # ```
 
 # %% tags=["answer"]
-from pfcourse.exercises import check_reset_weights
+from pfcourse.book.exercises import check_reset_weights
 
 
 def my_reset(z, n, rng, corridor):

@@ -39,19 +39,19 @@ from IPython.display import display
 from scipy.special import logsumexp
 
 from pfcourse import evidence
-from pfcourse.experiments import maprobot as study
-from pfcourse.experiments.registry import STUDIES
-from pfcourse.figures.report import EvidenceBlock, glue_values, spread_table
-from pfcourse.figures.widgets import control_panel, particle_slider
+from pfcourse.studies import maprobot as study
+from pfcourse.studies.registry import STUDIES
+from pfcourse.book.report import EvidenceBlock, glue_values, spread_table
+from pfcourse.book.panels import control_panel, particle_slider
 from pfcourse.filter import ParticleFilter
-from pfcourse.maprobot import MapRobotModel, OdometryModel
-from pfcourse.maprobot import lock_on
-from pfcourse.maprobot.amcl import beam_log_likelihood
-from pfcourse.maprobot.scanner import cast_rays
-from pfcourse.maprobot.figures import draw_map, draw_scan
-from pfcourse.maprobot.grid import ROUTE
+from pfcourse.scenarios.maprobot import MapRobotModel, OdometryModel
+from pfcourse.scenarios.maprobot import lock_on
+from pfcourse.scenarios.maprobot.amcl import beam_log_likelihood
+from pfcourse.scenarios.maprobot.scanner import cast_rays
+from pfcourse.book.figures.maprobot import draw_map, draw_scan
+from pfcourse.scenarios.maprobot.grid import ROUTE
 from pfcourse.metrics import heading_error, position_error
-from pfcourse.style import COLORS, use_style
+from pfcourse.book.style import COLORS, use_style
 
 use_style()
 grid, scanner, field = study.book_map(), study.SCANNER, study.field()
@@ -97,7 +97,7 @@ plt.show()
 # computed once by `scipy.ndimage.distance_transform_edt`), the scans, the odometry and the true path.
 
 # %%
-from pfcourse.experiments.maprobot import book_drive
+from pfcourse.studies.maprobot import book_drive
 
 # the map's distance transform (m), one drive of 80 s, its scans and odometry
 drive = book_drive(seed=0)
@@ -404,7 +404,7 @@ glue_values("lf_", step_heading_sd_deg=np.degrees(lock_on.step_heading_sd()),
             tracking_max_window_heading_deg=float(np.degrees(prod["max_window_heading_error"].max())))
 EvidenceBlock(
     "by a rule that fits the robot, tracking locks on in nearly every drive",
-    notes=[f"The rule (pfcourse.maprobot.lock_on.locked_on): position error < {lock_on.POSITION_TOLERANCE_M:g} m and "
+    notes=[f"The rule (pfcourse.scenarios.maprobot.lock_on.locked_on): position error < {lock_on.POSITION_TOLERANCE_M:g} m and "
            f"heading error < 3 sqrt(2 a_2) d = {np.degrees(lock_on.HEADING_TOLERANCE):.1f} degrees at "
            f"{lock_on.SHARE:.0%} or more of the steps of the last {lock_on.WINDOW_S:g} s "
            f"({int(np.ceil(lock_on.WINDOW_S / study.DT))} steps); a_2 = {lock_on.ALPHAS[1]}, d = {lock_on.STEP_M} m.",
@@ -641,7 +641,7 @@ EvidenceBlock(
            f"(range {cost_ratio.min():.0f}-{cost_ratio.max():.0f}).",
            "Cell visits: the field reads one cell per beam with an echo; the beam model marches every beam to "
            f"z_max in steps of a quarter cell ({int(cost['beam_cells'].iloc[0] / cost['n_poses'].iloc[0] / 24)} "
-           "steps a beam) whatever the first wall (pfcourse.maprobot.scanner.cast_rays); a cast that stops at "
+           "steps a beam) whatever the first wall (pfcourse.scenarios.maprobot.scanner.cast_rays); a cast that stops at "
            f"the first wall would visit about {first_wall.mean() / grid.resolution:.0f} cells a beam (mean true "
            f"range of the {len(first_wall)} beams with a wall in range at the truth of these scans: "
            f"{first_wall.mean():.2f} m, cells of {grid.resolution} m). The time ratio measures the full march.",
@@ -740,7 +740,7 @@ display(control_panel(draw_tracking, grid={"n_particles": (20, 50, 300), "weight
 # ```
 
 # %% tags=["answer"]
-from pfcourse.exercises import check_beam_reading
+from pfcourse.book.exercises import check_beam_reading
 
 
 def my_reading(z_star, scanner, rng):

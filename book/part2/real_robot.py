@@ -40,17 +40,18 @@ from scipy.spatial import cKDTree
 from scipy.special import logsumexp
 
 from pfcourse import evidence
-from pfcourse.experiments import intel
-from pfcourse.experiments.registry import STUDIES
-from pfcourse.figures.report import EvidenceBlock, glue_values
-from pfcourse.figures.widgets import control_panel
+from pfcourse.studies import intel
+from pfcourse.studies.registry import STUDIES
+from pfcourse.book.report import EvidenceBlock, glue_values
+from pfcourse.book.panels import control_panel
 from pfcourse.filter import ParticleFilter
-from pfcourse.maprobot import LikelihoodField, MapRobotModel, OdometryModel
-from pfcourse.maprobot.carmen import relative_pose
-from pfcourse.maprobot.figures import draw_map
-from pfcourse.maprobot.mapping import build_map
+from pfcourse.scenarios.maprobot import (
+    LikelihoodField, MapRobotModel, OdometryModel)
+from pfcourse.scenarios.maprobot.carmen import relative_pose
+from pfcourse.book.figures.maprobot import draw_map
+from pfcourse.scenarios.maprobot.mapping import build_map
 from pfcourse.metrics import heading_error, position_error
-from pfcourse.style import COLORS, use_style
+from pfcourse.book.style import COLORS, use_style
 
 use_style()
 split = intel.split()  # the library's map and held-out scans, to check the chapter's code against
@@ -79,7 +80,7 @@ split = intel.split()  # the library's map and held-out scans, to check the chap
 # the odometry model. A robot that backs up gets a negative $\delta_{\mathrm{trans}}$, not a half-turn.
 
 # %%
-from pfcourse.maprobot.carmen import read_carmen
+from pfcourse.scenarios.maprobot.carmen import read_carmen
 
 log = read_carmen()  # book/data/intel/intel-corrected.log.gz
 u = log.odometry()  # (rot1, trans, rot2) from scan k - 1 to scan k
@@ -249,7 +250,7 @@ print(f"{shape[0]} x {shape[1]} cells, {(L > 0).sum()} occupied")
 
 # %% tags=["remove-input"] jupyter={"source_hidden": true}
 same_map = np.array_equal(L, split.map.log_odds) and np.array_equal(origin, split.map.origin)
-print(f"the same log-odds as pfcourse.maprobot.mapping.build_map, cell for cell: {same_map}")
+print(f"the same log-odds as pfcourse.scenarios.maprobot.mapping.build_map, cell for cell: {same_map}")
 map_tree, held_tree = cKDTree(log.poses[MAP, :2]), cKDTree(log.poses[intel.HELD_OUT, :2])
 held_to_map, map_to_held = map_tree.query(log.poses[intel.HELD_OUT, :2])[0], held_tree.query(log.poses[MAP, :2])[0]
 glue_values("intel_", held_to_map_median_m=np.median(held_to_map), held_to_map_max_m=held_to_map.max(),
@@ -474,7 +475,7 @@ plt.show()
 # mean likelihood of scan $j$, each of the $R$ reset poses weighs
 # $\frac{\varepsilon}{R} \frac{u(x)}{q(x)} \prod_{j=k-5}^{k} p(z_j \mid x_j) / \prod_{j=k-5}^{k-1} Z_j$
 # against $\frac{1 - \varepsilon}{M}\, p(z_k \mid x_k)$ for each of the $M$ moved particles
-# (the module `pfcourse.experiments.intel` writes it out).
+# (the module `pfcourse.studies.intel` writes it out).
 # :::
 
 # %% tags=["remove-input"] jupyter={"source_hidden": true}
@@ -643,7 +644,7 @@ display(panel)
 # ```
 
 # %% tags=["answer"]
-from pfcourse.exercises.real_robot import check_beam_model
+from pfcourse.book.exercises.real_robot import check_beam_model
 
 
 def my_beam(z, z_star, beam):

@@ -75,20 +75,20 @@ from pfcourse.angles import wrap_angle
 from pfcourse.checks import as_generator
 from pfcourse.diagnostics import nees
 from pfcourse.errors import DegenerateWeightsError
-from pfcourse.exercises import check_velocity_motion
-from pfcourse.experiments.registry import STUDIES
-from pfcourse.experiments.robot import global_localization_run
-from pfcourse.figures.clouds import animate_clouds
-from pfcourse.figures.report import EvidenceBlock, glue_values
-from pfcourse.figures.widgets import (control_panel, particle_slider, scale_slider, scheme_dropdown, seed_box,
+from pfcourse.book.exercises import check_velocity_motion
+from pfcourse.studies.registry import STUDIES
+from pfcourse.studies.robot import global_localization_run
+from pfcourse.book.figures.clouds import animate_clouds
+from pfcourse.book.report import EvidenceBlock, glue_values
+from pfcourse.book.panels import (control_panel, particle_slider, scale_slider, scheme_dropdown, seed_box,
                                       threshold_slider)
 from pfcourse.collectors import Clouds
 from pfcourse.filter import ParticleFilter
 from pfcourse.seeding import run_filter_seed
 from pfcourse.metrics import LOCK_WINDOW_S, position_error, position_spread
-from pfcourse.robot.figures import error_bands, landmarks_background, robot_map, sight_overlay
-from pfcourse.robot.scenario import INITIAL_STD, RobotModel, motion, rmse, simulate_robot, tracking_errors
-from pfcourse.style import COLORS, plain_log_axis, use_style
+from pfcourse.book.figures.robot import error_bands, landmarks_background, robot_map, sight_overlay
+from pfcourse.scenarios.robot.scenario import INITIAL_STD, RobotModel, motion, rmse, simulate_robot, tracking_errors
+from pfcourse.book.style import COLORS, plain_log_axis, use_style
 
 use_style()
 sim = simulate_robot(rng=3)
@@ -144,7 +144,7 @@ EvidenceBlock("the lab's noise levels", notes=["The filter assumes twice these v
 import matplotlib.pyplot as plt
 import numpy as np
 from scipy.special import logsumexp
-from pfcourse.robot.scenario import simulate_robot
+from pfcourse.scenarios.robot.scenario import simulate_robot
 
 sim = simulate_robot(rng=3)
 Q, R = 2 * sim.scenario.q_true, 2 * sim.scenario.r_true
@@ -622,7 +622,7 @@ display(panel)
 # ```
 
 # %% tags=["answer"]
-from pfcourse.exercises import check_velocity_motion
+from pfcourse.book.exercises import check_velocity_motion
 
 
 def my_velocity_motion(x, u, sd, dt, rng):

@@ -69,7 +69,7 @@
 #
 # The covariance update is Joseph's form, which stays symmetric and positive in floating point.
 # The UKF replaces $F_k$, $G_k$ and $H_k$ by sigma points; for the robot it needs circular means
-# of headings and bearings and wrapped differences (`pfcourse.robot.kalman`).
+# of headings and bearings and wrapped differences (`pfcourse.scenarios.robot.kalman`).
 
 # %% tags=["remove-input"] jupyter={"source_hidden": true}
 import matplotlib.pyplot as plt
@@ -79,19 +79,19 @@ import pandas as pd
 from pfcourse import evidence
 from pfcourse.angles import wrap_angle
 from pfcourse.diagnostics import chi2_band
-from pfcourse.exercises import check_relative_jacobian
+from pfcourse.book.exercises import check_relative_jacobian
 from ipywidgets import Dropdown
 from IPython.display import display
-from pfcourse.figures.widgets import control_panel, particle_slider, seed_box
+from pfcourse.book.panels import control_panel, particle_slider, seed_box
 from pfcourse.metrics import position_error
 from pfcourse.seeding import run_filter_seed
-from pfcourse.experiments.robot import compare_filters
-from pfcourse.figures.report import EvidenceBlock, glue_values
+from pfcourse.studies.robot import compare_filters
+from pfcourse.book.report import EvidenceBlock, glue_values
 from pfcourse.filter import ParticleFilter
-from pfcourse.robot.figures import robot_map
-from pfcourse.robot.kalman import run_ekf, run_ukf
-from pfcourse.robot.scenario import INITIAL_STD, RobotModel, motion, simulate_robot, tracking_errors
-from pfcourse.style import COLORS, use_style
+from pfcourse.book.figures.robot import robot_map
+from pfcourse.scenarios.robot.kalman import run_ekf, run_ukf
+from pfcourse.scenarios.robot.scenario import INITIAL_STD, RobotModel, motion, simulate_robot, tracking_errors
+from pfcourse.book.style import COLORS, use_style
 
 use_style()
 
@@ -104,7 +104,7 @@ use_style()
 # %%
 import matplotlib.pyplot as plt
 import numpy as np
-from pfcourse.robot.scenario import simulate_robot
+from pfcourse.scenarios.robot.scenario import simulate_robot
 
 sim = simulate_robot(rng=3, n_steps=200)
 Q, R = 2 * sim.scenario.q_true, 2 * sim.scenario.r_true
@@ -168,7 +168,7 @@ plt.show()
 
 # %% [markdown]
 # The error stays well inside the band once the first readings have pulled the estimate in.
-# This loop is the library's EKF (`pfcourse.robot.kalman.run_ekf`), which the rest of the
+# This loop is the library's EKF (`pfcourse.scenarios.robot.kalman.run_ekf`), which the rest of the
 # chapter runs: the means and covariances agree to round-off (below
 # {glue:text}`ekf_bound:.0e`). The figure below shows the three filters' paths on this run,
 # zoomed on the start, where they converge from the initial guess.
@@ -451,7 +451,7 @@ display(control_panel(draw_compare, grid={"prior_sd": (1.0, 5.0, 10.0), "n_parti
 # ```
 
 # %% tags=["answer"]
-from pfcourse.exercises import check_relative_jacobian
+from pfcourse.book.exercises import check_relative_jacobian
 
 
 def my_jacobian(state, landmark):

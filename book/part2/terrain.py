@@ -44,18 +44,18 @@ from myst_nb import glue
 
 from pfcourse import evidence
 
-from pfcourse.experiments.registry import STUDIES
-from pfcourse.experiments.terrain import DIVERGED_ERROR, diverged, final_errors, flight_study, flight_summary
+from pfcourse.studies.registry import STUDIES
+from pfcourse.studies.terrain import DIVERGED_ERROR, diverged, final_errors, flight_study, flight_summary
 from pfcourse.seeding import data_rng, filter_rng
 from pfcourse.metrics import position_error
-from pfcourse.terrain.scenario import AircraftScenario, extended_kalman_filter, simulate
-from pfcourse.figures.clouds import animate_clouds
-from pfcourse.figures.report import EvidenceBlock, glue_values
+from pfcourse.scenarios.terrain.scenario import AircraftScenario, extended_kalman_filter, simulate
+from pfcourse.book.figures.clouds import animate_clouds
+from pfcourse.book.report import EvidenceBlock, glue_values
 from pfcourse.collectors import Clouds
 from pfcourse.filter import ParticleFilter
-from pfcourse.style import COLORS, plain_log_axis, use_style
-from pfcourse.terrain.map import hillshade, load_jacksboro
-from pfcourse.figures.widgets import (
+from pfcourse.book.style import COLORS, plain_log_axis, use_style
+from pfcourse.scenarios.terrain.map import hillshade, load_jacksboro
+from pfcourse.book.panels import (
     control_panel,
     particle_slider,
     scale_slider,
@@ -806,7 +806,7 @@ display(panel)
 # ```
 
 # %% tags=["answer"]
-from pfcourse.exercises import check_altimeter_likelihood
+from pfcourse.book.exercises import check_altimeter_likelihood
 
 
 def my_log_likelihood(particles, y, heights, dx, dy, rf):

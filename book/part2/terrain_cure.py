@@ -45,17 +45,17 @@ from myst_nb import glue
 from scipy import stats
 
 from pfcourse import evidence
-from pfcourse.experiments.registry import STUDIES
-from pfcourse.experiments.terrain_field import map_error_family
-from pfcourse.experiments.terrain_remedies import FILTERS, MODEL_FLIGHT_SEED, model_flight
-from pfcourse.figures.report import EvidenceBlock, glue_values
+from pfcourse.studies.registry import STUDIES
+from pfcourse.studies.terrain_field import map_error_family
+from pfcourse.studies.terrain_remedies import FILTERS, MODEL_FLIGHT_SEED, model_flight
+from pfcourse.book.report import EvidenceBlock, glue_values
 from pfcourse.jitter import RegularisedJitter, optimal_bandwidth
 from pfcourse.seeding import data_rng, filter_rng
-from pfcourse.style import use_style
-from pfcourse.terrain.map import MAP_ERROR_CORRELATION_CELLS, MAP_ERROR_SD, MAP_SMOOTHING_CELLS, load_jacksboro
-from pfcourse.terrain.pcrb import (horizontal_bound, pcrb_recursion, terrain_bound_noise_free,
+from pfcourse.book.style import use_style
+from pfcourse.scenarios.terrain.map import MAP_ERROR_CORRELATION_CELLS, MAP_ERROR_SD, MAP_SMOOTHING_CELLS, load_jacksboro
+from pfcourse.scenarios.terrain.pcrb import (horizontal_bound, pcrb_recursion, terrain_bound_noise_free,
                                    weighted_pcrb_recursion)
-from pfcourse.terrain.scenario import AircraftScenario, dynamics_jacobian, measurement_jacobian, simulate
+from pfcourse.scenarios.terrain.scenario import AircraftScenario, dynamics_jacobian, measurement_jacobian, simulate
 
 use_style()
 terrain = load_jacksboro()
@@ -457,7 +457,7 @@ EvidenceBlock(
 # \qquad J_0 = P_0^{-1},
 # $$
 #
-# with $F_k$ the Jacobian of the dynamics (`pfcourse.terrain.pcrb`, which the tests check against the
+# with $F_k$ the Jacobian of the dynamics (`pfcourse.scenarios.terrain.pcrb`, which the tests check against the
 # Kalman covariance in the linear-Gaussian case). The expectation in $D$'s terms is over the
 # flights: the bound is computed along many flights drawn from the model, their information
 # averaged at every step, and only then inverted. That is the bound; we call it the **strict**
@@ -635,7 +635,7 @@ EvidenceBlock(
 # filter's map is the world's DEM smoothed by a Gaussian of one cell (what a coarser survey, or a
 # wide altimeter footprint, sees) plus a random error field of standard deviation
 # {glue:text}`terrain_map_sd_field:.0f` m correlated over about two cells
-# (`pfcourse.terrain.map.mismatched_map`), drawn afresh for each flight from its own seeded stream
+# (`pfcourse.scenarios.terrain.map.mismatched_map`), drawn afresh for each flight from its own seeded stream
 # (`pfcourse.seeding.map_error_rng`). The study `terrain_map_error` flies the baseline, the best
 # filter, the best filter measuring at $10$ Hz, and the best filter told of its map's error
 # ($R_f$ increased by the map error's variance) over the true map with the filter on the wrong one.
@@ -846,7 +846,7 @@ EvidenceBlock(
 # ```
 
 # %% tags=["answer"]
-from pfcourse.exercises import check_regularised_jitter
+from pfcourse.book.exercises import check_regularised_jitter
 
 
 def my_move(particles, scale, rng):

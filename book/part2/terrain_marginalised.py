@@ -93,19 +93,19 @@ import numpy as np
 import pandas as pd
 
 from pfcourse import evidence
-from pfcourse.experiments.terrain_field import (COST_FILTERS, MAP_BIAS_RATES, MAP_BIAS_REMEDIES,
+from pfcourse.studies.terrain_field import (COST_FILTERS, MAP_BIAS_RATES, MAP_BIAS_REMEDIES,
                                                 MAP_BIAS_SETTINGS, map_error_family)
-from pfcourse.experiments.registry import STUDIES
-from pfcourse.experiments.terrain_marginalised import CELLS
-from pfcourse.experiments.terrain_remedies import FILTERS
-from pfcourse.figures.report import EvidenceBlock, glue_values
+from pfcourse.studies.registry import STUDIES
+from pfcourse.studies.terrain_marginalised import CELLS
+from pfcourse.studies.terrain_remedies import FILTERS
+from pfcourse.book.report import EvidenceBlock, glue_values
 from pfcourse.filter import ParticleFilter
 from pfcourse.seeding import data_rng, filter_rng
-from pfcourse.style import use_style
-from pfcourse.terrain.field import FieldModel, FieldPointMass, FieldScenario, simulate_field
-from pfcourse.terrain.marginalised import marginalised_filter
-from pfcourse.terrain.point_mass import PointMassFilter
-from pfcourse.terrain.scenario import AircraftScenario, simulate
+from pfcourse.book.style import use_style
+from pfcourse.scenarios.terrain.field import FieldModel, FieldPointMass, FieldScenario, simulate_field
+from pfcourse.scenarios.terrain.marginalised import marginalised_filter
+from pfcourse.scenarios.terrain.point_mass import PointMassFilter
+from pfcourse.scenarios.terrain.scenario import AircraftScenario, simulate
 
 use_style()
 
@@ -113,7 +113,7 @@ use_style()
 import numpy as np
 from scipy.special import logsumexp
 
-from pfcourse.terrain import (AircraftScenario, FieldScenario, load_jacksboro,
+from pfcourse.scenarios.terrain import (AircraftScenario, FieldScenario, load_jacksboro,
                               simulate, simulate_field)
 
 terrain = load_jacksboro()  # the elevation map: terrain.height(x, y) in m
@@ -186,7 +186,7 @@ print(f"the NumPy filter and the engine's estimates differ by less than "
 glue_values("terrain_mpf_", check_tolerance=TOLERANCE)
 
 # %% [markdown]
-# The NumPy filter and the library's (`pfcourse.terrain.marginalised`) draw the same random
+# The NumPy filter and the library's (`pfcourse.scenarios.terrain.marginalised`) draw the same random
 # numbers and agree within {glue:text}`terrain_mpf_check_tolerance:.0e` m at every step; on a flat
 # map the tests check every particle's altitude filter against the textbook Kalman filter.
 #
@@ -596,7 +596,7 @@ ours_2d = point_mass(fflight.readings, d, terrain, 25.0, field.sd0,
                      field.drift, field.R)
 
 # %% [markdown]
-# The library's version (`pfcourse.terrain.field`, checked against the Kalman filter on a tilted
+# The library's version (`pfcourse.scenarios.terrain.field`, checked against the Kalman filter on a tilted
 # plane) holds only the box where the mass is: fast enough to run every flight at cells of $50$,
 # $25$ and $12.5$ m, with the bootstrap filter ($N = 3000$) beside it. One flight first:
 
@@ -714,7 +714,7 @@ EvidenceBlock(
 # $$
 #
 # and integrate it out beside the altitude: each particle's Kalman filter now has two states,
-# $(z, b)$, with $H = [1\;\; 1]$ (`pfcourse.terrain.map_bias`). The cruder remedy keeps
+# $(z, b)$, with $H = [1\;\; 1]$ (`pfcourse.scenarios.terrain.map_bias`). The cruder remedy keeps
 # the filter and inflates $R_f$ by the map's variance times the number of readings that fall within
 # one correlation length, $R_f + (L / V T)\, \sigma_b^2$: readings that share one error are worth one.
 #
@@ -849,7 +849,7 @@ EvidenceBlock(
 # ```
 
 # %% tags=["answer"]
-from pfcourse.exercises import check_bias_update
+from pfcourse.book.exercises import check_bias_update
 
 
 def my_bias_update(m, P, ground, reading, rf):

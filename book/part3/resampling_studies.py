@@ -62,21 +62,21 @@ from myst_nb import glue
 from scipy.special import logsumexp
 
 from pfcourse import evidence
-from pfcourse.figures.widgets import control_panel
-from pfcourse.experiments.registry import robot_study
-from pfcourse.experiments.robot_studies import N_RUNS, N_STEPS
-from pfcourse.experiments.study import run_study, summarize
-from pfcourse.figures.report import EvidenceBlock, glue_values
-from pfcourse.figures.static_panel import format_value
-from pfcourse.figures.study import summary_band
-from pfcourse.figures.study_tables import median, medians, paired_vs, show
+from pfcourse.book.panels import control_panel
+from pfcourse.studies.registry import robot_study
+from pfcourse.studies.robot_studies import N_RUNS, N_STEPS
+from pfcourse.studies.study import run_study, summarize
+from pfcourse.book.report import EvidenceBlock, glue_values
+from pfcourse.book.static_panel import format_value
+from pfcourse.book.figures.study import summary_band
+from pfcourse.book.figures.study_tables import median, medians, paired_vs, show
 from pfcourse.collectors import Clouds
 from pfcourse.filter import ParticleFilter
 from pfcourse.kalman import kalman_filter
-from pfcourse.landmarks.scenario import quadrant_scenario, simulate
+from pfcourse.scenarios.landmarks.scenario import quadrant_scenario, simulate
 from pfcourse.resampling import systematic
 from pfcourse.seeding import filter_rng
-from pfcourse.style import COLORS, use_style
+from pfcourse.book.style import COLORS, use_style
 
 use_style()
 glue("n_runs_per_setting", N_RUNS, display=False)
@@ -439,7 +439,7 @@ EvidenceBlock(
 # ```
 
 # %% tags=["answer"]
-from pfcourse.exercises import check_adaptive_residual
+from pfcourse.book.exercises import check_adaptive_residual
 
 
 def my_adaptive_residual(particles, log_w, tau, rng):

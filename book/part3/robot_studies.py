@@ -67,23 +67,23 @@ from matplotlib.animation import FuncAnimation
 from myst_nb import glue
 
 from pfcourse import evidence
-from pfcourse.exercises import check_paired_se
-from pfcourse.experiments.registry import robot_study
-from pfcourse.experiments.robot_studies import BURN_IN, N_RUNS, N_STEPS
-from pfcourse.experiments.study import summarize
-from pfcourse.figures.report import EvidenceBlock, glue_values
-from pfcourse.figures.static_panel import format_value
-from pfcourse.figures.study import summary_band, time_band
-from pfcourse.figures.study_tables import glue_summary, median, medians, paired_vs
-from pfcourse.figures.widgets import control_panel
-from pfcourse.style import COLORS, plain_log_axis, use_style
+from pfcourse.book.exercises import check_paired_se
+from pfcourse.studies.registry import robot_study
+from pfcourse.studies.robot_studies import BURN_IN, N_RUNS, N_STEPS
+from pfcourse.studies.study import summarize
+from pfcourse.book.report import EvidenceBlock, glue_values
+from pfcourse.book.static_panel import format_value
+from pfcourse.book.figures.study import summary_band, time_band
+from pfcourse.book.figures.study_tables import glue_summary, median, medians, paired_vs
+from pfcourse.book.panels import control_panel
+from pfcourse.book.style import COLORS, plain_log_axis, use_style
 
 use_style()
 glue("n_runs_per_setting", N_RUNS, display=False)
 
 # %%
 import numpy as np
-from pfcourse.experiments.registry import robot_study
+from pfcourse.studies.registry import robot_study
 
 
 def paired_ratio(a, b, n_boot=2000, seed=0):
@@ -127,11 +127,11 @@ assert np.isclose(ratio, package.median) and abs(low - package.low) < 0.01 and a
 glue_values("robot_", n_steps=int(N_STEPS), burn_in=int(BURN_IN))
 EvidenceBlock(
     "the studies are stored, run the same way on any executor, and re-checked by the tests",
-    notes=[f"Each run is one pfcourse.experiments.robot.pf_run: the robot simulator and the same ParticleFilter "
+    notes=[f"Each run is one pfcourse.studies.robot.pf_run: the robot simulator and the same ParticleFilter "
            f"as in the other chapters, {N_STEPS} s scored after its first {BURN_IN} s (the filter's error settles "
            "within about half a minute: the gap study of sensing_studies plots it).",
            "The nine robot studies of Part III are too heavy to run while the book executes: "
-           "`python3 tasks.py study robot_studies` ran them once with pfcourse.experiments.study.run_study, "
+           "`python3 tasks.py study robot_studies` ran them once with pfcourse.studies.study.run_study, "
            "which hands the runs to any concurrent.futures executor (a process pool, or a dask cluster's "
            "executor) and puts the rows back in order; a row depends only on its setting and its seed, so the "
            "table is the same on any executor. The tables are in book/data/robot_studies/ with their "
@@ -438,7 +438,7 @@ control_panel(
 # ```
 
 # %% tags=["answer"]
-from pfcourse.exercises import check_paired_se
+from pfcourse.book.exercises import check_paired_se
 
 
 def my_se(a, b):

@@ -43,16 +43,16 @@ import pandas as pd
 from myst_nb import glue
 
 from pfcourse import evidence
-from pfcourse.exercises import check_lock_on
-from pfcourse.experiments.registry import robot_study
-from pfcourse.experiments.robot_studies import N_RUNS
-from pfcourse.experiments.study import summarize
-from pfcourse.figures.report import EvidenceBlock, glue_values
-from pfcourse.figures.study import summary_band, time_band
-from pfcourse.figures.study_tables import median, medians, paired_vs
-from pfcourse.figures.widgets import control_panel
+from pfcourse.book.exercises import check_lock_on
+from pfcourse.studies.registry import robot_study
+from pfcourse.studies.robot_studies import N_RUNS
+from pfcourse.studies.study import summarize
+from pfcourse.book.report import EvidenceBlock, glue_values
+from pfcourse.book.figures.study import summary_band, time_band
+from pfcourse.book.figures.study_tables import median, medians, paired_vs
+from pfcourse.book.panels import control_panel
 from pfcourse.metrics import locked_on
-from pfcourse.style import COLORS, use_style
+from pfcourse.book.style import COLORS, use_style
 
 use_style()
 glue("n_runs_per_setting", N_RUNS, display=False)
@@ -489,7 +489,7 @@ EvidenceBlock(
 # ```
 
 # %% tags=["answer"]
-from pfcourse.exercises import check_lock_on
+from pfcourse.book.exercises import check_lock_on
 
 
 def my_lock(pos_err, head_err, dt, window_s):

@@ -37,19 +37,20 @@ from scipy.special import logsumexp, xlogy
 from scipy.stats import chi2, multivariate_normal
 
 from pfcourse import evidence
-from pfcourse.exercises import check_clutter_pf, check_range_only_anonymous
-from pfcourse.experiments import association as study
-from pfcourse.experiments.association import simulate_run
-from pfcourse.experiments.registry import STUDIES
-from pfcourse.figures.report import EvidenceBlock, glue_values
-from pfcourse.figures.widgets import control_panel
+from pfcourse.book.exercises import check_clutter_pf, check_range_only_anonymous
+from pfcourse.studies import association as study
+from pfcourse.studies.association import simulate_run
+from pfcourse.studies.registry import STUDIES
+from pfcourse.book.report import EvidenceBlock, glue_values
+from pfcourse.book.panels import control_panel
 from pfcourse.filter import ParticleFilter
 from pfcourse.metrics import position_error
-from pfcourse.robot import RobotModel
-from pfcourse.robot.association import AssociationModel, pda_update, run_nn_ekf, run_pdaf
-from pfcourse.robot.kalman import measurement_jacobian, range_bearing_one
+from pfcourse.scenarios.robot import RobotModel
+from pfcourse.scenarios.robot.association import AssociationModel, pda_update, run_nn_ekf, run_pdaf
+from pfcourse.scenarios.robot.kalman import (
+    measurement_jacobian, range_bearing_one)
 from pfcourse.seeding import filter_rng
-from pfcourse.style import COLORS, use_style
+from pfcourse.book.style import COLORS, use_style
 import ipywidgets as widgets
 
 use_style()
@@ -171,7 +172,7 @@ EvidenceBlock(
 import numpy as np
 from scipy.special import logsumexp, xlogy
 from scipy.stats import chi2, multivariate_normal
-from pfcourse.experiments.association import simulate_run
+from pfcourse.studies.association import simulate_run
 
 # run 16 at lambda = 4 clutter readings per step: robot, sensor, readings
 sim, sensor, data = simulate_run(16, 4.0)
@@ -554,7 +555,7 @@ display(control_panel(draw, columns=3, grid={"clutter_rate": tuple(rates), "kalm
 # ```
 
 # %% tags=["answer"]
-from pfcourse.exercises import check_clutter_pf, check_range_only_anonymous
+from pfcourse.book.exercises import check_clutter_pf, check_range_only_anonymous
 
 
 def my_range_only(x, r, landmarks, var, p_detect, lam, r_max):

@@ -45,23 +45,24 @@ from scipy import stats
 from pfcourse import evidence
 from pfcourse.angles import wrap_angle
 from pfcourse.diagnostics import chi2_band, fraction_in_band, nees
-from pfcourse.exercises import check_missing_nis
-from pfcourse.experiments.comparison import (CONSISTENCY_BURN_IN, label, linear_convergence, robot_tracks,
+from pfcourse.book.exercises import check_missing_nis
+from pfcourse.studies.comparison import (CONSISTENCY_BURN_IN, label, linear_convergence, robot_tracks,
                                              summarize_tracks, terrain_tracks)
-from pfcourse.experiments.registry import STUDIES
-from pfcourse.experiments.terrain import DIVERGED_ERROR
-from pfcourse.figures.legibility import overlapping_texts
-from pfcourse.figures.report import EvidenceBlock, glue_values, html_table
-from pfcourse.figures.widgets import control_panel
+from pfcourse.studies.registry import STUDIES
+from pfcourse.studies.terrain import DIVERGED_ERROR
+from pfcourse.book.legibility import overlapping_texts
+from pfcourse.book.report import EvidenceBlock, glue_values, html_table
+from pfcourse.book.panels import control_panel
 from pfcourse.filter import ParticleFilter
 from pfcourse.kalman import kalman_filter
-from pfcourse.landmarks.scenario import quadrant_scenario, simulate
-from pfcourse.robot.kalman import run_ekf, run_ukf
-from pfcourse.robot.scenario import RobotModel, RobotScenario, simulate_robot
+from pfcourse.scenarios.landmarks.scenario import quadrant_scenario, simulate
+from pfcourse.scenarios.robot.kalman import run_ekf, run_ukf
+from pfcourse.scenarios.robot.scenario import (
+    RobotModel, RobotScenario, simulate_robot)
 from pfcourse.seeding import sized_filter_rng
-from pfcourse.style import COLORS, plain_log_axis, use_style
-from pfcourse.terrain.map import load_jacksboro
-from pfcourse.terrain.scenario import AircraftScenario
+from pfcourse.book.style import COLORS, plain_log_axis, use_style
+from pfcourse.scenarios.terrain.map import load_jacksboro
+from pfcourse.scenarios.terrain.scenario import AircraftScenario
 
 use_style()
 ROBOT_RUNS, ROBOT_STEPS, ROBOT_BURN_IN = 16, 100, 20
@@ -110,7 +111,7 @@ fig, axes = plt.subplots(1, 2, figsize=(10, 3.8), layout="constrained")
 accuracy_cost(robot_table, axes[0], f"Robot, {ROBOT_RUNS} runs")
 WIDE = "terrain, report's prior"
 accuracy_cost(terrain_tables[WIDE], axes[1], f"Terrain, report's prior, {len(terrain_runs[WIDE])} flights")
-assert not (clashes := overlapping_texts(fig)), clashes  # no label drawn over another (pfcourse.figures.legibility)
+assert not (clashes := overlapping_texts(fig)), clashes  # no label drawn over another (pfcourse.book.legibility)
 plt.show()
 
 # %% [markdown]
@@ -157,7 +158,7 @@ plt.show()
 # %%
 import numpy as np
 from scipy import stats
-from pfcourse.robot import RobotModel, run_ekf, simulate_robot
+from pfcourse.scenarios.robot import RobotModel, run_ekf, simulate_robot
 
 
 def consistency(errors, covariances, probability=0.95):
@@ -929,7 +930,7 @@ display(panel)
 # ```
 
 # %% tags=["answer"]
-from pfcourse.exercises import check_missing_nis
+from pfcourse.book.exercises import check_missing_nis
 
 
 def my_missing_nis(innovations, covariances):

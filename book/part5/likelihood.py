@@ -98,13 +98,13 @@
 import pandas as pd
 
 from pfcourse import evidence
-from pfcourse.experiments.registry import STUDIES
-from pfcourse.figures.report import EvidenceBlock, glue_values
-from pfcourse.figures.widgets import control_panel, particle_slider, seed_box
+from pfcourse.studies.registry import STUDIES
+from pfcourse.book.report import EvidenceBlock, glue_values
+from pfcourse.book.panels import control_panel, particle_slider, seed_box
 from pfcourse.filter import ParticleFilter
 from pfcourse.pmmh import integrated_autocorrelation_time, pmmh
 from pfcourse.seeding import likelihood_rng
-from pfcourse.style import COLORS, plain_log_axis, use_style
+from pfcourse.book.style import COLORS, plain_log_axis, use_style
 
 use_style()
 DATA = "../data/likelihood/"
@@ -115,7 +115,7 @@ import numpy as np
 from scipy import stats
 from scipy.special import logsumexp
 
-from pfcourse.experiments.likelihood import (
+from pfcourse.likelihood import (
     grid_posterior, kalman_log_likelihood, landmark_likelihood_problem,
     max_likelihood_scale)
 
@@ -847,7 +847,7 @@ EvidenceBlock(
 # ```
 
 # %% tags=["answer"]
-from pfcourse.exercises import check_adapted_likelihood
+from pfcourse.book.exercises import check_adapted_likelihood
 
 
 def adapted_log_likelihood(z, n, rng, a, q, r):

@@ -38,13 +38,13 @@ from pfcourse import StateSpaceModel, evidence
 from pfcourse.correlated import correlated_log_likelihood, crank_nicolson, normals_needed
 from pfcourse.csmc import conditional_smc, noise_scale_draw
 from pfcourse.diagnostics import chain_ess, split_rhat
-from pfcourse.experiments import pmcmc_studies as pm
-from pfcourse.experiments.likelihood import grid_posterior, kalman_log_likelihood, pf_log_likelihood
-from pfcourse.experiments.registry import STUDIES
-from pfcourse.experiments.store import DATA
-from pfcourse.figures.report import EvidenceBlock, glue_values
-from pfcourse.figures.widgets import control_panel
-from pfcourse.style import COLORS, plain_log_axis, use_style
+from pfcourse.studies import pmcmc_studies as pm
+from pfcourse.likelihood import grid_posterior, kalman_log_likelihood, pf_log_likelihood
+from pfcourse.studies.registry import STUDIES
+from pfcourse.studies.store import DATA
+from pfcourse.book.report import EvidenceBlock, glue_values
+from pfcourse.book.panels import control_panel
+from pfcourse.book.style import COLORS, plain_log_axis, use_style
 
 use_style()
 BURN_IN = 100  # iterations dropped from the start of every stored chain
@@ -135,7 +135,7 @@ plt.show()
 import numpy as np
 from scipy import stats
 from scipy.special import logsumexp, ndtr
-from pfcourse.landmarks import quadrant_scenario, simulate
+from pfcourse.scenarios.landmarks import quadrant_scenario, simulate
 
 # the likelihood chapter's model and data; theta scales R_0 = 0.5^2 I
 scenario = quadrant_scenario().with_(Qw=0.05**2 * np.eye(6),
@@ -658,7 +658,7 @@ EvidenceBlock(
 # ```
 
 # %% tags=["answer"]
-from pfcourse.exercises import check_ancestor_index
+from pfcourse.book.exercises import check_ancestor_index
 
 
 def ancestor_index(log_W, x_prev, x_ref, a, sigma, rng):

@@ -89,18 +89,18 @@ from types import SimpleNamespace
 import pandas as pd
 
 from pfcourse import evidence
-from pfcourse.experiments.registry import STUDIES
-from pfcourse.experiments.smoothing_studies import LAGS
-from pfcourse.figures.report import EvidenceBlock, glue_values
-from pfcourse.figures.widgets import control_panel, particle_slider, seed_box
+from pfcourse.studies.registry import STUDIES
+from pfcourse.studies.smoothing_studies import LAGS
+from pfcourse.book.report import EvidenceBlock, glue_values
+from pfcourse.book.panels import control_panel, particle_slider, seed_box
 from pfcourse.filter import ParticleFilter
 from pfcourse.kalman import kalman_filter
 from pfcourse.linear_gaussian import LinearGaussianModel
-from pfcourse.robot import RobotModel, RobotScenario, simulate_robot
-from pfcourse.robot.scenario import robot_transition_log_density
+from pfcourse.scenarios.robot import RobotModel, RobotScenario, simulate_robot
+from pfcourse.scenarios.robot.scenario import robot_transition_log_density
 from pfcourse.collectors import Ancestors, Clouds
 from pfcourse.smoothing import ffbsi, ffbsm, pairwise, rts_smoother
-from pfcourse.style import COLORS, use_style
+from pfcourse.book.style import COLORS, use_style
 
 use_style()
 
@@ -110,7 +110,7 @@ import numpy as np
 from scipy.special import logsumexp
 from scipy.stats import norm
 
-from pfcourse.experiments.smoothing_studies import landmark_smoothing_run
+from pfcourse.studies.smoothing_studies import landmark_smoothing_run
 
 # a bootstrap filter's run (N = 100) that kept every step's cloud, weights
 # and ancestor indices; log_f(new, old, k)[j, i] = log p(new_j | old_i)
@@ -837,7 +837,7 @@ EvidenceBlock(
 # ```
 
 # %% tags=["answer"]
-from pfcourse.exercises import check_fixed_lag
+from pfcourse.book.exercises import check_fixed_lag
 
 
 def fixed_lag(particles, weights, ancestors, lag):

@@ -34,13 +34,13 @@ from scipy import stats
 from scipy.special import gammaln, logsumexp
 
 from pfcourse import evidence
-from pfcourse.experiments import static_parameters_study as sps
-from pfcourse.figures.report import EvidenceBlock, glue_values
-from pfcourse.figures.widgets import control_panel, particle_slider, seed_box
+from pfcourse.studies import static_parameters_study as sps
+from pfcourse.book.report import EvidenceBlock, glue_values
+from pfcourse.book.panels import control_panel, particle_slider, seed_box
 from pfcourse.static_parameters import liu_west as engine_liu_west
 from pfcourse.static_parameters import smc2 as engine_smc2
 from pfcourse.static_parameters import sufficient_statistic_filter
-from pfcourse.style import COLORS, use_style
+from pfcourse.book.style import COLORS, use_style
 from IPython.display import display
 
 use_style()
@@ -68,7 +68,7 @@ GLUE = {}
 import matplotlib.pyplot as plt
 import numpy as np
 from scipy.special import gammaln, logsumexp
-from pfcourse.landmarks import quadrant_scenario, simulate
+from pfcourse.scenarios.landmarks import quadrant_scenario, simulate
 
 # the landmark model of the likelihood chapter, R = theta R0
 sc = quadrant_scenario().with_(Qw=0.05**2 * np.eye(6), Rv=0.5**2 * np.eye(4))
@@ -669,7 +669,7 @@ EvidenceBlock(
 # ```
 
 # %% tags=["answer"]
-from pfcourse.exercises import check_storvik_step
+from pfcourse.book.exercises import check_storvik_step
 
 r = 0.5
 

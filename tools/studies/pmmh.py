@@ -1,5 +1,5 @@
 """Part V's PMMH chains, stored under book/data/likelihood/ (the other Part V studies are registered:
-pfcourse.experiments.likelihood_studies, `python3 tasks.py study likelihood`).
+pfcourse.studies.likelihood_studies, `python3 tasks.py study likelihood`).
 
     python3 tasks.py study pmmh
 
@@ -20,9 +20,9 @@ import numpy as np
 import pandas as pd
 
 import pfcourse  # noqa: F401  (pins the arithmetic before numpy computes anything)
-from pfcourse.experiments.likelihood_studies import (BOUNDS, DATA_SEED, N_PMMH, PMMH_ITERATIONS, PMMH_SEED,
+from pfcourse.studies.likelihood_studies import (BOUNDS, DATA_SEED, N_PMMH, PMMH_ITERATIONS, PMMH_SEED,
                                                      PMMH_STEP, PMMH_THETA0, SCENARIO_TEXT, pmmh_chain)
-from pfcourse.experiments.provenance import launch_commit, write_provenance
+from pfcourse.studies.provenance import launch_commit, write_provenance
 
 ROOT = Path(__file__).resolve().parents[2]
 OUT = ROOT / "book" / "data" / "likelihood"

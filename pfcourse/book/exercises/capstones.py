@@ -1,0 +1,878 @@
+"""Capstone exercises: at the end of a Part, the reader writes a whole filter for a model the Part has not
+shown, and the checker measures it against a near-exact answer.
+
+* :func:`check_sv_filter` - ``fn(y, n, rng, model) -> (means, log_likelihood)``: a particle filter for the
+  stochastic volatility model (:class:`SVModel`, Part I's capstone), against a converged grid
+  (:func:`sv_grid`). The filtering means are tested for bias over seeded runs, the likelihood estimate
+  for unbiasedness (``E[p_hat] = p``); the typical mistakes are named: the likelihood's standard deviation
+  ``beta e^{x}`` instead of ``beta e^{x/2}``, the initial cloud drawn from ``N(0, sigma^2)`` instead of the
+  stationary law, the mean read before the weighting, no resampling, ``log sum`` instead of ``log mean`` of
+  the weights, the mean of the log-weights instead of the log of their mean, and draws from NumPy's global
+  generator instead of ``rng``.
+* :func:`check_bearing_filter` - ``fn(z, observer, n, rng, model) -> (means, log_likelihood)``: a particle
+  filter for bearing-only tracking of a drifting target from a moving observer (:class:`BearingModel`,
+  Part II's capstone), against a converged grid in the plane (:func:`bearing_grid`), tested as above; the
+  mistakes named: the random walk's ``q^2`` for ``q``, the initial cloud of spread ``q``, the mean read before
+  the weighting, the bearing residual not wrapped, no resampling, ``log sum`` and ``mean log`` for the
+  likelihood, and NumPy's global generator.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.special import logsumexp
+
+from pfcourse.errors import ParameterError
+from pfcourse.book.exercises.checking import CheckReport, _answer
+from pfcourse.book.exercises.part1 import _generator_problem
+
+
+@dataclass(frozen=True)
+class SVModel:
+    """The stochastic volatility model of a return series ``y_k`` (Part I's capstone):
+
+    ``x_0 ~ N(0, sigma^2 / (1 - phi^2))`` (the stationary law), ``x_k = phi x_{k-1} + sigma v_k``,
+    ``y_k = beta exp(x_k / 2) w_k`` for ``k = 1, ..., T``, with ``v_k, w_k ~ N(0, 1)`` independent:
+    ``x_k`` is the log-variance of the return, ``y_k | x_k ~ N(0, beta^2 e^{x_k})``. ``sigma`` and ``beta``
+    are standard deviations."""
+
+    phi: float = 0.9
+    sigma: float = 0.5
+    beta: float = 1.0
+
+    def __post_init__(self) -> None:
+        if not -1.0 < self.phi < 1.0:
+            raise ParameterError(f"SVModel: phi = {self.phi} must lie in (-1, 1) for the stationary law to exist")
+        for name in ("sigma", "beta"):
+            if not getattr(self, name) > 0.0:
+                raise ParameterError(f"SVModel: {name} = {getattr(self, name)} must be a positive standard deviation")
+
+    @property
+    def stationary_sd(self) -> float:
+        """The standard deviation ``sigma / sqrt(1 - phi^2)`` of the stationary law of ``x_k``."""
+        return self.sigma / np.sqrt(1.0 - self.phi ** 2)
+
+    def simulate(self, n_steps: int, rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray]:
+        """States ``x_0..x_T`` and returns ``y_1..y_T`` (``n_steps = T``)."""
+        x = np.empty(n_steps + 1)
+        x[0] = self.stationary_sd * rng.standard_normal()
+        for k in range(1, n_steps + 1):
+            x[k] = self.phi * x[k - 1] + self.sigma * rng.standard_normal()
+        y = self.beta * np.exp(x[1:] / 2) * rng.standard_normal(n_steps)
+        return x, y
+
+
+#: The mistakes whose large-N limit the grid computes (:func:`sv_grid`), with the sentence that names each.
+SV_MEAN_MISTAKES = {
+    "sd_exp_x": ("your weights use the standard deviation beta exp(x_k); the model's variance is beta^2 exp(x_k), "
+                 "so its standard deviation is beta exp(x_k / 2)"),
+    "prior": ("your early means fit an initial cloud drawn from N(0, sigma^2); x_0 comes from the stationary law "
+              "N(0, sigma^2 / (1 - phi^2)), wider by 1 / sqrt(1 - phi^2)"),
+    "predicted": ("your means are those of the predicted cloud, read before the weighting: the filtering mean "
+                  "E[x_k | y_1..y_k] is the weighted mean after the reading y_k is used"),
+}
+SV_LIKELIHOOD_MISTAKES = {
+    "log_sum": ("your log-likelihood is about T log N too large: each step's factor is the MEAN of the "
+                "unnormalised weights, log (1/N) sum_i g(y_k | x_k^i), not their sum"),
+    "mean_log": ("your log-likelihood is the mean of the log-weights, which lies below the log of the mean "
+                 "weight (Jensen): each step adds logsumexp(log g) - log N"),
+}
+
+
+def sv_grid(y: np.ndarray, model: SVModel, mistake: str | None = None, n_grid: int = 1601,
+            width: float = 8.0) -> tuple[np.ndarray, float]:
+    """The filtering means ``E[x_k | y_1..y_k]`` (``k = 1..T``) and the log-likelihood ``log p(y_1..y_T)``
+    on a grid of ``n_grid`` points over ``+-width`` stationary standard deviations (converged: doubling
+    ``n_grid`` moves them by less than 1e-8, ``tests/test_capstones.py``).
+
+    The point-mass recursion: ``p_k^- = K p_{k-1}`` with ``K_{ji} = N(x_j; phi x_i, sigma^2) dx``, then
+    ``p_k \\propto g(y_k | x) p_k^-`` and ``log p(y_1..y_T) = sum_k log sum_j g(y_k | x_j) p_k^-(x_j)``.
+    ``mistake`` (a key of :data:`SV_MEAN_MISTAKES` or :data:`SV_LIKELIHOOD_MISTAKES`) returns instead what a
+    filter with that mistake converges to as its number of particles grows.
+    """
+    s = model.stationary_sd
+    x = np.linspace(-width * s, width * s, n_grid)
+    log_k = -0.5 * ((x[:, None] - model.phi * x[None, :]) / model.sigma) ** 2
+    kernel = np.exp(log_k - logsumexp(log_k, axis=0, keepdims=True))  # columns sum to 1: mass moves from i
+    sd0 = model.sigma if mistake == "prior" else s
+    log_p = -0.5 * (x / sd0) ** 2
+    p = np.exp(log_p - logsumexp(log_p))
+    log_var = 2 * x + 2 * np.log(model.beta) if mistake == "sd_exp_x" else x + 2 * np.log(model.beta)
+    means, log_lik = np.empty(len(y)), 0.0
+    for k, yk in enumerate(y):
+        pred = kernel @ p
+        log_g = -0.5 * (np.log(2 * np.pi) + log_var + yk ** 2 * np.exp(-log_var))
+        log_c = logsumexp(log_g, b=pred)
+        log_lik += float(pred @ log_g) if mistake == "mean_log" else log_c
+        post = pred * np.exp(log_g - log_c)
+        p = post / post.sum()
+        means[k] = x @ (pred if mistake == "predicted" else p)
+    return means, log_lik
+
+
+def sv_bootstrap(y: np.ndarray, n: int, rng: np.random.Generator, model: SVModel) -> tuple[np.ndarray, float]:
+    """The reference answer: a bootstrap filter with multinomial resampling at every step."""
+    x = model.stationary_sd * rng.standard_normal(n)
+    means, log_lik = np.empty(len(y)), 0.0
+    for k, yk in enumerate(y):
+        x = model.phi * x + model.sigma * rng.standard_normal(n)
+        log_var = x + 2 * np.log(model.beta)
+        log_w = -0.5 * (np.log(2 * np.pi) + log_var + yk ** 2 * np.exp(-log_var))
+        log_c = logsumexp(log_w)
+        log_lik += log_c - np.log(n)
+        w = np.exp(log_w - log_c)
+        means[k] = w @ x
+        x = x[rng.choice(n, size=n, p=w)]
+    return means, log_lik
+
+
+#: The capstone's data: 60 returns of the default model, simulated with seed 2026.
+SV_STEPS, SV_DATA_SEED = 60, 2026
+
+
+def check_sv_filter(fn: Callable, n: int = 2000, n_runs: int = 24, seed: int = 0,
+                    model: SVModel | None = None) -> CheckReport:
+    """:func:`_check_sv_filter`, leaving NumPy's global ``np.random`` state as it was."""
+    saved = np.random.get_state()
+    try:
+        return _check_sv_filter(fn, n, n_runs, seed, model)
+    finally:
+        np.random.set_state(saved)
+
+
+def _check_sv_filter(fn: Callable, n: int, n_runs: int, seed: int, model: SVModel | None) -> CheckReport:
+    """Check a particle filter ``fn(y, n, rng, model) -> (means, log_likelihood)`` for the stochastic
+    volatility model against the converged grid (:func:`sv_grid`), over ``n_runs`` seeded runs.
+
+    In turn: the answer's shape and finiteness; draws from the generator it is given
+    (:func:`~pfcourse.book.exercises.part1._generator_problem`); the spread of the means over the runs at most
+    three times that of a resampled filter (:func:`sv_bootstrap`; SIS's collapsed weights spread far more);
+    the means' bias, ``max_k |z_k|`` at most 5 with ``z_k`` the mean over runs minus the grid's mean over its
+    standard error (a correct filter's bias, ``O(1/N)``, is far below it); the likelihood estimate's
+    unbiasedness: ``mean(log p_hat) + var(log p_hat) / 2 - log p`` within 5 standard errors plus 0.05 (for a
+    near-Gaussian ``log p_hat``, ``E[p_hat] = p`` says exactly that). A failure is compared with the large-N
+    limit of each typical mistake, so that it is named."""
+    model = model or SVModel()
+    report = CheckReport("check_sv_filter")
+    _, y = model.simulate(SV_STEPS, np.random.default_rng(SV_DATA_SEED))
+    signature = "fn(y, n, rng, model)"
+    answers = []
+    for run in range(n_runs):
+        answer = _answer(report, lambda: fn(y.copy(), n, np.random.default_rng(seed + run), model), signature,
+                         "return (means, log_likelihood): the filtering mean of each step and log p_hat(y)")
+        if answer is None:
+            return report
+        try:
+            means, log_lik = answer
+            means, log_lik = np.asarray(means, dtype=float), float(log_lik)
+        except (TypeError, ValueError):
+            report.problems.append("return a pair (means, log_likelihood): an array of T means and one number")
+            return report
+        if means.shape != (len(y),):
+            report.problems.append(f"the means have shape {means.shape}, not ({len(y)},): return one filtering "
+                                   "mean per reading y_1..y_T")
+            return report
+        if not (np.isfinite(means).all() and np.isfinite(log_lik)):
+            report.problems.append("the answer holds NaN or infinity: compute the weights in the log domain "
+                                   "and normalise with logsumexp")
+            return report
+        answers.append((means, log_lik))
+    problem = _generator_problem(lambda rng: fn(y.copy(), 200, rng, model),
+                                 lambda a, b: np.array_equal(np.asarray(a[0]), np.asarray(b[0])), what="mean")
+    if problem:
+        report.problems.append(problem)
+        return report
+    m = np.array([a[0] for a in answers])
+    ell = np.array([a[1] for a in answers])
+    ref = np.array([sv_bootstrap(y, n, np.random.default_rng(10_000 + r), model)[0] for r in range(n_runs)])
+    spread, ref_spread = m.std(axis=0, ddof=1).mean(), ref.std(axis=0, ddof=1).mean()
+    if spread > 3 * ref_spread:
+        report.problems.append(
+            f"your means vary over seeds {spread / ref_spread:.0f} times as much as a resampled filter's: "
+            "without resampling the weights collapse onto a few particles; resample after each weighting")
+        return report
+    exact, exact_log_lik = sv_grid(y, model)
+
+    def worst_z(target: np.ndarray) -> float:
+        se = m.std(axis=0, ddof=1) / np.sqrt(n_runs) + 1e-12
+        return float(np.max(np.abs((m.mean(axis=0) - target) / se)))
+
+    if worst_z(exact) > 5:
+        for mistake, why in SV_MEAN_MISTAKES.items():
+            if worst_z(sv_grid(y, model, mistake)[0]) <= 5:
+                report.problems.append(why)
+                return report
+        k = int(np.argmax(np.abs(m.mean(axis=0) - exact)))
+        report.problems.append(
+            f"your mean at step {k + 1} averages {m.mean(axis=0)[k]:.3f} over {n_runs} runs where the exact "
+            f"filter's is {exact[k]:.3f}, further than chance allows: check the move, the weight and the mean")
+        return report
+    se = ell.std(ddof=1) / np.sqrt(n_runs)
+    gap = ell.mean() + ell.var(ddof=1) / 2 - exact_log_lik
+    if abs(gap) > 5 * se + 0.05:
+        if abs(gap - len(y) * np.log(n)) <= 5 * se + 0.05:
+            report.problems.append(SV_LIKELIHOOD_MISTAKES["log_sum"])
+        elif abs(ell.mean() - sv_grid(y, model, "mean_log")[1]) <= 5 * se + 0.05:
+            report.problems.append(SV_LIKELIHOOD_MISTAKES["mean_log"])
+        else:
+            report.problems.append(
+                f"your log-likelihood averages {ell.mean():.2f} where log p(y) = {exact_log_lik:.2f}: the "
+                "estimate must be unbiased for p(y), the product over steps of the mean unnormalised weight")
+    return report
+
+
+# ----------------------------------------------------------------------------- Part II's capstone
+#: Part II's capstone: bearing-only tracking. The observer circles the origin at ``BEARING_OBSERVER_RADIUS`` m,
+#: starting south of it, once in ``BEARING_STEPS`` steps; the data are simulated with ``BEARING_DATA_SEED``.
+BEARING_STEPS, BEARING_DATA_SEED, BEARING_OBSERVER_RADIUS = 40, 2027, 30.0
+
+
+@dataclass(frozen=True)
+class BearingModel:
+    """Bearing-only tracking of a drifting target from a moving observer (Part II's capstone):
+
+    ``p_0 ~ N(m0, s0^2 I)``, ``p_k = p_{k-1} + q w_k`` (a random walk of the target's position in the plane,
+    m), ``z_k = wrap(atan2(p_y - o_y, p_x - o_x) + sigma v_k)`` for ``k = 1..T``, with ``w_k ~ N(0, I_2)``,
+    ``v_k ~ N(0, 1)`` independent and the observer's positions ``o_k`` known (:meth:`observer`). ``s0``, ``q``
+    (m) and ``sigma`` (rad) are standard deviations. The density of a bearing is taken as
+    ``N(wrap(z - h(p)); 0, sigma^2)``: the wrapped normal's other terms are below ``exp(-(pi / sigma)^2 / 2)``,
+    nothing in double precision for ``sigma < 0.3``."""
+
+    m0: tuple[float, float] = (0.0, 0.0)
+    s0: float = 5.0
+    q: float = 0.5
+    sigma: float = 0.05
+
+    def __post_init__(self) -> None:
+        for name in ("s0", "q", "sigma"):
+            if not getattr(self, name) > 0.0:
+                raise ParameterError(f"BearingModel: {name} = {getattr(self, name)} must be a positive "
+                                     "standard deviation")
+        if not self.sigma < 0.3:
+            raise ParameterError(f"BearingModel: sigma = {self.sigma} rad is too wide for the normal density of the "
+                                 "wrapped residual to be the wrapped normal's; use sigma < 0.3 rad")
+
+    @staticmethod
+    def observer(n_steps: int = BEARING_STEPS) -> np.ndarray:
+        """The observer's positions ``o_1..o_T`` (T, 2): once around the origin, counter-clockwise from the south,
+        so that it passes east of the target, where the bearing crosses +-pi."""
+        phi = -np.pi / 2 + 2 * np.pi * np.arange(1, n_steps + 1) / n_steps
+        return BEARING_OBSERVER_RADIUS * np.column_stack([np.cos(phi), np.sin(phi)])
+
+    def simulate(self, n_steps: int, rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray]:
+        """Positions ``p_0..p_T`` (T + 1, 2) and bearings ``z_1..z_T`` (rad)."""
+        p = np.empty((n_steps + 1, 2))
+        p[0] = np.asarray(self.m0) + self.s0 * rng.standard_normal(2)
+        for k in range(1, n_steps + 1):
+            p[k] = p[k - 1] + self.q * rng.standard_normal(2)
+        o = self.observer(n_steps)
+        h = np.arctan2(p[1:, 1] - o[:, 1], p[1:, 0] - o[:, 0])
+        return p, _wrap_angle(h + self.sigma * rng.standard_normal(n_steps))
+
+
+def _wrap_angle(a):
+    """Angles mapped to (-pi, pi]."""
+    return a - 2 * np.pi * np.ceil((a - np.pi) / (2 * np.pi))
+
+
+#: The mistakes whose large-N limit the grid computes (:func:`bearing_grid`), with the sentence that names each.
+BEARING_MEAN_MISTAKES = {
+    "q_variance": ("your target drifts with standard deviation q^2 per step: q is the random walk's standard "
+                   "deviation, so a step is p + q * rng.standard_normal(2)"),
+    "prior": ("your early means fit an initial cloud of spread q around m0: the target starts from "
+              "N(m0, s0^2 I), s0 = 5 m, far wider than one step of the random walk"),
+    "predicted": ("your means are those of the predicted cloud, read before the weighting: the filtering mean "
+                  "E[p_k | z_1..z_k] is the weighted mean after the bearing z_k is used"),
+    "no_wrap": ("your bearing residual is not wrapped to (-pi, pi]: east of the target the bearing is near "
+                "+-pi, and a reading of 3.13 rad against a prediction of -3.13 rad is 0.02 rad off, not 6.26"),
+}
+BEARING_LIKELIHOOD_MISTAKES = {
+    "log_sum": ("your log-likelihood is about T log N too large: each step's factor is the MEAN of the "
+                "unnormalised weights, log (1/N) sum_i g(z_k | p_k^i), not their sum"),
+    "mean_log": ("your log-likelihood is the mean of the log-weights, which lies below the log of the mean "
+                 "weight (Jensen): each step adds logsumexp(log g) - log N"),
+}
+
+
+def bearing_grid(z: np.ndarray, model: BearingModel, mistake: str | None = None, n_grid: int = 251,
+                 half_width: float = 25.0) -> tuple[np.ndarray, float]:
+    """The filtering means ``E[p_k | z_1..z_k]`` (T, 2) and ``log p(z_1..z_T)`` by Bayes' rule on a grid of
+    ``n_grid^2`` points over ``m0 +- half_width`` m (converged: ``tests/test_robot_exercises.py`` moves ``n_grid``
+    and ``half_width``). The random walk is separable: a step convolves the grid's masses with a Gaussian
+    kernel along x, then along y (``K p K^T``, columns of ``K`` summing to 1). ``mistake`` (a key of
+    :data:`BEARING_MEAN_MISTAKES` or :data:`BEARING_LIKELIHOOD_MISTAKES`) returns instead what a filter with
+    that mistake converges to as its number of particles grows."""
+    gx = model.m0[0] + np.linspace(-half_width, half_width, n_grid)
+    gy = model.m0[1] + np.linspace(-half_width, half_width, n_grid)
+    q = model.q ** 2 if mistake == "q_variance" else model.q
+
+    def kernel(g):
+        log_k = -0.5 * ((g[:, None] - g[None, :]) / q) ** 2
+        return np.exp(log_k - logsumexp(log_k, axis=0, keepdims=True))
+
+    kx, ky = kernel(gx), kernel(gy)
+    s0 = model.q if mistake == "prior" else model.s0
+    log_p = -0.5 * (((gx[:, None] - model.m0[0]) / s0) ** 2 + ((gy[None, :] - model.m0[1]) / s0) ** 2)
+    p = np.exp(log_p - logsumexp(log_p))  # p[i, j]: mass at (gx[i], gy[j])
+    o = model.observer(len(z))
+    means, log_lik = np.empty((len(z), 2)), 0.0
+    for k, zk in enumerate(z):
+        pred = kx @ p @ ky.T
+        pred = np.maximum(pred, 0.0)
+        h = np.arctan2(gy[None, :] - o[k, 1], gx[:, None] - o[k, 0])
+        r = zk - h if mistake == "no_wrap" else _wrap_angle(zk - h)
+        log_g = -0.5 * (r / model.sigma) ** 2 - np.log(np.sqrt(2 * np.pi) * model.sigma)
+        log_c = logsumexp(log_g, b=pred)
+        log_lik += float(np.sum(pred * log_g)) if mistake == "mean_log" else log_c
+        post = pred * np.exp(log_g - log_c)
+        p = post / post.sum()
+        w = pred if mistake == "predicted" else p
+        means[k] = [gx @ w.sum(axis=1), gy @ w.sum(axis=0)]
+    return means, log_lik
+
+
+def bearing_bootstrap(z: np.ndarray, observer: np.ndarray, n: int, rng: np.random.Generator,
+                      model: BearingModel) -> tuple[np.ndarray, float]:
+    """The reference answer: a bootstrap filter with multinomial resampling at every step."""
+    o = observer
+    p = np.asarray(model.m0) + model.s0 * rng.standard_normal((n, 2))
+    means, log_lik = np.empty((len(z), 2)), 0.0
+    for k, zk in enumerate(z):
+        p = p + model.q * rng.standard_normal((n, 2))
+        h = np.arctan2(p[:, 1] - o[k, 1], p[:, 0] - o[k, 0])
+        log_w = -0.5 * (_wrap_angle(zk - h) / model.sigma) ** 2 - np.log(np.sqrt(2 * np.pi) * model.sigma)
+        log_c = logsumexp(log_w)
+        log_lik += log_c - np.log(n)
+        w = np.exp(log_w - log_c)
+        means[k] = w @ p
+        p = p[rng.choice(n, size=n, p=w)]
+    return means, log_lik
+
+
+def check_bearing_filter(fn: Callable, n: int = 2000, n_runs: int = 24, seed: int = 0,
+                         model: BearingModel | None = None) -> CheckReport:
+    """:func:`_check_bearing_filter`, leaving NumPy's global ``np.random`` state as it was."""
+    saved = np.random.get_state()
+    try:
+        return _check_bearing_filter(fn, n, n_runs, seed, model)
+    finally:
+        np.random.set_state(saved)
+
+
+def _check_bearing_filter(fn: Callable, n: int, n_runs: int, seed: int,
+                          model: BearingModel | None) -> CheckReport:
+    """Check a particle filter ``fn(z, observer, n, rng, model) -> (means, log_likelihood)`` for bearing-only
+    tracking against the converged grid (:func:`bearing_grid`), over ``n_runs`` seeded runs, as
+    :func:`_check_sv_filter` does for Part I's capstone: shape and finiteness; the generator; the spread of the
+    means at most three times a resampled filter's (:func:`bearing_bootstrap`); no mean (x or y, any step)
+    further from the grid's than 5 standard errors of the mean over runs; ``mean(log p_hat) + var(log p_hat) / 2``
+    within 5 standard errors plus 0.05 of ``log p(z)``. A failure is compared with the large-N limit of each
+    typical mistake, so that it is named."""
+    model = model or BearingModel()
+    report = CheckReport("check_bearing_filter")
+    _, z = model.simulate(BEARING_STEPS, np.random.default_rng(BEARING_DATA_SEED))
+    obs = model.observer(BEARING_STEPS)
+    signature = "fn(z, observer, n, rng, model)"
+    answers = []
+    for run in range(n_runs):
+        answer = _answer(report, lambda: fn(z.copy(), obs.copy(), n, np.random.default_rng(seed + run), model),
+                         signature, "return (means, log_likelihood): the filtering mean of each step and log p_hat(z)")
+        if answer is None:
+            return report
+        try:
+            means, log_lik = answer
+            means, log_lik = np.asarray(means, dtype=float), float(log_lik)
+        except (TypeError, ValueError):
+            report.problems.append("return a pair (means, log_likelihood): a (T, 2) array of means and one number")
+            return report
+        if means.shape != (len(z), 2):
+            report.problems.append(f"the means have shape {means.shape}, not ({len(z)}, 2): return one filtering "
+                                   "mean (x, y) per bearing z_1..z_T")
+            return report
+        if not (np.isfinite(means).all() and np.isfinite(log_lik)):
+            report.problems.append("the answer holds NaN or infinity: compute the weights in the log domain "
+                                   "and normalise with logsumexp")
+            return report
+        answers.append((means, log_lik))
+    problem = _generator_problem(lambda rng: fn(z.copy(), obs.copy(), 200, rng, model),
+                                 lambda a, b: np.array_equal(np.asarray(a[0]), np.asarray(b[0])), what="mean")
+    if problem:
+        report.problems.append(problem)
+        return report
+    m = np.array([a[0] for a in answers])
+    ell = np.array([a[1] for a in answers])
+    ref = np.array([bearing_bootstrap(z, obs, n, np.random.default_rng(10_000 + r), model)[0] for r in range(n_runs)])
+    spread, ref_spread = m.std(axis=0, ddof=1).mean(), ref.std(axis=0, ddof=1).mean()
+    if spread > 3 * ref_spread:
+        report.problems.append(
+            f"your means vary over seeds {spread / ref_spread:.0f} times as much as a resampled filter's: "
+            "without resampling the weights collapse onto a few particles; resample after each weighting")
+        return report
+    exact, exact_log_lik = bearing_grid(z, model)
+    se = m.std(axis=0, ddof=1) / np.sqrt(n_runs) + 1e-12
+
+    def worst_z(target: np.ndarray) -> float:
+        return float(np.max(np.abs((m.mean(axis=0) - target) / se)))
+
+    if worst_z(exact) > 5:
+        for mistake, why in BEARING_MEAN_MISTAKES.items():
+            if worst_z(bearing_grid(z, model, mistake)[0]) <= 5:
+                report.problems.append(why)
+                return report
+        k, c = np.unravel_index(int(np.argmax(np.abs(m.mean(axis=0) - exact) / se)), exact.shape)
+        report.problems.append(
+            f"your mean {'xy'[c]} at step {k + 1} averages {m.mean(axis=0)[k, c]:.2f} m over {n_runs} runs where the "
+            f"exact filter's is {exact[k, c]:.2f} m, further than chance allows: check the move, the weight and "
+            "the mean")
+        return report
+    se_ell = ell.std(ddof=1) / np.sqrt(n_runs)
+    gap = ell.mean() + ell.var(ddof=1) / 2 - exact_log_lik
+    if abs(gap) > 5 * se_ell + 0.05:
+        if abs(gap - len(z) * np.log(n)) <= 5 * se_ell + 0.05:
+            report.problems.append(BEARING_LIKELIHOOD_MISTAKES["log_sum"])
+        elif abs(ell.mean() - bearing_grid(z, model, "mean_log")[1]) <= 5 * se_ell + 0.05:
+            report.problems.append(BEARING_LIKELIHOOD_MISTAKES["mean_log"])
+        else:
+            report.problems.append(
+                f"your log-likelihood averages {ell.mean():.2f} where log p(z) = {exact_log_lik:.2f}: the "
+                "estimate must be unbiased for p(z), the product over steps of the mean unnormalised weight")
+    return report
+
+
+# --------------------------------------------------------------------------------------------------------------
+# Part III's capstone: a filter for counts, and a seeded study of its error against the number of particles.
+# --------------------------------------------------------------------------------------------------------------
+
+@dataclass(frozen=True)
+class CountModel:
+    """Counts driven by a hidden log-rate (Part III's capstone):
+
+    ``x_0 ~ N(0, sigma^2 / (1 - phi^2))`` (the stationary law), ``x_k = phi x_{k-1} + sigma v_k``,
+    ``y_k | x_k ~ Poisson(exp(mu + x_k))`` for ``k = 1, ..., T``, with ``v_k ~ N(0, 1)``: ``exp(mu)`` is the
+    typical rate, ``x_k`` its log-deviation. ``sigma`` is a standard deviation."""
+
+    phi: float = 0.95
+    sigma: float = 0.3
+    mu: float = 1.0
+
+    def __post_init__(self) -> None:
+        if not -1.0 < self.phi < 1.0:
+            raise ParameterError(f"CountModel: phi = {self.phi} must lie in (-1, 1) for the stationary law to exist")
+        if not self.sigma > 0.0:
+            raise ParameterError(f"CountModel: sigma = {self.sigma} must be a positive standard deviation")
+        if not np.isfinite(self.mu):
+            raise ParameterError(f"CountModel: mu = {self.mu} must be a finite log-rate")
+
+    @property
+    def stationary_sd(self) -> float:
+        """The standard deviation ``sigma / sqrt(1 - phi^2)`` of the stationary law of ``x_k``."""
+        return self.sigma / np.sqrt(1.0 - self.phi ** 2)
+
+    def simulate(self, n_steps: int, rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray]:
+        """States ``x_0..x_T`` and counts ``y_1..y_T`` (``n_steps = T``)."""
+        x = np.empty(n_steps + 1)
+        x[0] = self.stationary_sd * rng.standard_normal()
+        for k in range(1, n_steps + 1):
+            x[k] = self.phi * x[k - 1] + self.sigma * rng.standard_normal()
+        return x, rng.poisson(np.exp(self.mu + x[1:]))
+
+
+#: The filter's mistakes whose large-N limit :func:`count_grid` computes, with the sentence that names each.
+COUNT_MISTAKES = {
+    "no_mu": ("your weights use the rate exp(x_k); the model's rate is exp(mu + x_k): x_k is the log-deviation "
+              "from the typical rate exp(mu), so the log-weight is y_k (mu + x_k) - exp(mu + x_k)"),
+    "rate_as_sd": ("your weights treat y_k as Gaussian around exp(mu + x_k); y_k is a Poisson count, whose "
+                   "log-probability is y_k (mu + x_k) - exp(mu + x_k) - log(y_k!)"),
+    "prior": ("your early means fit an initial cloud drawn from N(0, sigma^2); x_0 comes from the stationary law "
+              "N(0, sigma^2 / (1 - phi^2)), wider by 1 / sqrt(1 - phi^2)"),
+    "predicted": ("your means are those of the predicted cloud, read before the weighting: the filtering mean "
+                  "E[x_k | y_1..y_k] is the weighted mean after the count y_k is used"),
+}
+
+
+def count_grid(y: np.ndarray, model: CountModel, mistake: str | None = None, n_grid: int = 1601,
+               width: float = 8.0) -> np.ndarray:
+    """The filtering means ``E[x_k | y_1..y_k]`` (``k = 1..T``) on a grid of ``n_grid`` points over ``+-width``
+    stationary standard deviations (converged: doubling ``n_grid`` moves them by less than 1e-8,
+    ``tests/test_capstone_part3.py``). ``mistake`` (a key of :data:`COUNT_MISTAKES`) returns instead what a
+    filter with that mistake converges to as its number of particles grows."""
+    s = model.stationary_sd
+    x = np.linspace(-width * s, width * s, n_grid)
+    log_k = -0.5 * ((x[:, None] - model.phi * x[None, :]) / model.sigma) ** 2
+    kernel = np.exp(log_k - logsumexp(log_k, axis=0, keepdims=True))
+    sd0 = model.sigma if mistake == "prior" else s
+    log_p = -0.5 * (x / sd0) ** 2
+    p = np.exp(log_p - logsumexp(log_p))
+    log_rate = x if mistake == "no_mu" else model.mu + x
+    means = np.empty(len(y))
+    for k, yk in enumerate(np.asarray(y, dtype=float)):
+        pred = kernel @ p
+        if mistake == "rate_as_sd":
+            log_g = -0.5 * (yk - np.exp(log_rate)) ** 2
+        else:
+            log_g = yk * log_rate - np.exp(log_rate)
+        post = pred * np.exp(log_g - log_g.max())
+        p = post / post.sum()
+        means[k] = x @ (pred if mistake == "predicted" else p)
+    return means
+
+
+def count_bootstrap(y: np.ndarray, n: int, rng: np.random.Generator, model: CountModel) -> np.ndarray:
+    """The reference answer: a bootstrap filter for the counts, systematic resampling at every step."""
+    x = model.stationary_sd * rng.standard_normal(n)
+    means = np.empty(len(y))
+    for k, yk in enumerate(y):
+        x = model.phi * x + model.sigma * rng.standard_normal(n)
+        log_w = yk * (model.mu + x) - np.exp(model.mu + x)
+        w = np.exp(log_w - logsumexp(log_w))
+        means[k] = w @ x
+        cum = np.cumsum(w)
+        cum[-1] = 1.0
+        x = x[np.searchsorted(cum, (rng.random() + np.arange(n)) / n)]
+    return means
+
+
+def count_study_reference(filter_fn: Callable, y: np.ndarray, model: CountModel, n_values, n_runs: int,
+                          seed: int, mistake: str | None = None) -> np.ndarray:
+    """The study the capstone asks for: ``rmse[i, r]``, the root mean square over the steps of the
+    difference between the means of ``filter_fn`` with ``n_values[i]`` particles and the grid's exact means,
+    run ``r`` drawing from ``np.random.default_rng(seed + r)`` for every ``N`` (common random numbers).
+    ``mistake`` builds instead what a study with that mistake returns (:data:`STUDY_MISTAKES`)."""
+    exact = count_grid(y, model)
+    target = exact
+    if mistake == "truth":
+        target = model.simulate(len(y), np.random.default_rng(COUNT_DATA_SEED))[0][1:]
+    out = np.empty((len(n_values), n_runs))
+    shared = np.random.default_rng(seed)
+    for i, n in enumerate(n_values):
+        for r in range(n_runs):
+            if mistake == "independent":
+                rng = np.random.default_rng([seed + r, i])
+            elif mistake == "one_seed":
+                rng = np.random.default_rng(seed)
+            elif mistake == "shared":
+                rng = shared
+            else:
+                rng = np.random.default_rng(seed + r)
+            err = np.asarray(filter_fn(np.array(y), n, rng, model), dtype=float) - target
+            out[i, r] = np.mean(err ** 2) if mistake == "mse" else np.sqrt(np.mean(err ** 2))
+    return out
+
+
+#: The study's typical mistakes, with the sentence that names each.
+STUDY_MISTAKES = {
+    "truth": ("your errors are measured against the simulated states; the study asks for the filter's own "
+              "(Monte Carlo) error, against the exact filtering means count_grid(y, model), which no number "
+              "of particles can beat"),
+    "mse": ("your numbers are mean squared errors; the study asks for their square root, the RMSE over "
+            "the steps, in the units of x"),
+    "independent": ("your runs draw different random numbers for each N: use np.random.default_rng(seed + r) "
+                    "for run r whatever N is (common random numbers), so the N are compared on the same draws"),
+    "one_seed": ("all your runs are the same run: run r must use the seed seed + r, so the runs differ and "
+                 "their spread is the Monte Carlo error"),
+    "shared": ("your runs share one generator that goes on drawing from run to run, so run r depends on "
+               "the runs before it: give run r its own np.random.default_rng(seed + r)"),
+}
+
+#: The capstone's data: 50 counts of the default model, simulated with seed 2027.
+COUNT_STEPS, COUNT_DATA_SEED = 50, 2027
+
+
+def count_data(model: CountModel | None = None) -> np.ndarray:
+    """The capstone's counts ``y_1..y_50``."""
+    model = model or CountModel()
+    return model.simulate(COUNT_STEPS, np.random.default_rng(COUNT_DATA_SEED))[1]
+
+
+def check_count_filter(fn: Callable, n: int = 1000, n_runs: int = 24, seed: int = 0,
+                       model: CountModel | None = None) -> CheckReport:
+    """:func:`_check_count_filter`, leaving NumPy's global ``np.random`` state as it was."""
+    saved = np.random.get_state()
+    try:
+        return _check_count_filter(fn, n, n_runs, seed, model)
+    finally:
+        np.random.set_state(saved)
+
+
+def _check_count_filter(fn: Callable, n: int, n_runs: int, seed: int, model: CountModel | None) -> CheckReport:
+    """Check a particle filter ``fn(y, n, rng, model) -> means`` for the count model against the converged
+    grid (:func:`count_grid`) over ``n_runs`` seeded runs: shape and finiteness; draws from the generator it
+    is given; the means' spread over the runs at most three times a resampled filter's
+    (:func:`count_bootstrap`); their bias, ``max_k |z_k|`` at most 5 (``z_k``: mean over the runs minus the
+    grid's mean, over its standard error; a correct filter's bias is ``O(1/N)``, far below). A failure is
+    compared with the large-N limit of each typical mistake, so that it is named."""
+    model = model or CountModel()
+    report = CheckReport("check_count_filter")
+    y = count_data(model)
+    runs = []
+    for run in range(n_runs):
+        answer = _answer(report, lambda: fn(y.copy(), n, np.random.default_rng(seed + run), model),
+                         "fn(y, n, rng, model)", "return the filtering mean of each step, an array of shape (T,)")
+        if answer is None:
+            return report
+        try:
+            means = np.asarray(answer, dtype=float)
+        except (TypeError, ValueError):
+            report.problems.append("return one array: the filtering mean of each step")
+            return report
+        if means.shape != (len(y),):
+            report.problems.append(f"the means have shape {means.shape}, not ({len(y)},): return one filtering "
+                                   "mean per count y_1..y_T")
+            return report
+        if not np.isfinite(means).all():
+            report.problems.append("the means hold NaN or infinity: compute the weights in the log domain and "
+                                   "normalise with logsumexp (a count of 10 makes exp(y log rate) overflow)")
+            return report
+        runs.append(means)
+    problem = _generator_problem(lambda rng: fn(y.copy(), 200, rng, model),
+                                 lambda a, b: np.array_equal(np.asarray(a), np.asarray(b)), what="mean")
+    if problem:
+        report.problems.append(problem)
+        return report
+    m = np.array(runs)
+    ref = np.array([count_bootstrap(y, n, np.random.default_rng(10_000 + r), model) for r in range(n_runs)])
+    spread, ref_spread = m.std(axis=0, ddof=1).mean(), ref.std(axis=0, ddof=1).mean()
+    if spread > 3 * ref_spread:
+        report.problems.append(
+            f"your means vary over seeds {spread / ref_spread:.0f} times as much as a resampled filter's: "
+            "without resampling the weights collapse onto a few particles; resample after each weighting")
+        return report
+    se = m.std(axis=0, ddof=1) / np.sqrt(n_runs) + 1e-12
+
+    def worst_z(target: np.ndarray) -> float:
+        return float(np.max(np.abs((m.mean(axis=0) - target) / se)))
+
+    exact = count_grid(y, model)
+    if worst_z(exact) > 5:
+        for mistake, why in COUNT_MISTAKES.items():
+            if worst_z(count_grid(y, model, mistake)) <= 5:
+                report.problems.append(why)
+                return report
+        k = int(np.argmax(np.abs(m.mean(axis=0) - exact)))
+        report.problems.append(
+            f"your mean at step {k + 1} averages {m.mean(axis=0)[k]:.3f} over {n_runs} runs where the exact "
+            f"filter's is {exact[k]:.3f}, further than chance allows: check the move, the weight and the mean")
+    return report
+
+
+#: The study the checker asks for: these numbers of particles, this many runs, seeds from this one.
+STUDY_N, STUDY_RUNS, STUDY_SEED = (100, 400, 1600), 20, 0
+
+
+def check_count_study(fn: Callable, model: CountModel | None = None) -> CheckReport:
+    """:func:`_check_count_study`, leaving NumPy's global ``np.random`` state as it was."""
+    saved = np.random.get_state()
+    try:
+        return _check_count_study(fn, model)
+    finally:
+        np.random.set_state(saved)
+
+
+def _check_count_study(fn: Callable, model: CountModel | None) -> CheckReport:
+    """Check a study ``fn(filter_fn, y, model, n_values, n_runs, seed) -> rmse`` (shape
+    ``(len(n_values), n_runs)``) against :func:`count_study_reference`, run with the reference filter
+    :func:`count_bootstrap` (so the check does not depend on the reader's filter): the study must match it
+    to rounding. A mismatch is compared with each typical mistake of :data:`STUDY_MISTAKES`, so that it is
+    named."""
+    model = model or CountModel()
+    report = CheckReport("check_count_study")
+    y = count_data(model)
+    args = (count_bootstrap, y, model, STUDY_N, STUDY_RUNS, STUDY_SEED)
+    answer = _answer(report, lambda: fn(*args), "fn(filter_fn, y, model, n_values, n_runs, seed)",
+                     "return the array rmse[i, r] of the RMSE of run r with n_values[i] particles")
+    if answer is None:
+        return report
+    try:
+        rmse = np.asarray(answer, dtype=float)
+    except (TypeError, ValueError):
+        report.problems.append("return one array rmse[i, r]: one row per number of particles, one column per run")
+        return report
+    shape = (len(STUDY_N), STUDY_RUNS)
+    if rmse.shape != shape:
+        hint = " (rows and columns swapped?)" if rmse.shape == shape[::-1] else ""
+        report.problems.append(f"the study has shape {rmse.shape}, not {shape}{hint}: one row per number of "
+                               "particles, one column per run")
+        return report
+    expected = count_study_reference(*args)
+    if np.allclose(rmse, expected, rtol=1e-9, atol=1e-12):
+        return report
+    for mistake, why in STUDY_MISTAKES.items():
+        if np.allclose(rmse, count_study_reference(*args, mistake=mistake), rtol=1e-9, atol=1e-12):
+            report.problems.append(why)
+            return report
+    i, r = np.unravel_index(int(np.argmax(np.abs(rmse - expected))), shape)
+    report.problems.append(
+        f"with N = {STUDY_N[i]} your run {r} has RMSE {rmse[i, r]:.4g} where the study's is {expected[i, r]:.4g}: "
+        "run r draws from np.random.default_rng(seed + r), and its RMSE is that of its means against "
+        "count_grid(y, model) over the steps")
+    return report
+
+
+# --- Part V's capstone: a smoother for the stochastic volatility model -------------------------------------
+
+#: The mistakes of a particle smoother whose large-N limit the grid computes (:func:`sv_grid_smoother`), with
+#: the sentence that names each.
+SV_SMOOTHER_MISTAKES = {
+    "filter": ("your means are the filter's, E[x_k | y_1..y_k]: the smoother reweights each stored cloud "
+               "backwards, from step T down to step 1, so that every mean uses all the returns"),
+    "no_filter_weights": ("your backward weights leave out the filter weights W_k^i of the stored cloud: "
+                          "W_k|T^i is W_k^i times the sum over j of W_k+1|T^j f(x_k+1^j | x_k^i) / c^j"),
+    "no_normaliser": ("your backward weights do not divide by the predictive density c^j = sum_l W_k^l "
+                      "f(x_k+1^j | x_k^l): without it the particles of step k+1 that many x_k^i could "
+                      "reach count too much"),
+    "no_phi": ("your transition density centres x_k+1 on x_k; the model moves x_k+1 = phi x_k + sigma v, so "
+               "f(x_k+1 | x_k) is the Gaussian density N(x_k+1; phi x_k, sigma^2)"),
+}
+
+
+def sv_grid_smoother(y: np.ndarray, model: SVModel, mistake: str | None = None, n_grid: int = 1601,
+                     width: float = 8.0) -> np.ndarray:
+    """The smoothed means ``E[x_k | y_1..y_T]`` (``k = 1..T``) on the grid of :func:`sv_grid` (converged:
+    ``tests/test_capstones_part5.py``).
+
+    Forward: the filtering densities ``p_k`` and predictions ``p_k^- = K p_{k-1}``; backward, from
+    ``s_T = p_T``: ``s_k = p_k * K^T (s_{k+1} / p_{k+1}^-)`` (the grid's form of FFBSm's weights).
+    ``mistake`` (a key of :data:`SV_SMOOTHER_MISTAKES`) returns instead what a smoother with that mistake
+    converges to as its number of particles grows (the stored clouds taken before resampling)."""
+    s = model.stationary_sd
+    x = np.linspace(-width * s, width * s, n_grid)
+
+    def kernel_of(phi: float) -> np.ndarray:
+        log_k = -0.5 * ((x[:, None] - phi * x[None, :]) / model.sigma) ** 2
+        return np.exp(log_k - logsumexp(log_k, axis=0, keepdims=True))  # kernel[j, i]: from x_i to x_j
+
+    kernel = kernel_of(model.phi)
+    p = np.exp(-0.5 * (x / s) ** 2)
+    p /= p.sum()
+    filt, pred = [], []
+    for yk in y:
+        prior = kernel @ p
+        log_var = x + 2 * np.log(model.beta)
+        log_g = -0.5 * (log_var + yk ** 2 * np.exp(-log_var))
+        post = prior * np.exp(log_g - log_g.max())
+        p = post / post.sum()
+        filt.append(p)
+        pred.append(prior)
+    if mistake == "filter":
+        return np.array([x @ f for f in filt])
+    back = kernel_of(1.0) if mistake == "no_phi" else kernel
+    smooth = [filt[-1]]
+    for k in range(len(y) - 2, -1, -1):
+        base = pred[k] if mistake == "no_filter_weights" else filt[k]
+        if mistake == "no_normaliser":
+            ratio = smooth[0]
+        else:
+            c = back @ filt[k]
+            ratio = np.divide(smooth[0], c, out=np.zeros_like(c), where=c > 1e-300)
+        sk = base * (back.T @ ratio)
+        smooth.insert(0, sk / sk.sum())
+    return np.array([x @ sk for sk in smooth])
+
+
+def sv_ffbsm(y: np.ndarray, n: int, rng: np.random.Generator, model: SVModel) -> np.ndarray:
+    """The reference answer: a bootstrap filter (multinomial resampling at every step) storing its weighted
+    clouds before resampling, then FFBSm's backward weights; the smoothed means of ``k = 1..T``."""
+    x = model.stationary_sd * rng.standard_normal(n)
+    clouds, log_ws = [], []
+    for yk in y:
+        x = model.phi * x + model.sigma * rng.standard_normal(n)
+        log_var = x + 2 * np.log(model.beta)
+        log_w = -0.5 * (log_var + yk ** 2 * np.exp(-log_var))
+        log_w -= logsumexp(log_w)
+        clouds.append(x)
+        log_ws.append(log_w)
+        x = x[rng.choice(n, size=n, p=np.exp(log_w))]
+    log_s = log_ws[-1]
+    means = [np.exp(log_s) @ clouds[-1]]
+    for k in range(len(y) - 2, -1, -1):
+        # ell[j, i] = log f(x_{k+1}^j | x_k^i), up to a constant
+        ell = -0.5 * ((clouds[k + 1][:, None] - model.phi * clouds[k][None, :]) / model.sigma) ** 2
+        log_c = logsumexp(log_ws[k][None, :] + ell, axis=1)
+        log_s = log_ws[k] + logsumexp(log_s[:, None] + ell - log_c[:, None], axis=0)
+        log_s -= logsumexp(log_s)
+        means.insert(0, np.exp(log_s) @ clouds[k])
+    return np.array(means)
+
+
+#: Part V's capstone data: 60 returns of the default model, simulated with seed 3 (Part I's data, seed 2026,
+#: hold a return of -20.6 whose spike the stored clouds before it cover too thinly for FFBSm at N = 300).
+SV_SMOOTHER_DATA_SEED = 3
+
+
+def check_sv_smoother(fn: Callable, n: int = 300, n_runs: int = 20, seed: int = 0,
+                      model: SVModel | None = None) -> CheckReport:
+    """:func:`_check_sv_smoother`, leaving NumPy's global ``np.random`` state as it was."""
+    saved = np.random.get_state()
+    try:
+        return _check_sv_smoother(fn, n, n_runs, seed, model)
+    finally:
+        np.random.set_state(saved)
+
+
+def _check_sv_smoother(fn: Callable, n: int, n_runs: int, seed: int, model: SVModel | None) -> CheckReport:
+    """Check a particle smoother ``fn(y, n, rng, model) -> means`` (``E[x_k | y_1..y_T]``, ``k = 1..T``) for
+    the stochastic volatility model against the converged grid (:func:`sv_grid_smoother`), over ``n_runs``
+    seeded runs on 60 returns (seed :data:`SV_SMOOTHER_DATA_SEED`).
+
+    In turn: the answer's shape and finiteness; draws from the generator it is given
+    (:func:`~pfcourse.book.exercises.part1._generator_problem`); the means' bias, ``max_k |z_k|`` at most 5 with
+    ``z_k`` the mean over the runs minus the grid's smoothed mean over its standard error (FFBSm's bias,
+    ``O(1/N)``, is far below it at ``N = 300`` on these data). A failure is compared with the large-N limit of each
+    typical mistake of :data:`SV_SMOOTHER_MISTAKES`, and the nearest is named when it is within chance of the
+    answer or at least twice as near as the exact answer and every other mistake."""
+    model = model or SVModel()
+    report = CheckReport("check_sv_smoother")
+    _, y = model.simulate(SV_STEPS, np.random.default_rng(SV_SMOOTHER_DATA_SEED))
+    signature = "fn(y, n, rng, model)"
+    answers = []
+    for run in range(n_runs):
+        answer = _answer(report, lambda: fn(y.copy(), n, np.random.default_rng(seed + run), model), signature,
+                         "return the smoothed means E[x_k | y_1..y_T], one per reading")
+        if answer is None:
+            return report
+        try:
+            means = np.asarray(answer, dtype=float)
+        except (TypeError, ValueError):
+            report.problems.append("return one array of T smoothed means, not a tuple or a list of arrays")
+            return report
+        if means.shape != (len(y),):
+            report.problems.append(f"the means have shape {means.shape}, not ({len(y)},): return one smoothed "
+                                   "mean per reading y_1..y_T")
+            return report
+        if not np.isfinite(means).all():
+            report.problems.append("the answer holds NaN or infinity: compute the backward weights in the log "
+                                   "domain and normalise them with logsumexp")
+            return report
+        answers.append(means)
+    problem = _generator_problem(lambda rng: fn(y.copy(), 100, rng, model),
+                                 lambda a, b: np.array_equal(np.asarray(a), np.asarray(b)), what="smoothed mean")
+    if problem:
+        report.problems.append(problem)
+        return report
+    m = np.array(answers)
+    se = m.std(axis=0, ddof=1) / np.sqrt(n_runs) + 1e-12
+
+    def worst_z(target: np.ndarray) -> float:
+        return float(np.max(np.abs((m.mean(axis=0) - target) / se)))
+
+    exact = sv_grid_smoother(y, model)
+    exact_z = worst_z(exact)
+    if exact_z > 5:
+        # the mistake whose large-N limit lies nearest the answer is named when it is within chance of it,
+        # or at least twice as near as the exact answer and every other mistake (a mistake's particle
+        # version can converge more slowly than the correct smoother)
+        zs = {mistake: worst_z(sv_grid_smoother(y, model, mistake)) for mistake in SV_SMOOTHER_MISTAKES}
+        best = min(zs, key=zs.get)
+        others = [exact_z] + [z for mistake, z in zs.items() if mistake != best]
+        if zs[best] <= 5 or zs[best] <= 0.5 * min(others):
+            report.problems.append(SV_SMOOTHER_MISTAKES[best])
+            return report
+        k = int(np.argmax(np.abs(m.mean(axis=0) - exact)))
+        report.problems.append(
+            f"your smoothed mean at step {k + 1} averages {m.mean(axis=0)[k]:.3f} over {n_runs} runs where the "
+            f"exact smoother's is {exact[k]:.3f}, further than chance allows: check the stored clouds, the "
+            "transition density and the backward weights")
+    return report

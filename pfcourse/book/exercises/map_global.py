@@ -1,0 +1,190 @@
+"""The checked exercise of the chapter *Finding the robot on the map* (book/part2/map_global): poses drawn
+from a reading, weighted correctly, for another sensor.
+
+A robot stands somewhere in a corridor ``[0, L]`` (uniform prior ``u(x) = 1 / L``) with doors at known
+places ``d_1, ..., d_D``; its sensor reads the distance to the nearest door with Gaussian noise:
+
+    p(z | x) = N(z; min_i |x - d_i|, sigma^2).
+
+The student's ``fn(z, n, rng, corridor) -> (x, log_w)`` draws ``n`` poses from the reading, as sensor
+resetting does: ``corridor.m`` candidates uniform on ``[0, L]`` (``rng.uniform``), each picked with
+probability ``v_j ∝ p(z | c_j)``, plus Gaussian noise of standard deviation ``corridor.h``, so that
+
+    q(x) = sum_j v_j N(x; c_j, h^2),
+
+and returns each pose's log-weight ``log u(x) - log q(x) + log p(z | x)`` (``-inf`` outside the
+corridor).  Weighted so, the poses are an importance sample of the posterior of a robot with no
+history, and the mean weight estimates the evidence ``Z = integral u(x) p(z | x) dx`` (the weight the
+chapter's injected stratum carries).  :func:`check_reset_weights` checks that the function draws from
+the generator it is given (same seed same answer, another seed another, NumPy's global state untouched),
+that the weights are those of the poses returned (``log_w - log p(z | x) - log u(x)`` must be
+``-log q(x)`` for a mixture of Gaussians: at most the log of the largest kernel's peak), and that over
+many calls the mean weight estimates ``Z`` and the weighted mean the posterior mean, both computed
+exactly by quadrature (:func:`exact_evidence`), within five standard errors; each mistake of
+:data:`RESET_MISTAKES` has its own message.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass, field
+
+import numpy as np
+from scipy.special import logsumexp
+
+from pfcourse.book.exercises.checking import CheckReport
+from pfcourse.book.exercises.part1 import _seed_problem
+
+
+@dataclass(frozen=True)
+class Corridor:
+    """The exercise's corridor: length ``L`` (m), door positions, the sensor's ``sigma`` (m), the number
+    of candidates ``m`` and the kernel's standard deviation ``h`` (m)."""
+
+    L: float = 20.0
+    doors: np.ndarray = field(default_factory=lambda: np.array([2.5, 7.5, 12.5, 17.5, 19.0]))
+    sigma: float = 0.3
+    m: int = 50
+    h: float = 0.3
+
+    def log_likelihood(self, x: np.ndarray, z: float) -> np.ndarray:
+        """``log N(z; min_i |x - d_i|, sigma^2)`` for each position ``x``."""
+        x = np.asarray(x, dtype=float)
+        dist = np.abs(x[..., None] - self.doors).min(axis=-1)
+        return -0.5 * ((z - dist) / self.sigma) ** 2 - np.log(np.sqrt(2 * np.pi) * self.sigma)
+
+    def log_prior(self, x: np.ndarray) -> np.ndarray:
+        """``log u(x)``: ``-log L`` in the corridor, ``-inf`` outside."""
+        x = np.asarray(x, dtype=float)
+        return np.where((x >= 0) & (x <= self.L), -np.log(self.L), -np.inf)
+
+
+RESET_MISTAKES: dict[str, str] = {
+    "equal": "every pose has the same weight, as in table 8.3's injection: that is right only if q is the "
+             "posterior itself, and a mixture around a few candidates is not; weight each pose by u p / q",
+    "likelihood_only": "the weight is the likelihood alone: the poses were drawn from q, not from the prior u, "
+                       "so each must be weighted u(x) / q(x) p(z | x)",
+    "no_prior": "the prior u(x) = 1 / L is left out: the poses then carry L times the evidence they have, "
+                "and injected poses would outweigh a cloud that explains the reading as well",
+    "kernel_constant": "q(x) lacks the Gaussian kernel's factor 1 / (sqrt(2 pi) h): q must be a density, or "
+                       "the weights are off by that factor against the rest of the cloud",
+}
+
+
+def reset_answer(z: float, n: int, rng: np.random.Generator, corridor: Corridor,
+                 mistake: str | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """The reference draw and log-weights, or what one mistake of :data:`RESET_MISTAKES` computes."""
+    if mistake is not None and mistake not in RESET_MISTAKES:
+        raise ValueError(f"unknown mistake {mistake!r}; one of {sorted(RESET_MISTAKES)}")
+    c = rng.uniform(0.0, corridor.L, corridor.m)
+    s = corridor.log_likelihood(c, z)
+    log_v = s - logsumexp(s)
+    x = c[rng.choice(corridor.m, size=n, p=np.exp(log_v))] + corridor.h * rng.standard_normal(n)
+    const = 0.0 if mistake == "kernel_constant" else np.log(np.sqrt(2 * np.pi) * corridor.h)
+    log_q = logsumexp(log_v - 0.5 * ((x[:, None] - c) / corridor.h) ** 2 - const, axis=1)
+    log_p = corridor.log_likelihood(x, z)
+    if mistake == "equal":
+        return x, np.zeros(n)
+    if mistake == "likelihood_only":
+        return x, log_p
+    prior = np.where(corridor.log_prior(x) > -np.inf, 0.0, -np.inf) if mistake == "no_prior" else corridor.log_prior(x)
+    return x, prior - log_q + log_p
+
+
+def exact_evidence(z: float, corridor: Corridor, n_grid: int = 200001) -> tuple[float, float]:
+    """``Z = integral u p(z | x) dx`` and the posterior mean of ``x``, by the trapezoidal rule on ``n_grid`` points."""
+    x = np.linspace(0.0, corridor.L, n_grid)
+    p = np.exp(corridor.log_likelihood(x, z)) / corridor.L
+    Z = np.trapezoid(p, x)
+    return float(Z), float(np.trapezoid(x * p, x) / Z)
+
+
+READINGS = (1.1, 2.3)
+
+
+def check_reset_weights(fn: Callable, corridor: Corridor = Corridor(), n: int = 2000, calls: int = 20) -> CheckReport:
+    """Check ``fn(z, n, rng, corridor) -> (x, log_w)`` (module docstring)."""
+    report = CheckReport("poses from the reading, weighted u / q p")
+    state = np.random.get_state()
+
+    def call(seed, z=READINGS[0]):
+        try:
+            out = fn(z, n, np.random.default_rng(seed), corridor)
+            if out is None:
+                report.problems.append("the function returned None: return the poses and their log-weights, "
+                                       "two arrays of shape (n,)")
+                return None
+            x, log_w = out
+            return np.asarray(x, dtype=float), np.asarray(log_w, dtype=float)
+        except Exception as exc:  # a student's bug is reported, not raised
+            report.problems.append(f"the function raised {type(exc).__name__}: {exc}")
+            return None
+
+    answer = call(1)
+    if answer is None:
+        np.random.set_state(state)
+        return report
+    x, log_w = answer
+    if x.shape != (n,) or log_w.shape != (n,):
+        np.random.set_state(state)
+        report.problems.append(f"it must return two arrays of shape ({n},), poses and log-weights; got {x.shape} and "
+                               f"{log_w.shape}")
+        return report
+    again, other = call(1), call(2)
+    if again is None or other is None:
+        np.random.set_state(state)
+        return report
+    problem = _seed_problem(state, answer, again, other, "poses", "rng.uniform(...), rng.choice(...) and "
+                            "rng.standard_normal(...)")
+    if problem is not None:
+        report.problems.append(problem)
+        return report
+    if np.ptp(log_w[np.isfinite(log_w)]) < 1e-12:
+        report.problems.append(RESET_MISTAKES["equal"])
+        return report
+    log_p, log_u = corridor.log_likelihood(x, READINGS[0]), corridor.log_prior(x)
+    inside = np.isfinite(log_u)
+    if np.ptp(log_w[inside] - log_p[inside]) < 1e-9:
+        report.problems.append(RESET_MISTAKES["likelihood_only"])
+        return report
+    if np.any(np.isfinite(log_w[~inside])):
+        report.problems.append("a pose outside the corridor has a finite weight: u(x) = 0 there, so its weight is 0 "
+                               "(log-weight -inf)")
+        return report
+    for z in READINGS:
+        runs = [call(100 + t, z) for t in range(calls)]
+        if any(r is None for r in runs):
+            return report
+        ratio, se, mean_x, se_x = _estimates(runs, corridor, z)
+        Z, post_mean = exact_evidence(z, corridor)
+        if abs(ratio - 1.0) > 5 * se:
+            factors = {"no_prior": corridor.L, "kernel_constant": 1.0 / (np.sqrt(2 * np.pi) * corridor.h)}
+            rel = se / ratio  # the ratio's relative standard error: a factor is named only when it is precise
+            for name, factor in factors.items():
+                if rel < 0.05 and abs(ratio / factor - 1.0) < max(5 * rel, 0.02):
+                    report.problems.append(RESET_MISTAKES[name])
+                    return report
+            report.problems.append(f"for z = {z} the mean weight is {ratio:.3f} times the evidence Z = {Z:.4g} "
+                                   f"(+- {5 * se:.3f} allowed): check that q is the whole mixture sum_j v_j N(x; c_j, h^2), "
+                                   "with v_j the normalised likelihoods of the candidates")
+            return report
+        if abs(mean_x - post_mean) > 5 * se_x + 1e-3:
+            report.problems.append(f"for z = {z} the weighted mean position is {mean_x:.3f} m, the posterior mean "
+                                   f"{post_mean:.3f} m: the weights do not follow the poses; weight each by u p / q")
+            return report
+    return report
+
+
+def _estimates(runs, corridor: Corridor, z: float) -> tuple[float, float, float, float]:
+    """Mean weight over the evidence (and its standard error), weighted mean position (and its standard
+    error), over the calls' samples (one value per call, so that the errors are those between calls)."""
+    Z, _ = exact_evidence(z, corridor)
+    per_call = np.array([np.mean(np.exp(lw)) / Z for _, lw in runs])
+    means = []
+    for x, lw in runs:
+        w = np.exp(lw - logsumexp(lw))
+        means.append(w @ x)
+    means = np.array(means)
+    k = len(runs)
+    return (float(per_call.mean()), float(per_call.std(ddof=1) / np.sqrt(k)),
+            float(means.mean()), float(means.std(ddof=1) / np.sqrt(k)))

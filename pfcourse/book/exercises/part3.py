@@ -1,0 +1,344 @@
+"""Checkers of Part III (parameter studies: chapters 17-19)."""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+
+import numpy as np
+from scipy.special import logsumexp
+
+from pfcourse.book.exercises.checking import CheckReport, _answer, _settled
+
+
+# The effective sample size from log-weights (chapter 21, exercise 21.1): cases whose weights underflow
+# (log-weights near -1000) or overflow (near +800) in the linear domain, and an ordinary one.
+ESS_CASES = (np.log(np.array([0.5, 0.25, 0.125, 0.125])), np.array([-1000.0, -1001.0, -1000.5, -1003.0, -1000.0]),
+             np.array([800.0, 799.0, 801.0]), np.array([0.0, -np.inf, -1.0, -2.0]))
+
+
+ESS_MISTAKES = {
+    "not_normalised": "it computes 1 / sum(w^2) from weights that do not sum to one; normalise first, "
+                      "W_i = w_i / sum_j w_j, then ESS = 1 / sum_i W_i^2",
+    "fraction": "it returns ESS / N, a fraction; the exercise asks for the effective number of particles",
+    "sum_over_sum_of_squares_linear": "it exponentiates the log-weights without subtracting their maximum, so they "
+                                      "underflow to 0 or overflow to inf; subtract max(log w) before exp "
+                                      "(the ESS does not change)",
+}
+
+
+def effective_sample_size_from_logs(log_weights: np.ndarray, mistake: str | None = None) -> float:
+    """``ESS = 1 / sum_i W_i^2`` with ``W_i = exp(l_i - logsumexp(l))`` for log-weights ``l`` (any
+    constant added to them cancels). ``mistake`` (a key of :data:`ESS_MISTAKES`) computes it instead."""
+    log_weights = np.asarray(log_weights, dtype=float)
+    with np.errstate(all="ignore"):
+        if mistake == "not_normalised":
+            w = np.exp(log_weights - np.max(log_weights))
+            return float(1.0 / np.sum(w**2))
+        if mistake == "sum_over_sum_of_squares_linear":
+            w = np.exp(log_weights)
+            return float(np.sum(w) ** 2 / np.sum(w**2))
+        w = np.exp(log_weights - logsumexp(log_weights))
+        ess = float(1.0 / np.sum(w**2))
+    return ess / len(log_weights) if mistake == "fraction" else ess
+
+
+def check_ess(fn: Callable, rtol: float = 1e-9) -> CheckReport:
+    """Check a student's ``fn(log_weights) -> ess`` on :data:`ESS_CASES` against
+    :func:`effective_sample_size_from_logs`; the mistakes of :data:`ESS_MISTAKES` are named."""
+    report = CheckReport("effective sample size")
+    answers = []
+    for case in ESS_CASES:
+        answer = _answer(report, lambda: fn(case.copy()), "fn(log_weights)", "return the ESS, a number")
+        if answer is None:
+            return report
+        try:
+            answers.append(float(answer))
+        except (TypeError, ValueError):
+            report.problems.append(f"the answer {answer!r} is not a number: return the ESS as one float")
+            return report
+
+    def fits(mistake: str | None) -> bool:
+        expected = [effective_sample_size_from_logs(c, mistake) for c in ESS_CASES]
+        return all((np.isnan(a) and np.isnan(e)) or np.isclose(a, e, rtol=rtol) for a, e in zip(answers, expected))
+
+    if _settled(report, fits, ESS_MISTAKES):
+        return report
+    if any(not np.isfinite(a) for a in answers):
+        report.problems.append("the ESS is not finite for log-weights near -1000 or +800: work in the log domain "
+                               "(subtract the largest log-weight, or use logsumexp) before exponentiating")
+        return report
+    report.problems.append("the values differ from 1 / sum_i W_i^2 with normalised weights W_i; a weight of 0 "
+                           "(log-weight -inf) must count for nothing")
+    return report
+
+
+# Adaptive resampling with residual resampling (chapter 21, exercise 21.1): the rule of Algorithm 21.1 with
+# the scheme the chapter does not print.
+ADAPTIVE_MISTAKES = {
+    "reversed": "it resamples a cloud whose ESS is at least tau N, or keeps one whose ESS is below it: resample "
+                "only when ESS < tau N, so that tau = 0 never resamples and a larger tau resamples more often",
+    "kept_weights": "after resampling it keeps the old log-weights: each copy now stands for 1/N of the cloud, "
+                    "so reset every log-weight to -log N (keeping the old ones counts the weights twice)",
+    "multinomial": "a particle got fewer than floor(N W_i) copies: residual resampling first gives particle i "
+                   "exactly floor(N W_i) copies and draws only the R = N - sum_i floor(N W_i) remaining ones",
+    "systematic": "no particle ever got more than ceil(N W_i) copies, as with systematic or stratified "
+                  "resampling: residual resampling draws the R remaining copies independently (multinomially) "
+                  "from the residual weights N W_i - floor(N W_i), so a particle can get two of them",
+    "biased": "the average number of copies of a particle is not N W_i: draw the R remaining copies with "
+              "probabilities proportional to the residuals N W_i - floor(N W_i), normalised to sum to one",
+}
+
+
+def adaptive_residual(particles: np.ndarray, log_w: np.ndarray, tau: float, rng: np.random.Generator,
+                      mistake: str | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """Algorithm 21.1 with residual resampling: when ``ESS < tau N``, ``floor(N W_i)`` copies of particle ``i``
+    and ``R = N - sum floor(N W_i)`` more drawn multinomially from the residuals; log-weights reset to
+    ``-log N``. ``mistake`` (a key of :data:`ADAPTIVE_MISTAKES`) makes it instead."""
+    n = len(log_w)
+    w = np.exp(log_w - logsumexp(log_w))
+    ess = 1.0 / np.sum(w ** 2)
+    if (ess < tau * n) if mistake == "reversed" else (ess >= tau * n):
+        return particles, log_w
+    if mistake == "multinomial":
+        idx = rng.choice(n, size=n, p=w)
+    elif mistake == "systematic":
+        cum = np.cumsum(w)
+        cum[-1] = 1.0
+        idx = np.searchsorted(cum, (rng.random() + np.arange(n)) / n)
+    else:
+        counts = np.floor(n * w).astype(int)
+        rest = n - counts.sum()
+        if rest > 0:
+            residual = np.ones(n) if mistake == "biased" else n * w - counts
+            counts += np.bincount(rng.choice(n, size=rest, p=residual / residual.sum()), minlength=n)
+        idx = np.repeat(np.arange(n), counts)
+    new_w = log_w[idx] if mistake == "kept_weights" else np.full(n, -np.log(n))
+    return particles[idx], new_w
+
+
+def _adaptive_cases() -> dict[str, tuple[np.ndarray, float]]:
+    """Log-weights and thresholds: kept (ESS at or above tau N) and resampled (ESS below it)."""
+    uneven = np.log(np.array([3.9, 1.4, 1.3, 1.2, 0.6, 0.5, 0.5, 0.3, 0.2, 0.1]) / 10) + 700.0  # ESS ~ 4.7
+    mild = np.log(np.linspace(1.0, 2.0, 10))  # ESS ~ 9.6
+    return {"keep_low_tau": (uneven, 0.3), "keep_mild": (mild, 0.9), "keep_zero": (uneven, 0.0),
+            "resample": (uneven, 0.5), "resample_mild": (mild, 1.0)}
+
+
+def check_adaptive_residual(fn: Callable, n_draws: int = 2000, seed: int = 0) -> CheckReport:
+    """:func:`_check_adaptive_residual`, leaving NumPy's global ``np.random`` state as it was."""
+    saved = np.random.get_state()
+    try:
+        return _check_adaptive_residual(fn, n_draws, seed)
+    finally:
+        np.random.set_state(saved)
+
+
+def _check_adaptive_residual(fn: Callable, n_draws: int, seed: int) -> CheckReport:
+    """Check ``fn(particles, log_w, tau, rng) -> (particles, log_w)``, adaptive resampling with residual
+    resampling: clouds with ``ESS >= tau N`` come back unchanged, the others with equal log-weights; the
+    generator is the one given; over ``n_draws`` resamplings every particle gets at least ``floor(N W_i)``
+    copies, some get more than ``ceil(N W_i)`` (residual, not systematic), and the mean number of copies is
+    ``N W_i`` within 5 standard errors. Each mistake of :data:`ADAPTIVE_MISTAKES` is named."""
+    from pfcourse.book.exercises.part1 import _generator_problem
+
+    report = CheckReport("check_adaptive_residual")
+    signature = "fn(particles, log_w, tau, rng)"
+    what = "return (particles, log_w): the cloud after the rule, and its log-weights"
+
+    def call(log_w, tau, rng):
+        n = len(log_w)
+        answer = _answer(report, lambda: fn(np.arange(n, dtype=float), log_w.copy(), tau, rng), signature, what)
+        if answer is None:
+            return None
+        try:
+            parts, new_w = (np.asarray(a, dtype=float) for a in answer)
+        except (TypeError, ValueError):
+            report.problems.append("return a pair (particles, log_w) of two arrays")
+            return None
+        if parts.shape != (n,) or new_w.shape != (n,):
+            report.problems.append(f"return N = {n} particles and N log-weights, not shapes {parts.shape} and "
+                                   f"{new_w.shape}")
+            return None
+        if not np.isin(parts, np.arange(n)).all():
+            report.problems.append("the particles returned are not copies of the particles given: resampling "
+                                   "copies particles, it does not move them")
+            return None
+        return parts.astype(int), new_w
+
+    rng = np.random.default_rng(seed)
+    cases = _adaptive_cases()
+    for name, (log_w, tau) in cases.items():
+        out = call(log_w, tau, rng)
+        if out is None:
+            return report
+        kept = np.array_equal(out[0], np.arange(len(log_w))) and np.allclose(out[1], log_w)
+        if name.startswith("keep") and not kept or name.startswith("resample") and kept:
+            report.problems.append(ADAPTIVE_MISTAKES["reversed"])
+            return report
+        if name.startswith("resample") and not np.allclose(out[1], out[1][0]):
+            report.problems.append(ADAPTIVE_MISTAKES["kept_weights"])
+            return report
+    log_w, tau = cases["resample"]
+    problem = _generator_problem(lambda g: call(log_w, tau, g), lambda a, b: np.array_equal(a[0], b[0]),
+                                 what="resampled cloud")
+    if problem:
+        report.problems.append(problem)
+        return report
+    n = len(log_w)
+    w = np.exp(log_w - logsumexp(log_w))
+    counts = np.empty((n_draws, n), dtype=int)
+    for d in range(n_draws):
+        out = call(log_w, tau, rng)
+        if out is None:
+            return report
+        counts[d] = np.bincount(out[0], minlength=n)
+    if (counts < np.floor(n * w)).any():
+        report.problems.append(ADAPTIVE_MISTAKES["multinomial"])
+        return report
+    if not (counts > np.ceil(n * w)).any():
+        report.problems.append(ADAPTIVE_MISTAKES["systematic"])
+        return report
+    se = counts.std(axis=0, ddof=1) / np.sqrt(n_draws) + 1e-12
+    if np.max(np.abs(counts.mean(axis=0) - n * w) / se) > 5:
+        report.problems.append(ADAPTIVE_MISTAKES["biased"])
+    return report
+
+
+# Locked on, the book's one definition (chapter 22, exercise 22.1): runs of per-step errors whose verdict
+# differs between the right definition and each mistake.
+LOCK_MISTAKES = {
+    "last_step": "it looks at the last step only; locked on means within the tolerances at every step of the "
+                 "last window_s seconds",
+    "position_only": "it ignores the heading; a robot within 1 m but facing the wrong way is not locked on",
+    "window_in_steps": "it reads window_s as a number of steps; with a step of dt seconds the window holds "
+                       "ceil(window_s / dt) steps",
+    "whole_run": "it requires the tolerances over the whole run; only the last window_s seconds count",
+}
+
+
+def lock_on_cases() -> list[tuple[np.ndarray, np.ndarray, float]]:
+    """Runs ``(pos_err, head_err, dt)``: each separates the right definition from at least one mistake."""
+    from pfcourse.metrics import LOCK_HEADING_RAD, LOCK_POSITION_M
+
+    good_p, good_h = 0.5 * LOCK_POSITION_M, 0.5 * LOCK_HEADING_RAD
+    cases = []
+    p, h = np.full(60, good_p), np.full(60, good_h)
+    p[50] = 3.0  # off 10 s before the end: not locked (last_step says locked)
+    cases.append((p, h.copy(), 1.0))
+    p, h = np.full(60, good_p), np.full(60, good_h)
+    h[-5:] = 3 * LOCK_HEADING_RAD  # heading off at the end (position_only says locked)
+    cases.append((p, h, 1.0))
+    p, h = np.full(120, good_p), np.full(120, good_h)
+    p[90] = 3.0  # dt = 0.5 s: step 90 is 15 s before the end, inside the 20 s window (20 steps: outside)
+    cases.append((p, h, 0.5))
+    p, h = np.full(60, good_p), np.full(60, good_h)
+    p[:10] = 50.0  # lost at the start, locked at the end (whole_run says not locked)
+    cases.append((p, h, 1.0))
+    return cases
+
+
+def lock_on_reference(pos_err: np.ndarray, head_err: np.ndarray, dt: float, window_s: float = 20.0,
+                      mistake: str | None = None) -> bool:
+    """:func:`pfcourse.metrics.locked_on`, or a mistake of :data:`LOCK_MISTAKES`."""
+    from pfcourse.metrics import LOCK_HEADING_RAD, LOCK_POSITION_M, locked_on
+
+    ok = (pos_err < LOCK_POSITION_M) & (head_err < LOCK_HEADING_RAD)
+    if mistake == "last_step":
+        return bool(ok[-1])
+    if mistake == "position_only":
+        return locked_on(pos_err, np.zeros_like(head_err), dt, window_s)
+    if mistake == "window_in_steps":
+        return bool(np.all(ok[-int(window_s):]))
+    if mistake == "whole_run":
+        return bool(np.all(ok))
+    return locked_on(pos_err, head_err, dt, window_s)
+
+
+def check_lock_on(fn: Callable) -> CheckReport:
+    """Check a student's ``fn(pos_err, head_err, dt, window_s) -> bool`` against
+    :func:`pfcourse.metrics.locked_on` on :func:`lock_on_cases`; the mistakes of :data:`LOCK_MISTAKES` are named."""
+    report = CheckReport("locked on")
+    answers = []
+    for pos, head, dt in lock_on_cases():
+        answer = _answer(report, lambda: fn(pos.copy(), head.copy(), dt, 20.0), "fn(pos_err, head_err, dt, window_s)",
+                         "return True or False")
+        if answer is None:
+            return report
+        if not isinstance(answer, (bool, np.bool_)):
+            report.problems.append(f"the answer {answer!r} is not True or False: return one verdict per run")
+            return report
+        answers.append(bool(answer))
+
+    def fits(mistake: str | None) -> bool:
+        return answers == [lock_on_reference(p, h, dt, 20.0, mistake) for p, h, dt in lock_on_cases()]
+
+    if _settled(report, fits, LOCK_MISTAKES):
+        return report
+    wrong = next(i for i, (a, (p, h, dt)) in enumerate(zip(answers, lock_on_cases())) if a != lock_on_reference(p, h, dt))
+    report.problems.append(f"run {wrong + 1} of the checker's runs gets the wrong verdict: within 1 m and 5 degrees "
+                           "(strictly) at every step of the last ceil(window_s / dt) steps")
+    return report
+
+
+# --- chapter 20: what common random numbers buy -------------------------------------------------------
+#: Two settings' errors on the same 40 runs (the first run by run correlated with the second, as the
+#: settings of a study with common random numbers are).
+def _paired_case(seed: int = 17, runs: int = 40) -> tuple[np.ndarray, np.ndarray]:
+    rng = np.random.default_rng(seed)
+    world = rng.gamma(4.0, 0.1, runs)  # what each simulated world makes hard, shared by both settings
+    return world + rng.normal(0.0, 0.05, runs), 1.05 * world + rng.normal(0.0, 0.05, runs)
+
+
+PAIRED_CASE = _paired_case()
+
+
+PAIRED_MISTAKES = {
+    "ddof0": "it uses the population standard deviation (np.std's default, ddof=0); the sample standard "
+             "deviation divides by n - 1 (ddof=1)",
+    "over_n": "it divides the standard deviation by n instead of sqrt(n): the standard error of a mean is s / sqrt(n)",
+    "unpaired_sum": "its unpaired standard error adds the standard deviations, (s_a + s_b) / sqrt(n); independent "
+                    "errors add their variances: sqrt((s_a^2 + s_b^2) / n)",
+    "paired_as_unpaired": "its paired standard error ignores the pairing (it is the unpaired one); pair the runs: "
+                          "the standard deviation of the differences a_r - b_r, over sqrt(n)",
+}
+
+
+def paired_standard_errors(a: np.ndarray, b: np.ndarray, mistake: str | None = None) -> tuple[float, float]:
+    """Standard errors of ``mean(a) - mean(b)``: paired ``sd(a - b) / sqrt(n)``, and as if the runs were
+    independent, ``sqrt((sd(a)^2 + sd(b)^2) / n)`` (sample standard deviations, ``ddof=1``). ``mistake`` (a key
+    of :data:`PAIRED_MISTAKES`) computes it instead."""
+    a, b = np.asarray(a, dtype=float), np.asarray(b, dtype=float)
+    n, ddof = len(a), 0 if mistake == "ddof0" else 1
+    root = n if mistake == "over_n" else np.sqrt(n)
+    sa, sb, sd = a.std(ddof=ddof), b.std(ddof=ddof), (a - b).std(ddof=ddof)
+    unpaired = (sa + sb) / root if mistake == "unpaired_sum" else np.sqrt(sa**2 + sb**2) / root
+    paired = unpaired if mistake == "paired_as_unpaired" else sd / root
+    return float(paired), float(unpaired)
+
+
+def check_paired_se(fn: Callable, rtol: float = 1e-9) -> CheckReport:
+    """Check a student's ``fn(a, b) -> (paired_se, unpaired_se)`` on :data:`PAIRED_CASE` against
+    :func:`paired_standard_errors`; the mistakes of :data:`PAIRED_MISTAKES` are named."""
+    report = CheckReport("paired and unpaired standard errors")
+    a, b = PAIRED_CASE
+    answer = _answer(report, lambda: fn(a.copy(), b.copy()), "fn(a, b)", "return (paired_se, unpaired_se)")
+    if answer is None:
+        return report
+    try:
+        paired, unpaired = (float(v) for v in answer)
+    except (TypeError, ValueError):
+        report.problems.append("the answer is not two numbers: return (paired_se, unpaired_se)")
+        return report
+
+    def fits(mistake: str | None) -> bool:
+        return bool(np.allclose([paired, unpaired], paired_standard_errors(a, b, mistake), rtol=rtol))
+
+    if _settled(report, fits, PAIRED_MISTAKES):
+        return report
+    if paired > unpaired:
+        report.problems.append("the paired standard error is larger than the unpaired one, although the runs are "
+                               "strongly correlated: pair a_r with b_r of the same run")
+        return report
+    report.problems.append("the values differ from sd(a - b) / sqrt(n) and sqrt((sd(a)^2 + sd(b)^2) / n) with "
+                           "sample standard deviations")
+    return report

@@ -1,0 +1,277 @@
+"""Global localization that reaches what the map allows: KLD-sampling and augmented MCL fed by the scan.
+
+:func:`global_mcl` is Monte Carlo localization (odometry model, likelihood field, systematic
+resampling at every scan) with three changes, the cure of the chapter *Finding the robot on the map*:
+
+1. **Many particles at the start, shrinking adaptively.**  Step 0 holds ``n_start`` poses uniform in
+   free space and ``n_start_scan`` drawn from the scan's proposal ``q`` (below), each an importance
+   sample of the uniform prior ``u`` (half the mass each: weights ``p(z | x)`` and ``u / q p(z | x)``).
+   Each later step resamples to the number KLD-sampling asks for (Fox 2003,
+   :func:`pfcourse.sample_size.kld_bound`): the bins occupied by ``n_max`` systematic draws of the
+   cloud, the bound with ``epsilon`` and ``delta``, clipped to ``[n_min, n_max]``.  AMCL's
+   ``kld_z = 0.99`` is the *quantile* ``z_{1 - delta}``: ``delta = 1 - Phi(0.99) = 0.161``
+   (:data:`AMCL_DELTA`), not ``0.01``.
+2. **Poses drawn from the scan** (sensor resetting, Lenser and Veloso 2000): :func:`scan_proposal`
+   scores candidate poses (points uniform in free space, each with evenly spaced headings) by the
+   likelihood field, keeps the best, and draws poses from Gaussian kernels around candidates picked in
+   proportion to their tempered score; it returns each pose's exact ``log q(x)`` (the kernel mixture).
+3. **Injected as a kidnapping, weighted correctly** (augmented MCL, Thrun, Burgard and Fox 2005,
+   table 8.3, for *how much*).  The model is the kidnap model: the robot may have been carried anywhere
+   ``history`` scans ago, with probability ``eps_k``; augmented MCL sets ``eps_k = max(eps_min,
+   1 - w_fast / w_slow)`` from the fast and slow averages of the cloud's predictive likelihood
+   ``Z_k = mean_i p(z_k | x_k^i)``.  The ``R`` injected poses are drawn from ``q`` for the scan
+   ``history`` steps back and carried to now by the odometry, every scan scoring them; the ``M``
+   moved particles and the ``R`` injected ones are a stratified importance sample of the mixture:
+
+       moved:     W ∝ (1 - eps_k) / M  p(z_k | x_k),
+       injected:  W ∝ eps_k / R  u(x) / q(x)  prod_{j=k-h}^{k} p(z_j | x_j) / prod_{j=k-h}^{k-1} Z_j,
+
+   the second being the posterior mass of "kidnapped ``h`` scans ago, and here now" relative to the
+   cloud, whose own evidence for the scans ``k - h ... k - 1`` is the product of the ``Z_j``.  A pose
+   with no history (``h = 0``) can beat a wrong but well-fitting cloud only by the likelihood of one
+   scan; with a history it carries the evidence of ``h + 1`` scans.
+
+All draws come from the generator passed in, in a fixed order (:func:`global_mcl`).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, replace
+
+import numpy as np
+from scipy import stats
+from scipy.special import logsumexp
+
+from pfcourse.angles import wrap_angle
+from pfcourse.checks import Array, check_count, check_probability, check_real
+from pfcourse.errors import ParameterError, ShapeError
+from pfcourse.scenarios.maprobot.grid import OccupancyGrid
+from pfcourse.scenarios.maprobot.likelihood_field import LikelihoodField
+from pfcourse.scenarios.maprobot.motion import OdometryModel
+from pfcourse.sample_size import cell_codes, kld_bound
+
+#: AMCL's kld_z = 0.99 read as the quantile it is: delta = 1 - Phi(0.99).
+AMCL_DELTA = float(1.0 - stats.norm.cdf(0.99))
+
+
+@dataclass(frozen=True)
+class GlobalSettings:
+    """The cure's settings (module docstring).  ``kld_bin``: m, m, rad; ``kernel``: the proposal's kernel
+    standard deviations (m, rad); ``inject_share``: the share of the cloud drawn from the scan at every
+    ``inject_every``-th step; ``alpha_slow``, ``alpha_fast``: augmented MCL's averaging rates;
+    ``poor_fit_only``: inject at those steps only while ``eps_k > eps_min`` (augmented MCL's own trigger)."""
+
+    n_start: int = 20000
+    n_start_scan: int = 2000
+    n_min: int = 300
+    n_max: int = 5000
+    kld_epsilon: float = 0.05
+    kld_delta: float = AMCL_DELTA
+    kld_bin: tuple[float, float, float] = (0.5, 0.5, float(np.deg2rad(10.0)))
+    inject_share: float = 0.1
+    inject_min: int = 200
+    inject_every: int = 4
+    history: int = 20
+    eps_min: float = 0.01
+    alpha_slow: float = 0.001
+    alpha_fast: float = 0.1
+    candidates: int = 500
+    headings: int = 24
+    keep: int = 200
+    temper: float = 0.5
+    kernel: tuple[float, float] = (0.15, 0.05)
+    refine_rounds: int = 3
+    refine_trials: int = 8
+    refine_step: tuple[float, float] = (0.15, 0.05)
+    poor_fit_only: bool = False
+
+    def __post_init__(self) -> None:
+        for name in ("n_start", "n_min", "n_max", "inject_min", "inject_every", "candidates", "headings", "keep"):
+            check_count(getattr(self, name), name)
+        check_count(self.n_start_scan, "n_start_scan", minimum=0)
+        check_count(self.history, "history", minimum=0)
+        check_count(self.refine_rounds, "refine_rounds", minimum=0)
+        check_count(self.refine_trials, "refine_trials")
+        if self.n_min > self.n_max:
+            raise ParameterError(f"n_min ({self.n_min}) must not exceed n_max ({self.n_max})")
+        if self.keep > self.candidates * self.headings:
+            raise ParameterError(f"keep ({self.keep}) must not exceed the candidates ({self.candidates * self.headings})")
+        for name in ("kld_epsilon", "kld_delta", "inject_share", "eps_min", "alpha_slow", "alpha_fast"):
+            check_probability(getattr(self, name), name)
+        if not self.alpha_slow < self.alpha_fast:
+            raise ParameterError(f"alpha_slow ({self.alpha_slow}) must be below alpha_fast ({self.alpha_fast})")
+        check_real(self.temper, "temper", low=0.0, high=1.0, low_open=True)
+        if len(self.kernel) != 2 or min(self.kernel) <= 0 or len(self.kld_bin) != 3 or min(self.kld_bin) <= 0:
+            raise ParameterError(f"kernel needs two positive widths and kld_bin three, got {self.kernel}, {self.kld_bin}")
+
+
+#: The chapter's settings.
+SETTINGS = GlobalSettings()
+#: A variant measured against them on the same drives (stored studies ``map_global/global_poor_fit`` and
+#: ``kidnap_poor_fit``): poses injected only while ``eps_k`` is above its floor (the scans fit the cloud
+#: worse than they used to) and a KLD floor of 1000 particles.  It locked on and recovered no more often.
+POOR_FIT = replace(SETTINGS, poor_fit_only=True, n_min=1000)
+
+
+def kld_size(x: Array, W: Array, s: GlobalSettings, rng: np.random.Generator) -> int:
+    """KLD-sampling's number of particles for the cloud ``x`` with weights ``W``: the bins (``s.kld_bin``)
+    occupied by ``s.n_max`` systematic draws, the bound of Fox (2003), clipped to ``[n_min, n_max]``."""
+    bins = len(np.unique(cell_codes(x[systematic(W, s.n_max, rng)], s.kld_bin)))
+    return int(np.clip(kld_bound(bins, s.kld_epsilon, s.kld_delta), s.n_min, s.n_max))
+
+
+def systematic(W: Array, m: int, rng: np.random.Generator) -> Array:
+    """``m`` systematic ancestors from normalised weights ``W`` (one uniform draw)."""
+    c = np.cumsum(W)
+    c[-1] = 1.0
+    return np.searchsorted(c, (rng.random() + np.arange(m)) / m, side="right").clip(max=len(W) - 1)
+
+
+def uniform_log_density(grid: OccupancyGrid, x: Array) -> Array:
+    """``log u(x)``: ``-log(A_free 2 pi)`` in free space, ``-inf`` elsewhere."""
+    return np.where(grid.is_free(x), -np.log(grid.free_area * 2 * np.pi), -np.inf)
+
+
+def scan_proposal(grid: OccupancyGrid, field: LikelihoodField, z: Array, n: int, rng: np.random.Generator,
+                  s: GlobalSettings = SETTINGS) -> tuple[Array, Array]:
+    """``n`` poses from the scan ``z`` and their ``log q(x)`` (module docstring): ``s.candidates`` points
+    uniform in free space times ``s.headings`` headings (a random offset), scored by ``s.temper`` times
+    the field's log-likelihood; the ``s.keep`` best kept and refined by ``s.refine_rounds`` rounds of
+    ``s.refine_trials`` Gaussian perturbations (``s.refine_step``), one picked per pose in proportion to its
+    tempered score, plus Gaussian noise of ``s.kernel``."""
+    n = check_count(n, "n", minimum=0)
+    xy = grid.sample_free(s.candidates, rng)[:, :2]
+    theta = wrap_angle((rng.random() + np.arange(s.headings)) * 2 * np.pi / s.headings)
+    c = np.column_stack([np.repeat(xy, s.headings, axis=0), np.tile(theta, s.candidates)])
+    score = s.temper * field.log_likelihood(c, z)
+    best = np.argpartition(-score, s.keep - 1)[:s.keep]
+    c, score = c[best], score[best]
+    # refine: each kept candidate moves to the best of its perturbations, if better (hill climbing)
+    step = np.array([s.refine_step[0], s.refine_step[0], s.refine_step[1]])
+    for _ in range(s.refine_rounds):
+        trial = c[:, None, :] + rng.standard_normal((s.keep, s.refine_trials, 3)) * step
+        trial[..., 2] = wrap_angle(trial[..., 2])
+        t_score = s.temper * field.log_likelihood(trial.reshape(-1, 3), z).reshape(s.keep, s.refine_trials)
+        j = t_score.argmax(axis=1)
+        better = t_score[np.arange(s.keep), j] > score
+        c[better], score[better] = trial[better, j[better]], t_score[better, j[better]]
+    log_v = score - logsumexp(score)
+    pick = systematic(np.exp(log_v), n, rng) if n > 0 else np.zeros(0, dtype=int)
+    h = np.array([s.kernel[0], s.kernel[0], s.kernel[1]])
+    x = c[pick] + rng.standard_normal((n, 3)) * h
+    x[:, 2] = wrap_angle(x[:, 2])
+    return x, kernel_log_density(x, c, log_v, h)
+
+
+def kernel_log_density(x: Array, centres: Array, log_v: Array, h: Array) -> Array:
+    """``log sum_c v_c N(x; c, diag(h^2))`` with the heading difference wrapped (``(N,)``)."""
+    d = x[:, None, :] - centres[None, :, :]
+    d[..., 2] = wrap_angle(d[..., 2])
+    log_k = -0.5 * np.sum((d / h) ** 2, axis=-1) - 1.5 * np.log(2 * np.pi) - np.sum(np.log(h))
+    return logsumexp(log_k + log_v[None, :], axis=1)
+
+
+@dataclass(frozen=True)
+class GlobalResult:
+    """Per step: the estimate ``(K, 3)``, the number of particles, augmented MCL's ``eps_k`` and the
+    injected share of the weight after the step."""
+
+    mean: Array
+    sizes: Array
+    eps: Array
+    injected_mass: Array
+
+
+def global_mcl(grid: OccupancyGrid, field: LikelihoodField, motion: OdometryModel, scans: Array, odometry: Array,
+               rng: np.random.Generator, s: GlobalSettings = SETTINGS, *, start: Array | None = None,
+               start_std: tuple[float, float, float] = (0.2, 0.2, 0.05)) -> GlobalResult:
+    """The cure on ``scans`` ``(K, B)`` with ``odometry`` ``(K, 3)`` (row ``k`` moves step ``k - 1`` to ``k``).
+
+    ``start=None``: global localization (step 0 as in the module docstring); else ``s.n_min`` poses
+    around ``start`` (a tracked robot, which may be kidnapped).  Order of the draws at step ``k > 0``:
+    the KLD draws, the resampling, the odometry, then (injection steps) the proposal and the odometry of
+    the injected poses through their history."""
+    scans, odometry = np.asarray(scans, dtype=float), np.asarray(odometry, dtype=float)
+    if scans.ndim != 2 or odometry.shape != (len(scans), 3):
+        raise ShapeError(f"scans must be (K, B) and odometry (K, 3), got {scans.shape} and {odometry.shape}")
+    if start is None:
+        x_u = grid.sample_free(s.n_start, rng)
+        parts = [(x_u, field.log_likelihood(x_u, scans[0]))]
+        if s.n_start_scan > 0:
+            x_q, log_q = scan_proposal(grid, field, scans[0], s.n_start_scan, rng, s)
+            parts.append((x_q, uniform_log_density(grid, x_q) - log_q + field.log_likelihood(x_q, scans[0])))
+        x, log_w = _stratified([(1.0 / len(parts), p, lw) for p, lw in parts])
+    else:
+        x = np.asarray(start, dtype=float) + rng.standard_normal((s.n_min, 3)) * np.asarray(start_std)
+        log_w = field.log_likelihood(x, scans[0]) - np.log(s.n_min)
+    K = len(scans)
+    log_z = np.zeros(K)  # the cloud's predictive log-likelihood of each scan
+    log_z[0] = logsumexp(log_w)  # step 0: the weights are importance weights of the prior
+    w_slow = w_fast = None
+    out = GlobalResult(np.empty((K, 3)), np.empty(K, dtype=int), np.zeros(K), np.zeros(K))
+    for k in range(K):
+        inj_mass = 0.0
+        if k > 0:
+            W = np.exp(log_w - logsumexp(log_w))
+            n = kld_size(x, W, s, rng)
+            moved = motion.sample(x[systematic(W, n, rng)], odometry[k], rng)
+            lw_m = field.log_likelihood(moved, scans[k])
+            log_z[k] = logsumexp(lw_m) - np.log(len(moved))
+            # augmented MCL (table 8.3): fast and slow averages of Z_k, in the log domain
+            w_slow = log_z[k] if w_slow is None else np.logaddexp(np.log1p(-s.alpha_slow) + w_slow,
+                                                                  np.log(s.alpha_slow) + log_z[k])
+            w_fast = log_z[k] if w_fast is None else np.logaddexp(np.log1p(-s.alpha_fast) + w_fast,
+                                                                  np.log(s.alpha_fast) + log_z[k])
+            eps = max(s.eps_min, 1.0 - float(np.exp(min(w_fast - w_slow, 0.0))))
+            out.eps[k] = eps
+            inject = s.inject_share > 0 and k >= s.history and k % s.inject_every == 0
+            if s.poor_fit_only:  # only while the scans fit the cloud worse than they used to
+                inject = inject and eps > s.eps_min
+            r = max(s.inject_min, int(round(s.inject_share * n))) if inject else 0
+            if r > 0:
+                inj, lw_r = injected(grid, field, motion, scans, odometry, k, r, log_z, rng, s)
+                x, log_w = _stratified([(1.0 - eps, moved, lw_m), (eps, inj, lw_r)])
+                w = np.exp(log_w - logsumexp(log_w))
+                inj_mass = float(w[len(moved):].sum())
+            else:
+                x, log_w = moved, lw_m
+        W = np.exp(log_w - logsumexp(log_w))
+        out.mean[k] = [W @ x[:, 0], W @ x[:, 1], np.angle(W @ np.exp(1j * x[:, 2]))]
+        out.sizes[k] = len(x)
+        out.injected_mass[k] = inj_mass
+    return out
+
+
+def injected(grid: OccupancyGrid, field: LikelihoodField, motion: OdometryModel, scans: Array, odometry: Array,
+             k: int, r: int, log_z: Array, rng: np.random.Generator, s: GlobalSettings = SETTINGS) -> tuple[Array, Array]:
+    """``r`` poses kidnapped ``s.history`` scans before step ``k``, and their log-weights within the
+    injected stratum (the stratum's mass over ``r`` is then ``eps_k`` times the Bayes factor below).
+
+    A small filter of ``r`` particles starts at ``j0 = k - history`` from the scan's proposal, weighted
+    ``u / q p(z_j0 | x)``, and runs to step ``k`` (systematic resampling, odometry, likelihood field);
+    the product of its mean weights estimates the evidence ``p(z_j0:k | kidnapped at j0)``, which
+    divided by the cloud's ``prod_{j=j0}^{k-1} Z_j`` is the Bayes factor of the kidnapping against the
+    cloud's own account of those scans.  The returned log-weights are the last step's
+    ``log p(z_k | x_k)`` shifted so that their mean is that Bayes factor times ``Z_k``'s scale."""
+    j0 = k - s.history
+    x, log_q = scan_proposal(grid, field, scans[j0], r, rng, s)
+    lw = uniform_log_density(grid, x) - log_q + field.log_likelihood(x, scans[j0])
+    log_evidence = 0.0
+    for j in range(j0 + 1, k + 1):
+        log_evidence += logsumexp(lw) - np.log(r)
+        x = motion.sample(x[systematic(np.exp(lw - logsumexp(lw)), r, rng)], odometry[j], rng)
+        lw = field.log_likelihood(x, scans[j])
+    return x, lw + log_evidence - log_z[j0:k].sum()
+
+
+def _stratified(parts: list[tuple[float, Array, Array]]) -> tuple[Array, Array]:
+    """Particles and log-weights of a stratified mixture: ``(mass, particles, log w)`` per part, each
+    part's weights ``mass / n_part * w``."""
+    x = np.concatenate([p for _, p, _ in parts])
+    log_w = np.concatenate([np.log(m) - np.log(len(p)) + lw for m, p, lw in parts])
+    return x, log_w
+
+
+def with_settings(**changes) -> GlobalSettings:
+    """:data:`SETTINGS` with some fields changed (a variant of the cure)."""
+    return replace(SETTINGS, **changes)

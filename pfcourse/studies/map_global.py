@@ -1,0 +1,90 @@
+"""Studies of the chapter *Finding the robot on the map*: the twin margin, and the cure on the map robot.
+
+Run ``seed`` is the drive of :func:`pfcourse.studies.maprobot.simulate` (the drives of map_robot's
+stored studies); the cure's filter draws from
+``numpy.random.default_rng([41, seed, 2])``.  Lock-on is :func:`pfcourse.scenarios.maprobot.lock_on.locked_on`
+with the heading tolerance of three standard deviations of one straight step's odometry heading noise
+(:data:`HEADING_TOL`).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from pfcourse.studies import maprobot as study
+from pfcourse.scenarios.maprobot import lock_on
+from pfcourse.scenarios.maprobot.global_mcl import POOR_FIT, SETTINGS, GlobalSettings, global_mcl
+from pfcourse.scenarios.maprobot.twins import twin_margin
+from pfcourse.metrics import heading_error, position_error
+
+#: One straight step of the drive (m): 0.5 m/s for DT.
+STEP_M = 0.5 * study.DT
+HEADING_TOL = lock_on.heading_tolerance(study.MOTION, STEP_M)
+#: Decided: the truth's posterior odds against all its twins at least DECIDED_ODDS : 1 ...
+DECIDED_ODDS = 99.0
+#: ... at the share of the last window's steps the lock-on rule asks for.
+MARGIN_TIMES_S = tuple(range(5, 101, 5))
+TWIN_COLUMNS = ("seed", "decided", "final_margin", "final_best_margin",
+                *(f"margin_{t}s" for t in MARGIN_TIMES_S))
+GLOBAL_COLUMNS = ("seed", "locked_on", "locked_from_s", "final_position_error", "final_heading_error",
+                  "mean_particles", "start_particles")
+KIDNAP_COLUMNS = ("seed", "tracked_before", "recovered", "recovery_s", "final_position_error")
+
+
+def filter_rng(seed: int) -> np.random.Generator:
+    return np.random.default_rng([41, seed, 2])
+
+
+def decided(margin: np.ndarray) -> bool:
+    """The evidence decides a drive: the margin (log-odds against all twins) above ``log(DECIDED_ODDS)``
+    at the share of the last window's steps that lock-on asks for (:mod:`pfcourse.scenarios.maprobot.lock_on`)."""
+    window = int(np.ceil(lock_on.WINDOW_S / study.DT - 1e-9))
+    return bool(np.mean(margin[-window:] > np.log(DECIDED_ODDS)) >= lock_on.SHARE)
+
+
+def twin_row(seed: int) -> dict:
+    """The twin margin of ``seed``'s global drive: decided, final margins, the margin every 5 s."""
+    run = study.simulate(seed, study.GLOBAL_STEPS)
+    margin, best = twin_margin(study.book_map(), study.field(), run.truth, run.scans)
+    row = {"decided": decided(margin), "final_margin": float(margin[-1]), "final_best_margin": float(best[-1])}
+    row.update({f"margin_{t}s": float(margin[int(round(t / study.DT)) - 1]) for t in MARGIN_TIMES_S})
+    return row
+
+
+def global_row(seed: int, settings: GlobalSettings = SETTINGS) -> dict:
+    """The cure (:func:`pfcourse.scenarios.maprobot.global_mcl.global_mcl` with ``settings``) from a uniform start on
+    ``seed``'s drive."""
+    run = study.simulate(seed, study.GLOBAL_STEPS)
+    res = global_mcl(study.book_map(), study.field(), study.MOTION, run.scans, run.drive.odometry, filter_rng(seed),
+                     settings)
+    pos, head = position_error(run.truth, res.mean), heading_error(run.truth, res.mean)
+    return {"locked_on": lock_on.locked_on(pos, head, study.DT, HEADING_TOL),
+            "locked_from_s": lock_on.locked_from(pos, head, study.DT, HEADING_TOL) * study.DT,
+            "final_position_error": float(pos[-1]), "final_heading_error": float(head[-1]),
+            "mean_particles": float(res.sizes[1:].mean()), "start_particles": int(res.sizes[0])}
+
+
+def poor_fit_global_row(seed: int) -> dict:
+    """:func:`global_row` with the variant :data:`pfcourse.scenarios.maprobot.global_mcl.POOR_FIT`."""
+    return global_row(seed, POOR_FIT)
+
+
+def poor_fit_kidnap_row(seed: int) -> dict:
+    """:func:`kidnap_row` with the variant :data:`pfcourse.scenarios.maprobot.global_mcl.POOR_FIT`."""
+    return kidnap_row(seed, POOR_FIT)
+
+
+def kidnap_row(seed: int, settings: GlobalSettings = SETTINGS) -> dict:
+    """The cure (``settings``) tracking ``seed``'s kidnap drive from the known start: recovered (locked on
+    at the end), the time (s) from the kidnapping to the step from which it stays locked on (NaN if not
+    recovered)."""
+    run = study.simulate(seed, study.KIDNAP_STEPS, kidnap_at=study.KIDNAP_STEP)
+    res = global_mcl(study.book_map(), study.field(), study.MOTION, run.scans, run.drive.odometry, filter_rng(seed),
+                     settings, start=run.truth[0])
+    pos, head = position_error(run.truth, res.mean), heading_error(run.truth, res.mean)
+    recovered = lock_on.locked_on(pos, head, study.DT, HEADING_TOL)
+    start = lock_on.locked_from(pos, head, study.DT, HEADING_TOL)
+    return {"tracked_before": bool(np.all(pos[10:study.KIDNAP_STEP] < lock_on.POSITION_TOLERANCE_M)),
+            "recovered": recovered,
+            "recovery_s": float((max(start, study.KIDNAP_STEP) - study.KIDNAP_STEP) * study.DT) if recovered else np.nan,
+            "final_position_error": float(pos[-1])}

@@ -1,0 +1,680 @@
+"""The book's stored studies, each one record registered here, run one way and stored one way.
+
+A study too heavy to run while the book executes is a :class:`Study`: a name, a grid of
+settings, a row function ``row(seed=..., **setting) -> metrics``, a number of runs and the
+rule that gives run ``r`` its seed, one failure policy, and where its table is stored.
+Every study is run by :func:`pfcourse.studies.study.run_study` (on any executor) and
+stored by :mod:`pfcourse.studies.store`, its provenance beside it
+(:func:`pfcourse.studies.provenance.write_provenance`)::
+
+    python3 tasks.py study NAME       # NAME: a study, or a group such as robot_studies
+
+``tests/test_stored_studies.py`` re-computes a seeded sample of every registered study's
+stored rows (among its ``cheap`` rows) from their recorded settings and seeds, and requires
+the same numbers, float for float (within ``rtol`` for the tables an older script stored
+rounded), and checks that each table has exactly the settings, seeds and order its record
+describes.
+
+**Adding a study**: write its row function in the experiments module of its scenario (a
+module-level function, so that a process pool can send it), add a :class:`Study` to
+:data:`STUDIES` below, run ``python3 tasks.py study NAME`` after committing the code (the
+provenance names the commit), and commit the table.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+import time
+from collections.abc import Callable, Mapping, Sequence
+from dataclasses import dataclass, field
+from functools import partial
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pandas as pd
+
+from pfcourse.errors import ParameterError, StepError
+from pfcourse.filter_config import records
+from pfcourse.studies import association, comparison, global_localization, intel, map_global
+from pfcourse.studies import likelihood_studies as ls
+from pfcourse.studies import part1_studies
+from pfcourse.studies import static_parameters_study as sps
+from pfcourse.studies import pmcmc_studies as pm
+from pfcourse.studies import (maprobot, rb_study, robot_studies, sir_fixes_study, smoothing_studies,
+                                  terrain_field, terrain_marginalised, terrain_remedies, terrain_studies,
+                                  why_it_works)
+from pfcourse.studies.provenance import append_rerun, launch_commit, write_provenance
+from pfcourse.studies.robot import pf_run
+from pfcourse.studies import robot as robot_experiments
+from pfcourse.studies.store import DATA, load, save
+from pfcourse.studies.terrain import LOST_FLIGHT
+from pfcourse.studies.study import grid_settings, run_study
+from pfcourse.seeding import replicate_seed
+
+#: Seed rules: the seed of run ``r`` of a study with base seed ``b``.
+SEED_RULES: dict[str, Callable[[int, int], int]] = {
+    "replicate": replicate_seed,  # run_study's default: SeedSequence([b, r])
+    "run": lambda b, r: b + r,  # the run's number, counted from b (a flight, a simulation seed)
+}
+#: Failure policies: ``record`` keeps a collapsed run as a row with ``status="failed"``, its
+#: message and the study's ``failed_scores`` (run_study's rule); ``raise`` refuses to store a table
+#: with a collapsed run (its table has no status column).
+FAILURES = ("record", "raise")
+
+
+@dataclass(frozen=True)
+class Study:
+    """One stored study: what to run, how it is seeded, and where its table goes.
+
+    ``grid`` is one grid (``{parameter: values}``, every combination) or a tuple of grids
+    run one after the other (settings that are not a product).  Run ``r`` of every setting has
+    the seed ``SEED_RULES[seeds](base_seed, r)`` (common random numbers).  The table is run_study's rows,
+    grid after grid, then stably sorted by ``order`` (each column in order of first
+    appearance) and cut to ``columns`` (``None``: all).  A stored row's seed is in its
+    ``seed_column``, and its setting in the grid's columns (or those named by ``stored_as``).
+    """
+
+    name: str
+    row: Callable[..., Mapping]
+    grid: Mapping[str, Sequence] | tuple[Mapping[str, Sequence], ...]
+    n_runs: int
+    table: str  # CSV path under book/data
+    provenance: str  # JSON path under book/data (shared by the studies of a group)
+    seeds: str = "replicate"
+    base_seed: int = 0
+    failures: str = "record"
+    failed_scores: Mapping[str, Any] = field(default_factory=dict)  # a collapsed run's metrics (failures="record")
+    columns: tuple[str, ...] | None = None
+    order: tuple[str, ...] = ()
+    seed_column: str | None = "seed"  # None: the table keeps no seed (one run, its seed the rule's)
+    stored_as: Mapping[str, str] = field(default_factory=dict)  # grid parameter -> its stored column, if renamed
+    literals: tuple[str, ...] = ()  # columns stored as Python literals (store.save)
+    arrays: tuple[str, ...] = ()  # per-step columns stored in NAME.npz (store.save)
+    errors_as_text: bool = False  # empty error messages read back as "" (store.load)
+    volatile: tuple[str, ...] = ("seconds",)  # wall times: never re-computed
+    cheap: Callable[[pd.DataFrame], pd.Series] | None = None  # stored rows quick enough to re-compute
+    rtol: float = 0.0  # re-computed floats must equal the stored ones within rtol (0: exactly; > 0 for rounded tables)
+    sample: int = 2  # rows re-computed by the test
+    row_code: str = ""
+    fields: Mapping = field(default_factory=dict)  # the study's own provenance fields
+
+    def __post_init__(self) -> None:
+        if self.seeds not in SEED_RULES or self.failures not in FAILURES:
+            raise ParameterError(f"study {self.name}: seeds must be one of {list(SEED_RULES)} and failures one "
+                                 f"of {FAILURES}, got {self.seeds!r}, {self.failures!r}")
+        if self.failed_scores and self.failures != "record":
+            raise ParameterError(f"study {self.name}: failed_scores score the collapsed runs a table records; "
+                                 f"give them with failures='record'")
+        if self.seed_column is None and self.n_runs != 1:
+            raise ParameterError(f"study {self.name}: a table that keeps no seed column must have one run per setting")
+
+    @property
+    def grids(self) -> tuple[Mapping[str, Sequence], ...]:
+        return (self.grid,) if isinstance(self.grid, Mapping) else tuple(self.grid)
+
+    @property
+    def path(self) -> Path:
+        return DATA / self.table
+
+    def compute(self, n_runs: int | None = None, **options) -> pd.DataFrame:
+        """The study's table as it is stored (``options`` go to :func:`run_study`: ``executor``, ``progress``)."""
+        n_runs = self.n_runs if n_runs is None else n_runs
+        seeds = [SEED_RULES[self.seeds](self.base_seed, r) for r in range(n_runs)]
+        options = {"progress": False, **options}
+        table = pd.concat([run_study(self.row, grid, n_runs, seeds=seeds, failed_scores=self.failed_scores, **options)
+                           for grid in self.grids],
+                          ignore_index=True)
+        if self.failures == "raise" and (table["status"] != "ok").any():
+            failed = table[table["status"] != "ok"].iloc[0]
+            raise StepError(f"study {self.name}: run {failed['run']} failed ({failed['error']})")
+        # The stored seed and renamed setting columns come from the runner, so that a failed run has them too.
+        if self.seed_column is not None:
+            table[self.seed_column] = [SEED_RULES[self.seeds](self.base_seed, r) for r in table["run"]]
+        for key, column in self.stored_as.items():
+            table[column] = table[key]
+        table = self._ordered(table)
+        return table.reindex(columns=list(self.columns)) if self.columns is not None else table  # NaN: no run gave it
+
+    def layout(self, n_runs: int | None = None) -> pd.DataFrame:
+        """Setting, ``run`` and ``seed`` of every row of the table, in the stored order (nothing is run)."""
+        n_runs = self.n_runs if n_runs is None else n_runs
+        rows = [{**setting, "run": r, "seed": SEED_RULES[self.seeds](self.base_seed, r)}
+                for grid in self.grids for setting in grid_settings(grid) for r in range(n_runs)]
+        return self._ordered(pd.DataFrame(rows))
+
+    def _ordered(self, table: pd.DataFrame) -> pd.DataFrame:
+        """``table`` stably sorted by ``order`` (each column in order of first appearance)."""
+        if not self.order:
+            return table
+        keys = [pd.factorize(table[column])[0] for column in self.order]
+        return table.iloc[np.lexsort(keys[::-1])].reset_index(drop=True)  # lexsort is stable
+
+    def load(self) -> pd.DataFrame:
+        """The stored table (as :meth:`compute` returns it, ``seconds`` as stored), its provenance
+        record in ``table.attrs["provenance"]``: the one way a chapter reads a stored study."""
+        if not self.path.exists():
+            raise FileNotFoundError(f"{self.path} is missing: run `python3 tasks.py study {self.name}`")
+        table = load(self.path, literals=self.literals, arrays=self.arrays, errors_as_text=self.errors_as_text)
+        table.attrs["provenance"] = self.provenance_record()
+        return table
+
+    def provenance_record(self) -> dict:
+        """The provenance record written beside the table (shared by the studies of a group)."""
+        return json.loads((DATA / self.provenance).read_text())
+
+    def save(self, table: pd.DataFrame) -> None:
+        save(self.path, table, literals=self.literals, arrays=self.arrays)
+
+    def setting(self, stored: Mapping) -> dict:
+        """The grid setting of a stored row, with the grid's own values (as the study passed them)."""
+        for grid in self.grids:
+            setting = {}
+            for key, values in grid.items():
+                match = [v for v in values if same(v, stored[self.stored_as.get(key, key)])]
+                if not match:
+                    break
+                setting[key] = match[0]
+            else:
+                return setting
+        raise ParameterError(f"study {self.name}: no setting of its grid matches the stored row {dict(stored)!r:.200}")
+
+    def recompute(self, stored: Mapping) -> Mapping:
+        """Re-run one stored row from its setting and recorded seed."""
+        seed = SEED_RULES[self.seeds](self.base_seed, 0) if self.seed_column is None else int(stored[self.seed_column])
+        return self.row(seed=seed, **self.setting(stored))
+
+
+def same(a, b, rtol: float = 0.0) -> bool:
+    """``a == b`` for settings and metrics (``None``, tuples, arrays, NaN equal to NaN), floats within ``rtol``."""
+    if isinstance(a, np.ndarray) or isinstance(b, np.ndarray):
+        return np.array_equal(a, b, equal_nan=True)
+    if isinstance(a, float) and isinstance(b, float) and not isinstance(a, bool):
+        return bool(np.isclose(a, b, rtol=rtol, atol=0.0, equal_nan=True)) if rtol else (a == b or (np.isnan(a) and np.isnan(b)))
+    try:
+        return bool(a == b)
+    except (TypeError, ValueError):
+        return False
+
+
+def _likelihood_study(name: str, row: Callable, grid: dict, n_runs: int, base_seed: int, **options) -> Study:
+    """A Part V study: run_study's table without its wall times, in book/data/likelihood/."""
+    return Study(name=f"likelihood/{name}", row=row, grid=grid, n_runs=n_runs, base_seed=base_seed,
+                 table=f"likelihood/{name}.csv", provenance=f"likelihood/{name}.json",
+                 row_code=f"pfcourse/studies/likelihood_studies.py ({row.__name__})",
+                 fields=ls.PROVENANCE_FIELDS[name], **options)
+
+
+def _mcl_study(name: str, row: Callable, grid, **options) -> Study:
+    """A table of the global-localization chapter (stored rounded to 10 significant digits: compared at 1e-9)."""
+    options = {"failures": "raise", **options}
+    return Study(name=f"global_localization/{name}", row=row, grid=grid, n_runs=100, seeds="run",
+                 table=f"global_localization/{name}.csv", provenance="global_localization/provenance.json",
+                 columns=global_localization.COLUMNS[name], rtol=1e-9,
+                 row_code=f"pfcourse/studies/global_localization.py ({row.__name__})", **options)
+
+
+def _robot_study(name: str, grid: dict, options: dict) -> Study:
+    return Study(name=f"robot_studies/{name}", row=partial(pf_run, **{**robot_studies.DEFAULTS, **options}),
+                 grid=grid, n_runs=robot_studies.N_RUNS, table=f"robot_studies/{name}.csv",
+                 provenance="robot_studies/provenance.json", literals=robot_studies.literal_columns(name), arrays=robot_studies.ARRAY_COLUMNS,
+                 errors_as_text=True, row_code="pfcourse/studies/robot.py (pf_run)", fields={"grid": grid, "options": options})
+
+
+#: The terrain flight studies record a filter that lost every particle as a lost flight (infinite error).
+_FLIGHTS = {"failures": "record", "failed_scores": LOST_FLIGHT, "errors_as_text": True}
+#: The global-localization runs record a filter that lost every particle as a failed run, not locked on.
+_GLOBAL_RUNS = {"failures": "record", "failed_scores": global_localization.FAILED_RUN, "errors_as_text": True}
+
+#: Every stored study, by name.  A group (``robot_studies``) is the studies named ``group/...``.
+STUDIES: dict[str, Study] = {study.name: study for study in [
+    # sir_fixes' metric "error" (a distance) takes the place of run_study's message column: the
+    # policy "raise" keeps failed runs out of its table.
+    Study(name="sir_fixes", row=sir_fixes_study.row,
+          grid={"variant": sir_fixes_study.VARIANTS, "N": sir_fixes_study.N_VALUES}, n_runs=100, seeds="run",
+          failures="raise", table="sir_fixes.csv", provenance="sir_fixes.json",
+          columns=("variant", "N", "seed", "error", "coverage"), cheap=lambda t: t["N"] <= 300, sample=4,
+          row_code="pfcourse/studies/sir_fixes_study.py",
+          fields={"seeds": "0-99; filter seed s + 10**6; threshold N/3",
+                  "landmark_noise": sir_fixes_study.LANDMARK_NOISE}),
+    Study(name="rao_blackwell", row=rb_study.row,
+          grid=tuple(g for scenario, n_values in rb_study.N_VALUES.items()
+                     for g in ({"scenario": [scenario], "method": ["kalman"], "N": [0]},
+                               {"scenario": [scenario], "method": list(rb_study.METHODS), "N": n_values})),
+          n_runs=100, seeds="run", failures="raise", table="rao_blackwell.csv", provenance="rao_blackwell.json",
+          columns=rb_study.COLUMNS, order=("scenario", "run"), volatile=("seconds", "seconds_per_step"),
+          cheap=lambda t: (t["method"] != "kalman") & (t["N"] <= 300), sample=3,
+          row_code="pfcourse/studies/rb_study.py, pfcourse/scenarios/landmarks/rao_blackwell.py, pfcourse/scenarios/landmarks/auxiliary.py",
+          fields={"methods": rb_study.METHODS, "threshold": rb_study.THRESHOLD,
+                  "seeds": "simulation seed s, filter seed s + 10**6 (same for every method and N)"}),
+    Study(name="proposals", row=part1_studies.proposals_row,
+          grid={"setting": part1_studies.SETTINGS, "proposal": part1_studies.PROPOSALS}, n_runs=50, seeds="run",
+          failures="raise", table="proposals.csv", provenance="proposals.json",
+          columns=("setting", "proposal", "seed", "ess", "ess_sum", "n_measured", "resampled", "robot",
+                   "landmarks", "rmse"), sample=4, row_code="pfcourse/studies/part1_studies.py",
+          fields={"seeds": "simulation seed s = 0-49, filter seed s + 10**6 (same for both proposals)",
+                  "lab": "N = 500, threshold 1/3", "sharp_broad": "N = 200, threshold 1/2, process noise "
+                  "0.05^2 m^2 on every coordinate, measurement sd 0.1 and 1 times the lab's"}),
+    Study(name="rb_five_landmarks", row=part1_studies.five_landmarks_row,
+          grid={"method": part1_studies.FIVE_METHODS}, n_runs=100, seeds="run", failures="raise",
+          table="rb_five_landmarks.csv", provenance="rb_five_landmarks.json",
+          columns=("method", "seed", "collapse", "lm_sd", "robot_sd", "robot_cover"), sample=4,
+          row_code="pfcourse/studies/part1_studies.py",
+          fields={"seeds": "simulation seed s = 0-99, filter seed s + 10**6 (same for every method)",
+                  "N": part1_studies.N_FIVE}),
+    # why_it_works and why_it_works_clt: seeds "run" (0, 1, ...), small enough to survive a row of floats
+    Study(name="why_it_works", row=why_it_works.row, grid=why_it_works.GRID, n_runs=why_it_works.N_RUNS,
+          seeds="run", failures="raise", table="why_it_works.csv", provenance="why_it_works.json", columns=why_it_works.COLUMNS,
+          cheap=lambda t: (t["T"] <= 50) & (t["N"] <= 1000), sample=3,
+          row_code="pfcourse/studies/why_it_works.py",
+          fields={"data": f"drifting landmark scenario, simulation seed {why_it_works.DATA_SEED}, "
+                          f"{why_it_works.T_MAX + 1} samples", "filter": "bootstrap, systematic resampling",
+                  "seeds": "filter seed r = 0, 1, ..., the same for every setting"}),
+    Study(name="why_it_works_growth", row=why_it_works.growth_row,
+          grid={"N": [why_it_works.GROWTH_N], "filter_run": why_it_works.GROWTH_FILTER_RUNS},
+          n_runs=why_it_works.GROWTH_DATASETS, seeds="run", failures="raise", table="why_it_works_growth.csv",
+          provenance="why_it_works_growth.json", columns=why_it_works.GROWTH_COLUMNS, sample=2,
+          row_code="pfcourse/studies/why_it_works.py (growth_row)",
+          fields={"data": f"drifting landmark scenario, {why_it_works.T_MAX + 1} samples, simulation seed s = 0-99",
+                  "filter": "bootstrap, threshold 1, systematic; generator filter_rng(s, filter_run)"}),
+    Study(name="why_it_works_clt", row=why_it_works.clt_row, grid={"N": why_it_works.CLT_N_VALUES},
+          n_runs=why_it_works.CLT_RUNS, seeds="run", failures="raise", table="why_it_works_clt.csv",
+          provenance="why_it_works_clt.json", columns=("N", "seed", "error_last", "error_middle", "log_ratio"),
+          cheap=lambda t: t["N"] <= 1000, sample=3, row_code="pfcourse/studies/why_it_works.py (clt_row)",
+          fields={"data": f"scalar model x_k = 0.9 x_(k-1) + w_k, z_k = x_k + v_k, Q = R = 0.5, "
+                          f"{why_it_works.CLT_STEPS + 1} samples, data_rng({why_it_works.DATA_SEED}, 0)",
+                  "filter": "bootstrap, threshold 1, systematic", "seeds": "filter seed r = 0, 1, ..."}),
+    Study(name="why_it_works_resampling", row=why_it_works.resampling_row,
+          grid={"resampling": why_it_works.RESAMPLING_SCHEMES}, n_runs=why_it_works.RESAMPLING_RUNS, seeds="run",
+          failures="raise", table="why_it_works_resampling.csv", provenance="why_it_works_resampling.json",
+          columns=("resampling", "seed", "error_last", "log_ratio"), sample=3,
+          row_code="pfcourse/studies/why_it_works.py (resampling_row)",
+          fields={"data": f"the scalar data of why_it_works_clt, data_rng({why_it_works.DATA_SEED}, 0)",
+                  "filter": f"bootstrap, threshold 1, N = {why_it_works.RESAMPLING_N}, multinomial or systematic",
+                  "seeds": "filter seed r = 0, 1, ..., the same for both schemes"}),
+    *(_robot_study(name, grid, options) for name, (grid, options) in robot_studies.STUDIES.items()),
+    *(_likelihood_study(name, row, {"n_particles": n}, runs, seed, columns=("n_particles", "run", "seed", "status", "error", *metrics), **options)
+      for name, row, n, runs, seed, metrics, options in [
+          ("bias", ls.bias_run, ls.N_BIAS, ls.N_BIAS_RUNS, ls.BIAS_SEED, ["log_ratio"], {"sample": 3}),
+          ("ml", ls.ml_run, ls.N_ML, ls.N_ML_DATASETS, ls.ML_SEED,
+           ["theta_kalman", "theta_pf", "nfev_kalman", "nfev_pf"], {}),
+          ("smoothing_robot", ls.robot_gap_run, [ls.N_ROBOT_GAP], ls.ROBOT_GAP_RUNS, ls.ROBOT_GAP_SEED,
+           ["filter_gap_error", "smoother_gap_error", "filter_outside_error", "smoother_outside_error",
+            "smoother_gap_ess_median"], {"sample": 1}),
+      ]),
+    _likelihood_study("terrain_rf", ls.terrain_rf_run,
+                      {"flight": list(range(ls.N_TERRAIN_FLIGHTS)), "n_particles": [ls.N_TERRAIN]}, 1, 0,
+                      columns=("flight", "n_particles", "run", "seed", "status", "error", "rf_scale_ml", "nfev",
+                               "log_lik_ml", "log_lik_truth"), sample=1),
+    _mcl_study("anatomy", global_localization.anatomy_row, {"n_particles": global_localization.ANATOMY_N},
+               stored_as={"n_particles": "n"}, sample=3),
+    *(_mcl_study(name, row, tuple({"method": [m], "n_particles": [n]} for m, n in pairs),
+                 stored_as={"n_particles": "n"}, **options)
+      for name, row, pairs, options in [
+          ("lockon", global_localization.lockon_row, global_localization.LOCKON,
+           {"sample": 4, "cheap": lambda t: (t["n"] <= 10000) | (t["method"] != "bootstrap"),  # 30 000: seconds
+            **_GLOBAL_RUNS}),
+          ("kidnap", global_localization.kidnap_row, global_localization.KIDNAP, {"sample": 3})]),
+    _mcl_study("modes", global_localization.mode_run, {"method": list(global_localization.MODES)},
+               arrays=("mass_near_truth", "ess_fraction"), sample=2),
+    _mcl_study("ekf_vs_pf", global_localization.ekf_row, {"setting": list(global_localization.EKF_SETTINGS)},
+               volatile=("pf_seconds", "ekf_seconds"), fields={"ekf_settings": global_localization.EKF_SETTINGS}),
+    Study(name="terrain_remedies", row=terrain_remedies.row, grid={"setting": terrain_remedies.STORED_SETTINGS},
+          n_runs=100, seeds="run", table="terrain_remedies.csv", **_FLIGHTS, provenance="terrain_remedies.json",
+          columns=terrain_remedies.COLUMNS, seed_column="flight", cheap=lambda t: t["N"] <= 10000, sample=4,
+          row_code="pfcourse/studies/terrain_remedies.py (run_one)",
+          fields={"settings": records(terrain_remedies.FILTERS),
+                  "seeds": "flight r: pfcourse.seeding.data_rng(0, r); filter: pfcourse.seeding.filter_rng(0, r)",
+                  "divergence": "final horizontal error > 500 m or every particle lost"}),
+    Study(name="terrain_reference", row=terrain_remedies.reference_row,
+          grid={"N": terrain_remedies.REFERENCE_SIZES, "repeat": terrain_remedies.REFERENCE_REPEATS},
+          n_runs=5, seeds="run", failures="raise", table="terrain_reference.csv", provenance="terrain_reference.json",
+          columns=terrain_remedies.REFERENCE_COLUMNS, order=("run",), seed_column="flight",
+          stored_as={"repeat": "seed"}, cheap=lambda t: t["N"] == t["N"].min(), sample=1,  # about 10 s a row
+          row_code="pfcourse/studies/terrain_remedies.py (reference_row)",
+          fields={"seeds": "flight r: pfcourse.seeding.data_rng(0, r); filter: pfcourse.seeding.reference_rng(0, r, repeat)",
+                  "filter": "bootstrap, systematic resampling at ESS < N/2"}),
+    Study(name="terrain_studies", row=terrain_studies.row,
+          grid=tuple({"study": [study], "setting": list(group)} for study, group in terrain_studies.STUDIES.items()),
+          n_runs=100, seeds="run", table="terrain_studies.csv", **_FLIGHTS, provenance="terrain_studies.json",
+          columns=terrain_studies.COLUMNS, seed_column="flight",
+          cheap=lambda t: t["setting"] != "every 0.1 s, dt = 0.1 s", sample=3,  # the 10 Hz runs take seconds each
+          row_code="pfcourse/studies/terrain_studies.py (study_row)",
+          fields={"baseline": {"N": terrain_studies.BASELINE_N, "threshold": terrain_studies.BASELINE_THRESHOLD,
+                               "scheme": terrain_studies.BASELINE_SCHEME, "kernel_scale": terrain_studies.KERNEL_SCALE},
+                  "studies": terrain_studies.STUDIES,
+                  "seeds": "flight r: pfcourse.seeding.data_rng(0, r); filter: pfcourse.seeding.filter_rng(0, r)",
+                  "divergence": "final horizontal error > 500 m or every particle lost"}),
+    Study(name="global_localization/kld_amcl", row=global_localization.kld_amcl_row,
+          grid={"setting": list(global_localization.KLD_SETTINGS)}, n_runs=100, seeds="run", **_GLOBAL_RUNS,
+          table="global_localization/kld_amcl.csv", provenance="global_localization/kld_amcl.json",
+          columns=global_localization.COLUMNS["kld_amcl"], sample=2,
+          row_code="pfcourse/studies/global_localization.py (kld_amcl_row)",
+          fields={"settings": {name: {"n_max": n, **vars(s)} for name, (n, s) in global_localization.KLD_SETTINGS.items()},
+                  "method": "kld_mixture (KLD-sampling with the mixture proposal, share MethodSettings.kld_share)"}),
+    Study(name="global_localization/tracking_cost", row=global_localization.tracking_row,
+          grid=tuple({"method": [m], "n_particles": [n]} for m, n in global_localization.TRACKING), n_runs=100,
+          seeds="run", failures="raise", table="global_localization/tracking_cost.csv",
+          provenance="global_localization/tracking_cost.json", columns=global_localization.COLUMNS["tracking_cost"],
+          stored_as={"n_particles": "n"}, sample=3,
+          row_code="pfcourse/studies/global_localization.py (tracking_row)"),
+    Study(name="data_association", row=association.row, grid={"clutter_rate": list(association.CLUTTER_RATES)},
+          n_runs=association.N_RUNS, seeds="run", failures="raise", table="data_association.csv",
+          provenance="data_association.json",
+          columns=("clutter_rate", "seed", "pf_rmse_m", "ekf_rmse_m", "ekf_wrong", "clutter", "pf_seconds",
+                   "ekf_seconds"),
+          volatile=("pf_seconds", "ekf_seconds"), sample=3,
+          row_code="pfcourse/studies/association.py (row), pfcourse/scenarios/robot/association.py",
+          fields={"scenario": association.SCENARIO, "p_detect": association.P_DETECT,
+                  "max_range_m": association.MAX_RANGE, "n_particles": association.N_PARTICLES,
+                  "seeds": "run r: robot and readings from pfcourse.seeding.data_rng(0, r); "
+                           "particle filter: pfcourse.seeding.filter_rng(0, r)"}),
+    Study(name="data_association_pdaf", row=association.pdaf_row,
+          grid={"clutter_rate": list(association.CLUTTER_RATES)}, n_runs=association.N_RUNS, seeds="run",
+          failures="raise", table="data_association_pdaf.csv", provenance="data_association_pdaf.json",
+          columns=("clutter_rate", "seed", "pdaf_rmse_m", "pdaf_nees_mean", "pdaf_seconds"),
+          volatile=("pdaf_seconds",), sample=3,
+          row_code="pfcourse/studies/association.py (pdaf_row), pfcourse/scenarios/robot/association.py (run_pdaf)",
+          fields={"scenario": association.SCENARIO, "p_detect": association.P_DETECT,
+                  "max_range_m": association.MAX_RANGE, "gate_probability": 0.99,
+                  "seeds": "run r: robot and readings from pfcourse.seeding.data_rng(0, r), as data_association"}),
+    Study(name="data_association_nn", row=association.nn_row,
+          grid={"clutter_rate": list(association.CLUTTER_RATES)}, n_runs=association.N_RUNS, seeds="run",
+          failures="raise", table="data_association_nn.csv", provenance="data_association_nn.json",
+          columns=("clutter_rate", "seed", "nn_rmse_m", "nn_wrong", "sequential_multi_steps", "nn_seconds"),
+          volatile=("nn_seconds",), sample=3,
+          row_code="pfcourse/studies/association.py (nn_row), pfcourse/scenarios/robot/association.py (run_nn_ekf)",
+          fields={"scenario": association.SCENARIO, "p_detect": association.P_DETECT,
+                  "max_range_m": association.MAX_RANGE, "gate_probability": 0.99,
+                  "rule": "nearest-neighbour standard filter: the single gated (reading, landmark) pair of "
+                          "smallest Mahalanobis distance, one update a step (Bar-Shalom, Daum and Huang 2009)",
+                  "seeds": "run r: robot and readings from pfcourse.seeding.data_rng(0, r), as data_association"}),
+    Study(name="robot/dead_reckoning", row=robot_experiments.dead_reckoning_row, grid={}, n_runs=100, seeds="run",
+          failures="raise", table="robot/dead_reckoning.csv", provenance="robot/dead_reckoning.json",
+          columns=("seed", "dr_final_m", "pf_final_m", "pf_max_m"), sample=1,
+          row_code="pfcourse/studies/robot.py (dead_reckoning_row)",
+          fields={"seeds": "run s: simulate_robot(rng=s), filter run_filter_seed(s)",
+                  "filter": "bootstrap, N = 300, threshold 0.5, systematic"}),
+    Study(name="robot_consistency_fixes", row=comparison.consistency_fix_row,
+          grid={"setting": list(comparison.CONSISTENCY_FIXES)}, n_runs=100, seeds="run", failures="raise",
+          table="robot_consistency_fixes.csv", provenance="robot_consistency_fixes.json",
+          columns=("setting", "seed", "rmse_m", "nees_mean", "nees"), arrays=("nees",), sample=2,
+          row_code="pfcourse/studies/comparison.py (consistency_fix_row)",
+          fields={"scenario": f"robot_tracks' robot, {comparison.CONSISTENCY_STEPS} steps, true noise levels "
+                              "in the data; burn-in " + str(comparison.CONSISTENCY_BURN_IN) + " steps",
+                  "settings": {k: {"N": v[0], "q_scale": v[1], "roughening_K": v[2]}
+                               for k, v in comparison.CONSISTENCY_FIXES.items()},
+                  "seeds": "run s: robot simulate_robot(None, s); filter pfcourse.seeding.filter_rng(0, s)"}),
+    Study(name="terrain_map_error", row=terrain_remedies.map_error_row,
+          grid={"setting": terrain_remedies.MAP_ERROR_SETTINGS},
+          n_runs=50, seeds="run", table="terrain_map_error.csv", **_FLIGHTS, provenance="terrain_map_error.json",
+          columns=terrain_remedies.MAP_ERROR_COLUMNS, seed_column="flight",
+          cheap=lambda t: t["setting"] == "bootstrap N=3000", sample=2,  # the others take a second or more each
+          row_code="pfcourse/studies/terrain_remedies.py (map_error_row)",
+          fields={"map": "filter's DEM: pfcourse.scenarios.terrain.map.mismatched_map(true DEM, map_error_rng(0, r)): "
+                         "Gaussian smoothing of MAP_SMOOTHING_CELLS cells plus an error field of MAP_ERROR_SD m "
+                         "correlated over MAP_ERROR_CORRELATION_CELLS cells",
+                  "seeds": "flight r: pfcourse.seeding.data_rng(0, r); filter: pfcourse.seeding.filter_rng(0, r); "
+                           "map error: pfcourse.seeding.map_error_rng(0, r)",
+                  "divergence": "final horizontal error > 500 m or every particle lost"}),
+    Study(name="terrain_error_paths", row=terrain_remedies.error_path_row,
+          grid={"setting": terrain_remedies.ERROR_PATH_SETTINGS},
+          n_runs=100, seeds="run", table="terrain_error_paths.csv", **{**_FLIGHTS, "failed_scores": terrain_remedies.LOST_PATH},
+          provenance="terrain_error_paths.json", columns=terrain_remedies.ERROR_PATH_COLUMNS, seed_column="flight",
+          arrays=("errors",), sample=2, row_code="pfcourse/studies/terrain_remedies.py (error_path_row)",
+          fields={"seeds": "flight r: pfcourse.seeding.data_rng(0, r); filter: pfcourse.seeding.filter_rng(0, r)",
+                  "divergence": "final horizontal error > 500 m or every particle lost"}),
+    Study(name="terrain_model_flights", row=terrain_remedies.model_flight_row,
+          grid={"setting": terrain_remedies.MODEL_FLIGHT_SETTINGS}, n_runs=100, seeds="run",
+          table="terrain_model_flights.csv", **{**_FLIGHTS, "failed_scores": terrain_remedies.LOST_MODEL_FLIGHT},
+          provenance="terrain_model_flights.json", columns=terrain_remedies.MODEL_FLIGHT_COLUMNS, seed_column="flight",
+          arrays=("errors",), sample=2, row_code="pfcourse/studies/terrain_remedies.py (model_flight_row)",
+          fields={"seeds": "flight r: pfcourse.studies.terrain_remedies.model_flight(scenario, terrain, "
+                           "pfcourse.seeding.data_rng(1, r)) (process noise Qf dt, readings N(0, Rf)); "
+                           "filter: pfcourse.seeding.filter_rng(1, r)",
+                  "divergence": "final horizontal error > 500 m or every particle lost"}),
+    Study(name="terrain_equal_cost", row=terrain_remedies.equal_cost_row,
+          grid={"setting": list(terrain_remedies.EQUAL_COST_FILTERS)}, n_runs=100, seeds="run",
+          table="terrain_equal_cost.csv", **_FLIGHTS, provenance="terrain_equal_cost.json",
+          columns=terrain_remedies.EQUAL_COST_COLUMNS, seed_column="flight", sample=4,
+          row_code="pfcourse/studies/terrain_remedies.py (equal_cost_row)",
+          fields={"settings": records(terrain_remedies.EQUAL_COST_FILTERS),
+                  "seeds": "flight r: pfcourse.seeding.data_rng(0, r); filter: pfcourse.seeding.filter_rng(0, r) "
+                           "(the flights and filter seeds of terrain_remedies and terrain_mpf)",
+                  "divergence": "final horizontal error > 500 m or every particle lost"}),
+    *(Study(name=f"maprobot/{name}", row=row, grid=grid, n_runs=20 if name == "sensor_cost" else 100, seeds="run",
+            failures="raise", volatile=("seconds", "field_seconds", "beam_seconds"),
+            table=f"maprobot/{name}.csv", provenance=f"maprobot/{name}.json", columns=columns, sample=1,
+            row_code=f"pfcourse/studies/maprobot.py ({row.__name__})",
+            fields={"seeds": "run s: drive and scans pfcourse.seeding.data_rng(s, 0); filter filter_rng(s, 0); "
+                             "kidnapping kidnap_rng(s)", "dt": maprobot.DT, "inject": maprobot.INJECT})
+      for name, row, grid, columns in [
+          ("tracking", maprobot.tracking_row, {"n_particles": [maprobot.TRACKING_N], "weighting": list(maprobot.WEIGHTINGS)},
+           ("weighting", "n_particles", "seed", "position_rmse", "heading_rmse", "locked_on",
+            "locked_on_every_step_5deg", "max_window_heading_error", "mean_ess_share", "p10_ess_share")),
+          ("amcl_global", maprobot.amcl_global_row, ({"weighting": list(maprobot.WEIGHTINGS), "method": ["injection"]},
+                                                  {"weighting": ["product"], "method": ["bootstrap"]}),
+           ("weighting", "method", "seed", "locked_on", "final_position_error", "mean_ess_share", "p10_ess_share")),
+          ("sensor_cost", maprobot.sensor_cost_row, {},
+           ("seed", "n_poses", "field_lookups", "beam_cells", "field_seconds", "beam_seconds")),
+          ("kld_tracking", maprobot.kld_tracking_row, {},
+           ("seed", "position_rmse", "locked_on", "mean_particles", "max_particles_after_start"))]),
+    *(Study(name=f"map_global/{name}", row=row, grid={}, n_runs=100, seeds="run", failures="raise",
+            table=f"map_global/{name}.csv", provenance=f"map_global/{name}.json", columns=columns, sample=1,
+            row_code=f"pfcourse/studies/map_global.py ({row.__name__}), pfcourse/scenarios/maprobot/global_mcl.py",
+            fields={"seeds": "run s: drive and scans as maprobot/global and maprobot/kidnap (data_rng(s, 0), "
+                             "kidnap_rng(s)); filter numpy.random.default_rng([41, s, 2])",
+                    "dt": maprobot.DT, "heading_tolerance_rad": map_global.HEADING_TOL,
+                    "lock_on": "pfcourse.scenarios.maprobot.lock_on.locked_on: within 1 m and 3 sd of one step's odometry "
+                               "heading noise at 80 % of the last 20 s"})
+      for name, row, columns in [("twins", map_global.twin_row, map_global.TWIN_COLUMNS),
+                                 ("global", map_global.global_row, map_global.GLOBAL_COLUMNS),
+                                 ("kidnap", map_global.kidnap_row, map_global.KIDNAP_COLUMNS),
+                                 # a variant of the cure (global_mcl.POOR_FIT) on the same drives, paired with the above
+                                 ("global_poor_fit", map_global.poor_fit_global_row, map_global.GLOBAL_COLUMNS),
+                                 ("kidnap_poor_fit", map_global.poor_fit_kidnap_row, map_global.KIDNAP_COLUMNS)]),
+    Study(name="terrain_mpf", row=terrain_marginalised.row, grid={"N": terrain_marginalised.SIZES},
+          n_runs=100, seeds="run", table="terrain_mpf.csv", **_FLIGHTS, provenance="terrain_mpf.json",
+          columns=terrain_marginalised.COLUMNS, seed_column="flight", cheap=lambda t: t["N"] <= 3000, sample=2,
+          row_code="pfcourse/studies/terrain_marginalised.py (run_mpf)",
+          fields={"filter": "marginalised (altitude Kalman in each particle), multinomial resampling at ESS < N/2",
+                  "seeds": "flight r: pfcourse.seeding.data_rng(0, r); filter: pfcourse.seeding.filter_rng(0, r)",
+                  "divergence": "final horizontal error > 500 m or every particle lost"}),
+    Study(name="terrain_grid", row=terrain_marginalised.grid_row, grid={"cell": [c for c, _ in terrain_marginalised.CELLS]},
+          n_runs=terrain_marginalised.GRID_FLIGHTS, seeds="run", failures="raise", table="terrain_grid.csv",
+          provenance="terrain_grid.json", columns=terrain_marginalised.GRID_COLUMNS, seed_column="flight",
+          cheap=lambda t: t["cell"] == t["cell"].max(), sample=1,  # about 2 s a row
+          row_code="pfcourse/studies/terrain_marginalised.py (run_grid)",
+          fields={"cells": terrain_marginalised.CELLS,
+                  "seeds": "flight r: pfcourse.seeding.data_rng(0, r); the grid filter draws nothing",
+                  "divergence": "final horizontal error > 500 m"}),
+    Study(name="terrain_field", row=terrain_field.field_row, grid={"setting": terrain_field.FIELD_SETTINGS},
+          n_runs=terrain_field.FIELD_FLIGHTS, seeds="run", failures="raise", table="terrain_field.csv",
+          provenance="terrain_field.json", columns=terrain_field.FIELD_COLUMNS, seed_column="flight", sample=2,
+          cheap=lambda t: t["setting"] != "grid 12.5 m",
+          row_code="pfcourse/studies/terrain_field.py (field_row), pfcourse/scenarios/terrain/field.py",
+          fields={"problem": "2-D: INS displacement known up to a drift of 3 m per axis per second, barometric "
+                             "altitude known; readings h(p) + N(0, 20^2)", "settings": terrain_field.FIELD_SETTINGS,
+                  "seeds": "flight r: pfcourse.seeding.data_rng(0, r); filter: pfcourse.seeding.filter_rng(0, r)"}),
+    Study(name="terrain_field_pf", row=terrain_field.field_pf_row, grid={"setting": list(terrain_field.FIELD_PF_SETTINGS)},
+          n_runs=terrain_field.FIELD_FLIGHTS, seeds="run", failures="raise", table="terrain_field_pf.csv",
+          provenance="terrain_field_pf.json", columns=terrain_field.FIELD_COLUMNS, seed_column="flight", sample=2,
+          row_code="pfcourse/studies/terrain_field.py (field_pf_row)",
+          fields={"problem": "the 2-D field problem of terrain_field, its flights and filter seeds "
+                             "(data_rng(0, r), filter_rng(0, r))",
+                  "settings": {k: {"N": n, "kernel_scale": sc} for k, (n, sc) in terrain_field.FIELD_PF_SETTINGS.items()}}),
+    Study(name="terrain_map_bias", row=terrain_field.map_bias_row, grid={"setting": terrain_field.MAP_BIAS_SETTINGS},
+          n_runs=terrain_field.MAP_BIAS_FLIGHTS, seeds="run", table="terrain_map_bias.csv", **_FLIGHTS,
+          provenance="terrain_map_bias.json", columns=terrain_field.MAP_BIAS_COLUMNS, seed_column="flight",
+          cheap=lambda t: t["setting"].str.startswith("1 Hz"), sample=2,
+          row_code="pfcourse/studies/terrain_field.py (map_bias_row), pfcourse/scenarios/terrain/map_bias.py",
+          fields={"map": "filter's DEM: pfcourse.scenarios.terrain.map.mismatched_map(true DEM, map_error_rng(0, r)), "
+                         "as terrain_map_error", "filter": f"marginalised, N = {terrain_field.MAP_BIAS_N}, "
+                         "multinomial resampling at ESS < N/2",
+                  "seeds": "flight r: pfcourse.seeding.data_rng(0, r); filter: pfcourse.seeding.filter_rng(0, r)",
+                  "divergence": "final horizontal error > 500 m or every particle lost"}),
+    Study(name="terrain_costs", row=terrain_field.cost_row, grid={"timed": ["terrain decision"]},
+          n_runs=terrain_field.COST_FLIGHTS, seeds="run", failures="raise", table="terrain_costs.csv",
+          provenance="terrain_costs.json", columns=terrain_field.COST_COLUMNS, seed_column="flight", sample=1,
+          volatile=("seconds", *terrain_field.COST_TIMES),
+          row_code="pfcourse/studies/terrain_field.py (cost_row)",
+          fields={"filters": {name: n for name, (_, n) in terrain_field.COST_FILTERS.items()},
+                  "timing": "flight r: every filter in one process, a warm-up round then 2 rounds in an order "
+                            "rotating with the round and the flight; CPU time (time.process_time) of the faster "
+                            "round, s"}),
+    Study(name="smoothing/landmarks", row=smoothing_studies.landmarks_row,
+          grid={"n_particles": smoothing_studies.N_VALUES}, n_runs=smoothing_studies.N_RUNS, seeds="run",
+          failures="raise", table="smoothing/landmarks.csv", provenance="smoothing/landmarks.json",
+          cheap=lambda t: t["n_particles"] == t["n_particles"].min(), sample=1,
+          row_code="pfcourse/studies/smoothing_studies.py (landmarks_row), pfcourse/smoothing.py",
+          fields={"lags": smoothing_studies.LAGS, "scenario": "quadrant_scenario().with_(Qw=0.05**2 I6, Rv=0.5**2 I4)",
+                  "seeds": f"run r: data pfcourse.seeding.data_rng({smoothing_studies.SEED}, r); filter and FFBSi "
+                           f"draws pfcourse.seeding.filter_rng({smoothing_studies.SEED}, r)"}),
+    *(Study(name=f"static_parameters/{name}", row=row, grid=grid, n_runs=sps.N_RUNS, seeds="run", failures="raise",
+            table=f"static_parameters/{name}.csv", provenance=f"static_parameters/{name}.json", columns=columns,
+            cheap=cheap, sample=2, row_code=f"pfcourse/studies/static_parameters_study.py ({row.__name__}), "
+                                            "pfcourse/static_parameters.py", fields={**sps.PROVENANCE, **more})
+      for name, row, grid, columns, cheap, more in [
+          ("main", sps.main_row, sps.MAIN_GRIDS, sps.MAIN_COLUMNS, lambda t: t["n"] == 1000, {}),
+          ("long", sps.long_row, sps.LONG_GRIDS, sps.LONG_COLUMNS,
+           lambda t: t["T"] == 50, {"N": sps.LONG_N, "long_data": f"{sps.LONG_K} steps, seed {sps.DATA_SEED}"}),
+      ]),
+    Study(name="static_parameters/long_big", row=sps.long_row, grid=sps.LONG_BIG_GRID, n_runs=sps.N_RUNS, seeds="run",
+          failures="raise", table="static_parameters/long_big.csv", provenance="static_parameters/long_big.json",
+          columns=sps.LONG_BIG_COLUMNS, sample=1,  # about 7 s a row
+          row_code="pfcourse/studies/static_parameters_study.py (long_row), pfcourse/static_parameters.py",
+          fields={**sps.PROVENANCE, "long_data": f"{sps.LONG_K} steps, seed {sps.DATA_SEED}",
+                  "pairing": "run r has the seed of run r of static_parameters/long"}),
+    Study(name="static_parameters/smc2", row=sps.main_row, grid=sps.SMC2_GRID, n_runs=sps.SMC2_RUNS, seeds="run",
+          failures="raise", table="static_parameters/smc2.csv", provenance="static_parameters/smc2.json",
+          columns=sps.MAIN_COLUMNS, sample=1,  # about 2 s a row
+          row_code="pfcourse/studies/static_parameters_study.py (main_row), pfcourse/static_parameters.py",
+          fields={**sps.PROVENANCE, "runs": "fewer than 100: SMC^2 is the expensive sampler"}),
+    # one chain per row; a long chain takes minutes, so the test re-computes the short chains of the
+    # "_check" study, whose seeds are the long ones' (tests/test_pmcmc.py: each is the start of its long chain)
+    *(Study(name=f"pmcmc/{name}{suffix}", row=row, grid=grid, n_runs=pm.N_CHAINS, base_seed=pm.SEEDS[name],
+            failures="raise", table=f"pmcmc/{name}{suffix}.csv", provenance=f"pmcmc/{name}.json", arrays=arrays,
+            sample=0 if not suffix else 1, row_code=f"pfcourse/studies/pmcmc_studies.py ({row.__name__})",
+            fields=pm.PROVENANCE_FIELDS[name])
+      for name, row, key, values, length, check, arrays in (
+          ("tuning", pm.tuning_row, "n_particles", pm.N_TUNING, pm.ITERATIONS, pm.N_TUNING[0], ("theta", "accepted")),
+          ("correlated", pm.correlated_row, "rho", pm.RHOS, pm.ITERATIONS, pm.RHOS[-1], ("theta", "accepted")),
+          ("pgas", pm.pgas_row, "ancestor_sampling", [True, False], pm.PGAS_SWEEPS, True, ("theta",)))
+      for suffix, grid in (("", {key: values, "iterations": [length]}),
+                           ("_check", {key: [check], "iterations": [pm.CHECK_ITERATIONS]}))),
+    Study(name="pmcmc/pairs", row=pm.pair_row, grid={"rho": pm.PAIR_RHOS}, n_runs=pm.PAIR_RUNS, seeds="run",
+          base_seed=pm.PAIR_SEED, failures="raise", table="pmcmc/pairs.csv", provenance="pmcmc/pairs.json", sample=1,
+          row_code="pfcourse/studies/pmcmc_studies.py (pair_row), pfcourse/correlated.py",
+          fields=pm.PROVENANCE_FIELDS["pairs"]),
+    Study(name="intel/global", row=intel.global_row, grid={"method": list(intel.METHODS)}, n_runs=intel.N_GLOBAL,
+          seeds="run", failures="raise", table="intel/global.csv", provenance="intel/global.json",
+          columns=intel.GLOBAL_COLUMNS, sample=1, cheap=lambda t: t["method"] == "uniform",
+          row_code="pfcourse/studies/intel.py (global_row, global_filter)",
+          fields={"seeds": "run s: start scan numpy.random.default_rng([41, s]); filter default_rng([41, s, 1])",
+                  "map": "scans 455-909 of book/data/intel/intel-corrected.log.gz; runs on scans 0-454",
+                  "steps": intel.GLOBAL_STEPS, "lock_on": "within 1 m and 3 x the odometry's RMS heading error "
+                  f"of a step, at {intel.LOCK_SHARE} of the last {intel.LOCK_WINDOW} scans"}),
+    Study(name="intel/tracking", row=intel.tracking_row, grid={"map": list(intel.TRACK_MAPS)},
+          n_runs=len(intel.TRACK_SEEDS), seeds="run", base_seed=intel.TRACK_SEEDS.start, failures="raise",
+          table="intel/tracking.csv", provenance="intel/tracking.json", columns=intel.TRACK_COLUMNS, sample=1,
+          row_code="pfcourse/studies/intel.py (tracking_row)",
+          fields={"seeds": "run s: filter numpy.random.default_rng(s), s = 1..30 (the chapter's run is s = 1)",
+                  "maps": "second half: scans 455-909; whole run: scans 0-909; tracked: scans 0-454",
+                  "filter": f"N = {intel.TRACK_N}, odometry a = {intel.TRACK_A}, every {intel.BEAM_STEP}th beam"}),
+    *(Study(name=name, row=partial(terrain_remedies.fresh_flight_row, study=name), grid={"setting": list(fresh.settings)},
+            n_runs=len(fresh.flights), seeds="run", base_seed=fresh.flights.start,
+            table=f"{name}.csv", **_FLIGHTS, provenance=f"{name}.json", columns=terrain_remedies.FRESH_COLUMNS, seed_column="flight",
+            sample=2, row_code="pfcourse/studies/terrain_remedies.py (fresh_flight_row)",
+            fields={"flights": [fresh.flights.start, fresh.flights.stop - 1], "criterion": fresh.criterion,
+                    "settings": fresh.settings,
+                    "seeds": "flight r: pfcourse.seeding.data_rng(0, r); filter: pfcourse.seeding.filter_rng(0, r)",
+                    "divergence": "final horizontal error > 500 m or every particle lost"})
+      for name, fresh in terrain_remedies.FRESH_FLIGHTS.items()),
+]}
+
+
+def robot_study(grid: dict, **options) -> pd.DataFrame:
+    """The stored robot study (``robot_studies/NAME``) with exactly this grid and these ``pf_run``
+    options (besides :data:`~pfcourse.studies.robot_studies.DEFAULTS`), read by its
+    :meth:`Study.load`.
+
+    Lets a chapter state each study as it would run it, ``robot_study({"r_scale": [...]})``; a grid
+    or options that no stored study has are refused with a :class:`~pfcourse.errors.ParameterError`
+    (run them with ``run_study`` instead), so the chapter cannot drift from the data.
+    """
+    for name, (stored_grid, stored_options) in robot_studies.STUDIES.items():
+        if stored_grid == grid and stored_options == options:
+            return STUDIES[f"robot_studies/{name}"].load()
+    raise ParameterError(f"no stored robot study has grid {grid} and options {options}; "
+                         f"stored: {list(robot_studies.STUDIES)} (pfcourse.studies.robot_studies.STUDIES)")
+
+
+def select(name: str) -> list[Study]:
+    """The study ``name``, or every study of the group ``name``."""
+    chosen = [STUDIES[name]] if name in STUDIES else [s for s in STUDIES.values() if s.name.startswith(name + "/")]
+    if not chosen:
+        groups = sorted({n.split("/")[0] for n in STUDIES})
+        raise ParameterError(f"unknown study {name!r}; registered: {', '.join(groups)} "
+                             f"(or one study of a group: {', '.join(n for n in STUDIES if '/' in n)})")
+    return chosen
+
+
+SEED_TEXT = {"replicate": "run r: pfcourse.seeding.replicate_seed({base}, r)", "run": "run r: seed {base} + r"}
+
+
+def run(name: str, **options) -> None:
+    """Compute and store the study (or group) ``name``, then its provenance record.
+
+    A study alone in its provenance file has its fields at the top of the record; the studies of
+    a group sharing one file are under ``studies``, with the fields they share (``n_runs``,
+    ``seeds``) also at the top.  A re-run of some of the studies of such a group keeps the
+    group's record and appends one entry per study to its ``reruns`` list.
+    """
+    studies = select(name)
+    start, commit = time.time(), launch_commit()
+    records = {}
+    for study in studies:
+        t0 = time.time()
+        table = study.compute(**options)
+        study.save(table)
+        records[study.name] = {"file": Path(study.table).name, "row": getattr(study.row, "__name__", repr(study.row)),
+                               "grid": study.grid, "n_runs": options.get("n_runs") or study.n_runs, "failures": study.failures,
+                               "seeds": SEED_TEXT[study.seeds].format(base=study.base_seed),
+                               "rows": len(table), "run_seconds": round(time.time() - t0, 1), **study.fields}
+        print(f"{study.name}: {len(table)} rows, {records[study.name]['run_seconds']} s", flush=True)
+    for path in {study.provenance for study in studies}:
+        sharing = [s for s in STUDIES.values() if s.provenance == path]
+        if len(sharing) > 1 and (DATA / path).exists() and not all(s in studies for s in sharing):
+            for s in studies:
+                if s.provenance == path:
+                    append_rerun(DATA / path, code="pfcourse/studies/registry.py", commit=commit,
+                                 seconds=time.time() - start, study=s.name.split("/", 1)[-1], row_code=s.row_code,
+                                 **records[s.name])
+            continue
+        group = [records[s.name] for s in studies if s.provenance == path]
+        shared = {key: group[0][key] for key in ("n_runs", "seeds") if all(r[key] == group[0][key] for r in group)}
+        fields = group[0] if len(group) == 1 else {**shared, "studies": {s.name: records[s.name] for s in studies
+                                                                         if s.provenance == path}}
+        write_provenance(DATA / path, code="pfcourse/studies/registry.py", commit=commit,
+                         seconds=time.time() - start, row_code=sorted({s.row_code for s in studies}),
+                         seconds_column="wall time of one run on a shared 2-core machine: indicative only", **fields)
+
+
+def main(argv: Sequence[str]) -> int:
+    """``python3 tasks.py study NAME [--runs R]`` (``--runs``: fewer runs per setting, for a trial)."""
+    parser = argparse.ArgumentParser(prog="python3 tasks.py study", description="Run and store a registered study.")
+    parser.add_argument("name", help="a study or a group: " + ", ".join(sorted({n.split("/")[0] for n in STUDIES})))
+    parser.add_argument("--runs", type=int, default=None, help="runs per setting (default: the study's own; the table is stored all the same)")
+    args = parser.parse_args(argv)
+    try:
+        run(args.name, n_runs=args.runs)
+    except ParameterError as exc:
+        print(f"error: {exc}", file=sys.stderr)
+        return 2
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main(sys.argv[1:]))
