@@ -37,7 +37,7 @@ from pfcourse.kalman import kalman_filter  # noqa: E402
 from pfcourse.linear_gaussian import LinearGaussianModel  # noqa: E402
 from pfcourse.proposals import DensityProposal, OptimalProposal, TransitionProposal  # noqa: E402
 
-__version__ = "0.2.0"
+__version__ = "0.4.0"
 
 __all__ = [
     "CovarianceError",

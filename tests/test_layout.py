@@ -1,34 +1,39 @@
-"""The package's layers: imports point one way, core <- scenarios <- experiments <- figures.
+"""The package's layout: the library (core, scenarios, studies) and the book's machinery apart,
+imports pointing one way: core <- scenarios <- studies <- book.
 
-Every module of ``pfcourse`` belongs to one layer (README, "Layout"):
+Every module of ``pfcourse`` belongs to one part (README, "The package"):
 
-0. **core**: the top-level modules ``pfcourse/*.py`` (the engine, its compiled loops, weights
-   and resampling, results, errors and checks, angles, the Gaussian density, plot style, and
-   the generic algorithms, one idea per module named after it: the linear-Gaussian model, the
-   Kalman filter, proposals, jitters, smoothing, PMMH, the executor loop), and the package
-   ``pfcourse.book.exercises`` (the exercises' checkers, one module per part of the book);
-1. **scenarios**: ``pfcourse.scenarios.landmarks``, ``pfcourse.scenarios.robot``, ``pfcourse.scenarios.terrain``;
-2. **experiments**: ``pfcourse.studies``;
-3. **figures**: ``pfcourse.book.figures``.
+0. **core**: the top-level modules ``pfcourse/*.py``: the model protocol and the engine (filter,
+   collectors, compiled kernels, resampling, results, filter settings), the algorithms (proposals,
+   jitters, sample size, the Kalman family, smoothing, PMMH, the likelihood of a parameter),
+   diagnostics, metrics, evidence (statistics of paired runs), seeding, and the plumbing
+   (errors, checks, angles, the Gaussian density, numba settings, the pinned arithmetic);
+1. **scenarios**: ``pfcourse.scenarios.landmarks``, ``.robot``, ``.terrain``, ``.maprobot``, each
+   importing the core and itself only (scenarios do not know each other);
+2. **studies**: ``pfcourse.studies`` (registry, runner, store, record, provenance, executor, the
+   studies' row functions), importing the core and the scenarios;
+3. **book**: ``pfcourse.book`` (style, narrow copies, legibility, figures, panels, report,
+   exercises), importing anything and imported by nothing of the library.
 
-A module may import from its own layer or a lower one, and a scenario only from the core and
-from itself (scenarios do not know each other).  A generic algorithm is defined in its core
-module only (``CORE_HOMES``).  ``pfcourse/__init__.py`` is the public
-facade: it re-exports core and scenario names, never experiments or figures, so that
-``import pfcourse`` stays light.  Imports are read with ``ast`` (every ``import`` statement,
-including those inside functions), so nothing is executed.
+A generic algorithm is defined in its core module only (``CORE_HOMES``).  ``pfcourse/__init__.py``
+is the public facade: it re-exports core names only, so that ``import pfcourse`` is the library
+without matplotlib (checked in a fresh interpreter).  Imports are read with ``ast`` (every
+``import`` statement, including those inside functions), so nothing is executed.
 """
 
 from __future__ import annotations
 
 import ast
+import re
+import subprocess
+import sys
 from pathlib import Path
 
 import pytest
 
 PACKAGE = Path(__file__).resolve().parents[1] / "pfcourse"
 SCENARIOS = ("landmarks", "robot", "terrain", "maprobot")
-LAYER = {"core": 0, "exercises": 0, **{s: 1 for s in SCENARIOS}, "experiments": 2, "figures": 3}
+RANK = {"core": 0, "scenarios": 1, "studies": 2, "book": 3}
 
 
 def module_name(path: Path, package: Path = PACKAGE) -> str:
@@ -39,12 +44,17 @@ def module_name(path: Path, package: Path = PACKAGE) -> str:
 
 
 def group(module: str) -> str:
-    """``core``, a scenario name, ``experiments`` or ``figures`` for a ``pfcourse...`` module name
-    (``pfcourse.book.exercises.*`` is core)."""
+    """``core``, ``scenarios.<name>``, ``studies`` or ``book`` for a ``pfcourse...`` module name."""
     parts = module.split(".")
-    if len(parts) >= 2 and parts[1] in LAYER and parts[1] != "exercises":
+    if len(parts) >= 2 and parts[1] == "scenarios":
+        return f"scenarios.{parts[2]}" if len(parts) >= 3 else "scenarios"
+    if len(parts) >= 2 and parts[1] in ("studies", "book"):
         return parts[1]
     return "core"
+
+
+def rank(group_name: str) -> int:
+    return RANK[group_name.split(".")[0]]
 
 
 def imported_modules(path: Path, package_dir: Path = PACKAGE) -> list[tuple[int, str]]:
@@ -64,7 +74,7 @@ def imported_modules(path: Path, package_dir: Path = PACKAGE) -> list[tuple[int,
                 target = node.module or ""
             if target.split(".")[0] != "pfcourse":
                 continue
-            # ``from pfcourse import robot`` imports the subpackage ``pfcourse.scenarios.robot``
+            # ``from pfcourse.scenarios import robot`` imports the subpackage ``pfcourse.scenarios.robot``
             for alias in node.names:
                 candidate = f"{target}.{alias.name}"
                 sub = package_dir.parent / Path(*candidate.split("."))
@@ -78,23 +88,25 @@ def violations(path: Path, package_dir: Path = PACKAGE) -> list[str]:
     bad = []
     for line, target in imported_modules(path, package_dir):
         theirs = group(target)
-        if me == "pfcourse":  # the facade: core and scenarios only
-            allowed = LAYER[theirs] <= 1
-        elif mine in SCENARIOS:
+        if me == "pfcourse":  # the facade: the core only
+            allowed = theirs == "core"
+        elif mine.startswith("scenarios."):
             allowed = theirs in ("core", mine)
         else:
-            allowed = LAYER[theirs] <= LAYER[mine]
+            allowed = rank(theirs) <= rank(mine)
         if not allowed:
             bad.append(f"{path.relative_to(package_dir.parent)}:{line}: {me} ({mine}) imports {target} ({theirs})")
     return bad
 
 
-MODULES = sorted(PACKAGE.rglob("*.py"))
+MODULES = sorted(p for p in PACKAGE.rglob("*.py") if "__pycache__" not in p.parts)
 
 
-def test_every_subpackage_is_a_known_layer():
-    subpackages = {p.parent.name for p in MODULES if p.parent != PACKAGE}
-    assert subpackages <= set(LAYER), subpackages - set(LAYER)
+def test_the_package_is_core_scenarios_studies_and_book():
+    """The folders a newcomer sees (README, "The package")."""
+    folders = {p.parent.relative_to(PACKAGE).as_posix() for p in MODULES if p.parent != PACKAGE}
+    assert folders == {"scenarios", *(f"scenarios/{s}" for s in SCENARIOS), "studies", "book", "book/figures",
+                       "book/exercises"}, folders
 
 
 @pytest.mark.parametrize("path", MODULES, ids=lambda p: str(p.relative_to(PACKAGE)))
@@ -103,19 +115,65 @@ def test_imports_point_down(path):
 
 
 def test_the_rule_catches_an_upward_import(tmp_path):
-    """The checker itself: a core module importing a scenario, and a scenario importing
-    experiments or another scenario, are each reported; downward imports are not."""
+    """The checker itself: a core module importing a scenario, a scenario importing a study, another
+    scenario or the book, and a study importing the book, are each reported; downward imports are not."""
     fake = tmp_path / "pfcourse"
-    (fake / "robot").mkdir(parents=True)
-    (fake / "experiments").mkdir()
+    for folder in ("scenarios/robot", "scenarios/landmarks", "studies", "book"):
+        (fake / folder).mkdir(parents=True)
     (fake / "filter.py").write_text("from pfcourse.scenarios.robot.scenario import RobotModel\n")
-    (fake / "robot" / "scenario.py").write_text(
-        "from ..experiments import study\nfrom pfcourse.scenarios.landmarks import simulate\nfrom ..filter import x\n"
-    )
-    (fake / "experiments" / "study.py").write_text("from pfcourse.scenarios.robot import scenario\nimport pfcourse.filter\n")
+    (fake / "scenarios" / "robot" / "scenario.py").write_text(
+        "from ...studies import study\nfrom pfcourse.scenarios.landmarks import simulate\nfrom ...filter import x\n"
+        "from pfcourse.book import style\n")
+    (fake / "studies" / "study.py").write_text("from pfcourse.scenarios.robot import scenario\nimport pfcourse.filter\n"
+                                               "from pfcourse.book.style import COLORS\n")
+    (fake / "book" / "style.py").write_text("from pfcourse.studies import study\nimport pfcourse.scenarios.robot\n")
     assert len(violations(fake / "filter.py", fake)) == 1
-    assert len(violations(fake / "robot" / "scenario.py", fake)) == 2
-    assert violations(fake / "experiments" / "study.py", fake) == []
+    assert len(violations(fake / "scenarios" / "robot" / "scenario.py", fake)) == 3
+    assert len(violations(fake / "studies" / "study.py", fake)) == 1
+    assert violations(fake / "book" / "style.py", fake) == []
+
+
+def test_import_pfcourse_is_the_library_without_matplotlib():
+    """``import pfcourse`` and every module of the library (core, scenarios, studies) load in a fresh
+    interpreter without matplotlib (the book's machinery alone draws)."""
+    library = [module_name(p) for p in MODULES if group(module_name(p)) != "book"]
+    code = ("import sys, importlib\n"
+            f"for name in {library!r}:\n"
+            "    importlib.import_module(name)\n"
+            "    assert 'matplotlib' not in sys.modules, name\n")
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)
+    assert done.returncode == 0, done.stderr[-2000:]
+
+
+def test_version():
+    import pfcourse
+
+    assert pfcourse.__version__ == "0.4.0"
+
+
+def test_rmse_is_written_once():
+    """``sqrt(mean(e ** 2))`` is :func:`pfcourse.metrics.rmse`; no other module writes it out."""
+    def is_rmse(node) -> bool:
+        if not (isinstance(node, ast.Call) and ast.unparse(node.func).endswith("sqrt") and node.args):
+            return False
+        inner = node.args[0]
+        return (isinstance(inner, ast.Call) and ast.unparse(inner.func).endswith("mean") and bool(inner.args)
+                and isinstance(inner.args[0], ast.BinOp) and isinstance(inner.args[0].op, ast.Pow))
+    found = [f"{module_name(path)}:{node.lineno}" for path in MODULES
+             for node in ast.walk(ast.parse(path.read_text())) if is_rmse(node)]
+    assert [f.split(":")[0] for f in found] == ["pfcourse.metrics"], found
+
+
+#: How a chapter must not read a stored study: the one reader is ``STUDIES[name].load()`` (the
+#: table, its provenance in ``table.attrs["provenance"]``).  The PMMH chains (tools/studies/pmmh.py)
+#: are the one stored computation that is not a registered study.
+OTHER_READERS = re.compile(r"read_csv\((?![^)]*pmmh\.csv)|json\.loads\(|store import load|\.find\(")
+
+
+@pytest.mark.parametrize("chapter", sorted((PACKAGE.parent / "book").glob("part*/*.py")), ids=lambda p: p.stem)
+def test_chapters_read_stored_studies_one_way(chapter):
+    code = "\n".join(line for line in chapter.read_text().splitlines() if not line.lstrip().startswith("#"))
+    assert not OTHER_READERS.findall(code)
 
 
 def test_the_array_alias_is_defined_once():
@@ -131,9 +189,12 @@ def test_the_array_alias_is_defined_once():
 
 #: The generic algorithms, each in the core module named after it (README, "The package").
 CORE_HOMES = {
-    "run_tasks": "executor",
-    "SerialExecutor": "executor",
-    "StudyWarning": "executor",
+    "run_tasks": "studies.executor",
+    "SerialExecutor": "studies.executor",
+    "StudyWarning": "studies.executor",
+    "circular_mean": "angles",
+    "resultant_direction": "angles",
+    "pf_log_likelihood": "likelihood",
     "ffbsm": "smoothing",
     "rts_smoother": "smoothing",
     "SmootherResult": "smoothing",

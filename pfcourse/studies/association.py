@@ -27,7 +27,7 @@ import time
 import numpy as np
 
 from pfcourse.filter import ParticleFilter
-from pfcourse.metrics import position_error
+from pfcourse.metrics import position_error, rmse
 from pfcourse.scenarios.robot.association import AssociationModel, ClutterSensor, run_nn_ekf, run_pdaf, simulate_readings
 from pfcourse.scenarios.robot.scenario import RobotModel, RobotSimulation, simulate_robot
 from pfcourse.seeding import data_rng, filter_rng
@@ -52,7 +52,7 @@ def simulate_run(seed: int, clutter_rate: float) -> tuple[RobotSimulation, Clutt
 
 def position_rmse(truth, estimate) -> float:
     """``sqrt(mean_k |p^_k - p_k|^2)`` over every step (m)."""
-    return float(np.sqrt(np.mean(position_error(truth, estimate) ** 2)))
+    return float(rmse(position_error(truth, estimate)))
 
 
 def row(seed: int, clutter_rate: float) -> dict:

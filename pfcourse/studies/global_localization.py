@@ -24,7 +24,7 @@ from scipy import stats
 
 from pfcourse.collectors import Clouds
 from pfcourse.diagnostics import nees
-from pfcourse.metrics import LOCK_WINDOW_S, heading_error, locked_from, position_error, position_spread
+from pfcourse.metrics import LOCK_WINDOW_S, heading_error, locked_from, position_error, position_spread, rmse
 from pfcourse.scenarios.robot.scenario import ANGLE_INDICES, RobotModel, simulate_robot
 from pfcourse.studies.robot import compare_filters
 from pfcourse.filter_config import lookup
@@ -274,4 +274,4 @@ def tracking_row(seed: int, method: str, n_particles: int, n_steps: int = 50, bu
     pos = position_error(sim.truth[steps], res.mean[steps])
     head = heading_error(sim.truth[steps], res.mean[steps])
     return {"seed": seed, "method": method, "n": n_particles, "ess_fraction": float(np.mean(res.ess[steps]) / n_particles),
-            "position_rmse": float(np.sqrt(np.mean(pos**2))), "heading_rmse_deg": float(np.rad2deg(np.sqrt(np.mean(head**2))))}
+            "position_rmse": float(rmse(pos)), "heading_rmse_deg": float(np.rad2deg(rmse(head)))}

@@ -66,7 +66,7 @@ def landmarks_row(seed: int, n_particles: int) -> dict:
         idx = ancestors[k][idx]
     out["ancestors_at_0"] = int(len(np.unique(idx)))
     out["rts_truth_error"] = float(metrics.rmse(m_s - sim.truth))
-    out["kalman_truth_error"] = float(np.sqrt(np.mean((kf.mean - sim.truth) ** 2)))
+    out["kalman_truth_error"] = float(metrics.rmse(kf.mean - sim.truth))
     return out
 
 

@@ -71,6 +71,7 @@ from pfcourse.checks import (
 from pfcourse.errors import MeasurementError, ParameterError, ShapeError
 from pfcourse.compiled import jit
 from pfcourse.gaussian import gaussian_logpdf
+from pfcourse import metrics
 
 
 #: Standard deviations of the odometry error per step: 0.02 m/s, 0.02 m/s, 1 deg/s.
@@ -510,4 +511,4 @@ def rmse(truth: Array, estimate: Array, start: int = 0) -> tuple[float, float]:
     if err.ndim != 2 or start >= len(err):
         raise ShapeError(f"rmse needs errors of shape (K, 3) with K > start = {start}, got {err.shape}")
     err = err[start:]
-    return float(np.sqrt(np.mean(err[:, 0] ** 2 + err[:, 1] ** 2))), float(np.sqrt(np.mean(err[:, 2] ** 2)))
+    return float(np.sqrt(np.mean(err[:, 0] ** 2 + err[:, 1] ** 2))), float(metrics.rmse(err[:, 2]))
