@@ -1,4 +1,4 @@
-"""Experiments: the Monte Carlo runner and the comparisons of particle filters with references.
+"""Studies: the Monte Carlo runner, the stored studies (registry, store, provenance) and the comparisons of particle filters with references.
 
 * :mod:`pfcourse.studies.record` - one filter on one run, recorded (setting, scores, status, error);
 * :mod:`pfcourse.studies.study` - seeded studies over a grid of settings, on any executor;
