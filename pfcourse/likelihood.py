@@ -165,14 +165,3 @@ def terrain_log_likelihood(scenario, terrain, Z: np.ndarray, rf_scale: float, n_
         return pf.run(Z, seed).log_likelihood
     except DegenerateWeightsError:
         return -np.inf
-
-
-def landmark_likelihood_problem(seed: int = 7):
-    """The model and data of the likelihood chapter (``book/part5/likelihood.py``): the two-landmark scenario
-    of Part I with process noise ``0.05^2`` on every coordinate (the landmarks drift slowly) and
-    ``R_0 = 0.5^2 I``, and its ``K = 50`` steps of measurements simulated at ``theta = 1`` (``seed``).
-    Returns ``(scenario, Z)``; ``scenario.model(Rv=theta * scenario.Rv)`` is the model at scale ``theta``."""
-    from pfcourse.scenarios.landmarks import quadrant_scenario, simulate
-
-    scenario = quadrant_scenario().with_(Qw=0.05**2 * np.eye(6), Rv=0.5**2 * np.eye(4))
-    return scenario, simulate(scenario, seed).measurements

@@ -45,6 +45,7 @@ from scipy import stats
 
 from pfcourse import evidence
 from pfcourse.studies import why_it_works as study
+from pfcourse.studies.registry import STUDIES, cross_check
 from pfcourse.book.exercises import check_guided_fk
 from pfcourse.book.report import EvidenceBlock, glue_values
 from pfcourse.book.panels import control_panel, particle_slider, seed_box
@@ -53,10 +54,9 @@ from pfcourse.proposals import FullyAdaptedAuxiliary, LinearGaussianOptimal
 from pfcourse.book.style import COLORS, plain_log_axis, use_style
 
 use_style()
-DATA = "../data/"
-fixed = pd.read_csv(DATA + "why_it_works.csv")
-growth = pd.read_csv(DATA + "why_it_works_growth.csv")
-clt = pd.read_csv(DATA + "why_it_works_clt.csv")
+fixed = STUDIES["why_it_works"].load()
+growth = STUDIES["why_it_works_growth"].load()
+clt = STUDIES["why_it_works_clt"].load()
 
 
 def column(table, name, **setting):
@@ -347,9 +347,8 @@ for n, g in zip(Ns, by_n):
 unbiased = pd.DataFrame(rows)
 at_n0 = unbiased[unbiased.N == N0].iloc[0]
 # the cross-check: particles (Chopin's library), same data, same N and T, its own random numbers
-import json
-other = np.array(json.load(open(DATA + "why_it_works_particles.json"))["log_ratio"])
-other_meta = json.load(open(DATA + "why_it_works_particles.json"))
+other_meta = cross_check("why_it_works")
+other = np.array(other_meta["log_ratio"])
 var_ratio = evidence.run_interval(lambda r: np.var(other[r], ddof=1), other.size)
 ours_var = evidence.run_interval(lambda r: np.var(gap[r], ddof=1), gap.size)
 glue_values("fk_", runs=gap.size, ratio_mean=at_n0["mean p^/p"], ratio_low=at_n0["low"], ratio_high=at_n0["high"],
@@ -366,7 +365,7 @@ EvidenceBlock(
            "under-covers when var(log p^) is large (at the smallest N), so the log-scale columns are the "
            "sharper check.",
            f"Cross-check with the particles package ({other_meta['particles_version']}, Chopin's library, in a "
-           f"separate environment; pfcourse/experiments/why_it_works_particles.py): its SMC on a FeynmanKac "
+           f"separate environment; pfcourse/studies/why_it_works_particles.py): its SMC on a FeynmanKac "
            f"model of the same data (M the transition, log G the Gaussian log-likelihood of the visible "
            f"coordinates), N = {other_meta['N']}, systematic resampling at every step, {other.size} runs: "
            f"var(log p^) {var_ratio[0]:.2f} ({var_ratio[1]:.2f} to {var_ratio[2]:.2f}), mean log p^ - log p "
@@ -430,7 +429,7 @@ v_exact = study.clt_variance()  # the quadrature: pfcourse/studies/why_it_works.
 clt_n = np.array(study.CLT_N_VALUES)
 errors = np.array([column(clt, "error_last", N=n) for n in clt_n])
 nvar = np.array([evidence.run_interval(lambda r: n * np.var(e[r], ddof=1), e.size) for n, e in zip(clt_n, errors)])
-resampling = pd.read_csv(DATA + "why_it_works_resampling.csv")
+resampling = STUDIES["why_it_works_resampling"].load()
 by_scheme = {s: column(resampling, "error_last", resampling=s) for s in study.RESAMPLING_SCHEMES}
 scheme_nvar = {s: evidence.run_interval(lambda r: study.RESAMPLING_N * np.var(e[r], ddof=1), e.size)
                for s, e in by_scheme.items()}
@@ -473,7 +472,7 @@ glue_values("fk_clt_", nvar_min=nvar[:, 0].min(), nvar_max=nvar[:, 0].max(), v_e
             nvar_systematic_high=ss[2], lm_nmse_first=lm_nmse[0, 0], lm_nmse_last=lm_nmse[-1, 0])
 EvidenceBlock(
     f"the exact V_50 = {v_exact:.3f}; multinomial runs agree with it, systematic ones fall below",
-    notes=[f"V_50 by quadrature (pfcourse/experiments/why_it_works.py, clt_variance): a grid of 601 points on "
+    notes=[f"V_50 by quadrature (pfcourse/studies/why_it_works.py, clt_variance): a grid of 601 points on "
            "[-8, 8], eta_j the Kalman predictive laws, Gamma_(j,k) computed backwards with the transition "
            "density; tests/test_why_it_works.py checks it against the closed form at k = 0 and against a finer, "
            "wider grid (relative difference below 1e-6).",

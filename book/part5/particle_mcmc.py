@@ -40,8 +40,7 @@ from pfcourse.csmc import conditional_smc, noise_scale_draw
 from pfcourse.diagnostics import chain_ess, split_rhat
 from pfcourse.studies import pmcmc_studies as pm
 from pfcourse.likelihood import grid_posterior, kalman_log_likelihood, pf_log_likelihood
-from pfcourse.studies.registry import STUDIES
-from pfcourse.studies.store import DATA
+from pfcourse.studies.registry import STUDIES, cross_check
 from pfcourse.book.report import EvidenceBlock, glue_values
 from pfcourse.book.panels import control_panel
 from pfcourse.book.style import COLORS, plain_log_axis, use_style
@@ -562,7 +561,7 @@ glue_values(pm_step=pm.STEP, pm_step_over_sd=pm.STEP / sd_u,
 second = sorted(n_values, key=lambda n: -tune[n]["ESS per 10^6 particles"])[1]
 best_vs_second = gain_interval(tuning[best_n], best_n, tuning[second], second, 1)[1:]
 # the cross-check against the particles package: log p^(z | theta = 1) at N = 200 over 100 seeds each
-xc = json.loads((DATA / "pmcmc" / "particles_check.json").read_text())
+xc = cross_check("particle_mcmc")
 theirs = np.array(xc["particles_log_likelihood"]) - xc["exact_log_likelihood"]
 ours = np.array(xc["pfcourse_log_likelihood"]) - xc["exact_log_likelihood"]
 xc_mean, xc_var = stats.ttest_ind(theirs, ours, equal_var=False), stats.levene(theirs, ours)
@@ -600,7 +599,7 @@ EvidenceBlock(
            f"resampling at every measured step: {var_best[0]:.2f} (95 % bootstrap interval {var_best[1]:.2f} to "
            f"{var_best[2]:.2f}).",
            f"Cross-check against the particles package (version {xc['particles_version']}, its own environment; "
-           "pfcourse/experiments/pmcmc_crosscheck.py writes the model for it, book/data/pmcmc/particles_check.json "
+           "pfcourse/studies/pmcmc_crosscheck.py writes the model for it, book/data/pmcmc/particles_check.json "
            f"stores the runs): log p^(z | ϑ = 1) - log p(z | ϑ = 1) at N = {xc['n_particles']}, bootstrap filter "
            f"resampling systematically at every step, {xc['n_runs']} seeds each. particles: mean {theirs.mean():.2f}, "
            f"variance {theirs.var(ddof=1):.2f}; pfcourse: mean {ours.mean():.2f}, variance {ours.var(ddof=1):.2f}. "

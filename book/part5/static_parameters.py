@@ -35,6 +35,7 @@ from scipy.special import gammaln, logsumexp
 
 from pfcourse import evidence
 from pfcourse.studies import static_parameters_study as sps
+from pfcourse.studies.registry import STUDIES, cross_check
 from pfcourse.book.report import EvidenceBlock, glue_values
 from pfcourse.book.panels import control_panel, particle_slider, seed_box
 from pfcourse.static_parameters import liu_west as engine_liu_west
@@ -404,7 +405,7 @@ GLUE.update(page_error_lw=page_errors["lw"], page_error_ss=page_errors["ss"], pa
 # `*_posterior_error`), its mean (the bias) and its standard deviation (the spread).
 
 # %% tags=["remove-input"] jupyter={"source_hidden": true}
-main = pd.concat([pd.read_csv(DATA + "main.csv"), pd.read_csv(DATA + "smc2.csv")], ignore_index=True)
+main = pd.concat([STUDIES["static_parameters/main"].load(), STUDIES["static_parameters/smc2"].load()], ignore_index=True)
 assert (main["status"] == "ok").all() and np.allclose(main["exact_mean"], EXACT.mean, rtol=1e-12)
 measured_steps = int((~np.isnan(Z).all(axis=1)).sum())
 label = {"liu_west": "Liu-West", "storvik": "sufficient statistics", "smc2": "SMC²"}
@@ -503,7 +504,7 @@ EvidenceBlock(
 # generality, not accuracy per evaluation: it needs no conjugate form, only a likelihood estimate.
 
 # %% tags=["remove-input"] jupyter={"source_hidden": true}
-long = pd.read_csv(DATA + "long.csv")
+long = STUDIES["static_parameters/long"].load()
 assert (long["status"] == "ok").all()
 long_rows, long_err = [], {}
 for (method, T), g in long.groupby(["method", "T"], sort=False):
@@ -520,7 +521,7 @@ T_LONG = max(sps.LONG_T)
 ss_short, ss_long = (long_err[("storvik", T)]["error"].abs().to_numpy() for T in (min(sps.LONG_T), T_LONG))
 growth = evidence.paired(ss_long, ss_short, ratio=True)
 # Liu-West at T = 400 with five times the particles (study static_parameters/long_big; run r has long's seed r)
-long_big = pd.read_csv(DATA + "long_big.csv").sort_values("run")
+long_big = STUDIES["static_parameters/long_big"].load().sort_values("run")
 assert (long_big["status"] == "ok").all()
 LW_BIG_N = int(long_big["n"].iloc[0])
 lw_long_small = long_err[("liu_west", T_LONG)].sort_values("run")
@@ -612,7 +613,7 @@ display(control_panel(draw_panel, grid={"n_particles": (100, 300, 1000)}, n_part
                       seed=seed_box(0)))
 
 # %% tags=["remove-input"] jupyter={"source_hidden": true}
-check = json.loads(open(DATA + "particles_check.json").read())
+check = cross_check("static_parameters")
 x_mean, x_sd = check["exact"]["mean"], check["exact"]["sd"]
 ours_means = np.array([r["mean"] for r in check["pfcourse_smc2"]["runs"]])
 their_means = np.array([r["mean"] for r in check["particles_smc2"]["runs"]])

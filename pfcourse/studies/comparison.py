@@ -44,7 +44,7 @@ from pfcourse.studies.executor import run_tasks
 from pfcourse.studies.record import RunRecord, record_run
 from pfcourse.filter import ParticleFilter
 from pfcourse import metrics
-from pfcourse.metrics import position_error
+from pfcourse.metrics import position_error, rmse
 from pfcourse.results import FilterResult, KalmanResult
 from pfcourse.scenarios.robot.scenario import ANGLE_INDICES, RobotModel, range_bearing, simulate_robot
 from pfcourse.seeding import data_rng, filter_rng, sized_filter_rng
@@ -175,7 +175,7 @@ def consistency_fix_row(seed: int, setting: str) -> dict:
     res = ParticleFilter(model, n, threshold=0.5, jitter=jitter).run(sim.measurements, filter_rng(0, seed))
     nees_k = _safe_nees(sim.truth, res.mean, res.cov, ANGLE_INDICES)
     err = position_error(sim.truth, res.mean)[CONSISTENCY_BURN_IN:]
-    return {"rmse_m": float(np.sqrt(np.mean(err**2))), "nees_mean": float(np.mean(nees_k[CONSISTENCY_BURN_IN:])),
+    return {"rmse_m": float(rmse(err)), "nees_mean": float(np.mean(nees_k[CONSISTENCY_BURN_IN:])),
             "nees": nees_k}
 
 

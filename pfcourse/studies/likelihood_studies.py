@@ -129,3 +129,12 @@ def robot_gap_run(seed: int, n_particles: int) -> dict:
             "filter_outside_error": float(ef[after & ~gap].mean()),
             "smoother_outside_error": float(es[after & ~gap].mean()),
             "smoother_gap_ess_median": float(np.median(1.0 / np.sum(s.weights[gap] ** 2, axis=1)))}
+
+
+def landmark_likelihood_problem(seed: int = 7):
+    """The model and data of the likelihood chapter (``book/part5/likelihood.py``): the two-landmark scenario
+    of Part I with process noise ``0.05^2`` on every coordinate (the landmarks drift slowly) and
+    ``R_0 = 0.5^2 I``, and its ``K = 50`` steps of measurements simulated at ``theta = 1`` (``seed``).
+    Returns ``(scenario, Z)``; ``scenario.model(Rv=theta * scenario.Rv)`` is the model at scale ``theta``."""
+    scenario = quadrant_scenario().with_(Qw=0.05**2 * np.eye(6), Rv=0.5**2 * np.eye(4))
+    return scenario, simulate(scenario, seed).measurements

@@ -611,6 +611,25 @@ def robot_study(grid: dict, **options) -> pd.DataFrame:
                          f"stored: {list(robot_studies.STUDIES)} (pfcourse.studies.robot_studies.STUDIES)")
 
 
+#: The stored cross-checks against Chopin and Papaspiliopoulos' ``particles`` library: one record
+#: each (the other library's numbers and how they were made), written by the named code, not studies.
+CROSS_CHECKS: dict[str, tuple[str, str]] = {
+    "why_it_works": ("why_it_works_particles.json", "pfcourse/studies/why_it_works_particles.py"),
+    "particle_mcmc": ("pmcmc/particles_check.json", "pfcourse/studies/pmcmc_crosscheck.py"),
+    "static_parameters": ("static_parameters/particles_check.json", "tools/static_parameters_particles.py"),
+}
+
+
+def cross_check(chapter: str) -> dict:
+    """The stored cross-check of ``chapter`` against ``particles`` (:data:`CROSS_CHECKS`), as a dict."""
+    if chapter not in CROSS_CHECKS:
+        raise ParameterError(f"no stored cross-check for {chapter!r}; stored: {list(CROSS_CHECKS)}")
+    path, code = CROSS_CHECKS[chapter]
+    if not (DATA / path).exists():
+        raise FileNotFoundError(f"{DATA / path} is missing: run {code}")
+    return json.loads((DATA / path).read_text())
+
+
 def select(name: str) -> list[Study]:
     """The study ``name``, or every study of the group ``name``."""
     chosen = [STUDIES[name]] if name in STUDIES else [s for s in STUDIES.values() if s.name.startswith(name + "/")]

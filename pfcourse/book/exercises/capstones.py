@@ -26,6 +26,7 @@ import numpy as np
 from scipy.special import logsumexp
 
 from pfcourse.errors import ParameterError
+from pfcourse.metrics import rmse
 from pfcourse.book.exercises.checking import CheckReport, _answer
 from pfcourse.book.exercises.part1 import _generator_problem
 
@@ -558,7 +559,7 @@ def count_study_reference(filter_fn: Callable, y: np.ndarray, model: CountModel,
             else:
                 rng = np.random.default_rng(seed + r)
             err = np.asarray(filter_fn(np.array(y), n, rng, model), dtype=float) - target
-            out[i, r] = np.mean(err ** 2) if mistake == "mse" else np.sqrt(np.mean(err ** 2))
+            out[i, r] = np.mean(err ** 2) if mistake == "mse" else rmse(err)
     return out
 
 

@@ -8,6 +8,7 @@ import numpy as np
 from scipy import stats
 from scipy.special import logsumexp
 
+from pfcourse.metrics import rmse
 from pfcourse.book.exercises.checking import CheckReport, _answer, _per_particle_answers, _settled
 
 
@@ -570,7 +571,7 @@ def check_clutter_pf(fn: Callable, seed: int = 0) -> CheckReport:
     exact = [clutter_target_posterior(readings) for readings in datasets]
     mean, sd = np.concatenate([m for m, _ in exact]), np.concatenate([v for _, v in exact])
     student = estimates.mean(axis=0)
-    distance = float(np.sqrt(np.mean(((student - mean) / sd) ** 2)))
+    distance = float(rmse((student - mean) / sd))
     if distance <= CLUTTER_PF_TOLERANCE:
         return report
     # A mistaken filter is compared with the same mistake made by the checker's own filter, on other seeds:
@@ -581,7 +582,7 @@ def check_clutter_pf(fn: Callable, seed: int = 0) -> CheckReport:
                                                                 np.random.default_rng([seed, 100, s]), mistake)
                                            for readings in datasets]) for s in range(CLUTTER_PF_SEEDS)])
         spread = np.sqrt((estimates.var(axis=0, ddof=1) + theirs.var(axis=0, ddof=1)) / CLUTTER_PF_SEEDS)
-        scores[mistake] = float(np.sqrt(np.mean(((student - theirs.mean(axis=0)) / (spread + 1e-3 * sd)) ** 2)))
+        scores[mistake] = float(rmse((student - theirs.mean(axis=0)) / (spread + 1e-3 * sd)))
     best, *others = sorted(scores, key=scores.get)
     np.random.set_state(state)
     if scores[best] <= CLUTTER_PF_MATCH and all(scores[m] > CLUTTER_PF_MARGIN for m in others):
