@@ -8,14 +8,15 @@ dict made by :func:`configurations` (``{name: FilterConfig}``, in the order give
 finds one by name or raises a :class:`~pfcourse.errors.ParameterError` that lists the known names.
 Adding a configuration is adding one entry to its dict.
 
-``build``'s arguments are the scenario's own (each registry's docstring states them): for
-instance ``build(scenario, n_particles) -> ParticleFilter`` for scenario A's filters, or
-``build(scenario, terrain) -> ParticleFilter`` for the terrain filters, whose particle count is
-part of the configuration (``n_particles``).
-
 :class:`FilterSettings` is a filter's settings as a typed record (``N``, threshold, resampler,
-proposal, jitter, sample-size policy) with one ``build(model)``, a label derived from its fields
-and a provenance record of plain data (:meth:`FilterSettings.record`).
+proposal, jitter, sample-size policy, and the change the filter makes to the scenario's model)
+with one ``build(model)``, a label derived from its fields and a provenance record of plain data
+(:meth:`FilterSettings.record`).  Every registry holds such records: a configuration made by
+:meth:`FilterConfig.of` builds its filter with ``build(model)``, ``model`` the scenario's model
+of one run (scenario A's landmark model, the robot's ``RobotModel``, the map robot's
+``MapRobotModel``); where a study's grid gives ``N``, the record's ``N`` is nominal and the row
+builds ``config.settings.with_(n_particles=N).build(model)``.  The terrain registry builds from
+``(scenario, terrain)``: its configurations also change the scenario (``Q_f / 3``).
 """
 
 from __future__ import annotations
@@ -46,14 +47,25 @@ class FilterConfig:
     n_particles: int | None = None
     settings: FilterSettings | None = None  # the filter's settings as data, when the configuration has them
 
+    @classmethod
+    def of(cls, name: str, settings: FilterSettings, *, n_from_grid: bool = False) -> FilterConfig:
+        """The configuration ``name`` of ``settings``: ``build(model)`` is ``settings.build``, the label
+        ``settings.label`` (``settings.kind`` with ``n_from_grid``: the study's grid gives ``N``, the
+        record's is nominal)."""
+        return cls(name, settings.kind if n_from_grid else settings.label, settings.build,
+                   None if n_from_grid else settings.n_particles, settings)
+
     def record(self) -> dict[str, Any]:
         """The configuration as plain data for a study's provenance: its label, and its settings'
-        record when it has one (:meth:`FilterSettings.record`)."""
+        record when it has one (:meth:`FilterSettings.record`; without ``n_particles`` when the
+        study's grid gives ``N``)."""
         out: dict[str, Any] = {"label": self.label}
         if self.n_particles is not None:
             out["n_particles"] = self.n_particles
         if self.settings is not None:
             out.update(self.settings.record())
+            if self.n_particles is None:
+                out.pop("n_particles")
         return out
 
     def __post_init__(self) -> None:
@@ -101,6 +113,12 @@ _NAMES = {"TransitionProposal": "bootstrap", "ProgressiveCorrection": "progressi
           "FullyAdaptedAuxiliary": "fully adapted auxiliary"}
 
 
+def _name(component: Any) -> str:
+    """A component's name in a label: its own ``label`` if it has one, else its kind's."""
+    own = getattr(component, "label", None)
+    return own if isinstance(own, str) else _NAMES.get(type(component).__name__, type(component).__name__)
+
+
 def describe(component: Any) -> Any:
     """A component of a filter (proposal, jitter, sample-size policy) as plain data: ``None``, or
     ``{"type": class name, field: value, ...}`` of its public dataclass fields (nested components
@@ -113,7 +131,10 @@ def describe(component: Any) -> Any:
     if hasattr(component, "tolist"):
         return component.tolist()
     out: dict[str, Any] = {"type": type(component).__name__}
-    if dataclasses.is_dataclass(component):
+    fields = getattr(component, "settings_fields", None)  # a stateful component names its settings
+    if fields is not None:
+        out.update({name: describe(getattr(component, name)) for name in fields})
+    elif dataclasses.is_dataclass(component):
         out.update({f.name: describe(getattr(component, f.name)) for f in dataclasses.fields(component)
                     if not f.name.startswith("_")})
     else:  # its public settings that are data (numbers, names, arrays), not its state or its model
@@ -128,12 +149,17 @@ class FilterSettings:
     """A particle filter's settings as a typed record: ``N``, the resampling rule (``threshold``,
     ``resampler``, a name of :data:`pfcourse.resampling.SCHEMES`), and the components as
     templates: ``proposal`` (``None``: the transition, the bootstrap filter), ``jitter`` (``None``:
-    none) and ``sample_size`` (``None``: a fixed ``N``).
+    none), ``sample_size`` (``None``: a fixed ``N``) and ``model_change`` (``None``: the filter
+    runs on the model it is given; else an object whose ``apply(model)`` is the filter's own model,
+    e.g. the model with the map integrated out, or with a probability of being kidnapped).
 
     :meth:`build` makes the filter of a model, with fresh copies of the components (a stateful
     one, such as progressive correction, which counts the readings it saw, starts anew in every
-    filter); :attr:`label` and :meth:`record` are derived from the fields (the label for legends,
-    the record, plain data, for a study's provenance).  Checked when the record is made.
+    filter; one template given as two components, a proposal that is also the jitter, stays one
+    object); a component template with a ``for_model(model)`` method is replaced by what it returns
+    for the filter's model.  :attr:`label` and :meth:`record` are derived from the fields (the
+    label for legends, the record, plain data, for a study's provenance).  Checked when the record
+    is made.
     """
 
     n_particles: int
@@ -142,6 +168,7 @@ class FilterSettings:
     proposal: Any = None
     jitter: Any = None
     sample_size: Any = None
+    model_change: Any = None
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "n_particles", check_count(self.n_particles, "n_particles"))
@@ -149,39 +176,62 @@ class FilterSettings:
         if not isinstance(self.resampler, str) or self.resampler not in SCHEMES:
             raise ParameterError(f"resampler must be one of {list(SCHEMES)} (a name: settings are data), "
                                  f"got {self.resampler!r}")
-        if self.proposal is not None and not callable(getattr(self.proposal, "propose", None)):
+        if self.proposal is not None and not any(callable(getattr(self.proposal, m, None))
+                                                 for m in ("propose", "for_model")):
             raise ModelError(f"proposal must have a propose(model, particles, z, k, rng) method, got {self.proposal!r}")
         if self.jitter is not None and not callable(self.jitter):
             raise ModelError(f"jitter must be a function (particles, rng) -> particles, got {self.jitter!r}")
         if self.sample_size is not None and not callable(getattr(self.sample_size, "needed", None)):
             raise ModelError(f"sample_size has no callable needed (see pfcourse.sample_size), got {self.sample_size!r}")
+        if self.model_change is not None and not callable(getattr(self.model_change, "apply", None)):
+            raise ModelError(f"model_change must have an apply(model) method, got {self.model_change!r}")
+
+    def with_(self, **changes: Any) -> FilterSettings:
+        """These settings with ``changes`` (e.g. ``n_particles=...``), checked again."""
+        return dataclasses.replace(self, **changes)
 
     def build(self, model) -> ParticleFilter:
         """The particle filter of ``model`` with these settings (fresh copies of the components)."""
-        return ParticleFilter(model, self.n_particles, threshold=self.threshold, resampler=self.resampler,
-                              proposal=copy.deepcopy(self.proposal), jitter=copy.deepcopy(self.jitter),
-                              sample_size=copy.deepcopy(self.sample_size))
+        if self.model_change is not None:
+            model = self.model_change.apply(model)
+        memo: dict = {}  # one deep copy for every component: a template given twice stays one object
+        fresh: dict[int, Any] = {}
+        for template in (self.proposal, self.jitter, self.sample_size):
+            if template is not None and id(template) not in fresh:
+                component = copy.deepcopy(template, memo)
+                for_model = getattr(component, "for_model", None)
+                fresh[id(template)] = for_model(model) if callable(for_model) else component
+        made = {name: None if (t := getattr(self, name)) is None else fresh[id(t)]
+                for name in ("proposal", "jitter", "sample_size")}
+        return ParticleFilter(model, self.n_particles, threshold=self.threshold, resampler=self.resampler, **made)
 
     @property
-    def label(self) -> str:
-        """``"<proposal>[, <jitter>], <resampler> at ESS < <threshold> N, N = <n>"`` from the fields (the
-        transition proposal named "bootstrap" when nothing moves the particles after resampling; e.g.
-        ``"progressive correction, regularised at 0.2 h_opt, multinomial at ESS < 1 N, N = 3000"``)."""
-        parts = ([_NAMES.get(type(self.proposal).__name__, type(self.proposal).__name__)] if self.proposal is not None
-                 else [] if self.jitter is not None else ["bootstrap"])
-        if self.jitter is not None:
-            name = _NAMES.get(type(self.jitter).__name__, type(self.jitter).__name__)
+    def kind(self) -> str:
+        """The label without ``N``: ``"[<model change>, ]<proposal>[, <jitter>], <resampler> at ESS <
+        <threshold> N"`` (the transition proposal named "bootstrap" when nothing moves the particles
+        after resampling; a component with a ``label`` attribute named by it)."""
+        parts = [_name(self.model_change)] if self.model_change is not None else []
+        parts += ([_name(self.proposal)] if self.proposal is not None
+                  else [] if self.jitter is not None else ["bootstrap"])
+        if self.jitter is not None and self.jitter is not self.proposal:
+            name = _name(self.jitter)
             if type(self.jitter).__name__ == "RegularisedJitter":  # its kernel's width, a multiple of h_opt
                 name += f" at {self.jitter.scale:g} h_opt"
             parts.append(name)
         if self.sample_size is not None:
-            parts.append(_NAMES.get(type(self.sample_size).__name__, type(self.sample_size).__name__))
-            return ", ".join(parts) + f", N <= {self.n_particles}"
-        parts.append(f"{self.resampler} at ESS < {self.threshold:g} N")
-        return ", ".join(parts) + f", N = {self.n_particles}"
+            parts.append(_name(self.sample_size))
+        else:
+            parts.append(f"{self.resampler} at ESS < {self.threshold:.3g} N")
+        return ", ".join(parts)
+
+    @property
+    def label(self) -> str:
+        """:attr:`kind` and ``N`` (``N <= n`` with a sample-size policy), e.g.
+        ``"progressive correction, regularised at 0.2 h_opt, multinomial at ESS < 1 N, N = 3000"``."""
+        return self.kind + (f", N <= {self.n_particles}" if self.sample_size is not None else f", N = {self.n_particles}")
 
     def record(self) -> dict[str, Any]:
         """The settings as plain data (JSON-ready): what a study's provenance writes of its filter."""
         return {"n_particles": self.n_particles, "threshold": self.threshold, "resampler": self.resampler,
                 "proposal": describe(self.proposal), "jitter": describe(self.jitter),
-                "sample_size": describe(self.sample_size)}
+                "sample_size": describe(self.sample_size), "model_change": describe(self.model_change)}

@@ -27,8 +27,8 @@ from pfcourse.diagnostics import nees
 from pfcourse.metrics import LOCK_WINDOW_S, heading_error, locked_from, position_error, position_spread, rmse
 from pfcourse.scenarios.robot.scenario import ANGLE_INDICES, RobotModel, simulate_robot
 from pfcourse.studies.robot import compare_filters
-from pfcourse.filter_config import lookup
-from pfcourse.scenarios.robot.mcl import FILTERS, MethodSettings, kidnap, kidnap_pose, run_method
+from pfcourse.filter_config import FilterSettings
+from pfcourse.scenarios.robot.mcl import kld_policy, kidnap, kidnap_pose, run_settings, settings_of
 
 #: Settings of the EKF-beside-PF study (the Part III settings the text compares).
 EKF_SETTINGS = {
@@ -79,9 +79,9 @@ def position_heading_errors(truth: Array, mean: Array) -> tuple[Array, Array]:
     return position_error(truth, mean), heading_error(truth, mean)
 
 
-def global_run(seed: int, method: str, n_particles: int, *, n_steps: int = 60,
-               settings: MethodSettings = MethodSettings()) -> dict:
-    """One global-localization run (uniform prior) of ``method``: lock-on and its metrics.
+def global_run(seed: int, settings: FilterSettings, *, n_steps: int = 60) -> dict:
+    """One global-localization run (uniform prior) of the filter of ``settings`` (a record of
+    :data:`pfcourse.scenarios.robot.mcl.FILTERS` with its ``N``): lock-on and its metrics.
 
     ``locked_on``: within 1 m and 5 deg at each of the last :data:`LOCK_WINDOW` steps;
     ``lock_time`` (s): the first time from which it stays so (NaN if never);
@@ -91,7 +91,7 @@ def global_run(seed: int, method: str, n_particles: int, *, n_steps: int = 60,
     correction for ``tempered``); ``mean_n``: the mean number of particles.
     """
     sim = simulate_robot(None, seed, n_steps=n_steps)
-    out = run_method(sim, method, n_particles, seed, settings=settings)
+    out = run_settings(sim, settings, seed)
     pos, head = position_heading_errors(sim.truth, out["mean"])
     start = locked_from(pos, head)
     locked = start <= n_steps - LOCK_WINDOW
@@ -111,8 +111,8 @@ def global_run(seed: int, method: str, n_particles: int, *, n_steps: int = 60,
     }
 
 
-def kidnap_run(seed: int, method: str, n_particles: int, *, n_steps: int = 150, kidnap_step: int = 50,
-               detect_distance: float = 5.0, settings: MethodSettings = MethodSettings()) -> dict:
+def kidnap_run(seed: int, settings: FilterSettings, *, n_steps: int = 150, kidnap_step: int = 50,
+               detect_distance: float = 5.0) -> dict:
     """One kidnapped-robot run: tracking from the known start, robot moved at ``kidnap_step``.
 
     ``detection_s``: time from the kidnapping to the first step whose estimate is more than
@@ -123,7 +123,7 @@ def kidnap_run(seed: int, method: str, n_particles: int, *, n_steps: int = 150, 
     """
     base = simulate_robot(None, seed, n_steps=n_steps)
     sim = kidnap(base, kidnap_step, kidnap_pose(seed, base.truth[kidnap_step], base.scenario.half_width))
-    out = run_method(sim, method, n_particles, seed, global_start=False, settings=settings)
+    out = run_settings(sim, settings, seed, global_start=False)
     pos, head = position_heading_errors(sim.truth, out["mean"])
     old_pos, _ = position_heading_errors(base.truth, out["mean"])
     after = np.arange(kidnap_step, n_steps)
@@ -149,7 +149,7 @@ def _mahalanobis(model: RobotModel, particles: np.ndarray, z: np.ndarray, k: int
     return np.sqrt(np.maximum(2.0 * (model._log_norm - model.log_likelihood(particles, z, k)), 0.0))
 
 
-def anatomy_row(seed: int, n_particles: int, within: float = 2.0) -> dict:
+def anatomy_row(seed: int, n: int, within: float = 2.0) -> dict:
     """The bootstrap filter's uniform cloud at its first readings (no resampling).
 
     ``nearest_m``: position distance from the truth to the nearest particle at step 1;
@@ -160,6 +160,7 @@ def anatomy_row(seed: int, n_particles: int, within: float = 2.0) -> dict:
     ``consistent_3``: particles within ``within`` of each of ``z_1, z_2, z_3``;
     ``ess_1``: effective sample size after weighting by ``z_1``.
     """
+    n_particles = n
     sim = simulate_robot(None, seed, n_steps=4)
     model = RobotModel.for_simulation(sim, initial="uniform")
     rng = np.random.default_rng(seed)  # the filter's stream: initial cloud, then the moves
@@ -193,11 +194,11 @@ def mode_run(seed: int, method: str, n_particles: int = 2000, n_steps: int = 21,
     and ``heading`` rad of the truth, and ``ess_fraction``, ESS / N.
 
     ``method`` is a method of :data:`pfcourse.scenarios.robot.mcl.FILTERS` (the study: ``"bootstrap"`` and
-    ``"mixture"``, with the defaults of :class:`MethodSettings`).
+    ``"mixture"``).
     """
     sim = simulate_robot(None, seed, n_steps=n_steps)
     base = RobotModel.for_simulation(sim, initial="uniform")
-    pf = lookup(FILTERS, method, "method").build(base, n_particles, MethodSettings(), True)
+    pf = settings_of(method, n_particles).build(base)
     res = pf.run(sim.measurements, seed, collect=[Clouds()])
     mass = np.empty(n_steps)
     for k in range(n_steps):
@@ -207,14 +208,14 @@ def mode_run(seed: int, method: str, n_particles: int = 2000, n_steps: int = 21,
     return {"mass_near_truth": mass, "ess_fraction": res.ess / n_particles}
 
 
-def lockon_row(seed: int, method: str, n_particles: int, n_steps: int = 60) -> dict:
-    """:func:`global_run` without its per-step arrays."""
-    return {"seed": seed, "method": method, "n": n_particles, **global_run(seed, method, n_particles, n_steps=n_steps)}
+def lockon_row(seed: int, method: str, n: int, n_steps: int = 60) -> dict:
+    """:func:`global_run` of ``method`` with ``n`` particles, without its per-step arrays."""
+    return {"seed": seed, "method": method, "n": n, **global_run(seed, settings_of(method, n), n_steps=n_steps)}
 
 
-def kidnap_row(seed: int, method: str, n_particles: int) -> dict:
-    """:func:`kidnap_run` with its defaults."""
-    return {"seed": seed, "method": method, "n": n_particles, **kidnap_run(seed, method, n_particles)}
+def kidnap_row(seed: int, method: str, n: int) -> dict:
+    """:func:`kidnap_run` of ``method`` with ``n`` particles and its defaults."""
+    return {"seed": seed, "method": method, "n": n, **kidnap_run(seed, settings_of(method, n))}
 
 
 def ekf_row(seed: int, setting: str, n_particles: int = 300, burn_in: int = 20) -> dict:
@@ -233,11 +234,12 @@ def ekf_row(seed: int, setting: str, n_particles: int = 300, burn_in: int = 20) 
 #: (kld_err = 0.01; kld_z = 0.99, which AMCL's pf_resample_limit uses as the normal quantile itself,
 #: so delta = 1 - Phi(0.99); bins of 0.5 m x 0.5 m x 10 deg, hard-coded in its pf_kdtree.c;
 #: min_particles 500 as in Nav2, max_particles 5000 as in the ROS 1 node), and the book's bound on
-#: AMCL's finer grid alone.  Values: (n_max, MethodSettings).
+#: AMCL's finer grid alone.  Values: the filters' settings records (``kld_mixture``'s, ``N`` = n_max).
 KLD_SETTINGS = {
-    "AMCL defaults": (5000, MethodSettings(kld_epsilon=0.01, kld_delta=float(stats.norm.sf(0.99)), kld_n_min=500,
-                                           kld_bin_size=(0.5, 0.5, float(np.deg2rad(10.0))))),
-    "book bound, 0.5 m bins": (2000, MethodSettings(kld_bin_size=(0.5, 0.5, float(np.deg2rad(10.0))))),
+    "AMCL defaults": settings_of("kld_mixture", 5000).with_(sample_size=kld_policy(
+        (0.5, 0.5, float(np.deg2rad(10.0))), n_min=500, epsilon=0.01, delta=float(stats.norm.sf(0.99)))),
+    "book bound, 0.5 m bins": settings_of("kld_mixture", 2000).with_(
+        sample_size=kld_policy((0.5, 0.5, float(np.deg2rad(10.0))))),
 }
 #: Methods and N of the tracking-cost study (what the mixture proposal spends while tracking).
 TRACKING = [("bootstrap", 2000), ("mixture", 2000)]
@@ -252,26 +254,25 @@ MODES = ("bootstrap", "mixture")
 
 def kld_amcl_row(seed: int, setting: str, n_steps: int = 60) -> dict:
     """:func:`global_run` of ``kld_mixture`` at one :data:`KLD_SETTINGS` setting."""
-    n_max, settings = KLD_SETTINGS[setting]
-    return {"seed": seed, "setting": setting, **global_run(seed, "kld_mixture", n_max, n_steps=n_steps, settings=settings)}
+    return {"seed": seed, "setting": setting, **global_run(seed, KLD_SETTINGS[setting], n_steps=n_steps)}
 
 
-def tracking_row(seed: int, method: str, n_particles: int, n_steps: int = 50, burn_in: int = 10) -> dict:
+def tracking_row(seed: int, method: str, n: int, n_steps: int = 50, burn_in: int = 10) -> dict:
     """Tracking from the known start (no kidnapping): what the mixture proposal spends on the poses it draws
     from the reading.
 
     ``ess_fraction``: mean of ESS_k / N over the measurement steps ``k >= burn_in`` (after weighting,
     before resampling); ``position_rmse`` (m) and ``heading_rmse_deg`` over the same steps.  ``method``
     is a method of :data:`pfcourse.scenarios.robot.mcl.FILTERS` (the study: ``"bootstrap"`` and ``"mixture"``, the kidnap
-    model with :class:`MethodSettings`' teleport and share).
+    model with its teleport and share).
     """
     sim = simulate_robot(None, seed, n_steps=n_steps)
     base = RobotModel.for_simulation(sim, initial="tracking")
-    pf = lookup(FILTERS, method, "method").build(base, n_particles, MethodSettings(), False)
+    pf = settings_of(method, n).build(base)
     res = pf.run(sim.measurements, seed)
     steps = np.arange(burn_in, n_steps)
     steps = steps[sim.has_measurement[steps]]
     pos = position_error(sim.truth[steps], res.mean[steps])
     head = heading_error(sim.truth[steps], res.mean[steps])
-    return {"seed": seed, "method": method, "n": n_particles, "ess_fraction": float(np.mean(res.ess[steps]) / n_particles),
+    return {"seed": seed, "method": method, "n": n, "ess_fraction": float(np.mean(res.ess[steps]) / n),
             "position_rmse": float(rmse(pos)), "heading_rmse_deg": float(np.rad2deg(rmse(head)))}

@@ -12,13 +12,15 @@ kidnapping from :func:`pfcourse.seeding.kidnap_rng`.  The filters resample at ev
 from __future__ import annotations
 
 from dataclasses import dataclass
-from functools import lru_cache, partial
+import copy
+from functools import lru_cache
 from types import SimpleNamespace
 
 import numpy as np
 
 from pfcourse.filter import ParticleFilter
-from pfcourse.filter_config import FilterConfig, configurations, lookup
+from pfcourse.checks import check_probability
+from pfcourse.filter_config import FilterConfig, FilterSettings, configurations, lookup
 from pfcourse.sample_size import KLDSampling
 from pfcourse.scenarios.maprobot.grid import ROUTE, OccupancyGrid, rooms_and_corridor
 from pfcourse.scenarios.maprobot.likelihood_field import LikelihoodField
@@ -96,26 +98,42 @@ def errors(truth: np.ndarray, mean: np.ndarray) -> tuple[np.ndarray, np.ndarray]
     return position_error(truth, mean), heading_error(truth, mean)
 
 
-def mcl_filter(run: MapRun, n_particles: int, *, inject: float = 0.0, start: np.ndarray | None = None,
-               weighting: str = "product") -> ParticleFilter:
-    """The MCL filter (resampling every step) of ``run``'s odometry, carried anywhere with probability ``inject``
-    per step; from ``start`` (tracking) or uniform in free space (``None``); beams combined by ``weighting``."""
-    model = MapRobotModel(book_map(), field(weighting=weighting), run.drive.odometry, motion=MOTION, start=start,
-                          inject=inject)
-    return ParticleFilter(model, n_particles, threshold=1.0)
+def drive_model(run: MapRun, *, start: np.ndarray | None = None, weighting: str = "product") -> MapRobotModel:
+    """The model of ``run``'s drive: its odometry, from ``start`` (tracking) or uniform in free space (``None``),
+    beams combined by ``weighting``."""
+    return MapRobotModel(book_map(), field(weighting=weighting), run.drive.odometry, motion=MOTION, start=start)
 
 
-#: The map robot's filters: ``build(run, n_particles, start=None) -> ParticleFilter``.
-FILTERS: dict[str, FilterConfig] = configurations(
-    FilterConfig("bootstrap", "bootstrap", mcl_filter),
-    FilterConfig("injection", f"injection, ε = {INJECT}", partial(mcl_filter, inject=INJECT)),
-)
+@dataclass(frozen=True)
+class Injection:
+    """The filter's model change of random injection: the robot carried anywhere in free space with
+    probability ``inject`` per step (the kidnap model's transition, :class:`MapRobotModel`'s ``inject``)."""
+
+    inject: float
+
+    @property
+    def label(self) -> str:
+        return f"injection, ε = {self.inject:g}"
+
+    def apply(self, model: MapRobotModel) -> MapRobotModel:
+        changed = copy.copy(model)
+        changed.inject = check_probability(self.inject, "inject")
+        return changed
+
+
+#: The map robot's filters as settings records, Monte Carlo localization resampling at every step
+#: (``N``: the study's, 1000 nominal): ``config.settings.with_(n_particles=N).build(drive_model(run, ...))``.
+FILTERS: dict[str, FilterConfig] = configurations(*(FilterConfig.of(name, settings, n_from_grid=True) for name, settings in [
+    ("bootstrap", FilterSettings(GLOBAL_N, threshold=1.0)),
+    ("injection", FilterSettings(GLOBAL_N, threshold=1.0, model_change=Injection(INJECT))),
+]))
 
 
 def run_filter(run: MapRun, seed: int, n_particles: int, method: str = "bootstrap", *,
                start: np.ndarray | None = None, weighting: str = "product"):
     """The filter ``method`` of :data:`FILTERS` on ``run`` (beams combined by ``weighting``): the engine's result."""
-    pf = lookup(FILTERS, method, "method").build(run, n_particles, start=start, weighting=weighting)
+    settings = lookup(FILTERS, method, "method").settings.with_(n_particles=n_particles)
+    pf = settings.build(drive_model(run, start=start, weighting=weighting))
     return pf.run(run.scans, rng=filter_rng(seed, 0))
 
 

@@ -13,7 +13,8 @@ and every ``N`` sees the same simulations and starts from the same filter seed).
   (``+inf`` when the cloud's covariance is singular);
 * ``seconds_per_step``: wall time of the run over ``K`` (volatile: not re-computed by tests).
 
-The six filters are the named configurations :data:`FILTERS` (:mod:`pfcourse.filter_config`).
+The six filters are the named configurations :data:`FILTERS`, each a
+:class:`~pfcourse.filter_config.FilterSettings` record.
 Row ``method="kalman"`` (``N = 0``) holds the Kalman filter's own NEES.  The stored table lists,
 for each scenario and seed, the Kalman row and then every method and ``N``.
 """
@@ -21,13 +22,10 @@ for each scenario and seed, the Kalman row and then every method and ``N``.
 from __future__ import annotations
 
 import time
-from functools import partial
-
 import numpy as np
 
 from pfcourse.diagnostics import nees
-from pfcourse.filter import ParticleFilter
-from pfcourse.filter_config import FilterConfig, configurations, labels, lookup
+from pfcourse.filter_config import FilterConfig, FilterSettings, configurations, lookup
 from pfcourse.kalman import kalman_filter
 from pfcourse.proposals import FullyAdaptedAuxiliary, LinearGaussianOptimal, OptimalProposal
 from pfcourse.scenarios.landmarks.rao_blackwell import RaoBlackwellModel, RaoBlackwellProposal
@@ -39,39 +37,38 @@ SCENARIOS = {"quadrant": quadrant_scenario, "circle": circle_scenario}
 THRESHOLD = 1 / 3  # the lab's resampling threshold, as in the SIR chapter
 
 
-def _sir(scenario: LandmarkScenario, n_particles: int, optimal: bool = False) -> ParticleFilter:
-    return ParticleFilter(scenario.model(), n_particles, threshold=THRESHOLD,
-                          proposal=OptimalProposal() if optimal else None)
+class RaoBlackwellised:
+    """The model change of the Rao-Blackwellised filters: the landmark model with the map integrated out
+    (:class:`RaoBlackwellModel`, a Kalman filter of the landmarks in each particle)."""
+
+    label = "Rao-Blackwellised"
+
+    def apply(self, model) -> RaoBlackwellModel:
+        return RaoBlackwellModel(model)
 
 
-def _apf(scenario: LandmarkScenario, n_particles: int) -> ParticleFilter:
-    return ParticleFilter(scenario.model(), n_particles, threshold=1.0,
-                          proposal=FullyAdaptedAuxiliary(LinearGaussianOptimal()))
+def _settings(threshold: float = THRESHOLD, proposal=None, rao_blackwellised: bool = False) -> FilterSettings:
+    """A filter of the study (``N``: the grid's; 1000 nominal), systematic resampling at ESS < ``threshold`` N."""
+    return FilterSettings(1000, threshold=threshold, proposal=proposal,
+                          model_change=RaoBlackwellised() if rao_blackwellised else None)
 
 
-def _rbpf(scenario: LandmarkScenario, n_particles: int, optimal: bool) -> ParticleFilter:
-    return ParticleFilter(RaoBlackwellModel(scenario.model()), n_particles, threshold=THRESHOLD,
-                          proposal=RaoBlackwellProposal(optimal=optimal))
-
-
-def _rb_apf(scenario: LandmarkScenario, n_particles: int) -> ParticleFilter:
-    return ParticleFilter(RaoBlackwellModel(scenario.model()), n_particles, threshold=1.0,
-                          proposal=FullyAdaptedAuxiliary(RaoBlackwellProposal(optimal=True)))
-
-
-#: The six filters, in the order of the chapter: ``build(scenario, n_particles) -> ParticleFilter``
-#: (a filter on a :class:`RaoBlackwellModel` integrates the map out; :func:`run_config` returns its
-#: marginal over the full state).
-FILTERS: dict[str, FilterConfig] = configurations(
-    FilterConfig("sir", "SIR, bootstrap", _sir),
-    FilterConfig("sir_optimal", "SIR, optimal proposal", partial(_sir, optimal=True)),
-    FilterConfig("apf", "auxiliary PF (fully adapted)", _apf),
-    FilterConfig("rbpf_prior", "RBPF, prior proposal (FastSLAM 1.0)", partial(_rbpf, optimal=False)),
-    FilterConfig("rbpf_optimal", "RBPF, optimal proposal (FastSLAM 2.0)", partial(_rbpf, optimal=True)),
-    FilterConfig("rb_apf", "RBPF, auxiliary (fully adapted)", _rb_apf),
-)
-#: name -> label (the chapters' legends and tables)
-METHODS: dict[str, str] = labels(FILTERS)
+#: The six filters, in the order of the chapter, as settings records: ``config.settings.with_(n_particles=N)
+#: .build(scenario.model())`` (a filter on a :class:`RaoBlackwellModel` integrates the map out; :func:`run_config`
+#: returns its marginal over the full state).  The auxiliary filters resample at every step (threshold 1).
+FILTERS: dict[str, FilterConfig] = configurations(*(FilterConfig.of(name, settings, n_from_grid=True) for name, settings in [
+    ("sir", _settings()),
+    ("sir_optimal", _settings(proposal=OptimalProposal())),
+    ("apf", _settings(1.0, FullyAdaptedAuxiliary(LinearGaussianOptimal()))),
+    ("rbpf_prior", _settings(proposal=RaoBlackwellProposal(optimal=False), rao_blackwellised=True)),
+    ("rbpf_optimal", _settings(proposal=RaoBlackwellProposal(optimal=True), rao_blackwellised=True)),
+    ("rb_apf", _settings(1.0, FullyAdaptedAuxiliary(RaoBlackwellProposal(optimal=True)), rao_blackwellised=True)),
+]))
+#: name -> the chapters' name of each filter (legends and tables; the settings are in ``FILTERS[name].label``)
+METHODS: dict[str, str] = {"sir": "SIR, bootstrap", "sir_optimal": "SIR, optimal proposal",
+                           "apf": "auxiliary PF (fully adapted)", "rbpf_prior": "RBPF, prior proposal (FastSLAM 1.0)",
+                           "rbpf_optimal": "RBPF, optimal proposal (FastSLAM 2.0)",
+                           "rb_apf": "RBPF, auxiliary (fully adapted)"}
 #: The stored study (``rao_blackwell`` in :mod:`pfcourse.studies.registry`): N per scenario, seeds 0-99.
 N_VALUES = {"quadrant": [30, 100, 300, 1000, 3000], "circle": [100, 1000]}
 N_STEPS = 50  # both scenarios' ``n_samples``: columns nees_00 .. nees_49
@@ -82,7 +79,7 @@ COLUMNS = ("scenario", "method", "N", "seed", "landmark_error", "robot_error", "
 def run_config(method: str, scenario: LandmarkScenario, n_particles: int, Z, seed) -> tuple:
     """Run the filter ``method`` of :data:`FILTERS` on ``Z``: its result over the full state (the
     marginal of a Rao-Blackwellised filter) and the first-stage ESS of an auxiliary filter (else ``None``)."""
-    pf = lookup(FILTERS, method).build(scenario, n_particles)
+    pf = lookup(FILTERS, method).settings.with_(n_particles=n_particles).build(scenario.model())
     res = pf.run(Z, seed)
     if isinstance(pf.model, RaoBlackwellModel):
         res = pf.model.marginal(res)

@@ -11,9 +11,18 @@ stored by :mod:`pfcourse.studies.store`, its provenance beside it
 
 ``tests/test_stored_studies.py`` re-computes a seeded sample of every registered study's
 stored rows (among its ``cheap`` rows) from their recorded settings and seeds, and requires
-the same numbers, float for float (within ``rtol`` for the tables an older script stored
-rounded), and checks that each table has exactly the settings, seeds and order its record
-describes.
+the same numbers, float for float (to the precision the table's provenance records, for the
+tables an older script stored rounded: :meth:`Study.stored_rtol`), and checks that each table
+has exactly the settings, seeds and order its record describes.
+
+**One schema.** A stored table has a column per grid parameter (its name in the grid, its values
+as the grid gives them; those that are neither numbers nor words, ``None`` or tuples, as Python
+literals: :attr:`Study.literals`), the run's seed in ``seed_column``, then the metrics of the row
+function (an ``error`` column is text, ``""`` for a run that did not fail), per-step columns in
+``NAME.npz``.  What made it is in its provenance record, the configurations of its filters as
+data (:meth:`pfcourse.filter_config.FilterSettings.record`).  The tables of older scripts were
+converted to this schema once (``tools/convert_stored_studies.py``, checked by
+``tests/test_converted_studies.py``).
 
 **Adding a study**: write its row function in the experiments module of its scenario (a
 module-level function, so that a process pool can send it), add a :class:`Study` to
@@ -51,6 +60,7 @@ from pfcourse.studies.robot import pf_run
 from pfcourse.studies import robot as robot_experiments
 from pfcourse.studies.store import DATA, load, save
 from pfcourse.studies.terrain import LOST_FLIGHT
+from pfcourse.scenarios.robot import mcl as robot_mcl
 from pfcourse.studies.study import grid_settings, run_study
 from pfcourse.seeding import replicate_seed
 
@@ -74,7 +84,7 @@ class Study:
     the seed ``SEED_RULES[seeds](base_seed, r)`` (common random numbers).  The table is run_study's rows,
     grid after grid, then stably sorted by ``order`` (each column in order of first
     appearance) and cut to ``columns`` (``None``: all).  A stored row's seed is in its
-    ``seed_column``, and its setting in the grid's columns (or those named by ``stored_as``).
+    ``seed_column``, and its setting in the grid's columns.
     """
 
     name: str
@@ -89,14 +99,10 @@ class Study:
     failed_scores: Mapping[str, Any] = field(default_factory=dict)  # a collapsed run's metrics (failures="record")
     columns: tuple[str, ...] | None = None
     order: tuple[str, ...] = ()
-    seed_column: str | None = "seed"  # None: the table keeps no seed (one run, its seed the rule's)
-    stored_as: Mapping[str, str] = field(default_factory=dict)  # grid parameter -> its stored column, if renamed
-    literals: tuple[str, ...] = ()  # columns stored as Python literals (store.save)
+    seed_column: str = "seed"  # the column of the run's seed (a flight's number: "flight")
     arrays: tuple[str, ...] = ()  # per-step columns stored in NAME.npz (store.save)
-    errors_as_text: bool = False  # empty error messages read back as "" (store.load)
     volatile: tuple[str, ...] = ("seconds",)  # wall times: never re-computed
     cheap: Callable[[pd.DataFrame], pd.Series] | None = None  # stored rows quick enough to re-compute
-    rtol: float = 0.0  # re-computed floats must equal the stored ones within rtol (0: exactly; > 0 for rounded tables)
     sample: int = 2  # rows re-computed by the test
     row_code: str = ""
     fields: Mapping = field(default_factory=dict)  # the study's own provenance fields
@@ -108,12 +114,22 @@ class Study:
         if self.failed_scores and self.failures != "record":
             raise ParameterError(f"study {self.name}: failed_scores score the collapsed runs a table records; "
                                  f"give them with failures='record'")
-        if self.seed_column is None and self.n_runs != 1:
-            raise ParameterError(f"study {self.name}: a table that keeps no seed column must have one run per setting")
+        clash = {self.seed_column, "run"} & {key for grid in self.grids for key in grid}
+        if clash:
+            raise ParameterError(f"study {self.name}: a grid parameter cannot be named {sorted(clash)} "
+                                 f"(the columns of the run and its seed)")
 
     @property
     def grids(self) -> tuple[Mapping[str, Sequence], ...]:
         return (self.grid,) if isinstance(self.grid, Mapping) else tuple(self.grid)
+
+    @property
+    def literals(self) -> tuple[str, ...]:
+        """The grid's columns holding values that are neither numbers nor words (``None``, tuples): stored
+        as Python literals (:mod:`pfcourse.studies.store`)."""
+        plain = (int, float, str, np.integer, np.floating)
+        return tuple(dict.fromkeys(key for grid in self.grids for key, values in grid.items()
+                                   if any(not isinstance(v, plain) for v in values)))
 
     @property
     def path(self) -> Path:
@@ -130,11 +146,8 @@ class Study:
         if self.failures == "raise" and (table["status"] != "ok").any():
             failed = table[table["status"] != "ok"].iloc[0]
             raise StepError(f"study {self.name}: run {failed['run']} failed ({failed['error']})")
-        # The stored seed and renamed setting columns come from the runner, so that a failed run has them too.
-        if self.seed_column is not None:
-            table[self.seed_column] = [SEED_RULES[self.seeds](self.base_seed, r) for r in table["run"]]
-        for key, column in self.stored_as.items():
-            table[column] = table[key]
+        # The stored seed comes from the runner, so that a failed run has it too.
+        table[self.seed_column] = [SEED_RULES[self.seeds](self.base_seed, r) for r in table["run"]]
         table = self._ordered(table)
         return table.reindex(columns=list(self.columns)) if self.columns is not None else table  # NaN: no run gave it
 
@@ -157,13 +170,20 @@ class Study:
         record in ``table.attrs["provenance"]``: the one way a chapter reads a stored study."""
         if not self.path.exists():
             raise FileNotFoundError(f"{self.path} is missing: run `python3 tasks.py study {self.name}`")
-        table = load(self.path, literals=self.literals, arrays=self.arrays, errors_as_text=self.errors_as_text)
+        table = load(self.path, literals=self.literals, arrays=self.arrays)
         table.attrs["provenance"] = self.provenance_record()
         return table
 
     def provenance_record(self) -> dict:
         """The provenance record written beside the table (shared by the studies of a group)."""
         return json.loads((DATA / self.provenance).read_text())
+
+    def stored_rtol(self) -> float:
+        """The relative precision of the stored floats: 0 (they round-trip exactly), or that of the
+        significant digits the provenance records for a table an older script stored rounded
+        (``"significant_digits": {file: digits}``)."""
+        digits = self.provenance_record().get("significant_digits", {}).get(Path(self.table).name)
+        return 0.0 if digits is None else 10.0 ** (1 - digits)
 
     def save(self, table: pd.DataFrame) -> None:
         save(self.path, table, literals=self.literals, arrays=self.arrays)
@@ -173,7 +193,7 @@ class Study:
         for grid in self.grids:
             setting = {}
             for key, values in grid.items():
-                match = [v for v in values if same(v, stored[self.stored_as.get(key, key)])]
+                match = [v for v in values if same(v, stored[key])]
                 if not match:
                     break
                 setting[key] = match[0]
@@ -183,8 +203,7 @@ class Study:
 
     def recompute(self, stored: Mapping) -> Mapping:
         """Re-run one stored row from its setting and recorded seed."""
-        seed = SEED_RULES[self.seeds](self.base_seed, 0) if self.seed_column is None else int(stored[self.seed_column])
-        return self.row(seed=seed, **self.setting(stored))
+        return self.row(seed=int(stored[self.seed_column]), **self.setting(stored))
 
 
 def same(a, b, rtol: float = 0.0) -> bool:
@@ -208,25 +227,26 @@ def _likelihood_study(name: str, row: Callable, grid: dict, n_runs: int, base_se
 
 
 def _mcl_study(name: str, row: Callable, grid, **options) -> Study:
-    """A table of the global-localization chapter (stored rounded to 10 significant digits: compared at 1e-9)."""
-    options = {"failures": "raise", **options}
+    """A table of the global-localization chapter (anatomy, lockon, kidnap and ekf_vs_pf were stored with 10
+    significant digits by their first script: the provenance says so, :meth:`Study.stored_rtol`)."""
+    options = {"failures": "raise", "fields": {"filters": records(robot_mcl.FILTERS)}, **options}
     return Study(name=f"global_localization/{name}", row=row, grid=grid, n_runs=100, seeds="run",
                  table=f"global_localization/{name}.csv", provenance="global_localization/provenance.json",
-                 columns=global_localization.COLUMNS[name], rtol=1e-9,
+                 columns=global_localization.COLUMNS[name],
                  row_code=f"pfcourse/studies/global_localization.py ({row.__name__})", **options)
 
 
 def _robot_study(name: str, grid: dict, options: dict) -> Study:
     return Study(name=f"robot_studies/{name}", row=partial(pf_run, **{**robot_studies.DEFAULTS, **options}),
                  grid=grid, n_runs=robot_studies.N_RUNS, table=f"robot_studies/{name}.csv",
-                 provenance="robot_studies/provenance.json", literals=robot_studies.literal_columns(name), arrays=robot_studies.ARRAY_COLUMNS,
-                 errors_as_text=True, row_code="pfcourse/studies/robot.py (pf_run)", fields={"grid": grid, "options": options})
+                 provenance="robot_studies/provenance.json", arrays=robot_studies.ARRAY_COLUMNS,
+                 row_code="pfcourse/studies/robot.py (pf_run)", fields={"grid": grid, "options": options})
 
 
 #: The terrain flight studies record a filter that lost every particle as a lost flight (infinite error).
-_FLIGHTS = {"failures": "record", "failed_scores": LOST_FLIGHT, "errors_as_text": True}
+_FLIGHTS = {"failures": "record", "failed_scores": LOST_FLIGHT}
 #: The global-localization runs record a filter that lost every particle as a failed run, not locked on.
-_GLOBAL_RUNS = {"failures": "record", "failed_scores": global_localization.FAILED_RUN, "errors_as_text": True}
+_GLOBAL_RUNS = {"failures": "record", "failed_scores": global_localization.FAILED_RUN}
 
 #: Every stored study, by name.  A group (``robot_studies``) is the studies named ``group/...``.
 STUDIES: dict[str, Study] = {study.name: study for study in [
@@ -247,7 +267,7 @@ STUDIES: dict[str, Study] = {study.name: study for study in [
           columns=rb_study.COLUMNS, order=("scenario", "run"), volatile=("seconds", "seconds_per_step"),
           cheap=lambda t: (t["method"] != "kalman") & (t["N"] <= 300), sample=3,
           row_code="pfcourse/studies/rb_study.py, pfcourse/scenarios/landmarks/rao_blackwell.py, pfcourse/scenarios/landmarks/auxiliary.py",
-          fields={"methods": rb_study.METHODS, "threshold": rb_study.THRESHOLD,
+          fields={"methods": rb_study.METHODS, "filters": records(rb_study.FILTERS),
                   "seeds": "simulation seed s, filter seed s + 10**6 (same for every method and N)"}),
     Study(name="proposals", row=part1_studies.proposals_row,
           grid={"setting": part1_studies.SETTINGS, "proposal": part1_studies.PROPOSALS}, n_runs=50, seeds="run",
@@ -308,10 +328,8 @@ STUDIES: dict[str, Study] = {study.name: study for study in [
                       {"flight": list(range(ls.N_TERRAIN_FLIGHTS)), "n_particles": [ls.N_TERRAIN]}, 1, 0,
                       columns=("flight", "n_particles", "run", "seed", "status", "error", "rf_scale_ml", "nfev",
                                "log_lik_ml", "log_lik_truth"), sample=1),
-    _mcl_study("anatomy", global_localization.anatomy_row, {"n_particles": global_localization.ANATOMY_N},
-               stored_as={"n_particles": "n"}, sample=3),
-    *(_mcl_study(name, row, tuple({"method": [m], "n_particles": [n]} for m, n in pairs),
-                 stored_as={"n_particles": "n"}, **options)
+    _mcl_study("anatomy", global_localization.anatomy_row, {"n": global_localization.ANATOMY_N}, sample=3),
+    *(_mcl_study(name, row, tuple({"method": [m], "n": [n]} for m, n in pairs), **options)
       for name, row, pairs, options in [
           ("lockon", global_localization.lockon_row, global_localization.LOCKON,
            {"sample": 4, "cheap": lambda t: (t["n"] <= 10000) | (t["method"] != "bootstrap"),  # 30 000: seconds
@@ -331,8 +349,7 @@ STUDIES: dict[str, Study] = {study.name: study for study in [
     Study(name="terrain_reference", row=terrain_remedies.reference_row,
           grid={"N": terrain_remedies.REFERENCE_SIZES, "repeat": terrain_remedies.REFERENCE_REPEATS},
           n_runs=5, seeds="run", failures="raise", table="terrain_reference.csv", provenance="terrain_reference.json",
-          columns=terrain_remedies.REFERENCE_COLUMNS, order=("run",), seed_column="flight",
-          stored_as={"repeat": "seed"}, cheap=lambda t: t["N"] == t["N"].min(), sample=1,  # about 10 s a row
+          columns=terrain_remedies.REFERENCE_COLUMNS, order=("run",), seed_column="flight", cheap=lambda t: t["N"] == t["N"].min(), sample=1,  # about 10 s a row
           row_code="pfcourse/studies/terrain_remedies.py (reference_row)",
           fields={"seeds": "flight r: pfcourse.seeding.data_rng(0, r); filter: pfcourse.seeding.reference_rng(0, r, repeat)",
                   "filter": "bootstrap, systematic resampling at ESS < N/2"}),
@@ -352,14 +369,14 @@ STUDIES: dict[str, Study] = {study.name: study for study in [
           table="global_localization/kld_amcl.csv", provenance="global_localization/kld_amcl.json",
           columns=global_localization.COLUMNS["kld_amcl"], sample=2,
           row_code="pfcourse/studies/global_localization.py (kld_amcl_row)",
-          fields={"settings": {name: {"n_max": n, **vars(s)} for name, (n, s) in global_localization.KLD_SETTINGS.items()},
-                  "method": "kld_mixture (KLD-sampling with the mixture proposal, share MethodSettings.kld_share)"}),
+          fields={"settings": {name: s.record() for name, s in global_localization.KLD_SETTINGS.items()}}),
     Study(name="global_localization/tracking_cost", row=global_localization.tracking_row,
-          grid=tuple({"method": [m], "n_particles": [n]} for m, n in global_localization.TRACKING), n_runs=100,
+          grid=tuple({"method": [m], "n": [n]} for m, n in global_localization.TRACKING), n_runs=100,
           seeds="run", failures="raise", table="global_localization/tracking_cost.csv",
           provenance="global_localization/tracking_cost.json", columns=global_localization.COLUMNS["tracking_cost"],
-          stored_as={"n_particles": "n"}, sample=3,
-          row_code="pfcourse/studies/global_localization.py (tracking_row)"),
+          sample=3,
+          row_code="pfcourse/studies/global_localization.py (tracking_row)",
+          fields={"filters": records(robot_mcl.FILTERS)}),
     Study(name="data_association", row=association.row, grid={"clutter_rate": list(association.CLUTTER_RATES)},
           n_runs=association.N_RUNS, seeds="run", failures="raise", table="data_association.csv",
           provenance="data_association.json",
@@ -449,7 +466,7 @@ STUDIES: dict[str, Study] = {study.name: study for study in [
             table=f"maprobot/{name}.csv", provenance=f"maprobot/{name}.json", columns=columns, sample=1,
             row_code=f"pfcourse/studies/maprobot.py ({row.__name__})",
             fields={"seeds": "run s: drive and scans pfcourse.seeding.data_rng(s, 0); filter filter_rng(s, 0); "
-                             "kidnapping kidnap_rng(s)", "dt": maprobot.DT, "inject": maprobot.INJECT})
+                             "kidnapping kidnap_rng(s)", "dt": maprobot.DT, "filters": records(maprobot.FILTERS)})
       for name, row, grid, columns in [
           ("tracking", maprobot.tracking_row, {"n_particles": [maprobot.TRACKING_N], "weighting": list(maprobot.WEIGHTINGS)},
            ("weighting", "n_particles", "seed", "position_rmse", "heading_rmse", "locked_on",

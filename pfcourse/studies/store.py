@@ -4,16 +4,16 @@ A stored table is a CSV file, one row per run, with floats written by ``repr`` s
 round-trip exactly (:func:`pfcourse.studies.provenance.write_rows`).  Two kinds of column
 need more than a number or a plain word:
 
-* ``literals``: settings that are not all numbers (``None``, tuples, quoted names), written as
-  Python literals and read back with :func:`ast.literal_eval`;
+* ``literals``: settings that are neither numbers nor words (``None``, tuples), written as
+  Python literals and read back with :func:`ast.literal_eval` (a study's are the columns of its
+  grid that hold such values: :attr:`pfcourse.studies.registry.Study.literals`);
 * ``arrays``: per-step columns (one NumPy array per row), kept beside the table in
   ``NAME.npz`` (one 2-D array per column, one row per table row; a row all NaN, a failed run
   that the study gives no scores, reads back as NaN).
 
-With ``errors_as_text``, the empty ``error`` messages of
-:func:`~pfcourse.studies.study.run_study`'s rows are read back as ``""`` (not NaN, what
-``pandas.read_csv`` gives), so that :func:`load` returns the table as ``run_study`` made it
-(``seconds`` as stored).  The provenance of a table (code, commit,
+The empty ``error`` messages of :func:`~pfcourse.studies.study.run_study`'s rows are read back
+as ``""`` (not NaN, what ``pandas.read_csv`` gives), so that :func:`load` returns the table as
+``run_study`` made it (``seconds`` as stored).  The provenance of a table (code, commit,
 seeds, settings, wall time) is the JSON record of
 :func:`pfcourse.studies.provenance.write_provenance`, written beside it.
 """
@@ -53,12 +53,11 @@ def save(path: Path, table: pd.DataFrame, *, literals: Sequence[str] = (), array
         np.savez_compressed(path.with_suffix(".npz"), **stacked)
 
 
-def load(path: Path, *, literals: Sequence[str] = (), arrays: Sequence[str] = (),
-         errors_as_text: bool = False) -> pd.DataFrame:
+def load(path: Path, *, literals: Sequence[str] = (), arrays: Sequence[str] = ()) -> pd.DataFrame:
     """The table stored at ``path`` by :func:`save` (floats exact: pandas >= 3 parses them precisely)."""
     path = Path(path)
     table = pd.read_csv(path, converters={column: ast.literal_eval for column in literals})
-    if errors_as_text and "error" in table.columns:
+    if "error" in table.columns:
         table["error"] = ["" if isinstance(v, float) else v for v in table["error"]]  # read back as NaN
     arrays_path = path.with_suffix(".npz")
     if arrays and arrays_path.exists():

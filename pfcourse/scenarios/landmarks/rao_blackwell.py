@@ -190,6 +190,11 @@ class RaoBlackwellProposal:
     def __init__(self, optimal: bool = True) -> None:
         self.optimal = bool(optimal)
 
+    @property
+    def label(self) -> str:
+        """Its name in a filter's label (:class:`pfcourse.filter_config.FilterSettings`)."""
+        return "optimal proposal (FastSLAM 2.0)" if self.optimal else "prior proposal (FastSLAM 1.0)"
+
     def _parts(self, model: RaoBlackwellModel, particles: Array, z: Array):
         r_pred, m_pred, P_pred = model.predict(particles)
         mask, z_o, H_o, R_o = model.base.observed(z)

@@ -55,8 +55,8 @@ until their number exceeds the bound
 ``1 - delta`` the Kullback-Leibler divergence between the sample-based and the true binned
 posterior is below ``eps``.  The number of particles follows the spread of the cloud.
 
-:func:`run_method` filters one simulation with one of these methods, the named configurations
-:data:`FILTERS` (:mod:`pfcourse.filter_config`); the study runs (a whole
+:func:`run_settings` filters one simulation with one of these methods, the named configurations
+:data:`FILTERS`, each a :class:`~pfcourse.filter_config.FilterSettings` record; the study runs (a whole
 seeded experiment and its metrics, the lock-on window, the wrong-but-confident threshold) are
 in :mod:`pfcourse.studies.global_localization`.
 """
@@ -67,7 +67,6 @@ import math
 import time
 from collections.abc import Sequence
 from dataclasses import dataclass
-from functools import partial
 
 import numpy as np
 from scipy import stats
@@ -78,7 +77,7 @@ from pfcourse.checks import Array, check_probability
 from pfcourse.collectors import Stages
 from pfcourse.errors import ParameterError
 from pfcourse.filter import ParticleFilter
-from pfcourse.filter_config import FilterConfig, configurations, lookup
+from pfcourse.filter_config import FilterConfig, FilterSettings, configurations, lookup
 from pfcourse.metrics import position_error
 from pfcourse.results import FilterResult
 from pfcourse.jitter import RegularisedJitter
@@ -257,18 +256,29 @@ class AugmentedMCL:
     ``injected`` records, per resampling, the injection probability ``max(0, 1 - w_fast / w_slow)``.
     """
 
-    def __init__(self, model: RobotModel, *, alpha_slow: float = 0.01, alpha_fast: float = 0.1,
+    #: what a filter's settings record of it (:func:`pfcourse.filter_config.describe`): not its state
+    settings_fields = ("alpha_slow", "alpha_fast", "source")
+    label = "augmented MCL"
+
+    def __init__(self, model: RobotModel | None = None, *, alpha_slow: float = 0.01, alpha_fast: float = 0.1,
                  source: str = "sensor") -> None:
         if not 0 < alpha_slow < alpha_fast <= 1:
             raise ParameterError(f"need 0 < alpha_slow < alpha_fast <= 1, got {alpha_slow}, {alpha_fast}")
         if source not in ("sensor", "uniform"):
             raise ParameterError(f"source must be 'sensor' or 'uniform', got {source!r}")
-        self.model = model
         self.alpha_slow, self.alpha_fast, self.source = float(alpha_slow), float(alpha_fast), source
-        self.sensor = SensorPoseSampler(model.landmarks, np.asarray(model.r_est, dtype=float))
+        self.model = self.sensor = None
+        if model is not None:
+            self.for_model(model)
         self.w_slow = self.w_fast = None
         self.z = None
         self.injected: list[float] = []
+
+    def for_model(self, model: RobotModel) -> AugmentedMCL:
+        """This object, drawing its injected poses on ``model``'s map (a settings template has none yet)."""
+        self.model = model
+        self.sensor = SensorPoseSampler(model.landmarks, np.asarray(model.r_est, dtype=float))
+        return self
 
     def update_averages(self, log_avg: float) -> None:
         """``w += alpha (w_avg - w)`` for both averages (in the log domain, so tiny likelihoods do not underflow)."""
@@ -351,85 +361,83 @@ def kidnap(sim: RobotSimulation, step: int, pose: Sequence[float]) -> RobotSimul
 
 
 @dataclass(frozen=True)
-class MethodSettings:
-    """Tuning of the remedies (defaults used by the chapter)."""
+class KidnapModel:
+    """The filter's model change of the mixture proposal: the robot of ``RobotModel`` with the teleport
+    probability ``teleport`` (:class:`KidnapRobotModel`; a global start, ``eps_1 = 1``, when the robot's
+    initial cloud is uniform)."""
 
     teleport: float = 1e-3
+
+    @property
+    def label(self) -> str:
+        return f"kidnap model (eps = {self.teleport:g})"
+
+    def apply(self, base: RobotModel) -> KidnapRobotModel:
+        return KidnapRobotModel(base, self.teleport, global_start=base.initial == "uniform")
+
+
+@dataclass(frozen=True)
+class SensorMixture:
+    """The template of :func:`sensor_mixture_proposal` in a filter's settings: ``share`` of the particles
+    drawn from the reading (all of them at a uniform step), ``spread`` scaling its standard deviations."""
+
     share: float = 0.1
     spread: float = 1.0
-    alpha_slow: float = 0.01
-    alpha_fast: float = 0.1
-    kld_share: float = 0.02
-    kld_n_min: int = 100
-    kld_epsilon: float = 0.05
-    kld_delta: float = 0.01
-    kld_bin_size: tuple[float, float, float] = (1.0, 1.0, float(np.deg2rad(10.0)))  # AMCL's: (0.5, 0.5, 10 deg)
-    temper_readings: int = 10
-    temper_ess: float = 0.5
-    temper_kernel: float = 0.5
+
+    @property
+    def label(self) -> str:
+        return f"mixture proposal ({self.share:g} from the reading)"
+
+    def for_model(self, model: KidnapRobotModel) -> DensityProposal:
+        return sensor_mixture_proposal(model, self.share, self.spread)
 
 
-def _bootstrap(base: RobotModel, n_particles: int, settings: MethodSettings, global_start: bool) -> ParticleFilter:
-    return ParticleFilter(base, n_particles)
+def kld_policy(bin_size=(1.0, 1.0, float(np.deg2rad(10.0))), n_min: int = 100, epsilon: float = 0.05,
+                delta: float = 0.01) -> KLDSampling:
+    """The book's KLD-sampling bound (AMCL's grid is 0.5 m x 0.5 m x 10 deg), batches of 100."""
+    return KLDSampling(bin_size, n_min=n_min, epsilon=epsilon, delta=delta, batch=100)
 
 
-def _mixture(base: RobotModel, n_particles: int, settings: MethodSettings, global_start: bool) -> ParticleFilter:
-    model = KidnapRobotModel(base, settings.teleport, global_start=global_start)
-    return ParticleFilter(model, n_particles, proposal=sensor_mixture_proposal(model, settings.share, settings.spread))
+def _augmented(alpha_slow: float = 0.01, alpha_fast: float = 0.1) -> FilterSettings:
+    aug = AugmentedMCL(alpha_slow=alpha_slow, alpha_fast=alpha_fast)
+    return FilterSettings(2000, threshold=1.0, proposal=aug, jitter=aug)  # one object: proposal and injection
 
 
-def _tempered(base: RobotModel, n_particles: int, settings: MethodSettings, global_start: bool) -> ParticleFilter:
-    pc = ProgressiveCorrection(n_tempered=settings.temper_readings, ess_fraction=settings.temper_ess,
-                               kernel=RegularisedJitter(settings.temper_kernel, ANGLE_INDICES))
-    return ParticleFilter(base, n_particles, threshold=1.0, proposal=pc)
-
-
-def _augmented(base: RobotModel, n_particles: int, settings: MethodSettings, global_start: bool) -> ParticleFilter:
-    aug = AugmentedMCL(base, alpha_slow=settings.alpha_slow, alpha_fast=settings.alpha_fast)
-    return ParticleFilter(base, n_particles, threshold=1.0, proposal=aug, jitter=aug)
-
-
-def _kld(base: RobotModel, n_particles: int, settings: MethodSettings, global_start: bool,
-         mixture: bool = False) -> ParticleFilter:
-    model, prop = base, None
-    if mixture:
-        model = KidnapRobotModel(base, settings.teleport, global_start=global_start)
-        prop = sensor_mixture_proposal(model, settings.kld_share, settings.spread)
-    policy = KLDSampling(settings.kld_bin_size, n_min=settings.kld_n_min, epsilon=settings.kld_epsilon,
-                         delta=settings.kld_delta, batch=100)
-    return ParticleFilter(model, n_particles, proposal=prop, sample_size=policy)
-
-
-#: The global-localization methods: ``build(base, n_particles, settings, global_start) -> ParticleFilter``
-#: (``base``: the robot's :class:`RobotModel`; ``settings``: :class:`MethodSettings`; ``n_particles``
-#: is ``n_max`` for KLD-sampling).
-FILTERS: dict[str, FilterConfig] = configurations(
-    FilterConfig("bootstrap", "bootstrap", _bootstrap),
-    FilterConfig("mixture", "mixture proposal (reading and kidnap model)", _mixture),
-    FilterConfig("augmented", "augmented MCL", _augmented),
-    FilterConfig("kld", "KLD-sampling", _kld),
-    FilterConfig("kld_mixture", "KLD-sampling, mixture proposal", partial(_kld, mixture=True)),
-    FilterConfig("tempered", "progressive correction", _tempered),
-)
+#: The global-localization methods as settings records (``N``: the study's grid gives it; 2000 nominal,
+#: ``n_max`` for KLD-sampling): ``config.settings.with_(n_particles=N).build(base)``, ``base`` the robot's
+#: :class:`RobotModel` (its initial cloud uniform for global localization, around the start for tracking).
+#: Progressive correction tempers the first 10 readings (stages while ESS < N/2, a regularised kernel at
+#: 0.5 h_opt on the heading), the bootstrap filter afterwards.
+FILTERS: dict[str, FilterConfig] = configurations(*(FilterConfig.of(name, settings, n_from_grid=True) for name, settings in [
+    ("bootstrap", FilterSettings(2000)),
+    ("mixture", FilterSettings(2000, proposal=SensorMixture(0.1), model_change=KidnapModel(1e-3))),
+    ("augmented", _augmented()),
+    ("kld", FilterSettings(2000, sample_size=kld_policy())),
+    ("kld_mixture", FilterSettings(2000, proposal=SensorMixture(0.02), model_change=KidnapModel(1e-3),
+                                   sample_size=kld_policy())),
+    ("tempered", FilterSettings(2000, threshold=1.0, proposal=ProgressiveCorrection(
+        n_tempered=10, ess_fraction=0.5, kernel=RegularisedJitter(0.5, ANGLE_INDICES)))),
+]))
 METHODS = tuple(FILTERS)
 
 
-def run_method(sim: RobotSimulation, method: str, n_particles: int, seed: int, *, global_start: bool = True,
-               settings: MethodSettings = MethodSettings()) -> dict:
-    """Filter ``sim`` with ``method`` (one of :data:`FILTERS`); ``n_particles`` is ``N`` (``n_max`` for KLD).
+def settings_of(method: str, n_particles: int) -> FilterSettings:
+    """The settings record of ``method`` (one of :data:`FILTERS`) with ``N = n_particles`` (``n_max`` for KLD)."""
+    return lookup(FILTERS, method, "method").settings.with_(n_particles=n_particles)
 
-    ``tempered`` is progressive correction (Oudjane and Musso 2000, :class:`pfcourse.proposals.ProgressiveCorrection`)
-    at the first ``settings.temper_readings`` readings, the bootstrap filter afterwards.
+
+def run_settings(sim: RobotSimulation, settings: FilterSettings, seed: int, *, global_start: bool = True) -> dict:
+    """Filter ``sim`` with the filter of ``settings`` (a record of :data:`FILTERS`, or a variant of one).
+
     Returns ``mean`` ``(K, 3)``, ``cov`` ``(K, 3, 3)``, ``n_used`` ``(K,)`` (particles per step),
     ``likelihood_evaluations`` ``(K,)`` (particles times the stages of progressive correction: the
     cost behind ``particle_steps``), ``seconds`` and, for
     augmented MCL, ``injected`` (probability per resampling).
     """
-    config = lookup(FILTERS, method, "method")
     base = RobotModel.for_simulation(sim, initial="uniform" if global_start else "tracking")
     out: dict = {}
     start = time.perf_counter()
-    pf = config.build(base, n_particles, settings, global_start)
+    pf = settings.build(base)
     res = pf.run(sim.measurements, seed, collect=[Stages()])
     if isinstance(pf.proposal, AugmentedMCL):
         out["injected"] = np.array(pf.proposal.injected)
@@ -439,6 +447,11 @@ def run_method(sim: RobotSimulation, method: str, n_particles: int, seed: int, *
     # each stage of progressive correction evaluates the likelihood of the whole cloud once more
     out["likelihood_evaluations"] = res.sizes * res.collected["stages"]
     return out
+
+
+def run_method(sim: RobotSimulation, method: str, n_particles: int, seed: int, *, global_start: bool = True) -> dict:
+    """:func:`run_settings` of the method ``method`` of :data:`FILTERS` with ``N = n_particles``."""
+    return run_settings(sim, settings_of(method, n_particles), seed, global_start=global_start)
 
 
 def kidnap_pose(seed: int, truth_at: Array, half_width: float = 60.0, min_distance: float = 30.0) -> Array:
