@@ -242,17 +242,12 @@ def knife_edge(args: list[str]) -> None:
 
 
 def study(args: list[str]) -> None:
-    """Run the registered study NAME (pfcourse.studies.registry; stored under book/data/) in the
-    pinned environment, or `pmmh`, Part V's PMMH chains (tools/studies/pmmh.py: a chain is not a set
-    of independent runs, so it is the one stored computation that is not a registered study)."""
+    """Run the registered study (or group) NAME (pfcourse.studies.registry; stored under book/data/)
+    in the pinned environment."""
     if not args:
         raise SystemExit("usage: python3 tasks.py study NAME [ARGS...] (the registered studies: "
                          "pfcourse.studies.registry.STUDIES)")
-    script = ROOT / "tools" / "studies" / f"{args[0]}.py"
-    if script.exists():
-        run(PY, script, *args[1:])
-    else:
-        run(PY, "-m", "pfcourse.studies.registry", *args)
+    run(PY, "-m", "pfcourse.studies.registry", *args)
 
 
 def lab(args: list[str]) -> None:

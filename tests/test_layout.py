@@ -24,6 +24,7 @@ without matplotlib (checked in a fresh interpreter).  Imports are read with ``as
 from __future__ import annotations
 
 import ast
+import json
 import re
 import subprocess
 import sys
@@ -165,10 +166,9 @@ def test_rmse_is_written_once():
 
 
 #: How a chapter must not read a stored study: the one reader is ``STUDIES[name].load()`` (the
-#: table, its provenance in ``table.attrs["provenance"]``).  The PMMH chains (tools/studies/pmmh.py)
-#: are the one stored computation that is not a registered study; the cross-checks against ``particles``
+#: table, its provenance in ``table.attrs["provenance"]``); the cross-checks against ``particles``
 #: are read by ``registry.cross_check``.
-OTHER_READERS = re.compile(r"read_csv\((?![^)]*pmmh\.csv)|json\.loads?\(|store import load|\.find\(")
+OTHER_READERS = re.compile(r"read_csv\(|json\.loads?\(|store import load|\.find\(")
 
 
 @pytest.mark.parametrize("chapter", sorted((PACKAGE.parent / "book").glob("part*/*.py")), ids=lambda p: p.stem)
@@ -246,6 +246,16 @@ def test_a_scenario_names_its_filters_in_one_registry(module):
 
     filters = importlib.import_module(module).FILTERS
     assert filters and all(isinstance(c, FilterConfig) and c.name == name for name, c in filters.items())
+    # configurations as data (issue 44): each a FilterSettings record, its label derived from it and told
+    # apart from the others', its provenance record plain data
+    from pfcourse.filter_config import FilterSettings, records
+
+    assert all(isinstance(c.settings, FilterSettings) for c in filters.values())
+    assert all(c.label in (c.settings.label, c.settings.kind) or c.label.startswith(c.settings.label)
+               for c in filters.values())
+    assert len({c.label for c in filters.values()}) == len(filters)
+    written = records(filters)
+    assert json.loads(json.dumps(written)) == written
 
 
 def test_no_string_dispatch_factory():
@@ -260,10 +270,9 @@ def test_no_string_dispatch_factory():
 
 
 def test_every_stored_study_is_registered():
-    """``python3 tasks.py study NAME`` runs a registered Study; ``tools/studies/`` keeps only the PMMH chains
-    (a chain is one dependent sequence, not independent seeded runs: see tools/studies/pmmh.py), and no
-    test loads a study script through ``sys.path``."""
-    assert sorted(p.name for p in (ROOT / "tools" / "studies").glob("*.py")) == ["pmmh.py"]
+    """``python3 tasks.py study NAME`` runs a registered Study (the PMMH chains too, one chain a row); no
+    study script is left in ``tools/studies/``, and no test loads one through ``sys.path``."""
+    assert not list((ROOT / "tools" / "studies").glob("*.py"))
     for test in sorted((ROOT / "tests").glob("test_*.py")):
         source = test.read_text()
         for node in ast.walk(ast.parse(source)):

@@ -1,7 +1,7 @@
 """The stored studies of Part V (book/data/likelihood/): every table has its provenance and no failed
-run; the PMMH chains are what pfcourse.studies.likelihood_studies computes (their first
-iterations re-computed). The other tables are registered studies, whose rows
-tests/test_stored_studies.py re-computes.
+run; the PMMH chains are what pfcourse.studies.likelihood_studies computes (the first iterations
+of a seeded choice of chain re-computed: a long chain takes minutes). The other tables' rows are
+re-computed by tests/test_stored_studies.py.
 """
 
 from __future__ import annotations
@@ -14,6 +14,7 @@ import pandas as pd
 import pytest
 
 from pfcourse.studies import likelihood_studies as ls
+from pfcourse.studies.registry import STUDIES
 
 ROOT = Path(__file__).resolve().parents[1]
 DATA = ROOT / "book" / "data" / "likelihood"
@@ -35,10 +36,9 @@ def test_every_table_has_its_provenance(name):
 
 
 def test_pmmh_chain_prefix():
-    table = pd.read_csv(DATA / "pmmh.csv")
-    n = int(sample(table.drop_duplicates("n_particles"), 1, 3)["n_particles"].iloc[0])
-    stored = table[table["n_particles"] == n].sort_values("iteration").head(12)
-    chain, _ = ls.pmmh_chain(n, n_iterations=12)
-    np.testing.assert_allclose(chain.theta, stored["theta"], rtol=1e-12)
-    np.testing.assert_allclose(chain.log_likelihood, stored["log_likelihood"], rtol=1e-12)
-    np.testing.assert_array_equal(chain.accepted, stored["accepted"].to_numpy())
+    """The first iterations of a stored chain, re-computed from its row's setting and seed, float for float."""
+    chains = STUDIES["likelihood/pmmh"].load()
+    row = sample(chains, 1, 3).iloc[0]
+    fresh = ls.pmmh_row(int(row["seed"]), int(row["n_particles"]), iterations=12)
+    for key in ("theta", "log_likelihood", "accepted"):
+        assert np.array_equal(fresh[key], row[key][:12]), key

@@ -30,9 +30,8 @@ def test_stored_table_has_every_setting_and_seed_in_order(study: Study):
     stored, layout = study.load(), study.layout()
     assert len(stored) == len(layout)
     for key in {key for grid in study.grids for key in grid}:
-        assert all(same(a, b) for a, b in zip(stored[study.stored_as.get(key, key)], layout[key])), key
-    if study.seed_column is not None:
-        assert list(stored[study.seed_column]) == list(layout["seed"])
+        assert all(same(a, b) for a, b in zip(stored[key], layout[key])), key
+    assert list(stored[study.seed_column]) == list(layout["seed"])
     record = json.loads((DATA / study.provenance).read_text())
     commits = [record["git_commit"]] if "git_commit" in record else [run["commit"] for run in record["runs"]]
     assert commits and all(len(commit) == 40 for commit in commits)  # (terrain_remedies ran in several goes)
@@ -43,6 +42,7 @@ def test_a_seeded_sample_of_stored_rows_is_recomputed(study: Study):
     stored = study.load()
     candidates = stored[study.cheap(stored)] if study.cheap is not None else stored
     rng = np.random.default_rng([2026, zlib.crc32(study.name.encode())])
+    rtol = study.stored_rtol()  # 0: floats that round-trip; a table an older script rounded says so in its provenance
     for i in rng.choice(len(candidates), study.sample, replace=False):
         row = candidates.iloc[int(i)]
         if "status" in row and row["status"] != "ok":
@@ -52,7 +52,7 @@ def test_a_seeded_sample_of_stored_rows_is_recomputed(study: Study):
         fresh = study.recompute(row)
         for key, value in fresh.items():
             if key in stored.columns and key not in study.volatile:
-                assert same(row[key], value, study.rtol), f"{study.name} row {row.name}: {key} {row[key]!r} != {value!r}"
+                assert same(row[key], value, rtol), f"{study.name} row {row.name}: {key} {row[key]!r} != {value!r}"
 
 
 def test_the_store_round_trips_every_kind_of_column(tmp_path):
@@ -62,7 +62,7 @@ def test_the_store_round_trips_every_kind_of_column(tmp_path):
                           "error": [""] * 5 + ["StepError: lost"], "lost": [True, False] * 3,
                           "trace": [np.arange(3.0) * v for v in values[:5]] + [np.nan]})
     save(tmp_path / "t.csv", table, literals=["gap"], arrays=["trace"])
-    back = load(tmp_path / "t.csv", literals=["gap"], arrays=["trace"], errors_as_text=True)
+    back = load(tmp_path / "t.csv", literals=["gap"], arrays=["trace"])
     pd.testing.assert_frame_equal(back.drop(columns="trace"), table.drop(columns="trace"), check_exact=True)
     assert all(same(a, b) for a, b in zip(back["trace"], table["trace"]))
 
@@ -87,10 +87,9 @@ def test_a_study_is_run_stored_and_recorded_by_name(tmp_path, monkeypatch):
 
     monkeypatch.setattr(registry, "DATA", tmp_path)
     toys = [Study(name="toy/one", row=_toy_row, grid=({"a": [2], "b": ["p"]}, {"a": [1, 3], "b": ["q"]}), n_runs=2,
-                  seeds="run", base_seed=5, table="toy/one.csv", provenance="toy/provenance.json", order=("run",),
-                  errors_as_text=True),
+                  seeds="run", base_seed=5, table="toy/one.csv", provenance="toy/provenance.json", order=("run",)),
             Study(name="toy/two", row=_toy_row, grid={"a": [1], "b": ["r"]}, n_runs=3, table="toy/two.csv",
-                  provenance="toy/provenance.json", columns=("a", "b", "seed", "x"), errors_as_text=True)]
+                  provenance="toy/provenance.json", columns=("a", "b", "seed", "x"))]
     for toy in toys:
         monkeypatch.setitem(registry.STUDIES, toy.name, toy)
     assert registry.main(["toy"]) == 0
@@ -122,12 +121,24 @@ def test_a_filter_that_loses_every_particle_is_recorded_by_the_runner(name):
     stored = study.load()
     assert list(table.columns) == list(study.columns) and set(table.columns) == set(stored.columns)
     assert (table["status"] == "failed").all() and table["error"].str.startswith("DegenerateWeightsError: every particle").all()
-    assert list(table[study.seed_column or "seed"]) == list(study.layout(n_runs=2)["seed"])
+    assert list(table[study.seed_column]) == list(study.layout(n_runs=2)["seed"])
     for column, value in study.failed_scores.items():
         assert all(same(v, value) for v in table[column]), column
     if "final_error" in table:
         assert np.isinf(table["final_error"]).all()
     assert "lost" not in table or table["lost"].all()
+
+
+def test_the_schema_is_derived_not_declared():
+    """Literal columns are the grid's values that are neither numbers nor words; the precision of a
+    rounded table is its provenance's; a grid parameter cannot take the name of the run or its seed."""
+    assert STUDIES["robot_studies/gap"].literals == ("gap",) and STUDIES["robot_studies/scheme"].literals == ()
+    assert STUDIES["global_localization/lockon"].stored_rtol() == pytest.approx(1e-9)
+    assert STUDIES["global_localization/modes"].stored_rtol() == 0.0 == STUDIES["rao_blackwell"].stored_rtol()
+    with pytest.raises(ParameterError, match="cannot be named"):
+        Study(name="x", row=dict, grid={"seed": [1]}, n_runs=1, table="x.csv", provenance="x.json")
+    legacy = {"stored_as", "literals", "errors_as_text", "rtol"} & {f.name for f in dataclasses.fields(Study)}
+    assert not legacy, legacy
 
 
 def test_failed_scores_need_the_record_policy():

@@ -98,6 +98,7 @@
 import pandas as pd
 
 from pfcourse import evidence
+from pfcourse.studies.likelihood_studies import chain_rows
 from pfcourse.studies.registry import STUDIES
 from pfcourse.book.report import EvidenceBlock, glue_values
 from pfcourse.book.panels import control_panel, particle_slider, seed_box
@@ -107,7 +108,6 @@ from pfcourse.seeding import likelihood_rng
 from pfcourse.book.style import COLORS, plain_log_axis, use_style
 
 use_style()
-DATA = "../data/likelihood/"
 
 # %%
 import matplotlib.pyplot as plt
@@ -526,7 +526,7 @@ assert np.allclose(ours, theirs, rtol=TOL)  # the prose: the loop gives pfcourse
 # The loop gives the same chain as `pfcourse.pmmh` with the same seed. The exact posterior to compare
 # with is the Kalman likelihood on a grid of $u$, normalised. A short chain of $T = 250$ iterations,
 # started at $\vartheta = 1$, runs in the page; the three long chains of the figure (started at
-# $\vartheta = 2$, $N = 100$, $300$ and $1000$) are stored data (`tools/studies/pmmh.py`, provenance in
+# $\vartheta = 2$, $N = 100$, $300$ and $1000$) are stored data (the study `likelihood/pmmh`, provenance in
 # `book/data/likelihood/pmmh.json`).
 
 # %%
@@ -538,7 +538,7 @@ exact_density, exact_mean, exact_sd = grid_posterior(
 print(f"exact posterior: mean {exact_mean:.3f}, sd {exact_sd:.3f}")
 
 # %% tags=["remove-input"] jupyter={"source_hidden": true}
-chains = pd.read_csv(DATA + "pmmh.csv")
+chains = chain_rows(STUDIES["likelihood/pmmh"].load())
 BURN_IN = 200
 
 # %% tags=["hide-input"] jupyter={"source_hidden": true}

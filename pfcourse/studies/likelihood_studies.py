@@ -1,10 +1,12 @@
 """Part V's stored studies (``book/data/likelihood/``): their settings and row functions.
 
 Registered in :mod:`pfcourse.studies.registry` as the group ``likelihood``
-(``python3 tasks.py study likelihood``); the PMMH chains (``pmmh.csv``, :func:`pmmh_chain`; a
-chain is not a table of independent seeded runs) are computed by ``tools/studies/pmmh.py`` from the
-same settings.
+(``python3 tasks.py study likelihood``):
 
+* ``pmmh``: one PMMH chain per N in ``N_PMMH`` on the chapter's dataset (theta scales R_v), a row
+  each (:func:`pmmh_row`: the chain's per-iteration arrays in ``pmmh.npz``; :func:`chain_rows` gives
+  them one row per iteration).  A long chain takes minutes, so the test re-computes the first
+  iterations of one (``tests/test_likelihood_data.py``: a chain's start does not depend on its length);
 * ``bias``: the particle estimate of log p(z | theta = 1) minus the exact (Kalman) value, on the
   chapter's dataset, for N in ``N_BIAS``, ``N_BIAS_RUNS`` seeded filters each;
 * ``ml``: on ``N_ML_DATASETS`` simulated datasets (seed = the run's seed), the maximum-likelihood
@@ -23,6 +25,7 @@ from __future__ import annotations
 from functools import partial
 
 import numpy as np
+import pandas as pd
 from scipy import stats
 
 from pfcourse.likelihood import (kalman_log_likelihood, max_likelihood_scale, pf_log_likelihood,
@@ -61,6 +64,8 @@ N_ROBOT_GAP, ROBOT_GAP_RUNS, ROBOT_GAP_SEED = 300, 100, 5
 #: function's own model (the scripts these studies came from stamped the landmark scenario on every
 #: table, the altimeter study's included).
 PROVENANCE_FIELDS = {
+    "pmmh": {"scenario": SCENARIO_TEXT, "data_seed": DATA_SEED, "step_log_theta": PMMH_STEP, "theta0": PMMH_THETA0,
+             "prior": f"log-uniform on {BOUNDS}", "chain_seed": "replicate_seed(the row's seed, n_particles)"},
     "bias": {"scenario": SCENARIO_TEXT, "data_seed": DATA_SEED, "theta": 1.0},
     "ml": {"scenario": SCENARIO_TEXT, "bounds": BOUNDS, "xatol_log_theta": XATOL,
            "filter_seed": "run_filter_seed(the run's seed), the same for every theta (common random numbers)"},
@@ -80,12 +85,30 @@ def chapter_data():
     return simulate(SCENARIO, DATA_SEED)
 
 
-def pmmh_chain(n_particles: int, n_iterations: int = PMMH_ITERATIONS):
+def pmmh_chain(n_particles: int, n_iterations: int = PMMH_ITERATIONS, seed: int = PMMH_SEED):
+    """The PMMH chain of ``n_particles`` on the chapter's data, its generator ``replicate_seed(seed, n_particles)``."""
     Z = chapter_data().measurements
-    seed = replicate_seed(PMMH_SEED, n_particles)
+    chain_seed = replicate_seed(seed, n_particles)
     chain = pmmh(lambda t, rng: pf_log_likelihood(SCENARIO, Z, t, n_particles, rng, NOISE),
-                 PRIOR, PMMH_THETA0, n_iterations, PMMH_STEP, seed)
-    return chain, seed
+                 PRIOR, PMMH_THETA0, n_iterations, PMMH_STEP, chain_seed)
+    return chain, chain_seed
+
+
+def pmmh_row(seed: int, n_particles: int, iterations: int) -> dict:
+    """The study ``likelihood/pmmh``'s row: one chain (:func:`pmmh_chain`), its per-iteration ``theta``,
+    ``log_likelihood`` and ``accepted`` (1.0 or 0.0)."""
+    chain, _ = pmmh_chain(n_particles, iterations, seed)
+    return {"theta": chain.theta, "log_likelihood": chain.log_likelihood,
+            "accepted": np.asarray(chain.accepted, dtype=float)}
+
+
+def chain_rows(table):
+    """The stored chains (``STUDIES["likelihood/pmmh"].load()``) one row per iteration: ``n_particles``,
+    ``iteration``, ``theta``, ``log_likelihood``, ``accepted`` (bool)."""
+    return pd.concat([pd.DataFrame({"n_particles": row.n_particles, "iteration": np.arange(len(row.theta)),
+                                    "theta": row.theta, "log_likelihood": row.log_likelihood,
+                                    "accepted": np.asarray(row.accepted) == 1.0})
+                      for row in table.itertuples()], ignore_index=True)
 
 
 def bias_run(seed: int, n_particles: int) -> dict:

@@ -1,8 +1,7 @@
 """Provenance of a stored study: the code, the commit, the seeds and the time that made a table.
 
 A study too heavy to run while the book executes is a record of
-:mod:`pfcourse.studies.registry` (the PMMH chains, which are not independent runs: the
-script ``tools/studies/pmmh.py``) and is stored under ``book/data/``. Beside each table goes a JSON record of
+:mod:`pfcourse.studies.registry` and is stored under ``book/data/``. Beside each table goes a JSON record of
 what made it, written by :func:`write_provenance` so that every study records the same
 fields: the code (``code``), the commit it was launched from (``git_commit``, read by
 :func:`launch_commit` when the script starts, whatever is committed while it runs), whether

@@ -324,6 +324,12 @@ STUDIES: dict[str, Study] = {study.name: study for study in [
            ["filter_gap_error", "smoother_gap_error", "filter_outside_error", "smoother_outside_error",
             "smoother_gap_ess_median"], {"sample": 1}),
       ]),
+    # one chain per row (a chain is one dependent sequence: the test re-computes the start of one,
+    # tests/test_likelihood_data.py)
+    _likelihood_study("pmmh", ls.pmmh_row, {"n_particles": ls.N_PMMH, "iterations": [ls.PMMH_ITERATIONS]}, 1,
+                      ls.PMMH_SEED, seeds="run", columns=("n_particles", "iterations", "run", "seed", "theta",
+                                                          "log_likelihood", "accepted"),
+                      arrays=("theta", "log_likelihood", "accepted"), sample=0),
     _likelihood_study("terrain_rf", ls.terrain_rf_run,
                       {"flight": list(range(ls.N_TERRAIN_FLIGHTS)), "n_particles": [ls.N_TERRAIN]}, 1, 0,
                       columns=("flight", "n_particles", "run", "seed", "status", "error", "rf_scale_ml", "nfev",
