@@ -12,7 +12,7 @@ import pytest
 from pfcourse import LinearGaussianModel, ParticleFilter
 from pfcourse.collectors import Stages
 from pfcourse.errors import ModelError, ParameterError
-from pfcourse.filter_config import FilterSettings
+from pfcourse.filter_config import FilterSettings, records
 from pfcourse.jitter import RegularisedJitter
 from pfcourse.proposals import ProgressiveCorrection
 from pfcourse.sample_size import KLDSampling
@@ -88,3 +88,38 @@ def test_the_terrain_registry_holds_settings_records():
     assert json.loads(json.dumps(written)) == written
     assert written["regularised h=1 N=3000"]["jitter"]["scale"] == 1.0
     assert written["tempered N=3000"]["proposal"]["type"] == "ProgressiveCorrection"
+
+
+def test_scenario_a_records_build_the_filters_written_by_hand():
+    """The Rao-Blackwellised records change the model (the map integrated out) and build, float for float,
+    the filters the registry wrote by hand before it held records; labels tell the six apart."""
+    from pfcourse.proposals import FullyAdaptedAuxiliary
+    from pfcourse.scenarios.landmarks.rao_blackwell import RaoBlackwellModel, RaoBlackwellProposal
+    from pfcourse.scenarios.landmarks.scenario import quadrant_scenario, simulate
+    from pfcourse.studies.rb_study import FILTERS, THRESHOLD
+
+    sc = quadrant_scenario()
+    z = simulate(sc, rng=3).measurements[:12]
+    by_hand = {"sir": ParticleFilter(sc.model(), 200, threshold=THRESHOLD),
+               "rbpf_prior": ParticleFilter(RaoBlackwellModel(sc.model()), 200, threshold=THRESHOLD,
+                                            proposal=RaoBlackwellProposal(optimal=False)),
+               "rb_apf": ParticleFilter(RaoBlackwellModel(sc.model()), 200, threshold=1.0,
+                                        proposal=FullyAdaptedAuxiliary(RaoBlackwellProposal(optimal=True)))}
+    for name, pf in by_hand.items():
+        built = FILTERS[name].settings.with_(n_particles=200).build(sc.model())
+        assert type(built.model) is type(pf.model) and built.n_particles == 200
+        assert built.run(z, 7).mean.tobytes() == pf.run(z, 7).mean.tobytes(), name
+    assert len({c.label for c in FILTERS.values()}) == 6 and FILTERS["sir"].n_particles is None
+    assert "n_particles" not in records(FILTERS)["sir"]  # the study's grid gives N
+
+
+def test_a_model_change_and_a_shared_component_are_data_too():
+    from pfcourse.studies.maprobot import FILTERS, Injection
+
+    injection = FILTERS["injection"].settings
+    assert injection.model_change == Injection(0.1) and injection.record()["model_change"] == {"type": "Injection",
+                                                                                               "inject": 0.1}
+    with pytest.raises(ModelError, match="model_change must have an apply"):
+        FilterSettings(10, model_change="kidnap")
+    with pytest.raises(ParameterError):
+        FilterSettings(10).with_(n_particles=0)

@@ -220,13 +220,47 @@ def test_tempered_method_counts_every_stage_of_progressive_correction():
 
 def test_kld_bin_size_reaches_the_filter():
     # Half-size bins in position: the same cloud occupies more bins, so KLD-sampling keeps more particles.
-    from pfcourse.scenarios.robot.mcl import MethodSettings, run_method
+    from pfcourse.scenarios.robot.mcl import kld_policy, run_settings, settings_of
 
     sim = simulate_robot(None, 0, n_steps=15)
     coarse = run_method(sim, "kld_mixture", 2000, 0)["n_used"]
-    fine = run_method(sim, "kld_mixture", 2000, 0,
-                      settings=MethodSettings(kld_bin_size=(0.5, 0.5, float(np.deg2rad(10.0)))))["n_used"]
+    finer = settings_of("kld_mixture", 2000).with_(sample_size=kld_policy((0.5, 0.5, float(np.deg2rad(10.0)))))
+    fine = run_settings(sim, finer, 0)["n_used"]
     assert fine[5:].mean() > coarse[5:].mean()
+
+
+def _hand_written(method, base, n):
+    """The filters of the registry as they were written before they became settings records."""
+    if method == "mixture":
+        model = KidnapRobotModel(base, 1e-3, global_start=base.initial == "uniform")
+        return ParticleFilter(model, n, proposal=sensor_mixture_proposal(model, 0.1, 1.0))
+    if method == "augmented":
+        aug = AugmentedMCL(base, alpha_slow=0.01, alpha_fast=0.1)
+        return ParticleFilter(base, n, threshold=1.0, proposal=aug, jitter=aug)
+    if method == "tempered":
+        from pfcourse.jitter import RegularisedJitter
+        from pfcourse.proposals import ProgressiveCorrection
+        from pfcourse.scenarios.robot.scenario import ANGLE_INDICES
+
+        pc = ProgressiveCorrection(n_tempered=10, ess_fraction=0.5, kernel=RegularisedJitter(0.5, ANGLE_INDICES))
+        return ParticleFilter(base, n, threshold=1.0, proposal=pc)
+    raise AssertionError(method)
+
+
+@pytest.mark.parametrize("method", ["mixture", "augmented", "tempered"])
+@pytest.mark.parametrize("initial", ["uniform", "tracking"])
+def test_a_settings_record_builds_the_filter_written_by_hand(method, initial):
+    """Each record of FILTERS builds the filter its components describe, float for float (the kidnap model's
+    global start follows the robot's initial cloud); a second build starts from fresh components."""
+    from pfcourse.scenarios.robot.mcl import settings_of
+
+    sim = simulate_robot(None, 2, n_steps=12)
+    base = RobotModel.for_simulation(sim, initial=initial)
+    by_hand = _hand_written(method, base, 400).run(sim.measurements, 5)
+    settings = settings_of(method, 400)
+    for _ in range(2):
+        built = settings.build(base).run(sim.measurements, 5)
+        assert built.mean.tobytes() == by_hand.mean.tobytes() and built.ess.tobytes() == by_hand.ess.tobytes()
 
 
 @pytest.mark.parametrize("seed", [0, 1])

@@ -767,7 +767,7 @@ reference = STUDIES["terrain_reference"].load()
 big, half = reference["N"].max(), reference["N"].min()
 rows = []
 for flight_id, g in reference.groupby("flight"):
-    g = g.set_index(["N", "seed"])
+    g = g.set_index(["N", "repeat"])
     sigma = float(np.mean(np.hypot(g.loc[big, "sd_x"], g.loc[big, "sd_y"])))
     m_big = g.loc[big, ["mean_x", "mean_y"]].to_numpy()  # two seeds
     m_half = g.loc[half, ["mean_x", "mean_y"]].to_numpy()

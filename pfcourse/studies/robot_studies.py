@@ -12,7 +12,8 @@ same numbers.
 
 A table is stored (:mod:`pfcourse.studies.store`) as ``NAME.csv`` (one row per run: the
 setting, ``run``, ``seed``, ``status``, ``error`` and the scalar metrics, floats written to
-round-trip exactly; settings that are not numbers written as Python literals) and, for the
+round-trip exactly; settings that are neither numbers nor words, ``None`` and tuples, written as
+Python literals) and, for the
 studies that keep per-step errors, ``NAME.npz`` (one 2-D array per per-step column, one row
 per table row; a failed run's row is NaN).
 """
@@ -21,7 +22,6 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from pfcourse.errors import ParameterError
 
 N_RUNS = 100
 N_STEPS, BURN_IN = 100, 20
@@ -44,10 +44,3 @@ STUDIES: dict[str, tuple[dict, dict]] = {
 #: Per-step columns of ``pf_run(..., keep_errors=True)``.
 ARRAY_COLUMNS = ("position_error", "position_sd", "heading_error")
 
-
-def literal_columns(name: str) -> tuple[str, ...]:
-    """Grid columns whose values are not all numbers (stored as Python literals)."""
-    if name not in STUDIES:
-        raise ParameterError(f"unknown robot study {name!r}; known: {list(STUDIES)}")
-    return tuple(column for column, values in STUDIES[name][0].items()
-                 if not all(isinstance(v, (int, float)) and not isinstance(v, bool) for v in values))
