@@ -18,7 +18,6 @@ from types import SimpleNamespace
 
 import numpy as np
 
-from pfcourse.filter import ParticleFilter
 from pfcourse.checks import check_probability
 from pfcourse.filter_config import FilterConfig, FilterSettings, configurations, lookup
 from pfcourse.sample_size import KLDSampling
@@ -121,12 +120,16 @@ class Injection:
         return changed
 
 
-#: The map robot's filters as settings records, Monte Carlo localization resampling at every step
-#: (``N``: the study's, 1000 nominal): ``config.settings.with_(n_particles=N).build(drive_model(run, ...))``.
-FILTERS: dict[str, FilterConfig] = configurations(*(FilterConfig.of(name, settings, n_from_grid=True) for name, settings in [
-    ("bootstrap", FilterSettings(GLOBAL_N, threshold=1.0)),
-    ("injection", FilterSettings(GLOBAL_N, threshold=1.0, model_change=Injection(INJECT))),
-]))
+#: The map robot's filters as settings records: ``build(drive_model(run, ...))``.  Monte Carlo localization
+#: resampling at every step (``N``: the study's, 1000 nominal: ``config.settings.with_(n_particles=N)``), and
+#: KLD-sampling with :data:`AMCL_KLD` (``N`` at most ``n_max``).
+FILTERS: dict[str, FilterConfig] = configurations(
+    *(FilterConfig.of(name, settings, n_from_grid=True) for name, settings in [
+        ("bootstrap", FilterSettings(GLOBAL_N, threshold=1.0)),
+        ("injection", FilterSettings(GLOBAL_N, threshold=1.0, model_change=Injection(INJECT)))]),
+    FilterConfig.of("kld", FilterSettings(AMCL_KLD["n_max"], sample_size=KLDSampling(
+        AMCL_KLD["bin_size"], n_min=AMCL_KLD["n_min"], epsilon=AMCL_KLD["epsilon"], delta=AMCL_KLD["delta"]))),
+)
 
 
 def run_filter(run: MapRun, seed: int, n_particles: int, method: str = "bootstrap", *,
@@ -171,10 +174,8 @@ def kld_tracking_row(seed: int) -> dict:
     """Tracking from the known start (as :func:`tracking_row`, same drive) by KLD-sampling with
     :data:`AMCL_KLD`: position RMSE (m), locked on, and the number of particles after step 0."""
     run = simulate(seed, TRACKING_STEPS)
-    model = MapRobotModel(book_map(), field(), run.drive.odometry, motion=MOTION, start=run.truth[0])
-    policy = KLDSampling(AMCL_KLD["bin_size"], n_min=AMCL_KLD["n_min"], epsilon=AMCL_KLD["epsilon"],
-                         delta=AMCL_KLD["delta"])
-    res = ParticleFilter(model, AMCL_KLD["n_max"], sample_size=policy).run(run.scans, rng=filter_rng(seed, 0))
+    pf = FILTERS["kld"].build(drive_model(run, start=run.truth[0]))
+    res = pf.run(run.scans, rng=filter_rng(seed, 0))
     pos, head = errors(run.truth, res.mean)
     return {"position_rmse": float(metrics.rmse(pos)), "locked_on": bool(lock_on.locked_on(pos, head, DT)),
             "mean_particles": float(np.mean(res.sizes[1:])), "max_particles_after_start": int(np.max(res.sizes[1:]))}
