@@ -13,7 +13,10 @@
 * ``global_localization/provenance.json``: the tables its first script stored with 10 significant digits
   say so (``significant_digits``), which the re-computation test reads (the Study field ``rtol`` went);
 * the provenance of the studies whose filters became settings records (``rao_blackwell``, the
-  global-localization and map-robot studies) gains those records (``filters``, ``settings``).
+  global-localization and map-robot studies, ``terrain_remedies`` and ``terrain_equal_cost``) gains
+  those records (``filters``, ``settings``).
+
+Idempotent: a second run writes the same files.
 
 Every other value is unchanged, byte for byte: ``tests/test_converted_studies.py`` compares each
 converted table, read by ``STUDIES[name].load()``, with the table of ``FROM`` read as it was read then.
@@ -36,7 +39,7 @@ import pfcourse  # noqa: E402,F401  (first: it pins NumPy's arithmetic)
 import numpy as np  # noqa: E402
 from pfcourse.filter_config import records  # noqa: E402
 from pfcourse.scenarios.robot import mcl  # noqa: E402
-from pfcourse.studies import global_localization, maprobot, rb_study  # noqa: E402
+from pfcourse.studies import global_localization, maprobot, rb_study, terrain_remedies  # noqa: E402
 from pfcourse.studies.provenance import write_rows  # noqa: E402
 from pfcourse.studies.store import DATA  # noqa: E402
 
@@ -69,7 +72,9 @@ def note(provenance: str, change: str, **record) -> None:
     path = DATA / provenance
     data = json.loads(path.read_text())
     data.update(record)
-    data.setdefault("conversions", []).append({"date_utc": DATE, "tool": TOOL, "from_commit": FROM, "change": change})
+    entry = {"date_utc": DATE, "tool": TOOL, "from_commit": FROM, "change": change}
+    if entry not in data.setdefault("conversions", []):  # idempotent: a second run changes nothing
+        data["conversions"].append(entry)
     path.write_text(json.dumps(data, indent=2, default=str) + "\n")
 
 
@@ -134,6 +139,9 @@ def main() -> None:
     note("rao_blackwell.json", "filters: the six filters as settings records", filters=records(rb_study.FILTERS))
     for name in ("tracking", "amcl_global", "sensor_cost", "kld_tracking"):
         note(f"maprobot/{name}.json", "filters: the filters as settings records", filters=records(maprobot.FILTERS))
+    note("terrain_remedies.json", "settings: the filters as settings records", settings=records(terrain_remedies.FILTERS))
+    note("terrain_equal_cost.json", "settings: the filters as settings records (model_change added: none)",
+         settings=records(terrain_remedies.EQUAL_COST_FILTERS))
 
 
 if __name__ == "__main__":
