@@ -271,3 +271,13 @@ def test_the_mixture_spends_its_share_drawn_from_the_reading_while_tracking(seed
 
     ratio = tracking_row(seed, "mixture", 2000)["ess_fraction"] / tracking_row(seed, "bootstrap", 2000)["ess_fraction"]
     assert 0.8 < ratio < 0.97
+
+
+def test_augmented_mcl_made_without_a_model_injects_on_the_filter_s():
+    sim = simulate_robot(None, 1, n_steps=20)
+    base = RobotModel.for_simulation(sim, initial="uniform")
+    given = AugmentedMCL(base, alpha_slow=0.01, alpha_fast=0.3)
+    later = AugmentedMCL(alpha_slow=0.01, alpha_fast=0.3)
+    a = ParticleFilter(base, 300, threshold=1.0, proposal=given, jitter=given).run(sim.measurements, 2)
+    b = ParticleFilter(base, 300, threshold=1.0, proposal=later, jitter=later).run(sim.measurements, 2)
+    assert a.mean.tobytes() == b.mean.tobytes() and later.injected == given.injected and max(given.injected) > 0

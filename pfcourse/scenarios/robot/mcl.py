@@ -254,6 +254,8 @@ class AugmentedMCL:
     measurement, so the mean likelihood is ``w_avg``).  ``source`` is ``"sensor"`` (poses from
     ``q_z`` of the current reading, Lenser and Veloso 2000) or ``"uniform"``.
     ``injected`` records, per resampling, the injection probability ``max(0, 1 - w_fast / w_slow)``.
+    Made without ``model`` (a template of a filter's settings), it draws on the model it is given by
+    :meth:`for_model`, or else on the filter's at its first proposal.
     """
 
     #: what a filter's settings record of it (:func:`pfcourse.filter_config.describe`): not its state
@@ -296,6 +298,8 @@ class AugmentedMCL:
         return float(max(0.0, 1.0 - math.exp(self.w_fast - self.w_slow)))
 
     def propose(self, model, particles, z, k, rng):
+        if self.sensor is None:  # made without a model: inject on the filter's
+            self.for_model(model)
         new = model.sample_transition(particles, k, rng)
         log_lik = model.log_likelihood(new, z, k)
         self.update_averages(float(logsumexp(log_lik) - math.log(len(log_lik))))
