@@ -115,8 +115,9 @@ import numpy as np
 from scipy import stats
 from scipy.special import logsumexp
 
-from pfcourse.likelihood import grid_posterior, kalman_log_likelihood, max_likelihood_scale
-from pfcourse.studies.likelihood_studies import landmark_likelihood_problem
+from pfcourse.studies.likelihood_studies import (
+    grid_posterior, kalman_log_likelihood, landmark_likelihood_problem,
+    max_likelihood_scale)
 
 # theta scales R_0 = 0.5^2 I; the data were simulated at theta = 1
 scenario, Z = landmark_likelihood_problem()

@@ -28,8 +28,10 @@ import numpy as np
 import pandas as pd
 from scipy import stats
 
-from pfcourse.likelihood import (kalman_log_likelihood, max_likelihood_scale, pf_log_likelihood,
-                                             terrain_log_likelihood)
+# grid_posterior, kalman_log_likelihood, max_likelihood_scale: also what the likelihood chapter imports from here
+# with its problem (landmark_likelihood_problem), on one line of its visible code
+from pfcourse.likelihood import (grid_posterior, kalman_log_likelihood, max_likelihood_scale, pf_log_likelihood,
+                                 terrain_log_likelihood)
 from pfcourse.pmmh import pmmh
 from pfcourse.smoothing import ffbsm, pairwise
 from pfcourse.scenarios.robot.scenario import robot_transition_log_density
