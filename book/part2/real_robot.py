@@ -402,9 +402,11 @@ EvidenceBlock(
 #
 # But one run is one draw. Over the seeds $1$ to $30$ the same filter is on the robot at the last
 # scan in only {glue:text}`intel_track_share:.0%` of the runs
-# ({glue:text}`intel_track_share_low:.0%`-{glue:text}`intel_track_share_high:.0%`). The others lose it
-# for good between scans {glue:text}`intel_track_lost_first:d` and {glue:text}`intel_track_lost_last:d`,
-# and then end further off than the odometry alone.
+# ({glue:text}`intel_track_share_low:.0%`-{glue:text}`intel_track_share_high:.0%`).
+#
+# The others lose it for good between scans {glue:text}`intel_track_lost_first:d` and
+# {glue:text}`intel_track_lost_last:d`, and end up to {glue:text}`intel_track_lost_final_max_m:.0f` m
+# off.
 #
 # **Centimetres against a SLAM reference.** The same SLAM run placed the map's scans and the
 # reference poses, and its loop closures tie the two halves together, so a small error measures how
@@ -550,15 +552,15 @@ EvidenceBlock(
 # suspects, each tried on the same runs.
 #
 # **The map is a SLAM map, made of other scans.** Of the held-out scans' echoes, seen from the
-# corrected poses, {glue:text}`intel_far_held_share:.0%` end more than half a metre from any wall of
-# the map; of the map half's own echoes, {glue:text}`intel_far_map_share:.0%`. Each such beam pulls
-# the true pose's weight down. On a map of the whole run, which holds the localized scans' walls, the
-# same filter locks on in {glue:text}`intel_global_whole_map_rate:.0%` of the same runs. This is
-# the main culprit.
+# corrected poses, {glue:text}`intel_far_held_share:.1%` end more than half a metre from any wall of
+# the map; of the map half's own echoes, {glue:text}`intel_far_map_share:.1%`. Each such beam pulls
+# the true pose's weight down. On a map of the whole run, which holds the localized scans' walls (and
+# flatters them, as above), the same filter locks on in
+# {glue:text}`intel_global_whole_map_rate:.0%` of the same runs. The map's gaps are the main culprit.
 #
 # **The odometry under-rotates.** With the heading drift measured on the map half taken out, the
-# cure locks on in {glue:text}`intel_global_drift_rate:.0%`: over the $40$ scans of a run the
-# filter's spread covers most of the drift.
+# cure locks on in {glue:text}`intel_global_drift_rate:.0%`, about as often: over the $40$ scans of
+# a run the filter's spread covers most of the drift.
 #
 # **Corridors look alike, on this map.** Of the {glue:text}`intel_global_n_failed:d` runs that fail,
 # {glue:text}`intel_global_late:d` end on the robot but too late for the window, and in
