@@ -546,8 +546,9 @@ EvidenceBlock(
 # %% [markdown]
 # With the cure the filter locks on in {glue:text}`intel_global_lock_on_rate:.0%` of the runs
 # ({glue:text}`intel_global_lock_on_rate_low:.0%`-{glue:text}`intel_global_lock_on_rate_high:.0%`);
-# with uniform particles only, in {glue:text}`intel_global_uniform_lock_on_rate:.0%`. On the
-# simulated map of {doc}`map_global` the same filter locks on in
+# with uniform particles only, in {glue:text}`intel_global_uniform_lock_on_rate:.0%`.
+#
+# On the simulated map of {doc}`map_global` the same filter locks on in
 # {glue:text}`intel_global_sim_rate:.0%` of its drives. Why is the real log so much harder? Three
 # suspects, each tried on the same runs.
 #
