@@ -1,12 +1,12 @@
-"""The Intel log's experiments (pfcourse.studies.intel): the held-out split, the lock-on rule, the
-scan proposal's density, and a global run's determinism."""
+"""The Intel log's experiments (pfcourse.studies.intel): the held-out split, the lock-on rule, the global runs'
+settings record and drift correction, and a global run's determinism."""
 
 from __future__ import annotations
 
+import json
+
 import numpy as np
 import pytest
-from scipy.special import logsumexp
-from scipy.stats import norm
 
 from pfcourse.angles import wrap_angle
 from pfcourse.errors import ParameterError
@@ -48,36 +48,37 @@ def test_locked_on_means_most_of_the_last_window():
     assert intel.locked_on_share(np.r_[np.full(35, 9.0), np.zeros(15)], np.zeros(50), tol)  # earlier steps do not count
 
 
-def test_the_scan_proposal_returns_the_exact_log_density_of_its_draws():
-    """Rebuild the proposal's candidates from the same seed and evaluate the kernel mixture with scipy."""
-    sp = intel.split()
-    field = sp.field()
-    z = sp.ranges[100, ::intel.BEAM_STEP]
-    x, log_q = intel.scan_proposal(sp.free, field, z, 50, np.random.default_rng(4), positions=200, headings=12,
-                                   keep=40)
-    rng = np.random.default_rng(4)
-    xy = sp.free.sample_free(200, rng)[:, :2]
-    theta = wrap_angle(rng.random() * 2 * np.pi / 12 + np.arange(12) * 2 * np.pi / 12)
-    c = np.column_stack([np.repeat(xy, 12, axis=0), np.tile(theta, 200)])
-    coarse = type(field)(field.grid, field.angles[::3], max_range=field.max_range, z_hit=field.z_hit,
-                         z_rand=field.z_rand, sigma=field.sigma)
-    s = 0.5 * coarse.log_likelihood(c, z[::3])
-    kept = np.argsort(-s)[:40]
-    log_v = s[kept] - logsumexp(s[kept])
-    dth = wrap_angle(x[:, None, 2] - c[kept][None, :, 2])
-    log_k = (norm.logpdf(x[:, None, 0], c[kept][None, :, 0], 0.25) + norm.logpdf(x[:, None, 1], c[kept][None, :, 1], 0.25)
-             + norm.logpdf(dth, 0.0, 0.1))
-    np.testing.assert_allclose(log_q, logsumexp(log_k + log_v, axis=1), rtol=1e-10)
-    # the draws sit where the scan fits: far better than uniform poses
-    uniform = sp.free.sample_free(50, np.random.default_rng(5))
-    assert np.median(field.log_likelihood(x, z)) > np.median(field.log_likelihood(uniform, z)) + 20
+def test_the_global_runs_use_the_cure_of_one_record_and_the_stored_study_was_made_with_it():
+    from dataclasses import asdict
+
+    from pfcourse.scenarios.maprobot import global_mcl
+    from pfcourse.studies.registry import STUDIES
+
+    assert intel.GLOBAL_SETTINGS is global_mcl.SETTINGS
+    stored = STUDIES["intel/global"].load().attrs["provenance"]["settings"]
+    assert stored == json.loads(json.dumps(asdict(intel.GLOBAL_SETTINGS))), (
+        "intel.GLOBAL_SETTINGS changed since book/data/intel/global.csv was made: python3 tasks.py study intel/global")
+    # the uniform-only filter: as many particles at the start, none from the scan, no injection
+    u = intel.uniform_only(intel.GLOBAL_SETTINGS)
+    assert u.n_start == intel.GLOBAL_SETTINGS.n_start + intel.GLOBAL_SETTINGS.n_start_scan
+    assert u.n_start_scan == 0 and u.inject_share == 0.0
 
 
-def test_the_uniform_density_is_one_over_the_free_volume_and_zero_elsewhere():
-    free = intel.split().free
-    inside = free.sample_free(5, np.random.default_rng(0))
-    np.testing.assert_allclose(intel.uniform_log_density(free, inside), -np.log(free.free_area * 2 * np.pi))
-    assert np.all(np.isneginf(intel.uniform_log_density(free, np.array([[-5.0, -5.0, 0.0]]))))
+def test_the_drift_correction_takes_out_the_measured_drift():
+    log = intel.split().log
+    rate = intel.drift_rate(log)
+    # the odometry under-rotates: a clockwise drift of a few hundredths of a radian per metre
+    assert -0.1 < rate < -0.005
+    odo = np.array([[0.1, 2.0, -0.2], [0.0, -1.0, 0.0]])
+    fixed = intel.drift_corrected(odo, rate)
+    np.testing.assert_allclose(fixed[:, 1], odo[:, 1])
+    np.testing.assert_allclose((fixed[:, 0] + fixed[:, 2]) - (odo[:, 0] + odo[:, 2]), -rate * np.abs(odo[:, 1]))
+    # corrected over the map half, the summed heading error of its steps vanishes
+    rel = log.relative_motion()[1:]
+    true = relative_pose(log.poses[:-1], log.poses[1:])[:, 2]
+    steps = slice(intel.MAP_PART.start, intel.N_SCANS - 1)
+    err = wrap_angle(rel[steps, 2] - rate * np.hypot(rel[steps, 0], rel[steps, 1]) - true[steps])
+    assert abs(err.sum()) < 1e-9
 
 
 def test_a_global_run_depends_on_its_seed_only():

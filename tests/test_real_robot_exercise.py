@@ -1,65 +1,86 @@
-"""The real-robot chapter's checker (pfcourse.book.exercises.real_robot): the reference answer passes, each
-typical mistake is named with its own message, and a broken answer is reported, never raised."""
+"""The real-robot chapter's checker (pfcourse.book.exercises.real_robot): the beam model on beams drawn at
+random. The reference passes, each typical mistake is named with its own message, the generator is
+checked, and a broken answer is reported, never raised."""
 
 from __future__ import annotations
 
 import numpy as np
 import pytest
 
-from pfcourse.book.exercises.real_robot import BEAM_MISTAKES, beam_cases, beam_log_likelihood, check_beam_model
+from pfcourse.book.exercises import check_random_beams
+from pfcourse.book.exercises.real_robot import (
+    RANDOM_BEAM_MISTAKES, beam_terms, beams_summed, random_beam_case, random_beams_log_likelihood)
 
 
-def reference(z, z_star, beam):
-    echo = z < beam.z_max
-    hit = beam.z_hit * np.exp(-0.5 * ((z - z_star) / beam.sigma) ** 2) / (np.sqrt(2 * np.pi) * beam.sigma)
-    return np.log(np.where(echo, hit + beam.z_rand / beam.z_max, beam.z_none)).sum(axis=1)
+def reference(z, z_star, beam, k, rng):
+    drawn = rng.choice(np.flatnonzero(z < beam.z_max), size=k, replace=False)
+    hit = np.exp(-0.5 * ((z[drawn] - z_star[:, drawn]) / beam.sigma) ** 2) / (np.sqrt(2 * np.pi) * beam.sigma)
+    return np.log(beam.z_hit * hit + beam.z_rand / beam.z_max).sum(axis=1)
 
 
 def test_the_reference_passes():
-    report = check_beam_model(reference)
-    assert report.ok and str(report) == "beam model: every check passed"
+    report = check_random_beams(reference)
+    assert report.ok and str(report) == "beam model on random beams: every check passed"
 
 
-@pytest.mark.parametrize("mistake", list(BEAM_MISTAKES))
+def test_the_module_reference_passes_and_draws_as_the_exercise_says():
+    assert check_random_beams(lambda z, zs, b, k, rng: random_beams_log_likelihood(z, zs, b, k, rng)).ok
+    # another way to draw k distinct beams uniformly (a permutation) passes too
+    assert check_random_beams(lambda z, zs, b, k, rng: beam_terms(z, zs, b)[
+        :, rng.permutation(np.flatnonzero(z < b.z_max))[:k]].sum(axis=1)).ok
+
+
+@pytest.mark.parametrize("mistake", list(RANDOM_BEAM_MISTAKES))
 def test_each_mistake_is_named_with_its_own_message(mistake):
-    report = check_beam_model(lambda z, zs, b: beam_log_likelihood(z, zs, b, mistake))
-    assert report.problems == [f"your function computes a known mistake: {BEAM_MISTAKES[mistake]}"]
+    report = check_random_beams(lambda z, zs, b, k, rng: random_beams_log_likelihood(z, zs, b, k, rng, mistake))
+    assert report.problems == [f"your function computes a known mistake: {RANDOM_BEAM_MISTAKES[mistake]}"] or (
+        mistake == "global_rng" and report.problems == [RANDOM_BEAM_MISTAKES["global_rng"]])
 
 
-def test_the_mistakes_differ_from_the_answer_and_from_each_other_on_the_cases():
-    answers = {m: [beam_log_likelihood(z, zs, b, m) for z, zs, b in beam_cases(30, 0)] for m in [None, *BEAM_MISTAKES]}
-    names = list(answers)
-    for i, a in enumerate(names):
-        for b in names[i + 1:]:
-            assert not all(np.allclose(x, y, equal_nan=True) for x, y in zip(answers[a], answers[b])), (a, b)
-    # the cases hold beams with no echo, poses that expect none, and a product that underflows
-    z, z_star, beam = beam_cases(30, 0)[1]
-    assert (z >= beam.z_max).any() and (z_star >= beam.z_max).any()
-    assert np.isinf(beam_log_likelihood(z, z_star, beam, "product")).any()
+def test_the_messages_differ():
+    assert len(set(RANDOM_BEAM_MISTAKES.values())) == len(RANDOM_BEAM_MISTAKES) >= 4
 
 
-def test_a_beam_with_no_echo_changes_no_normalised_weight():
-    # the exercise's claim: log z_none is added to every pose alike, so leaving those beams out is the same
-    # filter (hence not a named mistake)
-    for z, z_star, beam in beam_cases(30, 1):
-        full = beam_log_likelihood(z, z_star, beam)
-        echo = z < beam.z_max
-        part = beam_log_likelihood(z[echo], z_star[:, echo], beam)
-        assert (~echo).any()
-        assert np.allclose(full - part, (~echo).sum() * np.log(beam.z_none), rtol=0, atol=1e-9)
-        assert np.allclose(full - full.max(), part - part.max(), rtol=0, atol=1e-9)
+def test_the_sum_is_solved_for_the_beams_it_holds():
+    z, z_star, beam = random_beam_case(0)
+    echo = z < beam.z_max
+    terms = beam_terms(z, z_star, beam)
+    chosen = np.flatnonzero(echo)[[1, 4, 5]]
+    s, m = beams_summed(terms[:, chosen].sum(axis=1) + 2 * np.log(beam.z_none), terms, echo, beam.z_none)
+    assert m == 2 and np.array_equal(np.flatnonzero(s), np.searchsorted(np.flatnonzero(echo), chosen))
+    # a constant that is no whole number of no-echo beams: not a sum of whole beams
+    assert beams_summed(terms[:, chosen].sum(axis=1) + 0.3, terms, echo, beam.z_none)[0].dtype.kind == "f"
+    assert beams_summed(np.random.default_rng(0).normal(size=len(z_star)), terms, echo, beam.z_none) is None
+
+
+def test_a_generator_used_twice_or_a_biased_draw_is_reported():
+    calls = iter(range(10**6))
+    # a fresh generator seeded by a counter: the same seed does not give the same answer
+    report = check_random_beams(lambda z, zs, b, k, rng: reference(z, zs, b, k, np.random.default_rng(next(calls))))
+    assert report.problems and "same seed" in report.problems[0]
+
+    def biased(z, zs, b, k, rng):  # the first beams favoured
+        pool = np.flatnonzero(z < b.z_max)
+        p = np.linspace(8.0, 1.0, len(pool))
+        return beam_terms(z, zs, b)[:, rng.choice(pool, k, replace=False, p=p / p.sum())].sum(axis=1)
+    report = check_random_beams(biased)
+    assert report.problems and "far more often" in report.problems[0]
 
 
 def test_broken_answers_are_reported_not_raised():
-    assert "raised ZeroDivisionError" in check_beam_model(lambda z, zs, b: 1 / 0).problems[0]
-    assert "returned None" in check_beam_model(lambda z, zs, b: None).problems[0]
-    assert "shape" in check_beam_model(lambda z, zs, b: reference(z, zs, b)[:3]).problems[0]
-    assert "NaN" in check_beam_model(lambda z, zs, b: np.full(len(zs), np.nan)).problems[0]
-    other = check_beam_model(lambda z, zs, b: reference(z, zs, b) + 1.0)
-    assert other.problems and "differ from the beam model" in other.problems[0]
+    assert "raised ZeroDivisionError" in check_random_beams(lambda z, zs, b, k, rng: 1 / 0).problems[0]
+    assert "returned None" in check_random_beams(lambda z, zs, b, k, rng: None).problems[0]
+    assert "shape" in check_random_beams(lambda z, zs, b, k, rng: reference(z, zs, b, k, rng)[:3]).problems[0]
+    assert "NaN" in check_random_beams(lambda z, zs, b, k, rng: np.full(len(zs), np.nan)).problems[0]
+    other = check_random_beams(lambda z, zs, b, k, rng: reference(z, zs, b, k, rng) ** 2 / 100)
+    assert other.problems and "not a sum of the beam model's terms" in other.problems[0]
+    fewer = check_random_beams(lambda z, zs, b, k, rng: reference(z, zs, b, k - 1, rng))
+    assert fewer.problems and "not k = 12" in fewer.problems[0]
 
 
-def test_the_checker_draws_nothing_from_the_global_generator():
+def test_the_checker_leaves_the_global_generator_as_it_found_it():
+    np.random.seed(7)
     state = np.random.get_state()[1].copy()
-    check_beam_model(reference)
+    check_random_beams(reference)
+    check_random_beams(lambda z, zs, b, k, rng: random_beams_log_likelihood(z, zs, b, k, rng, "global_rng"))
     assert np.array_equal(np.random.get_state()[1], state)

@@ -33,6 +33,7 @@ provenance names the commit), and commit the table.
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import json
 import sys
 import time
@@ -593,11 +594,13 @@ STUDIES: dict[str, Study] = {study.name: study for study in [
           fields=pm.PROVENANCE_FIELDS["pairs"]),
     Study(name="intel/global", row=intel.global_row, grid={"method": list(intel.METHODS)}, n_runs=intel.N_GLOBAL,
           seeds="run", failures="raise", table="intel/global.csv", provenance="intel/global.json",
-          columns=intel.GLOBAL_COLUMNS, sample=1, cheap=lambda t: t["method"] == "uniform",
-          row_code="pfcourse/studies/intel.py (global_row, global_filter)",
+          columns=intel.GLOBAL_COLUMNS, sample=1,
+          row_code="pfcourse/studies/intel.py (global_row), pfcourse/scenarios/maprobot/global_mcl.py (global_mcl)",
           fields={"seeds": "run s: start scan numpy.random.default_rng([41, s]); filter default_rng([41, s, 1])",
-                  "map": "scans 455-909 of book/data/intel/intel-corrected.log.gz; runs on scans 0-454",
-                  "steps": intel.GLOBAL_STEPS, "lock_on": "within 1 m and 3 x the odometry's RMS heading error "
+                  "map": "scans 455-909 of book/data/intel/intel-corrected.log.gz (whole_map: scans 0-909); "
+                         "runs on scans 0-454",
+                  "steps": intel.GLOBAL_STEPS, "settings": dataclasses.asdict(intel.GLOBAL_SETTINGS),
+                  "lock_on": "within 1 m and 3 x the odometry's RMS heading error "
                   f"of a step, at {intel.LOCK_SHARE} of the last {intel.LOCK_WINDOW} scans"}),
     Study(name="intel/tracking", row=intel.tracking_row, grid={"map": list(intel.TRACK_MAPS)},
           n_runs=len(intel.TRACK_SEEDS), seeds="run", base_seed=intel.TRACK_SEEDS.start, failures="raise",

@@ -134,6 +134,10 @@ exception is reported as a problem); ``str(report)`` prints the verdict.
   (sensor resetting) for a door-distance sensor in a corridor, weighted ``u / q p`` (the chapter
   *Finding the robot on the map*, :mod:`.map_global`); the generator is checked, and equal weights,
   the likelihood alone, the prior left out and the kernel's constant left out are named.
+* :func:`check_random_beams` - ``fn(z, z_star, beam, k, rng) -> (N,)``: the beam model's log-likelihood on
+  ``k`` beams drawn at random among a scan's echoes, the same for every pose (the real robot's chapter,
+  :mod:`.real_robot`); the beams summed are solved for, the generator is checked, and the mistakes of
+  :data:`RANDOM_BEAM_MISTAKES` are named.
 * :func:`check_paired_se` - ``fn(a, b) -> (paired_se, unpaired_se)``: the standard error of a difference of
   means over the same runs, paired and as if unpaired (chapter 20); the population standard deviation,
   a division by ``n``, standard deviations added and the pairing ignored are named.
@@ -171,6 +175,10 @@ from pfcourse.book.exercises.checking import (  # noqa: F401
 from pfcourse.book.exercises.map_global import (  # noqa: F401
     RESET_MISTAKES,
     check_reset_weights,
+)
+from pfcourse.book.exercises.real_robot import (  # noqa: F401
+    RANDOM_BEAM_MISTAKES,
+    check_random_beams,
 )
 from pfcourse.book.exercises.onramp import (  # noqa: F401
     INFLATION,

@@ -1,22 +1,23 @@
-"""The checked exercise of the real-robot chapter (book/part2/real_robot): the beam model instead of the
-likelihood field.
+"""The checked exercise of the real-robot chapter (book/part2/real_robot): the beam model on beams drawn
+at random.
 
-:func:`check_beam_model` checks a student's ``fn(z, z_star, beam) -> (N,)``: the log-likelihood of one
-scan ``z`` (``(B,)``) for ``N`` poses whose expected ranges (the distance to the first wall along
-each beam, ray-cast on the map) are ``z_star`` (``(N, B)``), by a three-part beam model (Thrun,
-Burgard and Fox 2005, section 6.3, without the "short" part):
+:func:`check_random_beams` checks a student's ``fn(z, z_star, beam, k, rng) -> (N,)``: draw ``k``
+distinct beams at random (each with the same probability) among the beams of the scan ``z`` (``(B,)``)
+that have an echo (``z_b < z_max``), the same beams for every pose, and return for each of ``N`` poses,
+whose expected ranges are the rows of ``z_star`` (``(N, B)``), the beam model's log-likelihood of
+those beams (Thrun, Burgard and Fox 2005, section 6.3, its hit and random parts):
 
-    p(z_b | x) = z_hit N(z_b; z*_b, sigma^2) + z_rand / z_max    for a beam with an echo (z_b < z_max),
-    p(z_b | x) = z_none                                            for a beam with no echo (z_b >= z_max),
+    log p(z | x) = sum_{b drawn} log( z_hit N(z_b; z*_b, sigma^2) + z_rand / z_max ),
 
-    log p(z | x) = sum_b log p(z_b | x),
+``beam`` holding ``z_hit``, ``z_rand``, ``z_none``, ``sigma`` and ``z_max``.
 
-``beam`` holding ``z_hit``, ``z_rand``, ``z_none``, ``sigma`` and ``z_max``.  A beam with no echo adds
-``log z_none`` to every pose alike, so it changes no normalised weight: leaving such beams out, as the
-likelihood field does, is the same filter, and the checker does not call it a mistake (it accepts the
-answer only with the term, which the exercise asks for).  An echo where a pose expects none is scored.  The answer is
-compared with :func:`beam_log_likelihood` on a scan of 12 beams and one of 360 (where a product of
-densities underflows); a wrong one with each mistake of :data:`BEAM_MISTAKES`.
+The checker does not need the student's draws to match its own: the answer is a sum over a set of
+beams, so with more poses than beams it is solved for that set (least squares on the per-beam terms,
+:func:`beam_terms`, plus a constant that a beam with no echo, ``log z_none``, would add).  The set must
+be ``k`` distinct echo beams shared by every pose; over many seeds each echo beam must come up about as
+often as the others, the same seed must give the same answer and another seed another, and NumPy's
+global generator must be left alone.  Each typical mistake of :data:`RANDOM_BEAM_MISTAKES` is named in
+its own sentence.
 """
 
 from __future__ import annotations
@@ -26,7 +27,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from pfcourse.book.exercises.checking import CheckReport, _cloud_answers, _settled
+from pfcourse.book.exercises.checking import CheckReport, _cloud_answers
 
 
 @dataclass(frozen=True)
@@ -40,74 +41,166 @@ class BeamCase:
     z_max: float = 25.0
 
 
-BEAM_MISTAKES: dict[str, str] = {
+RANDOM_BEAM_MISTAKES: dict[str, str] = {
+    "replacement": "a beam is drawn twice: draw k distinct beams (rng.choice(..., replace=False)), since a beam "
+                   "counted twice counts its evidence twice",
+    "no_echo": "beams with no echo are among those drawn: draw among the beams with an echo (z < z_max); a beam "
+               "without one adds the same log z_none to every pose, so it is a draw wasted",
+    "per_pose": "each pose is scored on beams of its own: draw one set of k beams for the scan and score every "
+                "pose on it, or the weights compare different evidence",
+    "global_rng": "the beams are drawn from NumPy's global generator (np.random), not from the generator rng "
+                  "you are given, so a seeded run cannot be repeated",
+    "fixed": "every seed gives the same beams: draw them at random with rng, not as a fixed pattern, or the "
+             "beams never drawn are never used",
     "no_rand": "the term z_rand / z_max is missing: without it one echo far from the expected range (a person "
                "walking by) makes the weight vanish",
-    "no_constant": "the Gaussian density needs its factor 1 / (sqrt(2 pi) sigma): without it z_hit and z_rand "
-                   "are mixed in the wrong proportion",
-    "none_everywhere": "z_none is added to every beam: it is the probability of a beam with no echo, so it "
-                       "belongs to those beams only",
-    "product": "the densities are multiplied and then logged: the product of 360 beams underflows to 0 "
-               "(log 0 = -inf); add the logs instead",
-    "mean": "the log-densities are averaged over the beams: the beams are independent, so their logs add up",
+    "mean": "the log-densities are averaged over the beams drawn: the beams are independent, so their logs "
+            "add up",
 }
+#: Mistakes that change the per-beam terms (the others change which beams are summed).
+_TERM_MISTAKES = ("no_rand",)
 
 
-def beam_log_likelihood(z: np.ndarray, z_star: np.ndarray, beam: BeamCase, mistake: str | None = None) -> np.ndarray:
-    """The module's beam model, ``(N,)``, or what one mistake of :data:`BEAM_MISTAKES` computes."""
-    if mistake is not None and mistake not in BEAM_MISTAKES:
-        raise ValueError(f"unknown mistake {mistake!r}; one of {sorted(BEAM_MISTAKES)}")
+def beam_terms(z: np.ndarray, z_star: np.ndarray, beam: BeamCase, mistake: str | None = None) -> np.ndarray:
+    """Per pose and beam ``(N, B)``: ``log(z_hit N(z_b; z*_b, sigma^2) + z_rand / z_max)`` for a beam with an
+    echo, ``log z_none`` for one without (or without ``z_rand / z_max`` for ``mistake="no_rand"``)."""
     echo = z < beam.z_max
-    norm = 1.0 if mistake == "no_constant" else np.sqrt(2 * np.pi) * beam.sigma
-    hit = beam.z_hit * np.exp(-0.5 * ((z - z_star) / beam.sigma) ** 2) / norm
+    hit = beam.z_hit * np.exp(-0.5 * ((z - z_star) / beam.sigma) ** 2) / (np.sqrt(2 * np.pi) * beam.sigma)
     rand = 0.0 if mistake == "no_rand" else beam.z_rand / beam.z_max
-    none = beam.z_none if mistake == "none_everywhere" else 0.0
-    dens = np.where(echo, hit + rand + none, beam.z_none)
     with np.errstate(divide="ignore"):
-        if mistake == "product":
-            return np.log(np.prod(dens, axis=1))
-        logs = np.log(dens)
-        return logs.mean(axis=1) if mistake == "mean" else logs.sum(axis=1)
+        return np.log(np.where(echo, hit + rand, beam.z_none))
 
 
-def beam_cases(n_poses: int, seed: int) -> list[tuple[np.ndarray, np.ndarray, BeamCase]]:
-    """Two scans (12 and 360 beams) and the expected ranges of ``n_poses`` poses: some beams with no echo,
-    some poses that expect none where the scan has one, one echo far off (a passer-by)."""
-    rng = np.random.default_rng(seed)
+def random_beams_log_likelihood(z: np.ndarray, z_star: np.ndarray, beam: BeamCase, k: int,
+                                rng: np.random.Generator, mistake: str | None = None) -> np.ndarray:
+    """The reference answer ``(N,)``, or what one mistake of :data:`RANDOM_BEAM_MISTAKES` computes."""
+    if mistake is not None and mistake not in RANDOM_BEAM_MISTAKES:
+        raise ValueError(f"unknown mistake {mistake!r}; one of {sorted(RANDOM_BEAM_MISTAKES)}")
+    pool = np.arange(len(z)) if mistake == "no_echo" else np.flatnonzero(z < beam.z_max)
+    terms = beam_terms(z, z_star, beam, mistake)
+    if mistake == "fixed":
+        picked = terms[:, pool[:k]]
+    elif mistake == "global_rng":
+        picked = terms[:, np.random.choice(pool, k, replace=False)]
+    elif mistake == "replacement":
+        picked = terms[:, rng.choice(pool, k, replace=True)]
+    elif mistake == "per_pose":
+        picked = np.array([row[rng.choice(pool, k, replace=False)] for row in terms])
+    else:
+        picked = terms[:, rng.choice(pool, k, replace=False)]
+    return picked.mean(axis=1) if mistake == "mean" else picked.sum(axis=1)
+
+
+def random_beam_case(seed: int = 0, n_poses: int = 80, n_beams: int = 40) -> tuple[np.ndarray, np.ndarray, BeamCase]:
+    """A scan of ``n_beams`` beams, about one in six with no echo, and the expected ranges of ``n_poses``
+    poses near the scan's ranges (more poses than beams, so the beams summed can be solved for)."""
+    rng = np.random.default_rng([16, seed])
     beam = BeamCase()
-    cases = []
-    for n_beams in (12, 360):
-        truth = rng.uniform(0.5, 12.0, n_beams)
-        truth[rng.random(n_beams) < 0.15] = beam.z_max  # nothing within range
-        z = np.where(truth < beam.z_max, truth + rng.normal(0.0, beam.sigma, n_beams), beam.z_max)
-        z[0] = 0.4 * truth[0] if truth[0] < beam.z_max else 2.0
-        z_star = truth + rng.normal(0.0, 1.0, (n_poses, n_beams))
-        z_star[rng.random((n_poses, n_beams)) < 0.1] = beam.z_max
-        z_star = np.clip(z_star, 0.05, beam.z_max)
-        cases.append((z, z_star, beam))
-    return cases
+    z = rng.uniform(0.5, 12.0, n_beams)
+    z[rng.random(n_beams) < 0.15] = beam.z_max
+    z[:2] = beam.z_max, 3.0  # at least one beam without an echo and one with
+    z_star = np.where(z < beam.z_max, z + rng.normal(0.0, 0.4, (n_poses, n_beams)), beam.z_max)
+    return z, np.clip(z_star, 0.05, beam.z_max), beam
 
 
-def check_beam_model(fn: Callable, n_poses: int = 30, seed: int = 0, rtol: float = 1e-9) -> CheckReport:
-    """Check ``fn(z, z_star, beam) -> (N,)`` against :func:`beam_log_likelihood` (the module's docstring)."""
-    report = CheckReport("beam model")
-    cases = beam_cases(n_poses, seed)
-    answers = _cloud_answers(report, [lambda c=c: fn(c[0].copy(), c[1].copy(), c[2]) for c in cases],
-                             "fn(z, z_star, beam)", "compute and return one log-likelihood per pose", n_poses,
-                             "log-likelihood per pose (a row of z_star), summed over the beams")
+def beams_summed(answer: np.ndarray, terms: np.ndarray, echo: np.ndarray, z_none: float, tol: float = 1e-6):
+    """Solve ``answer = terms[:, echo] @ s + c`` for the multiplicities ``s`` of the echo beams and the
+    number ``m = c / log z_none`` of no-echo beams; ``None`` if no such sum fits (or ``s``, ``m`` are not
+    whole numbers), else ``(s, m)``."""
+    design = np.column_stack([terms[:, echo], np.ones(len(answer))])
+    coef, *_ = np.linalg.lstsq(design, answer, rcond=None)
+    if not np.allclose(design @ coef, answer, rtol=0, atol=tol * max(1.0, np.abs(answer).max())):
+        return None
+    s, m = coef[:-1], coef[-1] / np.log(z_none)
+    if np.abs(s - np.round(s)).max() > 1e-5 or abs(m - round(m)) > 1e-5:
+        return s, m  # a sum, but not of whole beams (e.g. a mean)
+    return np.round(s).astype(int), int(round(m))
+
+
+def check_random_beams(fn: Callable, k: int = 12, seed: int = 0, n_seeds: int = 200) -> CheckReport:
+    """Check ``fn(z, z_star, beam, k, rng) -> (N,)`` (the module's docstring)."""
+    report = CheckReport("beam model on random beams")
+    z, z_star, beam = random_beam_case(seed)
+    echo = z < beam.z_max
+    terms = beam_terms(z, z_star, beam)
+    saved = np.random.get_state()
+    try:
+        np.random.seed(12345)
+        before = np.random.get_state()[1].copy()
+        answers = _cloud_answers(report, [lambda s=s: fn(z.copy(), z_star.copy(), beam, k, np.random.default_rng(s))
+                                          for s in (seed, seed, seed + 1)],
+                                 "fn(z, z_star, beam, k, rng)", "compute and return one log-likelihood per pose",
+                                 len(z_star), "log-likelihood per pose (a row of z_star)")
+        touched = not np.array_equal(np.random.get_state()[1], before)
+    finally:
+        np.random.set_state(saved)
     if answers is None:
         return report
-
-    def fits(mistake: str | None) -> bool:
-        return all(np.allclose(a, beam_log_likelihood(z, zs, b, mistake), rtol=rtol, atol=1e-9)
-                   for a, (z, zs, b) in zip(answers, cases))
-
-    if _settled(report, fits, BEAM_MISTAKES):
-        return report
     if any(np.isnan(a).any() for a in answers):
-        report.problems.append("some log-likelihoods are NaN: every beam's density is positive (z_rand / z_max "
-                               "or z_none at least), so its log is a number")
+        report.problems.append("some log-likelihoods are NaN: every drawn beam's density is positive (z_rand / "
+                               "z_max at least), so its log is a number")
         return report
-    report.problems.append("the log-likelihoods differ from the beam model's: for a beam with an echo add "
-                           "log(z_hit N(z_b; z*_b, sigma^2) + z_rand / z_max), for one without add log(z_none)")
+    if touched:
+        report.problems.append(RANDOM_BEAM_MISTAKES["global_rng"])
+        return report
+    if not np.array_equal(answers[0], answers[1]):
+        report.problems.append("two calls with the same seed gave different answers: draw every random number "
+                               "from the generator rng you are given")
+        return report
+    fit = beams_summed(answers[0], terms, echo, beam.z_none)
+    if fit is None:
+        for mistake in _TERM_MISTAKES:
+            if beams_summed(answers[0], beam_terms(z, z_star, beam, mistake), echo, beam.z_none) is not None:
+                report.problems.append(f"your function computes a known mistake: {RANDOM_BEAM_MISTAKES[mistake]}")
+                return report
+        echo_terms = np.sort(terms[:, echo], axis=1)
+        low, high = echo_terms[:, :k].sum(axis=1), echo_terms[:, -k:].sum(axis=1)
+        if np.all((answers[0] >= low - 1e-9) & (answers[0] <= high + 1e-9)):
+            report.problems.append(f"your function computes a known mistake: {RANDOM_BEAM_MISTAKES['per_pose']}")
+        else:
+            report.problems.append("the log-likelihoods are not a sum of the beam model's terms over one set of "
+                                   "beams: for each beam drawn add log(z_hit N(z_b; z*_b, sigma^2) + z_rand / "
+                                   "z_max), the same beams for every pose")
+        return report
+    s, m = fit
+    if not np.issubdtype(np.asarray(s).dtype, np.integer):
+        if np.allclose(s * k, np.round(s * k), atol=1e-5) and np.isclose(s.sum() + m, 1.0, atol=1e-5):
+            report.problems.append(f"your function computes a known mistake: {RANDOM_BEAM_MISTAKES['mean']}")
+        else:
+            report.problems.append("the log-likelihoods weigh the beams by fractions: add each drawn beam's "
+                                   "log-density once")
+        return report
+    if s.sum() + m != k or (s < 0).any() or m < 0:
+        report.problems.append(f"the answer sums {s.sum() + m} beams, not k = {k}: draw exactly k beams")
+        return report
+    if m > 0:
+        report.problems.append(f"your function computes a known mistake: {RANDOM_BEAM_MISTAKES['no_echo']}")
+        return report
+    # over many seeds: distinct beams, not always the same, each echo beam about equally often
+    counts = np.zeros(echo.sum())
+    sets = set()
+    for s_ in range(seed + 2, seed + 2 + n_seeds):
+        got = fn(z.copy(), z_star.copy(), beam, k, np.random.default_rng(s_))
+        fit = beams_summed(np.asarray(got, dtype=float), terms, echo, beam.z_none)
+        if fit is None or not np.issubdtype(np.asarray(fit[0]).dtype, np.integer):
+            report.problems.append(f"with the seed {s_} the answer is not a sum over beams of the scan: "
+                                   "score every pose on the same k beams")
+            return report
+        s, m = fit
+        if m > 0:
+            report.problems.append(f"your function computes a known mistake: {RANDOM_BEAM_MISTAKES['no_echo']}")
+            return report
+        if s.max() > 1:
+            report.problems.append(f"your function computes a known mistake: {RANDOM_BEAM_MISTAKES['replacement']}")
+            return report
+        counts += s
+        sets.add(tuple(np.flatnonzero(s)))
+    if len(sets) == 1:
+        report.problems.append(f"your function computes a known mistake: {RANDOM_BEAM_MISTAKES['fixed']}")
+        return report
+    p = k / echo.sum()
+    expected, sd = n_seeds * p, np.sqrt(n_seeds * p * (1 - p))
+    if np.abs(counts - expected).max() > 5 * sd:
+        report.problems.append("some echo beams are drawn far more often than others over many seeds: give each "
+                               "beam with an echo the same chance")
     return report
