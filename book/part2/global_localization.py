@@ -602,8 +602,10 @@ EvidenceBlock(
 # It recovers more slowly in the median ({glue:text}`kidnap_aug_recovery_median_s:.0f` s against
 # {glue:text}`kidnap_recovery_median_s:.0f` s), since it waits for its fast average to fall, but with a
 # shorter tail: a tenth of its recoveries take {glue:text}`kidnap_aug_recovery_p90_s:.0f` s or more,
-# of the mixture's {glue:text}`kidnap_recovery_p90_s:.0f` s or more. The bootstrap filter recovers in
-# {glue:text}`kidnap_boot_rate:.2f`: its estimate drifts off as a confident, wrong track.
+# of the mixture's {glue:text}`kidnap_recovery_p90_s:.0f` s or more.
+#
+# The bootstrap filter recovers in {glue:text}`kidnap_boot_rate:.2f`: its estimate drifts off as a
+# confident, wrong track.
 
 # %% tags=["remove-input"] jupyter={"source_hidden": true}
 rows = []

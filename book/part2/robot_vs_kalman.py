@@ -19,7 +19,7 @@
 # **You need** {doc}`robot` (the model and MCL) and {doc}`../part1/kalman`; partial
 # derivatives; NumPy.
 #
-# **Time:** about fifteen minutes to read; the notebook runs in under a minute (the UKF's
+# **Time:** about sixteen minutes to read; the notebook runs in under a minute (the UKF's
 # Python loops take most of it).
 # :::
 #

@@ -377,7 +377,7 @@ def _bearing_spread_cause(fn: Callable, n: int, seed: int, ratio: float) -> str:
         blind = _BlindBearingModel(sigma=50.0)
         steps = 20
         means, _ = fn(np.zeros(steps), BearingModel.observer(steps), n, np.random.default_rng(seed), blind)
-        jump = float(np.sqrt(np.mean(np.diff(np.asarray(means, dtype=float), axis=0) ** 2)))
+        jump = float(np.std(np.diff(np.asarray(means, dtype=float), axis=0)))
         if jump > 0.6 * blind.q:
             return (f"your particles all move by the same random-walk step: with bearings that say nothing your "
                     f"mean still jumps {jump:.2f} m a step, a whole step of the walk (q = {blind.q} m) instead of "
