@@ -595,14 +595,14 @@ EvidenceBlock(
 # one pose.
 #
 # Augmented MCL, on the same runs, recovers about as often: in a share {glue:text}`kidnap_aug_rate:.2f`
-# against the mixture's {glue:text}`kidnap_best_rate:.2f`. That is five runs in a hundred, too few to
-# tell from chance (p = {glue:text}`kidnap_aug_p:.2f`); an advantage of augmented MCL beyond
+# against the mixture's {glue:text}`kidnap_best_rate:.2f`. The two differ on a handful of runs, too
+# few to tell from chance (p = {glue:text}`kidnap_aug_p:.2f`); an advantage of augmented MCL beyond
 # {glue:text}`kidnap_aug_excluded_pts:.0f` points is excluded by the data.
 #
 # It recovers more slowly in the median ({glue:text}`kidnap_aug_recovery_median_s:.0f` s against
 # {glue:text}`kidnap_recovery_median_s:.0f` s), since it waits for its fast average to fall, but with a
 # shorter tail: a tenth of its recoveries take {glue:text}`kidnap_aug_recovery_p90_s:.0f` s or more,
-# of the mixture's {glue:text}`kidnap_recovery_p90_s:.0f` s or more.
+# a tenth of the mixture's {glue:text}`kidnap_recovery_p90_s:.0f` s or more.
 #
 # The bootstrap filter recovers in {glue:text}`kidnap_boot_rate:.2f`: its estimate drifts off as a
 # confident, wrong track.

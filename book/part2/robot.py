@@ -417,7 +417,8 @@ plt.show()
 # all the weight, and resampling copies it. From then on the mean stays
 # {glue:text}`nowhere_err_min_m:.1f`-{glue:text}`nowhere_err_max_m:.1f` m from the truth, while the
 # filter's own standard deviation is at most {glue:text}`nowhere_sd_max_m:.2f` m. The cloud is
-# impoverished and confidently wrong: near the truth on the map's scale, metres off on its own.
+# impoverished and confidently wrong: near the truth on the map's scale, but metres off on the
+# scale of its own spread.
 # Scrub through the same run (the animation draws the first $3000$ particles, marker area
 # proportional to weight):
 
