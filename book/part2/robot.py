@@ -18,7 +18,7 @@
 # **You need** {doc}`../part1/sir` (the bootstrap filter, resampling when the ESS is low);
 # sines and cosines of a heading; NumPy arrays.
 #
-# **Time:** about eighteen minutes to read; the notebook runs in about half a minute.
+# **Time:** about nineteen minutes to read; the notebook runs in about half a minute.
 # :::
 #
 # A wheeled robot knows its map, five landmarks at known positions, but not where it is. Its
@@ -85,7 +85,7 @@ from pfcourse.book.panels import (control_panel, particle_slider, scale_slider, 
 from pfcourse.collectors import Clouds
 from pfcourse.filter import ParticleFilter
 from pfcourse.seeding import run_filter_seed
-from pfcourse.metrics import LOCK_WINDOW_S, position_error, position_spread
+from pfcourse.metrics import LOCK_WINDOW_S, heading_error, locked_on, position_error, position_spread
 from pfcourse.book.figures.robot import error_bands, landmarks_background, robot_map, sight_overlay
 from pfcourse.scenarios.robot.scenario import INITIAL_STD, RobotModel, motion, rmse, simulate_robot, tracking_errors
 from pfcourse.book.style import COLORS, plain_log_axis, use_style
@@ -141,19 +141,21 @@ EvidenceBlock("the lab's noise levels", notes=["The filter assumes twice these v
 # true path. The filter's noise is twice the simulator's.
 
 # %%
+from pfcourse.scenarios.robot.scenario import simulate_robot
 import matplotlib.pyplot as plt
 import numpy as np
 from scipy.special import logsumexp
-from pfcourse.scenarios.robot.scenario import simulate_robot
 
 sim = simulate_robot(rng=3)
-Q, R = 2 * sim.scenario.q_true, 2 * sim.scenario.r_true
+# the filter's covariances: twice the true ones
+Q_est, R_est = 2 * sim.scenario.q_true, 2 * sim.scenario.r_true
 # the initial cloud: the true start plus noise of 1 m, 1 m and 0.1 rad
 x0_sd = np.array([1.0, 1.0, 0.1])
 print(sim.odometry.shape, sim.measurements.shape, sim.landmarks.shape)
 
 # %% [markdown]
-# In NumPy, Algorithm 11.1 is the loop below, with one helper for angles:
+# In NumPy, Algorithm 11.1 is the loop below, with one helper for angles. Row $0$ of the data is
+# the start, with no move and no reading (`sim.measurements[0]` is NaN), hence `if k > 0`:
 
 
 # %%
@@ -162,12 +164,12 @@ def wrap(a):
     return a - 2 * np.pi * np.ceil((a - np.pi) / (2 * np.pi))
 
 
-def mcl(odometry, readings, landmarks, Q, R, x0, x0_sd, n, tau, rng):
+def mcl(odometry, readings, landmarks, Q_est, R_est, x0, x0_sd, n, tau, rng):
     """Algorithm 11.1 with dt = 1 s; returns the (K, 3) posterior means."""
     # the lab's Q is diagonal: one sd per command
-    q_sd = np.sqrt(np.diag(Q))
-    R_inv = np.linalg.inv(R)
-    log_norm = -np.log(2 * np.pi) - 0.5 * np.linalg.slogdet(R)[1]
+    q_sd = np.sqrt(np.diag(Q_est))
+    R_inv = np.linalg.inv(R_est)
+    log_norm = -np.log(2 * np.pi) - 0.5 * np.linalg.slogdet(R_est)[1]
     x = x0 + x0_sd * rng.standard_normal((n, 3))
     x[:, 2] = wrap(x[:, 2])
     log_W = np.full(n, -np.log(n))
@@ -212,14 +214,15 @@ def mcl(odometry, readings, landmarks, Q, R, x0, x0_sd, n, tau, rng):
 # %%
 N, TAU = 300, 0.5
 rng = np.random.default_rng(4)
-mine = mcl(sim.odometry, sim.measurements, sim.landmarks, Q, R,
+mine = mcl(sim.odometry, sim.measurements, sim.landmarks, Q_est, R_est,
            sim.truth[0], x0_sd, N, TAU, rng)
 fig, axes = plt.subplots(1, 2, figsize=(10, 4.5))
 for ax in axes:
     ax.plot(*sim.landmarks.T, "k*", ms=10, label="landmarks")
     ax.plot(*sim.truth[:, :2].T, "k", lw=3, label="truth")
-    ax.plot(*sim.odometry_path[:, :2].T, "--", label="dead reckoning")
-    ax.plot(*mine[:, :2].T, label="particle filter")
+    ax.plot(*sim.odometry_path[:, :2].T, "--", color="tab:blue",
+            label="dead reckoning")
+    ax.plot(*mine[:, :2].T, color="tab:red", label="particle filter")
     ax.set(xlabel="x (m)", ylabel="y (m)")
 axes[0].set(title="the map", aspect="equal")
 axes[1].set(title="zoom on the path", xlim=(-12, 8), ylim=(-52, -24))
@@ -322,16 +325,18 @@ plt.tight_layout()
 plt.show()
 
 # %% [markdown]
-# In every coordinate the error stays inside the band at {glue:text}`inside_min:.0%` of the
-# steps at least. The time-averaged normalised error, $\text{NEES}_k = e_k^\top \hat P_k^{-1} e_k$,
-# is {glue:text}`run_nees:.2f`; a consistent filter would average the state dimension, $3$.
-# Lower is expected here: the filter assumes twice the true variances, so it is cautious.
+# In every coordinate the error stays inside the band at every step. The time-averaged
+# normalised error, $\text{NEES}_k = e_k^\top \hat P_k^{-1} e_k$, is {glue:text}`run_nees:.2f`; a
+# consistent filter would average the state dimension, $3$. If $\hat P_k$ were exactly twice the
+# error covariance, as the doubled variances suggest, it would average $3/2$; the Monte Carlo error
+# of $300$ particles, which $\hat P_k$ does not fully count, raises it. The filter is cautious.
 # {doc}`robot_vs_kalman` checks this over many runs.
 
 # %% tags=["remove-input"] jupyter={"source_hidden": true}
 err = tracking_errors(sim.truth, result.mean)
 sig = np.sqrt(np.diagonal(result.cov, axis1=1, axis2=2))
 inside = np.mean(np.abs(err) <= 3 * sig, axis=0)
+assert inside.min() == 1.0, "the prose says: inside the band at every step"
 run_nees = nees(sim.truth, result.mean, result.cov, model.angle_indices)
 ess = result.ess[1:]
 glue_values(inside_min=float(inside.min()), run_nees=float(run_nees.mean()), tracking_sd=float(np.median(sig[50:, :2])),
@@ -369,17 +374,34 @@ for ax, k in zip(axes.flat, snap):
     ax.scatter(res_g.particles[k, :3000, 0], res_g.particles[k, :3000, 1], s=1, color="0.75")
     ax.scatter(res_g.particles[k, alive, 0], res_g.particles[k, alive, 1], s=6, color=COLORS["particles"])
     ax.plot(sim_g.landmarks[:, 0], sim_g.landmarks[:, 1], "*k", ms=10)
+    for i, (lx, ly) in enumerate(sim_g.landmarks):
+        ax.annotate(f"L{i}", (lx, ly), xytext=(4, 4), textcoords="offset points", fontsize=9)
     ax.plot(*sim_g.truth[k, :2], "o", color=COLORS["truth"], mfc="none", ms=12, mew=2)
     ax.plot(*res_g.mean[k, :2], "x", color=COLORS["estimate"], ms=10, mew=2)
     j = sim_g.landmark_index[k]
     ax.set_title(f"t = {k} s" + (f", sees L{j}" if j >= 0 else ", no measurement"))
     ax.set_aspect("equal")
+# the last panel zoomed on the truth: a tight cluster, metres off
+ZOOM = 3.0
+last, (tx, ty) = axes.flat[-1], sim_g.truth[snap[-1], :2]
+# the upper right quarter of the map holds no landmark in this run: the inset goes there
+assert not np.any((sim_g.landmarks[:, 0] > 0) & (sim_g.landmarks[:, 1] > 0))
+inset = last.inset_axes([0.55, 0.55, 0.43, 0.43])
+for spine in inset.spines.values():
+    spine.set_visible(True)
+k = snap[-1]
+inset.scatter(res_g.particles[k, :, 0], res_g.particles[k, :, 1], s=2, color=COLORS["particles"])
+inset.plot(tx, ty, "o", color=COLORS["truth"], mfc="none", ms=10, mew=2)
+inset.plot(*res_g.mean[k, :2], "x", color=COLORS["estimate"], ms=9, mew=2)
+inset.set(xlim=(tx - ZOOM, tx + ZOOM), ylim=(ty - ZOOM, ty + ZOOM), xticks=[], yticks=[], aspect="equal")
+last.indicate_inset_zoom(inset, edgecolor="0.3")
 for ax in axes[-1]:
     ax.set_xlabel("x (m)")
 for ax in axes[:, 0]:
     ax.set_ylabel("y (m)")
 fig.suptitle("Uniform start, N = 20 000. Grey: 3000 of the particles; orange: particles with at least "
-             "1 % of the largest weight;\ncircle: truth; x: posterior mean")
+             f"1 % of the largest weight;\ncircle: truth; x: posterior mean; inset: the {2 * ZOOM:.0f} m square "
+             "around the truth at t = 29 s")
 plt.tight_layout()
 plt.show()
 
@@ -388,21 +410,41 @@ plt.show()
 # map. The first reading keeps the particles whose range *and* heading match it: a ring around
 # the landmark, a posterior with no single peak, whose mean (the cross) is
 # {glue:text}`ring_mean_error_m:.0f` m from the truth, and far from every particle that matters. One Gaussian is not an approximate summary of
-# it but a wrong one. A reading of another landmark intersects the rings; once one cluster
-# survives, the mean falls near the truth. Scrub through the same run (the animation draws the
-# first $3000$ particles, marker area proportional to weight):
+# it but a wrong one.
+#
+# A reading of another landmark intersects the rings, and one cluster survives, but look at it
+# closely (the inset). At $t = 2$ s the ESS is {glue:text}`nowhere_ess_t2:.0f`: one particle holds
+# all the weight, and resampling copies it. From then on the mean stays
+# {glue:text}`nowhere_err_min_m:.1f`-{glue:text}`nowhere_err_max_m:.1f` m from the truth, while the
+# filter's own standard deviation is at most {glue:text}`nowhere_sd_max_m:.2f` m. The cloud is
+# impoverished and confidently wrong: near the truth on the map's scale, but metres off on the
+# scale of its own spread.
+# Scrub through the same run (the animation draws the first $3000$ particles, marker area
+# proportional to weight):
 
 # %% tags=["remove-input"] jupyter={"source_hidden": true}
 snap_rows = []
 for k in snap:
     n_alive = int(np.sum(res_g.weights[k] > res_g.weights[k].max() / 100))
     snap_rows.append({"t (s)": k, "particles within 1 % of the best": n_alive, "ESS": res_g.ess[k],
-                      "mean's distance from the truth (m)": float(position_error(sim_g.truth[k], res_g.mean[k]))})
+                      "mean's distance from the truth (m)": float(position_error(sim_g.truth[k], res_g.mean[k])),
+                      "filter's own sd (m)": float(position_spread(res_g.cov[k:k + 1])[0])})
 glue_values(ring_mean_error_m=snap_rows[1]["mean's distance from the truth (m)"])
-EvidenceBlock("one Gaussian summarises the ring wrongly",
-              notes=["The run of the figure (data seed 5, filter seed run_filter_seed(5) = 6, N = 20 000), at the times of its panels."],
+after = slice(2, None)  # from the second reading on
+err_g = position_error(sim_g.truth, res_g.mean)[after]
+sd_g = position_spread(res_g.cov)[after]
+locked_g = locked_on(position_error(sim_g.truth, res_g.mean), heading_error(sim_g.truth, res_g.mean), sim_g.scenario.dt)
+assert not locked_g and err_g.min() > 1.0, "the prose reads this run as a confident miss"
+glue_values("nowhere_", ess_t2=float(res_g.ess[2]), err_min_m=float(err_g.min()), err_max_m=float(err_g.max()),
+            sd_max_m=float(sd_g.max()))
+EvidenceBlock("one Gaussian summarises the ring wrongly, and the cluster that survives is metres off",
+              notes=["The run of the figure (data seed 5, filter seed run_filter_seed(5) = 6, N = 20 000), at the times of its panels.",
+                     f"From t = 2 s to the end: distance of the mean from the truth {err_g.min():.2f} to {err_g.max():.2f} m, "
+                     f"the filter's own position sd sqrt(P_xx + P_yy) {sd_g.min():.2f} to {sd_g.max():.2f} m; "
+                     f"locked on by the rule of the next section: {locked_g}."],
               tables=[("The cloud at each panel's time", pd.DataFrame(snap_rows),
-                       {"ESS": ".0f", "mean's distance from the truth (m)": ".1f"})])
+                       {"ESS": ".0f", "mean's distance from the truth (m)": ".1f",
+                        "filter's own sd (m)": ".2f"})])
 
 # %% tags=["hide-input"] jupyter={"source_hidden": true}
 anim_g = animate_clouds({"PF": res_g}, None, sim_g.truth, list(range(0, 12)) + [15, 20, 25, 29],
@@ -429,7 +471,7 @@ fig, ax = plt.subplots(figsize=(6, 3.5))
 ax.errorbar(n_values, [r.estimate for r in rates], yerr=np.abs(np.array([[r.low - r.estimate, r.high - r.estimate]
                                                                         for r in rates]).T),
             fmt="o-", color=COLORS["estimate"], capsize=4)
-ax.set_xscale("log")
+plain_log_axis(ax, "x")  # ticks at 1000, 3000, 10000, 30000
 ax.set_xlabel("number of particles N")
 ax.set_ylabel("share of runs locked on")
 ax.set_ylim(-0.05, 1.05)
@@ -589,7 +631,8 @@ display(panel)
 # The target region has volume $\pi \times 1^2 \times (10° \times \pi/180) \approx 0.55$ m²·rad
 # out of $120^2 \times 2\pi \approx 90\,500$ m²·rad: a fraction $p \approx 6.1\times 10^{-6}$.
 # The probability that one of $N$ particles falls in it is $1 - (1-p)^N$, one half for
-# $N \approx 0.69/p \approx 114\,000$. The filter locks on with far fewer particles because it
+# $N \approx 0.69/p \approx 114\,000$. The filter locks on with fewer particles ($N = 30\,000$ in
+# {glue:text}`lock_k_high:d` of the {glue:text}`lock_runs:d` runs of the study) because it
 # does not need a particle right at the truth at time $0$: resampling keeps many particles on
 # the first rings, and the motion noise lets them slide towards the intersection of the later
 # rings.
@@ -618,7 +661,8 @@ display(panel)
 # $e \sim \mathcal N(0, I)$, with `u` $= (v, \omega)$, `sd` $= (s_v, s_\omega)$ (standard
 # deviations) and the generator `rng`, then drives along its arc. The checker moves $100\,000$
 # copies of one pose and compares the cloud's mean and spread with the model's; it names the
-# mistake it sees.
+# mistake it sees. Once it passes, put it in `mcl` as the *move* of a robot that reports
+# $(v, \omega)$: which other line of the loop must change?
 # ```
 
 # %% tags=["answer"]
@@ -636,7 +680,9 @@ print(check_velocity_motion(my_velocity_motion))
 # ```{solution} ex-robot-code
 # :class: dropdown
 # One pair of standard normals per particle, the noisy command, then the arc; the code is in
-# the folded cell below (in JupyterLab, click its margin to unfold it).
+# the folded cell below (in JupyterLab, click its margin to unfold it). In `mcl` only the move
+# changes (its noise is the pair $(s_v, s_\omega)$): the weight and the resampling do not
+# depend on the motion model.
 # ```
 
 # %% tags=["solution", "hide-input"] jupyter={"source_hidden": true}

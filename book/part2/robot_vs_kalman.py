@@ -19,11 +19,11 @@
 # **You need** {doc}`robot` (the model and MCL) and {doc}`../part1/kalman`; partial
 # derivatives; NumPy.
 #
-# **Time:** about fifteen minutes to read; the notebook runs in under a minute (the UKF's
+# **Time:** about sixteen minutes to read; the notebook runs in under a minute (the UKF's
 # Python loops take most of it).
 # :::
 #
-# The previous chapter tracked the robot with a particle filter. Is it worth it? The classical
+# {doc}`robot` tracked the robot with a particle filter. Is it worth it? The classical
 # answers to a nonlinear model keep one mean and one covariance: the **extended Kalman filter**
 # linearizes the motion and measurement functions at the current estimate, the **unscented
 # Kalman filter** propagates a few deterministic *sigma points* through them
@@ -43,13 +43,13 @@
 # s\,\Delta t & c\,\Delta t & 0 \\ 0 & 0 & \Delta t \end{pmatrix}.
 # $$
 #
-# To update with landmark $j$, it linearizes $h_j$ at $m_k^-$. With $(d_x, d_y) = l^j - (x, y)$
-# and $q = d_x^2 + d_y^2$, the range is $\sqrt q$ and the bearing
+# To update with landmark $j$, it linearizes $h_j$ at $m_k^-$. With $d = (d_x, d_y) = l^j - (x, y)$,
+# the range is $\lVert d \rVert = (d_x^2 + d_y^2)^{1/2}$ and the bearing
 # $\operatorname{atan2}(d_y, d_x) - \theta$, so
 #
 # $$
-# H_k = \frac{\partial h_j}{\partial x} = \begin{pmatrix} -d_x/\sqrt q & -d_y/\sqrt q & 0 \\
-# d_y/q & -d_x/q & -1 \end{pmatrix}
+# H_k = \frac{\partial h_j}{\partial x} = \begin{pmatrix} -d_x/\lVert d \rVert & -d_y/\lVert d \rVert & 0 \\
+# d_y/\lVert d \rVert^2 & -d_x/\lVert d \rVert^2 & -1 \end{pmatrix}
 # $$
 #
 # Two details matter for angles: the innovation wraps its
@@ -102,12 +102,13 @@ use_style()
 # standard deviations of $1$ m, $1$ m and $0.1$ rad. In NumPy:
 
 # %%
+from pfcourse.scenarios.robot.scenario import simulate_robot
 import matplotlib.pyplot as plt
 import numpy as np
-from pfcourse.scenarios.robot.scenario import simulate_robot
 
 sim = simulate_robot(rng=3, n_steps=200)
-Q, R = 2 * sim.scenario.q_true, 2 * sim.scenario.r_true
+# the filter's covariances: twice the true ones
+Q_est, R_est = 2 * sim.scenario.q_true, 2 * sim.scenario.r_true
 m0, P0 = sim.truth[0], np.diag([1.0, 1.0, 0.1]) ** 2
 
 
@@ -116,10 +117,11 @@ def wrap(a):
     return a - 2 * np.pi * np.ceil((a - np.pi) / (2 * np.pi))
 
 
-def ekf(odometry, readings, landmarks, Q, R, m, P, dt=1.0):
+def ekf(odometry, readings, landmarks, Q_est, R_est, m, P, dt=1.0):
     """Algorithm 13.1; returns the (K, 3) means and (K, 3, 3) covariances."""
     means, covs = [], []
     for k, (u, z) in enumerate(zip(odometry, readings)):
+        # row 0 is the start: no move, no reading
         if k > 0:
             # 1. predict, with the Jacobians at the previous mean
             c, s = np.cos(m[2]), np.sin(m[2])
@@ -131,21 +133,21 @@ def ekf(odometry, readings, landmarks, Q, R, m, P, dt=1.0):
             m = np.array([m[0] + (u[0] * c - u[1] * s) * dt,
                           m[1] + (u[0] * s + u[1] * c) * dt,
                           wrap(m[2] + u[2] * dt)])
-            P = F @ P @ F.T + G @ Q @ G.T
+            P = F @ P @ F.T + G @ Q_est @ G.T
         if not np.isnan(z[0]):
             # 2. update with landmark j
             dx, dy = landmarks[int(z[0])] - m[:2]
-            q = dx * dx + dy * dy
-            H = np.array([[-dx / np.sqrt(q), -dy / np.sqrt(q), 0],
-                          [dy / q, -dx / q, -1]])
-            nu = np.array([z[1] - np.sqrt(q),
+            d2 = dx * dx + dy * dy
+            H = np.array([[-dx / np.sqrt(d2), -dy / np.sqrt(d2), 0],
+                          [dy / d2, -dx / d2, -1]])
+            nu = np.array([z[1] - np.sqrt(d2),
                            wrap(z[2] - (np.arctan2(dy, dx) - m[2]))])
-            S = H @ P @ H.T + R
+            S = H @ P @ H.T + R_est
             K = P @ H.T @ np.linalg.inv(S)
             m = m + K @ nu
             m[2] = wrap(m[2])
             I_KH = np.eye(3) - K @ H
-            P = I_KH @ P @ I_KH.T + K @ R @ K.T
+            P = I_KH @ P @ I_KH.T + K @ R_est @ K.T
         means.append(m)
         covs.append(P)
     return np.array(means), np.array(covs)
@@ -155,8 +157,8 @@ def ekf(odometry, readings, landmarks, Q, R, m, P, dt=1.0):
 # Run it, and plot its position error against its own $3\sigma$ band:
 
 # %%
-mine, mine_cov = ekf(sim.odometry, sim.measurements, sim.landmarks, Q, R,
-                     m0, P0)
+mine, mine_cov = ekf(sim.odometry, sim.measurements, sim.landmarks, Q_est,
+                     R_est, m0, P0)
 error = np.hypot(*(mine[:, :2] - sim.truth[:, :2]).T)
 band = 3 * np.sqrt(mine_cov[:, 0, 0] + mine_cov[:, 1, 1])
 fig, ax = plt.subplots(figsize=(7, 3.2))
@@ -225,7 +227,8 @@ runs = [compare_filters(seed, filters=("pf", "ekf", "ukf")[::1 if seed % 2 == 0 
                         burn_in=BURN_IN) for seed in range(N_RUNS)]
 names = {"pf": "particle filter (N = 300)", "ekf": "EKF", "ukf": "UKF"}
 legend = {"pf": "particle filter (N = 300)", "ekf": "EKF (hidden under the UKF)", "ukf": "UKF"}
-colors = {"pf": COLORS["estimate"], "ekf": COLORS["kalman"], "ukf": "tab:purple"}
+# the colours of the map above (robot_map): PF red, EKF green, UKF orange
+colors = {"pf": COLORS["estimate"], "ekf": COLORS["kalman"], "ukf": COLORS["particles"]}
 
 
 def column(key, attr, source=None):
@@ -247,12 +250,13 @@ axes[2].axhspan(lo, hi, color="0.85", label=f"95 % band of χ²₃ / {N_RUNS} ru
 axes[2].set_ylim(0, None)
 axes[2].set_xlabel("time (s)")
 axes[2].set_ylabel(f"NEES averaged over {N_RUNS} runs")
-axes[2].legend(loc="upper right")
 for ax, lab in zip(axes[:2], ("position RMSE per run (m)", "heading RMSE per run (deg)")):
     ax.set_xticks(range(3), ["PF", "EKF", "UKF"])
     ax.set_ylabel(lab)
 axes[0].set_title(f"{N_RUNS} runs, black bar: median")
-plt.tight_layout()
+# the legend under the panels, off the band and the curves
+fig.legend(*axes[2].get_legend_handles_labels(), loc="lower center", ncols=2)
+plt.tight_layout(rect=(0, 0.16, 1, 1))
 plt.show()
 
 # %% [markdown]
@@ -485,7 +489,8 @@ print(check_relative_jacobian(my_jacobian))
 # :nonumber:
 # Why is the time-averaged NEES of all three filters below $3$ in the default comparison?
 # What would you expect with $Q_\text{est} = Q$ and $R_\text{est} = R$? Check it with
-# `compare_filters(seed, q_scale=1.0, r_scale=1.0, n_steps=150, burn_in=20)` over a few seeds.
+# `compare_filters(seed, q_scale=1.0, r_scale=1.0, n_steps=150, burn_in=20)` of
+# `pfcourse.studies.robot` over a few seeds.
 # ```
 #
 # ```{solution} ex-robot-nees
