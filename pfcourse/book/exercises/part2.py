@@ -318,6 +318,95 @@ def check_altimeter_likelihood(fn: Callable, seed: int = 0) -> CheckReport:
     return report
 
 
+#: The junk-reading altimeter of :func:`check_robust_altimeter` (chapter 17, exercise 17.4): with
+#: probability ``eps`` a reading is uniform on ``[0, y_max]``.
+ROBUST_EPS, ROBUST_Y_MAX = 0.05, 3000.0
+
+
+#: mistake -> the sentence that names it (:func:`robust_altimeter_log_likelihood`'s ``mistake``).
+ROBUST_ALTIMETER_MISTAKES = {
+    "swapped": ALTIMETER_MISTAKES["swapped"],
+    "nearest": ALTIMETER_MISTAKES["nearest"],
+    "rf_as_sd": ALTIMETER_MISTAKES["rf_as_sd"],
+    "sign": ALTIMETER_MISTAKES["sign"],
+    "no_constant": "the Gaussian's -(1/2) log(2 pi Rf) is missing: in a mixture it no longer cancels, since it sets "
+                   "how the Gaussian term weighs against the uniform one",
+    "mixed_logs": "it mixes the logarithms, (1 - eps) log N + eps log(1 / y_max); the likelihood is the mixture of "
+                  "the densities, so take the log of (1 - eps) N + eps / y_max (np.logaddexp)",
+    "no_range": "the junk term is eps, not eps / y_max: a reading uniform on [0, y_max] has density 1 / y_max",
+    "no_gaussian_share": "the Gaussian term lacks its probability 1 - eps: the two terms' probabilities must add "
+                         "up to one",
+    "gaussian_only": "it ignores the junk readings: a reading far from z - h must keep the likelihood eps / y_max "
+                     "rather than fall to almost zero",
+}
+
+
+def robust_altimeter_log_likelihood(particles: np.ndarray, y: float, heights: np.ndarray, dx: float, dy: float,
+                                    rf: float, eps: float, y_max: float, mistake: str | None = None) -> np.ndarray:
+    """``log((1 - eps) N(y; z - h(x, y), Rf) + eps / y_max)`` per particle, ``-inf`` off the map (the bilinear
+    ``h`` of :func:`altimeter_log_likelihood`). With a ``mistake`` of :data:`ROBUST_ALTIMETER_MISTAKES`, what
+    that mistake computes (for the checker)."""
+    gauss_mistake = mistake if mistake in ("swapped", "nearest", "rf_as_sd", "sign", "no_constant") else None
+    log_gauss = altimeter_log_likelihood(particles, y, heights, dx, dy, rf, gauss_mistake)
+    inside = np.isfinite(log_gauss)
+    g = np.where(inside, log_gauss, 0.0)
+    junk = np.log(eps if mistake == "no_range" else eps / y_max)
+    if mistake == "mixed_logs":
+        out = (1 - eps) * g + eps * np.log(1.0 / y_max)
+    elif mistake == "gaussian_only":
+        out = g
+    else:
+        out = np.logaddexp((0.0 if mistake == "no_gaussian_share" else np.log1p(-eps)) + g, junk)
+    return np.where(inside, out, -np.inf)
+
+
+def check_robust_altimeter(fn: Callable, seed: int = 0) -> CheckReport:
+    """Check ``fn(particles, y, heights, dx, dy, rf, eps, y_max) -> (N,)``, the log-likelihood of an altimeter
+    whose reading is junk (uniform on ``[0, y_max]``) with probability ``eps``.
+
+    Compared with :func:`robust_altimeter_log_likelihood` to round-off on particles drawn over the test map
+    :data:`ALTIMETER_HEIGHTS` (a few of them off it, and altitudes spread so that both terms of the mixture
+    dominate somewhere); a wrong answer is compared with each mistake of :data:`ROBUST_ALTIMETER_MISTAKES` and
+    the one that fits is named.
+    """
+    report = CheckReport("altimeter with junk readings")
+    rng = np.random.default_rng(seed)
+    ny, nx = ALTIMETER_HEIGHTS.shape
+    n = 300
+    particles = np.column_stack([rng.uniform(-40, (nx - 1) * ALTIMETER_DX + 40, n),
+                                 rng.uniform(-40, (ny - 1) * ALTIMETER_DY + 40, n),
+                                 rng.normal(1000.0, 80.0, n), rng.uniform(-np.pi, np.pi, n)])
+    y = 600.0
+    args = (y, ALTIMETER_HEIGHTS, ALTIMETER_DX, ALTIMETER_DY, ALTIMETER_RF, ROBUST_EPS, ROBUST_Y_MAX)
+    answer = _answer(report, lambda: fn(particles.copy(), y, ALTIMETER_HEIGHTS.copy(), *args[2:]),
+                     "fn(particles, y, heights, dx, dy, rf, eps, y_max)", "return one log-likelihood per particle")
+    if answer is None or not _shaped(report, answer, (n,), "one log-likelihood per particle (a row of particles)"):
+        return report
+    answer = np.asarray(answer, dtype=float)
+    exact = robust_altimeter_log_likelihood(particles, *args)
+    off = ~np.isfinite(exact)
+
+    def fits(mistake: str | None) -> bool:
+        values = robust_altimeter_log_likelihood(particles, *args, mistake=mistake)
+        gone = ~np.isfinite(values)
+        return (np.array_equal(gone, answer == -np.inf)
+                and np.allclose(answer[~gone], values[~gone], rtol=1e-9, atol=1e-9))
+
+    if _settled(report, fits, ROBUST_ALTIMETER_MISTAKES):
+        return report
+    if not np.all(answer[off] == -np.inf):
+        report.problems.append("a particle off the map must get log-likelihood -inf (likelihood zero: there is no "
+                               "terrain under it), not a number or NaN")
+        return report
+    with np.errstate(invalid="ignore"):
+        gap = np.where(off, -np.inf, np.abs(np.where(off, 0.0, answer) - np.where(off, 0.0, exact)))
+    k = int(np.argmax(np.nan_to_num(gap, nan=np.inf)))
+    report.problems.append(f"particle {k} at ({particles[k, 0]:.0f}, {particles[k, 1]:.0f}) m gets {answer[k]:.4f}, "
+                           f"not {exact[k]:.4f}: check the bilinear height and log((1 - eps) N(y; z - h, Rf) + "
+                           "eps / y_max)")
+    return report
+
+
 #: The cloud of :func:`check_regularised_jitter`: N particles in d = 3 dimensions, correlated and of
 #: unequal scales (so that a move with S instead of S^{1/2}, or with the identity, shows).
 JITTER_N = 20_000

@@ -70,7 +70,6 @@ def flight_figure(terrain: TerrainMap, flight, result, title: str, half_width_km
     ax1.plot(result.mean[:, 0] / KM, result.mean[:, 1] / KM, color=COLORS["estimate"], label="estimate")
     ax1.set_xlim(*window[0])
     ax1.set_ylim(*window[1])
-    ax1.legend(loc="lower left", markerscale=4)
     error = position_error(flight.truth, result.mean)
     ax2.plot(flight.T, error, color=COLORS["estimate"], label="horizontal error")
     ax2.axhline(DIVERGED_ERROR, color=COLORS["truth"], lw=1, ls=":", label=f"lost above {DIVERGED_ERROR:.0f} m")
@@ -79,6 +78,8 @@ def flight_figure(terrain: TerrainMap, flight, result, title: str, half_width_km
     plain_log_axis(ax2, "y")
     ax2.set_xlabel("time t (s)")
     ax2.set_ylabel("error (m)")
-    ax2.legend(loc="upper right")
+    # one legend for both axes, under the figure, off the data
+    (h1, l1), (h2, l2) = ax1.get_legend_handles_labels(), ax2.get_legend_handles_labels()
+    fig.legend(h1 + h2, l1 + l2, loc="upper center", ncols=3, bbox_to_anchor=(0.5, 0.02), markerscale=4)
     ax2.set_title(f"{title}\nfinal error {error[-1]:.0f} m ({'lost' if error[-1] > DIVERGED_ERROR else 'kept'})")
     return fig
