@@ -18,7 +18,7 @@
 #
 # **You need** {doc}`../part1/sir` and {doc}`../part1/kalman`; NumPy arrays.
 #
-# **Time:** about twenty minutes to read; the notebook runs in about twenty seconds (the studies
+# **Time:** about seventeen minutes to read; the notebook runs in about twenty seconds (the studies
 # are stored).
 # :::
 #
@@ -115,7 +115,12 @@ for col, (name, centre) in enumerate(patches.items()):
     ax = axes[1, col]
     ax.imshow(posterior / posterior.max(), origin="lower", cmap="Greys",
               extent=(OFFSETS[0], OFFSETS[-1], OFFSETS[0], OFFSETS[-1]))
-    ax.plot(0, 0, "+", color=COLORS["truth"], ms=14, mew=1.5, label="true position")
+    # a ring of radius NEAR around the truth, drawn in data units
+    ring = np.linspace(0, 2 * np.pi, 100)
+    ax.plot(NEAR * np.cos(ring), NEAR * np.sin(ring), color=COLORS["estimate"], lw=1.5,
+            label=f"within {NEAR:.0f} m of the truth")
+    ax.set_xticks([-2000, -1000, 0, 1000, 2000])
+    ax.set_yticks([-2000, -1000, 0, 1000, 2000])
     ax.set_xlabel("east of the truth (m)")
     ax.set_ylabel("north of the truth (m)")
     ax.set_title(f"fit of every position:\n{near:.0%} of it within {NEAR:.0f} m of the truth")
@@ -193,6 +198,7 @@ plt.show()
 #   {glue:text}`terrain_rows:d` rows. The check: with this reading, the highest cell of the map
 #   falls on the published summit of Cross Mountain ($1077$ m, $36.19833°$ N, $84.23056°$ W);
 #   read the other way up, it would be {glue:text}`terrain_flipped_summit_km:.0f` km away.
+#
 # - **Degrees to metres.** A degree of latitude is $R\pi/180 \approx 111.2$ km on a sphere
 #   of radius $R = 6371$ km, and a degree of longitude is that times $\cos\varphi$: at
 #   $\varphi \approx 36.3°$ a cell is {glue:text}`terrain_dx:.1f` m wide (east-west) and
@@ -299,7 +305,8 @@ plt.show()
 # %%
 import numpy as np
 from scipy.special import logsumexp
-from pfcourse.scenarios.terrain import AircraftScenario, load_jacksboro, simulate
+from pfcourse.scenarios.terrain import (AircraftScenario, load_jacksboro,
+                                        simulate)
 
 terrain = load_jacksboro()  # terrain.height(x, y): metres, NaN off the map
 sc = AircraftScenario()  # x0, P0, Qf, Rf, speed, omega, dt
@@ -345,7 +352,8 @@ def terrain_pf(readings, n, rng):
 
 means = terrain_pf(flight.measurements[:, 0], 3000, np.random.default_rng(1))
 error = np.hypot(*(means - flight.truth[:, :2]).T)
-print(f"horizontal error: {error[0]:.0f} m at the start, {error[-1]:.0f} m at the end")
+print(f"horizontal error: {error[0]:.0f} m at the start, "
+      f"{error[-1]:.0f} m at the end")
 
 # %% tags=["hide-input"] jupyter={"source_hidden": true}
 model = scenario.model(terrain)
