@@ -535,8 +535,10 @@ EvidenceBlock(
 # %% [markdown]
 # The particle filter loses the aircraft (a final error above $500$ m) in
 # {glue:text}`terrain_pf60_lost:.0%` of the {glue:text}`terrain_pf60_flights:d` flights
-# ({glue:text}`terrain_pf60_low:.0%`-{glue:text}`terrain_pf60_high:.0%`). When it converges, it ends a
-# median {glue:text}`terrain_pf60_converged_median:.0f` m from the truth; the others end kilometres
+# ({glue:text}`terrain_pf60_low:.0%`-{glue:text}`terrain_pf60_high:.0%`).
+#
+# When it converges, it ends a median {glue:text}`terrain_pf60_converged_median:.0f` m from the
+# truth; the others end kilometres
 # away. A single run's final error is a draw from this very wide, two-humped distribution. The
 # next chapter ({doc}`terrain_cure`) finds out why and fixes it.
 #
