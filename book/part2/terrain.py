@@ -463,7 +463,10 @@ for ax, k in zip(axes, (0, 4, 10, 30)):
     ax.plot(run.particles[k, idx, 0] / KM, run.particles[k, idx, 1] / KM, ".", ms=1.5, color=COLORS["particles"])
     ax.plot(flight.truth[k, 0] / KM, flight.truth[k, 1] / KM, "x", color=COLORS["truth"], ms=8, mew=2)
     near = np.sum(w[position_error(flight.truth[k], run.particles[k]) <= 500.0])
-    ax.set_title(f"t = {k} s\n{near:.0%} of weight within 500 m")
+    ax.set_title(f"t = {k} s\n{near:.0%} within 500 m")
+    # ticks every 4 km, so that the four maps' labels keep apart
+    ax.xaxis.set_major_locator(plt.MultipleLocator(4))
+    ax.yaxis.set_major_locator(plt.MultipleLocator(4))
     c = flight.truth[k, :2] / KM
     ax.set_xlim(c[0] - 6, c[0] + 6)
     ax.set_ylim(c[1] - 6, c[1] + 6)
