@@ -549,6 +549,24 @@ EvidenceBlock(
 # {glue:text}`terrain_ekf_flights:d` flights. It is not broken: from the $30$ m prior its
 # linearisation holds and it loses {glue:text}`terrain_ekf_tight_lost:d`. Its failure from the
 # wide prior is the multimodality above, not a bug.
+# %% [markdown]
+# ## The lab's settings, one at a time
+#
+# The lab asks how each setting changes the final error. Around a filter that loses most flights,
+# a study of its settings would mostly count lost flights, so each setting is varied around the
+# filter the next chapter finds, the **regularised particle filter** with $N = 30\,000$: it loses
+# {glue:text}`studies_base_lost:.2f` of the {glue:text}`studies_flights:d` flights. The runs take
+# minutes, so they are stored with their provenance (`python3 tasks.py study terrain_studies`; a
+# test re-computes a sample of rows), and every setting flies the same flights.
+#
+# The number of particles decides whether the aircraft is found: with $N = 3000$ the filter loses
+# {glue:text}`n_0_lost:.2f` of the flights. Never resampling loses {glue:text}`th_0_lost:.2f`,
+# $Q_f \times 10$ loses {glue:text}`qf_1_lost:.2f`, and the gap in the readings
+# {glue:text}`gap_0_lost:.2f`. Between resampling schemes the data exclude differences in accuracy
+# beyond a few percent. The figure
+# gathers every setting's losses, each setting's paragraph is folded below it, and each
+# setting's table and tests are in its evidence block.
+
 # %% tags=["remove-input"] jupyter={"source_hidden": true}
 studies_table = STUDIES["terrain_studies"].load()
 studies_meta = studies_table.attrs["provenance"]
@@ -677,22 +695,6 @@ study_evidence("period", "period", "measuring at 10 Hz ends closer to the truth;
 # %% tags=["remove-input"] jupyter={"source_hidden": true}
 study_evidence("scheme", "scheme", "the three resampling schemes are not told apart",
                notes=["The lab report, from single runs: stratified first, then systematic, then multinomial."])
-
-# %% [markdown]
-# ## The lab's settings, one at a time
-#
-# The lab asks how each setting changes the final error. Around a filter that loses most flights,
-# a study of its settings would mostly count lost flights, so each setting is varied around the
-# filter the next chapter finds, the **regularised particle filter** with $N = 30\,000$: it loses
-# {glue:text}`studies_base_lost:.2f` of the {glue:text}`studies_flights:d` flights. The runs take
-# minutes, so they are stored with their provenance (`python3 tasks.py study terrain_studies`; a
-# test re-computes a sample of rows), and every setting flies the same flights.
-#
-# The number of particles decides whether the aircraft is found: with $N = 3000$ the filter loses
-# {glue:text}`n_0_lost:.2f` of the flights. Never resampling loses {glue:text}`th_0_lost:.2f`,
-# $Q_f \times 10$ loses {glue:text}`qf_1_lost:.2f`, and the gap in the readings
-# {glue:text}`gap_0_lost:.2f`. The resampling scheme changes nothing the study can see. The figure
-# gathers every setting's losses; each setting's paragraph is folded below it.
 
 # %% tags=["hide-input"] jupyter={"source_hidden": true}
 order = [(s, n) for s in ("Qf", "Rf", "N", "threshold", "gap", "period", "scheme")
