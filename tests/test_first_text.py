@@ -40,13 +40,16 @@ FIRST_TEXT = ["onramp", "part1/model", "part1/kalman", "part1/sis", "part1/sir",
               "part4/pf_vs_kalman", "part4/data_association", "part5/particle_mcmc", "part5/static_parameters",
               "part2/robot", "part2/robot_vs_kalman", "part2/global_localization",
               "part3/robot_studies", "part3/resampling_studies", "part3/sensing_studies",
-              "part5/likelihood", "part5/smoothing", "part2/real_robot"]
+              "part5/likelihood", "part5/smoothing", "part2/real_robot", "part2/terrain", "part2/terrain_cure",
+              "part2/terrain_marginalised"]
 HIDDEN = {"remove-input", "hide-input", "remove-cell"}
 MAX_LINE = 80
 MAX_MINUTES = 25
 WORDS = {in_words(n): n for n in range(100)}
 PFCOURSE_IMPORT = re.compile(r"^\s*(?:from\s+pfcourse[\w.]*\s+import\b|import\s+pfcourse\b)")
 CHECKER_IMPORT = re.compile(r"^\s*from\s+pfcourse\.book\.exercises\s+import\s+check_\w+(\s*,\s*check_\w+)*\s*$")
+
+
 def source(doc: str) -> Path:
     return BOOK / f"{doc}.py"
 

@@ -813,6 +813,50 @@ EvidenceBlock(
 # deviations: a filter that is right but uncertain can cross the line, so "lost" counts a few such
 # flights besides the ones where the particles missed the aircraft.
 #
+# ## Try it
+#
+# The panel reruns flight {glue:text}`terrain_panel_flight:d`, one the bootstrap filter loses, with the
+# kernel's scale $c$ ($h = c\,h_\text{opt}$; $c = 0$ is the bootstrap filter) and the number of
+# particles you choose, and draws the cloud at the end of the flight beside the error over time.
+# At $N = 3000$, compare $c = 0$, $0.2$ and $1$: no move, the chapter's move, and the textbook
+# bandwidth that throws the particles off their terrain match.
+
+# %% tags=["hide-input"] jupyter={"source_hidden": true}
+import ipywidgets as widgets
+from IPython.display import display
+
+from pfcourse.book.figures.terrain import flight_figure
+from pfcourse.book.panels import control_panel, particle_slider
+from pfcourse.collectors import Clouds
+from pfcourse.filter_config import FilterSettings
+
+PANEL_FLIGHT = 2  # lost by the bootstrap filter with N = 3000, kept by the regularised one (terrain_remedies)
+panel_flight = simulate(scenario, terrain, data_rng(0, PANEL_FLIGHT))
+glue_values("terrain_panel_", flight=PANEL_FLIGHT)
+
+
+def draw(kernel_scale=0.2, n_particles=3000):
+    """The regularised filter (kernel_scale = 0: the bootstrap filter) on the panel's flight."""
+    jitter = RegularisedJitter(kernel_scale, (3,)) if kernel_scale > 0 else None
+    settings = FilterSettings(n_particles=n_particles, threshold=0.5, resampler="multinomial", jitter=jitter)
+    res = settings.build(scenario.model(terrain)).run(panel_flight.measurements, rng=filter_rng(0, PANEL_FLIGHT),
+                                                      collect=[Clouds()])
+    name = "no move (bootstrap)" if kernel_scale == 0 else f"kernel move at {kernel_scale:g} h_opt"
+    flight_figure(terrain, panel_flight, res, f"{name}, N = {n_particles}")
+
+
+# %% tags=["nbval-ignore-output", "hide-input"] jupyter={"source_hidden": true}
+panel = control_panel(
+    draw,
+    grid={"kernel_scale": (0.0, 0.2, 1.0), "n_particles": (1000, 3000, 10000)},
+    kernel_scale=widgets.SelectionSlider(options=[0.0, 0.05, 0.1, 0.2, 0.5, 1.0], value=0.2,
+                                         description="kernel scale c"),
+    n_particles=particle_slider(3000, 2, 4),
+    alt="flight 2: the filter's final cloud over the map and its horizontal error over time",
+)
+display(panel)
+
+# %% [markdown]
 # ## Exercises
 #
 # ```{exercise} 18.1 The bandwidth of a multimodal cloud
@@ -834,44 +878,69 @@ EvidenceBlock(
 # single blob; this is why the chapter's filter uses $0.2\,h_\text{opt}$.
 # ```
 #
-# ```{exercise} 18.2 Write the kernel move, and have it checked
+# ```{exercise} 18.2 The optimal kernel: Epanechnikov's
 # :label: ex-terrain-jitter
 # :nonumber:
-# (Coding.) Write `my_move(particles, scale, rng)`: the regularised filter's move of an equally
-# weighted cloud `particles` of shape `(N, d)` (no angles), $x^i + h \hat\Sigma^{1/2}\varepsilon^i$ with
-# $h$ = `scale` $\times\, h_\text{opt}(N, d)$, $\hat\Sigma$ the cloud's covariance and $\varepsilon^i$
-# standard normal, drawn from `rng`. The checker moves a cloud of correlated particles of very
-# different scales and tests that the moves have mean zero and covariance $h^2 \hat\Sigma$; it names the
-# typical mistakes.
+# (Coding.) The Gaussian kernel of Algorithm 18.1 is convenient, not optimal. Among kernels,
+# the mean integrated squared error of the smoothed cloud is smallest for the Epanechnikov
+# kernel {cite:p}`musso2001`, which is zero outside the unit ball:
+#
+# $$
+# K(\varepsilon) = \frac{d + 2}{2 c_d}\bigl(1 - \lVert\varepsilon\rVert^2\bigr)
+# \ \text{for}\ \lVert\varepsilon\rVert < 1, \qquad c_d = \frac{\pi^{d/2}}{\Gamma(d/2 + 1)},
+# $$
+#
+# with the bandwidth $h_\text{opt} = A N^{-1/(d+4)}$,
+# $A = \bigl(8\, c_d^{-1} (d + 4) (2\sqrt\pi)^d\bigr)^{1/(d+4)}$ ($c_d$ is the unit ball's volume).
+# Write `my_move(particles, scale, rng)`: the move $x^i + h \hat\Sigma^{1/2}\varepsilon^i$ of an equally
+# weighted cloud `particles` of shape `(N, d)` (no angles), with $\varepsilon^i$ drawn from $K$ with
+# `rng` and $h$ = `scale` $\times\, h_\text{opt}$. The kernel is round, so $\varepsilon^i$ is a direction
+# uniform on the sphere times a radius $r$: work out the density of $r$ before you draw it (a shell
+# of radius $r$ has area proportional to $r^{d-1}$). The checker moves a cloud of correlated
+# particles, checks the law of the moves' lengths and their covariance, and names the typical
+# mistakes.
 # ```
 
 # %% tags=["answer"]
-from pfcourse.book.exercises import check_regularised_jitter
+from pfcourse.book.exercises import check_epanechnikov_move
 
 
 def my_move(particles, scale, rng):
-    """Your kernel move: the moved particles, an array shaped like particles."""
+    """Your Epanechnikov move: an array shaped like particles."""
     ...  # replace with your code
 
 
-print(check_regularised_jitter(my_move))
+print(check_epanechnikov_move(my_move))
 
 # %% [markdown]
 # ```{solution} ex-terrain-jitter
 # :class: dropdown
-# The move of Algorithm 18.1 without the heading; any square root of $\hat\Sigma$ will do (here Cholesky's).
+# The radius has density proportional to $r^{d-1}(1 - r^2)$ on $[0, 1]$; with $u = r^2$ that is
+# $u^{d/2 - 1}(1 - u)$, a $\mathrm{Beta}(d/2, 2)$ law, so $r = \sqrt u$. A direction uniform on the
+# sphere is $g / \lVert g\rVert$ with $g$ standard normal. Then $\varepsilon^i = r\, g / \lVert g\rVert$, and
+# the move is that of Algorithm 18.1 with this $\varepsilon$ and this $h$ (any square root of
+# $\hat\Sigma$ will do, here Cholesky's). The moves' covariance is $h^2 \hat\Sigma / (d + 4)$, smaller
+# than the Gaussian kernel's for the same $h$, which is one reason its $h_\text{opt}$ is larger.
 # The code is in the folded cell below (in JupyterLab, click its margin to unfold it).
 # ```
 
 # %% tags=["solution", "hide-input"] jupyter={"source_hidden": true}
+from scipy.special import gamma
+
+
 def my_move(particles, scale, rng):
     n, d = particles.shape
-    h = scale * (4.0 / (d + 2)) ** (1.0 / (d + 4)) * n ** (-1.0 / (d + 4))
-    A = np.linalg.cholesky(np.cov(particles, rowvar=False))  # A A^T = S
-    return particles + h * rng.standard_normal((n, d)) @ A.T
+    c_d = np.pi ** (d / 2) / gamma(d / 2 + 1)  # the unit ball's volume
+    A_d = (8 / c_d * (d + 4) * (2 * np.sqrt(np.pi)) ** d) ** (1 / (d + 4))
+    h = scale * A_d * n ** (-1 / (d + 4))
+    g = rng.standard_normal((n, d))
+    r = np.sqrt(rng.beta(d / 2, 2, n))  # r^2 ~ Beta(d/2, 2)
+    eps = g / np.linalg.norm(g, axis=1, keepdims=True) * r[:, None]
+    L = np.linalg.cholesky(np.cov(particles, rowvar=False))  # L L^T = S
+    return particles + h * eps @ L.T
 
 
-print(check_regularised_jitter(my_move))
+print(check_epanechnikov_move(my_move))
 
 # %% [markdown]
 # ## Takeaways

@@ -19,7 +19,7 @@
 # **You need** {doc}`likelihood` (PMMH, the variance of $\log\hat p$); Gibbs sampling in one line
 # (draw each block given the others); NumPy.
 #
-# **Time:** about twenty-four minutes to read; the notebook runs in about half a minute.
+# **Time:** about twenty-five minutes to read; the notebook runs in about half a minute.
 # :::
 
 # %% tags=["remove-input"] jupyter={"source_hidden": true}
@@ -646,21 +646,33 @@ EvidenceBlock(
 #
 # ## Exercise
 #
-# ```{exercise} 26.1 Ancestor sampling for another model
+# ```{exercise} 26.1 Ancestor sampling when the noise is correlated
 # :label: ex-pmcmc-ancestor
 # :nonumber:
-# Take the scalar model $x_k = a\, x_{k-1} + \sigma w_k$, $w_k \sim \mathcal N(0, 1)$. Write
-# `ancestor_index(log_W, x_prev, x_ref, a, sigma, rng)`: given the normalised log-weights
-# `log_W` of the particles `x_prev` of step $k-1$ and the reference state `x_ref` of step $k$,
-# draw the reference's parent $j$ as ancestor sampling does, with `rng`. The checker draws many
-# times and compares the frequencies with the exact probabilities; it names the mistake it sees.
+# The sweep above asks the model for its transition density. Write it yourself for a target
+# that moves at a nearly constant velocity: the state is $x = (\text{position}, \text{velocity})$ and
+#
+# $$
+# \begin{aligned}
+# x_k &= F x_{k-1} + w_k, \qquad w_k \sim \mathcal N(0, Q), \\
+# F &= \begin{pmatrix} 1 & \Delta t \\ 0 & 1 \end{pmatrix}, \qquad
+# Q = q\begin{pmatrix} \Delta t^3/3 & \Delta t^2/2 \\ \Delta t^2/2 & \Delta t \end{pmatrix},
+# \end{aligned}
+# $$
+#
+# the noise of a random acceleration, so the position's and the velocity's noise are correlated.
+# Write `ancestor_index(log_W, x_prev, x_ref, F, Q, rng)`: given the normalised log-weights `log_W`
+# of the particles `x_prev` (shape `(N, 2)`, one particle a row) of step $k-1$ and the reference
+# state `x_ref` of step $k$, draw the reference's parent $j$ as ancestor sampling does, with `rng`.
+# The checker draws many times, compares the frequencies with the exact probabilities, and names
+# the mistake it sees (there are several tempting ones with matrices in rows).
 # ```
 
 # %% tags=["answer"]
 from pfcourse.book.exercises import check_ancestor_index
 
 
-def ancestor_index(log_W, x_prev, x_ref, a, sigma, rng):
+def ancestor_index(log_W, x_prev, x_ref, F, Q, rng):
     """The reference's parent j, drawn with rng."""
     ...  # replace with your code
 
@@ -670,14 +682,17 @@ print(check_ancestor_index(ancestor_index))
 # %% [markdown]
 # ```{solution} ex-pmcmc-ancestor
 # :class: dropdown
-# The log-weights of the ancestor step, $\log W_{k-1}^j + \log p(x'_k \mid x_{k-1}^j)$, normalised in
-# the log domain, then one draw with `rng`; the code is in the folded cell below.
+# The log-weights of the ancestor step are $\log W_{k-1}^j - \tfrac12 d_j^\top Q^{-1} d_j$ with
+# $d_j = x^{\text{ref}} - F x_{k-1}^j$ (the Gaussian's constant is the same for every $j$ and
+# cancels); with particles in rows, $F x^j$ for every $j$ is `x_prev @ F.T`. Normalise in the log
+# domain, then draw once with `rng`; the code is in the folded cell below.
 # ```
 
 # %% tags=["solution", "hide-input"] jupyter={"source_hidden": true}
-def ancestor_index(log_W, x_prev, x_ref, a, sigma, rng):
+def ancestor_index(log_W, x_prev, x_ref, F, Q, rng):
     """The reference's parent j, drawn with rng."""
-    log_p = log_W + stats.norm.logpdf(x_ref, a * x_prev, sigma)
+    d = x_ref - x_prev @ F.T  # one residual per row
+    log_p = log_W - 0.5 * np.einsum("ni,ij,nj->n", d, np.linalg.inv(Q), d)
     p = np.exp(log_p - logsumexp(log_p))  # normalised in the log domain
     return int(rng.choice(len(x_prev), p=p))
 

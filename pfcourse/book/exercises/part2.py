@@ -6,7 +6,7 @@ from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 
 import numpy as np
-from scipy import stats
+from scipy import special, stats
 
 from pfcourse.book.exercises.checking import CheckReport, _answer, _cloud_answers, _settled, _shaped
 from pfcourse.seeding import run_filter_seed
@@ -318,6 +318,95 @@ def check_altimeter_likelihood(fn: Callable, seed: int = 0) -> CheckReport:
     return report
 
 
+#: The junk-reading altimeter of :func:`check_robust_altimeter` (chapter 17, exercise 17.4): with
+#: probability ``eps`` a reading is uniform on ``[0, y_max]``.
+ROBUST_EPS, ROBUST_Y_MAX = 0.05, 3000.0
+
+
+#: mistake -> the sentence that names it (:func:`robust_altimeter_log_likelihood`'s ``mistake``).
+ROBUST_ALTIMETER_MISTAKES = {
+    "swapped": ALTIMETER_MISTAKES["swapped"],
+    "nearest": ALTIMETER_MISTAKES["nearest"],
+    "rf_as_sd": ALTIMETER_MISTAKES["rf_as_sd"],
+    "sign": ALTIMETER_MISTAKES["sign"],
+    "no_constant": "the Gaussian's -(1/2) log(2 pi Rf) is missing: in a mixture it no longer cancels, since it sets "
+                   "how the Gaussian term weighs against the uniform one",
+    "mixed_logs": "it mixes the logarithms, (1 - eps) log N + eps log(1 / y_max); the likelihood is the mixture of "
+                  "the densities, so take the log of (1 - eps) N + eps / y_max (np.logaddexp)",
+    "no_range": "the junk term is eps, not eps / y_max: a reading uniform on [0, y_max] has density 1 / y_max",
+    "no_gaussian_share": "the Gaussian term lacks its probability 1 - eps: the two terms' probabilities must add "
+                         "up to one",
+    "gaussian_only": "it ignores the junk readings: a reading far from z - h must keep the likelihood eps / y_max "
+                     "rather than fall to almost zero",
+}
+
+
+def robust_altimeter_log_likelihood(particles: np.ndarray, y: float, heights: np.ndarray, dx: float, dy: float,
+                                    rf: float, eps: float, y_max: float, mistake: str | None = None) -> np.ndarray:
+    """``log((1 - eps) N(y; z - h(x, y), Rf) + eps / y_max)`` per particle, ``-inf`` off the map (the bilinear
+    ``h`` of :func:`altimeter_log_likelihood`). With a ``mistake`` of :data:`ROBUST_ALTIMETER_MISTAKES`, what
+    that mistake computes (for the checker)."""
+    gauss_mistake = mistake if mistake in ("swapped", "nearest", "rf_as_sd", "sign", "no_constant") else None
+    log_gauss = altimeter_log_likelihood(particles, y, heights, dx, dy, rf, gauss_mistake)
+    inside = np.isfinite(log_gauss)
+    g = np.where(inside, log_gauss, 0.0)
+    junk = np.log(eps if mistake == "no_range" else eps / y_max)
+    if mistake == "mixed_logs":
+        out = (1 - eps) * g + eps * np.log(1.0 / y_max)
+    elif mistake == "gaussian_only":
+        out = g
+    else:
+        out = np.logaddexp((0.0 if mistake == "no_gaussian_share" else np.log1p(-eps)) + g, junk)
+    return np.where(inside, out, -np.inf)
+
+
+def check_robust_altimeter(fn: Callable, seed: int = 0) -> CheckReport:
+    """Check ``fn(particles, y, heights, dx, dy, rf, eps, y_max) -> (N,)``, the log-likelihood of an altimeter
+    whose reading is junk (uniform on ``[0, y_max]``) with probability ``eps``.
+
+    Compared with :func:`robust_altimeter_log_likelihood` to round-off on particles drawn over the test map
+    :data:`ALTIMETER_HEIGHTS` (a few of them off it, and altitudes spread so that both terms of the mixture
+    dominate somewhere); a wrong answer is compared with each mistake of :data:`ROBUST_ALTIMETER_MISTAKES` and
+    the one that fits is named.
+    """
+    report = CheckReport("altimeter with junk readings")
+    rng = np.random.default_rng(seed)
+    ny, nx = ALTIMETER_HEIGHTS.shape
+    n = 300
+    particles = np.column_stack([rng.uniform(-40, (nx - 1) * ALTIMETER_DX + 40, n),
+                                 rng.uniform(-40, (ny - 1) * ALTIMETER_DY + 40, n),
+                                 rng.normal(1000.0, 80.0, n), rng.uniform(-np.pi, np.pi, n)])
+    y = 600.0
+    args = (y, ALTIMETER_HEIGHTS, ALTIMETER_DX, ALTIMETER_DY, ALTIMETER_RF, ROBUST_EPS, ROBUST_Y_MAX)
+    answer = _answer(report, lambda: fn(particles.copy(), y, ALTIMETER_HEIGHTS.copy(), *args[2:]),
+                     "fn(particles, y, heights, dx, dy, rf, eps, y_max)", "return one log-likelihood per particle")
+    if answer is None or not _shaped(report, answer, (n,), "one log-likelihood per particle (a row of particles)"):
+        return report
+    answer = np.asarray(answer, dtype=float)
+    exact = robust_altimeter_log_likelihood(particles, *args)
+    off = ~np.isfinite(exact)
+
+    def fits(mistake: str | None) -> bool:
+        values = robust_altimeter_log_likelihood(particles, *args, mistake=mistake)
+        gone = ~np.isfinite(values)
+        return (np.array_equal(gone, answer == -np.inf)
+                and np.allclose(answer[~gone], values[~gone], rtol=1e-9, atol=1e-9))
+
+    if _settled(report, fits, ROBUST_ALTIMETER_MISTAKES):
+        return report
+    if not np.all(answer[off] == -np.inf):
+        report.problems.append("a particle off the map must get log-likelihood -inf (likelihood zero: there is no "
+                               "terrain under it), not a number or NaN")
+        return report
+    with np.errstate(invalid="ignore"):
+        gap = np.where(off, -np.inf, np.abs(np.where(off, 0.0, answer) - np.where(off, 0.0, exact)))
+    k = int(np.argmax(np.nan_to_num(gap, nan=np.inf)))
+    report.problems.append(f"particle {k} at ({particles[k, 0]:.0f}, {particles[k, 1]:.0f}) m gets {answer[k]:.4f}, "
+                           f"not {exact[k]:.4f}: check the bilinear height and log((1 - eps) N(y; z - h, Rf) + "
+                           "eps / y_max)")
+    return report
+
+
 #: The cloud of :func:`check_regularised_jitter`: N particles in d = 3 dimensions, correlated and of
 #: unequal scales (so that a move with S instead of S^{1/2}, or with the identity, shows).
 JITTER_N = 20_000
@@ -383,6 +472,143 @@ def check_regularised_jitter(fn: Callable, seed: int = 0) -> CheckReport:
         why = (f"the moves' covariance is {ratio:.3g} times h^2 S (averaged over the axes), not h^2 S: check h_opt "
                "and the square root of S")
     report.problems.append(why)
+    return report
+
+
+#: mistake -> the sentence that names it (:func:`epanechnikov_move`'s ``mistake``), for
+#: :func:`check_epanechnikov_move`.
+EPANECHNIKOV_MISTAKES = {
+    "gaussian": "it draws eps from a Gaussian, whose moves reach beyond the kernel's support; the Epanechnikov "
+                "kernel is zero outside the unit ball, so every whitened move is shorter than h",
+    "gaussian_bandwidth": "it uses the Gaussian kernel's bandwidth (4 / (d + 2))^(1/(d+4)) N^(-1/(d+4)); the "
+                          "Epanechnikov kernel's is A N^(-1/(d+4)) with A = (8 (d + 4) (2 sqrt(pi))^d / c_d)^(1/(d+4))",
+    "uniform_radius": "it draws the radius |eps| uniformly on [0, 1]; a ball holds more volume far from its centre, "
+                      "so the radius has density proportional to r^(d-1) (1 - r^2)",
+    "uniform_ball": "it draws eps uniformly in the unit ball (radius U^(1/d)), the flat kernel; the Epanechnikov "
+                    "kernel weighs each point by 1 - |eps|^2, so the radius is sqrt of a Beta(d/2, 2) draw",
+    "squared_radius": "it takes the Beta(d/2, 2) draw itself as the radius; that draw is |eps|^2, so the radius is "
+                      "its square root",
+    "product": "it draws each coordinate from the one-dimensional Epanechnikov kernel; their product is a "
+               "different kernel on the cube, while the optimal one is 1 - |eps|^2 on the unit ball",
+    "covariance_for_root": "it scales eps by the covariance S itself; the kernel's spread must follow a square "
+                           "root A of S (A A^T = S, Cholesky or eigen), or the moves have covariance h^2 S^2 / (d + 4)",
+}
+
+
+def epanechnikov_bandwidth(n: int, d: int) -> float:
+    """Musso, Oudjane and Le Gland's optimal bandwidth for the Epanechnikov kernel: ``A N^{-1/(d+4)}``."""
+    c_d = np.pi ** (d / 2) / special.gamma(d / 2 + 1)  # the volume of the unit ball
+    return (8.0 / c_d * (d + 4) * (2.0 * np.sqrt(np.pi)) ** d) ** (1.0 / (d + 4)) * n ** (-1.0 / (d + 4))
+
+
+def epanechnikov_move(particles: np.ndarray, scale: float, rng: np.random.Generator,
+                      mistake: str | None = None) -> np.ndarray:
+    """``x^i + h A eps^i``: ``eps^i`` drawn from the Epanechnikov kernel on the unit ball (a direction
+    ``g / |g|``, ``g ~ N(0, I_d)``, times a radius ``sqrt(Beta(d/2, 2))``), ``A`` the Cholesky factor of the
+    cloud's covariance, ``h = scale * epanechnikov_bandwidth(N, d)``. With a ``mistake`` of
+    :data:`EPANECHNIKOV_MISTAKES`, what that mistake computes (for the checker)."""
+    x = np.asarray(particles, dtype=float)
+    n, d = x.shape
+    if mistake == "gaussian_bandwidth":
+        h = scale * (4.0 / (d + 2)) ** (1.0 / (d + 4)) * n ** (-1.0 / (d + 4))
+    else:
+        h = scale * epanechnikov_bandwidth(n, d)
+    g = rng.standard_normal((n, d))
+    direction = g / np.linalg.norm(g, axis=1, keepdims=True)
+    if mistake == "gaussian":
+        eps = g
+    elif mistake == "product":
+        u = rng.uniform(-1.0, 1.0, (n, d, 3))
+        eps = np.median(u, axis=2)  # the median of three uniforms has the 1-D Epanechnikov density
+    else:
+        radius = {"uniform_radius": lambda: rng.random(n), "uniform_ball": lambda: rng.random(n) ** (1.0 / d),
+                  "squared_radius": lambda: rng.beta(d / 2, 2.0, n)}.get(mistake, lambda: np.sqrt(rng.beta(d / 2, 2.0, n)))()
+        eps = direction * radius[:, None]
+    S = np.cov(x, rowvar=False)
+    A = S if mistake == "covariance_for_root" else np.linalg.cholesky(S)
+    return x + h * eps @ A.T
+
+
+def check_epanechnikov_move(fn: Callable, seed: int = 0) -> CheckReport:
+    """Check ``fn(particles, scale, rng) -> moved``, the regularised filter's move with the Epanechnikov kernel.
+
+    ``x^i <- x^i + h A eps^i`` with ``A A^T = S`` the cloud's covariance, ``eps^i`` drawn independently
+    from ``K(eps) = (d + 2) / (2 c_d) (1 - |eps|^2)`` on the unit ball and ``h = scale *``
+    :func:`epanechnikov_bandwidth`. The moves of a cloud of :data:`JITTER_N` correlated particles,
+    whitened (``L^{-1} D / h``, ``L`` the Cholesky factor of ``S``; the kernel is round, so any square root
+    gives the same law), must have squared lengths following ``Beta(d/2, 2)`` (Kolmogorov-Smirnov,
+    p > 1e-4), mean zero (six standard errors) and covariance ``I / (d + 4)`` (each entry within a tenth of
+    ``1 / (d + 4)``). The draws must come from ``rng`` (the generator check); a wrong answer is compared
+    with each mistake of :data:`EPANECHNIKOV_MISTAKES` (the same statistics against 4N draws of that
+    mistake) and the one that fits is named.
+    """
+    from pfcourse.book.exercises.part1 import _generator_problem
+
+    report = CheckReport("Epanechnikov kernel move")
+    rng = np.random.default_rng(seed)
+    n, d = JITTER_N, JITTER_COV.shape[0]
+    particles = rng.multivariate_normal([1000.0, -200.0, 1.0], JITTER_COV, n)
+    saved = np.random.get_state()
+    try:
+        answer = _answer(report, lambda: fn(particles.copy(), JITTER_SCALE,
+                                            np.random.default_rng(run_filter_seed(seed))),
+                         "fn(particles, scale, rng)", "return the moved particles, an array like particles")
+    finally:
+        np.random.set_state(saved)
+    if answer is None or not _shaped(report, answer, particles.shape, "every particle, moved (an array like "
+                                                                      "particles)"):
+        return report
+    moved = np.asarray(answer, dtype=float)
+    if not np.isfinite(moved).all():
+        report.problems.append("the moved particles hold NaN or infinity")
+        return report
+    problem = _generator_problem(lambda r: fn(particles[:200].copy(), JITTER_SCALE, r),
+                                 lambda a, b: np.array_equal(np.asarray(a), np.asarray(b)), what="move")
+    if problem:
+        report.problems.append(problem)
+        return report
+    h = JITTER_SCALE * epanechnikov_bandwidth(n, d)
+    L = np.linalg.cholesky(np.cov(particles, rowvar=False))
+
+    def whitened(cloud: np.ndarray) -> np.ndarray:
+        return np.linalg.solve(L, (cloud - particles[: len(cloud)]).T).T / h
+
+    white = whitened(moved)
+    C = np.cov(white, rowvar=False)
+    if np.all(np.abs(C) < 1e-12):
+        report.problems.append("every particle moves by the same amount (or not at all): draw one independent "
+                               "eps^i per particle, an (N, d) array")
+        return report
+    if np.max(np.abs(white.mean(axis=0)) / np.sqrt(np.diag(C))) > 6 / np.sqrt(n):
+        report.problems.append("the moves do not average to zero: the kernel is centred on each particle, and "
+                               "eps^i is a direction uniform on the sphere times a radius")
+        return report
+    squared = np.sum(white**2, axis=1)
+    tolerance = 0.1 / (d + 4)
+
+    def fits(mistake: str | None) -> bool:
+        if mistake is None:
+            law_fits = stats.kstest(squared, stats.beta(d / 2, 2.0).cdf).pvalue > 1e-4
+            target = np.eye(d) / (d + 4)
+        else:
+            # 4N draws of the mistake, from generators of their own
+            ref_white = np.vstack([whitened(epanechnikov_move(particles, JITTER_SCALE,
+                                                              np.random.default_rng(10_000 + seed + k), mistake))
+                                   for k in range(4)])
+            law_fits = stats.ks_2samp(squared, np.sum(ref_white**2, axis=1)).pvalue > 1e-4
+            target = np.cov(ref_white, rowvar=False)
+        return law_fits and np.max(np.abs(C - target)) < max(tolerance, 0.1 * np.max(np.abs(target)))
+
+    if _settled(report, fits, EPANECHNIKOV_MISTAKES):
+        return report
+    if squared.max() > 1 + 1e-9:
+        report.problems.append(f"some whitened moves are {np.sqrt(squared.max()):.2f} times h long: the "
+                               "Epanechnikov kernel is zero outside the unit ball, so check eps, h = scale * A "
+                               "N^(-1/(d+4)) and the square root of S")
+    else:
+        report.problems.append("the moves' lengths do not follow the kernel: |eps|^2 must follow Beta(d/2, 2) "
+                               "(density proportional to r^(d-1) (1 - r^2) for the radius r) and the direction "
+                               "must be uniform on the sphere")
     return report
 
 
