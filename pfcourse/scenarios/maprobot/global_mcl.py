@@ -84,6 +84,7 @@ class GlobalSettings:
     refine_trials: int = 8
     refine_step: tuple[float, float] = (0.15, 0.05)
     poor_fit_only: bool = False
+    kidnap_hazard: float | None = None
 
     def __post_init__(self) -> None:
         for name in ("n_start", "n_min", "n_max", "inject_min", "inject_every", "candidates", "headings", "keep"):
@@ -98,6 +99,8 @@ class GlobalSettings:
             raise ParameterError(f"keep ({self.keep}) must not exceed the candidates ({self.candidates * self.headings})")
         for name in ("kld_epsilon", "kld_delta", "inject_share", "eps_min", "alpha_slow", "alpha_fast"):
             check_probability(getattr(self, name), name)
+        if self.kidnap_hazard is not None:
+            check_real(self.kidnap_hazard, "kidnap_hazard", low=0.0, high=1.0 / self.inject_every, low_open=True)
         if not self.alpha_slow < self.alpha_fast:
             raise ParameterError(f"alpha_slow ({self.alpha_slow}) must be below alpha_fast ({self.alpha_fast})")
         check_real(self.temper, "temper", low=0.0, high=1.0, low_open=True)
@@ -111,6 +114,13 @@ SETTINGS = GlobalSettings()
 #: ``kidnap_poor_fit``): poses injected only while ``eps_k`` is above its floor (the scans fit the cloud
 #: worse than they used to) and a KLD floor of 1000 particles.  It locked on and recovered no more often.
 POOR_FIT = replace(SETTINGS, poor_fit_only=True, n_min=1000)
+#: The kidnap model's own prior in place of augmented MCL's ratio: the robot is carried away at a given
+#: step with probability :data:`KIDNAP_HAZARD` (once in about 1000 scans, eight minutes of driving), so an
+#: injected stratum has prior mass ``KIDNAP_HAZARD * inject_every``.  Augmented MCL's
+#: ``1 - w_fast / w_slow`` is large whenever a few scans fit a little worse than the long-run average,
+#: which happens on a cloud that is right; a stratum so favoured flips a right cloud on a noisy estimate.
+KIDNAP_HAZARD = 1e-3
+HAZARD = replace(SETTINGS, kidnap_hazard=KIDNAP_HAZARD)
 
 
 def kld_size(x: Array, W: Array, s: GlobalSettings, rng: np.random.Generator) -> int:
@@ -223,6 +233,8 @@ def global_mcl(grid: OccupancyGrid, field: LikelihoodField, motion: OdometryMode
             w_fast = log_z[k] if w_fast is None else np.logaddexp(np.log1p(-s.alpha_fast) + w_fast,
                                                                   np.log(s.alpha_fast) + log_z[k])
             eps = max(s.eps_min, 1.0 - float(np.exp(min(w_fast - w_slow, 0.0))))
+            if s.kidnap_hazard is not None:  # the kidnap model's own prior: carried away in these inject_every steps
+                eps = s.kidnap_hazard * s.inject_every
             out.eps[k] = eps
             inject = s.inject_share > 0 and k >= s.history and k % s.inject_every == 0
             if s.poor_fit_only:  # only while the scans fit the cloud worse than they used to
