@@ -31,6 +31,18 @@ resampling at every scan) with three changes, the cure of the chapter *Finding t
    with no history (``h = 0``) can beat a wrong but well-fitting cloud only by the likelihood of one
    scan; with a history it carries the evidence of ``h + 1`` scans.
 
+   **Which prior.**  Augmented MCL's ``1 - w_fast / w_slow`` is not a probability of kidnapping: the
+   averages are of ``Z_k`` itself, dominated by its best scans, so a few scans that fit a right cloud a
+   little worse than usual set ``eps_k`` near one, and an injected stratum whose weight is a ratio of two
+   noisy evidence estimates then needs little luck to take a right cloud's place (the stored studies
+   ``map_global/global``: twelve of thirteen drives missed were right clouds flipped to the half-turn
+   twin late in the drive).  With ``kidnap_hazard = rho`` the prior is the kidnap model's own: carried
+   away at a given scan with probability ``rho``, so ``eps_k = rho * inject_every`` for the block of
+   scans an injection stands for (:data:`HAZARD`, ``rho = 1e-3``: once in about eight minutes of
+   driving).  A right cloud then keeps its place unless the scans since ``k - h`` favour the kidnapping by
+   ``log(1 / eps_k)`` nats more than the uniform start's penalty, while a kidnapped robot's cloud,
+   which stops fitting by tens of nats a scan, gives way within a few scans.
+
 All draws come from the generator passed in, in a fixed order (:func:`global_mcl`).
 """
 
@@ -183,13 +195,16 @@ def kernel_log_density(x: Array, centres: Array, log_v: Array, h: Array) -> Arra
 
 @dataclass(frozen=True)
 class GlobalResult:
-    """Per step: the estimate ``(K, 3)``, the number of particles, augmented MCL's ``eps_k`` and the
-    injected share of the weight after the step."""
+    """Per step: the estimate ``(K, 3)``, the number of particles, the injected stratum's prior mass
+    ``eps_k`` (augmented MCL's, or the kidnap model's with ``kidnap_hazard``), the injected share of the
+    weight after the step, and augmented MCL's ``max(eps_min, 1 - w_fast / w_slow)`` whichever rule sets
+    ``eps_k``."""
 
     mean: Array
     sizes: Array
     eps: Array
     injected_mass: Array
+    eps_augmented: Array | None = None
 
 
 def global_mcl(grid: OccupancyGrid, field: LikelihoodField, motion: OdometryModel, scans: Array, odometry: Array,
@@ -218,7 +233,7 @@ def global_mcl(grid: OccupancyGrid, field: LikelihoodField, motion: OdometryMode
     log_z = np.zeros(K)  # the cloud's predictive log-likelihood of each scan
     log_z[0] = logsumexp(log_w)  # step 0: the weights are importance weights of the prior
     w_slow = w_fast = None
-    out = GlobalResult(np.empty((K, 3)), np.empty(K, dtype=int), np.zeros(K), np.zeros(K))
+    out = GlobalResult(np.empty((K, 3)), np.empty(K, dtype=int), np.zeros(K), np.zeros(K), np.zeros(K))
     for k in range(K):
         inj_mass = 0.0
         if k > 0:
@@ -233,6 +248,7 @@ def global_mcl(grid: OccupancyGrid, field: LikelihoodField, motion: OdometryMode
             w_fast = log_z[k] if w_fast is None else np.logaddexp(np.log1p(-s.alpha_fast) + w_fast,
                                                                   np.log(s.alpha_fast) + log_z[k])
             eps = max(s.eps_min, 1.0 - float(np.exp(min(w_fast - w_slow, 0.0))))
+            out.eps_augmented[k] = eps
             if s.kidnap_hazard is not None:  # the kidnap model's own prior: carried away in these inject_every steps
                 eps = s.kidnap_hazard * s.inject_every
             out.eps[k] = eps
