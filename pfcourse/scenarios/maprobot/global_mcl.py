@@ -31,17 +31,14 @@ resampling at every scan) with three changes, the cure of the chapter *Finding t
    with no history (``h = 0``) can beat a wrong but well-fitting cloud only by the likelihood of one
    scan; with a history it carries the evidence of ``h + 1`` scans.
 
-   **Which prior.**  Augmented MCL's ``1 - w_fast / w_slow`` is not a probability of kidnapping: the
-   averages are of ``Z_k`` itself, dominated by its best scans, so a few scans that fit a right cloud a
-   little worse than usual set ``eps_k`` near one, and an injected stratum whose weight is a ratio of two
-   noisy evidence estimates then needs little luck to take a right cloud's place (the stored studies
-   ``map_global/global``: twelve of thirteen drives missed were right clouds flipped to the half-turn
-   twin late in the drive).  With ``kidnap_hazard = rho`` the prior is the kidnap model's own: carried
+   **Which prior.**  Augmented MCL's ``1 - w_fast / w_slow`` is made to detect a kidnapping, not to be
+   its probability: on a right cloud it sits at its floor ``eps_min``, a number chosen by hand, and that
+   floor decides whether an injected stratum (its weight a ratio of two noisy evidence estimates) may
+   take a right cloud's place.  With ``kidnap_hazard = rho`` the prior is the kidnap model's own: carried
    away at a given scan with probability ``rho``, so ``eps_k = rho * inject_every`` for the block of
    scans an injection stands for (:data:`HAZARD`, ``rho = 1e-3``: once in about eight minutes of
-   driving).  A right cloud then keeps its place unless the scans since ``k - h`` favour the kidnapping by
-   ``log(1 / eps_k)`` nats more than the uniform start's penalty, while a kidnapped robot's cloud,
-   which stops fitting by tens of nats a scan, gives way within a few scans.
+   driving).  A right cloud then keeps its place unless the scans since ``k - h`` favour the kidnapping
+   by ``log(1 / eps_k)`` nats more.
 
 All draws come from the generator passed in, in a fixed order (:func:`global_mcl`).
 """
@@ -128,9 +125,7 @@ SETTINGS = GlobalSettings()
 POOR_FIT = replace(SETTINGS, poor_fit_only=True, n_min=1000)
 #: The kidnap model's own prior in place of augmented MCL's ratio: the robot is carried away at a given
 #: step with probability :data:`KIDNAP_HAZARD` (once in about 1000 scans, eight minutes of driving), so an
-#: injected stratum has prior mass ``KIDNAP_HAZARD * inject_every``.  Augmented MCL's
-#: ``1 - w_fast / w_slow`` is large whenever a few scans fit a little worse than the long-run average,
-#: which happens on a cloud that is right; a stratum so favoured flips a right cloud on a noisy estimate.
+#: injected stratum has prior mass ``KIDNAP_HAZARD * inject_every`` (module docstring, "Which prior").
 KIDNAP_HAZARD = 1e-3
 HAZARD = replace(SETTINGS, kidnap_hazard=KIDNAP_HAZARD)
 
