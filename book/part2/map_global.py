@@ -188,8 +188,8 @@ EvidenceBlock(
 # **Why the plain filter falls short.** Early in a drive every twin fits. The likelihood field is
 # sharp ($24$ beams, $\sigma_{\mathrm{hit}} = 0.2$ m), so a few particles in one twin outscore the
 # rest and resampling hands that twin every particle before the evidence has chosen. A uniform
-# injected pose must then land within centimetres of the truth, and with no history it scores no
-# better than the twin's particles.
+# injected pose must land within centimetres of the truth and, with no history, scores no better
+# than the twin's.
 #
 # The cure: many particles at the start, shrinking once the evidence has chosen; injected poses
 # drawn where the scan fits; and those poses weighted by the evidence of several scans, with a
@@ -384,9 +384,10 @@ rho, every = 1e-3, 4  # a kidnapping once in 1000 scans; an injection every 4
 
 
 def mix(moved, lw_m, inj, lw_r, eps):
-    """The moved and injected particles as one weighted cloud."""
-    lw = [np.log1p(-eps) - np.log(len(moved)) + lw_m, np.log(eps) - np.log(len(inj)) + lw_r]
-    return np.concatenate([moved, inj]), np.concatenate(lw)
+    """The moved (mass 1 - eps) and injected (mass eps) particles, one cloud."""
+    a = np.log1p(-eps) - np.log(len(moved)) + lw_m
+    b = np.log(eps) - np.log(len(inj)) + lw_r
+    return np.concatenate([moved, inj]), np.concatenate([a, b])
 
 
 # %% tags=["hide-input"] jupyter={"source_hidden": true}
@@ -477,6 +478,7 @@ glue_values("lf_", demo_decided_s=float((decided_at[0] + 1) * study.DT), demo_lo
 # Against table $8.3$'s prior, the kidnap model's locks on in
 # {glue:text}`lf_global_vs_augmented_gain:.0%` more of the drives
 # ({glue:text}`lf_global_vs_augmented_gain_low:.0%` to {glue:text}`lf_global_vs_augmented_gain_high:.0%`).
+#
 # Of the {glue:text}`lf_global_missed:d` drives it still misses,
 # {glue:text}`lf_global_missed_late:d` end within the tolerances, found again too late for the
 # window, and {glue:text}`lf_global_missed_turn:d` end on a half-turn twin.
@@ -536,7 +538,7 @@ EvidenceBlock(
 #
 # The same filter, started at the robot's known pose ($300$ particles around it), tracks it for
 # $20$ s; then the robot is carried to another waypoint of its route while its odometry reports no
-# motion, and drives on for $100$ s. The scans stop fitting the cloud by tens of nats each, and
+# motion, and drives on for $100$ s. The scans stop fitting the cloud, and
 # the injected poses, which fit the new scans, take the weight despite their small prior. Over
 # $100$ seeded runs the filter recovers (is locked on at the end) in
 # {glue:text}`lf_kidnap_recovered_rate:.0%` of them
@@ -544,8 +546,7 @@ EvidenceBlock(
 # short of the $0.90$ aimed at; with table $8.3$'s prior, {glue:text}`lf_augmented_kidnap_recovered_rate:.0%`.
 #
 # Those that recover are locked on for good a median {glue:text}`lf_kidnap_recovery_median_s:.0f` s after
-# the kidnapping ({glue:text}`lf_kidnap_recovery_median_s_low:.0f`-{glue:text}`lf_kidnap_recovery_median_s_high:.0f` s),
-# the $10$ s of history included.
+# the kidnapping ({glue:text}`lf_kidnap_recovery_median_s_low:.0f`-{glue:text}`lf_kidnap_recovery_median_s_high:.0f` s).
 #
 # Of the {glue:text}`lf_kidnap_missed:d` runs that do not recover,
 # {glue:text}`lf_kidnap_missed_late:d` end within $1$ m of the robot's position, too late for the window.
