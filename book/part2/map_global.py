@@ -12,15 +12,15 @@
 # :::{admonition} In this chapter
 # :class: chapter-header
 # **You learn** how to tell whether a failure to find the robot is the map's or the filter's (the
-# twin margin), and a filter that finds it whenever the map allows: many particles at the start
-# that KLD-sampling shrinks, and poses drawn from the scan, injected as a kidnapping and weighted
-# by their evidence.
+# twin margin), and a filter built to reach that bound: many particles at the start that
+# KLD-sampling shrinks, and poses drawn from the scan, injected as a kidnapping with the kidnap
+# model's prior and weighted by their evidence.
 #
 # **You need** {doc}`map_robot` (the odometry model, the likelihood field, MCL) and
 # {doc}`global_localization` (random injection, augmented MCL, KLD-sampling); importance sampling.
 #
 # **Time:** about twenty-five minutes to read; the notebook runs in about fifteen seconds on a quiet
-# machine (its three studies are stored: they take minutes).
+# machine (its five studies are stored: they take minutes).
 # :::
 #
 # Put the robot of {doc}`map_robot` anywhere on its map, give the filter no idea where, and drive.
@@ -68,8 +68,8 @@ def stored(name):
 # ## What the map allows: the twin margin
 #
 # Take one drive and move the robot's whole path by a half-turn about the map's centre. The moved
-# path, the *twin*, is a path the robot could have driven: every step has the same odometry, since
-# the odometry is measured in the robot's own frame, and while it stays in free space it is as
+# path, the *twin*, is a path the robot could have driven: every step has the same odometry
+# (measured in the robot's own frame), and while it stays in free space it is as
 # likely a priori under a uniform start. Shifts by $5$, $10$ or $15$ m along the corridor, with or
 # without the half-turn, give more twins: thirteen in all. Write $T$ for one of these moves. By
 # Bayes' rule, the posterior odds of the true path against its twin are the likelihood ratio of the
@@ -84,7 +84,7 @@ def stored(name):
 # the log-odds of the truth against all its twins together: the truth's cumulative log-likelihood
 # minus the $\operatorname{logsumexp}$ of the twins'. Where the margin is near zero, no filter can
 # know which twin is the robot; where it is large, an exact filter would have its weight on the truth.
-# The cell below computes it for one drive with the likelihood field of {doc}`map_robot`.
+# The cell below computes it for one drive.
 
 # %%
 import numpy as np
@@ -153,17 +153,14 @@ plt.show()
 
 # %% [markdown]
 # The half-turn twin of seed $1$ runs through the rooms opposite the robot's, seeing the same
-# walls. The margin stays near zero, the twin even ahead by chance, for as long as the robot sees
-# nothing that tells the twins apart, and jumps when the box or an end of the corridor comes into view. Over $100$ drives the margin
-# stays at zero for the first seconds and then climbs to hundreds of nats by $100$ s, with the slow
-# drives far behind the median.
+# walls. The margin stays near zero while the robot sees nothing that tells the twins apart, and
+# jumps when the box or an end of the corridor comes into view.
 #
 # Call a drive **decided** when the truth's posterior odds against its twins are at least
 # $99 : 1$ at $80$ % of the steps of the last $20$ s, the share the lock-on rule below asks of a
 # filter. The evidence decides {glue:text}`lf_decided_rate:.0%` of the drives
 # ({glue:text}`lf_decided_rate_low:.0%`-{glue:text}`lf_decided_rate_high:.0%`): that is the bound
-# a filter can reach, and it is close to every drive. The filter of {doc}`map_robot` falls short of it
-# because of how it runs, not because of the map.
+# a filter can reach.
 
 # %% tags=["remove-input"] jupyter={"source_hidden": true}
 decided = evidence.rate(twins_table["decided"].to_numpy())
@@ -188,16 +185,15 @@ EvidenceBlock(
 )
 
 # %% [markdown]
-# **Why the plain filter falls short.** Early in a drive every twin fits, and the cloud splits
-# among them. The likelihood field is sharp ($24$ beams, $\sigma_{\mathrm{hit}} = 0.2$ m), so at
-# every scan a few particles in one twin outscore the rest and resampling copies them, so a single
-# twin can take all the particles before the evidence has chosen. Random injection then has to land a pose within a few centimetres and a degree or two of
-# the truth, out of a map of about $200$ m$^2$ and a full turn of headings, and that pose, with no
-# history, scores no better than the twin's particles, which fit the current scan just as well.
+# **Why the plain filter falls short.** Early in a drive every twin fits. The likelihood field is
+# sharp ($24$ beams, $\sigma_{\mathrm{hit}} = 0.2$ m), so a few particles in one twin outscore the
+# rest and resampling hands that twin every particle before the evidence has chosen. A uniform
+# injected pose must land within centimetres of the truth and, with no history, scores no better
+# than the twin's.
 #
-# The cure has three parts: enough particles at the start to keep every twin, a number that shrinks
-# once the evidence has chosen; injected poses drawn where the scan fits; and those poses weighted
-# by the evidence of several scans, so that one that is right can win.
+# The cure: many particles at the start, shrinking once the evidence has chosen; injected poses
+# drawn where the scan fits; and those poses weighted by the evidence of several scans, with a
+# prior small enough that a right cloud keeps its place.
 #
 # ## Many particles at the start, shrinking: KLD-sampling
 #
@@ -319,15 +315,10 @@ print(f"the same poses and log q as pfcourse.scenarios.maprobot.global_mcl.scan_
 # ## Injected as a kidnapping, weighted by their evidence
 #
 # How much weight does an injected pose deserve? Augmented MCL ({cite:t}`thrun2005`, table $8.3$)
-# injects poses at the rate $\max(0, 1 - w_{\mathrm{fast}} / w_{\mathrm{slow}})$, where $w_{\mathrm{fast}}$
-# and $w_{\mathrm{slow}}$ are a fast and a slow running average of the cloud's mean likelihood
-# $Z_k = \frac1M \sum_i p(z_k \mid x_k^i)$: when the scans suddenly fit the cloud worse than they used
-# to, the robot has probably been moved. Table $8.3$ then gives the new poses the same weight as the
-# others. That is right only if they were drawn from the posterior itself; ours are drawn from $q$.
-#
-# Make the injection part of the model instead. The robot may have been **carried anywhere
-# $h$ scans ago**, with probability $\varepsilon_k$ (here $h = 20$ scans, $10$ s, and
-# $\varepsilon_k = \max(0.01,\, 1 - w_{\mathrm{fast}} / w_{\mathrm{slow}})$). The cloud's $M$
+# gives it the same weight as the others, which is right only for poses drawn from the posterior;
+# ours are drawn from $q$. Make the injection part of the model instead. The robot may have been **carried anywhere
+# $h$ scans ago**, with probability $\varepsilon_k$ (here $h = 20$ scans, $10$ s; how large
+# $\varepsilon_k$ should be comes next). The cloud's $M$
 # moved particles stand for "not carried", the $R$ injected poses for "carried at step $k - h$".
 # Each injected pose starts from $q$ for the scan of step $k - h$ and is carried to now by the
 # odometry, a small filter of $R$ particles scoring it at every scan. Its weight is an importance
@@ -373,6 +364,44 @@ same_inj = all(np.allclose(a, b, rtol=0, atol=TOL) for a, b in zip(ours_inj, pkg
 print(f"the same poses and log-weights as pfcourse.scenarios.maprobot.global_mcl.injected, to {TOL:.0e}: {same_inj}")
 
 # %% [markdown]
+# ## How likely is a kidnapping?
+#
+# What should the prior $\varepsilon_k$ be? Augmented MCL's rate
+# $1 - w_{\mathrm{fast}} / w_{\mathrm{slow}}$ (table $8.3$), from running averages of the cloud's mean
+# likelihood $Z_k$, is made to detect a kidnapping, not to be its probability. On a cloud that is
+# right it sits at the floor we gave it, $0.01$, at {glue:text}`lf_demo_ratio_floor_share:.0%` of
+# the scans of the run below: the floor, a number chosen by hand, decides whether a noisy injected
+# stratum may replace a right cloud. With it the filter ends on the half-turn twin in
+# {glue:text}`lf_augmented_missed_turn:d` of its {glue:text}`lf_augmented_missed:d` missed drives.
+#
+# The kidnap model gives the prior a meaning: carried away at a scan with probability
+# $\rho = 10^{-3}$ (once in about eight minutes of driving), and one injection standing for the
+# $4$ scans since the last, $\varepsilon_k = 4 \rho$. An injected stratum now needs
+# $\log(1 / \varepsilon_k)$ nats of evidence over the cloud; a kidnapped robot's cloud stops
+# fitting the scans and gives way all the same. Mixing the two strata:
+
+# %%
+rho, every = 1e-3, 4  # a kidnapping once in 1000 scans; an injection every 4
+
+
+def mix(moved, lw_m, inj, lw_r, eps):
+    """The moved (mass 1 - eps) and injected (mass eps) particles, one cloud."""
+    a = np.log1p(-eps) - np.log(len(moved)) + lw_m
+    b = np.log(eps) - np.log(len(inj)) + lw_r
+    return np.concatenate([moved, inj]), np.concatenate([a, b])
+
+
+# %% tags=["hide-input"] jupyter={"source_hidden": true}
+rng_mix = np.random.default_rng(4)
+moved_demo, lw_m_demo = rng_mix.normal(size=(300, 3)), rng_mix.normal(size=300)
+inj_demo, lw_r_demo = ours_inj[0], ours_inj[1]
+ours_mix = mix(moved_demo, lw_m_demo, inj_demo, lw_r_demo, every * rho)
+pkg_mix = engine._stratified([(1 - every * rho, moved_demo, lw_m_demo), (every * rho, inj_demo, lw_r_demo)])
+same_mix = all(np.allclose(a, b, rtol=0, atol=TOL) for a, b in zip(ours_mix, pkg_mix))
+same_rho = engine.HAZARD.kidnap_hazard == rho and engine.HAZARD.inject_every == every
+print(f"the same cloud as the engine's strata, to {TOL:.0e}: {same_mix}; the engine's hazard and cadence: {same_rho}")
+
+# %% [markdown]
 # :::{admonition} Algorithm 15.1: global localization with KLD-sampling and evidence-weighted sensor resetting
 # :class: algorithm
 # 1. **Start.** Draw $20000$ poses from $u$ and $2000$ from $q$ for the first scan; weight them
@@ -380,9 +409,10 @@ print(f"the same poses and log-weights as pfcourse.scenarios.maprobot.global_mcl
 # 2. **For** each scan $z_k$, $k = 1, 2, \dots$:
 #    1. *size:* $M$ from the KLD bound for the bins of the weighted cloud, clipped to $[300, 5000]$;
 #    2. *move:* resample $M$ particles, move each by the odometry, weight by $p(z_k \mid x_k)$;
-#       record $Z_k$ and update $w_{\mathrm{slow}}$, $w_{\mathrm{fast}}$ and $\varepsilon_k$;
+#       record $Z_k$;
 #    3. *inject* (every fourth scan, from $k = 20$ on): $R = \max(200, M / 10)$ poses carried since
-#       step $k - h$, weighted as above; the cloud is the $M + R$ weighted particles;
+#       step $k - h$, weighted as above; the cloud is the $M + R$ weighted particles, the two strata
+#       given the masses $1 - \varepsilon_k$ and $\varepsilon_k = 4 \rho$;
 #    4. *estimate:* weighted mean position and circular mean heading.
 # :::
 #
@@ -390,9 +420,9 @@ print(f"the same poses and log-weights as pfcourse.scenarios.maprobot.global_mcl
 
 # %% tags=["hide-input"] jupyter={"source_hidden": true}
 demo_rng = np.random.default_rng([41, 1, 2])
-res = engine.global_mcl(grid, field, motion, drive.scans, drive.drive.odometry, demo_rng)
+res = engine.global_mcl(grid, field, motion, drive.scans, drive.drive.odometry, demo_rng, engine.HAZARD)
 pos, head = position_error(drive.truth, res.mean), heading_error(drive.truth, res.mean)
-fig, (ax1, ax2) = plt.subplots(2, 1, figsize=(8, 4.8), sharex=True)
+fig, (ax1, ax2, ax3) = plt.subplots(3, 1, figsize=(8, 6.6), sharex=True)
 ax1.semilogy(t, np.maximum(pos, 1e-2), color=COLORS["estimate"], label="the filter's position error")
 ax1.axhline(1.0, color=COLORS["unseen"], ls="--", label="lock-on tolerance (1 m)")
 ax1.set_ylabel("error (m)")
@@ -401,13 +431,20 @@ ax1.set_title("The cure on seed 1, from a uniform start")
 ax2.plot(t, np.clip(margin, -20, 60), color=COLORS["truth"], label="twin margin (cut at 60)")
 ax2.axhline(np.log(mg.DECIDED_ODDS), color=COLORS["unseen"], ls="--", label="odds 99 : 1")
 ax2.set_ylabel("nats")
-ax2.set_xlabel("time t (s)")
 ax2.legend(loc="upper left", bbox_to_anchor=(1.02, 1))
+ax3.semilogy(t[1:], res.eps_augmented[1:], color=COLORS["particles"], lw=0.8,
+             label="table 8.3's rate (floor 0.01)")
+ax3.semilogy(t[1:], res.eps[1:], color=COLORS["estimate"], label="4 rho (the kidnap model)")
+ax3.set_ylabel("prior of a kidnapping")
+ax3.set_xlabel("time t (s)")
+ax3.legend(loc="upper left", bbox_to_anchor=(1.02, 1))
 plt.show()
 decided_at = np.flatnonzero(margin > np.log(mg.DECIDED_ODDS))
 demo_locked = lock_on.locked_from(pos, head, study.DT, mg.HEADING_TOL)
+on_robot = lock_on.locked_steps(pos, head, mg.HEADING_TOL)[1:]
 glue_values("lf_", demo_decided_s=float((decided_at[0] + 1) * study.DT), demo_locked_s=float(demo_locked * study.DT),
-            demo_start_particles=int(res.sizes[0]), demo_mean_particles=float(res.sizes[1:].mean()))
+            demo_start_particles=int(res.sizes[0]), demo_mean_particles=float(res.sizes[1:].mean()),
+            demo_ratio_floor_share=float(np.mean(res.eps_augmented[1:][on_robot] <= engine.HAZARD.eps_min)))
 
 # %% [markdown]
 # The filter starts with {glue:text}`lf_demo_start_particles:d` particles and is down to a few hundred
@@ -417,45 +454,83 @@ glue_values("lf_", demo_decided_s=float((decided_at[0] + 1) * study.DT), demo_lo
 #
 # ## Does it reach the bound?
 #
-# **Locked on**, in this chapter, means within $1$ m of the true position and within a heading
-# tolerance at $80$ % or more of the steps of the last $20$ s. The tolerance comes from the robot's
-# own noise: a straight odometry step of $0.25$ m turns the heading by $e_1 + e_3$, whose standard
-# deviation is $\sqrt{2 a_2}\, \delta_{\mathrm{trans}}$ = {glue:text}`lf_step_heading_sd_deg:.1f`°;
-# a filter that follows the robot may carry such an error between two scans, and the rule allows
-# three times that, {glue:text}`lf_heading_tolerance_deg:.1f`°.
+# **Locked on** is the rule of {doc}`map_robot`: within $1$ m and
+# {glue:text}`lf_heading_tolerance_deg:.1f`° of the truth at $80$ % of the steps of the last $20$ s.
+#
+# :::{admonition} Where the heading tolerance comes from
+# :class: dropdown
+# A straight odometry step of $0.25$ m turns the heading by $e_1 + e_3$, whose standard deviation
+# is $\sqrt{2 a_2}\, \delta_{\mathrm{trans}}$ = {glue:text}`lf_step_heading_sd_deg:.1f`°; a filter
+# that follows the robot may carry such an error between two scans, and the rule allows three
+# times that.
+# :::
 #
 # Over the $100$ drives of the twin study, from a uniform start, the cure is
 # locked on in {glue:text}`lf_global_lock_on_rate:.0%` of them
 # ({glue:text}`lf_global_lock_on_rate_low:.0%`-{glue:text}`lf_global_lock_on_rate_high:.0%`),
-# against the {glue:text}`lf_decided_rate:.0%` the evidence decides: short of the bound.
+# against the {glue:text}`lf_decided_rate:.0%` the evidence decides.
 #
-# Of the {glue:text}`lf_global_missed:d` drives it misses,
-# {glue:text}`lf_global_missed_late:d` end within the tolerances, found too late for the window; the
-# others end on a twin, where the evidence had chosen but no injected pose gathered enough of it in
-# its $10$ s of history to take over.
+# That is short of the $0.95$ this chapter set out to reach, and on these drives it cannot be told
+# from the bound either: the cure minus the decided share is
+# {glue:text}`lf_global_decided_gap:+.0%` ({glue:text}`lf_global_decided_gap_low:+.0%` to
+# {glue:text}`lf_global_decided_gap_high:+.0%`, paired by drive).
+#
+# With table $8.3$'s prior the same filter locks on in
+# {glue:text}`lf_augmented_lock_on_rate:.0%` of the same drives; the kidnap model's prior locks on in
+# {glue:text}`lf_global_vs_augmented_gain:.0%` more of them
+# ({glue:text}`lf_global_vs_augmented_gain_low:.0%` to {glue:text}`lf_global_vs_augmented_gain_high:.0%`).
+# At the floor its bar is under one nat higher, and the paired test does not exclude luck.
+#
+# Of the {glue:text}`lf_global_missed:d` drives it still misses,
+# {glue:text}`lf_global_missed_late:d` end within the tolerances, found again too late for the
+# window, and {glue:text}`lf_global_missed_turn:d` end on a half-turn twin.
 
 # %% tags=["remove-input"] jupyter={"source_hidden": true}
-glob = STUDIES["map_global/global"].load().sort_values("seed")
+glob = STUDIES["map_global/global_hazard"].load().sort_values("seed")
+aug = STUDIES["map_global/global"].load().sort_values("seed")
 assert (glob["seed"].to_numpy() == twins_table["seed"].to_numpy()).all()
-pair = evidence.paired_rates(glob["locked_on"].to_numpy(), twins_table["decided"].to_numpy())
+assert (aug["seed"].to_numpy() == twins_table["seed"].to_numpy()).all()
+is_decided = twins_table["decided"].to_numpy()
+pair = evidence.paired_rates(glob["locked_on"].to_numpy(), is_decided)
+vs_aug = evidence.paired_rates(glob["locked_on"].to_numpy(), aug["locked_on"].to_numpy())
+within = evidence.rate(glob["locked_on"].to_numpy()[is_decided])
 glue_values("lf_", n_global=len(glob), global_lock_on_rate=pair.a.estimate, global_lock_on_rate_low=pair.a.low,
             global_lock_on_rate_high=pair.a.high, step_heading_sd_deg=np.degrees(lock_on.step_heading_sd(motion, mg.STEP_M)),
             heading_tolerance_deg=np.degrees(mg.HEADING_TOL), global_mean_particles=glob["mean_particles"].mean(),
-            global_decided_gap=pair.difference)
-missed = glob.loc[~glob["locked_on"].to_numpy(), ["seed", "final_position_error", "final_heading_error"]].merge(
-    twins_table[["seed", "decided", "final_margin"]], on="seed")
-missed_late = int(((missed["final_position_error"] < lock_on.POSITION_TOLERANCE_M)
-                   & (missed["final_heading_error"] < mg.HEADING_TOL)).sum())
-glue_values("lf_", global_missed=len(missed), global_missed_late=missed_late)
+            global_decided_gap=pair.difference, global_decided_gap_low=pair.difference_low,
+            global_decided_gap_high=pair.difference_high, augmented_lock_on_rate=vs_aug.b.estimate,
+            global_vs_augmented_p=vs_aug.pvalue, global_vs_augmented_gain=vs_aug.difference,
+            global_vs_augmented_gain_low=vs_aug.difference_low, global_vs_augmented_gain_high=vs_aug.difference_high,
+            global_within_decided_rate=within.estimate)
+
+
+def misses(table):
+    """The drives a filter does not lock on, with how each ends."""
+    m = table.loc[~table["locked_on"].to_numpy(), ["seed", "final_position_error", "final_heading_error"]].merge(
+        twins_table[["seed", "decided", "final_margin"]], on="seed")
+    late = (m["final_position_error"] < lock_on.POSITION_TOLERANCE_M) & (m["final_heading_error"] < mg.HEADING_TOL)
+    turned = m["final_heading_error"] > np.pi / 2  # on a half-turn twin: heading about 180 degrees off
+    return m, int(late.sum()), int(turned.sum())
+
+
+missed, missed_late, missed_turn = misses(glob)
+aug_missed, _, aug_missed_turn = misses(aug)
+glue_values("lf_", global_missed=len(missed), global_missed_late=missed_late, global_missed_turn=missed_turn,
+            augmented_missed=len(aug_missed), augmented_missed_turn=aug_missed_turn)
 EvidenceBlock(
-    "the cure locks on in most drives, short of what the evidence decides",
+    "the kidnap model's prior against table 8.3's, on the same drives",
     notes=[f"{len(glob)} drives (the twin study's), 100 s each, uniform start; the filter of Algorithm 15.1 "
-           f"({engine.SETTINGS}); its random numbers from numpy.random.default_rng([41, seed, 2]).",
+           f"({engine.HAZARD}); its random numbers from numpy.random.default_rng([41, seed, 2]), the same for "
+           "both priors (common random numbers until the first injection).",
            f"Locked on (within 1 m and {np.degrees(mg.HEADING_TOL):.1f} degrees at 80 % of the last 20 s): "
-           f"{pair.a}; decided by the evidence: {pair.b} (Wilson intervals).",
-           f"Paired by drive (cure A, decided B): {pair} (see Reading the evidence).",
+           f"{pair.a}; decided by the evidence: {pair.b} (Wilson intervals); locked on among the decided drives: "
+           f"{within}.",
+           f"Paired by drive (cure A, decided B): {pair}.",
+           f"Paired by drive (kidnap model's prior A, table 8.3's B): {vs_aug} (see Reading the evidence).",
+           f"With table 8.3's prior, {len(aug_missed)} drives missed, {aug_missed_turn} of them ending on a "
+           "half-turn twin (heading error above 90 degrees).",
            f"Mean number of particles after the start: {glob['mean_particles'].mean():.0f}.",
-           stored("global")],
+           stored("global_hazard"), stored("global") + " (table 8.3's prior)"],
     tables=[("The drives the cure does not lock on", missed,
              {"final_position_error": ".2f", "final_heading_error": ".2f", "final_margin": ".1f"})],
 )
@@ -465,22 +540,25 @@ EvidenceBlock(
 #
 # The same filter, started at the robot's known pose ($300$ particles around it), tracks it for
 # $20$ s; then the robot is carried to another waypoint of its route while its odometry reports no
-# motion, and drives on for $100$ s. The scans stop fitting the cloud, $w_{\mathrm{fast}}$ drops
-# below $w_{\mathrm{slow}}$, $\varepsilon_k$ rises, and the injected poses, which fit the new scans,
-# take the weight. Over $100$ seeded runs the filter recovers (is locked on at
-# the end) in {glue:text}`lf_kidnap_recovered_rate:.0%` of them
-# ({glue:text}`lf_kidnap_recovered_rate_low:.0%`-{glue:text}`lf_kidnap_recovered_rate_high:.0%`).
+# motion, and drives on for $100$ s. The scans stop fitting the cloud, and
+# the injected poses, which fit the new scans, take the weight despite their small prior. Over
+# $100$ seeded runs the filter recovers (is locked on at the end) in
+# {glue:text}`lf_kidnap_recovered_rate:.0%` of them
+# ({glue:text}`lf_kidnap_recovered_rate_low:.0%`-{glue:text}`lf_kidnap_recovered_rate_high:.0%`),
+# short of the $0.90$ aimed at; with table $8.3$'s prior, {glue:text}`lf_augmented_kidnap_recovered_rate:.0%`.
 #
 # Those that recover are locked on for good a median {glue:text}`lf_kidnap_recovery_median_s:.0f` s after
-# the kidnapping ({glue:text}`lf_kidnap_recovery_median_s_low:.0f`-{glue:text}`lf_kidnap_recovery_median_s_high:.0f` s):
-# at least the $10$ s of history an injected pose needs, plus the time the robot takes to see what
-# tells its new room from the twins.
+# the kidnapping ({glue:text}`lf_kidnap_recovery_median_s_low:.0f`-{glue:text}`lf_kidnap_recovery_median_s_high:.0f` s).
 #
 # Of the {glue:text}`lf_kidnap_missed:d` runs that do not recover,
 # {glue:text}`lf_kidnap_missed_late:d` end within $1$ m of the robot's position, too late for the window.
 
 # %% tags=["remove-input"] jupyter={"source_hidden": true}
-kid = STUDIES["map_global/kidnap"].load()
+kid = STUDIES["map_global/kidnap_hazard"].load().sort_values("seed")
+kid_aug = STUDIES["map_global/kidnap"].load().sort_values("seed")
+assert (kid["seed"].to_numpy() == kid_aug["seed"].to_numpy()).all()
+kid_vs_aug = evidence.paired_rates(kid["recovered"].to_numpy(), kid_aug["recovered"].to_numpy())
+glue_values("lf_", augmented_kidnap_recovered_rate=kid_vs_aug.b.estimate, kidnap_vs_augmented_p=kid_vs_aug.pvalue)
 kid_missed = kid[~kid["recovered"].to_numpy()]
 glue_values("lf_", kidnap_missed=len(kid_missed),
             kidnap_missed_late=int((kid_missed["final_position_error"] < lock_on.POSITION_TOLERANCE_M).sum()))
@@ -491,17 +569,18 @@ glue_values("lf_", n_kidnap=len(kid), kidnap_recovered_rate=recovered.estimate,
             kidnap_recovered_rate_low=recovered.low, kidnap_recovered_rate_high=recovered.high,
             kidnap_recovery_median_s=med, kidnap_recovery_median_s_low=med_low, kidnap_recovery_median_s_high=med_high)
 EvidenceBlock(
-    "the kidnapped robot is found again in most runs",
+    "the kidnapped robot is found again, with the kidnap model's prior as with table 8.3's",
     notes=[f"{len(kid)} runs (seeds 0-{len(kid) - 1}, drives of pfcourse.studies.maprobot.simulate): tracked from the known start, "
            f"kidnapped at t = {study.KIDNAP_STEP * study.DT:.0f} s to a waypoint drawn by kidnap_rng(seed), run to "
            f"t = {study.KIDNAP_STEPS * study.DT:.0f} s.",
            f"Tracked before the kidnapping (error below 1 m from 5 s on): "
            f"{evidence.rate(kid['tracked_before'].to_numpy())}.",
            f"Recovered (locked on at the end, the rule above): {recovered} (Wilson interval).",
+           f"Paired by run (kidnap model's prior A, table 8.3's B): {kid_vs_aug} (see Reading the evidence).",
            f"Median time from the kidnapping to the step from which the filter stays locked on, over the {len(times)} "
            f"runs that recover: {med:.1f} s (95 % interval {med_low:.1f}-{med_high:.1f} s, percentile bootstrap). "
            "A median among those that recover: it says how fast, not how often.",
-           stored("kidnap")],
+           stored("kidnap_hazard"), stored("kidnap") + " (table 8.3's prior)"],
     tables=[("Recovery time of the runs that recover", pd.DataFrame({"recovery (s)": pd.Series(times).describe()}).T,
              {})],
 )
@@ -509,10 +588,9 @@ EvidenceBlock(
 # %% [markdown]
 # ## Explore: the poses a scan proposes
 #
-# The panel draws the proposal for the scan of seed $1$ at $75$ s, with more or fewer candidates and
-# rounds of nudging. With few candidates and no nudging, no candidate lands close enough to the
-# truth and the drawn poses gather on the twins or on near misses; the nudges pull candidates into
-# the narrow basins where the scan fits.
+# The panel draws the proposal for the scan of seed $1$ at $75$ s. With few candidates and no
+# nudging, the drawn poses gather on twins and near misses; the nudges pull candidates into the
+# narrow basins where the scan fits.
 
 # %% tags=["hide-input", "nbval-ignore-output"] jupyter={"source_hidden": true}
 def draw(candidates=500, rounds=3):
@@ -593,16 +671,15 @@ print(check_reset_weights(my_reset))
 # - Before blaming a filter, measure what the data allow: a twin path has the same odometry and
 #   prior, so its posterior odds against the truth are a sum of scan log-likelihood ratios, and
 #   that margin says which drives any filter could decide.
-# - On this map the evidence decides almost every drive within $100$ s; the plain filter fails
-#   because a single twin takes all its particles before the evidence chooses, and uniform
-#   injected poses neither land near the truth nor carry enough evidence to win.
-# - KLD-sampling gives many particles while the cloud is spread and few once it has gathered;
-#   AMCL's `kld_z` is the normal quantile $z_{1 - \delta}$, not $\delta$.
-# - Poses drawn from the scan must be weighted by $u / q$ times their likelihood; carried over a
-#   few seconds of scans and weighed against the cloud's own evidence for those scans, a right pose
-#   can win against a wrong cloud, and a kidnapped robot is found again in most runs.
-# - The cure still falls short of the bound: a pose with ten seconds of history carries only the
-#   evidence of those seconds, while the twin margin is the sum over the whole drive.
+# - The plain filter fails because one twin takes all its particles before the evidence chooses.
+#   KLD-sampling keeps many particles while the cloud is spread; AMCL's `kld_z` is the quantile
+#   $z_{1 - \delta}$, not $\delta$.
+# - Poses drawn from the scan are weighted by $u / q$ times the evidence of their history against
+#   the cloud's, and their prior is the probability of a kidnapping, not a floor chosen by hand.
+# - From a uniform start the cure locks on in {glue:text}`lf_global_lock_on_rate:.0%` of the drives
+#   where the evidence decides {glue:text}`lf_decided_rate:.0%`, and finds a kidnapped robot again in
+#   {glue:text}`lf_kidnap_recovered_rate:.0%`: just short of $0.95$ and $0.90$, most misses found
+#   again too late for the last $20$ s.
 #
 # :::{admonition} From the labs
 # :class: dropdown

@@ -13,7 +13,7 @@ import numpy as np
 
 from pfcourse.studies import maprobot as study
 from pfcourse.scenarios.maprobot import lock_on
-from pfcourse.scenarios.maprobot.global_mcl import POOR_FIT, SETTINGS, GlobalSettings, global_mcl
+from pfcourse.scenarios.maprobot.global_mcl import HAZARD, POOR_FIT, SETTINGS, GlobalSettings, global_mcl
 from pfcourse.scenarios.maprobot.twins import twin_margin
 from pfcourse.metrics import heading_error, position_error
 
@@ -72,6 +72,16 @@ def poor_fit_global_row(seed: int) -> dict:
 def poor_fit_kidnap_row(seed: int) -> dict:
     """:func:`kidnap_row` with the variant :data:`pfcourse.scenarios.maprobot.global_mcl.POOR_FIT`."""
     return kidnap_row(seed, POOR_FIT)
+
+
+def hazard_global_row(seed: int) -> dict:
+    """:func:`global_row` with the kidnap model's prior, :data:`pfcourse.scenarios.maprobot.global_mcl.HAZARD`."""
+    return global_row(seed, HAZARD)
+
+
+def hazard_kidnap_row(seed: int) -> dict:
+    """:func:`kidnap_row` with the kidnap model's prior, :data:`pfcourse.scenarios.maprobot.global_mcl.HAZARD`."""
+    return kidnap_row(seed, HAZARD)
 
 
 def kidnap_row(seed: int, settings: GlobalSettings = SETTINGS) -> dict:

@@ -498,7 +498,10 @@ STUDIES: dict[str, Study] = {study.name: study for study in [
                                  ("kidnap", map_global.kidnap_row, map_global.KIDNAP_COLUMNS),
                                  # a variant of the cure (global_mcl.POOR_FIT) on the same drives, paired with the above
                                  ("global_poor_fit", map_global.poor_fit_global_row, map_global.GLOBAL_COLUMNS),
-                                 ("kidnap_poor_fit", map_global.poor_fit_kidnap_row, map_global.KIDNAP_COLUMNS)]),
+                                 ("kidnap_poor_fit", map_global.poor_fit_kidnap_row, map_global.KIDNAP_COLUMNS),
+                                 # the cure with the kidnap model's prior (global_mcl.HAZARD), paired with the above
+                                 ("global_hazard", map_global.hazard_global_row, map_global.GLOBAL_COLUMNS),
+                                 ("kidnap_hazard", map_global.hazard_kidnap_row, map_global.KIDNAP_COLUMNS)]),
     Study(name="terrain_mpf", row=terrain_marginalised.row, grid={"N": terrain_marginalised.SIZES},
           n_runs=100, seeds="run", table="terrain_mpf.csv", **_FLIGHTS, provenance="terrain_mpf.json",
           columns=terrain_marginalised.COLUMNS, seed_column="flight", cheap=lambda t: t["N"] <= 3000, sample=2,

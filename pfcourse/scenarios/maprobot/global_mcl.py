@@ -31,6 +31,15 @@ resampling at every scan) with three changes, the cure of the chapter *Finding t
    with no history (``h = 0``) can beat a wrong but well-fitting cloud only by the likelihood of one
    scan; with a history it carries the evidence of ``h + 1`` scans.
 
+   **Which prior.**  Augmented MCL's ``1 - w_fast / w_slow`` is made to detect a kidnapping, not to be
+   its probability: on a right cloud it sits at its floor ``eps_min``, a number chosen by hand, and that
+   floor decides whether an injected stratum (its weight a ratio of two noisy evidence estimates) may
+   take a right cloud's place.  With ``kidnap_hazard = rho`` the prior is the kidnap model's own: carried
+   away at a given scan with probability ``rho``, so ``eps_k = rho * inject_every`` for the block of
+   scans an injection stands for (:data:`HAZARD`, ``rho = 1e-3``: once in about eight minutes of
+   driving).  A right cloud then keeps its place unless the scans since ``k - h`` favour the kidnapping
+   by ``log(1 / eps_k)`` nats more.
+
 All draws come from the generator passed in, in a fixed order (:func:`global_mcl`).
 """
 
@@ -84,6 +93,7 @@ class GlobalSettings:
     refine_trials: int = 8
     refine_step: tuple[float, float] = (0.15, 0.05)
     poor_fit_only: bool = False
+    kidnap_hazard: float | None = None
 
     def __post_init__(self) -> None:
         for name in ("n_start", "n_min", "n_max", "inject_min", "inject_every", "candidates", "headings", "keep"):
@@ -98,6 +108,8 @@ class GlobalSettings:
             raise ParameterError(f"keep ({self.keep}) must not exceed the candidates ({self.candidates * self.headings})")
         for name in ("kld_epsilon", "kld_delta", "inject_share", "eps_min", "alpha_slow", "alpha_fast"):
             check_probability(getattr(self, name), name)
+        if self.kidnap_hazard is not None:
+            check_real(self.kidnap_hazard, "kidnap_hazard", low=0.0, high=1.0 / self.inject_every, low_open=True)
         if not self.alpha_slow < self.alpha_fast:
             raise ParameterError(f"alpha_slow ({self.alpha_slow}) must be below alpha_fast ({self.alpha_fast})")
         check_real(self.temper, "temper", low=0.0, high=1.0, low_open=True)
@@ -111,6 +123,11 @@ SETTINGS = GlobalSettings()
 #: ``kidnap_poor_fit``): poses injected only while ``eps_k`` is above its floor (the scans fit the cloud
 #: worse than they used to) and a KLD floor of 1000 particles.  It locked on and recovered no more often.
 POOR_FIT = replace(SETTINGS, poor_fit_only=True, n_min=1000)
+#: The kidnap model's own prior in place of augmented MCL's ratio: the robot is carried away at a given
+#: step with probability :data:`KIDNAP_HAZARD` (once in about 1000 scans, eight minutes of driving), so an
+#: injected stratum has prior mass ``KIDNAP_HAZARD * inject_every`` (module docstring, "Which prior").
+KIDNAP_HAZARD = 1e-3
+HAZARD = replace(SETTINGS, kidnap_hazard=KIDNAP_HAZARD)
 
 
 def kld_size(x: Array, W: Array, s: GlobalSettings, rng: np.random.Generator) -> int:
@@ -173,13 +190,16 @@ def kernel_log_density(x: Array, centres: Array, log_v: Array, h: Array) -> Arra
 
 @dataclass(frozen=True)
 class GlobalResult:
-    """Per step: the estimate ``(K, 3)``, the number of particles, augmented MCL's ``eps_k`` and the
-    injected share of the weight after the step."""
+    """Per step: the estimate ``(K, 3)``, the number of particles, the injected stratum's prior mass
+    ``eps_k`` (augmented MCL's, or the kidnap model's with ``kidnap_hazard``), the injected share of the
+    weight after the step, and augmented MCL's ``max(eps_min, 1 - w_fast / w_slow)`` whichever rule sets
+    ``eps_k``."""
 
     mean: Array
     sizes: Array
     eps: Array
     injected_mass: Array
+    eps_augmented: Array | None = None
 
 
 def global_mcl(grid: OccupancyGrid, field: LikelihoodField, motion: OdometryModel, scans: Array, odometry: Array,
@@ -208,7 +228,7 @@ def global_mcl(grid: OccupancyGrid, field: LikelihoodField, motion: OdometryMode
     log_z = np.zeros(K)  # the cloud's predictive log-likelihood of each scan
     log_z[0] = logsumexp(log_w)  # step 0: the weights are importance weights of the prior
     w_slow = w_fast = None
-    out = GlobalResult(np.empty((K, 3)), np.empty(K, dtype=int), np.zeros(K), np.zeros(K))
+    out = GlobalResult(np.empty((K, 3)), np.empty(K, dtype=int), np.zeros(K), np.zeros(K), np.zeros(K))
     for k in range(K):
         inj_mass = 0.0
         if k > 0:
@@ -223,6 +243,9 @@ def global_mcl(grid: OccupancyGrid, field: LikelihoodField, motion: OdometryMode
             w_fast = log_z[k] if w_fast is None else np.logaddexp(np.log1p(-s.alpha_fast) + w_fast,
                                                                   np.log(s.alpha_fast) + log_z[k])
             eps = max(s.eps_min, 1.0 - float(np.exp(min(w_fast - w_slow, 0.0))))
+            out.eps_augmented[k] = eps
+            if s.kidnap_hazard is not None:  # the kidnap model's own prior: carried away in these inject_every steps
+                eps = s.kidnap_hazard * s.inject_every
             out.eps[k] = eps
             inject = s.inject_share > 0 and k >= s.history and k % s.inject_every == 0
             if s.poor_fit_only:  # only while the scans fit the cloud worse than they used to
