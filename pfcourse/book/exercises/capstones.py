@@ -38,7 +38,7 @@ from pfcourse.book.exercises.part1 import _generator_problem
 # means with the reference filter's (:func:`_spread_problem`), their bias with the grid's exact answer and
 # with the large-N limit of each typical mistake (:func:`_bias_problem`), and, for Parts I and II, their
 # likelihood estimate with the grid's (:func:`_likelihood_problem`). What depends on the model alone (the
-# reference filter's spread, the grid's answers) is computed once per session (:func:`_once`).
+# reference filter's runs, the grids' answers) is computed once per session (:func:`_once`).
 
 def _keeping_global_state(check: Callable, *args) -> CheckReport:
     """``check(*args)``, leaving NumPy's global ``np.random`` state as it was (a reader's mistake may draw
@@ -59,7 +59,7 @@ def _read_only(value):
     return value
 
 
-@lru_cache(maxsize=128)
+@lru_cache(maxsize=1024)
 def _once(compute: Callable, *args):
     """``compute(*args)`` (hashable arguments: a model, a mistake, numbers), computed once per session and
     kept read-only: the grids and the reference runs a checker compares with depend on the model, not on the
@@ -105,15 +105,17 @@ def _means_of(answer, shape: tuple[int, ...], *, pair: bool, not_read: str, one_
     return ((means, log_lik) if pair else means), None
 
 
+def _reference_means(reference: Callable, data: Callable, model, n: int, run: int) -> np.ndarray:
+    """The means of the reference filter's run ``run`` (seed ``10_000 + run``) on the data ``data(model)``."""
+    out = reference(*data(model), n, np.random.default_rng(10_000 + run), model)
+    return out[0] if isinstance(out, tuple) else out
+
+
 def _reference_spread(reference: Callable, data: Callable, model, n: int, n_runs: int) -> float:
-    """The spread of the reference filter's means over ``n_runs`` seeded runs (seeds ``10_000 + r``) on the
-    data ``data(model)``: the standard deviation over runs of each mean, averaged over the means. Called
-    through :func:`_once`."""
-    args = data(model)
-    runs = []
-    for r in range(n_runs):
-        out = reference(*args, n, np.random.default_rng(10_000 + r), model)
-        runs.append(out[0] if isinstance(out, tuple) else out)
+    """The spread of the reference filter's means over its runs ``0..n_runs - 1`` (:func:`_reference_means`,
+    each computed once per session, so that checks with fewer runs share them): the standard deviation over
+    the runs of each mean, averaged over the means."""
+    runs = [_once(_reference_means, reference, data, model, n, run) for run in range(n_runs)]
     return float(np.array(runs).std(axis=0, ddof=1).mean())
 
 
@@ -326,7 +328,7 @@ def _check_sv_filter(fn: Callable, n: int, n_runs: int, seed: int, model: SVMode
                                  lambda a, b: np.array_equal(np.asarray(a[0]), np.asarray(b[0])), what="mean")
     m = np.array([a[0] for a in answers])
     ell = np.array([a[1] for a in answers])
-    problem = problem or _spread_problem(m, _once(_reference_spread, sv_bootstrap, _sv_args, model, n, n_runs))
+    problem = problem or _spread_problem(m, _reference_spread(sv_bootstrap, _sv_args, model, n, n_runs))
     if problem:
         report.problems.append(problem)
         return report
@@ -512,7 +514,7 @@ def _check_bearing_filter(fn: Callable, n: int, n_runs: int, seed: int,
                                  lambda a, b: np.array_equal(np.asarray(a[0]), np.asarray(b[0])), what="mean")
     m = np.array([a[0] for a in answers])
     ell = np.array([a[1] for a in answers])
-    problem = problem or _spread_problem(m, _once(_reference_spread, bearing_bootstrap, _bearing_args, model, n,
+    problem = problem or _spread_problem(m, _reference_spread(bearing_bootstrap, _bearing_args, model, n,
                                                   n_runs))
     if problem:
         report.problems.append(problem)
@@ -715,7 +717,7 @@ def _check_count_filter(fn: Callable, n: int, n_runs: int, seed: int, model: Cou
     problem = _generator_problem(lambda rng: fn(y.copy(), 200, rng, model),
                                  lambda a, b: np.array_equal(np.asarray(a), np.asarray(b)), what="mean")
     m = np.array(runs)
-    problem = problem or _spread_problem(m, _once(_reference_spread, count_bootstrap, _count_args, model, n, n_runs))
+    problem = problem or _spread_problem(m, _reference_spread(count_bootstrap, _count_args, model, n, n_runs))
     if not problem:
         exact = _once(_count_limit, model, None)
         problem = _bias_problem(m, exact, COUNT_MISTAKES, lambda mistake: _once(_count_limit, model, mistake),
