@@ -7,7 +7,7 @@ mobile robot, the aircraft) and an estimate ``x^`` with covariance ``P``:
 * :func:`heading_error` ``e_theta = |wrap(theta^ - theta)|`` (rad), wrapped to ``[0, pi]``;
 * :func:`position_spread` ``sigma_pos = sqrt(P_xx + P_yy)`` (m), the filter's own horizontal
   standard deviation: the root of the expected squared position error, were the filter right;
-* :func:`locked_from` and :func:`locked_on`, the book's one definition of *locked on* for a
+* :func:`within_tolerances_from` and :func:`locked_on`, the book's one definition of *locked on* for a
   robot: within a position and a heading tolerance of the truth at a share of the steps of the
   last :data:`LOCK_WINDOW_S` seconds of the run (by default :data:`LOCK_POSITION_M` metres,
   :data:`LOCK_HEADING_RAD`, every step: the landmark robots; the map robot's tolerance and share,
@@ -80,10 +80,13 @@ LOCK_HEADING_RAD = float(np.deg2rad(5.0))
 LOCK_WINDOW_S = 20.0
 
 
-def locked_from(pos_err: Array, head_err: Array, position_tolerance: float = LOCK_POSITION_M,
-                heading_tolerance: float = LOCK_HEADING_RAD) -> int:
+def within_tolerances_from(pos_err: Array, head_err: Array, position_tolerance: float = LOCK_POSITION_M,
+                           heading_tolerance: float = LOCK_HEADING_RAD) -> int:
     """First step ``k0`` from which ``e_pos < position_tolerance`` and ``e_theta < heading_tolerance``
-    hold at every step to the end (``K``, the number of steps, if they fail at the last one)."""
+    hold at every step to the end (``K``, the number of steps, if they fail at the last one).
+
+    Every step, not a share of the steps of a window: the map robot's
+    :func:`pfcourse.scenarios.maprobot.lock_on.locked_from` is the step from which its windows are locked on."""
     ok = (np.asarray(pos_err) < position_tolerance) & (np.asarray(head_err) < heading_tolerance)
     bad = np.flatnonzero(~ok)
     return 0 if len(bad) == 0 else int(bad[-1] + 1)
@@ -100,7 +103,8 @@ def locked_on(pos_err: Array, head_err: Array, dt: float, window_s: float = LOCK
     n_steps = len(pos_err)
     window = min(n_steps, int(np.ceil(window_s / dt - 1e-9)))
     if share >= 1.0:
-        return locked_from(pos_err, head_err, position_tolerance, heading_tolerance) <= n_steps - window
+        start = within_tolerances_from(pos_err, head_err, position_tolerance, heading_tolerance)
+        return start <= n_steps - window
     ok = ((np.asarray(pos_err)[n_steps - window:] < position_tolerance)
           & (np.asarray(head_err)[n_steps - window:] < heading_tolerance))
     return bool(ok.mean() >= share)

@@ -46,12 +46,12 @@ def test_same_floats_as_the_formulas_it_replaced():
 
 
 def test_locked_on_is_within_both_tolerances_over_the_whole_last_window():
-    from pfcourse.metrics import LOCK_HEADING_RAD, LOCK_POSITION_M, locked_from, locked_on
+    from pfcourse.metrics import LOCK_HEADING_RAD, LOCK_POSITION_M, locked_on, within_tolerances_from
     pos = np.full(60, 0.5 * LOCK_POSITION_M)
     head = np.full(60, 0.5 * LOCK_HEADING_RAD)
-    assert locked_on(pos, head, dt=1.0) and locked_from(pos, head) == 0
+    assert locked_on(pos, head, dt=1.0) and within_tolerances_from(pos, head) == 0
     pos[40] = 2 * LOCK_POSITION_M  # off 20 s before the end: the last 20 s window starts at step 40
-    assert not locked_on(pos, head, dt=1.0) and locked_from(pos, head) == 41
+    assert not locked_on(pos, head, dt=1.0) and within_tolerances_from(pos, head) == 41
     assert locked_on(pos, head, dt=1.0, window_s=19.0)
     head[-1] = 2 * LOCK_HEADING_RAD  # a heading off at the last step is not locked on
     assert not locked_on(np.full(60, 0.1), head, dt=1.0)

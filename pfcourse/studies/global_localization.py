@@ -24,7 +24,8 @@ from scipy import stats
 
 from pfcourse.collectors import Clouds
 from pfcourse.diagnostics import nees
-from pfcourse.metrics import LOCK_WINDOW_S, heading_error, locked_from, position_error, position_spread, rmse
+from pfcourse.metrics import (LOCK_WINDOW_S, heading_error, position_error, position_spread, rmse,
+                              within_tolerances_from)
 from pfcourse.scenarios.robot.scenario import ANGLE_INDICES, RobotModel, simulate_robot
 from pfcourse.studies.robot import compare_filters
 from pfcourse.filter_config import FilterSettings
@@ -93,7 +94,7 @@ def global_run(seed: int, settings: FilterSettings, *, n_steps: int = 60) -> dic
     sim = simulate_robot(None, seed, n_steps=n_steps)
     out = run_settings(sim, settings, seed)
     pos, head = position_heading_errors(sim.truth, out["mean"])
-    start = locked_from(pos, head)
+    start = within_tolerances_from(pos, head)
     locked = start <= n_steps - LOCK_WINDOW
     final_nees = float(nees(sim.truth[-1:], out["mean"][-1:], out["cov"][-1:], ANGLE_INDICES)[0])
     confident = final_nees > stats.chi2.ppf(CONFIDENT_QUANTILE, 3)
@@ -128,7 +129,7 @@ def kidnap_run(seed: int, settings: FilterSettings, *, n_steps: int = 150, kidna
     old_pos, _ = position_heading_errors(base.truth, out["mean"])
     after = np.arange(kidnap_step, n_steps)
     moved = np.flatnonzero(old_pos[after] > detect_distance)
-    start = locked_from(pos, head)
+    start = within_tolerances_from(pos, head)
     dt = sim.scenario.dt
     before_ok = bool(np.all(pos[10:kidnap_step] < 1.0))
     final_nees = float(nees(sim.truth[-1:], out["mean"][-1:], out["cov"][-1:], ANGLE_INDICES)[0])

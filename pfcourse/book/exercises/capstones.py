@@ -21,6 +21,7 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from dataclasses import dataclass
+from functools import lru_cache
 
 import numpy as np
 from scipy.special import logsumexp
@@ -29,6 +30,168 @@ from pfcourse.errors import ParameterError
 from pfcourse.metrics import rmse
 from pfcourse.book.exercises.checking import CheckReport, _answer
 from pfcourse.book.exercises.part1 import _generator_problem
+
+
+# ----------------------------------------------------------------------------- the checkers' shared skeleton
+# Each capstone checker collects the reader's answers over seeded runs (:func:`_collect_runs`, each answer
+# read by :func:`_means_of`), asks whether they draw from the generator given, compares the spread of their
+# means with the reference filter's (:func:`_spread_problem`), their bias with the grid's exact answer and
+# with the large-N limit of each typical mistake (:func:`_bias_problem`), and, for Parts I and II, their
+# likelihood estimate with the grid's (:func:`_likelihood_problem`). What depends on the model alone (the
+# reference filter's runs, the grids' answers) is computed once per session (:func:`_once`).
+
+def _keeping_global_state(check: Callable, *args) -> CheckReport:
+    """``check(*args)``, leaving NumPy's global ``np.random`` state as it was (a reader's mistake may draw
+    from it)."""
+    saved = np.random.get_state()
+    try:
+        return check(*args)
+    finally:
+        np.random.set_state(saved)
+
+
+def _read_only(value):
+    """``value`` with its arrays (in a tuple or not) made read-only: a result kept by :func:`_once` is shared."""
+    if isinstance(value, tuple):
+        return tuple(_read_only(v) for v in value)
+    if isinstance(value, np.ndarray):
+        value.setflags(write=False)
+    return value
+
+
+@lru_cache(maxsize=1024)
+def _once(compute: Callable, *args):
+    """``compute(*args)`` (hashable arguments: a model, a mistake, numbers), computed once per session and
+    kept read-only: the grids and the reference runs a checker compares with depend on the model, not on the
+    reader's filter, and a reader (or a test) checks many filters against the same ones."""
+    return _read_only(compute(*args))
+
+
+def _collect_runs(report: CheckReport, call: Callable, n_runs: int, seed: int, signature: str, expects: str,
+                  read: Callable) -> list | None:
+    """The reader's answers ``call(rng)`` of runs ``r = 0..n_runs - 1``, run ``r`` drawing from
+    ``np.random.default_rng(seed + r)``, each read by ``read(answer) -> (value, problem)``; ``None`` after
+    reporting, in one sentence, the first call that raised or returned ``None`` (``expects`` says what to
+    return) or the first answer ``read`` finds a ``problem`` with."""
+    runs = []
+    for run in range(n_runs):
+        answer = _answer(report, lambda: call(np.random.default_rng(seed + run)), signature, expects)
+        if answer is None:
+            return None
+        value, problem = read(answer)
+        if problem:
+            report.problems.append(problem)
+            return None
+        runs.append(value)
+    return runs
+
+
+def _means_of(answer, shape: tuple[int, ...], *, pair: bool, not_read: str, one_per: str, nan: str):
+    """``(value, problem)``: the answer's means (with its log-likelihood when ``pair``: ``(means, log_lik)``)
+    or ``None`` and the sentence that says what is wrong: not readable as numbers (``not_read``), means of
+    another shape than ``shape`` (return ``one_per``), NaN or infinity (``nan``)."""
+    try:
+        if pair:
+            means, log_lik = answer
+            means, log_lik = np.asarray(means, dtype=float), float(log_lik)
+        else:
+            means, log_lik = np.asarray(answer, dtype=float), 0.0
+    except (TypeError, ValueError):
+        return None, not_read
+    if means.shape != shape:
+        return None, f"the means have shape {means.shape}, not {shape}: return {one_per}"
+    if not (np.isfinite(means).all() and np.isfinite(log_lik)):
+        return None, nan
+    return ((means, log_lik) if pair else means), None
+
+
+def _reference_means(reference: Callable, data: Callable, model, n: int, run: int) -> np.ndarray:
+    """The means of the reference filter's run ``run`` (seed ``10_000 + run``) on the data ``data(model)``."""
+    out = reference(*data(model), n, np.random.default_rng(10_000 + run), model)
+    return out[0] if isinstance(out, tuple) else out
+
+
+def _reference_spread(reference: Callable, data: Callable, model, n: int, n_runs: int) -> float:
+    """The spread of the reference filter's means over its runs ``0..n_runs - 1`` (:func:`_reference_means`,
+    each computed once per session, so that checks with fewer runs share them): the standard deviation over
+    the runs of each mean, averaged over the means."""
+    runs = [_once(_reference_means, reference, data, model, n, run) for run in range(n_runs)]
+    return float(np.array(runs).std(axis=0, ddof=1).mean())
+
+
+def _spread_problem(m: np.ndarray, ref_spread: float) -> str | None:
+    """The sentence for means ``m`` (one row per run) that vary over the runs more than three times as much as
+    a resampled filter's (``ref_spread``, :func:`_reference_spread`): SIS's collapsed weights."""
+    spread = m.std(axis=0, ddof=1).mean()
+    if spread > 3 * ref_spread:
+        return (f"your means vary over seeds {spread / ref_spread:.0f} times as much as a resampled filter's: "
+                "without resampling the weights collapse onto a few particles; resample after each weighting")
+    return None
+
+
+def _standard_errors(m: np.ndarray) -> np.ndarray:
+    """The standard error of each mean averaged over the runs (the rows of ``m``), kept off zero."""
+    return m.std(axis=0, ddof=1) / np.sqrt(len(m)) + 1e-12
+
+
+def _worst_z(m: np.ndarray, se: np.ndarray, target: np.ndarray) -> float:
+    """``max |z|`` over the means, ``z`` the mean over the runs minus ``target`` over its standard error."""
+    return float(np.max(np.abs((m.mean(axis=0) - target) / se)))
+
+
+def _bias_problem(m: np.ndarray, exact: np.ndarray, mistakes: dict[str, str], limit: Callable,
+                  far: Callable) -> str | None:
+    """``None`` when the means ``m`` (one row per run) lie within 5 standard errors of ``exact`` at every
+    step; else the sentence of the first of ``mistakes`` whose large-N limit ``limit(mistake)`` they lie that
+    near, or ``far(mean over runs, standard errors)`` when none does."""
+    se = _standard_errors(m)
+    if _worst_z(m, se, exact) <= 5:
+        return None
+    for mistake, why in mistakes.items():
+        if _worst_z(m, se, limit(mistake)) <= 5:
+            return why
+    return far(m.mean(axis=0), se)
+
+
+def _far_step(mean: np.ndarray, exact: np.ndarray, n_runs: int) -> str:
+    """The sentence for a bias no typical mistake explains: the step whose mean is furthest from the exact."""
+    k = int(np.argmax(np.abs(mean - exact)))
+    return (f"your mean at step {k + 1} averages {mean[k]:.3f} over {n_runs} runs where the exact "
+            f"filter's is {exact[k]:.3f}, further than chance allows: check the move, the weight and the mean")
+
+
+def _likelihood_problem(ell: np.ndarray, exact_log_lik: float, n_steps: int, n: int, mean_log_limit: Callable,
+                        mistakes: dict[str, str], data: str) -> str | None:
+    """``None`` when the log-likelihood estimates ``ell`` (one per run) are those of an unbiased ``p_hat``:
+    ``mean(ell) + var(ell) / 2 - log p`` within 5 standard errors plus 0.05; else the sentence of the mistake
+    ``log_sum`` (about ``T log N`` too large) or ``mean_log`` (near ``mean_log_limit()``) of ``mistakes``, or
+    one that says how far ``ell`` is from ``log p(data)``."""
+    se = ell.std(ddof=1) / np.sqrt(len(ell))
+    gap = ell.mean() + ell.var(ddof=1) / 2 - exact_log_lik
+    if not abs(gap) > 5 * se + 0.05:
+        return None
+    if abs(gap - n_steps * np.log(n)) <= 5 * se + 0.05:
+        return mistakes["log_sum"]
+    if abs(ell.mean() - mean_log_limit()) <= 5 * se + 0.05:
+        return mistakes["mean_log"]
+    return (f"your log-likelihood averages {ell.mean():.2f} where log p({data}) = {exact_log_lik:.2f}: the "
+            f"estimate must be unbiased for p({data}), the product over steps of the mean unnormalised weight")
+
+
+def _gauss_kernel(to: np.ndarray, means: np.ndarray, sd: float) -> np.ndarray:
+    """The transition kernel of a grid: ``K[j, i]`` the mass that moves from point ``i`` to point ``to[j]`` under
+    ``N(means[i], sd^2)``, each column normalised to 1 over the grid."""
+    log_k = -0.5 * ((to[:, None] - means[None, :]) / sd) ** 2
+    return np.exp(log_k - logsumexp(log_k, axis=0, keepdims=True))
+
+
+def _ar1_path(model, n_steps: int, rng: np.random.Generator) -> np.ndarray:
+    """``x_0..x_T`` of the AR(1) ``x_k = phi x_{k-1} + sigma v_k`` from its stationary law (Parts I, III, V)."""
+    x = np.empty(n_steps + 1)
+    x[0] = model.stationary_sd * rng.standard_normal()
+    for k in range(1, n_steps + 1):
+        x[k] = model.phi * x[k - 1] + model.sigma * rng.standard_normal()
+    return x
 
 
 @dataclass(frozen=True)
@@ -58,10 +221,7 @@ class SVModel:
 
     def simulate(self, n_steps: int, rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray]:
         """States ``x_0..x_T`` and returns ``y_1..y_T`` (``n_steps = T``)."""
-        x = np.empty(n_steps + 1)
-        x[0] = self.stationary_sd * rng.standard_normal()
-        for k in range(1, n_steps + 1):
-            x[k] = self.phi * x[k - 1] + self.sigma * rng.standard_normal()
+        x = _ar1_path(self, n_steps, rng)
         y = self.beta * np.exp(x[1:] / 2) * rng.standard_normal(n_steps)
         return x, y
 
@@ -96,8 +256,7 @@ def sv_grid(y: np.ndarray, model: SVModel, mistake: str | None = None, n_grid: i
     """
     s = model.stationary_sd
     x = np.linspace(-width * s, width * s, n_grid)
-    log_k = -0.5 * ((x[:, None] - model.phi * x[None, :]) / model.sigma) ** 2
-    kernel = np.exp(log_k - logsumexp(log_k, axis=0, keepdims=True))  # columns sum to 1: mass moves from i
+    kernel = _gauss_kernel(x, model.phi * x, model.sigma)  # columns sum to 1: mass moves from i
     sd0 = model.sigma if mistake == "prior" else s
     log_p = -0.5 * (x / sd0) ** 2
     p = np.exp(log_p - logsumexp(log_p))
@@ -137,11 +296,7 @@ SV_STEPS, SV_DATA_SEED = 60, 2026
 def check_sv_filter(fn: Callable, n: int = 2000, n_runs: int = 24, seed: int = 0,
                     model: SVModel | None = None) -> CheckReport:
     """:func:`_check_sv_filter`, leaving NumPy's global ``np.random`` state as it was."""
-    saved = np.random.get_state()
-    try:
-        return _check_sv_filter(fn, n, n_runs, seed, model)
-    finally:
-        np.random.set_state(saved)
+    return _keeping_global_state(_check_sv_filter, fn, n, n_runs, seed, model)
 
 
 def _check_sv_filter(fn: Callable, n: int, n_runs: int, seed: int, model: SVModel | None) -> CheckReport:
@@ -158,69 +313,49 @@ def _check_sv_filter(fn: Callable, n: int, n_runs: int, seed: int, model: SVMode
     limit of each typical mistake, so that it is named."""
     model = model or SVModel()
     report = CheckReport("check_sv_filter")
-    _, y = model.simulate(SV_STEPS, np.random.default_rng(SV_DATA_SEED))
-    signature = "fn(y, n, rng, model)"
-    answers = []
-    for run in range(n_runs):
-        answer = _answer(report, lambda: fn(y.copy(), n, np.random.default_rng(seed + run), model), signature,
-                         "return (means, log_likelihood): the filtering mean of each step and log p_hat(y)")
-        if answer is None:
-            return report
-        try:
-            means, log_lik = answer
-            means, log_lik = np.asarray(means, dtype=float), float(log_lik)
-        except (TypeError, ValueError):
-            report.problems.append("return a pair (means, log_likelihood): an array of T means and one number")
-            return report
-        if means.shape != (len(y),):
-            report.problems.append(f"the means have shape {means.shape}, not ({len(y)},): return one filtering "
-                                   "mean per reading y_1..y_T")
-            return report
-        if not (np.isfinite(means).all() and np.isfinite(log_lik)):
-            report.problems.append("the answer holds NaN or infinity: compute the weights in the log domain "
-                                   "and normalise with logsumexp")
-            return report
-        answers.append((means, log_lik))
+    y = _sv_data(model, SV_DATA_SEED)
+    read = lambda answer: _means_of(  # noqa: E731
+        answer, (len(y),), pair=True,
+        not_read="return a pair (means, log_likelihood): an array of T means and one number",
+        one_per="one filtering mean per reading y_1..y_T",
+        nan="the answer holds NaN or infinity: compute the weights in the log domain and normalise with logsumexp")
+    answers = _collect_runs(report, lambda rng: fn(y.copy(), n, rng, model), n_runs, seed, "fn(y, n, rng, model)",
+                            "return (means, log_likelihood): the filtering mean of each step and log p_hat(y)",
+                            read)
+    if answers is None:
+        return report
     problem = _generator_problem(lambda rng: fn(y.copy(), 200, rng, model),
                                  lambda a, b: np.array_equal(np.asarray(a[0]), np.asarray(b[0])), what="mean")
+    m = np.array([a[0] for a in answers])
+    ell = np.array([a[1] for a in answers])
+    problem = problem or _spread_problem(m, _reference_spread(sv_bootstrap, _sv_args, model, n, n_runs))
     if problem:
         report.problems.append(problem)
         return report
-    m = np.array([a[0] for a in answers])
-    ell = np.array([a[1] for a in answers])
-    ref = np.array([sv_bootstrap(y, n, np.random.default_rng(10_000 + r), model)[0] for r in range(n_runs)])
-    spread, ref_spread = m.std(axis=0, ddof=1).mean(), ref.std(axis=0, ddof=1).mean()
-    if spread > 3 * ref_spread:
-        report.problems.append(_bearing_spread_cause(fn, n, seed, spread / ref_spread))
-        return report
-    exact, exact_log_lik = sv_grid(y, model)
-
-    def worst_z(target: np.ndarray) -> float:
-        se = m.std(axis=0, ddof=1) / np.sqrt(n_runs) + 1e-12
-        return float(np.max(np.abs((m.mean(axis=0) - target) / se)))
-
-    if worst_z(exact) > 5:
-        for mistake, why in SV_MEAN_MISTAKES.items():
-            if worst_z(sv_grid(y, model, mistake)[0]) <= 5:
-                report.problems.append(why)
-                return report
-        k = int(np.argmax(np.abs(m.mean(axis=0) - exact)))
-        report.problems.append(
-            f"your mean at step {k + 1} averages {m.mean(axis=0)[k]:.3f} over {n_runs} runs where the exact "
-            f"filter's is {exact[k]:.3f}, further than chance allows: check the move, the weight and the mean")
-        return report
-    se = ell.std(ddof=1) / np.sqrt(n_runs)
-    gap = ell.mean() + ell.var(ddof=1) / 2 - exact_log_lik
-    if abs(gap) > 5 * se + 0.05:
-        if abs(gap - len(y) * np.log(n)) <= 5 * se + 0.05:
-            report.problems.append(SV_LIKELIHOOD_MISTAKES["log_sum"])
-        elif abs(ell.mean() - sv_grid(y, model, "mean_log")[1]) <= 5 * se + 0.05:
-            report.problems.append(SV_LIKELIHOOD_MISTAKES["mean_log"])
-        else:
-            report.problems.append(
-                f"your log-likelihood averages {ell.mean():.2f} where log p(y) = {exact_log_lik:.2f}: the "
-                "estimate must be unbiased for p(y), the product over steps of the mean unnormalised weight")
+    exact, exact_log_lik = _once(_sv_limit, model, None)
+    problem = _bias_problem(m, exact, SV_MEAN_MISTAKES, lambda mistake: _once(_sv_limit, model, mistake)[0],
+                            lambda mean, se: _far_step(mean, exact, n_runs))
+    problem = problem or _likelihood_problem(ell, exact_log_lik, len(y), n,
+                                             lambda: _once(_sv_limit, model, "mean_log")[1],
+                                             SV_LIKELIHOOD_MISTAKES, "y")
+    if problem:
+        report.problems.append(problem)
     return report
+
+
+def _sv_data(model: SVModel, data_seed: int) -> np.ndarray:
+    """The returns ``y_1..y_T`` (``T = SV_STEPS``) of ``model`` simulated with ``data_seed``."""
+    return model.simulate(SV_STEPS, np.random.default_rng(data_seed))[1]
+
+
+def _sv_args(model: SVModel) -> tuple[np.ndarray]:
+    """The data arguments of :func:`sv_bootstrap`: Part I's returns."""
+    return (_sv_data(model, SV_DATA_SEED),)
+
+
+def _sv_limit(model: SVModel, mistake: str | None) -> tuple[np.ndarray, float]:
+    """:func:`sv_grid` on Part I's returns (called through :func:`_once`)."""
+    return sv_grid(_sv_data(model, SV_DATA_SEED), model, mistake)
 
 
 # ----------------------------------------------------------------------------- Part II's capstone
@@ -299,7 +434,7 @@ BEARING_LIKELIHOOD_MISTAKES = {
 def bearing_grid(z: np.ndarray, model: BearingModel, mistake: str | None = None, n_grid: int = 251,
                  half_width: float = 25.0) -> tuple[np.ndarray, float]:
     """The filtering means ``E[p_k | z_1..z_k]`` (T, 2) and ``log p(z_1..z_T)`` by Bayes' rule on a grid of
-    ``n_grid^2`` points over ``m0 +- half_width`` m (converged: ``tests/test_robot_exercises.py`` moves ``n_grid``
+    ``n_grid^2`` points over ``m0 +- half_width`` m (converged: ``tests/test_capstone_part2.py`` moves ``n_grid``
     and ``half_width``). The random walk is separable: a step convolves the grid's masses with a Gaussian
     kernel along x, then along y (``K p K^T``, columns of ``K`` summing to 1). ``mistake`` (a key of
     :data:`BEARING_MEAN_MISTAKES` or :data:`BEARING_LIKELIHOOD_MISTAKES`) returns instead what a filter with
@@ -308,11 +443,7 @@ def bearing_grid(z: np.ndarray, model: BearingModel, mistake: str | None = None,
     gy = model.m0[1] + np.linspace(-half_width, half_width, n_grid)
     q = model.q ** 2 if mistake == "q_variance" else model.q
 
-    def kernel(g):
-        log_k = -0.5 * ((g[:, None] - g[None, :]) / q) ** 2
-        return np.exp(log_k - logsumexp(log_k, axis=0, keepdims=True))
-
-    kx, ky = kernel(gx), kernel(gy)
+    kx, ky = _gauss_kernel(gx, gx, q), _gauss_kernel(gy, gy, q)
     s0 = model.q if mistake == "prior" else model.s0
     log_p = -0.5 * (((gx[:, None] - model.m0[0]) / s0) ** 2 + ((gy[None, :] - model.m0[1]) / s0) ** 2)
     p = np.exp(log_p - logsumexp(log_p))  # p[i, j]: mass at (gx[i], gy[j])
@@ -391,11 +522,7 @@ def _bearing_spread_cause(fn: Callable, n: int, seed: int, ratio: float) -> str:
 def check_bearing_filter(fn: Callable, n: int = 2000, n_runs: int = 24, seed: int = 0,
                          model: BearingModel | None = None) -> CheckReport:
     """:func:`_check_bearing_filter`, leaving NumPy's global ``np.random`` state as it was."""
-    saved = np.random.get_state()
-    try:
-        return _check_bearing_filter(fn, n, n_runs, seed, model)
-    finally:
-        np.random.set_state(saved)
+    return _keeping_global_state(_check_bearing_filter, fn, n, n_runs, seed, model)
 
 
 def _check_bearing_filter(fn: Callable, n: int, n_runs: int, seed: int,
@@ -409,71 +536,55 @@ def _check_bearing_filter(fn: Callable, n: int, n_runs: int, seed: int,
     typical mistake, so that it is named."""
     model = model or BearingModel()
     report = CheckReport("check_bearing_filter")
-    _, z = model.simulate(BEARING_STEPS, np.random.default_rng(BEARING_DATA_SEED))
-    obs = model.observer(BEARING_STEPS)
-    signature = "fn(z, observer, n, rng, model)"
-    answers = []
-    for run in range(n_runs):
-        answer = _answer(report, lambda: fn(z.copy(), obs.copy(), n, np.random.default_rng(seed + run), model),
-                         signature, "return (means, log_likelihood): the filtering mean of each step and log p_hat(z)")
-        if answer is None:
-            return report
-        try:
-            means, log_lik = answer
-            means, log_lik = np.asarray(means, dtype=float), float(log_lik)
-        except (TypeError, ValueError):
-            report.problems.append("return a pair (means, log_likelihood): a (T, 2) array of means and one number")
-            return report
-        if means.shape != (len(z), 2):
-            report.problems.append(f"the means have shape {means.shape}, not ({len(z)}, 2): return one filtering "
-                                   "mean (x, y) per bearing z_1..z_T")
-            return report
-        if not (np.isfinite(means).all() and np.isfinite(log_lik)):
-            report.problems.append("the answer holds NaN or infinity: compute the weights in the log domain "
-                                   "and normalise with logsumexp")
-            return report
-        answers.append((means, log_lik))
+    z, obs = _bearing_args(model)
+    read = lambda answer: _means_of(  # noqa: E731
+        answer, (len(z), 2), pair=True,
+        not_read="return a pair (means, log_likelihood): a (T, 2) array of means and one number",
+        one_per="one filtering mean (x, y) per bearing z_1..z_T",
+        nan="the answer holds NaN or infinity: compute the weights in the log domain and normalise with logsumexp")
+    answers = _collect_runs(report, lambda rng: fn(z.copy(), obs.copy(), n, rng, model), n_runs, seed,
+                            "fn(z, observer, n, rng, model)",
+                            "return (means, log_likelihood): the filtering mean of each step and log p_hat(z)", read)
+    if answers is None:
+        return report
     problem = _generator_problem(lambda rng: fn(z.copy(), obs.copy(), 200, rng, model),
                                  lambda a, b: np.array_equal(np.asarray(a[0]), np.asarray(b[0])), what="mean")
+    m = np.array([a[0] for a in answers])
+    ell = np.array([a[1] for a in answers])
+    if not problem:
+        ref_spread = _reference_spread(bearing_bootstrap, _bearing_args, model, n, n_runs)
+        if _spread_problem(m, ref_spread):  # the bearing filter's probes tell its causes apart
+            problem = _bearing_spread_cause(fn, n, seed, m.std(axis=0, ddof=1).mean() / ref_spread)
     if problem:
         report.problems.append(problem)
         return report
-    m = np.array([a[0] for a in answers])
-    ell = np.array([a[1] for a in answers])
-    ref = np.array([bearing_bootstrap(z, obs, n, np.random.default_rng(10_000 + r), model)[0] for r in range(n_runs)])
-    spread, ref_spread = m.std(axis=0, ddof=1).mean(), ref.std(axis=0, ddof=1).mean()
-    if spread > 3 * ref_spread:
-        report.problems.append(_bearing_spread_cause(fn, n, seed, spread / ref_spread))
-        return report
-    exact, exact_log_lik = bearing_grid(z, model)
-    se = m.std(axis=0, ddof=1) / np.sqrt(n_runs) + 1e-12
+    exact, exact_log_lik = _once(_bearing_limit, model, None)
 
-    def worst_z(target: np.ndarray) -> float:
-        return float(np.max(np.abs((m.mean(axis=0) - target) / se)))
+    def far(mean: np.ndarray, se: np.ndarray) -> str:
+        k, c = np.unravel_index(int(np.argmax(np.abs(mean - exact) / se)), exact.shape)
+        return (f"your mean {'xy'[c]} at step {k + 1} averages {mean[k, c]:.2f} m over {n_runs} runs where the "
+                f"exact filter's is {exact[k, c]:.2f} m, further than chance allows: check the move, the weight and "
+                "the mean")
 
-    if worst_z(exact) > 5:
-        for mistake, why in BEARING_MEAN_MISTAKES.items():
-            if worst_z(bearing_grid(z, model, mistake)[0]) <= 5:
-                report.problems.append(why)
-                return report
-        k, c = np.unravel_index(int(np.argmax(np.abs(m.mean(axis=0) - exact) / se)), exact.shape)
-        report.problems.append(
-            f"your mean {'xy'[c]} at step {k + 1} averages {m.mean(axis=0)[k, c]:.2f} m over {n_runs} runs where the "
-            f"exact filter's is {exact[k, c]:.2f} m, further than chance allows: check the move, the weight and "
-            "the mean")
-        return report
-    se_ell = ell.std(ddof=1) / np.sqrt(n_runs)
-    gap = ell.mean() + ell.var(ddof=1) / 2 - exact_log_lik
-    if abs(gap) > 5 * se_ell + 0.05:
-        if abs(gap - len(z) * np.log(n)) <= 5 * se_ell + 0.05:
-            report.problems.append(BEARING_LIKELIHOOD_MISTAKES["log_sum"])
-        elif abs(ell.mean() - bearing_grid(z, model, "mean_log")[1]) <= 5 * se_ell + 0.05:
-            report.problems.append(BEARING_LIKELIHOOD_MISTAKES["mean_log"])
-        else:
-            report.problems.append(
-                f"your log-likelihood averages {ell.mean():.2f} where log p(z) = {exact_log_lik:.2f}: the "
-                "estimate must be unbiased for p(z), the product over steps of the mean unnormalised weight")
+    problem = _bias_problem(m, exact, BEARING_MEAN_MISTAKES,
+                            lambda mistake: _once(_bearing_limit, model, mistake)[0], far)
+    problem = problem or _likelihood_problem(ell, exact_log_lik, len(z), n,
+                                             lambda: _once(_bearing_limit, model, "mean_log")[1],
+                                             BEARING_LIKELIHOOD_MISTAKES, "z")
+    if problem:
+        report.problems.append(problem)
     return report
+
+
+def _bearing_args(model: BearingModel) -> tuple[np.ndarray, np.ndarray]:
+    """The data arguments of :func:`bearing_bootstrap`: Part II's bearings ``z_1..z_T`` and observer positions."""
+    _, z = model.simulate(BEARING_STEPS, np.random.default_rng(BEARING_DATA_SEED))
+    return z, model.observer(BEARING_STEPS)
+
+
+def _bearing_limit(model: BearingModel, mistake: str | None) -> tuple[np.ndarray, float]:
+    """:func:`bearing_grid` on Part II's bearings (called through :func:`_once`)."""
+    return bearing_grid(_bearing_args(model)[0], model, mistake)
 
 
 # --------------------------------------------------------------------------------------------------------------
@@ -507,10 +618,7 @@ class CountModel:
 
     def simulate(self, n_steps: int, rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray]:
         """States ``x_0..x_T`` and counts ``y_1..y_T`` (``n_steps = T``)."""
-        x = np.empty(n_steps + 1)
-        x[0] = self.stationary_sd * rng.standard_normal()
-        for k in range(1, n_steps + 1):
-            x[k] = self.phi * x[k - 1] + self.sigma * rng.standard_normal()
+        x = _ar1_path(self, n_steps, rng)
         return x, rng.poisson(np.exp(self.mu + x[1:]))
 
 
@@ -535,8 +643,7 @@ def count_grid(y: np.ndarray, model: CountModel, mistake: str | None = None, n_g
     filter with that mistake converges to as its number of particles grows."""
     s = model.stationary_sd
     x = np.linspace(-width * s, width * s, n_grid)
-    log_k = -0.5 * ((x[:, None] - model.phi * x[None, :]) / model.sigma) ** 2
-    kernel = np.exp(log_k - logsumexp(log_k, axis=0, keepdims=True))
+    kernel = _gauss_kernel(x, model.phi * x, model.sigma)
     sd0 = model.sigma if mistake == "prior" else s
     log_p = -0.5 * (x / sd0) ** 2
     p = np.exp(log_p - logsumexp(log_p))
@@ -624,11 +731,7 @@ def count_data(model: CountModel | None = None) -> np.ndarray:
 def check_count_filter(fn: Callable, n: int = 1000, n_runs: int = 24, seed: int = 0,
                        model: CountModel | None = None) -> CheckReport:
     """:func:`_check_count_filter`, leaving NumPy's global ``np.random`` state as it was."""
-    saved = np.random.get_state()
-    try:
-        return _check_count_filter(fn, n, n_runs, seed, model)
-    finally:
-        np.random.set_state(saved)
+    return _keeping_global_state(_check_count_filter, fn, n, n_runs, seed, model)
 
 
 def _check_count_filter(fn: Callable, n: int, n_runs: int, seed: int, model: CountModel | None) -> CheckReport:
@@ -641,53 +744,36 @@ def _check_count_filter(fn: Callable, n: int, n_runs: int, seed: int, model: Cou
     model = model or CountModel()
     report = CheckReport("check_count_filter")
     y = count_data(model)
-    runs = []
-    for run in range(n_runs):
-        answer = _answer(report, lambda: fn(y.copy(), n, np.random.default_rng(seed + run), model),
-                         "fn(y, n, rng, model)", "return the filtering mean of each step, an array of shape (T,)")
-        if answer is None:
-            return report
-        try:
-            means = np.asarray(answer, dtype=float)
-        except (TypeError, ValueError):
-            report.problems.append("return one array: the filtering mean of each step")
-            return report
-        if means.shape != (len(y),):
-            report.problems.append(f"the means have shape {means.shape}, not ({len(y)},): return one filtering "
-                                   "mean per count y_1..y_T")
-            return report
-        if not np.isfinite(means).all():
-            report.problems.append("the means hold NaN or infinity: compute the weights in the log domain and "
-                                   "normalise with logsumexp (a count of 10 makes exp(y log rate) overflow)")
-            return report
-        runs.append(means)
+    read = lambda answer: _means_of(  # noqa: E731
+        answer, (len(y),), pair=False, not_read="return one array: the filtering mean of each step",
+        one_per="one filtering mean per count y_1..y_T",
+        nan="the means hold NaN or infinity: compute the weights in the log domain and normalise with logsumexp "
+            "(a count of 10 makes exp(y log rate) overflow)")
+    runs = _collect_runs(report, lambda rng: fn(y.copy(), n, rng, model), n_runs, seed, "fn(y, n, rng, model)",
+                         "return the filtering mean of each step, an array of shape (T,)", read)
+    if runs is None:
+        return report
     problem = _generator_problem(lambda rng: fn(y.copy(), 200, rng, model),
                                  lambda a, b: np.array_equal(np.asarray(a), np.asarray(b)), what="mean")
+    m = np.array(runs)
+    problem = problem or _spread_problem(m, _reference_spread(count_bootstrap, _count_args, model, n, n_runs))
+    if not problem:
+        exact = _once(_count_limit, model, None)
+        problem = _bias_problem(m, exact, COUNT_MISTAKES, lambda mistake: _once(_count_limit, model, mistake),
+                                lambda mean, se: _far_step(mean, exact, n_runs))
     if problem:
         report.problems.append(problem)
-        return report
-    m = np.array(runs)
-    ref = np.array([count_bootstrap(y, n, np.random.default_rng(10_000 + r), model) for r in range(n_runs)])
-    spread, ref_spread = m.std(axis=0, ddof=1).mean(), ref.std(axis=0, ddof=1).mean()
-    if spread > 3 * ref_spread:
-        report.problems.append(_bearing_spread_cause(fn, n, seed, spread / ref_spread))
-        return report
-    se = m.std(axis=0, ddof=1) / np.sqrt(n_runs) + 1e-12
-
-    def worst_z(target: np.ndarray) -> float:
-        return float(np.max(np.abs((m.mean(axis=0) - target) / se)))
-
-    exact = count_grid(y, model)
-    if worst_z(exact) > 5:
-        for mistake, why in COUNT_MISTAKES.items():
-            if worst_z(count_grid(y, model, mistake)) <= 5:
-                report.problems.append(why)
-                return report
-        k = int(np.argmax(np.abs(m.mean(axis=0) - exact)))
-        report.problems.append(
-            f"your mean at step {k + 1} averages {m.mean(axis=0)[k]:.3f} over {n_runs} runs where the exact "
-            f"filter's is {exact[k]:.3f}, further than chance allows: check the move, the weight and the mean")
     return report
+
+
+def _count_args(model: CountModel) -> tuple[np.ndarray]:
+    """The data arguments of :func:`count_bootstrap`: Part III's counts."""
+    return (count_data(model),)
+
+
+def _count_limit(model: CountModel, mistake: str | None) -> np.ndarray:
+    """:func:`count_grid` on Part III's counts (called through :func:`_once`)."""
+    return count_grid(count_data(model), model, mistake)
 
 
 #: The study the checker asks for: these numbers of particles, this many runs, seeds from this one.
@@ -696,11 +782,7 @@ STUDY_N, STUDY_RUNS, STUDY_SEED = (100, 400, 1600), 20, 0
 
 def check_count_study(fn: Callable, model: CountModel | None = None) -> CheckReport:
     """:func:`_check_count_study`, leaving NumPy's global ``np.random`` state as it was."""
-    saved = np.random.get_state()
-    try:
-        return _check_count_study(fn, model)
-    finally:
-        np.random.set_state(saved)
+    return _keeping_global_state(_check_count_study, fn, model)
 
 
 def _check_count_study(fn: Callable, model: CountModel | None) -> CheckReport:
@@ -728,11 +810,11 @@ def _check_count_study(fn: Callable, model: CountModel | None) -> CheckReport:
         report.problems.append(f"the study has shape {rmse.shape}, not {shape}{hint}: one row per number of "
                                "particles, one column per run")
         return report
-    expected = count_study_reference(*args)
+    expected = _once(_study_limit, model, None)
     if np.allclose(rmse, expected, rtol=1e-9, atol=1e-12):
         return report
     for mistake, why in STUDY_MISTAKES.items():
-        if np.allclose(rmse, count_study_reference(*args, mistake=mistake), rtol=1e-9, atol=1e-12):
+        if np.allclose(rmse, _once(_study_limit, model, mistake), rtol=1e-9, atol=1e-12):
             report.problems.append(why)
             return report
     i, r = np.unravel_index(int(np.argmax(np.abs(rmse - expected))), shape)
@@ -741,6 +823,13 @@ def _check_count_study(fn: Callable, model: CountModel | None) -> CheckReport:
         "run r draws from np.random.default_rng(seed + r), and its RMSE is that of its means against "
         "count_grid(y, model) over the steps")
     return report
+
+
+def _study_limit(model: CountModel, mistake: str | None) -> np.ndarray:
+    """The study :func:`count_study_reference` of :func:`count_bootstrap` on Part III's counts, with the
+    checker's numbers of particles, runs and seed (called through :func:`_once`)."""
+    return count_study_reference(count_bootstrap, count_data(model), model, STUDY_N, STUDY_RUNS, STUDY_SEED,
+                                 mistake=mistake)
 
 
 # --- Part V's capstone: a smoother for the stochastic volatility model -------------------------------------
@@ -772,11 +861,7 @@ def sv_grid_smoother(y: np.ndarray, model: SVModel, mistake: str | None = None, 
     s = model.stationary_sd
     x = np.linspace(-width * s, width * s, n_grid)
 
-    def kernel_of(phi: float) -> np.ndarray:
-        log_k = -0.5 * ((x[:, None] - phi * x[None, :]) / model.sigma) ** 2
-        return np.exp(log_k - logsumexp(log_k, axis=0, keepdims=True))  # kernel[j, i]: from x_i to x_j
-
-    kernel = kernel_of(model.phi)
+    kernel = _gauss_kernel(x, model.phi * x, model.sigma)  # kernel[j, i]: from x_i to x_j
     p = np.exp(-0.5 * (x / s) ** 2)
     p /= p.sum()
     filt, pred = [], []
@@ -790,7 +875,7 @@ def sv_grid_smoother(y: np.ndarray, model: SVModel, mistake: str | None = None, 
         pred.append(prior)
     if mistake == "filter":
         return np.array([x @ f for f in filt])
-    back = kernel_of(1.0) if mistake == "no_phi" else kernel
+    back = _gauss_kernel(x, x, model.sigma) if mistake == "no_phi" else kernel
     smooth = [filt[-1]]
     for k in range(len(y) - 2, -1, -1):
         base = pred[k] if mistake == "no_filter_weights" else filt[k]
@@ -837,11 +922,7 @@ SV_SMOOTHER_DATA_SEED = 3
 def check_sv_smoother(fn: Callable, n: int = 300, n_runs: int = 20, seed: int = 0,
                       model: SVModel | None = None) -> CheckReport:
     """:func:`_check_sv_smoother`, leaving NumPy's global ``np.random`` state as it was."""
-    saved = np.random.get_state()
-    try:
-        return _check_sv_smoother(fn, n, n_runs, seed, model)
-    finally:
-        np.random.set_state(saved)
+    return _keeping_global_state(_check_sv_smoother, fn, n, n_runs, seed, model)
 
 
 def _check_sv_smoother(fn: Callable, n: int, n_runs: int, seed: int, model: SVModel | None) -> CheckReport:
@@ -857,46 +938,31 @@ def _check_sv_smoother(fn: Callable, n: int, n_runs: int, seed: int, model: SVMo
     answer or at least twice as near as the exact answer and every other mistake."""
     model = model or SVModel()
     report = CheckReport("check_sv_smoother")
-    _, y = model.simulate(SV_STEPS, np.random.default_rng(SV_SMOOTHER_DATA_SEED))
-    signature = "fn(y, n, rng, model)"
-    answers = []
-    for run in range(n_runs):
-        answer = _answer(report, lambda: fn(y.copy(), n, np.random.default_rng(seed + run), model), signature,
-                         "return the smoothed means E[x_k | y_1..y_T], one per reading")
-        if answer is None:
-            return report
-        try:
-            means = np.asarray(answer, dtype=float)
-        except (TypeError, ValueError):
-            report.problems.append("return one array of T smoothed means, not a tuple or a list of arrays")
-            return report
-        if means.shape != (len(y),):
-            report.problems.append(f"the means have shape {means.shape}, not ({len(y)},): return one smoothed "
-                                   "mean per reading y_1..y_T")
-            return report
-        if not np.isfinite(means).all():
-            report.problems.append("the answer holds NaN or infinity: compute the backward weights in the log "
-                                   "domain and normalise them with logsumexp")
-            return report
-        answers.append(means)
+    y = _sv_data(model, SV_SMOOTHER_DATA_SEED)
+    read = lambda answer: _means_of(  # noqa: E731
+        answer, (len(y),), pair=False,
+        not_read="return one array of T smoothed means, not a tuple or a list of arrays",
+        one_per="one smoothed mean per reading y_1..y_T",
+        nan="the answer holds NaN or infinity: compute the backward weights in the log domain and normalise them "
+            "with logsumexp")
+    answers = _collect_runs(report, lambda rng: fn(y.copy(), n, rng, model), n_runs, seed, "fn(y, n, rng, model)",
+                            "return the smoothed means E[x_k | y_1..y_T], one per reading", read)
+    if answers is None:
+        return report
     problem = _generator_problem(lambda rng: fn(y.copy(), 100, rng, model),
                                  lambda a, b: np.array_equal(np.asarray(a), np.asarray(b)), what="smoothed mean")
     if problem:
         report.problems.append(problem)
         return report
     m = np.array(answers)
-    se = m.std(axis=0, ddof=1) / np.sqrt(n_runs) + 1e-12
-
-    def worst_z(target: np.ndarray) -> float:
-        return float(np.max(np.abs((m.mean(axis=0) - target) / se)))
-
-    exact = sv_grid_smoother(y, model)
-    exact_z = worst_z(exact)
+    se = _standard_errors(m)
+    exact = _once(_smoother_limit, model, None)
+    exact_z = _worst_z(m, se, exact)
     if exact_z > 5:
         # the mistake whose large-N limit lies nearest the answer is named when it is within chance of it,
         # or at least twice as near as the exact answer and every other mistake (a mistake's particle
         # version can converge more slowly than the correct smoother)
-        zs = {mistake: worst_z(sv_grid_smoother(y, model, mistake)) for mistake in SV_SMOOTHER_MISTAKES}
+        zs = {mistake: _worst_z(m, se, _once(_smoother_limit, model, mistake)) for mistake in SV_SMOOTHER_MISTAKES}
         best = min(zs, key=zs.get)
         others = [exact_z] + [z for mistake, z in zs.items() if mistake != best]
         if zs[best] <= 5 or zs[best] <= 0.5 * min(others):
@@ -908,3 +974,8 @@ def _check_sv_smoother(fn: Callable, n: int, n_runs: int, seed: int, model: SVMo
             f"exact smoother's is {exact[k]:.3f}, further than chance allows: check the stored clouds, the "
             "transition density and the backward weights")
     return report
+
+
+def _smoother_limit(model: SVModel, mistake: str | None) -> np.ndarray:
+    """:func:`sv_grid_smoother` on Part V's returns (called through :func:`_once`)."""
+    return sv_grid_smoother(_sv_data(model, SV_SMOOTHER_DATA_SEED), model, mistake)
