@@ -275,7 +275,7 @@ EvidenceBlock(
 # To maximise $\log \hat p(\vartheta)$ over $\vartheta$, estimate it on a grid. With a **new seed for
 # every $\vartheta$** the estimation noise differs from point to point, and the curve is jagged. With
 # **the same seed for every $\vartheta$** (common random numbers, CRN), and resampling at every measured
-# step ($\tau = 1$: every $\vartheta$ then resamples at the same steps; exercise 25.2 measures what
+# step ($\tau = 1$: every $\vartheta$ then resamples at the same steps; an exercise below measures what
 # $\tau = 0.5$ changes), the filter draws the same initial particles, the same transition noise and the same resampling
 # uniforms for every $\vartheta$; only the weights change:
 
