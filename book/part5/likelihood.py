@@ -857,6 +857,14 @@ EvidenceBlock(
 # The low median is therefore no evidence about the altimeter: a particle ML estimate needs many
 # more particles, or the exact likelihood of the model the filter runs, before its scale can be read.
 #
+# :::{admonition} Going further
+# :class: dropdown
+# A CRN curve that is smooth in $\vartheta$ needs a resampling step that is continuous in the
+# weights: {cite:t}`malik2011` sort the particles of a one-dimensional state and resample from a
+# smoothed distribution function. {cite:t}`kantas2015` review the particle methods for estimating
+# parameters, by maximum likelihood and by Bayesian sampling.
+# :::
+#
 # ## Exercises
 #
 # ```{exercise} 25.1 The likelihood of a fully adapted filter

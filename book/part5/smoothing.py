@@ -805,6 +805,15 @@ EvidenceBlock(
 # weights have an ESS of {glue:text}`smooth_robot_ess:.0f` of $300$ (median over the runs of each
 # run's median), where the landmark run above kept {glue:text}`smooth_demo_smoothed_ess:.0f` of $100$.
 #
+# :::{admonition} Going further
+# :class: dropdown
+# FFBSi can draw each backward index by rejection, at an expected cost of order $N$ per step
+# instead of $N^2$, when the transition density is bounded {cite:p}`douc2011`. Two-filter
+# smoothing combines the forward filter with a filter run backwards in time
+# {cite:p}`briers2010`. {cite:t}`olsson2008` analyse the fixed lag's trade-off between bias and
+# variance.
+# :::
+#
 # ## Exercises
 #
 # ```{exercise} 27.1 When does the backward kernel collapse?
