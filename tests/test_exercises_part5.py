@@ -76,7 +76,8 @@ def test_the_adapted_estimate_is_unbiased_and_far_less_noisy_than_the_bootstrap(
     ad = np.array([adapted_log_likelihood(z, 100, np.random.default_rng(s), *args) for s in range(200)])
     bs = np.array([adapted_log_likelihood(z, 100, np.random.default_rng(s), *args, "bootstrap") for s in range(200)])
     assert abs(ad.mean() + ad.var(ddof=1) / 2 - exact) < 5 * ad.std(ddof=1) / np.sqrt(200) + 0.02
-    assert ad.std(ddof=1) < 0.25 * bs.std(ddof=1)
+    # with r = 1.5 > q the bootstrap's spread is about 1.7 times the adapted one's; the checker flags 1.3
+    assert ad.std(ddof=1) < 0.75 * bs.std(ddof=1)
 
 
 def test_the_checker_leaves_numpys_global_state_alone():

@@ -427,7 +427,7 @@ EvidenceBlock(
 # to {glue:text}`smooth_lin_gain_high:.2f`); the exact smoother's is
 # {glue:text}`smooth_lin_exact_gain:.2f` times the Kalman filter's.
 #
-# ## When smoothing does not pay: a sharp transition
+# ## When FFBSm does no better than the ancestral lines: a sharp transition
 #
 # The landmark model of {doc}`likelihood` is the opposite case: process noise $0.05^2$ m² on
 # every coordinate, the landmarks drifting slowly, and a cloud much wider than one step of that
@@ -615,8 +615,8 @@ EvidenceBlock(
 # %% [markdown]
 # ## The naive smoother: the filter's ancestral lines
 #
-# The filter already carries a smoother, for free. Follow each final particle's ancestor
-# indices $a_k^i$ back to step $0$: the weighted paths $\{x_{0:T}^{(i)}, W_T^i\}$ estimate
+# The filter already carries a smoother, for free {cite:p}`kitagawa1996`. Follow each final
+# particle's ancestor indices $a_k^i$ back to step $0$: the weighted paths $\{x_{0:T}^{(i)}, W_T^i\}$ estimate
 # $p(x_{0:T} \mid z_{1:T})$, and their step-$k$ points estimate the smoothed marginal. The
 # trouble is **path degeneracy**: every resampling step removes some lines, so going back in
 # time they merge, and early on all $N$ paths share a handful of ancestors, or one.
@@ -684,10 +684,11 @@ EvidenceBlock(
 # A smoother that waits for the end of the run is of no use to a controller. The fixed-lag
 # smoother answers $p(x_k \mid z_{1:k+L})$ as soon as $z_{k+L}$ arrives, from the ancestral lines
 # only $L$ steps long: $\hat m_{k|k+L} = \sum_i W_{k+L}^i\, x_k^{(i)}$, with $x_k^{(i)}$ the ancestor at $k$
-# of particle $i$ of step $k+L$. It costs nothing beyond the filter's
-# own $O(N)$ per step. Lag $L = 0$ is the filter; a lag as long as the run is the naive
-# smoother. A short lag leaves information out; a long one goes back through merged lines,
-# and in a long run those would leave one ancestor. The study measures the compromise:
+# of particle $i$ of step $k+L$ {cite:p}`kitagawa1996`. Storing or tracing the lines $L$ steps
+# back costs $O(NL)$ per step, besides the filter's own $O(N)$. Lag $L = 0$ is the filter; a lag
+# as long as the run is the naive smoother. A short lag leaves information out (a bias); a long
+# one goes back through merged lines (a variance), and in a long run those would leave one
+# ancestor {cite:p}`olsson2008`. The study measures the compromise:
 
 # %% tags=["remove-input"] jupyter={"source_hidden": true}
 lag_columns = [f"lag_{lag}_rts" for lag in LAGS]
@@ -804,6 +805,15 @@ EvidenceBlock(
 # weights have an ESS of {glue:text}`smooth_robot_ess:.0f` of $300$ (median over the runs of each
 # run's median), where the landmark run above kept {glue:text}`smooth_demo_smoothed_ess:.0f` of $100$.
 #
+# :::{admonition} Going further
+# :class: dropdown
+# FFBSi can draw each backward index by rejection, at an expected cost of order $N$ per step
+# instead of $N^2$, when the transition density is bounded {cite:p}`douc2011`. Two-filter
+# smoothing combines the forward filter with a filter run backwards in time
+# {cite:p}`briers2010`. {cite:t}`olsson2008` analyse the fixed lag's trade-off between bias and
+# variance.
+# :::
+#
 # ## Exercises
 #
 # ```{exercise} 27.1 When does the backward kernel collapse?
@@ -832,8 +842,10 @@ EvidenceBlock(
 # (Coding.) Write `fixed_lag(particles, weights, ancestors, lag)`: the fixed-lag means
 # $\hat m_{k|t} = \sum_i W_t^i\, x_k^{(i)}$ with $t = \min(k + L, T)$ and $x_k^{(i)}$ the ancestor at
 # step $k$ of particle $i$ of step $t$, for every $k = 0, \dots, T$ (shape `(T+1, d)`). The arrays
-# are those of `run`: `ancestors[k, i]` is the index at step $k-1$ of particle $i$'s parent. The
-# checker compares with the exact answer at lags $3$ and $0$ and names the mistake it recognises.
+# are those of `run`: `ancestors[k, i]` is the index at step $k-1$ of particle $i$'s parent. Unlike
+# the page's loop, which traces the lines from the last step only, each step $k$ here has its own
+# end $t$. The checker compares with the exact answer at lags $3$ and $0$ and names five typical
+# mistakes (wrong weights, no tracing, one step short, shifted indices, the end not clipped).
 # ```
 
 # %% tags=["answer"]

@@ -105,8 +105,10 @@ def check_likelihood_estimate(fn: Callable, n_particles: int = 8, seed: int = 0,
 
 #: The second likelihood exercise: the fully adapted filter on a scalar linear-Gaussian model,
 #: ``x_0 ~ N(0, 1)``, ``x_k = a x_{k-1} + q v_k``, ``z_k = x_k + r w_k`` (``q``, ``r`` standard deviations),
-#: 40 readings simulated with seed 11.
-ADAPTED_A, ADAPTED_Q, ADAPTED_R, ADAPTED_STEPS, ADAPTED_SEED = 0.9, 1.0, 0.3, 40, 11
+#: 40 readings simulated with seed 11. The reading is less informative than the move (``r > q``), so that
+#: ``p(z_k | x_(k-1))`` varies over the cloud and a filter that drops the weights is biased, and ``r != r^2``,
+#: so that a variance written as ``r`` is seen.
+ADAPTED_A, ADAPTED_Q, ADAPTED_R, ADAPTED_STEPS, ADAPTED_SEED = 0.9, 1.0, 1.5, 40, 11
 
 ADAPTED_MISTAKES = {
     "bootstrap": ("your estimate is unbiased but as noisy as a bootstrap filter's: the fully adapted filter "
@@ -118,9 +120,16 @@ ADAPTED_MISTAKES = {
                  "(Jensen): each step adds logsumexp(log w) - log N"),
     "q_only": ("your weights use the variance q^2 of the move alone: the reading z_k = a x_(k-1) + q v + r w "
                "has variance q^2 + r^2 given x_(k-1)"),
+    "r_not_squared": ("your weights use the variance q^2 + r: r is a standard deviation, so the reading has "
+                      "variance q^2 + r^2 given x_(k-1)"),
     "prior_move": ("your particles move from the transition N(a x, q^2): after weighting by p(z_k | x_(k-1)) "
                    "they must move from p(x_k | x_(k-1), z_k), the Gaussian of variance s^2 = 1 / (1/q^2 + "
                    "1/r^2) and mean s^2 (a x_(k-1) / q^2 + z_k / r^2)"),
+    "sd_as_var": ("your move draws with standard deviation s^2 = 1 / (1/q^2 + 1/r^2), which is the variance: "
+                  "multiply the standard normals by s = sqrt(s^2)"),
+    "no_resampling": ("your filter never resamples, and its factors average the weights with 1/N: the "
+                      "particles that predict z_k badly keep counting equally, so resample by the weights "
+                      "p(z_k | x_(k-1)^i) before the move (each factor is then the mean weight)"),
 }
 
 
@@ -158,22 +167,29 @@ def adapted_log_likelihood(z: np.ndarray, n: int, rng: np.random.Generator, a: f
             var = np.full(n, r * r)
             centre = x
         else:
-            var = np.full(n, q * q if mistake == "q_only" else q * q + r * r)
+            var = np.full(n, {"q_only": q * q, "r_not_squared": q * q + r}.get(mistake, q * q + r * r))
             centre = a * x
         log_w = -0.5 * (np.log(2 * np.pi * var) + (zk - centre) ** 2 / var)
         if mistake == "mean_log":
             total += float(np.mean(log_w))
         else:
             total += float(logsumexp(log_w)) - (0.0 if mistake == "log_sum" else np.log(n))
-        x = x[rng.choice(n, size=n, p=np.exp(log_w - logsumexp(log_w)))]
+        if mistake != "no_resampling":
+            x = x[rng.choice(n, size=n, p=np.exp(log_w - logsumexp(log_w)))]
         if mistake == "prior_move":
             x = a * x + q * rng.standard_normal(n)
         elif mistake != "bootstrap":
-            x = s2 * (a * x / q**2 + zk / r**2) + np.sqrt(s2) * rng.standard_normal(n)
+            sd = s2 if mistake == "sd_as_var" else np.sqrt(s2)
+            x = s2 * (a * x / q**2 + zk / r**2) + sd * rng.standard_normal(n)
     return total
 
 
-def check_adapted_likelihood(fn: Callable, n: int = 100, n_runs: int = 40, seed: int = 0) -> CheckReport:
+#: Runs of the adapted checker, and how far (in standard errors) a mistake's runs may lie from the answer's
+#: in mean and in log-spread for the mistake to be named.
+ADAPTED_RUNS, ADAPTED_MATCH_Z = 200, 4.0
+
+
+def check_adapted_likelihood(fn: Callable, n: int = 100, n_runs: int = ADAPTED_RUNS, seed: int = 0) -> CheckReport:
     """:func:`_check_adapted_likelihood`, leaving NumPy's global ``np.random`` state as it was."""
     saved = np.random.get_state()
     try:
@@ -182,14 +198,26 @@ def check_adapted_likelihood(fn: Callable, n: int = 100, n_runs: int = 40, seed:
         np.random.set_state(saved)
 
 
+def _adapted_match(ell: np.ndarray, ref: np.ndarray) -> float:
+    """The squared distance, in standard errors, between two sets of runs: their means (standard error of
+    the difference) and the logs of their spreads (standard error ``sqrt(1 / (2 (n - 1)))`` for a near-Gaussian
+    sample of each); about chi-square with 2 degrees of freedom when both come from one estimator."""
+    d_mean = (ell.mean() - ref.mean()) / np.sqrt(ell.var(ddof=1) / ell.size + ref.var(ddof=1) / ref.size)
+    se_log_spread = np.sqrt(1 / (2 * (ell.size - 1)) + 1 / (2 * (ref.size - 1)))
+    d_spread = np.log(ell.std(ddof=1) / ref.std(ddof=1)) / se_log_spread
+    return float(d_mean**2 + d_spread**2)
+
+
 def _check_adapted_likelihood(fn: Callable, n: int, n_runs: int, seed: int) -> CheckReport:
     """Check ``fn(z, n, rng, a, q, r) -> float``, the fully adapted filter's ``log p^(z_1..z_K)``.
 
     In turn: one finite float; draws from the generator it is given; unbiasedness against the Kalman
-    likelihood over ``n_runs`` seeded runs, ``mean + var / 2 - log p`` within 5 standard errors plus 0.05
-    (``E[p^] = p`` for a near-Gaussian ``log p^``); a spread at most twice the reference's (a bootstrap
-    filter's is many times larger). A failure is compared with each mistake of :data:`ADAPTED_MISTAKES`
-    (``n_runs`` runs of :func:`adapted_log_likelihood` with that mistake), so that it is named."""
+    likelihood over ``n_runs`` seeded runs, ``mean + var / 2 - log p`` within 4 standard errors plus 0.05
+    (``E[p^] = p`` for a near-Gaussian ``log p^``); a spread at most 1.3 times the reference's (a bootstrap
+    filter's is about 1.7 times on these data). A biased answer is compared with each mistake of
+    :data:`ADAPTED_MISTAKES` (``n_runs`` runs of :func:`adapted_log_likelihood` with that mistake): the
+    nearest is named only when its runs match the answer's in mean AND in spread (:func:`_adapted_match`
+    below ``ADAPTED_MATCH_Z ** 2``), else the report says how far the answer is from the likelihood."""
     from pfcourse.book.exercises.part1 import _generator_problem
 
     report = CheckReport("check_adapted_likelihood")
@@ -224,18 +252,18 @@ def _check_adapted_likelihood(fn: Callable, n: int, n_runs: int, seed: int) -> C
                          for r in range(n_runs)])
 
     gap = ell.mean() + ell.var(ddof=1) / 2 - exact
-    if abs(gap) > 5 * se + 0.05:
-        for mistake in ("log_sum", "mean_log", "q_only", "prior_move"):
-            ref = reference(mistake)
-            both = np.sqrt(se**2 + ref.var(ddof=1) / n_runs)
-            if abs(ell.mean() - ref.mean()) <= 5 * both + 0.05:
-                report.problems.append(ADAPTED_MISTAKES[mistake])
-                return report
-        report.problems.append(f"your log-likelihood averages {ell.mean():.2f} where log p(z) = {exact:.2f}: "
-                               "the estimate must be unbiased for p(z), the product over the steps of the mean "
-                               "weight p(z_k | x_(k-1)^i)")
+    if abs(gap) > 4 * se + 0.05:
+        distances = {m: _adapted_match(ell, reference(m)) for m in ADAPTED_MISTAKES if m != "bootstrap"}
+        nearest = min(distances, key=distances.get)
+        if distances[nearest] <= ADAPTED_MATCH_Z**2:
+            report.problems.append(ADAPTED_MISTAKES[nearest])
+            return report
+        report.problems.append(f"your log-likelihood averages {ell.mean():.2f} (spread {ell.std(ddof=1):.2f}) "
+                               f"where log p(z) = {exact:.2f}: mean + var/2 is {gap:+.2f} nats off, so p^ is not "
+                               "unbiased for p(z), the product over the steps of the mean weight "
+                               "p(z_k | x_(k-1)^i) with the cloud resampled by those weights")
         return report
-    if ell.std(ddof=1) > 2 * reference(None).std(ddof=1):
+    if ell.std(ddof=1) > 1.3 * reference(None).std(ddof=1):
         report.problems.append(ADAPTED_MISTAKES["bootstrap"])
     return report
 
