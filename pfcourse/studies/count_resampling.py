@@ -99,3 +99,46 @@ def row(seed: int, scheme: str, tau: float, n_particles: int = N_PARTICLES) -> d
     y, exact = _data_and_exact()
     means, resamples = bootstrap_means(y, n_particles, tau, scheme, np.random.default_rng(seed))
     return {"rmse": float(np.sqrt(np.mean((means - exact) ** 2))), "resamples": resamples}
+
+
+# ----------------------------------------------------------------------------------------------------------------
+# Exercise 21.4's study: the linear landmark model (Part I), whose exact answer is the Kalman filter.
+# ----------------------------------------------------------------------------------------------------------------
+
+#: Exercise 21.4's sizes, threshold and landmark process-noise variances (0: the static landmarks of Part I).
+LINEAR_N = (30, 100, 300, 1000)
+LINEAR_THRESHOLD = 0.5
+LANDMARK_NOISES = (0.0, 0.0025)
+LINEAR_RUNS = 50  # the exercise's own number of runs (N = 1000 on the linear model is the costly part)
+LINEAR_GRID = {"landmark_noise": list(LANDMARK_NOISES), "n_particles": list(LINEAR_N)}
+_KALMAN: dict[tuple[int, float], tuple] = {}
+
+
+def linear_scenario(landmark_noise: float):
+    """Part I's two-landmark model; ``landmark_noise > 0`` gives the landmarks that process-noise variance (m^2)."""
+    from pfcourse.scenarios.landmarks.scenario import quadrant_scenario
+
+    scenario = quadrant_scenario()
+    if landmark_noise > 0:
+        scenario = scenario.with_(Qw=np.diag([0.05 ** 2, 0.05 ** 2] + [landmark_noise] * 4))
+    return scenario
+
+
+def linear_row(seed: int, landmark_noise: float, n_particles: int) -> dict:
+    """RMS over the steps of the particle mean minus the Kalman mean (robot, and landmark per coordinate
+    pair), simulation ``simulate(scenario, seed)``, filter stream ``filter_rng(0, seed)`` for every N."""
+    from pfcourse.filter import ParticleFilter
+    from pfcourse.kalman import kalman_filter
+    from pfcourse.scenarios.landmarks.scenario import simulate
+    from pfcourse.seeding import filter_rng
+
+    scenario = linear_scenario(landmark_noise)
+    model = scenario.model()
+    data = simulate(scenario, seed)
+    if (seed, landmark_noise) not in _KALMAN:
+        _KALMAN[(seed, landmark_noise)] = kalman_filter(model, data.measurements).mean
+    pf = ParticleFilter(model, n_particles, threshold=LINEAR_THRESHOLD).run(data.measurements,
+                                                                            rng=filter_rng(0, seed))
+    gap = pf.mean - _KALMAN[(seed, landmark_noise)]
+    return {"robot_gap": float(np.sqrt(np.mean(np.sum(gap[:, :2] ** 2, axis=1)))),
+            "landmark_gap": float(np.sqrt(np.mean(np.sum(gap[:, 2:] ** 2, axis=1) / 2)))}

@@ -303,6 +303,15 @@ STUDIES: dict[str, Study] = {study.name: study for study in [
                   "exact": "filtering means on a 1601-point grid (count_resampling.exact_means)",
                   "filter": f"bootstrap, N = {count_resampling.N_PARTICLES}, resample when ESS < tau N",
                   "seeds": "run r: numpy.random.default_rng(r), the same for every scheme and tau"}),
+    Study(name="linear_n", row=count_resampling.linear_row, grid=count_resampling.LINEAR_GRID,
+          n_runs=count_resampling.LINEAR_RUNS, seeds="run", failures="raise", table="linear_n.csv",
+          provenance="linear_n.json", columns=("landmark_noise", "n_particles", "seed", "robot_gap", "landmark_gap"),
+          cheap=lambda t: t["n_particles"] <= 100, sample=3,
+          row_code="pfcourse/studies/count_resampling.py (linear_row)",
+          fields={"model": "Part I's two-landmark linear model (quadrant_scenario), 50 steps; landmark_noise: "
+                           "process-noise variance of each landmark coordinate in the simulator and the filter",
+                  "exact": "Kalman filter means", "filter": f"bootstrap, threshold {count_resampling.LINEAR_THRESHOLD}",
+                  "seeds": "run r: simulate(scenario, r), filter stream pfcourse.seeding.filter_rng(0, r), every N"}),
     *(_likelihood_study(name, row, {"n_particles": n}, runs, seed, columns=("n_particles", "run", "seed", "status", "error", *metrics), **options)
       for name, row, n, runs, seed, metrics, options in [
           ("bias", ls.bias_run, ls.N_BIAS, ls.N_BIAS_RUNS, ls.BIAS_SEED, ["log_ratio"], {"sample": 3}),
