@@ -10,8 +10,8 @@ import numpy as np
 import pytest
 
 from pfcourse.book.exercises import (RATIO_CASE, RATIO_MISTAKES, TIME_TO_LOCK_MISTAKES, CountModel,
-                                     check_paired_ratio, check_time_to_lock, count_data, count_grid,
-                                     paired_ratio_reference, time_to_lock_cases, time_to_lock_reference)
+                                     check_mse_ratio, check_time_to_lock, count_data, count_grid,
+                                     mse_ratio_reference, time_to_lock_cases, time_to_lock_reference)
 from pfcourse.errors import ParameterError
 from pfcourse.metrics import locked_on
 from pfcourse.studies import count_resampling as cr
@@ -54,31 +54,31 @@ def test_stored_rows_are_recomputed(name):
             assert value == stored[key], (name, key)
 
 
-# --- exercise 20.1: a paired ratio and its bootstrap interval -----------------------------------------------
+# --- exercise 20.1: the ratio of mean squared errors and its bootstrap interval -----------------------------------------------
 def test_the_reference_ratio_passes_on_many_seeds():
-    assert all(check_paired_ratio(lambda a, b, n, rng: paired_ratio_reference(a, b, n, rng), seed=s).ok for s in range(10))
+    assert all(check_mse_ratio(lambda a, b, n, rng: mse_ratio_reference(a, b, n, rng), seed=s).ok for s in range(10))
 
 
 @pytest.mark.parametrize("mistake", list(RATIO_MISTAKES))
 def test_each_ratio_mistake_is_named(mistake):
-    report = check_paired_ratio(lambda a, b, n, rng: paired_ratio_reference(a, b, n, rng, mistake))
+    report = check_mse_ratio(lambda a, b, n, rng: mse_ratio_reference(a, b, n, rng, mistake))
     assert report.problems == [f"your function computes a known mistake: {RATIO_MISTAKES[mistake]}"]
 
 
 def test_the_ratio_mistakes_differ_on_the_case():
     """Each mistake moves the median or an end of the interval by more than the checker's tolerance."""
     a, b = RATIO_CASE
-    ref = paired_ratio_reference(a, b, 40000, np.random.default_rng(1))
+    ref = mse_ratio_reference(a, b, 40000, np.random.default_rng(1))
     for mistake in RATIO_MISTAKES:
-        other = paired_ratio_reference(a, b, 40000, np.random.default_rng(1), mistake)
+        other = mse_ratio_reference(a, b, 40000, np.random.default_rng(1), mistake)
         assert (not np.isclose(other[0], ref[0])) or max(abs(other[1] - ref[1]), abs(other[2] - ref[2])) > \
             0.4 * (ref[2] - ref[1]), mistake
 
 
 def _bootstrap(a, b, n_boot, rng):
-    r = a / b
-    medians = np.median(r[rng.integers(0, len(r), (n_boot, len(r)))], axis=1)
-    return (np.median(r), *np.quantile(medians, [0.025, 0.975]))
+    rows = rng.integers(0, len(a), (n_boot, len(a)))
+    ratios = np.mean(a[rows] ** 2, axis=1) / np.mean(b[rows] ** 2, axis=1)
+    return (np.mean(a**2) / np.mean(b**2), *np.quantile(ratios, [0.025, 0.975]))
 
 
 def test_the_ratio_generator_is_checked():
@@ -94,17 +94,17 @@ def test_the_ratio_generator_is_checked():
     np.random.seed(3)
     expected = np.random.random()
     np.random.seed(3)
-    assert check_paired_ratio(_bootstrap).ok
+    assert check_mse_ratio(_bootstrap).ok
     assert np.random.random() == expected  # the checker leaves NumPy's global state as it was
-    assert "global generator" in check_paired_ratio(global_state).problems[0]
-    assert "same seed" in check_paired_ratio(own_generator).problems[0]
-    assert "whatever the generator's seed" in check_paired_ratio(fixed_seed).problems[0]
+    assert "global generator" in check_mse_ratio(global_state).problems[0]
+    assert "same seed" in check_mse_ratio(own_generator).problems[0]
+    assert "whatever the generator's seed" in check_mse_ratio(fixed_seed).problems[0]
 
 
 def test_ratio_answers_of_the_wrong_form_are_named():
-    assert "three numbers" in check_paired_ratio(lambda a, b, n, rng: 1.0).problems[0]
-    assert "does not contain" in check_paired_ratio(lambda a, b, n, rng: (1.0, 1.2, 1.3)).problems[0]
-    assert "returned None" in check_paired_ratio(lambda a, b, n, rng: None).problems[0]
+    assert "three numbers" in check_mse_ratio(lambda a, b, n, rng: 1.0).problems[0]
+    assert "does not contain" in check_mse_ratio(lambda a, b, n, rng: (1.0, 1.2, 1.3)).problems[0]
+    assert "returned None" in check_mse_ratio(lambda a, b, n, rng: None).problems[0]
 
 
 # --- exercise 22.1: when a run locks on for good ---------------------------------------------------------------

@@ -67,7 +67,6 @@ from matplotlib.animation import FuncAnimation
 from myst_nb import glue
 
 from pfcourse import evidence
-from pfcourse.book.exercises import check_paired_se
 from pfcourse.studies.registry import robot_study
 from pfcourse.studies.robot_studies import BURN_IN, N_RUNS, N_STEPS
 from pfcourse.studies.study import summarize
@@ -447,42 +446,54 @@ control_panel(
 # %% [markdown]
 # ## Exercises
 #
-# ```{exercise} 20.1 What pairing buys, computed and checked
+# ```{exercise} 20.1 Another paired statistic: the ratio of mean squared errors
 # :label: ex-studies-se
 # :nonumber:
-# (Coding.) Write `my_se(a, b)`: for the errors `a` and `b` of two settings on the same runs (arrays of
-# equal length), return the standard error of `a.mean() - b.mean()` computed from the paired
-# differences, and the one you would compute if the two settings had been run on independent runs,
-# both with sample standard deviations. The checker runs it on two settings whose runs share their
-# worlds, and names the mistake it sees.
+# (Coding.) The median of the per-run ratios ignores how large the errors are; another summary
+# of two settings is the ratio of their mean squared errors over the runs,
+# $\sum_r a_r^2 / \sum_r b_r^2$. Write `my_mse_ratio(a, b, n_boot, rng)`: for the errors `a` and
+# `b` of two settings on the same runs, return that ratio and its 95 % percentile bootstrap
+# interval from `n_boot` resamples of the runs. Draw every random number from `rng`. The checker
+# compares your interval with one from many resamples, checks the generator, and names the
+# mistake it sees.
 # ```
 
 # %% tags=["answer"]
-from pfcourse.book.exercises import check_paired_se
+from pfcourse.book.exercises import check_mse_ratio
 
 
-def my_se(a, b):
-    """Your (paired_se, unpaired_se)."""
+def my_mse_ratio(a, b, n_boot, rng):
+    """Your (ratio, low, high)."""
     ...  # replace with your code
 
 
-print(check_paired_se(my_se))
+print(check_mse_ratio(my_mse_ratio))
 
 # %% [markdown]
 # ```{solution} ex-studies-se
 # :class: dropdown
-# The two formulas of "The idea"; the code is in the folded cell below (in JupyterLab, click its
-# margin to unfold it). On the check's runs the paired standard error is several times smaller: an
-# unpaired study would need the square of that factor more runs for the same precision.
+# Resample the runs, each run's two errors together, and recompute the ratio of the two means
+# each time; the code is in the folded cell below (in JupyterLab, click its margin to unfold
+# it). On the particle study, $1000$ against $300$ particles, the ratio of mean squared errors
+# is {glue:text}`n_mse_ratio_1000:.2f`
+# ({glue:text}`n_mse_ratio_1000_low:.2f`-{glue:text}`n_mse_ratio_1000_high:.2f`). It is about the
+# square of the median ratio, {glue:text}`n_ratio_1000:.2f`, since it compares squared errors.
 # ```
 
 # %% tags=["solution", "hide-input"] jupyter={"source_hidden": true}
-def my_se(a, b):
-    n = len(a)
-    return np.std(a - b, ddof=1) / np.sqrt(n), np.sqrt((np.var(a, ddof=1) + np.var(b, ddof=1)) / n)
+def my_mse_ratio(a, b, n_boot, rng):
+    a, b = np.asarray(a), np.asarray(b)
+    ratio = np.mean(a**2) / np.mean(b**2)
+    # each row: one resample of the runs, a run's a and b together
+    rows = rng.integers(0, len(a), (n_boot, len(a)))
+    boot = np.mean(a[rows] ** 2, axis=1) / np.mean(b[rows] ** 2, axis=1)
+    low, high = np.quantile(boot, [0.025, 0.975])
+    return ratio, low, high
 
 
-print(check_paired_se(my_se))
+print(check_mse_ratio(my_mse_ratio))
+mse_1000 = my_mse_ratio(n_by_run[1000], n_by_run[300], 2000, np.random.default_rng(0))
+glue_values("n_mse_ratio_1000", **{"": mse_1000[0], "_low": mse_1000[1], "_high": mse_1000[2]})
 
 # %% [markdown]
 # ```{exercise} 20.2 Particles or measurements?

@@ -43,7 +43,6 @@ import pandas as pd
 from myst_nb import glue
 
 from pfcourse import evidence
-from pfcourse.book.exercises import check_lock_on
 from pfcourse.studies.registry import robot_study
 from pfcourse.studies.robot_studies import N_RUNS
 from pfcourse.studies.study import summarize
@@ -168,7 +167,21 @@ control_panel(
 # 2. Locked on if $e^p_k < 1$ m and $e^\theta_k < 5°$ for every $k$ among the last $W$ steps.
 # :::
 #
-# Writing it in NumPy is {ref}`exercise 22.1 <ex-sensing-lock>`.
+# In NumPy (when a run locks on *for good* is {ref}`exercise 22.1 <ex-sensing-lock>`):
+
+# %%
+import numpy as np
+
+
+def is_locked_on(pos_err, head_err, dt, window_s=20.0):
+    """Algorithm 22.1: within 1 m and 5 degrees at every step of the last window_s seconds."""
+    w = min(len(pos_err), int(np.ceil(window_s / dt - 1e-9)))
+    return bool(np.all((pos_err[-w:] < 1.0) & (head_err[-w:] < np.deg2rad(5.0))))
+
+
+# a run of 60 s, 3 m off until t = 45 s: locked on over the last 10 s, not 20 s
+pos_err, head_err = np.where(np.arange(60) < 45, 3.0, 0.2), np.full(60, 0.01)
+print(is_locked_on(pos_err, head_err, 1.0, 10.0), is_locked_on(pos_err, head_err, 1.0))
 
 # %% [markdown]
 # ## A gap in the measurements
@@ -485,47 +498,61 @@ EvidenceBlock(
 #
 # ## Exercises
 #
-# ```{exercise} 22.1 Locked on, written and checked
+# ```{exercise} 22.1 When does a run lock on for good?
 # :label: ex-sensing-lock
 # :nonumber:
-# (Coding.) Write `my_lock(pos_err, head_err, dt, window_s)`: `True` when the run whose per-step
-# position errors (m) and heading errors (rad) are given is within $1$ m and $5°$ (strictly) at
-# every step of its last `window_s` seconds, the step being `dt` seconds. The checker tries runs
-# that are off only a little before the window, off only in heading, and with a step of half a
-# second, and names the mistake it sees.
+# (Coding.) Algorithm 22.1 judges the end of a run. Write `my_time_to_lock(pos_err, head_err, dt)`:
+# the time in seconds (step $k$ is at $k\,\Delta t$) of the first step from which the run stays
+# strictly within $1$ m and $5°$ to its end, or `None` if its last step is not within them. The
+# checker tries runs that enter the tolerances and leave them again, sit exactly on a tolerance,
+# are off only in heading, and have a step of half a second, and names the mistake it sees.
 # ```
 
 # %% tags=["answer"]
-from pfcourse.book.exercises import check_lock_on
+from pfcourse.book.exercises import check_time_to_lock
 
 
-def my_lock(pos_err, head_err, dt, window_s):
-    """Your Algorithm 22.1: True or False."""
+def my_time_to_lock(pos_err, head_err, dt):
+    """Your time (s) from which the run stays locked on, or None."""
     ...  # replace with your code
 
 
-print(check_lock_on(my_lock))
+print(check_time_to_lock(my_time_to_lock))
 
 # %% [markdown]
 # ```{solution} ex-sensing-lock
 # :class: dropdown
-# Algorithm 22.1 with the window as a parameter; the code is in the folded cell below (in
-# JupyterLab, click its margin to unfold it). The book's own version, `pfcourse.metrics.locked_on`,
-# gives the same verdict on every run of the initialization study.
+# Find the last step outside the tolerances; the run locks on at the step after it. The code is
+# in the folded cell below (in JupyterLab, click its margin to unfold it). A run of $T$ steps is
+# then locked on over its last $w$ seconds exactly when its time to lock is at most
+# $T\,\Delta t - w$: on the tracking runs of the initialization study with $300$ particles the
+# median time to lock is {glue:text}`init_lock_time_median:.0f` s.
 # ```
 
 # %% tags=["solution", "hide-input"] jupyter={"source_hidden": true}
-def my_lock(pos_err, head_err, dt, window_s):
-    window = min(len(pos_err), int(np.ceil(window_s / dt - 1e-9)))
-    return bool(np.all((pos_err[-window:] < 1.0) & (head_err[-window:] < np.deg2rad(5.0))))
+def my_time_to_lock(pos_err, head_err, dt):
+    within = (pos_err < 1.0) & (head_err < np.deg2rad(5.0))
+    if not within[-1]:
+        return None
+    outside = np.flatnonzero(~within)
+    first = 0 if outside.size == 0 else outside[-1] + 1
+    return float(first * dt)
 
 
-print(check_lock_on(my_lock))
+print(check_time_to_lock(my_time_to_lock))
 
 # %% tags=["remove-input"] jupyter={"source_hidden": true}
 ok_runs = init_table[init_table["status"] == "ok"]
-assert [my_lock(p, h, 1.0, 20.0) for p, h in zip(ok_runs["position_error"], ok_runs["heading_error"])] == [
+lock_times = [my_time_to_lock(p, h, 1.0) for p, h in zip(ok_runs["position_error"], ok_runs["heading_error"])]
+# Algorithm 22.1 as printed gives the package's verdict on every run
+assert [is_locked_on(p, h, 1.0) for p, h in zip(ok_runs["position_error"], ok_runs["heading_error"])] == [
     locked_on(p, h, dt=1.0) for p, h in zip(ok_runs["position_error"], ok_runs["heading_error"])]
+# the solution: locked on over the last 20 s exactly when the time to lock is at most T dt - 20
+assert [t is not None and t <= len(p) - 20.0 for t, p in zip(lock_times, ok_runs["position_error"])] == [
+    locked_on(p, h, dt=1.0) for p, h in zip(ok_runs["position_error"], ok_runs["heading_error"])]
+tracking_300 = ((ok_runs["initial"] == "tracking") & (ok_runs["n_particles"] == 300)).to_numpy()
+tracking_times = [t for t, keep in zip(lock_times, tracking_300) if keep and t is not None]
+glue("init_lock_time_median", float(np.median(tracking_times)), display=False)
 
 # %% [markdown]
 # ```{exercise} 22.2 A gap in a Kalman filter

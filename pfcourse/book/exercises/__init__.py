@@ -134,10 +134,10 @@ exception is reported as a problem); ``str(report)`` prints the verdict.
   (sensor resetting) for a door-distance sensor in a corridor, weighted ``u / q p`` (the chapter
   *Finding the robot on the map*, :mod:`.map_global`); the generator is checked, and equal weights,
   the likelihood alone, the prior left out and the kernel's constant left out are named.
-* :func:`check_paired_ratio` - ``fn(a, b, n_boot, rng) -> (median, low, high)``: the median of per-run ratios and its
-  95 % percentile bootstrap interval over the runs (chapter 20's coding exercise); the ratio reversed, the
-  ratio of the medians, the mean, the runs' own quantiles and an unpaired bootstrap are named, and the
-  generator is checked.
+* :func:`check_mse_ratio` - ``fn(a, b, n_boot, rng) -> (ratio, low, high)``: the ratio of two settings' mean
+  squared errors over the same runs and its 95 % percentile bootstrap interval (chapter 20's coding exercise);
+  the ratio reversed, the chapter's median of ratios, the RMSE ratio, the mean of per-run ratios, the runs' own
+  quantiles and an unpaired bootstrap are named, and the generator is checked.
 * :func:`check_time_to_lock` - ``fn(pos_err, head_err, dt) -> float or None``: the time from which a run stays
   locked on to its end (chapter 22's coding exercise); the first entry, a step number, ``<=``, the heading
   ignored and the last step outside are named.
@@ -325,9 +325,9 @@ from pfcourse.book.exercises.part3 import (  # noqa: F401
     RATIO_CASE,
     RATIO_MISTAKES,
     TIME_TO_LOCK_MISTAKES,
-    check_paired_ratio,
+    check_mse_ratio,
     check_time_to_lock,
-    paired_ratio_reference,
+    mse_ratio_reference,
     time_to_lock_cases,
     time_to_lock_reference,
 )

@@ -373,10 +373,11 @@ def check_time_to_lock(fn: Callable) -> CheckReport:
     return report
 
 
-# --- chapter 20, exercise 20.1: a paired ratio and its bootstrap interval ------------------------------
+# --- chapter 20, exercise 20.1: the ratio of mean squared errors and its bootstrap interval -------------
 def _ratio_case(seed: int = 23, runs: int = 41) -> tuple[np.ndarray, np.ndarray]:
     """Two settings' errors on the same 41 runs: the worlds vary much, the per-run ratio little, and the
-    ratio is larger in the harder worlds (so the ratio of the medians is not the median of the ratios)."""
+    ratio is larger in the harder worlds (so the ratio of mean squared errors, which weights the hard
+    worlds most, is not the median of the per-run ratios)."""
     rng = np.random.default_rng(seed)
     world = rng.gamma(2.0, 0.2, runs)  # what each simulated world makes hard, shared by both settings
     ratio = np.exp(0.1 + 0.5 * (world - world.mean()) + 0.15 * rng.standard_normal(runs))
@@ -387,86 +388,92 @@ RATIO_CASE = _ratio_case()
 RATIO_BOOT = 2000
 
 RATIO_MISTAKES = {
-    "reversed": "it divides b by a; the ratio asked for is a_r / b_r, the first setting over the second",
-    "ratio_of_medians": "it divides the median of a by the median of b; a paired study takes the ratio "
-                        "a_r / b_r of each run, then its median",
-    "mean": "it takes the mean of the ratios; the median is asked for, which one extreme run cannot move",
-    "run_quantiles": "its interval is the 2.5 % and 97.5 % quantiles of the ratios themselves, the spread of "
-                     "the runs; the interval asked for is that of their median: quantiles of the medians of "
-                     "bootstrap resamples of the runs",
+    "reversed": "it divides b's mean squared error by a's; the ratio asked for is mean(a^2) / mean(b^2), the "
+                "first setting over the second",
+    "median_of_ratios": "it is the median of the per-run ratios a_r / b_r (the chapter's statistic); the ratio "
+                        "asked for is that of the mean squared errors over the runs, mean(a^2) / mean(b^2)",
+    "rmse": "it is the ratio of the root mean squared errors, sqrt(mean(a^2) / mean(b^2)); the ratio asked for "
+            "is that of the mean squared errors, without the square root",
+    "mean_of_ratios": "it averages the per-run ratios a_r^2 / b_r^2; the ratio asked for divides the two means, "
+                      "mean(a^2) / mean(b^2), so that the runs with large errors weigh most",
+    "run_quantiles": "its interval is the 2.5 % and 97.5 % quantiles of the per-run ratios a_r^2 / b_r^2, the "
+                     "spread of the runs; the interval asked for is that of the ratio of the means: quantiles "
+                     "of that ratio over bootstrap resamples of the runs",
     "unpaired": "it resamples a and b separately, which breaks the pairs: resample the runs, each run's "
                 "a_r and b_r together (one set of indices for both)",
 }
 
 
-def paired_ratio_reference(a: np.ndarray, b: np.ndarray, n_boot: int, rng: np.random.Generator,
-                           mistake: str | None = None) -> tuple[float, float, float]:
-    """``(median, low, high)``: the median of the per-run ratios ``a_r / b_r`` and its 95 % percentile
-    bootstrap interval (``n_boot`` resamples of the runs, drawn from ``rng``); or a mistake of
-    :data:`RATIO_MISTAKES`."""
+def mse_ratio_reference(a: np.ndarray, b: np.ndarray, n_boot: int, rng: np.random.Generator,
+                        mistake: str | None = None) -> tuple[float, float, float]:
+    """``(ratio, low, high)``: ``mean(a^2) / mean(b^2)`` and its 95 % percentile bootstrap interval
+    (``n_boot`` resamples of the runs, each run's ``a`` and ``b`` together, drawn from ``rng``); or a
+    mistake of :data:`RATIO_MISTAKES`."""
     a, b = np.asarray(a, dtype=float), np.asarray(b, dtype=float)
     if mistake == "reversed":
         a, b = b, a
     n = len(a)
     idx = rng.integers(0, n, (n_boot, n))
-    if mistake == "ratio_of_medians":
-        point, boot = np.median(a) / np.median(b), np.median(a[idx], axis=1) / np.median(b[idx], axis=1)
+    sq_a, sq_b = a ** 2, b ** 2
+    if mistake == "median_of_ratios":
+        point, boot = np.median(a / b), np.median((a / b)[idx], axis=1)
+    elif mistake == "mean_of_ratios":
+        point, boot = np.mean(sq_a / sq_b), np.mean((sq_a / sq_b)[idx], axis=1)
     elif mistake == "unpaired":
         other = rng.integers(0, n, (n_boot, n))
-        point, boot = np.median(a / b), np.median(a[idx] / b[other], axis=1)
+        point, boot = sq_a.mean() / sq_b.mean(), sq_a[idx].mean(axis=1) / sq_b[other].mean(axis=1)
     else:
-        center = np.mean if mistake == "mean" else np.median
-        point, boot = center(a / b), center((a / b)[idx], axis=1)
+        point, boot = sq_a.mean() / sq_b.mean(), sq_a[idx].mean(axis=1) / sq_b[idx].mean(axis=1)
     if mistake == "run_quantiles":
-        boot = a / b
+        boot = sq_a / sq_b
+    if mistake == "rmse":
+        point, boot = np.sqrt(point), np.sqrt(boot)
     low, high = np.quantile(boot, [0.025, 0.975])
     return float(point), float(low), float(high)
 
 
-def check_paired_ratio(fn: Callable, seed: int = 0) -> CheckReport:
-    """:func:`_check_paired_ratio`, leaving NumPy's global ``np.random`` state as it was."""
+def check_mse_ratio(fn: Callable, seed: int = 0) -> CheckReport:
+    """:func:`_check_mse_ratio`, leaving NumPy's global ``np.random`` state as it was."""
     saved = np.random.get_state()
     try:
-        return _check_paired_ratio(fn, seed)
+        return _check_mse_ratio(fn, seed)
     finally:
         np.random.set_state(saved)
 
 
-def _check_paired_ratio(fn: Callable, seed: int) -> CheckReport:
-    """Check ``fn(a, b, n_boot, rng) -> (median, low, high)`` on :data:`RATIO_CASE`: the median exactly, the
+def _check_mse_ratio(fn: Callable, seed: int) -> CheckReport:
+    """Check ``fn(a, b, n_boot, rng) -> (ratio, low, high)`` on :data:`RATIO_CASE`: the ratio exactly, the
     interval with :data:`RATIO_BOOT` resamples within a fifth of its width of a reference with many (the
-    bootstrap's own noise is far smaller), and, with few resamples (whose quantiles move with the seed), that
-    every random number comes from ``rng``."""
+    bootstrap's own noise is far smaller), and that every random number comes from ``rng``."""
     from pfcourse.book.exercises.part1 import _generator_problem
 
-    report = CheckReport("paired ratio and its bootstrap interval")
+    report = CheckReport("ratio of mean squared errors and its bootstrap interval")
     a, b = RATIO_CASE
     answer = _answer(report, lambda: fn(a.copy(), b.copy(), RATIO_BOOT, np.random.default_rng(seed)),
-                     "fn(a, b, n_boot, rng)",
-                     "return (median, low, high)")
+                     "fn(a, b, n_boot, rng)", "return (ratio, low, high)")
     if answer is None:
         return report
     try:
         point, low, high = (float(v) for v in answer)
     except (TypeError, ValueError):
-        report.problems.append("the answer is not three numbers: return (median, low, high)")
+        report.problems.append("the answer is not three numbers: return (ratio, low, high)")
         return report
     if not low <= point <= high:
-        report.problems.append(f"the interval {low:.3g} to {high:.3g} does not contain the median {point:.3g}: "
-                               "return (median, low, high), low first")
+        report.problems.append(f"the interval {low:.3g} to {high:.3g} does not contain the ratio {point:.3g}: "
+                               "return (ratio, low, high), low first")
         return report
 
     def fits(mistake: str | None) -> bool:
-        ref = paired_ratio_reference(a, b, 20 * RATIO_BOOT, np.random.default_rng(12345), mistake)
+        ref = mse_ratio_reference(a, b, 20 * RATIO_BOOT, np.random.default_rng(12345), mistake)
         tol = 0.2 * (ref[2] - ref[1])
         return bool(np.isclose(point, ref[0], rtol=1e-9) and abs(low - ref[1]) <= tol and abs(high - ref[2]) <= tol)
 
     if not _settled(report, fits, RATIO_MISTAKES):
-        report.problems.append("the median or the interval differs from the median of the ratios a_r / b_r and the "
-                               "2.5 % and 97.5 % quantiles of the medians of bootstrap resamples of the runs")
+        report.problems.append("the ratio or the interval differs from mean(a^2) / mean(b^2) and the 2.5 % and "
+                               "97.5 % quantiles of that ratio over bootstrap resamples of the runs")
         return report
     if report.ok:
-        problem = _generator_problem(lambda rng: fn(a.copy(), b.copy(), 25, rng),
+        problem = _generator_problem(lambda rng: fn(a.copy(), b.copy(), 50, rng),
                                      lambda x, y: bool(np.allclose(np.asarray(x, float), np.asarray(y, float))),
                                      what="interval")
         if problem:
