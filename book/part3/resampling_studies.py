@@ -12,15 +12,14 @@
 # :::{admonition} In this chapter
 # :class: chapter-header
 # **You learn** how a particle filter decides *when* to resample (the effective sample size
-# against a threshold), and what the threshold and the scheme change, measured over many runs:
-# on the robot, where the posterior's spread dominates the error, any threshold that resamples
-# does the job and the schemes are alike; against an exact answer the filter's own error shows
-# the differences theory predicts. Claims made from single runs do not survive many runs.
+# against a threshold), and what the threshold and the scheme change over many runs: little on
+# the robot, whose error is mostly the posterior's own spread; against an exact answer, what
+# theory predicts.
 #
 # **You need** {doc}`robot_studies` (how a study is run and read), {doc}`../part1/sir` and
 # {doc}`../part1/resampling_schemes`.
 #
-# **Time:** about twelve minutes to read; the notebook runs in about twenty seconds.
+# **Time:** about fifteen minutes to read; the notebook runs in about twenty seconds.
 # :::
 #
 # ## The idea: resample when the weights say so
@@ -342,10 +341,13 @@ EvidenceBlock(
 #
 # The landmarks tell another story: at every threshold that resamples, their estimate stays
 # {glue:text}`lin_landmark_resampling_low:.3f`-{glue:text}`lin_landmark_resampling_high:.3f` m
-# (median) from the exact mean, no closer than without resampling: at $\tau = 1/3$ their distance
-# is {glue:text}`lin_landmark_third_vs_zero:.2f`
+# (median) from the exact mean, no closer than without resampling.
+#
+# Run by run, at $\tau = 1/3$ their distance is {glue:text}`lin_landmark_third_vs_zero:.2f`
 # ({glue:text}`lin_landmark_third_vs_zero_low:.2f`-{glue:text}`lin_landmark_third_vs_zero_high:.2f`)
-# times that at $\tau = 0$, run by run. They are static (their process noise is negligible), so once resampling has
+# times that at $\tau = 0$, run by run.
+#
+# They are static (their process noise is negligible), so once resampling has
 # duplicated particles their coordinates never diversify again. No threshold cures that, and no proposal does either: a
 # proposal moves only what the model moves. The cure is to take the landmarks out of the particles:
 # given the robot's path they are linear-Gaussian, so a Kalman filter per particle computes them

@@ -18,7 +18,7 @@
 #
 # **You need** {doc}`../part2/robot` and {doc}`../evidence` (the intervals and tests).
 #
-# **Time:** about twelve minutes to read; the notebook runs in about twenty seconds.
+# **Time:** about thirteen minutes to read; the notebook runs in about twenty seconds.
 # :::
 #
 # ## The idea: one question, many runs, the same worlds
@@ -288,8 +288,11 @@ EvidenceBlock(
 # %% [markdown]
 # The jerkier path is there: from the default to $100$ times $Q_\text{true}$ the jitter of the
 # estimated path grows from {glue:text}`q_jitter_2:.3f` to {glue:text}`q_jitter_100:.3f` m per step
-# (median), run by run by a factor {glue:text}`q_jitter_ratio_100:.1f`
-# ({glue:text}`q_jitter_ratio_100_low:.1f`-{glue:text}`q_jitter_ratio_100_high:.1f`).
+# (median).
+#
+# Run by run, the jitter at $100$ is {glue:text}`q_jitter_ratio_100:.1f`
+# ({glue:text}`q_jitter_ratio_100_low:.1f`-{glue:text}`q_jitter_ratio_100_high:.1f`) times that at
+# the default.
 #
 # The bracket from $1$ to $5$ is right on both sides, though the low side costs less accuracy than
 # confidence: no scale is measurably better than $2$, and at $0.5$ the RMSE is
@@ -363,8 +366,9 @@ EvidenceBlock(
 # %% [markdown]
 # The direction of these claims holds: at $100$ times the true variance the path is smoother
 # (jitter {glue:text}`r_dir_jitter:.2f` times the default's, run by run) and the cloud wider
-# (its standard deviation {glue:text}`r_dir_sd:.1f` times). But the filter
-# does **not** lose the robot: even at $100$ times the true variance its RMSE is
+# (its standard deviation {glue:text}`r_dir_sd:.1f` times).
+#
+# But the filter does **not** lose the robot: even at $100$ times the true variance its RMSE is
 # {glue:text}`r_ratio_100:.2f` ({glue:text}`r_ratio_100_low:.2f`-{glue:text}`r_ratio_100_high:.2f`)
 # times the default's, run by run. From a scale of $1$ up no difference is detected, and the data
 # exclude a factor beyond {glue:text}`r_detectable:.2f` either way. The landmarks are observed every second, and even a
@@ -452,8 +456,8 @@ control_panel(
 # (Coding.) The median of the per-run ratios ignores how large the errors are; another summary
 # of two settings is the ratio of their mean squared errors over the runs,
 # $\sum_r a_r^2 / \sum_r b_r^2$. Write `my_mse_ratio(a, b, n_boot, rng)`: for the errors `a` and
-# `b` of two settings on the same runs, return that ratio and its 95 % percentile bootstrap
-# interval from `n_boot` resamples of the runs. Draw every random number from `rng`. The checker
+# `b` of two settings on the same runs, return that ratio and the 95 % interval of a percentile
+# bootstrap with `n_boot` resamples of the runs. Draw every random number from `rng`. The checker
 # compares your interval with one from many resamples, checks the generator, and names the
 # mistake it sees.
 # ```

@@ -18,7 +18,7 @@
 #
 # **You need** {doc}`robot_studies` (how a study is run and read) and {doc}`../part2/robot`.
 #
-# **Time:** about fourteen minutes to read; the notebook runs in about fifteen seconds.
+# **Time:** about fifteen minutes to read; the notebook runs in about fifteen seconds.
 # :::
 #
 # ## The idea: prediction spreads, measurement gathers

@@ -118,7 +118,7 @@ def adaptive_residual(particles: np.ndarray, log_w: np.ndarray, tau: float, rng:
 
 def _adaptive_cases() -> dict[str, tuple[np.ndarray, float]]:
     """Log-weights and thresholds: kept (ESS at or above tau N) and resampled (ESS below it)."""
-    uneven = np.log(np.array([3.9, 1.4, 1.3, 1.2, 0.6, 0.5, 0.5, 0.3, 0.2, 0.1]) / 10) + 700.0  # ESS ~ 4.7
+    uneven = np.log(np.array([3.9, 1.4, 1.3, 1.2, 0.6, 0.5, 0.5, 0.3, 0.2, 0.1]) / 10) + 800.0  # ESS ~ 4.7; exp overflows
     mild = np.log(np.linspace(1.0, 2.0, 10))  # ESS ~ 9.6
     return {"keep_low_tau": (uneven, 0.3), "keep_mild": (mild, 0.9), "keep_zero": (uneven, 0.0),
             "resample": (uneven, 0.5), "resample_mild": (mild, 1.0)}
