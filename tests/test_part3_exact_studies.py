@@ -125,4 +125,5 @@ def test_each_time_to_lock_mistake_is_named(mistake):
 
 def test_an_unknown_time_to_lock_mistake_names_the_run():
     assert "run 1 " in check_time_to_lock(lambda p, h, dt: 0.0).problems[0]
+    assert "None for every run" in check_time_to_lock(lambda p, h, dt: None).problems[0]
     assert "not a time" in check_time_to_lock(lambda p, h, dt: "soon").problems[0]

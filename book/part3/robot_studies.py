@@ -480,8 +480,9 @@ print(check_mse_ratio(my_mse_ratio))
 # each time; the code is in the folded cell below (in JupyterLab, click its margin to unfold
 # it). On the particle study, $1000$ against $300$ particles, the ratio of mean squared errors
 # is {glue:text}`n_mse_ratio_1000:.2f`
-# ({glue:text}`n_mse_ratio_1000_low:.2f`-{glue:text}`n_mse_ratio_1000_high:.2f`). It is about the
-# square of the median ratio, {glue:text}`n_ratio_1000:.2f`, since it compares squared errors.
+# ({glue:text}`n_mse_ratio_1000_low:.2f`-{glue:text}`n_mse_ratio_1000_high:.2f`), further below $1$
+# than the median ratio, {glue:text}`n_ratio_1000:.2f`: it squares the errors and so weighs most
+# the runs where they are largest.
 # ```
 
 # %% tags=["solution", "hide-input"] jupyter={"source_hidden": true}
