@@ -345,7 +345,7 @@ EvidenceBlock(
 #
 # Run by run, at $\tau = 1/3$ their distance is {glue:text}`lin_landmark_third_vs_zero:.2f`
 # ({glue:text}`lin_landmark_third_vs_zero_low:.2f`-{glue:text}`lin_landmark_third_vs_zero_high:.2f`)
-# times that at $\tau = 0$, run by run.
+# times that at $\tau = 0$.
 #
 # They are static (their process noise is negligible), so once resampling has
 # duplicated particles their coordinates never diversify again. No threshold cures that, and no proposal does either: a
