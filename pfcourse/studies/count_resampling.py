@@ -19,6 +19,7 @@ import numpy as np
 from scipy.special import logsumexp
 
 from pfcourse.errors import ParameterError
+from pfcourse.metrics import rmse
 from pfcourse.resampling import get_resampler
 
 PHI, SIGMA, MU = 0.95, 0.3, 1.0
@@ -98,7 +99,7 @@ def row(seed: int, scheme: str, tau: float, n_particles: int = N_PARTICLES) -> d
     """One run: RMS over the 50 steps of the filter's mean minus the exact mean, and its resamplings."""
     y, exact = _data_and_exact()
     means, resamples = bootstrap_means(y, n_particles, tau, scheme, np.random.default_rng(seed))
-    return {"rmse": float(np.sqrt(np.mean((means - exact) ** 2))), "resamples": resamples}
+    return {"rmse": float(rmse(means - exact)), "resamples": resamples}
 
 
 # ----------------------------------------------------------------------------------------------------------------
