@@ -18,7 +18,7 @@
 #
 # **You need** {doc}`robot_studies` (how a study is run and read) and {doc}`../part2/robot`.
 #
-# **Time:** about fifteen minutes to read; the notebook runs in about fifteen seconds.
+# **Time:** about sixteen minutes to read; the notebook runs in about fifteen seconds.
 # :::
 #
 # ## The idea: prediction spreads, measurement gathers
@@ -174,14 +174,18 @@ import numpy as np
 
 
 def is_locked_on(pos_err, head_err, dt, window_s=20.0):
-    """Algorithm 22.1: within 1 m and 5 degrees at every step of the last window_s seconds."""
+    """Algorithm 22.1: within 1 m and 5 degrees over the last window_s."""
+    # the window in steps (all of the run if it is shorter)
     w = min(len(pos_err), int(np.ceil(window_s / dt - 1e-9)))
-    return bool(np.all((pos_err[-w:] < 1.0) & (head_err[-w:] < np.deg2rad(5.0))))
+    within = (pos_err[-w:] < 1.0) & (head_err[-w:] < np.deg2rad(5.0))
+    return bool(np.all(within))
 
 
 # a run of 60 s, 3 m off until t = 45 s: locked on over the last 10 s, not 20 s
-pos_err, head_err = np.where(np.arange(60) < 45, 3.0, 0.2), np.full(60, 0.01)
-print(is_locked_on(pos_err, head_err, 1.0, 10.0), is_locked_on(pos_err, head_err, 1.0))
+pos_err = np.where(np.arange(60) < 45, 3.0, 0.2)
+head_err = np.full(60, 0.01)
+last_10_s = is_locked_on(pos_err, head_err, 1.0, 10.0)
+print(last_10_s, is_locked_on(pos_err, head_err, 1.0))
 
 # %% [markdown]
 # ## A gap in the measurements
