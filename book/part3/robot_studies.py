@@ -18,7 +18,7 @@
 #
 # **You need** {doc}`../part2/robot` and {doc}`../evidence` (the intervals and tests).
 #
-# **Time:** about twelve minutes to read; the notebook runs in about twenty seconds.
+# **Time:** about thirteen minutes to read; the notebook runs in about twenty seconds.
 # :::
 #
 # ## The idea: one question, many runs, the same worlds
@@ -67,7 +67,6 @@ from matplotlib.animation import FuncAnimation
 from myst_nb import glue
 
 from pfcourse import evidence
-from pfcourse.book.exercises import check_paired_se
 from pfcourse.studies.registry import robot_study
 from pfcourse.studies.robot_studies import BURN_IN, N_RUNS, N_STEPS
 from pfcourse.studies.study import summarize
@@ -198,13 +197,17 @@ EvidenceBlock(
 # The error falls steeply from $20$ to $50$ particles and by smaller, still measurable steps
 # after that. Paired run by run with $300$ particles, $1000$ give {glue:text}`n_ratio_1000:.2f`
 # ({glue:text}`n_ratio_1000_low:.2f`-{glue:text}`n_ratio_1000_high:.2f`) times the RMSE:
-# more than tripling the cloud buys a measurable but small gain. The error does not tend to zero: it
-# tends to the error of the exact posterior mean, which no number of particles can beat.
+# more than tripling the cloud buys a measurable but small gain. The error does not tend to zero:
+# as $N$ grows the filter tends to the posterior mean of the model it assumes (twice the true
+# noise variances), whose error is no smaller than that of the exact posterior mean, and no
+# number of particles beats that one.
 #
 # The NEES shows what the RMSE hides. With $20$ particles the filter is badly over-confident (median
 # NEES {glue:text}`n_nees_20:.0f`, against $3$ for a consistent filter): a small cloud does not know
 # what it does not know. From $300$ particles on the median NEES is below $3$
-# ({glue:text}`n_nees_300:.1f`), as a filter that assumes twice the true noise variances should show.
+# ({glue:text}`n_nees_1000:.2f` at $1000$), near the $3/2$ that a filter assuming twice the true
+# noise variances should show: in a linear-Gaussian model, doubling $Q$ and $R$ leaves the
+# Kalman gain and mean unchanged and doubles the covariance, which halves the NEES.
 #
 # ## The process noise the filter assumes ($Q_\text{est}$)
 #
@@ -253,6 +256,10 @@ assert median(q_table, "q_scale", "position_rmse").idxmin() == 2  # "the default
 glue_summary(q_table, "q_scale", "mean_nees", "q_nees")
 glue_summary(q_table, "q_scale", "estimate_jitter", "q_jitter")
 glue_values("q_ratio_0.5", **{"": q_vs[0.5].median, "_low": q_vs[0.5].low, "_high": q_vs[0.5].high})
+q_jitter = q_table.pivot(index="run", columns="q_scale", values="estimate_jitter")
+q_jitter_vs = evidence.paired(q_jitter[100], q_jitter[2], ratio=True)
+assert q_jitter_vs.verdict() == "A higher"  # the prose: a jerkier path
+glue_values("q_jitter_ratio_100", **{"": q_jitter_vs.median, "_low": q_jitter_vs.low, "_high": q_jitter_vs.high})
 
 
 def scale_tables(table, key, vs, holm):
@@ -273,13 +280,19 @@ EvidenceBlock(
     notes=[f"{N_RUNS} runs per scale on the same seeds (stored study robot_studies/q_scale).",
            "The six scales against the default are one family: a verdict needs the interval to exclude 1 and the "
            "Holm-adjusted p below 0.05 (pfcourse.evidence.holm_verdicts). 'Excluded beyond': the factor beyond which "
-           "the interval excludes the ratio, either way."],
+           "the interval excludes the ratio, either way.",
+           f"Jitter of the estimated path at 100 against 2, run by run: {q_jitter_vs}."],
     tables=scale_tables(q_table, "q_scale", q_vs, q_holm),
 )
 
 # %% [markdown]
 # The jerkier path is there: from the default to $100$ times $Q_\text{true}$ the jitter of the
-# estimated path grows from {glue:text}`q_jitter_2:.3f` to {glue:text}`q_jitter_100:.3f` m per step.
+# estimated path grows from {glue:text}`q_jitter_2:.3f` to {glue:text}`q_jitter_100:.3f` m per step
+# (median).
+#
+# Run by run, the jitter at $100$ is {glue:text}`q_jitter_ratio_100:.1f`
+# ({glue:text}`q_jitter_ratio_100_low:.1f`-{glue:text}`q_jitter_ratio_100_high:.1f`) times that at
+# the default.
 #
 # The bracket from $1$ to $5$ is right on both sides, though the low side costs less accuracy than
 # confidence: no scale is measurably better than $2$, and at $0.5$ the RMSE is
@@ -334,18 +347,28 @@ r_holm = evidence.holm_verdicts(r_vs)  # the six scales against the default: one
 assert [r for r, (v, _) in r_holm.items() if v != "no difference detected"] == [0.25, 0.5]
 assert all(r_holm[r][0] == "A higher" for r in (0.25, 0.5))
 glue_summary(r_table, "r_scale", "mean_nees", "r_nees")
+r_runs = {m: r_table.pivot(index="run", columns="r_scale", values=m) for m in ("estimate_jitter", "mean_position_sd")}
+r_dir = {m: evidence.paired(t[100], t[2], ratio=True) for m, t in r_runs.items()}
+# the prose: at 100 a smoother path and a wider cloud than at the default
+assert r_dir["estimate_jitter"].verdict() == "A lower" and r_dir["mean_position_sd"].verdict() == "A higher"
+glue_values("r_dir_", jitter=r_dir["estimate_jitter"].median, sd=r_dir["mean_position_sd"].median)
 glue_values("r_", detectable=max(c.detectable for r, c in r_vs.items() if r >= 1), ratio_100=r_vs[100].median,
             ratio_100_low=r_vs[100].low, ratio_100_high=r_vs[100].high)
 EvidenceBlock(
     "the filter does not lose the robot at any R_est scale; a wrong scale spoils its covariance more than its accuracy",
     notes=[f"{N_RUNS} runs per scale on the same seeds (stored study robot_studies/r_scale).",
-           "The six scales against the default are one family: verdicts from Holm-adjusted p-values, as above."],
+           "The six scales against the default are one family: verdicts from Holm-adjusted p-values, as above.",
+           f"At 100 against 2, run by run: jitter of the path {r_dir['estimate_jitter']}; the filter's own "
+           f"position sd {r_dir['mean_position_sd']}."],
     tables=scale_tables(r_table, "r_scale", r_vs, r_holm),
 )
 
 # %% [markdown]
-# The direction of these claims holds (a smoother path, a wider covariance), but the filter
-# does **not** lose the robot: even at $100$ times the true variance its RMSE is
+# The direction of these claims holds: at $100$ times the true variance the path is smoother
+# (jitter {glue:text}`r_dir_jitter:.2f` times the default's, run by run) and the cloud wider
+# (its standard deviation {glue:text}`r_dir_sd:.1f` times).
+#
+# But the filter does **not** lose the robot: even at $100$ times the true variance its RMSE is
 # {glue:text}`r_ratio_100:.2f` ({glue:text}`r_ratio_100_low:.2f`-{glue:text}`r_ratio_100_high:.2f`)
 # times the default's, run by run. From a scale of $1$ up no difference is detected, and the data
 # exclude a factor beyond {glue:text}`r_detectable:.2f` either way. The landmarks are observed every second, and even a
@@ -427,42 +450,55 @@ control_panel(
 # %% [markdown]
 # ## Exercises
 #
-# ```{exercise} 20.1 What pairing buys, computed and checked
+# ```{exercise} 20.1 Another paired statistic: the ratio of mean squared errors
 # :label: ex-studies-se
 # :nonumber:
-# (Coding.) Write `my_se(a, b)`: for the errors `a` and `b` of two settings on the same runs (arrays of
-# equal length), return the standard error of `a.mean() - b.mean()` computed from the paired
-# differences, and the one you would compute if the two settings had been run on independent runs,
-# both with sample standard deviations. The checker runs it on two settings whose runs share their
-# worlds, and names the mistake it sees.
+# (Coding.) The median of the per-run ratios ignores how large the errors are; another summary
+# of two settings is the ratio of their mean squared errors over the runs,
+# $\sum_r a_r^2 / \sum_r b_r^2$. Write `my_mse_ratio(a, b, n_boot, rng)`: for the errors `a` and
+# `b` of two settings on the same runs, return that ratio and the 95 % interval of a percentile
+# bootstrap with `n_boot` resamples of the runs. Draw every random number from `rng`. The checker
+# compares your interval with one from many resamples, checks the generator, and names the
+# mistake it sees.
 # ```
 
 # %% tags=["answer"]
-from pfcourse.book.exercises import check_paired_se
+from pfcourse.book.exercises import check_mse_ratio
 
 
-def my_se(a, b):
-    """Your (paired_se, unpaired_se)."""
+def my_mse_ratio(a, b, n_boot, rng):
+    """Your (ratio, low, high)."""
     ...  # replace with your code
 
 
-print(check_paired_se(my_se))
+print(check_mse_ratio(my_mse_ratio))
 
 # %% [markdown]
 # ```{solution} ex-studies-se
 # :class: dropdown
-# The two formulas of "The idea"; the code is in the folded cell below (in JupyterLab, click its
-# margin to unfold it). On the check's runs the paired standard error is several times smaller: an
-# unpaired study would need the square of that factor more runs for the same precision.
+# Resample the runs, each run's two errors together, and recompute the ratio of the two means
+# each time; the code is in the folded cell below (in JupyterLab, click its margin to unfold
+# it). On the particle study, $1000$ against $300$ particles, the ratio of mean squared errors
+# is {glue:text}`n_mse_ratio_1000:.2f`
+# ({glue:text}`n_mse_ratio_1000_low:.2f`-{glue:text}`n_mse_ratio_1000_high:.2f`), further below $1$
+# than the median ratio, {glue:text}`n_ratio_1000:.2f`: it squares the errors and so weighs most
+# the runs where they are largest.
 # ```
 
 # %% tags=["solution", "hide-input"] jupyter={"source_hidden": true}
-def my_se(a, b):
-    n = len(a)
-    return np.std(a - b, ddof=1) / np.sqrt(n), np.sqrt((np.var(a, ddof=1) + np.var(b, ddof=1)) / n)
+def my_mse_ratio(a, b, n_boot, rng):
+    a, b = np.asarray(a), np.asarray(b)
+    ratio = np.mean(a**2) / np.mean(b**2)
+    # each row: one resample of the runs, a run's a and b together
+    rows = rng.integers(0, len(a), (n_boot, len(a)))
+    boot = np.mean(a[rows] ** 2, axis=1) / np.mean(b[rows] ** 2, axis=1)
+    low, high = np.quantile(boot, [0.025, 0.975])
+    return ratio, low, high
 
 
-print(check_paired_se(my_se))
+print(check_mse_ratio(my_mse_ratio))
+mse_1000 = my_mse_ratio(n_by_run[1000], n_by_run[300], 2000, np.random.default_rng(0))
+glue_values("n_mse_ratio_1000", **{"": mse_1000[0], "_low": mse_1000[1], "_high": mse_1000[2]})
 
 # %% [markdown]
 # ```{exercise} 20.2 Particles or measurements?
@@ -483,10 +519,9 @@ print(check_paired_se(my_se))
 # to {glue:text}`dt_rmse_2:.3f` m, on the $200$ s runs of that study; interval
 # {glue:text}`budget_dt_loss_low:.3f`-{glue:text}`budget_dt_loss_high:.3f` m). The loss exceeds
 # the gain by {glue:text}`budget_excess_low:.3f`-{glue:text}`budget_excess_high:.3f` m (the
-# runs of both studies share their seeds and are resampled together; printed with the
-# summary panel). With $300$ particles the
-# error of this filter is dominated by what the data can tell (the spread of the exact
-# posterior), not by the Monte Carlo error of the cloud. More particles still help measurably
+# runs of both studies share their seeds and are resampled together). With $300$ particles the
+# error of this filter is dominated by what the data can tell (the spread of the posterior it
+# computes), not by the Monte Carlo error of the cloud. More particles still help measurably
 # above $300$ ($1000$ give {glue:text}`n_ratio_1000:.2f` times the RMSE, run by run), but by little;
 # they matter much more once the cloud is too small to represent the posterior (below about $100$
 # particles here, where the NEES shoots up).

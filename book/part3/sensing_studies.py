@@ -12,13 +12,13 @@
 # :::{admonition} In this chapter
 # :class: chapter-header
 # **You learn** what the measurements buy a particle filter: how its error and its own
-# uncertainty grow without them (a gap, a longer period), why more landmarks help through their
-# directions rather than their number, and what knowing the start is worth; and the book's one
-# test of whether a run has *locked on*.
+# uncertainty grow without them (a gap, a longer period), how many landmarks the filter needs
+# and what more of them still buy, and what knowing the start is worth; and the book's one test
+# of whether a run has *locked on*.
 #
 # **You need** {doc}`robot_studies` (how a study is run and read) and {doc}`../part2/robot`.
 #
-# **Time:** about fourteen minutes to read; the notebook runs in about fifteen seconds.
+# **Time:** about sixteen minutes to read; the notebook runs in about fifteen seconds.
 # :::
 #
 # ## The idea: prediction spreads, measurement gathers
@@ -43,7 +43,6 @@ import pandas as pd
 from myst_nb import glue
 
 from pfcourse import evidence
-from pfcourse.book.exercises import check_lock_on
 from pfcourse.studies.registry import robot_study
 from pfcourse.studies.robot_studies import N_RUNS
 from pfcourse.studies.study import summarize
@@ -168,7 +167,25 @@ control_panel(
 # 2. Locked on if $e^p_k < 1$ m and $e^\theta_k < 5°$ for every $k$ among the last $W$ steps.
 # :::
 #
-# Writing it in NumPy is {ref}`exercise 22.1 <ex-sensing-lock>`.
+# In NumPy (when a run locks on *for good* is {ref}`exercise 22.1 <ex-sensing-lock>`):
+
+# %%
+import numpy as np
+
+
+def is_locked_on(pos_err, head_err, dt, window_s=20.0):
+    """Algorithm 22.1: within 1 m and 5 degrees over the last window_s."""
+    # the window in steps (all of the run if it is shorter)
+    w = min(len(pos_err), int(np.ceil(window_s / dt - 1e-9)))
+    within = (pos_err[-w:] < 1.0) & (head_err[-w:] < np.deg2rad(5.0))
+    return bool(np.all(within))
+
+
+# a run of 60 s, 3 m off until t = 45 s: locked on over the last 10 s, not 20 s
+pos_err = np.where(np.arange(60) < 45, 3.0, 0.2)
+head_err = np.full(60, 0.01)
+last_10_s = is_locked_on(pos_err, head_err, 1.0, 10.0)
+print(last_10_s, is_locked_on(pos_err, head_err, 1.0))
 
 # %% [markdown]
 # ## A gap in the measurements
@@ -371,6 +388,9 @@ q90 = {m: evidence.run_interval(lambda r, x=x: np.quantile(x[r], 0.9), x.size) f
 q90_gain = evidence.run_interval(lambda r: np.quantile(rmse_by_m[3][r], 0.9) - np.quantile(rmse_by_m[30][r], 0.9),
                                  len(by_run))
 assert q90_gain[1] > 0  # the prose: the 90 % quantile is measurably lower with 30 landmarks
+lm_one_two = evidence.paired(by_run[1], by_run[2], ratio=True)
+assert lm_one_two.verdict() == "A higher"  # the prose: the big step is from one landmark to two
+glue_values("lm_ratio_1_2", **{"": lm_one_two.median, "_low": lm_one_two.low, "_high": lm_one_two.high})
 glue_values("lm_", rmse_1=lm_medians[1], rmse_2=lm_medians[2], ratio_2=lm_vs[2].median, ratio_2_low=lm_vs[2].low,
             ratio_2_high=lm_vs[2].high, detectable=max(lm_vs[m].detectable for m in (5, 10, 30)),
             q90_gain=q90_gain[0], q90_gain_low=q90_gain[1], q90_gain_high=q90_gain[2])
@@ -380,6 +400,7 @@ EvidenceBlock(
            "number against 3 is one family: verdicts from Holm-adjusted p-values (pfcourse.evidence.holm_verdicts); "
            "'excluded beyond': the factor beyond which the 95 % interval excludes the ratio, either way.",
            f"Runs with an RMSE above {BAD_RUN} m, 3 landmarks against 30: {bad_runs}.",
+           f"Position RMSE, 1 landmark against 2, run by run: {lm_one_two}.",
            f"90 % quantile of the RMSE, 3 minus 30 landmarks on the same runs: {q90_gain[0]:.3f} m, 95 % bootstrap "
            f"interval {q90_gain[1]:.3f} to {q90_gain[2]:.3f} m."],
     tables=[("Medians and 90 % quantiles over the runs", pd.concat(
@@ -399,6 +420,9 @@ EvidenceBlock(
 # The big step is from one landmark to two: the median RMSE falls from {glue:text}`lm_rmse_1:.2f` m
 # to {glue:text}`lm_rmse_2:.2f` m.
 #
+# Run by run, one landmark gives {glue:text}`lm_ratio_1_2:.2f`
+# ({glue:text}`lm_ratio_1_2_low:.2f`-{glue:text}`lm_ratio_1_2_high:.2f`) times the error of two.
+#
 # Two landmarks still give {glue:text}`lm_ratio_2:.2f`
 # ({glue:text}`lm_ratio_2_low:.2f`-{glue:text}`lm_ratio_2_high:.2f`) times the error of three,
 # run by run.
@@ -409,9 +433,9 @@ EvidenceBlock(
 # {glue:text}`lm_q90_gain:.3f` m ({glue:text}`lm_q90_gain_low:.3f`-{glue:text}`lm_q90_gain_high:.3f` m)
 # from three landmarks to thirty.
 #
-# The sharp step between $2$ and $3$ landmarks has a simple cause. The code behind it draws the landmark to
-# observe with `np.random.randint(0, nLandmarks - 1)`, whose upper bound is *excluded*: the last
-# landmark is never observed.
+# The lab's own runs put the sharp step between $2$ and $3$ landmarks instead, for a simple
+# reason: its code draws the landmark to observe with `np.random.randint(0, nLandmarks - 1)`,
+# whose upper bound is *excluded*, so the last landmark is never observed.
 
 # %%
 legacy = np.random.RandomState(123456)
@@ -421,7 +445,7 @@ for m in (2, 3, 5):
     print(f"nLandmarks = {m}: landmarks ever observed {seen} of {all_}")
 
 # %% [markdown]
-# So its "$2$ landmarks" is one landmark seen and its "$3$" is two: its jump is our jump
+# So the lab's "$2$ landmarks" is one landmark seen and its "$3$" is two: its jump is our jump
 # from one to two, once the off-by-one is accounted for.
 #
 # ## Good or uniform initialization
@@ -471,53 +495,63 @@ EvidenceBlock(
 # {glue:text}`init_locked_uniform_1000:d` of them (a share of at most
 # {glue:text}`init_locked_uniform_1000_high:.0%` of all such runs, with 95 % confidence).
 #
-# The other runs end a median {glue:text}`init_final_uniform_1000:.0f` m off, on a cluster of
+# The runs from the uniform start end a median {glue:text}`init_final_uniform_1000:.0f` m off, on a cluster of
 # particles that fits the measurements of a few seconds but not the truth. That is the
 # *bootstrap* filter's limit, not the particle filter's: {doc}`../part2/global_localization`
 # measures the cure, a proposal that samples part of the cloud from the measurement itself.
 #
 # ## Exercises
 #
-# ```{exercise} 22.1 Locked on, written and checked
+# ```{exercise} 22.1 When does a run lock on for good?
 # :label: ex-sensing-lock
 # :nonumber:
-# (Coding.) Write `my_lock(pos_err, head_err, dt, window_s)`: `True` when the run whose per-step
-# position errors (m) and heading errors (rad) are given is within $1$ m and $5°$ (strictly) at
-# every step of its last `window_s` seconds, the step being `dt` seconds. The checker tries runs
-# that are off only a little before the window, off only in heading, and with a step of half a
-# second, and names the mistake it sees.
+# (Coding.) Algorithm 22.1 judges the end of a run. Write `my_time_to_lock(pos_err, head_err, dt)`:
+# the time in seconds (step $k$ is at $k\,\Delta t$) of the first step from which the run stays
+# strictly within $1$ m and $5°$ to its end, or `None` if its last step is not within them. The
+# checker tries runs that enter the tolerances and leave them again, sit exactly on a tolerance,
+# are off only in heading, and have a step of half a second, and names the mistake it sees.
 # ```
 
 # %% tags=["answer"]
-from pfcourse.book.exercises import check_lock_on
+from pfcourse.book.exercises import check_time_to_lock
 
 
-def my_lock(pos_err, head_err, dt, window_s):
-    """Your Algorithm 22.1: True or False."""
+def my_time_to_lock(pos_err, head_err, dt):
+    """Your time (s) from which the run stays locked on, or None."""
     ...  # replace with your code
 
 
-print(check_lock_on(my_lock))
+print(check_time_to_lock(my_time_to_lock))
 
 # %% [markdown]
 # ```{solution} ex-sensing-lock
 # :class: dropdown
-# Algorithm 22.1 with the window as a parameter; the code is in the folded cell below (in
-# JupyterLab, click its margin to unfold it). The book's own version, `pfcourse.metrics.locked_on`,
-# gives the same verdict on every run of the initialization study.
+# Find the last step outside the tolerances; the run locks on at the step after it. The code is
+# in the folded cell below (in JupyterLab, click its margin to unfold it). A run of $T$ steps is
+# then locked on over its last $w$ seconds exactly when its time to lock is at most
+# $T\,\Delta t - w$; on every run of the initialization study the two agree.
 # ```
 
 # %% tags=["solution", "hide-input"] jupyter={"source_hidden": true}
-def my_lock(pos_err, head_err, dt, window_s):
-    window = min(len(pos_err), int(np.ceil(window_s / dt - 1e-9)))
-    return bool(np.all((pos_err[-window:] < 1.0) & (head_err[-window:] < np.deg2rad(5.0))))
+def my_time_to_lock(pos_err, head_err, dt):
+    within = (pos_err < 1.0) & (head_err < np.deg2rad(5.0))
+    if not within[-1]:
+        return None
+    outside = np.flatnonzero(~within)
+    first = 0 if outside.size == 0 else outside[-1] + 1
+    return float(first * dt)
 
 
-print(check_lock_on(my_lock))
+print(check_time_to_lock(my_time_to_lock))
 
 # %% tags=["remove-input"] jupyter={"source_hidden": true}
 ok_runs = init_table[init_table["status"] == "ok"]
-assert [my_lock(p, h, 1.0, 20.0) for p, h in zip(ok_runs["position_error"], ok_runs["heading_error"])] == [
+lock_times = [my_time_to_lock(p, h, 1.0) for p, h in zip(ok_runs["position_error"], ok_runs["heading_error"])]
+# Algorithm 22.1 as printed gives the package's verdict on every run
+assert [is_locked_on(p, h, 1.0) for p, h in zip(ok_runs["position_error"], ok_runs["heading_error"])] == [
+    locked_on(p, h, dt=1.0) for p, h in zip(ok_runs["position_error"], ok_runs["heading_error"])]
+# the solution: locked on over the last 20 s exactly when the time to lock is at most T dt - 20
+assert [t is not None and t <= len(p) - 20.0 for t, p in zip(lock_times, ok_runs["position_error"])] == [
     locked_on(p, h, dt=1.0) for p, h in zip(ok_runs["position_error"], ok_runs["heading_error"])]
 
 # %% [markdown]
@@ -546,7 +580,8 @@ assert [my_lock(p, h, 1.0, 20.0) for p, h in zip(ok_runs["position_error"], ok_r
 # - Without measurements a filter only predicts, and its cloud (and its error) spreads; the filter
 #   knows it, since its own standard deviation grows too.
 # - A bearing fixes the heading at once; ranges fix the position direction by direction, so the
-#   position takes longer to recover and more landmarks help through their directions.
+#   position takes longer to recover. From three landmarks on, more landmarks no longer change
+#   the typical error; they cut the bad runs.
 # - A run is locked on when it stays within $1$ m and $5°$ of the truth over its last $20$ s:
 #   the book's one definition.
 # - Not knowing the start costs the bootstrap filter most of its runs; the cure is a proposal

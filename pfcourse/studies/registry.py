@@ -48,7 +48,7 @@ import pandas as pd
 
 from pfcourse.errors import ParameterError, StepError
 from pfcourse.filter_config import records
-from pfcourse.studies import association, comparison, global_localization, intel, map_global
+from pfcourse.studies import association, comparison, count_resampling, global_localization, intel, map_global
 from pfcourse.studies import likelihood_studies as ls
 from pfcourse.studies import part1_studies
 from pfcourse.studies import static_parameters_study as sps
@@ -316,6 +316,23 @@ STUDIES: dict[str, Study] = {study.name: study for study in [
                   "filter": f"bootstrap, threshold 1, N = {why_it_works.RESAMPLING_N}, multinomial or systematic",
                   "seeds": "filter seed r = 0, 1, ..., the same for both schemes"}),
     *(_robot_study(name, grid, options) for name, (grid, options) in robot_studies.STUDIES.items()),
+    Study(name="count_resampling", row=count_resampling.row, grid=count_resampling.GRID,
+          n_runs=count_resampling.N_RUNS, seeds="run", failures="raise", table="count_resampling.csv",
+          provenance="count_resampling.json", columns=("scheme", "tau", "seed", "rmse", "resamples"), sample=4,
+          row_code="pfcourse/studies/count_resampling.py (row)",
+          fields={"model": "Part III capstone's counts: phi 0.95, sigma 0.3, mu 1, 50 counts from default_rng(2027)",
+                  "exact": "filtering means on a 1601-point grid (count_resampling.exact_means)",
+                  "filter": f"bootstrap, N = {count_resampling.N_PARTICLES}, resample when ESS < tau N",
+                  "seeds": "run r: numpy.random.default_rng(r), the same for every scheme and tau"}),
+    Study(name="linear_n", row=count_resampling.linear_row, grid=count_resampling.LINEAR_GRID,
+          n_runs=count_resampling.LINEAR_RUNS, seeds="run", failures="raise", table="linear_n.csv",
+          provenance="linear_n.json", columns=("landmark_noise", "n_particles", "seed", "robot_gap", "landmark_gap"),
+          cheap=lambda t: t["n_particles"] <= 100, sample=3,
+          row_code="pfcourse/studies/count_resampling.py (linear_row)",
+          fields={"model": "Part I's two-landmark linear model (quadrant_scenario), 50 steps; landmark_noise: "
+                           "process-noise variance of each landmark coordinate in the simulator and the filter",
+                  "exact": "Kalman filter means", "filter": f"bootstrap, threshold {count_resampling.LINEAR_THRESHOLD}",
+                  "seeds": "run r: simulate(scenario, r), filter stream pfcourse.seeding.filter_rng(0, r), every N"}),
     *(_likelihood_study(name, row, {"n_particles": n}, runs, seed, columns=("n_particles", "run", "seed", "status", "error", *metrics), **options)
       for name, row, n, runs, seed, metrics, options in [
           ("bias", ls.bias_run, ls.N_BIAS, ls.N_BIAS_RUNS, ls.BIAS_SEED, ["log_ratio"], {"sample": 3}),

@@ -138,6 +138,13 @@ exception is reported as a problem); ``str(report)`` prints the verdict.
   ``k`` beams drawn at random among a scan's echoes, the same for every pose (the real robot's chapter,
   :mod:`.real_robot`); the beams summed are solved for, the generator is checked, and the mistakes of
   :data:`RANDOM_BEAM_MISTAKES` are named.
+* :func:`check_mse_ratio` - ``fn(a, b, n_boot, rng) -> (ratio, low, high)``: the ratio of two settings' mean
+  squared errors over the same runs and its 95 % percentile bootstrap interval (chapter 20's coding exercise);
+  the ratio reversed, the chapter's median of ratios, the RMSE ratio, the mean of per-run ratios, the runs' own
+  quantiles and an unpaired bootstrap are named, and the generator is checked.
+* :func:`check_time_to_lock` - ``fn(pos_err, head_err, dt) -> float or None``: the time from which a run stays
+  locked on to its end (chapter 22's coding exercise); the first entry, a step number, ``<=``, the heading
+  ignored and the last step outside are named.
 * :func:`check_paired_se` - ``fn(a, b) -> (paired_se, unpaired_se)``: the standard error of a difference of
   means over the same runs, paired and as if unpaired (chapter 20); the population standard deviation,
   a division by ``n``, standard deviations added and the pairing ignored are named.
@@ -329,6 +336,14 @@ from pfcourse.book.exercises.part3 import (  # noqa: F401
     lock_on_cases,
     lock_on_reference,
     paired_standard_errors,
+    RATIO_CASE,
+    RATIO_MISTAKES,
+    TIME_TO_LOCK_MISTAKES,
+    check_mse_ratio,
+    check_time_to_lock,
+    mse_ratio_reference,
+    time_to_lock_cases,
+    time_to_lock_reference,
 )
 from pfcourse.book.exercises.capstones import (  # noqa: F401  (Part III's capstone)
     CountModel,

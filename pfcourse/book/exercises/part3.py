@@ -1,4 +1,4 @@
-"""Checkers of Part III (parameter studies: chapters 17-19)."""
+"""Checkers of Part III (parameter studies: chapters 20-22)."""
 
 from __future__ import annotations
 
@@ -118,7 +118,7 @@ def adaptive_residual(particles: np.ndarray, log_w: np.ndarray, tau: float, rng:
 
 def _adaptive_cases() -> dict[str, tuple[np.ndarray, float]]:
     """Log-weights and thresholds: kept (ESS at or above tau N) and resampled (ESS below it)."""
-    uneven = np.log(np.array([3.9, 1.4, 1.3, 1.2, 0.6, 0.5, 0.5, 0.3, 0.2, 0.1]) / 10) + 700.0  # ESS ~ 4.7
+    uneven = np.log(np.array([3.9, 1.4, 1.3, 1.2, 0.6, 0.5, 0.5, 0.3, 0.2, 0.1]) / 10) + 800.0  # ESS ~ 4.7; exp overflows
     mild = np.log(np.linspace(1.0, 2.0, 10))  # ESS ~ 9.6
     return {"keep_low_tau": (uneven, 0.3), "keep_mild": (mild, 0.9), "keep_zero": (uneven, 0.0),
             "resample": (uneven, 0.5), "resample_mild": (mild, 1.0)}
@@ -277,6 +277,212 @@ def check_lock_on(fn: Callable) -> CheckReport:
     wrong = next(i for i, (a, (p, h, dt)) in enumerate(zip(answers, lock_on_cases())) if a != lock_on_reference(p, h, dt))
     report.problems.append(f"run {wrong + 1} of the checker's runs gets the wrong verdict: within 1 m and 5 degrees "
                            "(strictly) at every step of the last ceil(window_s / dt) steps")
+    return report
+
+
+# --- chapter 22, exercise 22.1: when a run locks on for good ----------------------------------------------
+TIME_TO_LOCK_MISTAKES = {
+    "first_entry": "it returns the first time the run is within the tolerances, though the run leaves them "
+                   "again later; the time asked for is the start of the last stretch that lasts to the end",
+    "steps": "it returns a step number, not a time: step k is at k * dt seconds",
+    "not_strict": "it counts an error equal to the tolerance as within it; within means strictly below 1 m "
+                  "and 5 degrees",
+    "position_only": "it ignores the heading (or compares it, in radians, with 5, which every heading error "
+                     "passes): a run is within the tolerances when the position error is below 1 m and the "
+                     "heading error below 5 degrees, np.deg2rad(5) rad, at the same step",
+    "last_exit": "it returns the time of the last step outside the tolerances, one step too early: the run "
+                 "locks on at the next step",
+}
+
+
+def time_to_lock_reference(pos_err: np.ndarray, head_err: np.ndarray, dt: float,
+                           mistake: str | None = None) -> float | None:
+    """The time ``k0 * dt`` (s, step ``k`` at ``k * dt``) of the first step ``k0`` from which the run stays
+    strictly within 1 m and 5 degrees to its end, ``None`` if its last step is not; or a mistake of
+    :data:`TIME_TO_LOCK_MISTAKES`."""
+    from pfcourse.metrics import LOCK_HEADING_RAD, LOCK_POSITION_M
+
+    pos_err, head_err = np.asarray(pos_err, dtype=float), np.asarray(head_err, dtype=float)
+    heading_tol = LOCK_HEADING_RAD
+    if mistake == "not_strict":
+        ok = (pos_err <= LOCK_POSITION_M) & (head_err <= heading_tol)
+    else:
+        ok = (pos_err < LOCK_POSITION_M) & ((head_err < heading_tol) | (mistake == "position_only"))
+    if mistake == "first_entry":
+        return float(np.argmax(ok) * dt) if ok.any() else None
+    if not ok[-1]:
+        return None
+    outside = np.flatnonzero(~ok)
+    k0 = 0 if outside.size == 0 else int(outside[-1]) + 1
+    if mistake == "last_exit":
+        k0 -= 1
+    return float(k0) if mistake == "steps" else float(k0 * dt)
+
+
+def time_to_lock_cases() -> list[tuple[np.ndarray, np.ndarray, float]]:
+    """Runs ``(pos_err, head_err, dt)``: together they separate the right answer from every mistake."""
+    from pfcourse.metrics import LOCK_HEADING_RAD, LOCK_POSITION_M
+
+    good_p, good_h = 0.5 * LOCK_POSITION_M, 0.5 * LOCK_HEADING_RAD
+    cases = []
+    p, h = np.full(40, good_p), np.full(40, good_h)
+    p[:8], p[20] = 4.0, 2.0  # in at step 8, out again at step 20: locks on at step 21 (first_entry: 8)
+    cases.append((p, h, 0.5))  # dt = 0.5 s: the time is 10.5 s, the step 21
+    p, h = np.full(30, good_p), np.full(30, good_h)
+    p[:5], h[12] = 3.0, 0.2  # heading off (0.2 rad, 11 degrees) at step 12: locks on at step 13
+    cases.append((p, h, 1.0))
+    p, h = np.full(30, good_p), np.full(30, good_h)
+    p[:6], p[6] = 2.0, LOCK_POSITION_M  # exactly 1 m at step 6 is not within: locks on at step 7
+    cases.append((p, h, 1.0))
+    p, h = np.full(30, good_p), np.full(30, good_h)
+    p[-1] = 1.5  # off at the last step: never locked on
+    cases.append((p, h, 1.0))
+    return cases
+
+
+def check_time_to_lock(fn: Callable) -> CheckReport:
+    """Check a student's ``fn(pos_err, head_err, dt) -> float or None`` against :func:`time_to_lock_reference`
+    on :func:`time_to_lock_cases`; the mistakes of :data:`TIME_TO_LOCK_MISTAKES` are named."""
+    report = CheckReport("time to lock on")
+    answers = []
+    for pos, head, dt in time_to_lock_cases():
+        try:
+            with np.errstate(all="ignore"):
+                answer = fn(pos.copy(), head.copy(), dt)
+        except Exception as exc:  # the student's error, reported
+            report.problems.append(f"calling fn(pos_err, head_err, dt) raised {type(exc).__name__}: {exc}")
+            return report
+        if answer is not None and not isinstance(answer, (int, float, np.integer, np.floating)):
+            report.problems.append(f"the answer {answer!r} is not a time in seconds or None")
+            return report
+        answers.append(None if answer is None else float(answer))
+
+    def fits(mistake: str | None) -> bool:
+        expected = [time_to_lock_reference(p, h, dt, mistake) for p, h, dt in time_to_lock_cases()]
+        return all((a is None and e is None) or (a is not None and e is not None and np.isclose(a, e, rtol=1e-9))
+                   for a, e in zip(answers, expected))
+
+    if _settled(report, fits, TIME_TO_LOCK_MISTAKES):
+        return report
+    expected = [time_to_lock_reference(p, h, dt) for p, h, dt in time_to_lock_cases()]
+    if all(a is None for a in answers):
+        report.problems.append("your function returns None for every run, though most of the checker's runs lock "
+                               "on: return the time (s) of the first step from which the run stays within 1 m and "
+                               "5 degrees")
+        return report
+    wrong = next(i for i, (a, e) in enumerate(zip(answers, expected))
+                 if (a is None) != (e is None) or (a is not None and not np.isclose(a, e, rtol=1e-9)))
+    report.problems.append(f"run {wrong + 1} of the checker's runs gets {answers[wrong]} instead of {expected[wrong]}: "
+                           "the time of the first step from which every step to the end is strictly within 1 m and "
+                           "5 degrees, None if the last step is not")
+    return report
+
+
+# --- chapter 20, exercise 20.1: the ratio of mean squared errors and its bootstrap interval -------------
+def _ratio_case(seed: int = 23, runs: int = 41) -> tuple[np.ndarray, np.ndarray]:
+    """Two settings' errors on the same 41 runs: the worlds vary much, the per-run ratio little, and the
+    ratio is larger in the harder worlds (so the ratio of mean squared errors, which weights the hard
+    worlds most, is not the median of the per-run ratios)."""
+    rng = np.random.default_rng(seed)
+    world = rng.gamma(2.0, 0.2, runs)  # what each simulated world makes hard, shared by both settings
+    ratio = np.exp(0.1 + 0.5 * (world - world.mean()) + 0.15 * rng.standard_normal(runs))
+    return world * ratio, world
+
+
+RATIO_CASE = _ratio_case()
+RATIO_BOOT = 2000
+
+RATIO_MISTAKES = {
+    "reversed": "it divides b's mean squared error by a's; the ratio asked for is mean(a^2) / mean(b^2), the "
+                "first setting over the second",
+    "median_of_ratios": "it is the median of the per-run ratios a_r / b_r (the chapter's statistic); the ratio "
+                        "asked for is that of the mean squared errors over the runs, mean(a^2) / mean(b^2)",
+    "rmse": "it is the ratio of the root mean squared errors, sqrt(mean(a^2) / mean(b^2)); the ratio asked for "
+            "is that of the mean squared errors, without the square root",
+    "mean_of_ratios": "it averages the per-run ratios a_r^2 / b_r^2; the ratio asked for divides the two means, "
+                      "mean(a^2) / mean(b^2), so that the runs with large errors weigh most",
+    "run_quantiles": "its interval is the 2.5 % and 97.5 % quantiles of the per-run ratios a_r^2 / b_r^2, the "
+                     "spread of the runs; the interval asked for is that of the ratio of the means: quantiles "
+                     "of that ratio over bootstrap resamples of the runs",
+    "unpaired": "it resamples a and b separately, which breaks the pairs: resample the runs, each run's "
+                "a_r and b_r together (one set of indices for both)",
+}
+
+
+def mse_ratio_reference(a: np.ndarray, b: np.ndarray, n_boot: int, rng: np.random.Generator,
+                        mistake: str | None = None) -> tuple[float, float, float]:
+    """``(ratio, low, high)``: ``mean(a^2) / mean(b^2)`` and its 95 % percentile bootstrap interval
+    (``n_boot`` resamples of the runs, each run's ``a`` and ``b`` together, drawn from ``rng``); or a
+    mistake of :data:`RATIO_MISTAKES`."""
+    a, b = np.asarray(a, dtype=float), np.asarray(b, dtype=float)
+    if mistake == "reversed":
+        a, b = b, a
+    n = len(a)
+    idx = rng.integers(0, n, (n_boot, n))
+    sq_a, sq_b = a ** 2, b ** 2
+    if mistake == "median_of_ratios":
+        point, boot = np.median(a / b), np.median((a / b)[idx], axis=1)
+    elif mistake == "mean_of_ratios":
+        point, boot = np.mean(sq_a / sq_b), np.mean((sq_a / sq_b)[idx], axis=1)
+    elif mistake == "unpaired":
+        other = rng.integers(0, n, (n_boot, n))
+        point, boot = sq_a.mean() / sq_b.mean(), sq_a[idx].mean(axis=1) / sq_b[other].mean(axis=1)
+    else:
+        point, boot = sq_a.mean() / sq_b.mean(), sq_a[idx].mean(axis=1) / sq_b[idx].mean(axis=1)
+    if mistake == "run_quantiles":
+        boot = sq_a / sq_b
+    if mistake == "rmse":
+        point, boot = np.sqrt(point), np.sqrt(boot)
+    low, high = np.quantile(boot, [0.025, 0.975])
+    return float(point), float(low), float(high)
+
+
+def check_mse_ratio(fn: Callable, seed: int = 0) -> CheckReport:
+    """:func:`_check_mse_ratio`, leaving NumPy's global ``np.random`` state as it was."""
+    saved = np.random.get_state()
+    try:
+        return _check_mse_ratio(fn, seed)
+    finally:
+        np.random.set_state(saved)
+
+
+def _check_mse_ratio(fn: Callable, seed: int) -> CheckReport:
+    """Check ``fn(a, b, n_boot, rng) -> (ratio, low, high)`` on :data:`RATIO_CASE`: the ratio exactly, the
+    interval with :data:`RATIO_BOOT` resamples within a fifth of its width of a reference with many (the
+    bootstrap's own noise is far smaller), and that every random number comes from ``rng``."""
+    from pfcourse.book.exercises.part1 import _generator_problem
+
+    report = CheckReport("ratio of mean squared errors and its bootstrap interval")
+    a, b = RATIO_CASE
+    answer = _answer(report, lambda: fn(a.copy(), b.copy(), RATIO_BOOT, np.random.default_rng(seed)),
+                     "fn(a, b, n_boot, rng)", "return (ratio, low, high)")
+    if answer is None:
+        return report
+    try:
+        point, low, high = (float(v) for v in answer)
+    except (TypeError, ValueError):
+        report.problems.append("the answer is not three numbers: return (ratio, low, high)")
+        return report
+    if not low <= point <= high:
+        report.problems.append(f"the interval {low:.3g} to {high:.3g} does not contain the ratio {point:.3g}: "
+                               "return (ratio, low, high), low first")
+        return report
+
+    def fits(mistake: str | None) -> bool:
+        ref = mse_ratio_reference(a, b, 20 * RATIO_BOOT, np.random.default_rng(12345), mistake)
+        tol = 0.2 * (ref[2] - ref[1])
+        return bool(np.isclose(point, ref[0], rtol=1e-9) and abs(low - ref[1]) <= tol and abs(high - ref[2]) <= tol)
+
+    if not _settled(report, fits, RATIO_MISTAKES):
+        report.problems.append("the ratio or the interval differs from mean(a^2) / mean(b^2) and the 2.5 % and "
+                               "97.5 % quantiles of that ratio over bootstrap resamples of the runs")
+        return report
+    if report.ok:
+        problem = _generator_problem(lambda rng: fn(a.copy(), b.copy(), 50, rng),
+                                     lambda x, y: bool(np.allclose(np.asarray(x, float), np.asarray(y, float))),
+                                     what="interval")
+        if problem:
+            report.problems.append(problem)
     return report
 
 
