@@ -29,6 +29,7 @@ from pfcourse.checks import check_count, check_real
 from pfcourse.errors import ParameterError
 from pfcourse.studies.record import RunRecord, record_run
 from pfcourse.filter import ParticleFilter
+from pfcourse.metrics import rmse as metrics_rmse
 from pfcourse.metrics import LOCK_HEADING_RAD, LOCK_POSITION_M, heading_error, locked_on, position_error, position_spread
 from pfcourse.results import FilterResult
 from pfcourse.scenarios.robot.scenario import (
@@ -37,9 +38,9 @@ from pfcourse.scenarios.robot.scenario import (
     RobotModel,
     RobotScenario,
     RobotSimulation,
-    rmse,
     simulate_robot,
     tracking_errors,
+    tracking_rmse,
 )
 from pfcourse.scenarios.robot.kalman import run_ekf, run_ukf
 
@@ -49,7 +50,7 @@ FILTERS = ("pf", "ekf", "ukf")
 def _metrics(sim, mean, cov, burn_in) -> dict:
     """The scores of one robot run: ``position_rmse``, ``heading_rmse``, ``mean_nees`` and the
     per-step ``nees`` of the steps ``k >= burn_in`` (NaN where the filter has no estimate)."""
-    pos, head = rmse(sim.truth, mean, burn_in)
+    pos, head = tracking_rmse(sim.truth, mean, burn_in)
     per_step = nees(sim.truth[burn_in:], mean[burn_in:], cov[burn_in:], ANGLE_INDICES)
     return {"position_rmse": pos, "heading_rmse": head, "mean_nees": float(np.mean(per_step)), "nees": per_step}
 
@@ -235,7 +236,7 @@ def pf_run(
         "mean_ess_fraction": float(np.mean(res.ess[measured]) / res.n_particles) if measured.any() else 1.0,
         "resamples": res.n_resamples,
         "mean_position_sd": float(np.mean(sd[burn_in:])),
-        "estimate_jitter": float(np.sqrt(np.mean(np.sum(jitter**2, axis=1)))) if len(jitter) else 0.0,
+        "estimate_jitter": float(metrics_rmse(jitter, components=-1)) if len(jitter) else 0.0,
     }
     if keep_errors:
         row["position_error"] = distance
