@@ -92,3 +92,17 @@ def test_augmented_mcl_s_injection_probability_is_collected_per_resampling():
     assert np.array_equal(res.collected["injected"], np.array(aug.injected)) and res.collected["injected"].max() > 0
     with pytest.raises(ParameterError, match="needs augmented MCL"):
         ParticleFilter(base, 300).run(sim.measurements, 2, collect=[InjectionProbability()])
+
+
+def test_a_result_s_settings_tell_a_roughened_filter_from_a_plain_one():
+    from pfcourse import ParticleFilter, StateSpaceModel
+    from pfcourse.jitter import RegularisedJitter
+
+    model = StateSpaceModel(dim_x=1, sample_initial=lambda n, rng: rng.standard_normal((n, 1)),
+                            sample_transition=lambda x, k, rng: x + rng.standard_normal(x.shape),
+                            log_likelihood=lambda x, z, k: -0.5 * (z[0] - x[:, 0]) ** 2)
+    z = np.zeros((5, 1))
+    plain = ParticleFilter(model, 50).run(z, 1).settings
+    rough = ParticleFilter(model, 80, jitter=RegularisedJitter(0.2)).run(z, 1).settings
+    assert plain["n_particles"] == 50 and rough["n_particles"] == 80
+    assert plain["jitter"] is None and rough["jitter"]["type"] == "RegularisedJitter"

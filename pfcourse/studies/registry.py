@@ -508,7 +508,7 @@ STUDIES: dict[str, Study] = {study.name: study for study in [
     *(Study(name=f"maprobot/{name}", row=row, grid=grid, n_runs=20 if name == "sensor_cost" else 100, seeds="run",
             failures="raise", volatile=("seconds", "field_seconds", "beam_seconds"),
             table=f"maprobot/{name}.csv", provenance=f"maprobot/{name}.json", columns=columns, sample=1,
-            row_code=f"pfcourse/studies/maprobot.py ({row.__name__})",
+            row_code=f"pfcourse/studies/maprobot.py ({row.__name__}), pfcourse/scenarios/maprobot/drive.py",
             fields={"seeds": "run s: drive and scans pfcourse.seeding.data_rng(s, 0); filter filter_rng(s, 0); "
                              "kidnapping kidnap_rng(s)", "dt": maprobot.DT, "filters": records(maprobot.FILTERS)})
       for name, row, grid, columns in [
