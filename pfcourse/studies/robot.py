@@ -250,6 +250,10 @@ def pf_run(
     return row
 
 
+#: The filter of :func:`dead_reckoning_row`: the bootstrap filter, N = 300, systematic at ESS < N/2.
+DEAD_RECKONING_FILTER = FilterSettings(300, threshold=0.5, resampler="systematic")
+
+
 def dead_reckoning_row(seed: int, n_particles: int = 300, threshold: float = 0.5) -> dict:
     """Run ``seed`` of the landmark robot's default scenario (chapter *A robot among landmarks*): the
     final position error (m) of dead reckoning (the odometry integrated from the true start) and of the
@@ -258,7 +262,7 @@ def dead_reckoning_row(seed: int, n_particles: int = 300, threshold: float = 0.5
     from pfcourse.seeding import run_filter_seed
 
     sim = simulate_robot(rng=seed)
-    settings = FilterSettings(n_particles, threshold=threshold, resampler="systematic")
+    settings = DEAD_RECKONING_FILTER.with_(n_particles=n_particles, threshold=threshold)
     res = settings.build(RobotModel.for_simulation(sim)).run(sim.measurements, rng=run_filter_seed(seed))
     pf_error = position_error(sim.truth, res.mean)
     return {"dr_final_m": float(position_error(sim.truth[-1], sim.odometry_path[-1])),
