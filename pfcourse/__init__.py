@@ -25,6 +25,7 @@ _arithmetic.check()
 from pfcourse.errors import (  # noqa: E402
     CovarianceError,
     DegenerateWeightsError,
+    ModelError,
     NumericalError,
     ParameterError,
     PfcourseError,
@@ -32,7 +33,9 @@ from pfcourse.errors import (  # noqa: E402
     WeightError,
 )
 from pfcourse.results import FilterResult, KalmanResult  # noqa: E402
-from pfcourse.filter import ParticleFilter, StateSpaceModel  # noqa: E402
+from pfcourse.filter import ParticleFilter, StateSpaceModel, Step  # noqa: E402
+from pfcourse.collectors import Ancestors, Clouds, Collector, Moments, Stages  # noqa: E402
+from pfcourse.filter_config import FilterSettings  # noqa: E402
 from pfcourse.kalman import kalman_filter  # noqa: E402
 from pfcourse.linear_gaussian import LinearGaussianModel  # noqa: E402
 from pfcourse.proposals import DensityProposal, OptimalProposal, TransitionProposal  # noqa: E402
@@ -40,19 +43,27 @@ from pfcourse.proposals import DensityProposal, OptimalProposal, TransitionPropo
 __version__ = "0.4.0"
 
 __all__ = [
+    "Ancestors",
+    "Clouds",
+    "Collector",
     "CovarianceError",
     "DegenerateWeightsError",
     "DensityProposal",
     "FilterResult",
+    "FilterSettings",
     "KalmanResult",
     "LinearGaussianModel",
+    "ModelError",
+    "Moments",
     "NumericalError",
     "OptimalProposal",
     "ParameterError",
     "ParticleFilter",
     "PfcourseError",
     "ShapeError",
+    "Stages",
     "StateSpaceModel",
+    "Step",
     "TransitionProposal",
     "WeightError",
     "kalman_filter",

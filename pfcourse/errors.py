@@ -53,7 +53,21 @@ class NumericalError(StepError, FloatingPointError):
 
 class ModelError(StepError, TypeError):
     """A model (or proposal, resampler, jitter) is malformed or returned something that is not
-    a real array of the right kind (None, complex, object, a missing method)."""
+    a real array of the right kind (None, complex, object, a missing method).
+
+    A configuration error or a bug, not a collapse: a study stops on it instead of recording a
+    failed run (:func:`is_collapse`).
+    """
+
+
+def is_collapse(exc: BaseException) -> bool:
+    """Whether ``exc`` is a run that collapsed (recorded as a failed run) rather than a bug.
+
+    A :class:`StepError` is a collapse (every particle impossible, a NaN), except a
+    :class:`ModelError`: a malformed model, proposal, collector or settings record is refused
+    (at construction or at the step that meets it) and stops the study.
+    """
+    return isinstance(exc, StepError) and not isinstance(exc, ModelError)
 
 
 class MeasurementError(PfcourseError, ValueError):

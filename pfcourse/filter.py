@@ -563,7 +563,10 @@ class ParticleFilter:
         return indices
 
     def _result(self, records: dict) -> FilterResult:
-        """The run's :class:`FilterResult` from the collectors' records, with the filter's settings."""
+        """The run's :class:`FilterResult` from the collectors' records, with the filter's settings
+        (``N``, the resampling rule, the proposal's kind, the jitter as data, the sample-size policy)."""
+        from pfcourse.filter_config import describe  # (filter_config builds filters: imported here, not above)
+
         mean, cov = records.pop("moments")
         clouds = records.get("clouds")
         return FilterResult(
@@ -576,10 +579,12 @@ class ParticleFilter:
             particles=None if clouds is None else clouds[0],
             weights=None if clouds is None else clouds[1],
             settings={
+                "n_particles": self.n_particles,
                 "threshold": self.threshold,
                 "resampler": getattr(self.resampler, "__name__", str(self.resampler)),
                 "proposal": type(self.proposal).__name__,
                 "sample_size": None if self.sample_size is None else type(self.sample_size).__name__,
+                "jitter": None if self.jitter is None else describe(self.jitter),
             },
             sizes=records.pop("sizes"),
             collected=records,

@@ -32,10 +32,19 @@ from pfcourse.angles import wrap_angle
 from pfcourse.checks import Array
 
 
-def rmse(errors: Array, axis: int | None = None):
+def rmse(errors: Array, axis: int | None = None, *, components: int | tuple[int, ...] | None = None):
     """Root mean square error ``sqrt(mean(e^2))`` of ``errors`` over ``axis`` (all of them by default):
-    the one RMSE of the package (of a position error, a heading error, a state, ...)."""
-    return np.sqrt(np.mean(np.asarray(errors) ** 2, axis=axis))
+    the one RMSE of the package (of a position error, a heading error, a state, ...).
+
+    ``components`` names the axis (or axes) that hold the components of one error (``-1`` for
+    ``(e_x, e_y)`` rows, ``(1, 2)`` for a run of matrices): their squares are summed first, the
+    squared length ``e_x^2 + e_y^2`` (or the squared Frobenius norm), then averaged over ``axis``
+    of the remaining axes: ``sqrt(mean(e_x^2 + e_y^2))``.
+    """
+    errors = np.asarray(errors)
+    if components is None:
+        return np.sqrt(np.mean(errors ** 2, axis=axis))
+    return np.sqrt(np.mean(np.sum(errors ** 2, axis=components), axis=axis))
 
 
 def position_error(truth: Array, estimate: Array) -> Array:

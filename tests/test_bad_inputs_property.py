@@ -357,7 +357,8 @@ ENTRY_POINTS = {
                       {"states": STATES, "landmark": np.array([3.0, 4.0])}, _ieee),
     "tracking_errors": ({"tracking_errors"}, lambda truth=STATES, estimate=STATES[::-1]:
                         robot.tracking_errors(truth, estimate), {"truth": STATES, "estimate": STATES[::-1]}, _ieee),
-    "rmse": ({"rmse"}, lambda truth=STATES, estimate=STATES[::-1], start=0: robot.rmse(truth, estimate, start),
+    "tracking_rmse": ({"tracking_rmse"}, lambda truth=STATES, estimate=STATES[::-1], start=0:
+                      robot.tracking_rmse(truth, estimate, start),
              {"truth": STATES, "estimate": STATES[::-1], "start": 0}, _ieee),
     "AircraftScenario + simulate": (
         {"AircraftScenario", "simulate"}, _flight,

@@ -114,7 +114,7 @@ def test_scenario_a_records_build_the_filters_written_by_hand():
 
 
 def test_a_model_change_and_a_shared_component_are_data_too():
-    from pfcourse.studies.maprobot import FILTERS, Injection
+    from pfcourse.scenarios.maprobot.drive import FILTERS, Injection
 
     injection = FILTERS["injection"].settings
     assert injection.model_change == Injection(0.1) and injection.record()["model_change"] == {"type": "Injection",
@@ -129,8 +129,8 @@ def test_a_model_change_and_a_shared_component_are_data_too():
     ("rao_blackwell", "filters", "pfcourse.studies.rb_study"),
     ("global_localization/lockon", "filters", "pfcourse.scenarios.robot.mcl"),
     ("global_localization/tracking_cost", "filters", "pfcourse.scenarios.robot.mcl"),
-    ("maprobot/tracking", "filters", "pfcourse.studies.maprobot"),
-    ("maprobot/kld_tracking", "filters", "pfcourse.studies.maprobot"),
+    ("maprobot/tracking", "filters", "pfcourse.scenarios.maprobot.drive"),
+    ("maprobot/kld_tracking", "filters", "pfcourse.scenarios.maprobot.drive"),
     ("terrain_remedies", "settings", "pfcourse.studies.terrain_remedies"),
 ])
 def test_a_study_s_provenance_holds_the_records_of_the_filters_it_ran(study, key, registry):

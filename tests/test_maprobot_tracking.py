@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 from scipy import stats
 
-from pfcourse.studies import maprobot as study
+from pfcourse.scenarios.maprobot import drive as scenario
 from pfcourse.scenarios.maprobot import OdometryModel, lock_on
 from pfcourse.scenarios.maprobot.amcl import CubesLikelihoodField, beam_log_likelihood
 from pfcourse.metrics import locked_on as metrics_locked_on
@@ -13,8 +13,8 @@ from pfcourse.metrics import locked_on as metrics_locked_on
 
 def test_the_heading_tolerance_is_three_straight_steps_of_the_odometrys_heading_noise():
     # the constants are the map robot's: its odometry alphas and 0.5 m/s for one scan interval
-    assert lock_on.ALPHAS == study.MOTION.alphas
-    assert lock_on.STEP_M == pytest.approx(0.5 * study.DT)
+    assert lock_on.ALPHAS == scenario.MOTION.alphas
+    assert lock_on.STEP_M == pytest.approx(0.5 * scenario.DT)
     n = 200_000
     moved = OdometryModel(lock_on.ALPHAS).sample(np.zeros((n, 3)), np.array([0.0, lock_on.STEP_M, 0.0]),
                                                  np.random.default_rng(3))
@@ -44,16 +44,16 @@ def test_locked_on_holds_at_most_of_the_last_window_not_every_step():
 
 
 def test_amcls_weight_is_one_plus_the_sum_of_cubed_unnormalised_beam_probabilities():
-    grid = study.book_map()
-    cubes = CubesLikelihoodField(grid, study.SCANNER.angles, study.SCANNER.max_range, sigma=study.FIELD_SIGMA)
-    run = study.simulate(1, 5)
+    grid = scenario.book_map()
+    cubes = CubesLikelihoodField(grid, scenario.SCANNER.angles, scenario.SCANNER.max_range, sigma=scenario.FIELD_SIGMA)
+    run = scenario.simulate(1, 5)
     z = run.scans[3].copy()
-    z[0] = study.SCANNER.max_range  # a beam without an echo is left out
+    z[0] = scenario.SCANNER.max_range  # a beam without an echo is left out
     poses = run.truth[3] + np.random.default_rng(0).normal(0, 0.3, (50, 3))
     got = cubes.log_likelihood(poses, z)
-    use = z < study.SCANNER.max_range
+    use = z < scenario.SCANNER.max_range
     for i in (0, 17, 49):
-        heading = poses[i, 2] + study.SCANNER.angles[use]
+        heading = poses[i, 2] + scenario.SCANNER.angles[use]
         ends = np.column_stack([poses[i, 0] + z[use] * np.cos(heading), poses[i, 1] + z[use] * np.sin(heading)])
         d = grid.distance_at(ends)
         p = 0.9 * np.exp(-d**2 / (2 * 0.2**2)) + 0.1 / 8.0
@@ -65,8 +65,8 @@ def test_amcls_weight_is_one_plus_the_sum_of_cubed_unnormalised_beam_probabiliti
 
 
 def test_the_beam_model_scores_a_reading_by_its_four_parts_and_refuses_walls():
-    grid, scanner = study.book_map(), study.SCANNER
-    run = study.simulate(2, 5)
+    grid, scanner = scenario.book_map(), scenario.SCANNER
+    run = scenario.simulate(2, 5)
     truth, z = run.truth[4], run.scans[4]
     z_star = scanner.true_ranges(grid, truth)
     lam, s = scanner.lambda_short, scanner.sigma_hit
@@ -82,14 +82,14 @@ def test_the_beam_model_scores_a_reading_by_its_four_parts_and_refuses_walls():
 
 def test_kld_delta_is_the_tail_beyond_amcls_kld_z_quantile():
     # amcl's pf_resample_limit puts kld_z where the bound has z_{1-delta}: delta = 1 - Phi(0.99)
-    assert study.AMCL_KLD["delta"] == pytest.approx(1 - stats.norm.cdf(0.99))
-    assert 0.16 < study.AMCL_KLD["delta"] < 0.162
+    assert scenario.AMCL_KLD["delta"] == pytest.approx(1 - stats.norm.cdf(0.99))
+    assert 0.16 < scenario.AMCL_KLD["delta"] < 0.162
 
 
 def test_the_chapters_drive_is_the_studies_drive_as_plain_arrays():
-    drive, run = study.book_drive(0, 20), study.simulate(0, 20)
+    drive, run = scenario.book_drive(0, 20), scenario.simulate(0, 20)
     assert np.array_equal(drive.scans, run.scans) and np.array_equal(drive.truth, run.truth)
     assert np.array_equal(drive.odometry, run.drive.odometry)
-    grid = study.book_map()
+    grid = scenario.book_map()
     assert np.array_equal(drive.distance, grid.distance) and drive.resolution == grid.resolution
-    assert np.array_equal(drive.angles, study.SCANNER.angles) and drive.alphas == study.MOTION.alphas
+    assert np.array_equal(drive.angles, scenario.SCANNER.angles) and drive.alphas == scenario.MOTION.alphas

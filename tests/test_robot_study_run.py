@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 from pfcourse.errors import DegenerateWeightsError, ParameterError
-from pfcourse.studies.robot import FilterSettings, compare_filters, global_localization_run, pf_run
+from pfcourse.studies.robot import RobotRunOptions, compare_filters, global_localization_run, pf_run
 from pfcourse.studies.study import run_study, summarize
 
 SEEDS = [3, 11, 2024]
@@ -62,11 +62,11 @@ def test_bad_arguments():
 
 
 def test_filter_settings_are_written_once():
-    """The run functions take FilterSettings fields and scenario fields as keywords, told apart by split."""
-    settings, scenario = FilterSettings.split({"n_particles": 50, "n_steps": 20, "burn_in": 3, "gap": None})
-    assert settings == FilterSettings(n_particles=50, burn_in=3)
+    """The run functions take RobotRunOptions fields and scenario fields as keywords, told apart by split."""
+    settings, scenario = RobotRunOptions.split({"n_particles": 50, "n_steps": 20, "burn_in": 3, "gap": None})
+    assert settings == RobotRunOptions(n_particles=50, burn_in=3)
     assert scenario == {"n_steps": 20, "gap": None}
-    assert FilterSettings().n_particles == 300 and FilterSettings().initial == "tracking"
+    assert RobotRunOptions().n_particles == 300 and RobotRunOptions().initial == "tracking"
     with pytest.raises(ParameterError, match="uniform cloud"):
         global_localization_run(SEEDS[0], 100, n_steps=10, initial="tracking")
     with pytest.raises(ParameterError, match="position_tolerance"):
@@ -88,7 +88,7 @@ def test_study_with_batches_records_failures_per_replicate():
 
 def test_global_localization_run_uses_the_books_lock_on_definition():
     """Locked on is pfcourse.metrics.locked_on (every step of the last 20 s), not the last step alone."""
-    from pfcourse.studies.robot import FilterSettings as Settings
+    from pfcourse.studies.robot import RobotRunOptions as Settings
     from pfcourse.metrics import heading_error, locked_on, position_error
 
     for seed, n in ((2, 3000), (4, 3000), (7, 1000)):
@@ -110,7 +110,7 @@ def test_a_filter_that_fails_is_recorded_failed_with_no_estimate(monkeypatch):
     def dies(self, model, sim, seed):
         raise DegenerateWeightsError("every particle has zero likelihood", step=4)
 
-    monkeypatch.setattr(FilterSettings, "run_particle_filter", dies)
+    monkeypatch.setattr(RobotRunOptions, "run_particle_filter", dies)
     out = compare_filters(SEEDS[0], filters=("pf", "ekf"), n_steps=30, burn_in=5)
     assert out["pf"].failed and out["pf"].error == "DegenerateWeightsError: every particle has zero likelihood"
     assert np.isnan(out["pf"].position_rmse) and np.isnan(out["pf"].mean_nees) and out["pf"].nees.shape == (25,)

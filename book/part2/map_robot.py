@@ -39,6 +39,7 @@ from IPython.display import display
 from scipy.special import logsumexp
 
 from pfcourse import evidence
+from pfcourse.scenarios.maprobot import drive as scenario
 from pfcourse.studies import maprobot as study
 from pfcourse.studies.registry import STUDIES
 from pfcourse.book.report import EvidenceBlock, glue_values, spread_table
@@ -54,8 +55,8 @@ from pfcourse.metrics import heading_error, position_error
 from pfcourse.book.style import COLORS, use_style
 
 use_style()
-grid, scanner, field = study.book_map(), study.SCANNER, study.field()
-demo = study.simulate(0, study.TRACKING_STEPS)
+grid, scanner, field = scenario.book_map(), scenario.SCANNER, scenario.field()
+demo = scenario.simulate(0, study.TRACKING_STEPS)
 
 
 def stored(name):
@@ -88,7 +89,7 @@ for ax, pose, title in [(axes[0], demo.truth[k_show], "from the true pose"),
     ax.plot(*pose[:2], "o", color=COLORS["truth"], ms=5)
     ax.set_xlim(pose[0] - 6, pose[0] + 6)
     ax.set_ylim(max(pose[1] - 4, 0), pose[1] + 4)
-    ax.set_title(f"The scan at t = {k_show * study.DT:.0f} s {title}")
+    ax.set_title(f"The scan at t = {k_show * scenario.DT:.0f} s {title}")
 plt.show()
 
 # %% [markdown]
@@ -97,7 +98,7 @@ plt.show()
 # computed once by `scipy.ndimage.distance_transform_edt`), the scans, the odometry and the true path.
 
 # %%
-from pfcourse.studies.maprobot import book_drive
+from pfcourse.scenarios.maprobot.drive import book_drive
 
 # the map's distance transform (m), one drive of 80 s, its scans and odometry
 drive = book_drive(seed=0)
@@ -287,13 +288,13 @@ rmse = np.sqrt(np.mean(err**2))
 print(f"position RMSE {rmse:.3f} m; mean ESS {ess.mean():.0f} of 300")
 
 # %% tags=["remove-input"] jupyter={"source_hidden": true}
-model = MapRobotModel(grid, field, demo.drive.odometry, motion=study.MOTION, start=demo.truth[0])
+model = MapRobotModel(grid, field, demo.drive.odometry, motion=scenario.MOTION, start=demo.truth[0])
 engine = ParticleFilter(model, study.TRACKING_N, threshold=1.0).run(demo.scans, rng=np.random.default_rng(7))
 TOL = 1e-9
 gap = max(np.abs(est[:, :2] - engine.mean[:, :2]).max(), heading_error(engine.mean, est).max(),
           np.abs(ess - engine.ess).max() / study.TRACKING_N)
 same_draws = np.allclose(sample_motion(demo.truth[:50], (0.3, 1.0, 0.0), np.random.default_rng(1)),
-                         OdometryModel(study.MOTION.alphas).sample(demo.truth[:50], (0.3, 1.0, 0.0),
+                         OdometryModel(scenario.MOTION.alphas).sample(demo.truth[:50], (0.3, 1.0, 0.0),
                                                                    np.random.default_rng(1)), rtol=0, atol=1e-12)
 assert gap < TOL and same_draws
 glue_values("lf_", engine_tolerance=TOL)
@@ -313,7 +314,7 @@ print(f"Checked against the engine (pfcourse.ParticleFilter with the scenario's 
 # alive: a scan of $24$ beams is sharp next to the cloud that the odometry spreads in half a second.
 
 # %% tags=["hide-input"] jupyter={"source_hidden": true}
-t = np.arange(len(est)) * study.DT
+t = np.arange(len(est)) * scenario.DT
 fig, (ax1, ax2) = plt.subplots(1, 2, figsize=(10, 3.2))
 ax1.plot(t, err, color=COLORS["estimate"])
 ax1.set_xlabel("time t (s)")
@@ -407,7 +408,7 @@ EvidenceBlock(
     notes=[f"The rule (pfcourse.scenarios.maprobot.lock_on.locked_on): position error < {lock_on.POSITION_TOLERANCE_M:g} m and "
            f"heading error < 3 sqrt(2 a_2) d = {np.degrees(lock_on.HEADING_TOLERANCE):.1f} degrees at "
            f"{lock_on.SHARE:.0%} or more of the steps of the last {lock_on.WINDOW_S:g} s "
-           f"({int(np.ceil(lock_on.WINDOW_S / study.DT))} steps); a_2 = {lock_on.ALPHAS[1]}, d = {lock_on.STEP_M} m.",
+           f"({int(np.ceil(lock_on.WINDOW_S / scenario.DT))} steps); a_2 = {lock_on.ALPHAS[1]}, d = {lock_on.STEP_M} m.",
            f"Locked on, the {len(prod)} tracking drives: {locked}.",
            f"The landmark chapters' convention (5 degrees at every step of the last 20 s) on the same runs: "
            f"{old_rule}.",
@@ -442,13 +443,13 @@ kld = STUDIES["maprobot/kld_tracking"].load().sort_values("seed")
 assert (kld["seed"].to_numpy() == prod["seed"].to_numpy()).all()
 mean_n, mean_n_low, mean_n_high = evidence.run_interval(lambda r: kld["mean_particles"].to_numpy()[r].mean(), len(kld))
 ratio = evidence.paired(kld["position_rmse"].to_numpy(), prod["position_rmse"].to_numpy(), ratio=True)
-glue_values("lf_", kld_delta=study.AMCL_KLD["delta"], kld_mean_particles=mean_n, kld_mean_particles_low=mean_n_low,
+glue_values("lf_", kld_delta=scenario.AMCL_KLD["delta"], kld_mean_particles=mean_n, kld_mean_particles_low=mean_n_low,
             kld_mean_particles_high=mean_n_high, kld_rmse_ratio=ratio.median)
 EvidenceBlock(
     "Fox's KLD-sampling with Noetic amcl's numbers keeps more particles than tracking needs",
     notes=[f"The {len(kld)} drives of the tracking study, filtered by KLD-sampling (Fox 2003): at most "
-           f"{study.AMCL_KLD['n_max']}, at least {study.AMCL_KLD['n_min']} particles, epsilon = kld_err = "
-           f"{study.AMCL_KLD['epsilon']}, delta = 1 - Phi(kld_z = 0.99) = {study.AMCL_KLD['delta']:.3f}, bins of "
+           f"{scenario.AMCL_KLD['n_max']}, at least {scenario.AMCL_KLD['n_min']} particles, epsilon = kld_err = "
+           f"{scenario.AMCL_KLD['epsilon']}, delta = 1 - Phi(kld_z = 0.99) = {scenario.AMCL_KLD['delta']:.3f}, bins of "
            "0.5 m x 0.5 m x 10 degrees, counted on the moved particles (Fox 2003); amcl's pf_update_resample "
            "counts the resampled copies before the motion, a tighter set. Step 0 draws the maximum, later steps "
            "draw in batches of 100 until the bound is met (amcl adds one at a time), which can raise N by up to "
@@ -561,7 +562,7 @@ EvidenceBlock(
            f"Position RMSE, cubes over product: {rmse_ratio} ({rmse_ratio.verdict()}).",
            f"Locked on while tracking (cubes A, product B): {track_pair}.",
            f"Global localization: {len(g_prod)} drives of 100 s from a uniform start, N = {study.GLOBAL_N}, random "
-           f"injection epsilon = {study.INJECT} (the configuration of the chapter before {{doc}}`map_global`), "
+           f"injection epsilon = {scenario.INJECT} (the configuration of the chapter before {{doc}}`map_global`), "
            f"locked on by the book's rule; cubes A, product B: {global_pair}.",
            f"Product with injection (A) against the bootstrap filter without it (B), same drives: {boot_pair}.",
            stored("tracking"), stored("amcl_global")],
@@ -623,7 +624,7 @@ plt.show()
 cost = STUDIES["maprobot/sensor_cost"].load()
 cost_ratio = cost["beam_seconds"] / cost["field_seconds"]
 # the true ranges of the scanned beams on the poses of the cost study's scans (step 68 of its drives)
-first_wall = np.concatenate([cast_rays(grid, study.simulate(int(s), 69).truth[68:69], scanner.angles,
+first_wall = np.concatenate([cast_rays(grid, scenario.simulate(int(s), 69).truth[68:69], scanner.angles,
                                        scanner.max_range).ravel() for s in cost["seed"]])
 first_wall = first_wall[first_wall < scanner.max_range]
 glue_values("lf_", beam_cells_per_lookup=float((cost["beam_cells"] / cost["field_lookups"]).median()),
@@ -670,7 +671,7 @@ EvidenceBlock(
 EvidenceBlock(
     "random injection locks on more often than the bootstrap filter",
     notes=[f"{len(g_prod)} drives of 100 s from a uniform start, N = {study.GLOBAL_N}, product of the likelihood "
-           f"field; injection epsilon = {study.INJECT} (A) against the bootstrap filter (B), same drives and "
+           f"field; injection epsilon = {scenario.INJECT} (A) against the bootstrap filter (B), same drives and "
            f"filter seeds: {boot_pair}.", stored("amcl_global")],
 )
 
@@ -684,8 +685,8 @@ EvidenceBlock(
 
 # %% tags=["hide-input"] jupyter={"source_hidden": true}
 def draw_tracking(n_particles, weighting, seed=0):
-    res = study.run_filter(demo, seed, n_particles, start=demo.truth[0], weighting=weighting)
-    time_s = np.arange(len(demo.truth)) * study.DT
+    res = scenario.run_filter(demo, seed, n_particles, start=demo.truth[0], weighting=weighting)
+    time_s = np.arange(len(demo.truth)) * scenario.DT
     fig, (a1, a2) = plt.subplots(1, 2, figsize=(10, 3.2))
     a1.semilogy(time_s, np.maximum(position_error(demo.truth, res.mean), 1e-3), color=COLORS["estimate"])
     a1.set_ylim(1e-3, 20)

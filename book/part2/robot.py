@@ -87,7 +87,7 @@ from pfcourse.filter import ParticleFilter
 from pfcourse.seeding import run_filter_seed
 from pfcourse.metrics import LOCK_WINDOW_S, heading_error, locked_on, position_error, position_spread
 from pfcourse.book.figures.robot import error_bands, landmarks_background, robot_map, sight_overlay
-from pfcourse.scenarios.robot.scenario import INITIAL_STD, RobotModel, motion, rmse, simulate_robot, tracking_errors
+from pfcourse.scenarios.robot.scenario import INITIAL_STD, RobotModel, motion, simulate_robot, tracking_errors, tracking_rmse
 from pfcourse.book.style import COLORS, plain_log_axis, use_style
 
 use_style()
@@ -281,8 +281,8 @@ for k in range(1, sc.n_steps):  # dead reckoning of every run at once
 assert np.array_equal(pose[3], sim.odometry_path[-1])  # the same path as simulate_robot's (seed 3)
 final = position_error(sim.truth[-1], pose)  # the true path is the same in every run (fixed commands)
 med, low, high = evidence.median_interval(final)
-pos_pf, head_pf = rmse(sim.truth, result.mean)
-pos_odo, head_odo = rmse(sim.truth, sim.odometry_path)
+pos_pf, head_pf = tracking_rmse(sim.truth, result.mean)
+pos_odo, head_odo = tracking_rmse(sim.truth, sim.odometry_path)
 walk_sd = float(np.degrees(np.sqrt(sc.q_true[2, 2])) * sc.dt * np.sqrt(sc.n_steps - 1))
 glue_values("dr_", runs=DR_RUNS, final_m=med, final_low_m=low, final_high_m=high)
 glue_values(pf_max_error_m=float(position_error(sim.truth, result.mean).max()))
@@ -553,7 +553,7 @@ def draw(n_particles=300, q_scale=2.0, r_scale=2.0, threshold=0.5, scheme="syste
     if band.min() < error.min() / 10:  # a collapsed cloud: its spread falls to round-off, and a log
         axes[1].set_ylim(error.min() / 3, 3 * max(error.max(), band.max()))  # axis over every decade
                                                                            # down to it has no tick
-    p, h = rmse(s.truth, r.mean)
+    p, h = tracking_rmse(s.truth, r.mean)
     axes[1].set_title(f"RMSE {p:.2f} m, {np.degrees(h):.2f} deg; {r.n_resamples} resamplings")
     axes[1].set_xlabel("time (s)")
     axes[1].set_ylabel("position error (m)")

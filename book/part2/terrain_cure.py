@@ -209,7 +209,7 @@ def regularised_move(particles, scale, rng, angle=3):
 
 # %% tags=["hide-input"] jupyter={"source_hidden": true}
 flight = simulate(scenario, terrain, data_rng(0, 0))
-pf = FILTERS["bootstrap N=3000"].build(scenario, terrain)
+pf = FILTERS["bootstrap N=3000"].build(scenario.model(terrain))
 # step the filter through the first six readings and keep the last step's weighted cloud
 last = list(pf.steps(flight.measurements[:6], rng=filter_rng(0, 0)))[-1]
 resampled = last.particles[np.random.default_rng(5).choice(3000, 3000, p=last.weights)]
@@ -773,7 +773,7 @@ for flight_id, g in reference.groupby("flight"):
     m_half = g.loc[half, ["mean_x", "mean_y"]].to_numpy()
     ref_mean = m_big.mean(axis=0)
     sim = simulate(scenario, terrain, data_rng(0, flight_id))
-    pf = FILTERS["regularised N=30000"].build(scenario, terrain)
+    pf = FILTERS["regularised N=30000"].build(scenario.model(terrain))
     estimate = pf.run(sim.measurements, rng=filter_rng(0, flight_id)).mean[-1, :2]
     rows.append({"flight": flight_id, "posterior sd (m)": sigma,
                  "seeds apart, N=5e5 (sd)": np.linalg.norm(m_half[0] - m_half[1]) / sigma,

@@ -449,7 +449,7 @@ pf_ends = {f"marginalised N={n}": mp[n] for n in SIZES}
 for name in ("bootstrap N=3000", "regularised N=3000"):  # their final means are not stored: re-run (same seeds)
     runs = []
     for r in flights:
-        pf = FILTERS[name].build(scenario, terrain)
+        pf = FILTERS[name].build(scenario.model(terrain))
         runs.append(pf.run(simulate(scenario, terrain, data_rng(0, r)).measurements, rng=filter_rng(0, r)).mean[-1, :2])
     pf_ends[name] = np.array(runs)
     same = np.allclose(np.hypot(*(pf_ends[name] - truth_end).T), final.loc[flights, name], rtol=1e-9)

@@ -306,7 +306,7 @@ def _convergence_runs(model, measurements: Array, kalman, n: int, n_runs: int, s
     for r in range(n_runs):
         res = pf.run(measurements, sized_filter_rng(seed, n, run=r))
         mean_err[r] = metrics.rmse(res.mean - kalman.mean)
-        cov_err[r] = np.sqrt(np.mean(np.sum((res.cov - kalman.cov) ** 2, axis=(1, 2))))
+        cov_err[r] = metrics.rmse(res.cov - kalman.cov, components=(1, 2))
         ll_err[r] = res.log_likelihood - kalman.log_likelihood
     return mean_err, cov_err, ll_err
 

@@ -38,7 +38,7 @@ from typing import Any, Literal, TypeVar
 import numpy as np
 
 from pfcourse.checks import Array
-from pfcourse.errors import ParameterError, StepError
+from pfcourse.errors import ParameterError, StepError, is_collapse
 from pfcourse.results import KalmanResult
 
 Status = Literal["ok", "lost", "failed"]
@@ -117,6 +117,8 @@ def record_run(run: Callable[[], R], score: Callable[[R], Mapping[str, Any]], *,
     try:
         result = run()
     except StepError as exc:
+        if not is_collapse(exc):
+            raise
         seconds = time.perf_counter() - start
         scores = {} if shape is None else dict(score(no_estimate(*shape)))
         return RunRecord(scores, "failed", failure_message(exc), seconds, setting)

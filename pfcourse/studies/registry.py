@@ -47,6 +47,7 @@ import numpy as np
 import pandas as pd
 
 from pfcourse.errors import ParameterError, StepError
+from pfcourse.checks import check_count
 from pfcourse.filter_config import records
 from pfcourse.studies import association, comparison, count_resampling, global_localization, intel, map_global
 from pfcourse.studies import likelihood_studies as ls
@@ -74,6 +75,17 @@ SEED_RULES: dict[str, Callable[[int, int], int]] = {
 #: message and the study's ``failed_scores`` (run_study's rule); ``raise`` refuses to store a table
 #: with a collapsed run (its table has no status column).
 FAILURES = ("record", "raise")
+
+
+def _check_data_path(study: str, name: str, path) -> None:
+    """A table or provenance path must be a relative path to a file inside book/data."""
+    suffix = {"table": ".csv", "provenance": ".json"}[name]
+    if not isinstance(path, str) or not path.endswith(suffix):
+        raise ParameterError(f"study {study}: {name} must be a {suffix} file name under book/data, got {path!r:.60}")
+    parts = Path(path).parts
+    if Path(path).is_absolute() or ".." in parts:
+        raise ParameterError(f"study {study}: {name} must be a path inside book/data (relative, no '..'), "
+                             f"got {path!r}")
 
 
 @dataclass(frozen=True)
@@ -109,6 +121,31 @@ class Study:
     fields: Mapping = field(default_factory=dict)  # the study's own provenance fields
 
     def __post_init__(self) -> None:
+        if not isinstance(self.name, str) or not self.name:
+            raise ParameterError(f"a study needs a name (a non-empty string), got {self.name!r:.60}")
+        if not callable(self.row):
+            raise ParameterError(f"study {self.name}: row must be the function that runs one row, "
+                                 f"got {type(self.row).__name__} {self.row!r:.40}")
+        if isinstance(self.n_runs, bool) or not isinstance(self.n_runs, (int, np.integer)):
+            raise ParameterError(f"study {self.name}: n_runs must be an integer >= 1, got {self.n_runs!r}")
+        check_count(self.n_runs, f"study {self.name}: n_runs")
+        if not isinstance(self.grid, (Mapping, tuple)) or (isinstance(self.grid, tuple) and not self.grid):
+            raise ParameterError(f"study {self.name}: grid must be a dict {{parameter: values}} or a non-empty "
+                                 f"tuple of them, got {self.grid!r:.60}")
+        for grid in self.grids:
+            try:
+                grid_settings(grid)
+            except ParameterError as exc:
+                raise ParameterError(f"study {self.name}: {exc}") from None
+        for name in ("table", "provenance"):
+            _check_data_path(self.name, name, getattr(self, name))
+        for name in ("columns", "order", "arrays", "volatile"):
+            value = getattr(self, name)
+            if value is None and name == "columns":
+                continue
+            if not isinstance(value, tuple) or not all(isinstance(v, str) for v in value):
+                raise ParameterError(f"study {self.name}: {name} must be a tuple of column names, "
+                                     f"got {value!r:.60}")
         if self.seeds not in SEED_RULES or self.failures not in FAILURES:
             raise ParameterError(f"study {self.name}: seeds must be one of {list(SEED_RULES)} and failures one "
                                  f"of {FAILURES}, got {self.seeds!r}, {self.failures!r}")
@@ -437,7 +474,8 @@ STUDIES: dict[str, Study] = {study.name: study for study in [
           columns=("seed", "dr_final_m", "pf_final_m", "pf_max_m"), sample=1,
           row_code="pfcourse/studies/robot.py (dead_reckoning_row)",
           fields={"seeds": "run s: simulate_robot(rng=s), filter run_filter_seed(s)",
-                  "filter": "bootstrap, N = 300, threshold 0.5, systematic"}),
+                  "filter": {"label": robot_experiments.DEAD_RECKONING_FILTER.label,
+                             **robot_experiments.DEAD_RECKONING_FILTER.record()}}),
     Study(name="robot_consistency_fixes", row=comparison.consistency_fix_row,
           grid={"setting": list(comparison.CONSISTENCY_FIXES)}, n_runs=100, seeds="run", failures="raise",
           table="robot_consistency_fixes.csv", provenance="robot_consistency_fixes.json",
@@ -488,7 +526,7 @@ STUDIES: dict[str, Study] = {study.name: study for study in [
     *(Study(name=f"maprobot/{name}", row=row, grid=grid, n_runs=20 if name == "sensor_cost" else 100, seeds="run",
             failures="raise", volatile=("seconds", "field_seconds", "beam_seconds"),
             table=f"maprobot/{name}.csv", provenance=f"maprobot/{name}.json", columns=columns, sample=1,
-            row_code=f"pfcourse/studies/maprobot.py ({row.__name__})",
+            row_code=f"pfcourse/studies/maprobot.py ({row.__name__}), pfcourse/scenarios/maprobot/drive.py",
             fields={"seeds": "run s: drive and scans pfcourse.seeding.data_rng(s, 0); filter filter_rng(s, 0); "
                              "kidnapping kidnap_rng(s)", "dt": maprobot.DT, "filters": records(maprobot.FILTERS)})
       for name, row, grid, columns in [

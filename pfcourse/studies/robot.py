@@ -8,7 +8,7 @@ filter, the position and heading RMSE, the time-averaged NEES and the run time
 :func:`global_localization_run` records one particle filter started
 from a cloud uniform over the map and whether it locked on, and :func:`pf_run` returns
 the fuller row of a Part III study.  The three take the filter settings
-(:class:`FilterSettings`: the defaults and their meaning, written once) and the scenario
+(:class:`RobotRunOptions`: the defaults and their meaning, written once) and the scenario
 changes as keyword arguments.
 
 The metrics (``e_k = estimate_k - truth_k``, heading wrapped, steps ``k >= burn_in``)::
@@ -28,7 +28,8 @@ from pfcourse.diagnostics import nees
 from pfcourse.checks import check_count, check_real
 from pfcourse.errors import ParameterError
 from pfcourse.studies.record import RunRecord, record_run
-from pfcourse.filter import ParticleFilter
+from pfcourse.filter_config import FilterSettings
+from pfcourse.metrics import rmse as metrics_rmse
 from pfcourse.metrics import LOCK_HEADING_RAD, LOCK_POSITION_M, heading_error, locked_on, position_error, position_spread
 from pfcourse.results import FilterResult
 from pfcourse.scenarios.robot.scenario import (
@@ -37,9 +38,9 @@ from pfcourse.scenarios.robot.scenario import (
     RobotModel,
     RobotScenario,
     RobotSimulation,
-    rmse,
     simulate_robot,
     tracking_errors,
+    tracking_rmse,
 )
 from pfcourse.scenarios.robot.kalman import run_ekf, run_ukf
 
@@ -49,14 +50,15 @@ FILTERS = ("pf", "ekf", "ukf")
 def _metrics(sim, mean, cov, burn_in) -> dict:
     """The scores of one robot run: ``position_rmse``, ``heading_rmse``, ``mean_nees`` and the
     per-step ``nees`` of the steps ``k >= burn_in`` (NaN where the filter has no estimate)."""
-    pos, head = rmse(sim.truth, mean, burn_in)
+    pos, head = tracking_rmse(sim.truth, mean, burn_in)
     per_step = nees(sim.truth[burn_in:], mean[burn_in:], cov[burn_in:], ANGLE_INDICES)
     return {"position_rmse": pos, "heading_rmse": head, "mean_nees": float(np.mean(per_step)), "nees": per_step}
 
 
 @dataclass(frozen=True)
-class FilterSettings:
-    """How the filters of one robot run are set up: the keyword arguments shared by
+class RobotRunOptions:
+    """How the filters of one robot run are set up (the particle filter's own settings record is
+    :meth:`filter_settings`): the keyword arguments shared by
     :func:`compare_filters`, :func:`pf_run` and :func:`global_localization_run`.
 
     ``n_particles``
@@ -89,7 +91,7 @@ class FilterSettings:
     burn_in: int = 0
 
     @classmethod
-    def split(cls, options: dict) -> tuple[FilterSettings, dict]:
+    def split(cls, options: dict) -> tuple[RobotRunOptions, dict]:
         """``(settings, scenario_changes)``: the keyword arguments that are fields of this class
         and the others (:class:`~pfcourse.scenarios.robot.scenario.RobotScenario` fields)."""
         names = {f.name for f in fields(cls)}
@@ -110,10 +112,14 @@ class FilterSettings:
         return RobotModel.for_simulation(sim, q_scale=self.q_scale, r_scale=self.r_scale,
                                          initial=initial or self.initial, initial_std=self.initial_std)
 
+    def filter_settings(self) -> FilterSettings:
+        """The particle filter's settings record (:class:`pfcourse.filter_config.FilterSettings`): ``N``, the
+        threshold and the resampler; ``q_scale``, ``r_scale``, ``initial`` and ``initial_std`` set its model."""
+        return FilterSettings(self.n_particles, threshold=self.threshold, resampler=self.scheme)
+
     def run_particle_filter(self, model: RobotModel, sim: RobotSimulation, seed: int) -> FilterResult:
         """The particle filter on ``sim``'s measurements, its random stream seeded with ``seed``."""
-        pf = ParticleFilter(model, self.n_particles, threshold=self.threshold, resampler=self.scheme)
-        return pf.run(sim.measurements, seed)
+        return self.filter_settings().build(model).run(sim.measurements, seed)
 
 
 def compare_filters(
@@ -125,7 +131,7 @@ def compare_filters(
 ) -> dict[str, RunRecord]:
     """Simulate run ``seed`` and filter it with each of ``filters`` (``"pf"``, ``"ekf"``, ``"ukf"``).
 
-    ``options`` are :class:`FilterSettings` fields (``n_particles``, ``q_scale``, ``r_scale``,
+    ``options`` are :class:`RobotRunOptions` fields (``n_particles``, ``q_scale``, ``r_scale``,
     ``threshold``, ``scheme``, ``initial``, ``initial_std``, ``burn_in``; defaults and meaning
     there) and :class:`~pfcourse.scenarios.robot.scenario.RobotScenario` fields changing ``scenario``
     (``n_steps``, ``dt_meas``, ``gap``, ``n_landmarks``, ``q_true``, ...).  Each filter's
@@ -137,7 +143,7 @@ def compare_filters(
     unknown = set(filters) - set(FILTERS)
     if unknown:
         raise ParameterError(f"unknown filter(s) {sorted(unknown)}; choose among {FILTERS}")
-    settings, scenario_changes = FilterSettings.split(options)
+    settings, scenario_changes = RobotRunOptions.split(options)
     sim = settings.simulate(seed, scenario, scenario_changes)
     runners = {"pf": lambda model: settings.run_particle_filter(model, sim, seed),
                "ekf": lambda model: run_ekf(model, sim.measurements),
@@ -163,7 +169,7 @@ def global_localization_run(
 ) -> RunRecord:
     """Run the particle filter from a uniform cloud over the map and record whether it locked on.
 
-    ``options`` are :class:`FilterSettings` fields (``q_scale``, ``r_scale``, ``threshold``,
+    ``options`` are :class:`RobotRunOptions` fields (``q_scale``, ``r_scale``, ``threshold``,
     ``scheme``; the start is ``"uniform"``) and :class:`~pfcourse.scenarios.robot.scenario.RobotScenario`
     fields.  Locked on is the book's one definition, :func:`pfcourse.metrics.locked_on`: the
     posterior mean within ``position_tolerance`` metres and ``heading_tolerance`` radians of the
@@ -178,7 +184,7 @@ def global_localization_run(
         raise ParameterError("global_localization_run always starts from the uniform cloud: do not pass initial")
     position_tolerance = check_real(position_tolerance, "position_tolerance", low=0.0, low_open=True)
     heading_tolerance = check_real(heading_tolerance, "heading_tolerance", low=0.0, low_open=True)
-    settings, scenario_changes = FilterSettings.split({**options, "n_particles": n_particles, "initial": "uniform"})
+    settings, scenario_changes = RobotRunOptions.split({**options, "n_particles": n_particles, "initial": "uniform"})
     sim = settings.simulate(seed, scenario, {"n_steps": n_steps, **scenario_changes})
 
     def score(res) -> dict:
@@ -202,7 +208,7 @@ def pf_run(
 ) -> dict:
     """Simulate run ``seed`` and filter it with the particle filter: the metrics of a Part III study row.
 
-    ``options`` as in :func:`compare_filters` (:class:`FilterSettings` and
+    ``options`` as in :func:`compare_filters` (:class:`RobotRunOptions` and
     :class:`~pfcourse.scenarios.robot.scenario.RobotScenario` fields: the same simulation, model, filter
     and seed, so ``position_rmse``, ``heading_rmse`` and ``mean_nees`` are those of
     ``compare_filters(seed, filters=("pf",), ...)``).  Metrics (steps ``k >= burn_in``):
@@ -216,7 +222,7 @@ def pf_run(
     ``position_sd`` and ``heading_error`` ``|wrap(theta^_k - theta_k)|``.  A collapse raises
     its :class:`~pfcourse.errors.StepError` (the study runner records a failed run).
     """
-    settings, scenario_changes = FilterSettings.split(options)
+    settings, scenario_changes = RobotRunOptions.split(options)
     sim = settings.simulate(seed, scenario, scenario_changes)
     res = settings.run_particle_filter(settings.model(sim), sim, seed)
     burn_in = settings.burn_in
@@ -235,13 +241,17 @@ def pf_run(
         "mean_ess_fraction": float(np.mean(res.ess[measured]) / res.n_particles) if measured.any() else 1.0,
         "resamples": res.n_resamples,
         "mean_position_sd": float(np.mean(sd[burn_in:])),
-        "estimate_jitter": float(np.sqrt(np.mean(np.sum(jitter**2, axis=1)))) if len(jitter) else 0.0,
+        "estimate_jitter": float(metrics_rmse(jitter, components=-1)) if len(jitter) else 0.0,
     }
     if keep_errors:
         row["position_error"] = distance
         row["position_sd"] = sd
         row["heading_error"] = np.abs(err[:, 2])
     return row
+
+
+#: The filter of :func:`dead_reckoning_row`: the bootstrap filter, N = 300, systematic at ESS < N/2.
+DEAD_RECKONING_FILTER = FilterSettings(300, threshold=0.5, resampler="systematic")
 
 
 def dead_reckoning_row(seed: int, n_particles: int = 300, threshold: float = 0.5) -> dict:
@@ -252,8 +262,8 @@ def dead_reckoning_row(seed: int, n_particles: int = 300, threshold: float = 0.5
     from pfcourse.seeding import run_filter_seed
 
     sim = simulate_robot(rng=seed)
-    res = ParticleFilter(RobotModel.for_simulation(sim), n_particles, threshold=threshold,
-                         resampler="systematic").run(sim.measurements, rng=run_filter_seed(seed))
+    settings = DEAD_RECKONING_FILTER.with_(n_particles=n_particles, threshold=threshold)
+    res = settings.build(RobotModel.for_simulation(sim)).run(sim.measurements, rng=run_filter_seed(seed))
     pf_error = position_error(sim.truth, res.mean)
     return {"dr_final_m": float(position_error(sim.truth[-1], sim.odometry_path[-1])),
             "pf_final_m": float(pf_error[-1]), "pf_max_m": float(pf_error.max())}

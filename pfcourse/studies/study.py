@@ -17,7 +17,8 @@ and returns a dictionary of metrics.  The result is a tidy table, one row per
   every particle impossible, a NaN) is recorded with ``status = "failed"`` and its
   message, and scored as the study says a collapsed run scores (``failed_scores``: a terrain
   flight whose particles all died is lost, with an infinite error); the study goes on.  A row
-  function never catches a collapse itself.  Configuration errors and bugs still stop it.  This is the
+  function never catches a collapse itself.  Configuration errors and bugs (a
+  :class:`~pfcourse.errors.ModelError`, e.g. a bad ``FilterSettings``) still stop it.  This is the
   failure policy of every recorded run (:mod:`pfcourse.studies.record`): a row holds what
   a run record holds, its setting, ``status``, ``error``, metrics and ``seconds``.
 * **Batches.** ``run_batch(seeds=[...], **s)`` may replace ``run_one`` when a
@@ -49,7 +50,7 @@ import numpy as np
 import pandas as pd
 
 from pfcourse.checks import check_count
-from pfcourse.errors import ParameterError, StepError
+from pfcourse.errors import ModelError, ParameterError, StepError, is_collapse
 from pfcourse.studies.executor import STALL_TIMEOUT, run_tasks
 from pfcourse.studies.record import failure_message
 from pfcourse.seeding import replicate_seed
@@ -154,6 +155,8 @@ def _one_row(run_one, setting: dict, r: int, seed: int, failed: dict) -> dict:
     try:
         metrics, status, error = _metrics(run_one(seed=seed, **setting), setting, seed), "ok", ""
     except StepError as exc:
+        if not is_collapse(exc):
+            raise
         metrics, status, error = failed, "failed", failure_message(exc)
     return {**setting, "run": r, "seed": seed, "status": status, "error": error, **metrics,
             "seconds": time.perf_counter() - start}
@@ -163,11 +166,16 @@ def _batch_rows(run_batch, setting: dict, runs: list[int], seeds: list[int], fai
     start = time.perf_counter()
     try:
         outcomes = run_batch(seeds=seeds, **setting)
+        bug = next((m for m in outcomes if isinstance(m, ModelError)), None)
+        if bug is not None:
+            raise bug
         results = [(failed, "failed", failure_message(m)) if isinstance(m, StepError)
                    else (_metrics(m, setting, seed), "ok", "") for m, seed in zip(outcomes, seeds)]
         if len(results) != len(seeds):
             raise ParameterError(f"run_batch returned {len(results)} results for {len(seeds)} seeds")
-    except StepError:
+    except StepError as exc:
+        if not is_collapse(exc):
+            raise
         # One collapse spoils the batch: redo its runs one at a time to find which.
         return [_one_row(lambda seed, **s: run_batch(seeds=[seed], **s)[0], setting, r, seed, failed)
                 for r, seed in zip(runs, seeds)]

@@ -139,7 +139,7 @@ def _run_cost_filter(setting: str, scenario: AircraftScenario, terrain, flight, 
     elif setting == "bias state N=3000":
         pf = map_bias_filter(terrain, scenario, 3000, 12.0, 300.0, threshold=0.5, resampler="multinomial")
     else:
-        pf = lookup(terrain_remedies.FILTERS, setting).build(scenario, terrain)
+        pf = lookup(terrain_remedies.FILTERS, setting).build(scenario.model(terrain))
     pf.run(flight.measurements, rng=filter_rng(0, seed))  # every particle lost: raises, the study refuses it
     return True
 

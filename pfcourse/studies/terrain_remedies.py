@@ -24,8 +24,8 @@ these reference means.
 
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass
-from functools import partial
 
 import numpy as np
 
@@ -57,24 +57,33 @@ def _settings(n_particles: int, jitter_scale: float | None = None, resampler: st
                           jitter=RegularisedJitter(jitter_scale, (3,)) if jitter_scale is not None else None)
 
 
-def _build(scenario: AircraftScenario, terrain, settings: FilterSettings, model: dict) -> ParticleFilter:
-    """The filter of ``settings`` on the terrain model (``model``: the filter's own scenario changes, e.g. ``Qf``)."""
-    return settings.build((scenario.with_(**model) if model else scenario).model(terrain))
+@dataclass(frozen=True, eq=False)
+class ProcessNoise:
+    """The filter's model change of another process noise: the terrain model with ``Qf`` (4 x 4, the
+    filter's own, e.g. :data:`QF_SCALED`) in place of the scenario's, the simulation unchanged."""
+
+    Qf: np.ndarray
+    label: str = "process noise Q_f changed"
+
+    def apply(self, model):
+        """The terrain model of ``model``'s map and of its scenario with this ``Qf``."""
+        return type(model)(model.terrain, model.scenario.with_(Qf=self.Qf))
 
 
-def _config(name: str, settings: FilterSettings, note: str = "", **model) -> FilterConfig:
-    """The configuration ``name``: its label derived from ``settings`` (and ``note`` on the model)."""
-    return FilterConfig(name, settings.label + note, partial(_build, settings=settings, model=model),
-                        settings.n_particles, settings)
+def _config(name: str, settings: FilterSettings) -> FilterConfig:
+    """The configuration ``name``: ``build(model)`` is ``settings.build`` on the terrain model
+    ``scenario.model(terrain)``, its label derived from ``settings``."""
+    return FilterConfig.of(name, settings)
 
 
-#: The terrain filters by name: ``build(scenario, terrain) -> ParticleFilter`` (a fresh one: the
+#: The terrain filters by name: ``build(scenario.model(terrain)) -> ParticleFilter`` (a fresh one: the
 #: progressive correction counts readings), each one a :class:`~pfcourse.filter_config.FilterSettings`
 #: record.  The kernel is at 0.2 x the optimal bandwidth (chosen on flights 0-11 among 0.05, 0.2 and 1:
 #: h_opt itself, fitted to one Gaussian, spreads a multimodal cloud over km).
 FILTERS: dict[str, FilterConfig] = configurations(
     *(_config(f"bootstrap N={n}", _settings(n)) for n in (3000, 10000, 30000, 100000)),
-    _config("bootstrap N=3000, Qf/3", _settings(3000), ", horizontal Q_f / 3", Qf=QF_SCALED),
+    _config("bootstrap N=3000, Qf/3", dataclasses.replace(
+        _settings(3000), model_change=ProcessNoise(QF_SCALED, "horizontal Q_f / 3"))),
     _config("regularised h=1 N=3000", _settings(3000, jitter_scale=1.0)),
     *(_config(f"regularised N={n}", _settings(n, jitter_scale=0.2)) for n in (3000, 10000, 30000)),
     _config("tempered N=3000", _settings(3000, tempered=True)),
@@ -103,7 +112,7 @@ def run_one(setting: str, run: int, terrain, scenario: AircraftScenario | None =
     ``terrain``; the filter uses ``filter_terrain`` (default: the same map)."""
     scenario = scenario or AircraftScenario()
     flight = simulate(scenario, terrain, data_rng(0, run))
-    pf = lookup(FILTERS, setting).build(scenario, terrain if filter_terrain is None else filter_terrain)
+    pf = lookup(FILTERS, setting).build(scenario.model(terrain if filter_terrain is None else filter_terrain))
     n = pf.n_particles
     res = pf.run(flight.measurements, rng=filter_rng(0, run), collect=[Stages()])
     measured = ~np.isnan(flight.measurements[:, 0])
@@ -177,7 +186,7 @@ def error_path_row(seed: int, setting: str) -> dict:
     terrain = jacksboro()
     scenario = AircraftScenario()
     flight = simulate(scenario, terrain, data_rng(0, seed))
-    pf = lookup(FILTERS, setting).build(scenario, terrain)
+    pf = lookup(FILTERS, setting).build(scenario.model(terrain))
     res = pf.run(flight.measurements, rng=filter_rng(0, seed))
     e = position_error(flight.truth, res.mean)
     return {"setting": setting, "flight": seed, "lost": bool(e[-1] > DIVERGED_ERROR), "errors": e}
@@ -294,7 +303,7 @@ def model_flight_row(seed: int, setting: str) -> dict:
     terrain = jacksboro()
     scenario = AircraftScenario()
     flight, redraws = model_flight(scenario, terrain, data_rng(MODEL_FLIGHT_SEED, seed))
-    pf = lookup(FILTERS, setting).build(scenario, terrain)
+    pf = lookup(FILTERS, setting).build(scenario.model(terrain))
     res = pf.run(flight.measurements, rng=filter_rng(MODEL_FLIGHT_SEED, seed))
     e = position_error(flight.truth, res.mean)
     return {"setting": setting, "flight": seed, "lost": bool(e[-1] > DIVERGED_ERROR), "final_error": float(e[-1]),
@@ -316,6 +325,6 @@ def equal_cost_row(seed: int, setting: str) -> dict:
     terrain = jacksboro()
     scenario = AircraftScenario()
     flight = simulate(scenario, terrain, data_rng(0, seed))
-    pf = lookup(EQUAL_COST_FILTERS, setting).build(scenario, terrain)
+    pf = lookup(EQUAL_COST_FILTERS, setting).build(scenario.model(terrain))
     res = pf.run(flight.measurements, rng=filter_rng(0, seed))
     return {"setting": setting, "flight": seed, "N": pf.n_particles, **flight_scores(flight.truth, res.mean)}

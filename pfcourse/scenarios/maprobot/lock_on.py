@@ -33,6 +33,7 @@ import numpy as np
 from pfcourse import metrics
 from pfcourse.checks import Array, check_probability, check_real
 from pfcourse.errors import ParameterError, ShapeError
+from pfcourse.scenarios.maprobot.drive import MOTION, STEP_M
 from pfcourse.scenarios.maprobot.motion import OdometryModel
 
 #: The rule's defaults: 1 m, three standard deviations of one step's heading noise, 80 % of the last 20 s.
@@ -40,10 +41,10 @@ POSITION_TOLERANCE_M = metrics.LOCK_POSITION_M
 HEADING_SIGMAS = 3.0
 WINDOW_S = metrics.LOCK_WINDOW_S
 SHARE = 0.8
-#: The map robot's odometry noise a_1..a_4 (pfcourse.studies.maprobot.MOTION) ...
-ALPHAS = (0.05, 0.05, 0.05, 0.05)
-#: ... and the length of a straight step (m): 0.5 m/s for 0.5 s between scans.
-STEP_M = 0.25
+#: The map robot's odometry noise a_1..a_4 (:data:`pfcourse.scenarios.maprobot.drive.MOTION`) ...
+ALPHAS = MOTION.alphas
+#: ... and the length of a straight step (m): :data:`~pfcourse.scenarios.maprobot.drive.STEP_M`, 0.5 m/s for
+#: 0.5 s between scans (imported above).
 
 
 def step_heading_sd(motion: OdometryModel | None = None, step_m: float = STEP_M) -> float:

@@ -18,9 +18,9 @@ from pfcourse.scenarios.robot.scenario import (
     RobotSimulation,
     motion,
     range_bearing,
-    rmse,
     simulate_robot,
     tracking_errors,
+    tracking_rmse,
 )
 
 __all__ = [
@@ -33,9 +33,9 @@ __all__ = [
     "RobotSimulation",
     "motion",
     "range_bearing",
-    "rmse",
     "run_ekf",
     "run_ukf",
     "simulate_robot",
     "tracking_errors",
+    "tracking_rmse",
 ]

@@ -321,6 +321,29 @@ class AugmentedMCL:
         return particles
 
 
+class InjectionProbability:
+    """Collector ``injected``: augmented MCL's injection probability ``max(0, 1 - w_fast / w_slow)`` at each
+    resampling (the steps that resample; every measurement step with ``threshold = 1``), reported by the
+    step as it runs, not read from the proposal after the run.  Refuses a filter whose jitter is not an
+    :class:`AugmentedMCL`."""
+
+    name = "injected"
+
+    def start(self, pf: ParticleFilter, n_steps: int) -> None:
+        if not isinstance(pf.jitter, AugmentedMCL):
+            raise ParameterError(f"the collector {self.name!r} needs augmented MCL as the filter's jitter, "
+                                 f"got {type(pf.jitter).__name__}")
+        self.augmented, self.values = pf.jitter, []
+
+    def collect(self, step) -> None:
+        # the step's resampling injected with the probability of the averages its proposal just updated
+        if step.resampled:
+            self.values.append(self.augmented.injection_probability())
+
+    def result(self) -> Array:
+        return np.array(self.values, dtype=float)
+
+
 def kld_filter(model, measurements: Array, rng: np.random.Generator | int, *, n_max: int = 20000,
                n_min: int = 100, epsilon: float = 0.05, delta: float = 0.01,
                bin_size: Sequence[float] = (1.0, 1.0, np.deg2rad(10.0)), proposal=None,
@@ -442,9 +465,10 @@ def run_settings(sim: RobotSimulation, settings: FilterSettings, seed: int, *, g
     out: dict = {}
     start = time.perf_counter()
     pf = settings.build(base)
-    res = pf.run(sim.measurements, seed, collect=[Stages()])
-    if isinstance(pf.proposal, AugmentedMCL):
-        out["injected"] = np.array(pf.proposal.injected)
+    augmented = isinstance(pf.jitter, AugmentedMCL)
+    res = pf.run(sim.measurements, seed, collect=[Stages()] + ([InjectionProbability()] if augmented else []))
+    if augmented:
+        out["injected"] = res.collected["injected"]
     out["seconds"] = time.perf_counter() - start
     out["mean"], out["cov"] = res.mean, res.cov
     out["n_used"] = res.sizes

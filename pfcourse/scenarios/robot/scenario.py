@@ -500,7 +500,7 @@ def tracking_errors(truth: Array, estimate: Array) -> Array:
     return err
 
 
-def rmse(truth: Array, estimate: Array, start: int = 0) -> tuple[float, float]:
+def tracking_rmse(truth: Array, estimate: Array, start: int = 0) -> tuple[float, float]:
     """Position and heading root-mean-square errors over steps ``k >= start``.
 
     ``RMSE_pos = sqrt(mean_k (e_x^2 + e_y^2))`` (m) and
@@ -509,6 +509,6 @@ def rmse(truth: Array, estimate: Array, start: int = 0) -> tuple[float, float]:
     err = tracking_errors(truth, estimate)
     start = check_count(start, "start", minimum=0)
     if err.ndim != 2 or start >= len(err):
-        raise ShapeError(f"rmse needs errors of shape (K, 3) with K > start = {start}, got {err.shape}")
+        raise ShapeError(f"tracking_rmse needs errors of shape (K, 3) with K > start = {start}, got {err.shape}")
     err = err[start:]
-    return float(np.sqrt(np.mean(err[:, 0] ** 2 + err[:, 1] ** 2))), float(metrics.rmse(err[:, 2]))
+    return float(metrics.rmse(err[:, :2], components=-1)), float(metrics.rmse(err[:, 2]))
