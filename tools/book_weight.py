@@ -114,15 +114,12 @@ class InlineImages:
         """The re-compressed PNG of ``encoded`` (for a notebook), the same pixels as its file in the book."""
         key = hashlib.sha256(encoded.encode()).hexdigest()
         if key not in self.pngs:
-            path = self.file_for(encoded)
-            if path.suffix == ".png":
-                self.pngs[key] = path.read_bytes()
-            else:
-                image = Image.open(path)
-                image.load()
-                out = io.BytesIO()
-                image.save(out, format="PNG", optimize=True)
-                self.pngs[key] = out.getvalue()
+            data = base64.b64decode(encoded.replace("\\\n", ""))
+            stem = hashlib.sha256(data).hexdigest()[:20]
+            png = self.folder / f"{stem}.png"
+            # the book's WebP file holds the pixels of smallest_exact_png(data) (deterministic), which a
+            # notebook keeps as PNG; a figure no page shows gets no file
+            self.pngs[key] = png.read_bytes() if png.exists() else smallest_exact_png(data)
         return self.pngs[key]
 
     def recompressed(self, text: str, inline: bool) -> str:
@@ -197,11 +194,11 @@ def lighten(app, exception) -> None:
     for page in sorted(outdir.rglob("*.html")):
         if "_static" not in page.relative_to(outdir).parts:
             images.rewrite(page)
-    collect_unused(outdir)
     for notebook in sorted((outdir / "_sources").rglob("*.ipynb")):
         content = json.loads(notebook.read_text(encoding="utf-8"))
         notebook.write_text(json.dumps(lighter_notebook(content, images), indent=1, ensure_ascii=False) + "\n",
                             encoding="utf-8")
+    collect_unused(outdir)
 
 
 def setup(app) -> dict[str, Any]:
