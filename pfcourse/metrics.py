@@ -30,21 +30,28 @@ import numpy as np
 
 from pfcourse.angles import wrap_angle
 from pfcourse.checks import Array
+from pfcourse.errors import ParameterError
 
 
-def rmse(errors: Array, axis: int | None = None, *, components: int | tuple[int, ...] | None = None):
+def rmse(errors: Array, axis: int | None = None, *, components: int | tuple[int, ...] | None = None,
+         points: int = 1):
     """Root mean square error ``sqrt(mean(e^2))`` of ``errors`` over ``axis`` (all of them by default):
     the one RMSE of the package (of a position error, a heading error, a state, ...).
 
     ``components`` names the axis (or axes) that hold the components of one error (``-1`` for
     ``(e_x, e_y)`` rows, ``(1, 2)`` for a run of matrices): their squares are summed first, the
     squared length ``e_x^2 + e_y^2`` (or the squared Frobenius norm), then averaged over ``axis``
-    of the remaining axes: ``sqrt(mean(e_x^2 + e_y^2))``.
+    of the remaining axes: ``sqrt(mean(e_x^2 + e_y^2))``.  With ``points = L`` the components are those
+    of ``L`` points (two landmarks' ``(x, y)``: four components) and their summed squares are divided by
+    ``L``, the RMS over the points of each point's error: ``sqrt(mean((|e_1|^2 + ... + |e_L|^2) / L))``.
     """
+    if not isinstance(points, (int, np.integer)) or isinstance(points, bool) or points < 1:
+        raise ParameterError(f"rmse: points must be a positive whole number of points, got {points!r}")
     errors = np.asarray(errors)
     if components is None:
         return np.sqrt(np.mean(errors ** 2, axis=axis))
-    return np.sqrt(np.mean(np.sum(errors ** 2, axis=components), axis=axis))
+    squared = np.sum(errors ** 2, axis=components)
+    return np.sqrt(np.mean(squared / points if points != 1 else squared, axis=axis))
 
 
 def position_error(truth: Array, estimate: Array) -> Array:

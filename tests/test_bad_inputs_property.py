@@ -96,7 +96,7 @@ import pytest  # noqa: E402
 
 import pfcourse  # noqa: E402
 from pfcourse.scenarios import landmarks, robot, terrain  # noqa: E402
-from pfcourse import DensityProposal, LinearGaussianModel, OptimalProposal, kalman_filter  # noqa: E402
+from pfcourse import DensityProposal, FilterSettings, LinearGaussianModel, OptimalProposal, kalman_filter  # noqa: E402
 from pfcourse.resampling import SCHEMES  # noqa: E402
 
 K = 5
@@ -371,6 +371,9 @@ ENTRY_POINTS = {
         _finite("truth")),
     "TerrainMap + TerrainModel": ({"TerrainMap", "TerrainModel"}, _terrain_pf,
                                   {"heights": TINY_TERRAIN.heights, "dx": 10000.0, "dy": 10000.0}, _valid_filter_result),
+    "FilterSettings.build + run": (
+        {"FilterSettings"}, lambda **a: FilterSettings(**a).build(LinearGaussianModel(**LG)).run(Z2, 0),
+        {"n_particles": 20, "threshold": 0.5}, _valid_filter_result),
 }
 
 #: Exported names that take no input to fuzz: the named errors, the result containers the package
@@ -379,6 +382,9 @@ NOT_FUZZED = {
     "CovarianceError", "DegenerateWeightsError", "NumericalError", "ParameterError", "PfcourseError", "ShapeError",
     "WeightError", "FilterResult", "KalmanResult", "LandmarkSimulation", "RobotSimulation", "Flight",
     "ANGLE_INDICES", "INITIAL_STD", "Q_TRUE", "R_TRUE", "quadrant_scenario", "load_jacksboro",
+    # the engine's step record (filled by the engine, like FilterResult), the model's named error, and the
+    # collectors, whose constructors take no argument
+    "Step", "ModelError", "Collector", "Clouds", "Ancestors", "Moments", "Stages",
 }
 
 

@@ -56,3 +56,17 @@ def test_locked_on_is_within_both_tolerances_over_the_whole_last_window():
     head[-1] = 2 * LOCK_HEADING_RAD  # a heading off at the last step is not locked on
     assert not locked_on(np.full(60, 0.1), head, dt=1.0)
     assert locked_on(np.full(10, 0.1), np.full(10, 0.01), dt=0.5)  # window longer than the run: all steps
+
+
+def test_rmse_over_points_averages_each_points_squared_error():
+    """``points = L``: the RMS over ``L`` points of each point's error, bit for bit the study's arithmetic."""
+    import pytest
+    from pfcourse.errors import ParameterError
+    from pfcourse.metrics import rmse
+    g = np.random.default_rng(3).normal(size=(40, 4))
+    assert rmse(g, components=1, points=2) == np.sqrt(np.mean(np.sum(g ** 2, axis=1) / 2))
+    each = (np.sum(g[:, :2] ** 2, axis=1) + np.sum(g[:, 2:] ** 2, axis=1)) / 2  # the two points' mean squared error
+    assert np.isclose(rmse(g, components=1, points=2) ** 2, np.mean(each))
+    for bad in (0, -1, 1.5, True):
+        with pytest.raises(ParameterError, match="points"):
+            rmse(g, components=1, points=bad)

@@ -141,5 +141,5 @@ def linear_row(seed: int, landmark_noise: float, n_particles: int) -> dict:
     pf = ParticleFilter(model, n_particles, threshold=LINEAR_THRESHOLD).run(data.measurements,
                                                                             rng=filter_rng(0, seed))
     gap = pf.mean - _KALMAN[(seed, landmark_noise)]
-    return {"robot_gap": float(np.sqrt(np.mean(np.sum(gap[:, :2] ** 2, axis=1)))),
-            "landmark_gap": float(np.sqrt(np.mean(np.sum(gap[:, 2:] ** 2, axis=1) / 2)))}
+    return {"robot_gap": float(rmse(gap[:, :2], components=1)),
+            "landmark_gap": float(rmse(gap[:, 2:], components=1, points=2))}
