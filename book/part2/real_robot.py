@@ -140,15 +140,12 @@ odo_m = np.hypot(*rel[:, :2].T)
 on_spot = (np.abs(rel[:, 2]) > np.radians(20)) & (odo_m < 0.1)
 straight = np.abs(rel[:, 2]) < np.radians(5)
 dt = np.diff(log.times)
-# heading error of a step regressed on the distance driven and the turn (least squares, with intercept)
-reg_x = np.column_stack([odo_m, true_turn, np.ones(len(odo_m))])
-reg, *_ = np.linalg.lstsq(reg_x, turn_error, rcond=None)
-reg_resid = turn_error - reg_x @ reg
-reg_se = np.sqrt(np.diag(np.linalg.inv(reg_x.T @ reg_x)) * reg_resid.var(ddof=3))
+# heading error per metre on straight steps, and per radian of turn on turns on the spot (slopes)
+drift_fit = evidence.regression_slope(odo_m[straight], turn_error[straight])
+turn_fit = evidence.regression_slope(true_turn[on_spot], turn_error[on_spot])
 true_m = np.hypot(*steps[:, :2].T)
 moving = true_m > 0.3
-glue_values("intel_odo_", drift_deg_per_m=np.degrees(reg[0]), drift_deg_per_m_se=np.degrees(reg_se[0]),
-            turn_scale_pct=100 * reg[1], turn_scale_pct_se=100 * reg_se[1],
+glue_values("intel_odo_", drift_deg_per_m=np.degrees(drift_fit[0]), turn_scale_pct=100 * turn_fit[0],
             distance_ratio=np.median(odo_m[moving] / true_m[moving]))
 glue_values("intel_", n_scans=log.n_scans, n_odometry=log.n_odometry, minutes=minutes, path_m=path_m,
             no_echo_share=1 - log.returned.mean(), step_m=np.median(u[1:, 1]),
@@ -173,11 +170,12 @@ EvidenceBlock(
            f"{turn_error.sum() / odo_m.sum():.4f} rad/m; mean {np.degrees(turn_error[straight].mean()):.2f} degrees "
            f"on straight steps, {np.degrees(turn_error[on_spot].mean()):.2f} on turns on the spot, "
            f"{np.degrees(turn_error.mean()):.2f} over all steps.",
-           f"Least squares, heading error = a distance + b turn + c over all {len(turn_error)} steps: "
-           f"a = {np.degrees(reg[0]):.2f} (standard error {np.degrees(reg_se[0]):.2f}) degrees per metre, "
-           f"b = {reg[1]:+.3f} (standard error {reg_se[1]:.3f}; positive: the odometry over-rotates), "
-           f"c = {np.degrees(reg[2]):.2f} degrees. Odometry over corrected distance on the {moving.sum()} steps "
-           f"of more than 0.3 m: median {np.median(odo_m[moving] / true_m[moving]):.3f}."],
+           f"Least-squares slope of the heading error on the odometry travel, {straight.sum()} straight steps: "
+           f"{np.degrees(drift_fit[0]):.2f} degrees per metre (95% interval {np.degrees(drift_fit[1]):.2f} to "
+           f"{np.degrees(drift_fit[2]):.2f}); on the corrected turn, {on_spot.sum()} turns on the spot: "
+           f"{turn_fit[0]:+.3f} ({turn_fit[1]:+.3f} to {turn_fit[2]:+.3f}; positive: the odometry over-rotates). "
+           f"Odometry over corrected distance on the {moving.sum()} steps of more than 0.3 m: median "
+           f"{np.median(odo_m[moving] / true_m[moving]):.3f}."],
 )
 
 # %% [markdown]
@@ -187,9 +185,9 @@ EvidenceBlock(
 # $20$ degrees, less than $0.1$ m of travel).
 #
 # Chained from the first pose, the odometry alone ends {glue:text}`intel_full_dead_reckoning_m:.0f` m
-# from the corrected pose. Its heading error is not random. A regression of each step's heading error
-# on the distance driven and the turn made gives a drift of {glue:text}`intel_odo_drift_deg_per_m:.1f`
-# degrees per metre driven (negative: clockwise); turns on the spot come out
+# from the corrected pose. Its heading error is not random. Regressed on the distance driven, the
+# heading error of a straight step gives a drift of {glue:text}`intel_odo_drift_deg_per_m:.1f`
+# degrees per metre (negative: clockwise); regressed on the turn, turns on the spot come out
 # slightly over-rotated, by {glue:text}`intel_odo_turn_scale_pct:.0f` %; and the wheels report
 # {glue:text}`intel_odo_distance_ratio:.3f` times the distance driven (median over steps). The
 # odometry model's zero-mean noise covers such a bias only by a wide spread.
@@ -438,21 +436,23 @@ EvidenceBlock(
 # The NumPy loop and the package's engine give the same estimates to
 # {glue:text}`intel_engine_tolerance:.0e`. From the known start, with $N = 1000$ particles and the seed
 # above, the filter stays within {glue:text}`intel_track_seed1_largest_m:.1f` m of the reference over
-# the whole first half, with a median position error of {glue:text}`intel_tracking_median_error_m:.3f` m,
-# where dead reckoning ends {glue:text}`intel_dead_reckoning_final_error_m:.1f` m off. Yet its heading
-# is off by up to {glue:text}`intel_track_seed1_window_heading_deg:.0f` degrees where other runs are
+# the first half, with a median position error of {glue:text}`intel_tracking_median_error_m:.3f` m,
+# where dead reckoning ends {glue:text}`intel_dead_reckoning_final_error_m:.1f` m off.
+#
+# Yet its heading is off by up to {glue:text}`intel_track_seed1_window_heading_deg:.0f` degrees where other runs are
 # lost.
 #
-# But one run is one draw. Over the seeds $1$ to $30$ the same filter is on the robot at the last
+# One run is one draw. Over the seeds $1$ to $30$ the same filter is on the robot at the last
 # scan (within $1$ m and a heading tolerance, defined below) in only
 # {glue:text}`intel_track_share:.0%` of the runs
-# ({glue:text}`intel_track_share_low:.0%`-{glue:text}`intel_track_share_high:.0%`). The others lose it
-# for good between scans {glue:text}`intel_track_lost_first:d` and {glue:text}`intel_track_lost_last:d`,
+# ({glue:text}`intel_track_share_low:.0%`-{glue:text}`intel_track_share_high:.0%`).
+#
+# The others lose it for good between scans {glue:text}`intel_track_lost_first:d` and {glue:text}`intel_track_lost_last:d`,
 # and end up to {glue:text}`intel_track_lost_final_max_m:.0f` m off.
 #
 # **Calibrating the odometry.** Real robots calibrate their odometry before they trust it
 # {cite:p}`borenstein1996`. Here the calibration is one number: the heading drift per metre, measured
-# on the map half ({glue:text}`intel_track_drift_deg_per_m:.1f` degrees per metre) and taken out of
+# on the map half and taken out of
 # the held-out half's increments, half from each rotation. With it the same filter, on the same seeds,
 # tracks to the end in {glue:text}`intel_track_calib_share:.0%` of the runs, a gain of
 # {glue:text}`intel_track_calib_diff:.0%`
@@ -651,7 +651,9 @@ EvidenceBlock(
 # **The map is a SLAM map, made of other scans.** Of the held-out scans' echoes, seen from the
 # corrected poses, {glue:text}`intel_far_held_share:.1%` end more than half a metre from any wall of
 # the map; of the map half's own echoes, {glue:text}`intel_far_map_share:.1%`. Each such beam pulls
-# the true pose's weight down. And {glue:text}`intel_global_outside_share:.0%` of the held-out poses
+# the true pose's weight down.
+#
+# And {glue:text}`intel_global_outside_share:.0%` of the held-out poses
 # lie outside the space the map has seen free, where the uniform prior and the scan's proposal have no
 # density: {glue:text}`intel_global_n_start_outside:d` runs start there, and
 # {glue:text}`intel_global_start_outside_locked:d` of them lock on. On a map of the whole run, which
@@ -676,14 +678,15 @@ EvidenceBlock(
 # reached it. Of the {glue:text}`intel_global_n_locked:d` runs that lock on,
 # {glue:text}`intel_global_n_lock_from_start:d` do so from the first scans. With $45$ beams one scan's
 # likelihood is sharply peaked, so the first resampling gathers the
-# {glue:text}`intel_n_start_total:d` starting poses onto a few, and KLD-sampling then shrinks the
+# starting poses onto a few, and KLD-sampling then shrinks the
 # cloud: the filter wins at once or, mostly, not at all, and the injected poses rarely rescue it.
 #
 # Where a run starts tells the same story. Runs that start in the first $200$ scans, whose path lies a
 # median {glue:text}`intel_early_path_m:.1f` m from the map half's, lock on in
 # {glue:text}`intel_global_early_rate:.0%`; later ones, a median {glue:text}`intel_late_path_m:.1f` m
-# away, in {glue:text}`intel_global_late_start_rate:.0%`, a difference of
-# {glue:text}`intel_global_early_diff:.0%`
+# away, in {glue:text}`intel_global_late_start_rate:.0%`.
+#
+# The early starts lock on more often by {glue:text}`intel_global_early_diff:.0%`
 # ({glue:text}`intel_global_early_diff_low:.0%`-{glue:text}`intel_global_early_diff_high:.0%`).
 
 # %% [markdown]
@@ -778,7 +781,8 @@ print(check_random_beams(my_beams))
 # ## Takeaways
 #
 # - A real log needs its format read with care: here the odometry between scans is the last odometry
-#   pose seen from the corrected pose, and its heading error is a drift per metre, not zero-mean noise.
+#   pose seen from the corrected pose, and its heading error is a drift per metre, not zero-mean noise:
+#   measure it on one part of the run and take it out of the other.
 # - With known poses, mapping is a sum of log-odds per cell: an inverse sensor model adds evidence for
 #   the cell a beam ends in and against the cells it crosses.
 # - Map and localize on different parts of the run, and report many seeds: one run that tracks to
@@ -788,8 +792,6 @@ print(check_random_beams(my_beams))
 # - Finding the robot from nowhere is much harder on a real log than on a simulated map: the map
 #   misses walls the scans see, so the cure of {doc}`map_global` locks on where the map covers the
 #   start, and rarely elsewhere.
-# - Calibrate the odometry: a heading drift measured on one part of the run and taken out of the
-#   other is the cheapest cure for a filter that loses the robot.
 #
 # :::{admonition} From the labs
 # :class: dropdown
