@@ -140,8 +140,10 @@ odo_m = np.hypot(*rel[:, :2].T)
 on_spot = (np.abs(rel[:, 2]) > np.radians(20)) & (odo_m < 0.1)
 straight = np.abs(rel[:, 2]) < np.radians(5)
 dt = np.diff(log.times)
-# heading error per metre on straight steps, and per radian of turn on turns on the spot (slopes)
-drift_fit = evidence.regression_slope(odo_m[straight], turn_error[straight])
+# heading error per metre on straight steps (total over total travel: the steps are nearly all of one
+# length, so a fitted line's intercept would take most of the bias), and per radian of turn on the spot
+te, om = turn_error[straight], odo_m[straight]
+drift_fit = evidence.run_interval(lambda r: te[r].sum(axis=-1) / om[r].sum(axis=-1), te.size, vectorized=True)
 turn_fit = evidence.regression_slope(true_turn[on_spot], turn_error[on_spot])
 true_m = np.hypot(*steps[:, :2].T)
 moving = true_m > 0.3
@@ -170,9 +172,10 @@ EvidenceBlock(
            f"{turn_error.sum() / odo_m.sum():.4f} rad/m; mean {np.degrees(turn_error[straight].mean()):.2f} degrees "
            f"on straight steps, {np.degrees(turn_error[on_spot].mean()):.2f} on turns on the spot, "
            f"{np.degrees(turn_error.mean()):.2f} over all steps.",
-           f"Least-squares slope of the heading error on the odometry travel, {straight.sum()} straight steps: "
-           f"{np.degrees(drift_fit[0]):.2f} degrees per metre (95% interval {np.degrees(drift_fit[1]):.2f} to "
-           f"{np.degrees(drift_fit[2]):.2f}); on the corrected turn, {on_spot.sum()} turns on the spot: "
+           f"Heading error over odometry travel, summed over the {straight.sum()} straight steps: "
+           f"{np.degrees(drift_fit[0]):.2f} degrees per metre (95% bootstrap interval over the steps "
+           f"{np.degrees(drift_fit[1]):.2f} to {np.degrees(drift_fit[2]):.2f}); least-squares slope on the corrected "
+           f"turn, {on_spot.sum()} turns on the spot: "
            f"{turn_fit[0]:+.3f} ({turn_fit[1]:+.3f} to {turn_fit[2]:+.3f}; positive: the odometry over-rotates). "
            f"Odometry over corrected distance on the {moving.sum()} steps of more than 0.3 m: median "
            f"{np.median(odo_m[moving] / true_m[moving]):.3f}."],
@@ -185,8 +188,8 @@ EvidenceBlock(
 # $20$ degrees, less than $0.1$ m of travel).
 #
 # Chained from the first pose, the odometry alone ends {glue:text}`intel_full_dead_reckoning_m:.0f` m
-# from the corrected pose. Its heading error is not random. Regressed on the distance driven, the
-# heading error of a straight step gives a drift of {glue:text}`intel_odo_drift_deg_per_m:.1f`
+# from the corrected pose. Its heading error is not random. Summed over the straight steps and
+# divided by the distance they drove, the heading error is {glue:text}`intel_odo_drift_deg_per_m:.1f`
 # degrees per metre (negative: clockwise); regressed on the turn, turns on the spot come out
 # slightly over-rotated, by {glue:text}`intel_odo_turn_scale_pct:.0f` %; and the wheels report
 # {glue:text}`intel_odo_distance_ratio:.3f` times the distance driven (median over steps). The
