@@ -84,3 +84,30 @@ def test_the_checker_leaves_the_global_generator_as_it_found_it():
     check_random_beams(reference)
     check_random_beams(lambda z, zs, b, k, rng: random_beams_log_likelihood(z, zs, b, k, rng, "global_rng"))
     assert np.array_equal(np.random.get_state()[1], state)
+
+
+def _formula_on(z, zs, b, drawn):
+    d = (z[drawn] - zs[:, drawn]) / b.sigma
+    hit = np.exp(-0.5 * d**2) / (np.sqrt(2 * np.pi) * b.sigma)
+    return np.log(b.z_hit * hit + b.z_rand / b.z_max)
+
+
+@pytest.mark.parametrize("variant, mistake", [
+    # the natural no-echo mistake: all beams drawn, each scored by the stated formula
+    (lambda z, zs, b, k, rng: _formula_on(z, zs, b, rng.choice(len(z), k, replace=False)).sum(axis=1), "no_echo"),
+    # the same with log z_none for a beam without an echo
+    (lambda z, zs, b, k, rng: beam_terms(z, zs, b)[:, rng.choice(len(z), k, replace=False)].sum(axis=1),
+     "no_echo"),
+    # normalised by the largest value, and by the log-sum-exp
+    (lambda z, zs, b, k, rng: (lambda t: t - t.max())(reference(z, zs, b, k, rng)), "normalised"),
+    (lambda z, zs, b, k, rng: (lambda t: t - np.logaddexp.reduce(t))(reference(z, zs, b, k, rng)), "normalised"),
+    # a constant added outside the sum (log of the normal's constant counted once more)
+    (lambda z, zs, b, k, rng: reference(z, zs, b, k, rng) - np.log(np.sqrt(2 * np.pi)), "shift"),
+    # z_rand not divided by z_max
+    (lambda z, zs, b, k, rng: np.log(b.z_hit * np.exp(-0.5 * ((z - zs) / b.sigma) ** 2)
+                                      / (np.sqrt(2 * np.pi) * b.sigma) + b.z_rand)[
+        :, rng.choice(np.flatnonzero(z < b.z_max), k, replace=False)].sum(axis=1), "no_zmax"),
+])
+def test_constant_offsets_and_a_missing_z_max_get_their_own_message(variant, mistake):
+    report = check_random_beams(variant)
+    assert report.problems == [f"your function computes a known mistake: {RANDOM_BEAM_MISTAKES[mistake]}"]

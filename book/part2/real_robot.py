@@ -18,7 +18,7 @@
 # **You need** {doc}`map_robot` (the odometry model, the likelihood field, MCL) and {doc}`map_global`
 # (global localization); Bayes' rule; NumPy.
 #
-# **Time:** about twenty-four minutes to read; the notebook runs in about twenty seconds on a quiet
+# **Time:** about twenty-five minutes to read; the notebook runs in about twenty seconds on a quiet
 # machine (its global-localization runs are stored: they take minutes).
 # :::
 #
@@ -29,6 +29,8 @@
 # it find it from nowhere?
 
 # %% tags=["remove-input"] jupyter={"source_hidden": true}
+import gzip
+
 import numpy as np
 import matplotlib.pyplot as plt
 import pandas as pd
@@ -43,7 +45,7 @@ from pfcourse.book.report import EvidenceBlock, glue_values
 from pfcourse.book.panels import control_panel
 from pfcourse.filter import ParticleFilter
 from pfcourse.scenarios.maprobot import MapRobotModel, OdometryModel
-from pfcourse.scenarios.maprobot.carmen import read_carmen as library_log, relative_pose
+from pfcourse.scenarios.maprobot.carmen import INTEL_LOG, read_carmen as library_log, relative_pose
 from pfcourse.book.figures.maprobot import draw_map
 from pfcourse.scenarios.maprobot.mapping import build_map
 from pfcourse.metrics import heading_error, position_error
@@ -54,14 +56,18 @@ split = intel.split()  # the library's map and held-out scans, to check the chap
 log = library_log()
 u = log.odometry()
 dr_full = log.dead_reckoning()
+# GMapping writes a NEFF line (its effective sample size) after each scan it processes
+with gzip.open(INTEL_LOG, "rt") as f:
+    n_neff = sum(line.startswith("NEFF") for line in f)
+glue_values("intel_", neff_lines=n_neff)
 
 # %% [markdown]
 # ## The picture: a map, a path, and the odometry drifting away
 #
 # The figure is the chapter in one look. The map (walls black, space seen free white, the rest grey)
-# was built from the second half of the run. The black line is the path of the first half as the
-# log's corrected poses give it; the filters below localize that half. The red line is where the wheel
-# odometry alone puts the robot over the same minutes.
+# was built from the second half of the run. The blue line is the path of the first half as the
+# log's corrected poses give it; the filters below localize that half. The green line is where the
+# wheel odometry alone puts the robot over the same minutes.
 
 # %% tags=["hide-input"] jupyter={"source_hidden": true}
 held = split.poses
@@ -69,9 +75,9 @@ dr_held = split.map.to_map(dr_full[intel.HELD_OUT])
 fig, ax = plt.subplots(figsize=(7.5, 6.5))
 shown = np.where(split.map.log_odds > 0, 1.0, np.where(split.map.log_odds < 0, 0.0, 0.25))
 draw_map(ax, split.grid, values=shown, cmap="Greys", vmin=0, vmax=1)
-ax.plot(held[:, 0], held[:, 1], color=COLORS["truth"], lw=1.2, label="corrected path, first half")
-ax.plot(dr_held[:, 0], dr_held[:, 1], color=COLORS["estimate"], lw=1.2, label="odometry alone")
-ax.plot(*held[0, :2], "o", color=COLORS["truth"], ms=6, label="start")
+ax.plot(held[:, 0], held[:, 1], color=COLORS["robot"], lw=1.2, label="corrected path, first half")
+ax.plot(dr_held[:, 0], dr_held[:, 1], color=COLORS["kalman"], lw=1.2, label="odometry alone")
+ax.plot(*held[0, :2], "o", color=COLORS["robot"], ms=6, label="start")
 ax.legend(loc="upper center", bbox_to_anchor=(0.5, -0.1), ncol=3)
 ax.set_title("Map from the second half; the first half, corrected and dead-reckoned")
 plt.show()
@@ -83,9 +89,9 @@ glue_values("intel_", dead_reckoning_final_error_m=dr_error[-1],
 
 # %% [markdown]
 # Over the first half, {glue:text}`intel_held_out_minutes:.0f` minutes, dead reckoning ends
-# {glue:text}`intel_dead_reckoning_final_error_m:.1f` m from the corrected pose: the odometry turns a
-# little too little at every step, and the errors compound. The filter's job is to keep its estimate
-# on the black line with the map's help.
+# {glue:text}`intel_dead_reckoning_final_error_m:.1f` m from the corrected pose: the odometry's heading
+# drifts clockwise as the robot drives, and the errors compound. The filter's job is to keep its estimate
+# on the blue line with the map's help.
 #
 # ## The log
 #
@@ -95,7 +101,8 @@ glue_values("intel_", dead_reckoning_final_error_m=dr_error[-1],
 #
 # This copy is *corrected*: the pose on each `FLASER` line is not the odometry but a SLAM estimate over
 # the whole log, loop closures included (GMapping's {cite:p}`grisetti2007`, a particle-filter SLAM
-# method, as these logs are usually described; the file's source does not say). After each scan the
+# method: the file holds {glue:text}`intel_neff_lines:d` `NEFF` lines, one after each scan, as GMapping
+# writes them). After each scan the
 # `ODOM` lines restart from that corrected pose, so what the wheels measured between scans $k$ and
 # $k+1$ is the last odometry pose before scan $k+1$, $\bar x_{k+1}$, seen from the corrected pose $x_k$:
 #
@@ -133,6 +140,15 @@ odo_m = np.hypot(*rel[:, :2].T)
 on_spot = (np.abs(rel[:, 2]) > np.radians(20)) & (odo_m < 0.1)
 straight = np.abs(rel[:, 2]) < np.radians(5)
 dt = np.diff(log.times)
+# heading error per metre on straight steps (total over total travel: the steps are nearly all of one
+# length, so a fitted line's intercept would take most of the bias), and per radian of turn on the spot
+te, om = turn_error[straight], odo_m[straight]
+drift_fit = evidence.run_interval(lambda r: te[r].sum(axis=-1) / om[r].sum(axis=-1), te.size, vectorized=True)
+turn_fit = evidence.regression_slope(true_turn[on_spot], turn_error[on_spot])
+true_m = np.hypot(*steps[:, :2].T)
+moving = true_m > 0.3
+glue_values("intel_odo_", drift_deg_per_m=np.degrees(drift_fit[0]), turn_scale_pct=100 * turn_fit[0],
+            distance_ratio=np.median(odo_m[moving] / true_m[moving]))
 glue_values("intel_", n_scans=log.n_scans, n_odometry=log.n_odometry, minutes=minutes, path_m=path_m,
             no_echo_share=1 - log.returned.mean(), step_m=np.median(u[1:, 1]),
             full_dead_reckoning_m=position_error(log.poses[-1], dr_full[-1]),
@@ -155,7 +171,14 @@ EvidenceBlock(
            f"Heading error of a step (odometry minus corrected): total over total odometry travel "
            f"{turn_error.sum() / odo_m.sum():.4f} rad/m; mean {np.degrees(turn_error[straight].mean()):.2f} degrees "
            f"on straight steps, {np.degrees(turn_error[on_spot].mean()):.2f} on turns on the spot, "
-           f"{np.degrees(turn_error.mean()):.2f} over all steps."],
+           f"{np.degrees(turn_error.mean()):.2f} over all steps.",
+           f"Heading error over odometry travel, summed over the {straight.sum()} straight steps: "
+           f"{np.degrees(drift_fit[0]):.2f} degrees per metre (95% bootstrap interval over the steps "
+           f"{np.degrees(drift_fit[1]):.2f} to {np.degrees(drift_fit[2]):.2f}); least-squares slope on the corrected "
+           f"turn, {on_spot.sum()} turns on the spot: "
+           f"{turn_fit[0]:+.3f} ({turn_fit[1]:+.3f} to {turn_fit[2]:+.3f}; positive: the odometry over-rotates). "
+           f"Odometry over corrected distance on the {moving.sum()} steps of more than 0.3 m: median "
+           f"{np.median(odo_m[moving] / true_m[moving]):.3f}."],
 )
 
 # %% [markdown]
@@ -165,9 +188,12 @@ EvidenceBlock(
 # $20$ degrees, less than $0.1$ m of travel).
 #
 # Chained from the first pose, the odometry alone ends {glue:text}`intel_full_dead_reckoning_m:.0f` m
-# from the corrected pose. Its heading error is not random: it drifts by
-# {glue:text}`intel_heading_drift_rad_per_m:.3f` rad per metre driven (clockwise). The zero-mean noise
-# of the odometry model does not describe such a bias; the filter covers it only by a wide spread.
+# from the corrected pose. Its heading error is not random. Summed over the straight steps and
+# divided by the distance they drove, the heading error is {glue:text}`intel_odo_drift_deg_per_m:.1f`
+# degrees per metre (negative: clockwise); regressed on the turn, turns on the spot come out
+# slightly over-rotated, by {glue:text}`intel_odo_turn_scale_pct:.0f` %; and the wheels report
+# {glue:text}`intel_odo_distance_ratio:.3f` times the distance driven (median over steps). The
+# odometry model's zero-mean noise covers such a bias only by a wide spread.
 #
 # **What the reference is.** The "truth" of this chapter is the corrected path, a SLAM estimate, not a
 # surveyed trajectory. It has a floor: on a turn on the spot the corrected pose moves a median
@@ -351,12 +377,17 @@ glue_values("intel_", tracking_median_error_m=np.median(err), tracking_p90_error
             engine_tolerance=TOL)
 # the same filter over seeds 1-30, on this map and on a map of the whole run (stored study)
 track = STUDIES["intel/tracking"].load()
-half, whole = track[track["map"] == "second half"], track[track["map"] == "whole run"]
+by_map = {m: track[track["map"] == m].sort_values("seed").reset_index(drop=True) for m in intel.TRACK_MAPS}
+half, whole, calibrated = by_map["second half"], by_map["whole run"], by_map["second half, drift corrected"]
+# paired over the same seeds: whole-run map minus half map, drift-corrected minus raw odometry
+whole_vs_half = evidence.paired_rates(whole["tracking_at_end"], half["tracking_at_end"])
+calib_vs_half = evidence.paired_rates(calibrated["tracking_at_end"], half["tracking_at_end"])
 assert np.isclose(half.loc[half["seed"] == 1, "median_position_error"].item(), np.median(err), rtol=0, atol=1e-12)
 lost = half[half["lost_scan"] >= 0]
 kept = half[half["tracking_at_end"]]
 track_rate = evidence.rate(half["tracking_at_end"].to_numpy())
-WINDOW = slice(289, 307)  # the scans where the tracking runs part
+# the scans where the tracking runs are lost for good
+WINDOW = slice(int(lost["lost_scan"].min()), int(lost["lost_scan"].max()) + 1)
 glue_values("intel_track_", n_seeds=len(half), share=track_rate.estimate, share_low=track_rate.low,
             share_high=track_rate.high, n_lost=len(lost), lost_first=int(lost["lost_scan"].min()),
             lost_last=int(lost["lost_scan"].max()), lost_final_min_m=lost["final_position_error"].min(),
@@ -365,6 +396,13 @@ glue_values("intel_track_", n_seeds=len(half), share=track_rate.estimate, share_
             kept_median_m=kept["median_position_error"].median(), kept_p90_m=kept["p90_position_error"].median(),
             whole_share=whole["tracking_at_end"].mean(), whole_median_m=whole["median_position_error"].median(),
             whole_p90_m=whole["p90_position_error"].median(),
+            whole_diff=whole_vs_half.difference, whole_diff_low=whole_vs_half.difference_low,
+            whole_diff_high=whole_vs_half.difference_high,
+            calib_share=calibrated["tracking_at_end"].mean(), calib_diff=calib_vs_half.difference,
+            calib_diff_low=calib_vs_half.difference_low, calib_diff_high=calib_vs_half.difference_high,
+            calib_median_m=calibrated["median_position_error"].median(),
+            drift_deg_per_m=np.degrees(intel.drift_rate(log)),
+            seed1_largest_m=err.max(),
             seed1_window_heading_deg=head_err[WINDOW].max(),
             window_drift_deg=np.degrees(turn_error[WINDOW.start:WINDOW.stop - 1].sum()),
             window_path_min_m=held_to_map[WINDOW].min(), window_path_max_m=held_to_map[WINDOW].max())
@@ -390,37 +428,56 @@ EvidenceBlock(
            f"median over seeds of the final error {half['final_position_error'].median():.2f} m. "
            f"Whole-run map: {whole['tracking_at_end'].sum()} of {len(whole)} track; median error "
            f"{whole['median_position_error'].median():.3f} m (90th percentile {whole['p90_position_error'].median():.3f} m), "
-           f"medians over seeds."],
+           f"medians over seeds. Paired over the seeds, whole-run map against second-half map: {whole_vs_half}.",
+           f"Second-half map, odometry with the heading drift measured on the map half "
+           f"({np.degrees(intel.drift_rate(log)):.2f} degrees per metre) taken out: "
+           f"{calibrated['tracking_at_end'].sum()} of {len(calibrated)} track; median error "
+           f"{calibrated['median_position_error'].median():.3f} m. Paired against the raw odometry: {calib_vs_half}."],
 )
 
 # %% [markdown]
 # The NumPy loop and the package's engine give the same estimates to
 # {glue:text}`intel_engine_tolerance:.0e`. From the known start, with $N = 1000$ particles and the seed
-# above, the filter tracks the whole first half with a median position error of
-# {glue:text}`intel_tracking_median_error_m:.3f` m, where dead reckoning ends
-# {glue:text}`intel_dead_reckoning_final_error_m:.1f` m off.
+# above, the filter stays within {glue:text}`intel_track_seed1_largest_m:.1f` m of the reference over
+# the first half, with a median position error of {glue:text}`intel_tracking_median_error_m:.3f` m,
+# where dead reckoning ends {glue:text}`intel_dead_reckoning_final_error_m:.1f` m off.
 #
-# But one run is one draw. Over the seeds $1$ to $30$ the same filter is on the robot at the last
-# scan in only {glue:text}`intel_track_share:.0%` of the runs
+# Yet its heading is off by up to {glue:text}`intel_track_seed1_window_heading_deg:.0f` degrees where other runs are
+# lost.
+#
+# One run is one draw. Over the seeds $1$ to $30$ the same filter is on the robot at the last
+# scan (within $1$ m and a heading tolerance, defined below) in only
+# {glue:text}`intel_track_share:.0%` of the runs
 # ({glue:text}`intel_track_share_low:.0%`-{glue:text}`intel_track_share_high:.0%`).
 #
-# The others lose it for good between scans {glue:text}`intel_track_lost_first:d` and
-# {glue:text}`intel_track_lost_last:d`, and end up to {glue:text}`intel_track_lost_final_max_m:.0f` m
-# off.
+# The others lose it for good between scans {glue:text}`intel_track_lost_first:d` and {glue:text}`intel_track_lost_last:d`,
+# and end up to {glue:text}`intel_track_lost_final_max_m:.0f` m off.
+#
+# **Calibrating the odometry.** Real robots calibrate their odometry before they trust it
+# {cite:p}`borenstein1996`. Here the calibration is one number: the heading drift per metre, measured
+# on the map half and taken out of
+# the held-out half's increments, half from each rotation. With it the same filter, on the same seeds,
+# tracks to the end in {glue:text}`intel_track_calib_share:.0%` of the runs, a gain of
+# {glue:text}`intel_track_calib_diff:.0%`
+# ({glue:text}`intel_track_calib_diff_low:.0%`-{glue:text}`intel_track_calib_diff_high:.0%`): the
+# runs were lost to the drift.
+#
+# :::{admonition} Going further: where the tracking runs fail, and a map of the whole run
+# :class: dropdown
+# Over scans {glue:text}`intel_track_lost_first:d`-{glue:text}`intel_track_lost_last:d`, where the
+# runs are lost, the odometry's heading drifts by {glue:text}`intel_track_window_drift_deg:.0f` degrees
+# while the path runs up to {glue:text}`intel_track_window_path_max_m:.1f` m from any pose of the map
+# half: the map there holds walls seen from elsewhere, or none. With the drift taken out every run
+# ends on the robot, so the gaps alone do not lose it.
 #
 # **Centimetres against a SLAM reference.** The same SLAM run placed the map's scans and the
 # reference poses, and its loop closures tie the two halves together, so a small error measures how
-# well two registrations agree, not how close the filter was to the robot. On a map built from the
-# whole run, the scans it localizes included, every seed tracks, with a median error of
-# {glue:text}`intel_track_whole_median_m:.3f` m: that is how much a map of one's own scans flatters.
-#
-# :::{admonition} Going further: where the tracking runs fail
-# :class: dropdown
-# Over scans $289$-$306$ the odometry's heading drifts by
-# {glue:text}`intel_track_window_drift_deg:.0f` degrees while the path runs up to
-# {glue:text}`intel_track_window_path_max_m:.1f` m from any pose of the map half: the map there holds
-# walls seen from elsewhere, or none. Even the run shown, which survives, is off by up to
-# {glue:text}`intel_track_seed1_window_heading_deg:.0f` degrees of heading in that stretch.
+# well two registrations agree, not how close the filter was to the robot. A map built from the
+# whole run both fills the half map's gaps and holds the localized scans' own walls. On it every seed
+# tracks (a gain of {glue:text}`intel_track_whole_diff:.0%`,
+# {glue:text}`intel_track_whole_diff_low:.0%`-{glue:text}`intel_track_whole_diff_high:.0%`), with a
+# median error of {glue:text}`intel_track_whole_median_m:.3f` m: the two effects together, not
+# separated.
 # :::
 
 # %% tags=["hide-input"] jupyter={"source_hidden": true}
@@ -428,10 +485,13 @@ t_min = (log.times[HELD] - log.times[0]) / 60
 fig, ax = plt.subplots(figsize=(7.5, 3.4))
 ax.semilogy(t_min, np.maximum(err, 1e-3), color=COLORS["estimate"], label="MCL, N = 1000")
 ax.semilogy(t_min, np.maximum(dr_error, 1e-3), color=COLORS["kalman"], label="odometry alone")
+# the scans where the lost seeds (of 30) lose the robot for good
+ax.axvspan(t_min[WINDOW.start], t_min[WINDOW.stop - 1], color=COLORS["unseen"], alpha=0.25,
+           label=f"{len(lost)} of {len(half)} seeds lost here")
 ax.set_xlabel("time (min)")
 ax.set_ylabel("position error (m)")
 ax.set_title("Error against the corrected path, first half")
-ax.legend(loc="upper center", bbox_to_anchor=(0.5, -0.25), ncol=2)
+ax.legend(loc="upper center", bbox_to_anchor=(0.5, -0.25), ncol=3)
 plt.show()
 
 # %% tags=["remove-input"] jupyter={"source_hidden": true}
@@ -462,8 +522,9 @@ glue_values("intel_", far_held_share=far_share(truth, log.ranges[HELD]),
 # **The filter** is the cure of {doc}`map_global`, its settings unchanged: many particles at the
 # start, some drawn where the first scan fits; KLD-sampling {cite:p}`fox2003` with ROS `amcl`'s
 # $\delta$ to shrink the cloud once it gathers; and poses drawn from an earlier scan
-# {cite:p}`lenser2000`, carried forward by the odometry and injected as a kidnapping weighted by their
-# evidence {cite:p}`thrun2005`. Each run covers $40$ scans of the held-out half from a seeded start;
+# {cite:p}`lenser2000`, carried forward by the odometry and injected with a weight from their
+# evidence, as in Mixture-MCL {cite:p}`thrun2001` (over a history of scans, as in
+# {doc}`map_global`). Each run covers $40$ scans of the held-out half from a seeded start;
 # {glue:text}`intel_n_global:d` runs per filter are stored.
 
 # %% tags=["remove-input"] jupyter={"source_hidden": true}
@@ -499,6 +560,24 @@ for lo, hi in zip(BINS[:-1], BINS[1:]):
                      "path to map half's path (m, median)": np.median(near[lo:hi])})
 by_start = pd.DataFrame(by_start)
 early = (cure["start_scan"] < 200).to_numpy()
+# early against late starts (different runs): Newcombe's interval from the two Wilson intervals
+r_early, r_late = evidence.rate(lock["scan"][early]), evidence.rate(lock["scan"][~early])
+d_early = r_early.estimate - r_late.estimate
+d_early_low = d_early - np.hypot(r_early.estimate - r_early.low, r_late.high - r_late.estimate)
+d_early_high = d_early + np.hypot(r_early.high - r_early.estimate, r_late.estimate - r_late.low)
+# held-out poses outside the map's seen-free space: there the uniform prior has no density
+outside = ~split.free.is_free(split.poses[:, :2])
+starts_out = outside[cure["start_scan"].to_numpy()]
+# when the lock-ons begin: at the first scans, or later through the injected poses
+locked = cure[cure["locked_on"]]
+glue_values("intel_", n_start_total=S.n_start + S.n_start_scan)
+glue_values("intel_global_", early_diff=d_early, early_diff_low=d_early_low, early_diff_high=d_early_high,
+            outside_share=outside.mean(), n_start_outside=int(starts_out.sum()),
+            start_outside_locked=int(lock["scan"][starts_out].sum()),
+            lock_from_start_share=(locked["locked_from"] <= 2).mean(),
+            n_lock_from_start=int((locked["locked_from"] <= 2).sum()), n_locked=len(locked),
+            elsewhere_evidence=int((~look_alike).sum()),
+            elsewhere_margin_nats=elsewhere.loc[~look_alike, "window_margin"].median())
 glue_values("intel_", n_global=len(cure), global_minutes=wall / 60, turn_rms_deg=np.degrees(intel.odometry_heading_rms(log)),
             heading_tolerance_deg=np.degrees(tol), lock_share=intel.LOCK_SHARE,
             global_lock_on_rate=rate.estimate, global_lock_on_rate_low=rate.low, global_lock_on_rate_high=rate.high,
@@ -509,6 +588,13 @@ glue_values("intel_", n_global=len(cure), global_minutes=wall / 60, turn_rms_deg
             global_elsewhere=len(elsewhere), global_look_alike=int(look_alike.sum()),
             global_early_rate=lock["scan"][early].mean(), global_late_start_rate=lock["scan"][~early].mean(),
             early_path_m=np.median(near[:200]), late_path_m=np.median(near[200:]))
+amcl_table = pd.DataFrame({
+    "setting": ["odometry alphas", "beams per scan", "z_hit / z_rand", "particles min / max", "update every"],
+    "this chapter": [" / ".join(f"{a:g}" for a in intel.MOTION.alphas), f"{log.ranges.shape[1] // intel.BEAM_STEP}",
+                     f"{intel.Z_HIT:g} / {intel.Z_RAND:g}", f"{S.n_min} / {S.n_max}",
+                     f"scan (median {np.median(u[1:, 1]):.2f} m)"],
+    "ROS 1 amcl": ["0.2", "30", "0.95 / 0.05", "100 / 5000", "0.2 m"],
+    "nav2 amcl": ["0.2", "60", "0.5 / 0.5", "500 / 2000", "0.25 m"]})
 summary = pd.DataFrame([{"filter": intel.METHODS[m], "locked on": str(evidence.rate(g["locked_on"].to_numpy())),
                          "median final error (m)": g["final_position_error"].median(),
                          "mean particles": g["mean_particles"].mean()} for m, g in runs.items()])
@@ -525,6 +611,15 @@ EvidenceBlock(
            f"Locked on: within 1 m and {np.degrees(tol):.1f} degrees at {intel.LOCK_SHARE:.0%} or more of the last "
            f"{intel.LOCK_WINDOW} scans.",
            f"The cure A against uniform particles only B: {vs_uniform}.",
+           f"Starts in the first 200 scans ({r_early}) against later starts ({r_late}), different runs: "
+           f"difference {100 * d_early:+.0f} points, 95% interval {100 * d_early_low:+.0f} to "
+           f"{100 * d_early_high:+.0f} (Newcombe's hybrid score interval from the two Wilson intervals).",
+           f"Held-out corrected poses outside the map's seen-free space (split().free): {outside.sum()} of "
+           f"{len(outside)}; {starts_out.sum()} runs start there and {lock['scan'][starts_out].sum()} lock on.",
+           f"Lock-ons: {(locked['locked_from'] <= 2).sum()} of {len(locked)} have locked_from <= 2 (from the first "
+           f"scans); {len(elsewhere)} failed runs end elsewhere, in {(~look_alike).sum()} of them the window "
+           f"margin favours the corrected poses (median {elsewhere.loc[~look_alike, 'window_margin'].median():.0f} "
+           f"nats).",
            f"The cure on a map of the whole run A against the second half's map B: {vs_whole}.",
            f"The cure with the odometry's heading drift ({intel.drift_rate(log):.4f} rad/m, measured on the map "
            f"half) taken out A against the log's odometry B: {vs_drift}.",
@@ -540,7 +635,10 @@ EvidenceBlock(
              {"median final error (m)": ".2f", "mean particles": ".0f"}),
             ("Lock-on by start scan, and how far the runs' path lies from the map half's path",
              by_start, {**{intel.METHODS[m]: ".0%" for m in intel.METHODS},
-                        "path to map half's path (m, median)": ".2f"})],
+                        "path to map half's path (m, median)": ".2f"}),
+            ("This chapter's settings beside the defaults of ROS 1 amcl and nav2's amcl (their documented "
+             "parameters odom_alpha1-4, laser_max_beams, laser_z_hit / laser_z_rand, min / max_particles, "
+             "update_min_d)", amcl_table, {})],
 )
 
 # %% [markdown]
@@ -549,17 +647,24 @@ EvidenceBlock(
 # with uniform particles only, in {glue:text}`intel_global_uniform_lock_on_rate:.0%`.
 #
 # On the simulated map of {doc}`map_global` the same filter locks on in
-# {glue:text}`intel_global_sim_rate:.0%` of its drives. Why is the real log so much harder? Three
+# {glue:text}`intel_global_sim_rate:.0%` of its drives, by that chapter's own rule (the last $20$ s
+# of longer drives, not the last $15$ scans): the rates compare only roughly. Why is the real log so much harder? Three
 # suspects, each tried on the same runs.
 #
 # **The map is a SLAM map, made of other scans.** Of the held-out scans' echoes, seen from the
 # corrected poses, {glue:text}`intel_far_held_share:.1%` end more than half a metre from any wall of
 # the map; of the map half's own echoes, {glue:text}`intel_far_map_share:.1%`. Each such beam pulls
-# the true pose's weight down. On a map of the whole run, which holds the localized scans' walls (and
-# flatters them, as above), the same filter locks on in
-# {glue:text}`intel_global_whole_map_rate:.0%` of the same runs. The map's gaps are the main culprit.
+# the true pose's weight down.
 #
-# **The odometry under-rotates.** With the heading drift measured on the map half taken out, the
+# And {glue:text}`intel_global_outside_share:.0%` of the held-out poses
+# lie outside the space the map has seen free, where the uniform prior and the scan's proposal have no
+# density: {glue:text}`intel_global_n_start_outside:d` runs start there, and
+# {glue:text}`intel_global_start_outside_locked:d` of them lock on. On a map of the whole run, which
+# fills the gaps but also holds the localized scans' own walls, the same filter locks on in
+# {glue:text}`intel_global_whole_map_rate:.0%` of the same runs: an upper bound on what filling the
+# gaps would give, the two effects not separated.
+#
+# **The odometry drifts.** With the heading drift measured on the map half taken out, the
 # cure locks on in {glue:text}`intel_global_drift_rate:.0%`, about as often: over the $40$ scans of
 # a run the filter's spread covers most of the drift.
 #
@@ -570,10 +675,22 @@ EvidenceBlock(
 # map removes nearly all failures, these look-alikes come from the map's gaps more than from the
 # building's symmetry.
 #
+# **One scan collapses the cloud.** In the other {glue:text}`intel_global_elsewhere_evidence:d` failed
+# runs the scans fit the corrected poses better than the filter's, by a median of
+# {glue:text}`intel_global_elsewhere_margin_nats:.0f` nats: the evidence was there and the filter never
+# reached it. Of the {glue:text}`intel_global_n_locked:d` runs that lock on,
+# {glue:text}`intel_global_n_lock_from_start:d` do so from the first scans. With $45$ beams one scan's
+# likelihood is sharply peaked, so the first resampling gathers the
+# starting poses onto a few, and KLD-sampling then shrinks the
+# cloud: the filter wins at once or, mostly, not at all, and the injected poses rarely rescue it.
+#
 # Where a run starts tells the same story. Runs that start in the first $200$ scans, whose path lies a
 # median {glue:text}`intel_early_path_m:.1f` m from the map half's, lock on in
 # {glue:text}`intel_global_early_rate:.0%`; later ones, a median {glue:text}`intel_late_path_m:.1f` m
 # away, in {glue:text}`intel_global_late_start_rate:.0%`.
+#
+# The early starts lock on more often by {glue:text}`intel_global_early_diff:.0%`
+# ({glue:text}`intel_global_early_diff_low:.0%`-{glue:text}`intel_global_early_diff_high:.0%`).
 
 # %% [markdown]
 # ## Try it: the map
@@ -624,9 +741,11 @@ display(panel)
 # Write `my_beams(z, z_star, beam, k, rng)`: draw `k` distinct beams with the generator `rng`, each
 # with the same chance, among the beams of the scan `z` (shape `(B,)`) that have an echo
 # ($z_b < z_{\max}$), and return, for each of the `N` poses whose predicted ranges are the rows of
-# `z_star` (shape `(N, B)`), the sum over those beams of $\log p(z_b)$. `beam` has the attributes
-# `z_hit`, `z_rand`, `z_none`, `sigma` and `z_max`. Then say why every pose must be scored on the same
-# beams, and why a beam without an echo would be a draw wasted. The checker names the mistake it sees.
+# `z_star` (shape `(N, B)`), the sum over those beams of $\log p(z_b)$. This is a reduced beam model,
+# its hit and random parts only: a beam without an echo would score $z_{\mathrm{none}}$, the same at
+# every pose. `beam` has the attributes `z_hit`, `z_rand`, `z_none`, `sigma` and `z_max`. Then say
+# why every pose must be scored on the same beams, and why, in this model, a beam without an echo
+# would be a draw wasted. The checker names the mistake it sees.
 # ```
 
 # %% tags=["answer"]
@@ -645,8 +764,10 @@ print(check_random_beams(my_beams))
 # :class: dropdown
 # Draw the beams once per scan, `rng.choice(echoes, k, replace=False)`, and sum the log-densities of
 # those columns for every row. Poses scored on different beams are weighed on different evidence, so
-# their weights cannot be compared; a beam with no echo adds the same $\log z_{\mathrm{none}}$ to every
-# pose (here) and changes no normalised weight. The code is in the folded cell below.
+# their weights cannot be compared; in this reduced model a beam with no echo adds the same
+# $\log z_{\mathrm{none}}$ to every pose and changes no normalised weight. (In the full beam model it
+# does inform: a reading of $z_{\max}$ tells against a pose that predicts a wall nearby.) The code is
+# in the folded cell below.
 # ```
 
 # %% tags=["solution", "hide-input"] jupyter={"source_hidden": true}
@@ -663,7 +784,8 @@ print(check_random_beams(my_beams))
 # ## Takeaways
 #
 # - A real log needs its format read with care: here the odometry between scans is the last odometry
-#   pose seen from the corrected pose, and its heading error is a drift per metre, not zero-mean noise.
+#   pose seen from the corrected pose, and its heading error is a drift per metre, not zero-mean noise:
+#   measure it on one part of the run and take it out of the other.
 # - With known poses, mapping is a sum of log-odds per cell: an inverse sensor model adds evidence for
 #   the cell a beam ends in and against the cells it crosses.
 # - Map and localize on different parts of the run, and report many seeds: one run that tracks to
@@ -671,8 +793,8 @@ print(check_random_beams(my_beams))
 # - Against a SLAM reference, centimetre errors measure agreement between two registrations;
 #   metres of error (dead reckoning, a lost filter) are real.
 # - Finding the robot from nowhere is much harder on a real log than on a simulated map: the map
-#   misses walls the scans see and the corridors look alike, so the cure of {doc}`map_global` locks
-#   on where the map covers the start, and rarely elsewhere.
+#   misses walls the scans see, so the cure of {doc}`map_global` locks on where the map covers the
+#   start, and rarely elsewhere.
 #
 # :::{admonition} From the labs
 # :class: dropdown

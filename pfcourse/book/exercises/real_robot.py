@@ -13,7 +13,9 @@ those beams (Thrun, Burgard and Fox 2005, section 6.3, its hit and random parts)
 
 The checker does not need the student's draws to match its own: the answer is a sum over a set of
 beams, so with more poses than beams it is solved for that set (least squares on the per-beam terms,
-:func:`beam_terms`, plus a constant that a beam with no echo, ``log z_none``, would add).  The set must
+:func:`beam_terms`, plus a constant: in this reduced model a beam with no echo scores the same at every pose,
+``log z_none`` or the formula at ``z_b = z*_b = z_max``; any other constant is named as a shift or a
+normalisation).  The set must
 be ``k`` distinct echo beams shared by every pose; over many seeds each echo beam must come up about as
 often as the others, the same seed must give the same answer and another seed another, and NumPy's
 global generator must be left alone.  Each typical mistake of :data:`RANDOM_BEAM_MISTAKES` is named in
@@ -44,8 +46,9 @@ class BeamCase:
 RANDOM_BEAM_MISTAKES: dict[str, str] = {
     "replacement": "a beam is drawn twice: draw k distinct beams (rng.choice(..., replace=False)), since a beam "
                    "counted twice counts its evidence twice",
-    "no_echo": "beams with no echo are among those drawn: draw among the beams with an echo (z < z_max); a beam "
-               "without one adds the same log z_none to every pose, so it is a draw wasted",
+    "no_echo": "beams with no echo are among those drawn: draw among the beams with an echo (z < z_max); in this "
+               "model a beam without one scores the same at every pose (log z_none, or the formula with z_b = z*_b "
+               "= z_max), so it is a draw wasted",
     "per_pose": "each pose is scored on beams of its own: draw one set of k beams for the scan and score every "
                 "pose on it, or the weights compare different evidence",
     "global_rng": "the beams are drawn from NumPy's global generator (np.random), not from the generator rng "
@@ -56,9 +59,16 @@ RANDOM_BEAM_MISTAKES: dict[str, str] = {
                "walking by) makes the weight vanish",
     "mean": "the log-densities are averaged over the beams drawn: the beams are independent, so their logs "
             "add up",
+    "no_zmax": "z_rand is not divided by z_max: the random part is a density spread evenly over [0, z_max], so "
+               "its height is z_rand / z_max",
+    "normalised": "the log-likelihoods are normalised (their largest value or their log-sum-exp subtracted): "
+                  "return them as they are, the filter normalises the weights once, after adding them to the "
+                  "log-weights",
+    "shift": "every log-likelihood is off by the same constant: add only log(z_hit N(z_b; z*_b, sigma^2) + "
+             "z_rand / z_max) over the beams drawn, with no term outside the sum",
 }
 #: Mistakes that change the per-beam terms (the others change which beams are summed).
-_TERM_MISTAKES = ("no_rand",)
+_TERM_MISTAKES = ("no_rand", "no_zmax")
 
 
 def beam_terms(z: np.ndarray, z_star: np.ndarray, beam: BeamCase, mistake: str | None = None) -> np.ndarray:
@@ -66,7 +76,7 @@ def beam_terms(z: np.ndarray, z_star: np.ndarray, beam: BeamCase, mistake: str |
     echo, ``log z_none`` for one without (or without ``z_rand / z_max`` for ``mistake="no_rand"``)."""
     echo = z < beam.z_max
     hit = beam.z_hit * np.exp(-0.5 * ((z - z_star) / beam.sigma) ** 2) / (np.sqrt(2 * np.pi) * beam.sigma)
-    rand = 0.0 if mistake == "no_rand" else beam.z_rand / beam.z_max
+    rand = {"no_rand": 0.0, "no_zmax": beam.z_rand}.get(mistake, beam.z_rand / beam.z_max)
     with np.errstate(divide="ignore"):
         return np.log(np.where(echo, hit + rand, beam.z_none))
 
@@ -78,6 +88,9 @@ def random_beams_log_likelihood(z: np.ndarray, z_star: np.ndarray, beam: BeamCas
         raise ValueError(f"unknown mistake {mistake!r}; one of {sorted(RANDOM_BEAM_MISTAKES)}")
     pool = np.arange(len(z)) if mistake == "no_echo" else np.flatnonzero(z < beam.z_max)
     terms = beam_terms(z, z_star, beam, mistake)
+    if mistake == "no_echo":
+        # the natural form: the stated formula applied to every drawn beam, echo or not
+        terms = beam_terms(np.minimum(z, beam.z_max - 1e-12), z_star, beam)
     if mistake == "fixed":
         picked = terms[:, pool[:k]]
     elif mistake == "global_rng":
@@ -88,7 +101,37 @@ def random_beams_log_likelihood(z: np.ndarray, z_star: np.ndarray, beam: BeamCas
         picked = np.array([row[rng.choice(pool, k, replace=False)] for row in terms])
     else:
         picked = terms[:, rng.choice(pool, k, replace=False)]
-    return picked.mean(axis=1) if mistake == "mean" else picked.sum(axis=1)
+    total = picked.mean(axis=1) if mistake == "mean" else picked.sum(axis=1)
+    if mistake == "normalised":
+        return total - np.logaddexp.reduce(total)
+    return total + 0.5 if mistake == "shift" else total
+
+
+def _no_echo_formula_term(beam: BeamCase) -> float:
+    """The stated formula's log-density for a beam without an echo (``z_b = z*_b = z_max``): the same at
+    every pose of the checker's case."""
+    return float(np.log(beam.z_hit / (np.sqrt(2 * np.pi) * beam.sigma) + beam.z_rand / beam.z_max))
+
+
+def _constant_mistake(answer: np.ndarray, s: np.ndarray, m: float, k: int, beam: BeamCase) -> str | None:
+    """Name the mistake behind a sum of whole echo beams ``s`` plus a constant ``m log z_none`` that is not
+    a whole number of no-echo beams scored by ``z_none`` (``None`` if the constant is zero)."""
+    c = m * np.log(beam.z_none)
+    if abs(c) < 1e-6:
+        return None
+    if np.isclose(answer.max(), 0.0, atol=1e-6) or np.isclose(np.logaddexp.reduce(answer), 0.0, atol=1e-6):
+        return "normalised"
+    extra = k - int(s.sum())
+    for unit in (_no_echo_formula_term(beam), np.log(beam.z_none)):
+        n = c / unit
+        if 0 < extra and abs(n - round(n)) < 1e-5 and round(n) == extra:
+            return "no_echo"
+    # a mix of both kinds of no-echo beams
+    a, b = _no_echo_formula_term(beam), np.log(beam.z_none)
+    for n_formula in range(1, extra):
+        if np.isclose(n_formula * a + (extra - n_formula) * b, c, atol=1e-6):
+            return "no_echo"
+    return "shift"
 
 
 def random_beam_case(seed: int = 0, n_poses: int = 80, n_beams: int = 40) -> tuple[np.ndarray, np.ndarray, BeamCase]:
@@ -163,6 +206,10 @@ def check_random_beams(fn: Callable, k: int = 12, seed: int = 0, n_seeds: int = 
                                    "z_max), the same beams for every pose")
         return report
     s, m = fit
+    whole = np.abs(np.asarray(s, dtype=float) - np.round(s)).max() <= 1e-5
+    if whole and (named := _constant_mistake(answers[0], np.round(s).astype(int), m, k, beam)) is not None:
+        report.problems.append(f"your function computes a known mistake: {RANDOM_BEAM_MISTAKES[named]}")
+        return report
     if not np.issubdtype(np.asarray(s).dtype, np.integer):
         if np.allclose(s * k, np.round(s * k), atol=1e-5) and np.isclose(s.sum() + m, 1.0, atol=1e-5):
             report.problems.append(f"your function computes a known mistake: {RANDOM_BEAM_MISTAKES['mean']}")
@@ -181,7 +228,13 @@ def check_random_beams(fn: Callable, k: int = 12, seed: int = 0, n_seeds: int = 
     sets = set()
     for s_ in range(seed + 2, seed + 2 + n_seeds):
         got = fn(z.copy(), z_star.copy(), beam, k, np.random.default_rng(s_))
-        fit = beams_summed(np.asarray(got, dtype=float), terms, echo, beam.z_none)
+        got = np.asarray(got, dtype=float)
+        fit = beams_summed(got, terms, echo, beam.z_none)
+        if fit is not None and np.abs(fit[0] - np.round(fit[0])).max() <= 1e-5:
+            named = _constant_mistake(got, np.round(fit[0]).astype(int), fit[1], k, beam)
+            if named is not None:
+                report.problems.append(f"your function computes a known mistake: {RANDOM_BEAM_MISTAKES[named]}")
+                return report
         if fit is None or not np.issubdtype(np.asarray(fit[0]).dtype, np.integer):
             report.problems.append(f"with the seed {s_} the answer is not a sum over beams of the scan: "
                                    "score every pose on the same k beams")
