@@ -237,8 +237,6 @@ SV_MEAN_MISTAKES = {
               "N(0, sigma^2 / (1 - phi^2)), wider by 1 / sqrt(1 - phi^2)"),
     "predicted": ("your means are those of the predicted cloud, read before the weighting: the filtering mean "
                   "E[x_k | y_1..y_k] is the weighted mean after the reading y_k is used"),
-    "sigma_variance": ("your move's noise has standard deviation sigma^2: sigma is the standard deviation of the "
-                       "noise v_k, so a move is phi x + sigma * rng.standard_normal(n)"),
 }
 SV_LIKELIHOOD_MISTAKES = {
     "log_sum": ("your log-likelihood is about T log N too large: each step's factor is the MEAN of the "
@@ -269,6 +267,8 @@ def sv_grid(y: np.ndarray, model: SVModel, mistake: str | None = None, n_grid: i
     log_p = -0.5 * (x / sd0) ** 2
     p = np.exp(log_p - logsumexp(log_p))
     log_var = 2 * x + 2 * np.log(model.beta) if mistake == "sd_exp_x" else x + 2 * np.log(model.beta)
+    if mistake == "beta_variance":
+        log_var = x + np.log(model.beta)
     means, log_lik = np.empty(len(y)), 0.0
     for k, yk in enumerate(y):
         pred = kernel @ p
@@ -342,13 +342,68 @@ def _check_sv_filter(fn: Callable, n: int, n_runs: int, seed: int, model: SVMode
         return report
     exact, exact_log_lik = _once(_sv_limit, model, None)
     problem = _bias_problem(m, exact, SV_MEAN_MISTAKES, lambda mistake: _once(_sv_limit, model, mistake)[0],
-                            lambda mean, se: _far_step(mean, exact, n_runs))
+                            lambda mean, se: _sv_move_cause(fn, n, seed, model) or _far_step(mean, exact, n_runs))
     problem = problem or _likelihood_problem(ell, exact_log_lik, len(y), n,
                                              lambda: _once(_sv_limit, model, "mean_log")[1],
                                              SV_LIKELIHOOD_MISTAKES, "y")
+    problem = problem or _sv_beta_cause(fn, n, seed)
     if problem:
         report.problems.append(problem)
     return report
+
+
+#: The probe of :func:`_sv_move_cause`: this many returns of 0, this many runs.
+ZERO_RETURNS, ZERO_RUNS = 3, 4
+
+
+def _sv_move_cause(fn: Callable, n: int, seed: int, model: SVModel) -> str | None:
+    """The sentence naming a move of standard deviation ``sigma^2``, when the evidence shows it. A filter with
+    that mistake converges slowly on the capstone's returns (its small moves leave few distinct particles), so it
+    is probed on returns of 0, whose log-weight ``-x / 2`` is linear in ``x`` (no weight degeneracy): each step
+    lowers the mean by half the predicted variance, which the move sets. Named when the answer's last mean,
+    averaged over :data:`ZERO_RUNS` runs, lies within 0.15 of that mistake's grid limit and the exact filter's
+    more than 0.3 from it (at the default model: -1.32 against -1.78; a run's spread about 0.1); ``None``
+    otherwise (or when the answer cannot run the probe). Only three returns: over more, a particle cloud lags
+    behind the tilt ``e^{-x/2}`` of the weights, which pushes the mean into the cloud's thin tail."""
+    y0 = np.zeros(ZERO_RETURNS)
+    try:
+        runs = [np.asarray(fn(y0.copy(), n, np.random.default_rng(seed + r), model)[0], dtype=float)
+                for r in range(ZERO_RUNS)]
+        if any(m.shape != y0.shape or not np.isfinite(m).all() for m in runs):
+            return None
+    except Exception:  # a probe the answer cannot run: name the symptom alone
+        return None
+    last = float(np.mean([m[-1] for m in runs]))
+    exact, slow = sv_grid(y0, model)[0][-1], sv_grid(y0, model, "sigma_variance")[0][-1]
+    if abs(last - slow) < 0.15 and abs(exact - slow) > 0.3:
+        return (f"told of {ZERO_RETURNS} returns of 0, your means fall to {last:.2f}, as a move of standard "
+                f"deviation sigma^2 makes them ({slow:.2f}), not to the exact filter's {exact:.2f}: sigma is the "
+                "noise's standard deviation, so a move is phi x + sigma * rng.standard_normal(n)")
+    return None
+
+
+#: The probe of :func:`_sv_beta_cause`: a model with ``beta = 2`` and three returns of 2.
+BETA_PROBE_BETA, BETA_PROBE_RETURNS = 2.0, (2.0, 2.0, 2.0)
+
+
+def _sv_beta_cause(fn: Callable, n: int, seed: int) -> str | None:
+    """The sentence naming a likelihood variance ``beta e^{x}`` for ``beta^2 e^{x}``, which the capstone's model
+    (``beta = 1``) cannot show: the answer is run :data:`ZERO_RUNS` times on the model with ``beta = 2`` and three
+    returns of 2, where the exact filter's last mean is 0.16 and that mistake's 0.62 (the grid's ``beta_variance``
+    limit; a run's spread about 0.05). Named when the answer's last mean, averaged over the runs, lies within 0.1 of
+    that mistake's and further than 0.1 from the exact one; ``None`` otherwise (or when the probe cannot run)."""
+    model, y = SVModel(beta=BETA_PROBE_BETA), np.array(BETA_PROBE_RETURNS)
+    try:
+        last = float(np.mean([np.asarray(fn(y.copy(), n, np.random.default_rng(seed + r), model)[0],
+                                         dtype=float)[-1] for r in range(ZERO_RUNS)]))
+    except Exception:  # a probe the answer cannot run: name the symptom alone
+        return None
+    exact, wrong = sv_grid(y, model)[0][-1], sv_grid(y, model, "beta_variance")[0][-1]
+    if abs(last - wrong) < 0.1 and abs(last - exact) > 0.1:
+        return (f"with beta = {BETA_PROBE_BETA:g} and three returns of 2, your last mean is {last:.2f}, as a "
+                f"likelihood of variance beta e^x makes it ({wrong:.2f}), not the exact filter's {exact:.2f}: "
+                "beta is a standard deviation, so the variance of y_k is beta^2 e^{x_k}")
+    return None
 
 
 def _sv_data(model: SVModel, data_seed: int) -> np.ndarray:
@@ -640,8 +695,6 @@ COUNT_MISTAKES = {
               "N(0, sigma^2 / (1 - phi^2)), wider by 1 / sqrt(1 - phi^2)"),
     "predicted": ("your means are those of the predicted cloud, read before the weighting: the filtering mean "
                   "E[x_k | y_1..y_k] is the weighted mean after the count y_k is used"),
-    "sigma_variance": ("your move's noise has standard deviation sigma^2: sigma is the standard deviation of the "
-                       "noise v_k, so a move is phi x + sigma * rng.standard_normal(n)"),
 }
 
 
@@ -653,7 +706,7 @@ def count_grid(y: np.ndarray, model: CountModel, mistake: str | None = None, n_g
     filter with that mistake converges to as its number of particles grows."""
     s = model.stationary_sd
     x = np.linspace(-width * s, width * s, n_grid)
-    kernel = _gauss_kernel(x, model.phi * x, model.sigma ** 2 if mistake == "sigma_variance" else model.sigma)
+    kernel = _gauss_kernel(x, model.phi * x, model.sigma)
     sd0 = model.sigma if mistake == "prior" else s
     log_p = -0.5 * (x / sd0) ** 2
     p = np.exp(log_p - logsumexp(log_p))
