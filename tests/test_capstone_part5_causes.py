@@ -88,7 +88,8 @@ def test_a_mistake_is_named_only_when_its_own_limit_matches():
 
 def test_the_reference_passes_with_margin_on_five_blocks_of_seeds():
     """The worst |z| of the reference over five blocks of 40 seeds (0-199) stays below 5 with margin (measured
-    3.4); a seeded sample: the last block, recomputed (the first is the checker's own, tested above)."""
+    3.4); a seeded sample: the last block, recomputed (the first is the checker's own default run,
+    tests/test_capstones_part5.py)."""
     model = SVModel()
     y = model.simulate(SV_STEPS, np.random.default_rng(SV_SMOOTHER_DATA_SEED))[1]
     exact = sv_grid_smoother(y, model)

@@ -6,15 +6,20 @@ shown, and the checker measures it against a near-exact answer.
   (:func:`sv_grid`). The filtering means are tested for bias over seeded runs, the likelihood estimate
   for unbiasedness (``E[p_hat] = p``); the typical mistakes are named: the likelihood's standard deviation
   ``beta e^{x}`` instead of ``beta e^{x/2}``, the initial cloud drawn from ``N(0, sigma^2)`` instead of the
-  stationary law, the mean read before the weighting, no resampling, ``log sum`` instead of ``log mean`` of
-  the weights, the mean of the log-weights instead of the log of their mean, and draws from NumPy's global
-  generator instead of ``rng``.
+  stationary law, the mean read before the weighting, ``log sum`` instead of ``log mean`` of the weights, the
+  mean of the log-weights instead of the log of their mean, the Gaussian's ``-log(2 pi) / 2`` dropped, a move of
+  standard deviation ``sigma^2`` (probed on returns of 0), ``beta`` for ``beta^2`` (probed with ``beta = 2``,
+  which the capstone's ``beta = 1`` hides), and draws from NumPy's global generator instead of ``rng``;
+  collapsed weights (no resampling, or log-weights far too peaked) by their symptom.
 * :func:`check_bearing_filter` - ``fn(z, observer, n, rng, model) -> (means, log_likelihood)``: a particle
   filter for bearing-only tracking of a drifting target from a moving observer (:class:`BearingModel`,
   Part II's capstone), against a converged grid in the plane (:func:`bearing_grid`), tested as above; the
   mistakes named: the random walk's ``q^2`` for ``q``, the initial cloud of spread ``q``, the mean read before
   the weighting, the bearing residual not wrapped, no resampling, ``log sum`` and ``mean log`` for the
   likelihood, and NumPy's global generator.
+
+A checker names a cause only when the evidence shows it (the answer lies within chance of that mistake's own
+large-N limit, or a probe built for that mistake answers as the mistake does); otherwise it names the symptom.
 """
 
 from __future__ import annotations
@@ -256,8 +261,9 @@ def sv_grid(y: np.ndarray, model: SVModel, mistake: str | None = None, n_grid: i
 
     The point-mass recursion: ``p_k^- = K p_{k-1}`` with ``K_{ji} = N(x_j; phi x_i, sigma^2) dx``, then
     ``p_k \\propto g(y_k | x) p_k^-`` and ``log p(y_1..y_T) = sum_k log sum_j g(y_k | x_j) p_k^-(x_j)``.
-    ``mistake`` (a key of :data:`SV_MEAN_MISTAKES` or :data:`SV_LIKELIHOOD_MISTAKES`) returns instead what a
-    filter with that mistake converges to as its number of particles grows.
+    ``mistake`` (a key of :data:`SV_MEAN_MISTAKES`, ``"mean_log"``, or one of the probes' ``"sigma_variance"``
+    and ``"beta_variance"``) returns instead what a filter with that mistake converges to as its number of
+    particles grows.
     """
     s = model.stationary_sd
     x = np.linspace(-width * s, width * s, n_grid)
@@ -578,8 +584,9 @@ def _bearing_spread_cause(fn: Callable, n: int, seed: int, ratio: float) -> str:
                     "about q / sqrt(N); draw each particle its own step, q * rng.standard_normal((n, 2))")
     except Exception:  # a probe the answer cannot run: name the symptom alone
         pass
-    return (f"your means vary over seeds {ratio:.0f} times as much as a resampled filter's: without resampling "
-            "the weights collapse onto a few particles; resample after each weighting")
+    return (f"your means vary over seeds {ratio:.0f} times as much as a resampled filter's: the weights collapse "
+            "onto a few particles, either for want of resampling (resample after each weighting) or because the "
+            "log-weights are far too peaked (check the likelihood term by term)")
 
 
 def check_bearing_filter(fn: Callable, n: int = 2000, n_runs: int = 24, seed: int = 0,
