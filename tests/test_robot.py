@@ -16,7 +16,7 @@ from pfcourse.scenarios.robot.scenario import (
     RobotScenario,
     motion,
     range_bearing,
-    rmse,
+    tracking_rmse,
     simulate_robot,
     tracking_errors,
 )
@@ -66,11 +66,11 @@ def test_filter_heading_estimate_straddling_pi_is_circular():
     model = RobotModel.for_simulation(sim)
     result = ParticleFilter(model, 300).run(sim.measurements, 2)
     assert np.all(np.abs(result.mean[:, 2]) > np.pi / 2)
-    _, heading = rmse(sim.truth, result.mean)
+    _, heading = tracking_rmse(sim.truth, result.mean)
     assert heading < np.deg2rad(3.0)
     for run in (run_ekf(model, sim.measurements), run_ukf(model, sim.measurements)):
         assert np.all(np.abs(run.mean[:, 2]) <= np.pi)
-        assert rmse(sim.truth, run.mean)[1] < np.deg2rad(3.0)
+        assert tracking_rmse(sim.truth, run.mean)[1] < np.deg2rad(3.0)
 
 
 def test_state_mean_of_sigma_points_across_pi():
@@ -202,7 +202,7 @@ def test_ekf_and_ukf_run_without_nan_on_the_default_scenario(default_sim):
     for run in (run_ekf(model, default_sim.measurements), run_ukf(model, default_sim.measurements)):
         assert np.all(np.isfinite(run.mean)) and np.all(np.isfinite(run.cov))
         assert run.mean.shape == (1000, 3) and run.cov.shape == (1000, 3, 3)
-        pos, head = rmse(default_sim.truth, run.mean)
+        pos, head = tracking_rmse(default_sim.truth, run.mean)
         assert pos < 0.5 and head < np.deg2rad(2.0)
 
 
