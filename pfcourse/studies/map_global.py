@@ -14,7 +14,7 @@ import numpy as np
 from pfcourse.studies import maprobot as study
 from pfcourse.scenarios.maprobot import lock_on
 from pfcourse.scenarios.maprobot.global_mcl import HAZARD, POOR_FIT, SETTINGS, GlobalSettings, global_mcl
-from pfcourse.scenarios.maprobot.twins import twin_margin
+from pfcourse.scenarios.maprobot.twins import exact_twin_estimate, twin_margin
 from pfcourse.metrics import heading_error, position_error
 
 #: One straight step of the drive (m): 0.5 m/s for DT.
@@ -49,6 +49,20 @@ def decided(margin: np.ndarray) -> bool:
     at the share of the last window's steps that lock-on asks for (:mod:`pfcourse.scenarios.maprobot.lock_on`)."""
     window = int(np.ceil(lock_on.WINDOW_S / study.DT - 1e-9))
     return bool(np.mean(margin[-window:] > np.log(DECIDED_ODDS)) >= lock_on.SHARE)
+
+
+EXACT_COLUMNS = ("seed", "decided", "exact_locked_on", "exact_locked_from_s")
+
+
+def exact_row(seed: int) -> dict:
+    """The bound judged by the lock-on rule itself: an exact filter over the truth and its twins
+    (:func:`pfcourse.scenarios.maprobot.twins.exact_twin_estimate`) on ``seed``'s global drive, locked on or not."""
+    run = study.simulate(seed, study.GLOBAL_STEPS)
+    est = exact_twin_estimate(study.book_map(), study.field(), run.truth, run.scans)
+    margin, _ = twin_margin(study.book_map(), study.field(), run.truth, run.scans)
+    pos, head = position_error(run.truth, est), heading_error(run.truth, est)
+    return {"decided": decided(margin), "exact_locked_on": lock_on.locked_on(pos, head, study.DT, HEADING_TOL),
+            "exact_locked_from_s": lock_on.locked_from(pos, head, study.DT, HEADING_TOL) * study.DT}
 
 
 def twin_row(seed: int) -> dict:

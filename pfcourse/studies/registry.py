@@ -557,6 +557,13 @@ STUDIES: dict[str, Study] = {study.name: study for study in [
                                  # the cure with the kidnap model's prior (global_mcl.HAZARD), paired with the above
                                  ("global_hazard", map_global.hazard_global_row, map_global.GLOBAL_COLUMNS),
                                  ("kidnap_hazard", map_global.hazard_kidnap_row, map_global.KIDNAP_COLUMNS)]),
+    # the bound judged by the lock-on rule: an exact filter over the truth and its twins, drives 0-149
+    Study(name="map_global/exact_twins", row=map_global.exact_row, grid={}, n_runs=map_global.FRESH_SEED + map_global.FRESH_RUNS,
+          seeds="run", failures="raise", table="map_global/exact_twins.csv", provenance="map_global/exact_twins.json",
+          columns=map_global.EXACT_COLUMNS, sample=2,
+          row_code="pfcourse/studies/map_global.py (exact_row), pfcourse/scenarios/maprobot/twins.py (exact_twin_estimate)",
+          fields={"seeds": "run s: the global drive of maprobot/global (data_rng(s, 0)); no random numbers of its own",
+                  "dt": maprobot.DT, "heading_tolerance_rad": map_global.HEADING_TOL}),
     # the cure (global_mcl.HAZARD) re-measured on fresh drives 100-149, not those it was chosen on
     *(Study(name=f"map_global/{name}", row=row, grid={}, n_runs=map_global.FRESH_RUNS, seeds="run",
             base_seed=map_global.FRESH_SEED, failures="raise", table=f"map_global/{name}.csv",
