@@ -90,10 +90,10 @@ def stored(name):
 # The cell below computes it for one drive.
 
 # %%
+from pfcourse.studies import maprobot as study
+
 import numpy as np
 from scipy.special import logsumexp
-
-from pfcourse.studies import maprobot as study
 
 grid, field, motion = study.book_map(), study.field(), study.MOTION
 drive = study.simulate(1, 200)  # seed 1: 200 scans, 0.5 s apart
@@ -348,44 +348,50 @@ print(f"the same poses and log q as pfcourse.scenarios.maprobot.global_mcl.scan_
 # ## Injected as a kidnapping, weighted by their evidence
 #
 # How much weight does an injected pose deserve? Augmented MCL ({cite:t}`thrun2005`, table $8.3$)
-# gives it the same weight as the others, which is right only for poses drawn from the posterior;
-# ours are drawn from $q$. Make the injection part of the model instead. The robot may have been **carried anywhere
-# $h$ scans ago**, with probability $\varepsilon_k$ (here $h = 20$ scans, $10$ s; how large
-# $\varepsilon_k$ should be comes next). The cloud's $M$
-# moved particles stand for "not carried", the $R$ injected poses for "carried at step $k - h$".
-# Each injected pose starts from $q$ for the scan of step $k - h$ and is carried to now by the
-# odometry, a small filter of $R$ particles scoring it at every scan. Its weight is an importance
-# weight of the kidnap model, against the cloud's own account of the same scans:
+# draws its added poses from the uniform kidnap distribution and gives them the same weight as the
+# others, which is right for them: they are draws of the mixture's uniform part. Ours are drawn
+# from $q$, so they need the weight $u / q$. This book's construction makes the injection part of
+# the model. The robot may have been **carried anywhere $\tau$ scans ago**, with probability
+# $\xi_k$ (here $\tau = 20$ scans, $10$ s; how large $\xi_k$ should be comes next). The cloud's $M$
+# moved particles stand for "not carried", the $R$ injected poses for "carried at step $k - \tau$".
+# Each injected pose starts from $q$ for the scan of step $k - \tau$ and is carried to now by the
+# odometry, a small filter of $R$ particles scoring it at every scan. Write
+# $\ell_j = \frac{1}{M} \sum_i p(z_j \mid x_j^i)$ for the cloud's mean likelihood at scan $j$, its
+# estimate of $p(z_j \mid z_{0:j-1})$. The injected pose's weight is an importance weight of the
+# kidnap model, against the cloud's own account of the same scans:
 #
 # $$
-# W \propto \frac{\varepsilon_k}{R}\; \frac{u(x_{k-h})}{q(x_{k-h})}\;
-# \frac{\prod_{j=k-h}^{k} p(z_j \mid x_j)}{\prod_{j=k-h}^{k-1} Z_j}
+# W \propto \frac{\xi_k}{R}\; \frac{u(x_{k-\tau})}{q(x_{k-\tau})}\;
+# \frac{\prod_{j=k-\tau}^{k} p(z_j \mid x_j)}{\prod_{j=k-\tau}^{k-1} \ell_j}
 # \qquad\text{against}\qquad
-# W \propto \frac{1 - \varepsilon_k}{M}\; p(z_k \mid x_k)
+# W \propto \frac{1 - \xi_k}{M}\; p(z_k \mid x_k)
 # $$
 #
 # for a moved particle, with $u = 1 / (A_{\mathrm{free}}\, 2\pi)$ the uniform density. The factor
 # $u / q$ undoes the aim of the proposal: a pose is not more probable for having been drawn where the
-# scan fits. The product over scans is what a pose with no history lacks: a twin's particles and
+# scan fits (it is a valid importance weight given the candidates, whatever they are). The small
+# filter resamples at every scan, so the product of past likelihoods is carried by the product of
+# its mean weights, shared by all $R$ poses, times the current likelihood. The product over scans is what a pose with no history lacks: a twin's particles and
 # an injected pose at the truth fit the current scan equally well, but over twenty scans the one at
 # the truth has seen the box and the twin has not. The cell below computes the injected poses and
 # their log-weights (the small filter resamples at every scan, and the product of its mean weights
 # is the evidence).
 
 # %%
-def injected(scans, odometry, k, r, log_z, rng, h=20):
-    """r poses carried h scans ago, and their log-weights (without eps / R)."""
-    x, log_q = scan_proposal(scans[k - h], r, rng)
+def injected(scans, odometry, k, r, log_l, rng, tau=20):
+    """r poses carried tau scans ago, their log-weights (without xi / R)."""
+    x, log_q = scan_proposal(scans[k - tau], r, rng)
     free = grid.is_free(x)
     log_u = np.where(free, -np.log(grid.free_area * 2 * np.pi), -np.inf)
-    lw = log_u - log_q + field.log_likelihood(x, scans[k - h])
+    lw = log_u - log_q + field.log_likelihood(x, scans[k - tau])
     log_evidence = 0.0
-    for j in range(k - h + 1, k + 1):
+    for j in range(k - tau + 1, k + 1):
         log_evidence += logsumexp(lw) - np.log(r)
         parent = systematic(np.exp(lw - logsumexp(lw)), r, rng)
         x = motion.sample(x[parent], odometry[j], rng)
         lw = field.log_likelihood(x, scans[j])
-    return x, lw + log_evidence - log_z[k - h:k].sum()
+    # log_l[j]: the cloud's log mean likelihood at scan j
+    return x, lw + log_evidence - log_l[k - tau:k].sum()
 
 
 # %% tags=["hide-input"] jupyter={"source_hidden": true}
@@ -399,28 +405,31 @@ print(f"the same poses and log-weights as pfcourse.scenarios.maprobot.global_mcl
 # %% [markdown]
 # ## How likely is a kidnapping?
 #
-# What should the prior $\varepsilon_k$ be? Augmented MCL's rate
-# $1 - w_{\mathrm{fast}} / w_{\mathrm{slow}}$ (table $8.3$), from running averages of the cloud's mean
-# likelihood $Z_k$, is made to detect a kidnapping, not to be its probability. On a cloud that is
-# right it sits at the floor we gave it, $0.01$, at {glue:text}`lf_demo_ratio_floor_share:.0%` of
-# the scans of the run below: the floor, a number chosen by hand, decides whether a noisy injected
-# stratum may replace a right cloud. With it the filter ends on the half-turn twin in
-# {glue:text}`lf_augmented_missed_turn:d` of its {glue:text}`lf_augmented_missed:d` missed drives.
+# What should the prior $\xi_k$ be? Augmented MCL's rate $1 - w_{\mathrm{fast}} / w_{\mathrm{slow}}$
+# (table $8.3$), from running averages of the cloud's mean likelihood $\ell_k$, is made to detect a
+# kidnapping, not to be its probability. Table $8.3$ has no floor, and ROS's AMCL injects nothing by
+# default (its recovery rates are $0$). The book's first variant gives that rate a floor of $0.01$,
+# with the strata above injected every fourth scan; on a right cloud the rate sits at the floor at
+# {glue:text}`lf_demo_ratio_floor_share:.0%` of the scans of the run below, so the floor, a number
+# chosen by hand, decides whether a noisy injected stratum may replace a right cloud.
 #
-# The kidnap model gives the prior a meaning: carried away at a scan with probability
-# $\rho = 10^{-3}$ (once in about eight minutes of driving), and one injection standing for the
-# $4$ scans since the last, $\varepsilon_k = 4 \rho$. An injected stratum now needs
-# $\log(1 / \varepsilon_k)$ nats of evidence over the cloud; a kidnapped robot's cloud stops
-# fitting the scans and gives way all the same. Mixing the two strata:
+# The book's second variant, the cure, takes the prior from the kidnap model of
+# {doc}`global_localization`: carried away at a scan with probability $\xi = 10^{-3}$ (once in
+# about eight minutes of driving; also a number chosen by hand), and one injection standing for the
+# $4$ scans since the last, $\xi_k = 4 \xi$. Mixture-MCL {cite:p}`thrun2001` is a relative: it
+# too mixes poses drawn from the sensor into the cloud with importance weights. An injected stratum
+# now needs $\log(1 / \xi_k)$ nats of evidence over the cloud; a kidnapped robot's cloud stops
+# fitting the scans and gives way. Mixing the two strata:
 
 # %%
-rho, every = 1e-3, 4  # a kidnapping once in 1000 scans; an injection every 4
+# a kidnapping once in 1000 scans; an injection every 4
+xi, every = 1e-3, 4
 
 
-def mix(moved, lw_m, inj, lw_r, eps):
-    """The moved (mass 1 - eps) and injected (mass eps) particles, one cloud."""
-    a = np.log1p(-eps) - np.log(len(moved)) + lw_m
-    b = np.log(eps) - np.log(len(inj)) + lw_r
+def mix(moved, lw_m, inj, lw_r, xi_k):
+    """The moved (mass 1 - xi_k) and injected (mass xi_k) particles."""
+    a = np.log1p(-xi_k) - np.log(len(moved)) + lw_m
+    b = np.log(xi_k) - np.log(len(inj)) + lw_r
     return np.concatenate([moved, inj]), np.concatenate([a, b])
 
 
@@ -428,24 +437,24 @@ def mix(moved, lw_m, inj, lw_r, eps):
 rng_mix = np.random.default_rng(4)
 moved_demo, lw_m_demo = rng_mix.normal(size=(300, 3)), rng_mix.normal(size=300)
 inj_demo, lw_r_demo = ours_inj[0], ours_inj[1]
-ours_mix = mix(moved_demo, lw_m_demo, inj_demo, lw_r_demo, every * rho)
-pkg_mix = engine._stratified([(1 - every * rho, moved_demo, lw_m_demo), (every * rho, inj_demo, lw_r_demo)])
+ours_mix = mix(moved_demo, lw_m_demo, inj_demo, lw_r_demo, every * xi)
+pkg_mix = engine._stratified([(1 - every * xi, moved_demo, lw_m_demo), (every * xi, inj_demo, lw_r_demo)])
 same_mix = all(np.allclose(a, b, rtol=0, atol=TOL) for a, b in zip(ours_mix, pkg_mix))
-same_rho = engine.HAZARD.kidnap_hazard == rho and engine.HAZARD.inject_every == every
+same_rho = engine.HAZARD.kidnap_hazard == xi and engine.HAZARD.inject_every == every
 print(f"the same cloud as the engine's strata, to {TOL:.0e}: {same_mix}; the engine's hazard and cadence: {same_rho}")
 
 # %% [markdown]
-# :::{admonition} Algorithm 15.1: global localization with KLD-sampling and evidence-weighted sensor resetting
+# :::{admonition} Algorithm 15.1: global localization with evidence-weighted sensor resetting
 # :class: algorithm
 # 1. **Start.** Draw $20000$ poses from $u$ and $2000$ from $q$ for the first scan; weight them
 #    $p(z_0 \mid x)$ and $\frac{u}{q}\, p(z_0 \mid x)$, half the mass to each group.
 # 2. **For** each scan $z_k$, $k = 1, 2, \dots$:
 #    1. *size:* $M$ from the KLD bound for the bins of the weighted cloud, clipped to $[300, 5000]$;
 #    2. *move:* resample $M$ particles, move each by the odometry, weight by $p(z_k \mid x_k)$;
-#       record $Z_k$;
+#       record $\ell_k$;
 #    3. *inject* (every fourth scan, from $k = 20$ on): $R = \max(200, M / 10)$ poses carried since
-#       step $k - h$, weighted as above; the cloud is the $M + R$ weighted particles, the two strata
-#       given the masses $1 - \varepsilon_k$ and $\varepsilon_k = 4 \rho$;
+#       step $k - \tau$, weighted as above; the cloud is the $M + R$ weighted particles, the two strata
+#       given the masses $1 - \xi_k$ and $\xi_k = 4 \xi$;
 #    4. *estimate:* weighted mean position and circular mean heading.
 # :::
 #
@@ -466,8 +475,8 @@ ax2.axhline(np.log(mg.DECIDED_ODDS), color=COLORS["unseen"], ls="--", label="odd
 ax2.set_ylabel("nats")
 ax2.legend(loc="upper left", bbox_to_anchor=(1.02, 1))
 ax3.semilogy(t[1:], res.eps_augmented[1:], color=COLORS["particles"], lw=0.8,
-             label="table 8.3's rate (floor 0.01)")
-ax3.semilogy(t[1:], res.eps[1:], color=COLORS["estimate"], label="4 rho (the kidnap model)")
+             label="floored table-8.3 rate\n(computed, not used)")
+ax3.semilogy(t[1:], res.eps[1:], color=COLORS["estimate"], label="4 xi (the kidnap model)")
 ax3.set_ylabel("prior of a kidnapping")
 ax3.set_xlabel("time t (s)")
 ax3.legend(loc="upper left", bbox_to_anchor=(1.02, 1))
@@ -477,11 +486,14 @@ demo_locked = lock_on.locked_from(pos, head, study.DT, mg.HEADING_TOL)
 on_robot = lock_on.locked_steps(pos, head, mg.HEADING_TOL)[1:]
 glue_values("lf_", demo_decided_s=float((decided_at[0] + 1) * study.DT), demo_locked_s=float(demo_locked * study.DT),
             demo_start_particles=int(res.sizes[0]), demo_mean_particles=float(res.sizes[1:].mean()),
+            demo_step1_particles=int(res.sizes[1]), demo_floor_particles=int(engine.HAZARD.n_min),
             demo_ratio_floor_share=float(np.mean(res.eps_augmented[1:][on_robot] <= engine.HAZARD.eps_min)))
 
 # %% [markdown]
-# The filter starts with {glue:text}`lf_demo_start_particles:d` particles and is down to a few hundred
-# within seconds ({glue:text}`lf_demo_mean_particles:.0f` on average over the drive). On this drive
+# The filter starts with {glue:text}`lf_demo_start_particles:d` particles; at its first resampling
+# KLD's bound gives {glue:text}`lf_demo_step1_particles:d`, and from then on the floor of
+# {glue:text}`lf_demo_floor_particles:d` (plus the injected poses:
+# {glue:text}`lf_demo_mean_particles:.0f` on average over the drive). On this drive
 # the evidence passes odds of $99 : 1$ at {glue:text}`lf_demo_decided_s:.0f` s, and the filter is
 # locked on from {glue:text}`lf_demo_locked_s:.0f` s to the end.
 #
