@@ -41,7 +41,7 @@ import pandas as pd
 from ipywidgets import SelectionSlider
 from IPython.display import display
 from scipy.special import logsumexp
-from scipy.stats import norm
+from scipy.stats import beta, norm
 
 from pfcourse import evidence
 from pfcourse.studies import map_global as mg
@@ -510,25 +510,41 @@ glue_values("lf_", demo_decided_s=float((decided_at[0] + 1) * study.DT), demo_lo
 # times that.
 # :::
 #
-# Over the $100$ drives of the twin study, from a uniform start, the cure is
-# locked on in {glue:text}`lf_global_lock_on_rate:.0%` of them
-# ({glue:text}`lf_global_lock_on_rate_low:.0%`-{glue:text}`lf_global_lock_on_rate_high:.0%`),
-# against the {glue:text}`lf_decided_rate:.0%` the evidence decides.
+# The cure's settings (the prior, the cadence of injections) were chosen on the $100$ drives of
+# the twin study, which flatters it there. On {glue:text}`lf_n_fresh:d` fresh drives, from a uniform
+# start, it is locked on in {glue:text}`lf_fresh_global_lock_on_rate:.0%`
+# ({glue:text}`lf_fresh_global_lock_on_rate_low:.0%`-{glue:text}`lf_fresh_global_lock_on_rate_high:.0%`),
+# where the exact filter over the twins is locked on in
+# {glue:text}`lf_fresh_exact_lock_on_rate:.0%`. On the drives it was chosen on, it is locked on in
+# {glue:text}`lf_global_lock_on_rate:.0%`
+# ({glue:text}`lf_global_lock_on_rate_low:.0%`-{glue:text}`lf_global_lock_on_rate_high:.0%`), short
+# of the $0.95$ aimed at and of the bound's {glue:text}`lf_exact_lock_on_rate:.0%` (exact paired test
+# $p$ = {glue:text}`lf_global_exact_p:.3f`).
 #
-# That is short of the $0.95$ this chapter set out to reach, and on these drives it cannot be told
-# from the bound either: the cure minus the decided share is
-# {glue:text}`lf_global_decided_gap:+.0%` ({glue:text}`lf_global_decided_gap_low:+.0%` to
-# {glue:text}`lf_global_decided_gap_high:+.0%`, paired by drive).
+# It costs more than its few hundred particles suggest: with the scan proposal and the look-back
+# filters it scores about {glue:text}`lf_poses_per_scan:.0f` poses against the likelihood field per
+# scan. On the same drives {doc}`map_robot`'s filter with random injection locks on in
+# {glue:text}`lf_base_injection_rate:.0%`: the cure gains
+# {glue:text}`lf_global_vs_injection_gain_pts:.0f` points
+# ({glue:text}`lf_global_vs_injection_gain_low_pts:.0f` to
+# {glue:text}`lf_global_vs_injection_gain_high_pts:.0f`).
 #
-# With table $8.3$'s prior the same filter locks on in
-# {glue:text}`lf_augmented_lock_on_rate:.0%` of the same drives; the kidnap model's prior locks on in
-# {glue:text}`lf_global_vs_augmented_gain:.0%` more of them
-# ({glue:text}`lf_global_vs_augmented_gain_low:.0%` to {glue:text}`lf_global_vs_augmented_gain_high:.0%`).
-# At the floor its bar is under one nat higher, and the paired test does not exclude luck.
+# With the floored table-$8.3$ rate in place of the kidnap prior, the same filter locks on in
+# {glue:text}`lf_augmented_lock_on_rate:.0%` of these drives. The kidnap prior's
+# {glue:text}`lf_global_vs_augmented_gain_pts:.0f` points more are within what luck gives (exact
+# paired test $p$ = {glue:text}`lf_global_vs_augmented_p:.2f`): these drives do not separate the two
+# priors.
 #
-# Of the {glue:text}`lf_global_missed:d` drives it still misses,
-# {glue:text}`lf_global_missed_late:d` end within the tolerances, found again too late for the
-# window, and {glue:text}`lf_global_missed_turn:d` end on a half-turn twin.
+# **Why it misses.** Not for want of evidence: the exact filter locks on in every drive. The cure's
+# open failure is a **false relocalization**: a right cloud replaced by an injected stratum of a
+# twin, most often the half-turn twin, after the evidence had decided. A stratum's weight is a
+# ratio of two noisy evidence estimates, and on scans where the truth and its twin see the same
+# walls it passes $\log(1 / \xi_k)$ by chance. On the fresh drives (global and kidnap runs), a
+# cloud that had been within the tolerances for $10$ s was carried $2$ m or more away for $2$ s or
+# more in {glue:text}`lf_fresh_lost_runs:d` of {glue:text}`lf_fresh_runs:d` runs: about
+# {glue:text}`lf_false_reloc_per_hour:.1f` false relocalizations per hour of driving. Of the
+# {glue:text}`lf_global_missed:d` drives of the tuning set it misses,
+# {glue:text}`lf_global_missed_turn:d` end on a half-turn twin.
 
 # %% tags=["remove-input"] jupyter={"source_hidden": true}
 glob = STUDIES["map_global/global_hazard"].load().sort_values("seed")
@@ -539,6 +555,43 @@ is_decided = twins_table["decided"].to_numpy()
 pair = evidence.paired_rates(glob["locked_on"].to_numpy(), is_decided)
 vs_aug = evidence.paired_rates(glob["locked_on"].to_numpy(), aug["locked_on"].to_numpy())
 within = evidence.rate(glob["locked_on"].to_numpy()[is_decided])
+exact_pair = evidence.paired_rates(glob["locked_on"].to_numpy(), exact_table["exact_locked_on"].to_numpy())
+vs_inj = evidence.paired_rates(glob["locked_on"].to_numpy(), base_inj["locked_on"].to_numpy())
+
+
+def exact_difference(p, level=0.95):
+    """A - B of paired rates with an exact interval (Clopper-Pearson on the discordant runs)."""
+    n, nd = p.a.n, p.only_a + p.only_b
+    if nd == 0:
+        return 0.0, 0.0, 0.0
+    lo = beta.ppf((1 - level) / 2, p.only_a, nd - p.only_a + 1) if p.only_a else 0.0
+    hi = beta.ppf(1 - (1 - level) / 2, p.only_a + 1, nd - p.only_a) if p.only_b else 1.0
+    return p.difference, nd * (2 * lo - 1) / n, nd * (2 * hi - 1) / n
+
+
+inj_d = exact_difference(vs_inj)
+aug_d = exact_difference(vs_aug)
+# poses scored against the field per scan: the cloud, and per injection (every inject_every scans) the
+# proposal's candidates and nudges and the look-back filter's R poses over history + 1 scans
+hz = engine.HAZARD
+per_injection = (hz.candidates * hz.headings + hz.keep * hz.refine_trials * hz.refine_rounds
+                 + hz.inject_min * (hz.history + 1))
+fresh = STUDIES["map_global/global_fresh"].load().sort_values("seed")
+fresh_kid = STUDIES["map_global/kidnap_fresh"].load().sort_values("seed")
+fresh_exact = exact_all[exact_all["seed"] >= mg.FRESH_SEED]
+assert (fresh["seed"].to_numpy() == fresh_exact["seed"].to_numpy()).all()
+fresh_rate = evidence.rate(fresh["locked_on"].to_numpy())
+fresh_exact_pair = evidence.paired_rates(fresh["locked_on"].to_numpy(), fresh_exact["exact_locked_on"].to_numpy())
+lost_runs = int((fresh["n_lost"] > 0).sum() + (fresh_kid["n_lost"] > 0).sum())
+hours = (len(fresh) * study.GLOBAL_STEPS + len(fresh_kid) * study.KIDNAP_STEPS) * study.DT / 3600
+glue_values("lf_", n_fresh=len(fresh), fresh_global_lock_on_rate=fresh_rate.estimate,
+            fresh_global_lock_on_rate_low=fresh_rate.low, fresh_global_lock_on_rate_high=fresh_rate.high,
+            fresh_exact_lock_on_rate=fresh_exact_pair.b.estimate, global_exact_p=exact_pair.pvalue,
+            poses_per_scan=glob["mean_particles"].mean() + per_injection / hz.inject_every,
+            global_vs_injection_gain_pts=100 * inj_d[0], global_vs_injection_gain_low_pts=100 * inj_d[1],
+            global_vs_injection_gain_high_pts=100 * inj_d[2], global_vs_augmented_gain_pts=100 * aug_d[0],
+            fresh_lost_runs=lost_runs, fresh_runs=len(fresh) + len(fresh_kid),
+            false_reloc_per_hour=float(fresh["n_lost"].sum() + fresh_kid["n_lost"].sum()) / hours)
 glue_values("lf_", n_global=len(glob), global_lock_on_rate=pair.a.estimate, global_lock_on_rate_low=pair.a.low,
             global_lock_on_rate_high=pair.a.high, step_heading_sd_deg=np.degrees(lock_on.step_heading_sd(motion, mg.STEP_M)),
             heading_tolerance_deg=np.degrees(mg.HEADING_TOL), global_mean_particles=glob["mean_particles"].mean(),
@@ -553,29 +606,49 @@ def misses(table):
     """The drives a filter does not lock on, with how each ends."""
     m = table.loc[~table["locked_on"].to_numpy(), ["seed", "final_position_error", "final_heading_error"]].merge(
         twins_table[["seed", "decided", "final_margin"]], on="seed")
-    late = (m["final_position_error"] < lock_on.POSITION_TOLERANCE_M) & (m["final_heading_error"] < mg.HEADING_TOL)
     turned = m["final_heading_error"] > np.pi / 2  # on a half-turn twin: heading about 180 degrees off
-    return m, int(late.sum()), int(turned.sum())
+    return m, int(turned.sum())
 
 
-missed, missed_late, missed_turn = misses(glob)
-aug_missed, _, aug_missed_turn = misses(aug)
-glue_values("lf_", global_missed=len(missed), global_missed_late=missed_late, global_missed_turn=missed_turn,
+missed, missed_turn = misses(glob)
+aug_missed, aug_missed_turn = misses(aug)
+glue_values("lf_", global_missed=len(missed), global_missed_turn=missed_turn,
             augmented_missed=len(aug_missed), augmented_missed_turn=aug_missed_turn)
 EvidenceBlock(
-    "the kidnap model's prior against table 8.3's, on the same drives",
-    notes=[f"{len(glob)} drives (the twin study's), 100 s each, uniform start; the filter of Algorithm 15.1 "
-           f"({engine.HAZARD}); its random numbers from numpy.random.default_rng([41, seed, 2]), the same for "
+    "the cure against its bound, its baselines and its variant; fresh drives; cost",
+    notes=[f"{len(glob)} drives (the twin study's, seeds 0-99, on which the settings were chosen), 100 s each, "
+           "uniform start; the filter of Algorithm 15.1 (20000 + 2000 poses at the start, 300-5000 after, an "
+           "injection of 200 poses every 4 scans looking back 20 scans, xi = 0.001 per scan); its random numbers from numpy.random.default_rng([41, seed, 2]), the same for "
            "both priors (common random numbers until the first injection).",
            f"Locked on (within 1 m and {np.degrees(mg.HEADING_TOL):.1f} degrees at 80 % of the last 20 s): "
            f"{pair.a}; decided by the evidence: {pair.b} (Wilson intervals); locked on among the decided drives: "
            f"{within}.",
-           f"Paired by drive (cure A, decided B): {pair}.",
+           f"Paired by drive (cure A, decided at 99 : 1 B): {pair}.",
+           f"Paired by drive (cure A, the exact filter over the twins B): {exact_pair}.",
+           f"Paired by drive (cure A, map_robot's filter with random injection B): {vs_inj}; exact interval of the "
+           f"difference (Clopper-Pearson on the discordant drives): {100 * inj_d[1]:+.0f} to {100 * inj_d[2]:+.0f} "
+           f"points. Bootstrap filter (no injection): {base_boot['locked_on'].mean():.2f}.",
+           f"Kidnap prior A against the floored rate B: exact interval {100 * aug_d[1]:+.0f} to "
+           f"{100 * aug_d[2]:+.0f} points (the bootstrap interval in the line below is too narrow with so few "
+           "discordant drives).",
+           f"Fresh drives (seeds {mg.FRESH_SEED}-{mg.FRESH_SEED + mg.FRESH_RUNS - 1}, not used in choosing the "
+           f"settings): locked on {fresh_rate}; paired with the exact filter: {fresh_exact_pair}. Lost after lock-on "
+           f"(2 s or more outside the tolerances, 2 m away, after 10 s within them): {int((fresh['n_lost'] > 0).sum())} "
+           f"global drives, {int((fresh_kid['n_lost'] > 0).sum())} kidnap runs.",
+           f"Cost: about {glob['mean_particles'].mean() + per_injection / hz.inject_every:.0f} poses scored per scan "
+           f"({per_injection} per injection, every {hz.inject_every} scans, plus the cloud); "
+           f"{STUDIES['map_global/global_hazard'].load().attrs['provenance']['wall_seconds'] / len(glob):.1f} s of "
+           f"computing per drive on the shared machine, against "
+           f"{amcl_global.attrs['provenance']['wall_seconds'] / len(amcl_global):.1f} s for map_robot's filters.",
+           "Tried on seeds 0-99 before this choice, and dropped: averaging rates alpha_fast 0.01 and 0.5 for the "
+           "floored rate; injecting only while the rate is above its floor (poor-fit, with n_min = 1000); "
+           "kidnap priors xi = 1e-3 (kept) and 1e-4.",
            f"Paired by drive (kidnap model's prior A, table 8.3's B): {vs_aug} (see Reading the evidence).",
            f"With table 8.3's prior, {len(aug_missed)} drives missed, {aug_missed_turn} of them ending on a "
            "half-turn twin (heading error above 90 degrees).",
            f"Mean number of particles after the start: {glob['mean_particles'].mean():.0f}.",
-           stored("global_hazard"), stored("global") + " (table 8.3's prior)"],
+           stored("global_hazard"), stored("global") + " (the floored table-8.3 rate)", stored("global_fresh"),
+           stored("kidnap_fresh")],
     tables=[("The drives the cure does not lock on", missed,
              {"final_position_error": ".2f", "final_heading_error": ".2f", "final_margin": ".1f"})],
 )
