@@ -640,9 +640,11 @@ EvidenceBlock(
            f"{STUDIES['map_global/global_hazard'].load().attrs['provenance']['wall_seconds'] / len(glob):.1f} s of "
            f"computing per drive on the shared machine, against "
            f"{amcl_global.attrs['provenance']['wall_seconds'] / len(amcl_global):.1f} s for map_robot's filters.",
-           "Tried on seeds 0-99 before this choice, and dropped: averaging rates alpha_fast 0.01 and 0.5 for the "
-           "floored rate; injecting only while the rate is above its floor (poor-fit, with n_min = 1000); "
-           "kidnap priors xi = 1e-3 (kept) and 1e-4.",
+           "Tried on seeds 0-99 before this choice: averaging rates alpha_slow = 0.01, alpha_fast = 0.5 for the "
+           "floored rate (dropped after 14 screened drives); injecting only while that rate is above its floor, "
+           "with a floor of 1000 particles (poor-fit, screened on the failing drives, dropped); the kidnap prior "
+           "xi = 1e-3 (kept, screened on 30 drives) and 1e-4 (dropped). The fresh drives are the only ones not "
+           "used in these choices.",
            f"Paired by drive (kidnap model's prior A, table 8.3's B): {vs_aug} (see Reading the evidence).",
            f"With table 8.3's prior, {len(aug_missed)} drives missed, {aug_missed_turn} of them ending on a "
            "half-turn twin (heading error above 90 degrees).",
