@@ -662,16 +662,24 @@ EvidenceBlock(
 # $20$ s; then the robot is carried to another waypoint of its route while its odometry reports no
 # motion, and drives on for $100$ s. The scans stop fitting the cloud, and
 # the injected poses, which fit the new scans, take the weight despite their small prior. Over
-# $100$ seeded runs the filter recovers (is locked on at the end) in
-# {glue:text}`lf_kidnap_recovered_rate:.0%` of them
-# ({glue:text}`lf_kidnap_recovered_rate_low:.0%`-{glue:text}`lf_kidnap_recovered_rate_high:.0%`),
-# short of the $0.90$ aimed at; with table $8.3$'s prior, {glue:text}`lf_augmented_kidnap_recovered_rate:.0%`.
+# $100$ seeded runs (those the settings were chosen on) the filter recovers (is locked on at the
+# end) in {glue:text}`lf_kidnap_recovered_rate:.0%` of them
+# ({glue:text}`lf_kidnap_recovered_rate_low:.0%`-{glue:text}`lf_kidnap_recovered_rate_high:.0%`): the
+# $0.90$ aimed at is inside that interval, but not reached. With the floored table-$8.3$ rate,
+# {glue:text}`lf_augmented_kidnap_recovered_rate:.0%` (paired test $p$ =
+# {glue:text}`lf_kidnap_vs_augmented_p:.2f`: not separated).
+#
+# A "kidnapping" to the waypoint the robot was already near is none. On the fresh runs those that
+# moved the robot less than the lock-on tolerances are left out
+# ({glue:text}`lf_fresh_not_kidnapped:d` of {glue:text}`lf_n_fresh:d`); of the others the filter
+# recovers {glue:text}`lf_fresh_kidnap_recovered_rate:.0%`
+# ({glue:text}`lf_fresh_kidnap_recovered_rate_low:.0%`-{glue:text}`lf_fresh_kidnap_recovered_rate_high:.0%`).
 #
 # Those that recover are locked on for good a median {glue:text}`lf_kidnap_recovery_median_s:.0f` s after
 # the kidnapping ({glue:text}`lf_kidnap_recovery_median_s_low:.0f`-{glue:text}`lf_kidnap_recovery_median_s_high:.0f` s).
-#
-# Of the {glue:text}`lf_kidnap_missed:d` runs that do not recover,
-# {glue:text}`lf_kidnap_missed_late:d` end within $1$ m of the robot's position, too late for the window.
+# No recovery can come sooner than $\tau$ scans ($10$ s) after the kidnapping: the first stratum
+# that can stand for it is one whose history starts after it. The runs that do not recover are lost
+# as the drives above are: some to a stratum of the wrong twin after they had found the robot again.
 
 # %% tags=["remove-input"] jupyter={"source_hidden": true}
 kid = STUDIES["map_global/kidnap_hazard"].load().sort_values("seed")
@@ -680,8 +688,11 @@ assert (kid["seed"].to_numpy() == kid_aug["seed"].to_numpy()).all()
 kid_vs_aug = evidence.paired_rates(kid["recovered"].to_numpy(), kid_aug["recovered"].to_numpy())
 glue_values("lf_", augmented_kidnap_recovered_rate=kid_vs_aug.b.estimate, kidnap_vs_augmented_p=kid_vs_aug.pvalue)
 kid_missed = kid[~kid["recovered"].to_numpy()]
-glue_values("lf_", kidnap_missed=len(kid_missed),
-            kidnap_missed_late=int((kid_missed["final_position_error"] < lock_on.POSITION_TOLERANCE_M).sum()))
+moved = (fresh_kid["jump_m"] >= lock_on.POSITION_TOLERANCE_M) | (fresh_kid["jump_deg"] >= np.degrees(mg.HEADING_TOL))
+fresh_recovered = evidence.rate(fresh_kid.loc[moved, "recovered"].to_numpy())
+glue_values("lf_", kidnap_missed=len(kid_missed), fresh_not_kidnapped=int((~moved).sum()),
+            fresh_kidnap_recovered_rate=fresh_recovered.estimate, fresh_kidnap_recovered_rate_low=fresh_recovered.low,
+            fresh_kidnap_recovered_rate_high=fresh_recovered.high)
 times = kid.loc[kid["recovered"], "recovery_s"].to_numpy()
 med, med_low, med_high = evidence.median_interval(times)
 recovered = evidence.rate(kid["recovered"].to_numpy())
@@ -689,18 +700,21 @@ glue_values("lf_", n_kidnap=len(kid), kidnap_recovered_rate=recovered.estimate,
             kidnap_recovered_rate_low=recovered.low, kidnap_recovered_rate_high=recovered.high,
             kidnap_recovery_median_s=med, kidnap_recovery_median_s_low=med_low, kidnap_recovery_median_s_high=med_high)
 EvidenceBlock(
-    "the kidnapped robot is found again, with the kidnap model's prior as with table 8.3's",
+    "the kidnapped robot: tuning runs, fresh runs, recovery time",
     notes=[f"{len(kid)} runs (seeds 0-{len(kid) - 1}, drives of pfcourse.studies.maprobot.simulate): tracked from the known start, "
            f"kidnapped at t = {study.KIDNAP_STEP * study.DT:.0f} s to a waypoint drawn by kidnap_rng(seed), run to "
            f"t = {study.KIDNAP_STEPS * study.DT:.0f} s.",
            f"Tracked before the kidnapping (error below 1 m from 5 s on): "
            f"{evidence.rate(kid['tracked_before'].to_numpy())}.",
-           f"Recovered (locked on at the end, the rule above): {recovered} (Wilson interval).",
+           f"Recovered (locked on at the end, the rule above): {recovered}.",
+           f"Fresh runs (seeds {mg.FRESH_SEED}-{mg.FRESH_SEED + mg.FRESH_RUNS - 1}), kidnappings that moved the robot "
+           f"at least 1 m or {np.degrees(mg.HEADING_TOL):.1f} degrees: recovered {fresh_recovered}; "
+           f"{int((~moved).sum())} runs left out.",
            f"Paired by run (kidnap model's prior A, table 8.3's B): {kid_vs_aug} (see Reading the evidence).",
            f"Median time from the kidnapping to the step from which the filter stays locked on, over the {len(times)} "
            f"runs that recover: {med:.1f} s (95 % interval {med_low:.1f}-{med_high:.1f} s, percentile bootstrap). "
            "A median among those that recover: it says how fast, not how often.",
-           stored("kidnap_hazard"), stored("kidnap") + " (table 8.3's prior)"],
+           stored("kidnap_hazard"), stored("kidnap") + " (the floored table-8.3 rate)", stored("kidnap_fresh")],
     tables=[("Recovery time of the runs that recover", pd.DataFrame({"recovery (s)": pd.Series(times).describe()}).T,
              {})],
 )
@@ -708,9 +722,10 @@ EvidenceBlock(
 # %% [markdown]
 # ## Explore: the poses a scan proposes
 #
-# The panel draws the proposal for the scan of seed $1$ at $75$ s. With few candidates and no
-# nudging, the drawn poses gather on twins and near misses; the nudges pull candidates into the
-# narrow basins where the scan fits.
+# The panel draws the proposal for the scan of seed $1$ at $75$ s, the robot in the corridor. Each
+# setting is one seeded draw of $300$ poses: watch where they gather (on the robot, on its twins, on
+# near misses) as the candidates and nudges change. The share near the robot in the title is of
+# that one draw and moves a lot from draw to draw.
 
 # %% tags=["hide-input", "nbval-ignore-output"] jupyter={"source_hidden": true}
 def draw(candidates=500, rounds=3):
@@ -722,7 +737,9 @@ def draw(candidates=500, rounds=3):
     ax.plot(x[:, 0], x[:, 1], ".", ms=4, color=COLORS["particles"], label="300 poses drawn from q")
     ax.plot(*drive.truth[k_room, :2], "x", ms=10, mew=2, color=COLORS["truth"], label="the robot")
     ax.legend(loc="upper center", bbox_to_anchor=(0.5, -0.15), ncol=2)
-    ax.set_title(f"{candidates} x 24 candidates, {rounds} rounds of nudges: {close.mean():.0%} within 0.5 m")
+    nudges = "1 round" if rounds == 1 else f"{rounds} rounds"
+    ax.set_title(f"{candidates} x 24 candidates, {nudges} of nudges: "
+                 f"{close.mean():.0%} within 0.5 m (one draw)")
 
 
 panel = control_panel(
@@ -791,15 +808,19 @@ print(check_reset_weights(my_reset))
 # - Before blaming a filter, measure what the data allow: a twin path has the same odometry and
 #   prior, so its posterior odds against the truth are a sum of scan log-likelihood ratios, and
 #   that margin says which drives any filter could decide.
-# - The plain filter fails because one twin takes all its particles before the evidence chooses.
-#   KLD-sampling keeps many particles while the cloud is spread; AMCL's `kld_z` is the quantile
-#   $z_{1 - \delta}$, not $\delta$.
+# - The bound is an exact filter over the truth and its twins judged by the same lock-on rule; the
+#   share the evidence decides at $99 : 1$ is not a ceiling.
+# - The first scan's sharp likelihood collapses the cloud to KLD's floor; KLD-sampling then hardly
+#   acts, and the start's many poses, the scan proposal and the injections do the work. AMCL's
+#   `kld_z` is the quantile $z_{1 - \delta}$, not $\delta$.
 # - Poses drawn from the scan are weighted by $u / q$ times the evidence of their history against
-#   the cloud's, and their prior is the probability of a kidnapping, not a floor chosen by hand.
-# - From a uniform start the cure locks on in {glue:text}`lf_global_lock_on_rate:.0%` of the drives
-#   where the evidence decides {glue:text}`lf_decided_rate:.0%`, and finds a kidnapped robot again in
-#   {glue:text}`lf_kidnap_recovered_rate:.0%`: just short of $0.95$ and $0.90$, most misses found
-#   again too late for the last $20$ s.
+#   the cloud's; their prior is the kidnap model's $\xi$, chosen by hand like any floor, and these
+#   drives do not separate it from the floored rate.
+# - From a uniform start the cure locks on in {glue:text}`lf_fresh_global_lock_on_rate:.0%` of fresh
+#   drives and {glue:text}`lf_global_lock_on_rate:.0%` of those it was tuned on, where the exact
+#   filter locks on in {glue:text}`lf_exact_lock_on_rate:.0%`; it finds a kidnapped robot again in
+#   {glue:text}`lf_kidnap_recovered_rate:.0%`. Its open failure is false relocalization: a right
+#   cloud replaced by a twin's stratum.
 #
 # :::{admonition} From the labs
 # :class: dropdown
