@@ -504,8 +504,9 @@ glue_values("lf_", demo_decided_s=float((decided_at[0] + 1) * study.DT), demo_lo
 #
 # :::{admonition} Where the heading tolerance comes from
 # :class: dropdown
-# A straight odometry step of $0.25$ m turns the heading by $e_1 + e_3$, whose standard deviation
-# is $\sqrt{2 a_2}\, \delta_{\mathrm{trans}}$ = {glue:text}`lf_step_heading_sd_deg:.1f`°; a filter
+# A straight odometry step of $0.25$ m turns the heading by the two rotation errors
+# $\eta_1 + \eta_3$ of {doc}`map_robot`'s odometry model, whose standard deviation is
+# $\sqrt{2 a_2}\, \delta_{\mathrm{trans}}$ ($a_2 = 0.05$) = {glue:text}`lf_step_heading_sd_deg:.1f`°; a filter
 # that follows the robot may carry such an error between two scans, and the rule allows three
 # times that.
 # :::
