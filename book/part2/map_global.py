@@ -488,10 +488,10 @@ glue_values("lf_", demo_decided_s=float((decided_at[0] + 1) * study.DT), demo_lo
             demo_ratio_floor_share=float(np.mean(res.eps_augmented[1:][on_robot] <= engine.HAZARD.eps_min)))
 
 # %% [markdown]
-# The filter starts with {glue:text}`lf_demo_start_particles:d` particles; at its first resampling
-# KLD's bound gives {glue:text}`lf_demo_step1_particles:d`, and from then on the floor of
-# {glue:text}`lf_demo_floor_particles:d` (plus the injected poses:
-# {glue:text}`lf_demo_mean_particles:.0f` on average over the drive). On this drive
+# The filter starts with {glue:text}`lf_demo_start_particles:d` particles; after the first scan the
+# bound asks for {glue:text}`lf_demo_step1_particles:d` (its floor is
+# {glue:text}`lf_demo_floor_particles:d`), and the cloud stays at the floor to the end
+# ({glue:text}`lf_demo_mean_particles:.0f` on average with the injected poses). On this drive
 # the evidence passes odds of $99 : 1$ at {glue:text}`lf_demo_decided_s:.0f` s, and the filter is
 # locked on from {glue:text}`lf_demo_locked_s:.0f` s to the end.
 #
