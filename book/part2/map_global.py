@@ -646,8 +646,8 @@ EvidenceBlock(
            "with a floor of 1000 particles (poor-fit, screened on the failing drives, dropped); the kidnap prior "
            "xi = 1e-3 (kept, screened on 30 drives) and 1e-4 (dropped). The fresh drives are the only ones not "
            "used in these choices.",
-           f"Paired by drive (kidnap model's prior A, table 8.3's B): {vs_aug} (see Reading the evidence).",
-           f"With table 8.3's prior, {len(aug_missed)} drives missed, {aug_missed_turn} of them ending on a "
+           f"Paired by drive (kidnap model's prior A, the floored table-8.3 rate B): {vs_aug} (see Reading the evidence).",
+           f"With the floored table-8.3 rate, {len(aug_missed)} drives missed, {aug_missed_turn} of them ending on a "
            "half-turn twin (heading error above 90 degrees).",
            f"Mean number of particles after the start: {glob['mean_particles'].mean():.0f}.",
            stored("global_hazard"), stored("global") + " (the floored table-8.3 rate)", stored("global_fresh"),
@@ -713,7 +713,7 @@ EvidenceBlock(
            f"Fresh runs (seeds {mg.FRESH_SEED}-{mg.FRESH_SEED + mg.FRESH_RUNS - 1}), kidnappings that moved the robot "
            f"at least 1 m or {np.degrees(mg.HEADING_TOL):.1f} degrees: recovered {fresh_recovered}; "
            f"{int((~moved).sum())} runs left out.",
-           f"Paired by run (kidnap model's prior A, table 8.3's B): {kid_vs_aug} (see Reading the evidence).",
+           f"Paired by run (kidnap model's prior A, the floored table-8.3 rate B): {kid_vs_aug} (see Reading the evidence).",
            f"Median time from the kidnapping to the step from which the filter stays locked on, over the {len(times)} "
            f"runs that recover: {med:.1f} s (95 % interval {med_low:.1f}-{med_high:.1f} s, percentile bootstrap). "
            "A median among those that recover: it says how fast, not how often.",
