@@ -73,3 +73,30 @@ def test_an_unanswered_exercise_says_what_to_return():
     report = check_reset_weights(lambda z, n, rng, c: None)
     assert report.problems == ["the function returned None: return the poses and their log-weights, two arrays of "
                                "shape (n,)"]
+
+
+def test_the_student_reviews_wrong_answer_fails():
+    """rng.choice without p= while q stays the likelihood-weighted mixture: biased, and named (issue 41 review)."""
+    def no_p(z, n, rng, c):
+        cand = rng.uniform(0.0, c.L, c.m)
+        s = c.log_likelihood(cand, z)
+        log_v = s - np.logaddexp.reduce(s)
+        x = cand[rng.choice(c.m, size=n)] + c.h * rng.standard_normal(n)
+        log_k = -0.5 * ((x[:, None] - cand) / c.h) ** 2 - np.log(np.sqrt(2 * np.pi) * c.h)
+        log_q = np.logaddexp.reduce(log_v + log_k, axis=1)
+        return x, c.log_prior(x) - log_q + c.log_likelihood(x, z)
+
+    report = check_reset_weights(no_p)
+    assert report.problems == [RESET_MISTAKES["uniform_pick"]]
+
+
+def test_rng_normal_for_the_noise_is_accepted():
+    def with_normal(z, n, rng, c):
+        cand = rng.uniform(0.0, c.L, c.m)
+        s = c.log_likelihood(cand, z)
+        log_v = s - np.logaddexp.reduce(s)
+        x = rng.normal(cand[rng.choice(c.m, size=n, p=np.exp(log_v))], c.h)
+        log_k = -0.5 * ((x[:, None] - cand) / c.h) ** 2 - np.log(np.sqrt(2 * np.pi) * c.h)
+        return x, c.log_prior(x) - np.logaddexp.reduce(log_v + log_k, axis=1) + c.log_likelihood(x, z)
+
+    assert check_reset_weights(with_normal).ok

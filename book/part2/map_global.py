@@ -12,9 +12,9 @@
 # :::{admonition} In this chapter
 # :class: chapter-header
 # **You learn** how to tell whether a failure to find the robot is the map's or the filter's (the
-# twin margin), and a filter built to reach that bound: many particles at the start that
-# KLD-sampling shrinks, and poses drawn from the scan, injected as a kidnapping with the kidnap
-# model's prior and weighted by their evidence.
+# twin margin and an exact filter over the twins), and a filter built to approach that bound: poses
+# drawn from the scan, injected as a kidnapping with the kidnap model's prior and weighted by their
+# evidence; and where it still fails.
 #
 # **You need** {doc}`map_robot` (the odometry model, the likelihood field, MCL) and
 # {doc}`global_localization` (random injection, augmented MCL, KLD-sampling); importance sampling.
@@ -24,8 +24,11 @@
 # :::
 #
 # Put the robot of {doc}`map_robot` anywhere on its map, give the filter no idea where, and drive.
-# The filter of that chapter then ends up in the wrong room in about half the drives. Is that the
-# filter's fault, or could no filter do better? The map has four look-alike rooms on each side
+# The filter of that chapter, with random injection, is locked on at the end of only
+# {glue:text}`lf_base_injection_rate:.0%` of the drives ({glue:text}`lf_base_bootstrap_rate:.0%`
+# without injection). This chapter aims at $95$ % of the drives from a uniform start, and at finding
+# a kidnapped robot again in $90$ % of kidnappings. Is a miss the filter's fault, or could no filter
+# do better? The map has four look-alike rooms on each side
 # of a corridor: a robot that has only seen one room cannot know which one it is in. Before curing
 # the filter, this chapter measures what the map allows.
 
@@ -38,7 +41,7 @@ import pandas as pd
 from ipywidgets import SelectionSlider
 from IPython.display import display
 from scipy.special import logsumexp
-from scipy.stats import norm
+from scipy.stats import beta, norm
 
 from pfcourse import evidence
 from pfcourse.studies import map_global as mg
@@ -87,10 +90,10 @@ def stored(name):
 # The cell below computes it for one drive.
 
 # %%
+from pfcourse.studies import maprobot as study
+
 import numpy as np
 from scipy.special import logsumexp
-
-from pfcourse.studies import maprobot as study
 
 grid, field, motion = study.book_map(), study.field(), study.MOTION
 drive = study.simulate(1, 200)  # seed 1: 200 scans, 0.5 s apart
@@ -156,17 +159,38 @@ plt.show()
 # walls. The margin stays near zero while the robot sees nothing that tells the twins apart, and
 # jumps when the box or an end of the corridor comes into view.
 #
+# The margin can also be negative for a while: by chance the scans may fit a twin better than the
+# truth, as seed $1$'s do before the box comes into view.
+#
 # Call a drive **decided** when the truth's posterior odds against its twins are at least
-# $99 : 1$ at $80$ % of the steps of the last $20$ s, the share the lock-on rule below asks of a
-# filter. The evidence decides {glue:text}`lf_decided_rate:.0%` of the drives
-# ({glue:text}`lf_decided_rate_low:.0%`-{glue:text}`lf_decided_rate_high:.0%`): that is the bound
-# a filter can reach.
+# $99 : 1$ at $80$ % of the steps of the last $20$ s. The evidence decides
+# {glue:text}`lf_decided_rate:.0%` of the drives
+# ({glue:text}`lf_decided_rate_low:.0%`-{glue:text}`lf_decided_rate_high:.0%`).
+#
+# That share is not a ceiling: a filter reports its weighted mean, and the lock-on rule below asks only that the mean be
+# within $1$ m and a few degrees of the truth. The bound is that rule applied to an **exact filter
+# over the truth and its thirteen twins** (masses $\propto$ the paths' likelihoods, weighted mean
+# position, circular mean heading): it is locked on in {glue:text}`lf_exact_lock_on_rate:.0%` of
+# the drives ({glue:text}`lf_exact_lock_on_rate_low:.0%`-{glue:text}`lf_exact_lock_on_rate_high:.0%`).
 
 # %% tags=["remove-input"] jupyter={"source_hidden": true}
 decided = evidence.rate(twins_table["decided"].to_numpy())
 late = twins_table.loc[~twins_table["decided"], ["seed", "final_margin", "margin_80s", "margin_90s"]]
 glue_values("lf_", decided_rate=decided.estimate, decided_rate_low=decided.low, decided_rate_high=decided.high,
             n_twin_drives=len(twins_table))
+exact_all = STUDIES["map_global/exact_twins"].load().sort_values("seed")
+exact_table = exact_all[exact_all["seed"] < mg.FRESH_SEED]
+assert (exact_table["seed"].to_numpy() == twins_table["seed"].to_numpy()).all()
+assert (exact_table["decided"].to_numpy() == twins_table["decided"].to_numpy()).all()
+exact = evidence.rate(exact_table["exact_locked_on"].to_numpy())
+glue_values("lf_", exact_lock_on_rate=exact.estimate, exact_lock_on_rate_low=exact.low,
+            exact_lock_on_rate_high=exact.high)
+amcl_global = STUDIES["maprobot/amcl_global"].load()
+base_inj = amcl_global[(amcl_global["method"] == "injection") & (amcl_global["weighting"] == "product")]
+base_boot = amcl_global[amcl_global["method"] == "bootstrap"]
+base_inj, base_boot = base_inj.sort_values("seed"), base_boot.sort_values("seed")
+assert (base_inj["seed"].to_numpy() == twins_table["seed"].to_numpy()).all()
+glue_values("lf_", base_injection_rate=base_inj["locked_on"].mean(), base_bootstrap_rate=base_boot["locked_on"].mean())
 EvidenceBlock(
     "the evidence decides almost every drive by its end",
     notes=[f"{len(twins_table)} drives (seeds 0-{len(twins_table) - 1}, the drives of the global-localization "
@@ -179,51 +203,63 @@ EvidenceBlock(
            f"{(twins_table['margin_20s'] <= 0).mean():.2f}.",
            "A drive not decided is one whose margin is still too small, or was too small for part of the last "
            "20 s: the table lists them.",
-           stored("twins")],
+           f"The bound, an exact filter over the truth and its 13 twins judged by the lock-on rule: {exact} "
+           f"(Wilson interval). It is optimistic: it knows the true path up to the 13 moves (no odometry "
+           f"error, no other look-alike poses); a filter may also be right on a drive the evidence does not "
+           f"decide at 99 : 1, since its mean only has to be close. The margin is a ratio of densities along "
+           f"two paths, not of posterior masses around them.",
+           stored("twins"), stored("exact_twins")],
     tables=[("The drives the evidence does not decide (margins in nats)", late,
              {"final_margin": ".1f", "margin_80s": ".1f", "margin_90s": ".1f"})],
 )
 
 # %% [markdown]
 # **Why the plain filter falls short.** Early in a drive every twin fits. The likelihood field is
-# sharp ($24$ beams, $\sigma_{\mathrm{hit}} = 0.2$ m), so a few particles in one twin outscore the
-# rest and resampling hands that twin every particle before the evidence has chosen. A uniform
-# injected pose must land within centimetres of the truth and, with no history, scores no better
-# than the twin's.
+# sharp ($24$ beams, $\sigma_{\mathrm{hit}} = 0.2$ m), so after one scan a few poses carry nearly
+# all the weight (the demo below shows the cloud collapsing at its first resampling), and one twin
+# may take every particle before the evidence has chosen. A uniform injected pose must land within
+# centimetres of the truth and, with no history, scores no better than the twin's.
 #
-# The cure: many particles at the start, shrinking once the evidence has chosen; injected poses
-# drawn where the scan fits; and those poses weighted by the evidence of several scans, with a
-# prior small enough that a right cloud keeps its place.
+# The cure: many poses at the start; injected poses drawn where the scan fits; and those poses
+# weighted by the evidence of several scans, with a prior small enough that a noisy stratum seldom
+# replaces a right cloud (how seldom is measured below).
 #
-# ## Many particles at the start, shrinking: KLD-sampling
+# ## How many particles
 #
-# KLD-sampling {cite:p}`fox2003` chooses the number of particles at each step from how spread the
-# cloud is. Cut the state space into bins ($0.5$ m $\times$ $0.5$ m $\times$ $10°$); if the
-# posterior occupies $b$ bins, then with
+# The filter below starts with $20000$ poses uniform in free space and $2000$ drawn from the first
+# scan (next section), then sizes its cloud by KLD-sampling {cite:p}`fox2003`, clipped to
+# $[300, 5000]$. In this filter the bound hardly acts: the first scan's weights are so uneven that
+# the resampled cloud falls into a few bins, and from then on it asks for the floor (the demo
+# below). The many poses of the start, the scan proposal and the injections do the work.
+#
+# :::{admonition} Going further: KLD-sampling's bound, and AMCL's kld_z
+# :class: dropdown
+# Cut the state space into bins ($0.5$ m $\times$ $0.5$ m $\times$ $10°$); if the posterior
+# occupies $b$ bins, then with
 #
 # $$
-# n = \frac{b - 1}{2 \epsilon} \left( 1 - \frac{2}{9 (b - 1)}
+# n = \frac{b - 1}{2 \varepsilon_\mathrm{KL}} \left( 1 - \frac{2}{9 (b - 1)}
 #   + \sqrt{\frac{2}{9 (b - 1)}}\; z_{1 - \delta} \right)^3
 # $$
 #
 # particles the Kullback-Leibler divergence between the particles' histogram and the true one stays
-# below $\epsilon$ with probability $1 - \delta$, $z_{1 - \delta}$ being the standard normal's
-# $1 - \delta$ quantile. A cloud over the whole map occupies thousands of bins and gets the maximum; a
-# cloud locked on the robot occupies a few and gets the minimum.
-#
-# ROS's AMCL exposes $z_{1 - \delta}$ itself, as `kld_z = 0.99`. That is the quantile, not the
-# probability: it means $\delta = 1 - \Phi(0.99)$, about $0.16$, a weaker guarantee than
-# $\delta = 0.01$ and fewer particles.
+# below $\varepsilon_\mathrm{KL}$ with probability $1 - \delta$, $z_{1 - \delta}$ being the
+# standard normal's $1 - \delta$ quantile. The filter uses $\varepsilon_\mathrm{KL} = 0.05$ (nav2's
+# `pf_err`) and AMCL's $\delta$ of {glue:text}`lf_amcl_delta:.2f`: ROS's AMCL exposes
+# $z_{1 - \delta}$ itself, as `kld_z = 0.99`, the quantile, not the probability, so
+# $\delta = 1 - \Phi(0.99)$, a weaker guarantee than $\delta = 0.01$ and fewer particles. The
+# folded cell below computes the bound.
+# :::
 
-# %%
+# %% tags=["hide-input"] jupyter={"source_hidden": true}
 from scipy.stats import norm
 
 
-def kld_bound(bins, eps=0.05, delta=0.01):
-    """Fox (2003): particles for a KL error below eps, w.p. 1 - delta."""
+def kld_bound(bins, eps_kl=0.05, delta=0.01):
+    """Fox (2003): particles for a KL error below eps_kl, w.p. 1 - delta."""
     k = np.maximum(bins - 1.0, 1.0)
     a = 2 / (9 * k)
-    n = k / (2 * eps) * (1 - a + np.sqrt(a) * norm.ppf(1 - delta)) ** 3
+    n = k / (2 * eps_kl) * (1 - a + np.sqrt(a) * norm.ppf(1 - delta)) ** 3
     return np.where(bins <= 1, 1, np.ceil(n))
 
 
@@ -239,11 +275,6 @@ same_kld = np.array_equal(kld_bound(bins, 0.05, delta_amcl), engine_kld_bound(bi
 print(f"the same bound as pfcourse.sample_size.kld_bound with the package's AMCL delta: {same_kld}")
 glue_values("lf_", amcl_delta=delta_amcl)
 
-# %% [markdown]
-# The filter below starts with $20000$ poses uniform in free space and $2000$ drawn from the first
-# scan (next section), then keeps between $300$ and $5000$ particles by this bound with
-# $\epsilon = 0.05$ (nav2's `pf_err`) and AMCL's $\delta$ of {glue:text}`lf_amcl_delta:.2f`.
-#
 # ## Poses where the scan fits: sensor resetting
 #
 # Sensor resetting {cite:p}`lenser2000` draws new poses from the reading itself, not uniformly. For
@@ -301,9 +332,11 @@ def scan_proposal(z, n, rng, m=500, headings=24, keep=200, rounds=3, tries=8):
     return x, logsumexp(log_k + log_v, axis=1)
 
 
-k_room = 150  # the robot in a room
+# seed 1 at 75 s: the robot in the corridor
+k_room = 150
 x_q, log_q = scan_proposal(drive.scans[k_room], 300, np.random.default_rng(5))
 near = np.hypot(*(x_q[:, :2] - drive.truth[k_room, :2]).T) < 0.5
+# one seeded draw: another seed gives another share
 print(f"{near.mean():.0%} of the 300 poses are within 0.5 m of the robot")
 
 # %% tags=["hide-input"] jupyter={"source_hidden": true}
@@ -315,44 +348,49 @@ print(f"the same poses and log q as pfcourse.scenarios.maprobot.global_mcl.scan_
 # ## Injected as a kidnapping, weighted by their evidence
 #
 # How much weight does an injected pose deserve? Augmented MCL ({cite:t}`thrun2005`, table $8.3$)
-# gives it the same weight as the others, which is right only for poses drawn from the posterior;
-# ours are drawn from $q$. Make the injection part of the model instead. The robot may have been **carried anywhere
-# $h$ scans ago**, with probability $\varepsilon_k$ (here $h = 20$ scans, $10$ s; how large
-# $\varepsilon_k$ should be comes next). The cloud's $M$
-# moved particles stand for "not carried", the $R$ injected poses for "carried at step $k - h$".
-# Each injected pose starts from $q$ for the scan of step $k - h$ and is carried to now by the
-# odometry, a small filter of $R$ particles scoring it at every scan. Its weight is an importance
-# weight of the kidnap model, against the cloud's own account of the same scans:
+# draws its added poses from the uniform kidnap distribution and gives them the same weight as the
+# others, which is right for them: they are draws of the mixture's uniform part. Ours are drawn
+# from $q$, so they need the weight $u / q$. This book's construction makes the injection part of
+# the model. The robot may have been **carried anywhere $\tau$ scans ago**, with probability
+# $\xi_k$ (here $\tau = 20$ scans, $10$ s; how large $\xi_k$ should be comes next). The cloud's $M$
+# moved particles stand for "not carried", the $R$ injected poses for "carried at step $k - \tau$".
+# Each injected pose starts from $q$ for the scan of step $k - \tau$ and is carried to now by the
+# odometry, a small filter of $R$ particles scoring it at every scan. Write
+# $\ell_j = \frac{1}{M} \sum_i p(z_j \mid x_j^i)$ for the cloud's mean likelihood at scan $j$, its
+# estimate of $p(z_j \mid z_{0:j-1})$. The injected pose's weight is an importance weight of the
+# kidnap model, against the cloud's own account of the same scans:
 #
 # $$
-# W \propto \frac{\varepsilon_k}{R}\; \frac{u(x_{k-h})}{q(x_{k-h})}\;
-# \frac{\prod_{j=k-h}^{k} p(z_j \mid x_j)}{\prod_{j=k-h}^{k-1} Z_j}
+# W \propto \frac{\xi_k}{R}\; \frac{u(x_{k-\tau})}{q(x_{k-\tau})}\;
+# \frac{\prod_{j=k-\tau}^{k} p(z_j \mid x_j)}{\prod_{j=k-\tau}^{k-1} \ell_j}
 # \qquad\text{against}\qquad
-# W \propto \frac{1 - \varepsilon_k}{M}\; p(z_k \mid x_k)
+# W \propto \frac{1 - \xi_k}{M}\; p(z_k \mid x_k)
 # $$
 #
 # for a moved particle, with $u = 1 / (A_{\mathrm{free}}\, 2\pi)$ the uniform density. The factor
 # $u / q$ undoes the aim of the proposal: a pose is not more probable for having been drawn where the
-# scan fits. The product over scans is what a pose with no history lacks: a twin's particles and
+# scan fits (it is a valid importance weight given the candidates, whatever they are). The small
+# filter resamples at every scan, so the product of past likelihoods is carried by the product of
+# its mean weights, shared by all $R$ poses, times the current likelihood. The product over scans is what a pose with no history lacks: a twin's particles and
 # an injected pose at the truth fit the current scan equally well, but over twenty scans the one at
 # the truth has seen the box and the twin has not. The cell below computes the injected poses and
-# their log-weights (the small filter resamples at every scan, and the product of its mean weights
-# is the evidence).
+# their log-weights.
 
 # %%
-def injected(scans, odometry, k, r, log_z, rng, h=20):
-    """r poses carried h scans ago, and their log-weights (without eps / R)."""
-    x, log_q = scan_proposal(scans[k - h], r, rng)
+def injected(scans, odometry, k, r, log_l, rng, tau=20):
+    """r poses carried tau scans ago, their log-weights (without xi / R)."""
+    x, log_q = scan_proposal(scans[k - tau], r, rng)
     free = grid.is_free(x)
     log_u = np.where(free, -np.log(grid.free_area * 2 * np.pi), -np.inf)
-    lw = log_u - log_q + field.log_likelihood(x, scans[k - h])
+    lw = log_u - log_q + field.log_likelihood(x, scans[k - tau])
     log_evidence = 0.0
-    for j in range(k - h + 1, k + 1):
+    for j in range(k - tau + 1, k + 1):
         log_evidence += logsumexp(lw) - np.log(r)
         parent = systematic(np.exp(lw - logsumexp(lw)), r, rng)
         x = motion.sample(x[parent], odometry[j], rng)
         lw = field.log_likelihood(x, scans[j])
-    return x, lw + log_evidence - log_z[k - h:k].sum()
+    # log_l[j]: the cloud's log mean likelihood at scan j
+    return x, lw + log_evidence - log_l[k - tau:k].sum()
 
 
 # %% tags=["hide-input"] jupyter={"source_hidden": true}
@@ -366,28 +404,31 @@ print(f"the same poses and log-weights as pfcourse.scenarios.maprobot.global_mcl
 # %% [markdown]
 # ## How likely is a kidnapping?
 #
-# What should the prior $\varepsilon_k$ be? Augmented MCL's rate
-# $1 - w_{\mathrm{fast}} / w_{\mathrm{slow}}$ (table $8.3$), from running averages of the cloud's mean
-# likelihood $Z_k$, is made to detect a kidnapping, not to be its probability. On a cloud that is
-# right it sits at the floor we gave it, $0.01$, at {glue:text}`lf_demo_ratio_floor_share:.0%` of
-# the scans of the run below: the floor, a number chosen by hand, decides whether a noisy injected
-# stratum may replace a right cloud. With it the filter ends on the half-turn twin in
-# {glue:text}`lf_augmented_missed_turn:d` of its {glue:text}`lf_augmented_missed:d` missed drives.
+# What should the prior $\xi_k$ be? Augmented MCL's rate $1 - w_{\mathrm{fast}} / w_{\mathrm{slow}}$
+# (table $8.3$), from running averages of the cloud's mean likelihood $\ell_k$, is made to detect a
+# kidnapping, not to be its probability. Table $8.3$ has no floor, and ROS's AMCL injects nothing by
+# default (its recovery rates are $0$). The book's first variant gives that rate a floor of $0.01$,
+# with the strata above injected every fourth scan; on a right cloud the rate sits at the floor at
+# {glue:text}`lf_demo_ratio_floor_share:.0%` of the scans of the run below, so the floor, a number
+# chosen by hand, decides whether a noisy injected stratum may replace a right cloud.
 #
-# The kidnap model gives the prior a meaning: carried away at a scan with probability
-# $\rho = 10^{-3}$ (once in about eight minutes of driving), and one injection standing for the
-# $4$ scans since the last, $\varepsilon_k = 4 \rho$. An injected stratum now needs
-# $\log(1 / \varepsilon_k)$ nats of evidence over the cloud; a kidnapped robot's cloud stops
-# fitting the scans and gives way all the same. Mixing the two strata:
+# The book's second variant, the cure, takes the prior from the kidnap model of
+# {doc}`global_localization`: carried away at a scan with probability $\xi = 10^{-3}$ (once in
+# about eight minutes of driving; also a number chosen by hand), and one injection standing for the
+# $4$ scans since the last, $\xi_k = 4 \xi$. Mixture-MCL {cite:p}`thrun2001` is a relative: it
+# too mixes poses drawn from the sensor into the cloud with importance weights. An injected stratum
+# now needs $\log(1 / \xi_k)$ nats of evidence over the cloud; a kidnapped robot's cloud stops
+# fitting the scans and gives way. The folded cell mixes the two strata.
 
-# %%
-rho, every = 1e-3, 4  # a kidnapping once in 1000 scans; an injection every 4
+# %% tags=["hide-input"] jupyter={"source_hidden": true}
+# a kidnapping once in 1000 scans; an injection every 4
+xi, every = 1e-3, 4
 
 
-def mix(moved, lw_m, inj, lw_r, eps):
-    """The moved (mass 1 - eps) and injected (mass eps) particles, one cloud."""
-    a = np.log1p(-eps) - np.log(len(moved)) + lw_m
-    b = np.log(eps) - np.log(len(inj)) + lw_r
+def mix(moved, lw_m, inj, lw_r, xi_k):
+    """The moved (mass 1 - xi_k) and injected (mass xi_k) particles."""
+    a = np.log1p(-xi_k) - np.log(len(moved)) + lw_m
+    b = np.log(xi_k) - np.log(len(inj)) + lw_r
     return np.concatenate([moved, inj]), np.concatenate([a, b])
 
 
@@ -395,24 +436,24 @@ def mix(moved, lw_m, inj, lw_r, eps):
 rng_mix = np.random.default_rng(4)
 moved_demo, lw_m_demo = rng_mix.normal(size=(300, 3)), rng_mix.normal(size=300)
 inj_demo, lw_r_demo = ours_inj[0], ours_inj[1]
-ours_mix = mix(moved_demo, lw_m_demo, inj_demo, lw_r_demo, every * rho)
-pkg_mix = engine._stratified([(1 - every * rho, moved_demo, lw_m_demo), (every * rho, inj_demo, lw_r_demo)])
+ours_mix = mix(moved_demo, lw_m_demo, inj_demo, lw_r_demo, every * xi)
+pkg_mix = engine._stratified([(1 - every * xi, moved_demo, lw_m_demo), (every * xi, inj_demo, lw_r_demo)])
 same_mix = all(np.allclose(a, b, rtol=0, atol=TOL) for a, b in zip(ours_mix, pkg_mix))
-same_rho = engine.HAZARD.kidnap_hazard == rho and engine.HAZARD.inject_every == every
+same_rho = engine.HAZARD.kidnap_hazard == xi and engine.HAZARD.inject_every == every
 print(f"the same cloud as the engine's strata, to {TOL:.0e}: {same_mix}; the engine's hazard and cadence: {same_rho}")
 
 # %% [markdown]
-# :::{admonition} Algorithm 15.1: global localization with KLD-sampling and evidence-weighted sensor resetting
+# :::{admonition} Algorithm 15.1: global localization with evidence-weighted sensor resetting
 # :class: algorithm
 # 1. **Start.** Draw $20000$ poses from $u$ and $2000$ from $q$ for the first scan; weight them
 #    $p(z_0 \mid x)$ and $\frac{u}{q}\, p(z_0 \mid x)$, half the mass to each group.
 # 2. **For** each scan $z_k$, $k = 1, 2, \dots$:
 #    1. *size:* $M$ from the KLD bound for the bins of the weighted cloud, clipped to $[300, 5000]$;
 #    2. *move:* resample $M$ particles, move each by the odometry, weight by $p(z_k \mid x_k)$;
-#       record $Z_k$;
+#       record $\ell_k$;
 #    3. *inject* (every fourth scan, from $k = 20$ on): $R = \max(200, M / 10)$ poses carried since
-#       step $k - h$, weighted as above; the cloud is the $M + R$ weighted particles, the two strata
-#       given the masses $1 - \varepsilon_k$ and $\varepsilon_k = 4 \rho$;
+#       step $k - \tau$, weighted as above; the cloud is the $M + R$ weighted particles, the two strata
+#       given the masses $1 - \xi_k$ and $\xi_k = 4 \xi$;
 #    4. *estimate:* weighted mean position and circular mean heading.
 # :::
 #
@@ -433,8 +474,8 @@ ax2.axhline(np.log(mg.DECIDED_ODDS), color=COLORS["unseen"], ls="--", label="odd
 ax2.set_ylabel("nats")
 ax2.legend(loc="upper left", bbox_to_anchor=(1.02, 1))
 ax3.semilogy(t[1:], res.eps_augmented[1:], color=COLORS["particles"], lw=0.8,
-             label="table 8.3's rate (floor 0.01)")
-ax3.semilogy(t[1:], res.eps[1:], color=COLORS["estimate"], label="4 rho (the kidnap model)")
+             label="floored table-8.3 rate\n(computed, not used)")
+ax3.semilogy(t[1:], res.eps[1:], color=COLORS["estimate"], label="4 xi (the kidnap model)")
 ax3.set_ylabel("prior of a kidnapping")
 ax3.set_xlabel("time t (s)")
 ax3.legend(loc="upper left", bbox_to_anchor=(1.02, 1))
@@ -444,11 +485,16 @@ demo_locked = lock_on.locked_from(pos, head, study.DT, mg.HEADING_TOL)
 on_robot = lock_on.locked_steps(pos, head, mg.HEADING_TOL)[1:]
 glue_values("lf_", demo_decided_s=float((decided_at[0] + 1) * study.DT), demo_locked_s=float(demo_locked * study.DT),
             demo_start_particles=int(res.sizes[0]), demo_mean_particles=float(res.sizes[1:].mean()),
+            demo_step1_particles=int(res.sizes[1]), demo_floor_particles=int(engine.HAZARD.n_min),
             demo_ratio_floor_share=float(np.mean(res.eps_augmented[1:][on_robot] <= engine.HAZARD.eps_min)))
 
 # %% [markdown]
-# The filter starts with {glue:text}`lf_demo_start_particles:d` particles and is down to a few hundred
-# within seconds ({glue:text}`lf_demo_mean_particles:.0f` on average over the drive). On this drive
+# The filter starts with {glue:text}`lf_demo_start_particles:d` particles; after the first scan the
+# bound asks for {glue:text}`lf_demo_step1_particles:d` (its floor is
+# {glue:text}`lf_demo_floor_particles:d`), and the cloud stays at the floor to the end
+# ({glue:text}`lf_demo_mean_particles:.0f` on average with the injected poses).
+#
+# On this drive
 # the evidence passes odds of $99 : 1$ at {glue:text}`lf_demo_decided_s:.0f` s, and the filter is
 # locked on from {glue:text}`lf_demo_locked_s:.0f` s to the end.
 #
@@ -459,31 +505,52 @@ glue_values("lf_", demo_decided_s=float((decided_at[0] + 1) * study.DT), demo_lo
 #
 # :::{admonition} Where the heading tolerance comes from
 # :class: dropdown
-# A straight odometry step of $0.25$ m turns the heading by $e_1 + e_3$, whose standard deviation
-# is $\sqrt{2 a_2}\, \delta_{\mathrm{trans}}$ = {glue:text}`lf_step_heading_sd_deg:.1f`°; a filter
+# A straight odometry step of $0.25$ m turns the heading by the two rotation errors
+# $\eta_1 + \eta_3$ of {doc}`map_robot`'s odometry model, whose standard deviation is
+# $\sqrt{2 a_2}\, \delta_{\mathrm{trans}}$ ($a_2 = 0.05$) = {glue:text}`lf_step_heading_sd_deg:.1f`°; a filter
 # that follows the robot may carry such an error between two scans, and the rule allows three
 # times that.
 # :::
 #
-# Over the $100$ drives of the twin study, from a uniform start, the cure is
-# locked on in {glue:text}`lf_global_lock_on_rate:.0%` of them
-# ({glue:text}`lf_global_lock_on_rate_low:.0%`-{glue:text}`lf_global_lock_on_rate_high:.0%`),
-# against the {glue:text}`lf_decided_rate:.0%` the evidence decides.
+# The cure's settings (the prior, the cadence of injections) were chosen on the $100$ drives of
+# the twin study, which flatters it there. On {glue:text}`lf_n_fresh:d` fresh drives, from a uniform
+# start, it is locked on in {glue:text}`lf_fresh_global_lock_on_rate:.0%`
+# ({glue:text}`lf_fresh_global_lock_on_rate_low:.0%`-{glue:text}`lf_fresh_global_lock_on_rate_high:.0%`).
 #
-# That is short of the $0.95$ this chapter set out to reach, and on these drives it cannot be told
-# from the bound either: the cure minus the decided share is
-# {glue:text}`lf_global_decided_gap:+.0%` ({glue:text}`lf_global_decided_gap_low:+.0%` to
-# {glue:text}`lf_global_decided_gap_high:+.0%`, paired by drive).
+# On the drives it was chosen on, it is locked on in {glue:text}`lf_global_lock_on_rate:.0%`
+# ({glue:text}`lf_global_lock_on_rate_low:.0%`-{glue:text}`lf_global_lock_on_rate_high:.0%`). Both
+# are short of the $0.95$ aimed at.
 #
-# With table $8.3$'s prior the same filter locks on in
-# {glue:text}`lf_augmented_lock_on_rate:.0%` of the same drives; the kidnap model's prior locks on in
-# {glue:text}`lf_global_vs_augmented_gain:.0%` more of them
-# ({glue:text}`lf_global_vs_augmented_gain_low:.0%` to {glue:text}`lf_global_vs_augmented_gain_high:.0%`).
-# At the floor its bar is under one nat higher, and the paired test does not exclude luck.
+# The exact filter over the twins is locked on in {glue:text}`lf_fresh_exact_lock_on_rate:.0%` of
+# the fresh drives and {glue:text}`lf_exact_lock_on_rate:.0%` of the others: on those, the cure is
+# short of the bound (exact paired test $p$ = {glue:text}`lf_global_exact_p:.3f`).
 #
-# Of the {glue:text}`lf_global_missed:d` drives it still misses,
-# {glue:text}`lf_global_missed_late:d` end within the tolerances, found again too late for the
-# window, and {glue:text}`lf_global_missed_turn:d` end on a half-turn twin.
+# It costs more than its few hundred particles suggest: with the scan proposal and the look-back
+# filters it scores about {glue:text}`lf_poses_per_scan:.0f` poses against the likelihood field per
+# scan.
+#
+# On the same drives {doc}`map_robot`'s filter with random injection locks on in
+# {glue:text}`lf_base_injection_rate:.0%`: the cure gains
+# {glue:text}`lf_global_vs_injection_gain_pts:.0f` points
+# ({glue:text}`lf_global_vs_injection_gain_low_pts:.0f` to
+# {glue:text}`lf_global_vs_injection_gain_high_pts:.0f`).
+#
+# With the floored table-$8.3$ rate the same filter locks on in
+# {glue:text}`lf_augmented_lock_on_rate:.0%` of these drives: the two priors are not separated
+# (paired test $p$ = {glue:text}`lf_global_vs_augmented_p:.2f`).
+#
+# **Why it misses.** Not for want of evidence: the exact filter finds every drive. The cure's open
+# failure is a **false relocalization**: a cloud that has found the robot is later replaced by a
+# cloud metres away. Odometry moves a cloud by centimetres a step, so only an injected stratum can
+# do that, and its weight is a ratio of two noisy evidence estimates that can pass
+# $\log(1 / \xi_k)$ by chance. On the fresh drives (global and kidnap runs), a cloud that had been
+# within the tolerances for $10$ s was carried $2$ m or more away for $2$ s or more in
+# {glue:text}`lf_fresh_lost_runs:d` of {glue:text}`lf_fresh_runs:d` runs: about
+# {glue:text}`lf_false_reloc_per_hour:.1f` false relocalizations per hour of driving.
+#
+# Of the {glue:text}`lf_fresh_missed:d` fresh drives it misses, {glue:text}`lf_fresh_missed_lost:d`
+# had found the robot and lost it so, and {glue:text}`lf_fresh_missed_turn:d` end on a half-turn
+# twin.
 
 # %% tags=["remove-input"] jupyter={"source_hidden": true}
 glob = STUDIES["map_global/global_hazard"].load().sort_values("seed")
@@ -494,43 +561,102 @@ is_decided = twins_table["decided"].to_numpy()
 pair = evidence.paired_rates(glob["locked_on"].to_numpy(), is_decided)
 vs_aug = evidence.paired_rates(glob["locked_on"].to_numpy(), aug["locked_on"].to_numpy())
 within = evidence.rate(glob["locked_on"].to_numpy()[is_decided])
+exact_pair = evidence.paired_rates(glob["locked_on"].to_numpy(), exact_table["exact_locked_on"].to_numpy())
+vs_inj = evidence.paired_rates(glob["locked_on"].to_numpy(), base_inj["locked_on"].to_numpy())
+
+
+def exact_difference(p, level=0.95):
+    """A - B of paired rates with an exact interval (Clopper-Pearson on the discordant runs)."""
+    n, nd = p.a.n, p.only_a + p.only_b
+    if nd == 0:
+        return 0.0, 0.0, 0.0
+    lo = beta.ppf((1 - level) / 2, p.only_a, nd - p.only_a + 1) if p.only_a else 0.0
+    hi = beta.ppf(1 - (1 - level) / 2, p.only_a + 1, nd - p.only_a) if p.only_b else 1.0
+    return p.difference, nd * (2 * lo - 1) / n, nd * (2 * hi - 1) / n
+
+
+inj_d = exact_difference(vs_inj)
+aug_d = exact_difference(vs_aug)
+# poses scored against the field per scan: the cloud, and per injection (every inject_every scans) the
+# proposal's candidates and nudges and the look-back filter's R poses over history + 1 scans
+hz = engine.HAZARD
+per_injection = (hz.candidates * hz.headings + hz.keep * hz.refine_trials * hz.refine_rounds
+                 + hz.inject_min * (hz.history + 1))
+fresh = STUDIES["map_global/global_fresh"].load().sort_values("seed")
+fresh_kid = STUDIES["map_global/kidnap_fresh"].load().sort_values("seed")
+fresh_exact = exact_all[exact_all["seed"] >= mg.FRESH_SEED]
+assert (fresh["seed"].to_numpy() == fresh_exact["seed"].to_numpy()).all()
+fresh_rate = evidence.rate(fresh["locked_on"].to_numpy())
+fresh_exact_pair = evidence.paired_rates(fresh["locked_on"].to_numpy(), fresh_exact["exact_locked_on"].to_numpy())
+lost_runs = int((fresh["n_lost"] > 0).sum() + (fresh_kid["n_lost"] > 0).sum())
+hours = (len(fresh) * study.GLOBAL_STEPS + len(fresh_kid) * study.KIDNAP_STEPS) * study.DT / 3600
+glue_values("lf_", n_fresh=len(fresh), fresh_global_lock_on_rate=fresh_rate.estimate,
+            fresh_global_lock_on_rate_low=fresh_rate.low, fresh_global_lock_on_rate_high=fresh_rate.high,
+            fresh_exact_lock_on_rate=fresh_exact_pair.b.estimate, global_exact_p=exact_pair.pvalue,
+            poses_per_scan=glob["mean_particles"].mean() + per_injection / hz.inject_every,
+            global_vs_injection_gain_pts=100 * inj_d[0], global_vs_injection_gain_low_pts=100 * inj_d[1],
+            global_vs_injection_gain_high_pts=100 * inj_d[2],
+            fresh_lost_runs=lost_runs, fresh_runs=len(fresh) + len(fresh_kid),
+            false_reloc_per_hour=float(fresh["n_lost"].sum() + fresh_kid["n_lost"].sum()) / hours)
 glue_values("lf_", n_global=len(glob), global_lock_on_rate=pair.a.estimate, global_lock_on_rate_low=pair.a.low,
             global_lock_on_rate_high=pair.a.high, step_heading_sd_deg=np.degrees(lock_on.step_heading_sd(motion, mg.STEP_M)),
             heading_tolerance_deg=np.degrees(mg.HEADING_TOL), global_mean_particles=glob["mean_particles"].mean(),
-            global_decided_gap=pair.difference, global_decided_gap_low=pair.difference_low,
-            global_decided_gap_high=pair.difference_high, augmented_lock_on_rate=vs_aug.b.estimate,
-            global_vs_augmented_p=vs_aug.pvalue, global_vs_augmented_gain=vs_aug.difference,
-            global_vs_augmented_gain_low=vs_aug.difference_low, global_vs_augmented_gain_high=vs_aug.difference_high,
+            augmented_lock_on_rate=vs_aug.b.estimate, global_vs_augmented_p=vs_aug.pvalue,
             global_within_decided_rate=within.estimate)
 
 
 def misses(table):
     """The drives a filter does not lock on, with how each ends."""
     m = table.loc[~table["locked_on"].to_numpy(), ["seed", "final_position_error", "final_heading_error"]].merge(
-        twins_table[["seed", "decided", "final_margin"]], on="seed")
-    late = (m["final_position_error"] < lock_on.POSITION_TOLERANCE_M) & (m["final_heading_error"] < mg.HEADING_TOL)
+        twins_table[["seed", "decided", "final_margin"]], on="seed", how="left")
     turned = m["final_heading_error"] > np.pi / 2  # on a half-turn twin: heading about 180 degrees off
-    return m, int(late.sum()), int(turned.sum())
+    return m, int(turned.sum())
 
 
-missed, missed_late, missed_turn = misses(glob)
-aug_missed, _, aug_missed_turn = misses(aug)
-glue_values("lf_", global_missed=len(missed), global_missed_late=missed_late, global_missed_turn=missed_turn,
+missed, missed_turn = misses(glob)
+aug_missed, aug_missed_turn = misses(aug)
+fresh_missed, fresh_missed_turn = misses(fresh)
+glue_values("lf_", fresh_missed=len(fresh_missed), fresh_missed_turn=fresh_missed_turn,
+            fresh_missed_lost=int((fresh.loc[~fresh["locked_on"].to_numpy(), "n_lost"] > 0).sum()))
+glue_values("lf_", global_missed=len(missed), global_missed_turn=missed_turn,
             augmented_missed=len(aug_missed), augmented_missed_turn=aug_missed_turn)
 EvidenceBlock(
-    "the kidnap model's prior against table 8.3's, on the same drives",
-    notes=[f"{len(glob)} drives (the twin study's), 100 s each, uniform start; the filter of Algorithm 15.1 "
-           f"({engine.HAZARD}); its random numbers from numpy.random.default_rng([41, seed, 2]), the same for "
+    "the cure against its bound, its baselines and its variant; fresh drives; cost",
+    notes=[f"{len(glob)} drives (the twin study's, seeds 0-99, on which the settings were chosen), 100 s each, "
+           "uniform start; the filter of Algorithm 15.1 (20000 + 2000 poses at the start, 300-5000 after, an "
+           "injection of 200 poses every 4 scans looking back 20 scans, xi = 0.001 per scan); its random numbers from numpy.random.default_rng([41, seed, 2]), the same for "
            "both priors (common random numbers until the first injection).",
            f"Locked on (within 1 m and {np.degrees(mg.HEADING_TOL):.1f} degrees at 80 % of the last 20 s): "
            f"{pair.a}; decided by the evidence: {pair.b} (Wilson intervals); locked on among the decided drives: "
            f"{within}.",
-           f"Paired by drive (cure A, decided B): {pair}.",
-           f"Paired by drive (kidnap model's prior A, table 8.3's B): {vs_aug} (see Reading the evidence).",
-           f"With table 8.3's prior, {len(aug_missed)} drives missed, {aug_missed_turn} of them ending on a "
+           f"Paired by drive (cure A, decided at 99 : 1 B): {pair}.",
+           f"Paired by drive (cure A, the exact filter over the twins B): {exact_pair}.",
+           f"Paired by drive (cure A, map_robot's filter with random injection B): {vs_inj}; exact interval of the "
+           f"difference (Clopper-Pearson on the discordant drives): {100 * inj_d[1]:+.0f} to {100 * inj_d[2]:+.0f} "
+           f"points. Bootstrap filter (no injection): {base_boot['locked_on'].mean():.2f}.",
+           f"Kidnap prior A against the floored rate B: exact interval {100 * aug_d[1]:+.0f} to "
+           f"{100 * aug_d[2]:+.0f} points (the bootstrap interval in the line below is too narrow with so few "
+           "discordant drives).",
+           f"Fresh drives (seeds {mg.FRESH_SEED}-{mg.FRESH_SEED + mg.FRESH_RUNS - 1}, not used in choosing the "
+           f"settings): locked on {fresh_rate}; paired with the exact filter: {fresh_exact_pair}. Lost after lock-on "
+           f"(2 s or more outside the tolerances, 2 m away, after 10 s within them): {int((fresh['n_lost'] > 0).sum())} "
+           f"global drives, {int((fresh_kid['n_lost'] > 0).sum())} kidnap runs.",
+           f"Cost: about {glob['mean_particles'].mean() + per_injection / hz.inject_every:.0f} poses scored per scan "
+           f"({per_injection} per injection, every {hz.inject_every} scans, plus the cloud); "
+           f"{STUDIES['map_global/global_hazard'].load().attrs['provenance']['wall_seconds'] / len(glob):.1f} s of "
+           f"computing per drive on the shared machine, against "
+           f"{amcl_global.attrs['provenance']['wall_seconds'] / len(amcl_global):.1f} s for map_robot's filters.",
+           "Tried on seeds 0-99 before this choice: averaging rates alpha_slow = 0.01, alpha_fast = 0.5 for the "
+           "floored rate (dropped after 14 screened drives); injecting only while that rate is above its floor, "
+           "with a floor of 1000 particles (poor-fit, screened on the failing drives, dropped); the kidnap prior "
+           "xi = 1e-3 (kept, screened on 30 drives) and 1e-4 (dropped). The fresh drives are the only ones not "
+           "used in these choices.",
+           f"Paired by drive (kidnap model's prior A, the floored table-8.3 rate B): {vs_aug} (see Reading the evidence).",
+           f"With the floored table-8.3 rate, {len(aug_missed)} drives missed, {aug_missed_turn} of them ending on a "
            "half-turn twin (heading error above 90 degrees).",
            f"Mean number of particles after the start: {glob['mean_particles'].mean():.0f}.",
-           stored("global_hazard"), stored("global") + " (table 8.3's prior)"],
+           stored("global_hazard"), stored("global") + " (the floored table-8.3 rate)", stored("global_fresh"),
+           stored("kidnap_fresh")],
     tables=[("The drives the cure does not lock on", missed,
              {"final_position_error": ".2f", "final_heading_error": ".2f", "final_margin": ".1f"})],
 )
@@ -542,16 +668,26 @@ EvidenceBlock(
 # $20$ s; then the robot is carried to another waypoint of its route while its odometry reports no
 # motion, and drives on for $100$ s. The scans stop fitting the cloud, and
 # the injected poses, which fit the new scans, take the weight despite their small prior. Over
-# $100$ seeded runs the filter recovers (is locked on at the end) in
-# {glue:text}`lf_kidnap_recovered_rate:.0%` of them
-# ({glue:text}`lf_kidnap_recovered_rate_low:.0%`-{glue:text}`lf_kidnap_recovered_rate_high:.0%`),
-# short of the $0.90$ aimed at; with table $8.3$'s prior, {glue:text}`lf_augmented_kidnap_recovered_rate:.0%`.
+# $100$ seeded runs (those the settings were chosen on) the filter recovers (is locked on at the
+# end) in {glue:text}`lf_kidnap_recovered_rate:.0%` of them
+# ({glue:text}`lf_kidnap_recovered_rate_low:.0%`-{glue:text}`lf_kidnap_recovered_rate_high:.0%`): the
+# $0.90$ aimed at is inside that interval, but not reached.
+#
+# With the floored table-$8.3$ rate,
+# {glue:text}`lf_augmented_kidnap_recovered_rate:.0%` (paired test $p$ =
+# {glue:text}`lf_kidnap_vs_augmented_p:.2f`: not separated).
+#
+# A "kidnapping" to the waypoint the robot was already near is none. On the fresh runs those that
+# moved the robot less than the lock-on tolerances are left out
+# ({glue:text}`lf_fresh_not_kidnapped:d` runs); of the others the filter
+# recovers {glue:text}`lf_fresh_kidnap_recovered_rate:.0%`
+# ({glue:text}`lf_fresh_kidnap_recovered_rate_low:.0%`-{glue:text}`lf_fresh_kidnap_recovered_rate_high:.0%`).
 #
 # Those that recover are locked on for good a median {glue:text}`lf_kidnap_recovery_median_s:.0f` s after
 # the kidnapping ({glue:text}`lf_kidnap_recovery_median_s_low:.0f`-{glue:text}`lf_kidnap_recovery_median_s_high:.0f` s).
-#
-# Of the {glue:text}`lf_kidnap_missed:d` runs that do not recover,
-# {glue:text}`lf_kidnap_missed_late:d` end within $1$ m of the robot's position, too late for the window.
+# No recovery can come sooner than $\tau$ scans ($10$ s) after the kidnapping: the first stratum
+# that can stand for it is one whose history starts after it. The runs that do not recover are lost
+# as the drives above are: some to a stratum of the wrong twin after they had found the robot again.
 
 # %% tags=["remove-input"] jupyter={"source_hidden": true}
 kid = STUDIES["map_global/kidnap_hazard"].load().sort_values("seed")
@@ -560,8 +696,11 @@ assert (kid["seed"].to_numpy() == kid_aug["seed"].to_numpy()).all()
 kid_vs_aug = evidence.paired_rates(kid["recovered"].to_numpy(), kid_aug["recovered"].to_numpy())
 glue_values("lf_", augmented_kidnap_recovered_rate=kid_vs_aug.b.estimate, kidnap_vs_augmented_p=kid_vs_aug.pvalue)
 kid_missed = kid[~kid["recovered"].to_numpy()]
-glue_values("lf_", kidnap_missed=len(kid_missed),
-            kidnap_missed_late=int((kid_missed["final_position_error"] < lock_on.POSITION_TOLERANCE_M).sum()))
+moved = (fresh_kid["jump_m"] >= lock_on.POSITION_TOLERANCE_M) | (fresh_kid["jump_deg"] >= np.degrees(mg.HEADING_TOL))
+fresh_recovered = evidence.rate(fresh_kid.loc[moved, "recovered"].to_numpy())
+glue_values("lf_", kidnap_missed=len(kid_missed), fresh_not_kidnapped=int((~moved).sum()),
+            fresh_kidnap_recovered_rate=fresh_recovered.estimate, fresh_kidnap_recovered_rate_low=fresh_recovered.low,
+            fresh_kidnap_recovered_rate_high=fresh_recovered.high)
 times = kid.loc[kid["recovered"], "recovery_s"].to_numpy()
 med, med_low, med_high = evidence.median_interval(times)
 recovered = evidence.rate(kid["recovered"].to_numpy())
@@ -569,18 +708,21 @@ glue_values("lf_", n_kidnap=len(kid), kidnap_recovered_rate=recovered.estimate,
             kidnap_recovered_rate_low=recovered.low, kidnap_recovered_rate_high=recovered.high,
             kidnap_recovery_median_s=med, kidnap_recovery_median_s_low=med_low, kidnap_recovery_median_s_high=med_high)
 EvidenceBlock(
-    "the kidnapped robot is found again, with the kidnap model's prior as with table 8.3's",
+    "the kidnapped robot: tuning runs, fresh runs, recovery time",
     notes=[f"{len(kid)} runs (seeds 0-{len(kid) - 1}, drives of pfcourse.studies.maprobot.simulate): tracked from the known start, "
            f"kidnapped at t = {study.KIDNAP_STEP * study.DT:.0f} s to a waypoint drawn by kidnap_rng(seed), run to "
            f"t = {study.KIDNAP_STEPS * study.DT:.0f} s.",
            f"Tracked before the kidnapping (error below 1 m from 5 s on): "
            f"{evidence.rate(kid['tracked_before'].to_numpy())}.",
-           f"Recovered (locked on at the end, the rule above): {recovered} (Wilson interval).",
-           f"Paired by run (kidnap model's prior A, table 8.3's B): {kid_vs_aug} (see Reading the evidence).",
+           f"Recovered (locked on at the end, the rule above): {recovered}.",
+           f"Fresh runs (seeds {mg.FRESH_SEED}-{mg.FRESH_SEED + mg.FRESH_RUNS - 1}), kidnappings that moved the robot "
+           f"at least 1 m or {np.degrees(mg.HEADING_TOL):.1f} degrees: recovered {fresh_recovered}; "
+           f"{int((~moved).sum())} runs left out.",
+           f"Paired by run (kidnap model's prior A, the floored table-8.3 rate B): {kid_vs_aug} (see Reading the evidence).",
            f"Median time from the kidnapping to the step from which the filter stays locked on, over the {len(times)} "
            f"runs that recover: {med:.1f} s (95 % interval {med_low:.1f}-{med_high:.1f} s, percentile bootstrap). "
            "A median among those that recover: it says how fast, not how often.",
-           stored("kidnap_hazard"), stored("kidnap") + " (table 8.3's prior)"],
+           stored("kidnap_hazard"), stored("kidnap") + " (the floored table-8.3 rate)", stored("kidnap_fresh")],
     tables=[("Recovery time of the runs that recover", pd.DataFrame({"recovery (s)": pd.Series(times).describe()}).T,
              {})],
 )
@@ -588,9 +730,9 @@ EvidenceBlock(
 # %% [markdown]
 # ## Explore: the poses a scan proposes
 #
-# The panel draws the proposal for the scan of seed $1$ at $75$ s. With few candidates and no
-# nudging, the drawn poses gather on twins and near misses; the nudges pull candidates into the
-# narrow basins where the scan fits.
+# The panel draws $300$ poses from the proposal for the scan of seed $1$ at $75$ s (the robot in the
+# corridor), one seeded draw per setting: watch them gather on the robot, its twins and near misses.
+# The share in the title is of that one draw.
 
 # %% tags=["hide-input", "nbval-ignore-output"] jupyter={"source_hidden": true}
 def draw(candidates=500, rounds=3):
@@ -602,7 +744,9 @@ def draw(candidates=500, rounds=3):
     ax.plot(x[:, 0], x[:, 1], ".", ms=4, color=COLORS["particles"], label="300 poses drawn from q")
     ax.plot(*drive.truth[k_room, :2], "x", ms=10, mew=2, color=COLORS["truth"], label="the robot")
     ax.legend(loc="upper center", bbox_to_anchor=(0.5, -0.15), ncol=2)
-    ax.set_title(f"{candidates} x 24 candidates, {rounds} rounds of nudges: {close.mean():.0%} within 0.5 m")
+    nudges = "1 round" if rounds == 1 else f"{rounds} rounds"
+    ax.set_title(f"{candidates} x 24 candidates, {nudges} of nudges: "
+                 f"{close.mean():.0%} within 0.5 m (one draw)")
 
 
 panel = control_panel(
@@ -671,15 +815,19 @@ print(check_reset_weights(my_reset))
 # - Before blaming a filter, measure what the data allow: a twin path has the same odometry and
 #   prior, so its posterior odds against the truth are a sum of scan log-likelihood ratios, and
 #   that margin says which drives any filter could decide.
-# - The plain filter fails because one twin takes all its particles before the evidence chooses.
-#   KLD-sampling keeps many particles while the cloud is spread; AMCL's `kld_z` is the quantile
-#   $z_{1 - \delta}$, not $\delta$.
+# - The bound is an exact filter over the truth and its twins judged by the same lock-on rule; the
+#   share the evidence decides at $99 : 1$ is not a ceiling.
+# - The first scan's sharp likelihood collapses the cloud to KLD's floor; KLD-sampling then hardly
+#   acts, and the start's many poses, the scan proposal and the injections do the work. AMCL's
+#   `kld_z` is the quantile $z_{1 - \delta}$, not $\delta$.
 # - Poses drawn from the scan are weighted by $u / q$ times the evidence of their history against
-#   the cloud's, and their prior is the probability of a kidnapping, not a floor chosen by hand.
-# - From a uniform start the cure locks on in {glue:text}`lf_global_lock_on_rate:.0%` of the drives
-#   where the evidence decides {glue:text}`lf_decided_rate:.0%`, and finds a kidnapped robot again in
-#   {glue:text}`lf_kidnap_recovered_rate:.0%`: just short of $0.95$ and $0.90$, most misses found
-#   again too late for the last $20$ s.
+#   the cloud's; their prior is the kidnap model's $\xi$, chosen by hand like any floor, and these
+#   drives do not separate it from the floored rate.
+# - From a uniform start the cure locks on in {glue:text}`lf_fresh_global_lock_on_rate:.0%` of fresh
+#   drives and {glue:text}`lf_global_lock_on_rate:.0%` of those it was tuned on, where the exact
+#   filter locks on in {glue:text}`lf_exact_lock_on_rate:.0%`; it finds a kidnapped robot again in
+#   {glue:text}`lf_kidnap_recovered_rate:.0%`. Its open failure is false relocalization: a right
+#   cloud replaced by a twin's stratum.
 #
 # :::{admonition} From the labs
 # :class: dropdown

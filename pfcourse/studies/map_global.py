@@ -14,7 +14,7 @@ import numpy as np
 from pfcourse.studies import maprobot as study
 from pfcourse.scenarios.maprobot import lock_on
 from pfcourse.scenarios.maprobot.global_mcl import HAZARD, POOR_FIT, SETTINGS, GlobalSettings, global_mcl
-from pfcourse.scenarios.maprobot.twins import twin_margin
+from pfcourse.scenarios.maprobot.twins import exact_twin_estimate, twin_margin
 from pfcourse.metrics import heading_error, position_error
 
 #: One straight step of the drive (m): 0.5 m/s for DT.
@@ -29,6 +29,15 @@ TWIN_COLUMNS = ("seed", "decided", "final_margin", "final_best_margin",
 GLOBAL_COLUMNS = ("seed", "locked_on", "locked_from_s", "final_position_error", "final_heading_error",
                   "mean_particles", "start_particles")
 KIDNAP_COLUMNS = ("seed", "tracked_before", "recovered", "recovery_s", "final_position_error")
+#: The fresh drives: runs FRESH_SEED, FRESH_SEED + 1, ... (the cure was chosen on drives 0-99).
+FRESH_SEED, FRESH_RUNS = 100, 50
+#: The fresh drives' columns: the above, with when the run was lost (a false relocalization, :func:`lost_times`)
+#: and, for a kidnapping, how far it moved the robot.
+GLOBAL_FRESH_COLUMNS = (*GLOBAL_COLUMNS, "n_lost", "lost_s")
+KIDNAP_FRESH_COLUMNS = (*KIDNAP_COLUMNS, "n_lost", "lost_s", "jump_m", "jump_deg")
+#: A run is *lost* when, after LOST_AFTER_S of steps within the lock-on tolerances in a row, its estimate
+#: leaves them for at least LOST_FOR_S with a position error above LOST_M at some step of that stretch.
+LOST_AFTER_S, LOST_FOR_S, LOST_M = 10.0, 2.0, 2.0
 
 
 def filter_rng(seed: int) -> np.random.Generator:
@@ -40,6 +49,20 @@ def decided(margin: np.ndarray) -> bool:
     at the share of the last window's steps that lock-on asks for (:mod:`pfcourse.scenarios.maprobot.lock_on`)."""
     window = int(np.ceil(lock_on.WINDOW_S / study.DT - 1e-9))
     return bool(np.mean(margin[-window:] > np.log(DECIDED_ODDS)) >= lock_on.SHARE)
+
+
+EXACT_COLUMNS = ("seed", "decided", "exact_locked_on", "exact_locked_from_s")
+
+
+def exact_row(seed: int) -> dict:
+    """The bound judged by the lock-on rule itself: an exact filter over the truth and its twins
+    (:func:`pfcourse.scenarios.maprobot.twins.exact_twin_estimate`) on ``seed``'s global drive, locked on or not."""
+    run = study.simulate(seed, study.GLOBAL_STEPS)
+    est = exact_twin_estimate(study.book_map(), study.field(), run.truth, run.scans)
+    margin, _ = twin_margin(study.book_map(), study.field(), run.truth, run.scans)
+    pos, head = position_error(run.truth, est), heading_error(run.truth, est)
+    return {"decided": decided(margin), "exact_locked_on": lock_on.locked_on(pos, head, study.DT, HEADING_TOL),
+            "exact_locked_from_s": lock_on.locked_from(pos, head, study.DT, HEADING_TOL) * study.DT}
 
 
 def twin_row(seed: int) -> dict:
@@ -62,6 +85,60 @@ def global_row(seed: int, settings: GlobalSettings = SETTINGS) -> dict:
             "locked_from_s": lock_on.locked_from(pos, head, study.DT, HEADING_TOL) * study.DT,
             "final_position_error": float(pos[-1]), "final_heading_error": float(head[-1]),
             "mean_particles": float(res.sizes[1:].mean()), "start_particles": int(res.sizes[0])}
+
+
+def lost_times(pos: np.ndarray, head: np.ndarray, skip_step: int | None = None) -> list[float]:
+    """The times (s) at which a run that had been within the lock-on tolerances for :data:`LOST_AFTER_S`
+    in a row left them for :data:`LOST_FOR_S` or more, at least :data:`LOST_M` away at some step
+    (a stretch starting at ``skip_step``, the kidnapping, is not counted)."""
+    ok = lock_on.locked_steps(pos, head, HEADING_TOL)
+    after, longer = int(round(LOST_AFTER_S / study.DT)), int(round(LOST_FOR_S / study.DT))
+    times, run_ok, k = [], 0, 0
+    while k < len(ok):
+        if ok[k]:
+            run_ok, k = run_ok + 1, k + 1
+            continue
+        j = k
+        while j < len(ok) and not ok[j]:
+            j += 1
+        if run_ok >= after and j - k >= longer and pos[k:j].max() > LOST_M and k != skip_step:
+            times.append(k * study.DT)
+        run_ok, k = 0, j
+    return times
+
+
+def hazard_global_fresh_row(seed: int) -> dict:
+    """:func:`hazard_global_row` on a fresh drive, with the times the run was lost (:func:`lost_times`)."""
+    run = study.simulate(seed, study.GLOBAL_STEPS)
+    res = global_mcl(study.book_map(), study.field(), study.MOTION, run.scans, run.drive.odometry, filter_rng(seed),
+                     HAZARD)
+    pos, head = position_error(run.truth, res.mean), heading_error(run.truth, res.mean)
+    lost = lost_times(pos, head)
+    return {"locked_on": lock_on.locked_on(pos, head, study.DT, HEADING_TOL),
+            "locked_from_s": lock_on.locked_from(pos, head, study.DT, HEADING_TOL) * study.DT,
+            "final_position_error": float(pos[-1]), "final_heading_error": float(head[-1]),
+            "mean_particles": float(res.sizes[1:].mean()), "start_particles": int(res.sizes[0]),
+            "n_lost": len(lost), "lost_s": lost[0] if lost else np.nan}
+
+
+def hazard_kidnap_fresh_row(seed: int) -> dict:
+    """:func:`hazard_kidnap_row` on a fresh drive, with the times the run was lost (:func:`lost_times`, the
+    kidnapping itself not counted) and the kidnapping's move (m, degrees)."""
+    k = study.KIDNAP_STEP
+    run = study.simulate(seed, study.KIDNAP_STEPS, kidnap_at=k)
+    res = global_mcl(study.book_map(), study.field(), study.MOTION, run.scans, run.drive.odometry, filter_rng(seed),
+                     HAZARD, start=run.truth[0])
+    pos, head = position_error(run.truth, res.mean), heading_error(run.truth, res.mean)
+    recovered = lock_on.locked_on(pos, head, study.DT, HEADING_TOL)
+    start = lock_on.locked_from(pos, head, study.DT, HEADING_TOL)
+    lost = lost_times(pos, head, skip_step=k)
+    a, b = run.truth[k - 1], run.truth[k]
+    return {"tracked_before": bool(np.all(pos[10:k] < lock_on.POSITION_TOLERANCE_M)),
+            "recovered": recovered,
+            "recovery_s": float((max(start, k) - k) * study.DT) if recovered else np.nan,
+            "final_position_error": float(pos[-1]), "n_lost": len(lost), "lost_s": lost[0] if lost else np.nan,
+            "jump_m": float(np.hypot(*(b[:2] - a[:2]))),
+            "jump_deg": float(np.degrees(abs(np.angle(np.exp(1j * (b[2] - a[2]))))))}
 
 
 def poor_fit_global_row(seed: int) -> dict:

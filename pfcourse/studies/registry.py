@@ -557,6 +557,25 @@ STUDIES: dict[str, Study] = {study.name: study for study in [
                                  # the cure with the kidnap model's prior (global_mcl.HAZARD), paired with the above
                                  ("global_hazard", map_global.hazard_global_row, map_global.GLOBAL_COLUMNS),
                                  ("kidnap_hazard", map_global.hazard_kidnap_row, map_global.KIDNAP_COLUMNS)]),
+    # the bound judged by the lock-on rule: an exact filter over the truth and its twins, drives 0-149
+    Study(name="map_global/exact_twins", row=map_global.exact_row, grid={}, n_runs=map_global.FRESH_SEED + map_global.FRESH_RUNS,
+          seeds="run", failures="raise", table="map_global/exact_twins.csv", provenance="map_global/exact_twins.json",
+          columns=map_global.EXACT_COLUMNS, sample=2,
+          row_code="pfcourse/studies/map_global.py (exact_row), pfcourse/scenarios/maprobot/twins.py (exact_twin_estimate)",
+          fields={"seeds": "run s: the global drive of maprobot/global (data_rng(s, 0)); no random numbers of its own",
+                  "dt": maprobot.DT, "heading_tolerance_rad": map_global.HEADING_TOL}),
+    # the cure (global_mcl.HAZARD) re-measured on fresh drives 100-149, not those it was chosen on
+    *(Study(name=f"map_global/{name}", row=row, grid={}, n_runs=map_global.FRESH_RUNS, seeds="run",
+            base_seed=map_global.FRESH_SEED, failures="raise", table=f"map_global/{name}.csv",
+            provenance=f"map_global/{name}.json", columns=columns, sample=1,
+            row_code=f"pfcourse/studies/map_global.py ({row.__name__}), pfcourse/scenarios/maprobot/global_mcl.py",
+            fields={"seeds": "run s (fresh drives 100-149): drive and scans as maprobot/global and maprobot/kidnap "
+                             "(data_rng(s, 0), kidnap_rng(s)); filter numpy.random.default_rng([41, s, 2])",
+                    "dt": maprobot.DT, "heading_tolerance_rad": map_global.HEADING_TOL,
+                    "lost": "pfcourse/studies/map_global.py lost_times: 2 s or more outside the lock-on tolerances, "
+                            "2 m away at some step, after 10 s within them"})
+      for name, row, columns in [("global_fresh", map_global.hazard_global_fresh_row, map_global.GLOBAL_FRESH_COLUMNS),
+                                 ("kidnap_fresh", map_global.hazard_kidnap_fresh_row, map_global.KIDNAP_FRESH_COLUMNS)]),
     Study(name="terrain_mpf", row=terrain_marginalised.row, grid={"N": terrain_marginalised.SIZES},
           n_runs=100, seeds="run", table="terrain_mpf.csv", **_FLIGHTS, provenance="terrain_mpf.json",
           columns=terrain_marginalised.COLUMNS, seed_column="flight", cheap=lambda t: t["N"] <= 3000, sample=2,

@@ -17,10 +17,11 @@ corridor).  Weighted so, the poses are an importance sample of the posterior of 
 history, and the mean weight estimates the evidence ``Z = integral u(x) p(z | x) dx`` (the weight the
 chapter's injected stratum carries).  :func:`check_reset_weights` checks that the function draws from
 the generator it is given (same seed same answer, another seed another, NumPy's global state untouched),
-that the weights are those of the poses returned (``log_w - log p(z | x) - log u(x)`` must be
-``-log q(x)`` for a mixture of Gaussians: at most the log of the largest kernel's peak), and that over
-many calls the mean weight estimates ``Z`` and the weighted mean the posterior mean, both computed
-exactly by quadrature (:func:`exact_evidence`), within five standard errors; each mistake of
+replays the prescribed draws to name the mistakes it shows exactly (candidates picked without ``p=``,
+normalised log-weights, weights instead of logs, the sign of ``log u``), and checks that over many calls
+the mean weight estimates ``Z`` and the weighted mean the posterior mean, both computed exactly by
+quadrature (:func:`exact_evidence`), within five standard errors *of the reference answer* over the
+same seeds (a wrong heavy-tailed estimator cannot widen its own tolerance); each mistake of
 :data:`RESET_MISTAKES` has its own message.
 """
 
@@ -60,8 +61,15 @@ class Corridor:
 
 
 RESET_MISTAKES: dict[str, str] = {
-    "equal": "every pose has the same weight, as in table 8.3's injection: that is right only if q is the "
-             "posterior itself, and a mixture around a few candidates is not; weight each pose by u p / q",
+    "equal": "every pose has the same weight: that is right only for poses drawn from the prior u (as table "
+             "8.3's uniform injected poses are), and these were drawn from q; weight each pose by u p / q",
+    "uniform_pick": "the candidates are picked uniformly (rng.choice without p=) while q is the likelihood-weighted "
+                    "mixture: the poses do not come from the q of their weights; pass p = v to rng.choice",
+    "normalised": "the log-weights are normalised (their logsumexp is 0): the mean weight must estimate the "
+                  "evidence, so return log u - log q + log p unnormalised",
+    "weights_not_logs": "the function returns the weights, not their logs: return log u(x) - log q(x) + log p(z | x)",
+    "prior_sign": "log u enters with the wrong sign (+log L instead of -log L): the weight is u / q p, with "
+                  "u = 1 / L",
     "likelihood_only": "the weight is the likelihood alone: the poses were drawn from q, not from the prior u, "
                        "so each must be weighted u(x) / q(x) p(z | x)",
     "no_prior": "the prior u(x) = 1 / L is left out: the poses then carry L times the evidence they have, "
@@ -79,7 +87,8 @@ def reset_answer(z: float, n: int, rng: np.random.Generator, corridor: Corridor,
     c = rng.uniform(0.0, corridor.L, corridor.m)
     s = corridor.log_likelihood(c, z)
     log_v = s - logsumexp(s)
-    x = c[rng.choice(corridor.m, size=n, p=np.exp(log_v))] + corridor.h * rng.standard_normal(n)
+    pick_p = None if mistake == "uniform_pick" else np.exp(log_v)
+    x = c[rng.choice(corridor.m, size=n, p=pick_p)] + corridor.h * rng.standard_normal(n)
     const = 0.0 if mistake == "kernel_constant" else np.log(np.sqrt(2 * np.pi) * corridor.h)
     log_q = logsumexp(log_v - 0.5 * ((x[:, None] - c) / corridor.h) ** 2 - const, axis=1)
     log_p = corridor.log_likelihood(x, z)
@@ -88,7 +97,14 @@ def reset_answer(z: float, n: int, rng: np.random.Generator, corridor: Corridor,
     if mistake == "likelihood_only":
         return x, log_p
     prior = np.where(corridor.log_prior(x) > -np.inf, 0.0, -np.inf) if mistake == "no_prior" else corridor.log_prior(x)
-    return x, prior - log_q + log_p
+    if mistake == "prior_sign":
+        prior = -prior
+    log_w = prior - log_q + log_p
+    if mistake == "normalised":
+        return x, log_w - logsumexp(log_w)
+    if mistake == "weights_not_logs":
+        return x, np.exp(log_w)
+    return x, log_w
 
 
 def exact_evidence(z: float, corridor: Corridor, n_grid: int = 200001) -> tuple[float, float]:
@@ -139,6 +155,10 @@ def check_reset_weights(fn: Callable, corridor: Corridor = Corridor(), n: int = 
     if problem is not None:
         report.problems.append(problem)
         return report
+    named = _replayed_mistake(x, log_w, corridor, READINGS[0], n, seed=1)
+    if named is not None:
+        report.problems.append(RESET_MISTAKES[named])
+        return report
     if np.ptp(log_w[np.isfinite(log_w)]) < 1e-12:
         report.problems.append(RESET_MISTAKES["equal"])
         return report
@@ -155,9 +175,12 @@ def check_reset_weights(fn: Callable, corridor: Corridor = Corridor(), n: int = 
         runs = [call(100 + t, z) for t in range(calls)]
         if any(r is None for r in runs):
             return report
-        ratio, se, mean_x, se_x = _estimates(runs, corridor, z)
+        ratio, se, mean_x, _ = _estimates(runs, corridor, z)
+        # the tolerance is the reference answer's spread over the same seeds, not the student's own
+        _, ref_se, _, ref_se_x = _estimates([reset_answer(z, n, np.random.default_rng(100 + t), corridor)
+                                             for t in range(calls)], corridor, z)
         Z, post_mean = exact_evidence(z, corridor)
-        if abs(ratio - 1.0) > 5 * se:
+        if abs(ratio - 1.0) > 5 * ref_se:
             factors = {"no_prior": corridor.L, "kernel_constant": 1.0 / (np.sqrt(2 * np.pi) * corridor.h)}
             rel = se / ratio  # the ratio's relative standard error: a factor is named only when it is precise
             for name, factor in factors.items():
@@ -165,14 +188,44 @@ def check_reset_weights(fn: Callable, corridor: Corridor = Corridor(), n: int = 
                     report.problems.append(RESET_MISTAKES[name])
                     return report
             report.problems.append(f"for z = {z} the mean weight is {ratio:.3f} times the evidence Z = {Z:.4g} "
-                                   f"(+- {5 * se:.3f} allowed): check that q is the whole mixture sum_j v_j N(x; c_j, h^2), "
+                                   f"(+- {5 * ref_se:.3f} allowed): check that q is the whole mixture sum_j v_j N(x; c_j, h^2), "
                                    "with v_j the normalised likelihoods of the candidates")
             return report
-        if abs(mean_x - post_mean) > 5 * se_x + 1e-3:
+        if abs(mean_x - post_mean) > 5 * ref_se_x + 1e-3:
             report.problems.append(f"for z = {z} the weighted mean position is {mean_x:.3f} m, the posterior mean "
                                    f"{post_mean:.3f} m: the weights do not follow the poses; weight each by u p / q")
             return report
     return report
+
+
+def _replayed_mistake(x: np.ndarray, log_w: np.ndarray, corridor: Corridor, z: float, n: int,
+                      seed: int) -> str | None:
+    """The mistake of :data:`RESET_MISTAKES` that replaying the prescribed draws (``rng.uniform``, ``rng.choice``,
+    ``rng.standard_normal`` from ``default_rng(seed)``) shows exactly, or None."""
+    rng = np.random.default_rng(seed)
+    c = rng.uniform(0.0, corridor.L, corridor.m)
+    uniform_x = c[rng.choice(corridor.m, size=n)] + corridor.h * rng.standard_normal(n)
+    s = corridor.log_likelihood(c, z)
+    log_v = s - logsumexp(s)
+    log_q = logsumexp(log_v - 0.5 * ((x[:, None] - c) / corridor.h) ** 2
+                      - np.log(np.sqrt(2 * np.pi) * corridor.h), axis=1)
+    log_p, log_u = corridor.log_likelihood(x, z), corridor.log_prior(x)
+    right = log_u - log_q + log_p
+    inside = np.isfinite(log_u)
+
+    def same(a, b):
+        return bool(np.allclose(a[inside], b[inside], rtol=1e-9, atol=1e-9))
+
+    with np.errstate(all="ignore"):
+        if np.allclose(x, uniform_x, rtol=0, atol=1e-9):
+            return "uniform_pick"
+        if same(log_w, right - logsumexp(right)) and not same(log_w, right):
+            return "normalised"
+        if same(log_w, np.exp(right)) and not same(log_w, right):
+            return "weights_not_logs"
+        if same(log_w, -log_u - log_q + log_p):
+            return "prior_sign"
+    return None
 
 
 def _estimates(runs, corridor: Corridor, z: float) -> tuple[float, float, float, float]:

@@ -15,11 +15,13 @@ resampling at every scan) with three changes, the cure of the chapter *Finding t
    scores candidate poses (points uniform in free space, each with evenly spaced headings) by the
    likelihood field, keeps the best, and draws poses from Gaussian kernels around candidates picked in
    proportion to their tempered score; it returns each pose's exact ``log q(x)`` (the kernel mixture).
-3. **Injected as a kidnapping, weighted correctly** (augmented MCL, Thrun, Burgard and Fox 2005,
-   table 8.3, for *how much*).  The model is the kidnap model: the robot may have been carried anywhere
-   ``history`` scans ago, with probability ``eps_k``; augmented MCL sets ``eps_k = max(eps_min,
-   1 - w_fast / w_slow)`` from the fast and slow averages of the cloud's predictive likelihood
-   ``Z_k = mean_i p(z_k | x_k^i)``.  The ``R`` injected poses are drawn from ``q`` for the scan
+3. **Injected as a kidnapping, weighted correctly** (the book's construction; its relatives are the
+   teleport model of the chapter *Global localization* and Mixture-MCL, Thrun et al. 2001).  The robot
+   may have been carried anywhere ``history`` scans ago, with probability ``eps_k`` (the book's
+   ``xi_k``).  The book's first variant sets ``eps_k = max(eps_min, 1 - w_fast / w_slow)`` from the fast
+   and slow averages of the cloud's mean likelihood ``Z_k = mean_i p(z_k | x_k^i)`` (the book's
+   ``ell_k``): augmented MCL's rate (Thrun, Burgard and Fox 2005, table 8.3, which draws uniform poses at
+   equal weight and has no floor) with a floor chosen by hand.  The ``R`` injected poses are drawn from ``q`` for the scan
    ``history`` steps back and carried to now by the odometry, every scan scoring them; the ``M``
    moved particles and the ``R`` injected ones are a stratified importance sample of the mixture:
 
@@ -37,8 +39,13 @@ resampling at every scan) with three changes, the cure of the chapter *Finding t
    take a right cloud's place.  With ``kidnap_hazard = rho`` the prior is the kidnap model's own: carried
    away at a given scan with probability ``rho``, so ``eps_k = rho * inject_every`` for the block of
    scans an injection stands for (:data:`HAZARD`, ``rho = 1e-3``: once in about eight minutes of
-   driving).  A right cloud then keeps its place unless the scans since ``k - h`` favour the kidnapping
-   by ``log(1 / eps_k)`` nats more.
+   driving; chosen by hand too).  A right cloud then keeps its place unless the scans since ``k - h``
+   favour the kidnapping by ``log(1 / eps_k)`` nats more; since that Bayes factor is a ratio of two noisy
+   evidence estimates, it sometimes passes the bar by chance and a twin's stratum replaces a right cloud
+   (a false relocalization, counted in the stored studies ``map_global/*_fresh``).
+
+   In practice the first scan collapses the weighted cloud into a few KLD bins, and from step 1 on
+   the bound asks for ``n_min``: KLD-sampling hardly acts on the book's map.
 
 All draws come from the generator passed in, in a fixed order (:func:`global_mcl`).
 """

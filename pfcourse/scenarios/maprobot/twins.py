@@ -52,6 +52,21 @@ def path_log_likelihoods(grid: OccupancyGrid, field: LikelihoodField, path: Arra
     return np.where(outside, -np.inf, ll)
 
 
+def exact_twin_estimate(grid: OccupancyGrid, field: LikelihoodField, truth: Array, scans: Array) -> Array:
+    """The estimate ``(K, 3)`` of an exact filter whose only hypotheses are the true path and its twins:
+    masses proportional to each path's ``exp`` cumulative log-likelihood, the weighted mean position and
+    the circular mean heading (what a particle filter reports, with the twins' ambiguity and nothing else)."""
+    truth, scans = np.asarray(truth, dtype=float), np.asarray(scans, dtype=float)
+    if truth.ndim != 2 or truth.shape[1] != 3 or len(scans) != len(truth):
+        raise ShapeError(f"truth must be (K, 3) and scans (K, B), got {truth.shape} and {scans.shape}")
+    paths = np.array([truth] + [twin_poses(truth, t, s) for t, s in TWINS])
+    cum = np.array([np.cumsum(path_log_likelihoods(grid, field, p, scans)) for p in paths])
+    w = np.exp(cum - logsumexp(cum, axis=0))
+    xy = np.einsum("tk,tkd->kd", w, paths[..., :2])
+    heading = np.arctan2((w * np.sin(paths[..., 2])).sum(0), (w * np.cos(paths[..., 2])).sum(0))
+    return np.column_stack([xy, heading])
+
+
 def twin_margin(grid: OccupancyGrid, field: LikelihoodField, truth: Array, scans: Array) -> tuple[Array, Array]:
     """Per step ``k``: the cumulative log-odds of the true path against all its twins together
     (module docstring), and against the best twin alone (``(K,)`` each)."""
