@@ -613,7 +613,7 @@ def check_epanechnikov_move(fn: Callable, seed: int = 0) -> CheckReport:
     # radius law; E|eps|^2 = d / (d + 4) under the kernel
     stretch = float(np.sqrt(squared.mean() / (d / (d + 4))))
     if abs(stretch - 1) > 0.02 and stats.kstest(squared / stretch**2, stats.beta(d / 2, 2.0).cdf).pvalue > 1e-4:
-        report.problems.append(f"the moves have the kernel's shape but are {stretch:.3f} times too long: check the "
+        report.problems.append(f"the moves have the kernel's shape but {stretch:.2f} times its length: check the "
                                "bandwidth h = scale * A N^(-1/(d+4)), A = (8 (d + 4) (2 sqrt(pi))^d / c_d)^(1/(d+4)) "
                                "with c_d the volume of the unit ball, pi^(d/2) / Gamma(d/2 + 1)")
         return report
