@@ -115,7 +115,7 @@ for col, (name, centre) in enumerate(patches.items()):
     ax.set_ylim(ground.mean() - 180, ground.mean() + 180)
     ax.set_xlabel("along the leg (m)")
     ax.set_ylabel("height (m)")
-    ax.set_title(f"{name} patch: ground sd {ground.std():.0f} m (this draw)")
+    ax.set_title(f"{name} patch: ground sd {ground.std():.0f} m,\none draw of the readings")
     ax = axes[1, col]
     # log shade over four decades, so that a one-pixel peak stays visible
     shade = np.log10(np.maximum(posterior / posterior.max(), 1e-4))
@@ -123,8 +123,8 @@ for col, (name, centre) in enumerate(patches.items()):
               extent=(OFFSETS[0], OFFSETS[-1], OFFSETS[0], OFFSETS[-1]))
     # a ring of radius NEAR around the truth, drawn in data units
     ring = np.linspace(0, 2 * np.pi, 100)
-    ax.plot(3 * NEAR * np.cos(ring), 3 * NEAR * np.sin(ring), color=COLORS["estimate"], lw=1.2, ls="--",
-            label=f"{3 * NEAR:.0f} m around the truth")
+    ax.plot(NEAR * np.cos(ring), NEAR * np.sin(ring), color=COLORS["estimate"], lw=1, ls="--",
+            label=f"within {NEAR:.0f} m of the truth")
     ax.set_xticks([-2000, -1000, 0, 1000, 2000])
     ax.set_yticks([-2000, -1000, 0, 1000, 2000])
     ax.set_xlabel("east of the truth (m)")
