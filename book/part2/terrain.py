@@ -161,8 +161,9 @@ EvidenceBlock(
 # fit every place at about the same height: only {glue:text}`terrain_patch_flat_near:.0%` of the fit
 # lies within $100$ m of the truth (the median over $100$ draws of the noise; the figure shows one
 # draw). Over the rough patch
-# ({glue:text}`terrain_patch_rough_sd:.0f` m) the same eleven readings fit one small spot, and
-# {glue:text}`terrain_patch_rough_near:.0%` of the fit lies there.
+# ({glue:text}`terrain_patch_rough_sd:.0f` m) the same eleven readings fit a narrow streak through
+# the truth (and, far more weakly, a few others), and {glue:text}`terrain_patch_rough_near:.0%` of
+# the fit lies within $100$ m of it.
 #
 # Two lessons follow. The answer is a *distribution* over the map, often with several separate
 # peaks, not one point with an error bar. And how well you can navigate depends on the ground you
