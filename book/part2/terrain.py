@@ -438,7 +438,9 @@ EvidenceBlock(
 # The horizontal error starts at {glue:text}`terrain_error_t0:.0f` m (the distance from the truth
 # to the prior's mean), reaches {glue:text}`terrain_error_max:.0f` m while the filter hesitates
 # between candidate places, and ends at {glue:text}`terrain_error_final:.0f` m once the flight has
-# seen enough terrain. The error leaves the filter's $\pm 3\sigma$ band at
+# seen enough terrain.
+#
+# The error leaves the filter's $\pm 3\sigma$ band at
 # {glue:text}`terrain_error_outside:d` of the {glue:text}`terrain_error_points:d` points of the two
 # top panels.
 #
@@ -601,7 +603,9 @@ EvidenceBlock(
 # next chapter ({doc}`terrain_cure`) finds out why and fixes it.
 #
 # The EKF does far worse: it loses {glue:text}`terrain_ekf_lost:.0%` of the
-# {glue:text}`terrain_ekf_flights:d` flights. A $30$ m prior alone does not rescue it: it still
+# {glue:text}`terrain_ekf_flights:d` flights.
+#
+# A $30$ m prior alone does not rescue it: it still
 # loses {glue:text}`terrain_ekf_prior_lost:.0%`
 # ({glue:text}`terrain_ekf_prior_low:.0%`-{glue:text}`terrain_ekf_prior_high:.0%`). With a smaller
 # process noise $Q_f$ as well, its linearisation holds and it loses
@@ -815,11 +819,12 @@ plt.show()
 #
 # **Resampling threshold.** Without resampling (threshold $0$) the filter loses
 # {glue:text}`th_0_lost:.2f` of the flights. Resampling at every reading (threshold $1$) loses
-# {glue:text}`th_1_lost:.2f` against the baseline's {glue:text}`studies_base_lost:.2f`; the paired
-# difference lies between {glue:text}`th_1_diff_low:+.3f` and {glue:text}`th_1_diff_high:+.3f`, so
-# the data exclude an extra loss beyond {glue:text}`th_1_diff_high:.2f` of the flights, but not a
-# smaller one. On the flights both keep, its error ratio is {glue:text}`th_1_ratio:.2f`: it adds
-# resampling noise, little enough here.
+# {glue:text}`th_1_lost:.2f` against the baseline's {glue:text}`studies_base_lost:.2f`.
+#
+# The exact interval of that paired difference includes zero and ends at
+# {glue:text}`th_1_diff_high:+.2f`: the data exclude an extra loss beyond it, but not a smaller one.
+# On the flights both keep, the error ratio is {glue:text}`th_1_ratio:.2f`: resampling at every
+# reading adds resampling noise, little enough here.
 #
 # **Measurement gap.** Run by run, the filter's standard deviation ends the $25$ s without
 # readings at {glue:text}`gap_sigma_growth:.1f` times what it was at $50$ s (95 % interval
@@ -914,11 +919,11 @@ display(panel)
 # ```{exercise} 17.2 A wider likelihood
 # :label: ex-terrain-rf
 # :nonumber:
-# With the bootstrap filter ($N = 3000$) on the chapter's {glue:text}`terrain_pf60_flights:d`
-# flights, $R_f = 50^2$ loses {glue:text}`terrain_pf60_rf50_lost:.2f` of them against
-# {glue:text}`terrain_pf60_lost:.2f` for the true noise variance $R_f = 20^2$ (a paired difference
-# of {glue:text}`terrain_pf60_rf50_diff_low:+.2f` to {glue:text}`terrain_pf60_rf50_diff_high:+.2f`);
-# around the regularised filter of the study above it does not help. Explain why using a likelihood wider than the truth can help a particle filter
+# With the bootstrap filter ($N = 3000$) on the chapter's $60$ flights, $R_f = 50^2$ loses
+# {glue:text}`terrain_pf60_rf50_lost:.2f` of them against {glue:text}`terrain_pf60_lost:.2f` for the
+# true noise variance $R_f = 20^2$ (paired difference {glue:text}`terrain_pf60_rf50_diff_low:+.2f` to
+# {glue:text}`terrain_pf60_rf50_diff_high:+.2f`); around the regularised filter of the study above
+# it does not help. Explain why using a likelihood wider than the truth can help a particle filter
 # with too few particles, and what it costs once the filter has converged.
 # ```
 #
