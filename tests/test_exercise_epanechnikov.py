@@ -112,3 +112,16 @@ def test_structural_mistakes_are_reported():
     off_centre = check_epanechnikov_move(lambda p, s, rng: reference(p, s, rng) + 0.05 * np.sqrt(np.diag(
         np.cov(p, rowvar=False))))
     assert "average to zero" in off_centre.problems[0]
+
+
+def test_a_wrong_bandwidth_is_blamed_on_the_bandwidth():
+    """c_d taken as the unit sphere's area (d times the ball's volume): the right kernel, the wrong h."""
+    def sphere_area(p, scale, rng):
+        n, d = p.shape
+        return p + (d ** (-1.0 / (d + 4))) * (reference(p, scale, rng) - p)
+
+    report = check_epanechnikov_move(sphere_area)
+    assert not report.ok
+    assert "bandwidth" in report.problems[0] and "Beta" not in report.problems[0]
+    stretch = float(report.problems[0].split("shape but ")[1].split(" times")[0])
+    assert stretch == pytest.approx(3 ** (-1 / 7), abs=0.02)

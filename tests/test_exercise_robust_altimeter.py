@@ -83,3 +83,31 @@ def test_other_wrong_answers_are_reported():
     assert "particle" in check_robust_altimeter(lambda p, *a: reference(p, *a) + 0.5 * (p[:, 0] > 300)).problems[0]
     assert "returned None" in check_robust_altimeter(lambda *a: None).problems[0]
     assert "shape" in check_robust_altimeter(lambda p, *a: reference(p, *a)[:5]).problems[0]
+
+
+def _by_hand(corners_swapped=False, dx_for_dy=False):
+    """A student's answer written out, with one of the two mistakes the text warns about."""
+    def answer(particles, y, heights, dx, dy, rf, eps, y_max):
+        dy = dx if dx_for_dy else dy
+        ny, nx = heights.shape
+        col, row = particles[:, 0] / dx, particles[:, 1] / dy
+        inside = (col >= 0) & (col <= nx - 1) & (row >= 0) & (row <= ny - 1)
+        j = np.clip(np.floor(col), 0, nx - 2).astype(int)
+        i = np.clip(np.floor(row), 0, ny - 2).astype(int)
+        s, t = col - j, row - i
+        h10, h01 = (heights[i + 1, j], heights[i, j + 1]) if corners_swapped else (heights[i, j + 1], heights[i + 1, j])
+        h = (1 - s) * (1 - t) * heights[i, j] + s * (1 - t) * h10 + (1 - s) * t * h01 + s * t * heights[i + 1, j + 1]
+        log_gauss = -0.5 * (y - (particles[:, 2] - h)) ** 2 / rf - 0.5 * np.log(2 * np.pi * rf)
+        return np.where(inside, np.logaddexp(np.log1p(-eps) + log_gauss, np.log(eps / y_max)), -np.inf)
+    return answer
+
+
+@pytest.mark.parametrize("mistake", ["corners_swapped", "dx_for_dy"])
+def test_the_non_square_cell_mistakes_written_by_hand_are_named(mistake):
+    """The two mistakes a map with non-square cells invites, written independently of the checker's code."""
+    assert ALTIMETER_DX != ALTIMETER_DY
+    assert _by_hand()(np.array([[10.0, 10.0, 1000.0, 0.0]]), 600.0, ALTIMETER_HEIGHTS, ALTIMETER_DX, ALTIMETER_DY,
+                      ALTIMETER_RF, ROBUST_EPS, ROBUST_Y_MAX).shape == (1,)
+    assert check_robust_altimeter(_by_hand()).ok
+    report = check_robust_altimeter(_by_hand(**{mistake: True}))
+    assert report.problems == [f"your function computes a known mistake: {ROBUST_ALTIMETER_MISTAKES[mistake]}"]

@@ -832,9 +832,9 @@ EvidenceBlock(
 #
 # ## Try it
 #
-# The panel reruns flight {glue:text}`terrain_mpf_panel_flight:d`, one the bootstrap filter loses
-# at $N = 3000$, with the filter and the number of particles you choose: the cloud at the end of
-# the flight, and the error over time.
+# The panel reruns flight {glue:text}`terrain_mpf_panel_flight:d` (lost by the bootstrap filter at
+# $N = 3000$) with the filter and $N$ you choose: the final cloud and the error over time.
+# Compare the filters at one $N$, then at $N = 1000$: which keep the flight?
 
 # %% tags=["hide-input"] jupyter={"source_hidden": true}
 import ipywidgets as widgets

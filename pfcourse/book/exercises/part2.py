@@ -254,6 +254,8 @@ def altimeter_log_likelihood(particles: np.ndarray, y: float, heights: np.ndarra
     h = np.asarray(heights, dtype=float)
     if mistake == "swapped":
         h, dx, dy = h.T, dy, dx
+    if mistake == "dx_for_dy":
+        dy = dx
     ny, nx = h.shape
     col, row = p[:, 0] / dx, p[:, 1] / dy
     inside = (col >= 0) & (col <= nx - 1) & (row >= 0) & (row <= ny - 1)
@@ -262,7 +264,9 @@ def altimeter_log_likelihood(particles: np.ndarray, y: float, heights: np.ndarra
     s, t = np.clip(col - j, 0, 1), np.clip(row - i, 0, 1)
     if mistake == "nearest":
         s, t = np.round(s), np.round(t)
-    ground = (1 - s) * (1 - t) * h[i, j] + s * (1 - t) * h[i, j + 1] + (1 - s) * t * h[i + 1, j] + s * t * h[i + 1, j + 1]
+    # corners_swapped: h10 read north of the node and h01 east of it
+    east, north = (h[i + 1, j], h[i, j + 1]) if mistake == "corners_swapped" else (h[i, j + 1], h[i + 1, j])
+    ground = (1 - s) * (1 - t) * h[i, j] + s * (1 - t) * east + (1 - s) * t * north + s * t * h[i + 1, j + 1]
     predicted = ground - p[:, 2] if mistake == "sign" else p[:, 2] - ground
     var = rf**2 if mistake == "rf_as_sd" else rf
     out = -0.5 * (y - predicted) ** 2 / var - (0.0 if mistake == "no_constant" else 0.5 * np.log(2 * np.pi * var))
@@ -329,6 +333,9 @@ ROBUST_ALTIMETER_MISTAKES = {
     "nearest": ALTIMETER_MISTAKES["nearest"],
     "rf_as_sd": ALTIMETER_MISTAKES["rf_as_sd"],
     "sign": ALTIMETER_MISTAKES["sign"],
+    "corners_swapped": "the corners h10 and h01 are exchanged: h10 is the node east of (i, j), heights[i, j+1] "
+                       "(weight s(1 - t), s the fraction in x), and h01 the node north of it, heights[i+1, j]",
+    "dx_for_dy": "it divides y by dx: the cells are not square, so the row is i = y / dy and the column j = x / dx",
     "no_constant": "the Gaussian's -(1/2) log(2 pi Rf) is missing: in a mixture it no longer cancels, since it sets "
                    "how the Gaussian term weighs against the uniform one",
     "mixed_logs": "it mixes the logarithms, (1 - eps) log N + eps log(1 / y_max); the likelihood is the mixture of "
@@ -346,7 +353,8 @@ def robust_altimeter_log_likelihood(particles: np.ndarray, y: float, heights: np
     """``log((1 - eps) N(y; z - h(x, y), Rf) + eps / y_max)`` per particle, ``-inf`` off the map (the bilinear
     ``h`` of :func:`altimeter_log_likelihood`). With a ``mistake`` of :data:`ROBUST_ALTIMETER_MISTAKES`, what
     that mistake computes (for the checker)."""
-    gauss_mistake = mistake if mistake in ("swapped", "nearest", "rf_as_sd", "sign", "no_constant") else None
+    gauss_mistake = mistake if mistake in ("swapped", "nearest", "rf_as_sd", "sign", "no_constant", "corners_swapped",
+                                           "dx_for_dy") else None
     log_gauss = altimeter_log_likelihood(particles, y, heights, dx, dy, rf, gauss_mistake)
     inside = np.isfinite(log_gauss)
     g = np.where(inside, log_gauss, 0.0)
@@ -600,6 +608,14 @@ def check_epanechnikov_move(fn: Callable, seed: int = 0) -> CheckReport:
         return law_fits and np.max(np.abs(C - target)) < max(tolerance, 0.1 * np.max(np.abs(target)))
 
     if _settled(report, fits, EPANECHNIKOV_MISTAKES):
+        return report
+    # the kernel's shape at another length: a wrong bandwidth (c_d taken as the sphere's area, say), not a wrong
+    # radius law; E|eps|^2 = d / (d + 4) under the kernel
+    stretch = float(np.sqrt(squared.mean() / (d / (d + 4))))
+    if abs(stretch - 1) > 0.02 and stats.kstest(squared / stretch**2, stats.beta(d / 2, 2.0).cdf).pvalue > 1e-4:
+        report.problems.append(f"the moves have the kernel's shape but {stretch:.2f} times its length: check the "
+                               "bandwidth h = scale * A N^(-1/(d+4)), A = (8 (d + 4) (2 sqrt(pi))^d / c_d)^(1/(d+4)) "
+                               "with c_d the volume of the unit ball, pi^(d/2) / Gamma(d/2 + 1)")
         return report
     if squared.max() > 1 + 1e-9:
         report.problems.append(f"some whitened moves are {np.sqrt(squared.max()):.2f} times h long: the "

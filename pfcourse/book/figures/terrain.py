@@ -67,11 +67,17 @@ def flight_figure(terrain: TerrainMap, flight, result, title: str, half_width_km
     ax1.plot(result.particles[k, idx, 0] / KM, result.particles[k, idx, 1] / KM, ".", ms=2,
              color=COLORS["particles"], label=f"particles at t = {flight.T[k]:.0f} s")
     ax1.plot(flight.truth[:, 0] / KM, flight.truth[:, 1] / KM, color=COLORS["truth"], label="truth")
-    ax1.plot(result.mean[:, 0] / KM, result.mean[:, 1] / KM, color=COLORS["estimate"], label="estimate")
+    # dashed: the estimate's track, told apart from the solid error curve of the same colour
+    ax1.plot(result.mean[:, 0] / KM, result.mean[:, 1] / KM, color=COLORS["estimate"], ls="--",
+             label="estimate (track)")
     ax1.set_xlim(*window[0])
     ax1.set_ylim(*window[1])
+    end = result.mean[k, :2] / KM
+    if not (window[0][0] <= end[0] <= window[0][1] and window[1][0] <= end[1] <= window[1][1]):
+        ax1.text(0.02, 0.02, f"estimate at t = {flight.T[k]:.0f} s off this window:\n({end[0]:.1f}, {end[1]:.1f}) km",
+                 transform=ax1.transAxes, fontsize=8, va="bottom", bbox={"fc": "white", "alpha": 0.8, "lw": 0})
     error = position_error(flight.truth, result.mean)
-    ax2.plot(flight.T, error, color=COLORS["estimate"], label="horizontal error")
+    ax2.plot(flight.T, error, color=COLORS["estimate"], label="horizontal error (right)")
     ax2.axhline(DIVERGED_ERROR, color=COLORS["truth"], lw=1, ls=":", label=f"lost above {DIVERGED_ERROR:.0f} m")
     ax2.set_yscale("log")
     ax2.set_ylim(5, 3e4)
