@@ -67,6 +67,18 @@ def test_the_store_round_trips_every_kind_of_column(tmp_path):
     assert all(same(a, b) for a, b in zip(back["trace"], table["trace"]))
 
 
+def test_a_metric_named_error_reads_back_as_numbers_and_empty_messages_as_text(tmp_path):
+    """run_study's ``error`` column holds messages (an ok run's is empty, read back as ""), but a study may
+    also name a metric ``error`` (static_parameters, sir_fixes): its numbers must come back as numbers."""
+    metric = pd.DataFrame({"run": range(3), "error": [0.25, 0.125, np.nan]})
+    save(tmp_path / "m.csv", metric)
+    back = load(tmp_path / "m.csv")
+    assert back["error"].iloc[0] == 0.25 and back["error"].iloc[1] == 0.125 and np.isnan(back["error"].iloc[2])
+    messages = pd.DataFrame({"run": range(3), "status": ["ok"] * 3, "error": ["", "", ""]})
+    save(tmp_path / "e.csv", messages)
+    assert list(load(tmp_path / "e.csv")["error"]) == ["", "", ""]
+
+
 def test_unknown_names_and_rules_are_refused():
     with pytest.raises(ParameterError, match="unknown study"):
         select("nope")

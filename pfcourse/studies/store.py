@@ -57,8 +57,10 @@ def load(path: Path, *, literals: Sequence[str] = (), arrays: Sequence[str] = ()
     """The table stored at ``path`` by :func:`save` (floats exact: pandas >= 3 parses them precisely)."""
     path = Path(path)
     table = pd.read_csv(path, converters={column: ast.literal_eval for column in literals})
-    if "error" in table.columns:
-        table["error"] = ["" if isinstance(v, float) else v for v in table["error"]]  # read back as NaN
+    errors = table["error"] if "error" in table.columns else None
+    # run_study's error messages (empty ones read back as NaN) -- not a metric named "error" (a column of numbers)
+    if errors is not None and (not pd.api.types.is_numeric_dtype(errors) or errors.isna().all()):
+        table["error"] = ["" if isinstance(v, float) else v for v in errors]
     arrays_path = path.with_suffix(".npz")
     if arrays and arrays_path.exists():
         with np.load(arrays_path) as stored:
