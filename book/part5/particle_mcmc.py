@@ -521,7 +521,7 @@ def draw_pairs(rho, n):
     fig, ax = plt.subplots(figsize=(4.5, 3.5), constrained_layout=True)
     lims = []
     for order, color in (("sorted", COLORS["estimate"]), ("unsorted", COLORS["robot"])):
-        a, b = pair_correlation(rho, order == "sorted", 5, pairs=40, n=n)
+        a, b = pair_correlation(rho, order == "sorted", 5, pairs=20, n=n)  # 20 pairs: a redraw in about a second
         ax.plot(a, b, "o", ms=3, color=color, label=f"{order}: corr. {np.corrcoef(a, b)[0, 1]:.2f}")
         lims += [min(a.min(), b.min()), max(a.max(), b.max())]
     ax.plot([min(lims), max(lims)], [min(lims), max(lims)], color="0.5", lw=0.8)
