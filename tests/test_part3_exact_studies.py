@@ -66,13 +66,15 @@ def test_each_ratio_mistake_is_named(mistake):
 
 
 def test_the_ratio_mistakes_differ_on_the_case():
-    """Each mistake moves the median or an end of the interval by more than the checker's tolerance."""
+    """Each mistake moves the median or an end of the interval by more than twice the checker's tolerance."""
+    from pfcourse.book.exercises.part3 import RATIO_TOL, WRONG_LEVELS
+
     a, b = RATIO_CASE
     ref = mse_ratio_reference(a, b, 40000, np.random.default_rng(1))
-    for mistake in RATIO_MISTAKES:
-        other = mse_ratio_reference(a, b, 40000, np.random.default_rng(1), mistake)
+    for mistake, level in [(m, 0.9) for m in RATIO_MISTAKES] + [("wrong_level", v) for v in WRONG_LEVELS]:
+        other = mse_ratio_reference(a, b, 40000, np.random.default_rng(1), mistake, level)
         assert (not np.isclose(other[0], ref[0])) or max(abs(other[1] - ref[1]), abs(other[2] - ref[2])) > \
-            0.4 * (ref[2] - ref[1]), mistake
+            2 * RATIO_TOL * (ref[2] - ref[1]), mistake
 
 
 def _bootstrap(a, b, n_boot, rng):

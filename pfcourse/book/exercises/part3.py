@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import functools
 from collections.abc import Callable
 
 import numpy as np
@@ -86,6 +87,11 @@ ADAPTIVE_MISTAKES = {
                   "from the residual weights N W_i - floor(N W_i), so a particle can get two of them",
     "biased": "the average number of copies of a particle is not N W_i: draw the R remaining copies with "
               "probabilities proportional to the residuals N W_i - floor(N W_i), normalised to sum to one",
+    "overflow": "it exponentiates the log-weights without subtracting their logsumexp (or their maximum), so "
+                "log-weights near 800 overflow to inf and the weights become NaN: normalise in the log domain, "
+                "W_i = exp(l_i - logsumexp(l))",
+    "not_strict": "it resamples a cloud of exactly equal weights at tau = 1, whose ESS equals N: the rule "
+                  "resamples only when ESS < tau N, strictly, so equal weights are never resampled",
 }
 
 
@@ -95,9 +101,19 @@ def adaptive_residual(particles: np.ndarray, log_w: np.ndarray, tau: float, rng:
     and ``R = N - sum floor(N W_i)`` more drawn multinomially from the residuals; log-weights reset to
     ``-log N``. ``mistake`` (a key of :data:`ADAPTIVE_MISTAKES`) makes it instead."""
     n = len(log_w)
-    w = np.exp(log_w - logsumexp(log_w))
+    if mistake == "overflow":
+        with np.errstate(all="ignore"):
+            w = np.exp(log_w) / np.sum(np.exp(log_w))
+        if not np.isfinite(w).all():  # what rng.choice or the counts then do with NaN weights
+            raise ValueError("probabilities contain NaN")
+    else:
+        w = np.exp(log_w - logsumexp(log_w))
     ess = 1.0 / np.sum(w ** 2)
-    if (ess < tau * n) if mistake == "reversed" else (ess >= tau * n):
+    if mistake == "reversed":
+        keep = ess < tau * n
+    else:
+        keep = ess > tau * n if mistake == "not_strict" else ess >= tau * n
+    if keep:
         return particles, log_w
     if mistake == "multinomial":
         idx = rng.choice(n, size=n, p=w)
@@ -122,6 +138,11 @@ def _adaptive_cases() -> dict[str, tuple[np.ndarray, float]]:
     mild = np.log(np.linspace(1.0, 2.0, 10))  # ESS ~ 9.6
     return {"keep_low_tau": (uneven, 0.3), "keep_mild": (mild, 0.9), "keep_zero": (uneven, 0.0),
             "resample": (uneven, 0.5), "resample_mild": (mild, 1.0)}
+
+
+#: Exactly equal weights at tau = 1 (ESS = N, not below it: kept). 16 equal log-weights of 0 give ESS = 16
+#: exactly by logsumexp, by the maximum and by the sum, so no rounding decides the verdict.
+EQUAL_CASE = (np.zeros(16), 1.0)
 
 
 def check_adaptive_residual(fn: Callable, n_draws: int = 2000, seed: int = 0) -> CheckReport:
@@ -167,6 +188,25 @@ def _check_adaptive_residual(fn: Callable, n_draws: int, seed: int) -> CheckRepo
 
     rng = np.random.default_rng(seed)
     cases = _adaptive_cases()
+    # log-weights near 800 overflow in the linear domain: the same cloud shifted to log-weights near 0 tells
+    # that mistake from the others (an answer that works shifted and fails, or keeps the cloud, unshifted)
+    log_w, tau = cases["resample"]
+    try:
+        with np.errstate(all="ignore"):
+            high = fn(np.arange(len(log_w), dtype=float), log_w.copy(), tau, np.random.default_rng(seed))
+            high_ok = np.isfinite(np.asarray(high[1], dtype=float)).all() and not np.allclose(high[1], log_w)
+    except Exception:
+        high_ok = False
+    if not high_ok:
+        try:
+            with np.errstate(all="ignore"):
+                low = fn(np.arange(len(log_w), dtype=float), log_w - 800.0, tau, np.random.default_rng(seed))
+                low_ok = np.isfinite(np.asarray(low[1], dtype=float)).all() and not np.allclose(low[1], log_w - 800.0)
+        except Exception:
+            low_ok = False
+        if low_ok:
+            report.problems.append(ADAPTIVE_MISTAKES["overflow"])
+            return report
     for name, (log_w, tau) in cases.items():
         out = call(log_w, tau, rng)
         if out is None:
@@ -178,6 +218,12 @@ def _check_adaptive_residual(fn: Callable, n_draws: int, seed: int) -> CheckRepo
         if name.startswith("resample") and not np.allclose(out[1], out[1][0]):
             report.problems.append(ADAPTIVE_MISTAKES["kept_weights"])
             return report
+    out = call(*EQUAL_CASE, rng)
+    if out is None:
+        return report
+    if not (np.array_equal(out[0], np.arange(len(EQUAL_CASE[0]))) and np.allclose(out[1], EQUAL_CASE[0])):
+        report.problems.append(ADAPTIVE_MISTAKES["not_strict"])
+        return report
     log_w, tau = cases["resample"]
     problem = _generator_problem(lambda g: call(log_w, tau, g), lambda a, b: np.array_equal(a[0], b[0]),
                                  what="resampled cloud")
@@ -390,7 +436,13 @@ def _ratio_case(seed: int = 23, runs: int = 41) -> tuple[np.ndarray, np.ndarray]
 
 
 RATIO_CASE = _ratio_case()
-RATIO_BOOT = 2000
+#: The checker's resamples: with 20 000 the ends of a 95 % interval on RATIO_CASE stray from their limit by
+#: about 0.003 of its width (0.016 at most over 200 seeds), so a tolerance of 0.03 width accepts every seed
+#: and still refuses a 90 % interval, whose ends lie 0.07 width inside (80 %: 0.16; 99 %: 0.13 outside).
+RATIO_BOOT = 20000
+RATIO_TOL = 0.03
+#: The confidence levels of the "wrong_level" mistake (the 95 % interval is asked for).
+WRONG_LEVELS = (0.8, 0.9, 0.99)
 
 RATIO_MISTAKES = {
     "reversed": "it divides b's mean squared error by a's; the ratio asked for is mean(a^2) / mean(b^2), the "
@@ -406,14 +458,16 @@ RATIO_MISTAKES = {
                      "of that ratio over bootstrap resamples of the runs",
     "unpaired": "it resamples a and b separately, which breaks the pairs: resample the runs, each run's "
                 "a_r and b_r together (one set of indices for both)",
+    "wrong_level": "its interval has the ends of an 80 %, 90 % or 99 % interval, not of the 95 % one asked for: "
+                   "take the 2.5 % and 97.5 % quantiles of the bootstrap ratios, np.quantile(boot, [0.025, 0.975])",
 }
 
 
 def mse_ratio_reference(a: np.ndarray, b: np.ndarray, n_boot: int, rng: np.random.Generator,
-                        mistake: str | None = None) -> tuple[float, float, float]:
+                        mistake: str | None = None, level: float = 0.9) -> tuple[float, float, float]:
     """``(ratio, low, high)``: ``mean(a^2) / mean(b^2)`` and its 95 % percentile bootstrap interval
     (``n_boot`` resamples of the runs, each run's ``a`` and ``b`` together, drawn from ``rng``); or a
-    mistake of :data:`RATIO_MISTAKES`."""
+    mistake of :data:`RATIO_MISTAKES` (``"wrong_level"``: the interval at ``level`` instead)."""
     a, b = np.asarray(a, dtype=float), np.asarray(b, dtype=float)
     if mistake == "reversed":
         a, b = b, a
@@ -433,8 +487,17 @@ def mse_ratio_reference(a: np.ndarray, b: np.ndarray, n_boot: int, rng: np.rando
         boot = sq_a / sq_b
     if mistake == "rmse":
         point, boot = np.sqrt(point), np.sqrt(boot)
-    low, high = np.quantile(boot, [0.025, 0.975])
+    tail = (1.0 - level) / 2 if mistake == "wrong_level" else 0.025
+    low, high = np.quantile(boot, [tail, 1.0 - tail])
     return float(point), float(low), float(high)
+
+
+@functools.lru_cache(maxsize=None)
+def _ratio_target(mistake: str | None, level: float = 0.9) -> tuple[float, float, float]:
+    """:func:`mse_ratio_reference` on :data:`RATIO_CASE` with 100 000 resamples (ends within about 0.0013
+    of the interval's width of their limit), computed once."""
+    a, b = RATIO_CASE
+    return mse_ratio_reference(a, b, 100_000, np.random.default_rng(12345), mistake, level)
 
 
 def check_mse_ratio(fn: Callable, seed: int = 0) -> CheckReport:
@@ -448,8 +511,9 @@ def check_mse_ratio(fn: Callable, seed: int = 0) -> CheckReport:
 
 def _check_mse_ratio(fn: Callable, seed: int) -> CheckReport:
     """Check ``fn(a, b, n_boot, rng) -> (ratio, low, high)`` on :data:`RATIO_CASE`: the ratio exactly, the
-    interval with :data:`RATIO_BOOT` resamples within a fifth of its width of a reference with many (the
-    bootstrap's own noise is far smaller), and that every random number comes from ``rng``."""
+    interval with :data:`RATIO_BOOT` resamples within :data:`RATIO_TOL` of its width of a reference with many
+    (ten times the bootstrap's own noise, less than half the shift of a 90 % interval's ends), and that every
+    random number comes from ``rng``."""
     from pfcourse.book.exercises.part1 import _generator_problem
 
     report = CheckReport("ratio of mean squared errors and its bootstrap interval")
@@ -468,10 +532,14 @@ def _check_mse_ratio(fn: Callable, seed: int) -> CheckReport:
                                "return (ratio, low, high), low first")
         return report
 
-    def fits(mistake: str | None) -> bool:
-        ref = mse_ratio_reference(a, b, 20 * RATIO_BOOT, np.random.default_rng(12345), mistake)
-        tol = 0.2 * (ref[2] - ref[1])
+    def close(ref: tuple[float, float, float]) -> bool:
+        tol = RATIO_TOL * (ref[2] - ref[1])
         return bool(np.isclose(point, ref[0], rtol=1e-9) and abs(low - ref[1]) <= tol and abs(high - ref[2]) <= tol)
+
+    def fits(mistake: str | None) -> bool:
+        if mistake == "wrong_level":
+            return any(close(_ratio_target(mistake, level)) for level in WRONG_LEVELS)
+        return close(_ratio_target(mistake))
 
     if not _settled(report, fits, RATIO_MISTAKES):
         report.problems.append("the ratio or the interval differs from mean(a^2) / mean(b^2) and the 2.5 % and "
