@@ -19,7 +19,8 @@
 # **You need** {doc}`robot_studies` (how a study is run and read), {doc}`../part1/sir` and
 # {doc}`../part1/resampling_schemes`.
 #
-# **Time:** about fifteen minutes to read; the notebook runs in about twenty seconds.
+# **Time:** about sixteen minutes to read, plus about fifteen if you open the evidence blocks
+# and twenty for the coding exercise; the notebook runs in about twenty seconds.
 # :::
 #
 # ## The idea: resample when the weights say so
@@ -74,7 +75,7 @@ from pfcourse.collectors import Clouds
 from pfcourse.filter import ParticleFilter
 from pfcourse.kalman import kalman_filter
 from pfcourse.scenarios.landmarks.scenario import quadrant_scenario, simulate
-from pfcourse.resampling import systematic
+from pfcourse.resampling import multinomial, systematic
 from pfcourse.seeding import filter_rng
 from pfcourse.book.style import COLORS, use_style
 
@@ -209,10 +210,10 @@ th_medians = median(th_table, "threshold", "position_rmse")
 resampling = th_medians[th_medians.index >= 0.2]
 resamples = median(th_table, "threshold", "resamples")
 glue_values("th_", rmse_resampling_low=resampling.min(), rmse_resampling_high=resampling.max(),
-            rmse_0=th_medians[0.0], resamples_1=resamples[1.0], measurement_steps=int(N_STEPS - 1),
-            one_vs_third=th_vs[1.0].median, one_vs_third_low=th_vs[1.0].low, one_vs_third_high=th_vs[1.0].high,
-            zero_vs_third=th_vs[0.0].median, zero_vs_third_low=th_vs[0.0].low, zero_vs_third_high=th_vs[0.0].high,
-            sis_overconfident=sis_overconfident, sis_runs=len(sis))
+            rmse_0=th_medians[0.0], rmse_tenth=th_medians[0.1], resamples_1=resamples[1.0],
+            measurement_steps=int(N_STEPS - 1), one_vs_third=th_vs[1.0].median, one_vs_third_low=th_vs[1.0].low,
+            one_vs_third_high=th_vs[1.0].high, tenth_vs_third=th_vs[0.1].median, tenth_vs_third_low=th_vs[0.1].low,
+            tenth_vs_third_high=th_vs[0.1].high)
 # the prose: tau = 1 has the smallest median RMSE and the largest mean ESS; counted as one family, only tau = 0
 # differs measurably from 1/3 (tau = 1 and 0.1 did so alone, not after Holm's correction)
 assert th_medians.idxmin() == 1.0 and median(th_table, "threshold", "mean_ess_fraction").idxmax() == 1.0
@@ -246,6 +247,11 @@ EvidenceBlock(
 # while without resampling it is {glue:text}`th_rmse_0:.2f` m, the degeneracy every report
 # describes.
 #
+# At $\tau = 0.1$ the median is {glue:text}`th_rmse_tenth:.2f` m; run by run its RMSE is
+# {glue:text}`th_tenth_vs_third:.2f`
+# ({glue:text}`th_tenth_vs_third_low:.2f`-{glue:text}`th_tenth_vs_third_high:.2f`) times that at
+# $\tau = 1/3$, an interval that alone excludes $1$ but not once the family is counted (below).
+#
 # The number of resamplings grows with $\tau$, up to one at every measurement step at
 # $\tau = 1$ ({glue:text}`th_resamples_1:.0f` of {glue:text}`th_measurement_steps:d`), the
 # opposite of the third claim.
@@ -264,6 +270,16 @@ EvidenceBlock(
 # the exact one (Part I's linear landmark model: two landmarks, $50$ steps, $N = 100$).
 
 # %% tags=["hide-input"] jupyter={"source_hidden": true}
+import numpy as np
+from pfcourse.filter import ParticleFilter
+from pfcourse.kalman import kalman_filter
+from pfcourse.scenarios.landmarks.scenario import quadrant_scenario, simulate
+from pfcourse.seeding import filter_rng
+from pfcourse.studies.study import run_study
+
+# Part I's linear landmark model: two landmarks, 50 steps, and the filter's model of it
+LINEAR = quadrant_scenario()
+LINEAR_MODEL = LINEAR.model()
 exact = {}  # Kalman filter of each seed, computed once per execution and shared by the settings
 
 
@@ -296,11 +312,11 @@ lin_holm = evidence.holm_verdicts(lin_vs)  # the three thresholds against 1/3: o
 assert lin_holm[0.0][0] == "A higher"  # the prose: without resampling, measurably further from the exact mean
 lin_robot = median(lin_table, "threshold", "robot_gap")
 lin_landmark = median(lin_table, "threshold", "landmark_gap")
-glue_values("lin_", robot_0=lin_robot[0.0], zero_vs_third=lin_vs[0.0].median, zero_vs_third_low=lin_vs[0.0].low,
+glue_values("lin_", zero_vs_third=lin_vs[0.0].median, zero_vs_third_low=lin_vs[0.0].low,
             zero_vs_third_high=lin_vs[0.0].high, robot_resampling_low=lin_robot[lin_robot.index > 0].min(),
             robot_resampling_high=lin_robot[lin_robot.index > 0].max(),
             landmark_resampling_low=lin_landmark[lin_landmark.index > 0].min(),
-            landmark_resampling_high=lin_landmark[lin_landmark.index > 0].max(), landmark_0=lin_landmark[0.0],
+            landmark_resampling_high=lin_landmark[lin_landmark.index > 0].max(),
             one_vs_third_low=lin_vs[1.0].low, one_vs_third_high=lin_vs[1.0].high)
 lin_landmarks = lin_table.pivot(index="run", columns="threshold", values="landmark_gap")
 lin_lm_vs = evidence.paired(lin_landmarks[0.333], lin_landmarks[0.0], ratio=True)
@@ -356,7 +372,7 @@ EvidenceBlock(
 # given those statistics at each step {cite:p}`storvik2002,fearnhead2002`, or to move the
 # particles after resampling with an MCMC kernel that leaves the posterior invariant
 # (resample-move {cite:p}`gilks2001`), which {doc}`../part1/sir` measures as the most effective of
-# its fixes at $N = 100$ ({ref}`exercise 21.4 <ex-studies-linear-n>`).
+# its fixes at $N = 100$.
 #
 # ## The resampling scheme
 #
@@ -443,6 +459,32 @@ EvidenceBlock(
               "Holm p": ".2g"})],
 )
 
+# %% tags=["remove-input"] jupyter={"source_hidden": true}
+# the mechanism: distinct particles after one resampling, multinomial against systematic, on the weights of
+# the steps where the linear model's filter (N = 100, tau = 0.5, seed 0) resamples; run r draws both schemes'
+# uniforms from numpy.random.default_rng(r) (common random numbers)
+resampled_weights = run.weights[run.resampled]
+
+
+def distinct(scheme, r):
+    rng = np.random.default_rng(r)
+    return np.mean([np.unique(scheme(w, rng)).size for w in resampled_weights])
+
+
+distinct_runs = {name: np.array([distinct(scheme, r) for r in range(N_RUNS)])
+                 for name, scheme in (("multinomial", multinomial), ("systematic", package_systematic))}
+distinct_vs = evidence.paired(distinct_runs["multinomial"], distinct_runs["systematic"])
+assert distinct_vs.verdict() == "A lower"  # the prose: multinomial keeps fewer distinct particles
+glue_values("distinct_", multinomial=distinct_runs["multinomial"].mean(),
+            systematic=distinct_runs["systematic"].mean())
+EvidenceBlock(
+    "on the same weights multinomial resampling keeps fewer distinct particles than systematic",
+    notes=[f"The {len(resampled_weights)} weight vectors at which the linear model's filter resamples (N = 100, "
+           f"tau = 0.5, the panel's simulation); {N_RUNS} runs, run r resampling every vector once with each "
+           "scheme from numpy.random.default_rng(r). Per run: the mean number of distinct particles kept.",
+           f"Multinomial minus systematic, run by run: {distinct_vs}."],
+)
+
 # %% [markdown]
 # No scheme differs measurably from systematic resampling in accuracy: median RMSE
 # {glue:text}`scheme_rmse_low:.2f`-{glue:text}`scheme_rmse_high:.2f` m with the same spread, and run by
@@ -462,8 +504,12 @@ EvidenceBlock(
 # Multinomial resampling's NEES is higher (ratio {glue:text}`scheme_nees_ratio:.2f`,
 # {glue:text}`scheme_nees_ratio_low:.2f`-{glue:text}`scheme_nees_ratio_high:.2f`): its cloud is
 # narrower relative to its error, still on the pessimistic side of $3$, as its extra resampling
-# noise would make it: more particles duplicated, fewer distinct ones. The single run's
-# improvement is not confirmed. The reasons to prefer systematic resampling are its performance
+# noise would make it: more particles duplicated, fewer distinct ones.
+#
+# That mechanism is measured on the weights at which the linear model's filter above resamples
+# (the robot's clouds are not stored): on the same weights, multinomial resampling keeps
+# {glue:text}`distinct_multinomial:.1f` distinct particles of $100$ on average, systematic
+# resampling {glue:text}`distinct_systematic:.1f`. The single run's improvement is not confirmed. The reasons to prefer systematic resampling are its performance
 # in practice {cite:p}`hol2006,chopin2020` and its cost: one uniform draw instead of $N$.
 #
 # ## The threshold and the scheme against an exact answer
@@ -509,6 +555,11 @@ count_taus = {(s, t): evidence.paired(count_runs[(s, t)], count_runs[(s, 0.333)]
 count_tau_holm = {s: evidence.holm_verdicts({t: count_taus[(s, t)] for t in (0.1, 0.5, 1.0)})
                   for s in ("systematic", "multinomial")}  # each scheme's three thresholds against 1/3: one family
 count_zero = evidence.paired(count_runs[("systematic", 0.0)], count_runs[("systematic", 0.333)], ratio=True)
+# Douc et al.'s comparison: residual and stratified against multinomial at tau = 1, one family (Holm)
+count_douc = {s: evidence.paired(count_runs[(s, 1.0)], count_runs[("multinomial", 1.0)], ratio=True)
+              for s in ("residual", "stratified")}
+count_douc_holm = evidence.holm_verdicts(count_douc)
+assert all(v == "A lower" for v, _ in count_douc_holm.values())  # the prose: both err less than multinomial
 count_medians = count_table.groupby(["scheme", "tau"])["rmse"].median()
 # the prose: Douc et al.'s order (multinomial and residual measurably worse than systematic, stratified not
 # separated); late resampling worse with both schemes, tau = 1 better than 1/3 with systematic and worse with
@@ -519,11 +570,19 @@ assert [count_tau_holm["multinomial"][t][0] for t in (0.1, 0.5, 1.0)] == ["A hig
 assert count_zero.verdict() == "A higher"
 assert all(count_medians[s].drop(0.0, errors="ignore").idxmin() == 0.5 for s in ("systematic", "multinomial"))
 glue("count_runs", int(count_runs.shape[0]), display=False)
-for s, c in count_schemes.items():
-    glue_values(f"count_{s}", **{"": c.median, "_low": c.low, "_high": c.high, "_detectable": c.detectable})
-for (s, t), c in count_taus.items():
-    glue_values(f"count_{s}_tau_{t}", **{"": c.median, "_low": c.low, "_high": c.high})
-glue_values("count_zero", **{"": count_zero.median})
+glue_values("count_", multinomial=count_schemes["multinomial"].median,
+            multinomial_low=count_schemes["multinomial"].low, multinomial_high=count_schemes["multinomial"].high,
+            residual=count_schemes["residual"].median, stratified=count_schemes["stratified"].median,
+            stratified_detectable=count_schemes["stratified"].detectable, zero=count_zero.median,
+            douc_residual=count_douc["residual"].median, douc_residual_low=count_douc["residual"].low,
+            douc_residual_high=count_douc["residual"].high, douc_stratified=count_douc["stratified"].median)
+glue_values("count_systematic_tau_", **{"0.1": count_taus[("systematic", 0.1)].median,
+                                        "0.1_low": count_taus[("systematic", 0.1)].low,
+                                        "0.1_high": count_taus[("systematic", 0.1)].high,
+                                        "1.0": count_taus[("systematic", 1.0)].median})
+glue_values("count_multinomial_tau_1.0", **{"": count_taus[("multinomial", 1.0)].median,
+                                           "_low": count_taus[("multinomial", 1.0)].low,
+                                           "_high": count_taus[("multinomial", 1.0)].high})
 EvidenceBlock(
     "against the exact means, multinomial and residual resampling err more than systematic; the threshold matters",
     notes=[f"Stored study count_resampling: the capstone's 50 counts, N = 100, {count_runs.shape[0]} runs per "
@@ -539,6 +598,11 @@ EvidenceBlock(
     tables=[("Median error and resamplings", count_table.groupby(["scheme", "tau"]).agg(
                 error=("rmse", "median"), resamplings=("resamples", "median")).reset_index(),
              {"error": ".4f", "resamplings": ".0f"}),
+            ("Residual and stratified against multinomial at tau = 1, run by run (Douc et al.'s comparison)",
+             pd.DataFrame([{"scheme": s, "ratio": c.median, "low": c.low, "high": c.high, "Wilcoxon p": c.pvalue,
+                            "Holm p": count_douc_holm[s][1], "verdict": count_douc_holm[s][0]}
+                           for s, c in count_douc.items()]),
+             {"ratio": ".3f", "low": ".3f", "high": ".3f", "Wilcoxon p": ".2g", "Holm p": ".2g"}),
             ("Each scheme against systematic at tau = 1, run by run", pd.DataFrame(
                 [{"scheme": s, "ratio": c.median, "low": c.low, "high": c.high, "excluded beyond": c.detectable,
                   "Wilcoxon p": c.pvalue, "Holm p": count_scheme_holm[s][1], "verdict": count_scheme_holm[s][0]}
@@ -553,10 +617,14 @@ EvidenceBlock(
 )
 
 # %% [markdown]
-# Resampling at every step ($\tau = 1$), the schemes line up as {cite:t}`douc2005` prove for
-# residual and stratified resampling: run by run, multinomial resampling's error is
-# {glue:text}`count_multinomial:.2f` ({glue:text}`count_multinomial_low:.2f`-{glue:text}`count_multinomial_high:.2f`)
-# times systematic's.
+# Resampling at every step ($\tau = 1$), the schemes line up as {cite:t}`douc2005` prove: run by
+# run, residual resampling's error is {glue:text}`count_douc_residual:.2f`
+# ({glue:text}`count_douc_residual_low:.2f`-{glue:text}`count_douc_residual_high:.2f`) times
+# multinomial resampling's, and stratified resampling's {glue:text}`count_douc_stratified:.2f` times.
+#
+# Against systematic resampling, multinomial's error is {glue:text}`count_multinomial:.2f`
+# ({glue:text}`count_multinomial_low:.2f`-{glue:text}`count_multinomial_high:.2f`) times
+# systematic's.
 #
 # Residual resampling's error is {glue:text}`count_residual:.2f` times systematic's. Stratified
 # resampling's, {glue:text}`count_stratified:.2f` times, cannot be told from it: the data exclude
@@ -642,7 +710,8 @@ for noise, tag in ((0.0, "static"), (0.0025, "noisy")):
                                                                    values=f"{part}_gap")
         slope, low, high = evidence.log_slope(runs[LINEAR_SIZES].to_numpy().T, LINEAR_SIZES)
         assert -0.5 < low < high < 0  # the solution: flatter than the Monte Carlo rate over this range
-        glue_values(f"linear_slope_{tag}_{part}", **{"": slope, "_low": low, "_high": high})
+        glue_values(f"linear_slope_{tag}_{part}", **({"": slope, "_low": low, "_high": high} if part == "landmark"
+                                                     else {"": slope}))
 
 # %% [markdown]
 # ```{exercise} 21.2 Which threshold resamples most?
@@ -663,7 +732,10 @@ for noise, tag in ((0.0, "static"), (0.0025, "noisy")):
 # :label: ex-studies-paired
 # :nonumber:
 # The scheme study compares multinomial and systematic resampling on the same
-# {glue:text}`n_runs_per_setting:d` runs. Estimate the standard error of the difference of the
+# {glue:text}`n_runs_per_setting:d` runs; its table is
+# `robot_study({"scheme": ["multinomial", "residual", "stratified", "systematic"]})`, with
+# `from pfcourse.studies.registry import robot_study`, one row per scheme and run (column
+# `position_rmse`). Estimate the standard error of the difference of the
 # mean RMSEs twice: from the paired differences (as above), and as if the two schemes had
 # been run on independent sets of $n$ runs, $\sqrt{(s_1^2 + s_2^2)/n}$. How many more runs
 # would the unpaired design need for the same precision?
@@ -672,9 +744,10 @@ for noise, tag in ((0.0, "static"), (0.0025, "noisy")):
 # ```{solution} ex-studies-paired
 # :class: dropdown
 # With `paired = scheme_table.pivot(index="run", columns="scheme", values="position_rmse")`,
-# the paired standard error is `(paired.multinomial - paired.systematic).std() / 10`,
-# {glue:text}`pair_se:.4f` m, and the unpaired one
-# `np.sqrt(paired.multinomial.var() + paired.systematic.var()) / 10`, {glue:text}`pair_unpaired_se:.4f` m.
+# and `n = len(paired)`, the paired standard error is
+# `(paired.multinomial - paired.systematic).std() / np.sqrt(n)`, {glue:text}`pair_se:.4f` m, and
+# the unpaired one `np.sqrt((paired.multinomial.var() + paired.systematic.var()) / n)`,
+# {glue:text}`pair_unpaired_se:.4f` m.
 # The RMSE of a run depends much on its simulated world (landmark layout, noises), which both
 # schemes share: the two RMSEs have a correlation of {glue:text}`pair_corr:.2f`, so their
 # difference varies less than either. The ratio of the two variances,
@@ -682,12 +755,13 @@ for noise, tag in ((0.0, "static"), (0.0025, "noisy")):
 # for the same precision; that is why every study of this chapter uses common random numbers.
 # ```
 #
-# ```{exercise} 21.4 The threshold cannot cure static landmarks
+# ```{exercise} 21.4 Static landmarks slow the Monte Carlo rate
 # :label: ex-studies-linear-n
 # :nonumber:
 # On the linear model, measure how the distance between the particle filter's mean and
 # the exact Kalman mean falls with $N$ (say $N = 30, 100, 300, 1000$, threshold $0.5$, $50$ runs
-# each, with `distance_to_exact` adapted to take `n_particles`). A Monte Carlo error
+# each, with `distance_to_exact` adapted to take `n_particles`; its folded cell, above the
+# threshold figure, starts with the imports and the model it needs). A Monte Carlo error
 # falls, for large $N$, as $1/\sqrt N$: by a factor of about $\sqrt{1000/30} \approx 5.8$ from $30$ to
 # $1000$ particles. Does the robot part follow that rate? The landmark part? Then give the
 # landmarks a small process noise (landmark entries of $Q_w$ equal to $0.0025$, with

@@ -18,7 +18,8 @@
 #
 # **You need** {doc}`../part2/robot` and {doc}`../evidence` (the intervals and tests).
 #
-# **Time:** about thirteen minutes to read; the notebook runs in about twenty seconds.
+# **Time:** about fourteen minutes to read, plus about ten if you open the evidence blocks and
+# fifteen for the coding exercise; the notebook runs in about twenty seconds.
 # :::
 #
 # ## The idea: one question, many runs, the same worlds
@@ -35,7 +36,9 @@
 # two settings varies much less than either: the standard error of the mean difference is
 # $s_d / \sqrt{n_\text{runs}}$, against $\sqrt{(s_a^2 + s_b^2)/n_\text{runs}}$ for independent runs, and
 # $s_d^2 = s_a^2 + s_b^2 - 2\,\mathrm{cov}(a, b)$ is small when the runs are strongly
-# correlated.
+# correlated. The median of per-run ratios below is paired in the same way: each ratio compares
+# two settings on one world, so the world's share of the error cancels in it
+# ({ref}`exercise 21.3 <ex-studies-paired>` measures what pairing buys for a difference of means).
 #
 # **A paired comparison with its interval.** For errors, which are positive and skewed, the book
 # compares the per-run *ratios* $a_r / b_r$: their median and a 95 % interval for it, found by
@@ -55,7 +58,9 @@
 # :::
 #
 # The last three steps in NumPy, on the study of the number of particles below ($N = 1000$ against
-# $N = 300$). The study is stored: `find` returns its table, one row per setting and run.
+# $N = 300$). The study is stored: `robot_study` returns its table, one row per setting and run.
+# It only reads stored studies: a grid that no stored study has (say `{"n_particles": [200]}`)
+# raises a `ParameterError` that lists the stored ones.
 
 # %% tags=["remove-input"] jupyter={"source_hidden": true}
 import ipywidgets as widgets
@@ -63,6 +68,7 @@ import matplotlib.pyplot as plt
 import numpy as np
 import pandas as pd
 from IPython.display import HTML
+from matplotlib import ticker
 from matplotlib.animation import FuncAnimation
 from myst_nb import glue
 
@@ -73,16 +79,32 @@ from pfcourse.studies.study import summarize
 from pfcourse.book.report import EvidenceBlock, glue_values
 from pfcourse.book.static_panel import format_value
 from pfcourse.book.figures.study import summary_band, time_band
-from pfcourse.book.figures.study_tables import glue_summary, median, medians, paired_vs
+from pfcourse.book.figures.study_tables import median, medians, paired_vs, tag
 from pfcourse.book.panels import control_panel
-from pfcourse.book.style import COLORS, plain_log_axis, use_style
+from pfcourse.book.style import COLORS, use_style
 
 use_style()
 glue("n_runs_per_setting", N_RUNS, display=False)
 
+
+def grid_log_axis(ax, values):
+    """A log x axis with its ticks at the grid's own values, written plainly (20, 50, ..., ¼, ½, 2)."""
+    ax.set_xscale("log")
+    ax.xaxis.set_major_locator(ticker.FixedLocator(values))
+    # the fractions as one character each, so that 0.25 and 0.5 do not overlap at column width
+    short = {0.25: "¼", 0.5: "½"}
+    ax.xaxis.set_major_formatter(ticker.FuncFormatter(lambda v, _: short.get(v, f"{v:g}")))
+    ax.xaxis.set_minor_locator(ticker.NullLocator())
+
+
+def glue_medians(table, key, metric, prefix, levels):
+    """Glue the median of ``metric`` at the settings the prose quotes, as ``{prefix}_{setting}``."""
+    med = median(table, key, metric)
+    glue_values(f"{prefix}_", **{tag(level): med[level] for level in levels})
+
 # %%
-import numpy as np
 from pfcourse.studies.registry import robot_study
+import numpy as np
 
 
 def paired_ratio(a, b, n_boot=2000, seed=0):
@@ -115,20 +137,32 @@ assert np.isclose(ratio, package.median) and abs(low - package.low) < 0.01 and a
 # with these few lines to within the noise of the resampling. Every
 # study of this page and of {doc}`resampling_studies` and {doc}`sensing_studies` is run this way:
 # {glue:text}`n_runs_per_setting:d` runs per setting of the robot of {doc}`../part2/robot`, scored by
-# the position RMSE after a transient of {glue:text}`robot_burn_in:d` s, by the time-averaged NEES
+# the position RMSE, by the time-averaged NEES
 # $\frac1T \sum_k e_k^\top P_k^{-1} e_k$ (about $3$ for a filter whose covariance matches its
-# errors, {doc}`../part4/pf_vs_kalman`) and by the filter's own standard deviation. Unless a section
+# errors, {doc}`../part1/kalman`) and by the filter's own standard deviation. A run lasts
+# {glue:text}`robot_n_steps:d` s; its first {glue:text}`robot_burn_in:d` s, where the filter
+# leaves its initial cloud, are not scored. Unless a section
 # varies it, every run uses the reports' defaults: $N = 300$, $Q_\text{est} = 2 Q_\text{true}$,
 # $R_\text{est} = 2 R_\text{true}$, systematic resampling when $\text{ESS} < 0.5 N$, a measurement
 # every second, five landmarks, a start known to about a metre.
 
 # %% tags=["remove-input"] jupyter={"source_hidden": true}
 glue_values("robot_", n_steps=int(N_STEPS), burn_in=int(BURN_IN))
+# how far the error has settled when scoring starts: the no-gap runs of the gap study (260 s, same defaults)
+settle_table = robot_study({"gap": [None, (100.0, 200.0)]}, n_steps=260, keep_errors=True)
+settle_rows = settle_table[settle_table["gap"].apply(lambda g: g is None) & (settle_table["status"] == "ok")]
+settle = np.median(np.stack(settle_rows["position_error"].to_numpy()), axis=0)
+settle_early, settle_late = settle[BURN_IN:2 * BURN_IN].mean(), settle[2 * BURN_IN:N_STEPS].mean()
+assert settle_early > settle_late  # the note: the error is still settling after the burn-in
 EvidenceBlock(
     "the studies are stored, run the same way on any executor, and re-checked by the tests",
     notes=[f"Each run is one pfcourse.studies.robot.pf_run: the robot simulator and the same ParticleFilter "
-           f"as in the other chapters, {N_STEPS} s scored after its first {BURN_IN} s (the filter's error settles "
-           "within about half a minute: the gap study of sensing_studies plots it).",
+           f"as in the other chapters; runs of {N_STEPS} s, the last {N_STEPS - BURN_IN} s scored.",
+           f"The burn-in of {BURN_IN} s leaves out most of the start-up transient, not all of it: in the "
+           f"{len(settle_rows)} no-gap runs of the gap study (sensing_studies) the median position error averages "
+           f"{settle_early:.3f} m from {BURN_IN} to {2 * BURN_IN} s against {settle_late:.3f} m from {2 * BURN_IN} "
+           f"to {N_STEPS} s. What is left of the transient is part of every setting's score; a paired comparison "
+           "compares the settings with it included.",
            "The nine robot studies of Part III are too heavy to run while the book executes: "
            "`python3 tasks.py study robot_studies` ran them once with pfcourse.studies.study.run_study, "
            "which hands the runs to any concurrent.futures executor (a process pool, or a dask cluster's "
@@ -141,18 +175,20 @@ EvidenceBlock(
 # ## The number of particles
 #
 # **The question.** How many particles does this robot need? $300$ is the default; more
-# particles cost time in proportion.
+# particles cost computing time (in proportion to $N$ for this filter; not measured here).
 
 # %% tags=["hide-input"] jupyter={"source_hidden": true}
+N_GRID = [20, 50, 100, 300, 1000]
 fig, axes = plt.subplots(1, 2, figsize=(10, 3.6))
 summary_band(summarize(n_table, "n_particles", "position_rmse"), axes[0], color=COLORS["estimate"])
 summary_band(summarize(n_table, "n_particles", "mean_nees"), axes[1], color=COLORS["estimate"])
 axes[1].axhline(3, color="k", ls="--", lw=1, label="3: consistent")
 for ax in axes:
-    ax.set_xscale("log")
+    grid_log_axis(ax, N_GRID)
     ax.set_xlabel("number of particles N")
 axes[0].set_ylabel("position RMSE (m)")
 axes[1].set_yscale("log")
+axes[1].yaxis.set_major_formatter(ticker.FormatStrFormatter("%g"))
 axes[1].set_ylabel("time-averaged NEES")
 axes[1].legend(loc="upper right")
 fig.suptitle(f"Median and 10-90 % band over {N_RUNS} runs per N", fontsize=10)
@@ -168,11 +204,11 @@ n_holm, n_steps_holm = evidence.holm_verdicts(n_vs), evidence.holm_verdicts(n_st
 # the prose: 1000 particles are measurably (a little) better than 300, and fewer are worse; every step is measurable
 assert n_holm[1000][0] == "A lower" and all(n_holm[n][0] == "A higher" for n in (20, 50, 100))
 assert all(v == "A higher" for v, _ in n_steps_holm.values())
-glue_summary(n_table, "n_particles", "position_rmse", "n_rmse")
-glue_summary(n_table, "n_particles", "mean_nees", "n_nees")
+glue_medians(n_table, "n_particles", "position_rmse", "n_rmse", (300, 1000))
+glue_medians(n_table, "n_particles", "mean_nees", "n_nees", (20, 1000))
 glue_values("n_ratio_1000", **{"": n_vs[1000].median, "_low": n_vs[1000].low, "_high": n_vs[1000].high})
 EvidenceBlock(
-    "more particles help in measurable, shrinking steps; below 100 the filter is over-confident",
+    "more particles help in measurable, shrinking steps; at 100 particles and below the filter is over-confident",
     notes=[f"{N_RUNS} runs per N on the same seeds (stored study robot_studies/n_particles). Ratios: median of the "
            "per-run RMSE ratios, 95 % percentile bootstrap interval, Wilcoxon's p (pfcourse.evidence.paired).",
            "The steps between successive N are one family, each N against 300 another: verdicts need the "
@@ -216,6 +252,17 @@ EvidenceBlock(
 # factor is below about $1$ or above about $5$, and too small a factor should make the filter
 # over-confident. We scale $Q_\text{est} = s\, Q_\text{true}$ for $s$ from $0.25$ to $100$ (the
 # default is $2$).
+#
+# How jerky a path is we measure by its *jitter*: the root mean square, over the scored steps, of
+# the estimated step minus the true step,
+#
+# $$
+# \text{jitter} = \sqrt{\frac1K \sum_k \big\|(\hat p_k - \hat p_{k-1}) - (p_k - p_{k-1})\big\|^2}
+# \quad \text{(m per step)},
+# $$
+#
+# where $\hat p_k$ is the estimated and $p_k$ the true position at step $k$: zero for a path that
+# moves exactly as the robot does, large for one that jumps from step to step.
 
 # %% tags=["hide-input"] jupyter={"source_hidden": true}
 q_values = [0.25, 0.5, 1, 2, 5, 20, 100]
@@ -232,9 +279,10 @@ def noise_scale_figure(table, key, name):
     axes[0].set_ylabel("position (m)")
     axes[1].set_ylabel("time-averaged NEES")
     axes[1].set_yscale("log")
+    axes[1].yaxis.set_major_formatter(ticker.FormatStrFormatter("%g"))
     axes[2].set_ylabel("jitter of the estimate (m per step)")
     for ax in axes:
-        ax.set_xscale("log")
+        grid_log_axis(ax, sorted(table[key].unique()))
         ax.set_xlabel(f"{name} (multiple of the true covariance)")
         ax.axvline(2, color="0.6", lw=1, ls=":")
     axes[0].legend(loc="upper left")
@@ -253,8 +301,8 @@ q_holm = evidence.holm_verdicts(q_vs)  # the six scales against the default: one
 assert all(v != "A lower" for v, _ in q_holm.values())
 assert [q for q, (v, _) in q_holm.items() if v == "A higher"] == [0.25, 0.5, 20, 100]
 assert median(q_table, "q_scale", "position_rmse").idxmin() == 2  # "the default sits at the bottom"
-glue_summary(q_table, "q_scale", "mean_nees", "q_nees")
-glue_summary(q_table, "q_scale", "estimate_jitter", "q_jitter")
+glue_medians(q_table, "q_scale", "mean_nees", "q_nees", (0.25, 100))
+glue_medians(q_table, "q_scale", "estimate_jitter", "q_jitter", (2, 100))
 glue_values("q_ratio_0.5", **{"": q_vs[0.5].median, "_low": q_vs[0.5].low, "_high": q_vs[0.5].high})
 q_jitter = q_table.pivot(index="run", columns="q_scale", values="estimate_jitter")
 q_jitter_vs = evidence.paired(q_jitter[100], q_jitter[2], ratio=True)
@@ -301,8 +349,8 @@ EvidenceBlock(
 #
 # Below $1$ the filter becomes over-confident: its median NEES is {glue:text}`q_nees_0.25:.0f` at
 # $0.25$, against $3$ for a consistent filter.
-# Large factors keep the filter honest (NEES {glue:text}`q_nees_100:.1f` at $100$, a pessimistic
-# filter) but waste the odometry's information.
+# Large factors keep it from being over-confident, at the price of pessimism (NEES
+# {glue:text}`q_nees_100:.1f` at $100$), and waste the odometry's information.
 #
 # Scrub through the scales: the median and 10-90 % band over the runs of the position error at each
 # second (red) and of the filter's own standard deviation $\sqrt{P_{xx} + P_{yy}}$ (green). Where the
@@ -346,7 +394,7 @@ r_holm = evidence.holm_verdicts(r_vs)  # the six scales against the default: one
 # the prose: only the scales below the truth are measurably worse, none is better
 assert [r for r, (v, _) in r_holm.items() if v != "no difference detected"] == [0.25, 0.5]
 assert all(r_holm[r][0] == "A higher" for r in (0.25, 0.5))
-glue_summary(r_table, "r_scale", "mean_nees", "r_nees")
+glue_medians(r_table, "r_scale", "mean_nees", "r_nees", (0.25, 100))
 r_runs = {m: r_table.pivot(index="run", columns="r_scale", values=m) for m in ("estimate_jitter", "mean_position_sd")}
 r_dir = {m: evidence.paired(t[100], t[2], ratio=True) for m, t in r_runs.items()}
 # the prose: at 100 a smoother path and a wider cloud than at the default
@@ -394,7 +442,7 @@ dt_table = robot_study({"dt_meas": [1.0, 2.0, 5.0, 10.0, 20.0]}, n_steps=200)
 lm_table = robot_study({"n_landmarks": [1, 2, 3, 5, 10, 30]})
 dt_rmse = median(dt_table, "dt_meas", "position_rmse")
 n_rmse = median(n_table, "n_particles", "position_rmse")
-glue_summary(dt_table, "dt_meas", "position_rmse", "dt_rmse")
+glue_medians(dt_table, "dt_meas", "position_rmse", "dt_rmse", (1.0, 2.0))
 glue("budget_n_gain", float(n_rmse[300] - n_rmse[1000]), display=False)
 glue("budget_dt_loss", float(dt_rmse[2.0] - dt_rmse[1.0]), display=False)
 # the exercise's two differences of medians, with paired bootstrap intervals (run r of both studies uses the
@@ -432,7 +480,7 @@ def draw_first_runs(study, n_runs):
     whole = summarize(table, parameter, "position_rmse")
     ax.plot(whole.index, whole["q50"], "--", color=COLORS["truth"], lw=1, label=f"median of all {N_RUNS}")
     if parameter != "threshold":
-        plain_log_axis(ax, "x", subs=(1.0, 2.0, 5.0))
+        grid_log_axis(ax, sorted(table[parameter].unique()))
     ax.set_xlabel(study)
     ax.set_ylabel("position RMSE (m)")
     ax.legend(loc="upper left", bbox_to_anchor=(1.0, 1.0))
@@ -535,9 +583,10 @@ glue_values("n_mse_ratio_1000", **{"": mse_1000[0], "_low": mse_1000[1], "_high"
 #   so a paired comparison detects what independent runs would need many more runs to see.
 # - Report a paired ratio with its interval, and, when no difference is found, the differences the
 #   data exclude (those beyond the interval); a sweep of many levels controls its family-wise error.
-# - On the robot, $300$ particles suffice; a noise level assumed too small makes the filter
-#   over-confident, one assumed too large makes it pessimistic, and both matter more for its
-#   covariance than for its accuracy.
+# - On the robot, $1000$ particles give {glue:text}`n_ratio_1000:.2f` times the error of $300$, a
+#   small gain; at $100$ particles and below the filter is over-confident.
+# - A noise level assumed too small makes the filter over-confident, one assumed too large makes
+#   it pessimistic, and both matter more for its covariance than for its accuracy.
 
 # %% [markdown]
 # :::{admonition} From the labs
