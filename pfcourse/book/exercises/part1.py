@@ -34,14 +34,7 @@ def check_resampler(fn: Callable, n_draws: int = 4000, seed: int = 0) -> CheckRe
     n = w.size
     first = _answer(report, lambda: fn(w.copy(), rng), "fn(weights, rng)",
                     "write the resampler and return the N ancestor indices")
-    if first is None:
-        return report
-    first = np.asarray(first)
-    if first.shape != (n,):
-        report.problems.append(f"returned shape {first.shape}; expected ({n},), one ancestor index per particle")
-        return report
-    if first.dtype.kind not in "iu":
-        report.problems.append(f"returned dtype {first.dtype}; indices must be integers (use astype(int))")
+    if first is None or _index_problem(report, first, n, "use astype(int)"):
         return report
     counts = np.empty((n_draws, n))
     for t in range(n_draws):
@@ -58,18 +51,17 @@ def check_resampler(fn: Callable, n_draws: int = 4000, seed: int = 0) -> CheckRe
             "a particle of weight 0 was chosen: u must select the i with cumsum[i-1] < u <= cumsum[i] "
             "(np.searchsorted(np.cumsum(w), u)), which never lands on a zero-width interval"
         )
-    mean, se = counts.mean(axis=0), counts.std(axis=0, ddof=1) / np.sqrt(n_draws)
-    bad = np.abs(mean - n * w) > 5 * se + 1e-9
-    if bad.any():
-        i = int(np.argmax(np.abs(mean - n * w) - 5 * se))
+    biased = _most_biased(counts, w, n)
+    if biased is not None:
+        i, mean_i, se_i = biased
         report.problems.append(
             f"biased: particle {i} of weight {w[i]} should get N W = {n * w[i]:.3f} copies on "
-            f"average, it got {mean[i]:.3f} (± {se[i]:.3f}) over {n_draws} draws"
+            f"average, it got {mean_i:.3f} (± {se_i:.3f}) over {n_draws} draws"
         )
     if np.all(counts.std(axis=0) == 0) and not np.allclose(n * w, np.round(n * w)):
         report.problems.append("the result never changes: the rng is not used")
     total_var, multinomial_var = counts.var(axis=0, ddof=1).sum(), float(np.sum(n * w * (1 - w)))
-    if not bad.any() and total_var > _VARIANCE_MARGIN * multinomial_var:
+    if biased is None and total_var > _VARIANCE_MARGIN * multinomial_var:
         report.problems.append(
             f"the copy counts are right on average but too variable: sum of Var N_i is {total_var:.2f}, more "
             f"than multinomial resampling's sum of N W_i (1 - W_i) = {multinomial_var:.2f}; each particle "
@@ -170,6 +162,20 @@ def _offspring_counts(report: CheckReport, draw: Callable, n_draws: int, n: int,
     return counts
 
 
+def _index_problem(report: CheckReport, answer: object, n: int, integer_hint: str, per: str = "particle") -> bool:
+    """Whether a resampler's answer is not ``n`` integer ancestor indices, an array of shape ``(n,)`` and
+    integer dtype (the index ``a^i`` of the parent of each new particle ``i``); if not, the problem is
+    reported in one sentence (``integer_hint`` says how to get integers, ``per`` what each index is for)."""
+    answer = np.asarray(answer)
+    if answer.shape != (n,):
+        report.problems.append(f"returned shape {answer.shape}; expected ({n},), one ancestor index per {per}")
+        return True
+    if answer.dtype.kind not in "iu":
+        report.problems.append(f"returned dtype {answer.dtype}; indices must be integers ({integer_hint})")
+        return True
+    return False
+
+
 def _most_biased(counts: np.ndarray, w: np.ndarray, n: int) -> tuple[int, float, float] | None:
     """The particle whose mean copy count is farthest from ``n W_i`` beyond 5 standard errors (an unbiased
     scheme gives ``E N_i = n W_i``): ``(i, mean, se)``, or ``None`` when every particle is within."""
@@ -214,12 +220,7 @@ def _check_stratified(fn: Callable, n_draws: int, seed: int) -> CheckReport:
         report.problems.append(f"returned {N} indices, one per weight; the resampler must draw n = {n} new "
                                "particles: n strata of width 1/n, one uniform in each, so n indices")
         return report
-    if first.shape != (n,):
-        report.problems.append(f"returned shape {first.shape}; expected ({n},), one ancestor index per new "
-                               "particle (indices, not copy counts)")
-        return report
-    if first.dtype.kind not in "iu":
-        report.problems.append(f"returned dtype {first.dtype}; indices must be integers (use astype(int))")
+    if _index_problem(report, first, n, "use astype(int)", "new particle (indices, not copy counts)"):
         return report
     midpoints = np.minimum(np.searchsorted(np.cumsum(w), (np.arange(n) + 0.5) / n, side="right"), N - 1)
     if not _draws_from_its_generator(report, lambda g: fn(w.copy(), n, g), midpoints):
@@ -797,14 +798,7 @@ def _check_multinomial_resampler(fn: Callable, n_draws: int, seed: int) -> Check
     n = w.size
     first = _answer(report, lambda: fn(w.copy(), np.random.default_rng(seed)), "fn(weights, rng)",
                     "write the resampler and return the N ancestor indices")
-    if first is None:
-        return report
-    first = np.asarray(first)
-    if first.shape != (n,):
-        report.problems.append(f"returned shape {first.shape}; expected ({n},), one ancestor index per particle")
-        return report
-    if first.dtype.kind not in "iu":
-        report.problems.append(f"returned dtype {first.dtype}; indices must be integers (np.searchsorted gives them)")
+    if first is None or _index_problem(report, first, n, "np.searchsorted gives them"):
         return report
     problem = _generator_problem(lambda rng: np.asarray(fn(w.copy(), rng)), np.array_equal, what="set of indices")
     if problem is not None:
