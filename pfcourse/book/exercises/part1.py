@@ -162,6 +162,22 @@ def _offspring_counts(report: CheckReport, draw: Callable, n_draws: int, n: int,
     return counts
 
 
+def _unbiased_counts(report: CheckReport, draw: Callable, n_draws: int, n: int, w: np.ndarray,
+                     rng: np.random.Generator, range_hint: str, zero_hint: str,
+                     biased: Callable[[int, float, float], str]) -> np.ndarray | None:
+    """The copy counts of :func:`_offspring_counts` (``n`` ancestors drawn on the weights ``w``), if they are
+    unbiased, ``E N_i = n W_i`` within 5 standard errors for every particle (:func:`_most_biased`); ``None`` after
+    reporting the problem, for a bias the sentence ``biased(i, mean_i, se_i)`` of the farthest particle."""
+    counts = _offspring_counts(report, draw, n_draws, n, w.size, rng, range_hint, zero_hint)
+    if counts is None:
+        return None
+    farthest = _most_biased(counts, w, n)
+    if farthest is not None:
+        report.problems.append(biased(*farthest))
+        return None
+    return counts
+
+
 def _index_problem(report: CheckReport, answer: object, n: int, integer_hint: str, per: str = "particle") -> bool:
     """Whether a resampler's answer is not ``n`` integer ancestor indices, an array of shape ``(n,)`` and
     integer dtype (the index ``a^i`` of the parent of each new particle ``i``); if not, the problem is
@@ -225,20 +241,15 @@ def _check_stratified(fn: Callable, n_draws: int, seed: int) -> CheckReport:
     midpoints = np.minimum(np.searchsorted(np.cumsum(w), (np.arange(n) + 0.5) / n, side="right"), N - 1)
     if not _draws_from_its_generator(report, lambda g: fn(w.copy(), n, g), midpoints):
         return report
-    counts = _offspring_counts(
-        report, lambda rng: fn(w.copy(), n, rng), n_draws, n, N, np.random.default_rng(seed),
+    counts = _unbiased_counts(
+        report, lambda rng: fn(w.copy(), n, rng), n_draws, n, w, np.random.default_rng(seed),
         "the ancestor of u is the i with C[i-1] <= u < C[i], np.searchsorted(C, u, side='right'), capped at N - 1",
         "its segment of the bar has no width, so no uniform can select it; search the cumulative weights with "
-        "side='right'")
+        "side='right'",
+        lambda i, mean_i, se_i: f"biased: particle {i} of weight {w[i]:.4f} should get n W = {n * w[i]:.3f} copies "
+        f"on average, it got {mean_i:.3f} (± {se_i:.3f}) over {n_draws} draws; the uniforms must cover [0, 1) "
+        "evenly, one in each of the n strata of width 1/n")
     if counts is None:
-        return report
-    biased = _most_biased(counts, w, n)
-    if biased is not None:
-        i, mean_i, se_i = biased
-        report.problems.append(
-            f"biased: particle {i} of weight {w[i]:.4f} should get n W = {n * w[i]:.3f} copies on average, it got "
-            f"{mean_i:.3f} (± {se_i:.3f}) over {n_draws} draws; the uniforms must cover [0, 1) evenly, "
-            "one in each of the n strata of width 1/n")
         return report
     var = counts.var(axis=0, ddof=1)
     var_se = np.sqrt(np.maximum(((counts - counts.mean(axis=0)) ** 4).mean(axis=0) - var**2, 0) / n_draws)
@@ -804,19 +815,14 @@ def _check_multinomial_resampler(fn: Callable, n_draws: int, seed: int) -> Check
     if problem is not None:
         report.problems.append(problem)
         return report
-    counts = _offspring_counts(
-        report, lambda rng: fn(w.copy(), rng), n_draws, n, n, np.random.default_rng(seed),
+    counts = _unbiased_counts(
+        report, lambda rng: fn(w.copy(), rng), n_draws, n, w, np.random.default_rng(seed),
         "np.searchsorted on the cumulative weights gives 0..N-1, with the last cumulative weight set to 1",
         "a uniform u must select the i with cumsum[i-1] <= u < cumsum[i] (np.searchsorted(np.cumsum(W), u, "
-        "side='right')), never a zero-width interval")
+        "side='right')), never a zero-width interval",
+        lambda i, mean_i, se_i: f"biased: particle {i} of weight {w[i]} should get N W = {n * w[i]:.3f} copies on "
+        f"average, it got {mean_i:.3f} (± {se_i:.3f}) over {n_draws} draws: each index is j with probability W_j")
     if counts is None:
-        return report
-    biased = _most_biased(counts, w, n)
-    if biased is not None:
-        i, mean_i, se_i = biased
-        report.problems.append(
-            f"biased: particle {i} of weight {w[i]} should get N W = {n * w[i]:.3f} copies on average, it got "
-            f"{mean_i:.3f} (± {se_i:.3f}) over {n_draws} draws: each index is j with probability W_j")
         return report
     ratio = counts.var(axis=0, ddof=1).sum() / float(np.sum(n * w * (1 - w)))
     low, high = np.floor(n * w), np.ceil(n * w)

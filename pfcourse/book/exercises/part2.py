@@ -810,20 +810,28 @@ ALTITUDE_CASE = dict(mean=np.array([1500.0, 1460.0, 1530.0, 1495.0, 1510.0]), va
                      ground=np.array([250.0, 310.0, 180.0, 270.0, 205.0]), reading=1225.0, rf=400.0)
 
 
-def _answer_on_copy(report: CheckReport, fn: Callable, case: Mapping[str, object], signature: str, returns: str):
-    """The student's answer ``fn(**case)`` called on copies of the case's arrays (a function that writes into
-    its arguments cannot change the checker's case), or ``None`` after reporting (:func:`_answer`)."""
+def _check_update(report: CheckReport, fn: Callable, case: Mapping[str, object], call: tuple[str, str],
+                  parse: Callable[[object], tuple], shape_problem: str, reference: Callable[[str | None], tuple],
+                  mistakes: Mapping[str, str], parts: tuple[str, ...], tol: tuple[float, float],
+                  differs: str) -> CheckReport:
+    """The skeleton of the Kalman-update checkers: ``fn(**case)`` is called on copies of the case's arrays (``call``:
+    its signature and what it returns, for :func:`_answer`), its answer split into outputs by ``parse`` (which
+    raises ``TypeError`` or ``ValueError`` on a wrong shape: ``shape_problem`` is reported), and the outputs ``g``
+    compared with ``reference(None)``'s ``e``, output by output, ``|g - e| <= atol + rtol |e|`` (``np.allclose``,
+    ``tol = (rtol, atol)``). Equal outputs pass; outputs equal to ``reference(mistake)`` for a key of ``mistakes``
+    name that mistake; else ``differs``, formatted with the name (of ``parts``) of the first output that is not
+    equal, says which line to check."""
     copy = {key: np.copy(value) if isinstance(value, np.ndarray) else value for key, value in case.items()}
-    return _answer(report, lambda: fn(**copy), signature, returns)
+    answer = _answer(report, lambda: fn(**copy), *call)
+    if answer is None:
+        return report
+    try:
+        got = parse(answer)
+    except (TypeError, ValueError):
+        report.problems.append(shape_problem)
+        return report
+    rtol, atol = tol
 
-
-def _name_update_mistake(report: CheckReport, got: tuple[np.ndarray, ...], reference: Callable[[str | None], tuple],
-                         mistakes: Mapping[str, str], parts: tuple[str, ...], rtol: float, atol: float,
-                         differs: str) -> CheckReport:
-    """Judge the outputs ``got`` of a Kalman update against ``reference(None)``, output by output
-    ``|g - e| <= atol + rtol |e|`` (``np.allclose``): they pass if every output is equal; else, if they equal
-    ``reference(mistake)`` for a key of ``mistakes``, that mistake is named; else ``differs``, formatted with
-    the name (of ``parts``) of the first output that is not equal, says which line to check."""
     def same(expected: tuple) -> bool:
         return all(np.allclose(g, e, rtol=rtol, atol=atol) for g, e in zip(got, expected))
 
@@ -843,22 +851,18 @@ def check_altitude_update(fn: Callable, rtol: float = 1e-9) -> CheckReport:
     """Check a student's ``fn(mean, var, ground, reading, rf) -> (mean_new, var_new, log_lik)`` on
     :data:`ALTITUDE_CASE`: each output must equal :func:`altitude_update` to ``rtol``; one that does not
     is compared with every mistake of :data:`ALTITUDE_MISTAKES`, and the report names the one that fits."""
-    report = CheckReport("altitude Kalman update of every particle")
-    answer = _answer_on_copy(report, fn, ALTITUDE_CASE, "fn(mean, var, ground, reading, rf)",
-                             "return (mean_new, var_new, log_lik)")
-    if answer is None:
-        return report
-    try:
+    def parse(answer) -> tuple:
         got = tuple(np.broadcast_to(np.asarray(part, dtype=float), (5,)) for part in answer)
         if len(got) != 3:
             raise ValueError
-    except (TypeError, ValueError):
-        report.problems.append("return three arrays of one value per particle (shape (5,)): the new means, the new "
-                               "variances and the log-weight increments")
-        return report
-    return _name_update_mistake(
-        report, got, lambda mistake: altitude_update(**ALTITUDE_CASE, mistake=mistake), ALTITUDE_MISTAKES,
-        ("mean", "variance", "log-weight increment"), rtol, 1e-12,
+        return got
+
+    return _check_update(
+        CheckReport("altitude Kalman update of every particle"), fn, ALTITUDE_CASE,
+        ("fn(mean, var, ground, reading, rf)", "return (mean_new, var_new, log_lik)"), parse,
+        "return three arrays of one value per particle (shape (5,)): the new means, the new variances and the "
+        "log-weight increments", lambda mistake: altitude_update(**ALTITUDE_CASE, mistake=mistake),
+        ALTITUDE_MISTAKES, ("mean", "variance", "log-weight increment"), (rtol, 1e-12),
         "the {part} differs from the Kalman update (nu = y - (m - h), S = P + Rf, K = P / S, m' = m + K nu, "
         "P' = (1 - K) P, log N(nu; 0, S)): check that line")
 
@@ -918,22 +922,18 @@ def check_bias_update(fn: Callable, rtol: float = 1e-9) -> CheckReport:
     """Check ``fn(m, P, ground, reading, rf) -> (m_new, P_new, log_lik)`` on :data:`BIAS_CASE` against
     :func:`bias_update`; a wrong answer is compared with every mistake of :data:`BIAS_MISTAKES`, and the report
     names the one that fits."""
-    report = CheckReport("altitude and map-bias Kalman update of every particle")
-    answer = _answer_on_copy(report, fn, BIAS_CASE, "fn(m, P, ground, reading, rf)", "return (m_new, P_new, log_lik)")
-    if answer is None:
-        return report
-    shapes = ((5, 2), (5, 3), (5,))
-    try:
+    def parse(answer) -> tuple:
         if len(answer) != 3:
             raise ValueError
-        got = tuple(np.asarray(part, dtype=float).reshape(shape) for part, shape in zip(answer, shapes))
-    except (TypeError, ValueError):
-        report.problems.append("return three arrays: the new means (N, 2), the new covariances (N, 3) as "
-                               "(P_zz, P_zb, P_bb), and the log-weight increments (N,)")
-        return report
-    return _name_update_mistake(
-        report, got, lambda mistake: bias_update(**BIAS_CASE, mistake=mistake), BIAS_MISTAKES,
-        ("means", "covariances", "log-weight increments"), rtol, 1e-9,
+        shapes = ((5, 2), (5, 3), (5,))
+        return tuple(np.asarray(part, dtype=float).reshape(shape) for part, shape in zip(answer, shapes))
+
+    return _check_update(
+        CheckReport("altitude and map-bias Kalman update of every particle"), fn, BIAS_CASE,
+        ("fn(m, P, ground, reading, rf)", "return (m_new, P_new, log_lik)"), parse,
+        "return three arrays: the new means (N, 2), the new covariances (N, 3) as (P_zz, P_zb, P_bb), and the "
+        "log-weight increments (N,)", lambda mistake: bias_update(**BIAS_CASE, mistake=mistake),
+        BIAS_MISTAKES, ("means", "covariances", "log-weight increments"), (rtol, 1e-9),
         "the {part} differ from the Kalman update with H = [1, 1] (nu = y - (m_z + m_b - h_f), S = H P H^T + Rf, "
         "K = P H^T / S, m' = m + K nu, P' = P - K K^T S, log N(nu; 0, S)): check that line")
 
