@@ -9,6 +9,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 from scipy import stats
+from scipy.ndimage import map_coordinates
 
 from pfcourse.book.exercises.part2 import (ALTIMETER_DX, ALTIMETER_DY, ALTIMETER_HEIGHTS, ALTIMETER_RF,
                                            ROBUST_ALTIMETER_MISTAKES, ROBUST_EPS, ROBUST_Y_MAX,
@@ -16,20 +17,20 @@ from pfcourse.book.exercises.part2 import (ALTIMETER_DX, ALTIMETER_DY, ALTIMETER
 
 
 def reference(particles, y, heights, dx, dy, rf, eps, y_max):
+    """The answer written apart from the checker's and the chapter's code: the height by scipy's bilinear
+    interpolation (``map_coordinates`` of order 1, rows indexed by y / dy and columns by x / dx), the Gaussian
+    term by scipy's normal log-density."""
     ny, nx = heights.shape
     col, row = particles[:, 0] / dx, particles[:, 1] / dy
     inside = (col >= 0) & (col <= nx - 1) & (row >= 0) & (row <= ny - 1)
-    j = np.clip(np.floor(col), 0, nx - 2).astype(int)
-    i = np.clip(np.floor(row), 0, ny - 2).astype(int)
-    s, t = np.clip(col - j, 0, 1), np.clip(row - i, 0, 1)
-    h = ((1 - s) * (1 - t) * heights[i, j] + s * (1 - t) * heights[i, j + 1]
-         + (1 - s) * t * heights[i + 1, j] + s * t * heights[i + 1, j + 1])
+    h = map_coordinates(heights, [row, col], order=1, mode="nearest")
     log_gauss = stats.norm.logpdf(y, particles[:, 2] - h, np.sqrt(rf))
     return np.where(inside, np.logaddexp(np.log1p(-eps) + log_gauss, np.log(eps / y_max)), -np.inf)
 
 
-def test_the_reference_passes():
-    report = check_robust_altimeter(reference)
+@pytest.mark.parametrize("seed", range(3))
+def test_the_reference_passes(seed):
+    report = check_robust_altimeter(reference, seed=seed)
     assert report.ok, str(report)
 
 

@@ -541,9 +541,8 @@ def test_consistency_shapes_and_other_errors_are_explained():
     assert "bounds included" in check_consistency(bounds_excluded).problems[0]
 
 
-# --- check_ess (chapter 18) and check_lock_on (chapter 19)
-from pfcourse.book.exercises import (ESS_MISTAKES, LOCK_MISTAKES, check_ess, check_lock_on,  # noqa: E402
-                                effective_sample_size_from_logs, lock_on_cases, lock_on_reference)
+# --- check_ess (chapter 18)
+from pfcourse.book.exercises import ESS_MISTAKES, check_ess, effective_sample_size_from_logs  # noqa: E402
 
 
 def test_ess_reference_passes_and_agrees_with_the_package():
@@ -568,22 +567,6 @@ def test_ess_other_answers_are_explained():
     assert "differ from 1 / sum_i W_i^2" in check_ess(lambda lw: 2.0).problems[0]
 
 
-def test_lock_on_reference_passes_and_each_case_separates_a_mistake():
-    assert check_lock_on(lambda p, h, dt, w: lock_on_reference(p, h, dt, w)).ok
-    for mistake in LOCK_MISTAKES:  # some case tells each mistake from the definition
-        assert any(lock_on_reference(p, h, dt, 20.0, mistake) != lock_on_reference(p, h, dt)
-                   for p, h, dt in lock_on_cases()), mistake
-
-
-@pytest.mark.parametrize("mistake", list(LOCK_MISTAKES))
-def test_lock_on_mistakes_are_named(mistake):
-    report = check_lock_on(lambda p, h, dt, w: lock_on_reference(p, h, dt, w, mistake))
-    assert not report.ok and LOCK_MISTAKES[mistake] in report.problems[0]
-
-
-def test_lock_on_other_answers_are_explained():
-    assert "not True or False" in check_lock_on(lambda p, h, dt, w: 1.0).problems[0]
-    assert "wrong verdict" in check_lock_on(lambda p, h, dt, w: True).problems[0]
 # The pose-density checker (chapter 11): the reference solution, and typical mistakes written as a
 # student would.
 def pose_log_density(x, z, landmark, sd, *, bearing_added=False, no_jacobian=False, no_direction=False,
@@ -781,90 +764,6 @@ def test_odd_estimator_answers_are_named():
     assert "raised ZeroDivisionError" in str(check_likelihood_estimate(lambda log_w, r: 1 / 0))
 
 
-# --- terrain: the altimeter likelihood on a DEM (chapter 14) and the regularised jitter (chapter 15) ---
-
-from pfcourse.book.exercises import (ALTIMETER_MISTAKES, altimeter_log_likelihood,  # noqa: E402
-                                check_altimeter_likelihood, check_regularised_jitter)
-
-
-def altimeter_bilinear(particles, y, heights, dx, dy, rf, mistake=None):
-    """A student's answer written apart from the checker's reference: scipy's bilinear interpolation."""
-    from scipy.ndimage import map_coordinates
-    ny, nx = heights.shape
-    col, row = particles[:, 0] / dx, particles[:, 1] / dy
-    inside = (col >= 0) & (col <= nx - 1) & (row >= 0) & (row <= ny - 1)
-    ground = map_coordinates(heights, [row, col], order=1, mode="nearest")
-    out = -0.5 * (y - (particles[:, 2] - ground)) ** 2 / rf - 0.5 * np.log(2 * np.pi * rf)
-    if mistake == "nan_off_map":
-        return np.where(inside, out, np.nan)
-    return np.where(inside, out, -np.inf)
-
-
-def test_the_reference_altimeter_likelihoods_pass():
-    assert check_altimeter_likelihood(altimeter_log_likelihood).ok
-    for seed in range(3):
-        report = check_altimeter_likelihood(altimeter_bilinear, seed=seed)
-        assert report.ok, str(report)
-
-
-@pytest.mark.parametrize("mistake, says", [
-    ("swapped", "x indexes the columns"),
-    ("nearest", "nearest node"),
-    ("rf_as_sd", "Rf is the variance"),
-    ("sign", "not h(x, y) - z"),
-    ("no_constant", "-(1/2) log(2 pi Rf)"),
-])
-def test_each_typical_altimeter_mistake_gets_its_own_sentence(mistake, says):
-    report = check_altimeter_likelihood(lambda *a: altimeter_log_likelihood(*a, mistake=mistake))
-    assert not report.ok and len(report.problems) == 1
-    assert says in report.problems[0] and report.problems[0].endswith(ALTIMETER_MISTAKES[mistake])
-
-
-def test_an_off_map_particle_that_is_not_minus_infinity_is_named():
-    report = check_altimeter_likelihood(lambda *a: altimeter_bilinear(*a, mistake="nan_off_map"))
-    assert not report.ok and "must get log-likelihood -inf" in report.problems[0]
-
-
-def test_an_empty_altimeter_answer_gets_a_plain_sentence():
-    report = check_altimeter_likelihood(lambda *a: None)
-    assert report.problems == ["the function returned None: return one log-likelihood per particle"]
-
-
-def regularised_move(particles, scale, rng, mistake=None):
-    """The kernel move x + h S^(1/2) eps, and its typical mistakes."""
-    n, d = particles.shape
-    S = np.cov(particles, rowvar=False)
-    h = scale * (4 / (d + 2)) ** (1 / (d + 4)) * n ** (-1 / (d + 4))
-    if mistake == "no_h":
-        h = 1.0
-    if mistake == "exponent":
-        h = scale * (4 / (d + 2)) ** (1 / (d + 4)) * n ** (-1 / d)
-    root = {"S": S, "identity": np.eye(d)}.get(mistake, np.linalg.cholesky(S))
-    eps = np.tile(rng.standard_normal(d), (n, 1)) if mistake == "shared" else rng.standard_normal((n, d))
-    return particles + h * eps @ root.T
-
-
-def test_the_reference_jitters_pass_on_every_seed_tried():
-    from pfcourse.jitter import RegularisedJitter
-    for seed in range(4):
-        for fn in (regularised_move, lambda p, s, rng: RegularisedJitter(s)(p, rng)):
-            report = check_regularised_jitter(fn, seed=seed)
-            assert report.ok, str(report)
-
-
-@pytest.mark.parametrize("mistake, says", [
-    ("no_h", "multiply the kernel draw by the bandwidth"),
-    ("exponent", "uses N^(-1/d)"),
-    ("S", "not by S"),
-    ("identity", "the same spread in every direction"),
-    ("shared", "every particle moves by the same amount"),
-])
-def test_each_typical_jitter_mistake_gets_its_own_sentence(mistake, says):
-    report = check_regularised_jitter(lambda p, s, rng: regularised_move(p, s, rng, mistake))
-    assert not report.ok and len(report.problems) == 1
-    assert says in report.problems[0], report.problems[0]
-
-
 # --- chapter 13: the likelihood-field log-weight (check_likelihood_field) -------------------------------
 def student_field(poses, z, field, keep_max=False, no_heading=False, no_rand=False, no_constant=False,
                   product=False):
@@ -915,30 +814,6 @@ def test_likelihood_field_checker_names_odd_answers():
     assert "shape (40, 1)" in check_likelihood_field(lambda p, z, f: np.zeros((len(p), 1))).problems[0]
     assert check_likelihood_field(lambda p, z, f: None).problems == [
         "the function returned None: compute and return one log-weight per pose"]
-
-
-# --- check_paired_se (chapter 17)
-from pfcourse.book.exercises import PAIRED_CASE, PAIRED_MISTAKES, check_paired_se, paired_standard_errors  # noqa: E402
-
-
-def test_paired_se_reference_passes_and_pairing_pays():
-    assert check_paired_se(paired_standard_errors).ok
-    paired, unpaired = paired_standard_errors(*PAIRED_CASE)
-    assert paired < unpaired / 3  # the case's runs are strongly correlated
-    a, b = PAIRED_CASE
-    assert paired == pytest.approx(np.std(a - b, ddof=1) / np.sqrt(len(a)), rel=1e-12)
-
-
-@pytest.mark.parametrize("mistake", list(PAIRED_MISTAKES))
-def test_paired_se_mistakes_are_named(mistake):
-    report = check_paired_se(lambda a, b: paired_standard_errors(a, b, mistake))
-    assert not report.ok and PAIRED_MISTAKES[mistake] in report.problems[0]
-
-
-def test_paired_se_other_answers_are_explained():
-    assert "not two numbers" in check_paired_se(lambda a, b: 1.0).problems[0]
-    assert "larger than the unpaired" in check_paired_se(lambda a, b: (1.0, 0.5)).problems[0]
-    assert "differ from sd(a - b)" in check_paired_se(lambda a, b: (0.001, 0.5)).problems[0]
 
 
 def _altitude(mean, var, ground, reading, rf, mistake=None):

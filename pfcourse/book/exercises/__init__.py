@@ -110,9 +110,6 @@ exception is reported as a problem); ``str(report)`` prints the verdict.
 * :func:`check_ess` - ``fn(log_weights) -> ess``: the effective sample size ``1 / sum_i W_i^2`` from
   log-weights (chapter 21), on cases that underflow and overflow in the linear domain; weights not
   normalised, a fraction instead of a number and exponentiation without the maximum subtracted are named.
-* :func:`check_lock_on` - ``fn(pos_err, head_err, dt, window_s) -> bool``: the book's one definition of
-  *locked on* (:func:`pfcourse.metrics.locked_on`, chapter 22); the last step only, the heading ignored,
-  the window read in steps and the whole run required are named.
 * :func:`check_pose_density` - ``fn(x, z, landmark, sd) -> (N,)``: the log-density ``log q_z(x)`` of a
   pose drawn from a range-bearing reading (chapter 12), against :func:`pose_reading_log_density`; the
   mistakes of :data:`POSE_DENSITY_MISTAKES` (the bearing added, the Jacobian ``1 / h_r``, the
@@ -145,9 +142,6 @@ exception is reported as a problem); ``str(report)`` prints the verdict.
 * :func:`check_time_to_lock` - ``fn(pos_err, head_err, dt) -> float or None``: the time from which a run stays
   locked on to its end (chapter 22's coding exercise); the first entry, a step number, ``<=``, the heading
   ignored and the last step outside are named.
-* :func:`check_paired_se` - ``fn(a, b) -> (paired_se, unpaired_se)``: the standard error of a difference of
-  means over the same runs, paired and as if unpaired (chapter 20); the population standard deviation,
-  a division by ``n``, standard deviations added and the pairing ignored are named.
 
 Each Part ends with a capstone (:mod:`.capstones`):
 
@@ -292,7 +286,6 @@ from pfcourse.book.exercises.part2 import (  # noqa: F401
     _wrap,
     altimeter_log_likelihood,
     altitude_update,
-    check_altimeter_likelihood,
     check_altitude_update,
     check_beam_reading,
     check_bias_update,
@@ -302,7 +295,6 @@ from pfcourse.book.exercises.part2 import (  # noqa: F401
     check_range_bearing_jacobian,
     check_relative_jacobian,
     check_range_bearing_log_weights,
-    check_regularised_jitter,
     check_epanechnikov_move,
     check_robust_altimeter,
     robust_altimeter_log_likelihood,
@@ -323,19 +315,10 @@ from pfcourse.book.exercises.part3 import (  # noqa: F401
     ADAPTIVE_MISTAKES,
     ESS_CASES,
     ESS_MISTAKES,
-    LOCK_MISTAKES,
-    PAIRED_CASE,
-    PAIRED_MISTAKES,
-    _paired_case,
     adaptive_residual,
     check_adaptive_residual,
     check_ess,
-    check_lock_on,
-    check_paired_se,
     effective_sample_size_from_logs,
-    lock_on_cases,
-    lock_on_reference,
-    paired_standard_errors,
     RATIO_CASE,
     RATIO_MISTAKES,
     TIME_TO_LOCK_MISTAKES,

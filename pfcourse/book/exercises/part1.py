@@ -34,14 +34,7 @@ def check_resampler(fn: Callable, n_draws: int = 4000, seed: int = 0) -> CheckRe
     n = w.size
     first = _answer(report, lambda: fn(w.copy(), rng), "fn(weights, rng)",
                     "write the resampler and return the N ancestor indices")
-    if first is None:
-        return report
-    first = np.asarray(first)
-    if first.shape != (n,):
-        report.problems.append(f"returned shape {first.shape}; expected ({n},), one ancestor index per particle")
-        return report
-    if first.dtype.kind not in "iu":
-        report.problems.append(f"returned dtype {first.dtype}; indices must be integers (use astype(int))")
+    if first is None or _index_problem(report, first, n, "use astype(int)"):
         return report
     counts = np.empty((n_draws, n))
     for t in range(n_draws):
@@ -58,18 +51,17 @@ def check_resampler(fn: Callable, n_draws: int = 4000, seed: int = 0) -> CheckRe
             "a particle of weight 0 was chosen: u must select the i with cumsum[i-1] < u <= cumsum[i] "
             "(np.searchsorted(np.cumsum(w), u)), which never lands on a zero-width interval"
         )
-    mean, se = counts.mean(axis=0), counts.std(axis=0, ddof=1) / np.sqrt(n_draws)
-    bad = np.abs(mean - n * w) > 5 * se + 1e-9
-    if bad.any():
-        i = int(np.argmax(np.abs(mean - n * w) - 5 * se))
+    biased = _most_biased(counts, w, n)
+    if biased is not None:
+        i, mean_i, se_i = biased
         report.problems.append(
             f"biased: particle {i} of weight {w[i]} should get N W = {n * w[i]:.3f} copies on "
-            f"average, it got {mean[i]:.3f} (± {se[i]:.3f}) over {n_draws} draws"
+            f"average, it got {mean_i:.3f} (± {se_i:.3f}) over {n_draws} draws"
         )
     if np.all(counts.std(axis=0) == 0) and not np.allclose(n * w, np.round(n * w)):
         report.problems.append("the result never changes: the rng is not used")
     total_var, multinomial_var = counts.var(axis=0, ddof=1).sum(), float(np.sum(n * w * (1 - w)))
-    if not bad.any() and total_var > _VARIANCE_MARGIN * multinomial_var:
+    if biased is None and total_var > _VARIANCE_MARGIN * multinomial_var:
         report.problems.append(
             f"the copy counts are right on average but too variable: sum of Var N_i is {total_var:.2f}, more "
             f"than multinomial resampling's sum of N W_i (1 - W_i) = {multinomial_var:.2f}; each particle "
@@ -170,6 +162,36 @@ def _offspring_counts(report: CheckReport, draw: Callable, n_draws: int, n: int,
     return counts
 
 
+def _unbiased_counts(report: CheckReport, draw: Callable, n_draws: int, n: int, w: np.ndarray,
+                     rng: np.random.Generator, range_hint: str, zero_hint: str,
+                     biased: Callable[[int, float, float], str]) -> np.ndarray | None:
+    """The copy counts of :func:`_offspring_counts` (``n`` ancestors drawn on the weights ``w``), if they are
+    unbiased, ``E N_i = n W_i`` within 5 standard errors for every particle (:func:`_most_biased`); ``None`` after
+    reporting the problem, for a bias the sentence ``biased(i, mean_i, se_i)`` of the farthest particle."""
+    counts = _offspring_counts(report, draw, n_draws, n, w.size, rng, range_hint, zero_hint)
+    if counts is None:
+        return None
+    farthest = _most_biased(counts, w, n)
+    if farthest is not None:
+        report.problems.append(biased(*farthest))
+        return None
+    return counts
+
+
+def _index_problem(report: CheckReport, answer: object, n: int, integer_hint: str, per: str = "particle") -> bool:
+    """Whether a resampler's answer is not ``n`` integer ancestor indices, an array of shape ``(n,)`` and
+    integer dtype (the index ``a^i`` of the parent of each new particle ``i``); if not, the problem is
+    reported in one sentence (``integer_hint`` says how to get integers, ``per`` what each index is for)."""
+    answer = np.asarray(answer)
+    if answer.shape != (n,):
+        report.problems.append(f"returned shape {answer.shape}; expected ({n},), one ancestor index per {per}")
+        return True
+    if answer.dtype.kind not in "iu":
+        report.problems.append(f"returned dtype {answer.dtype}; indices must be integers ({integer_hint})")
+        return True
+    return False
+
+
 def _most_biased(counts: np.ndarray, w: np.ndarray, n: int) -> tuple[int, float, float] | None:
     """The particle whose mean copy count is farthest from ``n W_i`` beyond 5 standard errors (an unbiased
     scheme gives ``E N_i = n W_i``): ``(i, mean, se)``, or ``None`` when every particle is within."""
@@ -214,30 +236,20 @@ def _check_stratified(fn: Callable, n_draws: int, seed: int) -> CheckReport:
         report.problems.append(f"returned {N} indices, one per weight; the resampler must draw n = {n} new "
                                "particles: n strata of width 1/n, one uniform in each, so n indices")
         return report
-    if first.shape != (n,):
-        report.problems.append(f"returned shape {first.shape}; expected ({n},), one ancestor index per new "
-                               "particle (indices, not copy counts)")
-        return report
-    if first.dtype.kind not in "iu":
-        report.problems.append(f"returned dtype {first.dtype}; indices must be integers (use astype(int))")
+    if _index_problem(report, first, n, "use astype(int)", "new particle (indices, not copy counts)"):
         return report
     midpoints = np.minimum(np.searchsorted(np.cumsum(w), (np.arange(n) + 0.5) / n, side="right"), N - 1)
     if not _draws_from_its_generator(report, lambda g: fn(w.copy(), n, g), midpoints):
         return report
-    counts = _offspring_counts(
-        report, lambda rng: fn(w.copy(), n, rng), n_draws, n, N, np.random.default_rng(seed),
+    counts = _unbiased_counts(
+        report, lambda rng: fn(w.copy(), n, rng), n_draws, n, w, np.random.default_rng(seed),
         "the ancestor of u is the i with C[i-1] <= u < C[i], np.searchsorted(C, u, side='right'), capped at N - 1",
         "its segment of the bar has no width, so no uniform can select it; search the cumulative weights with "
-        "side='right'")
+        "side='right'",
+        lambda i, mean_i, se_i: f"biased: particle {i} of weight {w[i]:.4f} should get n W = {n * w[i]:.3f} copies "
+        f"on average, it got {mean_i:.3f} (± {se_i:.3f}) over {n_draws} draws; the uniforms must cover [0, 1) "
+        "evenly, one in each of the n strata of width 1/n")
     if counts is None:
-        return report
-    biased = _most_biased(counts, w, n)
-    if biased is not None:
-        i, mean_i, se_i = biased
-        report.problems.append(
-            f"biased: particle {i} of weight {w[i]:.4f} should get n W = {n * w[i]:.3f} copies on average, it got "
-            f"{mean_i:.3f} (± {se_i:.3f}) over {n_draws} draws; the uniforms must cover [0, 1) evenly, "
-            "one in each of the n strata of width 1/n")
         return report
     var = counts.var(axis=0, ddof=1)
     var_se = np.sqrt(np.maximum(((counts - counts.mean(axis=0)) ** 4).mean(axis=0) - var**2, 0) / n_draws)
@@ -797,32 +809,20 @@ def _check_multinomial_resampler(fn: Callable, n_draws: int, seed: int) -> Check
     n = w.size
     first = _answer(report, lambda: fn(w.copy(), np.random.default_rng(seed)), "fn(weights, rng)",
                     "write the resampler and return the N ancestor indices")
-    if first is None:
-        return report
-    first = np.asarray(first)
-    if first.shape != (n,):
-        report.problems.append(f"returned shape {first.shape}; expected ({n},), one ancestor index per particle")
-        return report
-    if first.dtype.kind not in "iu":
-        report.problems.append(f"returned dtype {first.dtype}; indices must be integers (np.searchsorted gives them)")
+    if first is None or _index_problem(report, first, n, "np.searchsorted gives them"):
         return report
     problem = _generator_problem(lambda rng: np.asarray(fn(w.copy(), rng)), np.array_equal, what="set of indices")
     if problem is not None:
         report.problems.append(problem)
         return report
-    counts = _offspring_counts(
-        report, lambda rng: fn(w.copy(), rng), n_draws, n, n, np.random.default_rng(seed),
+    counts = _unbiased_counts(
+        report, lambda rng: fn(w.copy(), rng), n_draws, n, w, np.random.default_rng(seed),
         "np.searchsorted on the cumulative weights gives 0..N-1, with the last cumulative weight set to 1",
         "a uniform u must select the i with cumsum[i-1] <= u < cumsum[i] (np.searchsorted(np.cumsum(W), u, "
-        "side='right')), never a zero-width interval")
+        "side='right')), never a zero-width interval",
+        lambda i, mean_i, se_i: f"biased: particle {i} of weight {w[i]} should get N W = {n * w[i]:.3f} copies on "
+        f"average, it got {mean_i:.3f} (± {se_i:.3f}) over {n_draws} draws: each index is j with probability W_j")
     if counts is None:
-        return report
-    biased = _most_biased(counts, w, n)
-    if biased is not None:
-        i, mean_i, se_i = biased
-        report.problems.append(
-            f"biased: particle {i} of weight {w[i]} should get N W = {n * w[i]:.3f} copies on average, it got "
-            f"{mean_i:.3f} (± {se_i:.3f}) over {n_draws} draws: each index is j with probability W_j")
         return report
     ratio = counts.var(axis=0, ddof=1).sum() / float(np.sum(n * w * (1 - w)))
     low, high = np.floor(n * w), np.ceil(n * w)

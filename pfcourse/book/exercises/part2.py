@@ -226,7 +226,7 @@ def _check_bearing_pose_draw(fn: Callable, n: int, seed: int) -> CheckReport:
     return report
 
 
-#: A small DEM for :func:`check_altimeter_likelihood`: 7 rows (north) by 9 columns (east), cells of
+#: A small DEM for :func:`check_robust_altimeter`: 7 rows (north) by 9 columns (east), cells of
 #: 80 m east-west and 100 m north-south (unequal, and a non-square grid, so swapped axes show).
 ALTIMETER_HEIGHTS = 300.0 + 60.0 * np.sin(np.arange(7)[:, None] * 0.9) * np.cos(np.arange(9)[None, :] * 0.7) \
     + 25.0 * np.arange(9)[None, :]
@@ -271,55 +271,6 @@ def altimeter_log_likelihood(particles: np.ndarray, y: float, heights: np.ndarra
     var = rf**2 if mistake == "rf_as_sd" else rf
     out = -0.5 * (y - predicted) ** 2 / var - (0.0 if mistake == "no_constant" else 0.5 * np.log(2 * np.pi * var))
     return np.where(inside, out, -np.inf)
-
-
-def check_altimeter_likelihood(fn: Callable, seed: int = 0) -> CheckReport:
-    """Check ``fn(particles, y, heights, dx, dy, rf) -> (N,)``, the altimeter's log-likelihood on a DEM.
-
-    ``log p(y | x^i) = log N(y; z^i - h(x^i, y^i), Rf)``, with ``h`` the bilinear height of the map
-    ``heights[i, j]`` at ``(j dx, i dy)`` (row 0 the south) and ``-inf`` off the map. Compared with
-    :func:`altimeter_log_likelihood` to round-off on particles drawn over the test map
-    :data:`ALTIMETER_HEIGHTS` (a few of them off it); a wrong answer is compared with each mistake of
-    :data:`ALTIMETER_MISTAKES` and the one that fits is named.
-    """
-    report = CheckReport("altimeter likelihood")
-    rng = np.random.default_rng(seed)
-    ny, nx = ALTIMETER_HEIGHTS.shape
-    n = 200
-    particles = np.column_stack([rng.uniform(-40, (nx - 1) * ALTIMETER_DX + 40, n),
-                                 rng.uniform(-40, (ny - 1) * ALTIMETER_DY + 40, n),
-                                 rng.normal(1000.0, 30.0, n), rng.uniform(-np.pi, np.pi, n)])
-    y = 600.0
-    answer = _answer(report, lambda: fn(particles.copy(), y, ALTIMETER_HEIGHTS.copy(), ALTIMETER_DX, ALTIMETER_DY,
-                                        ALTIMETER_RF), "fn(particles, y, heights, dx, dy, rf)",
-                     "return one log-likelihood per particle")
-    if answer is None or not _shaped(report, answer, (n,), "one log-likelihood per particle (a row of particles)"):
-        return report
-    answer = np.asarray(answer, dtype=float)
-    exact = altimeter_log_likelihood(particles, y, ALTIMETER_HEIGHTS, ALTIMETER_DX, ALTIMETER_DY, ALTIMETER_RF)
-    off = ~np.isfinite(exact)
-
-    def fits(values):
-        gone = ~np.isfinite(values)
-        return (np.array_equal(gone, answer == -np.inf)
-                and np.allclose(answer[~gone], values[~gone], rtol=1e-9, atol=1e-9))
-
-    if fits(exact):
-        return report
-    for mistake, why in ALTIMETER_MISTAKES.items():
-        if fits(altimeter_log_likelihood(particles, y, ALTIMETER_HEIGHTS, ALTIMETER_DX, ALTIMETER_DY,
-                                         ALTIMETER_RF, mistake)):
-            report.problems.append(f"your function computes a known mistake: {why}")
-            return report
-    if not np.all(answer[off] == -np.inf):
-        report.problems.append("a particle off the map must get log-likelihood -inf (likelihood zero: there is no "
-                               "terrain under it), not a number or NaN")
-        return report
-    k = int(np.argmax(np.where(off, -np.inf, np.abs(answer - exact))))
-    report.problems.append(f"particle {k} at ({particles[k, 0]:.0f}, {particles[k, 1]:.0f}) m gets {answer[k]:.4f}, "
-                           f"not {exact[k]:.4f}: check the bilinear weights (1-s)(1-t), s(1-t), (1-s)t, st and "
-                           "the Gaussian log-density of y - (z - h)")
-    return report
 
 
 #: The junk-reading altimeter of :func:`check_robust_altimeter` (chapter 17, exercise 17.4): with
@@ -415,7 +366,7 @@ def check_robust_altimeter(fn: Callable, seed: int = 0) -> CheckReport:
     return report
 
 
-#: The cloud of :func:`check_regularised_jitter`: N particles in d = 3 dimensions, correlated and of
+#: The cloud of :func:`check_epanechnikov_move`: N particles in d = 3 dimensions, correlated and of
 #: unequal scales (so that a move with S instead of S^{1/2}, or with the identity, shows).
 JITTER_N = 20_000
 
@@ -424,63 +375,6 @@ JITTER_SCALE = 0.5
 
 
 JITTER_COV = np.array([[400.0**2, 0.6 * 400.0 * 50.0, 0.0], [0.6 * 400.0 * 50.0, 50.0**2, 0.0], [0.0, 0.0, 0.2**2]])
-
-
-def check_regularised_jitter(fn: Callable, seed: int = 0) -> CheckReport:
-    """Check ``fn(particles, scale, rng) -> moved``, the regularised filter's kernel move.
-
-    ``x^i <- x^i + h S^{1/2} eps^i``, ``eps^i ~ N(0, I_d)`` independent for each particle, ``S`` the
-    cloud's covariance and ``h = scale * h_opt``, ``h_opt = (4 / (d + 2))^{1/(d+4)} N^{-1/(d+4)}``. The
-    moves ``D = moved - particles`` of a cloud of :data:`JITTER_N` correlated particles must have mean 0
-    and covariance ``h^2 S``: whitened by ``S`` and divided by ``h^2``, the covariance of ``D`` must be
-    the identity within 0.06 per entry (six standard errors, ``sqrt(2/N)`` each); the typical mistakes
-    (no bandwidth, ``S`` for its square root, the identity for ``S``, one draw shared by every particle,
-    the wrong exponent of ``N``) are named.
-    """
-    report = CheckReport("regularised jitter")
-    rng = np.random.default_rng(seed)
-    n, d = JITTER_N, JITTER_COV.shape[0]
-    particles = rng.multivariate_normal([1000.0, -200.0, 1.0], JITTER_COV, n)
-    answer = _answer(report, lambda: fn(particles.copy(), JITTER_SCALE, np.random.default_rng(run_filter_seed(seed))),
-                     "fn(particles, scale, rng)", "return the moved particles, an array like particles")
-    if answer is None:
-        return report
-    moved = np.asarray(answer, dtype=float)
-    if moved.shape != particles.shape:
-        report.problems.append(f"the answer has shape {moved.shape}, not {particles.shape}: return every particle, moved")
-        return report
-    D = moved - particles
-    S = np.cov(particles, rowvar=False)
-    h = JITTER_SCALE * (4.0 / (d + 2)) ** (1.0 / (d + 4)) * n ** (-1.0 / (d + 4))
-    L = np.linalg.cholesky(S)
-    white = np.linalg.solve(L, D.T).T  # moves in the cloud's own coordinates: covariance h^2 I if right
-    C = np.cov(white, rowvar=False)
-    if np.all(np.abs(C) < 1e-12 * h**2):
-        report.problems.append("every particle moves by the same amount (or not at all): draw one independent "
-                               "eps^i ~ N(0, I_d) per particle, an (N, d) array")
-        return report
-    if np.max(np.abs(white.mean(axis=0)) / np.sqrt(np.diag(C))) > 6 / np.sqrt(n):
-        report.problems.append("the moves do not average to zero: the kernel is centred on each particle, "
-                               "x^i + h S^(1/2) eps^i with eps^i of mean 0")
-        return report
-    if np.max(np.abs(C / h**2 - np.eye(d))) < 0.06:
-        return report
-    ratio = np.trace(C) / d / h**2
-    raw = np.cov(D, rowvar=False)
-    if np.max(np.abs(C - np.eye(d))) < 0.06:
-        why = "the moves have covariance S, not h^2 S: multiply the kernel draw by the bandwidth h = scale * h_opt"
-    elif np.allclose(np.diag(raw) / h**2, 1.0, atol=0.06):
-        why = ("the moves have the same spread in every direction: scale them by a square root of the cloud's "
-               "covariance S, so a component spread over km moves by more than one spread over cm")
-    elif np.allclose(np.diag(raw) / h**2, np.diag(S @ S), rtol=0.1):
-        why = "the moves have covariance h^2 S^2: multiply eps by a square root of S (Cholesky or eigen), not by S"
-    elif abs(ratio - (n ** (-1.0 / d) / n ** (-1.0 / (d + 4))) ** 2) < 0.1 * ratio:
-        why = "the bandwidth uses N^(-1/d): the optimal one is (4 / (d + 2))^(1/(d+4)) N^(-1/(d+4))"
-    else:
-        why = (f"the moves' covariance is {ratio:.3g} times h^2 S (averaged over the axes), not h^2 S: check h_opt "
-               "and the square root of S")
-    report.problems.append(why)
-    return report
 
 
 #: mistake -> the sentence that names it (:func:`epanechnikov_move`'s ``mistake``), for
@@ -916,40 +810,61 @@ ALTITUDE_CASE = dict(mean=np.array([1500.0, 1460.0, 1530.0, 1495.0, 1510.0]), va
                      ground=np.array([250.0, 310.0, 180.0, 270.0, 205.0]), reading=1225.0, rf=400.0)
 
 
+def _check_update(report: CheckReport, fn: Callable, case: Mapping[str, object], call: tuple[str, str],
+                  parse: Callable[[object], tuple], shape_problem: str, reference: Callable[[str | None], tuple],
+                  mistakes: Mapping[str, str], parts: tuple[str, ...], tol: tuple[float, float],
+                  differs: str) -> CheckReport:
+    """The skeleton of the Kalman-update checkers: ``fn(**case)`` is called on copies of the case's arrays (``call``:
+    its signature and what it returns, for :func:`_answer`), its answer split into outputs by ``parse`` (which
+    raises ``TypeError`` or ``ValueError`` on a wrong shape: ``shape_problem`` is reported), and the outputs ``g``
+    compared with ``reference(None)``'s ``e``, output by output, ``|g - e| <= atol + rtol |e|`` (``np.allclose``,
+    ``tol = (rtol, atol)``). Equal outputs pass; outputs equal to ``reference(mistake)`` for a key of ``mistakes``
+    name that mistake; else ``differs``, formatted with the name (of ``parts``) of the first output that is not
+    equal, says which line to check."""
+    copy = {key: np.copy(value) if isinstance(value, np.ndarray) else value for key, value in case.items()}
+    answer = _answer(report, lambda: fn(**copy), *call)
+    if answer is None:
+        return report
+    try:
+        got = parse(answer)
+    except (TypeError, ValueError):
+        report.problems.append(shape_problem)
+        return report
+    rtol, atol = tol
+
+    def same(expected: tuple) -> bool:
+        return all(np.allclose(g, e, rtol=rtol, atol=atol) for g, e in zip(got, expected))
+
+    if same(reference(None)):
+        return report
+    for mistake, why in mistakes.items():
+        if same(reference(mistake)):
+            report.problems.append(f"your update computes a known mistake: {why}")
+            return report
+    exact = reference(None)
+    part = next(name for name, g, e in zip(parts, got, exact) if not np.allclose(g, e, rtol=rtol, atol=atol))
+    report.problems.append(differs.format(part=part))
+    return report
+
+
 def check_altitude_update(fn: Callable, rtol: float = 1e-9) -> CheckReport:
     """Check a student's ``fn(mean, var, ground, reading, rf) -> (mean_new, var_new, log_lik)`` on
     :data:`ALTITUDE_CASE`: each output must equal :func:`altitude_update` to ``rtol``; one that does not
     is compared with every mistake of :data:`ALTITUDE_MISTAKES`, and the report names the one that fits."""
-    report = CheckReport("altitude Kalman update of every particle")
-    case = {key: np.copy(value) if isinstance(value, np.ndarray) else value for key, value in ALTITUDE_CASE.items()}
-    answer = _answer(report, lambda: fn(**case), "fn(mean, var, ground, reading, rf)",
-                     "return (mean_new, var_new, log_lik)")
-    if answer is None:
-        return report
-    try:
+    def parse(answer) -> tuple:
         got = tuple(np.broadcast_to(np.asarray(part, dtype=float), (5,)) for part in answer)
         if len(got) != 3:
             raise ValueError
-    except (TypeError, ValueError):
-        report.problems.append("return three arrays of one value per particle (shape (5,)): the new means, the new "
-                               "variances and the log-weight increments")
-        return report
+        return got
 
-    def same(expected) -> bool:
-        return all(np.allclose(g, e, rtol=rtol, atol=1e-12) for g, e in zip(got, expected))
-
-    if same(altitude_update(**ALTITUDE_CASE)):
-        return report
-    for mistake, why in ALTITUDE_MISTAKES.items():
-        if same(altitude_update(**ALTITUDE_CASE, mistake=mistake)):
-            report.problems.append(f"your update computes a known mistake: {why}")
-            return report
-    exact = altitude_update(**ALTITUDE_CASE)
-    part = next(name for name, g, e in zip(("mean", "variance", "log-weight increment"), got, exact)
-                if not np.allclose(g, e, rtol=rtol, atol=1e-12))
-    report.problems.append(f"the {part} differs from the Kalman update (nu = y - (m - h), S = P + Rf, K = P / S, "
-                           "m' = m + K nu, P' = (1 - K) P, log N(nu; 0, S)): check that line")
-    return report
+    return _check_update(
+        CheckReport("altitude Kalman update of every particle"), fn, ALTITUDE_CASE,
+        ("fn(mean, var, ground, reading, rf)", "return (mean_new, var_new, log_lik)"), parse,
+        "return three arrays of one value per particle (shape (5,)): the new means, the new variances and the "
+        "log-weight increments", lambda mistake: altitude_update(**ALTITUDE_CASE, mistake=mistake),
+        ALTITUDE_MISTAKES, ("mean", "variance", "log-weight increment"), (rtol, 1e-12),
+        "the {part} differs from the Kalman update (nu = y - (m - h), S = P + Rf, K = P / S, m' = m + K nu, "
+        "P' = (1 - K) P, log N(nu; 0, S)): check that line")
 
 
 #: The typical mistakes of the two-state (altitude, map bias) Kalman update, and why each is wrong.
@@ -1007,37 +922,20 @@ def check_bias_update(fn: Callable, rtol: float = 1e-9) -> CheckReport:
     """Check ``fn(m, P, ground, reading, rf) -> (m_new, P_new, log_lik)`` on :data:`BIAS_CASE` against
     :func:`bias_update`; a wrong answer is compared with every mistake of :data:`BIAS_MISTAKES`, and the report
     names the one that fits."""
-    report = CheckReport("altitude and map-bias Kalman update of every particle")
-    case = {key: np.copy(value) if isinstance(value, np.ndarray) else value for key, value in BIAS_CASE.items()}
-    answer = _answer(report, lambda: fn(**case), "fn(m, P, ground, reading, rf)", "return (m_new, P_new, log_lik)")
-    if answer is None:
-        return report
-    shapes = ((5, 2), (5, 3), (5,))
-    try:
+    def parse(answer) -> tuple:
         if len(answer) != 3:
             raise ValueError
-        got = tuple(np.asarray(part, dtype=float).reshape(shape) for part, shape in zip(answer, shapes))
-    except (TypeError, ValueError):
-        report.problems.append("return three arrays: the new means (N, 2), the new covariances (N, 3) as "
-                               "(P_zz, P_zb, P_bb), and the log-weight increments (N,)")
-        return report
+        shapes = ((5, 2), (5, 3), (5,))
+        return tuple(np.asarray(part, dtype=float).reshape(shape) for part, shape in zip(answer, shapes))
 
-    def same(expected) -> bool:
-        return all(np.allclose(g, e, rtol=rtol, atol=1e-9) for g, e in zip(got, expected))
-
-    if same(bias_update(**BIAS_CASE)):
-        return report
-    for mistake, why in BIAS_MISTAKES.items():
-        if same(bias_update(**BIAS_CASE, mistake=mistake)):
-            report.problems.append(f"your update computes a known mistake: {why}")
-            return report
-    exact = bias_update(**BIAS_CASE)
-    part = next(name for name, g, e in zip(("means", "covariances", "log-weight increments"), got, exact)
-                if not np.allclose(g, e, rtol=rtol, atol=1e-9))
-    report.problems.append(f"the {part} differ from the Kalman update with H = [1, 1] (nu = y - (m_z + m_b - h_f), "
-                           "S = H P H^T + Rf, K = P H^T / S, m' = m + K nu, P' = P - K K^T S, log N(nu; 0, S)): "
-                           "check that line")
-    return report
+    return _check_update(
+        CheckReport("altitude and map-bias Kalman update of every particle"), fn, BIAS_CASE,
+        ("fn(m, P, ground, reading, rf)", "return (m_new, P_new, log_lik)"), parse,
+        "return three arrays: the new means (N, 2), the new covariances (N, 3) as (P_zz, P_zb, P_bb), and the "
+        "log-weight increments (N,)", lambda mistake: bias_update(**BIAS_CASE, mistake=mistake),
+        BIAS_MISTAKES, ("means", "covariances", "log-weight increments"), (rtol, 1e-9),
+        "the {part} differ from the Kalman update with H = [1, 1] (nu = y - (m_z + m_b - h_f), S = H P H^T + Rf, "
+        "K = P H^T / S, m' = m + K nu, P' = P - K K^T S, log N(nu; 0, S)): check that line")
 
 
 def _wrap(a: np.ndarray) -> np.ndarray:

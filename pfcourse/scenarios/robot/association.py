@@ -205,6 +205,61 @@ class AssociationModel:
 NN_RULES = ("nearest", "sequential")
 
 
+def gate_threshold(gate_probability: float, dim: int = 2) -> float:
+    """The chi-square gate ``gamma = chi2_dim.ppf(P_G)``: a correct reading's ``d^2 = nu^T S^{-1} nu`` (``dim``
+    degrees of freedom) falls below it with probability ``P_G`` = ``gate_probability``, which must lie strictly
+    between 0 and 1 (:class:`ParameterError` otherwise)."""
+    p = check_probability(gate_probability, "gate_probability")
+    if not 0 < p < 1:
+        raise ParameterError(f"gate_probability must lie strictly between 0 and 1, got {p}")
+    return float(stats.chi2.ppf(p, dim))
+
+
+def innovation_distance(cov: Array, H: Array, R: Array, nu: Array) -> tuple[Array, float]:
+    """The innovation covariance ``S = H P H^T + R`` and the squared Mahalanobis distance
+    ``d^2 = nu^T S^{-1} nu`` of the innovation ``nu``, the quantity both the nearest-neighbour choice and the
+    PDA gate compare."""
+    S = H @ cov @ H.T + R
+    return S, float(nu @ np.linalg.solve(S, nu))
+
+
+def joseph_update(mean: Array, cov: Array, H: Array, R: Array, S: Array, nu: Array) -> tuple[Array, Array, Array]:
+    """One Kalman update in Joseph form: ``K = P H^T S^{-1}``, ``m' = m + K nu``,
+    ``P' = (I - K H) P (I - K H)^T + K R K^T`` (symmetric and positive for any gain); returns ``(m', P', K)``."""
+    gain = np.linalg.solve(S, H @ cov).T  # P H^T S^-1 (S and P symmetric)
+    IKH = np.eye(len(mean)) - gain @ H
+    return mean + gain @ nu, IKH @ cov @ IKH.T + gain @ R @ gain.T, gain
+
+
+def _checked_run(model: AssociationModel, readings: Array, gate_probability: float | None, initial_cov: Array | None,
+                 name: str, gate_optional: bool) -> tuple[Array, RobotModel, Array, Array]:
+    """The checks shared by :func:`run_nn_ekf` and :func:`run_pdaf` (``name``), in that order: the model, the gate
+    (``None``, no gate, where ``gate_optional``), the readings' shape ``(K, C, 2)`` and the odometry's length. Returns
+    the readings as floats, the robot model and the EKF's start ``x_0``, ``P_0`` (``initial_cov``, or the model's
+    initial standard deviations squared on the diagonal)."""
+    if not isinstance(model, AssociationModel):
+        raise ModelError(f"{name} needs an AssociationModel, got {type(model).__name__}")
+    if gate_probability is not None or not gate_optional:
+        gate_threshold(gate_probability)
+    readings = np.asarray(readings, dtype=float)
+    if readings.ndim != 3 or readings.shape[2] != 2:
+        raise ShapeError(f"readings must have shape (K, C, 2), got {readings.shape}")
+    base = model.base
+    if len(readings) > len(base.odometry):
+        raise ShapeError(f"{len(readings)} steps of readings but only {len(base.odometry)} odometry rows")
+    x = np.array(base.start, dtype=float)
+    P = np.diag(np.asarray(base.initial_std, dtype=float) ** 2) if initial_cov is None else np.array(initial_cov, float)
+    return readings, base, x, P
+
+
+def _ekf_predict(x: Array, P: Array, base: RobotModel, k: int) -> tuple[Array, Array]:
+    """The EKF's prediction through odometry ``u_k``: ``x^- = f(x, u_k)``, ``P^- = F P F^T + G Q G^T`` with
+    ``F``, ``G`` the motion's Jacobians in the state and the control at ``x``."""
+    u = base.odometry[k]
+    F, G = motion_jacobians(x, u, base.dt)
+    return motion(x, u, base.dt), F @ P @ F.T + G @ base.q_est @ G.T
+
+
 def run_nn_ekf(model: AssociationModel, readings: Array, gate_probability: float = GATE_PROBABILITY,
                initial_cov: Array | None = None, rule: str = "nearest") -> tuple[KalmanResult, Array]:
     """The EKF of :mod:`pfcourse.scenarios.robot.kalman` that chooses an association: nearest neighbour by
@@ -219,30 +274,15 @@ def run_nn_ekf(model: AssociationModel, readings: Array, gate_probability: float
     """
     if rule not in NN_RULES:
         raise ParameterError(f"rule must be one of {NN_RULES}, got {rule!r}")
-    if not isinstance(model, AssociationModel):
-        raise ModelError(f"run_nn_ekf needs an AssociationModel, got {type(model).__name__}")
-    p = check_probability(gate_probability, "gate_probability")
-    if not 0 < p < 1:
-        raise ParameterError(f"gate_probability must lie strictly between 0 and 1, got {p}")
-    readings = np.asarray(readings, dtype=float)
-    if readings.ndim != 3 or readings.shape[2] != 2:
-        raise ShapeError(f"readings must have shape (K, C, 2), got {readings.shape}")
-    base = model.base
-    if len(readings) > len(base.odometry):
-        raise ShapeError(f"{len(readings)} steps of readings but only {len(base.odometry)} odometry rows")
-    gamma = float(stats.chi2.ppf(p, 2))
-    x = np.array(base.start, dtype=float)
-    P = np.diag(np.asarray(base.initial_std, dtype=float) ** 2) if initial_cov is None else np.array(initial_cov, float)
+    readings, base, x, P = _checked_run(model, readings, gate_probability, initial_cov, "run_nn_ekf", False)
+    gamma = gate_threshold(gate_probability)
     R = base.r_est
     out = KalmanResult.empty(len(readings), 3, 2, "NN-EKF")
     chosen = np.full(readings.shape[:2], -2, dtype=int)
     for k in range(len(readings)):
         with numerical_step(k, "NN-EKF"):
             if k > 0:
-                u = base.odometry[k]
-                F, G = motion_jacobians(x, u, base.dt)
-                x = motion(x, u, base.dt)
-                P = F @ P @ F.T + G @ base.q_est @ G.T
+                x, P = _ekf_predict(x, P, base, k)
             present = [i for i, z in enumerate(readings[k]) if not np.isnan(z).all()]
             for i in present:
                 if not np.isfinite(readings[k, i]).all():
@@ -255,20 +295,16 @@ def run_nn_ekf(model: AssociationModel, readings: Array, gate_probability: float
                 for i in group:
                     for j, landmark in enumerate(base.landmarks):
                         H = measurement_jacobian(x, landmark)
-                        S = H @ P @ H.T + R
                         nu = measurement_residual(readings[k, i], range_bearing_one(x, landmark))
-                        dj = float(nu @ np.linalg.solve(S, nu))
+                        S, dj = innovation_distance(P, H, R, nu)
                         if dj < d2:
                             d2, best = dj, (i, j, H, S, nu)
                 if d2 > gamma:
                     continue
                 i, j, H, S, nu = best
-                gain = np.linalg.solve(S, H @ P).T  # P H^T S^-1 (S and P symmetric)
                 predicted = x.copy()
-                x = x + gain @ nu
+                x, P, gain = joseph_update(x, P, H, R, S, nu)
                 x[2] = wrap(float(x[2]))
-                IKH = np.eye(3) - gain @ H
-                P = IKH @ P @ IKH.T + gain @ R @ gain.T  # Joseph form: stays symmetric positive
                 chosen[k, i] = j
                 out.record_update(k, predicted, nu, S, gain)
         check_estimate(k, "NN-EKF", x, P)
@@ -299,9 +335,7 @@ def pda_update(mean: Array, cov: Array, readings: Array, predicted: Array, jacob
         gamma, p_gate = np.inf, 1.0
     else:
         p_gate = check_probability(gate_probability, "gate_probability")
-        if not 0 < p_gate < 1:
-            raise ParameterError(f"gate_probability must lie strictly between 0 and 1, got {p_gate}")
-        gamma = float(stats.chi2.ppf(p_gate, z.shape[1]))
+        gamma = gate_threshold(p_gate, z.shape[1])
     lam, log_c = sensor.clutter_rate, sensor.clutter_log_density
     with np.errstate(divide="ignore"):
         log_beta = [np.log1p(-sensor.p_detect * p_gate) + np.log(lam) + log_c if lam > 0 else -np.inf]
@@ -309,20 +343,18 @@ def pda_update(mean: Array, cov: Array, readings: Array, predicted: Array, jacob
     for i in range(n):
         for j in range(M):
             H = jacobians[j]
-            S = H @ cov @ H.T + R
             nu = z[i] - predicted[j]
             if angle_index is not None:
                 nu[angle_index] = wrap(float(nu[angle_index]))
-            d2 = float(nu @ np.linalg.solve(S, nu))
+            S, d2 = innovation_distance(cov, H, R, nu)
             if d2 > gamma:
                 log_beta.append(-np.inf)
                 means.append(mean)
                 covs.append(cov)
                 continue
-            gain = np.linalg.solve(S, H @ cov).T
-            IKH = np.eye(len(mean)) - gain @ H
-            means.append(mean + gain @ nu)
-            covs.append(IKH @ cov @ IKH.T + gain @ R @ gain.T)
+            new_mean, new_cov, _ = joseph_update(mean, cov, H, R, S, nu)
+            means.append(new_mean)
+            covs.append(new_cov)
             log_beta.append(np.log(sensor.p_detect / M) - 0.5 * (d2 + np.linalg.slogdet(2 * np.pi * S)[1]))
     log_beta = np.array(log_beta)
     if not np.isfinite(log_beta).any():  # nothing in any gate and no clutter: nothing to learn
@@ -343,29 +375,13 @@ def run_pdaf(model: AssociationModel, readings: Array, gate_probability: float |
     Returns the result and the ``(K,)`` probability the filter gave, at each step, to "every
     reading is clutter" (``beta_0``; 1 at a step without readings).
     """
-    if not isinstance(model, AssociationModel):
-        raise ModelError(f"run_pdaf needs an AssociationModel, got {type(model).__name__}")
-    if gate_probability is not None:
-        p = check_probability(gate_probability, "gate_probability")
-        if not 0 < p < 1:
-            raise ParameterError(f"gate_probability must lie strictly between 0 and 1, got {p}")
-    readings = np.asarray(readings, dtype=float)
-    if readings.ndim != 3 or readings.shape[2] != 2:
-        raise ShapeError(f"readings must have shape (K, C, 2), got {readings.shape}")
-    base = model.base
-    if len(readings) > len(base.odometry):
-        raise ShapeError(f"{len(readings)} steps of readings but only {len(base.odometry)} odometry rows")
-    x = np.array(base.start, dtype=float)
-    P = np.diag(np.asarray(base.initial_std, dtype=float) ** 2) if initial_cov is None else np.array(initial_cov, float)
+    readings, base, x, P = _checked_run(model, readings, gate_probability, initial_cov, "run_pdaf", True)
     out = KalmanResult.empty(len(readings), 3, 2, "PDAF")
     none_true = np.ones(len(readings))
     for k in range(len(readings)):
         with numerical_step(k, "PDAF"):
             if k > 0:
-                u = base.odometry[k]
-                F, G = motion_jacobians(x, u, base.dt)
-                x = motion(x, u, base.dt)
-                P = F @ P @ F.T + G @ base.q_est @ G.T
+                x, P = _ekf_predict(x, P, base, k)
             z = _present_readings(readings[k], k)
             if len(z):
                 predicted = np.array([range_bearing_one(x, landmark) for landmark in base.landmarks])
@@ -379,5 +395,6 @@ def run_pdaf(model: AssociationModel, readings: Array, gate_probability: float |
     return out, none_true
 
 
-__all__ = ["AnonymousReadings", "AssociationModel", "ClutterSensor", "GATE_PROBABILITY", "NN_RULES", "mixture_log_likelihood",
-           "pda_update", "run_nn_ekf", "run_pdaf", "simulate_readings"]
+__all__ = ["AnonymousReadings", "AssociationModel", "ClutterSensor", "GATE_PROBABILITY", "NN_RULES", "gate_threshold",
+           "innovation_distance", "joseph_update", "mixture_log_likelihood", "pda_update", "run_nn_ekf", "run_pdaf",
+           "simulate_readings"]

@@ -30,9 +30,9 @@ from pfcourse.angles import wrap_angle
 from pfcourse.checks import Array, check_real
 from pfcourse.errors import ParameterError
 from pfcourse.filter import ParticleFilter
-from pfcourse.gaussian import LOG_2PI
 from pfcourse.scenarios.terrain.map import TerrainMap
-from pfcourse.scenarios.terrain.marginalised import HORIZONTAL, MarginalisedTerrainModel
+from pfcourse.scenarios.terrain.marginalised import (HORIZONTAL, MarginalisedTerrainModel, altimeter_innovation,
+                                                     innovation_log_density)
 from pfcourse.scenarios.terrain.scenario import AircraftScenario
 
 
@@ -60,12 +60,11 @@ def bias_kalman_update(m: Array, P: Array, ground: Array, reading: float, rf: fl
     (NaN off the map).  ``H = [1, 1]``: ``nu = y - (m_z + m_b - h_f)``, ``S = P_zz + 2 P_zb + P_bb + Rf``,
     ``K = (P_zz + P_zb, P_zb + P_bb) / S``, ``m += K nu``, ``P -= K K^T S``.  Off the map: ``-inf``, unchanged.
     """
-    off = np.isnan(ground)
-    nu = np.where(off, 0.0, reading - (m[:, 0] + m[:, 1] - np.where(off, 0.0, ground)))
+    nu, off = altimeter_innovation(reading, m[:, 0] + m[:, 1], ground)
     pzz, pzb, pbb = P[:, 0], P[:, 1], P[:, 2]
     s = pzz + 2.0 * pzb + pbb + rf
     kz, kb = (pzz + pzb) / s, (pzb + pbb) / s
-    log_lik = np.where(off, -np.inf, -0.5 * (nu * nu / s + np.log(s) + LOG_2PI))
+    log_lik = innovation_log_density(nu, s, off)
     m_new = np.column_stack([m[:, 0] + kz * nu, m[:, 1] + kb * nu])
     P_new = np.column_stack([pzz - kz * kz * s, pzb - kz * kb * s, pbb - kb * kb * s])
     return m_new, P_new, log_lik
@@ -100,13 +99,7 @@ class MapBiasTerrainModel(MarginalisedTerrainModel):
 
     def sample_transition(self, particles: Array, k: int, rng: np.random.Generator) -> Array:
         """Position and heading as the marginalised model moves them; ``(z, b)`` predicted with ``F = diag(1, a)``."""
-        s = self.scenario
-        psi = particles[:, 3]
-        out = particles.copy()
-        noise = rng.standard_normal((len(particles), 3)) @ self._noise_factor.T
-        out[:, 0] += s.speed * s.dt * np.cos(psi) + noise[:, 0]
-        out[:, 1] += s.speed * s.dt * np.sin(psi) + noise[:, 1]
-        out[:, 3] = wrap_angle(psi + s.omega * s.dt + noise[:, 2])
+        out = self.move_horizontally(particles, rng)
         a = self.a
         out[:, 4] = a * particles[:, 4]
         out[:, 5] = particles[:, 5] + self._q

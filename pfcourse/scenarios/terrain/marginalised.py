@@ -37,6 +37,19 @@ from pfcourse.scenarios.terrain.scenario import AircraftScenario, _check_flight
 HORIZONTAL = [0, 1, 3]
 
 
+def altimeter_innovation(reading: float, altitude: Array, ground: Array) -> tuple[Array, Array]:
+    """The altimeter's innovation ``nu = y - (z - h)`` of each particle, ``z`` its predicted altitude (mean) and
+    ``h`` the ground under it, and where the particle is off the map (``h`` NaN; there ``nu = 0``)."""
+    off = np.isnan(ground)
+    return np.where(off, 0.0, reading - (altitude - np.where(off, 0.0, ground))), off
+
+
+def innovation_log_density(nu: Array, s: Array, off: Array) -> Array:
+    """``log N(nu; 0, S) = -(nu^2 / S + log S + log 2 pi) / 2`` of each particle's innovation, the log predictive
+    density of the reading (the particle's weight increment), ``-inf`` off the map."""
+    return np.where(off, -np.inf, -0.5 * (nu * nu / s + np.log(s) + LOG_2PI))
+
+
 def altitude_kalman_update(mean: Array, var: Array | float, ground: Array, reading: float,
                            rf: float) -> tuple[Array, Array, Array]:
     """The Kalman update of every particle's altitude, and its log predictive density.
@@ -51,12 +64,10 @@ def altitude_kalman_update(mean: Array, var: Array | float, ground: Array, readi
     """
     mean = np.asarray(mean, dtype=float)
     var = np.broadcast_to(np.asarray(var, dtype=float), mean.shape)
-    off = np.isnan(ground)
-    nu = np.where(off, 0.0, reading - (mean - np.where(off, 0.0, ground)))
+    nu, off = altimeter_innovation(reading, mean, ground)
     s = var + rf
     gain = var / s
-    log_lik = np.where(off, -np.inf, -0.5 * (nu * nu / s + np.log(s) + LOG_2PI))
-    return mean + gain * nu, (1.0 - gain) * var, log_lik
+    return mean + gain * nu, (1.0 - gain) * var, innovation_log_density(nu, s, off)
 
 
 class MarginalisedTerrainModel:
@@ -91,8 +102,12 @@ class MarginalisedTerrainModel:
         rows[:, 2], rows[:, 4] = s.x0[2], s.P0[2, 2]
         return rows
 
-    def sample_transition(self, particles: Array, k: int, rng: np.random.Generator) -> Array:
-        """Position and heading through the dynamics plus noise; altitude predicted, ``P^- = P + q dt``."""
+    def move_horizontally(self, particles: Array, rng: np.random.Generator) -> Array:
+        """A copy of the rows with position and heading moved through the dynamics plus noise::
+
+            x += V dt cos(psi) + w_x,   y += V dt sin(psi) + w_y,   psi <- wrap(psi + omega dt + w_psi),
+
+        ``(w_x, w_y, w_psi) ~ N(0, Q_h dt)``, ``Q_h`` the horizontal block of ``Qf``; the other columns as they were."""
         s = self.scenario
         psi = particles[:, 3]
         out = particles.copy()
@@ -100,6 +115,11 @@ class MarginalisedTerrainModel:
         out[:, 0] += s.speed * s.dt * np.cos(psi) + noise[:, 0]
         out[:, 1] += s.speed * s.dt * np.sin(psi) + noise[:, 1]
         out[:, 3] = wrap_angle(psi + s.omega * s.dt + noise[:, 2])
+        return out
+
+    def sample_transition(self, particles: Array, k: int, rng: np.random.Generator) -> Array:
+        """Position and heading through the dynamics plus noise; altitude predicted, ``P^- = P + q dt``."""
+        out = self.move_horizontally(particles, rng)
         out[:, 4] += self._q
         return out
 
