@@ -72,6 +72,8 @@ terrain = load_jacksboro()
 # so that a small dark spot stays visible).
 
 # %% tags=["hide-input"] jupyter={"source_hidden": true}
+import functools
+
 from scipy.ndimage import uniform_filter
 
 R_ALT = 20.0**2  # the altimeter's noise variance (m^2)
@@ -91,6 +93,13 @@ for name, pick in (("flat", np.nanargmin), ("rough", np.nanargmax)):
     patches[name] = np.array([j * terrain.dx, i * terrain.dy])
 
 
+@functools.cache
+def candidate_heights(cx, cy):
+    """The ground under the leg flown through every candidate position around (cx, cy) (m)."""
+    dx, dy = np.meshgrid(OFFSETS, OFFSETS)
+    return terrain.height(cx + LEG + dx[..., None], cy + dy[..., None] + 0 * LEG)
+
+
 def leg_fit(centre, rng, alt_sd=0.0):
     """The readings of the leg over ``centre`` and their posterior over the candidate offsets.
 
@@ -101,8 +110,7 @@ def leg_fit(centre, rng, alt_sd=0.0):
     ground = terrain.height(path[:, 0], path[:, 1])
     readings = ground + rng.normal(0.0, np.sqrt(R_ALT), len(LEG))
     dx, dy = np.meshgrid(OFFSETS, OFFSETS)
-    candidates = terrain.height(path[:, 0] + dx[..., None], path[:, 1] + dy[..., None])
-    e = readings - candidates
+    e = readings - candidate_heights(*centre)
     shared = alt_sd**2 * np.sum(e, axis=-1) ** 2 / (R_ALT + len(LEG) * alt_sd**2)
     log_lik = -0.5 * (np.sum(e**2, axis=-1) - shared) / R_ALT
     posterior = np.exp(log_lik - logsumexp(log_lik))

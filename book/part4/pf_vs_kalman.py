@@ -548,8 +548,10 @@ EvidenceBlock(
 # {glue:text}`terrain_small_prior_psi_deg:.1f`° in heading, with
 # $Q_f = \mathrm{diag}(1, 1, 0.1, 0.001)^2$, the process noise the lab meant (its heading noise
 # $0.001$ rad per $\sqrt{\text{s}}$, its horizontal noise divided by $3$ like every length). Over
-# that prior the terrain is nearly linear and the posterior one bump. Both halves of the condition
-# matter: from the same prior with the chapter's $Q_f$, the EKF loses
+# that prior the terrain is nearly linear and the posterior one bump.
+#
+# Both halves of the condition matter: from the same prior with the terrain chapter's $Q_f$, the
+# EKF loses
 # {glue:text}`terrain_small_labqf_ekf_lost:.0%`
 # ({glue:text}`terrain_small_labqf_ekf_low:.0%`-{glue:text}`terrain_small_labqf_ekf_high:.0%`) of
 # {glue:text}`terrain_ekf100_flights:d` flights.
@@ -558,7 +560,7 @@ EvidenceBlock(
 # horizontal direction), where many places fit the first altimeter readings. A flight is *lost*
 # when its final error exceeds {glue:text}`terrain_diverged_error:.0f` m.
 #
-# **Small prior: the robot's picture again.** Every filter tracks every flight to a few tens of
+# **Small prior and small process noise: the robot's picture again.** Every filter tracks every flight to a few tens of
 # metres, and the EKF needs the fewest model evaluations; flight by flight the particle filter with
 # $N = 1000$ has {glue:text}`terrain_small_pf1000_over_ekf:.2f` times the EKF's RMSE
 # ({glue:text}`terrain_small_pf1000_over_ekf_low:.2f`-{glue:text}`terrain_small_pf1000_over_ekf_high:.2f`):
@@ -566,7 +568,8 @@ EvidenceBlock(
 # {glue:text}`terrain_small_ukf_over_ekf:.2f` times the EKF's.
 #
 # **The report's prior: the order reverses.** The EKF and the UKF lose
-# {glue:text}`terrain_wide_ekf_lost:.0%` and {glue:text}`terrain_wide_ukf_lost:.0%` of the flights:
+# {glue:text}`terrain_wide_ekf_lost:.0%` and {glue:text}`terrain_wide_ukf_lost:.0%` of the
+# {glue:text}`terrain_wide_flights:d` flights here:
 # the slope of the terrain at a wrong guess says nothing about where the right one is, and one
 # covariance cannot describe several separate modes ({ref}`exercise 23.4 <ex-kalman-ukf>`).
 #
@@ -620,7 +623,8 @@ glue_values("terrain_boot_lost_", **{k: float(boot_series[f"bootstrap N={n}"])
 few, many = wp.index[wp.index.str.startswith("PF")][[0, -1]]
 more = evidence.paired_rates(wide_lost[few], wide_lost[many])
 EvidenceBlock(
-    "the EKF suffices with a small prior; with the report's prior the Kalman filters lose the aircraft",
+    "the EKF suffices with a small prior and a small process noise; with the report's prior the Kalman filters "
+    "lose the aircraft",
     notes=[f"Small prior: {len(terrain_runs['terrain, small prior'])} flights, report's prior: "
            f"{len(wide_lost[few])} flights (the first flights of the terrain chapters' "
            f"studies, with their particle-filter seeds); RMS horizontal error after {TERRAIN_BURN_IN} s. A flight "
