@@ -663,7 +663,8 @@ EvidenceBlock(
 #
 # When it converges, it ends a median {glue:text}`terrain_pf60_converged_median:.0f` m from the
 # truth; the others end {glue:text}`terrain_pf60_lost_min_m:.0f` m to
-# {glue:text}`terrain_pf60_lost_max_km:.0f` km away (the strip above, one dot per flight). A single run's final error is a draw from this very
+# {glue:text}`terrain_pf60_lost_max_km:.0f` km away (the strip above, one dot per flight). A single
+# run's final error is a draw from this very
 # wide, two-humped distribution. The
 # next chapter ({doc}`terrain_cure`) finds out why and fixes it.
 #
@@ -719,8 +720,8 @@ EvidenceBlock(
 # minutes, so they are stored with their provenance (`python3 tasks.py study terrain_studies`; a
 # test re-computes a sample of rows), and every setting flies the same flights.
 #
-# Losses depend on the number of particles, and as much on the filter's tuning and on how often
-# the altimeter reads: $N = 3000$ loses {glue:text}`n_0_lost:.2f` of the flights, $R_f = 10^2$
+# Losses depend on the number of particles, and at least as much on the filter's tuning and on how
+# often the altimeter reads: $N = 3000$ loses {glue:text}`n_0_lost:.2f` of the flights, $R_f = 10^2$
 # {glue:text}`rf_0_lost:.2f`, $Q_f \times 10$ {glue:text}`qf_1_lost:.2f`, and a reading every $10$ s
 # {glue:text}`period_0_lost:.2f`.
 #
@@ -929,7 +930,8 @@ plt.show()
 #
 # The paired 95 % interval of that difference runs from {glue:text}`th_1_diff_low:+.2f` to
 # {glue:text}`th_1_diff_high:+.2f`: resampling at every reading may cost up to that share of the
-# flights, which a hundred flights cannot rule out. On the flights both keep, the error ratio is {glue:text}`th_1_ratio:.2f`: resampling at every
+# flights, which a hundred flights cannot rule out. On the flights both keep, the error ratio is
+# {glue:text}`th_1_ratio:.2f`: resampling at every
 # reading adds resampling noise, little enough here.
 #
 # **Measurement gap.** Run by run, the filter's standard deviation ends the $25$ s without
@@ -937,7 +939,8 @@ plt.show()
 # {glue:text}`gap_sigma_growth_low:.1f`-{glue:text}`gap_sigma_growth_high:.1f`). And the estimate
 # does not stay good: the gap loses {glue:text}`gap_0_lost:.2f` of the flights.
 #
-# The losses fall where the filter had not yet settled when the readings stopped: on the
+# The flights the gap loses are those where the filter had not yet settled when the readings
+# stopped: on the
 # {glue:text}`gap_only_lost:d` flights lost only with the gap, the baseline's own $\sigma$ at $50$ s
 # is a median {glue:text}`gap_only_sigma50:.0f` m, against {glue:text}`gap_both_sigma50:.0f` m on the
 # flights both keep.
