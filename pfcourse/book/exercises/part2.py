@@ -256,6 +256,8 @@ def altimeter_log_likelihood(particles: np.ndarray, y: float, heights: np.ndarra
         h, dx, dy = h.T, dy, dx
     if mistake == "dx_for_dy":
         dy = dx
+    if mistake == "north_up":  # row 0 taken for the northern edge, as in the DEM file
+        h = h[::-1]
     ny, nx = h.shape
     col, row = p[:, 0] / dx, p[:, 1] / dy
     inside = (col >= 0) & (col <= nx - 1) & (row >= 0) & (row <= ny - 1)
@@ -296,6 +298,14 @@ ROBUST_ALTIMETER_MISTAKES = {
                          "up to one",
     "gaussian_only": "it ignores the junk readings: a reading far from z - h must keep the likelihood eps / y_max "
                      "rather than fall to almost zero",
+    "north_up": "it reads the map with row 0 as the northern edge (heights[::-1], the DEM file's own order): here "
+                "row 0 is the southern edge, so row i lies i dy north of it",
+    "max_of_terms": "it keeps the larger of the two terms (np.maximum); the mixture adds them, so take "
+                    "np.logaddexp of their logarithms",
+    "no_probabilities": "the mixture lacks its probabilities, log(N + 1 / y_max): weigh the Gaussian by 1 - eps and "
+                        "the junk density by eps",
+    "product_of_terms": "it multiplies the two terms (adds their logarithms); a mixture is their sum, "
+                        "log((1 - eps) N + eps / y_max)",
 }
 
 
@@ -305,12 +315,19 @@ def robust_altimeter_log_likelihood(particles: np.ndarray, y: float, heights: np
     ``h`` of :func:`altimeter_log_likelihood`). With a ``mistake`` of :data:`ROBUST_ALTIMETER_MISTAKES`, what
     that mistake computes (for the checker)."""
     gauss_mistake = mistake if mistake in ("swapped", "nearest", "rf_as_sd", "sign", "no_constant", "corners_swapped",
-                                           "dx_for_dy") else None
+                                           "dx_for_dy", "north_up") else None
     log_gauss = altimeter_log_likelihood(particles, y, heights, dx, dy, rf, gauss_mistake)
     inside = np.isfinite(log_gauss)
     g = np.where(inside, log_gauss, 0.0)
     junk = np.log(eps if mistake == "no_range" else eps / y_max)
-    if mistake == "mixed_logs":
+    gauss = np.log1p(-eps) + g
+    if mistake == "max_of_terms":
+        out = np.maximum(gauss, junk)
+    elif mistake == "no_probabilities":
+        out = np.logaddexp(g, -np.log(y_max))
+    elif mistake == "product_of_terms":
+        out = gauss + junk
+    elif mistake == "mixed_logs":
         out = (1 - eps) * g + eps * np.log(1.0 / y_max)
     elif mistake == "gaussian_only":
         out = g
