@@ -26,7 +26,7 @@ from pfcourse.scenarios.terrain.scenario import AircraftScenario, simulate
 
 #: The marginalised filter's sizes, in the order they are stored.
 SIZES = [3000, 10000, 30000]
-COLUMNS = ("setting", "flight", "status", "error", "N", "final_error", "mean_error", "lost", "final_x", "final_y",
+COLUMNS = ("setting", "flight", "status", "error_message", "N", "final_error", "mean_error", "lost", "final_x", "final_y",
            "seconds")
 #: The point-mass filter's cell sizes (m) and heading bins (degrees), coarse to fine: each step divides both by
 #: sqrt(2) (the number of grid points grows by about 2.8).
