@@ -332,6 +332,29 @@ _FLIGHTS = {"failures": "record", "failed_scores": LOST_FLIGHT}
 #: The global-localization runs record a filter that lost every particle as a failed run, not locked on.
 _GLOBAL_RUNS = {"failures": "record", "failed_scores": global_localization.FAILED_RUN}
 
+#: The stored studies whose rows build no particle filter through a settings record, so that their
+#: provenance has no ``filters`` (:data:`pfcourse.studies.provenance.SCHEMA`), by name or group, with the reason.
+#: Known exceptions to the one schema besides: ``seed_column`` ``"flight"`` (the terrain studies name their
+#: run's seed after the flight it draws, and the chapters read it so), and ``significant_digits`` (four
+#: global-localization tables an older script stored with 10 significant digits, compared to that precision
+#: by :meth:`Study.stored_rtol`; re-running them stores round-trip floats and ends the exception).
+NO_FILTER_RECORD: dict[str, str] = {
+    "count_resampling": "the bootstrap filter of the count model in plain NumPy (count_resampling.bootstrap_means)",
+    "likelihood/bias": "the core's likelihood estimator, pfcourse.likelihood.pf_log_likelihood",
+    "likelihood/ml": "the core's likelihood estimator, pfcourse.likelihood.pf_log_likelihood",
+    "likelihood/pmmh": "PMMH (pfcourse.pmmh), its particle filter built inside the sampler",
+    "likelihood/terrain_rf": "the terrain likelihood estimator (pfcourse.likelihood)",
+    "data_association_pdaf": "no particle filter: the PDA filter", "data_association_nn": "no particle filter: the NN-EKF",
+    "map_global": "global_mcl's own loop (pfcourse.scenarios.maprobot.global_mcl), its GlobalSettings recorded",
+    "intel": "global_mcl's loop and intel.tracking_row's engine run (row code owned by the intel studies)",
+    "terrain_mpf": "the marginalised filter of pfcourse.scenarios.terrain.marginalised (marginalised_filter)",
+    "terrain_map_bias": "the map-bias filter of pfcourse.scenarios.terrain.map_bias (map_bias_filter)",
+    "terrain_grid": "no particle filter: the point-mass grid filter", "terrain_costs": "timings of other studies' filters",
+    "static_parameters": "the samplers of pfcourse.static_parameters (Liu-West, Storvik, SMC^2), not the engine",
+    "pmcmc": "particle MCMC (pfcourse.pmmh, pfcourse.correlated, pfcourse.csmc), its filters built inside",
+}
+
+
 #: Every stored study, by name.  A group (``robot_studies``) is the studies named ``group/...``.
 STUDIES: dict[str, Study] = {study.name: study for study in [
     Study(name="sir_fixes", row=sir_fixes_study.row,
@@ -348,7 +371,7 @@ STUDIES: dict[str, Study] = {study.name: study for study in [
           n_runs=100, seeds="run", failures="raise", table="rao_blackwell.csv", provenance="rao_blackwell.json",
           columns=rb_study.COLUMNS, order=("scenario", "run"), volatile=("seconds", "seconds_per_step"),
           cheap=lambda t: (t["method"] != "kalman") & (t["N"] <= 300), sample=3,
-          row_code="pfcourse/studies/rb_study.py, pfcourse/scenarios/landmarks/rao_blackwell.py, pfcourse/scenarios/landmarks/auxiliary.py",
+          row_code="pfcourse/studies/rb_study.py (row), pfcourse/scenarios/landmarks/rao_blackwell.py, pfcourse/proposals.py",
           filters=rb_study.FILTERS,
           fields={"methods": rb_study.METHODS,
                   "seeds": "simulation seed s, filter seed s + 10**6 (same for every method and N)"}),
