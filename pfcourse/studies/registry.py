@@ -26,7 +26,7 @@ converted to this schema once (``tools/convert_stored_studies.py``, checked by
 
 **Adding a study**: write its row function in the experiments module of its scenario (a
 module-level function, so that a process pool can send it), add a :class:`Study` to
-:data:`STUDIES` below, run ``python3 tasks.py study NAME`` after committing the code (the
+:data:`STUDIES` below (its ``filters``: the settings records its rows build, written into the provenance), run ``python3 tasks.py study NAME`` after committing the code (the
 provenance names the commit), and commit the table.
 """
 
