@@ -18,6 +18,7 @@ import pandas as pd
 import pytest
 
 from pfcourse.errors import DegenerateWeightsError, ParameterError, StepError
+from pfcourse.filter_config import FilterSettings
 from pfcourse.studies.registry import STUDIES, Study, same, select
 from pfcourse.studies.store import DATA, load, save
 
@@ -111,7 +112,8 @@ def test_a_study_is_run_stored_and_recorded_by_name(tmp_path, monkeypatch):
 
     monkeypatch.setattr(registry, "DATA", tmp_path)
     toys = [Study(name="toy/one", row=_toy_row, grid=({"a": [2], "b": ["p"]}, {"a": [1, 3], "b": ["q"]}), n_runs=2,
-                  seeds="run", base_seed=5, table="toy/one.csv", provenance="toy/provenance.json", order=("run",)),
+                  seeds="run", base_seed=5, table="toy/one.csv", provenance="toy/provenance.json", order=("run",),
+                  filters={"bootstrap": FilterSettings(10, threshold=1.0)}),
             Study(name="toy/two", row=_toy_row, grid={"a": [1], "b": ["r"]}, n_runs=3, table="toy/two.csv",
                   provenance="toy/provenance.json", columns=("a", "b", "seed", "x"))]
     for toy in toys:
@@ -126,6 +128,9 @@ def test_a_study_is_run_stored_and_recorded_by_name(tmp_path, monkeypatch):
     record = json.loads((tmp_path / "toy" / "provenance.json").read_text())
     assert record["code"] == "pfcourse/studies/registry.py" and set(record["studies"]) == {"toy/one", "toy/two"}
     assert record["studies"]["toy/one"]["seeds"] == "run r: seed 5 + r" and "n_runs" not in record
+    # the filters of the group's studies, as settings records, per study and at the top (the one schema)
+    assert record["studies"]["toy/one"]["filters"] == record["filters"] == toys[0].filter_records()
+    assert record["filters"]["bootstrap"]["threshold"] == 1.0 and record["studies"]["toy/two"]["filters"] == {}
     with pytest.raises(StepError, match="toy/one"):
         registry.Study(**{**toys[0].__dict__, "failures": "raise"}).compute()
 

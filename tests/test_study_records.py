@@ -83,3 +83,16 @@ def test_a_converted_table_holds_the_values_it_held(study: Study):
     pd.testing.assert_frame_equal(new.rename(columns={"error_message": "error"}), old, check_exact=True)
     loaded = study.load()
     assert list(loaded["error_message"]) == list(old["error"])
+
+
+def test_a_study_refuses_filters_that_are_not_settings_records():
+    from pfcourse.errors import ParameterError
+    from pfcourse.filter_config import FilterSettings
+
+    base = dict(name="x", row=dict, grid={"a": [1]}, n_runs=1, table="x.csv", provenance="x.json")
+    with pytest.raises(ParameterError, match="must be a FilterSettings or a FilterConfig"):
+        Study(**base, filters={"pf": "bootstrap, N = 300"})  # prose is not a record
+    with pytest.raises(ParameterError, match="filters must be a dict"):
+        Study(**base, filters=[FilterSettings(10)])
+    assert Study(**base, filters={"pf": FilterSettings(10)}).filter_records()["pf"]["label"] == \
+        "bootstrap, systematic at ESS < 0.5 N, N = 10"

@@ -857,7 +857,8 @@ def run(name: str, **options) -> None:
         group = [records[s.name] for s in studies if s.provenance == path]
         shared = {key: group[0][key] for key in ("n_runs", "seeds") if all(r[key] == group[0][key] for r in group)}
         fields = group[0] if len(group) == 1 else {**shared, "studies": {s.name: records[s.name] for s in studies
-                                                                         if s.provenance == path}}
+                                                                         if s.provenance == path},
+                                                   "filters": {k: v for r in group for k, v in r["filters"].items()}}
         write_provenance(DATA / path, code="pfcourse/studies/registry.py", commit=commit,
                          seconds=time.time() - start, row_code=sorted({s.row_code for s in studies}),
                          seconds_column="wall time of one run on a shared 2-core machine: indicative only", **fields)
