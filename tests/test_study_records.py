@@ -96,3 +96,13 @@ def test_a_study_refuses_filters_that_are_not_settings_records():
         Study(**base, filters=[FilterSettings(10)])
     assert Study(**base, filters={"pf": FilterSettings(10)}).filter_records()["pf"]["label"] == \
         "bootstrap, systematic at ESS < 0.5 N, N = 10"
+
+
+def test_the_schema_s_known_exceptions_are_listed_in_one_place():
+    from pfcourse.studies.registry import SCHEMA_EXCEPTIONS
+
+    flights = {s.name for s in STUDIES.values() if s.seed_column != "seed"}
+    assert flights == set(SCHEMA_EXCEPTIONS["seed_column flight"])
+    assert {s.seed_column for s in STUDIES.values()} == {"seed", "flight"}
+    rounded = {s.name for s in STUDIES.values() if s.stored_rtol() > 0}
+    assert rounded == set(SCHEMA_EXCEPTIONS["significant_digits 10"])

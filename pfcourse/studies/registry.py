@@ -332,12 +332,20 @@ _FLIGHTS = {"failures": "record", "failed_scores": LOST_FLIGHT}
 #: The global-localization runs record a filter that lost every particle as a failed run, not locked on.
 _GLOBAL_RUNS = {"failures": "record", "failed_scores": global_localization.FAILED_RUN}
 
+#: The known exceptions to the one schema, in one place (tests/test_study_records.py checks that no other
+#: study has them): the terrain flight studies name their seed column after the flight it draws (``flight``,
+#: as their chapters read it), and four global-localization tables an older script stored with 10
+#: significant digits, compared to that precision (their provenance's ``significant_digits``,
+#: :meth:`Study.stored_rtol`; re-running them stores round-trip floats and ends the exception).
+SCHEMA_EXCEPTIONS: dict[str, tuple[str, ...]] = {
+    "seed_column flight": ("terrain_remedies", "terrain_reference", "terrain_studies", "terrain_map_error",
+                           "terrain_error_paths", "terrain_model_flights", "terrain_equal_cost", "terrain_mpf",
+                           "terrain_grid", "terrain_field", "terrain_field_pf", "terrain_map_bias", "terrain_costs",
+                           "terrain_confirmation", "terrain_cost_matched"),
+    "significant_digits 10": tuple(f"global_localization/{name}" for name in ("anatomy", "lockon", "kidnap", "ekf_vs_pf")),
+}
 #: The stored studies whose rows build no particle filter through a settings record, so that their
 #: provenance has no ``filters`` (:data:`pfcourse.studies.provenance.SCHEMA`), by name or group, with the reason.
-#: Known exceptions to the one schema besides: ``seed_column`` ``"flight"`` (the terrain studies name their
-#: run's seed after the flight it draws, and the chapters read it so), and ``significant_digits`` (four
-#: global-localization tables an older script stored with 10 significant digits, compared to that precision
-#: by :meth:`Study.stored_rtol`; re-running them stores round-trip floats and ends the exception).
 NO_FILTER_RECORD: dict[str, str] = {
     "count_resampling": "the bootstrap filter of the count model in plain NumPy (count_resampling.bootstrap_means)",
     "likelihood/bias": "the core's likelihood estimator, pfcourse.likelihood.pf_log_likelihood",
