@@ -111,7 +111,8 @@ def labels(registry: Mapping[str, FilterConfig]) -> dict[str, str]:
 _NAMES = {"TransitionProposal": "bootstrap", "ProgressiveCorrection": "progressive correction",
           "RegularisedJitter": "regularised", "Roughening": "roughened", "KLDSampling": "KLD-sampling",
           "OptimalProposal": "optimal proposal", "LinearGaussianOptimal": "optimal proposal",
-          "FullyAdaptedAuxiliary": "fully adapted auxiliary"}
+          "FullyAdaptedAuxiliary": "fully adapted auxiliary", "AltitudeKalmanProposal": "altitude Kalman update",
+          "BiasKalmanProposal": "altitude and map-bias Kalman update"}
 
 
 def _name(component: Any) -> str:

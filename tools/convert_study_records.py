@@ -49,6 +49,7 @@ REPLACED = {
     "terrain_field_pf.json": ("settings",), "robot_consistency_fixes.json": ("settings",),
     "terrain_remedies.json": ("settings",), "terrain_equal_cost.json": ("settings",),
     "global_localization/kld_amcl.json": ("settings",), "terrain_studies.json": ("baseline",),
+    "terrain_mpf.json": ("filter",), "terrain_map_bias.json": ("filter",),
 }
 
 

@@ -21,7 +21,7 @@ import time
 import numpy as np
 
 from pfcourse.errors import ParameterError
-from pfcourse.studies import terrain_remedies
+from pfcourse.studies import terrain_marginalised, terrain_remedies
 from pfcourse.studies.terrain import flight_scores, jacksboro
 from pfcourse.jitter import RegularisedJitter
 from pfcourse.filter_config import FilterConfig, FilterSettings, configurations, lookup
@@ -29,8 +29,7 @@ from pfcourse.seeding import data_rng, filter_rng, map_error_rng
 from pfcourse.scenarios.terrain.field import FieldModel, FieldPointMass, FieldScenario, simulate_field
 from pfcourse.scenarios.terrain.kalman import unscented_kalman_filter
 from pfcourse.scenarios.terrain.map import MAP_ERROR_CORRELATION_CELLS, mismatched_map
-from pfcourse.scenarios.terrain.map_bias import correlation_length, inflated_rf, map_bias_filter
-from pfcourse.scenarios.terrain.marginalised import marginalised_filter
+from pfcourse.scenarios.terrain.map_bias import BiasKalmanProposal, MapBiasTerrainModel, correlation_length, inflated_rf
 from pfcourse.scenarios.terrain.scenario import AircraftScenario, extended_kalman_filter, simulate
 
 #: The 2-D study's settings: the point-mass filter at 50, 25 and 12.5 m cells, and the bootstrap filter.
@@ -96,6 +95,13 @@ MAP_BIAS_COLUMNS = ("setting", "flight", "status", "error_message", "final_error
                     "length", "seconds")
 MAP_BIAS_FLIGHTS = 50
 MAP_BIAS_N = 3000
+#: The study's filters as settings records, by remedy: the marginalised filter (also with ``R`` inflated, a change
+#: to the scenario), and the marginalised filter with a map-bias state, built on
+#: ``MapBiasTerrainModel(map, scenario, map_sd, length)`` with the flight's map error (``map_sd``, ``length``).
+MAP_BIAS_FILTERS = {"marginalised": terrain_marginalised.MPF.with_(n_particles=MAP_BIAS_N),
+                    "R inflated": terrain_marginalised.MPF.with_(n_particles=MAP_BIAS_N),
+                    "bias state": FilterSettings(MAP_BIAS_N, threshold=0.5, resampler="multinomial",
+                                                 proposal=BiasKalmanProposal())}
 
 
 def map_bias_row(seed: int, setting: str) -> dict:
@@ -109,12 +115,11 @@ def map_bias_row(seed: int, setting: str) -> dict:
     length = correlation_length(world, MAP_ERROR_CORRELATION_CELLS)
     scenario = AircraftScenario().with_(**MAP_BIAS_RATES[rate])
     flight = simulate(scenario, world, data_rng(0, seed))
-    options = {"threshold": 0.5, "resampler": "multinomial"}
     if remedy == "bias state":
-        pf = map_bias_filter(seen, scenario, MAP_BIAS_N, sd, length, **options)
+        pf = MAP_BIAS_FILTERS[remedy].build(MapBiasTerrainModel(seen, scenario, sd, length))
     else:
         sc = scenario.with_(Rf=inflated_rf(scenario, sd, length)) if remedy == "R inflated" else scenario
-        pf = marginalised_filter(seen, sc, MAP_BIAS_N, **options)
+        pf = MAP_BIAS_FILTERS[remedy].build(sc.model(seen))
     res = pf.run(flight.measurements, rng=filter_rng(0, seed))
     return {"setting": setting, "flight": seed, **flight_scores(flight.truth, res.mean), "map_error_sd": sd,
             "length": length}
@@ -138,9 +143,9 @@ def _run_cost_filter(setting: str, scenario: AircraftScenario, terrain, flight, 
     if setting == "UKF":
         return unscented_kalman_filter(scenario, terrain, flight.measurements).lost_at is None
     if setting == "marginalised N=3000":
-        pf = marginalised_filter(terrain, scenario, 3000, threshold=0.5, resampler="multinomial")
+        pf = MAP_BIAS_FILTERS["marginalised"].build(scenario.model(terrain))
     elif setting == "bias state N=3000":
-        pf = map_bias_filter(terrain, scenario, 3000, 12.0, 300.0, threshold=0.5, resampler="multinomial")
+        pf = MAP_BIAS_FILTERS["bias state"].build(MapBiasTerrainModel(terrain, scenario, 12.0, 300.0))
     else:
         pf = lookup(terrain_remedies.FILTERS, setting).build(scenario.model(terrain))
     pf.run(flight.measurements, rng=filter_rng(0, seed))  # every particle lost: raises, the study refuses it
