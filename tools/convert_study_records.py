@@ -37,8 +37,11 @@ from pfcourse.studies.store import DATA, MESSAGE  # noqa: E402
 FROM = "40102b0cdb212a75bda5820c9f34b121eb702957"
 TOOL = "tools/convert_study_records.py"
 DATE = "2026-11-27"
-#: The folders whose studies other branches were re-running when this was written: converted with --all.
+#: The folders whose studies other branches were re-running when this was written: converted with --all
+#: (their records, written by the registry's run(), follow the schema but for a stale row_code where a table
+#: was stored under another study's name: the two poor-fit variants, not re-run, converted now).
 LATER = ("map_global/", "intel/")
+NOW = ("map_global/global_poor_fit", "map_global/kidnap_poor_fit")
 #: Provenance keys that described a study's filters (in prose, or as the older ``settings``), replaced by
 #: ``filters``; or, for robot_consistency_fixes, its settings' model part, now ``q_scale``.
 REPLACED = {
@@ -122,7 +125,7 @@ def main(argv: list[str]) -> None:
     groups: dict[str, list[Study]] = {}
     renamed: dict[str, list[str]] = {}
     for study in STUDIES.values():
-        if study.name.startswith(LATER) and not everything:
+        if study.name.startswith(LATER) and study.name not in NOW and not everything:
             continue
         groups.setdefault(study.provenance, []).append(study)
         if convert_table(study):
