@@ -2,8 +2,10 @@
 (issue 44's remainder).  Run from the repository's root; it reads the files of commit ``FROM`` and writes
 the converted ones, so a second run writes the same files:
 
-    .venv/bin/python tools/convert_study_records.py          # every study but map_global/ and intel/
-    .venv/bin/python tools/convert_study_records.py --all    # those too (once their re-runs are merged)
+    .venv/bin/python tools/convert_study_records.py
+
+Not map_global/ and intel/ (other branches were re-running them; the registry's run() writes their records
+in the schema), but the two poor-fit variants, which are not re-run.
 
 * **Tables**: run_study's message column ``error`` is named ``error_message`` (the header only: every value
   is unchanged, byte for byte), so that no metric can take its name (``sir_fixes`` and
@@ -37,8 +39,8 @@ from pfcourse.studies.store import DATA, MESSAGE  # noqa: E402
 FROM = "40102b0cdb212a75bda5820c9f34b121eb702957"
 TOOL = "tools/convert_study_records.py"
 DATE = "2026-11-27"
-#: The folders whose studies other branches were re-running when this was written: converted with --all
-#: (their records, written by the registry's run(), follow the schema but for a stale row_code where a table
+#: The folders whose studies other branches were re-running when this was written: left alone, since this
+#: tool writes the files of FROM (their records, written by the registry's run(), follow the schema but for a stale row_code where a table
 #: was stored under another study's name: the two poor-fit variants, not re-run, converted now).
 LATER = ("map_global/", "intel/")
 NOW = ("map_global/global_poor_fit", "map_global/kidnap_poor_fit")
@@ -121,11 +123,10 @@ def convert_provenance(path: str, studies: list[Study], renamed: list[str]) -> N
 
 
 def main(argv: list[str]) -> None:
-    everything = "--all" in argv
     groups: dict[str, list[Study]] = {}
     renamed: dict[str, list[str]] = {}
     for study in STUDIES.values():
-        if study.name.startswith(LATER) and study.name not in NOW and not everything:
+        if study.name.startswith(LATER) and study.name not in NOW:
             continue
         groups.setdefault(study.provenance, []).append(study)
         if convert_table(study):
