@@ -26,7 +26,7 @@ fixed-lag smoother) and :class:`Stages` (the proposal's stages, the cost of prog
 from __future__ import annotations
 
 from collections.abc import Sequence
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, Protocol, runtime_checkable
 
 import numpy as np
 
@@ -52,6 +52,19 @@ def _empty(shape: tuple[int, ...], pf: ParticleFilter, n_steps: int, dtype=float
 def _fixed_size(pf: ParticleFilter, what: str) -> None:
     if pf.sample_size is not None:
         raise ParameterError(f"{what} needs a fixed number of particles (this filter has a sample_size policy)")
+
+
+@runtime_checkable
+class CollectorProtocol(Protocol):
+    """What a run's ``collect=[...]`` takes (module docstring): a ``name``, ``collect(step)`` at the end of
+    every step and ``result()`` after the last; ``start(pf, n_steps)`` is optional, so it is not part of the
+    protocol (:func:`start_collectors` calls it when the collector has it)."""
+
+    name: str
+
+    def collect(self, step: Step) -> None: ...
+
+    def result(self) -> Any: ...
 
 
 class Collector:
@@ -219,7 +232,7 @@ class Ancestors:
 ALWAYS = (Moments, ESS, Resampled, LogLikelihood, Sizes)
 
 
-def start_collectors(pf: ParticleFilter, n_steps: int, collect: Sequence) -> list:
+def start_collectors(pf: ParticleFilter, n_steps: int, collect: Sequence[CollectorProtocol]) -> list[CollectorProtocol]:
     """The run's collectors: fresh ones of :data:`ALWAYS`, then those of ``collect``, checked and started.
 
     A :class:`~pfcourse.errors.ModelError` for a collector without a ``name`` or a callable

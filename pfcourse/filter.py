@@ -81,7 +81,7 @@ from pfcourse.errors import (
     ParameterError,
     ShapeError,
 )
-from pfcourse.collectors import start_collectors
+from pfcourse.collectors import CollectorProtocol, start_collectors
 from pfcourse.proposals import TransitionProposal
 from pfcourse.resampling import get_resampler, multinomial
 from pfcourse.results import FilterResult
@@ -403,7 +403,7 @@ class ParticleFilter:
         measurements: Sequence[Measurement] | Array,
         rng: np.random.Generator | int | None = None,
         *,
-        collect: Sequence = (),
+        collect: Sequence[CollectorProtocol] = (),
     ) -> FilterResult:
         """Filter the measurements ``z_0, ..., z_{K-1}`` and return a :class:`FilterResult`.
 

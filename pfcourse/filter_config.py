@@ -25,11 +25,12 @@ import copy
 import dataclasses
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, Protocol
 
 from pfcourse.checks import check_count, check_probability
 from pfcourse.errors import ModelError, ParameterError
-from pfcourse.filter import ParticleFilter
+from pfcourse.checks import Array
+from pfcourse.filter import Model, ParticleFilter, Proposal
 from pfcourse.resampling import SCHEMES
 
 
@@ -110,7 +111,8 @@ def labels(registry: Mapping[str, FilterConfig]) -> dict[str, str]:
 _NAMES = {"TransitionProposal": "bootstrap", "ProgressiveCorrection": "progressive correction",
           "RegularisedJitter": "regularised", "Roughening": "roughened", "KLDSampling": "KLD-sampling",
           "OptimalProposal": "optimal proposal", "LinearGaussianOptimal": "optimal proposal",
-          "FullyAdaptedAuxiliary": "fully adapted auxiliary"}
+          "FullyAdaptedAuxiliary": "fully adapted auxiliary", "AltitudeKalmanProposal": "altitude Kalman update",
+          "BiasKalmanProposal": "altitude and map-bias Kalman update"}
 
 
 def _name(component: Any) -> str:
@@ -144,6 +146,25 @@ def describe(component: Any) -> Any:
     return out
 
 
+class Jitter(Protocol):
+    """A move after resampling (:mod:`pfcourse.jitter`): ``jitter(particles, rng) -> particles``."""
+
+    def __call__(self, particles: Array, rng) -> Array: ...
+
+
+class SampleSizePolicy(Protocol):
+    """A variable number of particles (:mod:`pfcourse.sample_size`): ``needed(new_particles)`` after each batch."""
+
+    def needed(self, new_particles: Array) -> int: ...
+
+
+class ModelChange(Protocol):
+    """The change a filter makes to the scenario's model: ``apply(model)`` is the filter's own model (e.g. the
+    map integrated out, a probability of being kidnapped, another process noise)."""
+
+    def apply(self, model: Model) -> Model: ...
+
+
 @dataclass(frozen=True)
 class FilterSettings:
     """A particle filter's settings as a typed record: ``N``, the resampling rule (``threshold``,
@@ -165,10 +186,10 @@ class FilterSettings:
     n_particles: int
     threshold: float = 0.5
     resampler: str = "systematic"
-    proposal: Any = None
-    jitter: Any = None
-    sample_size: Any = None
-    model_change: Any = None
+    proposal: Proposal | None = None  # or a template with for_model(model) -> Proposal
+    jitter: Jitter | None = None
+    sample_size: SampleSizePolicy | None = None
+    model_change: ModelChange | None = None
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "n_particles", check_count(self.n_particles, "n_particles"))

@@ -54,8 +54,6 @@ from functools import lru_cache
 
 import numpy as np
 import scipy.linalg
-from filterpy.kalman import MerweScaledSigmaPoints, unscented_transform
-from filterpy.stats import logpdf
 
 from pfcourse.checks import Array, check_estimate, check_measurements, check_real, is_missing, numerical_step
 from pfcourse.errors import MeasurementError, ModelError
@@ -155,12 +153,16 @@ class Unscented:
         check_real(alpha, "alpha", low=0.0, high=1e100, low_open=True)  # beyond, alpha**2 overflows
         check_real(beta, "beta")
         check_real(kappa, "kappa", low=-float(n), low_open=True)  # alpha^2 (n + kappa) > 0: the points' spread
+        # filterpy is imported where it is used, not by ``import pfcourse`` (it takes about a second to load)
+        from filterpy.kalman import MerweScaledSigmaPoints, unscented_transform
+
+        self.transform = unscented_transform
         self.sigma = MerweScaledSigmaPoints(n, alpha=alpha, beta=beta, kappa=kappa,
                                             subtract=model.residual_x)
 
     def predict(self, model: GaussianModel, m: Array, P: Array, t: Transition) -> tuple[Array, Array]:
         moved = np.array([t.f(point) for point in self.sigma.sigma_points(m, P)])
-        return unscented_transform(moved, self.sigma.Wm, self.sigma.Wc, t.Q, model.mean_x, model.residual_x)
+        return self.transform(moved, self.sigma.Wm, self.sigma.Wc, t.Q, model.mean_x, model.residual_x)
 
     def points(self, m: Array, P: Array) -> Array:
         """Where the update evaluates ``h``: the sigma points of ``N(m, P)`` (the first is ``m``)."""
@@ -169,7 +171,7 @@ class Unscented:
     def update(self, model: GaussianModel, m: Array, P: Array, points: Array, e: Measurement) -> Update:
         seen = np.atleast_2d([e.h(point) for point in points])
         Wm, Wc = self.sigma.Wm, self.sigma.Wc
-        z_hat, S = unscented_transform(seen, Wm, Wc, e.R, model.mean_z, model.residual_z)
+        z_hat, S = self.transform(seen, Wm, Wc, e.R, model.mean_z, model.residual_z)
         Pxz = np.zeros((len(m), seen.shape[1]))
         for w, point, z in zip(Wc, points, seen):
             Pxz += w * np.outer(model.residual_x(point, m), model.residual_z(z, z_hat))
@@ -188,6 +190,8 @@ def gaussian_filter(model: GaussianModel, steps: Linearised | Unscented, measure
     about 0.2 ms a step, as much as the rest of an EKF step).
     """
     label = name if label is None else label
+    if log_likelihood:
+        from filterpy.stats import logpdf  # imported when used: ``import pfcourse`` does not load filterpy
     m, P = np.array(model.m0, dtype=float), np.array(model.P0, dtype=float)
     out = KalmanResult.empty(len(measurements), len(m), model.dim_z, name)
     on_domain = model.on_domain if model.on_domain is not None else (lambda points: True)

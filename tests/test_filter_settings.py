@@ -131,7 +131,7 @@ def test_a_model_change_and_a_shared_component_are_data_too():
     ("global_localization/tracking_cost", "filters", "pfcourse.scenarios.robot.mcl"),
     ("maprobot/tracking", "filters", "pfcourse.scenarios.maprobot.drive"),
     ("maprobot/kld_tracking", "filters", "pfcourse.scenarios.maprobot.drive"),
-    ("terrain_remedies", "settings", "pfcourse.studies.terrain_remedies"),
+    ("terrain_remedies", "filters", "pfcourse.studies.terrain_remedies"),
 ])
 def test_a_study_s_provenance_holds_the_records_of_the_filters_it_ran(study, key, registry):
     """The configurations in a stored study's provenance are the records its rows build from, as data: a
@@ -148,6 +148,6 @@ def test_the_kld_settings_of_the_amcl_study_are_in_its_provenance():
     from pfcourse.studies.global_localization import KLD_SETTINGS
     from pfcourse.studies.registry import STUDIES
 
-    stored = STUDIES["global_localization/kld_amcl"].load().attrs["provenance"]["settings"]
-    assert stored == json.loads(json.dumps({name: s.record() for name, s in KLD_SETTINGS.items()}))
+    stored = STUDIES["global_localization/kld_amcl"].load().attrs["provenance"]["filters"]
+    assert stored == json.loads(json.dumps({name: {"label": s.label, **s.record()} for name, s in KLD_SETTINGS.items()}))
     assert stored["AMCL defaults"]["sample_size"]["n_min"] == 500 and stored["AMCL defaults"]["n_particles"] == 5000

@@ -169,7 +169,7 @@ def test_rmse_is_written_once():
 #: How a chapter must not read a stored study: the one reader is ``STUDIES[name].load()`` (the
 #: table, its provenance in ``table.attrs["provenance"]``); the cross-checks against ``particles``
 #: are read by ``registry.cross_check``.
-OTHER_READERS = re.compile(r"read_csv\(|json\.loads?\(|store import load|\.find\(")
+OTHER_READERS = re.compile(r"read_csv\(|json\.loads?\(|np\.load\(|store import load|\.find\(")
 
 
 @pytest.mark.parametrize("chapter", sorted((PACKAGE.parent / "book").glob("part*/*.py")), ids=lambda p: p.stem)

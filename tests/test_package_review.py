@@ -35,7 +35,7 @@ def test_a_collapse_is_still_recorded_as_a_failed_run():
     table = run_study(_collapsing_row, {"a": [1]}, 2, progress=False, executor=SerialExecutor(),
                       failed_scores={"final": np.inf})
     assert list(table["status"]) == ["failed", "failed"] and np.isinf(table["final"]).all()
-    assert table["error"].str.startswith("DegenerateWeightsError").all()
+    assert table["error_message"].str.startswith("DegenerateWeightsError").all()
     assert is_collapse(DegenerateWeightsError("x")) and not is_collapse(ModelError("x", step=2))
 
 

@@ -82,7 +82,7 @@ def test_study_with_batches_records_failures_per_replicate():
     table = run_study(None, {"level": [1.0]}, 10, run_batch=batch, batch_size=10, progress=False)
     odd = table["seed"] % 2 == 1
     assert (table.loc[odd, "status"] == "failed").all() and (table.loc[~odd, "status"] == "ok").all()
-    assert table.loc[odd, "error"].str.contains("lost").all()
+    assert table.loc[odd, "error_message"].str.contains("lost").all()
     assert summarize(table, "level", "m").loc[1.0, "n_failed"] == odd.sum()
 
 

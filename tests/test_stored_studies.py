@@ -18,6 +18,7 @@ import pandas as pd
 import pytest
 
 from pfcourse.errors import DegenerateWeightsError, ParameterError, StepError
+from pfcourse.filter_config import FilterSettings
 from pfcourse.studies.registry import STUDIES, Study, same, select
 from pfcourse.studies.store import DATA, load, save
 
@@ -59,7 +60,7 @@ def test_the_store_round_trips_every_kind_of_column(tmp_path):
     values = np.random.default_rng(0).normal(size=6) * 10.0 ** np.arange(-15, 15, 5)
     table = pd.DataFrame({"gap": [None, (1.0, 2.0), None, (1.0, 2.0), None, None], "x": values,
                           "name": list("abcdef"), "run": range(6), "status": ["ok"] * 5 + ["failed"],
-                          "error": [""] * 5 + ["StepError: lost"], "lost": [True, False] * 3,
+                          "error_message": [""] * 5 + ["StepError: lost"], "lost": [True, False] * 3,
                           "trace": [np.arange(3.0) * v for v in values[:5]] + [np.nan]})
     save(tmp_path / "t.csv", table, literals=["gap"], arrays=["trace"])
     back = load(tmp_path / "t.csv", literals=["gap"], arrays=["trace"])
@@ -68,15 +69,27 @@ def test_the_store_round_trips_every_kind_of_column(tmp_path):
 
 
 def test_a_metric_named_error_reads_back_as_numbers_and_empty_messages_as_text(tmp_path):
-    """run_study's ``error`` column holds messages (an ok run's is empty, read back as ""), but a study may
-    also name a metric ``error`` (static_parameters, sir_fixes): its numbers must come back as numbers."""
-    metric = pd.DataFrame({"run": range(3), "error": [0.25, 0.125, np.nan]})
-    save(tmp_path / "m.csv", metric)
+    """run_study's messages are in ``error_message`` (an ok run's is empty, read back as ""); a metric named
+    ``error`` (static_parameters, sir_fixes) is a metric like any other, its numbers read back as numbers,
+    even beside the messages of a table with failed runs."""
+    table = pd.DataFrame({"run": range(3), "status": ["ok", "ok", "failed"], "error_message": ["", "", "StepError: x"],
+                          "error": [0.25, 0.125, np.nan]})
+    save(tmp_path / "m.csv", table)
     back = load(tmp_path / "m.csv")
     assert back["error"].iloc[0] == 0.25 and back["error"].iloc[1] == 0.125 and np.isnan(back["error"].iloc[2])
-    messages = pd.DataFrame({"run": range(3), "status": ["ok"] * 3, "error": ["", "", ""]})
+    assert list(back["error_message"]) == ["", "", "StepError: x"]
+    messages = pd.DataFrame({"run": range(3), "status": ["ok"] * 3, "error_message": ["", "", ""]})
     save(tmp_path / "e.csv", messages)
-    assert list(load(tmp_path / "e.csv")["error"]) == ["", "", ""]
+    assert list(load(tmp_path / "e.csv")["error_message"]) == ["", "", ""]
+
+
+def test_a_row_may_return_a_metric_named_error_beside_run_study_s_messages():
+    from pfcourse.studies.executor import SerialExecutor
+    from pfcourse.studies.study import run_study
+
+    table = run_study(lambda seed, a: {"error": seed * 0.5}, {"a": [1]}, 2, seeds=[1, 2], executor=SerialExecutor(),
+                      progress=False)
+    assert list(table["error"]) == [0.5, 1.0] and list(table["error_message"]) == ["", ""]
 
 
 def test_unknown_names_and_rules_are_refused():
@@ -99,7 +112,8 @@ def test_a_study_is_run_stored_and_recorded_by_name(tmp_path, monkeypatch):
 
     monkeypatch.setattr(registry, "DATA", tmp_path)
     toys = [Study(name="toy/one", row=_toy_row, grid=({"a": [2], "b": ["p"]}, {"a": [1, 3], "b": ["q"]}), n_runs=2,
-                  seeds="run", base_seed=5, table="toy/one.csv", provenance="toy/provenance.json", order=("run",)),
+                  seeds="run", base_seed=5, table="toy/one.csv", provenance="toy/provenance.json", order=("run",),
+                  filters={"bootstrap": FilterSettings(10, threshold=1.0)}),
             Study(name="toy/two", row=_toy_row, grid={"a": [1], "b": ["r"]}, n_runs=3, table="toy/two.csv",
                   provenance="toy/provenance.json", columns=("a", "b", "seed", "x"))]
     for toy in toys:
@@ -108,12 +122,15 @@ def test_a_study_is_run_stored_and_recorded_by_name(tmp_path, monkeypatch):
     one, two = (toy.load() for toy in toys)
     assert list(zip(one["a"], one["seed"])) == [(2, 5), (1, 5), (3, 5), (2, 6), (1, 6), (3, 6)] == \
         list(zip(toys[0].layout()["a"], toys[0].layout()["seed"]))
-    assert list(one["status"]) == ["ok"] * 5 + ["failed"] and one["error"].iloc[0] == ""
+    assert list(one["status"]) == ["ok"] * 5 + ["failed"] and one["error_message"].iloc[0] == ""
     assert list(two.columns) == ["a", "b", "seed", "x"]
     assert same(two.iloc[1]["x"], toys[1].recompute(two.iloc[1])["x"])
     record = json.loads((tmp_path / "toy" / "provenance.json").read_text())
     assert record["code"] == "pfcourse/studies/registry.py" and set(record["studies"]) == {"toy/one", "toy/two"}
     assert record["studies"]["toy/one"]["seeds"] == "run r: seed 5 + r" and "n_runs" not in record
+    # the filters of the group's studies, as settings records, per study and at the top (the one schema)
+    assert record["studies"]["toy/one"]["filters"] == record["filters"] == toys[0].filter_records()
+    assert record["filters"]["bootstrap"]["threshold"] == 1.0 and record["studies"]["toy/two"]["filters"] == {}
     with pytest.raises(StepError, match="toy/one"):
         registry.Study(**{**toys[0].__dict__, "failures": "raise"}).compute()
 
@@ -132,7 +149,7 @@ def test_a_filter_that_loses_every_particle_is_recorded_by_the_runner(name):
     table = dataclasses.replace(study, row=_collapse).compute(n_runs=2)
     stored = study.load()
     assert list(table.columns) == list(study.columns) and set(table.columns) == set(stored.columns)
-    assert (table["status"] == "failed").all() and table["error"].str.startswith("DegenerateWeightsError: every particle").all()
+    assert (table["status"] == "failed").all() and table["error_message"].str.startswith("DegenerateWeightsError: every particle").all()
     assert list(table[study.seed_column]) == list(study.layout(n_runs=2)["seed"])
     for column, value in study.failed_scores.items():
         assert all(same(v, value) for v in table[column]), column

@@ -30,7 +30,7 @@ def landmark_run(seed: int, n_particles: int, threshold: float) -> dict:
 def test_table_has_one_row_per_setting_and_run():
     table = run_study(landmark_run, {"n_particles": [50, 200], "threshold": [0.0, 0.5]}, 3, progress=False)
     assert len(table) == 2 * 2 * 3
-    assert {"n_particles", "threshold", "run", "seed", "status", "error", "rmse_vs_kalman", "seconds"} <= set(table)
+    assert {"n_particles", "threshold", "run", "seed", "status", "error_message", "rmse_vs_kalman", "seconds"} <= set(table)
     assert (table["status"] == "ok").all()
     assert (table.loc[table["threshold"] == 0.0, "resamples"] == 0).all()
 
@@ -59,7 +59,7 @@ def test_a_collapse_is_recorded_and_the_study_goes_on():
     table = run_study(fragile, {"level": [1.0, 2.0]}, 20, progress=False)
     failed = table[table["status"] == "failed"]
     assert len(failed) == int(sum(replicate_seed(0, r) % 2 == 0 for r in range(20)))
-    assert (failed["level"] == 2.0).all() and failed["error"].str.contains("step 4").all()
+    assert (failed["level"] == 2.0).all() and failed["error_message"].str.contains("step 4").all()
     summary = summarize(table, "level", "error_m")
     assert summary.loc[1.0, "n_failed"] == 0 and summary.loc[2.0, "n_failed"] == len(failed)
     assert summary.loc[2.0, "n_ok"] + summary.loc[2.0, "n_failed"] == 20

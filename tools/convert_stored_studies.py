@@ -16,7 +16,9 @@
   global-localization and map-robot studies, ``terrain_remedies`` and ``terrain_equal_cost``) gains
   those records (``filters``, ``settings``).
 
-Idempotent: a second run writes the same files.
+Idempotent: a second run writes the same files -- the files of that conversion, which
+``tools/convert_study_records.py`` converted again (the message column ``error_message``, the one provenance
+schema): run that one after this one, never this one alone.
 
 Every other value is unchanged, byte for byte: ``tests/test_converted_studies.py`` compares each
 converted table, read by ``STUDIES[name].load()``, with the table of ``FROM`` read as it was read then.

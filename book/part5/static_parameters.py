@@ -45,7 +45,6 @@ from pfcourse.book.style import COLORS, use_style
 from IPython.display import display
 
 use_style()
-DATA = "../data/static_parameters/"
 PROBLEM = sps.problem()
 EXACT = sps.exact()  # Kalman likelihood on a grid of log theta, with the prior
 GLUE = {}

@@ -26,7 +26,7 @@ import time
 
 import numpy as np
 
-from pfcourse.filter import ParticleFilter
+from pfcourse.filter_config import FilterSettings
 from pfcourse.metrics import position_error, rmse
 from pfcourse.scenarios.robot.association import AssociationModel, ClutterSensor, run_nn_ekf, run_pdaf, simulate_readings
 from pfcourse.scenarios.robot.scenario import RobotModel, RobotSimulation, simulate_robot
@@ -37,6 +37,8 @@ SCENARIO = {"n_steps": 300, "speed": (0.5, 0.0), "gap": (100.0, 200.0)}
 P_DETECT = 0.9
 MAX_RANGE = 200.0
 N_PARTICLES = 500
+#: The particle filter: bootstrap, N_PARTICLES, systematic resampling at ESS < N/2.
+FILTER = FilterSettings(N_PARTICLES)
 #: Clutter rates of the study (mean false readings per measurement step).
 CLUTTER_RATES = (0.0, 1.0, 2.0, 4.0)
 N_RUNS = 100
@@ -61,7 +63,7 @@ def row(seed: int, clutter_rate: float) -> dict:
     sim, sensor, readings = simulate_run(seed, clutter_rate)
     model = AssociationModel(RobotModel.for_simulation(sim), sensor)
     t0 = time.perf_counter()
-    pf = ParticleFilter(model, N_PARTICLES).run(readings.readings, rng=filter_rng(0, seed))
+    pf = FILTER.build(model).run(readings.readings, rng=filter_rng(0, seed))
     t1 = time.perf_counter()
     ekf, chosen = run_nn_ekf(model, readings.readings, rule="sequential")
     t2 = time.perf_counter()

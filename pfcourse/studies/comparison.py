@@ -42,7 +42,7 @@ from pfcourse.collectors import Clouds
 from pfcourse.diagnostics import chi2_band, fraction_in_band, nees, nis, predictive_moments
 from pfcourse.studies.executor import run_tasks
 from pfcourse.studies.record import RunRecord, record_run
-from pfcourse.filter import ParticleFilter
+from pfcourse.filter_config import FilterConfig, FilterSettings, configurations
 from pfcourse import metrics
 from pfcourse.metrics import position_error, rmse
 from pfcourse.results import FilterResult, KalmanResult
@@ -134,7 +134,7 @@ def robot_tracks(seed: int, n_values: Sequence[int], *, n_steps: int = 100, q_sc
 
     def run(name, n):
         if name == "pf":
-            return ParticleFilter(model, n, threshold=0.5).run(z, sized_filter_rng(seed, n), collect=[Clouds()])
+            return FilterSettings(n).build(model).run(z, sized_filter_rng(seed, n), collect=[Clouds()])
         return (run_ekf if name == "ekf" else run_ukf)(model, z)
 
     def score(res) -> dict:
@@ -158,6 +158,18 @@ CONSISTENCY_FIXES = {
 CONSISTENCY_STEPS, CONSISTENCY_BURN_IN = 100, 20
 
 
+def _consistency_filters() -> dict[str, FilterConfig]:
+    from pfcourse.jitter import Roughening
+
+    return configurations(*(FilterConfig.of(name, FilterSettings(n, jitter=None if K is None else Roughening(K)))
+                            for name, (n, _, K) in CONSISTENCY_FIXES.items()))
+
+
+#: The particle filter of each setting as a settings record (systematic resampling at ESS < N/2; the
+#: scale of the filter's Q is the model's, ``RobotModel.for_simulation(sim, q_scale=...)``).
+CONSISTENCY_FILTERS = _consistency_filters()
+
+
 def consistency_fix_row(seed: int, setting: str) -> dict:
     """Run ``seed`` of the robot of :func:`robot_tracks` (true noise levels in the data) through the
     particle filter of ``setting`` (:data:`CONSISTENCY_FIXES`): the position RMSE (m) and the mean NEES
@@ -166,13 +178,10 @@ def consistency_fix_row(seed: int, setting: str) -> dict:
     The filter's stream is ``filter_rng(0, seed)`` whatever the setting, and the data the same
     (``simulate_robot(None, seed)``): the settings are paired run by run.
     """
-    from pfcourse.jitter import Roughening
-
-    n, q_scale, K = CONSISTENCY_FIXES[setting]
+    _, q_scale, _ = CONSISTENCY_FIXES[setting]
     sim = simulate_robot(None, seed, n_steps=CONSISTENCY_STEPS)
     model = RobotModel.for_simulation(sim, q_scale=q_scale, r_scale=1.0)
-    jitter = None if K is None else Roughening(K)
-    res = ParticleFilter(model, n, threshold=0.5, jitter=jitter).run(sim.measurements, filter_rng(0, seed))
+    res = CONSISTENCY_FILTERS[setting].build(model).run(sim.measurements, filter_rng(0, seed))
     nees_k = _safe_nees(sim.truth, res.mean, res.cov, ANGLE_INDICES)
     err = position_error(sim.truth, res.mean)[CONSISTENCY_BURN_IN:]
     return {"rmse_m": float(rmse(err)), "nees_mean": float(np.mean(nees_k[CONSISTENCY_BURN_IN:])),
@@ -200,7 +209,7 @@ def terrain_tracks(seed: int, run: int, scenario: AircraftScenario, terrain: Ter
 
     def run_filter(name, n):
         if name == "pf":
-            return ParticleFilter(model, n, threshold=0.5, resampler=resampler).run(
+            return FilterSettings(n, resampler=resampler).build(model).run(
                 z, filter_rng(seed, run), collect=[Clouds()])
         return (extended_kalman_filter if name == "ekf" else unscented_kalman_filter)(scenario, terrain, z)
 
@@ -301,7 +310,7 @@ def linear_convergence(model, measurements: Array, kalman, n_values: Sequence[in
 def _convergence_runs(model, measurements: Array, kalman, n: int, n_runs: int, seed: int,
                       threshold: float) -> tuple[Array, Array, Array]:
     """The ``n_runs`` runs of :func:`linear_convergence` at ``N = n``: errors of the mean, covariance, log-likelihood."""
-    pf = ParticleFilter(model, n, threshold=threshold)
+    pf = FilterSettings(n, threshold=threshold).build(model)
     mean_err, cov_err, ll_err = np.empty(n_runs), np.empty(n_runs), np.empty(n_runs)
     for r in range(n_runs):
         res = pf.run(measurements, sized_filter_rng(seed, n, run=r))

@@ -19,6 +19,7 @@ import numpy as np
 from scipy.special import logsumexp
 
 from pfcourse.errors import ParameterError
+from pfcourse.filter_config import FilterSettings
 from pfcourse.metrics import rmse
 from pfcourse.resampling import get_resampler
 
@@ -111,6 +112,8 @@ LINEAR_N = (30, 100, 300, 1000)
 LINEAR_THRESHOLD = 0.5
 LANDMARK_NOISES = (0.0, 0.0025)
 LINEAR_RUNS = 50  # the exercise's own number of runs (N = 1000 on the linear model is the costly part)
+#: Its filter: the bootstrap filter, systematic resampling at ESS < N/2 (``N`` from the grid; 100 nominal).
+LINEAR_FILTER = FilterSettings(100, threshold=LINEAR_THRESHOLD)
 LINEAR_GRID = {"landmark_noise": list(LANDMARK_NOISES), "n_particles": list(LINEAR_N)}
 _KALMAN: dict[tuple[int, float], tuple] = {}
 
@@ -128,7 +131,6 @@ def linear_scenario(landmark_noise: float):
 def linear_row(seed: int, landmark_noise: float, n_particles: int) -> dict:
     """RMS over the steps of the particle mean minus the Kalman mean (robot, and landmark per coordinate
     pair), simulation ``simulate(scenario, seed)``, filter stream ``filter_rng(0, seed)`` for every N."""
-    from pfcourse.filter import ParticleFilter
     from pfcourse.kalman import kalman_filter
     from pfcourse.scenarios.landmarks.scenario import simulate
     from pfcourse.seeding import filter_rng
@@ -138,7 +140,7 @@ def linear_row(seed: int, landmark_noise: float, n_particles: int) -> dict:
     data = simulate(scenario, seed)
     if (seed, landmark_noise) not in _KALMAN:
         _KALMAN[(seed, landmark_noise)] = kalman_filter(model, data.measurements).mean
-    pf = ParticleFilter(model, n_particles, threshold=LINEAR_THRESHOLD).run(data.measurements,
+    pf = LINEAR_FILTER.with_(n_particles=n_particles).build(model).run(data.measurements,
                                                                             rng=filter_rng(0, seed))
     gap = pf.mean - _KALMAN[(seed, landmark_noise)]
     return {"robot_gap": float(rmse(gap[:, :2], components=1)),

@@ -54,7 +54,7 @@ KIDNAP = [("bootstrap", 2000), ("mixture", 2000), ("augmented", 2000), ("kld", 2
 #: The stored tables' columns, in order.
 COLUMNS = {
     "anatomy": ("seed", "n", "nearest_m", "consistent_1", "expected_1", "ess_1", "consistent_3"),
-    "lockon": ("seed", "method", "n", "status", "error", "locked_on", "lock_time", "final_error", "final_heading_error",
+    "lockon": ("seed", "method", "n", "status", "error_message", "locked_on", "lock_time", "final_error", "final_heading_error",
                "final_sd", "final_nees", "wrong_confident", "particle_steps", "mean_n", "seconds"),
     "kidnap": ("seed", "method", "n", "tracking_before", "detection_s", "recovery_s", "recovered", "final_error",
                "final_nees", "particle_steps", "seconds"),
@@ -244,7 +244,7 @@ KLD_SETTINGS = {
 }
 #: Methods and N of the tracking-cost study (what the mixture proposal spends while tracking).
 TRACKING = [("bootstrap", 2000), ("mixture", 2000)]
-COLUMNS["kld_amcl"] = ("seed", "setting", "status", "error", "locked_on", "lock_time", "final_error",
+COLUMNS["kld_amcl"] = ("seed", "setting", "status", "error_message", "locked_on", "lock_time", "final_error",
                        "final_heading_error", "final_sd", "final_nees", "wrong_confident", "particle_steps", "mean_n",
                        "seconds")
 COLUMNS["tracking_cost"] = ("seed", "method", "n", "ess_fraction", "position_rmse", "heading_rmse_deg")

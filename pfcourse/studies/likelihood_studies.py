@@ -37,7 +37,7 @@ from pfcourse.smoothing import ffbsm, pairwise
 from pfcourse.scenarios.robot.scenario import robot_transition_log_density
 from pfcourse.studies.terrain import jacksboro
 from pfcourse.collectors import Clouds
-from pfcourse.filter import ParticleFilter
+from pfcourse.filter_config import FilterSettings
 from pfcourse.scenarios.landmarks import quadrant_scenario, simulate
 from pfcourse.scenarios.robot import RobotModel, RobotScenario, simulate_robot
 from pfcourse.seeding import data_rng, likelihood_rng, replicate_seed, run_filter_seed
@@ -140,10 +140,15 @@ def terrain_rf_run(seed: int, flight: int, n_particles: int) -> dict:
     return {"rf_scale_ml": theta, "nfev": nfev, "log_lik_ml": log_lik(theta), "log_lik_truth": log_lik(1.0)}
 
 
+#: The filter of ``likelihood/smoothing_robot``: bootstrap, systematic resampling at ESS < N/2 (``N`` from the grid).
+ROBOT_GAP_FILTER = FilterSettings(300)
+
+
 def robot_gap_run(seed: int, n_particles: int) -> dict:
     sim = simulate_robot(ROBOT_GAP, seed)
     model = RobotModel.for_simulation(sim)
-    r = ParticleFilter(model, n_particles).run(sim.measurements, run_filter_seed(seed), collect=[Clouds()])
+    r = ROBOT_GAP_FILTER.with_(n_particles=n_particles).build(model).run(sim.measurements, run_filter_seed(seed),
+                                                                       collect=[Clouds()])
     s = ffbsm(r.particles, r.weights, pairwise(partial(robot_transition_log_density, model)), model.angle_indices)
     t = np.arange(ROBOT_GAP.n_steps) * ROBOT_GAP.dt
     gap = (t >= ROBOT_GAP.gap[0]) & (t < ROBOT_GAP.gap[1])

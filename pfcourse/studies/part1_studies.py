@@ -30,11 +30,12 @@ from scipy import stats
 
 from pfcourse.diagnostics import nees
 from pfcourse.studies.landmarks import score
-from pfcourse.filter import ParticleFilter
+from pfcourse.filter_config import FilterConfig, FilterSettings, configurations, lookup
 from pfcourse.kalman import kalman_filter
 from pfcourse.scenarios.landmarks.rao_blackwell import RaoBlackwellModel, RaoBlackwellProposal
 from pfcourse.scenarios.landmarks.scenario import circle_scenario, quadrant_scenario, simulate
 from pfcourse.proposals import OptimalProposal
+from pfcourse.studies.rb_study import RaoBlackwellised
 from pfcourse.seeding import study_filter_seed
 from pfcourse import metrics
 
@@ -48,6 +49,19 @@ N_LAB, N_SWEEP = 500, 200
 THRESHOLD_LAB, THRESHOLD_SWEEP = 1 / 3, 1 / 2
 FIVE_METHODS = ["SIS", "SIR", "RBPF"]
 N_FIVE = 100
+
+#: The filters of ``proposals``, by ``"<setting>/<proposal>"`` (the two sweeps, ``sharp`` and ``broad``, share
+#: theirs): ``N`` and threshold of the setting, the transition (bootstrap) or the optimal importance function.
+FILTERS: dict[str, FilterConfig] = configurations(*(
+    FilterConfig.of(f"{setting}/{proposal}", FilterSettings(n, threshold=tau, proposal=prop))
+    for setting, n, tau in (("lab", N_LAB, THRESHOLD_LAB), ("sweep", N_SWEEP, THRESHOLD_SWEEP))
+    for proposal, prop in (("bootstrap", None), ("optimal", OptimalProposal()))))
+#: The filters of ``rb_five_landmarks``: SIS, SIR, and the Rao-Blackwellised filter (FastSLAM 2.0), N = 100.
+FIVE_FILTERS: dict[str, FilterConfig] = configurations(*(FilterConfig.of(name, settings) for name, settings in [
+    ("SIS", FilterSettings(N_FIVE, threshold=0.0)), ("SIR", FilterSettings(N_FIVE, threshold=1 / 3)),
+    ("RBPF", FilterSettings(N_FIVE, threshold=1 / 3, proposal=RaoBlackwellProposal(True),
+                            model_change=RaoBlackwellised()))]))
+assert list(FIVE_FILTERS) == FIVE_METHODS
 
 
 def noisy_scenario(setting: str):
@@ -68,9 +82,9 @@ def proposals_row(seed: int, setting: str, proposal: str) -> dict:
     model = scenario.model()
     sim = simulate(scenario, rng=seed)
     kf = kalman_filter(model, sim.measurements)
-    n, tau = (N_LAB, THRESHOLD_LAB) if setting == "lab" else (N_SWEEP, THRESHOLD_SWEEP)
-    prop = OptimalProposal() if proposal == "optimal" else None
-    r = ParticleFilter(model, n, threshold=tau, proposal=prop).run(sim.measurements, rng=study_filter_seed(seed))
+    settings = FILTERS[f"{'lab' if setting == 'lab' else 'sweep'}/{proposal}"].settings
+    n = settings.n_particles
+    r = settings.build(model).run(sim.measurements, rng=study_filter_seed(seed))
     measured = sim.seen.any(axis=1)
     ess = r.ess[measured] / n
     out = {"ess": float(np.mean(ess)) if measured.any() else np.nan, "ess_sum": float(np.sum(ess)),
@@ -90,16 +104,10 @@ def five_landmarks_row(seed: int, method: str) -> dict:
     model = circle.model()
     sim = simulate(circle, rng=seed)
     kf = kalman_filter(model, sim.measurements)
-    if method == "SIS":
-        r = ParticleFilter(model, N_FIVE, threshold=0.0).run(sim.measurements, rng=study_filter_seed(seed))
-    elif method == "SIR":
-        r = ParticleFilter(model, N_FIVE, threshold=1 / 3).run(sim.measurements, rng=study_filter_seed(seed))
-    elif method == "RBPF":
-        rb = RaoBlackwellModel(model)
-        r = rb.marginal(ParticleFilter(rb, N_FIVE, threshold=1 / 3, proposal=RaoBlackwellProposal(True))
-                        .run(sim.measurements, rng=study_filter_seed(seed)))
-    else:
-        raise ValueError(f"unknown method {method!r}")
+    pf = lookup(FIVE_FILTERS, method, "method").settings.build(model)
+    r = pf.run(sim.measurements, rng=study_filter_seed(seed))
+    if isinstance(pf.model, RaoBlackwellModel):  # the RBPF's marginal over the full state
+        r = pf.model.marginal(r)
     sd_ratio = np.sqrt(np.clip(np.diag(r.cov[-1]), 1e-300, None) / np.diag(kf.cov[-1]))
     limit2 = stats.chi2.ppf(0.95, 2)
     inside = nees(sim.truth[-LAST:, :2], r.mean[-LAST:, :2], r.cov[-LAST:, :2, :2]) <= limit2

@@ -24,6 +24,22 @@ import numpy as np
 
 ROOT = Path(__file__).resolve().parents[2]
 
+#: The one schema of a stored study's provenance record: the keys every record has, what each says.
+#: ``code`` and ``git_commit`` name what wrote the table, at that commit (it may have moved since);
+#: ``row_code`` is the code that re-computes its rows today (tests/test_stored_studies.py); ``filters``
+#: the particle filters its rows build, as settings records (``Study.filters``; the studies whose rows
+#: build none through a record are :data:`pfcourse.studies.registry.NO_FILTER_RECORD`, each with its reason).
+#: A study run in several goes lists its commits under ``runs`` in place of ``git_commit``; older records
+#: converted to this schema list the change under ``conversions``.
+SCHEMA = {
+    "code": "the script or modules that wrote the table (a path, or a list of them), at git_commit",
+    "git_commit": "the commit the run was launched from (or runs: [{commit, ...}] for a study run in goes)",
+    "working_tree_modified": "whether pfcourse/ or tools/ differed from that commit",
+    "wall_seconds": "the run's wall time on the machine that made it (seconds: a per-row column's meaning)",
+    "row_code": "the code that re-computes the rows today: module (function), ...",
+    "filters": "{name: the label and FilterSettings.record() of every particle filter the rows build}",
+}
+
 
 def _git(*args: str, root: Path = ROOT) -> str:
     return subprocess.run(["git", *args], cwd=root, capture_output=True, text=True).stdout.strip()

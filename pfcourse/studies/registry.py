@@ -17,8 +17,8 @@ has exactly the settings, seeds and order its record describes.
 
 **One schema.** A stored table has a column per grid parameter (its name in the grid, its values
 as the grid gives them; those that are neither numbers nor words, ``None`` or tuples, as Python
-literals: :attr:`Study.literals`), the run's seed in ``seed_column``, then the metrics of the row
-function (an ``error`` column is text, ``""`` for a run that did not fail), per-step columns in
+literals: :attr:`Study.literals`), the run's seed in ``seed_column``, then ``status`` and ``error_message`` (text, ``""`` for a run that
+did not fail) where the table keeps them, the metrics of the row function, per-step columns in
 ``NAME.npz``.  What made it is in its provenance record, the configurations of its filters as
 data (:meth:`pfcourse.filter_config.FilterSettings.record`).  The tables of older scripts were
 converted to this schema once (``tools/convert_stored_studies.py``, checked by
@@ -26,7 +26,7 @@ converted to this schema once (``tools/convert_stored_studies.py``, checked by
 
 **Adding a study**: write its row function in the experiments module of its scenario (a
 module-level function, so that a process pool can send it), add a :class:`Study` to
-:data:`STUDIES` below, run ``python3 tasks.py study NAME`` after committing the code (the
+:data:`STUDIES` below (its ``filters``: the settings records its rows build, written into the provenance), run ``python3 tasks.py study NAME`` after committing the code (the
 provenance names the commit), and commit the table.
 """
 
@@ -48,7 +48,7 @@ import pandas as pd
 
 from pfcourse.errors import ParameterError, StepError
 from pfcourse.checks import check_count
-from pfcourse.filter_config import records
+from pfcourse.filter_config import FilterConfig, FilterSettings, records
 from pfcourse.studies import association, comparison, count_resampling, global_localization, intel, map_global
 from pfcourse.studies import likelihood_studies as ls
 from pfcourse.studies import part1_studies
@@ -119,6 +119,8 @@ class Study:
     sample: int = 2  # rows re-computed by the test
     row_code: str = ""
     fields: Mapping = field(default_factory=dict)  # the study's own provenance fields
+    #: the particle filters its rows build, ``{name: FilterSettings or FilterConfig}`` (its provenance's ``filters``)
+    filters: Mapping[str, Any] = field(default_factory=dict)
 
     def __post_init__(self) -> None:
         if not isinstance(self.name, str) or not self.name:
@@ -137,6 +139,9 @@ class Study:
                 grid_settings(grid)
             except ParameterError as exc:
                 raise ParameterError(f"study {self.name}: {exc}") from None
+        if not isinstance(self.filters, Mapping):
+            raise ParameterError(f"study {self.name}: filters must be a dict {{name: FilterSettings}}, got {self.filters!r:.60}")
+        self.filter_records()  # each a FilterSettings or a FilterConfig
         for name in ("table", "provenance"):
             _check_data_path(self.name, name, getattr(self, name))
         for name in ("columns", "order", "arrays", "volatile"):
@@ -156,6 +161,20 @@ class Study:
         if clash:
             raise ParameterError(f"study {self.name}: a grid parameter cannot be named {sorted(clash)} "
                                  f"(the columns of the run and its seed)")
+
+    def filter_records(self) -> dict[str, dict]:
+        """``{name: record}`` of :attr:`filters`, plain data (JSON-ready): the label and the settings' record
+        (:meth:`pfcourse.filter_config.FilterSettings.record`) of every filter the study's rows build."""
+        out = {}
+        for name, config in self.filters.items():
+            if isinstance(config, FilterConfig):
+                out[name] = config.record()
+            elif isinstance(config, FilterSettings):
+                out[name] = {"label": config.label, **config.record()}
+            else:
+                raise ParameterError(f"study {self.name}: filters[{name!r}] must be a FilterSettings or a "
+                                     f"FilterConfig, got {type(config).__name__}")
+        return json.loads(json.dumps(out))
 
     @property
     def grids(self) -> tuple[Mapping[str, Sequence], ...]:
@@ -183,7 +202,7 @@ class Study:
                           ignore_index=True)
         if self.failures == "raise" and (table["status"] != "ok").any():
             failed = table[table["status"] != "ok"].iloc[0]
-            raise StepError(f"study {self.name}: run {failed['run']} failed ({failed['error']})")
+            raise StepError(f"study {self.name}: run {failed['run']} failed ({failed['error_message']})")
         # The stored seed comes from the runner, so that a failed run has it too.
         table[self.seed_column] = [SEED_RULES[self.seeds](self.base_seed, r) for r in table["run"]]
         table = self._ordered(table)
@@ -256,29 +275,56 @@ def same(a, b, rtol: float = 0.0) -> bool:
         return False
 
 
+#: The particle filters of the Part V studies that build one in their rows (the others run the core's
+#: likelihood estimators, :mod:`pfcourse.likelihood`).
+LIKELIHOOD_FILTERS = {"smoothing_robot": {"bootstrap": ls.ROBOT_GAP_FILTER}}
+
+
 def _likelihood_study(name: str, row: Callable, grid: dict, n_runs: int, base_seed: int, **options) -> Study:
     """A Part V study: run_study's table without its wall times, in book/data/likelihood/."""
     return Study(name=f"likelihood/{name}", row=row, grid=grid, n_runs=n_runs, base_seed=base_seed,
                  table=f"likelihood/{name}.csv", provenance=f"likelihood/{name}.json",
                  row_code=f"pfcourse/studies/likelihood_studies.py ({row.__name__})",
-                 fields=ls.PROVENANCE_FIELDS[name], **options)
+                 fields=ls.PROVENANCE_FIELDS[name], **{"filters": LIKELIHOOD_FILTERS.get(name, {}), **options})
 
 
 def _mcl_study(name: str, row: Callable, grid, **options) -> Study:
     """A table of the global-localization chapter (anatomy, lockon, kidnap and ekf_vs_pf were stored with 10
     significant digits by their first script: the provenance says so, :meth:`Study.stored_rtol`)."""
-    options = {"failures": "raise", "fields": {"filters": records(robot_mcl.FILTERS)}, **options}
+    options = {"failures": "raise", "filters": robot_mcl.FILTERS, **options}
     return Study(name=f"global_localization/{name}", row=row, grid=grid, n_runs=100, seeds="run",
                  table=f"global_localization/{name}.csv", provenance="global_localization/provenance.json",
                  columns=global_localization.COLUMNS[name],
                  row_code=f"pfcourse/studies/global_localization.py ({row.__name__})", **options)
 
 
+def _robot_filters(grid: dict, options: dict) -> dict:
+    """The particle filter of each setting of a robot study, ``{"key=value, ...": FilterSettings}``
+    (:meth:`pfcourse.studies.robot.RobotRunOptions.filter_settings`)."""
+    return {", ".join(f"{k}={v!r}" for k, v in setting.items()) or "default":
+            robot_experiments.RobotRunOptions.split({**robot_studies.DEFAULTS, **options, **setting})[0].filter_settings()
+            for setting in grid_settings(grid)}
+
+
 def _robot_study(name: str, grid: dict, options: dict) -> Study:
-    return Study(name=f"robot_studies/{name}", row=partial(pf_run, **{**robot_studies.DEFAULTS, **options}),
+    return Study(filters=_robot_filters(grid, options), name=f"robot_studies/{name}", row=partial(pf_run, **{**robot_studies.DEFAULTS, **options}),
                  grid=grid, n_runs=robot_studies.N_RUNS, table=f"robot_studies/{name}.csv",
                  provenance="robot_studies/provenance.json", arrays=robot_studies.ARRAY_COLUMNS,
                  row_code="pfcourse/studies/robot.py (pf_run)", fields={"grid": grid, "options": options})
+
+
+def _terrain_filters(settings) -> dict:
+    """The terrain filters a study's settings run: ``{setting: FilterConfig}`` (a setting that is a filter of
+    :data:`terrain_remedies.FILTERS` with a change to the scenario or the period runs that filter or the period
+    study's; its scenario change is in the study's fields)."""
+    out = {}
+    for setting in settings:
+        name = setting.split(", 10 Hz")[0].split(", Rf + map")[0]
+        if setting.endswith(", 10 Hz"):
+            out[setting] = terrain_studies.filter_settings(terrain_studies.configure("period", "every 0.1 s, dt = 0.1 s")[1])
+        else:
+            out[setting] = terrain_remedies.FILTERS[name]
+    return out
 
 
 #: The terrain flight studies record a filter that lost every particle as a lost flight (infinite error).
@@ -286,16 +332,43 @@ _FLIGHTS = {"failures": "record", "failed_scores": LOST_FLIGHT}
 #: The global-localization runs record a filter that lost every particle as a failed run, not locked on.
 _GLOBAL_RUNS = {"failures": "record", "failed_scores": global_localization.FAILED_RUN}
 
+#: The known exceptions to the one schema, in one place (tests/test_study_records.py checks that no other
+#: study has them): the terrain flight studies name their seed column after the flight it draws (``flight``,
+#: as their chapters read it), and four global-localization tables an older script stored with 10
+#: significant digits, compared to that precision (their provenance's ``significant_digits``,
+#: :meth:`Study.stored_rtol`; re-running them stores round-trip floats and ends the exception).
+SCHEMA_EXCEPTIONS: dict[str, tuple[str, ...]] = {
+    "seed_column flight": ("terrain_remedies", "terrain_reference", "terrain_studies", "terrain_map_error",
+                           "terrain_error_paths", "terrain_model_flights", "terrain_equal_cost", "terrain_mpf",
+                           "terrain_grid", "terrain_field", "terrain_field_pf", "terrain_map_bias", "terrain_costs",
+                           "terrain_confirmation", "terrain_cost_matched"),
+    "significant_digits 10": tuple(f"global_localization/{name}" for name in ("anatomy", "lockon", "kidnap", "ekf_vs_pf")),
+}
+#: The stored studies whose rows build no particle filter through a settings record, so that their
+#: provenance has no ``filters`` (:data:`pfcourse.studies.provenance.SCHEMA`), by name or group, with the reason.
+NO_FILTER_RECORD: dict[str, str] = {
+    "count_resampling": "the bootstrap filter of the count model in plain NumPy (count_resampling.bootstrap_means)",
+    "likelihood/bias": "the core's likelihood estimator, pfcourse.likelihood.pf_log_likelihood",
+    "likelihood/ml": "the core's likelihood estimator, pfcourse.likelihood.pf_log_likelihood",
+    "likelihood/pmmh": "PMMH (pfcourse.pmmh), its particle filter built inside the sampler",
+    "likelihood/terrain_rf": "the terrain likelihood estimator (pfcourse.likelihood)",
+    "data_association_pdaf": "no particle filter: the PDA filter", "data_association_nn": "no particle filter: the NN-EKF",
+    "map_global": "global_mcl's own loop (pfcourse.scenarios.maprobot.global_mcl), its GlobalSettings recorded",
+    "intel": "global_mcl's loop and intel.tracking_row's engine run (row code owned by the intel studies)",
+    "terrain_grid": "no particle filter: the point-mass grid filter", "terrain_costs": "timings of other studies' filters",
+    "static_parameters": "the samplers of pfcourse.static_parameters (Liu-West, Storvik, SMC^2), not the engine",
+    "pmcmc": "particle MCMC (pfcourse.pmmh, pfcourse.correlated, pfcourse.csmc), its filters built inside",
+}
+
+
 #: Every stored study, by name.  A group (``robot_studies``) is the studies named ``group/...``.
 STUDIES: dict[str, Study] = {study.name: study for study in [
-    # sir_fixes' metric "error" (a distance) takes the place of run_study's message column: the
-    # policy "raise" keeps failed runs out of its table.
     Study(name="sir_fixes", row=sir_fixes_study.row,
           grid={"variant": sir_fixes_study.VARIANTS, "N": sir_fixes_study.N_VALUES}, n_runs=100, seeds="run",
           failures="raise", table="sir_fixes.csv", provenance="sir_fixes.json",
           columns=("variant", "N", "seed", "error", "coverage"), cheap=lambda t: t["N"] <= 300, sample=4,
-          row_code="pfcourse/studies/sir_fixes_study.py",
-          fields={"seeds": "0-99; filter seed s + 10**6; threshold N/3",
+          row_code="pfcourse/studies/sir_fixes_study.py (row)", filters=sir_fixes_study.FILTERS,
+          fields={"seeds": "run s: simulation seed s, filter seed s + 10**6 (study_filter_seed)",
                   "landmark_noise": sir_fixes_study.LANDMARK_NOISE}),
     Study(name="rao_blackwell", row=rb_study.row,
           grid=tuple(g for scenario, n_values in rb_study.N_VALUES.items()
@@ -304,54 +377,59 @@ STUDIES: dict[str, Study] = {study.name: study for study in [
           n_runs=100, seeds="run", failures="raise", table="rao_blackwell.csv", provenance="rao_blackwell.json",
           columns=rb_study.COLUMNS, order=("scenario", "run"), volatile=("seconds", "seconds_per_step"),
           cheap=lambda t: (t["method"] != "kalman") & (t["N"] <= 300), sample=3,
-          row_code="pfcourse/studies/rb_study.py, pfcourse/scenarios/landmarks/rao_blackwell.py, pfcourse/scenarios/landmarks/auxiliary.py",
-          fields={"methods": rb_study.METHODS, "filters": records(rb_study.FILTERS),
+          row_code="pfcourse/studies/rb_study.py (row), pfcourse/scenarios/landmarks/rao_blackwell.py, pfcourse/proposals.py",
+          filters=rb_study.FILTERS,
+          fields={"methods": rb_study.METHODS,
                   "seeds": "simulation seed s, filter seed s + 10**6 (same for every method and N)"}),
     Study(name="proposals", row=part1_studies.proposals_row,
           grid={"setting": part1_studies.SETTINGS, "proposal": part1_studies.PROPOSALS}, n_runs=50, seeds="run",
           failures="raise", table="proposals.csv", provenance="proposals.json",
           columns=("setting", "proposal", "seed", "ess", "ess_sum", "n_measured", "resampled", "robot",
-                   "landmarks", "rmse"), sample=4, row_code="pfcourse/studies/part1_studies.py",
+                   "landmarks", "rmse"), sample=4, row_code="pfcourse/studies/part1_studies.py (proposals_row)",
+          filters=part1_studies.FILTERS,
           fields={"seeds": "simulation seed s = 0-49, filter seed s + 10**6 (same for both proposals)",
-                  "lab": "N = 500, threshold 1/3", "sharp_broad": "N = 200, threshold 1/2, process noise "
-                  "0.05^2 m^2 on every coordinate, measurement sd 0.1 and 1 times the lab's"}),
+                  "sharp_broad": "filters sweep/...; process noise 0.05^2 m^2 on every coordinate, measurement sd "
+                                 "0.1 and 1 times the lab's"}),
     Study(name="rb_five_landmarks", row=part1_studies.five_landmarks_row,
           grid={"method": part1_studies.FIVE_METHODS}, n_runs=100, seeds="run", failures="raise",
           table="rb_five_landmarks.csv", provenance="rb_five_landmarks.json",
           columns=("method", "seed", "collapse", "lm_sd", "robot_sd", "robot_cover"), sample=4,
-          row_code="pfcourse/studies/part1_studies.py",
-          fields={"seeds": "simulation seed s = 0-99, filter seed s + 10**6 (same for every method)",
-                  "N": part1_studies.N_FIVE}),
+          row_code="pfcourse/studies/part1_studies.py (five_landmarks_row)", filters=part1_studies.FIVE_FILTERS,
+          fields={"seeds": "simulation seed s = 0-99, filter seed s + 10**6 (same for every method)"}),
     # why_it_works and why_it_works_clt: seeds "run" (0, 1, ...), small enough to survive a row of floats
     Study(name="why_it_works", row=why_it_works.row, grid=why_it_works.GRID, n_runs=why_it_works.N_RUNS,
           seeds="run", failures="raise", table="why_it_works.csv", provenance="why_it_works.json", columns=why_it_works.COLUMNS,
           cheap=lambda t: (t["T"] <= 50) & (t["N"] <= 1000), sample=3,
-          row_code="pfcourse/studies/why_it_works.py",
+          row_code="pfcourse/studies/why_it_works.py (row)", filters={"bootstrap": why_it_works.BOOTSTRAP},
           fields={"data": f"drifting landmark scenario, simulation seed {why_it_works.DATA_SEED}, "
-                          f"{why_it_works.T_MAX + 1} samples", "filter": "bootstrap, systematic resampling",
+                          f"{why_it_works.T_MAX + 1} samples",
                   "seeds": "filter seed r = 0, 1, ..., the same for every setting"}),
     Study(name="why_it_works_growth", row=why_it_works.growth_row,
           grid={"N": [why_it_works.GROWTH_N], "filter_run": why_it_works.GROWTH_FILTER_RUNS},
           n_runs=why_it_works.GROWTH_DATASETS, seeds="run", failures="raise", table="why_it_works_growth.csv",
           provenance="why_it_works_growth.json", columns=why_it_works.GROWTH_COLUMNS, sample=2,
           row_code="pfcourse/studies/why_it_works.py (growth_row)",
+          filters={"bootstrap": why_it_works.EVERY_STEP},
           fields={"data": f"drifting landmark scenario, {why_it_works.T_MAX + 1} samples, simulation seed s = 0-99",
-                  "filter": "bootstrap, threshold 1, systematic; generator filter_rng(s, filter_run)"}),
+                  "seeds": "filter: generator filter_rng(s, filter_run)"}),
     Study(name="why_it_works_clt", row=why_it_works.clt_row, grid={"N": why_it_works.CLT_N_VALUES},
           n_runs=why_it_works.CLT_RUNS, seeds="run", failures="raise", table="why_it_works_clt.csv",
           provenance="why_it_works_clt.json", columns=("N", "seed", "error_last", "error_middle", "log_ratio"),
           cheap=lambda t: t["N"] <= 1000, sample=3, row_code="pfcourse/studies/why_it_works.py (clt_row)",
           fields={"data": f"scalar model x_k = 0.9 x_(k-1) + w_k, z_k = x_k + v_k, Q = R = 0.5, "
                           f"{why_it_works.CLT_STEPS + 1} samples, data_rng({why_it_works.DATA_SEED}, 0)",
-                  "filter": "bootstrap, threshold 1, systematic", "seeds": "filter seed r = 0, 1, ..."}),
+                  "seeds": "filter seed r = 0, 1, ..."}, filters={"bootstrap": why_it_works.EVERY_STEP}),
     Study(name="why_it_works_resampling", row=why_it_works.resampling_row,
           grid={"resampling": why_it_works.RESAMPLING_SCHEMES}, n_runs=why_it_works.RESAMPLING_RUNS, seeds="run",
           failures="raise", table="why_it_works_resampling.csv", provenance="why_it_works_resampling.json",
           columns=("resampling", "seed", "error_last", "log_ratio"), sample=3,
           row_code="pfcourse/studies/why_it_works.py (resampling_row)",
           fields={"data": f"the scalar data of why_it_works_clt, data_rng({why_it_works.DATA_SEED}, 0)",
-                  "filter": f"bootstrap, threshold 1, N = {why_it_works.RESAMPLING_N}, multinomial or systematic",
-                  "seeds": "filter seed r = 0, 1, ..., the same for both schemes"}),
+                  "seeds": "filter seed r = 0, 1, ..., the same for both schemes",
+                  "engine": "the row is the bootstrap filter in plain NumPy (ten times faster on one dimension): "
+                            "the engine's filters below, step for step"},
+          filters={scheme: why_it_works.EVERY_STEP.with_(n_particles=why_it_works.RESAMPLING_N, resampler=scheme)
+                   for scheme in why_it_works.RESAMPLING_SCHEMES}),
     *(_robot_study(name, grid, options) for name, (grid, options) in robot_studies.STUDIES.items()),
     Study(name="count_resampling", row=count_resampling.row, grid=count_resampling.GRID,
           n_runs=count_resampling.N_RUNS, seeds="run", failures="raise", table="count_resampling.csv",
@@ -365,12 +443,12 @@ STUDIES: dict[str, Study] = {study.name: study for study in [
           n_runs=count_resampling.LINEAR_RUNS, seeds="run", failures="raise", table="linear_n.csv",
           provenance="linear_n.json", columns=("landmark_noise", "n_particles", "seed", "robot_gap", "landmark_gap"),
           cheap=lambda t: t["n_particles"] <= 100, sample=3,
-          row_code="pfcourse/studies/count_resampling.py (linear_row)",
+          row_code="pfcourse/studies/count_resampling.py (linear_row)", filters={"bootstrap": count_resampling.LINEAR_FILTER},
           fields={"model": "Part I's two-landmark linear model (quadrant_scenario), 50 steps; landmark_noise: "
                            "process-noise variance of each landmark coordinate in the simulator and the filter",
-                  "exact": "Kalman filter means", "filter": f"bootstrap, threshold {count_resampling.LINEAR_THRESHOLD}",
+                  "exact": "Kalman filter means",
                   "seeds": "run r: simulate(scenario, r), filter stream pfcourse.seeding.filter_rng(0, r), every N"}),
-    *(_likelihood_study(name, row, {"n_particles": n}, runs, seed, columns=("n_particles", "run", "seed", "status", "error", *metrics), **options)
+    *(_likelihood_study(name, row, {"n_particles": n}, runs, seed, columns=("n_particles", "run", "seed", "status", "error_message", *metrics), **options)
       for name, row, n, runs, seed, metrics, options in [
           ("bias", ls.bias_run, ls.N_BIAS, ls.N_BIAS_RUNS, ls.BIAS_SEED, ["log_ratio"], {"sample": 3}),
           ("ml", ls.ml_run, ls.N_ML, ls.N_ML_DATASETS, ls.ML_SEED,
@@ -387,7 +465,7 @@ STUDIES: dict[str, Study] = {study.name: study for study in [
                       arrays=("theta", "log_likelihood", "accepted"), sample=0),
     _likelihood_study("terrain_rf", ls.terrain_rf_run,
                       {"flight": list(range(ls.N_TERRAIN_FLIGHTS)), "n_particles": [ls.N_TERRAIN]}, 1, 0,
-                      columns=("flight", "n_particles", "run", "seed", "status", "error", "rf_scale_ml", "nfev",
+                      columns=("flight", "n_particles", "run", "seed", "status", "error_message", "rf_scale_ml", "nfev",
                                "log_lik_ml", "log_lik_truth"), sample=1),
     _mcl_study("anatomy", global_localization.anatomy_row, {"n": global_localization.ANATOMY_N}, sample=3),
     *(_mcl_study(name, row, tuple({"method": [m], "n": [n]} for m, n in pairs), **options)
@@ -404,7 +482,8 @@ STUDIES: dict[str, Study] = {study.name: study for study in [
           n_runs=100, seeds="run", table="terrain_remedies.csv", **_FLIGHTS, provenance="terrain_remedies.json",
           columns=terrain_remedies.COLUMNS, seed_column="flight", cheap=lambda t: t["N"] <= 10000, sample=4,
           row_code="pfcourse/studies/terrain_remedies.py (run_one)",
-          fields={"settings": records(terrain_remedies.FILTERS),
+          filters=terrain_remedies.FILTERS,
+          fields={
                   "seeds": "flight r: pfcourse.seeding.data_rng(0, r); filter: pfcourse.seeding.filter_rng(0, r)",
                   "divergence": "final horizontal error > 500 m or every particle lost"}),
     Study(name="terrain_reference", row=terrain_remedies.reference_row,
@@ -412,17 +491,17 @@ STUDIES: dict[str, Study] = {study.name: study for study in [
           n_runs=5, seeds="run", failures="raise", table="terrain_reference.csv", provenance="terrain_reference.json",
           columns=terrain_remedies.REFERENCE_COLUMNS, order=("run",), seed_column="flight", cheap=lambda t: t["N"] == t["N"].min(), sample=1,  # about 10 s a row
           row_code="pfcourse/studies/terrain_remedies.py (reference_row)",
-          fields={"seeds": "flight r: pfcourse.seeding.data_rng(0, r); filter: pfcourse.seeding.reference_rng(0, r, repeat)",
-                  "filter": "bootstrap, systematic resampling at ESS < N/2"}),
+          filters={"bootstrap": terrain_remedies.REFERENCE_FILTER},
+          fields={"seeds": "flight r: pfcourse.seeding.data_rng(0, r); filter: pfcourse.seeding.reference_rng(0, r, repeat)"}),
     Study(name="terrain_studies", row=terrain_studies.row,
           grid=tuple({"study": [study], "setting": list(group)} for study, group in terrain_studies.STUDIES.items()),
           n_runs=100, seeds="run", table="terrain_studies.csv", **_FLIGHTS, provenance="terrain_studies.json",
           columns=terrain_studies.COLUMNS, seed_column="flight",
           cheap=lambda t: t["setting"] != "every 0.1 s, dt = 0.1 s", sample=3,  # the 10 Hz runs take seconds each
           row_code="pfcourse/studies/terrain_studies.py (study_row)",
-          fields={"baseline": {"N": terrain_studies.BASELINE_N, "threshold": terrain_studies.BASELINE_THRESHOLD,
-                               "scheme": terrain_studies.BASELINE_SCHEME, "kernel_scale": terrain_studies.KERNEL_SCALE},
-                  "studies": terrain_studies.STUDIES,
+          filters={f"{study}/{setting}": terrain_studies.filter_settings(terrain_studies.configure(study, setting)[1])
+                   for study, setting in terrain_studies.settings()},
+          fields={"studies": terrain_studies.STUDIES,
                   "seeds": "flight r: pfcourse.seeding.data_rng(0, r); filter: pfcourse.seeding.filter_rng(0, r)",
                   "divergence": "final horizontal error > 500 m or every particle lost"}),
     Study(name="global_localization/kld_amcl", row=global_localization.kld_amcl_row,
@@ -430,14 +509,14 @@ STUDIES: dict[str, Study] = {study.name: study for study in [
           table="global_localization/kld_amcl.csv", provenance="global_localization/kld_amcl.json",
           columns=global_localization.COLUMNS["kld_amcl"], sample=2,
           row_code="pfcourse/studies/global_localization.py (kld_amcl_row)",
-          fields={"settings": {name: s.record() for name, s in global_localization.KLD_SETTINGS.items()}}),
+          filters=global_localization.KLD_SETTINGS),
     Study(name="global_localization/tracking_cost", row=global_localization.tracking_row,
           grid=tuple({"method": [m], "n": [n]} for m, n in global_localization.TRACKING), n_runs=100,
           seeds="run", failures="raise", table="global_localization/tracking_cost.csv",
           provenance="global_localization/tracking_cost.json", columns=global_localization.COLUMNS["tracking_cost"],
           sample=3,
           row_code="pfcourse/studies/global_localization.py (tracking_row)",
-          fields={"filters": records(robot_mcl.FILTERS)}),
+          filters=robot_mcl.FILTERS),
     Study(name="data_association", row=association.row, grid={"clutter_rate": list(association.CLUTTER_RATES)},
           n_runs=association.N_RUNS, seeds="run", failures="raise", table="data_association.csv",
           provenance="data_association.json",
@@ -445,8 +524,9 @@ STUDIES: dict[str, Study] = {study.name: study for study in [
                    "ekf_seconds"),
           volatile=("pf_seconds", "ekf_seconds"), sample=3,
           row_code="pfcourse/studies/association.py (row), pfcourse/scenarios/robot/association.py",
+          filters={"bootstrap": association.FILTER},
           fields={"scenario": association.SCENARIO, "p_detect": association.P_DETECT,
-                  "max_range_m": association.MAX_RANGE, "n_particles": association.N_PARTICLES,
+                  "max_range_m": association.MAX_RANGE,
                   "seeds": "run r: robot and readings from pfcourse.seeding.data_rng(0, r); "
                            "particle filter: pfcourse.seeding.filter_rng(0, r)"}),
     Study(name="data_association_pdaf", row=association.pdaf_row,
@@ -473,18 +553,16 @@ STUDIES: dict[str, Study] = {study.name: study for study in [
           failures="raise", table="robot/dead_reckoning.csv", provenance="robot/dead_reckoning.json",
           columns=("seed", "dr_final_m", "pf_final_m", "pf_max_m"), sample=1,
           row_code="pfcourse/studies/robot.py (dead_reckoning_row)",
-          fields={"seeds": "run s: simulate_robot(rng=s), filter run_filter_seed(s)",
-                  "filter": {"label": robot_experiments.DEAD_RECKONING_FILTER.label,
-                             **robot_experiments.DEAD_RECKONING_FILTER.record()}}),
+          filters={"bootstrap": robot_experiments.DEAD_RECKONING_FILTER},
+          fields={"seeds": "run s: simulate_robot(rng=s), filter run_filter_seed(s)"}),
     Study(name="robot_consistency_fixes", row=comparison.consistency_fix_row,
           grid={"setting": list(comparison.CONSISTENCY_FIXES)}, n_runs=100, seeds="run", failures="raise",
           table="robot_consistency_fixes.csv", provenance="robot_consistency_fixes.json",
           columns=("setting", "seed", "rmse_m", "nees_mean", "nees"), arrays=("nees",), sample=2,
-          row_code="pfcourse/studies/comparison.py (consistency_fix_row)",
+          row_code="pfcourse/studies/comparison.py (consistency_fix_row)", filters=comparison.CONSISTENCY_FILTERS,
           fields={"scenario": f"robot_tracks' robot, {comparison.CONSISTENCY_STEPS} steps, true noise levels "
                               "in the data; burn-in " + str(comparison.CONSISTENCY_BURN_IN) + " steps",
-                  "settings": {k: {"N": v[0], "q_scale": v[1], "roughening_K": v[2]}
-                               for k, v in comparison.CONSISTENCY_FIXES.items()},
+                  "q_scale": {k: v[1] for k, v in comparison.CONSISTENCY_FIXES.items()},
                   "seeds": "run s: robot simulate_robot(None, s); filter pfcourse.seeding.filter_rng(0, s)"}),
     Study(name="terrain_map_error", row=terrain_remedies.map_error_row,
           grid={"setting": terrain_remedies.MAP_ERROR_SETTINGS},
@@ -492,6 +570,7 @@ STUDIES: dict[str, Study] = {study.name: study for study in [
           columns=terrain_remedies.MAP_ERROR_COLUMNS, seed_column="flight",
           cheap=lambda t: t["setting"] == "bootstrap N=3000", sample=2,  # the others take a second or more each
           row_code="pfcourse/studies/terrain_remedies.py (map_error_row)",
+          filters=_terrain_filters(terrain_remedies.MAP_ERROR_SETTINGS),
           fields={"map": "filter's DEM: pfcourse.scenarios.terrain.map.mismatched_map(true DEM, map_error_rng(0, r)): "
                          "Gaussian smoothing of MAP_SMOOTHING_CELLS cells plus an error field of MAP_ERROR_SD m "
                          "correlated over MAP_ERROR_CORRELATION_CELLS cells",
@@ -503,6 +582,7 @@ STUDIES: dict[str, Study] = {study.name: study for study in [
           n_runs=100, seeds="run", table="terrain_error_paths.csv", **{**_FLIGHTS, "failed_scores": terrain_remedies.LOST_PATH},
           provenance="terrain_error_paths.json", columns=terrain_remedies.ERROR_PATH_COLUMNS, seed_column="flight",
           arrays=("errors",), sample=2, row_code="pfcourse/studies/terrain_remedies.py (error_path_row)",
+          filters=_terrain_filters(terrain_remedies.ERROR_PATH_SETTINGS),
           fields={"seeds": "flight r: pfcourse.seeding.data_rng(0, r); filter: pfcourse.seeding.filter_rng(0, r)",
                   "divergence": "final horizontal error > 500 m or every particle lost"}),
     Study(name="terrain_model_flights", row=terrain_remedies.model_flight_row,
@@ -510,6 +590,7 @@ STUDIES: dict[str, Study] = {study.name: study for study in [
           table="terrain_model_flights.csv", **{**_FLIGHTS, "failed_scores": terrain_remedies.LOST_MODEL_FLIGHT},
           provenance="terrain_model_flights.json", columns=terrain_remedies.MODEL_FLIGHT_COLUMNS, seed_column="flight",
           arrays=("errors",), sample=2, row_code="pfcourse/studies/terrain_remedies.py (model_flight_row)",
+          filters=_terrain_filters(terrain_remedies.MODEL_FLIGHT_SETTINGS),
           fields={"seeds": "flight r: pfcourse.studies.terrain_remedies.model_flight(scenario, terrain, "
                            "pfcourse.seeding.data_rng(1, r)) (process noise Qf dt, readings N(0, Rf)); "
                            "filter: pfcourse.seeding.filter_rng(1, r)",
@@ -519,7 +600,8 @@ STUDIES: dict[str, Study] = {study.name: study for study in [
           table="terrain_equal_cost.csv", **_FLIGHTS, provenance="terrain_equal_cost.json",
           columns=terrain_remedies.EQUAL_COST_COLUMNS, seed_column="flight", sample=4,
           row_code="pfcourse/studies/terrain_remedies.py (equal_cost_row)",
-          fields={"settings": records(terrain_remedies.EQUAL_COST_FILTERS),
+          filters=terrain_remedies.EQUAL_COST_FILTERS,
+          fields={
                   "seeds": "flight r: pfcourse.seeding.data_rng(0, r); filter: pfcourse.seeding.filter_rng(0, r) "
                            "(the flights and filter seeds of terrain_remedies and terrain_mpf)",
                   "divergence": "final horizontal error > 500 m or every particle lost"}),
@@ -528,7 +610,7 @@ STUDIES: dict[str, Study] = {study.name: study for study in [
             table=f"maprobot/{name}.csv", provenance=f"maprobot/{name}.json", columns=columns, sample=1,
             row_code=f"pfcourse/studies/maprobot.py ({row.__name__}), pfcourse/scenarios/maprobot/drive.py",
             fields={"seeds": "run s: drive and scans pfcourse.seeding.data_rng(s, 0); filter filter_rng(s, 0); "
-                             "kidnapping kidnap_rng(s)", "dt": maprobot.DT, "filters": records(maprobot.FILTERS)})
+                             "kidnapping kidnap_rng(s)", "dt": maprobot.DT}, filters=maprobot.FILTERS)
       for name, row, grid, columns in [
           ("tracking", maprobot.tracking_row, {"n_particles": [maprobot.TRACKING_N], "weighting": list(maprobot.WEIGHTINGS)},
            ("weighting", "n_particles", "seed", "position_rmse", "heading_rmse", "locked_on",
@@ -579,9 +661,8 @@ STUDIES: dict[str, Study] = {study.name: study for study in [
     Study(name="terrain_mpf", row=terrain_marginalised.row, grid={"N": terrain_marginalised.SIZES},
           n_runs=100, seeds="run", table="terrain_mpf.csv", **_FLIGHTS, provenance="terrain_mpf.json",
           columns=terrain_marginalised.COLUMNS, seed_column="flight", cheap=lambda t: t["N"] <= 3000, sample=2,
-          row_code="pfcourse/studies/terrain_marginalised.py (run_mpf)",
-          fields={"filter": "marginalised (altitude Kalman in each particle), multinomial resampling at ESS < N/2",
-                  "seeds": "flight r: pfcourse.seeding.data_rng(0, r); filter: pfcourse.seeding.filter_rng(0, r)",
+          row_code="pfcourse/studies/terrain_marginalised.py (run_mpf)", filters={"marginalised": terrain_marginalised.MPF},
+          fields={                  "seeds": "flight r: pfcourse.seeding.data_rng(0, r); filter: pfcourse.seeding.filter_rng(0, r)",
                   "divergence": "final horizontal error > 500 m or every particle lost"}),
     Study(name="terrain_grid", row=terrain_marginalised.grid_row, grid={"cell": [c for c, _ in terrain_marginalised.CELLS]},
           n_runs=terrain_marginalised.GRID_FLIGHTS, seeds="run", failures="raise", table="terrain_grid.csv",
@@ -596,24 +677,24 @@ STUDIES: dict[str, Study] = {study.name: study for study in [
           provenance="terrain_field.json", columns=terrain_field.FIELD_COLUMNS, seed_column="flight", sample=2,
           cheap=lambda t: t["setting"] != "grid 12.5 m",
           row_code="pfcourse/studies/terrain_field.py (field_row), pfcourse/scenarios/terrain/field.py",
+          filters={name: terrain_field.FIELD_PF for name in terrain_field.FIELD_SETTINGS if not name.startswith("grid")},
           fields={"problem": "2-D: INS displacement known up to a drift of 3 m per axis per second, barometric "
                              "altitude known; readings h(p) + N(0, 20^2)", "settings": terrain_field.FIELD_SETTINGS,
                   "seeds": "flight r: pfcourse.seeding.data_rng(0, r); filter: pfcourse.seeding.filter_rng(0, r)"}),
     Study(name="terrain_field_pf", row=terrain_field.field_pf_row, grid={"setting": list(terrain_field.FIELD_PF_SETTINGS)},
           n_runs=terrain_field.FIELD_FLIGHTS, seeds="run", failures="raise", table="terrain_field_pf.csv",
           provenance="terrain_field_pf.json", columns=terrain_field.FIELD_COLUMNS, seed_column="flight", sample=2,
-          row_code="pfcourse/studies/terrain_field.py (field_pf_row)",
+          row_code="pfcourse/studies/terrain_field.py (field_pf_row)", filters=terrain_field.FIELD_PF_FILTERS,
           fields={"problem": "the 2-D field problem of terrain_field, its flights and filter seeds "
-                             "(data_rng(0, r), filter_rng(0, r))",
-                  "settings": {k: {"N": n, "kernel_scale": sc} for k, (n, sc) in terrain_field.FIELD_PF_SETTINGS.items()}}),
+                             "(data_rng(0, r), filter_rng(0, r))"}),
     Study(name="terrain_map_bias", row=terrain_field.map_bias_row, grid={"setting": terrain_field.MAP_BIAS_SETTINGS},
           n_runs=terrain_field.MAP_BIAS_FLIGHTS, seeds="run", table="terrain_map_bias.csv", **_FLIGHTS,
           provenance="terrain_map_bias.json", columns=terrain_field.MAP_BIAS_COLUMNS, seed_column="flight",
           cheap=lambda t: t["setting"].str.startswith("1 Hz"), sample=2,
           row_code="pfcourse/studies/terrain_field.py (map_bias_row), pfcourse/scenarios/terrain/map_bias.py",
+          filters=terrain_field.MAP_BIAS_FILTERS,
           fields={"map": "filter's DEM: pfcourse.scenarios.terrain.map.mismatched_map(true DEM, map_error_rng(0, r)), "
-                         "as terrain_map_error", "filter": f"marginalised, N = {terrain_field.MAP_BIAS_N}, "
-                         "multinomial resampling at ESS < N/2",
+                         "as terrain_map_error",
                   "seeds": "flight r: pfcourse.seeding.data_rng(0, r); filter: pfcourse.seeding.filter_rng(0, r)",
                   "divergence": "final horizontal error > 500 m or every particle lost"}),
     Study(name="terrain_costs", row=terrain_field.cost_row, grid={"timed": ["terrain decision"]},
@@ -630,6 +711,7 @@ STUDIES: dict[str, Study] = {study.name: study for study in [
           failures="raise", table="smoothing/landmarks.csv", provenance="smoothing/landmarks.json",
           cheap=lambda t: t["n_particles"] == t["n_particles"].min(), sample=1,
           row_code="pfcourse/studies/smoothing_studies.py (landmarks_row), pfcourse/smoothing.py",
+          filters={"bootstrap": smoothing_studies.FILTER},
           fields={"lags": smoothing_studies.LAGS, "scenario": "quadrant_scenario().with_(Qw=0.05**2 I6, Rv=0.5**2 I4)",
                   "seeds": f"run r: data pfcourse.seeding.data_rng({smoothing_studies.SEED}, r); filter and FFBSi "
                            f"draws pfcourse.seeding.filter_rng({smoothing_studies.SEED}, r)"}),
@@ -690,6 +772,7 @@ STUDIES: dict[str, Study] = {study.name: study for study in [
             n_runs=len(fresh.flights), seeds="run", base_seed=fresh.flights.start,
             table=f"{name}.csv", **_FLIGHTS, provenance=f"{name}.json", columns=terrain_remedies.FRESH_COLUMNS, seed_column="flight",
             sample=2, row_code="pfcourse/studies/terrain_remedies.py (fresh_flight_row)",
+            filters={label: terrain_remedies.FILTERS[name] for label, name in fresh.settings.items()},
             fields={"flights": [fresh.flights.start, fresh.flights.stop - 1], "criterion": fresh.criterion,
                     "settings": fresh.settings,
                     "seeds": "flight r: pfcourse.seeding.data_rng(0, r); filter: pfcourse.seeding.filter_rng(0, r)",
@@ -764,7 +847,8 @@ def run(name: str, **options) -> None:
         records[study.name] = {"file": Path(study.table).name, "row": getattr(study.row, "__name__", repr(study.row)),
                                "grid": study.grid, "n_runs": options.get("n_runs") or study.n_runs, "failures": study.failures,
                                "seeds": SEED_TEXT[study.seeds].format(base=study.base_seed),
-                               "rows": len(table), "run_seconds": round(time.time() - t0, 1), **study.fields}
+                               "rows": len(table), "run_seconds": round(time.time() - t0, 1), **study.fields,
+                               "filters": study.filter_records()}
         print(f"{study.name}: {len(table)} rows, {records[study.name]['run_seconds']} s", flush=True)
     for path in {study.provenance for study in studies}:
         sharing = [s for s in STUDIES.values() if s.provenance == path]
@@ -778,7 +862,8 @@ def run(name: str, **options) -> None:
         group = [records[s.name] for s in studies if s.provenance == path]
         shared = {key: group[0][key] for key in ("n_runs", "seeds") if all(r[key] == group[0][key] for r in group)}
         fields = group[0] if len(group) == 1 else {**shared, "studies": {s.name: records[s.name] for s in studies
-                                                                         if s.provenance == path}}
+                                                                         if s.provenance == path},
+                                                   "filters": {k: v for r in group for k, v in r["filters"].items()}}
         write_provenance(DATA / path, code="pfcourse/studies/registry.py", commit=commit,
                          seconds=time.time() - start, row_code=sorted({s.row_code for s in studies}),
                          seconds_column="wall time of one run on a shared 2-core machine: indicative only", **fields)

@@ -23,7 +23,7 @@ from __future__ import annotations
 import numpy as np
 
 from pfcourse.studies.landmarks import score
-from pfcourse.filter import ParticleFilter
+from pfcourse.filter_config import FilterConfig, FilterSettings, configurations, lookup
 from pfcourse.kalman import kalman_filter
 from pfcourse.scenarios.landmarks.scenario import quadrant_scenario, simulate
 from pfcourse.jitter import Roughening
@@ -34,6 +34,21 @@ LANDMARK_NOISE = 0.0025  # m^2 per step, report 000's value
 VARIANTS = ["sir", "noise_filter_only", "noise_everywhere",
             "roughening_0.05", "roughening_0.1", "roughening_0.2", "roughening_0.4"]
 N_VALUES = [100, 300, 1000, 3000]
+THRESHOLD = 1 / 3
+
+
+def _settings(jitter=None) -> FilterSettings:
+    """SIR at ESS < N/3, systematic resampling (``N``: the grid's; 1000 nominal), with ``jitter`` after it."""
+    return FilterSettings(1000, threshold=THRESHOLD, jitter=jitter)
+
+
+#: The filter of each variant: ``FILTERS[variant].settings.with_(n_particles=N).build(model)``.  The two
+#: noise variants run plain SIR; what differs is the model (:func:`variant_row`), not the filter.
+FILTERS: dict[str, FilterConfig] = configurations(*(FilterConfig.of(variant, settings, n_from_grid=True)
+                                                    for variant, settings in [
+    ("sir", _settings()), ("noise_filter_only", _settings()), ("noise_everywhere", _settings()),
+    *((f"roughening_{k}", _settings(Roughening(k))) for k in (0.05, 0.1, 0.2, 0.4))]))
+assert list(FILTERS) == VARIANTS
 
 
 def noisy_q(scenario):
@@ -45,21 +60,18 @@ def noisy_q(scenario):
 
 def variant_row(variant: str, n_particles: int, seed: int) -> dict:
     """Run one variant (``sir``, ``noise_filter_only``, ``noise_everywhere``, ``roughening_<K>``)."""
+    settings = lookup(FILTERS, variant, "variant").settings.with_(n_particles=n_particles)
     static = quadrant_scenario()
-    sim_scenario, jitter = static, None
+    sim_scenario = static
     filter_model = static.model()
     if variant == "noise_filter_only":
         filter_model = static.model(Qw=noisy_q(static))
     elif variant == "noise_everywhere":
         sim_scenario = static.with_(Qw=noisy_q(static))
         filter_model = sim_scenario.model()
-    elif variant.startswith("roughening_"):
-        jitter = Roughening(float(variant.split("_", 1)[1]))
-    elif variant != "sir":
-        raise ValueError(f"unknown variant {variant!r}")
     sim = simulate(sim_scenario, rng=seed)
     reference = kalman_filter(sim_scenario.model(), sim.measurements)
-    pf = ParticleFilter(filter_model, n_particles, threshold=1 / 3, jitter=jitter)
+    pf = settings.build(filter_model)
     s = score(pf.run(sim.measurements, study_filter_seed(seed)), reference, sim.truth, LANDMARKS)
     return dict(variant=variant, N=n_particles, seed=seed,
                 error=float(s.rmse[-10:].mean()), coverage=float(s.covered[-10:].mean()))

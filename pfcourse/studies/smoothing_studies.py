@@ -16,7 +16,7 @@ from __future__ import annotations
 import numpy as np
 
 from pfcourse.collectors import Ancestors, Clouds
-from pfcourse.filter import ParticleFilter
+from pfcourse.filter_config import FilterSettings
 from pfcourse.kalman import kalman_filter
 from pfcourse.scenarios.landmarks import quadrant_scenario, simulate
 from pfcourse.seeding import data_rng, filter_rng
@@ -29,6 +29,8 @@ SEED = 23
 N_VALUES = [50, 100, 200, 400]
 N_RUNS = 100
 LAGS = [0, 1, 2, 4, 8, 16, 49]
+#: The filter: bootstrap, systematic resampling at ESS < N/2 (``N`` from the grid; 100 nominal).
+FILTER = FilterSettings(100)
 
 
 def landmarks_row(seed: int, n_particles: int) -> dict:
@@ -51,7 +53,7 @@ def landmarks_row(seed: int, n_particles: int) -> dict:
         return base(new, old, k)
 
     rng = filter_rng(SEED, seed)
-    r = ParticleFilter(model, n_particles).run(sim.measurements, rng, collect=[Clouds(), Ancestors()])
+    r = FILTER.with_(n_particles=n_particles).build(model).run(sim.measurements, rng, collect=[Clouds(), Ancestors()])
     ancestors = r.collected["ancestors"]
     out = {"filter_vs_kalman": distance(r.mean, kf.mean, sd_f)}
     out["ffbsm_rts"] = distance(ffbsm(r.particles, r.weights, log_f).mean)
@@ -83,7 +85,8 @@ def landmark_smoothing_run(data_seed: int = 7, n_particles: int = 100, filter_se
 
     model = SCENARIO.model()
     sim = simulate(SCENARIO, data_seed)
-    pf = ParticleFilter(model, n_particles).run(sim.measurements, filter_seed, collect=[Clouds(), Ancestors()])
+    pf = FILTER.with_(n_particles=n_particles).build(model).run(sim.measurements, filter_seed,
+                                                                collect=[Clouds(), Ancestors()])
     kf = kalman_filter(model, sim.measurements)
     rts_mean, rts_cov = rts_smoother(model, kf)
     return SimpleNamespace(model=model, sim=sim, pf=pf, particles=pf.particles, weights=pf.weights,

@@ -11,8 +11,8 @@ need more than a number or a plain word:
   ``NAME.npz`` (one 2-D array per column, one row per table row; a row all NaN, a failed run
   that the study gives no scores, reads back as NaN).
 
-The empty ``error`` messages of :func:`~pfcourse.studies.study.run_study`'s rows are read back
-as ``""`` (not NaN, what ``pandas.read_csv`` gives), so that :func:`load` returns the table as
+The ``error_message`` column of :func:`~pfcourse.studies.study.run_study`'s rows is text: its empty
+messages are read back as ``""`` (not NaN, what ``pandas.read_csv`` gives), so that :func:`load` returns the table as
 ``run_study`` made it (``seconds`` as stored).  The provenance of a table (code, commit,
 seeds, settings, wall time) is the JSON record of
 :func:`pfcourse.studies.provenance.write_provenance`, written beside it.
@@ -30,6 +30,8 @@ import pandas as pd
 from pfcourse.studies.provenance import write_rows
 
 DATA = Path(__file__).resolve().parents[2] / "book" / "data"
+#: The column of run_study's failure messages (text, ``""`` for a run that did not fail).
+MESSAGE = "error_message"
 
 
 def save(path: Path, table: pd.DataFrame, *, literals: Sequence[str] = (), arrays: Sequence[str] = ()) -> None:
@@ -57,10 +59,8 @@ def load(path: Path, *, literals: Sequence[str] = (), arrays: Sequence[str] = ()
     """The table stored at ``path`` by :func:`save` (floats exact: pandas >= 3 parses them precisely)."""
     path = Path(path)
     table = pd.read_csv(path, converters={column: ast.literal_eval for column in literals})
-    errors = table["error"] if "error" in table.columns else None
-    # run_study's error messages (empty ones read back as NaN) -- not a metric named "error" (a column of numbers)
-    if errors is not None and (not pd.api.types.is_numeric_dtype(errors) or errors.isna().all()):
-        table["error"] = ["" if isinstance(v, float) else v for v in errors]
+    if MESSAGE in table.columns:  # a message is text; read_csv reads an empty one as NaN
+        table[MESSAGE] = ["" if isinstance(v, float) else v for v in table[MESSAGE]]
     arrays_path = path.with_suffix(".npz")
     if arrays and arrays_path.exists():
         with np.load(arrays_path) as stored:

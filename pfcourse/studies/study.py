@@ -20,7 +20,8 @@ and returns a dictionary of metrics.  The result is a tidy table, one row per
   function never catches a collapse itself.  Configuration errors and bugs (a
   :class:`~pfcourse.errors.ModelError`, e.g. a bad ``FilterSettings``) still stop it.  This is the
   failure policy of every recorded run (:mod:`pfcourse.studies.record`): a row holds what
-  a run record holds, its setting, ``status``, ``error``, metrics and ``seconds``.
+  a run record holds, its setting, ``status``, ``error_message``, metrics and ``seconds`` (the message's
+  column is not named ``error``, so that no metric can take its place).
 * **Batches.** ``run_batch(seeds=[...], **s)`` may replace ``run_one`` when a
   model can run several replicates at once; it returns one dictionary per seed,
   or, for a replicate that collapsed, the :class:`~pfcourse.errors.StepError`
@@ -87,7 +88,7 @@ def run_study(
     """Run every setting of ``grid`` ``n_runs`` times and return one row per run.
 
     Columns: the grid's parameters, ``run`` (replicate index), ``seed``,
-    ``status`` (``"ok"`` or ``"failed"``), ``error`` (message of a failed run),
+    ``status`` (``"ok"`` or ``"failed"``), ``error_message`` (message of a failed run, ``""`` otherwise),
     the metrics returned by the run, and ``seconds`` (wall time of the run, or of
     its share of a batch).  A failed run's metrics are ``failed_scores`` (how the study scores a run
     that collapsed, e.g. an infinite error; default: none, NaN in the table).
@@ -158,7 +159,7 @@ def _one_row(run_one, setting: dict, r: int, seed: int, failed: dict) -> dict:
         if not is_collapse(exc):
             raise
         metrics, status, error = failed, "failed", failure_message(exc)
-    return {**setting, "run": r, "seed": seed, "status": status, "error": error, **metrics,
+    return {**setting, "run": r, "seed": seed, "status": status, "error_message": error, **metrics,
             "seconds": time.perf_counter() - start}
 
 
@@ -180,7 +181,7 @@ def _batch_rows(run_batch, setting: dict, runs: list[int], seeds: list[int], fai
         return [_one_row(lambda seed, **s: run_batch(seeds=[seed], **s)[0], setting, r, seed, failed)
                 for r, seed in zip(runs, seeds)]
     share = (time.perf_counter() - start) / len(seeds)
-    return [{**setting, "run": r, "seed": seed, "status": status, "error": error, **m, "seconds": share}
+    return [{**setting, "run": r, "seed": seed, "status": status, "error_message": error, **m, "seconds": share}
             for r, seed, (m, status, error) in zip(runs, seeds, results)]
 
 

@@ -20,7 +20,7 @@ from pfcourse.checks import Array, check_count
 from pfcourse.errors import ParameterError
 from pfcourse.studies.executor import run_tasks
 from pfcourse.studies.record import RunRecord, record_run, scores
-from pfcourse.filter import ParticleFilter
+from pfcourse.filter_config import FilterSettings
 from pfcourse.seeding import data_rng, filter_rng
 from pfcourse.scenarios.terrain.map import TerrainMap, load_jacksboro
 from pfcourse.metrics import position_error, position_spread
@@ -121,7 +121,7 @@ def _flights(scenario: AircraftScenario, terrain: TerrainMap, runs: list[int], n
              threshold: float, resampler: str, seed: int, method: str) -> list[RunRecord]:
     """Flights ``runs`` of :func:`flight_study`, recorded."""
     model = scenario.model(terrain)
-    pf = ParticleFilter(model, n_particles, threshold=threshold, resampler=resampler)
+    pf = FilterSettings(n_particles, threshold=threshold, resampler=resampler).build(model)
     out = []
     for r in runs:
         flight = simulate(scenario, terrain, data_rng(seed, r))

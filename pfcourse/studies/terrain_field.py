@@ -21,17 +21,15 @@ import time
 import numpy as np
 
 from pfcourse.errors import ParameterError
-from pfcourse.studies import terrain_remedies
+from pfcourse.studies import terrain_marginalised, terrain_remedies
 from pfcourse.studies.terrain import flight_scores, jacksboro
-from pfcourse.filter import ParticleFilter
 from pfcourse.jitter import RegularisedJitter
-from pfcourse.filter_config import lookup
+from pfcourse.filter_config import FilterConfig, FilterSettings, configurations, lookup
 from pfcourse.seeding import data_rng, filter_rng, map_error_rng
 from pfcourse.scenarios.terrain.field import FieldModel, FieldPointMass, FieldScenario, simulate_field
 from pfcourse.scenarios.terrain.kalman import unscented_kalman_filter
 from pfcourse.scenarios.terrain.map import MAP_ERROR_CORRELATION_CELLS, mismatched_map
-from pfcourse.scenarios.terrain.map_bias import correlation_length, inflated_rf, map_bias_filter
-from pfcourse.scenarios.terrain.marginalised import marginalised_filter
+from pfcourse.scenarios.terrain.map_bias import BiasKalmanProposal, MapBiasTerrainModel, correlation_length, inflated_rf
 from pfcourse.scenarios.terrain.scenario import AircraftScenario, extended_kalman_filter, simulate
 
 #: The 2-D study's settings: the point-mass filter at 50, 25 and 12.5 m cells, and the bootstrap filter.
@@ -40,6 +38,8 @@ FIELD_SETTINGS = [f"grid {c:g} m" for c in FIELD_CELLS] + ["bootstrap N=3000"]
 FIELD_COLUMNS = ("setting", "flight", "final_x", "final_y", "final_sd_x", "final_sd_y", "final_error", "true_x",
                  "true_y", "seconds")
 FIELD_FLIGHTS = 50
+#: The particle filter of ``terrain_field``: bootstrap, N = 3000, multinomial resampling at ESS < N/2.
+FIELD_PF = FilterSettings(3000, threshold=0.5, resampler="multinomial")
 
 
 def field_row(seed: int, setting: str) -> dict:
@@ -52,7 +52,7 @@ def field_row(seed: int, setting: str) -> dict:
         res = FieldPointMass(terrain, scenario, cell=float(setting.split()[1])).run(flight.readings)
         mean, sd = res.mean[-1], res.sd[-1]
     else:
-        pf = ParticleFilter(FieldModel(terrain, scenario), 3000, threshold=0.5, resampler="multinomial")
+        pf = FIELD_PF.build(FieldModel(terrain, scenario))
         res = pf.run(flight.readings[:, None], rng=filter_rng(0, seed))
         mean, sd = res.mean[-1], np.sqrt(np.diag(res.cov[-1]))
     return {"setting": setting, "flight": seed, "final_x": float(mean[0]), "final_y": float(mean[1]),
@@ -65,6 +65,10 @@ def field_row(seed: int, setting: str) -> dict:
 #: filter (kernel at 0.2 x the optimal bandwidth after each resampling, as in the 4-D problem) with
 #: N = 3000, and the bootstrap filter with N = 30 000, on the flights and filter seeds of ``terrain_field``.
 FIELD_PF_SETTINGS = {"regularised N=3000": (3000, 0.2), "bootstrap N=30000": (30000, None)}
+#: The same as settings records: ``FIELD_PF_FILTERS[setting].build(FieldModel(terrain, scenario))``.
+FIELD_PF_FILTERS: dict[str, FilterConfig] = configurations(*(
+    FilterConfig.of(name, FIELD_PF.with_(n_particles=n, jitter=None if scale is None else RegularisedJitter(scale)))
+    for name, (n, scale) in FIELD_PF_SETTINGS.items()))
 
 
 def field_pf_row(seed: int, setting: str) -> dict:
@@ -72,11 +76,9 @@ def field_pf_row(seed: int, setting: str) -> dict:
     and sd (m), final error (m), truth, as :func:`field_row`."""
     if setting not in FIELD_PF_SETTINGS:
         raise ParameterError(f"unknown setting {setting!r}; known: {list(FIELD_PF_SETTINGS)}")
-    n, scale = FIELD_PF_SETTINGS[setting]
     terrain, scenario = jacksboro(), FieldScenario()
     flight = simulate_field(scenario, terrain, data_rng(0, seed))
-    pf = ParticleFilter(FieldModel(terrain, scenario), n, threshold=0.5, resampler="multinomial",
-                        jitter=None if scale is None else RegularisedJitter(scale))
+    pf = FIELD_PF_FILTERS[setting].build(FieldModel(terrain, scenario))
     res = pf.run(flight.readings[:, None], rng=filter_rng(0, seed))
     mean, sd = res.mean[-1], np.sqrt(np.diag(res.cov[-1]))
     return {"setting": setting, "flight": seed, "final_x": float(mean[0]), "final_y": float(mean[1]),
@@ -89,10 +91,17 @@ def field_pf_row(seed: int, setting: str) -> dict:
 MAP_BIAS_RATES = {"1 Hz": {}, "10 Hz": {"measurement_period": 0.1, "dt": 0.1}}
 MAP_BIAS_REMEDIES = ["marginalised", "R inflated", "bias state"]
 MAP_BIAS_SETTINGS = [f"{rate}: {remedy}" for rate in MAP_BIAS_RATES for remedy in MAP_BIAS_REMEDIES]
-MAP_BIAS_COLUMNS = ("setting", "flight", "status", "error", "final_error", "mean_error", "lost", "map_error_sd",
+MAP_BIAS_COLUMNS = ("setting", "flight", "status", "error_message", "final_error", "mean_error", "lost", "map_error_sd",
                     "length", "seconds")
 MAP_BIAS_FLIGHTS = 50
 MAP_BIAS_N = 3000
+#: The study's filters as settings records, by remedy: the marginalised filter (also with ``R`` inflated, a change
+#: to the scenario), and the marginalised filter with a map-bias state, built on
+#: ``MapBiasTerrainModel(map, scenario, map_sd, length)`` with the flight's map error (``map_sd``, ``length``).
+MAP_BIAS_FILTERS = {"marginalised": terrain_marginalised.MPF.with_(n_particles=MAP_BIAS_N),
+                    "R inflated": terrain_marginalised.MPF.with_(n_particles=MAP_BIAS_N),
+                    "bias state": FilterSettings(MAP_BIAS_N, threshold=0.5, resampler="multinomial",
+                                                 proposal=BiasKalmanProposal())}
 
 
 def map_bias_row(seed: int, setting: str) -> dict:
@@ -106,12 +115,11 @@ def map_bias_row(seed: int, setting: str) -> dict:
     length = correlation_length(world, MAP_ERROR_CORRELATION_CELLS)
     scenario = AircraftScenario().with_(**MAP_BIAS_RATES[rate])
     flight = simulate(scenario, world, data_rng(0, seed))
-    options = {"threshold": 0.5, "resampler": "multinomial"}
     if remedy == "bias state":
-        pf = map_bias_filter(seen, scenario, MAP_BIAS_N, sd, length, **options)
+        pf = MAP_BIAS_FILTERS[remedy].build(MapBiasTerrainModel(seen, scenario, sd, length))
     else:
         sc = scenario.with_(Rf=inflated_rf(scenario, sd, length)) if remedy == "R inflated" else scenario
-        pf = marginalised_filter(seen, sc, MAP_BIAS_N, **options)
+        pf = MAP_BIAS_FILTERS[remedy].build(sc.model(seen))
     res = pf.run(flight.measurements, rng=filter_rng(0, seed))
     return {"setting": setting, "flight": seed, **flight_scores(flight.truth, res.mean), "map_error_sd": sd,
             "length": length}
@@ -135,9 +143,9 @@ def _run_cost_filter(setting: str, scenario: AircraftScenario, terrain, flight, 
     if setting == "UKF":
         return unscented_kalman_filter(scenario, terrain, flight.measurements).lost_at is None
     if setting == "marginalised N=3000":
-        pf = marginalised_filter(terrain, scenario, 3000, threshold=0.5, resampler="multinomial")
+        pf = MAP_BIAS_FILTERS["marginalised"].build(scenario.model(terrain))
     elif setting == "bias state N=3000":
-        pf = map_bias_filter(terrain, scenario, 3000, 12.0, 300.0, threshold=0.5, resampler="multinomial")
+        pf = MAP_BIAS_FILTERS["bias state"].build(MapBiasTerrainModel(terrain, scenario, 12.0, 300.0))
     else:
         pf = lookup(terrain_remedies.FILTERS, setting).build(scenario.model(terrain))
     pf.run(flight.measurements, rng=filter_rng(0, seed))  # every particle lost: raises, the study refuses it

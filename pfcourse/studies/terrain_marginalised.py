@@ -20,13 +20,14 @@ import numpy as np
 
 from pfcourse.studies.terrain import flight_scores, jacksboro
 from pfcourse.seeding import data_rng, filter_rng
-from pfcourse.scenarios.terrain.marginalised import marginalised_filter
+from pfcourse.filter_config import FilterSettings
+from pfcourse.scenarios.terrain.marginalised import AltitudeKalmanProposal, MarginalisedTerrainModel
 from pfcourse.scenarios.terrain.point_mass import PointMassFilter
 from pfcourse.scenarios.terrain.scenario import AircraftScenario, simulate
 
 #: The marginalised filter's sizes, in the order they are stored.
 SIZES = [3000, 10000, 30000]
-COLUMNS = ("setting", "flight", "status", "error", "N", "final_error", "mean_error", "lost", "final_x", "final_y",
+COLUMNS = ("setting", "flight", "status", "error_message", "N", "final_error", "mean_error", "lost", "final_x", "final_y",
            "seconds")
 #: The point-mass filter's cell sizes (m) and heading bins (degrees), coarse to fine: each step divides both by
 #: sqrt(2) (the number of grid points grows by about 2.8).
@@ -37,11 +38,28 @@ GRID_COLUMNS = ("cell", "heading_deg", "flight", "final_error", "mean_error", "l
                 "final_sd_x", "final_sd_y", "cells", "max_cells", "seconds")
 
 
+class Marginalised:
+    """The model change of the marginalised filter: the terrain model with the altitude integrated out
+    (:class:`~pfcourse.scenarios.terrain.marginalised.MarginalisedTerrainModel`, a scalar Kalman filter of the
+    altitude in each particle), on the model's map and scenario."""
+
+    label = "altitude marginalised"
+
+    def apply(self, model) -> MarginalisedTerrainModel:
+        return MarginalisedTerrainModel(model.terrain, model.scenario)
+
+
+#: The marginalised filter as a settings record: the altitude's Kalman update as the proposal, multinomial
+#: resampling at ESS < N/2 (``N`` from the grid; 3000 nominal): ``MPF.with_(n_particles=N).build(scenario.model(terrain))``.
+MPF = FilterSettings(3000, threshold=0.5, resampler="multinomial", proposal=AltitudeKalmanProposal(),
+                     model_change=Marginalised())
+
+
 def run_mpf(n: int, run: int, terrain, scenario: AircraftScenario | None = None) -> dict:
     """The marginalised filter with ``n`` particles on flight ``run``: errors (m), lost flag, final mean."""
     scenario = scenario or AircraftScenario()
     flight = simulate(scenario, terrain, data_rng(0, run))
-    pf = marginalised_filter(terrain, scenario, n, threshold=0.5, resampler="multinomial")
+    pf = MPF.with_(n_particles=n).build(scenario.model(terrain))
     res = pf.run(flight.measurements, rng=filter_rng(0, run))
     return {"setting": f"marginalised N={n}", "flight": run, "N": n, **flight_scores(flight.truth, res.mean),
             "final_x": float(res.mean[-1, 0]), "final_y": float(res.mean[-1, 1])}

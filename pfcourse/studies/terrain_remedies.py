@@ -33,7 +33,6 @@ from pfcourse.collectors import Stages
 from pfcourse.errors import ParameterError
 from pfcourse.studies import terrain_studies
 from pfcourse.studies.terrain import DIVERGED_ERROR, flight_scores, jacksboro
-from pfcourse.filter import ParticleFilter
 from pfcourse.filter_config import FilterConfig, FilterSettings, configurations, lookup
 from pfcourse.jitter import RegularisedJitter
 from pfcourse.proposals import ProgressiveCorrection
@@ -97,11 +96,13 @@ STORED_SETTINGS = ["bootstrap N=3000", "bootstrap N=30000", "bootstrap N=10000",
                    "bootstrap N=3000, Qf/3", "tempered+regularised N=3000", "regularised N=10000",
                    "regularised h=1 N=3000", "tempered N=3000", "regularised N=30000", "bootstrap N=100000",
                    "tempered+regularised N=10000"]
-COLUMNS = ("setting", "flight", "status", "error", "N", "final_error", "mean_error", "lost", "evaluations", "seconds")
+COLUMNS = ("setting", "flight", "status", "error_message", "N", "final_error", "mean_error", "lost", "evaluations", "seconds")
 #: The reference posterior (book/data/terrain_reference.csv): flights 0-4, two sizes, two filter seeds
 #: ``reference_rng(0, flight, repeat)`` (not filter_rng's), the stored column ``seed`` being ``repeat``.
 REFERENCE_SIZES = [500_000, 1_000_000]
 REFERENCE_REPEATS = [1, 2]
+#: The reference filter: bootstrap, systematic resampling at ESS < N/2 (``N`` from the grid).
+REFERENCE_FILTER = FilterSettings(REFERENCE_SIZES[0], threshold=0.5, resampler="systematic")
 REFERENCE_COLUMNS = ("flight", "N", "seed", "mean_x", "mean_y", "sd_x", "sd_y", "true_x", "true_y", "seconds")
 
 
@@ -135,7 +136,7 @@ def reference_row(seed: int, N: int, repeat: int) -> dict:
     terrain = jacksboro()
     scenario = AircraftScenario()
     sim = simulate(scenario, terrain, data_rng(0, seed))
-    pf = ParticleFilter(scenario.model(terrain), N, threshold=0.5, resampler="systematic")
+    pf = REFERENCE_FILTER.with_(n_particles=N).build(scenario.model(terrain))
     res = pf.run(sim.measurements, rng=reference_rng(0, seed, repeat))
     return {"flight": seed, "N": N, "seed": repeat,
             "mean_x": float(res.mean[-1, 0]), "mean_y": float(res.mean[-1, 1]),
@@ -150,7 +151,7 @@ def reference_row(seed: int, N: int, repeat: int) -> dict:
 #: period study), and the best cure told of its map's error (``Rf = R + var(map - truth)``).
 MAP_ERROR_SETTINGS = ["bootstrap N=3000", "regularised N=30000", "regularised N=30000, 10 Hz",
                       "regularised N=30000, Rf + map error"]
-MAP_ERROR_COLUMNS = ("setting", "flight", "status", "error", "final_error", "mean_error", "lost", "map_error_sd", "seconds")
+MAP_ERROR_COLUMNS = ("setting", "flight", "status", "error_message", "final_error", "mean_error", "lost", "map_error_sd", "seconds")
 
 
 def map_error_row(seed: int, setting: str) -> dict:
@@ -176,7 +177,7 @@ def map_error_row(seed: int, setting: str) -> dict:
 #: a setting at every step of flights 0-99, for its root-mean-square error over time against the
 #: posterior Cramér-Rao bound (the same flights and filter seeds as ``terrain_remedies``).
 ERROR_PATH_SETTINGS = ["regularised N=30000"]
-ERROR_PATH_COLUMNS = ("setting", "flight", "status", "error", "lost", "errors", "seconds")
+ERROR_PATH_COLUMNS = ("setting", "flight", "status", "error_message", "lost", "errors", "seconds")
 #: The error-path study's scores of a flight whose filter failed: lost, infinitely far at every step.
 LOST_PATH = {"lost": True, "errors": np.full(AircraftScenario().n_steps, np.inf)}
 
@@ -239,7 +240,7 @@ FRESH_FLIGHTS: dict[str, FreshFlights] = {
                          "ratio to the bootstrap N = 30000 of at most 1",
         {name: name for name in ("regularised, stratified, N=20000", "bootstrap N=30000")}),
 }
-FRESH_COLUMNS = ("setting", "flight", "status", "error", "final_error", "mean_error", "lost", "seconds")
+FRESH_COLUMNS = ("setting", "flight", "status", "error_message", "final_error", "mean_error", "lost", "seconds")
 
 
 def fresh_flight_row(seed: int, setting: str, study: str) -> dict:
@@ -263,7 +264,7 @@ def fresh_flight_row(seed: int, setting: str, study: str) -> dict:
 #: of all of them) is the bound of the filter's error: the efficiency of the filter under its own model.
 MODEL_FLIGHT_SEED = 1
 MODEL_FLIGHT_SETTINGS = ["regularised N=30000"]
-MODEL_FLIGHT_COLUMNS = ("setting", "flight", "status", "error", "lost", "final_error", "redraws", "errors", "seconds")
+MODEL_FLIGHT_COLUMNS = ("setting", "flight", "status", "error_message", "lost", "final_error", "redraws", "errors", "seconds")
 #: The model-flight study's scores of a flight whose filter failed: lost, infinitely far at every step.
 LOST_MODEL_FLIGHT = {**LOST_PATH, "final_error": np.inf, "redraws": -1}
 #: Redraws of a model flight that leaves the map before the study gives up (a ParameterError).
@@ -316,7 +317,7 @@ def model_flight_row(seed: int, setting: str) -> dict:
 #: ``terrain_mpf`` (flight ``data_rng(0, r)``, filter ``filter_rng(0, r)``), for a paired comparison.
 EQUAL_COST_N = 3700
 EQUAL_COST_FILTERS: dict[str, FilterConfig] = configurations(_config(f"bootstrap N={EQUAL_COST_N}", _settings(EQUAL_COST_N)))
-EQUAL_COST_COLUMNS = ("setting", "flight", "status", "error", "N", "final_error", "mean_error", "lost")
+EQUAL_COST_COLUMNS = ("setting", "flight", "status", "error_message", "N", "final_error", "mean_error", "lost")
 
 
 def equal_cost_row(seed: int, setting: str) -> dict:

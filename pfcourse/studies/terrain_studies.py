@@ -22,7 +22,7 @@ import numpy as np
 
 from pfcourse.errors import ParameterError
 from pfcourse.studies.terrain import flight_scores, jacksboro
-from pfcourse.filter import ParticleFilter
+from pfcourse.filter_config import FilterSettings
 from pfcourse.jitter import RegularisedJitter
 from pfcourse.seeding import data_rng, filter_rng
 from pfcourse.metrics import position_spread
@@ -51,7 +51,7 @@ STUDIES: dict[str, dict[str, dict]] = {
 SCENARIO_KEYS = ("Qf_factor", "Rf", "gap", "measurement_period", "dt")
 FILTER_KEYS = ("n_particles", "threshold", "resampler")
 #: The stored columns of book/data/terrain_studies.csv, in order.
-COLUMNS = ("study", "setting", "flight", "status", "error", "final_error", "mean_error", "lost", "sigma_50",
+COLUMNS = ("study", "setting", "flight", "status", "error_message", "final_error", "mean_error", "lost", "sigma_50",
            "sigma_75", "resamplings", "median_ess_fraction", "seconds")
 
 
@@ -76,13 +76,25 @@ def configure(study: str, setting: str, scenario: AircraftScenario | None = None
     return (scenario.with_(**sc) if sc else scenario), options
 
 
+def filter_settings(options: dict) -> FilterSettings:
+    """The filter of a setting's ``options`` (:func:`configure`) as a settings record: the regularised filter
+    (its kernel ``KERNEL_SCALE`` times the optimal bandwidth, component 3, the heading, an angle:
+    :class:`~pfcourse.jitter.RegularisedJitter`) with the setting's ``N``, threshold and scheme."""
+    return FilterSettings(options["n_particles"], threshold=options["threshold"], resampler=options["resampler"],
+                          jitter=RegularisedJitter(KERNEL_SCALE, (3,)))
+
+
+def filter_records() -> dict[str, dict]:
+    """``{"study/setting": record}``: every setting's filter as data (its provenance)."""
+    return {f"{study}/{setting}": filter_settings(configure(study, setting)[1]).record() for study, setting in settings()}
+
+
 def study_row(study: str, setting: str, flight: int, terrain, filter_terrain=None) -> dict:
     """Filter flight ``flight`` with a setting: errors (m), lost flag, sigma at 50 and 75 s, resamplings, ESS.
     The flight is flown over ``terrain``; the filter uses ``filter_terrain`` (default: the same map)."""
     scenario, options = configure(study, setting)
     sim = simulate(scenario, terrain, data_rng(0, flight))
-    pf = ParticleFilter(scenario.model(terrain if filter_terrain is None else filter_terrain), options["n_particles"], threshold=options["threshold"],
-                        resampler=options["resampler"], jitter=RegularisedJitter(KERNEL_SCALE, (3,)))
+    pf = filter_settings(options).build(scenario.model(terrain if filter_terrain is None else filter_terrain))
     res = pf.run(sim.measurements, rng=filter_rng(0, flight))
     sigma = position_spread(res.cov)
     k50, k75 = (int(round(t / scenario.dt)) for t in (50.0, 75.0))

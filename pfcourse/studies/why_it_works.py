@@ -19,7 +19,7 @@ from functools import lru_cache
 
 import numpy as np
 
-from pfcourse.filter import ParticleFilter
+from pfcourse.filter_config import FilterSettings
 from pfcourse.kalman import kalman_filter
 from pfcourse.scenarios.landmarks.scenario import quadrant_scenario, simulate
 from pfcourse.linear_gaussian import LinearGaussianModel
@@ -39,6 +39,13 @@ GRID = ({"T": [T_MAX], "N": [N_FIXED], "tau": [1.0]},
         {"T": [T_FIXED], "N": [n for n in N_VALUES if n != N_FIXED], "tau": [1.0]},
         {"T": [T_FIXED], "N": [N_FIXED], "tau": TAU_VALUES})
 COLUMNS = ("T", "N", "tau", "seed", *(f"log_ratio_{t}" for t in T_VALUES), "error_robot_x", "error_landmark_x")
+
+
+#: The studies' filter: the bootstrap filter, systematic resampling (``N`` and the threshold ``tau`` from the
+#: grid of ``why_it_works``; 1000 and 1/2 nominal), and the same resampling at every step (``why_it_works_growth``,
+#: ``why_it_works_clt``).
+BOOTSTRAP = FilterSettings(1000, threshold=0.5)
+EVERY_STEP = BOOTSTRAP.with_(threshold=1.0)
 
 
 def drifting_scenario(n_samples: int = T_MAX + 1):
@@ -62,7 +69,7 @@ def row(seed: int, T: int, N: int, tau: float) -> dict:
     beyond ``T``; the errors are those of the filter means at step ``T_FIXED`` (NaN if ``T < T_FIXED``).
     """
     model, Z, kf = data()
-    result = ParticleFilter(model, int(N), threshold=float(tau)).run(Z[:T + 1], rng=seed)
+    result = BOOTSTRAP.with_(n_particles=int(N), threshold=float(tau)).build(model).run(Z[:T + 1], rng=seed)
     gap = np.cumsum(result.log_likelihood_increments - kf.log_likelihood_increments[:T + 1])
     out = {f"log_ratio_{t}": float(gap[t]) if t <= T else float("nan") for t in T_VALUES}
     error = result.mean[T_FIXED] - kf.mean[T_FIXED] if T >= T_FIXED else np.full(model.dim_x, np.nan)
@@ -87,7 +94,7 @@ def growth_row(seed: int, N: int, filter_run: int) -> dict:
     """``log p^(z_{1:t}) - log p(z_{1:t})`` at every checkpoint ``t`` of one bootstrap run (threshold 1) on
     data set ``seed`` (simulation seed), the filter's generator ``filter_rng(seed, filter_run)``."""
     model, Z, exact_increments = _dataset(int(seed))
-    result = ParticleFilter(model, int(N), threshold=1.0).run(Z, rng=filter_rng(int(seed), int(filter_run)))
+    result = EVERY_STEP.with_(n_particles=int(N)).build(model).run(Z, rng=filter_rng(int(seed), int(filter_run)))
     gap = np.cumsum(result.log_likelihood_increments - exact_increments)
     return {f"log_ratio_{t}": float(gap[t]) for t in T_VALUES}
 
@@ -116,7 +123,7 @@ def clt_row(seed: int, N: int) -> dict:
     """One bootstrap run (threshold 1) on the scalar data: the filter mean's error against Kalman at the
     last step and at step ``CLT_STEPS // 2``, and ``log p^ - log p``."""
     Z, kf = scalar_data()
-    result = ParticleFilter(SCALAR, int(N), threshold=1.0).run(Z, rng=seed)
+    result = EVERY_STEP.with_(n_particles=int(N)).build(SCALAR).run(Z, rng=seed)
     error = result.mean[:, 0] - kf.mean[:, 0]
     return dict(error_last=float(error[-1]), error_middle=float(error[CLT_STEPS // 2]),
                 log_ratio=float(result.log_likelihood_increments.sum() - kf.log_likelihood_increments.sum()))

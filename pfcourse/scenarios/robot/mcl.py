@@ -356,7 +356,7 @@ def kld_filter(model, measurements: Array, rng: np.random.Generator | int, *, n_
     grid of ``bin_size`` = (m, m, rad). ``result.sizes`` is the number of particles per step.
     """
     policy = KLDSampling(bin_size, n_min=n_min, epsilon=epsilon, delta=delta, batch=batch)
-    return ParticleFilter(model, n_max, proposal=proposal, sample_size=policy).run(measurements, rng)
+    return FilterSettings(n_max, proposal=proposal, sample_size=policy).build(model).run(measurements, rng)
 
 
 # ----------------------------------------------------------------------------- scenarios and runs
