@@ -255,7 +255,9 @@ TRACK_SEEDS = range(1, 31)
 #: half, :func:`drift_rate`) taken out of the held-out increments.
 TRACK_MAPS = {"second half": MAP_PART, "whole run": slice(0, N_SCANS), "second half, drift corrected": MAP_PART}
 TRACK_COLUMNS = ("map", "seed", "median_position_error", "p90_position_error", "final_position_error",
-                 "final_heading_error", "locked_on", "lost_scan")
+                 "final_heading_error", "locked_on", "lost_scan", "position_error", "heading_error")
+#: Per-scan columns of the tracking runs (stored in tracking.npz): the errors against the corrected poses.
+TRACK_ARRAYS = ("position_error", "heading_error")
 
 
 @lru_cache(maxsize=3)
@@ -278,7 +280,8 @@ def tracking_row(seed: int, *, map: str = "second half") -> dict:  # noqa: A002 
     """One tracking run of the first half from the corrected start (the chapter's filter, systematic
     resampling at every scan), filter seeded by ``default_rng(seed)``, on the map ``map``. ``lost_scan``:
     the first scan from which the position error stays above ``LOCK_POSITION_M`` to the end (-1: never);
-    ``locked_on``: the global runs' rule (:func:`locked_on_share`) on the last scans of the run."""
+    ``locked_on``: the global runs' rule (:func:`locked_on_share`) on the last scans of the run;
+    ``position_error`` (m) and ``heading_error`` (rad): per scan, against the corrected poses."""
     from pfcourse.filter import ParticleFilter
     from pfcourse.scenarios.maprobot import MapRobotModel
 
@@ -298,4 +301,4 @@ def tracking_row(seed: int, *, map: str = "second half") -> dict:  # noqa: A002 
     return {"median_position_error": float(np.median(pos)), "p90_position_error": float(np.quantile(pos, 0.9)),
             "final_position_error": float(pos[-1]), "final_heading_error": float(head[-1]),
             "locked_on": locked_on_share(pos, head, heading_tolerance(sp.log)),
-            "lost_scan": lost}
+            "lost_scan": lost, "position_error": pos, "heading_error": head}

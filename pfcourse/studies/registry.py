@@ -689,6 +689,7 @@ STUDIES: dict[str, Study] = {study.name: study for study in [
     Study(name="intel/tracking", row=intel.tracking_row, grid={"map": list(intel.TRACK_MAPS)},
           n_runs=len(intel.TRACK_SEEDS), seeds="run", base_seed=intel.TRACK_SEEDS.start, failures="raise",
           table="intel/tracking.csv", provenance="intel/tracking.json", columns=intel.TRACK_COLUMNS, sample=1,
+          arrays=intel.TRACK_ARRAYS,
           row_code="pfcourse/studies/intel.py (tracking_row)",
           fields={"seeds": "run s: filter numpy.random.default_rng(s), s = 1..30 (the chapter's run is s = 1)",
                   "maps": "second half: scans 455-909; whole run: scans 0-909; tracked: scans 0-454",
