@@ -140,3 +140,17 @@ def test_a_global_run_depends_on_its_seed_only():
     assert np.array_equal(np.random.get_state()[1], state)
     with pytest.raises(ParameterError, match="method"):
         intel.global_row(3, method="bootstrap")
+
+
+def test_the_tracking_runs_are_judged_by_the_global_runs_rule():
+    """One lock-on rule: a stored tracking run is locked on exactly when its stored per-scan errors pass
+    :func:`intel.locked_on_share`, the rule of the global runs; and a run lost for good is not locked on."""
+    from pfcourse.studies.registry import STUDIES
+
+    track = STUDIES["intel/tracking"].load()
+    tol = intel.heading_tolerance(intel.split().log)
+    for _, row in track.iterrows():
+        assert len(row["position_error"]) == len(row["heading_error"]) == 455
+        assert row["locked_on"] == intel.locked_on_share(row["position_error"], row["heading_error"], tol)
+        if row["lost_scan"] >= 0:
+            assert not row["locked_on"]
