@@ -723,8 +723,8 @@ EvidenceBlock(
 # scan over a run, {glue:text}`intel_global_cost_ratio:.1f` times the uniform filter's.
 #
 # On the simulated map of {doc}`map_global` the same cure locks on in
-# {glue:text}`intel_global_sim_rate:.0%` of its (longer) drives. Why is the log harder? Three
-# suspects, each tried on the same runs.
+# {glue:text}`intel_global_sim_rate:.0%` of its drives, by its own rule over longer drives. Why is the
+# log harder? Three suspects, each tried on the same runs.
 #
 # **The map is a SLAM map, made of other scans.** Of the held-out scans' echoes, seen from the
 # corrected poses, {glue:text}`intel_far_held_share:.1%` end more than half a metre from any wall of
