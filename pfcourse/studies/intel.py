@@ -11,8 +11,10 @@ walls the map lacks.
 cure of chapter 15 (:func:`pfcourse.scenarios.maprobot.global_mcl.global_mcl`) with the settings of one
 record, :data:`GLOBAL_SETTINGS`; it is locked on by :func:`locked_on_share` (position within 1 m and
 heading within :func:`heading_tolerance` for at least ``LOCK_SHARE`` of the last ``LOCK_WINDOW``
-scans).  Its variants measure why the log is harder than the simulated map: the same filter on a map
-of the whole run (no wall missing), and with the odometry's heading drift taken out.
+scans); the tracking runs (:func:`tracking_row`) are judged by the same rule.  Its variants measure why
+the log is harder than the simulated map: the same filter on a map of the whole run (no wall missing),
+on the map control (:func:`leave_out_split`: every scan but the run's own, so the map is not the scans
+being localized), and with the odometry's heading drift taken out.
 """
 
 from __future__ import annotations
