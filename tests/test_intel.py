@@ -48,30 +48,76 @@ def test_locked_on_means_most_of_the_last_window():
     assert intel.locked_on_share(np.r_[np.full(35, 9.0), np.zeros(15)], np.zeros(50), tol)  # earlier steps do not count
 
 
-def test_the_global_runs_use_the_cure_of_one_record_and_the_stored_study_was_made_with_it():
-    from dataclasses import asdict, fields
+def _stored_settings(name: str, settings) -> dict:
+    """The settings record stored with ``name``, a field added to the record after the study ran counting at
+    its default (its default keeps the old code path; the re-computation test of the study's rows proves it)."""
+    from dataclasses import fields
 
-    from pfcourse.scenarios.maprobot import global_mcl
     from pfcourse.studies.registry import STUDIES
 
-    assert intel.GLOBAL_SETTINGS is global_mcl.SETTINGS
-    stored = STUDIES["intel/global"].load().attrs["provenance"]["settings"]
-    # a field added to the record after the study ran, at its default, is the behaviour the study ran
-    # (its default keeps the old code path; the re-computation test of intel/global's rows proves it)
-    defaults = {f.name: f.default for f in fields(intel.GLOBAL_SETTINGS) if f.name not in stored}
-    stored = {**stored, **json.loads(json.dumps(defaults))}
-    assert stored == json.loads(json.dumps(asdict(intel.GLOBAL_SETTINGS))), (
-        "intel.GLOBAL_SETTINGS changed since book/data/intel/global.csv was made: python3 tasks.py study intel/global")
+    stored = STUDIES[name].load().attrs["provenance"]["settings"]
+    defaults = {f.name: f.default for f in fields(settings) if f.name not in stored}
+    return {**stored, **json.loads(json.dumps(defaults))}
+
+
+@pytest.mark.parametrize("name, settings", [("intel/global", "GLOBAL_SETTINGS"), ("intel/map_control", "GLOBAL_SETTINGS"),
+                                            ("intel/global_previous", "PREVIOUS_SETTINGS")])
+def test_the_global_runs_use_the_cure_of_one_record_and_the_stored_study_was_made_with_it(name, settings):
+    from dataclasses import asdict
+
+    from pfcourse.scenarios.maprobot import global_mcl
+
+    assert intel.GLOBAL_SETTINGS is global_mcl.HAZARD and intel.PREVIOUS_SETTINGS is global_mcl.SETTINGS
+    record = getattr(intel, settings)
+    assert _stored_settings(name, record) == json.loads(json.dumps(asdict(record))), (
+        f"intel.{settings} changed since the table of {name} was made: python3 tasks.py study {name}")
     # the uniform-only filter: as many particles at the start, none from the scan, no injection
     u = intel.uniform_only(intel.GLOBAL_SETTINGS)
     assert u.n_start == intel.GLOBAL_SETTINGS.n_start + intel.GLOBAL_SETTINGS.n_start_scan
     assert u.n_start_scan == 0 and u.inject_share == 0.0
 
 
+def test_the_map_control_is_the_map_of_every_scan_but_the_runs_own():
+    from pfcourse.scenarios.maprobot.mapping import build_map
+
+    first = 200
+    sp, log = intel.leave_out_split(first), intel.split().log
+    left_out = np.arange(first - intel.LEAVE_OUT_MARGIN, first + intel.GLOBAL_STEPS + intel.LEAVE_OUT_MARGIN)
+    kept = np.setdiff1d(np.arange(intel.N_SCANS), left_out)
+    ref = build_map(log.poses[kept], log.ranges[kept], log.angles, max_range=intel.Z_MAX)
+    # the control lies on the whole run's grid: cut out the part build_map's own grid covers
+    i0, j0 = np.round((ref.origin - sp.map.origin) / ref.resolution).astype(int)[::-1]
+    assert i0 >= 0 and j0 >= 0
+    rows, cols = ref.log_odds.shape
+    inner = sp.map.log_odds[i0:i0 + rows, j0:j0 + cols]
+    # occupied, free and unknown cells are those of the map built from the kept scans; the rest is unknown
+    assert np.array_equal(np.sign(inner), np.sign(ref.log_odds))
+    np.testing.assert_allclose(inner, ref.log_odds, atol=1e-12)
+    outside = np.ones(sp.map.log_odds.shape, dtype=bool)
+    outside[i0:i0 + rows, j0:j0 + cols] = False
+    assert not sp.map.log_odds[outside].any()
+    # the run's own scans built none of it: cells only they saw free are unknown, and there are some
+    whole = intel._track_split("whole run").map
+    assert ((whole.log_odds < 0) & (sp.map.log_odds == 0)).sum() > 100
+    # the held-out poses in the control's frame
+    np.testing.assert_allclose(sp.poses[:, :2] + sp.map.origin, log.poses[intel.HELD_OUT, :2], atol=1e-12)
+
+
+def test_a_runs_cost_counts_every_pose_scored():
+    field = intel.split().field()
+    counting = intel.CountingField(field)
+    poses = intel.split().poses[:7]
+    scan = intel.split().ranges[0, ::intel.BEAM_STEP]
+    np.testing.assert_array_equal(counting.log_likelihood(poses, scan), field.log_likelihood(poses, scan))
+    counting.log_likelihood(poses[:3], scan)
+    assert counting.evaluations == 10
+    assert counting.angles is field.angles  # everything else is the field's own
+
+
 def test_the_drift_correction_takes_out_the_measured_drift():
     log = intel.split().log
     rate = intel.drift_rate(log)
-    # the odometry under-rotates: a clockwise drift of a few hundredths of a radian per metre
+    # the heading drifts clockwise as the robot drives: a few hundredths of a radian per metre
     assert -0.1 < rate < -0.005
     odo = np.array([[0.1, 2.0, -0.2], [0.0, -1.0, 0.0]])
     fixed = intel.drift_corrected(odo, rate)
@@ -94,3 +140,17 @@ def test_a_global_run_depends_on_its_seed_only():
     assert np.array_equal(np.random.get_state()[1], state)
     with pytest.raises(ParameterError, match="method"):
         intel.global_row(3, method="bootstrap")
+
+
+def test_the_tracking_runs_are_judged_by_the_global_runs_rule():
+    """One lock-on rule: a stored tracking run is locked on exactly when its stored per-scan errors pass
+    :func:`intel.locked_on_share`, the rule of the global runs; and a run lost for good is not locked on."""
+    from pfcourse.studies.registry import STUDIES
+
+    track = STUDIES["intel/tracking"].load()
+    tol = intel.heading_tolerance(intel.split().log)
+    for _, row in track.iterrows():
+        assert len(row["position_error"]) == len(row["heading_error"]) == 455
+        assert row["locked_on"] == intel.locked_on_share(row["position_error"], row["heading_error"], tol)
+        if row["lost_scan"] >= 0:
+            assert not row["locked_on"]

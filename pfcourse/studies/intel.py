@@ -11,8 +11,10 @@ walls the map lacks.
 cure of chapter 15 (:func:`pfcourse.scenarios.maprobot.global_mcl.global_mcl`) with the settings of one
 record, :data:`GLOBAL_SETTINGS`; it is locked on by :func:`locked_on_share` (position within 1 m and
 heading within :func:`heading_tolerance` for at least ``LOCK_SHARE`` of the last ``LOCK_WINDOW``
-scans).  Its variants measure why the log is harder than the simulated map: the same filter on a map
-of the whole run (no wall missing), and with the odometry's heading drift taken out.
+scans); the tracking runs (:func:`tracking_row`) are judged by the same rule.  Its variants measure why
+the log is harder than the simulated map: the same filter on a map of the whole run (no wall missing),
+on the map control (:func:`leave_out_split`: every scan but the run's own, so the map is not the scans
+being localized), and with the odometry's heading drift taken out.
 """
 
 from __future__ import annotations
@@ -30,8 +32,8 @@ from pfcourse.scenarios.maprobot.grid import OccupancyGrid
 from pfcourse.scenarios.maprobot.likelihood_field import LikelihoodField
 from pfcourse.metrics import locked_on
 from pfcourse.scenarios.maprobot import lock_on
-from pfcourse.scenarios.maprobot.global_mcl import SETTINGS, GlobalSettings, global_mcl
-from pfcourse.scenarios.maprobot.mapping import LogOddsMap, build_map
+from pfcourse.scenarios.maprobot.global_mcl import HAZARD, SETTINGS, GlobalSettings, global_mcl
+from pfcourse.scenarios.maprobot.mapping import L_FREE, L_OCC, LogOddsMap, build_map, scan_cells
 from pfcourse.scenarios.maprobot.motion import OdometryModel
 from pfcourse.metrics import heading_error, position_error
 from pfcourse import metrics
@@ -101,11 +103,13 @@ def locked_on_share(pos_err: Array, head_err: Array, tolerance: float) -> bool:
 
 
 #: Global localization's filter: one record, chapter 15's cure as it stands
-#: (:data:`pfcourse.scenarios.maprobot.global_mcl.SETTINGS`: many particles at the start, some drawn from
+#: (:data:`pfcourse.scenarios.maprobot.global_mcl.HAZARD`: many particles at the start, some drawn from
 #: the scan, KLD-sampling with AMCL's delta, poses drawn from the scan injected as a kidnapping with a
-#: history).  Switch the cure here; the stored study's provenance records every field of it, and a test
-#: fails while the stored table was made with other settings.
-GLOBAL_SETTINGS: GlobalSettings = SETTINGS
+#: history, at the kidnap model's prior mass).  Switch the cure here; the stored study's provenance records
+#: every field of it, and a test fails while the stored table was made with other settings.
+GLOBAL_SETTINGS: GlobalSettings = HAZARD
+#: The cure the first stored runs used (``intel/global_previous``): augmented MCL's ratio as the injected mass.
+PREVIOUS_SETTINGS: GlobalSettings = SETTINGS
 #: Scans per run, and runs per filter.
 GLOBAL_STEPS = 40
 N_GLOBAL = 100
@@ -140,14 +144,68 @@ def drift_corrected(odometry: Array, rate: float) -> Array:
     return out
 
 
-#: The global-localization filters of the stored study, all on the same runs and filter seeds: the cure
+#: The global-localization filters of the stored studies, all on the same runs and filter seeds: the cure
 #: (GLOBAL_SETTINGS) on the second half's map; the same filter with uniform particles only; the cure on a map
 #: of the whole run (the scans it localizes built that map: no wall missing or moved); the cure with the
-#: odometry's heading drift, measured on the map half, taken out.
+#: odometry's heading drift, measured on the map half, taken out; the cure on the map control, a map of every
+#: scan of the run but the run's own and ``LEAVE_OUT_MARGIN`` on each side of it (:func:`leave_out_split`).
 METHODS = {"scan": "the cure (poses from the scan)", "uniform": "uniform particles only",
-           "whole_map": "the cure, map of the whole run", "drift_corrected": "the cure, odometry drift removed"}
-GLOBAL_COLUMNS = ("method", "seed", "start_scan", "locked_on", "locked_from", "final_position_error",
-                  "final_heading_error", "mean_particles", "window_margin")
+           "whole_map": "the cure, map of the whole run", "drift_corrected": "the cure, odometry drift removed",
+           "leave_out": "the cure, map of every scan but the run's own"}
+#: The methods of ``intel/global`` (and of ``intel/global_previous``), and of the map control ``intel/map_control``.
+GLOBAL_METHODS = ("scan", "uniform", "whole_map", "drift_corrected")
+CONTROL_METHODS = ("leave_out",)
+PREVIOUS_COLUMNS = ("method", "seed", "start_scan", "locked_on", "locked_from", "final_position_error",
+                    "final_heading_error", "mean_particles", "window_margin")
+GLOBAL_COLUMNS = PREVIOUS_COLUMNS + ("likelihood_evaluations",)
+#: The map control leaves out the run's scans and this many scans before and after them.
+LEAVE_OUT_MARGIN = 10
+
+
+class CountingField:
+    """A likelihood field that counts the poses it scores (the cost of a run in likelihood evaluations:
+    one evaluation is one pose scored against one scan's beams)."""
+
+    def __init__(self, field: LikelihoodField):
+        self.field, self.evaluations = field, 0
+
+    def log_likelihood(self, poses: Array, z: Array) -> Array:
+        out = self.field.log_likelihood(poses, z)
+        self.evaluations += len(out)
+        return out
+
+    def __getattr__(self, name):
+        return getattr(self.field, name)
+
+
+@lru_cache(maxsize=1)
+def _whole_run_cells() -> tuple[LogOddsMap, list, Array, Array]:
+    """The whole run's map, each scan's crossed and end cells on its grid, and the counts over all scans."""
+    log = split().log
+    whole = _track_split("whole run").map
+    shape = whole.log_odds.shape
+    cells = list(scan_cells(log.poses, log.ranges, log.angles, whole.origin, shape, max_range=Z_MAX,
+                            resolution=whole.resolution))
+    n_free, n_occ = np.zeros(shape, dtype=np.int64), np.zeros(shape, dtype=np.int64)
+    for free, ends in cells:
+        n_free.flat[free] += 1
+        n_occ.flat[ends] += 1
+    return whole, cells, n_free, n_occ
+
+
+def leave_out_split(first: int, steps: int = GLOBAL_STEPS, margin: int = LEAVE_OUT_MARGIN) -> Split:
+    """The map control for a run over held-out scans ``first .. first + steps - 1``: the log-odds map of every
+    scan of the log except ``first - margin .. first + steps + margin - 1`` (on the whole run's grid; a cell
+    only the left-out scans saw is unknown), so the map is not the scans being localized."""
+    sp = split()
+    whole, cells, n_free, n_occ = _whole_run_cells()
+    n_free, n_occ = n_free.copy(), n_occ.copy()
+    for free, ends in cells[max(first - margin, 0):min(first + steps + margin, N_SCANS)]:
+        n_free.flat[free] -= 1
+        n_occ.flat[ends] -= 1
+    m = LogOddsMap(log_odds=n_free * L_FREE + n_occ * L_OCC, resolution=whole.resolution, origin=whole.origin)
+    return Split(log=sp.log, map=m, grid=m.grid(), free=m.free_grid(), poses=m.to_map(sp.log.poses[HELD_OUT]),
+                 ranges=sp.ranges, odometry=sp.odometry)
 
 
 def global_row(seed: int, *, method: str = "scan", settings: GlobalSettings | None = None) -> dict:
@@ -158,13 +216,15 @@ def global_row(seed: int, *, method: str = "scan", settings: GlobalSettings | No
     ``locked_from``: the first scan from which it stays locked on (``GLOBAL_STEPS``: never);
     ``window_margin``: over the lock-on window, the scans' log-likelihood at the corrected poses minus at
     the filter's estimates (positive: the reference explains the scans better than where the filter
-    is, so the evidence was there; negative: the filter's wrong place fits the scans better)."""
+    is, so the evidence was there; negative: the filter's wrong place fits the scans better);
+    ``likelihood_evaluations``: the poses the filter scored against a scan over the run (its cost)."""
     if method not in METHODS:
         raise ParameterError(f"method must be one of {list(METHODS)}, got {method!r}")
     s = settings if settings is not None else GLOBAL_SETTINGS
-    sp = _track_split("whole run") if method == "whole_map" else split()
-    s = uniform_only(s) if method == "uniform" else s
     first = global_start(seed)
+    sp = (_track_split("whole run") if method == "whole_map" else leave_out_split(first) if method == "leave_out"
+          else split())
+    s = uniform_only(s) if method == "uniform" else s
     run = slice(first, first + GLOBAL_STEPS)
     odometry = sp.odometry[run].copy()
     odometry[0] = 0.0
@@ -172,7 +232,8 @@ def global_row(seed: int, *, method: str = "scan", settings: GlobalSettings | No
         odometry = drift_corrected(odometry, drift_rate(sp.log))
     field = sp.field()
     scans = sp.ranges[run, ::BEAM_STEP]
-    res = global_mcl(sp.free, field, MOTION, scans, odometry, np.random.default_rng([41, seed, 1]), s)
+    counting = CountingField(field)
+    res = global_mcl(sp.free, counting, MOTION, scans, odometry, np.random.default_rng([41, seed, 1]), s)
     truth = sp.poses[run]
     pos, head = position_error(truth, res.mean), heading_error(truth, res.mean)
     tol = heading_tolerance(sp.log)
@@ -183,7 +244,8 @@ def global_row(seed: int, *, method: str = "scan", settings: GlobalSettings | No
             "locked_from": lock_on.locked_from(pos, head, 1.0, tol, position_tol=LOCK_POSITION_M,
                                                window_s=LOCK_WINDOW, share=LOCK_SHARE),
             "final_position_error": float(pos[-1]), "final_heading_error": float(head[-1]),
-            "mean_particles": float(res.sizes[1:].mean()), "window_margin": float(margin)}
+            "mean_particles": float(res.sizes[1:].mean()), "window_margin": float(margin),
+            "likelihood_evaluations": counting.evaluations}
 
 
 #: Tracking from the known start (the chapter's MCL): the odometry noise a_1..a_4, the particle count,
@@ -195,7 +257,9 @@ TRACK_SEEDS = range(1, 31)
 #: half, :func:`drift_rate`) taken out of the held-out increments.
 TRACK_MAPS = {"second half": MAP_PART, "whole run": slice(0, N_SCANS), "second half, drift corrected": MAP_PART}
 TRACK_COLUMNS = ("map", "seed", "median_position_error", "p90_position_error", "final_position_error",
-                 "final_heading_error", "tracking_at_end", "lost_scan")
+                 "final_heading_error", "locked_on", "lost_scan", "position_error", "heading_error")
+#: Per-scan columns of the tracking runs (stored in tracking.npz): the errors against the corrected poses.
+TRACK_ARRAYS = ("position_error", "heading_error")
 
 
 @lru_cache(maxsize=3)
@@ -218,7 +282,8 @@ def tracking_row(seed: int, *, map: str = "second half") -> dict:  # noqa: A002 
     """One tracking run of the first half from the corrected start (the chapter's filter, systematic
     resampling at every scan), filter seeded by ``default_rng(seed)``, on the map ``map``. ``lost_scan``:
     the first scan from which the position error stays above ``LOCK_POSITION_M`` to the end (-1: never);
-    ``tracking_at_end``: the last scan within ``LOCK_POSITION_M`` and the heading tolerance."""
+    ``locked_on``: the global runs' rule (:func:`locked_on_share`) on the last scans of the run;
+    ``position_error`` (m) and ``heading_error`` (rad): per scan, against the corrected poses."""
     from pfcourse.filter import ParticleFilter
     from pfcourse.scenarios.maprobot import MapRobotModel
 
@@ -237,5 +302,5 @@ def tracking_row(seed: int, *, map: str = "second half") -> dict:  # noqa: A002 
     lost = -1 if not far[-1] else int(tail[-1] + 1 if len(tail) else 0)
     return {"median_position_error": float(np.median(pos)), "p90_position_error": float(np.quantile(pos, 0.9)),
             "final_position_error": float(pos[-1]), "final_heading_error": float(head[-1]),
-            "tracking_at_end": bool(pos[-1] < LOCK_POSITION_M and head[-1] < heading_tolerance(sp.log)),
-            "lost_scan": lost}
+            "locked_on": locked_on_share(pos, head, heading_tolerance(sp.log)),
+            "lost_scan": lost, "position_error": pos, "heading_error": head}

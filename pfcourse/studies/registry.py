@@ -751,19 +751,27 @@ STUDIES: dict[str, Study] = {study.name: study for study in [
           base_seed=pm.PAIR_SEED, failures="raise", table="pmcmc/pairs.csv", provenance="pmcmc/pairs.json", sample=1,
           row_code="pfcourse/studies/pmcmc_studies.py (pair_row), pfcourse/correlated.py",
           fields=pm.PROVENANCE_FIELDS["pairs"]),
-    Study(name="intel/global", row=intel.global_row, grid={"method": list(intel.METHODS)}, n_runs=intel.N_GLOBAL,
-          seeds="run", failures="raise", table="intel/global.csv", provenance="intel/global.json",
-          columns=intel.GLOBAL_COLUMNS, sample=1,
-          row_code="pfcourse/studies/intel.py (global_row), pfcourse/scenarios/maprobot/global_mcl.py (global_mcl)",
-          fields={"seeds": "run s: start scan numpy.random.default_rng([41, s]); filter default_rng([41, s, 1])",
-                  "map": "scans 455-909 of book/data/intel/intel-corrected.log.gz (whole_map: scans 0-909); "
-                         "runs on scans 0-454",
-                  "steps": intel.GLOBAL_STEPS, "settings": dataclasses.asdict(intel.GLOBAL_SETTINGS),
-                  "lock_on": "within 1 m and 3 x the odometry's RMS heading error "
-                  f"of a step, at {intel.LOCK_SHARE} of the last {intel.LOCK_WINDOW} scans"}),
+    *(Study(name=name, row=row, grid={"method": list(methods)}, n_runs=intel.N_GLOBAL,
+            seeds="run", failures="raise", table=f"{name}.csv", provenance=f"{name}.json",
+            columns=columns, sample=1,
+            row_code="pfcourse/studies/intel.py (global_row), pfcourse/scenarios/maprobot/global_mcl.py (global_mcl)",
+            fields={"seeds": "run s: start scan numpy.random.default_rng([41, s]); filter default_rng([41, s, 1])",
+                    "map": map_text, "steps": intel.GLOBAL_STEPS, "settings": dataclasses.asdict(settings),
+                    "lock_on": "within 1 m and 3 x the odometry's RMS heading error "
+                    f"of a step, at {intel.LOCK_SHARE} of the last {intel.LOCK_WINDOW} scans"})
+      for name, row, methods, columns, settings, map_text in (
+          ("intel/global", intel.global_row, intel.GLOBAL_METHODS, intel.GLOBAL_COLUMNS, intel.GLOBAL_SETTINGS,
+           "scans 455-909 of book/data/intel/intel-corrected.log.gz (whole_map: scans 0-909); runs on scans 0-454"),
+          ("intel/global_previous", partial(intel.global_row, settings=intel.PREVIOUS_SETTINGS), intel.GLOBAL_METHODS,
+           intel.PREVIOUS_COLUMNS, intel.PREVIOUS_SETTINGS,
+           "scans 455-909 of book/data/intel/intel-corrected.log.gz (whole_map: scans 0-909); runs on scans 0-454"),
+          ("intel/map_control", intel.global_row, intel.CONTROL_METHODS, intel.GLOBAL_COLUMNS, intel.GLOBAL_SETTINGS,
+           f"every scan of book/data/intel/intel-corrected.log.gz but the run's own and {intel.LEAVE_OUT_MARGIN} "
+           "on each side (on the whole run's grid); runs on scans 0-454"))),
     Study(name="intel/tracking", row=intel.tracking_row, grid={"map": list(intel.TRACK_MAPS)},
           n_runs=len(intel.TRACK_SEEDS), seeds="run", base_seed=intel.TRACK_SEEDS.start, failures="raise",
           table="intel/tracking.csv", provenance="intel/tracking.json", columns=intel.TRACK_COLUMNS, sample=1,
+          arrays=intel.TRACK_ARRAYS,
           row_code="pfcourse/studies/intel.py (tracking_row)",
           fields={"seeds": "run s: filter numpy.random.default_rng(s), s = 1..30 (the chapter's run is s = 1)",
                   "maps": "second half: scans 455-909; whole run: scans 0-909; tracked: scans 0-454",

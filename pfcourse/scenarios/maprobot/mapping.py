@@ -75,6 +75,19 @@ def build_map(poses: Array, ranges: Array, angles: Array, *, max_range: float, r
     origin = np.floor((pts.min(axis=0) - margin) / resolution) * resolution
     shape = tuple(np.ceil((pts.max(axis=0) + margin - origin) / resolution).astype(int)[::-1])
     log_odds = np.zeros(shape)
+    for free_flat, ends_flat in scan_cells(poses, ranges, angles, origin, shape, max_range=max_range,
+                                           resolution=resolution):
+        log_odds.flat[free_flat] += l_free
+        log_odds.flat[ends_flat] += l_occ
+    return LogOddsMap(log_odds=log_odds, resolution=resolution, origin=origin)
+
+
+def scan_cells(poses: Array, ranges: Array, angles: Array, origin: Array, shape: tuple[int, int], *,
+               max_range: float, resolution: float = 0.1):
+    """Per scan, the flat indices of the cells its beams cross (``free``) and end in (``ends``) on the grid
+    of ``shape`` with its corner at ``origin``: what :func:`build_map` adds ``L_FREE`` and ``L_OCC`` to, each
+    cell once per scan (yields ``(free, ends)`` pairs, one a scan; beams with no echo left out)."""
+    echo = ranges < max_range
     steps = np.arange(0.0, max_range, resolution / 2)
     for pose, z, hit in zip(poses, ranges, echo):
         z = z[hit]
@@ -88,10 +101,7 @@ def build_map(poses: Array, ranges: Array, angles: Array, *, max_range: float, r
         py = pose[1] + s[along] * np.repeat(np.sin(heading), along.sum(axis=1))
         j = np.floor((px - origin[0]) / resolution).astype(np.int64)
         i = np.floor((py - origin[1]) / resolution).astype(np.int64)
-        free_flat = np.setdiff1d(np.unique(i * shape[1] + j), ends_flat)
-        log_odds.flat[free_flat] += l_free
-        log_odds.flat[ends_flat] += l_occ
-    return LogOddsMap(log_odds=log_odds, resolution=resolution, origin=origin)
+        yield np.setdiff1d(np.unique(i * shape[1] + j), ends_flat), ends_flat
 
 
 def ends_of(pose: Array, z: Array, heading: Array) -> Array:
