@@ -209,15 +209,16 @@ def paired_difference_interval(only_a: int, only_b: int, n: int,
     estimate ``b / m`` is unbiased given ``m``, so it is uncorrelated with ``m / n``.
 
     1. ``pi`` gets the Clopper-Pearson interval ``(pi_L, pi_U)`` on ``b`` of ``m``
-       (``binomtest(b, m).proportion_ci(method="exact")``; Clopper and Pearson 1934), hence
-       ``tau`` the interval ``(tau_L, tau_U) = (2 pi_L - 1, 2 pi_U - 1)``. Both come from the
-       binomial tails of the exact McNemar test: for ``pi = 1/2`` its two-sided p-value is twice
+       (``binomtest(b, m).proportion_ci(method="exact")``; Clopper and Pearson 1934, Biometrika
+       26, 404-413), hence ``tau`` the interval ``(tau_L, tau_U) = (2 pi_L - 1, 2 pi_U - 1)``.
+       Both come from the binomial tails of the exact McNemar test: for ``pi = 1/2`` its two-sided p-value is twice
        the smaller tail, so ``tau_L > 0`` (or ``tau_U < 0``) exactly when ``p < 1 - confidence``.
     2. ``psi`` gets the Wilson interval ``(psi_L, psi_U)`` on ``m`` of ``n`` (:func:`rate`).
     3. The two are combined by square-and-add, the method of variance estimates recovery
-       (MOVER; Zou and Donner 2008), which reads the spread of each estimate on the side of the
-       limit from its own interval. Near the lower limit ``Delta`` moves by ``psi^ (tau - tau^)``
-       through ``tau`` and by ``tau_L (psi - psi^)`` through ``psi``, so
+       (MOVER; Zou and Donner 2008, Statistics in Medicine 27, 1693-1702), which reads the spread
+       of each estimate on the side of the limit from its own interval. Near the lower limit,
+       ``Delta`` moves by ``psi^ (tau - tau^)`` through ``tau`` and by ``tau_L (psi - psi^)``
+       through ``psi``, so
 
        .. math:: L = \hat\Delta - \sqrt{\hat\psi^2 (\hat\tau - \tau_L)^2
                      + \tau_L^2 (\hat\psi - \psi_\ast)^2},\qquad
@@ -227,20 +228,22 @@ def paired_difference_interval(only_a: int, only_b: int, n: int,
        with ``psi_* = psi_L`` if ``tau_L > 0`` else ``psi_U`` (the side of ``psi`` that lowers
        ``Delta``), and ``psi^* = psi_U`` if ``tau_U > 0`` else ``psi_L``; ``tau^ = 0`` when ``m = 0``.
 
-    **Consistency.** ``L`` has the sign of ``tau_L``: for ``tau_L > 0``,
-    ``Delta^2 - psi^2 (tau - tau_L)^2 = psi^2 tau_L (2 tau - tau_L) > tau_L (psi - psi_L)^2``
-    (as ``tau >= tau_L`` and ``psi >= psi - psi_L >= 0``); for ``tau_L < 0`` the first term
-    alone already exceeds ``Delta``; for ``tau_L = 0``, ``L = 0``. Likewise for ``U``. So the interval
-    covers 0 exactly when the exact McNemar test does not reject at level ``1 - confidence``,
-    which a percentile bootstrap of the mean difference does not: 4 discordant runs of 100, all
-    for A, give ``p = 0.125`` and a bootstrap interval of ``(0.01, 0.08)``, which excludes 0 (a resample
-    holding none of the 4 runs comes up in fewer than 2.5 % of resamples). The conditional interval
-    alone, ``(m / n) (tau_L, tau_U)``, ignores the spread of ``m`` and is one-sided when ``b`` or
-    ``c`` is 0 (its upper limit is then the estimate itself), which Newcombe (1998) measured as
-    poor coverage; the ``psi`` term repairs both.
+    **Consistency.** ``L`` has the sign of ``tau_L`` (estimates written without hats): for
+    ``tau_L > 0``, ``Delta^2 - psi^2 (tau - tau_L)^2 = psi^2 tau_L (2 tau - tau_L)``, which
+    exceeds ``tau_L (psi - psi_L)^2`` as ``tau >= tau_L`` and ``psi >= psi - psi_L >= 0``, so
+    ``L > 0``; for ``tau_L < 0``, ``L <= Delta - psi (tau - tau_L) = psi tau_L < 0`` (and
+    ``L = tau_L psi_U < 0`` when ``m = 0``); for ``tau_L = 0``, ``L = 0``. Likewise for ``U``. So
+    the interval covers 0 exactly when the exact McNemar test does not reject at level
+    ``1 - confidence``. A percentile bootstrap of the mean difference does not: 4 discordant runs
+    of 100, all for A, give ``p = 0.125`` and a bootstrap interval of ``(0.01, 0.08)``, which
+    excludes 0 (a resample holding none of the 4 runs comes up in fewer than 2.5 % of resamples).
+    The conditional interval alone, ``(m / n) (tau_L, tau_U)``, ignores the spread of ``m`` and
+    is one-sided when ``b`` or ``c`` is 0 (its upper limit is then the estimate itself), which
+    Newcombe (1998, Statistics in Medicine 17, 2635-2650) measured as poor coverage; the ``psi``
+    term repairs both.
 
-    **Coverage.** The interval lies inside the box ``psi`` times ``tau`` of the two 95 %
-    intervals (``U <= tau_U psi_U`` for ``tau_U > 0``, and so on), so it stays inside ``[-1, 1]``.
+    **Coverage.** The interval lies inside the box ``psi`` times ``tau`` of the two intervals
+    (``U <= tau_U psi_U`` for ``tau_U > 0``, and so on), so it stays inside ``[-1, 1]``.
     By simulation (``tests/test_paired_difference.py``) its coverage is at least nominal over a
     grid of rates, correlations and ``n`` from 30 to 300, near nominal when many runs differ and
     conservative, like the exact test itself, when few do. No discordant run (``m = 0``) gives
