@@ -80,6 +80,11 @@ def _percent(p: float) -> str:
     return f"{100 * p:.0f} %"
 
 
+def _points(d: float) -> str:
+    """A difference of rates in points; under one point with a decimal, so that a limit above 0 never reads +0."""
+    return f"{100 * d:+.1f}" if 0 < abs(100 * d) < 1 else f"{100 * d:+.0f}"
+
+
 def _samples(x, name: str) -> np.ndarray:
     try:
         a = np.asarray(x, dtype=float)
@@ -176,7 +181,7 @@ class PairedRates:
         return (f"{_percent(self.a.estimate)} vs {_percent(self.b.estimate)} of {self.a.n} paired runs: "
                 f"{self.only_a} only A, {self.only_b} only B, exact McNemar p = {self.pvalue:.2g}; "
                 f"difference {100 * self.difference:+.0f} points ({_fraction(self.confidence)} interval "
-                f"{100 * self.difference_low:+.0f} to {100 * self.difference_high:+.0f})")
+                f"{_points(self.difference_low)} to {_points(self.difference_high)})")
 
 
 def _bootstrap(data: tuple[np.ndarray, ...], statistic: Callable, confidence: float, seed: int,

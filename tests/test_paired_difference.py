@@ -174,3 +174,10 @@ def test_the_conditional_interval_alone_would_undercover():
     hits = [lo - 1e-12 <= pa - pb <= hi + 1e-12 for lo, hi in (conditional(int(t[1]), int(t[2])) for t in tables)]
     assert np.mean(hits) < 0.8
     assert coverage(pa, pb, rho, n, seed=7) >= CONFIDENCE - 3.5 * np.sqrt(CONFIDENCE * (1 - CONFIDENCE) / N_TABLES)
+
+
+def test_a_limit_just_above_zero_is_not_printed_as_plus_zero():
+    # 6 of 100 runs differ, all for A: p = 1/32 rejects, so the lower limit is above 0 (by under a point)
+    r = ev.paired_rates(*paired_outcomes(50, 6, 0, 44))
+    assert r.pvalue < 0.05 and 0 < r.difference_low < 0.01
+    assert "interval +0." in str(r) and "interval +0 " not in str(r)
