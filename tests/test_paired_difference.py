@@ -181,3 +181,12 @@ def test_a_limit_just_above_zero_is_not_printed_as_plus_zero():
     r = ev.paired_rates(*paired_outcomes(50, 6, 0, 44))
     assert r.pvalue < 0.05 and 0 < r.difference_low < 0.01
     assert "interval +0." in str(r) and "interval +0 " not in str(r)
+
+
+@pytest.mark.parametrize("confidence", [0.90, 0.99])
+def test_consistency_holds_at_other_levels(confidence):
+    for b in range(21):
+        for c in range(21 - b):
+            low, high = ev.paired_difference_interval(b, c, 60, confidence)
+            p = 1.0 if b + c == 0 else stats.binomtest(b, b + c, 0.5).pvalue
+            assert (low <= 0.0 <= high) == (p >= 1 - confidence), (b, c, p, low, high)
