@@ -44,7 +44,6 @@
 
 # %% tags=["remove-input"] jupyter={"source_hidden": true}
 import json
-from pathlib import Path
 
 import matplotlib.pyplot as plt
 import numpy as np
@@ -72,7 +71,6 @@ from pfcourse.seeding import run_filter_seed
 from pfcourse.book.style import COLORS, use_style
 
 use_style()
-DATA = Path("../data/global_localization")
 anatomy, lockon, kid, ekf, kld_amcl, tracking = (
     STUDIES[f"global_localization/{name}"].load() for name in ("anatomy", "lockon", "kidnap", "ekf_vs_pf", "kld_amcl", "tracking_cost"))
 modes = STUDIES["global_localization/modes"].load()  # per run: the mass near the truth at every step
@@ -339,7 +337,7 @@ EvidenceBlock(
 from scipy.special import logsumexp
 from pfcourse.filter import ParticleFilter
 from pfcourse.resampling import systematic
-from pfcourse.scenarios.robot.mcl import AugmentedMCL, kidnap, kidnap_pose
+from pfcourse.scenarios.robot.mcl import AugmentedMCL, InjectionProbability, kidnap, kidnap_pose
 from pfcourse.scenarios.robot.scenario import RobotModel
 
 
@@ -377,11 +375,12 @@ ksim = kidnap(before, 50, kidnap_pose(7, before.truth[50]))
 tmodel = RobotModel.for_simulation(ksim, initial="tracking")
 means, p_inject = augmented_mcl(tmodel, ksim.measurements, 2000, np.random.default_rng(3))
 aug = AugmentedMCL(tmodel, alpha_slow=0.01, alpha_fast=0.1)
-engine = ParticleFilter(tmodel, 2000, threshold=1.0, proposal=aug, jitter=aug).run(ksim.measurements,
-                                                                                     np.random.default_rng(3))
+engine = ParticleFilter(tmodel, 2000, threshold=1.0, proposal=aug, jitter=aug).run(
+    ksim.measurements, np.random.default_rng(3), collect=[InjectionProbability()])
 AGREE = 1e-9
+p_engine = engine.collected["injected"]
 print(f"means and injection probabilities equal the engine's within {AGREE:g} m:",
-      np.abs(means - engine.mean[:, :2]).max() < AGREE and np.abs(p_inject - np.array(aug.injected)).max() < AGREE)
+      np.abs(means - engine.mean[:, :2]).max() < AGREE and np.abs(p_inject - p_engine).max() < AGREE)
 
 # %% tags=["remove-input"] jupyter={"source_hidden": true}
 glue_values(aug_agree=AGREE)
@@ -622,13 +621,11 @@ ka, kg = (kid[kid["method"] == m].sort_values("seed") for m in ("mixture", "augm
 rec_times = ka.loc[ka["recovered"], "recovery_s"].values
 rec_mean, rec_low, rec_high = evidence.run_interval(lambda r: rec_times[r].mean(), len(rec_times))
 aug_times = kg.loc[kg["recovered"], "recovery_s"].values
-# the paired difference of the recovery rates, with the exact interval that matches the exact McNemar test: given
-# the m runs where the two differ, the share won by the mixture is binomial, its Clopper-Pearson interval maps to
-# (m / n)(2 pi - 1); the bootstrap's percentile interval of the mean difference is too narrow with five discordant runs
+# the paired difference of the recovery rates, with the interval that agrees with the exact McNemar test
+# (pfcourse.evidence.paired_difference_interval, book/evidence.md)
 kid_test = evidence.paired_rates(ka["recovered"].values, kg["recovered"].values)
 m_disc, n_kid = kid_test.only_a + kid_test.only_b, len(ka)
-ci = stats.binomtest(kid_test.only_a, m_disc).proportion_ci(confidence_level=0.95, method="exact")
-diff_lo, diff_hi = m_disc / n_kid * (2 * ci.low - 1), m_disc / n_kid * (2 * ci.high - 1)
+diff_lo, diff_hi = kid_test.difference_low, kid_test.difference_high
 both = ka["recovered"].values & kg["recovered"].values
 time_diff = ka["recovery_s"].values[both] - kg["recovery_s"].values[both]
 diff_mean, diff_low, diff_high = evidence.run_interval(lambda r: time_diff[r].mean(), len(time_diff))
@@ -651,14 +648,10 @@ EvidenceBlock(
            f"Mixture vs augmented MCL, recovered: {kid_test.a.successes} and {kid_test.b.successes} of {n_kid} runs; "
            f"they differ on {m_disc} runs, {kid_test.only_a} won by the mixture and {kid_test.only_b} by augmented "
            f"MCL: exact McNemar p = {kid_test.pvalue:.3f}. Difference of the rates, mixture minus augmented: "
-           f"{100 * (kid_test.a.estimate - kid_test.b.estimate):.0f} points, exact 95 % interval "
-           f"{100 * diff_lo:.1f} to {100 * diff_hi:.1f} points (Clopper-Pearson on the discordant runs, which "
-           "inverts the same binomial test).",
-           f"Why not the bootstrap interval ({100 * kid_test.difference_low:.0f} to "
-           f"{100 * kid_test.difference_high:.0f} points), which excludes zero while p > 0.05: a resample of the "
-           f"{n_kid} runs holds none of the {m_disc} discordant ones only once in {1 / (1 - m_disc / n_kid) ** n_kid:.0f}, "
-           "so fewer than 2.5 % of the resampled differences are zero and the percentile interval stops short of "
-           "it; with so few discordant runs the exact interval is the one to read.",
+           f"{100 * (kid_test.a.estimate - kid_test.b.estimate):.0f} points, 95 % interval "
+           f"{100 * diff_lo:.1f} to {100 * diff_hi:.1f} points (the exact interval of the share of discordant runs "
+           "won by the mixture, which inverts the same binomial test, combined with the Wilson interval of the share "
+           "of runs that differ: book/evidence.md).",
            f"Recovery time of augmented MCL: median {np.median(aug_times):.0f} s, 90 % quantile "
            f"{np.quantile(aug_times, 0.9):.0f} s ({len(aug_times)} recovered runs).",
            f"On the {int(both.sum())} runs both recover: mean of the paired differences of recovery time, mixture minus "

@@ -210,8 +210,9 @@ def regularised_move(particles, scale, rng, angle=3):
 # %% tags=["hide-input"] jupyter={"source_hidden": true}
 flight = simulate(scenario, terrain, data_rng(0, 0))
 pf = FILTERS["bootstrap N=3000"].build(scenario.model(terrain))
-# step the filter through the first six readings and keep the last step's weighted cloud
-last = list(pf.steps(flight.measurements[:6], rng=filter_rng(0, 0)))[-1]
+# step the filter through the first six readings; the loop leaves the last step's weighted cloud
+for last in pf.steps(flight.measurements[:6], rng=filter_rng(0, 0)):
+    pass
 resampled = last.particles[np.random.default_rng(5).choice(3000, 3000, p=last.weights)]
 ours = regularised_move(resampled, 0.2, np.random.default_rng(7))
 package = RegularisedJitter(0.2, (3,))(resampled, np.random.default_rng(7))
@@ -307,7 +308,7 @@ EvidenceBlock(
            "converge (see Reading the evidence)."]
           + [f"{pairs[key][0]} vs {pairs[key][1]}: lost by the first only / by the second only "
              f"{v.only_a} / {v.only_b}, exact McNemar p = {v.pvalue:.2g}; difference of lost shares "
-             f"{v.difference:+.2f} (95 % interval {v.difference_low:+.2f} to {v.difference_high:+.2f})"
+             f"{v.difference:+.2f} (95 % interval {v.difference_low:+.3f} to {v.difference_high:+.3f})"
              for key, v in comparisons.items()],
     tables=[("Every setting against the baseline (bootstrap N = 3000) on the same flights",
              table.reset_index(), {"lost rate": ".2f", "McNemar p": ".2g", "median final error, converged (m)": ".0f",

@@ -393,8 +393,9 @@ fl = simulate(scenario, terrain, data_rng(0, FLIGHT))
 grid = PointMassFilter(terrain, scenario, cell=SNAP_CELL, heading_step=np.radians(SNAP_HEADING))
 grid.run(fl.measurements[: SNAPSHOT + 1], keep=SNAPSHOT)
 pf = marginalised_filter(terrain, scenario, 3000, threshold=0.5, resampler="multinomial")
-# the weighted cloud of the last step, the snapshot
-cloud = list(pf.steps(fl.measurements[: SNAPSHOT + 1], rng=filter_rng(0, FLIGHT)))[-1]
+# the weighted cloud of the last step, the snapshot (the loop keeps no other step)
+for cloud in pf.steps(fl.measurements[: SNAPSHOT + 1], rng=filter_rng(0, FLIGHT)):
+    pass
 post = grid.kept.sum(axis=0)
 fig, ax = plt.subplots(figsize=(7.0, 4.6))
 c = grid.cell / 2

@@ -407,7 +407,7 @@ glue_values("pdaf_", rmse_m=pdaf_mean)
 # for a landmark.
 #
 # The PDA filter removes that tail: it loses {glue:text}`association_pdaf_loses:.0%` of the runs,
-# {glue:text}`association_pdaf_vs_nn_lost_low_pts:.0f`-{glue:text}`association_pdaf_vs_nn_lost_high_pts:.0f`
+# {glue:text}`association_pdaf_vs_nn_lost_low_pts:.1f`-{glue:text}`association_pdaf_vs_nn_lost_high_pts:.0f`
 # points fewer than the nearest-neighbour EKF on the same runs.
 #
 # Run by run, the PDA filter's RMSE is {glue:text}`association_pdaf_over_pf:.2f` times the

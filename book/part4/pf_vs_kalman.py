@@ -867,7 +867,8 @@ EvidenceBlock(
     notes=[f"The same {len(flights3000)} flights (seeds: flight r from pfcourse.seeding.data_rng(0, r), filter from "
            "filter_rng(0, r)) under every setting, from the stored studies terrain_remedies and terrain_mpf; a flight "
            "is lost when its final horizontal error exceeds 500 m or every particle is lost. Pairs: exact McNemar "
-           "test on the discordant flights, 95 % bootstrap interval of the difference (pfcourse.evidence.paired_rates). "
+           "test on the discordant flights, and the 95 % interval of the difference that agrees with it "
+           "(pfcourse.evidence.paired_rates). "
            f"The remedy that loses fewest at N = 3000 is {short(best_terrain)}; the row names every remedy whose "
            "McNemar p against it is 0.05 or more.",
            "Cost, from terrain_costs (every filter timed in one process on the same flights): CPU time per "
