@@ -113,14 +113,15 @@ from pfcourse.book.style import COLORS, plain_log_axis, use_style
 use_style()
 
 # %%
+# pfcourse first: it pins NumPy's arithmetic to the book's
+from pfcourse.studies.likelihood_studies import (
+    grid_posterior, kalman_log_likelihood, landmark_likelihood_problem,
+    max_likelihood_scale)
+
 import matplotlib.pyplot as plt
 import numpy as np
 from scipy import stats
 from scipy.special import logsumexp
-
-from pfcourse.studies.likelihood_studies import (
-    grid_posterior, kalman_log_likelihood, landmark_likelihood_problem,
-    max_likelihood_scale)
 
 # theta scales R_0 = 0.5^2 I; the data were simulated at theta = 1
 scenario, Z = landmark_likelihood_problem()

@@ -131,10 +131,12 @@ plt.show()
 # its measurement density and its transition density):
 
 # %%
+# pfcourse first: it pins NumPy's arithmetic to the book's
+from pfcourse.scenarios.landmarks import quadrant_scenario, simulate
+
 import numpy as np
 from scipy import stats
 from scipy.special import logsumexp, ndtr
-from pfcourse.scenarios.landmarks import quadrant_scenario, simulate
 
 # the likelihood chapter's model and data; theta scales R_0 = 0.5^2 I
 scenario = quadrant_scenario().with_(Qw=0.05**2 * np.eye(6),

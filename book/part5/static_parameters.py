@@ -66,10 +66,12 @@ GLUE = {}
 # Kalman likelihood times the prior on a grid of $\log\vartheta$.
 
 # %%
+# pfcourse first: it pins NumPy's arithmetic to the book's
+from pfcourse.scenarios.landmarks import quadrant_scenario, simulate
+
 import matplotlib.pyplot as plt
 import numpy as np
 from scipy.special import gammaln, logsumexp
-from pfcourse.scenarios.landmarks import quadrant_scenario, simulate
 
 # the landmark model of the likelihood chapter, R = theta R0
 sc = quadrant_scenario().with_(Qw=0.05**2 * np.eye(6), Rv=0.5**2 * np.eye(4))
