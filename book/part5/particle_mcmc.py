@@ -630,15 +630,13 @@ EvidenceBlock(
 # {glue:text}`pmmh_rhat_min:.3f` at $N =$ {glue:text}`pmmh_rhat_min_n:d`. The chains are too
 # short to be called converged, and their effective draws are rough counts.
 #
-# What does theory say? {cite:t}`doucet2015` find the cost per independent draw smallest near
-# $\mathrm{var}\,\log\hat p \approx 0.85$ when the chain with the exact likelihood would mix
-# perfectly, near $2.8$ when it mixes poorly, and recommend about $1.4$ when one does not know.
-# {cite:t}`sherlock2015` find about $3.3$ for a random walk, a limit for many parameters with the
-# step tuned at the same time. Here the step of {glue:text}`pm_step:.2f` in $\log\vartheta$ is
-# {glue:text}`pm_step_over_sd:.1f` posterior standard deviations, so the exact chain would mix
-# poorly, and both point to about $3$ (Sherlock's value with the caveat that here there is one
-# parameter and the step is fixed). That target lies between the two best $N$ (the variance
-# falls like $1/N$), which the chains do not separate.
+# What does theory say? {cite:t}`pitt2012` and {cite:t}`doucet2015` recommend a standard
+# deviation of $\log\hat p$ of about $1$ near the posterior mode.
+# {cite:t}`sherlock2015` find a variance of about $3.3$ for a random walk, a limit for many
+# parameters with the step tuned at the same time. Here the step of {glue:text}`pm_step:.2f` in
+# $\log\vartheta$ is {glue:text}`pm_step_over_sd:.1f` posterior standard deviations, and there is
+# one parameter with a fixed step, so neither result applies exactly; between them they span the
+# two best $N$ (the variance falls like $1/N$), which the chains do not separate.
 #
 # Particle Gibbs gives {glue:text}`pgas_vs_pmmh_gain:.0f` times the effective draws of PMMH at
 # its best $N$ per particle moved ({glue:text}`pgas_vs_pmmh_low:.0f` to
