@@ -20,7 +20,7 @@
 # last section {doc}`../part2/robot`; Bayes' rule and the Markov property; NumPy broadcasting and
 # `logsumexp`.
 #
-# **Time:** about twenty-four minutes to read; the notebook runs in about twenty seconds (its
+# **Time:** about twenty-five minutes to read; the notebook runs in about twenty seconds (its
 # studies over many runs are stored data).
 # :::
 #

@@ -403,7 +403,8 @@ GLUE.update(page_error_lw=page_errors["lw"], page_error_ss=page_errors["ss"], pa
 # run $r$ with seed $r$ for all three.
 #
 # **The measure.** For each run, the error of its posterior mean in exact posterior standard
-# deviations, $(\hat\mu - \mu) / \sigma$; over the runs, its median absolute value, its mean (the bias) and its standard deviation (the spread).
+# deviations, $(\hat\mu - \mu) / \sigma$; over the runs, its median absolute value, its mean
+# (the bias) and its standard deviation (the spread).
 
 # %% tags=["remove-input"] jupyter={"source_hidden": true}
 main = pd.concat([STUDIES["static_parameters/main"].load(), STUDIES["static_parameters/smc2"].load()], ignore_index=True)
