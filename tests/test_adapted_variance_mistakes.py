@@ -43,3 +43,38 @@ def test_the_correct_variance_passes():
     report = check_adapted_likelihood(lambda z, n, rng, a, q, r: student(z, n, rng, a, q, r,
                                                                          lambda q, r: q**2 + r**2))
     assert report.ok, str(report)
+
+
+def test_the_fixed_lag_checker_names_tracing_every_step_from_the_end():
+    """Exercise 27.2 (student_p5, item 17): the chapter's own loop traces from the last step T; the checker
+    says each step has its own end."""
+    from pfcourse.book.exercises import check_fixed_lag
+
+    def from_end(particles, weights, ancestors, lag):
+        T = len(weights) - 1
+        means = []
+        for k in range(T + 1):
+            idx = np.arange(weights.shape[1])
+            for j in range(T, k, -1):
+                idx = ancestors[j][idx]
+            means.append(weights[T] @ particles[k][idx])
+        return np.array(means)
+
+    report = check_fixed_lag(from_end)
+    assert not report.ok and "own end t = min(k + L, T)" in report.problems[0], str(report)
+
+
+def test_the_storvik_checker_names_numpy_s_gamma_scale_slip():
+    """Exercise 28.1 (student_p5, item 12): 1 / rng.gamma(a, b) reads NumPy's scale as a rate."""
+    from scipy import stats
+
+    from pfcourse.book.exercises.static_parameters import STORVIK_R, check_storvik_step
+
+    def slip(x, a, b, z, rng):
+        theta = 1 / rng.gamma(a, b)
+        x_new = x + np.sqrt(theta) * rng.standard_normal(x.shape)
+        log_w = stats.norm.logpdf(z, x_new, np.sqrt(STORVIK_R))
+        return x_new, a + 0.5, b + (x_new - x) ** 2 / 2, log_w
+
+    report = check_storvik_step(slip)
+    assert not report.ok and "SCALE" in report.problems[0], str(report)

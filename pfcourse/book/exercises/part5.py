@@ -401,6 +401,8 @@ FIXED_LAG_MISTAKES = {
                           "at step j - 1 of the parent of particle i of step j"),
     "end_not_clipped": ("its last L means are the filter's: near the end use t = min(k + L, T), the last step, "
                         "not the filter at k"),
+    "from_end": ("it traces every step back from the last step T, the whole run's ancestral lines: each step k "
+                 "has its own end t = min(k + L, T), L steps later"),
 }
 
 
@@ -412,6 +414,8 @@ def fixed_lag_reference(particles: np.ndarray, weights: np.ndarray, ancestors: n
     means = np.empty((n_steps, particles.shape[2]))
     for k in range(n_steps):
         t = k + lag if mistake == "end_not_clipped" else min(k + lag, n_steps - 1)
+        if mistake == "from_end":
+            t = n_steps - 1
         if t > n_steps - 1:
             means[k] = weights[k] @ particles[k]
             continue
