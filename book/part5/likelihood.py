@@ -642,8 +642,10 @@ EvidenceBlock(
 # $N^* = N_0\, \mathrm{var}_{N_0}(\log\hat p) / \sigma^2_\text{target}$, rounded up to a
 # hundred. Here the pilot variance at $N_0 = 300$, from the stored study's $200$ runs at
 # $\vartheta = 1$, is {glue:text}`loglik_var_300:.1f` (the page's own $100$ runs above are another
-# sample and give {glue:text}`loglik_var_full_k:.1f`; the rule uses the study's). So the target
-# $3.3$ gives $N^* =$ {glue:text}`n_rw:d`, the $N$ of the short chain above; the target $1$ asks for
+# sample and give {glue:text}`loglik_var_full_k:.1f`; the rule uses the study's).
+#
+# So the target $3.3$ gives $N^* =$ {glue:text}`n_rw:d`, the $N$ of the short chain above; the
+# target $1$ asks for
 # {glue:text}`n_tuned:d`, where $100$ runs measure a variance of
 # {glue:text}`loglik_var_at_tuned_n:.2f`. {doc}`particle_mcmc` chooses $N$ on several chains by the
 # effective draws per particle spent; the details of the single chains here are folded below.
