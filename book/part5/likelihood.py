@@ -19,7 +19,7 @@
 # {doc}`../part2/terrain_cure`; Metropolis-Hastings
 # in one line (propose, accept with a ratio); NumPy.
 #
-# **Time:** about twenty-six minutes to read; the notebook runs in about twenty seconds.
+# **Time:** about twenty-five minutes to read; the notebook runs in about twenty seconds.
 # :::
 #
 # A filter's noise covariances are often tuned by hand: try a scale, look at one run, try
@@ -630,9 +630,8 @@ EvidenceBlock(
 # {glue:text}`exact_post_sd:.3f`. The stored chain with $N = 300$ has a posterior mean
 # {glue:text}`pmmh_posterior_mean_error:.2f` exact standard deviations from the exact one, with a
 # Monte Carlo standard error of {glue:text}`pmmh_mcse_sd_300:.2f` in the same units: within two
-# standard errors. The histograms are jagged because each chain holds few effective draws
-# (its ESS is in the legend): their means are compared with the exact posterior, not their
-# shapes. The trace of
+# standard errors. The histograms are jagged: each chain holds few effective draws (ESS in
+# the legend). The trace of
 # $N = 100$ shows the price of a noisy estimate: it sticks for long stretches after a lucky
 # overestimate.
 #
@@ -642,10 +641,10 @@ EvidenceBlock(
 #
 # ## How many particles: the variance of $\log \hat p$
 #
-# More particles make each iteration dearer; fewer make the chain stickier. Two results say where
-# the balance lies, both assuming the noise of $\log\hat p$ Gaussian with a variance that does not
-# depend on $\vartheta$. {cite:t}`pitt2012` and {cite:t}`doucet2015` recommend a standard
-# deviation of $\log\hat p$ of about $1$ near the posterior mode, a variance of about $1$.
+# More particles make each iteration dearer; fewer make the chain stickier. Two results, both for
+# a Gaussian noise of $\log\hat p$ independent of $\vartheta$, say where the balance lies.
+# {cite:t}`pitt2012` and {cite:t}`doucet2015` recommend a standard deviation of $\log\hat p$ of
+# about $1$ near the posterior mode.
 # {cite:t}`sherlock2015` find a variance of about $3.3$ for a random walk in the limit of many dimensions,
 # accepting about $7\,\%$ of proposals. The walk here is one-dimensional and its stored chain with
 # $N = 300$ accepts a share {glue:text}`pmmh_accept_300:.2f` of them: neither result applies
