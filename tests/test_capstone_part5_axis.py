@@ -32,8 +32,8 @@ def flipped(y, n, rng, model, measurement_sd_exp_x=False):
 
 
 def test_the_axis_flip_is_named():
-    """Measured: over the checker's seeds the flip's worst z against the no-normaliser limit is 2.3 at 20 runs
-    (5 allowed); 20 runs keep the test short."""
+    """Measured: over the checker's seeds the flip's worst z against the no-normaliser limit is 3.7 at 20 runs
+    (5 allowed; the next nearest mistake's 6.2); 20 runs keep the test short."""
     report = check_sv_smoother(flipped, n_runs=20)
     assert not report.ok and len(report.problems) == 1, str(report)
     assert "logsumexp over axis 0" in report.problems[0], report.problems[0]
