@@ -13,7 +13,7 @@
 # :class: chapter-header
 # **You learn** why a parameter put into the state of a particle filter stops being learned, and
 # three ways to learn it as the data arrive: Liu and West's shrunk kernel, the sufficient-statistic
-# filter of Storvik and Fearnhead, and SMC²; which of them targets the exact posterior, what each
+# filter, and SMC²; which of them targets the exact posterior, what each
 # costs, and where the exact ones fail in practice.
 #
 # **You need** {doc}`likelihood` (the likelihood estimate, PMMH) and {doc}`../part1/sir`
@@ -65,10 +65,12 @@ GLUE = {}
 # Kalman likelihood times the prior on a grid of $\log\vartheta$.
 
 # %%
+# pfcourse first: it pins NumPy's arithmetic to the book's
+from pfcourse.scenarios.landmarks import quadrant_scenario, simulate
+
 import matplotlib.pyplot as plt
 import numpy as np
 from scipy.special import gammaln, logsumexp
-from pfcourse.scenarios.landmarks import quadrant_scenario, simulate
 
 # the landmark model of the likelihood chapter, R = theta R0
 sc = quadrant_scenario().with_(Qw=0.05**2 * np.eye(6), Rv=0.5**2 * np.eye(4))
@@ -215,7 +217,8 @@ def liu_west(Z, n, rng, delta=0.98):
 # $N \to \infty$. {cite:t}`storvik2002` draws a $\vartheta^i$ from $\mathrm{IG}(a, b^i)$ at each step
 # and weights with it; {cite:t}`fearnhead2002` uses the statistics to move $\vartheta$ by a Gibbs
 # step given them, inside a resample-move filter. Integrating $\vartheta$ out of the weights, as
-# here, is closer to the particle learning of {cite:t}`carvalho2010`.
+# here, is closer to the particle learning of {cite:t}`carvalho2010`. This chapter calls its
+# version **the sufficient-statistic filter**.
 #
 # :::{admonition} Algorithm 28.1: the sufficient-statistic filter for a noise scale
 # :class: algorithm
@@ -400,8 +403,8 @@ GLUE.update(page_error_lw=page_errors["lw"], page_error_ss=page_errors["ss"], pa
 # run $r$ with seed $r$ for all three.
 #
 # **The measure.** For each run, the error of its posterior mean in exact posterior standard
-# deviations, $(\hat\mu - \mu) / \sigma$; over the runs, its median absolute value (the glued
-# `*_posterior_error`), its mean (the bias) and its standard deviation (the spread).
+# deviations, $(\hat\mu - \mu) / \sigma$; over the runs, its median absolute value, its mean
+# (the bias) and its standard deviation (the spread).
 
 # %% tags=["remove-input"] jupyter={"source_hidden": true}
 main = pd.concat([STUDIES["static_parameters/main"].load(), STUDIES["static_parameters/smc2"].load()], ignore_index=True)
@@ -550,7 +553,7 @@ EvidenceBlock(
            f"posterior on {sps.U_GRID_LONG.size} points of log ϑ for each T. SMC² is left out: its PMMH moves re-run "
            "the filters from the start, so its cost grows like T².",
            f"'ancestors of step 1': how many particles of the first measured step the final cloud descends from.",
-           f"Storvik, T = {T_LONG} against T = {min(sps.LONG_T)}, |error| ratio on the same seeds: {growth}.",
+           f"Sufficient-statistic filter, T = {T_LONG} against T = {min(sps.LONG_T)}, |error| ratio on the same seeds: {growth}.",
            f"Liu-West at T = {T_LONG}, N = {LW_BIG_N} against N = {sps.LONG_N} (stored study "
            f"static_parameters/long_big, the same seeds): {lw_long_shrink}."],
     tables=[("Error of the posterior mean (exact sds) against the number of steps", long_table,
@@ -661,8 +664,9 @@ EvidenceBlock(
 # $w_k \sim \mathcal N(0, \vartheta)$ has an unknown variance, $\vartheta \sim \mathrm{IG}(a_0, b_0)$,
 # read by $z_k = x_k + v_k$ with $v_k \sim \mathcal N(0, r)$, $r = 0.5$ known. Given the path,
 # $\vartheta$ is again inverse gamma: find its statistic. Here $\vartheta$ enters the **move**, so it
-# cannot simply be integrated out of the weight: write Storvik's step
-# `storvik_step(x, a, b, z, rng)` that draws $\vartheta^i \sim \mathrm{IG}(a, b^i)$ for each particle,
+# cannot simply be integrated out of the weight: write the step of {cite:t}`storvik2002`,
+# `storvik_step(x, a, b, z, rng)`, that draws $\vartheta^i \sim \mathrm{IG}(a, b^i)$ for each particle
+# ($\mathrm{IG}(a, b)$ is $b / \mathrm{Gamma}(a, 1)$; NumPy's `rng.gamma` takes a scale, not a rate),
 # moves it, weights it by $\log \mathcal N(z; x', r)$, and updates the statistics. Return
 # `(x_new, a_new, b_new, log_w)`; draw every random number from `rng`. The checker tests the law of
 # your moves and names the mistake it sees.
@@ -729,7 +733,7 @@ glue_values(**GLUE)
 #   ends {glue:text}`lw_long_sd_ratio:.2f` times as wide as the exact one, and off centre;
 #   five times more particles shrink the error, so here too $N$ must grow with the data.
 # - When the parameter is conjugate given the path, each particle can carry a sufficient statistic
-#   and integrate the parameter out (Storvik, Fearnhead): exact and cheap, but the statistics
+#   and integrate the parameter out (the sufficient-statistic filter): exact and cheap, but the statistics
 #   degenerate with the paths, so $N$ must grow with the length of the data.
 # - SMC² needs only a likelihood estimate: exact for every $N_x$, and the most expensive, because each
 #   PMMH move re-runs the filters from the first step.

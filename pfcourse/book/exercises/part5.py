@@ -122,6 +122,8 @@ ADAPTED_MISTAKES = {
                "has variance q^2 + r^2 given x_(k-1)"),
     "r_not_squared": ("your weights use the variance q^2 + r: r is a standard deviation, so the reading has "
                       "variance q^2 + r^2 given x_(k-1)"),
+    "r_only": ("your weights use the variance r^2 of the reading given x_k, the bootstrap's: given x_(k-1) the "
+               "reading z_k = a x_(k-1) + q v + r w also carries the move's noise, so its variance is q^2 + r^2"),
     "prior_move": ("your particles move from the transition N(a x, q^2): after weighting by p(z_k | x_(k-1)) "
                    "they must move from p(x_k | x_(k-1), z_k), the Gaussian of variance s^2 = 1 / (1/q^2 + "
                    "1/r^2) and mean s^2 (a x_(k-1) / q^2 + z_k / r^2)"),
@@ -167,7 +169,8 @@ def adapted_log_likelihood(z: np.ndarray, n: int, rng: np.random.Generator, a: f
             var = np.full(n, r * r)
             centre = x
         else:
-            var = np.full(n, {"q_only": q * q, "r_not_squared": q * q + r}.get(mistake, q * q + r * r))
+            variances = {"q_only": q * q, "r_not_squared": q * q + r, "r_only": r * r}
+            var = np.full(n, variances.get(mistake, q * q + r * r))
             centre = a * x
         log_w = -0.5 * (np.log(2 * np.pi * var) + (zk - centre) ** 2 / var)
         if mistake == "mean_log":
@@ -187,6 +190,11 @@ def adapted_log_likelihood(z: np.ndarray, n: int, rng: np.random.Generator, a: f
 #: Runs of the adapted checker, and how far (in standard errors) a mistake's runs may lie from the answer's
 #: in mean and in log-spread for the mistake to be named.
 ADAPTED_RUNS, ADAPTED_MATCH_Z = 200, 4.0
+
+#: The two variances r^2 and q^2 + r lie close at the checker's q = 1, r = 1.5 (2.25 and 2.5), so the runs of
+#: those two mistakes match each other's there; the probe tells them apart with 40 runs at r = 0.5, where they
+#: are 0.25 and 1.5.
+ADAPTED_VARIANCE_PAIR, ADAPTED_PROBE_R, ADAPTED_PROBE_RUNS = ("r_only", "r_not_squared"), 0.5, 40
 
 
 def check_adapted_likelihood(fn: Callable, n: int = 100, n_runs: int = ADAPTED_RUNS, seed: int = 0) -> CheckReport:
@@ -208,6 +216,26 @@ def _adapted_match(ell: np.ndarray, ref: np.ndarray) -> float:
     return float(d_mean**2 + d_spread**2)
 
 
+def _adapted_variance_probe(fn: Callable, z: np.ndarray, n: int, seed: int) -> str | None:
+    """Which of :data:`ADAPTED_VARIANCE_PAIR` the answer computes: its runs at ``r = ADAPTED_PROBE_R`` (same
+    readings, ``ADAPTED_PROBE_RUNS`` runs) against each mistake's there, the nearest by :func:`_adapted_match`
+    when within ``ADAPTED_MATCH_Z``; ``None`` when neither is."""
+    args = (ADAPTED_A, ADAPTED_Q, ADAPTED_PROBE_R)
+    try:
+        runs = np.array([float(fn(z.copy(), n, np.random.default_rng(seed + run), *args))
+                         for run in range(ADAPTED_PROBE_RUNS)])
+    except Exception:  # noqa: BLE001 - an answer that fails at another r is named by the main check's sentence
+        return None
+    if not np.all(np.isfinite(runs)):
+        return None
+    distances = {m: _adapted_match(runs, np.array([adapted_log_likelihood(z, n, np.random.default_rng(60_000 + r),
+                                                                          *args, m)
+                                                    for r in range(ADAPTED_PROBE_RUNS)]))
+                 for m in ADAPTED_VARIANCE_PAIR}
+    nearest = min(distances, key=distances.get)
+    return nearest if distances[nearest] <= ADAPTED_MATCH_Z**2 else None
+
+
 def _check_adapted_likelihood(fn: Callable, n: int, n_runs: int, seed: int) -> CheckReport:
     """Check ``fn(z, n, rng, a, q, r) -> float``, the fully adapted filter's ``log p^(z_1..z_K)``.
 
@@ -217,7 +245,8 @@ def _check_adapted_likelihood(fn: Callable, n: int, n_runs: int, seed: int) -> C
     filter's is about 1.7 times on these data). A biased answer is compared with each mistake of
     :data:`ADAPTED_MISTAKES` (``n_runs`` runs of :func:`adapted_log_likelihood` with that mistake): the
     nearest is named only when its runs match the answer's in mean AND in spread (:func:`_adapted_match`
-    below ``ADAPTED_MATCH_Z ** 2``), else the report says how far the answer is from the likelihood."""
+    below ``ADAPTED_MATCH_Z ** 2``; the variances r^2 and q^2 + r, near each other here, are told apart by
+    :func:`_adapted_variance_probe`), else the report says how far the answer is from the likelihood."""
     from pfcourse.book.exercises.part1 import _generator_problem
 
     report = CheckReport("check_adapted_likelihood")
@@ -255,7 +284,9 @@ def _check_adapted_likelihood(fn: Callable, n: int, n_runs: int, seed: int) -> C
     if abs(gap) > 4 * se + 0.05:
         distances = {m: _adapted_match(ell, reference(m)) for m in ADAPTED_MISTAKES if m != "bootstrap"}
         nearest = min(distances, key=distances.get)
-        if distances[nearest] <= ADAPTED_MATCH_Z**2:
+        if nearest in ADAPTED_VARIANCE_PAIR and distances[nearest] <= ADAPTED_MATCH_Z**2:
+            nearest = _adapted_variance_probe(fn, z, n, seed)
+        if nearest is not None and distances[nearest] <= ADAPTED_MATCH_Z**2:
             report.problems.append(ADAPTED_MISTAKES[nearest])
             return report
         report.problems.append(f"your log-likelihood averages {ell.mean():.2f} (spread {ell.std(ddof=1):.2f}) "
@@ -370,6 +401,8 @@ FIXED_LAG_MISTAKES = {
                           "at step j - 1 of the parent of particle i of step j"),
     "end_not_clipped": ("its last L means are the filter's: near the end use t = min(k + L, T), the last step, "
                         "not the filter at k"),
+    "from_end": ("it traces every step back from the last step T, the whole run's ancestral lines: each step k "
+                 "has its own end t = min(k + L, T), L steps later"),
 }
 
 
@@ -381,6 +414,8 @@ def fixed_lag_reference(particles: np.ndarray, weights: np.ndarray, ancestors: n
     means = np.empty((n_steps, particles.shape[2]))
     for k in range(n_steps):
         t = k + lag if mistake == "end_not_clipped" else min(k + lag, n_steps - 1)
+        if mistake == "from_end":
+            t = n_steps - 1
         if t > n_steps - 1:
             means[k] = weights[k] @ particles[k]
             continue

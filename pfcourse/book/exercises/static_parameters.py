@@ -31,6 +31,8 @@ STORVIK_MISTAKES = {
                   "the parameter's uncertainty is lost and the moves are too light-tailed",
     "gamma": "theta was drawn from a gamma with rate b; the inverse gamma is b / Gamma(a, 1)",
     "theta_as_sd": "the move uses theta as a standard deviation: x' = x + sqrt(theta) eps",
+    "gamma_scale": "theta was drawn as 1 / rng.gamma(a, b), but NumPy's second argument is a SCALE, so that is "
+                   "1 / (b Gamma(a, 1)); IG(a, b) is b / Gamma(a, 1), i.e. b / rng.gamma(a, 1.0)",
     "one_theta": "one theta is drawn for every particle; each particle draws its own from IG(a, b_i)",
 }
 
@@ -56,6 +58,8 @@ def _move_law(mistake: str | None, a: float, b: np.ndarray, rng: np.random.Gener
         return np.sqrt(b / (a - 1)) * e
     if mistake == "gamma":
         return np.sqrt(rng.gamma(a, 1.0 / b)) * e
+    if mistake == "gamma_scale":
+        return np.sqrt(1.0 / rng.gamma(a, b)) * e
     if mistake == "theta_as_sd":
         return b / rng.gamma(a, 1.0, b.shape) * e
     return np.sqrt(b / rng.gamma(a, 1.0, b.shape)) * e
@@ -127,7 +131,7 @@ def check_storvik_step(fn: Callable, p_min: float = 1e-3) -> CheckReport:
         return report
     reference_rng = np.random.default_rng(2026)
     fits = {key: stats.ks_2samp(move, _move_law(key, a, b, reference_rng)).pvalue
-            for key in ("mean_theta", "gamma", "theta_as_sd")}
+            for key in ("mean_theta", "gamma", "gamma_scale", "theta_as_sd")}
     # one theta for all: the moves are Gaussian with one variance, whatever b_i
     fits["one_theta"] = stats.kstest(move / move.std(), "norm").pvalue
     best = max(fits, key=fits.get)
