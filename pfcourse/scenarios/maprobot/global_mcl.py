@@ -75,7 +75,11 @@ class GlobalSettings:
     """The cure's settings (module docstring).  ``kld_bin``: m, m, rad; ``kernel``: the proposal's kernel
     standard deviations (m, rad); ``inject_share``: the share of the cloud drawn from the scan at every
     ``inject_every``-th step; ``alpha_slow``, ``alpha_fast``: augmented MCL's averaging rates;
-    ``poor_fit_only``: inject at those steps only while ``eps_k > eps_min`` (augmented MCL's own trigger)."""
+    ``poor_fit_only``: inject at those steps only while ``eps_k > eps_min`` (augmented MCL's own trigger);
+    ``confirm``: hysteresis, an injected stratum takes its weight only at the ``confirm``-th injection in a row
+    whose posterior odds against the cloud exceed 1 (0: always, the cure before hysteresis);
+    ``start_mixture``: weight the start's uniform and scan-drawn poses together by the mixture density
+    (deterministic-mixture weights, :func:`start_cloud`) instead of as two strata of half the mass each."""
 
     n_start: int = 20000
     n_start_scan: int = 2000
@@ -101,6 +105,8 @@ class GlobalSettings:
     refine_step: tuple[float, float] = (0.15, 0.05)
     poor_fit_only: bool = False
     kidnap_hazard: float | None = None
+    confirm: int = 0
+    start_mixture: bool = False
 
     def __post_init__(self) -> None:
         for name in ("n_start", "n_min", "n_max", "inject_min", "inject_every", "candidates", "headings", "keep"):
@@ -108,6 +114,7 @@ class GlobalSettings:
         check_count(self.n_start_scan, "n_start_scan", minimum=0)
         check_count(self.history, "history", minimum=0)
         check_count(self.refine_rounds, "refine_rounds", minimum=0)
+        check_count(self.confirm, "confirm", minimum=0)
         check_count(self.refine_trials, "refine_trials")
         if self.n_min > self.n_max:
             raise ParameterError(f"n_min ({self.n_min}) must not exceed n_max ({self.n_max})")
@@ -135,6 +142,10 @@ POOR_FIT = replace(SETTINGS, poor_fit_only=True, n_min=1000)
 #: injected stratum has prior mass ``KIDNAP_HAZARD * inject_every`` (module docstring, "Which prior").
 KIDNAP_HAZARD = 1e-3
 HAZARD = replace(SETTINGS, kidnap_hazard=KIDNAP_HAZARD)
+#: The cure with hysteresis (module docstring, "Hysteresis"): an injected stratum takes the weight only after
+#: winning CONFIRM injections in a row (set by the screen on drives 0-29; measured on held-out drives 150-249).
+CONFIRM = 3
+CURE = replace(HAZARD, confirm=CONFIRM)
 
 
 def kld_size(x: Array, W: Array, s: GlobalSettings, rng: np.random.Generator) -> int:
@@ -164,6 +175,23 @@ def scan_proposal(grid: OccupancyGrid, field: LikelihoodField, z: Array, n: int,
     ``s.refine_trials`` Gaussian perturbations (``s.refine_step``), one picked per pose in proportion to its
     tempered score, plus Gaussian noise of ``s.kernel``."""
     n = check_count(n, "n", minimum=0)
+    c, log_v = scan_centres(grid, field, z, rng, s)
+    pick = systematic(np.exp(log_v), n, rng) if n > 0 else np.zeros(0, dtype=int)
+    h = kernel_widths(s)
+    x = c[pick] + rng.standard_normal((n, 3)) * h
+    x[:, 2] = wrap_angle(x[:, 2])
+    return x, kernel_log_density(x, c, log_v, h)
+
+
+def kernel_widths(s: GlobalSettings = SETTINGS) -> Array:
+    """The proposal's kernel standard deviations ``(m, m, rad)``."""
+    return np.array([s.kernel[0], s.kernel[0], s.kernel[1]])
+
+
+def scan_centres(grid: OccupancyGrid, field: LikelihoodField, z: Array, rng: np.random.Generator,
+                 s: GlobalSettings = SETTINGS) -> tuple[Array, Array]:
+    """The proposal's kernel centres ``(keep, 3)`` and their log-probabilities (:func:`scan_proposal`, whose
+    draws up to the choice of centres these are)."""
     xy = grid.sample_free(s.candidates, rng)[:, :2]
     theta = wrap_angle((rng.random() + np.arange(s.headings)) * 2 * np.pi / s.headings)
     c = np.column_stack([np.repeat(xy, s.headings, axis=0), np.tile(theta, s.candidates)])
@@ -179,12 +207,7 @@ def scan_proposal(grid: OccupancyGrid, field: LikelihoodField, z: Array, n: int,
         j = t_score.argmax(axis=1)
         better = t_score[np.arange(s.keep), j] > score
         c[better], score[better] = trial[better, j[better]], t_score[better, j[better]]
-    log_v = score - logsumexp(score)
-    pick = systematic(np.exp(log_v), n, rng) if n > 0 else np.zeros(0, dtype=int)
-    h = np.array([s.kernel[0], s.kernel[0], s.kernel[1]])
-    x = c[pick] + rng.standard_normal((n, 3)) * h
-    x[:, 2] = wrap_angle(x[:, 2])
-    return x, kernel_log_density(x, c, log_v, h)
+    return c, score - logsumexp(score)
 
 
 def kernel_log_density(x: Array, centres: Array, log_v: Array, h: Array) -> Array:
@@ -222,12 +245,7 @@ def global_mcl(grid: OccupancyGrid, field: LikelihoodField, motion: OdometryMode
     if scans.ndim != 2 or odometry.shape != (len(scans), 3):
         raise ShapeError(f"scans must be (K, B) and odometry (K, 3), got {scans.shape} and {odometry.shape}")
     if start is None:
-        x_u = grid.sample_free(s.n_start, rng)
-        parts = [(x_u, field.log_likelihood(x_u, scans[0]))]
-        if s.n_start_scan > 0:
-            x_q, log_q = scan_proposal(grid, field, scans[0], s.n_start_scan, rng, s)
-            parts.append((x_q, uniform_log_density(grid, x_q) - log_q + field.log_likelihood(x_q, scans[0])))
-        x, log_w = _stratified([(1.0 / len(parts), p, lw) for p, lw in parts])
+        x, log_w = start_cloud(grid, field, scans[0], rng, s)
     else:
         x = np.asarray(start, dtype=float) + rng.standard_normal((s.n_min, 3)) * np.asarray(start_std)
         log_w = field.log_likelihood(x, scans[0]) - np.log(s.n_min)
@@ -235,6 +253,7 @@ def global_mcl(grid: OccupancyGrid, field: LikelihoodField, motion: OdometryMode
     log_z = np.zeros(K)  # the cloud's predictive log-likelihood of each scan
     log_z[0] = logsumexp(log_w)  # step 0: the weights are importance weights of the prior
     w_slow = w_fast = None
+    streak = 0  # injections in a row whose stratum out-scored the cloud (hysteresis, s.confirm)
     out = GlobalResult(np.empty((K, 3)), np.empty(K, dtype=int), np.zeros(K), np.zeros(K), np.zeros(K))
     for k in range(K):
         inj_mass = 0.0
@@ -263,6 +282,10 @@ def global_mcl(grid: OccupancyGrid, field: LikelihoodField, motion: OdometryMode
                 x, log_w = _stratified([(1.0 - eps, moved, lw_m), (eps, inj, lw_r)])
                 w = np.exp(log_w - logsumexp(log_w))
                 inj_mass = float(w[len(moved):].sum())
+                if s.confirm > 0:  # hysteresis: the stratum must out-score the cloud confirm injections in a row
+                    streak = streak + 1 if inj_mass > 0.5 else 0
+                    if streak < s.confirm:
+                        x, log_w, inj_mass = moved, lw_m, 0.0
             else:
                 x, log_w = moved, lw_m
         W = np.exp(log_w - logsumexp(log_w))
@@ -270,6 +293,34 @@ def global_mcl(grid: OccupancyGrid, field: LikelihoodField, motion: OdometryMode
         out.sizes[k] = len(x)
         out.injected_mass[k] = inj_mass
     return out
+
+
+def start_cloud(grid: OccupancyGrid, field: LikelihoodField, z: Array, rng: np.random.Generator,
+                s: GlobalSettings = SETTINGS) -> tuple[Array, Array]:
+    """Step 0 of global localization: ``s.n_start`` uniform poses and ``s.n_start_scan`` from the scan's
+    proposal, with log-weights (unnormalised) of the posterior after the scan ``z``.
+
+    Two strata (``s.start_mixture`` false): each group an importance sample of ``u`` with half the mass,
+    ``p(z | x)`` and ``u / q p(z | x)``.  Deterministic mixture (``s.start_mixture`` true): all poses
+    weighted ``u p(z | x) / (a u + (1 - a) q)``, ``a`` the uniform share of the poses, so a uniform pose
+    where the scan fits gets the weight a scan-drawn pose there would get (the balance heuristic)."""
+    x_u = grid.sample_free(s.n_start, rng)
+    parts = [(x_u, field.log_likelihood(x_u, z))]
+    if s.n_start_scan == 0:
+        return x_u, parts[0][1] - np.log(s.n_start)
+    if not s.start_mixture:
+        x_q, log_q = scan_proposal(grid, field, z, s.n_start_scan, rng, s)
+        parts.append((x_q, uniform_log_density(grid, x_q) - log_q + field.log_likelihood(x_q, z)))
+        return _stratified([(0.5, p, lw) for p, lw in parts])
+    c, log_v = scan_centres(grid, field, z, rng, s)
+    h = kernel_widths(s)
+    x_q = c[systematic(np.exp(log_v), s.n_start_scan, rng)] + rng.standard_normal((s.n_start_scan, 3)) * h
+    x_q[:, 2] = wrap_angle(x_q[:, 2])
+    x = np.concatenate([x_u, x_q])
+    log_u = uniform_log_density(grid, x)
+    a = s.n_start / len(x)
+    log_mix = np.logaddexp(np.log(a) + log_u, np.log1p(-a) + kernel_log_density(x, c, log_v, h))
+    return x, log_u + field.log_likelihood(x, z) - log_mix - np.log(len(x))
 
 
 def injected(grid: OccupancyGrid, field: LikelihoodField, motion: OdometryModel, scans: Array, odometry: Array,
