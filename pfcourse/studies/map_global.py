@@ -13,7 +13,7 @@ import numpy as np
 
 from pfcourse.studies import maprobot as study
 from pfcourse.scenarios.maprobot import lock_on
-from pfcourse.scenarios.maprobot.global_mcl import HAZARD, POOR_FIT, SETTINGS, GlobalSettings, global_mcl
+from pfcourse.scenarios.maprobot.global_mcl import CURE, HAZARD, POOR_FIT, SETTINGS, GlobalSettings, global_mcl
 from pfcourse.scenarios.maprobot.twins import exact_twin_estimate, twin_margin
 from pfcourse.metrics import heading_error, position_error
 
@@ -154,6 +154,18 @@ def heldout_hazard_global_row(seed: int) -> dict:
 def heldout_hazard_kidnap_row(seed: int) -> dict:
     """:func:`hazard_kidnap_fresh_row` with :data:`HAZARD` (the cure before hysteresis) on a held-out drive."""
     return hazard_kidnap_fresh_row(seed, HAZARD)
+
+
+def heldout_global_row(seed: int) -> dict:
+    """:func:`hazard_global_fresh_row` with the cure :data:`pfcourse.scenarios.maprobot.global_mcl.CURE` on a
+    held-out drive."""
+    return hazard_global_fresh_row(seed, CURE)
+
+
+def heldout_kidnap_row(seed: int) -> dict:
+    """:func:`hazard_kidnap_fresh_row` with the cure :data:`pfcourse.scenarios.maprobot.global_mcl.CURE` on a
+    held-out drive."""
+    return hazard_kidnap_fresh_row(seed, CURE)
 
 
 def poor_fit_global_row(seed: int) -> dict:

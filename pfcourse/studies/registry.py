@@ -576,7 +576,7 @@ STUDIES: dict[str, Study] = {study.name: study for study in [
                             "2 m away at some step, after 10 s within them"})
       for name, row, columns in [("global_fresh", map_global.hazard_global_fresh_row, map_global.GLOBAL_FRESH_COLUMNS),
                                  ("kidnap_fresh", map_global.hazard_kidnap_fresh_row, map_global.KIDNAP_FRESH_COLUMNS)]),
-    # held-out drives 150-249: the cure before hysteresis (global_mcl.HAZARD), paired with the hysteresis cure
+    # held-out drives 150-249: the cure before hysteresis (global_mcl.HAZARD) and the cure (global_mcl.CURE), paired
     *(Study(name=f"map_global/{name}", row=row, grid={}, n_runs=map_global.HELDOUT_RUNS, seeds="run",
             base_seed=map_global.HELDOUT_SEED, failures="raise", table=f"map_global/{name}.csv",
             provenance=f"map_global/{name}.json", columns=columns, sample=1,
@@ -589,7 +589,10 @@ STUDIES: dict[str, Study] = {study.name: study for study in [
       for name, row, columns in [("global_heldout_hazard", map_global.heldout_hazard_global_row,
                                   map_global.GLOBAL_FRESH_COLUMNS),
                                  ("kidnap_heldout_hazard", map_global.heldout_hazard_kidnap_row,
-                                  map_global.KIDNAP_FRESH_COLUMNS)]),
+                                  map_global.KIDNAP_FRESH_COLUMNS),
+                                 # the cure (global_mcl.CURE: hysteresis, the belief's evidence with its strata)
+                                 ("global_heldout", map_global.heldout_global_row, map_global.GLOBAL_FRESH_COLUMNS),
+                                 ("kidnap_heldout", map_global.heldout_kidnap_row, map_global.KIDNAP_FRESH_COLUMNS)]),
     Study(name="terrain_mpf", row=terrain_marginalised.row, grid={"N": terrain_marginalised.SIZES},
           n_runs=100, seeds="run", table="terrain_mpf.csv", **_FLIGHTS, provenance="terrain_mpf.json",
           columns=terrain_marginalised.COLUMNS, seed_column="flight", cheap=lambda t: t["N"] <= 3000, sample=2,
