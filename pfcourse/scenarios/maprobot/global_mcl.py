@@ -284,15 +284,7 @@ def global_mcl(grid: OccupancyGrid, field: LikelihoodField, motion: OdometryMode
             r = max(s.inject_min, int(round(s.inject_share * n))) if inject else 0
             if r > 0:
                 inj, lw_r = injected(grid, field, motion, scans, odometry, k, r, log_z, rng, s)
-                x, log_w = _stratified([(1.0 - eps, moved, lw_m), (eps, inj, lw_r)])
-                w = np.exp(log_w - logsumexp(log_w))
-                inj_mass = float(w[len(moved):].sum())
-                if s.confirm > 0:  # hysteresis: the stratum must out-score the cloud confirm injections in a row
-                    streak = streak + 1 if inj_mass > 0.5 else 0
-                    if streak < s.confirm:
-                        x, log_w, inj_mass = moved, lw_m, 0.0
-                if s.mixture_evidence and inj_mass > 0:  # the belief's evidence counts the stratum it admitted
-                    log_z[k] = logsumexp(log_w)
+                x, log_w, inj_mass, streak, log_z[k] = admit(moved, lw_m, inj, lw_r, eps, streak, log_z[k], s)
             else:
                 x, log_w = moved, lw_m
         W = np.exp(log_w - logsumexp(log_w))
@@ -300,6 +292,27 @@ def global_mcl(grid: OccupancyGrid, field: LikelihoodField, motion: OdometryMode
         out.sizes[k] = len(x)
         out.injected_mass[k] = inj_mass
     return out
+
+
+def admit(moved: Array, lw_m: Array, inj: Array, lw_r: Array, eps: float, streak: int, log_z_k: float,
+          s: GlobalSettings = SETTINGS) -> tuple[Array, Array, float, int, float]:
+    """One injection: the moved particles (mass ``1 - eps``) and the injected stratum (mass ``eps``) mixed, with
+    hysteresis and the belief's evidence (``s.confirm``, ``s.mixture_evidence``).
+
+    Returns the cloud and its log-weights, the injected share of the weight (0 if the stratum is not admitted),
+    the streak of injections in a row whose stratum out-weighed the cloud (the stratum is admitted when it
+    reaches ``s.confirm``; always with ``s.confirm = 0``), and the scan's log-evidence for the belief: the moved
+    cloud's ``log_z_k``, or with ``s.mixture_evidence`` and an admitted stratum the log of the mixed weights' sum."""
+    x, log_w = _stratified([(1.0 - eps, moved, lw_m), (eps, inj, lw_r)])
+    w = np.exp(log_w - logsumexp(log_w))
+    inj_mass = float(w[len(moved):].sum())
+    if s.confirm > 0:  # hysteresis: the stratum must out-weigh the cloud s.confirm injections in a row
+        streak = streak + 1 if inj_mass > 0.5 else 0
+        if streak < s.confirm:
+            return moved, lw_m, 0.0, streak, log_z_k
+    if s.mixture_evidence:  # the belief's evidence counts the stratum it admitted
+        log_z_k = float(logsumexp(log_w))
+    return x, log_w, inj_mass, streak, log_z_k
 
 
 def start_cloud(grid: OccupancyGrid, field: LikelihoodField, z: Array, rng: np.random.Generator,
