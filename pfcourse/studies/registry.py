@@ -576,12 +576,12 @@ STUDIES: dict[str, Study] = {study.name: study for study in [
                             "2 m away at some step, after 10 s within them"})
       for name, row, columns in [("global_fresh", map_global.hazard_global_fresh_row, map_global.GLOBAL_FRESH_COLUMNS),
                                  ("kidnap_fresh", map_global.hazard_kidnap_fresh_row, map_global.KIDNAP_FRESH_COLUMNS)]),
-    # held-out drives 150-249: the cure before hysteresis (global_mcl.HAZARD) and the cure (global_mcl.CURE), paired
+    # held-out drives 150-199: the cure before hysteresis (global_mcl.HAZARD) and the cure (global_mcl.CURE), paired
     *(Study(name=f"map_global/{name}", row=row, grid={}, n_runs=map_global.HELDOUT_RUNS, seeds="run",
             base_seed=map_global.HELDOUT_SEED, failures="raise", table=f"map_global/{name}.csv",
             provenance=f"map_global/{name}.json", columns=columns, sample=1,
             row_code=f"pfcourse/studies/map_global.py ({row.__name__}), pfcourse/scenarios/maprobot/global_mcl.py",
-            fields={"seeds": "run s (held-out drives 150-249): drive and scans as maprobot/global and maprobot/kidnap "
+            fields={"seeds": "run s (held-out drives 150-199): drive and scans as maprobot/global and maprobot/kidnap "
                              "(data_rng(s, 0), kidnap_rng(s)); filter numpy.random.default_rng([41, s, 2])",
                     "dt": maprobot.DT, "heading_tolerance_rad": map_global.HEADING_TOL,
                     "lost": "pfcourse/studies/map_global.py lost_times: 2 s or more outside the lock-on tolerances, "

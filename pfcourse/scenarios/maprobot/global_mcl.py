@@ -148,7 +148,7 @@ KIDNAP_HAZARD = 1e-3
 HAZARD = replace(SETTINGS, kidnap_hazard=KIDNAP_HAZARD)
 #: The cure (module docstring, "False relocalization"): the belief's evidence counts the strata it admits, and an
 #: injected stratum takes the weight only after winning CONFIRM injections in a row (hysteresis); chosen on kidnap
-#: drive 5's cascade and a screen of drives 0-49, measured on held-out drives 150-249.
+#: drive 5's cascade and a screen of drives 0-49, measured on held-out drives 150-199.
 CONFIRM = 3
 CURE = replace(HAZARD, confirm=CONFIRM, mixture_evidence=True)
 
