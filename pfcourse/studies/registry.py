@@ -564,6 +564,14 @@ STUDIES: dict[str, Study] = {study.name: study for study in [
           row_code="pfcourse/studies/map_global.py (exact_row), pfcourse/scenarios/maprobot/twins.py (exact_twin_estimate)",
           fields={"seeds": "run s: the global drive of maprobot/global (data_rng(s, 0)); no random numbers of its own",
                   "dt": maprobot.DT, "heading_tolerance_rad": map_global.HEADING_TOL}),
+    # the same bound on the held-out drives 150-199
+    Study(name="map_global/exact_heldout", row=map_global.exact_row, grid={}, n_runs=map_global.HELDOUT_RUNS,
+          base_seed=map_global.HELDOUT_SEED, seeds="run", failures="raise", table="map_global/exact_heldout.csv",
+          provenance="map_global/exact_heldout.json", columns=map_global.EXACT_COLUMNS, sample=2,
+          row_code="pfcourse/studies/map_global.py (exact_row), pfcourse/scenarios/maprobot/twins.py (exact_twin_estimate)",
+          fields={"seeds": "run s (held-out drives 150-199): the global drive of maprobot/global (data_rng(s, 0)); "
+                           "no random numbers of its own",
+                  "dt": maprobot.DT, "heading_tolerance_rad": map_global.HEADING_TOL}),
     # the cure (global_mcl.HAZARD) re-measured on fresh drives 100-149, not those it was chosen on
     *(Study(name=f"map_global/{name}", row=row, grid={}, n_runs=map_global.FRESH_RUNS, seeds="run",
             base_seed=map_global.FRESH_SEED, failures="raise", table=f"map_global/{name}.csv",
