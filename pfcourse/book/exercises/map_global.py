@@ -1,5 +1,10 @@
-"""The checked exercise of the chapter *Finding the robot on the map* (book/part2/map_global): poses drawn
-from a reading, weighted correctly, for another sensor.
+"""The checked exercises of the chapter *Finding the robot on the map* (book/part2/map_global).
+
+Exercise 15.1 (:func:`check_takeover`, at the end of this module): how often a look-alike stratum takes over a
+right cloud when hysteresis asks for several wins in a row, against the exact streak probability.
+
+The earlier exercise 15.1 (:func:`check_reset_weights`, kept and tested): poses drawn from a reading, weighted
+correctly, for another sensor.
 
 A robot stands somewhere in a corridor ``[0, L]`` (uniform prior ``u(x) = 1 / L``) with doors at known
 places ``d_1, ..., d_D``; its sensor reads the distance to the nearest door with Gaussian noise:

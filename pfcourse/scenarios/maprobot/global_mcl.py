@@ -44,8 +44,19 @@ resampling at every scan) with three changes, the cure of the chapter *Finding t
    evidence estimates, it sometimes passes the bar by chance and a twin's stratum replaces a right cloud
    (a false relocalization, counted in the stored studies ``map_global/*_fresh``).
 
+   **False relocalization** (:data:`CURE`).  Two guards keep a right cloud in place.  *The belief's
+   evidence* (``mixture_evidence``): at an injection whose stratum is admitted, the scan's evidence is the
+   mixture's, ``log((1 - eps_k) Z_k + eps_k B Z_k)`` (the sum of the mixed weights), not the moved cloud's
+   ``Z_k``; otherwise, once a stratum has replaced a wrong cloud, the next strata are compared with the wrong
+   cloud's poor record of the scans before and win by a wide margin, twins included (kidnap drive 5).
+   *Hysteresis* (``confirm``): a stratum is admitted only at the ``confirm``-th injection in a row at which it
+   outweighs the cloud (posterior odds above 1); one a twin wins by the noise of its Bayes factor is dropped.
+   A true kidnapping's strata keep winning; its recovery is delayed by ``confirm - 1`` injections.
+
    In practice the first scan collapses the weighted cloud into a few KLD bins, and from step 1 on
-   the bound asks for ``n_min``: KLD-sampling hardly acts on the book's map.
+   the bound asks for ``n_min``: KLD-sampling hardly acts on the book's map.  Part of that is the start's
+   weighting as two strata; ``start_mixture`` weights all its poses by the mixture density instead
+   (:func:`start_cloud`), which raises the start's ESS (tests/test_map_global_cure.py); not part of the cure.
 
 All draws come from the generator passed in, in a fixed order (:func:`global_mcl`).
 """
