@@ -20,8 +20,8 @@
 # **You need** {doc}`map_robot` (the odometry model, the likelihood field, MCL) and
 # {doc}`global_localization` (random injection, augmented MCL, KLD-sampling); importance sampling.
 #
-# **Time:** about twenty-five minutes to read; the notebook runs in about fifteen seconds on a quiet
-# machine (its five studies are stored: they take minutes).
+# **Time:** about twenty-five minutes to read; the notebook runs in about twenty seconds (its
+# studies are stored: they take hours).
 # :::
 #
 # Put the robot of {doc}`map_robot` anywhere on its map, give the filter no idea where, and drive.
@@ -70,23 +70,19 @@ def stored(name):
 # %% [markdown]
 # ## What the map allows: the twin margin
 #
-# Take one drive and move the robot's whole path by a half-turn about the map's centre. The moved
-# path, the *twin*, is a path the robot could have driven: every step has the same odometry
-# (measured in the robot's own frame), and while it stays in free space it is as
-# likely a priori under a uniform start. Shifts by $5$, $10$ or $15$ m along the corridor, with or
-# without the half-turn, give more twins: thirteen in all. Write $T$ for one of these moves. By
-# Bayes' rule, the posterior odds of the true path against its twin are the likelihood ratio of the
-# scans alone:
+# Move the robot's whole path by a half-turn about the map's centre. The moved path, the *twin*,
+# has the same odometry at every step and, in free space, the same prior under a uniform start.
+# Shifts by $5$, $10$ or $15$ m along the corridor, with or without the half-turn, give thirteen
+# twins. For one of these moves $T$, the posterior odds of the true path against its twin are the
+# likelihood ratio of the scans alone:
 #
 # $$
 # \log \frac{p(x_{0:k} \mid z_{0:k}, u_{1:k})}{p(T x_{0:k} \mid z_{0:k}, u_{1:k})}
 # = \sum_{j=0}^{k} \Big( \log p(z_j \mid x_j) - \log p(z_j \mid T x_j) \Big) .
 # $$
 #
-# A twin that runs into a wall has posterior zero from then on. The *twin margin* at step $k$ is
-# the log-odds of the truth against all its twins together: the truth's cumulative log-likelihood
-# minus the $\operatorname{logsumexp}$ of the twins'. Where the margin is near zero, no filter can
-# know which twin is the robot; where it is large, an exact filter would have its weight on the truth.
+# A twin that runs into a wall has posterior zero from then on. The *twin margin* is the log-odds of
+# the truth against all its twins together. Near zero, no filter can know which twin is the robot.
 # The cell below computes it for one drive.
 
 # %%
@@ -249,14 +245,15 @@ EvidenceBlock(
 # $\delta = 1 - \Phi(0.99)$, a weaker guarantee than $\delta = 0.01$ and fewer particles. The
 # folded cell below computes the bound.
 #
-# Part of the collapse is how the start is weighted: as two groups of half the mass each, a uniform
-# pose that happens to fit the scan carries a large share of the weight. On seed $1$ the start's
-# effective sample size is {glue:text}`lf_start_ess_strata:.0f` of $22000$, and KLD asks for
+# Is the collapse the start's weighting? As two groups of half the mass each, a uniform pose that
+# happens to fit the scan carries a large share of the weight: on seed $1$ the start's effective
+# sample size is {glue:text}`lf_start_ess_strata:.0f` of $22000$, and KLD asks for
 # {glue:text}`lf_start_step1_strata:d` particles at step $1$. Weighting all the poses together by the
 # mixture they were drawn from, $u\, p(z_0 \mid x) / (a u + (1 - a) q)$ with $a$ the uniform share,
-# gives an ESS of {glue:text}`lf_start_ess_mixture:.0f`, and KLD then asks for
-# {glue:text}`lf_start_step1_mixture:d`. That start is the package's `start_mixture` option; its
-# effect on lock-on was not measured here, so the cure keeps the two groups.
+# raises the ESS to {glue:text}`lf_start_ess_mixture:.0f`, yet KLD still asks for
+# {glue:text}`lf_start_step1_mixture:d`: after one scan the posterior occupies few bins either way.
+# That start is the package's `start_mixture` option; its effect on lock-on was not measured, and
+# the cure keeps the two groups.
 # :::
 
 # %% tags=["hide-input"] jupyter={"source_hidden": true}
@@ -296,7 +293,7 @@ glue_values("lf_", **start_scores)
 # ## Poses where the scan fits: sensor resetting
 #
 # Sensor resetting {cite:p}`lenser2000` draws new poses from the reading itself. For a laser scan
-# that is a search: score candidate poses by the likelihood field and keep those that fit.
+# that is a search: score candidate poses and keep those that fit.
 #
 # 1. draw $500$ positions uniformly in free space, each with $24$ evenly spaced headings;
 # 2. score every candidate by the likelihood field, tempered ($\tfrac12 \log p(z \mid x)$, so that
@@ -368,8 +365,7 @@ print(f"the same poses and log q as pfcourse.scenarios.maprobot.global_mcl.scan_
 # $u / q$. This book's construction: the robot may have been **carried anywhere $\tau$ scans ago**, with probability
 # $\xi_k$ (here $\tau = 20$ scans, $10$ s; how large $\xi_k$ should be comes next). The cloud's $M$
 # moved particles stand for "not carried", the $R$ injected poses for "carried at step $k - \tau$".
-# The injected poses start from $q$ at step $k - \tau$ and are carried to now by a small filter of
-# $R$ particles. Write
+# A small filter of $R$ particles carries them from $q$ at step $k - \tau$ to now. Write
 # $\ell_j = \frac{1}{M} \sum_i p(z_j \mid x_j^i)$ for the cloud's mean likelihood at scan $j$, its
 # estimate of $p(z_j \mid z_{0:j-1})$. The injected pose's weight is an importance weight of the
 # kidnap model, against the cloud's own account of the same scans:
@@ -505,7 +501,7 @@ plt.show()
 #
 # **Hysteresis.** A stratum's log-odds against the cloud are {glue:text}`lf_prior_log_odds:.1f`
 # $+ \log \hat B$. For a twin the scans cannot tell from the truth $\log B = 0$, but $\log \hat B$,
-# a ratio of two noisy estimates, sometimes makes up the deficit. If it does with probability $p$
+# a noisy ratio, sometimes makes up the deficit. If it does with probability $p$
 # at one injection, a twin wins $c$ in a row with probability near $p^c$, while a kidnapped robot's
 # strata keep winning. The cure asks for $c = 3$ wins in a row, which delays a recovery by two
 # injections ($4$ s). The rule in NumPy:
@@ -606,21 +602,20 @@ glue_values("lf_", demo_decided_s=float((decided_at[0] + 1) * study.DT), demo_lo
 # :::
 #
 # The cure was tuned on drives $0$-$99$ and its guards chosen on kidnap drive $5$ and a screen of
-# drives $30$-$46$ and kidnap runs $15$-$29$; the honest measure is on
+# drives $30$-$46$ and kidnap runs $15$-$29$; it is measured on
 # {glue:text}`lf_n_heldout:d` held-out drives ($150$-$199$). From a
 # uniform start the cure is locked on at the end of {glue:text}`lf_global_lock_on_rate:.0%`
 # ({glue:text}`lf_global_lock_on_rate_low:.0%`-{glue:text}`lf_global_lock_on_rate_high:.0%`) of them:
 # the estimate reaches the $0.95$ aimed at, but fifty drives cannot show that the rate itself does
 # (the interval reaches well below it).
 #
-# On the same drives the cure without its two guards is locked on in
-# {glue:text}`lf_heldout_hazard_rate:.0%`: the guards change the lock-on rate by
-# {glue:text}`lf_heldout_gain_pts:+.0f` points
-# ({glue:text}`lf_heldout_gain_low_pts:+.0f` to {glue:text}`lf_heldout_gain_high_pts:+.0f`), too few
-# drives to separate them. What they change is the integrity, below.
+# Without its guards it is locked on in {glue:text}`lf_heldout_hazard_rate:.0%` of the same drives,
+# a difference of {glue:text}`lf_heldout_gain_pts:+.0f` points
+# ({glue:text}`lf_heldout_gain_low_pts:+.0f` to {glue:text}`lf_heldout_gain_high_pts:+.0f`): not
+# separated. What the guards change is the integrity, below.
 #
-# The exact filter over the twins is locked on in {glue:text}`lf_heldout_exact_rate:.0%` of these
-# drives; the cure is not separated from it (paired exact test, $p$ = {glue:text}`lf_global_exact_p:.2f`).
+# The exact filter over the twins is locked on in {glue:text}`lf_heldout_exact_rate:.0%`; the cure
+# is not separated from it (paired exact test, $p$ = {glue:text}`lf_global_exact_p:.2f`).
 #
 # It scores about {glue:text}`lf_poses_per_scan:.0f` poses a scan, a filter of that many particles.
 #
@@ -754,10 +749,10 @@ EvidenceBlock(
 # On the held-out runs ($150$-$199$) the cure recovers (is locked on at the end) in
 # {glue:text}`lf_kidnap_recovered_rate:.0%`
 # ({glue:text}`lf_kidnap_recovered_rate_low:.0%`-{glue:text}`lf_kidnap_recovered_rate_high:.0%`) of
-# the others, against the $0.90$ aimed at; without its guards,
+# the others, above the $0.90$ aimed at; without its guards,
 # {glue:text}`lf_kidnap_hazard_rate:.0%` of the same runs.
 #
-# Those that recover are locked on for good a median {glue:text}`lf_kidnap_recovery_median_s:.0f` s after
+# They are locked on for good a median {glue:text}`lf_kidnap_recovery_median_s:.0f` s after
 # the kidnapping ({glue:text}`lf_kidnap_recovery_median_s_low:.0f`-{glue:text}`lf_kidnap_recovery_median_s_high:.0f` s).
 # None can come sooner than $\tau$ scans ($10$ s) plus two injections after the kidnapping.
 
@@ -888,9 +883,8 @@ glue_values("lf_", takeover_one=shares[1], takeover_three=shares[3])
 # %% [markdown]
 # ## Takeaways
 #
-# - Before blaming a filter, measure what the data allow: a twin path's posterior odds against the
-#   truth are a sum of scan log-likelihood ratios; the bound is an exact filter over the truth and
-#   its twins, judged by the same lock-on rule.
+# - Before blaming a filter, measure what the map allows: an exact filter over the truth and its
+#   twins, judged by the same lock-on rule.
 # - KLD-sampling hardly acts after the first scan here; AMCL's `kld_z` is the quantile
 #   $z_{1 - \delta}$, not $\delta$.
 # - Poses drawn from the scan are weighted by $u / q$ times the evidence of their history against
