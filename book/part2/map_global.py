@@ -584,8 +584,10 @@ glue_values("lf_", demo_decided_s=float((decided_at[0] + 1) * study.DT), demo_lo
 # From {glue:text}`lf_demo_start_particles:d` particles the bound asks for
 # {glue:text}`lf_demo_step1_particles:d` after the first scan, then its floor of
 # {glue:text}`lf_demo_floor_particles:d` ({glue:text}`lf_demo_mean_particles:.0f` on average with
-# the injected poses). The evidence passes $99 : 1$ at {glue:text}`lf_demo_decided_s:.0f` s; the
-# filter is locked on from {glue:text}`lf_demo_locked_s:.0f` s to the end.
+# the injected poses).
+#
+# The evidence passes $99 : 1$ at {glue:text}`lf_demo_decided_s:.0f` s; the filter is locked on from
+# {glue:text}`lf_demo_locked_s:.0f` s to the end.
 #
 # ## Does it reach the bound?
 #
@@ -615,15 +617,16 @@ glue_values("lf_", demo_decided_s=float((decided_at[0] + 1) * study.DT), demo_lo
 # separated. What the guards change is the integrity, below.
 #
 # The exact filter over the twins is locked on in {glue:text}`lf_heldout_exact_rate:.0%`; the cure
-# is not separated from it (paired exact test, $p$ = {glue:text}`lf_global_exact_p:.2f`).
+# is not separated from it (the folded block gives the paired test).
 #
 # It scores about {glue:text}`lf_poses_per_scan:.0f` poses a scan, a filter of that many particles.
 #
 # **False relocalization** (a cloud within the tolerances for $10$ s carried $2$ m or more away for
-# $2$ s or more), on the held-out drives and kidnap runs together, happened {glue:text}`lf_false_reloc_per_hour:.1f` times an hour of driving with the cure
-# ({glue:text}`lf_heldout_lost_runs:d` of {glue:text}`lf_heldout_runs:d` runs), against
+# $2$ s or more), on the held-out drives and kidnap runs together, happened
+# {glue:text}`lf_false_reloc_per_hour:.1f` times an hour of driving with the cure
+# ({glue:text}`lf_heldout_lost_runs:d` runs of $100$), against
 # {glue:text}`lf_hazard_false_reloc_per_hour:.1f` without its guards
-# ({glue:text}`lf_hazard_lost_runs:d` runs; paired exact test $p$ = {glue:text}`lf_false_reloc_p:.3f`).
+# ({glue:text}`lf_hazard_lost_runs:d` runs): a difference the data separate.
 
 # %% tags=["remove-input"] jupyter={"source_hidden": true}
 def exact_difference(p, level=0.95):
