@@ -716,6 +716,10 @@ EvidenceBlock(
            f"Paired by drive (cure A, without its guards B): {vs_hz}; exact interval of the difference "
            f"(Clopper-Pearson on the discordant drives): {100 * hz_d[1]:+.0f} to {100 * hz_d[2]:+.0f} points.",
            f"Paired by drive (cure A, the exact filter over the twins B): {vs_exact}.",
+           f"How the cure's {len(misses(held))} misses end: {int((misses(held)['final_position_error'] < 1).sum())} within "
+           f"1 m of the truth (found, but too late for 80 % of the last 20 s), "
+           f"{int((misses(held)['final_heading_error'] > np.pi / 2).sum())} on a half-turn twin (heading error above "
+           f"90 degrees); {int((misses(held)['n_lost'] > 0).sum())} after a false relocalization (the table).",
            f"False relocalizations (2 s or more outside the tolerances, 2 m away, after 10 s within them), held-out "
            f"global drives and kidnap runs: cure {cure_lost} runs, {cure_per_hour:.1f} an hour; without its guards "
            f"{hz_lost} runs, {hz_per_hour:.1f} an hour ({hours:.1f} hours of driving each). Paired by run (cure A, "
@@ -784,7 +788,9 @@ EvidenceBlock(
            f"t = {study.KIDNAP_STEPS * study.DT:.0f} s; {int((~kid_moved).sum())} left out (moved less than 1 m and "
            f"{np.degrees(mg.HEADING_TOL):.1f} degrees).",
            f"Recovered (locked on at the end): cure {recovered}; paired with the cure without its guards: {kid_pair}; "
-           f"exact interval of the difference {100 * kid_d[1]:+.0f} to {100 * kid_d[2]:+.0f} points.",
+           f"exact interval of the difference {100 * kid_d[1]:+.0f} to {100 * kid_d[2]:+.0f} points. The runs the cure "
+           f"misses end {', '.join(f'{e:.2f}' for e in kid_held.loc[kid_moved & ~kid_held['recovered'].to_numpy(), 'final_position_error'])} m "
+           "from the truth: found again, too late for the window (the table).",
            f"Median time from the kidnapping to the step from which the filter stays locked on, over the {len(times)} "
            f"runs that recover: {med:.1f} s (95 % interval {med_low:.1f}-{med_high:.1f} s, percentile bootstrap). "
            "A median among those that recover: it says how fast, not how often.",
