@@ -14,26 +14,26 @@
 # **You learn** how to tell whether a failure to find the robot is the map's or the filter's (the
 # twin margin and an exact filter over the twins), and a filter built to approach that bound: poses
 # drawn from the scan, injected as a kidnapping with the kidnap model's prior and weighted by their
-# evidence; and where it still fails.
+# evidence; how it keeps a cloud that is right (the belief's evidence, hysteresis); and how it fares
+# on drives it was not tuned on.
 #
 # **You need** {doc}`map_robot` (the odometry model, the likelihood field, MCL) and
 # {doc}`global_localization` (random injection, augmented MCL, KLD-sampling); importance sampling.
 #
-# **Time:** about twenty-five minutes to read; the notebook runs in about fifteen seconds on a quiet
-# machine (its five studies are stored: they take minutes).
+# **Time:** about twenty-five minutes to read; the notebook runs in about twenty seconds (its
+# studies are stored: they take hours).
 # :::
 #
 # Put the robot of {doc}`map_robot` anywhere on its map, give the filter no idea where, and drive.
 # The filter of that chapter, with random injection, is locked on at the end of only
 # {glue:text}`lf_base_injection_rate:.0%` of the drives ({glue:text}`lf_base_bootstrap_rate:.0%`
 # without injection). This chapter aims at $95$ % of the drives from a uniform start, and at finding
-# a kidnapped robot again in $90$ % of kidnappings. Is a miss the filter's fault, or could no filter
-# do better? The map has four look-alike rooms on each side
-# of a corridor: a robot that has only seen one room cannot know which one it is in. Before curing
-# the filter, this chapter measures what the map allows.
+# a kidnapped robot again in $90$ % of kidnappings. The map has four look-alike rooms on each side
+# of a corridor, so a miss may be the map's fault: this chapter first measures what the map allows.
 
 # %% tags=["remove-input"] jupyter={"source_hidden": true}
 import json
+from dataclasses import replace
 
 import matplotlib.pyplot as plt
 import numpy as np
@@ -70,23 +70,19 @@ def stored(name):
 # %% [markdown]
 # ## What the map allows: the twin margin
 #
-# Take one drive and move the robot's whole path by a half-turn about the map's centre. The moved
-# path, the *twin*, is a path the robot could have driven: every step has the same odometry
-# (measured in the robot's own frame), and while it stays in free space it is as
-# likely a priori under a uniform start. Shifts by $5$, $10$ or $15$ m along the corridor, with or
-# without the half-turn, give more twins: thirteen in all. Write $T$ for one of these moves. By
-# Bayes' rule, the posterior odds of the true path against its twin are the likelihood ratio of the
-# scans alone:
+# Move the robot's whole path by a half-turn about the map's centre. The moved path, the *twin*,
+# has the same odometry at every step and, in free space, the same prior under a uniform start.
+# Shifts by $5$, $10$ or $15$ m along the corridor, with or without the half-turn, give thirteen
+# twins. For one of these moves $T$, the posterior odds of the true path against its twin are the
+# likelihood ratio of the scans alone:
 #
 # $$
 # \log \frac{p(x_{0:k} \mid z_{0:k}, u_{1:k})}{p(T x_{0:k} \mid z_{0:k}, u_{1:k})}
 # = \sum_{j=0}^{k} \Big( \log p(z_j \mid x_j) - \log p(z_j \mid T x_j) \Big) .
 # $$
 #
-# A twin that runs into a wall has posterior zero from then on. The *twin margin* at step $k$ is
-# the log-odds of the truth against all its twins together: the truth's cumulative log-likelihood
-# minus the $\operatorname{logsumexp}$ of the twins'. Where the margin is near zero, no filter can
-# know which twin is the robot; where it is large, an exact filter would have its weight on the truth.
+# A twin that runs into a wall has posterior zero from then on. The *twin margin* is the log-odds of
+# the truth against all its twins together. Near zero, no filter can know which twin is the robot.
 # The cell below computes it for one drive.
 
 # %%
@@ -156,19 +152,20 @@ plt.show()
 
 # %% [markdown]
 # The half-turn twin of seed $1$ runs through the rooms opposite the robot's, seeing the same
-# walls. The margin stays near zero while the robot sees nothing that tells the twins apart, and
-# jumps when the box or an end of the corridor comes into view.
+# walls. The margin stays near zero (or below: by chance the scans may fit a twin better) until the
+# box or an end of the corridor comes into view.
 #
-# The margin can also be negative for a while: by chance the scans may fit a twin better than the
-# truth, as seed $1$'s do before the box comes into view.
-#
+# :::{admonition} Decided drives, and why that share is not a ceiling
+# :class: dropdown
 # Call a drive **decided** when the truth's posterior odds against its twins are at least
 # $99 : 1$ at $80$ % of the steps of the last $20$ s. The evidence decides
 # {glue:text}`lf_decided_rate:.0%` of the drives
-# ({glue:text}`lf_decided_rate_low:.0%`-{glue:text}`lf_decided_rate_high:.0%`).
+# ({glue:text}`lf_decided_rate_low:.0%`-{glue:text}`lf_decided_rate_high:.0%`). That share is not a
+# ceiling: a filter reports its weighted mean, and the lock-on rule below asks only that the mean be
+# within $1$ m and a few degrees of the truth.
+# :::
 #
-# That share is not a ceiling: a filter reports its weighted mean, and the lock-on rule below asks only that the mean be
-# within $1$ m and a few degrees of the truth. The bound is that rule applied to an **exact filter
+# The bound is the lock-on rule applied to an **exact filter
 # over the truth and its thirteen twins** (masses $\propto$ the paths' likelihoods, weighted mean
 # position, circular mean heading): it is locked on in {glue:text}`lf_exact_lock_on_rate:.0%` of
 # the drives ({glue:text}`lf_exact_lock_on_rate_low:.0%`-{glue:text}`lf_exact_lock_on_rate_high:.0%`).
@@ -216,13 +213,11 @@ EvidenceBlock(
 # %% [markdown]
 # **Why the plain filter falls short.** Early in a drive every twin fits. The likelihood field is
 # sharp ($24$ beams, $\sigma_{\mathrm{hit}} = 0.2$ m), so after one scan a few poses carry nearly
-# all the weight (the demo below shows the cloud collapsing at its first resampling), and one twin
-# may take every particle before the evidence has chosen. A uniform injected pose must land within
-# centimetres of the truth and, with no history, scores no better than the twin's.
-#
-# The cure: many poses at the start; injected poses drawn where the scan fits; and those poses
-# weighted by the evidence of several scans, with a prior small enough that a noisy stratum seldom
-# replaces a right cloud (how seldom is measured below).
+# all the weight, and one twin may take every particle before the evidence has chosen. A uniform
+# injected pose must land within centimetres of the truth and, with no history, scores no better
+# than the twin's. The cure: many poses at the start; injected poses drawn where the scan fits,
+# weighted by the evidence of several scans and the kidnap model's prior; and guards that keep a
+# right cloud in place.
 #
 # ## How many particles
 #
@@ -249,6 +244,16 @@ EvidenceBlock(
 # $z_{1 - \delta}$ itself, as `kld_z = 0.99`, the quantile, not the probability, so
 # $\delta = 1 - \Phi(0.99)$, a weaker guarantee than $\delta = 0.01$ and fewer particles. The
 # folded cell below computes the bound.
+#
+# Is the collapse the start's weighting? As two groups of half the mass each, a uniform pose that
+# happens to fit the scan carries a large share of the weight: on seed $1$ the start's effective
+# sample size is {glue:text}`lf_start_ess_strata:.0f` of $22000$, and KLD asks for
+# {glue:text}`lf_start_step1_strata:d` particles at step $1$. Weighting all the poses together by the
+# mixture they were drawn from, $u\, p(z_0 \mid x) / (a u + (1 - a) q)$ with $a$ the uniform share,
+# raises the ESS to {glue:text}`lf_start_ess_mixture:.0f`, yet KLD still asks for
+# {glue:text}`lf_start_step1_mixture:d`: after one scan the posterior occupies few bins either way.
+# That start is the package's `start_mixture` option; its effect on lock-on was not measured, and
+# the cure keeps the two groups.
 # :::
 
 # %% tags=["hide-input"] jupyter={"source_hidden": true}
@@ -274,12 +279,21 @@ bins = np.array([1, 2, 5, 50, 500, 5000])
 same_kld = np.array_equal(kld_bound(bins, 0.05, delta_amcl), engine_kld_bound(bins, 0.05, engine.AMCL_DELTA))
 print(f"the same bound as pfcourse.sample_size.kld_bound with the package's AMCL delta: {same_kld}")
 glue_values("lf_", amcl_delta=delta_amcl)
+# the start on seed 1, weighted as two strata or by the mixture density: ESS and KLD's size at step 1
+start_scores = {}
+for how in ("strata", "mixture"):
+    s_start = replace(engine.CURE, start_mixture=how == "mixture")
+    x0, lw0 = engine.start_cloud(grid, field, drive.scans[0], np.random.default_rng([41, 1, 2]), s_start)
+    w0 = np.exp(lw0 - logsumexp(lw0))
+    start_scores[f"start_ess_{how}"] = float(1 / np.sum(w0**2))
+    start_scores[f"start_step1_{how}"] = engine.kld_size(x0, w0, s_start, np.random.default_rng(0))
+glue_values("lf_", **start_scores)
 
+# %% [markdown]
 # ## Poses where the scan fits: sensor resetting
 #
-# Sensor resetting {cite:p}`lenser2000` draws new poses from the reading itself, not uniformly. For
-# a laser scan there is no formula that inverts the sensor model, but there is a search: score many
-# candidate poses by the likelihood field and keep those that fit. Four steps:
+# Sensor resetting {cite:p}`lenser2000` draws new poses from the reading itself. For a laser scan
+# that is a search: score candidate poses and keep those that fit.
 #
 # 1. draw $500$ positions uniformly in free space, each with $24$ evenly spaced headings;
 # 2. score every candidate by the likelihood field, tempered ($\tfrac12 \log p(z \mid x)$, so that
@@ -288,14 +302,13 @@ glue_values("lf_", amcl_delta=delta_amcl)
 # 4. draw each pose by picking a candidate $c$ in proportion to its tempered score $v_c$, plus
 #    Gaussian noise $h = (0.15\ \mathrm{m}, 0.15\ \mathrm{m}, 0.05\ \mathrm{rad})$.
 #
-# The density of a pose so drawn is known exactly, given the candidates: a mixture of Gaussian
-# kernels,
+# Given the candidates, the density of a pose so drawn is a mixture of Gaussian kernels,
 #
 # $$
 # q(x) = \sum_c v_c\, \mathcal N\big(x;\, c,\, \operatorname{diag}(h^2)\big),
 # $$
 #
-# with the heading difference wrapped to $(-\pi, \pi]$. The weights below need that density.
+# with the heading difference wrapped to $(-\pi, \pi]$.
 
 # %%
 H = np.array([0.15, 0.15, 0.05])  # the kernel: m, m, rad
@@ -347,15 +360,12 @@ print(f"the same poses and log q as pfcourse.scenarios.maprobot.global_mcl.scan_
 # %% [markdown]
 # ## Injected as a kidnapping, weighted by their evidence
 #
-# How much weight does an injected pose deserve? Augmented MCL ({cite:t}`thrun2005`, table $8.3$)
-# draws its added poses from the uniform kidnap distribution and gives them the same weight as the
-# others, which is right for them: they are draws of the mixture's uniform part. Ours are drawn
-# from $q$, so they need the weight $u / q$. This book's construction makes the injection part of
-# the model. The robot may have been **carried anywhere $\tau$ scans ago**, with probability
+# Augmented MCL ({cite:t}`thrun2005`, table $8.3$) gives its uniform injected poses the weight of
+# the others, right for draws of the kidnap model's uniform part; ours come from $q$ and need
+# $u / q$. This book's construction: the robot may have been **carried anywhere $\tau$ scans ago**, with probability
 # $\xi_k$ (here $\tau = 20$ scans, $10$ s; how large $\xi_k$ should be comes next). The cloud's $M$
 # moved particles stand for "not carried", the $R$ injected poses for "carried at step $k - \tau$".
-# Each injected pose starts from $q$ for the scan of step $k - \tau$ and is carried to now by the
-# odometry, a small filter of $R$ particles scoring it at every scan. Write
+# A small filter of $R$ particles carries them from $q$ at step $k - \tau$ to now. Write
 # $\ell_j = \frac{1}{M} \sum_i p(z_j \mid x_j^i)$ for the cloud's mean likelihood at scan $j$, its
 # estimate of $p(z_j \mid z_{0:j-1})$. The injected pose's weight is an importance weight of the
 # kidnap model, against the cloud's own account of the same scans:
@@ -369,12 +379,10 @@ print(f"the same poses and log q as pfcourse.scenarios.maprobot.global_mcl.scan_
 #
 # for a moved particle, with $u = 1 / (A_{\mathrm{free}}\, 2\pi)$ the uniform density. The factor
 # $u / q$ undoes the aim of the proposal: a pose is not more probable for having been drawn where the
-# scan fits (it is a valid importance weight given the candidates, whatever they are). The small
-# filter resamples at every scan, so the product of past likelihoods is carried by the product of
-# its mean weights, shared by all $R$ poses, times the current likelihood. The product over scans is what a pose with no history lacks: a twin's particles and
-# an injected pose at the truth fit the current scan equally well, but over twenty scans the one at
-# the truth has seen the box and the twin has not. The cell below computes the injected poses and
-# their log-weights.
+# scan fits. The small filter resamples at every scan, so the product of past likelihoods is carried
+# by the product of its mean weights. That product is what a pose with no history lacks: over twenty
+# scans a pose at the truth has seen the box and its twin has not. The cell below computes the
+# injected poses and their log-weights.
 
 # %%
 def injected(scans, odometry, k, r, log_l, rng, tau=20):
@@ -404,21 +412,23 @@ print(f"the same poses and log-weights as pfcourse.scenarios.maprobot.global_mcl
 # %% [markdown]
 # ## How likely is a kidnapping?
 #
-# What should the prior $\xi_k$ be? Augmented MCL's rate $1 - w_{\mathrm{fast}} / w_{\mathrm{slow}}$
-# (table $8.3$), from running averages of the cloud's mean likelihood $\ell_k$, is made to detect a
-# kidnapping, not to be its probability. Table $8.3$ has no floor, and ROS's AMCL injects nothing by
-# default (its recovery rates are $0$). The book's first variant gives that rate a floor of $0.01$,
-# with the strata above injected every fourth scan; on a right cloud the rate sits at the floor at
-# {glue:text}`lf_demo_ratio_floor_share:.0%` of the scans of the run below, so the floor, a number
-# chosen by hand, decides whether a noisy injected stratum may replace a right cloud.
+# The cure takes the prior $\xi_k$ from the kidnap model of {doc}`global_localization`: carried
+# away at a scan with probability $\xi = 10^{-3}$ (chosen by hand), one injection standing for the
+# $4$ scans since the last, $\xi_k = 4 \xi$. Mixture-MCL {cite:p}`thrun2001` is a relative: it too
+# mixes poses drawn from the sensor into the cloud with importance weights. The folded cell mixes
+# the two strata.
 #
-# The book's second variant, the cure, takes the prior from the kidnap model of
-# {doc}`global_localization`: carried away at a scan with probability $\xi = 10^{-3}$ (once in
-# about eight minutes of driving; also a number chosen by hand), and one injection standing for the
-# $4$ scans since the last, $\xi_k = 4 \xi$. Mixture-MCL {cite:p}`thrun2001` is a relative: it
-# too mixes poses drawn from the sensor into the cloud with importance weights. An injected stratum
-# now needs $\log(1 / \xi_k)$ nats of evidence over the cloud; a kidnapped robot's cloud stops
-# fitting the scans and gives way. The folded cell mixes the two strata.
+# :::{admonition} Going further: augmented MCL's rate as the prior
+# :class: dropdown
+# Augmented MCL's rate $1 - w_{\mathrm{fast}} / w_{\mathrm{slow}}$ (table $8.3$), from running
+# averages of the cloud's mean likelihood $\ell_k$, is made to detect a kidnapping, not to be its
+# probability. Table $8.3$ has no floor, and ROS's AMCL injects nothing by default (its recovery rates
+# are $0$). The book's first variant gave that rate a floor of $0.01$; on a right cloud the rate sits
+# at the floor at {glue:text}`lf_demo_ratio_floor_share:.0%` of the scans of the run below, so the
+# floor, a number chosen by hand, decides whether a noisy stratum may replace a right cloud. On the
+# drives it was tuned on it did no better than the kidnap prior (the evidence block of "Does it reach
+# the bound?").
+# :::
 
 # %% tags=["hide-input"] jupyter={"source_hidden": true}
 # a kidnapping once in 1000 scans; an injection every 4
@@ -443,6 +453,86 @@ same_rho = engine.HAZARD.kidnap_hazard == xi and engine.HAZARD.inject_every == e
 print(f"the same cloud as the engine's strata, to {TOL:.0e}: {same_mix}; the engine's hazard and cadence: {same_rho}")
 
 # %% [markdown]
+# ## Keeping a cloud that is right
+#
+# A stratum that wins takes the place of the cloud. That is the cure's strength after a kidnapping,
+# and its weakness when the cloud was right: a look-alike stratum that wins once moves the estimate
+# metres away, to a twin. Two things let that happen, and the figure shows the first. The robot of
+# kidnap drive $5$ is carried away at $20$ s. With only the rule "win three injections in a row"
+# (dashed), a stratum finds it again at {glue:text}`lf_cascade_found_s:.0f` s, and the estimate is
+# handed to a twin at {glue:text}`lf_cascade_lost_s:.0f` s; the cure (solid) keeps it.
+
+# %% tags=["hide-input"] jupyter={"source_hidden": true}
+kid_drive = study.simulate(5, study.KIDNAP_STEPS, kidnap_at=study.KIDNAP_STEP)
+t_kid = np.arange(study.KIDNAP_STEPS) * study.DT
+only_hysteresis = replace(engine.HAZARD, confirm=engine.CONFIRM)
+fig, ax = plt.subplots(figsize=(8, 3.4))
+for name, s_run, ls in (("win three in a row only", only_hysteresis, "--"), ("the cure", engine.CURE, "-")):
+    r_kid = engine.global_mcl(grid, field, motion, kid_drive.scans, kid_drive.drive.odometry,
+                              np.random.default_rng([41, 5, 2]), s_run, start=kid_drive.truth[0])
+    err = position_error(kid_drive.truth, r_kid.mean)
+    ax.semilogy(t_kid, np.maximum(err, 1e-2), ls=ls, label=name,
+                color=COLORS["estimate"] if ls == "-" else COLORS["particles"])
+    if ls == "--":  # found again (first step within the tolerances after the kidnapping), then 2 m away
+        ok = lock_on.locked_steps(err, heading_error(kid_drive.truth, r_kid.mean), mg.HEADING_TOL)
+        found = study.KIDNAP_STEP + np.flatnonzero(ok[study.KIDNAP_STEP:])[0]
+        glue_values("lf_", cascade_found_s=float(found * study.DT),
+                    cascade_lost_s=float((found + np.flatnonzero(err[found:] > 2.0)[0]) * study.DT))
+ax.axvline(study.KIDNAP_STEP * study.DT, color=COLORS["unseen"], lw=0.8)
+ax.axhline(1.0, color=COLORS["unseen"], ls=":", label="1 m")
+ax.set_xlabel("time t (s); the robot is carried away at 20 s")
+ax.set_ylabel("position error (m)")
+ax.legend(loc="upper center", bbox_to_anchor=(0.5, -0.25), ncol=3)
+ax.set_title("Kidnap drive 5: found again, then handed to a twin")
+plt.show()
+
+# %% [markdown]
+# **The belief's evidence.** A stratum is compared with the cloud's record of the last $\tau$
+# scans, $\prod_j \ell_j$. After a stratum replaces a wrong cloud, that record still holds the wrong
+# cloud's poor fit, and the next stratum, even a twin's, wins against it. Under the kidnap model the
+# scan's evidence at an injection is the mixture's; with $\hat B$ the stratum's mean weight over the
+# cloud's (its estimated Bayes factor):
+#
+# $$
+# p(z_k \mid z_{0:k-1}) \approx (1 - \xi_k)\, \ell_k + \xi_k\, \hat B\, \ell_k ,
+# $$
+#
+# the sum of the mixed weights, which the cure records whenever a stratum is admitted.
+#
+# **Hysteresis.** A stratum's log-odds against the cloud are {glue:text}`lf_prior_log_odds:.1f`
+# $+ \log \hat B$. For a twin the scans cannot tell from the truth $\log B = 0$, but $\log \hat B$,
+# a noisy ratio, sometimes makes up the deficit. If it does with probability $p$
+# at one injection, a twin wins $c$ in a row with probability near $p^c$, while a kidnapped robot's
+# strata keep winning. The cure asks for $c = 3$ wins in a row, which delays a recovery by two
+# injections ($4$ s). The rule in NumPy:
+
+# %%
+def admit(moved, lw_m, inj, lw_r, xi_k, streak, log_l_k, confirm=3):
+    """Mix a stratum in only at its confirm-th win in a row; the evidence."""
+    a = np.log1p(-xi_k) - np.log(len(moved)) + lw_m  # mass 1 - xi_k
+    b = np.log(xi_k) - np.log(len(inj)) + lw_r  # mass xi_k
+    x, lw = np.concatenate([moved, inj]), np.concatenate([a, b])
+    w = np.exp(lw - logsumexp(lw))
+    share = w[len(moved):].sum()
+    # a win: the stratum outweighs the cloud (posterior odds above 1)
+    streak = streak + 1 if share > 0.5 else 0
+    if streak < confirm:
+        return moved, lw_m, 0.0, streak, log_l_k
+    # admitted: the scan's evidence is the mixture's, log of the summed weights
+    return x, lw, share, streak, logsumexp(lw)
+
+
+# %% tags=["hide-input"] jupyter={"source_hidden": true}
+same_admit = True
+for streak0 in (0, 2):
+    ours_adm = admit(moved_demo, lw_m_demo, inj_demo, lw_r_demo + 8.0, every * xi, streak0, -1.0)
+    pkg_adm = engine.admit(moved_demo, lw_m_demo, inj_demo, lw_r_demo + 8.0, every * xi, streak0, -1.0, engine.CURE)
+    same_admit &= all(np.allclose(a, b, rtol=0, atol=TOL) for a, b in zip(ours_adm, pkg_adm))
+print(f"the same cloud, streak and evidence as pfcourse.scenarios.maprobot.global_mcl.admit, to {TOL:.0e}: "
+      f"{same_admit}; the engine's confirm: {engine.CURE.confirm}")
+glue_values("lf_", prior_log_odds=float(np.log(every * xi / (1 - every * xi))))
+
+# %% [markdown]
 # :::{admonition} Algorithm 15.1: global localization with evidence-weighted sensor resetting
 # :class: algorithm
 # 1. **Start.** Draw $20000$ poses from $u$ and $2000$ from $q$ for the first scan; weight them
@@ -452,8 +542,10 @@ print(f"the same cloud as the engine's strata, to {TOL:.0e}: {same_mix}; the eng
 #    2. *move:* resample $M$ particles, move each by the odometry, weight by $p(z_k \mid x_k)$;
 #       record $\ell_k$;
 #    3. *inject* (every fourth scan, from $k = 20$ on): $R = \max(200, M / 10)$ poses carried since
-#       step $k - \tau$, weighted as above; the cloud is the $M + R$ weighted particles, the two strata
-#       given the masses $1 - \xi_k$ and $\xi_k = 4 \xi$;
+#       step $k - \tau$, weighted as above; if the stratum, given the mass $\xi_k = 4 \xi$ against
+#       the cloud's $1 - \xi_k$, outweighs the cloud for the third injection in a row, the cloud is
+#       the $M + R$ weighted particles and the scan's evidence their summed weight; otherwise the
+#       stratum is dropped;
 #    4. *estimate:* weighted mean position and circular mean heading.
 # :::
 #
@@ -461,7 +553,7 @@ print(f"the same cloud as the engine's strata, to {TOL:.0e}: {same_mix}; the eng
 
 # %% tags=["hide-input"] jupyter={"source_hidden": true}
 demo_rng = np.random.default_rng([41, 1, 2])
-res = engine.global_mcl(grid, field, motion, drive.scans, drive.drive.odometry, demo_rng, engine.HAZARD)
+res = engine.global_mcl(grid, field, motion, drive.scans, drive.drive.odometry, demo_rng, engine.CURE)
 pos, head = position_error(drive.truth, res.mean), heading_error(drive.truth, res.mean)
 fig, (ax1, ax2, ax3) = plt.subplots(3, 1, figsize=(8, 6.6), sharex=True)
 ax1.semilogy(t, np.maximum(pos, 1e-2), color=COLORS["estimate"], label="the filter's position error")
@@ -489,14 +581,13 @@ glue_values("lf_", demo_decided_s=float((decided_at[0] + 1) * study.DT), demo_lo
             demo_ratio_floor_share=float(np.mean(res.eps_augmented[1:][on_robot] <= engine.HAZARD.eps_min)))
 
 # %% [markdown]
-# The filter starts with {glue:text}`lf_demo_start_particles:d` particles; after the first scan the
-# bound asks for {glue:text}`lf_demo_step1_particles:d` (its floor is
-# {glue:text}`lf_demo_floor_particles:d`), and the cloud stays at the floor to the end
-# ({glue:text}`lf_demo_mean_particles:.0f` on average with the injected poses).
+# From {glue:text}`lf_demo_start_particles:d` particles the bound asks for
+# {glue:text}`lf_demo_step1_particles:d` after the first scan, then its floor of
+# {glue:text}`lf_demo_floor_particles:d` ({glue:text}`lf_demo_mean_particles:.0f` on average with
+# the injected poses).
 #
-# On this drive
-# the evidence passes odds of $99 : 1$ at {glue:text}`lf_demo_decided_s:.0f` s, and the filter is
-# locked on from {glue:text}`lf_demo_locked_s:.0f` s to the end.
+# The evidence passes $99 : 1$ at {glue:text}`lf_demo_decided_s:.0f` s; the filter is locked on from
+# {glue:text}`lf_demo_locked_s:.0f` s to the end.
 #
 # ## Does it reach the bound?
 #
@@ -512,59 +603,32 @@ glue_values("lf_", demo_decided_s=float((decided_at[0] + 1) * study.DT), demo_lo
 # times that.
 # :::
 #
-# The cure's settings (the prior, the cadence of injections) were chosen on the $100$ drives of
-# the twin study, which flatters it there. On {glue:text}`lf_n_fresh:d` fresh drives, from a uniform
-# start, it is locked on in {glue:text}`lf_fresh_global_lock_on_rate:.0%`
-# ({glue:text}`lf_fresh_global_lock_on_rate_low:.0%`-{glue:text}`lf_fresh_global_lock_on_rate_high:.0%`).
+# The cure was tuned on drives $0$-$99$ and its guards chosen on kidnap drive $5$ and a screen of
+# drives $30$-$46$ and kidnap runs $15$-$29$; it is measured on
+# {glue:text}`lf_n_heldout:d` held-out drives ($150$-$199$). From a
+# uniform start the cure is locked on at the end of {glue:text}`lf_global_lock_on_rate:.0%`
+# ({glue:text}`lf_global_lock_on_rate_low:.0%`-{glue:text}`lf_global_lock_on_rate_high:.0%`) of them:
+# the estimate reaches the $0.95$ aimed at, but fifty drives cannot show that the rate itself does
+# (the interval reaches well below it).
 #
-# On the drives it was chosen on, it is locked on in {glue:text}`lf_global_lock_on_rate:.0%`
-# ({glue:text}`lf_global_lock_on_rate_low:.0%`-{glue:text}`lf_global_lock_on_rate_high:.0%`). Both
-# are short of the $0.95$ aimed at.
+# Without its guards it is locked on in {glue:text}`lf_heldout_hazard_rate:.0%` of the same drives,
+# a difference of {glue:text}`lf_heldout_gain_pts:+.0f` points
+# ({glue:text}`lf_heldout_gain_low_pts:+.0f` to {glue:text}`lf_heldout_gain_high_pts:+.0f`): not
+# separated. What the guards change is the integrity, below.
 #
-# The exact filter over the twins is locked on in {glue:text}`lf_fresh_exact_lock_on_rate:.0%` of
-# the fresh drives and {glue:text}`lf_exact_lock_on_rate:.0%` of the others: on those, the cure is
-# short of the bound (exact paired test $p$ = {glue:text}`lf_global_exact_p:.3f`).
+# The exact filter over the twins is locked on in {glue:text}`lf_heldout_exact_rate:.0%`; the cure
+# is not separated from it (the folded block gives the paired test).
 #
-# It costs more than its few hundred particles suggest: with the scan proposal and the look-back
-# filters it scores about {glue:text}`lf_poses_per_scan:.0f` poses against the likelihood field per
-# scan.
+# It scores about {glue:text}`lf_poses_per_scan:.0f` poses a scan, a filter of that many particles.
 #
-# On the same drives {doc}`map_robot`'s filter with random injection locks on in
-# {glue:text}`lf_base_injection_rate:.0%`: the cure gains
-# {glue:text}`lf_global_vs_injection_gain_pts:.0f` points
-# ({glue:text}`lf_global_vs_injection_gain_low_pts:.0f` to
-# {glue:text}`lf_global_vs_injection_gain_high_pts:.0f`).
-#
-# With the floored table-$8.3$ rate the same filter locks on in
-# {glue:text}`lf_augmented_lock_on_rate:.0%` of these drives: the two priors are not separated
-# (paired test $p$ = {glue:text}`lf_global_vs_augmented_p:.2f`).
-#
-# **Why it misses.** Not for want of evidence: the exact filter finds every drive. The cure's open
-# failure is a **false relocalization**: a cloud that has found the robot is later replaced by a
-# cloud metres away. Odometry moves a cloud by centimetres a step, so only an injected stratum can
-# do that, and its weight is a ratio of two noisy evidence estimates that can pass
-# $\log(1 / \xi_k)$ by chance. On the fresh drives (global and kidnap runs), a cloud that had been
-# within the tolerances for $10$ s was carried $2$ m or more away for $2$ s or more in
-# {glue:text}`lf_fresh_lost_runs:d` of {glue:text}`lf_fresh_runs:d` runs: about
-# {glue:text}`lf_false_reloc_per_hour:.1f` false relocalizations per hour of driving.
-#
-# Of the {glue:text}`lf_fresh_missed:d` fresh drives it misses, {glue:text}`lf_fresh_missed_lost:d`
-# had found the robot and lost it so, and {glue:text}`lf_fresh_missed_turn:d` end on a half-turn
-# twin.
+# **False relocalization** (a cloud within the tolerances for $10$ s carried $2$ m or more away for
+# $2$ s or more), on the held-out drives and kidnap runs together, happened
+# {glue:text}`lf_false_reloc_per_hour:.1f` times an hour of driving with the cure
+# ({glue:text}`lf_heldout_lost_runs:d` runs of $100$), against
+# {glue:text}`lf_hazard_false_reloc_per_hour:.1f` without its guards
+# ({glue:text}`lf_hazard_lost_runs:d` runs): a difference the data separate.
 
 # %% tags=["remove-input"] jupyter={"source_hidden": true}
-glob = STUDIES["map_global/global_hazard"].load().sort_values("seed")
-aug = STUDIES["map_global/global"].load().sort_values("seed")
-assert (glob["seed"].to_numpy() == twins_table["seed"].to_numpy()).all()
-assert (aug["seed"].to_numpy() == twins_table["seed"].to_numpy()).all()
-is_decided = twins_table["decided"].to_numpy()
-pair = evidence.paired_rates(glob["locked_on"].to_numpy(), is_decided)
-vs_aug = evidence.paired_rates(glob["locked_on"].to_numpy(), aug["locked_on"].to_numpy())
-within = evidence.rate(glob["locked_on"].to_numpy()[is_decided])
-exact_pair = evidence.paired_rates(glob["locked_on"].to_numpy(), exact_table["exact_locked_on"].to_numpy())
-vs_inj = evidence.paired_rates(glob["locked_on"].to_numpy(), base_inj["locked_on"].to_numpy())
-
-
 def exact_difference(p, level=0.95):
     """A - B of paired rates with an exact interval (Clopper-Pearson on the discordant runs)."""
     n, nd = p.a.n, p.only_a + p.only_b
@@ -575,90 +639,110 @@ def exact_difference(p, level=0.95):
     return p.difference, nd * (2 * lo - 1) / n, nd * (2 * hi - 1) / n
 
 
-inj_d = exact_difference(vs_inj)
-aug_d = exact_difference(vs_aug)
+def by_seed(name):
+    return STUDIES[f"map_global/{name}"].load().sort_values("seed").reset_index(drop=True)
+
+
+held, held_hz, held_exact = by_seed("global_heldout"), by_seed("global_heldout_hazard"), by_seed("exact_heldout")
+kid_held, kid_held_hz = by_seed("kidnap_heldout"), by_seed("kidnap_heldout_hazard")
+for table in (held_hz, held_exact, kid_held, kid_held_hz):
+    assert (table["seed"].to_numpy() == held["seed"].to_numpy()).all()
+cure_rate = evidence.rate(held["locked_on"].to_numpy())
+vs_hz = evidence.paired_rates(held["locked_on"].to_numpy(), held_hz["locked_on"].to_numpy())
+hz_d = exact_difference(vs_hz)
+vs_exact = evidence.paired_rates(held["locked_on"].to_numpy(), held_exact["exact_locked_on"].to_numpy())
+hours = (len(held) * study.GLOBAL_STEPS + len(kid_held) * study.KIDNAP_STEPS) * study.DT / 3600
+
+
+def lost(glob_table, kid_table):
+    """Runs with a false relocalization, and their number per hour of driving."""
+    runs = int((glob_table["n_lost"] > 0).sum() + (kid_table["n_lost"] > 0).sum())
+    return runs, float(glob_table["n_lost"].sum() + kid_table["n_lost"].sum()) / hours
+
+
+cure_lost, cure_per_hour = lost(held, kid_held)
+hz_lost, hz_per_hour = lost(held_hz, kid_held_hz)
+lost_pair = evidence.paired_rates(np.r_[held["n_lost"] > 0, kid_held["n_lost"] > 0],
+                                  np.r_[held_hz["n_lost"] > 0, kid_held_hz["n_lost"] > 0])
+lost_d = exact_difference(lost_pair)
 # poses scored against the field per scan: the cloud, and per injection (every inject_every scans) the
 # proposal's candidates and nudges and the look-back filter's R poses over history + 1 scans
-hz = engine.HAZARD
-per_injection = (hz.candidates * hz.headings + hz.keep * hz.refine_trials * hz.refine_rounds
-                 + hz.inject_min * (hz.history + 1))
-fresh = STUDIES["map_global/global_fresh"].load().sort_values("seed")
-fresh_kid = STUDIES["map_global/kidnap_fresh"].load().sort_values("seed")
-fresh_exact = exact_all[exact_all["seed"] >= mg.FRESH_SEED]
-assert (fresh["seed"].to_numpy() == fresh_exact["seed"].to_numpy()).all()
-fresh_rate = evidence.rate(fresh["locked_on"].to_numpy())
-fresh_exact_pair = evidence.paired_rates(fresh["locked_on"].to_numpy(), fresh_exact["exact_locked_on"].to_numpy())
-lost_runs = int((fresh["n_lost"] > 0).sum() + (fresh_kid["n_lost"] > 0).sum())
-hours = (len(fresh) * study.GLOBAL_STEPS + len(fresh_kid) * study.KIDNAP_STEPS) * study.DT / 3600
-glue_values("lf_", n_fresh=len(fresh), fresh_global_lock_on_rate=fresh_rate.estimate,
-            fresh_global_lock_on_rate_low=fresh_rate.low, fresh_global_lock_on_rate_high=fresh_rate.high,
-            fresh_exact_lock_on_rate=fresh_exact_pair.b.estimate, global_exact_p=exact_pair.pvalue,
-            poses_per_scan=glob["mean_particles"].mean() + per_injection / hz.inject_every,
-            global_vs_injection_gain_pts=100 * inj_d[0], global_vs_injection_gain_low_pts=100 * inj_d[1],
-            global_vs_injection_gain_high_pts=100 * inj_d[2],
-            fresh_lost_runs=lost_runs, fresh_runs=len(fresh) + len(fresh_kid),
-            false_reloc_per_hour=float(fresh["n_lost"].sum() + fresh_kid["n_lost"].sum()) / hours)
-glue_values("lf_", n_global=len(glob), global_lock_on_rate=pair.a.estimate, global_lock_on_rate_low=pair.a.low,
-            global_lock_on_rate_high=pair.a.high, step_heading_sd_deg=np.degrees(lock_on.step_heading_sd(motion, mg.STEP_M)),
-            heading_tolerance_deg=np.degrees(mg.HEADING_TOL), global_mean_particles=glob["mean_particles"].mean(),
-            augmented_lock_on_rate=vs_aug.b.estimate, global_vs_augmented_p=vs_aug.pvalue,
-            global_within_decided_rate=within.estimate)
+cs = engine.CURE
+per_injection = (cs.candidates * cs.headings + cs.keep * cs.refine_trials * cs.refine_rounds
+                 + cs.inject_min * (cs.history + 1))
+glue_values("lf_", n_heldout=len(held), global_lock_on_rate=cure_rate.estimate, global_lock_on_rate_low=cure_rate.low,
+            global_lock_on_rate_high=cure_rate.high, heldout_hazard_rate=vs_hz.b.estimate,
+            heldout_gain_pts=100 * hz_d[0], heldout_gain_low_pts=100 * hz_d[1], heldout_gain_high_pts=100 * hz_d[2],
+            heldout_exact_rate=vs_exact.b.estimate, global_exact_p=vs_exact.pvalue,
+            poses_per_scan=held["mean_particles"].mean() + per_injection / cs.inject_every,
+            false_reloc_per_hour=cure_per_hour, heldout_lost_runs=cure_lost, heldout_runs=len(held) + len(kid_held),
+            hazard_false_reloc_per_hour=hz_per_hour, hazard_lost_runs=hz_lost, false_reloc_p=lost_pair.pvalue,
+            step_heading_sd_deg=np.degrees(lock_on.step_heading_sd(motion, mg.STEP_M)),
+            heading_tolerance_deg=np.degrees(mg.HEADING_TOL))
 
 
 def misses(table):
     """The drives a filter does not lock on, with how each ends."""
-    m = table.loc[~table["locked_on"].to_numpy(), ["seed", "final_position_error", "final_heading_error"]].merge(
-        twins_table[["seed", "decided", "final_margin"]], on="seed", how="left")
-    turned = m["final_heading_error"] > np.pi / 2  # on a half-turn twin: heading about 180 degrees off
-    return m, int(turned.sum())
+    return table.loc[~table["locked_on"].to_numpy(),
+                     [c for c in ("seed", "final_position_error", "final_heading_error", "n_lost", "lost_s")
+                      if c in table]]
 
 
-missed, missed_turn = misses(glob)
-aug_missed, aug_missed_turn = misses(aug)
-fresh_missed, fresh_missed_turn = misses(fresh)
-glue_values("lf_", fresh_missed=len(fresh_missed), fresh_missed_turn=fresh_missed_turn,
-            fresh_missed_lost=int((fresh.loc[~fresh["locked_on"].to_numpy(), "n_lost"] > 0).sum()))
-glue_values("lf_", global_missed=len(missed), global_missed_turn=missed_turn,
-            augmented_missed=len(aug_missed), augmented_missed_turn=aug_missed_turn)
+# the cure before its guards, on the drives it was tuned on and the first fresh ones (100-149)
+glob = by_seed("global_hazard")
+aug = by_seed("global")
+fresh = by_seed("global_fresh")
+fresh_exact = STUDIES["map_global/exact_twins"].load().sort_values("seed")
+fresh_exact = fresh_exact[fresh_exact["seed"] >= mg.FRESH_SEED]
+exact_pair = evidence.paired_rates(glob["locked_on"].to_numpy(), exact_table["exact_locked_on"].to_numpy())
+vs_aug = evidence.paired_rates(glob["locked_on"].to_numpy(), aug["locked_on"].to_numpy())
+vs_inj = evidence.paired_rates(glob["locked_on"].to_numpy(), base_inj["locked_on"].to_numpy())
+inj_d, aug_d = exact_difference(vs_inj), exact_difference(vs_aug)
+screen_note = ("Screened before the held-out drives (not stored; listed in the commits of the cure's branch): "
+               "hysteresis alone lost kidnap run 5 to the cascade of the figure. On global drives 30-46 (which hold "
+               "four of the unguarded cure's misses) the cure locked on in 13 of 17, the belief's evidence alone in "
+               "12 of 16, uniform injection at N = 5000 (about the cure's cost) in 11 of 16; on kidnap runs 15-29 "
+               "the cure recovered 13 of 15, the belief's evidence alone 14 of 15 (with two false relocalizations "
+               "against none). The mixture-weighted start was not screened for lock-on.")
 EvidenceBlock(
-    "the cure against its bound, its baselines and its variant; fresh drives; cost",
-    notes=[f"{len(glob)} drives (the twin study's, seeds 0-99, on which the settings were chosen), 100 s each, "
-           "uniform start; the filter of Algorithm 15.1 (20000 + 2000 poses at the start, 300-5000 after, an "
-           "injection of 200 poses every 4 scans looking back 20 scans, xi = 0.001 per scan); its random numbers from numpy.random.default_rng([41, seed, 2]), the same for "
-           "both priors (common random numbers until the first injection).",
+    "the cure on held-out drives, against its bound and the cure without its guards; the earlier drives",
+    notes=[f"{len(held)} held-out drives (seeds {held['seed'].min()}-{held['seed'].max()}), 100 s each, uniform start; "
+           "the filter of Algorithm 15.1 (20000 + 2000 poses at the start, 300-5000 after, an injection of 200 poses "
+           "every 4 scans looking back 20 scans, xi = 0.001 per scan, admitted at the third win in a row, the "
+           "belief's evidence with the admitted stratum); random numbers from numpy.random.default_rng([41, seed, 2]) "
+           "for both variants (common random numbers until the first injection).",
            f"Locked on (within 1 m and {np.degrees(mg.HEADING_TOL):.1f} degrees at 80 % of the last 20 s): "
-           f"{pair.a}; decided by the evidence: {pair.b} (Wilson intervals); locked on among the decided drives: "
-           f"{within}.",
-           f"Paired by drive (cure A, decided at 99 : 1 B): {pair}.",
-           f"Paired by drive (cure A, the exact filter over the twins B): {exact_pair}.",
-           f"Paired by drive (cure A, map_robot's filter with random injection B): {vs_inj}; exact interval of the "
-           f"difference (Clopper-Pearson on the discordant drives): {100 * inj_d[1]:+.0f} to {100 * inj_d[2]:+.0f} "
-           f"points. Bootstrap filter (no injection): {base_boot['locked_on'].mean():.2f}.",
-           f"Kidnap prior A against the floored rate B: exact interval {100 * aug_d[1]:+.0f} to "
-           f"{100 * aug_d[2]:+.0f} points (the bootstrap interval in the line below is too narrow with so few "
-           "discordant drives).",
-           f"Fresh drives (seeds {mg.FRESH_SEED}-{mg.FRESH_SEED + mg.FRESH_RUNS - 1}, not used in choosing the "
-           f"settings): locked on {fresh_rate}; paired with the exact filter: {fresh_exact_pair}. Lost after lock-on "
-           f"(2 s or more outside the tolerances, 2 m away, after 10 s within them): {int((fresh['n_lost'] > 0).sum())} "
-           f"global drives, {int((fresh_kid['n_lost'] > 0).sum())} kidnap runs.",
-           f"Cost: about {glob['mean_particles'].mean() + per_injection / hz.inject_every:.0f} poses scored per scan "
-           f"({per_injection} per injection, every {hz.inject_every} scans, plus the cloud); "
-           f"{STUDIES['map_global/global_hazard'].load().attrs['provenance']['wall_seconds'] / len(glob):.1f} s of "
-           f"computing per drive on the shared machine, against "
-           f"{amcl_global.attrs['provenance']['wall_seconds'] / len(amcl_global):.1f} s for map_robot's filters.",
-           "Tried on seeds 0-99 before this choice: averaging rates alpha_slow = 0.01, alpha_fast = 0.5 for the "
-           "floored rate (dropped after 14 screened drives); injecting only while that rate is above its floor, "
-           "with a floor of 1000 particles (poor-fit, screened on the failing drives, dropped); the kidnap prior "
-           "xi = 1e-3 (kept, screened on 30 drives) and 1e-4 (dropped). The fresh drives are the only ones not "
-           "used in these choices.",
-           f"Paired by drive (kidnap model's prior A, the floored table-8.3 rate B): {vs_aug} (see Reading the evidence).",
-           f"With the floored table-8.3 rate, {len(aug_missed)} drives missed, {aug_missed_turn} of them ending on a "
-           "half-turn twin (heading error above 90 degrees).",
-           f"Mean number of particles after the start: {glob['mean_particles'].mean():.0f}.",
-           stored("global_hazard"), stored("global") + " (the floored table-8.3 rate)", stored("global_fresh"),
-           stored("kidnap_fresh")],
-    tables=[("The drives the cure does not lock on", missed,
-             {"final_position_error": ".2f", "final_heading_error": ".2f", "final_margin": ".1f"})],
+           f"{cure_rate} (Wilson interval).",
+           f"Paired by drive (cure A, without its guards B): {vs_hz}; exact interval of the difference "
+           f"(Clopper-Pearson on the discordant drives): {100 * hz_d[1]:+.0f} to {100 * hz_d[2]:+.0f} points.",
+           f"Paired by drive (cure A, the exact filter over the twins B): {vs_exact}.",
+           f"How the cure's {len(misses(held))} misses end: {int((misses(held)['final_position_error'] < 1).sum())} within "
+           f"1 m of the truth (found, but too late for 80 % of the last 20 s), "
+           f"{int((misses(held)['final_heading_error'] > np.pi / 2).sum())} on a half-turn twin (heading error above "
+           f"90 degrees); {int((misses(held)['n_lost'] > 0).sum())} after a false relocalization (the table).",
+           f"False relocalizations (2 s or more outside the tolerances, 2 m away, after 10 s within them), held-out "
+           f"global drives and kidnap runs: cure {cure_lost} runs, {cure_per_hour:.1f} an hour; without its guards "
+           f"{hz_lost} runs, {hz_per_hour:.1f} an hour ({hours:.1f} hours of driving each). Paired by run (cure A, "
+           f"without its guards B): {lost_pair}; exact interval of the difference in the share of runs lost "
+           f"{100 * lost_d[1]:+.0f} to {100 * lost_d[2]:+.0f} points.",
+           f"Cost: about {held['mean_particles'].mean() + per_injection / cs.inject_every:.0f} poses scored per scan "
+           f"({per_injection} per injection, every {cs.inject_every} scans, plus the cloud); "
+           f"{STUDIES['map_global/global_heldout'].load().attrs['provenance']['wall_seconds'] / len(held):.1f} s of "
+           f"computing per drive on the shared, loaded machine.",
+           screen_note,
+           f"Without the guards, on the 100 drives it was tuned on (seeds 0-99): locked on {evidence.rate(glob['locked_on'].to_numpy())}; "
+           f"against the exact filter {exact_pair}; against map_robot's uniform injection (N = 1000) {vs_inj}, exact "
+           f"interval {100 * inj_d[1]:+.0f} to {100 * inj_d[2]:+.0f} points; against the floored table-8.3 rate "
+           f"{vs_aug}, exact interval {100 * aug_d[1]:+.0f} to {100 * aug_d[2]:+.0f} points.",
+           f"Without the guards, fresh drives {mg.FRESH_SEED}-{mg.FRESH_SEED + mg.FRESH_RUNS - 1}: locked on "
+           f"{evidence.rate(fresh['locked_on'].to_numpy())}; the exact filter {evidence.rate(fresh_exact['exact_locked_on'].to_numpy())}.",
+           "Tried on seeds 0-99 before the guards: averaging rates alpha_slow = 0.01, alpha_fast = 0.5 for the floored "
+           "rate (dropped after 14 screened drives); injecting only while that rate is above its floor, with a floor "
+           "of 1000 particles (poor-fit, dropped); the kidnap prior xi = 1e-3 (kept) and 1e-4 (dropped).",
+           stored("global_heldout"), stored("global_heldout_hazard"), stored("exact_heldout"), stored("global_hazard"),
+           stored("global") + " (the floored table-8.3 rate)", stored("global_fresh")],
+    tables=[("The held-out drives the cure does not lock on", misses(held),
+             {"final_position_error": ".2f", "final_heading_error": ".2f", "lost_s": ".1f"})],
 )
 
 # %% [markdown]
@@ -666,73 +750,65 @@ EvidenceBlock(
 #
 # The same filter, started at the robot's known pose ($300$ particles around it), tracks it for
 # $20$ s; then the robot is carried to another waypoint of its route while its odometry reports no
-# motion, and drives on for $100$ s. The scans stop fitting the cloud, and
-# the injected poses, which fit the new scans, take the weight despite their small prior. Over
-# $100$ seeded runs (those the settings were chosen on) the filter recovers (is locked on at the
-# end) in {glue:text}`lf_kidnap_recovered_rate:.0%` of them
-# ({glue:text}`lf_kidnap_recovered_rate_low:.0%`-{glue:text}`lf_kidnap_recovered_rate_high:.0%`): the
-# $0.90$ aimed at is inside that interval, but not reached.
+# motion, and drives on for $100$ s. Runs whose kidnapping moved the robot less than the lock-on
+# tolerances are left out ({glue:text}`lf_heldout_not_kidnapped:d` of the held-out runs).
 #
-# With the floored table-$8.3$ rate,
-# {glue:text}`lf_augmented_kidnap_recovered_rate:.0%` (paired test $p$ =
-# {glue:text}`lf_kidnap_vs_augmented_p:.2f`: not separated).
+# On the held-out runs ($150$-$199$) the cure recovers (is locked on at the end) in
+# {glue:text}`lf_kidnap_recovered_rate:.0%`
+# ({glue:text}`lf_kidnap_recovered_rate_low:.0%`-{glue:text}`lf_kidnap_recovered_rate_high:.0%`) of
+# the others, above the $0.90$ aimed at; without its guards,
+# {glue:text}`lf_kidnap_hazard_rate:.0%` of the same runs.
 #
-# A "kidnapping" to the waypoint the robot was already near is none. On the fresh runs those that
-# moved the robot less than the lock-on tolerances are left out
-# ({glue:text}`lf_fresh_not_kidnapped:d` runs); of the others the filter
-# recovers {glue:text}`lf_fresh_kidnap_recovered_rate:.0%`
-# ({glue:text}`lf_fresh_kidnap_recovered_rate_low:.0%`-{glue:text}`lf_fresh_kidnap_recovered_rate_high:.0%`).
-#
-# Those that recover are locked on for good a median {glue:text}`lf_kidnap_recovery_median_s:.0f` s after
+# They are locked on for good a median {glue:text}`lf_kidnap_recovery_median_s:.0f` s after
 # the kidnapping ({glue:text}`lf_kidnap_recovery_median_s_low:.0f`-{glue:text}`lf_kidnap_recovery_median_s_high:.0f` s).
-# No recovery can come sooner than $\tau$ scans ($10$ s) after the kidnapping: the first stratum
-# that can stand for it is one whose history starts after it. The runs that do not recover are lost
-# as the drives above are: some to a stratum of the wrong twin after they had found the robot again.
+# None can come sooner than $\tau$ scans ($10$ s) plus two injections after the kidnapping.
 
 # %% tags=["remove-input"] jupyter={"source_hidden": true}
-kid = STUDIES["map_global/kidnap_hazard"].load().sort_values("seed")
-kid_aug = STUDIES["map_global/kidnap"].load().sort_values("seed")
-assert (kid["seed"].to_numpy() == kid_aug["seed"].to_numpy()).all()
-kid_vs_aug = evidence.paired_rates(kid["recovered"].to_numpy(), kid_aug["recovered"].to_numpy())
-glue_values("lf_", augmented_kidnap_recovered_rate=kid_vs_aug.b.estimate, kidnap_vs_augmented_p=kid_vs_aug.pvalue)
-kid_missed = kid[~kid["recovered"].to_numpy()]
-moved = (fresh_kid["jump_m"] >= lock_on.POSITION_TOLERANCE_M) | (fresh_kid["jump_deg"] >= np.degrees(mg.HEADING_TOL))
-fresh_recovered = evidence.rate(fresh_kid.loc[moved, "recovered"].to_numpy())
-glue_values("lf_", kidnap_missed=len(kid_missed), fresh_not_kidnapped=int((~moved).sum()),
-            fresh_kidnap_recovered_rate=fresh_recovered.estimate, fresh_kidnap_recovered_rate_low=fresh_recovered.low,
-            fresh_kidnap_recovered_rate_high=fresh_recovered.high)
-times = kid.loc[kid["recovered"], "recovery_s"].to_numpy()
+kid_moved = ((kid_held["jump_m"] >= lock_on.POSITION_TOLERANCE_M)
+             | (kid_held["jump_deg"] >= np.degrees(mg.HEADING_TOL))).to_numpy()
+kid_pair = evidence.paired_rates(kid_held["recovered"].to_numpy()[kid_moved],
+                                 kid_held_hz["recovered"].to_numpy()[kid_moved])
+kid_d = exact_difference(kid_pair)
+recovered = kid_pair.a
+times = kid_held.loc[kid_moved & kid_held["recovered"].to_numpy(), "recovery_s"].to_numpy()
 med, med_low, med_high = evidence.median_interval(times)
-recovered = evidence.rate(kid["recovered"].to_numpy())
-glue_values("lf_", n_kidnap=len(kid), kidnap_recovered_rate=recovered.estimate,
+glue_values("lf_", heldout_not_kidnapped=int((~kid_moved).sum()), kidnap_recovered_rate=recovered.estimate,
             kidnap_recovered_rate_low=recovered.low, kidnap_recovered_rate_high=recovered.high,
-            kidnap_recovery_median_s=med, kidnap_recovery_median_s_low=med_low, kidnap_recovery_median_s_high=med_high)
+            kidnap_hazard_rate=kid_pair.b.estimate, kidnap_recovery_median_s=med,
+            kidnap_recovery_median_s_low=med_low, kidnap_recovery_median_s_high=med_high)
+kid = by_seed("kidnap_hazard")
+fresh_kid = by_seed("kidnap_fresh")
+fresh_moved = ((fresh_kid["jump_m"] >= lock_on.POSITION_TOLERANCE_M)
+               | (fresh_kid["jump_deg"] >= np.degrees(mg.HEADING_TOL))).to_numpy()
 EvidenceBlock(
-    "the kidnapped robot: tuning runs, fresh runs, recovery time",
-    notes=[f"{len(kid)} runs (seeds 0-{len(kid) - 1}, drives of pfcourse.studies.maprobot.simulate): tracked from the known start, "
-           f"kidnapped at t = {study.KIDNAP_STEP * study.DT:.0f} s to a waypoint drawn by kidnap_rng(seed), run to "
-           f"t = {study.KIDNAP_STEPS * study.DT:.0f} s.",
-           f"Tracked before the kidnapping (error below 1 m from 5 s on): "
-           f"{evidence.rate(kid['tracked_before'].to_numpy())}.",
-           f"Recovered (locked on at the end, the rule above): {recovered}.",
-           f"Fresh runs (seeds {mg.FRESH_SEED}-{mg.FRESH_SEED + mg.FRESH_RUNS - 1}), kidnappings that moved the robot "
-           f"at least 1 m or {np.degrees(mg.HEADING_TOL):.1f} degrees: recovered {fresh_recovered}; "
-           f"{int((~moved).sum())} runs left out.",
-           f"Paired by run (kidnap model's prior A, the floored table-8.3 rate B): {kid_vs_aug} (see Reading the evidence).",
+    "the kidnapped robot: held-out runs, recovery time, the earlier runs",
+    notes=[f"{len(kid_held)} held-out runs (seeds {kid_held['seed'].min()}-{kid_held['seed'].max()}, drives of "
+           f"pfcourse.studies.maprobot.simulate): tracked from the known start, kidnapped at "
+           f"t = {study.KIDNAP_STEP * study.DT:.0f} s to a waypoint drawn by kidnap_rng(seed), run to "
+           f"t = {study.KIDNAP_STEPS * study.DT:.0f} s; {int((~kid_moved).sum())} left out (moved less than 1 m and "
+           f"{np.degrees(mg.HEADING_TOL):.1f} degrees).",
+           f"Recovered (locked on at the end): cure {recovered}; paired with the cure without its guards: {kid_pair}; "
+           f"exact interval of the difference {100 * kid_d[1]:+.0f} to {100 * kid_d[2]:+.0f} points. The runs the cure "
+           f"misses end {', '.join(f'{e:.2f}' for e in kid_held.loc[kid_moved & ~kid_held['recovered'].to_numpy(), 'final_position_error'])} m "
+           "from the truth: found again, too late for the window (the table).",
            f"Median time from the kidnapping to the step from which the filter stays locked on, over the {len(times)} "
            f"runs that recover: {med:.1f} s (95 % interval {med_low:.1f}-{med_high:.1f} s, percentile bootstrap). "
            "A median among those that recover: it says how fast, not how often.",
-           stored("kidnap_hazard"), stored("kidnap") + " (the floored table-8.3 rate)", stored("kidnap_fresh")],
-    tables=[("Recovery time of the runs that recover", pd.DataFrame({"recovery (s)": pd.Series(times).describe()}).T,
-             {})],
+           f"Without the guards, on the runs it was tuned on (seeds 0-99, all kept): recovered "
+           f"{evidence.rate(kid['recovered'].to_numpy())}; fresh runs {mg.FRESH_SEED}-{mg.FRESH_SEED + mg.FRESH_RUNS - 1} "
+           f"(moved ones): {evidence.rate(fresh_kid.loc[fresh_moved, 'recovered'].to_numpy())}.",
+           stored("kidnap_heldout"), stored("kidnap_heldout_hazard"), stored("kidnap_hazard"), stored("kidnap_fresh")],
+    tables=[("The held-out kidnap runs the cure does not recover",
+             kid_held.loc[kid_moved & ~kid_held["recovered"].to_numpy(),
+                          ["seed", "final_position_error", "n_lost", "lost_s", "jump_m"]],
+             {"final_position_error": ".2f", "lost_s": ".1f", "jump_m": ".1f"})],
 )
 
 # %% [markdown]
 # ## Explore: the poses a scan proposes
 #
-# The panel draws $300$ poses from the proposal for the scan of seed $1$ at $75$ s (the robot in the
-# corridor), one seeded draw per setting: watch them gather on the robot, its twins and near misses.
-# The share in the title is of that one draw.
+# $300$ poses from the proposal for seed $1$'s scan at $75$ s, one seeded draw per setting: watch
+# them gather on the robot, its twins and near misses.
 
 # %% tags=["hide-input", "nbval-ignore-output"] jupyter={"source_hidden": true}
 def draw(candidates=500, rounds=3):
@@ -761,73 +837,74 @@ display(panel)
 # %% [markdown]
 # ## Exercise
 #
-# ```{exercise} 15.1 Poses from a reading, weighted right, for another sensor
-# :label: ex-map-global-reset
+# ```{exercise} 15.1 How often does a look-alike take over?
+# :label: ex-map-global-takeover
 # :nonumber:
-# (Coding.) A robot stands somewhere in a corridor $[0, L]$ with doors at known places $d_i$; its
-# sensor reads the distance to the nearest door, $z \sim \mathcal N(\min_i |x - d_i|, \sigma^2)$.
-# Write `my_reset(z, n, rng, corridor)`: draw `corridor.m` candidates uniform on $[0, L]$
-# (`rng.uniform`), pick `n` of them (`rng.choice`) with probabilities proportional to their likelihood,
-# add Gaussian noise of standard deviation `corridor.h` (`rng.standard_normal`), and return the poses
-# and their log-weights $\log u(x) - \log q(x) + \log p(z \mid x)$, with $u = 1 / L$ on the corridor
-# and $q$ the mixture you drew from. `corridor.L`, `corridor.doors`, `corridor.sigma`, `corridor.m`,
-# `corridor.h` hold the numbers, and `corridor.log_likelihood(x, z)` is $\log p(z \mid x)$. The
-# checker compares your mean weight with the evidence $\int u\, p(z \mid x)\, dx$ and your weighted
-# mean with the posterior mean, both computed exactly, and names the mistake it sees.
+# (Coding.) A twin's stratum the scans cannot tell from a right cloud: at each of $T$ injections its
+# estimated log-odds against the cloud are $\lambda + s\, e$, $e \sim \mathcal N(0, 1)$ independent
+# ($\lambda$ the prior log-odds, $s$ the spread of the estimated log Bayes factor), and it wins when
+# they are positive. It takes over at the first injection that completes `confirm` wins in a row. Write `my_takeover(log_prior_odds, sd, confirm, T, runs,
+# rng)` that returns the share of `runs` simulated drives in which the twin takes over, drawing
+# `rng.standard_normal((runs, T))`. Then compare `confirm` $= 1$ and $3$ with the chapter's prior
+# odds ($\xi_k = 4 \times 10^{-3}$), $T = 45$ injections (a $100$-s drive) and $s = 3$ nats (a
+# value assumed for the exercise, not measured). The checker compares your shares with exact ones
+# and names the mistake it sees.
 # ```
 
 # %% tags=["answer"]
-from pfcourse.book.exercises import check_reset_weights
+from pfcourse.book.exercises import check_takeover
 
 
-def my_reset(z, n, rng, corridor):
-    """Return n positions drawn from the reading, and their log-weights."""
+def my_takeover(log_prior_odds, sd, confirm, T, runs, rng):
+    """The share of the runs in which the twin's stratum takes over."""
     ...  # replace with your code
 
 
-print(check_reset_weights(my_reset))
+print(check_takeover(my_takeover))
 
 # %% [markdown]
-# ```{solution} ex-map-global-reset
+# ```{solution} ex-map-global-takeover
 # :class: dropdown
-# The candidates' log-likelihoods normalised give the mixture's weights $v_j$; $\log q$ is the
-# $\operatorname{logsumexp}$ over candidates of $\log v_j$ plus the Gaussian kernel's log-density,
-# its constant included. The code is in the folded cell below.
+# Draw all the injections at once, keep each run's current streak of wins (a loss resets it to
+# zero), and mark a run taken over once its streak reaches `confirm`. With the chapter's numbers a
+# twin takes over in {glue:text}`lf_takeover_one:.0%` of the drives when one win suffices, and in
+# {glue:text}`lf_takeover_three:.2%` when three in a row are needed. The code is in the folded cell
+# below.
 # ```
 
 # %% tags=["solution", "hide-input"] jupyter={"source_hidden": true}
-def my_reset(z, n, rng, corridor):
-    c = rng.uniform(0.0, corridor.L, corridor.m)
-    s = corridor.log_likelihood(c, z)
-    log_v = s - logsumexp(s)
-    x = c[rng.choice(corridor.m, size=n, p=np.exp(log_v))] + corridor.h * rng.standard_normal(n)
-    log_k = -0.5 * ((x[:, None] - c) / corridor.h) ** 2 - np.log(np.sqrt(2 * np.pi) * corridor.h)
-    log_q = logsumexp(log_v + log_k, axis=1)
-    log_u = np.where((x >= 0) & (x <= corridor.L), -np.log(corridor.L), -np.inf)
-    return x, log_u - log_q + corridor.log_likelihood(x, z)
+def my_takeover(log_prior_odds, sd, confirm, T, runs, rng):
+    win = log_prior_odds + sd * rng.standard_normal((runs, T)) > 0
+    streak = np.zeros(runs, dtype=int)
+    taken = np.zeros(runs, dtype=bool)
+    for t in range(T):
+        streak = np.where(win[:, t], streak + 1, 0)
+        taken |= streak >= confirm
+    return taken.mean()
 
 
-print(check_reset_weights(my_reset))
+print(check_takeover(my_takeover))
+lam = np.log(every * xi / (1 - every * xi))
+shares = {c: float(my_takeover(lam, 3.0, c, 45, 20000, np.random.default_rng(0))) for c in (1, 3)}
+print(f"taken over: confirm = 1 {shares[1]:.4f}, confirm = 3 {shares[3]:.4f}")
+glue_values("lf_", takeover_one=shares[1], takeover_three=shares[3])
 
 # %% [markdown]
 # ## Takeaways
 #
-# - Before blaming a filter, measure what the data allow: a twin path has the same odometry and
-#   prior, so its posterior odds against the truth are a sum of scan log-likelihood ratios, and
-#   that margin says which drives any filter could decide.
-# - The bound is an exact filter over the truth and its twins judged by the same lock-on rule; the
-#   share the evidence decides at $99 : 1$ is not a ceiling.
-# - The first scan's sharp likelihood collapses the cloud to KLD's floor; KLD-sampling then hardly
-#   acts, and the start's many poses, the scan proposal and the injections do the work. AMCL's
-#   `kld_z` is the quantile $z_{1 - \delta}$, not $\delta$.
+# - Before blaming a filter, measure what the map allows: an exact filter over the truth and its
+#   twins, judged by the same lock-on rule.
+# - KLD-sampling hardly acts after the first scan here; AMCL's `kld_z` is the quantile
+#   $z_{1 - \delta}$, not $\delta$.
 # - Poses drawn from the scan are weighted by $u / q$ times the evidence of their history against
-#   the cloud's; their prior is the kidnap model's $\xi$, chosen by hand like any floor, and these
-#   drives do not separate it from the floored rate.
-# - From a uniform start the cure locks on in {glue:text}`lf_fresh_global_lock_on_rate:.0%` of fresh
-#   drives and {glue:text}`lf_global_lock_on_rate:.0%` of those it was tuned on, where the exact
-#   filter locks on in {glue:text}`lf_exact_lock_on_rate:.0%`; it finds a kidnapped robot again in
-#   {glue:text}`lf_kidnap_recovered_rate:.0%`. Its open failure is false relocalization: a right
-#   cloud replaced by a twin's stratum.
+#   the belief's; their prior is the kidnap model's $\xi$, chosen by hand like any floor.
+# - A stratum that wins replaces the cloud: count false relocalizations, not only lock-on at the
+#   end. The guards: the belief's evidence includes its admitted strata; three wins in a row.
+# - On held-out drives the cure locks on in {glue:text}`lf_global_lock_on_rate:.0%` of the drives from
+#   a uniform start, where the exact filter over the twins locks on in
+#   {glue:text}`lf_heldout_exact_rate:.0%`, and finds a kidnapped robot again in
+#   {glue:text}`lf_kidnap_recovered_rate:.0%` of the kidnappings, against the $0.95$ and $0.90$ aimed
+#   at; it relocalizes falsely {glue:text}`lf_false_reloc_per_hour:.1f` times an hour.
 #
 # :::{admonition} From the labs
 # :class: dropdown

@@ -13,7 +13,7 @@ import numpy as np
 
 from pfcourse.studies import maprobot as study
 from pfcourse.scenarios.maprobot import lock_on
-from pfcourse.scenarios.maprobot.global_mcl import HAZARD, POOR_FIT, SETTINGS, GlobalSettings, global_mcl
+from pfcourse.scenarios.maprobot.global_mcl import CURE, HAZARD, POOR_FIT, SETTINGS, GlobalSettings, global_mcl
 from pfcourse.scenarios.maprobot.twins import exact_twin_estimate, twin_margin
 from pfcourse.metrics import heading_error, position_error
 
@@ -107,11 +107,11 @@ def lost_times(pos: np.ndarray, head: np.ndarray, skip_step: int | None = None) 
     return times
 
 
-def hazard_global_fresh_row(seed: int) -> dict:
+def hazard_global_fresh_row(seed: int, settings: GlobalSettings = HAZARD) -> dict:
     """:func:`hazard_global_row` on a fresh drive, with the times the run was lost (:func:`lost_times`)."""
     run = study.simulate(seed, study.GLOBAL_STEPS)
     res = global_mcl(study.book_map(), study.field(), study.MOTION, run.scans, run.drive.odometry, filter_rng(seed),
-                     HAZARD)
+                     settings)
     pos, head = position_error(run.truth, res.mean), heading_error(run.truth, res.mean)
     lost = lost_times(pos, head)
     return {"locked_on": lock_on.locked_on(pos, head, study.DT, HEADING_TOL),
@@ -121,13 +121,13 @@ def hazard_global_fresh_row(seed: int) -> dict:
             "n_lost": len(lost), "lost_s": lost[0] if lost else np.nan}
 
 
-def hazard_kidnap_fresh_row(seed: int) -> dict:
+def hazard_kidnap_fresh_row(seed: int, settings: GlobalSettings = HAZARD) -> dict:
     """:func:`hazard_kidnap_row` on a fresh drive, with the times the run was lost (:func:`lost_times`, the
     kidnapping itself not counted) and the kidnapping's move (m, degrees)."""
     k = study.KIDNAP_STEP
     run = study.simulate(seed, study.KIDNAP_STEPS, kidnap_at=k)
     res = global_mcl(study.book_map(), study.field(), study.MOTION, run.scans, run.drive.odometry, filter_rng(seed),
-                     HAZARD, start=run.truth[0])
+                     settings, start=run.truth[0])
     pos, head = position_error(run.truth, res.mean), heading_error(run.truth, res.mean)
     recovered = lock_on.locked_on(pos, head, study.DT, HEADING_TOL)
     start = lock_on.locked_from(pos, head, study.DT, HEADING_TOL)
@@ -139,6 +139,33 @@ def hazard_kidnap_fresh_row(seed: int) -> dict:
             "final_position_error": float(pos[-1]), "n_lost": len(lost), "lost_s": lost[0] if lost else np.nan,
             "jump_m": float(np.hypot(*(b[:2] - a[:2]))),
             "jump_deg": float(np.degrees(abs(np.angle(np.exp(1j * (b[2] - a[2]))))))}
+
+
+#: The held-out drives 150-199 (50, not 100: the CPU of a shared machine), not used in choosing the cure: the cure
+#: before hysteresis (:data:`HAZARD`) and the cure (:data:`CURE`) on the same drives, paired.
+HELDOUT_SEED, HELDOUT_RUNS = 150, 50
+
+
+def heldout_hazard_global_row(seed: int) -> dict:
+    """:func:`hazard_global_fresh_row` with :data:`HAZARD` (the cure before hysteresis) on a held-out drive."""
+    return hazard_global_fresh_row(seed, HAZARD)
+
+
+def heldout_hazard_kidnap_row(seed: int) -> dict:
+    """:func:`hazard_kidnap_fresh_row` with :data:`HAZARD` (the cure before hysteresis) on a held-out drive."""
+    return hazard_kidnap_fresh_row(seed, HAZARD)
+
+
+def heldout_global_row(seed: int) -> dict:
+    """:func:`hazard_global_fresh_row` with the cure :data:`pfcourse.scenarios.maprobot.global_mcl.CURE` on a
+    held-out drive."""
+    return hazard_global_fresh_row(seed, CURE)
+
+
+def heldout_kidnap_row(seed: int) -> dict:
+    """:func:`hazard_kidnap_fresh_row` with the cure :data:`pfcourse.scenarios.maprobot.global_mcl.CURE` on a
+    held-out drive."""
+    return hazard_kidnap_fresh_row(seed, CURE)
 
 
 def poor_fit_global_row(seed: int) -> dict:

@@ -646,6 +646,14 @@ STUDIES: dict[str, Study] = {study.name: study for study in [
           row_code="pfcourse/studies/map_global.py (exact_row), pfcourse/scenarios/maprobot/twins.py (exact_twin_estimate)",
           fields={"seeds": "run s: the global drive of maprobot/global (data_rng(s, 0)); no random numbers of its own",
                   "dt": maprobot.DT, "heading_tolerance_rad": map_global.HEADING_TOL}),
+    # the same bound on the held-out drives 150-199
+    Study(name="map_global/exact_heldout", row=map_global.exact_row, grid={}, n_runs=map_global.HELDOUT_RUNS,
+          base_seed=map_global.HELDOUT_SEED, seeds="run", failures="raise", table="map_global/exact_heldout.csv",
+          provenance="map_global/exact_heldout.json", columns=map_global.EXACT_COLUMNS, sample=2,
+          row_code="pfcourse/studies/map_global.py (exact_row), pfcourse/scenarios/maprobot/twins.py (exact_twin_estimate)",
+          fields={"seeds": "run s (held-out drives 150-199): the global drive of maprobot/global (data_rng(s, 0)); "
+                           "no random numbers of its own",
+                  "dt": maprobot.DT, "heading_tolerance_rad": map_global.HEADING_TOL}),
     # the cure (global_mcl.HAZARD) re-measured on fresh drives 100-149, not those it was chosen on
     *(Study(name=f"map_global/{name}", row=row, grid={}, n_runs=map_global.FRESH_RUNS, seeds="run",
             base_seed=map_global.FRESH_SEED, failures="raise", table=f"map_global/{name}.csv",
@@ -658,6 +666,23 @@ STUDIES: dict[str, Study] = {study.name: study for study in [
                             "2 m away at some step, after 10 s within them"})
       for name, row, columns in [("global_fresh", map_global.hazard_global_fresh_row, map_global.GLOBAL_FRESH_COLUMNS),
                                  ("kidnap_fresh", map_global.hazard_kidnap_fresh_row, map_global.KIDNAP_FRESH_COLUMNS)]),
+    # held-out drives 150-199: the cure before hysteresis (global_mcl.HAZARD) and the cure (global_mcl.CURE), paired
+    *(Study(name=f"map_global/{name}", row=row, grid={}, n_runs=map_global.HELDOUT_RUNS, seeds="run",
+            base_seed=map_global.HELDOUT_SEED, failures="raise", table=f"map_global/{name}.csv",
+            provenance=f"map_global/{name}.json", columns=columns, sample=1,
+            row_code=f"pfcourse/studies/map_global.py ({row.__name__}), pfcourse/scenarios/maprobot/global_mcl.py",
+            fields={"seeds": "run s (held-out drives 150-199): drive and scans as maprobot/global and maprobot/kidnap "
+                             "(data_rng(s, 0), kidnap_rng(s)); filter numpy.random.default_rng([41, s, 2])",
+                    "dt": maprobot.DT, "heading_tolerance_rad": map_global.HEADING_TOL,
+                    "lost": "pfcourse/studies/map_global.py lost_times: 2 s or more outside the lock-on tolerances, "
+                            "2 m away at some step, after 10 s within them"})
+      for name, row, columns in [("global_heldout_hazard", map_global.heldout_hazard_global_row,
+                                  map_global.GLOBAL_FRESH_COLUMNS),
+                                 ("kidnap_heldout_hazard", map_global.heldout_hazard_kidnap_row,
+                                  map_global.KIDNAP_FRESH_COLUMNS),
+                                 # the cure (global_mcl.CURE: hysteresis, the belief's evidence with its strata)
+                                 ("global_heldout", map_global.heldout_global_row, map_global.GLOBAL_FRESH_COLUMNS),
+                                 ("kidnap_heldout", map_global.heldout_kidnap_row, map_global.KIDNAP_FRESH_COLUMNS)]),
     Study(name="terrain_mpf", row=terrain_marginalised.row, grid={"N": terrain_marginalised.SIZES},
           n_runs=100, seeds="run", table="terrain_mpf.csv", **_FLIGHTS, provenance="terrain_mpf.json",
           columns=terrain_marginalised.COLUMNS, seed_column="flight", cheap=lambda t: t["N"] <= 3000, sample=2,

@@ -131,6 +131,9 @@ exception is reported as a problem); ``str(report)`` prints the verdict.
   (sensor resetting) for a door-distance sensor in a corridor, weighted ``u / q p`` (the chapter
   *Finding the robot on the map*, :mod:`.map_global`); the generator is checked, and equal weights,
   the likelihood alone, the prior left out and the kernel's constant left out are named.
+* :func:`check_takeover` - ``fn(log_prior_odds, sd, confirm, T, runs, rng) -> share``: exercise 15.1, how often a
+  look-alike stratum takes over a right cloud under hysteresis (:mod:`.map_global`), against the exact streak
+  probability; the generator is checked and the mistakes of :data:`TAKEOVER_MISTAKES` are named.
 * :func:`check_random_beams` - ``fn(z, z_star, beam, k, rng) -> (N,)``: the beam model's log-likelihood on
   ``k`` beams drawn at random among a scan's echoes, the same for every pose (the real robot's chapter,
   :mod:`.real_robot`); the beams summed are solved for, the generator is checked, and the mistakes of
@@ -175,7 +178,9 @@ from pfcourse.book.exercises.checking import (  # noqa: F401
 )
 from pfcourse.book.exercises.map_global import (  # noqa: F401
     RESET_MISTAKES,
+    TAKEOVER_MISTAKES,
     check_reset_weights,
+    check_takeover,
 )
 from pfcourse.book.exercises.real_robot import (  # noqa: F401
     RANDOM_BEAM_MISTAKES,

@@ -1,5 +1,10 @@
-"""The checked exercise of the chapter *Finding the robot on the map* (book/part2/map_global): poses drawn
-from a reading, weighted correctly, for another sensor.
+"""The checked exercises of the chapter *Finding the robot on the map* (book/part2/map_global).
+
+Exercise 15.1 (:func:`check_takeover`, at the end of this module): how often a look-alike stratum takes over a
+right cloud when hysteresis asks for several wins in a row, against the exact streak probability.
+
+The earlier exercise 15.1 (:func:`check_reset_weights`, kept and tested): poses drawn from a reading, weighted
+correctly, for another sensor.
 
 A robot stands somewhere in a corridor ``[0, L]`` (uniform prior ``u(x) = 1 / L``) with doors at known
 places ``d_1, ..., d_D``; its sensor reads the distance to the nearest door with Gaussian noise:
@@ -241,3 +246,154 @@ def _estimates(runs, corridor: Corridor, z: float) -> tuple[float, float, float,
     k = len(runs)
     return (float(per_call.mean()), float(per_call.std(ddof=1) / np.sqrt(k)),
             float(means.mean()), float(means.std(ddof=1) / np.sqrt(k)))
+
+
+# --- Exercise 15.1 (since issue 41's hysteresis): how often a look-alike stratum takes over a right cloud ---
+
+TAKEOVER_MISTAKES: dict[str, str] = {
+    "total": "the twin takes over after confirm wins in all, not confirm wins in a row: a loss must reset the "
+             "streak to 0 (hysteresis asks for consecutive injections)",
+    "no_prior": "the prior odds are left out: the stratum's log posterior odds are log_prior_odds + the noisy "
+                "log Bayes factor, and a kidnapping is a priori rare",
+    "prior_sign": "the prior odds enter with the wrong sign: log_prior_odds is already the stratum's (negative) "
+                  "log-odds against the cloud, so add it as it is",
+    "variance": "sd is used as a variance (the noise scaled by sd ** 2): sd is the standard deviation "
+                "of the log Bayes factor, so draw log_prior_odds + sd * rng.standard_normal(...)",
+    "one_more": "the streak must exceed confirm (confirm + 1 wins in a row): the twin takes over at the "
+                "confirm-th win in a row (streak >= confirm)",
+    "last_only": "only the last confirm injections are looked at: the twin takes over at the first streak of "
+                 "confirm wins anywhere in the T injections, and then it has the weight",
+    "count": "the function returns a count of runs, not their share: divide by runs",
+}
+
+#: The checker's cases: (log prior odds, sd of the log Bayes factor, confirm, T injections).  The first is the
+#: chapter's: xi_k = 4e-3 and 45 injections in a 100-s drive.
+TAKEOVER_CASES = ((float(np.log(4e-3 / (1 - 4e-3))), 3.0, 1, 45), (float(np.log(4e-3 / (1 - 4e-3))), 3.0, 3, 45),
+                  (-2.0, 1.5, 2, 20), (-2.0, 1.5, 2, 4))
+TAKEOVER_RUNS = 20000
+#: The case on which the generator is checked: no answer or mistake saturates at 0 or 1 there.
+SEED_CASE = (-2.0, 1.5, 2, 4)
+
+
+def takeover_answer(log_prior_odds: float, sd: float, confirm: int, T: int, runs: int, rng: np.random.Generator,
+                    mistake: str | None = None) -> float:
+    """The reference answer (the share of ``runs`` simulated drives in which a twin's stratum takes over within
+    ``T`` injections), or what one mistake of :data:`TAKEOVER_MISTAKES` computes."""
+    if mistake is not None and mistake not in TAKEOVER_MISTAKES:
+        raise ValueError(f"unknown mistake {mistake!r}; one of {sorted(TAKEOVER_MISTAKES)}")
+    e = rng.standard_normal((runs, T))
+    scale = sd ** 2 if mistake == "variance" else sd
+    prior = 0.0 if mistake == "no_prior" else (-log_prior_odds if mistake == "prior_sign" else log_prior_odds)
+    win = prior + scale * e > 0
+    if mistake == "total":
+        hit = win.sum(axis=1) >= confirm
+    elif mistake == "last_only":
+        hit = win[:, T - confirm:].all(axis=1)
+    else:
+        need = confirm + 1 if mistake == "one_more" else confirm
+        streak = np.zeros(runs, dtype=int)
+        hit = np.zeros(runs, dtype=bool)
+        for t in range(T):
+            streak = np.where(win[:, t], streak + 1, 0)
+            hit |= streak >= need
+    share = float(hit.mean())
+    return share * runs if mistake == "count" else share
+
+
+def exact_takeover(p: float, confirm: int, T: int) -> float:
+    """P(a run of ``confirm`` successes within ``T`` Bernoulli(``p``) trials), exactly (the streak's distribution)."""
+    state = np.zeros(confirm + 1)  # state[j]: streak j (< confirm) and no takeover yet; state[confirm]: taken over
+    state[0] = 1.0
+    for _ in range(T):
+        new = np.zeros_like(state)
+        new[confirm] = state[confirm] + p * state[confirm - 1]
+        new[0] = (1 - p) * state[:confirm].sum()
+        new[1:confirm] = p * state[:confirm - 1]
+        state = new
+    return float(state[confirm])
+
+
+def exact_takeover_case(log_prior_odds: float, sd: float, confirm: int, T: int,
+                        mistake: str | None = None) -> float:
+    """The exact value of :func:`takeover_answer` (its limit as ``runs`` grows), for the answer or a mistake."""
+    from scipy.stats import binom, norm
+
+    scale = sd ** 2 if mistake == "variance" else sd
+    prior = 0.0 if mistake == "no_prior" else (-log_prior_odds if mistake == "prior_sign" else log_prior_odds)
+    p = float(norm.cdf(prior / scale))
+    if mistake == "total":
+        return float(binom.sf(confirm - 1, T, p))
+    if mistake == "last_only":
+        return p ** confirm
+    return exact_takeover(p, confirm + 1 if mistake == "one_more" else confirm, T)
+
+
+def check_takeover(fn: Callable, runs: int = TAKEOVER_RUNS) -> CheckReport:
+    """Check ``fn(log_prior_odds, sd, confirm, T, runs, rng) -> share``: the generator (same seed same answer,
+    another seed another, NumPy's global state untouched), then, per case of :data:`TAKEOVER_CASES`, the share
+    against the exact one (:func:`exact_takeover_case`) within five binomial standard errors; a wrong share that
+    equals a mistake's replayed draws, or lies within that mistake's own tolerance and outside the answer's, is
+    named by :data:`TAKEOVER_MISTAKES`."""
+    report = CheckReport("the share of drives a look-alike stratum takes over, with hysteresis")
+    state = np.random.get_state()
+
+    def call(case, seed):
+        try:
+            out = fn(*case, runs, np.random.default_rng(seed))
+        except Exception as exc:  # a student's bug is reported, not raised
+            report.problems.append(f"the function raised {type(exc).__name__}: {exc}")
+            return None
+        if out is None:
+            report.problems.append("the function returned None: return the share of the runs in which the twin "
+                                   "takes over, a number between 0 and 1")
+            return None
+        try:
+            return float(out)
+        except (TypeError, ValueError):
+            report.problems.append(f"the function must return one number, the share; got {type(out).__name__}")
+            return None
+
+    first = call(SEED_CASE, 1)
+    if first is None:
+        np.random.set_state(state)
+        return report
+    again, other = call(SEED_CASE, 1), call(SEED_CASE, 2)
+    if again is None or other is None:
+        np.random.set_state(state)
+        return report
+    problem = _seed_problem(state, (np.array([first]),), (np.array([again]),), (np.array([other]),), "share",
+                            "rng.standard_normal((runs, T))")
+    if problem is not None:
+        report.problems.append(problem)
+        return report
+    generic = None
+    for case in TAKEOVER_CASES:
+        share = call(case, 7)
+        if share is None:
+            return report
+        if share > 1.0 + 1e-12:
+            report.problems.append(TAKEOVER_MISTAKES["count"])
+            return report
+        right = exact_takeover_case(*case)
+        se = max(np.sqrt(right * (1 - right) / runs), 0.5 / runs)
+        if abs(share - right) <= 5 * se:
+            continue
+        names = [m for m in TAKEOVER_MISTAKES  # replayed draws first: exact
+                 if m != "count" and share == takeover_answer(*case, runs, np.random.default_rng(7), m)]
+        if not names:  # then each mistake's own limit
+            names = [m for m in TAKEOVER_MISTAKES if m != "count" and abs(share - (lim := exact_takeover_case(
+                *case, mistake=m))) <= 5 * max(np.sqrt(lim * (1 - lim) / runs), 0.5 / runs)]
+        if len(names) == 1:
+            report.problems.append(TAKEOVER_MISTAKES[names[0]])
+            return report
+        log_odds, sd, confirm, T = case
+        wrong = (f"with log prior odds {log_odds:.2f}, sd {sd}, confirm {confirm} and T = {T} the share is {share:.4f}, "
+                 f"the exact one {right:.4f} (+- {5 * se:.4f} allowed): a twin wins an injection when "
+                 "log_prior_odds + sd * e > 0, and takes over at the first streak of confirm wins in a row")
+        if not names:
+            report.problems.append(wrong)
+            return report
+        generic = wrong  # several mistakes give this share: a later case tells them apart
+    if generic is not None:
+        report.problems.append(generic)
+    return report

@@ -44,8 +44,19 @@ resampling at every scan) with three changes, the cure of the chapter *Finding t
    evidence estimates, it sometimes passes the bar by chance and a twin's stratum replaces a right cloud
    (a false relocalization, counted in the stored studies ``map_global/*_fresh``).
 
+   **False relocalization** (:data:`CURE`).  Two guards keep a right cloud in place.  *The belief's
+   evidence* (``mixture_evidence``): at an injection whose stratum is admitted, the scan's evidence is the
+   mixture's, ``log((1 - eps_k) Z_k + eps_k B Z_k)`` (the sum of the mixed weights), not the moved cloud's
+   ``Z_k``; otherwise, once a stratum has replaced a wrong cloud, the next strata are compared with the wrong
+   cloud's poor record of the scans before and win by a wide margin, twins included (kidnap drive 5).
+   *Hysteresis* (``confirm``): a stratum is admitted only at the ``confirm``-th injection in a row at which it
+   outweighs the cloud (posterior odds above 1); one a twin wins by the noise of its Bayes factor is dropped.
+   A true kidnapping's strata keep winning; its recovery is delayed by ``confirm - 1`` injections.
+
    In practice the first scan collapses the weighted cloud into a few KLD bins, and from step 1 on
-   the bound asks for ``n_min``: KLD-sampling hardly acts on the book's map.
+   the bound asks for ``n_min``: KLD-sampling hardly acts on the book's map.  Part of that is the start's
+   weighting as two strata; ``start_mixture`` weights all its poses by the mixture density instead
+   (:func:`start_cloud`), which raises the start's ESS (tests/test_map_global_cure.py); not part of the cure.
 
 All draws come from the generator passed in, in a fixed order (:func:`global_mcl`).
 """
@@ -75,7 +86,14 @@ class GlobalSettings:
     """The cure's settings (module docstring).  ``kld_bin``: m, m, rad; ``kernel``: the proposal's kernel
     standard deviations (m, rad); ``inject_share``: the share of the cloud drawn from the scan at every
     ``inject_every``-th step; ``alpha_slow``, ``alpha_fast``: augmented MCL's averaging rates;
-    ``poor_fit_only``: inject at those steps only while ``eps_k > eps_min`` (augmented MCL's own trigger)."""
+    ``poor_fit_only``: inject at those steps only while ``eps_k > eps_min`` (augmented MCL's own trigger);
+    ``confirm``: hysteresis, an injected stratum takes its weight only at the ``confirm``-th injection in a row
+    whose posterior odds against the cloud exceed 1 (0: always, the cure before hysteresis);
+    ``start_mixture``: weight the start's uniform and scan-drawn poses together by the mixture density
+    (deterministic-mixture weights, :func:`start_cloud`) instead of as two strata of half the mass each;
+    ``mixture_evidence``: at a step where a stratum is admitted, record the normaliser of the mixed weights,
+    ``log((1 - eps_k) Z_k + eps_k B Z_k)``, as the belief's evidence for the scan (not the moved cloud's ``Z_k``
+    alone), so that a later stratum is compared with the belief that now holds (module docstring)."""
 
     n_start: int = 20000
     n_start_scan: int = 2000
@@ -101,6 +119,9 @@ class GlobalSettings:
     refine_step: tuple[float, float] = (0.15, 0.05)
     poor_fit_only: bool = False
     kidnap_hazard: float | None = None
+    confirm: int = 0
+    start_mixture: bool = False
+    mixture_evidence: bool = False
 
     def __post_init__(self) -> None:
         for name in ("n_start", "n_min", "n_max", "inject_min", "inject_every", "candidates", "headings", "keep"):
@@ -108,6 +129,7 @@ class GlobalSettings:
         check_count(self.n_start_scan, "n_start_scan", minimum=0)
         check_count(self.history, "history", minimum=0)
         check_count(self.refine_rounds, "refine_rounds", minimum=0)
+        check_count(self.confirm, "confirm", minimum=0)
         check_count(self.refine_trials, "refine_trials")
         if self.n_min > self.n_max:
             raise ParameterError(f"n_min ({self.n_min}) must not exceed n_max ({self.n_max})")
@@ -135,6 +157,11 @@ POOR_FIT = replace(SETTINGS, poor_fit_only=True, n_min=1000)
 #: injected stratum has prior mass ``KIDNAP_HAZARD * inject_every`` (module docstring, "Which prior").
 KIDNAP_HAZARD = 1e-3
 HAZARD = replace(SETTINGS, kidnap_hazard=KIDNAP_HAZARD)
+#: The cure (module docstring, "False relocalization"): the belief's evidence counts the strata it admits, and an
+#: injected stratum takes the weight only after winning CONFIRM injections in a row (hysteresis); chosen on kidnap
+#: drive 5's cascade and a screen of drives 0-49, measured on held-out drives 150-199.
+CONFIRM = 3
+CURE = replace(HAZARD, confirm=CONFIRM, mixture_evidence=True)
 
 
 def kld_size(x: Array, W: Array, s: GlobalSettings, rng: np.random.Generator) -> int:
@@ -164,6 +191,23 @@ def scan_proposal(grid: OccupancyGrid, field: LikelihoodField, z: Array, n: int,
     ``s.refine_trials`` Gaussian perturbations (``s.refine_step``), one picked per pose in proportion to its
     tempered score, plus Gaussian noise of ``s.kernel``."""
     n = check_count(n, "n", minimum=0)
+    c, log_v = scan_centres(grid, field, z, rng, s)
+    pick = systematic(np.exp(log_v), n, rng) if n > 0 else np.zeros(0, dtype=int)
+    h = kernel_widths(s)
+    x = c[pick] + rng.standard_normal((n, 3)) * h
+    x[:, 2] = wrap_angle(x[:, 2])
+    return x, kernel_log_density(x, c, log_v, h)
+
+
+def kernel_widths(s: GlobalSettings = SETTINGS) -> Array:
+    """The proposal's kernel standard deviations ``(m, m, rad)``."""
+    return np.array([s.kernel[0], s.kernel[0], s.kernel[1]])
+
+
+def scan_centres(grid: OccupancyGrid, field: LikelihoodField, z: Array, rng: np.random.Generator,
+                 s: GlobalSettings = SETTINGS) -> tuple[Array, Array]:
+    """The proposal's kernel centres ``(keep, 3)`` and their log-probabilities (:func:`scan_proposal`, whose
+    draws up to the choice of centres these are)."""
     xy = grid.sample_free(s.candidates, rng)[:, :2]
     theta = wrap_angle((rng.random() + np.arange(s.headings)) * 2 * np.pi / s.headings)
     c = np.column_stack([np.repeat(xy, s.headings, axis=0), np.tile(theta, s.candidates)])
@@ -179,12 +223,7 @@ def scan_proposal(grid: OccupancyGrid, field: LikelihoodField, z: Array, n: int,
         j = t_score.argmax(axis=1)
         better = t_score[np.arange(s.keep), j] > score
         c[better], score[better] = trial[better, j[better]], t_score[better, j[better]]
-    log_v = score - logsumexp(score)
-    pick = systematic(np.exp(log_v), n, rng) if n > 0 else np.zeros(0, dtype=int)
-    h = np.array([s.kernel[0], s.kernel[0], s.kernel[1]])
-    x = c[pick] + rng.standard_normal((n, 3)) * h
-    x[:, 2] = wrap_angle(x[:, 2])
-    return x, kernel_log_density(x, c, log_v, h)
+    return c, score - logsumexp(score)
 
 
 def kernel_log_density(x: Array, centres: Array, log_v: Array, h: Array) -> Array:
@@ -222,12 +261,7 @@ def global_mcl(grid: OccupancyGrid, field: LikelihoodField, motion: OdometryMode
     if scans.ndim != 2 or odometry.shape != (len(scans), 3):
         raise ShapeError(f"scans must be (K, B) and odometry (K, 3), got {scans.shape} and {odometry.shape}")
     if start is None:
-        x_u = grid.sample_free(s.n_start, rng)
-        parts = [(x_u, field.log_likelihood(x_u, scans[0]))]
-        if s.n_start_scan > 0:
-            x_q, log_q = scan_proposal(grid, field, scans[0], s.n_start_scan, rng, s)
-            parts.append((x_q, uniform_log_density(grid, x_q) - log_q + field.log_likelihood(x_q, scans[0])))
-        x, log_w = _stratified([(1.0 / len(parts), p, lw) for p, lw in parts])
+        x, log_w = start_cloud(grid, field, scans[0], rng, s)
     else:
         x = np.asarray(start, dtype=float) + rng.standard_normal((s.n_min, 3)) * np.asarray(start_std)
         log_w = field.log_likelihood(x, scans[0]) - np.log(s.n_min)
@@ -235,6 +269,7 @@ def global_mcl(grid: OccupancyGrid, field: LikelihoodField, motion: OdometryMode
     log_z = np.zeros(K)  # the cloud's predictive log-likelihood of each scan
     log_z[0] = logsumexp(log_w)  # step 0: the weights are importance weights of the prior
     w_slow = w_fast = None
+    streak = 0  # injections in a row whose stratum out-scored the cloud (hysteresis, s.confirm)
     out = GlobalResult(np.empty((K, 3)), np.empty(K, dtype=int), np.zeros(K), np.zeros(K), np.zeros(K))
     for k in range(K):
         inj_mass = 0.0
@@ -260,9 +295,7 @@ def global_mcl(grid: OccupancyGrid, field: LikelihoodField, motion: OdometryMode
             r = max(s.inject_min, int(round(s.inject_share * n))) if inject else 0
             if r > 0:
                 inj, lw_r = injected(grid, field, motion, scans, odometry, k, r, log_z, rng, s)
-                x, log_w = _stratified([(1.0 - eps, moved, lw_m), (eps, inj, lw_r)])
-                w = np.exp(log_w - logsumexp(log_w))
-                inj_mass = float(w[len(moved):].sum())
+                x, log_w, inj_mass, streak, log_z[k] = admit(moved, lw_m, inj, lw_r, eps, streak, log_z[k], s)
             else:
                 x, log_w = moved, lw_m
         W = np.exp(log_w - logsumexp(log_w))
@@ -270,6 +303,55 @@ def global_mcl(grid: OccupancyGrid, field: LikelihoodField, motion: OdometryMode
         out.sizes[k] = len(x)
         out.injected_mass[k] = inj_mass
     return out
+
+
+def admit(moved: Array, lw_m: Array, inj: Array, lw_r: Array, eps: float, streak: int, log_z_k: float,
+          s: GlobalSettings = SETTINGS) -> tuple[Array, Array, float, int, float]:
+    """One injection: the moved particles (mass ``1 - eps``) and the injected stratum (mass ``eps``) mixed, with
+    hysteresis and the belief's evidence (``s.confirm``, ``s.mixture_evidence``).
+
+    Returns the cloud and its log-weights, the injected share of the weight (0 if the stratum is not admitted),
+    the streak of injections in a row whose stratum out-weighed the cloud (the stratum is admitted when it
+    reaches ``s.confirm``; always with ``s.confirm = 0``), and the scan's log-evidence for the belief: the moved
+    cloud's ``log_z_k``, or with ``s.mixture_evidence`` and an admitted stratum the log of the mixed weights' sum."""
+    x, log_w = _stratified([(1.0 - eps, moved, lw_m), (eps, inj, lw_r)])
+    w = np.exp(log_w - logsumexp(log_w))
+    inj_mass = float(w[len(moved):].sum())
+    if s.confirm > 0:  # hysteresis: the stratum must out-weigh the cloud s.confirm injections in a row
+        streak = streak + 1 if inj_mass > 0.5 else 0
+        if streak < s.confirm:
+            return moved, lw_m, 0.0, streak, log_z_k
+    if s.mixture_evidence:  # the belief's evidence counts the stratum it admitted
+        log_z_k = float(logsumexp(log_w))
+    return x, log_w, inj_mass, streak, log_z_k
+
+
+def start_cloud(grid: OccupancyGrid, field: LikelihoodField, z: Array, rng: np.random.Generator,
+                s: GlobalSettings = SETTINGS) -> tuple[Array, Array]:
+    """Step 0 of global localization: ``s.n_start`` uniform poses and ``s.n_start_scan`` from the scan's
+    proposal, with log-weights (unnormalised) of the posterior after the scan ``z``.
+
+    Two strata (``s.start_mixture`` false): each group an importance sample of ``u`` with half the mass,
+    ``p(z | x)`` and ``u / q p(z | x)``.  Deterministic mixture (``s.start_mixture`` true): all poses
+    weighted ``u p(z | x) / (a u + (1 - a) q)``, ``a`` the uniform share of the poses, so a uniform pose
+    where the scan fits gets the weight a scan-drawn pose there would get (the balance heuristic)."""
+    x_u = grid.sample_free(s.n_start, rng)
+    parts = [(x_u, field.log_likelihood(x_u, z))]
+    if s.n_start_scan == 0:
+        return x_u, parts[0][1] - np.log(s.n_start)
+    if not s.start_mixture:
+        x_q, log_q = scan_proposal(grid, field, z, s.n_start_scan, rng, s)
+        parts.append((x_q, uniform_log_density(grid, x_q) - log_q + field.log_likelihood(x_q, z)))
+        return _stratified([(0.5, p, lw) for p, lw in parts])
+    c, log_v = scan_centres(grid, field, z, rng, s)
+    h = kernel_widths(s)
+    x_q = c[systematic(np.exp(log_v), s.n_start_scan, rng)] + rng.standard_normal((s.n_start_scan, 3)) * h
+    x_q[:, 2] = wrap_angle(x_q[:, 2])
+    x = np.concatenate([x_u, x_q])
+    log_u = uniform_log_density(grid, x)
+    a = s.n_start / len(x)
+    log_mix = np.logaddexp(np.log(a) + log_u, np.log1p(-a) + kernel_log_density(x, c, log_v, h))
+    return x, log_u + field.log_likelihood(x, z) - log_mix - np.log(len(x))
 
 
 def injected(grid: OccupancyGrid, field: LikelihoodField, motion: OdometryModel, scans: Array, odometry: Array,
