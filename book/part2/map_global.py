@@ -41,7 +41,7 @@ import pandas as pd
 from ipywidgets import SelectionSlider
 from IPython.display import display
 from scipy.special import logsumexp
-from scipy.stats import beta, norm
+from scipy.stats import norm
 
 from pfcourse import evidence
 from pfcourse.studies import map_global as mg
@@ -629,14 +629,9 @@ glue_values("lf_", demo_decided_s=float((decided_at[0] + 1) * study.DT), demo_lo
 # ({glue:text}`lf_hazard_lost_runs:d` runs): a difference the data separate.
 
 # %% tags=["remove-input"] jupyter={"source_hidden": true}
-def exact_difference(p, level=0.95):
-    """A - B of paired rates with an exact interval (Clopper-Pearson on the discordant runs)."""
-    n, nd = p.a.n, p.only_a + p.only_b
-    if nd == 0:
-        return 0.0, 0.0, 0.0
-    lo = beta.ppf((1 - level) / 2, p.only_a, nd - p.only_a + 1) if p.only_a else 0.0
-    hi = beta.ppf(1 - (1 - level) / 2, p.only_a + 1, nd - p.only_a) if p.only_b else 1.0
-    return p.difference, nd * (2 * lo - 1) / n, nd * (2 * hi - 1) / n
+def exact_difference(p):
+    """A - B of paired rates and its interval (the one of `evidence.paired_rates`, consistent with McNemar)."""
+    return p.difference, p.difference_low, p.difference_high
 
 
 def by_seed(name):

@@ -72,6 +72,7 @@ from scipy.special import logsumexp
 from pfcourse.angles import wrap_angle
 from pfcourse.checks import Array, check_count, check_probability, check_real
 from pfcourse.errors import ParameterError, ShapeError
+from pfcourse.resampling import systematic
 from pfcourse.scenarios.maprobot.grid import OccupancyGrid
 from pfcourse.scenarios.maprobot.likelihood_field import LikelihoodField
 from pfcourse.scenarios.maprobot.motion import OdometryModel
@@ -167,15 +168,8 @@ CURE = replace(HAZARD, confirm=CONFIRM, mixture_evidence=True)
 def kld_size(x: Array, W: Array, s: GlobalSettings, rng: np.random.Generator) -> int:
     """KLD-sampling's number of particles for the cloud ``x`` with weights ``W``: the bins (``s.kld_bin``)
     occupied by ``s.n_max`` systematic draws, the bound of Fox (2003), clipped to ``[n_min, n_max]``."""
-    bins = len(np.unique(cell_codes(x[systematic(W, s.n_max, rng)], s.kld_bin)))
+    bins = len(np.unique(cell_codes(x[systematic(W, rng, s.n_max)], s.kld_bin)))
     return int(np.clip(kld_bound(bins, s.kld_epsilon, s.kld_delta), s.n_min, s.n_max))
-
-
-def systematic(W: Array, m: int, rng: np.random.Generator) -> Array:
-    """``m`` systematic ancestors from normalised weights ``W`` (one uniform draw)."""
-    c = np.cumsum(W)
-    c[-1] = 1.0
-    return np.searchsorted(c, (rng.random() + np.arange(m)) / m, side="right").clip(max=len(W) - 1)
 
 
 def uniform_log_density(grid: OccupancyGrid, x: Array) -> Array:
@@ -192,7 +186,7 @@ def scan_proposal(grid: OccupancyGrid, field: LikelihoodField, z: Array, n: int,
     tempered score, plus Gaussian noise of ``s.kernel``."""
     n = check_count(n, "n", minimum=0)
     c, log_v = scan_centres(grid, field, z, rng, s)
-    pick = systematic(np.exp(log_v), n, rng) if n > 0 else np.zeros(0, dtype=int)
+    pick = systematic(np.exp(log_v), rng, n) if n > 0 else np.zeros(0, dtype=int)
     h = kernel_widths(s)
     x = c[pick] + rng.standard_normal((n, 3)) * h
     x[:, 2] = wrap_angle(x[:, 2])
@@ -276,7 +270,7 @@ def global_mcl(grid: OccupancyGrid, field: LikelihoodField, motion: OdometryMode
         if k > 0:
             W = np.exp(log_w - logsumexp(log_w))
             n = kld_size(x, W, s, rng)
-            moved = motion.sample(x[systematic(W, n, rng)], odometry[k], rng)
+            moved = motion.sample(x[systematic(W, rng, n)], odometry[k], rng)
             lw_m = field.log_likelihood(moved, scans[k])
             log_z[k] = logsumexp(lw_m) - np.log(len(moved))
             # augmented MCL (table 8.3): fast and slow averages of Z_k, in the log domain
@@ -345,7 +339,7 @@ def start_cloud(grid: OccupancyGrid, field: LikelihoodField, z: Array, rng: np.r
         return _stratified([(0.5, p, lw) for p, lw in parts])
     c, log_v = scan_centres(grid, field, z, rng, s)
     h = kernel_widths(s)
-    x_q = c[systematic(np.exp(log_v), s.n_start_scan, rng)] + rng.standard_normal((s.n_start_scan, 3)) * h
+    x_q = c[systematic(np.exp(log_v), rng, s.n_start_scan)] + rng.standard_normal((s.n_start_scan, 3)) * h
     x_q[:, 2] = wrap_angle(x_q[:, 2])
     x = np.concatenate([x_u, x_q])
     log_u = uniform_log_density(grid, x)
@@ -371,7 +365,7 @@ def injected(grid: OccupancyGrid, field: LikelihoodField, motion: OdometryModel,
     log_evidence = 0.0
     for j in range(j0 + 1, k + 1):
         log_evidence += logsumexp(lw) - np.log(r)
-        x = motion.sample(x[systematic(np.exp(lw - logsumexp(lw)), r, rng)], odometry[j], rng)
+        x = motion.sample(x[systematic(np.exp(lw - logsumexp(lw)), rng, r)], odometry[j], rng)
         lw = field.log_likelihood(x, scans[j])
     return x, lw + log_evidence - log_z[j0:k].sum()
 
