@@ -19,7 +19,7 @@
 # **You need** Gaussian densities, the law of large numbers and the central limit theorem;
 # NumPy arrays and a random generator.
 #
-# **Time:** about sixteen minutes to read; the notebook runs in under half a minute.
+# **Time:** about seventeen minutes to read; the notebook runs in under half a minute.
 # :::
 
 # %% tags=["remove-input"] jupyter={"source_hidden": true}
@@ -218,6 +218,11 @@ plt.show()
 # and how accurate is the estimate?
 #
 # ## How accurate: the variance, and the ESS
+#
+# The picture suggests the answer: $N$ weighted draws behave like ESS draws from the target, so
+# the estimate should scatter like an average of ESS independent draws,
+# $\operatorname{Var}_\pi(\varphi) / \mathrm{ESS}$. The derivation below makes this precise, and
+# shows when it fails.
 #
 # Take $w = \pi / q$ normalised, so $\mathbb E_q w = 1$ (the constant cancels in $\hat I_N$), and
 # write the error as a ratio of two averages:
