@@ -34,7 +34,8 @@ from reading_times import in_words  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]
 BOOK = ROOT / "book"
-FIRST_TEXT = ["onramp", "part1/model", "part1/kalman", "part1/sis", "part1/sir", "part1/why_it_works",
+FIRST_TEXT = ["onramp", "part1/model", "part1/kalman", "part1/importance_sampling", "part1/sis", "part1/sir",
+              "part1/why_it_works",
               "part1/resampling_schemes",
               "part1/proposals", "part1/rao_blackwell", "part1/auxiliary", "part2/map_robot", "part2/map_global",
               "part4/pf_vs_kalman", "part4/data_association", "part5/particle_mcmc", "part5/static_parameters",

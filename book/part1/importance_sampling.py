@@ -19,7 +19,7 @@
 # **You need** Gaussian densities, the law of large numbers and the central limit theorem;
 # NumPy arrays and a random generator.
 #
-# **Time:** about sixteen minutes to read; the notebook runs in under half a minute.
+# **Time:** about seventeen minutes to read; the notebook runs in under half a minute.
 # :::
 
 # %% tags=["remove-input"] jupyter={"source_hidden": true}
@@ -33,18 +33,97 @@ from scipy.special import gammaln, logsumexp
 from pfcourse import evidence
 from pfcourse.book.exercises import (
     check_importance_sampler, check_weight_update)
+from pfcourse.book.panels import control_panel, seed_box
 from pfcourse.book.report import EvidenceBlock, glue_values
 from pfcourse.book.style import plain_log_axis, use_style
+
+import ipywidgets as widgets
+from IPython.display import display
 
 use_style()
 
 # %% [markdown]
-# ## The idea: weight draws from another density
+# ## The picture: a few draws take the weight
 #
 # You want the posterior of a state $x$ after a measurement $z$, and you can draw from the prior
 # but not from the posterior. Draw from the prior anyway, then let each draw count in proportion
 # to how well it explains $z$. That is importance sampling, and every particle filter of this
 # book does it at every step.
+#
+# The toy of this chapter: a prior $x \sim \mathcal N(0, 1)$ and one measurement $z = x + v$,
+# $v \sim \mathcal N(0, \sigma_v^2)$, here $z = 1$. The figure draws the same $100$ points from
+# the prior, the *proposal* (blue), and stands on each a bar as tall as its *weight*: the ratio
+# of the posterior, the *target* (green), to the proposal at that point. On the left the
+# measurement is coarse, $\sigma_v = 1$, and the target is about as wide as the proposal; on the
+# right it is sharp, $\sigma_v = 0.1$, and the target is ten times narrower.
+
+# %% tags=["hide-input"] jupyter={"source_hidden": true}
+z = 1.0
+x_grid = np.linspace(-3.5, 3.5, 500)
+
+
+def log_t3(x):
+    """log density of Student's t with 3 degrees of freedom."""
+    return stats.t.logpdf(x, 3)
+
+
+def weigh(x, sd_v, tails="Gaussian"):
+    """Normalised weights of the draws x for the toy, z = 1, proposal N(0, 1) or t_3."""
+    log_q = stats.norm.logpdf(x) if tails == "Gaussian" else log_t3(x)
+    lw = stats.norm.logpdf(z, loc=x, scale=sd_v) + stats.norm.logpdf(x) - log_q
+    return np.exp(lw - logsumexp(lw))
+
+
+def draw_weights(top, bottom, x, sd_v, tails="Gaussian"):
+    """Proposal, target and draws above; the draws' weights as bars below."""
+    W = weigh(x, sd_v, tails)
+    m, sd = z / (1 + sd_v**2), np.sqrt(sd_v**2 / (1 + sd_v**2))
+    q = stats.norm.pdf(x_grid) if tails == "Gaussian" else np.exp(log_t3(x_grid))
+    top.plot(x_grid, q, color="tab:blue", label=f"proposal ({tails})")
+    top.fill_between(x_grid, stats.norm.pdf(x_grid, m, sd), color="tab:green",
+                     alpha=0.3, lw=0, label="target")
+    high = 1.15 * max(stats.norm.pdf(0), 1 / (sd * np.sqrt(2 * np.pi)))
+    top.plot(x, np.full(len(x), -0.07 * high), "|", color="tab:red", ms=8,
+             label="draws")
+    top.set_ylim(-0.14 * high, high)
+    top.set_ylabel("density")
+    bottom.vlines(x, 0, W, color="tab:red", lw=1.2)
+    bottom.set_ylabel("weight $W^i$")
+    bottom.set_xlabel("state x (no unit)")
+    bottom.set_xlim(x_grid[0], x_grid[-1])
+    ess = 1.0 / np.sum(W**2)
+    top.set_title(rf"$\sigma_v$ = {sd_v:g}: ESS {ess:.1f} of {len(x)}",
+                  fontsize=10)
+    return ess
+
+
+x100 = np.random.default_rng(1).standard_normal(100)  # the same 100 draws for every panel
+picture_ess = {s: 1.0 / np.sum(weigh(x100, s) ** 2) for s in (1.0, 0.3, 0.1)}
+fig, axes = plt.subplots(2, 2, figsize=(7, 4.6), sharex=True, height_ratios=(3, 2))
+for col, s in enumerate((1.0, 0.1)):
+    draw_weights(axes[0, col], axes[1, col], x100, s)
+axes[1, 0].set_ylim(0, axes[1, 1].get_ylim()[1])  # the same weight scale in both columns
+axes[0, 0].legend(loc="upper left", fontsize=8)
+axes[0, 1].set_ylabel("")
+axes[1, 1].set_ylabel("")
+fig.tight_layout()
+plt.show()
+
+# %% tags=["remove-input"] jupyter={"source_hidden": true}
+glue_values("is_picture_ess_", sd1=picture_ess[1.0], sd03=picture_ess[0.3], sd01=picture_ess[0.1])
+
+# %% [markdown]
+# On the left most draws land where the target has mass and share the weight. On the right a
+# few draws land in the narrow target, and they take all of it. The *effective sample size*
+# (ESS, defined below) counts the draws that still count: with $\sigma_v = 1$ the hundred draws
+# are worth {glue:text}`is_picture_ess_sd1:.0f`; with $\sigma_v = 0.1$, about
+# {glue:text}`is_picture_ess_sd01:.0f`. Nothing went wrong on the right: the target is simply
+# narrow, and a blind proposal puts only a few draws in it. On the left the bars are tallest
+# near $x = z = 1$ while the target peaks at $z / (1 + \sigma_v^2) = 1/2$: the draws already
+# follow the prior, so the weights carry only the likelihood. A particle filter meets this at
+# every step, and the weights of a whole path multiply these ratios together ({doc}`sis`).
+#
+# ## The derivation
 #
 # In general: we want $I = \mathbb E_\pi \varphi = \int \varphi(x)\, \pi(x)\, dx$ under a
 # *target* density $\pi$, for a function $\varphi$ (the state itself, an indicator, ...), and
@@ -57,7 +136,7 @@ use_style()
 # $$
 #
 # An average of draws $x^i \sim q$ estimates an expectation under $q$, so
-# $\frac1N \sum_i w(x^i)\, \varphi(x^i) \to I$: each draw counts in proportion to its *weight*,
+# $\frac1N \sum_i w(x^i)\, \varphi(x^i) \to I$: each draw counts in proportion to its weight,
 # large where $\pi$ puts more mass than $q$. A posterior is known only up to a constant,
 # $\pi = \tilde\pi / Z$ with $\tilde\pi(x) = p(z \mid x)\, p(x)$ and $Z = p(z)$. The constant is
 # itself an expectation under $q$, $Z = \mathbb E_q[\tilde\pi / q]$, so with the unnormalised
@@ -83,8 +162,7 @@ use_style()
 #    $\mathrm{ESS} = 1 / \sum_i (W^i)^2$.
 # :::
 #
-# The toy problem of this chapter has an exact answer: prior $x \sim \mathcal N(0, 1)$, one
-# measurement $z = x + v$ with $v \sim \mathcal N(0, \sigma_v^2)$, so the posterior is
+# On the toy the answer is exact: the posterior is
 # $\mathcal N\big(z / (1 + \sigma_v^2),\ \sigma_v^2 / (1 + \sigma_v^2)\big)$ and
 # $Z = \mathcal N(z; 0, 1 + \sigma_v^2)$. Here is Algorithm 3.1 with the prior as proposal, for
 # $z = 1$, $\sigma_v = 0.3$ and $N = 30$ draws, against the exact answers. The weights stay in
@@ -136,49 +214,15 @@ plt.show()
 # %% [markdown]
 # The draws fall where the prior puts them; the weights keep those that explain $z$ and all but
 # erase the others. The weighted mean is near the exact one, yet a few draws carry most of the
-# weight: the thirty draws are worth far fewer draws from the posterior itself.
-#
-# ## Why the weights concentrate: a picture
-#
-# The weight is the ratio $\pi / q$. When the target is about as wide as the proposal, most
-# draws land where the target has mass and get comparable weights. When the target is much
-# narrower, few draws land in it, and those few take all the weight. The figure draws the same
-# $100$ prior draws, weighted for three measurement noises: the sharper the measurement, the
-# narrower the posterior, the fewer the draws that count.
-
-# %% tags=["hide-input"] jupyter={"source_hidden": true}
-x100 = np.random.default_rng(1).standard_normal(100)  # the same 100 draws for the three panels
-picture_ess = {}
-fig, axes = plt.subplots(3, 1, figsize=(7, 5.4), sharex=True)
-for ax, s in zip(axes, (1.0, 0.3, 0.1)):
-    lw = stats.norm.logpdf(z, loc=x100, scale=s)
-    Wp = np.exp(lw - logsumexp(lw))
-    picture_ess[s] = 1.0 / np.sum(Wp**2)
-    m, sd = z / (1 + s**2), np.sqrt(s**2 / (1 + s**2))
-    ax.fill_between(grid, stats.norm.pdf(grid, m, sd) / stats.norm.pdf(m, m, sd) * Wp.max(), color="tab:green",
-                    alpha=0.2, lw=0, label="posterior (scaled)")
-    ax.vlines(x100, 0, Wp, color="tab:red", lw=1.2, label=r"weights $W^i$")
-    ax.set_title(rf"$\sigma_v$ = {s}: ESS = {picture_ess[s]:.1f} of 100", fontsize=10)
-    ax.set_ylabel(r"$W^i$")
-axes[0].legend(loc="upper left", fontsize=8)
-axes[-1].set_xlabel("state x (no unit)")
-fig.tight_layout()
-plt.show()
-
-# %% tags=["remove-input"] jupyter={"source_hidden": true}
-glue_values("is_picture_ess_", sd1=picture_ess[1.0], sd03=picture_ess[0.3], sd01=picture_ess[0.1])
-
-# %% [markdown]
-# With $\sigma_v = 1$ the hundred draws are worth {glue:text}`is_picture_ess_sd1:.0f`; with
-# $\sigma_v = 0.1$, about {glue:text}`is_picture_ess_sd01:.0f`. Nothing went wrong in the second
-# case: the posterior is simply ten times narrower than the prior, and a blind proposal puts
-# only a few draws in it. In the top panel the weights, proportional to $p(z \mid x)$, are
-# largest near $x = z = 1$ while the posterior peaks at $z / (1 + \sigma_v^2) = 1/2$: the draws
-# already follow the prior, so the weights carry only the likelihood. A particle filter meets this at every step, and the weights of a
-# whole path multiply these ratios together ({doc}`sis`). How many draws are the weighted draws
-# worth, and how accurate is the estimate? That is the effective sample size.
+# weight: the thirty draws are worth far fewer draws from the posterior itself. How many,
+# and how accurate is the estimate?
 #
 # ## How accurate: the variance, and the ESS
+#
+# The picture suggests the answer: $N$ weighted draws behave like ESS draws from the target, so
+# the estimate should scatter like an average of ESS independent draws,
+# $\operatorname{Var}_\pi(\varphi) / \mathrm{ESS}$. The derivation below makes this precise, and
+# shows when it fails.
 #
 # Take $w = \pi / q$ normalised, so $\mathbb E_q w = 1$ (the constant cancels in $\hat I_N$), and
 # write the error as a ratio of two averages:
@@ -209,12 +253,13 @@ glue_values("is_picture_ess_", sd1=picture_ess[1.0], sd03=picture_ess[0.3], sd01
 # $N$ weighted draws are worth ESS draws from $\pi$. It looks at the weights only, not at
 # $\varphi$. On the toy, with $N = 100$ and $\varphi(x) = x$, the asymptotic variance holds at
 # $\sigma_v = 1$: the variance of the estimates over {glue:text}`is_toy_reps:,d` seeded
-# repetitions is {glue:text}`is_var_ratio_sd1:.2f` ({glue:text}`is_var_ratio_sd1_low:.2f` to
-# {glue:text}`is_var_ratio_sd1_high:.2f`) times $\sigma^2 / N$, with $\sigma^2$ by quadrature.
+# repetitions is {glue:text}`is_var_ratio_sd1:.2f`
+# ({glue:text}`is_var_ratio_sd1_low:.2f`-{glue:text}`is_var_ratio_sd1_high:.2f`) times
+# $\sigma^2 / N$, with $\sigma^2$ by quadrature.
 #
 # It is only a limit: at $\sigma_v = 0.3$, where the hundred draws are worth about
 # {glue:text}`is_ess_sd03:.0f`, the ratio is already {glue:text}`is_var_ratio_sd03:.2f`
-# ({glue:text}`is_var_ratio_sd03_low:.2f` to {glue:text}`is_var_ratio_sd03_high:.2f`), the
+# ({glue:text}`is_var_ratio_sd03_low:.2f`-{glue:text}`is_var_ratio_sd03_high:.2f`), the
 # terms of order $1/N^2$ no longer negligible.
 
 # %% tags=["hide-input"] jupyter={"source_hidden": true}
@@ -406,9 +451,9 @@ plt.show()
 
 # %% [markdown]
 # With the normal proposal the error hardly shrinks: its root mean square falls as $N^{b}$ with
-# $b$ = {glue:text}`is_tail_slope_normal:.2f` ({glue:text}`is_tail_slope_normal_low:.2f` to
-# {glue:text}`is_tail_slope_normal_high:.2f`), not $-1/2$. The draws rarely reach $|x| > 3$, and
-# when one does its weight is huge.
+# $b$ = {glue:text}`is_tail_slope_normal:.2f`
+# ({glue:text}`is_tail_slope_normal_low:.2f`-{glue:text}`is_tail_slope_normal_high:.2f`),
+# not $-1/2$. The draws rarely reach $|x| > 3$, and when one does its weight is huge.
 
 # %% [markdown]
 # The ESS does not warn: at $N = 10^3$ the normal proposal's mean ESS is
@@ -420,7 +465,7 @@ plt.show()
 
 # %% [markdown]
 # The Cauchy proposal restores the rate: slope {glue:text}`is_tail_slope_cauchy:.2f`
-# ({glue:text}`is_tail_slope_cauchy_low:.2f` to {glue:text}`is_tail_slope_cauchy_high:.2f`). The lesson
+# ({glue:text}`is_tail_slope_cauchy_low:.2f`-{glue:text}`is_tail_slope_cauchy_high:.2f`). The lesson
 # carries over to filters: a proposal must not be narrower than the target in any direction, and
 # it is safer too wide than too narrow.
 
@@ -454,6 +499,33 @@ EvidenceBlock(
              {"RMS error": ".4f", "mean error": "+.4f", "mean ESS / N": ".2f", "coverage": ".0%", "low": ".0%",
               "high": ".0%"})],
 )
+
+# %% [markdown]
+# ## Try it
+#
+# The panel redraws the opening picture for the chosen measurement noise $\sigma_v$ (the
+# target's width), number of draws $N$, proposal (the prior, Gaussian, or a Student $t$ with
+# three degrees of freedom, heavier-tailed) and seed, with the ESS in the title. How sharp can
+# the measurement get before a hundred draws are worth fewer than ten?
+
+# %% tags=["hide-input"] jupyter={"source_hidden": true}
+def draw_panel(sd_v, n_draws, tails, seed):
+    r = np.random.default_rng(seed)
+    x = r.standard_normal(n_draws) if tails == "Gaussian" else r.standard_t(3, n_draws)
+    fig, (top, bottom) = plt.subplots(2, 1, figsize=(7, 4.2), sharex=True, height_ratios=(3, 2))
+    draw_weights(top, bottom, x, sd_v, tails)
+    top.legend(loc="upper left", fontsize=8)
+    fig.tight_layout()
+
+
+# %% tags=["nbval-ignore-output", "hide-input"] jupyter={"source_hidden": true}
+display(control_panel(
+    draw_panel, grid={"sd_v": (0.1, 0.3, 1.0), "n_draws": (10, 100, 1000)},
+    sd_v=widgets.SelectionSlider(options=[0.03, 0.1, 0.3, 1.0, 2.0], value=0.3,
+                                 description="measurement sd"),
+    n_draws=widgets.SelectionSlider(options=[10, 30, 100, 300, 1000], value=100, description="draws N"),
+    tails=widgets.Dropdown(options=["Gaussian", "Student t3"], value="Gaussian", description="proposal"),
+    seed=seed_box(1)))
 
 # %% [markdown]
 # ## Exercises
@@ -594,6 +666,6 @@ print(check_weight_update(update_linear))
 # Lab A ({doc}`../labs`) asks which importance function to use (its question 4). This chapter gives
 # the ground the answer stands on: the lab's choice, the prior (the transition) as proposal,
 # makes the weight the likelihood; it works when the likelihood is not much sharper than the
-# prior, and its weights concentrate when it is ("Why the weights concentrate"). {doc}`sis` and
+# prior, and its weights concentrate when it is (the opening picture). {doc}`sis` and
 # {doc}`proposals` finish the answer.
 # :::
