@@ -793,6 +793,17 @@ STUDIES: dict[str, Study] = {study.name: study for study in [
           ("intel/map_control", intel.global_row, intel.CONTROL_METHODS, intel.GLOBAL_COLUMNS, intel.GLOBAL_SETTINGS,
            f"every scan of book/data/intel/intel-corrected.log.gz but the run's own and {intel.LEAVE_OUT_MARGIN} "
            "on each side (on the whole run's grid); runs on scans 0-454"))),
+    Study(name="intel/injection", row=intel.injection_row, grid={"method": list(intel.INJECTION_METHODS)},
+          n_runs=intel.N_GLOBAL, seeds="run", failures="raise", table="intel/injection.csv",
+          provenance="intel/injection.json", columns=intel.INJECTION_COLUMNS, arrays=intel.INJECTION_ARRAYS, sample=1,
+          row_code="pfcourse/studies/intel.py (injection_row, global_row), pfcourse/scenarios/maprobot/global_mcl.py",
+          fields={"seeds": "run s: start scan numpy.random.default_rng([41, s]); filter default_rng([41, s, 1])",
+                  "map": "scans 455-909 of book/data/intel/intel-corrected.log.gz; runs on scans 0-454",
+                  "steps": intel.GLOBAL_STEPS, "settings": dataclasses.asdict(intel.GLOBAL_SETTINGS),
+                  "no_injection": "settings with inject_share = 0",
+                  "guarded_settings": dataclasses.asdict(intel.GUARDED_SETTINGS),
+                  "lock_on": "within 1 m and 3 x the odometry's RMS heading error "
+                  f"of a step, at {intel.LOCK_SHARE} of the last {intel.LOCK_WINDOW} scans"}),
     Study(name="intel/tracking", row=intel.tracking_row, grid={"map": list(intel.TRACK_MAPS)},
           n_runs=len(intel.TRACK_SEEDS), seeds="run", base_seed=intel.TRACK_SEEDS.start, failures="raise",
           table="intel/tracking.csv", provenance="intel/tracking.json", columns=intel.TRACK_COLUMNS, sample=1,
