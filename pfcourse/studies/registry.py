@@ -793,9 +793,18 @@ STUDIES: dict[str, Study] = {study.name: study for study in [
           ("intel/map_control", intel.global_row, intel.CONTROL_METHODS, intel.GLOBAL_COLUMNS, intel.GLOBAL_SETTINGS,
            f"every scan of book/data/intel/intel-corrected.log.gz but the run's own and {intel.LEAVE_OUT_MARGIN} "
            "on each side (on the whole run's grid); runs on scans 0-454"))),
+    Study(name="intel/map_control_margin", row=intel.margin_row, grid={"margin": [intel.MARGIN_CHECK]},
+          n_runs=intel.N_MARGIN_CHECK, seeds="run", failures="raise", table="intel/map_control_margin.csv",
+          provenance="intel/map_control_margin.json", columns=("margin",) + intel.GLOBAL_COLUMNS, sample=1,
+          row_code="pfcourse/studies/intel.py (margin_row, global_row), pfcourse/scenarios/maprobot/global_mcl.py",
+          fields={"seeds": "run s: start scan numpy.random.default_rng([41, s]); filter default_rng([41, s, 1])",
+                  "map": f"every scan of book/data/intel/intel-corrected.log.gz but the run's own and "
+                  f"{intel.MARGIN_CHECK} on each side (on the whole run's grid); runs on scans 0-454",
+                  "steps": intel.GLOBAL_STEPS, "settings": dataclasses.asdict(intel.GLOBAL_SETTINGS)}),
     Study(name="intel/injection", row=intel.injection_row, grid={"method": list(intel.INJECTION_METHODS)},
           n_runs=intel.N_GLOBAL, seeds="run", failures="raise", table="intel/injection.csv",
           provenance="intel/injection.json", columns=intel.INJECTION_COLUMNS, arrays=intel.INJECTION_ARRAYS, sample=1,
+          volatile=("seconds", "cpu_seconds"),
           row_code="pfcourse/studies/intel.py (injection_row, global_row), pfcourse/scenarios/maprobot/global_mcl.py",
           fields={"seeds": "run s: start scan numpy.random.default_rng([41, s]); filter default_rng([41, s, 1])",
                   "map": "scans 455-909 of book/data/intel/intel-corrected.log.gz; runs on scans 0-454",
