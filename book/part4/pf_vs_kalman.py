@@ -829,7 +829,7 @@ decision = pd.DataFrame([
                      f"({real_track.low:.0%}-{real_track.high:.0%}), {real_calib.estimate:.0%} "
                      f"({real_calib.low:.0%}-{real_calib.high:.0%}) with the odometry's drift calibrated out "
                      "(every run still leaves the tolerance for a while at a map gap); found from nowhere "
-                     f"{real_global.estimate:.0%} ({real_global.low:.0%}-{real_global.high:.0%}) on a map of its "
+                     f"{real_global.estimate:.0%} ({real_global.low:.0%}-{real_global.high:.0%}) before the guards on a map of its "
                      f"other half, {real_control.estimate:.0%} ({real_control.low:.0%}-{real_control.high:.0%}) "
                      "on a map of every scan but the run's own; injection there ends "
                      f"{100 * real_ends.difference:+.0f} points ({100 * real_ends.difference_low:+.0f} to "
