@@ -521,9 +521,10 @@ EvidenceBlock(
 # the held-out half's increments, half from each rotation. With it the same filter, on the same seeds,
 # is locked on at the end in {glue:text}`intel_track_calib_share:.0%` of the runs, a gain of
 # {glue:text}`intel_track_calib_diff:.0%`
-# ({glue:text}`intel_track_calib_diff_low:.0%`-{glue:text}`intel_track_calib_diff_high:.0%`). The
-# drift decides which runs never come back; it does not keep the heading: with it taken out every run
-# still leaves the tolerance for up to {glue:text}`intel_track_calib_longest_max:d` scans in a row.
+# ({glue:text}`intel_track_calib_diff_low:.0%`-{glue:text}`intel_track_calib_diff_high:.0%`).
+#
+# The drift decides which runs never come back; it does not keep the heading: with it taken out every
+# run still leaves the tolerance for up to {glue:text}`intel_track_calib_longest_max:d` scans in a row.
 #
 # :::{admonition} Going further: where the tracking runs fail, and a map of the whole run
 # :class: dropdown
@@ -844,7 +845,7 @@ EvidenceBlock(
 )
 
 # %% [markdown]
-# With the cure (chapter 15's kidnap prior, before its guards) the filter locks on in
+# With the cure ({doc}`map_global`'s kidnap prior, before its guards) the filter locks on in
 # {glue:text}`intel_global_lock_on_rate:.0%` of the runs
 # ({glue:text}`intel_global_lock_on_rate_low:.0%`-{glue:text}`intel_global_lock_on_rate_high:.0%`);
 # with uniform particles only, in {glue:text}`intel_global_uniform_lock_on_rate:.0%`.
@@ -861,7 +862,9 @@ EvidenceBlock(
 # On it the cure locks on in {glue:text}`intel_global_control_rate:.0%` of the same runs, a change of
 # {glue:text}`intel_global_control_diff:+.0%`
 # ({glue:text}`intel_global_control_diff_low:+.0%` to {glue:text}`intel_global_control_diff_high:+.0%`)
-# over the half map. The whole run's map, the run's own scans included, adds
+# over the half map.
+#
+# The whole run's map, the run's own scans included, adds
 # {glue:text}`intel_global_whole_minus_control:+.0%` more. Most of the gap is the half map's coverage,
 # not a map that flatters.
 #
@@ -869,16 +872,18 @@ EvidenceBlock(
 # {glue:text}`intel_global_n_lock_from_start:d` do so from the first scans, and KLD-sampling shrinks
 # the cloud to its floor of
 # {glue:text}`intel_global_n_min:d` particles in {glue:text}`intel_global_at_floor_share:.0%` of the
-# runs. What do the injected poses add? The same filter without injection, on the same runs and
+# runs.
+#
+# What do the injected poses add? The same filter without injection, on the same runs and
 # seeds, locks on in {glue:text}`intel_global_no_injection_rate:.0%`; injection changes that by
 # {glue:text}`intel_global_no_injection_diff:+.0%`
 # ({glue:text}`intel_global_no_injection_diff_low:+.0%` to
 # {glue:text}`intel_global_no_injection_diff_high:+.0%`).
 #
-# Yet injection decides runs, both ways. With it {glue:text}`intel_global_ends_rate:.0%` of the runs
-# end within $1$ m of the robot, without it {glue:text}`intel_global_ends_no_injection:.0%`, a gain
-# of {glue:text}`intel_global_ends_diff:+.0%`
+# Yet injection decides runs, both ways. It raises the share of runs that end within $1$ m of the
+# robot to {glue:text}`intel_global_ends_rate:.0%`, a gain of {glue:text}`intel_global_ends_diff:+.0%`
 # ({glue:text}`intel_global_ends_diff_low:+.0%` to {glue:text}`intel_global_ends_diff_high:+.0%`).
+#
 # And {glue:text}`intel_global_losses_at_injection:d` of its
 # {glue:text}`intel_global_n_losses:d` losses of lock (a scan on the robot, the next off it) fall on an
 # injection step; without injection there are {glue:text}`intel_global_n_losses_no_injection:d`.
@@ -889,8 +894,10 @@ EvidenceBlock(
 # since it was drawn favour it by $\log(1/\varepsilon_k)$, about
 # {glue:text}`intel_global_inject_bar_nats:.1f` nats at the prior mass $\varepsilon_k =$
 # {glue:text}`intel_global_inject_mass:g`. Against a cloud of {glue:text}`intel_global_n_min:d` particles, whose $Z_j$ may underestimate its own
-# evidence, that bar may be too low. Chapter 15's guards (a stratum admitted at its third win in a
-# row; the mixture's evidence) test this: with them the filter locks on in
+# evidence, that bar may be too low.
+#
+# The guards of {doc}`map_global` (a stratum admitted at its third win in a row; the mixture's
+# evidence) test this: with them the filter locks on in
 # {glue:text}`intel_global_guarded_rate:.0%`, {glue:text}`intel_global_guarded_ends:.0%` of the runs
 # end within $1$ m, and the losses of lock fall to {glue:text}`intel_global_n_losses_guarded:d`. The
 # guards keep what injection brings and stop most of what it throws away.
@@ -1032,7 +1039,8 @@ print(check_random_beams(my_beams))
 #
 # - A real log needs its format read with care: here the odometry between scans is the last odometry
 #   pose seen from the corrected pose, and its heading error is a drift per metre, not zero-mean noise:
-#   measure it on one part of the run and take it out of the other.
+#   measure it on one part of the run and take it out of the other. That calibration decides which
+#   tracking runs a map gap loses for good.
 # - With known poses, mapping is a sum of log-odds per cell: an inverse sensor model adds evidence for
 #   the cell a beam ends in and against the cells it crosses.
 # - Map and localize on different scans, and report many seeds: one run is one draw, and a map made
@@ -1044,7 +1052,6 @@ print(check_random_beams(my_beams))
 #   filter never reached.
 #   Its injected poses bring runs onto the robot and throw others off; the guards of {doc}`map_global`
 #   keep the first and stop most of the second.
-# - Calibrate the odometry before tracking: its drift decides which runs a map gap loses for good.
 #
 # :::{admonition} From the labs
 # :class: dropdown
