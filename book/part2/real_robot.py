@@ -485,7 +485,9 @@ EvidenceBlock(
            f"({np.degrees(intel.odometry_heading_rms(log)):.2f} degrees, a mean bias of "
            f"{np.degrees(turn_error.mean()):.2f} included); the map half's steps alone give "
            f"{np.degrees(rms_map):.2f} degrees, a tolerance of {3 * np.degrees(rms_map):.1f} degrees instead of "
-           f"{np.degrees(tol):.1f}. The stored lock-on labels use the latter."],
+           f"{np.degrees(tol):.1f}. The stored lock-on labels use the latter; re-judged from the stored per-scan "
+           f"errors at the map half's tolerance, {sum(intel.locked_on_share(p, h, 3 * rms_map) for p, h in zip(half['position_error'], half['heading_error']))} "
+           f"of {len(half)} half-map runs are locked on (stored: {half['locked_on'].sum()})."],
 )
 
 # %% [markdown]
@@ -816,6 +818,11 @@ EvidenceBlock(
            f"Chapter 15's guarded cure (global_mcl.CURE: confirm = {intel.GUARDED_SETTINGS.confirm}, the mixture's "
            f"evidence) A against the cure B, locked on: {vs_guarded}; ending within 1 m: {ends_vs_guarded}; "
            f"losses of lock {losses['guarded'].sum()}, {at_injection['guarded']} at injection steps.",
+           "Re-judged from the stored per-scan errors at the map half's heading tolerance "
+           f"({3 * np.degrees(rms_map):.1f} degrees): locked on, "
+           + ", ".join(f"{label} {sum(intel.locked_on_share(p, h, 3 * rms_map) for p, h in zip(inj[m]['position_error'], inj[m]['heading_error']))}"
+                       for m, label in (("scan", "the cure"), ("no_injection", "without injection"), ("guarded", "guarded")))
+           + f" of {len(cure)} (stored: {lock['scan'].sum()}, {no_inj.sum()}, {guarded.sum()}).",
            f"Starts in the first 200 scans ({r_early}) against later starts ({r_late}), different runs: "
            f"difference {100 * d_early:+.0f} points, 95% interval {100 * d_early_low:+.0f} to "
            f"{100 * d_early_high:+.0f} (Newcombe's hybrid score interval from the two Wilson intervals).",
