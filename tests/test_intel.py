@@ -154,3 +154,56 @@ def test_the_tracking_runs_are_judged_by_the_global_runs_rule():
         assert row["locked_on"] == intel.locked_on_share(row["position_error"], row["heading_error"], tol)
         if row["lost_scan"] >= 0:
             assert not row["locked_on"]
+
+
+def test_the_injection_study_repeats_the_stored_cure_and_records_its_arms():
+    """intel/injection: its run of the cure is intel/global's, run for run; its arms are the cure without
+    injection and chapter 15's guarded cure, as recorded; its lock-on labels follow its per-scan errors."""
+    from dataclasses import asdict
+
+    from pfcourse.scenarios.maprobot import global_mcl
+    from pfcourse.studies.registry import STUDIES
+
+    assert intel.GUARDED_SETTINGS is global_mcl.CURE
+    table = STUDIES["intel/injection"].load()
+    record = table.attrs["provenance"]
+    assert record["settings"] == json.loads(json.dumps(asdict(intel.GLOBAL_SETTINGS)))
+    assert record["guarded_settings"] == json.loads(json.dumps(asdict(intel.GUARDED_SETTINGS)))
+    runs = {m: g.sort_values("seed").reset_index(drop=True) for m, g in table.groupby("method")}
+    assert sorted(runs) == sorted(intel.INJECTION_METHODS) and all(len(g) == intel.N_GLOBAL for g in runs.values())
+    stored = STUDIES["intel/global"].load().query("method == 'scan'").sort_values("seed").reset_index(drop=True)
+    for column in ("start_scan", "locked_on", "locked_from", "likelihood_evaluations"):
+        assert (runs["scan"][column].to_numpy() == stored[column].to_numpy()).all(), column
+    np.testing.assert_allclose(runs["scan"]["final_position_error"], stored["final_position_error"], rtol=0, atol=1e-9)
+    tol = intel.heading_tolerance(intel.split().log)
+    for g in runs.values():
+        for _, row in g.iterrows():
+            assert len(row["position_error"]) == intel.GLOBAL_STEPS
+            assert row["locked_on"] == intel.locked_on_share(row["position_error"], row["heading_error"], tol)
+            assert row["final_position_error"] == row["position_error"][-1]
+
+
+def test_without_injection_a_run_scores_the_start_the_proposal_and_its_cloud_only():
+    """The cost of the no-injection arm is fixed by the settings: the start's poses, the scan proposal's
+    candidates and refinements, and the cloud's particles at each later scan (mean_particles x 39)."""
+    from pfcourse.studies.registry import STUDIES
+
+    S = intel.GLOBAL_SETTINGS
+    proposal = S.candidates * S.headings + S.refine_rounds * S.refine_trials * S.keep
+    runs = STUDIES["intel/injection"].load().query("method == 'no_injection'")
+    expected = S.n_start + S.n_start_scan + proposal + np.round(runs["mean_particles"] * (intel.GLOBAL_STEPS - 1))
+    np.testing.assert_array_equal(runs["likelihood_evaluations"].to_numpy(), expected.to_numpy())
+
+
+def test_the_margin_check_leaves_out_more_scans_than_the_map_control():
+    from pfcourse.studies.registry import STUDIES
+
+    first = 200
+    narrow, wide = intel.leave_out_split(first), intel.leave_out_split(first, margin=intel.MARGIN_CHECK)
+    # every cell the wider cut still knows, the narrower one knows too (it left fewer scans out)
+    assert ((wide.map.log_odds != 0) <= (narrow.map.log_odds != 0)).all()
+    assert (narrow.map.log_odds != 0).sum() > (wide.map.log_odds != 0).sum()
+    table = STUDIES["intel/map_control_margin"].load()
+    assert (table["margin"] == intel.MARGIN_CHECK).all() and len(table) == intel.N_MARGIN_CHECK
+    stored = STUDIES["intel/map_control"].load().sort_values("seed")
+    assert (table.sort_values("seed")["start_scan"].to_numpy() == stored["start_scan"].to_numpy()[:len(table)]).all()

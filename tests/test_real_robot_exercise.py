@@ -78,6 +78,19 @@ def test_broken_answers_are_reported_not_raised():
     assert fewer.problems and "not k = 12" in fewer.problems[0]
 
 
+def test_dropping_the_no_echo_beams_after_the_draw_is_named_whatever_the_first_draw_holds():
+    def dropped(z, zs, b, k, rng):
+        drawn = rng.choice(len(z), k, replace=False)
+        drawn = drawn[z[drawn] < b.z_max]
+        return beam_terms(z, zs, b)[:, drawn].sum(axis=1)
+    for seed in range(6):  # first draws with and without a no-echo beam among them
+        report = check_random_beams(dropped, seed=seed)
+        assert report.problems == [f"your function computes a known mistake: {RANDOM_BEAM_MISTAKES['dropped']}"]
+    # one wrong number of beams, the same at every seed, keeps the generic message
+    fewer = check_random_beams(lambda z, zs, b, k, rng: reference(z, zs, b, k - 2, rng))
+    assert fewer.problems == ["the answer sums 10 beams, not k = 12: draw exactly k beams"]
+
+
 def test_the_checker_leaves_the_global_generator_as_it_found_it():
     np.random.seed(7)
     state = np.random.get_state()[1].copy()

@@ -21,6 +21,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass, replace
 from functools import lru_cache
+import time
 
 import numpy as np
 
@@ -32,7 +33,7 @@ from pfcourse.scenarios.maprobot.grid import OccupancyGrid
 from pfcourse.scenarios.maprobot.likelihood_field import LikelihoodField
 from pfcourse.metrics import locked_on
 from pfcourse.scenarios.maprobot import lock_on
-from pfcourse.scenarios.maprobot.global_mcl import HAZARD, SETTINGS, GlobalSettings, global_mcl
+from pfcourse.scenarios.maprobot.global_mcl import CURE, HAZARD, SETTINGS, GlobalSettings, global_mcl
 from pfcourse.scenarios.maprobot.mapping import L_FREE, L_OCC, LogOddsMap, build_map, scan_cells
 from pfcourse.scenarios.maprobot.motion import OdometryModel
 from pfcourse.metrics import heading_error, position_error
@@ -110,6 +111,9 @@ def locked_on_share(pos_err: Array, head_err: Array, tolerance: float) -> bool:
 GLOBAL_SETTINGS: GlobalSettings = HAZARD
 #: The cure the first stored runs used (``intel/global_previous``): augmented MCL's ratio as the injected mass.
 PREVIOUS_SETTINGS: GlobalSettings = SETTINGS
+#: Chapter 15's guarded cure (hysteresis ``confirm`` and the mixture's evidence, :data:`global_mcl.CURE`),
+#: measured on the same runs in ``intel/injection`` (method ``guarded``).
+GUARDED_SETTINGS: GlobalSettings = CURE
 #: Scans per run, and runs per filter.
 GLOBAL_STEPS = 40
 N_GLOBAL = 100
@@ -151,13 +155,21 @@ def drift_corrected(odometry: Array, rate: float) -> Array:
 #: scan of the run but the run's own and ``LEAVE_OUT_MARGIN`` on each side of it (:func:`leave_out_split`).
 METHODS = {"scan": "the cure (poses from the scan)", "uniform": "uniform particles only",
            "whole_map": "the cure, map of the whole run", "drift_corrected": "the cure, odometry drift removed",
-           "leave_out": "the cure, map of every scan but the run's own"}
+           "leave_out": "the cure, map of every scan but the run's own",
+           "no_injection": "the cure without injection (poses from the scan at the start only)",
+           "guarded": "chapter 15's guarded cure (hysteresis and the mixture's evidence)"}
 #: The methods of ``intel/global`` (and of ``intel/global_previous``), and of the map control ``intel/map_control``.
 GLOBAL_METHODS = ("scan", "uniform", "whole_map", "drift_corrected")
 CONTROL_METHODS = ("leave_out",)
+#: The methods of ``intel/injection``: the cure again (with its per-scan errors), without injection, and guarded;
+#: every one on the runs and filter seeds of ``intel/global``.
+INJECTION_METHODS = ("scan", "no_injection", "guarded")
 PREVIOUS_COLUMNS = ("method", "seed", "start_scan", "locked_on", "locked_from", "final_position_error",
                     "final_heading_error", "mean_particles", "window_margin")
 GLOBAL_COLUMNS = PREVIOUS_COLUMNS + ("likelihood_evaluations",)
+#: Per-scan columns of ``intel/injection`` (stored in injection.npz): the errors against the corrected poses.
+INJECTION_ARRAYS = ("position_error", "heading_error")
+INJECTION_COLUMNS = GLOBAL_COLUMNS + ("seconds", "cpu_seconds") + INJECTION_ARRAYS
 #: The map control leaves out the run's scans and this many scans before and after them.
 LEAVE_OUT_MARGIN = 10
 
@@ -193,6 +205,21 @@ def _whole_run_cells() -> tuple[LogOddsMap, list, Array, Array]:
     return whole, cells, n_free, n_occ
 
 
+#: The map control's robustness check (``intel/map_control_margin``): a wider margin on the first runs.
+MARGIN_CHECK = 60
+N_MARGIN_CHECK = 40
+
+
+def margin_row(seed: int, *, margin: int = MARGIN_CHECK) -> dict:
+    """The map control (:func:`global_row`, ``leave_out``) with ``margin`` scans left out on each side."""
+    return global_row(seed, method="leave_out", margin=margin)
+
+
+def injection_row(seed: int, *, method: str = "scan") -> dict:
+    """:func:`global_row` with its per-scan errors (the study ``intel/injection``)."""
+    return global_row(seed, method=method, per_scan=True)
+
+
 def leave_out_split(first: int, steps: int = GLOBAL_STEPS, margin: int = LEAVE_OUT_MARGIN) -> Split:
     """The map control for a run over held-out scans ``first .. first + steps - 1``: the log-odds map of every
     scan of the log except ``first - margin .. first + steps + margin - 1`` (on the whole run's grid; a cell
@@ -208,7 +235,8 @@ def leave_out_split(first: int, steps: int = GLOBAL_STEPS, margin: int = LEAVE_O
                  ranges=sp.ranges, odometry=sp.odometry)
 
 
-def global_row(seed: int, *, method: str = "scan", settings: GlobalSettings | None = None) -> dict:
+def global_row(seed: int, *, method: str = "scan", settings: GlobalSettings | None = None,
+               per_scan: bool = False, margin: int = LEAVE_OUT_MARGIN) -> dict:
     """One global run of ``GLOBAL_STEPS`` held-out scans from :func:`global_start`, the filter
     (:func:`pfcourse.scenarios.maprobot.global_mcl.global_mcl`, ``settings``, :data:`GLOBAL_SETTINGS` by
     default) drawing from ``default_rng([41, seed, 1])``; ``method`` one of :data:`METHODS`.
@@ -217,14 +245,19 @@ def global_row(seed: int, *, method: str = "scan", settings: GlobalSettings | No
     ``window_margin``: over the lock-on window, the scans' log-likelihood at the corrected poses minus at
     the filter's estimates (positive: the reference explains the scans better than where the filter
     is, so the evidence was there; negative: the filter's wrong place fits the scans better);
-    ``likelihood_evaluations``: the poses the filter scored against a scan over the run (its cost)."""
+    ``likelihood_evaluations``: the poses the filter scored against a scan over the run (its cost);
+    ``margin``: the scans left out on each side of the run by the map control (``leave_out``);
+    ``per_scan``: add the errors of every scan, ``position_error`` (m) and ``heading_error`` (rad), and the
+    filter's CPU time ``cpu_seconds`` (the process's, not the wall clock: the machine is shared)."""
     if method not in METHODS:
         raise ParameterError(f"method must be one of {list(METHODS)}, got {method!r}")
     s = settings if settings is not None else GLOBAL_SETTINGS
     first = global_start(seed)
-    sp = (_track_split("whole run") if method == "whole_map" else leave_out_split(first) if method == "leave_out"
+    sp = (_track_split("whole run") if method == "whole_map" else leave_out_split(first, margin=margin) if method == "leave_out"
           else split())
     s = uniform_only(s) if method == "uniform" else s
+    s = replace(s, inject_share=0.0) if method == "no_injection" else GUARDED_SETTINGS if method == "guarded" else s
+    cpu = time.process_time()
     run = slice(first, first + GLOBAL_STEPS)
     odometry = sp.odometry[run].copy()
     odometry[0] = 0.0
@@ -234,13 +267,15 @@ def global_row(seed: int, *, method: str = "scan", settings: GlobalSettings | No
     scans = sp.ranges[run, ::BEAM_STEP]
     counting = CountingField(field)
     res = global_mcl(sp.free, counting, MOTION, scans, odometry, np.random.default_rng([41, seed, 1]), s)
+    cpu = time.process_time() - cpu
     truth = sp.poses[run]
     pos, head = position_error(truth, res.mean), heading_error(truth, res.mean)
     tol = heading_tolerance(sp.log)
     last = slice(GLOBAL_STEPS - LOCK_WINDOW, GLOBAL_STEPS)
     margin = sum(field.log_likelihood(truth[k][None], scans[k])[0] - field.log_likelihood(res.mean[k][None], scans[k])[0]
                  for k in range(last.start, last.stop))
-    return {"start_scan": first, "locked_on": locked_on_share(pos, head, tol),
+    extra = {"cpu_seconds": cpu, "position_error": pos, "heading_error": head} if per_scan else {}
+    return {**extra, "start_scan": first, "locked_on": locked_on_share(pos, head, tol),
             "locked_from": lock_on.locked_from(pos, head, 1.0, tol, position_tol=LOCK_POSITION_M,
                                                window_s=LOCK_WINDOW, share=LOCK_SHARE),
             "final_position_error": float(pos[-1]), "final_heading_error": float(head[-1]),

@@ -49,6 +49,8 @@ RANDOM_BEAM_MISTAKES: dict[str, str] = {
     "no_echo": "beams with no echo are among those drawn: draw among the beams with an echo (z < z_max); in this "
                "model a beam without one scores the same at every pose (log z_none, or the formula with z_b = z*_b "
                "= z_max), so it is a draw wasted",
+    "dropped": "k beams are drawn among all the beams and those without an echo then dropped, so fewer than k "
+               "are summed, a different number from scan to scan: draw the k beams among those with an echo",
     "per_pose": "each pose is scored on beams of its own: draw one set of k beams for the scan and score every "
                 "pose on it, or the weights compare different evidence",
     "global_rng": "the beams are drawn from NumPy's global generator (np.random), not from the generator rng "
@@ -97,6 +99,9 @@ def random_beams_log_likelihood(z: np.ndarray, z_star: np.ndarray, beam: BeamCas
         picked = terms[:, np.random.choice(pool, k, replace=False)]
     elif mistake == "replacement":
         picked = terms[:, rng.choice(pool, k, replace=True)]
+    elif mistake == "dropped":
+        drawn = rng.choice(len(z), k, replace=False)
+        picked = terms[:, drawn[z[drawn] < beam.z_max]]
     elif mistake == "per_pose":
         picked = np.array([row[rng.choice(pool, k, replace=False)] for row in terms])
     else:
@@ -160,6 +165,22 @@ def beams_summed(answer: np.ndarray, terms: np.ndarray, echo: np.ndarray, z_none
     return np.round(s).astype(int), int(round(m))
 
 
+def _varying_count(fn: Callable, z: np.ndarray, z_star: np.ndarray, beam: BeamCase, k: int, seed: int,
+                   n_seeds: int = 20) -> bool:
+    """Whether the number of echo beams ``fn`` sums changes from seed to seed, never above ``k`` (``k`` drawn
+    among all the beams, the no-echo ones dropped), rather than staying one wrong number."""
+    echo = z < beam.z_max
+    terms = beam_terms(z, z_star, beam)
+    counts = set()
+    for s_ in range(seed + 2, seed + 2 + n_seeds):
+        fit = beams_summed(np.asarray(fn(z.copy(), z_star.copy(), beam, k, np.random.default_rng(s_)), dtype=float),
+                           terms, echo, beam.z_none)
+        if fit is None or not np.issubdtype(np.asarray(fit[0]).dtype, np.integer) or fit[1] != 0:
+            return False
+        counts.add(int(fit[0].sum()))
+    return len(counts) > 1 and max(counts) <= k
+
+
 def check_random_beams(fn: Callable, k: int = 12, seed: int = 0, n_seeds: int = 200) -> CheckReport:
     """Check ``fn(z, z_star, beam, k, rng) -> (N,)`` (the module's docstring)."""
     report = CheckReport("beam model on random beams")
@@ -218,7 +239,10 @@ def check_random_beams(fn: Callable, k: int = 12, seed: int = 0, n_seeds: int = 
                                    "log-density once")
         return report
     if s.sum() + m != k or (s < 0).any() or m < 0:
-        report.problems.append(f"the answer sums {s.sum() + m} beams, not k = {k}: draw exactly k beams")
+        if m == 0 and 0 < s.sum() < k and (s >= 0).all() and _varying_count(fn, z, z_star, beam, k, seed):
+            report.problems.append(f"your function computes a known mistake: {RANDOM_BEAM_MISTAKES['dropped']}")
+        else:
+            report.problems.append(f"the answer sums {s.sum() + m} beams, not k = {k}: draw exactly k beams")
         return report
     if m > 0:
         report.problems.append(f"your function computes a known mistake: {RANDOM_BEAM_MISTAKES['no_echo']}")
@@ -242,6 +266,9 @@ def check_random_beams(fn: Callable, k: int = 12, seed: int = 0, n_seeds: int = 
         s, m = fit
         if m > 0:
             report.problems.append(f"your function computes a known mistake: {RANDOM_BEAM_MISTAKES['no_echo']}")
+            return report
+        if m == 0 and 0 < s.sum() < k:  # k beams with the first seed, fewer with this one
+            report.problems.append(f"your function computes a known mistake: {RANDOM_BEAM_MISTAKES['dropped']}")
             return report
         if s.max() > 1:
             report.problems.append(f"your function computes a known mistake: {RANDOM_BEAM_MISTAKES['replacement']}")
