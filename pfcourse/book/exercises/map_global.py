@@ -1,7 +1,9 @@
 """The checked exercises of the chapter *Finding the robot on the map* (book/part2/map_global).
 
 Exercise 15.1 (:func:`check_takeover`, at the end of this module): how often a look-alike stratum takes over a
-right cloud when hysteresis asks for several wins in a row, against the exact streak probability.
+right cloud when hysteresis asks for several wins in a row, against the exact streak probability.  A toy: the
+injections' log Bayes factors are independent there, while the chapter's overlapping look-back windows make
+successive wins correlated, and the spread ``sd`` is assumed, not measured.
 
 The earlier exercise 15.1 (:func:`check_reset_weights`, kept and tested): poses drawn from a reading, weighted
 correctly, for another sensor.
