@@ -760,7 +760,7 @@ EvidenceBlock(
            "belief's evidence with the admitted stratum); random numbers from numpy.random.default_rng([41, seed, 2]) "
            "for both variants (common random numbers until the first injection).",
            f"Locked on (within 1 m and {np.degrees(mg.HEADING_TOL):.1f} degrees at 80 % of the last 20 s): "
-           f"{cure_rate} (Wilson interval).",
+           f"{cure_rate}.",
            f"Paired by drive (cure A, without its guards B): {vs_hz}.",
            f"Paired by drive (cure A, the exact filter over the twins B): {vs_exact}.",
            f"How the cure's {len(misses(held))} misses end: {int((misses(held)['final_position_error'] < 1).sum())} within "
@@ -774,8 +774,8 @@ EvidenceBlock(
            "evidence older than that, which the wrong cloud missed, is lost, and three wins in a row delay the "
            "correction further.",
            f"False relocalizations (2 s or more outside the tolerances, 2 m away, after 10 s within them), held-out "
-           f"global drives and kidnap runs: cure {cure_lost} runs, {cure_per_hour:.1f} an hour; without its guards "
-           f"{hz_lost} runs, {hz_per_hour:.1f} an hour ({hours:.1f} hours of driving each). Exact (Garwood) 95 % "
+           f"global drives and kidnap runs, runs with one: cure {cure_lost}, {cure_per_hour:.1f} an hour; without its "
+           f"guards {hz_lost}, {hz_per_hour:.1f} an hour ({hours:.1f} hours of driving each). Exact (Garwood) 95 % "
            f"Poisson intervals of the rates: cure {cure_hour[1]:.3f}-{cure_hour[2]:.1f}, without its guards "
            f"{hz_hour[1]:.1f}-{hz_hour[2]:.1f} an hour. Paired by run, share of runs lost (cure A, without its guards "
            f"B): {lost_pair}.",
