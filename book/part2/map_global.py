@@ -505,8 +505,8 @@ plt.show()
 # truth $\log B = 0$, but $\log \hat B$, a noisy ratio, sometimes makes up the deficit. The cure
 # admits a stratum only at its third win in a row, two injections ($4$ s) later. Successive windows
 # share all but $4$ of their scans, so wins are not independent: one stretch of poor fit can win
-# three in a row. A stratum that wins but is dropped also leaves the kidnap model's posterior
-# behind. The rule in NumPy:
+# three in a row. And dropping a stratum that wins is not Bayes: from then on the filter no longer
+# approximates the kidnap model's posterior. The rule in NumPy:
 
 # %%
 def admit(moved, lw_m, inj, lw_r, xi_k, streak, log_l_k, confirm=3):
@@ -628,10 +628,10 @@ glue_values("lf_", demo_decided_s=float((decided_at[0] + 1) * study.DT), demo_lo
 # {glue:text}`lf_miss_hazard_locked_by_s:.0f` s. A stratum claims only the last $L$ scans and needs
 # three wins: the guards keep the cloud the filter has, wrong or right.
 #
-# It scores about {glue:text}`lf_poses_per_scan:.0f` poses a scan. With $5000$ particles, uniform
-# injection is locked on in {glue:text}`lf_inj5000_rate:.0%` of the same drives:
-# the cure gains between {glue:text}`lf_inj5000_gain_low_pts:.0f` and
-# {glue:text}`lf_inj5000_gain_high_pts:.0f` points.
+# With $5000$ particles, about as many poses a scan as the cure scores, uniform injection is locked
+# on in {glue:text}`lf_inj5000_rate:.0%` of the same drives: the cure gains
+# {glue:text}`lf_inj5000_gain_pts:.0f` points ({glue:text}`lf_inj5000_gain_low_pts:.0f` to
+# {glue:text}`lf_inj5000_gain_high_pts:.0f`).
 #
 # **False relocalization** (a cloud within the tolerances for $10$ s carried $2$ m or more away for
 # $2$ s or more), on the held-out drives and kidnap runs together, happened
@@ -907,8 +907,8 @@ display(panel)
 # (Coding.) A toy model of a twin's stratum the scans cannot tell from a right cloud: at each of $T$
 # injections its estimated log-odds against the cloud are $\lambda + s\, e$, $e \sim \mathcal N(0, 1)$
 # independent ($\lambda$ the prior log-odds, $s$ the spread of the estimated log Bayes factor), and it
-# wins when they are positive. (The chapter's overlapping windows make wins come in runs; the toy
-# ignores that.) It takes over at the first injection that completes `confirm` wins in a row. Write `my_takeover(log_prior_odds, sd, confirm, T, runs,
+# wins when they are positive. (The filter's windows overlap, so its wins are not independent; the
+# toy ignores that.) It takes over at the first injection that completes `confirm` wins in a row. Write `my_takeover(log_prior_odds, sd, confirm, T, runs,
 # rng)` that returns the share of `runs` simulated drives in which the twin takes over, drawing
 # `rng.standard_normal((runs, T))`. Then compare `confirm` $= 1$ and $3$ with the chapter's prior
 # odds ($\xi_k = 4 \times 10^{-3}$), $T = 45$ injections (a $100$-s drive) and $s = 3$ nats (assumed,
