@@ -90,3 +90,24 @@ def test_hysteresis_lowers_the_takeover_rate_as_the_chapter_says():
     lo = float(np.log(4e-3 / (1 - 4e-3)))
     one, three = exact_takeover_case(lo, 3.0, 1, 45), exact_takeover_case(lo, 3.0, 3, 45)
     assert three < one / 100
+
+
+def test_a_closed_form_that_ignores_the_draws_is_told_to_simulate():
+    """A closed form, (T - confirm + 1) p^confirm, that draws the numbers but does not use them."""
+    from scipy.stats import norm
+
+    def closed_form(log_odds, sd, confirm, T, runs, rng):
+        rng.standard_normal((runs, T))
+        return min(1.0, (T - confirm + 1) * norm.cdf(log_odds / sd) ** confirm)
+
+    problems = check_takeover(closed_form).problems
+    assert len(problems) == 1 and "another seed gave the same share" in problems[0]
+    assert "do not compute a closed form" in problems[0]
+
+
+def test_the_share_of_injections_won_is_not_called_last_only():
+    """win.mean() with the reference's draws: the review's mistake, named as the share of injections won."""
+    def share_of_wins(log_odds, sd, confirm, T, runs, rng):
+        return float((log_odds + sd * rng.standard_normal((runs, T)) > 0).mean())
+
+    assert check_takeover(share_of_wins).problems == [TAKEOVER_MISTAKES["share_of_wins"]]

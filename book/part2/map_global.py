@@ -14,8 +14,8 @@
 # **You learn** how to tell whether a failure to find the robot is the map's or the filter's (the
 # twin margin and an exact filter over the twins), and a filter built to approach that bound: poses
 # drawn from the scan, injected as a kidnapping with the kidnap model's prior and weighted by their
-# evidence; how it keeps a cloud that is right (the belief's evidence, hysteresis); and how it fares
-# on drives it was not tuned on.
+# evidence; how it keeps the cloud it has (the belief's evidence, hysteresis), and what that costs;
+# and how it fares on drives it was not tuned on.
 #
 # **You need** {doc}`map_robot` (the odometry model, the likelihood field, MCL) and
 # {doc}`global_localization` (random injection, augmented MCL, KLD-sampling); importance sampling.
@@ -41,7 +41,7 @@ import pandas as pd
 from ipywidgets import SelectionSlider
 from IPython.display import display
 from scipy.special import logsumexp
-from scipy.stats import norm
+from scipy.stats import chi2, norm
 
 from pfcourse import evidence
 from pfcourse.studies import map_global as mg
@@ -211,21 +211,23 @@ EvidenceBlock(
 )
 
 # %% [markdown]
-# **Why the plain filter falls short.** Early in a drive every twin fits. The likelihood field is
+# :::{admonition} Why the plain filter falls short
+# :class: dropdown
+# Early in a drive every twin fits. The likelihood field is
 # sharp ($24$ beams, $\sigma_{\mathrm{hit}} = 0.2$ m), so after one scan a few poses carry nearly
 # all the weight, and one twin may take every particle before the evidence has chosen. A uniform
 # injected pose must land within centimetres of the truth and, with no history, scores no better
 # than the twin's. The cure: many poses at the start; injected poses drawn where the scan fits,
-# weighted by the evidence of several scans and the kidnap model's prior; and guards that keep a
-# right cloud in place.
+# weighted by the evidence of several scans and the kidnap model's prior; and guards that keep the
+# cloud in place.
+# :::
 #
 # ## How many particles
 #
 # The filter below starts with $20000$ poses uniform in free space and $2000$ drawn from the first
 # scan (next section), then sizes its cloud by KLD-sampling {cite:p}`fox2003`, clipped to
-# $[300, 5000]$. In this filter the bound hardly acts: the first scan's weights are so uneven that
-# the resampled cloud falls into a few bins, and from then on it asks for the floor (the demo
-# below). The many poses of the start, the scan proposal and the injections do the work.
+# $[300, 5000]$. Here the bound asks for the floor from the first scan on (the demo below): the
+# start, the scan proposal and the injections do the work.
 #
 # :::{admonition} Going further: KLD-sampling's bound, and AMCL's kld_z
 # :class: dropdown
@@ -362,17 +364,17 @@ print(f"the same poses and log q as pfcourse.scenarios.maprobot.global_mcl.scan_
 #
 # Augmented MCL ({cite:t}`thrun2005`, table $8.3$) gives its uniform injected poses the weight of
 # the others, right for draws of the kidnap model's uniform part; ours come from $q$ and need
-# $u / q$. This book's construction: the robot may have been **carried anywhere $\tau$ scans ago**, with probability
-# $\xi_k$ (here $\tau = 20$ scans, $10$ s; how large $\xi_k$ should be comes next). The cloud's $M$
-# moved particles stand for "not carried", the $R$ injected poses for "carried at step $k - \tau$".
-# A small filter of $R$ particles carries them from $q$ at step $k - \tau$ to now. Write
+# $u / q$. This book's construction: the robot may have been **carried anywhere $L$ scans ago**, with probability
+# $\xi_k$ (here the look-back $L = 20$ scans, $10$ s; how large $\xi_k$ should be comes next). The cloud's $M$
+# moved particles stand for "not carried", the $R$ injected poses for "carried at step $k - L$".
+# A small filter of $R$ particles carries them from $q$ at step $k - L$ to now. Write
 # $\ell_j = \frac{1}{M} \sum_i p(z_j \mid x_j^i)$ for the cloud's mean likelihood at scan $j$, its
 # estimate of $p(z_j \mid z_{0:j-1})$. The injected pose's weight is an importance weight of the
 # kidnap model, against the cloud's own account of the same scans:
 #
 # $$
-# W \propto \frac{\xi_k}{R}\; \frac{u(x_{k-\tau})}{q(x_{k-\tau})}\;
-# \frac{\prod_{j=k-\tau}^{k} p(z_j \mid x_j)}{\prod_{j=k-\tau}^{k-1} \ell_j}
+# W \propto \frac{\xi_k}{R}\; \frac{u(x_{k-L})}{q(x_{k-L})}\;
+# \frac{\prod_{j=k-L}^{k} p(z_j \mid x_j)}{\prod_{j=k-L}^{k-1} \ell_j}
 # \qquad\text{against}\qquad
 # W \propto \frac{1 - \xi_k}{M}\; p(z_k \mid x_k)
 # $$
@@ -381,24 +383,23 @@ print(f"the same poses and log q as pfcourse.scenarios.maprobot.global_mcl.scan_
 # $u / q$ undoes the aim of the proposal: a pose is not more probable for having been drawn where the
 # scan fits. The small filter resamples at every scan, so the product of past likelihoods is carried
 # by the product of its mean weights. That product is what a pose with no history lacks: over twenty
-# scans a pose at the truth has seen the box and its twin has not. The cell below computes the
-# injected poses and their log-weights.
+# scans a pose at the truth has seen the box and its twin has not.
 
 # %%
-def injected(scans, odometry, k, r, log_l, rng, tau=20):
-    """r poses carried tau scans ago, their log-weights (without xi / R)."""
-    x, log_q = scan_proposal(scans[k - tau], r, rng)
+def injected(scans, odometry, k, r, log_l, rng, L=20):
+    """r poses carried L scans ago, their log-weights (without xi / R)."""
+    x, log_q = scan_proposal(scans[k - L], r, rng)
     free = grid.is_free(x)
     log_u = np.where(free, -np.log(grid.free_area * 2 * np.pi), -np.inf)
-    lw = log_u - log_q + field.log_likelihood(x, scans[k - tau])
+    lw = log_u - log_q + field.log_likelihood(x, scans[k - L])
     log_evidence = 0.0
-    for j in range(k - tau + 1, k + 1):
+    for j in range(k - L + 1, k + 1):
         log_evidence += logsumexp(lw) - np.log(r)
         parent = systematic(np.exp(lw - logsumexp(lw)), r, rng)
         x = motion.sample(x[parent], odometry[j], rng)
         lw = field.log_likelihood(x, scans[j])
     # log_l[j]: the cloud's log mean likelihood at scan j
-    return x, lw + log_evidence - log_l[k - tau:k].sum()
+    return x, lw + log_evidence - log_l[k - L:k].sum()
 
 
 # %% tags=["hide-input"] jupyter={"source_hidden": true}
@@ -414,16 +415,15 @@ print(f"the same poses and log-weights as pfcourse.scenarios.maprobot.global_mcl
 #
 # The cure takes the prior $\xi_k$ from the kidnap model of {doc}`global_localization`: carried
 # away at a scan with probability $\xi = 10^{-3}$ (chosen by hand), one injection standing for the
-# $4$ scans since the last, $\xi_k = 4 \xi$. Mixture-MCL {cite:p}`thrun2001` is a relative: it too
-# mixes poses drawn from the sensor into the cloud with importance weights. The folded cell mixes
-# the two strata.
+# $4$ scans since the last, $\xi_k = 4 \xi$. The folded cell mixes the two strata.
 #
 # :::{admonition} Going further: augmented MCL's rate as the prior
 # :class: dropdown
 # Augmented MCL's rate $1 - w_{\mathrm{fast}} / w_{\mathrm{slow}}$ (table $8.3$), from running
 # averages of the cloud's mean likelihood $\ell_k$, is made to detect a kidnapping, not to be its
 # probability. Table $8.3$ has no floor, and ROS's AMCL injects nothing by default (its recovery rates
-# are $0$). The book's first variant gave that rate a floor of $0.01$; on a right cloud the rate sits
+# are $0$). Mixture-MCL {cite:p}`thrun2001` is a relative of the cure: it too mixes poses drawn from
+# the sensor into the cloud with importance weights. The book's first variant gave that rate a floor of $0.01$; on a right cloud the rate sits
 # at the floor at {glue:text}`lf_demo_ratio_floor_share:.0%` of the scans of the run below, so the
 # floor, a number chosen by hand, decides whether a noisy stratum may replace a right cloud. On the
 # drives it was tuned on it did no better than the kidnap prior (the evidence block of "Does it reach
@@ -453,13 +453,11 @@ same_rho = engine.HAZARD.kidnap_hazard == xi and engine.HAZARD.inject_every == e
 print(f"the same cloud as the engine's strata, to {TOL:.0e}: {same_mix}; the engine's hazard and cadence: {same_rho}")
 
 # %% [markdown]
-# ## Keeping a cloud that is right
+# ## Keeping the cloud it has
 #
-# A stratum that wins takes the place of the cloud. That is the cure's strength after a kidnapping,
-# and its weakness when the cloud was right: a look-alike stratum that wins once moves the estimate
-# metres away, to a twin. Two things let that happen, and the figure shows the first. The robot of
-# kidnap drive $5$ is carried away at $20$ s. With only the rule "win three injections in a row"
-# (dashed), a stratum finds it again at {glue:text}`lf_cascade_found_s:.0f` s, and the estimate is
+# A stratum that wins takes the place of the cloud: the cure's strength after a kidnapping, its
+# weakness when the cloud was right. The robot of kidnap drive $5$ is carried away at $20$ s. With
+# only the rule "win three injections in a row" (dashed), a stratum finds it again at {glue:text}`lf_cascade_found_s:.0f` s, and the estimate is
 # handed to a twin at {glue:text}`lf_cascade_lost_s:.0f` s; the cure (solid) keeps it.
 
 # %% tags=["hide-input"] jupyter={"source_hidden": true}
@@ -487,24 +485,28 @@ ax.set_title("Kidnap drive 5: found again, then handed to a twin")
 plt.show()
 
 # %% [markdown]
-# **The belief's evidence.** A stratum is compared with the cloud's record of the last $\tau$
+# **The belief's evidence.** A stratum is compared with the cloud's record of the last $L$
 # scans, $\prod_j \ell_j$. After a stratum replaces a wrong cloud, that record still holds the wrong
-# cloud's poor fit, and the next stratum, even a twin's, wins against it. Under the kidnap model the
-# scan's evidence at an injection is the mixture's; with $\hat B$ the stratum's mean weight over the
-# cloud's (its estimated Bayes factor):
+# cloud's poor fit, and the next stratum, even a twin's, wins against it. With $\hat B$ the stratum's
+# mean weight over the cloud's, its estimated Bayes factor for the whole window $k - L, \dots, k$, the
+# sum of the mixed weights is not a one-step predictive density but a factor of the cumulative
+# normaliser:
 #
 # $$
-# p(z_k \mid z_{0:k-1}) \approx (1 - \xi_k)\, \ell_k + \xi_k\, \hat B\, \ell_k ,
+# p(z_{0:k}) \approx p(z_{0:k-L-1}) \prod_{j=k-L}^{k-1} \ell_j
+# \,\big[ (1 - \xi_k)\, \ell_k + \xi_k\, \hat B\, \ell_k \big] .
 # $$
 #
-# the sum of the mixed weights, which the cure records whenever a stratum is admitted.
+# The cure records that factor whenever a stratum is admitted. Later windows straddle the admission,
+# so their comparison is approximate.
 #
-# **Hysteresis.** A stratum's log-odds against the cloud are {glue:text}`lf_prior_log_odds:.1f`
-# $+ \log \hat B$. For a twin the scans cannot tell from the truth $\log B = 0$, but $\log \hat B$,
-# a noisy ratio, sometimes makes up the deficit. If it does with probability $p$
-# at one injection, a twin wins $c$ in a row with probability near $p^c$, while a kidnapped robot's
-# strata keep winning. The cure asks for $c = 3$ wins in a row, which delays a recovery by two
-# injections ($4$ s). The rule in NumPy:
+# **Hysteresis** is a decision rule, not part of any weight. A stratum's log-odds against the cloud
+# are {glue:text}`lf_prior_log_odds:.1f` $+ \log \hat B$. For a twin the scans cannot tell from the
+# truth $\log B = 0$, but $\log \hat B$, a noisy ratio, sometimes makes up the deficit. The cure
+# admits a stratum only at its third win in a row, two injections ($4$ s) later. Successive windows
+# share all but $4$ of their scans, so wins are not independent: one stretch of poor fit can win
+# three in a row. And dropping a stratum that wins is not Bayes: from then on the filter no longer
+# approximates the kidnap model's posterior. The rule in NumPy:
 
 # %%
 def admit(moved, lw_m, inj, lw_r, xi_k, streak, log_l_k, confirm=3):
@@ -538,18 +540,20 @@ glue_values("lf_", prior_log_odds=float(np.log(every * xi / (1 - every * xi))))
 # 1. **Start.** Draw $20000$ poses from $u$ and $2000$ from $q$ for the first scan; weight them
 #    $p(z_0 \mid x)$ and $\frac{u}{q}\, p(z_0 \mid x)$, half the mass to each group.
 # 2. **For** each scan $z_k$, $k = 1, 2, \dots$:
-#    1. *size:* $M$ from the KLD bound for the bins of the weighted cloud, clipped to $[300, 5000]$;
+#    1. *size:* $M$ from the KLD bound for the bins of the weighted cloud, clipped to $[300, 5000]$
+#       (here the floor, $300$, from the first scan on);
 #    2. *move:* resample $M$ particles, move each by the odometry, weight by $p(z_k \mid x_k)$;
 #       record $\ell_k$;
 #    3. *inject* (every fourth scan, from $k = 20$ on): $R = \max(200, M / 10)$ poses carried since
-#       step $k - \tau$, weighted as above; if the stratum, given the mass $\xi_k = 4 \xi$ against
+#       step $k - L$, weighted as above; if the stratum, given the mass $\xi_k = 4 \xi$ against
 #       the cloud's $1 - \xi_k$, outweighs the cloud for the third injection in a row, the cloud is
 #       the $M + R$ weighted particles and the scan's evidence their summed weight; otherwise the
 #       stratum is dropped;
-#    4. *estimate:* weighted mean position and circular mean heading.
+#    4. *estimate:* weighted mean position and circular mean heading (for a cloud split between twins,
+#       a point between them; AMCL reports its best cluster's mean instead).
 # :::
 #
-# The package's `global_mcl` is this algorithm, each of its steps the code above. Run on seed $1$:
+# The package's `global_mcl` is this algorithm. Run on seed $1$:
 
 # %% tags=["hide-input"] jupyter={"source_hidden": true}
 demo_rng = np.random.default_rng([41, 1, 2])
@@ -598,9 +602,11 @@ glue_values("lf_", demo_decided_s=float((decided_at[0] + 1) * study.DT), demo_lo
 # :class: dropdown
 # A straight odometry step of $0.25$ m turns the heading by the two rotation errors
 # $\eta_1 + \eta_3$ of {doc}`map_robot`'s odometry model, whose standard deviation is
-# $\sqrt{2 a_2}\, \delta_{\mathrm{trans}}$ ($a_2 = 0.05$) = {glue:text}`lf_step_heading_sd_deg:.1f`°; a filter
-# that follows the robot may carry such an error between two scans, and the rule allows three
-# times that.
+# $\sqrt{2 a_2}\, \delta_{\mathrm{trans}}$ ($a_2 = 0.05$) = {glue:text}`lf_step_heading_sd_deg:.1f`°, and the
+# rule allows three times that. It is loose: tracking from the known start ({doc}`map_robot`) has a
+# heading RMSE of {glue:text}`lf_tracking_heading_rmse_deg:.1f`° and its largest heading error over the
+# last $20$ s is at most {glue:text}`lf_tracking_max_heading_deg:.1f`°. It does not change the counts:
+# every global miss below is a half-turn off or ends on the robot after the window.
 # :::
 #
 # The cure was tuned on drives $0$-$99$ and its guards chosen on kidnap drive $5$ and a screen of
@@ -614,19 +620,30 @@ glue_values("lf_", demo_decided_s=float((decided_at[0] + 1) * study.DT), demo_lo
 # Without its guards it is locked on in {glue:text}`lf_heldout_hazard_rate:.0%` of the same drives,
 # a difference of {glue:text}`lf_heldout_gain_pts:+.0f` points
 # ({glue:text}`lf_heldout_gain_low_pts:+.0f` to {glue:text}`lf_heldout_gain_high_pts:+.0f`): not
-# separated. What the guards change is the integrity, below.
+# separated.
 #
-# The exact filter over the twins is locked on in {glue:text}`lf_heldout_exact_rate:.0%`; the cure
-# is not separated from it (the folded block gives the paired test).
+# The exact filter over the twins is locked on in {glue:text}`lf_heldout_exact_rate:.0%`. The cure's
+# misses are the guards' doing: on {glue:text}`lf_misses_guards_lost:d` of its
+# {glue:text}`lf_n_misses:d` misses the cure without guards, and the exact filter, are locked on by
+# {glue:text}`lf_miss_hazard_locked_by_s:.0f` s. A stratum claims only the last $L$ scans and needs
+# three wins: the guards keep the cloud the filter has, wrong or right.
 #
-# It scores about {glue:text}`lf_poses_per_scan:.0f` poses a scan, a filter of that many particles.
+# With $5000$ particles, about as many poses a scan as the cure scores, uniform injection is locked
+# on in {glue:text}`lf_inj5000_rate:.0%` of the same drives: the cure gains
+# {glue:text}`lf_inj5000_gain_pts:.0f` points ({glue:text}`lf_inj5000_gain_low_pts:.0f` to
+# {glue:text}`lf_inj5000_gain_high_pts:.0f`).
 #
 # **False relocalization** (a cloud within the tolerances for $10$ s carried $2$ m or more away for
 # $2$ s or more), on the held-out drives and kidnap runs together, happened
-# {glue:text}`lf_false_reloc_per_hour:.1f` times an hour of driving with the cure
-# ({glue:text}`lf_heldout_lost_runs:d` runs of $100$), against
-# {glue:text}`lf_hazard_false_reloc_per_hour:.1f` without its guards
-# ({glue:text}`lf_hazard_lost_runs:d` runs): a difference the data separate.
+# {glue:text}`lf_false_reloc_per_hour:.1f` times an hour of driving with the cure, against
+# {glue:text}`lf_hazard_false_reloc_per_hour:.1f`
+# ({glue:text}`lf_hazard_false_reloc_per_hour_low:.1f`-{glue:text}`lf_hazard_false_reloc_per_hour_high:.1f`)
+# without its guards.
+#
+# That is the trade: fewer false relocalizations, slower corrections of a wrong cloud. The cure's
+# single false relocalization is the kidnap run left out below, moved only
+# {glue:text}`lf_lost_run_jump_m:.2f` m: the cloud was back on the robot when a twin's stratum took
+# over, after three wins in a row, at {glue:text}`lf_lost_run_lost_s:.0f` s.
 
 # %% tags=["remove-input"] jupyter={"source_hidden": true}
 def exact_difference(p):
@@ -659,7 +676,6 @@ cure_lost, cure_per_hour = lost(held, kid_held)
 hz_lost, hz_per_hour = lost(held_hz, kid_held_hz)
 lost_pair = evidence.paired_rates(np.r_[held["n_lost"] > 0, kid_held["n_lost"] > 0],
                                   np.r_[held_hz["n_lost"] > 0, kid_held_hz["n_lost"] > 0])
-lost_d = exact_difference(lost_pair)
 # poses scored against the field per scan: the cloud, and per injection (every inject_every scans) the
 # proposal's candidates and nudges and the look-back filter's R poses over history + 1 scans
 cs = engine.CURE
@@ -674,6 +690,44 @@ glue_values("lf_", n_heldout=len(held), global_lock_on_rate=cure_rate.estimate, 
             hazard_false_reloc_per_hour=hz_per_hour, hazard_lost_runs=hz_lost, false_reloc_p=lost_pair.pvalue,
             step_heading_sd_deg=np.degrees(lock_on.step_heading_sd(motion, mg.STEP_M)),
             heading_tolerance_deg=np.degrees(mg.HEADING_TOL))
+# the cure's misses that the cure without its guards and the exact filter both lock on: the guards' doing
+miss = ~held["locked_on"].to_numpy()
+guards_lost = miss & held_hz["locked_on"].to_numpy() & held_exact["exact_locked_on"].to_numpy()
+locked_by = max(held_hz.loc[guards_lost, "locked_from_s"].max(), held_exact.loc[guards_lost, "exact_locked_from_s"].max())
+# every miss ends a half-turn off, or within 1 m of the truth (found after the window): the heading tolerance
+# does not decide them
+assert ((held.loc[miss, "final_heading_error"] > np.pi / 2) | (held.loc[miss, "final_position_error"] < 1)).all()
+# map_robot's tracking runs (product weighting): the heading errors of a filter that follows the robot
+trk = STUDIES["maprobot/tracking"].load()
+trk = trk[trk["weighting"] == "product"]
+# uniform injection with 5000 particles on the same held-out drives (about the cure's poses a scan), paired
+inj5000 = by_seed("injection_heldout")
+assert (inj5000["seed"].to_numpy() == held["seed"].to_numpy()).all()
+vs_inj5000 = evidence.paired_rates(held["locked_on"].to_numpy(), inj5000["locked_on"].to_numpy())
+
+
+def per_hour(events):
+    """Events an hour of driving and the exact (Garwood) 95 % Poisson interval."""
+    low = chi2.ppf(0.025, 2 * events) / 2 if events else 0.0
+    return events / hours, low / hours, chi2.ppf(0.975, 2 * events + 2) / 2 / hours
+
+
+cure_events = int(held["n_lost"].sum() + kid_held["n_lost"].sum())
+hz_events = int(held_hz["n_lost"].sum() + kid_held_hz["n_lost"].sum())
+cure_hour, hz_hour = per_hour(cure_events), per_hour(hz_events)
+# the cure's one false relocalization: a kidnap run the kidnapping hardly moved (left out of the recovery rate)
+lost_run = kid_held[kid_held["n_lost"] > 0]
+assert cure_events == 1 and len(lost_run) == 1 and held["n_lost"].sum() == 0
+assert (lost_run["jump_m"] < lock_on.POSITION_TOLERANCE_M).all() and (lost_run["jump_deg"] < np.degrees(mg.HEADING_TOL)).all()
+glue_values("lf_", n_misses=int(miss.sum()), misses_guards_lost=int(guards_lost.sum()),
+            miss_hazard_locked_by_s=float(locked_by),
+            tracking_heading_rmse_deg=float(np.degrees(np.sqrt(np.mean(trk["heading_rmse"] ** 2)))),
+            tracking_max_heading_deg=float(np.degrees(trk["max_window_heading_error"].max())),
+            inj5000_rate=vs_inj5000.b.estimate, inj5000_gain_pts=100 * vs_inj5000.difference,
+            inj5000_gain_low_pts=100 * vs_inj5000.difference_low, inj5000_gain_high_pts=100 * vs_inj5000.difference_high,
+            false_reloc_per_hour_low=cure_hour[1], false_reloc_per_hour_high=cure_hour[2],
+            hazard_false_reloc_per_hour_low=hz_hour[1], hazard_false_reloc_per_hour_high=hz_hour[2],
+            lost_run_jump_m=float(lost_run["jump_m"].iloc[0]), lost_run_lost_s=float(lost_run["lost_s"].iloc[0]))
 
 
 def misses(table):
@@ -692,7 +746,6 @@ fresh_exact = fresh_exact[fresh_exact["seed"] >= mg.FRESH_SEED]
 exact_pair = evidence.paired_rates(glob["locked_on"].to_numpy(), exact_table["exact_locked_on"].to_numpy())
 vs_aug = evidence.paired_rates(glob["locked_on"].to_numpy(), aug["locked_on"].to_numpy())
 vs_inj = evidence.paired_rates(glob["locked_on"].to_numpy(), base_inj["locked_on"].to_numpy())
-inj_d, aug_d = exact_difference(vs_inj), exact_difference(vs_aug)
 screen_note = ("Screened before the held-out drives (not stored; listed in the commits of the cure's branch): "
                "hysteresis alone lost kidnap run 5 to the cascade of the figure. On global drives 30-46 (which hold "
                "four of the unguarded cure's misses) the cure locked on in 13 of 17, the belief's evidence alone in "
@@ -707,34 +760,51 @@ EvidenceBlock(
            "belief's evidence with the admitted stratum); random numbers from numpy.random.default_rng([41, seed, 2]) "
            "for both variants (common random numbers until the first injection).",
            f"Locked on (within 1 m and {np.degrees(mg.HEADING_TOL):.1f} degrees at 80 % of the last 20 s): "
-           f"{cure_rate} (Wilson interval).",
-           f"Paired by drive (cure A, without its guards B): {vs_hz}; exact interval of the difference "
-           f"(Clopper-Pearson on the discordant drives): {100 * hz_d[1]:+.0f} to {100 * hz_d[2]:+.0f} points.",
+           f"{cure_rate}.",
+           f"Paired by drive (cure A, without its guards B): {vs_hz}.",
            f"Paired by drive (cure A, the exact filter over the twins B): {vs_exact}.",
            f"How the cure's {len(misses(held))} misses end: {int((misses(held)['final_position_error'] < 1).sum())} within "
            f"1 m of the truth (found, but too late for 80 % of the last 20 s), "
            f"{int((misses(held)['final_heading_error'] > np.pi / 2).sum())} on a half-turn twin (heading error above "
-           f"90 degrees); {int((misses(held)['n_lost'] > 0).sum())} after a false relocalization (the table).",
+           f"90 degrees); {int((misses(held)['n_lost'] > 0).sum())} after a false relocalization (the table). "
+           f"{int(guards_lost.sum())} of them are drives that the cure without its guards locks on (from "
+           + ", ".join(f"{v:.1f}" for v in held_hz.loc[guards_lost, "locked_from_s"]) + " s) and the exact filter too "
+           "(from " + ", ".join(f"{v:.1f}" for v in held_exact.loc[guards_lost, "exact_locked_from_s"]) + " s): the "
+           "guards lose them. An injected stratum claims only the evidence of its own window (the last 20 scans); "
+           "evidence older than that, which the wrong cloud missed, is lost, and three wins in a row delay the "
+           "correction further.",
            f"False relocalizations (2 s or more outside the tolerances, 2 m away, after 10 s within them), held-out "
-           f"global drives and kidnap runs: cure {cure_lost} runs, {cure_per_hour:.1f} an hour; without its guards "
-           f"{hz_lost} runs, {hz_per_hour:.1f} an hour ({hours:.1f} hours of driving each). Paired by run (cure A, "
-           f"without its guards B): {lost_pair}; exact interval of the difference in the share of runs lost "
-           f"{100 * lost_d[1]:+.0f} to {100 * lost_d[2]:+.0f} points.",
+           f"global drives and kidnap runs, runs with one: cure {cure_lost}, {cure_per_hour:.1f} an hour; without its "
+           f"guards {hz_lost}, {hz_per_hour:.1f} an hour ({hours:.1f} hours of driving each). Exact (Garwood) 95 % "
+           f"Poisson intervals of the rates: cure {cure_hour[1]:.3f}-{cure_hour[2]:.1f}, without its guards "
+           f"{hz_hour[1]:.1f}-{hz_hour[2]:.1f} an hour. Paired by run, share of runs lost (cure A, without its guards "
+           f"B): {lost_pair}.",
+           f"The cure's one false relocalization is kidnap run {int(lost_run['seed'].iloc[0])}, left out of the "
+           f"recovery rate: its kidnapping moved the robot {lost_run['jump_m'].iloc[0]:.2f} m and "
+           f"{lost_run['jump_deg'].iloc[0]:.1f} degrees. The cloud was back on the robot when a twin's stratum was "
+           f"admitted (three wins in a row) at {lost_run['lost_s'].iloc[0]:.0f} s; the filter is locked on for good "
+           f"only from {study.KIDNAP_STEP * study.DT + lost_run['recovery_s'].iloc[0]:.0f} s. Successive look-back "
+           "windows share all but 4 of their scans, so one stretch of poor fit (a slip, people in the scan) can win "
+           "several injections in a row: hysteresis makes a chance win rarer, it does not rule it out.",
            f"Cost: about {held['mean_particles'].mean() + per_injection / cs.inject_every:.0f} poses scored per scan "
-           f"({per_injection} per injection, every {cs.inject_every} scans, plus the cloud); "
-           f"{STUDIES['map_global/global_heldout'].load().attrs['provenance']['wall_seconds'] / len(held):.1f} s of "
-           f"computing per drive on the shared, loaded machine.",
+           f"({per_injection} per injection, every {cs.inject_every} scans, plus the cloud). CPU time per 100-s drive "
+           f"(process time, one after the other in the same single-threaded process, median over the "
+           f"{len(inj5000)} drives): cure {inj5000['cure_cpu_s'].median():.1f} s, uniform injection with "
+           f"{mg.INJECTION_N} particles {inj5000['injection_cpu_s'].median():.1f} s.",
+           f"Uniform injection (map_robot's filter, product weighting) with {mg.INJECTION_N} particles on the same "
+           f"held-out drives, judged by the same rule: {evidence.rate(inj5000['locked_on'].to_numpy())}; paired (cure A, "
+           f"injection B): {vs_inj5000}.",
            screen_note,
            f"Without the guards, on the 100 drives it was tuned on (seeds 0-99): locked on {evidence.rate(glob['locked_on'].to_numpy())}; "
-           f"against the exact filter {exact_pair}; against map_robot's uniform injection (N = 1000) {vs_inj}, exact "
-           f"interval {100 * inj_d[1]:+.0f} to {100 * inj_d[2]:+.0f} points; against the floored table-8.3 rate "
-           f"{vs_aug}, exact interval {100 * aug_d[1]:+.0f} to {100 * aug_d[2]:+.0f} points.",
+           f"against the exact filter {exact_pair}; against map_robot's uniform injection (N = 1000) {vs_inj}; "
+           f"against the floored table-8.3 rate {vs_aug}.",
            f"Without the guards, fresh drives {mg.FRESH_SEED}-{mg.FRESH_SEED + mg.FRESH_RUNS - 1}: locked on "
            f"{evidence.rate(fresh['locked_on'].to_numpy())}; the exact filter {evidence.rate(fresh_exact['exact_locked_on'].to_numpy())}.",
            "Tried on seeds 0-99 before the guards: averaging rates alpha_slow = 0.01, alpha_fast = 0.5 for the floored "
            "rate (dropped after 14 screened drives); injecting only while that rate is above its floor, with a floor "
            "of 1000 particles (poor-fit, dropped); the kidnap prior xi = 1e-3 (kept) and 1e-4 (dropped).",
-           stored("global_heldout"), stored("global_heldout_hazard"), stored("exact_heldout"), stored("global_hazard"),
+           stored("global_heldout"), stored("global_heldout_hazard"), stored("exact_heldout"),
+           stored("injection_heldout"), stored("global_hazard"),
            stored("global") + " (the floored table-8.3 rate)", stored("global_fresh")],
     tables=[("The held-out drives the cure does not lock on", misses(held),
              {"final_position_error": ".2f", "final_heading_error": ".2f", "lost_s": ".1f"})],
@@ -751,19 +821,19 @@ EvidenceBlock(
 # On the held-out runs ($150$-$199$) the cure recovers (is locked on at the end) in
 # {glue:text}`lf_kidnap_recovered_rate:.0%`
 # ({glue:text}`lf_kidnap_recovered_rate_low:.0%`-{glue:text}`lf_kidnap_recovered_rate_high:.0%`) of
-# the others, above the $0.90$ aimed at; without its guards,
-# {glue:text}`lf_kidnap_hazard_rate:.0%` of the same runs.
+# the others: the estimate is above the $0.90$ aimed at, but the interval reaches below it. Without
+# its guards, {glue:text}`lf_kidnap_hazard_rate:.0%` of the same runs.
 #
 # They are locked on for good a median {glue:text}`lf_kidnap_recovery_median_s:.0f` s after
 # the kidnapping ({glue:text}`lf_kidnap_recovery_median_s_low:.0f`-{glue:text}`lf_kidnap_recovery_median_s_high:.0f` s).
-# None can come sooner than $\tau$ scans ($10$ s) plus two injections after the kidnapping.
+# None can come sooner than $L$ scans ($10$ s) plus two injections: that median is the design's
+# latency, not a speed.
 
 # %% tags=["remove-input"] jupyter={"source_hidden": true}
 kid_moved = ((kid_held["jump_m"] >= lock_on.POSITION_TOLERANCE_M)
              | (kid_held["jump_deg"] >= np.degrees(mg.HEADING_TOL))).to_numpy()
 kid_pair = evidence.paired_rates(kid_held["recovered"].to_numpy()[kid_moved],
                                  kid_held_hz["recovered"].to_numpy()[kid_moved])
-kid_d = exact_difference(kid_pair)
 recovered = kid_pair.a
 times = kid_held.loc[kid_moved & kid_held["recovered"].to_numpy(), "recovery_s"].to_numpy()
 med, med_low, med_high = evidence.median_interval(times)
@@ -782,8 +852,8 @@ EvidenceBlock(
            f"t = {study.KIDNAP_STEP * study.DT:.0f} s to a waypoint drawn by kidnap_rng(seed), run to "
            f"t = {study.KIDNAP_STEPS * study.DT:.0f} s; {int((~kid_moved).sum())} left out (moved less than 1 m and "
            f"{np.degrees(mg.HEADING_TOL):.1f} degrees).",
-           f"Recovered (locked on at the end): cure {recovered}; paired with the cure without its guards: {kid_pair}; "
-           f"exact interval of the difference {100 * kid_d[1]:+.0f} to {100 * kid_d[2]:+.0f} points. The runs the cure "
+           f"Recovered (locked on at the end): cure {recovered}; paired with the cure without its guards: {kid_pair}. "
+           f"The runs the cure "
            f"misses end {', '.join(f'{e:.2f}' for e in kid_held.loc[kid_moved & ~kid_held['recovered'].to_numpy(), 'final_position_error'])} m "
            "from the truth: found again, too late for the window (the table).",
            f"Median time from the kidnapping to the step from which the filter stays locked on, over the {len(times)} "
@@ -802,8 +872,7 @@ EvidenceBlock(
 # %% [markdown]
 # ## Explore: the poses a scan proposes
 #
-# $300$ poses from the proposal for seed $1$'s scan at $75$ s, one seeded draw per setting: watch
-# them gather on the robot, its twins and near misses.
+# $300$ poses from the proposal for seed $1$'s scan at $75$ s, one seeded draw per setting.
 
 # %% tags=["hide-input", "nbval-ignore-output"] jupyter={"source_hidden": true}
 def draw(candidates=500, rounds=3):
@@ -835,14 +904,15 @@ display(panel)
 # ```{exercise} 15.1 How often does a look-alike take over?
 # :label: ex-map-global-takeover
 # :nonumber:
-# (Coding.) A twin's stratum the scans cannot tell from a right cloud: at each of $T$ injections its
-# estimated log-odds against the cloud are $\lambda + s\, e$, $e \sim \mathcal N(0, 1)$ independent
-# ($\lambda$ the prior log-odds, $s$ the spread of the estimated log Bayes factor), and it wins when
-# they are positive. It takes over at the first injection that completes `confirm` wins in a row. Write `my_takeover(log_prior_odds, sd, confirm, T, runs,
+# (Coding.) A toy model of a twin's stratum the scans cannot tell from a right cloud: at each of $T$
+# injections its estimated log-odds against the cloud are $\lambda + s\, e$, $e \sim \mathcal N(0, 1)$
+# independent ($\lambda$ the prior log-odds, $s$ the spread of the estimated log Bayes factor), and it
+# wins when they are positive. (The filter's windows overlap, so its wins are not independent; the
+# toy ignores that.) It takes over at the first injection that completes `confirm` wins in a row. Write `my_takeover(log_prior_odds, sd, confirm, T, runs,
 # rng)` that returns the share of `runs` simulated drives in which the twin takes over, drawing
 # `rng.standard_normal((runs, T))`. Then compare `confirm` $= 1$ and $3$ with the chapter's prior
-# odds ($\xi_k = 4 \times 10^{-3}$), $T = 45$ injections (a $100$-s drive) and $s = 3$ nats (a
-# value assumed for the exercise, not measured). The checker compares your shares with exact ones
+# odds ($\xi_k = 4 \times 10^{-3}$), $T = 45$ injections (a $100$-s drive) and $s = 3$ nats (assumed,
+# not measured). The checker compares your shares with exact ones
 # and names the mistake it sees.
 # ```
 
@@ -861,10 +931,11 @@ print(check_takeover(my_takeover))
 # ```{solution} ex-map-global-takeover
 # :class: dropdown
 # Draw all the injections at once, keep each run's current streak of wins (a loss resets it to
-# zero), and mark a run taken over once its streak reaches `confirm`. With the chapter's numbers a
-# twin takes over in {glue:text}`lf_takeover_one:.0%` of the drives when one win suffices, and in
-# {glue:text}`lf_takeover_three:.2%` when three in a row are needed. The code is in the folded cell
-# below.
+# zero), and mark a run taken over once its streak reaches `confirm`. In the toy a twin takes over
+# in {glue:text}`lf_takeover_one:.0%` of the drives when one win suffices, and in
+# {glue:text}`lf_takeover_three:.2%` when three in a row are needed. These are the toy's numbers, not
+# the filter's: its windows overlap, so its wins are not independent and $s = 3$ was not measured.
+# The code is in the folded cell below.
 # ```
 
 # %% tags=["solution", "hide-input"] jupyter={"source_hidden": true}
@@ -894,12 +965,13 @@ glue_values("lf_", takeover_one=shares[1], takeover_three=shares[3])
 # - Poses drawn from the scan are weighted by $u / q$ times the evidence of their history against
 #   the belief's; their prior is the kidnap model's $\xi$, chosen by hand like any floor.
 # - A stratum that wins replaces the cloud: count false relocalizations, not only lock-on at the
-#   end. The guards: the belief's evidence includes its admitted strata; three wins in a row.
+#   end. The guards (the belief's evidence includes its admitted strata; three wins in a row) keep
+#   the cloud the filter has: fewer false relocalizations, later corrections of a wrong cloud.
 # - On held-out drives the cure locks on in {glue:text}`lf_global_lock_on_rate:.0%` of the drives from
-#   a uniform start, where the exact filter over the twins locks on in
-#   {glue:text}`lf_heldout_exact_rate:.0%`, and finds a kidnapped robot again in
-#   {glue:text}`lf_kidnap_recovered_rate:.0%` of the kidnappings, against the $0.95$ and $0.90$ aimed
-#   at; it relocalizes falsely {glue:text}`lf_false_reloc_per_hour:.1f` times an hour.
+#   a uniform start (the exact filter over the twins: {glue:text}`lf_heldout_exact_rate:.0%`) and
+#   finds a kidnapped robot again in {glue:text}`lf_kidnap_recovered_rate:.0%` of the kidnappings;
+#   both estimates reach the $0.95$ and $0.90$ aimed at, neither interval excludes falling short. It
+#   relocalizes falsely {glue:text}`lf_false_reloc_per_hour:.1f` times an hour.
 #
 # :::{admonition} From the labs
 # :class: dropdown

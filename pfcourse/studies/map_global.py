@@ -168,6 +168,33 @@ def heldout_kidnap_row(seed: int) -> dict:
     return hazard_kidnap_fresh_row(seed, CURE)
 
 
+#: Uniform random injection (map_robot's ``injection`` filter, product weighting) at about the cure's cost:
+#: :data:`INJECTION_N` particles, on the held-out drives, judged by the cure's lock-on rule, paired with the cure.
+INJECTION_N = 5000
+INJECTION_COLUMNS = ("seed", "locked_on", "locked_from_s", "final_position_error", "final_heading_error",
+                     "injection_cpu_s", "cure_cpu_s")
+
+
+def heldout_injection_row(seed: int, n_particles: int = INJECTION_N) -> dict:
+    """Uniform random injection with ``n_particles`` from a uniform start on held-out drive ``seed``
+    (:func:`pfcourse.studies.maprobot.run_filter`, its filter rng ``filter_rng(seed, 0)``), judged by
+    :data:`HEADING_TOL`; and the CPU time (s, ``time.process_time``, volatile) of this filter and of the cure on the
+    same drive, run one after the other in the same process."""
+    import time
+
+    run = study.simulate(seed, study.GLOBAL_STEPS)
+    t0 = time.process_time()
+    res = study.run_filter(run, seed, n_particles, "injection", weighting="product")
+    t1 = time.process_time()
+    global_mcl(study.book_map(), study.field(), study.MOTION, run.scans, run.drive.odometry, filter_rng(seed), CURE)
+    t2 = time.process_time()
+    pos, head = position_error(run.truth, res.mean), heading_error(run.truth, res.mean)
+    return {"locked_on": lock_on.locked_on(pos, head, study.DT, HEADING_TOL),
+            "locked_from_s": lock_on.locked_from(pos, head, study.DT, HEADING_TOL) * study.DT,
+            "final_position_error": float(pos[-1]), "final_heading_error": float(head[-1]),
+            "injection_cpu_s": t1 - t0, "cure_cpu_s": t2 - t1}
+
+
 def poor_fit_global_row(seed: int) -> dict:
     """:func:`global_row` with the variant :data:`pfcourse.scenarios.maprobot.global_mcl.POOR_FIT`."""
     return global_row(seed, POOR_FIT)

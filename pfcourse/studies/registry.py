@@ -683,6 +683,18 @@ STUDIES: dict[str, Study] = {study.name: study for study in [
                                  # the cure (global_mcl.CURE: hysteresis, the belief's evidence with its strata)
                                  ("global_heldout", map_global.heldout_global_row, map_global.GLOBAL_FRESH_COLUMNS),
                                  ("kidnap_heldout", map_global.heldout_kidnap_row, map_global.KIDNAP_FRESH_COLUMNS)]),
+    # equal cost: uniform injection at N = 5000 on the held-out drives 150-199, paired with global_heldout (the cure)
+    Study(name="map_global/injection_heldout", row=map_global.heldout_injection_row, grid={},
+          n_runs=map_global.HELDOUT_RUNS, base_seed=map_global.HELDOUT_SEED, seeds="run", failures="raise",
+          table="map_global/injection_heldout.csv", provenance="map_global/injection_heldout.json",
+          columns=map_global.INJECTION_COLUMNS, volatile=("seconds", "injection_cpu_s", "cure_cpu_s"), sample=1,
+          row_code="pfcourse/studies/map_global.py (heldout_injection_row), pfcourse/scenarios/maprobot/drive.py "
+                   "(run_filter, FILTERS['injection'])",
+          fields={"seeds": "run s (held-out drives 150-199): drive as maprobot/global (data_rng(s, 0)); injection "
+                           "filter pfcourse.seeding.filter_rng(s, 0); the cure (timed only) default_rng([41, s, 2])",
+                  "n_particles": map_global.INJECTION_N, "dt": maprobot.DT,
+                  "heading_tolerance_rad": map_global.HEADING_TOL,
+                  "cpu": "time.process_time per filter, one process, OMP/MKL/OPENBLAS threads 1"}),
     Study(name="terrain_mpf", row=terrain_marginalised.row, grid={"N": terrain_marginalised.SIZES},
           n_runs=100, seeds="run", table="terrain_mpf.csv", **_FLIGHTS, provenance="terrain_mpf.json",
           columns=terrain_marginalised.COLUMNS, seed_column="flight", cheap=lambda t: t["N"] <= 3000, sample=2,

@@ -1,7 +1,9 @@
 """The checked exercises of the chapter *Finding the robot on the map* (book/part2/map_global).
 
 Exercise 15.1 (:func:`check_takeover`, at the end of this module): how often a look-alike stratum takes over a
-right cloud when hysteresis asks for several wins in a row, against the exact streak probability.
+right cloud when hysteresis asks for several wins in a row, against the exact streak probability.  A toy: the
+injections' log Bayes factors are independent there, while the chapter's overlapping look-back windows make
+successive wins correlated, and the spread ``sd`` is assumed, not measured.
 
 The earlier exercise 15.1 (:func:`check_reset_weights`, kept and tested): poses drawn from a reading, weighted
 correctly, for another sensor.
@@ -263,6 +265,8 @@ TAKEOVER_MISTAKES: dict[str, str] = {
                 "confirm-th win in a row (streak >= confirm)",
     "last_only": "only the last confirm injections are looked at: the twin takes over at the first streak of "
                  "confirm wins anywhere in the T injections, and then it has the weight",
+    "share_of_wins": "the function returns the share of injections the twin wins, not the share of drives it "
+                     "takes over: a drive counts once, at its first streak of confirm wins in a row",
     "count": "the function returns a count of runs, not their share: divide by runs",
 }
 
@@ -285,6 +289,8 @@ def takeover_answer(log_prior_odds: float, sd: float, confirm: int, T: int, runs
     scale = sd ** 2 if mistake == "variance" else sd
     prior = 0.0 if mistake == "no_prior" else (-log_prior_odds if mistake == "prior_sign" else log_prior_odds)
     win = prior + scale * e > 0
+    if mistake == "share_of_wins":
+        return float(win.mean())
     if mistake == "total":
         hit = win.sum(axis=1) >= confirm
     elif mistake == "last_only":
@@ -321,6 +327,8 @@ def exact_takeover_case(log_prior_odds: float, sd: float, confirm: int, T: int,
     scale = sd ** 2 if mistake == "variance" else sd
     prior = 0.0 if mistake == "no_prior" else (-log_prior_odds if mistake == "prior_sign" else log_prior_odds)
     p = float(norm.cdf(prior / scale))
+    if mistake == "share_of_wins":
+        return p
     if mistake == "total":
         return float(binom.sf(confirm - 1, T, p))
     if mistake == "last_only":
@@ -364,6 +372,8 @@ def check_takeover(fn: Callable, runs: int = TAKEOVER_RUNS) -> CheckReport:
     problem = _seed_problem(state, (np.array([first]),), (np.array([again]),), (np.array([other]),), "share",
                             "rng.standard_normal((runs, T))")
     if problem is not None:
+        if first == other:  # e.g. a closed form such as (T - confirm + 1) p^confirm, with the draws ignored
+            problem += "; simulate the drives with it, do not compute a closed form such as p^confirm"
         report.problems.append(problem)
         return report
     generic = None

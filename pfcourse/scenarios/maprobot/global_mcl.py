@@ -47,11 +47,18 @@ resampling at every scan) with three changes, the cure of the chapter *Finding t
    **False relocalization** (:data:`CURE`).  Two guards keep a right cloud in place.  *The belief's
    evidence* (``mixture_evidence``): at an injection whose stratum is admitted, the scan's evidence is the
    mixture's, ``log((1 - eps_k) Z_k + eps_k B Z_k)`` (the sum of the mixed weights), not the moved cloud's
-   ``Z_k``; otherwise, once a stratum has replaced a wrong cloud, the next strata are compared with the wrong
+   ``Z_k``.  Since ``B`` is the Bayes factor of the whole window ``k - h ... k``, that factor is not a one-step
+   predictive density: it is right as a cumulative normaliser, ``p(z_{0:k}) = p(z_{0:k-h-1}) prod_{j=k-h}^{k-1}
+   Z_j [(1 - eps_k) Z_k + eps_k B Z_k]``; later strata, divided by a windowed product of the record, are then
+   compared only approximately.  Otherwise, once a stratum has replaced a wrong cloud, the next strata are compared with the wrong
    cloud's poor record of the scans before and win by a wide margin, twins included (kidnap drive 5).
    *Hysteresis* (``confirm``): a stratum is admitted only at the ``confirm``-th injection in a row at which it
    outweighs the cloud (posterior odds above 1); one a twin wins by the noise of its Bayes factor is dropped.
-   A true kidnapping's strata keep winning; its recovery is delayed by ``confirm - 1`` injections.
+   A true kidnapping's strata keep winning; its recovery is delayed by ``confirm - 1`` injections.  Hysteresis is
+   a decision rule, not part of the importance weight: a stratum that outweighs the cloud is dropped, so from
+   then on the cloud no longer approximates the kidnap model's posterior.  Successive windows share ``h + 1 -
+   inject_every`` of their scans, so a twin's wins are not independent from one injection to the next.  The
+   guards are symmetric: they keep a wrong cloud as they keep a right one (the held-out misses 150 and 189).
 
    In practice the first scan collapses the weighted cloud into a few KLD bins, and from step 1 on
    the bound asks for ``n_min``: KLD-sampling hardly acts on the book's map.  Part of that is the start's
@@ -160,7 +167,7 @@ KIDNAP_HAZARD = 1e-3
 HAZARD = replace(SETTINGS, kidnap_hazard=KIDNAP_HAZARD)
 #: The cure (module docstring, "False relocalization"): the belief's evidence counts the strata it admits, and an
 #: injected stratum takes the weight only after winning CONFIRM injections in a row (hysteresis); chosen on kidnap
-#: drive 5's cascade and a screen of drives 0-49, measured on held-out drives 150-199.
+#: drive 5's cascade and a screen of global drives 30-46 and kidnap runs 15-29, measured on held-out drives 150-199.
 CONFIRM = 3
 CURE = replace(HAZARD, confirm=CONFIRM, mixture_evidence=True)
 
