@@ -362,6 +362,22 @@ NO_FILTER_RECORD: dict[str, str] = {
 
 
 #: Every stored study, by name.  A group (``robot_studies``) is the studies named ``group/...``.
+
+def _map_global_drives(n_runs: int, base_seed: int, drives: str, entries: list) -> list[Study]:
+    """map_global's paired studies on one set of drives (``drives``, e.g. "held-out drives 150-199"): one
+    Study per ``(name, row, columns)``, each global drive and kidnapping seeded as maprobot/global and
+    maprobot/kidnap, its filter by ``default_rng([41, s, 2])``."""
+    return [Study(name=f"map_global/{name}", row=row, grid={}, n_runs=n_runs, seeds="run",
+                  base_seed=base_seed, failures="raise", table=f"map_global/{name}.csv",
+                  provenance=f"map_global/{name}.json", columns=columns, sample=1,
+                  row_code=f"pfcourse/studies/map_global.py ({row.__name__}), pfcourse/scenarios/maprobot/global_mcl.py",
+                  fields={"seeds": f"run s ({drives}): drive and scans as maprobot/global and maprobot/kidnap "
+                                   "(data_rng(s, 0), kidnap_rng(s)); filter numpy.random.default_rng([41, s, 2])",
+                          "dt": maprobot.DT, "heading_tolerance_rad": map_global.HEADING_TOL,
+                          "lost": "pfcourse/studies/map_global.py lost_times: 2 s or more outside the lock-on "
+                                  "tolerances, 2 m away at some step, after 10 s within them"})
+            for name, row, columns in entries]
+
 STUDIES: dict[str, Study] = {study.name: study for study in [
     Study(name="sir_fixes", row=sir_fixes_study.row,
           grid={"variant": sir_fixes_study.VARIANTS, "N": sir_fixes_study.N_VALUES}, n_runs=100, seeds="run",
@@ -655,34 +671,16 @@ STUDIES: dict[str, Study] = {study.name: study for study in [
                            "no random numbers of its own",
                   "dt": maprobot.DT, "heading_tolerance_rad": map_global.HEADING_TOL}),
     # the cure (global_mcl.HAZARD) re-measured on fresh drives 100-149, not those it was chosen on
-    *(Study(name=f"map_global/{name}", row=row, grid={}, n_runs=map_global.FRESH_RUNS, seeds="run",
-            base_seed=map_global.FRESH_SEED, failures="raise", table=f"map_global/{name}.csv",
-            provenance=f"map_global/{name}.json", columns=columns, sample=1,
-            row_code=f"pfcourse/studies/map_global.py ({row.__name__}), pfcourse/scenarios/maprobot/global_mcl.py",
-            fields={"seeds": "run s (fresh drives 100-149): drive and scans as maprobot/global and maprobot/kidnap "
-                             "(data_rng(s, 0), kidnap_rng(s)); filter numpy.random.default_rng([41, s, 2])",
-                    "dt": maprobot.DT, "heading_tolerance_rad": map_global.HEADING_TOL,
-                    "lost": "pfcourse/studies/map_global.py lost_times: 2 s or more outside the lock-on tolerances, "
-                            "2 m away at some step, after 10 s within them"})
-      for name, row, columns in [("global_fresh", map_global.hazard_global_fresh_row, map_global.GLOBAL_FRESH_COLUMNS),
-                                 ("kidnap_fresh", map_global.hazard_kidnap_fresh_row, map_global.KIDNAP_FRESH_COLUMNS)]),
+    *_map_global_drives(map_global.FRESH_RUNS, map_global.FRESH_SEED, "fresh drives 100-149", [
+        ("global_fresh", map_global.hazard_global_fresh_row, map_global.GLOBAL_FRESH_COLUMNS),
+        ("kidnap_fresh", map_global.hazard_kidnap_fresh_row, map_global.KIDNAP_FRESH_COLUMNS)]),
     # held-out drives 150-199: the cure before hysteresis (global_mcl.HAZARD) and the cure (global_mcl.CURE), paired
-    *(Study(name=f"map_global/{name}", row=row, grid={}, n_runs=map_global.HELDOUT_RUNS, seeds="run",
-            base_seed=map_global.HELDOUT_SEED, failures="raise", table=f"map_global/{name}.csv",
-            provenance=f"map_global/{name}.json", columns=columns, sample=1,
-            row_code=f"pfcourse/studies/map_global.py ({row.__name__}), pfcourse/scenarios/maprobot/global_mcl.py",
-            fields={"seeds": "run s (held-out drives 150-199): drive and scans as maprobot/global and maprobot/kidnap "
-                             "(data_rng(s, 0), kidnap_rng(s)); filter numpy.random.default_rng([41, s, 2])",
-                    "dt": maprobot.DT, "heading_tolerance_rad": map_global.HEADING_TOL,
-                    "lost": "pfcourse/studies/map_global.py lost_times: 2 s or more outside the lock-on tolerances, "
-                            "2 m away at some step, after 10 s within them"})
-      for name, row, columns in [("global_heldout_hazard", map_global.heldout_hazard_global_row,
-                                  map_global.GLOBAL_FRESH_COLUMNS),
-                                 ("kidnap_heldout_hazard", map_global.heldout_hazard_kidnap_row,
-                                  map_global.KIDNAP_FRESH_COLUMNS),
-                                 # the cure (global_mcl.CURE: hysteresis, the belief's evidence with its strata)
-                                 ("global_heldout", map_global.heldout_global_row, map_global.GLOBAL_FRESH_COLUMNS),
-                                 ("kidnap_heldout", map_global.heldout_kidnap_row, map_global.KIDNAP_FRESH_COLUMNS)]),
+    *_map_global_drives(map_global.HELDOUT_RUNS, map_global.HELDOUT_SEED, "held-out drives 150-199", [
+        ("global_heldout_hazard", map_global.heldout_hazard_global_row, map_global.GLOBAL_FRESH_COLUMNS),
+        ("kidnap_heldout_hazard", map_global.heldout_hazard_kidnap_row, map_global.KIDNAP_FRESH_COLUMNS),
+        # the cure (global_mcl.CURE: hysteresis, the belief's evidence with its strata)
+        ("global_heldout", map_global.heldout_global_row, map_global.GLOBAL_FRESH_COLUMNS),
+        ("kidnap_heldout", map_global.heldout_kidnap_row, map_global.KIDNAP_FRESH_COLUMNS)]),
     # equal cost: uniform injection at N = 5000 on the held-out drives 150-199, paired with global_heldout (the cure)
     Study(name="map_global/injection_heldout", row=map_global.heldout_injection_row, grid={},
           n_runs=map_global.HELDOUT_RUNS, base_seed=map_global.HELDOUT_SEED, seeds="run", failures="raise",
