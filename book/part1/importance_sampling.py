@@ -19,7 +19,7 @@
 # **You need** Gaussian densities, the law of large numbers and the central limit theorem;
 # NumPy arrays and a random generator.
 #
-# **Time:** about seventeen minutes to read; the notebook runs in under half a minute.
+# **Time:** about eighteen minutes to read; the notebook runs in under half a minute.
 # :::
 
 # %% tags=["remove-input"] jupyter={"source_hidden": true}
@@ -367,7 +367,7 @@ EvidenceBlock(
 # What the ESS does bound is the error of every bounded function: for $|\varphi| \le 1$ the mean
 # square error of $\hat I_N$ is at most $4\, \mathbb E_q[w^2] / N = 4 / \mathrm{ESS}_\infty$, with
 # $\mathrm{ESS}_\infty = N / \mathbb E_q[w^2]$ the ESS of the limit
-# {cite:p}`agapiou2017`; {cite:t}`chopin2020` (chapter 8) give this and the CLT above. The bound
+# {cite:p}`agapiou2017`; {cite:t}`chopin2020` (their chapter on importance sampling) give this and the CLT above. The bound
 # is on the population ESS; the ESS measured from the weights is an estimate of it, and the
 # next section shows when that estimate fails.
 
@@ -471,7 +471,9 @@ plt.show()
 # $\hat I_N \pm 1.96 \sqrt{\hat I_N (1 - \hat I_N) / \mathrm{ESS}}$ (the variance of an indicator
 # is $I (1 - I)$), covers the exact answer in only {glue:text}`is_tail_cover_normal:.0%` of the
 # runs (at most {glue:text}`is_tail_cover_normal_high:.0%`). A diagnostic made of the draws
-# cannot see the mass the draws never reach. Its fall as $N$ grows does give the trouble away:
+# cannot see the mass the draws never reach.
+#
+# The fall of the ESS as $N$ grows does give the trouble away:
 # the mean ESS is {glue:text}`is_tail_ess_normal_small:.0%` of $N$ at $N = 10^2$ and
 # {glue:text}`is_tail_ess_normal_large:.0%` at $N = 10^4$, while with the Cauchy proposal it
 # stays at {glue:text}`is_tail_ess_cauchy_large:.0%`, near its limit $1 / \mathbb E_q[w^2]$. A
@@ -479,9 +481,10 @@ plt.show()
 
 # %% [markdown]
 # The Cauchy proposal restores the rate: slope {glue:text}`is_tail_slope_cauchy:.2f`
-# ({glue:text}`is_tail_slope_cauchy_low:.2f`-{glue:text}`is_tail_slope_cauchy_high:.2f`). Here
-# the ESS rule errs the other way: the interval covers the exact answer in
-# {glue:text}`is_tail_cover_cauchy:.0%` of the runs at $N = 10^3$, more than the nominal 95 %,
+# ({glue:text}`is_tail_slope_cauchy_low:.2f`-{glue:text}`is_tail_slope_cauchy_high:.2f`).
+#
+# Here the ESS rule errs the other way: the interval covers the exact answer in
+# {glue:text}`is_tail_cover_cauchy:.0%` of the runs at $N = 10^3$, more than the nominal $95\,\%$,
 # because the Cauchy spreads its large weights over the tails and the ratio of the true variance
 # to the rule's is {glue:text}`is_tail_kong_cauchy:.2f` by quadrature. The lesson carries over to
 # filters: heavier tails than the target's are always safe; somewhat lighter tails cost variance
