@@ -72,3 +72,31 @@ def test_stubs_and_errors_get_a_plain_sentence():
     assert "raised ZeroDivisionError" in str(check_evidence_increment(lambda a, b: 1 / 0))
     assert "one value per particle" in str(check_evidence_increment(lambda a, b: a + b))
     assert "is not logsumexp" in str(check_evidence_increment(lambda a, b: 0.0))
+
+
+# The chapter's former exercise 3.2 checker, check_weight_update, still kept: its typical mistakes named.
+def test_weight_update_names_four_typical_mistakes():
+    from pfcourse.book.exercises import check_weight_update
+
+    def weights_not_logs(log_W, log_lik):
+        a = log_W + log_lik
+        return np.exp(a - logsumexp(a))
+
+    def underflow(log_W, log_lik):
+        a = log_W + log_lik
+        return a - np.log(np.sum(np.exp(a)))
+
+    def old_dropped(log_W, log_lik):
+        return log_lik - logsumexp(log_lik)
+
+    def max_subtracted(log_W, log_lik):
+        a = log_W + log_lik
+        return a - np.max(a)
+
+    keys = {weights_not_logs: "not their logs", underflow: "underflowed", old_dropped: "old weights log_W were dropped",
+            max_subtracted: "subtract the logsumexp instead"}
+    for mistake, key in keys.items():
+        problems = check_weight_update(mistake).problems
+        assert problems and any(key in p for p in problems), (mistake.__name__, problems)
+        others = [k for k in keys.values() if k != key]
+        assert not any(k in p for p in problems for k in others), (mistake.__name__, problems)

@@ -306,7 +306,21 @@ def check_weight_update(fn: Callable, seed: int = 0) -> CheckReport:
             report.problems.append(
                 f"{name}: NaN in the result; subtract the largest log-weight before exponentiating "
                 "(or use scipy.special.logsumexp)")
-        elif not np.allclose(np.exp(got), np.exp(expected), atol=1e-12, rtol=1e-9):
+        elif np.allclose(np.exp(got), np.exp(expected), atol=1e-12, rtol=1e-9):
+            continue
+        elif np.allclose(got, np.exp(expected), atol=1e-12, rtol=1e-9):
+            report.problems.append(f"{name}: you returned the weights W_i, not their logs: return the log-weights "
+                                   "(do not exponentiate at the end)")
+        elif np.isinf(got[np.isfinite(expected)]).any():
+            report.problems.append(f"{name}: an infinite log-weight where the answer is finite: the weights underflowed to 0 in the "
+                                   "linear domain, so stay in logs and use scipy.special.logsumexp")
+        elif np.allclose(np.exp(got), np.exp(loglik - logsumexp(loglik)), atol=1e-12, rtol=1e-9):
+            report.problems.append(f"{name}: the old weights log_W were dropped: the new weight is the old one times "
+                                   "the likelihood, so add log_W to log_lik before normalising")
+        elif np.allclose(np.exp(got), np.exp(logw + loglik - np.max(logw + loglik)), atol=1e-12, rtol=1e-9):
+            report.problems.append(f"{name}: you subtracted the largest log-weight, which avoids overflow but does "
+                                   "not normalise: subtract the logsumexp instead")
+        else:
             total = np.exp(got).sum()
             hint = " (they do not sum to 1: normalise)" if abs(total - 1) > 1e-9 else ""
             report.problems.append(f"{name}: wrong weights{hint}; largest error "
@@ -314,9 +328,9 @@ def check_weight_update(fn: Callable, seed: int = 0) -> CheckReport:
     return report
 
 
-#: The case of :func:`check_evidence_increment`: predictive N(0, 1) of the state, represented by draws
-#: of the proposal N(EVIDENCE_Q_MEAN, EVIDENCE_Q_SD^2) weighted to it, and a measurement z = x + v,
-#: v ~ N(0, EVIDENCE_SD_V^2). The exact increment is N(z; 0, 1 + sd_v^2).
+#: The case of :func:`check_evidence_increment`: the predictive N(0, 1) of the state, represented by n draws
+#: of the proposal N(q_mean, q_sd^2) weighted to it, and a measurement z = x + v, v ~ N(0, sd_v^2).
+#: The exact increment is N(z; 0, 1 + sd_v^2).
 EVIDENCE_CASE = dict(z=1.2, sd_v=0.5, q_mean=0.5, q_sd=1.5, n=2000)
 
 
