@@ -53,7 +53,8 @@ use_style()
 # The toy of this chapter: a prior $x \sim \mathcal N(0, 1)$ and one measurement $z = x + v$,
 # $v \sim \mathcal N(0, \sigma_v^2)$, here $z = 1$. The figure draws the same $100$ points from
 # the prior, the *proposal* (blue), and stands on each a bar as tall as its *weight*: the ratio
-# of the posterior, the *target* (green), to the proposal at that point. On the left the
+# of the posterior, the *target* (green), to the proposal at that point, scaled so that the
+# bars sum to one. On the left the
 # measurement is coarse, $\sigma_v = 1$, and the target is about as wide as the proposal; on the
 # right it is sharp, $\sigma_v = 0.1$, and the target is ten times narrower.
 
@@ -79,7 +80,8 @@ def draw_weights(top, bottom, x, sd_v, tails="Gaussian"):
     W = weigh(x, sd_v, tails)
     m, sd = z / (1 + sd_v**2), np.sqrt(sd_v**2 / (1 + sd_v**2))
     q = stats.norm.pdf(x_grid) if tails == "Gaussian" else np.exp(log_t3(x_grid))
-    top.plot(x_grid, q, color="tab:blue", label=f"proposal ({tails})")
+    label = "proposal q = prior N(0, 1)" if tails == "Gaussian" else "proposal q = Student t3"
+    top.plot(x_grid, q, color="tab:blue", label=label)
     top.fill_between(x_grid, stats.norm.pdf(x_grid, m, sd), color="tab:green",
                      alpha=0.3, lw=0, label="target")
     high = 1.15 * max(stats.norm.pdf(0), 1 / (sd * np.sqrt(2 * np.pi)))
@@ -170,6 +172,9 @@ glue_values("is_picture_ess_", sd1=picture_ess[1.0], sd01=picture_ess[0.1])
 # underflow to zero.
 
 # %%
+# pfcourse first (the exercises' checkers): it pins NumPy's arithmetic
+from pfcourse.book.exercises import (
+    check_evidence_increment, check_importance_sampler)
 import numpy as np
 from scipy import stats
 from scipy.special import logsumexp
@@ -224,7 +229,8 @@ plt.show()
 # $\operatorname{Var}_\pi(\varphi) / \mathrm{ESS}$. The derivation below makes this precise, and
 # shows when it fails.
 #
-# Take $w = \pi / q$ normalised, so $\mathbb E_q w = 1$ (the constant cancels in $\hat I_N$), and
+# Take $w = \pi / q$ with $\pi$ the normalised posterior, so $\mathbb E_q w = 1$ (the constant
+# cancels in $\hat I_N$), and
 # write the error as a ratio of two averages:
 #
 # $$
@@ -577,10 +583,6 @@ display(control_panel(
 # ```
 
 # %% tags=["answer"]
-from pfcourse.book.exercises import (
-    check_evidence_increment, check_importance_sampler)
-
-
 def estimate_mean(z, sd_v, n, rng):
     """Your sampler: return (estimate of the posterior mean, ESS)."""
     ...  # replace with your code
@@ -661,8 +663,9 @@ print(check_evidence_increment(increment_linear))
 # :label: ex-is-ess
 # :nonumber:
 # Show that $1/\sum_i (W^i)^2 = N / (1 + \operatorname{cv}^2)$ where $\operatorname{cv}^2$ is
-# the squared coefficient of variation of the unnormalised weights over the $N$ draws, and
-# that this tends to $N / \mathbb E_q[w^2]$ for $w = \pi / q$.
+# the squared coefficient of variation of the unnormalised weights over the $N$ draws (their
+# variance with the factor $1/N$, over their squared mean), and that $\mathrm{ESS} / N$ tends to
+# $1 / \mathbb E_q[w^2] = 1 / (1 + \chi^2(\pi \| q))$ for $w = \pi / q$.
 # ```
 #
 # ```{solution} ex-is-ess
@@ -672,7 +675,8 @@ print(check_evidence_increment(increment_linear))
 # = \frac1N \cdot \frac{\frac1N \sum_i (\tilde w^i)^2}{\bar w^2} = \frac{1 + \operatorname{cv}^2}{N}$,
 # since $\frac1N \sum_i (\tilde w^i)^2 = \bar w^2 (1 + \operatorname{cv}^2)$. The ratio
 # $\frac1N \sum_i (\tilde w^i)^2 / \bar w^2$ tends to $\mathbb E_q[w^2] / (\mathbb E_q w)^2
-# = \mathbb E_q[w^2]$ by the law of large numbers.
+# = \mathbb E_q[w^2]$ by the law of large numbers; $\mathbb E_q[w^2] - 1 = \operatorname{Var}_q w$
+# is by definition the $\chi^2$ divergence $\chi^2(\pi \| q)$.
 # ```
 #
 # ```{exercise} 3.4 Which tails are heavy enough?
