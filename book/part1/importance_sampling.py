@@ -295,9 +295,10 @@ above_1sd = lambda x, m, s: 1.0 * (x > m + s)
 above_15sd = lambda x, m, s: 1.0 * (x > m + 1.5 * s)
 
 N, reps = 100, 2000
+toy_rng = np.random.default_rng(0)  # its own generator: editing the code above does not change it
 toy = {}
 for sd_v in (1.0, 0.3, 0.1):
-    x = rng.standard_normal((reps, N))
+    x = toy_rng.standard_normal((reps, N))
     log_w = stats.norm.logpdf(z, loc=x, scale=sd_v)
     W = np.exp(log_w - logsumexp(log_w, axis=1, keepdims=True))
     post_var = sd_v**2 / (1 + sd_v**2)
@@ -328,8 +329,8 @@ glue_values(is_toy_reps=reps, is_var_ratio_sd1=row[1.0]["ratio"], is_var_ratio_s
             is_kong_predicted_sd1=row[1.0]["predicted sigma^2 / (Var_pi E_q w^2)"])
 EvidenceBlock(
     "the asymptotic variance predicts the estimates' spread",
-    notes=[f"N = {N} prior draws, z = {z}, {reps} seeded repetitions per measurement sd (one generator, seed 0, "
-           "drawn in turn). 'ratio' is N Var(estimates) / sigma^2, with its 95 % percentile-bootstrap interval over "
+    notes=[f"N = {N} prior draws, z = {z}, {reps} seeded repetitions per measurement sd (one generator of its own, "
+           "seed 0, drawn in turn). 'ratio' is N Var(estimates) / sigma^2, with its 95 % percentile-bootstrap interval over "
            f"the repetitions ({evidence.N_RESAMPLES} resamples, see Reading the evidence); 'measured Var ESS / Var_pi' is the "
            "variance of the estimates over Var_pi / (mean ESS), with its interval (low, high).",
            f"At sd 0.1, where the hundred draws are worth about {row[0.1]['mean ESS']:.0f}, the measured variance is "
