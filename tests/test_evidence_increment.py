@@ -1,6 +1,7 @@
 """Exercise 3.2's checker: the log evidence increment log p(z_k | z_1:k-1) from weighted particles."""
 
 import numpy as np
+import pytest
 from scipy.special import logsumexp
 
 from pfcourse.book.exercises import check_evidence_increment, evidence_increment_case
@@ -100,3 +101,22 @@ def test_weight_update_names_four_typical_mistakes():
         assert problems and any(key in p for p in problems), (mistake.__name__, problems)
         others = [k for k in keys.values() if k != key]
         assert not any(k in p for p in problems for k in others), (mistake.__name__, problems)
+
+
+def test_importance_sampler_names_log_q_added():
+    """Exercise 3.1: `+ log q` instead of `- log q` targets q^2 p(z | x) p(x), of mean 15/7 at (3, 0.5)."""
+    from scipy import stats
+
+    from pfcourse.book.exercises import IS_TOY_CASE, check_importance_sampler, toy_is_limit
+
+    z, sd_v = IS_TOY_CASE
+    assert toy_is_limit(z, sd_v, "proposal_added")[0] == pytest.approx(15 / 7)
+
+    def plus_log_q(z, sd_v, n, rng):
+        x = z / 2 + rng.standard_normal(n)
+        log_w = stats.norm.logpdf(z, x, sd_v) + stats.norm.logpdf(x) + stats.norm.logpdf(x, z / 2, 1.0)
+        W = np.exp(log_w - logsumexp(log_w))
+        return W @ x, 1.0 / np.sum(W**2)
+
+    problems = check_importance_sampler(plus_log_q).problems
+    assert len(problems) == 1 and "adds log q(x) instead of subtracting it" in problems[0], problems

@@ -409,6 +409,8 @@ IS_TOY_MISTAKES = {
     "likelihood_only": "the weight is the likelihood alone, as with the prior as proposal; with q = N(z/2, 1) "
                        "it is log p(z | x) + log p(x) - log q(x)",
     "no_proposal": "the weight leaves out - log q(x): draws from q must be divided by q, w = p(z | x) p(x) / q(x)",
+    "proposal_added": "the weight adds log q(x) instead of subtracting it: draws from q must be divided by q, "
+                      "log w = log p(z | x) + log p(x) - log q(x)",
     "no_prior": "the weight leaves out the prior, + log p(x): the target is the posterior, p(z | x) p(x) up to a "
                 "constant",
     "sd_as_variance": "the likelihood uses sd_v^2 as its standard deviation: sd_v is the standard deviation of v "
@@ -430,6 +432,7 @@ def toy_is_limit(z: float, sd_v: float, mistake: str | None = None) -> tuple[flo
     # (precision, mean) of the factors of q(x) w(x): the likelihood, the prior, the proposal
     factors = {"likelihood_only": [(1 / lik_var, z), (1.0, z / 2)],
                "no_proposal": [(1 / lik_var, z), (1.0, 0.0), (1.0, z / 2)],
+               "proposal_added": [(1 / lik_var, z), (1.0, 0.0), (2.0, z / 2)],
                "no_prior": [(1 / lik_var, z)]}.get(mistake, [(1 / lik_var, z), (1.0, 0.0)])
     precision = sum(p for p, _ in factors)
     return sum(p * m for p, m in factors) / precision, 1 / precision
