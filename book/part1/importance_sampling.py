@@ -261,10 +261,10 @@ plt.show()
 # $\sigma_v = 1$: the variance of the estimates over {glue:text}`is_toy_reps:,d` seeded
 # repetitions is {glue:text}`is_var_ratio_sd1:.2f`
 # ({glue:text}`is_var_ratio_sd1_low:.2f`-{glue:text}`is_var_ratio_sd1_high:.2f`) times
-# $\sigma^2 / N$, with $\sigma^2$ by quadrature.
+# $\sigma^2 / N$, with $\sigma^2$ by quadrature; call this the *CLT ratio*.
 #
 # It is only a limit: at $\sigma_v = 0.3$, where the hundred draws are worth about
-# {glue:text}`is_ess_sd03:.0f`, the ratio is already {glue:text}`is_var_ratio_sd03:.2f`
+# {glue:text}`is_ess_sd03:.0f`, the CLT ratio is already {glue:text}`is_var_ratio_sd03:.2f`
 # ({glue:text}`is_var_ratio_sd03_low:.2f`-{glue:text}`is_var_ratio_sd03_high:.2f`), the
 # terms of order $1/N^2$ no longer negligible.
 
@@ -346,9 +346,9 @@ EvidenceBlock(
 )
 
 # %% [markdown]
-# Is the rule $\operatorname{Var}_\pi(\varphi) / \mathrm{ESS}$ on the safe side? Not in general.
-# Since $w = \pi / q$, $\mathbb E_q[w^2] = \int \pi^2 / q = \mathbb E_\pi[w]$, so the exact ratio
-# of $\sigma^2$ to Kong's $\operatorname{Var}_\pi(\varphi)\, \mathbb E_q[w^2]$ is
+# The rule $\operatorname{Var}_\pi(\varphi) / \mathrm{ESS}$ can err either way; here is why, then
+# both cases. Since $w = \pi / q$, $\mathbb E_q[w^2] = \int \pi^2 / q = \mathbb E_\pi[w]$, so the exact ratio
+# of $\sigma^2$ to Kong's $\operatorname{Var}_\pi(\varphi)\, \mathbb E_q[w^2]$, *Kong's ratio*, is
 # $\mathbb E_\pi[w\, (\varphi - I)^2] / (\mathbb E_\pi[w]\, \operatorname{Var}_\pi \varphi)$: the
 # average of $(\varphi - I)^2$ under the density $\pi^2 / q$ (normalised), over its average
 # under $\pi$. It is above $1$ when the large weights fall where $\varphi$ is far from its mean,
@@ -547,7 +547,8 @@ EvidenceBlock(
 #
 # The panel redraws the opening picture for the chosen measurement noise $\sigma_v$ (the
 # target's width), number of draws $N$, proposal (the prior, Gaussian, or a Student $t$ with
-# three degrees of freedom, heavier-tailed) and seed, with the ESS in the title. How sharp can
+# three degrees of freedom, heavier-tailed: it puts more draws far out, where the target has
+# almost no mass, and its weights stay bounded) and seed, with the ESS in the title. How sharp can
 # the measurement get before a hundred draws are worth fewer than ten?
 
 # %% tags=["hide-input"] jupyter={"source_hidden": true}
