@@ -26,6 +26,9 @@ exception is reported as a problem); ``str(report)`` prints the verdict.
 * :func:`check_weight_update` - ``fn(log_weights, log_likelihoods) -> log_weights``: the
   normalised log-domain update ``log W_i + log p(z | x_i) - logsumexp_j(...)``, checked on
   ordinary values and on likelihoods of ``e^{-1000}`` that underflow in the linear domain.
+* :func:`check_evidence_increment` - ``fn(log_W, log_lik) -> log p(z_k | z_1:k-1)``: the
+  log-domain estimate ``logsumexp_i(log W_i + log p(z_k | x_i))``; underflow, dropped old weights, the
+  increment instead of its log, the max not added back and a spurious ``log N`` are named.
 * :func:`check_sis` - ``fn(z, n_particles, rng, model) -> (means, ess)``: a whole SIS filter
   on a scalar linear-Gaussian model (:class:`ScalarModel`), against the Kalman filter, which
   is exact. A wrong filter is compared with what the typical mistakes converge to (weights
@@ -240,6 +243,8 @@ from pfcourse.book.exercises.part1 import (  # noqa: F401
     check_sis,
     check_stratified_resampler,
     check_weight_update,
+    check_evidence_increment,
+    evidence_increment_case,
     landmark_log_likelihood,
     landmark_update,
     scalar_kalman,

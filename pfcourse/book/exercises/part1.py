@@ -306,11 +306,98 @@ def check_weight_update(fn: Callable, seed: int = 0) -> CheckReport:
             report.problems.append(
                 f"{name}: NaN in the result; subtract the largest log-weight before exponentiating "
                 "(or use scipy.special.logsumexp)")
-        elif not np.allclose(np.exp(got), np.exp(expected), atol=1e-12, rtol=1e-9):
+        elif np.allclose(np.exp(got), np.exp(expected), atol=1e-12, rtol=1e-9):
+            continue
+        elif np.allclose(got, np.exp(expected), atol=1e-12, rtol=1e-9):
+            report.problems.append(f"{name}: you returned the weights W_i, not their logs: return the log-weights "
+                                   "(do not exponentiate at the end)")
+        elif np.isinf(got[np.isfinite(expected)]).any():
+            report.problems.append(f"{name}: an infinite log-weight where the answer is finite: the weights underflowed to 0 in the "
+                                   "linear domain, so stay in logs and use scipy.special.logsumexp")
+        elif np.allclose(np.exp(got), np.exp(loglik - logsumexp(loglik)), atol=1e-12, rtol=1e-9):
+            report.problems.append(f"{name}: the old weights log_W were dropped: the new weight is the old one times "
+                                   "the likelihood, so add log_W to log_lik before normalising")
+        elif np.allclose(np.exp(got), np.exp(logw + loglik - np.max(logw + loglik)), atol=1e-12, rtol=1e-9):
+            report.problems.append(f"{name}: you subtracted the largest log-weight, which avoids overflow but does "
+                                   "not normalise: subtract the logsumexp instead")
+        else:
             total = np.exp(got).sum()
             hint = " (they do not sum to 1: normalise)" if abs(total - 1) > 1e-9 else ""
             report.problems.append(f"{name}: wrong weights{hint}; largest error "
                                    f"{np.abs(np.exp(got) - np.exp(expected)).max():.2e}")
+    return report
+
+
+#: The case of :func:`check_evidence_increment`: the predictive N(0, 1) of the state, represented by n draws
+#: of the proposal N(q_mean, q_sd^2) weighted to it, and a measurement z = x + v, v ~ N(0, sd_v^2).
+#: The exact increment is N(z; 0, 1 + sd_v^2).
+EVIDENCE_CASE = dict(z=1.2, sd_v=0.5, q_mean=0.5, q_sd=1.5, n=2000)
+
+
+def evidence_increment_case(seed: int = 0, shift: float = 0.0) -> tuple[np.ndarray, np.ndarray, float]:
+    """Weighted particles of :data:`EVIDENCE_CASE`: ``(log_W, log_lik, exact log increment)``.
+
+    ``shift`` is added to every log-likelihood (and so to the exact value): ``-1000`` makes likelihoods
+    near ``e^-1000`` that underflow to 0 in the linear domain."""
+    c = EVIDENCE_CASE
+    x = c["q_mean"] + c["q_sd"] * np.random.default_rng(seed).standard_normal(c["n"])
+    log_w = -0.5 * x**2 + 0.5 * ((x - c["q_mean"]) / c["q_sd"]) ** 2 + np.log(c["q_sd"])
+    log_W = log_w - logsumexp(log_w)
+    log_lik = -0.5 * ((c["z"] - x) / c["sd_v"]) ** 2 - np.log(c["sd_v"] * np.sqrt(2 * np.pi)) + shift
+    var = 1.0 + c["sd_v"] ** 2
+    exact = -0.5 * c["z"] ** 2 / var - 0.5 * np.log(2 * np.pi * var) + shift
+    return log_W, log_lik, exact
+
+
+def check_evidence_increment(fn: Callable, seed: int = 0) -> CheckReport:
+    """Check ``fn(log_W, log_lik) -> log p(z_k | z_{1:k-1})``, ``logsumexp_i(log W_i + log p(z_k | x_i))``.
+
+    Two cases of :func:`evidence_increment_case`: ordinary likelihoods, and the same shifted by ``-1000``.
+    An answer off by more than 1e-9 is compared with the typical mistakes (linear-domain underflow, the old
+    weights dropped, the increment returned instead of its log, the max subtracted and not added back,
+    ``log N`` subtracted from normalised weights), and each is named in its own sentence."""
+    report = CheckReport("log evidence increment")
+    for name, shift in (("ordinary likelihoods", 0.0),
+                        ("likelihoods near e^-1000 (they underflow to 0 in the linear domain)", -1000.0)):
+        log_W, log_lik, _ = evidence_increment_case(seed, shift)
+        a = log_W + log_lik
+        expected = logsumexp(a)
+        answer = _answer(report, lambda: fn(log_W.copy(), log_lik.copy()), "fn(log_W, log_lik)",
+                         "return log p(z_k | z_1:k-1), one number")
+        if answer is None:
+            return report
+        if np.size(answer) != 1:
+            report.problems.append(f"{name}: the answer has shape {np.shape(answer)}: return one number, the log of "
+                                   "the increment, not one value per particle")
+            return report
+        got = float(np.asarray(answer, dtype=float).reshape(()))
+        near = lambda value: np.isfinite(value) and abs(got - value) <= 1e-9 * max(1.0, abs(value))
+        if near(expected):
+            continue
+        n = len(a)
+        if not np.isfinite(got):
+            report.problems.append(
+                f"{name}: the answer is {got}: the terms W_i p(z | x_i) underflowed to 0 before the sum, so use "
+                "logsumexp(log_W + log_lik), which subtracts the largest term before exponentiating")
+        elif near(logsumexp(log_lik) - np.log(n)):
+            report.problems.append(
+                f"{name}: the old weights log_W were dropped: you averaged the likelihoods as if the particles were "
+                "equally weighted, but each counts with its weight W_i, so add log_W to log_lik")
+        elif near(np.exp(expected)):
+            report.problems.append(
+                f"{name}: you returned the increment p(z_k | z_1:k-1) itself, not its log: return the logsumexp "
+                "without exponentiating it")
+        elif near(expected - a.max()) or near(a.max()):
+            report.problems.append(
+                f"{name}: the largest term max_i(log W_i + log p(z | x_i)) was subtracted (or kept alone) instead of "
+                "taking the logsumexp: subtract it before exponentiating, then add it back after the log")
+        elif near(expected - np.log(n)):
+            report.problems.append(
+                f"{name}: log N was subtracted, but the weights W_i already sum to 1: the increment is "
+                "sum_i W_i p(z | x_i), with no 1/N")
+        else:
+            report.problems.append(f"{name}: the answer {got:.6f} is not logsumexp_i(log W_i + log p(z | x_i)) = "
+                                   f"{expected:.6f}; add the log-weights and the log-likelihoods, then logsumexp")
     return report
 
 
@@ -322,6 +409,8 @@ IS_TOY_MISTAKES = {
     "likelihood_only": "the weight is the likelihood alone, as with the prior as proposal; with q = N(z/2, 1) "
                        "it is log p(z | x) + log p(x) - log q(x)",
     "no_proposal": "the weight leaves out - log q(x): draws from q must be divided by q, w = p(z | x) p(x) / q(x)",
+    "proposal_added": "the weight adds log q(x) instead of subtracting it: draws from q must be divided by q, "
+                      "log w = log p(z | x) + log p(x) - log q(x)",
     "no_prior": "the weight leaves out the prior, + log p(x): the target is the posterior, p(z | x) p(x) up to a "
                 "constant",
     "sd_as_variance": "the likelihood uses sd_v^2 as its standard deviation: sd_v is the standard deviation of v "
@@ -343,6 +432,7 @@ def toy_is_limit(z: float, sd_v: float, mistake: str | None = None) -> tuple[flo
     # (precision, mean) of the factors of q(x) w(x): the likelihood, the prior, the proposal
     factors = {"likelihood_only": [(1 / lik_var, z), (1.0, z / 2)],
                "no_proposal": [(1 / lik_var, z), (1.0, 0.0), (1.0, z / 2)],
+               "proposal_added": [(1 / lik_var, z), (1.0, 0.0), (2.0, z / 2)],
                "no_prior": [(1 / lik_var, z)]}.get(mistake, [(1 / lik_var, z), (1.0, 0.0)])
     precision = sum(p for p, _ in factors)
     return sum(p * m for p, m in factors) / precision, 1 / precision
