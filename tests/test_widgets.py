@@ -33,8 +33,11 @@ def test_panel_redraws_with_the_new_values():
     # then each other value of each control, one factor at a time (the HTML book's figures)
     assert all(sum(c[k] != calls[0][k] for k in c) == 1 for c in calls[1:])
     assert {c["seed"] for c in calls} == {3, 4, 5} and len({c["n_particles"] for c in calls}) == 4
-    n.value = 1000
-    assert calls[-1] == {"n_particles": 1000, "seed": 3}
+    before = len(calls)
+    n.value = 1000  # a value the panel drew when it was built: that figure again, no new drawing
+    assert {"n_particles": 1000, "seed": 3} in calls and len(calls) == before
+    seed.value = 99  # off the grid: drawn live with the new values
+    assert calls[-1] == {"n_particles": 1000, "seed": 99} and len(calls) == before + 1
     assert len(panel.widget.children) == 2
     plt.close("all")
 

@@ -173,7 +173,9 @@ def control_panel(draw: Callable[..., None], columns: int = 3, grid: Mapping[str
     now (:func:`~pfcourse.book.static_panel.render_grid`, over ``workers`` processes),
     and the one at the current values is the live panel's first figure. Every other
     control offers the values ``side`` lists for it (default :func:`offered_values`), each
-    drawn with the other controls at their current values.
+    drawn with the other controls at their current values.  A change to values the panel
+    already drew shows that figure again (:meth:`StaticPanel.image_of`), at once; any other
+    value is drawn live.
     """
     global _last_panel
     _last_panel = (draw, controls)
@@ -196,10 +198,17 @@ def control_panel(draw: Callable[..., None], columns: int = 3, grid: Mapping[str
     output = widgets.Output()
 
     def redraw(change=None) -> None:
+        values = {name: control.value for name, control in controls.items()}
+        number = static.image_of(values)  # a point of the grid: the figure drawn for it when the panel was built
         with output, narrow_figures.without_narrow_copies():
             output.clear_output(wait=True)
-            draw(**{name: control.value for name, control in controls.items()})
-            plt.show()
+            if number is None:
+                draw(**values)
+                plt.show()
+            else:
+                if static.texts[number]:
+                    print(static.texts[number], end="")
+                display(Image(data=static.images[number], format="png"))
 
     for control in controls.values():
         control.observe(redraw, names="value")

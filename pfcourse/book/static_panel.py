@@ -120,6 +120,25 @@ class StaticPanel:
         """Image number of the controls' current values."""
         return sum(c.index * s for c, s in zip(self.controls, self.strides))
 
+    def image_of(self, values: Mapping[str, object]) -> int | None:
+        """Image number of the figure drawn at the controls' ``values``, or None if the panel has none.
+
+        Every main-grid point has one; a side control's other values have one with every other control
+        at its default.  A value matches only if it equals one the control offers (a slider's float
+        that is not on the grid falls through to a live drawing)."""
+        index = []
+        for control in self.controls:
+            found = [i for i, v in enumerate(control.values) if _same_value(v, values.get(control.name))]
+            if not found:
+                return None
+            index.append(found[0])
+        off_default = [k for k, (c, i) in enumerate(zip(self.controls, index)) if not c.main and i != c.index]
+        if not off_default:
+            return sum(i * s for i, s in zip(index, self.strides))
+        k = off_default[0]
+        others_at_default = all(i == c.index for j, (c, i) in enumerate(zip(self.controls, index)) if j != k)
+        return self.side[k][index[k]] if len(off_default) == 1 and others_at_default else None
+
     @property
     def size(self) -> int:
         """Bytes of PNG data the panel carries (before base64), narrow copies included."""
@@ -196,6 +215,17 @@ def _render_point(number: int) -> tuple[bytes, str, bytes | None, list[str]]:
         narrow = _quantized_png(narrow_figures.narrow_image(figure, drawing))  # closed next: may change it
     plt.close(figure)
     return image, printed.getvalue(), narrow, problems
+
+
+
+def _same_value(a: object, b: object) -> bool:
+    """Whether a control's value ``b`` is the grid's value ``a`` (numbers compared as numbers, a bool only as itself)."""
+    if isinstance(a, bool) or isinstance(b, bool):
+        return a is b
+    try:
+        return bool(a == b)
+    except (TypeError, ValueError):
+        return False
 
 
 def render_grid(draw: Callable[..., object], controls: Sequence[StaticControl],
