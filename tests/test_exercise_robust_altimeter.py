@@ -86,18 +86,22 @@ def test_other_wrong_answers_are_reported():
     assert "shape" in check_robust_altimeter(lambda p, *a: reference(p, *a)[:5]).problems[0]
 
 
+def bilinear_by_hand(particles, heights, dx, dy, corners_swapped=False):
+    """A student's bilinear reading of the map (row 0 south): ``(inside, h)`` for every particle."""
+    ny, nx = heights.shape
+    col, row = particles[:, 0] / dx, particles[:, 1] / dy
+    inside = (col >= 0) & (col <= nx - 1) & (row >= 0) & (row <= ny - 1)
+    j = np.clip(np.floor(col), 0, nx - 2).astype(int)
+    i = np.clip(np.floor(row), 0, ny - 2).astype(int)
+    s, t = col - j, row - i
+    h10, h01 = (heights[i + 1, j], heights[i, j + 1]) if corners_swapped else (heights[i, j + 1], heights[i + 1, j])
+    return inside, (1 - s) * (1 - t) * heights[i, j] + s * (1 - t) * h10 + (1 - s) * t * h01 + s * t * heights[i + 1, j + 1]
+
+
 def _by_hand(corners_swapped=False, dx_for_dy=False):
     """A student's answer written out, with one of the two mistakes the text warns about."""
     def answer(particles, y, heights, dx, dy, rf, eps, y_max):
-        dy = dx if dx_for_dy else dy
-        ny, nx = heights.shape
-        col, row = particles[:, 0] / dx, particles[:, 1] / dy
-        inside = (col >= 0) & (col <= nx - 1) & (row >= 0) & (row <= ny - 1)
-        j = np.clip(np.floor(col), 0, nx - 2).astype(int)
-        i = np.clip(np.floor(row), 0, ny - 2).astype(int)
-        s, t = col - j, row - i
-        h10, h01 = (heights[i + 1, j], heights[i, j + 1]) if corners_swapped else (heights[i, j + 1], heights[i + 1, j])
-        h = (1 - s) * (1 - t) * heights[i, j] + s * (1 - t) * h10 + (1 - s) * t * h01 + s * t * heights[i + 1, j + 1]
+        inside, h = bilinear_by_hand(particles, heights, dx, dx if dx_for_dy else dy, corners_swapped)
         log_gauss = -0.5 * (y - (particles[:, 2] - h)) ** 2 / rf - 0.5 * np.log(2 * np.pi * rf)
         return np.where(inside, np.logaddexp(np.log1p(-eps) + log_gauss, np.log(eps / y_max)), -np.inf)
     return answer

@@ -13,6 +13,7 @@ import pytest
 from scipy import stats
 
 from pfcourse.book.exercises.part2 import ROBUST_ALTIMETER_MISTAKES, check_robust_altimeter
+from test_exercise_robust_altimeter import bilinear_by_hand
 
 FOUR = ("north_up", "max_of_terms", "no_probabilities", "product_of_terms")
 
@@ -23,14 +24,7 @@ def _student(mistake=None):
     def answer(particles, y, heights, dx, dy, rf, eps, y_max):
         if mistake == "north_up":
             heights = np.flipud(heights)
-        ny, nx = heights.shape
-        col, row = particles[:, 0] / dx, particles[:, 1] / dy
-        inside = (col >= 0) & (col <= nx - 1) & (row >= 0) & (row <= ny - 1)
-        j = np.clip(np.floor(col), 0, nx - 2).astype(int)
-        i = np.clip(np.floor(row), 0, ny - 2).astype(int)
-        s, t = col - j, row - i
-        h = ((1 - s) * (1 - t) * heights[i, j] + s * (1 - t) * heights[i, j + 1]
-             + (1 - s) * t * heights[i + 1, j] + s * t * heights[i + 1, j + 1])
+        inside, h = bilinear_by_hand(particles, heights, dx, dy)
         gauss = stats.norm.pdf(y, particles[:, 2] - h, np.sqrt(rf))
         if mistake == "max_of_terms":
             like = np.maximum((1 - eps) * gauss, eps / y_max)
