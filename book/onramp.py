@@ -18,8 +18,7 @@
 # **You need** Bayes' rule and the Gaussian density; NumPy arrays and a random generator
 # (`rng = np.random.default_rng(seed)`).
 #
-# **Time:** about twenty minutes to read, plus the exercise; the notebook runs in under half a
-# minute.
+# **Time:** about nineteen minutes to read, plus about thirteen minutes for the folded blocks; the exercise is extra.
 # :::
 #
 # ## The scene

@@ -21,7 +21,7 @@ import yaml
 
 from pfcourse.book.report import GLUE_ROLE, paragraphs_outside_folds
 from test_first_text import FIRST_TEXT
-from test_start_here import reading_minutes
+from test_start_here import folded_minutes, reading_minutes
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tools"))
 from reading_times import in_words  # noqa: E402
@@ -77,6 +77,15 @@ def test_the_header_says_what_it_teaches_needs_and_takes(doc):
     assert minutes and minutes.group(1) in WORDS, f"{doc}: say 'about <number in words> minutes to read'"
     stated, expected = WORDS[minutes.group(1)], reading_minutes([BOOK / f"{doc}.py"])
     assert abs(stated - expected) <= max(2, 0.25 * expected), f"{doc}: header says {stated} min, prose reads in {expected}"
+    # the folded blocks by the same rule, and the exercises named as extra, on the header's one time line
+    line = re.search(r"^\*\*Time:\*\*[^\n]*$", body, re.M).group(0)
+    folded = re.search(r"plus about ([a-z-]+) minutes? for the folded blocks", line)
+    expected = folded_minutes([BOOK / f"{doc}.py"])
+    assert folded and folded.group(1) in WORDS, f"{doc}: say 'plus about <number in words> minutes for the folded blocks'"
+    assert abs(WORDS[folded.group(1)] - expected) <= max(2, 0.25 * expected), (
+        f"{doc}: header says {folded.group(1)} minutes for the folded blocks, they read in {expected}")
+    assert re.search(r"; the exercises? (is|are) extra\.$", line), f"{doc}: the time line names the exercises as extra"
+    assert "notebook runs" not in body, f"{doc}: the header states no execution time (the README's benchmark does)"
 
 
 @pytest.mark.parametrize("doc", IN_FORM)

@@ -18,7 +18,7 @@
 #
 # **You need** {doc}`sir`, {doc}`proposals` (the optimal proposal) and {doc}`rao_blackwell`.
 #
-# **Time:** about twelve minutes to read; the notebook runs in about half a minute.
+# **Time:** about twelve minutes to read, plus about twelve minutes for the folded blocks; the exercises are extra.
 # :::
 
 # %% tags=["remove-input"] jupyter={"source_hidden": true}

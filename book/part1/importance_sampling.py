@@ -19,7 +19,7 @@
 # **You need** Gaussian densities, the law of large numbers and the central limit theorem;
 # NumPy arrays and a random generator.
 #
-# **Time:** about eighteen minutes to read; the notebook runs in under half a minute.
+# **Time:** about eighteen minutes to read, plus about nineteen minutes for the folded blocks; the exercises are extra.
 # :::
 
 # %% tags=["remove-input"] jupyter={"source_hidden": true}

@@ -19,7 +19,7 @@
 # **You need** {doc}`model`; conditioning a Gaussian vector on some of its components;
 # NumPy's matrix products and `np.linalg.solve`.
 #
-# **Time:** about eighteen minutes to read; the notebook runs in under half a minute.
+# **Time:** about eighteen minutes to read, plus about fourteen minutes for the folded blocks; the exercises are extra.
 # :::
 #
 # Here is the answer this chapter derives, on the run of {doc}`model`: for each coordinate of

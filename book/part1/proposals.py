@@ -18,7 +18,7 @@
 # **You need** {doc}`kalman` (Gaussian conditioning), {doc}`sis` and {doc}`sir`; NumPy arrays
 # and a random generator.
 #
-# **Time:** about seventeen minutes to read; the notebook runs in about twenty seconds.
+# **Time:** about seventeen minutes to read, plus about fifteen minutes for the folded blocks; the exercises are extra.
 # :::
 #
 # SIS and SIR have not done well on the landmark model: is a better importance function the

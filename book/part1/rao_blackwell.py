@@ -18,7 +18,7 @@
 #
 # **You need** {doc}`kalman`, {doc}`sir` and {doc}`proposals` (the optimal proposal).
 #
-# **Time:** about twenty-one minutes to read; the notebook runs in about forty seconds.
+# **Time:** about twenty-one minutes to read, plus about forty-five minutes for the folded blocks; the exercises are extra.
 # :::
 #
 # The previous chapters end on a failure: SIS degenerates, SIR cannot move the static

@@ -18,7 +18,7 @@
 # **You need** {doc}`sir`; the binomial and multinomial distributions; NumPy's `cumsum` and
 # `searchsorted`.
 #
-# **Time:** about fourteen minutes to read; the notebook runs in under half a minute.
+# **Time:** about fourteen minutes to read, plus about seventeen minutes for the folded blocks; the exercises are extra.
 # :::
 #
 # ## The idea: one picture, four ways of drawing the uniforms

@@ -19,7 +19,7 @@
 # **You need** {doc}`sis`; Gaussian densities and the conjugate update of a Gaussian mean; NumPy
 # indexing with an array of indices.
 #
-# **Time:** about twenty-four minutes to read; the notebook runs in under half a minute.
+# **Time:** about twenty-four minutes to read, plus about twenty-six minutes for the folded blocks; the exercises are extra.
 # :::
 #
 # (sir-algorithm)=

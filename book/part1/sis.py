@@ -19,7 +19,7 @@
 # **You need** {doc}`model` and {doc}`importance_sampling`; Gaussian densities; NumPy arrays
 # and a random generator.
 #
-# **Time:** about fifteen minutes to read; the notebook runs in under half a minute.
+# **Time:** about fifteen minutes to read, plus about twelve minutes for the folded blocks; the exercises are extra.
 # :::
 
 # %% tags=["remove-input"] jupyter={"source_hidden": true}

@@ -18,7 +18,7 @@
 #
 # **You need** {doc}`sir`. Expectations of products of random variables; NumPy.
 #
-# **Time:** about twenty-three minutes to read; the notebook runs in about twenty seconds.
+# **Time:** about twenty-three minutes to read, plus about twenty-one minutes for the folded blocks; the exercise is extra.
 # :::
 #
 # The bootstrap filter of {doc}`sir` moves the particles blind and weights them by the

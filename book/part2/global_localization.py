@@ -19,8 +19,7 @@
 # **You need** {doc}`robot` and {doc}`../part1/proposals`; a change of variables in a density;
 # NumPy arrays and a random generator.
 #
-# **Time:** about twenty-two minutes to read; the notebook runs in about twenty seconds (the studies are
-# stored data).
+# **Time:** about twenty-two minutes to read, plus about twenty-four minutes for the folded blocks; the exercises are extra.
 # :::
 #
 # {doc}`robot` ended on a failure: started from a cloud spread uniformly over the $120 \times 120$ m

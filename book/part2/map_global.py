@@ -20,8 +20,7 @@
 # **You need** {doc}`map_robot` (the odometry model, the likelihood field, MCL) and
 # {doc}`global_localization` (random injection, augmented MCL, KLD-sampling); importance sampling.
 #
-# **Time:** about twenty-five minutes to read; the notebook runs in about twenty seconds (its
-# studies are stored: they take hours).
+# **Time:** about twenty-five minutes to read, plus about thirty-two minutes for the folded blocks; the exercise is extra.
 # :::
 #
 # Put the robot of {doc}`map_robot` anywhere on its map, give the filter no idea where, and drive.

@@ -17,8 +17,7 @@
 #
 # **You need** {doc}`robot` and {doc}`../part1/sir`; Gaussian densities; NumPy arrays.
 #
-# **Time:** about twenty-four minutes to read; the notebook runs in about fifteen seconds on a quiet machine
-# (longer on a busy one); its studies are stored, as they take minutes.
+# **Time:** about twenty-four minutes to read, plus about nineteen minutes for the folded blocks; the exercises are extra.
 # :::
 #
 # The robot of {doc}`robot` reads the range and bearing of landmarks it recognises. A robot in a

@@ -18,7 +18,7 @@
 # **You need** {doc}`../part1/sir` (the bootstrap filter, resampling when the ESS is low);
 # sines and cosines of a heading; NumPy arrays.
 #
-# **Time:** about nineteen minutes to read; the notebook runs in about half a minute.
+# **Time:** about nineteen minutes to read, plus about seventeen minutes for the folded blocks; the exercises are extra.
 # :::
 #
 # A wheeled robot knows its map, five landmarks at known positions, but not where it is. Its

@@ -19,8 +19,7 @@
 # **You need** {doc}`robot` (the model and MCL) and {doc}`../part1/kalman`; partial
 # derivatives; NumPy.
 #
-# **Time:** about sixteen minutes to read; the notebook runs in under a minute (the UKF's
-# Python loops take most of it).
+# **Time:** about fifteen minutes to read, plus about ten minutes for the folded blocks; the exercises are extra.
 # :::
 #
 # {doc}`robot` tracked the robot with a particle filter. Is it worth it? The classical

@@ -19,8 +19,7 @@
 # **You need** {doc}`../part1/sir`, {doc}`../part1/kalman` and the extended Kalman filter of
 # {doc}`robot_vs_kalman`; NumPy arrays.
 #
-# **Time:** about twenty-one minutes to read; the notebook runs in about twenty seconds (the studies
-# are stored).
+# **Time:** about twenty-one minutes to read, plus about forty-five minutes for the folded blocks; the exercises are extra.
 # :::
 #
 # You fly over hills without satellite navigation. You know your speed over the ground (there is no

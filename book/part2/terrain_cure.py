@@ -19,8 +19,7 @@
 # **You need** {doc}`terrain` and {doc}`../part1/resampling_schemes`; covariance matrices and their square
 # roots; paired tests ({doc}`../evidence`).
 #
-# **Time:** about twenty-three minutes to read; the notebook runs in under twenty seconds (the studies
-# are stored).
+# **Time:** about twenty-three minutes to read, plus about twenty-six minutes for the folded blocks; the exercises are extra.
 # :::
 #
 # The previous chapter's particle filter ($N = 3000$ particles, resampling

@@ -19,8 +19,7 @@
 # **You need** {doc}`terrain`, {doc}`terrain_cure` and {doc}`../part1/rao_blackwell`; the scalar
 # Kalman filter; NumPy arrays.
 #
-# **Time:** about twenty-five minutes to read; the notebook runs in about twenty seconds (the studies
-# over the flights are stored).
+# **Time:** about twenty-five minutes to read, plus about thirty-seven minutes for the folded blocks; the exercises are extra.
 # :::
 #
 # ## The idea: the altitude is linear

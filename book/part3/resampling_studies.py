@@ -19,8 +19,7 @@
 # **You need** {doc}`robot_studies` (how a study is run and read), {doc}`../part1/sir` and
 # {doc}`../part1/resampling_schemes`.
 #
-# **Time:** about sixteen minutes to read, plus about fifteen if you open the evidence blocks
-# and twenty for the coding exercise; the notebook runs in about twenty seconds.
+# **Time:** about fifteen minutes to read, plus about twenty minutes for the folded blocks; the exercises are extra.
 # :::
 #
 # ## The idea: resample when the weights say so

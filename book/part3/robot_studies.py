@@ -18,8 +18,7 @@
 #
 # **You need** {doc}`../part2/robot` and {doc}`../evidence` (the intervals and tests).
 #
-# **Time:** about fourteen minutes to read, plus about ten if you open the evidence blocks and
-# fifteen for the coding exercise; the notebook runs in about twenty seconds.
+# **Time:** about fourteen minutes to read, plus about fifteen minutes for the folded blocks; the exercises are extra.
 # :::
 #
 # ## The idea: one question, many runs, the same worlds

@@ -18,8 +18,7 @@
 #
 # **You need** {doc}`robot_studies` (how a study is run and read) and {doc}`../part2/robot`.
 #
-# **Time:** about sixteen minutes to read, plus about five if you open the evidence blocks and
-# ten for the coding exercise; the notebook runs in about fifteen seconds.
+# **Time:** about sixteen minutes to read, plus about fifteen minutes for the folded blocks; the exercises are extra.
 # :::
 #
 # ## The idea: prediction spreads, measurement gathers

@@ -18,7 +18,7 @@
 # **You need** {doc}`../part2/robot` and {doc}`../part2/robot_vs_kalman`; the log-domain weights of
 # {doc}`../part1/sis`; Poisson and uniform distributions.
 #
-# **Time:** about nineteen minutes to read; the notebook runs in under half a minute.
+# **Time:** about nineteen minutes to read, plus about fifteen minutes for the folded blocks; the exercises are extra.
 # :::
 #
 # The robot of {doc}`../part2/robot` knows which landmark each range and bearing comes from. Real

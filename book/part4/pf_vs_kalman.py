@@ -19,7 +19,7 @@
 # **You need** {doc}`../part1/kalman`, {doc}`../part2/robot_vs_kalman` and {doc}`../part2/terrain`;
 # the chi-square distribution.
 #
-# **Time:** about seventeen minutes to read; the notebook runs in about half a minute.
+# **Time:** about seventeen minutes to read, plus about twenty-four minutes for the folded blocks; the exercises are extra.
 # :::
 #
 # A particle filter can represent any posterior, at a price: $N$ evaluations of the model per

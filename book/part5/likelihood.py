@@ -19,7 +19,7 @@
 # {doc}`../part2/terrain_cure`; Metropolis-Hastings
 # in one line (propose, accept with a ratio); NumPy.
 #
-# **Time:** about twenty-five minutes to read; the notebook runs in about twenty seconds.
+# **Time:** about twenty-five minutes to read, plus about twenty-one minutes for the folded blocks; the exercises are extra.
 # :::
 #
 # A filter's noise covariances are often tuned by hand: try a scale, look at one run, try

@@ -20,8 +20,7 @@
 # last section {doc}`../part2/robot`; Bayes' rule and the Markov property; NumPy broadcasting and
 # `logsumexp`.
 #
-# **Time:** about twenty-five minutes to read; the notebook runs in about twenty seconds (its
-# studies over many runs are stored data).
+# **Time:** about twenty-five minutes to read, plus about sixteen minutes for the folded blocks; the exercises are extra.
 # :::
 #
 # A filter answers "where is the state now?", $p(x_k \mid z_{1:k})$. Once the run is over we can

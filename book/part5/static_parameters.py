@@ -19,8 +19,7 @@
 # **You need** {doc}`likelihood` (the likelihood estimate, PMMH) and {doc}`../part1/sir`
 # (resampling, the static landmarks); the inverse-gamma distribution; NumPy.
 #
-# **Time:** about twenty-four minutes to read; the notebook runs in about half a minute (its
-# studies over many runs are stored data).
+# **Time:** about twenty-four minutes to read, plus about sixteen minutes for the folded blocks; the exercises are extra.
 # :::
 
 # %% tags=["remove-input"] jupyter={"source_hidden": true}
