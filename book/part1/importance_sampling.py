@@ -19,7 +19,7 @@
 # **You need** Gaussian densities, the law of large numbers and the central limit theorem;
 # NumPy arrays and a random generator.
 #
-# **Time:** about eighteen minutes to read, plus about nineteen minutes for the folded blocks; the exercises are extra.
+# **Time:** about nineteen minutes to read, plus about nineteen minutes for the folded blocks; the exercises are extra.
 # :::
 
 # %% tags=["remove-input"] jupyter={"source_hidden": true}
@@ -124,7 +124,37 @@ glue_values("is_picture_ess_", sd1=picture_ess[1.0], sd01=picture_ess[0.1])
 # near $x = z = 1$ while the target peaks at $z / (1 + \sigma_v^2) = 1/2$: the draws already
 # follow the prior, so the weights carry only the likelihood. A particle filter meets this at
 # every step, and the weights of a whole path multiply these ratios together ({doc}`sis`).
+
+# %% [markdown]
+# ## Try it
 #
+# The panel redraws the picture above for the chosen measurement noise $\sigma_v$ (the
+# target's width), number of draws $N$, proposal (the prior, Gaussian, or a Student $t$ with
+# three degrees of freedom, heavier-tailed: it puts more draws far out, where the target has
+# almost no mass, and its weights stay bounded; the section on tails says why that matters) and
+# seed, with the ESS in the title. How sharp can the measurement get before a hundred draws are
+# worth fewer than ten?
+
+# %% tags=["hide-input"] jupyter={"source_hidden": true}
+def draw_panel(sd_v, n_draws, tails, seed):
+    r = np.random.default_rng(seed)
+    x = r.standard_normal(n_draws) if tails == "Gaussian" else r.standard_t(3, n_draws)
+    fig, (top, bottom) = plt.subplots(2, 1, figsize=(7, 4.2), sharex=True, height_ratios=(3, 2))
+    draw_weights(top, bottom, x, sd_v, tails)
+    top.legend(loc="upper left", fontsize=8)
+    fig.tight_layout()
+
+
+# %% tags=["nbval-ignore-output", "hide-input"] jupyter={"source_hidden": true}
+display(control_panel(
+    draw_panel, grid={"sd_v": (0.1, 0.3, 1.0), "n_draws": (10, 100, 1000)},
+    sd_v=widgets.SelectionSlider(options=[0.03, 0.1, 0.3, 1.0, 2.0], value=0.3,
+                                 description="measurement sd"),
+    n_draws=widgets.SelectionSlider(options=[10, 30, 100, 300, 1000], value=100, description="draws N"),
+    tails=widgets.Dropdown(options=["Gaussian", "Student t3"], value="Gaussian", description="proposal"),
+    seed=seed_box(1)))
+
+# %% [markdown]
 # ## The derivation
 #
 # In general: we want $I = \mathbb E_\pi \varphi = \int \varphi(x)\, \pi(x)\, dx$ under a
@@ -255,9 +285,18 @@ plt.show()
 # \mathrm{ESS} = \frac{N}{\mathbb E_q[w^2]} \approx \frac{1}{\sum_i (W^i)^2} .
 # $$
 #
-# The last form is measured from the weights ({ref}`the ESS exercise <ex-is-ess>` derives it):
-# $N$ weighted draws are worth ESS draws from $\pi$. It looks at the weights only, not at
-# $\varphi$. On the toy, with $N = 100$ and $\varphi(x) = x$, the asymptotic variance holds at
+# The last form is the one measured from the weights. The normalised weights $W^i$ do not
+# depend on the constant, so write them with $w^i = w(x^i)$; by the law of large numbers,
+#
+# $$
+# \frac{1}{\sum_i (W^i)^2} = N\, \frac{\big(\frac1N \sum_i w^i\big)^2}{\frac1N \sum_i (w^i)^2}
+# \;\longrightarrow\; \frac{N\, (\mathbb E_q w)^2}{\mathbb E_q[w^2]} = \frac{N}{\mathbb E_q[w^2]} .
+# $$
+#
+# It is $N$ when the weights are all equal and falls as they spread:
+# $\mathbb E_q[w^2] = 1 + \operatorname{Var}_q w$, and $\operatorname{Var}_q w$ is the $\chi^2$
+# divergence of $\pi$ from $q$. So $N$ weighted draws are worth ESS draws from $\pi$. The ESS
+# looks at the weights only, not at $\varphi$. On the toy, with $N = 100$ and $\varphi(x) = x$, the asymptotic variance holds at
 # $\sigma_v = 1$: the variance of the estimates over {glue:text}`is_toy_reps:,d` seeded
 # repetitions is {glue:text}`is_var_ratio_sd1:.2f`
 # ({glue:text}`is_var_ratio_sd1_low:.2f`-{glue:text}`is_var_ratio_sd1_high:.2f`) times
@@ -550,34 +589,6 @@ EvidenceBlock(
 )
 
 # %% [markdown]
-# ## Try it
-#
-# The panel redraws the opening picture for the chosen measurement noise $\sigma_v$ (the
-# target's width), number of draws $N$, proposal (the prior, Gaussian, or a Student $t$ with
-# three degrees of freedom, heavier-tailed: it puts more draws far out, where the target has
-# almost no mass, and its weights stay bounded) and seed, with the ESS in the title. How sharp can
-# the measurement get before a hundred draws are worth fewer than ten?
-
-# %% tags=["hide-input"] jupyter={"source_hidden": true}
-def draw_panel(sd_v, n_draws, tails, seed):
-    r = np.random.default_rng(seed)
-    x = r.standard_normal(n_draws) if tails == "Gaussian" else r.standard_t(3, n_draws)
-    fig, (top, bottom) = plt.subplots(2, 1, figsize=(7, 4.2), sharex=True, height_ratios=(3, 2))
-    draw_weights(top, bottom, x, sd_v, tails)
-    top.legend(loc="upper left", fontsize=8)
-    fig.tight_layout()
-
-
-# %% tags=["nbval-ignore-output", "hide-input"] jupyter={"source_hidden": true}
-display(control_panel(
-    draw_panel, grid={"sd_v": (0.1, 0.3, 1.0), "n_draws": (10, 100, 1000)},
-    sd_v=widgets.SelectionSlider(options=[0.03, 0.1, 0.3, 1.0, 2.0], value=0.3,
-                                 description="measurement sd"),
-    n_draws=widgets.SelectionSlider(options=[10, 30, 100, 300, 1000], value=100, description="draws N"),
-    tails=widgets.Dropdown(options=["Gaussian", "Student t3"], value="Gaussian", description="proposal"),
-    seed=seed_box(1)))
-
-# %% [markdown]
 # ## Exercises
 #
 # ```{exercise} 3.1 A proposal that is not the prior
@@ -588,7 +599,8 @@ display(control_panel(
 # from $q$ with the generator `rng`, weight them by $\tilde\pi / q$ in the log domain, and return
 # the self-normalised estimate of the posterior mean and the ESS. The checker runs it at $z = 3$,
 # $\sigma_v = 0.5$, compares it with the exact mean $z / (1 + \sigma_v^2)$ and names the
-# mistake it sees.
+# mistake it sees; then at $z = 60$, $\sigma_v = 1$, a measurement so surprising that
+# $p(z \mid x)\, p(x)$ is about $e^{-900}$ at every draw, below the smallest floating-point number.
 # ```
 
 # %% tags=["answer"]
@@ -668,24 +680,23 @@ def increment_linear(log_W, log_lik):
 print(check_evidence_increment(increment_linear))
 
 # %% [markdown]
-# ```{exercise} 3.3 The ESS and the spread of the weights
+# ```{exercise} 3.3 What the ESS counts
 # :label: ex-is-ess
 # :nonumber:
-# Show that $1/\sum_i (W^i)^2 = N / (1 + \operatorname{cv}^2)$ where $\operatorname{cv}^2$ is
-# the squared coefficient of variation of the unnormalised weights over the $N$ draws (their
-# variance with the factor $1/N$, over their squared mean), and that $\mathrm{ESS} / N$ tends to
-# $1 / \mathbb E_q[w^2] = 1 / (1 + \chi^2(\pi \| q))$ for $w = \pi / q$.
+# Show that $1 \le 1/\sum_i (W^i)^2 \le N$ for normalised weights, with $N$ only when they are
+# all equal and $1$ only when one draw has all the weight. If $k$ of the draws share the weight
+# equally and the others have none, what is the ESS? For weights proportional to
+# $1, 2, \dots, N$, what fraction of $N$ does it tend to as $N$ grows?
 # ```
 #
 # ```{solution} ex-is-ess
 # :class: dropdown
-# With $\bar w = \frac1N \sum_i \tilde w^i$ and $W^i = \tilde w^i / (N \bar w)$,
-# $\sum_i (W^i)^2 = \frac{1}{N^2 \bar w^2} \sum_i (\tilde w^i)^2
-# = \frac1N \cdot \frac{\frac1N \sum_i (\tilde w^i)^2}{\bar w^2} = \frac{1 + \operatorname{cv}^2}{N}$,
-# since $\frac1N \sum_i (\tilde w^i)^2 = \bar w^2 (1 + \operatorname{cv}^2)$. The ratio
-# $\frac1N \sum_i (\tilde w^i)^2 / \bar w^2$ tends to $\mathbb E_q[w^2] / (\mathbb E_q w)^2
-# = \mathbb E_q[w^2]$ by the law of large numbers; $\mathbb E_q[w^2] - 1 = \operatorname{Var}_q w$
-# is by definition the $\chi^2$ divergence $\chi^2(\pi \| q)$.
+# The $W^i$ are at least $0$ and sum to $1$, so $\sum_i (W^i)^2 \le \max_i W^i \le 1$, with
+# equality when one weight is $1$; and by Cauchy-Schwarz $1 = \big(\sum_i W^i\big)^2 \le
+# N \sum_i (W^i)^2$, with equality when all are $1/N$. With $k$ weights $1/k$,
+# $\sum_i (W^i)^2 = k / k^2$ and the ESS is $k$: it counts the draws that share the weight. With
+# $W^i \propto i$, $\mathrm{ESS} = \big(\sum_i i\big)^2 / \sum_i i^2
+# = \frac{3 N (N + 1)}{2 (2N + 1)} \to \frac34 N$.
 # ```
 #
 # ```{exercise} 3.4 Which tails are heavy enough?

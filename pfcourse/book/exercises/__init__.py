@@ -202,6 +202,7 @@ from pfcourse.book.exercises.part1 import (  # noqa: F401
     KALMAN_CASE,
     KALMAN_MISTAKES,
     IS_TOY_CASE,
+    IS_UNDERFLOW_CASE,
     IS_TOY_MISTAKES,
     LANDMARK_CASE,
     LANDMARK_MISTAKES,

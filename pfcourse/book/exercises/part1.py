@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import warnings
 from collections.abc import Callable
 from dataclasses import dataclass
 
@@ -403,6 +404,10 @@ def check_evidence_increment(fn: Callable, seed: int = 0) -> CheckReport:
 
 #: The case of :func:`check_importance_sampler`: the measurement z and the noise sd sd_v of the toy.
 IS_TOY_CASE = (3.0, 0.5)
+#: Its underflow case: z = 60, sd_v = 1, where p(z | x) p(x) = exp(-(x - 30)^2 - 900) / (2 pi) is below the
+#: smallest positive float (about exp(-745)) at every x, so weights computed outside the log domain are all 0;
+#: the proposal N(z/2, 1) is centred on the posterior N(30, 1/2) there, so ESS / n tends to 0.866.
+IS_UNDERFLOW_CASE = (60.0, 1.0)
 
 #: The typical mistakes of the importance-sampling exercise: the weight each one computes, in words.
 IS_TOY_MISTAKES = {
@@ -473,7 +478,9 @@ def check_importance_sampler(fn: Callable, n: int = 20_000, seed: int = 0) -> Ch
     must be within 10 % of its limit ``1 / E_q[w^2]`` (0.383 at :data:`IS_TOY_CASE`; its Monte Carlo
     standard deviation at n = 20 000 is 0.003, so 10 % is over ten of them), which tells the asked
     proposal from the prior, an exact posterior sampler or a wider Gaussian. The random numbers must come
-    from ``rng`` (:func:`_generator_problem`, on 500 particles).
+    from ``rng`` (:func:`_generator_problem`, on 500 particles). A sampler right there is run again at
+    :data:`IS_UNDERFLOW_CASE`, where weights computed outside the log domain underflow to 0 (the estimate
+    becomes 0 / 0), and is held to the same six standard errors and 10 %.
     """
     saved = np.random.get_state()
     try:
@@ -518,6 +525,7 @@ def _check_importance_sampler(fn: Callable, n: int, seed: int) -> CheckReport:
     rtol = 0.1 * max(1.0, np.sqrt(20_000 / n))
     near = lambda r: abs(ratio - r) <= rtol * r  # noqa: E731
     if fits(None) and near(expected):
+        _check_underflow_case(report, fn, n, seed)
         return report
     if ratio >= 1 - 1e-9:
         report.problems.append("the ESS equals n, so every weight is the same: the draws must come from the "
@@ -541,6 +549,34 @@ def _check_importance_sampler(fn: Callable, n: int, seed: int) -> CheckReport:
                            f"({np.sqrt(sigma2 / n):.4f}) from the exact posterior mean {mean:.4f}: check the "
                            "draws (x ~ N(z/2, 1)), the three terms of the log-weight and the normalisation")
     return report
+
+
+def _check_underflow_case(report: CheckReport, fn: Callable, n: int, seed: int) -> None:
+    """Run a sampler that is right at IS_TOY_CASE at IS_UNDERFLOW_CASE (its RuntimeWarnings silenced: the
+    report says what went wrong)."""
+    z, sd_v = IS_UNDERFLOW_CASE
+    with warnings.catch_warnings(), np.errstate(all="ignore"):
+        warnings.simplefilter("ignore", RuntimeWarning)
+        try:
+            estimate, ess = (float(v) for v in fn(z, sd_v, n, np.random.default_rng(seed)))
+        except Exception as exc:
+            report.problems.append(f"at z = {z:g}, sd_v = {sd_v:g} the sampler raised {type(exc).__name__}: {exc}")
+            return
+    mean, var = toy_is_limit(z, sd_v)
+    sigma2 = _gauss_chi2(mean, var, z / 2, 1.0)[1]
+    expected = toy_is_ess_ratio(z, sd_v)
+    if not (np.isfinite(estimate) and np.isfinite(ess)):
+        report.problems.append(
+            f"at z = {z:g}, sd_v = {sd_v:g} the estimate is {estimate} and the ESS {ess}: there p(z | x) p(x) is "
+            "about e^-900, below the smallest float (about e^-745), so weights computed as densities or as "
+            "exp(log_w) underflow to 0 and normalising them divides 0 by 0; keep the log-weights and subtract "
+            "their logsumexp (or their max) before exponentiating")
+    elif abs(estimate - mean) > 6 * np.sqrt(sigma2 / n) or abs(ess / n - expected) > 0.1 * max(
+            1.0, np.sqrt(20_000 / n)) * expected:
+        report.problems.append(
+            f"at z = {z:g}, sd_v = {sd_v:g} the answer ({estimate:.4f}, ESS / n {ess / n:.3f}) is not the exact "
+            f"posterior mean {mean:.4f} with ESS / n about {expected:.3f}, though it is right at z = 3: the tiny "
+            "weights there (about e^-900) need the log domain all the way, logsumexp included")
 
 
 @dataclass(frozen=True)
