@@ -110,3 +110,17 @@ def test_the_checker_leaves_numpys_global_state_alone():
     np.random.seed(11)
     check_importance_sampler(densities)
     assert np.random.random() == expected
+
+
+def test_adding_log_q_instead_of_subtracting_it_is_named():
+    """The sign slip of review smc_is item 9: its limit q^2 x lik x prior has mean 15/7 at z = 3, sd_v = 0.5."""
+    def plus_log_q(z, sd_v, n, rng):
+        x = z / 2 + rng.standard_normal(n)
+        log_w = stats.norm.logpdf(z, loc=x, scale=sd_v) + stats.norm.logpdf(x) + stats.norm.logpdf(x, z / 2, 1.0)
+        W = np.exp(log_w - logsumexp(log_w))
+        return W @ x, 1.0 / np.sum(W**2)
+
+    assert toy_is_limit(*IS_TOY_CASE, "proposal_added")[0] == pytest.approx(15 / 7)
+    report = check_importance_sampler(plus_log_q)
+    assert not report.ok and len(report.problems) == 1, str(report)
+    assert "adds log q(x) instead of subtracting it" in report.problems[0], report.problems[0]

@@ -8,8 +8,11 @@ Reading time (issue 39), as ``start_here.md`` states it: the words of the prose 
 code blocks and folded blocks such as evidence and solutions, exercises included; a formula, a code
 span or a role counts as one word) at
 150 words a minute, plus 30 s for each display equation outside folded blocks and 6 s for each
-line of code the reader sees (code cells not hidden or removed), rounded up to a minute. A stated
-time may be off by a quarter
+line of code the reader sees (code cells not hidden or removed), rounded up to a minute; the header's
+own time line is not counted. The folded blocks (markdown folds other than solutions, folded code,
+the stored evidence outputs) are read by the same rule, for the header's and the table's second
+time; the core route's total of both is stated in the table's last row. A stated time may be off
+by a quarter
 or two minutes, whichever is more, so a small edit of a chapter does not force an edit here,
 and a rewritten chapter (half as long) does.
 """

@@ -121,8 +121,8 @@ glue_values("is_picture_ess_", sd1=picture_ess[1.0], sd01=picture_ess[0.1])
 # are worth {glue:text}`is_picture_ess_sd1:.0f`; with $\sigma_v = 0.1$, about
 # {glue:text}`is_picture_ess_sd01:.0f`. Nothing went wrong on the right: the target is simply
 # narrow, and a blind proposal puts only a few draws in it. On the left the bars are tallest
-# near $x = z = 1$ while the target peaks at $z / (1 + \sigma_v^2) = 1/2$: the draws already
-# follow the prior, so the weights carry only the likelihood. A particle filter meets this at
+# near $x = z = 1$ while the target peaks at the posterior mean, $z / (1 + \sigma_v^2) = 1/2$
+# (derived below): the draws already follow the prior, so the weights carry only the likelihood. A particle filter meets this at
 # every step, and the weights of a whole path multiply these ratios together ({doc}`sis`).
 
 # %% [markdown]
