@@ -600,7 +600,7 @@ EvidenceBlock(
 # the self-normalised estimate of the posterior mean and the ESS. The checker runs it at $z = 3$,
 # $\sigma_v = 0.5$, compares it with the exact mean $z / (1 + \sigma_v^2)$ and names the
 # mistake it sees; then at $z = 60$, $\sigma_v = 1$, a measurement so surprising that
-# $p(z \mid x)\, p(x)$ is about $e^{-900}$ at every draw, below the smallest floating-point number.
+# $p(z \mid x)\, p(x)$ is about $e^{-900}$ at every draw, below the smallest positive float.
 # ```
 
 # %% tags=["answer"]
