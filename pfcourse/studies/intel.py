@@ -167,6 +167,9 @@ INJECTION_METHODS = ("scan", "no_injection", "guarded")
 PREVIOUS_COLUMNS = ("method", "seed", "start_scan", "locked_on", "locked_from", "final_position_error",
                     "final_heading_error", "mean_particles", "window_margin")
 GLOBAL_COLUMNS = PREVIOUS_COLUMNS + ("likelihood_evaluations",)
+#: The methods of ``intel/guarded_maps``: chapter 15's guarded cure (:data:`GUARDED_SETTINGS`) on the map of the
+#: whole run, with the odometry's drift taken out, and on the map control; the runs and filter seeds of ``intel/global``.
+GUARDED_MAP_METHODS = ("whole_map", "drift_corrected", "leave_out")
 #: Per-scan columns of ``intel/injection`` (stored in injection.npz): the errors against the corrected poses.
 INJECTION_ARRAYS = ("position_error", "heading_error")
 INJECTION_COLUMNS = GLOBAL_COLUMNS + ("seconds", "cpu_seconds") + INJECTION_ARRAYS
