@@ -61,7 +61,8 @@ def _stored_settings(name: str, settings) -> dict:
 
 
 @pytest.mark.parametrize("name, settings", [("intel/global", "GLOBAL_SETTINGS"), ("intel/map_control", "GLOBAL_SETTINGS"),
-                                            ("intel/global_previous", "PREVIOUS_SETTINGS")])
+                                            ("intel/global_previous", "PREVIOUS_SETTINGS"),
+                                            ("intel/guarded_maps", "GUARDED_SETTINGS")])
 def test_the_global_runs_use_the_cure_of_one_record_and_the_stored_study_was_made_with_it(name, settings):
     from dataclasses import asdict
 
