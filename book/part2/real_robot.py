@@ -740,7 +740,7 @@ glue_values("intel_global_", early_diff=d_early, early_diff_low=d_early_low, ear
             outside_share=outside.mean(), n_start_outside=int(starts_out.sum()),
             start_outside_locked=int(lock["cure"][starts_out].sum()),
             n_lock_from_start=int(from_start.sum()), n_locked=len(locked), at_floor_share=at_floor.mean(),
-            n_min=S.n_min, confirm=S.confirm,
+            n_min=S.n_min,
             elsewhere_evidence=int((~look_alike).sum()),
             elsewhere_margin_nats=elsewhere.loc[~look_alike, "window_margin"].median(),
             control_rate=vs_control.a.estimate, control_diff=vs_control.difference,
@@ -901,7 +901,8 @@ EvidenceBlock(
 # Without injection the same filter locks on in {glue:text}`intel_global_no_injection_rate:.0%`:
 # injection changes that by {glue:text}`intel_global_no_injection_diff:+.0%`
 # ({glue:text}`intel_global_no_injection_diff_low:+.0%` to
-# {glue:text}`intel_global_no_injection_diff_high:+.0%`).
+# {glue:text}`intel_global_no_injection_diff_high:+.0%`): larger changes, either way, are excluded by
+# the data.
 #
 # It ends more runs on the robot, though: {glue:text}`intel_global_ends_rate:.0%` within $1$ m, a gain
 # of {glue:text}`intel_global_ends_diff:+.0%` ({glue:text}`intel_global_ends_diff_low:+.0%` to
