@@ -118,8 +118,8 @@ glue_values("intel_", dead_reckoning_final_error_m=dr_error[-1],
 # :class: dropdown
 # A `FLASER` line carries no angles, and the programs that read this format disagree by up to a
 # degree. CARMEN's own reader puts beam $i$ (from $0$) at $-90^\circ + i$, so its beams end at
-# $+89^\circ$; GMapping's reader, which made the corrected poses, puts the beams at
-# $-90^\circ, \dots, -1^\circ$ and $+1^\circ, \dots, +90^\circ$, none straight ahead. The loader
+# $+89^\circ$; the reader of GMapping's own programs, which made the corrected poses, puts the
+# beams at $-90^\circ, \dots, -1^\circ$ and $+1^\circ, \dots, +90^\circ$, none straight ahead. The loader
 # takes the beams' centres, $-89.5^\circ + i$: within half a degree of both, and symmetric about the
 # heading as GMapping's are (CARMEN's agree with GMapping's on the right half of the scan and sit a
 # degree to the right of them on the left half).

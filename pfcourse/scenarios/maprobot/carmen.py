@@ -98,9 +98,10 @@ class CarmenLog:
         ``-fov/2 + (b + 1/2) fov / B`` (the beams' centres; one degree apart for 180 beams).
 
         A FLASER line carries no angles.  For 180 beams CARMEN's reader (``readlog.c``) puts beam ``b`` at
-        ``-90 + b`` degrees and GMapping's (``carmenconfiguration.cpp``), which made the Intel log's corrected
-        poses, at ``-90 .. -1`` and ``+1 .. +90``; the centres, ``-89.5 + b``, lie within half a degree of
-        both and are symmetric about the heading, as GMapping's are (book/data/intel/README.txt)."""
+        ``-90 + b`` degrees, and the reader of GMapping's programs (``carmenconfiguration.cpp``; GMapping made
+        the Intel log's corrected poses) at ``-90 .. -1`` and ``+1 .. +90``; the centres, ``-89.5 + b``, lie
+        within half a degree of both and are symmetric about the heading, as GMapping's are
+        (book/data/intel/README.txt)."""
         n = self.ranges.shape[1]
         return -self.fov / 2 + (np.arange(n) + 0.5) * self.fov / n
 
