@@ -61,7 +61,8 @@ def _stored_settings(name: str, settings) -> dict:
 
 
 @pytest.mark.parametrize("name, settings", [("intel/global", "GLOBAL_SETTINGS"), ("intel/map_control", "GLOBAL_SETTINGS"),
-                                            ("intel/global_previous", "PREVIOUS_SETTINGS")])
+                                            ("intel/global_previous", "PREVIOUS_SETTINGS"),
+                                            ("intel/guarded_maps", "GUARDED_SETTINGS")])
 def test_the_global_runs_use_the_cure_of_one_record_and_the_stored_study_was_made_with_it(name, settings):
     from dataclasses import asdict
 
@@ -181,6 +182,23 @@ def test_the_injection_study_repeats_the_stored_cure_and_records_its_arms():
             assert len(row["position_error"]) == intel.GLOBAL_STEPS
             assert row["locked_on"] == intel.locked_on_share(row["position_error"], row["heading_error"], tol)
             assert row["final_position_error"] == row["position_error"][-1]
+
+
+def test_the_guards_do_not_act_on_a_filter_that_injects_nothing():
+    """The chapter counts the uniform-only and no-injection arms (run with global_mcl.HAZARD) as the guarded cure's
+    own: without injection the guards (confirm, mixture_evidence) never act, so the guarded settings give the
+    stored rows, float for float."""
+    from pfcourse.studies.registry import STUDIES
+
+    stored = {m: g.set_index("seed") for m, g in STUDIES["intel/injection"].load().groupby("method")}
+    uniform = STUDIES["intel/global"].load().query("method == 'uniform'").set_index("seed")
+    for seed in (3, 17):
+        for method, table in (("no_injection", stored["no_injection"]), ("uniform", uniform)):
+            fresh = intel.global_row(seed, method=method, settings=intel.GUARDED_SETTINGS)
+            row = table.loc[seed]
+            assert fresh["locked_on"] == row["locked_on"] and fresh["likelihood_evaluations"] == row["likelihood_evaluations"]
+            assert fresh["final_position_error"] == row["final_position_error"], (method, seed)
+            assert fresh["window_margin"] == row["window_margin"], (method, seed)
 
 
 def test_without_injection_a_run_scores_the_start_the_proposal_and_its_cloud_only():

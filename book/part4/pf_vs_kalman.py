@@ -742,13 +742,14 @@ map_reliable = cure.estimate >= min(0.95, cure_vs_bound.b.estimate)  # issue 41'
 real_tracking = STUDIES["intel/tracking"].load()
 real_track = evidence.rate(real_tracking.query("map == 'second half'")["locked_on"].to_numpy())
 real_calib = evidence.rate(real_tracking.query("map == 'second half, drift corrected'")["locked_on"].to_numpy())
-real_global = evidence.rate(STUDIES["intel/global"].load().query("method == 'scan'")["locked_on"].to_numpy())
-real_control = evidence.rate(STUDIES["intel/map_control"].load()["locked_on"].to_numpy())  # every scan but the run's own
-# injection on the log (intel/injection): ending within 1 m with and without it, the same runs
+# the cure (global_mcl.CURE): intel/injection's arm "guarded", and on the map control intel/guarded_maps
 real_inj = {m: g.sort_values("seed") for m, g in STUDIES["intel/injection"].load().groupby("method")}
-real_ends = evidence.paired_rates(real_inj["scan"]["final_position_error"].to_numpy() < 1.0,
+real_global = evidence.rate(real_inj["guarded"]["locked_on"].to_numpy())
+real_control = evidence.rate(STUDIES["intel/guarded_maps"].load().query("method == 'leave_out'")["locked_on"].to_numpy())
+# injection on the log: ending within 1 m with and without it, the same runs
+real_ends = evidence.paired_rates(real_inj["guarded"]["final_position_error"].to_numpy() < 1.0,
                                   real_inj["no_injection"]["final_position_error"].to_numpy() < 1.0)
-real_lock = evidence.paired_rates(real_inj["scan"]["locked_on"], real_inj["no_injection"]["locked_on"])
+real_lock = evidence.paired_rates(real_inj["guarded"]["locked_on"], real_inj["no_injection"]["locked_on"])
 # Terrain with a wrong map: terrain_cure's map-error study, the remedies of terrain_marginalised.
 bias_runs = STUDIES["terrain_map_bias"].load()
 map_bias = bias_runs.groupby("setting")["lost"].agg(["mean", "count"])
@@ -829,7 +830,7 @@ decision = pd.DataFrame([
                      f"({real_track.low:.0%}-{real_track.high:.0%}), {real_calib.estimate:.0%} "
                      f"({real_calib.low:.0%}-{real_calib.high:.0%}) with the odometry's drift calibrated out "
                      "(every run still leaves the tolerance for a while at a map gap); found from nowhere "
-                     f"{real_global.estimate:.0%} ({real_global.low:.0%}-{real_global.high:.0%}) before the guards on a map of its "
+                     f"{real_global.estimate:.0%} ({real_global.low:.0%}-{real_global.high:.0%}) on a map of its "
                      f"other half, {real_control.estimate:.0%} ({real_control.low:.0%}-{real_control.high:.0%}) "
                      "on a map of every scan but the run's own; injection there ends "
                      f"{100 * real_ends.difference:+.0f} points ({100 * real_ends.difference_low:+.0f} to "

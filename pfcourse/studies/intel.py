@@ -103,11 +103,11 @@ def locked_on_share(pos_err: Array, head_err: Array, tolerance: float) -> bool:
                      heading_tolerance=tolerance)
 
 
-#: Global localization's filter: one record, chapter 15's cure as it stands
+#: The global runs of ``intel/global`` and ``intel/map_control``: one record, chapter 15's cure before its guards
 #: (:data:`pfcourse.scenarios.maprobot.global_mcl.HAZARD`: many particles at the start, some drawn from
 #: the scan, KLD-sampling with AMCL's delta, poses drawn from the scan injected as a kidnapping with a
-#: history, at the kidnap model's prior mass).  Switch the cure here; the stored study's provenance records
-#: every field of it, and a test fails while the stored table was made with other settings.
+#: history, at the kidnap model's prior mass); the chapter's cure is :data:`GUARDED_SETTINGS`.  The stored
+#: study's provenance records every field of it, and a test fails while the stored table was made with other settings.
 GLOBAL_SETTINGS: GlobalSettings = HAZARD
 #: The cure the first stored runs used (``intel/global_previous``): augmented MCL's ratio as the injected mass.
 PREVIOUS_SETTINGS: GlobalSettings = SETTINGS
@@ -167,6 +167,9 @@ INJECTION_METHODS = ("scan", "no_injection", "guarded")
 PREVIOUS_COLUMNS = ("method", "seed", "start_scan", "locked_on", "locked_from", "final_position_error",
                     "final_heading_error", "mean_particles", "window_margin")
 GLOBAL_COLUMNS = PREVIOUS_COLUMNS + ("likelihood_evaluations",)
+#: The methods of ``intel/guarded_maps``: chapter 15's guarded cure (:data:`GUARDED_SETTINGS`) on the map of the
+#: whole run, with the odometry's drift taken out, and on the map control; the runs and filter seeds of ``intel/global``.
+GUARDED_MAP_METHODS = ("whole_map", "drift_corrected", "leave_out")
 #: Per-scan columns of ``intel/injection`` (stored in injection.npz): the errors against the corrected poses.
 INJECTION_ARRAYS = ("position_error", "heading_error")
 INJECTION_COLUMNS = GLOBAL_COLUMNS + ("seconds", "cpu_seconds") + INJECTION_ARRAYS

@@ -802,7 +802,11 @@ STUDIES: dict[str, Study] = {study.name: study for study in [
            "scans 455-909 of book/data/intel/intel-corrected.log.gz (whole_map: scans 0-909); runs on scans 0-454"),
           ("intel/map_control", intel.global_row, intel.CONTROL_METHODS, intel.GLOBAL_COLUMNS, intel.GLOBAL_SETTINGS,
            f"every scan of book/data/intel/intel-corrected.log.gz but the run's own and {intel.LEAVE_OUT_MARGIN} "
-           "on each side (on the whole run's grid); runs on scans 0-454"))),
+           "on each side (on the whole run's grid); runs on scans 0-454"),
+          ("intel/guarded_maps", partial(intel.global_row, settings=intel.GUARDED_SETTINGS), intel.GUARDED_MAP_METHODS,
+           intel.GLOBAL_COLUMNS, intel.GUARDED_SETTINGS,
+           "whole_map: scans 0-909 of book/data/intel/intel-corrected.log.gz; drift_corrected: scans 455-909; "
+           f"leave_out: every scan but the run's own and {intel.LEAVE_OUT_MARGIN} on each side; runs on scans 0-454"))),
     Study(name="intel/map_control_margin", row=intel.margin_row, grid={"margin": [intel.MARGIN_CHECK]},
           n_runs=intel.N_MARGIN_CHECK, seeds="run", failures="raise", table="intel/map_control_margin.csv",
           provenance="intel/map_control_margin.json", columns=("margin",) + intel.GLOBAL_COLUMNS, sample=1,

@@ -95,7 +95,13 @@ class CarmenLog:
     @property
     def angles(self) -> Array:
         """Beam angles relative to the heading (rad): ``B`` beams evenly over ``fov``, right to left,
-        ``-fov/2 + (b + 1/2) fov / B`` (the beams' centres; one degree apart for 180 beams)."""
+        ``-fov/2 + (b + 1/2) fov / B`` (the beams' centres; one degree apart for 180 beams).
+
+        A FLASER line carries no angles.  For 180 beams CARMEN's reader (``readlog.c``) puts beam ``b`` at
+        ``-90 + b`` degrees, and the reader of GMapping's programs (``carmenconfiguration.cpp``; GMapping made
+        the Intel log's corrected poses) at ``-90 .. -1`` and ``+1 .. +90``; the centres, ``-89.5 + b``, lie
+        within half a degree of both and are symmetric about the heading, as GMapping's are
+        (book/data/intel/README.txt)."""
         n = self.ranges.shape[1]
         return -self.fov / 2 + (np.arange(n) + 0.5) * self.fov / n
 
