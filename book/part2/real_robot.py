@@ -18,7 +18,7 @@
 # **You need** {doc}`map_robot` (the odometry model, the likelihood field, MCL) and {doc}`map_global`
 # (global localization); Bayes' rule; NumPy.
 #
-# **Time:** about twenty-five minutes to read, plus about twenty-four minutes for the folded blocks; the exercise is extra.
+# **Time:** about twenty-five minutes to read, plus about twenty-seven minutes for the folded blocks; the exercise is extra.
 # :::
 #
 # Every robot of the book so far was simulated: the filter knew the noise that made the data. A real
