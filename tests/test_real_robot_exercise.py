@@ -73,7 +73,7 @@ def test_broken_answers_are_reported_not_raised():
     assert "shape" in check_random_beams(lambda z, zs, b, k, rng: reference(z, zs, b, k, rng)[:3]).problems[0]
     assert "NaN" in check_random_beams(lambda z, zs, b, k, rng: np.full(len(zs), np.nan)).problems[0]
     other = check_random_beams(lambda z, zs, b, k, rng: reference(z, zs, b, k, rng) ** 2 / 100)
-    assert other.problems and "not a sum of the beam model's terms" in other.problems[0]
+    assert other.problems and "per-beam log-density is not" in other.problems[0]
     fewer = check_random_beams(lambda z, zs, b, k, rng: reference(z, zs, b, k - 1, rng))
     assert fewer.problems and "not k = 12" in fewer.problems[0]
 
@@ -124,3 +124,46 @@ def _formula_on(z, zs, b, drawn):
 def test_constant_offsets_and_a_missing_z_max_get_their_own_message(variant, mistake):
     report = check_random_beams(variant)
     assert report.problems == [f"your function computes a known mistake: {RANDOM_BEAM_MISTAKES[mistake]}"]
+
+
+def _drawn(z, b, k, rng):
+    return rng.choice(np.flatnonzero(z < b.z_max), size=k, replace=False)
+
+
+def _gauss(z, zs, b, drawn):
+    return np.exp(-0.5 * ((z[drawn] - zs[:, drawn]) / b.sigma) ** 2)
+
+
+@pytest.mark.parametrize("variant, mistake", [
+    # the Gaussian without its normaliser 1 / (sqrt(2 pi) sigma)
+    (lambda z, zs, b, k, rng: (lambda d: np.log(b.z_hit * _gauss(z, zs, b, d) + b.z_rand / b.z_max).sum(axis=1))(
+        _drawn(z, b, k, rng)), "no_norm"),
+    # z_hit left out
+    (lambda z, zs, b, k, rng: (lambda d: np.log(_gauss(z, zs, b, d) / (np.sqrt(2 * np.pi) * b.sigma)
+                                                 + b.z_rand / b.z_max).sum(axis=1))(_drawn(z, b, k, rng)), "no_zhit"),
+    # the normaliser written 1 / sqrt(2 pi sigma)
+    (lambda z, zs, b, k, rng: (lambda d: np.log(b.z_hit * _gauss(z, zs, b, d) / np.sqrt(2 * np.pi * b.sigma)
+                                                 + b.z_rand / b.z_max).sum(axis=1))(_drawn(z, b, k, rng)),
+     "sqrt_sigma"),
+    # the log of a sum split into a sum of logs
+    (lambda z, zs, b, k, rng: (lambda d: (np.log(b.z_hit * _gauss(z, zs, b, d) / (np.sqrt(2 * np.pi) * b.sigma))
+                                          + np.log(b.z_rand / b.z_max)).sum(axis=1))(_drawn(z, b, k, rng)),
+     "split_log"),
+    # per-pose draws, written as a student would
+    (lambda z, zs, b, k, rng: np.array([_formula_on(z, zs[i:i + 1], b, _drawn(z, b, k, rng)).sum()
+                                        for i in range(len(zs))]), "per_pose"),
+])
+def test_density_slips_and_per_pose_draws_are_named_as_such(variant, mistake):
+    report = check_random_beams(variant)
+    assert report.problems == [f"your function computes a known mistake: {RANDOM_BEAM_MISTAKES[mistake]}"]
+
+
+def test_a_correct_draw_with_another_wrong_density_is_not_blamed_on_the_draw():
+    # a density slip the checker does not list (sigma squared twice): named as the density, not the draws
+    def sigma_twice(z, zs, b, k, rng):
+        d = _drawn(z, b, k, rng)
+        hit = np.exp(-0.5 * ((z[d] - zs[:, d]) / b.sigma**2) ** 2) / (np.sqrt(2 * np.pi) * b.sigma)
+        return np.log(b.z_hit * hit + b.z_rand / b.z_max).sum(axis=1)
+    report = check_random_beams(sigma_twice)
+    assert report.problems and report.problems[0].startswith("the per-beam log-density is not")
+    assert "beams of its own" not in report.problems[0]
