@@ -57,9 +57,13 @@ log = library_log()
 u = log.odometry()
 dr_full = log.dead_reckoning()
 # GMapping writes a NEFF line (its effective sample size) after each scan it processes
+# gfs2log writes after each FLASER line the corrected pose again as an ODOM line (GMapping's scan-match
+# record, whose time it leaves unset); the other ODOM lines are the best particle's motion updates
 with gzip.open(INTEL_LOG, "rt") as f:
-    n_neff = sum(line.startswith("NEFF") for line in f)
-glue_values("intel_", neff_lines=n_neff)
+    kinds = [line.split(None, 1)[0] for line in f if line.strip()]
+n_neff = kinds.count("NEFF")
+n_after_scan = sum(a == "FLASER" and b == "ODOM" for a, b in zip(kinds, kinds[1:]))
+glue_values("intel_", neff_lines=n_neff, odo_update_lines=kinds.count("ODOM") - n_after_scan)
 
 # %% [markdown]
 # ## The picture: a map, a path, and the odometry drifting away
@@ -96,13 +100,15 @@ glue_values("intel_", dead_reckoning_final_error_m=dr_error[-1],
 #
 # A CARMEN log is a text file, one message a line. A `FLASER` line is a scan: $180$ ranges, one beam
 # per degree from the robot's right to its left, then the pose the scan was taken at; a beam with no
-# echo reads $81.83$ m. An `ODOM` line is the pose the wheel encoders have integrated so far.
+# echo reads $81.83$ m; no echo is longer than $25.4$ m. An `ODOM` line is a pose.
 #
-# This copy is *corrected*: the pose on each `FLASER` line is not the odometry but a SLAM estimate over
-# the whole log, loop closures included (GMapping's {cite:p}`grisetti2007`, a particle-filter SLAM
-# method, which writes the {glue:text}`intel_neff_lines:d` `NEFF` lines of the file). After each scan the
-# `ODOM` lines restart from that corrected pose, so what the wheels measured between scans $k$ and
-# $k+1$ is the last odometry pose before scan $k+1$, $\bar x_{k+1}$, seen from the corrected pose $x_k$:
+# This copy is *corrected*: the pose on each `FLASER` line is the path of the best particle of
+# GMapping {cite:p}`grisetti2007`, a particle-filter SLAM method run over the whole log, loop closures
+# included (it writes the {glue:text}`intel_neff_lines:d` `NEFF` lines). The `ODOM` lines are not the
+# wheels' readings either: between scans they are that particle's poses after each of its motion
+# updates ({glue:text}`intel_odo_update_lines:,d` lines), each the wheels' increment plus a random draw
+# from GMapping's motion model. After each scan they restart from the corrected pose, so the odometry
+# between scans $k$ and $k+1$ is the last such pose before scan $k+1$, $\bar x_{k+1}$, seen from $x_k$:
 #
 # $$
 # u_{k+1} = x_k^{-1} \oplus \bar x_{k+1}, \qquad
@@ -112,6 +118,26 @@ glue_values("intel_", dead_reckoning_final_error_m=dr_error[-1],
 # with $p$ the position and $R_\theta$ the rotation by the heading. The loader does that, and turns
 # $u_k$ into the $(\delta_{\mathrm{rot1}}, \delta_{\mathrm{trans}}, \delta_{\mathrm{rot2}})$ of the
 # odometry model; a robot that backs up gets a negative $\delta_{\mathrm{trans}}$, not a half-turn.
+#
+# :::{admonition} Going further: what the `ODOM` lines are
+# :class: dropdown
+# The file is the output of GMapping's converter `gfs2log` (its `ODOM` lines end in the host name
+# `pippo` that `PoseRecord::write` in `gridfastslam/gfsreader.cpp` writes). By default `gfs2log`
+# writes as `ODOM` lines the poses of the best particle's line of ancestors: after each motion update
+# (`ODO_UPDATE`, one per laser reading GMapping read, most of them not kept as scans here) and after
+# each scan match (`SM_UPDATE`, the line right after each `FLASER` line: the same pose, with a time
+# left unset). Its option `-odom` would have written the raw odometry instead, in the wheels' own frame;
+# these lines restart from the corrected pose after every scan, so the option was not used. A motion
+# update is `MotionModel::drawFromMotion`: the wheels' increment plus Gaussian noise whose spread grows
+# with the motion, with GMapping's noise parameters, which the file does not record. And the particle
+# line that survived is the one whose draws the scans favoured.
+#
+# So every number this chapter measures on "the odometry" (its drift, its heading error, dead
+# reckoning) is measured on the wheels' increments plus these draws, selected by GMapping's resampling:
+# what a filter fed this file receives, not the encoders alone. The draws add spread; the selection may
+# pull the increments towards the corrected motion. The chapter cannot separate the two without the
+# raw log, and its calibration calibrates this odometry, not the robot's wheels.
+# :::
 #
 # :::{admonition} Going further: which angle is beam $i$?
 # :class: dropdown
@@ -205,23 +231,22 @@ EvidenceBlock(
 # $20$ degrees, less than $0.1$ m of travel).
 #
 # Chained from the first pose, the odometry alone ends {glue:text}`intel_full_dead_reckoning_m:.0f` m
-# from the corrected pose. Its heading error is not random. Summed over the straight steps and
-# divided by the distance they drove, the heading error is {glue:text}`intel_odo_drift_deg_per_m:.1f`
-# degrees per metre (negative: clockwise); regressed on the turn, turns on the spot come out
-# slightly over-rotated, by {glue:text}`intel_odo_turn_scale_pct:.0f` %; and the wheels report
-# {glue:text}`intel_odo_distance_ratio:.3f` times the distance driven (median over steps). The
-# odometry model's zero-mean noise covers such a bias only by a wide spread.
+# from the corrected pose. Its heading error is not random: summed over the straight steps and
+# divided by the distance they drove, it is {glue:text}`intel_odo_drift_deg_per_m:.1f` degrees per
+# metre (negative: clockwise). The odometry model's zero-mean noise covers such a bias only by a wide
+# spread. (This is the file's odometry, GMapping's draws included.)
 #
 # The "truth" of this chapter is the corrected path, a SLAM estimate, not a surveyed trajectory: a few
 # centimetres against it say nothing; metres are real.
 #
-# :::{admonition} Going further: the reference's floor
+# :::{admonition} Going further: how precise is the reference?
 # :class: dropdown
-# The corrected path has a floor: on a turn on the spot the corrected pose moves a median
-# {glue:text}`intel_on_spot_corrected_cm:.1f` cm where the odometry moves
-# {glue:text}`intel_on_spot_odometry_cm:.1f` cm, and that shift does not grow with the angle turned
-# (correlation {glue:text}`intel_on_spot_lever_corr:.2f`), as it would if the reference point sat off
-# the wheel axis.
+# Where the robot turns on the spot, its true position barely moves, so the corrected pose's own
+# movement there shows the reference's noise: it moves a median
+# {glue:text}`intel_on_spot_corrected_cm:.1f` cm, where the odometry moves
+# {glue:text}`intel_on_spot_odometry_cm:.1f` cm. If the reference point sat off the wheel axis, that
+# shift would grow with the angle turned; it does not (correlation
+# {glue:text}`intel_on_spot_lever_corr:.2f`), so these few centimetres are the reference's own noise.
 # :::
 #
 # ## Mapping with known poses
@@ -256,7 +281,8 @@ EvidenceBlock(
 # The second half of the run builds the map (why that half, just below).
 
 # %%
-RES, Z_MAX = 0.1, 25.5  # cell side (m); longer ranges mean "no echo"
+# cell side (m); a range of Z_MAX or more means "no echo" (the log codes it 81.83 m)
+RES, Z_MAX = 0.1, 25.5
 L_OCC, L_FREE = np.log(0.7 / 0.3), np.log(0.4 / 0.6)
 
 
@@ -308,17 +334,20 @@ glue_values("intel_", held_to_map_median_m=np.median(held_to_map), held_to_map_m
 
 # %% [markdown]
 # **Which half maps.** A map built from the very scans it then localizes flatters the filter, so the
-# run is cut in two. The second half maps: each pose of the first half lies a median
-# {glue:text}`intel_held_to_map_median_m:.1f` m from its path, each of its poses
-# {glue:text}`intel_map_to_held_median_m:.1f` m from the first half's.
+# run is cut in two. The second half maps because it passes close to where the first half drives,
+# not the reverse: each pose of the first half lies a median
+# {glue:text}`intel_held_to_map_median_m:.1f` m from the second half's path, each pose of the second
+# half {glue:text}`intel_map_to_held_median_m:.1f` m from the first half's.
 #
 # ## Tracking on the held-out half
 #
 # MCL is the filter of {doc}`map_robot`: move each particle by the odometry model, weight it by the
 # likelihood field, resample. Two choices differ. The field uses every fourth beam ($45$ of $180$):
 # neighbouring beams see the same wall, and counting them all as independent evidence makes the
-# weights overconfident. And the odometry noise $a_1, \dots, a_4$ is set for this robot, from the
-# map half's own errors.
+# weights overconfident. And the odometry noise $a_1, \dots, a_4$ is chosen by hand, as round
+# numbers, and checked on the map half: it gives a heading spread of
+# {glue:text}`intel_model_turn_sd_deg:.1f` degrees at a median step, a little wider than the
+# increments' RMS heading error there, {glue:text}`intel_turn_rms_map_deg:.1f` degrees.
 
 # %%
 A = np.array([0.01, 0.005, 0.01, 0.005])  # odometry noise a_1 ... a_4
@@ -346,6 +375,7 @@ def log_weights(x, z):
     j = np.floor((x[:, 0:1] + z * np.cos(h)) / RES).astype(int)
     i = np.floor((x[:, 1:2] + z * np.sin(h)) / RES).astype(int)
     inside = (i >= 0) & (i < shape[0]) & (j >= 0) & (j < shape[1])
+    # an end outside the grid reads cell (0, 0), then distance inf
     d = np.where(inside, dist[i * inside, j * inside], np.inf)
     g = np.exp(-0.5 * (d / SIGMA) ** 2) / (np.sqrt(2 * np.pi) * SIGMA)
     return np.log(Z_HIT * g + Z_RAND / Z_MAX).sum(axis=1)
@@ -446,10 +476,10 @@ glue_values("intel_track_", n_seeds=len(half), share=track_rate.estimate, share_
             kept_median_m=kept["median_position_error"].median(), kept_p90_m=kept["p90_position_error"].median(),
             whole_share=whole["locked_on"].mean(), whole_median_m=whole["median_position_error"].median(),
             whole_p90_m=whole["p90_position_error"].median(),
-            whole_diff=whole_vs_half.difference, whole_diff_low=whole_vs_half.difference_low,
-            whole_diff_high=whole_vs_half.difference_high,
-            calib_share=calibrated["locked_on"].mean(), calib_diff=calib_vs_half.difference,
-            calib_diff_low=calib_vs_half.difference_low, calib_diff_high=calib_vs_half.difference_high,
+            whole_diff=100 * whole_vs_half.difference, whole_diff_low=100 * whole_vs_half.difference_low,
+            whole_diff_high=100 * whole_vs_half.difference_high,
+            calib_share=calibrated["locked_on"].mean(), calib_diff=100 * calib_vs_half.difference,
+            calib_diff_low=100 * calib_vs_half.difference_low, calib_diff_high=100 * calib_vs_half.difference_high,
             calib_median_m=calibrated["median_position_error"].median(),
             drift_deg_per_m=np.degrees(intel.drift_rate(log)),
             seed1_largest_m=err.max(),
@@ -458,8 +488,9 @@ glue_values("intel_track_", n_seeds=len(half), share=track_rate.estimate, share_
             window_path_min_m=held_to_map[WINDOW].min(), window_path_max_m=held_to_map[WINDOW].max())
 EvidenceBlock(
     "tracking on the held-out half",
-    notes=[f"Odometry noise: on the map half the encoders' heading error per step has an RMS of "
-           f"{np.degrees(rms_map):.1f} degrees against the corrected poses; the model's a_j give a heading spread of "
+    notes=[f"Odometry noise, chosen by hand (a_1 ... a_4 = {', '.join(f'{a:g}' for a in A)}), not fitted: on the map "
+           f"half the increments' heading error per step has an RMS of {np.degrees(rms_map):.1f} degrees against "
+           f"the corrected poses; the model's a_j give a heading spread of "
            f"{np.degrees(np.hypot(sd_model[0], sd_model[2])):.1f} degrees at a median step, a little wider.",
            f"One run, N = 1000, from the corrected start pose with standard deviations 0.2 m, 0.2 m, 0.05 rad; "
            f"{len(err)} scans of the first half on the map of the second half; every fourth beam.",
@@ -484,6 +515,10 @@ EvidenceBlock(
            f"({np.degrees(intel.drift_rate(log)):.2f} degrees per metre) taken out: "
            f"{calibrated['locked_on'].sum()} of {len(calibrated)} locked on; median error "
            f"{calibrated['median_position_error'].median():.3f} m. Paired against the raw odometry: {calib_vs_half}.",
+           f"Scans {WINDOW.start}-{WINDOW.stop - 1}, where the runs are lost: the odometry's heading drifts by "
+           f"{np.degrees(turn_error[WINDOW.start:WINDOW.stop - 1].sum()):.0f} degrees; the path runs "
+           f"{held_to_map[WINDOW].min():.1f}-{held_to_map[WINDOW].max():.1f} m from the nearest pose of the map half; "
+           f"seed 1's largest heading error there {head_err[WINDOW].max():.1f} degrees.",
            "Per seed, from the stored per-scan errors (within 1 m and the tolerance, scan by scan): share of scans "
            f"locked on, second-half map, runs locked on at the end: median {np.median(ex_half[0][kept_mask]):.1%}, "
            f"lowest {ex_half[0][kept_mask].min():.1%}; longest run of scans outside, those runs: "
@@ -503,62 +538,51 @@ EvidenceBlock(
 )
 
 # %% [markdown]
-# From the known start, with $N = 1000$ particles and the seed
-# above, the filter stays within {glue:text}`intel_track_seed1_largest_m:.1f` m of the reference over
-# the first half, with a median position error of {glue:text}`intel_tracking_median_error_m:.3f` m,
-# where dead reckoning ends {glue:text}`intel_dead_reckoning_final_error_m:.1f` m off.
+# From the known start, with $N = 1000$ particles and the seed above, the filter's median position
+# error over the first half is {glue:text}`intel_tracking_median_error_m:.3f` m (its largest,
+# {glue:text}`intel_track_seed1_largest_m:.2f` m), where dead reckoning ends
+# {glue:text}`intel_dead_reckoning_final_error_m:.1f` m off.
 #
 # One run is one draw, so the same filter ran with the seeds $1$ to $30$. A run is **locked on** at its
 # end when its estimate is within $1$ m and a heading tolerance at
 # {glue:text}`intel_lock_share:.0%` of its last $15$ scans: most of them, so one scan that lags a turn
 # does not count. The tolerance, {glue:text}`intel_heading_tolerance_deg:.1f` degrees, is three times
-# the odometry's RMS heading error of one step, the error a filter that follows the robot may carry
-# until the next scan corrects it ({doc}`map_global` sets its tolerance the same way). The global runs
-# below are judged by the same rule.
+# the odometry's RMS heading error of one step, the error a filter may carry until the next scan
+# corrects it. The global runs below are judged by the same rule.
 #
 # Locked on at the end: only {glue:text}`intel_track_share:.0%` of the runs
 # ({glue:text}`intel_track_share_low:.0%`-{glue:text}`intel_track_share_high:.0%`).
 #
 # The others lose the robot for good between scans {glue:text}`intel_track_lost_first:d` and
-# {glue:text}`intel_track_lost_last:d`, and end up to {glue:text}`intel_track_lost_final_max_m:.0f` m
-# off (the figure below draws every seed).
-#
-# Yet every run that ends locked on leaves the
-# tolerance around the same scans, for {glue:text}`intel_track_kept_longest_min:d` to
-# {glue:text}`intel_track_kept_longest_max:d` scans in a row (about
-# {glue:text}`intel_track_kept_longest_s:.0f` s), its heading off by up to
-# {glue:text}`intel_track_kept_head_max_deg:.0f` degrees (median over those runs), and comes back.
+# {glue:text}`intel_track_lost_last:d` (the figure below draws every seed). Yet every run that ends
+# locked on also leaves the tolerance around the same scans, for about
+# {glue:text}`intel_track_kept_longest_s:.0f` s, and comes back.
 #
 # **Calibrating the odometry.** Real robots calibrate their odometry before they trust it
-# {cite:p}`borenstein1996`. Here the calibration is one number: the heading drift per metre, measured
-# on the map half and taken out of
-# the held-out half's increments, half from each rotation. With it the same filter, on the same seeds,
-# is locked on at the end in {glue:text}`intel_track_calib_share:.0%` of the runs, a gain of
-# {glue:text}`intel_track_calib_diff:.0%`
-# ({glue:text}`intel_track_calib_diff_low:.0%`-{glue:text}`intel_track_calib_diff_high:.0%`).
+# {cite:p}`borenstein1996`. Here the calibration is one number: the heading drift per metre measured
+# on the map half over all its steps, {glue:text}`intel_track_drift_deg_per_m:.2f` degrees per metre
+# (not the straight steps' figure above), taken out of the held-out half's increments, half from each
+# rotation. With it the same filter, on the same seeds, is locked on at the end in
+# {glue:text}`intel_track_calib_share:.0%` of the runs, a gain of
+# {glue:text}`intel_track_calib_diff:.0f` points
+# ({glue:text}`intel_track_calib_diff_low:.0f`-{glue:text}`intel_track_calib_diff_high:.0f`).
 #
-# The drift decides which runs never come back; it does not keep the heading: with it taken out every
-# run still leaves the tolerance for up to {glue:text}`intel_track_calib_longest_max:d` scans in a row.
+# The drift decides which runs never come back; with it taken out, every run still leaves the
+# tolerance for a while.
 #
 # :::{admonition} Going further: where the tracking runs fail, and a map of the whole run
 # :class: dropdown
-# Over scans {glue:text}`intel_track_lost_first:d`-{glue:text}`intel_track_lost_last:d`, where the
-# runs are lost, the odometry's heading drifts by {glue:text}`intel_track_window_drift_deg:.0f` degrees
-# while the path runs up to {glue:text}`intel_track_window_path_max_m:.1f` m from any pose of the map
-# half: the map there holds walls seen from elsewhere, or none. The gap throws every run's heading
-# off (by {glue:text}`intel_track_calib_head_max_deg:.0f` degrees, median, with the drift taken out);
-# the drift decides which runs do not return. On the whole run's map no run ever leaves the
-# tolerance: its largest heading error is {glue:text}`intel_track_whole_head_max_deg:.1f` degrees.
+# Where the runs are lost, the path runs up to {glue:text}`intel_track_window_path_max_m:.1f` m from
+# any pose of the map half: the map there holds walls seen from elsewhere, or none. The gap throws
+# every run's heading off; the drift decides which runs do not return. On the whole run's map no run
+# ever leaves the tolerance (the evidence block gives the headings and the drift over those scans).
 #
 # **Centimetres against a SLAM reference.** The same SLAM run placed the map's scans and the
 # reference poses, and its loop closures tie the two halves together, so a small error measures how
 # well two registrations agree, not how close the filter was to the robot. A map built from the
 # whole run both fills the half map's gaps and holds the localized scans' own walls. On it
-# {glue:text}`intel_track_whole_share:.0%` of the seeds are locked on (a gain of
-# {glue:text}`intel_track_whole_diff:.0%`,
-# {glue:text}`intel_track_whole_diff_low:.0%`-{glue:text}`intel_track_whole_diff_high:.0%`), with a
-# median error of {glue:text}`intel_track_whole_median_m:.3f` m: the two effects together. The global
-# runs below separate them with a map control.
+# {glue:text}`intel_track_whole_share:.0%` of the seeds are locked on, with a median error of
+# {glue:text}`intel_track_whole_median_m:.3f` m: the two effects together. The global runs below separate them with a map control.
 # :::
 
 # %% tags=["hide-input"] jupyter={"source_hidden": true}
@@ -569,9 +593,11 @@ for _, r in half.iterrows():
     c = COLORS["estimate"] if r["locked_on"] else COLORS["unseen"]
     ax.semilogy(t_min, np.maximum(r["position_error"], 1e-3), lw=0.6, alpha=0.35, color=c)
     axh.plot(t_min, np.degrees(r["heading_error"]), lw=0.6, alpha=0.35, color=c)
-ax.semilogy(t_min, np.maximum(err, 1e-3), color=COLORS["estimate"], lw=1.4, label="MCL, seed 1")
+ax.semilogy(t_min, np.maximum(err, 1e-3), color="k", lw=1.2, label="MCL, seed 1")
 ax.semilogy(t_min, np.maximum(dr_error, 1e-3), color=COLORS["kalman"], lw=1.4, label="odometry alone")
-axh.plot(t_min, head_err, color=COLORS["estimate"], lw=1.4)
+ax.axhline(intel.LOCK_POSITION_M, color="k", lw=0.8, ls="--")
+ax.text(t_min[0], intel.LOCK_POSITION_M, "1 m", ha="left", va="bottom", fontsize=9)
+axh.plot(t_min, head_err, color="k", lw=1.2)
 axh.axhline(np.degrees(tol), color="k", lw=0.8, ls="--")
 axh.text(t_min[-1], np.degrees(tol), "tolerance", ha="right", va="bottom", fontsize=9)
 axh.set_yscale("symlog", linthresh=10)
@@ -580,7 +606,7 @@ ax.plot([], [], color=COLORS["unseen"], lw=1, label=f"{(~half['locked_on']).sum(
 ax.plot([], [], color=COLORS["estimate"], lw=1, alpha=0.5, label=f"{len(kept)} seeds: locked on")
 axh.set_xlabel("time (min)")
 ax.set_ylabel("position error (m)")
-axh.set_ylabel("heading error (deg)")
+axh.set_ylabel("heading error (deg)\nlinear below 10")
 ax.set_title(f"Error against the corrected path, first half, {len(half)} seeds")
 axh.legend(*ax.get_legend_handles_labels(), loc="upper center", bbox_to_anchor=(0.5, -0.3), ncol=2)
 plt.show()
@@ -607,10 +633,10 @@ glue_values("intel_", far_held_share=far_held[0], far_held_share_low=far_held[1]
 # %% [markdown]
 # ## Global localization
 #
-# Now the filter starts with no idea where the robot is. Each run covers $40$ scans of the held-out
-# half from a seeded start, and is judged at its end by the tracking runs' rule;
-# {glue:text}`intel_n_global:d` runs per filter are stored. The filter is the cure of
-# {doc}`map_global`, its settings unchanged.
+# Now the filter starts with no idea where the robot is. This half builds on {doc}`map_global`: the
+# filter is that chapter's cure, its settings unchanged, and its parts are taught there. Each run covers $40$ scans of the held-out half from a
+# seeded start, and is judged at its end by the tracking runs' rule; {glue:text}`intel_n_global:d`
+# runs per filter are stored.
 #
 # :::{admonition} Algorithm 16.2: global localization with the cure
 # :class: algorithm
@@ -618,17 +644,22 @@ glue_values("intel_", far_held_share=far_held[0], far_held_share_low=far_held[1]
 #    seen free, some drawn where the first scan fits.
 # 2. **For** each scan: move the particles by the odometry model, weight them by the likelihood field,
 #    and resample to the size KLD-sampling {cite:p}`fox2003` asks for with ROS `amcl`'s $\delta$.
-# 3. Every fourth scan from scan $20$ on, draw poses where the scan $20$ scans back fits
-#    {cite:p}`lenser2000`, carry them forward by the odometry, and weigh their stratum as a
-#    kidnapping: prior mass $4\rho$, with the kidnap hazard $\rho =$
-#    {glue:text}`intel_kidnap_hazard:g` a scan.
+# 3. Every fourth scan from scan $20$ on, draw poses where the scan $L = 20$ scans back fits
+#    {cite:p}`lenser2000` and carry them forward by the odometry. These injected poses, weighted
+#    together, form a *stratum*; it is weighed as a kidnapping in those $4$ scans, of prior mass
+#    $\xi_k = 4\xi$ (the kidnap probability $\xi =$ {glue:text}`intel_kidnap_hazard:g` a scan), against
+#    the cloud's record of the same $L$ scans, $\prod_j \ell_j$ ($\ell_j$: the cloud's mean likelihood
+#    at scan $j$).
 # 4. The guards: the stratum takes weight only at its third win in a row over the cloud, and the
 #    belief's evidence then counts it.
 # :::
 #
+# :::{admonition} Going further: weighting a pose drawn from the scan
+# :class: dropdown
 # Mixture-MCL {cite:p}`thrun2001` draws poses from the scan and weights each by the predicted
 # belief's density; here that belief is the kidnap model's uniform $u$, so a pose drawn with density
 # $q$ weighs $u(x)/q(x)\,p(z \mid x)$.
+# :::
 
 # %% tags=["remove-input"] jupyter={"source_hidden": true}
 # the cure (global_mcl.CURE, stored study intel/injection, arm "guarded"), the same filter without injection, and
@@ -735,26 +766,28 @@ from_start = locked["locked_from"] <= 2
 at_floor = np.isclose(cure["mean_particles"].to_numpy(), S.n_min, rtol=0, atol=1e-9)
 glue_values("intel_", n_start_total=S.n_start + S.n_start_scan, kidnap_hazard=S.kidnap_hazard,
             leave_out_margin=intel.LEAVE_OUT_MARGIN)
-glue_values("intel_global_", early_diff=d_early, early_diff_low=d_early_low, early_diff_high=d_early_high,
+glue_values("intel_global_", early_diff=100 * d_early, early_diff_low=100 * d_early_low,
+            early_diff_high=100 * d_early_high,
             outside_share=outside.mean(), n_start_outside=int(starts_out.sum()),
             start_outside_locked=int(lock["cure"][starts_out].sum()),
             n_lock_from_start=int(from_start.sum()), n_locked=len(locked), at_floor_share=at_floor.mean(),
             n_min=S.n_min,
             elsewhere_evidence=int((~look_alike).sum()),
             elsewhere_margin_nats=elsewhere.loc[~look_alike, "window_margin"].median(),
-            control_rate=vs_control.a.estimate, control_diff=vs_control.difference,
-            control_diff_low=vs_control.difference_low, control_diff_high=vs_control.difference_high,
-            whole_minus_control=whole_vs_control.difference,
+            control_rate=vs_control.a.estimate, control_diff=100 * vs_control.difference,
+            control_diff_low=100 * vs_control.difference_low, control_diff_high=100 * vs_control.difference_high,
+            whole_minus_control=100 * whole_vs_control.difference,
             cost_scan=np.median(cost["cure"]), cost_no_injection=np.median(cost["no_injection"]),
             cost_proposal=proposal,
             cost_seconds=run_seconds["cure"], cost_no_injection_seconds=run_seconds["no_injection"],
-            no_injection_rate=vs_none.b.estimate, no_injection_diff=vs_none.difference,
-            no_injection_diff_low=vs_none.difference_low, no_injection_diff_high=vs_none.difference_high,
+            no_injection_rate=vs_none.b.estimate, no_injection_diff=100 * vs_none.difference,
+            no_injection_diff_low=100 * vs_none.difference_low, no_injection_diff_high=100 * vs_none.difference_high,
+            no_injection_excluded=100 * max(abs(vs_none.difference_low), abs(vs_none.difference_high)),
             ends_rate=ends_vs_none.a.estimate, ends_no_injection=ends_vs_none.b.estimate,
-            ends_diff=ends_vs_none.difference, ends_diff_low=ends_vs_none.difference_low,
-            ends_diff_high=ends_vs_none.difference_high,
-            hazard_rate=vs_hazard.b.estimate, hazard_diff=vs_hazard.difference,
-            hazard_diff_low=vs_hazard.difference_low, hazard_diff_high=vs_hazard.difference_high,
+            ends_diff=100 * ends_vs_none.difference, ends_diff_low=100 * ends_vs_none.difference_low,
+            ends_diff_high=100 * ends_vs_none.difference_high,
+            hazard_rate=vs_hazard.b.estimate, hazard_diff=100 * vs_hazard.difference,
+            hazard_diff_low=100 * vs_hazard.difference_low, hazard_diff_high=100 * vs_hazard.difference_high,
             n_losses_hazard=int(losses["hazard"].sum()), losses_at_injection_hazard=at_injection["hazard"],
             n_losses=int(losses["cure"].sum()), n_losses_no_injection=int(losses["no_injection"].sum()),
             inject_mass=S.kidnap_hazard * S.inject_every, inject_bar_nats=np.log(1 / (S.kidnap_hazard * S.inject_every)))
@@ -847,6 +880,9 @@ EvidenceBlock(
            f"Starts in the first 200 scans ({r_early}) against later starts ({r_late}), different runs: "
            f"difference {100 * d_early:+.0f} points, 95% interval {100 * d_early_low:+.0f} to "
            f"{100 * d_early_high:+.0f} (Newcombe's hybrid score interval from the two Wilson intervals).",
+           f"Echoes ending more than 0.5 m from every occupied cell, seen from the corrected poses (95% bootstrap "
+           f"intervals resampling whole scans): held-out half {far_held[0]:.1%} ({far_held[1]:.1%}-{far_held[2]:.1%}); "
+           f"map half, on its own map, {far_map[0]:.3%} ({far_map[1]:.3%}-{far_map[2]:.3%}).",
            f"Held-out corrected poses outside the map's seen-free space (split().free): {outside.sum()} of "
            f"{len(outside)}; {starts_out.sum()} runs start there and {lock['cure'][starts_out].sum()} lock on.",
            f"Lock-ons: {from_start.sum()} of {len(locked)} have locked_from <= 2 (from the first "
@@ -878,43 +914,53 @@ EvidenceBlock(
 #
 # On the simulated map of {doc}`map_global` the same cure locks on in
 # {glue:text}`intel_global_sim_rate:.0%` of its held-out drives, by that chapter's rule. Why is the
-# log harder? Suspects, each tried on the same runs.
+# log harder? Where the run starts says most of it: runs that start in the first $200$ scans, near the
+# map half's path, lock on in {glue:text}`intel_global_early_rate:.0%`; later ones, in
+# {glue:text}`intel_global_late_start_rate:.0%` (the figure). Suspects, each tried on the same runs.
 #
+# %% tags=["hide-input"] jupyter={"source_hidden": true}
+fig, ax = plt.subplots(figsize=(7.5, 3.6))
+width = 0.8 / len(SHOWN)
+for n, label in enumerate(SHOWN.values()):
+    ax.bar(np.arange(len(by_start)) + (n - 1.5) * width, 100 * by_start[label], width, label=label)
+away = by_start["start to map half's path (m, median)"]
+ax.set_xticks(np.arange(len(by_start)), [f"{a}\n{d:.1f} m" for a, d in zip(by_start["start scans"], away)])
+ax.set_xlabel("scans the run starts at; median distance of the start from the map half's path")
+ax.set_ylabel("runs locked on (%)")
+ax.set_ylim(0, 100)
+ax.set_title(f"Lock-on by start, {len(cure)} runs per filter")
+ax.legend(loc="upper center", bbox_to_anchor=(0.5, -0.38), ncol=2)
+plt.show()
+
+# %% [markdown]
 # **The map.** Does a better-covered map help, or only a map made of the scans being
 # localized? Build, for each run, the map of every scan except the run's own and
 # {glue:text}`intel_leave_out_margin:d` on each side: it covers both halves, and no wall in it comes
 # from the scans the filter reads (though its nearest scans were placed by the same SLAM run).
 #
 # On it the cure locks on in {glue:text}`intel_global_control_rate:.0%` of the same runs, a change of
-# {glue:text}`intel_global_control_diff:+.0%`
-# ({glue:text}`intel_global_control_diff_low:+.0%` to {glue:text}`intel_global_control_diff_high:+.0%`).
-#
+# {glue:text}`intel_global_control_diff:+.0f` points
+# ({glue:text}`intel_global_control_diff_low:+.0f` to {glue:text}`intel_global_control_diff_high:+.0f`).
 # The whole run's map, the run's own scans included, adds
-# {glue:text}`intel_global_whole_minus_control:+.0%` more: most of the gap is the half map's coverage.
+# {glue:text}`intel_global_whole_minus_control:+.0f` points more: most of the gap is the half map's
+# coverage.
 #
 # **The filter.** Of the {glue:text}`intel_global_n_locked:d` runs that lock on,
-# {glue:text}`intel_global_n_lock_from_start:d` do so from the first scans; KLD-sampling keeps the
-# cloud at its floor of {glue:text}`intel_global_n_min:d` particles in
-# {glue:text}`intel_global_at_floor_share:.0%` of the runs.
-#
-# Without injection the same filter locks on in {glue:text}`intel_global_no_injection_rate:.0%`:
-# injection changes that by {glue:text}`intel_global_no_injection_diff:+.0%`
-# ({glue:text}`intel_global_no_injection_diff_low:+.0%` to
-# {glue:text}`intel_global_no_injection_diff_high:+.0%`): larger changes, either way, are excluded by
-# the data.
+# {glue:text}`intel_global_n_lock_from_start:d` do so from the first scans. Without injection the same
+# filter locks on in {glue:text}`intel_global_no_injection_rate:.0%`: injection changes that by
+# {glue:text}`intel_global_no_injection_diff:+.0f` points; changes beyond
+# {glue:text}`intel_global_no_injection_excluded:.0f` points either way are excluded by the data.
 #
 # It ends more runs on the robot, though: {glue:text}`intel_global_ends_rate:.0%` within $1$ m, a gain
-# of {glue:text}`intel_global_ends_diff:+.0%` ({glue:text}`intel_global_ends_diff_low:+.0%` to
-# {glue:text}`intel_global_ends_diff_high:+.0%`). The lock-on window sees little of this: only the
-# injections at scans $20$ to $28$ can bring a run on early enough for it.
+# of {glue:text}`intel_global_ends_diff:+.0f` points
+# ({glue:text}`intel_global_ends_diff_low:+.0f` to {glue:text}`intel_global_ends_diff_high:+.0f`).
+# Only the injections at scans $20$ to $28$ can bring a run on early enough for the lock-on window.
 #
 # **Why the guards.** Without its last step the algorithm admits a stratum at its first win, when
-# the scans since it was drawn favour it by $\log(1/4\rho)$, about
-# {glue:text}`intel_global_inject_bar_nats:.1f` nats: a low bar, if a cloud of a few hundred particles
-# underestimates its own evidence. Before the guards the cure locks on in
-# {glue:text}`intel_global_hazard_rate:.0%` of the same runs.
-#
-# And {glue:text}`intel_global_losses_at_injection_hazard:d` of its
+# the scans since it was drawn favour it over the cloud's record $\prod_j \ell_j$ by $\log(1/\xi_k)$,
+# about {glue:text}`intel_global_inject_bar_nats:.1f` nats. That bar is low if a cloud of a few hundred
+# particles underestimates its own $\ell_j$, as a cloud at its floor can. Before the guards, in
+# the same runs, {glue:text}`intel_global_losses_at_injection_hazard:d` of the
 # {glue:text}`intel_global_n_losses_hazard:d` losses of lock (a scan on the robot, the next off it)
 # fall on an injection step: false relocalization. With the guards the runs lose lock
 # {glue:text}`intel_global_n_losses:d` times.
@@ -923,11 +969,9 @@ EvidenceBlock(
 # :class: dropdown
 # The cost is a count fixed by the settings. A run of the cure scores
 # {glue:text}`intel_global_cost_scan:,.0f` poses against a scan: the start's poses, the scan
-# proposal's {glue:text}`intel_global_cost_proposal:,d` candidates and refinements, $300$ particles a
-# scan, and at each injection a proposal and $200$ poses over $21$ scans (the formula is in the
-# evidence block). Without injection a run scores {glue:text}`intel_global_cost_no_injection:,.0f`, a
-# third; in CPU time here, {glue:text}`intel_global_cost_seconds:.1f` s against
-# {glue:text}`intel_global_cost_no_injection_seconds:.1f` s.
+# proposal's candidates and refinements, $300$ particles a scan, and at each injection a proposal and
+# $200$ poses over $21$ scans. Without injection a run scores about a third of that (the formula and
+# the CPU times are in the evidence block).
 # :::
 #
 # :::{admonition} Going further: where and when the global runs fail, and what is not measured
@@ -937,25 +981,21 @@ EvidenceBlock(
 # scans, not these runs of $40$.
 #
 # The map is a SLAM map, made of other scans. Of the held-out scans' echoes, seen from the corrected
-# poses, {glue:text}`intel_far_held_share:.1%`
-# ({glue:text}`intel_far_held_share_low:.1%`-{glue:text}`intel_far_held_share_high:.1%`, resampling
-# whole scans) end more than half a metre from any wall of the map. Each such beam pulls the true
-# pose's weight down.
+# poses, {glue:text}`intel_far_held_share:.0%` end more than half a metre from any wall of the map;
+# each such beam pulls the true pose's weight down. Of the map half's own echoes,
+# {glue:text}`intel_far_map_share:.2%` do.
 #
-# Of the map half's own echoes, {glue:text}`intel_far_map_share:.2%`
-# ({glue:text}`intel_far_map_share_low:.2%`-{glue:text}`intel_far_map_share_high:.2%`) do.
-#
-# And {glue:text}`intel_global_outside_share:.0%` of the held-out poses lie outside the space the map
-# has seen free, where the uniform prior and the scan's proposal have no density:
-# {glue:text}`intel_global_n_start_outside:d` runs start there, and
+# And {glue:text}`intel_global_n_start_outside:d` runs start outside the space the map has seen free,
+# where the uniform prior and the scan's proposal have no density;
 # {glue:text}`intel_global_start_outside_locked:d` of them lock on.
 #
 # Of the {glue:text}`intel_global_n_failed:d` runs that fail, {glue:text}`intel_global_late:d` end on
-# the robot but are not locked on over the window. In {glue:text}`intel_global_look_alike:d` the
-# filter sits where the last $15$ scans fit the map at least as well as at the corrected poses: a
-# look-alike, on this map. In the other {glue:text}`intel_global_elsewhere_evidence:d` the scans fit
-# the corrected poses better, by a median of {glue:text}`intel_global_elsewhere_margin_nats:.0f`
-# nats: the evidence was there and the filter never reached it.
+# the robot but lock on too late for the window; the others end elsewhere. In
+# {glue:text}`intel_global_look_alike:d` of those the filter sits where the last $15$ scans fit the
+# map at least as well as at the corrected poses: a look-alike, on this map. In the other
+# {glue:text}`intel_global_elsewhere_evidence:d` the scans fit the corrected poses better, by a median
+# of {glue:text}`intel_global_elsewhere_margin_nats:.0f` nats: the evidence was there and the filter
+# never reached it.
 #
 # The estimate is the cloud's weighted mean (the circular mean for the heading). AMCL reports the
 # mean of its heaviest cluster instead: for a cloud split between the robot and a look-alike, the
@@ -967,10 +1007,9 @@ EvidenceBlock(
 # gave the share of drives the evidence decides. This map's twins are not listed, so the share of
 # these runs an exact filter would lock on is not known, and the cure's rate is not compared with it.
 #
-# Runs that start in the first $200$ scans, a median {glue:text}`intel_early_path_m:.1f` m from the
-# map half's path, lock on in {glue:text}`intel_global_early_rate:.0%`; later ones, a median
-# {glue:text}`intel_late_path_m:.1f` m away, in {glue:text}`intel_global_late_start_rate:.0%` (the
-# evidence block above gives the interval of the difference, and the rates by start scan).
+# Runs that start in the first $200$ scans start a median {glue:text}`intel_early_path_m:.1f` m from
+# the map half's path; later ones, {glue:text}`intel_late_path_m:.1f` m (the evidence block gives the
+# interval of the difference in lock-on, and the rates by start scan).
 # :::
 
 # %% [markdown]
@@ -1015,18 +1054,17 @@ display(panel)
 # :label: ex-intel-beams
 # :nonumber:
 # (Coding.) The filter above scores every fourth beam, always the same ones, with the likelihood
-# field. Score instead `k` beams drawn at random for each scan with the *beam model*
+# field. Score instead `k` beams drawn at random with the generator `rng`, with the *beam model*
 # {cite:p}`thrun2005`, which compares each range $z_b$ with the range $z^\ast_b$ the map predicts along
 # the beam from a pose (by ray casting):
-# $p(z_b) = z_{\mathrm{hit}}\, \mathcal N(z_b; z^\ast_b, \sigma^2) + z_{\mathrm{rand}} / z_{\max}$.
-# Write `my_beams(z, z_star, beam, k, rng)`: draw `k` distinct beams with the generator `rng`, each
-# with the same chance, among the beams of the scan `z` (shape `(B,)`) that have an echo
-# ($z_b < z_{\max}$), and return, for each of the `N` poses whose predicted ranges are the rows of
-# `z_star` (shape `(N, B)`), the sum over those beams of $\log p(z_b)$. This is a reduced beam model,
-# its hit and random parts only: a beam without an echo would score $z_{\mathrm{none}}$, the same at
-# every pose. `beam` has the attributes `z_hit`, `z_rand`, `z_none`, `sigma` and `z_max`. Then say
-# why every pose must be scored on the same beams, and why, in this model, a beam without an echo
-# would be a draw wasted. The checker names the mistake it sees.
+# $p(z_b) = z_{\mathrm{hit}}\, \mathcal N(z_b; z^\ast_b, \sigma^2) + z_{\mathrm{rand}} / z_{\max}$
+# for a beam with an echo ($z_b < z_{\max}$); this reduced model scores a beam without one
+# $z_{\mathrm{none}}$ at every pose. Write `my_beams(z, z_star, beam, k, rng)` for a scan `z` (shape
+# `(B,)`) and `N` poses whose predicted ranges are the rows of `z_star` (shape `(N, B)`): return, for
+# each pose, the log-likelihood of the `k` beams drawn. `beam` has the attributes `z_hit`, `z_rand`,
+# `z_none`, `sigma` and `z_max`. Which beams may be drawn, how, and whether the draw may differ from
+# pose to pose are yours to decide: say why, and what each choice does to the weights. The checker
+# names the mistake it sees.
 # ```
 
 # %% tags=["answer"]
@@ -1064,8 +1102,8 @@ print(check_random_beams(my_beams))
 # %% [markdown]
 # ## Takeaways
 #
-# - A real log needs its format read with care: here the odometry between scans is the last odometry
-#   pose seen from the corrected pose, and its heading error is a drift per metre, not zero-mean noise:
+# - A real log needs its format read with care: here the odometry between scans is GMapping's motion
+#   updates seen from the corrected pose, and its heading error is a drift per metre, not zero-mean noise:
 #   measure it on one part of the run and take it out of the other. That calibration decides which
 #   tracking runs a map gap loses for good.
 # - With known poses, mapping is a sum of log-odds per cell: an inverse sensor model adds evidence for
@@ -1075,9 +1113,8 @@ print(check_random_beams(my_beams))
 # - Against a SLAM reference, centimetres measure two registrations' agreement; metres are real.
 # - Finding the robot from nowhere depends on the map and on the filter: on a map of the other half
 #   the cure of {doc}`map_global` locks on mostly where that half passed, on the map control most of
-#   the time; yet in most failures that end elsewhere the scans favour the true pose, which the
-#   filter never reached. Its injected poses bring runs onto the robot; without its guards they also
-#   throw runs off it.
+#   the time; in most failures that end elsewhere the scans favour the true pose, which the filter
+#   never reached. Without its guards, injected poses also throw runs off the robot.
 #
 # :::{admonition} From the labs
 # :class: dropdown
