@@ -18,7 +18,7 @@
 # **You need** {doc}`map_robot` (the odometry model, the likelihood field, MCL) and {doc}`map_global`
 # (global localization); Bayes' rule; NumPy.
 #
-# **Time:** about twenty-five minutes to read, plus about twenty-seven minutes for the folded blocks; the exercise is extra.
+# **Time:** about twenty-five minutes to read, plus about thirty-one minutes for the folded blocks; the exercise is extra.
 # :::
 #
 # Every robot of the book so far was simulated: the filter knew the noise that made the data. A real
@@ -202,7 +202,10 @@ glue_values("intel_", n_scans=log.n_scans, n_odometry=log.n_odometry, minutes=mi
             on_spot_odometry_cm=100 * np.median(odo_m[on_spot]))
 EvidenceBlock(
     "the log's steps and the odometry's heading error",
-    notes=[f"{len(dt)} steps between scans: {on_spot.sum()} turns on the spot (more than 20 degrees, less than 0.1 m "
+    notes=["The odometry here is the file's ODOM lines: GMapping's best particle's motion updates (the wheels' "
+           "increments plus its motion model's draws, along the particle line its resampling kept), not raw "
+           "encoder readings; every statistic below includes those draws.",
+           f"{len(dt)} steps between scans: {on_spot.sum()} turns on the spot (more than 20 degrees, less than 0.1 m "
            f"of odometry travel), {straight.sum()} straight steps (less than 5 degrees, median "
            f"{np.median(odo_m[straight]):.2f} m); median step {np.median(u[1:, 1]):.2f} m; median time between "
            f"scans {np.median(dt):.2f} s; the timestamps decrease {(dt < 0).sum()} times.",
@@ -281,7 +284,7 @@ EvidenceBlock(
 # The second half of the run builds the map (why that half, just below).
 
 # %%
-# cell side (m); a range of Z_MAX or more means "no echo" (the log codes it 81.83 m)
+# cell side (m); a range of Z_MAX or more is "no echo" (logged as 81.83 m)
 RES, Z_MAX = 0.1, 25.5
 L_OCC, L_FREE = np.log(0.7 / 0.3), np.log(0.4 / 0.6)
 
@@ -562,7 +565,9 @@ EvidenceBlock(
 # {cite:p}`borenstein1996`. Here the calibration is one number: the heading drift per metre measured
 # on the map half over all its steps, {glue:text}`intel_track_drift_deg_per_m:.2f` degrees per metre
 # (not the straight steps' figure above), taken out of the held-out half's increments, half from each
-# rotation. With it the same filter, on the same seeds, is locked on at the end in
+# rotation.
+#
+# With it the same filter, on the same seeds, is locked on at the end in
 # {glue:text}`intel_track_calib_share:.0%` of the runs, a gain of
 # {glue:text}`intel_track_calib_diff:.0f` points
 # ({glue:text}`intel_track_calib_diff_low:.0f`-{glue:text}`intel_track_calib_diff_high:.0f`).
@@ -582,7 +587,8 @@ EvidenceBlock(
 # well two registrations agree, not how close the filter was to the robot. A map built from the
 # whole run both fills the half map's gaps and holds the localized scans' own walls. On it
 # {glue:text}`intel_track_whole_share:.0%` of the seeds are locked on, with a median error of
-# {glue:text}`intel_track_whole_median_m:.3f` m: the two effects together. The global runs below separate them with a map control.
+# {glue:text}`intel_track_whole_median_m:.3f` m: the two effects together. The global runs below
+# separate them with a map control.
 # :::
 
 # %% tags=["hide-input"] jupyter={"source_hidden": true}
@@ -596,7 +602,7 @@ for _, r in half.iterrows():
 ax.semilogy(t_min, np.maximum(err, 1e-3), color="k", lw=1.2, label="MCL, seed 1")
 ax.semilogy(t_min, np.maximum(dr_error, 1e-3), color=COLORS["kalman"], lw=1.4, label="odometry alone")
 ax.axhline(intel.LOCK_POSITION_M, color="k", lw=0.8, ls="--")
-ax.text(t_min[0], intel.LOCK_POSITION_M, "1 m", ha="left", va="bottom", fontsize=9)
+ax.text(t_min[-1], intel.LOCK_POSITION_M, "1 m", ha="right", va="bottom", fontsize=9)
 axh.plot(t_min, head_err, color="k", lw=1.2)
 axh.axhline(np.degrees(tol), color="k", lw=0.8, ls="--")
 axh.text(t_min[-1], np.degrees(tol), "tolerance", ha="right", va="bottom", fontsize=9)
@@ -634,9 +640,9 @@ glue_values("intel_", far_held_share=far_held[0], far_held_share_low=far_held[1]
 # ## Global localization
 #
 # Now the filter starts with no idea where the robot is. This half builds on {doc}`map_global`: the
-# filter is that chapter's cure, its settings unchanged, and its parts are taught there. Each run covers $40$ scans of the held-out half from a
-# seeded start, and is judged at its end by the tracking runs' rule; {glue:text}`intel_n_global:d`
-# runs per filter are stored.
+# filter is that chapter's cure, its settings unchanged, and its parts are taught there. Each run
+# covers $40$ scans of the held-out half from a seeded start, and is judged at its end by the tracking
+# runs' rule; {glue:text}`intel_n_global:d` runs per filter are stored.
 #
 # :::{admonition} Algorithm 16.2: global localization with the cure
 # :class: algorithm
@@ -929,7 +935,7 @@ ax.set_xlabel("scans the run starts at; median distance of the start from the ma
 ax.set_ylabel("runs locked on (%)")
 ax.set_ylim(0, 100)
 ax.set_title(f"Lock-on by start, {len(cure)} runs per filter")
-ax.legend(loc="upper center", bbox_to_anchor=(0.5, -0.38), ncol=2)
+ax.legend(loc="upper center", bbox_to_anchor=(0.5, -0.3), ncol=2)
 plt.show()
 
 # %% [markdown]
@@ -941,14 +947,16 @@ plt.show()
 # On it the cure locks on in {glue:text}`intel_global_control_rate:.0%` of the same runs, a change of
 # {glue:text}`intel_global_control_diff:+.0f` points
 # ({glue:text}`intel_global_control_diff_low:+.0f` to {glue:text}`intel_global_control_diff_high:+.0f`).
+#
 # The whole run's map, the run's own scans included, adds
 # {glue:text}`intel_global_whole_minus_control:+.0f` points more: most of the gap is the half map's
 # coverage.
 #
 # **The filter.** Of the {glue:text}`intel_global_n_locked:d` runs that lock on,
-# {glue:text}`intel_global_n_lock_from_start:d` do so from the first scans. Without injection the same
-# filter locks on in {glue:text}`intel_global_no_injection_rate:.0%`: injection changes that by
-# {glue:text}`intel_global_no_injection_diff:+.0f` points; changes beyond
+# {glue:text}`intel_global_n_lock_from_start:d` do so from the first scans.
+#
+# Without injection the same filter locks on in {glue:text}`intel_global_no_injection_rate:.0%`:
+# injection changes that by {glue:text}`intel_global_no_injection_diff:+.0f` points; changes beyond
 # {glue:text}`intel_global_no_injection_excluded:.0f` points either way are excluded by the data.
 #
 # It ends more runs on the robot, though: {glue:text}`intel_global_ends_rate:.0%` within $1$ m, a gain
@@ -959,7 +967,7 @@ plt.show()
 # **Why the guards.** Without its last step the algorithm admits a stratum at its first win, when
 # the scans since it was drawn favour it over the cloud's record $\prod_j \ell_j$ by $\log(1/\xi_k)$,
 # about {glue:text}`intel_global_inject_bar_nats:.1f` nats. That bar is low if a cloud of a few hundred
-# particles underestimates its own $\ell_j$, as a cloud at its floor can. Before the guards, in
+# particles underestimates its own $\ell_j$. Before the guards, in
 # the same runs, {glue:text}`intel_global_losses_at_injection_hazard:d` of the
 # {glue:text}`intel_global_n_losses_hazard:d` losses of lock (a scan on the robot, the next off it)
 # fall on an injection step: false relocalization. With the guards the runs lose lock
@@ -971,7 +979,9 @@ plt.show()
 # {glue:text}`intel_global_cost_scan:,.0f` poses against a scan: the start's poses, the scan
 # proposal's candidates and refinements, $300$ particles a scan, and at each injection a proposal and
 # $200$ poses over $21$ scans. Without injection a run scores about a third of that (the formula and
-# the CPU times are in the evidence block).
+# the CPU times are in the evidence block). KLD-sampling keeps the cloud at its floor of
+# {glue:text}`intel_global_n_min:d` particles in {glue:text}`intel_global_at_floor_share:.0%` of the
+# runs.
 # :::
 #
 # :::{admonition} Going further: where and when the global runs fail, and what is not measured
