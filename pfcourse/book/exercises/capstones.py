@@ -17,6 +17,9 @@ shown, and the checker measures it against a near-exact answer.
   mistakes named: the random walk's ``q^2`` for ``q``, the initial cloud of spread ``q``, the mean read before
   the weighting, the bearing residual not wrapped, no resampling, ``log sum`` and ``mean log`` for the
   likelihood, and NumPy's global generator.
+* :func:`check_sv_pairs` - ``fn(y, n, rng, model) -> e``: Part V's capstone, the smoothed squared innovations
+  ``e_k = E[(x_{k+1} - phi x_k)^2 | y_1..y_T]`` of the stochastic volatility model (a smoother of pairs of states),
+  against the grid's (:func:`sv_grid_pairs`); seven typical mistakes named, the ancestral lines by their spread.
 
 A checker names a cause only when the evidence shows it (the answer lies within chance of that mistake's own
 large-N limit, or a probe built for that mistake answers as the mistake does); otherwise it names the symptom.
