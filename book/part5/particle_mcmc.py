@@ -19,7 +19,7 @@
 # **You need** {doc}`likelihood` (PMMH, the variance of $\log\hat p$); Gibbs sampling in one line
 # (draw each block given the others); NumPy.
 #
-# **Time:** about twenty-five minutes to read, plus about eight minutes for the folded blocks; the exercise is extra.
+# **Time:** about twenty-four minutes to read, plus about nine minutes for the folded blocks; the exercise is extra.
 # :::
 
 # %% tags=["remove-input"] jupyter={"source_hidden": true}
