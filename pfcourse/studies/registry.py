@@ -677,6 +677,15 @@ STUDIES: dict[str, Study] = {study.name: study for study in [
           fields={"seeds": "run s (held-out drives 150-249): the global drive of maprobot/global (data_rng(s, 0)); "
                            "no random numbers of its own",
                   "dt": maprobot.DT, "heading_tolerance_rad": map_global.HEADING_TOL}),
+    # the kidnap runs' bound on the held-out runs 150-249: the truth, then an exact filter over its twins after the kidnap
+    Study(name="map_global/exact_kidnap_heldout", row=map_global.exact_kidnap_row, grid={}, n_runs=map_global.HELDOUT_RUNS,
+          base_seed=map_global.HELDOUT_SEED, seeds="run", failures="raise", table="map_global/exact_kidnap_heldout.csv",
+          provenance="map_global/exact_kidnap_heldout.json", columns=map_global.EXACT_KIDNAP_COLUMNS, sample=2,
+          row_code="pfcourse/studies/map_global.py (exact_kidnap_row), pfcourse/scenarios/maprobot/twins.py "
+                   "(exact_twin_estimate)",
+          fields={"seeds": "run s (held-out runs 150-249): the kidnap drive of maprobot/kidnap (data_rng(s, 0), "
+                           "kidnap_rng(s)); no random numbers of its own",
+                  "dt": maprobot.DT, "heading_tolerance_rad": map_global.HEADING_TOL}),
     # the cure (global_mcl.HAZARD) re-measured on fresh drives 100-149, not those it was chosen on
     *_map_global_drives(map_global.FRESH_RUNS, map_global.FRESH_SEED, "fresh drives 100-149", [
         ("global_fresh", map_global.hazard_global_fresh_row, map_global.GLOBAL_FRESH_COLUMNS),
