@@ -611,7 +611,7 @@ glue_values("lf_", demo_decided_s=float((decided_at[0] + 1) * study.DT), demo_lo
 #
 # The cure was tuned on drives $0$-$99$ and its guards chosen on kidnap drive $5$ and a screen of
 # drives $30$-$46$ and kidnap runs $15$-$29$; it is measured on
-# {glue:text}`lf_n_heldout:d` held-out drives ($150$-$199$). From a
+# {glue:text}`lf_n_heldout:d` held-out drives ($150$-$249$). From a
 # uniform start the cure is locked on at the end of {glue:text}`lf_global_lock_on_rate:.0%`
 # ({glue:text}`lf_global_lock_on_rate_low:.0%`-{glue:text}`lf_global_lock_on_rate_high:.0%`) of them:
 # the estimate reaches the $0.95$ aimed at, but fifty drives cannot show that the rate itself does
@@ -818,7 +818,7 @@ EvidenceBlock(
 # motion, and drives on for $100$ s. Runs whose kidnapping moved the robot less than the lock-on
 # tolerances are left out ({glue:text}`lf_heldout_not_kidnapped:d` of the held-out runs).
 #
-# On the held-out runs ($150$-$199$) the cure recovers (is locked on at the end) in
+# On the held-out runs ($150$-$249$) the cure recovers (is locked on at the end) in
 # {glue:text}`lf_kidnap_recovered_rate:.0%`
 # ({glue:text}`lf_kidnap_recovered_rate_low:.0%`-{glue:text}`lf_kidnap_recovered_rate_high:.0%`) of
 # the others: the estimate is above the $0.90$ aimed at, but the interval reaches below it. Without
