@@ -621,6 +621,7 @@ glue_values("lf_", demo_decided_s=float((decided_at[0] + 1) * study.DT), demo_lo
 # {glue:text}`lf_heldout_exact_rate:.0%`, and the cure is
 # {glue:text}`lf_heldout_exact_gap_pts:.0f` points below it
 # ({glue:text}`lf_heldout_exact_gap_low_pts:.0f` to {glue:text}`lf_heldout_exact_gap_high_pts:.0f`).
+#
 # Without its guards the cure is locked on in {glue:text}`lf_heldout_hazard_rate:.0%` of the same
 # drives, a difference of {glue:text}`lf_heldout_gain_pts:+.0f` points
 # ({glue:text}`lf_heldout_gain_low_pts:+.0f` to {glue:text}`lf_heldout_gain_high_pts:+.0f`): not
@@ -644,7 +645,8 @@ glue_values("lf_", demo_decided_s=float((decided_at[0] + 1) * study.DT), demo_lo
 # without its guards.
 #
 # That is the trade: fewer false relocalizations, slower corrections of a wrong cloud. The cure's
-# {glue:text}`lf_cure_false_relocs:d` are on kidnap runs (the evidence block tells both).
+# {glue:text}`lf_cure_false_relocs:d` false relocalizations are both on kidnap runs (the evidence
+# block tells them).
 
 # %% tags=["remove-input"] jupyter={"source_hidden": true}
 def exact_difference(p):
@@ -843,9 +845,10 @@ EvidenceBlock(
 # The exact filter over the twins, told when the robot was carried off, recovers in
 # {glue:text}`lf_kidnap_exact_rate:.0%`; the cure is {glue:text}`lf_kidnap_exact_gap_pts:.0f` points
 # below it ({glue:text}`lf_kidnap_exact_gap_low_pts:.0f` to
-# {glue:text}`lf_kidnap_exact_gap_high_pts:.0f`). Without its guards:
-# {glue:text}`lf_kidnap_hazard_rate:.0%`, including all {glue:text}`lf_kidnap_n_misses:d` the cure
-# misses.
+# {glue:text}`lf_kidnap_exact_gap_high_pts:.0f`).
+#
+# Without its guards: {glue:text}`lf_kidnap_hazard_rate:.0%`, including all
+# {glue:text}`lf_kidnap_n_misses:d` the cure misses.
 #
 # They are locked on for good a median {glue:text}`lf_kidnap_recovery_median_s:.0f` s after
 # the kidnapping ({glue:text}`lf_kidnap_recovery_median_s_low:.0f`-{glue:text}`lf_kidnap_recovery_median_s_high:.0f` s).
