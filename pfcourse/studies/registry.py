@@ -989,7 +989,8 @@ def extend(name: str, n_runs: int, **options) -> None:
 
 
 def main(argv: Sequence[str]) -> int:
-    """``python3 tasks.py study NAME [--runs R]`` (``--runs``: fewer runs per setting, for a trial)."""
+    """``python3 tasks.py study NAME [--runs R | --extend R [--workers W]]`` (``--runs``: fewer runs per setting, for
+    a trial; ``--extend``: append the runs not yet stored, :func:`extend`)."""
     parser = argparse.ArgumentParser(prog="python3 tasks.py study", description="Run and store a registered study.")
     parser.add_argument("name", help="a study or a group: " + ", ".join(sorted({n.split("/")[0] for n in STUDIES})))
     parser.add_argument("--runs", type=int, default=None, help="runs per setting (default: the study's own; the table is stored all the same)")
