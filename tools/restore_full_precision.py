@@ -2,7 +2,8 @@
 
 Their provenance said so (``"significant_digits": {file: 10}``) and the registry compared them to that
 precision (``Study.stored_rtol``), the last exception to "floats that round-trip". This tool re-computes every
-row of each table from its setting and seed with today's row code (``Study.compute``, one process), checks
+row of each table from its setting and seed with today's row code (``Study.compute``, on run_study's
+default process pool), checks
 that every stored value equals the new one to those 10 digits (so nothing but the rounding changes), keeps
 the wall-time columns (``volatile``) as the original run measured them, saves the table with floats that
 round-trip, and records the conversion in the provenance (``conversions``), whose ``significant_digits``
@@ -15,7 +16,6 @@ import datetime
 import json
 import subprocess
 import sys
-import time
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -34,9 +34,7 @@ DIGITS = 10
 def restore(name: str) -> dict:
     study = STUDIES[f"global_localization/{name}"]
     old = study.load()
-    start = time.process_time()
     new = study.compute()
-    cpu = time.process_time() - start
     assert list(new.columns) == list(old.columns) and len(new) == len(old), name
     rtol = 10.0 ** (1 - DIGITS)
     for key in new.columns:
@@ -47,7 +45,7 @@ def restore(name: str) -> dict:
         assert not bad, f"{name}: {key} differs beyond {DIGITS} digits at rows {bad[:5]}"
     changed = int(sum(not same(a, b) for key in new.columns for a, b in zip(old[key], new[key])))
     study.save(new)
-    return {"table": name, "rows": len(new), "values_rounded_before": changed, "cpu_seconds": round(cpu, 1)}
+    return {"table": name, "rows": len(new), "values_rounded_before": changed}
 
 
 def main() -> None:
@@ -67,7 +65,7 @@ def main() -> None:
                   f"(Study.compute) and stored at full precision; every value equal to the stored one to its "
                   f"{DIGITS} significant digits; wall times (seconds, pf_seconds, ekf_seconds) kept from the original "
                   "run; significant_digits removed",
-        "rows": {d["table"]: d["rows"] for d in done}, "cpu_seconds": {d["table"]: d["cpu_seconds"] for d in done}})
+        "rows": {d["table"]: d["rows"] for d in done}})
     path.write_text(json.dumps(record, indent=2) + "\n")
 
 
