@@ -11,8 +11,7 @@ stored by :mod:`pfcourse.studies.store`, its provenance beside it
 
 ``tests/test_stored_studies.py`` re-computes a seeded sample of every registered study's
 stored rows (among its ``cheap`` rows) from their recorded settings and seeds, and requires
-the same numbers, float for float (to the precision the table's provenance records, for the
-tables an older script stored rounded: :meth:`Study.stored_rtol`), and checks that each table
+the same numbers, float for float, and checks that each table
 has exactly the settings, seeds and order its record describes.
 
 **One schema.** A stored table has a column per grid parameter (its name in the grid, its values
@@ -242,13 +241,6 @@ class Study:
         """The provenance record written beside the table (shared by the studies of a group)."""
         return json.loads((DATA / self.provenance).read_text())
 
-    def stored_rtol(self) -> float:
-        """The relative precision of the stored floats: 0 (they round-trip exactly), or that of the
-        significant digits the provenance records for a table an older script stored rounded
-        (``"significant_digits": {file: digits}``)."""
-        digits = self.provenance_record().get("significant_digits", {}).get(Path(self.table).name)
-        return 0.0 if digits is None else 10.0 ** (1 - digits)
-
     def save(self, table: pd.DataFrame) -> None:
         save(self.path, table, literals=self.literals, arrays=self.arrays)
 
@@ -296,8 +288,7 @@ def _likelihood_study(name: str, row: Callable, grid: dict, n_runs: int, base_se
 
 
 def _mcl_study(name: str, row: Callable, grid, **options) -> Study:
-    """A table of the global-localization chapter (anatomy, lockon, kidnap and ekf_vs_pf were stored with 10
-    significant digits by their first script: the provenance says so, :meth:`Study.stored_rtol`)."""
+    """A table of the global-localization chapter."""
     options = {"failures": "raise", "filters": robot_mcl.FILTERS, **options}
     return Study(name=f"global_localization/{name}", row=row, grid=grid, n_runs=100, seeds="run",
                  table=f"global_localization/{name}.csv", provenance="global_localization/provenance.json",
@@ -341,15 +332,13 @@ _GLOBAL_RUNS = {"failures": "record", "failed_scores": global_localization.FAILE
 
 #: The known exceptions to the one schema, in one place (tests/test_study_records.py checks that no other
 #: study has them): the terrain flight studies name their seed column after the flight it draws (``flight``,
-#: as their chapters read it), and four global-localization tables an older script stored with 10
-#: significant digits, compared to that precision (their provenance's ``significant_digits``,
-#: :meth:`Study.stored_rtol`; re-running them stores round-trip floats and ends the exception).
+#: as their chapters read it). (Four global-localization tables an older script stored with 10 significant
+#: digits were re-stored at full precision by tools/restore_full_precision.py: every table round-trips.)
 SCHEMA_EXCEPTIONS: dict[str, tuple[str, ...]] = {
     "seed_column flight": ("terrain_remedies", "terrain_reference", "terrain_studies", "terrain_map_error",
                            "terrain_error_paths", "terrain_model_flights", "terrain_equal_cost", "terrain_mpf",
                            "terrain_grid", "terrain_field", "terrain_field_pf", "terrain_map_bias", "terrain_costs",
                            "terrain_confirmation", "terrain_cost_matched"),
-    "significant_digits 10": tuple(f"global_localization/{name}" for name in ("anatomy", "lockon", "kidnap", "ekf_vs_pf")),
 }
 #: The stored studies whose rows build no particle filter through a settings record, so that their
 #: provenance has no ``filters`` (:data:`pfcourse.studies.provenance.SCHEMA`), by name or group, with the reason.
