@@ -204,6 +204,22 @@ class Clouds:
         return self.particles, self.weights
 
 
+class LastCloud:
+    """``last_cloud``: the :class:`~pfcourse.filter.Step` of the last step only (its ``k``, ``particles``
+    and ``weights``): what a figure of the end of a run draws, where :class:`Clouds` would keep every step."""
+
+    name = "last_cloud"
+
+    def start(self, pf: ParticleFilter, n_steps: int) -> None:
+        self.step = None
+
+    def collect(self, step: Step) -> None:
+        self.step = step
+
+    def result(self) -> Step | None:
+        return self.step
+
+
 class Ancestors:
     """``ancestors``: ``A`` ``(K, N)``, particle ``i`` of step ``k`` descends from particle ``A[k, i]`` of
     step ``k - 1`` (the identity where no resampling came between them, and at ``k = 0``): the

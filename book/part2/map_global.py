@@ -20,7 +20,7 @@
 # **You need** {doc}`map_robot` (the odometry model, the likelihood field, MCL) and
 # {doc}`global_localization` (random injection, augmented MCL, KLD-sampling); importance sampling.
 #
-# **Time:** about twenty-five minutes to read, plus about thirty-two minutes for the folded blocks; the exercise is extra.
+# **Time:** about twenty-five minutes to read, plus about thirty-four minutes for the folded blocks; the exercise is extra.
 # :::
 #
 # Put the robot of {doc}`map_robot` anywhere on its map, give the filter no idea where, and drive.
@@ -608,21 +608,25 @@ glue_values("lf_", demo_decided_s=float((decided_at[0] + 1) * study.DT), demo_lo
 # every global miss below is a half-turn off or ends on the robot after the window.
 # :::
 #
-# The cure was tuned on drives $0$-$99$ and its guards chosen on kidnap drive $5$ and a screen of
-# drives $30$-$46$ and kidnap runs $15$-$29$; it is measured on
-# {glue:text}`lf_n_heldout:d` held-out drives ($150$-$199$). From a
+# The cure was chosen on drives and kidnap runs $0$-$99$ (the evidence block says how); it is
+# measured on
+# {glue:text}`lf_n_heldout:d` held-out drives ($150$-$249$). From a
 # uniform start the cure is locked on at the end of {glue:text}`lf_global_lock_on_rate:.0%`
-# ({glue:text}`lf_global_lock_on_rate_low:.0%`-{glue:text}`lf_global_lock_on_rate_high:.0%`) of them:
-# the estimate reaches the $0.95$ aimed at, but fifty drives cannot show that the rate itself does
-# (the interval reaches well below it).
+# ({glue:text}`lf_global_lock_on_rate_low:.0%`-{glue:text}`lf_global_lock_on_rate_high:.0%`) of them.
+# The $0.95$ aimed at is not met; the interval straddles it, so a hundred drives cannot tell whether
+# the rate itself reaches it.
 #
-# Without its guards it is locked on in {glue:text}`lf_heldout_hazard_rate:.0%` of the same drives,
-# a difference of {glue:text}`lf_heldout_gain_pts:+.0f` points
+# The map is no excuse: the exact filter over the twins is locked on in
+# {glue:text}`lf_heldout_exact_rate:.0%`, and the cure is
+# {glue:text}`lf_heldout_exact_gap_pts:.0f` points below it
+# ({glue:text}`lf_heldout_exact_gap_low_pts:.0f` to {glue:text}`lf_heldout_exact_gap_high_pts:.0f`).
+#
+# Without its guards the cure is locked on in {glue:text}`lf_heldout_hazard_rate:.0%` of the same
+# drives, a difference of {glue:text}`lf_heldout_gain_pts:+.0f` points
 # ({glue:text}`lf_heldout_gain_low_pts:+.0f` to {glue:text}`lf_heldout_gain_high_pts:+.0f`): not
 # separated.
 #
-# The exact filter over the twins is locked on in {glue:text}`lf_heldout_exact_rate:.0%`. The cure's
-# misses are the guards' doing: on {glue:text}`lf_misses_guards_lost:d` of its
+# Most misses are the guards' doing: on {glue:text}`lf_misses_guards_lost:d` of the cure's
 # {glue:text}`lf_n_misses:d` misses the cure without guards, and the exact filter, are locked on by
 # {glue:text}`lf_miss_hazard_locked_by_s:.0f` s. A stratum claims only the last $L$ scans and needs
 # three wins: the guards keep the cloud the filter has, wrong or right.
@@ -640,9 +644,8 @@ glue_values("lf_", demo_decided_s=float((decided_at[0] + 1) * study.DT), demo_lo
 # without its guards.
 #
 # That is the trade: fewer false relocalizations, slower corrections of a wrong cloud. The cure's
-# single false relocalization is the kidnap run left out below, moved only
-# {glue:text}`lf_lost_run_jump_m:.2f` m: the cloud was back on the robot when a twin's stratum took
-# over, after three wins in a row, at {glue:text}`lf_lost_run_lost_s:.0f` s.
+# {glue:text}`lf_cure_false_relocs:d` false relocalizations are both on kidnap runs (the evidence
+# block tells them).
 
 # %% tags=["remove-input"] jupyter={"source_hidden": true}
 def exact_difference(p):
@@ -714,10 +717,14 @@ def per_hour(events):
 cure_events = int(held["n_lost"].sum() + kid_held["n_lost"].sum())
 hz_events = int(held_hz["n_lost"].sum() + kid_held_hz["n_lost"].sum())
 cure_hour, hz_hour = per_hour(cure_events), per_hour(hz_events)
-# the cure's one false relocalization: a kidnap run the kidnapping hardly moved (left out of the recovery rate)
-lost_run = kid_held[kid_held["n_lost"] > 0]
-assert cure_events == 1 and len(lost_run) == 1 and held["n_lost"].sum() == 0
-assert (lost_run["jump_m"] < lock_on.POSITION_TOLERANCE_M).all() and (lost_run["jump_deg"] < np.degrees(mg.HEADING_TOL)).all()
+# the cure's two false relocalizations, both on kidnap runs: one the kidnapping hardly moved (left out of the
+# recovery rate), lost after the kidnapping; the other lost before it, while tracking from the known start
+lost_runs = kid_held[kid_held["n_lost"] > 0]
+assert cure_events == 2 and len(lost_runs) == 2 and held["n_lost"].sum() == 0
+unmoved = (lost_runs["jump_m"] < lock_on.POSITION_TOLERANCE_M) & (lost_runs["jump_deg"] < np.degrees(mg.HEADING_TOL))
+lost_run, tracking_lost = lost_runs[unmoved], lost_runs[~unmoved]
+assert len(lost_run) == 1 and (lost_run["lost_s"] > study.KIDNAP_STEP * study.DT).all()
+assert len(tracking_lost) == 1 and (tracking_lost["lost_s"] < study.KIDNAP_STEP * study.DT).all()
 glue_values("lf_", n_misses=int(miss.sum()), misses_guards_lost=int(guards_lost.sum()),
             miss_hazard_locked_by_s=float(locked_by),
             tracking_heading_rmse_deg=float(np.degrees(np.sqrt(np.mean(trk["heading_rmse"] ** 2)))),
@@ -726,7 +733,13 @@ glue_values("lf_", n_misses=int(miss.sum()), misses_guards_lost=int(guards_lost.
             inj5000_gain_low_pts=100 * vs_inj5000.difference_low, inj5000_gain_high_pts=100 * vs_inj5000.difference_high,
             false_reloc_per_hour_low=cure_hour[1], false_reloc_per_hour_high=cure_hour[2],
             hazard_false_reloc_per_hour_low=hz_hour[1], hazard_false_reloc_per_hour_high=hz_hour[2],
-            lost_run_jump_m=float(lost_run["jump_m"].iloc[0]), lost_run_lost_s=float(lost_run["lost_s"].iloc[0]))
+            cure_false_relocs=cure_events,
+            heldout_exact_gap_pts=-100 * vs_exact.difference, heldout_exact_gap_low_pts=-100 * vs_exact.difference_high,
+            heldout_exact_gap_high_pts=-100 * vs_exact.difference_low)
+# what the prose says of the targets and the bound on these drives: 0.95 not met (the estimate below it, the interval
+# on both sides); the cure below the exact filter (separated); the guards not separated from none
+assert cure_rate.estimate < 0.95 and cure_rate.low < 0.95 < cure_rate.high
+assert vs_exact.difference_high < 0 and vs_hz.difference_low < 0 < vs_hz.difference_high
 
 
 def misses(table):
@@ -769,7 +782,9 @@ EvidenceBlock(
            f"{int(guards_lost.sum())} of them are drives that the cure without its guards locks on (from "
            + ", ".join(f"{v:.1f}" for v in held_hz.loc[guards_lost, "locked_from_s"]) + " s) and the exact filter too "
            "(from " + ", ".join(f"{v:.1f}" for v in held_exact.loc[guards_lost, "exact_locked_from_s"]) + " s): the "
-           "guards lose them. An injected stratum claims only the evidence of its own window (the last 20 scans); "
+           f"guards lose them. The other {int((miss & ~guards_lost).sum())} the cure without its guards misses too; "
+           "the exact filter locks on there from "
+           + ", ".join(f"{v:.1f}" for v in held_exact.loc[miss & ~guards_lost, "exact_locked_from_s"]) + " s. An injected stratum claims only the evidence of its own window (the last 20 scans); "
            "evidence older than that, which the wrong cloud missed, is lost, and three wins in a row delay the "
            "correction further.",
            f"False relocalizations (2 s or more outside the tolerances, 2 m away, after 10 s within them), held-out "
@@ -778,8 +793,12 @@ EvidenceBlock(
            f"Poisson intervals of the rates: cure {cure_hour[1]:.3f}-{cure_hour[2]:.1f}, without its guards "
            f"{hz_hour[1]:.1f}-{hz_hour[2]:.1f} an hour. Paired by run, share of runs lost (cure A, without its guards "
            f"B): {lost_pair}.",
-           f"The cure's one false relocalization is kidnap run {int(lost_run['seed'].iloc[0])}, left out of the "
-           f"recovery rate: its kidnapping moved the robot {lost_run['jump_m'].iloc[0]:.2f} m and "
+           f"The cure's false relocalizations are kidnap runs {int(lost_run['seed'].iloc[0])} and "
+           f"{int(tracking_lost['seed'].iloc[0])}. Run {int(tracking_lost['seed'].iloc[0])} was lost at "
+           f"{tracking_lost['lost_s'].iloc[0]:.0f} s, before its kidnapping at {study.KIDNAP_STEP * study.DT:.0f} s, "
+           f"while tracking from the known start; it recovered "
+           f"{tracking_lost['recovery_s'].iloc[0]:.0f} s after the kidnapping. Run {int(lost_run['seed'].iloc[0])} is "
+           f"left out of the recovery rate: its kidnapping moved the robot {lost_run['jump_m'].iloc[0]:.2f} m and "
            f"{lost_run['jump_deg'].iloc[0]:.1f} degrees. The cloud was back on the robot when a twin's stratum was "
            f"admitted (three wins in a row) at {lost_run['lost_s'].iloc[0]:.0f} s; the filter is locked on for good "
            f"only from {study.KIDNAP_STEP * study.DT + lost_run['recovery_s'].iloc[0]:.0f} s. Successive look-back "
@@ -817,11 +836,18 @@ EvidenceBlock(
 # motion, and drives on for $100$ s. Runs whose kidnapping moved the robot less than the lock-on
 # tolerances are left out ({glue:text}`lf_heldout_not_kidnapped:d` of the held-out runs).
 #
-# On the held-out runs ($150$-$199$) the cure recovers (is locked on at the end) in
+# On the held-out runs ($150$-$249$) the cure recovers (is locked on at the end) in
 # {glue:text}`lf_kidnap_recovered_rate:.0%`
 # ({glue:text}`lf_kidnap_recovered_rate_low:.0%`-{glue:text}`lf_kidnap_recovered_rate_high:.0%`) of
-# the others: the estimate is above the $0.90$ aimed at, but the interval reaches below it. Without
-# its guards, {glue:text}`lf_kidnap_hazard_rate:.0%` of the same runs.
+# the others: the estimate meets the $0.90$ aimed at, the interval reaches below it.
+#
+# The exact filter over the twins, told when the robot was carried off, recovers in
+# {glue:text}`lf_kidnap_exact_rate:.0%`; the cure is {glue:text}`lf_kidnap_exact_gap_pts:.0f` points
+# below it ({glue:text}`lf_kidnap_exact_gap_low_pts:.0f` to
+# {glue:text}`lf_kidnap_exact_gap_high_pts:.0f`).
+#
+# Without its guards: {glue:text}`lf_kidnap_hazard_rate:.0%`, including all
+# {glue:text}`lf_kidnap_n_misses:d` the cure misses.
 #
 # They are locked on for good a median {glue:text}`lf_kidnap_recovery_median_s:.0f` s after
 # the kidnapping ({glue:text}`lf_kidnap_recovery_median_s_low:.0f`-{glue:text}`lf_kidnap_recovery_median_s_high:.0f` s).
@@ -833,13 +859,28 @@ kid_moved = ((kid_held["jump_m"] >= lock_on.POSITION_TOLERANCE_M)
              | (kid_held["jump_deg"] >= np.degrees(mg.HEADING_TOL))).to_numpy()
 kid_pair = evidence.paired_rates(kid_held["recovered"].to_numpy()[kid_moved],
                                  kid_held_hz["recovered"].to_numpy()[kid_moved])
+# the kidnap runs' bound: the exact filter over the true path and its twins from the kidnapping on
+kid_exact = by_seed("exact_kidnap_heldout")
+assert (kid_exact["seed"].to_numpy() == kid_held["seed"].to_numpy()).all()
+kid_vs_exact = evidence.paired_rates(kid_held["recovered"].to_numpy()[kid_moved],
+                                     kid_exact["exact_recovered"].to_numpy()[kid_moved])
+kid_miss = kid_held.loc[kid_moved & ~kid_held["recovered"].to_numpy()]
+kid_exact_miss = kid_exact.loc[kid_moved & ~kid_exact["exact_recovered"].to_numpy(), "seed"].tolist()
 recovered = kid_pair.a
 times = kid_held.loc[kid_moved & kid_held["recovered"].to_numpy(), "recovery_s"].to_numpy()
 med, med_low, med_high = evidence.median_interval(times)
 glue_values("lf_", heldout_not_kidnapped=int((~kid_moved).sum()), kidnap_recovered_rate=recovered.estimate,
             kidnap_recovered_rate_low=recovered.low, kidnap_recovered_rate_high=recovered.high,
             kidnap_hazard_rate=kid_pair.b.estimate, kidnap_recovery_median_s=med,
-            kidnap_recovery_median_s_low=med_low, kidnap_recovery_median_s_high=med_high)
+            kidnap_recovery_median_s_low=med_low, kidnap_recovery_median_s_high=med_high,
+            kidnap_exact_rate=kid_vs_exact.b.estimate, kidnap_exact_gap_pts=-100 * kid_vs_exact.difference,
+            kidnap_exact_gap_low_pts=-100 * kid_vs_exact.difference_high,
+            kidnap_exact_gap_high_pts=-100 * kid_vs_exact.difference_low, kidnap_n_misses=len(kid_miss))
+# what the prose says: 0.90 met by the estimate, not by the interval; the cure below the exact filter (separated);
+# every run the cure misses is one the cure without its guards recovers
+assert recovered.estimate >= 0.90 and recovered.low < 0.90 < recovered.high
+assert kid_vs_exact.difference_high < 0 and kid_held_hz.loc[kid_miss.index, "recovered"].all()
+assert len(kid_exact_miss) == 2 and set(kid_exact_miss) <= set(kid_miss["seed"])
 kid = by_seed("kidnap_hazard")
 fresh_kid = by_seed("kidnap_fresh")
 fresh_moved = ((fresh_kid["jump_m"] >= lock_on.POSITION_TOLERANCE_M)
@@ -851,17 +892,21 @@ EvidenceBlock(
            f"t = {study.KIDNAP_STEP * study.DT:.0f} s to a waypoint drawn by kidnap_rng(seed), run to "
            f"t = {study.KIDNAP_STEPS * study.DT:.0f} s; {int((~kid_moved).sum())} left out (moved less than 1 m and "
            f"{np.degrees(mg.HEADING_TOL):.1f} degrees).",
-           f"Recovered (locked on at the end): cure {recovered}; paired with the cure without its guards: {kid_pair}. "
-           f"The runs the cure "
-           f"misses end {', '.join(f'{e:.2f}' for e in kid_held.loc[kid_moved & ~kid_held['recovered'].to_numpy(), 'final_position_error'])} m "
-           "from the truth: found again, too late for the window (the table).",
+           f"Recovered (locked on at the end): cure {recovered}; paired with the cure without its guards: {kid_pair}; "
+           f"paired with the exact filter over the twins after the kidnapping (the truth until the kidnapping, then "
+           f"equal masses on the true path and its twins; it knows when the robot was carried off): {kid_vs_exact}.",
+           f"The runs the cure misses end {', '.join(f'{e:.2f}' for e in kid_miss['final_position_error'])} m "
+           f"from the truth ({int((kid_miss['final_position_error'] < 1).sum())} found again, too late for the window; "
+           f"the table). The exact filter misses runs {', '.join(str(v) for v in kid_exact_miss)}: there the map does "
+           "not tell the twins apart in time, and those two misses are the map's; the others are the filter's.",
            f"Median time from the kidnapping to the step from which the filter stays locked on, over the {len(times)} "
            f"runs that recover: {med:.1f} s (95 % interval {med_low:.1f}-{med_high:.1f} s, percentile bootstrap). "
            "A median among those that recover: it says how fast, not how often.",
            f"Without the guards, on the runs it was tuned on (seeds 0-99, all kept): recovered "
            f"{evidence.rate(kid['recovered'].to_numpy())}; fresh runs {mg.FRESH_SEED}-{mg.FRESH_SEED + mg.FRESH_RUNS - 1} "
            f"(moved ones): {evidence.rate(fresh_kid.loc[fresh_moved, 'recovered'].to_numpy())}.",
-           stored("kidnap_heldout"), stored("kidnap_heldout_hazard"), stored("kidnap_hazard"), stored("kidnap_fresh")],
+           stored("kidnap_heldout"), stored("kidnap_heldout_hazard"), stored("exact_kidnap_heldout"),
+           stored("kidnap_hazard"), stored("kidnap_fresh")],
     tables=[("The held-out kidnap runs the cure does not recover",
              kid_held.loc[kid_moved & ~kid_held["recovered"].to_numpy(),
                           ["seed", "final_position_error", "n_lost", "lost_s", "jump_m"]],
@@ -966,11 +1011,11 @@ glue_values("lf_", takeover_one=shares[1], takeover_three=shares[3])
 # - A stratum that wins replaces the cloud: count false relocalizations, not only lock-on at the
 #   end. The guards (the belief's evidence includes its admitted strata; three wins in a row) keep
 #   the cloud the filter has: fewer false relocalizations, later corrections of a wrong cloud.
-# - On held-out drives the cure locks on in {glue:text}`lf_global_lock_on_rate:.0%` of the drives from
-#   a uniform start (the exact filter over the twins: {glue:text}`lf_heldout_exact_rate:.0%`) and
-#   finds a kidnapped robot again in {glue:text}`lf_kidnap_recovered_rate:.0%` of the kidnappings;
-#   both estimates reach the $0.95$ and $0.90$ aimed at, neither interval excludes falling short. It
-#   relocalizes falsely {glue:text}`lf_false_reloc_per_hour:.1f` times an hour.
+# - On a hundred held-out drives the cure locks on in {glue:text}`lf_global_lock_on_rate:.0%` of the
+#   drives from a uniform start, short of the $0.95$ aimed at and of the exact filter's
+#   {glue:text}`lf_heldout_exact_rate:.0%`, and finds a kidnapped robot again in
+#   {glue:text}`lf_kidnap_recovered_rate:.0%` of the kidnappings ($0.90$ aimed at); neither interval
+#   settles its target. It relocalizes falsely {glue:text}`lf_false_reloc_per_hour:.1f` times an hour.
 #
 # :::{admonition} From the labs
 # :class: dropdown

@@ -43,7 +43,7 @@ from pfcourse.book.figures.terrain import KM, draw_map, flight_figure
 from pfcourse.book.panels import control_panel, particle_slider, scale_slider, seed_box
 from pfcourse.book.report import EvidenceBlock, glue_values
 from pfcourse.book.style import COLORS, plain_log_axis, use_style
-from pfcourse.collectors import Clouds
+from pfcourse.collectors import Clouds, LastCloud
 from pfcourse.filter import ParticleFilter
 from pfcourse.metrics import position_error
 from pfcourse.scenarios.terrain.scenario import AircraftScenario, simulate
@@ -980,14 +980,16 @@ def try_run(n_particles=3000, seed=2, rf_scale=1.0, qf_scale=1.0):
     fl = simulate(scenario, terrain, data_rng(0, seed))
     sc = scenario.with_(Qf=scenario.Qf * qf_scale, Rf=scenario.Rf * rf_scale)
     res = ParticleFilter(sc.model(terrain), n_particles, threshold=0.5, resampler="multinomial").run(
-        fl.measurements, rng=filter_rng(0, seed), collect=[Clouds()])
+        fl.measurements, rng=filter_rng(0, seed), collect=[LastCloud()])
     return fl, res
 
 
 def draw(n_particles=3000, seed=2, rf_scale=1.0, qf_scale=1.0):
     """The panel's figure: the run of ``try_run`` with these settings."""
     fl, res = try_run(n_particles, seed, rf_scale, qf_scale)
-    flight_figure(terrain, fl, res, f"flight {seed}, N = {n_particles}, Rf x {rf_scale:g}, Qf x {qf_scale:g}")
+    last = res.collected["last_cloud"]  # the cloud of the last step only
+    flight_figure(terrain, fl, res.mean, last,
+                  f"flight {seed}, N = {n_particles}, Rf x {rf_scale:g}, Qf x {qf_scale:g}")
 
 
 # the claims of the text above, flight 2

@@ -34,9 +34,6 @@
 # settings are compared flight by flight with paired tests.
 
 # %% tags=["remove-input"] jupyter={"source_hidden": true}
-import json
-from pathlib import Path
-
 import matplotlib.pyplot as plt
 import numpy as np
 import pandas as pd
@@ -49,6 +46,7 @@ from pfcourse.studies.terrain_field import map_error_family
 from pfcourse.studies.terrain_remedies import FILTERS, MODEL_FLIGHT_SEED, model_flight
 from pfcourse.book.report import EvidenceBlock, glue_values
 from pfcourse.jitter import RegularisedJitter, optimal_bandwidth
+from pfcourse.metrics import rmse
 from pfcourse.seeding import data_rng, filter_rng
 from pfcourse.book.style import use_style
 from pfcourse.scenarios.terrain.map import MAP_ERROR_CORRELATION_CELLS, MAP_ERROR_SD, MAP_SMOOTHING_CELLS, load_jacksboro
@@ -509,12 +507,7 @@ def qf_bound(weights):
 
 Bm_strict = qf_bound(np.ones((1, len(X_m))))[0]
 assert np.allclose(Bm_strict, horizontal_bound(pcrb_recursion(*model_terms)))  # the same recursion
-Bm_per = np.sqrt(np.mean(qf_bound(np.eye(len(X_m))) ** 2, axis=0))  # RMS of the per-flight bounds (m)
-
-
-def rmse(errors):
-    """Root of the mean squared error over the flights (rows), at every step."""
-    return np.sqrt(np.mean(errors**2, axis=0))
+Bm_per = rmse(qf_bound(np.eye(len(X_m))), axis=0)  # RMS of the per-flight bounds (m)
 
 
 t = scenario.times
@@ -522,7 +515,7 @@ fig, axes = plt.subplots(2, 1, figsize=(7.5, 6.4), sharex=True)
 panels = [("flights as simulated (no process noise)", E, converged, B_strict, np.sqrt(B.mean(axis=0))),
           ("flights drawn from the filter's model ($Q_f$)", E_m, kept_m, Bm_strict, Bm_per)]
 for ax, (title, err, kept, strict, per) in zip(axes, panels):
-    ax.plot(t, rmse(err[kept]), label="filter, kept flights")
+    ax.plot(t, rmse(err[kept], axis=0), label="filter, kept flights")
     ax.plot(t, strict, "k--", label="bound (strict)")
     ax.plot(t, per, "k:", label="per-flight bounds, RMS")
     ax.set_yscale("log")
@@ -566,7 +559,7 @@ def ratio_model(r):
 ratio = evidence.run_interval(ratio_free, len(E), vectorized=True, n_resamples=999)
 ratio_per = np.sqrt(np.mean(E[converged, -1] ** 2) / B[:, -1].mean())
 ratio_f = evidence.run_interval(ratio_model, len(E_m), vectorized=True, n_resamples=999)
-ratio_f_all = np.sqrt(np.mean(E_m[:, -1] ** 2)) / Bm_strict[-1]
+ratio_f_all = rmse(E_m[:, -1]) / Bm_strict[-1]
 glue_values("terrain_", best_rmse_over_noise_free_bound=ratio[0], best_rmse_over_noise_free_bound_lo=ratio[1],
             best_rmse_over_noise_free_bound_hi=ratio[2], best_rmse_over_noise_free_per_flight_bound=ratio_per,
             best_rmse_over_filter_bound=ratio_f[0], best_rmse_over_filter_bound_lo=ratio_f[1],
@@ -575,8 +568,8 @@ glue_values("terrain_", best_rmse_over_noise_free_bound=ratio[0], best_rmse_over
             noise_free_bound_strict_final=float(B_strict[-1]),
             noise_free_bound_per_flight_final=float(np.sqrt(B[:, -1].mean())),
             filter_heading_noise_deg=float(np.degrees(np.sqrt(scenario.Qf[3, 3]))),
-            converged_rmse=float(rmse(E[converged])[-1]), all_rmse=float(rmse(E)[-1]), converged_n=int(converged.sum()),
-            model_rmse=float(rmse(E_m[kept_m])[-1]), model_all_rmse=float(rmse(E_m)[-1]),
+            converged_rmse=float(rmse(E[converged], axis=0)[-1]), all_rmse=float(rmse(E, axis=0)[-1]), converged_n=int(converged.sum()),
+            model_rmse=float(rmse(E_m[kept_m], axis=0)[-1]), model_all_rmse=float(rmse(E_m, axis=0)[-1]),
             model_flights=len(E_m), model_lost=int((~kept_m).sum()))
 EvidenceBlock(
     f"on the filter's own model its error is {ratio_f[0]:.1f} times the bound; on the flights as simulated "
@@ -585,14 +578,14 @@ EvidenceBlock(
            "inverted (the posterior Cramér-Rao bound as Tichavsky et al. define it, its expectation estimated over "
            "the same flights); per-flight: each flight's bound, then the root of their mean.",
            f"Flights as simulated (terrain_error_paths, flights 0-99, no process noise, bound with Q -> 0): RMSE of "
-           f"the {converged.sum()} kept flights {rmse(E[converged])[-1]:.0f} m, of all {rmse(E)[-1]:.0f} m; strict "
+           f"the {converged.sum()} kept flights {rmse(E[converged], axis=0)[-1]:.0f} m, of all {rmse(E, axis=0)[-1]:.0f} m; strict "
            f"bound {B_strict[-1]:.1f} m, per-flight {np.sqrt(B[:, -1].mean()):.1f} m. Ratio of the kept flights' "
            f"RMSE to the strict bound {ratio[0]:.2f} ({ratio[1]:.2f} to {ratio[2]:.2f}), to the per-flight bound "
            f"{ratio_per:.2f}.",
            f"Flights drawn from the filter's model (terrain_model_flights: {len(E_m)} flights with process noise "
            f"Q_f dt and altimeter noise R_f, a flight that left the map drawn again; the same filter): "
-           f"{(~kept_m).sum()} lost; RMSE of the {kept_m.sum()} kept {rmse(E_m[kept_m])[-1]:.0f} m, of all "
-           f"{rmse(E_m)[-1]:.0f} m; strict Q_f bound {Bm_strict[-1]:.0f} m, per-flight {Bm_per[-1]:.0f} m. Ratio "
+           f"{(~kept_m).sum()} lost; RMSE of the {kept_m.sum()} kept {rmse(E_m[kept_m], axis=0)[-1]:.0f} m, of all "
+           f"{rmse(E_m, axis=0)[-1]:.0f} m; strict Q_f bound {Bm_strict[-1]:.0f} m, per-flight {Bm_per[-1]:.0f} m. Ratio "
            f"of the kept flights' RMSE to the strict bound {ratio_f[0]:.2f} ({ratio_f[1]:.2f} to {ratio_f[2]:.2f}); "
            f"of all flights' {ratio_f_all:.1f}.",
            "Intervals: 95 % percentile bootstrap over the flights (evidence.run_interval, 999 resamples), the "
@@ -827,7 +820,7 @@ from IPython.display import display
 
 from pfcourse.book.figures.terrain import flight_figure
 from pfcourse.book.panels import control_panel, particle_slider
-from pfcourse.collectors import Clouds
+from pfcourse.collectors import LastCloud
 from pfcourse.filter_config import FilterSettings
 
 PANEL_FLIGHT = 2  # lost by the bootstrap filter with N = 3000, kept by the regularised one (terrain_remedies)
@@ -840,9 +833,10 @@ def draw(kernel_scale=0.2, n_particles=3000):
     jitter = RegularisedJitter(kernel_scale, (3,)) if kernel_scale > 0 else None
     settings = FilterSettings(n_particles=n_particles, threshold=0.5, resampler="multinomial", jitter=jitter)
     res = settings.build(scenario.model(terrain)).run(panel_flight.measurements, rng=filter_rng(0, PANEL_FLIGHT),
-                                                      collect=[Clouds()])
+                                                      collect=[LastCloud()])
     name = "no move (bootstrap)" if kernel_scale == 0 else f"kernel move at {kernel_scale:g} h_opt"
-    flight_figure(terrain, panel_flight, res, f"{name}, N = {n_particles}")
+    flight_figure(terrain, panel_flight, res.mean, res.collected["last_cloud"],
+                  f"{name}, N = {n_particles}")
 
 
 # %% tags=["nbval-ignore-output", "hide-input"] jupyter={"source_hidden": true}

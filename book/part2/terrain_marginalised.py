@@ -84,9 +84,6 @@
 # ## The algorithm in NumPy, checked against the engine
 
 # %% tags=["remove-input"] jupyter={"source_hidden": true}
-import json
-from pathlib import Path
-
 import matplotlib.pyplot as plt
 import numpy as np
 import pandas as pd
@@ -842,7 +839,7 @@ from IPython.display import display
 
 from pfcourse.book.figures.terrain import flight_figure
 from pfcourse.book.panels import control_panel, particle_slider
-from pfcourse.collectors import Clouds
+from pfcourse.collectors import LastCloud
 from pfcourse.filter_config import FilterSettings
 from pfcourse.jitter import RegularisedJitter
 
@@ -860,8 +857,9 @@ def draw(n_particles=3000, method="marginalised"):
         jitter = RegularisedJitter(0.2, (3,)) if method == "regularised" else None
         pf = FilterSettings(n_particles=n_particles, threshold=0.5, resampler="multinomial",
                             jitter=jitter).build(scenario.model(terrain))
-    res = pf.run(panel_flight.measurements, rng=filter_rng(0, PANEL_FLIGHT), collect=[Clouds()])
-    flight_figure(terrain, panel_flight, res, f"{method}, N = {n_particles}")
+    res = pf.run(panel_flight.measurements, rng=filter_rng(0, PANEL_FLIGHT), collect=[LastCloud()])
+    flight_figure(terrain, panel_flight, res.mean, res.collected["last_cloud"],
+                  f"{method}, N = {n_particles}")
 
 
 # %% tags=["nbval-ignore-output", "hide-input"] jupyter={"source_hidden": true}

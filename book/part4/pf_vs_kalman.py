@@ -724,13 +724,13 @@ terrain_use = ("a particle filter with a remedy, either: " + ", ".join(short(s) 
 # A robot with a scanner on a map: map_robot's tracking runs, map_global's cure and its bound.
 tracking = STUDIES["maprobot/tracking"].load()
 map_tracking = evidence.rate(tracking[tracking["weighting"] == "product"].sort_values("seed")["locked_on"].to_numpy())
-# the cure (global_mcl.CURE) on map_global's held-out drives 150-199, against the exact filter over the twins there
+# the cure (global_mcl.CURE) on map_global's held-out drives 150-249, against the exact filter over the twins there
 cure_runs = STUDIES["map_global/global_heldout"].load().sort_values("seed")["locked_on"].to_numpy()
 decided_runs = STUDIES["map_global/twins"].load().sort_values("seed")["decided"].to_numpy()
 cure, map_decided = evidence.rate(cure_runs), evidence.rate(decided_runs)
 bound_runs = STUDIES["map_global/exact_heldout"].load().sort_values("seed")["exact_locked_on"].to_numpy()
 cure_vs_bound = evidence.paired_rates(cure_runs, bound_runs)  # the bound: an exact filter over the twins
-# the cure against uniform injection at about its cost (N = 5000), on the same held-out drives 150-199
+# the cure against uniform injection at about its cost (N = 5000), on the same held-out drives 150-249
 map_injection = STUDIES["map_global/injection_heldout"].load().sort_values("seed")
 cure_vs_injection = evidence.paired_rates(cure_runs, map_injection["locked_on"].to_numpy())
 # the kidnapped robot on the held-out runs that the kidnapping moved (map_global's rule: 1 m or the heading tolerance)

@@ -19,7 +19,7 @@
 # **You need** {doc}`likelihood` (PMMH, the variance of $\log\hat p$); Gibbs sampling in one line
 # (draw each block given the others); NumPy.
 #
-# **Time:** about twenty-five minutes to read, plus about eight minutes for the folded blocks; the exercise is extra.
+# **Time:** about twenty-four minutes to read, plus about nine minutes for the folded blocks; the exercise is extra.
 # :::
 
 # %% tags=["remove-input"] jupyter={"source_hidden": true}
@@ -661,33 +661,34 @@ EvidenceBlock(
 #
 # ## Exercise
 #
-# ```{exercise} 26.1 Ancestor sampling when the noise is correlated
+# ```{exercise} 26.1 Ancestor sampling when the model remembers two steps
 # :label: ex-pmcmc-ancestor
 # :nonumber:
-# The sweep above asks the model for its transition density. Write it yourself for a target
-# that moves at a nearly constant velocity: the state is $x = (\text{position}, \text{velocity})$ and
+# A damped oscillation is a second-order autoregression,
+# $x_k = a\,x_{k-1} + b\,x_{k-2} + s\,v_k$ with $v_k \sim \mathcal N(0, 1)$: each state
+# depends on the two before it. A conditional SMC sweep for it keeps each particle's last two
+# states. Write `ancestor_index(log_W, past, future, a, b, s, rng)`, the ancestor-sampling draw of
+# the reference's parent $j$ at step $k$: `log_W` holds the normalised log-weights of step $k-1$,
+# row $j$ of `past` is $(x_{k-1}^j, x_{k-2}^j)$, and `future` holds the reference's states from
+# step $k$ on, $(x'_k, x'_{k+1}, \dots)$, only $x'_T$ at the last step. Draw with `rng`.
 #
-# $$
-# \begin{aligned}
-# x_k &= F x_{k-1} + w_k, \qquad w_k \sim \mathcal N(0, Q), \\
-# F &= \begin{pmatrix} 1 & \Delta t \\ 0 & 1 \end{pmatrix}, \qquad
-# Q = q\begin{pmatrix} \Delta t^3/3 & \Delta t^2/2 \\ \Delta t^2/2 & \Delta t \end{pmatrix},
-# \end{aligned}
-# $$
-#
-# the noise of a random acceleration, so the position's and the velocity's noise are correlated.
-# Write `ancestor_index(log_W, x_prev, x_ref, F, Q, rng)`: given the normalised log-weights `log_W`
-# of the particles `x_prev` (shape `(N, 2)`, one particle a row) of step $k-1$ and the reference
-# state `x_ref` of step $k$, draw the reference's parent $j$ as ancestor sampling does, with `rng`.
-# The checker draws many times, compares the frequencies with the exact probabilities, and names
-# the mistake it sees (there are several tempting ones with matrices in rows).
+# The formula above does not carry over as it stands: ask which of the reference's future
+# states depend on the past it is grafted onto. Why would stacking
+# $(x_k, x_{k-1})$ into a Markov state not rescue it? The checker draws thousands of times,
+# compares the frequencies with the exact probabilities, and names the mistake it recognises.
 # ```
+#
+# :::{admonition} Hint
+# :class: dropdown
+# Write the density of the grafted path $(x^j_{0:k-1}, x'_{k:T})$, divided by that of particle
+# $j$'s own past, as a product of transition densities, and keep the factors in which $j$ appears.
+# :::
 
 # %% tags=["answer"]
 from pfcourse.book.exercises import check_ancestor_index
 
 
-def ancestor_index(log_W, x_prev, x_ref, F, Q, rng):
+def ancestor_index(log_W, past, future, a, b, s, rng):
     """The reference's parent j, drawn with rng."""
     ...  # replace with your code
 
@@ -697,19 +698,29 @@ print(check_ancestor_index(ancestor_index))
 # %% [markdown]
 # ```{solution} ex-pmcmc-ancestor
 # :class: dropdown
-# The log-weights of the ancestor step are $\log W_{k-1}^j - \tfrac12 d_j^\top Q^{-1} d_j$ with
-# $d_j = x^{\text{ref}} - F x_{k-1}^j$ (the Gaussian's constant is the same for every $j$ and
-# cancels); with particles in rows, $F x^j$ for every $j$ is `x_prev @ F.T`. Normalise in the log
-# domain, then draw once with `rng`; the code is in the folded cell below.
+# Grafting the reference's future onto particle $j$ gives the path density
+# $\gamma(x^j_{0:k-1}, x'_{k:T}) = \gamma(x^j_{0:k-1}) \prod_{m \ge k} f(x'_m \mid \text{two before})$
+# times measurement densities that do not depend on $j$. Only two transition factors see $j$:
+# $x'_k$ follows $x^j_{k-1}, x^j_{k-2}$, and $x'_{k+1}$ follows $x'_k, x^j_{k-1}$. So
+# $P(A = j) \propto W_{k-1}^j\, \mathcal N(x'_k; a x^j_{k-1} + b x^j_{k-2}, s^2)\,
+# \mathcal N(x'_{k+1}; a x'_k + b x^j_{k-1}, s^2)$, the second factor absent at $k = T$
+# {cite:p}`lindsten2014`. Stacking makes the model Markov but its transition degenerate: it copies
+# $x_{k-1}$ exactly, so its density is zero for every particle but the reference's own past, and
+# the path would never move. The code is in the folded cell below.
 # ```
 
 # %% tags=["solution", "hide-input"] jupyter={"source_hidden": true}
-def ancestor_index(log_W, x_prev, x_ref, F, Q, rng):
+def ancestor_index(log_W, past, future, a, b, s, rng):
     """The reference's parent j, drawn with rng."""
-    d = x_ref - x_prev @ F.T  # one residual per row
-    log_p = log_W - 0.5 * np.einsum("ni,ij,nj->n", d, np.linalg.inv(Q), d)
+    x1, x2 = past[:, 0], past[:, 1]
+    # x'_k follows (x1, x2) of particle j
+    log_p = log_W - 0.5 * ((future[0] - a * x1 - b * x2) / s) ** 2
+    if len(future) > 1:
+        # x'_{k+1} follows (x'_k, x1): j still appears
+        r = future[1] - a * future[0] - b * x1
+        log_p = log_p - 0.5 * (r / s) ** 2
     p = np.exp(log_p - logsumexp(log_p))  # normalised in the log domain
-    return int(rng.choice(len(x_prev), p=p))
+    return int(rng.choice(len(past), p=p))
 
 
 print(check_ancestor_index(ancestor_index))

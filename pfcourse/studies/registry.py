@@ -11,8 +11,7 @@ stored by :mod:`pfcourse.studies.store`, its provenance beside it
 
 ``tests/test_stored_studies.py`` re-computes a seeded sample of every registered study's
 stored rows (among its ``cheap`` rows) from their recorded settings and seeds, and requires
-the same numbers, float for float (to the precision the table's provenance records, for the
-tables an older script stored rounded: :meth:`Study.stored_rtol`), and checks that each table
+the same numbers, float for float, and checks that each table
 has exactly the settings, seeds and order its record describes.
 
 **One schema.** A stored table has a column per grid parameter (its name in the grid, its values
@@ -35,10 +34,12 @@ from __future__ import annotations
 import argparse
 import dataclasses
 import json
+import platform
 import sys
 import time
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
+from datetime import datetime, timezone
 from functools import partial
 from pathlib import Path
 from typing import Any
@@ -57,12 +58,13 @@ from pfcourse.studies import pmcmc_studies as pm
 from pfcourse.studies import (maprobot, rb_study, robot_studies, sir_fixes_study, smoothing_studies,
                                   terrain_field, terrain_marginalised, terrain_remedies, terrain_studies,
                                   why_it_works)
-from pfcourse.studies.provenance import append_rerun, launch_commit, write_provenance
+from pfcourse.studies.provenance import append_rerun, launch_commit, tree_modified, write_provenance
 from pfcourse.studies.robot import pf_run
 from pfcourse.studies import robot as robot_experiments
 from pfcourse.studies.store import DATA, load, save
 from pfcourse.studies.terrain import LOST_FLIGHT
 from pfcourse.scenarios.robot import mcl as robot_mcl
+from pfcourse.studies.executor import SerialExecutor
 from pfcourse.studies.study import grid_settings, run_study
 from pfcourse.seeding import replicate_seed
 
@@ -192,14 +194,18 @@ class Study:
     def path(self) -> Path:
         return DATA / self.table
 
-    def compute(self, n_runs: int | None = None, **options) -> pd.DataFrame:
-        """The study's table as it is stored (``options`` go to :func:`run_study`: ``executor``, ``progress``)."""
+    def compute(self, n_runs: int | None = None, first: int = 0, **options) -> pd.DataFrame:
+        """The study's table as it is stored (``options`` go to :func:`run_study`: ``executor``, ``progress``);
+        only its runs ``first .. n_runs - 1`` when ``first`` is given (the rows :func:`extend` appends)."""
         n_runs = self.n_runs if n_runs is None else n_runs
-        seeds = [SEED_RULES[self.seeds](self.base_seed, r) for r in range(n_runs)]
+        if not 0 <= first < n_runs:
+            raise ParameterError(f"study {self.name}: first run {first} must be in 0 .. {n_runs - 1}")
+        seeds = [SEED_RULES[self.seeds](self.base_seed, r) for r in range(first, n_runs)]
         options = {"progress": False, **options}
-        table = pd.concat([run_study(self.row, grid, n_runs, seeds=seeds, failed_scores=self.failed_scores, **options)
-                           for grid in self.grids],
+        table = pd.concat([run_study(self.row, grid, n_runs - first, seeds=seeds, failed_scores=self.failed_scores,
+                                     **options) for grid in self.grids],
                           ignore_index=True)
+        table["run"] += first
         if self.failures == "raise" and (table["status"] != "ok").any():
             failed = table[table["status"] != "ok"].iloc[0]
             raise StepError(f"study {self.name}: run {failed['run']} failed ({failed['error_message']})")
@@ -234,13 +240,6 @@ class Study:
     def provenance_record(self) -> dict:
         """The provenance record written beside the table (shared by the studies of a group)."""
         return json.loads((DATA / self.provenance).read_text())
-
-    def stored_rtol(self) -> float:
-        """The relative precision of the stored floats: 0 (they round-trip exactly), or that of the
-        significant digits the provenance records for a table an older script stored rounded
-        (``"significant_digits": {file: digits}``)."""
-        digits = self.provenance_record().get("significant_digits", {}).get(Path(self.table).name)
-        return 0.0 if digits is None else 10.0 ** (1 - digits)
 
     def save(self, table: pd.DataFrame) -> None:
         save(self.path, table, literals=self.literals, arrays=self.arrays)
@@ -289,8 +288,7 @@ def _likelihood_study(name: str, row: Callable, grid: dict, n_runs: int, base_se
 
 
 def _mcl_study(name: str, row: Callable, grid, **options) -> Study:
-    """A table of the global-localization chapter (anatomy, lockon, kidnap and ekf_vs_pf were stored with 10
-    significant digits by their first script: the provenance says so, :meth:`Study.stored_rtol`)."""
+    """A table of the global-localization chapter."""
     options = {"failures": "raise", "filters": robot_mcl.FILTERS, **options}
     return Study(name=f"global_localization/{name}", row=row, grid=grid, n_runs=100, seeds="run",
                  table=f"global_localization/{name}.csv", provenance="global_localization/provenance.json",
@@ -334,15 +332,13 @@ _GLOBAL_RUNS = {"failures": "record", "failed_scores": global_localization.FAILE
 
 #: The known exceptions to the one schema, in one place (tests/test_study_records.py checks that no other
 #: study has them): the terrain flight studies name their seed column after the flight it draws (``flight``,
-#: as their chapters read it), and four global-localization tables an older script stored with 10
-#: significant digits, compared to that precision (their provenance's ``significant_digits``,
-#: :meth:`Study.stored_rtol`; re-running them stores round-trip floats and ends the exception).
+#: as their chapters read it). (Four global-localization tables an older script stored with 10 significant
+#: digits were re-stored at full precision by tools/restore_full_precision.py: every table round-trips.)
 SCHEMA_EXCEPTIONS: dict[str, tuple[str, ...]] = {
     "seed_column flight": ("terrain_remedies", "terrain_reference", "terrain_studies", "terrain_map_error",
                            "terrain_error_paths", "terrain_model_flights", "terrain_equal_cost", "terrain_mpf",
                            "terrain_grid", "terrain_field", "terrain_field_pf", "terrain_map_bias", "terrain_costs",
                            "terrain_confirmation", "terrain_cost_matched"),
-    "significant_digits 10": tuple(f"global_localization/{name}" for name in ("anatomy", "lockon", "kidnap", "ekf_vs_pf")),
 }
 #: The stored studies whose rows build no particle filter through a settings record, so that their
 #: provenance has no ``filters`` (:data:`pfcourse.studies.provenance.SCHEMA`), by name or group, with the reason.
@@ -364,7 +360,7 @@ NO_FILTER_RECORD: dict[str, str] = {
 #: Every stored study, by name.  A group (``robot_studies``) is the studies named ``group/...``.
 
 def _map_global_drives(n_runs: int, base_seed: int, drives: str, entries: list) -> list[Study]:
-    """map_global's paired studies on one set of drives (``drives``, e.g. "held-out drives 150-199"): one
+    """map_global's paired studies on one set of drives (``drives``, e.g. "held-out drives 150-249"): one
     Study per ``(name, row, columns)``, each global drive and kidnapping seeded as maprobot/global and
     maprobot/kidnap, its filter by ``default_rng([41, s, 2])``."""
     return [Study(name=f"map_global/{name}", row=row, grid={}, n_runs=n_runs, seeds="run",
@@ -662,33 +658,42 @@ STUDIES: dict[str, Study] = {study.name: study for study in [
           row_code="pfcourse/studies/map_global.py (exact_row), pfcourse/scenarios/maprobot/twins.py (exact_twin_estimate)",
           fields={"seeds": "run s: the global drive of maprobot/global (data_rng(s, 0)); no random numbers of its own",
                   "dt": maprobot.DT, "heading_tolerance_rad": map_global.HEADING_TOL}),
-    # the same bound on the held-out drives 150-199
+    # the same bound on the held-out drives 150-249
     Study(name="map_global/exact_heldout", row=map_global.exact_row, grid={}, n_runs=map_global.HELDOUT_RUNS,
           base_seed=map_global.HELDOUT_SEED, seeds="run", failures="raise", table="map_global/exact_heldout.csv",
           provenance="map_global/exact_heldout.json", columns=map_global.EXACT_COLUMNS, sample=2,
           row_code="pfcourse/studies/map_global.py (exact_row), pfcourse/scenarios/maprobot/twins.py (exact_twin_estimate)",
-          fields={"seeds": "run s (held-out drives 150-199): the global drive of maprobot/global (data_rng(s, 0)); "
+          fields={"seeds": "run s (held-out drives 150-249): the global drive of maprobot/global (data_rng(s, 0)); "
                            "no random numbers of its own",
+                  "dt": maprobot.DT, "heading_tolerance_rad": map_global.HEADING_TOL}),
+    # the kidnap runs' bound on the held-out runs 150-249: the truth, then an exact filter over its twins after the kidnap
+    Study(name="map_global/exact_kidnap_heldout", row=map_global.exact_kidnap_row, grid={}, n_runs=map_global.HELDOUT_RUNS,
+          base_seed=map_global.HELDOUT_SEED, seeds="run", failures="raise", table="map_global/exact_kidnap_heldout.csv",
+          provenance="map_global/exact_kidnap_heldout.json", columns=map_global.EXACT_KIDNAP_COLUMNS, sample=2,
+          row_code="pfcourse/studies/map_global.py (exact_kidnap_row), pfcourse/scenarios/maprobot/twins.py "
+                   "(exact_twin_estimate)",
+          fields={"seeds": "run s (held-out runs 150-249): the kidnap drive of maprobot/kidnap (data_rng(s, 0), "
+                           "kidnap_rng(s)); no random numbers of its own",
                   "dt": maprobot.DT, "heading_tolerance_rad": map_global.HEADING_TOL}),
     # the cure (global_mcl.HAZARD) re-measured on fresh drives 100-149, not those it was chosen on
     *_map_global_drives(map_global.FRESH_RUNS, map_global.FRESH_SEED, "fresh drives 100-149", [
         ("global_fresh", map_global.hazard_global_fresh_row, map_global.GLOBAL_FRESH_COLUMNS),
         ("kidnap_fresh", map_global.hazard_kidnap_fresh_row, map_global.KIDNAP_FRESH_COLUMNS)]),
-    # held-out drives 150-199: the cure before hysteresis (global_mcl.HAZARD) and the cure (global_mcl.CURE), paired
-    *_map_global_drives(map_global.HELDOUT_RUNS, map_global.HELDOUT_SEED, "held-out drives 150-199", [
+    # held-out drives 150-249: the cure before hysteresis (global_mcl.HAZARD) and the cure (global_mcl.CURE), paired
+    *_map_global_drives(map_global.HELDOUT_RUNS, map_global.HELDOUT_SEED, "held-out drives 150-249", [
         ("global_heldout_hazard", map_global.heldout_hazard_global_row, map_global.GLOBAL_FRESH_COLUMNS),
         ("kidnap_heldout_hazard", map_global.heldout_hazard_kidnap_row, map_global.KIDNAP_FRESH_COLUMNS),
         # the cure (global_mcl.CURE: hysteresis, the belief's evidence with its strata)
         ("global_heldout", map_global.heldout_global_row, map_global.GLOBAL_FRESH_COLUMNS),
         ("kidnap_heldout", map_global.heldout_kidnap_row, map_global.KIDNAP_FRESH_COLUMNS)]),
-    # equal cost: uniform injection at N = 5000 on the held-out drives 150-199, paired with global_heldout (the cure)
+    # equal cost: uniform injection at N = 5000 on the held-out drives 150-249, paired with global_heldout (the cure)
     Study(name="map_global/injection_heldout", row=map_global.heldout_injection_row, grid={},
           n_runs=map_global.HELDOUT_RUNS, base_seed=map_global.HELDOUT_SEED, seeds="run", failures="raise",
           table="map_global/injection_heldout.csv", provenance="map_global/injection_heldout.json",
           columns=map_global.INJECTION_COLUMNS, volatile=("seconds", "injection_cpu_s", "cure_cpu_s"), sample=1,
           row_code="pfcourse/studies/map_global.py (heldout_injection_row), pfcourse/scenarios/maprobot/drive.py "
                    "(run_filter, FILTERS['injection'])",
-          fields={"seeds": "run s (held-out drives 150-199): drive as maprobot/global (data_rng(s, 0)); injection "
+          fields={"seeds": "run s (held-out drives 150-249): drive as maprobot/global (data_rng(s, 0)); injection "
                            "filter pfcourse.seeding.filter_rng(s, 0); the cure (timed only) default_rng([41, s, 2])",
                   "n_particles": map_global.INJECTION_N, "dt": maprobot.DT,
                   "heading_tolerance_rad": map_global.HEADING_TOL,
@@ -936,13 +941,62 @@ def run(name: str, **options) -> None:
                          seconds_column="wall time of one run on a shared 2-core machine: indicative only", **fields)
 
 
+def extend(name: str, n_runs: int, **options) -> None:
+    """Append runs ``len(stored) .. n_runs - 1`` of the study (or each study of the group) ``name`` to its stored
+    table, computed by :meth:`Study.compute` (the same row code and seeds as a full run; each row depends only on
+    its seed), and record both goes under the provenance's ``runs``.  Only a study alone in its provenance file and
+    with one setting per run (``grid={}``) is extended; the stored rows must be its first runs, in order."""
+    commit = launch_commit()
+    for study in select(name):
+        if sum(s.provenance == study.provenance for s in STUDIES.values()) > 1 or grid_settings(study.grid) != [{}]:
+            raise ParameterError(f"study {study.name}: only a study with its own provenance file and no grid is extended")
+        stored = study.load()
+        first = len(stored)
+        old_seeds = [SEED_RULES[study.seeds](study.base_seed, r) for r in range(first)]
+        if list(stored[study.seed_column]) != old_seeds:
+            raise ParameterError(f"study {study.name}: the stored rows are not its runs 0 .. {first - 1} in order")
+        t0 = time.time()
+        new = study.compute(n_runs, first=first, **options)
+        table = pd.concat([stored, new[list(stored.columns)]], ignore_index=True)
+        study.save(table)
+        old = study.provenance_record()
+        seed_of = SEED_RULES[study.seeds]
+        goes = old.get("runs") or [{"commit": old["git_commit"], "working_tree_modified": old["working_tree_modified"],
+                                    "date_utc": old["date_utc"], "wall_seconds": old["wall_seconds"],
+                                    "runs": f"0-{first - 1}", "seeds": f"{seed_of(study.base_seed, 0)}-"
+                                                                       f"{seed_of(study.base_seed, first - 1)}"}]
+        go = {"commit": commit, "working_tree_modified": tree_modified(),
+              "date_utc": datetime.now(timezone.utc).isoformat(timespec="seconds"),
+              "wall_seconds": round(time.time() - t0, 1), "runs": f"{first}-{n_runs - 1}",
+              "seeds": f"{seed_of(study.base_seed, first)}-{seed_of(study.base_seed, n_runs - 1)}",
+              "how": f"python3 tasks.py study {study.name} --extend {n_runs} (registry.extend: the rows of the "
+                     "runs not stored, computed by Study.compute, appended)"}
+        record = {key: value for key, value in old.items() if key not in ("git_commit", "working_tree_modified", "runs")}
+        record.update(runs=[*goes, go], n_runs=n_runs, rows=len(table), filters=study.filter_records(),
+                      python=platform.python_version(), numpy=np.__version__,
+                      wall_seconds=round(sum(g["wall_seconds"] for g in [*goes, go]), 1),
+                      run_seconds=round(sum(g["wall_seconds"] for g in [*goes, go]), 1), **study.fields)
+        record.pop("date_utc", None)
+        (DATA / study.provenance).write_text(json.dumps(record, indent=2, default=str) + "\n")
+        print(f"{study.name}: {first} stored + {len(new)} new rows, {go['wall_seconds']} s", flush=True)
+
+
 def main(argv: Sequence[str]) -> int:
-    """``python3 tasks.py study NAME [--runs R]`` (``--runs``: fewer runs per setting, for a trial)."""
+    """``python3 tasks.py study NAME [--runs R | --extend R [--workers W]]`` (``--runs``: fewer runs per setting, for
+    a trial; ``--extend``: append the runs not yet stored, :func:`extend`)."""
     parser = argparse.ArgumentParser(prog="python3 tasks.py study", description="Run and store a registered study.")
     parser.add_argument("name", help="a study or a group: " + ", ".join(sorted({n.split("/")[0] for n in STUDIES})))
     parser.add_argument("--runs", type=int, default=None, help="runs per setting (default: the study's own; the table is stored all the same)")
+    parser.add_argument("--extend", type=int, default=None, metavar="R",
+                        help="append runs len(stored) .. R-1 to the stored table (the study's own rows and seeds)")
+    parser.add_argument("--workers", type=int, default=None, help="processes of the pool (default: the cores)")
     args = parser.parse_args(argv)
     try:
+        if args.extend is not None:
+            executor = SerialExecutor() if args.workers == 1 else None
+            extend(args.name, args.extend, batch_size=1,
+                   **({"executor": executor} if executor else {}))
+            return 0
         run(args.name, n_runs=args.runs)
     except ParameterError as exc:
         print(f"error: {exc}", file=sys.stderr)

@@ -161,8 +161,9 @@ Each Part ends with a capstone (:mod:`.capstones`):
   ``fn(filter_fn, y, model, n_values, n_runs, seed) -> rmse``: Part III's capstone, a particle filter for
   Poisson counts with a hidden log-rate (:class:`CountModel`) against a converged grid, and a seeded study
   of its RMSE against the number of particles with common random numbers; nine typical mistakes named.
-* :func:`check_sv_smoother` - ``fn(y, n, rng, model) -> means``: Part V's capstone, a particle smoother for
-  the same model, against the grid's smoothed means; four typical mistakes named, the generator checked.
+* :func:`check_sv_pairs` - ``fn(y, n, rng, model) -> e``: Part V's capstone, a particle smoother of PAIRS of
+  states for the same model, ``e_k = E[(x_k+1 - phi x_k)^2 | y_1..y_T]``, against the grid's; six typical
+  mistakes named, the ancestral lines by their spread, the generator checked.
 """
 
 from __future__ import annotations
@@ -170,7 +171,7 @@ from __future__ import annotations
 from pfcourse.book.exercises.capstones import SVModel, check_sv_filter, sv_bootstrap, sv_grid  # noqa: F401
 from pfcourse.book.exercises.capstones import (  # noqa: F401
     BearingModel, bearing_bootstrap, bearing_grid, check_bearing_filter)
-from pfcourse.book.exercises.capstones import check_sv_smoother, sv_ffbsm, sv_grid_smoother  # noqa: F401
+from pfcourse.book.exercises.capstones import check_sv_pairs, sv_grid_pairs, sv_pairs  # noqa: F401
 from pfcourse.book.exercises.checking import (  # noqa: F401
     CheckReport,
     _answer,

@@ -50,33 +50,34 @@ def draw_map(ax, terrain: TerrainMap, shaded: bool = False, window=None):
     return mappable
 
 
-def flight_figure(terrain: TerrainMap, flight, result, title: str, half_width_km: float = 6.0,
-                  max_points: int = 600, step: int | None = None):
-    """One filter run on one flight: the weighted cloud at ``step`` (default: the last) over the map with the
-    true and estimated tracks, and the horizontal error over time against the 500 m line that calls a
-    flight lost. ``result`` is a :class:`~pfcourse.results.FilterResult` run with ``Clouds()`` collected.
-    Returns the figure."""
-    k = len(flight.T) - 1 if step is None else step
+def flight_figure(terrain: TerrainMap, flight, mean, cloud, title: str, half_width_km: float = 6.0,
+                  max_points: int = 600):
+    """One filter run on one flight: one weighted cloud over the map with the true and estimated tracks, and
+    the horizontal error over time against the 500 m line that calls a flight lost. ``mean`` ``(K, d)`` is the
+    run's estimate (``result.mean``); ``cloud`` one step of it, with ``k``, ``particles`` and ``weights``
+    (a :class:`~pfcourse.filter.Step`, e.g. ``result.collected["last_cloud"]`` of a run with
+    :class:`~pfcourse.collectors.LastCloud` collected). Returns the figure."""
+    k = cloud.k
     fig, (ax1, ax2) = plt.subplots(1, 2, figsize=(10, 4.2), width_ratios=[1, 1.3], gridspec_kw={"wspace": 0.38})
     c = flight.truth[len(flight.T) // 2, :2] / KM
     window = ((c[0] - half_width_km, c[0] + half_width_km), (c[1] - half_width_km, c[1] + half_width_km))
     fig.colorbar(draw_map(ax1, terrain, window=window), ax=ax1, shrink=0.8, label="terrain height (m)")
-    weights = result.weights[k]
+    weights = cloud.weights
     n = len(weights)
     idx = np.random.default_rng(0).choice(n, min(n, max_points), p=weights)
-    ax1.plot(result.particles[k, idx, 0] / KM, result.particles[k, idx, 1] / KM, ".", ms=2,
+    ax1.plot(cloud.particles[idx, 0] / KM, cloud.particles[idx, 1] / KM, ".", ms=2,
              color=COLORS["particles"], label=f"particles at t = {flight.T[k]:.0f} s")
     ax1.plot(flight.truth[:, 0] / KM, flight.truth[:, 1] / KM, color=COLORS["truth"], label="truth")
     # dashed: the estimate's track, told apart from the solid error curve of the same colour
-    ax1.plot(result.mean[:, 0] / KM, result.mean[:, 1] / KM, color=COLORS["estimate"], ls="--",
+    ax1.plot(mean[:, 0] / KM, mean[:, 1] / KM, color=COLORS["estimate"], ls="--",
              label="estimate (track)")
     ax1.set_xlim(*window[0])
     ax1.set_ylim(*window[1])
-    end = result.mean[k, :2] / KM
+    end = mean[k, :2] / KM
     if not (window[0][0] <= end[0] <= window[0][1] and window[1][0] <= end[1] <= window[1][1]):
         ax1.text(0.02, 0.02, f"estimate at t = {flight.T[k]:.0f} s off this window:\n({end[0]:.1f}, {end[1]:.1f}) km",
                  transform=ax1.transAxes, fontsize=8, va="bottom", bbox={"fc": "white", "alpha": 0.8, "lw": 0})
-    error = position_error(flight.truth, result.mean)
+    error = position_error(flight.truth, mean)
     ax2.plot(flight.T, error, color=COLORS["estimate"], label="horizontal error (right)")
     ax2.axhline(DIVERGED_ERROR, color=COLORS["truth"], lw=1, ls=":", label=f"lost above {DIVERGED_ERROR:.0f} m")
     ax2.set_yscale("log")

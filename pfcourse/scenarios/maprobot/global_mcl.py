@@ -76,7 +76,7 @@ import numpy as np
 from scipy import stats
 from scipy.special import logsumexp
 
-from pfcourse.angles import wrap_angle
+from pfcourse.angles import circular_mean, wrap_angle
 from pfcourse.checks import Array, check_count, check_probability, check_real
 from pfcourse.errors import ParameterError, ShapeError
 from pfcourse.resampling import systematic
@@ -300,7 +300,7 @@ def global_mcl(grid: OccupancyGrid, field: LikelihoodField, motion: OdometryMode
             else:
                 x, log_w = moved, lw_m
         W = np.exp(log_w - logsumexp(log_w))
-        out.mean[k] = [W @ x[:, 0], W @ x[:, 1], np.angle(W @ np.exp(1j * x[:, 2]))]
+        out.mean[k] = [W @ x[:, 0], W @ x[:, 1], circular_mean(x[:, 2], W)]
         out.sizes[k] = len(x)
         out.injected_mass[k] = inj_mass
     return out
