@@ -773,7 +773,8 @@ reloc_windows = {}
 for seed, lost_at in zip(lost_runs["seed"], lost_runs["lost_s"]):
     d_k = advantage(study.simulate(int(seed), study.KIDNAP_STEPS, kidnap_at=study.KIDNAP_STEP))
     k_lost = int(round(lost_at / study.DT))
-    reloc_windows[int(seed)] = [(k * study.DT, window_sum(d_k, k)) for k in range(k_lost - 8, k_lost + 1, cs.inject_every)]
+    reloc_windows[int(seed)] = [(k * study.DT, window_sum(d_k, k))
+                                for k in range(k_lost - 8, k_lost + 1, cs.inject_every)]
     assert window_sum(d_k, k_lost) < np.log(every * xi / (1 - every * xi)) < 0
 # drive 150, lost by the guards: the truth's stratum won at 44 and 46 s (a logged re-run), then the window's
 # advantage fell while the whole drive's stayed: at 46, 48, 50 s
@@ -865,8 +866,9 @@ EvidenceBlock(
            f"{held_exact.loc[held_exact['seed'] == 150, 'exact_locked_from_s'].iloc[0]:.1f} s, the cure without "
            f"guards from {held_hz.loc[held_hz['seed'] == 150, 'locked_from_s'].iloc[0]:.1f} s.",
            f"Protocol. The cure was designed on drives and kidnap runs 0-149: tuned on 0-99, and the fresh runs "
-           f"{mg.FRESH_SEED}-{mg.FRESH_SEED + mg.FRESH_RUNS - 1} (map_global/*_fresh) measured before the guards "
-           "were built, which they answer. Drives 150-249 were registered before any held-out run; the first half "
+           f"{mg.FRESH_SEED}-{mg.FRESH_SEED + mg.FRESH_RUNS - 1} (map_global/*_fresh), measured before the guards "
+           "were built (the guards answer their false relocalizations). Drives 150-249 were registered before any "
+           "held-out run; the first half "
            f"(150-199) was run, reported ({int(held['locked_on'][first_half].sum())}/{int(first_half.sum())} global "
            "drives locked on) and examined drive by drive by two reviews; the second half (200-249) was then run "
            f"with the same code ({int(held['locked_on'][~first_half].sum())}/{int((~first_half).sum())}). Drives "
@@ -965,7 +967,8 @@ med, med_low, med_high = evidence.median_interval(times)
 kid_cure, kid_hz = kid_held["recovered"].to_numpy(), kid_held_hz["recovered"].to_numpy()
 kid_win = kid_moved & kid_cure & ~kid_hz
 assert (kid_moved & ~kid_cure & ~kid_hz).sum() == 0
-glue_values("lf_", kidnap_guards_win=int(kid_win.sum()), kidnap_guards_win_relocs=int((kid_held_hz.loc[kid_win, "n_lost"] > 0).sum()))
+glue_values("lf_", kidnap_guards_win=int(kid_win.sum()),
+            kidnap_guards_win_relocs=int((kid_held_hz.loc[kid_win, "n_lost"] > 0).sum()))
 glue_values("lf_", heldout_not_kidnapped=int((~kid_moved).sum()), kidnap_recovered_rate=recovered.estimate,
             kidnap_recovered_rate_low=recovered.low, kidnap_recovered_rate_high=recovered.high,
             kidnap_hazard_rate=kid_pair.b.estimate, kidnap_recovery_median_s=med,
@@ -981,7 +984,8 @@ assert kid_vs_exact.difference_high < 0 and kid_held_hz.loc[kid_miss.index, "rec
 # without its guards recovers both, and the exact filter ends on the robot (locked on too late for the window)
 assert len(kid_exact_miss) == 2 and set(kid_exact_miss) <= set(kid_miss["seed"])
 assert kid_held_hz.set_index("seed").loc[kid_exact_miss, "recovered"].all()
-assert (kid_exact.set_index("seed").loc[kid_exact_miss, "exact_final_position_error"] < lock_on.POSITION_TOLERANCE_M).all()
+exact_miss_end = kid_exact.set_index("seed").loc[kid_exact_miss, "exact_final_position_error"]
+assert (exact_miss_end < lock_on.POSITION_TOLERANCE_M).all()
 kid = by_seed("kidnap_hazard")
 fresh_kid = by_seed("kidnap_fresh")
 fresh_moved = ((fresh_kid["jump_m"] >= lock_on.POSITION_TOLERANCE_M)
@@ -1000,7 +1004,7 @@ EvidenceBlock(
            f"from the truth ({int((kid_miss['final_position_error'] < 1).sum())} found again, too late for the window; "
            f"the table). The exact filter misses runs {', '.join(str(v) for v in kid_exact_miss)}: ambiguous late. "
            "It ends on the robot in both ("
-           + ", ".join(f"{e:.2f}" for e in kid_exact.set_index("seed").loc[kid_exact_miss, "exact_final_position_error"])
+           + ", ".join(f"{e:.2f}" for e in exact_miss_end)
            + " m) but is locked on too late for the window, and the cure without its guards recovers both: they "
            "are not the map's alone, since a weighted mean over the twins does not bound a filter that commits to "
            "one mode. Like the global bound, this one is optimistic: it knows the kidnap time and the 14 candidate "
