@@ -20,7 +20,7 @@
 # **You need** {doc}`map_robot` (the odometry model, the likelihood field, MCL) and
 # {doc}`global_localization` (random injection, augmented MCL, KLD-sampling); importance sampling.
 #
-# **Time:** about twenty-five minutes to read, plus about thirty-four minutes for the folded blocks; the exercise is extra.
+# **Time:** about twenty-five minutes to read, plus about thirty-eight minutes for the folded blocks; the exercise is extra.
 # :::
 #
 # Put the robot of {doc}`map_robot` anywhere on its map, give the filter no idea where, and drive.
@@ -654,7 +654,7 @@ glue_values("lf_", demo_decided_s=float((decided_at[0] + 1) * study.DT), demo_lo
 # The cure's {glue:text}`lf_cure_false_relocs:d` false relocalizations (kidnap runs) are the map's
 # ambiguity: over the $10$-s window before each, the scans favour the half-turn twin by
 # {glue:text}`lf_reloc_window_a:.1f` and {glue:text}`lf_reloc_window_b:.1f` nats: the kidnap model's
-# own posterior admits it. $\xi$, $L$ and the admission threshold control them, against a budget of
+# own posterior admits the twin. $\xi$, $L$ and the admission threshold control them, against a budget of
 # false relocalizations.
 #
 # :::{admonition} Going further: a challenger kept, and a sequential test
