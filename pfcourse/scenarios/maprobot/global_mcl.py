@@ -166,8 +166,9 @@ POOR_FIT = replace(SETTINGS, poor_fit_only=True, n_min=1000)
 KIDNAP_HAZARD = 1e-3
 HAZARD = replace(SETTINGS, kidnap_hazard=KIDNAP_HAZARD)
 #: The cure (module docstring, "False relocalization"): the belief's evidence counts the strata it admits, and an
-#: injected stratum takes the weight only after winning CONFIRM injections in a row (hysteresis); chosen on kidnap
-#: drive 5's cascade and a screen of global drives 30-46 and kidnap runs 15-29, measured on held-out drives 150-199.
+#: injected stratum takes the weight only after winning CONFIRM injections in a row (hysteresis); designed on drives
+#: 0-149 (chosen on kidnap drive 5's cascade and a screen of global drives 30-46 and kidnap runs 15-29), measured on
+#: held-out drives 150-249 (registered in advance; 150-199 reported first, 200-249 added with this code unchanged).
 CONFIRM = 3
 CURE = replace(HAZARD, confirm=CONFIRM, mixture_evidence=True)
 
