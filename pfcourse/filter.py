@@ -87,6 +87,8 @@ from pfcourse.resampling import get_resampler, multinomial
 from pfcourse.results import FilterResult
 
 Measurement = Array | None
+#: The method a stateful proposal or jitter may have, called before step 0 of every run (the first found).
+START_HOOKS = ("start", "reset")
 
 
 class Model(Protocol):
@@ -148,6 +150,9 @@ class Proposal(Protocol):
     the children start from equal weights (unequal ``W_{k-1}`` are reset to ``1/N``) and the step
     records the ancestors (:attr:`Step.parents`); ``ancestors=None`` says that none were drawn at
     this step (the increments are then added to ``log W_{k-1}`` as those of ``propose``).
+    A proposal (or a jitter) that keeps state from step to step has a method ``start()`` (or
+    ``reset()``), which the filter calls before step 0 of every run: one filter run twice with one
+    seed gives one result.
     """
 
     def propose(
@@ -323,6 +328,8 @@ class ParticleFilter:
         Optional function ``(particles, rng) -> particles`` applied to the cloud
         right after each resampling (roughening, see :mod:`pfcourse.jitter`).
         ``None`` (default) leaves the resampled cloud, and the random stream, as is.
+        A proposal or a jitter with a ``start()`` (or ``reset()``) method is started before step 0
+        of every run (:class:`Proposal`).
     sample_size:
         Optional policy for a variable number of particles (:class:`pfcourse.sample_size.KLDSampling`):
         ``n_particles`` is then the initial number and the ceiling (module docstring).
@@ -360,6 +367,11 @@ class ParticleFilter:
                              f"propose_with_ancestors(model, particles, z, k, rng, log_weights), got {proposal!r}")
         if jitter is not None and not callable(jitter):
             raise ModelError(f"jitter must be a function (particles, rng) -> particles, got {jitter!r}")
+        for role, component in (("proposal", proposal), ("jitter", jitter)):
+            for hook_name in START_HOOKS:
+                if getattr(component, hook_name, None) is not None and not callable(getattr(component, hook_name)):
+                    raise ModelError(f"the {role}'s {hook_name} must be a method {hook_name}() (called at step 0 "
+                                     f"of every run), got {getattr(component, hook_name)!r:.80}")
         angles = getattr(model, "angle_indices", ())
         try:
             angles = tuple(angles)
@@ -453,7 +465,9 @@ class ParticleFilter:
 
     # ------------------------------------------------------------------ the parts of a step
     def _steps(self, measurements: Sequence[Measurement] | Array, rng: np.random.Generator) -> Iterator[Step]:
-        """The loop (checked inputs): steps 1 to 3, the step's state, step 4, then the :class:`Step`."""
+        """The loop (checked inputs): the components started, then at each step steps 1 to 3, the step's
+        state, step 4, then the :class:`Step`."""
+        self._start_components()
         cloud = _Cloud(self.n_particles)
         for k, z in enumerate(_present(measurements)):
             log_inc, ancestors, stages, parents = self._size.propose(cloud, z, k, rng)
@@ -462,6 +476,21 @@ class ParticleFilter:
             if ancestors is None:
                 ancestors = self._size.select(cloud, ess, k, rng)
             yield Step(k, particles, log_weights, weights, ess, log_evidence, ancestors, stages, parents)
+
+    def _start_components(self) -> None:
+        """Before step 0 of every run: ``start()`` (else ``reset()``) of the proposal and of the jitter that
+        have one, once for an object that is both, so a stateful component (the stages of progressive
+        correction, augmented MCL's averages) starts every run as it started the first one."""
+        started: list = []
+        for component in (self.proposal, self.jitter):
+            if component is None or any(component is seen for seen in started):
+                continue
+            started.append(component)
+            for hook_name in START_HOOKS:
+                hook = getattr(component, hook_name, None)
+                if hook is not None:
+                    hook()
+                    break
 
     def _propose(self, cloud: _Cloud, z: Array | None, k: int,
                  rng: np.random.Generator) -> tuple[Array | None, int, Array | None]:
