@@ -381,6 +381,8 @@ class ParticleFilter:
             if isinstance(a, (bool, np.bool_)) or not isinstance(a, (int, np.integer)) or not 0 <= a < self.dim_x:
                 raise ModelError(f"model.angle_indices must hold integers in [0, {self.dim_x}), got {angles!r}")
         self.proposal = proposal if proposal is not None else TransitionProposal()
+        #: the FilterSettings record the filter was built from (set by FilterSettings.build), else None
+        self.settings = None
         self.angle_indices = tuple(getattr(model, "angle_indices", ()))
         self.jitter = jitter
         if sample_size is not None:
@@ -592,9 +594,21 @@ class ParticleFilter:
         return indices
 
     def _result(self, records: dict) -> FilterResult:
-        """The run's :class:`FilterResult` from the collectors' records, with the filter's settings
-        (``N``, the resampling rule, the proposal's kind, the jitter as data, the sample-size policy)."""
+        """The run's :class:`FilterResult` from the collectors' records, with the filter's settings: the
+        record of the :class:`~pfcourse.filter_config.FilterSettings` it was built from
+        (:meth:`~pfcourse.filter_config.FilterSettings.record`), or, for a filter built directly, the same
+        fields read from the filter (``N``, the resampling rule, the components as data, ``proposal``
+        ``None`` for the transition, ``model_change`` ``None``)."""
         from pfcourse.filter_config import describe  # (filter_config builds filters: imported here, not above)
+
+        if self.settings is not None:
+            settings = self.settings.record()
+        else:
+            default = type(self.proposal) is TransitionProposal
+            settings = {"n_particles": self.n_particles, "threshold": self.threshold,
+                        "resampler": getattr(self.resampler, "__name__", str(self.resampler)),
+                        "proposal": None if default else describe(self.proposal), "jitter": describe(self.jitter),
+                        "sample_size": describe(self.sample_size), "model_change": None}
 
         mean, cov = records.pop("moments")
         clouds = records.get("clouds")
@@ -607,14 +621,7 @@ class ParticleFilter:
             n_particles=self.n_particles,
             particles=None if clouds is None else clouds[0],
             weights=None if clouds is None else clouds[1],
-            settings={
-                "n_particles": self.n_particles,
-                "threshold": self.threshold,
-                "resampler": getattr(self.resampler, "__name__", str(self.resampler)),
-                "proposal": type(self.proposal).__name__,
-                "sample_size": None if self.sample_size is None else type(self.sample_size).__name__,
-                "jitter": None if self.jitter is None else describe(self.jitter),
-            },
+            settings=settings,
             sizes=records.pop("sizes"),
             collected=records,
         )
