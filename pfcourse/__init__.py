@@ -34,7 +34,9 @@ from pfcourse.errors import (  # noqa: E402
 )
 from pfcourse.results import FilterResult, KalmanResult  # noqa: E402
 from pfcourse.filter import ParticleFilter, StateSpaceModel, Step  # noqa: E402
-from pfcourse.collectors import Ancestors, Clouds, Collector, Moments, Stages  # noqa: E402
+from pfcourse.collectors import (  # noqa: E402
+    ESS, Ancestors, Clouds, Collector, LastCloud, LogLikelihood, Moments, Resampled, Sizes, Stages,
+)
 from pfcourse.filter_config import FilterSettings  # noqa: E402
 from pfcourse.kalman import kalman_filter  # noqa: E402
 from pfcourse.linear_gaussian import LinearGaussianModel  # noqa: E402
@@ -49,10 +51,13 @@ __all__ = [
     "CovarianceError",
     "DegenerateWeightsError",
     "DensityProposal",
+    "ESS",
     "FilterResult",
     "FilterSettings",
     "KalmanResult",
+    "LastCloud",
     "LinearGaussianModel",
+    "LogLikelihood",
     "ModelError",
     "Moments",
     "NumericalError",
@@ -60,7 +65,9 @@ __all__ = [
     "ParameterError",
     "ParticleFilter",
     "PfcourseError",
+    "Resampled",
     "ShapeError",
+    "Sizes",
     "Stages",
     "StateSpaceModel",
     "Step",

@@ -87,6 +87,8 @@ from pfcourse.resampling import get_resampler, multinomial
 from pfcourse.results import FilterResult
 
 Measurement = Array | None
+#: The method a stateful proposal or jitter may have, called before step 0 of every run (the first found).
+START_HOOKS = ("start", "reset")
 
 
 class Model(Protocol):
@@ -148,6 +150,9 @@ class Proposal(Protocol):
     the children start from equal weights (unequal ``W_{k-1}`` are reset to ``1/N``) and the step
     records the ancestors (:attr:`Step.parents`); ``ancestors=None`` says that none were drawn at
     this step (the increments are then added to ``log W_{k-1}`` as those of ``propose``).
+    A proposal (or a jitter) that keeps state from step to step has a method ``start()`` (or
+    ``reset()``), which the filter calls before step 0 of every run: one filter run twice with one
+    seed gives one result.
     """
 
     def propose(
@@ -323,6 +328,8 @@ class ParticleFilter:
         Optional function ``(particles, rng) -> particles`` applied to the cloud
         right after each resampling (roughening, see :mod:`pfcourse.jitter`).
         ``None`` (default) leaves the resampled cloud, and the random stream, as is.
+        A proposal or a jitter with a ``start()`` (or ``reset()``) method is started before step 0
+        of every run (:class:`Proposal`).
     sample_size:
         Optional policy for a variable number of particles (:class:`pfcourse.sample_size.KLDSampling`):
         ``n_particles`` is then the initial number and the ceiling (module docstring).
@@ -360,6 +367,11 @@ class ParticleFilter:
                              f"propose_with_ancestors(model, particles, z, k, rng, log_weights), got {proposal!r}")
         if jitter is not None and not callable(jitter):
             raise ModelError(f"jitter must be a function (particles, rng) -> particles, got {jitter!r}")
+        for role, component in (("proposal", proposal), ("jitter", jitter)):
+            for hook_name in START_HOOKS:
+                if getattr(component, hook_name, None) is not None and not callable(getattr(component, hook_name)):
+                    raise ModelError(f"the {role}'s {hook_name} must be a method {hook_name}() (called at step 0 "
+                                     f"of every run), got {getattr(component, hook_name)!r:.80}")
         angles = getattr(model, "angle_indices", ())
         try:
             angles = tuple(angles)
@@ -369,6 +381,8 @@ class ParticleFilter:
             if isinstance(a, (bool, np.bool_)) or not isinstance(a, (int, np.integer)) or not 0 <= a < self.dim_x:
                 raise ModelError(f"model.angle_indices must hold integers in [0, {self.dim_x}), got {angles!r}")
         self.proposal = proposal if proposal is not None else TransitionProposal()
+        #: the FilterSettings record the filter was built from (set by FilterSettings.build), else None
+        self.settings = None
         self.angle_indices = tuple(getattr(model, "angle_indices", ()))
         self.jitter = jitter
         if sample_size is not None:
@@ -453,7 +467,9 @@ class ParticleFilter:
 
     # ------------------------------------------------------------------ the parts of a step
     def _steps(self, measurements: Sequence[Measurement] | Array, rng: np.random.Generator) -> Iterator[Step]:
-        """The loop (checked inputs): steps 1 to 3, the step's state, step 4, then the :class:`Step`."""
+        """The loop (checked inputs): the components started, then at each step steps 1 to 3, the step's
+        state, step 4, then the :class:`Step`."""
+        self._start_components()
         cloud = _Cloud(self.n_particles)
         for k, z in enumerate(_present(measurements)):
             log_inc, ancestors, stages, parents = self._size.propose(cloud, z, k, rng)
@@ -462,6 +478,21 @@ class ParticleFilter:
             if ancestors is None:
                 ancestors = self._size.select(cloud, ess, k, rng)
             yield Step(k, particles, log_weights, weights, ess, log_evidence, ancestors, stages, parents)
+
+    def _start_components(self) -> None:
+        """Before step 0 of every run: ``start()`` (else ``reset()``) of the proposal and of the jitter that
+        have one, once for an object that is both, so a stateful component (the stages of progressive
+        correction, augmented MCL's averages) starts every run as it started the first one."""
+        started: list = []
+        for component in (self.proposal, self.jitter):
+            if component is None or any(component is seen for seen in started):
+                continue
+            started.append(component)
+            for hook_name in START_HOOKS:
+                hook = getattr(component, hook_name, None)
+                if hook is not None:
+                    hook()
+                    break
 
     def _propose(self, cloud: _Cloud, z: Array | None, k: int,
                  rng: np.random.Generator) -> tuple[Array | None, int, Array | None]:
@@ -563,9 +594,21 @@ class ParticleFilter:
         return indices
 
     def _result(self, records: dict) -> FilterResult:
-        """The run's :class:`FilterResult` from the collectors' records, with the filter's settings
-        (``N``, the resampling rule, the proposal's kind, the jitter as data, the sample-size policy)."""
+        """The run's :class:`FilterResult` from the collectors' records, with the filter's settings: the
+        record of the :class:`~pfcourse.filter_config.FilterSettings` it was built from
+        (:meth:`~pfcourse.filter_config.FilterSettings.record`), or, for a filter built directly, the same
+        fields read from the filter (``N``, the resampling rule, the components as data, ``proposal``
+        ``None`` for the transition, ``model_change`` ``None``)."""
         from pfcourse.filter_config import describe  # (filter_config builds filters: imported here, not above)
+
+        if self.settings is not None:
+            settings = self.settings.record()
+        else:
+            default = type(self.proposal) is TransitionProposal
+            settings = {"n_particles": self.n_particles, "threshold": self.threshold,
+                        "resampler": getattr(self.resampler, "__name__", str(self.resampler)),
+                        "proposal": None if default else describe(self.proposal), "jitter": describe(self.jitter),
+                        "sample_size": describe(self.sample_size), "model_change": None}
 
         mean, cov = records.pop("moments")
         clouds = records.get("clouds")
@@ -578,14 +621,7 @@ class ParticleFilter:
             n_particles=self.n_particles,
             particles=None if clouds is None else clouds[0],
             weights=None if clouds is None else clouds[1],
-            settings={
-                "n_particles": self.n_particles,
-                "threshold": self.threshold,
-                "resampler": getattr(self.resampler, "__name__", str(self.resampler)),
-                "proposal": type(self.proposal).__name__,
-                "sample_size": None if self.sample_size is None else type(self.sample_size).__name__,
-                "jitter": None if self.jitter is None else describe(self.jitter),
-            },
+            settings=settings,
             sizes=records.pop("sizes"),
             collected=records,
         )

@@ -224,7 +224,9 @@ class FilterSettings:
                 fresh[id(template)] = for_model(model) if callable(for_model) else component
         made = {name: None if (t := getattr(self, name)) is None else fresh[id(t)]
                 for name in ("proposal", "jitter", "sample_size")}
-        return ParticleFilter(model, self.n_particles, threshold=self.threshold, resampler=self.resampler, **made)
+        pf = ParticleFilter(model, self.n_particles, threshold=self.threshold, resampler=self.resampler, **made)
+        pf.settings = self  # its results' settings are this record (FilterResult.settings)
+        return pf
 
     @property
     def kind(self) -> str:

@@ -57,7 +57,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from pfcourse.checks import Array, check_log_terms, check_particles, covariance_factor
-from pfcourse.errors import ModelError
+from pfcourse.errors import ModelError, ParameterError
 from pfcourse.gaussian import gaussian_logpdf
 from pfcourse.jitter import RegularisedJitter
 from pfcourse.kernels import gather_rows
@@ -152,8 +152,9 @@ class FullyAdaptedAuxiliary:
     ``inner`` provides ``log_predictive(model, particles, z, k)`` and a fully adapted
     ``propose`` (its incremental weight is that predictive likelihood, whatever is drawn):
     :class:`LinearGaussianOptimal`, or :class:`~pfcourse.scenarios.landmarks.rao_blackwell.RaoBlackwellProposal`
-    with ``optimal=True``.  ``first_stage_ess`` records ``1 / sum_i (beta^i)^2`` of the
-    first-stage weights at each measured step (the engine's ESS is then always ``N``).
+    with ``optimal=True``.  ``stage_ess`` is ``1 / sum_i (beta^i)^2`` of the first-stage weights of
+    the step in progress (NaN before the first; the engine's ESS is then always ``N``), which the
+    collector :class:`FirstStageESS` records at every step (the proposal keeps no record of a run).
 
     It reads the weights of the cloud it moves (``draws_ancestors``), so it is right at any
     resampling threshold: with equal weights ``W_{k-1}^i = 1/N`` (``threshold=1``, or no
@@ -170,7 +171,16 @@ class FullyAdaptedAuxiliary:
     def __init__(self, inner, resampler: str | Callable = "systematic") -> None:
         self.inner = inner
         self.resampler = get_resampler(resampler)
-        self.first_stage_ess: list[float] = []
+        self._stage_ess = float("nan")  # private: the state of a run, not a setting (filter_config.describe)
+
+    @property
+    def stage_ess(self) -> float:
+        """``1 / sum_i (beta^i)^2`` of the last first stage drawn in this run (NaN before the first)."""
+        return self._stage_ess
+
+    def start(self) -> None:
+        """Called by the filter before step 0 of every run: no first stage drawn yet."""
+        self._stage_ess = float("nan")
 
     def _select_and_move(self, model, particles: Array, z: Array, k: int, rng: np.random.Generator,
                          log_weights: Array | None):
@@ -184,7 +194,7 @@ class FullyAdaptedAuxiliary:
         w = np.exp(a - top)
         total = w.sum()
         w /= total
-        self.first_stage_ess.append(float(1.0 / np.sum(w**2)))
+        self._stage_ess = float(1.0 / np.sum(w**2))
         ancestors = np.asarray(self.resampler(w, rng))
         new, _ = self.inner.propose(model, particles[ancestors], z, k, rng)
         # log sum_i W_{k-1}^i p(z_k | x_{k-1}^i), with W_{k-1}^i = 1/N when the weights are equal
@@ -224,6 +234,32 @@ class FullyAdaptedAuxiliary:
             new = new.copy()
             new[live] = new[rng.permutation(n)[:m]]
         return new, log_inc
+
+
+class FirstStageESS:
+    """Collector ``first_stage_ess`` ``(K,)``: the ESS ``1 / sum_i (beta^i)^2`` of the first-stage weights of a
+    :class:`FullyAdaptedAuxiliary` proposal at each step that drew its ancestors (:attr:`pfcourse.filter.Step.parents`),
+    NaN at the others (step 0, a missing measurement).  Reported by the step as it runs, not read from the
+    proposal after the run.  Refuses a filter whose proposal is not fully adapted auxiliary, or whose ``N``
+    varies (its batches each draw a first stage)."""
+
+    name = "first_stage_ess"
+
+    def start(self, pf, n_steps: int) -> None:
+        if not isinstance(pf.proposal, FullyAdaptedAuxiliary):
+            raise ParameterError(f"the collector {self.name!r} needs FullyAdaptedAuxiliary as the filter's proposal, "
+                                 f"got {type(pf.proposal).__name__}")
+        if pf.sample_size is not None:
+            raise ParameterError(f"the collector {self.name!r} needs a fixed number of particles "
+                                 "(this filter has a sample_size policy)")
+        self.proposal, self.values = pf.proposal, np.full(n_steps, np.nan)
+
+    def collect(self, step) -> None:
+        if step.parents is not None:  # the proposal's first stage drew this step's parents
+            self.values[step.k] = self.proposal.stage_ess
+
+    def result(self) -> Array:
+        return self.values
 
 
 def tempering_exponent(loglik: Array, remaining: float, ess_fraction: float) -> float:
@@ -267,7 +303,8 @@ class ProgressiveCorrection:
     max_stages: int = 50
     _seen: int = 0
 
-    def reset(self) -> None:
+    def start(self) -> None:
+        """Called by the filter before step 0 of every run: the next reading is the first one tempered."""
         self._seen = 0
 
     def propose(self, model, particles, z, k, rng):

@@ -40,7 +40,8 @@ class FilterResult:
     ``(K, N)`` hold the weighted cloud at each step.  ``sizes`` ``(K,)`` is the number of particles at
     each step (``n_particles`` throughout, unless the filter has a ``sample_size`` policy).
     ``collected`` holds the records of the collectors given to ``run``, by name
-    (:mod:`pfcourse.collectors`).
+    (:mod:`pfcourse.collectors`).  ``settings`` is the filter's settings as plain data, in the schema of
+    :meth:`pfcourse.filter_config.FilterSettings.record` (the record itself for a filter it built).
     """
 
     mean: Array

@@ -384,7 +384,8 @@ NOT_FUZZED = {
     "ANGLE_INDICES", "INITIAL_STD", "Q_TRUE", "R_TRUE", "quadrant_scenario", "load_jacksboro",
     # the engine's step record (filled by the engine, like FilterResult), the model's named error, and the
     # collectors, whose constructors take no argument
-    "Step", "ModelError", "Collector", "Clouds", "Ancestors", "Moments", "Stages",
+    "Step", "ModelError", "Collector", "Clouds", "Ancestors", "Moments", "Stages", "LastCloud", "ESS",
+    "LogLikelihood", "Resampled", "Sizes",
 }
 
 

@@ -28,6 +28,7 @@ import numpy as np
 from pfcourse.angles import wrap_angle
 from pfcourse.checks import Array
 from pfcourse.errors import ParameterError
+from pfcourse.filter_config import FilterSettings
 from pfcourse.scenarios.maprobot.carmen import CarmenLog, read_carmen, relative_pose
 from pfcourse.scenarios.maprobot.grid import OccupancyGrid
 from pfcourse.scenarios.maprobot.likelihood_field import LikelihoodField
@@ -291,6 +292,8 @@ def global_row(seed: int, *, method: str = "scan", settings: GlobalSettings | No
 TRACK_A = (0.01, 0.005, 0.01, 0.005)
 TRACK_N, TRACK_START_STD = 1000, (0.2, 0.2, 0.05)
 TRACK_SEEDS = range(1, 31)
+#: The tracking filter (the chapter's MCL): bootstrap, systematic resampling at every scan, ``TRACK_N`` particles.
+TRACK_FILTER = FilterSettings(TRACK_N, threshold=1.0, resampler="systematic")
 #: "second half, drift corrected": the second half's map, the odometry's heading drift (measured on the map
 #: half, :func:`drift_rate`) taken out of the held-out increments.
 TRACK_MAPS = {"second half": MAP_PART, "whole run": slice(0, N_SCANS), "second half, drift corrected": MAP_PART}
@@ -322,18 +325,12 @@ def tracking_row(seed: int, *, map: str = "second half") -> dict:  # noqa: A002 
     the first scan from which the position error stays above ``LOCK_POSITION_M`` to the end (-1: never);
     ``locked_on``: the global runs' rule (:func:`locked_on_share`) on the last scans of the run;
     ``position_error`` (m) and ``heading_error`` (rad): per scan, against the corrected poses."""
-    from pfcourse.filter import ParticleFilter
     from pfcourse.scenarios.maprobot import MapRobotModel
-
-    def systematic(W, rng):  # the chapter's resampler, draw for draw
-        c = np.cumsum(W)
-        return np.searchsorted(c / c[-1], (np.arange(len(W)) + rng.random()) / len(W))
 
     sp = _track_split(map)
     model = MapRobotModel(sp.grid, sp.field(), sp.odometry, motion=OdometryModel(TRACK_A), start=sp.poses[0],
                           start_std=TRACK_START_STD)
-    run = ParticleFilter(model, TRACK_N, threshold=1.0, resampler=systematic).run(
-        sp.ranges[:, ::BEAM_STEP], rng=np.random.default_rng(seed))
+    run = TRACK_FILTER.build(model).run(sp.ranges[:, ::BEAM_STEP], rng=np.random.default_rng(seed))
     pos, head = position_error(sp.poses, run.mean), heading_error(sp.poses, run.mean)
     far = pos > LOCK_POSITION_M
     tail = np.flatnonzero(~far)

@@ -27,7 +27,7 @@ import numpy as np
 from pfcourse.diagnostics import nees
 from pfcourse.filter_config import FilterConfig, FilterSettings, configurations, lookup
 from pfcourse.kalman import kalman_filter
-from pfcourse.proposals import FullyAdaptedAuxiliary, LinearGaussianOptimal, OptimalProposal
+from pfcourse.proposals import FirstStageESS, FullyAdaptedAuxiliary, LinearGaussianOptimal, OptimalProposal
 from pfcourse.scenarios.landmarks.rao_blackwell import RaoBlackwellModel, RaoBlackwellProposal
 from pfcourse.scenarios.landmarks.scenario import LandmarkScenario, circle_scenario, quadrant_scenario, simulate
 from pfcourse.seeding import study_filter_seed
@@ -78,12 +78,15 @@ COLUMNS = ("scenario", "method", "N", "seed", "landmark_error", "robot_error", "
 
 def run_config(method: str, scenario: LandmarkScenario, n_particles: int, Z, seed) -> tuple:
     """Run the filter ``method`` of :data:`FILTERS` on ``Z``: its result over the full state (the
-    marginal of a Rao-Blackwellised filter) and the first-stage ESS of an auxiliary filter (else ``None``)."""
+    marginal of a Rao-Blackwellised filter) and the first-stage ESS of an auxiliary filter at the steps
+    that drew a first stage, collected per step (:class:`~pfcourse.proposals.FirstStageESS`; else ``None``)."""
     pf = lookup(FILTERS, method).settings.with_(n_particles=n_particles).build(scenario.model())
-    res = pf.run(Z, seed)
+    auxiliary = isinstance(pf.proposal, FullyAdaptedAuxiliary)
+    res = pf.run(Z, seed, collect=[FirstStageESS()] if auxiliary else [])
+    first_stage = res.collected["first_stage_ess"] if auxiliary else None
     if isinstance(pf.model, RaoBlackwellModel):
         res = pf.model.marginal(res)
-    return res, getattr(pf.proposal, "first_stage_ess", None)
+    return res, None if first_stage is None else first_stage[~np.isnan(first_stage)]
 
 
 def row(seed: int, scenario: str, method: str, N: int) -> dict:

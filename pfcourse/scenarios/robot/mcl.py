@@ -272,6 +272,11 @@ class AugmentedMCL:
         self.model = self.sensor = None
         if model is not None:
             self.for_model(model)
+        self.start()
+
+    def start(self) -> None:
+        """Called by the filter before step 0 of every run: no average yet, nothing injected (the map of
+        :meth:`for_model` is kept: it is a setting, not the state of a run)."""
         self.w_slow = self.w_fast = None
         self.z = None
         self.injected: list[float] = []
