@@ -29,7 +29,7 @@ TWIN_COLUMNS = ("seed", "decided", "final_margin", "final_best_margin",
 GLOBAL_COLUMNS = ("seed", "locked_on", "locked_from_s", "final_position_error", "final_heading_error",
                   "mean_particles", "start_particles")
 KIDNAP_COLUMNS = ("seed", "tracked_before", "recovered", "recovery_s", "final_position_error")
-#: The fresh drives: runs FRESH_SEED, FRESH_SEED + 1, ... (the cure was chosen on drives 0-99).
+#: The fresh drives: runs FRESH_SEED, FRESH_SEED + 1, ... (the cure was designed on drives 0-149: 0-99, then these).
 FRESH_SEED, FRESH_RUNS = 100, 50
 #: The fresh drives' columns: the above, with when the run was lost (a false relocalization, :func:`lost_times`)
 #: and, for a kidnapping, how far it moved the robot.

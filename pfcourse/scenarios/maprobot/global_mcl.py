@@ -40,9 +40,10 @@ resampling at every scan) with three changes, the cure of the chapter *Finding t
    away at a given scan with probability ``rho``, so ``eps_k = rho * inject_every`` for the block of
    scans an injection stands for (:data:`HAZARD`, ``rho = 1e-3``: once in about eight minutes of
    driving; chosen by hand too).  A right cloud then keeps its place unless the scans since ``k - h``
-   favour the kidnapping by ``log(1 / eps_k)`` nats more; since that Bayes factor is a ratio of two noisy
-   evidence estimates, it sometimes passes the bar by chance and a twin's stratum replaces a right cloud
-   (a false relocalization, counted in the stored studies ``map_global/*_fresh``).
+   favour the kidnapping by ``log(1 / eps_k)`` nats more.  Where the map is ambiguous over that window (the
+   scans since ``k - h`` favour a look-alike twin of the true path by more than the bar), the kidnap model's
+   own posterior prefers the twin, and its stratum replaces a right cloud: a false relocalization (counted in
+   the stored studies ``map_global/*_fresh``; held-out runs 163 and 229 favour the twin by 21 and 15 nats).
 
    **False relocalization** (:data:`CURE`).  Two guards keep a right cloud in place.  *The belief's
    evidence* (``mixture_evidence``): at an injection whose stratum is admitted, the scan's evidence is the
@@ -52,8 +53,10 @@ resampling at every scan) with three changes, the cure of the chapter *Finding t
    Z_j [(1 - eps_k) Z_k + eps_k B Z_k]``; later strata, divided by a windowed product of the record, are then
    compared only approximately.  Otherwise, once a stratum has replaced a wrong cloud, the next strata are compared with the wrong
    cloud's poor record of the scans before and win by a wide margin, twins included (kidnap drive 5).
-   *Hysteresis* (``confirm``): a stratum is admitted only at the ``confirm``-th injection in a row at which it
-   outweighs the cloud (posterior odds above 1); one a twin wins by the noise of its Bayes factor is dropped.
+   *Hysteresis* (``confirm``): a stratum is admitted only when the streak of injections in a row at which a
+   fresh stratum outweighs the cloud (posterior odds above 1) reaches ``confirm``.  As coded the streak counts
+   strata wherever they lie (it does not check that the winners agree in place) and is not reset by an
+   admission, so once it has reached ``confirm`` the next winner is admitted at once (kidnap drive 5).
    A true kidnapping's strata keep winning; its recovery is delayed by ``confirm - 1`` injections.  Hysteresis is
    a decision rule, not part of the importance weight: a stratum that outweighs the cloud is dropped, so from
    then on the cloud no longer approximates the kidnap model's posterior.  Successive windows share ``h + 1 -
