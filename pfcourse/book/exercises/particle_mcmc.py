@@ -12,9 +12,9 @@ next TWO states depend on the ancestor (Lindsten, Jordan and Schön 2014, non-Ma
 the second factor absent at the last step (``future`` of length 1); every later factor of the grafted path is
 the same for every ``j`` and cancels. Checked on the frequencies of many draws (a chi-square test against the
 exact probabilities); the typical mistakes of :data:`ANCESTOR_MISTAKES` are named when their frequencies fit
-instead (the chapter's one-step formula copied among them), the last step is checked on its own, weights of
-``e^{-1000}`` must not underflow, and the draws must come from the generator given (NumPy's global state
-untouched, same seed same draws, another seed other draws).
+instead (the chapter's one-step formula copied among them), the last step is checked on its own, log-weights
+near ``-1000`` (not normalised, as the statement allows) must not underflow, and the draws must come from the
+generator given (NumPy's global state untouched, same seed same draws, another seed other draws).
 """
 
 from __future__ import annotations
@@ -43,6 +43,11 @@ ANCESTOR_CASE = {
     "s": 0.5,
 }
 N_DRAWS, LAST_DRAWS, LEVEL = 3000, 1500, 1e-4
+#: The sentence for an answer that fails only on log-weights near -1000 (which the statement allows: they need
+#: not be normalised): it exponentiated before normalising.
+UNDERFLOW = ("it exponentiates before normalising: the log-weights need not be normalised, and with log-weights "
+             "near -1000 exp gives 0 for every particle (0 / 0 is NaN); normalise in the log domain (subtract the "
+             "largest log term, or logsumexp) before exp")
 
 
 def ancestor_probabilities(log_W, past, future, a, b, s, mistake: str | None = None) -> np.ndarray:
@@ -169,9 +174,8 @@ def _check_ancestor_index(fn: Callable, state: tuple) -> CheckReport:
     tiny = {**case, "log_W": case["log_W"] - 1000.0}
     draws = _draws(report, fn, tiny, np.random.default_rng(11), 600)
     if draws is None:
-        report.problems[-1] += " (with log-weights near -1000: exp underflows to 0; subtract the largest log term)"
+        report.problems.append(f"{UNDERFLOW} ({report.problems.pop()})")
         return report
     if not _fits(np.bincount(draws, minlength=size), exact):
-        report.problems.append("with log-weights near -1000 the draws go wrong: exp(-1000) underflows to 0, so "
-                               "normalise in the log domain (subtract the largest log term before exp)")
+        report.problems.append(f"{UNDERFLOW} (the draws then follow other probabilities)")
     return report
