@@ -131,7 +131,7 @@ def test_each_typical_mistake_gets_its_own_sentence(mistake, says, n_runs):
     """Each mistake is named from the first ``n_runs`` of the checker's runs (the same draws): a mistake is named
     only when the answers lie within PAIRS_MISTAKE_Z standard errors of its own large-N limit at every step.
     Measured over 30 runs: the product of the marginals 5.1 from its own limit (52 from the exact answer); the
-    axis flip of the review (index_flip) has no limit of its own and lies 4.0 from the omitted normaliser's (66
+    axis flip of the review (index_flip) has no limit of its own and lies 2.6 from the omitted normaliser's (38
     from the exact), whose sentence names both; the sums over j used per i (wrong_axis) within its own."""
     report = check_sv_pairs(answer(mistake), n_runs=n_runs)
     assert not report.ok and len(report.problems) == 1, str(report)

@@ -55,6 +55,8 @@ MISTAKES = {
     "swapped": drawing(lambda W, p, f, a, b, s: exact_terms(W, p, f, a, b, s, swap=True)),
     "second_lag": drawing(lambda W, p, f, a, b, s: exact_terms(W, p, f, a, b, s, second_lag=True)),
     "variance": drawing(lambda W, p, f, a, b, s: exact_terms(W, p, f, a, b, s, var=s)),
+    # -(r / s)**2: the Gaussian's 1/2 left out (review smc_p5x)
+    "no_half": drawing(lambda W, p, f, a, b, s: exact_terms(W, p, f, a, b, s, var=s ** 2 / 2)),
     # a stacked state (x_k, x_k-1): its transition's delta keeps only the reference's own past
     "own_past": lambda log_W, past, future, a, b, s, rng: 0,
 }

@@ -154,10 +154,8 @@ def draw(log_p, rng):
 
 def csmc_as(model, Z, n, ref, rng):
     """One sweep of Algorithm 26.1: a new path given the reference."""
-    # n_steps = T + 1 states, x_0 to x_T
-    n_steps, d = ref.shape
-    x = np.empty((n_steps, n, d))
-    A = np.tile(np.arange(n), (n_steps, 1))
+    n_steps, d = ref.shape  # T + 1 states, x_0 to x_T
+    x, A = np.empty((n_steps, n, d)), np.tile(np.arange(n), (n_steps, 1))
     x[0] = model.sample_initial(n, rng)
     x[0, 0] = ref[0]  # particle 0 is the reference
     log_W = np.full(n, -np.log(n))
@@ -709,9 +707,12 @@ print(check_ancestor_index(ancestor_index))
 # $P(a_k^{\text{ref}} = j) \propto W_{k-1}^j\, \mathcal N(x^{\text{ref}}_k; a x^j_{k-1} + b x^j_{k-2}, s^2)\,
 # \mathcal N(x^{\text{ref}}_{k+1}; a x^{\text{ref}}_k + b x^j_{k-1}, s^2)$, the second factor
 # absent at $k = T$ {cite:p}`lindsten2014`. Normalise in the log domain: the log-weights need not
-# be normalised, and $e^{-1000}$ is $0$ in floating point. Stacking makes the model Markov but its transition degenerate: it copies
-# $x_{k-1}$ exactly, so its density is zero for every particle but the reference's own past, and
-# the path would never move. The code is in the folded cell below.
+# be normalised, and $e^{-1000}$ is $0$ in floating point.
+#
+# Stacking makes the model Markov but its transition degenerate: it copies $x_{k-1}$ exactly, so
+# its density is zero for every particle but the reference's own past. Ancestor sampling then
+# always keeps that past, which is conditional SMC without it: the early path barely moves. The
+# code is in the folded cell below.
 # ```
 
 # %% tags=["solution", "hide-input"] jupyter={"source_hidden": true}

@@ -57,7 +57,7 @@ def ancestor_probabilities(log_W, past, future, a, b, s, mistake: str | None = N
     if mistake == "own_past":
         return np.eye(len(log_W))[0]
     x1, x2 = (past[:, 1], past[:, 0]) if mistake == "swapped" else (past[:, 0], past[:, 1])
-    var = s if mistake == "variance" else s ** 2
+    var = {"variance": s, "no_half": s ** 2 / 2}.get(mistake, s ** 2)
     first = -0.5 * (future[0] - a * x1 - b * x2) ** 2 / var
     second = np.zeros_like(first)
     if len(future) > 1:
@@ -80,9 +80,12 @@ ANCESTOR_MISTAKES = {
                   "it through x_k-1^j",
     "variance": "it divides the squared residuals by 2 s; s is the noise's standard deviation, so each "
                 "log-density is -(residual)^2 / (2 s^2)",
+    "no_half": "its log-densities are -(residual / s)^2, without the factor 1/2: the log of the Gaussian density "
+               "N(r; 0, s^2) is -r^2 / (2 s^2) up to a constant, and without the 1/2 every factor is squared",
     "own_past": "it always returns 0, the reference's own past, as a stacked state (x_k, x_k-1) does: its "
-                "transition copies x_k-1 exactly, a density that is zero for every other particle, so the path "
-                "never moves; score each particle by the reference's next two states instead",
+                "transition copies x_k-1 exactly, a density that is zero for every other particle, so ancestor "
+                "sampling is switched off and, as in conditional SMC without it, the early path barely moves; "
+                "score each particle by the reference's next two states instead",
 }
 
 
