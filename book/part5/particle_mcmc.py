@@ -374,7 +374,7 @@ def cn(u, rho, rng):
 
 def log_p_hat(u, z, sort=True, q=0.5):
     """Bootstrap filter of x_k = x_(k-1) + q w_k, z_k = x_k + v_k,
-    every draw read from the normals u (K, N + 1)."""
+    every draw read from the normals u, shape (len(z), N + 1)."""
     n, ell = u.shape[1] - 1, 0.0
     x = u[0, :n]
     for k in range(len(z)):
