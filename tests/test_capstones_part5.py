@@ -19,6 +19,10 @@ def student(y, n, rng, model, mistake=None, trajectories=None):
     draw = np.random if mistake == "global" else rng
     x = model.sigma / np.sqrt(1 - model.phi ** 2) * draw.standard_normal(n)
     xs, log_ws, ancestors = [], [], []
+    if mistake == "from_x0":  # the cloud of x_0, before the first return, stored as a step: pairs one step late
+        xs.append(x)
+        log_ws.append(np.full(n, -np.log(n)))
+        ancestors.append(np.arange(n))
     for yk in y:
         x = model.phi * x + model.sigma * draw.standard_normal(n)
         var = model.beta ** 2 * np.exp(x)
@@ -33,7 +37,7 @@ def student(y, n, rng, model, mistake=None, trajectories=None):
             log_ws.append(log_w)
         ancestors.append(a)
         x = x[a]
-    T = len(y)
+    T = len(xs)
     if mistake == "naive":  # the ancestral lines of the last cloud
         idx, w, out = np.arange(n), np.exp(log_ws[-1]), np.empty(T - 1)
         for k in range(T - 2, -1, -1):
@@ -77,6 +81,12 @@ def student(y, n, rng, model, mistake=None, trajectories=None):
         else:
             out.insert(0, float(np.sum(np.exp(log_pair) * d ** 2)))
         log_s = new
+    if mistake == "from_x0":
+        return np.array(out[:len(y) - 1])
+    if mistake == "reversed":  # the backward pass's values in the order it meets them
+        return np.array(out[::-1])
+    if mistake == "early":  # e[k] holds the pair (x_k+2, x_k+3)
+        return np.array(out[1:] + out[-1:])
     return np.array(out)
 
 
@@ -121,11 +131,31 @@ def test_each_typical_mistake_gets_its_own_sentence(mistake, says, n_runs):
     """Each mistake is named from the first ``n_runs`` of the checker's runs (the same draws): a mistake is named
     only when the answers lie within PAIRS_MISTAKE_Z standard errors of its own large-N limit at every step.
     Measured over 30 runs: the product of the marginals 5.1 from its own limit (52 from the exact answer); the
-    axis flip of the review (index_flip) has no limit of its own and lies 4.0 from the omitted normaliser's (66
+    axis flip of the review (index_flip) has no limit of its own and lies 2.6 from the omitted normaliser's (38
     from the exact), whose sentence names both; the sums over j used per i (wrong_axis) within its own."""
     report = check_sv_pairs(answer(mistake), n_runs=n_runs)
     assert not report.ok and len(report.problems) == 1, str(report)
     assert says in report.problems[0], report.problems[0]
+
+
+@pytest.mark.parametrize("mistake, says", [
+    ("from_x0", "one step late"), ("early", "one step early"), ("reversed", "reverse order")])
+def test_right_values_in_the_wrong_places_are_named(mistake, says):
+    """Right values one step late (the cloud of x_0 stored as a step, as in review student_p5x), one step early,
+    or in the backward pass's order: named as misaligned, not by the generic symptom."""
+    report = check_sv_pairs(answer(mistake))
+    assert not report.ok and len(report.problems) == 1, str(report)
+    assert says in report.problems[0] and "e[0] must be the pair (x_1, x_2)" in report.problems[0], report.problems[0]
+
+
+def test_misalignment_is_far_from_the_exact_values():
+    """Shifted by one step or reversed, the exact values are far from themselves (so a right answer is never
+    called misaligned, and a misaligned one never passes): at least 0.05 at some step, ten times the bias a valid
+    particle answer may have."""
+    model, y = data()
+    exact = sv_grid_pairs(y, model)
+    assert np.max(np.abs(exact[1:] - exact[:-1])) > 0.05
+    assert np.max(np.abs(exact[::-1] - exact)) > 0.05
 
 
 def test_the_ancestral_lines_are_named_by_their_spread():
@@ -173,3 +203,10 @@ def test_the_solution_printed_in_part_five_passes():
     namespace = {}
     exec(code, namespace)
     assert check_sv_pairs(namespace["my_sv_pairs"]).ok
+
+
+def test_the_self_check_in_part_five_uses_the_checkers_returns():
+    """Part V's text offers a self-check on the checker's returns, written out as a call of SVModel.simulate."""
+    text = " ".join((Path(__file__).resolve().parents[1] / "book/part5/index.md").read_text().split())
+    assert "from pfcourse.book.exercises import SVModel" in text
+    assert f"model.simulate({SV_STEPS}, np.random.default_rng({SV_SMOOTHER_DATA_SEED}))[1]" in text

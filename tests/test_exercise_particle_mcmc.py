@@ -10,8 +10,8 @@ import numpy as np
 import pytest
 from scipy.special import logsumexp
 
-from pfcourse.book.exercises.particle_mcmc import (ANCESTOR_CASE, ANCESTOR_MISTAKES, N_DRAWS, ancestor_probabilities,
-                                                   check_ancestor_index)
+from pfcourse.book.exercises.particle_mcmc import (ANCESTOR_CASE, ANCESTOR_MISTAKES, N_DRAWS, UNDERFLOW,
+                                                   ancestor_probabilities, check_ancestor_index)
 
 
 def log_normal(r, var):
@@ -55,6 +55,8 @@ MISTAKES = {
     "swapped": drawing(lambda W, p, f, a, b, s: exact_terms(W, p, f, a, b, s, swap=True)),
     "second_lag": drawing(lambda W, p, f, a, b, s: exact_terms(W, p, f, a, b, s, second_lag=True)),
     "variance": drawing(lambda W, p, f, a, b, s: exact_terms(W, p, f, a, b, s, var=s)),
+    # -(r / s)**2: the Gaussian's 1/2 left out (review smc_p5x)
+    "no_half": drawing(lambda W, p, f, a, b, s: exact_terms(W, p, f, a, b, s, var=s ** 2 / 2)),
     # a stacked state (x_k, x_k-1): its transition's delta keeps only the reference's own past
     "own_past": lambda log_W, past, future, a, b, s, rng: 0,
 }
@@ -118,8 +120,29 @@ def test_the_last_step_is_checked():
 
 
 def test_the_linear_domain_underflows():
+    """Log-weights near -1000 are allowed (the statement: not necessarily normalised); exponentiating before
+    normalising is named, whether NumPy's choice then raises (NaN probabilities) or the draws go wrong."""
     report = check_ancestor_index(drawing(exact_terms, linear=True))
-    assert not report.ok and "-1000" in report.problems[0]
+    assert not report.ok and len(report.problems) == 1 and UNDERFLOW in report.problems[0], str(report)
+
+    def first_exp_then_normalise(log_W, past, future, a, b, s, rng):  # the student's answer of the review
+        p = np.exp(log_W) * np.exp(exact_terms(log_W, past, future, a, b, s) - log_W)
+        return int(rng.choice(len(past), p=p / p.sum()))
+    report = check_ancestor_index(first_exp_then_normalise)
+    assert not report.ok and len(report.problems) == 1 and UNDERFLOW in report.problems[0], str(report)
+
+    def own_normalisation(log_W, past, future, a, b, s, rng):  # right: the weights normalised in the log domain
+        return reference(log_W - logsumexp(log_W), past, future, a, b, s, rng)
+    assert check_ancestor_index(own_normalisation).ok
+
+
+def test_the_statement_allows_unnormalised_log_weights():
+    """The checker passes log-weights near -1000, so the statement must not call them normalised."""
+    import jupytext
+    from pathlib import Path
+    nb = jupytext.read(Path(__file__).resolve().parents[1] / "book/part5/particle_mcmc.py")
+    statement = next(c.source for c in nb.cells if "ex-pmcmc-ancestor" in c.source and "```{exercise}" in c.source)
+    assert "not necessarily normalised" in " ".join(statement.split()), statement
 
 
 def test_the_generator_is_checked():

@@ -87,29 +87,29 @@ plt.show()
 #
 # ## Particle Gibbs: sample the path, then the parameter
 #
-# Gibbs sampling alternates two conditional draws. Given the whole state path $x_{0:K}$ the noise
+# Gibbs sampling alternates two conditional draws. Given the whole state path $x_{0:T}$ the noise
 # scale is easy: the residuals $r_k = z_k - H x_k$ are Gaussian with covariance $\vartheta R_0$,
 # so with the prior flat in $\log\vartheta$
 #
 # $$
-# \vartheta \mid x_{0:K}, z \;\sim\; \text{Inverse-Gamma}\Big(\frac{m}{2},\ \frac{S}{2}\Big),
+# \vartheta \mid x_{0:T}, z \;\sim\; \text{Inverse-Gamma}\Big(\frac{m}{2},\ \frac{S}{2}\Big),
 # \qquad S = \sum_k r_k^\top R_0^{-1} r_k ,
 # $$
 #
 # with $m$ the number of measured coordinates, cut to the prior's support. Given $\vartheta$,
-# the path should be a draw from the smoother $p(x_{0:K} \mid z, \vartheta)$; a particle filter
+# the path should be a draw from the smoother $p(x_{0:T} \mid z, \vartheta)$; a particle filter
 # only approximates it. **Conditional SMC** {cite:p}`andrieu2010` makes the approximation exact in
 # the Gibbs sense: run the filter with one particle pinned to the current path (the
 # *reference*), draw one path at the end from the final weights, and make it the next
 # reference. That move leaves the smoother invariant for any $N \ge 2$.
 #
-# Pinning has a cost: the other particles must resample *onto* the reference's ancestors, and
-# with path degeneracy ({doc}`smoothing`) the early part of the new path is almost always the
-# reference's own, so the chain barely moves there. **Ancestor sampling** {cite:p}`lindsten2014`
+# Pinning has a cost: the reference always survives resampling, so the other particles' lines,
+# traced back, merge into the reference's path, and with path degeneracy ({doc}`smoothing`) the
+# early part of the new path is almost always the reference's own: the chain barely moves there. **Ancestor sampling** {cite:p}`lindsten2014`
 # fixes it: at each resampling, the reference's parent is drawn afresh,
 #
 # $$
-# P(A_k^{\text{ref}} = j) \;\propto\; W_{k-1}^j \; p(x^{\text{ref}}_k \mid x_{k-1}^j),
+# P(a_k^{\text{ref}} = j) \;\propto\; W_{k-1}^j \; p(x^{\text{ref}}_k \mid x_{k-1}^j),
 # $$
 #
 # the weight of particle $j$ times the density of moving from it to the reference's next state.
@@ -118,13 +118,13 @@ plt.show()
 # :::{admonition} Algorithm 26.1: conditional SMC with ancestor sampling (one sweep)
 # :class: algorithm
 # 1. Draw $x_0^i \sim p(x_0)$ for $i \ne 0$; set $x_0^0 = x_0^{\text{ref}}$; $\log W_0^i = -\log N$.
-# 2. **For** $k = 0, \dots, K$:
-#    1. if $k > 0$ and $z_k$ is measured: draw parents $A_k^i \sim W_{k-1}$ for $i \ne 0$, draw
-#       $A_k^0$ by the ancestor-sampling weights above, and reset $\log W^i = -\log N$;
-#       if $z_k$ is missing, $A_k^i = i$;
-#    2. if $k > 0$: $x_k^i \sim p(x_k \mid x_{k-1}^{A_k^i})$ for $i \ne 0$; $x_k^0 = x_k^{\text{ref}}$;
+# 2. **For** $k = 0, \dots, T$:
+#    1. if $k > 0$ and $z_k$ is measured: draw parents $a_k^i \sim W_{k-1}$ for $i \ne 0$, draw
+#       $a_k^0$ by the ancestor-sampling weights above, and reset $\log W^i = -\log N$;
+#       if $z_k$ is missing, $a_k^i = i$;
+#    2. if $k > 0$: $x_k^i \sim p(x_k \mid x_{k-1}^{a_k^i})$ for $i \ne 0$; $x_k^0 = x_k^{\text{ref}}$;
 #    3. if $z_k$ is measured: $\log W^i \mathrel{+}= \log p(z_k \mid x_k^i)$.
-# 3. Draw $b \sim W$ and trace it back: $x_K^{b}$, its parent, and so on to $k = 0$.
+# 3. Draw $b \sim W$ and trace it back: $x_T^{b}$, its parent, and so on to $k = 0$.
 # :::
 #
 # In NumPy, on the model and data of {doc}`likelihood` (the model supplies its samplers,
@@ -154,12 +154,12 @@ def draw(log_p, rng):
 
 def csmc_as(model, Z, n, ref, rng):
     """One sweep of Algorithm 26.1: a new path given the reference."""
-    K, d = ref.shape
-    x, A = np.empty((K, n, d)), np.tile(np.arange(n), (K, 1))
+    n_steps, d = ref.shape  # T + 1 states, x_0 to x_T
+    x, A = np.empty((n_steps, n, d)), np.tile(np.arange(n), (n_steps, 1))
     x[0] = model.sample_initial(n, rng)
     x[0, 0] = ref[0]  # particle 0 is the reference
     log_W = np.full(n, -np.log(n))
-    for k in range(K):
+    for k in range(n_steps):
         seen = not np.isnan(Z[k]).all()
         if k > 0:
             if seen:  # parents for the others, then the reference's
@@ -175,8 +175,8 @@ def csmc_as(model, Z, n, ref, rng):
             x[k, 0] = ref[k]
         if seen:
             log_W = log_W + model.log_likelihood(x[k], Z[k], k)
-    b, path = draw(log_W, rng), np.empty((K, d))
-    for k in range(K - 1, -1, -1):  # trace the chosen particle back
+    b, path = draw(log_W, rng), np.empty((n_steps, d))
+    for k in range(n_steps - 1, -1, -1):  # trace the chosen particle back
         path[k], b = x[k, b], A[k, b]
     return path
 
@@ -374,7 +374,7 @@ def cn(u, rho, rng):
 
 def log_p_hat(u, z, sort=True, q=0.5):
     """Bootstrap filter of x_k = x_(k-1) + q w_k, z_k = x_k + v_k,
-    every draw read from the normals u (K, N + 1)."""
+    every draw read from the normals u, shape (len(z), N + 1)."""
     n, ell = u.shape[1] - 1, 0.0
     x = u[0, :n]
     for k in range(len(z)):
@@ -668,9 +668,10 @@ EvidenceBlock(
 # $x_k = a\,x_{k-1} + b\,x_{k-2} + s\,v_k$ with $v_k \sim \mathcal N(0, 1)$: each state
 # depends on the two before it. A conditional SMC sweep for it keeps each particle's last two
 # states. Write `ancestor_index(log_W, past, future, a, b, s, rng)`, the ancestor-sampling draw of
-# the reference's parent $j$ at step $k$: `log_W` holds the normalised log-weights of step $k-1$,
-# row $j$ of `past` is $(x_{k-1}^j, x_{k-2}^j)$, and `future` holds the reference's states from
-# step $k$ on, $(x'_k, x'_{k+1}, \dots)$, only $x'_T$ at the last step. Draw with `rng`.
+# the reference's parent $j$ at step $k$: `log_W` holds the log-weights of step $k-1$, not
+# necessarily normalised, row $j$ of `past` is $(x_{k-1}^j, x_{k-2}^j)$, and `future` holds the
+# reference's states from step $k$ on, $x^{\text{ref}}_{k:T}$, only $x^{\text{ref}}_T$ at the
+# last step $k = T$. Draw with `rng`.
 #
 # The formula above does not carry over as it stands: ask which of the reference's future
 # states depend on the past it is grafted onto. Why would stacking
@@ -680,7 +681,7 @@ EvidenceBlock(
 #
 # :::{admonition} Hint
 # :class: dropdown
-# Write the density of the grafted path $(x^j_{0:k-1}, x'_{k:T})$, divided by that of particle
+# Write the density of the grafted path $(x^j_{0:k-1}, x^{\text{ref}}_{k:T})$, divided by that of particle
 # $j$'s own past, as a product of transition densities, and keep the factors in which $j$ appears.
 # :::
 
@@ -698,25 +699,30 @@ print(check_ancestor_index(ancestor_index))
 # %% [markdown]
 # ```{solution} ex-pmcmc-ancestor
 # :class: dropdown
-# Grafting the reference's future onto particle $j$ gives the path density
-# $\gamma(x^j_{0:k-1}, x'_{k:T}) = \gamma(x^j_{0:k-1}) \prod_{m \ge k} f(x'_m \mid \text{two before})$
-# times measurement densities that do not depend on $j$. Only two transition factors see $j$:
-# $x'_k$ follows $x^j_{k-1}, x^j_{k-2}$, and $x'_{k+1}$ follows $x'_k, x^j_{k-1}$. So
-# $P(A = j) \propto W_{k-1}^j\, \mathcal N(x'_k; a x^j_{k-1} + b x^j_{k-2}, s^2)\,
-# \mathcal N(x'_{k+1}; a x'_k + b x^j_{k-1}, s^2)$, the second factor absent at $k = T$
-# {cite:p}`lindsten2014`. Stacking makes the model Markov but its transition degenerate: it copies
-# $x_{k-1}$ exactly, so its density is zero for every particle but the reference's own past, and
-# the path would never move. The code is in the folded cell below.
+# The joint density of the grafted path $(x^j_{0:k-1}, x^{\text{ref}}_{k:T})$ is that of particle
+# $j$'s own past times $\prod_{m \ge k} p(x^{\text{ref}}_m \mid x_{m-1}, x_{m-2})$, each state
+# given the two before it on the grafted path, times measurement densities that do not depend on
+# $j$. Only two transition factors see $j$: $x^{\text{ref}}_k$ follows $x^j_{k-1}, x^j_{k-2}$, and
+# $x^{\text{ref}}_{k+1}$ follows $x^{\text{ref}}_k, x^j_{k-1}$. So
+# $P(a_k^{\text{ref}} = j) \propto W_{k-1}^j\, \mathcal N(x^{\text{ref}}_k; a x^j_{k-1} + b x^j_{k-2}, s^2)\,
+# \mathcal N(x^{\text{ref}}_{k+1}; a x^{\text{ref}}_k + b x^j_{k-1}, s^2)$, the second factor
+# absent at $k = T$ {cite:p}`lindsten2014`. Normalise in the log domain: the log-weights need not
+# be normalised, and $e^{-1000}$ is $0$ in floating point.
+#
+# Stacking makes the model Markov but its transition degenerate: it copies $x_{k-1}$ exactly, so
+# its density is zero for every particle but the reference's own past. Ancestor sampling then
+# always keeps that past, which is conditional SMC without it: the early path barely moves. The
+# code is in the folded cell below.
 # ```
 
 # %% tags=["solution", "hide-input"] jupyter={"source_hidden": true}
 def ancestor_index(log_W, past, future, a, b, s, rng):
     """The reference's parent j, drawn with rng."""
     x1, x2 = past[:, 0], past[:, 1]
-    # x'_k follows (x1, x2) of particle j
+    # x_k^ref follows (x1, x2) of particle j
     log_p = log_W - 0.5 * ((future[0] - a * x1 - b * x2) / s) ** 2
     if len(future) > 1:
-        # x'_{k+1} follows (x'_k, x1): j still appears
+        # x_{k+1}^ref follows (x_k^ref, x1): j still appears
         r = future[1] - a * future[0] - b * x1
         log_p = log_p - 0.5 * (r / s) ** 2
     p = np.exp(log_p - logsumexp(log_p))  # normalised in the log domain
@@ -724,6 +730,17 @@ def ancestor_index(log_W, past, future, a, b, s, rng):
 
 
 print(check_ancestor_index(ancestor_index))
+
+# %% tags=["remove-input"] jupyter={"source_hidden": true}
+# Part V's capstone (book/part5/index.md): the self-check its text offers, on the checker's returns. The mean
+# over k of the grid's e_k, and of FFBSm's (sv_pairs, the checker's reference) with 300 particles on 20 seeds.
+from pfcourse.book.exercises import SVModel, sv_grid_pairs, sv_pairs
+
+sv_model = SVModel()
+sv_y = sv_model.simulate(60, np.random.default_rng(3))[1]
+sv_ffbsm = [sv_pairs(sv_y, 300, np.random.default_rng(r), sv_model).mean() for r in range(20)]
+glue_values(capstone5_grid_mean_e=sv_grid_pairs(sv_y, sv_model).mean(), capstone5_ffbsm_mean_low=min(sv_ffbsm),
+            capstone5_ffbsm_mean_high=max(sv_ffbsm), capstone5_ffbsm_runs=len(sv_ffbsm))
 
 # %% [markdown]
 # ## Takeaways

@@ -35,7 +35,7 @@
 #
 # Given $x_{k+1}$, the state $x_k$ no longer depends on the later measurements $z_{k+1:T}$ (the
 # Markov property: everything they say about $x_k$ passes through $x_{k+1}$). Hence
-# $p(x_k \mid x_{k+1}, z_{1:T}) = p(x_k \mid x_{k+1}, z_{1:k})$, and by Bayes' rule
+# $p(x_k \mid x_{k+1}, z_{1:T}) = p(x_k \mid x_{k+1}, z_{1:k})$, the **backward kernel**; by Bayes' rule
 #
 # $$
 # p(x_k \mid x_{k+1}, z_{1:k}) = \frac{p(x_{k+1} \mid x_k)\, p(x_k \mid z_{1:k})}{p(x_{k+1} \mid z_{1:k})} .

@@ -12,9 +12,9 @@ next TWO states depend on the ancestor (Lindsten, Jordan and Schön 2014, non-Ma
 the second factor absent at the last step (``future`` of length 1); every later factor of the grafted path is
 the same for every ``j`` and cancels. Checked on the frequencies of many draws (a chi-square test against the
 exact probabilities); the typical mistakes of :data:`ANCESTOR_MISTAKES` are named when their frequencies fit
-instead (the chapter's one-step formula copied among them), the last step is checked on its own, weights of
-``e^{-1000}`` must not underflow, and the draws must come from the generator given (NumPy's global state
-untouched, same seed same draws, another seed other draws).
+instead (the chapter's one-step formula copied among them), the last step is checked on its own, log-weights
+near ``-1000`` (not normalised, as the statement allows) must not underflow, and the draws must come from the
+generator given (NumPy's global state untouched, same seed same draws, another seed other draws).
 """
 
 from __future__ import annotations
@@ -43,6 +43,11 @@ ANCESTOR_CASE = {
     "s": 0.5,
 }
 N_DRAWS, LAST_DRAWS, LEVEL = 3000, 1500, 1e-4
+#: The sentence for an answer that fails only on log-weights near -1000 (which the statement allows: they need
+#: not be normalised): it exponentiated before normalising.
+UNDERFLOW = ("it exponentiates before normalising: the log-weights need not be normalised, and with log-weights "
+             "near -1000 exp gives 0 for every particle (0 / 0 is NaN); normalise in the log domain (subtract the "
+             "largest log term, or logsumexp) before exp")
 
 
 def ancestor_probabilities(log_W, past, future, a, b, s, mistake: str | None = None) -> np.ndarray:
@@ -52,7 +57,7 @@ def ancestor_probabilities(log_W, past, future, a, b, s, mistake: str | None = N
     if mistake == "own_past":
         return np.eye(len(log_W))[0]
     x1, x2 = (past[:, 1], past[:, 0]) if mistake == "swapped" else (past[:, 0], past[:, 1])
-    var = s if mistake == "variance" else s ** 2
+    var = {"variance": s, "no_half": s ** 2 / 2}.get(mistake, s ** 2)
     first = -0.5 * (future[0] - a * x1 - b * x2) ** 2 / var
     second = np.zeros_like(first)
     if len(future) > 1:
@@ -75,9 +80,12 @@ ANCESTOR_MISTAKES = {
                   "it through x_k-1^j",
     "variance": "it divides the squared residuals by 2 s; s is the noise's standard deviation, so each "
                 "log-density is -(residual)^2 / (2 s^2)",
+    "no_half": "its log-densities are -(residual / s)^2, without the factor 1/2: the log of the Gaussian density "
+               "N(r; 0, s^2) is -r^2 / (2 s^2) up to a constant, and without the 1/2 every factor is squared",
     "own_past": "it always returns 0, the reference's own past, as a stacked state (x_k, x_k-1) does: its "
-                "transition copies x_k-1 exactly, a density that is zero for every other particle, so the path "
-                "never moves; score each particle by the reference's next two states instead",
+                "transition copies x_k-1 exactly, a density that is zero for every other particle, so ancestor "
+                "sampling is switched off and, as in conditional SMC without it, the early path barely moves; "
+                "score each particle by the reference's next two states instead",
 }
 
 
@@ -169,9 +177,8 @@ def _check_ancestor_index(fn: Callable, state: tuple) -> CheckReport:
     tiny = {**case, "log_W": case["log_W"] - 1000.0}
     draws = _draws(report, fn, tiny, np.random.default_rng(11), 600)
     if draws is None:
-        report.problems[-1] += " (with log-weights near -1000: exp underflows to 0; subtract the largest log term)"
+        report.problems.append(f"{UNDERFLOW} ({report.problems.pop()})")
         return report
     if not _fits(np.bincount(draws, minlength=size), exact):
-        report.problems.append("with log-weights near -1000 the draws go wrong: exp(-1000) underflows to 0, so "
-                               "normalise in the log domain (subtract the largest log term before exp)")
+        report.problems.append(f"{UNDERFLOW} (the draws then follow other probabilities)")
     return report
