@@ -335,7 +335,8 @@ def injected(scans, odometry, k, r, log_l, rng, L=20):
 x_r, lw_r = injected(drive.scans, drive.drive.odometry, 170, 200,
                      np.zeros(200), np.random.default_rng(3))
 near_r = np.hypot(*(x_r[:, :2] - drive.truth[170, :2]).T) < 1
-print(f"{np.exp(lw_r - logsumexp(lw_r))[near_r].sum():.0%} of its weight within 1 m")
+w_r = np.exp(lw_r - logsumexp(lw_r))
+print(f"{w_r[near_r].sum():.0%} of its weight lies within 1 m of the robot")
 
 
 # %% tags=["hide-input"] jupyter={"source_hidden": true}
@@ -422,8 +423,7 @@ print(f"the same cloud as the engine's strata, to {TOL:.0e}: {same_mix}; the eng
 #
 # The count does not ask where the winning strata lie: one on the robot and two on its twin make
 # three. An admission does not reset it: after three wins, a twin's first win is admitted at once.
-# Successive windows share all but $4$ of their scans, so one stretch of poor fit can win several
-# in a row. And dropping a winning stratum is not Bayes. The rule in NumPy:
+# (Dropping a winning stratum is not Bayes.) The rule in NumPy:
 
 # %%
 def admit(moved, lw_m, inj, lw_r, xi_k, streak, log_l_k, confirm=3):
