@@ -19,7 +19,7 @@
 # **You need** {doc}`map_robot` (the odometry model, the likelihood field, MCL) and
 # {doc}`global_localization` (random injection, augmented MCL, KLD-sampling); importance sampling.
 #
-# **Time:** about twenty-six minutes to read, plus about forty-five minutes for the folded blocks; the exercise is extra.
+# **Time:** about twenty-five minutes to read, plus about forty-seven minutes for the folded blocks; the exercise is extra.
 # :::
 #
 # Put the robot of {doc}`map_robot` anywhere on its map, give the filter no idea where, and drive.
@@ -419,13 +419,11 @@ print(f"the same cloud as the engine's strata, to {TOL:.0e}: {same_mix}; the eng
 # are {glue:text}`lf_prior_log_odds:.1f` $+ \log \hat B$; a *win* is odds above $1 : 1$, a coin
 # flip by the filter's own reckoning. The cure counts the injections in a row at which the fresh
 # stratum out-weighs the cloud (a loss sets the count to $0$) and admits the winning stratum while the
-# count is $3$ or more: the scans that tell a stratum from the cloud must stay in its $10$-s window
-# for two more injections ($4$ s), which the map decides.
+# count is $3$ or more.
 #
 # The count does not ask where the winning strata lie: one on the robot and two on its twin make
 # three. An admission does not reset it: after three wins, a twin's first win is admitted at once.
-# (Dropping a winning stratum is not Bayes: from then on the filter no longer approximates the kidnap
-# model's posterior.) The rule in NumPy:
+# (Dropping a winning stratum is not Bayes.) The rule in NumPy:
 
 # %%
 def admit(moved, lw_m, inj, lw_r, xi_k, streak, log_l_k, confirm=3):
@@ -668,25 +666,30 @@ glue_values("lf_", demo_decided_s=decided_s, demo_locked_s=locked_s,
 # ({glue:text}`lf_false_reloc_per_hour_low:.2f`-{glue:text}`lf_false_reloc_per_hour_high:.1f`) times
 # an hour of driving with the cure: {glue:text}`lf_cure_false_relocs:d` events, both on kidnap runs.
 #
-# Without its guards: {glue:text}`lf_hazard_false_reloc_per_hour:.1f`
-# ({glue:text}`lf_hazard_false_reloc_per_hour_low:.1f`-{glue:text}`lf_hazard_false_reloc_per_hour_high:.1f`)
-# times an hour.
-#
 # The cure's {glue:text}`lf_cure_false_relocs:d` false relocalizations (kidnap runs) are the map's
 # ambiguity: over the $10$-s window before each, the scans favour the half-turn twin by
 # {glue:text}`lf_reloc_window_a:.1f` and {glue:text}`lf_reloc_window_b:.1f` nats: the kidnap model's
 # own posterior admits the twin. $\xi$, $L$ and the admission threshold control them, against a budget of
 # false relocalizations.
 #
+# :::{admonition} How the count admitted a twin
+# :class: dropdown
 # On kidnap run {glue:text}`lf_reloc_seed:d` the count of three was made by a stratum on the robot
 # at {glue:text}`lf_reloc_robot_win_s:.0f` s and {glue:text}`lf_reloc_twin_wins:d` on its twin; the
-# twin was admitted at
-# {glue:text}`lf_reloc_admit_s:.0f` s (the evidence block tells both).
+# twin was admitted at {glue:text}`lf_reloc_admit_s:.0f` s (the evidence block tells both).
+# :::
+#
+# :::{admonition} What the guards cost, and what they save
+# :class: dropdown
+# Without its guards, false relocalizations happen {glue:text}`lf_hazard_false_reloc_per_hour:.1f`
+# ({glue:text}`lf_hazard_false_reloc_per_hour_low:.1f`-{glue:text}`lf_hazard_false_reloc_per_hour_high:.1f`)
+# times an hour.
 #
 # The price is time. On the kidnap runs both variants recover, the cure is locked on for good later
 # in {glue:text}`lf_kidnap_later_share:.0%` of them, by a median of
 # {glue:text}`lf_kidnap_delay_s:.0f` s ({glue:text}`lf_kidnap_delay_s_low:.0f`-{glue:text}`lf_kidnap_delay_s_high:.1f` s), about the two extra injections
 # hysteresis waits.
+# :::
 #
 # :::{admonition} Going further: a challenger kept, and a sequential test
 # :class: dropdown
