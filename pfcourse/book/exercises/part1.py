@@ -103,6 +103,9 @@ def _draws_from_its_generator(report: CheckReport, call: Callable, midpoints: np
     try:
         first, again = np.asarray(call(np.random.default_rng(1))), np.asarray(call(np.random.default_rng(1)))
         others = [np.asarray(call(np.random.default_rng(s))) for s in range(2, 12)]
+        # each seed twice: a generator made inside the function can repeat an answer by chance (few weights,
+        # narrow strata), but not on eleven seeds at once
+        repeats = [np.asarray(call(np.random.default_rng(s))) for s in range(2, 12)]
     except Exception as exc:  # the student's error, reported
         report.problems.append(f"calling fn(weights, n, rng) raised {type(exc).__name__}: {exc}")
         return False
@@ -112,7 +115,7 @@ def _draws_from_its_generator(report: CheckReport, call: Callable, midpoints: np
         report.problems.append(
             "it draws from NumPy's global generator (np.random.random, np.random.rand, ...), not from the rng it "
             "is given: draw with rng.random(...), so that a seeded run gives the same answer")
-    elif not np.array_equal(first, again):
+    elif not np.array_equal(first, again) or not all(np.array_equal(o, r) for o, r in zip(others, repeats)):
         report.problems.append(
             "two calls with generators of the same seed gave different answers: draw every uniform from the rng "
             "argument, and from nothing else")
