@@ -44,8 +44,10 @@ from pfcourse.studies.executor import run_tasks
 from pfcourse.book.legibility import LegibilityWarning, installed_check
 
 #: Seconds a pool of workers may go without finishing a figure before the rest of the grid is
-#: rendered in this process instead (one figure of the book takes well under a second).
-POOL_TIMEOUT = 120.0
+#: rendered in this process instead (one figure of the book takes well under a second; two chapter
+#: executions under heavy load took about 10 minutes; the cause is not known, a stalled pool per
+#: panel at the former 120 s would explain it).
+POOL_TIMEOUT = 30.0
 
 #: The one line every static panel shows under its controls.
 LIVE_NOTE = ("On this page the panel switches between figures computed when the chapter ran, for the "
