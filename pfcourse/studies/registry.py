@@ -832,6 +832,17 @@ STUDIES: dict[str, Study] = {study.name: study for study in [
                   "guarded_settings": dataclasses.asdict(intel.GUARDED_SETTINGS),
                   "lock_on": "within 1 m and 3 x the odometry's RMS heading error "
                   f"of a step, at {intel.LOCK_SHARE} of the last {intel.LOCK_WINDOW} scans"}),
+    Study(name="intel/long_runs", row=intel.long_row, grid={"method": list(intel.LONG_METHODS)},
+          n_runs=intel.N_GLOBAL, seeds="run", failures="raise", table="intel/long_runs.csv",
+          provenance="intel/long_runs.json", columns=intel.GLOBAL_COLUMNS, sample=1,
+          row_code="pfcourse/studies/intel.py (long_row, global_row), pfcourse/scenarios/maprobot/global_mcl.py",
+          fields={"seeds": "run s: start scan numpy.random.default_rng([41, s]) in 0-374; filter default_rng([41, s, 1])",
+                  "map": "scans 455-909 of book/data/intel/intel-corrected.log.gz; runs on scans 0-454",
+                  "steps": intel.LONG_STEPS, "settings": dataclasses.asdict(intel.GLOBAL_SETTINGS),
+                  "no_injection": "settings with inject_share = 0",
+                  "guarded_settings": dataclasses.asdict(intel.GUARDED_SETTINGS),
+                  "lock_on": "within 1 m and 3 x the odometry's RMS heading error "
+                  f"of a step, at {intel.LOCK_SHARE} of the last {intel.LOCK_WINDOW} scans"}),
     Study(name="intel/tracking", row=intel.tracking_row, grid={"map": list(intel.TRACK_MAPS)},
           n_runs=len(intel.TRACK_SEEDS), seeds="run", base_seed=intel.TRACK_SEEDS.start, failures="raise",
           table="intel/tracking.csv", provenance="intel/tracking.json", columns=intel.TRACK_COLUMNS, sample=1,
