@@ -45,7 +45,7 @@ from pfcourse.book.report import EvidenceBlock, glue_values
 from pfcourse.book.panels import control_panel
 from pfcourse.filter import ParticleFilter
 from pfcourse.scenarios.maprobot import MapRobotModel, OdometryModel
-from pfcourse.scenarios.maprobot.carmen import INTEL_LOG, read_carmen as library_log, relative_pose
+from pfcourse.scenarios.maprobot.carmen import INTEL_LOG, odom_records, read_carmen as library_log, relative_pose
 from pfcourse.book.figures.maprobot import draw_map
 from pfcourse.scenarios.maprobot.mapping import build_map
 from pfcourse.metrics import heading_error, position_error
@@ -60,6 +60,18 @@ dr_full = log.dead_reckoning()
 with gzip.open(INTEL_LOG, "rt") as f:
     n_neff = sum(line.startswith("NEFF") for line in f)
 glue_values("intel_", neff_lines=n_neff)
+# the ODOM lines: right after a FLASER line, GMapping's scan-matched pose (SM_UPDATE); the others its best
+# particle's poses after odometry updates (ODO_UPDATE), whose heading steps lie on the encoder's lattice
+odom_poses, odom_times, scan_matched, odom_scan = odom_records()
+i_odo = np.flatnonzero(~scan_matched)
+pair = (odom_scan[i_odo[1:]] == odom_scan[i_odo[:-1]]) & (np.diff(i_odo) == 1)
+head_steps = np.angle(np.exp(1j * np.diff(odom_poses[:, 2])))[i_odo[1:][pair] - 1]
+head_steps = head_steps[np.abs(head_steps) > 1e-9]
+encoder_step = np.median(head_steps[(head_steps > 0.004) & (head_steps < 0.008)])
+on_lattice = np.abs(head_steps / encoder_step - np.round(head_steps / encoder_step)) * encoder_step < 2e-5
+glue_values("intel_", n_odo_updates=int((~scan_matched).sum()), n_scan_matched=int(scan_matched.sum()),
+            n_scan_matched_time_zero=int((odom_times[scan_matched] == 0).sum()),
+            encoder_step_rad=encoder_step, encoder_share=on_lattice.mean(), n_heading_steps=len(head_steps))
 
 # %% [markdown]
 # ## The picture: a map, a path, and the odometry drifting away
@@ -96,11 +108,12 @@ glue_values("intel_", dead_reckoning_final_error_m=dr_error[-1],
 #
 # A CARMEN log is a text file, one message a line. A `FLASER` line is a scan: $180$ ranges, one beam
 # per degree from the robot's right to its left, then the pose the scan was taken at; a beam with no
-# echo reads $81.83$ m. An `ODOM` line is the pose the wheel encoders have integrated so far.
+# echo reads $81.83$ m.
 #
-# This copy is *corrected*: the pose on each `FLASER` line is not the odometry but a SLAM estimate over
-# the whole log, loop closures included (GMapping's {cite:p}`grisetti2007`, a particle-filter SLAM
-# method, which writes the {glue:text}`intel_neff_lines:d` `NEFF` lines of the file). After each scan the
+# This copy is *corrected*: the pose on each `FLASER` line is not the odometry but GMapping's
+# {cite:p}`grisetti2007`, a particle-filter SLAM method, which writes the
+# {glue:text}`intel_neff_lines:d` `NEFF` lines of the file. So are the `ODOM` lines, though their
+# steps are the encoders' (folded below). After each scan the
 # `ODOM` lines restart from that corrected pose, so what the wheels measured between scans $k$ and
 # $k+1$ is the last odometry pose before scan $k+1$, $\bar x_{k+1}$, seen from the corrected pose $x_k$:
 #
@@ -112,6 +125,19 @@ glue_values("intel_", dead_reckoning_final_error_m=dr_error[-1],
 # with $p$ the position and $R_\theta$ the rotation by the heading. The loader does that, and turns
 # $u_k$ into the $(\delta_{\mathrm{rot1}}, \delta_{\mathrm{trans}}, \delta_{\mathrm{rot2}})$ of the
 # odometry model; a robot that backs up gets a negative $\delta_{\mathrm{trans}}$, not a half-turn.
+#
+# :::{admonition} Going further: what the `ODOM` lines are
+# :class: dropdown
+# Of the {glue:text}`intel_n_odometry:,d` `ODOM` lines, {glue:text}`intel_n_odo_updates:,d` are
+# GMapping's best particle's poses after each odometry update, and
+# {glue:text}`intel_n_scan_matched:,d`, one right after each scan, its scan-matched pose, with a
+# time stamp never set ({glue:text}`intel_n_scan_matched_time_zero:d` read $0$). The steps between
+# odometry updates are the wheel encoders' own: {glue:text}`intel_encoder_share:.1%` of the
+# {glue:text}`intel_n_heading_steps:,d` nonzero heading steps are whole multiples of
+# {glue:text}`intel_encoder_step_rad:.6f` rad, one encoder tick, a lattice that any motion noise
+# GMapping added would blur. So $u_k$ is the encoders' motion between two laser readings, replayed
+# from each corrected pose.
+# :::
 #
 # :::{admonition} Going further: which angle is beam $i$?
 # :class: dropdown
@@ -136,7 +162,7 @@ log = read_carmen()  # book/data/intel/intel-corrected.log.gz
 u = log.odometry()  # (rot1, trans, rot2) from scan k - 1 to scan k
 minutes = (log.times[-1] - log.times[0]) / 60
 print(f"{log.n_scans} scans of {log.ranges.shape[1]} beams, "
-      f"{log.n_odometry} odometry lines, {minutes:.0f} minutes")
+      f"{log.n_odometry} ODOM lines, {minutes:.0f} minutes")
 
 # %% tags=["remove-input"] jupyter={"source_hidden": true}
 steps = relative_pose(log.poses[:-1], log.poses[1:])
@@ -153,7 +179,25 @@ dt = np.diff(log.times)
 # heading error per metre on straight steps (total over total travel: the steps are nearly all of one
 # length, so a fitted line's intercept would take most of the bias), and per radian of turn on the spot
 te, om = turn_error[straight], odo_m[straight]
-drift_fit = evidence.run_interval(lambda r: te[r].sum(axis=-1) / om[r].sum(axis=-1), te.size, vectorized=True)
+drift_steps = evidence.run_interval(lambda r: te[r].sum(axis=-1) / om[r].sum(axis=-1), te.size, vectorized=True)
+BLOCK = 20  # scans (or steps) per block of the block bootstrap: neighbours in time are not independent
+
+
+def block_interval(num, den, block=BLOCK, n_resamples=4000, seed=0):
+    """sum(num) / sum(den) over a sequence in time, and its 95 % moving-block bootstrap interval: resamples
+    glue blocks of `block` neighbours drawn with replacement, so that correlated neighbours stay together."""
+    n = len(num)
+    starts = np.random.default_rng(seed).integers(0, n - block + 1, (n_resamples, -(-n // block)))
+    idx = (starts[:, :, None] + np.arange(block)).reshape(n_resamples, -1)[:, :n]
+    boot = num[idx].sum(axis=1) / den[idx].sum(axis=1)
+    return (num.sum() / den.sum(), *np.quantile(boot, [0.025, 0.975]))
+
+
+def lag1(a):
+    return np.corrcoef(a[:-1], a[1:])[0, 1]
+
+
+drift_fit = block_interval(te, om)
 turn_fit = evidence.regression_slope(true_turn[on_spot], turn_error[on_spot])
 true_m = np.hypot(*steps[:, :2].T)
 moving = true_m > 0.3
@@ -187,8 +231,10 @@ EvidenceBlock(
            f"on straight steps, {np.degrees(turn_error[on_spot].mean()):.2f} on turns on the spot, "
            f"{np.degrees(turn_error.mean()):.2f} over all steps.",
            f"Heading error over odometry travel, summed over the {straight.sum()} straight steps: "
-           f"{np.degrees(drift_fit[0]):.2f} degrees per metre (95% bootstrap interval over the steps "
-           f"{np.degrees(drift_fit[1]):.2f} to {np.degrees(drift_fit[2]):.2f}); least-squares slope on the corrected "
+           f"{np.degrees(drift_fit[0]):.2f} degrees per metre (95% moving-block bootstrap interval, blocks of "
+           f"{BLOCK} straight steps in time order: {np.degrees(drift_fit[1]):.2f} to {np.degrees(drift_fit[2]):.2f}; "
+           f"resampling single steps: {np.degrees(drift_steps[1]):.2f} to {np.degrees(drift_steps[2]):.2f}; "
+           f"lag-1 autocorrelation of the steps' heading errors {lag1(te):+.2f}); least-squares slope on the corrected "
            f"turn, {on_spot.sum()} turns on the spot: "
            f"{turn_fit[0]:+.3f} ({turn_fit[1]:+.3f} to {turn_fit[2]:+.3f}; positive: the odometry over-rotates). "
            f"Odometry over corrected distance on the {moving.sum()} steps of more than 0.3 m: median "
@@ -311,6 +357,16 @@ glue_values("intel_", held_to_map_median_m=np.median(held_to_map), held_to_map_m
 # run is cut in two. The second half maps: each pose of the first half lies a median
 # {glue:text}`intel_held_to_map_median_m:.1f` m from its path, each of its poses
 # {glue:text}`intel_map_to_held_median_m:.1f` m from the first half's.
+#
+# :::{admonition} Going further: what the reference is
+# :class: dropdown
+# The corrected path is the ancestry of GMapping's final best particle: the poses it scan-matched
+# online, each scan against the map of the scans before it, in the lineage the final weights chose.
+# Loop closures choose the lineage; they move no earlier pose. So on any map that contains a held-out
+# scan (the whole run's map, the map control) its reference pose sits near the scan-match optimum by
+# construction; and the second half's poses, which build the map, were themselves matched against
+# walls from the first half.
+# :::
 #
 # ## Tracking on the held-out half
 #
@@ -588,7 +644,8 @@ plt.show()
 # %% tags=["remove-input"] jupyter={"source_hidden": true}
 def far_share(poses, ranges, far=0.5):
     """Share of the echoes whose end point lies more than `far` m from every occupied cell of the map, with its
-    95 % bootstrap interval resampling whole scans (the beams of one scan are not independent)."""
+    95 % block bootstrap interval (blocks of BLOCK scans: neither the beams of one scan nor neighbouring
+    scans are independent), and the far echoes and echoes per scan."""
     h = poses[:, 2:3] + log.angles
     echo = ranges < Z_MAX
     j = np.floor((poses[:, 0:1] + ranges * np.cos(h)) / RES).astype(int)
@@ -596,11 +653,29 @@ def far_share(poses, ranges, far=0.5):
     inside = (i >= 0) & (i < shape[0]) & (j >= 0) & (j < shape[1])
     d = np.where(inside, dist[i * inside, j * inside], np.inf)
     n_far, n_echo = ((d > far) & echo).sum(axis=1), echo.sum(axis=1)  # per scan
-    return evidence.run_interval(lambda r: n_far[r].sum(axis=-1) / n_echo[r].sum(axis=-1), len(poses), vectorized=True)
+    return block_interval(n_far, n_echo), n_far, n_echo
 
 
 map_poses = log.poses[MAP] - [*origin, 0.0]
-far_held, far_map = far_share(truth, log.ranges[HELD]), far_share(map_poses, log.ranges[MAP])
+(far_held, held_far, held_echo), (far_map, *_) = far_share(truth, log.ranges[HELD]), far_share(map_poses, log.ranges[MAP])
+held_scan_share = held_far / held_echo
+# the per-scan share's autocorrelation: the first lag at which it falls below 0.1 sets the block's scale
+far_acf = np.array([np.corrcoef(held_scan_share[:-k], held_scan_share[k:])[0, 1] for k in range(1, 60)])
+far_single = evidence.run_interval(lambda r: held_far[r].sum(axis=-1) / held_echo[r].sum(axis=-1), len(held_far),
+                                   vectorized=True)
+far_block50 = block_interval(held_far, held_echo, block=50)
+glue_values("intel_", far_lag1=far_acf[0], far_acf_lag=int(np.argmax(far_acf < 0.1)) + 1, far_block=BLOCK,
+            far_block_s=BLOCK * np.median(dt))
+EvidenceBlock(
+    "the far echoes' interval",
+    notes=[f"Per-scan share of far echoes (held-out half, {len(held_far)} scans): lag-1 autocorrelation "
+           f"{far_acf[0]:.2f}; it first falls below 0.1 at lag {np.argmax(far_acf < 0.1) + 1} scans (at lags 20-40 "
+           f"it reaches {far_acf[19:40].max():.2f} again, where the robot comes back to a room).",
+           f"Share {far_held[0]:.2%}: moving-block bootstrap, blocks of {BLOCK} scans (about "
+           f"{BLOCK * np.median(dt):.0f} s), {far_held[1]:.2%} to {far_held[2]:.2%}; blocks of 50 scans "
+           f"{far_block50[1]:.2%} to {far_block50[2]:.2%}; resampling single scans (too narrow: it takes the scans "
+           f"as independent) {far_single[1]:.2%} to {far_single[2]:.2%}.",
+           f"The map half's own echoes: {far_map[0]:.3%} ({far_map[1]:.3%} to {far_map[2]:.3%}, blocks of {BLOCK})."])
 glue_values("intel_", far_held_share=far_held[0], far_held_share_low=far_held[1], far_held_share_high=far_held[2],
             far_map_share=far_map[0], far_map_share_low=far_map[1], far_map_share_high=far_map[2])
 
@@ -675,6 +750,37 @@ ends_vs_none = evidence.paired_rates(ends["cure"], ends["no_injection"])
 hazard_vs_none = evidence.paired_rates(lock["hazard"], lock["no_injection"])
 hazard_ends_vs_none = evidence.paired_rates(ends["hazard"], ends["no_injection"])
 ends_vs_hazard = evidence.paired_rates(ends["cure"], ends["hazard"])
+# run length: with confirm = 3 the cure admits a stratum at its third injection at the earliest; can the lock-on
+# window (LOCK_SHARE of the last LOCK_WINDOW scans) still see an admission at the next injection?
+need = int(np.ceil(intel.LOCK_SHARE * intel.LOCK_WINDOW))
+earliest_admission = inject_steps[S.confirm - 1]
+left_after_next = intel.GLOBAL_STEPS - (earliest_admission + S.inject_every)
+assert left_after_next < need <= intel.GLOBAL_STEPS - earliest_admission  # one admission time only counts
+from pfcourse.scenarios.maprobot.drive import DT as SIM_DT, SPEED as SIM_SPEED  # chapter 15's drives
+# runs of LONG_STEPS scans (stored study intel/long_runs): the same draw rule for the start, the same filter seeds
+long = {m: g.sort_values("seed").reset_index(drop=True) for m, g in STUDIES["intel/long_runs"].load().groupby("method")}
+long_lock = {m: g["locked_on"].to_numpy() for m, g in long.items()}
+long_ends = {m: (g["final_position_error"] < intel.LOCK_POSITION_M).to_numpy() for m, g in long.items()}
+long_vs_none = evidence.paired_rates(long_lock["guarded"], long_lock["no_injection"])
+long_ends_vs_none = evidence.paired_rates(long_ends["guarded"], long_ends["no_injection"])
+long_vs_hazard = evidence.paired_rates(long_lock["guarded"], long_lock["scan"])
+long_locked = long["guarded"][long["guarded"]["locked_on"]]
+glue_values("intel_global_", first_injection=inject_steps[0], earliest_admission=earliest_admission,
+            window_first=intel.GLOBAL_STEPS - intel.LOCK_WINDOW, window_last=intel.GLOBAL_STEPS - 1,
+            window_need=need, next_admission=earliest_admission + S.inject_every, left_after_next=left_after_next,
+            history_scans=S.history, history_m=S.history * np.median(u[1:, 1]),
+            history_s=S.history * np.median(np.diff(log.times)),
+            sim_history_m=S.history * SIM_SPEED * SIM_DT, sim_history_s=S.history * SIM_DT)
+glue_values("intel_long_", steps=intel.LONG_STEPS, lock_on_rate=long_vs_none.a.estimate,
+            no_injection_rate=long_vs_none.b.estimate, no_injection_diff=long_vs_none.difference,
+            no_injection_diff_low=long_vs_none.difference_low, no_injection_diff_high=long_vs_none.difference_high,
+            ends_diff=long_ends_vs_none.difference, n_locked=len(long_locked),
+            n_lock_later=int((long_locked["locked_from"] > 2).sum()))
+# losses of lock per run: does the cure lose lock less often than before its guards, run by run?
+per_run_losses = {m: x.sum(axis=1) for m, x in losses.items()}
+more_hazard = int((per_run_losses["hazard"] > per_run_losses["cure"]).sum())
+more_cure = int((per_run_losses["cure"] > per_run_losses["hazard"]).sum())
+losses_sign_p = stats.binomtest(more_hazard, more_hazard + more_cure).pvalue
 
 
 def on_robot(g):
@@ -823,7 +929,23 @@ EvidenceBlock(
            f"{losses['no_injection'].sum()}. Runs on the robot at half or more of the first {S.history} scans yet not "
            f"locked on at the end: the cure {thrown['cure'].sum()}, before its guards {thrown['hazard'].sum()} (of "
            f"which {(thrown['hazard'] & lock['no_injection']).sum()} lock on without injection), without injection "
-           f"{thrown['no_injection'].sum()}.",
+           f"{thrown['no_injection'].sum()}. Run by run, {more_hazard} runs lose lock more often before the guards "
+           f"than with them and {more_cure} more often with them (exact sign test over the {more_hazard + more_cure} "
+           f"runs that differ, p = {losses_sign_p:.2g}).",
+           f"Run length (stored study intel/long_runs: {intel.LONG_STEPS} scans, start scan drawn by the same rule "
+           f"among scans 0-{intel.N_SCANS // 2 - intel.LONG_STEPS - 1}, filter seeds as above; so paired within these "
+           f"runs, not with the {intel.GLOBAL_STEPS}-scan ones). The cure A against the cure without injection B, "
+           f"locked on: {long_vs_none}; ending within 1 m: {long_ends_vs_none}. The cure A against the cure before "
+           f"its guards B, locked on: {long_vs_hazard}. Lock-ons of the cure later than the first scans "
+           f"(locked_from > 2): {int((long_locked['locked_from'] > 2).sum())} of {len(long_locked)}. "
+           f"In {intel.GLOBAL_STEPS}-scan runs the window (scans {intel.GLOBAL_STEPS - intel.LOCK_WINDOW}-"
+           f"{intel.GLOBAL_STEPS - 1}, {need} needed) can count only a stratum admitted at scan {earliest_admission} "
+           f"(wins at {inject_steps[:S.confirm]}); one admitted at {earliest_admission + S.inject_every} leaves "
+           f"{left_after_next} scans.",
+           f"What the intervals cover: the {len(cure)} runs are independent draws of a start scan in one "
+           f"{(log.times[intel.HELD_OUT][-1] - log.times[0]) / 60:.0f}-minute half of one log, on one map (runs may "
+           "overlap; their starts are drawn independently). They say nothing of other buildings, robots or "
+           "drives. The tracking runs' intervals are over filter seeds on one fixed path.",
            f"The cure before its guards A against the previous cure B (augmented MCL's ratio as the injected mass; "
            f"stored study intel/global_previous): {hazard_vs_previous}. Discordant runs {n_discordant} of "
            f"{len(cure)}: their share is at most {previous_bound:.3f} (exact Clopper-Pearson 95% bound), so is |A - B|.",
@@ -872,13 +994,28 @@ EvidenceBlock(
 )
 
 # %% [markdown]
-# The cure locks on in {glue:text}`intel_global_lock_on_rate:.0%` of the runs
+# In runs of $40$ scans the cure locks on in {glue:text}`intel_global_lock_on_rate:.0%`
 # ({glue:text}`intel_global_lock_on_rate_low:.0%`-{glue:text}`intel_global_lock_on_rate_high:.0%`);
-# uniform particles only, in {glue:text}`intel_global_uniform_lock_on_rate:.0%`.
+# uniform particles only, in {glue:text}`intel_global_uniform_lock_on_rate:.0%`. In runs of
+# {glue:text}`intel_long_steps:d` scans the cure locks on in {glue:text}`intel_long_lock_on_rate:.0%`,
+# against {glue:text}`intel_long_no_injection_rate:.0%` without injection:
+# {glue:text}`intel_long_no_injection_diff:+.0%` ({glue:text}`intel_long_no_injection_diff_low:+.0%`
+# to {glue:text}`intel_long_no_injection_diff_high:+.0%`).
 #
 # On the simulated map of {doc}`map_global` the same cure locks on in
 # {glue:text}`intel_global_sim_rate:.0%` of its held-out drives, by that chapter's rule. Why is the
 # log harder? Suspects, each tried on the same runs.
+#
+# **Run length.** A stratum takes weight at its third win in a row, from scan
+# {glue:text}`intel_global_first_injection:d` on: at scan
+# {glue:text}`intel_global_earliest_admission:d` at the earliest. Lock-on needs
+# {glue:text}`intel_global_window_need:d` of scans {glue:text}`intel_global_window_first:d`-{glue:text}`intel_global_window_last:d`,
+# and the next chance, scan {glue:text}`intel_global_next_admission:d`, leaves
+# {glue:text}`intel_global_left_after_next:d`: a $40$-scan run shows one injection at most. Its
+# history of {glue:text}`intel_global_history_scans:d` scans spans about
+# {glue:text}`intel_global_history_m:.0f` m and {glue:text}`intel_global_history_s:.0f` s of drifting
+# odometry ({glue:text}`intel_global_sim_history_m:.0f` m, {glue:text}`intel_global_sim_history_s:.0f` s
+# when simulated).
 #
 # **The map.** Does a better-covered map help, or only a map made of the scans being
 # localized? Build, for each run, the map of every scan except the run's own and
@@ -892,21 +1029,19 @@ EvidenceBlock(
 # The whole run's map, the run's own scans included, adds
 # {glue:text}`intel_global_whole_minus_control:+.0%` more: most of the gap is the half map's coverage.
 #
-# **The filter.** Of the {glue:text}`intel_global_n_locked:d` runs that lock on,
-# {glue:text}`intel_global_n_lock_from_start:d` do so from the first scans; KLD-sampling keeps the
+# **The filter.** Of the {glue:text}`intel_global_n_locked:d` $40$-scan runs that lock on,
+# {glue:text}`intel_global_n_lock_from_start:d` do so from the first scans. KLD-sampling keeps the
 # cloud at its floor of {glue:text}`intel_global_n_min:d` particles in
 # {glue:text}`intel_global_at_floor_share:.0%` of the runs.
 #
 # Without injection the same filter locks on in {glue:text}`intel_global_no_injection_rate:.0%`:
 # injection changes that by {glue:text}`intel_global_no_injection_diff:+.0%`
 # ({glue:text}`intel_global_no_injection_diff_low:+.0%` to
-# {glue:text}`intel_global_no_injection_diff_high:+.0%`): larger changes, either way, are excluded by
-# the data.
+# {glue:text}`intel_global_no_injection_diff_high:+.0%`): larger changes are excluded for $40$-scan
+# runs only.
 #
-# It ends more runs on the robot, though: {glue:text}`intel_global_ends_rate:.0%` within $1$ m, a gain
-# of {glue:text}`intel_global_ends_diff:+.0%` ({glue:text}`intel_global_ends_diff_low:+.0%` to
-# {glue:text}`intel_global_ends_diff_high:+.0%`). The lock-on window sees little of this: only the
-# injections at scans $20$ to $28$ can bring a run on early enough for it.
+# It ends more runs within $1$ m, though: {glue:text}`intel_global_ends_rate:.0%`, a gain of {glue:text}`intel_global_ends_diff:+.0%` ({glue:text}`intel_global_ends_diff_low:+.0%` to
+# {glue:text}`intel_global_ends_diff_high:+.0%`), which the $40$-scan window cannot show.
 #
 # **Why the guards.** Without its last step the algorithm admits a stratum at its first win, when
 # the scans since it was drawn favour it by $\log(1/4\rho)$, about
@@ -915,8 +1050,7 @@ EvidenceBlock(
 # {glue:text}`intel_global_hazard_rate:.0%` of the same runs.
 #
 # And {glue:text}`intel_global_losses_at_injection_hazard:d` of its
-# {glue:text}`intel_global_n_losses_hazard:d` losses of lock (a scan on the robot, the next off it)
-# fall on an injection step: false relocalization. With the guards the runs lose lock
+# {glue:text}`intel_global_n_losses_hazard:d` losses of lock fall on an injection step: false relocalization. With the guards the runs lose lock
 # {glue:text}`intel_global_n_losses:d` times.
 #
 # :::{admonition} Going further: the cost
@@ -939,7 +1073,8 @@ EvidenceBlock(
 # The map is a SLAM map, made of other scans. Of the held-out scans' echoes, seen from the corrected
 # poses, {glue:text}`intel_far_held_share:.1%`
 # ({glue:text}`intel_far_held_share_low:.1%`-{glue:text}`intel_far_held_share_high:.1%`, resampling
-# whole scans) end more than half a metre from any wall of the map. Each such beam pulls the true
+# blocks of {glue:text}`intel_far_block:d` scans, since an unmapped room stays in view for many scans
+# in a row) end more than half a metre from any wall of the map. Each such beam pulls the true
 # pose's weight down.
 #
 # Of the map half's own echoes, {glue:text}`intel_far_map_share:.2%`
@@ -1073,11 +1208,10 @@ print(check_random_beams(my_beams))
 # - Map and localize on different scans, and report many seeds: one run is one draw, and a map made
 #   of the scans being localized flatters the filter; a map control tells coverage from flattery.
 # - Against a SLAM reference, centimetres measure two registrations' agreement; metres are real.
-# - Finding the robot from nowhere depends on the map and on the filter: on a map of the other half
+# - Finding the robot from nowhere, on this log, depends on the map, the filter and the run's length: on a map of the other half
 #   the cure of {doc}`map_global` locks on mostly where that half passed, on the map control most of
 #   the time; yet in most failures that end elsewhere the scans favour the true pose, which the
-#   filter never reached. Its injected poses bring runs onto the robot; without its guards they also
-#   throw runs off it.
+#   filter never reached. Its injected poses bring runs onto the robot (over {glue:text}`intel_long_steps:d` scans); without its guards they also throw runs off it.
 #
 # :::{admonition} From the labs
 # :class: dropdown
