@@ -776,6 +776,13 @@ glue_values("intel_long_", steps=intel.LONG_STEPS, lock_on_rate=long_vs_none.a.e
             no_injection_diff_low=long_vs_none.difference_low, no_injection_diff_high=long_vs_none.difference_high,
             ends_diff=long_ends_vs_none.difference, n_locked=len(long_locked),
             n_lock_later=int((long_locked["locked_from"] > 2).sum()))
+# the cure's runs judged by the heaviest cluster's mean, as AMCL reports it (stored study intel/cluster_estimate)
+clusters = STUDIES["intel/cluster_estimate"].load().sort_values("seed").reset_index(drop=True)
+assert (clusters["locked_on"].to_numpy() == lock["cure"]).all()  # the same runs, re-run keeping their clouds
+cluster_changed = int((clusters["locked_on"] != clusters["locked_on_cluster"]).sum())
+near_mass = clusters["final_mass_near_reference"].to_numpy()
+decided = (near_mass >= 0.9) | (near_mass <= 0.1)
+glue_values("intel_cluster_", n=len(clusters), n_changed=cluster_changed, n_decided=int(decided.sum()))
 # losses of lock per run: does the cure lose lock less often than before its guards, run by run?
 per_run_losses = {m: x.sum(axis=1) for m, x in losses.items()}
 more_hazard = int((per_run_losses["hazard"] > per_run_losses["cure"]).sum())
@@ -942,6 +949,12 @@ EvidenceBlock(
            f"{intel.GLOBAL_STEPS - 1}, {need} needed) can count only a stratum admitted at scan {earliest_admission} "
            f"(wins at {inject_steps[:S.confirm]}); one admitted at {earliest_admission + S.inject_every} leaves "
            f"{left_after_next} scans.",
+           f"AMCL's estimate (stored study intel/cluster_estimate, the cure's {len(clusters)} runs re-run keeping their "
+           "clouds; particles binned in 1 m x 1 m x 30 degree cells, the heaviest cell, then the weighted mean of the "
+           f"particles within 1 m of it): {cluster_changed} lock-on labels change. Weight within 1 m and the heading "
+           f"tolerance of the reference at the last scan: at least 0.9 in {(near_mass >= 0.9).sum()} runs, at most "
+           f"0.1 in {(near_mass <= 0.1).sum()}, between in {(~decided).sum()}; of the failures that end more than 1 m "
+           f"away, the largest such weight is {near_mass[clusters['final_position_error'].to_numpy() > 1].max():.3f}.",
            f"What the intervals cover: the {len(cure)} runs are independent draws of a start scan in one "
            f"{(log.times[intel.HELD_OUT][-1] - log.times[0]) / 60:.0f}-minute half of one log, on one map (runs may "
            "overlap; their starts are drawn independently). They say nothing of other buildings, robots or "
@@ -1094,9 +1107,11 @@ EvidenceBlock(
 #
 # The estimate is the cloud's weighted mean (the circular mean for the heading). AMCL reports the
 # mean of its heaviest cluster instead: for a cloud split between the robot and a look-alike, the
-# weighted mean lies between them, so a run whose heaviest cluster sits on the robot counts as off it
-# here and on it in AMCL. How many runs that would turn is not measured (the stored runs keep their
-# estimates, not their clouds); the margins above are taken at the mean too.
+# weighted mean lies between them. Judged by the heaviest cluster (the same runs re-run keeping their
+# clouds), {glue:text}`intel_cluster_n_changed:d` of the {glue:text}`intel_cluster_n:d` labels
+# change: at the last scan {glue:text}`intel_cluster_n_decided:d` clouds hold at least $0.9$ or at
+# most $0.1$ of their weight near the reference. The clouds are not split, so the mean, and the
+# margins above, are taken at the mode.
 #
 # Nor is the bound of {doc}`map_global`: there an exact filter over the map's look-alike "twins"
 # gave the share of drives the evidence decides. This map's twins are not listed, so the share of
