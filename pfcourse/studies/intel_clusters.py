@@ -29,7 +29,7 @@ from pfcourse.studies import intel
 #: The clustering: cells of 1 m x 1 m x 30 degrees, then the particles within 1 m of the heaviest cell's mean.
 CLUSTER_BIN = (1.0, 1.0, float(np.radians(30.0)))
 CLUSTER_RADIUS = 1.0
-CLUSTER_COLUMNS = ("start_scan", "locked_on", "locked_on_cluster", "final_position_error",
+CLUSTER_COLUMNS = ("seed", "start_scan", "locked_on", "locked_on_cluster", "final_position_error",
                    "final_cluster_error", "final_mass_near_reference")
 
 
