@@ -783,11 +783,6 @@ cluster_changed = int((clusters["locked_on"] != clusters["locked_on_cluster"]).s
 near_mass = clusters["final_mass_near_reference"].to_numpy()
 decided = (near_mass >= 0.9) | (near_mass <= 0.1)
 glue_values("intel_cluster_", n=len(clusters), n_changed=cluster_changed, n_decided=int(decided.sum()))
-# losses of lock per run: does the cure lose lock less often than before its guards, run by run?
-per_run_losses = {m: x.sum(axis=1) for m, x in losses.items()}
-more_hazard = int((per_run_losses["hazard"] > per_run_losses["cure"]).sum())
-more_cure = int((per_run_losses["cure"] > per_run_losses["hazard"]).sum())
-losses_sign_p = stats.binomtest(more_hazard, more_hazard + more_cure).pvalue
 
 
 def on_robot(g):
@@ -802,6 +797,11 @@ at_injection = {m: int(x[:, np.array(inject_steps) - 1].sum()) for m, x in losse
 # on the robot for half of the first 20 scans (before any injection), yet not locked on at the end
 early_on = {m: o[:, :S.history].sum(axis=1) >= S.history // 2 for m, o in ok.items()}
 thrown = {m: early_on[m] & ~lock[m] for m in ok}
+# losses of lock per run: does the cure lose lock less often than before its guards, run by run?
+per_run_losses = {m: x.sum(axis=1) for m, x in losses.items()}
+more_hazard = int((per_run_losses["hazard"] > per_run_losses["cure"]).sum())
+more_cure = int((per_run_losses["cure"] > per_run_losses["hazard"]).sum())
+losses_sign_p = stats.binomtest(more_hazard, more_hazard + more_cure).pvalue
 # the cost: poses scored against a scan over a run; the proposal scores its candidates and refinements
 cost = {m: runs[m]["likelihood_evaluations"].to_numpy() for m in ("cure", "hazard", "uniform", "no_injection")}
 proposal = S.candidates * S.headings + S.refine_rounds * S.refine_trials * S.keep
