@@ -18,7 +18,7 @@
 # **You need** {doc}`map_robot` (the odometry model, the likelihood field, MCL) and {doc}`map_global`
 # (global localization); Bayes' rule; NumPy.
 #
-# **Time:** about twenty-five minutes to read, plus about twenty-seven minutes for the folded blocks; the exercise is extra.
+# **Time:** about twenty-five minutes to read, plus about thirty-one minutes for the folded blocks; the exercise is extra.
 # :::
 #
 # Every robot of the book so far was simulated: the filter knew the noise that made the data. A real
@@ -1009,26 +1009,37 @@ EvidenceBlock(
 # %% [markdown]
 # In runs of $40$ scans the cure locks on in {glue:text}`intel_global_lock_on_rate:.0%`
 # ({glue:text}`intel_global_lock_on_rate_low:.0%`-{glue:text}`intel_global_lock_on_rate_high:.0%`);
-# uniform particles only, in {glue:text}`intel_global_uniform_lock_on_rate:.0%`. In runs of
-# {glue:text}`intel_long_steps:d` scans the cure locks on in {glue:text}`intel_long_lock_on_rate:.0%`,
-# against {glue:text}`intel_long_no_injection_rate:.0%` without injection:
-# {glue:text}`intel_long_no_injection_diff:+.0%` ({glue:text}`intel_long_no_injection_diff_low:+.0%`
-# to {glue:text}`intel_long_no_injection_diff_high:+.0%`).
+# uniform particles only, in {glue:text}`intel_global_uniform_lock_on_rate:.0%`.
+#
+# In runs of $80$ scans the cure locks on in {glue:text}`intel_long_lock_on_rate:.0%`,
+# {glue:text}`intel_long_no_injection_diff:+.0%` against no injection
+# ({glue:text}`intel_long_no_injection_diff_low:+.0%` to {glue:text}`intel_long_no_injection_diff_high:+.0%`).
 #
 # On the simulated map of {doc}`map_global` the same cure locks on in
 # {glue:text}`intel_global_sim_rate:.0%` of its held-out drives, by that chapter's rule. Why is the
 # log harder? Suspects, each tried on the same runs.
 #
-# **Run length.** A stratum takes weight at its third win in a row, from scan
-# {glue:text}`intel_global_first_injection:d` on: at scan
+# **Run length.** A $40$-scan run shows one of the cure's injections at most: a stratum takes weight
+# at its third win in a row, at scan {glue:text}`intel_global_earliest_admission:d` at the earliest,
+# and lock-on needs {glue:text}`intel_global_window_need:d` of the last $15$ scans (folded below).
+#
+# Its history of $20$ scans spans about {glue:text}`intel_global_history_m:.0f` m and
+# {glue:text}`intel_global_history_s:.0f` s of drifting odometry
+# ({glue:text}`intel_global_sim_history_m:.0f` m, {glue:text}`intel_global_sim_history_s:.0f` s when
+# simulated).
+#
+# :::{admonition} Going further: the window's arithmetic
+# :class: dropdown
+# Injection starts at scan {glue:text}`intel_global_first_injection:d` and comes every $4$ scans; a
+# stratum is admitted at its third win in a row, so at scan
 # {glue:text}`intel_global_earliest_admission:d` at the earliest. Lock-on needs
-# {glue:text}`intel_global_window_need:d` of scans {glue:text}`intel_global_window_first:d`-{glue:text}`intel_global_window_last:d`,
-# and the next chance, scan {glue:text}`intel_global_next_admission:d`, leaves
-# {glue:text}`intel_global_left_after_next:d`: a $40$-scan run shows one injection at most. Its
-# history of {glue:text}`intel_global_history_scans:d` scans spans about
-# {glue:text}`intel_global_history_m:.0f` m and {glue:text}`intel_global_history_s:.0f` s of drifting
-# odometry ({glue:text}`intel_global_sim_history_m:.0f` m, {glue:text}`intel_global_sim_history_s:.0f` s
-# when simulated).
+# {glue:text}`intel_global_window_need:d` of scans
+# {glue:text}`intel_global_window_first:d`-{glue:text}`intel_global_window_last:d`. A stratum admitted
+# at the next chance, scan {glue:text}`intel_global_next_admission:d`, leaves
+# {glue:text}`intel_global_left_after_next:d` scans: too few. Over $80$ scans, later admissions count
+# too, and {glue:text}`intel_long_n_lock_later:d` of the cure's {glue:text}`intel_long_n_locked:d`
+# lock-ons come after the first scans.
+# :::
 #
 # **The map.** Does a better-covered map help, or only a map made of the scans being
 # localized? Build, for each run, the map of every scan except the run's own and
