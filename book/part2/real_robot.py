@@ -18,7 +18,7 @@
 # **You need** {doc}`map_robot` (the odometry model, the likelihood field, MCL) and {doc}`map_global`
 # (global localization); Bayes' rule; NumPy.
 #
-# **Time:** about twenty-five minutes to read, plus about thirty-one minutes for the folded blocks; the exercise is extra.
+# **Time:** about twenty-six minutes to read, plus about thirty-one minutes for the folded blocks; the exercise is extra.
 # :::
 #
 # Every robot of the book so far was simulated: the filter knew the noise that made the data. A real
@@ -45,7 +45,7 @@ from pfcourse.book.report import EvidenceBlock, glue_values
 from pfcourse.book.panels import control_panel
 from pfcourse.filter import ParticleFilter
 from pfcourse.scenarios.maprobot import MapRobotModel, OdometryModel
-from pfcourse.scenarios.maprobot.carmen import INTEL_LOG, read_carmen as library_log, relative_pose
+from pfcourse.scenarios.maprobot.carmen import INTEL_LOG, odom_records, read_carmen as library_log, relative_pose
 from pfcourse.book.figures.maprobot import draw_map
 from pfcourse.scenarios.maprobot.mapping import build_map
 from pfcourse.metrics import heading_error, position_error
@@ -60,10 +60,20 @@ dr_full = log.dead_reckoning()
 # gfs2log writes after each FLASER line the corrected pose again as an ODOM line (GMapping's scan-match
 # record, whose time it leaves unset); the other ODOM lines are the best particle's motion updates
 with gzip.open(INTEL_LOG, "rt") as f:
-    kinds = [line.split(None, 1)[0] for line in f if line.strip()]
-n_neff = kinds.count("NEFF")
-n_after_scan = sum(a == "FLASER" and b == "ODOM" for a, b in zip(kinds, kinds[1:]))
-glue_values("intel_", neff_lines=n_neff, odo_update_lines=kinds.count("ODOM") - n_after_scan)
+    n_neff = sum(line.startswith("NEFF") for line in f)
+glue_values("intel_", neff_lines=n_neff)
+# the ODOM lines: right after a FLASER line, GMapping's scan-matched pose (SM_UPDATE); the others its best
+# particle's poses after odometry updates (ODO_UPDATE), whose heading steps lie on the encoder's lattice
+odom_poses, odom_times, scan_matched, odom_scan = odom_records()
+i_odo = np.flatnonzero(~scan_matched)
+pair = (odom_scan[i_odo[1:]] == odom_scan[i_odo[:-1]]) & (np.diff(i_odo) == 1)
+head_steps = np.angle(np.exp(1j * np.diff(odom_poses[:, 2])))[i_odo[1:][pair] - 1]
+head_steps = head_steps[np.abs(head_steps) > 1e-9]
+encoder_step = np.median(head_steps[(head_steps > 0.004) & (head_steps < 0.008)])
+on_lattice = np.abs(head_steps / encoder_step - np.round(head_steps / encoder_step)) * encoder_step < 2e-5
+glue_values("intel_", n_odo_updates=int((~scan_matched).sum()), n_scan_matched=int(scan_matched.sum()),
+            n_scan_matched_time_zero=int((odom_times[scan_matched] == 0).sum()),
+            encoder_step_rad=encoder_step, encoder_share=on_lattice.mean(), n_heading_steps=len(head_steps))
 
 # %% [markdown]
 # ## The picture: a map, a path, and the odometry drifting away
@@ -102,13 +112,12 @@ glue_values("intel_", dead_reckoning_final_error_m=dr_error[-1],
 # per degree from the robot's right to its left, then the pose the scan was taken at; a beam with no
 # echo reads $81.83$ m; no echo is longer than $25.4$ m. An `ODOM` line is a pose.
 #
-# This copy is *corrected*: the pose on each `FLASER` line is the path of the best particle of
-# GMapping {cite:p}`grisetti2007`, a particle-filter SLAM method run over the whole log, loop closures
-# included (it writes the {glue:text}`intel_neff_lines:d` `NEFF` lines). The `ODOM` lines are not the
-# wheels' readings either: between scans they are that particle's poses after each of its motion
-# updates ({glue:text}`intel_odo_update_lines:,d` lines), each the wheels' increment plus a random draw
-# from GMapping's motion model. After each scan they restart from the corrected pose, so the odometry
-# between scans $k$ and $k+1$ is the last such pose before scan $k+1$, $\bar x_{k+1}$, seen from $x_k$:
+# This copy is *corrected*: the pose on each `FLASER` line is not the odometry but GMapping's
+# {cite:p}`grisetti2007`, a particle-filter SLAM method, which writes the
+# {glue:text}`intel_neff_lines:d` `NEFF` lines of the file. So are the `ODOM` lines, though their
+# steps are the encoders' (folded below). After each scan the
+# `ODOM` lines restart from that corrected pose, so what the wheels measured between scans $k$ and
+# $k+1$ is the last odometry pose before scan $k+1$, $\bar x_{k+1}$, seen from the corrected pose $x_k$:
 #
 # $$
 # u_{k+1} = x_k^{-1} \oplus \bar x_{k+1}, \qquad
@@ -121,22 +130,15 @@ glue_values("intel_", dead_reckoning_final_error_m=dr_error[-1],
 #
 # :::{admonition} Going further: what the `ODOM` lines are
 # :class: dropdown
-# The file is the output of GMapping's converter `gfs2log` (its `ODOM` lines end in the host name
-# `pippo` that `PoseRecord::write` in `gridfastslam/gfsreader.cpp` writes). By default `gfs2log`
-# writes as `ODOM` lines the poses of the best particle's line of ancestors: after each motion update
-# (`ODO_UPDATE`, one per laser reading GMapping read, most of them not kept as scans here) and after
-# each scan match (`SM_UPDATE`, the line right after each `FLASER` line: the same pose, with a time
-# left unset). Its option `-odom` would have written the raw odometry instead, in the wheels' own frame;
-# these lines restart from the corrected pose after every scan, so the option was not used. A motion
-# update is `MotionModel::drawFromMotion`: the wheels' increment plus Gaussian noise whose spread grows
-# with the motion, with GMapping's noise parameters, which the file does not record. And the particle
-# line that survived is the one whose draws the scans favoured.
-#
-# So every number this chapter measures on "the odometry" (its drift, its heading error, dead
-# reckoning) is measured on the wheels' increments plus these draws, selected by GMapping's resampling:
-# what a filter fed this file receives, not the encoders alone. The draws add spread; the selection may
-# pull the increments towards the corrected motion. The chapter cannot separate the two without the
-# raw log, and its calibration calibrates this odometry, not the robot's wheels.
+# Of the {glue:text}`intel_n_odometry:,d` `ODOM` lines, {glue:text}`intel_n_odo_updates:,d` are
+# GMapping's best particle's poses after each odometry update, and
+# {glue:text}`intel_n_scan_matched:,d`, one right after each scan, its scan-matched pose, with a
+# time stamp never set ({glue:text}`intel_n_scan_matched_time_zero:d` read $0$). The steps between
+# odometry updates are the wheel encoders' own: {glue:text}`intel_encoder_share:.1%` of the
+# {glue:text}`intel_n_heading_steps:,d` nonzero heading steps are whole multiples of
+# {glue:text}`intel_encoder_step_rad:.6f` rad, one encoder tick, a lattice that any motion noise
+# GMapping added would blur. So $u_k$ is the encoders' motion between two laser readings, replayed
+# from each corrected pose.
 # :::
 #
 # :::{admonition} Going further: which angle is beam $i$?
@@ -162,7 +164,7 @@ log = read_carmen()  # book/data/intel/intel-corrected.log.gz
 u = log.odometry()  # (rot1, trans, rot2) from scan k - 1 to scan k
 minutes = (log.times[-1] - log.times[0]) / 60
 print(f"{log.n_scans} scans of {log.ranges.shape[1]} beams, "
-      f"{log.n_odometry} odometry lines, {minutes:.0f} minutes")
+      f"{log.n_odometry} ODOM lines, {minutes:.0f} minutes")
 
 # %% tags=["remove-input"] jupyter={"source_hidden": true}
 steps = relative_pose(log.poses[:-1], log.poses[1:])
@@ -179,7 +181,25 @@ dt = np.diff(log.times)
 # heading error per metre on straight steps (total over total travel: the steps are nearly all of one
 # length, so a fitted line's intercept would take most of the bias), and per radian of turn on the spot
 te, om = turn_error[straight], odo_m[straight]
-drift_fit = evidence.run_interval(lambda r: te[r].sum(axis=-1) / om[r].sum(axis=-1), te.size, vectorized=True)
+drift_steps = evidence.run_interval(lambda r: te[r].sum(axis=-1) / om[r].sum(axis=-1), te.size, vectorized=True)
+BLOCK = 20  # scans (or steps) per block of the block bootstrap: neighbours in time are not independent
+
+
+def block_interval(num, den, block=BLOCK, n_resamples=4000, seed=0):
+    """sum(num) / sum(den) over a sequence in time, and its 95 % moving-block bootstrap interval: resamples
+    glue blocks of `block` neighbours drawn with replacement, so that correlated neighbours stay together."""
+    n = len(num)
+    starts = np.random.default_rng(seed).integers(0, n - block + 1, (n_resamples, -(-n // block)))
+    idx = (starts[:, :, None] + np.arange(block)).reshape(n_resamples, -1)[:, :n]
+    boot = num[idx].sum(axis=1) / den[idx].sum(axis=1)
+    return (num.sum() / den.sum(), *np.quantile(boot, [0.025, 0.975]))
+
+
+def lag1(a):
+    return np.corrcoef(a[:-1], a[1:])[0, 1]
+
+
+drift_fit = block_interval(te, om)
 turn_fit = evidence.regression_slope(true_turn[on_spot], turn_error[on_spot])
 true_m = np.hypot(*steps[:, :2].T)
 moving = true_m > 0.3
@@ -216,8 +236,10 @@ EvidenceBlock(
            f"on straight steps, {np.degrees(turn_error[on_spot].mean()):.2f} on turns on the spot, "
            f"{np.degrees(turn_error.mean()):.2f} over all steps.",
            f"Heading error over odometry travel, summed over the {straight.sum()} straight steps: "
-           f"{np.degrees(drift_fit[0]):.2f} degrees per metre (95% bootstrap interval over the steps "
-           f"{np.degrees(drift_fit[1]):.2f} to {np.degrees(drift_fit[2]):.2f}); least-squares slope on the corrected "
+           f"{np.degrees(drift_fit[0]):.2f} degrees per metre (95% moving-block bootstrap interval, blocks of "
+           f"{BLOCK} straight steps in time order: {np.degrees(drift_fit[1]):.2f} to {np.degrees(drift_fit[2]):.2f}; "
+           f"resampling single steps: {np.degrees(drift_steps[1]):.2f} to {np.degrees(drift_steps[2]):.2f}; "
+           f"lag-1 autocorrelation of the steps' heading errors {lag1(te):+.2f}); least-squares slope on the corrected "
            f"turn, {on_spot.sum()} turns on the spot: "
            f"{turn_fit[0]:+.3f} ({turn_fit[1]:+.3f} to {turn_fit[2]:+.3f}; positive: the odometry over-rotates). "
            f"Odometry over corrected distance on the {moving.sum()} steps of more than 0.3 m: median "
@@ -341,6 +363,16 @@ glue_values("intel_", held_to_map_median_m=np.median(held_to_map), held_to_map_m
 # not the reverse: each pose of the first half lies a median
 # {glue:text}`intel_held_to_map_median_m:.1f` m from the second half's path, each pose of the second
 # half {glue:text}`intel_map_to_held_median_m:.1f` m from the first half's.
+#
+# :::{admonition} Going further: what the reference is
+# :class: dropdown
+# The corrected path is the ancestry of GMapping's final best particle: the poses it scan-matched
+# online, each scan against the map of the scans before it, in the lineage the final weights chose.
+# Loop closures choose the lineage; they move no earlier pose. So on any map that contains a held-out
+# scan (the whole run's map, the map control) its reference pose sits near the scan-match optimum by
+# construction; and the second half's poses, which build the map, were themselves matched against
+# walls from the first half.
+# :::
 #
 # ## Tracking on the held-out half
 #
@@ -620,7 +652,8 @@ plt.show()
 # %% tags=["remove-input"] jupyter={"source_hidden": true}
 def far_share(poses, ranges, far=0.5):
     """Share of the echoes whose end point lies more than `far` m from every occupied cell of the map, with its
-    95 % bootstrap interval resampling whole scans (the beams of one scan are not independent)."""
+    95 % block bootstrap interval (blocks of BLOCK scans: neither the beams of one scan nor neighbouring
+    scans are independent), and the far echoes and echoes per scan."""
     h = poses[:, 2:3] + log.angles
     echo = ranges < Z_MAX
     j = np.floor((poses[:, 0:1] + ranges * np.cos(h)) / RES).astype(int)
@@ -628,11 +661,29 @@ def far_share(poses, ranges, far=0.5):
     inside = (i >= 0) & (i < shape[0]) & (j >= 0) & (j < shape[1])
     d = np.where(inside, dist[i * inside, j * inside], np.inf)
     n_far, n_echo = ((d > far) & echo).sum(axis=1), echo.sum(axis=1)  # per scan
-    return evidence.run_interval(lambda r: n_far[r].sum(axis=-1) / n_echo[r].sum(axis=-1), len(poses), vectorized=True)
+    return block_interval(n_far, n_echo), n_far, n_echo
 
 
 map_poses = log.poses[MAP] - [*origin, 0.0]
-far_held, far_map = far_share(truth, log.ranges[HELD]), far_share(map_poses, log.ranges[MAP])
+(far_held, held_far, held_echo), (far_map, *_) = far_share(truth, log.ranges[HELD]), far_share(map_poses, log.ranges[MAP])
+held_scan_share = held_far / held_echo
+# the per-scan share's autocorrelation: the first lag at which it falls below 0.1 sets the block's scale
+far_acf = np.array([np.corrcoef(held_scan_share[:-k], held_scan_share[k:])[0, 1] for k in range(1, 60)])
+far_single = evidence.run_interval(lambda r: held_far[r].sum(axis=-1) / held_echo[r].sum(axis=-1), len(held_far),
+                                   vectorized=True)
+far_block50 = block_interval(held_far, held_echo, block=50)
+glue_values("intel_", far_lag1=far_acf[0], far_acf_lag=int(np.argmax(far_acf < 0.1)) + 1, far_block=BLOCK,
+            far_block_s=BLOCK * np.median(dt))
+EvidenceBlock(
+    "the far echoes' interval",
+    notes=[f"Per-scan share of far echoes (held-out half, {len(held_far)} scans): lag-1 autocorrelation "
+           f"{far_acf[0]:.2f}; it first falls below 0.1 at lag {np.argmax(far_acf < 0.1) + 1} scans (at lags 20-40 "
+           f"it reaches {far_acf[19:40].max():.2f} again, where the robot comes back to a room).",
+           f"Share {far_held[0]:.2%}: moving-block bootstrap, blocks of {BLOCK} scans (about "
+           f"{BLOCK * np.median(dt):.0f} s), {far_held[1]:.2%} to {far_held[2]:.2%}; blocks of 50 scans "
+           f"{far_block50[1]:.2%} to {far_block50[2]:.2%}; resampling single scans (too narrow: it takes the scans "
+           f"as independent) {far_single[1]:.2%} to {far_single[2]:.2%}.",
+           f"The map half's own echoes: {far_map[0]:.3%} ({far_map[1]:.3%} to {far_map[2]:.3%}, blocks of {BLOCK})."])
 glue_values("intel_", far_held_share=far_held[0], far_held_share_low=far_held[1], far_held_share_high=far_held[2],
             far_map_share=far_map[0], far_map_share_low=far_map[1], far_map_share_high=far_map[2])
 
@@ -712,6 +763,41 @@ ends_vs_none = evidence.paired_rates(ends["cure"], ends["no_injection"])
 hazard_vs_none = evidence.paired_rates(lock["hazard"], lock["no_injection"])
 hazard_ends_vs_none = evidence.paired_rates(ends["hazard"], ends["no_injection"])
 ends_vs_hazard = evidence.paired_rates(ends["cure"], ends["hazard"])
+# run length: with confirm = 3 the cure admits a stratum at its third injection at the earliest; can the lock-on
+# window (LOCK_SHARE of the last LOCK_WINDOW scans) still see an admission at the next injection?
+need = int(np.ceil(intel.LOCK_SHARE * intel.LOCK_WINDOW))
+earliest_admission = inject_steps[S.confirm - 1]
+left_after_next = intel.GLOBAL_STEPS - (earliest_admission + S.inject_every)
+assert left_after_next < need <= intel.GLOBAL_STEPS - earliest_admission  # one admission time only counts
+from pfcourse.scenarios.maprobot.drive import DT as SIM_DT, SPEED as SIM_SPEED  # chapter 15's drives
+# runs of LONG_STEPS scans (stored study intel/long_runs): the same draw rule for the start, the same filter seeds
+long = {m: g.sort_values("seed").reset_index(drop=True) for m, g in STUDIES["intel/long_runs"].load().groupby("method")}
+long_lock = {m: g["locked_on"].to_numpy() for m, g in long.items()}
+long_ends = {m: (g["final_position_error"] < intel.LOCK_POSITION_M).to_numpy() for m, g in long.items()}
+long_vs_none = evidence.paired_rates(long_lock["guarded"], long_lock["no_injection"])
+long_ends_vs_none = evidence.paired_rates(long_ends["guarded"], long_ends["no_injection"])
+long_vs_hazard = evidence.paired_rates(long_lock["guarded"], long_lock["scan"])
+long_locked = long["guarded"][long["guarded"]["locked_on"]]
+glue_values("intel_global_", first_injection=inject_steps[0], earliest_admission=earliest_admission,
+            window_first=intel.GLOBAL_STEPS - intel.LOCK_WINDOW, window_last=intel.GLOBAL_STEPS - 1,
+            window_need=need, next_admission=earliest_admission + S.inject_every, left_after_next=left_after_next,
+            history_scans=S.history, history_m=S.history * np.median(u[1:, 1]),
+            history_s=S.history * np.median(np.diff(log.times)),
+            sim_history_m=S.history * SIM_SPEED * SIM_DT, sim_history_s=S.history * SIM_DT)
+glue_values("intel_long_", steps=intel.LONG_STEPS, lock_on_rate=long_vs_none.a.estimate,
+            no_injection_rate=long_vs_none.b.estimate, no_injection_diff=long_vs_none.difference,
+            no_injection_diff_low=long_vs_none.difference_low, no_injection_diff_high=long_vs_none.difference_high,
+            ends_diff=long_ends_vs_none.difference, n_locked=len(long_locked),
+            no_injection_diff_pts=100 * long_vs_none.difference, no_injection_diff_low_pts=100 * long_vs_none.difference_low,
+            no_injection_diff_high_pts=100 * long_vs_none.difference_high,
+            n_lock_later=int((long_locked["locked_from"] > 2).sum()))
+# the cure's runs judged by the heaviest cluster's mean, as AMCL reports it (stored study intel/cluster_estimate)
+clusters = STUDIES["intel/cluster_estimate"].load().sort_values("seed").reset_index(drop=True)
+assert (clusters["locked_on"].to_numpy() == lock["cure"]).all()  # the same runs, re-run keeping their clouds
+cluster_changed = int((clusters["locked_on"] != clusters["locked_on_cluster"]).sum())
+near_mass = clusters["final_mass_near_reference"].to_numpy()
+decided = (near_mass >= 0.9) | (near_mass <= 0.1)
+glue_values("intel_cluster_", n=len(clusters), n_changed=cluster_changed, n_decided=int(decided.sum()))
 
 
 def on_robot(g):
@@ -726,6 +812,11 @@ at_injection = {m: int(x[:, np.array(inject_steps) - 1].sum()) for m, x in losse
 # on the robot for half of the first 20 scans (before any injection), yet not locked on at the end
 early_on = {m: o[:, :S.history].sum(axis=1) >= S.history // 2 for m, o in ok.items()}
 thrown = {m: early_on[m] & ~lock[m] for m in ok}
+# losses of lock per run: does the cure lose lock less often than before its guards, run by run?
+per_run_losses = {m: x.sum(axis=1) for m, x in losses.items()}
+more_hazard = int((per_run_losses["hazard"] > per_run_losses["cure"]).sum())
+more_cure = int((per_run_losses["cure"] > per_run_losses["hazard"]).sum())
+losses_sign_p = stats.binomtest(more_hazard, more_hazard + more_cure).pvalue
 # the cost: poses scored against a scan over a run; the proposal scores its candidates and refinements
 cost = {m: runs[m]["likelihood_evaluations"].to_numpy() for m in ("cure", "hazard", "uniform", "no_injection")}
 proposal = S.candidates * S.headings + S.refine_rounds * S.refine_trials * S.keep
@@ -862,7 +953,29 @@ EvidenceBlock(
            f"{losses['no_injection'].sum()}. Runs on the robot at half or more of the first {S.history} scans yet not "
            f"locked on at the end: the cure {thrown['cure'].sum()}, before its guards {thrown['hazard'].sum()} (of "
            f"which {(thrown['hazard'] & lock['no_injection']).sum()} lock on without injection), without injection "
-           f"{thrown['no_injection'].sum()}.",
+           f"{thrown['no_injection'].sum()}. Run by run, {more_hazard} runs lose lock more often before the guards "
+           f"than with them and {more_cure} more often with them (exact sign test over the {more_hazard + more_cure} "
+           f"runs that differ, p = {losses_sign_p:.2g}).",
+           f"Run length (stored study intel/long_runs: {intel.LONG_STEPS} scans, start scan drawn by the same rule "
+           f"among scans 0-{intel.N_SCANS // 2 - intel.LONG_STEPS - 1}, filter seeds as above; so paired within these "
+           f"runs, not with the {intel.GLOBAL_STEPS}-scan ones). The cure A against the cure without injection B, "
+           f"locked on: {long_vs_none}; ending within 1 m: {long_ends_vs_none}. The cure A against the cure before "
+           f"its guards B, locked on: {long_vs_hazard}. Lock-ons of the cure later than the first scans "
+           f"(locked_from > 2): {int((long_locked['locked_from'] > 2).sum())} of {len(long_locked)}. "
+           f"In {intel.GLOBAL_STEPS}-scan runs the window (scans {intel.GLOBAL_STEPS - intel.LOCK_WINDOW}-"
+           f"{intel.GLOBAL_STEPS - 1}, {need} needed) can count only a stratum admitted at scan {earliest_admission} "
+           f"(wins at {inject_steps[:S.confirm]}); one admitted at {earliest_admission + S.inject_every} leaves "
+           f"{left_after_next} scans.",
+           f"AMCL's estimate (stored study intel/cluster_estimate, the cure's {len(clusters)} runs re-run keeping their "
+           "clouds; particles binned in 1 m x 1 m x 30 degree cells, the heaviest cell, then the weighted mean of the "
+           f"particles within 1 m of it): {cluster_changed} lock-on labels change. Weight within 1 m and the heading "
+           f"tolerance of the reference at the last scan: at least 0.9 in {(near_mass >= 0.9).sum()} runs, at most "
+           f"0.1 in {(near_mass <= 0.1).sum()}, between in {(~decided).sum()}; of the failures that end more than 1 m "
+           f"away, the largest such weight is {near_mass[clusters['final_position_error'].to_numpy() > 1].max():.3f}.",
+           f"What the intervals cover: the {len(cure)} runs are independent draws of a start scan in one "
+           f"{(log.times[intel.HELD_OUT][-1] - log.times[0]) / 60:.0f}-minute half of one log, on one map (runs may "
+           "overlap; their starts are drawn independently). They say nothing of other buildings, robots or "
+           "drives. The tracking runs' intervals are over filter seeds on one fixed path.",
            f"The cure before its guards A against the previous cure B (augmented MCL's ratio as the injected mass; "
            f"stored study intel/global_previous): {hazard_vs_previous}. Discordant runs {n_discordant} of "
            f"{len(cure)}: their share is at most {previous_bound:.3f} (exact Clopper-Pearson 95% bound), so is |A - B|.",
@@ -914,9 +1027,13 @@ EvidenceBlock(
 )
 
 # %% [markdown]
-# The cure locks on in {glue:text}`intel_global_lock_on_rate:.0%` of the runs
+# In runs of $40$ scans the cure locks on in {glue:text}`intel_global_lock_on_rate:.0%`
 # ({glue:text}`intel_global_lock_on_rate_low:.0%`-{glue:text}`intel_global_lock_on_rate_high:.0%`);
 # uniform particles only, in {glue:text}`intel_global_uniform_lock_on_rate:.0%`.
+#
+# In runs of $80$ scans the cure locks on in {glue:text}`intel_long_lock_on_rate:.0%`,
+# {glue:text}`intel_long_no_injection_diff_pts:+.0f` points against no injection
+# ({glue:text}`intel_long_no_injection_diff_low_pts:+.0f` to {glue:text}`intel_long_no_injection_diff_high_pts:+.0f`).
 #
 # On the simulated map of {doc}`map_global` the same cure locks on in
 # {glue:text}`intel_global_sim_rate:.0%` of its held-out drives, by that chapter's rule. Why is the
@@ -939,6 +1056,28 @@ ax.legend(loc="upper center", bbox_to_anchor=(0.5, -0.3), ncol=2)
 plt.show()
 
 # %% [markdown]
+# **Run length.** A $40$-scan run shows one of the cure's injections at most: a stratum takes weight
+# at its third win in a row, at scan {glue:text}`intel_global_earliest_admission:d` at the earliest,
+# and lock-on needs {glue:text}`intel_global_window_need:d` of the last $15$ scans (folded below).
+#
+# Its history of $20$ scans spans about {glue:text}`intel_global_history_m:.0f` m and
+# {glue:text}`intel_global_history_s:.0f` s of drifting odometry
+# ({glue:text}`intel_global_sim_history_m:.0f` m, {glue:text}`intel_global_sim_history_s:.0f` s when
+# simulated).
+#
+# :::{admonition} Going further: the window's arithmetic
+# :class: dropdown
+# Injection starts at scan {glue:text}`intel_global_first_injection:d` and comes every $4$ scans; a
+# stratum is admitted at its third win in a row, so at scan
+# {glue:text}`intel_global_earliest_admission:d` at the earliest. Lock-on needs
+# {glue:text}`intel_global_window_need:d` of scans
+# {glue:text}`intel_global_window_first:d`-{glue:text}`intel_global_window_last:d`. A stratum admitted
+# at the next chance, scan {glue:text}`intel_global_next_admission:d`, leaves
+# {glue:text}`intel_global_left_after_next:d` scans: too few. Over $80$ scans, later admissions count
+# too, and {glue:text}`intel_long_n_lock_later:d` of the cure's {glue:text}`intel_long_n_locked:d`
+# lock-ons come after the first scans.
+# :::
+#
 # **The map.** Does a better-covered map help, or only a map made of the scans being
 # localized? Build, for each run, the map of every scan except the run's own and
 # {glue:text}`intel_leave_out_margin:d` on each side: it covers both halves, and no wall in it comes
@@ -952,23 +1091,25 @@ plt.show()
 # {glue:text}`intel_global_whole_minus_control:+.0f` points more: most of the gap is the half map's
 # coverage.
 #
-# **The filter.** Of the {glue:text}`intel_global_n_locked:d` runs that lock on,
+# **The filter.** Of the {glue:text}`intel_global_n_locked:d` $40$-scan runs that lock on,
 # {glue:text}`intel_global_n_lock_from_start:d` do so from the first scans.
 #
 # Without injection the same filter locks on in {glue:text}`intel_global_no_injection_rate:.0%`:
 # injection changes that by {glue:text}`intel_global_no_injection_diff:+.0f` points; changes beyond
-# {glue:text}`intel_global_no_injection_excluded:.0f` points either way are excluded by the data.
+# {glue:text}`intel_global_no_injection_excluded:.0f` points either way are excluded by the data, for
+# $40$-scan runs only.
 #
 # It ends more runs on the robot, though: {glue:text}`intel_global_ends_rate:.0%` within $1$ m, a gain
 # of {glue:text}`intel_global_ends_diff:+.0f` points
-# ({glue:text}`intel_global_ends_diff_low:+.0f` to {glue:text}`intel_global_ends_diff_high:+.0f`).
-# Only the injections at scans $20$ to $28$ can bring a run on early enough for the lock-on window.
+# ({glue:text}`intel_global_ends_diff_low:+.0f` to {glue:text}`intel_global_ends_diff_high:+.0f`),
+# which the $40$-scan window cannot show.
 #
 # **Why the guards.** Without its last step the algorithm admits a stratum at its first win, when
 # the scans since it was drawn favour it over the cloud's record $\prod_j \ell_j$ by $\log(1/\xi_k)$,
 # about {glue:text}`intel_global_inject_bar_nats:.1f` nats. That bar is low if a cloud of a few hundred
-# particles underestimates its own $\ell_j$. Before the guards, in
-# the same runs, {glue:text}`intel_global_losses_at_injection_hazard:d` of the
+# particles underestimates its own $\ell_j$. Before the guards the cure locks on in
+# {glue:text}`intel_global_hazard_rate:.0%` of the same runs, and
+# {glue:text}`intel_global_losses_at_injection_hazard:d` of its
 # {glue:text}`intel_global_n_losses_hazard:d` losses of lock (a scan on the robot, the next off it)
 # fall on an injection step: false relocalization. With the guards the runs lose lock
 # {glue:text}`intel_global_n_losses:d` times.
@@ -991,9 +1132,11 @@ plt.show()
 # scans, not these runs of $40$.
 #
 # The map is a SLAM map, made of other scans. Of the held-out scans' echoes, seen from the corrected
-# poses, {glue:text}`intel_far_held_share:.0%` end more than half a metre from any wall of the map;
-# each such beam pulls the true pose's weight down. Of the map half's own echoes,
-# {glue:text}`intel_far_map_share:.2%` do.
+# poses, {glue:text}`intel_far_held_share:.1%`
+# ({glue:text}`intel_far_held_share_low:.1%`-{glue:text}`intel_far_held_share_high:.1%`, resampling
+# blocks of {glue:text}`intel_far_block:d` scans, since an unmapped room stays in view for many scans
+# in a row) end more than half a metre from any wall of the map. Each such beam pulls the true
+# pose's weight down. Of the map half's own echoes, {glue:text}`intel_far_map_share:.2%` do.
 #
 # And {glue:text}`intel_global_n_start_outside:d` runs start outside the space the map has seen free,
 # where the uniform prior and the scan's proposal have no density;
@@ -1009,9 +1152,11 @@ plt.show()
 #
 # The estimate is the cloud's weighted mean (the circular mean for the heading). AMCL reports the
 # mean of its heaviest cluster instead: for a cloud split between the robot and a look-alike, the
-# weighted mean lies between them, so a run whose heaviest cluster sits on the robot counts as off it
-# here and on it in AMCL. How many runs that would turn is not measured (the stored runs keep their
-# estimates, not their clouds); the margins above are taken at the mean too.
+# weighted mean lies between them. Judged by the heaviest cluster (the same runs re-run keeping their
+# clouds), {glue:text}`intel_cluster_n_changed:d` of the {glue:text}`intel_cluster_n:d` labels
+# change: at the last scan {glue:text}`intel_cluster_n_decided:d` clouds hold at least $0.9$ or at
+# most $0.1$ of their weight near the reference. The clouds are not split, so the mean, and the
+# margins above, are taken at the mode.
 #
 # Nor is the bound of {doc}`map_global`: there an exact filter over the map's look-alike "twins"
 # gave the share of drives the evidence decides. This map's twins are not listed, so the share of
@@ -1121,10 +1266,10 @@ print(check_random_beams(my_beams))
 # - Map and localize on different scans, and report many seeds: one run is one draw, and a map made
 #   of the scans being localized flatters the filter; a map control tells coverage from flattery.
 # - Against a SLAM reference, centimetres measure two registrations' agreement; metres are real.
-# - Finding the robot from nowhere depends on the map and on the filter: on a map of the other half
+# - Finding the robot from nowhere, on this log, depends on the map, the filter and the run's length: on a map of the other half
 #   the cure of {doc}`map_global` locks on mostly where that half passed, on the map control most of
-#   the time; in most failures that end elsewhere the scans favour the true pose, which the filter
-#   never reached. Without its guards, injected poses also throw runs off the robot.
+#   the time; yet in most failures that end elsewhere the scans favour the true pose, which the
+#   filter never reached. Its injected poses bring runs onto the robot (over {glue:text}`intel_long_steps:d` scans); without its guards they also throw runs off it.
 #
 # :::{admonition} From the labs
 # :class: dropdown

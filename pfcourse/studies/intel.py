@@ -120,9 +120,16 @@ GLOBAL_STEPS = 40
 N_GLOBAL = 100
 
 
-def global_start(seed: int) -> int:
-    """The held-out scan a global run starts at: uniform among those that leave GLOBAL_STEPS scans."""
-    return int(np.random.default_rng([41, seed]).integers(0, N_SCANS // 2 - GLOBAL_STEPS))
+#: The longer runs of ``intel/long_runs``: with 40 scans the lock-on window (the last 15) can see only the
+#: cure's first admitted injection (scans 20, 24, 28 with ``confirm = 3``), so injection is also judged on 80.
+LONG_STEPS = 80
+#: The methods of ``intel/long_runs``: the guarded cure, the cure without injection, the cure before its guards.
+LONG_METHODS = ("guarded", "no_injection", "scan")
+
+
+def global_start(seed: int, steps: int = GLOBAL_STEPS) -> int:
+    """The held-out scan a global run starts at: uniform among those that leave ``steps`` scans."""
+    return int(np.random.default_rng([41, seed]).integers(0, N_SCANS // 2 - steps))
 
 
 def uniform_only(settings: GlobalSettings) -> GlobalSettings:
@@ -219,6 +226,12 @@ def margin_row(seed: int, *, margin: int = MARGIN_CHECK) -> dict:
     return global_row(seed, method="leave_out", margin=margin)
 
 
+def long_row(seed: int, *, method: str = "guarded") -> dict:
+    """:func:`global_row` over ``LONG_STEPS`` scans (the study ``intel/long_runs``): the start scan drawn by the
+    same rule among those that leave ``LONG_STEPS`` scans, the same filter seeds."""
+    return global_row(seed, method=method, steps=LONG_STEPS)
+
+
 def injection_row(seed: int, *, method: str = "scan") -> dict:
     """:func:`global_row` with its per-scan errors (the study ``intel/injection``)."""
     return global_row(seed, method=method, per_scan=True)
@@ -240,8 +253,8 @@ def leave_out_split(first: int, steps: int = GLOBAL_STEPS, margin: int = LEAVE_O
 
 
 def global_row(seed: int, *, method: str = "scan", settings: GlobalSettings | None = None,
-               per_scan: bool = False, margin: int = LEAVE_OUT_MARGIN) -> dict:
-    """One global run of ``GLOBAL_STEPS`` held-out scans from :func:`global_start`, the filter
+               per_scan: bool = False, margin: int = LEAVE_OUT_MARGIN, steps: int = GLOBAL_STEPS) -> dict:
+    """One global run of ``steps`` (``GLOBAL_STEPS``) held-out scans from :func:`global_start`, the filter
     (:func:`pfcourse.scenarios.maprobot.global_mcl.global_mcl`, ``settings``, :data:`GLOBAL_SETTINGS` by
     default) drawing from ``default_rng([41, seed, 1])``; ``method`` one of :data:`METHODS`.
 
@@ -256,13 +269,13 @@ def global_row(seed: int, *, method: str = "scan", settings: GlobalSettings | No
     if method not in METHODS:
         raise ParameterError(f"method must be one of {list(METHODS)}, got {method!r}")
     s = settings if settings is not None else GLOBAL_SETTINGS
-    first = global_start(seed)
-    sp = (_track_split("whole run") if method == "whole_map" else leave_out_split(first, margin=margin) if method == "leave_out"
+    first = global_start(seed, steps)
+    sp = (_track_split("whole run") if method == "whole_map" else leave_out_split(first, steps, margin=margin) if method == "leave_out"
           else split())
     s = uniform_only(s) if method == "uniform" else s
     s = replace(s, inject_share=0.0) if method == "no_injection" else GUARDED_SETTINGS if method == "guarded" else s
     cpu = time.process_time()
-    run = slice(first, first + GLOBAL_STEPS)
+    run = slice(first, first + steps)
     odometry = sp.odometry[run].copy()
     odometry[0] = 0.0
     if method == "drift_corrected":
@@ -275,7 +288,7 @@ def global_row(seed: int, *, method: str = "scan", settings: GlobalSettings | No
     truth = sp.poses[run]
     pos, head = position_error(truth, res.mean), heading_error(truth, res.mean)
     tol = heading_tolerance(sp.log)
-    last = slice(GLOBAL_STEPS - LOCK_WINDOW, GLOBAL_STEPS)
+    last = slice(steps - LOCK_WINDOW, steps)
     margin = sum(field.log_likelihood(truth[k][None], scans[k])[0] - field.log_likelihood(res.mean[k][None], scans[k])[0]
                  for k in range(last.start, last.stop))
     extra = {"cpu_seconds": cpu, "position_error": pos, "heading_error": head} if per_scan else {}

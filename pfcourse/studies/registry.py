@@ -51,6 +51,7 @@ from pfcourse.errors import ParameterError, StepError
 from pfcourse.checks import check_count
 from pfcourse.filter_config import FilterConfig, FilterSettings, records
 from pfcourse.studies import association, comparison, count_resampling, global_localization, intel, map_global
+from pfcourse.studies import intel_clusters
 from pfcourse.studies import likelihood_studies as ls
 from pfcourse.studies import part1_studies
 from pfcourse.studies import static_parameters_study as sps
@@ -833,6 +834,26 @@ STUDIES: dict[str, Study] = {study.name: study for study in [
                   "guarded_settings": dataclasses.asdict(intel.GUARDED_SETTINGS),
                   "lock_on": "within 1 m and 3 x the odometry's RMS heading error "
                   f"of a step, at {intel.LOCK_SHARE} of the last {intel.LOCK_WINDOW} scans"}),
+    Study(name="intel/long_runs", row=intel.long_row, grid={"method": list(intel.LONG_METHODS)},
+          n_runs=intel.N_GLOBAL, seeds="run", failures="raise", table="intel/long_runs.csv",
+          provenance="intel/long_runs.json", columns=intel.GLOBAL_COLUMNS, sample=1,
+          row_code="pfcourse/studies/intel.py (long_row, global_row), pfcourse/scenarios/maprobot/global_mcl.py",
+          fields={"seeds": "run s: start scan numpy.random.default_rng([41, s]) in 0-374; filter default_rng([41, s, 1])",
+                  "map": "scans 455-909 of book/data/intel/intel-corrected.log.gz; runs on scans 0-454",
+                  "steps": intel.LONG_STEPS, "settings": dataclasses.asdict(intel.GLOBAL_SETTINGS),
+                  "no_injection": "settings with inject_share = 0",
+                  "guarded_settings": dataclasses.asdict(intel.GUARDED_SETTINGS),
+                  "lock_on": "within 1 m and 3 x the odometry's RMS heading error "
+                  f"of a step, at {intel.LOCK_SHARE} of the last {intel.LOCK_WINDOW} scans"}),
+    Study(name="intel/cluster_estimate", row=intel_clusters.cluster_row, grid={}, n_runs=intel.N_GLOBAL, seeds="run",
+          failures="raise", table="intel/cluster_estimate.csv", provenance="intel/cluster_estimate.json",
+          columns=intel_clusters.CLUSTER_COLUMNS, sample=1,
+          row_code="pfcourse/studies/intel_clusters.py (cluster_row), pfcourse/scenarios/maprobot/global_mcl.py",
+          fields={"seeds": "run s: start scan numpy.random.default_rng([41, s]); filter default_rng([41, s, 1])",
+                  "map": "scans 455-909 of book/data/intel/intel-corrected.log.gz; runs on scans 0-454",
+                  "steps": intel.GLOBAL_STEPS, "settings": dataclasses.asdict(intel.GUARDED_SETTINGS),
+                  "cluster": f"cells {intel_clusters.CLUSTER_BIN} (m, m, rad), the heaviest cell, then the particles "
+                  f"within {intel_clusters.CLUSTER_RADIUS} m of its mean"}),
     Study(name="intel/tracking", row=intel.tracking_row, grid={"map": list(intel.TRACK_MAPS)},
           n_runs=len(intel.TRACK_SEEDS), seeds="run", base_seed=intel.TRACK_SEEDS.start, failures="raise",
           table="intel/tracking.csv", provenance="intel/tracking.json", columns=intel.TRACK_COLUMNS, sample=1,

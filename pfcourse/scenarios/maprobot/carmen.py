@@ -203,3 +203,29 @@ def read_carmen(path: str | Path = INTEL_LOG) -> CarmenLog:
     opener = gzip.open if path.suffix == ".gz" else open
     with opener(path, "rt", encoding="ascii") as f:
         return parse_carmen(f)
+
+
+def odom_records(path: str | Path = INTEL_LOG) -> tuple[Array, Array, Array, Array]:
+    """Every ``ODOM`` line of a log: ``(poses (M, 3), times (M,), after_scan (M,), scan (M,))``, with
+    ``after_scan`` true for a line that comes right after a ``FLASER`` line (in GMapping's output, written
+    back by ``gfs2log``, its scan-matched pose, ``SM_UPDATE``, whose time stamp is never set; the other lines
+    are its best particle's poses after odometry updates, ``ODO_UPDATE``) and ``scan`` the number of
+    ``FLASER`` lines before the line."""
+    path = Path(path)
+    opener = gzip.open if path.suffix == ".gz" else open
+    poses, times, after, scan = [], [], [], []
+    n_scans, previous = 0, None
+    with opener(path, "rt") as f:
+        for line_no, line in enumerate(f, 1):
+            fields = line.split()
+            if not fields:
+                continue
+            if fields[0] == "ODOM":
+                poses.append(_numbers(fields[1:4], line_no, "ODOM"))
+                times.append(_numbers(fields[-1:], line_no, "ODOM time stamp")[0])
+                after.append(previous == "FLASER")
+                scan.append(n_scans)
+            elif fields[0] == "FLASER":
+                n_scans += 1
+            previous = fields[0]
+    return np.array(poses).reshape(-1, 3), np.array(times), np.array(after, dtype=bool), np.array(scan)
