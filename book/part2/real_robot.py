@@ -18,7 +18,7 @@
 # **You need** {doc}`map_robot` (the odometry model, the likelihood field, MCL) and {doc}`map_global`
 # (global localization); Bayes' rule; NumPy.
 #
-# **Time:** about twenty-six minutes to read, plus about thirty-one minutes for the folded blocks; the exercise is extra.
+# **Time:** about twenty-five minutes to read, plus about thirty-four minutes for the folded blocks; the exercise is extra.
 # :::
 #
 # Every robot of the book so far was simulated: the filter knew the noise that made the data. A real
@@ -1104,7 +1104,9 @@ plt.show()
 # ({glue:text}`intel_global_ends_diff_low:+.0f` to {glue:text}`intel_global_ends_diff_high:+.0f`),
 # which the $40$-scan window cannot show.
 #
-# **Why the guards.** Without its last step the algorithm admits a stratum at its first win, when
+# :::{admonition} Why the guards
+# :class: dropdown
+# Without its last step the algorithm admits a stratum at its first win, when
 # the scans since it was drawn favour it over the cloud's record $\prod_j \ell_j$ by $\log(1/\xi_k)$,
 # about {glue:text}`intel_global_inject_bar_nats:.1f` nats. That bar is low if a cloud of a few hundred
 # particles underestimates its own $\ell_j$. Before the guards the cure locks on in
@@ -1113,6 +1115,7 @@ plt.show()
 # {glue:text}`intel_global_n_losses_hazard:d` losses of lock (a scan on the robot, the next off it)
 # fall on an injection step: false relocalization. With the guards the runs lose lock
 # {glue:text}`intel_global_n_losses:d` times.
+# :::
 #
 # :::{admonition} Going further: the cost
 # :class: dropdown
