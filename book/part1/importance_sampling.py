@@ -19,7 +19,7 @@
 # **You need** Gaussian densities, the law of large numbers and the central limit theorem;
 # NumPy arrays and a random generator.
 #
-# **Time:** about nineteen minutes to read, plus about nineteen minutes for the folded blocks; the exercises are extra.
+# **Time:** about twenty-one minutes to read, plus about twenty minutes for the folded blocks; the exercises are extra.
 # :::
 
 # %% tags=["remove-input"] jupyter={"source_hidden": true}
@@ -427,12 +427,15 @@ EvidenceBlock(
 # the prior proposal is thin and the large weights in its upper tail: for
 # $\varphi = \mathbb 1\{x > m + 1.5 s\}$ the ratio is {glue:text}`is_kong_tail_z3:.2f`, so
 # in the limit the true variance is about twice $\operatorname{Var}_\pi(\varphi) / \mathrm{ESS}$.
+#
 # At $N = 100$ the measured ratio, {glue:text}`is_kong_tail_z3_mc:.2f`
 # ({glue:text}`is_kong_tail_z3_mc_low:.2f`-{glue:text}`is_kong_tail_z3_mc_high:.2f`), is still
 # below its limit: the hundred draws are worth about {glue:text}`is_kong_tail_z3_ess:.0f`, and
-# the terms of order $1/N^2$, which grow as the ESS falls, are not negligible. With
-# $N = 1000$ it is {glue:text}`is_kong_tail_z3_mc_big:.2f`. The next section meets the opposite
-# case, a tail probability whose rule overstates the variance.
+# the terms of order $1/N^2$, which grow as the ESS falls, are not negligible.
+#
+# With $N = 1000$ the measured ratio is {glue:text}`is_kong_tail_z3_mc_big:.2f`, close to its
+# limit. The next section meets the opposite case, a tail probability whose rule overstates the
+# variance.
 #
 # What the ESS does bound is the error of every bounded function: for $|\varphi| \le 1$ the mean
 # square error of $\hat I_N$ is at most $4\, \mathbb E_q[w^2] / N = 4 / \mathrm{ESS}_\infty$, with
@@ -558,8 +561,8 @@ plt.show()
 # runs (at most {glue:text}`is_tail_cover_normal_high:.0%`). A diagnostic made of the draws
 # cannot see the mass the draws never reach.
 #
-# At $N = 10^2$ the two proposals even have the same mean ESS, about
-# {glue:text}`is_tail_ess_cauchy_small:.0%` of $N$, yet the normal's RMS error is
+# At $N = 10^2$ the two proposals even have about the same mean ESS,
+# {glue:text}`is_tail_ess_cauchy_small:.0%` of $N$ with the Cauchy, yet the normal's RMS error is
 # {glue:text}`is_tail_rms_ratio_small:.1f` times the Cauchy's: equal ESS, unequal accuracy.
 #
 # The fall of the ESS as $N$ grows does give the trouble away:
