@@ -235,7 +235,7 @@ fig, (ax, ax2) = plt.subplots(2, 1, figsize=(7, 4.2), sharex=True, height_ratios
 ax.plot(grid, stats.norm.pdf(grid), color="tab:blue", label=r"proposal $q$ = prior N(0, 1)")
 ax.plot(grid, stats.norm.pdf(grid, post_mean, post_sd), color="tab:green", label=r"target $\pi$ = posterior")
 ax.plot(x, np.zeros(N), "|", color="tab:red", ms=10, label=r"draws $x^i \sim q$")
-ax.set_ylabel("density (1/unit of x)")
+ax.set_ylabel("density")
 ax.set_ylim(-0.1, 1.8)
 ax.legend(loc="upper left")
 ax.set_title(f"Importance sampling: N = {N} prior draws, z = {z}, measurement sd {sd_v}", fontsize=10)
@@ -282,8 +282,8 @@ plt.show()
 # of {cite:t}`kong1992` and {cite:t}`kong1994`:
 #
 # $$
-# \operatorname{Var}(\hat I_N) \approx \frac{\operatorname{Var}_\pi(\varphi)}{\mathrm{ESS}}, \qquad
-# \mathrm{ESS} = \frac{N}{\mathbb E_q[w^2]} \approx \frac{1}{\sum_i (W^i)^2} .
+# \operatorname{Var}(\hat I_N) \approx \frac{\operatorname{Var}_\pi(\varphi)}{\mathrm{ESS}_\infty}, \qquad
+# \mathrm{ESS}_\infty = \frac{N}{\mathbb E_q[w^2]} \approx \frac{1}{\sum_i (W^i)^2} .
 # $$
 #
 # The last form is the one measured from the weights. The normalised weights $W^i$ do not
@@ -296,10 +296,14 @@ plt.show()
 # $$
 #
 # The limit is $1$ only when $q = \pi$, and it falls as the weights spread:
-# $\mathbb E_q[w^2] = 1 + \operatorname{Var}_q w$, and $\operatorname{Var}_q w$ is the $\chi^2$
-# divergence of $\pi$ from $q$; when $\mathbb E_q[w^2] = \infty$, ESS / $N$ tends to $0$, the
-# symptom the section on tails meets. So $N$ weighted draws are worth about ESS draws from $\pi$,
-# for a $\varphi$ that does not vary with the weights: the ESS looks at the weights only. On the toy, with $N = 100$ and $\varphi(x) = x$, the asymptotic variance holds at
+# $\mathbb E_q[w^2] = 1 + \operatorname{Var}_q w$, so $\mathrm{ESS}_\infty = N / (1 + \mathrm{cv}^2)$,
+# with $\mathrm{cv}$ the coefficient of variation of the weights {cite:p}`kong1992,liu2001`;
+# $\operatorname{Var}_q w$ is the $\chi^2$ divergence of $\pi$ from $q$. When
+# $\mathbb E_q[w^2] = \infty$, ESS / $N$ tends to $0$, the symptom the section on tails meets.
+# So $N$ weighted draws are worth about ESS draws from $\pi$, for a $\varphi$ that does not vary
+# with the weights: the ESS looks at the weights only.
+#
+# On the toy, with $N = 100$ and $\varphi(x) = x$, the asymptotic variance holds at
 # $\sigma_v = 1$: the variance of the estimates over {glue:text}`is_toy_reps:,d` seeded
 # repetitions is {glue:text}`is_var_ratio_sd1:.2f`
 # ({glue:text}`is_var_ratio_sd1_low:.2f`-{glue:text}`is_var_ratio_sd1_high:.2f`) times
@@ -438,8 +442,7 @@ EvidenceBlock(
 # variance.
 #
 # What the ESS does bound is the error of every bounded function: for $|\varphi| \le 1$ the mean
-# square error of $\hat I_N$ is at most $4\, \mathbb E_q[w^2] / N = 4 / \mathrm{ESS}_\infty$, with
-# $\mathrm{ESS}_\infty = N / \mathbb E_q[w^2]$ the ESS of the limit
+# square error of $\hat I_N$ is at most $4\, \mathbb E_q[w^2] / N = 4 / \mathrm{ESS}_\infty$
 # {cite:p}`agapiou2017`; {cite:t}`chopin2020` (their chapter on importance sampling) give this and the CLT above. The bound
 # is on the population ESS; the ESS measured from the weights is an estimate of it, and the
 # next section shows when that estimate fails.
