@@ -564,15 +564,15 @@ plt.show()
 # runs (at most {glue:text}`is_tail_cover_normal_high:.0%`). A diagnostic made of the draws
 # cannot see the mass the draws never reach.
 #
-# At $N = 10^2$ the two proposals even have about the same mean ESS,
-# {glue:text}`is_tail_ess_cauchy_small:.0%` of $N$ with the Cauchy, yet the normal's RMS error is
-# {glue:text}`is_tail_rms_ratio_small:.1f` times the Cauchy's: equal ESS, unequal accuracy.
-#
 # The fall of the ESS as $N$ grows does give the trouble away:
 # the mean ESS is {glue:text}`is_tail_ess_normal_small:.0%` of $N$ at $N = 10^2$ and
 # {glue:text}`is_tail_ess_normal_large:.0%` at $N = 10^4$, while with the Cauchy proposal it
 # stays at {glue:text}`is_tail_ess_cauchy_large:.0%`, near its limit $1 / \mathbb E_q[w^2]$. A
 # falling ESS / $N$ is the symptom of $\mathbb E_q[w^2] = \infty$.
+#
+# At $N = 10^2$ the Cauchy's mean ESS is also {glue:text}`is_tail_ess_cauchy_small:.0%` of $N$,
+# yet the normal's RMS error is {glue:text}`is_tail_rms_ratio_small:.1f` times the Cauchy's:
+# equal ESS, unequal accuracy.
 
 # %% [markdown]
 # The Cauchy proposal restores the rate: slope {glue:text}`is_tail_slope_cauchy:.2f`
@@ -581,8 +581,9 @@ plt.show()
 # Here the ESS rule errs the other way: the interval covers the exact answer in
 # {glue:text}`is_tail_cover_cauchy:.0%` of the runs at $N = 10^3$, more than the nominal $95\,\%$,
 # because the Cauchy spreads its large weights over the tails and the ratio of the true variance
-# to the rule's is {glue:text}`is_tail_kong_cauchy:.2f` by quadrature. The lesson carries over to
-# filters: heavier tails than the target's are always safe in the tails (the proposal must
+# to the rule's is {glue:text}`is_tail_kong_cauchy:.2f` by quadrature.
+#
+# The lesson carries over to filters: heavier tails than the target's are always safe in the tails (the proposal must
 # still not be thin where the target has mass); somewhat lighter tails cost variance
 # (a Gaussian's $\mathbb E_q[w^2]$ blows up as $\sigma_q^2$ falls to $\sigma_\pi^2 / 2$); much
 # lighter tails give infinite variance. Too wide costs ESS; too narrow costs the rate and the
