@@ -119,8 +119,8 @@ glue_values("is_picture_ess_", sd1=picture_ess[1.0], sd01=picture_ess[0.1])
 # few draws land in the narrow target, and they take all of it. The *effective sample size*
 # (ESS, defined below) counts the draws that still count: with $\sigma_v = 1$ the hundred draws
 # are worth {glue:text}`is_picture_ess_sd1:.0f`; with $\sigma_v = 0.1$,
-# {glue:text}`is_picture_ess_sd01:.1f`, just under ten. Nothing went wrong on the right: the target is simply
-# narrow, and a blind proposal puts only a few draws in it. On the left the bars are tallest
+# {glue:text}`is_picture_ess_sd01:.1f`, just under ten. Nothing went wrong on the right: the
+# target is simply narrow, and a blind proposal puts only a few draws in it. On the left the bars are tallest
 # near $x = z = 1$ while the target peaks at the posterior mean, $z / (1 + \sigma_v^2) = 1/2$
 # (derived below): the draws already follow the prior, so the weights carry only the likelihood. A particle filter meets this at
 # every step, and the weights of a whole path multiply these ratios together ({doc}`sis`).
@@ -583,14 +583,15 @@ plt.show()
 # because the Cauchy spreads its large weights over the tails and the ratio of the true variance
 # to the rule's is {glue:text}`is_tail_kong_cauchy:.2f` by quadrature.
 #
-# The lesson carries over to filters: heavier tails than the target's are always safe in the tails (the proposal must
-# still not be thin where the target has mass); somewhat lighter tails cost variance
+# The lesson carries over to filters: heavier tails than the target's are always safe in the
+# tails (the proposal must still not be thin where the target has mass); somewhat lighter tails
+# cost variance
 # (a Gaussian's $\mathbb E_q[w^2]$ blows up as $\sigma_q^2$ falls to $\sigma_\pi^2 / 2$); much
 # lighter tails give infinite variance. Too wide costs ESS; too narrow costs the rate and the
 # error bars, not the limit: the normal proposal's mean error still shrinks, from
 # {glue:text}`is_tail_bias_normal_small:+.3f` at $N = 10^2$ to
-# {glue:text}`is_tail_bias_normal_large:+.3f` at $N = 10^4$, but slower than $1/\sqrt N$, and
-# its intervals cover too rarely.
+# {glue:text}`is_tail_bias_normal_large:+.3f` at $N = 10^4$, but its RMS error falls far slower
+# than $1/\sqrt N$ and its intervals cover too rarely.
 
 # %% tags=["remove-input"] jupyter={"source_hidden": true}
 def rms_slope(err):
@@ -779,11 +780,12 @@ print(check_evidence_increment(increment_linear))
 #   ESS, $1 / \sum_i (W^i)^2$, counts how many still count.
 # - The estimate's variance is about $V(\varphi) / N$, $V(\varphi) = \mathbb E_q[w^2 (\varphi - I)^2]$;
 #   the ESS rule $\operatorname{Var}_\pi(\varphi) / \mathrm{ESS}$ ignores $\varphi$, and in this
-#   chapter's examples it was off by up to about twofold either way; for $|\varphi| \le 1$ the mean square error is at most $4 / \mathrm{ESS}_\infty$.
+#   chapter's examples it was off by up to about twofold either way; for $|\varphi| \le 1$ the
+#   mean square error is at most $4 / \mathrm{ESS}_\infty$.
 # - A proposal with much lighter tails than the target ($\pi^2 / q$ not integrable) gives weights
 #   of infinite variance: the error stops shrinking like $1/\sqrt N$. A single ESS does not warn;
-#   its fall as $N$ grows does. Heavier tails are always safe in the tails, much lighter ones
-#   never.
+#   its fall as $N$ grows does. Tails heavier than the target's are always safe there, much
+#   lighter ones never.
 #
 # :::{admonition} From the labs
 # :class: dropdown
