@@ -19,7 +19,7 @@
 # **You need** Gaussian densities, the law of large numbers and the central limit theorem;
 # NumPy arrays and a random generator.
 #
-# **Time:** about nineteen minutes to read, plus about nineteen minutes for the folded blocks; the exercises are extra.
+# **Time:** about twenty-one minutes to read, plus about twenty minutes for the folded blocks; the exercises are extra.
 # :::
 
 # %% tags=["remove-input"] jupyter={"source_hidden": true}
@@ -118,9 +118,9 @@ glue_values("is_picture_ess_", sd1=picture_ess[1.0], sd01=picture_ess[0.1])
 # On the left most draws land where the target has mass and share the weight. On the right a
 # few draws land in the narrow target, and they take all of it. The *effective sample size*
 # (ESS, defined below) counts the draws that still count: with $\sigma_v = 1$ the hundred draws
-# are worth {glue:text}`is_picture_ess_sd1:.0f`; with $\sigma_v = 0.1$, about
-# {glue:text}`is_picture_ess_sd01:.0f`. Nothing went wrong on the right: the target is simply
-# narrow, and a blind proposal puts only a few draws in it. On the left the bars are tallest
+# are worth {glue:text}`is_picture_ess_sd1:.0f`; with $\sigma_v = 0.1$,
+# {glue:text}`is_picture_ess_sd01:.1f`, just under ten. Nothing went wrong on the right: the
+# target is simply narrow, and a blind proposal puts only a few draws in it. On the left the bars are tallest
 # near $x = z = 1$ while the target peaks at the posterior mean, $z / (1 + \sigma_v^2) = 1/2$
 # (derived below): the draws already follow the prior, so the weights carry only the likelihood. A particle filter meets this at
 # every step, and the weights of a whole path multiply these ratios together ({doc}`sis`).
@@ -202,7 +202,7 @@ display(control_panel(
 # underflow to zero.
 
 # %%
-# pfcourse first (the exercises' checkers): it pins NumPy's arithmetic
+# the checkers of exercises 3.1 and 3.2, at the end of the chapter
 from pfcourse.book.exercises import (
     check_evidence_increment, check_importance_sampler)
 import numpy as np
@@ -235,7 +235,7 @@ fig, (ax, ax2) = plt.subplots(2, 1, figsize=(7, 4.2), sharex=True, height_ratios
 ax.plot(grid, stats.norm.pdf(grid), color="tab:blue", label=r"proposal $q$ = prior N(0, 1)")
 ax.plot(grid, stats.norm.pdf(grid, post_mean, post_sd), color="tab:green", label=r"target $\pi$ = posterior")
 ax.plot(x, np.zeros(N), "|", color="tab:red", ms=10, label=r"draws $x^i \sim q$")
-ax.set_ylabel("density (1/unit of x)")
+ax.set_ylabel("density")
 ax.set_ylim(-0.1, 1.8)
 ax.legend(loc="upper left")
 ax.set_title(f"Importance sampling: N = {N} prior draws, z = {z}, measurement sd {sd_v}", fontsize=10)
@@ -254,10 +254,11 @@ plt.show()
 #
 # ## How accurate: the variance, and the ESS
 #
-# The picture suggests the answer: $N$ weighted draws behave like ESS draws from the target, so
-# the estimate should scatter like an average of ESS independent draws,
-# $\operatorname{Var}_\pi(\varphi) / \mathrm{ESS}$. The derivation below makes this precise, and
-# shows when it fails.
+# The picture suggests the answer: $N$ weighted draws behave like
+# $\mathrm{ESS} = 1 / \sum_i (W^i)^2$ draws from the target (Algorithm 3.1), so the estimate
+# should scatter like an average of ESS independent draws,
+# $\operatorname{Var}_\pi(\varphi) / \mathrm{ESS}$. The derivation below shows how far this
+# holds, and when it fails.
 #
 # Take $w = \pi / q$ with $\pi$ the normalised posterior, so $\mathbb E_q w = 1$ (the constant
 # cancels in $\hat I_N$), and
@@ -272,40 +273,47 @@ plt.show()
 # {cite:p}`geweke1989`, $\sqrt N\, (\hat I_N - I)$ tends to a Gaussian of variance
 #
 # $$
-# \sigma^2 = \mathbb E_q\big[w^2\, (\varphi - I)^2\big] = \mathbb E_\pi\big[w\, (\varphi - I)^2\big],
+# V(\varphi) = \mathbb E_q\big[w^2\, (\varphi - I)^2\big] = \mathbb E_\pi\big[w\, (\varphi - I)^2\big],
 # $$
 #
 # finite when that expectation is. Replace $(\varphi - I)^2$ by its average under $\pi$, as if
 # the weight and the function did not vary together, and
-# $\sigma^2 \approx \operatorname{Var}_\pi(\varphi)\, \mathbb E_q[w^2]$. This is the approximation
+# $V(\varphi) \approx \operatorname{Var}_\pi(\varphi)\, \mathbb E_q[w^2]$. This is the approximation
 # of {cite:t}`kong1992` and {cite:t}`kong1994`:
 #
 # $$
-# \operatorname{Var}(\hat I_N) \approx \frac{\operatorname{Var}_\pi(\varphi)}{\mathrm{ESS}}, \qquad
-# \mathrm{ESS} = \frac{N}{\mathbb E_q[w^2]} \approx \frac{1}{\sum_i (W^i)^2} .
+# \operatorname{Var}(\hat I_N) \approx \frac{\operatorname{Var}_\pi(\varphi)}{\mathrm{ESS}_\infty}, \qquad
+# \mathrm{ESS}_\infty = \frac{N}{\mathbb E_q[w^2]} \approx \frac{1}{\sum_i (W^i)^2} .
 # $$
 #
 # The last form is the one measured from the weights. The normalised weights $W^i$ do not
 # depend on the constant, so write them with $w^i = w(x^i)$; by the law of large numbers,
 #
 # $$
-# \frac{1}{\sum_i (W^i)^2} = N\, \frac{\big(\frac1N \sum_i w^i\big)^2}{\frac1N \sum_i (w^i)^2}
-# \;\longrightarrow\; \frac{N\, (\mathbb E_q w)^2}{\mathbb E_q[w^2]} = \frac{N}{\mathbb E_q[w^2]} .
+# \frac{1}{N \sum_i (W^i)^2} = \frac{\big(\frac1N \sum_i w^i\big)^2}{\frac1N \sum_i (w^i)^2}
+# \;\longrightarrow\; \frac{(\mathbb E_q w)^2}{\mathbb E_q[w^2]} = \frac{1}{\mathbb E_q[w^2]}
+# \quad \text{almost surely.}
 # $$
 #
-# It is $N$ when the weights are all equal and falls as they spread:
-# $\mathbb E_q[w^2] = 1 + \operatorname{Var}_q w$, and $\operatorname{Var}_q w$ is the $\chi^2$
-# divergence of $\pi$ from $q$. So $N$ weighted draws are worth ESS draws from $\pi$. The ESS
-# looks at the weights only, not at $\varphi$. On the toy, with $N = 100$ and $\varphi(x) = x$, the asymptotic variance holds at
+# The limit is $1$ only when $q = \pi$, and it falls as the weights spread:
+# $\mathbb E_q[w^2] = 1 + \operatorname{Var}_q w$, so $\mathrm{ESS}_\infty = N / (1 + \mathrm{cv}^2)$,
+# with $\mathrm{cv}$ the coefficient of variation of the weights {cite:p}`kong1992,liu2001`;
+# $\operatorname{Var}_q w$ is the $\chi^2$ divergence of $\pi$ from $q$. When
+# $\mathbb E_q[w^2] = \infty$, ESS / $N$ tends to $0$, the symptom the section on tails meets.
+# So $N$ weighted draws are worth about ESS draws from $\pi$, for a $\varphi$ that does not vary
+# with the weights: the ESS looks at the weights only.
+#
+# On the toy, with $N = 100$ and $\varphi(x) = x$, the asymptotic variance holds at
 # $\sigma_v = 1$: the variance of the estimates over {glue:text}`is_toy_reps:,d` seeded
 # repetitions is {glue:text}`is_var_ratio_sd1:.2f`
 # ({glue:text}`is_var_ratio_sd1_low:.2f`-{glue:text}`is_var_ratio_sd1_high:.2f`) times
-# $\sigma^2 / N$, with $\sigma^2$ by quadrature; call this the *CLT ratio*.
+# $V(\varphi) / N$, with $V(\varphi)$ by quadrature; call this the *CLT ratio*.
 #
 # It is only a limit: at $\sigma_v = 0.3$, where the hundred draws are worth about
 # {glue:text}`is_ess_sd03:.0f`, the CLT ratio is already {glue:text}`is_var_ratio_sd03:.2f`
-# ({glue:text}`is_var_ratio_sd03_low:.2f`-{glue:text}`is_var_ratio_sd03_high:.2f`), the
-# terms of order $1/N^2$ no longer negligible.
+# ({glue:text}`is_var_ratio_sd03_low:.2f`-{glue:text}`is_var_ratio_sd03_high:.2f`): the
+# terms of order $1/N^2$ that the limit drops grow as the ESS falls, and are no longer
+# negligible.
 
 # %% tags=["hide-input"] jupyter={"source_hidden": true}
 def quad(f, lo, hi, at):
@@ -314,9 +322,9 @@ def quad(f, lo, hi, at):
 
 
 def kong_ratio(sd_v, z, phi):
-    """sigma^2 / (Var_pi(phi) E_q w^2) on the toy, by quadrature; w = pi / q, q = N(0, 1).
+    """V(phi) / (Var_pi(phi) E_q w^2) on the toy, by quadrature; w = pi / q, q = N(0, 1).
 
-    phi(x, m, s) may use the posterior mean m and sd s. Returns the ratio, sigma^2, Var_pi(phi) and E_q w^2.
+    phi(x, m, s) may use the posterior mean m and sd s. Returns the ratio, V(phi), Var_pi(phi) and E_q w^2.
     """
     m, s = z / (1 + sd_v**2), np.sqrt(sd_v**2 / (1 + sd_v**2))
     pi = lambda x: stats.norm.pdf(x, m, s)
@@ -324,9 +332,9 @@ def kong_ratio(sd_v, z, phi):
     lo, hi, at = m - 12 * s, m + 12 * s, (m + s, m + 1.5 * s)
     I = quad(lambda x: phi(x, m, s) * pi(x), lo, hi, at)
     var_pi = quad(lambda x: (phi(x, m, s) - I) ** 2 * pi(x), lo, hi, at)
-    sigma2 = quad(lambda x: w2q(x) * (phi(x, m, s) - I) ** 2, lo, hi, at)
+    V_phi = quad(lambda x: w2q(x) * (phi(x, m, s) - I) ** 2, lo, hi, at)
     Ew2 = quad(w2q, lo, hi, at)
-    return sigma2 / (var_pi * Ew2), sigma2, var_pi, Ew2
+    return V_phi / (var_pi * Ew2), V_phi, var_pi, Ew2
 
 
 identity = lambda x, m, s: x
@@ -341,21 +349,21 @@ for sd_v in (1.0, 0.3, 0.1):
     log_w = stats.norm.logpdf(z, loc=x, scale=sd_v)
     W = np.exp(log_w - logsumexp(log_w, axis=1, keepdims=True))
     post_var = sd_v**2 / (1 + sd_v**2)
-    kong, sigma2, _, Ew2 = kong_ratio(sd_v, z, identity)
+    kong, V_phi, _, Ew2 = kong_ratio(sd_v, z, identity)
     toy[sd_v] = dict(estimate=np.sum(W * x, axis=1), ess=1.0 / np.sum(W**2, axis=1), post_var=post_var,
-                     sigma2=sigma2, Ew2=Ew2, kong=kong)
+                     V_phi=V_phi, Ew2=Ew2, kong=kong)
 
 # %% tags=["remove-input"] jupyter={"source_hidden": true}
 def toy_row(sd_v):
     t = toy[sd_v]
-    var_ratio = evidence.run_interval(lambda r: N * t["estimate"][r].var(ddof=1) / t["sigma2"], reps)
+    var_ratio = evidence.run_interval(lambda r: N * t["estimate"][r].var(ddof=1) / t["V_phi"], reps)
     kong = evidence.run_interval(lambda r: t["estimate"][r].var(ddof=1) * t["ess"][r].mean() / t["post_var"], reps)
     return {"sd_v": sd_v, "exact mean": z / (1 + sd_v**2), "mean of estimates": t["estimate"].mean(),
-            "N Var(estimates)": N * t["estimate"].var(ddof=1), "sigma^2 (quadrature)": t["sigma2"],
-            "ratio": var_ratio[0], "ratio low": var_ratio[1], "ratio high": var_ratio[2],
+            "N Var(estimates)": N * t["estimate"].var(ddof=1), "V(phi) (quadrature)": t["V_phi"],
+            "CLT ratio": var_ratio[0], "CLT ratio low": var_ratio[1], "CLT ratio high": var_ratio[2],
             "mean ESS": t["ess"].mean(), "N / E_q w^2": N / t["Ew2"],
-            "measured Var ESS / Var_pi": kong[0], "low": kong[1], "high": kong[2],
-            "predicted sigma^2 / (Var_pi E_q w^2)": t["kong"]}
+            "Kong's ratio (measured)": kong[0], "low": kong[1], "high": kong[2],
+            "Kong's ratio (limit)": t["kong"]}
 
 
 toy_table = pd.DataFrame([toy_row(s) for s in toy])
@@ -363,46 +371,55 @@ toy_table = pd.DataFrame([toy_row(s) for s in toy])
 x_big = np.random.default_rng(1).standard_normal((reps, 10 * N))
 log_w_big = stats.norm.logpdf(z, loc=x_big, scale=0.3)
 est_big = np.sum(np.exp(log_w_big - logsumexp(log_w_big, axis=1, keepdims=True)) * x_big, axis=1)
-ratio_big = evidence.run_interval(lambda r: 10 * N * est_big[r].var(ddof=1) / toy[0.3]["sigma2"], reps)
+ratio_big = evidence.run_interval(lambda r: 10 * N * est_big[r].var(ddof=1) / toy[0.3]["V_phi"], reps)
 row = {s: toy_table.iloc[i] for i, s in enumerate(toy)}
-glue_values(is_toy_reps=reps, is_var_ratio_sd1=row[1.0]["ratio"], is_var_ratio_sd1_low=row[1.0]["ratio low"],
-            is_var_ratio_sd1_high=row[1.0]["ratio high"],
-            is_var_ratio_sd03=row[0.3]["ratio"], is_var_ratio_sd03_low=row[0.3]["ratio low"],
-            is_var_ratio_sd03_high=row[0.3]["ratio high"], is_ess_sd03=row[0.3]["mean ESS"],
-            kong_ratio_r1=row[1.0]["measured Var ESS / Var_pi"],
-            is_kong_predicted_sd1=row[1.0]["predicted sigma^2 / (Var_pi E_q w^2)"])
+glue_values(is_toy_reps=reps, is_var_ratio_sd1=row[1.0]["CLT ratio"], is_var_ratio_sd1_low=row[1.0]["CLT ratio low"],
+            is_var_ratio_sd1_high=row[1.0]["CLT ratio high"],
+            is_var_ratio_sd03=row[0.3]["CLT ratio"], is_var_ratio_sd03_low=row[0.3]["CLT ratio low"],
+            is_var_ratio_sd03_high=row[0.3]["CLT ratio high"], is_ess_sd03=row[0.3]["mean ESS"],
+            kong_ratio_r1=row[1.0]["Kong's ratio (measured)"],
+            is_kong_predicted_sd1=row[1.0]["Kong's ratio (limit)"])
 EvidenceBlock(
     "the asymptotic variance predicts the estimates' spread",
     notes=[f"N = {N} prior draws, z = {z}, {reps} seeded repetitions per measurement sd (one generator of its own, "
-           "seed 0, drawn in turn). 'ratio' is N Var(estimates) / sigma^2, with its 95 % percentile-bootstrap interval over "
-           f"the repetitions ({evidence.N_RESAMPLES} resamples, see Reading the evidence); 'measured Var ESS / Var_pi' is the "
-           "variance of the estimates over Var_pi / (mean ESS), with its interval (low, high).",
+           "seed 0, drawn in turn). The CLT ratio is N Var(estimates) / V(phi), with its 95 % percentile-bootstrap interval "
+           f"over the repetitions ({evidence.N_RESAMPLES} resamples, see Reading the evidence); Kong's ratio (measured) is "
+           "the variance of the estimates over Var_pi / (mean ESS), with its interval (low, high), and Kong's ratio (limit) "
+           "is V(phi) / (Var_pi E_q w^2) by quadrature.",
            f"At sd 0.1, where the hundred draws are worth about {row[0.1]['mean ESS']:.0f}, the measured variance is "
-           f"{row[0.1]['ratio']:.2f} times sigma^2 / N: the terms of order 1/N^2 that the limit drops are not "
+           f"{row[0.1]['CLT ratio']:.2f} times V(phi) / N: the terms of order 1/N^2 that the limit drops are not "
            "negligible when the ESS is a handful. "
            f"At sd 0.3 and N = {10 * N} (seed 1) the ratio is {ratio_big[0]:.2f} ({ratio_big[1]:.2f} to {ratio_big[2]:.2f}), "
-           f"against {row[0.3]['ratio']:.2f} at N = {N}: the excess shrinks as N grows. The predicted ESS ratio uses the ESS of the limit, N / E_q w^2; "
+           f"against {row[0.3]['CLT ratio']:.2f} at N = {N}: the excess shrinks as N grows. Kong's ratio (limit) uses the ESS of the limit, N / E_q w^2; "
            "the measured one the mean of 1 / sum W^2, which differs at small N. At N = 100 the estimator's O(1/N) "
            "bias is far below its spread (compare the two means)."],
-    tables=[("Self-normalised IS on the Gaussian toy, phi(x) = x", toy_table,
-             {"exact mean": ".4f", "mean of estimates": ".4f", "N Var(estimates)": ".4f", "sigma^2 (quadrature)": ".4f",
-              "ratio": ".3f", "ratio low": ".3f", "ratio high": ".3f", "mean ESS": ".1f", "N / E_q w^2": ".1f",
-              "measured Var ESS / Var_pi": ".2f", "low": ".2f", "high": ".2f",
-              "predicted sigma^2 / (Var_pi E_q w^2)": ".2f"})],
+    tables=[("The CLT ratio on the Gaussian toy, phi(x) = x",
+             toy_table[["sd_v", "exact mean", "mean of estimates", "N Var(estimates)", "V(phi) (quadrature)",
+                        "CLT ratio", "CLT ratio low", "CLT ratio high"]],
+             {"exact mean": ".4f", "mean of estimates": ".4f", "N Var(estimates)": ".4f", "V(phi) (quadrature)": ".4f",
+              "CLT ratio": ".3f", "CLT ratio low": ".3f", "CLT ratio high": ".3f"}),
+            ("Kong's ratio on the Gaussian toy, phi(x) = x",
+             toy_table[["sd_v", "mean ESS", "N / E_q w^2", "Kong's ratio (measured)", "low", "high",
+                        "Kong's ratio (limit)"]],
+             {"mean ESS": ".1f", "N / E_q w^2": ".1f", "Kong's ratio (measured)": ".2f", "low": ".2f", "high": ".2f",
+              "Kong's ratio (limit)": ".2f"})],
 )
 
 # %% [markdown]
 # The rule $\operatorname{Var}_\pi(\varphi) / \mathrm{ESS}$ can err either way; here is why, then
 # both cases. Since $w = \pi / q$, $\mathbb E_q[w^2] = \int \pi^2 / q = \mathbb E_\pi[w]$, so the exact ratio
-# of $\sigma^2$ to Kong's $\operatorname{Var}_\pi(\varphi)\, \mathbb E_q[w^2]$, *Kong's ratio*, is
+# of $V(\varphi)$ to Kong's $\operatorname{Var}_\pi(\varphi)\, \mathbb E_q[w^2]$, *Kong's ratio*, is
 # $\mathbb E_\pi[w\, (\varphi - I)^2] / (\mathbb E_\pi[w]\, \operatorname{Var}_\pi \varphi)$: the
 # average of $(\varphi - I)^2$ under the density $\pi^2 / q$ (normalised), over its average
 # under $\pi$. It is above $1$ when the large weights fall where $\varphi$ is far from its mean,
 # below $1$ when they fall where it is close. Take $\varphi(x) = x$, $z = 1$, $\sigma_v = 1$:
 # the weight $w \propto p(z \mid x)$ peaks at $x = z = 1$, only $1/\sqrt 2$ of a posterior
 # standard deviation above the posterior mean $1/2$, where $(x - I)^2 = 1/4$ is below
-# $\operatorname{Var}_\pi = 1/2$. And $\pi^2 / q \propto \mathcal N(2/3,\ 1/3)$ is narrower than
-# $\pi$, so the ratio is $(1/3 + 1/36) / (1/2) = 13/18$, or
+# $\operatorname{Var}_\pi = 1/2$. Exactly: with $\pi = \mathcal N(1/2,\ 1/2)$ and
+# $q = \mathcal N(0, 1)$, $\pi^2 / q$ has precision $2 \cdot 2 - 1 = 3$ (twice $\pi$'s, minus
+# $q$'s) and mean $(2 \cdot 2 \cdot \frac12) / 3 = 2/3$, so $\pi^2 / q \propto \mathcal N(2/3,\ 1/3)$.
+# The average of $(x - 1/2)^2$ under it is its variance, $1/3$, plus the square of its mean's
+# offset, $(2/3 - 1/2)^2 = 1/36$; so the ratio is $(1/3 + 1/36) / (1/2) = 13/18$, or
 # {glue:text}`is_kong_predicted_sd1:.2f` by quadrature (measured:
 # {glue:text}`kong_ratio_r1:.2f`): here the rule overstates the variance.
 
@@ -412,14 +429,20 @@ EvidenceBlock(
 # $\varphi = \mathbb 1\{x > m + s\}$ at $\sigma_v = 1$, $z = 1$ gives the ratio
 # {glue:text}`is_kong_tail_z1:.2f`. A surprising measurement, $z = 3$, puts the posterior where
 # the prior proposal is thin and the large weights in its upper tail: for
-# $\varphi = \mathbb 1\{x > m + 1.5 s\}$ the ratio is {glue:text}`is_kong_tail_z3:.2f`
-# (measured at $N = 100$: {glue:text}`is_kong_tail_z3_mc:.2f`), so the true variance is about
-# twice $\operatorname{Var}_\pi(\varphi) / \mathrm{ESS}$. The next section meets the opposite
-# case, a tail probability whose rule overstates the variance.
+# $\varphi = \mathbb 1\{x > m + 1.5 s\}$ the ratio is {glue:text}`is_kong_tail_z3:.2f`, so
+# in the limit the true variance is about twice $\operatorname{Var}_\pi(\varphi) / \mathrm{ESS}$.
+#
+# At $N = 100$ the measured ratio, {glue:text}`is_kong_tail_z3_mc:.2f`
+# ({glue:text}`is_kong_tail_z3_mc_low:.2f`-{glue:text}`is_kong_tail_z3_mc_high:.2f`), is still
+# below its limit: the hundred draws are worth about {glue:text}`is_kong_tail_z3_ess:.0f`, and
+# the terms of order $1/N^2$, which grow as the ESS falls, are not negligible.
+#
+# With $N = 1000$ the measured ratio is {glue:text}`is_kong_tail_z3_mc_big:.2f`, close to its
+# limit. The next section meets the opposite case, a tail probability whose rule overstates the
+# variance.
 #
 # What the ESS does bound is the error of every bounded function: for $|\varphi| \le 1$ the mean
-# square error of $\hat I_N$ is at most $4\, \mathbb E_q[w^2] / N = 4 / \mathrm{ESS}_\infty$, with
-# $\mathrm{ESS}_\infty = N / \mathbb E_q[w^2]$ the ESS of the limit
+# square error of $\hat I_N$ is at most $4\, \mathbb E_q[w^2] / N = 4 / \mathrm{ESS}_\infty$
 # {cite:p}`agapiou2017`; {cite:t}`chopin2020` (their chapter on importance sampling) give this and the CLT above. The bound
 # is on the population ESS; the ESS measured from the weights is an estimate of it, and the
 # next section shows when that estimate fails.
@@ -429,6 +452,7 @@ tail_cases = {"1{x > m + s}, z = 1": (1.0, 1.0, above_1sd), "1{x > m + 1.5 s}, z
 kong_tail = {name: kong_ratio(*case) for name, case in tail_cases.items()}
 check_rng = np.random.default_rng(3)  # a seeded Monte Carlo check of the quadrature, N = 100
 t1 = toy[1.0]
+tail_ess = {"x, z = 1": t1["ess"].mean()}
 tail_mc = {"x, z = 1": evidence.run_interval(lambda r: N * t1["estimate"][r].var(ddof=1) / (t1["post_var"] * t1["Ew2"]),
                                              reps)}
 for name, (s_v, z_c, phi) in tail_cases.items():
@@ -439,27 +463,41 @@ for name, (s_v, z_c, phi) in tail_cases.items():
     est = np.sum(W * phi(x, m, s), axis=1)
     tail_mc[name] = evidence.run_interval(lambda r: N * est[r].var(ddof=1) / (kong_tail[name][2] * kong_tail[name][3]),
                                           reps)
-glue_values("is_kong_", tail_z1=kong_tail["1{x > m + s}, z = 1"][0], tail_z3=kong_tail["1{x > m + 1.5 s}, z = 3"][0],
-            tail_z3_mc=tail_mc["1{x > m + 1.5 s}, z = 3"][0])
+    tail_ess[name] = (1.0 / np.sum(W**2, axis=1)).mean()
+# the z = 3 case again with ten times more draws (its own generator, seed 4): the 1/N^2 terms fade
+z3 = "1{x > m + 1.5 s}, z = 3"
+x = np.random.default_rng(4).standard_normal((reps, 10 * N))
+log_w = stats.norm.logpdf(3.0, loc=x, scale=1.0)
+W = np.exp(log_w - logsumexp(log_w, axis=1, keepdims=True))
+est = np.sum(W * above_15sd(x, 1.5, np.sqrt(0.5)), axis=1)
+z3_big = evidence.run_interval(lambda r: 10 * N * est[r].var(ddof=1) / (kong_tail[z3][2] * kong_tail[z3][3]), reps)
+glue_values("is_kong_", tail_z1=kong_tail["1{x > m + s}, z = 1"][0], tail_z3=kong_tail[z3][0],
+            tail_z3_mc=tail_mc[z3][0], tail_z3_mc_low=tail_mc[z3][1], tail_z3_mc_high=tail_mc[z3][2],
+            tail_z3_ess=tail_ess[z3], tail_z3_mc_big=z3_big[0])
 EvidenceBlock(
     "the ESS rule errs either way: where the large weights fall decides",
-    notes=["Ratio sigma^2 / (Var_pi(phi) E_q w^2) on the toy (sd_v = 1, prior proposal), by quadrature; the "
-           "identity sigma^2 = E_q[w^2 (phi - I)^2] = E_pi[w (phi - I)^2] holds for w = pi / q with E_q w = 1.",
+    notes=["Kong's ratio V(phi) / (Var_pi(phi) E_q w^2) on the toy (sd_v = 1, prior proposal), by quadrature; the "
+           "identity V(phi) = E_q[w^2 (phi - I)^2] = E_pi[w (phi - I)^2] holds for w = pi / q with E_q w = 1.",
            f"Monte Carlo check: N = {N}, {reps} repetitions (seed 3), N Var(estimates) over Var_pi(phi) E_q w^2, "
-           "with its 95 % percentile-bootstrap interval over the repetitions."],
+           "with its 95 % percentile-bootstrap interval over the repetitions.",
+           f"The z = 3 case at N = {10 * N} ({reps} repetitions, seed 4): {z3_big[0]:.2f} ({z3_big[1]:.2f} to "
+           f"{z3_big[2]:.2f}), against {tail_mc[z3][0]:.2f} at N = {N} and the limit {kong_tail[z3][0]:.2f}."],
     tables=[("Kong's approximation against the exact asymptotic variance", pd.DataFrame(
-        [{"phi": "x, z = 1", "ratio (quadrature)": t1["kong"], "E_q w^2": t1["Ew2"],
-          "measured (N = 100)": tail_mc["x, z = 1"][0], "low": tail_mc["x, z = 1"][1], "high": tail_mc["x, z = 1"][2]}]
-        + [{"phi": name, "ratio (quadrature)": kong_tail[name][0], "E_q w^2": kong_tail[name][3],
-            "measured (N = 100)": tail_mc[name][0], "low": tail_mc[name][1], "high": tail_mc[name][2]}
+        [{"phi": "x, z = 1", "Kong's ratio (quadrature)": t1["kong"], "E_q w^2": t1["Ew2"],
+          "mean ESS (N = 100)": tail_ess["x, z = 1"], "Kong's ratio (N = 100)": tail_mc["x, z = 1"][0],
+          "low": tail_mc["x, z = 1"][1], "high": tail_mc["x, z = 1"][2]}]
+        + [{"phi": name, "Kong's ratio (quadrature)": kong_tail[name][0], "E_q w^2": kong_tail[name][3],
+            "mean ESS (N = 100)": tail_ess[name], "Kong's ratio (N = 100)": tail_mc[name][0],
+            "low": tail_mc[name][1], "high": tail_mc[name][2]}
            for name in tail_cases]),
-        {"ratio (quadrature)": ".3f", "E_q w^2": ".2f", "measured (N = 100)": ".2f", "low": ".2f", "high": ".2f"})],
+        {"Kong's ratio (quadrature)": ".3f", "E_q w^2": ".2f", "mean ESS (N = 100)": ".1f",
+         "Kong's ratio (N = 100)": ".2f", "low": ".2f", "high": ".2f"})],
 )
 
 # %% [markdown]
 # ## When the proposal's tails are too light
 #
-# The variance $\sigma^2$ is finite only if $\mathbb E_q[w^2 (\varphi - I)^2]$ is, and
+# The variance $V(\varphi)$ is finite only if $\mathbb E_q[w^2 (\varphi - I)^2]$ is, and
 # $\mathbb E_q[w^2] = \int \pi^2 / q$ is infinite when $\pi^2 / q$ is not integrable, that is
 # when $q$ has much lighter tails than $\pi$. Slightly lighter tails are not enough to break it:
 # the weights are then unbounded but can keep a finite variance (a Gaussian $q$ with
@@ -531,6 +569,10 @@ plt.show()
 # {glue:text}`is_tail_ess_normal_large:.0%` at $N = 10^4$, while with the Cauchy proposal it
 # stays at {glue:text}`is_tail_ess_cauchy_large:.0%`, near its limit $1 / \mathbb E_q[w^2]$. A
 # falling ESS / $N$ is the symptom of $\mathbb E_q[w^2] = \infty$.
+#
+# At $N = 10^2$ the Cauchy's mean ESS is also {glue:text}`is_tail_ess_cauchy_small:.0%` of $N$,
+# yet the normal's RMS error is {glue:text}`is_tail_rms_ratio_small:.1f` times the Cauchy's:
+# equal ESS, unequal accuracy.
 
 # %% [markdown]
 # The Cauchy proposal restores the rate: slope {glue:text}`is_tail_slope_cauchy:.2f`
@@ -539,10 +581,17 @@ plt.show()
 # Here the ESS rule errs the other way: the interval covers the exact answer in
 # {glue:text}`is_tail_cover_cauchy:.0%` of the runs at $N = 10^3$, more than the nominal $95\,\%$,
 # because the Cauchy spreads its large weights over the tails and the ratio of the true variance
-# to the rule's is {glue:text}`is_tail_kong_cauchy:.2f` by quadrature. The lesson carries over to
-# filters: heavier tails than the target's are always safe; somewhat lighter tails cost variance
+# to the rule's is {glue:text}`is_tail_kong_cauchy:.2f` by quadrature.
+#
+# The lesson carries over to filters: heavier tails than the target's are always safe in the
+# tails (the proposal must still not be thin where the target has mass); somewhat lighter tails
+# cost variance
 # (a Gaussian's $\mathbb E_q[w^2]$ blows up as $\sigma_q^2$ falls to $\sigma_\pi^2 / 2$); much
-# lighter tails give infinite variance. Too wide costs ESS, too narrow costs correctness.
+# lighter tails give infinite variance. Too wide costs ESS; too narrow costs the rate and the
+# error bars, not the limit: the normal proposal's mean error still shrinks, from
+# {glue:text}`is_tail_bias_normal_small:+.3f` at $N = 10^2$ to
+# {glue:text}`is_tail_bias_normal_large:+.3f` at $N = 10^4$, but its RMS error falls far slower
+# than $1/\sqrt N$ and its intervals cover too rarely.
 
 # %% tags=["remove-input"] jupyter={"source_hidden": true}
 def rms_slope(err):
@@ -551,13 +600,13 @@ def rms_slope(err):
 
 
 slopes = {name: rms_slope(t["err"]) for name, t in tail.items()}
-# Kong's ratio sigma^2 / (Var_pi(phi) E_q w^2) for the Cauchy proposal, by quadrature (pi^2 / q integrable)
+# Kong's ratio V(phi) / (Var_pi(phi) E_q w^2) for the Cauchy proposal, by quadrature (pi^2 / q integrable)
 pi2_q = lambda x: np.exp(2 * log_student(x, nu) - log_student(x, 1))
 cuts = (-np.inf, -3.0, 3.0, np.inf)
 Ew2_cauchy = sum(integrate.quad(pi2_q, a, b)[0] for a, b in zip(cuts[:-1], cuts[1:]))
-sigma2_cauchy = sum(integrate.quad(lambda x: pi2_q(x) * ((abs(x) > 3) - exact) ** 2, a, b)[0]
+V_phi_cauchy = sum(integrate.quad(lambda x: pi2_q(x) * ((abs(x) > 3) - exact) ** 2, a, b)[0]
                     for a, b in zip(cuts[:-1], cuts[1:]))
-kong_cauchy = sigma2_cauchy / (exact * (1 - exact) * Ew2_cauchy)
+kong_cauchy = V_phi_cauchy / (exact * (1 - exact) * Ew2_cauchy)
 cover = {name: [evidence.rate(t["covered"][:, j]) for j in range(len(sizes))] for name, t in tail.items()}
 glue_values("is_tail_", runs=runs, slope_normal=slopes["normal N(0, 1)"][0], slope_normal_low=slopes["normal N(0, 1)"][1],
             slope_normal_high=slopes["normal N(0, 1)"][2], slope_cauchy=slopes["Cauchy t_1"][0],
@@ -567,6 +616,11 @@ glue_values("is_tail_", runs=runs, slope_normal=slopes["normal N(0, 1)"][0], slo
             ess_normal_small=tail["normal N(0, 1)"]["ess"][:, 0].mean() / sizes[0],
             ess_normal_large=tail["normal N(0, 1)"]["ess"][:, 2].mean() / sizes[2],
             ess_cauchy_large=tail["Cauchy t_1"]["ess"][:, 2].mean() / sizes[2],
+            ess_cauchy_small=tail["Cauchy t_1"]["ess"][:, 0].mean() / sizes[0],
+            rms_ratio_small=np.sqrt(np.mean(tail["normal N(0, 1)"]["err"][:, 0] ** 2)
+                                    / np.mean(tail["Cauchy t_1"]["err"][:, 0] ** 2)),
+            bias_normal_small=tail["normal N(0, 1)"]["err"][:, 0].mean(),
+            bias_normal_large=tail["normal N(0, 1)"]["err"][:, 2].mean(),
             cover_cauchy=cover["Cauchy t_1"][1].estimate, kong_cauchy=kong_cauchy)
 EvidenceBlock(
     "with a proposal lighter-tailed than the target, the error does not shrink like 1/sqrt(N) and the ESS falls with N",
@@ -578,7 +632,7 @@ EvidenceBlock(
            "Coverage: share of runs whose interval estimate ± 1.96 sqrt(I^(1 - I^) / ESS) contains I, with its "
            "Wilson interval (see Reading the evidence).",
            f"Cauchy proposal, by quadrature: E_q w^2 = {Ew2_cauchy:.4f} (so ESS / N tends to {1 / Ew2_cauchy:.2f}); "
-           f"sigma^2 / (Var_pi(phi) E_q w^2) = {kong_cauchy:.3f}, below 1: the ESS rule overstates the variance."],
+           f"Kong's ratio V(phi) / (Var_pi(phi) E_q w^2) = {kong_cauchy:.3f}, below 1: the ESS rule overstates the variance."],
     tables=[("RMS error, mean ESS / N and coverage, per proposal and N",
              pd.DataFrame([{"proposal": name, "N": n, "RMS error": np.sqrt(np.mean(t["err"][:, j] ** 2)),
                             "mean error": t["err"][:, j].mean(), "mean ESS / N": t["ess"][:, j].mean() / n,
@@ -600,7 +654,9 @@ EvidenceBlock(
 # the self-normalised estimate of the posterior mean and the ESS. The checker runs it at $z = 3$,
 # $\sigma_v = 0.5$, compares it with the exact mean $z / (1 + \sigma_v^2)$ and names the
 # mistake it sees; then at $z = 60$, $\sigma_v = 1$, a measurement so surprising that
-# $p(z \mid x)\, p(x)$ is about $e^{-900}$ at every draw, below the smallest positive float.
+# $p(z \mid x)\, p(x)$ is about $e^{-900}$ at every draw, below the smallest positive float;
+# there $q = \mathcal N(30, 1)$ sits on the posterior $\mathcal N(30, 1/2)$, so only the
+# arithmetic can fail.
 # ```
 
 # %% tags=["answer"]
@@ -691,9 +747,11 @@ print(check_evidence_increment(increment_linear))
 #
 # ```{solution} ex-is-ess
 # :class: dropdown
-# The $W^i$ are at least $0$ and sum to $1$, so $\sum_i (W^i)^2 \le \max_i W^i \le 1$, with
-# equality when one weight is $1$; and by Cauchy-Schwarz $1 = \big(\sum_i W^i\big)^2 \le
-# N \sum_i (W^i)^2$, with equality when all are $1/N$. With $k$ weights $1/k$,
+# The $W^i$ are at least $0$ and sum to $1$, so $\sum_i (W^i)^2 \le \max_i W^i \le 1$; the first
+# step is an equality only if every non-zero weight equals $\max_i W^i$, the second only if
+# $\max_i W^i = 1$, so $\sum_i (W^i)^2 = 1$ exactly when one weight is $1$. By Cauchy-Schwarz
+# $1 = \big(\sum_i W^i\big)^2 \le N \sum_i (W^i)^2$, with equality exactly when $W$ is
+# proportional to $(1, \dots, 1)$, that is all $W^i = 1/N$. With $k$ weights $1/k$,
 # $\sum_i (W^i)^2 = k / k^2$ and the ESS is $k$: it counts the draws that share the weight. With
 # $W^i \propto i$, $\mathrm{ESS} = \big(\sum_i i\big)^2 / \sum_i i^2
 # = \frac{3 N (N + 1)}{2 (2N + 1)} \to \frac34 N$.
@@ -720,12 +778,14 @@ print(check_evidence_increment(increment_linear))
 #   weighted by $\pi / q$; normalising the weights removes the unknown constant of a posterior.
 # - When the target is much narrower than the proposal, a few draws take all the weight: the
 #   ESS, $1 / \sum_i (W^i)^2$, counts how many still count.
-# - The estimate's asymptotic variance is $\mathbb E_q[w^2 (\varphi - I)^2] / N$; the ESS rule
-#   $\operatorname{Var}_\pi(\varphi) / \mathrm{ESS}$ ignores $\varphi$ and can be off about twofold
-#   either way; for $|\varphi| \le 1$ the mean square error is at most $4 / \mathrm{ESS}_\infty$.
+# - The estimate's variance is about $V(\varphi) / N$, $V(\varphi) = \mathbb E_q[w^2 (\varphi - I)^2]$;
+#   the ESS rule $\operatorname{Var}_\pi(\varphi) / \mathrm{ESS}$ ignores $\varphi$, and in this
+#   chapter's examples it was off by up to about twofold either way; for $|\varphi| \le 1$ the
+#   mean square error is at most $4 / \mathrm{ESS}_\infty$.
 # - A proposal with much lighter tails than the target ($\pi^2 / q$ not integrable) gives weights
 #   of infinite variance: the error stops shrinking like $1/\sqrt N$. A single ESS does not warn;
-#   its fall as $N$ grows does. Heavier tails are always safe, much lighter ones never.
+#   its fall as $N$ grows does. Tails heavier than the target's are always safe there, much
+#   lighter ones never.
 #
 # :::{admonition} From the labs
 # :class: dropdown

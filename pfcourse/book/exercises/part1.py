@@ -568,9 +568,14 @@ def _check_underflow_case(report: CheckReport, fn: Callable, n: int, seed: int) 
     mean, var = toy_is_limit(z, sd_v)
     sigma2 = _gauss_chi2(mean, var, z / 2, 1.0)[1]
     expected = toy_is_ess_ratio(z, sd_v)
-    if not (np.isfinite(estimate) and np.isfinite(ess)):
+    if np.isfinite(estimate) and not np.isfinite(ess) and abs(estimate - mean) <= 6 * np.sqrt(sigma2 / n):
         report.problems.append(
-            f"at z = {z:g}, sd_v = {sd_v:g} the estimate is {estimate} and the ESS {ess}: there p(z | x) p(x) is "
+            f"at z = {z:g}, sd_v = {sd_v:g} the estimate {estimate:.4f} is right but the ESS is {ess}: there the "
+            "weights are about e^-900, so exp(log_w) taken before subtracting the logsumexp underflows to 0 and "
+            "the ESS divides 0 by 0; compute it as 1 / sum(W**2) from the normalised weights W")
+    elif not (np.isfinite(estimate) and np.isfinite(ess)):
+        report.problems.append(
+            f"at z = {z:g}, sd_v = {sd_v:g} the estimate is {estimate:.4f} and the ESS {ess:.1f}: there p(z | x) p(x) is "
             "about e^-900, below the smallest float (about e^-745), so weights computed as densities or as "
             "exp(log_w) underflow to 0 and normalising them divides 0 by 0; keep the log-weights and subtract "
             "their logsumexp (or their max) before exponentiating")
