@@ -352,7 +352,8 @@ NO_FILTER_RECORD: dict[str, str] = {
     "data_association_pdaf": "no particle filter: the PDA filter", "data_association_nn": "no particle filter: the NN-EKF",
     "map_global": "global_mcl's own loop (pfcourse.scenarios.maprobot.global_mcl), its GlobalSettings recorded",
     **{f"intel/{name}": "global_mcl's own loop (pfcourse.scenarios.maprobot.global_mcl), its GlobalSettings recorded"
-       for name in ("global", "global_previous", "map_control", "guarded_maps", "map_control_margin", "injection")},
+       for name in ("global", "global_previous", "map_control", "guarded_maps", "map_control_margin", "injection",
+                    "long_runs", "cluster_estimate")},
     "terrain_grid": "no particle filter: the point-mass grid filter", "terrain_costs": "timings of other studies' filters",
     "static_parameters": "the samplers of pfcourse.static_parameters (Liu-West, Storvik, SMC^2), not the engine",
     "pmcmc": "particle MCMC (pfcourse.pmmh, pfcourse.correlated, pfcourse.csmc), its filters built inside",
@@ -360,6 +361,16 @@ NO_FILTER_RECORD: dict[str, str] = {
 
 
 #: Every stored study, by name.  A group (``robot_studies``) is the studies named ``group/...``.
+
+def _intel_cure_fields(steps: int) -> dict:
+    """The provenance fields the intel studies of the cure share (map half, settings, lock-on rule)."""
+    return {"map": "scans 455-909 of book/data/intel/intel-corrected.log.gz; runs on scans 0-454",
+            "steps": steps, "settings": dataclasses.asdict(intel.GLOBAL_SETTINGS),
+            "no_injection": "settings with inject_share = 0",
+            "guarded_settings": dataclasses.asdict(intel.GUARDED_SETTINGS),
+            "lock_on": "within 1 m and 3 x the odometry's RMS heading error "
+                       f"of a step, at {intel.LOCK_SHARE} of the last {intel.LOCK_WINDOW} scans"}
+
 
 def _map_global_drives(n_runs: int, base_seed: int, drives: str, entries: list) -> list[Study]:
     """map_global's paired studies on one set of drives (``drives``, e.g. "held-out drives 150-249"): one
@@ -828,23 +839,13 @@ STUDIES: dict[str, Study] = {study.name: study for study in [
           volatile=("seconds", "cpu_seconds"),
           row_code="pfcourse/studies/intel.py (injection_row, global_row), pfcourse/scenarios/maprobot/global_mcl.py",
           fields={"seeds": "run s: start scan numpy.random.default_rng([41, s]); filter default_rng([41, s, 1])",
-                  "map": "scans 455-909 of book/data/intel/intel-corrected.log.gz; runs on scans 0-454",
-                  "steps": intel.GLOBAL_STEPS, "settings": dataclasses.asdict(intel.GLOBAL_SETTINGS),
-                  "no_injection": "settings with inject_share = 0",
-                  "guarded_settings": dataclasses.asdict(intel.GUARDED_SETTINGS),
-                  "lock_on": "within 1 m and 3 x the odometry's RMS heading error "
-                  f"of a step, at {intel.LOCK_SHARE} of the last {intel.LOCK_WINDOW} scans"}),
+                  **_intel_cure_fields(intel.GLOBAL_STEPS)}),
     Study(name="intel/long_runs", row=intel.long_row, grid={"method": list(intel.LONG_METHODS)},
           n_runs=intel.N_GLOBAL, seeds="run", failures="raise", table="intel/long_runs.csv",
           provenance="intel/long_runs.json", columns=intel.GLOBAL_COLUMNS, sample=1,
           row_code="pfcourse/studies/intel.py (long_row, global_row), pfcourse/scenarios/maprobot/global_mcl.py",
           fields={"seeds": "run s: start scan numpy.random.default_rng([41, s]) in 0-374; filter default_rng([41, s, 1])",
-                  "map": "scans 455-909 of book/data/intel/intel-corrected.log.gz; runs on scans 0-454",
-                  "steps": intel.LONG_STEPS, "settings": dataclasses.asdict(intel.GLOBAL_SETTINGS),
-                  "no_injection": "settings with inject_share = 0",
-                  "guarded_settings": dataclasses.asdict(intel.GUARDED_SETTINGS),
-                  "lock_on": "within 1 m and 3 x the odometry's RMS heading error "
-                  f"of a step, at {intel.LOCK_SHARE} of the last {intel.LOCK_WINDOW} scans"}),
+                  **_intel_cure_fields(intel.LONG_STEPS)}),
     Study(name="intel/cluster_estimate", row=intel_clusters.cluster_row, grid={}, n_runs=intel.N_GLOBAL, seeds="run",
           failures="raise", table="intel/cluster_estimate.csv", provenance="intel/cluster_estimate.json",
           columns=intel_clusters.CLUSTER_COLUMNS, sample=1,
