@@ -4,7 +4,7 @@ import numpy as np
 
 from pfcourse.scenarios.maprobot import global_mcl
 from pfcourse.studies import intel
-from pfcourse.studies.intel_clusters import CLUSTER_RADIUS, heaviest_cluster_mean, recorded_clouds
+from pfcourse.studies.intel_clusters import CLUSTER_RADIUS, heaviest_cluster_mean
 from pfcourse.studies.registry import STUDIES
 
 
@@ -25,11 +25,20 @@ def test_the_heaviest_cluster_sits_on_the_heavier_mode_where_the_mean_falls_betw
     assert CLUSTER_RADIUS == 1.0
 
 
-def test_the_recorder_restores_the_filters_mean_and_sees_every_cloud():
-    original = global_mcl.circular_mean
-    with recorded_clouds() as clouds:
-        assert global_mcl.circular_mean is not original
-    assert global_mcl.circular_mean is original and clouds == []
+def test_observe_sees_every_cloud_whose_mean_the_filter_reports():
+    sp = intel.split()
+    first = intel.global_start(0)
+    run = slice(first, first + intel.GLOBAL_STEPS)
+    odometry = sp.odometry[run].copy()
+    odometry[0] = 0.0
+    scans = sp.ranges[run, ::intel.BEAM_STEP]
+    seen = []
+    res = global_mcl.global_mcl(sp.free, sp.field(), intel.MOTION, scans, odometry, np.random.default_rng([41, 0, 1]),
+                                intel.GUARDED_SETTINGS, observe=lambda k, x, W: seen.append((k, x.copy(), W.copy())))
+    assert [k for k, *_ in seen] == list(range(intel.GLOBAL_STEPS))
+    for k, x, W in seen:
+        assert abs(W.sum() - 1) < 1e-12
+        np.testing.assert_array_equal(res.mean[k, :2], [W @ x[:, 0], W @ x[:, 1]])
 
 
 def test_the_stored_runs_are_the_cures_runs_of_intel_injection():

@@ -8,20 +8,17 @@ by :func:`heaviest_cluster_mean` as well: particles binned in ``CLUSTER_BIN`` ce
 the heaviest cell, then the weighted mean of the particles within ``CLUSTER_RADIUS`` of its centre.
 
 The clouds are read where :func:`pfcourse.scenarios.maprobot.global_mcl.global_mcl` forms its mean
-(its call of ``circular_mean``, :func:`recorded_clouds`); the filter itself is unchanged, so the run's
+(its ``observe`` hook, which draws nothing); the filter itself is unchanged, so the run's
 draws and its ``locked_on`` label are ``intel/injection``'s.
 """
 
 from __future__ import annotations
 
-import sys
-from contextlib import contextmanager
 
 import numpy as np
 
 from pfcourse.angles import circular_mean
 from pfcourse.checks import Array
-from pfcourse.errors import ParameterError
 from pfcourse.metrics import heading_error, position_error
 from pfcourse.scenarios.maprobot import global_mcl as _global_mcl
 from pfcourse.studies import intel
@@ -46,23 +43,6 @@ def heaviest_cluster_mean(x: Array, W: Array) -> Array:
     return np.array([*(w @ x[near, :2]) / w.sum(), circular_mean(x[near, 2], w)])
 
 
-@contextmanager
-def recorded_clouds():
-    """Inside the block, every ``(x, W)`` whose mean :func:`global_mcl` forms is appended to the list yielded."""
-    clouds, original = [], _global_mcl.circular_mean
-
-    def recording(angles, weights=None, axis=0):
-        frame = sys._getframe(1).f_locals
-        clouds.append((np.array(frame["x"]), np.array(frame["W"])))
-        return original(angles, weights, axis)
-
-    _global_mcl.circular_mean = recording
-    try:
-        yield clouds
-    finally:
-        _global_mcl.circular_mean = original
-
-
 def cluster_row(seed: int) -> dict:
     """Run ``seed`` of ``intel/injection``'s ``guarded`` arm, judged by the cloud's mean (``locked_on``, the
     stored label) and by the heaviest cluster's mean (``locked_on_cluster``); ``final_mass_near_reference``:
@@ -73,12 +53,10 @@ def cluster_row(seed: int) -> dict:
     odometry = sp.odometry[run].copy()
     odometry[0] = 0.0
     scans = sp.ranges[run, ::intel.BEAM_STEP]
-    with recorded_clouds() as clouds:
-        res = _global_mcl.global_mcl(sp.free, sp.field(), intel.MOTION, scans, odometry,
-                                     np.random.default_rng([41, seed, 1]), intel.GUARDED_SETTINGS)
-    if len(clouds) != intel.GLOBAL_STEPS:
-        raise ParameterError(f"recorded {len(clouds)} clouds for {intel.GLOBAL_STEPS} scans: global_mcl no longer "
-                             "forms its mean with circular_mean")
+    clouds = []
+    res = _global_mcl.global_mcl(sp.free, sp.field(), intel.MOTION, scans, odometry,
+                                 np.random.default_rng([41, seed, 1]), intel.GUARDED_SETTINGS,
+                                 observe=lambda k, x, W: clouds.append((x.copy(), W.copy())))
     truth, tol = sp.poses[run], intel.heading_tolerance(sp.log)
     cluster = np.array([heaviest_cluster_mean(x, W) for x, W in clouds])
     pos, head = position_error(truth, res.mean), heading_error(truth, res.mean)

@@ -73,6 +73,7 @@ All draws come from the generator passed in, in a fixed order (:func:`global_mcl
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass, replace
 
 import numpy as np
@@ -255,8 +256,10 @@ class GlobalResult:
 
 def global_mcl(grid: OccupancyGrid, field: LikelihoodField, motion: OdometryModel, scans: Array, odometry: Array,
                rng: np.random.Generator, s: GlobalSettings = SETTINGS, *, start: Array | None = None,
-               start_std: tuple[float, float, float] = (0.2, 0.2, 0.05)) -> GlobalResult:
+               start_std: tuple[float, float, float] = (0.2, 0.2, 0.05),
+               observe: Callable[[int, Array, Array], None] | None = None) -> GlobalResult:
     """The cure on ``scans`` ``(K, B)`` with ``odometry`` ``(K, 3)`` (row ``k`` moves step ``k - 1`` to ``k``).
+    ``observe(k, x, W)``, if given, sees each step's cloud and normalised weights (it draws nothing).
 
     ``start=None``: global localization (step 0 as in the module docstring); else ``s.n_min`` poses
     around ``start`` (a tracked robot, which may be kidnapped).  Order of the draws at step ``k > 0``:
@@ -304,6 +307,8 @@ def global_mcl(grid: OccupancyGrid, field: LikelihoodField, motion: OdometryMode
             else:
                 x, log_w = moved, lw_m
         W = np.exp(log_w - logsumexp(log_w))
+        if observe is not None:
+            observe(k, x, W)
         out.mean[k] = [W @ x[:, 0], W @ x[:, 1], circular_mean(x[:, 2], W)]
         out.sizes[k] = len(x)
         out.injected_mass[k] = inj_mass
