@@ -51,6 +51,7 @@ from pfcourse.errors import ParameterError, StepError
 from pfcourse.checks import check_count
 from pfcourse.filter_config import FilterConfig, FilterSettings, records
 from pfcourse.studies import association, comparison, count_resampling, global_localization, intel, map_global
+from pfcourse.studies import map_global_challenger as mgc
 from pfcourse.studies import intel_clusters
 from pfcourse.studies import likelihood_studies as ls
 from pfcourse.studies import part1_studies
@@ -699,6 +700,24 @@ STUDIES: dict[str, Study] = {study.name: study for study in [
         # the cure (global_mcl.CURE: hysteresis, the belief's evidence with its strata)
         ("global_heldout", map_global.heldout_global_row, map_global.GLOBAL_FRESH_COLUMNS),
         ("kidnap_heldout", map_global.heldout_kidnap_row, map_global.KIDNAP_FRESH_COLUMNS)]),
+    # issue 41: the challenger (global_mcl.CHALLENGER): its swap threshold chosen on development drives 0-149 against
+    # the cure's false relocalizations there (the cure recomputed on the same drives), then judged once on new drives
+    # 250-349 (registered before any run on them), paired with the cure and the exact twin filter
+    *[dataclasses.replace(st, row_code=f"pfcourse/studies/map_global_challenger.py ({st.row.__name__}), "
+                           "pfcourse/studies/map_global.py, pfcourse/scenarios/maprobot/global_mcl.py",
+                          fields={**st.fields, "protocol": mgc.PROTOCOL})
+      for st in _map_global_drives(mgc.DEV_RUNS, mgc.DEV_SEED, "development drives 0-149", [
+          ("global_dev_cure", mgc.dev_cure_global_row, map_global.GLOBAL_FRESH_COLUMNS),
+          ("kidnap_dev_cure", mgc.dev_cure_kidnap_row, map_global.KIDNAP_FRESH_COLUMNS)])
+      + [dataclasses.replace(st, grid={"swap_nats": list(mgc.SWAP_NATS)}, columns=("swap_nats", *st.columns))
+         for st in _map_global_drives(mgc.DEV_RUNS, mgc.DEV_SEED, "development drives 0-149", [
+             ("global_dev_challenger", mgc.challenger_global_row, map_global.GLOBAL_FRESH_COLUMNS),
+             ("kidnap_dev_challenger", mgc.challenger_kidnap_row, map_global.KIDNAP_FRESH_COLUMNS)])]
+      + _map_global_drives(mgc.HELDOUT_RUNS, mgc.HELDOUT_SEED, "held-out drives 250-349", [
+          ("global_heldout2_cure", mgc.dev_cure_global_row, map_global.GLOBAL_FRESH_COLUMNS),
+          ("kidnap_heldout2_cure", mgc.dev_cure_kidnap_row, map_global.KIDNAP_FRESH_COLUMNS),
+          ("global_heldout2_challenger", mgc.challenger_global_row, map_global.GLOBAL_FRESH_COLUMNS),
+          ("kidnap_heldout2_challenger", mgc.challenger_kidnap_row, map_global.KIDNAP_FRESH_COLUMNS)])],
     # equal cost: uniform injection at N = 5000 on the held-out drives 150-249, paired with global_heldout (the cure)
     Study(name="map_global/injection_heldout", row=map_global.heldout_injection_row, grid={},
           n_runs=map_global.HELDOUT_RUNS, base_seed=map_global.HELDOUT_SEED, seeds="run", failures="raise",

@@ -105,7 +105,11 @@ class GlobalSettings:
     (deterministic-mixture weights, :func:`start_cloud`) instead of as two strata of half the mass each;
     ``mixture_evidence``: at a step where a stratum is admitted, record the normaliser of the mixed weights,
     ``log((1 - eps_k) Z_k + eps_k B Z_k)``, as the belief's evidence for the scan (not the moved cloud's ``Z_k``
-    alone), so that a later stratum is compared with the belief that now holds (module docstring)."""
+    alone), so that a later stratum is compared with the belief that now holds (module docstring);
+    ``challenger``: keep a winning stratum as a challenger beside the cloud and test it sequentially (module
+    docstring, "A challenger"): swap when its posterior log-odds reach ``swap_nats``, drop it when they fall to
+    ``-drop_nats``; a fresh stratum is a new hypothesis when its mean is ``distinct_m`` or ``distinct_rad`` away
+    from the cloud's (``confirm`` and ``mixture_evidence`` are then unused)."""
 
     n_start: int = 20000
     n_start_scan: int = 2000
@@ -134,6 +138,11 @@ class GlobalSettings:
     confirm: int = 0
     start_mixture: bool = False
     mixture_evidence: bool = False
+    challenger: bool = False
+    swap_nats: float = float(np.log(99.0))
+    drop_nats: float = 20.0
+    distinct_m: float = 1.0
+    distinct_rad: float = 0.5
 
     def __post_init__(self) -> None:
         for name in ("n_start", "n_min", "n_max", "inject_min", "inject_every", "candidates", "headings", "keep"):
@@ -149,6 +158,10 @@ class GlobalSettings:
             raise ParameterError(f"keep ({self.keep}) must not exceed the candidates ({self.candidates * self.headings})")
         for name in ("kld_epsilon", "kld_delta", "inject_share", "eps_min", "alpha_slow", "alpha_fast"):
             check_probability(getattr(self, name), name)
+        for name in ("swap_nats", "drop_nats", "distinct_m", "distinct_rad"):
+            check_real(getattr(self, name), name, low=0.0)
+        if self.challenger and self.kidnap_hazard is None:
+            raise ParameterError("challenger needs kidnap_hazard: its test starts from the kidnap model's prior odds")
         if self.kidnap_hazard is not None:
             check_real(self.kidnap_hazard, "kidnap_hazard", low=0.0, high=1.0 / self.inject_every, low_open=True)
         if not self.alpha_slow < self.alpha_fast:
@@ -252,6 +265,21 @@ class GlobalResult:
     eps: Array
     injected_mass: Array
     eps_augmented: Array | None = None
+    log_odds: Array | None = None
+
+
+@dataclass
+class Challenger:
+    """A hypothesis kept beside the cloud (``s.challenger``): its particles, their last log-likelihoods, the step
+    ``born`` from which its record runs, its record (log mean weight of each scan from ``born``), and ``log_odds``,
+    its posterior log-odds against the cloud (the prior odds of a kidnapping plus the sum of the record minus the
+    cloud's)."""
+
+    x: Array
+    lw: Array
+    born: int
+    record: Array
+    log_odds: float
 
 
 def global_mcl(grid: OccupancyGrid, field: LikelihoodField, motion: OdometryModel, scans: Array, odometry: Array,
@@ -278,7 +306,9 @@ def global_mcl(grid: OccupancyGrid, field: LikelihoodField, motion: OdometryMode
     log_z[0] = logsumexp(log_w)  # step 0: the weights are importance weights of the prior
     w_slow = w_fast = None
     streak = 0  # injections in a row whose stratum out-scored the cloud (hysteresis, s.confirm)
-    out = GlobalResult(np.empty((K, 3)), np.empty(K, dtype=int), np.zeros(K), np.zeros(K), np.zeros(K))
+    chal: Challenger | None = None  # s.challenger: the hypothesis kept beside the cloud
+    out = GlobalResult(np.empty((K, 3)), np.empty(K, dtype=int), np.zeros(K), np.zeros(K), np.zeros(K),
+                       np.full(K, np.nan))
     for k in range(K):
         inj_mass = 0.0
         if k > 0:
@@ -301,7 +331,11 @@ def global_mcl(grid: OccupancyGrid, field: LikelihoodField, motion: OdometryMode
             if s.poor_fit_only:  # only while the scans fit the cloud worse than they used to
                 inject = inject and eps > s.eps_min
             r = max(s.inject_min, int(round(s.inject_share * n))) if inject else 0
-            if r > 0:
+            if s.challenger:
+                x, log_w, chal, inj_mass = challenge(grid, field, motion, scans, odometry, k, r, moved, lw_m, chal,
+                                                     eps, log_z, rng, s)
+                out.log_odds[k] = np.nan if chal is None else chal.log_odds
+            elif r > 0:
                 inj, lw_r = injected(grid, field, motion, scans, odometry, k, r, log_z, rng, s)
                 x, log_w, inj_mass, streak, log_z[k] = admit(moved, lw_m, inj, lw_r, eps, streak, log_z[k], s)
             else:
@@ -313,6 +347,58 @@ def global_mcl(grid: OccupancyGrid, field: LikelihoodField, motion: OdometryMode
         out.sizes[k] = len(x)
         out.injected_mass[k] = inj_mass
     return out
+
+
+def challenge(grid: OccupancyGrid, field: LikelihoodField, motion: OdometryModel, scans: Array, odometry: Array,
+              k: int, r: int, moved: Array, lw_m: Array, chal: Challenger | None, eps: float, log_z: Array,
+              rng: np.random.Generator, s: GlobalSettings) -> tuple[Array, Array, Challenger | None, float]:
+    """Step ``k`` of the challenger's sequential test (module docstring, "A challenger"), after the cloud has moved
+    (``moved``, log-likelihoods ``lw_m``, its log mean weight ``log_z[k]``).
+
+    1. The challenger, if any, is resampled to ``s.inject_min`` particles, moved and weighted; its log-odds gain the
+       scan's log-likelihood ratio ``log mean p(z_k | x^c) - log_z[k]``.
+    2. At an injection step (``r > 0``), a fresh stratum (:func:`kidnap_stratum`) with prior odds
+       ``eps / (1 - eps)`` and the Bayes factor of its window becomes the challenger when it lies away from the
+       cloud (``s.distinct_m``, ``s.distinct_rad``) and its log-odds beat the challenger's.
+    3. Log-odds at or above ``s.swap_nats``: swap.  The challenger becomes the cloud, its record the belief's
+       record from ``born`` on, and the old cloud the challenger (log-odds negated), so a swap can be undone.
+       At or below ``-s.drop_nats``: dropped.
+
+    Returns the cloud, its log-weights, the challenger and 1.0 if the step swapped (else 0.0)."""
+    if chal is not None:
+        keep = systematic(np.exp(chal.lw - logsumexp(chal.lw)), rng, s.inject_min)
+        xc = motion.sample(chal.x[keep], odometry[k], rng)
+        lw = field.log_likelihood(xc, scans[k])
+        e = float(logsumexp(lw) - np.log(len(xc)))
+        chal = Challenger(xc, lw, chal.born, np.append(chal.record, e), chal.log_odds + e - float(log_z[k]))
+    if r > 0:
+        xf, lwf, record = kidnap_stratum(grid, field, motion, scans, odometry, k, r, rng, s)
+        j0 = k - s.history
+        log_odds = float(np.log(eps) - np.log1p(-eps) + record.sum() - log_z[j0:k + 1].sum())
+        if (chal is None or log_odds > chal.log_odds) and distinct(xf, lwf, moved, lw_m, s):
+            chal = Challenger(xf, lwf, j0, record, log_odds)
+    if chal is None:
+        return moved, lw_m, None, 0.0
+    if chal.log_odds >= s.swap_nats:
+        old = log_z[chal.born:k + 1].copy()
+        log_z[chal.born:k + 1] = chal.record
+        return chal.x, chal.lw, Challenger(moved, lw_m, chal.born, old, -chal.log_odds), 1.0
+    if chal.log_odds <= -s.drop_nats:
+        return moved, lw_m, None, 0.0
+    return moved, lw_m, chal, 0.0
+
+
+def weighted_pose(x: Array, lw: Array) -> Array:
+    """The weighted mean pose of particles ``x`` with log-weights ``lw`` (heading: the circular mean)."""
+    W = np.exp(lw - logsumexp(lw))
+    return np.array([W @ x[:, 0], W @ x[:, 1], circular_mean(x[:, 2], W)])
+
+
+def distinct(x: Array, lw: Array, y: Array, lv: Array, s: GlobalSettings = SETTINGS) -> bool:
+    """Two weighted clouds are different hypotheses: their mean poses are ``s.distinct_m`` or ``s.distinct_rad``
+    apart."""
+    a, b = weighted_pose(x, lw), weighted_pose(y, lv)
+    return bool(np.hypot(*(a[:2] - b[:2])) > s.distinct_m or abs(wrap_angle(a[2] - b[2])) > s.distinct_rad)
 
 
 def admit(moved: Array, lw_m: Array, inj: Array, lw_r: Array, eps: float, streak: int, log_z_k: float,
@@ -375,15 +461,28 @@ def injected(grid: OccupancyGrid, field: LikelihoodField, motion: OdometryModel,
     divided by the cloud's ``prod_{j=j0}^{k-1} Z_j`` is the Bayes factor of the kidnapping against the
     cloud's own account of those scans.  The returned log-weights are the last step's
     ``log p(z_k | x_k)`` shifted so that their mean is that Bayes factor times ``Z_k``'s scale."""
+    x, lw, record = kidnap_stratum(grid, field, motion, scans, odometry, k, r, rng, s)
+    log_evidence = 0.0
+    for e in record[:-1]:
+        log_evidence += e
+    return x, lw + log_evidence - log_z[k - s.history:k].sum()
+
+
+def kidnap_stratum(grid: OccupancyGrid, field: LikelihoodField, motion: OdometryModel, scans: Array, odometry: Array,
+                   k: int, r: int, rng: np.random.Generator, s: GlobalSettings = SETTINGS) -> tuple[Array, Array, Array]:
+    """The small filter of :func:`injected`: ``r`` poses at step ``k``, their ``log p(z_k | x_k)``, and its record
+    of the scans ``j0 = k - s.history ... k``: the log mean weight at each step (at ``j0`` the weights
+    ``u / q p(z_j0 | x)``), whose sum estimates ``log p(z_j0:k | kidnapped at j0)``."""
     j0 = k - s.history
     x, log_q = scan_proposal(grid, field, scans[j0], r, rng, s)
     lw = uniform_log_density(grid, x) - log_q + field.log_likelihood(x, scans[j0])
-    log_evidence = 0.0
+    record = []
     for j in range(j0 + 1, k + 1):
-        log_evidence += logsumexp(lw) - np.log(r)
+        record.append(logsumexp(lw) - np.log(r))
         x = motion.sample(x[systematic(np.exp(lw - logsumexp(lw)), rng, r)], odometry[j], rng)
         lw = field.log_likelihood(x, scans[j])
-    return x, lw + log_evidence - log_z[j0:k].sum()
+    record.append(logsumexp(lw) - np.log(r))
+    return x, lw, np.array(record)
 
 
 def _stratified(parts: list[tuple[float, Array, Array]]) -> tuple[Array, Array]:
@@ -397,3 +496,8 @@ def _stratified(parts: list[tuple[float, Array, Array]]) -> tuple[Array, Array]:
 def with_settings(**changes) -> GlobalSettings:
     """:data:`SETTINGS` with some fields changed (a variant of the cure)."""
     return replace(SETTINGS, **changes)
+
+
+#: The challenger (issue 41's next cure, module docstring "A challenger"): :data:`HAZARD`'s prior with a winning
+#: stratum kept and tested sequentially (swap at posterior odds 99 : 1, drop at e^-20 : 1).
+CHALLENGER = replace(HAZARD, challenger=True)
