@@ -718,6 +718,19 @@ STUDIES: dict[str, Study] = {study.name: study for study in [
           ("kidnap_heldout2_cure", mgc.dev_cure_kidnap_row, map_global.KIDNAP_FRESH_COLUMNS),
           ("global_heldout2_challenger", mgc.challenger_global_row, map_global.GLOBAL_FRESH_COLUMNS),
           ("kidnap_heldout2_challenger", mgc.challenger_kidnap_row, map_global.KIDNAP_FRESH_COLUMNS)])],
+    # the bound on the new held-out drives 250-349: the exact filter over the truth and its twins (global drives, and
+    # the kidnap runs from the kidnapping on)
+    *[Study(name=f"map_global/{name}", row=row, grid={}, n_runs=mgc.HELDOUT_RUNS, base_seed=mgc.HELDOUT_SEED,
+            seeds="run", failures="raise", table=f"map_global/{name}.csv", provenance=f"map_global/{name}.json",
+            columns=columns, sample=2,
+            row_code=f"pfcourse/studies/map_global.py ({row.__name__}), pfcourse/scenarios/maprobot/twins.py "
+                     "(exact_twin_estimate)",
+            fields={"seeds": f"run s (held-out drives 250-349): the {what} of maprobot/{what.split()[0]} "
+                             "(data_rng(s, 0), kidnap_rng(s)); no random numbers of its own",
+                    "dt": maprobot.DT, "heading_tolerance_rad": map_global.HEADING_TOL})
+      for name, row, columns, what in [
+          ("exact_heldout2", map_global.exact_row, map_global.EXACT_COLUMNS, "global drive"),
+          ("exact_kidnap_heldout2", map_global.exact_kidnap_row, map_global.EXACT_KIDNAP_COLUMNS, "kidnap drive")]],
     # equal cost: uniform injection at N = 5000 on the held-out drives 150-249, paired with global_heldout (the cure)
     Study(name="map_global/injection_heldout", row=map_global.heldout_injection_row, grid={},
           n_runs=map_global.HELDOUT_RUNS, base_seed=map_global.HELDOUT_SEED, seeds="run", failures="raise",
