@@ -4,7 +4,8 @@ kept beside the cloud and tested sequentially, against the cure :data:`~pfcourse
 Protocol, fixed before any run of the challenger on these drives.
 
 1. **Threshold, on development drives 0-149** (global drives and their kidnap runs, those the cure was designed on).
-   The swap threshold ``swap_nats`` runs over :data:`SWAP_NATS` (``drop_nats`` fixed at 20); the cure is recomputed
+   The swap threshold ``swap_nats`` runs over :data:`SWAP_NATS`, then :data:`SWAP_NATS_HIGH` (``drop_nats`` fixed
+   at 20); the cure is recomputed
    on the same drives and filter seeds (``*_dev_cure``).  The threshold kept (:func:`choose_swap_nats`) is the one
    with the most global lock-ons plus kidnap recoveries among those whose false relocalizations (runs lost after
    being locked on, :func:`pfcourse.studies.map_global.lost_times`, global and kidnap together) are no more than the
@@ -36,8 +37,11 @@ DEV_SEED, DEV_RUNS = 0, 150
 #: The new held-out drives, registered before any run of any filter on them.
 HELDOUT_SEED, HELDOUT_RUNS = 250, 100
 #: The swap thresholds screened (posterior log-odds of the challenger against the cloud): odds of 99 : 1 (the
-#: "decided" odds of the twin bound), e^8 and e^12.
+#: "decided" odds of the twin bound), e^8 and e^12 (``*_dev_challenger``) ...
 SWAP_NATS = (float(np.log(99.0)), 8.0, 12.0)
+#: ... and, added when every one of those relocalized falsely more often than the cure on the same drives (global
+#: drives: 31, 22 and 10 runs lost against the cure's 2), before any held-out run (``*_dev_challenger_high``):
+SWAP_NATS_HIGH = (16.0, 20.0, 25.0, 30.0)
 
 
 def challenger_settings(swap_nats: float):

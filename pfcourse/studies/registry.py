@@ -713,6 +713,10 @@ STUDIES: dict[str, Study] = {study.name: study for study in [
          for st in _map_global_drives(mgc.DEV_RUNS, mgc.DEV_SEED, "development drives 0-149", [
              ("global_dev_challenger", mgc.challenger_global_row, map_global.GLOBAL_FRESH_COLUMNS),
              ("kidnap_dev_challenger", mgc.challenger_kidnap_row, map_global.KIDNAP_FRESH_COLUMNS)])]
+      + [dataclasses.replace(st, grid={"swap_nats": list(mgc.SWAP_NATS_HIGH)}, columns=("swap_nats", *st.columns))
+         for st in _map_global_drives(mgc.DEV_RUNS, mgc.DEV_SEED, "development drives 0-149", [
+             ("global_dev_challenger_high", mgc.challenger_global_row, map_global.GLOBAL_FRESH_COLUMNS),
+             ("kidnap_dev_challenger_high", mgc.challenger_kidnap_row, map_global.KIDNAP_FRESH_COLUMNS)])]
       + _map_global_drives(mgc.HELDOUT_RUNS, mgc.HELDOUT_SEED, "held-out drives 250-349", [
           ("global_heldout2_cure", mgc.dev_cure_global_row, map_global.GLOBAL_FRESH_COLUMNS),
           ("kidnap_heldout2_cure", mgc.dev_cure_kidnap_row, map_global.KIDNAP_FRESH_COLUMNS),

@@ -63,6 +63,18 @@ resampling at every scan) with three changes, the cure of the chapter *Finding t
    inject_every`` of their scans, so a twin's wins are not independent from one injection to the next.  The
    guards are symmetric: they keep a wrong cloud as they keep a right one (the held-out misses 150 and 189).
 
+   **A challenger** (:data:`CHALLENGER`, ``challenger``).  The hysteresis above forgets: each stratum is judged on its
+   own window of ``h + 1`` scans and dropped when it loses, so evidence older than the window is lost (a true
+   stratum that out-weighs the cloud on two windows and falls short on the third starts again from nothing).  The
+   challenger keeps it.  A fresh stratum whose mean lies away from the cloud's (``distinct_m``, ``distinct_rad``) and
+   whose posterior log-odds ``Lambda = log(eps_k / (1 - eps_k)) + log B`` beat the current challenger's becomes the
+   challenger: ``inject_min`` particles moved and weighted at every scan beside the cloud, its log-odds gaining the
+   scan's log-likelihood ratio ``log mean_i p(z_k | x^c_i) - log Z_k`` (Wald's sequential probability ratio test,
+   1945; multi-hypothesis localization, Jensfelt and Kristensen 2001).  At ``Lambda >= swap_nats`` it becomes the
+   cloud, its record of the scans since it was born replaces the belief's record (``log Z_j``, against which later
+   strata are compared), and the old cloud becomes the challenger with ``-Lambda``, so a wrong swap can be undone;
+   at ``Lambda <= -drop_nats`` it is dropped.  Its cost is ``inject_min`` scorings a scan beside the cloud's.
+
    In practice the first scan collapses the weighted cloud into a few KLD bins, and from step 1 on
    the bound asks for ``n_min``: KLD-sampling hardly acts on the book's map.  Part of that is the start's
    weighting as two strata; ``start_mixture`` weights all its poses by the mixture density instead
