@@ -186,3 +186,43 @@ def test_the_protocol_keeps_the_best_threshold_within_the_false_relocalization_b
     g, k = tables([(1.0, True, 3, True, 0), (2.0, True, 3, True, 0)])
     with pytest.raises(ValueError, match="budget|no threshold"):
         mgc.choose_swap_nats(g, k, cure_g, cure_k)
+
+
+def _screen():
+    from pfcourse.studies.registry import STUDIES
+    load = lambda name: STUDIES[f"map_global/{name}"].load()  # noqa: E731
+    g = pd.concat([load("global_dev_challenger"), load("global_dev_challenger_high")])
+    k = pd.concat([load("kidnap_dev_challenger"), load("kidnap_dev_challenger_high")])
+    return g, k, load("global_dev_cure"), load("kidnap_dev_cure")
+
+
+def test_the_screen_s_verdict_follows_from_the_stored_tables():
+    g, k, gc, kc = _screen()
+    assert sorted(g["swap_nats"].unique()) == sorted(mgc.SWAP_NATS + mgc.SWAP_NATS_HIGH)
+    for t in (g, k):
+        assert t.groupby("swap_nats")["seed"].apply(lambda s: sorted(s) == list(range(mgc.DEV_RUNS))).all()
+    assert sorted(gc["seed"]) == sorted(kc["seed"]) == list(range(mgc.DEV_RUNS))
+    passed = True
+    try:
+        mgc.choose_swap_nats(g, k, gc, kc)
+    except ValueError:
+        passed = False
+    assert passed == mgc.SCREEN_PASSED
+    # the docstring's counts: the cure's 3 false relocalizations, the challenger's at each threshold
+    lost = {round(a, 1): int(g[g.swap_nats == a]["n_lost"].sum() + k[k.swap_nats == a]["n_lost"].sum())
+            for a in g["swap_nats"].unique()}
+    assert int(gc["n_lost"].sum() + kc["n_lost"].sum()) == 3
+    assert lost == {4.6: 57, 8.0: 40, 12.0: 22, 16.0: 13, 20.0: 5, 25.0: 5, 30.0: 5}
+
+
+def test_the_false_swaps_exceed_the_bound_under_the_filter_s_own_model():
+    """Ville's inequality bounds the expected false swaps of an honest test; the measured lost runs exceed it by far."""
+    g, *_ = _screen()
+    eps = gm.CHALLENGER.kidnap_hazard * gm.CHALLENGER.inject_every
+    steps = range(gm.CHALLENGER.history, study.GLOBAL_STEPS, gm.CHALLENGER.inject_every)
+    assert len(steps) == mgc.STRATA_GLOBAL
+    assert len(range(gm.CHALLENGER.history, study.KIDNAP_STEPS, gm.CHALLENGER.inject_every)) == mgc.STRATA_KIDNAP
+    for a, runs in g.groupby("swap_nats"):
+        bound = len(runs) * mgc.ville_bound(a, eps, mgc.STRATA_GLOBAL)
+        lost = runs["n_lost"].sum()
+        assert bound < 0.3 and lost >= 2 and lost > 100 * bound

@@ -10,10 +10,24 @@ Protocol, fixed before any run of the challenger on these drives.
    with the most global lock-ons plus kidnap recoveries among those whose false relocalizations (runs lost after
    being locked on, :func:`pfcourse.studies.map_global.lost_times`, global and kidnap together) are no more than the
    cure's on the same drives: the false-relocalization budget.  Ties go to the larger threshold.
-2. **Judged once, on new drives 250-349** (:data:`HELDOUT_SEED`, :data:`HELDOUT_RUNS`; drives 150-249 are spent), with
-   the threshold of step 1, paired with the cure on the same drives and with the exact filter over the truth and its
-   twins (the bound).  Targets, as issue 41 states them: lock-on in at least 0.95 of the global drives (or within the
-   share the evidence decides), the kidnapped robot recovered in at least 0.90.
+2. **Judged once, on new drives 250-349** (drives 150-249 are spent), with the threshold of step 1, paired with the
+   cure on the same drives and with the exact filter over the truth and its twins, only if step 1 finds a threshold
+   within the budget that locks on and recovers more often than the cure.
+
+The screen's verdict (:data:`SCREEN_PASSED`, re-derived from the stored tables by tests/test_map_global_challenger.py):
+no threshold keeps within the budget.  The cure relocalized falsely 3 times on the development drives (2 global, 1
+kidnap); the challenger 57, 40, 22, 13, 5, 5 and 5 times at 4.6, 8, 12, 16, 20, 25 and 30 nats.  From 20 nats on it
+locks on in 140-137 of 150 global drives (the cure 138) and recovers 128-126 of 137 moved kidnappings (the cure 123),
+a median 10-10.5 s after the kidnapping (the cure 14 s).  Not run on drives 250-349, which stay unspent.
+
+Why the budget fails: the false swaps are not the noise of an honest test.  Under the filter's own model the
+challenger's likelihood ratio is a nonnegative martingale with mean at most 1 while the cloud is right, so (Ville's
+inequality) one fresh stratum reaches ``swap_nats = a`` with probability at most ``xi / (1 - xi) e^-a``; 45 strata a
+global drive give at most 0.27 false swaps in 150 drives at ``a = 4.6`` and 2e-4 at ``a = 12``.  Measured: 31 and 10
+global drives lost.  A single 10-s window makes a twin's stratum beat the cloud's record by 20-35 nats where the exact
+twin margin moves by less than 10 (drive 30 at 64 s; kidnap run 92 at 30 s, whose cloud had found the robot again by
+itself and kept its poor record of the kidnapping's scans): the likelihood field's nats are inflated (its beams are
+scored as independent) and the small filter's evidence is compared with a different estimator's.
 
 Rows, seeds and judgement are :mod:`pfcourse.studies.map_global`'s (:func:`~pfcourse.studies.map_global.hazard_global_fresh_row`,
 :func:`~pfcourse.studies.map_global.hazard_kidnap_fresh_row`, :func:`~pfcourse.studies.map_global.exact_row`).
@@ -29,13 +43,15 @@ from pfcourse.scenarios.maprobot.global_mcl import CHALLENGER, CURE
 from pfcourse.studies.map_global import hazard_global_fresh_row, hazard_kidnap_fresh_row
 
 PROTOCOL = ("swap_nats chosen on development drives 0-149 (global and kidnap) among "
-            "SWAP_NATS: the most lock-ons plus recoveries among thresholds whose false relocalizations are no more "
-            "than the cure's on the same drives (ties: the larger threshold); then run once on new drives 250-349, "
-            "registered before any run there, paired with the cure and the exact twin filter")
+            "SWAP_NATS (then SWAP_NATS_HIGH): the most lock-ons plus recoveries among thresholds whose false "
+            "relocalizations are no more than the cure's on the same drives (ties: the larger threshold); then run "
+            "once on new drives 250-349, paired with the cure and the exact twin filter, only if one passes")
 #: The development drives (those the cure and its variants were designed and screened on).
 DEV_SEED, DEV_RUNS = 0, 150
-#: The new held-out drives, registered before any run of any filter on them.
-HELDOUT_SEED, HELDOUT_RUNS = 250, 100
+#: The screen's verdict (module docstring): no threshold within the cure's false relocalizations.
+SCREEN_PASSED = False
+#: Drives a global run of the challenger scores, per drive and per kidnap run: injections at k = 20, 24, ... < K.
+STRATA_GLOBAL, STRATA_KIDNAP = 45, 55
 #: The swap thresholds screened (posterior log-odds of the challenger against the cloud): odds of 99 : 1 (the
 #: "decided" odds of the twin bound), e^8 and e^12 (``*_dev_challenger``) ...
 SWAP_NATS = (float(np.log(99.0)), 8.0, 12.0)
@@ -67,6 +83,13 @@ def challenger_global_row(seed: int, swap_nats: float = CHALLENGER.swap_nats) ->
 def challenger_kidnap_row(seed: int, swap_nats: float = CHALLENGER.swap_nats) -> dict:
     """The challenger with ``swap_nats`` on kidnap run ``seed``."""
     return hazard_kidnap_fresh_row(seed, challenger_settings(swap_nats))
+
+
+def ville_bound(swap_nats: float, eps: float, strata: int) -> float:
+    """The expected number of false swaps in one run under the filter's own model, at most: ``strata`` fresh strata,
+    each reaching ``swap_nats`` with probability at most ``eps / (1 - eps) exp(-swap_nats)`` while the cloud is right
+    (Ville's inequality for the nonnegative martingale of its likelihood ratio)."""
+    return float(strata * eps / (1.0 - eps) * np.exp(-swap_nats))
 
 
 def choose_swap_nats(global_dev, kidnap_dev, global_cure, kidnap_cure) -> float:

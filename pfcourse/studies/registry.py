@@ -700,9 +700,9 @@ STUDIES: dict[str, Study] = {study.name: study for study in [
         # the cure (global_mcl.CURE: hysteresis, the belief's evidence with its strata)
         ("global_heldout", map_global.heldout_global_row, map_global.GLOBAL_FRESH_COLUMNS),
         ("kidnap_heldout", map_global.heldout_kidnap_row, map_global.KIDNAP_FRESH_COLUMNS)]),
-    # issue 41: the challenger (global_mcl.CHALLENGER): its swap threshold chosen on development drives 0-149 against
-    # the cure's false relocalizations there (the cure recomputed on the same drives), then judged once on new drives
-    # 250-349 (registered before any run on them), paired with the cure and the exact twin filter
+    # issue 41: the challenger (global_mcl.CHALLENGER) screened on development drives 0-149 against the cure's false
+    # relocalizations there (the cure recomputed on the same drives); no threshold kept within them, so it was not run
+    # on new drives (map_global_challenger.SCREEN_PASSED)
     *[dataclasses.replace(st, row_code=f"pfcourse/studies/map_global_challenger.py ({st.row.__name__}), "
                            "pfcourse/studies/map_global.py, pfcourse/scenarios/maprobot/global_mcl.py",
                           fields={**st.fields, "protocol": mgc.PROTOCOL})
@@ -716,25 +716,7 @@ STUDIES: dict[str, Study] = {study.name: study for study in [
       + [dataclasses.replace(st, grid={"swap_nats": list(mgc.SWAP_NATS_HIGH)}, columns=("swap_nats", *st.columns))
          for st in _map_global_drives(mgc.DEV_RUNS, mgc.DEV_SEED, "development drives 0-149", [
              ("global_dev_challenger_high", mgc.challenger_global_row, map_global.GLOBAL_FRESH_COLUMNS),
-             ("kidnap_dev_challenger_high", mgc.challenger_kidnap_row, map_global.KIDNAP_FRESH_COLUMNS)])]
-      + _map_global_drives(mgc.HELDOUT_RUNS, mgc.HELDOUT_SEED, "held-out drives 250-349", [
-          ("global_heldout2_cure", mgc.dev_cure_global_row, map_global.GLOBAL_FRESH_COLUMNS),
-          ("kidnap_heldout2_cure", mgc.dev_cure_kidnap_row, map_global.KIDNAP_FRESH_COLUMNS),
-          ("global_heldout2_challenger", mgc.challenger_global_row, map_global.GLOBAL_FRESH_COLUMNS),
-          ("kidnap_heldout2_challenger", mgc.challenger_kidnap_row, map_global.KIDNAP_FRESH_COLUMNS)])],
-    # the bound on the new held-out drives 250-349: the exact filter over the truth and its twins (global drives, and
-    # the kidnap runs from the kidnapping on)
-    *[Study(name=f"map_global/{name}", row=row, grid={}, n_runs=mgc.HELDOUT_RUNS, base_seed=mgc.HELDOUT_SEED,
-            seeds="run", failures="raise", table=f"map_global/{name}.csv", provenance=f"map_global/{name}.json",
-            columns=columns, sample=2,
-            row_code=f"pfcourse/studies/map_global.py ({row.__name__}), pfcourse/scenarios/maprobot/twins.py "
-                     "(exact_twin_estimate)",
-            fields={"seeds": f"run s (held-out drives 250-349): the {what} of maprobot/{what.split()[0]} "
-                             "(data_rng(s, 0), kidnap_rng(s)); no random numbers of its own",
-                    "dt": maprobot.DT, "heading_tolerance_rad": map_global.HEADING_TOL})
-      for name, row, columns, what in [
-          ("exact_heldout2", map_global.exact_row, map_global.EXACT_COLUMNS, "global drive"),
-          ("exact_kidnap_heldout2", map_global.exact_kidnap_row, map_global.EXACT_KIDNAP_COLUMNS, "kidnap drive")]],
+             ("kidnap_dev_challenger_high", mgc.challenger_kidnap_row, map_global.KIDNAP_FRESH_COLUMNS)])]],
     # equal cost: uniform injection at N = 5000 on the held-out drives 150-249, paired with global_heldout (the cure)
     Study(name="map_global/injection_heldout", row=map_global.heldout_injection_row, grid={},
           n_runs=map_global.HELDOUT_RUNS, base_seed=map_global.HELDOUT_SEED, seeds="run", failures="raise",
