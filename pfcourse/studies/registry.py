@@ -52,6 +52,7 @@ from pfcourse.checks import check_count
 from pfcourse.filter_config import FilterConfig, FilterSettings, records
 from pfcourse.studies import association, comparison, count_resampling, global_localization, intel, map_global
 from pfcourse.studies import map_global_challenger as mgc
+from pfcourse.studies import map_global_islands as mgi
 from pfcourse.studies import intel_clusters
 from pfcourse.studies import likelihood_studies as ls
 from pfcourse.studies import part1_studies
@@ -717,6 +718,35 @@ STUDIES: dict[str, Study] = {study.name: study for study in [
          for st in _map_global_drives(mgc.DEV_RUNS, mgc.DEV_SEED, "development drives 0-149", [
              ("global_dev_challenger_high", mgc.challenger_global_row, map_global.GLOBAL_FRESH_COLUMNS),
              ("kidnap_dev_challenger_high", mgc.challenger_kidnap_row, map_global.KIDNAP_FRESH_COLUMNS)])]],
+    # issue 41: islands (global_mcl.ISLANDS) on development drives 0-149 against the cure, then judged once on new
+    # drives 250-349 registered before any run there (map_global_islands.PROTOCOL)
+    *[Study(name=f"map_global/{name}", row=row, grid=grid, n_runs=n_runs, seeds="run", base_seed=base, failures="raise",
+            table=f"map_global/{name}.csv", provenance=f"map_global/{name}.json", columns=columns, sample=1,
+            row_code=f"pfcourse/studies/map_global_islands.py ({row.__name__}), pfcourse/studies/map_global.py, "
+                     "pfcourse/scenarios/maprobot/global_mcl.py",
+            fields={"seeds": f"run s ({drives}): drive and scans as maprobot/global and maprobot/kidnap "
+                             "(data_rng(s, 0), kidnap_rng(s)); filter numpy.random.default_rng([41, s, 2])",
+                    "dt": maprobot.DT, "heading_tolerance_rad": map_global.HEADING_TOL, "protocol": mgi.PROTOCOL,
+                    "lost": "pfcourse/studies/map_global.py lost_times; after the evidence decided: from the step "
+                            "from which the twin margin stays above log 99"})
+      for name, row, grid, n_runs, base, drives, columns in [
+          ("global_dev_islands", mgi.islands_row, {"arm": list(mgi.DEV_ARMS)}, mgi.DEV_RUNS, mgi.DEV_SEED,
+           "development drives 0-149", mgi.COLUMNS),
+          ("global_heldout3", mgi.islands_row, {"arm": list(mgi.HELDOUT_ARMS)}, mgi.HELDOUT_RUNS, mgi.HELDOUT_SEED,
+           "held-out drives 250-349", mgi.COLUMNS),
+          ("kidnap_heldout3", mgi.cure_kidnap_row, {}, mgi.HELDOUT_RUNS, mgi.HELDOUT_SEED,
+           "held-out drives 250-349", map_global.KIDNAP_FRESH_COLUMNS)]],
+    *[Study(name=f"map_global/{name}", row=row, grid={}, n_runs=mgi.HELDOUT_RUNS, base_seed=mgi.HELDOUT_SEED,
+            seeds="run", failures="raise", table=f"map_global/{name}.csv", provenance=f"map_global/{name}.json",
+            columns=columns, sample=2,
+            row_code=f"pfcourse/studies/map_global.py ({row.__name__}), pfcourse/scenarios/maprobot/twins.py "
+                     "(exact_twin_estimate)",
+            fields={"seeds": f"run s (held-out drives 250-349): the {what} of maprobot/{what.split()[0]} "
+                             "(data_rng(s, 0), kidnap_rng(s)); no random numbers of its own",
+                    "dt": maprobot.DT, "heading_tolerance_rad": map_global.HEADING_TOL})
+      for name, row, columns, what in [
+          ("exact_heldout3", map_global.exact_row, map_global.EXACT_COLUMNS, "global drive"),
+          ("exact_kidnap_heldout3", map_global.exact_kidnap_row, map_global.EXACT_KIDNAP_COLUMNS, "kidnap drive")]],
     # equal cost: uniform injection at N = 5000 on the held-out drives 150-249, paired with global_heldout (the cure)
     Study(name="map_global/injection_heldout", row=map_global.heldout_injection_row, grid={},
           n_runs=map_global.HELDOUT_RUNS, base_seed=map_global.HELDOUT_SEED, seeds="run", failures="raise",

@@ -78,6 +78,16 @@ resampling at every scan) with three changes, the cure of the chapter *Finding t
    threshold from 4.6 to 30 nats it relocalized falsely more often than :data:`CURE` (5 to 57 times against 3), though
    from 20 nats on it locked on and recovered at least as often.
 
+   **Islands** (:data:`ISLANDS`, ``islands``).  From a uniform start, the cloud and ``islands`` independent small
+   filters (``island_size`` poses each, drawn from the first scan's proposal and weighted ``u / q``, then resampled,
+   moved and weighted at every scan) each estimate the evidence ``p(z_0:k)`` of the same global model, the cloud by
+   its record ``prod_j Z_j``, an island by the product of its mean weights.  Each estimate is unbiased; a filter that
+   has lost the robot's mode under-estimates it, so the evidence ranks the filters (the island particle model,
+   Verge, Dubarry, Del Moral and Moulines 2015, weights independent filters by these estimates).  When an island's
+   log-evidence exceeds the cloud's by more than ``island_margin``, the cloud takes the island's poses and its
+   record.  No kidnap prior and no window: start hypotheses compared over the whole run, as the exact twin filter
+   compares the truth with its twins.  Tracking from a known ``start`` runs no islands.
+
    In practice the first scan collapses the weighted cloud into a few KLD bins, and from step 1 on
    the bound asks for ``n_min``: KLD-sampling hardly acts on the book's map.  Part of that is the start's
    weighting as two strata; ``start_mixture`` weights all its poses by the mixture density instead
@@ -124,7 +134,10 @@ class GlobalSettings:
     ``challenger``: keep a winning stratum as a challenger beside the cloud and test it sequentially (module
     docstring, "A challenger"): swap when its posterior log-odds reach ``swap_nats``, drop it when they fall to
     ``-drop_nats``; a fresh stratum is a new hypothesis when its mean is ``distinct_m`` or ``distinct_rad`` away
-    from the cloud's (``confirm`` and ``mixture_evidence`` are then unused)."""
+    from the cloud's (``confirm`` and ``mixture_evidence`` are then unused); ``islands``: from a uniform start,
+    that many independent small filters of ``island_size`` poses run beside the cloud from step 0, and the cloud
+    adopts an island whose estimate of ``log p(z_0:k)`` exceeds its own by more than ``island_margin`` (module
+    docstring, "Islands")."""
 
     n_start: int = 20000
     n_start_scan: int = 2000
@@ -158,6 +171,9 @@ class GlobalSettings:
     drop_nats: float = 20.0
     distinct_m: float = 1.0
     distinct_rad: float = 0.5
+    islands: int = 0
+    island_size: int = 200
+    island_margin: float = 0.0
 
     def __post_init__(self) -> None:
         for name in ("n_start", "n_min", "n_max", "inject_min", "inject_every", "candidates", "headings", "keep"):
@@ -173,7 +189,9 @@ class GlobalSettings:
             raise ParameterError(f"keep ({self.keep}) must not exceed the candidates ({self.candidates * self.headings})")
         for name in ("kld_epsilon", "kld_delta", "inject_share", "eps_min", "alpha_slow", "alpha_fast"):
             check_probability(getattr(self, name), name)
-        for name in ("swap_nats", "drop_nats", "distinct_m", "distinct_rad"):
+        check_count(self.islands, "islands", minimum=0)
+        check_count(self.island_size, "island_size")
+        for name in ("swap_nats", "drop_nats", "distinct_m", "distinct_rad", "island_margin"):
             check_real(getattr(self, name), name, low=0.0)
         if self.challenger and self.kidnap_hazard is None:
             raise ParameterError("challenger needs kidnap_hazard: its test starts from the kidnap model's prior odds")
@@ -322,6 +340,7 @@ def global_mcl(grid: OccupancyGrid, field: LikelihoodField, motion: OdometryMode
     w_slow = w_fast = None
     streak = 0  # injections in a row whose stratum out-scored the cloud (hysteresis, s.confirm)
     chal: Challenger | None = None  # s.challenger: the hypothesis kept beside the cloud
+    isl: list = []  # s.islands: (particles, log-likelihoods, record of log mean weights) per island
     out = GlobalResult(np.empty((K, 3)), np.empty(K, dtype=int), np.zeros(K), np.zeros(K), np.zeros(K),
                        np.full(K, np.nan))
     for k in range(K):
@@ -355,6 +374,15 @@ def global_mcl(grid: OccupancyGrid, field: LikelihoodField, motion: OdometryMode
                 x, log_w, inj_mass, streak, log_z[k] = admit(moved, lw_m, inj, lw_r, eps, streak, log_z[k], s)
             else:
                 x, log_w = moved, lw_m
+        if s.islands > 0 and start is None:  # independent small filters from the uniform start (islands)
+            isl = start_islands(grid, field, scans[0], rng, s) if k == 0 else [
+                island_step(field, motion, scans[k], odometry[k], i, rng) for i in isl]
+            z_isl = np.array([i[2].sum() for i in isl])
+            best = int(np.argmax(z_isl))
+            if z_isl[best] - log_z[:k + 1].sum() > s.island_margin:  # an island explains z_0:k better: adopt it
+                x, log_w = isl[best][0].copy(), isl[best][1].copy()
+                log_z[:k + 1] = isl[best][2]
+                inj_mass = 1.0
         W = np.exp(log_w - logsumexp(log_w))
         if observe is not None:
             observe(k, x, W)
@@ -401,6 +429,28 @@ def challenge(grid: OccupancyGrid, field: LikelihoodField, motion: OdometryModel
     if chal.log_odds <= -s.drop_nats:
         return moved, lw_m, None, 0.0
     return moved, lw_m, chal, 0.0
+
+
+def start_islands(grid: OccupancyGrid, field: LikelihoodField, z0: Array, rng: np.random.Generator,
+                  s: GlobalSettings) -> list:
+    """``s.islands`` independent small filters of ``s.island_size`` poses from the scan's proposal at step 0,
+    weighted ``u / q p(z_0 | x)``: each ``(x, log w, record)``, the record's sum its estimate of ``log p(z_0:k)``."""
+    out = []
+    for _ in range(s.islands):
+        x, log_q = scan_proposal(grid, field, z0, s.island_size, rng, s)
+        lw = uniform_log_density(grid, x) - log_q + field.log_likelihood(x, z0)
+        out.append((x, lw, np.array([logsumexp(lw) - np.log(len(x))])))
+    return out
+
+
+def island_step(field: LikelihoodField, motion: OdometryModel, z: Array, u: Array, island: tuple,
+                rng: np.random.Generator) -> tuple:
+    """One step of an island: systematic resampling, the odometry, the likelihood field; its record grows by
+    the log mean weight of the scan."""
+    x, lw, record = island
+    x = motion.sample(x[systematic(np.exp(lw - logsumexp(lw)), rng, len(x))], u, rng)
+    lw = field.log_likelihood(x, z)
+    return x, lw, np.append(record, logsumexp(lw) - np.log(len(x)))
 
 
 def weighted_pose(x: Array, lw: Array) -> Array:
@@ -517,3 +567,6 @@ def with_settings(**changes) -> GlobalSettings:
 #: sequentially (swap at posterior odds 99 : 1, drop at e^-20 : 1; the screen varied the swap threshold).  Not the
 #: cure: it failed the false-relocalization budget on the development drives.
 CHALLENGER = replace(HAZARD, challenger=True)
+#: Islands (module docstring): the cure with four independent 200-pose filters from the uniform start, adopted at
+#: odds of 99 : 1 in evidence (``island_margin = log 99``, the twin bound's "decided" odds).
+ISLANDS = replace(CURE, islands=4, island_size=200, island_margin=float(np.log(99.0)))
