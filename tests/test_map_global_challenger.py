@@ -226,3 +226,23 @@ def test_the_false_swaps_exceed_the_bound_under_the_filter_s_own_model():
         bound = len(runs) * mgc.ville_bound(a, eps, mgc.STRATA_GLOBAL)
         lost = runs["n_lost"].sum()
         assert bound < 0.3 and lost >= 2 and lost > 100 * bound
+
+
+def test_with_a_swap_threshold_at_or_above_the_drop_level_a_swap_cannot_be_undone(drive):
+    """The old cloud becomes the challenger at -Lambda <= -drop_nats and is dropped at the next scan (as the docstring
+    and the chapter say for a >= 20)."""
+    grid, field, run = drive
+    rng = np.random.default_rng(9)
+    k = K - 1
+    log_z = _log_z(field, run, k + 1, rng)
+    moved, lw_m = _cloud(run, k, rng, offset=(3.0, 0.0, 0.0))
+    log_z[k] = logsumexp(lw_m) - np.log(len(moved))
+    xc, lwc = _cloud(run, k - 1, rng)
+    s = replace(gm.CHALLENGER, swap_nats=25.0, drop_nats=20.0)
+    _, _, ex, swapped = gm.challenge(grid, field, study.MOTION, run.scans, run.drive.odometry, k, 0, moved, lw_m,
+                                     gm.Challenger(xc, lwc, 2, np.zeros(k - 2), 24.99), 4e-3, log_z, rng, s)
+    assert swapped == 1.0 and ex.log_odds <= -25.0
+    moved2, lw_m2 = _cloud(run, k + 1, rng)
+    _, _, after, _ = gm.challenge(grid, field, study.MOTION, run.scans, run.drive.odometry, k + 1, 0, moved2, lw_m2,
+                                  ex, 4e-3, log_z, rng, s)
+    assert after is None

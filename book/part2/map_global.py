@@ -696,28 +696,36 @@ glue_values("lf_", demo_decided_s=decided_s, demo_locked_s=locked_s,
 # The guards forget: a stratum that loses once is dropped with its evidence. A *challenger* keeps it:
 # a winning stratum stays beside the cloud as a small filter of $200$ poses, and its posterior
 # log-odds against the cloud, $\Lambda = \log \frac{\xi_k}{1 - \xi_k} + \log \hat B$ at its birth,
-# gain $\log \ell^{c}_j - \log \ell_j$ at every later scan. At $\Lambda \ge a$ it becomes the cloud
-# (the old cloud becomes the challenger, so a swap can be undone); at $\Lambda \le -20$ it is
-# dropped. This is Wald's sequential test {cite:p}`wald1945`, as multi-hypothesis localization keeps
-# competing hypotheses {cite:p}`jensfelt2001` (`global_mcl.CHALLENGER`).
+# gain $\log \ell^{c}_j - \log \ell_j$ at every later scan. At $\Lambda \ge a$ it becomes the cloud,
+# and the old cloud becomes the challenger with $-\Lambda$; at $\Lambda \le -20$ a challenger is
+# dropped (so a swap can be undone only for $a < 20$). This is Wald's sequential test
+# {cite:p}`wald1945`, as multi-hypothesis localization keeps competing hypotheses {cite:p}`jensfelt2001`
+# (`global_mcl.CHALLENGER`).
 #
 # It was screened on the development drives $0$-$149$ against a budget: no more false relocalizations
-# than the cure's {glue:text}`lf_chal_cure_lost:d` there. No threshold $a$ from $4.6$ to $30$ nats
-# kept within it (the fewest: {glue:text}`lf_chal_fewest_lost:d`), so it was not run on new drives.
-# At $a = 20$ it locked on in {glue:text}`lf_chal_lock_on_20:.1%` of the global drives (the cure
-# {glue:text}`lf_chal_cure_lock_on:.1%`) and recovered {glue:text}`lf_chal_recovered_20:.1%` of the
-# kidnappings (the cure {glue:text}`lf_chal_cure_recovered:.1%`).
+# than the cure's {glue:text}`lf_chal_cure_lost:d` there. Thresholds $a$ of $4.6$, $8$ and $12$ nats
+# all exceeded it, then $16$ to $30$ too (the fewest: {glue:text}`lf_chal_fewest_lost:d`), so it was
+# not run on new drives. At $a = 20$ it locked on in {glue:text}`lf_chal_lock_on_20:.1%` of the global
+# drives (the cure {glue:text}`lf_chal_cure_lock_on:.1%`) and recovered
+# {glue:text}`lf_chal_recovered_20:.1%` of the kidnappings (the cure {glue:text}`lf_chal_cure_recovered:.1%`);
+# its excess of false relocalizations there is small and not separated from the cure's (evidence
+# block). {glue:text}`lf_chal_small_kidnap_losses:d` of its {glue:text}`lf_chal_fewest_lost:d` follow
+# kidnappings of less than $1$ m: the cloud follows the robot by itself but keeps its record of the
+# kidnap's scans, and the first stratum whose window starts at the kidnapping beats that record at
+# every threshold up to $30$ nats, a flaw of the comparison, not of the threshold.
 #
-# The false swaps are not the noise of an honest test. If the scans came from the filter's own
-# model, a stratum's likelihood ratio against a right cloud would be a nonnegative martingale with
-# mean at most $1$, and by Ville's inequality it would ever reach $a$ with probability at most
-# $\frac{\xi_k}{1 - \xi_k} e^{-a}$: at $a = 4.6$, over the $45$ strata of a drive, at most
-# {glue:text}`lf_chal_ville_low:.2f` false swaps in $150$ drives. The challenger lost
-# {glue:text}`lf_chal_lost_low:d` of them. On drive $30$ one window's stratum on the half-turn twin
-# out-scored the cloud's record by {glue:text}`lf_chal_d30_log_b:.0f` nats, while over the same
-# scans the exact margin against the twins fell by {glue:text}`lf_chal_d30_margin_drop:.0f`. The
-# likelihood field scores beams as if independent, so its nats are inflated: a threshold in nats
-# needs a sensor model whose nats are honest.
+# The false swaps at low thresholds are not the noise of an honest test. If the scans came from the
+# filter's own model and the cloud were the posterior, a stratum's likelihood ratio against the cloud
+# would be a nonnegative martingale with mean at most $1$, and by Ville's inequality it would ever reach
+# $a$ with probability at most $\frac{\xi_k}{1 - \xi_k} e^{-a}$: at $a = 4.6$, over the $45$ strata of
+# a drive, at most {glue:text}`lf_chal_ville_low:.2f` false swaps in $150$ drives. The challenger lost
+# {glue:text}`lf_chal_lost_low:d` of them. Part of the gap is the cloud, whose $300$ particles
+# explain the scans less well than the robot's true path does; part is the sensor model: on the
+# two held-out kidnap runs the cure lost, the exact path likelihoods favour the half-turn twin over one
+# $10$-s window by {glue:text}`lf_reloc_window_a:.1f` and {glue:text}`lf_reloc_window_b:.1f` nats,
+# which honest nats would allow for a given window and twin with probability at most $e^{-c}$ for
+# $c$ nats. The likelihood field scores beams as if independent; a threshold in nats needs nats that
+# are honest.
 # :::
 
 # %% tags=["remove-input"] jupyter={"source_hidden": true}
@@ -752,21 +760,20 @@ low = chal_table.iloc[0]
 # paired with the cure on the same drives and filter seeds, at a = 20
 g20 = evidence.paired_rates(at20["_g"]["locked_on"].to_numpy(), cure_g["locked_on"].to_numpy())
 k20 = evidence.paired_rates(at20["_k"]["recovered"].to_numpy()[moved_k], cure_k["recovered"].to_numpy()[moved_k])
-# drive 30 at a = 20: the injection whose fresh stratum lifts the log-odds most, and the exact margin over its window
-d30 = study.simulate(30, study.GLOBAL_STEPS)
-r30 = engine.global_mcl(grid, field, motion, d30.scans, d30.drive.odometry, mg.filter_rng(30),
-                        replace(engine.CHALLENGER, swap_nats=20.0))
-m30, _ = twin_margin(grid, field, d30.truth, d30.scans)
-jumps = np.diff(r30.log_odds)
-k30 = int(np.nanargmax(np.where(np.isfinite(jumps), jumps, -np.inf))) + 1
-log_b30 = float(r30.log_odds[k30] - np.log(every * xi / (1 - every * xi)))
-drop30 = float(m30[k30 - engine.CHALLENGER.history - 1] - m30[k30])
-assert log_b30 > 15 and drop30 < log_b30 / 2
+# at a = 20: the kidnap losses that follow kidnappings under 1 m, and the losses paired by run with the cure's
+k20_lost = at20["_k"][at20["_k"]["n_lost"] > 0]
+small = int((k20_lost["jump_m"] < lock_on.POSITION_TOLERANCE_M).sum())
+lost20 = np.concatenate([at20["_g"]["n_lost"].to_numpy() > 0, at20["_k"]["n_lost"].to_numpy() > 0])
+lost_cure = np.concatenate([cure_g["n_lost"].to_numpy() > 0, cure_k["n_lost"].to_numpy() > 0])
+lost_pair = evidence.paired_rates(lost20, lost_cure)
+assert lost_pair.difference_low < 0 < lost_pair.difference_high  # not separated
+assert (chal_table.loc[chal_table["swap threshold a (nats)"] >= 20, "false relocalizations"]
+        == at20["false relocalizations"]).all()
 glue_values("lf_", chal_cure_lost=cure_lost, chal_fewest_lost=int(chal_table["false relocalizations"].min()),
             chal_lock_on_20=g20.a.estimate, chal_cure_lock_on=g20.b.estimate,
             chal_recovered_20=k20.a.estimate, chal_cure_recovered=k20.b.estimate,
             chal_ville_low=float(low["Ville bound, global (150 drives)"]), chal_lost_low=int(low["global lost"]),
-            chal_d30_log_b=log_b30, chal_d30_margin_drop=drop30)
+            chal_small_kidnap_losses=small)
 EvidenceBlock(
     "the challenger screened on development drives 0-149, against the cure there",
     notes=["Global drives and kidnap runs 0-149 (the drives the cure was designed on), the same drives and filter "
@@ -778,10 +785,13 @@ EvidenceBlock(
            "drives 250-349 stay unspent.",
            f"At a = 20, paired by drive (challenger A, cure B): global lock-on {g20}; kidnappings recovered "
            f"(the {int(moved_k.sum())} runs the kidnapping moved) {k20}.",
-           f"Ville's bound assumes scans drawn from the filter's own likelihood field; the drives' scans are ray-cast "
-           f"with noise. Drive 30 at a = 20: at {k30 * study.DT:.0f} s a stratum's log Bayes factor against the "
-           f"cloud's record is {log_b30:.1f} nats; the exact margin against the twins falls by {drop30:.1f} nats over "
-           "the same 21 scans."],
+           f"At a = 20, runs with a false relocalization, paired by run over the 300 global drives and kidnap runs "
+           f"(challenger A, cure B): {lost_pair}. The budget is the cure's count on the drives its design was chosen "
+           f"on. Of the challenger's kidnap losses at a = 20, {small} follow kidnappings of less than 1 m (runs "
+           f"{', '.join(str(v) for v in k20_lost.loc[k20_lost['jump_m'] < 1, 'seed'])}), each lost 10 s after the "
+           "kidnapping, when the first window that starts at the kidnapping is scored.",
+           "Ville's bound assumes scans drawn from the filter's own likelihood field and a cloud that is the "
+           "posterior; the drives' scans are ray-cast with noise, and the cloud is 300 particles."],
     tables=[("Per threshold (150 global drives, 150 kidnap runs; 'lost': false relocalizations, a run may have two)",
              chal_table.drop(columns=["_g", "_k"]),
              {"swap threshold a (nats)": ".1f", "Ville bound, global (150 drives)": ".1e"})])
