@@ -106,3 +106,20 @@ def test_the_protocol_keeps_the_margin_with_most_lock_ons_within_the_budget():
                      arm("islands_99", [True, True, False], [1, 0, 0])])
     assert mgi.choose_margin(dev) == "islands_99"  # islands_0 locks on more but exceeds the budget
     assert mgi.choose_margin(pd.concat([cure, arm("islands_99", [True, False, False], [0, 0, 0])])) is None
+
+
+def test_the_screen_s_choice_follows_from_the_stored_table():
+    from pfcourse.studies.registry import STUDIES
+    dev = STUDIES["map_global/global_dev_islands"].load()
+    assert sorted(dev["arm"].unique()) == sorted(mgi.DEV_ARMS)
+    assert dev.groupby("arm")["seed"].apply(lambda s: sorted(s) == list(range(mgi.DEV_RUNS))).all()
+    assert mgi.choose_margin(dev) == mgi.CHOSEN_ARM and mgi.ARMS[mgi.CHOSEN_ARM] == gm.ISLANDS
+    assert mgi.CHOSEN_ARM in mgi.HELDOUT_ARMS
+    # the docstring's counts
+    count = dev.groupby("arm")[["locked_on", "n_lost_decided", "n_lost"]].sum()
+    assert count.loc["islands_99"].tolist() == [150, 0, 10] and count.loc["cure"].tolist() == [138, 2, 2]
+    # the cure's arm is the cure recomputed: equal to map_global/global_dev_cure, drive by drive
+    cure = dev[dev["arm"] == "cure"].sort_values("seed").reset_index(drop=True)
+    old = STUDIES["map_global/global_dev_cure"].load().sort_values("seed").reset_index(drop=True)
+    for column in ("locked_on", "locked_from_s", "final_position_error", "n_lost"):
+        assert np.array_equal(cure[column].to_numpy(), old[column].to_numpy())
