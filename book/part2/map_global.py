@@ -19,7 +19,7 @@
 # **You need** {doc}`map_robot` (the odometry model, the likelihood field, MCL) and
 # {doc}`global_localization` (random injection, augmented MCL, KLD-sampling); importance sampling.
 #
-# **Time:** about twenty-five minutes to read, plus about fifty-one minutes for the folded blocks; the exercise is extra.
+# **Time:** about twenty-five minutes to read, plus about fifty-two minutes for the folded blocks; the exercise is extra.
 # :::
 #
 # Put the robot of {doc}`map_robot` anywhere on its map, give the filter no idea where, and drive.
@@ -782,7 +782,7 @@ EvidenceBlock(
            "-20 nats; thresholds 4.6, 8, 12 first, then 16-30 when all three failed the budget.",
            f"The budget: no more false relocalizations (global and kidnap together) than the cure's {cure_lost}. "
            "Every threshold exceeded it; the pre-set rule (map_global_challenger.choose_swap_nats) chose none, so "
-           "drives 250-349 stay unspent.",
+           "the challenger was not run on new drives.",
            f"At a = 20, paired by drive (challenger A, cure B): global lock-on {g20}; kidnappings recovered "
            f"(the {int(moved_k.sum())} runs the kidnapping moved) {k20}.",
            f"At a = 20, runs with a false relocalization, paired by run over the 300 global drives and kidnap runs "

@@ -18,7 +18,7 @@ The screen's verdict (:data:`SCREEN_PASSED`, re-derived from the stored tables b
 no threshold keeps within the budget.  The cure relocalized falsely 3 times on the development drives (2 global, 1
 kidnap); the challenger 57, 40, 22, 13, 5, 5 and 5 times at 4.6, 8, 12, 16, 20, 25 and 30 nats.  From 20 nats on it
 locks on in 140-137 of 150 global drives (the cure 138) and recovers 128-126 of 137 moved kidnappings (the cure 123),
-a median 10-10.5 s after the kidnapping (the cure 14 s).  Not run on drives 250-349, which stay unspent.
+a median 10-10.5 s after the kidnapping (the cure 14 s).  The challenger was not run on drives 250-349 (used later by the islands, map_global_islands).
 
 Why the budget fails (a review, /work/reviews/nav_chal.md, traced the losses).  At low thresholds the false swaps are
 not the noise of an honest test: if the scans came from the filter's own model and the cloud were the posterior, the
