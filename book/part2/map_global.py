@@ -529,8 +529,7 @@ plt.show()
 #
 # The guards judge a stratum by the last $L$ scans and forget older evidence. On development
 # drive {glue:text}`lf_isl_demo_seed:d` the cure sits on a twin to the end. Four small independent
-# filters, *islands*, run beside the cloud from the same uniform start (top: the best island's
-# log-evidence minus the cloud's).
+# filters, *islands*, run beside the cloud from the same uniform start.
 
 # %% tags=["hide-input"] jupyter={"source_hidden": true}
 import sys
@@ -598,7 +597,7 @@ glue_values("lf_", isl_demo_seed=isl_seed, isl_demo_adopt_s=float(adopted[0] * s
 # passes $99 : 1$ from {glue:text}`lf_isl_demo_decided_s:.0f` s. The cure ends
 # {glue:text}`lf_isl_demo_cure_end_m:.0f` m off.
 #
-# Why compare evidence? Each island is a filter of $R = 200$ poses for the same model. The
+# Each island is a filter of $R = 200$ poses for the same model. The
 # product of its mean weights,
 #
 # $$
@@ -611,15 +610,16 @@ glue_values("lf_", isl_demo_seed=isl_seed, isl_demo_adopt_s=float(adopted[0] * s
 # by a twin's path: its $\hat Z_k$ falls behind, with no window to forget it. The cloud keeps the same record, $\prod_j \ell_j$. The cloud adopts an island whose
 # $\log \hat Z_k$ beats its own by more than $\log 99$, the odds that call the twin bound decided.
 # Weighting independent filters by these estimates is the island particle model
-# {cite:p}`verge2015`. A robot tracked from a known start runs no islands.
+# {cite:p}`verge2015`.
 
 # %%
 def start_islands(z0, n_islands, size, rng):
-    """Independent small filters from the scan's proposal: (x, log w, record)."""
+    """Small filters from the scan's proposal: (x, log w, record)."""
     out = []
     for _ in range(n_islands):
         x, log_q = scan_proposal(z0, size, rng)
-        log_u = np.where(grid.is_free(x), -np.log(grid.free_area * 2 * np.pi), -np.inf)
+        free = grid.is_free(x)
+        log_u = np.where(free, -np.log(grid.free_area * 2 * np.pi), -np.inf)
         lw = log_u - log_q + field.log_likelihood(x, z0)
         out.append((x, lw, [logsumexp(lw) - np.log(size)]))
     return out
@@ -628,7 +628,8 @@ def start_islands(z0, n_islands, size, rng):
 def island_step(island, z, u, rng):
     """Resample, move, weight; the record gains the log mean weight."""
     x, lw, record = island
-    x = motion.sample(x[systematic(np.exp(lw - logsumexp(lw)), len(x), rng)], u, rng)
+    W = np.exp(lw - logsumexp(lw))
+    x = motion.sample(x[systematic(W, len(x), rng)], u, rng)
     lw = field.log_likelihood(x, z)
     return x, lw, record + [logsumexp(lw) - np.log(len(x))]
 
@@ -780,8 +781,7 @@ glue_values("lf_", demo_decided_s=decided_s, demo_locked_s=locked_s,
 # :::
 #
 # Islands were screened on development drives $0$-$149$ and judged once on
-# {glue:text}`lf_n_heldout:d` new drives ($250$-$349$), registered before any run there (the
-# evidence block gives the protocol).
+# {glue:text}`lf_n_heldout:d` new drives ($250$-$349$), registered before any run there.
 #
 # From a uniform start the cure with islands is locked on at the end of
 # {glue:text}`lf_global_lock_on_rate:.0%`
@@ -794,8 +794,8 @@ glue_values("lf_", demo_decided_s=decided_s, demo_locked_s=locked_s,
 # ({glue:text}`lf_islands_exact_diff_low_pts:+.0f` to {glue:text}`lf_islands_exact_diff_high_pts:+.0f`),
 # is not separated from zero: larger differences are excluded by the data.
 #
-# Their misses are the map's: {glue:text}`lf_islands_shared_misses:d` of the
-# {glue:text}`lf_islands_n_misses:d` drives the islands miss are missed by the exact filter too.
+# Their misses are the map's: the exact filter misses each of the
+# {glue:text}`lf_islands_n_misses:d` drives the islands miss.
 #
 # The cure without islands is locked on in {glue:text}`lf_heldout_cure_rate:.0%` of the same
 # drives: the islands add {glue:text}`lf_islands_gain_pts:+.0f` points
@@ -979,7 +979,7 @@ glue_values("lf_", n_heldout=len(isl3), global_lock_on_rate=isl_rate.estimate, g
             islands_exact_diff_pts=100 * isl_vs_exact.difference,
             islands_exact_diff_low_pts=100 * isl_vs_exact.difference_low,
             islands_exact_diff_high_pts=100 * isl_vs_exact.difference_high,
-            islands_shared_misses=int(shared.sum()), islands_n_misses=int(isl_miss.sum()),
+            islands_n_misses=int(isl_miss.sum()),
             heldout_cure_rate=isl_vs_cure.b.estimate, islands_gain_pts=100 * isl_vs_cure.difference,
             islands_gain_low_pts=100 * isl_vs_cure.difference_low,
             islands_gain_high_pts=100 * isl_vs_cure.difference_high,
@@ -1377,7 +1377,7 @@ EvidenceBlock(
 #
 # Kidnap runs drive on for $100$ s after the kidnapping; runs it moved less than the lock-on
 # tolerances are left out ({glue:text}`lf_heldout_not_kidnapped:d` of the held-out runs). Tracked
-# from a known start, the filter runs no islands: these runs are the cure's.
+# from a known start, these runs have no islands.
 #
 # On the others it recovers (is locked on at the end) in
 # {glue:text}`lf_kidnap_recovered_rate:.0%`
