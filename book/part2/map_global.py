@@ -12,14 +12,15 @@
 # :::{admonition} In this chapter
 # :class: chapter-header
 # **You learn** how to tell whether a failure to find the robot is the map's or the filter's (the
-# twin margin, an exact filter over the twins), and a filter built to approach that bound: poses
+# twin margin, an exact filter over the twins), and a filter built to reach that bound: poses
 # drawn from the scan, injected as a kidnapping and weighted by their evidence; how it keeps the
-# cloud it has, and what that costs; how it fares on drives it was not tuned on.
+# cloud it has; islands, small filters whose evidence over the whole run corrects a cloud on a
+# twin; how it fares on drives it was not tuned on.
 #
 # **You need** {doc}`map_robot` (the odometry model, the likelihood field, MCL) and
 # {doc}`global_localization` (random injection, augmented MCL, KLD-sampling); importance sampling.
 #
-# **Time:** about twenty-five minutes to read, plus about fifty-two minutes for the folded blocks; the exercise is extra.
+# **Time:** about twenty-five minutes to read, plus about seventy minutes for the folded blocks; the exercise is extra.
 # :::
 #
 # Put the robot of {doc}`map_robot` anywhere on its map, give the filter no idea where, and drive.
@@ -43,6 +44,7 @@ from scipy.stats import chi2, norm
 
 from pfcourse import evidence
 from pfcourse.studies import map_global as mg
+from pfcourse.studies import map_global_islands as mgi
 from pfcourse.studies import maprobot as study
 from pfcourse.studies.registry import STUDIES
 from pfcourse.book.report import EvidenceBlock, glue_values
@@ -143,7 +145,7 @@ ax2.plot(t + study.DT, margin, color=COLORS["truth"], label="seed 1")
 ax2.axhline(np.log(mg.DECIDED_ODDS), color=COLORS["unseen"], ls="--", label="odds 99 : 1")
 ax2.set_yscale("symlog", linthresh=10)
 ax2.set_xlabel("time t (s)")
-ax2.set_ylabel("twin margin (nats)")
+ax2.set_ylabel("twin margin (nats;\nlinear within ±10)")
 ax2.legend(loc="upper center", bbox_to_anchor=(0.5, -0.2), ncol=2)
 ax2.set_title("The truth's log-odds against its twins")
 plt.show()
@@ -152,8 +154,7 @@ plt.show()
 # The half-turn twin of seed $1$ runs through the rooms opposite the robot's, seeing the same
 # walls. The margin moves in jumps of up to {glue:text}`lf_seed1_margin_jump:.1f` nats a scan and
 # can favour the twins by chance: it falls to {glue:text}`lf_seed1_margin_low:.0f` nats in the first
-# $30$ s, before the box or an end of the corridor comes into view. (The axis is linear between
-# $-10$ and $10$ nats.)
+# $30$ s, before the box or an end of the corridor comes into view.
 #
 # :::{admonition} Decided drives, and why that share is not a ceiling
 # :class: dropdown
@@ -312,9 +313,10 @@ print(f"the same poses and log q as pfcourse.scenarios.maprobot.global_mcl.scan_
 # for a moved particle, with $u = 1 / (A_{\mathrm{free}}\, 2\pi)$ the uniform density. The factor
 # $u / q$ undoes the aim of the proposal. The small filter resamples at every scan, so the product
 # of past likelihoods is carried by the product of its mean weights: what a pose with no history
-# lacks. Over twenty scans a pose at the truth has seen the box and its twin has not.
+# lacks. Over twenty scans a pose at the truth has seen the box and its twin has not. The code is
+# in the folded cell below.
 
-# %%
+# %% tags=["hide-input"] jupyter={"source_hidden": true}
 def injected(scans, odometry, k, r, log_l, rng, L=20):
     """r poses carried L scans ago, their log-weights (without xi / R)."""
     x, log_q = scan_proposal(scans[k - L], r, rng)
@@ -395,13 +397,16 @@ print(f"the same cloud as the engine's strata, to {TOL:.0e}: {same_mix}; the eng
 # A stratum that wins replaces the cloud: a strength after a kidnapping, a weakness when the cloud
 # was right. Two guards keep the cloud.
 #
-# **The belief's evidence.** A stratum is compared with the cloud's record of the last $L$ scans,
+# **The belief's evidence.** After a stratum replaces a wrong cloud, the cure records the
+# evidence of the mixed cloud, not the wrong cloud's poor fit.
+#
+# :::{admonition} Going further: the evidence of an admitted stratum
+# :class: dropdown
+# A stratum is compared with the cloud's record of the last $L$ scans,
 # $\prod_j \ell_j$. After a stratum replaces a wrong cloud, that record still holds the wrong
 # cloud's poor fit, and the next stratum, even a twin's, wins against it. So at an admission the cure
 # records the evidence of the mixed cloud instead.
 #
-# :::{admonition} Going further: the evidence of an admitted stratum
-# :class: dropdown
 # With $\hat B$ the stratum's mean weight over the cloud's, its estimated Bayes factor for the whole
 # window $k - L, \dots, k$, the sum of the mixed weights is not a one-step predictive density but a
 # factor of the cumulative normaliser:
@@ -421,11 +426,14 @@ print(f"the same cloud as the engine's strata, to {TOL:.0e}: {same_mix}; the eng
 # stratum out-weighs the cloud (a loss sets the count to $0$) and admits the winning stratum while the
 # count is $3$ or more.
 #
+# :::{admonition} What the count does not ask
+# :class: dropdown
 # The count does not ask where the winning strata lie: one on the robot and two on its twin make
 # three. An admission does not reset it: after three wins, a twin's first win is admitted at once.
-# (Dropping a winning stratum is not Bayes.) The rule in NumPy:
+# (Dropping a winning stratum is not Bayes.) The rule in NumPy is in the folded cell below.
+# :::
 
-# %%
+# %% tags=["hide-input"] jupyter={"source_hidden": true}
 def admit(moved, lw_m, inj, lw_r, xi_k, streak, log_l_k, confirm=3):
     """Mix the stratum in while confirm injections in a row have won."""
     a = np.log1p(-xi_k) - np.log(len(moved)) + lw_m  # mass 1 - xi_k
@@ -517,10 +525,154 @@ ax.set_title("Kidnap drive 5: with hysteresis alone, the estimate flips robot-tw
 plt.show()
 
 # %% [markdown]
-# :::{admonition} Algorithm 15.1: global localization with evidence-weighted sensor resetting
+# ## Islands: start hypotheses compared over the whole run
+#
+# The guards judge a stratum by the last $L$ scans and forget older evidence. On development
+# drive {glue:text}`lf_isl_demo_seed:d` the cure sits on a twin to the end. Four small independent
+# filters, *islands*, run beside the cloud from the same uniform start.
+
+# %% tags=["hide-input"] jupyter={"source_hidden": true}
+import sys
+
+
+def watch_islands(d, rng, s):
+    """The engine's run on drive d, and per step k >= 1 the log-evidence of the cloud and of each island when
+    global_mcl compares them (the engine's island_step, watched: same draws, same result)."""
+    cloud, isl_z, plain = {}, {}, engine.island_step
+
+    def watched(field_, motion_, z, u, island, rng_):
+        f = sys._getframe(1)
+        while "log_z" not in f.f_locals:  # global_mcl's frame: its record of the cloud's evidence
+            f = f.f_back
+        k = f.f_locals["k"]
+        cloud[k] = float(f.f_locals["log_z"][:k + 1].sum())
+        out = plain(field_, motion_, z, u, island, rng_)
+        isl_z.setdefault(k, []).append(float(out[2].sum()))
+        return out
+
+    engine.island_step = watched
+    try:
+        r = engine.global_mcl(grid, field, motion, d.scans, d.drive.odometry, rng, s)
+    finally:
+        engine.island_step = plain
+    steps = np.array(sorted(cloud))
+    return r, steps, np.array([cloud[k] for k in steps]), np.array([isl_z[k] for k in steps])
+
+
+isl_seed = 6
+isl_drive = study.simulate(isl_seed, study.GLOBAL_STEPS)
+res_isl, isl_steps, isl_cloud, isl_evidence = watch_islands(isl_drive, mg.filter_rng(isl_seed), engine.ISLANDS)
+res_cure6 = engine.global_mcl(grid, field, motion, isl_drive.scans, isl_drive.drive.odometry,
+                              mg.filter_rng(isl_seed), engine.CURE)
+adopted = np.flatnonzero(res_isl.injected_mass == 1.0)
+isl_margin6, _ = twin_margin(grid, field, isl_drive.truth, isl_drive.scans)
+t6 = np.arange(study.GLOBAL_STEPS) * study.DT
+err_isl, err_cure6 = position_error(isl_drive.truth, res_isl.mean), position_error(isl_drive.truth, res_cure6.mean)
+fig, (ax1, ax2) = plt.subplots(2, 1, figsize=(8, 5.6), sharex=True)
+gap = isl_evidence.max(axis=1) - isl_cloud
+ax1.plot(isl_steps * study.DT, gap, color=COLORS["estimate"], label="best island minus the cloud")
+ax1.axhline(np.log(mg.DECIDED_ODDS), color=COLORS["unseen"], ls="--", label="log 99 (adopt above)")
+ax1.set_ylabel("log-evidence gap (nats)")
+ax1.legend(loc="upper left", bbox_to_anchor=(1.02, 1))
+ax1.set_title(f"Development drive {isl_seed}, from a uniform start")
+ax2.semilogy(t6, np.maximum(err_cure6, 1e-2), color=COLORS["particles"], ls="--", label="the cure")
+ax2.semilogy(t6, np.maximum(err_isl, 1e-2), color=COLORS["estimate"], label="with islands")
+ax2.axhline(1.0, color=COLORS["unseen"], ls=":", label="1 m")
+for ax in (ax1, ax2):
+    for k_a in adopted:
+        ax.axvline(k_a * study.DT, color=COLORS["truth"], lw=1)
+ax2.plot([], [], color=COLORS["truth"], lw=1, label="an island adopted")
+ax2.set_ylabel("position error (m)")
+ax2.set_xlabel("time t (s)")
+ax2.legend(loc="upper left", bbox_to_anchor=(1.02, 1))
+plt.show()
+assert len(adopted) == 1 and err_cure6[-1] > 2 and err_isl[-1] < 1
+glue_values("lf_", isl_demo_seed=isl_seed, isl_demo_adopt_s=float(adopted[0] * study.DT),
+            isl_demo_decided_s=float(mgi.decided_from(isl_margin6) * study.DT),
+            isl_demo_cure_end_m=float(err_cure6[-1]))
+
+# %% [markdown]
+# Until {glue:text}`lf_isl_demo_adopt_s:.0f` s every filter explains the scans about as well; then
+# the best island pulls ahead by more than $\log 99$ and the cloud takes its poses. The twin margin
+# passes $99 : 1$ from {glue:text}`lf_isl_demo_decided_s:.0f` s. The cure ends
+# {glue:text}`lf_isl_demo_cure_end_m:.0f` m off.
+#
+# Each island is a filter of $R = 200$ poses for the same model. The
+# product of its mean weights,
+#
+# $$
+# \hat Z_k = \prod_{j=0}^{k} \frac{1}{R} \sum_{i=1}^{R} w_j^i ,
+# \qquad \mathbb E\, \hat Z_k = p(z_{0:k} \mid u_{1:k}),
+# $$
+#
+# is an unbiased estimate of the evidence {cite:p}`delmoral2004` (the claim is proved in
+# {doc}`../part1/why_it_works`). A filter that has lost the robot's mode explains every later scan
+# by a twin's path: its $\hat Z_k$ falls behind, with no window to forget it. The cloud keeps the same record, $\prod_j \ell_j$. The cloud adopts an island whose
+# $\log \hat Z_k$ beats its own by more than $\log 99$, the odds that call the twin bound decided.
+# Weighting independent filters by these estimates is the island particle model
+# {cite:p}`verge2015`.
+
+# %%
+def start_islands(z0, n_islands, size, rng):
+    """Small filters from the scan's proposal: (x, log w, record)."""
+    out = []
+    for _ in range(n_islands):
+        x, log_q = scan_proposal(z0, size, rng)
+        free = grid.is_free(x)
+        log_u = np.where(free, -np.log(grid.free_area * 2 * np.pi), -np.inf)
+        lw = log_u - log_q + field.log_likelihood(x, z0)
+        out.append((x, lw, [logsumexp(lw) - np.log(size)]))
+    return out
+
+
+def island_step(island, z, u, rng):
+    """Resample, move, weight; the record gains the log mean weight."""
+    x, lw, record = island
+    W = np.exp(lw - logsumexp(lw))
+    x = motion.sample(x[systematic(W, len(x), rng)], u, rng)
+    lw = field.log_likelihood(x, z)
+    return x, lw, record + [logsumexp(lw) - np.log(len(x))]
+
+
+def adopt(islands, log_z_cloud, margin=np.log(99)):
+    """The island whose log-evidence beats the cloud's by margin, or None."""
+    z = [np.sum(i[2]) for i in islands]
+    best = int(np.argmax(z))
+    return best if z[best] - log_z_cloud > margin else None
+
+
+# four islands alone on drive 6 (no cloud): evidence and distance at 100 s
+d6, rng = study.simulate(6, 200), np.random.default_rng(8)
+isl = start_islands(d6.scans[0], 4, 200, rng)
+for k in range(1, 200):
+    isl = [island_step(i, d6.scans[k], d6.drive.odometry[k], rng) for i in isl]
+for x, lw, record in isl:
+    off = np.hypot(*(x[:, :2].mean(axis=0) - d6.truth[-1, :2]))
+    print(f"log Z = {np.sum(record):8.1f}, mean {off:5.1f} m from the robot")
+
+# %% tags=["hide-input"] jupyter={"source_hidden": true}
+ours_start = start_islands(isl_drive.scans[0], 4, 200, np.random.default_rng(9))
+pkg_start = engine.start_islands(grid, field, isl_drive.scans[0], np.random.default_rng(9), engine.ISLANDS)
+same_isl = all(np.allclose(a[0], b[0], rtol=0, atol=TOL) and np.allclose(a[1], b[1], rtol=0, atol=TOL)
+               and np.allclose(a[2], b[2], rtol=0, atol=TOL) for a, b in zip(ours_start, pkg_start))
+ours_step = island_step(ours_start[0], isl_drive.scans[1], isl_drive.drive.odometry[1], np.random.default_rng(10))
+pkg_step = engine.island_step(field, motion, isl_drive.scans[1], isl_drive.drive.odometry[1], pkg_start[0],
+                              np.random.default_rng(10))
+same_isl &= all(np.allclose(a, b, rtol=0, atol=TOL) for a, b in zip(ours_step, pkg_step))
+# the adoption test on the engine's own records of drive 6: it adopts at the steps where global_mcl did
+ours_adopted = [k for k, c, zs in zip(isl_steps, isl_cloud, isl_evidence)
+                if adopt([(None, None, [z]) for z in zs], c, np.log(mg.DECIDED_ODDS)) is not None]
+same_adopt = np.array_equal(ours_adopted, adopted) and engine.ISLANDS.island_margin == np.log(mg.DECIDED_ODDS)
+print(f"the same islands and step as pfcourse.scenarios.maprobot.global_mcl.start_islands and island_step, "
+      f"to {TOL:.0e}: {same_isl}; the same adoptions as global_mcl on drive {isl_seed}: {same_adopt}")
+assert same_isl and same_adopt
+
+# %% [markdown]
+# :::{admonition} Algorithm 15.1: global localization with evidence-weighted sensor resetting and islands
 # :class: algorithm
 # 1. **Start.** Draw $20000$ poses from $u$ and $2000$ from $q$ for the first scan; weight them
-#    $p(z_0 \mid x)$ and $\frac{u}{q}\, p(z_0 \mid x)$, half the mass to each group.
+#    $p(z_0 \mid x)$ and $\frac{u}{q}\, p(z_0 \mid x)$, half the mass to each group. From a uniform
+#    start, also $4$ islands of $200$ poses drawn from $q$, weighted $\frac{u}{q}\, p(z_0 \mid x)$.
 # 2. **For** each scan $z_k$, $k = 1, 2, \dots$:
 #    1. *size:* $M$ from the KLD bound for the bins of the weighted cloud, clipped to $[300, 5000]$
 #       (here the floor, $300$, from the first scan on);
@@ -532,10 +684,15 @@ plt.show()
 #       While the count is $3$ or more, the cloud is the $M + R$ weighted particles and the scan's
 #       evidence their summed weight; otherwise the stratum is dropped. (The count does not ask
 #       where the strata lie; an admission does not reset it.)
-#    4. *estimate:* weighted mean position and circular mean heading.
+#    4. *islands* (none when tracking from a known start, as in a kidnap run): move each island
+#       one step, add its log mean weight to its record; if the best record beats the cloud's
+#       $\sum_j \log \ell_j$ by more than $\log 99$, the cloud becomes that island.
+#    5. *estimate:* weighted mean position and circular mean heading.
 # :::
 #
-# The package's `global_mcl` is this algorithm. Run on seed $1$:
+# The package's `global_mcl` is this algorithm (`ISLANDS`; without the islands step, the cure
+# `CURE`).
+# The cure without islands, run on seed $1$:
 
 # %% tags=["hide-input"] jupyter={"source_hidden": true}
 res, demo_log = trace(drive, np.random.default_rng([41, 1, 2]), engine.CURE)
@@ -583,6 +740,8 @@ glue_values("lf_", demo_decided_s=decided_s, demo_locked_s=locked_s,
 
 
 # %% [markdown]
+# :::{admonition} What the run shows
+# :class: dropdown
 # From {glue:text}`lf_demo_start_particles:d` particles the bound asks for
 # {glue:text}`lf_demo_step1_particles:d` after the first scan, then its floor of
 # {glue:text}`lf_demo_floor_particles:d` ({glue:text}`lf_demo_mean_particles:.0f` on average with
@@ -603,6 +762,7 @@ glue_values("lf_", demo_decided_s=decided_s, demo_locked_s=locked_s,
 #
 # Without the guards, with the same random numbers until the first injection, the filter is locked
 # on from {glue:text}`lf_demo_hazard_locked_s:.0f` s.
+# :::
 #
 # ## Does it reach the bound?
 #
@@ -620,18 +780,53 @@ glue_values("lf_", demo_decided_s=decided_s, demo_locked_s=locked_s,
 # every global miss below is a half-turn off or ends on the robot after the window.
 # :::
 #
+# Islands were screened on development drives $0$-$149$ and judged once on
+# {glue:text}`lf_n_heldout:d` new drives ($250$-$349$), registered before any run there.
+#
+# From a uniform start the cure with islands is locked on at the end of
+# {glue:text}`lf_global_lock_on_rate:.0%`
+# ({glue:text}`lf_global_lock_on_rate_low:.0%`-{glue:text}`lf_global_lock_on_rate_high:.0%`) of them:
+# the estimate meets the $0.95$ aimed at, the interval reaches below it.
+#
+# The exact filter over the twins is locked on in {glue:text}`lf_heldout_exact_rate:.0%` of the
+# same drives. The islands' difference from it,
+# {glue:text}`lf_islands_exact_diff_pts:+.0f` points
+# ({glue:text}`lf_islands_exact_diff_low_pts:+.0f` to {glue:text}`lf_islands_exact_diff_high_pts:+.0f`),
+# is not separated from zero: larger differences are excluded by the data.
+#
+# Their misses are the map's: the exact filter misses each of the
+# {glue:text}`lf_islands_n_misses:d` drives the islands miss.
+#
+# The cure without islands is locked on in {glue:text}`lf_heldout_cure_rate:.0%` of the same
+# drives: the islands add {glue:text}`lf_islands_gain_pts:+.0f` points
+# ({glue:text}`lf_islands_gain_low_pts:+.0f` to {glue:text}`lf_islands_gain_high_pts:+.0f`), not
+# separated on a hundred drives.
+#
+# **False relocalization** (a cloud within the tolerances for $10$ s carried $2$ m or more away for
+# $2$ s or more) after the evidence has decided, on the held-out drives and kidnap runs together,
+# happened {glue:text}`lf_false_reloc_per_hour:.2f`
+# ({glue:text}`lf_false_reloc_per_hour_low:.3f`-{glue:text}`lf_false_reloc_per_hour_high:.1f`) times
+# an hour of driving.
+#
+# Before the evidence has decided, the estimate may **flip** to a twin the map cannot yet tell
+# from the robot. Flips happened {glue:text}`lf_isl_flips_per_hour:.1f`
+# ({glue:text}`lf_isl_flips_per_hour_low:.1f`-{glue:text}`lf_isl_flips_per_hour_high:.1f`) times an
+# hour of driving from a uniform start.
+#
+# ::::{admonition} History: the cure without islands on drives 150-249
+# :class: dropdown
 # The cure was designed on drives and kidnap runs $0$-$149$ and is measured on
-# {glue:text}`lf_n_heldout:d` held-out drives ($150$-$249$), registered before any was run. The
+# {glue:text}`lf_cure150_n:d` held-out drives ($150$-$249$), registered before any was run. The
 # first half, examined drive by drive before the second ran, unchanged, gave
 # {glue:text}`lf_heldout_first_half_rate:.0%`, the second {glue:text}`lf_heldout_second_half_rate:.0%`;
 # these drives are now spent.
 #
-# From a uniform start the cure is locked on at the end of {glue:text}`lf_global_lock_on_rate:.0%`
-# ({glue:text}`lf_global_lock_on_rate_low:.0%`-{glue:text}`lf_global_lock_on_rate_high:.0%`) of them.
-# The $0.95$ aimed at is not met; the interval straddles it.
+# From a uniform start the cure is locked on at the end of {glue:text}`lf_cure150_lock_on_rate:.0%`
+# ({glue:text}`lf_cure150_lock_on_rate_low:.0%`-{glue:text}`lf_cure150_lock_on_rate_high:.0%`) of them.
+# The $0.95$ aimed at was not met; the interval straddles it.
 #
 # The map is no excuse: the exact filter over the twins is locked on in
-# {glue:text}`lf_heldout_exact_rate:.0%`, and the cure is
+# {glue:text}`lf_cure150_exact_rate:.0%`, and the cure is
 # {glue:text}`lf_heldout_exact_gap_pts:.0f` points below it
 # ({glue:text}`lf_heldout_exact_gap_low_pts:.0f` to {glue:text}`lf_heldout_exact_gap_high_pts:.0f`).
 #
@@ -662,8 +857,8 @@ glue_values("lf_", demo_decided_s=decided_s, demo_locked_s=locked_s,
 #
 # **False relocalization** (a cloud within the tolerances for $10$ s carried $2$ m or more away for
 # $2$ s or more), on the held-out drives and kidnap runs together, happened
-# {glue:text}`lf_false_reloc_per_hour:.1f`
-# ({glue:text}`lf_false_reloc_per_hour_low:.2f`-{glue:text}`lf_false_reloc_per_hour_high:.1f`) times
+# {glue:text}`lf_cure150_false_reloc_per_hour:.1f`
+# ({glue:text}`lf_cure150_false_reloc_per_hour_low:.2f`-{glue:text}`lf_cure150_false_reloc_per_hour_high:.1f`) times
 # an hour of driving with the cure: {glue:text}`lf_cure_false_relocs:d` events, both on kidnap runs.
 #
 # The cure's {glue:text}`lf_cure_false_relocs:d` false relocalizations (kidnap runs) are the map's
@@ -727,6 +922,107 @@ glue_values("lf_", demo_decided_s=decided_s, demo_locked_s=locked_s,
 # $c$ nats. The likelihood field scores beams as if independent; a threshold in nats needs nats that
 # are honest.
 # :::
+# ::::
+
+# %% tags=["remove-input"] jupyter={"source_hidden": true}
+# islands (global_mcl.ISLANDS): the development screen on drives 0-149, then new held-out drives 250-349
+def by_seed(name):
+    return STUDIES[f"map_global/{name}"].load().sort_values("seed").reset_index(drop=True)
+
+
+def misses(table):
+    """The drives a filter does not lock on, with how each ends."""
+    return table.loc[~table["locked_on"].to_numpy(),
+                     [c for c in ("seed", "final_position_error", "final_heading_error", "n_lost", "lost_s")
+                      if c in table]]
+
+
+dev = STUDIES["map_global/global_dev_islands"].load()
+assert mgi.choose_margin(dev) == mgi.CHOSEN_ARM == "islands_99"
+dev_rows = [{"arm": arm, "locked on": int(g["locked_on"].sum()), "drives": len(g),
+             "false relocalizations after decided": int(g["n_lost_decided"].sum()),
+             "flips before decided": int(g["n_lost"].sum() - g["n_lost_decided"].sum())}
+            for arm, g in dev.groupby("arm", sort=False)]
+h3 = STUDIES["map_global/global_heldout3"].load()
+isl3 = h3[h3["arm"] == mgi.CHOSEN_ARM].sort_values("seed").reset_index(drop=True)
+cure3 = h3[h3["arm"] == "cure"].sort_values("seed").reset_index(drop=True)
+exact3 = by_seed("exact_heldout3")
+kid3, kid_exact3 = by_seed("kidnap_heldout3"), by_seed("exact_kidnap_heldout3")
+for table in (cure3, exact3, kid3, kid_exact3):
+    assert (table["seed"].to_numpy() == isl3["seed"].to_numpy()).all()
+assert isl3["seed"].min() == mgi.HELDOUT_SEED and len(isl3) == mgi.HELDOUT_RUNS
+isl_rate = evidence.rate(isl3["locked_on"].to_numpy())
+isl_vs_cure = evidence.paired_rates(isl3["locked_on"].to_numpy(), cure3["locked_on"].to_numpy())
+isl_vs_exact = evidence.paired_rates(isl3["locked_on"].to_numpy(), exact3["exact_locked_on"].to_numpy())
+isl_miss = ~isl3["locked_on"].to_numpy()
+shared = isl_miss & ~exact3["exact_locked_on"].to_numpy()
+# every miss of the islands ends a half-turn off or within 1 m of the truth (found after the window)
+assert ((isl3.loc[isl_miss, "final_heading_error"] > np.pi / 2) | (isl3.loc[isl_miss, "final_position_error"] < 1)).all()
+# false relocalizations after the evidence decided (global drives; the kidnap runs are the cure's, tracked from a
+# known start: every loss there counts), and flips before it (global drives only)
+hours3_global = len(isl3) * study.GLOBAL_STEPS * study.DT / 3600
+hours3 = hours3_global + len(kid3) * study.KIDNAP_STEPS * study.DT / 3600
+
+
+def garwood(events, h):
+    """Events an hour over h hours and the exact (Garwood) 95 % Poisson interval."""
+    low = chi2.ppf(0.025, 2 * events) / 2 if events else 0.0
+    return events / h, low / h, chi2.ppf(0.975, 2 * events + 2) / 2 / h
+
+
+isl_false = int(isl3["n_lost_decided"].sum() + kid3["n_lost"].sum())
+isl_flips = int(isl3["n_lost"].sum() - isl3["n_lost_decided"].sum())
+cure3_false = int(cure3["n_lost_decided"].sum() + kid3["n_lost"].sum())
+false3, flips3 = garwood(isl_false, hours3), garwood(isl_flips, hours3_global)
+glue_values("lf_", n_heldout=len(isl3), global_lock_on_rate=isl_rate.estimate, global_lock_on_rate_low=isl_rate.low,
+            global_lock_on_rate_high=isl_rate.high, heldout_exact_rate=isl_vs_exact.b.estimate,
+            islands_exact_diff_pts=100 * isl_vs_exact.difference,
+            islands_exact_diff_low_pts=100 * isl_vs_exact.difference_low,
+            islands_exact_diff_high_pts=100 * isl_vs_exact.difference_high,
+            islands_n_misses=int(isl_miss.sum()),
+            heldout_cure_rate=isl_vs_cure.b.estimate, islands_gain_pts=100 * isl_vs_cure.difference,
+            islands_gain_low_pts=100 * isl_vs_cure.difference_low,
+            islands_gain_high_pts=100 * isl_vs_cure.difference_high,
+            false_reloc_per_hour=false3[0], false_reloc_per_hour_low=false3[1], false_reloc_per_hour_high=false3[2],
+            isl_false_relocs=isl_false, isl_flips_per_hour=flips3[0], isl_flips_per_hour_low=flips3[1],
+            isl_flips_per_hour_high=flips3[2])
+# what the prose says: 0.95 met by the estimate, not by the interval; the islands not separated from the exact
+# filter nor from the cure on these drives
+assert isl_rate.estimate >= 0.95 and isl_rate.low < 0.95
+assert isl_vs_exact.difference_low < 0 < isl_vs_exact.difference_high
+assert isl_vs_cure.difference_low < 0 < isl_vs_cure.difference_high
+assert shared.sum() == isl_miss.sum()  # every drive the islands miss, the exact filter misses too
+EvidenceBlock(
+    "islands: the development screen, and the held-out drives against the cure and the bound",
+    notes=["Protocol (pfcourse.studies.map_global_islands, written before any stored run). Before it, the cure's 12 "
+           "misses on development drives 0-149 were looked at, and an unstored run of the 150 development drives "
+           "was made at margins of 0 and 4.6 nats. Step 1, stored: on development drives 0-149, the arms below with "
+           "the same filter seeds; the margin kept is the one with the most lock-ons among those whose false "
+           "relocalizations after the evidence decided are no more than the cure's; it passes if it locks on more "
+           f"often than the cure. Kept: {mgi.CHOSEN_ARM} (margin log 99 nats; re-derived from the stored table).",
+           "A loss (2 s or more at 2 m or more from the truth after 10 s within the tolerances) counts as a false "
+           "relocalization from the step on which the twin margin stays above log 99 to the end of the drive; "
+           "before it, as a flip (the map does not yet tell the robot from its twins).",
+           f"Step 2: judged once on new drives {isl3['seed'].min()}-{isl3['seed'].max()}, registered before any run "
+           f"there; filter seeds numpy.random.default_rng([41, seed, 2]) for both arms. Islands: {isl_rate} (Wilson "
+           f"interval). Paired by drive (islands A, the cure B): {isl_vs_cure}. Paired by drive (islands A, the exact "
+           f"filter over the truth and its 13 twins B): {isl_vs_exact}.",
+           "The islands' misses (seeds " + ", ".join(str(v) for v in isl3.loc[isl_miss, "seed"]) + ") end within "
+           "1 m of the truth but lock on too late for 80 % of the last 20 s; the exact filter misses seeds "
+           + ", ".join(str(v) for v in exact3.loc[~exact3["exact_locked_on"].to_numpy(), "seed"]) + ".",
+           f"False relocalizations after the evidence decided, held-out global drives and kidnap runs ({hours3:.2f} "
+           f"hours): islands {isl_false} ({false3[0]:.2f} an hour, Garwood 95 % interval {false3[1]:.3f}-"
+           f"{false3[2]:.2f}); the cure {cure3_false}. Flips before the evidence decided, global drives "
+           f"({hours3_global:.2f} hours): islands {isl_flips} ({flips3[0]:.1f} an hour, {flips3[1]:.1f}-"
+           f"{flips3[2]:.1f}); the cure {int(cure3['n_lost'].sum() - cure3['n_lost_decided'].sum())}.",
+           f"Cost: four islands of {engine.ISLANDS.island_size} poses each, 800 poses scored a scan beside the cloud's; "
+           "the scan proposal four times at the start.",
+           stored("global_dev_islands"), stored("global_heldout3"), stored("exact_heldout3")],
+    tables=[("Development drives 0-149 (150 drives)", pd.DataFrame(dev_rows), {}),
+            ("The held-out drives the islands do not lock on", misses(isl3), {"final_position_error": ".2f",
+                                                                          "final_heading_error": ".2f",
+                                                                          "lost_s": ".1f"})],
+)
 
 # %% tags=["remove-input"] jupyter={"source_hidden": true}
 # the challenger's screen on development drives 0-149 (pfcourse.studies.map_global_challenger)
@@ -802,10 +1098,6 @@ def exact_difference(p):
     return p.difference, p.difference_low, p.difference_high
 
 
-def by_seed(name):
-    return STUDIES[f"map_global/{name}"].load().sort_values("seed").reset_index(drop=True)
-
-
 held, held_hz, held_exact = by_seed("global_heldout"), by_seed("global_heldout_hazard"), by_seed("exact_heldout")
 kid_held, kid_held_hz = by_seed("kidnap_heldout"), by_seed("kidnap_heldout_hazard")
 for table in (held_hz, held_exact, kid_held, kid_held_hz):
@@ -832,12 +1124,12 @@ lost_pair = evidence.paired_rates(np.r_[held["n_lost"] > 0, kid_held["n_lost"] >
 cs = engine.CURE
 per_injection = (cs.candidates * cs.headings + cs.keep * cs.refine_trials * cs.refine_rounds
                  + cs.inject_min * (cs.history + 1))
-glue_values("lf_", n_heldout=len(held), global_lock_on_rate=cure_rate.estimate, global_lock_on_rate_low=cure_rate.low,
-            global_lock_on_rate_high=cure_rate.high, heldout_hazard_rate=vs_hz.b.estimate,
+glue_values("lf_", cure150_n=len(held), cure150_lock_on_rate=cure_rate.estimate, cure150_lock_on_rate_low=cure_rate.low,
+            cure150_lock_on_rate_high=cure_rate.high, heldout_hazard_rate=vs_hz.b.estimate,
             heldout_gain_pts=100 * hz_d[0], heldout_gain_low_pts=100 * hz_d[1], heldout_gain_high_pts=100 * hz_d[2],
-            heldout_exact_rate=vs_exact.b.estimate, global_exact_p=vs_exact.pvalue,
+            cure150_exact_rate=vs_exact.b.estimate, global_exact_p=vs_exact.pvalue,
             poses_per_scan=held["mean_particles"].mean() + per_injection / cs.inject_every,
-            false_reloc_per_hour=cure_per_hour, heldout_lost_runs=cure_lost, heldout_runs=len(held) + len(kid_held),
+            cure150_false_reloc_per_hour=cure_per_hour, heldout_lost_runs=cure_lost, heldout_runs=len(held) + len(kid_held),
             hazard_false_reloc_per_hour=hz_per_hour, hazard_lost_runs=hz_lost, false_reloc_p=lost_pair.pvalue,
             step_heading_sd_deg=np.degrees(lock_on.step_heading_sd(motion, mg.STEP_M)),
             heading_tolerance_deg=np.degrees(mg.HEADING_TOL))
@@ -945,7 +1237,7 @@ glue_values("lf_", n_misses=int(miss.sum()), misses_guards_lost=int(guards_lost.
             tracking_max_heading_deg=float(np.degrees(trk["max_window_heading_error"].max())),
             inj5000_rate=vs_inj5000.b.estimate, inj5000_gain_pts=100 * vs_inj5000.difference,
             inj5000_gain_low_pts=100 * vs_inj5000.difference_low, inj5000_gain_high_pts=100 * vs_inj5000.difference_high,
-            false_reloc_per_hour_low=cure_hour[1], false_reloc_per_hour_high=cure_hour[2],
+            cure150_false_reloc_per_hour_low=cure_hour[1], cure150_false_reloc_per_hour_high=cure_hour[2],
             hazard_false_reloc_per_hour_low=hz_hour[1], hazard_false_reloc_per_hour_high=hz_hour[2],
             cure_false_relocs=cure_events, guards_win=int(guards_win.sum()),
             heldout_first_half_rate=held["locked_on"].to_numpy()[first_half].mean(),
@@ -959,13 +1251,6 @@ glue_values("lf_", n_misses=int(miss.sum()), misses_guards_lost=int(guards_lost.
 # on both sides); the cure below the exact filter (separated); the guards not separated from none
 assert cure_rate.estimate < 0.95 and cure_rate.low < 0.95 < cure_rate.high
 assert vs_exact.difference_high < 0 and vs_hz.difference_low < 0 < vs_hz.difference_high
-
-
-def misses(table):
-    """The drives a filter does not lock on, with how each ends."""
-    return table.loc[~table["locked_on"].to_numpy(),
-                     [c for c in ("seed", "final_position_error", "final_heading_error", "n_lost", "lost_s")
-                      if c in table]]
 
 
 # the cure before its guards, on the drives it was tuned on and the first fresh ones (100-149)
@@ -1091,25 +1376,35 @@ EvidenceBlock(
 # ## The kidnapped robot
 #
 # Kidnap runs drive on for $100$ s after the kidnapping; runs it moved less than the lock-on
-# tolerances are left out ({glue:text}`lf_heldout_not_kidnapped:d` of the held-out runs).
+# tolerances are left out ({glue:text}`lf_heldout_not_kidnapped:d` of the held-out runs). Tracked
+# from a known start, these runs have no islands.
 #
-# On the others the cure recovers (is locked on at the end) in
+# On the others it recovers (is locked on at the end) in
 # {glue:text}`lf_kidnap_recovered_rate:.0%`
-# ({glue:text}`lf_kidnap_recovered_rate_low:.0%`-{glue:text}`lf_kidnap_recovered_rate_high:.0%`): the estimate meets the $0.90$ aimed at, the interval reaches below it.
+# ({glue:text}`lf_kidnap_recovered_rate_low:.0%`-{glue:text}`lf_kidnap_recovered_rate_high:.0%`): the
+# estimate meets the $0.90$ aimed at, the interval reaches below it.
 #
 # The exact filter over the twins, told when the kidnapping happened, recovers in
 # {glue:text}`lf_kidnap_exact_rate:.0%`; the cure is {glue:text}`lf_kidnap_exact_gap_pts:.0f` points
-# below it ({glue:text}`lf_kidnap_exact_gap_low_pts:.0f` to
-# {glue:text}`lf_kidnap_exact_gap_high_pts:.0f`). The bound is optimistic: it knows the kidnap time
-# and the twins, pays no $\xi$ and waits no $L$ scans.
+# below it ({glue:text}`lf_kidnap_exact_gap_low_pts:.1f` to
+# {glue:text}`lf_kidnap_exact_gap_high_pts:.0f`), not separated. The bound is optimistic: it knows
+# the kidnap time and the twins, pays no $\xi$ and waits no $L$ scans.
+#
+# The cure is locked on for good a median {glue:text}`lf_kidnap_recovery_median_s:.0f` s after
+# the kidnapping ({glue:text}`lf_kidnap_recovery_median_s_low:.0f`-{glue:text}`lf_kidnap_recovery_median_s_high:.0f` s).
+# None can come sooner than $L$ scans ($10$ s) plus two injections: a latency, not a speed.
+#
+# :::{admonition} History: kidnap runs 150-249, and the guards
+# :class: dropdown
+# On the earlier held-out runs ($150$-$249$) the cure recovered in
+# {glue:text}`lf_kidnap150_recovered_rate:.0%`
+# ({glue:text}`lf_kidnap150_recovered_rate_low:.0%`-{glue:text}`lf_kidnap150_recovered_rate_high:.0%`),
+# the exact filter in {glue:text}`lf_kidnap150_exact_rate:.0%`.
 #
 # Without its guards: {glue:text}`lf_kidnap_hazard_rate:.0%`. The guards win
 # {glue:text}`lf_kidnap_guards_win:d` runs ({glue:text}`lf_kidnap_guards_win_relocs:d` false
-# relocalizations without them) and lose {glue:text}`lf_kidnap_n_misses:d`, all the cure's misses.
-#
-# They are locked on for good a median {glue:text}`lf_kidnap_recovery_median_s:.0f` s after
-# the kidnapping ({glue:text}`lf_kidnap_recovery_median_s_low:.0f`-{glue:text}`lf_kidnap_recovery_median_s_high:.0f` s).
-# None can come sooner than $L$ scans ($10$ s) plus two injections: a latency, not a speed.
+# relocalizations without them) and lose {glue:text}`lf_kidnap_n_misses:d`, all the cure's misses there.
+# :::
 
 # %% tags=["remove-input"] jupyter={"source_hidden": true}
 kid_moved = ((kid_held["jump_m"] >= lock_on.POSITION_TOLERANCE_M)
@@ -1133,13 +1428,45 @@ kid_win = kid_moved & kid_cure & ~kid_hz
 assert (kid_moved & ~kid_cure & ~kid_hz).sum() == 0
 glue_values("lf_", kidnap_guards_win=int(kid_win.sum()),
             kidnap_guards_win_relocs=int((kid_held_hz.loc[kid_win, "n_lost"] > 0).sum()))
-glue_values("lf_", heldout_not_kidnapped=int((~kid_moved).sum()), kidnap_recovered_rate=recovered.estimate,
-            kidnap_recovered_rate_low=recovered.low, kidnap_recovered_rate_high=recovered.high,
-            kidnap_hazard_rate=kid_pair.b.estimate, kidnap_recovery_median_s=med,
-            kidnap_recovery_median_s_low=med_low, kidnap_recovery_median_s_high=med_high,
-            kidnap_exact_rate=kid_vs_exact.b.estimate, kidnap_exact_gap_pts=-100 * kid_vs_exact.difference,
-            kidnap_exact_gap_low_pts=-100 * kid_vs_exact.difference_high,
-            kidnap_exact_gap_high_pts=-100 * kid_vs_exact.difference_low, kidnap_n_misses=len(kid_miss))
+glue_values("lf_", kidnap150_recovered_rate=recovered.estimate,
+            kidnap150_recovered_rate_low=recovered.low, kidnap150_recovered_rate_high=recovered.high,
+            kidnap_hazard_rate=kid_pair.b.estimate, kidnap150_exact_rate=kid_vs_exact.b.estimate,
+            kidnap_n_misses=len(kid_miss))
+# the held-out kidnap runs 250-349 (the cure: a robot tracked from a known start runs no islands) and their bound
+kid3_moved = ((kid3["jump_m"] >= lock_on.POSITION_TOLERANCE_M)
+              | (kid3["jump_deg"] >= np.degrees(mg.HEADING_TOL))).to_numpy()
+kid3_vs_exact = evidence.paired_rates(kid3["recovered"].to_numpy()[kid3_moved],
+                                      kid_exact3["exact_recovered"].to_numpy()[kid3_moved])
+recovered3 = kid3_vs_exact.a
+times3 = kid3.loc[kid3_moved & kid3["recovered"].to_numpy(), "recovery_s"].to_numpy()
+med3, med3_low, med3_high = evidence.median_interval(times3)
+glue_values("lf_", heldout_not_kidnapped=int((~kid3_moved).sum()), kidnap_recovered_rate=recovered3.estimate,
+            kidnap_recovered_rate_low=recovered3.low, kidnap_recovered_rate_high=recovered3.high,
+            kidnap_recovery_median_s=med3, kidnap_recovery_median_s_low=med3_low,
+            kidnap_recovery_median_s_high=med3_high, kidnap_exact_rate=kid3_vs_exact.b.estimate,
+            kidnap_exact_gap_pts=-100 * kid3_vs_exact.difference,
+            kidnap_exact_gap_low_pts=-100 * kid3_vs_exact.difference_high,
+            kidnap_exact_gap_high_pts=-100 * kid3_vs_exact.difference_low)
+# what the prose says: 0.90 met by the estimate, the interval reaching below it; the cure below the exact filter
+assert recovered3.estimate >= 0.90 and recovered3.low < 0.90
+assert kid3_vs_exact.difference < 0
+EvidenceBlock(
+    "the kidnapped robot on held-out runs 250-349",
+    notes=[f"{len(kid3)} held-out kidnap runs (seeds {kid3['seed'].min()}-{kid3['seed'].max()}): tracked from the "
+           f"known start with the cure (no islands run from a known start), kidnapped at "
+           f"t = {study.KIDNAP_STEP * study.DT:.0f} s, run to t = {study.KIDNAP_STEPS * study.DT:.0f} s; "
+           f"{int((~kid3_moved).sum())} left out (moved less than 1 m and {np.degrees(mg.HEADING_TOL):.1f} degrees).",
+           f"Recovered (locked on at the end): {recovered3} (Wilson interval). Paired by run (the cure A, the exact "
+           f"filter over the twins after the kidnapping B): {kid3_vs_exact}.",
+           f"Median time from the kidnapping to the step from which the filter stays locked on, over the "
+           f"{len(times3)} runs that recover: {med3:.1f} s (95 % interval {med3_low:.1f}-{med3_high:.1f} s, "
+           "percentile bootstrap): how fast, not how often.",
+           f"False relocalizations on these runs: {int(kid3['n_lost'].sum())}.",
+           stored("kidnap_heldout3"), stored("exact_kidnap_heldout3")],
+    tables=[("The held-out kidnap runs the cure does not recover",
+             kid3.loc[kid3_moved & ~kid3["recovered"].to_numpy(), ["seed", "final_position_error", "n_lost", "jump_m"]],
+             {"final_position_error": ".2f", "jump_m": ".1f"})],
+)
 # what the prose says: 0.90 met by the estimate, not by the interval; the cure below the exact filter (separated);
 # every run the cure misses is one the cure without its guards recovers
 assert recovered.estimate >= 0.90 and recovered.low < 0.90 < recovered.high
@@ -1155,7 +1482,7 @@ fresh_kid = by_seed("kidnap_fresh")
 fresh_moved = ((fresh_kid["jump_m"] >= lock_on.POSITION_TOLERANCE_M)
                | (fresh_kid["jump_deg"] >= np.degrees(mg.HEADING_TOL))).to_numpy()
 EvidenceBlock(
-    "the kidnapped robot: held-out runs, recovery time, the earlier runs",
+    "the kidnapped robot, history: held-out runs 150-249, the guards, the earlier runs",
     notes=[f"{len(kid_held)} held-out runs (seeds {kid_held['seed'].min()}-{kid_held['seed'].max()}, drives of "
            f"pfcourse.studies.maprobot.simulate): tracked from the known start, kidnapped at "
            f"t = {study.KIDNAP_STEP * study.DT:.0f} s to a waypoint drawn by kidnap_rng(seed), run to "
@@ -1302,21 +1629,18 @@ glue_values("lf_", takeover_one=shares[1], takeover_three=shares[3])
 # - Before blaming a filter, measure what the map allows: an exact filter over the truth and its
 #   twins, judged by the same lock-on rule.
 # - Poses drawn from the scan are weighted by $u / q$ times the evidence of their history against
-#   the belief's; their prior is the kidnap model's $\xi$, chosen by hand like any floor.
-# - A stratum that wins replaces the cloud: count false relocalizations, not only lock-on at the
-#   end. The guards (the belief's evidence; admitting only while three injections in a row have
-#   won, whichever strata won) keep the cloud: fewer false relocalizations, a kidnapped robot found
-#   a few seconds later in most runs. The cure
-#   relocalizes falsely {glue:text}`lf_false_reloc_per_hour:.1f`
-#   ({glue:text}`lf_false_reloc_per_hour_low:.2f`-{glue:text}`lf_false_reloc_per_hour_high:.1f`) times an hour.
-#
-# - On a hundred held-out drives the cure locks on in {glue:text}`lf_global_lock_on_rate:.0%` of the
-#   drives from a uniform start, short of the $0.95$ aimed at and of the exact filter's
-#   {glue:text}`lf_heldout_exact_rate:.0%`, and finds a kidnapped robot again in
-#   {glue:text}`lf_kidnap_recovered_rate:.0%` of the kidnappings ($0.90$ aimed at); neither interval
-#   settles its target.
+#   the belief's; their prior is the kidnap model's $\xi$, chosen by hand. Count false
+#   relocalizations, not only lock-on: the guards keep the cloud but judge a stratum by its window.
+# - Islands compare start hypotheses over the whole run: independent small filters whose products
+#   of mean weights estimate the same evidence, adopted at odds of $99 : 1$.
+# - On a hundred new held-out drives the cure with islands locks on in
+#   {glue:text}`lf_global_lock_on_rate:.0%` of the drives from a uniform start, not separated from
+#   the exact filter's {glue:text}`lf_heldout_exact_rate:.0%` (the $0.95$ aimed at met by the
+#   estimate, not by the interval), and relocalizes falsely {glue:text}`lf_false_reloc_per_hour:.2f` times an
+#   hour once the evidence has decided.
+# - It finds a kidnapped robot again in {glue:text}`lf_kidnap_recovered_rate:.0%` of the
+#   kidnappings ($0.90$ aimed at); there the islands change nothing.
 
-# %% [markdown]
 # :::{admonition} Going further: how many particles (KLD-sampling's bound, and AMCL's kld_z)
 # :class: dropdown
 # The filter of Algorithm 15.1 starts with $20000$ poses uniform in free space and $2000$ drawn from the first
