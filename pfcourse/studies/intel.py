@@ -246,6 +246,12 @@ def islands_row(seed: int, *, steps: int = GLOBAL_STEPS) -> dict:
     return global_row(seed, method="islands", steps=steps)
 
 
+def islands_control_row(seed: int) -> dict:
+    """The map control (:func:`leave_out_split`) with chapter 15's islands over ``GLOBAL_STEPS`` scans (the study
+    ``intel/islands_map_control``), paired with ``intel/guarded_maps``' arm ``leave_out``."""
+    return global_row(seed, method="leave_out", settings=ISLANDS_SETTINGS)
+
+
 def injection_row(seed: int, *, method: str = "scan") -> dict:
     """:func:`global_row` with its per-scan errors (the study ``intel/injection``)."""
     return global_row(seed, method=method, per_scan=True)
