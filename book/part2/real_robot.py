@@ -1101,9 +1101,9 @@ EvidenceBlock(
 # {glue:text}`intel_islands_control_diff_high_pts:+.0f`).
 #
 # On the simulated map of {doc}`map_global` the cure locks on in
-# {glue:text}`intel_islands_sim_rate:.0%` of its new held-out drives, by that chapter's rule. Why is the
-# log harder? Where the run starts says most of it: without islands, runs that start in the first $200$ scans, near the
-# map half's path, lock on in {glue:text}`intel_global_early_rate:.0%`; later ones, in
+# {glue:text}`intel_islands_sim_rate:.0%` of its new held-out drives, by that chapter's rule. Why is
+# the log harder? Where the run starts says most of it: without islands, runs that start in the
+# first $200$ scans, near the map half's path, lock on in {glue:text}`intel_global_early_rate:.0%`; later ones, in
 # {glue:text}`intel_global_late_start_rate:.0%` (the figure). Suspects, each tried with the cure
 # without islands on the same runs.
 #
@@ -1147,8 +1147,8 @@ plt.show()
 # {glue:text}`intel_leave_out_margin:d` on each side: it covers both halves, and no wall in it comes
 # from the scans the filter reads (though its nearest scans were placed by the same SLAM run).
 #
-# On it the cure without islands locks on in {glue:text}`intel_global_control_rate:.0%` of the same runs, a change of
-# {glue:text}`intel_global_control_diff:+.0f` points
+# On it the cure without islands locks on in {glue:text}`intel_global_control_rate:.0%` of the same
+# runs, a change of {glue:text}`intel_global_control_diff:+.0f` points
 # ({glue:text}`intel_global_control_diff_low:+.0f` to {glue:text}`intel_global_control_diff_high:+.0f`).
 #
 # **The filter.** Uniform particles lock on in
@@ -1341,8 +1341,8 @@ print(check_random_beams(my_beams))
 # - Against a SLAM reference, centimetres measure two registrations' agreement; metres are real.
 # - Finding the robot from nowhere, on this log, depends on the map, the filter and the run's length: on a map of the other half
 #   the cure of {doc}`map_global` locks on mostly where that half passed, on the map control most of
-#   the time; its islands help most where the map holds the scans' walls; yet in most failures that end elsewhere the scans favour the true pose, which the
-#   filter never reached. Its injected poses bring runs onto the robot (over {glue:text}`intel_long_steps:d` scans); without its guards they also throw runs off it.
+#   the time; its islands help most where the map holds the scans' walls; yet in most failures that
+#   end elsewhere the scans favour the true pose, which the filter never reached. Its injected poses bring runs onto the robot (over {glue:text}`intel_long_steps:d` scans); without its guards they also throw runs off it.
 #
 # :::{admonition} From the labs
 # :class: dropdown
