@@ -34,7 +34,7 @@ from pfcourse.scenarios.maprobot.grid import OccupancyGrid
 from pfcourse.scenarios.maprobot.likelihood_field import LikelihoodField
 from pfcourse.metrics import locked_on
 from pfcourse.scenarios.maprobot import lock_on
-from pfcourse.scenarios.maprobot.global_mcl import CURE, HAZARD, SETTINGS, GlobalSettings, global_mcl
+from pfcourse.scenarios.maprobot.global_mcl import CURE, HAZARD, ISLANDS, SETTINGS, GlobalSettings, global_mcl
 from pfcourse.scenarios.maprobot.mapping import L_FREE, L_OCC, LogOddsMap, build_map, scan_cells
 from pfcourse.scenarios.maprobot.motion import OdometryModel
 from pfcourse.metrics import heading_error, position_error
@@ -115,6 +115,9 @@ PREVIOUS_SETTINGS: GlobalSettings = SETTINGS
 #: Chapter 15's guarded cure (hysteresis ``confirm`` and the mixture's evidence, :data:`global_mcl.CURE`),
 #: measured on the same runs in ``intel/injection`` (method ``guarded``).
 GUARDED_SETTINGS: GlobalSettings = CURE
+#: Chapter 15's cure with islands (:data:`global_mcl.ISLANDS`: the guarded cure and four independent 200-pose
+#: filters from the uniform start, adopted on evidence), measured in ``intel/islands`` (method ``islands``).
+ISLANDS_SETTINGS: GlobalSettings = ISLANDS
 #: Scans per run, and runs per filter.
 GLOBAL_STEPS = 40
 N_GLOBAL = 100
@@ -165,7 +168,8 @@ METHODS = {"scan": "the cure (poses from the scan)", "uniform": "uniform particl
            "whole_map": "the cure, map of the whole run", "drift_corrected": "the cure, odometry drift removed",
            "leave_out": "the cure, map of every scan but the run's own",
            "no_injection": "the cure without injection (poses from the scan at the start only)",
-           "guarded": "chapter 15's guarded cure (hysteresis and the mixture's evidence)"}
+           "guarded": "chapter 15's guarded cure (hysteresis and the mixture's evidence)",
+           "islands": "chapter 15's cure with islands (the guarded cure and independent filters adopted on evidence)"}
 #: The methods of ``intel/global`` (and of ``intel/global_previous``), and of the map control ``intel/map_control``.
 GLOBAL_METHODS = ("scan", "uniform", "whole_map", "drift_corrected")
 CONTROL_METHODS = ("leave_out",)
@@ -181,6 +185,10 @@ GUARDED_MAP_METHODS = ("whole_map", "drift_corrected", "leave_out")
 #: Per-scan columns of ``intel/injection`` (stored in injection.npz): the errors against the corrected poses.
 INJECTION_ARRAYS = ("position_error", "heading_error")
 INJECTION_COLUMNS = GLOBAL_COLUMNS + ("seconds", "cpu_seconds") + INJECTION_ARRAYS
+#: ``intel/islands``: the islands over the run lengths of ``intel/injection`` and ``intel/long_runs``, each run
+#: paired with the guarded cure's run of the same seed and length.
+ISLANDS_STEPS = (GLOBAL_STEPS, LONG_STEPS)
+ISLANDS_COLUMNS = ("steps",) + GLOBAL_COLUMNS
 #: The map control leaves out the run's scans and this many scans before and after them.
 LEAVE_OUT_MARGIN = 10
 
@@ -232,6 +240,18 @@ def long_row(seed: int, *, method: str = "guarded") -> dict:
     return global_row(seed, method=method, steps=LONG_STEPS)
 
 
+def islands_row(seed: int, *, steps: int = GLOBAL_STEPS) -> dict:
+    """:func:`global_row` with chapter 15's islands (:data:`ISLANDS_SETTINGS`) over ``steps`` scans (the study
+    ``intel/islands``): the start scan and filter seeds of ``intel/injection`` (40) or ``intel/long_runs`` (80)."""
+    return global_row(seed, method="islands", steps=steps)
+
+
+def islands_control_row(seed: int) -> dict:
+    """The map control (:func:`leave_out_split`) with chapter 15's islands over ``GLOBAL_STEPS`` scans (the study
+    ``intel/islands_map_control``), paired with ``intel/guarded_maps``' arm ``leave_out``."""
+    return global_row(seed, method="leave_out", settings=ISLANDS_SETTINGS)
+
+
 def injection_row(seed: int, *, method: str = "scan") -> dict:
     """:func:`global_row` with its per-scan errors (the study ``intel/injection``)."""
     return global_row(seed, method=method, per_scan=True)
@@ -274,6 +294,7 @@ def global_row(seed: int, *, method: str = "scan", settings: GlobalSettings | No
           else split())
     s = uniform_only(s) if method == "uniform" else s
     s = replace(s, inject_share=0.0) if method == "no_injection" else GUARDED_SETTINGS if method == "guarded" else s
+    s = ISLANDS_SETTINGS if method == "islands" else s
     cpu = time.process_time()
     run = slice(first, first + steps)
     odometry = sp.odometry[run].copy()

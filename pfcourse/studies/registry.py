@@ -355,7 +355,7 @@ NO_FILTER_RECORD: dict[str, str] = {
     "map_global": "global_mcl's own loop (pfcourse.scenarios.maprobot.global_mcl), its GlobalSettings recorded",
     **{f"intel/{name}": "global_mcl's own loop (pfcourse.scenarios.maprobot.global_mcl), its GlobalSettings recorded"
        for name in ("global", "global_previous", "map_control", "guarded_maps", "map_control_margin", "injection",
-                    "long_runs", "cluster_estimate")},
+                    "long_runs", "islands", "islands_map_control", "cluster_estimate")},
     "terrain_grid": "no particle filter: the point-mass grid filter", "terrain_costs": "timings of other studies' filters",
     "static_parameters": "the samplers of pfcourse.static_parameters (Liu-West, Storvik, SMC^2), not the engine",
     "pmcmc": "particle MCMC (pfcourse.pmmh, pfcourse.correlated, pfcourse.csmc), its filters built inside",
@@ -894,6 +894,33 @@ STUDIES: dict[str, Study] = {study.name: study for study in [
           row_code="pfcourse/studies/intel.py (long_row, global_row), pfcourse/scenarios/maprobot/global_mcl.py",
           fields={"seeds": "run s: start scan numpy.random.default_rng([41, s]) in 0-374; filter default_rng([41, s, 1])",
                   **_intel_cure_fields(intel.LONG_STEPS)}),
+    Study(name="intel/islands", row=intel.islands_row, grid={"steps": list(intel.ISLANDS_STEPS)},
+          n_runs=intel.N_GLOBAL, seeds="run", failures="raise", table="intel/islands.csv",
+          provenance="intel/islands.json", columns=intel.ISLANDS_COLUMNS, sample=1,
+          row_code="pfcourse/studies/intel.py (islands_row, global_row), pfcourse/scenarios/maprobot/global_mcl.py",
+          fields={"seeds": "run s: start scan numpy.random.default_rng([41, s]) in 0-(454 - steps); "
+                           "filter default_rng([41, s, 1]) (the runs of intel/injection and intel/long_runs)",
+                  "map": "scans 455-909 of book/data/intel/intel-corrected.log.gz; runs on scans 0-454",
+                  "steps": list(intel.ISLANDS_STEPS), "islands_settings": dataclasses.asdict(intel.ISLANDS_SETTINGS),
+                  "protocol": "the islands (global_mcl.ISLANDS: 4 islands of 200 poses, margin log 99) were fixed on "
+                              "chapter 15's development drives 0-149 (map_global/global_dev_islands) and are judged "
+                              "here once, unchanged; each run is paired with the guarded cure's run of the same seed "
+                              "and length (intel/injection at 40 scans, intel/long_runs at 80)",
+                  "lock_on": "within 1 m and 3 x the odometry's RMS heading error "
+                             f"of a step, at {intel.LOCK_SHARE} of the last {intel.LOCK_WINDOW} scans"}),
+    Study(name="intel/islands_map_control", row=intel.islands_control_row, grid={}, n_runs=intel.N_GLOBAL, seeds="run",
+          failures="raise", table="intel/islands_map_control.csv", provenance="intel/islands_map_control.json",
+          columns=intel.GLOBAL_COLUMNS, sample=1,
+          row_code="pfcourse/studies/intel.py (islands_control_row, global_row), pfcourse/scenarios/maprobot/global_mcl.py",
+          fields={"seeds": "run s: start scan numpy.random.default_rng([41, s]); filter default_rng([41, s, 1]) "
+                           "(the runs of intel/guarded_maps, arm leave_out)",
+                  "map": f"every scan of book/data/intel/intel-corrected.log.gz but the run's own and "
+                  f"{intel.LEAVE_OUT_MARGIN} on each side (on the whole run's grid); runs on scans 0-454",
+                  "steps": intel.GLOBAL_STEPS, "islands_settings": dataclasses.asdict(intel.ISLANDS_SETTINGS),
+                  "protocol": "the islands (global_mcl.ISLANDS) were fixed on chapter 15's development drives 0-149 "
+                              "and are judged here once, unchanged, on the map control",
+                  "lock_on": "within 1 m and 3 x the odometry's RMS heading error "
+                             f"of a step, at {intel.LOCK_SHARE} of the last {intel.LOCK_WINDOW} scans"}),
     Study(name="intel/cluster_estimate", row=intel_clusters.cluster_row, grid={}, n_runs=intel.N_GLOBAL, seeds="run",
           failures="raise", table="intel/cluster_estimate.csv", provenance="intel/cluster_estimate.json",
           columns=intel_clusters.CLUSTER_COLUMNS, sample=1,
