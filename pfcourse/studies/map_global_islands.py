@@ -10,7 +10,11 @@ development drives came first, at margins 0 and 4.6 nats).
    (:func:`pfcourse.studies.map_global.lost_times`) counts as a *false relocalization* when it happens after the
    evidence has decided, from the step from which the twin margin stays above ``log 99`` (``decided_from_s``); a
    loss before that is a *flip* (the map does not yet tell the robot from its twins; the exact filter's estimate,
-   a posterior mean, sits between them then), reported separately.  The margin kept is the one with the most
+   a posterior mean, sits between them then), reported separately.  The split was defined after the unstored look,
+   and it uses the true path and the future (the margin must stay above ``log 99`` to the end): a judge's
+   definition, not one the filter can apply.  Counting every loss, as the challenger's budget did, the islands lose
+   the pose on 10 development drives against the cure's 2, and on 10 held-out drives against 0 (a review,
+   /work/reviews/nav_islands.md).  The margin kept is the one with the most
    lock-ons among those whose false relocalizations are no more than the cure's (ties: the larger margin).  It
    passes if it locks on more often than the cure.
 2. **Judged once on new drives 250-349** (:data:`HELDOUT_SEED`; drives 150-249 are spent), registered before any

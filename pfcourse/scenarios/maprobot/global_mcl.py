@@ -78,15 +78,22 @@ resampling at every scan) with three changes, the cure of the chapter *Finding t
    threshold from 4.6 to 30 nats it relocalized falsely more often than :data:`CURE` (5 to 57 times against 3), though
    from 20 nats on it locked on and recovered at least as often.
 
-   **Islands** (:data:`ISLANDS`, ``islands``).  From a uniform start, the cloud and ``islands`` independent small
-   filters (``island_size`` poses each, drawn from the first scan's proposal and weighted ``u / q``, then resampled,
-   moved and weighted at every scan) each estimate the evidence ``p(z_0:k)`` of the same global model, the cloud by
-   its record ``prod_j Z_j``, an island by the product of its mean weights.  Each estimate is unbiased; a filter that
-   has lost the robot's mode under-estimates it, so the evidence ranks the filters (the island particle model,
-   Verge, Dubarry, Del Moral and Moulines 2015, weights independent filters by these estimates).  When an island's
-   log-evidence exceeds the cloud's by more than ``island_margin``, the cloud takes the island's poses and its
-   record.  No kidnap prior and no window: start hypotheses compared over the whole run, as the exact twin filter
-   compares the truth with its twins.  Tracking from a known ``start`` runs no islands.
+   **Islands** (:data:`ISLANDS`, ``islands``).  From a uniform start, ``islands`` independent small filters
+   (``island_size`` poses each, drawn from the first scan's proposal and weighted ``u / q``, then resampled, moved and
+   weighted at every scan) run beside the cloud.  Each island's product of mean weights is an unbiased estimate of
+   the evidence ``p(z_0:k)`` of the global model (Del Moral 2004); an island that has lost the robot's mode
+   under-estimates it.  When an island's log-evidence exceeds the cloud's record ``sum_j log Z_j`` by more than
+   ``island_margin``, the cloud takes the island's poses and its record.  This follows the island particle model
+   (Verge, Dubarry, Del Moral and Moulines 2015) only loosely: there islands are weighted and resampled by their
+   estimates; here the choice is hard, and the cloud's record is not an unbiased estimate of the same evidence
+   (hysteresis drops strata, admitted steps record the kidnap mixture's evidence, an adoption copies the best of the
+   islands' records), so the model's guarantees do not carry over.  The estimates of 200-pose islands are noisy by
+   several nats (two islands on the robot can end nats apart), so ``island_margin = log 99`` is a margin chosen on the
+   development drives, not odds of 99 : 1.  The islands run for the whole drive and never retire (their cost is
+   ``islands * island_size`` scorings a scan); a global start followed by a kidnapping is not tested.  Tracking from a
+   known ``start`` runs no islands.  Measured (:mod:`pfcourse.studies.map_global_islands`): locked on in 97 of 100
+   held-out drives (the cure 95, the exact twin filter 96), at the price of pose jumps while the map is ambiguous
+   (10 of 100 drives against the cure's 0).
 
    In practice the first scan collapses the weighted cloud into a few KLD bins, and from step 1 on
    the bound asks for ``n_min``: KLD-sampling hardly acts on the book's map.  Part of that is the start's
@@ -567,6 +574,7 @@ def with_settings(**changes) -> GlobalSettings:
 #: sequentially (swap at posterior odds 99 : 1, drop at e^-20 : 1; the screen varied the swap threshold).  Not the
 #: cure: it failed the false-relocalization budget on the development drives.
 CHALLENGER = replace(HAZARD, challenger=True)
-#: Islands (module docstring): the cure with four independent 200-pose filters from the uniform start, adopted at
-#: odds of 99 : 1 in evidence (``island_margin = log 99``, the twin bound's "decided" odds).
+#: Islands (module docstring): the cure with four independent 200-pose filters from the uniform start, adopted when
+#: an island's log-evidence beats the cloud's record by ``island_margin = log 99`` nats (a margin chosen on the
+#: development drives; the estimates are noisier than that, so it is not odds of 99 : 1).
 ISLANDS = replace(CURE, islands=4, island_size=200, island_margin=float(np.log(99.0)))
