@@ -18,7 +18,7 @@
 # **You need** {doc}`map_robot` (the odometry model, the likelihood field, MCL) and {doc}`map_global`
 # (global localization); Bayes' rule; NumPy.
 #
-# **Time:** about twenty-five minutes to read, plus about thirty-seven minutes for the folded blocks; the exercise is extra.
+# **Time:** about twenty-five minutes to read, plus about thirty-eight minutes for the folded blocks; the exercise is extra.
 # :::
 #
 # Every robot of the book so far was simulated: the filter knew the noise that made the data. A real
@@ -1094,12 +1094,14 @@ EvidenceBlock(
 # the cure, in {glue:text}`intel_islands_guarded_rate:.0%`.
 #
 # The islands cost {glue:text}`intel_islands_cost_ratio:.2f` times the poses the cure scores over
-# $40$ scans. Of the three comparisons made, {glue:text}`intel_islands_n_separated:d` is separated:
-# over $40$ scans they add {glue:text}`intel_islands_diff_pts:+.0f` points
-# ({glue:text}`intel_islands_diff_low_pts:+.0f` to {glue:text}`intel_islands_diff_high_pts:+.0f`);
-# over $80$ scans, {glue:text}`intel_islands_long_diff_pts:+.0f`
+# $40$ scans. Of the three comparisons made, {glue:text}`intel_islands_n_separated:d` is separated.
+#
+# Over $40$ scans they add {glue:text}`intel_islands_diff_pts:+.0f` points
+# ({glue:text}`intel_islands_diff_low_pts:+.0f` to {glue:text}`intel_islands_diff_high_pts:+.0f`).
+#
+# Over $80$ scans they add {glue:text}`intel_islands_long_diff_pts:+.0f`
 # ({glue:text}`intel_islands_long_diff_low_pts:+.0f` to
-# {glue:text}`intel_islands_long_diff_high_pts:+.0f`), at {glue:text}`intel_islands_long_rate:.0%`.
+# {glue:text}`intel_islands_long_diff_high_pts:+.0f`).
 #
 # On the map control below (both halves mapped, the run's scans left out) they add
 # {glue:text}`intel_islands_control_diff_pts:+.0f`
