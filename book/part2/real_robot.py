@@ -1096,7 +1096,7 @@ EvidenceBlock(
 # The islands cost {glue:text}`intel_islands_cost_ratio:.2f` times the poses the cure scores over
 # $40$ scans. Of the three comparisons made, {glue:text}`intel_islands_n_separated:d` is separated.
 #
-# Over $40$ scans they add {glue:text}`intel_islands_diff_pts:+.0f` points
+# Over $40$ scans they add {glue:text}`intel_islands_diff_pts:+.0f`
 # ({glue:text}`intel_islands_diff_low_pts:+.0f` to {glue:text}`intel_islands_diff_high_pts:+.0f`).
 #
 # Over $80$ scans they add {glue:text}`intel_islands_long_diff_pts:+.0f`
@@ -1109,7 +1109,7 @@ EvidenceBlock(
 # {glue:text}`intel_islands_control_diff_high_pts:+.0f`), at
 # {glue:text}`intel_islands_control_rate:.0%`.
 #
-# Two hypotheses, neither tested: the evidence $p(z_{0:k})$ that ranks the filters assumes the
+# Why separated only there? Two untested hypotheses: the evidence $p(z_{0:k})$ that ranks the filters assumes the
 # model, and the half map lacks walls the scans see; or $200$-pose evidence estimates are too noisy
 # for a margin of $\log 99$ (in {doc}`map_global` two islands on the robot end several nats apart).
 #
