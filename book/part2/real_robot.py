@@ -710,8 +710,8 @@ glue_values("intel_", far_held_share=far_held[0], far_held_share_low=far_held[1]
 # 4. The guards: the stratum takes weight only at its third win in a row over the cloud, and the
 #    belief's evidence then counts it.
 # 5. Islands: four independent filters of $200$ poses, drawn where the first scan fits, run beside
-#    the cloud; the cloud takes an island's poses when the island's evidence $p(z_{0:k})$ beats its
-#    own by a factor of $99$.
+#    the cloud; the cloud takes an island's poses when its $\log p(z_{0:k})$ estimate beats the
+#    cloud's by a margin of $\log 99$ (not odds).
 # :::
 #
 # :::{admonition} Going further: weighting a pose drawn from the scan
