@@ -841,13 +841,13 @@ glue_values("lf_", demo_decided_s=decided_s, demo_locked_s=locked_s,
 #
 # Their cost is separated. A **loss** is a cloud within the tolerances for $10$ s carried $2$ m
 # or more away for $2$ s or more. Losses happened on {glue:text}`lf_isl_lost_drives:d` of the
-# hundred drives with islands and on none without
-# ({glue:text}`lf_isl_lost_diff_pts:+.0f` points, {glue:text}`lf_isl_lost_diff_low_pts:+.0f` to
-# {glue:text}`lf_isl_lost_diff_high_pts:+.0f`).
+# hundred drives with islands and on none without ({glue:text}`lf_isl_lost_diff_pts:+.0f` points,
+# {glue:text}`lf_isl_lost_diff_low_pts:+.0f` to {glue:text}`lf_isl_lost_diff_high_pts:+.0f`).
 #
-# That is {glue:text}`lf_isl_losses_per_hour:.1f` losses an hour against none. In short: {glue:text}`lf_islands_gain_pts:+.0f` lock-on points,
-# not separated, for about {glue:text}`lf_isl_lost_drives:d` pose jumps per
-# {glue:text}`lf_n_heldout:d` drives, separated. The islands also score $800$ poses a scan beside the cloud's $300$, all drive.
+# That is {glue:text}`lf_isl_losses_per_hour:.1f` losses an hour against none. In short:
+# {glue:text}`lf_islands_gain_pts:+.0f` lock-on points, not separated, for about
+# {glue:text}`lf_isl_lost_drives:d` pose jumps per {glue:text}`lf_n_heldout:d` drives, separated.
+# The islands also score $800$ poses a scan beside the cloud's $300$, all drive.
 #
 # The islands passed their screen on a split of the losses defined after a look at the
 # development drives, using the true path and the future, which no robot can see.
