@@ -20,7 +20,7 @@
 # **You need** {doc}`map_robot` (the odometry model, the likelihood field, MCL) and
 # {doc}`global_localization` (random injection, augmented MCL, KLD-sampling); importance sampling.
 #
-# **Time:** about twenty-five minutes to read, plus about seventy minutes for the folded blocks; the exercise is extra.
+# **Time:** about twenty-five minutes to read, plus about seventy-six minutes for the folded blocks; the exercise is extra.
 # :::
 #
 # Put the robot of {doc}`map_robot` anywhere on its map, give the filter no idea where, and drive.
@@ -313,8 +313,7 @@ print(f"the same poses and log q as pfcourse.scenarios.maprobot.global_mcl.scan_
 # for a moved particle, with $u = 1 / (A_{\mathrm{free}}\, 2\pi)$ the uniform density. The factor
 # $u / q$ undoes the aim of the proposal. The small filter resamples at every scan, so the product
 # of past likelihoods is carried by the product of its mean weights: what a pose with no history
-# lacks. Over twenty scans a pose at the truth has seen the box and its twin has not. The code is
-# in the folded cell below.
+# lacks. Over twenty scans a pose at the truth has seen the box and its twin has not.
 
 # %% tags=["hide-input"] jupyter={"source_hidden": true}
 def injected(scans, odometry, k, r, log_l, rng, L=20):
@@ -463,11 +462,16 @@ glue_values("lf_", prior_log_odds=float(np.log(every * xi / (1 - every * xi))))
 
 # %% [markdown]
 # A kidnap run shows both. The filter tracks the robot from its known pose; at $20$ s the robot is
-# carried to another waypoint while its odometry reports no motion. On kidnap drive $5$ with
-# hysteresis alone (dashed), a stratum finds the robot again at {glue:text}`lf_cascade_found_s:.0f` s. At {glue:text}`lf_cascade_lost_s:.0f` s a
-# stratum on the half-turn twin wins once, with the count at {glue:text}`lf_cascade_twin_count:d`,
-# and is admitted on that first win. With the belief's evidence too (the cure, solid), no later
-# stratum wins on this run.
+# carried to another waypoint while its odometry reports no motion (kidnap drive $5$; hysteresis
+# alone dashed, the cure solid).
+#
+# :::{admonition} What the kidnap run shows
+# :class: dropdown
+# With hysteresis alone, a stratum finds the robot again at {glue:text}`lf_cascade_found_s:.0f` s.
+# At {glue:text}`lf_cascade_lost_s:.0f` s a stratum on the half-turn twin wins once, with the count
+# at {glue:text}`lf_cascade_twin_count:d`, and is admitted on that first win. With the belief's
+# evidence too (the cure), no later stratum wins on this run.
+# :::
 
 # %% tags=["hide-input"] jupyter={"source_hidden": true}
 def trace(d, rng, s, start=None):
@@ -592,25 +596,41 @@ glue_values("lf_", isl_demo_seed=isl_seed, isl_demo_adopt_s=float(adopted[0] * s
             isl_demo_cure_end_m=float(err_cure6[-1]))
 
 # %% [markdown]
-# Until {glue:text}`lf_isl_demo_adopt_s:.0f` s every filter explains the scans about as well; then
-# the best island pulls ahead by more than $\log 99$ and the cloud takes its poses. The twin margin
-# passes $99 : 1$ from {glue:text}`lf_isl_demo_decided_s:.0f` s. The cure ends
-# {glue:text}`lf_isl_demo_cure_end_m:.0f` m off.
+# At {glue:text}`lf_isl_demo_adopt_s:.0f` s the gap touches $\log 99$ once, and the cloud takes
+# that island's poses and record. The cure ends {glue:text}`lf_isl_demo_cure_end_m:.0f` m off.
 #
-# Each island is a filter of $R = 200$ poses for the same model. The
-# product of its mean weights,
+# :::{admonition} Reading the figure
+# :class: dropdown
+# After the adoption the gap drops below zero: the islands keep running, and the cloud now carries
+# the best record. The twin margin passes $99 : 1$ at the same step here
+# ({glue:text}`lf_isl_demo_decided_s:.0f` s), though the two are computed from different things.
+# :::
+#
+# Each island is a filter of $N = 200$ poses for the same model. With $w_j^i$ the weight of its
+# pose $i$ at scan $j$, the product of its mean weights,
 #
 # $$
-# \hat Z_k = \prod_{j=0}^{k} \frac{1}{R} \sum_{i=1}^{R} w_j^i ,
+# \hat Z_k = \prod_{j=0}^{k} \frac{1}{N} \sum_{i=1}^{N} w_j^i ,
 # \qquad \mathbb E\, \hat Z_k = p(z_{0:k} \mid u_{1:k}),
 # $$
 #
 # is an unbiased estimate of the evidence {cite:p}`delmoral2004` (the claim is proved in
 # {doc}`../part1/why_it_works`). A filter that has lost the robot's mode explains every later scan
-# by a twin's path: its $\hat Z_k$ falls behind, with no window to forget it. The cloud keeps the same record, $\prod_j \ell_j$. The cloud adopts an island whose
-# $\log \hat Z_k$ beats its own by more than $\log 99$, the odds that call the twin bound decided.
-# Weighting independent filters by these estimates is the island particle model
-# {cite:p}`verge2015`.
+# by a twin's path: its $\hat Z_k$ falls behind, with no window to forget it.
+#
+# :::{admonition} The cloud's record is not of the same kind
+# :class: dropdown
+# The cloud keeps a record too, $\sum_j \log \ell_j$, but not an unbiased estimate of the
+# evidence: the guards drop strata, admissions rewrite it with the mixture's evidence, and an
+# adoption copies the best of four records, which favours high ones.
+# :::
+#
+# The cloud adopts an island whose $\log \hat Z_k$ beats its record by more than $\log 99$. That
+# is a margin chosen on the development drives, not odds of $99 : 1$: the estimates of $200$-pose
+# filters are noisy by several nats (below, two islands that both end on the robot end
+# {glue:text}`lf_isl_robot_gap_nats:.1f` nats apart). The design follows the island particle model
+# {cite:p}`verge2015`, with a hard selection in place of its weighting and resampling, so its
+# guarantees do not carry over.
 
 # %%
 def start_islands(z0, n_islands, size, rng):
@@ -666,6 +686,10 @@ same_adopt = np.array_equal(ours_adopted, adopted) and engine.ISLANDS.island_mar
 print(f"the same islands and step as pfcourse.scenarios.maprobot.global_mcl.start_islands and island_step, "
       f"to {TOL:.0e}: {same_isl}; the same adoptions as global_mcl on drive {isl_seed}: {same_adopt}")
 assert same_isl and same_adopt
+# the islands that end on the robot (within 1 m): how far apart their log-evidence ends
+on_robot_z = [np.sum(r) for x, lw, r in isl if np.hypot(*(x[:, :2].mean(axis=0) - d6.truth[-1, :2])) < 1]
+assert len(on_robot_z) >= 2
+glue_values("lf_", isl_robot_gap_nats=float(np.ptp(on_robot_z)))
 
 # %% [markdown]
 # :::{admonition} Algorithm 15.1: global localization with evidence-weighted sensor resetting and islands
@@ -686,13 +710,14 @@ assert same_isl and same_adopt
 #       where the strata lie; an admission does not reset it.)
 #    4. *islands* (none when tracking from a known start, as in a kidnap run): move each island
 #       one step, add its log mean weight to its record; if the best record beats the cloud's
-#       $\sum_j \log \ell_j$ by more than $\log 99$, the cloud becomes that island.
+#       $\sum_j \log \ell_j$ by more than $\log 99$, the cloud takes that island's poses,
+#       weights and record. The islands keep running all drive, and an adoption can repeat.
 #    5. *estimate:* weighted mean position and circular mean heading.
 # :::
 #
 # The package's `global_mcl` is this algorithm (`ISLANDS`; without the islands step, the cure
 # `CURE`).
-# The cure without islands, run on seed $1$:
+# The cure without islands (steps $1$-$3$ and $5$), run on seed $1$:
 
 # %% tags=["hide-input"] jupyter={"source_hidden": true}
 res, demo_log = trace(drive, np.random.default_rng([41, 1, 2]), engine.CURE)
@@ -781,37 +806,65 @@ glue_values("lf_", demo_decided_s=decided_s, demo_locked_s=locked_s,
 # :::
 #
 # Islands were screened on development drives $0$-$149$ and judged once on
-# {glue:text}`lf_n_heldout:d` new drives ($250$-$349$), registered before any run there.
+# {glue:text}`lf_n_heldout:d` new drives ($250$-$349$).
 #
 # From a uniform start the cure with islands is locked on at the end of
 # {glue:text}`lf_global_lock_on_rate:.0%`
 # ({glue:text}`lf_global_lock_on_rate_low:.0%`-{glue:text}`lf_global_lock_on_rate_high:.0%`) of them:
-# the estimate meets the $0.95$ aimed at, the interval reaches below it.
+# the estimate meets the $0.95$ aimed at, the interval reaches below it. The map decides
+# {glue:text}`lf_heldout_decided_share:.0%` of these drives.
 #
 # The exact filter over the twins is locked on in {glue:text}`lf_heldout_exact_rate:.0%` of the
-# same drives. The islands' difference from it,
-# {glue:text}`lf_islands_exact_diff_pts:+.0f` points
-# ({glue:text}`lf_islands_exact_diff_low_pts:+.0f` to {glue:text}`lf_islands_exact_diff_high_pts:+.0f`),
-# is not separated from zero: larger differences are excluded by the data.
-#
-# Their misses are the map's: the exact filter misses each of the
-# {glue:text}`lf_islands_n_misses:d` drives the islands miss.
+# same drives. The islands differ from it by {glue:text}`lf_islands_exact_diff_pts:+.0f` points
+# ({glue:text}`lf_islands_exact_diff_low_pts:+.0f` to {glue:text}`lf_islands_exact_diff_high_pts:+.0f`):
+# the data exclude differences beyond these two. A filter can beat it: the exact filter's mean
+# over the robot's path and its twins is no ceiling for a filter that commits to one mode.
 #
 # The cure without islands is locked on in {glue:text}`lf_heldout_cure_rate:.0%` of the same
 # drives: the islands add {glue:text}`lf_islands_gain_pts:+.0f` points
 # ({glue:text}`lf_islands_gain_low_pts:+.0f` to {glue:text}`lf_islands_gain_high_pts:+.0f`), not
-# separated on a hundred drives.
+# separated.
 #
-# **False relocalization** (a cloud within the tolerances for $10$ s carried $2$ m or more away for
-# $2$ s or more) after the evidence has decided, on the held-out drives and kidnap runs together,
-# happened {glue:text}`lf_false_reloc_per_hour:.2f`
+# Drive by drive they win {glue:text}`lf_isl_lockon_wins:d` and lose
+# {glue:text}`lf_isl_lockon_losses:d`, which the cure locks on.
+#
+# :::{admonition} How the islands lose a drive, and the development gain
+# :class: dropdown
+# They lose drives {glue:text}`lf_isl_lost_seed_a:d` and {glue:text}`lf_isl_lost_seed_b:d`. On
+# drive {glue:text}`lf_isl_lost_seed_b:d` an island moved a cloud locked on the robot to its
+# half-turn twin at {glue:text}`lf_isl_280_lost_s:.0f` s; another brought it back at
+# {glue:text}`lf_isl_280_back_s:.1f` s, too late for the window. On the development drives the gain
+# was larger ({glue:text}`lf_isl_dev_locked:d` against {glue:text}`lf_isl_dev_cure_locked:d` of
+# $150$), but in-sample: on new drives most of it disappeared.
+# :::
+#
+# Their cost is separated. A **loss** is a cloud within the tolerances for $10$ s carried $2$ m
+# or more away for $2$ s or more. Losses happened on {glue:text}`lf_isl_lost_drives:d` of the
+# hundred drives with islands and on none without ({glue:text}`lf_isl_lost_diff_pts:+.0f` points,
+# {glue:text}`lf_isl_lost_diff_low_pts:+.0f` to {glue:text}`lf_isl_lost_diff_high_pts:+.0f`).
+#
+# That is {glue:text}`lf_isl_losses_per_hour:.1f` losses an hour against none. In short:
+# {glue:text}`lf_islands_gain_pts:+.0f` lock-on points, not separated, for about
+# {glue:text}`lf_isl_lost_drives:d` pose jumps per {glue:text}`lf_n_heldout:d` drives, separated.
+# The islands also score $800$ poses a scan, all drive.
+#
+# They passed their screen on a split of the losses defined after a look at the development
+# drives, using the true path and the future, which no robot sees. By the
+# challenger's budget rule below (every loss, global and kidnap) they would have failed there:
+# {glue:text}`lf_isl_dev_budget_lost:d` losses against the cure's {glue:text}`lf_isl_dev_budget_cure:d`.
+#
+# :::{admonition} The losses split by the twin margin
+# :class: dropdown
+# A loss counts as a **false relocalization** if, from its step to the end of the drive, the twin
+# margin stays above $\log 99$ (a second sense of "decided": from then on, not over the last
+# $20$ s), and as a **flip** to a twin the map cannot yet tell from the robot otherwise. With
+# islands, false relocalizations on the held-out drives and kidnap runs together happened
+# {glue:text}`lf_false_reloc_per_hour:.2f`
 # ({glue:text}`lf_false_reloc_per_hour_low:.3f`-{glue:text}`lf_false_reloc_per_hour_high:.1f`) times
-# an hour of driving.
-#
-# Before the evidence has decided, the estimate may **flip** to a twin the map cannot yet tell
-# from the robot. Flips happened {glue:text}`lf_isl_flips_per_hour:.1f`
+# an hour, flips {glue:text}`lf_isl_flips_per_hour:.1f`
 # ({glue:text}`lf_isl_flips_per_hour_low:.1f`-{glue:text}`lf_isl_flips_per_hour_high:.1f`) times an
-# hour of driving from a uniform start.
+# hour from a uniform start; the cure had neither on the same drives.
+# :::
 #
 # ::::{admonition} History: the cure without islands on drives 150-249
 # :class: dropdown
@@ -974,6 +1027,39 @@ isl_false = int(isl3["n_lost_decided"].sum() + kid3["n_lost"].sum())
 isl_flips = int(isl3["n_lost"].sum() - isl3["n_lost_decided"].sum())
 cure3_false = int(cure3["n_lost_decided"].sum() + kid3["n_lost"].sum())
 false3, flips3 = garwood(isl_false, hours3), garwood(isl_flips, hours3_global)
+# the primary count: every loss on the global drives, paired by drive with the cure (same drives, filter seeds)
+isl_lost, cure_lost3 = isl3["n_lost"].to_numpy() > 0, cure3["n_lost"].to_numpy() > 0
+lost_vs_cure = evidence.paired_rates(isl_lost, cure_lost3)
+all3 = garwood(int(isl3["n_lost"].sum()), hours3_global)
+# the development drives under the challenger's budget rule (every loss, global plus kidnap; the kidnap runs are the
+# cure's there too)
+kid_dev_lost = int(STUDIES["map_global/kidnap_dev_cure"].load()["n_lost"].sum())
+dev_by = {arm: g for arm, g in dev.groupby("arm")}
+dev_isl_lost = int(dev_by[mgi.CHOSEN_ARM]["n_lost"].sum()) + kid_dev_lost
+dev_cure_lost = int(dev_by["cure"]["n_lost"].sum()) + kid_dev_lost
+# paired on lock-on: the drives the islands win and lose against the cure
+isl_on, cure_on = isl3["locked_on"].to_numpy(), cure3["locked_on"].to_numpy()
+lost_seeds = isl3.loc[cure_on & ~isl_on, "seed"].tolist()
+assert lost_seeds == [256, 280] and list(isl3.loc[isl3["seed"] == 280, "n_lost"]) == [1]
+# drive 280 again with the islands: the steps at which an island was adopted
+d280 = study.simulate(280, study.GLOBAL_STEPS)
+r280 = engine.global_mcl(grid, field, motion, d280.scans, d280.drive.odometry, mg.filter_rng(280), engine.ISLANDS)
+adopt280 = np.flatnonzero(r280.injected_mass == 1.0) * study.DT
+glue_values("lf_", isl_lost_drives=int(isl_lost.sum()), cure3_lost_drives=int(cure_lost3.sum()),
+            isl_lost_diff_pts=100 * lost_vs_cure.difference, isl_lost_diff_low_pts=100 * lost_vs_cure.difference_low,
+            isl_lost_diff_high_pts=100 * lost_vs_cure.difference_high, isl_lost_p=lost_vs_cure.pvalue,
+            isl_losses_per_hour=all3[0], isl_losses_per_hour_low=all3[1], isl_losses_per_hour_high=all3[2],
+            isl_dev_budget_lost=dev_isl_lost, isl_dev_budget_cure=dev_cure_lost,
+            isl_dev_locked=int(dev_by[mgi.CHOSEN_ARM]["locked_on"].sum()),
+            isl_dev_cure_locked=int(dev_by["cure"]["locked_on"].sum()),
+            isl_lockon_wins=int((isl_on & ~cure_on).sum()), isl_lockon_losses=len(lost_seeds),
+            isl_lost_seed_a=lost_seeds[0], isl_lost_seed_b=lost_seeds[1],
+            isl_280_lost_s=float(isl3.loc[isl3["seed"] == 280, "lost_s"].iloc[0]),
+            isl_280_back_s=float(adopt280[-1]), heldout_decided_share=float(exact3["decided"].mean()))
+# the cost is separated, and the cure has no loss on these drives (the prose says "none")
+assert lost_vs_cure.difference_low > 0 and lost_vs_cure.pvalue < 0.05 and cure_lost3.sum() == 0
+assert len(adopt280) >= 2 and adopt280[-1] > 80
+assert adopt280[0] == isl3.loc[isl3['seed'] == 280, 'lost_s'].iloc[0]  # the first adoption is the loss
 glue_values("lf_", n_heldout=len(isl3), global_lock_on_rate=isl_rate.estimate, global_lock_on_rate_low=isl_rate.low,
             global_lock_on_rate_high=isl_rate.high, heldout_exact_rate=isl_vs_exact.b.estimate,
             islands_exact_diff_pts=100 * isl_vs_exact.difference,
@@ -992,6 +1078,7 @@ assert isl_rate.estimate >= 0.95 and isl_rate.low < 0.95
 assert isl_vs_exact.difference_low < 0 < isl_vs_exact.difference_high
 assert isl_vs_cure.difference_low < 0 < isl_vs_cure.difference_high
 assert shared.sum() == isl_miss.sum()  # every drive the islands miss, the exact filter misses too
+assert dev_isl_lost > dev_cure_lost  # under the challenger's budget rule the islands fail the screen
 EvidenceBlock(
     "islands: the development screen, and the held-out drives against the cure and the bound",
     notes=["Protocol (pfcourse.studies.map_global_islands, written before any stored run). Before it, the cure's 12 "
@@ -1002,7 +1089,20 @@ EvidenceBlock(
            f"often than the cure. Kept: {mgi.CHOSEN_ARM} (margin log 99 nats; re-derived from the stored table).",
            "A loss (2 s or more at 2 m or more from the truth after 10 s within the tolerances) counts as a false "
            "relocalization from the step on which the twin margin stays above log 99 to the end of the drive; "
-           "before it, as a flip (the map does not yet tell the robot from its twins).",
+           "before it, as a flip (the map does not yet tell the robot from its twins). This split was defined after "
+           "the unstored look at the development drives, and it uses the true path and the future (the margin "
+           "must stay above log 99 to the end): no robot can apply it. The primary count is every loss.",
+           f"Every loss, held-out global drives ({hours3_global:.2f} hours): islands {int(isl3['n_lost'].sum())} "
+           f"({all3[0]:.1f} an hour, Garwood 95 % interval {all3[1]:.1f}-{all3[2]:.1f}), the cure "
+           f"{int(cure3['n_lost'].sum())}. Drives with a loss, paired by drive (islands A, the cure B): {lost_vs_cure}. "
+           f"On development drives 0-149 under the challenger's budget rule (every loss, global plus kidnap): "
+           f"islands {dev_isl_lost}, the cure {dev_cure_lost}; by that rule the islands would have failed the screen. "
+           f"The development gain in lock-on ({int(dev_by[mgi.CHOSEN_ARM]['locked_on'].sum())} against "
+           f"{int(dev_by['cure']['locked_on'].sum())} of 150) was in-sample.",
+           f"Paired on lock-on, the islands win {int((isl_on & ~cure_on).sum())} held-out drives and lose "
+           f"{len(lost_seeds)} (seeds {', '.join(map(str, lost_seeds))}), which the cure locks on. A re-run of drive "
+           f"280 with the islands adopts an island at " + ", ".join(f"{v:.1f}" for v in adopt280) + " s: the first "
+           "moves a cloud locked on the robot to its half-turn twin, the last brings it back, too late for the window.",
            f"Step 2: judged once on new drives {isl3['seed'].min()}-{isl3['seed'].max()}, registered before any run "
            f"there; filter seeds numpy.random.default_rng([41, seed, 2]) for both arms. Islands: {isl_rate} (Wilson "
            f"interval). Paired by drive (islands A, the cure B): {isl_vs_cure}. Paired by drive (islands A, the exact "
@@ -1384,15 +1484,27 @@ EvidenceBlock(
 # ({glue:text}`lf_kidnap_recovered_rate_low:.0%`-{glue:text}`lf_kidnap_recovered_rate_high:.0%`): the
 # estimate meets the $0.90$ aimed at, the interval reaches below it.
 #
+# :::{admonition} Against the exact filter
+# :class: dropdown
 # The exact filter over the twins, told when the kidnapping happened, recovers in
 # {glue:text}`lf_kidnap_exact_rate:.0%`; the cure is {glue:text}`lf_kidnap_exact_gap_pts:.0f` points
 # below it ({glue:text}`lf_kidnap_exact_gap_low_pts:.1f` to
 # {glue:text}`lf_kidnap_exact_gap_high_pts:.0f`), not separated. The bound is optimistic: it knows
 # the kidnap time and the twins, pays no $\xi$ and waits no $L$ scans.
+# :::
 #
 # The cure is locked on for good a median {glue:text}`lf_kidnap_recovery_median_s:.0f` s after
 # the kidnapping ({glue:text}`lf_kidnap_recovery_median_s_low:.0f`-{glue:text}`lf_kidnap_recovery_median_s_high:.0f` s).
-# None can come sooner than $L$ scans ($10$ s) plus two injections: a latency, not a speed.
+# That is $L$ scans ($10$ s) plus two injections, the soonest an admitted stratum can lock it on:
+# a latency, not a speed.
+#
+# :::{admonition} Why the interval has no width
+# :class: dropdown
+# {glue:text}`lf_kidnap_at_median_n:d` of the {glue:text}`lf_kidnap_recovered_n:d` runs that recover
+# do so at exactly that time. {glue:text}`lf_kidnap_early_n:d` recover sooner, in
+# {glue:text}`lf_kidnap_early_min_s:.0f`-{glue:text}`lf_kidnap_early_max_s:.0f` s, before any
+# stratum could be admitted: there the cloud finds the robot by itself.
+# :::
 #
 # :::{admonition} History: kidnap runs 150-249, and the guards
 # :class: dropdown
@@ -1440,6 +1552,12 @@ kid3_vs_exact = evidence.paired_rates(kid3["recovered"].to_numpy()[kid3_moved],
 recovered3 = kid3_vs_exact.a
 times3 = kid3.loc[kid3_moved & kid3["recovered"].to_numpy(), "recovery_s"].to_numpy()
 med3, med3_low, med3_high = evidence.median_interval(times3)
+# the cloud can find the robot by itself, before L scans and two injections
+floor_s = engine.CURE.history * study.DT + 2 * engine.CURE.inject_every * study.DT
+glue_values("lf_", kidnap_early_n=int((times3 < floor_s).sum()), kidnap_early_min_s=float(times3.min()),
+            kidnap_early_max_s=float(times3[times3 < floor_s].max()), kidnap_at_median_n=int((times3 == med3).sum()),
+            kidnap_recovered_n=len(times3), kidnap_floor_s=floor_s)
+assert med3 == med3_low == med3_high == floor_s and times3.min() >= study.DT
 glue_values("lf_", heldout_not_kidnapped=int((~kid3_moved).sum()), kidnap_recovered_rate=recovered3.estimate,
             kidnap_recovered_rate_low=recovered3.low, kidnap_recovered_rate_high=recovered3.high,
             kidnap_recovery_median_s=med3, kidnap_recovery_median_s_low=med3_low,
@@ -1450,7 +1568,7 @@ glue_values("lf_", heldout_not_kidnapped=int((~kid3_moved).sum()), kidnap_recove
 # what the prose says: 0.90 met by the estimate, the interval reaching below it; the cure below the exact filter
 assert recovered3.estimate >= 0.90 and recovered3.low < 0.90
 assert kid3_vs_exact.difference < 0
-EvidenceBlock(
+display(EvidenceBlock(
     "the kidnapped robot on held-out runs 250-349",
     notes=[f"{len(kid3)} held-out kidnap runs (seeds {kid3['seed'].min()}-{kid3['seed'].max()}): tracked from the "
            f"known start with the cure (no islands run from a known start), kidnapped at "
@@ -1466,7 +1584,7 @@ EvidenceBlock(
     tables=[("The held-out kidnap runs the cure does not recover",
              kid3.loc[kid3_moved & ~kid3["recovered"].to_numpy(), ["seed", "final_position_error", "n_lost", "jump_m"]],
              {"final_position_error": ".2f", "jump_m": ".1f"})],
-)
+))
 # what the prose says: 0.90 met by the estimate, not by the interval; the cure below the exact filter (separated);
 # every run the cure misses is one the cure without its guards recovers
 assert recovered.estimate >= 0.90 and recovered.low < 0.90 < recovered.high
@@ -1628,18 +1746,17 @@ glue_values("lf_", takeover_one=shares[1], takeover_three=shares[3])
 #
 # - Before blaming a filter, measure what the map allows: an exact filter over the truth and its
 #   twins, judged by the same lock-on rule.
-# - Poses drawn from the scan are weighted by $u / q$ times the evidence of their history against
-#   the belief's; their prior is the kidnap model's $\xi$, chosen by hand. Count false
-#   relocalizations, not only lock-on: the guards keep the cloud but judge a stratum by its window.
-# - Islands compare start hypotheses over the whole run: independent small filters whose products
-#   of mean weights estimate the same evidence, adopted at odds of $99 : 1$.
-# - On a hundred new held-out drives the cure with islands locks on in
-#   {glue:text}`lf_global_lock_on_rate:.0%` of the drives from a uniform start, not separated from
-#   the exact filter's {glue:text}`lf_heldout_exact_rate:.0%` (the $0.95$ aimed at met by the
-#   estimate, not by the interval), and relocalizes falsely {glue:text}`lf_false_reloc_per_hour:.2f` times an
-#   hour once the evidence has decided.
+# - Poses drawn from the scan are weighted by $u / q$ times the evidence of their history; their
+#   prior is the kidnap model's $\xi$, chosen by hand. Count every loss, not only lock-on.
+# - Islands, small filters whose mean weights estimate the evidence, are adopted at a margin chosen
+#   on development drives ($\log 99$), not at true odds of $99 : 1$: the estimates are noisy.
+# - On a hundred new drives from a uniform start the cure with islands locks on in
+#   {glue:text}`lf_global_lock_on_rate:.0%`, not separated from the exact filter. Against the cure:
+#   {glue:text}`lf_islands_gain_pts:+.0f` lock-on points, not separated, for pose jumps on
+#   {glue:text}`lf_isl_lost_drives:d` drives (none without islands), separated.
 # - It finds a kidnapped robot again in {glue:text}`lf_kidnap_recovered_rate:.0%` of the
-#   kidnappings ($0.90$ aimed at); there the islands change nothing.
+#   kidnappings ($0.90$ aimed at), from a known pose with no islands; a kidnapping with the islands
+#   running is untested.
 
 # :::{admonition} Going further: how many particles (KLD-sampling's bound, and AMCL's kld_z)
 # :class: dropdown
